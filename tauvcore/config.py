@@ -1,0 +1,192 @@
+"""The full run configuration: one frozen dataclass per section, TOML in and out.
+
+A TOML file may hold any subset of sections and keys (the rest keeps its default); an unknown
+section or key, a wrong type or a bad value raises :class:`~tauvcore.validation.ConfigError`
+naming ``section.key`` and the value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from typing import Any
+
+import tomli_w
+
+from tauvcore import units
+from tauvcore.aiding import AIDING_SOURCES
+from tauvcore.geo.earth import Earth
+from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.sensors.imu import ImuConfig
+from tauvcore.sensors.magnetometer import MagnetometerConfig
+from tauvcore.sensors.pressure import PressureConfig
+from tauvcore.truth.kinematic import TrajectoryConfig
+from tauvcore.validation import (ConfigError, require_choice, require_nonnegative, require_positive,
+                                 require_range, require_vector3)
+
+METHODS = ("ins", "lc")
+"""Fusion methods: ``ins`` standalone INS (no aiding at all), ``lc`` loosely coupled DVL."""
+
+
+@dataclass(frozen=True)
+class InitialErrorConfig:
+    """Initial navigation errors (estimate minus truth), Table 2 of Tal et al. 2017.
+
+    ``mode = "fixed"`` applies the values as given (a deterministic single run);
+    ``"random"`` draws each as a 1-sigma Gaussian per Monte Carlo run.
+    """
+
+    pos_m: tuple[float, float, float] = (2.0, 2.0, 2.0)        # north, east, down [m]
+    vel_mps: tuple[float, float, float] = (0.05, 0.05, 0.05)   # surge, sway, heave (u, v, w) [m/s]
+    roll_pitch_deg: float = 0.57                                # [deg]
+    yaw_deg: float = 1.14                                       # [deg]
+    mode: str = "fixed"                                         # "fixed" or "random"
+
+    def __post_init__(self) -> None:
+        require_vector3("initial_error.pos_m", self.pos_m)
+        require_vector3("initial_error.vel_mps", self.vel_mps)
+        require_range("initial_error.roll_pitch_deg", self.roll_pitch_deg, -10.0, 10.0)
+        require_range("initial_error.yaw_deg", self.yaw_deg, -30.0, 30.0)
+        require_choice("initial_error.mode", self.mode, ("fixed", "random"))
+
+    def ideal(self) -> "InitialErrorConfig":
+        return InitialErrorConfig(pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0, yaw_deg=0.0,
+                                  mode=self.mode)
+
+    @property
+    def euler_rad(self) -> tuple[float, float, float]:
+        return (self.roll_pitch_deg * units.DEG, self.roll_pitch_deg * units.DEG, self.yaw_deg * units.DEG)
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """Filter settings that are not sensor models (those are the sensor sections, used as tuning)."""
+
+    gate_sigma: float = 3.0          # innovation gate [standard deviations], section 2.1.1
+    output_rate_hz: float = 10.0     # rate of the per-epoch error records [Hz]
+    covariance_rate_hz: float = 10.0  # covariance propagation rate (the nominal state runs at the IMU rate) [Hz]
+
+    def __post_init__(self) -> None:
+        require_range("filter.gate_sigma", self.gate_sigma, 0.5, 1e6)
+        require_positive("filter.output_rate_hz", self.output_rate_hz)
+        require_positive("filter.covariance_rate_hz", self.covariance_rate_hz)
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    methods: tuple[str, ...] = METHODS            # fusion methods to run side by side
+    aiding: tuple[str, ...] = ("dvl",)            # aiding sources on (section 4: DVL alone)
+    seed: int = 0                                 # seed of the numpy Generator
+    ideal: bool = False                           # zero every sensor and initial error in the simulation
+
+    def __post_init__(self) -> None:
+        for name, values, choices in (("run.methods", self.methods, METHODS), ("run.aiding", self.aiding, AIDING_SOURCES)):
+            if not isinstance(values, (tuple, list)):
+                raise ConfigError(f"{name} must be a list, got {values!r}")
+            for v in values:
+                require_choice(name, v, choices)
+        if not self.methods:
+            raise ConfigError("run.methods must name at least one method, got []")
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ConfigError(f"run.seed must be a non-negative integer, got {self.seed!r}")
+        if not isinstance(self.ideal, bool):
+            raise ConfigError(f"run.ideal must be true or false, got {self.ideal!r}")
+
+
+@dataclass(frozen=True)
+class Config:
+    trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
+    earth: Earth = field(default_factory=Earth)
+    imu: ImuConfig = field(default_factory=ImuConfig)
+    dvl: DvlConfig = field(default_factory=DvlConfig)
+    pressure: PressureConfig = field(default_factory=PressureConfig)
+    magnetometer: MagnetometerConfig = field(default_factory=MagnetometerConfig)
+    initial_error: InitialErrorConfig = field(default_factory=InitialErrorConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+    run: RunConfig = field(default_factory=RunConfig)
+
+    def replace(self, section: str, **changes: Any) -> "Config":
+        """A copy with ``changes`` applied to one section (validated)."""
+        return dataclasses.replace(self, **{section: dataclasses.replace(getattr(self, section), **changes)})
+
+
+def to_dict(config: Config) -> dict[str, dict[str, Any]]:
+    """Plain nested dict (lists for tuples), as written to TOML and JSON."""
+    out: dict[str, dict[str, Any]] = {}
+    for sec in dataclasses.fields(config):
+        obj = getattr(config, sec.name)
+        out[sec.name] = {f.name: (list(v) if isinstance(v := getattr(obj, f.name), tuple) else v)
+                         for f in dataclasses.fields(obj)}
+    return out
+
+
+def to_toml(config: Config) -> str:
+    return tomli_w.dumps(to_dict(config))
+
+
+def _coerce(field_name: str, default: Any, value: Any) -> Any:
+    """Check a TOML value against the type of its default and convert lists to tuples."""
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ConfigError(f"{field_name} must be true or false, got {value!r}")
+        return value
+    if isinstance(default, int):
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise ConfigError(f"{field_name} must be an integer, got {value!r}")
+        return value
+    if isinstance(default, float):
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            raise ConfigError(f"{field_name} must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{field_name} must be a finite number, got {value!r}")
+        return float(value)
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ConfigError(f"{field_name} must be a string, got {value!r}")
+        return value
+    if isinstance(default, tuple):
+        if not isinstance(value, list):
+            raise ConfigError(f"{field_name} must be a list, got {value!r}")
+        if default and isinstance(default[0], float):
+            return tuple(_coerce(f"{field_name}[{i}]", 0.0, v) for i, v in enumerate(value))
+        return tuple(value)
+    return value
+
+
+def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
+    """Overlay a (partial) nested dict on ``base`` (defaults if None)."""
+    config = base or Config()
+    if not isinstance(data, dict):
+        raise ConfigError(f"configuration must be a table, got {data!r}")
+    sections = {f.name for f in dataclasses.fields(config)}
+    for sec_name, values in data.items():
+        if sec_name not in sections:
+            raise ConfigError(f"unknown section [{sec_name}] (known: {', '.join(sorted(sections))})")
+        if not isinstance(values, dict):
+            raise ConfigError(f"[{sec_name}] must be a table, got {values!r}")
+        section = getattr(config, sec_name)
+        known = {f.name for f in dataclasses.fields(section)}
+        changes = {}
+        for key, value in values.items():
+            if key not in known:
+                raise ConfigError(f"unknown key {sec_name}.{key} (known: {', '.join(sorted(known))})")
+            changes[key] = _coerce(f"{sec_name}.{key}", getattr(section, key), value)
+        try:
+            config = config.replace(sec_name, **changes)
+        except TypeError as exc:  # pragma: no cover - guarded by the key check above
+            raise ConfigError(f"[{sec_name}]: {exc}") from None
+    return config
+
+
+def load_toml(path: str) -> Config:
+    """Read a (partial) TOML configuration file."""
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"--config: file not found: {path!r}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"--config: malformed TOML in {path!r}: {exc}") from None
+    return from_dict(data)

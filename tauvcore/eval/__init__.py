@@ -1,0 +1,1 @@
+"""Running scenarios (simulation + filters side by side) and the metrics that judge them."""

@@ -1,0 +1,1 @@
+"""Error-state EKF: layout, nominal state, predict/correct/reset, gating, update records."""

@@ -1,0 +1,41 @@
+"""The one error-state layout (Tal et al. 2017 eq. 8) and process-noise layout (eq. 11).
+
+No other module spells a numeric state index: use ``STATE.vel`` etc.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+
+class ErrorStateLayout:
+    """Named slices of the 20-state error vector ``dx = x_true - x_hat``."""
+
+    pos: ClassVar[slice] = slice(0, 3)      # position error, n frame [m]
+    att: ClassVar[slice] = slice(3, 6)      # misalignment rho, n frame [rad]: C_true = exp([rho x]) C_hat
+    vel: ClassVar[slice] = slice(6, 9)      # body-frame velocity error [m/s]
+    ba: ClassVar[slice] = slice(9, 12)      # accelerometer bias error, b frame [m/s^2]
+    bg: ClassVar[slice] = slice(12, 15)     # gyro bias error, b frame [rad/s]
+    b_dvl: ClassVar[slice] = slice(15, 19)  # DVL beam bias errors, beams 1-4 [m/s]
+    sf_dvl: ClassVar[slice] = slice(19, 20)  # DVL scale factor error [-]
+    dim: ClassVar[int] = 20
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return ("pos", "att", "vel", "ba", "bg", "b_dvl", "sf_dvl")
+
+
+class ProcessNoiseLayout:
+    """Named slices of the 17-element process noise ``w`` (eq. 11)."""
+
+    accel: ClassVar[slice] = slice(0, 3)      # accelerometer white noise [m/s^2/sqrt(Hz)]
+    gyro: ClassVar[slice] = slice(3, 6)       # gyro white noise [rad/s/sqrt(Hz)]
+    ba: ClassVar[slice] = slice(6, 9)         # accelerometer bias random walk
+    bg: ClassVar[slice] = slice(9, 12)        # gyro bias random walk
+    b_dvl: ClassVar[slice] = slice(12, 16)    # DVL beam bias random walk
+    sf_dvl: ClassVar[slice] = slice(16, 17)   # DVL scale factor random walk
+    dim: ClassVar[int] = 17
+
+
+STATE = ErrorStateLayout()
+NOISE = ProcessNoiseLayout()

@@ -1,0 +1,1 @@
+"""Earth model and rotation algebra (see tauvcore.conventions)."""

@@ -1,0 +1,1 @@
+"""Strapdown INS (pure step) and its error model (F, G, Q, discretisation)."""

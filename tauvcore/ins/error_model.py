@@ -1,0 +1,141 @@
+"""INS error model of the 20-state filter (Tal et al. 2017 eq. 3-11): F, G, Q and discretisation.
+
+Error state ``dx = [dpos_n, rho, dvel_b, dba, dbg, db_dvl(4), dsf]`` (tauvcore.filter.layout),
+``dx = x_true - x_hat``, ``C_nb_true = exp([rho x]) C_nb_hat``. Continuous model
+``dx' = F dx + G w`` with ``w = [w_a, w_g, w_ba, w_bg, w_bdvl, w_sf]`` (eq. 11).
+
+Derivation of the velocity rows (the paper's F32, F33, "found for example in [17]")
+-----------------------------------------------------------------------------------
+With ``vel_n = C v_b`` in the earth-fixed n frame, ``vel_n' = C f + g - 2 W vel_n`` (W = [omega_ie_n x])
+and ``C' = C [omega_ib_b x] - W C`` give the body-frame velocity equation
+
+    v_b' = f_b + C^T g_n - (omega_ib_b + C^T omega_ie_n) x v_b .
+
+Perturb: ``f = f_hat - dba - w_a``, ``omega = omega_hat - dbg - w_g``,
+``C^T = C_hat^T (I - [rho x])`` so ``C^T g = C_hat^T g + C_hat^T [g x] rho`` and
+``C^T omega_ie = C_hat^T omega_ie + C_hat^T [omega_ie x] rho``, ``v_b = v_hat + dv``. To first order
+
+    dv' = F32 rho + F33 dv - dba - [v_hat x] dbg - w_a - [v_hat x] w_g
+
+    F32 = C_hat^T [g_n x] + [v_hat x] C_hat^T [omega_ie_n x]
+    F33 = -[(omega_ib_hat + C_hat^T omega_ie_n) x]
+
+which reproduces the paper's -I and -[v x] columns (eq. 4) and its G (eq. 5). The attitude row
+follows from ``C' = C[omega x] - W C``: ``rho' = -W rho - C_hat dbg - C_hat w_g``; the position
+row from ``pos_n' = C v_b``: ``dpos' = -[(C_hat v_hat) x] rho + C_hat dv``. Gravity is constant
+over the mission area (tauvcore.geo.earth), hence the zero position column.
+
+:func:`error_rate` is the exact nonlinear error dynamics; the tests compare F and G to its
+central finite differences.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tauvcore.filter.layout import NOISE, STATE
+from tauvcore.geo.earth import Earth
+from tauvcore.geo.rotations import exp_so3, left_jacobian_inv_so3, log_so3, skew, vee
+from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.sensors.imu import ImuConfig
+
+
+def _T(M: np.ndarray) -> np.ndarray:
+    return np.swapaxes(M, -1, -2)
+
+
+def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth: Earth) -> np.ndarray:
+    """Continuous-time F (eq. 4 and 9) at the nominal state. -> (..., 20, 20).
+
+    C_nb (..., 3, 3), vel_b (..., 3) nominal body velocity, omega_ib_b (..., 3) bias-corrected rate.
+    """
+    batch = vel_b.shape[:-1]
+    F = np.zeros(batch + (STATE.dim, STATE.dim))
+    C_bn = _T(C_nb)
+    W = skew(earth.omega_ie_n)
+    v_x = skew(vel_b)
+    F[..., STATE.pos, STATE.att] = -skew((C_nb @ vel_b[..., None])[..., 0])
+    F[..., STATE.pos, STATE.vel] = C_nb
+    F[..., STATE.att, STATE.att] = -W
+    F[..., STATE.att, STATE.bg] = -C_nb
+    F[..., STATE.vel, STATE.att] = C_bn @ skew(earth.g_n) + v_x @ C_bn @ W
+    F[..., STATE.vel, STATE.vel] = -skew(omega_ib_b + (C_bn @ earth.omega_ie_n))
+    F[..., STATE.vel, STATE.ba] = -np.eye(3)
+    F[..., STATE.vel, STATE.bg] = -v_x
+    return F
+
+
+def G_matrix(C_nb: np.ndarray, vel_b: np.ndarray) -> np.ndarray:
+    """Continuous-time G (eq. 5 and 10). -> (..., 20, 17)."""
+    batch = vel_b.shape[:-1]
+    G = np.zeros(batch + (STATE.dim, NOISE.dim))
+    G[..., STATE.att, NOISE.gyro] = -C_nb
+    G[..., STATE.vel, NOISE.accel] = -np.eye(3)
+    G[..., STATE.vel, NOISE.gyro] = -skew(vel_b)
+    G[..., STATE.ba, NOISE.ba] = np.eye(3)
+    G[..., STATE.bg, NOISE.bg] = np.eye(3)
+    G[..., STATE.b_dvl, NOISE.b_dvl] = np.eye(4)
+    G[..., STATE.sf_dvl, NOISE.sf_dvl] = np.eye(1)
+    return G
+
+
+def noise_psd(imu: ImuConfig, dvl: DvlConfig) -> np.ndarray:
+    """Diagonal of the continuous process-noise spectral density Q (17,), SI units^2/Hz."""
+    q = np.zeros(NOISE.dim)
+    q[NOISE.accel] = imu.accel_noise_mps_per_sqrt_s**2
+    q[NOISE.gyro] = imu.gyro_noise_rad_per_sqrt_s**2
+    q[NOISE.ba] = imu.accel_bias_rw_mps2_per_sqrt_s**2
+    q[NOISE.bg] = imu.gyro_bias_rw_rps_per_sqrt_s**2
+    q[NOISE.b_dvl] = dvl.bias_rw_mps_per_sqrt_s**2
+    q[NOISE.sf_dvl] = dvl.scale_factor_rw_per_sqrt_s**2
+    return q
+
+
+def discretise(F: np.ndarray, G: np.ndarray, q_psd: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Transition ``Phi = expm(F dt)`` (third-order series) and ``Qd`` (trapezoid rule).
+
+    ``Qd = (Phi G Q G^T Phi^T + G Q G^T) dt / 2`` (Van Loan to second order).
+    """
+    A = F * dt_s
+    A2 = A @ A
+    Phi = np.eye(F.shape[-1]) + A + A2 / 2.0 + (A2 @ A) / 6.0
+    GQG = (G * q_psd) @ _T(G) * dt_s
+    Qd = 0.5 * (Phi @ GQG @ _T(Phi) + GQG)
+    return Phi, Qd
+
+
+def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarray, f_meas: np.ndarray,
+               bias_hat: dict[str, np.ndarray], dx: np.ndarray, w: np.ndarray, earth: Earth) -> np.ndarray:
+    """Exact nonlinear error dynamics ``dx'`` (no linearisation), for verification of F and G.
+
+    The true state is the nominal one with ``dx`` applied; both evolve under the continuous model
+    of this module's docstring, the truth with the measured IMU minus its true biases and the
+    noise ``w``, the nominal with the estimated biases. ``bias_hat``: ``ba``, ``bg`` (3,).
+    Misalignment rate: with ``E = C C_hat^T = exp([rho x])``, ``rho' = J_l(rho)^-1 vee(E' E^T)``.
+    """
+    g, Wv = earth.g_n, earth.omega_ie_n
+    W = skew(Wv)
+    rho = dx[STATE.att]
+    C = exp_so3(rho) @ C_hat
+    v_b = vel_b_hat + dx[STATE.vel]
+    f_true = f_meas - (bias_hat["ba"] + dx[STATE.ba]) - w[NOISE.accel]
+    om_true = omega_ib_meas - (bias_hat["bg"] + dx[STATE.bg]) - w[NOISE.gyro]
+    f_hat = f_meas - bias_hat["ba"]
+    om_hat = omega_ib_meas - bias_hat["bg"]
+
+    def vel_rate(Cm: np.ndarray, v: np.ndarray, f: np.ndarray, om: np.ndarray) -> np.ndarray:
+        return f + Cm.T @ g - np.cross(om + Cm.T @ Wv, v)
+
+    out = np.zeros(STATE.dim)
+    out[STATE.pos] = C @ v_b - C_hat @ vel_b_hat
+    out[STATE.vel] = vel_rate(C, v_b, f_true, om_true) - vel_rate(C_hat, vel_b_hat, f_hat, om_hat)
+    C_dot = C @ skew(om_true) - W @ C
+    C_hat_dot = C_hat @ skew(om_hat) - W @ C_hat
+    E = C @ C_hat.T
+    E_dot = C_dot @ C_hat.T + C @ C_hat_dot.T
+    out[STATE.att] = left_jacobian_inv_so3(log_so3(E)) @ vee(E_dot @ E.T)
+    out[STATE.ba] = w[NOISE.ba]
+    out[STATE.bg] = w[NOISE.bg]
+    out[STATE.b_dvl] = w[NOISE.b_dvl]
+    out[STATE.sf_dvl] = w[NOISE.sf_dvl]
+    return out

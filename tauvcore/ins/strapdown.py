@@ -1,0 +1,94 @@
+"""Strapdown mechanization in the earth-fixed NED tangent frame n, at the IMU rate.
+
+Continuous model (tauvcore.conventions; Farrell 2008, tangent-frame mechanization):
+
+    pos_n' = vel_n
+    vel_n' = C_nb f_b + g_n - 2 omega_ie_n x vel_n
+    C_nb'  = C_nb [omega_ib_b x] - [omega_ie_n x] C_nb
+
+Discrete step over the interval (t_k-1, t_k] from the IMU increments ``dtheta``, ``dv`` of this
+and the previous interval (Savage's two-sample algorithms, Strapdown Analytics ch. 7):
+
+- attitude: ``C_k = exp(-[omega_ie_n x] dt) C_k-1 exp([phi x])``,
+  ``phi = dtheta_k + (dtheta_k-1 x dtheta_k) / 12`` (coning);
+- velocity: ``vel_k = vel_k-1 + C_e/2 C_k-1 dv_rot + (g_n - 2 omega_ie_n x vel_mid) dt`` with
+  ``dv_rot = dv_k + (dtheta_k x dv_k) / 2 + (dtheta_k-1 x dv_k + dv_k-1 x dtheta_k) / 12``
+  (rotation compensation and sculling) and ``C_e/2 = exp(-[omega_ie_n x] dt/2)``, the n frame's
+  own turn to mid-interval (without it a level vehicle sees a spurious ``omega_ie x g dt / 2``,
+  2e-6 m/s^2 at 150 Hz);
+- position: trapezoid of velocity.
+
+The coning and sculling corrections depend on the increments only, so :func:`body_increments`
+computes them for a whole run at once; the per-step work is then a Rodrigues formula and a few
+products, and every step function takes a leading batch shape (Monte Carlo runs and methods as
+array dimensions). Bias corrections enter as ``- b dt`` on the compensated increments (the bias
+part of the coning/sculling terms is below 1e-12 and dropped).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tauvcore.geo.earth import Earth
+from tauvcore.geo.rotations import exp_so3, skew
+
+
+def mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Batched matrix-vector product ``M @ v``: (..., m, n), (..., n) -> (..., m)."""
+    return (M @ v[..., None])[..., 0]
+
+
+@dataclass(frozen=True)
+class NavState:
+    """Navigation solution: position, velocity, attitude (batch shape ``...``)."""
+
+    pos_n: np.ndarray   # (..., 3) [m]
+    vel_n: np.ndarray   # (..., 3) [m/s]
+    C_nb: np.ndarray    # (..., 3, 3)
+
+    @property
+    def vel_b(self) -> np.ndarray:
+        """Body-frame velocity (surge, sway, heave) [m/s]."""
+        return mv(np.swapaxes(self.C_nb, -1, -2), self.vel_n)
+
+
+def body_increments(dtheta_b: np.ndarray, dv_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coning- and sculling-compensated increments for every interval of a run.
+
+    dtheta_b, dv_b: (K, ..., 3) raw increments, row k over (t_k-1, t_k], row 0 unused.
+    Returns ``phi`` (rotation vector) and ``dv_rot`` (velocity increment in the b frame at
+    t_k-1), each (K, ..., 3). The first interval has no predecessor: its corrections use zero.
+    """
+    prev_th = np.concatenate([np.zeros_like(dtheta_b[:1]), dtheta_b[:-1]])
+    prev_dv = np.concatenate([np.zeros_like(dv_b[:1]), dv_b[:-1]])
+    prev_th[1] = 0.0
+    prev_dv[1] = 0.0
+    phi = dtheta_b + np.cross(prev_th, dtheta_b) / 12.0
+    dv_rot = dv_b + 0.5 * np.cross(dtheta_b, dv_b) + (np.cross(prev_th, dv_b) + np.cross(prev_dv, dtheta_b)) / 12.0
+    return phi, dv_rot
+
+
+class Strapdown:
+    """Mechanization with the earth terms of one :class:`Earth` precomputed."""
+
+    def __init__(self, earth: Earth, dt_s: float) -> None:
+        self.dt_s = dt_s
+        self.g_n = earth.g_n
+        self.omega_ie_n = earth.omega_ie_n
+        self.C_earth = exp_so3(-self.omega_ie_n * dt_s)   # n-frame turn of one step
+        self.C_earth_half = exp_so3(-0.5 * self.omega_ie_n * dt_s)
+        # v @ M == -2 omega_ie_n x v  (row-vector form avoids np.cross in the loop)
+        self._coriolis_T = (-2.0 * skew(self.omega_ie_n)).T
+
+    def step(self, nav: NavState, phi_b: np.ndarray, dv_rot_b: np.ndarray) -> NavState:
+        """Advance one IMU interval with bias-corrected compensated increments (:func:`body_increments`)."""
+        dt = self.dt_s
+        C1 = self.C_earth @ nav.C_nb @ exp_so3(phi_b)
+        gravity_dt = self.g_n * dt
+        dv_n = mv(self.C_earth_half @ nav.C_nb, dv_rot_b) + gravity_dt
+        v_mid = nav.vel_n + 0.5 * (dv_n + (nav.vel_n @ self._coriolis_T) * dt)
+        vel1 = nav.vel_n + dv_n + (v_mid @ self._coriolis_T) * dt
+        pos1 = nav.pos_n + 0.5 * dt * (nav.vel_n + vel1)
+        return NavState(pos_n=pos1, vel_n=vel1, C_nb=C1)

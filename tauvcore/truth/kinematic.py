@@ -1,0 +1,253 @@
+"""Kinematic truth generator: analytic attitude and body velocity, exact IMU outputs.
+
+Each scenario is a *profile*: closed-form functions of time for the Euler angles, their rates,
+the body velocity ``vel_b`` and its derivative. From those the generator derives, without any
+numerical differentiation,
+
+- ``omega_nb_b`` from the Euler rates, ``omega_ib_b = omega_nb_b + C_nb.T omega_ie_n``;
+- ``acc_n = C_nb (vel_b_dot + omega_nb_b x vel_b)`` (derivative of ``vel_n = C_nb vel_b``);
+- ``f_b = C_nb.T (acc_n - g_n + 2 omega_ie_n x vel_n)`` (earth-fixed n frame: Coriolis term;
+  the centrifugal term is inside the plumb-bob ``g_n``, tauvcore.geo.earth);
+- ``pos_n`` and the IMU increments ``dtheta_ib_b``, ``dv_b`` by 4-point Gauss-Legendre quadrature
+  of ``vel_n``, ``omega_ib_b`` and ``f_b`` on every sample interval (error ~1e-13 for these
+  smooth profiles), the only integrals involved.
+
+Scenarios (Tal et al. 2017, section 4.1; sizes adjustable through :class:`TrajectoryConfig`):
+
+straight   north at ``speed_mps``, constant depth, level.
+figure8    heading ``psi = A sin(w t)`` with ``A = j_0,1 = 2.4048`` (first zero of the Bessel
+           J0): at constant speed the north drift ``V J0(A) t`` vanishes, so the track closes
+           into a figure eight (a 1:2 Lissajous). ``w`` makes the tightest turn radius equal to
+           ``turn_radius_m``. Constant-rate dive all along.
+lawnmower  constant-rate dive for ``dive_duration_s``, then level; legs of ``leg_length_m``
+           north and south joined by 180-degree turns of ``turn_radius_m``.
+
+In turns the vehicle rolls (``turn_roll_deg`` at the tightest turn, proportional to yaw rate)
+and slips outward (``turn_sideslip_deg``), so sway is non-zero while manoeuvring, as a real
+hull does. Rate changes are blended with half-cosines so attitude rates are continuous.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from tauvcore import units
+from tauvcore.geo.earth import Earth
+from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b, skew
+from tauvcore.truth.record import Truth
+from tauvcore.validation import ConfigError, require_choice, require_nonnegative, require_positive, require_range
+
+TRAJECTORIES = ("straight", "figure8", "lawnmower")
+BESSEL_J0_FIRST_ZERO = 2.404825557695773
+
+
+@dataclass(frozen=True)
+class TrajectoryConfig:
+    """Scenario geometry. Defaults follow Tal et al. 2017 section 4 / Table 2 where it gives them."""
+
+    name: str = "straight"              # one of TRAJECTORIES
+    duration_s: float = 250.0           # Table 2: time duration 250 s
+    speed_mps: float = 2.0              # Table 2: AUV velocity 2 m/s (surge)
+    depth_m: float = 20.0               # initial depth [m]
+    leg_length_m: float = 100.0         # lawnmower leg length [m]
+    turn_radius_m: float = 15.0         # tightest turn radius (figure8) / U-turn radius (lawnmower) [m]
+    dive_rate_mps: float = 0.1          # figure8 constant descent rate [m/s]
+    lawnmower_dive_rate_mps: float = 0.3  # lawnmower initial descent rate [m/s]
+    dive_duration_s: float = 30.0       # lawnmower dive phase; the paper's "first 30 s" [s]
+    turn_roll_deg: float = 5.0          # roll at the tightest turn [deg]
+    turn_sideslip_deg: float = 3.0      # outward sideslip at the tightest turn [deg]
+    blend_s: float = 4.0                # half-cosine blend time of rate changes [s]
+
+    def __post_init__(self) -> None:
+        require_choice("trajectory.name", self.name, TRAJECTORIES)
+        require_positive("trajectory.duration_s", self.duration_s)
+        require_positive("trajectory.speed_mps", self.speed_mps)
+        require_nonnegative("trajectory.depth_m", self.depth_m)
+        require_positive("trajectory.leg_length_m", self.leg_length_m)
+        require_positive("trajectory.turn_radius_m", self.turn_radius_m)
+        require_nonnegative("trajectory.dive_rate_mps", self.dive_rate_mps)
+        require_nonnegative("trajectory.lawnmower_dive_rate_mps", self.lawnmower_dive_rate_mps)
+        require_nonnegative("trajectory.dive_duration_s", self.dive_duration_s)
+        require_range("trajectory.turn_roll_deg", self.turn_roll_deg, -45.0, 45.0)
+        require_range("trajectory.turn_sideslip_deg", self.turn_sideslip_deg, -30.0, 30.0)
+        require_positive("trajectory.blend_s", self.blend_s)
+        for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
+            if getattr(self, field) >= self.speed_mps:
+                raise ConfigError(
+                    f"trajectory.{field} must be below trajectory.speed_mps ({self.speed_mps}), "
+                    f"got {getattr(self, field)!r}")
+
+
+class BlendedSchedule:
+    """Scalar function through knots ``(t_i, y_i)`` joined by half-cosine blends.
+
+    On ``[t_i, t_i+1]``: ``y = y_i + (y_i+1 - y_i) s(tau)``, ``s = (1 - cos(pi tau)) / 2``;
+    value and first derivative are continuous, and value, derivative and integral are closed
+    form. Constant before the first and after the last knot.
+    """
+
+    def __init__(self, t_knots: list[float], y_knots: list[float]) -> None:
+        self.t = np.asarray(t_knots, dtype=float)
+        self.y = np.asarray(y_knots, dtype=float)
+        if self.t.ndim != 1 or self.t.shape != self.y.shape or np.any(np.diff(self.t) <= 0):
+            raise ValueError("BlendedSchedule needs strictly increasing knot times and one value each")
+        h = np.diff(self.t)
+        dy = np.diff(self.y)
+        seg_integral = h * (self.y[:-1] + 0.5 * dy)
+        self._cum = np.concatenate([[0.0], np.cumsum(seg_integral)])
+
+    def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        idx = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2)
+        h = self.t[idx + 1] - self.t[idx]
+        tau = np.clip((t - self.t[idx]) / h, 0.0, 1.0)
+        return idx, h, tau
+
+    def value(self, t: np.ndarray) -> np.ndarray:
+        idx, _, tau = self._locate(t)
+        return self.y[idx] + (self.y[idx + 1] - self.y[idx]) * 0.5 * (1.0 - np.cos(np.pi * tau))
+
+    def derivative(self, t: np.ndarray) -> np.ndarray:
+        idx, h, tau = self._locate(t)
+        inside = (t > self.t[0]) & (t < self.t[-1])
+        d = (self.y[idx + 1] - self.y[idx]) * 0.5 * np.pi / h * np.sin(np.pi * tau)
+        return np.where(inside, d, 0.0)
+
+    def integral(self, t: np.ndarray) -> np.ndarray:
+        """Integral from ``t_0``; extends linearly (constant value) beyond the knots."""
+        t = np.asarray(t, dtype=float)
+        idx, h, tau = self._locate(t)
+        dy = self.y[idx + 1] - self.y[idx]
+        part = h * (self.y[idx] * tau + dy * (0.5 * tau - np.sin(np.pi * tau) / (2.0 * np.pi)))
+        out = self._cum[idx] + part
+        before = t < self.t[0]
+        after = t > self.t[-1]
+        out = np.where(before, (t - self.t[0]) * self.y[0], out)
+        out = np.where(after, self._cum[-1] + (t - self.t[-1]) * self.y[-1], out)
+        return out
+
+
+@dataclass(frozen=True)
+class Profile:
+    """Closed-form motion: functions of time arrays (K,) returning (K, 3) arrays."""
+
+    euler: Callable[[np.ndarray], np.ndarray]       # roll, pitch, yaw [rad]
+    euler_dot: Callable[[np.ndarray], np.ndarray]   # their rates [rad/s]
+    vel_b: Callable[[np.ndarray], np.ndarray]       # surge, sway, heave [m/s]
+    vel_b_dot: Callable[[np.ndarray], np.ndarray]   # their rates [m/s^2]
+
+
+def _turn_profile(cfg: TrajectoryConfig, yaw: Callable, yaw_rate: Callable, yaw_acc: Callable,
+                  pitch: BlendedSchedule) -> Profile:
+    """Profile from a heading law: roll and outward sway proportional to the yaw rate."""
+    yaw_rate_max_rps = cfg.speed_mps / cfg.turn_radius_m
+    roll_gain_s = cfg.turn_roll_deg * units.DEG / yaw_rate_max_rps
+    sway_gain_m = -cfg.speed_mps * np.tan(cfg.turn_sideslip_deg * units.DEG) / yaw_rate_max_rps
+
+    def euler(t: np.ndarray) -> np.ndarray:
+        return np.stack([roll_gain_s * yaw_rate(t), pitch.value(t), yaw(t)], axis=-1)
+
+    def euler_dot(t: np.ndarray) -> np.ndarray:
+        return np.stack([roll_gain_s * yaw_acc(t), pitch.derivative(t), yaw_rate(t)], axis=-1)
+
+    def vel_b(t: np.ndarray) -> np.ndarray:
+        return np.stack([np.full_like(t, cfg.speed_mps), sway_gain_m * yaw_rate(t), np.zeros_like(t)], axis=-1)
+
+    def vel_b_dot(t: np.ndarray) -> np.ndarray:
+        return np.stack([np.zeros_like(t), sway_gain_m * yaw_acc(t), np.zeros_like(t)], axis=-1)
+
+    return Profile(euler, euler_dot, vel_b, vel_b_dot)
+
+
+def _dive_pitch_rad(cfg: TrajectoryConfig, rate_mps: float) -> float:
+    """Nose-down pitch giving a descent rate with the velocity along the hull (zero heave)."""
+    return -float(np.arcsin(rate_mps / cfg.speed_mps))
+
+
+def straight_profile(cfg: TrajectoryConfig) -> Profile:
+    zero = BlendedSchedule([0.0, 1.0], [0.0, 0.0])
+    return _turn_profile(cfg, zero.integral, zero.value, zero.derivative, zero)
+
+
+def figure8_profile(cfg: TrajectoryConfig) -> Profile:
+    amp = BESSEL_J0_FIRST_ZERO
+    w = cfg.speed_mps / (cfg.turn_radius_m * amp)  # max yaw rate amp*w = V/R
+    pitch = BlendedSchedule([0.0, 1.0], [_dive_pitch_rad(cfg, cfg.dive_rate_mps)] * 2)
+    return _turn_profile(
+        cfg,
+        lambda t: amp * np.sin(w * t),
+        lambda t: amp * w * np.cos(w * t),
+        lambda t: -amp * w * w * np.sin(w * t),
+        pitch,
+    )
+
+
+def lawnmower_profile(cfg: TrajectoryConfig) -> Profile:
+    rate = cfg.speed_mps / cfg.turn_radius_m
+    blend = min(cfg.blend_s, 0.5 * np.pi / rate)       # a turn must reach its full rate
+    hold = np.pi / rate - blend                        # ramps in and out add rate*blend
+    leg = cfg.leg_length_m / cfg.speed_mps
+    t_knots, r_knots = [0.0], [0.0]
+    t, sign = leg, 1.0
+    while t < cfg.duration_s + leg:
+        t_knots += [t, t + blend, t + blend + hold, t + 2 * blend + hold]
+        r_knots += [0.0, sign * rate, sign * rate, 0.0]
+        t, sign = t + 2 * blend + hold + leg, -sign
+    yaw_rate = BlendedSchedule(t_knots, r_knots)
+    theta = _dive_pitch_rad(cfg, cfg.lawnmower_dive_rate_mps)
+    if cfg.dive_duration_s > 0:
+        pitch = BlendedSchedule([0.0, cfg.dive_duration_s, cfg.dive_duration_s + cfg.blend_s], [theta, theta, 0.0])
+    else:
+        pitch = BlendedSchedule([0.0, 1.0], [0.0, 0.0])
+    return _turn_profile(cfg, yaw_rate.integral, yaw_rate.value, yaw_rate.derivative, pitch)
+
+
+PROFILES = {"straight": straight_profile, "figure8": figure8_profile, "lawnmower": lawnmower_profile}
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(4)
+
+
+def _motion(profile: Profile, earth: Earth, t: np.ndarray) -> dict[str, np.ndarray]:
+    euler = profile.euler(t)
+    C_nb = C_nb_from_euler(euler)
+    omega_nb_b = euler_rates_to_omega_nb_b(euler, profile.euler_dot(t))
+    vel_b = profile.vel_b(t)
+    vel_n = np.einsum("kij,kj->ki", C_nb, vel_b)
+    acc_n = np.einsum("kij,kj->ki", C_nb, profile.vel_b_dot(t) + np.cross(omega_nb_b, vel_b))
+    omega_ie_n = earth.omega_ie_n
+    C_bn = np.swapaxes(C_nb, -1, -2)
+    f_b = np.einsum("kij,kj->ki", C_bn, acc_n - earth.g_n + 2.0 * np.cross(omega_ie_n, vel_n))
+    omega_ib_b = omega_nb_b + C_bn @ omega_ie_n
+    return {"euler": euler, "C_nb": C_nb, "omega_nb_b": omega_nb_b, "omega_ib_b": omega_ib_b,
+            "vel_b": vel_b, "vel_n": vel_n, "f_b": f_b}
+
+
+def generate_from_profile(name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float,
+                          pos0_n: np.ndarray) -> Truth:
+    """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs."""
+    dt = 1.0 / rate_hz
+    k = int(round(duration_s * rate_hz)) + 1
+    t = np.arange(k) * dt
+    m = _motion(profile, earth, t)
+    # interval integrals by Gauss-Legendre on each [t_k-1, t_k]
+    mid = 0.5 * (t[:-1] + t[1:])
+    nodes = (mid[:, None] + 0.5 * dt * _GL_NODES[None, :]).ravel()
+    at_nodes = _motion(profile, earth, nodes)
+
+    def interval_integral(x: np.ndarray) -> np.ndarray:
+        steps = 0.5 * dt * np.einsum("g,kgi->ki", _GL_WEIGHTS, x.reshape(k - 1, 4, 3))
+        return np.concatenate([np.zeros((1, 3)), steps])
+
+    pos_n = pos0_n + np.cumsum(interval_integral(at_nodes["vel_n"]), axis=0)
+    return Truth(name=name, earth=earth, t_s=t, pos_n=pos_n, vel_n=m["vel_n"], vel_b=m["vel_b"], C_nb=m["C_nb"],
+                 euler=m["euler"], omega_nb_b=m["omega_nb_b"], omega_ib_b=m["omega_ib_b"], f_b=m["f_b"],
+                 dtheta_ib_b=interval_integral(at_nodes["omega_ib_b"]), dv_b=interval_integral(at_nodes["f_b"]))
+
+
+def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:
+    """Truth for a named scenario, sampled at the IMU rate ``rate_hz``."""
+    require_positive("imu.rate_hz", rate_hz)
+    profile = PROFILES[cfg.name](cfg)
+    return generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz,
+                                 np.array([0.0, 0.0, cfg.depth_m]))
