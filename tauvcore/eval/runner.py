@@ -195,15 +195,18 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
     T = out_idx.size
     series = {name: np.zeros((T, M, R)) for name in
               ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees")}
+    # true DVL errors at a sample: those of the latest ping (the first before it; zero without pings)
     dvl_ping_of_sample = np.clip(np.searchsorted(sim.dvl.index, np.arange(truth.num_samples), side="right") - 1,
-                                 0, len(sim.dvl.index) - 1)
+                                 0, max(len(sim.dvl.index) - 1, 0))
+    dvl_bias_true = sim.dvl.bias_mps if len(sim.dvl.index) else np.zeros((1, R, 4))
+    dvl_sf_true = sim.dvl.scale_factor if len(sim.dvl.index) else np.zeros((1, R))
     gate = config.filter.gate_sigma
 
     def record(slot: int, k: int) -> None:
         p = int(dvl_ping_of_sample[k])
         true = Nominal(nav=NavState(pos_n=truth.pos_n[k], vel_n=truth.vel_n[k], C_nb=truth.C_nb[k]),
                        accel_bias=imu.accel_bias[k], gyro_bias=imu.gyro_bias[k],
-                       dvl_bias=sim.dvl.bias_mps[p], dvl_sf=sim.dvl.scale_factor[p])
+                       dvl_bias=dvl_bias_true[p], dvl_sf=dvl_sf_true[p])
         dx = difference(true, nom)
         series["vel_err"][slot] = np.linalg.norm(dx[..., STATE.vel], axis=-1)
         series["att_err"][slot] = np.linalg.norm(dx[..., STATE.att], axis=-1) / units.DEG

@@ -30,5 +30,7 @@ def random_walk(rng: np.random.Generator, initial: np.ndarray, density: float, d
 
     Returns (num_steps, *S); sample 0 equals ``initial``.
     """
+    if num_steps == 0:
+        return np.zeros((0,) + initial.shape)
     steps = rng.standard_normal((num_steps - 1,) + initial.shape) * (density * np.sqrt(dt_s))
     return initial + np.concatenate([np.zeros((1,) + initial.shape), np.cumsum(steps, axis=0)])

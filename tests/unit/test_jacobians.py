@@ -1,0 +1,204 @@
+"""Analytic Jacobians against central finite differences of the nonlinear models.
+
+(a) F and G of the INS error model against :func:`tauvcore.ins.error_model.error_rate`.
+(b) H of every aiding model against its nonlinear ``predict`` at ``inject(nom, +-eps e_j)``,
+    parametrised over a registry of the models (one line per model).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import pytest
+
+from tauvcore.aiding import AIDING_SOURCES, Depth, DvlLoose, MagAttitude
+from tauvcore.filter.eskf import Nominal, inject
+from tauvcore.filter.layout import NOISE, STATE
+from tauvcore.geo.earth import Earth
+from tauvcore.geo.rotations import C_nb_from_euler, exp_so3
+from tauvcore.ins.error_model import F_matrix, G_matrix, error_rate
+from tauvcore.ins.strapdown import NavState, mv
+from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.sensors.magnetometer import MagnetometerConfig
+from tauvcore.sensors.pressure import PressureConfig
+
+EARTH = Earth(latitude_deg=32.8)
+EPS = 1e-6
+
+
+# ------------------------------------------------------------------------------------------ (a) F and G
+
+def _random_ins_point(rng: np.random.Generator) -> dict:
+    return dict(
+        C_hat=exp_so3(rng.standard_normal(3)),
+        vel_b_hat=rng.normal(0.0, 2.0, 3),
+        omega_ib_meas=rng.normal(0.0, 0.1, 3),
+        f_meas=np.array([0.0, 0.0, -9.8]) + rng.normal(0.0, 1.0, 3),
+        bias_hat={"ba": rng.normal(0.0, 1e-3, 3), "bg": rng.normal(0.0, 1e-4, 3)},
+    )
+
+
+def _rate(pt: dict, dx: np.ndarray, w: np.ndarray) -> np.ndarray:
+    return error_rate(pt["C_hat"], pt["vel_b_hat"], pt["omega_ib_meas"], pt["f_meas"], pt["bias_hat"], dx, w, EARTH)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_F_and_G_match_finite_differences_of_error_rate(seed):
+    rng = np.random.default_rng(100 + seed)
+    pt = _random_ins_point(rng)
+    omega_hat = pt["omega_ib_meas"] - pt["bias_hat"]["bg"]
+    F = F_matrix(pt["C_hat"], pt["vel_b_hat"], omega_hat, EARTH)
+    G = G_matrix(pt["C_hat"], pt["vel_b_hat"])
+    assert F.shape == (STATE.dim, STATE.dim) and G.shape == (STATE.dim, NOISE.dim)
+
+    zero_x, zero_w = np.zeros(STATE.dim), np.zeros(NOISE.dim)
+    np.testing.assert_allclose(_rate(pt, zero_x, zero_w), 0.0, rtol=0, atol=1e-12)
+
+    F_fd = np.zeros_like(F)
+    for j in range(STATE.dim):
+        e = np.zeros(STATE.dim)
+        e[j] = EPS
+        F_fd[:, j] = (_rate(pt, e, zero_w) - _rate(pt, -e, zero_w)) / (2 * EPS)
+    G_fd = np.zeros_like(G)
+    for j in range(NOISE.dim):
+        e = np.zeros(NOISE.dim)
+        e[j] = EPS
+        G_fd[:, j] = (_rate(pt, zero_x, e) - _rate(pt, zero_x, -e)) / (2 * EPS)
+
+    atol_F = 1e-7 * max(1.0, np.abs(F).max())
+    atol_G = 1e-7 * max(1.0, np.abs(G).max())
+    for name in STATE.names:   # block by block, so a failure names the block
+        np.testing.assert_allclose(F[getattr(STATE, name)], F_fd[getattr(STATE, name)], rtol=0, atol=atol_F,
+                                   err_msg=f"F rows {name}")
+    np.testing.assert_allclose(G, G_fd, rtol=0, atol=atol_G)
+
+
+def test_F_is_batched():
+    rng = np.random.default_rng(11)
+    pts = [_random_ins_point(rng) for _ in range(3)]
+    C = np.stack([p["C_hat"] for p in pts])
+    v = np.stack([p["vel_b_hat"] for p in pts])
+    om = np.stack([p["omega_ib_meas"] for p in pts])
+    F = F_matrix(C, v, om, EARTH)
+    G = G_matrix(C, v)
+    for i in range(3):
+        np.testing.assert_array_equal(F[i], F_matrix(C[i], v[i], om[i], EARTH))
+        np.testing.assert_array_equal(G[i], G_matrix(C[i], v[i]))
+
+
+# ------------------------------------------------------------------------------------------ (b) aiding H
+
+DVL_CFG = DvlConfig(lever_arm_m=(0.6, -0.25, 0.15))
+AVAILABILITY = {
+    "4 beams": np.array([[True, True, True, True], [True, True, True, True]]),
+    "3 beams (1 lost) + 4": np.array([[False, True, True, True], [True, True, True, True]]),
+    "3 beams (2, 3 lost)": np.array([[True, False, True, True], [True, True, False, True]]),
+    "3 beams (4 lost) x2": np.array([[True, True, True, False], [True, True, True, False]]),
+}
+
+
+def _random_nominal(rng: np.random.Generator, batch: tuple[int, ...]) -> Nominal:
+    euler = np.stack([rng.uniform(-0.5, 0.5, batch), rng.uniform(-0.6, 0.6, batch), rng.uniform(-3.0, 3.0, batch)], -1)
+    euler.reshape(-1, 3)[0, 2] = np.pi - 1e-7       # first entry's yaw at the wrap (exercises the mag innovation)
+    C = C_nb_from_euler(euler)
+    vel_b = rng.normal(0.0, 2.0, batch + (3,))
+    nav = NavState(pos_n=rng.normal(0.0, 50.0, batch + (3,)), vel_n=mv(C, vel_b), C_nb=C)
+    return Nominal(nav=nav,
+                   accel_bias=rng.normal(0.0, 5e-3, batch + (3,)),
+                   gyro_bias=rng.normal(0.0, 1e-3, batch + (3,)),
+                   dvl_bias=rng.normal(0.0, 5e-3, batch + (4,)),
+                   dvl_sf=rng.normal(0.0, 7e-3, batch))
+
+
+@dataclass(frozen=True)
+class AidingCase:
+    """How to build one aiding model's setup at a nominal, and how to difference its outputs."""
+
+    name: str
+    build: Callable[[Nominal, np.random.Generator, np.ndarray], tuple[object, object, np.ndarray]]
+    # (model, setup, H from the model's measure())
+
+
+def _build_dvl(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
+    batch = nom.vel_b.shape[:-1]
+    model = DvlLoose(DVL_CFG, EARTH, gyro_rate_noise_rps=1e-3)
+    y = rng.normal(0.0, 1.0, batch + (4,))
+    y = np.where(available, y, np.nan)
+    omega = rng.normal(0.0, 0.2, batch + (3,))
+    setup = model.prepare(nom, y, available, omega)
+    H = model.measure(nom, y, available, omega).H
+    return model, setup, H
+
+
+def _build_depth(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
+    batch = nom.vel_b.shape[:-1]
+    model = Depth(PressureConfig())
+    depth = rng.uniform(0.0, 50.0, batch)
+    return model, model.prepare(depth, batch), model.measure(nom, depth).H
+
+
+def _build_mag(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
+    batch = nom.vel_b.shape[:-1]
+    model = MagAttitude(MagnetometerConfig())
+    euler = rng.uniform(-1.0, 1.0, batch + (3,))
+    return model, model.prepare(euler, batch), model.measure(nom, euler).H
+
+
+AIDING_REGISTRY = [
+    AidingCase("dvl", _build_dvl),
+    AidingCase("depth", _build_depth),
+    AidingCase("mag", _build_mag),
+]
+
+
+def test_registry_covers_every_aiding_source():
+    assert sorted(c.name for c in AIDING_REGISTRY) == sorted(AIDING_SOURCES)
+
+
+def _diff(model: object, h_plus: np.ndarray, h_minus: np.ndarray) -> np.ndarray:
+    # a model with an innovation() (angles) defines how two of its outputs are differenced
+    if hasattr(model, "innovation"):
+        return model.innovation(h_plus, h_minus)
+    return h_plus - h_minus
+
+
+# only the DVL depends on which beams returned; the other models get one availability each
+_H_CASES = [pytest.param(c, a, id=f"{c.name}-{a}") for c in AIDING_REGISTRY
+            for a in (AVAILABILITY if c.name == "dvl" else ["4 beams"])]
+
+
+@pytest.mark.parametrize(("case", "availability"), _H_CASES)
+def test_H_matches_finite_difference_of_predict(case, availability):
+    rng = np.random.default_rng(sum(map(ord, case.name + availability)))
+    available = AVAILABILITY[availability]
+    nom = _random_nominal(rng, (2,))
+    model, setup, H = case.build(nom, rng, available)
+    m = H.shape[-2]
+    assert H.shape == (2, m, STATE.dim)
+    H_fd = np.zeros_like(H)
+    for j in range(STATE.dim):
+        dx = np.zeros((2, STATE.dim))
+        dx[:, j] = EPS
+        h_plus = model.predict(inject(nom, dx), setup)
+        h_minus = model.predict(inject(nom, -dx), setup)
+        H_fd[..., j] = _diff(model, h_plus, h_minus) / (2 * EPS)
+    for name in STATE.names:
+        sl = getattr(STATE, name)
+        np.testing.assert_allclose(H[..., sl], H_fd[..., sl], rtol=0, atol=1e-8, err_msg=f"{case.name}: H[{name}]")
+
+
+@pytest.mark.parametrize("case", AIDING_REGISTRY, ids=[c.name for c in AIDING_REGISTRY])
+def test_H_with_single_entry_batch(case):
+    """Batch shape (1,): same check, with the DVL on three beams."""
+    rng = np.random.default_rng(77)
+    nom = _random_nominal(rng, (1,))
+    model, setup, H = case.build(nom, rng, np.array([[True, False, True, True]]))
+    H_fd = np.zeros_like(H)
+    for j in range(STATE.dim):
+        dx = np.zeros((1, STATE.dim))
+        dx[:, j] = EPS
+        H_fd[..., j] = _diff(model, model.predict(inject(nom, dx), setup),
+                             model.predict(inject(nom, -dx), setup)) / (2 * EPS)
+    np.testing.assert_allclose(H, H_fd, rtol=0, atol=1e-8)

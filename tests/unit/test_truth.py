@@ -1,0 +1,88 @@
+"""Truth generator: internal consistency by finite differences, and the scenario shapes.
+
+The finite-difference tolerances are set by the half-cosine blends of the lawnmower turns: roll
+follows the yaw rate, so the roll acceleration steps at a blend knot and a central difference
+over one IMU interval is off there by ~dt * jump (~2e-4 rad/s). A sign or frame error would be
+off by the size of the quantity itself (0.1 rad/s, 1 m/s^2). The strapdown test in
+tests/scenario is the tight (1e-3 m/s over 250 s) proof.
+"""
+
+import numpy as np
+import pytest
+
+from tauvcore.geo.earth import Earth
+from tauvcore.geo.rotations import C_nb_from_euler, vee
+from tauvcore.truth import TRAJECTORIES, TrajectoryConfig, generate
+from tauvcore.truth.kinematic import BESSEL_J0_FIRST_ZERO
+
+
+@pytest.fixture(scope="module", params=TRAJECTORIES)
+def truth(request: pytest.FixtureRequest):
+    return generate(TrajectoryConfig(name=request.param, duration_s=120.0), Earth(), 150.0)
+
+
+def test_velocity_is_derivative_of_position(truth) -> None:
+    dt = truth.dt_s
+    fd = (truth.pos_n[2:] - truth.pos_n[:-2]) / (2 * dt)
+    assert np.max(np.abs(fd - truth.vel_n[1:-1])) < 1e-5
+
+
+def test_specific_force_matches_acceleration(truth) -> None:
+    dt, e = truth.dt_s, truth.earth
+    acc = (truth.vel_n[2:] - truth.vel_n[:-2]) / (2 * dt)
+    C = truth.C_nb[1:-1]
+    f_n = np.einsum("kij,kj->ki", C, truth.f_b[1:-1])
+    expected = f_n + e.g_n - 2 * np.cross(e.omega_ie_n, truth.vel_n[1:-1])
+    assert np.max(np.abs(acc - expected)) < 1e-3
+
+
+def test_body_rate_matches_attitude_derivative(truth) -> None:
+    dt = truth.dt_s
+    C_dot = (truth.C_nb[2:] - truth.C_nb[:-2]) / (2 * dt)
+    omega_nb_b = vee(np.swapaxes(truth.C_nb[1:-1], -1, -2) @ C_dot)
+    assert np.max(np.abs(omega_nb_b - truth.omega_nb_b[1:-1])) < 5e-4
+    ie_b = np.einsum("kji,j->ki", truth.C_nb, truth.earth.omega_ie_n)
+    assert np.allclose(truth.omega_ib_b - truth.omega_nb_b, ie_b, atol=1e-15)
+    assert np.allclose(truth.C_nb, C_nb_from_euler(truth.euler))
+
+
+def test_increments_integrate_the_rates(truth) -> None:
+    dt = truth.dt_s
+    trapezoid = 0.5 * dt * (truth.omega_ib_b[1:] + truth.omega_ib_b[:-1])
+    assert np.max(np.abs(truth.dtheta_ib_b[1:] - trapezoid)) < 1e-6
+    assert np.all(truth.dtheta_ib_b[0] == 0) and np.all(truth.dv_b[0] == 0)
+
+
+def test_straight_goes_north_at_constant_depth() -> None:
+    t = generate(TrajectoryConfig(name="straight", duration_s=100.0, speed_mps=2.0, depth_m=15.0), Earth(), 150.0)
+    assert t.pos_n[-1] == pytest.approx([200.0, 0.0, 15.0], abs=1e-9)
+    assert np.allclose(t.vel_b, [2.0, 0.0, 0.0])
+
+
+def test_figure8_closes_and_dives_at_constant_rate() -> None:
+    cfg = TrajectoryConfig(name="figure8", duration_s=200.0, turn_radius_m=15.0, dive_rate_mps=0.1)
+    period = 2 * np.pi * cfg.turn_radius_m * BESSEL_J0_FIRST_ZERO / cfg.speed_mps
+    t = generate(cfg, Earth(), 150.0)
+    k = int(round(period / t.dt_s))
+    # horizontal track returns to the start after one period (J0(A) = 0), crossing itself mid-way
+    assert np.linalg.norm(t.pos_n[k, :2] - t.pos_n[0, :2]) < 0.05  # k is within dt/2 of the period
+    assert np.allclose(t.vel_n[:, 2], 0.1, atol=0.01)  # dive plus the sideslip seen through the roll
+    # tightest turn radius as configured: max yaw rate V/R
+    assert np.max(np.abs(t.omega_nb_b[:, 2])) == pytest.approx(cfg.speed_mps / cfg.turn_radius_m, rel=0.02)
+    # sway is non-zero while turning (sideslip), zero heave
+    assert np.max(np.abs(t.vel_b[:, 1])) > 0.05
+    assert np.allclose(t.vel_b[:, 2], 0.0)
+
+
+def test_lawnmower_dives_then_holds_depth_and_reverses_legs() -> None:
+    cfg = TrajectoryConfig(name="lawnmower", duration_s=250.0, dive_duration_s=30.0, lawnmower_dive_rate_mps=0.3)
+    t = generate(cfg, Earth(), 150.0)
+    diving = t.t_s < 30.0
+    assert np.allclose(t.vel_n[diving, 2], 0.3, atol=1e-9)
+    level = t.t_s > 30.0 + cfg.blend_s
+    assert np.allclose(t.euler[level, 1], 0.0, atol=1e-12)   # level pitch
+    # only the sideslip seen through the turn roll moves the depth: |v sin(roll)| < 0.01 m/s
+    assert np.allclose(t.vel_n[level, 2], 0.0, atol=0.01)
+    yaw_deg = np.degrees(t.euler[:, 2])
+    assert np.any(np.abs(np.abs(yaw_deg) - 180.0) < 1.0)   # a southbound leg
+    assert np.max(t.pos_n[:, 1]) > 2 * cfg.turn_radius_m * 0.9  # next lane to the east
