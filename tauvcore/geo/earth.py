@@ -16,6 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from tauvcore import units
+from tauvcore.validation import require_range
 
 OMEGA_IE_RPS = 7.292115e-5
 """WGS-84 earth rotation rate [rad/s]."""
@@ -37,8 +38,7 @@ class Earth:
     latitude_deg: float = 32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates
 
     def __post_init__(self) -> None:
-        if not np.isfinite(self.latitude_deg) or abs(self.latitude_deg) > 89.0:
-            raise ValueError(f"latitude_deg must be within [-89, 89], got {self.latitude_deg!r}")
+        require_range("earth.latitude_deg", self.latitude_deg, -89.0, 89.0)
 
     @property
     def latitude_rad(self) -> float:

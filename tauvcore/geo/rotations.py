@@ -102,7 +102,7 @@ def euler_from_C_nb(C_nb: np.ndarray) -> np.ndarray:
     C_nb = np.asarray(C_nb, dtype=float)
     roll = np.arctan2(C_nb[..., 2, 1], C_nb[..., 2, 2])
     pitch = -np.arcsin(np.clip(C_nb[..., 2, 0], -1.0, 1.0))
-    yaw = np.arctan2(C_nb[..., 1, 0], C_nb[..., 0, 0])
+    yaw = wrap_angle(np.arctan2(C_nb[..., 1, 0], C_nb[..., 0, 0]))  # arctan2 may return -pi
     return np.stack([roll, pitch, yaw], axis=-1)
 
 
