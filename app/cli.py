@@ -1,6 +1,8 @@
 """The ``tauv`` command line: run scenarios and print or save their results.
 
     tauv run --trajectory figure8 --method ins,lc --duration 250 --seed 1 --json out.json
+    tauv run --method all --beams 1,2            # only beams 1 and 2 return (the paper's case)
+    tauv run --method lc,tc,elc --outage 3,4@50:200 --dropout 0.05
     tauv config > my.toml          # full default configuration; edit and pass back with --config
 
 Bad input (unknown trajectory or method, non-positive duration, malformed or unknown TOML,
@@ -22,6 +24,7 @@ from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.config import METHODS, Config, load_toml, to_dict, to_toml
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError
 
@@ -63,6 +66,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", help="seed of the random generator (default 0)")
     r.add_argument("--ideal", action="store_true", help="zero every sensor and initial error (verification mode)")
     r.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
+    r.add_argument("--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)")
+    r.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
+                   help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable")
+    r.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
     r.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
     r.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
     c = sub.add_parser("config", help="print the full configuration as TOML")
@@ -101,7 +108,53 @@ def resolve_config(args: argparse.Namespace) -> Config:
         config = config.replace("run", aiding=_csv("--aiding", args.aiding, AIDING_SOURCES))
     if getattr(args, "ideal", False):
         config = config.replace("run", ideal=True)
+    if getattr(args, "beams", None) is not None:
+        config = config.replace("dvl", beams=_beam_list("--beams", args.beams))
+    if getattr(args, "outage", None):
+        outages = tuple(_outage(text) for text in args.outage)
+        try:
+            config = config.replace("dvl", outages=config.dvl.outages + outages)
+        except ConfigError as exc:
+            raise UsageError(f"--outage: {exc}") from None
+    if getattr(args, "dropout", None) is not None:
+        try:
+            probability = float(args.dropout)
+        except ValueError:
+            raise UsageError(f"--dropout: expected a probability in [0, 1], got {args.dropout!r}") from None
+        try:
+            config = config.replace("dvl", dropout_probability=probability)
+        except ConfigError as exc:
+            raise UsageError(f"--dropout: {exc}") from None
     return config
+
+
+def _beam_list(flag: str, text: str) -> tuple[int, ...]:
+    beams = []
+    for item in text.split(","):
+        item = item.strip()
+        if item not in ("1", "2", "3", "4"):
+            raise UsageError(f"{flag}: unknown beam {item!r} in {text!r} (beams are 1, 2, 3, 4)")
+        if int(item) in beams:
+            raise UsageError(f"{flag}: beam {item} repeated in {text!r}")
+        beams.append(int(item))
+    return tuple(beams)
+
+
+def _outage(text: str) -> Outage:
+    """Parse ``3,4@50:200``."""
+    beams_text, at, window = text.partition("@")
+    start_text, colon, end_text = window.partition(":")
+    if not at or not colon:
+        raise UsageError(f"--outage: expected BEAMS@START:END such as 3,4@50:200, got {text!r}")
+    beams = _beam_list("--outage", beams_text)
+    try:
+        start, end = float(start_text), float(end_text)
+    except ValueError:
+        raise UsageError(f"--outage: start and end must be seconds, got {window!r} in {text!r}") from None
+    try:
+        return Outage(beams=beams, start_s=start, end_s=end)
+    except ConfigError as exc:
+        raise UsageError(f"--outage {text}: {exc}") from None
 
 
 def result_to_json(result: MethodResult, run_index: int = 0) -> dict[str, list[float]]:
@@ -124,16 +177,17 @@ def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: f
         + (", IDEAL sensors" if config.run.ideal else "") + f"  ({elapsed_s:.1f} s wall)",
         "",
         f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} "
-        f"{'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej':>14}",
+        f"{'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}",
         f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[m]':>10} {'[m]':>9} {'[m/s]':>10}",
     ]
     for name, r in results.items():
         dvl = r.updates.get("dvl")
-        fused = f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}" if dvl is not None and dvl.valid.any() else "-"
+        fused = (f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
+                 if dvl is not None else "-")
         lines.append(
             f"{name.upper():<7} {r.vel_err_mps[-1, 0]:>10.4f} {rms(r.vel_err_mps[:, 0]):>9.4f} "
             f"{r.att_err_deg[-1, 0]:>10.4f} {rms(r.att_err_deg[:, 0]):>9.4f} "
-            f"{r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} {r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>14}")
+            f"{r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} {r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}")
     return "\n".join(lines)
 
 

@@ -18,7 +18,7 @@ import tomli_w
 from tauvcore import units
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.geo.earth import Earth
-from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.sensors.dvl import DvlConfig, Outage
 from tauvcore.sensors.imu import ImuConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
@@ -26,8 +26,11 @@ from tauvcore.truth.kinematic import TrajectoryConfig
 from tauvcore.validation import (ConfigError, require_choice, require_nonnegative, require_positive,
                                  require_range, require_vector3)
 
-METHODS = ("ins", "lc")
-"""Fusion methods: ``ins`` standalone INS (no aiding at all), ``lc`` loosely coupled DVL."""
+METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")
+"""Fusion methods: ``ins`` standalone INS (no aiding at all), ``lc`` loosely coupled DVL (3-4
+beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled methods of section
+3 (LC with 3-4 beams, their partial construction with 2): ``vb`` virtual beam, ``nsv``
+nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +78,18 @@ class FilterConfig:
 
 
 @dataclass(frozen=True)
+class PartialConfig:
+    """Parameters of the extended loosely coupled methods (section 3); the paper gives no values."""
+
+    vb_nf: float = 2.0                      # n_f of eq. 28: inflation of the virtual beam's prediction sigma
+    nsv_epsilon_m2_per_s2: float = 1e-4     # epsilon of eq. 36: variance of the "sway = 0" assumption [m^2/s^2]
+
+    def __post_init__(self) -> None:
+        require_range("partial.vb_nf", self.vb_nf, 1.0, 100.0)
+        require_positive("partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2)
+
+
+@dataclass(frozen=True)
 class RunConfig:
     methods: tuple[str, ...] = METHODS            # fusion methods to run side by side
     aiding: tuple[str, ...] = ("dvl",)            # aiding sources on (section 4: DVL alone)
@@ -105,7 +120,15 @@ class Config:
     magnetometer: MagnetometerConfig = field(default_factory=MagnetometerConfig)
     initial_error: InitialErrorConfig = field(default_factory=InitialErrorConfig)
     filter: FilterConfig = field(default_factory=FilterConfig)
+    partial: PartialConfig = field(default_factory=PartialConfig)
     run: RunConfig = field(default_factory=RunConfig)
+
+    def __post_init__(self) -> None:
+        duration = self.trajectory.duration_s
+        for o in self.dvl.outages:
+            if o.start_s >= duration or o.end_s > duration:
+                raise ConfigError(f"dvl.outages: window {o.start_s:g}:{o.end_s:g} s lies outside the run "
+                                  f"(0 to {duration:g} s)")
 
     def replace(self, section: str, **changes: Any) -> "Config":
         """A copy with ``changes`` applied to one section (validated)."""
@@ -117,9 +140,29 @@ def to_dict(config: Config) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for sec in dataclasses.fields(config):
         obj = getattr(config, sec.name)
-        out[sec.name] = {f.name: (list(v) if isinstance(v := getattr(obj, f.name), tuple) else v)
-                         for f in dataclasses.fields(obj)}
+        out[sec.name] = {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
     return out
+
+
+def _plain(value: Any) -> Any:
+    if dataclasses.is_dataclass(value):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _outages(field_name: str, value: Any) -> tuple[Outage, ...]:
+    if not isinstance(value, list):
+        raise ConfigError(f"{field_name} must be a list of tables {{beams, start_s, end_s}}, got {value!r}")
+    out = []
+    for i, item in enumerate(value):
+        if not isinstance(item, dict) or set(item) != {"beams", "start_s", "end_s"}:
+            raise ConfigError(f"{field_name}[{i}] must be a table with keys beams, start_s, end_s, got {item!r}")
+        out.append(Outage(beams=tuple(_coerce(f"{field_name}[{i}].beams", (1,), item["beams"])),
+                          start_s=_coerce(f"{field_name}[{i}].start_s", 0.0, item["start_s"]),
+                          end_s=_coerce(f"{field_name}[{i}].end_s", 0.0, item["end_s"])))
+    return tuple(out)
 
 
 def to_toml(config: Config) -> str:
@@ -147,7 +190,7 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
             raise ConfigError(f"{field_name} must be a string, got {value!r}")
         return value
     if isinstance(default, tuple):
-        if not isinstance(value, list):
+        if not isinstance(value, (list, tuple)):
             raise ConfigError(f"{field_name} must be a list, got {value!r}")
         if default and isinstance(default[0], float):
             return tuple(_coerce(f"{field_name}[{i}]", 0.0, v) for i, v in enumerate(value))
@@ -172,11 +215,11 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
         for key, value in values.items():
             if key not in known:
                 raise ConfigError(f"unknown key {sec_name}.{key} (known: {', '.join(sorted(known))})")
-            changes[key] = _coerce(f"{sec_name}.{key}", getattr(section, key), value)
-        try:
-            config = config.replace(sec_name, **changes)
-        except TypeError as exc:  # pragma: no cover - guarded by the key check above
-            raise ConfigError(f"[{sec_name}]: {exc}") from None
+            if (sec_name, key) == ("dvl", "outages"):
+                changes[key] = _outages("dvl.outages", value)
+            else:
+                changes[key] = _coerce(f"{sec_name}.{key}", getattr(section, key), value)
+        config = config.replace(sec_name, **changes)
     return config
 
 

@@ -21,6 +21,8 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.aiding import Depth, DvlLoose, MagAttitude
+from tauvcore.aiding.dvl_extended import ELC_METHODS, MODE_COAST, MODE_LC, MODE_TC, DvlExtended, DvlInfo
+from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.config import Config
 from tauvcore.eval.metrics import nees
 from tauvcore.filter.eskf import Measurement, Nominal, UpdateOutcome, correct, difference, propagate
@@ -34,10 +36,8 @@ from tauvcore.sensors import magnetometer as mag_sensor
 from tauvcore.sensors import pressure as pressure_sensor
 from tauvcore.truth import Truth, generate
 
-USES_DVL_LC = {"ins": False, "lc": True}
-"""Which methods fuse the DVL as a loosely coupled velocity."""
-USES_OTHER_AIDING = {"ins": False, "lc": True}
-"""Which methods take the depth and magnetometer aiding when it is switched on."""
+DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}}
+"""How each method fuses the DVL (None: not at all)."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +80,12 @@ class UpdateRecord:
     fused: np.ndarray           # (U, R) bool
     rejected: np.ndarray        # (U, R) bool (failed the gate)
     valid: np.ndarray           # (U, R) bool (the source produced a measurement)
+    fused_rows: np.ndarray      # (U, R, m) bool
+    rejected_rows: np.ndarray   # (U, R, m) bool
+    beams_available: np.ndarray | None = None  # (U, R, 4) DVL only: beams that returned
+    mode: np.ndarray | None = None             # (U, R) DVL only: MODE_* code (coast, lc, partial, tc)
+    measured_axes: np.ndarray | None = None    # (U, R, 3) DVL only: body axes the velocity carried
+    elc_choice: np.ndarray | None = None       # (U, R, 3) ELC only: index into elc_select.CANDIDATES
 
 
 @dataclass(frozen=True)
@@ -146,21 +152,34 @@ def _epoch_map(indices: np.ndarray) -> dict[int, int]:
 
 
 class _Recorder:
+    """Collects the updates of one source for one method."""
+
     def __init__(self) -> None:
         self.t: list[float] = []
-        self.items: list[tuple[UpdateOutcome, np.ndarray]] = []
+        self.rows: list[dict[str, np.ndarray]] = []
 
-    def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray) -> None:
+    def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray, **extra: np.ndarray) -> None:
         self.t.append(t)
-        self.items.append((outcome, valid))
+        self.rows.append({"z": outcome.z, "innovation": outcome.innovation, "innovation_var": outcome.innovation_var,
+                          "test_ratio": outcome.test_ratio, "fused": outcome.fused, "rejected": outcome.rejected,
+                          "valid": valid, "fused_rows": outcome.fused_rows, "rejected_rows": outcome.rejected_rows,
+                          **extra})
 
-    def build(self, m: int) -> UpdateRecord:
-        def stack(get):  # noqa: ANN001
-            return np.stack([get(o, v)[m] for o, v in self.items])
-        return UpdateRecord(t_s=np.asarray(self.t), z=stack(lambda o, v: o.z), innovation=stack(lambda o, v: o.innovation),
-                            innovation_var=stack(lambda o, v: o.innovation_var),
-                            test_ratio=stack(lambda o, v: o.test_ratio), fused=stack(lambda o, v: o.fused),
-                            rejected=stack(lambda o, v: o.rejected), valid=stack(lambda o, v: v))
+    def build(self) -> UpdateRecord:
+        keys = self.rows[0].keys()
+        return UpdateRecord(t_s=np.asarray(self.t), **{k: np.stack([r[k] for r in self.rows]) for k in keys})
+
+
+def _take(nom: Nominal, m: int) -> Nominal:
+    """The part of a (M, R) nominal state that belongs to method m."""
+    return Nominal(NavState(nom.nav.pos_n[m], nom.nav.vel_n[m], nom.nav.C_nb[m]), nom.accel_bias[m], nom.gyro_bias[m],
+                   nom.dvl_bias[m], nom.dvl_sf[m])
+
+
+def _put(nom: Nominal, m: int, part: Nominal) -> None:
+    nom.nav.pos_n[m], nom.nav.vel_n[m], nom.nav.C_nb[m] = part.nav.pos_n, part.nav.vel_n, part.nav.C_nb
+    nom.accel_bias[m], nom.gyro_bias[m], nom.dvl_bias[m], nom.dvl_sf[m] = (
+        part.accel_bias, part.gyro_bias, part.dvl_bias, part.dvl_sf)
 
 
 def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, MethodResult]:
@@ -179,16 +198,19 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
     nom = _initial_nominal(config, truth, rng, batch, P0[STATE.att, STATE.att])
 
     aiding = set(config.run.aiding)
-    lc_mask = np.array([USES_DVL_LC[m] for m in methods])[:, None] & np.ones(batch, bool)
-    other_mask = np.array([USES_OTHER_AIDING[m] for m in methods])[:, None] & np.ones(batch, bool)
     gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt) * np.sqrt(2.5)
-    dvl_model = DvlLoose(config.dvl, earth, gyro_rate_noise)
+    dvl_models = {
+        "lc": DvlLoose(config.dvl, earth, gyro_rate_noise),
+        "tc": DvlTight(config.dvl, earth, gyro_rate_noise),
+    }
+    other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(batch, bool)
     depth_model = Depth(config.pressure)
     mag_model = MagAttitude(config.magnetometer)
-    dvl_at = _epoch_map(sim.dvl.index) if "dvl" in aiding and lc_mask.any() else {}
+    dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION[m] is not None]
+    dvl_at = _epoch_map(sim.dvl.index) if "dvl" in aiding and dvl_methods else {}
     depth_at = _epoch_map(sim.pressure.index) if "depth" in aiding and other_mask.any() else {}
     mag_at = _epoch_map(sim.mag.index) if "mag" in aiding and other_mask.any() else {}
-    recorders = {"dvl": _Recorder(), "depth": _Recorder(), "mag": _Recorder()}
+    recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag") for m in range(M)}
 
     out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
     out_idx = np.arange(0, truth.num_samples, out_step)
@@ -217,10 +239,36 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
         series["pos_sigma"][slot] = np.sqrt(diag[..., STATE.pos].sum(-1))
         series["nees"][slot] = nees(dx, P)
 
-    def update(source: str, meas: Measurement, mask: np.ndarray, t: float) -> None:
+    def update_all(source: str, meas: Measurement, t: float) -> None:
+        """A source every aided method takes (depth, magnetometer): one batched correction."""
         nonlocal P, nom
-        P, nom, outcome = correct(P, nom, meas, gate, apply=mask)
-        recorders[source].add(t, outcome, meas.valid & mask)
+        P, nom, outcome = correct(P, nom, meas, gate, apply=other_mask)
+        for m in range(M):
+            if other_mask[m].any():
+                part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
+                recorders[(source, m)].add(t, part, meas.valid[m] & other_mask[m])
+
+    def update_dvl(i: int, k: int, t: float) -> None:
+        """Every DVL-aided method fuses the ping its own way (lc, tc, or an ELC method)."""
+        y, available = sim.dvl.y_beam_mps[i], sim.dvl.available[i]
+        omega_meas = (3.0 * imu.dtheta_b[k] - imu.dtheta_b[k - 1]) / (2.0 * dt)  # rate at t_k, 2nd order
+        for m, method in dvl_methods:
+            part = _take(nom, m)
+            kind = DVL_FUSION[method]
+            if kind == "elc":
+                model = DvlExtended(method, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
+                                    config.partial.nsv_epsilon_m2_per_s2)
+                meas, info = model.measure(part, P[m][..., STATE.vel, STATE.vel], y, available, omega_meas)
+            else:
+                meas = dvl_models[kind].measure(part, y, available, omega_meas)
+                code = MODE_LC if kind == "lc" else MODE_TC
+                info = DvlInfo(mode=np.where(meas.valid, code, MODE_COAST),
+                               measured_axes=np.broadcast_to(meas.valid[:, None] & (kind == "lc"), (R, 3)),
+                               elc_choice=np.full((R, 3), -1))
+            P[m], new_part, outcome = correct(P[m], part, meas, gate)
+            _put(nom, m, new_part)
+            recorders[("dvl", m)].add(t, outcome, meas.valid, beams_available=available, mode=info.mode,
+                                      measured_axes=info.measured_axes, elc_choice=info.elc_choice)
 
     cov_step = max(1, int(round(config.imu.rate_hz / config.filter.covariance_rate_hz)))
     events = np.zeros(truth.num_samples, dtype=bool)
@@ -249,21 +297,18 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
             continue
         t = float(truth.t_s[k])
         if k in dvl_at:
-            i = dvl_at[k]
-            omega_meas = (3.0 * imu.dtheta_b[k] - imu.dtheta_b[k - 1]) / (2.0 * dt)  # rate at t_k, 2nd order
-            meas = dvl_model.measure(nom, sim.dvl.y_beam_mps[i], sim.dvl.available[i], omega_meas)
-            update("dvl", meas, lc_mask, t)
+            update_dvl(dvl_at[k], k, t)
         if k in depth_at:
-            update("depth", depth_model.measure(nom, sim.pressure.depth_m[depth_at[k]]), other_mask, t)
+            update_all("depth", depth_model.measure(nom, sim.pressure.depth_m[depth_at[k]]), t)
         if k in mag_at:
-            update("mag", mag_model.measure(nom, sim.mag.euler[mag_at[k]]), other_mask, t)
+            update_all("mag", mag_model.measure(nom, sim.mag.euler[mag_at[k]]), t)
         if slot < T and k == out_idx[slot]:
             record(slot, k)
             slot += 1
 
     results = {}
     for m, method in enumerate(methods):
-        updates = {src: rec.build(m) for src, rec in recorders.items() if rec.items}
+        updates = {src: rec.build() for (src, mm), rec in recorders.items() if mm == m and rec.rows}
         results[method] = MethodResult(
             method=method, t_s=truth.t_s[out_idx],
             vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m], pos_err_m=series["pos_err"][:, m],

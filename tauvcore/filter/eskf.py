@@ -67,13 +67,22 @@ def difference(true: Nominal, est: Nominal) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Measurement:
-    """One aiding measurement, ``innovation = z (-) h(x_hat) ~ H dx + n``, n ~ N(0, R)."""
+    """One aiding measurement, ``innovation = z (-) h(x_hat) ~ H dx + n``, n ~ N(0, R).
+
+    ``active`` (B, m) marks the rows that carry information; an inactive row (an unmeasured
+    axis, a beam that did not return) is dropped exactly: its H row, innovation and R row and
+    column are removed from the update, not given a huge variance (which would leave round-off
+    in the Joseph form). ``gate_rows``: gate each row on its own (tightly coupled beams), or
+    the whole vector at once (a velocity solution).
+    """
 
     z: np.ndarray           # (B, m) observation
     innovation: np.ndarray  # (B, m)
     H: np.ndarray           # (B, m, 20)
     R: np.ndarray           # (B, m, m)
     valid: np.ndarray       # (B,) bool: the source produced a measurement for this batch entry
+    active: np.ndarray | None = None  # (B, m) bool rows in use; None = all
+    gate_rows: bool = False
 
 
 @dataclass(frozen=True)
@@ -82,10 +91,12 @@ class UpdateOutcome:
 
     z: np.ndarray                  # (B, m)
     innovation: np.ndarray         # (B, m)
-    innovation_var: np.ndarray     # (B, m) diagonal of S = H P H^T + R
-    test_ratio: np.ndarray         # (B,) max_i nu_i^2 / (gate^2 S_ii); > 1 means rejected
-    fused: np.ndarray              # (B,) bool
-    rejected: np.ndarray           # (B,) bool: valid but failed the gate
+    innovation_var: np.ndarray     # (B, m) diagonal of S = H P H^T + R (NaN for unused rows)
+    test_ratio: np.ndarray         # (B,) max over active rows of nu_i^2 / (gate^2 S_ii); > 1: rejected
+    fused: np.ndarray              # (B,) bool: at least one row fused
+    rejected: np.ndarray           # (B,) bool: at least one valid row failed the gate
+    fused_rows: np.ndarray         # (B, m) bool
+    rejected_rows: np.ndarray      # (B, m) bool
 
 
 def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
@@ -94,35 +105,51 @@ def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
     return 0.5 * (P + np.swapaxes(P, -1, -2))
 
 
+def _keep_rows(H: np.ndarray, R: np.ndarray, nu: np.ndarray, keep: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Remove the rows not in ``keep`` exactly (zero H row and innovation, unit R diagonal, no
+    cross-covariance): the update is then identical to one without those rows."""
+    both = keep[..., :, None] & keep[..., None, :]
+    R = np.where(both, R, 0.0) + np.eye(R.shape[-1]) * (~keep)[..., None, :]
+    return H * keep[..., None], R, np.where(keep, nu, 0.0)
+
+
 def correct(P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float,
             apply: np.ndarray | None = None) -> tuple[np.ndarray, Nominal, UpdateOutcome]:
     """Gated Joseph-form update and injection.
 
-    The gate is the paper's (section 2.1.1): every component of the innovation must lie within
-    ``gate_sigma`` standard deviations of its prediction, ``nu_i^2 <= gate^2 S_ii``; otherwise
-    the whole measurement is rejected and recorded as such. ``apply`` (B,) masks batch entries
-    that do not use this source (e.g. the standalone INS); they are left untouched.
-    Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T`` keeps P symmetric positive definite
-    for any gain, including the zero gain of a rejected measurement.
+    The gate is the paper's (section 2.1.1): a row must lie within ``gate_sigma`` standard
+    deviations of its prediction, ``nu_i^2 <= gate^2 S_ii``. A vector measurement is rejected
+    whole if any row fails (``gate_rows`` False), a row-gated one loses only the failing rows;
+    every rejection is recorded. ``apply`` (B,) masks batch entries that do not use this source
+    (e.g. the standalone INS); they are left untouched. Joseph form
+    ``P = (I - K H) P (I - K H)^T + K R K^T`` keeps P symmetric positive definite for any gain,
+    including the zero gain of a rejected measurement.
     """
     valid = meas.valid if apply is None else meas.valid & apply
-    H, R = meas.H, meas.R
-    m = R.shape[-1]
+    m = meas.R.shape[-1]
+    active = np.ones(valid.shape + (m,), dtype=bool) if meas.active is None else meas.active.astype(bool)
+    active = active & valid[..., None]
+    H, R, nu = _keep_rows(meas.H, meas.R, meas.innovation, active)
+    HT = np.swapaxes(H, -1, -2)
+    s_diag = np.diagonal(H @ P @ HT + R, axis1=-2, axis2=-1)
+    ratio_rows = np.where(active, nu**2 / (gate_sigma**2 * s_diag), 0.0)
+    if meas.gate_rows:
+        keep = active & (ratio_rows <= 1.0)
+    else:
+        keep = active & np.all(ratio_rows <= 1.0, axis=-1)[..., None]
+    H, R, nu = _keep_rows(H, R, nu, keep)
     HT = np.swapaxes(H, -1, -2)
     S = H @ P @ HT + R
-    S = np.where(valid[..., None, None], S, np.eye(m))
-    nu = np.where(valid[..., None], meas.innovation, 0.0)
-    s_diag = np.diagonal(S, axis1=-2, axis2=-1)
-    test_ratio = np.max(nu**2 / (gate_sigma**2 * s_diag), axis=-1)
-    fused = valid & (test_ratio <= 1.0)
     K = np.swapaxes(np.linalg.solve(S, H @ P), -1, -2)          # P H^T S^-1 (S, P symmetric)
-    K = np.where(fused[..., None, None], K, 0.0)
     I_KH = np.eye(P.shape[-1]) - K @ H
     P = I_KH @ P @ np.swapaxes(I_KH, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
     P = 0.5 * (P + np.swapaxes(P, -1, -2))
     dx = mv(K, nu)
+    any_active = active.any(axis=-1)
     outcome = UpdateOutcome(z=meas.z, innovation=meas.innovation,
-                            innovation_var=np.where(valid[..., None], s_diag, np.nan),
-                            test_ratio=np.where(valid, test_ratio, np.nan), fused=fused,
-                            rejected=valid & ~fused)
+                            innovation_var=np.where(active, s_diag, np.nan),
+                            test_ratio=np.where(any_active, ratio_rows.max(axis=-1), np.nan),
+                            fused=keep.any(axis=-1), rejected=(active & ~keep).any(axis=-1),
+                            fused_rows=keep, rejected_rows=active & ~keep)
     return P, inject(nom, dx), outcome

@@ -22,7 +22,8 @@ from tauvcore.conventions import NUM_DVL_BEAMS
 from tauvcore.geo.rotations import skew
 from tauvcore.sensors.timing import batch_shape, epoch_indices, random_walk
 from tauvcore.truth.record import Truth
-from tauvcore.validation import ConfigError, require_nonnegative, require_positive, require_range, require_vector3
+from tauvcore.validation import (ConfigError, require_finite, require_nonnegative, require_positive, require_range,
+                                 require_vector3)
 
 
 def beam_directions_b(beam_pitch_rad: float) -> np.ndarray:
@@ -30,6 +31,30 @@ def beam_directions_b(beam_pitch_rad: float) -> np.ndarray:
     yaw = np.deg2rad(45.0 + 90.0 * np.arange(NUM_DVL_BEAMS))
     s = np.sin(beam_pitch_rad)
     return np.stack([np.cos(yaw) * s, np.sin(yaw) * s, np.full(NUM_DVL_BEAMS, np.cos(beam_pitch_rad))], axis=-1)
+
+
+@dataclass(frozen=True)
+class Outage:
+    """Beams lost (no bottom lock) during ``start_s <= t < end_s``."""
+
+    beams: tuple[int, ...]   # beam numbers 1-4
+    start_s: float           # [s]
+    end_s: float             # [s]
+
+    def __post_init__(self) -> None:
+        _check_beams("dvl.outages.beams", self.beams)
+        require_nonnegative("dvl.outages.start_s", self.start_s)
+        require_finite("dvl.outages.end_s", self.end_s)
+        if self.end_s <= self.start_s:
+            raise ConfigError(f"dvl.outages: window {self.start_s:g}:{self.end_s:g} s ends before it starts")
+
+
+def _check_beams(field: str, beams: object) -> None:
+    if not isinstance(beams, (tuple, list)) or len(set(beams)) != len(beams):
+        raise ConfigError(f"{field} must be a list of distinct beam numbers 1-4, got {beams!r}")
+    for b in beams:
+        if b not in (1, 2, 3, 4) or isinstance(b, bool):
+            raise ConfigError(f"{field}: unknown beam {b!r} (beams are 1, 2, 3, 4)")
 
 
 @dataclass(frozen=True)
@@ -45,6 +70,8 @@ class DvlConfig:
     scale_factor_rw_pct_per_sqrt_s: float = 5e-3          # scale factor random walk [%/sqrt(s)]
     lever_arm_m: tuple[float, float, float] = (0.6, 0.0, 0.15)  # DVL head from the IMU, body frame [m]; not in the paper
     beams: tuple[int, ...] = (1, 2, 3, 4)                 # beams that return (others never do)
+    outages: tuple[Outage, ...] = ()                      # scheduled losses of some beams
+    dropout_probability: float = 0.0                      # chance that a beam misses a ping, each beam independently
 
     def __post_init__(self) -> None:
         require_positive("dvl.rate_hz", self.rate_hz)
@@ -53,17 +80,18 @@ class DvlConfig:
                      "scale_factor_rw_pct_per_sqrt_s"):
             require_nonnegative(f"dvl.{name}", getattr(self, name))
         require_vector3("dvl.lever_arm_m", self.lever_arm_m)
-        if not isinstance(self.beams, (tuple, list)) or len(set(self.beams)) != len(self.beams):
-            raise ConfigError(f"dvl.beams must be a list of distinct beam numbers 1-4, got {self.beams!r}")
-        for b in self.beams:
-            if b not in (1, 2, 3, 4) or isinstance(b, bool):
-                raise ConfigError(f"dvl.beams: unknown beam {b!r} (beams are 1, 2, 3, 4)")
+        _check_beams("dvl.beams", self.beams)
+        for outage in self.outages:
+            if not isinstance(outage, Outage):
+                raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {outage!r}")
+        require_range("dvl.dropout_probability", self.dropout_probability, 0.0, 1.0)
 
     def ideal(self) -> "DvlConfig":
         """The same DVL (geometry, lever arm, beams) with every error set to zero."""
         return DvlConfig(rate_hz=self.rate_hz, beam_pitch_deg=self.beam_pitch_deg, noise_mps=0.0, bias_mps=0.0,
                          bias_rw_mps_per_sqrt_s=0.0, scale_factor_pct=0.0, scale_factor_rw_pct_per_sqrt_s=0.0,
-                         lever_arm_m=self.lever_arm_m, beams=self.beams)
+                         lever_arm_m=self.lever_arm_m, beams=self.beams, outages=self.outages,
+                         dropout_probability=self.dropout_probability)
 
     @property
     def beam_pitch_rad(self) -> float:
@@ -90,6 +118,15 @@ class DvlConfig:
     def beam_mask(self) -> np.ndarray:
         """(4,) bool: beams enabled in the configuration."""
         return np.isin(np.arange(1, NUM_DVL_BEAMS + 1), self.beams)
+
+    def scheduled_availability(self, t_s: np.ndarray) -> np.ndarray:
+        """(M, 4) bool: beams enabled and not in an outage at the ping times ``t_s``."""
+        available = np.broadcast_to(self.beam_mask, t_s.shape + (NUM_DVL_BEAMS,)).copy()
+        for outage in self.outages:
+            lost = (t_s >= outage.start_s) & (t_s < outage.end_s)
+            for b in outage.beams:
+                available[lost, b - 1] = False
+        return available
 
 
 @dataclass(frozen=True)
@@ -121,7 +158,10 @@ def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs
     expand = (slice(None),) + (None,) * len(runs)
     y = beam_velocity(config.A_b, truth.vel_b[idx][expand], truth.omega_nb_b[idx][expand], config.l_dvl_b, sf, bias)
     y = y + rng.standard_normal(y.shape) * config.noise_mps
-    available = np.broadcast_to(config.beam_mask, y.shape).copy()
+    available = np.broadcast_to(config.scheduled_availability(truth.t_s[idx])[(slice(None),) + (None,) * len(runs)],
+                                y.shape).copy()
+    if config.dropout_probability > 0:   # no draw otherwise, so the other sensors' streams do not move
+        available &= rng.random(y.shape) >= config.dropout_probability
     y = np.where(available, y, np.nan)
     return DvlData(t_s=truth.t_s[idx], index=idx, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf)
 

@@ -1,0 +1,104 @@
+"""Shared machinery of the extended loosely coupled (ELC) methods (Tal et al. 2017 section 3).
+
+With exactly two returned beams the DVL has no velocity solution. Each ELC method builds one
+anyway from the two beams and, for some, the filter's predicted velocity. Every method is
+*affine* in its inputs, which is what makes its noise covariance exact:
+
+    v_meas = C y_c + D v_hat        R = C S_y C^T + (g D) P_vel (g D)^T + diag(extra)
+
+- ``y_c`` (4,) are the beams with the estimated beam biases, scale factor and lever-arm
+  velocity removed, ``y_c,k = (y_k - b_hat_k - b_k . (omega_hat_nb x l)) / (1 + SF_hat) ~ b_k . v_b``,
+  with covariance ``S_y``; ``v_hat`` is the predicted body velocity with covariance ``P_vel``
+  (the filter's velocity block);
+- ``C`` (3, 4) and ``D`` (3, 3) depend only on the beam geometry and on which beams returned,
+  so each method derives them once per availability pattern (:class:`PartialSolution`);
+- ``g`` is the method's inflation of the prediction noise (the virtual beam's n_f, eq. 28);
+- ``extra`` holds the variance of an assumption (nullified sway's epsilon, eq. 36).
+
+Only the ``measured`` rows are fused; the others are dropped from the update exactly (the
+paper's "infinite variance", eq. 43 and 47, without a huge number in the Joseph form). The
+fused model is the paper's: ``z = v_meas``, ``H = [0 0 I 0 0 0 0]`` on the measured rows
+(eq. 18). Like the paper (eq. 26), the correlation between ``v_hat`` and the state error is
+neglected; n_f is the knob that compensates for it.
+
+Beam pairs of the "x" Janus (beams 1, 4 forward, 2, 3 aft; 1, 2 starboard, 3, 4 port;
+``b_k = [+-s, +-s, c]``, s = sin(20 deg)/sqrt(2), c = cos(20 deg)):
+
+=========  ================  ======================  ====================================
+pair       difference gives  sum gives               nullified sway (v = 0)
+=========  ================  ======================  ====================================
+1-2, 3-4   surge u           +-s v + c w             solvable (u, w)
+1-4, 2-3   sway v            +-s u + c w             singular: the pair differs only in y
+1-3, 2-4   +-(u +- v)        heave w (2c w)          solvable (u, w)
+=========  ================  ======================  ====================================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tauvcore.geo.rotations import skew
+from tauvcore.ins.strapdown import mv
+
+AXES = ("surge", "sway", "heave")
+LSQ_EXACT_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class PartialSolution:
+    """One method's affine velocity construction for one availability pattern."""
+
+    method: str
+    ok: bool                       # False: the method cannot use this pattern (see reason)
+    reason: str = ""               # why not, for the record and the user
+    C: np.ndarray = field(default_factory=lambda: np.zeros((3, 4)))   # from compensated beams
+    D: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))   # from the predicted velocity
+    measured: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))  # rows fused
+    extra_var: np.ndarray = field(default_factory=lambda: np.zeros(3))  # assumption variance per row
+    pred_gain: np.ndarray = field(default_factory=lambda: np.ones(3))   # g per row (n_f for VB)
+
+
+def cannot(method: str, reason: str) -> PartialSolution:
+    return PartialSolution(method=method, ok=False, reason=reason)
+
+
+def exact_combination(A_s: np.ndarray, target: np.ndarray) -> np.ndarray | None:
+    """Coefficients c with ``A_s^T c = target`` exactly, or None if target is outside the
+    beams' row space (the velocity direction the pair cannot see)."""
+    c, *_ = np.linalg.lstsq(A_s.T, target, rcond=None)
+    return c if np.linalg.norm(A_s.T @ c - target) < LSQ_EXACT_TOL else None
+
+
+def embed(rows: np.ndarray, beams: np.ndarray) -> np.ndarray:
+    """Place coefficients for the returned beams into a (3, 4) matrix over all beams."""
+    C = np.zeros((rows.shape[0], 4))
+    C[:, beams] = rows
+    return C
+
+
+def compensated_beams(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray,
+                      dvl_sf: np.ndarray, omega_comp_b: np.ndarray, l_dvl_b: np.ndarray) -> np.ndarray:
+    """``y_c = (y - b_hat - A (omega_hat x l)) / (1 + SF_hat)``, zero where not returned. (B, 4)."""
+    lever = mv(np.broadcast_to(A_b, omega_comp_b.shape[:-1] + A_b.shape), np.cross(omega_comp_b, l_dvl_b))
+    y_c = (y_beam - dvl_bias - lever) / (1.0 + dvl_sf)[..., None]
+    return np.where(available, y_c, 0.0)
+
+
+def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float, l_dvl_b: np.ndarray,
+                   dvl_sf: np.ndarray) -> np.ndarray:
+    """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4)."""
+    lever = A_b @ skew(l_dvl_b)
+    S = np.eye(4) * noise_mps**2 + gyro_rate_noise_rps**2 * (lever @ lever.T)
+    return S / ((1.0 + dvl_sf) ** 2)[..., None, None]
+
+
+def apply_solution(C: np.ndarray, D: np.ndarray, gain: np.ndarray, extra_var: np.ndarray, y_c: np.ndarray,
+                   S_y: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + diag(extra)``; C, D (..., 3, 4|3)."""
+    v = mv(C, y_c) + mv(D, v_hat)
+    gD = gain[..., :, None] * D
+    R = C @ S_y @ np.swapaxes(C, -1, -2) + gD @ P_vel @ np.swapaxes(gD, -1, -2)
+    R = R + extra_var[..., None, :] * np.eye(3)
+    return v, R
