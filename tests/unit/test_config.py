@@ -95,5 +95,5 @@ def test_direct_construction_validates_too():
 
 def test_to_dict_has_every_section_and_plain_types():
     d = to_dict(Config())
-    assert set(d) == {"trajectory", "earth", "imu", "dvl", "pressure", "magnetometer", "initial_error", "filter", "run"}
+    assert set(d) == {"trajectory", "earth", "imu", "dvl", "pressure", "magnetometer", "initial_error", "filter", "partial", "run"}
     assert isinstance(d["dvl"]["lever_arm_m"], list)
