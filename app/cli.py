@@ -4,6 +4,7 @@
     tauv run --method all --beams 1,2            # only beams 1 and 2 return (the paper's case)
     tauv run --method lc,tc,elc --outage 3,4@50:200 --dropout 0.05
     tauv config > my.toml          # full default configuration; edit and pass back with --config
+    tauv serve --port 8080         # the browser dashboard
 
 Bad input (unknown trajectory or method, non-positive duration, malformed or unknown TOML,
 NaN or negative noise, ...) prints one line naming the field and the value and exits with 2.
@@ -21,7 +22,7 @@ from typing import NoReturn, Sequence
 import numpy as np
 
 from tauvcore.aiding import AIDING_SOURCES
-from tauvcore.config import METHODS, Config, load_toml, to_dict, to_toml
+from tauvcore.config import METHODS, Config, from_dict, merge, read_toml, to_dict, to_toml
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult, run, simulate
 from tauvcore.sensors.dvl import Outage
@@ -72,27 +73,36 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
     r.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
     r.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
+    sv = sub.add_parser("serve", help="start the browser dashboard")
+    sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
+    sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", help="TOML file to merge over the defaults before printing")
     return parser
 
 
 def resolve_config(args: argparse.Namespace) -> Config:
-    """Defaults, then the --config file, then the command-line flags."""
-    config = load_toml(args.config) if args.config else Config()
-    if getattr(args, "trajectory", None) is not None:
-        if args.trajectory not in TRAJECTORIES:
-            raise UsageError(f"--trajectory: unknown trajectory {args.trajectory!r} (choose from {', '.join(TRAJECTORIES)})")
-        config = config.replace("trajectory", name=args.trajectory)
+    """Defaults, then the --config file, then the command-line flags.
+
+    The run length is applied together with the file, so a file's outage after the default 250 s
+    is valid when --duration makes the run long enough.
+    """
+    raw = read_toml(args.config) if args.config else {}
     if getattr(args, "duration", None) is not None:
         try:
             duration = float(args.duration)
         except ValueError:
             raise UsageError(f"--duration: expected a number of seconds, got {args.duration!r}") from None
         try:
-            config = config.replace("trajectory", duration_s=duration)
+            Config().replace("trajectory", duration_s=duration)
         except ConfigError as exc:
             raise UsageError(f"--duration: {exc}") from None
+        raw = merge(raw, {"trajectory": {"duration_s": duration}})
+    config = from_dict(raw)
+    if getattr(args, "trajectory", None) is not None:
+        if args.trajectory not in TRAJECTORIES:
+            raise UsageError(f"--trajectory: unknown trajectory {args.trajectory!r} (choose from {', '.join(TRAJECTORIES)})")
+        config = config.replace("trajectory", name=args.trajectory)
     if getattr(args, "seed", None) is not None:
         try:
             seed = int(args.seed)
@@ -211,6 +221,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_serve(args: argparse.Namespace) -> int:
+    try:
+        port = int(args.port)
+    except ValueError:
+        raise UsageError(f"--port: expected a TCP port number, got {args.port!r}") from None
+    if not 1 <= port <= 65535:
+        raise UsageError(f"--port: must be within 1-65535, got {port}")
+    if not args.host.strip():
+        raise UsageError(f"--host: expected an address such as 127.0.0.1, got {args.host!r}")
+    from app.dashboard import main as serve_main  # viser only when serving
+    try:
+        serve_main(args.host, port)
+    except OSError as exc:
+        raise UsageError(f"--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
+    return 0
+
+
 def cmd_config(args: argparse.Namespace) -> int:
     sys.stdout.write(to_toml(resolve_config(args)))
     return 0
@@ -222,6 +249,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         if args.command == "run":
             return cmd_run(args)
+        if args.command == "serve":
+            return cmd_serve(args)
         return cmd_config(args)
     except (UsageError, ConfigError) as exc:
         print(f"tauv: error: {exc}", file=sys.stderr)

@@ -199,17 +199,21 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
 
 
 def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
-    """Overlay a (partial) nested dict on ``base`` (defaults if None)."""
+    """Overlay a (partial) nested dict on ``base`` (defaults if None).
+
+    Every section is checked on its own first, then the whole (cross-section checks such as an
+    outage inside the run), so the order of the sections in a file does not matter.
+    """
     config = base or Config()
     if not isinstance(data, dict):
         raise ConfigError(f"configuration must be a table, got {data!r}")
-    sections = {f.name for f in dataclasses.fields(config)}
+    sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
     for sec_name, values in data.items():
         if sec_name not in sections:
             raise ConfigError(f"unknown section [{sec_name}] (known: {', '.join(sorted(sections))})")
         if not isinstance(values, dict):
             raise ConfigError(f"[{sec_name}] must be a table, got {values!r}")
-        section = getattr(config, sec_name)
+        section = sections[sec_name]
         known = {f.name for f in dataclasses.fields(section)}
         changes = {}
         for key, value in values.items():
@@ -219,17 +223,34 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
                 changes[key] = _outages("dvl.outages", value)
             else:
                 changes[key] = _coerce(f"{sec_name}.{key}", getattr(section, key), value)
-        config = config.replace(sec_name, **changes)
-    return config
+        sections[sec_name] = dataclasses.replace(section, **changes)
+    return Config(**sections)
+
+
+def merge(base: dict[str, Any], overlay: dict[str, Any]) -> dict[str, Any]:
+    """Nested dict ``base`` with ``overlay``'s keys replacing its own (one level of sections)."""
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
+    for sec, values in overlay.items():
+        if isinstance(values, dict) and isinstance(out.get(sec), dict):
+            out[sec].update(values)
+        else:
+            out[sec] = values
+    return out
+
+
+def read_toml(path: str) -> dict[str, Any]:
+    """The raw tables of a TOML file (checked by :func:`from_dict`)."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"--config: file not found: {path!r}") from None
+    except IsADirectoryError:
+        raise ConfigError(f"--config: is a directory, not a file: {path!r}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"--config: malformed TOML in {path!r}: {exc}") from None
 
 
 def load_toml(path: str) -> Config:
     """Read a (partial) TOML configuration file."""
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f"--config: file not found: {path!r}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"--config: malformed TOML in {path!r}: {exc}") from None
-    return from_dict(data)
+    return from_dict(read_toml(path))

@@ -16,6 +16,7 @@ error norms, the filter's own 1-sigma and the NEES against truth.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -101,6 +102,7 @@ class MethodResult:
     att_sigma_deg: np.ndarray   # (T, R)
     pos_sigma_m: np.ndarray     # (T, R)
     nees: np.ndarray            # (T, R) full 20-state NEES against truth
+    est_pos_n: np.ndarray       # (T, R, 3) estimated position, NED [m]
     updates: dict[str, UpdateRecord] = field(default_factory=dict)
 
 
@@ -182,8 +184,16 @@ def _put(nom: Nominal, m: int, part: Nominal) -> None:
         part.accel_bias, part.gyro_bias, part.dvl_bias, part.dvl_sf)
 
 
-def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, MethodResult]:
-    """Run every method of ``config.run.methods`` on the simulation; results keyed by method."""
+def run(config: Config, sim: Simulation, rng: np.random.Generator,
+        progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
+        should_stop: Callable[[], bool] | None = None) -> dict[str, MethodResult]:
+    """Run every method of ``config.run.methods`` on the simulation; results keyed by method.
+
+    ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
+    with the results so far (for live displays); ``should_stop()`` is polled at every output
+    epoch (10 Hz of simulated time, a few milliseconds of wall time) and ends the run early,
+    returning the results up to that epoch.
+    """
     methods = tuple(config.run.methods)
     truth, imu = sim.truth, sim.imu
     M, R = len(methods), sim.num_runs
@@ -217,6 +227,7 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
     T = out_idx.size
     series = {name: np.zeros((T, M, R)) for name in
               ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees")}
+    est_pos_n = np.zeros((T, M, R, 3))
     # true DVL errors at a sample: those of the latest ping (the first before it; zero without pings)
     dvl_ping_of_sample = np.clip(np.searchsorted(sim.dvl.index, np.arange(truth.num_samples), side="right") - 1,
                                  0, max(len(sim.dvl.index) - 1, 0))
@@ -238,6 +249,7 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
         series["att_sigma"][slot] = np.sqrt(diag[..., STATE.att].sum(-1)) / units.DEG
         series["pos_sigma"][slot] = np.sqrt(diag[..., STATE.pos].sum(-1))
         series["nees"][slot] = nees(dx, P)
+        est_pos_n[slot] = nom.nav.pos_n
 
     def update_all(source: str, meas: Measurement, t: float) -> None:
         """A source every aided method takes (depth, magnetometer): one batched correction."""
@@ -278,6 +290,19 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
     k_cov = 0                       # sample the covariance was last propagated to
     dtheta_sum = np.zeros((R, 3))   # gyro increments since then
 
+    def results_upto(n: int) -> dict[str, MethodResult]:
+        out = {}
+        for m, method in enumerate(methods):
+            updates = {src: rec.build() for (src, mm), rec in recorders.items() if mm == m and rec.rows}
+            out[method] = MethodResult(
+                method=method, t_s=truth.t_s[out_idx[:n]],
+                vel_err_mps=series["vel_err"][:n, m], att_err_deg=series["att_err"][:n, m],
+                pos_err_m=series["pos_err"][:n, m], vel_sigma_mps=series["vel_sigma"][:n, m],
+                att_sigma_deg=series["att_sigma"][:n, m], pos_sigma_m=series["pos_sigma"][:n, m],
+                nees=series["nees"][:n, m], est_pos_n=est_pos_n[:n, m], updates=updates)
+        return out
+
+    progress_every = max(1, int(round(progress_interval_s * config.filter.output_rate_hz)))
     record(0, 0)
     slot = 1
     for k in range(1, truth.num_samples):
@@ -305,13 +330,8 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator) -> dict[str, 
         if slot < T and k == out_idx[slot]:
             record(slot, k)
             slot += 1
-
-    results = {}
-    for m, method in enumerate(methods):
-        updates = {src: rec.build() for (src, mm), rec in recorders.items() if mm == m and rec.rows}
-        results[method] = MethodResult(
-            method=method, t_s=truth.t_s[out_idx],
-            vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m], pos_err_m=series["pos_err"][:, m],
-            vel_sigma_mps=series["vel_sigma"][:, m], att_sigma_deg=series["att_sigma"][:, m],
-            pos_sigma_m=series["pos_sigma"][:, m], nees=series["nees"][:, m], updates=updates)
-    return results
+            if should_stop is not None and should_stop():
+                break
+            if progress is not None and slot % progress_every == 0 and slot < T:
+                progress(t, results_upto(slot))
+    return results_upto(slot)

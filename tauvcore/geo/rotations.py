@@ -34,11 +34,15 @@ def vee(m: np.ndarray) -> np.ndarray:
 
 
 def exp_so3(phi: np.ndarray) -> np.ndarray:
-    """Rodrigues: rotation matrix ``exp([phi x])`` for rotation vector phi [rad]. (..., 3) -> (..., 3, 3)."""
+    """Rodrigues: rotation matrix ``exp([phi x])`` for rotation vector phi [rad]. (..., 3) -> (..., 3, 3).
+
+    Written as ``(1 - b a^2) I + a [phi x] + b phi phi^T`` (using ``[phi x]^2 = phi phi^T - a^2 I``)
+    with ``a = sin(t)/t``, ``b = (1 - cos t)/t^2``, t = |phi|: no matrix product on the hot path.
+    """
     phi = np.asarray(phi, dtype=float)
-    angle2 = np.sum(phi * phi, axis=-1)[..., None, None]
+    angle2 = np.einsum("...i,...i->...", phi, phi)[..., None, None]
     if np.all(angle2 < _SERIES_ANGLE_RAD**2):
-        # Taylor series; the first omitted terms are a^6/5040 and a^6/40320 < 2e-16 for a < 1e-2
+        # Taylor series; the first omitted terms are t^6/5040 and t^6/40320 < 2e-16 for t < 1e-2
         # (IMU increments are ~1e-3 rad), so this is exact to double precision and cheaper
         a = 1.0 - angle2 / 6.0 * (1.0 - angle2 / 20.0)
         b = 0.5 - angle2 / 24.0 * (1.0 - angle2 / 30.0)
@@ -48,8 +52,7 @@ def exp_so3(phi: np.ndarray) -> np.ndarray:
         safe = np.where(small, 1.0, angle)
         a = np.where(small, 1.0 - angle2 / 6.0, np.sin(safe) / safe)
         b = np.where(small, 0.5 - angle2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    k = skew(phi)
-    return _I3 + a * k + b * (k @ k)
+    return (1.0 - b * angle2) * _I3 + a * skew(phi) + b * (phi[..., :, None] * phi[..., None, :])
 
 
 def log_so3(C: np.ndarray) -> np.ndarray:

@@ -53,7 +53,7 @@ def _check_beams(field: str, beams: object) -> None:
     if not isinstance(beams, (tuple, list)) or len(set(beams)) != len(beams):
         raise ConfigError(f"{field} must be a list of distinct beam numbers 1-4, got {beams!r}")
     for b in beams:
-        if b not in (1, 2, 3, 4) or isinstance(b, bool):
+        if not isinstance(b, int) or isinstance(b, bool) or b not in (1, 2, 3, 4):
             raise ConfigError(f"{field}: unknown beam {b!r} (beams are 1, 2, 3, 4)")
 
 

@@ -60,6 +60,7 @@ class TrajectoryConfig:
     turn_roll_deg: float = 5.0          # roll at the tightest turn [deg]
     turn_sideslip_deg: float = 3.0      # outward sideslip at the tightest turn [deg]
     blend_s: float = 4.0                # half-cosine blend time of rate changes [s]
+    seabed_depth_m: float = 60.0        # flat seabed the DVL beams reach [m]
 
     def __post_init__(self) -> None:
         require_choice("trajectory.name", self.name, TRAJECTORIES)
@@ -75,6 +76,7 @@ class TrajectoryConfig:
         require_range("trajectory.turn_roll_deg", self.turn_roll_deg, -45.0, 45.0)
         require_range("trajectory.turn_sideslip_deg", self.turn_sideslip_deg, -30.0, 30.0)
         require_positive("trajectory.blend_s", self.blend_s)
+        require_positive("trajectory.seabed_depth_m", self.seabed_depth_m)
         for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
             if getattr(self, field) >= self.speed_mps:
                 raise ConfigError(

@@ -7,8 +7,9 @@ import tomllib
 
 import pytest
 
-from app.cli import main
-from tauvcore.config import Config, from_dict
+from app.cli import build_parser, main, resolve_config
+from tauvcore.config import METHODS, Config, from_dict
+from tauvcore.sensors.dvl import Outage
 
 
 def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
@@ -92,3 +93,43 @@ def test_console_script_entry_point_runs() -> None:
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "IDEAL" in proc.stdout
+
+
+@pytest.mark.parametrize("argv, flag, value", [
+    (["--beams", "1,5"], "--beams", "5"),
+    (["--beams", "0"], "--beams", "0"),
+    (["--beams", "1,1"], "--beams", "1,1"),
+    (["--outage", "3,4@200:50"], "--outage", "200:50"),
+    (["--outage", "3,4@50:300"], "--outage", "50:300"),           # past the default 250 s run
+    (["--duration", "100", "--outage", "3,4@50:200"], "--outage", "50:200"),   # past the shortened run
+    (["--outage", "3@x:1"], "--outage", "x:1"),
+    (["--outage", "3,4"], "--outage", "3,4"),
+    (["--outage", "7@1:2"], "--outage", "7"),
+    (["--dropout", "1.5"], "--dropout", "1.5"),
+    (["--dropout", "-0.1"], "--dropout", "-0.1"),
+    (["--dropout", "abc"], "--dropout", "abc"),
+    (["--dropout", "nan"], "--dropout", "nan"),
+])
+def test_bad_partial_dvl_flags_give_one_line_and_exit_2(capsys, argv, flag, value) -> None:
+    code, out, err = _run(capsys, "run", "--method", "ins", *argv)
+    assert code == 2
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert flag in lines[0] and value in lines[0] and "Traceback" not in err, lines[0]
+
+
+def test_run_all_methods_with_two_beams_lists_every_method(capsys) -> None:
+    code, out, err = _run(capsys, "run", "--method", "all", "--beams", "1,2", "--duration", "10")
+    assert code == 0, err
+    rows = [line.split()[0] for line in out.splitlines() if line.split()]
+    assert [r for r in rows if r.lower() in METHODS] == [m.upper() for m in METHODS]
+
+
+def test_beams_outage_and_dropout_reach_the_configuration() -> None:
+    args = build_parser().parse_args(["run", "--beams", "1,2,3", "--outage", "3,4@50:200", "--outage", "1@10:20",
+                                      "--dropout", "0.05"])
+    config = resolve_config(args)
+    assert config.dvl.beams == (1, 2, 3)
+    assert config.dvl.outages == (Outage((3, 4), 50.0, 200.0), Outage((1,), 10.0, 20.0))
+    assert config.dvl.dropout_probability == 0.05

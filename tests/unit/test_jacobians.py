@@ -2,7 +2,8 @@
 
 (a) F and G of the INS error model against :func:`tauvcore.ins.error_model.error_rate`.
 (b) H of every aiding model against its nonlinear ``predict`` at ``inject(nom, +-eps e_j)``,
-    parametrised over a registry of the models (one line per model).
+    parametrised over a registry of the models (one line per model): every aiding source, and
+    for the DVL every fusion kind the runner uses that has a nonlinear model (lc, tc).
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ import numpy as np
 import pytest
 
 from tauvcore.aiding import AIDING_SOURCES, Depth, DvlLoose, MagAttitude
+from tauvcore.aiding.dvl_tight import DvlTight
+from tauvcore.eval.runner import DVL_FUSION
 from tauvcore.filter.eskf import Nominal, inject
 from tauvcore.filter.layout import NOISE, STATE
 from tauvcore.geo.earth import Earth
@@ -97,6 +100,14 @@ AVAILABILITY = {
     "3 beams (2, 3 lost)": np.array([[True, False, True, True], [True, True, False, True]]),
     "3 beams (4 lost) x2": np.array([[True, True, True, False], [True, True, True, False]]),
 }
+# the tightly coupled model takes any number of beams: its H must be right for every pattern
+AVAILABILITY_TC = {
+    "4 beams": AVAILABILITY["4 beams"],
+    "2 beams (12, 34)": np.array([[True, True, False, False], [False, False, True, True]]),
+    "2 beams (14, 23)": np.array([[True, False, False, True], [False, True, True, False]]),
+    "1 beam (1, 4)": np.array([[True, False, False, False], [False, False, False, True]]),
+    "1 beam (2, 3)": np.array([[False, True, False, False], [False, False, True, False]]),
+}
 
 
 def _random_nominal(rng: np.random.Generator, batch: tuple[int, ...]) -> Nominal:
@@ -119,6 +130,9 @@ class AidingCase:
     name: str
     build: Callable[[Nominal, np.random.Generator, np.ndarray], tuple[object, object, np.ndarray]]
     # (model, setup, H from the model's measure())
+    source: str                                   # the aiding source (AIDING_SOURCES) the model serves
+    dvl_fusion: str | None = None                 # DVL only: the runner's fusion kind (DVL_FUSION values)
+    availability: dict[str, np.ndarray] | None = None   # beam patterns to check (DVL only)
 
 
 def _build_dvl(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
@@ -130,6 +144,18 @@ def _build_dvl(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
     setup = model.prepare(nom, y, available, omega)
     H = model.measure(nom, y, available, omega).H
     return model, setup, H
+
+
+def _build_dvl_tight(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
+    batch = nom.vel_b.shape[:-1]
+    model = DvlTight(DVL_CFG, EARTH, gyro_rate_noise_rps=1e-3)
+    y = np.where(available, rng.normal(0.0, 1.0, batch + (4,)), np.nan)
+    omega = rng.normal(0.0, 0.2, batch + (3,))
+    setup = model.prepare(nom, y, available, omega)
+    meas = model.measure(nom, y, available, omega)
+    assert meas.H.shape == batch + (4, STATE.dim)          # all four rows, whichever beams returned
+    np.testing.assert_array_equal(meas.active, available)   # the missing beams are the inactive rows
+    return model, setup, meas.H
 
 
 def _build_depth(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
@@ -147,14 +173,23 @@ def _build_mag(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
 
 
 AIDING_REGISTRY = [
-    AidingCase("dvl", _build_dvl),
-    AidingCase("depth", _build_depth),
-    AidingCase("mag", _build_mag),
+    AidingCase("dvl", _build_dvl, source="dvl", dvl_fusion="lc", availability=AVAILABILITY),
+    AidingCase("dvl-tc", _build_dvl_tight, source="dvl", dvl_fusion="tc", availability=AVAILABILITY_TC),
+    AidingCase("depth", _build_depth, source="depth"),
+    AidingCase("mag", _build_mag, source="mag"),
 ]
+# The ELC kind (DvlExtended) fuses a constructed velocity with H = [0 0 I 0 0 0 0] on the measured
+# rows (eq. 18); it has no nonlinear predict to difference. Its construction and R are proved in
+# tests/unit/test_partial.py.
+NO_NONLINEAR_MODEL = {"elc"}
 
 
-def test_registry_covers_every_aiding_source():
-    assert sorted(c.name for c in AIDING_REGISTRY) == sorted(AIDING_SOURCES)
+def test_registry_covers_every_aiding_source_and_dvl_fusion():
+    assert {c.source for c in AIDING_REGISTRY} == set(AIDING_SOURCES)
+    assert len({c.name for c in AIDING_REGISTRY}) == len(AIDING_REGISTRY)
+    runner_kinds = {k for k in DVL_FUSION.values() if k is not None} - NO_NONLINEAR_MODEL
+    assert {c.dvl_fusion for c in AIDING_REGISTRY if c.source == "dvl"} == runner_kinds
+    assert NO_NONLINEAR_MODEL <= set(DVL_FUSION.values())     # the exemption names a real kind
 
 
 def _diff(model: object, h_plus: np.ndarray, h_minus: np.ndarray) -> np.ndarray:
@@ -166,13 +201,13 @@ def _diff(model: object, h_plus: np.ndarray, h_minus: np.ndarray) -> np.ndarray:
 
 # only the DVL depends on which beams returned; the other models get one availability each
 _H_CASES = [pytest.param(c, a, id=f"{c.name}-{a}") for c in AIDING_REGISTRY
-            for a in (AVAILABILITY if c.name == "dvl" else ["4 beams"])]
+            for a in (c.availability or {"4 beams": AVAILABILITY["4 beams"]})]
 
 
 @pytest.mark.parametrize(("case", "availability"), _H_CASES)
 def test_H_matches_finite_difference_of_predict(case, availability):
     rng = np.random.default_rng(sum(map(ord, case.name + availability)))
-    available = AVAILABILITY[availability]
+    available = (case.availability or AVAILABILITY)[availability]
     nom = _random_nominal(rng, (2,))
     model, setup, H = case.build(nom, rng, available)
     m = H.shape[-2]
