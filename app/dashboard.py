@@ -20,7 +20,7 @@ import plotly.graph_objects as go
 import viser
 
 from app import worker
-from app.figures import METHOD_COLORS, TRUTH_COLOR, elc_choice_figure, error_figure, summary_markdown
+from app.figures import METHOD_COLORS, TRUTH_COLOR, decimate, elc_choice_figure, error_figure, summary_markdown
 from app.scene import (BEAM_COLORS, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_SWITCHED_OFF,
                        auv_mesh_view_body, beam_segments_n, beam_states, ned_to_view, wxyz_view)
 from tauvcore.config import METHODS, Config, to_dict
@@ -30,8 +30,8 @@ from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
-GUI_REFRESH_S = 0.4          # at most this often the plots are redrawn during a run (wall time)
-STOP_GRACE_S = 1.0           # Stop ends a run within this time, or the process is terminated
+GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
+TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
 REJECT_REFERENCE = ("tc", "elc", "nsv", "vb", "vhv", "plcf", "lc")  # whose gate decides the red beams
 DVL_METHODS = tuple(m for m in METHODS if m != "ins")
 
@@ -47,11 +47,11 @@ class InputError(Exception):
 class Session:
     """One browser tab: its controls, 3-D scene, background run and results."""
 
-    def __init__(self, client: viser.ClientHandle) -> None:
+    def __init__(self, client: viser.ClientHandle, pool: worker.RunPool) -> None:
         self.client = client
+        self.pool = pool
         self.lock = threading.Lock()
-        self.proc: Any = None
-        self.stop_event: Any = None
+        self.handle: worker.RunHandle | None = None
         self.config: Config | None = None
         self.truth_view: dict[str, np.ndarray] | None = None
         self.results: dict[str, MethodResult] | None = None
@@ -96,6 +96,7 @@ class Session:
             self.status = gui.add_markdown("Ready. Choose a mission and press **Run**.")
             with gui.add_folder("Playback"):
                 self.time_slider = gui.add_slider("Time [s]", 0.0, d.trajectory.duration_s, 0.1, 0.0)
+                self.follow = gui.add_checkbox("Follow vehicle", True, hint="keep the camera on the AUV")
                 self.play_button = gui.add_button("Play")
                 self.pause_button = gui.add_button("Pause")
             self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
@@ -173,7 +174,7 @@ class Session:
     # ------------------------------------------------------------------ runs
     def start_run(self) -> None:
         with self.lock:
-            if self.proc is not None:
+            if self.handle is not None:
                 self.notify("Already running", "Press Stop first, or wait for the run to finish.", error=True)
                 return
             try:
@@ -182,7 +183,7 @@ class Session:
                 self.notify("Cannot run", str(exc), error=True)
                 return
             self.config, self.results, self.truth_view = config, None, None
-            self.proc, queue, self.stop_event = worker.start(to_dict(config), runs)
+            self.handle = handle = self.pool.start(to_dict(config), runs)
         self.run_button.disabled, self.stop_button.disabled = True, False
         self.progress.value = 0.0
         self.status.content = f"Running {config.trajectory.name}, {config.trajectory.duration_s:g} s, " \
@@ -190,19 +191,15 @@ class Session:
         self.legend.content = self._legend_html(config.run.methods)
         self.time_slider.max = config.trajectory.duration_s
         self._clear_trajectories()
-        threading.Thread(target=self._pump, args=(self.proc, queue, config), daemon=True).start()
+        threading.Thread(target=self._pump, args=(handle, config), daemon=True).start()
 
     def stop_run(self) -> None:
         with self.lock:
-            proc, stop_event = self.proc, self.stop_event
-        if proc is None:
-            return
-        stop_event.set()
-        proc.join(STOP_GRACE_S)
-        if proc.is_alive():
-            proc.terminate()
+            handle = self.handle
+        if handle is not None:
+            handle.stop()
 
-    def _pump(self, proc: Any, queue: Any, config: Config) -> None:
+    def _pump(self, handle: worker.RunHandle, config: Config) -> None:
         """Read the worker's messages and update this tab (runs in a thread of this session)."""
         last_draw = 0.0
         pending: dict[str, MethodResult] | None = None
@@ -210,9 +207,9 @@ class Session:
         try:
             while not finished:
                 try:
-                    msg = queue.get(timeout=0.1)
+                    msg = handle.queue.get(timeout=0.1)
                 except queue_mod.Empty:
-                    if not proc.is_alive():
+                    if handle.finished() and handle.queue.empty():
                         if pending is not None:
                             self._show_results(pending, config)
                         self.status.content = "Run stopped."
@@ -252,11 +249,8 @@ class Session:
             self.status.content = "Display error."
             self.notify("Display error", f"{type(exc).__name__}: {exc}", error=True)
         finally:
-            proc.join(STOP_GRACE_S)
-            if proc.is_alive():
-                proc.terminate()
             with self.lock:
-                self.proc = None
+                self.handle = None
             self.run_button.disabled, self.stop_button.disabled = False, True
 
     # ------------------------------------------------------------------ results
@@ -327,19 +321,22 @@ class Session:
         tv, config = self.truth_view, self.config
         if tv is None or config is None:
             return
-        pts = ned_to_view(tv["pos_n"])
+        pts = ned_to_view(tv["pos_n"][decimate(len(tv["t_s"]), TRAJECTORY_POINTS)])
         self.truth_line = self.client.scene.add_line_segments(
             "/traj/truth", np.stack([pts[:-1], pts[1:]], axis=1), _hex_rgb(TRUTH_COLOR), thickness=0.25)
         lo, hi = tv["pos_n"].min(axis=0), tv["pos_n"].max(axis=0)
         center = 0.5 * (lo + hi)
         self.seabed.position = (float(ned_to_view(center)[0]), float(ned_to_view(center)[1]),
                                 -config.trajectory.seabed_depth_m)
-        self._aim_camera(0.5 * (center + tv["pos_n"][0]), max(45.0, 0.6 * float(np.max(hi[:2] - lo[:2]))))
+        if self.follow.value:
+            self._aim_camera(tv["pos_n"][0], 45.0)
+        else:
+            self._aim_camera(center, max(60.0, 0.8 * float(np.max(hi[:2] - lo[:2]))))
         self.show_time(0.0)
 
     def _draw_estimates(self, results: dict[str, MethodResult]) -> None:
         for method, res in results.items():
-            est = res.est_pos_n[:, 0]
+            est = res.est_pos_n[decimate(len(res.t_s), TRAJECTORY_POINTS), 0]
             if len(est) < 2:
                 continue
             pts = ned_to_view(est)
@@ -357,6 +354,14 @@ class Session:
             return
         i = int(np.clip(np.searchsorted(tv["t_s"], t_s), 0, len(tv["t_s"]) - 1))
         pos_n, C_nb = tv["pos_n"][i], tv["C_nb"][i]
+        if self.follow.value:
+            # keep the user's viewing direction and distance, move with the vehicle
+            cam = self.client.camera
+            offset = np.asarray(cam.position) - np.asarray(cam.look_at)
+            target = ned_to_view(pos_n)
+            with self.client.atomic():
+                cam.look_at = tuple(target)
+                cam.position = tuple(target + offset)
         self.auv.position = tuple(ned_to_view(pos_n))
         self.auv.wxyz = tuple(wxyz_view(C_nb))
         self.show_beams_static(config, pos_n, C_nb)
@@ -418,6 +423,7 @@ def summary_line(results: dict[str, MethodResult]) -> str:
 
 def build_server(host: str = "127.0.0.1", port: int = 8080) -> viser.ViserServer:
     """Start the viser server with one :class:`Session` per connected tab."""
+    pool = worker.RunPool()
     server = viser.ViserServer(host=host, port=port, label="tauv", verbose=False)
     server.gui.configure_theme(control_layout="fixed", control_width="large", show_share_button=False,
                                show_logo=False, brand_color=(31, 119, 180))
@@ -425,7 +431,7 @@ def build_server(host: str = "127.0.0.1", port: int = 8080) -> viser.ViserServer
 
     @server.on_client_connect
     def _(client: viser.ClientHandle) -> None:
-        sessions[client.client_id] = Session(client)
+        sessions[client.client_id] = Session(client, pool)
 
     @server.on_client_disconnect
     def _(client: viser.ClientHandle) -> None:

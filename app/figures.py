@@ -37,12 +37,22 @@ def _hex_to_rgba(color: str, alpha: float) -> str:
     return f"rgba({r},{g},{b},{alpha})"
 
 
+def decimate(n: int, max_points: int | None) -> slice:
+    """A stride that keeps at most about ``max_points`` of ``n`` samples, always the last one."""
+    if max_points is None or n <= max_points:
+        return slice(None)
+    step = int(np.ceil(n / max_points))
+    return slice((n - 1) % step, None, step)
+
+
 def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", show_sigma: bool = False,
-                 log_y: bool = False, height_px: int = 300) -> go.Figure:
+                 log_y: bool = False, height_px: int = 300, max_points: int | None = 600) -> go.Figure:
     """Error norm against time for every method; one trace per method named by its short name.
 
     ``quantity``: "vel", "att" or "pos". ``show_sigma`` adds the filter's 1-sigma as a shaded
-    band under each curve (a trace named "<NAME> 1-sigma").
+    band under each curve (a trace named "<NAME> 1-sigma"). At most about ``max_points`` points
+    are drawn per trace (evenly strided, the last epoch always included): a plot panel is a few
+    hundred pixels wide, and every point drawn is data sent to the browser on each live update.
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
@@ -50,17 +60,19 @@ def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", sho
     fig = go.Figure()
     runs = 1
     for method, res in results.items():
-        err = getattr(res, err_field)
+        keep = decimate(len(res.t_s), max_points)
+        err = getattr(res, err_field)[keep]
+        t = res.t_s[keep]
         runs = err.shape[1]
         curve = err[:, 0] if runs == 1 else rms(err, axis=1)
         color = method_color(method)
         if show_sigma:
-            sigma = getattr(res, sigma_field)
+            sigma = getattr(res, sigma_field)[keep]
             band = sigma[:, 0] if runs == 1 else rms(sigma, axis=1)
-            fig.add_trace(go.Scatter(x=res.t_s, y=band, name=f"{method.upper()} 1-sigma", mode="lines",
+            fig.add_trace(go.Scatter(x=t, y=band, name=f"{method.upper()} 1-sigma", mode="lines",
                                      line={"width": 0}, fill="tozeroy", fillcolor=_hex_to_rgba(color, 0.15),
                                      hoverinfo="skip", showlegend=False, legendgroup=method))
-        fig.add_trace(go.Scatter(x=res.t_s, y=curve, name=method.upper(), mode="lines",
+        fig.add_trace(go.Scatter(x=t, y=curve, name=method.upper(), mode="lines",
                                  line={"color": color, "width": 2}, legendgroup=method))
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "")
     fig.update_layout(title={"text": label, "font": {"size": 13}}, height=height_px,

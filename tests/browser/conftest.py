@@ -1,0 +1,140 @@
+"""Fixtures for the dashboard tests: a `tauv serve` process and Debian's headless Chromium.
+
+Chromium comes from Debian's package (scripts/test.sh installs it); Playwright only drives it
+through ``executable_path``: never ``playwright install``, which downloads a browser. Background
+networking is off, and every test page records any request that leaves this machine.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+from typing import Iterator
+
+import pytest
+
+ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
+CHROMIUM_ARGS = [
+    "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync", "--disable-default-apps", "--disable-extensions",
+    "--enable-unsafe-swiftshader",
+]
+# Software WebGL (SwiftShader) on a 2-core machine: a viser page redrawing at 60 frames/s takes a
+# whole core, and two tabs starve the server and the test driver. Pages under test draw at most
+# 5 frames/s; the 3-D scene is the same, it is only redrawn less often.
+THROTTLE_FRAMES = """
+(() => {
+  const raf = window.requestAnimationFrame.bind(window);
+  window.requestAnimationFrame = (cb) => setTimeout(() => raf(cb), 200);
+})();
+"""
+LOCAL_PREFIXES = ("http://127.0.0.1", "http://localhost", "ws://127.0.0.1", "ws://localhost", "data:", "blob:",
+                  "about:")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def chromium_path() -> str:
+    path = shutil.which("chromium") or shutil.which("chromium-browser")
+    if path is None:
+        pytest.fail("Debian's chromium is not installed: run the tests with `bash scripts/test.sh`")
+    return path
+
+
+@pytest.fixture(scope="session")
+def server_url() -> Iterator[str]:
+    port = free_port()
+    log = open(ARTIFACTS.mkdir(exist_ok=True) or ARTIFACTS / "server.log", "w")
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)],
+                            stdout=log, stderr=subprocess.STDOUT, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            urllib.request.urlopen(url, timeout=1).read(100)
+            break
+        except OSError:
+            if proc.poll() is not None or time.monotonic() > deadline:
+                proc.kill()
+                pytest.fail(f"tauv serve did not start; see {ARTIFACTS / 'server.log'}")
+            time.sleep(0.2)
+    yield url
+    proc.terminate()
+    proc.wait(10)
+    log.close()
+
+
+@pytest.fixture(scope="session")
+def browser():  # noqa: ANN201
+    from playwright.sync_api import sync_playwright
+    with sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=chromium_path(), headless=True, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+class Tab:
+    """One dashboard tab, with the controls the tests use."""
+
+    def __init__(self, page, url: str) -> None:  # noqa: ANN001
+        self.page = page
+        self.external_requests: list[str] = []
+        page.on("request", lambda r: None if r.url.startswith(LOCAL_PREFIXES) else self.external_requests.append(r.url))
+        page.goto(url)
+        page.get_by_role("button", name="Run", exact=True).wait_for(timeout=30000)
+
+    def checkbox(self, label: str):  # noqa: ANN201
+        return self.page.get_by_role("checkbox", name=label, exact=True)
+
+    def set_methods(self, wanted: set[str]) -> None:
+        for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"):
+            box = self.checkbox(m)
+            if box.is_checked() != (m in wanted):
+                box.click()
+
+    def choose_trajectory(self, name: str) -> None:
+        self.page.get_by_label("Trajectory").click()
+        self.page.get_by_role("option", name=name, exact=True).click()
+
+    def notification(self, title: str):  # noqa: ANN201
+        return self.page.get_by_text(title, exact=True)
+
+    def plot_traces(self) -> list[list[tuple[str, int]]]:
+        """(name, number of points) of every trace of every plotly figure on the page."""
+        return self.page.evaluate(
+            "Array.from(document.querySelectorAll('.js-plotly-plot')).map(p => "
+            "(p._fullData || []).filter(t => t.visible !== false && t.showlegend !== false)"
+            ".map(t => [t.name, (t.y || []).length]))")
+
+    def results_table(self) -> dict[str, list[float]]:
+        rows = self.page.locator("table").first.locator("tr").all_inner_texts()
+        out = {}
+        for row in rows[1:]:
+            cells = [c.strip() for c in row.split("\t")]
+            out[cells[0]] = [float(c) for c in cells[1:]]
+        return out
+
+
+@pytest.fixture
+def new_tab(browser, server_url):  # noqa: ANN001, ANN201
+    contexts = []
+
+    def make() -> Tab:
+        ctx = browser.new_context(viewport={"width": 1500, "height": 950})
+        ctx.add_init_script(THROTTLE_FRAMES)
+        contexts.append(ctx)
+        return Tab(ctx.new_page(), server_url)
+
+    yield make
+    for ctx in contexts:
+        ctx.close()

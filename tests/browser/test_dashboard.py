@@ -1,0 +1,126 @@
+"""The dashboard in a real browser: what a navigation engineer does, and what the page shows."""
+
+from __future__ import annotations
+
+import re
+import time
+
+import pytest
+
+from tests.browser.conftest import ARTIFACTS
+
+pytestmark = pytest.mark.browser
+RUNNING = re.compile(r"^Running \w+, ")
+
+
+def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:  # noqa: ANN001
+    """Given beams 3 and 4 off on the straight line, when INS, TC and NSV run, then the velocity
+    plot holds their three traces and NSV ends far below the standalone INS."""
+    tab = new_tab()
+    tab.choose_trajectory("straight")
+    tab.checkbox("Beam 3").uncheck()
+    tab.checkbox("Beam 4").uncheck()
+    tab.set_methods({"INS", "TC", "NSV"})
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=120000)
+    tab.page.screenshot(path=str(ARTIFACTS / "dashboard_3d.png"))
+    tab.page.get_by_role("tab", name="Plots").click()
+    tab.page.wait_for_timeout(1000)
+    figures = tab.plot_traces()
+    velocity = dict(figures[0])
+    assert set(velocity) == {"INS", "TC", "NSV"}
+    assert all(n >= 500 for n in velocity.values())   # 250 s at 10 Hz, drawn with <= ~800 points
+    tab.page.screenshot(path=str(ARTIFACTS / "dashboard_plots.png"))
+    tab.page.get_by_role("tab", name="Results").click()
+    table = tab.results_table()
+    assert set(table) == {"INS", "TC", "NSV"}
+    assert table["NSV"][0] < 0.1 * table["INS"][0]
+    assert tab.external_requests == []
+
+
+def test_a_second_tab_keeps_its_own_settings(new_tab) -> None:  # noqa: ANN001
+    first, second = new_tab(), new_tab()
+    first.checkbox("Beam 3").uncheck()
+    first.choose_trajectory("lawnmower")
+    second.checkbox("VB").check()
+    first.page.wait_for_timeout(500)
+    assert second.checkbox("Beam 3").is_checked()
+    assert second.page.get_by_label("Trajectory").input_value() == "straight"
+    assert not first.checkbox("VB").is_checked()
+    assert not first.checkbox("Beam 3").is_checked()
+
+
+def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:  # noqa: ANN001
+    """The Stop latency itself (< 1 s) is measured without a browser in tests/unit/test_worker.py;
+    here: Stop ends a long run mid-way, and another tab's session answers during the run."""
+    tab, other = new_tab(), new_tab()
+    tab.set_methods({"INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"})
+    _fill(tab.page, "Duration [s]", "1500")
+    other.set_methods({"LC"})
+    for k in range(1, 5):
+        other.checkbox(f"Beam {k}").uncheck()
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.page.get_by_text(RUNNING).wait_for(timeout=10000)
+    tab.page.wait_for_timeout(2000)
+    # while the run goes on, a round trip through the other tab's session (Run with bad input,
+    # answered by a notification) stays quick: the run lives in a low-priority worker process.
+    # Median of five, because software WebGL on two cores gives single outliers of seconds.
+    latencies = []
+    for _ in range(5):
+        other.page.evaluate("() => document.querySelectorAll('.mantine-Notification-root button')"
+                            ".forEach(b => b.click())")
+        other.page.wait_for_timeout(400)
+        t0 = time.monotonic()
+        other.page.get_by_role("button", name="Run", exact=True).evaluate("b => b.click()")
+        other.page.get_by_text("Cannot run", exact=True).first.wait_for(timeout=20000)
+        latencies.append(time.monotonic() - t0)
+    assert sorted(latencies)[2] < 1.0, latencies
+    assert tab.page.get_by_text(RUNNING).is_visible()      # still running
+    tab.page.get_by_role("button", name="Stop", exact=True).evaluate("b => b.click()")
+    tab.notification("Run stopped").wait_for(timeout=20000)
+    stopped_at = tab.page.get_by_text("Stopped at t =", exact=False).first.inner_text()
+    assert float(stopped_at.split("=")[1].split("s")[0]) < 1500.0
+    tab.page.get_by_role("button", name="Run", exact=True).wait_for(state="visible")
+    assert tab.page.get_by_role("button", name="Run", exact=True).is_enabled()
+
+
+@pytest.mark.parametrize("setup, message", [
+    ("all_beams_off_lc_only", "all four are off"),
+    ("lc_two_beams", "LC needs three or more beams"),
+    ("outage_backwards", "Beam 2 outage ends"),
+    ("zero_runs", "Runs must be"),
+    ("negative_noise", "dvl.noise_mps must be >= 0"),
+])
+def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, setup: str, message: str) -> None:  # noqa: ANN001
+    tab = new_tab()
+    page = tab.page
+    if setup == "all_beams_off_lc_only":
+        tab.set_methods({"LC"})
+        for k in range(1, 5):
+            tab.checkbox(f"Beam {k}").uncheck()
+    elif setup == "lc_two_beams":
+        tab.set_methods({"INS", "LC"})
+        tab.checkbox("Beam 1").uncheck()
+        tab.checkbox("Beam 2").uncheck()
+    elif setup == "outage_backwards":
+        page.get_by_text("Outages [s]", exact=False).click()
+        _fill(page, "Beam 2 outage start", "200")
+        _fill(page, "Beam 2 outage end", "50")
+    elif setup == "zero_runs":
+        _fill(page, "Runs", "0")
+    elif setup == "negative_noise":
+        page.get_by_text("Sensors (Table 2)", exact=False).click()
+        _fill(page, "DVL noise [m/s]", "-0.1")
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.get_by_text(message, exact=False).wait_for(timeout=10000)
+    assert page.get_by_text("Cannot run", exact=True).is_visible()
+    # the server still serves a fresh tab
+    fresh = new_tab()
+    assert fresh.checkbox("Beam 1").is_checked()
+
+
+def _fill(page, label: str, value: str) -> None:  # noqa: ANN001
+    box = page.get_by_label(label, exact=True)
+    box.fill(value)
+    box.press("Enter")
+    page.wait_for_timeout(300)
