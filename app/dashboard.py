@@ -295,7 +295,7 @@ class Session:
                       for k in range(1, 5)]
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
-        self._aim_camera(np.array([0.0, 0.0, d.trajectory.depth_m]), 45.0)
+        self._aim_camera(np.array([0.0, 0.0, d.trajectory.depth_m]), 25.0)
         self.show_beams_static(d, np.array([0.0, 0.0, d.trajectory.depth_m]), np.eye(3))
 
     def _aim_camera(self, center_n: np.ndarray, distance_m: float) -> None:
@@ -329,7 +329,7 @@ class Session:
         self.seabed.position = (float(ned_to_view(center)[0]), float(ned_to_view(center)[1]),
                                 -config.trajectory.seabed_depth_m)
         if self.follow.value:
-            self._aim_camera(tv["pos_n"][0], 45.0)
+            self._aim_camera(tv["pos_n"][0], 25.0)
         else:
             self._aim_camera(center, max(60.0, 0.8 * float(np.max(hi[:2] - lo[:2]))))
         self.show_time(0.0)
