@@ -59,8 +59,9 @@ def beam_segments_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_
                     seabed_depth_m: float, max_range_m: float = 200.0) -> np.ndarray:
     """DVL beams from the head to where they meet the seabed (flat, at ``seabed_depth_m``), NED.
 
-    Returns (4, 2, 3): start and end of each beam. A beam that would not reach the seabed
-    within ``max_range_m`` (pointing up, or vehicle below the seabed) is drawn at that range.
+    Returns (4, 2, 3): start and end of each beam. A beam pointing level or up, or reaching the
+    seabed only beyond ``max_range_m``, is drawn ``max_range_m`` long; with the DVL head below
+    the seabed the beams have zero length.
     """
     head = pos_n + C_nb @ l_dvl_b
     dirs = A_b @ C_nb.T                                   # (4, 3) beam directions in n

@@ -60,3 +60,14 @@ def test_bad_configuration_reports_one_line(pool: RunPool) -> None:
     assert kind == "error" and "dvl.noise_mps" in message and "-1.0" in message
     with pytest.raises(queue.Empty):
         handle.queue.get(timeout=0.5)
+
+
+def test_monte_carlo_runs_draw_initial_errors_per_run(pool: RunPool) -> None:
+    config = Config().replace("trajectory", duration_s=5.0).replace("run", methods=("ins",))
+    handle = pool.start(to_dict(config), 3)
+    while (msg := _next(handle))[0] != "done":
+        pass
+    ins = msg[1]["ins"]
+    assert ins.vel_err_mps.shape[1] == 3
+    # initial errors are drawn per run (random mode), so the runs start apart
+    assert len({round(float(v), 6) for v in ins.pos_err_m[0]}) == 3
