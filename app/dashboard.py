@@ -21,7 +21,7 @@ import viser
 
 from app import worker
 from app.figures import METHOD_COLORS, TRUTH_COLOR, decimate, elc_choice_figure, error_figure, summary_markdown
-from app.scene import (BEAM_COLORS, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_SWITCHED_OFF,
+from app.scene import (M_VIEW_FROM_NED, BEAM_COLORS, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_SWITCHED_OFF,
                        auv_mesh_view_body, beam_segments_n, beam_states, ned_to_view, wxyz_view)
 from tauvcore.config import METHODS, Config, to_dict
 from tauvcore.eval.runner import MethodResult
@@ -31,6 +31,7 @@ from tauvcore.validation import ConfigError
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
+FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
 REJECT_REFERENCE = ("tc", "elc", "nsv", "vb", "vhv", "plcf", "lc")  # whose gate decides the red beams
 DVL_METHODS = tuple(m for m in METHODS if m != "ins")
@@ -291,23 +292,37 @@ class Session:
         verts, faces = auv_mesh_view_body()
         self.auv = scene.add_mesh_simple("/auv", verts, faces, color=(250, 200, 40), flat_shading=False,
                                          position=tuple(ned_to_view(np.array([0.0, 0.0, d.trajectory.depth_m]))))
-        self.beams = [scene.add_line_segments(f"/beams/{k}", np.zeros((1, 2, 3)), (40, 200, 90), thickness=0.08)
-                      for k in range(1, 5)]
+        self.beams: list[Any] = []
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
-        self._aim_camera(np.array([0.0, 0.0, d.trajectory.depth_m]), 25.0)
         self.show_beams_static(d, np.array([0.0, 0.0, d.trajectory.depth_m]), np.eye(3))
 
     def _aim_camera(self, center_n: np.ndarray, distance_m: float) -> None:
         center = ned_to_view(center_n)
-        self.client.camera.look_at = tuple(center)
-        self.client.camera.position = tuple(center + np.array([-0.6, -0.8, 0.6]) * distance_m)
+        self._set_camera(center + np.array([-0.6, -0.8, 0.6]) * distance_m, center)
 
-    def show_beams_static(self, config: Config, pos_n: np.ndarray, C_nb: np.ndarray) -> None:
+    def _set_camera(self, position: np.ndarray, look_at: np.ndarray) -> None:
+        """Position first, then look_at (viser moves look_at with the position otherwise)."""
+        try:
+            with self.client.atomic():
+                self.client.camera.position = tuple(position)
+                self.client.camera.look_at = tuple(look_at)
+        except AssertionError:  # the browser has not reported its camera yet; initial_camera applies
+            pass
+
+    def show_beams_static(self, config: Config, pos_n: np.ndarray, C_nb: np.ndarray,
+                          states: list[str] | None = None) -> None:
+        """Draw the four beams from the DVL head to the seabed, coloured by state.
+
+        Each beam is re-added under its name rather than recoloured: assigning ``colors`` to an
+        existing line-segments node hides it in viser 1.1 (seen in headless Chromium).
+        """
         segs = ned_to_view(beam_segments_n(pos_n, C_nb, config.dvl.l_dvl_b, config.dvl.A_b,
                                            config.trajectory.seabed_depth_m))
-        for k, handle in enumerate(self.beams):
-            handle.points = segs[k:k + 1]
+        states = states or [BEAM_RETURNING] * 4
+        self.beams = [self.client.scene.add_line_segments(
+            f"/beams/{k + 1}", segs[k:k + 1], BEAM_COLORS[state], thickness=2.5, thickness_units="screen")
+            for k, state in enumerate(states)]
 
     def _clear_trajectories(self) -> None:
         for handle in self.est_lines.values():
@@ -323,7 +338,8 @@ class Session:
             return
         pts = ned_to_view(tv["pos_n"][decimate(len(tv["t_s"]), TRAJECTORY_POINTS)])
         self.truth_line = self.client.scene.add_line_segments(
-            "/traj/truth", np.stack([pts[:-1], pts[1:]], axis=1), _hex_rgb(TRUTH_COLOR), thickness=0.25)
+            "/traj/truth", np.stack([pts[:-1], pts[1:]], axis=1), _hex_rgb(TRUTH_COLOR), thickness=3.0,
+            thickness_units="screen")
         lo, hi = tv["pos_n"].min(axis=0), tv["pos_n"].max(axis=0)
         center = 0.5 * (lo + hi)
         self.seabed.position = (float(ned_to_view(center)[0]), float(ned_to_view(center)[1]),
@@ -345,7 +361,8 @@ class Session:
                 self.est_lines[method].points = segs
             else:
                 self.est_lines[method] = self.client.scene.add_line_segments(
-                    f"/traj/{method}", segs, _hex_rgb(METHOD_COLORS[method]), thickness=0.2)
+                    f"/traj/{method}", segs, _hex_rgb(METHOD_COLORS[method]), thickness=2.0,
+                    thickness_units="screen")
 
     def show_time(self, t_s: float) -> None:
         """Place the vehicle and colour the beams at time ``t_s`` of the current run."""
@@ -355,19 +372,15 @@ class Session:
         i = int(np.clip(np.searchsorted(tv["t_s"], t_s), 0, len(tv["t_s"]) - 1))
         pos_n, C_nb = tv["pos_n"][i], tv["C_nb"][i]
         if self.follow.value:
-            # keep the user's viewing direction and distance, move with the vehicle
-            cam = self.client.camera
-            offset = np.asarray(cam.position) - np.asarray(cam.look_at)
+            # chase view: behind and above the vehicle's track; untick "Follow vehicle" to orbit freely
             target = ned_to_view(pos_n)
-            with self.client.atomic():
-                cam.look_at = tuple(target)
-                cam.position = tuple(target + offset)
+            heading_view = M_VIEW_FROM_NED @ C_nb[:, 0]
+            back = -heading_view / max(np.linalg.norm(heading_view[:2]), 1e-6)
+            offset = FOLLOW_DISTANCE_M * (0.7 * np.array([back[0], back[1], 0.0]) + np.array([0.0, 0.0, 0.7]))
+            self._set_camera(target + offset, target)
         self.auv.position = tuple(ned_to_view(pos_n))
         self.auv.wxyz = tuple(wxyz_view(C_nb))
-        self.show_beams_static(config, pos_n, C_nb)
-        states = self.beam_states_at(t_s)
-        for handle, state in zip(self.beams, states):
-            handle.colors = np.broadcast_to(np.array(BEAM_COLORS[state], dtype=np.uint8), (1, 2, 3))
+        self.show_beams_static(config, pos_n, C_nb, self.beam_states_at(t_s))
 
     def beam_states_at(self, t_s: float) -> list[str]:
         tv, config = self.truth_view, self.config
@@ -425,6 +438,9 @@ def build_server(host: str = "127.0.0.1", port: int = 8080) -> viser.ViserServer
     """Start the viser server with one :class:`Session` per connected tab."""
     pool = worker.RunPool()
     server = viser.ViserServer(host=host, port=port, label="tauv", verbose=False)
+    start = ned_to_view(np.array([0.0, 0.0, Config().trajectory.depth_m]))
+    server.initial_camera.position = tuple(start + np.array([-0.6, -0.8, 0.6]) * FOLLOW_DISTANCE_M)
+    server.initial_camera.look_at = tuple(start)
     server.gui.configure_theme(control_layout="fixed", control_width="large", show_share_button=False,
                                show_logo=False, brand_color=(31, 119, 180))
     sessions: dict[int, Session] = {}
