@@ -23,7 +23,7 @@ from tauvcore.sensors.imu import ImuConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
 from tauvcore.truth.kinematic import TrajectoryConfig
-from tauvcore.validation import (ConfigError, require_choice, require_nonnegative, require_positive,
+from tauvcore.validation import (ConfigError, require_choice, require_positive,
                                  require_range, require_vector3)
 
 METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")

@@ -28,7 +28,7 @@ from tauvcore.config import Config
 from tauvcore.eval.metrics import nees
 from tauvcore.filter.eskf import Measurement, Nominal, UpdateOutcome, correct, difference, propagate
 from tauvcore.filter.layout import STATE
-from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, euler_from_misalignment_jacobian, exp_so3
+from tauvcore.geo.rotations import C_nb_from_euler, euler_from_misalignment_jacobian, exp_so3
 from tauvcore.ins.error_model import F_matrix, G_matrix, discretise, noise_psd
 from tauvcore.ins.strapdown import NavState, Strapdown, body_increments, mv
 from tauvcore.sensors import dvl as dvl_sensor

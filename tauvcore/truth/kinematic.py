@@ -36,7 +36,7 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b, skew
+from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b
 from tauvcore.truth.record import Truth
 from tauvcore.validation import ConfigError, require_choice, require_nonnegative, require_positive, require_range
 

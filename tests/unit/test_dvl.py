@@ -11,7 +11,7 @@ from tauvcore.aiding.dvl_loose import DvlLoose, solve_velocity
 from tauvcore.filter.eskf import Nominal, difference, inject
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import C_nb_from_euler, exp_so3
+from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.ins.strapdown import NavState, mv
 from tauvcore.sensors.dvl import DvlConfig, beam_directions_b, beam_velocity
 
