@@ -234,7 +234,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
     try:
         serve_main(args.host, port)
     except OSError as exc:
-        raise UsageError(f"--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
+        raise UsageError(f"--host/--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
+    except KeyboardInterrupt:
+        pass
     return 0
 
 

@@ -11,6 +11,7 @@ viser's share button (an external relay service) is off; nothing is fetched from
 from __future__ import annotations
 
 import queue as queue_mod
+import socket
 import threading
 import time
 from typing import Any
@@ -434,8 +435,18 @@ def summary_line(results: dict[str, MethodResult]) -> str:
     return "Final velocity error: " + ", ".join(parts)
 
 
-def build_server(host: str = "127.0.0.1", port: int = 8080) -> viser.ViserServer:
+def check_listen(host: str, port: int) -> None:
+    """Raise OSError if ``host:port`` cannot be bound: viser would silently move to another
+    port, and a user (or a Docker port mapping) would look for the dashboard in the wrong place."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        s.bind((host, port))
+
+
+def build_server(host: str = "127.0.0.1", port: int = 8080) -> tuple[viser.ViserServer, worker.RunPool]:
     """Start the viser server with one :class:`Session` per connected tab."""
+    check_listen(host, port)
     pool = worker.RunPool()
     server = viser.ViserServer(host=host, port=port, label="tauv", verbose=False)
     start = ned_to_view(np.array([0.0, 0.0, Config().trajectory.depth_m]))
@@ -455,18 +466,22 @@ def build_server(host: str = "127.0.0.1", port: int = 8080) -> viser.ViserServer
         if session is not None:
             session.close()
 
-    return server
+    return server, pool
 
 
 def main(host: str = "127.0.0.1", port: int = 8080) -> None:
     """Serve the dashboard until interrupted."""
-    build_server(host, port)
-    print(f"tauv dashboard: http://{'localhost' if host in ('127.0.0.1', '0.0.0.0') else host}:{port}", flush=True)
+    server, pool = build_server(host, port)
+    shown = "localhost" if host in ("127.0.0.1", "0.0.0.0") else host
+    print(f"tauv dashboard: http://{shown}:{server.get_port()}", flush=True)
     try:
         while True:
             time.sleep(3600.0)
     except KeyboardInterrupt:
         pass
+    finally:
+        server.stop()
+        pool.shutdown()
 
 
 __all__ = ["Session", "build_server", "main"]

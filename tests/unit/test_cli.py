@@ -133,3 +133,24 @@ def test_beams_outage_and_dropout_reach_the_configuration() -> None:
     assert config.dvl.beams == (1, 2, 3)
     assert config.dvl.outages == (Outage((3, 4), 50.0, 200.0), Outage((1,), 10.0, 20.0))
     assert config.dvl.dropout_probability == 0.05
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["serve", "--port", "70000"], "70000"),
+    (["serve", "--port", "http"], "'http'"),
+    (["serve", "--host", " "], "--host"),
+])
+def test_serve_rejects_bad_addresses(capsys, argv, text) -> None:
+    code, out, err = _run(capsys, *argv)
+    assert code == 2 and text in err and len(err.strip().splitlines()) == 1
+
+
+def test_serve_refuses_a_busy_port_instead_of_moving(capsys) -> None:
+    """viser would quietly take the next port; the user must hear that theirs is taken."""
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        code, out, err = _run(capsys, "serve", "--port", str(port))
+    assert code == 2 and str(port) in err and "in use" in err
