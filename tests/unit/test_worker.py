@@ -71,3 +71,26 @@ def test_monte_carlo_runs_draw_initial_errors_per_run(pool: RunPool) -> None:
     assert ins.vel_err_mps.shape[1] == 3
     # initial errors are drawn per run (random mode), so the runs start apart
     assert len({round(float(v), 6) for v in ins.pos_err_m[0]}) == 3
+
+
+def _busy_work_s() -> float:
+    """Wall time of a fixed piece of interpreter-bound work in this (the server's) process."""
+    t0 = time.perf_counter()
+    total = 0
+    for i in range(300_000):
+        total += i * i % 7
+    return time.perf_counter() - t0
+
+
+def test_a_run_leaves_the_server_process_its_speed(pool: RunPool) -> None:
+    """The run computes in a low-priority worker process, so the server's own interpreter (which
+    answers every tab's controls) keeps its speed while a long run goes on."""
+    baseline = min(_busy_work_s() for _ in range(5))
+    config = Config().replace("trajectory", duration_s=3000.0).replace("run", methods=METHODS)
+    handle = pool.start(to_dict(config), 1)
+    assert _next(handle)[0] == "truth"
+    during = min(_busy_work_s() for _ in range(5))
+    handle.stop()
+    while _next(handle, timeout=10.0)[0] != "done":
+        pass
+    assert during < 1.5 * baseline, (baseline, during)
