@@ -17,12 +17,21 @@ import json
 import os
 import sys
 import time
-from typing import NoReturn, Sequence
+from collections.abc import Sequence
+from typing import Any, NoReturn
 
 import numpy as np
 
 from tauvcore.aiding import AIDING_SOURCES
-from tauvcore.config import METHODS, Config, from_dict, merge, read_toml, to_dict, to_toml
+from tauvcore.config import (
+    METHODS,
+    Config,
+    from_dict,
+    merge,
+    read_toml,
+    to_dict,
+    to_toml,
+)
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult, run, simulate
 from tauvcore.sensors.dvl import Outage
@@ -89,14 +98,8 @@ def resolve_config(args: argparse.Namespace) -> Config:
     """
     raw = read_toml(args.config) if args.config else {}
     if getattr(args, "duration", None) is not None:
-        try:
-            duration = float(args.duration)
-        except ValueError:
-            raise UsageError(f"--duration: expected a number of seconds, got {args.duration!r}") from None
-        try:
-            Config().replace("trajectory", duration_s=duration)
-        except ConfigError as exc:
-            raise UsageError(f"--duration: {exc}") from None
+        duration = _parse("--duration", args.duration, float, "a number of seconds")
+        _replace("--duration", Config(), "trajectory", duration_s=duration)   # check it on its own first
         raw = merge(raw, {"trajectory": {"duration_s": duration}})
     config = from_dict(raw)
     if getattr(args, "trajectory", None) is not None:
@@ -104,14 +107,7 @@ def resolve_config(args: argparse.Namespace) -> Config:
             raise UsageError(f"--trajectory: unknown trajectory {args.trajectory!r} (choose from {', '.join(TRAJECTORIES)})")
         config = config.replace("trajectory", name=args.trajectory)
     if getattr(args, "seed", None) is not None:
-        try:
-            seed = int(args.seed)
-        except ValueError:
-            raise UsageError(f"--seed: expected a non-negative integer, got {args.seed!r}") from None
-        try:
-            config = config.replace("run", seed=seed)
-        except ConfigError as exc:
-            raise UsageError(f"--seed: {exc}") from None
+        config = _replace("--seed", config, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
     if getattr(args, "method", None) is not None:
         config = config.replace("run", methods=_csv("--method", args.method, METHODS, allow_all=True))
     if getattr(args, "aiding", None) is not None:
@@ -122,20 +118,27 @@ def resolve_config(args: argparse.Namespace) -> Config:
         config = config.replace("dvl", beams=_beam_list("--beams", args.beams))
     if getattr(args, "outage", None):
         outages = tuple(_outage(text) for text in args.outage)
-        try:
-            config = config.replace("dvl", outages=config.dvl.outages + outages)
-        except ConfigError as exc:
-            raise UsageError(f"--outage: {exc}") from None
+        config = _replace("--outage", config, "dvl", outages=config.dvl.outages + outages)
     if getattr(args, "dropout", None) is not None:
-        try:
-            probability = float(args.dropout)
-        except ValueError:
-            raise UsageError(f"--dropout: expected a probability in [0, 1], got {args.dropout!r}") from None
-        try:
-            config = config.replace("dvl", dropout_probability=probability)
-        except ConfigError as exc:
-            raise UsageError(f"--dropout: {exc}") from None
+        probability = _parse("--dropout", args.dropout, float, "a probability in [0, 1]")
+        config = _replace("--dropout", config, "dvl", dropout_probability=probability)
     return config
+
+
+def _parse(flag: str, text: str, cast: type, expected: str) -> Any:
+    """``cast(text)``, or one line naming the flag, what it expects and what it got."""
+    try:
+        return cast(text)
+    except ValueError:
+        raise UsageError(f"{flag}: expected {expected}, got {text!r}") from None
+
+
+def _replace(flag: str, config: Config, section: str, **changes: Any) -> Config:
+    """``config.replace`` with a validation error reported against the flag that caused it."""
+    try:
+        return config.replace(section, **changes)
+    except ConfigError as exc:
+        raise UsageError(f"{flag}: {exc}") from None
 
 
 def _beam_list(flag: str, text: str) -> tuple[int, ...]:

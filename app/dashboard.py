@@ -21,9 +21,27 @@ import plotly.graph_objects as go
 import viser
 
 from app import worker
-from app.figures import METHOD_COLORS, TRUTH_COLOR, decimate, elc_choice_figure, error_figure, summary_markdown
-from app.scene import (M_VIEW_FROM_NED, BEAM_COLORS, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_SWITCHED_OFF,
-                       auv_mesh_view_body, beam_segments_n, beam_states, ned_to_view, wxyz_view)
+from app.figures import (
+    METHOD_COLORS,
+    TRUTH_COLOR,
+    decimate,
+    elc_choice_figure,
+    error_figure,
+    summary_markdown,
+)
+from app.scene import (
+    BEAM_COLORS,
+    BEAM_OUTAGE,
+    BEAM_REJECTED,
+    BEAM_RETURNING,
+    BEAM_SWITCHED_OFF,
+    M_VIEW_FROM_NED,
+    auv_mesh_view_body,
+    beam_segments_n,
+    beam_states,
+    ned_to_view,
+    wxyz_view,
+)
 from tauvcore.config import METHODS, Config, to_dict
 from tauvcore.eval.runner import MethodResult
 from tauvcore.sensors.dvl import Outage

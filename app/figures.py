@@ -7,7 +7,7 @@ the paper's figures) and the sigma band is the RMS of the filter's own 1-sigma.
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import plotly.graph_objects as go

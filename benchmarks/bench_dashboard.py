@@ -23,7 +23,7 @@ from pathlib import Path
 from playwright.sync_api import sync_playwright
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.browser.conftest import CHROMIUM_ARGS, chromium_path, free_port  # noqa: E402
+from tests.browser.conftest import CHROMIUM_ARGS, chromium_path, free_port
 
 METHODS = ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC")
 
@@ -77,7 +77,7 @@ def main() -> None:
     print(f"| Run pressed -> first plot update (250 s, 8 methods) | {statistics.median(first_plot):.2f} |")
 
 
-def shoot(browser, url: str, path: str) -> None:  # noqa: ANN001
+def shoot(browser, url: str, path: str) -> None:
     """Figure eight, beams 3 and 4 lost, four methods; the 3-D view with the Plots tab open."""
     page = browser.new_context(viewport={"width": 1600, "height": 900}).new_page()
     page.goto(url)

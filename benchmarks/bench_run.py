@@ -17,7 +17,7 @@ from tauvcore.eval.montecarlo import monte_carlo
 from tauvcore.eval.runner import run, simulate
 
 
-def best_of(fn, repeats: int = 3) -> float:  # noqa: ANN001
+def best_of(fn, repeats: int = 3) -> float:
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

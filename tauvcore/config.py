@@ -23,8 +23,13 @@ from tauvcore.sensors.imu import ImuConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
 from tauvcore.truth.kinematic import TrajectoryConfig
-from tauvcore.validation import (ConfigError, require_choice, require_positive,
-                                 require_range, require_vector3)
+from tauvcore.validation import (
+    ConfigError,
+    require_choice,
+    require_positive,
+    require_range,
+    require_vector3,
+)
 
 METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")
 """Fusion methods: ``ins`` standalone INS (no aiding at all), ``lc`` loosely coupled DVL (3-4
@@ -54,7 +59,7 @@ class InitialErrorConfig:
         require_range("initial_error.yaw_deg", self.yaw_deg, -30.0, 30.0)
         require_choice("initial_error.mode", self.mode, ("fixed", "random"))
 
-    def ideal(self) -> "InitialErrorConfig":
+    def ideal(self) -> InitialErrorConfig:
         return InitialErrorConfig(pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0, yaw_deg=0.0,
                                   mode=self.mode)
 
@@ -130,7 +135,7 @@ class Config:
                 raise ConfigError(f"dvl.outages: window {o.start_s:g}:{o.end_s:g} s lies outside the run "
                                   f"(0 to {duration:g} s)")
 
-    def replace(self, section: str, **changes: Any) -> "Config":
+    def replace(self, section: str, **changes: Any) -> Config:
         """A copy with ``changes`` applied to one section (validated)."""
         return dataclasses.replace(self, **{section: dataclasses.replace(getattr(self, section), **changes)})
 

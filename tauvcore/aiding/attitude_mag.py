@@ -12,7 +12,11 @@ import numpy as np
 
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
-from tauvcore.geo.rotations import euler_from_C_nb, euler_from_misalignment_jacobian, wrap_angle
+from tauvcore.geo.rotations import (
+    euler_from_C_nb,
+    euler_from_misalignment_jacobian,
+    wrap_angle,
+)
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 
 

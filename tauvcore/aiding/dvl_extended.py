@@ -11,7 +11,11 @@ import numpy as np
 
 from tauvcore.aiding import elc_nsv, elc_plcf, elc_select, elc_vb, elc_vhv
 from tauvcore.aiding.dvl_loose import DvlLoose
-from tauvcore.aiding.dvl_partial import apply_solution, beam_noise_cov, compensated_beams
+from tauvcore.aiding.dvl_partial import (
+    apply_solution,
+    beam_noise_cov,
+    compensated_beams,
+)
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import Earth
@@ -43,7 +47,7 @@ class DvlExtended:
 
     name = "dvl"
 
-    def _solution(self, pattern: tuple[bool, ...]):  # noqa: ANN202
+    def _solution(self, pattern: tuple[bool, ...]):
         pitch = self.dvl.beam_pitch_rad
         if self.method == "vb":
             return elc_vb.solve(pitch, pattern, self.vb_nf)

@@ -14,7 +14,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from tauvcore.aiding.dvl_partial import PartialSolution, cannot, embed, exact_combination
+from tauvcore.aiding.dvl_partial import (
+    PartialSolution,
+    cannot,
+    embed,
+    exact_combination,
+)
 from tauvcore.sensors.dvl import beam_directions_b
 
 NAME = "plcf"

@@ -15,20 +15,38 @@ error norms, the filter's own 1-sigma and the NEES against truth.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from tauvcore import units
 from tauvcore.aiding import Depth, DvlLoose, MagAttitude
-from tauvcore.aiding.dvl_extended import ELC_METHODS, MODE_COAST, MODE_LC, MODE_TC, DvlExtended, DvlInfo
+from tauvcore.aiding.dvl_extended import (
+    ELC_METHODS,
+    MODE_COAST,
+    MODE_LC,
+    MODE_TC,
+    DvlExtended,
+    DvlInfo,
+)
 from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.config import Config
 from tauvcore.eval.metrics import nees
-from tauvcore.filter.eskf import Measurement, Nominal, UpdateOutcome, correct, difference, propagate
+from tauvcore.filter.eskf import (
+    Measurement,
+    Nominal,
+    UpdateOutcome,
+    correct,
+    difference,
+    propagate,
+)
 from tauvcore.filter.layout import STATE
-from tauvcore.geo.rotations import C_nb_from_euler, euler_from_misalignment_jacobian, exp_so3
+from tauvcore.geo.rotations import (
+    C_nb_from_euler,
+    euler_from_misalignment_jacobian,
+    exp_so3,
+)
 from tauvcore.ins.error_model import F_matrix, G_matrix, discretise, noise_psd
 from tauvcore.ins.strapdown import NavState, Strapdown, body_increments, mv
 from tauvcore.sensors import dvl as dvl_sensor

@@ -30,7 +30,7 @@ class Nominal:
     def vel_b(self) -> np.ndarray:
         return self.nav.vel_b
 
-    def with_nav(self, nav: NavState) -> "Nominal":
+    def with_nav(self, nav: NavState) -> Nominal:
         return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf)
 
 

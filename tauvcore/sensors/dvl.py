@@ -22,8 +22,14 @@ from tauvcore.conventions import NUM_DVL_BEAMS
 from tauvcore.geo.rotations import skew
 from tauvcore.sensors.timing import batch_shape, epoch_indices, random_walk
 from tauvcore.truth.record import Truth
-from tauvcore.validation import (ConfigError, require_finite, require_nonnegative, require_positive, require_range,
-                                 require_vector3)
+from tauvcore.validation import (
+    ConfigError,
+    require_finite,
+    require_nonnegative,
+    require_positive,
+    require_range,
+    require_vector3,
+)
 
 
 def beam_directions_b(beam_pitch_rad: float) -> np.ndarray:
@@ -86,7 +92,7 @@ class DvlConfig:
                 raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {outage!r}")
         require_range("dvl.dropout_probability", self.dropout_probability, 0.0, 1.0)
 
-    def ideal(self) -> "DvlConfig":
+    def ideal(self) -> DvlConfig:
         """The same DVL (geometry, lever arm, beams) with every error set to zero."""
         return DvlConfig(rate_hz=self.rate_hz, beam_pitch_deg=self.beam_pitch_deg, noise_mps=0.0, bias_mps=0.0,
                          bias_rw_mps_per_sqrt_s=0.0, scale_factor_pct=0.0, scale_factor_rw_pct_per_sqrt_s=0.0,

@@ -39,7 +39,7 @@ class ImuConfig:
             if f.name != "rate_hz":
                 require_nonnegative(f"imu.{f.name}", getattr(self, f.name))
 
-    def ideal(self) -> "ImuConfig":
+    def ideal(self) -> ImuConfig:
         """The same IMU with every error set to zero."""
         return ImuConfig(rate_hz=self.rate_hz, accel_bias_mg=0.0, gyro_bias_deg_per_h=0.0,
                          accel_noise_mps_per_sqrt_h=0.0, gyro_noise_deg_per_sqrt_h=0.0,

@@ -26,7 +26,7 @@ class MagnetometerConfig:
         require_nonnegative("magnetometer.roll_pitch_noise_deg", self.roll_pitch_noise_deg)
         require_nonnegative("magnetometer.yaw_noise_deg", self.yaw_noise_deg)
 
-    def ideal(self) -> "MagnetometerConfig":
+    def ideal(self) -> MagnetometerConfig:
         return MagnetometerConfig(rate_hz=self.rate_hz, roll_pitch_noise_deg=0.0, yaw_noise_deg=0.0)
 
     @property

@@ -31,7 +31,7 @@ class PressureConfig:
         require_nonnegative("pressure.noise_pa", self.noise_pa)
         require_positive("pressure.water_density_kg_m3", self.water_density_kg_m3)
 
-    def ideal(self) -> "PressureConfig":
+    def ideal(self) -> PressureConfig:
         return PressureConfig(rate_hz=self.rate_hz, noise_pa=0.0, water_density_kg_m3=self.water_density_kg_m3)
 
     @property

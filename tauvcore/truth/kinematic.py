@@ -29,8 +29,8 @@ hull does. Rate changes are blended with half-cosines so attitude rates are cont
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -38,7 +38,13 @@ from tauvcore import units
 from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b
 from tauvcore.truth.record import Truth
-from tauvcore.validation import ConfigError, require_choice, require_nonnegative, require_positive, require_range
+from tauvcore.validation import (
+    ConfigError,
+    require_choice,
+    require_nonnegative,
+    require_positive,
+    require_range,
+)
 
 TRAJECTORIES = ("straight", "figure8", "lawnmower")
 BESSEL_J0_FIRST_ZERO = 2.404825557695773

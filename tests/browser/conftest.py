@@ -14,8 +14,8 @@ import subprocess
 import sys
 import time
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import pytest
 
@@ -75,7 +75,7 @@ def server_url() -> Iterator[str]:
 
 
 @pytest.fixture(scope="session")
-def browser():  # noqa: ANN201
+def browser():
     from playwright.sync_api import sync_playwright
     with sync_playwright() as pw:
         b = pw.chromium.launch(executable_path=chromium_path(), headless=True, args=CHROMIUM_ARGS)
@@ -86,14 +86,14 @@ def browser():  # noqa: ANN201
 class Tab:
     """One dashboard tab, with the controls the tests use."""
 
-    def __init__(self, page, url: str) -> None:  # noqa: ANN001
+    def __init__(self, page, url: str) -> None:
         self.page = page
         self.external_requests: list[str] = []
         page.on("request", lambda r: None if r.url.startswith(LOCAL_PREFIXES) else self.external_requests.append(r.url))
         page.goto(url)
         page.get_by_role("button", name="Run", exact=True).wait_for(timeout=30000)
 
-    def checkbox(self, label: str):  # noqa: ANN201
+    def checkbox(self, label: str):
         return self.page.get_by_role("checkbox", name=label, exact=True)
 
     def set_methods(self, wanted: set[str]) -> None:
@@ -106,7 +106,7 @@ class Tab:
         self.page.get_by_label("Trajectory").click()
         self.page.get_by_role("option", name=name, exact=True).click()
 
-    def notification(self, title: str):  # noqa: ANN201
+    def notification(self, title: str):
         return self.page.get_by_text(title, exact=True)
 
     def plot_traces(self) -> list[list[tuple[str, int]]]:
@@ -126,7 +126,7 @@ class Tab:
 
 
 @pytest.fixture
-def new_tab(browser, server_url):  # noqa: ANN001, ANN201
+def new_tab(browser, server_url):
     contexts = []
 
     def make() -> Tab:

@@ -13,7 +13,7 @@ pytestmark = pytest.mark.browser
 RUNNING = re.compile(r"^Running \w+, ")
 
 
-def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:  # noqa: ANN001
+def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:
     """Given beams 3 and 4 off on the straight line, when INS, TC and NSV run, then the velocity
     plot holds their three traces and NSV ends far below the standalone INS."""
     tab = new_tab()
@@ -38,7 +38,7 @@ def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:  # noqa: ANN001
     assert tab.external_requests == []
 
 
-def test_a_second_tab_keeps_its_own_settings(new_tab) -> None:  # noqa: ANN001
+def test_a_second_tab_keeps_its_own_settings(new_tab) -> None:
     first, second = new_tab(), new_tab()
     first.checkbox("Beam 3").uncheck()
     first.choose_trajectory("lawnmower")
@@ -50,7 +50,7 @@ def test_a_second_tab_keeps_its_own_settings(new_tab) -> None:  # noqa: ANN001
     assert not first.checkbox("Beam 3").is_checked()
 
 
-def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:  # noqa: ANN001
+def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     """The Stop latency itself (< 1 s) is measured without a browser in tests/unit/test_worker.py;
     here: Stop ends a long run mid-way, and another tab's session answers during the run."""
     tab, other = new_tab(), new_tab()
@@ -94,7 +94,7 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:  #
     ("zero_runs", "Runs must be"),
     ("negative_noise", "dvl.noise_mps must be >= 0"),
 ])
-def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, setup: str, message: str) -> None:  # noqa: ANN001
+def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, setup: str, message: str) -> None:
     tab = new_tab()
     page = tab.page
     if setup == "all_beams_off_lc_only":
@@ -122,7 +122,7 @@ def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, set
     assert fresh.checkbox("Beam 1").is_checked()
 
 
-def _fill(page, label: str, value: str) -> None:  # noqa: ANN001
+def _fill(page, label: str, value: str) -> None:
     box = page.get_by_label(label, exact=True)
     box.fill(value)
     box.press("Enter")

@@ -12,7 +12,13 @@ import numpy as np
 import pytest
 
 from tauvcore.aiding import elc_nsv, elc_plcf, elc_vb, elc_vhv
-from tauvcore.aiding.dvl_extended import ELC_METHODS, MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC
+from tauvcore.aiding.dvl_extended import (
+    ELC_METHODS,
+    MODE_COAST,
+    MODE_LC,
+    MODE_PARTIAL,
+    MODE_TC,
+)
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import METHODS, Config
 from tauvcore.eval.runner import run, simulate

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tauvcore.filter.eskf import Measurement, Nominal, correct, difference, inject, propagate
+from tauvcore.filter.eskf import (
+    Measurement,
+    Nominal,
+    correct,
+    difference,
+    inject,
+    propagate,
+)
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import exp_so3, log_so3
 from tauvcore.ins.strapdown import NavState, mv

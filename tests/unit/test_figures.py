@@ -12,7 +12,13 @@ import re
 import numpy as np
 import pytest
 
-from app.figures import METHOD_COLORS, elc_choice_figure, error_figure, summary_markdown, summary_rows
+from app.figures import (
+    METHOD_COLORS,
+    elc_choice_figure,
+    error_figure,
+    summary_markdown,
+    summary_rows,
+)
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import METHODS, Config

@@ -19,7 +19,14 @@ import numpy as np
 import pytest
 
 from tauvcore.aiding import elc_nsv, elc_plcf, elc_select, elc_vb, elc_vhv
-from tauvcore.aiding.dvl_partial import AXES, PartialSolution, apply_solution, beam_noise_cov, cannot, compensated_beams
+from tauvcore.aiding.dvl_partial import (
+    AXES,
+    PartialSolution,
+    apply_solution,
+    beam_noise_cov,
+    cannot,
+    compensated_beams,
+)
 from tauvcore.sensors.dvl import beam_directions_b
 
 PITCH = np.radians(20.0)

@@ -11,9 +11,21 @@ import numpy as np
 import pytest
 import viser.transforms as vtf
 
-from app.scene import (ASSETS_DIR, BEAM_COLORS, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_SWITCHED_OFF,
-                       M_VIEW_FROM_NED, auv_mesh_view_body, beam_segments_n, beam_states, load_obj, ned_to_view,
-                       wxyz_view)
+from app.scene import (
+    ASSETS_DIR,
+    BEAM_COLORS,
+    BEAM_OUTAGE,
+    BEAM_REJECTED,
+    BEAM_RETURNING,
+    BEAM_SWITCHED_OFF,
+    M_VIEW_FROM_NED,
+    auv_mesh_view_body,
+    beam_segments_n,
+    beam_states,
+    load_obj,
+    ned_to_view,
+    wxyz_view,
+)
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3
 from tauvcore.sensors.dvl import DvlConfig
 

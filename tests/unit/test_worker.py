@@ -10,13 +10,13 @@ from tauvcore.config import METHODS, Config, to_dict
 
 
 @pytest.fixture(scope="module")
-def pool():  # noqa: ANN201
+def pool():
     p = RunPool(workers=1)
     yield p
     p.shutdown()
 
 
-def _next(handle, timeout: float = 60.0):  # noqa: ANN001, ANN202
+def _next(handle, timeout: float = 60.0):
     return handle.queue.get(timeout=timeout)
 
 
