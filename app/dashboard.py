@@ -43,6 +43,7 @@ from app.scene import (
     wxyz_view,
 )
 from tauvcore.config import METHODS, Config, to_dict
+from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TRAJECTORIES
@@ -446,10 +447,7 @@ class Session:
 
 def summary_line(results: dict[str, MethodResult]) -> str:
     """One line for the completion notification: final velocity error per method."""
-    parts = []
-    for method, res in results.items():
-        err = res.vel_err_mps[-1]
-        parts.append(f"{method.upper()} {float(np.sqrt(np.mean(err ** 2))):.3g} m/s")
+    parts = [f"{method.upper()} {float(rms(res.vel_err_mps[-1])):.3g} m/s" for method, res in results.items()]
     return "Final velocity error: " + ", ".join(parts)
 
 

@@ -54,6 +54,4 @@ dimension): vectors are ``(..., 3)``, rotation matrices ``(..., 3, 3)``, covaria
 ``(..., n, n)``. Time series put time first: ``(K, ...)``.
 """
 
-FRAME_NAV = "n: local NED tangent frame, earth-fixed"
-FRAME_BODY = "b: body frame, forward-right-down"
 NUM_DVL_BEAMS = 4

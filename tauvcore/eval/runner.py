@@ -127,7 +127,7 @@ class MethodResult:
 def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator, batch: tuple[int, int],
                      P0_nav_att: np.ndarray) -> Nominal:
     """Estimate at t = 0: truth with the initial errors (fixed, or drawn per run), biases zero."""
-    M, R = batch
+    _, R = batch
     ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
     pos_true, C_true, v_true_b = truth.pos_n[0], truth.C_nb[0], truth.vel_b[0]
     if ie.mode == "fixed":
@@ -230,6 +230,8 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
     dvl_models = {
         "lc": DvlLoose(config.dvl, earth, gyro_rate_noise),
         "tc": DvlTight(config.dvl, earth, gyro_rate_noise),
+        **{m: DvlExtended(m, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
+                          config.partial.nsv_epsilon_m2_per_s2) for m in ELC_METHODS},
     }
     other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(batch, bool)
     depth_model = Depth(config.pressure)
@@ -286,9 +288,8 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
             part = _take(nom, m)
             kind = DVL_FUSION[method]
             if kind == "elc":
-                model = DvlExtended(method, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
-                                    config.partial.nsv_epsilon_m2_per_s2)
-                meas, info = model.measure(part, P[m][..., STATE.vel, STATE.vel], y, available, omega_meas)
+                meas, info = dvl_models[method].measure(part, P[m][..., STATE.vel, STATE.vel], y, available,
+                                                        omega_meas)
             else:
                 meas = dvl_models[kind].measure(part, y, available, omega_meas)
                 code = MODE_LC if kind == "lc" else MODE_TC

@@ -19,7 +19,6 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.conventions import NUM_DVL_BEAMS
-from tauvcore.geo.rotations import skew
 from tauvcore.sensors.timing import batch_shape, epoch_indices, random_walk
 from tauvcore.truth.record import Truth
 from tauvcore.validation import (
@@ -170,8 +169,3 @@ def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs
         available &= rng.random(y.shape) >= config.dropout_probability
     y = np.where(available, y, np.nan)
     return DvlData(t_s=truth.t_s[idx], index=idx, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf)
-
-
-def skew_lever(config: DvlConfig) -> np.ndarray:
-    """``[l_dvl_b x]`` (3, 3), used by the aiding Jacobians."""
-    return skew(config.l_dvl_b)

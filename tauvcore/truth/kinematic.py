@@ -70,7 +70,6 @@ class TrajectoryConfig:
 
     def __post_init__(self) -> None:
         require_choice("trajectory.name", self.name, TRAJECTORIES)
-        require_positive("trajectory.duration_s", self.duration_s)
         require_range("trajectory.duration_s", self.duration_s, 1.0, 86400.0)
         require_positive("trajectory.speed_mps", self.speed_mps)
         require_nonnegative("trajectory.depth_m", self.depth_m)
