@@ -121,6 +121,9 @@ class MethodResult:
     pos_sigma_m: np.ndarray     # (T, R)
     nees: np.ndarray            # (T, R) full 20-state NEES against truth
     est_pos_n: np.ndarray       # (T, R, 3) estimated position, NED [m]
+    diverged: np.ndarray        # (R,) bool: the divergence monitor flagged this run's solution
+    diverged_at_s: np.ndarray   # (R,) time of the first flag [s], NaN if never
+    p_floor_count: np.ndarray   # (R,) times an eigenvalue of P was raised to the floor
     updates: dict[str, UpdateRecord] = field(default_factory=dict)
 
 
@@ -318,7 +321,9 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
                 vel_err_mps=series["vel_err"][:n, m], att_err_deg=series["att_err"][:n, m],
                 pos_err_m=series["pos_err"][:n, m], vel_sigma_mps=series["vel_sigma"][:n, m],
                 att_sigma_deg=series["att_sigma"][:n, m], pos_sigma_m=series["pos_sigma"][:n, m],
-                nees=series["nees"][:n, m], est_pos_n=est_pos_n[:n, m], updates=updates)
+                nees=series["nees"][:n, m], est_pos_n=est_pos_n[:n, m],
+                diverged=np.zeros(R, dtype=bool), diverged_at_s=np.full(R, np.nan),
+                p_floor_count=np.zeros(R, dtype=int), updates=updates)
         return out
 
     progress_every = max(1, int(round(progress_interval_s * config.filter.output_rate_hz)))
