@@ -6,16 +6,22 @@
     tauv config > my.toml          # full default configuration; edit and pass back with --config
     tauv serve --port 8080         # the browser dashboard
 
-Bad input (unknown trajectory or method, non-positive duration, malformed or unknown TOML,
-NaN or negative noise, ...) prints one line naming the field and the value and exits with 2.
+Bad input (unknown trajectory or method, a value outside its range, malformed or unknown TOML,
+a configuration that is not a small regular UTF-8 file, ...) prints one line naming the field,
+flag or file and the value (shortened if long) and exits with 2. ``--json`` is written
+atomically (a temporary file in the same directory, then renamed), so no half-written file is
+ever left; it is strict JSON (non-finite numbers become null).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
+import stat
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from typing import Any, NoReturn
@@ -36,7 +42,7 @@ from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult, run, simulate
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TRAJECTORIES
-from tauvcore.validation import ConfigError
+from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
 
 EXIT_BAD_INPUT = 2
 
@@ -46,10 +52,51 @@ class UsageError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports a bad argument in one line (no usage dump) and exits with 2."""
+    """argparse that reports a bad argument in one line (no usage dump) and exits with 2.
+
+    Abbreviated flags (``--dur 3``) are refused: an abbreviation that works today would change
+    meaning silently when a flag with the same prefix is added.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
-        raise UsageError(message)
+        # argparse quotes values whole ("unrecognized arguments: <500 kB>"): shorten each word
+        raise UsageError(" ".join(shorten(word) for word in message.split(" ")))
+
+
+VALUE_FLAGS = frozenset({"--trajectory", "--method", "--duration", "--seed", "--aiding", "--beams", "--outage",
+                         "--dropout", "--config", "--json", "--host", "--port"})
+"""Flags that take a value (every subcommand); see :func:`attach_dash_values`."""
+OTHER_FLAGS = frozenset({"--ideal", "-h", "--help"})
+
+
+def attach_dash_values(argv: Sequence[str]) -> list[str]:
+    """``--flag -value`` -> ``--flag=-value`` for every flag that takes a value.
+
+    argparse reads a token that begins with ``-`` as an option unless it looks like a negative
+    number, so ``--dropout -inf`` would fail with "expected one argument" and no value. Joined,
+    the value reaches the flag's own check, whose message names the flag and the value. A token
+    that is itself a known flag is left alone (``--dropout --json x``: the value is missing).
+    """
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        token = argv[i]
+        if token == "--":
+            out.extend(argv[i:])
+            break
+        nxt = argv[i + 1] if i + 1 < len(argv) else None
+        if (token in VALUE_FLAGS and nxt is not None and nxt.startswith("-")
+                and nxt not in VALUE_FLAGS | OTHER_FLAGS and nxt != "--"):
+            out.append(f"{token}={nxt}")
+            i += 2
+        else:
+            out.append(token)
+            i += 1
+    return out
 
 
 def _csv(flag: str, text: str, choices: Sequence[str], allow_all: bool = False) -> tuple[str, ...]:
@@ -57,12 +104,12 @@ def _csv(flag: str, text: str, choices: Sequence[str], allow_all: bool = False) 
     if allow_all and items == ("all",):
         return tuple(choices)
     if not items:
-        raise UsageError(f"{flag}: expected a comma-separated list from {', '.join(choices)}, got {text!r}")
+        raise UsageError(f"{flag}: expected a comma-separated list from {', '.join(choices)}, got {show(text)}")
     for item in items:
         if item not in choices:
-            raise UsageError(f"{flag}: unknown value {item!r} (choose from {', '.join(choices)})")
+            raise UsageError(f"{flag}: unknown value {show(item)} (choose from {', '.join(choices)})")
     if len(set(items)) != len(items):
-        raise UsageError(f"{flag}: repeated value in {text!r}")
+        raise UsageError(f"{flag}: repeated value in {show(text)}")
     return items
 
 
@@ -72,7 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate a mission and run fusion methods side by side")
     r.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
     r.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
-    r.add_argument("--duration", help="run length [s] (default 250)")
+    r.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
     r.add_argument("--seed", help="seed of the random generator (default 0)")
     r.add_argument("--ideal", action="store_true", help="zero every sensor and initial error (verification mode)")
     r.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
@@ -81,7 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable")
     r.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
     r.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
-    r.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
+    r.add_argument("--json", help="write the configuration and per-epoch results to this JSON file (strict JSON, "
+                                  "written atomically; not the --config file)")
     sv = sub.add_parser("serve", help="start the browser dashboard")
     sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
@@ -96,6 +144,8 @@ def resolve_config(args: argparse.Namespace) -> Config:
     The run length is applied together with the file, so a file's outage after the default 250 s
     is valid when --duration makes the run long enough.
     """
+    if getattr(args, "config", None) is not None and not args.config.strip():
+        raise UsageError(f"--config: expected a TOML file name, got {show(args.config)}")
     raw = read_toml(args.config) if args.config else {}
     if getattr(args, "duration", None) is not None:
         duration = _parse("--duration", args.duration, float, "a number of seconds")
@@ -104,7 +154,8 @@ def resolve_config(args: argparse.Namespace) -> Config:
     config = from_dict(raw)
     if getattr(args, "trajectory", None) is not None:
         if args.trajectory not in TRAJECTORIES:
-            raise UsageError(f"--trajectory: unknown trajectory {args.trajectory!r} (choose from {', '.join(TRAJECTORIES)})")
+            raise UsageError(f"--trajectory: unknown trajectory {show(args.trajectory)} "
+                             f"(choose from {', '.join(TRAJECTORIES)})")
         config = config.replace("trajectory", name=args.trajectory)
     if getattr(args, "seed", None) is not None:
         config = _replace("--seed", config, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
@@ -128,9 +179,12 @@ def resolve_config(args: argparse.Namespace) -> Config:
 def _parse(flag: str, text: str, cast: type, expected: str) -> Any:
     """``cast(text)``, or one line naming the flag, what it expects and what it got."""
     try:
-        return cast(text)
-    except ValueError:
-        raise UsageError(f"{flag}: expected {expected}, got {text!r}") from None
+        value = cast(text)
+    except ValueError:      # also an integer of more than 4300 digits
+        raise UsageError(f"{flag}: expected {expected}, got {show(text)}") from None
+    if isinstance(value, float) and not np.isfinite(value):   # "nan", "-inf", or "9" * 500 overflowing to inf
+        raise UsageError(f"{flag}: expected {expected}, got {show(text)}")
+    return value
 
 
 def _replace(flag: str, config: Config, section: str, **changes: Any) -> Config:
@@ -146,9 +200,9 @@ def _beam_list(flag: str, text: str) -> tuple[int, ...]:
     for item in text.split(","):
         item = item.strip()
         if item not in ("1", "2", "3", "4"):
-            raise UsageError(f"{flag}: unknown beam {item!r} in {text!r} (beams are 1, 2, 3, 4)")
+            raise UsageError(f"{flag}: unknown beam {show(item)} in {show(text)} (beams are 1, 2, 3, 4)")
         if int(item) in beams:
-            raise UsageError(f"{flag}: beam {item} repeated in {text!r}")
+            raise UsageError(f"{flag}: beam {item} repeated in {show(text)}")
         beams.append(int(item))
     return tuple(beams)
 
@@ -158,29 +212,109 @@ def _outage(text: str) -> Outage:
     beams_text, at, window = text.partition("@")
     start_text, colon, end_text = window.partition(":")
     if not at or not colon:
-        raise UsageError(f"--outage: expected BEAMS@START:END such as 3,4@50:200, got {text!r}")
+        raise UsageError(f"--outage: expected BEAMS@START:END such as 3,4@50:200, got {show(text)}")
     beams = _beam_list("--outage", beams_text)
     try:
         start, end = float(start_text), float(end_text)
     except ValueError:
-        raise UsageError(f"--outage: start and end must be seconds, got {window!r} in {text!r}") from None
+        raise UsageError(f"--outage: start and end must be seconds, got {show(window)} in {show(text)}") from None
     try:
         return Outage(beams=beams, start_s=start, end_s=end)
     except ConfigError as exc:
-        raise UsageError(f"--outage {text}: {exc}") from None
+        raise UsageError(f"--outage {show(text)}: {exc}") from None
 
 
-def result_to_json(result: MethodResult, run_index: int = 0) -> dict[str, list[float]]:
-    """Per-epoch series of one run, as in the CLI contract."""
+def _finite(values: np.ndarray) -> list[float | None]:
+    """Plain list with every non-finite number (NaN, +-inf) as None (JSON null)."""
+    values = np.asarray(values, dtype=float)
+    return np.where(np.isfinite(values), values, None).tolist()
+
+
+def result_to_json(result: MethodResult, run_index: int = 0) -> dict[str, Any]:
+    """Per-epoch series of one run and its divergence verdict, as in the CLI contract (strict JSON:
+    non-finite numbers are null)."""
+    diverged_at = float(result.diverged_at_s[run_index])
     return {
-        "t": result.t_s.tolist(),
-        "vel_err_mps": result.vel_err_mps[:, run_index].tolist(),
-        "att_err_deg": result.att_err_deg[:, run_index].tolist(),
-        "pos_err_m": result.pos_err_m[:, run_index].tolist(),
-        "vel_sigma_mps": result.vel_sigma_mps[:, run_index].tolist(),
-        "att_sigma_deg": result.att_sigma_deg[:, run_index].tolist(),
-        "pos_sigma_m": result.pos_sigma_m[:, run_index].tolist(),
+        "t": _finite(result.t_s),
+        "vel_err_mps": _finite(result.vel_err_mps[:, run_index]),
+        "att_err_deg": _finite(result.att_err_deg[:, run_index]),
+        "pos_err_m": _finite(result.pos_err_m[:, run_index]),
+        "vel_sigma_mps": _finite(result.vel_sigma_mps[:, run_index]),
+        "att_sigma_deg": _finite(result.att_sigma_deg[:, run_index]),
+        "pos_sigma_m": _finite(result.pos_sigma_m[:, run_index]),
+        "diverged": bool(result.diverged[run_index]),
+        "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
+        "p_floor_count": int(result.p_floor_count[run_index]),
     }
+
+
+def json_target(path: str, config_path: str | None) -> str:
+    """The real path ``--json`` will replace, checked before the run starts.
+
+    Refused: an empty name, the ``--config`` file itself (same real path or same inode), a
+    directory, anything but a regular file (``/dev/null`` would be replaced by a file), a missing
+    or unwritable directory, and a name the system cannot resolve (loops, too long).
+    """
+    if not path.strip():
+        raise UsageError(f"--json: expected a file name, got {show(path)}")
+    name = show_path(path)
+    if "\x00" in path:
+        raise UsageError(f"--json: a file name cannot contain a NUL character, got {name}")
+    real = os.path.realpath(path)
+    if config_path and (os.path.realpath(config_path) == real or _same_file(config_path, real)):
+        raise UsageError(f"--json: {name} is the --config file; writing it would overwrite the configuration")
+    try:
+        st = os.stat(real)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        raise UsageError(f"--json: cannot write {name}: {exc.strerror or exc}") from None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise UsageError(f"--json: cannot write {name}: is a directory")
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        raise UsageError(f"--json: cannot write {name}: not a regular file")
+    directory = os.path.dirname(real)
+    if not os.path.isdir(directory):
+        raise UsageError(f"--json: cannot write {name}: no such directory")
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise UsageError(f"--json: cannot write {name}: directory not writable")
+    return real
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def write_json_atomic(path: str, payload: Any) -> None:
+    """Write ``payload`` as strict JSON to ``path``: a temporary file in the same directory,
+    flushed to disk, then renamed over ``path``. On any failure or interruption the temporary
+    file is removed and ``path`` is untouched, so no half-written file is ever left."""
+    directory = os.path.dirname(path) or "."
+    fd, tmp = tempfile.mkstemp(prefix=".tauv-", suffix=".json.tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(payload, fh, allow_nan=False)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, _new_file_mode(path))
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _new_file_mode(path: str) -> int:
+    """The mode the file would have got from ``open``: its own if it exists, else 0o666 less umask."""
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: float) -> str:
@@ -197,29 +331,32 @@ def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: f
         dvl = r.updates.get("dvl")
         fused = (f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
                  if dvl is not None else "-")
+        marker = ""
+        if bool(r.diverged[0]):
+            at = float(r.diverged_at_s[0])
+            marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
         lines.append(
             f"{name.upper():<7} {r.vel_err_mps[-1, 0]:>10.4f} {rms(r.vel_err_mps[:, 0]):>9.4f} "
             f"{r.att_err_deg[-1, 0]:>10.4f} {rms(r.att_err_deg[:, 0]):>9.4f} "
-            f"{r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} {r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}")
+            f"{r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} {r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}"
+            + marker)
     return "\n".join(lines)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     config = resolve_config(args)
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        raise UsageError(f"--json: cannot write {args.json!r}: no such directory")
+    json_path = json_target(args.json, args.config) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
     sim = simulate(config, rng, num_runs=1)
     results = run(config, sim, rng)
     elapsed = time.perf_counter() - started
-    if args.json:
+    if json_path is not None:
         payload = {"config": to_dict(config), "results": {m: result_to_json(r) for m, r in results.items()}}
         try:
-            with open(args.json, "w", encoding="utf-8") as fh:
-                json.dump(payload, fh)
+            write_json_atomic(json_path, payload)
         except OSError as exc:
-            raise UsageError(f"--json: cannot write {args.json!r}: {exc.strerror}") from None
+            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
     print(summary_table(results, config, elapsed))
     return 0
 
@@ -228,11 +365,11 @@ def cmd_serve(args: argparse.Namespace) -> int:
     try:
         port = int(args.port)
     except ValueError:
-        raise UsageError(f"--port: expected a TCP port number, got {args.port!r}") from None
+        raise UsageError(f"--port: expected a TCP port number, got {show(args.port)}") from None
     if not 1 <= port <= 65535:
         raise UsageError(f"--port: must be within 1-65535, got {port}")
     if not args.host.strip():
-        raise UsageError(f"--host: expected an address such as 127.0.0.1, got {args.host!r}")
+        raise UsageError(f"--host: expected an address such as 127.0.0.1, got {show(args.host)}")
     from app.dashboard import main as serve_main  # viser only when serving
     try:
         serve_main(args.host, port)
@@ -249,17 +386,50 @@ def cmd_config(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``tauv`` console script."""
+    """Entry point of the ``tauv`` console script.
+
+    Exit status 0 on success (also when the reader of stdout goes away, as ``| head -1`` does),
+    2 on bad input with one line on stderr, 130 when interrupted.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser().parse_args(attach_dash_values(argv))
+        _require_text_values(args)
         if args.command == "run":
-            return cmd_run(args)
-        if args.command == "serve":
-            return cmd_serve(args)
-        return cmd_config(args)
+            code = cmd_run(args)
+        elif args.command == "serve":
+            code = cmd_serve(args)
+        else:
+            code = cmd_config(args)
+        sys.stdout.flush()      # inside the try: a closed pipe is reported here, not at exit
+        return code
     except (UsageError, ConfigError) as exc:
-        print(f"tauv: error: {exc}", file=sys.stderr)
+        print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        _silence_stdout()
+        return 0
+    except KeyboardInterrupt:
+        print("tauv: interrupted", file=sys.stderr)
+        return 130
+
+
+def _require_text_values(args: argparse.Namespace) -> None:
+    """argparse drops a value of exactly ``--`` (``--method=--``) and leaves an empty list."""
+    for name, value in vars(args).items():
+        if f"--{name}" not in VALUE_FLAGS:
+            continue
+        values = value if name == "outage" else [value]
+        if any(v is not None and not isinstance(v, str) for v in values):
+            raise UsageError(f"--{name}: expected a value, got '--'")
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush does not fail a second time."""
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
 
 
 if __name__ == "__main__":

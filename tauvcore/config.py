@@ -8,7 +8,9 @@ naming ``section.key`` and the value.
 from __future__ import annotations
 
 import dataclasses
-import math
+import errno
+import os
+import stat
 import tomllib
 from dataclasses import dataclass, field
 from typing import Any
@@ -18,7 +20,7 @@ import tomli_w
 from tauvcore import units
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.geo.earth import Earth
-from tauvcore.sensors.dvl import DvlConfig, Outage
+from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
 from tauvcore.sensors.imu import ImuConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
@@ -26,9 +28,12 @@ from tauvcore.truth.kinematic import TrajectoryConfig
 from tauvcore.validation import (
     ConfigError,
     require_choice,
-    require_positive,
+    require_choices,
     require_range,
     require_vector3,
+    shorten,
+    show,
+    show_path,
 )
 
 METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")
@@ -36,6 +41,16 @@ METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")
 beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled methods of section
 3 (LC with 3-4 beams, their partial construction with 2): ``vb`` virtual beam, ``nsv``
 nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector."""
+
+DEFAULT_METHODS = ("ins", "lc")
+"""Methods run when none are named: the standalone INS and loosely coupled DVL (README, --help)."""
+
+MAX_CONFIG_BYTES = 1 << 20
+"""Largest configuration file read [bytes]: the full configuration is ~2 kB; 1 MiB leaves room
+for long outage schedules and refuses /dev/zero-like inputs before a byte is read."""
+
+MAX_SEED = 2**63 - 1
+"""Largest seed: TOML integers are signed 64-bit, so every seed `tauv config` prints reads back."""
 
 
 @dataclass(frozen=True)
@@ -46,15 +61,17 @@ class InitialErrorConfig:
     ``"random"`` draws each as a 1-sigma Gaussian per Monte Carlo run.
     """
 
-    pos_m: tuple[float, float, float] = (2.0, 2.0, 2.0)        # north, east, down [m]
-    vel_mps: tuple[float, float, float] = (0.05, 0.05, 0.05)   # surge, sway, heave (u, v, w) [m/s]
-    roll_pitch_deg: float = 0.57                                # [deg]
-    yaw_deg: float = 1.14                                       # [deg]
+    pos_m: tuple[float, float, float] = (2.0, 2.0, 2.0)        # north, east, down [m]; each within +-1000 m: a
+                                                                # surface fix is good to metres, 1 km is a lost start
+    vel_mps: tuple[float, float, float] = (0.05, 0.05, 0.05)   # surge, sway, heave (u, v, w) [m/s]; each within
+                                                                # +-10 m/s, the speed bound of trajectory.speed_mps
+    roll_pitch_deg: float = 0.57                                # [deg]; [-10, 10]: the small-angle error model
+    yaw_deg: float = 1.14                                       # [deg]; [-30, 30]: the small-angle error model
     mode: str = "fixed"                                         # "fixed" or "random"
 
     def __post_init__(self) -> None:
-        require_vector3("initial_error.pos_m", self.pos_m)
-        require_vector3("initial_error.vel_mps", self.vel_mps)
+        require_vector3("initial_error.pos_m", self.pos_m, bound=1000.0)
+        require_vector3("initial_error.vel_mps", self.vel_mps, bound=10.0)
         require_range("initial_error.roll_pitch_deg", self.roll_pitch_deg, -10.0, 10.0)
         require_range("initial_error.yaw_deg", self.yaw_deg, -30.0, 30.0)
         require_choice("initial_error.mode", self.mode, ("fixed", "random"))
@@ -72,47 +89,47 @@ class InitialErrorConfig:
 class FilterConfig:
     """Filter settings that are not sensor models (those are the sensor sections, used as tuning)."""
 
-    gate_sigma: float = 3.0          # innovation gate [standard deviations], section 2.1.1
-    output_rate_hz: float = 10.0     # rate of the per-epoch error records [Hz]
-    covariance_rate_hz: float = 10.0  # covariance propagation rate (the nominal state runs at the IMU rate) [Hz]
+    gate_sigma: float = 3.0          # innovation gate [standard deviations], section 2.1.1; [1, 1000]: below 1
+                                     # the gate rejects most good pings, 1000 is no gate at all
+    output_rate_hz: float = 10.0     # rate of the per-epoch error records [Hz]; [0.1, imu.rate_hz]: at least one
+                                     # record every 10 s, at most one per IMU sample
+    covariance_rate_hz: float = 10.0  # covariance propagation rate (the nominal state runs at the IMU rate) [Hz];
+                                      # [1, imu.rate_hz]: below 1 Hz Phi = I + F dt misses the turns
 
     def __post_init__(self) -> None:
-        require_range("filter.gate_sigma", self.gate_sigma, 0.5, 1e6)
-        require_positive("filter.output_rate_hz", self.output_rate_hz)
-        require_positive("filter.covariance_rate_hz", self.covariance_rate_hz)
+        require_range("filter.gate_sigma", self.gate_sigma, 1.0, 1000.0)
+        require_range("filter.output_rate_hz", self.output_rate_hz, 0.1, 2000.0)
+        require_range("filter.covariance_rate_hz", self.covariance_rate_hz, 1.0, 2000.0)
 
 
 @dataclass(frozen=True)
 class PartialConfig:
     """Parameters of the extended loosely coupled methods (section 3); the paper gives no values."""
 
-    vb_nf: float = 2.0                      # n_f of eq. 28: inflation of the virtual beam's prediction sigma
-    nsv_epsilon_m2_per_s2: float = 1e-4     # epsilon of eq. 36: variance of the "sway = 0" assumption [m^2/s^2]
+    vb_nf: float = 2.0                      # n_f of eq. 28: inflation of the virtual beam's prediction sigma;
+                                            # [1, 100]: an inflation, and beyond 100 the beam carries nothing
+    nsv_epsilon_m2_per_s2: float = 1e-4     # epsilon of eq. 36: variance of the "sway = 0" assumption [m^2/s^2];
+                                            # (0, 1]: a variance; beyond 1 m/s of sway the assumption says nothing
 
     def __post_init__(self) -> None:
         require_range("partial.vb_nf", self.vb_nf, 1.0, 100.0)
-        require_positive("partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2)
+        require_range("partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2, 0.0, 1.0, low_open=True)
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    methods: tuple[str, ...] = METHODS            # fusion methods to run side by side
-    aiding: tuple[str, ...] = ("dvl",)            # aiding sources on (section 4: DVL alone)
-    seed: int = 0                                 # seed of the numpy Generator
+    methods: tuple[str, ...] = DEFAULT_METHODS    # fusion methods to run side by side, each at most once
+    aiding: tuple[str, ...] = ("dvl",)            # aiding sources on (section 4: DVL alone), each at most once
+    seed: int = 0                                 # seed of the numpy Generator, [0, MAX_SEED]
     ideal: bool = False                           # zero every sensor and initial error in the simulation
 
     def __post_init__(self) -> None:
-        for name, values, choices in (("run.methods", self.methods, METHODS), ("run.aiding", self.aiding, AIDING_SOURCES)):
-            if not isinstance(values, (tuple, list)):
-                raise ConfigError(f"{name} must be a list, got {values!r}")
-            for v in values:
-                require_choice(name, v, choices)
-        if not self.methods:
-            raise ConfigError("run.methods must name at least one method, got []")
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ConfigError(f"run.seed must be a non-negative integer, got {self.seed!r}")
+        require_choices("run.methods", self.methods, METHODS)
+        require_choices("run.aiding", self.aiding, AIDING_SOURCES, allow_empty=True)
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or not 0 <= self.seed <= MAX_SEED:
+            raise ConfigError(f"run.seed must be an integer within [0, 2**63 - 1], got {show(self.seed)}")
         if not isinstance(self.ideal, bool):
-            raise ConfigError(f"run.ideal must be true or false, got {self.ideal!r}")
+            raise ConfigError(f"run.ideal must be true or false, got {show(self.ideal)}")
 
 
 @dataclass(frozen=True)
@@ -129,6 +146,13 @@ class Config:
     run: RunConfig = field(default_factory=RunConfig)
 
     def __post_init__(self) -> None:
+        imu_rate = self.imu.rate_hz
+        for name, rate in (("dvl.rate_hz", self.dvl.rate_hz), ("pressure.rate_hz", self.pressure.rate_hz),
+                           ("magnetometer.rate_hz", self.magnetometer.rate_hz),
+                           ("filter.output_rate_hz", self.filter.output_rate_hz),
+                           ("filter.covariance_rate_hz", self.filter.covariance_rate_hz)):
+            if rate > imu_rate:     # every epoch falls on an IMU sample; a faster one would repeat samples
+                raise ConfigError(f"{name} must not exceed imu.rate_hz ({imu_rate:g} Hz), got {show(rate)}")
         duration = self.trajectory.duration_s
         for o in self.dvl.outages:
             if o.start_s >= duration or o.end_s > duration:
@@ -158,12 +182,13 @@ def _plain(value: Any) -> Any:
 
 
 def _outages(field_name: str, value: Any) -> tuple[Outage, ...]:
-    if not isinstance(value, list):
-        raise ConfigError(f"{field_name} must be a list of tables {{beams, start_s, end_s}}, got {value!r}")
+    if not isinstance(value, list) or len(value) > MAX_OUTAGES:
+        raise ConfigError(f"{field_name} must be a list of at most {MAX_OUTAGES} tables {{beams, start_s, end_s}}, "
+                          f"got {show(value)}")
     out = []
     for i, item in enumerate(value):
         if not isinstance(item, dict) or set(item) != {"beams", "start_s", "end_s"}:
-            raise ConfigError(f"{field_name}[{i}] must be a table with keys beams, start_s, end_s, got {item!r}")
+            raise ConfigError(f"{field_name}[{i}] must be a table with keys beams, start_s, end_s, got {show(item)}")
         out.append(Outage(beams=tuple(_coerce(f"{field_name}[{i}].beams", (1,), item["beams"])),
                           start_s=_coerce(f"{field_name}[{i}].start_s", 0.0, item["start_s"]),
                           end_s=_coerce(f"{field_name}[{i}].end_s", 0.0, item["end_s"])))
@@ -178,26 +203,32 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
     """Check a TOML value against the type of its default and convert lists to tuples."""
     if isinstance(default, bool):
         if not isinstance(value, bool):
-            raise ConfigError(f"{field_name} must be true or false, got {value!r}")
+            raise ConfigError(f"{field_name} must be true or false, got {show(value)}")
         return value
     if isinstance(default, int):
         if not isinstance(value, int) or isinstance(value, bool):
-            raise ConfigError(f"{field_name} must be an integer, got {value!r}")
+            raise ConfigError(f"{field_name} must be an integer, got {show(value)}")
         return value
     if isinstance(default, float):
         if not isinstance(value, (int, float)) or isinstance(value, bool):
-            raise ConfigError(f"{field_name} must be a number, got {value!r}")
-        if not math.isfinite(value):
-            raise ConfigError(f"{field_name} must be a finite number, got {value!r}")
-        return float(value)
+            raise ConfigError(f"{field_name} must be a number, got {show(value)}")
+        try:
+            number = float(value)           # an integer such as 10**400 has no float
+        except OverflowError:
+            raise ConfigError(f"{field_name} must be a finite number, got {show(value)}") from None
+        if number != number or number in (float("inf"), float("-inf")):
+            raise ConfigError(f"{field_name} must be a finite number, got {show(value)}")
+        return number
     if isinstance(default, str):
         if not isinstance(value, str):
-            raise ConfigError(f"{field_name} must be a string, got {value!r}")
+            raise ConfigError(f"{field_name} must be a string, got {show(value)}")
         return value
     if isinstance(default, tuple):
         if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{field_name} must be a list, got {value!r}")
+            raise ConfigError(f"{field_name} must be a list, got {show(value)}")
         if default and isinstance(default[0], float):
+            if len(value) != len(default):      # before any element: a huge list costs nothing
+                raise ConfigError(f"{field_name} must be a list of {len(default)} numbers, got {show(value)}")
             return tuple(_coerce(f"{field_name}[{i}]", 0.0, v) for i, v in enumerate(value))
         return tuple(value)
     return value
@@ -211,19 +242,19 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
     """
     config = base or Config()
     if not isinstance(data, dict):
-        raise ConfigError(f"configuration must be a table, got {data!r}")
+        raise ConfigError(f"configuration must be a table, got {show(data)}")
     sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
     for sec_name, values in data.items():
         if sec_name not in sections:
-            raise ConfigError(f"unknown section [{sec_name}] (known: {', '.join(sorted(sections))})")
+            raise ConfigError(f"unknown section [{shorten(str(sec_name))}] (known: {', '.join(sorted(sections))})")
         if not isinstance(values, dict):
-            raise ConfigError(f"[{sec_name}] must be a table, got {values!r}")
+            raise ConfigError(f"[{sec_name}] must be a table, got {show(values)}")
         section = sections[sec_name]
         known = {f.name for f in dataclasses.fields(section)}
         changes = {}
         for key, value in values.items():
             if key not in known:
-                raise ConfigError(f"unknown key {sec_name}.{key} (known: {', '.join(sorted(known))})")
+                raise ConfigError(f"unknown key {sec_name}.{shorten(str(key))} (known: {', '.join(sorted(known))})")
             if (sec_name, key) == ("dvl", "outages"):
                 changes[key] = _outages("dvl.outages", value)
             else:
@@ -233,27 +264,72 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
 
 
 def merge(base: dict[str, Any], overlay: dict[str, Any]) -> dict[str, Any]:
-    """Nested dict ``base`` with ``overlay``'s keys replacing its own (one level of sections)."""
+    """Nested dict ``base`` with ``overlay``'s keys replacing its own (one level of sections).
+
+    A section of ``base`` that is not a table (``trajectory = true``) is kept as it is, so
+    :func:`from_dict` still reports it instead of the overlay hiding it.
+    """
     out = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
     for sec, values in overlay.items():
         if isinstance(values, dict) and isinstance(out.get(sec), dict):
             out[sec].update(values)
-        else:
+        elif sec not in out:
             out[sec] = values
     return out
 
 
 def read_toml(path: str) -> dict[str, Any]:
-    """The raw tables of a TOML file (checked by :func:`from_dict`)."""
+    """The raw tables of a TOML file (checked by :func:`from_dict`).
+
+    Only a regular file of at most :data:`MAX_CONFIG_BYTES` is read, and that is checked with
+    ``stat`` before the file is opened, so a FIFO never blocks and ``/dev/zero`` is never read.
+    The file is opened non-blocking and checked again on the open descriptor (it could have been
+    replaced in between). It must be UTF-8 TOML; every failure is one ``ConfigError`` naming the
+    file.
+    """
+    name = show_path(path)
+    if not path:
+        raise ConfigError("--config: expected a file name, got ''")
+    if "\x00" in path:     # no system call takes it (argv cannot carry one; main(argv) can)
+        raise ConfigError(f"--config: a file name cannot contain a NUL character, got {name}")
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
+        _require_small_regular_file(path, os.stat(path))
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        try:
+            _require_small_regular_file(path, os.fstat(fd))
+            with os.fdopen(fd, "rb", closefd=False) as fh:
+                data = fh.read(MAX_CONFIG_BYTES + 1)
+        finally:
+            os.close(fd)
     except FileNotFoundError:
-        raise ConfigError(f"--config: file not found: {path!r}") from None
-    except IsADirectoryError:
-        raise ConfigError(f"--config: is a directory, not a file: {path!r}") from None
+        raise ConfigError(f"--config: file not found: {name}") from None
+    except OSError as exc:      # ELOOP, ENAMETOOLONG, EACCES, ENOTDIR, EIO, ...
+        reason = exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
+        raise ConfigError(f"--config: cannot read {name}: {reason}") from None
+    if len(data) > MAX_CONFIG_BYTES:
+        raise ConfigError(f"--config: {name} is larger than {MAX_CONFIG_BYTES} bytes")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"--config: {name} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                          f"{exc.start})") from None
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"--config: malformed TOML in {path!r}: {exc}") from None
+        raise ConfigError(f"--config: malformed TOML in {name}: {shorten(str(exc))}") from None
+    except RecursionError:
+        raise ConfigError(f"--config: malformed TOML in {name}: arrays or tables nested too deeply") from None
+
+
+def _require_small_regular_file(path: str, st: os.stat_result) -> None:
+    """A ConfigError naming the file unless it is a regular file within the size limit."""
+    if stat.S_ISDIR(st.st_mode):
+        raise ConfigError(f"--config: is a directory, not a file: {show_path(path)}")
+    if not stat.S_ISREG(st.st_mode):
+        raise ConfigError(f"--config: not a regular file (a device, FIFO or socket): {show_path(path)}")
+    if st.st_size > MAX_CONFIG_BYTES:
+        raise ConfigError(f"--config: {show_path(path)} is larger than {MAX_CONFIG_BYTES} bytes "
+                          f"({st.st_size} bytes)")
 
 
 def load_toml(path: str) -> Config:

@@ -35,7 +35,8 @@ def normal_gravity_mps2(latitude_rad: float) -> float:
 class Earth:
     """Earth quantities in the NED tangent frame n at the origin's latitude."""
 
-    latitude_deg: float = 32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates
+    latitude_deg: float = 32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates; [-89, 89]: the
+                                # NED frame and Euler yaw are singular at the poles
 
     def __post_init__(self) -> None:
         require_range("earth.latitude_deg", self.latitude_deg, -89.0, 89.0)

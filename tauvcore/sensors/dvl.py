@@ -25,10 +25,14 @@ from tauvcore.validation import (
     ConfigError,
     require_finite,
     require_nonnegative,
-    require_positive,
     require_range,
     require_vector3,
+    show,
 )
+
+MAX_OUTAGES = 1000
+"""Scheduled outage windows per run: a schedule, not a per-ping mask (random losses are
+``dropout_probability``); each window is applied to every ping."""
 
 
 def beam_directions_b(beam_pitch_rad: float) -> np.ndarray:
@@ -55,40 +59,50 @@ class Outage:
 
 
 def _check_beams(field: str, beams: object) -> None:
-    if not isinstance(beams, (tuple, list)) or len(set(beams)) != len(beams):
-        raise ConfigError(f"{field} must be a list of distinct beam numbers 1-4, got {beams!r}")
+    if not isinstance(beams, (tuple, list)) or len(beams) > NUM_DVL_BEAMS:   # length first: cheap on huge lists
+        raise ConfigError(f"{field} must be a list of distinct beam numbers 1-4, got {show(beams)}")
     for b in beams:
         if not isinstance(b, int) or isinstance(b, bool) or b not in (1, 2, 3, 4):
-            raise ConfigError(f"{field}: unknown beam {b!r} (beams are 1, 2, 3, 4)")
+            raise ConfigError(f"{field}: unknown beam {show(b)} (beams are 1, 2, 3, 4)")
+    if len(set(beams)) != len(beams):
+        raise ConfigError(f"{field} must be a list of distinct beam numbers 1-4, got {show(beams)}")
 
 
 @dataclass(frozen=True)
 class DvlConfig:
     """DVL error model; 1-sigma values, defaults Table 2 of Tal et al. 2017."""
 
-    rate_hz: float = 1.0                                  # ping rate [Hz]
-    beam_pitch_deg: float = 20.0                          # eq. 13-14
-    noise_mps: float = 0.042                              # white noise per beam [m/s]
-    bias_mps: float = 0.005                               # turn-on bias per beam [m/s]
-    bias_rw_mps_per_sqrt_s: float = 5e-5                  # beam bias random walk [m/s/sqrt(s)]
-    scale_factor_pct: float = 0.7                         # turn-on scale factor error [%]
-    scale_factor_rw_pct_per_sqrt_s: float = 5e-3          # scale factor random walk [%/sqrt(s)]
-    lever_arm_m: tuple[float, float, float] = (0.6, 0.0, 0.15)  # DVL head from the IMU, body frame [m]; not in the paper
+    # Ranges: zero error is legal (verification, --ideal); each bound's reason is beside it.
+    rate_hz: float = 1.0                                  # ping rate [Hz], [0.05, 25]: DVLs ping from every 20 s to ~25 Hz
+    beam_pitch_deg: float = 20.0                          # eq. 13-14, [10, 45]: Janus heads are 20-30 deg; below 10 the
+                                                          # horizontal velocity is barely observed, above 45 beams graze
+    noise_mps: float = 0.042                              # white noise per beam [m/s], <= 1: beyond half the AUV's
+                                                          # 2 m/s a ping says nothing about the velocity
+    bias_mps: float = 0.005                               # turn-on bias per beam [m/s], <= 0.5 (100x Table 2)
+    bias_rw_mps_per_sqrt_s: float = 5e-5                  # beam bias random walk [m/s/sqrt(s)], <= 5e-3 (100x Table 2)
+    scale_factor_pct: float = 0.7                         # turn-on scale factor error [%], <= 10: a sound speed off by
+                                                          # 150 m/s, more than any water mass differs from 1500 m/s
+    scale_factor_rw_pct_per_sqrt_s: float = 5e-3          # scale factor random walk [%/sqrt(s)], <= 0.5 (100x Table 2)
+    lever_arm_m: tuple[float, float, float] = (0.6, 0.0, 0.15)  # DVL head from the IMU, body frame [m]; not in the
+                                                          # paper; each axis within +-10 m: an AUV is a few metres long
     beams: tuple[int, ...] = (1, 2, 3, 4)                 # beams that return (others never do)
-    outages: tuple[Outage, ...] = ()                      # scheduled losses of some beams
-    dropout_probability: float = 0.0                      # chance that a beam misses a ping, each beam independently
+    outages: tuple[Outage, ...] = ()                      # scheduled losses of some beams, at most MAX_OUTAGES
+    dropout_probability: float = 0.0                      # chance that a beam misses a ping, each beam independently,
+                                                          # [0, 1] (a probability)
 
     def __post_init__(self) -> None:
-        require_positive("dvl.rate_hz", self.rate_hz)
-        require_range("dvl.beam_pitch_deg", self.beam_pitch_deg, 1.0, 60.0)
-        for name in ("noise_mps", "bias_mps", "bias_rw_mps_per_sqrt_s", "scale_factor_pct",
-                     "scale_factor_rw_pct_per_sqrt_s"):
-            require_nonnegative(f"dvl.{name}", getattr(self, name))
-        require_vector3("dvl.lever_arm_m", self.lever_arm_m)
+        require_range("dvl.rate_hz", self.rate_hz, 0.05, 25.0)
+        require_range("dvl.beam_pitch_deg", self.beam_pitch_deg, 10.0, 45.0)
+        for name, high in (("noise_mps", 1.0), ("bias_mps", 0.5), ("bias_rw_mps_per_sqrt_s", 5e-3),
+                           ("scale_factor_pct", 10.0), ("scale_factor_rw_pct_per_sqrt_s", 0.5)):
+            require_range(f"dvl.{name}", getattr(self, name), 0.0, high)
+        require_vector3("dvl.lever_arm_m", self.lever_arm_m, bound=10.0)
         _check_beams("dvl.beams", self.beams)
+        if not isinstance(self.outages, (tuple, list)) or len(self.outages) > MAX_OUTAGES:
+            raise ConfigError(f"dvl.outages must be a list of at most {MAX_OUTAGES} windows, got {show(self.outages)}")
         for outage in self.outages:
             if not isinstance(outage, Outage):
-                raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {outage!r}")
+                raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {show(outage)}")
         require_range("dvl.dropout_probability", self.dropout_probability, 0.0, 1.0)
 
     def ideal(self) -> DvlConfig:

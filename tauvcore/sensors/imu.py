@@ -18,26 +18,44 @@ import numpy as np
 from tauvcore import units
 from tauvcore.sensors.timing import batch_shape, random_walk
 from tauvcore.truth.record import Truth
-from tauvcore.validation import require_nonnegative, require_positive
+from tauvcore.validation import require_range
+
+RATE_RANGE_HZ = (50.0, 2000.0)
+"""IMU rate bounds [Hz]. Below 50 Hz the two-sample coning/sculling correction and the
+covariance steps no longer follow a manoeuvring AUV (and 0.001 Hz left no sample at all); no
+navigation IMU delivers increments above 2 kHz, and the run time grows with the rate (1e5 Hz made
+a 5 s mission take 31 s)."""
+
+ERROR_LIMITS = {
+    "accel_bias_mg": 100.0,                      # 200x Table 2; an uncalibrated consumer MEMS is ~50 mg
+    "gyro_bias_deg_per_h": 3600.0,               # 1 deg/s, 1200x Table 2; an uncalibrated MEMS gyro
+    "accel_noise_mps_per_sqrt_h": 10.0,          # 140x Table 2; consumer MEMS is ~0.5 m/s/sqrt(h)
+    "gyro_noise_deg_per_sqrt_h": 30.0,           # 90x Table 2; consumer MEMS is ~1 deg/sqrt(h)
+    "accel_bias_rw_mps2_per_sqrt_s": 1e-2,       # 1000x Table 2: 0.6 m/s^2 of wander per hour
+    "gyro_bias_rw_deg_per_s_per_sqrt_s": 1e-2,   # 360x Table 2: 0.6 deg/s of wander per hour
+}
+"""Upper bound of each error field [its unit]; the lower bound is zero (an ideal sensor)."""
 
 
 @dataclass(frozen=True)
 class ImuConfig:
     """IMU error model; every field 1-sigma, defaults Table 2 of Tal et al. 2017."""
 
-    rate_hz: float = 150.0                          # IMU rate [Hz]
-    accel_bias_mg: float = 0.5                      # turn-on bias per axis [mg] (Table 2 "mg/h", see module doc)
-    gyro_bias_deg_per_h: float = 3.0                # turn-on bias per axis [deg/h]
-    accel_noise_mps_per_sqrt_h: float = 0.072       # velocity random walk [m/s/sqrt(h)]
-    gyro_noise_deg_per_sqrt_h: float = 0.34         # angle random walk [deg/sqrt(h)]
-    accel_bias_rw_mps2_per_sqrt_s: float = 1e-5     # accelerometer bias random walk [m/s^2/sqrt(s)]
-    gyro_bias_rw_deg_per_s_per_sqrt_s: float = 2.8e-5  # gyro bias random walk [deg/s/sqrt(s)]
+    # Ranges: zero error is legal everywhere (verification, --ideal); the upper bounds are a few
+    # hundred times Table 2, past the worst uncalibrated consumer MEMS part, where a
+    # navigation-grade filter and its linearisation have nothing left to say.
+    rate_hz: float = 150.0                          # IMU rate [Hz], within [50, 2000] (RATE_RANGE_HZ)
+    accel_bias_mg: float = 0.5                      # turn-on bias per axis [mg] (Table 2 "mg/h", see module doc), <= 100
+    gyro_bias_deg_per_h: float = 3.0                # turn-on bias per axis [deg/h], <= 3600 (1 deg/s)
+    accel_noise_mps_per_sqrt_h: float = 0.072       # velocity random walk [m/s/sqrt(h)], <= 10
+    gyro_noise_deg_per_sqrt_h: float = 0.34         # angle random walk [deg/sqrt(h)], <= 30
+    accel_bias_rw_mps2_per_sqrt_s: float = 1e-5     # accelerometer bias random walk [m/s^2/sqrt(s)], <= 1e-2
+    gyro_bias_rw_deg_per_s_per_sqrt_s: float = 2.8e-5  # gyro bias random walk [deg/s/sqrt(s)], <= 1e-2
 
     def __post_init__(self) -> None:
-        require_positive("imu.rate_hz", self.rate_hz)
-        for f in dataclasses.fields(self):
-            if f.name != "rate_hz":
-                require_nonnegative(f"imu.{f.name}", getattr(self, f.name))
+        require_range("imu.rate_hz", self.rate_hz, *RATE_RANGE_HZ)
+        for name, high in ERROR_LIMITS.items():
+            require_range(f"imu.{name}", getattr(self, name), 0.0, high)
 
     def ideal(self) -> ImuConfig:
         """The same IMU with every error set to zero."""

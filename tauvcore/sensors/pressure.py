@@ -15,21 +15,22 @@ import numpy as np
 from tauvcore import units
 from tauvcore.sensors.timing import batch_shape, epoch_indices
 from tauvcore.truth.record import Truth
-from tauvcore.validation import require_nonnegative, require_positive
+from tauvcore.validation import require_range
 
 
 @dataclass(frozen=True)
 class PressureConfig:
     """Depth from pressure, ``depth = p / (rho g0)``; 1-sigma white noise."""
 
-    rate_hz: float = 0.25                 # Table 2
-    noise_pa: float = 194.0               # Table 2 "194 Mpa", read as 194 Pa (module doc)
-    water_density_kg_m3: float = 1025.0   # sea water
+    rate_hz: float = 0.25                 # Table 2 [Hz]; [0.01, 100]: depth sensors sample up to ~100 Hz
+    noise_pa: float = 194.0               # Table 2 "194 Mpa", read as 194 Pa (module doc); [0, 1e5]: 1 bar, i.e.
+                                          # 10 m of water, half the TAUV's rated depth; zero is an ideal sensor
+    water_density_kg_m3: float = 1025.0   # sea water; [950, 1250]: hot fresh water to the Dead Sea
 
     def __post_init__(self) -> None:
-        require_positive("pressure.rate_hz", self.rate_hz)
-        require_nonnegative("pressure.noise_pa", self.noise_pa)
-        require_positive("pressure.water_density_kg_m3", self.water_density_kg_m3)
+        require_range("pressure.rate_hz", self.rate_hz, 0.01, 100.0)
+        require_range("pressure.noise_pa", self.noise_pa, 0.0, 1e5)
+        require_range("pressure.water_density_kg_m3", self.water_density_kg_m3, 950.0, 1250.0)
 
     def ideal(self) -> PressureConfig:
         return PressureConfig(rate_hz=self.rate_hz, noise_pa=0.0, water_density_kg_m3=self.water_density_kg_m3)

@@ -44,10 +44,13 @@ from tauvcore.validation import (
     require_nonnegative,
     require_positive,
     require_range,
+    show,
 )
 
 TRAJECTORIES = ("straight", "figure8", "lawnmower")
 BESSEL_J0_FIRST_ZERO = 2.404825557695773
+MAX_DURATION_S = 36000.0
+"""Longest run [s]: 10 h, a long AUV mission and the length of the heading-drift study."""
 
 
 @dataclass(frozen=True)
@@ -55,38 +58,42 @@ class TrajectoryConfig:
     """Scenario geometry. Defaults follow Tal et al. 2017 section 4 / Table 2 where it gives them."""
 
     name: str = "straight"              # one of TRAJECTORIES
-    duration_s: float = 250.0           # Table 2: time duration 250 s
-    speed_mps: float = 2.0              # Table 2: AUV velocity 2 m/s (surge)
-    depth_m: float = 20.0               # initial depth [m]
-    leg_length_m: float = 100.0         # lawnmower leg length [m]
-    turn_radius_m: float = 15.0         # tightest turn radius (figure8) / U-turn radius (lawnmower) [m]
-    dive_rate_mps: float = 0.1          # figure8 constant descent rate [m/s]
-    lawnmower_dive_rate_mps: float = 0.3  # lawnmower initial descent rate [m/s]
-    dive_duration_s: float = 30.0       # lawnmower dive phase; the paper's "first 30 s" [s]
-    turn_roll_deg: float = 5.0          # roll at the tightest turn [deg]
-    turn_sideslip_deg: float = 3.0      # outward sideslip at the tightest turn [deg]
-    blend_s: float = 4.0                # half-cosine blend time of rate changes [s]
-    seabed_depth_m: float = 60.0        # flat seabed the DVL beams reach [m]
+    duration_s: float = 250.0           # Table 2: time duration 250 s; [1, 36000]: 10 h, a long AUV mission (the
+                                        # heading-drift study runs 10 h); memory grows with it (engine, dashboard)
+    speed_mps: float = 2.0              # Table 2: AUV velocity 2 m/s (surge); (0, 10]: no AUV cruises faster
+    depth_m: float = 20.0               # initial depth [m]; [0, 11000]: the deepest ocean
+    leg_length_m: float = 100.0         # lawnmower leg length [m]; [1, 10000]: beyond 10 km the flat tangent frame
+                                        # of tauvcore.geo.earth no longer holds
+    turn_radius_m: float = 15.0         # tightest turn radius (figure8) / U-turn radius (lawnmower) [m]; [1, 1000]:
+                                        # an AUV turns in a few metres to tens; beyond 1 km it is not a manoeuvre
+    dive_rate_mps: float = 0.1          # figure8 constant descent rate [m/s]; [0, speed_mps)
+    lawnmower_dive_rate_mps: float = 0.3  # lawnmower initial descent rate [m/s]; [0, speed_mps)
+    dive_duration_s: float = 30.0       # lawnmower dive phase; the paper's "first 30 s" [s]; [0, 36000] as duration_s
+    turn_roll_deg: float = 5.0          # roll at the tightest turn [deg]; [-45, 45]: a hull does not bank further
+    turn_sideslip_deg: float = 3.0      # outward sideslip at the tightest turn [deg]; [-30, 30]: beyond, it skids
+    blend_s: float = 4.0                # half-cosine blend time of rate changes [s]; [0.1, 600]: from a sharp but
+                                        # sampled change (15 IMU samples at 150 Hz) to a 10-minute ramp
+    seabed_depth_m: float = 60.0        # flat seabed the DVL beams reach [m]; (0, 11000]: the deepest ocean
 
     def __post_init__(self) -> None:
         require_choice("trajectory.name", self.name, TRAJECTORIES)
-        require_range("trajectory.duration_s", self.duration_s, 1.0, 86400.0)
-        require_positive("trajectory.speed_mps", self.speed_mps)
-        require_nonnegative("trajectory.depth_m", self.depth_m)
-        require_positive("trajectory.leg_length_m", self.leg_length_m)
-        require_positive("trajectory.turn_radius_m", self.turn_radius_m)
+        require_range("trajectory.duration_s", self.duration_s, 1.0, MAX_DURATION_S)
+        require_range("trajectory.speed_mps", self.speed_mps, 0.0, 10.0, low_open=True)
+        require_range("trajectory.depth_m", self.depth_m, 0.0, 11000.0)
+        require_range("trajectory.leg_length_m", self.leg_length_m, 1.0, 10000.0)
+        require_range("trajectory.turn_radius_m", self.turn_radius_m, 1.0, 1000.0)
         require_nonnegative("trajectory.dive_rate_mps", self.dive_rate_mps)
         require_nonnegative("trajectory.lawnmower_dive_rate_mps", self.lawnmower_dive_rate_mps)
-        require_nonnegative("trajectory.dive_duration_s", self.dive_duration_s)
+        require_range("trajectory.dive_duration_s", self.dive_duration_s, 0.0, MAX_DURATION_S)
         require_range("trajectory.turn_roll_deg", self.turn_roll_deg, -45.0, 45.0)
         require_range("trajectory.turn_sideslip_deg", self.turn_sideslip_deg, -30.0, 30.0)
-        require_positive("trajectory.blend_s", self.blend_s)
-        require_positive("trajectory.seabed_depth_m", self.seabed_depth_m)
+        require_range("trajectory.blend_s", self.blend_s, 0.1, 600.0)
+        require_range("trajectory.seabed_depth_m", self.seabed_depth_m, 0.0, 11000.0, low_open=True)
         for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
             if getattr(self, field) >= self.speed_mps:
                 raise ConfigError(
                     f"trajectory.{field} must be below trajectory.speed_mps ({self.speed_mps}), "
-                    f"got {getattr(self, field)!r}")
+                    f"got {show(getattr(self, field))}")
 
 
 class BlendedSchedule:

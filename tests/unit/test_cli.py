@@ -1,14 +1,21 @@
 """The ``tauv`` command line: contract of run/config, and one clear line for every bad input."""
 
+import dataclasses
 import json
+import os
+import resource
+import shlex
 import subprocess
 import sys
+import time
 import tomllib
 
+import numpy as np
 import pytest
 
 from app.cli import build_parser, main, resolve_config
 from tauvcore.config import METHODS, Config, from_dict
+from tauvcore.eval.runner import run, simulate
 from tauvcore.sensors.dvl import Outage
 
 
@@ -81,8 +88,9 @@ def test_run_writes_the_json_contract_and_a_summary(capsys, tmp_path) -> None:
     assert set(data["results"]) == {"ins", "lc"}
     keys = {"t", "vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "att_sigma_deg", "pos_sigma_m"}
     for series in data["results"].values():
-        assert set(series) == keys
-        assert len({len(v) for v in series.values()}) == 1 and series["t"][-1] == pytest.approx(20.0)
+        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count"}
+        assert len({len(series[k]) for k in keys}) == 1 and series["t"][-1] == pytest.approx(20.0)
+        assert series["diverged"] is False and series["diverged_at_s"] is None and series["p_floor_count"] >= 0
     assert data["results"]["lc"]["vel_err_mps"][-1] < data["results"]["ins"]["vel_err_mps"][-1]
     assert "INS" in out and "LC" in out and "vel final" in out
 
@@ -154,3 +162,253 @@ def test_serve_refuses_a_busy_port_instead_of_moving(capsys) -> None:
         port = s.getsockname()[1]
         code, out, err = _run(capsys, "serve", "--port", str(port))
     assert code == 2 and str(port) in err and "in use" in err
+
+
+# --- issue 7: hostile input. Each test below failed on the code before the fix. ---------------------
+
+def _one_line_error(code: int, err: str, *needles: str) -> str:
+    assert code == 2, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+def _cli(*argv: str, timeout: float = 60.0, **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "app.cli", *argv], capture_output=True, text=True,
+                          timeout=timeout, **kwargs)
+
+
+def test_config_that_is_not_utf8_is_refused(capsys, tmp_path) -> None:
+    path = tmp_path / "b.toml"
+    path.write_bytes(b"\xff")
+    _one_line_error(*_run(capsys, "run", "--config", str(path))[::2], "b.toml", "UTF-8", "0xff")
+
+
+def test_deeply_nested_config_is_refused(capsys, tmp_path) -> None:
+    path = tmp_path / "deep.toml"
+    path.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    _one_line_error(*_run(capsys, "run", "--config", str(path))[::2], "deep.toml", "nested too deeply")
+
+
+def test_config_symlink_loop_too_long_name_and_not_a_directory_are_refused(capsys, tmp_path) -> None:
+    loop = tmp_path / "loop.toml"
+    loop.symlink_to(loop)
+    _one_line_error(*_run(capsys, "run", "--config", str(loop))[::2], "loop.toml", "symbolic links")
+    long_name = str(tmp_path / ("x" * 300))
+    line = _one_line_error(*_run(capsys, "run", "--config", long_name)[::2], "too long", "characters)")
+    assert long_name not in line                      # the name is shortened, not echoed whole
+    plain = tmp_path / "plain.toml"
+    plain.write_text("")
+    _one_line_error(*_run(capsys, "run", "--config", str(plain / "x.toml"))[::2], "x.toml", "Not a directory")
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads a file whatever its mode")
+def test_unreadable_config_is_refused(capsys, tmp_path) -> None:
+    path = tmp_path / "secret.toml"
+    path.write_text("")
+    path.chmod(0)
+    _one_line_error(*_run(capsys, "run", "--config", str(path))[::2], "secret.toml", "ermission")
+
+
+def test_config_that_is_a_device_or_too_large_is_refused_without_reading(capsys, tmp_path) -> None:
+    # in a process with 1 GB of address space: the old code read /dev/zero until MemoryError
+    hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+    proc = _cli("run", "--config", "/dev/zero", preexec_fn=lambda: resource.setrlimit(
+        resource.RLIMIT_AS, (1 << 30, hard)))
+    _one_line_error(proc.returncode, proc.stderr, "/dev/zero", "not a regular file")
+    big = tmp_path / "big.toml"
+    big.write_bytes(b"#" * (2 << 20))
+    _one_line_error(*_run(capsys, "run", "--config", str(big))[::2], "big.toml", "larger than 1048576 bytes")
+
+
+def test_fifo_as_config_is_refused_at_once(tmp_path) -> None:
+    """Opening a FIFO for reading blocks until a writer comes: the old code hung for ever."""
+    fifo = tmp_path / "f.toml"
+    os.mkfifo(fifo)
+    started = time.monotonic()
+    proc = _cli("run", "--config", str(fifo), timeout=60.0)
+    _one_line_error(proc.returncode, proc.stderr, "f.toml", "not a regular file")
+    assert time.monotonic() - started < 30.0        # an interpreter start, not a hang (measured ~1 s)
+
+
+def test_closed_stdout_ends_quietly() -> None:
+    """``tauv config | head -1``: the reader goes away; no BrokenPipeError traceback, exit 0."""
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "config"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()                              # the reader is gone before the first write
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 0, err
+    assert err == ""
+
+
+def test_closed_stdout_after_a_run_ends_quietly(tmp_path) -> None:
+    proc = subprocess.run(f"{shlex.quote(sys.executable)} -m app.cli run --duration 2 --method ins | head -c 1; "
+                          "exit ${PIPESTATUS[0]}", shell=True, executable="/bin/bash", capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr and "Error" not in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize("flag", ["--config", "--json"])
+def test_empty_file_names_are_refused(capsys, flag) -> None:
+    _one_line_error(*_run(capsys, "run", "--duration", "2", "--method", "ins", flag, "")[::2], flag, "''")
+
+
+@pytest.mark.parametrize("toml, field", [
+    ('[run]\nmethods = ["lc", "lc"]\n', "run.methods"),
+    ('[run]\naiding = ["dvl", "dvl"]\n', "run.aiding"),
+    ("[dvl]\nbeams = [1, 1]\n", "dvl.beams"),
+])
+def test_duplicate_list_entries_in_a_file_are_refused(capsys, tmp_path, toml, field) -> None:
+    path = tmp_path / "dup.toml"
+    path.write_text(toml)
+    _one_line_error(*_run(capsys, "run", "--config", str(path))[::2], field)
+
+
+def test_a_section_that_is_not_a_table_is_not_hidden_by_duration(capsys, tmp_path) -> None:
+    path = tmp_path / "t.toml"
+    path.write_text("trajectory = true\n")
+    _one_line_error(*_run(capsys, "run", "--config", str(path), "--duration", "3")[::2], "[trajectory]", "True")
+
+
+@pytest.mark.parametrize("argv", [["--dur", "3"], ["--meth", "lc"], ["--ide"]])
+def test_abbreviated_flags_are_refused(capsys, argv) -> None:
+    _one_line_error(*_run(capsys, "run", *argv)[::2], argv[0])
+
+
+@pytest.mark.parametrize("link", ["same", "symlink", "hardlink", "relative"])
+def test_json_naming_the_config_file_is_refused_before_running(capsys, tmp_path, monkeypatch, link) -> None:
+    config = tmp_path / "c.toml"
+    text = "[trajectory]\nduration_s = 2.0\n[run]\nmethods = [\"ins\"]\n"
+    config.write_text(text)
+    target = {"same": config, "symlink": tmp_path / "s.json", "hardlink": tmp_path / "h.json",
+              "relative": "./c.toml"}[link]
+    if link == "symlink":
+        target.symlink_to(config)
+    elif link == "hardlink":
+        os.link(config, target)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("app.cli.run", lambda *a, **k: pytest.fail("ran before refusing --json"))
+    _one_line_error(*_run(capsys, "run", "--config", str(config), "--json", str(target))[::2], "--json",
+                    "--config file")
+    assert config.read_text() == text
+
+
+@pytest.mark.parametrize("target, reason", [(".", "is a directory"), ("/dev/null", "not a regular file")])
+def test_json_to_a_directory_or_device_is_refused(capsys, tmp_path, monkeypatch, target, reason) -> None:
+    monkeypatch.chdir(tmp_path)
+    _one_line_error(*_run(capsys, "run", "--duration", "2", "--method", "ins", "--json", target)[::2], reason)
+
+
+def test_default_methods_are_ins_and_lc_as_the_help_says(capsys) -> None:
+    assert Config().run.methods == ("ins", "lc")
+    assert "(default: ins,lc)" in build_parser()._subparsers._group_actions[0].choices["run"].format_help()
+    code, out, err = _run(capsys, "run", "--duration", "2")
+    assert code == 0, err
+    rows = [line.split()[0] for line in out.splitlines()[4:] if line.split()]
+    assert rows == ["INS", "LC"]
+
+
+@pytest.mark.parametrize("flag, value, shown", [
+    ("--dropout", "-inf", "'-inf'"), ("--duration", "-1e5", "-100000"), ("--duration", "-inf", "'-inf'"),
+    ("--seed", "-x", "'-x'"), ("--trajectory", "-straight", "'-straight'"), ("--method", "-lc", "'-lc'"),
+    ("--beams", "-1", "'-1'"), ("--outage", "-3@1:2", "'-3'"), ("--dropout", "-nan", "'-nan'"),
+])
+def test_values_beginning_with_a_dash_reach_their_flag(capsys, flag, value, shown) -> None:
+    """argparse used to answer "expected one argument" without naming the value."""
+    _one_line_error(*_run(capsys, "run", "--method", "ins", flag, value)[::2], flag, shown)
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", "--dropout", "x" * 500_000],
+    ["run", "--trajectory", "y" * 500_000],
+    ["run", "--method", "z" * 500_000],
+    ["run", "--duration", "9" * 500_000],
+    ["run", "w" * 500_000],
+])
+def test_long_values_are_shortened_in_messages(capsys, argv) -> None:
+    line = _one_line_error(*_run(capsys, *argv)[::2], "(500000 characters)")
+    assert len(line) < 300, len(line)
+
+
+@pytest.mark.parametrize("argv", [["--method=--"], ["--outage=--"], ["--json=--"], ["--config=--"]])
+def test_a_value_of_two_dashes_is_refused(capsys, argv) -> None:
+    """Found by the fuzzer: argparse turned ``--method=--`` into [] and the run crashed."""
+    _one_line_error(*_run(capsys, "run", "--duration", "2", *argv)[::2], argv[0].split("=")[0], "'--'")
+
+
+@pytest.mark.parametrize("flag", ["--config", "--json"])
+def test_a_nul_in_a_file_name_is_refused(capsys, flag) -> None:
+    """Found by the fuzzer (main(argv) in-process): os.stat raised ValueError."""
+    _one_line_error(*_run(capsys, "run", "--duration", "2", flag, "a\x00b")[::2], flag, "NUL", "'a\\x00b'")
+
+
+def test_a_newline_in_a_value_stays_on_one_line(capsys) -> None:
+    _one_line_error(*_run(capsys, "run", "--trajectory", "a\nb")[::2], "--trajectory", "'a\\nb'")
+    _one_line_error(*_run(capsys, "run", "a\nb")[::2], "a\\nb")
+
+
+def _fake_results(diverged: bool, poison: bool):
+    """A short real run, then (optionally) a NaN and an infinity in the series and a diverged flag."""
+    config = Config().replace("trajectory", duration_s=2.0).replace("run", methods=("ins", "lc"))
+    rng = np.random.default_rng(0)
+    real = run(config, simulate(config, rng), rng)
+
+    def fake(*args, **kwargs):
+        out = {}
+        for name, r in real.items():
+            vel = r.vel_err_mps.copy()
+            if poison:
+                vel[1, 0], vel[2, 0] = np.nan, np.inf
+            out[name] = dataclasses.replace(
+                r, vel_err_mps=vel, diverged=np.array([diverged and name == "lc"]),
+                diverged_at_s=np.array([1.5 if diverged and name == "lc" else np.nan]),
+                p_floor_count=np.array([3 if name == "lc" else 0]))
+        return out
+    return fake
+
+
+def _strict_json(text: str):
+    def refuse(name: str):
+        raise AssertionError(f"not JSON: {name}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, monkeypatch) -> None:
+    monkeypatch.setattr("app.cli.run", _fake_results(diverged=True, poison=True))
+    out_json = tmp_path / "out.json"
+    code, out, err = _run(capsys, "run", "--duration", "2", "--json", str(out_json))
+    assert code == 0, err
+    data = _strict_json(out_json.read_text())
+    lc, ins = data["results"]["lc"], data["results"]["ins"]
+    assert lc["vel_err_mps"][1] is None and lc["vel_err_mps"][2] is None and lc["vel_err_mps"][3] is not None
+    assert lc["diverged"] is True and lc["diverged_at_s"] == 1.5 and lc["p_floor_count"] == 3
+    assert ins["diverged"] is False and ins["diverged_at_s"] is None and ins["p_floor_count"] == 0
+    rows = {line.split()[0]: line for line in out.splitlines() if line.split()}
+    assert "diverged at 1.5 s" in rows["LC"] and "diverged" not in rows["INS"]
+
+
+@pytest.mark.parametrize("failure", [OSError(28, "No space left on device"), KeyboardInterrupt()])
+def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypatch, failure) -> None:
+    monkeypatch.setattr("app.cli.run", _fake_results(diverged=False, poison=False))
+    real_dump = json.dump
+
+    def dump_half_then_fail(obj, fh, **kwargs):
+        fh.write(json.dumps(obj, **kwargs)[:100])        # a partial file exists at this point
+        raise failure
+    monkeypatch.setattr("app.cli.json.dump", dump_half_then_fail)
+    fresh = tmp_path / "fresh.json"
+    code, out, err = _run(capsys, "run", "--duration", "2", "--json", str(fresh))
+    assert code == (130 if isinstance(failure, KeyboardInterrupt) else 2), err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert not fresh.exists() and list(tmp_path.iterdir()) == []       # no temporary file either
+    # an existing file is left exactly as it was
+    old = tmp_path / "old.json"
+    old.write_text('{"previous": true}')
+    _run(capsys, "run", "--duration", "2", "--json", str(old))
+    assert old.read_text() == '{"previous": true}' and sorted(p.name for p in tmp_path.iterdir()) == ["old.json"]
+    monkeypatch.setattr("app.cli.json.dump", real_dump)
+    assert _run(capsys, "run", "--duration", "2", "--json", str(old))[0] == 0
+    assert "previous" not in _strict_json(old.read_text())

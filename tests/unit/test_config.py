@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 import tomllib
+import tracemalloc
 
 import pytest
 
-from tauvcore.config import Config, from_dict, load_toml, to_dict, to_toml
-from tauvcore.validation import ConfigError
+from tauvcore.config import MAX_CONFIG_BYTES, Config, from_dict, load_toml, merge, read_toml, to_dict, to_toml
+from tauvcore.validation import ConfigError, show, show_path
 
 
 def test_toml_round_trip_of_defaults():
@@ -97,3 +99,148 @@ def test_to_dict_has_every_section_and_plain_types():
     d = to_dict(Config())
     assert set(d) == {"trajectory", "earth", "imu", "dvl", "pressure", "magnetometer", "initial_error", "filter", "partial", "run"}
     assert isinstance(d["dvl"]["lever_arm_m"], list)
+
+
+# --- issue 7: every numeric field has a physical range; zero noise stays legal ----------------------
+
+OUT_OF_RANGE = [
+    # (section, key, refused value, accepted value at or near the bound)
+    ("imu", "rate_hz", 0.001, 50.0), ("imu", "rate_hz", 1e5, 2000.0),
+    ("imu", "accel_bias_mg", 1e300, 100.0), ("imu", "gyro_bias_deg_per_h", 3601.0, 3600.0),
+    ("imu", "accel_noise_mps_per_sqrt_h", 10.5, 10.0), ("imu", "gyro_noise_deg_per_sqrt_h", 1e300, 30.0),
+    ("imu", "accel_bias_rw_mps2_per_sqrt_s", 0.1, 1e-2), ("imu", "gyro_bias_rw_deg_per_s_per_sqrt_s", 0.1, 1e-2),
+    ("dvl", "rate_hz", 0.0, 0.05), ("dvl", "rate_hz", 100.0, 25.0), ("dvl", "beam_pitch_deg", 5.0, 10.0),
+    ("dvl", "noise_mps", 1e300, 1.0), ("dvl", "bias_mps", 0.6, 0.5), ("dvl", "scale_factor_pct", 1e300, 10.0),
+    ("dvl", "bias_rw_mps_per_sqrt_s", 1.0, 5e-3), ("dvl", "scale_factor_rw_pct_per_sqrt_s", 1.0, 0.5),
+    ("pressure", "rate_hz", 0.0, 0.01), ("pressure", "noise_pa", 1e300, 1e5),
+    ("pressure", "water_density_kg_m3", 0.0, 1000.0),
+    ("magnetometer", "rate_hz", 1e6, 100.0), ("magnetometer", "yaw_noise_deg", 1e300, 90.0),
+    ("magnetometer", "roll_pitch_noise_deg", 45.0, 30.0),
+    ("trajectory", "duration_s", 36001.0, 36000.0), ("trajectory", "speed_mps", 1e300, 10.0),
+    ("trajectory", "speed_mps", 0.0, 0.5), ("trajectory", "depth_m", 12000.0, 11000.0),
+    ("trajectory", "leg_length_m", 1e9, 10000.0), ("trajectory", "turn_radius_m", 0.1, 1.0),
+    ("trajectory", "blend_s", 1e-9, 0.1), ("trajectory", "seabed_depth_m", 0.0, 1.0),
+    ("trajectory", "dive_duration_s", 1e300, 36000.0),
+    ("filter", "gate_sigma", 0.5, 1.0), ("filter", "output_rate_hz", 0.0, 0.1),
+    ("filter", "covariance_rate_hz", 0.5, 1.0), ("partial", "nsv_epsilon_m2_per_s2", 0.0, 1.0),
+    ("run", "seed", 2**63, 2**63 - 1),
+]
+
+
+@pytest.mark.parametrize("section, key, bad, good", OUT_OF_RANGE, ids=[f"{s}.{k}={b:g}" for s, k, b, _ in OUT_OF_RANGE])
+def test_each_field_has_a_range_naming_field_and_value(section, key, bad, good):
+    assert getattr(from_dict({section: {key: good}}), section).__getattribute__(key) == good
+    with pytest.raises(ConfigError) as info:
+        from_dict({section: {key: bad}})
+    assert f"{section}.{key}" in str(info.value) and repr(bad) in str(info.value)
+
+
+@pytest.mark.parametrize("key, value", [("lever_arm_m", [0.6, 0.0, 11.0]), ("lever_arm_m", [1e300, 0.0, 0.0])])
+def test_dvl_lever_arm_is_bounded(key, value):
+    with pytest.raises(ConfigError, match=r"dvl\.lever_arm_m\[\d\]"):
+        from_dict({"dvl": {key: value}})
+
+
+@pytest.mark.parametrize("key, value", [("pos_m", [2000.0, 0.0, 0.0]), ("vel_mps", [0.0, 11.0, 0.0])])
+def test_initial_errors_are_bounded(key, value):
+    with pytest.raises(ConfigError, match=rf"initial_error\.{key}\[\d\]"):
+        from_dict({"initial_error": {key: value}})
+
+
+@pytest.mark.parametrize("section, key", [("dvl", "rate_hz"), ("pressure", "rate_hz"), ("magnetometer", "rate_hz"),
+                                          ("filter", "output_rate_hz"), ("filter", "covariance_rate_hz")])
+def test_no_rate_above_the_imu_rate(section, key):
+    ok = from_dict({"imu": {"rate_hz": 50.0}, section: {key: 25.0 if section == "dvl" else 50.0}})
+    assert getattr(ok, section).__getattribute__(key) <= ok.imu.rate_hz
+    if section == "dvl":
+        return          # the DVL's own bound (25 Hz) is below the slowest IMU (50 Hz)
+    with pytest.raises(ConfigError, match=rf"{section}\.{key} must not exceed imu\.rate_hz"):
+        from_dict({"imu": {"rate_hz": 50.0}, section: {key: 60.0}})
+
+
+def test_zero_noise_everywhere_is_legal():
+    """--ideal and users set noises to zero; the filter handles it (a documented floor), so no refusal."""
+    cfg = from_dict({"imu": {k: 0.0 for k in ("accel_bias_mg", "gyro_bias_deg_per_h", "accel_noise_mps_per_sqrt_h",
+                                              "gyro_noise_deg_per_sqrt_h", "accel_bias_rw_mps2_per_sqrt_s",
+                                              "gyro_bias_rw_deg_per_s_per_sqrt_s")},
+                     "dvl": {"noise_mps": 0.0, "bias_mps": 0.0, "scale_factor_pct": 0.0},
+                     "pressure": {"noise_pa": 0.0},
+                     "magnetometer": {"roll_pitch_noise_deg": 0.0, "yaw_noise_deg": 0.0}})
+    assert cfg.dvl.noise_mps == 0.0 and cfg.pressure.noise_pa == 0.0 and cfg.imu == cfg.imu.ideal()
+
+
+def test_integers_beyond_the_float_range_are_refused():
+    with pytest.raises(ConfigError, match=r"imu\.accel_bias_mg must be a finite number, got <an integer of about 401"):
+        from_dict({"imu": {"accel_bias_mg": 10**400}})
+
+
+@pytest.mark.parametrize("section, key, value", [
+    ("run", "methods", ["lc", "lc"]), ("run", "aiding", ["dvl", "depth", "dvl"]), ("dvl", "beams", [2, 2]),
+])
+def test_duplicates_are_refused(section, key, value):
+    with pytest.raises(ConfigError, match=rf"{section}\.{key}"):
+        from_dict({section: {key: value}})
+
+
+@pytest.mark.parametrize("section, key, item", [("run", "methods", "lc"), ("run", "aiding", "dvl"), ("dvl", "beams", 1),
+                                                ("dvl", "lever_arm_m", 0.5)])
+def test_huge_lists_are_refused_cheaply(section, key, item):
+    """A 100,000-entry list used to be accepted (methods grew a 3.3 GB run); now its length is
+    checked before any entry, and the message quotes the start and the size."""
+    huge = [item] * 100_000
+    tracemalloc.start()
+    try:
+        with pytest.raises(ConfigError) as info:
+            from_dict({section: {key: huge}})
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert f"{section}.{key}" in str(info.value) and "(100000 items)" in str(info.value)
+    assert len(str(info.value)) < 300 and peak < 8 << 20, peak     # one tuple copy at most (0.8 MB)
+
+
+def test_huge_outage_list_is_refused():
+    outage = {"beams": [1], "start_s": 1.0, "end_s": 2.0}
+    with pytest.raises(ConfigError, match=r"dvl\.outages must be a list of at most 1000"):
+        from_dict({"dvl": {"outages": [outage] * 1001}})
+
+
+def test_merge_keeps_a_section_that_is_not_a_table():
+    merged = merge({"trajectory": True}, {"trajectory": {"duration_s": 3.0}})
+    with pytest.raises(ConfigError, match=r"\[trajectory\] must be a table, got True"):
+        from_dict(merged)
+
+
+@pytest.mark.parametrize("value, expected", [
+    ("short", "'short'"),
+    ("x" * 500_000, "'" + "x" * 60 + "'... (500000 characters)"),
+    (list(range(100_000)), "... (100000 items)"),
+    (10**5000, "<an integer of about 5001 digits>"),
+    (1.5, "1.5"),
+], ids=["short", "long string", "long list", "huge integer", "float"])
+def test_show_shortens_long_values(value, expected):
+    text = show(value)
+    assert text.endswith(expected) and len(text) < 100
+
+
+def test_show_path_keeps_the_file_name():
+    long = "/" + "d" * 300 + "/run.toml"
+    assert show_path(long).startswith("'...") and "run.toml" in show_path(long) and "(310 characters)" in show_path(long)
+    assert show_path("a.toml") == "'a.toml'"
+
+
+def test_read_toml_refuses_special_and_large_files_before_reading(tmp_path, monkeypatch):
+    opened = []
+    real_open = os.open
+    monkeypatch.setattr("tauvcore.config.os.open", lambda *a, **k: opened.append(a[0]) or real_open(*a, **k))
+    for path, needle in (("/dev/zero", "not a regular file"), (str(tmp_path), "is a directory")):
+        with pytest.raises(ConfigError, match=needle):
+            read_toml(path)
+    big = tmp_path / "big.toml"
+    big.write_bytes(b" " * (MAX_CONFIG_BYTES + 1))
+    with pytest.raises(ConfigError, match="larger than"):
+        read_toml(str(big))
+    assert opened == []                                   # refused on stat alone
+    ok = tmp_path / "ok.toml"
+    ok.write_bytes(b"[run]\nseed = 4\n" + b" " * (MAX_CONFIG_BYTES - 20))
+    assert read_toml(str(ok)) == {"run": {"seed": 4}} and opened == [str(ok)]
