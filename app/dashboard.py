@@ -10,17 +10,27 @@ viser's share button (an external relay service) is off; nothing is fetched from
 
 from __future__ import annotations
 
+import gc
+import inspect
+import json
+import logging
+import os
 import queue as queue_mod
+import signal
 import socket
+import sys
 import threading
 import time
+import uuid
+import warnings
 from typing import Any
 
 import numpy as np
 import plotly.graph_objects as go
 import viser
+from viser import _messages as viser_messages
 
-from app import worker
+from app import budget, inputs, worker
 from app.figures import (
     METHOD_COLORS,
     TRUTH_COLOR,
@@ -29,6 +39,7 @@ from app.figures import (
     error_figure,
     summary_markdown,
 )
+from app.inputs import Controls, InputError, config_from_controls, config_markdown
 from app.scene import (
     BEAM_COLORS,
     BEAM_OUTAGE,
@@ -45,7 +56,6 @@ from app.scene import (
 from tauvcore.config import METHODS, Config, to_dict
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
-from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError
 
@@ -54,15 +64,39 @@ GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a
 FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
 REJECT_REFERENCE = ("tc", "elc", "nsv", "vb", "vhv", "plcf", "lc")  # whose gate decides the red beams
-DVL_METHODS = tuple(m for m in METHODS if m != "ins")
+CONFIRM_TIMEOUT_S = 10.0     # how long Run waits for the page to report its controls (software WebGL stalls)
+VISER_STORAGE_PREFIX = "viser-user:"   # viser's client prefixes local_storage keys (MessageHandler.tsx)
+SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
+CHECKING_STATUS = "Checking the controls the page shows..."
+_SNAPSHOT_JS = """(() => {
+  // every control a run reads, as the page shows it: checkboxes by their input's id, the other
+  // inputs through their label (viser labels each input's row with label[for=id])
+  const out = {};
+  for (const id of __IDS__) {
+    let el = document.getElementById(id);
+    if (!(el instanceof HTMLInputElement)) {
+      const label = document.querySelector('label[for="' + id + '"]');
+      const row = label && label.parentElement && label.parentElement.parentElement;
+      const box = row && row.nextElementSibling;
+      el = box ? box.querySelector('input:not([type=hidden]), textarea') : null;
+    }
+    if (el) out[id] = el.type === "checkbox" ? el.checked : el.value;
+  }
+  // answers older than a minute were read long ago (or never will be): drop them here, since a
+  // removal sent by the server would wait for a 3-D frame and hold up the notification behind it
+  const now = Date.now();
+  for (const k of Object.keys(localStorage)) {
+    if (!k.startsWith(__PREFIX__)) continue;
+    let t = 0;
+    try { t = JSON.parse(localStorage.getItem(k)).t || 0; } catch (e) {}
+    if (now - t > 60000) localStorage.removeItem(k);
+  }
+  localStorage.setItem(__KEY__, JSON.stringify({t: now, values: out}));
+})();"""
 
 
 def _hex_rgb(color: str) -> tuple[int, int, int]:
     return tuple(int(color[i:i + 2], 16) for i in (1, 3, 5))  # type: ignore[return-value]
-
-
-class InputError(Exception):
-    """A control holds a value the run cannot use; the message names it and the value."""
 
 
 class Session:
@@ -86,31 +120,32 @@ class Session:
         d = Config()
         tabs = gui.add_tab_group()
         with tabs.add_tab("Mission"):
-            self.trajectory = gui.add_dropdown("Trajectory", TRAJECTORIES, initial_value=d.trajectory.name)
-            self.duration = gui.add_number("Duration [s]", d.trajectory.duration_s, step=1.0)
+            self.trajectory = gui.add_dropdown(inputs.TRAJECTORY, TRAJECTORIES, initial_value=d.trajectory.name)
+            # numeric fields are text: the server reads what was typed (see app.inputs)
+            self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
             with gui.add_folder("Methods"):
                 self.method_boxes = {m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS) for m in METHODS}
             with gui.add_folder("DVL beams"):
                 self.beam_boxes = [gui.add_checkbox(f"Beam {k}", True) for k in range(1, 5)]
-                self.dropout = gui.add_number("Dropout probability", d.dvl.dropout_probability, step=0.01,
-                                              hint="chance that each beam misses each ping")
+                self.dropout = gui.add_text(inputs.DROPOUT, f"{d.dvl.dropout_probability:g}",
+                                            hint="chance that each beam misses each ping")
             with gui.add_folder("Outages [s] (start = end: none)", expand_by_default=False):
-                self.outage = [(gui.add_number(f"Beam {k} outage start", 0.0, step=1.0),
-                                gui.add_number(f"Beam {k} outage end", 0.0, step=1.0)) for k in range(1, 5)]
+                self.outage = [tuple(gui.add_text(label, "0") for label in inputs.outage_labels(k))
+                               for k in range(1, 5)]
             with gui.add_folder("Aiding", expand_by_default=False):
                 self.aid_depth = gui.add_checkbox("Depth (pressure)", False)
                 self.aid_mag = gui.add_checkbox("Magnetometer", False)
             with gui.add_folder("Sensors (Table 2)", expand_by_default=False):
-                self.accel_bias = gui.add_number("Accel bias [mg]", d.imu.accel_bias_mg, step=0.1)
-                self.gyro_bias = gui.add_number("Gyro bias [deg/h]", d.imu.gyro_bias_deg_per_h, step=0.5)
-                self.accel_noise = gui.add_number("Accel noise [m/s/sqrt(h)]", d.imu.accel_noise_mps_per_sqrt_h,
-                                                  step=0.001)
-                self.gyro_noise = gui.add_number("Gyro noise [deg/sqrt(h)]", d.imu.gyro_noise_deg_per_sqrt_h, step=0.01)
-                self.dvl_noise = gui.add_number("DVL noise [m/s]", d.dvl.noise_mps, step=0.001)
-                self.dvl_bias = gui.add_number("DVL bias [m/s]", d.dvl.bias_mps, step=0.001)
-                self.dvl_sf = gui.add_number("DVL scale factor [%]", d.dvl.scale_factor_pct, step=0.1)
-            self.seed = gui.add_number("Seed", d.run.seed, step=1)
-            self.runs = gui.add_number("Runs", 1, step=1, hint="Monte Carlo runs; > 1 plots RMS curves")
+                self.accel_bias = gui.add_text(inputs.ACCEL_BIAS, f"{d.imu.accel_bias_mg:g}")
+                self.gyro_bias = gui.add_text(inputs.GYRO_BIAS, f"{d.imu.gyro_bias_deg_per_h:g}")
+                self.accel_noise = gui.add_text(inputs.ACCEL_NOISE, f"{d.imu.accel_noise_mps_per_sqrt_h:g}")
+                self.gyro_noise = gui.add_text(inputs.GYRO_NOISE, f"{d.imu.gyro_noise_deg_per_sqrt_h:g}")
+                self.dvl_noise = gui.add_text(inputs.DVL_NOISE, f"{d.dvl.noise_mps:g}")
+                self.dvl_bias = gui.add_text(inputs.DVL_BIAS, f"{d.dvl.bias_mps:g}")
+                self.dvl_sf = gui.add_text(inputs.DVL_SF, f"{d.dvl.scale_factor_pct:g}")
+            self.seed = gui.add_text(inputs.SEED, str(d.run.seed))
+            self.runs = gui.add_text(inputs.RUNS, "1",
+                                     hint=f"Monte Carlo runs (1 to {inputs.RUNS_MAX}); > 1 plots RMS curves")
             self.run_button = gui.add_button("Run", color="green")
             self.stop_button = gui.add_button("Stop", color="red", disabled=True)
             self.progress = gui.add_progress_bar(0.0, animated=False)
@@ -128,6 +163,7 @@ class Session:
             self.elc_plot = gui.add_plotly(go.Figure(), aspect=2.2, visible=False)
         with tabs.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
+            self.run_config = gui.add_markdown("")
 
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
@@ -154,43 +190,103 @@ class Session:
     def selected_methods(self) -> tuple[str, ...]:
         return tuple(m for m in METHODS if self.method_boxes[m].value)
 
+    def _confirmed_inputs(self) -> dict[str, Any]:
+        """The controls a run reads, keyed by their viser id."""
+        handles: list[Any] = [self.trajectory, self.duration, *self.method_boxes.values(), *self.beam_boxes,
+                              self.dropout, *(h for pair in self.outage for h in pair), self.aid_depth,
+                              self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
+                              self.dvl_noise, self.dvl_bias, self.dvl_sf, self.seed, self.runs]
+        return {h._impl.uuid: h for h in handles}
+
+    def confirm_page_state(self) -> int:
+        """Make the server's control values those the page shows; return how many differed.
+
+        viser's page sends every control change through ONE sender throttled to a message per
+        50 ms that keeps only the latest message, whatever control it is for
+        (client/src/ControlPanel/Generated.tsx, WebsocketUtils.makeThrottledMessageSender): of
+        three changes within 50 ms the middle one never leaves the browser, so the page shows it
+        and the server never hears of it. The client is prebuilt, so here, when Run is pressed,
+        the page reports every control as it shows it: a script (viser's RunJavascriptMessage)
+        writes the values to the tab's localStorage and the server reads them back
+        (LocalStorageGetItemRequest; the answer is sent unthrottled). Raises InputError if the
+        page does not answer within CONFIRM_TIMEOUT_S.
+        """
+        by_id = self._confirmed_inputs()
+        key = f"{SNAPSHOT_KEY_PREFIX}{uuid.uuid4().hex}"
+        script = (_SNAPSHOT_JS.replace("__IDS__", json.dumps(list(by_id)))
+                  .replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + SNAPSHOT_KEY_PREFIX))
+                  .replace("__KEY__", json.dumps(VISER_STORAGE_PREFIX + key)))
+        self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
+        try:
+            raw = self.client.local_storage.get_item(key, timeout=CONFIRM_TIMEOUT_S)
+        except TimeoutError:
+            raise InputError(f"the page did not report its controls within {CONFIRM_TIMEOUT_S:g} s; "
+                             "press Run again") from None
+        except RuntimeError as exc:
+            if "disconnected" in str(exc):
+                raise                       # the tab is gone: start_run drops the Run quietly
+            raise InputError("the page could not report its controls (its browser storage is blocked?): "
+                             f"{inputs.shown(str(exc))}") from None
+        return self.apply_page_values(by_id, raw)
+
+    @staticmethod
+    def apply_page_values(by_id: dict[str, Any], raw: str | None) -> int:
+        """Set each handle of ``by_id`` to the value the page reported in ``raw`` (the script's
+        JSON answer); return how many differed. InputError if the answer cannot be read or a
+        value cannot be the control's (a checkbox not true/false, a choice not among the options)."""
+        if raw is None:
+            # no page ran the script: a scripted (non-browser) client, whose controls are exactly
+            # the messages it sent; a browser runs the script before it answers (one batch, in order)
+            return 0
+        try:
+            answer = json.loads(raw)
+        except ValueError:
+            answer = None
+        shown_values = answer.get("values") if isinstance(answer, dict) else None
+        if not isinstance(shown_values, dict):
+            raise InputError("the page reported its controls in a form the server cannot read; reload the page")
+        changed = 0
+        for uid, handle in by_id.items():
+            if uid not in shown_values:
+                continue        # not on the page (an unmounted panel): the server's value stands
+            value = shown_values[uid]
+            if isinstance(handle, viser.GuiCheckboxHandle):
+                ok = isinstance(value, bool)
+            elif isinstance(handle, viser.GuiDropdownHandle):
+                ok = value in handle.options
+            else:
+                ok = isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
+            if not ok:
+                raise InputError(f"{handle.label}: the page shows {inputs.shown(str(value))}, "
+                                 "which this control cannot hold; reload the page")
+            if value != handle.value:
+                handle.value = value
+                changed += 1
+        return changed
+
+    def controls(self) -> Controls:
+        """What the controls hold (the server's copy; see :meth:`confirm_page_state`)."""
+        return Controls(
+            trajectory=self.trajectory.value, duration=self.duration.value, methods=self.selected_methods(),
+            beams=tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value), dropout=self.dropout.value,
+            outages=tuple((start.value, end.value) for start, end in self.outage),
+            aid_depth=self.aid_depth.value, aid_mag=self.aid_mag.value, accel_bias=self.accel_bias.value,
+            gyro_bias=self.gyro_bias.value, accel_noise=self.accel_noise.value, gyro_noise=self.gyro_noise.value,
+            dvl_noise=self.dvl_noise.value, dvl_bias=self.dvl_bias.value, dvl_sf=self.dvl_sf.value,
+            seed=self.seed.value, runs=self.runs.value)
+
     def read_config(self) -> tuple[Config, int]:
-        """The configuration the controls describe; InputError/ConfigError name the bad field."""
-        methods = self.selected_methods()
-        if not methods:
-            raise InputError("Methods: select at least one method")
-        runs = self.runs.value
-        if not float(runs).is_integer() or runs < 1:
-            raise InputError(f"Runs must be a whole number >= 1, got {runs!r}")
-        seed = self.seed.value
-        if not float(seed).is_integer() or seed < 0:
-            raise InputError(f"Seed must be a whole number >= 0, got {seed!r}")
-        beams = tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value)
-        dvl_methods = [m for m in methods if m in DVL_METHODS]
-        if dvl_methods and not beams:
-            raise InputError("DVL beams: all four are off, so no DVL method can aid; switch a beam on or select INS only")
-        if dvl_methods == ["lc"] and len(beams) < 3:
-            raise InputError(f"LC needs three or more beams, but only {len(beams)} "
-                             f"({', '.join(map(str, beams)) or 'none'}) are on; add TC or an ELC method")
-        outages = []
-        for k, (start, end) in enumerate(self.outage, start=1):
-            if start.value == end.value == 0.0:
-                continue
-            if end.value <= start.value:
-                raise InputError(f"Beam {k} outage ends ({end.value:g} s) before it starts ({start.value:g} s)")
-            outages.append(Outage(beams=(k,), start_s=float(start.value), end_s=float(end.value)))
-        aiding = ("dvl",) + (("depth",) if self.aid_depth.value else ()) + (("mag",) if self.aid_mag.value else ())
-        config = (Config()
-                  .replace("trajectory", name=self.trajectory.value, duration_s=float(self.duration.value))
-                  .replace("imu", accel_bias_mg=float(self.accel_bias.value), gyro_bias_deg_per_h=float(self.gyro_bias.value),
-                           accel_noise_mps_per_sqrt_h=float(self.accel_noise.value),
-                           gyro_noise_deg_per_sqrt_h=float(self.gyro_noise.value))
-                  .replace("dvl", noise_mps=float(self.dvl_noise.value), bias_mps=float(self.dvl_bias.value),
-                           scale_factor_pct=float(self.dvl_sf.value), beams=beams,
-                           dropout_probability=float(self.dropout.value))
-                  .replace("run", methods=methods, aiding=aiding, seed=int(seed)))
-        config = config.replace("dvl", outages=tuple(outages))
-        return config, int(runs)
+        """The configuration the controls describe and its run count; InputError names the bad
+        control and its value, also when the run would not fit the memory budget (app.budget)."""
+        config, runs = config_from_controls(self.controls())
+        try:
+            limit = budget.budget_bytes()
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+        too_big = budget.over_budget_message(budget.estimate_run(config, runs), limit)
+        if too_big is not None:
+            raise InputError(f"{inputs.DURATION} {config.trajectory.duration_s:g} s, {inputs.RUNS} {runs}: {too_big}")
+        return config, runs
 
     # ------------------------------------------------------------------ runs
     def start_run(self) -> None:
@@ -198,10 +294,16 @@ class Session:
             if self.handle is not None:
                 self.notify("Already running", "Press Stop first, or wait for the run to finish.", error=True)
                 return
+            # shown at once (a GUI-only message); the page's answer waits for one 3-D frame of it
+            previous, self.status.content = self.status.content, CHECKING_STATUS
             try:
+                self.confirm_page_state()
                 config, runs = self.read_config()
             except (InputError, ConfigError) as exc:
+                self.status.content = previous
                 self.notify("Cannot run", str(exc), error=True)
+                return
+            except RuntimeError:    # the tab closed while it was asked for its controls
                 return
             self.config, self.results, self.truth_view = config, None, None
             self.handle = handle = self.pool.start(to_dict(config), runs)
@@ -209,6 +311,7 @@ class Session:
         self.progress.value = 0.0
         self.status.content = f"Running {config.trajectory.name}, {config.trajectory.duration_s:g} s, " \
                               f"{runs} run(s): {', '.join(m.upper() for m in config.run.methods)}"
+        self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
         self.time_slider.max = config.trajectory.duration_s
         self._clear_trajectories()
@@ -221,15 +324,28 @@ class Session:
             handle.stop()
 
     def _pump(self, handle: worker.RunHandle, config: Config) -> None:
-        """Read the worker's messages and update this tab (runs in a thread of this session)."""
+        """Read the worker's messages and update this tab (runs in a thread of this session).
+
+        While every worker is busy the run waits in line, and the status says its place; a
+        worker that dies ends the run with an "error" message (app.worker), shown as a
+        notification like any failed run.
+        """
         last_draw = 0.0
         pending: dict[str, MethodResult] | None = None
         finished = False
+        running_status = self.status.content
+        place = 0
         try:
             while not finished:
                 try:
                     msg = handle.queue.get(timeout=0.1)
                 except queue_mod.Empty:
+                    now_place = handle.position()
+                    if now_place != place:
+                        place = now_place
+                        self.status.content = (running_status if place == 0 else
+                                               f"Waiting for a free worker: {place - 1} run(s) ahead "
+                                               f"({self.pool.workers} compute at once).")
                     if handle.finished() and handle.queue.empty():
                         if pending is not None:
                             self._show_results(pending, config)
@@ -451,6 +567,147 @@ def summary_line(results: dict[str, MethodResult]) -> str:
     return "Final velocity error: " + ", ".join(parts)
 
 
+MAX_CLIENT_MESSAGE_BYTES = 1 << 20   # a page sends control changes and camera poses: a few kB
+MALFORMED_LOG_PERIOD_S = 10.0        # dropped client messages are summed into one log line per period
+SHUTDOWN_DEADLINE_S = 1.5            # after SIGTERM/SIGINT the process exits by then, whatever hangs
+REFUSED_CLIENT_MESSAGES = ("ShareUrlRequest", "ShareUrlDisconnect")  # the share tunnel reaches the internet
+RECLAIM_PERIOD_S = 2.0               # after a tab closes, its memory is collected and trimmed this much later
+MALLOC_ARENAS = 2                    # glibc malloc arenas of the server process (see bound_malloc_arenas)
+M_ARENA_MAX = -8                     # mallopt parameter number (glibc malloc.h)
+
+
+class _DropLog:
+    """Counts dropped client messages; at most one line per MALFORMED_LOG_PERIOD_S on stderr, no traceback."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.count = 0          # dropped since the server started
+        self.unlogged = 0
+        self.last_log = -MALFORMED_LOG_PERIOD_S
+
+    def drop(self, reason: str) -> None:
+        with self.lock:
+            self.count += 1
+            self.unlogged += 1
+            now = time.monotonic()
+            if now - self.last_log < MALFORMED_LOG_PERIOD_S:
+                return
+            n, self.unlogged, self.last_log = self.unlogged, 0, now
+        reason = reason if len(reason) <= 200 else reason[:200] + "..."
+        print(f"tauv dashboard: dropped {n} malformed client message(s); last: {reason}",
+              file=sys.stderr, flush=True)
+
+
+DROPPED = _DropLog()
+
+
+def harden_client_messages() -> bool:
+    """Make viser drop a malformed client message instead of failing on it; True if installed.
+
+    viser 1.1 reads each connection's frames in ``viser.infra._infra._message_consumer``
+    (``raw = await websocket.recv(); assert isinstance(raw, bytes); message =
+    Message.deserialize(raw); handle_message(message)``): random bytes, truncated msgpack, an
+    unknown ``type`` or a text frame raise there, which ends the connection with a traceback in
+    the log; a message that decodes but carries wrong field types raises later in its handler
+    task (``WebsockMessageHandler._handle_incoming_message``), logged by asyncio with a traceback
+    as "Task exception was never retrieved". This replaces the consumer with one that drops such
+    a frame (and any frame over MAX_CLIENT_MESSAGE_BYTES; websockets itself refuses larger frames
+    before reading them, see :func:`_limit_frames`) and the share-tunnel requests, and wraps the
+    handler dispatch so a handler's exception drops that one message. Both are counted in
+    :data:`DROPPED` and summed into one log line per MALFORMED_LOG_PERIOD_S. The connection and
+    every other client carry on. Process-wide and idempotent; if viser's internals have changed
+    shape, nothing is patched and False is returned (the server still runs, as viser made it).
+    """
+    try:
+        from viser.infra import _infra
+        consumer_params = list(inspect.signature(_infra._message_consumer).parameters)
+        dispatch = _infra.WebsockMessageHandler._handle_incoming_message
+    except (ImportError, AttributeError, TypeError, ValueError):
+        return False
+    if getattr(_infra, "_tauv_hardened", False):
+        return True
+    if consumer_params != ["websocket", "handle_message", "message_class"]:
+        return False
+
+    async def message_consumer(websocket: Any, handle_message: Any, message_class: Any) -> None:
+        _limit_frames(websocket)
+        while True:
+            raw = await websocket.recv()     # ConnectionClosed ends the connection, as in viser
+            if not isinstance(raw, (bytes, bytearray)):
+                DROPPED.drop("a text frame")
+                continue
+            if len(raw) > MAX_CLIENT_MESSAGE_BYTES:
+                DROPPED.drop(f"a frame of {len(raw)} bytes")
+                continue
+            try:
+                message = message_class.deserialize(bytes(raw))
+            except Exception as exc:  # noqa: BLE001 - any decoding failure is the client's
+                DROPPED.drop(f"{type(exc).__name__}: {exc}")
+                continue
+            if type(message).__name__ in REFUSED_CLIENT_MESSAGES:
+                DROPPED.drop(f"{type(message).__name__} (the share tunnel is disabled)")
+                continue
+            handle_message(message)
+
+    async def guarded_dispatch(self: Any, client_id: Any, message: Any) -> None:
+        try:
+            await dispatch(self, client_id, message)
+        except Exception as exc:  # noqa: BLE001 - a handler refusing a malformed message
+            DROPPED.drop(f"{type(message).__name__}: {type(exc).__name__}: {exc}")
+
+    _infra._message_consumer = message_consumer
+    _infra.WebsockMessageHandler._handle_incoming_message = guarded_dispatch
+    logging.getLogger("websockets.server").addFilter(_connection_failure_filter)
+    _infra._tauv_hardened = True
+    return True
+
+
+def _connection_failure_filter(record: logging.LogRecord) -> bool:
+    """websockets logs a connection that is not a websocket handshake (a port scan, a bare TCP
+    connect, garbage instead of HTTP) or whose handler failed with a full traceback: count it as
+    a dropped client message instead (one summed line, see :data:`DROPPED`)."""
+    message = record.getMessage()
+    if message in ("opening handshake failed", "connection handler failed"):
+        exc = record.exc_info[1] if record.exc_info else None
+        DROPPED.drop(f"{message}: {type(exc).__name__}: {exc}" if exc is not None else message)
+        return False
+    return True
+
+
+def _limit_frames(websocket: Any) -> None:
+    """Lower this connection's largest accepted message to MAX_CLIENT_MESSAGE_BYTES (viser asks
+    websockets for 50 MB). websockets checks a frame's declared length before reading its payload
+    and closes the connection with code 1009, so an oversized frame costs no memory."""
+    protocol = getattr(websocket, "protocol", None)
+    current = getattr(protocol, "max_message_size", None)
+    if protocol is not None and (current is None or current > MAX_CLIENT_MESSAGE_BYTES):
+        protocol.max_message_size = MAX_CLIENT_MESSAGE_BYTES
+
+
+def disable_share_tunnel(server: viser.ViserServer) -> None:
+    """Make viser's share tunnel (a relay at share.viser.studio) impossible to start.
+
+    ``show_share_button=False`` only hides the button: viser still registers handlers that start
+    the tunnel on a client's ``ShareUrlRequest``. They are unregistered here, and
+    ``request_share_url`` (which they call) is replaced by a refusal, so neither a client message
+    nor a stray call reaches outside this machine; :func:`harden_client_messages` also drops the
+    two messages before dispatch.
+    """
+    websock = getattr(server, "_websock_server", None)
+    for name in REFUSED_CLIENT_MESSAGES:
+        cls = getattr(viser_messages, name, None)
+        handlers = getattr(websock, "_incoming_handlers", {})
+        if cls is not None and cls in handlers:
+            websock.unregister_handler(cls)
+
+    def refuse(verbose: bool = True) -> None:
+        print("tauv dashboard: share URL refused (the dashboard never connects outside this machine)",
+              file=sys.stderr, flush=True)
+        return None
+
+    server.request_share_url = refuse  # type: ignore[method-assign]
+
+
 def check_listen(host: str, port: int) -> None:
     """Raise OSError if ``host:port`` cannot be bound: viser would silently move to another
     port, and a user (or a Docker port mapping) would look for the dashboard in the wrong place."""
@@ -460,44 +717,170 @@ def check_listen(host: str, port: int) -> None:
         s.bind((host, port))
 
 
-def build_server(host: str = "127.0.0.1", port: int = 8080) -> tuple[viser.ViserServer, worker.RunPool]:
-    """Start the viser server with one :class:`Session` per connected tab."""
+def build_server(host: str = "127.0.0.1", port: int = 8080,
+                 workers: int | None = None) -> tuple[viser.ViserServer, worker.RunPool]:
+    """Start the viser server with one :class:`Session` per connected tab and ``workers`` run
+    processes (default :func:`app.worker.default_workers`)."""
     check_listen(host, port)
-    pool = worker.RunPool()
-    server = viser.ViserServer(host=host, port=port, label="tauv", verbose=False)
+    harden_client_messages()
+    pool = worker.RunPool(workers)
+    try:
+        server = viser.ViserServer(host=host, port=port, label="tauv", verbose=False)
+    except BaseException:
+        pool.shutdown()
+        raise
+    disable_share_tunnel(server)
     start = ned_to_view(np.array([0.0, 0.0, Config().trajectory.depth_m]))
     server.initial_camera.position = tuple(start + np.array([-0.6, -0.8, 0.6]) * FOLLOW_DISTANCE_M)
     server.initial_camera.look_at = tuple(start)
     server.gui.configure_theme(control_layout="fixed", control_width="large", show_share_button=False,
                                show_logo=False, brand_color=(31, 119, 180))
     sessions: dict[int, Session] = {}
+    departed: set[int] = set()     # tabs that left while their Session was still being built
+    lock = threading.Lock()
 
     @server.on_client_connect
     def _(client: viser.ClientHandle) -> None:
-        sessions[client.client_id] = Session(client, pool)
+        session = Session(client, pool)   # takes a while: the tab may close meanwhile
+        with lock:
+            gone = client.client_id in departed
+            departed.discard(client.client_id)
+            if not gone:
+                sessions[client.client_id] = session
+        if gone:   # its disconnect came first: without this the Session (~MBs) lived forever
+            session.close()
+            RECLAIM.soon()
 
     @server.on_client_disconnect
     def _(client: viser.ClientHandle) -> None:
-        session = sessions.pop(client.client_id, None)
+        with lock:
+            session = sessions.pop(client.client_id, None)
+            if session is None:
+                departed.add(client.client_id)
         if session is not None:
             session.close()
+        RECLAIM.soon()
 
     return server, pool
 
 
-def main(host: str = "127.0.0.1", port: int = 8080) -> None:
-    """Serve the dashboard until interrupted."""
-    server, pool = build_server(host, port)
+class ShutdownRequest:
+    """Set by SIGTERM or SIGINT (see :func:`install_shutdown_handlers`)."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None   # the first signal received
+        self.serving = False             # startup finished: a signal now only asks the loop to end
+
+
+def install_shutdown_handlers() -> ShutdownRequest:
+    """Handle SIGTERM and SIGINT explicitly, both ending the server with exit status 0.
+
+    Explicit handlers matter as PID 1 of a PID namespace (Docker without ``--init``): the kernel
+    drops a signal PID 1 has no handler for, so SIGTERM did nothing and ``docker stop`` waited
+    10 s for SIGKILL. The handler only records the signal (it runs between two bytecodes of the
+    main thread, possibly inside a lock, so it must not take one); :func:`main`'s loop sees it
+    within 0.1 s. During startup it raises SystemExit(0) instead, so a slow start can be stopped.
+    """
+    request = ShutdownRequest()
+
+    def handler(signum: int, frame: Any) -> None:
+        if request.signum is None:
+            request.signum = signum
+        if not request.serving:
+            raise SystemExit(0)
+
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, handler)
+    return request
+
+
+def bound_malloc_arenas(arenas: int = MALLOC_ARENAS) -> bool:
+    """Cap glibc's malloc arenas for this process (True if set).
+
+    glibc gives each thread that allocates concurrently its own arena (up to 8 per core) and
+    rarely returns their memory: viser builds each tab and runs each callback on a pool of up to
+    32 threads, so a burst of connections (even hostile ones, closed at once) left the server's
+    resident memory hundreds of MB higher for good. Two arenas keep it flat at no measurable
+    cost to a server whose threads mostly wait. Must run before those threads start."""
+    try:
+        import ctypes
+        return ctypes.CDLL(None).mallopt(M_ARENA_MAX, arenas) == 1
+    except (OSError, AttributeError):   # not glibc
+        return False
+
+
+class _MemoryReclaimer:
+    """After tabs close, collect their cycles and hand freed heap back to the OS (glibc's
+    ``malloc_trim``), at most once per RECLAIM_PERIOD_S: a tab's Session holds MBs of figures and
+    scene buffers in reference cycles, and without this the server's resident memory only grows
+    under a stream of connections, even hostile ones that close at once."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.scheduled = False
+
+    def soon(self) -> None:
+        with self.lock:
+            if self.scheduled:
+                return
+            self.scheduled = True
+        timer = threading.Timer(RECLAIM_PERIOD_S, self._run)
+        timer.daemon = True
+        timer.start()
+
+    def _run(self) -> None:
+        with self.lock:
+            self.scheduled = False
+        gc.collect()
+        try:
+            import ctypes
+            ctypes.CDLL(None).malloc_trim(0)
+        except (OSError, AttributeError):   # not glibc
+            pass
+
+
+RECLAIM = _MemoryReclaimer()
+
+
+def _exit_now() -> None:
+    """The shutdown deadline passed (a callback thread hangs): leave without waiting for it."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(0)
+
+
+def shutdown(server: viser.ViserServer, pool: worker.RunPool) -> None:
+    """Kill the run workers first (a busy one is not awaited), then stop viser. Whatever still
+    hangs after SHUTDOWN_DEADLINE_S (a tab's callback thread waiting on its page, say) is cut
+    short by a daemon timer that ends the process with status 0 (the children are dead by then)."""
+    # a tab's run thread may still update its page after viser has closed the connections
+    warnings.filterwarnings("ignore", message="Queued a .* on a closed connection")
+    watchdog = threading.Timer(SHUTDOWN_DEADLINE_S, _exit_now)
+    watchdog.daemon = True
+    watchdog.start()         # never cancelled: it also bounds the interpreter's own exit
+    try:
+        pool.shutdown()
+    finally:
+        server.stop()
+
+
+def main(host: str = "127.0.0.1", port: int = 8080, workers: int | None = None) -> None:
+    """Serve the dashboard until SIGTERM or SIGINT (Ctrl-C); every child process ends with it."""
+    request = install_shutdown_handlers()
+    bound_malloc_arenas()
+    server, pool = build_server(host, port, workers)
+    request.serving = True
     shown = "localhost" if host in ("127.0.0.1", "0.0.0.0") else host
     print(f"tauv dashboard: http://{shown}:{server.get_port()}", flush=True)
     try:
-        while True:
-            time.sleep(3600.0)
-    except KeyboardInterrupt:
-        pass
+        while request.signum is None:
+            time.sleep(0.1)
+        print(f"tauv dashboard: {signal.Signals(request.signum).name} received, stopping", flush=True)
     finally:
-        server.stop()
-        pool.shutdown()
+        shutdown(server, pool)
 
 
 __all__ = ["Session", "build_server", "main"]

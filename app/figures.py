@@ -112,7 +112,9 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220) -> go.Figure:
 
 
 def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | str]]:
-    """Final and RMS-over-time errors per method (RMS over runs first when there are several)."""
+    """Final and RMS-over-time errors per method (RMS over runs first when there are several),
+    and the filter's health: how many runs the divergence monitor flagged, the earliest flag
+    [s] (NaN if none) and the P eigenvalue-floor repairs summed over runs."""
     rows = []
     for method, res in results.items():
         def curve(x: np.ndarray) -> np.ndarray:
@@ -120,15 +122,37 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | 
         vel, att, pos = curve(res.vel_err_mps), curve(res.att_err_deg), curve(res.pos_err_m)
         rows.append({"method": method.upper(), "vel_final_mps": float(vel[-1]), "vel_rms_mps": float(rms(vel)),
                      "att_final_deg": float(att[-1]), "att_rms_deg": float(rms(att)),
-                     "pos_final_m": float(pos[-1]), "pos_rms_m": float(rms(pos))})
+                     "pos_final_m": float(pos[-1]), "pos_rms_m": float(rms(pos)),
+                     "runs": int(res.diverged.size), "diverged_runs": int(np.count_nonzero(res.diverged)),
+                     "diverged_first_s": float(np.nanmin(res.diverged_at_s)) if res.diverged.any() else float("nan"),
+                     "p_floor_count": int(np.sum(res.p_floor_count))})
     return rows
 
 
+def _health_cell(row: Mapping[str, float | str]) -> str:
+    """"yes", or when the divergence monitor flagged runs, when (and how many of the runs)."""
+    if not row["diverged_runs"]:
+        return "yes"
+    at = f"diverged at {row['diverged_first_s']:.1f} s"
+    if row["runs"] == 1:
+        return f"no: {at}"
+    return f"no: {row['diverged_runs']} of {row['runs']} runs, first {at}"
+
+
 def summary_markdown(results: Mapping[str, MethodResult]) -> str:
-    """The results table as Markdown (the dashboard shows it as text a person and a test can read)."""
-    lines = ["| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] |",
-             "|---|---|---|---|---|"]
-    for r in summary_rows(results):
+    """The results table as Markdown (the dashboard shows it as text a person and a test can read).
+
+    The "consistent?" column is the divergence monitor's verdict (tauvcore.eval.runner: state or
+    P not finite, or the innovations inconsistent); a "P floors" column (repairs of P summed over
+    runs) appears only when some method needed one.
+    """
+    rows = summary_rows(results)
+    floors = any(r["p_floor_count"] for r in rows)
+    lines = ["| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] | consistent? |"
+             + (" P floors |" if floors else ""),
+             "|---|---|---|---|---|---|" + ("---|" if floors else "")]
+    for r in rows:
         lines.append(f"| {r['method']} | {r['vel_final_mps']:.4f} | {r['vel_rms_mps']:.4f} | "
-                     f"{r['att_final_deg']:.3f} | {r['pos_final_m']:.2f} |")
+                     f"{r['att_final_deg']:.3f} | {r['pos_final_m']:.2f} | {_health_cell(r)} |"
+                     + (f" {r['p_floor_count']} |" if floors else ""))
     return "\n".join(lines)

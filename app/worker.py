@@ -1,26 +1,38 @@
-"""Runs in a pool of worker processes, streaming progress to the dashboard through queues.
+"""Runs in a pool of worker processes, streaming progress to the dashboard.
 
 Separate processes keep a long run from holding the server's interpreter: two tabs running at
 once use both cores, and neither tab's controls wait on the other's run. The processes start
 with the server (numpy, scipy and tauvcore already imported when Run is pressed) and lower
 their own priority, so on a small machine the interactive server and the browser win the CPU
-over a background computation. Messages on a run's queue:
+over a background computation. Messages on a run's queue (:attr:`RunHandle.queue`):
 
 - ``("truth", dict)``: the truth at the output epochs and the DVL pings, for the 3-D view;
 - ``("progress", t_s, results)``: results so far, every ``progress_interval_s`` simulated seconds;
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results;
-- ``("error", message)``: one line, for a notification.
+- ``("error", message)``: one line, for a notification (also when the worker process died).
+
+The pool is this module's own, not ``concurrent.futures.ProcessPoolExecutor``: one dead
+worker (the out-of-memory killer's SIGKILL) breaks a ``ProcessPoolExecutor`` for good and kills
+the runs of its other workers with it. Here each worker is one process with one pipe; a
+dispatcher thread in the server forwards each worker's messages to its run's queue, notices a
+worker's death through the process sentinel, ends that run alone with an error naming the
+signal, and starts a replacement. Runs beyond the worker count wait in line (first come, first
+served) and can ask their place (:meth:`RunHandle.position`). There is no manager process and
+no cross-process lock: Stop is a message on the worker's pipe, which the run polls.
 """
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import multiprocessing as mp
+import multiprocessing.connection as mp_connection
 import os
+import queue as queue_mod
+import signal
+import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ProcessPoolExecutor
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,11 +43,19 @@ from tauvcore.eval.runner import MethodResult, run, simulate
 WORKER_NICENESS = 10
 PROGRESS_MIN_WALL_S = 0.8     # live updates at most this often (wall time)
 PROGRESS_MAX_EPOCHS = 1200    # output epochs per live update (evenly thinned, last one kept)
-STOP_POLL_S = 0.05            # how often the run asks the (cross-process) stop flag
+STOP_POLL_S = 0.05            # how often the run looks for a Stop message on its pipe (wall time)
+WORKER_START_TIMEOUT_S = 120.0  # a worker imports numpy, scipy and tauvcore before it is ready
+MAX_START_FAILURES = 3        # workers dying before they are ready: give up replacing them
+PR_SET_PDEATHSIG = 1          # prctl option (linux/prctl.h): signal this process when its parent dies
+
+
+def default_workers() -> int:
+    """min(2, CPU count): two tabs compute at once, and a small machine keeps a core for the server."""
+    return max(1, min(2, os.cpu_count() or 1))
 
 
 def _throttled(check: Callable[[], bool], period_s: float) -> Callable[[], bool]:
-    """``check`` asked at most every ``period_s`` (it is a round trip to the manager process)."""
+    """``check`` asked at most every ``period_s`` (wall time); once true it stays true."""
     state = {"t": 0.0, "value": False}
 
     def wrapped() -> bool:
@@ -63,20 +83,10 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
     return out
 
 
-def _init_worker() -> None:
-    try:
-        os.nice(WORKER_NICENESS)
-    except OSError:  # not permitted: run at normal priority
-        pass
-
-
-def _warm() -> int:
-    return os.getpid()
-
-
 def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_event: Any,
                progress_interval_s: float = 2.0) -> None:
-    """Simulate, run all methods, stream results (runs in a pool process)."""
+    """Simulate, run all methods, stream results to ``queue`` (anything with ``put``); the run
+    ends early once ``stop_event.is_set()`` (anything with ``is_set``)."""
     try:
         config = from_dict(config_dict)
         if num_runs > 1:
@@ -106,37 +116,368 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
         queue.put(("error", f"{type(exc).__name__}: {exc}"))
 
 
-@dataclass
-class RunHandle:
-    """One submitted run: its future, message queue and stop flag."""
+# ---------------------------------------------------------------------------- worker process side
+class _PipeQueue:
+    """``put`` sends the message to the server over the worker's pipe."""
 
-    future: Future
-    queue: Any
-    stop_event: Any
+    def __init__(self, conn: mp_connection.Connection) -> None:
+        self._conn = conn
+
+    def put(self, message: tuple) -> None:
+        self._conn.send(message)
+
+
+class _PipeStop:
+    """``is_set`` is true once the server has sent ``("stop",)`` for the current run."""
+
+    def __init__(self, conn: mp_connection.Connection) -> None:
+        self._conn = conn
+        self._stopped = False
+
+    def is_set(self) -> bool:
+        # during a run the server sends nothing but Stop, so every pending message is one
+        while not self._stopped and self._conn.poll():
+            self._stopped = self._conn.recv()[0] == "stop"
+        return self._stopped
+
+
+def _die_with_parent() -> None:
+    """Ask the kernel to SIGKILL this process when the server dies (even by SIGKILL itself), so
+    no worker outlives it computing for nobody (Linux; elsewhere the closed pipe ends it)."""
+    parent = os.getppid()
+    try:
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # the server died before the request took effect
+        os._exit(0)
+
+
+def _worker_main(conn: mp_connection.Connection) -> None:
+    """A worker process: announce itself, then run one task at a time until the pipe closes."""
+    _die_with_parent()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the server ends us
+    try:
+        os.nice(WORKER_NICENESS)
+    except OSError:  # not permitted: run at normal priority
+        pass
+    try:
+        conn.send(("ready", os.getpid()))
+        while True:
+            message = conn.recv()
+            if message[0] == "run":
+                _, config_dict, num_runs, progress_interval_s = message
+                run_worker(config_dict, num_runs, _PipeQueue(conn), _PipeStop(conn), progress_interval_s)
+                conn.send(("end",))
+            # ("stop",) after its run had ended: nothing to stop
+    except (EOFError, OSError):  # the server closed the pipe (or died): nothing left to do
+        pass
+
+
+# ---------------------------------------------------------------------------- server side
+class RunHandle:
+    """One submitted run: its message queue (``queue.Queue`` of the tuples above), Stop, state."""
+
+    def __init__(self, pool: RunPool, task: tuple) -> None:
+        self.queue: queue_mod.Queue = queue_mod.Queue()
+        self._pool = pool
+        self._task = task
+        self._done = threading.Event()
 
     def stop(self) -> None:
-        self.stop_event.set()
-        self.future.cancel()   # a run still waiting for a free process never starts
+        """End the run: a waiting run never starts, a computing one returns its partial results."""
+        self._pool._stop(self)
 
     def finished(self) -> bool:
-        return self.future.done()
+        """True once every message of the run is on :attr:`queue` (done, error, or never started)."""
+        return self._done.is_set()
+
+    def position(self) -> int:
+        """0 while computing (or finished), k >= 1 while waiting with k - 1 runs ahead of it."""
+        return self._pool._position(self)
+
+
+@dataclasses.dataclass(eq=False)
+class _Worker:
+    """One worker process as the server sees it."""
+
+    process: Any                    # multiprocessing Process (spawn context)
+    conn: mp_connection.Connection  # the server's end of the worker's pipe
+    ready: bool = False             # imports done, waiting for a task
+    handle: RunHandle | None = None  # the run it computes
+    stop_sent: bool = False         # Stop already sent for that run
+
+
+def death_message(exitcode: int | None) -> str:
+    """One line for the tab whose run was on a worker that died with ``exitcode``."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = "unknown signal"
+        cause = f"killed by signal {-exitcode} ({name}"
+        cause += ", as the out-of-memory killer does)" if -exitcode == signal.SIGKILL else ")"
+    else:
+        cause = f"exit status {exitcode}"
+    return (f"the worker computing this run died ({cause}); a new worker replaces it. "
+            "Press Run to try again (a shorter mission or fewer runs needs less memory).")
 
 
 class RunPool:
-    """The server's worker processes (one per core by default)."""
+    """The server's worker processes: at most ``workers`` runs compute at once, the rest wait.
 
-    def __init__(self, workers: int = 2) -> None:
-        ctx = mp.get_context("spawn")   # no fork of a threaded server
-        self._manager = ctx.Manager()
-        self._executor = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
-        for f in [self._executor.submit(_warm) for _ in range(workers)]:
-            f.result()
+    Parameters
+    ----------
+    workers : number of worker processes (default :func:`default_workers`).
+    """
 
-    def start(self, config_dict: dict[str, Any], num_runs: int) -> RunHandle:
-        queue, stop_event = self._manager.Queue(), self._manager.Event()
-        future = self._executor.submit(run_worker, config_dict, num_runs, queue, stop_event)
-        return RunHandle(future=future, queue=queue, stop_event=stop_event)
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = default_workers() if workers is None else int(workers)
+        if self.workers < 1:
+            raise ValueError(f"workers must be >= 1, got {workers!r}")
+        self._ctx = mp.get_context("spawn")   # no fork of a threaded server
+        self._lock = threading.Lock()
+        self._workers: list[_Worker] = []
+        self._pending: collections.deque[RunHandle] = collections.deque()
+        self._closed = False
+        self._start_failures = 0
+        self._broken: str | None = None       # set when workers cannot even start
+        self._wake_r, self._wake_w = os.pipe()
+        self._ready = threading.Condition(self._lock)
+        # every worker is started by the dispatcher thread, which lives as long as the pool:
+        # the kernel's parent-death signal follows the thread that forked the process
+        self._thread = threading.Thread(target=self._dispatch, name="tauv-run-pool", daemon=True)
+        self._thread.start()
+        deadline = time.monotonic() + WORKER_START_TIMEOUT_S
+        with self._ready:
+            while sum(w.ready for w in self._workers) < self.workers and self._broken is None:
+                if not self._ready.wait(timeout=max(0.0, deadline - time.monotonic())):
+                    break
+            broken = self._broken
+        if broken is not None:
+            self.shutdown()
+            raise RuntimeError(broken)
+
+    # ------------------------------------------------------------------ API
+    def start(self, config_dict: dict[str, Any], num_runs: int, progress_interval_s: float = 2.0) -> RunHandle:
+        """Queue a run; it computes as soon as a worker is free."""
+        handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s))
+        with self._lock:
+            if self._closed or self._broken is not None:
+                handle.queue.put(("error", self._broken or "the server is shutting down"))
+                handle._done.set()
+                return handle
+            self._pending.append(handle)
+        self._wake()
+        return handle
+
+    def pids(self) -> list[int]:
+        """Process ids of the current worker processes (for tests and diagnostics)."""
+        with self._lock:
+            return [w.process.pid for w in self._workers if w.process.pid is not None]
+
+    def busy_pids(self) -> list[int]:
+        """Process ids of the workers computing a run now."""
+        with self._lock:
+            return [w.process.pid for w in self._workers if w.handle is not None]
 
     def shutdown(self) -> None:
-        self._executor.shutdown(wait=False, cancel_futures=True)
-        self._manager.shutdown()
+        """Kill every worker at once (a run in progress is abandoned, not awaited) and reap them."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            workers, self._workers = self._workers, []
+            handles = [w.handle for w in workers if w.handle is not None] + list(self._pending)
+            self._pending.clear()
+        for w in workers:
+            try:
+                w.process.kill()
+            except (OSError, AttributeError):  # never started, or already reaped
+                pass
+        self._wake()
+        for w in workers:
+            w.process.join(timeout=1.0)
+            w.conn.close()
+        self._thread.join(timeout=1.0)
+        for handle in handles:
+            handle.queue.put(("error", "the server is shutting down"))
+            handle._done.set()
+        for fd in (self._wake_r, self._wake_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        _stop_resource_tracker()
+
+    # ------------------------------------------------------------------ internals
+    def _wake(self) -> None:
+        try:
+            os.write(self._wake_w, b"x")
+        except OSError:  # closed at shutdown
+            pass
+
+    def _position(self, handle: RunHandle) -> int:
+        with self._lock:
+            try:
+                return self._pending.index(handle) + 1
+            except ValueError:
+                return 0
+
+    def _stop(self, handle: RunHandle) -> None:
+        with self._lock:
+            if handle in self._pending:
+                self._pending.remove(handle)
+                handle._done.set()        # never started: no message, the queue stays empty
+                return
+            for w in self._workers:
+                if w.handle is handle and not w.stop_sent:
+                    w.stop_sent = True
+                    try:
+                        w.conn.send(("stop",))
+                    except OSError:       # it just died; the dispatcher reports it
+                        pass
+
+    def _spawn(self) -> None:
+        parent_conn, child_conn = self._ctx.Pipe(duplex=True)
+        process = self._ctx.Process(target=_worker_main, args=(child_conn,), name="tauv-worker", daemon=True)
+        process.start()
+        child_conn.close()   # the worker holds the only other end: its death reads as EOF here
+        self._workers.append(_Worker(process=process, conn=parent_conn))
+
+    def _dispatch(self) -> None:
+        """The dispatcher thread: on any failure of its own the pool is marked broken, every
+        waiting or computing run gets the error, and later runs get it at once."""
+        try:
+            self._dispatch_loop()
+        except Exception as exc:  # noqa: BLE001 - told to every tab instead of a silent dead thread
+            with self._lock:
+                self._broken = f"the run pool failed ({type(exc).__name__}: {exc}); restart the server"
+                handles = [w.handle for w in self._workers if w.handle is not None] + list(self._pending)
+                self._pending.clear()
+                for w in self._workers:
+                    w.handle = None
+                self._ready.notify_all()
+            for handle in handles:
+                handle.queue.put(("error", self._broken))
+                handle._done.set()
+
+    def _dispatch_loop(self) -> None:
+        """Forward messages, notice deaths, replace the dead, hand waiting runs to idle workers."""
+        with self._lock:
+            for _ in range(self.workers):
+                self._spawn()
+        while True:
+            with self._lock:
+                if self._closed:
+                    return
+                workers = list(self._workers)
+            watched: list[Any] = [self._wake_r]
+            for w in workers:
+                watched += [w.conn, w.process.sentinel]
+            try:
+                ready = mp_connection.wait(watched)
+            except OSError:   # a descriptor closed under us: shutting down
+                return
+            with self._lock:
+                if self._closed:
+                    return
+            if self._wake_r in ready:
+                try:
+                    os.read(self._wake_r, 4096)
+                except OSError:
+                    return
+            for w in workers:
+                if w.conn in ready:
+                    self._receive(w)
+                if w.process.sentinel in ready or w.conn.closed:
+                    self._bury(w)
+            self._assign()
+
+    def _receive(self, w: _Worker) -> None:
+        """Read one message from ``w``; EOF means it died (its sentinel says so next)."""
+        try:
+            message = w.conn.recv()
+        except (EOFError, OSError):
+            w.conn.close()
+            return
+        except Exception as exc:  # noqa: BLE001 - a message cut off by the worker's death
+            message = ("error", f"unreadable message from the worker: {type(exc).__name__}")
+        kind = message[0]
+        with self._lock:
+            if kind == "ready":
+                w.ready = True
+                self._start_failures = 0
+                self._ready.notify_all()
+            elif kind == "end":
+                handle, w.handle, w.stop_sent = w.handle, None, False
+                if handle is not None:
+                    handle._done.set()
+            elif w.handle is not None:
+                w.handle.queue.put(message)
+
+    def _bury(self, w: _Worker) -> None:
+        """``w`` exited: deliver what it sent, end its run with an error, start a replacement."""
+        while not w.conn.closed:
+            try:
+                if not w.conn.poll():
+                    break
+            except OSError:
+                break
+            self._receive(w)
+        w.process.join(timeout=1.0)
+        if not w.conn.closed:
+            w.conn.close()
+        with self._lock:
+            if self._closed or w not in self._workers:
+                return
+            self._workers.remove(w)
+            handle, w.handle = w.handle, None
+            if not w.ready:
+                self._start_failures += 1
+            if self._start_failures >= MAX_START_FAILURES:
+                self._broken = (f"the worker processes cannot start ({death_message(w.process.exitcode)}); "
+                                "restart the server")
+                failed = list(self._pending)
+                self._pending.clear()
+            else:
+                failed = []
+                self._spawn()
+            self._ready.notify_all()
+        if handle is not None:
+            handle.queue.put(("error", death_message(w.process.exitcode)))
+            handle._done.set()
+        for other in failed:
+            other.queue.put(("error", self._broken))
+            other._done.set()
+
+    def _assign(self) -> None:
+        with self._lock:
+            for w in self._workers:
+                if not self._pending:
+                    return
+                if w.ready and w.handle is None and not w.conn.closed:
+                    handle = self._pending.popleft()
+                    try:
+                        w.conn.send(handle._task)
+                    except OSError:     # died this instant: the run waits for the replacement
+                        self._pending.appendleft(handle)
+                        continue
+                    w.handle, w.stop_sent = handle, False
+
+
+def _stop_resource_tracker() -> None:
+    """Stop multiprocessing's resource tracker (a spawn-started helper process) with the pool,
+    so no process of the server outlives it; tolerant of a Python without the private API.
+
+    The tracker ends when every holder of its pipe has closed it: every spawned child holds one,
+    so this waits for it only when no child process is left (another pool may still run)."""
+    if mp.active_children():
+        return
+    try:
+        from multiprocessing import resource_tracker
+        resource_tracker._resource_tracker._stop()
+    except Exception:  # noqa: BLE001 - best effort: it also ends when this process exits
+        pass

@@ -2,6 +2,8 @@
 
 With ``C_true = exp([rho x]) C_hat``, ``d euler = E_b^-1 C_hat^T rho``
 (tauvcore.geo.rotations.euler_from_misalignment_jacobian), so ``H = [0 E_b^-1 C^T 0 ...]``.
+R is diagonal, each configured noise floored at
+:data:`~tauvcore.aiding.noise_floors.MAG_ATTITUDE_NOISE_FLOOR_RAD`.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tauvcore.aiding.noise_floors import mag_attitude_sigma_rad
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import (
@@ -34,7 +37,7 @@ class MagAttitude:
 
     def prepare(self, euler: np.ndarray, batch: tuple[int, ...]) -> MagSetup:
         z = np.broadcast_to(np.asarray(euler, dtype=float), batch + (3,))
-        R = np.broadcast_to(np.diag(self.config.noise_rad**2), batch + (3, 3))
+        R = np.broadcast_to(np.diag(mag_attitude_sigma_rad(self.config.noise_rad)**2), batch + (3, 3))
         return MagSetup(z=z, R=R)
 
     def predict(self, nom: Nominal, setup: MagSetup) -> np.ndarray:

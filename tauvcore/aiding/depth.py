@@ -1,4 +1,7 @@
-"""Pressure depth: ``z = depth = pos_n[2] + n``, H = [0 0 1] on the position block."""
+"""Pressure depth: ``z = depth = pos_n[2] + n``, H = [0 0 1] on the position block.
+
+R is the configured depth noise floored at :data:`~tauvcore.aiding.noise_floors.DEPTH_NOISE_FLOOR_M`.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tauvcore.aiding.noise_floors import depth_sigma_m
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.sensors.pressure import PressureConfig
@@ -25,7 +29,7 @@ class Depth:
 
     def prepare(self, depth_m: np.ndarray, batch: tuple[int, ...]) -> DepthSetup:
         z = np.broadcast_to(np.asarray(depth_m, dtype=float), batch)[..., None]
-        return DepthSetup(z=z, R=np.full(batch + (1, 1), self.config.depth_noise_m**2))
+        return DepthSetup(z=z, R=np.full(batch + (1, 1), depth_sigma_m(self.config.depth_noise_m)**2))
 
     def predict(self, nom: Nominal, setup: DepthSetup) -> np.ndarray:
         return nom.nav.pos_n[..., 2:3]

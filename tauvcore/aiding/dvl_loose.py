@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import Earth
@@ -41,9 +42,10 @@ def solve_velocity(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, n
 
     A_b (4, 3); y_beam (B, 4) with anything (NaN allowed) where ``available`` (B, 4) is false.
     Returns ``v`` (B, 3), its covariance (B, 3, 3), ``A+`` (B, 3, 4) with zero columns for the
-    missing beams, and ``valid`` (B,) = at least three beams returned.
+    missing beams, and ``valid`` (B,) = at least three beams returned. ``noise_mps`` is floored
+    at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS` (a zero noise is legal).
     """
-    w = available / noise_mps**2
+    w = available / dvl_beam_sigma_mps(noise_mps)**2
     AtWA = np.einsum("ki,...k,kj->...ij", A_b, w, A_b)
     valid = available.sum(axis=-1) >= MIN_BEAMS_LC
     AtWA = np.where(valid[..., None, None], AtWA, np.eye(3))

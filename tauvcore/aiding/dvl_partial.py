@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.geo.rotations import skew
 from tauvcore.ins.strapdown import mv
 
@@ -88,9 +89,11 @@ def compensated_beams(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray
 
 def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float, l_dvl_b: np.ndarray,
                    dvl_sf: np.ndarray) -> np.ndarray:
-    """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4)."""
+    """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4).
+
+    ``noise_mps`` is floored at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS`."""
     lever = A_b @ skew(l_dvl_b)
-    S = np.eye(4) * noise_mps**2 + gyro_rate_noise_rps**2 * (lever @ lever.T)
+    S = np.eye(4) * dvl_beam_sigma_mps(noise_mps)**2 + gyro_rate_noise_rps**2 * (lever @ lever.T)
     return S / ((1.0 + dvl_sf) ** 2)[..., None, None]
 
 

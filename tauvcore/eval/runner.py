@@ -11,6 +11,24 @@ IMU-rate loop (strapdown step and covariance propagation) runs once for all of t
 aiding epoch applies its update only to the methods that use it ("when" lives here, "how" in
 tauvcore.aiding). Every update leaves an :class:`UpdateRecord`; every output epoch leaves the
 error norms, the filter's own 1-sigma and the NEES against truth.
+
+Numerical health (issue 7): after the corrections of every aiding epoch, and at least once per
+second of propagation (:data:`CONDITION_CHECK_RATE_HZ`), P goes through
+:func:`~tauvcore.filter.eskf.condition_covariance` (one batched Cholesky for all methods and
+runs; an eigenvalue floor only where it fails, counted per run in ``MethodResult.p_floor_count``). The divergence
+monitor flags a run's solution (``MethodResult.diverged``, ``diverged_at_s``) at the first of
+
+- an output epoch where its state or P is not finite;
+- an aiding epoch after which an estimated sensor error (IMU or DVL bias, DVL scale factor) lies far
+  outside the filter's own prior (:func:`~tauvcore.eval.metrics.implausible_sensor_errors`);
+- an innovation inconsistency of any of its aiding sources
+  (:func:`~tauvcore.eval.metrics.innovation_divergence_s`: windowed NIS above its chi-square
+  bound, or the source locked out by the gate).
+
+It uses no truth, as a real filter could not; so it cannot see an error in a direction nothing
+measures (heading on a straight line with the DVL alone, or VB's self-confirming virtual beam on
+a fixed pair): the NEES against truth in the records shows those. The standalone INS has no
+innovations and estimates no sensor error: it is flagged only if not finite.
 """
 
 from __future__ import annotations
@@ -32,16 +50,17 @@ from tauvcore.aiding.dvl_extended import (
 )
 from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.config import Config
-from tauvcore.eval.metrics import nees
+from tauvcore.eval.metrics import implausible_sensor_errors, innovation_divergence_s, nees
 from tauvcore.filter.eskf import (
     Measurement,
     Nominal,
     UpdateOutcome,
+    condition_covariance,
     correct,
     difference,
     propagate,
 )
-from tauvcore.filter.layout import STATE
+from tauvcore.filter.layout import NOISE, STATE
 from tauvcore.geo.rotations import (
     C_nb_from_euler,
     euler_from_misalignment_jacobian,
@@ -54,6 +73,11 @@ from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors import magnetometer as mag_sensor
 from tauvcore.sensors import pressure as pressure_sensor
 from tauvcore.truth import Truth, generate
+
+CONDITION_CHECK_RATE_HZ = 1.0
+"""P is checked (and repaired if need be) after the corrections of every aiding epoch, where
+updates can lose definiteness to round-off, and at least this often in between (propagation
+alone, e.g. the standalone INS or a DVL outage, only carries a positive definite P forward)."""
 
 DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}}
 """How each method fuses the DVL (None: not at all)."""
@@ -101,6 +125,9 @@ class UpdateRecord:
     valid: np.ndarray           # (U, R) bool (the source produced a measurement)
     fused_rows: np.ndarray      # (U, R, m) bool
     rejected_rows: np.ndarray   # (U, R, m) bool
+    nis: np.ndarray             # (U, R) normalised innovation squared over the active rows, before the gate
+    nis_dof: np.ndarray         # (U, R) int: its degrees of freedom (active rows)
+    unusable: np.ndarray        # (U, R) bool: S not finite or not positive definite, nothing fused
     beams_available: np.ndarray | None = None  # (U, R, 4) DVL only: beams that returned
     mode: np.ndarray | None = None             # (U, R) DVL only: MODE_* code (coast, lc, partial, tc)
     measured_axes: np.ndarray | None = None    # (U, R, 3) DVL only: body axes the velocity carried
@@ -186,7 +213,7 @@ class _Recorder:
         self.rows.append({"z": outcome.z, "innovation": outcome.innovation, "innovation_var": outcome.innovation_var,
                           "test_ratio": outcome.test_ratio, "fused": outcome.fused, "rejected": outcome.rejected,
                           "valid": valid, "fused_rows": outcome.fused_rows, "rejected_rows": outcome.rejected_rows,
-                          **extra})
+                          "nis": outcome.nis, "nis_dof": outcome.nis_dof, "unusable": outcome.unusable, **extra})
 
     def build(self) -> UpdateRecord:
         keys = self.rows[0].keys()
@@ -257,6 +284,17 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
     dvl_bias_true = sim.dvl.bias_mps if len(sim.dvl.index) else np.zeros((1, R, 4))
     dvl_sf_true = sim.dvl.scale_factor if len(sim.dvl.index) else np.zeros((1, R))
     gate = config.filter.gate_sigma
+    p_floor_count = np.zeros(batch, dtype=int)
+    nonfinite_at_s = np.full(batch, np.nan)   # first output epoch with a non-finite state or P
+    implausible_at_s = np.full(batch, np.nan)  # first output epoch with a sensor error outside its prior
+    sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
+    prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
+    prior_rate = np.concatenate([q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)])
+
+    def condition(P_all: np.ndarray) -> np.ndarray:
+        P_all, repaired = condition_covariance(P_all)
+        p_floor_count[...] += repaired
+        return P_all
 
     def record(slot: int, k: int) -> None:
         p = int(dvl_ping_of_sample[k])
@@ -273,6 +311,18 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
         series["pos_sigma"][slot] = np.sqrt(diag[..., STATE.pos].sum(-1))
         series["nees"][slot] = nees(dx, P)
         est_pos_n[slot] = nom.nav.pos_n
+        # health without truth: one sum, finite only if the navigation state and P's variances are.
+        # A non-finite bias or attitude reaches the velocity at the next IMU step, and a NaN
+        # anywhere in P or the state reaches P's diagonal at the next propagation.
+        with np.errstate(invalid="ignore", over="ignore"):
+            total = diag.sum(-1) + nom.nav.pos_n.sum(-1) + nom.nav.vel_n.sum(-1)
+        nonfinite_at_s[~np.isfinite(total) & np.isnan(nonfinite_at_s)] = truth.t_s[k]
+
+    def check_sensor_errors(t: float) -> None:
+        """After the corrections of an aiding epoch (the only moments the estimates change)."""
+        sensor_est = np.concatenate((nom.accel_bias, nom.gyro_bias, nom.dvl_bias, nom.dvl_sf[..., None]), axis=-1)
+        wild = implausible_sensor_errors(sensor_est, prior_var0 + prior_rate * t)
+        implausible_at_s[wild & np.isnan(implausible_at_s)] = t
 
     def update_all(source: str, meas: Measurement, t: float) -> None:
         """A source every aided method takes (depth, magnetometer): one batched correction."""
@@ -310,20 +360,25 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
         events[list(keys)] = True
     events[out_idx] = True
     k_cov = 0                       # sample the covariance was last propagated to
+    k_checked = 0                   # sample P was last checked (condition_covariance) at
+    check_step = max(1, int(round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ)))
     dtheta_sum = np.zeros((R, 3))   # gyro increments since then
 
     def results_upto(n: int) -> dict[str, MethodResult]:
         out = {}
         for m, method in enumerate(methods):
             updates = {src: rec.build() for (src, mm), rec in recorders.items() if mm == m and rec.rows}
+            flagged = [nonfinite_at_s[m], implausible_at_s[m]] + [
+                innovation_divergence_s(u.t_s, u.nis, u.nis_dof, u.fused, u.valid) for u in updates.values()]
+            diverged_at = np.fmin.reduce(np.stack(flagged), axis=0)
             out[method] = MethodResult(
                 method=method, t_s=truth.t_s[out_idx[:n]],
                 vel_err_mps=series["vel_err"][:n, m], att_err_deg=series["att_err"][:n, m],
                 pos_err_m=series["pos_err"][:n, m], vel_sigma_mps=series["vel_sigma"][:n, m],
                 att_sigma_deg=series["att_sigma"][:n, m], pos_sigma_m=series["pos_sigma"][:n, m],
                 nees=series["nees"][:n, m], est_pos_n=est_pos_n[:n, m],
-                diverged=np.zeros(R, dtype=bool), diverged_at_s=np.full(R, np.nan),
-                p_floor_count=np.zeros(R, dtype=int), updates=updates)
+                diverged=~np.isnan(diverged_at), diverged_at_s=diverged_at,
+                p_floor_count=p_floor_count[m].copy(), updates=updates)
         return out
 
     progress_every = max(1, int(round(progress_interval_s * config.filter.output_rate_hz)))
@@ -340,6 +395,9 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
             G = G_matrix(nav.C_nb, nom.vel_b)
             Phi, Qd = discretise(F, G, q_psd, dt_c)
             P = propagate(P, Phi, Qd)
+            if k - k_checked >= check_step:
+                P = condition(P)
+                k_checked = k
             k_cov = k
             dtheta_sum[:] = 0.0
         if not events[k]:
@@ -351,6 +409,10 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
             update_all("depth", depth_model.measure(nom, sim.pressure.depth_m[depth_at[k]]), t)
         if k in mag_at:
             update_all("mag", mag_model.measure(nom, sim.mag.euler[mag_at[k]]), t)
+        if k in dvl_at or k in depth_at or k in mag_at:
+            P = condition(P)
+            k_checked = k
+            check_sensor_errors(t)
         if slot < T and k == out_idx[slot]:
             record(slot, k)
             slot += 1

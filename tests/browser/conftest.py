@@ -96,6 +96,27 @@ class Tab:
     def checkbox(self, label: str):
         return self.page.get_by_role("checkbox", name=label, exact=True)
 
+    def field(self, label: str):
+        """The text input of the control labelled ``label`` (viser's label[for] names the row,
+        not the Mantine text input, so get_by_label does not reach it)."""
+        return self.page.locator(f'xpath=//label[normalize-space()="{label}"]/../../following-sibling::*[1]'
+                                 '//input[not(@type="hidden")]')
+
+    def type_into(self, label: str, text: str) -> None:
+        """Clear the field and type ``text`` key by key, as a person does."""
+        box = self.field(label)
+        box.fill("")
+        box.press_sequentially(text)
+        self.page.wait_for_timeout(300)
+
+    def run_config(self) -> dict[str, str]:
+        """The "Configuration run" table of the Results tab: setting -> value as shown."""
+        self.page.get_by_role("tab", name="Results").click()
+        table = self.page.locator("table", has=self.page.get_by_text("Setting", exact=True))
+        table.wait_for(timeout=10000)
+        rows = table.locator("tr").all_inner_texts()
+        return dict(tuple(c.strip() for c in row.split("\t"))[:2] for row in rows[1:])
+
     def set_methods(self, wanted: set[str]) -> None:
         for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"):
             box = self.checkbox(m)
@@ -117,11 +138,12 @@ class Tab:
             ".map(t => [t.name, (t.y || []).length]))")
 
     def results_table(self) -> dict[str, list[float]]:
+        """The four error columns of the results table (vel final, vel RMS, att final, pos final)."""
         rows = self.page.locator("table").first.locator("tr").all_inner_texts()
         out = {}
         for row in rows[1:]:
             cells = [c.strip() for c in row.split("\t")]
-            out[cells[0]] = [float(c) for c in cells[1:]]
+            out[cells[0]] = [float(c) for c in cells[1:5]]
         return out
 
 

@@ -11,6 +11,15 @@ from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser
 RUNNING = re.compile(r"^Running \w+, ")
+# records (page clock, ms) each time the status line starts saying the controls are checked
+WATCH_STATUS_JS = """() => {
+  window.__checks = [];
+  new MutationObserver(() => {
+    const shown = [...document.querySelectorAll('p')].some(p => p.textContent.startsWith('Checking the controls'));
+    if (shown && !window.__shown) window.__checks.push(performance.now());
+    window.__shown = shown;
+  }).observe(document.body, {subtree: true, childList: true, characterData: true});
+}"""
 
 
 def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:
@@ -55,25 +64,29 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     here: Stop ends a long run mid-way, and another tab's session answers during the run."""
     tab, other = new_tab(), new_tab()
     tab.set_methods({"INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"})
-    _fill(tab.page, "Duration [s]", "1500")
+    tab.type_into("Duration [s]", "3000")
     other.set_methods({"LC"})
     for k in range(1, 5):
         other.checkbox(f"Beam {k}").uncheck()
     tab.page.get_by_role("button", name="Run", exact=True).click()
     tab.page.get_by_text(RUNNING).wait_for(timeout=10000)
     tab.page.wait_for_timeout(2000)
-    # while the run goes on, a round trip through the other tab's session (Run with bad input,
-    # answered by a notification) stays quick: the run lives in a low-priority worker process.
-    # Median of five.
+    # while the run goes on, a round trip through the other tab's session stays quick: the run
+    # lives in a low-priority worker process. The round trip: Run pressed (with bad input) until
+    # the server's first answer, the "Checking the controls" status, is on the page (a GUI-only
+    # message, drawn at once; the refusal itself then waits for one 3-D frame of that page, in
+    # which the page reports its controls: seconds with software WebGL under load). Timed in
+    # the page by a MutationObserver. Median of five.
+    other.page.evaluate(WATCH_STATUS_JS)
     latencies = []
     for _ in range(5):
-        other.page.evaluate("() => document.querySelectorAll('.mantine-Notification-root button')"
-                            ".forEach(b => b.click())")
-        other.page.wait_for_timeout(400)
-        t0 = time.monotonic()
-        other.page.get_by_role("button", name="Run", exact=True).evaluate("b => b.click()")
-        other.page.get_by_text("Cannot run", exact=True).first.wait_for(timeout=20000)
-        latencies.append(time.monotonic() - t0)
+        t_click = other.page.get_by_role("button", name="Run", exact=True).evaluate(
+            "b => { b.click(); return performance.now(); }")
+        other.page.wait_for_function(f"window.__checks.some(t => t > {t_click})", timeout=20000)
+        t_seen = other.page.evaluate(f"Math.min(...window.__checks.filter(t => t > {t_click}))")
+        latencies.append((t_seen - t_click) / 1000.0)
+        other.page.get_by_text("Ready. Choose a mission", exact=False).wait_for(timeout=60000)   # refused
+    assert other.page.get_by_text("Cannot run", exact=True).first.is_visible()
     # With software WebGL the browser itself stalls for seconds at times, so this is a smoke
     # bound: before runs were thinned and niced, every round trip here took 10-27 s. The server's
     # own headroom during a run is measured without a browser in tests/unit/test_worker.py.
@@ -82,7 +95,7 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     tab.page.get_by_role("button", name="Stop", exact=True).evaluate("b => b.click()")
     tab.notification("Run stopped").wait_for(timeout=20000)
     stopped_at = tab.page.get_by_text("Stopped at t =", exact=False).first.inner_text()
-    assert float(stopped_at.split("=")[1].split("s")[0]) < 1500.0
+    assert float(stopped_at.split("=")[1].split("s")[0]) < 3000.0
     tab.page.get_by_role("button", name="Run", exact=True).wait_for(state="visible")
     assert tab.page.get_by_role("button", name="Run", exact=True).is_enabled()
 
@@ -91,8 +104,8 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     ("all_beams_off_lc_only", "all four are off"),
     ("lc_two_beams", "LC needs three or more beams"),
     ("outage_backwards", "Beam 2 outage ends"),
-    ("zero_runs", "Runs must be"),
-    ("negative_noise", "dvl.noise_mps must be >= 0"),
+    ("zero_runs", "Runs: '0' is out of range"),
+    ("negative_noise", "DVL noise [m/s]: '-0.1' is out of range: dvl.noise_mps"),
 ])
 def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, setup: str, message: str) -> None:
     tab = new_tab()
@@ -107,23 +120,16 @@ def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, set
         tab.checkbox("Beam 2").uncheck()
     elif setup == "outage_backwards":
         page.get_by_text("Outages [s]", exact=False).click()
-        _fill(page, "Beam 2 outage start", "200")
-        _fill(page, "Beam 2 outage end", "50")
+        tab.type_into("Beam 2 outage start", "200")
+        tab.type_into("Beam 2 outage end", "50")
     elif setup == "zero_runs":
-        _fill(page, "Runs", "0")
+        tab.type_into("Runs", "0")
     elif setup == "negative_noise":
         page.get_by_text("Sensors (Table 2)", exact=False).click()
-        _fill(page, "DVL noise [m/s]", "-0.1")
+        tab.type_into("DVL noise [m/s]", "-0.1")
     page.get_by_role("button", name="Run", exact=True).click()
     page.get_by_text(message, exact=False).wait_for(timeout=10000)
     assert page.get_by_text("Cannot run", exact=True).is_visible()
     # the server still serves a fresh tab
     fresh = new_tab()
     assert fresh.checkbox("Beam 1").is_checked()
-
-
-def _fill(page, label: str, value: str) -> None:
-    box = page.get_by_label(label, exact=True)
-    box.fill(value)
-    box.press("Enter")
-    page.wait_for_timeout(300)

@@ -7,6 +7,7 @@ names, x, y, colours, axis settings) with the numbers computed here from the Met
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -295,9 +296,12 @@ def test_summary_rows_final_and_rms(request, fixture):
     assert [r["method"] for r in rows] == list(NAMES)
     for method, row in zip(METHODS_UNDER_TEST, rows):
         expected = _expected_row(results[method])
-        assert set(row) == set(expected) | {"method"}
+        assert set(row) == set(expected) | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count"}
         for key, value in expected.items():
             assert row[key] == pytest.approx(value, rel=1e-12), key
+        # a healthy default run: nothing flagged, P never repaired
+        assert row["runs"] == results[method].vel_err_mps.shape[1]
+        assert row["diverged_runs"] == 0 and np.isnan(row["diverged_first_s"]) and row["p_floor_count"] == 0
 
 
 def test_summary_rows_single_run_final_is_last_epoch(single):
@@ -312,16 +316,56 @@ def test_summary_rows_single_run_final_is_last_epoch(single):
 def test_summary_markdown_table(request, fixture):
     results = request.getfixturevalue(fixture)
     lines = summary_markdown(results).splitlines()
-    assert lines[0] == "| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] |"
-    assert lines[1] == "|---|---|---|---|---|"
+    assert lines[0] == ("| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] "
+                        "| consistent? |")
+    assert lines[1] == "|---|---|---|---|---|---|"
     body = lines[2:]
     assert len(body) == len(METHODS_UNDER_TEST)
     for method, name, line in zip(METHODS_UNDER_TEST, NAMES, body):
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        assert len(cells) == 5
+        assert len(cells) == 6
         assert cells[0] == name
+        assert cells[5] == "yes"
         exp = _expected_row(results[method])
         assert float(cells[1]) == pytest.approx(exp["vel_final_mps"], abs=0.5e-4)
         assert float(cells[2]) == pytest.approx(exp["vel_rms_mps"], abs=0.5e-4)
         assert float(cells[3]) == pytest.approx(exp["att_final_deg"], abs=0.5e-3)
         assert float(cells[4]) == pytest.approx(exp["pos_final_m"], abs=0.5e-2)
+
+
+def _flagged(res: MethodResult, at_s: list[float], floors: list[int]) -> MethodResult:
+    """The same result with the divergence monitor's and the P floor's records set as given."""
+    at = np.array(at_s, dtype=float)
+    return dataclasses.replace(res, diverged=~np.isnan(at), diverged_at_s=at, p_floor_count=np.array(floors))
+
+
+def _cells(line: str) -> list[str]:
+    return [c.strip() for c in line.strip().strip("|").split("|")]
+
+
+def test_summary_marks_a_diverged_single_run_with_its_time(single):
+    results = {"ins": single["ins"], "tc": _flagged(single["tc"], [12.3456], [0]), "nsv": single["nsv"]}
+    rows = summary_rows(results)
+    assert [r["diverged_runs"] for r in rows] == [0, 1, 0]
+    assert rows[1]["diverged_first_s"] == 12.3456
+    lines = summary_markdown(results).splitlines()
+    assert "P floors" not in lines[0]                      # no repair anywhere: no column
+    assert [_cells(line)[5] for line in lines[2:]] == ["yes", "no: diverged at 12.3 s", "yes"]
+
+
+def test_summary_counts_diverged_monte_carlo_runs_and_the_first_time(monte_carlo):
+    results = {"tc": _flagged(monte_carlo["tc"], [np.nan, 80.0, 41.25], [0, 0, 0]), "nsv": monte_carlo["nsv"]}
+    row = summary_rows(results)[0]
+    assert (row["runs"], row["diverged_runs"], row["diverged_first_s"]) == (3, 2, 41.25)
+    cells = _cells(summary_markdown(results).splitlines()[2])
+    assert cells[5] == "no: 2 of 3 runs, first diverged at 41.2 s"
+
+
+def test_summary_shows_p_floor_column_only_when_a_repair_happened(monte_carlo):
+    results = {"tc": _flagged(monte_carlo["tc"], [np.nan] * 3, [2, 0, 5]), "nsv": monte_carlo["nsv"]}
+    assert summary_rows(results)[0]["p_floor_count"] == 7
+    lines = summary_markdown(results).splitlines()
+    assert lines[0].endswith("| consistent? | P floors |")
+    assert lines[1] == "|---|---|---|---|---|---|---|"
+    assert [_cells(line)[6] for line in lines[2:]] == ["7", "0"]
+    assert [_cells(line)[5] for line in lines[2:]] == ["yes", "yes"]

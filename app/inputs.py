@@ -1,0 +1,209 @@
+"""The dashboard's controls as typed, read strictly into the configuration a run uses.
+
+Numeric controls are text fields: what the user typed reaches the server unchanged (the browser's
+number field would drop an "e" and turn "1e3" into 13). A value is a number written in decimal or
+scientific notation (``250``, ``0.5``, ``1e3``, ``-2.5E-1``; surrounding spaces ignored) and
+finite; whole-number controls (Seed, Runs) take digits only (``2.5`` and ``1e30`` are refused,
+not rounded). Anything else, empty, ``NaN``, ``inf``, hexadecimal or ``1_000``, is refused with
+one message naming the control and the value as typed. Ranges are the configuration's own
+(tauvcore.config): a value out of range is refused with the control's label in front of the
+configuration's message.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from tauvcore.config import METHODS, Config
+from tauvcore.sensors.dvl import Outage
+from tauvcore.validation import ConfigError
+
+TRAJECTORY = "Trajectory"
+DURATION = "Duration [s]"
+DROPOUT = "Dropout probability"
+ACCEL_BIAS = "Accel bias [mg]"
+GYRO_BIAS = "Gyro bias [deg/h]"
+ACCEL_NOISE = "Accel noise [m/s/sqrt(h)]"
+GYRO_NOISE = "Gyro noise [deg/sqrt(h)]"
+DVL_NOISE = "DVL noise [m/s]"
+DVL_BIAS = "DVL bias [m/s]"
+DVL_SF = "DVL scale factor [%]"
+SEED = "Seed"
+RUNS = "Runs"
+RUNS_MAX = 1000
+"""Most Monte Carlo runs a tab may ask for (the memory budget of app.budget bounds it further)."""
+TEXT_MAX_CHARS = 40
+"""Longest text a numeric control may hold (a double needs at most 24 characters)."""
+
+
+def outage_labels(beam: int) -> tuple[str, str]:
+    return f"Beam {beam} outage start", f"Beam {beam} outage end"
+
+
+FIELD_LABELS = {
+    "trajectory.duration_s": DURATION,
+    "imu.accel_bias_mg": ACCEL_BIAS,
+    "imu.gyro_bias_deg_per_h": GYRO_BIAS,
+    "imu.accel_noise_mps_per_sqrt_h": ACCEL_NOISE,
+    "imu.gyro_noise_deg_per_sqrt_h": GYRO_NOISE,
+    "dvl.noise_mps": DVL_NOISE,
+    "dvl.bias_mps": DVL_BIAS,
+    "dvl.scale_factor_pct": DVL_SF,
+    "dvl.dropout_probability": DROPOUT,
+    "dvl.outages": "Outages",
+    "run.seed": SEED,
+}
+"""Configuration field -> the control that sets it (for messages)."""
+
+_FLOAT = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
+_INT = re.compile(r"[+-]?\d+")
+
+
+class InputError(Exception):
+    """A control holds a value the run cannot use; the message names it and the value."""
+
+
+def shown(text: str) -> str:
+    """The value as typed, quoted, shortened when long."""
+    if len(text) > TEXT_MAX_CHARS:
+        return f"{text[:TEXT_MAX_CHARS]!r}... ({len(text)} characters)"
+    return repr(text)
+
+
+def parse_float(label: str, text: str) -> float:
+    """The finite number ``text`` spells, or InputError naming ``label`` and ``text``."""
+    s = text.strip()
+    if not s:
+        raise InputError(f"{label}: empty; type a number")
+    if len(s) > TEXT_MAX_CHARS or not _FLOAT.fullmatch(s):
+        raise InputError(f"{label}: {shown(text)} is not a number")
+    value = float(s)
+    if value != value or value in (float("inf"), float("-inf")):
+        raise InputError(f"{label}: {shown(text)} is too large")
+    return value
+
+
+def parse_int(label: str, text: str) -> int:
+    """The whole number ``text`` spells in digits, or InputError naming ``label`` and ``text``."""
+    s = text.strip()
+    if not s:
+        raise InputError(f"{label}: empty; type a whole number")
+    if len(s) > TEXT_MAX_CHARS or not _INT.fullmatch(s):
+        raise InputError(f"{label}: {shown(text)} is not a whole number (digits only)")
+    return int(s)
+
+
+@dataclass(frozen=True)
+class Controls:
+    """What the page's controls hold: numeric fields as typed, checkboxes and choices as set."""
+
+    trajectory: str
+    duration: str
+    methods: tuple[str, ...]                  # selected, lower case
+    beams: tuple[int, ...]                    # switched on, 1..4
+    dropout: str
+    outages: tuple[tuple[str, str], ...]      # (start, end) per beam 1..4, as typed [s]
+    aid_depth: bool
+    aid_mag: bool
+    accel_bias: str
+    gyro_bias: str
+    accel_noise: str
+    gyro_noise: str
+    dvl_noise: str
+    dvl_bias: str
+    dvl_sf: str
+    seed: str
+    runs: str
+
+
+def _label_for(exc: ConfigError) -> str | None:
+    message = str(exc)
+    for field_name in sorted(FIELD_LABELS, key=len, reverse=True):
+        if message.startswith(field_name):
+            return FIELD_LABELS[field_name]
+    return None
+
+
+def config_from_controls(c: Controls) -> tuple[Config, int]:
+    """The configuration and Monte Carlo run count the controls describe.
+
+    Raises InputError with one line naming the control and the value as typed.
+    """
+    methods = tuple(m for m in METHODS if m in c.methods)
+    if not methods:
+        raise InputError("Methods: select at least one method")
+    runs = parse_int(RUNS, c.runs)
+    if not 1 <= runs <= RUNS_MAX:
+        raise InputError(f"{RUNS}: {shown(c.runs)} is out of range; Monte Carlo runs are 1 to {RUNS_MAX}")
+    seed = parse_int(SEED, c.seed)
+    if seed < 0:
+        raise InputError(f"{SEED}: {shown(c.seed)} is negative; a seed is a whole number >= 0")
+    beams = tuple(k for k in range(1, 5) if k in c.beams)
+    dvl_methods = [m for m in methods if m != "ins"]
+    if dvl_methods and not beams:
+        raise InputError("DVL beams: all four are off, so no DVL method can aid; switch a beam on or select INS only")
+    if dvl_methods == ["lc"] and len(beams) < 3:
+        raise InputError(f"LC needs three or more beams, but only {len(beams)} "
+                         f"({', '.join(map(str, beams)) or 'none'}) are on; add TC or an ELC method")
+    numbers = {label: parse_float(label, text) for label, text in (
+        (DURATION, c.duration), (DROPOUT, c.dropout), (ACCEL_BIAS, c.accel_bias), (GYRO_BIAS, c.gyro_bias),
+        (ACCEL_NOISE, c.accel_noise), (GYRO_NOISE, c.gyro_noise), (DVL_NOISE, c.dvl_noise),
+        (DVL_BIAS, c.dvl_bias), (DVL_SF, c.dvl_sf))}
+    typed = {DURATION: c.duration, DROPOUT: c.dropout, ACCEL_BIAS: c.accel_bias, GYRO_BIAS: c.gyro_bias,
+             ACCEL_NOISE: c.accel_noise, GYRO_NOISE: c.gyro_noise, DVL_NOISE: c.dvl_noise, DVL_BIAS: c.dvl_bias,
+             DVL_SF: c.dvl_sf, SEED: c.seed}
+    outages = []
+    for k, (start_text, end_text) in enumerate(c.outages, start=1):
+        start_label, end_label = outage_labels(k)
+        start, end = parse_float(start_label, start_text), parse_float(end_label, end_text)
+        if start == end == 0.0:
+            continue
+        if end <= start:
+            raise InputError(f"Beam {k} outage ends ({end:g} s) before it starts ({start:g} s)")
+        outages.append(Outage(beams=(k,), start_s=start, end_s=end))
+    aiding = ("dvl",) + (("depth",) if c.aid_depth else ()) + (("mag",) if c.aid_mag else ())
+    try:
+        config = (Config()
+                  .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION])
+                  .replace("imu", accel_bias_mg=numbers[ACCEL_BIAS], gyro_bias_deg_per_h=numbers[GYRO_BIAS],
+                           accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
+                           gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE])
+                  .replace("dvl", noise_mps=numbers[DVL_NOISE], bias_mps=numbers[DVL_BIAS],
+                           scale_factor_pct=numbers[DVL_SF], beams=beams, dropout_probability=numbers[DROPOUT])
+                  .replace("run", methods=methods, aiding=aiding, seed=seed))
+        config = config.replace("dvl", outages=tuple(outages))
+    except ConfigError as exc:
+        label = _label_for(exc)
+        if label is None:
+            raise InputError(str(exc)) from None
+        value = f" {shown(typed[label])} is out of range:" if label in typed else ""
+        raise InputError(f"{label}:{value} {exc}") from None
+    return config, runs
+
+
+def config_markdown(config: Config, runs: int) -> str:
+    """The configuration a run used, as a Markdown table (shown beside its results)."""
+    d, imu, run = config.dvl, config.imu, config.run
+    outages = ", ".join(f"beam {o.beams[0] if len(o.beams) == 1 else o.beams} {o.start_s:g}-{o.end_s:g} s"
+                        for o in d.outages) or "none"
+    rows = [
+        ("Trajectory", config.trajectory.name),
+        (DURATION, f"{config.trajectory.duration_s:g}"),
+        ("Methods", ", ".join(m.upper() for m in run.methods)),
+        ("DVL beams", ", ".join(str(b) for b in d.beams) or "none"),
+        ("Outages", outages),
+        (DROPOUT, f"{d.dropout_probability:g}"),
+        ("Aiding", ", ".join(run.aiding)),
+        (ACCEL_BIAS, f"{imu.accel_bias_mg:g}"),
+        (GYRO_BIAS, f"{imu.gyro_bias_deg_per_h:g}"),
+        (ACCEL_NOISE, f"{imu.accel_noise_mps_per_sqrt_h:g}"),
+        (GYRO_NOISE, f"{imu.gyro_noise_deg_per_sqrt_h:g}"),
+        (DVL_NOISE, f"{d.noise_mps:g}"),
+        (DVL_BIAS, f"{d.bias_mps:g}"),
+        (DVL_SF, f"{d.scale_factor_pct:g}"),
+        (SEED, str(run.seed)),
+        (RUNS, str(runs)),
+    ]
+    return "**Configuration run**\n\n| Setting | Value |\n|---|---|\n" + "\n".join(
+        f"| {name} | {value} |" for name, value in rows)

@@ -1,0 +1,79 @@
+"""Long straight run of ``lc``: heading drift with the DVL alone, bounded by the magnetometer (issue 7).
+
+    python benchmarks/long_run.py                       # 10 hours, 150 Hz IMU (the issue's case)
+    python benchmarks/long_run.py --hours 1 --imu-rate-hz 50
+
+Runs ``lc`` on the straight track once with ``--aiding dvl`` and once with ``dvl,mag`` (same
+seed, Table 2 sensors, fixed initial errors), each in its own process so that its peak memory
+(maxrss) is its own, and prints a Markdown table: attitude error (norm of the misalignment;
+heading dominates, roll and pitch are held by gravity) and the filter's 1-sigma at the end, NEES
+(20 states) at the end and averaged over the last hour, the divergence monitor's verdict, the P
+floor count, wall time and peak memory. A speed and behaviour record, not a test
+(tests/statistical/test_long_run.py is the bounded-cost test).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+AIDINGS = ("dvl", "dvl,mag")
+
+
+def child(hours: float, imu_rate_hz: float, seed: int, aiding: str) -> None:
+    from tauvcore.config import Config
+    from tauvcore.eval.runner import run, simulate
+
+    config = (Config().replace("trajectory", name="straight", duration_s=hours * 3600.0)
+              .replace("imu", rate_hz=imu_rate_hz).replace("run", methods=("lc",), aiding=tuple(aiding.split(","))))
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    res = run(config, simulate(config, rng), rng)["lc"]
+    wall = time.perf_counter() - t0
+    last_hour = res.t_s >= res.t_s[-1] - 3600.0
+    print(json.dumps({
+        "aiding": aiding, "att_err_deg": float(res.att_err_deg[-1, 0]),
+        "att_sigma_deg": float(res.att_sigma_deg[-1, 0]),
+        "att_err_max_deg": float(res.att_err_deg[:, 0].max()),
+        "nees_end": float(res.nees[-1, 0]), "nees_last_hour": float(res.nees[last_hour, 0].mean()),
+        "pos_err_m": float(res.pos_err_m[-1, 0]),
+        "diverged_at_s": None if np.isnan(res.diverged_at_s[0]) else float(res.diverged_at_s[0]),
+        "p_floor_count": int(res.p_floor_count[0]), "wall_s": wall,
+        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2,
+    }))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hours", type=float, default=10.0)
+    parser.add_argument("--imu-rate-hz", type=float, default=150.0)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--child", choices=AIDINGS, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        child(args.hours, args.imu_rate_hz, args.seed, args.child)
+        return
+    print(f"lc, straight, {args.hours:g} h, IMU {args.imu_rate_hz:g} Hz, seed {args.seed}\n")
+    print("| aiding | att error end [deg] | att 1-sigma end [deg] | att error max [deg] | NEES end | "
+          "NEES mean last hour | pos error end [m] | diverged at [s] | P floors | wall [s] | peak memory [GB] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for aiding in AIDINGS:
+        out = subprocess.run([sys.executable, __file__, "--hours", str(args.hours), "--imu-rate-hz",
+                              str(args.imu_rate_hz), "--seed", str(args.seed), "--child", aiding],
+                             check=True, capture_output=True, text=True).stdout
+        r = json.loads(out.strip().splitlines()[-1])
+        div = "never" if r["diverged_at_s"] is None else f"{r['diverged_at_s']:.0f}"
+        print(f"| {aiding} | {r['att_err_deg']:.2f} | {r['att_sigma_deg']:.2f} | {r['att_err_max_deg']:.2f} | "
+              f"{r['nees_end']:.1f} | {r['nees_last_hour']:.1f} | {r['pos_err_m']:.1f} | {div} | "
+              f"{r['p_floor_count']} | "
+              f"{r['wall_s']:.0f} | {r['peak_rss_gb']:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

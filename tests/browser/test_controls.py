@@ -1,0 +1,82 @@
+"""The run uses exactly what the page shows (issue 7, item 5), in a real browser.
+
+viser's page sends control changes through one sender throttled to a message per 50 ms that
+keeps only the latest, whatever control it is for: of three changes within 50 ms the middle one
+never reached the server (app.dashboard.Session.confirm_page_state). The configuration a run used
+is shown in the Results tab ("Configuration run"), which is what these tests read.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+pytestmark = pytest.mark.browser
+
+# three checkbox clicks, 10 ms apart (20 ms first to last), by their input ids
+THREE_CLICKS_JS = """async (names) => {
+  const box = (name) => document.getElementById(
+      [...document.querySelectorAll('label')].find(l => l.textContent === name).htmlFor);
+  const t0 = performance.now();
+  for (const [i, name] of names.entries()) {
+    if (i > 0) await new Promise(r => setTimeout(r, 10));
+    box(name).click();
+  }
+  return performance.now() - t0;
+}"""
+
+
+def run_and_wait(tab) -> None:
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=120000)
+
+
+def test_three_changes_within_20_ms_all_reach_the_run(new_tab) -> None:
+    """Given VB and PLCF off and beam 4 on, when the three are toggled within 20 ms and Run is
+    pressed, then the run used VB and PLCF and not beam 4 (before: PLCF, the middle change, was
+    lost while its box showed ticked)."""
+    tab = new_tab()
+    tab.type_into("Duration [s]", "20")
+    spread_ms = tab.page.evaluate(THREE_CLICKS_JS, ["VB", "PLCF", "Beam 4"])
+    assert spread_ms < 40.0, spread_ms       # the clicks themselves were quick (timer granularity)
+    tab.page.wait_for_timeout(500)
+    assert tab.checkbox("VB").is_checked() and tab.checkbox("PLCF").is_checked()
+    assert not tab.checkbox("Beam 4").is_checked()
+    run_and_wait(tab)
+    used = tab.run_config()
+    assert used["Methods"] == "INS, LC, TC, VB, NSV, PLCF, ELC"
+    assert used["DVL beams"] == "1, 2, 3"
+    assert used["Duration [s]"] == "20"
+
+
+def test_typed_scientific_notation_reaches_the_server_as_typed(new_tab) -> None:
+    """ "1e1" typed key by key is 10 s (the browser's number field dropped the "e": 11 s)."""
+    tab = new_tab()
+    tab.set_methods({"INS", "TC"})
+    tab.type_into("Duration [s]", "1e1")
+    tab.type_into("Seed", "42")
+    run_and_wait(tab)
+    used = tab.run_config()
+    assert used["Duration [s]"] == "10" and used["Seed"] == "42" and used["Methods"] == "INS, TC"
+
+
+@pytest.mark.parametrize("folder, label, typed, message", [
+    (None, "Duration [s]", "abc", "Duration [s]: 'abc' is not a number"),
+    (None, "Duration [s]", "0.5", "Duration [s]: '0.5' is out of range"),
+    (None, "Seed", "2.5", "Seed: '2.5' is not a whole number"),
+    ("Sensors (Table 2)", "Gyro noise [deg/sqrt(h)]", "1e6", "Gyro noise [deg/sqrt(h)]: '1e6' is out of range"),
+    (None, "Runs", "1000", "GB of memory"),
+])
+def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, label, typed, message) -> None:
+    tab = new_tab()
+    page = tab.page
+    if folder is not None:
+        page.get_by_text(folder, exact=False).click()
+    tab.type_into(label, typed)
+    page.get_by_role("button", name="Run", exact=True).click()
+    note = page.get_by_text(message, exact=False)
+    note.wait_for(timeout=15000)
+    text = note.inner_text()
+    assert "Error" not in text and "Singular" not in text          # a clean message, no exception names
+    assert page.get_by_text("Cannot run", exact=True).is_visible()
+    assert page.get_by_text("Ready. Choose a mission", exact=False).is_visible()   # no run started
+    assert page.get_by_role("button", name="Run", exact=True).is_enabled()

@@ -1,0 +1,108 @@
+"""The per-run memory estimate and budget of the dashboard (issue 7, item 4).
+
+The slow test runs real missions through app.worker.run_worker in a fresh process each and
+compares the estimate with the measured peak resident memory above the process's baseline.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from app import budget
+from app.budget import estimate_run, over_budget_message
+from tauvcore.config import Config
+
+
+def mission(duration_s: float, methods: tuple[str, ...] = ("ins", "lc", "tc", "nsv", "elc"),
+            aiding: tuple[str, ...] = ("dvl",), name: str = "figure8") -> Config:
+    return (Config().replace("trajectory", name=name, duration_s=duration_s)
+            .replace("run", methods=methods, aiding=aiding))
+
+
+def test_the_default_run_fits_the_default_budget_with_room() -> None:
+    e = estimate_run(Config(), 1)
+    assert e.total_bytes < 0.1 * budget.DEFAULT_BUDGET_BYTES
+    assert over_budget_message(e, budget.DEFAULT_BUDGET_BYTES) is None
+
+
+@pytest.mark.parametrize("duration_s, runs", [(36000.0, 1), (250.0, 1000), (3600.0, 20)])
+def test_runs_past_the_budget_are_refused_with_the_size(duration_s: float, runs: int) -> None:
+    """The longest legal mission (10 h) and the most runs were MemoryErrors in the server."""
+    e = estimate_run(mission(duration_s), runs)
+    message = over_budget_message(e, budget.DEFAULT_BUDGET_BYTES)
+    assert message is not None
+    assert f"{e.total_bytes / 2**30:.2f} GB" in message and "Duration" in message and "Runs" in message
+
+
+def test_the_estimate_grows_with_duration_runs_methods_and_aiding() -> None:
+    base = estimate_run(mission(250.0), 4).total_bytes
+    assert estimate_run(mission(500.0), 4).total_bytes > base
+    assert estimate_run(mission(250.0), 8).total_bytes > base
+    all_methods = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")
+    assert estimate_run(mission(250.0, methods=all_methods), 4).total_bytes > base
+    assert estimate_run(mission(250.0, aiding=("dvl", "depth", "mag")), 4).total_bytes > base
+
+
+def test_the_live_copy_bound_is_the_workers() -> None:
+    from app import worker
+    assert budget.LIVE_EPOCHS == worker.PROGRESS_MAX_EPOCHS
+
+
+def test_the_budget_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(budget.BUDGET_ENV, raising=False)
+    assert budget.budget_bytes() == budget.DEFAULT_BUDGET_BYTES
+    monkeypatch.setenv(budget.BUDGET_ENV, "512")
+    assert budget.budget_bytes() == 512 * 2**20
+    for bad in ("abc", "-5", "0", "nan", "inf"):
+        monkeypatch.setenv(budget.BUDGET_ENV, bad)
+        with pytest.raises(ValueError, match=f"{budget.BUDGET_ENV} must be a positive number of MB, got '{bad}'"):
+            budget.budget_bytes()
+
+
+MEASURE = textwrap.dedent("""
+    import json, pickle, resource, sys, threading
+    from app import budget, worker
+    from tauvcore.config import Config, to_dict
+
+    def rss_bytes():
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmRSS"))
+
+    class PicklingQueue:
+        # stands in for the manager queue: put() pickles the message, as its proxy does
+        def put(self, message):
+            if message[0] == "error":
+                raise SystemExit(message[1])
+            pickle.dumps(message)
+
+    duration_s, runs, methods, aiding, name = json.loads(sys.argv[1])
+    config = (Config().replace("trajectory", name=name, duration_s=duration_s)
+              .replace("run", methods=tuple(methods), aiding=tuple(aiding)))
+    base = rss_bytes()
+    worker.run_worker(to_dict(config), runs, PicklingQueue(), threading.Event())
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    print(json.dumps({"measured": peak - base, "estimate": budget.estimate_run(config, runs).worker_peak_bytes}))
+""")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("duration_s, runs, methods, aiding, name", [
+    (250.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8"),      # the dashboard's default
+    (600.0, 1, ("ins",), ("dvl",), "straight"),                               # truth generation dominates
+    (250.0, 12, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8"),     # IMU and compensation dominate
+    (300.0, 6, ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc"), ("dvl", "depth", "mag"), "lawnmower"),
+])
+def test_the_estimate_bounds_the_measured_peak_within_1_5x(duration_s, runs, methods, aiding, name) -> None:
+    arg = json.dumps([duration_s, runs, methods, aiding, name])
+    out = subprocess.run([sys.executable, "-c", MEASURE, arg], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    figures = json.loads(out.stdout.strip().splitlines()[-1])
+    measured, estimate = figures["measured"], figures["estimate"]
+    print(f"{duration_s:g} s x {runs} runs, {len(methods)} methods, {'+'.join(aiding)}: "
+          f"measured {measured / 2**20:.0f} MiB, estimate {estimate / 2**20:.0f} MiB ({estimate / measured:.2f}x)")
+    assert measured <= estimate <= 1.5 * measured

@@ -1,0 +1,186 @@
+"""The dashboard's typed values: read strictly, never coerced (issue 7, item 5).
+
+Each case of the issue has a test: before, the browser's number field and the server's casts
+turned "1e3" into 13 s, Seed 1e30 into 130, "abc", "NaN" and an empty Duration into 250 s,
+Seed 2.5 into 2 and Duration 0.5 into 0, and Gyro noise 1e6 reached the worker and came back as
+"LinAlgError: Singular matrix".
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from app import inputs
+from app.inputs import Controls, InputError, config_from_controls, config_markdown, parse_float, parse_int
+from tauvcore.config import Config
+
+DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
+                    beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4, aid_depth=False, aid_mag=False,
+                    accel_bias="0.5", gyro_bias="3", accel_noise="0.072", gyro_noise="0.34", dvl_noise="0.042",
+                    dvl_bias="0.005", dvl_sf="0.7", seed="0", runs="1")
+
+
+def read(**changes: object) -> tuple[Config, int]:
+    return config_from_controls(dataclasses.replace(DEFAULTS, **changes))
+
+
+def refused(**changes: object) -> str:
+    with pytest.raises(InputError) as info:
+        read(**changes)
+    message = str(info.value)
+    assert "Error" not in message and "Traceback" not in message     # no exception class names
+    return message
+
+
+def test_the_defaults_read_back_as_the_default_configuration() -> None:
+    config, runs = read()
+    d = Config()
+    assert runs == 1
+    assert config.trajectory == d.trajectory and config.imu == d.imu
+    assert config.dvl.noise_mps == d.dvl.noise_mps and config.dvl.scale_factor_pct == d.dvl.scale_factor_pct
+    assert config.run.methods == ("ins", "lc", "tc", "nsv", "elc") and config.run.seed == 0
+
+
+def test_duration_1e3_is_1000_s_not_13() -> None:
+    """Scientific notation is a number: "1e3" is 1000 s (the browser's number field made it 13)."""
+    config, _ = read(duration="1e3")
+    assert config.trajectory.duration_s == 1000.0
+
+
+def test_seed_1e30_is_refused_not_130() -> None:
+    message = refused(seed="1e30")
+    assert message.startswith("Seed: '1e30'")
+
+
+@pytest.mark.parametrize("typed", ["abc", "NaN", "nan", "inf", "-Infinity", "0x10", "1_000", "1e", "--5", "250 s"])
+def test_a_duration_that_is_not_a_number_is_refused_not_250_s(typed: str) -> None:
+    assert refused(duration=typed) == f"Duration [s]: {typed!r} is not a number"
+
+
+@pytest.mark.parametrize("typed", ["", "   "])
+def test_an_empty_duration_is_refused_not_250_s(typed: str) -> None:
+    assert refused(duration=typed) == "Duration [s]: empty; type a number"
+
+
+def test_seed_2_5_is_refused_not_2() -> None:
+    assert refused(seed="2.5") == "Seed: '2.5' is not a whole number (digits only)"
+
+
+def test_duration_0_5_is_refused_not_0() -> None:
+    message = refused(duration="0.5")
+    assert message.startswith("Duration [s]: '0.5' is out of range: trajectory.duration_s")
+
+
+def test_gyro_noise_1e6_is_refused_by_name_before_the_run() -> None:
+    """Was a raw "LinAlgError: Singular matrix" from the worker; now the configuration's range,
+    with the control's label and the value as typed, before anything runs."""
+    message = refused(gyro_noise="1e6")
+    assert message.startswith("Gyro noise [deg/sqrt(h)]: '1e6' is out of range: imu.gyro_noise_deg_per_sqrt_h")
+    assert "LinAlg" not in message and "Singular" not in message
+
+
+@pytest.mark.parametrize("typed, problem", [("0", "out of range"), ("3000", "out of range"), ("1.5", "whole number"),
+                                            ("1e2", "whole number"), ("", "empty")])
+def test_runs_must_be_a_whole_number_within_its_bound(typed: str, problem: str) -> None:
+    message = refused(runs=typed)
+    assert message.startswith("Runs: ") and problem in message
+
+
+def test_duration_86400_s_is_refused_with_the_control_named() -> None:
+    message = refused(duration="86400")
+    assert message.startswith("Duration [s]: '86400' is out of range")
+
+
+def test_a_long_typed_value_is_shortened_in_the_message() -> None:
+    message = refused(dvl_noise="9" * 5000)
+    assert message.startswith("DVL noise [m/s]: '" + "9" * inputs.TEXT_MAX_CHARS + "'... (5000 characters)")
+    assert len(message) < 200
+
+
+def test_out_of_range_sensor_values_name_their_control() -> None:
+    assert refused(dvl_noise="-0.1").startswith("DVL noise [m/s]: '-0.1' is out of range: dvl.noise_mps")
+    assert refused(dropout="1.5").startswith("Dropout probability: '1.5' is out of range: dvl.dropout_probability")
+
+
+def test_outages_are_read_strictly() -> None:
+    outages = (("0", "0"), ("50", "100"), ("0", "0"), ("0", "0"))
+    config, _ = read(outages=outages)
+    assert [(o.beams, o.start_s, o.end_s) for o in config.dvl.outages] == [((2,), 50.0, 100.0)]
+    assert refused(outages=(("0", "0"), ("200", "50"), ("0", "0"), ("0", "0"))).startswith("Beam 2 outage ends")
+    assert refused(outages=(("x", "0"),) + (("0", "0"),) * 3) == "Beam 1 outage start: 'x' is not a number"
+
+
+def test_parsers_accept_plain_and_scientific_notation_only() -> None:
+    assert parse_float("X", " 2.5 ") == 2.5 and parse_float("X", "-.5E-1") == -0.05 and parse_float("X", "7.") == 7.0
+    assert parse_int("X", "+42") == 42
+    with pytest.raises(InputError, match="too large"):
+        parse_float("X", "1e400")
+    with pytest.raises(InputError, match="not a whole number"):
+        parse_int("X", "4.0")
+
+
+def test_the_configuration_run_is_shown_as_a_table() -> None:
+    config, runs = read(duration="1e1", methods=("ins", "vb"), beams=(1, 3), seed="7", runs="3", aid_mag=True,
+                        gyro_noise="0.5", outages=(("0", "0"), ("0", "0"), ("2", "4"), ("0", "0")))
+    table = config_markdown(config, runs)
+    rows = dict((cell.strip() for cell in line.strip("|").split("|")) for line in table.splitlines()
+                if line.startswith("| ") and "---" not in line)
+    assert rows["Duration [s]"] == "10" and rows["Methods"] == "INS, VB" and rows["DVL beams"] == "1, 3"
+    assert rows["Seed"] == "7" and rows["Runs"] == "3" and rows["Aiding"] == "dvl, mag"
+    assert rows["Gyro noise [deg/sqrt(h)]"] == "0.5" and rows["Outages"] == "beam 3 2-4 s"
+
+
+# ---------------------------------------------------------------- the page's answer at Run
+@pytest.fixture(scope="module")
+def handles():
+    """Real viser handles (server-level GUI: no browser needed)."""
+    import socket
+
+    import viser
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)
+    made = {"box": server.gui.add_checkbox("PLCF", False), "text": server.gui.add_text("Duration [s]", "250"),
+            "choice": server.gui.add_dropdown("Trajectory", ("straight", "figure8"), initial_value="straight")}
+    yield {h._impl.uuid: h for h in made.values()}, made
+    server.stop()
+
+
+def answer(values: dict) -> str:
+    import json
+    return json.dumps({"t": 0, "values": values})
+
+
+def test_the_page_values_replace_what_the_server_heard(handles) -> None:
+    """The lost change: the page shows PLCF ticked, the server never heard it; at Run the page's
+    answer wins."""
+    from app.dashboard import Session
+    by_id, made = handles
+    ids = {name: h._impl.uuid for name, h in made.items()}
+    changed = Session.apply_page_values(by_id, answer({ids["box"]: True, ids["text"]: "1e3", ids["choice"]: "figure8"}))
+    assert changed == 3
+    assert made["box"].value is True and made["text"].value == "1e3" and made["choice"].value == "figure8"
+    assert Session.apply_page_values(by_id, answer({ids["box"]: True})) == 0      # nothing new
+    assert Session.apply_page_values(by_id, None) == 0                           # a scripted client
+
+
+@pytest.mark.parametrize("bad", ["not json", "[]", '{"values": 3}'])
+def test_an_unreadable_page_answer_is_refused(handles, bad: str) -> None:
+    from app.dashboard import Session
+    with pytest.raises(InputError, match="cannot read; reload the page"):
+        Session.apply_page_values(handles[0], bad)
+
+
+def test_a_page_value_a_control_cannot_hold_is_refused(handles) -> None:
+    from app.dashboard import Session
+    by_id, made = handles
+    ids = {name: h._impl.uuid for name, h in made.items()}
+    with pytest.raises(InputError, match=r"^PLCF: the page shows 'yes'"):
+        Session.apply_page_values(by_id, answer({ids["box"]: "yes"}))
+    with pytest.raises(InputError, match=r"^Trajectory: the page shows 'moon'"):
+        Session.apply_page_values(by_id, answer({ids["choice"]: "moon"}))
+    with pytest.raises(InputError, match=r"^Duration \[s\]: the page shows '9+'\.\.\. \(5000 characters\)"):
+        Session.apply_page_values(by_id, answer({ids["text"]: "9" * 5000}))
