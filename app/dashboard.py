@@ -10,6 +10,7 @@ viser's share button (an external relay service) is off; nothing is fetched from
 
 from __future__ import annotations
 
+import functools
 import gc
 import inspect
 import json
@@ -23,6 +24,7 @@ import threading
 import time
 import uuid
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -99,6 +101,15 @@ def _hex_rgb(color: str) -> tuple[int, int, int]:
     return tuple(int(color[i:i + 2], 16) for i in (1, 3, 5))  # type: ignore[return-value]
 
 
+def _drawing(method: Callable[..., None]) -> Callable[..., None]:
+    """Run a Session method that changes the scene or plots under the session's draw lock."""
+    @functools.wraps(method)
+    def locked(self: Session, *args: Any, **kwargs: Any) -> None:
+        with self.draw_lock:
+            method(self, *args, **kwargs)
+    return locked
+
+
 class Session:
     """One browser tab: its controls, 3-D scene, background run and results."""
 
@@ -106,6 +117,10 @@ class Session:
         self.client = client
         self.pool = pool
         self.lock = threading.Lock()
+        # the run's message thread, the slider's callback and the playback thread all redraw the
+        # scene and plots: one at a time (a beam re-added by one while another assigns to it
+        # raised "Cannot assign to 'visible' on a removed LineSegmentsHandle")
+        self.draw_lock = threading.RLock()
         self.handle: worker.RunHandle | None = None
         self.config: Config | None = None
         self.truth_view: dict[str, np.ndarray] | None = None
@@ -400,6 +415,7 @@ class Session:
         if not self.playing:
             self.time_slider.value = min(t_last, self.time_slider.max)
 
+    @_drawing
     def refresh_plots(self) -> None:
         results = self.results
         if not results:
@@ -446,6 +462,7 @@ class Session:
         except AssertionError:  # the browser has not reported its camera yet; initial_camera applies
             pass
 
+    @_drawing
     def show_beams_static(self, config: Config, pos_n: np.ndarray, C_nb: np.ndarray,
                           states: list[str] | None = None) -> None:
         """Draw the four beams from the DVL head to the seabed, coloured by state.
@@ -460,6 +477,7 @@ class Session:
             f"/beams/{k + 1}", segs[k:k + 1], BEAM_COLORS[state], thickness=2.5, thickness_units="screen")
             for k, state in enumerate(states)]
 
+    @_drawing
     def _clear_trajectories(self) -> None:
         for handle in self.est_lines.values():
             handle.remove()
@@ -468,6 +486,7 @@ class Session:
             self.truth_line.remove()
             self.truth_line = None
 
+    @_drawing
     def _draw_truth(self) -> None:
         tv, config = self.truth_view, self.config
         if tv is None or config is None:
@@ -486,6 +505,7 @@ class Session:
             self._aim_camera(center, max(60.0, 0.8 * float(np.max(hi[:2] - lo[:2]))))
         self.show_time(0.0)
 
+    @_drawing
     def _draw_estimates(self, results: dict[str, MethodResult]) -> None:
         for method, res in results.items():
             est = res.est_pos_n[decimate(len(res.t_s), TRAJECTORY_POINTS), 0]
@@ -500,6 +520,7 @@ class Session:
                     f"/traj/{method}", segs, _hex_rgb(METHOD_COLORS[method]), thickness=2.0,
                     thickness_units="screen")
 
+    @_drawing
     def show_time(self, t_s: float) -> None:
         """Place the vehicle and colour the beams at time ``t_s`` of the current run."""
         tv, config = self.truth_view, self.config

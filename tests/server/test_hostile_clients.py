@@ -6,9 +6,7 @@ from __future__ import annotations
 
 import random
 import socket
-import threading
 import time
-from pathlib import Path
 
 import msgspec.msgpack
 import pytest

@@ -13,7 +13,6 @@ only after the page reports its camera (``ViewerCameraMessage``). A GUI control 
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from collections.abc import Callable
