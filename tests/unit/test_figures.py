@@ -8,6 +8,7 @@ names, x, y, colours, axis settings) with the numbers computed here from the Met
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 
 import numpy as np
@@ -369,3 +370,21 @@ def test_summary_shows_p_floor_column_only_when_a_repair_happened(monte_carlo):
     assert lines[1] == "|---|---|---|---|---|---|---|"
     assert [_cells(line)[6] for line in lines[2:]] == ["7", "0"]
     assert [_cells(line)[5] for line in lines[2:]] == ["yes", "yes"]
+
+
+@pytest.mark.parametrize("show_sigma", [False, True])
+@pytest.mark.parametrize("log_y", [False, True])
+def test_fast_error_figure_equals_plotly_validated_construction(single, monte_carlo, show_sigma, log_y):
+    """The live plots skip plotly's validation; what they send must be what validation gives."""
+    for results in (single, monte_carlo):
+        for quantity in ("vel", "att", "pos"):
+            fast = error_figure(results, quantity, show_sigma=show_sigma, log_y=log_y)
+            checked = error_figure(results, quantity, show_sigma=show_sigma, log_y=log_y, validate=True)
+            assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+            assert json.loads(fast.to_json())["layout"]["template"]["layout"]["plot_bgcolor"] == "white"
+
+
+def test_fast_elc_figure_equals_plotly_validated_construction(elc_two_beams, elc_four_beams, elc_mixed):
+    for result in (elc_two_beams, elc_four_beams, elc_mixed):
+        fast, checked = elc_choice_figure(result), elc_choice_figure(result, validate=True)
+        assert json.loads(fast.to_json()) == json.loads(checked.to_json())

@@ -253,19 +253,30 @@ def test_safeguards_are_inert_on_a_healthy_run(monkeypatch):
         assert res.p_floor_count.tolist() == [0, 0]
 
 
-def _spy_on_covariances(monkeypatch) -> list[int]:
-    """Check every P the runner goes on with (after each propagation and aiding epoch): finite and
-    positive definite (its Cholesky factorisation succeeds, the scale-free test). -> [calls]."""
-    calls = [0]
-    real = runner.condition_covariance
+def _spy_on_covariances(monkeypatch) -> dict[str, int]:
+    """Check every P the runner goes on with, after each propagation and after each conditioning
+    (aiding epochs, and once a second): finite and positive definite (its Cholesky factorisation
+    succeeds, the scale-free test). -> calls per kind."""
+    calls = {"propagate": 0, "condition": 0}
+    real_condition, real_propagate = runner.condition_covariance, runner.propagate
 
-    def spy(P):
-        P_out, repaired = real(P)
-        assert np.isfinite(P_out).all()
-        np.linalg.cholesky(P_out)
-        calls[0] += 1
+    def check(P: np.ndarray) -> None:
+        assert np.isfinite(P).all()
+        np.linalg.cholesky(P)
+
+    def condition(P):
+        P_out, repaired = real_condition(P)
+        check(P_out)
+        calls["condition"] += 1
         return P_out, repaired
-    monkeypatch.setattr(runner, "condition_covariance", spy)
+
+    def propagate(P, Phi, Qd):
+        P_out = real_propagate(P, Phi, Qd)
+        check(P_out)
+        calls["propagate"] += 1
+        return P_out
+    monkeypatch.setattr(runner, "condition_covariance", condition)
+    monkeypatch.setattr(runner, "propagate", propagate)
     return calls
 
 
@@ -282,7 +293,7 @@ def test_worst_legal_errors_keep_P_positive_definite_and_the_state_finite(monkey
     calls = _spy_on_covariances(monkeypatch)
     config = _worst_legal(_config(900.0, methods=("ins", "lc", "tc", "elc")))
     results = _run(config, num_runs=2, seed=3)
-    assert calls[0] > 9000                                          # every propagation and aiding epoch checked
+    assert calls["propagate"] >= 9000 and calls["condition"] >= 900    # 10 Hz and (at least) 1 Hz
     for method, res in results.items():
         assert np.isfinite(res.vel_err_mps).all() and np.isfinite(res.est_pos_n).all(), method
         assert (res.nees > 0).all(), method
