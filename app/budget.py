@@ -26,11 +26,11 @@ from the arrays the engine allocates (8-byte floats; "d" is one double):
    update are views of one batched (M, R, ...) outcome, which they keep alive whole: M x 20 d
    per run and update, shared by the M rows.
 
-The estimate is the largest of the three, plus ``SLACK`` (8 %) for the allocator's pages, plus
+The estimate is the largest of the three, plus ``SLACK`` (15 %) for the allocator's pages, plus
 ``FIXED_BYTES`` for what a run loads once (lazily imported modules: 3 MB measured for a 10 s
 run). tests/unit/test_budget.py checks it against the measured peak resident memory of real runs
 (estimate >= measured, within 1.5x). The server holds one more unpickled copy of the results
-per tab and the manager process one pickled copy in transit: :func:`estimate_run` reports them
+per tab and one pickled copy is in transit through the worker's pipe: :func:`estimate_run` reports them
 apart (``results_bytes``), and the budget applies to the sum (``RunEstimate.total_bytes``).
 """
 
@@ -51,8 +51,8 @@ OUTPUT_DOUBLES = 10
 COVARIANCE_DOUBLES = 8 * 20 * 20
 UPDATE_ROW_BYTES = 3000
 UPDATE_DOUBLES = 20
-FIXED_BYTES = 16 * 2**20
-SLACK = 1.08
+FIXED_BYTES = 14 * 2**20
+SLACK = 1.15
 LIVE_EPOCHS = 1200          # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)
 
 DEFAULT_BUDGET_BYTES = int(1.5 * 2**30)
@@ -68,12 +68,12 @@ class RunEstimate:
     truth_build_bytes: int      # peak 1: truth generation (Gauss nodes)
     compensation_bytes: int     # peak 2: IMU record and its compensated copies
     end_bytes: int              # peak 3: results, records and the queued pickle at the end
-    results_bytes: int          # one copy of the results (the server's; the manager's in transit)
+    results_bytes: int          # one copy of the results (the server's; the pipe's in transit)
     worker_peak_bytes: int      # SLACK x the largest of the three + FIXED_BYTES: the worker's own peak
 
     @property
     def total_bytes(self) -> int:
-        """The worker's peak plus the results held by the manager and the server."""
+        """The worker's peak plus the results in transit and held by the server."""
         return self.worker_peak_bytes + 2 * self.results_bytes
 
 

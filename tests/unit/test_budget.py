@@ -65,13 +65,16 @@ def test_the_budget_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) 
 
 
 MEASURE = textwrap.dedent("""
-    import json, pickle, resource, sys, threading
+    import json, pickle, sys, threading
     from app import budget, worker
     from tauvcore.config import Config, to_dict
 
-    def rss_bytes():
+    def status_bytes(key):
         with open("/proc/self/status") as f:
-            return next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmRSS"))
+            return next(int(line.split()[1]) * 1024 for line in f if line.startswith(key + ":"))
+
+    def rss_bytes():
+        return status_bytes("VmRSS")
 
     class PicklingQueue:
         # stands in for the manager queue: put() pickles the message, as its proxy does
@@ -85,7 +88,9 @@ MEASURE = textwrap.dedent("""
               .replace("run", methods=tuple(methods), aiding=tuple(aiding)))
     base = rss_bytes()
     worker.run_worker(to_dict(config), runs, PicklingQueue(), threading.Event())
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    # VmHWM, not ru_maxrss: ru_maxrss survives exec, so a child of a large pytest process would
+    # report its parent's peak (658 MiB for every case in the full suite)
+    peak = status_bytes("VmHWM")
     print(json.dumps({"measured": peak - base, "estimate": budget.estimate_run(config, runs).worker_peak_bytes}))
 """)
 
