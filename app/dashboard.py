@@ -5,7 +5,8 @@ DVL beams off, picks fusion methods and watches the navigation errors live.
 
 Every browser tab is a :class:`Session` with its own controls, scene, run and results; a run
 goes in its own process (app.worker) so the server and the other tabs stay responsive.
-viser's share button (an external relay service) is off; nothing is fetched from the internet.
+viser's share tunnel (an external relay service) cannot be started: its button is off and its
+message handlers are removed (:func:`disable_share_tunnel`); nothing is fetched from the internet.
 """
 
 from __future__ import annotations

@@ -39,6 +39,7 @@ import numpy as np
 
 from tauvcore.config import from_dict
 from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.validation import ConfigError
 
 WORKER_NICENESS = 10
 PROGRESS_MIN_WALL_S = 0.8     # live updates at most this often (wall time)
@@ -113,7 +114,17 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
                       should_stop=_throttled(stop_event.is_set, STOP_POLL_S))
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # the dashboard shows it; the server keeps serving
-        queue.put(("error", f"{type(exc).__name__}: {exc}"))
+        queue.put(("error", failure_message(exc)))
+
+
+def failure_message(exc: BaseException) -> str:
+    """The one line a tab is shown for a run that raised: a configuration error as its own clean
+    message (it names the field and value), anything else said to be a fault of ours."""
+    if isinstance(exc, ConfigError):
+        return str(exc)
+    if isinstance(exc, MemoryError):
+        return "the run ran out of memory; shorten the duration or use fewer runs"
+    return f"the run failed unexpectedly ({type(exc).__name__}: {exc}); this is a bug, please report it"
 
 
 # ---------------------------------------------------------------------------- worker process side

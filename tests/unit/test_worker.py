@@ -172,3 +172,12 @@ def test_shutdown_kills_a_busy_worker_at_once(pool: RunPool) -> None:
 def test_worker_count_must_be_positive() -> None:
     with pytest.raises(ValueError, match="workers must be >= 1, got 0"):
         RunPool(workers=0)
+
+
+def test_a_failed_run_is_reported_in_one_clean_line() -> None:
+    from app.worker import failure_message
+    from tauvcore.validation import ConfigError
+    assert failure_message(ConfigError("imu.gyro_noise_deg_per_sqrt_h must be within [0, 30], got 1e6")) == (
+        "imu.gyro_noise_deg_per_sqrt_h must be within [0, 30], got 1e6")
+    assert "LinAlgError" not in failure_message(MemoryError())
+    assert failure_message(RuntimeError("boom")).startswith("the run failed unexpectedly (RuntimeError: boom)")
