@@ -318,7 +318,7 @@ def test_summary_markdown_table(request, fixture):
     results = request.getfixturevalue(fixture)
     lines = summary_markdown(results).splitlines()
     assert lines[0] == ("| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] "
-                        "| consistent? |")
+                        "| monitor |")
     assert lines[1] == "|---|---|---|---|---|---|"
     body = lines[2:]
     assert len(body) == len(METHODS_UNDER_TEST)
@@ -326,7 +326,7 @@ def test_summary_markdown_table(request, fixture):
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         assert len(cells) == 6
         assert cells[0] == name
-        assert cells[5] == "yes"
+        assert cells[5] == "ok"
         exp = _expected_row(results[method])
         assert float(cells[1]) == pytest.approx(exp["vel_final_mps"], abs=0.5e-4)
         assert float(cells[2]) == pytest.approx(exp["vel_rms_mps"], abs=0.5e-4)
@@ -351,7 +351,7 @@ def test_summary_marks_a_diverged_single_run_with_its_time(single):
     assert rows[1]["diverged_first_s"] == 12.3456
     lines = summary_markdown(results).splitlines()
     assert "P floors" not in lines[0]                      # no repair anywhere: no column
-    assert [_cells(line)[5] for line in lines[2:]] == ["yes", "no: diverged at 12.3 s", "yes"]
+    assert [_cells(line)[5] for line in lines[2:]] == ["ok", "diverged at 12.3 s", "ok"]
 
 
 def test_summary_counts_diverged_monte_carlo_runs_and_the_first_time(monte_carlo):
@@ -359,17 +359,17 @@ def test_summary_counts_diverged_monte_carlo_runs_and_the_first_time(monte_carlo
     row = summary_rows(results)[0]
     assert (row["runs"], row["diverged_runs"], row["diverged_first_s"]) == (3, 2, 41.25)
     cells = _cells(summary_markdown(results).splitlines()[2])
-    assert cells[5] == "no: 2 of 3 runs, first diverged at 41.2 s"
+    assert cells[5] == "2 of 3 runs, first diverged at 41.2 s"
 
 
 def test_summary_shows_p_floor_column_only_when_a_repair_happened(monte_carlo):
     results = {"tc": _flagged(monte_carlo["tc"], [np.nan] * 3, [2, 0, 5]), "nsv": monte_carlo["nsv"]}
     assert summary_rows(results)[0]["p_floor_count"] == 7
     lines = summary_markdown(results).splitlines()
-    assert lines[0].endswith("| consistent? | P floors |")
+    assert lines[0].endswith("| monitor | P floors |")
     assert lines[1] == "|---|---|---|---|---|---|---|"
     assert [_cells(line)[6] for line in lines[2:]] == ["7", "0"]
-    assert [_cells(line)[5] for line in lines[2:]] == ["yes", "yes"]
+    assert [_cells(line)[5] for line in lines[2:]] == ["ok", "ok"]
 
 
 @pytest.mark.parametrize("show_sigma", [False, True])
