@@ -45,6 +45,8 @@ WORKER_NICENESS = 10
 PROGRESS_MIN_WALL_S = 0.8     # live updates at most this often (wall time)
 PROGRESS_MAX_EPOCHS = 1200    # output epochs per live update (evenly thinned, last one kept)
 STOP_POLL_S = 0.05            # how often the run looks for a Stop message on its pipe (wall time)
+STOP_GRACE_S = 2.0            # a run that has not ended this long after Stop (it polls only once the
+                              # filter loop runs, not while truth and sensors are generated) is killed
 WORKER_START_TIMEOUT_S = 120.0  # a worker imports numpy, scipy and tauvcore before it is ready
 MAX_START_FAILURES = 3        # workers dying before they are ready: give up replacing them
 PR_SET_PDEATHSIG = 1          # prctl option (linux/prctl.h): signal this process when its parent dies
@@ -219,6 +221,8 @@ class _Worker:
     ready: bool = False             # imports done, waiting for a task
     handle: RunHandle | None = None  # the run it computes
     stop_sent: bool = False         # Stop already sent for that run
+    stop_sent_at: float = 0.0       # when (time.monotonic)
+    killed_for_stop: bool = False   # killed because its run ignored Stop: the run ends as stopped
 
 
 def death_message(exitcode: int | None) -> str:
@@ -345,11 +349,12 @@ class RunPool:
                 return
             for w in self._workers:
                 if w.handle is handle and not w.stop_sent:
-                    w.stop_sent = True
+                    w.stop_sent, w.stop_sent_at = True, time.monotonic()
                     try:
                         w.conn.send(("stop",))
                     except OSError:       # it just died; the dispatcher reports it
                         pass
+        self._wake()                      # the dispatcher times the grace period from now
 
     def _spawn(self) -> None:
         parent_conn, child_conn = self._ctx.Pipe(duplex=True)
@@ -389,7 +394,7 @@ class RunPool:
             for w in workers:
                 watched += [w.conn, w.process.sentinel]
             try:
-                ready = mp_connection.wait(watched)
+                ready = mp_connection.wait(watched, timeout=self._kill_overdue())
             except OSError:   # a descriptor closed under us: shutting down
                 return
             with self._lock:
@@ -406,6 +411,25 @@ class RunPool:
                 if w.process.sentinel in ready or w.conn.closed:
                     self._bury(w)
             self._assign()
+
+    def _kill_overdue(self) -> float | None:
+        """Kill the workers whose run ignored Stop for STOP_GRACE_S (its death is then buried as
+        a stop, and a replacement starts); return how long until the next one is due, or None."""
+        now, due = time.monotonic(), None
+        with self._lock:
+            for w in self._workers:
+                if w.handle is None or not w.stop_sent or w.killed_for_stop:
+                    continue
+                left = w.stop_sent_at + STOP_GRACE_S - now
+                if left <= 0:
+                    w.killed_for_stop = True
+                    try:
+                        w.process.kill()
+                    except (OSError, AttributeError):
+                        pass
+                else:
+                    due = left if due is None else min(due, left)
+        return due
 
     def _receive(self, w: _Worker) -> None:
         """Read one message from ``w``; EOF means it died (its sentinel says so next)."""
@@ -458,7 +482,8 @@ class RunPool:
                 self._spawn()
             self._ready.notify_all()
         if handle is not None:
-            handle.queue.put(("error", death_message(w.process.exitcode)))
+            if not w.killed_for_stop:     # killed for Stop: the tab reports "Run stopped"
+                handle.queue.put(("error", death_message(w.process.exitcode)))
             handle._done.set()
         for other in failed:
             other.queue.put(("error", self._broken))

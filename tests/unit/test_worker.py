@@ -55,6 +55,34 @@ def test_stop_ends_a_long_run_within_a_second(pool: RunPool) -> None:
     assert stopped and results["ins"].t_s[-1] < 3000.0
 
 
+def test_stop_while_truth_is_generated_ends_the_run_and_the_pool_recovers(pool: RunPool) -> None:
+    """Truth and sensors are generated before the filter loop polls Stop (a 20,000 s mission
+    takes several seconds there): the worker is killed after STOP_GRACE_S, the run ends as
+    stopped (no error), a new worker replaces it, and the next run works."""
+    from app.worker import STOP_GRACE_S
+    config = Config().replace("trajectory", duration_s=20000.0).replace("run", methods=("ins",))
+    handle = pool.start(to_dict(config), 1)
+    pids_before = set(pool.pids())
+    time.sleep(0.3)              # computing now, inside simulate()
+    assert pool.busy_pids(), "the run should be computing"
+    t0 = time.monotonic()
+    handle.stop()
+    deadline = t0 + STOP_GRACE_S + 10.0
+    while not handle.finished() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert handle.finished()
+    assert time.monotonic() - t0 < STOP_GRACE_S + 3.0
+    leftovers = []
+    while not handle.queue.empty():
+        leftovers.append(handle.queue.get_nowait()[0])
+    assert "error" not in leftovers, leftovers
+    later = pool.start(to_dict(Config().replace("trajectory", duration_s=10.0)), 1)
+    kinds = []
+    while "done" not in kinds:
+        kinds.append(_next(later)[0])
+    assert set(pool.pids()) != pids_before      # the killed worker was replaced
+
+
 def test_bad_configuration_reports_one_line(pool: RunPool) -> None:
     data = to_dict(Config())
     data["dvl"]["noise_mps"] = -1.0
