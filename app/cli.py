@@ -133,6 +133,7 @@ def build_parser() -> argparse.ArgumentParser:
     sv = sub.add_parser("serve", help="start the browser dashboard")
     sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
+    sv.add_argument("--workers", help="runs computed at once, one process each (default: min(2, CPUs); at most 64)")
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", help="TOML file to merge over the defaults before printing")
     return parser
@@ -370,9 +371,19 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise UsageError(f"--port: must be within 1-65535, got {port}")
     if not args.host.strip():
         raise UsageError(f"--host: expected an address such as 127.0.0.1, got {show(args.host)}")
+    workers = None
+    if args.workers is not None:
+        workers = _parse("--workers", args.workers, int, "a whole number of worker processes")
+        if not 1 <= workers <= 64:
+            raise UsageError(f"--workers: must be within 1-64, got {workers}")
+    from app import budget
+    try:
+        budget.budget_bytes()           # a bad TAUV_RUN_BUDGET_MB is refused now, not at the first Run
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     from app.dashboard import main as serve_main  # viser only when serving
     try:
-        serve_main(args.host, port)
+        serve_main(args.host, port, workers)
     except OSError as exc:
         raise UsageError(f"--host/--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
     except KeyboardInterrupt:

@@ -1,7 +1,7 @@
 """The tauv dashboard: a viser server in which a navigation engineer flies a mission, switches
 DVL beams off, picks fusion methods and watches the navigation errors live.
 
-    tauv serve [--host 127.0.0.1] [--port 8080]
+    tauv serve [--host 127.0.0.1] [--port 8080] [--workers N]
 
 Every browser tab is a :class:`Session` with its own controls, scene, run and results; a run
 goes in its own process (app.worker) so the server and the other tabs stay responsive.

@@ -147,10 +147,19 @@ def test_beams_outage_and_dropout_reach_the_configuration() -> None:
     (["serve", "--port", "70000"], "70000"),
     (["serve", "--port", "http"], "'http'"),
     (["serve", "--host", " "], "--host"),
+    (["serve", "--workers", "0"], "--workers"),
+    (["serve", "--workers", "two"], "'two'"),
+    (["serve", "--workers", "1000"], "1000"),
 ])
 def test_serve_rejects_bad_addresses(capsys, argv, text) -> None:
     code, out, err = _run(capsys, *argv)
     assert code == 2 and text in err and len(err.strip().splitlines()) == 1
+
+
+def test_serve_refuses_a_bad_run_budget_before_it_starts(capsys, monkeypatch) -> None:
+    monkeypatch.setenv("TAUV_RUN_BUDGET_MB", "lots")
+    code, out, err = _run(capsys, "serve", "--port", "1")
+    assert code == 2 and "TAUV_RUN_BUDGET_MB" in err and "'lots'" in err and len(err.strip().splitlines()) == 1
 
 
 def test_serve_refuses_a_busy_port_instead_of_moving(capsys) -> None:
