@@ -60,7 +60,7 @@ from tauvcore.config import METHODS, Config, to_dict
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
 from tauvcore.truth import TRAJECTORIES
-from tauvcore.validation import ConfigError
+from tauvcore.validation import ConfigError, show
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
@@ -242,7 +242,7 @@ class Session:
             if "disconnected" in str(exc):
                 raise                       # the tab is gone: start_run drops the Run quietly
             raise InputError("the page could not report its controls (its browser storage is blocked?): "
-                             f"{inputs.shown(str(exc))}") from None
+                             f"{show(str(exc))}") from None
         return self.apply_page_values(by_id, raw)
 
     @staticmethod
@@ -273,7 +273,7 @@ class Session:
             else:
                 ok = isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
             if not ok:
-                raise InputError(f"{handle.label}: the page shows {inputs.shown(str(value))}, "
+                raise InputError(f"{handle.label}: the page shows {show(str(value))}, "
                                  "which this control cannot hold; reload the page")
             if value != handle.value:
                 handle.value = value
@@ -663,7 +663,7 @@ def harden_client_messages() -> bool:
                 continue
             try:
                 message = message_class.deserialize(bytes(raw))
-            except Exception as exc:  # noqa: BLE001 - any decoding failure is the client's
+            except Exception as exc:  # any decoding failure is the client's
                 DROPPED.drop(f"{type(exc).__name__}: {exc}")
                 continue
             if type(message).__name__ in REFUSED_CLIENT_MESSAGES:
@@ -674,7 +674,7 @@ def harden_client_messages() -> bool:
     async def guarded_dispatch(self: Any, client_id: Any, message: Any) -> None:
         try:
             await dispatch(self, client_id, message)
-        except Exception as exc:  # noqa: BLE001 - a handler refusing a malformed message
+        except Exception as exc:  # a handler refusing a malformed message
             DROPPED.drop(f"{type(message).__name__}: {type(exc).__name__}: {exc}")
 
     _infra._message_consumer = message_consumer

@@ -12,9 +12,8 @@ that every figure validates and equals its validated construction.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import functools
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np

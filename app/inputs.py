@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from tauvcore.config import METHODS, Config
 from tauvcore.sensors.dvl import Outage
-from tauvcore.validation import ConfigError
+from tauvcore.validation import ConfigError, show
 
 TRAJECTORY = "Trajectory"
 DURATION = "Duration [s]"
@@ -64,23 +64,16 @@ class InputError(Exception):
     """A control holds a value the run cannot use; the message names it and the value."""
 
 
-def shown(text: str) -> str:
-    """The value as typed, quoted, shortened when long."""
-    if len(text) > TEXT_MAX_CHARS:
-        return f"{text[:TEXT_MAX_CHARS]!r}... ({len(text)} characters)"
-    return repr(text)
-
-
 def parse_float(label: str, text: str) -> float:
     """The finite number ``text`` spells, or InputError naming ``label`` and ``text``."""
     s = text.strip()
     if not s:
         raise InputError(f"{label}: empty; type a number")
     if len(s) > TEXT_MAX_CHARS or not _FLOAT.fullmatch(s):
-        raise InputError(f"{label}: {shown(text)} is not a number")
+        raise InputError(f"{label}: {show(text)} is not a number")
     value = float(s)
     if value != value or value in (float("inf"), float("-inf")):
-        raise InputError(f"{label}: {shown(text)} is too large")
+        raise InputError(f"{label}: {show(text)} is too large")
     return value
 
 
@@ -90,7 +83,7 @@ def parse_int(label: str, text: str) -> int:
     if not s:
         raise InputError(f"{label}: empty; type a whole number")
     if len(s) > TEXT_MAX_CHARS or not _INT.fullmatch(s):
-        raise InputError(f"{label}: {shown(text)} is not a whole number (digits only)")
+        raise InputError(f"{label}: {show(text)} is not a whole number (digits only)")
     return int(s)
 
 
@@ -135,10 +128,10 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
         raise InputError("Methods: select at least one method")
     runs = parse_int(RUNS, c.runs)
     if not 1 <= runs <= RUNS_MAX:
-        raise InputError(f"{RUNS}: {shown(c.runs)} is out of range; Monte Carlo runs are 1 to {RUNS_MAX}")
+        raise InputError(f"{RUNS}: {show(c.runs)} is out of range; Monte Carlo runs are 1 to {RUNS_MAX}")
     seed = parse_int(SEED, c.seed)
     if seed < 0:
-        raise InputError(f"{SEED}: {shown(c.seed)} is negative; a seed is a whole number >= 0")
+        raise InputError(f"{SEED}: {show(c.seed)} is negative; a seed is a whole number >= 0")
     beams = tuple(k for k in range(1, 5) if k in c.beams)
     dvl_methods = [m for m in methods if m != "ins"]
     if dvl_methods and not beams:
@@ -177,7 +170,7 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
         label = _label_for(exc)
         if label is None:
             raise InputError(str(exc)) from None
-        value = f" {shown(typed[label])} is out of range:" if label in typed else ""
+        value = f" {show(typed[label])} is out of range:" if label in typed else ""
         raise InputError(f"{label}:{value} {exc}") from None
     return config, runs
 

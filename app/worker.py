@@ -368,7 +368,7 @@ class RunPool:
         waiting or computing run gets the error, and later runs get it at once."""
         try:
             self._dispatch_loop()
-        except Exception as exc:  # noqa: BLE001 - told to every tab instead of a silent dead thread
+        except Exception as exc:  # told to every tab instead of a silent dead thread
             with self._lock:
                 self._broken = f"the run pool failed ({type(exc).__name__}: {exc}); restart the server"
                 handles = [w.handle for w in self._workers if w.handle is not None] + list(self._pending)
@@ -438,7 +438,7 @@ class RunPool:
         except (EOFError, OSError):
             w.conn.close()
             return
-        except Exception as exc:  # noqa: BLE001 - a message cut off by the worker's death
+        except Exception as exc:  # a message cut off by the worker's death
             message = ("error", f"unreadable message from the worker: {type(exc).__name__}")
         kind = message[0]
         with self._lock:
@@ -515,5 +515,5 @@ def _stop_resource_tracker() -> None:
     try:
         from multiprocessing import resource_tracker
         resource_tracker._resource_tracker._stop()
-    except Exception:  # noqa: BLE001 - best effort: it also ends when this process exits
+    except Exception:  # best effort: it also ends when this process exits
         pass

@@ -50,7 +50,11 @@ from tauvcore.aiding.dvl_extended import (
 )
 from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.config import Config
-from tauvcore.eval.metrics import implausible_sensor_errors, innovation_divergence_s, nees
+from tauvcore.eval.metrics import (
+    implausible_sensor_errors,
+    innovation_divergence_s,
+    nees,
+)
 from tauvcore.filter.eskf import (
     Measurement,
     Nominal,

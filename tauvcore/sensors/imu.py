@@ -10,7 +10,6 @@ TAUV's Ekinox, and as the 34 m/s standalone drift of section 4.2 also requires.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np

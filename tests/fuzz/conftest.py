@@ -5,7 +5,7 @@ from __future__ import annotations
 from tests.fuzz.harness import CASE_TIMEOUT_S, STATS
 
 
-def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # noqa: ARG001 (pytest hook signature)
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # pytest's hook signature
     if not STATS.cases:
         return
     total = sum(STATS.cases.values())

@@ -116,7 +116,7 @@ class Tab:
             warm.wait(timeout=600)
             while self.run_once():
                 pass
-        except BaseException as exc:  # noqa: BLE001 - reported by the test
+        except BaseException as exc:  # reported by the test
             self.error = exc
             try:
                 warm.abort()

@@ -105,7 +105,7 @@ class ViserClient:
                         # browser's localStorage (the server keeps the values this client sent)
                         self.send({"type": "LocalStorageGetItemResponseMessage", "value": None,
                                    "error": None, "request_uuid": message["request_uuid"]})
-        except Exception:   # noqa: BLE001 - connection closed: wait_for reports what is missing
+        except Exception:   # connection closed: wait_for reports what is missing
             pass
         with self.lock:
             self.closed = True

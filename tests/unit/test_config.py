@@ -8,7 +8,16 @@ import tracemalloc
 
 import pytest
 
-from tauvcore.config import MAX_CONFIG_BYTES, Config, from_dict, load_toml, merge, read_toml, to_dict, to_toml
+from tauvcore.config import (
+    MAX_CONFIG_BYTES,
+    Config,
+    from_dict,
+    load_toml,
+    merge,
+    read_toml,
+    to_dict,
+    to_toml,
+)
 from tauvcore.validation import ConfigError, show, show_path
 
 

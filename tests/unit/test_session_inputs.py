@@ -12,9 +12,16 @@ import dataclasses
 
 import pytest
 
-from app import inputs
-from app.inputs import Controls, InputError, config_from_controls, config_markdown, parse_float, parse_int
+from app.inputs import (
+    Controls,
+    InputError,
+    config_from_controls,
+    config_markdown,
+    parse_float,
+    parse_int,
+)
 from tauvcore.config import Config
+from tauvcore.validation import SHOW_CHARS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
                     beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4, aid_depth=False, aid_mag=False,
@@ -95,7 +102,7 @@ def test_duration_86400_s_is_refused_with_the_control_named() -> None:
 
 def test_a_long_typed_value_is_shortened_in_the_message() -> None:
     message = refused(dvl_noise="9" * 5000)
-    assert message.startswith("DVL noise [m/s]: '" + "9" * inputs.TEXT_MAX_CHARS + "'... (5000 characters)")
+    assert message.startswith("DVL noise [m/s]: '" + "9" * SHOW_CHARS + "'... (5000 characters)")
     assert len(message) < 200
 
 
