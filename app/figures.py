@@ -168,8 +168,8 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     The "monitor" column is the divergence monitor's verdict (tauvcore.eval.runner: state or P
     not finite, an estimated sensor error far beyond its prior, innovations inconsistent, or the
     gate locked out). It sees only what the measurements reveal: "ok" is not a proof of
-    consistency (VB on beams 1-2 is "ok" with a velocity error of 50 sigma); a "P floors" column (repairs of P summed over
-    runs) appears only when some method needed one.
+    consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma). A
+    "P floors" column (repairs of P summed over runs) appears only when some method needed one.
     """
     rows = summary_rows(results)
     floors = any(r["p_floor_count"] for r in rows)
