@@ -12,6 +12,7 @@ configuration's message.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -64,27 +65,27 @@ class InputError(Exception):
     """A control holds a value the run cannot use; the message names it and the value."""
 
 
-def parse_float(label: str, text: str) -> float:
-    """The finite number ``text`` spells, or InputError naming ``label`` and ``text``."""
+def _spelled(label: str, text: str, pattern: re.Pattern[str], what: str) -> str:
+    """``text`` stripped if it spells ``what`` by ``pattern``, else InputError naming ``label``."""
     s = text.strip()
     if not s:
-        raise InputError(f"{label}: empty; type a number")
-    if len(s) > TEXT_MAX_CHARS or not _FLOAT.fullmatch(s):
-        raise InputError(f"{label}: {show(text)} is not a number")
-    value = float(s)
-    if value != value or value in (float("inf"), float("-inf")):
+        raise InputError(f"{label}: empty; type {what}")
+    if len(s) > TEXT_MAX_CHARS or not pattern.fullmatch(s):
+        raise InputError(f"{label}: {show(text)} is not {what}")
+    return s
+
+
+def parse_float(label: str, text: str) -> float:
+    """The finite number ``text`` spells, or InputError naming ``label`` and ``text``."""
+    value = float(_spelled(label, text, _FLOAT, "a number"))
+    if not math.isfinite(value):        # "1e999" matches the pattern and overflows
         raise InputError(f"{label}: {show(text)} is too large")
     return value
 
 
 def parse_int(label: str, text: str) -> int:
     """The whole number ``text`` spells in digits, or InputError naming ``label`` and ``text``."""
-    s = text.strip()
-    if not s:
-        raise InputError(f"{label}: empty; type a whole number")
-    if len(s) > TEXT_MAX_CHARS or not _INT.fullmatch(s):
-        raise InputError(f"{label}: {show(text)} is not a whole number (digits only)")
-    return int(s)
+    return int(_spelled(label, text, _INT, "a whole number (digits only)"))
 
 
 @dataclass(frozen=True)

@@ -27,8 +27,8 @@ monitor flags a run's solution (``MethodResult.diverged``, ``diverged_at_s``) at
 
 It uses no truth, as a real filter could not; so it cannot see an error in a direction nothing
 measures (heading on a straight line with the DVL alone, or VB's self-confirming virtual beam on
-a fixed pair): the NEES against truth in the records shows those. The standalone INS has no
-innovations and estimates no sensor error: it is flagged only if not finite.
+a fixed pair at a small n_f): the NEES against truth in the records shows those. The standalone
+INS has no innovations and estimates no sensor error: it is flagged only if not finite.
 """
 
 from __future__ import annotations
