@@ -16,8 +16,8 @@ from the arrays the engine allocates (8-byte floats; "d" is one double):
    np.cross results of 3 d and their per-component products, as tracemalloc measures):
    ``COMPENSATION_DOUBLES`` = 37 d, on top of the truth record.
 3. End of the run: the truth, the IMU record and the compensated increments (18 d per sample
-   and run); per output epoch, method and run the seven error/sigma/NEES series and the
-   estimated position (10 d) twice (the run's arrays and the pickled result queued for the
+   and run); per output epoch, method and run the eleven error/sigma/NEES series (norms, tilt and
+   heading, full NEES), the five block NEES and the estimated position (19 d) twice (the run's arrays and the pickled result queued for the
    dashboard), plus the thinned live copy (at most ``app.worker.PROGRESS_MAX_EPOCHS`` epochs,
    twice: copy and pickle); P and one covariance step's F, G, Phi, Qd and products per method and
    run (8 x 400 d); per update record row (DVL ping per DVL method, depth and magnetometer
@@ -47,7 +47,7 @@ TRUTH_DOUBLES = 37
 TRUTH_BUILD_DOUBLES = 169
 COMPENSATION_DOUBLES = 12 + 6 + 6 + 13
 IMU_KEPT_DOUBLES = 12 + 6
-OUTPUT_DOUBLES = 10
+OUTPUT_DOUBLES = 11 + 5 + 3
 COVARIANCE_DOUBLES = 8 * 20 * 20
 UPDATE_ROW_BYTES = 3000
 UPDATE_DOUBLES = 20

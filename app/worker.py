@@ -82,7 +82,10 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
         out[method] = dataclasses.replace(
             r, t_s=r.t_s[keep], vel_err_mps=r.vel_err_mps[keep], att_err_deg=r.att_err_deg[keep],
             pos_err_m=r.pos_err_m[keep], vel_sigma_mps=r.vel_sigma_mps[keep], att_sigma_deg=r.att_sigma_deg[keep],
-            pos_sigma_m=r.pos_sigma_m[keep], nees=r.nees[keep], est_pos_n=r.est_pos_n[keep])
+            pos_sigma_m=r.pos_sigma_m[keep], nees=r.nees[keep], est_pos_n=r.est_pos_n[keep],
+            tilt_err_deg=r.tilt_err_deg[keep], heading_err_deg=r.heading_err_deg[keep],
+            tilt_sigma_deg=r.tilt_sigma_deg[keep], heading_sigma_deg=r.heading_sigma_deg[keep],
+            nees_block=r.nees_block[keep])
     return out
 
 

@@ -18,7 +18,7 @@ from typing import Any
 import tomli_w
 
 from tauvcore import units
-from tauvcore.aiding import AIDING_SOURCES
+from tauvcore.aiding import AIDING_SOURCES, elc_nsv
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
 from tauvcore.sensors.imu import ImuConfig
@@ -43,6 +43,8 @@ beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled met
 nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector."""
 
 DEFAULT_METHODS = ("ins", "lc")
+AUTO = "auto"
+"""A parameter derived from the rest of the configuration (``partial.nsv_epsilon_m2_per_s2``)."""
 """Methods run when none are named: the standalone INS and loosely coupled DVL (README, --help)."""
 
 MAX_CONFIG_BYTES = 1 << 20
@@ -111,12 +113,20 @@ class PartialConfig:
                                             # 20 from benchmarks/vb_nf_sweep.py: VB consistent on all three
                                             # trajectories (NEES/dim 0.99-1.05, 89-100 % of epochs in the 99 %
                                             # band); at 2 it fused its own prediction as news (NEES/dim to 5000)
-    nsv_epsilon_m2_per_s2: float = 1e-4     # epsilon of eq. 36: variance of the "sway = 0" assumption [m^2/s^2];
-                                            # (0, 1]: a variance; beyond 1 m/s of sway the assumption says nothing
+    nsv_epsilon_m2_per_s2: float | str = AUTO  # epsilon of eq. 36: variance of the "sway = 0" assumption
+                                            # [m^2/s^2]; "auto" derives it from the vehicle's sideslip in its
+                                            # tightest turn (tauvcore.aiding.elc_nsv.epsilon_from_vehicle; 0.26
+                                            # for the defaults, benchmarks/nsv_epsilon_sweep.py); or a number in
+                                            # (0, 100]: a variance; beyond 10 m/s of sway it says nothing
 
     def __post_init__(self) -> None:
         require_range("partial.vb_nf", self.vb_nf, 1.0, 100.0)
-        require_range("partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2, 0.0, 1.0, low_open=True)
+        if isinstance(self.nsv_epsilon_m2_per_s2, str):
+            if self.nsv_epsilon_m2_per_s2 != AUTO:
+                raise ConfigError(f'partial.nsv_epsilon_m2_per_s2 must be a number in (0, 100] or "{AUTO}", '
+                                  f"got {show(self.nsv_epsilon_m2_per_s2)}")
+        else:
+            require_range("partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2, 0.0, 100.0, low_open=True)
 
 
 @dataclass(frozen=True)
@@ -161,6 +171,14 @@ class Config:
             if o.start_s >= duration or o.end_s > duration:
                 raise ConfigError(f"dvl.outages: window {o.start_s:g}:{o.end_s:g} s lies outside the run "
                                   f"(0 to {duration:g} s)")
+
+    def nsv_epsilon_value_m2_per_s2(self) -> float:
+        """NSV's epsilon: the configured number, or for "auto" the one derived from the vehicle."""
+        eps = self.partial.nsv_epsilon_m2_per_s2
+        if not isinstance(eps, str):
+            return float(eps)
+        tr = self.trajectory
+        return elc_nsv.epsilon_from_vehicle(tr.speed_mps, tr.turn_sideslip_deg, tr.turn_radius_m, self.dvl.rate_hz)
 
     def replace(self, section: str, **changes: Any) -> Config:
         """A copy with ``changes`` applied to one section (validated)."""
@@ -223,6 +241,8 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
             raise ConfigError(f"{field_name} must be a finite number, got {show(value)}")
         return number
     if isinstance(default, str):
+        if default == AUTO and isinstance(value, (int, float)) and not isinstance(value, bool):
+            return _coerce(field_name, 0.0, value)      # "auto" or a number
         if not isinstance(value, str):
             raise ConfigError(f"{field_name} must be a string, got {show(value)}")
         return value

@@ -42,7 +42,7 @@ class DvlExtended:
     dvl: DvlConfig
     earth: Earth
     gyro_rate_noise_rps: float
-    vb_nf: float                 # n_f of eq. 28
+    vb_nf: float                 # n_f of eq. 28 (VB), also VHV's (tauvcore.aiding.elc_vhv)
     nsv_epsilon_m2_per_s2: float  # epsilon of eq. 36
 
     name = "dvl"
@@ -55,7 +55,7 @@ class DvlExtended:
             return elc_nsv.solve(pitch, pattern, self.nsv_epsilon_m2_per_s2)
         if self.method == "plcf":
             return elc_plcf.solve(pitch, pattern)
-        return elc_vhv.solve(pitch, pattern)
+        return elc_vhv.solve(pitch, pattern, self.vb_nf)
 
     def measure(self, nom: Nominal, P_vel: np.ndarray, y_beam: np.ndarray, available: np.ndarray,
                 omega_meas_b: np.ndarray) -> tuple[Measurement, DvlInfo]:
@@ -87,7 +87,7 @@ class DvlExtended:
                     sol = self._solution(key)
                     if not sol.ok:
                         continue
-                    v, Rm = apply_solution(sol.C, sol.D, sol.pred_gain, sol.extra_var, y_c[idx], S_y[idx],
+                    v, Rm = apply_solution(sol.C, sol.D, sol.pred_gain, sol.assumption_sd, y_c[idx], S_y[idx],
                                            v_hat[idx], P_vel[idx])
                     meas = np.broadcast_to(sol.measured, v.shape)
                 v_meas[idx], R[idx], measured[idx] = v, Rm, meas

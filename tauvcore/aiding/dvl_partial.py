@@ -4,7 +4,7 @@ With exactly two returned beams the DVL has no velocity solution. Each ELC metho
 anyway from the two beams and, for some, the filter's predicted velocity. Every method is
 *affine* in its inputs, which is what makes its noise covariance exact:
 
-    v_meas = C y_c + D v_hat        R = C S_y C^T + (g D) P_vel (g D)^T + diag(extra)
+    v_meas = C y_c + D v_hat        R = C S_y C^T + (g D) P_vel (g D)^T + a a^T
 
 - ``y_c`` (4,) are the beams with the estimated beam biases, scale factor and lever-arm
   velocity removed, ``y_c,k = (y_k - b_hat_k - b_k . (omega_hat_nb x l)) / (1 + SF_hat) ~ b_k . v_b``,
@@ -13,7 +13,10 @@ anyway from the two beams and, for some, the filter's predicted velocity. Every 
 - ``C`` (3, 4) and ``D`` (3, 3) depend only on the beam geometry and on which beams returned,
   so each method derives them once per availability pattern (:class:`PartialSolution`);
 - ``g`` is the method's inflation of the prediction noise (the virtual beam's n_f, eq. 28);
-- ``extra`` holds the variance of an assumption (nullified sway's epsilon, eq. 36).
+- ``a`` (3,) is the error an assumption puts into the rows, as a 1-sigma vector: nullified
+  sway assumes ``v = 0`` with variance epsilon (eq. 36), and the true sway enters its sway row
+  *and* its heave row (through the pair's beam sum), so ``a = sqrt(epsilon) (C A - I) e_v``,
+  fully correlated between the two rows (eq. 36 puts epsilon on the sway row only).
 
 Only the ``measured`` rows are fused; the others are dropped from the update exactly (the
 paper's "infinite variance", eq. 43 and 47, without a huge number in the Joseph form). The
@@ -57,7 +60,7 @@ class PartialSolution:
     C: np.ndarray = field(default_factory=lambda: np.zeros((3, 4)))   # from compensated beams
     D: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))   # from the predicted velocity
     measured: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))  # rows fused
-    extra_var: np.ndarray = field(default_factory=lambda: np.zeros(3))  # assumption variance per row
+    assumption_sd: np.ndarray = field(default_factory=lambda: np.zeros(3))  # a: an assumption's 1-sigma error per row
     pred_gain: np.ndarray = field(default_factory=lambda: np.ones(3))   # g per row (n_f for VB)
 
 
@@ -97,11 +100,11 @@ def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float
     return S / ((1.0 + dvl_sf) ** 2)[..., None, None]
 
 
-def apply_solution(C: np.ndarray, D: np.ndarray, gain: np.ndarray, extra_var: np.ndarray, y_c: np.ndarray,
+def apply_solution(C: np.ndarray, D: np.ndarray, gain: np.ndarray, assumption_sd: np.ndarray, y_c: np.ndarray,
                    S_y: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + diag(extra)``; C, D (..., 3, 4|3)."""
+    """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + a a^T``; C, D (..., 3, 4|3), a (..., 3)."""
     v = mv(C, y_c) + mv(D, v_hat)
     gD = gain[..., :, None] * D
     R = C @ S_y @ np.swapaxes(C, -1, -2) + gD @ P_vel @ np.swapaxes(gD, -1, -2)
-    R = R + extra_var[..., None, :] * np.eye(3)
+    R = R + assumption_sd[..., :, None] * assumption_sd[..., None, :]
     return v, R

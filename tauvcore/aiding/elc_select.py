@@ -21,7 +21,7 @@ CANDIDATES = ("vb", "nsv", "plcf", "vhv")
 def candidate_solutions(beam_pitch_rad: float, pattern: tuple[bool, ...], n_f: float,
                         epsilon_m2_per_s2: float) -> list[PartialSolution]:
     return [elc_vb.solve(beam_pitch_rad, pattern, n_f), elc_nsv.solve(beam_pitch_rad, pattern, epsilon_m2_per_s2),
-            elc_plcf.solve(beam_pitch_rad, pattern), elc_vhv.solve(beam_pitch_rad, pattern)]
+            elc_plcf.solve(beam_pitch_rad, pattern), elc_vhv.solve(beam_pitch_rad, pattern, n_f)]
 
 
 def select(solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v_hat: np.ndarray,
@@ -34,14 +34,14 @@ def select(solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v
     var = np.full((len(solutions), n, 3), np.inf)
     for i, sol in enumerate(solutions):
         if sol.ok:
-            _, R = apply_solution(sol.C, sol.D, sol.pred_gain, sol.extra_var, y_c, S_y, v_hat, P_vel)
+            _, R = apply_solution(sol.C, sol.D, sol.pred_gain, sol.assumption_sd, y_c, S_y, v_hat, P_vel)
             var[i] = np.where(sol.measured, np.diagonal(R, axis1=-2, axis2=-1), np.inf)
     choice = np.argmin(var, axis=0)                      # (n, 3)
     measured = np.isfinite(np.min(var, axis=0))
     C_all = np.stack([s.C for s in solutions])           # (4, 3, 4)
     D_all = np.stack([s.D for s in solutions])
     g_all = np.stack([s.pred_gain for s in solutions])   # (4, 3)
-    e_all = np.stack([s.extra_var for s in solutions])
+    e_all = np.stack([s.assumption_sd for s in solutions])
     axes = np.arange(3)
     C = C_all[choice, axes]                              # (n, 3, 4): row a from method choice[:, a]
     D = D_all[choice, axes]

@@ -10,7 +10,9 @@ Methods and Monte Carlo runs are array dimensions of one filter bank (batch ``(M
 IMU-rate loop (strapdown step and covariance propagation) runs once for all of them, and each
 aiding epoch applies its update only to the methods that use it ("when" lives here, "how" in
 tauvcore.aiding). Every update leaves an :class:`UpdateRecord`; every output epoch leaves the
-error norms, the filter's own 1-sigma and the NEES against truth.
+error norms (attitude also split into tilt and heading), the filter's own 1-sigma, and the NEES
+against truth of the full state and of each block of :data:`~tauvcore.filter.layout.NEES_BLOCKS`
+(position, velocity, tilt, heading, sensor errors); every update record carries its NIS.
 
 Numerical health (issue 7): after the corrections of every aiding epoch, and at least once per
 second of propagation (:data:`CONDITION_CHECK_RATE_HZ`), P goes through
@@ -64,7 +66,7 @@ from tauvcore.filter.eskf import (
     difference,
     propagate,
 )
-from tauvcore.filter.layout import NOISE, STATE
+from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE
 from tauvcore.geo.rotations import (
     C_nb_from_euler,
     euler_from_misalignment_jacobian,
@@ -145,12 +147,17 @@ class MethodResult:
     method: str
     t_s: np.ndarray             # (T,) output epochs [s]
     vel_err_mps: np.ndarray     # (T, R) |body velocity error|
-    att_err_deg: np.ndarray     # (T, R) |misalignment|
+    att_err_deg: np.ndarray     # (T, R) |misalignment| (tilt and heading together)
     pos_err_m: np.ndarray       # (T, R) |position error|
     vel_sigma_mps: np.ndarray   # (T, R) sqrt(trace P_vel), the filter's own 1-sigma of the norm
     att_sigma_deg: np.ndarray   # (T, R)
     pos_sigma_m: np.ndarray     # (T, R)
     nees: np.ndarray            # (T, R) full 20-state NEES against truth
+    tilt_err_deg: np.ndarray    # (T, R) |(rho_N, rho_E)|: roll/pitch (levelling) error
+    heading_err_deg: np.ndarray  # (T, R) |rho_D|: heading (azimuth) error
+    tilt_sigma_deg: np.ndarray  # (T, R) sqrt(P_NN + P_EE) of the misalignment
+    heading_sigma_deg: np.ndarray  # (T, R) sqrt(P_DD) of the misalignment
+    nees_block: np.ndarray      # (T, R, B) NEES of each block of layout.NEES_BLOCKS (in its order)
     est_pos_n: np.ndarray       # (T, R, 3) estimated position, NED [m]
     diverged: np.ndarray        # (R,) bool: the divergence monitor flagged this run's solution
     diverged_at_s: np.ndarray   # (R,) time of the first flag [s], NaN if never
@@ -265,7 +272,7 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
         "lc": DvlLoose(config.dvl, earth, gyro_rate_noise),
         "tc": DvlTight(config.dvl, earth, gyro_rate_noise),
         **{m: DvlExtended(m, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
-                          config.partial.nsv_epsilon_m2_per_s2) for m in ELC_METHODS},
+                          config.nsv_epsilon_value_m2_per_s2()) for m in ELC_METHODS},
     }
     other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(batch, bool)
     depth_model = Depth(config.pressure)
@@ -280,7 +287,11 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
     out_idx = np.arange(0, truth.num_samples, out_step)
     T = out_idx.size
     series = {name: np.zeros((T, M, R)) for name in
-              ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees")}
+              ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees",
+               "tilt_err", "heading_err", "tilt_sigma", "heading_sigma")}
+    nees_block = np.zeros((T, M, R, len(NEES_BLOCKS)))
+    block_index = [np.asarray(ix) for ix in NEES_BLOCKS.values()]
+    tilt, heading = block_index[list(NEES_BLOCKS).index("tilt")], block_index[list(NEES_BLOCKS).index("heading")]
     est_pos_n = np.zeros((T, M, R, 3))
     # true DVL errors at a sample: those of the latest ping (the first before it; zero without pings)
     dvl_ping_of_sample = np.clip(np.searchsorted(sim.dvl.index, np.arange(truth.num_samples), side="right") - 1,
@@ -314,6 +325,12 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
         series["att_sigma"][slot] = np.sqrt(diag[..., STATE.att].sum(-1)) / units.DEG
         series["pos_sigma"][slot] = np.sqrt(diag[..., STATE.pos].sum(-1))
         series["nees"][slot] = nees(dx, P)
+        series["tilt_err"][slot] = np.linalg.norm(dx[..., tilt], axis=-1) / units.DEG
+        series["heading_err"][slot] = np.linalg.norm(dx[..., heading], axis=-1) / units.DEG
+        series["tilt_sigma"][slot] = np.sqrt(diag[..., tilt].sum(-1)) / units.DEG
+        series["heading_sigma"][slot] = np.sqrt(diag[..., heading].sum(-1)) / units.DEG
+        for b, ix in enumerate(block_index):
+            nees_block[slot, ..., b] = nees(dx[..., ix], P[..., ix[:, None], ix])
         est_pos_n[slot] = nom.nav.pos_n
         # health without truth: one sum, finite only if the navigation state and P's variances are.
         # A non-finite bias or attitude reaches the velocity at the next IMU step, and a NaN
@@ -381,6 +398,9 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
                 pos_err_m=series["pos_err"][:n, m], vel_sigma_mps=series["vel_sigma"][:n, m],
                 att_sigma_deg=series["att_sigma"][:n, m], pos_sigma_m=series["pos_sigma"][:n, m],
                 nees=series["nees"][:n, m], est_pos_n=est_pos_n[:n, m],
+                tilt_err_deg=series["tilt_err"][:n, m], heading_err_deg=series["heading_err"][:n, m],
+                tilt_sigma_deg=series["tilt_sigma"][:n, m], heading_sigma_deg=series["heading_sigma"][:n, m],
+                nees_block=nees_block[:n, m],
                 diverged=~np.isnan(diverged_at), diverged_at_s=diverged_at,
                 p_floor_count=p_floor_count[m].copy(), updates=updates)
         return out

@@ -39,3 +39,22 @@ class ProcessNoiseLayout:
 
 STATE = ErrorStateLayout()
 NOISE = ProcessNoiseLayout()
+
+
+def _indices(*slices: slice) -> tuple[int, ...]:
+    return tuple(i for s in slices for i in range(s.start, s.stop))
+
+
+NEES_BLOCKS: dict[str, tuple[int, ...]] = {
+    "pos": _indices(STATE.pos),
+    "vel": _indices(STATE.vel),
+    "tilt": _indices(slice(STATE.att.start, STATE.att.start + 2)),    # rho_N, rho_E: roll and pitch
+    "heading": _indices(slice(STATE.att.start + 2, STATE.att.stop)),  # rho_D: rotation about the vertical
+    "sensor": _indices(STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl),
+}
+"""The blocks whose NEES every method reports beside the full state's (issue 8), as state indices.
+
+The misalignment ``rho`` is in the n (NED) frame, so its horizontal components are the tilt
+(levelling error: what the accelerometers and gravity observe) and its down component is the
+heading (azimuth) error, which DVL aiding alone leaves unobservable on a straight line. The
+sensor block holds the IMU biases and the DVL beam biases and scale factor."""

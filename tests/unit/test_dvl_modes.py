@@ -183,7 +183,7 @@ def _expected(method: str, available: np.ndarray) -> tuple[int, np.ndarray]:
         return MODE_COAST, none
     pitch = np.radians(20.0)
     sol = {"vb": lambda: elc_vb.solve(pitch, pattern, 2.0), "nsv": lambda: elc_nsv.solve(pitch, pattern, 1e-4),
-           "plcf": lambda: elc_plcf.solve(pitch, pattern), "vhv": lambda: elc_vhv.solve(pitch, pattern),
+           "plcf": lambda: elc_plcf.solve(pitch, pattern), "vhv": lambda: elc_vhv.solve(pitch, pattern, 2.0),
            "elc": lambda: elc_vb.solve(pitch, pattern, 2.0)}[method]()     # elc: VB covers every axis
     return (MODE_PARTIAL, sol.measured) if sol.ok else (MODE_COAST, none)
 

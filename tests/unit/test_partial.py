@@ -36,6 +36,7 @@ C_Z = np.cos(PITCH)                      # b_k,3
 NOISE = 0.042                            # beam noise, Table 2 [m/s]
 LEVER = np.array([0.6, 0.0, 0.15])       # DVL head lever arm [m]
 EPSILON = 1e-4                           # NSV's sway-assumption variance [m^2/s^2]
+MC_EPSILON = 1e-2                        # the Monte Carlo's: 0.1 m/s, a turning hull's sway, so the leak shows
 SURGE, SWAY, HEAVE = 0, 1, 2
 
 PAIRS = list(itertools.combinations(range(4), 2))
@@ -53,7 +54,7 @@ SOLVERS = {
     "vb": lambda pattern, n_f=2.0: elc_vb.solve(PITCH, pattern, n_f),
     "nsv": lambda pattern, n_f=2.0: elc_nsv.solve(PITCH, pattern, EPSILON),
     "plcf": lambda pattern, n_f=2.0: elc_plcf.solve(PITCH, pattern),
-    "vhv": lambda pattern, n_f=2.0: elc_vhv.solve(PITCH, pattern),
+    "vhv": lambda pattern, n_f=2.0: elc_vhv.solve(PITCH, pattern, n_f),
 }
 USABLE = {
     "vb": set(PAIRS),
@@ -83,7 +84,7 @@ def random_spd(rng: np.random.Generator, scale: float) -> np.ndarray:
 
 
 def apply(sol: PartialSolution, y_c, S_y, v_hat, P_vel):
-    return apply_solution(sol.C, sol.D, sol.pred_gain, sol.extra_var, y_c, S_y, v_hat, P_vel)
+    return apply_solution(sol.C, sol.D, sol.pred_gain, sol.assumption_sd, y_c, S_y, v_hat, P_vel)
 
 
 # ------------------------------------------------------------------------------------------ (a) which pairs
@@ -240,7 +241,7 @@ def test_vhv_sway_is_eq45_and_its_variance_adds_the_heave_prediction():
     so its variance is the SUM (the Monte Carlo test below confirms it)."""
     rng = np.random.default_rng(402)
     pattern = pattern_of((0, 1))
-    sol = SOLVERS["vhv"](pattern)
+    sol = SOLVERS["vhv"](pattern, 1.0)
     b11, b12, b13 = A[0]
     s1, s2 = 0.03, 0.055
     S_y = np.diag([s1**2, s2**2, 0.07**2, 0.09**2])
@@ -258,6 +259,41 @@ def test_vhv_sway_is_eq45_and_its_variance_adds_the_heave_prediction():
     assert R[SWAY, SWAY] != pytest.approx(beams_part - pred_part, rel=1e-3)   # not the printed minus
     assert R[SURGE, SURGE] == pytest.approx((s1**2 + s2**2) / (4.0 * b11**2), rel=1e-12)   # eq. 47 R_u,PLCF
     np.testing.assert_array_equal(sol.measured, [True, True, False])
+    # n_f inflates the predicted heave's part only (our departure, as VB's eq. 28)
+    _, R20 = apply(SOLVERS["vhv"](pattern, 20.0), y, S_y, v_hat, P_vel)
+    assert R20[SWAY, SWAY] == pytest.approx(beams_part + 400.0 * pred_part, rel=1e-12)
+    assert R20[SURGE, SURGE] == pytest.approx(R[SURGE, SURGE], rel=1e-12)
+
+
+def _kalman(x, P, z, H, R):
+    S = H @ P @ H.T + R
+    K = np.linalg.solve(S, H @ P).T
+    return x + K @ (z - H @ x), (np.eye(len(x)) - K @ H) @ P
+
+
+@pytest.mark.parametrize("method", ["vb", "vhv"])
+def test_with_the_prediction_correlation_kept_vb_and_vhv_are_tight_coupling(method):
+    """The README's claim: the prediction term ``D v_hat`` errs by ``-D dv``, part of the state
+    error. Kept exactly (innovation ``(I - D) dv + C n``: H = I - D, R = C S C^T), VB and VHV
+    fuse exactly the two beams' own information, the tightly coupled update (z = y, H = A_s)."""
+    rng = np.random.default_rng(404)
+    pattern = pattern_of((0, 1))
+    sol = SOLVERS[method](pattern, 1.0)
+    rows = sol.measured
+    P = random_spd(rng, 0.05)
+    v_hat = rng.normal(0.0, 1.0, 3)
+    S_y = np.diag([0.03, 0.05, 1.0, 1.0]) ** 2
+    y = rng.normal(0.0, 1.0, 4) * np.array(pattern)
+    v_meas = sol.C @ y + sol.D @ v_hat
+    x_exact, P_exact = _kalman(v_hat, P, (v_meas - sol.D @ v_hat)[rows], (np.eye(3) - sol.D)[rows],
+                               (sol.C @ S_y @ sol.C.T)[np.ix_(rows, rows)])
+    x_tc, P_tc = _kalman(v_hat, P, y[:2], A[:2], S_y[:2, :2])
+    np.testing.assert_allclose(x_exact, x_tc, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(P_exact, P_tc, rtol=0, atol=1e-9)
+    # the paper's form (H = I, the prediction's variance added to R) is not that update
+    _, R_paper = apply(sol, y, S_y, v_hat, P)
+    _, P_paper = _kalman(v_hat, P, v_meas[rows], np.eye(3)[rows], R_paper[np.ix_(rows, rows)])
+    assert np.max(np.abs(P_paper - P_tc)) > 1e-4
 
 
 @pytest.mark.parametrize("n_f", [1.0, 2.0, 3.5])
@@ -283,18 +319,26 @@ def test_vb_covariance_is_eq30_with_the_virtual_beam_of_eq28(n_f):
 
 
 @pytest.mark.parametrize("pair", sorted(USABLE["nsv"]))
-def test_nsv_covariance_is_eq35_36(pair):
+def test_nsv_covariance_is_eq35_36_plus_the_sway_it_leaks(pair):
+    """Eq. 35-36 with the beams' noise alone, plus epsilon times the leak of the true sway into
+    each row, ``a = sqrt(epsilon) (C A - I) e_v``: -1 in the sway row, and for beams 1-2 / 3-4
+    ``-+b_y / b_z`` (0.257) in heave, for 1-3 / 2-4 the full sway in surge."""
     sol = SOLVERS["nsv"](pattern_of(pair))
+    leak = np.linalg.solve(A[list(pair)][:, [SURGE, HEAVE]], A[list(pair), SWAY])   # (u, w) error per unit sway
+    np.testing.assert_allclose(sol.assumption_sd / np.sqrt(EPSILON), [leak[0], -1.0, leak[1]], atol=1e-12)
     s = np.array([0.03, 0.05, 0.04, 0.06])
     S_y = np.diag(s**2)
     _, R = apply(sol, np.zeros(4), S_y, np.zeros(3), np.eye(3))   # NSV ignores P
     A_0 = A[list(pair)][:, [SURGE, HEAVE]]
     W_0 = np.diag(1.0 / s[list(pair)] ** 2)
     R_0 = np.linalg.inv(A_0.T @ W_0 @ A_0)
-    assert R[SURGE, SURGE] == pytest.approx(R_0[0, 0], rel=1e-12)
-    assert R[HEAVE, HEAVE] == pytest.approx(R_0[1, 1], rel=1e-12)
-    assert R[SWAY, SWAY] == EPSILON
-    assert R[SWAY, SURGE] == 0.0 and R[SWAY, HEAVE] == 0.0
+    a = sol.assumption_sd
+    assert R[SURGE, SURGE] == pytest.approx(R_0[0, 0] + a[SURGE] ** 2, rel=1e-12)
+    assert R[HEAVE, HEAVE] == pytest.approx(R_0[1, 1] + a[HEAVE] ** 2, rel=1e-12)
+    assert R[SWAY, SWAY] == pytest.approx(EPSILON, rel=1e-12)
+    assert R[SWAY, SURGE] == pytest.approx(-a[SURGE] * np.sqrt(EPSILON), abs=1e-15)
+    assert R[SWAY, HEAVE] == pytest.approx(-a[HEAVE] * np.sqrt(EPSILON), abs=1e-15)
+    assert abs(a[HEAVE]) > 0.25 * np.sqrt(EPSILON) or abs(a[SURGE]) > 0.99 * np.sqrt(EPSILON)
 
 
 # ------------------------------------------------------------------------------------------ (d) R vs Monte Carlo
@@ -304,10 +348,13 @@ MC_CASES = [pytest.param(m, p, id=f"{m}-{pid}") for m in ("vb", "nsv", "plcf", "
             for p, pid in zip(PAIRS, PAIR_IDS) if m == "elc" or p in USABLE[m]]
 
 
-def _monte_carlo(seed: int, pattern: tuple[bool, ...]):
-    """Beam noise ~ N(0, S_y) and prediction error ~ N(0, P_vel), true sway zero (NSV's case)."""
+def _monte_carlo(seed: int, pattern: tuple[bool, ...], sway_var: float = MC_EPSILON):
+    """Beam noise ~ N(0, S_y), prediction error ~ N(0, P_vel), true sway ~ N(0, sway_var) per
+    sample: NSV's assumption ``v = 0`` with variance epsilon (the other methods are exact for
+    any sway)."""
     rng = np.random.default_rng(seed)
-    v_true = np.array([rng.uniform(1.0, 2.5), 0.0, rng.uniform(-0.5, 0.5)])
+    v_true = np.tile([rng.uniform(1.0, 2.5), 0.0, rng.uniform(-0.5, 0.5)], (N_MC, 1))
+    v_true[:, SWAY] = rng.normal(0.0, np.sqrt(sway_var), N_MC)
     S_y = beam_noise_cov(A, NOISE, 0.01, LEVER, np.zeros(()))
     P_vel = random_spd(rng, 0.05)
     noise = rng.standard_normal((N_MC, 4)) @ np.linalg.cholesky(S_y).T
@@ -334,23 +381,18 @@ def test_reported_R_is_the_covariance_of_the_output(method, pair):
     pattern = pattern_of(pair)
     v_true, y_c, S_y, v_hat, P_vel = _monte_carlo(500 + PAIRS.index(pair), pattern)
     if method == "elc":
-        sols = elc_select.candidate_solutions(PITCH, pattern, 1.0, EPSILON)
+        sols = elc_select.candidate_solutions(PITCH, pattern, 1.0, MC_EPSILON)
         v, R, measured, choice = elc_select.select(sols, y_c, S_y[None], v_hat, P_vel[None])
         np.testing.assert_array_equal(R, np.broadcast_to(R[0], R.shape))   # R does not depend on the data
         assert np.all(choice == choice[0]) and np.all(measured == measured[0])
-        R, measured, choice = R[0], measured[0], choice[0]
-        # the assumption row (NSV's sway = 0) has no noise to sample: its variance is epsilon
-        assumption = choice == elc_select.CANDIDATES.index("nsv")
-        assumption[[SURGE, HEAVE]] = False
-        assert np.all(np.diag(R)[assumption] == EPSILON)
-        rows = measured & ~assumption
+        R, measured = R[0], measured[0]
+        rows = measured.copy()
     else:
-        sol = SOLVERS[method](pattern, 1.0)
+        sol = elc_nsv.solve(PITCH, pattern, MC_EPSILON) if method == "nsv" else SOLVERS[method](pattern, 1.0)
         v, R = apply(sol, y_c, S_y, v_hat, P_vel)
         rows = sol.measured.copy()
         if method == "nsv":
-            assert R[SWAY, SWAY] == EPSILON and np.all(v[:, SWAY] == 0.0)
-            rows[SWAY] = False
+            assert R[SWAY, SWAY] == pytest.approx(MC_EPSILON, rel=1e-12) and np.all(v[:, SWAY] == 0.0)
     assert rows.sum() >= 1
     _assert_covariance_matches(R, v - v_true, rows, f"{method} {pair}")
 

@@ -1,0 +1,105 @@
+"""Does a filter know its own error? NEES and NIS summaries of a method's results (issue 8).
+
+A consistent filter's NEES of an n-dimensional block is chi-square with n degrees of freedom, so
+its mean divided by n is 1. Averaged over R Monte Carlo runs at one epoch, ``R * mean(NEES)`` is
+chi-square with ``R n`` degrees of freedom, which gives the two-sided 99 % band of
+:func:`~tauvcore.eval.metrics.average_nees_bounds` (Bar-Shalom, Li & Kirubarajan 2001, 5.4.2).
+Each summary reports
+
+- ``per_dim``: the mean NEES over epochs and runs divided by n (1.0 consistent; above 1 the
+  filter is over-confident, below 1 it is cautious);
+- ``in_band``: the fraction of output epochs whose run-averaged NEES lies inside the band (99 %
+  for a consistent filter, less by chance since epochs are correlated).
+
+NIS (normalised innovation squared, ``nu^T S^-1 nu`` before the gate) is the same test made
+without truth, per aiding source: chi-square with as many degrees of freedom as rows were
+active. Its ``per_dof`` is ``sum(NIS) / sum(dof)`` over every update that produced a measurement,
+``in_band`` the fraction of those updates whose NIS lies inside its own two-sided 99 % band.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from tauvcore.eval.metrics import average_nees_bounds
+from tauvcore.eval.runner import MethodResult, UpdateRecord
+from tauvcore.filter.layout import NEES_BLOCKS, STATE
+
+CONFIDENCE = 0.99
+"""Two-sided confidence of every band."""
+
+BLOCK_DIMS: dict[str, int] = {"full": STATE.dim, **{name: len(ix) for name, ix in NEES_BLOCKS.items()}}
+"""Degrees of freedom of every NEES the results carry: the full state and each block."""
+
+
+@dataclass(frozen=True)
+class NeesSummary:
+    block: str
+    dim: int
+    per_dim: float      # mean NEES / dim over epochs and runs (NaN if none finite)
+    in_band: float      # fraction of epochs with the run-averaged NEES inside the 99 % band
+    band_per_dim: tuple[float, float]  # the band of the run-averaged NEES, divided by dim
+
+
+@dataclass(frozen=True)
+class NisSummary:
+    source: str
+    per_dof: float      # sum(NIS) / sum(dof) over the updates that produced a measurement
+    in_band: float      # fraction of those whose NIS lies inside its two-sided 99 % band
+    count: int          # number of (update, run) entries counted
+
+
+def nees_series(result: MethodResult, block: str) -> np.ndarray:
+    """The (T, R) NEES of ``block`` ("full" or a key of NEES_BLOCKS)."""
+    if block == "full":
+        return result.nees
+    return result.nees_block[..., list(NEES_BLOCKS).index(block)]
+
+
+def nees_band(dim: int, num_runs: int) -> tuple[float, float]:
+    """Two-sided band of the run-averaged NEES of an n-dimensional block, divided by n."""
+    lo, hi = average_nees_bounds(dim, max(int(num_runs), 1), CONFIDENCE)
+    return lo / dim, hi / dim
+
+
+def summarise_nees(series: np.ndarray, dim: int, block: str = "") -> NeesSummary:
+    """Summary of a (T, R) NEES series. Epochs where a run's NEES is not finite (a diverged
+    filter) count as outside the band and are left out of the mean."""
+    series = np.asarray(series, dtype=float)
+    band = nees_band(dim, series.shape[1])
+    if series.size == 0:
+        return NeesSummary(block, dim, float("nan"), float("nan"), band)
+    finite = np.isfinite(series)
+    per_dim = float(series[finite].mean() / dim) if finite.any() else float("nan")
+    with np.errstate(invalid="ignore"):
+        avg = series.mean(axis=1) / dim
+        inside = finite.all(axis=1) & (avg >= band[0]) & (avg <= band[1])
+    return NeesSummary(block, dim, per_dim, float(inside.mean()), band)
+
+
+def summarise_nis(record: UpdateRecord, source: str = "") -> NisSummary:
+    """Summary of one aiding source's NIS over the updates that produced a measurement."""
+    used = record.valid & (record.nis_dof > 0) & np.isfinite(record.nis)
+    if not used.any():
+        return NisSummary(source, float("nan"), float("nan"), 0)
+    nis, dof = record.nis[used], record.nis_dof[used]
+    alpha = 1.0 - CONFIDENCE
+    lo, hi = stats.chi2.ppf(alpha / 2, dof), stats.chi2.ppf(1 - alpha / 2, dof)
+    return NisSummary(source, float(nis.sum() / dof.sum()), float(np.mean((nis >= lo) & (nis <= hi))),
+                      int(used.sum()))
+
+
+@dataclass(frozen=True)
+class MethodConsistency:
+    nees: dict[str, NeesSummary]   # "full" and every block of NEES_BLOCKS
+    nis: dict[str, NisSummary]     # every aiding source the method used
+
+
+def method_consistency(result: MethodResult) -> MethodConsistency:
+    """NEES of the full state and every block, and NIS of every aiding source, of one method."""
+    return MethodConsistency(
+        nees={block: summarise_nees(nees_series(result, block), dim, block) for block, dim in BLOCK_DIMS.items()},
+        nis={src: summarise_nis(rec, src) for src, rec in result.updates.items()})
