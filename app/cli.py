@@ -3,6 +3,7 @@
     tauv run --trajectory figure8 --method ins,lc --duration 250 --seed 1 --json out.json
     tauv run --method all --beams 1,2            # only beams 1 and 2 return (the paper's case)
     tauv run --method lc,tc,elc --outage 3,4@50:200 --dropout 0.05
+    tauv run --method vb,nsv --beams 1,2 --vb-nf 10 --nsv-epsilon 0.05   # the partial methods' assumptions
     tauv config > my.toml          # full default configuration; edit and pass back with --config
     tauv serve --port 8080         # the browser dashboard
 
@@ -30,6 +31,7 @@ import numpy as np
 
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.config import (
+    AUTO,
     METHODS,
     Config,
     from_dict,
@@ -38,8 +40,14 @@ from tauvcore.config import (
     to_dict,
     to_toml,
 )
+from tauvcore.eval.consistency import (
+    BLOCK_DIMS,
+    MethodConsistency,
+    method_consistency,
+    nees_series,
+)
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.eval.runner import MethodResult, UpdateRecord, run, simulate
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
@@ -68,7 +76,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 VALUE_FLAGS = frozenset({"--trajectory", "--method", "--duration", "--seed", "--aiding", "--beams", "--outage",
-                         "--dropout", "--config", "--json", "--host", "--port"})
+                         "--dropout", "--vb-nf", "--nsv-epsilon", "--config", "--json", "--host", "--port",
+                         "--workers"})
 """Flags that take a value (every subcommand); see :func:`attach_dash_values`."""
 OTHER_FLAGS = frozenset({"--ideal", "-h", "--help"})
 
@@ -127,9 +136,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
                    help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable")
     r.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
+    r.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam (also inflates VHV's predicted heave), "
+                                               f"a number in [1, 100] (default {Config().partial.vb_nf:g})")
+    r.add_argument("--nsv-epsilon", metavar="E", help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
+                                                     "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
+                                                     "from the vehicle's sideslip in its tightest turn)")
     r.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
-    r.add_argument("--json", help="write the configuration and per-epoch results to this JSON file (strict JSON, "
-                                  "written atomically; not the --config file)")
+    r.add_argument("--json", help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
+                                  "JSON file (strict JSON, written atomically; not the --config file)")
     sv = sub.add_parser("serve", help="start the browser dashboard")
     sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
@@ -174,6 +188,13 @@ def resolve_config(args: argparse.Namespace) -> Config:
     if getattr(args, "dropout", None) is not None:
         probability = _parse("--dropout", args.dropout, float, "a probability in [0, 1]")
         config = _replace("--dropout", config, "dvl", dropout_probability=probability)
+    if getattr(args, "vb_nf", None) is not None:
+        config = _replace("--vb-nf", config, "partial",
+                          vb_nf=_parse("--vb-nf", args.vb_nf, float, "a number in [1, 100]"))
+    if getattr(args, "nsv_epsilon", None) is not None:
+        epsilon = (AUTO if args.nsv_epsilon == AUTO
+                   else _parse("--nsv-epsilon", args.nsv_epsilon, float, f"a number in (0, 100] or {AUTO!r}"))
+        config = _replace("--nsv-epsilon", config, "partial", nsv_epsilon_m2_per_s2=epsilon)
     return config
 
 
@@ -231,22 +252,78 @@ def _finite(values: np.ndarray) -> list[float | None]:
     return np.where(np.isfinite(values), values, None).tolist()
 
 
+def _number(value: float) -> float | None:
+    """A float for JSON, None (null) if not finite."""
+    value = float(value)
+    return value if np.isfinite(value) else None
+
+
 def result_to_json(result: MethodResult, run_index: int = 0) -> dict[str, Any]:
-    """Per-epoch series of one run and its divergence verdict, as in the CLI contract (strict JSON:
-    non-finite numbers are null)."""
-    diverged_at = float(result.diverged_at_s[run_index])
+    """Per-epoch series of one run, its divergence verdict and the method's consistency, as in the
+    CLI contract (strict JSON: non-finite numbers are null).
+
+    Series (length of ``t``, run ``run_index``): errors and the filter's own 1-sigma of velocity,
+    attitude (the norm, and apart: ``tilt`` = roll/pitch levelling, ``heading``) and position;
+    ``nees`` (full 20-state) and ``nees_<block>`` for the blocks pos, vel, tilt, heading, sensor.
+
+    ``nis``: per aiding source the method used, ``{"t", "nis", "dof"}`` at every update time of
+    that source (the length of its own ``t``, not of the output epochs). ``nis`` is null where the
+    source produced no measurement (outage, no beam, nothing active: ``dof`` 0) or NIS is not
+    finite, so the non-null entries are exactly those that ``consistency.nis.<source>.count``
+    counts; NIS is taken before the gate, so a rejected update keeps its value.
+
+    ``consistency``: :func:`tauvcore.eval.consistency.method_consistency` over all runs of
+    ``result`` (the CLI runs one): ``{"nees": {block: {"dim", "per_dim", "in_band",
+    "band_per_dim"}}, "nis": {source: {"per_dof", "in_band", "count"}}}``; NEES/dim and NIS/dof
+    are 1 for a consistent filter, ``in_band`` is the fraction inside the two-sided 99 % band.
+    """
+    i = run_index
+    diverged_at = float(result.diverged_at_s[i])
     return {
         "t": _finite(result.t_s),
-        "vel_err_mps": _finite(result.vel_err_mps[:, run_index]),
-        "att_err_deg": _finite(result.att_err_deg[:, run_index]),
-        "pos_err_m": _finite(result.pos_err_m[:, run_index]),
-        "vel_sigma_mps": _finite(result.vel_sigma_mps[:, run_index]),
-        "att_sigma_deg": _finite(result.att_sigma_deg[:, run_index]),
-        "pos_sigma_m": _finite(result.pos_sigma_m[:, run_index]),
-        "diverged": bool(result.diverged[run_index]),
+        "vel_err_mps": _finite(result.vel_err_mps[:, i]),
+        "att_err_deg": _finite(result.att_err_deg[:, i]),
+        "tilt_err_deg": _finite(result.tilt_err_deg[:, i]),
+        "heading_err_deg": _finite(result.heading_err_deg[:, i]),
+        "pos_err_m": _finite(result.pos_err_m[:, i]),
+        "vel_sigma_mps": _finite(result.vel_sigma_mps[:, i]),
+        "att_sigma_deg": _finite(result.att_sigma_deg[:, i]),
+        "tilt_sigma_deg": _finite(result.tilt_sigma_deg[:, i]),
+        "heading_sigma_deg": _finite(result.heading_sigma_deg[:, i]),
+        "pos_sigma_m": _finite(result.pos_sigma_m[:, i]),
+        "nees": _finite(result.nees[:, i]),
+        **{f"nees_{block}": _finite(nees_series(result, block)[:, i]) for block in BLOCK_DIMS if block != "full"},
+        "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
+        "consistency": consistency_to_json(method_consistency(result)),
+        "diverged": bool(result.diverged[i]),
         "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
-        "p_floor_count": int(result.p_floor_count[run_index]),
+        "p_floor_count": int(result.p_floor_count[i]),
     }
+
+
+def _nis_to_json(record: UpdateRecord, run_index: int) -> dict[str, list]:
+    nis, dof = record.nis[:, run_index], record.nis_dof[:, run_index]
+    used = record.valid[:, run_index] & (dof > 0)
+    return {"t": _finite(record.t_s), "nis": _finite(np.where(used, nis, np.nan)),
+            "dof": [int(d) for d in dof]}
+
+
+def consistency_to_json(c: MethodConsistency) -> dict[str, Any]:
+    """:class:`~tauvcore.eval.consistency.MethodConsistency` as strict-JSON data (NaN -> null)."""
+    return {
+        "nees": {block: {"dim": s.dim, "per_dim": _number(s.per_dim), "in_band": _number(s.in_band),
+                         "band_per_dim": [_number(b) for b in s.band_per_dim]} for block, s in c.nees.items()},
+        "nis": {source: {"per_dof": _number(s.per_dof), "in_band": _number(s.in_band), "count": s.count}
+                for source, s in c.nis.items()},
+    }
+
+
+def config_to_json(config: Config) -> dict[str, Any]:
+    """The configuration as ``tauv config`` prints it, plus the value NSV's epsilon resolved to
+    (``partial.nsv_epsilon_value_m2_per_s2``: derived, not a key a --config file may set)."""
+    data = to_dict(config)
+    data["partial"]["nsv_epsilon_value_m2_per_s2"] = config.nsv_epsilon_value_m2_per_s2()
+    return data
 
 
 def json_target(path: str, config_path: str | None) -> str:
@@ -319,14 +396,17 @@ def _new_file_mode(path: str) -> int:
 
 
 def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: float) -> str:
+    """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
+    :func:`consistency_table`."""
     tr = config.trajectory
     lines = [
         f"trajectory {tr.name}, {tr.duration_s:g} s, seed {config.run.seed}, aiding {','.join(config.run.aiding) or 'none'}"
         + (", IDEAL sensors" if config.run.ideal else "") + f"  ({elapsed_s:.1f} s wall)",
         "",
-        f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} "
-        f"{'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}",
-        f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[m]':>10} {'[m]':>9} {'[m/s]':>10}",
+        (f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
+         f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}"),
+        (f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[deg]':>9} {'[deg]':>9} {'[m]':>10} "
+         f"{'[m]':>9} {'[m/s]':>10}"),
     ]
     for name, r in results.items():
         dvl = r.updates.get("dvl")
@@ -338,10 +418,53 @@ def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: f
             marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
         lines.append(
             f"{name.upper():<7} {r.vel_err_mps[-1, 0]:>10.4f} {rms(r.vel_err_mps[:, 0]):>9.4f} "
-            f"{r.att_err_deg[-1, 0]:>10.4f} {rms(r.att_err_deg[:, 0]):>9.4f} "
-            f"{r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} {r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}"
-            + marker)
-    return "\n".join(lines)
+            f"{r.att_err_deg[-1, 0]:>10.4f} {rms(r.att_err_deg[:, 0]):>9.4f} {rms(r.tilt_err_deg[:, 0]):>9.4f} "
+            f"{rms(r.heading_err_deg[:, 0]):>9.4f} {r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} "
+            f"{r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}" + marker)
+    return "\n".join(lines + ["", consistency_table(results, config.run.aiding)])
+
+
+def _ratio(value: float) -> str:
+    """NEES/dim or NIS/dof in at most 7 characters; "-" if not finite."""
+    if not np.isfinite(value):
+        return "-"
+    if abs(value) < 10:
+        return f"{value:.2f}"
+    if abs(value) < 100:
+        return f"{value:.1f}"
+    return f"{value:.0f}" if abs(value) < 1e5 else f"{value:.1e}"
+
+
+def _cell(ratio: float, in_band: float) -> str:
+    """``1.03 (0.98)``: the ratio and, in brackets, the fraction inside the band; "-" for neither."""
+    if not (np.isfinite(ratio) or np.isfinite(in_band)):
+        return "-"
+    return f"{_ratio(ratio)} ({f'{in_band:.2f}' if np.isfinite(in_band) else '-'})"
+
+
+def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) -> str:
+    """Per method: NEES/dim of the full state and each block, NIS/dof of each aiding source in
+    ``sources``, each with the fraction of epochs (NIS: updates) inside its two-sided 99 %
+    chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
+    single-run band)."""
+    blocks = list(BLOCK_DIMS)
+    head = ["method", *blocks, *sources]
+    units = ["", *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
+    rows = []
+    for name, r in results.items():
+        c = method_consistency(r)
+        nis = [c.nis.get(s) for s in sources]
+        rows.append([name.upper(), *(_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in blocks),
+                     *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis)])
+    widths = [max(len(row[k]) for row in [head, units, *rows]) for k in range(len(head))]
+    widths[0] = max(widths[0], 7)
+
+    def line(cells: list[str]) -> str:
+        return " ".join([cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]).rstrip()
+
+    title = ("Consistency (1 = consistent, above 1 over-confident, below 1 cautious; in brackets the fraction "
+             "inside the 99 % band)")
+    return "\n".join([title, line(head), line(units), *(line(row) for row in rows)])
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -353,7 +476,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     results = run(config, sim, rng)
     elapsed = time.perf_counter() - started
     if json_path is not None:
-        payload = {"config": to_dict(config), "results": {m: result_to_json(r) for m, r in results.items()}}
+        payload = {"config": config_to_json(config), "results": {m: result_to_json(r) for m, r in results.items()}}
         try:
             write_json_atomic(json_path, payload)
         except OSError as exc:
@@ -428,6 +551,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _require_text_values(args: argparse.Namespace) -> None:
     """argparse drops a value of exactly ``--`` (``--method=--``) and leaves an empty list."""
     for name, value in vars(args).items():
+        name = name.replace("_", "-")           # dest vb_nf is the flag --vb-nf
         if f"--{name}" not in VALUE_FLAGS:
             continue
         values = value if name == "outage" else [value]

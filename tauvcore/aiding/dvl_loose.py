@@ -12,7 +12,8 @@ The measurement model keeps every state the velocity solution depends on:
     z = (1 + SF) v_b + (omega_nb - omega_hat_nb) x l + A+ b_dvl + A+ n
     H = [0, [l x] C^T [omega_ie x], (1 + SF_hat) I, 0, [l x], A+, v_hat_b]   (pos, att, vel, ba, bg, b_dvl, sf)
 
-The paper's eq. 18 keeps only the velocity column; the scale factor (0.7 % = 1.4 cm/s at 2 m/s)
+The paper's eq. 18 keeps only the velocity column (and gives H as 20x3; it is 3x20, the
+transpose); the scale factor (0.7 % = 1.4 cm/s at 2 m/s)
 and beam biases would then be unmodelled errors that bias the velocity and break consistency,
 while the states are there to absorb them. ``R = (A^T W A)^-1 + sigma_w^2 [l x][l x]^T`` with
 ``sigma_w`` the noise of the gyro rate used for the lever arm (eq. 20's gyro term). Fewer than

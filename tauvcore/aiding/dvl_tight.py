@@ -4,8 +4,9 @@ scalar measurement, so any number of beams from one to four aids the filter.
     y_k = b_k^T ((1 + SF) v_b + (omega_nb - omega_hat_nb) x l + omega_hat_nb x l) + b_dvl,k + n_k
     H_k = [0, b_k^T [l x] C^T [omega_ie x], (1 + SF_hat) b_k^T, 0, b_k^T [l x], e_k^T, b_k^T v_hat]
 
-Eq. 22 writes the scale-factor column as ``A x v_hat``: it is the product ``A v_hat``. The gyro
-column ``A [l x]`` matches eq. 22. ``R = diag(sigma^2) + sigma_w^2 A [l x][l x]^T A^T`` (eq. 20,
+Eq. 22 writes the scale-factor column as ``A x v_hat``: the paper's notation for a product (eq. 7,
+15 and 23 write products so), i.e. ``A v_hat``, not a typo. Eq. 22 gives H as 20x4; it is 4x20
+(one row per beam), the transpose. The gyro column ``A [l x]`` matches eq. 22. ``R = diag(sigma^2) + sigma_w^2 A [l x][l x]^T A^T`` (eq. 20,
 with the cross terms the shared gyro sample creates). Beams are gated one by one (section 2.1.1:
 "for each measurement"), so one bad beam does not throw away the other three.
 """

@@ -3,7 +3,8 @@ the method with the smallest variance among VB, NSV, PLCF and VHV.
 
 Eq. 49 passes ``diag(R_u, R_v, R_w)`` to the filter. Because every method is affine in the same
 beams and the same prediction (tauvcore.aiding.dvl_partial), the covariance of the selected
-rows is known exactly, cross terms included; we fuse that full R (the diagonal is eq. 49's).
+rows is known exactly, cross terms included; we fuse that full R. Eq. 49's diagonal is an
+approximation of it (the paper's choice), not an error.
 Which method each axis took is recorded per epoch.
 """
 

@@ -2,9 +2,9 @@
 
 The first missing beam k is replaced by the prediction ``y_k = b_k^T v_hat`` (eq. 24) and the
 three beams are inverted: ``v = A_s^-1 [y_i, y_j, b_k^T v_hat]`` (eq. 25, printed as ``[A]^-1``;
-it is the 3x3 ``A_s``). The virtual beam's variance is ``n_f^2 b_k^T P_vel b_k`` (eq. 28 keeps
-only P's diagonal, ``sum (b_k,j sigma_j)^2``; the full quadratic form is what the formula
-propagates when the velocity errors are correlated, as they are after a turn). n_f inflates it
+it is the 3x3 ``A_s``). The virtual beam's variance is ``n_f^2 b_k^T P_vel b_k``. Eq. 28's
+``sum (b_k,j sigma_j)^2`` is its approximation with P's diagonal, not an error; we keep the full
+quadratic form because the velocity errors are correlated after a turn. n_f inflates it
 for the neglected correlation between prediction and state error (eq. 26). With the x Janus,
 any three beams are independent, so VB works for every pair.
 """

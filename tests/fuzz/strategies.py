@@ -59,6 +59,8 @@ VALID_FLAG_VALUES: dict[str, st.SearchStrategy[str]] = {
                           st.lists(st.sampled_from("1234"), min_size=1, max_size=2, unique=True).map(",".join),
                           st.floats(0.0, 2.0), st.floats(0.1, 1.5)),
     "--dropout": finite_float_text(0.0, 1.0),
+    "--vb-nf": finite_float_text(1.0, 100.0),
+    "--nsv-epsilon": st.one_of(st.just("auto"), finite_float_text(1e-3, 100.0)),
 }
 """Values each flag accepts (so that a good share of the cases really runs)."""
 

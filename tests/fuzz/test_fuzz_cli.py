@@ -124,7 +124,7 @@ def _json_real(ws: Workspace, target: str) -> str | None:
 # --- flags ----------------------------------------------------------------------------------------
 
 FLAG_NAMES = ("--trajectory", "--method", "--duration", "--seed", "--ideal", "--aiding", "--beams", "--outage",
-              "--dropout", "--config", "--json")
+              "--dropout", "--vb-nf", "--nsv-epsilon", "--config", "--json")
 ARGPARSE_NAMES = ["unrecognized arguments", "invalid choice", "expected one argument", "required"]
 
 

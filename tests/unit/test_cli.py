@@ -13,10 +13,15 @@ import tomllib
 import numpy as np
 import pytest
 
-from app.cli import build_parser, main, resolve_config
+from app.cli import _cell, build_parser, main, resolve_config
 from tauvcore.config import METHODS, Config, from_dict
+from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency
 from tauvcore.eval.runner import run, simulate
 from tauvcore.sensors.dvl import Outage
+
+SPLIT_AND_NEES_KEYS = ("tilt_err_deg", "heading_err_deg", "tilt_sigma_deg", "heading_sigma_deg", "nees", "nees_pos",
+                       "nees_vel", "nees_tilt", "nees_heading", "nees_sensor")
+"""Per-epoch series --json carries since issue 8 (attitude apart, NEES per block)."""
 
 
 def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
@@ -86,9 +91,10 @@ def test_run_writes_the_json_contract_and_a_summary(capsys, tmp_path) -> None:
     assert data["config"]["trajectory"]["duration_s"] == 20.0
     assert data["config"]["run"]["seed"] == 3 and data["config"]["run"]["aiding"] == ["dvl", "depth"]
     assert set(data["results"]) == {"ins", "lc"}
-    keys = {"t", "vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "att_sigma_deg", "pos_sigma_m"}
+    keys = {"t", "vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "att_sigma_deg", "pos_sigma_m",
+            *SPLIT_AND_NEES_KEYS}
     for series in data["results"].values():
-        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count"}
+        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count", "nis", "consistency"}
         assert len({len(series[k]) for k in keys}) == 1 and series["t"][-1] == pytest.approx(20.0)
         assert series["diverged"] is False and series["diverged_at_s"] is None and series["p_floor_count"] >= 0
     assert data["results"]["lc"]["vel_err_mps"][-1] < data["results"]["ins"]["vel_err_mps"][-1]
@@ -127,11 +133,19 @@ def test_bad_partial_dvl_flags_give_one_line_and_exit_2(capsys, argv, flag, valu
     assert flag in lines[0] and value in lines[0] and "Traceback" not in err, lines[0]
 
 
+def _tables(out: str) -> tuple[dict[str, str], dict[str, str]]:
+    """The rows of the errors table and of the consistency table, by method name."""
+    title, errors, consistency = out.strip("\n").split("\n\n")
+    assert title.startswith("trajectory ") and consistency.startswith("Consistency")
+    return ({line.split()[0]: line for line in errors.splitlines()[2:]},
+            {line.split()[0]: line for line in consistency.splitlines()[3:]})
+
+
 def test_run_all_methods_with_two_beams_lists_every_method(capsys) -> None:
     code, out, err = _run(capsys, "run", "--method", "all", "--beams", "1,2", "--duration", "10")
     assert code == 0, err
-    rows = [line.split()[0] for line in out.splitlines() if line.split()]
-    assert [r for r in rows if r.lower() in METHODS] == [m.upper() for m in METHODS]
+    errors, consistency = _tables(out)
+    assert list(errors) == list(consistency) == [m.upper() for m in METHODS]
 
 
 def test_beams_outage_and_dropout_reach_the_configuration() -> None:
@@ -316,8 +330,7 @@ def test_default_methods_are_ins_and_lc_as_the_help_says(capsys) -> None:
     assert "(default: ins,lc)" in build_parser()._subparsers._group_actions[0].choices["run"].format_help()
     code, out, err = _run(capsys, "run", "--duration", "2")
     assert code == 0, err
-    rows = [line.split()[0] for line in out.splitlines()[4:] if line.split()]
-    assert rows == ["INS", "LC"]
+    assert [list(table) for table in _tables(out)] == [["INS", "LC"], ["INS", "LC"]]
 
 
 @pytest.mark.parametrize("flag, value, shown", [
@@ -395,7 +408,7 @@ def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, mon
     assert lc["vel_err_mps"][1] is None and lc["vel_err_mps"][2] is None and lc["vel_err_mps"][3] is not None
     assert lc["diverged"] is True and lc["diverged_at_s"] == 1.5 and lc["p_floor_count"] == 3
     assert ins["diverged"] is False and ins["diverged_at_s"] is None and ins["p_floor_count"] == 0
-    rows = {line.split()[0]: line for line in out.splitlines() if line.split()}
+    rows = _tables(out)[0]
     assert "diverged at 1.5 s" in rows["LC"] and "diverged" not in rows["INS"]
 
 
@@ -421,3 +434,127 @@ def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypa
     monkeypatch.setattr("app.cli.json.dump", real_dump)
     assert _run(capsys, "run", "--duration", "2", "--json", str(old))[0] == 0
     assert "previous" not in _strict_json(old.read_text())
+
+
+# --- issue 8: the partial methods' assumptions as flags; tilt and heading apart; consistency ---------
+
+@pytest.mark.parametrize("flag, value, shown", [
+    ("--vb-nf", "0", "0"), ("--vb-nf", "-3", "-3"), ("--vb-nf", "nan", "'nan'"), ("--vb-nf", "101", "101"),
+    ("--vb-nf", "-inf", "'-inf'"), ("--vb-nf", "many", "'many'"),
+    ("--nsv-epsilon", "-1", "-1"), ("--nsv-epsilon", "nan", "'nan'"), ("--nsv-epsilon", "inf", "'inf'"),
+    ("--nsv-epsilon", "bogus", "'bogus'"), ("--nsv-epsilon", "0", "0"), ("--nsv-epsilon", "AUTO", "'AUTO'"),
+    ("--nsv-epsilon", "-inf", "'-inf'"),
+])
+def test_bad_partial_method_flags_give_one_line_and_exit_2(capsys, flag, value, shown) -> None:
+    for argv in ([flag, value], [f"{flag}={value}"]):
+        line = _one_line_error(*_run(capsys, "run", "--method", "vb,nsv", "--beams", "1,2", *argv)[::2], shown)
+        assert line.startswith(f"tauv: error: {flag}: "), line     # the old code: "unrecognized arguments"
+
+
+@pytest.mark.parametrize("argv", [["run", "--vb-nf=--"], ["run", "--nsv-epsilon=--"], ["serve", "--workers=--"]])
+def test_a_value_of_two_dashes_is_refused_for_dashed_flags(capsys, argv) -> None:
+    """The dest of ``--vb-nf`` is ``vb_nf``; ``--workers`` was missing from VALUE_FLAGS: both crashed
+    with a TypeError traceback on ``=--``."""
+    _one_line_error(*_run(capsys, *argv)[::2], argv[1].split("=")[0], "'--'")
+
+
+def test_serve_workers_beginning_with_a_dash_reaches_its_flag(capsys) -> None:
+    _one_line_error(*_run(capsys, "serve", "--workers", "-inf")[::2], "--workers", "'-inf'")
+
+
+def test_vb_nf_and_nsv_epsilon_reach_the_configuration_over_the_file(tmp_path) -> None:
+    path = tmp_path / "p.toml"
+    path.write_text("[partial]\nvb_nf = 7.0\nnsv_epsilon_m2_per_s2 = 0.5\n")
+    parse = build_parser().parse_args
+    assert resolve_config(parse(["run", "--config", str(path)])).partial == dataclasses.replace(
+        Config().partial, vb_nf=7.0, nsv_epsilon_m2_per_s2=0.5)
+    config = resolve_config(parse(["run", "--config", str(path), "--vb-nf", "5", "--nsv-epsilon", "auto"]))
+    assert config.partial.vb_nf == 5.0 and config.partial.nsv_epsilon_m2_per_s2 == "auto"
+    assert resolve_config(parse(["run", "--nsv-epsilon", "0.05"])).nsv_epsilon_value_m2_per_s2() == 0.05
+    assert "--vb-nf N" in parse.__self__._subparsers._group_actions[0].choices["run"].format_help()
+    assert "--nsv-epsilon E" in parse.__self__._subparsers._group_actions[0].choices["run"].format_help()
+
+
+def _json_run(capsys, path, *argv: str) -> dict:
+    code, _, err = _run(capsys, "run", "--trajectory", "figure8", "--beams", "1,2", "--duration", "12",
+                        "--seed", "4", *argv, "--json", str(path))
+    assert code == 0, err
+    return _strict_json(path.read_text())
+
+
+def test_vb_nf_and_nsv_epsilon_change_the_results(capsys, tmp_path) -> None:
+    out = tmp_path / "o.json"
+    default = _json_run(capsys, out, "--method", "vb,nsv")
+    assert _json_run(capsys, out, "--method", "vb,nsv", "--nsv-epsilon", "auto") == default
+    vb5 = _json_run(capsys, out, "--method", "vb,nsv", "--vb-nf", "5")
+    assert vb5["config"]["partial"]["vb_nf"] == 5.0 and default["config"]["partial"]["vb_nf"] == 20.0
+    assert vb5["results"]["vb"]["vel_err_mps"] != default["results"]["vb"]["vel_err_mps"]
+    assert vb5["results"]["nsv"] == default["results"]["nsv"]              # n_f is VB's (and VHV's) alone
+    eps = _json_run(capsys, out, "--method", "vb,nsv", "--nsv-epsilon", "0.01")
+    assert eps["config"]["partial"]["nsv_epsilon_m2_per_s2"] == 0.01
+    assert eps["config"]["partial"]["nsv_epsilon_value_m2_per_s2"] == 0.01
+    assert default["config"]["partial"]["nsv_epsilon_value_m2_per_s2"] == pytest.approx(
+        Config().nsv_epsilon_value_m2_per_s2())
+    assert eps["results"]["nsv"]["vel_err_mps"] != default["results"]["nsv"]["vel_err_mps"]
+    assert eps["results"]["vb"] == default["results"]["vb"]
+
+
+def _same(json_value, number: float) -> bool:
+    return json_value is None if not np.isfinite(number) else json_value == pytest.approx(number, rel=1e-12)
+
+
+def test_json_carries_tilt_heading_nees_nis_and_the_consistency_of_the_run(capsys, tmp_path) -> None:
+    argv = ("--method", "ins,lc,tc,vb,nsv", "--aiding", "dvl,depth,mag")
+    data = _json_run(capsys, tmp_path / "o.json", *argv)
+    config = resolve_config(build_parser().parse_args(
+        ["run", "--trajectory", "figure8", "--beams", "1,2", "--duration", "12", "--seed", "4", *argv]))
+    rng = np.random.default_rng(config.run.seed)
+    results = run(config, simulate(config, rng, num_runs=1), rng)
+    for name, r in results.items():
+        series = data["results"][name]
+        n = len(series["t"])
+        for key in SPLIT_AND_NEES_KEYS:
+            assert len(series[key]) == n, key
+        assert series["tilt_err_deg"] == pytest.approx(r.tilt_err_deg[:, 0].tolist())
+        assert series["nees_heading"] == pytest.approx(r.nees_block[:, 0, 3].tolist())
+        assert set(series["nis"]) == set(r.updates) == ({"dvl", "depth", "mag"} if name != "ins" else set())
+        c = method_consistency(r)
+        consistency = series["consistency"]
+        assert set(consistency["nees"]) == set(BLOCK_DIMS) and set(consistency["nis"]) == set(r.updates)
+        for block, s in c.nees.items():
+            got = consistency["nees"][block]
+            assert got["dim"] == s.dim == BLOCK_DIMS[block]
+            assert _same(got["per_dim"], s.per_dim) and _same(got["in_band"], s.in_band)
+        for source, s in c.nis.items():
+            got = consistency["nis"][source]
+            assert _same(got["per_dof"], s.per_dof) and _same(got["in_band"], s.in_band)
+            assert got["count"] == s.count
+            nis = series["nis"][source]
+            assert len(nis["t"]) == len(nis["nis"]) == len(nis["dof"]) == len(r.updates[source].t_s)
+            assert sum(v is not None for v in nis["nis"]) == s.count       # null where nothing was measured
+            assert all(d == 0 for v, d in zip(nis["nis"], nis["dof"]) if v is None)
+    # two beams: LC has no DVL measurement at all, so its DVL NIS is null, not NaN
+    assert data["results"]["lc"]["consistency"]["nis"]["dvl"] == {"per_dof": None, "in_band": None, "count": 0}
+    assert data["results"]["tc"]["consistency"]["nis"]["dvl"]["count"] > 0
+
+
+def test_summary_splits_attitude_and_prints_the_consistency_table(capsys) -> None:
+    argv = ["--trajectory", "figure8", "--method", "ins,lc,vb", "--beams", "1,2", "--duration", "12", "--seed", "4",
+            "--aiding", "dvl,depth,mag"]
+    code, out, err = _run(capsys, "run", *argv)
+    assert code == 0, err
+    assert max(len(line) for line in out.splitlines()) <= 130
+    assert "tilt RMS" in out and "head RMS" in out and "att RMS" in out
+    assert "1 = consistent" in out and "over-confident" in out and "99 % band" in out
+    consistency = _tables(out)[1]
+    config = resolve_config(build_parser().parse_args(["run", *argv]))
+    rng = np.random.default_rng(config.run.seed)
+    results = run(config, simulate(config, rng, num_runs=1), rng)
+    for name, r in results.items():
+        c = method_consistency(r)
+        cells = [_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in BLOCK_DIMS]
+        cells += [_cell(c.nis[s].per_dof, c.nis[s].in_band) if s in c.nis else "-" for s in ("dvl", "depth", "mag")]
+        assert consistency[name.upper()].split(None, 1)[1].split() == " ".join(cells).split()
+    assert consistency["LC"].split()[1 + 2 * len(BLOCK_DIMS)] == "-"   # no DVL measurement with two beams
+    assert "nan" not in out.lower()
+    assert consistency["INS"].split()[-3:] == ["-", "-", "-"]
