@@ -53,6 +53,7 @@ from tauvcore.aiding.dvl_extended import (
 from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.config import Config
 from tauvcore.eval.metrics import (
+    block_nees,
     implausible_sensor_errors,
     innovation_divergence_s,
     nees,
@@ -290,8 +291,10 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
               ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees",
                "tilt_err", "heading_err", "tilt_sigma", "heading_sigma")}
     nees_block = np.zeros((T, M, R, len(NEES_BLOCKS)))
-    block_index = [np.asarray(ix) for ix in NEES_BLOCKS.values()]
-    tilt, heading = block_index[list(NEES_BLOCKS).index("tilt")], block_index[list(NEES_BLOCKS).index("heading")]
+    block_of_state = np.full(STATE.dim, -1)
+    for b, ix in enumerate(NEES_BLOCKS.values()):
+        block_of_state[list(ix)] = b
+    tilt, heading = np.asarray(NEES_BLOCKS["tilt"]), np.asarray(NEES_BLOCKS["heading"])
     est_pos_n = np.zeros((T, M, R, 3))
     # true DVL errors at a sample: those of the latest ping (the first before it; zero without pings)
     dvl_ping_of_sample = np.clip(np.searchsorted(sim.dvl.index, np.arange(truth.num_samples), side="right") - 1,
@@ -329,8 +332,7 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator,
         series["heading_err"][slot] = np.linalg.norm(dx[..., heading], axis=-1) / units.DEG
         series["tilt_sigma"][slot] = np.sqrt(diag[..., tilt].sum(-1)) / units.DEG
         series["heading_sigma"][slot] = np.sqrt(diag[..., heading].sum(-1)) / units.DEG
-        for b, ix in enumerate(block_index):
-            nees_block[slot, ..., b] = nees(dx[..., ix], P[..., ix[:, None], ix])
+        nees_block[slot] = block_nees(dx, P, block_of_state, len(NEES_BLOCKS))
         est_pos_n[slot] = nom.nav.pos_n
         # health without truth: one sum, finite only if the navigation state and P's variances are.
         # A non-finite bias or attitude reaches the velocity at the next IMU step, and a NaN
