@@ -241,8 +241,11 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
             raise ConfigError(f"{field_name} must be a finite number, got {show(value)}")
         return number
     if isinstance(default, str):
-        if default == AUTO and isinstance(value, (int, float)) and not isinstance(value, bool):
-            return _coerce(field_name, 0.0, value)      # "auto" or a number
+        if default == AUTO:                             # "auto" or a number
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                return _coerce(field_name, 0.0, value)
+            if not isinstance(value, str):
+                raise ConfigError(f'{field_name} must be a number or "{AUTO}", got {show(value)}')
         if not isinstance(value, str):
             raise ConfigError(f"{field_name} must be a string, got {show(value)}")
         return value

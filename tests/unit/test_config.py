@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
 import tracemalloc
@@ -132,6 +133,8 @@ OUT_OF_RANGE = [
     ("trajectory", "dive_duration_s", 1e300, 36000.0),
     ("filter", "gate_sigma", 0.5, 1.0), ("filter", "output_rate_hz", 0.0, 0.1),
     ("filter", "covariance_rate_hz", 0.5, 1.0), ("partial", "nsv_epsilon_m2_per_s2", 0.0, 1.0),
+    ("partial", "nsv_epsilon_m2_per_s2", 101.0, 100.0), ("partial", "nsv_epsilon_m2_per_s2", -1.0, 1e-6),
+    ("partial", "vb_nf", 0.0, 1.0), ("partial", "vb_nf", -3.0, 100.0), ("partial", "vb_nf", 101.0, 20.0),
     ("run", "seed", 2**63, 2**63 - 1),
 ]
 
@@ -253,3 +256,27 @@ def test_read_toml_refuses_special_and_large_files_before_reading(tmp_path, monk
     ok = tmp_path / "ok.toml"
     ok.write_bytes(b"[run]\nseed = 4\n" + b" " * (MAX_CONFIG_BYTES - 20))
     assert read_toml(str(ok)) == {"run": {"seed": 4}} and opened == [str(ok)]
+
+
+@pytest.mark.parametrize("value", ["bogus", "AUTO", "", True, [1], {"a": 1}, float("nan"), float("inf")])
+def test_nsv_epsilon_is_a_number_or_auto(value):
+    with pytest.raises(ConfigError) as info:
+        from_dict({"partial": {"nsv_epsilon_m2_per_s2": value}})
+    assert "partial.nsv_epsilon_m2_per_s2" in str(info.value)
+
+
+def test_nsv_epsilon_auto_is_derived_from_the_vehicle_and_a_number_is_taken_as_given():
+    config = Config()
+    assert config.partial.nsv_epsilon_m2_per_s2 == "auto"
+    tr = config.trajectory
+    sway = tr.speed_mps * math.tan(math.radians(tr.turn_sideslip_deg))      # 0.105 m/s
+    turn_s = math.pi * tr.turn_radius_m / tr.speed_mps                      # 23.6 s
+    assert config.nsv_epsilon_value_m2_per_s2() == pytest.approx(sway**2 * turn_s * config.dvl.rate_hz, rel=1e-12)
+    assert config.nsv_epsilon_value_m2_per_s2() == pytest.approx(0.259, abs=1e-3)
+    # a hull that does not slip: the 1 cm/s floor, never a zero variance
+    assert config.replace("trajectory", turn_sideslip_deg=0.0).nsv_epsilon_value_m2_per_s2() == 1e-4
+    # a faster ping rate: more pings share one turn's sway, each carries more variance
+    assert config.replace("dvl", rate_hz=5.0).nsv_epsilon_value_m2_per_s2() == pytest.approx(
+        5.0 * config.nsv_epsilon_value_m2_per_s2(), rel=1e-12)
+    assert from_dict({"partial": {"nsv_epsilon_m2_per_s2": 0.05}}).nsv_epsilon_value_m2_per_s2() == 0.05
+    assert from_dict({"partial": {"nsv_epsilon_m2_per_s2": 2}}).partial.nsv_epsilon_m2_per_s2 == 2.0
