@@ -1,5 +1,6 @@
 """The tauv dashboard: a viser server in which a navigation engineer flies a mission, switches
-DVL beams off, picks fusion methods and watches the navigation errors live.
+DVL beams off, picks fusion methods (and sets the partial-beam methods' assumptions) and watches
+the navigation errors live, and whether each method knows its error (NEES against its 99 % band).
 
     tauv serve [--host 127.0.0.1] [--port 8080] [--workers N]
 
@@ -35,11 +36,13 @@ from viser import _messages as viser_messages
 
 from app import budget, inputs, worker
 from app.figures import (
+    AUTO,
     METHOD_COLORS,
     TRUTH_COLOR,
     decimate,
     elc_choice_figure,
     error_figure,
+    nees_figure,
     summary_markdown,
 )
 from app.inputs import Controls, InputError, config_from_controls, config_markdown
@@ -57,12 +60,19 @@ from app.scene import (
     wxyz_view,
 )
 from tauvcore.config import METHODS, Config, to_dict
+from tauvcore.eval.consistency import BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
 from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError, show
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
+PLOTTED_QUANTITIES = ("vel", "tilt", "heading", "att", "pos")   # the error plots, top to bottom ("att" on demand)
+CONSISTENCY_NOTE = (
+    "NEES/dim: the squared estimation error weighed by the filter's own covariance, divided by the "
+    "block's dimension, averaged over the runs. **1: the method knows its error**; above the grey 99 % "
+    "band it is over-confident (its sigma is too small), below it cautious. The band narrows as runs "
+    "are added; the Results tab sums it up per method.")
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
@@ -141,6 +151,12 @@ class Session:
             self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
             with gui.add_folder("Methods"):
                 self.method_boxes = {m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS) for m in METHODS}
+            with gui.add_folder("Partial-beam methods"):
+                # each method's assumption, visible and settable (issue 8): VB's virtual-beam
+                # inflation and NSV's sway variance
+                self.vb_nf = gui.add_text(inputs.VB_NF, f"{d.partial.vb_nf:g}", hint=inputs.VB_NF_HINT)
+                self.nsv_epsilon = gui.add_text(inputs.NSV_EPSILON, str(d.partial.nsv_epsilon_m2_per_s2),
+                                                hint=inputs.NSV_EPSILON_HINT)
             with gui.add_folder("DVL beams"):
                 self.beam_boxes = [gui.add_checkbox(f"Beam {k}", True) for k in range(1, 5)]
                 self.dropout = gui.add_text(inputs.DROPOUT, f"{d.dvl.dropout_probability:g}",
@@ -174,9 +190,18 @@ class Session:
             self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
         with tabs.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
-            self.log_y = gui.add_checkbox("Log scale", True)
-            self.plots = {q: gui.add_plotly(go.Figure(), aspect=1.4) for q in ("vel", "att", "pos")}
+            self.log_y = gui.add_checkbox("Log scale", True,
+                                          hint="log y where the errors span more than a decade, linear elsewhere")
+            self.show_att_norm = gui.add_checkbox("Attitude norm", False,
+                                                  hint="also plot |attitude error| (tilt and heading together)")
+            self.plots = {q: gui.add_plotly(go.Figure(), aspect=1.4, visible=q != "att")
+                          for q in PLOTTED_QUANTITIES}
             self.elc_plot = gui.add_plotly(go.Figure(), aspect=2.2, visible=False)
+        with tabs.add_tab("Consistency"):
+            self.nees_block = gui.add_dropdown("NEES block", tuple(BLOCK_DIMS), initial_value="full",
+                                               hint="full: all 20 error states; or one block of them")
+            self.nees_plot = gui.add_plotly(go.Figure(), aspect=1.5)   # viser: height / width
+            gui.add_markdown(CONSISTENCY_NOTE)
         with tabs.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
             self.run_config = gui.add_markdown("")
@@ -185,6 +210,8 @@ class Session:
         self.stop_button.on_click(lambda _: self.stop_run())
         self.show_sigma.on_update(lambda _: self.refresh_plots())
         self.log_y.on_update(lambda _: self.refresh_plots())
+        self.show_att_norm.on_update(lambda _: self.refresh_plots())
+        self.nees_block.on_update(lambda _: self.refresh_plots())
         self.time_slider.on_update(lambda _: self.show_time(self.time_slider.value))
         self.play_button.on_click(lambda _: self.play())
         self.pause_button.on_click(lambda _: setattr(self, "playing", False))
@@ -208,7 +235,8 @@ class Session:
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
-        handles: list[Any] = [self.trajectory, self.duration, *self.method_boxes.values(), *self.beam_boxes,
+        handles: list[Any] = [self.trajectory, self.duration, *self.method_boxes.values(), self.vb_nf,
+                              self.nsv_epsilon, *self.beam_boxes,
                               self.dropout, *(h for pair in self.outage for h in pair), self.aid_depth,
                               self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
                               self.dvl_noise, self.dvl_bias, self.dvl_sf, self.seed, self.runs]
@@ -284,6 +312,7 @@ class Session:
         """What the controls hold (the server's copy; see :meth:`confirm_page_state`)."""
         return Controls(
             trajectory=self.trajectory.value, duration=self.duration.value, methods=self.selected_methods(),
+            vb_nf=self.vb_nf.value, nsv_epsilon=self.nsv_epsilon.value,
             beams=tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value), dropout=self.dropout.value,
             outages=tuple((start.value, end.value) for start, end in self.outage),
             aid_depth=self.aid_depth.value, aid_mag=self.aid_mag.value, accel_bias=self.accel_bias.value,
@@ -421,8 +450,14 @@ class Session:
         results = self.results
         if not results:
             return
+        log_y = AUTO if self.log_y.value else False
         for q, handle in self.plots.items():
-            handle.figure = error_figure(results, q, show_sigma=self.show_sigma.value, log_y=self.log_y.value)
+            shown = q != "att" or self.show_att_norm.value
+            if handle.visible != shown:
+                handle.visible = shown
+            if shown:
+                handle.figure = error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y)
+        self.nees_plot.figure = nees_figure(results, self.nees_block.value)
         if "elc" in results:
             self.elc_plot.figure = elc_choice_figure(results["elc"])
             self.elc_plot.visible = True

@@ -2,7 +2,11 @@
 
 Each method has one colour everywhere (plots, 3-D trajectories, legend). With one run the
 curves are that run's errors; with several Monte Carlo runs they are the RMS over runs (as in
-the paper's figures) and the sigma band is the RMS of the filter's own 1-sigma.
+the paper's figures) and the sigma band is the RMS of the filter's own 1-sigma. Attitude error is
+shown as tilt (roll, pitch: levelling) and heading apart, and as their norm: with DVL aiding alone
+heading is unobservable, so the norm is almost all heading and hides how well tilt is estimated.
+The consistency figure shows whether each method knows its own error: its NEES divided by the
+block's dimension (1 for a consistent filter) against the two-sided 99 % band.
 
 Figures are assembled as plain dicts and wrapped without plotly's per-property validation
 (:func:`_figure`): validation took 45 of the 56 ms that the four live plots cost per redraw, and
@@ -21,6 +25,13 @@ import plotly.graph_objects as go
 import plotly.io as pio
 
 from tauvcore.aiding.elc_select import CANDIDATES
+from tauvcore.eval.consistency import (
+    BLOCK_DIMS,
+    CONFIDENCE,
+    method_consistency,
+    nees_band,
+    nees_series,
+)
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
 
@@ -31,9 +42,19 @@ METHOD_COLORS = {
 TRUTH_COLOR = "#111111"
 QUANTITIES = {
     "vel": ("vel_err_mps", "vel_sigma_mps", "Velocity error", "m/s"),
-    "att": ("att_err_deg", "att_sigma_deg", "Attitude error", "deg"),
+    "att": ("att_err_deg", "att_sigma_deg", "Attitude error (norm)", "deg"),
+    "tilt": ("tilt_err_deg", "tilt_sigma_deg", "Tilt error (roll, pitch)", "deg"),
+    "heading": ("heading_err_deg", "heading_sigma_deg", "Heading error", "deg"),
     "pos": ("pos_err_m", "pos_sigma_m", "Position error", "m"),
 }
+AUTO = "auto"
+LOG_SPAN = 10.0
+"""``log_y="auto"`` draws a log axis only when the drawn values span more than this factor: over a
+narrower range (heading error 1.0-1.2 deg) a log axis has no ticks and flattens the curves."""
+NEES_BLOCK_NAMES = {"full": "full state", "pos": "position", "vel": "velocity", "tilt": "tilt",
+                    "heading": "heading", "sensor": "sensor errors"}
+"""Consistency blocks (tauvcore.eval.consistency.BLOCK_DIMS) as the figure names them."""
+BAND_COLOR = "rgba(120,120,120,0.18)"
 
 
 def method_color(method: str) -> str:
@@ -68,20 +89,32 @@ def _figure(data: list[dict[str, Any]], layout: dict[str, Any], validate: bool =
     return go.Figure(data=data, layout=layout, _validate=False)
 
 
+def _spans_decades(curves: list[np.ndarray]) -> bool:
+    """True if the positive finite values of ``curves`` span more than LOG_SPAN."""
+    values = np.concatenate([np.ravel(c) for c in curves]) if curves else np.empty(0)
+    values = values[np.isfinite(values) & (values > 0)]
+    return values.size > 0 and float(values.max()) > LOG_SPAN * float(values.min())
+
+
 def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", show_sigma: bool = False,
-                 log_y: bool = False, height_px: int = 300, max_points: int | None = 600,
+                 log_y: bool | str = False, height_px: int = 300, max_points: int | None = 600,
                  validate: bool = False) -> go.Figure:
     """Error norm against time for every method; one trace per method named by its short name.
 
-    ``quantity``: "vel", "att" or "pos". ``show_sigma`` adds the filter's 1-sigma as a shaded
-    band under each curve (a trace named "<NAME> 1-sigma"). At most about ``max_points`` points
-    are drawn per trace (evenly strided, the last epoch always included): a plot panel is a few
-    hundred pixels wide, and every point drawn is data sent to the browser on each live update.
+    ``quantity``: "vel", "tilt", "heading", "att" (the attitude norm) or "pos". ``show_sigma``
+    adds the filter's 1-sigma as a shaded band under each curve (a trace named "<NAME> 1-sigma").
+    ``log_y``: True, False, or "auto" (log only where the drawn values span more than LOG_SPAN).
+    At most about ``max_points`` points are drawn per trace (evenly strided, the last epoch
+    always included): a plot panel is a few hundred pixels wide, and every point drawn is data
+    sent to the browser on each live update.
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    if log_y not in (True, False, AUTO):
+        raise ValueError(f"log_y must be True, False or {AUTO!r}, got {log_y!r}")
     err_field, sigma_field, title, unit = QUANTITIES[quantity]
     data: list[dict[str, Any]] = []
+    drawn: list[np.ndarray] = []
     runs = 1
     for method, res in results.items():
         keep = decimate(len(res.t_s), max_points)
@@ -93,16 +126,71 @@ def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", sho
         if show_sigma:
             sigma = getattr(res, sigma_field)[keep]
             band = sigma[:, 0] if runs == 1 else rms(sigma, axis=1)
+            drawn.append(band)
             data.append({"type": "scatter", "x": t, "y": band, "name": f"{method.upper()} 1-sigma", "mode": "lines",
                          "line": {"width": 0}, "fill": "tozeroy", "fillcolor": _hex_to_rgba(color, 0.15),
                          "hoverinfo": "skip", "showlegend": False, "legendgroup": method})
+        drawn.append(curve)
         data.append({"type": "scatter", "x": t, "y": curve, "name": method.upper(), "mode": "lines",
                      "line": {"color": color, "width": 2}, "legendgroup": method})
+    log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "")
     layout = {"title": {"text": label, "font": {"size": 13}}, "height": height_px,
               "margin": {"l": 50, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
               "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
-              "yaxis": {"type": "log" if log_y else "linear", "exponentformat": "power"}}
+              "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"}}
+    return _figure(data, layout, validate)
+
+
+def nees_figure(results: Mapping[str, MethodResult], block: str = "full", height_px: int = 300,
+                max_points: int | None = 600, validate: bool = False) -> go.Figure:
+    """Does each method know its own error? Its NEES of ``block`` divided by the block's
+    dimension n, averaged over the Monte Carlo runs, against time; one trace per method.
+
+    ``block``: "full" (the 20 error states) or "pos", "vel", "tilt", "heading", "sensor"
+    (tauvcore.eval.consistency.BLOCK_DIMS). A consistent filter's curve lies near 1 (a dotted
+    line, trace "1 = consistent") and inside the two-sided 99 % band of the run-averaged NEES
+    (:func:`tauvcore.eval.consistency.nees_band`; a grey shaded trace "99 % band", which narrows
+    as runs are added); above it the filter is over-confident, below it cautious. NEES spans
+    decades (VB at a small n_f reached thousands), so the y-axis is logarithmic. Epochs where a
+    run's NEES is not finite (a diverged filter) are gaps.
+    """
+    if block not in BLOCK_DIMS:
+        raise ValueError(f"block must be one of {', '.join(BLOCK_DIMS)}, got {block!r}")
+    dim = BLOCK_DIMS[block]
+    data: list[dict[str, Any]] = []
+    runs, t_first, t_last = 1, np.inf, -np.inf
+    for method, res in results.items():
+        if len(res.t_s) == 0:
+            continue
+        keep = decimate(len(res.t_s), max_points)
+        series = nees_series(res, block)[keep]
+        runs = series.shape[1]
+        with np.errstate(invalid="ignore", over="ignore"):
+            curve = series.mean(axis=1) / dim
+        curve = np.where(np.isfinite(curve), curve, np.nan)
+        t = res.t_s[keep]
+        t_first, t_last = min(t_first, float(t[0])), max(t_last, float(t[-1]))
+        data.append({"type": "scatter", "x": t, "y": curve, "name": method.upper(), "mode": "lines",
+                     "line": {"color": method_color(method), "width": 2}, "legendgroup": method})
+    if data:
+        lo, hi = nees_band(dim, runs)
+        reference = [
+            {"type": "scatter", "x": [t_first, t_last, t_last, t_first], "y": [lo, lo, hi, hi],
+             "name": f"{CONFIDENCE:.0%} band".replace("%", " %"), "mode": "lines", "fill": "toself",
+             "fillcolor": BAND_COLOR, "line": {"color": "rgba(120,120,120,0.6)", "width": 1, "dash": "dash"},
+             "hoverinfo": "skip"},
+            {"type": "scatter", "x": [t_first, t_last], "y": [1.0, 1.0], "name": "1 = consistent", "mode": "lines",
+             "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"}, "hoverinfo": "skip"},
+        ]
+        data = reference + data
+    runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
+    title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} (dim {dim}){runs_text}"
+    layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
+              "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
+              "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
+              "yaxis": {"type": "log", "exponentformat": "power",
+                        "title": {"text": "NEES/dim (1 = consistent, >1 over-confident)", "font": {"size": 11}}}}
     return _figure(data, layout, validate)
 
 
@@ -135,17 +223,28 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool
 
 
 def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | str]]:
-    """Final and RMS-over-time errors per method (RMS over runs first when there are several),
-    and the filter's health: how many runs the divergence monitor flagged, the earliest flag
-    [s] (NaN if none) and the P eigenvalue-floor repairs summed over runs."""
+    """Per method: final and RMS-over-time errors (RMS over runs first when there are several),
+    tilt and heading apart; consistency (tauvcore.eval.consistency.method_consistency): mean
+    NEES/dim of the full state and the fraction of epochs inside its 99 % band, velocity
+    NEES/dim, DVL NIS per degree of freedom (NaN without DVL updates); and the filter's health:
+    how many runs the divergence monitor flagged, the earliest flag [s] (NaN if none) and the P
+    eigenvalue-floor repairs summed over runs."""
     rows = []
     for method, res in results.items():
         def curve(x: np.ndarray) -> np.ndarray:
             return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
         vel, att, pos = curve(res.vel_err_mps), curve(res.att_err_deg), curve(res.pos_err_m)
+        consistency = method_consistency(res)
+        dvl_nis = consistency.nis.get("dvl")
         rows.append({"method": method.upper(), "vel_final_mps": float(vel[-1]), "vel_rms_mps": float(rms(vel)),
                      "att_final_deg": float(att[-1]), "att_rms_deg": float(rms(att)),
+                     "tilt_rms_deg": float(rms(curve(res.tilt_err_deg))),
+                     "heading_rms_deg": float(rms(curve(res.heading_err_deg))),
                      "pos_final_m": float(pos[-1]), "pos_rms_m": float(rms(pos)),
+                     "nees_per_dim": consistency.nees["full"].per_dim,
+                     "nees_in_band": consistency.nees["full"].in_band,
+                     "vel_nees_per_dim": consistency.nees["vel"].per_dim,
+                     "dvl_nis_per_dof": dvl_nis.per_dof if dvl_nis is not None else float("nan"),
                      "runs": int(res.diverged.size), "diverged_runs": int(np.count_nonzero(res.diverged)),
                      "diverged_first_s": float(np.nanmin(res.diverged_at_s)) if res.diverged.any() else float("nan"),
                      "p_floor_count": int(np.sum(res.p_floor_count))})
@@ -162,22 +261,61 @@ def _health_cell(row: Mapping[str, float | str]) -> str:
     return f"{row['diverged_runs']} of {row['runs']} runs, first {at}"
 
 
-def summary_markdown(results: Mapping[str, MethodResult]) -> str:
-    """The results table as Markdown (the dashboard shows it as text a person and a test can read).
+def _fixed(x: float, decimals: int) -> str:
+    """``x`` with ``decimals`` decimals, "-" if it is not finite."""
+    return f"{x:.{decimals}f}" if np.isfinite(x) else "-"
 
+
+def _ratio(x: float) -> str:
+    """A NEES or NIS ratio (1 = consistent, up to thousands): two decimals near 1, "-" if not finite."""
+    if not np.isfinite(x):
+        return "-"
+    if x >= 100.0:
+        return f"{x:.0f}"
+    return f"{x:.2f}" if x >= 0.1 else f"{x:.2g}"
+
+
+def _in_band_cell(per_dim: float, in_band: float) -> str:
+    if not np.isfinite(per_dim):
+        return "-"
+    return _ratio(per_dim) + (f" ({in_band:.0%})".replace("%", " %") if np.isfinite(in_band) else "")
+
+
+ERROR_COLUMNS = ("method", "vel final [m/s]", "vel RMS [m/s]", "att final [deg]", "pos final [m]",
+                 "tilt RMS [deg]", "heading RMS [deg]")
+CONSISTENCY_COLUMNS = ("method", "NEES/dim (in 99 % band)", "vel NEES/dim", "DVL NIS/dof", "monitor")
+"""The results' two tables (a "P floors" column ends the second when some method needed a repair):
+one table of eleven columns is wider than the dashboard's panel, which cut off its right end."""
+CONSISTENCY_HEADING = "**Consistency** (1 = the method knows its error; above 1 it is over-confident)"
+
+
+def _table(columns: tuple[str, ...], rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)] + [
+        "| " + " | ".join(cells) + " |" for cells in rows]
+
+
+def summary_markdown(results: Mapping[str, MethodResult]) -> str:
+    """The results as two Markdown tables (the dashboard shows them as text a person and a test
+    can read): errors, then consistency below the line CONSISTENCY_HEADING.
+
+    Errors: final and RMS velocity, the attitude norm, position, and tilt and heading RMS apart.
+    Consistency: NEES/dim of the full state with the fraction of epochs inside its two-sided 99 %
+    band, velocity NEES/dim and DVL NIS per degree of freedom (1 = the method knows its error; "-"
+    where there is nothing to measure, as for DVL NIS without DVL updates, or a value is NaN).
     The "monitor" column is the divergence monitor's verdict (tauvcore.eval.runner: state or P
     not finite, an estimated sensor error far beyond its prior, innovations inconsistent, or the
     gate locked out). It sees only what the measurements reveal: "ok" is not a proof of
-    consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma). A
-    "P floors" column (repairs of P summed over runs) appears only when some method needed one.
+    consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma); the
+    NEES columns beside it are. A "P floors" column (repairs of P summed over runs) appears
+    only when some method needed one.
     """
     rows = summary_rows(results)
     floors = any(r["p_floor_count"] for r in rows)
-    lines = ["| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] | monitor |"
-             + (" P floors |" if floors else ""),
-             "|---|---|---|---|---|---|" + ("---|" if floors else "")]
-    for r in rows:
-        lines.append(f"| {r['method']} | {r['vel_final_mps']:.4f} | {r['vel_rms_mps']:.4f} | "
-                     f"{r['att_final_deg']:.3f} | {r['pos_final_m']:.2f} | {_health_cell(r)} |"
-                     + (f" {r['p_floor_count']} |" if floors else ""))
-    return "\n".join(lines)
+    errors = [[str(r["method"]), _fixed(r["vel_final_mps"], 4), _fixed(r["vel_rms_mps"], 4),
+               _fixed(r["att_final_deg"], 3), _fixed(r["pos_final_m"], 2), _fixed(r["tilt_rms_deg"], 3),
+               _fixed(r["heading_rms_deg"], 3)] for r in rows]
+    consistency = [[str(r["method"]), _in_band_cell(r["nees_per_dim"], r["nees_in_band"]),
+                    _ratio(r["vel_nees_per_dim"]), _ratio(r["dvl_nis_per_dof"]), _health_cell(r)]
+                   + ([str(r["p_floor_count"])] if floors else []) for r in rows]
+    columns = CONSISTENCY_COLUMNS + (("P floors",) if floors else ())
+    return "\n".join(_table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency))

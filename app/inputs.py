@@ -7,7 +7,8 @@ finite; whole-number controls (Seed, Runs) take digits only (``2.5`` and ``1e30`
 not rounded). Anything else, empty, ``NaN``, ``inf``, hexadecimal or ``1_000``, is refused with
 one message naming the control and the value as typed. Ranges are the configuration's own
 (tauvcore.config): a value out of range is refused with the control's label in front of the
-configuration's message.
+configuration's message. NSV's epsilon also takes the word ``auto`` (derived from the vehicle,
+tauvcore.config.PartialConfig).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from tauvcore.config import METHODS, Config
+from tauvcore.config import AUTO, METHODS, Config
 from tauvcore.sensors.dvl import Outage
 from tauvcore.validation import ConfigError, show
 
@@ -30,6 +31,12 @@ GYRO_NOISE = "Gyro noise [deg/sqrt(h)]"
 DVL_NOISE = "DVL noise [m/s]"
 DVL_BIAS = "DVL bias [m/s]"
 DVL_SF = "DVL scale factor [%]"
+VB_NF = "VB n_f"
+NSV_EPSILON = "NSV epsilon [m^2/s^2]"
+VB_NF_HINT = ("n_f of eq. 28, 1 to 100: how many times the virtual beam's predicted sigma is inflated "
+              "(VB, VHV, ELC); small values fuse the filter's own prediction as news")
+NSV_EPSILON_HINT = ('variance of the "sway = 0" assumption (NSV, ELC), (0, 100] m^2/s^2, or "auto": '
+                    "derived from the vehicle's sideslip in its tightest turn")
 SEED = "Seed"
 RUNS = "Runs"
 RUNS_MAX = 1000
@@ -53,6 +60,8 @@ FIELD_LABELS = {
     "dvl.scale_factor_pct": DVL_SF,
     "dvl.dropout_probability": DROPOUT,
     "dvl.outages": "Outages",
+    "partial.vb_nf": VB_NF,
+    "partial.nsv_epsilon_m2_per_s2": NSV_EPSILON,
     "run.seed": SEED,
 }
 """Configuration field -> the control that sets it (for messages)."""
@@ -88,6 +97,15 @@ def parse_int(label: str, text: str) -> int:
     return int(_spelled(label, text, _INT, "a whole number (digits only)"))
 
 
+def parse_float_or_auto(label: str, text: str) -> float | str:
+    """``"auto"`` if ``text`` is that word (any case, spaces around ignored), else the finite
+    number it spells as :func:`parse_float` reads it; InputError naming ``label`` and ``text``."""
+    if text.strip().lower() == AUTO:
+        return AUTO
+    _spelled(label, text, _FLOAT, f'a number or "{AUTO}"')
+    return parse_float(label, text)
+
+
 @dataclass(frozen=True)
 class Controls:
     """What the page's controls hold: numeric fields as typed, checkboxes and choices as set."""
@@ -95,6 +113,8 @@ class Controls:
     trajectory: str
     duration: str
     methods: tuple[str, ...]                  # selected, lower case
+    vb_nf: str                                # VB's n_f (also VHV, ELC), as typed
+    nsv_epsilon: str                          # NSV's epsilon [m^2/s^2] or "auto", as typed
     beams: tuple[int, ...]                    # switched on, 1..4
     dropout: str
     outages: tuple[tuple[str, str], ...]      # (start, end) per beam 1..4, as typed [s]
@@ -143,10 +163,11 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     numbers = {label: parse_float(label, text) for label, text in (
         (DURATION, c.duration), (DROPOUT, c.dropout), (ACCEL_BIAS, c.accel_bias), (GYRO_BIAS, c.gyro_bias),
         (ACCEL_NOISE, c.accel_noise), (GYRO_NOISE, c.gyro_noise), (DVL_NOISE, c.dvl_noise),
-        (DVL_BIAS, c.dvl_bias), (DVL_SF, c.dvl_sf))}
+        (DVL_BIAS, c.dvl_bias), (DVL_SF, c.dvl_sf), (VB_NF, c.vb_nf))}
+    epsilon = parse_float_or_auto(NSV_EPSILON, c.nsv_epsilon)
     typed = {DURATION: c.duration, DROPOUT: c.dropout, ACCEL_BIAS: c.accel_bias, GYRO_BIAS: c.gyro_bias,
              ACCEL_NOISE: c.accel_noise, GYRO_NOISE: c.gyro_noise, DVL_NOISE: c.dvl_noise, DVL_BIAS: c.dvl_bias,
-             DVL_SF: c.dvl_sf, SEED: c.seed}
+             DVL_SF: c.dvl_sf, SEED: c.seed, VB_NF: c.vb_nf, NSV_EPSILON: c.nsv_epsilon}
     outages = []
     for k, (start_text, end_text) in enumerate(c.outages, start=1):
         start_label, end_label = outage_labels(k)
@@ -165,6 +186,7 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
                            gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE])
                   .replace("dvl", noise_mps=numbers[DVL_NOISE], bias_mps=numbers[DVL_BIAS],
                            scale_factor_pct=numbers[DVL_SF], beams=beams, dropout_probability=numbers[DROPOUT])
+                  .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
                   .replace("run", methods=methods, aiding=aiding, seed=seed))
         config = config.replace("dvl", outages=tuple(outages))
     except ConfigError as exc:
@@ -179,12 +201,17 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
 def config_markdown(config: Config, runs: int) -> str:
     """The configuration a run used, as a Markdown table (shown beside its results)."""
     d, imu, run = config.dvl, config.imu, config.run
+    epsilon = config.partial.nsv_epsilon_m2_per_s2
+    epsilon_text = (f"{AUTO} ({config.nsv_epsilon_value_m2_per_s2():.3g})" if isinstance(epsilon, str)
+                    else f"{epsilon:g}")
     outages = ", ".join(f"beam {o.beams[0] if len(o.beams) == 1 else o.beams} {o.start_s:g}-{o.end_s:g} s"
                         for o in d.outages) or "none"
     rows = [
         ("Trajectory", config.trajectory.name),
         (DURATION, f"{config.trajectory.duration_s:g}"),
         ("Methods", ", ".join(m.upper() for m in run.methods)),
+        (VB_NF, f"{config.partial.vb_nf:g}"),
+        (NSV_EPSILON, epsilon_text),
         ("DVL beams", ", ".join(str(b) for b in d.beams) or "none"),
         ("Outages", outages),
         (DROPOUT, f"{d.dropout_probability:g}"),

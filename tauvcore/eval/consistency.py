@@ -87,7 +87,8 @@ def summarise_nis(record: UpdateRecord, source: str = "") -> NisSummary:
         return NisSummary(source, float("nan"), float("nan"), 0)
     nis, dof = record.nis[used], record.nis_dof[used]
     alpha = 1.0 - CONFIDENCE
-    lo, hi = stats.chi2.ppf(alpha / 2, dof), stats.chi2.ppf(1 - alpha / 2, dof)
+    dofs, inverse = np.unique(dof, return_inverse=True)        # a few distinct dof: one quantile each
+    lo, hi = stats.chi2.ppf(alpha / 2, dofs)[inverse], stats.chi2.ppf(1 - alpha / 2, dofs)[inverse]
     return NisSummary(source, float(nis.sum() / dof.sum()), float(np.mean((nis >= lo) & (nis <= hi))),
                       int(used.sum()))
 

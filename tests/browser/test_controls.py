@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import pytest
 
+from tauvcore.config import Config
+
 pytestmark = pytest.mark.browser
 
 # three checkbox clicks, 10 ms apart (20 ms first to last), by their input ids
@@ -57,6 +59,25 @@ def test_typed_scientific_notation_reaches_the_server_as_typed(new_tab) -> None:
     run_and_wait(tab)
     used = tab.run_config()
     assert used["Duration [s]"] == "10" and used["Seed"] == "42" and used["Methods"] == "INS, TC"
+    # the untouched partial-beam assumptions: n_f's default, epsilon derived from the vehicle
+    assert used["VB n_f"] == "20"
+    assert used["NSV epsilon [m^2/s^2]"] == f"auto ({Config().nsv_epsilon_value_m2_per_s2():.3g})"
+
+
+def test_typed_n_f_and_epsilon_reach_the_run(new_tab) -> None:
+    """Given n_f 7 and epsilon 0.5 typed into the partial-beam fields, when NSV and VB run, then
+    the "Configuration run" table shows both as typed (issue 8)."""
+    tab = new_tab()
+    tab.set_methods({"NSV", "VB"})
+    tab.checkbox("Beam 3").uncheck()
+    tab.checkbox("Beam 4").uncheck()
+    tab.type_into("Duration [s]", "10")
+    tab.type_into("VB n_f", "7")
+    tab.type_into("NSV epsilon [m^2/s^2]", "0.5")
+    run_and_wait(tab)
+    used = tab.run_config()
+    assert used["NSV epsilon [m^2/s^2]"] == "0.5" and used["VB n_f"] == "7"
+    assert used["Methods"] == "VB, NSV" and used["DVL beams"] == "1, 2"
 
 
 @pytest.mark.parametrize("folder, label, typed, message", [
@@ -65,6 +86,9 @@ def test_typed_scientific_notation_reaches_the_server_as_typed(new_tab) -> None:
     (None, "Seed", "2.5", "Seed: '2.5' is not a whole number"),
     ("Sensors (Table 2)", "Gyro noise [deg/sqrt(h)]", "1e6", "Gyro noise [deg/sqrt(h)]: '1e6' is out of range"),
     (None, "Runs", "1000", "GB of memory"),
+    (None, "VB n_f", "0", "VB n_f: '0' is out of range: partial.vb_nf"),
+    (None, "VB n_f", "nan", "VB n_f: 'nan' is not a number"),
+    (None, "NSV epsilon [m^2/s^2]", "-1", "NSV epsilon [m^2/s^2]: '-1' is out of range"),
 ])
 def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, label, typed, message) -> None:
     tab = new_tab()

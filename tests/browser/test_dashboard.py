@@ -38,11 +38,25 @@ def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:
     velocity = dict(figures[0])
     assert set(velocity) == {"INS", "TC", "NSV"}
     assert all(n >= 500 for n in velocity.values())   # 250 s at 10 Hz, drawn with <= ~800 points
+    # attitude error as tilt and heading apart (the norm only on demand)
+    titles = tab.page.evaluate("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                               ".map(p => p.layout && p.layout.title && p.layout.title.text)")
+    assert any(t and t.startswith("Tilt error") for t in titles) and any(t and t.startswith("Heading") for t in titles)
+    assert not any(t and t.startswith("Attitude error") for t in titles)
     tab.page.screenshot(path=str(ARTIFACTS / "dashboard_plots.png"))
+    # the consistency plot: one trace per method, the 99 % band and the line at 1
+    tab.page.get_by_role("tab", name="Consistency").click()
+    tab.page.wait_for_timeout(1000)
+    nees = [dict(f) for f in tab.plot_traces() if any(name == "99 % band" for name, _ in f)]
+    assert len(nees) == 1 and set(nees[0]) == {"INS", "TC", "NSV", "99 % band", "1 = consistent"}
     tab.page.get_by_role("tab", name="Results").click()
     table = tab.results_table()
     assert set(table) == {"INS", "TC", "NSV"}
     assert table["NSV"][0] < 0.1 * table["INS"][0]
+    errors, consistency = (tab.page.locator("table").nth(k).locator("tr").first.inner_text() for k in (0, 1))
+    assert "tilt RMS [deg]" in errors and "heading RMS [deg]" in errors
+    for column in ("NEES/dim (in 99 % band)", "vel NEES/dim", "DVL NIS/dof", "monitor"):
+        assert column in consistency
     assert tab.external_requests == []
 
 

@@ -15,16 +15,23 @@ import numpy as np
 import pytest
 
 from app.figures import (
+    CONSISTENCY_COLUMNS,
+    CONSISTENCY_HEADING,
+    ERROR_COLUMNS,
+    LOG_SPAN,
     METHOD_COLORS,
     elc_choice_figure,
     error_figure,
+    nees_figure,
     summary_markdown,
     summary_rows,
 )
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import METHODS, Config
+from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency, nees_band
 from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.filter.layout import NEES_BLOCKS
 from tauvcore.sensors.dvl import Outage
 
 DURATION_S = 20.0
@@ -33,6 +40,8 @@ NAMES = ("INS", "TC", "NSV")
 QUANTITY_FIELDS = {   # quantity -> (error field, sigma field, unit in the title)
     "vel": ("vel_err_mps", "vel_sigma_mps", "[m/s]"),
     "att": ("att_err_deg", "att_sigma_deg", "[deg]"),
+    "tilt": ("tilt_err_deg", "tilt_sigma_deg", "[deg]"),
+    "heading": ("heading_err_deg", "heading_sigma_deg", "[deg]"),
     "pos": ("pos_err_m", "pos_sigma_m", "[m]"),
 }
 AXES = ("surge", "sway", "heave")
@@ -109,6 +118,9 @@ def test_fixture_series_differ_between_methods_and_quantities(single):
         assert not np.allclose(getattr(single["tc"], err), getattr(single["tc"], sigma)), q
     tc = single["tc"]
     assert not np.allclose(tc.vel_err_mps, tc.pos_err_m) and not np.allclose(tc.vel_err_mps, tc.att_err_deg)
+    assert not np.allclose(tc.tilt_err_deg, tc.heading_err_deg) and not np.allclose(tc.tilt_err_deg, tc.att_err_deg)
+    for block in NEES_BLOCKS:             # the block choice draws a different series every time
+        assert not np.allclose(tc.nees, tc.nees_block[..., list(NEES_BLOCKS).index(block)]), block
 
 
 # ------------------------------------------------------------------------------------------ error_figure
@@ -153,6 +165,29 @@ def test_error_figure_log_axis(single, log_y, axis_type):
     assert error_figure(single, log_y=log_y).layout.yaxis.type == axis_type
 
 
+@pytest.mark.parametrize("quantity", list(QUANTITY_FIELDS))
+@pytest.mark.parametrize("show_sigma", [False, True])
+def test_error_figure_auto_log_only_where_the_values_span_decades(single, monte_carlo, quantity, show_sigma):
+    """A log axis over 1.0-1.2 deg (heading) has no ticks and flattens the curves: "auto" is log
+    exactly when the drawn values span more than LOG_SPAN."""
+    for results in (single, monte_carlo):
+        fig = error_figure(results, quantity, show_sigma=show_sigma, log_y="auto")
+        values = np.concatenate([np.asarray(t.y, dtype=float) for t in fig.data])
+        values = values[np.isfinite(values) & (values > 0)]
+        wide = values.max() > LOG_SPAN * values.min()
+        assert fig.layout.yaxis.type == ("log" if wide else "linear"), (quantity, values.min(), values.max())
+
+
+def test_error_figure_auto_log_for_velocity_linear_for_heading(single):
+    """The cases that motivated "auto": the INS velocity error grows by decades, heading barely moves."""
+    heading = single["tc"].heading_err_deg
+    assert heading.max() < LOG_SPAN * heading.min()
+    assert error_figure(single, "vel", log_y="auto").layout.yaxis.type == "log"
+    assert error_figure({"tc": single["tc"]}, "heading", log_y="auto").layout.yaxis.type == "linear"
+    with pytest.raises(ValueError, match="'sometimes'"):
+        error_figure(single, log_y="sometimes")
+
+
 def test_error_figure_unknown_quantity_names_it(single):
     with pytest.raises(ValueError, match="'speed'"):
         error_figure(single, quantity="speed")
@@ -173,6 +208,15 @@ def test_error_figure_monte_carlo_is_rms_over_runs(monte_carlo, quantity):
                                    rtol=1e-12, atol=0)
         np.testing.assert_array_equal(np.asarray(traces[name].x), res.t_s)
     assert "RMS of 3 runs" in fig.layout.title.text
+
+
+def test_error_figure_tilt_and_heading_split_the_attitude_norm(single):
+    """tilt^2 + heading^2 = norm^2 at every epoch: the two plots split what the norm plot shows."""
+    for method in METHODS_UNDER_TEST:
+        tilt = np.asarray(error_figure(single, "tilt").data[METHODS_UNDER_TEST.index(method)].y)
+        heading = np.asarray(error_figure(single, "heading").data[METHODS_UNDER_TEST.index(method)].y)
+        norm = np.asarray(error_figure(single, "att").data[METHODS_UNDER_TEST.index(method)].y)
+        np.testing.assert_allclose(np.hypot(tilt, heading), norm, rtol=1e-9, atol=1e-12)
 
 
 def test_error_figure_colours_are_the_method_colours(single):
@@ -278,6 +322,106 @@ def test_elc_choice_without_dvl_updates_is_empty(single):
     assert len(elc_choice_figure(single["ins"]).data) == 0
 
 
+# ------------------------------------------------------------------------------------------ nees_figure
+
+BAND, REFERENCE = "99 % band", "1 = consistent"
+
+
+def _block_series(res: MethodResult, block: str) -> np.ndarray:
+    """The (T, R) NEES of a block, read from the result's own arrays."""
+    return res.nees if block == "full" else res.nees_block[..., list(NEES_BLOCKS).index(block)]
+
+
+@pytest.mark.parametrize("block", list(BLOCK_DIMS))
+@pytest.mark.parametrize("fixture, runs", [("single", 1), ("monte_carlo", 3)])
+def test_nees_figure_traces_are_the_run_averaged_nees_per_dim(request, fixture, runs, block):
+    results = request.getfixturevalue(fixture)
+    dim = BLOCK_DIMS[block]
+    fig = nees_figure(results, block=block)
+    traces = _by_name(fig)
+    assert set(traces) == set(NAMES) | {BAND, REFERENCE}
+    for method, name in zip(METHODS_UNDER_TEST, NAMES):
+        res = results[method]
+        series = _block_series(res, block)
+        assert series.shape == (len(res.t_s), runs)
+        np.testing.assert_array_equal(np.asarray(traces[name].x), res.t_s)
+        np.testing.assert_allclose(np.asarray(traces[name].y), series.mean(axis=1) / dim, rtol=1e-12, atol=0)
+        assert traces[name].line.color == METHOD_COLORS[method]
+    assert f"dim {dim}" in fig.layout.title.text and "NEES/dim" in fig.layout.title.text
+    assert fig.layout.yaxis.type == "log"
+    assert "1 = consistent" in fig.layout.yaxis.title.text
+
+
+@pytest.mark.parametrize("block", list(BLOCK_DIMS))
+@pytest.mark.parametrize("fixture, runs", [("single", 1), ("monte_carlo", 3)])
+def test_nees_figure_band_is_the_two_sided_99_percent_band(request, fixture, runs, block):
+    """The shaded band spans the run time between the chi-square bounds of the run-averaged NEES
+    divided by dim (worked values: dim 20 with one run, chi2(20) 0.5 % and 99.5 % = 7.434, 39.997)."""
+    results = request.getfixturevalue(fixture)
+    dim = BLOCK_DIMS[block]
+    band = _by_name(nees_figure(results, block=block))[BAND]
+    lo, hi = nees_band(dim, runs)
+    assert 0.0 < lo < 1.0 < hi
+    np.testing.assert_allclose(np.asarray(band.y), [lo, lo, hi, hi], rtol=1e-12)
+    t = results["tc"].t_s
+    np.testing.assert_array_equal(np.asarray(band.x), [t[0], t[-1], t[-1], t[0]])
+    assert band.fill == "toself" and band.line.dash == "dash"
+    reference = _by_name(nees_figure(results, block=block))[REFERENCE]
+    np.testing.assert_array_equal(np.asarray(reference.y), [1.0, 1.0])
+    if block == "full" and runs == 1:
+        np.testing.assert_allclose([lo, hi], [7.4338 / 20, 39.9968 / 20], rtol=1e-4)
+
+
+def test_nees_figure_band_narrows_with_runs(single, monte_carlo):
+    one = _by_name(nees_figure(single, "vel"))[BAND].y
+    three = _by_name(nees_figure(monte_carlo, "vel"))[BAND].y
+    assert one[0] < three[0] < 1.0 < three[2] < one[2]
+    assert "mean of 3 runs" in nees_figure(monte_carlo).layout.title.text
+
+
+def test_nees_figure_block_choice_changes_the_curves_and_the_title(single):
+    curves = {block: np.asarray(_by_name(nees_figure(single, block))["TC"].y) for block in BLOCK_DIMS}
+    titles = {block: nees_figure(single, block).layout.title.text for block in BLOCK_DIMS}
+    assert len(set(titles.values())) == len(BLOCK_DIMS)
+    assert "velocity" in titles["vel"] and "heading" in titles["heading"] and "full state" in titles["full"]
+    for a in BLOCK_DIMS:
+        for b in BLOCK_DIMS:
+            if a < b:
+                assert not np.allclose(curves[a], curves[b]), (a, b)
+    assert nees_figure(single).layout.title.text == titles["full"]            # the default block
+
+
+def test_nees_figure_unknown_block_names_it(single):
+    with pytest.raises(ValueError, match="'attitude'"):
+        nees_figure(single, block="attitude")
+
+
+def test_nees_figure_diverged_run_is_a_gap_not_a_number(monte_carlo):
+    """A run whose NEES is not finite (a diverged filter) leaves a gap (NaN), never an infinity."""
+    res = monte_carlo["tc"]
+    nees = res.nees.copy()
+    nees[5:9, 1] = np.inf
+    nees[12, 2] = np.nan
+    y = np.asarray(_by_name(nees_figure({"tc": dataclasses.replace(res, nees=nees)}))["TC"].y)
+    assert np.flatnonzero(np.isnan(y)).tolist() == [5, 6, 7, 8, 12]
+    assert not np.isinf(y).any()
+
+
+def test_nees_figure_decimates_like_the_error_plots(monte_carlo):
+    fig = nees_figure(monte_carlo, max_points=50)
+    t = monte_carlo["tc"].t_s
+    x = np.asarray(_by_name(fig)["TC"].x)
+    assert len(x) <= 51 and x[-1] == t[-1]
+    np.testing.assert_array_equal(np.asarray(_by_name(fig)[BAND].x)[:2], [t[0], t[-1]])
+
+
+def test_fast_nees_figure_equals_plotly_validated_construction(single, monte_carlo):
+    for results in (single, monte_carlo):
+        for block in BLOCK_DIMS:
+            fast, checked = nees_figure(results, block), nees_figure(results, block, validate=True)
+            assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+
+
 # ------------------------------------------------------------------------------------------ summary
 
 def _expected_row(res: MethodResult) -> dict[str, float]:
@@ -287,7 +431,19 @@ def _expected_row(res: MethodResult) -> dict[str, float]:
         unit = field.rsplit("_", 1)[1]
         out[f"{key}_final_{unit}"] = float(np.sqrt(np.mean(err[-1] ** 2)))
         out[f"{key}_rms_{unit}"] = float(np.sqrt(np.mean(err ** 2)))  # RMS over runs then time = over both
+    out["tilt_rms_deg"] = float(np.sqrt(np.mean(res.tilt_err_deg ** 2)))
+    out["heading_rms_deg"] = float(np.sqrt(np.mean(res.heading_err_deg ** 2)))
     return out
+
+
+CONSISTENCY_KEYS = ("nees_per_dim", "nees_in_band", "vel_nees_per_dim", "dvl_nis_per_dof")
+
+
+def _expected_consistency(res: MethodResult) -> dict[str, float]:
+    c = method_consistency(res)
+    return {"nees_per_dim": c.nees["full"].per_dim, "nees_in_band": c.nees["full"].in_band,
+            "vel_nees_per_dim": c.nees["vel"].per_dim,
+            "dvl_nis_per_dof": c.nis["dvl"].per_dof if "dvl" in c.nis else float("nan")}
 
 
 @pytest.mark.parametrize("fixture", ["single", "monte_carlo"])
@@ -297,7 +453,8 @@ def test_summary_rows_final_and_rms(request, fixture):
     assert [r["method"] for r in rows] == list(NAMES)
     for method, row in zip(METHODS_UNDER_TEST, rows):
         expected = _expected_row(results[method])
-        assert set(row) == set(expected) | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count"}
+        assert set(row) == (set(expected) | set(CONSISTENCY_KEYS)
+                            | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count"})
         for key, value in expected.items():
             assert row[key] == pytest.approx(value, rel=1e-12), key
         # a healthy default run: nothing flagged, P never repaired
@@ -314,24 +471,103 @@ def test_summary_rows_single_run_final_is_last_epoch(single):
 
 
 @pytest.mark.parametrize("fixture", ["single", "monte_carlo"])
+def test_summary_rows_consistency_is_method_consistency(request, fixture):
+    """The new columns are tauvcore.eval.consistency's numbers, NaN kept as NaN (INS: no DVL)."""
+    results = request.getfixturevalue(fixture)
+    for method, row in zip(METHODS_UNDER_TEST, summary_rows(results)):
+        expected = _expected_consistency(results[method])
+        for key in CONSISTENCY_KEYS:
+            if np.isnan(expected[key]):
+                assert np.isnan(row[key]), (method, key)
+            else:
+                assert row[key] == expected[key], (method, key)
+    ins, tc = summary_rows(results)[0], summary_rows(results)[1]
+    assert np.isnan(ins["dvl_nis_per_dof"])                         # INS has no DVL update
+    assert 0.2 < tc["nees_per_dim"] < 5 and 0.0 < tc["nees_in_band"] <= 1.0 and 0.2 < tc["dvl_nis_per_dof"] < 5
+
+
+ERRORS_HEADER = ("| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] | tilt RMS [deg] "
+                 "| heading RMS [deg] |")
+CONSISTENCY_HEADER = "| method | NEES/dim (in 99 % band) | vel NEES/dim | DVL NIS/dof | monitor |"
+
+
+def _tables(markdown: str) -> tuple[list[str], list[str]]:
+    """The errors table's and the consistency table's lines (header, rule, one line per method)."""
+    lines = markdown.splitlines()
+    cut = lines.index(CONSISTENCY_HEADING)
+    assert lines[cut - 1] == lines[cut + 1] == ""
+    return lines[:cut - 1], lines[cut + 2:]
+
+
+def _table_rows(markdown: str) -> tuple[list[str], list[list[str]]]:
+    """Header and body cells of both tables side by side, one row per method (columns 0-6: the
+    errors table, 7-10: the consistency table after its method column, 11: P floors if shown)."""
+    errors, consistency = _tables(markdown)
+    assert len(errors) == len(consistency)
+    header = _cells(errors[0]) + _cells(consistency[0])[1:]
+    rows = []
+    for e, c in zip(errors[2:], consistency[2:]):
+        assert _cells(e)[0] == _cells(c)[0]                        # the same method on both lines
+        rows.append(_cells(e) + _cells(c)[1:])
+    return header, rows
+
+
+def _ratio_value(text: str) -> float:
+    return float(text.split(" (")[0])
+
+
+@pytest.mark.parametrize("fixture", ["single", "monte_carlo"])
 def test_summary_markdown_table(request, fixture):
     results = request.getfixturevalue(fixture)
-    lines = summary_markdown(results).splitlines()
-    assert lines[0] == ("| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] "
-                        "| monitor |")
-    assert lines[1] == "|---|---|---|---|---|---|"
-    body = lines[2:]
+    errors, consistency = _tables(summary_markdown(results))
+    assert errors[0] == ERRORS_HEADER and errors[1] == "|" + "---|" * 7
+    assert consistency[0] == CONSISTENCY_HEADER and consistency[1] == "|" + "---|" * 5
+    header, body = _table_rows(summary_markdown(results))
+    assert tuple(header) == ERROR_COLUMNS + CONSISTENCY_COLUMNS[1:]
     assert len(body) == len(METHODS_UNDER_TEST)
-    for method, name, line in zip(METHODS_UNDER_TEST, NAMES, body):
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        assert len(cells) == 6
+    for method, name, cells in zip(METHODS_UNDER_TEST, NAMES, body):
+        assert len(cells) == 11
         assert cells[0] == name
-        assert cells[5] == "ok"
+        assert cells[10] == "ok"
         exp = _expected_row(results[method])
         assert float(cells[1]) == pytest.approx(exp["vel_final_mps"], abs=0.5e-4)
         assert float(cells[2]) == pytest.approx(exp["vel_rms_mps"], abs=0.5e-4)
         assert float(cells[3]) == pytest.approx(exp["att_final_deg"], abs=0.5e-3)
         assert float(cells[4]) == pytest.approx(exp["pos_final_m"], abs=0.5e-2)
+        assert float(cells[5]) == pytest.approx(exp["tilt_rms_deg"], abs=0.5e-3)
+        assert float(cells[6]) == pytest.approx(exp["heading_rms_deg"], abs=0.5e-3)
+        c = _expected_consistency(results[method])
+        nees_cell = re.fullmatch(r"([0-9.e+-]+) \((\d+) %\)", cells[7])
+        assert nees_cell is not None, cells[7]
+        assert float(nees_cell.group(1)) == pytest.approx(c["nees_per_dim"], rel=0.01, abs=0.005)
+        assert int(nees_cell.group(2)) == round(100 * c["nees_in_band"])
+        assert _ratio_value(cells[8]) == pytest.approx(c["vel_nees_per_dim"], rel=0.01, abs=0.005)
+        if np.isnan(c["dvl_nis_per_dof"]):
+            assert cells[9] == "-"
+        else:
+            assert _ratio_value(cells[9]) == pytest.approx(c["dvl_nis_per_dof"], rel=0.01, abs=0.005)
+    assert body[0][9] == "-"                                         # INS: no DVL NIS
+
+
+def test_summary_markdown_shows_nan_as_a_dash(single):
+    """A diverged filter's NaN errors and NEES read "-", never "nan"."""
+    res = single["tc"]
+    nan = np.full_like(res.vel_err_mps, np.nan)
+    broken = dataclasses.replace(res, vel_err_mps=nan, nees=nan, nees_block=np.full_like(res.nees_block, np.nan))
+    cells = _table_rows(summary_markdown({"tc": broken}))[1][0]
+    assert cells[1] == cells[2] == cells[7] == cells[8] == "-"
+    assert "nan" not in summary_markdown({"tc": broken}).lower()
+
+
+@pytest.mark.parametrize("per_dim, shown", [(1.004, "1.00"), (21.66, "21.66"), (2820.4, "2820"), (0.0123, "0.012")])
+def test_summary_markdown_ratio_reads_near_one_and_in_the_thousands(single, per_dim, shown):
+    res = single["tc"]
+    dim = BLOCK_DIMS["vel"]
+    vel_ix = list(NEES_BLOCKS).index("vel")
+    nees_block = res.nees_block.copy()
+    nees_block[..., vel_ix] = per_dim * dim
+    cells = _table_rows(summary_markdown({"tc": dataclasses.replace(res, nees_block=nees_block)}))[1][0]
+    assert cells[8] == shown
 
 
 def _flagged(res: MethodResult, at_s: list[float], floors: list[int]) -> MethodResult:
@@ -349,27 +585,28 @@ def test_summary_marks_a_diverged_single_run_with_its_time(single):
     rows = summary_rows(results)
     assert [r["diverged_runs"] for r in rows] == [0, 1, 0]
     assert rows[1]["diverged_first_s"] == 12.3456
-    lines = summary_markdown(results).splitlines()
-    assert "P floors" not in lines[0]                      # no repair anywhere: no column
-    assert [_cells(line)[5] for line in lines[2:]] == ["ok", "diverged at 12.3 s", "ok"]
+    header, body = _table_rows(summary_markdown(results))
+    assert "P floors" not in header                        # no repair anywhere: no column
+    assert [cells[10] for cells in body] == ["ok", "diverged at 12.3 s", "ok"]
 
 
 def test_summary_counts_diverged_monte_carlo_runs_and_the_first_time(monte_carlo):
     results = {"tc": _flagged(monte_carlo["tc"], [np.nan, 80.0, 41.25], [0, 0, 0]), "nsv": monte_carlo["nsv"]}
     row = summary_rows(results)[0]
     assert (row["runs"], row["diverged_runs"], row["diverged_first_s"]) == (3, 2, 41.25)
-    cells = _cells(summary_markdown(results).splitlines()[2])
-    assert cells[5] == "2 of 3 runs, first diverged at 41.2 s"
+    cells = _table_rows(summary_markdown(results))[1][0]
+    assert cells[10] == "2 of 3 runs, first diverged at 41.2 s"
 
 
 def test_summary_shows_p_floor_column_only_when_a_repair_happened(monte_carlo):
     results = {"tc": _flagged(monte_carlo["tc"], [np.nan] * 3, [2, 0, 5]), "nsv": monte_carlo["nsv"]}
     assert summary_rows(results)[0]["p_floor_count"] == 7
-    lines = summary_markdown(results).splitlines()
-    assert lines[0].endswith("| monitor | P floors |")
-    assert lines[1] == "|---|---|---|---|---|---|---|"
-    assert [_cells(line)[6] for line in lines[2:]] == ["7", "0"]
-    assert [_cells(line)[5] for line in lines[2:]] == ["ok", "ok"]
+    errors, consistency = _tables(summary_markdown(results))
+    assert consistency[0].endswith("| monitor | P floors |") and consistency[1] == "|" + "---|" * 6
+    assert "P floors" not in errors[0]
+    body = _table_rows(summary_markdown(results))[1]
+    assert [cells[11] for cells in body] == ["7", "0"]
+    assert [cells[10] for cells in body] == ["ok", "ok"]
 
 
 @pytest.mark.parametrize("show_sigma", [False, True])
@@ -377,9 +614,12 @@ def test_summary_shows_p_floor_column_only_when_a_repair_happened(monte_carlo):
 def test_fast_error_figure_equals_plotly_validated_construction(single, monte_carlo, show_sigma, log_y):
     """The live plots skip plotly's validation; what they send must be what validation gives."""
     for results in (single, monte_carlo):
-        for quantity in ("vel", "att", "pos"):
+        for quantity in QUANTITY_FIELDS:
             fast = error_figure(results, quantity, show_sigma=show_sigma, log_y=log_y)
             checked = error_figure(results, quantity, show_sigma=show_sigma, log_y=log_y, validate=True)
+            assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+            fast = error_figure(results, quantity, show_sigma=show_sigma, log_y="auto")
+            checked = error_figure(results, quantity, show_sigma=show_sigma, log_y="auto", validate=True)
             assert json.loads(fast.to_json()) == json.loads(checked.to_json())
             assert json.loads(fast.to_json())["layout"]["template"]["layout"]["plot_bgcolor"] == "white"
 

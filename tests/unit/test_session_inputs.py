@@ -13,17 +13,21 @@ import dataclasses
 import pytest
 
 from app.inputs import (
+    NSV_EPSILON,
+    VB_NF,
     Controls,
     InputError,
     config_from_controls,
     config_markdown,
     parse_float,
+    parse_float_or_auto,
     parse_int,
 )
 from tauvcore.config import Config
 from tauvcore.validation import SHOW_CHARS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
+                    vb_nf="20", nsv_epsilon="auto",
                     beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4, aid_depth=False, aid_mag=False,
                     accel_bias="0.5", gyro_bias="3", accel_noise="0.072", gyro_noise="0.34", dvl_noise="0.042",
                     dvl_bias="0.005", dvl_sf="0.7", seed="0", runs="1")
@@ -48,6 +52,7 @@ def test_the_defaults_read_back_as_the_default_configuration() -> None:
     assert config.trajectory == d.trajectory and config.imu == d.imu
     assert config.dvl.noise_mps == d.dvl.noise_mps and config.dvl.scale_factor_pct == d.dvl.scale_factor_pct
     assert config.run.methods == ("ins", "lc", "tc", "nsv", "elc") and config.run.seed == 0
+    assert config.partial == d.partial
 
 
 def test_duration_1e3_is_1000_s_not_13() -> None:
@@ -137,6 +142,125 @@ def test_the_configuration_run_is_shown_as_a_table() -> None:
     assert rows["Duration [s]"] == "10" and rows["Methods"] == "INS, VB" and rows["DVL beams"] == "1, 3"
     assert rows["Seed"] == "7" and rows["Runs"] == "3" and rows["Aiding"] == "dvl, mag"
     assert rows["Gyro noise [deg/sqrt(h)]"] == "0.5" and rows["Outages"] == "beam 3 2-4 s"
+
+
+# ---------------------------------------------------------------- partial-beam methods: n_f and epsilon (issue 8)
+@pytest.mark.parametrize("typed, value", [("20", 20.0), ("5", 5.0), (" 1e2 ", 100.0), ("1", 1.0), ("2.5", 2.5)])
+def test_vb_nf_reaches_the_configuration(typed: str, value: float) -> None:
+    config, _ = read(vb_nf=typed)
+    assert config.partial.vb_nf == value
+    assert config.partial.nsv_epsilon_m2_per_s2 == "auto"
+
+
+@pytest.mark.parametrize("typed, value", [("auto", "auto"), (" AUTO ", "auto"), ("0.5", 0.5), ("1e-3", 0.001),
+                                          ("100", 100.0)])
+def test_nsv_epsilon_reaches_the_configuration(typed: str, value: float | str) -> None:
+    config, _ = read(nsv_epsilon=typed)
+    assert config.partial.nsv_epsilon_m2_per_s2 == value
+    assert config.partial.vb_nf == 20.0
+    if value != "auto":
+        assert config.nsv_epsilon_value_m2_per_s2() == value
+
+
+@pytest.mark.parametrize("typed, message", [
+    ("0", "VB n_f: '0' is out of range: partial.vb_nf"),
+    ("-1", "VB n_f: '-1' is out of range: partial.vb_nf"),
+    ("0.5", "VB n_f: '0.5' is out of range: partial.vb_nf"),
+    ("101", "VB n_f: '101' is out of range: partial.vb_nf"),
+    ("nan", "VB n_f: 'nan' is not a number"),
+    ("inf", "VB n_f: 'inf' is not a number"),
+    ("1e999", "VB n_f: '1e999' is too large"),
+    ("abc", "VB n_f: 'abc' is not a number"),
+    ("auto", "VB n_f: 'auto' is not a number"),
+    ("", "VB n_f: empty; type a number"),
+])
+def test_a_bad_vb_nf_is_refused_by_name(typed: str, message: str) -> None:
+    got = refused(vb_nf=typed)
+    assert got.startswith(message), got
+    assert "\n" not in got
+
+
+@pytest.mark.parametrize("typed, message", [
+    ("0", "NSV epsilon [m^2/s^2]: '0' is out of range: partial.nsv_epsilon_m2_per_s2"),
+    ("-1", "NSV epsilon [m^2/s^2]: '-1' is out of range: partial.nsv_epsilon_m2_per_s2"),
+    ("100.5", "NSV epsilon [m^2/s^2]: '100.5' is out of range: partial.nsv_epsilon_m2_per_s2"),
+    ("nan", "NSV epsilon [m^2/s^2]: 'nan' is not a number or \"auto\""),
+    ("1e999", "NSV epsilon [m^2/s^2]: '1e999' is too large"),
+    ("abc", "NSV epsilon [m^2/s^2]: 'abc' is not a number or \"auto\""),
+    ("autox", "NSV epsilon [m^2/s^2]: 'autox' is not a number or \"auto\""),
+    ("  ", "NSV epsilon [m^2/s^2]: empty; type a number or \"auto\""),
+])
+def test_a_bad_nsv_epsilon_is_refused_by_name(typed: str, message: str) -> None:
+    got = refused(nsv_epsilon=typed)
+    assert got.startswith(message), got
+    assert "\n" not in got
+
+
+def test_n_f_and_epsilon_are_checked_whatever_methods_run() -> None:
+    """A bad value is refused even when no partial-beam method is selected: the field shows it."""
+    assert refused(methods=("ins", "tc"), vb_nf="0").startswith("VB n_f: '0'")
+    assert refused(methods=("ins",), nsv_epsilon="-1").startswith("NSV epsilon [m^2/s^2]: '-1'")
+
+
+def test_parse_float_or_auto() -> None:
+    assert parse_float_or_auto("X", "Auto") == "auto" and parse_float_or_auto("X", "2e-1") == 0.2
+    with pytest.raises(InputError, match="^X: 'auto!' is not a number or \"auto\"$"):
+        parse_float_or_auto("X", "auto!")
+
+
+def test_the_configuration_run_shows_n_f_and_epsilon() -> None:
+    """n_f as typed; epsilon as typed, and for "auto" also the value the run derived and used."""
+    def rows(**changes: object) -> dict[str, str]:
+        table = config_markdown(*read(**changes))
+        return dict((cell.strip() for cell in line.strip("|").split("|")) for line in table.splitlines()
+                    if line.startswith("| ") and "---" not in line)
+    shown = rows(vb_nf="7.5", nsv_epsilon="0.5")
+    assert shown[VB_NF] == "7.5" and shown[NSV_EPSILON] == "0.5"
+    derived = Config().nsv_epsilon_value_m2_per_s2()
+    assert 0.0 < derived < 100.0
+    assert rows()[NSV_EPSILON] == f"auto ({derived:.3g})" == "auto (0.259)"
+    figure8 = rows(trajectory="figure8")[NSV_EPSILON]
+    assert figure8 == f"auto ({Config().replace('trajectory', name='figure8').nsv_epsilon_value_m2_per_s2():.3g})"
+
+
+class _Spy:
+    """A control that records whether the run read it."""
+
+    def __init__(self, uid: str, value: object, read_ids: set[str]) -> None:
+        self._impl = type("Impl", (), {"uuid": uid})()
+        self._value, self._read = value, read_ids
+
+    @property
+    def value(self) -> object:
+        self._read.add(self._impl.uuid)
+        return self._value
+
+
+def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
+    """Session.controls() reads exactly the controls Session.confirm_page_state asks the page for
+    (n_f and epsilon included): a control missing from the confirmation could lose a change."""
+    from types import SimpleNamespace
+
+    from app.dashboard import Session
+    read_ids: set[str] = set()
+    count = iter(range(1000))
+
+    def spy(value: object) -> _Spy:
+        return _Spy(f"id{next(count)}", value, read_ids)
+    tab = SimpleNamespace(
+        trajectory=spy("straight"), duration=spy("250"), method_boxes={m: spy(True) for m in ("ins", "lc", "tc", "vb",
+                                                                                            "nsv", "plcf", "vhv",
+                                                                                            "elc")},
+        vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
+        outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
+        accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
+        dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seed=spy("0"), runs=spy("1"))
+    tab.selected_methods = lambda: Session.selected_methods(tab)
+    controls = Session.controls(tab)
+    assert controls.vb_nf == "20" and controls.nsv_epsilon == "auto"
+    confirmed = set(Session._confirmed_inputs(tab))
+    assert {tab.vb_nf._impl.uuid, tab.nsv_epsilon._impl.uuid} <= confirmed
+    assert read_ids == confirmed
 
 
 # ---------------------------------------------------------------- the page's answer at Run
