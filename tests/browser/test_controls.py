@@ -94,7 +94,7 @@ def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, 
     tab = new_tab()
     page = tab.page
     if folder is not None:
-        page.get_by_text(folder, exact=False).click()
+        tab.open_folder(folder)
     tab.type_into(label, typed)
     page.get_by_role("button", name="Run", exact=True).click()
     note = page.get_by_text(message, exact=False)
