@@ -53,6 +53,10 @@ from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
 
 EXIT_BAD_INPUT = 2
+MAX_STUDY_RUNS = 100_000
+"""Most runs of one ``tauv mc`` study: memory stays flat (chunks are reduced as they finish), so
+the bound is time: 100,000 runs of 250 s are hours even on a cluster."""
+MAX_WORKERS = 64
 
 
 class UsageError(Exception):
@@ -77,7 +81,7 @@ class _Parser(argparse.ArgumentParser):
 
 VALUE_FLAGS = frozenset({"--trajectory", "--method", "--duration", "--seed", "--aiding", "--beams", "--outage",
                          "--dropout", "--vb-nf", "--nsv-epsilon", "--config", "--json", "--host", "--port",
-                         "--workers"})
+                         "--workers", "--runs", "--out", "--dask"})
 """Flags that take a value (every subcommand); see :func:`attach_dash_values`."""
 OTHER_FLAGS = frozenset({"--ideal", "-h", "--help"})
 
@@ -126,24 +130,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="tauv", description="Underwater INS/DVL navigation lab (Tal, Klein & Katz 2017).")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("run", help="simulate a mission and run fusion methods side by side")
-    r.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
-    r.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
-    r.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
-    r.add_argument("--seed", help="seed of the random generator (default 0)")
+    _mission_flags(r)
     r.add_argument("--ideal", action="store_true", help="zero every sensor and initial error (verification mode)")
-    r.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
-    r.add_argument("--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)")
-    r.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
-                   help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable")
-    r.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
-    r.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam (also inflates VHV's predicted heave), "
-                                               f"a number in [1, 100] (default {Config().partial.vb_nf:g})")
-    r.add_argument("--nsv-epsilon", metavar="E", help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
-                                                     "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
-                                                     "from the vehicle's sideslip in its tightest turn)")
-    r.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
     r.add_argument("--json", help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
                                   "JSON file (strict JSON, written atomically; not the --config file)")
+    mc = sub.add_parser("mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html")
+    _mission_flags(mc)
+    mc.add_argument("--runs", required=True, help=f"number of Monte Carlo runs, 1 to {MAX_STUDY_RUNS}")
+    mc.add_argument("--out", required=True, help="output directory (created if missing; files appear only when "
+                                                 "the study has finished)")
+    mc.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
+    mc.add_argument("--dask", metavar="ADDRESS", help="send the chunks to this Dask scheduler instead, e.g. "
+                                                     "tcp://10.0.0.5:8786 (its workers need tauv installed)")
     sv = sub.add_parser("serve", help="start the browser dashboard")
     sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
@@ -151,6 +149,25 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", help="TOML file to merge over the defaults before printing")
     return parser
+
+
+def _mission_flags(p: argparse.ArgumentParser) -> None:
+    """The flags that describe a mission and its methods (``run`` and ``mc``)."""
+    p.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
+    p.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
+    p.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
+    p.add_argument("--seed", help="seed of the random generator (default 0)")
+    p.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
+    p.add_argument("--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)")
+    p.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
+                   help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable")
+    p.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
+    p.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam (also inflates VHV's predicted heave), "
+                                               f"a number in [1, 100] (default {Config().partial.vb_nf:g})")
+    p.add_argument("--nsv-epsilon", metavar="E", help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
+                                                     "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
+                                                     "from the vehicle's sideslip in its tightest turn)")
+    p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
 
 
 def resolve_config(args: argparse.Namespace) -> Config:
@@ -485,6 +502,105 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _count(flag: str, text: str | None, low: int, high: int, default: int) -> int:
+    if text is None:
+        return default
+    value = _parse(flag, text, int, f"a whole number from {low} to {high}")
+    if not low <= value <= high:
+        raise UsageError(f"{flag}: must be a whole number from {low} to {high}, got {show(text)}")
+    return value
+
+
+def cmd_mc(args: argparse.Namespace) -> int:
+    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output)."""
+    from app.study_output import OutputDirError, StudyWriter, check_out_dir
+    from app.study_report import report_html
+    from tauvcore.eval.study import run_study
+
+    config = resolve_config(args)
+    num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, 1)
+    workers = _count("--workers", args.workers, 1, MAX_WORKERS, 1)
+    if args.dask is not None and not args.dask.strip():
+        raise UsageError(f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}")
+    if args.dask is not None and args.workers is not None:
+        raise UsageError("--workers: not with --dask (the Dask cluster has its own workers)")
+    try:
+        out_dir = check_out_dir(args.out)
+    except OutputDirError as exc:
+        raise UsageError(f"--out: {exc}") from None
+    if args.dask is not None:
+        _check_dask(args.dask)
+    try:
+        writer = StudyWriter(out_dir)
+    except OutputDirError as exc:
+        raise UsageError(f"--out: {exc}") from None
+    started = time.perf_counter()
+    trajectory = config.trajectory.name
+    try:
+        with _progress_bar(num_runs) as bar:
+            acc = run_study(config, num_runs, config.run.seed, workers=workers, dask_address=args.dask,
+                            on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
+                            progress=lambda done, total: bar.update(done - bar.n))
+        summary = acc.summary()
+        description = (f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
+                       f"methods {', '.join(config.run.methods)}, beams {','.join(map(str, config.dvl.beams))}, "
+                       f"aiding {','.join(config.run.aiding) or 'none'}; tauv mc")
+        writer.finish({"config": config_to_json(config), "num_runs": num_runs, "seed": config.run.seed,
+                       "trajectories": {trajectory: summary}},
+                      report_html("tauv Monte Carlo study", description, {trajectory: summary}))
+        written = writer.commit()
+    except BaseException:
+        writer.abort()
+        raise
+    elapsed = time.perf_counter() - started
+    print(study_table(summary, trajectory, num_runs, elapsed))
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def _check_dask(address: str) -> None:
+    """Fail fast, with one line, if no Dask scheduler answers at ``address``."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError("--dask: the 'distributed' package is not installed") from None
+    from tauvcore.eval.study import DASK_CONNECT_TIMEOUT_S
+
+    try:
+        with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
+            pass
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UsageError(f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}") from None
+
+
+@contextlib.contextmanager
+def _progress_bar(total: int):
+    """A tqdm bar on stderr (runs done of total); silent when stderr is not a terminal."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit="run", desc="tauv mc", file=sys.stderr, disable=not sys.stderr.isatty(),
+               dynamic_ncols=True)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
+    lines = [f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
+             "",
+             f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
+             f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"]
+    for method, m in summary["methods"].items():
+        f, c = m["final_rms"], m["consistency"]
+        lines.append(f"{method.upper():<7} {f['vel_err_mps']:>10.4g} {f['tilt_err_deg']:>11.4f} "
+                     f"{f['heading_err_deg']:>11.4f} {f['pos_err_m']:>10.4g} "
+                     f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
+                     f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}")
+    return "\n".join(lines)
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     try:
         port = int(args.port)
@@ -531,6 +647,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         _require_text_values(args)
         if args.command == "run":
             code = cmd_run(args)
+        elif args.command == "mc":
+            code = cmd_mc(args)
         elif args.command == "serve":
             code = cmd_serve(args)
         else:

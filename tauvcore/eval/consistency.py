@@ -22,9 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
-from tauvcore.eval.metrics import average_nees_bounds
+from tauvcore.eval.metrics import average_nees_bounds, chi2_ppf
 from tauvcore.eval.runner import MethodResult, UpdateRecord
 from tauvcore.filter.layout import NEES_BLOCKS, STATE
 
@@ -88,7 +87,7 @@ def summarise_nis(record: UpdateRecord, source: str = "") -> NisSummary:
     nis, dof = record.nis[used], record.nis_dof[used]
     alpha = 1.0 - CONFIDENCE
     dofs, inverse = np.unique(dof, return_inverse=True)        # a few distinct dof: one quantile each
-    lo, hi = stats.chi2.ppf(alpha / 2, dofs)[inverse], stats.chi2.ppf(1 - alpha / 2, dofs)[inverse]
+    lo, hi = chi2_ppf(alpha / 2, dofs)[inverse], chi2_ppf(1 - alpha / 2, dofs)[inverse]
     return NisSummary(source, float(nis.sum() / dof.sum()), float(np.mean((nis >= lo) & (nis <= hi))),
                       int(used.sum()))
 

@@ -6,7 +6,19 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy import stats
+from scipy import special
+
+
+def chi2_ppf(q: float | np.ndarray, dof: float | np.ndarray) -> np.ndarray:
+    """Quantile of the chi-square distribution, ``2 P^-1(dof / 2, q)`` (the regularised incomplete
+    gamma function's inverse: what ``scipy.stats.chi2.ppf`` computes, without importing
+    scipy.stats, which costs 0.3 s of every command's start)."""
+    return 2.0 * special.gammaincinv(np.asarray(dof, dtype=float) / 2.0, q)
+
+
+def chi2_isf(p: float | np.ndarray, dof: float | np.ndarray) -> np.ndarray:
+    """Upper quantile: ``chi2_ppf(1 - p, dof)`` without the round-off of ``1 - p`` for tiny p."""
+    return 2.0 * special.gammainccinv(np.asarray(dof, dtype=float) / 2.0, p)
 
 
 def rms(x: np.ndarray, axis: int | tuple[int, ...] = -1) -> np.ndarray:
@@ -63,7 +75,7 @@ def average_nees_bounds(dim: int, num_runs: int, confidence: float = 0.99) -> tu
     """
     dof = num_runs * dim
     alpha = 1.0 - confidence
-    return (float(stats.chi2.ppf(alpha / 2, dof) / num_runs), float(stats.chi2.ppf(1 - alpha / 2, dof) / num_runs))
+    return (float(chi2_ppf(alpha / 2, dof) / num_runs), float(chi2_ppf(1 - alpha / 2, dof) / num_runs))
 
 
 NIS_WINDOW_UPDATES = 30
@@ -116,7 +128,7 @@ def innovation_divergence_s(t_s: np.ndarray, nis: np.ndarray, nis_dof: np.ndarra
             d = np.concatenate(([0], np.cumsum(nis_dof[ok, r])))
             total, dof = s[window:] - s[:-window], d[window:] - d[:-window]
             dofs, inverse = np.unique(dof, return_inverse=True)
-            bound = stats.chi2.isf(false_alarm, dofs)[inverse]
+            bound = chi2_isf(false_alarm, dofs)[inverse]
             hit = np.flatnonzero(total > bound)
             if hit.size:
                 first = min(first, float(t_s[ok[hit[0] + window - 1]]))
@@ -132,7 +144,7 @@ SENSOR_PRIOR_FALSE_ALARM = 1e-6
 
 @lru_cache(maxsize=16)
 def _prior_bound(num_states: int, false_alarm: float) -> float:
-    return float(stats.chi2.isf(false_alarm / num_states, 1))
+    return float(chi2_isf(false_alarm / num_states, 1))
 
 
 def implausible_sensor_errors(estimate: np.ndarray, prior_var: np.ndarray,

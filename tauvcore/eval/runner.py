@@ -35,7 +35,7 @@ INS has no innovations and estimates no sensor error: it is flagged only if not 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -102,10 +102,11 @@ class Simulation:
     num_runs: int
 
 
-def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1) -> Simulation:
-    """Generate the truth and the sensor outputs (errors zeroed if ``config.run.ideal``)."""
+def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None) -> Simulation:
+    """Generate the truth (unless given) and the sensor outputs (errors zeroed if ``config.run.ideal``)."""
     ideal = config.run.ideal
-    truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    if truth is None:
+        truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
     imu_cfg = config.imu.ideal() if ideal else config.imu
     dvl_cfg = config.dvl.ideal() if ideal else config.dvl
     p_cfg = config.pressure.ideal() if ideal else config.pressure
@@ -166,8 +167,20 @@ class MethodResult:
     updates: dict[str, UpdateRecord] = field(default_factory=dict)
 
 
-def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator, batch: tuple[int, int],
-                     P0_nav_att: np.ndarray) -> Nominal:
+def _initial_draws(rng: np.random.Generator | Sequence[np.random.Generator], R: int) -> tuple[np.ndarray, ...]:
+    """Standard normals of the random initial errors (position, misalignment, velocity), (R, 3)
+    each: from one generator for the whole batch, or one per run (a study's runs, each its own
+    seeded unit: tauvcore.eval.study)."""
+    if isinstance(rng, np.random.Generator):
+        return rng.standard_normal((R, 3)), rng.standard_normal((R, 3)), rng.standard_normal((R, 3))
+    if len(rng) != R:
+        raise ValueError(f"one generator per run expected ({R}), got {len(rng)}")
+    draws = [(g.standard_normal(3), g.standard_normal(3), g.standard_normal(3)) for g in rng]
+    return tuple(np.stack([d[i] for d in draws]) for i in range(3))
+
+
+def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator | Sequence[np.random.Generator],
+                     batch: tuple[int, int], P0_nav_att: np.ndarray) -> Nominal:
     """Estimate at t = 0: truth with the initial errors (fixed, or drawn per run), biases zero."""
     _, R = batch
     ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
@@ -177,10 +190,11 @@ def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator, bat
         C = np.broadcast_to(C_nb_from_euler(truth.euler[0] + np.asarray(ie.euler_rad)), (R, 3, 3))
         vel_b = np.broadcast_to(v_true_b + np.asarray(ie.vel_mps), (R, 3))
     else:
-        pos = pos_true + rng.standard_normal((R, 3)) * np.asarray(ie.pos_m)
-        rho = (np.linalg.cholesky(P0_nav_att) @ rng.standard_normal((R, 3, 1)))[..., 0]
+        n_pos, n_rho, n_vel = _initial_draws(rng, R)
+        pos = pos_true + n_pos * np.asarray(ie.pos_m)
+        rho = (np.linalg.cholesky(P0_nav_att) @ n_rho[..., None])[..., 0]
         C = exp_so3(-rho) @ C_true  # C_true = exp(rho) C_hat
-        vel_b = v_true_b + rng.standard_normal((R, 3)) * np.asarray(ie.vel_mps)
+        vel_b = v_true_b + n_vel * np.asarray(ie.vel_mps)
     vel_n = mv(C, vel_b)
     nav = NavState(pos_n=np.broadcast_to(pos, batch + (3,)).copy(),
                    vel_n=np.broadcast_to(vel_n, batch + (3,)).copy(),
@@ -244,7 +258,7 @@ def _put(nom: Nominal, m: int, part: Nominal) -> None:
         part.accel_bias, part.gyro_bias, part.dvl_bias, part.dvl_sf)
 
 
-def run(config: Config, sim: Simulation, rng: np.random.Generator,
+def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.random.Generator],
         progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
         should_stop: Callable[[], bool] | None = None) -> dict[str, MethodResult]:
     """Run every method of ``config.run.methods`` on the simulation; results keyed by method.

@@ -1,0 +1,91 @@
+"""``report.html`` of a Monte Carlo study: one self-contained page (plotly.js embedded, nothing
+fetched) with, per trajectory, the paper's Figures 9-14 layout (velocity RMS and attitude RMS
+against time, every method) plus tilt, heading and NEES/dim beside them, and a table of the
+final values and the consistency per method."""
+
+from __future__ import annotations
+
+import html
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+from plotly.subplots import make_subplots
+
+from app.figures import method_color
+from tauvcore.eval.consistency import nees_band
+
+PANELS = (
+    ("vel_err_mps", "Velocity error RMS [m/s]", True),
+    ("att_err_deg", "Attitude error RMS [deg]", False),
+    ("tilt_err_deg", "Tilt (roll, pitch) error RMS [deg]", True),
+    ("heading_err_deg", "Heading error RMS [deg]", False),
+)
+
+
+def _finite_or_none(x: np.ndarray) -> list[float | None]:
+    return np.where(np.isfinite(x), x, None).tolist()
+
+
+def trajectory_figure(trajectory: str, summary: dict[str, Any]) -> go.Figure:
+    """Five panels for one trajectory: velocity, attitude, tilt, heading RMS and NEES/dim."""
+    t = np.asarray(summary["t_s"])
+    fig = make_subplots(rows=3, cols=2, subplot_titles=[p[1] for p in PANELS] + ["NEES/dim, full state (1 = consistent)"],
+                        vertical_spacing=0.09, horizontal_spacing=0.08)
+    for i, (name, _, log) in enumerate(PANELS):
+        row, col = divmod(i, 2)
+        for method, m in summary["methods"].items():
+            fig.add_trace(go.Scatter(x=t, y=_finite_or_none(np.asarray(m["rms"][name])), mode="lines",
+                                     name=method.upper(), legendgroup=method, showlegend=i == 0,
+                                     line={"color": method_color(method), "width": 1.5}), row=row + 1, col=col + 1)
+        if log:
+            fig.update_yaxes(type="log", row=row + 1, col=col + 1)
+    lo, hi = nees_band(20, summary["num_runs"])
+    fig.add_trace(go.Scatter(x=[t[0], t[-1], t[-1], t[0]], y=[lo, lo, hi, hi], fill="toself", mode="none",
+                             fillcolor="rgba(128,128,128,0.2)", name="99 % band", showlegend=True), row=3, col=1)
+    for method, m in summary["methods"].items():
+        fig.add_trace(go.Scatter(x=t, y=_finite_or_none(np.asarray(m["mean_nees"]["nees"]) / 20.0), mode="lines",
+                                 name=method.upper(), legendgroup=method, showlegend=False,
+                                 line={"color": method_color(method), "width": 1.5}), row=3, col=1)
+    fig.update_yaxes(type="log", row=3, col=1)
+    fig.update_xaxes(title_text="time [s]")
+    fig.update_layout(height=900, title=f"{trajectory}: RMS over {summary['num_runs']} runs",
+                      template="plotly_white", margin={"l": 60, "r": 20, "t": 70, "b": 40})
+    return fig
+
+
+def _cell(x: Any, fmt: str) -> str:
+    return "-" if x is None or not np.isfinite(x) else format(x, fmt)
+
+
+def summary_table_html(summary: dict[str, Any]) -> str:
+    rows = []
+    for method, m in summary["methods"].items():
+        f, c = m["final_rms"], m["consistency"]
+        rows.append(
+            f"<tr><td>{html.escape(method.upper())}</td><td>{_cell(f['vel_err_mps'], '.3g')}</td>"
+            f"<td>{_cell(f['tilt_err_deg'], '.3f')}</td><td>{_cell(f['heading_err_deg'], '.3f')}</td>"
+            f"<td>{_cell(f['pos_err_m'], '.3g')}</td>"
+            f"<td>{_cell(c['full']['per_dim'], '.3g')} ({_cell(c['full']['in_band'], '.2f')})</td>"
+            f"<td>{_cell(c['vel']['per_dim'], '.3g')} ({_cell(c['vel']['in_band'], '.2f')})</td>"
+            f"<td>{m['runs_flagged_by_monitor']}</td></tr>")
+    return ("<table><tr><th>method</th><th>vel [m/s]</th><th>tilt [deg]</th><th>heading [deg]</th><th>pos [m]</th>"
+            "<th>NEES/dim full (in band)</th><th>NEES/dim vel (in band)</th><th>runs flagged</th></tr>"
+            + "".join(rows) + "</table>")
+
+
+def report_html(title: str, description: str, summaries: dict[str, dict[str, Any]]) -> str:
+    """The whole page; ``summaries`` maps trajectory to its StudyAccumulator.summary()."""
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
+             "<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}"
+             "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>",
+             f"<h1>{html.escape(title)}</h1><p>{html.escape(description)}</p>"]
+    first = True
+    for trajectory, summary in summaries.items():
+        parts.append(f"<h2>{html.escape(trajectory)}</h2><p>Final values (RMS over the runs at the last epoch):</p>")
+        parts.append(summary_table_html(summary))
+        parts.append(trajectory_figure(trajectory, summary).to_html(full_html=False, include_plotlyjs=first,
+                                                                    include_mathjax=False))
+        first = False
+    parts.append("</body></html>")
+    return "".join(parts)
