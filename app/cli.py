@@ -142,6 +142,14 @@ def build_parser() -> argparse.ArgumentParser:
     mc.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
     mc.add_argument("--dask", metavar="ADDRESS", help="send the chunks to this Dask scheduler instead, e.g. "
                                                      "tcp://10.0.0.5:8786 (its workers need tauv installed)")
+    rp = sub.add_parser("reproduce", help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
+                                           "with every figure of its section 4.2 beside ours")
+    rp.add_argument("--out", required=True, help="output directory (as for mc)")
+    rp.add_argument("--runs", help="Monte Carlo runs per trajectory (default 100, the paper's study)")
+    rp.add_argument("--duration", help="run length [s] (default 250, the paper's; shorter for a quick check)")
+    rp.add_argument("--seed", help="seed of the study (default 0)")
+    rp.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
+    rp.add_argument("--dask", metavar="ADDRESS", help="send the chunks to this Dask scheduler instead")
     sv = sub.add_parser("serve", help="start the browser dashboard")
     sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
@@ -511,14 +519,12 @@ def _count(flag: str, text: str | None, low: int, high: int, default: int) -> in
     return value
 
 
-def cmd_mc(args: argparse.Namespace) -> int:
-    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output)."""
+def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int, str | None, Any]:
+    """Runs, workers, Dask address and the output writer of a study command, every check done
+    before anything is computed or created."""
     from app.study_output import OutputDirError, StudyWriter, check_out_dir
-    from app.study_report import report_html
-    from tauvcore.eval.study import run_study
 
-    config = resolve_config(args)
-    num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, 1)
+    num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, default_runs)
     workers = _count("--workers", args.workers, 1, MAX_WORKERS, 1)
     if args.dask is not None and not args.dask.strip():
         raise UsageError(f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}")
@@ -534,11 +540,21 @@ def cmd_mc(args: argparse.Namespace) -> int:
         writer = StudyWriter(out_dir)
     except OutputDirError as exc:
         raise UsageError(f"--out: {exc}") from None
+    return num_runs, workers, args.dask, writer
+
+
+def cmd_mc(args: argparse.Namespace) -> int:
+    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output)."""
+    from app.study_report import report_html
+    from tauvcore.eval.study import run_study
+
+    config = resolve_config(args)
+    num_runs, workers, dask, writer = _study_setup(args, 1)
     started = time.perf_counter()
     trajectory = config.trajectory.name
     try:
         with _progress_bar(num_runs) as bar:
-            acc = run_study(config, num_runs, config.run.seed, workers=workers, dask_address=args.dask,
+            acc = run_study(config, num_runs, config.run.seed, workers=workers, dask_address=dask,
                             on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
                             progress=lambda done, total: bar.update(done - bar.n))
         summary = acc.summary()
@@ -554,6 +570,66 @@ def cmd_mc(args: argparse.Namespace) -> int:
         raise
     elapsed = time.perf_counter() - started
     print(study_table(summary, trajectory, num_runs, elapsed))
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    """``tauv reproduce``: Tal et al. 2017 section 4.2 (three trajectories, beams 3 and 4 lost,
+    INS, TC and the ELC methods; LC with four beams as the reference), every stated figure
+    beside ours with a verdict."""
+    from app.study_report import report_html
+    from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
+    from tauvcore.eval.study import ERROR_SERIES, run_study
+
+    base = Config()
+    if args.duration is not None:
+        base = _replace("--duration", base, "trajectory",
+                        duration_s=_parse("--duration", args.duration, float, "a number of seconds"))
+    if args.seed is not None:
+        base = _replace("--seed", base, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
+    num_runs, workers, dask, writer = _study_setup(args, 100)
+    started = time.perf_counter()
+    summaries, tables = {}, []
+    studies = [(name, beams, methods) for name in TRAJECTORIES
+               for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))]
+    try:
+        with _progress_bar(num_runs * len(studies)) as bar:
+            for name, beams, methods in studies:
+                config = base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
+                done_before = bar.n
+                acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
+                                on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
+                                progress=lambda done, total, b=done_before: bar.update(b + done - bar.n))
+                part = acc.summary()
+                if name in summaries:
+                    summaries[name]["methods"].update(part["methods"])
+                else:
+                    summaries[name] = part
+        order = ("ins", "lc") + TWO_BEAM_METHODS[1:]
+        for s in summaries.values():
+            s["methods"] = {m: s["methods"][m] for m in order}
+        finals = {name: {m: {n: s["methods"][m]["final_rms"][n] for n in ERROR_SERIES} for m in s["methods"]}
+                  for name, s in summaries.items()}
+        table = comparison_table(finals)
+        description = (f"Tal, Klein & Katz 2017, section 4.2: {num_runs} seeded runs per trajectory (seed "
+                       f"{base.run.seed}), {base.trajectory.duration_s:g} s, beams 3 and 4 lost (LC with all four as "
+                       "the reference), DVL aiding only; tauv reproduce")
+        writer.finish({"config": config_to_json(base), "num_runs": num_runs, "seed": base.run.seed,
+                       "trajectories": summaries, "paper_comparison": table},
+                      report_html("tauv reproduce: Tal, Klein & Katz 2017", description, summaries), table)
+        written = writer.commit()
+    except BaseException:
+        writer.abort()
+        raise
+    elapsed = time.perf_counter() - started
+    for name, s in summaries.items():
+        tables.append(study_table(s, name, num_runs, elapsed))
+    print("\n\n".join(tables))
+    print("\nEvery figure of the paper's section 4.2 beside ours\n")
+    print(table)
+    print(f"\n({elapsed:.1f} s wall)")
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -649,6 +725,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = cmd_run(args)
         elif args.command == "mc":
             code = cmd_mc(args)
+        elif args.command == "reproduce":
+            code = cmd_reproduce(args)
         elif args.command == "serve":
             code = cmd_serve(args)
         else:

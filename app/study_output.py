@@ -7,6 +7,8 @@
 - ``runs.parquet``: every run's per-epoch series in long form, one row per (trajectory, method,
   run, epoch), columns ``tauvcore.eval.study.RUN_SERIES`` (written chunk by chunk, so memory
   does not grow with the number of runs);
+- ``paper_comparison.md`` (``tauv reproduce`` only): every figure the paper states beside ours,
+  with a verdict (tauvcore.eval.paper);
 - ``report.html``: plotly figures in the layout of the paper's Figures 9-14 (velocity and
   attitude RMS against time per trajectory, with tilt, heading and NEES/dim beside them), with
   plotly.js embedded so that it opens offline.
@@ -28,7 +30,7 @@ import numpy as np
 
 from tauvcore.eval.study import RUN_SERIES, ChunkSeries
 
-OUTPUT_FILES = ("summary.json", "runs.parquet", "report.html")
+OUTPUT_FILES = ("summary.json", "runs.parquet", "report.html", "paper_comparison.md")
 
 
 class OutputDirError(ValueError):
@@ -105,7 +107,7 @@ class StudyWriter:
             self._parquet = pq.ParquetWriter(os.path.join(self.tmp, "runs.parquet"), table.schema)
         self._parquet.write_table(table)
 
-    def finish(self, summary: dict[str, Any], report_html: str) -> None:
+    def finish(self, summary: dict[str, Any], report_html: str, comparison_md: str | None = None) -> None:
         if self._parquet is not None:
             self._parquet.close()
             self._parquet = None
@@ -113,6 +115,9 @@ class StudyWriter:
             json.dump(_plain(summary), fh, allow_nan=False)
         with open(os.path.join(self.tmp, "report.html"), "w", encoding="utf-8") as fh:
             fh.write(report_html)
+        if comparison_md is not None:
+            with open(os.path.join(self.tmp, "paper_comparison.md"), "w", encoding="utf-8") as fh:
+                fh.write(comparison_md + "\n")
 
     def commit(self) -> list[str]:
         """Rename every output into the output directory (each an atomic replace); remove the
