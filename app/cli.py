@@ -59,6 +59,14 @@ the bound is time: 100,000 runs of 250 s are hours even on a cluster."""
 MAX_WORKERS = 64
 
 
+EXIT_STUDY_FAILED = 1
+
+
+class StudyFailed(Exception):
+    """A study could not finish for a reason outside its input (a worker process died, the Dask
+    scheduler or a worker went away); the message is the one line shown to the user."""
+
+
 class UsageError(Exception):
     """Bad command-line input; the message is the one line shown to the user."""
 
@@ -554,9 +562,10 @@ def cmd_mc(args: argparse.Namespace) -> int:
     trajectory = config.trajectory.name
     try:
         with _progress_bar(num_runs) as bar:
-            acc = run_study(config, num_runs, config.run.seed, workers=workers, dask_address=dask,
-                            on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
-                            progress=lambda done, total: bar.update(done - bar.n))
+            with _study_failures(dask):
+                acc = run_study(config, num_runs, config.run.seed, workers=workers, dask_address=dask,
+                                on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
+                                progress=lambda done, total: bar.update(done - bar.n))
         summary = acc.summary()
         description = (f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
                        f"methods {', '.join(config.run.methods)}, beams {','.join(map(str, config.dvl.beams))}, "
@@ -599,9 +608,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             for name, beams, methods in studies:
                 config = base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
                 done_before = bar.n
-                acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
-                                on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
-                                progress=lambda done, total, b=done_before: bar.update(b + done - bar.n))
+                with _study_failures(dask):
+                    acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
+                                    on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
+                                    progress=lambda done, total, b=done_before: bar.update(b + done - bar.n))
                 part = acc.summary()
                 if name in summaries:
                     summaries[name]["methods"].update(part["methods"])
@@ -633,6 +643,24 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+@contextlib.contextmanager
+def _study_failures(dask: str | None):
+    """A worker process that dies (out of memory, killed) or a Dask cluster that goes away ends
+    the study with one line and exit status 1, not a traceback; nothing is written."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        yield
+    except BrokenProcessPool as exc:
+        raise StudyFailed(f"a worker process died during the study ({one_line(str(exc)) or 'killed'}); "
+                          "nothing was written") from None
+    except (OSError, TimeoutError) as exc:
+        if dask is None:
+            raise
+        raise StudyFailed(f"--dask {dask}: the cluster failed during the study ({type(exc).__name__}: "
+                          f"{one_line(str(exc))}); nothing was written") from None
 
 
 def _check_dask(address: str) -> None:
@@ -736,6 +764,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (UsageError, ConfigError) as exc:
         print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except StudyFailed as exc:
+        print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
+        return EXIT_STUDY_FAILED
     except BrokenPipeError:
         _silence_stdout()
         return 0

@@ -134,3 +134,39 @@ def test_an_interrupted_study_leaves_nothing_that_looks_like_a_result(tmp_path, 
     calls.clear()
     assert cli.main(["mc", *SHORT, "--runs", "25", "--out", str(fresh)]) == 130
     assert not fresh.exists()                                            # the directory it created is gone too
+
+
+def test_a_worker_that_dies_ends_the_study_with_one_line_and_nothing_written(tmp_path, capsys, monkeypatch):
+    from concurrent.futures.process import BrokenProcessPool
+
+    def dying(*args, **kwargs):
+        yield from []
+        raise BrokenProcessPool("A process in the process pool was terminated abruptly")
+
+    monkeypatch.setattr(study, "iterate_chunks", dying)
+    out = tmp_path / "study"
+    assert cli.main(["mc", *SHORT, "--runs", "4", "--out", str(out), "--workers", "2"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "a worker process died" in err[0] and "Traceback" not in err[0]
+    assert not out.exists()
+
+
+def test_a_real_worker_killed_mid_study_is_reported(tmp_path, capsys, monkeypatch):
+    """The real pool: its workers are killed as soon as the first chunk is handed over."""
+    import signal
+
+    from app import study_output
+
+    original = study_output.StudyWriter.add_chunk
+
+    def kill_workers(self, trajectory, chunk):
+        for child in __import__("multiprocessing").active_children():
+            os.kill(child.pid, signal.SIGKILL)
+        return original(self, trajectory, chunk)
+
+    monkeypatch.setattr(study_output.StudyWriter, "add_chunk", kill_workers)
+    out = tmp_path / "study"
+    code = cli.main(["mc", *SHORT, "--runs", "40", "--out", str(out), "--workers", "2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "a worker process died" in err[0]
+    assert not out.exists()
