@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tauvcore.config import Config
+from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS, nees_band
 from tauvcore.eval.runner import MethodResult, Simulation, run, simulate
 from tauvcore.filter.layout import NEES_BLOCKS
@@ -104,8 +104,6 @@ def series_of(result: MethodResult) -> dict[str, np.ndarray]:
 
 def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> ChunkSeries:
     """A worker's whole job (a local process or a Dask worker): plain inputs, plain outputs."""
-    from tauvcore.config import from_dict
-
     results = run_chunk(from_dict(config_dict), seed, first, count)
     any_result = next(iter(results.values()))
     return ChunkSeries(first=first, count=count, t_s=any_result.t_s,
@@ -206,8 +204,6 @@ def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, d
     """Compute the study's chunks and yield them in run order: in this process (``workers`` 1),
     on ``workers`` local processes, or on the Dask scheduler at ``dask_address`` (its workers need
     this package installed; see the README)."""
-    from tauvcore.config import to_dict
-
     size = chunk_runs or CHUNK_RUNS
     parts = chunks(num_runs, size)
     config_dict = to_dict(config)
