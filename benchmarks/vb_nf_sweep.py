@@ -19,9 +19,9 @@ import time
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.eval.metrics import average_nees_bounds, rms
+from tauvcore.eval.consistency import method_consistency
+from tauvcore.eval.metrics import rms
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
-from tauvcore.filter.layout import STATE
 from tauvcore.truth import TRAJECTORIES
 
 SETTLE_S = 30.0     # the lawnmower's dive; the time-averaged RMS starts after it
@@ -33,12 +33,10 @@ def sweep_row(name: str, nf: float, runs: int, seed: int) -> dict[str, float]:
     res = monte_carlo(config, runs, np.random.default_rng(seed))["vb"]
     vel = rms_over_runs(res.vel_err_mps)
     after = res.t_s >= SETTLE_S
-    nees_avg = np.nanmean(res.nees, axis=1)                  # run-averaged NEES per epoch
-    lo, hi = average_nees_bounds(STATE.dim, runs)
-    inside = (nees_avg >= lo) & (nees_avg <= hi)
+    full = method_consistency(res).nees["full"]
     dvl = res.updates["dvl"]
     return {"vel_end": float(vel[-1]), "vel_rms": float(rms(vel[after])),
-            "nees_dim": float(np.mean(nees_avg[1:]) / STATE.dim), "inside": float(np.mean(inside[1:])),
+            "nees_dim": full.per_dim, "inside": full.in_band,
             "rejected": float(dvl.rejected.sum() / max(dvl.valid.sum(), 1)),
             "diverged": int(res.diverged.sum())}
 
