@@ -25,7 +25,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
@@ -47,10 +47,12 @@ from tauvcore.eval.consistency import (
     nees_series,
 )
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult, UpdateRecord, run, simulate
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
+
+if TYPE_CHECKING:   # the engine (numba, compiled-code cache) loads when a command runs, not for --help
+    from tauvcore.eval.runner import MethodResult, UpdateRecord
 
 EXIT_BAD_INPUT = 2
 MAX_STUDY_RUNS = 100_000
@@ -505,6 +507,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     json_path = json_target(args.json, args.config) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
+    from tauvcore.eval.runner import run, simulate
+
     sim = simulate(config, rng, num_runs=1)
     results = run(config, sim, rng)
     elapsed = time.perf_counter() - started

@@ -20,12 +20,15 @@ active. Its ``per_dof`` is ``sum(NIS) / sum(dof)`` over every update that produc
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tauvcore.eval.metrics import average_nees_bounds, chi2_ppf
-from tauvcore.eval.runner import MethodResult, UpdateRecord
 from tauvcore.filter.layout import NEES_BLOCKS, STATE
+
+if TYPE_CHECKING:   # the engine (numba) is not loaded to summarise its results
+    from tauvcore.eval.runner import MethodResult, UpdateRecord
 
 CONFIDENCE = 0.99
 """Two-sided confidence of every band."""

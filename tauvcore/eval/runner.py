@@ -52,20 +52,13 @@ from tauvcore.aiding.dvl_extended import (
 )
 from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.config import Config
-from tauvcore.eval.metrics import (
-    block_nees,
-    implausible_sensor_errors,
-    innovation_divergence_s,
-    nees,
-)
+from tauvcore.eval.metrics import implausible_sensor_errors, innovation_divergence_s
+from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
     Measurement,
     Nominal,
     UpdateOutcome,
     condition_covariance,
-    correct,
-    difference,
-    propagate,
 )
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE
 from tauvcore.geo.rotations import (
@@ -73,7 +66,7 @@ from tauvcore.geo.rotations import (
     euler_from_misalignment_jacobian,
     exp_so3,
 )
-from tauvcore.ins.error_model import F_matrix, G_matrix, discretise, noise_psd
+from tauvcore.ins.error_model import noise_psd
 from tauvcore.ins.strapdown import NavState, Strapdown, body_increments, mv
 from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
@@ -246,18 +239,6 @@ class _Recorder:
         return UpdateRecord(t_s=np.asarray(self.t), **{k: np.stack([r[k] for r in self.rows]) for k in keys})
 
 
-def _take(nom: Nominal, m: int) -> Nominal:
-    """The part of a (M, R) nominal state that belongs to method m."""
-    return Nominal(NavState(nom.nav.pos_n[m], nom.nav.vel_n[m], nom.nav.C_nb[m]), nom.accel_bias[m], nom.gyro_bias[m],
-                   nom.dvl_bias[m], nom.dvl_sf[m])
-
-
-def _put(nom: Nominal, m: int, part: Nominal) -> None:
-    nom.nav.pos_n[m], nom.nav.vel_n[m], nom.nav.C_nb[m] = part.nav.pos_n, part.nav.vel_n, part.nav.C_nb
-    nom.accel_bias[m], nom.gyro_bias[m], nom.dvl_bias[m], nom.dvl_sf[m] = (
-        part.accel_bias, part.gyro_bias, part.dvl_bias, part.dvl_sf)
-
-
 def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.random.Generator],
         progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
         should_stop: Callable[[], bool] | None = None) -> dict[str, MethodResult]:
@@ -275,11 +256,25 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
     dt = truth.dt_s
     earth = config.earth
     strapdown = Strapdown(earth, dt)
-    phi_raw, dv_raw = body_increments(imu.dtheta_b, imu.dv_b)       # (K, R, 3)
+    sd_consts = (dt, strapdown.C_earth, strapdown.C_earth_half, strapdown.g_n, strapdown.coriolis_T)
+    g_n, w_ie = np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n)
+    phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(imu.dtheta_b, imu.dv_b))  # (K, R, 3)
+    dtheta_b = np.ascontiguousarray(imu.dtheta_b)
     q_psd = noise_psd(config.imu, config.dvl)
     P0 = initial_covariance(config, truth.euler[0])
     P = np.broadcast_to(P0, batch + P0.shape).copy()
+    # the (M, R) nominal states, contiguous so that the kernels update them in place
     nom = _initial_nominal(config, truth, rng, batch, P0[STATE.att, STATE.att])
+    pos, vel, C = (np.array(a, dtype=float, order="C") for a in (nom.nav.pos_n, nom.nav.vel_n, nom.nav.C_nb))
+    ba, bg, bdvl = (np.array(a, dtype=float, order="C") for a in (nom.accel_bias, nom.gyro_bias, nom.dvl_bias))
+    sf = np.array(nom.dvl_sf, dtype=float, order="C")
+    flat = (pos.reshape(-1, 3), vel.reshape(-1, 3), C.reshape(-1, 3, 3), ba.reshape(-1, 3), bg.reshape(-1, 3),
+            bdvl.reshape(-1, 4), sf.reshape(-1))
+
+    def nominal(m: int | None = None) -> Nominal:
+        """The current estimate (views): of method m, or of the whole bank."""
+        sel = slice(None) if m is None else m
+        return Nominal(NavState(pos[sel], vel[sel], C[sel]), ba[sel], bg[sel], bdvl[sel], sf[sel])
 
     aiding = set(config.run.aiding)
     gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt) * np.sqrt(2.5)
@@ -301,14 +296,12 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
     out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
     out_idx = np.arange(0, truth.num_samples, out_step)
     T = out_idx.size
-    series = {name: np.zeros((T, M, R)) for name in
-              ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees",
-               "tilt_err", "heading_err", "tilt_sigma", "heading_sigma")}
+    series_all = np.zeros((len(kernels.SERIES_NAMES), T, M, R))
+    series = dict(zip(kernels.SERIES_NAMES, series_all))
     nees_block = np.zeros((T, M, R, len(NEES_BLOCKS)))
     block_of_state = np.full(STATE.dim, -1)
     for b, ix in enumerate(NEES_BLOCKS.values()):
         block_of_state[list(ix)] = b
-    tilt, heading = np.asarray(NEES_BLOCKS["tilt"]), np.asarray(NEES_BLOCKS["heading"])
     est_pos_n = np.zeros((T, M, R, 3))
     # true DVL errors at a sample: those of the latest ping (the first before it; zero without pings)
     dvl_ping_of_sample = np.clip(np.searchsorted(sim.dvl.index, np.arange(truth.num_samples), side="right") - 1,
@@ -323,59 +316,77 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
     prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
     prior_rate = np.concatenate([q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)])
 
-    def condition(P_all: np.ndarray) -> np.ndarray:
-        P_all, repaired = condition_covariance(P_all)
-        p_floor_count[...] += repaired
-        return P_all
+    def condition() -> None:
+        """Keep every P positive definite (one compiled Cholesky per filter; numpy repair if one fails)."""
+        ok = kernels.positive_definite_bank(P)
+        if not ok.all():
+            P_new, repaired = condition_covariance(P)
+            P[...] = P_new
+            p_floor_count[...] += repaired
 
     def record(slot: int, k: int) -> None:
         p = int(dvl_ping_of_sample[k])
-        true = Nominal(nav=NavState(pos_n=truth.pos_n[k], vel_n=truth.vel_n[k], C_nb=truth.C_nb[k]),
-                       accel_bias=imu.accel_bias[k], gyro_bias=imu.gyro_bias[k],
-                       dvl_bias=dvl_bias_true[p], dvl_sf=dvl_sf_true[p])
-        dx = difference(true, nom)
-        series["vel_err"][slot] = np.linalg.norm(dx[..., STATE.vel], axis=-1)
-        series["att_err"][slot] = np.linalg.norm(dx[..., STATE.att], axis=-1) / units.DEG
-        series["pos_err"][slot] = np.linalg.norm(dx[..., STATE.pos], axis=-1)
-        diag = np.diagonal(P, axis1=-2, axis2=-1)
-        series["vel_sigma"][slot] = np.sqrt(diag[..., STATE.vel].sum(-1))
-        series["att_sigma"][slot] = np.sqrt(diag[..., STATE.att].sum(-1)) / units.DEG
-        series["pos_sigma"][slot] = np.sqrt(diag[..., STATE.pos].sum(-1))
-        series["nees"][slot] = nees(dx, P)
-        series["tilt_err"][slot] = np.linalg.norm(dx[..., tilt], axis=-1) / units.DEG
-        series["heading_err"][slot] = np.linalg.norm(dx[..., heading], axis=-1) / units.DEG
-        series["tilt_sigma"][slot] = np.sqrt(diag[..., tilt].sum(-1)) / units.DEG
-        series["heading_sigma"][slot] = np.sqrt(diag[..., heading].sum(-1)) / units.DEG
-        nees_block[slot] = block_nees(dx, P, block_of_state, len(NEES_BLOCKS))
-        est_pos_n[slot] = nom.nav.pos_n
-        # health without truth: one sum, finite only if the navigation state and P's variances are.
-        # A non-finite bias or attitude reaches the velocity at the next IMU step, and a NaN
-        # anywhere in P or the state reaches P's diagonal at the next propagation.
-        with np.errstate(invalid="ignore", over="ignore"):
-            total = diag.sum(-1) + nom.nav.pos_n.sum(-1) + nom.nav.vel_n.sum(-1)
-        nonfinite_at_s[~np.isfinite(total) & np.isnan(nonfinite_at_s)] = truth.t_s[k]
+        kernels.record_bank(slot, float(truth.t_s[k]), truth.pos_n[k], truth.vel_n[k], truth.C_nb[k],
+                            np.ascontiguousarray(imu.accel_bias[k]), np.ascontiguousarray(imu.gyro_bias[k]),
+                            np.ascontiguousarray(dvl_bias_true[p]), np.ascontiguousarray(dvl_sf_true[p]),
+                            pos, vel, C, ba, bg, bdvl, sf, P, block_of_state, len(NEES_BLOCKS), units.DEG,
+                            series_all, nees_block, est_pos_n, nonfinite_at_s)
 
     def check_sensor_errors(t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
-        sensor_est = np.concatenate((nom.accel_bias, nom.gyro_bias, nom.dvl_bias, nom.dvl_sf[..., None]), axis=-1)
+        sensor_est = np.concatenate((ba, bg, bdvl, sf[..., None]), axis=-1)
         wild = implausible_sensor_errors(sensor_est, prior_var0 + prior_rate * t)
         implausible_at_s[wild & np.isnan(implausible_at_s)] = t
 
+    def fuse(H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
+             ) -> tuple[np.ndarray, ...]:
+        """One compiled gated correction of the whole bank (inactive rows and entries untouched),
+        then the injection. Arrays (M, R, m, ...); returns the kernel's per-entry outcome."""
+        m_rows = nu.shape[-1]
+        dx, s_diag, keep, nis, ratio, unusable = kernels.correct_batch(
+            P.reshape(-1, STATE.dim, STATE.dim), np.ascontiguousarray(H).reshape(-1, m_rows, STATE.dim),
+            np.ascontiguousarray(Rm).reshape(-1, m_rows, m_rows), np.ascontiguousarray(nu).reshape(-1, m_rows),
+            np.ascontiguousarray(active).reshape(-1, m_rows), np.ascontiguousarray(gate_rows).reshape(-1), gate)
+        kernels.inject_batch(*flat, dx)
+        shape = (M, R)
+        return (s_diag.reshape(shape + (m_rows,)), keep.reshape(shape + (m_rows,)), nis.reshape(shape),
+                ratio.reshape(shape), unusable.reshape(shape))
+
+    def outcome_of(z: np.ndarray, nu: np.ndarray, active: np.ndarray, fused: tuple[np.ndarray, ...]
+                   ) -> UpdateOutcome:
+        s_diag, keep, nis, ratio, unusable = fused
+        return UpdateOutcome(z=z, innovation=nu, innovation_var=s_diag, test_ratio=ratio, fused=keep.any(axis=-1),
+                             rejected=(active & ~keep).any(axis=-1), fused_rows=keep, rejected_rows=active & ~keep,
+                             nis=nis, nis_dof=active.sum(axis=-1), unusable=unusable)
+
     def update_all(source: str, meas: Measurement, t: float) -> None:
         """A source every aided method takes (depth, magnetometer): one batched correction."""
-        nonlocal P, nom
-        P, nom, outcome = correct(P, nom, meas, gate, apply=other_mask)
+        valid = meas.valid & other_mask
+        m_rows = meas.R.shape[-1]
+        active = np.ones(batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
+        active = active & valid[..., None]
+        fused = fuse(meas.H, meas.R, meas.innovation, active, np.full(batch, meas.gate_rows))
+        outcome = outcome_of(meas.z, meas.innovation, active, fused)
         for m in range(M):
             if other_mask[m].any():
                 part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
                 recorders[(source, m)].add(t, part, meas.valid[m] & other_mask[m])
 
+    DVL_ROWS = 4   # the widest DVL measurement (tightly coupled: one row per beam); narrower ones padded
+
     def update_dvl(i: int, k: int, t: float) -> None:
-        """Every DVL-aided method fuses the ping its own way (lc, tc, or an ELC method)."""
+        """Every DVL-aided method measures the ping its own way (lc, tc, or an ELC method); one
+        compiled correction then fuses them all."""
         y, available = sim.dvl.y_beam_mps[i], sim.dvl.available[i]
-        omega_meas = (3.0 * imu.dtheta_b[k] - imu.dtheta_b[k - 1]) / (2.0 * dt)  # rate at t_k, 2nd order
+        omega_meas = (3.0 * dtheta_b[k] - dtheta_b[k - 1]) / (2.0 * dt)  # rate at t_k, 2nd order
+        H = np.zeros(batch + (DVL_ROWS, STATE.dim))
+        Rm = np.zeros(batch + (DVL_ROWS, DVL_ROWS))
+        nu = np.zeros(batch + (DVL_ROWS,))
+        active = np.zeros(batch + (DVL_ROWS,), bool)
+        gate_rows = np.zeros(batch, bool)
+        taken = []
         for m, method in dvl_methods:
-            part = _take(nom, m)
+            part = nominal(m)
             kind = DVL_FUSION[method]
             if kind == "elc":
                 meas, info = dvl_models[method].measure(part, P[m][..., STATE.vel, STATE.vel], y, available,
@@ -386,8 +397,18 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
                 info = DvlInfo(mode=np.where(meas.valid, code, MODE_COAST),
                                measured_axes=np.broadcast_to(meas.valid[:, None] & (kind == "lc"), (R, 3)),
                                elc_choice=np.full((R, 3), -1))
-            P[m], new_part, outcome = correct(P[m], part, meas, gate)
-            _put(nom, m, new_part)
+            rows = meas.R.shape[-1]
+            act = np.ones((R, rows), bool) if meas.active is None else meas.active.astype(bool)
+            H[m, :, :rows], Rm[m, :, :rows, :rows], nu[m, :, :rows] = meas.H, meas.R, meas.innovation
+            Rm[m, :, rows:, rows:] = np.eye(DVL_ROWS - rows)
+            active[m, :, :rows] = act & meas.valid[:, None]
+            gate_rows[m] = meas.gate_rows
+            taken.append((m, meas, info, rows))
+        fused = fuse(H, Rm, nu, active, gate_rows)
+        for m, meas, info, rows in taken:
+            s_diag, keep, nis, ratio, unusable = (a[m] for a in fused)
+            act = active[m, :, :rows]
+            outcome = outcome_of(meas.z, meas.innovation, act, (s_diag[:, :rows], keep[:, :rows], nis, ratio, unusable))
             recorders[("dvl", m)].add(t, outcome, meas.valid, beams_available=available, mode=info.mode,
                                       measured_axes=info.measured_axes, elc_choice=info.elc_choice)
 
@@ -396,10 +417,7 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
     for keys in (dvl_at, depth_at, mag_at):
         events[list(keys)] = True
     events[out_idx] = True
-    k_cov = 0                       # sample the covariance was last propagated to
-    k_checked = 0                   # sample P was last checked (condition_covariance) at
     check_step = max(1, int(round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ)))
-    dtheta_sum = np.zeros((R, 3))   # gyro increments since then
 
     def results_upto(n: int) -> dict[str, MethodResult]:
         out = {}
@@ -424,33 +442,28 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
     progress_every = max(1, int(round(progress_interval_s * config.filter.output_rate_hz)))
     record(0, 0)
     slot = 1
-    for k in range(1, truth.num_samples):
-        nav = strapdown.step(nom.nav, phi_raw[k] - nom.gyro_bias * dt, dv_raw[k] - nom.accel_bias * dt)
-        nom = nom.with_nav(nav)
-        dtheta_sum += imu.dtheta_b[k]
-        if events[k] or k - k_cov >= cov_step:
-            dt_c = (k - k_cov) * dt
-            omega_hat = dtheta_sum / dt_c - nom.gyro_bias
-            F = F_matrix(nav.C_nb, nom.vel_b, omega_hat, earth)
-            G = G_matrix(nav.C_nb, nom.vel_b)
-            Phi, Qd = discretise(F, G, q_psd, dt_c)
-            P = propagate(P, Phi, Qd)
-            if k - k_checked >= check_step:
-                P = condition(P)
-                k_checked = k
-            k_cov = k
-            dtheta_sum[:] = 0.0
+    k_cov = 0                       # sample the covariance was last propagated to (and the state advanced to)
+    k_checked = 0                   # sample P was last checked (positive definite) at
+    for k in covariance_stops(np.flatnonzero(events), truth.num_samples, cov_step):
+        kernels.advance(pos, vel, C, ba, bg, phi_raw, dv_raw, k_cov, k, *sd_consts)
+        dt_c = (k - k_cov) * dt
+        dtheta_sum = dtheta_b[k_cov + 1:k + 1].sum(axis=0)
+        kernels.propagate_bank(P, C, vel, bg, dtheta_sum, dt_c, g_n, w_ie, q_psd)
+        if k - k_checked >= check_step:
+            condition()
+            k_checked = k
+        k_cov = k
         if not events[k]:
             continue
         t = float(truth.t_s[k])
         if k in dvl_at:
             update_dvl(dvl_at[k], k, t)
         if k in depth_at:
-            update_all("depth", depth_model.measure(nom, sim.pressure.depth_m[depth_at[k]]), t)
+            update_all("depth", depth_model.measure(nominal(), sim.pressure.depth_m[depth_at[k]]), t)
         if k in mag_at:
-            update_all("mag", mag_model.measure(nom, sim.mag.euler[mag_at[k]]), t)
+            update_all("mag", mag_model.measure(nominal(), sim.mag.euler[mag_at[k]]), t)
         if k in dvl_at or k in depth_at or k in mag_at:
-            P = condition(P)
+            condition()
             k_checked = k
             check_sensor_errors(t)
         if slot < T and k == out_idx[slot]:
@@ -461,3 +474,16 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
             if progress is not None and slot % progress_every == 0 and slot < T:
                 progress(t, results_upto(slot))
     return results_upto(slot)
+
+
+def covariance_stops(event_idx: np.ndarray, num_samples: int, cov_step: int) -> list[int]:
+    """Samples at which the covariance is propagated (and the nominal state stops): every event
+    (aiding or output epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
+    stops: list[int] = []
+    prev = 0
+    for e in [int(e) for e in event_idx if e > 0] + [num_samples]:
+        stops.extend(range(prev + cov_step, e, cov_step))
+        if e < num_samples:
+            stops.append(e)
+        prev = e
+    return stops

@@ -75,20 +75,28 @@ class Strapdown:
 
     def __init__(self, earth: Earth, dt_s: float) -> None:
         self.dt_s = dt_s
-        self.g_n = earth.g_n
+        self.g_n = np.ascontiguousarray(earth.g_n, dtype=float)
         self.omega_ie_n = earth.omega_ie_n
         self.C_earth = exp_so3(-self.omega_ie_n * dt_s)   # n-frame turn of one step
         self.C_earth_half = exp_so3(-0.5 * self.omega_ie_n * dt_s)
-        # v @ M == -2 omega_ie_n x v  (row-vector form avoids np.cross in the loop)
-        self._coriolis_T = (-2.0 * skew(self.omega_ie_n)).T
+        # v @ M == -2 omega_ie_n x v  (row-vector form)
+        self.coriolis_T = np.ascontiguousarray((-2.0 * skew(self.omega_ie_n)).T)
 
     def step(self, nav: NavState, phi_b: np.ndarray, dv_rot_b: np.ndarray) -> NavState:
-        """Advance one IMU interval with bias-corrected compensated increments (:func:`body_increments`)."""
-        dt = self.dt_s
-        C1 = self.C_earth @ nav.C_nb @ exp_so3(phi_b)
-        gravity_dt = self.g_n * dt
-        dv_n = mv(self.C_earth_half @ nav.C_nb, dv_rot_b) + gravity_dt
-        v_mid = nav.vel_n + 0.5 * (dv_n + (nav.vel_n @ self._coriolis_T) * dt)
-        vel1 = nav.vel_n + dv_n + (v_mid @ self._coriolis_T) * dt
-        pos1 = nav.pos_n + 0.5 * dt * (nav.vel_n + vel1)
-        return NavState(pos_n=pos1, vel_n=vel1, C_nb=C1)
+        """Advance one IMU interval with bias-corrected compensated increments (:func:`body_increments`).
+
+        The formula is the compiled kernel :func:`tauvcore.filter.kernels.strapdown_step_into` (the one
+        the filter bank runs), applied to every entry of the batch."""
+        from tauvcore.filter import kernels  # numba: not loaded for `tauv --help`
+
+        batch = nav.pos_n.shape[:-1]
+        shape = np.broadcast_shapes(batch, phi_b.shape[:-1], dv_rot_b.shape[:-1])
+        pos = np.array(np.broadcast_to(nav.pos_n, shape + (3,)), dtype=float).reshape(-1, 3)
+        vel = np.array(np.broadcast_to(nav.vel_n, shape + (3,)), dtype=float).reshape(-1, 3)
+        C = np.array(np.broadcast_to(nav.C_nb, shape + (3, 3)), dtype=float).reshape(-1, 3, 3)
+        phi = np.ascontiguousarray(np.broadcast_to(phi_b, shape + (3,)), dtype=float).reshape(-1, 3)
+        dv = np.ascontiguousarray(np.broadcast_to(dv_rot_b, shape + (3,)), dtype=float).reshape(-1, 3)
+        kernels.strapdown_batch(pos, vel, C, phi, dv, self.dt_s, self.C_earth, self.C_earth_half, self.g_n,
+                                self.coriolis_T)
+        return NavState(pos_n=pos.reshape(shape + (3,)), vel_n=vel.reshape(shape + (3,)),
+                        C_nb=C.reshape(shape + (3, 3)))

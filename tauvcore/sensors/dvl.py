@@ -13,13 +13,18 @@ small head is a few centimetres, below the 0.042 m/s noise for any plausible rat
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from tauvcore import units
 from tauvcore.conventions import NUM_DVL_BEAMS
-from tauvcore.sensors.timing import batch_shape, epoch_indices, random_walk
+from tauvcore.sensors.timing import (
+    WalkState,
+    batch_shape,
+    epoch_indices,
+    random_walk_chunk,
+)
 from tauvcore.truth.record import Truth
 from tauvcore.validation import (
     ConfigError,
@@ -167,19 +172,50 @@ def beam_velocity(A_b: np.ndarray, vel_b: np.ndarray, omega_nb_b: np.ndarray, l_
     return v_head @ A_b.T + bias
 
 
+@dataclass(frozen=True)
+class DvlState:
+    """What a DVL simulated chunk by chunk carries from one chunk to the next (the walks count
+    the pings emitted so far)."""
+
+    bias: WalkState = field(default_factory=WalkState)           # beam bias walk, one step per ping
+    scale_factor: WalkState = field(default_factory=WalkState)   # scale factor walk, one step per ping
+
+
 def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs: int | None = None) -> DvlData:
-    idx = epoch_indices(truth, config.rate_hz)
-    m = idx.size
+    """Pings of the whole mission as one chunk, every draw from ``rng``."""
+    index = epoch_indices(truth, config.rate_hz)
+    data, _ = simulate_chunk(truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs)
+    return data
+
+
+def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, state: DvlState,
+                   bias_rng: np.random.Generator, scale_factor_rng: np.random.Generator,
+                   noise_rng: np.random.Generator, dropout_rng: np.random.Generator,
+                   num_runs: int | None) -> tuple[DvlData, DvlState]:
+    """Pings at the mission's IMU samples ``index`` (all within ``truth``, whose sample 0 is the
+    mission's sample ``k0``), by eq. 15 plus noise, NaN where a beam is out of its schedule or drops.
+
+    Bias (4 per run) and scale factor are random walks stepping once per ping (period
+    ``1 / rate_hz``) from a turn-on value. Draws, in order: bias (turn-on value at the first chunk,
+    then its walk), scale factor, noise, dropout (only if its probability is positive, so that a
+    single generator shared with the other sensors moves as before). -> (data, next state).
+    """
+    m = index.size
     runs = batch_shape(num_runs)
     period = 1.0 / config.rate_hz
-    bias = random_walk(rng, rng.standard_normal(runs + (4,)) * config.bias_mps, config.bias_rw_mps_per_sqrt_s, period, m)
-    sf = random_walk(rng, rng.standard_normal(runs) * config.scale_factor, config.scale_factor_rw_per_sqrt_s, period, m)
+    bias, bias_state = random_walk_chunk(bias_rng, state.bias, runs + (4,), config.bias_mps,
+                                         config.bias_rw_mps_per_sqrt_s, period, m)
+    sf, sf_state = random_walk_chunk(scale_factor_rng, state.scale_factor, runs, config.scale_factor,
+                                     config.scale_factor_rw_per_sqrt_s, period, m)
+    rows = index - k0
+    t_s = truth.t_s[rows]
     expand = (slice(None),) + (None,) * len(runs)
-    y = beam_velocity(config.A_b, truth.vel_b[idx][expand], truth.omega_nb_b[idx][expand], config.l_dvl_b, sf, bias)
-    y = y + rng.standard_normal(y.shape) * config.noise_mps
-    available = np.broadcast_to(config.scheduled_availability(truth.t_s[idx])[(slice(None),) + (None,) * len(runs)],
-                                y.shape).copy()
-    if config.dropout_probability > 0:   # no draw otherwise, so the other sensors' streams do not move
-        available &= rng.random(y.shape) >= config.dropout_probability
+    y = beam_velocity(config.A_b, truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand], config.l_dvl_b, sf,
+                      bias)
+    y = y + noise_rng.standard_normal(y.shape) * config.noise_mps
+    available = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape).copy()
+    if config.dropout_probability > 0:
+        available &= dropout_rng.random(y.shape) >= config.dropout_probability
     y = np.where(available, y, np.nan)
-    return DvlData(t_s=truth.t_s[idx], index=idx, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf)
+    return (DvlData(t_s=t_s, index=index, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf),
+            DvlState(bias=bias_state, scale_factor=sf_state))

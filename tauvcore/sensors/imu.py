@@ -10,12 +10,12 @@ TAUV's Ekinox, and as the 34 m/s standalone drift of section 4.2 also requires.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from tauvcore import units
-from tauvcore.sensors.timing import batch_shape, random_walk
+from tauvcore.sensors.timing import WalkState, batch_shape, random_walk_chunk
 from tauvcore.truth.record import Truth
 from tauvcore.validation import require_range
 
@@ -98,22 +98,51 @@ class ImuData:
     gyro_bias: np.ndarray    # (K, [R,] 3) true gyro bias [rad/s]
 
 
+@dataclass(frozen=True)
+class ImuState:
+    """What an IMU simulated chunk by chunk carries from one chunk to the next."""
+
+    accel_bias: WalkState = field(default_factory=WalkState)   # accelerometer bias walk
+    gyro_bias: WalkState = field(default_factory=WalkState)    # gyro bias walk
+
+
 def simulate(truth: Truth, config: ImuConfig, rng: np.random.Generator, num_runs: int | None = None) -> ImuData:
-    """IMU increments at every truth epoch (the truth must be generated at ``config.rate_hz``)."""
-    dt = truth.dt_s
-    if abs(1.0 / dt - config.rate_hz) > 1e-6 * config.rate_hz:
-        raise ValueError(f"truth is sampled at {1.0 / dt:g} Hz but imu.rate_hz is {config.rate_hz:g}")
+    """IMU increments at every truth epoch (the truth must be generated at ``config.rate_hz``):
+    the whole mission as one chunk, every draw from ``rng``."""
+    data, _ = simulate_chunk(truth, 0, config, ImuState(), rng, rng, rng, rng, num_runs, truth.dt_s)
+    return data
+
+
+def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
+                   accel_bias_rng: np.random.Generator, gyro_bias_rng: np.random.Generator,
+                   accel_noise_rng: np.random.Generator, gyro_noise_rng: np.random.Generator,
+                   num_runs: int | None, dt_s: float) -> tuple[ImuData, ImuState]:
+    """IMU increments at the samples ``k0 .. k0 + K - 1`` of the mission, ``truth`` holding those K.
+
+    ``dv_k = dv_true_k + b_a,k dt + n_a,k``, ``dtheta_k = dtheta_true_k + b_g,k dt + n_g,k`` with
+    ``n ~ N(0, N^2 dt)`` (N the noise density) and the biases random walks from a turn-on value
+    (:func:`~tauvcore.sensors.timing.random_walk_chunk`); row k = 0 of the mission is zero.
+    Draws, in order: accelerometer bias (turn-on value at the first chunk, then its walk), gyro
+    bias, accelerometer noise, gyro noise, each from its generator. ``dt_s`` is the mission's
+    sample interval. -> (data with arrays (K, [R,] 3), state for the next chunk).
+    """
+    if abs(1.0 / dt_s - config.rate_hz) > 1e-6 * config.rate_hz:
+        raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {config.rate_hz:g}")
     k = truth.num_samples
     runs = batch_shape(num_runs)
     shape = runs + (3,)
-    ba = random_walk(rng, rng.standard_normal(shape) * config.accel_bias_mps2,
-                     config.accel_bias_rw_mps2_per_sqrt_s, dt, k)
-    bg = random_walk(rng, rng.standard_normal(shape) * config.gyro_bias_rps,
-                     config.gyro_bias_rw_rps_per_sqrt_s, dt, k)
+    ba, accel_state = random_walk_chunk(accel_bias_rng, state.accel_bias, shape, config.accel_bias_mps2,
+                                        config.accel_bias_rw_mps2_per_sqrt_s, dt_s, k)
+    bg, gyro_state = random_walk_chunk(gyro_bias_rng, state.gyro_bias, shape, config.gyro_bias_rps,
+                                       config.gyro_bias_rw_rps_per_sqrt_s, dt_s, k)
     expand = (slice(None),) + (None,) * len(runs)
-    sqrt_dt = np.sqrt(dt)
-    dv = truth.dv_b[expand] + ba * dt + rng.standard_normal((k,) + shape) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt)
-    dth = truth.dtheta_ib_b[expand] + bg * dt + rng.standard_normal((k,) + shape) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt)
-    dv[0] = 0.0
-    dth[0] = 0.0
-    return ImuData(t_s=truth.t_s, dtheta_b=dth, dv_b=dv, accel_bias=ba, gyro_bias=bg)
+    sqrt_dt = np.sqrt(dt_s)
+    dv = (truth.dv_b[expand] + ba * dt_s
+          + accel_noise_rng.standard_normal((k,) + shape) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt))
+    dth = (truth.dtheta_ib_b[expand] + bg * dt_s
+           + gyro_noise_rng.standard_normal((k,) + shape) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt))
+    if k0 == 0 and k > 0:
+        dv[0] = 0.0
+        dth[0] = 0.0
+    return (ImuData(t_s=truth.t_s, dtheta_b=dth, dv_b=dv, accel_bias=ba, gyro_bias=bg),
+            ImuState(accel_bias=accel_state, gyro_bias=gyro_state))

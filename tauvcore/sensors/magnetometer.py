@@ -45,9 +45,17 @@ class MagnetometerData:
 
 def simulate(truth: Truth, config: MagnetometerConfig, rng: np.random.Generator,
              num_runs: int | None = None) -> MagnetometerData:
-    idx = epoch_indices(truth, config.rate_hz)
+    """Attitudes of the whole mission as one chunk."""
+    return simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, rng, num_runs)
+
+
+def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: MagnetometerConfig,
+                   rng: np.random.Generator, num_runs: int | None) -> MagnetometerData:
+    """Euler angles plus white noise, yaw wrapped, at the mission's IMU samples ``index`` (all
+    within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
+    rows = index - k0
     runs = batch_shape(num_runs)
-    euler = truth.euler[idx][(slice(None),) + (None,) * len(runs)]
-    euler = euler + rng.standard_normal((idx.size,) + runs + (3,)) * config.noise_rad
+    euler = truth.euler[rows][(slice(None),) + (None,) * len(runs)]
+    euler = euler + rng.standard_normal((index.size,) + runs + (3,)) * config.noise_rad
     euler[..., 2] = wrap_angle(euler[..., 2])
-    return MagnetometerData(t_s=truth.t_s[idx], index=idx, euler=euler)
+    return MagnetometerData(t_s=truth.t_s[rows], index=index, euler=euler)

@@ -49,8 +49,16 @@ class PressureData:
 
 def simulate(truth: Truth, config: PressureConfig, rng: np.random.Generator,
              num_runs: int | None = None) -> PressureData:
-    idx = epoch_indices(truth, config.rate_hz)
+    """Depths of the whole mission as one chunk."""
+    return simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, rng, num_runs)
+
+
+def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: PressureConfig, rng: np.random.Generator,
+                   num_runs: int | None) -> PressureData:
+    """Depth ``pos_n[k, 2] + n``, ``n ~ N(0, depth_noise_m^2)``, at the mission's IMU samples
+    ``index`` (all within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
+    rows = index - k0
     runs = batch_shape(num_runs)
-    depth = truth.pos_n[idx, 2][(slice(None),) + (None,) * len(runs)]
-    depth = depth + rng.standard_normal((idx.size,) + runs) * config.depth_noise_m
-    return PressureData(t_s=truth.t_s[idx], index=idx, depth_m=depth)
+    depth = truth.pos_n[rows, 2][(slice(None),) + (None,) * len(runs)]
+    depth = depth + rng.standard_normal((index.size,) + runs) * config.depth_noise_m
+    return PressureData(t_s=truth.t_s[rows], index=index, depth_m=depth)

@@ -1,6 +1,9 @@
-"""Sensor epochs on the IMU clock: every aiding sensor samples at an IMU sample time."""
+"""Sensor epochs on the IMU clock (every aiding sensor samples at an IMU sample time), and the
+random walks of the sensor errors, both usable chunk by chunk (tauvcore.sensors.stream)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -11,12 +14,28 @@ def epoch_indices(truth: Truth, rate_hz: float) -> np.ndarray:
     """IMU sample indices of the epochs ``t = m / rate_hz``, m = 1, 2, ... within the run.
 
     Each epoch is the IMU sample nearest to its nominal time (exact when the IMU rate is a
-    multiple of the sensor rate, as with the defaults).
+    multiple of the sensor rate, as with the defaults). ``truth`` is the whole mission.
+    """
+    k = truth.num_samples
+    return epoch_indices_between(rate_hz, float(truth.t_s[-1]), truth.dt_s, k, 0, k)
+
+
+def epoch_indices_between(rate_hz: float, t_end_s: float, dt_s: float, num_samples: int, k0: int,
+                          k1: int) -> np.ndarray:
+    """The indices :func:`epoch_indices` gives for a whole mission (last sample at ``t_end_s``,
+    ``num_samples`` samples ``dt_s`` apart), restricted to the samples ``k0 <= k < k1``.
+
+    Only the epochs near the chunk are computed (the index grows with m), so the cost is that of
+    the chunk, not of the mission; for ``[0, num_samples)`` the arithmetic is that of the whole
+    mission, element for element.
     """
     period = 1.0 / rate_hz
-    t_end = truth.t_s[-1]
-    times = np.arange(1, int(np.floor(t_end / period + 1e-9)) + 1) * period
-    return np.unique(np.clip(np.rint(times / truth.dt_s).astype(int), 0, truth.num_samples - 1))
+    last = int(np.floor(t_end_s / period + 1e-9))            # epochs m = 1 .. last
+    first_m = max(1, int(np.floor((k0 - 1) * dt_s / period)) - 1)
+    last_m = min(last, int(np.ceil((k1 + 1) * dt_s / period)) + 1)
+    times = np.arange(first_m, last_m + 1) * period
+    idx = np.unique(np.clip(np.rint(times / dt_s).astype(int), 0, num_samples - 1))
+    return idx[(idx >= k0) & (idx < k1)]
 
 
 def batch_shape(num_runs: int | None) -> tuple[int, ...]:
@@ -24,13 +43,36 @@ def batch_shape(num_runs: int | None) -> tuple[int, ...]:
     return () if num_runs is None else (int(num_runs),)
 
 
-def random_walk(rng: np.random.Generator, initial: np.ndarray, density: float, dt_s: float,
-                num_steps: int) -> np.ndarray:
-    """``num_steps`` samples of a random walk starting at ``initial`` (shape S), step std ``density*sqrt(dt)``.
+@dataclass(frozen=True)
+class WalkState:
+    """What a random walk generated chunk by chunk carries from one chunk to the next."""
 
-    Returns (num_steps, *S); sample 0 equals ``initial``.
+    initial: np.ndarray | None = None     # (S) the walk's first sample (turn-on value); None until drawn
+    travelled: np.ndarray | None = None   # (S) running sum of the steps drawn so far
+    num_samples: int = 0                  # samples of the walk emitted so far
+
+
+def random_walk_chunk(rng: np.random.Generator, state: WalkState, shape: tuple[int, ...], initial_sigma: float,
+                      density: float, dt_s: float, num_samples: int) -> tuple[np.ndarray, WalkState]:
+    """The next ``num_samples`` samples of a random walk ``x_0 ~ N(0, initial_sigma^2)``,
+    ``x_j = x_j-1 + w_j``, ``w_j ~ N(0, density^2 dt_s)``. -> ((num_samples, *shape), new state).
+
+    Draws from ``rng``, in this order: ``x_0`` (at the first call, even for zero samples), then one
+    step per sample after the first. The sum of the steps is carried and extended in sequence
+    (``np.cumsum`` adds left to right), so a walk cut into chunks of any sizes is the same walk,
+    bit for bit, as one drawn whole, when ``rng`` serves this walk alone.
     """
-    if num_steps == 0:
-        return np.zeros((0,) + initial.shape)
-    steps = rng.standard_normal((num_steps - 1,) + initial.shape) * (density * np.sqrt(dt_s))
-    return initial + np.concatenate([np.zeros((1,) + initial.shape), np.cumsum(steps, axis=0)])
+    if state.initial is None:
+        initial = rng.standard_normal(shape) * initial_sigma
+        travelled = np.zeros(shape)
+    else:
+        initial, travelled = state.initial, state.travelled
+    if num_samples == 0:
+        return np.zeros((0,) + shape), WalkState(initial, travelled, state.num_samples)
+    starts = state.num_samples == 0
+    steps = rng.standard_normal((num_samples - starts,) + shape) * (density * np.sqrt(dt_s))
+    if starts:
+        offsets = np.concatenate([np.zeros((1,) + shape), np.cumsum(steps, axis=0)])
+    else:
+        offsets = np.cumsum(np.concatenate([travelled[None], steps]), axis=0)[1:]
+    return initial + offsets, WalkState(initial, offsets[-1], state.num_samples + num_samples)

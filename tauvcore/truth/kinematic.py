@@ -29,7 +29,7 @@ hull does. Rate changes are blended with half-cosines so attitude rates are cont
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -238,31 +238,116 @@ def _motion(profile: Profile, earth: Earth, t: np.ndarray) -> dict[str, np.ndarr
             "vel_b": vel_b, "vel_n": vel_n, "f_b": f_b}
 
 
-def generate_from_profile(name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float,
-                          pos0_n: np.ndarray) -> Truth:
-    """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs."""
+def num_samples(duration_s: float, rate_hz: float) -> int:
+    """Samples of a mission of ``duration_s`` at ``rate_hz``, both ends included."""
+    return int(round(duration_s * rate_hz)) + 1
+
+
+def _chunk_from_profile(name: str, profile: Profile, earth: Earth, rate_hz: float, k0: int, k1: int,
+                        pos0_n: np.ndarray, travelled_n: np.ndarray) -> tuple[Truth, np.ndarray]:
+    """Samples ``k0 <= k < k1`` of the mission (``t_k = k / rate_hz``) and the sum of the
+    position increments up to ``k1 - 1`` (``travelled_n`` is that sum up to ``k0 - 1``).
+
+    Motion at the samples; IMU and position increments over each ``(t_k-1, t_k]`` by 4-point
+    Gauss-Legendre (row k = 0 of the mission zero); ``pos_n = pos0_n + travelled``, the sum
+    extended left to right, so chunks of any size give the whole mission's numbers bit for bit.
+    """
     dt = 1.0 / rate_hz
-    k = int(round(duration_s * rate_hz)) + 1
-    t = np.arange(k) * dt
+    t = np.arange(k0, k1) * dt
     m = _motion(profile, earth, t)
-    # interval integrals by Gauss-Legendre on each [t_k-1, t_k]
-    mid = 0.5 * (t[:-1] + t[1:])
+    first = max(k0, 1)                                   # the chunk's first sample ending an interval
+    mid = 0.5 * (np.arange(first - 1, k1 - 1) * dt + np.arange(first, k1) * dt)
     nodes = (mid[:, None] + 0.5 * dt * _GL_NODES[None, :]).ravel()
     at_nodes = _motion(profile, earth, nodes)
 
     def interval_integral(x: np.ndarray) -> np.ndarray:
-        steps = 0.5 * dt * np.einsum("g,kgi->ki", _GL_WEIGHTS, x.reshape(k - 1, 4, 3))
-        return np.concatenate([np.zeros((1, 3)), steps])
+        steps = 0.5 * dt * np.einsum("g,kgi->ki", _GL_WEIGHTS, x.reshape(k1 - first, 4, 3))
+        return np.concatenate([np.zeros((1, 3)), steps]) if k0 == 0 else steps
 
-    pos_n = pos0_n + np.cumsum(interval_integral(at_nodes["vel_n"]), axis=0)
-    return Truth(name=name, earth=earth, t_s=t, pos_n=pos_n, vel_n=m["vel_n"], vel_b=m["vel_b"], C_nb=m["C_nb"],
-                 euler=m["euler"], omega_nb_b=m["omega_nb_b"], omega_ib_b=m["omega_ib_b"], f_b=m["f_b"],
-                 dtheta_ib_b=interval_integral(at_nodes["omega_ib_b"]), dv_b=interval_integral(at_nodes["f_b"]))
+    dpos_n = interval_integral(at_nodes["vel_n"])
+    if k0 == 0:
+        travelled = np.cumsum(dpos_n, axis=0)
+    else:
+        travelled = np.cumsum(np.concatenate([travelled_n[None], dpos_n]), axis=0)[1:]
+    truth = Truth(name=name, earth=earth, t_s=t, pos_n=pos0_n + travelled, vel_n=m["vel_n"], vel_b=m["vel_b"],
+                  C_nb=m["C_nb"], euler=m["euler"], omega_nb_b=m["omega_nb_b"], omega_ib_b=m["omega_ib_b"],
+                  f_b=m["f_b"], dtheta_ib_b=interval_integral(at_nodes["omega_ib_b"]),
+                  dv_b=interval_integral(at_nodes["f_b"]), step_s=dt)
+    return truth, travelled[-1]
+
+
+def generate_from_profile(name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float,
+                          pos0_n: np.ndarray) -> Truth:
+    """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs."""
+    truth, _ = _chunk_from_profile(name, profile, earth, rate_hz, 0, num_samples(duration_s, rate_hz), pos0_n,
+                                   np.zeros(3))
+    return truth
+
+
+def _start_n(cfg: TrajectoryConfig) -> np.ndarray:
+    return np.array([0.0, 0.0, cfg.depth_m])
 
 
 def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:
     """Truth for a named scenario, sampled at the IMU rate ``rate_hz``."""
     require_positive("imu.rate_hz", rate_hz)
     profile = PROFILES[cfg.name](cfg)
-    return generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz,
-                                 np.array([0.0, 0.0, cfg.depth_m]))
+    return generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz, _start_n(cfg))
+
+
+def generate_chunk(cfg: TrajectoryConfig, earth: Earth, rate_hz: float, k0: int, k1: int,
+                   travelled_n: np.ndarray | None = None) -> tuple[Truth, np.ndarray]:
+    """Samples ``k0 <= k < k1`` of :func:`generate`'s truth (the same numbers), with the mission's
+    times, and the sum of the position increments to pass on to the chunk starting at ``k1``.
+
+    ``travelled_n`` (3,) [m]: that sum as the chunk ending at ``k0 - 1`` returned it (position
+    is the only quantity not closed-form in time: ``pos_n[k] = pos_n[0] + travelled_n[k]``);
+    omitted for ``k0 = 0``. Each call builds the scenario's profile; :class:`TruthStream` builds
+    it once.
+    """
+    require_positive("imu.rate_hz", rate_hz)
+    return _chunk(cfg, PROFILES[cfg.name](cfg), earth, rate_hz, k0, k1, travelled_n)
+
+
+def _chunk(cfg: TrajectoryConfig, profile: Profile, earth: Earth, rate_hz: float, k0: int, k1: int,
+           travelled_n: np.ndarray | None) -> tuple[Truth, np.ndarray]:
+    total = num_samples(cfg.duration_s, rate_hz)
+    if not 0 <= k0 < k1 <= total:
+        raise ValueError(f"chunk samples [{k0}, {k1}) must lie within the mission's [0, {total})")
+    if travelled_n is None:
+        if k0 > 0:
+            raise ValueError(f"a chunk starting at sample {k0} > 0 needs the travelled_n of the chunk before")
+        travelled_n = np.zeros(3)
+    return _chunk_from_profile(cfg.name, profile, earth, rate_hz, k0, k1, _start_n(cfg),
+                               np.asarray(travelled_n, dtype=float))
+
+
+class TruthStream:
+    """:func:`generate`'s truth chunk by chunk: ``for k0, chunk in TruthStream(...)`` yields the
+    samples ``k0 .. k0 + chunk_samples - 1`` (fewer in the last chunk) in order, each chunk a
+    :class:`Truth` with the mission's times and exact ``dt_s``; concatenated, the chunks are
+    :func:`generate`'s numbers bit for bit (tests/unit/test_stream.py). Memory: one chunk.
+    Iterating again starts again from sample 0."""
+
+    def __init__(self, cfg: TrajectoryConfig, earth: Earth, rate_hz: float, chunk_samples: int) -> None:
+        require_positive("imu.rate_hz", rate_hz)
+        if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, (int, np.integer)) or chunk_samples < 1:
+            raise ValueError(f"chunk_samples must be a whole number >= 1, got {chunk_samples!r}")
+        self.cfg = cfg
+        self.earth = earth
+        self.rate_hz = float(rate_hz)
+        self.chunk_samples = int(chunk_samples)
+        self.num_samples = num_samples(cfg.duration_s, rate_hz)   # of the whole mission
+        self.dt_s = 1.0 / rate_hz                                 # equal to generate(...).dt_s
+        self._profile = PROFILES[cfg.name](cfg)
+
+    def __len__(self) -> int:
+        """Number of chunks."""
+        return -(-self.num_samples // self.chunk_samples)
+
+    def __iter__(self) -> Iterator[tuple[int, Truth]]:
+        travelled_n = None
+        for k0 in range(0, self.num_samples, self.chunk_samples):
+            k1 = min(k0 + self.chunk_samples, self.num_samples)
+            chunk, travelled_n = _chunk(self.cfg, self._profile, self.earth, self.rate_hz, k0, k1, travelled_n)
+            yield k0, chunk

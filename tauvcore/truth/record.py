@@ -11,7 +11,9 @@ from tauvcore.geo.earth import Earth
 
 @dataclass(frozen=True)
 class Truth:
-    """True vehicle motion sampled at the IMU epochs ``t_s`` (K samples, uniform step).
+    """True vehicle motion sampled at the IMU epochs ``t_s`` (K samples, uniform step): a whole
+    mission, or a chunk of one (tauvcore.truth.kinematic.TruthStream) whose ``t_s`` are the
+    mission's times and whose row k is the mission's sample k0 + k.
 
     Every field is resolved in the frame its name says (tauvcore.conventions); the IMU
     quantities ``f_b`` and ``omega_ib_b`` are the instantaneous values; ``dtheta_ib_b`` and ``dv_b``
@@ -20,7 +22,7 @@ class Truth:
 
     name: str                 # generator/scenario name, e.g. "figure8"
     earth: Earth              # earth model the motion was generated with
-    t_s: np.ndarray           # (K,) time [s], t_s[0] = 0
+    t_s: np.ndarray           # (K,) time [s]; t_s[0] = 0 for a whole mission
     pos_n: np.ndarray         # (K, 3) position from the origin, NED [m]
     vel_n: np.ndarray         # (K, 3) velocity relative to the earth, NED [m/s]
     vel_b: np.ndarray         # (K, 3) the same velocity in the body frame [m/s] (surge, sway, heave)
@@ -29,8 +31,10 @@ class Truth:
     omega_nb_b: np.ndarray    # (K, 3) body rate relative to the tangent frame [rad/s]
     omega_ib_b: np.ndarray    # (K, 3) body rate relative to inertial space (gyro truth) [rad/s]
     f_b: np.ndarray           # (K, 3) specific force (accelerometer truth) [m/s^2]
-    dtheta_ib_b: np.ndarray   # (K, 3) exact integral of omega_ib_b over (t_k-1, t_k]; row 0 zero [rad]
-    dv_b: np.ndarray          # (K, 3) exact integral of f_b over (t_k-1, t_k]; row 0 zero [m/s]
+    dtheta_ib_b: np.ndarray   # (K, 3) exact integral of omega_ib_b over (t_k-1, t_k]; mission's row 0 zero [rad]
+    dv_b: np.ndarray          # (K, 3) exact integral of f_b over (t_k-1, t_k]; mission's row 0 zero [m/s]
+    step_s: float | None = None  # sample interval [s] when known exactly (a chunk's t_s[1] - t_s[0] is off by
+                                 # round-off late in a long mission, and a 1-sample chunk has none); None: from t_s
 
     def __post_init__(self) -> None:
         k = self.t_s.shape[0]
@@ -43,7 +47,7 @@ class Truth:
     @property
     def dt_s(self) -> float:
         """Sample interval [s]."""
-        return float(self.t_s[1] - self.t_s[0])
+        return float(self.t_s[1] - self.t_s[0]) if self.step_s is None else self.step_s
 
     @property
     def num_samples(self) -> int:

@@ -313,7 +313,7 @@ def test_json_naming_the_config_file_is_refused_before_running(capsys, tmp_path,
     elif link == "hardlink":
         os.link(config, target)
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("app.cli.run", lambda *a, **k: pytest.fail("ran before refusing --json"))
+    monkeypatch.setattr("tauvcore.eval.runner.run", lambda *a, **k: pytest.fail("ran before refusing --json"))
     _one_line_error(*_run(capsys, "run", "--config", str(config), "--json", str(target))[::2], "--json",
                     "--config file")
     assert config.read_text() == text
@@ -399,7 +399,7 @@ def _strict_json(text: str):
 
 
 def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr("app.cli.run", _fake_results(diverged=True, poison=True))
+    monkeypatch.setattr("tauvcore.eval.runner.run", _fake_results(diverged=True, poison=True))
     out_json = tmp_path / "out.json"
     code, out, err = _run(capsys, "run", "--duration", "2", "--json", str(out_json))
     assert code == 0, err
@@ -414,7 +414,7 @@ def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, mon
 
 @pytest.mark.parametrize("failure", [OSError(28, "No space left on device"), KeyboardInterrupt()])
 def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypatch, failure) -> None:
-    monkeypatch.setattr("app.cli.run", _fake_results(diverged=False, poison=False))
+    monkeypatch.setattr("tauvcore.eval.runner.run", _fake_results(diverged=False, poison=False))
     real_dump = json.dump
 
     def dump_half_then_fail(obj, fh, **kwargs):

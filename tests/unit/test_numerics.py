@@ -22,7 +22,7 @@ from tauvcore.eval.metrics import (
     nees,
 )
 from tauvcore.eval.runner import run, simulate
-from tauvcore.filter import eskf
+from tauvcore.filter import eskf, kernels
 from tauvcore.filter.eskf import Measurement, condition_covariance, correct
 from tauvcore.filter.layout import STATE
 from tauvcore.ins import error_model
@@ -254,29 +254,37 @@ def test_safeguards_are_inert_on_a_healthy_run(monkeypatch):
 
 
 def _spy_on_covariances(monkeypatch) -> dict[str, int]:
-    """Check every P the runner goes on with, after each propagation and after each conditioning
-    (aiding epochs, and once a second): finite and positive definite (its Cholesky factorisation
-    succeeds, the scale-free test). -> calls per kind."""
+    """Check every P the runner goes on with, after each propagation of the bank and after each
+    conditioning (aiding epochs, and once a second): finite and positive definite (numpy's own
+    Cholesky factorisation succeeds, the scale-free test). -> calls per kind."""
     calls = {"propagate": 0, "condition": 0}
-    real_condition, real_propagate = runner.condition_covariance, runner.propagate
+    real_check, real_propagate = kernels.positive_definite_bank, kernels.propagate_bank
+    real_repair = runner.condition_covariance
 
     def check(P: np.ndarray) -> None:
         assert np.isfinite(P).all()
         np.linalg.cholesky(P)
 
-    def condition(P):
-        P_out, repaired = real_condition(P)
+    def positive_definite_bank(P):      # the conditioning's test; a failure goes to the repair below
+        ok = real_check(P)
+        if ok.all():
+            check(P)
+            calls["condition"] += 1
+        return ok
+
+    def repair(P):
+        P_out, repaired = real_repair(P)
         check(P_out)
         calls["condition"] += 1
         return P_out, repaired
 
-    def propagate(P, Phi, Qd):
-        P_out = real_propagate(P, Phi, Qd)
-        check(P_out)
+    def propagate_bank(P, *args):
+        real_propagate(P, *args)
+        check(P)
         calls["propagate"] += 1
-        return P_out
-    monkeypatch.setattr(runner, "condition_covariance", condition)
-    monkeypatch.setattr(runner, "propagate", propagate)
+    monkeypatch.setattr(kernels, "positive_definite_bank", positive_definite_bank)
+    monkeypatch.setattr(kernels, "propagate_bank", propagate_bank)
+    monkeypatch.setattr(runner, "condition_covariance", repair)
     return calls
 
 

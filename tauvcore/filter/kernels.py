@@ -1,0 +1,712 @@
+"""The compiled filter bank's kernels (numba): the one implementation of the hot formulas.
+
+Why numba: the filter bank's work is many small (3x3 to 20x20) operations per IMU sample and per
+covariance step, for every method and Monte Carlo run; numpy's per-call overhead (microseconds)
+dominated them. numba compiles plain loops over the batch to machine code, keeps the formulas
+readable, and with ``cache=True`` the compilation is paid once per install (the machine code is
+stored beside this file, or in numba's user cache when that is read-only).
+
+These kernels ARE the formulas: :class:`tauvcore.ins.strapdown.Strapdown`,
+:func:`tauvcore.ins.error_model.F_matrix` / :func:`~tauvcore.ins.error_model.G_matrix` /
+:func:`~tauvcore.ins.error_model.discretise`, :func:`tauvcore.filter.eskf.propagate` and
+:func:`tauvcore.eval.metrics.nees` / :func:`~tauvcore.eval.metrics.block_nees` call them for their
+batched numpy callers, so the tests that check those functions (finite differences, known answers)
+check these kernels; the runner calls them directly on its (methods, runs) batch.
+
+Structure exploited (Tal et al. 2017 eq. 4, 9; tauvcore.filter.layout): F is zero outside rows
+0-8 (position, misalignment, velocity) and columns 0-14 (those plus the IMU biases), so
+``Phi = I + A + A^2/2 + A^3/6`` (A = F dt) differs from I only in rows 0-8, and
+``Phi P Phi^T`` touches 9 rows and columns of P through 15 columns of Phi. The process noise
+enters as ``P <- Phi (P + GQG/2) Phi^T + GQG/2`` (the trapezoid Qd of ``discretise``, one sandwich
+instead of two). NEES use a Cholesky factorisation (20^3/6 operations), not a general solve.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+N = 20          # error states
+NAV = 9         # rows of F that are not zero: position, misalignment, velocity
+CORE = 15       # columns of F that are not zero: those plus accelerometer and gyro biases
+POS, ATT, VEL, BA, BG, BDVL, SF = 0, 3, 6, 9, 12, 15, 19   # tauvcore.filter.layout.STATE starts
+NOISE_ACCEL, NOISE_GYRO = 0, 3                               # tauvcore.filter.layout.NOISE starts
+SERIES_ANGLE2 = 1e-4   # below (1e-2 rad)^2 exp_so3 uses its Taylor series (exact to double precision)
+LOG_SMALL_ANGLE_RAD = 1e-6
+
+
+# ---------------------------------------------------------------- rotations
+@_jit
+def exp_so3_into(p0: float, p1: float, p2: float, out: np.ndarray) -> None:
+    """Rodrigues ``exp([phi x])`` (tauvcore.geo.rotations.exp_so3) into ``out`` (3, 3)."""
+    a2 = p0 * p0 + p1 * p1 + p2 * p2
+    if a2 < SERIES_ANGLE2:
+        a = 1.0 - a2 / 6.0 * (1.0 - a2 / 20.0)
+        b = 0.5 - a2 / 24.0 * (1.0 - a2 / 30.0)
+    else:
+        angle = math.sqrt(a2)
+        a = math.sin(angle) / angle
+        b = (1.0 - math.cos(angle)) / a2
+    d = 1.0 - b * a2
+    out[0, 0] = d + b * (p0 * p0)
+    out[0, 1] = a * -p2 + b * (p0 * p1)
+    out[0, 2] = a * p1 + b * (p0 * p2)
+    out[1, 0] = a * p2 + b * (p1 * p0)
+    out[1, 1] = d + b * (p1 * p1)
+    out[1, 2] = a * -p0 + b * (p1 * p2)
+    out[2, 0] = a * -p1 + b * (p2 * p0)
+    out[2, 1] = a * p0 + b * (p2 * p1)
+    out[2, 2] = d + b * (p2 * p2)
+
+
+@_jit
+def log_so3_into(C: np.ndarray, out: np.ndarray) -> None:
+    """Rotation vector of ``C`` (angle < pi; tauvcore.geo.rotations.log_so3) into ``out`` (3,)."""
+    c = (C[0, 0] + C[1, 1] + C[2, 2] - 1.0) * 0.5
+    c = min(1.0, max(-1.0, c))
+    angle = math.acos(c)
+    scale = 1.0 + angle * angle / 6.0 if angle < LOG_SMALL_ANGLE_RAD else angle / math.sin(angle)
+    out[0] = scale * 0.5 * (C[2, 1] - C[1, 2])
+    out[1] = scale * 0.5 * (C[0, 2] - C[2, 0])
+    out[2] = scale * 0.5 * (C[1, 0] - C[0, 1])
+
+
+@_jit
+def exp_so3_batch(phi: np.ndarray) -> np.ndarray:
+    """(n, 3) -> (n, 3, 3)."""
+    out = np.empty((phi.shape[0], 3, 3))
+    for i in range(phi.shape[0]):
+        exp_so3_into(phi[i, 0], phi[i, 1], phi[i, 2], out[i])
+    return out
+
+
+@_jit
+def log_so3_batch(C: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) -> (n, 3)."""
+    out = np.empty((C.shape[0], 3))
+    for i in range(C.shape[0]):
+        log_so3_into(C[i], out[i])
+    return out
+
+
+# ---------------------------------------------------------------- strapdown
+@_jit
+def strapdown_step_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi0: float, phi1: float, phi2: float,
+                        dv: np.ndarray, dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray,
+                        g_n: np.ndarray, coriolis_T: np.ndarray, E: np.ndarray, tmp: np.ndarray) -> None:
+    """One IMU interval of the mechanization (tauvcore.ins.strapdown), in place.
+
+    ``C <- C_earth C exp([phi x])``; ``dv_n = C_earth/2 C dv + g dt``;
+    ``v_mid = v + (dv_n + (-2 omega_ie x v) dt) / 2``; ``v <- v + dv_n + (-2 omega_ie x v_mid) dt``;
+    ``pos <- pos + dt (v_old + v_new) / 2``. ``coriolis_T``: ``(-2 [omega_ie_n x])^T`` (row form).
+    ``E`` (3, 3) and ``tmp`` (3, 3) are scratch.
+    """
+    exp_so3_into(phi0, phi1, phi2, E)
+    dvn = np.empty(3)
+    for i in range(3):
+        s = 0.0
+        for j in range(3):
+            h = 0.0
+            for k in range(3):
+                h += C_earth_half[i, k] * C[k, j]
+            s += h * dv[j]
+        dvn[i] = s + g_n[i] * dt
+    # C_earth @ C @ E (left to right)
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                s += C_earth[i, k] * C[k, j]
+            tmp[i, j] = s
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                s += tmp[i, k] * E[k, j]
+            C[i, j] = s
+    vmid = np.empty(3)
+    for j in range(3):
+        cor = vel[0] * coriolis_T[0, j] + vel[1] * coriolis_T[1, j] + vel[2] * coriolis_T[2, j]
+        vmid[j] = vel[j] + 0.5 * (dvn[j] + cor * dt)
+    for j in range(3):
+        cor = vmid[0] * coriolis_T[0, j] + vmid[1] * coriolis_T[1, j] + vmid[2] * coriolis_T[2, j]
+        v1 = vel[j] + dvn[j] + cor * dt
+        pos[j] = pos[j] + 0.5 * dt * (vel[j] + v1)
+        vel[j] = v1
+
+
+@_jit
+def strapdown_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi: np.ndarray, dv: np.ndarray, dt: float,
+                    C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray) -> None:
+    """One step for n entries in place: pos, vel (n, 3), C (n, 3, 3), phi, dv (n, 3)."""
+    E = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    for i in range(pos.shape[0]):
+        strapdown_step_into(pos[i], vel[i], C[i], phi[i, 0], phi[i, 1], phi[i, 2], dv[i], dt, C_earth,
+                            C_earth_half, g_n, coriolis_T, E, tmp)
+
+
+@_jit
+def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
+            phi_raw: np.ndarray, dv_raw: np.ndarray, k_from: int, k_to: int, dt: float, C_earth: np.ndarray,
+            C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray) -> None:
+    """Advance the (M, R) nominal states over samples ``k_from + 1 .. k_to`` of the compensated
+    increments ``phi_raw``, ``dv_raw`` (K, R, 3), each corrected by its own bias estimate."""
+    E = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    dv = np.empty(3)
+    for m in range(pos.shape[0]):
+        for r in range(pos.shape[1]):
+            for k in range(k_from + 1, k_to + 1):
+                for i in range(3):
+                    dv[i] = dv_raw[k, r, i] - accel_bias[m, r, i] * dt
+                strapdown_step_into(pos[m, r], vel[m, r], C[m, r],
+                                    phi_raw[k, r, 0] - gyro_bias[m, r, 0] * dt,
+                                    phi_raw[k, r, 1] - gyro_bias[m, r, 1] * dt,
+                                    phi_raw[k, r, 2] - gyro_bias[m, r, 2] * dt,
+                                    dv, dt, C_earth, C_earth_half, g_n, coriolis_T, E, tmp)
+
+
+# ---------------------------------------------------------------- error model
+@_jit
+def F_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray, F: np.ndarray) -> None:
+    """Continuous F (tauvcore.ins.error_model, eq. 4 and 9) into ``F`` (20, 20), zeroed here.
+
+    C (3, 3) nominal C_nb, v (3,) nominal body velocity, om (3,) bias-corrected rate.
+    """
+    F[:, :] = 0.0
+    vn = np.empty(3)
+    for i in range(3):
+        vn[i] = C[i, 0] * v[0] + C[i, 1] * v[1] + C[i, 2] * v[2]
+    # d pos' = -[(C v) x] rho + C dv
+    F[POS + 0, ATT + 1], F[POS + 0, ATT + 2] = vn[2], -vn[1]
+    F[POS + 1, ATT + 0], F[POS + 1, ATT + 2] = -vn[2], vn[0]
+    F[POS + 2, ATT + 0], F[POS + 2, ATT + 1] = vn[1], -vn[0]
+    for i in range(3):
+        for j in range(3):
+            F[POS + i, VEL + j] = C[i, j]
+            F[ATT + i, BG + j] = -C[i, j]
+    # rho' = -W rho
+    F[ATT + 0, ATT + 1], F[ATT + 0, ATT + 2] = w_ie[2], -w_ie[1]
+    F[ATT + 1, ATT + 0], F[ATT + 1, ATT + 2] = -w_ie[2], w_ie[0]
+    F[ATT + 2, ATT + 0], F[ATT + 2, ATT + 1] = w_ie[1], -w_ie[0]
+    # dv' = (C^T [g x] + [v x] C^T W) rho - [(om + C^T w_ie) x] dv - dba - [v x] dbg
+    Gx = np.zeros((3, 3))
+    Gx[0, 1], Gx[0, 2], Gx[1, 0], Gx[1, 2], Gx[2, 0], Gx[2, 1] = -g_n[2], g_n[1], g_n[2], -g_n[0], -g_n[1], g_n[0]
+    W = np.zeros((3, 3))
+    W[0, 1], W[0, 2], W[1, 0], W[1, 2], W[2, 0], W[2, 1] = -w_ie[2], w_ie[1], w_ie[2], -w_ie[0], -w_ie[1], w_ie[0]
+    Vx = np.zeros((3, 3))
+    Vx[0, 1], Vx[0, 2], Vx[1, 0], Vx[1, 2], Vx[2, 0], Vx[2, 1] = -v[2], v[1], v[2], -v[0], -v[1], v[0]
+    CtW = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            t = 0.0
+            for k in range(3):
+                s += C[k, i] * Gx[k, j]
+                t += C[k, i] * W[k, j]
+            F[VEL + i, ATT + j] = s
+            CtW[i, j] = t
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                s += Vx[i, k] * CtW[k, j]
+            F[VEL + i, ATT + j] += s
+    a = np.empty(3)
+    for i in range(3):
+        a[i] = om[i] + C[0, i] * w_ie[0] + C[1, i] * w_ie[1] + C[2, i] * w_ie[2]
+    F[VEL + 0, VEL + 1], F[VEL + 0, VEL + 2] = a[2], -a[1]
+    F[VEL + 1, VEL + 0], F[VEL + 1, VEL + 2] = -a[2], a[0]
+    F[VEL + 2, VEL + 0], F[VEL + 2, VEL + 1] = a[1], -a[0]
+    for i in range(3):
+        F[VEL + i, BA + i] = -1.0
+        for j in range(3):
+            F[VEL + i, BG + j] = -Vx[i, j]
+
+
+@_jit
+def G_into(C: np.ndarray, v: np.ndarray, G: np.ndarray) -> None:
+    """Continuous G (eq. 5 and 10) into ``G`` (20, 17), zeroed here."""
+    G[:, :] = 0.0
+    for i in range(3):
+        for j in range(3):
+            G[ATT + i, NOISE_GYRO + j] = -C[i, j]
+        G[VEL + i, NOISE_ACCEL + i] = -1.0
+    G[VEL + 0, NOISE_GYRO + 1], G[VEL + 0, NOISE_GYRO + 2] = v[2], -v[1]
+    G[VEL + 1, NOISE_GYRO + 0], G[VEL + 1, NOISE_GYRO + 2] = -v[2], v[0]
+    G[VEL + 2, NOISE_GYRO + 0], G[VEL + 2, NOISE_GYRO + 1] = v[1], -v[0]
+    for i in range(N - BA):
+        G[BA + i, 6 + i] = 1.0
+
+
+@_jit
+def transition_into(F: np.ndarray, dt: float, Phi: np.ndarray) -> None:
+    """``Phi = I + A + A^2/2 + A^3/6``, ``A = F dt``, for an F that is zero outside rows 0-8 and
+    columns 0-14 (checked by the tests against the dense series): only rows 0-8 of Phi differ from I."""
+    A = np.empty((NAV, CORE))
+    for i in range(NAV):
+        for j in range(CORE):
+            A[i, j] = F[i, j] * dt
+    A2 = np.zeros((NAV, CORE))
+    for i in range(NAV):
+        for k in range(NAV):
+            a = A[i, k]
+            if a != 0.0:
+                for j in range(CORE):
+                    A2[i, j] += a * A[k, j]
+    A3 = np.zeros((NAV, CORE))
+    for i in range(NAV):
+        for k in range(NAV):
+            a = A2[i, k]
+            if a != 0.0:
+                for j in range(CORE):
+                    A3[i, j] += a * A[k, j]
+    Phi[:, :] = 0.0
+    for i in range(N):
+        Phi[i, i] = 1.0
+    for i in range(NAV):
+        for j in range(CORE):
+            Phi[i, j] += A[i, j] + A2[i, j] / 2.0 + A3[i, j] / 6.0
+
+
+@_jit
+def sandwich_into(Phi: np.ndarray, P: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """``out = Phi P Phi^T`` for a Phi that is I outside rows 0-8 and zero beyond column 14 in those
+    rows; symmetric result (upper triangle computed, mirrored). ``work`` (20, 20) scratch."""
+    # work = Phi P: rows 0-8 mix 15 rows of P, the others are P's
+    for i in range(NAV):
+        for j in range(N):
+            s = 0.0
+            for k in range(CORE):
+                s += Phi[i, k] * P[k, j]
+            work[i, j] = s
+    for i in range(NAV, N):
+        for j in range(N):
+            work[i, j] = P[i, j]
+    # out = work Phi^T: columns 0-8 mix 15 columns of work, the others are work's
+    for i in range(N):
+        for j in range(i, N):
+            if j < NAV:
+                s = 0.0
+                for k in range(CORE):
+                    s += work[i, k] * Phi[j, k]
+            else:
+                s = work[i, j]
+            out[i, j] = s
+    for i in range(N):
+        for j in range(i):
+            out[i, j] = out[j, i]
+
+
+@_jit
+def noise_into(G: np.ndarray, q: np.ndarray, dt: float, out: np.ndarray) -> None:
+    """``out = G diag(q) G^T dt`` (20, 20)."""
+    for i in range(N):
+        for j in range(i, N):
+            s = 0.0
+            for k in range(G.shape[1]):
+                s += G[i, k] * q[k] * G[j, k]
+            out[i, j] = s * dt
+            out[j, i] = s * dt
+
+
+@_jit
+def propagate_into(P: np.ndarray, Phi: np.ndarray, GQG: np.ndarray, work: np.ndarray, work2: np.ndarray) -> None:
+    """``P <- Phi P Phi^T + Qd`` in place, with the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2``
+    (tauvcore.ins.error_model.discretise) folded into one product: ``Phi (P + GQG/2) Phi^T + GQG/2``."""
+    for i in range(N):
+        for j in range(N):
+            work2[i, j] = P[i, j] + 0.5 * GQG[i, j]
+    sandwich_into(Phi, work2, P, work)
+    for i in range(N):
+        for j in range(N):
+            P[i, j] += 0.5 * GQG[i, j]
+
+
+@_jit
+def propagate_bank(P: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray, dtheta_sum: np.ndarray,
+                   dt_c: float, g_n: np.ndarray, w_ie: np.ndarray, q: np.ndarray) -> None:
+    """Covariance step of every (method, run) over ``dt_c``: F at the nominal attitude and body
+    velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``. P (M, R, 20, 20)."""
+    F = np.empty((N, N))
+    G = np.empty((N, q.shape[0]))
+    Phi = np.empty((N, N))
+    GQG = np.empty((N, N))
+    work = np.empty((N, N))
+    work2 = np.empty((N, N))
+    v = np.empty(3)
+    om = np.empty(3)
+    for m in range(P.shape[0]):
+        for r in range(P.shape[1]):
+            Cm = C[m, r]
+            for i in range(3):
+                v[i] = Cm[0, i] * vel_n[m, r, 0] + Cm[1, i] * vel_n[m, r, 1] + Cm[2, i] * vel_n[m, r, 2]
+                om[i] = dtheta_sum[r, i] / dt_c - gyro_bias[m, r, i]
+            F_into(Cm, v, om, g_n, w_ie, F)
+            G_into(Cm, v, G)
+            transition_into(F, dt_c, Phi)
+            noise_into(G, q, dt_c, GQG)
+            propagate_into(P[m, r], Phi, GQG, work, work2)
+
+
+# ---------------------------------------------------------------- NEES by Cholesky
+@_jit
+def cholesky_into(A: np.ndarray, idx: np.ndarray, n: int, L: np.ndarray) -> bool:
+    """Lower Cholesky factor of ``A[idx[:n]][:, idx[:n]]`` into ``L[:n, :n]``; False if that
+    matrix is not (numerically) positive definite or not finite."""
+    for j in range(n):
+        s = A[idx[j], idx[j]]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > 0.0 or not math.isfinite(s):
+            return False
+        d = math.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            t = A[idx[i], idx[j]]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / d
+    return True
+
+
+@_jit
+def quadratic_into(A: np.ndarray, x: np.ndarray, idx: np.ndarray, n: int, L: np.ndarray, y: np.ndarray) -> float:
+    """``x_s^T (A_ss)^-1 x_s`` over the states ``s = idx[:n]`` by Cholesky; NaN if ``A_ss`` is not
+    positive definite or anything is not finite."""
+    if not cholesky_into(A, idx, n, L):
+        return np.nan
+    total = 0.0
+    for i in range(n):
+        t = x[idx[i]]
+        for k in range(i):
+            t -= L[i, k] * y[k]
+        y[i] = t / L[i, i]
+        total += y[i] * y[i]
+    return total
+
+
+@_jit
+def nees_batch(dx: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``dx^T P^-1 dx`` for (n, d), (n, d, d) -> (n,)."""
+    d = dx.shape[1]
+    idx = np.arange(d)
+    L = np.empty((d, d))
+    y = np.empty(d)
+    out = np.empty(dx.shape[0])
+    for i in range(dx.shape[0]):
+        out[i] = quadratic_into(P[i], dx[i], idx, d, L, y)
+    return out
+
+
+@_jit
+def block_nees_batch(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_blocks: int) -> np.ndarray:
+    """NEES of every block (its marginal covariance) for (n, d), (n, d, d) -> (n, num_blocks)."""
+    d = dx.shape[1]
+    L = np.empty((d, d))
+    y = np.empty(d)
+    out = np.empty((dx.shape[0], num_blocks))
+    members = np.empty((num_blocks, d), dtype=np.int64)
+    sizes = np.zeros(num_blocks, dtype=np.int64)
+    for s in range(d):
+        b = block_of_state[s]
+        members[b, sizes[b]] = s
+        sizes[b] += 1
+    for i in range(dx.shape[0]):
+        for b in range(num_blocks):
+            out[i, b] = quadratic_into(P[i], dx[i], members[b], sizes[b], L, y)
+    return out
+
+
+# ---------------------------------------------------------------- corrections
+@_jit
+def _solve_chol(L: np.ndarray, n: int, b: np.ndarray, x: np.ndarray) -> None:
+    """Solve ``L L^T x = b`` (n,) with the factor in ``L[:n, :n]``."""
+    for i in range(n):
+        t = b[i]
+        for k in range(i):
+            t -= L[i, k] * x[k]
+        x[i] = t / L[i, i]
+    for i in range(n - 1, -1, -1):
+        t = x[i]
+        for k in range(i + 1, n):
+            t -= L[k, i] * x[k]
+        x[i] = t / L[i, i]
+
+
+@_jit
+def correct_into(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: bool,
+                 gate_sigma: float, dx: np.ndarray, s_diag: np.ndarray, keep: np.ndarray) -> tuple[float, float, bool]:
+    """Gated Joseph-form correction of one filter (tauvcore.filter.eskf.correct), P in place.
+
+    Rows with ``active`` False are dropped exactly. ``S`` over the active rows must factorise
+    (else: unusable, nothing fused). The paper's gate keeps a row if ``nu_i^2 <= gate^2 S_ii``
+    (all rows or none unless ``gate_rows``). Fills ``dx`` (20,), ``s_diag`` (m,; NaN where not
+    used), ``keep`` (m,); returns ``(nis, test_ratio, unusable)`` (NaN when no row was used).
+    """
+    m = nu.shape[0]
+    rows = np.empty(m, dtype=np.int64)
+    n_a = 0
+    for i in range(m):
+        keep[i] = False
+        s_diag[i] = np.nan
+        if active[i]:
+            rows[n_a] = i
+            n_a += 1
+    dx[:] = 0.0
+    if n_a == 0:
+        return np.nan, np.nan, False
+    U = np.empty((m, N))           # H P over the rows in use
+    S = np.empty((m, m))
+    L = np.empty((m, m))
+    for a in range(n_a):
+        for j in range(N):
+            s = 0.0
+            for k in range(N):
+                s += H[rows[a], k] * P[k, j]
+            U[a, j] = s
+    for a in range(n_a):
+        for b in range(n_a):
+            s = Rm[rows[a], rows[b]]
+            for k in range(N):
+                s += U[a, k] * H[rows[b], k]
+            S[a, b] = s
+    ident = np.arange(m)
+    if not cholesky_into(S, ident, n_a, L):
+        return np.nan, np.nan, True
+    nu_a = np.empty(m)
+    sol = np.empty(m)
+    for a in range(n_a):
+        nu_a[a] = nu[rows[a]]
+    _solve_chol(L, n_a, nu_a, sol)
+    nis = 0.0
+    ratio_max = 0.0
+    all_pass = True
+    for a in range(n_a):
+        nis += nu_a[a] * sol[a]
+        s_diag[rows[a]] = S[a, a]
+        ratio = nu_a[a] * nu_a[a] / (gate_sigma * gate_sigma * S[a, a])
+        ratio_max = max(ratio_max, ratio)
+        keep[rows[a]] = ratio <= 1.0
+        all_pass = all_pass and ratio <= 1.0
+    if not gate_rows and not all_pass:
+        for a in range(n_a):
+            keep[rows[a]] = False
+    n_k = 0
+    for a in range(n_a):
+        if keep[rows[a]]:
+            if n_k != a:                   # compact the kept rows to the front
+                rows[n_k] = rows[a]
+                for j in range(N):
+                    U[n_k, j] = U[a, j]
+                nu_a[n_k] = nu_a[a]
+            n_k += 1
+    if n_k == 0:
+        return nis, ratio_max, False
+    if n_k != n_a:                         # S over the kept rows
+        for a in range(n_k):
+            for b in range(n_k):
+                s = Rm[rows[a], rows[b]]
+                for k in range(N):
+                    s += U[a, k] * H[rows[b], k]
+                S[a, b] = s
+        if not cholesky_into(S, ident, n_k, L):
+            return nis, ratio_max, True
+    # K = P H^T S^-1 = (S^-1 U)^T: column j of U through the factor
+    K = np.empty((N, m))
+    col = np.empty(m)
+    out = np.empty(m)
+    for j in range(N):
+        for a in range(n_k):
+            col[a] = U[a, j]
+        _solve_chol(L, n_k, col, out)
+        for a in range(n_k):
+            K[j, a] = out[a]
+    # Joseph: P = (I - K H) P (I - K H)^T + K R K^T
+    IKH = np.empty((N, N))
+    for i in range(N):
+        for j in range(N):
+            s = 1.0 if i == j else 0.0
+            for a in range(n_k):
+                s -= K[i, a] * H[rows[a], j]
+            IKH[i, j] = s
+    W = np.empty((N, N))
+    for i in range(N):
+        for j in range(N):
+            s = 0.0
+            for k in range(N):
+                s += IKH[i, k] * P[k, j]
+            W[i, j] = s
+    KR = np.empty((N, m))
+    for i in range(N):
+        for b in range(n_k):
+            s = 0.0
+            for a in range(n_k):
+                s += K[i, a] * Rm[rows[a], rows[b]]
+            KR[i, b] = s
+    for i in range(N):
+        for j in range(i, N):
+            s = 0.0
+            for k in range(N):
+                s += W[i, k] * IKH[j, k]
+            t = 0.0
+            for b in range(n_k):
+                t += KR[i, b] * K[j, b]
+            P[i, j] = s + t
+    for i in range(N):
+        for j in range(i):
+            P[i, j] = P[j, i]
+    for i in range(N):
+        s = 0.0
+        for a in range(n_k):
+            s += K[i, a] * nu_a[a]
+        dx[i] = s
+    return nis, ratio_max, False
+
+
+@_jit
+def correct_batch(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray,
+                  gate_rows: np.ndarray, gate_sigma: float) -> tuple:
+    """:func:`correct_into` for n filters: P (n, 20, 20) in place, H (n, m, 20), Rm (n, m, m), nu,
+    active (n, m), gate_rows (n,). -> dx (n, 20), s_diag (n, m), keep (n, m), nis, test_ratio,
+    unusable (n,)."""
+    n, m = nu.shape
+    dx = np.empty((n, N))
+    s_diag = np.empty((n, m))
+    keep = np.empty((n, m), dtype=np.bool_)
+    nis = np.empty(n)
+    ratio = np.empty(n)
+    unusable = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        nis[i], ratio[i], unusable[i] = correct_into(P[i], H[i], Rm[i], nu[i], active[i], gate_rows[i], gate_sigma,
+                                                     dx[i], s_diag[i], keep[i])
+    return dx, s_diag, keep, nis, ratio, unusable
+
+
+@_jit
+def inject_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
+                 dvl_bias: np.ndarray, dvl_sf: np.ndarray, dx: np.ndarray) -> None:
+    """Closed-loop injection ``x_hat <- x_hat (+) dx`` (tauvcore.filter.eskf.inject) for n filters in
+    place: position and biases add, ``C <- exp([rho x]) C``, the body velocity adds and ``vel_n`` is
+    rebuilt with the corrected attitude. pos, vel (n, 3), C (n, 3, 3), biases (n, 3), (n, 3), (n, 4),
+    dvl_sf (n,), dx (n, 20)."""
+    E = np.empty((3, 3))
+    C1 = np.empty((3, 3))
+    vb = np.empty(3)
+    for i in range(pos.shape[0]):
+        exp_so3_into(dx[i, ATT], dx[i, ATT + 1], dx[i, ATT + 2], E)
+        for r in range(3):
+            for c in range(3):
+                C1[r, c] = E[r, 0] * C[i, 0, c] + E[r, 1] * C[i, 1, c] + E[r, 2] * C[i, 2, c]
+        for c in range(3):
+            vb[c] = C[i, 0, c] * vel[i, 0] + C[i, 1, c] * vel[i, 1] + C[i, 2, c] * vel[i, 2] + dx[i, VEL + c]
+        for r in range(3):
+            vel[i, r] = C1[r, 0] * vb[0] + C1[r, 1] * vb[1] + C1[r, 2] * vb[2]
+            pos[i, r] += dx[i, POS + r]
+            accel_bias[i, r] += dx[i, BA + r]
+            gyro_bias[i, r] += dx[i, BG + r]
+            for c in range(3):
+                C[i, r, c] = C1[r, c]
+        for b in range(4):
+            dvl_bias[i, b] += dx[i, BDVL + b]
+        dvl_sf[i] += dx[i, SF]
+
+
+# ---------------------------------------------------------------- records
+SERIES_NAMES = ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees",
+                "tilt_err", "heading_err", "tilt_sigma", "heading_sigma")
+"""Rows of the ``series`` array :func:`record_bank` fills (norms, 1-sigma, NEES; attitude in deg)."""
+
+
+@_jit
+def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray,
+                bg_t: np.ndarray, bdvl_t: np.ndarray, sf_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
+                C: np.ndarray, ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray, sf: np.ndarray, P: np.ndarray,
+                block_of_state: np.ndarray, num_blocks: int, deg: float, series: np.ndarray,
+                nees_block: np.ndarray, est_pos: np.ndarray, nonfinite_at: np.ndarray) -> None:
+    """One output epoch of every (method, run): the error ``true (-) estimate``
+    (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma, the NEES of the full
+    state and of each block, the estimated position; and the health check without truth (a
+    non-finite navigation state or P's variances sets ``nonfinite_at`` once).
+
+    Truth: pos_t, vel_t (3,), C_t (3, 3) shared; the true sensor errors per run ba_t, bg_t (R, 3),
+    bdvl_t (R, 4), sf_t (R,). series (11, T, M, R) in :data:`SERIES_NAMES` order."""
+    M, R = pos.shape[0], pos.shape[1]
+    dx = np.empty(N)
+    Ce = np.empty((3, 3))
+    rho = np.empty(3)
+    L = np.empty((N, N))
+    y = np.empty(N)
+    idx = np.arange(N)
+    members = np.empty((num_blocks, N), dtype=np.int64)
+    sizes = np.zeros(num_blocks, dtype=np.int64)
+    for s in range(N):
+        b = block_of_state[s]
+        members[b, sizes[b]] = s
+        sizes[b] += 1
+    vb_t = np.empty(3)
+    for c in range(3):
+        vb_t[c] = C_t[0, c] * vel_t[0] + C_t[1, c] * vel_t[1] + C_t[2, c] * vel_t[2]
+    for m in range(M):
+        for r in range(R):
+            Cm = C[m, r]
+            for i in range(3):
+                for j in range(3):
+                    Ce[i, j] = C_t[i, 0] * Cm[j, 0] + C_t[i, 1] * Cm[j, 1] + C_t[i, 2] * Cm[j, 2]
+            log_so3_into(Ce, rho)
+            for i in range(3):
+                dx[POS + i] = pos_t[i] - pos[m, r, i]
+                dx[ATT + i] = rho[i]
+                dx[VEL + i] = vb_t[i] - (Cm[0, i] * vel[m, r, 0] + Cm[1, i] * vel[m, r, 1] + Cm[2, i] * vel[m, r, 2])
+                dx[BA + i] = ba_t[r, i] - ba[m, r, i]
+                dx[BG + i] = bg_t[r, i] - bg[m, r, i]
+            for i in range(4):
+                dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
+            dx[SF] = sf_t[r] - sf[m, r]
+            Pm = P[m, r]
+            ev = ea = ep = sv = sa = sp = 0.0
+            for i in range(3):
+                ev += dx[VEL + i] ** 2
+                ea += dx[ATT + i] ** 2
+                ep += dx[POS + i] ** 2
+                sv += Pm[VEL + i, VEL + i]
+                sa += Pm[ATT + i, ATT + i]
+                sp += Pm[POS + i, POS + i]
+            series[0, slot, m, r] = math.sqrt(ev)
+            series[1, slot, m, r] = math.sqrt(ea) / deg
+            series[2, slot, m, r] = math.sqrt(ep)
+            series[3, slot, m, r] = math.sqrt(sv)
+            series[4, slot, m, r] = math.sqrt(sa) / deg
+            series[5, slot, m, r] = math.sqrt(sp)
+            series[6, slot, m, r] = quadratic_into(Pm, dx, idx, N, L, y)
+            series[7, slot, m, r] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
+            series[8, slot, m, r] = abs(dx[ATT + 2]) / deg
+            series[9, slot, m, r] = math.sqrt(Pm[ATT, ATT] + Pm[ATT + 1, ATT + 1]) / deg
+            series[10, slot, m, r] = math.sqrt(Pm[ATT + 2, ATT + 2]) / deg
+            for b in range(num_blocks):
+                nees_block[slot, m, r, b] = quadratic_into(Pm, dx, members[b], sizes[b], L, y)
+            total = 0.0
+            for i in range(N):
+                total += Pm[i, i]
+            for i in range(3):
+                est_pos[slot, m, r, i] = pos[m, r, i]
+                total += pos[m, r, i] + vel[m, r, i]
+            if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
+                nonfinite_at[m, r] = t_s
+
+
+@_jit
+def positive_definite_bank(P: np.ndarray) -> np.ndarray:
+    """(M, R) bool: each P (M, R, 20, 20) is finite and its Cholesky factorisation succeeds."""
+    out = np.empty(P.shape[:2], dtype=np.bool_)
+    L = np.empty((N, N))
+    idx = np.arange(N)
+    for m in range(P.shape[0]):
+        for r in range(P.shape[1]):
+            out[m, r] = cholesky_into(P[m, r], idx, N, L)
+    return out

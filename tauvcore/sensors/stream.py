@@ -1,0 +1,162 @@
+"""Every sensor's output chunk by chunk, so that memory holds a chunk of the mission, not all of it.
+
+A run's random numbers come from named streams (:class:`SensorStreams`). With
+:meth:`SensorStreams.spawned` each stream is an independent generator drawn in sequence, chunk
+after chunk, so a run's numbers do not depend on how the mission is cut into chunks. With
+:meth:`SensorStreams.single` every stream is one generator, and the whole mission as one chunk
+repeats the whole-mission ``simulate`` functions (and ``tauvcore.eval.runner.simulate``) draw for
+draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise,
+then DVL, pressure, magnetometer.
+
+:class:`SensorStream` carries the sensors' state from chunk to chunk (the last value of each
+random walk, whether its turn-on value was drawn, the DVL's ping count) and is fed the truth
+chunks of :class:`tauvcore.truth.kinematic.TruthStream` in order::
+
+    truth = TruthStream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=1500)
+    sensors = SensorStream(imu_cfg, dvl_cfg, p_cfg, m_cfg, SensorStreams.spawned(rng), num_runs,
+                           truth.num_samples, truth.dt_s)
+    for k0, chunk in truth:
+        imu, dvl, pressure, mag = sensors.next_chunk(k0, chunk)
+
+Every output has the run axis after time, ``(K, R, ...)``; the aiding sensors' ``index`` are
+global IMU sample indices, those of ``timing.epoch_indices`` for the whole mission.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tauvcore.sensors import dvl, imu, magnetometer, pressure
+from tauvcore.sensors.timing import epoch_indices_between
+from tauvcore.truth.record import Truth
+
+
+@dataclass(frozen=True)
+class SensorStreams:
+    """One generator per random stream of a run (or of a batch of runs drawn together).
+
+    The DVL has four streams, not one: bias, scale factor, noise and dropout draw different
+    amounts per ping, so sharing one generator between them would interleave their draws
+    differently for different chunkings.
+    """
+
+    accel_bias: np.random.Generator        # IMU accelerometer bias: turn-on value, then its walk
+    gyro_bias: np.random.Generator         # IMU gyro bias: turn-on value, then its walk
+    accel_noise: np.random.Generator       # IMU accelerometer white noise
+    gyro_noise: np.random.Generator        # IMU gyro white noise
+    dvl_bias: np.random.Generator          # DVL beam biases: turn-on values, then their walk
+    dvl_scale_factor: np.random.Generator  # DVL scale factor: turn-on value, then its walk
+    dvl_noise: np.random.Generator         # DVL beam white noise
+    dvl_dropout: np.random.Generator       # DVL random beam losses
+    pressure: np.random.Generator          # depth white noise
+    magnetometer: np.random.Generator      # attitude white noise
+    initial: np.random.Generator           # the filter's random initial errors (drawn by the runner)
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            if not isinstance(getattr(self, f.name), np.random.Generator):
+                raise TypeError(f"SensorStreams.{f.name} must be a numpy.random.Generator, "
+                                f"got {type(getattr(self, f.name)).__name__}")
+
+    @classmethod
+    def single(cls, rng: np.random.Generator) -> SensorStreams:
+        """Every stream the same generator: the draws of the whole-mission ``simulate`` functions."""
+        return cls(**{f.name: rng for f in dataclasses.fields(cls)})
+
+    @classmethod
+    def spawned(cls, rng: np.random.Generator) -> SensorStreams:
+        """Independent children of ``rng`` (``rng.spawn``), one per stream in field order (a
+        stream added at the end leaves the others' numbers unchanged)."""
+        names = [f.name for f in dataclasses.fields(cls)]
+        return cls(**dict(zip(names, rng.spawn(len(names)), strict=True)))
+
+
+def _stack(parts: list) -> object:
+    """Concatenate sensor records along their run axis (axis 1); ``t_s`` and ``index`` are shared."""
+    if len(parts) == 1:
+        return parts[0]
+    fields = {f.name: getattr(parts[0], f.name) if f.name in ("t_s", "index")
+              else np.concatenate([getattr(p, f.name) for p in parts], axis=1)
+              for f in dataclasses.fields(parts[0])}
+    return type(parts[0])(**fields)
+
+
+class SensorStream:
+    """The four sensors of a mission, chunk by chunk, for ``num_runs`` runs.
+
+    ``streams``: one :class:`SensorStreams` for all runs (each draw has the run axis, as
+    ``simulate(..., num_runs)`` does), or a list of ``num_runs`` of them, run r drawn from its own
+    alone and the runs stacked along the run axis. ``num_samples`` and ``dt_s``: the whole
+    mission's (``TruthStream.num_samples``, ``.dt_s``). The configs are used as given (make them
+    ideal first if need be).
+    """
+
+    def __init__(self, imu_config: imu.ImuConfig, dvl_config: dvl.DvlConfig, pressure_config: pressure.PressureConfig,
+                 magnetometer_config: magnetometer.MagnetometerConfig,
+                 streams: SensorStreams | Sequence[SensorStreams], num_runs: int, num_samples: int,
+                 dt_s: float) -> None:
+        if isinstance(num_runs, bool) or not isinstance(num_runs, (int, np.integer)) or num_runs < 1:
+            raise ValueError(f"num_runs must be a whole number >= 1, got {num_runs!r}")
+        if isinstance(num_samples, bool) or not isinstance(num_samples, (int, np.integer)) or num_samples < 1:
+            raise ValueError(f"num_samples must be a whole number >= 1, got {num_samples!r}")
+        if not dt_s > 0:
+            raise ValueError(f"dt_s must be positive, got {dt_s!r}")
+        if abs(1.0 / dt_s - imu_config.rate_hz) > 1e-6 * imu_config.rate_hz:
+            raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {imu_config.rate_hz:g}")
+        if isinstance(streams, SensorStreams):
+            self._lanes = [(streams, int(num_runs))]
+        else:
+            streams = list(streams)
+            if len(streams) != num_runs or not all(isinstance(s, SensorStreams) for s in streams):
+                raise ValueError(f"streams must be one SensorStreams or a list of num_runs ({num_runs}) of them, "
+                                 f"got {len(streams)} items")
+            self._lanes = [(s, 1) for s in streams]
+        self.imu_config = imu_config
+        self.dvl_config = dvl_config
+        self.pressure_config = pressure_config
+        self.magnetometer_config = magnetometer_config
+        self.num_runs = int(num_runs)
+        self.num_samples = int(num_samples)
+        self.dt_s = float(dt_s)
+        self._t_end_s = (self.num_samples - 1) * self.dt_s   # = generate(...).t_s[-1]
+        self._imu_states = [imu.ImuState() for _ in self._lanes]
+        self._dvl_states = [dvl.DvlState() for _ in self._lanes]
+        self.next_k0 = 0                                     # first sample of the next chunk expected
+
+    def epochs(self, rate_hz: float, k0: int, k1: int) -> np.ndarray:
+        """Global IMU sample indices of a sensor at ``rate_hz`` within ``[k0, k1)``."""
+        return epoch_indices_between(rate_hz, self._t_end_s, self.dt_s, self.num_samples, k0, k1)
+
+    def next_chunk(self, k0: int, truth: Truth) -> tuple[imu.ImuData, dvl.DvlData, pressure.PressureData,
+                                                         magnetometer.MagnetometerData]:
+        """Sensor outputs over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
+
+        Chunks must come in order, each starting where the previous one ended. Returns IMU
+        arrays (K, R, 3) and the aiding sensors' epochs within the chunk (possibly none).
+        """
+        k = truth.num_samples
+        if k0 != self.next_k0:
+            raise ValueError(f"chunks must come in order: expected one starting at sample {self.next_k0}, got {k0}")
+        if k < 1 or k0 + k > self.num_samples:
+            raise ValueError(f"a chunk of {k} samples from {k0} does not fit the mission's {self.num_samples}")
+        k1 = k0 + k
+        dvl_idx = self.epochs(self.dvl_config.rate_hz, k0, k1)
+        p_idx = self.epochs(self.pressure_config.rate_hz, k0, k1)
+        m_idx = self.epochs(self.magnetometer_config.rate_hz, k0, k1)
+        parts: list[tuple] = []
+        for i, (s, runs) in enumerate(self._lanes):
+            imu_data, self._imu_states[i] = imu.simulate_chunk(
+                truth, k0, self.imu_config, self._imu_states[i], s.accel_bias, s.gyro_bias, s.accel_noise,
+                s.gyro_noise, runs, self.dt_s)
+            dvl_data, self._dvl_states[i] = dvl.simulate_chunk(
+                truth, k0, dvl_idx, self.dvl_config, self._dvl_states[i], s.dvl_bias, s.dvl_scale_factor,
+                s.dvl_noise, s.dvl_dropout, runs)
+            p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, s.pressure, runs)
+            m_data = magnetometer.simulate_chunk(truth, k0, m_idx, self.magnetometer_config, s.magnetometer, runs)
+            parts.append((imu_data, dvl_data, p_data, m_data))
+        self.next_k0 = k1
+        return tuple(_stack([p[j] for p in parts]) for j in range(4))   # type: ignore[return-value]
