@@ -31,45 +31,37 @@ def rms(x: np.ndarray, axis: int | tuple[int, ...] = -1) -> np.ndarray:
     return np.sqrt(np.mean(np.square(x), axis=axis))
 
 
-def _solve(P: np.ndarray, dx: np.ndarray) -> np.ndarray:
-    """``P^-1 dx`` per batch entry, NaN for an entry whose dx or P is not finite or whose P is
-    singular (a diverged filter's record, never an exception). dx (..., n), P (..., n, n)."""
-    try:
-        return np.linalg.solve(P, dx[..., None])[..., 0]
-    except np.linalg.LinAlgError:    # a non-finite or exactly singular P somewhere
-        pass
-    out = np.full(dx.shape, np.nan)
-    ok = np.isfinite(P).all(axis=(-2, -1)) & np.isfinite(dx).all(axis=-1)
-    try:
-        out[ok] = np.linalg.solve(P[ok], dx[ok][..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        for i in zip(*np.nonzero(ok)):
-            try:
-                out[i] = np.linalg.solve(P[i], dx[i])
-            except np.linalg.LinAlgError:
-                pass
-    return out
+def _flat(dx: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    n = dx.shape[-1]
+    batch = np.broadcast_shapes(dx.shape[:-1], P.shape[:-2])
+    return (np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (n,))).reshape(-1, n),
+            np.ascontiguousarray(np.broadcast_to(np.asarray(P, dtype=float), batch + (n, n))).reshape(-1, n, n), batch)
 
 
 def nees(dx: np.ndarray, P: np.ndarray) -> np.ndarray:
     """Normalised estimation error squared ``dx^T P^-1 dx``. dx (..., n), P (..., n, n) -> (...).
 
-    NaN for an entry whose dx or P is not finite or whose P is singular (a diverged filter's
-    record, never an exception)."""
-    return np.einsum("...i,...i->...", dx, _solve(P, dx))
+    By Cholesky (the kernel :func:`tauvcore.filter.kernels.quadratic_into` the filter bank's records
+    use). NaN for an entry whose dx or P is not finite or whose P is not positive definite (a
+    diverged filter's record, never an exception)."""
+    from tauvcore.filter import kernels
+
+    dx_f, P_f, batch = _flat(np.asarray(dx), np.asarray(P))
+    return kernels.nees_batch(dx_f, P_f).reshape(batch)
 
 
 def block_nees(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_blocks: int) -> np.ndarray:
     """NEES of every block of a partition of the state at once. -> (..., num_blocks).
 
     ``block_of_state`` (n,) gives each state's block (0 .. num_blocks - 1; every state in one).
-    Block b's NEES is ``dx_b^T (P_bb)^-1 dx_b`` with P_bb the marginal covariance of the block:
-    the inverse of the block-diagonal part of P holds every ``(P_bb)^-1``, so one solve serves
-    all blocks (the same numbers as one :func:`nees` per block, to round-off, at a third of the
-    cost). NaN where :func:`nees` would give NaN."""
-    same = block_of_state[:, None] == block_of_state[None, :]
-    products = dx * _solve(np.where(same, P, 0.0), dx)
-    return products @ (block_of_state[:, None] == np.arange(num_blocks)[None, :]).astype(float)
+    Block b's NEES is ``dx_b^T (P_bb)^-1 dx_b`` with P_bb the marginal covariance of the block,
+    one Cholesky factorisation per block. NaN for a block whose error or marginal covariance is not
+    finite or not positive definite (the other blocks keep their values)."""
+    from tauvcore.filter import kernels
+
+    dx_f, P_f, batch = _flat(np.asarray(dx), np.asarray(P))
+    out = kernels.block_nees_batch(dx_f, P_f, np.ascontiguousarray(block_of_state, dtype=np.int64), int(num_blocks))
+    return out.reshape(batch + (num_blocks,))
 
 
 def average_nees_bounds(dim: int, num_runs: int, confidence: float = 0.99) -> tuple[float, float]:

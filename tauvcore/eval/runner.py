@@ -59,6 +59,8 @@ from tauvcore.filter.eskf import (
     Nominal,
     UpdateOutcome,
     condition_covariance,
+    fuse_in_place,
+    make_outcome,
 )
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE
 from tauvcore.geo.rotations import (
@@ -340,24 +342,15 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
 
     def fuse(H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
              ) -> tuple[np.ndarray, ...]:
-        """One compiled gated correction of the whole bank (inactive rows and entries untouched),
-        then the injection. Arrays (M, R, m, ...); returns the kernel's per-entry outcome."""
-        m_rows = nu.shape[-1]
-        dx, s_diag, keep, nis, ratio, unusable = kernels.correct_batch(
-            P.reshape(-1, STATE.dim, STATE.dim), np.ascontiguousarray(H).reshape(-1, m_rows, STATE.dim),
-            np.ascontiguousarray(Rm).reshape(-1, m_rows, m_rows), np.ascontiguousarray(nu).reshape(-1, m_rows),
-            np.ascontiguousarray(active).reshape(-1, m_rows), np.ascontiguousarray(gate_rows).reshape(-1), gate)
-        kernels.inject_batch(*flat, dx)
-        shape = (M, R)
-        return (s_diag.reshape(shape + (m_rows,)), keep.reshape(shape + (m_rows,)), nis.reshape(shape),
-                ratio.reshape(shape), unusable.reshape(shape))
+        """One compiled gated correction and injection of the whole bank in place (inactive rows
+        and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...)."""
+        fused = fuse_in_place(P.reshape(-1, STATE.dim, STATE.dim), flat, H, Rm, nu, active, gate_rows.reshape(-1),
+                              gate)
+        return tuple(a.reshape(batch + a.shape[1:]) for a in fused)
 
     def outcome_of(z: np.ndarray, nu: np.ndarray, active: np.ndarray, fused: tuple[np.ndarray, ...]
                    ) -> UpdateOutcome:
-        s_diag, keep, nis, ratio, unusable = fused
-        return UpdateOutcome(z=z, innovation=nu, innovation_var=s_diag, test_ratio=ratio, fused=keep.any(axis=-1),
-                             rejected=(active & ~keep).any(axis=-1), fused_rows=keep, rejected_rows=active & ~keep,
-                             nis=nis, nis_dof=active.sum(axis=-1), unusable=unusable)
+        return make_outcome(z, nu, active, *fused)
 
     def update_all(source: str, meas: Measurement, t: float) -> None:
         """A source every aided method takes (depth, magnetometer): one batched correction."""

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tauvcore.filter.layout import STATE
-from tauvcore.geo.rotations import exp_so3, log_so3
-from tauvcore.ins.strapdown import NavState, mv
+from tauvcore.ins.strapdown import NavState
 
 P_CORRELATION_EIGEN_FLOOR = 1e-9
 """Smallest eigenvalue of P's correlation matrix after a repair (:func:`condition_covariance`).
@@ -60,30 +59,51 @@ class Nominal:
         return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf)
 
 
+def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """Fresh C-contiguous copies of the nominal state broadcast to ``batch``, flattened to one
+    leading axis (the compiled kernels' layout): pos, vel (n, 3), C (n, 3, 3), accel and gyro bias
+    (n, 3), DVL bias (n, 4), scale factor (n,)."""
+    def flat(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
+        return np.array(np.broadcast_to(np.asarray(a, dtype=float), batch + tail), order="C").reshape((-1,) + tail)
+    return (flat(nom.nav.pos_n, (3,)), flat(nom.nav.vel_n, (3,)), flat(nom.nav.C_nb, (3, 3)),
+            flat(nom.accel_bias, (3,)), flat(nom.gyro_bias, (3,)), flat(nom.dvl_bias, (4,)), flat(nom.dvl_sf, ()))
+
+
+def _nominal_of(arrays: tuple[np.ndarray, ...], batch: tuple[int, ...]) -> Nominal:
+    pos, vel, C, ba, bg, bdvl, sf = arrays
+    return Nominal(NavState(pos.reshape(batch + (3,)), vel.reshape(batch + (3,)), C.reshape(batch + (3, 3))),
+                   ba.reshape(batch + (3,)), bg.reshape(batch + (3,)), bdvl.reshape(batch + (4,)), sf.reshape(batch))
+
+
 def inject(nom: Nominal, dx: np.ndarray) -> Nominal:
     """Closed-loop correction ``x_hat <- x_hat (+) dx`` (reset of dx to zero is implicit).
 
     Position and biases add; ``C_nb <- exp([rho x]) C_nb``; the body-frame velocity adds
     (the error is defined in b), and ``vel_n`` is rebuilt with the corrected attitude. The
     reset Jacobian ``I - [rho x]/2`` of the misalignment block is taken as I (rho < 1e-2 rad).
+    The formula is the kernel :func:`tauvcore.filter.kernels.inject_batch` the filter bank runs.
     """
-    C1 = exp_so3(dx[..., STATE.att]) @ nom.nav.C_nb
-    vel_b = nom.vel_b + dx[..., STATE.vel]
-    nav = NavState(pos_n=nom.nav.pos_n + dx[..., STATE.pos], vel_n=mv(C1, vel_b), C_nb=C1)
-    return Nominal(nav=nav,
-                   accel_bias=nom.accel_bias + dx[..., STATE.ba],
-                   gyro_bias=nom.gyro_bias + dx[..., STATE.bg],
-                   dvl_bias=nom.dvl_bias + dx[..., STATE.b_dvl],
-                   dvl_sf=nom.dvl_sf + dx[..., STATE.sf_dvl][..., 0])
+    from tauvcore.filter import kernels
+
+    batch = np.broadcast_shapes(nom.dvl_sf.shape, np.shape(dx)[:-1])
+    arrays = _state_arrays(nom, batch)
+    dx_flat = np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (STATE.dim,)))
+    kernels.inject_batch(*arrays, dx_flat.reshape(-1, STATE.dim))
+    return _nominal_of(arrays, batch)
 
 
 def difference(true: Nominal, est: Nominal) -> np.ndarray:
-    """``true (-) est``: the error state that :func:`inject` would need. -> (B, 20)."""
-    batch = est.vel_b.shape[:-1]
+    """``true (-) est``: the error state that :func:`inject` would need. -> (B, 20).
+
+    The navigation part is the kernel :func:`tauvcore.filter.kernels.nav_difference_into` (the
+    filter bank's records use it); the sensor errors subtract."""
+    from tauvcore.filter import kernels
+
+    batch = np.broadcast_shapes(true.dvl_sf.shape, est.dvl_sf.shape, np.shape(true.nav.pos_n)[:-1],
+                                np.shape(est.nav.pos_n)[:-1])
+    t, e = _state_arrays(true, batch), _state_arrays(est, batch)
     dx = np.zeros(batch + (STATE.dim,))
-    dx[..., STATE.pos] = true.nav.pos_n - est.nav.pos_n
-    dx[..., STATE.att] = log_so3(true.nav.C_nb @ np.swapaxes(est.nav.C_nb, -1, -2))
-    dx[..., STATE.vel] = true.vel_b - est.vel_b
+    dx[..., :kernels.NAV] = kernels.difference_batch(t[0], t[1], t[2], e[0], e[1], e[2]).reshape(batch + (kernels.NAV,))
     dx[..., STATE.ba] = true.accel_bias - est.accel_bias
     dx[..., STATE.bg] = true.gyro_bias - est.gyro_bias
     dx[..., STATE.b_dvl] = true.dvl_bias - est.dvl_bias
@@ -131,9 +151,23 @@ class UpdateOutcome:
 
 
 def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
-    """``P <- Phi P Phi^T + Qd``, symmetrised."""
-    P = Phi @ P @ np.swapaxes(Phi, -1, -2) + Qd
-    return 0.5 * (P + np.swapaxes(P, -1, -2))
+    """``P <- Phi P Phi^T + Qd``, symmetric; Phi of the structure of
+    :func:`tauvcore.ins.error_model.discretise`'s (identity outside rows 0-8, zero beyond column 14
+    in them), the kernel :func:`tauvcore.filter.kernels.sandwich_into` the filter bank runs."""
+    from tauvcore.filter import kernels
+
+    Phi = np.asarray(Phi, dtype=float)
+    eye = np.eye(STATE.dim)
+    if not (np.array_equal(np.broadcast_to(Phi[..., kernels.NAV:, :], Phi.shape[:-2] + eye[kernels.NAV:].shape),
+                           np.broadcast_to(eye[kernels.NAV:], Phi.shape[:-2] + eye[kernels.NAV:].shape))
+            and not np.any(Phi[..., :kernels.NAV, kernels.CORE:])):
+        raise ValueError("Phi must be the identity outside rows 0-8 and zero beyond column 14 in them")
+    batch = np.broadcast_shapes(np.shape(P)[:-2], Phi.shape[:-2], np.shape(Qd)[:-2])
+    shape = (STATE.dim, STATE.dim)
+
+    def flat(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), batch + shape)).reshape((-1,) + shape)
+    return kernels.propagate_batch(flat(P), flat(Phi), flat(Qd)).reshape(batch + shape)
 
 
 def _is_positive_definite(A: np.ndarray) -> np.ndarray:
@@ -187,18 +221,35 @@ def condition_covariance(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return P, repair
 
 
-def _keep_rows(H: np.ndarray, R: np.ndarray, nu: np.ndarray, keep: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Remove the rows not in ``keep`` exactly (zero H row and innovation, unit R diagonal, no
-    cross-covariance): the update is then identical to one without those rows."""
-    both = keep[..., :, None] & keep[..., None, :]
-    R = np.where(both, R, 0.0) + np.eye(R.shape[-1]) * (~keep)[..., None, :]
-    return H * keep[..., None], R, np.where(keep, nu, 0.0)
+def fuse_in_place(P: np.ndarray, state: tuple[np.ndarray, ...], H: np.ndarray, R: np.ndarray, nu: np.ndarray,
+                  active: np.ndarray, gate_rows: np.ndarray, gate_sigma: float) -> tuple[np.ndarray, ...]:
+    """The compiled gated Joseph correction and injection of n filters, in place (the filter
+    bank's layout): P (n, 20, 20), ``state`` the arrays of :func:`_state_arrays`, H (n, m, 20),
+    R (n, m, m), nu, active (n, m) (rows in use: active and valid), gate_rows (n,).
+    -> s_diag (n, m), keep (n, m), nis, test_ratio, unusable (n,): see :func:`correct`."""
+    from tauvcore.filter import kernels
+
+    n, m = P.shape[0], nu.shape[-1]
+    dx, s_diag, keep, nis, ratio, unusable = kernels.correct_batch(
+        P, np.ascontiguousarray(H, dtype=float).reshape(n, m, STATE.dim),
+        np.ascontiguousarray(R, dtype=float).reshape(n, m, m), np.ascontiguousarray(nu, dtype=float).reshape(n, m),
+        np.ascontiguousarray(active, dtype=bool).reshape(n, m), np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
+        float(gate_sigma))
+    kernels.inject_batch(*state, dx)
+    return s_diag, keep, nis, ratio, unusable
+
+
+def make_outcome(z: np.ndarray, innovation: np.ndarray, active: np.ndarray, s_diag: np.ndarray, keep: np.ndarray,
+                 nis: np.ndarray, test_ratio: np.ndarray, unusable: np.ndarray) -> UpdateOutcome:
+    """The record of one correction from the kernel's outcome (``active``: rows measured)."""
+    return UpdateOutcome(z=z, innovation=innovation, innovation_var=s_diag, test_ratio=test_ratio,
+                         fused=keep.any(axis=-1), rejected=(active & ~keep).any(axis=-1), fused_rows=keep,
+                         rejected_rows=active & ~keep, nis=nis, nis_dof=active.sum(axis=-1), unusable=unusable)
 
 
 def correct(P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float,
             apply: np.ndarray | None = None) -> tuple[np.ndarray, Nominal, UpdateOutcome]:
-    """Gated Joseph-form update and injection.
+    """Gated Joseph-form update and injection (the kernel :func:`tauvcore.filter.kernels.correct_into`).
 
     The gate is the paper's (section 2.1.1): a row must lie within ``gate_sigma`` standard
     deviations of its prediction, ``nu_i^2 <= gate^2 S_ii``. A vector measurement is rejected
@@ -206,59 +257,28 @@ def correct(P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float,
     every rejection is recorded. ``apply`` (B,) masks batch entries that do not use this source
     (e.g. the standalone INS); they are left untouched. Joseph form
     ``P = (I - K H) P (I - K H)^T + K R K^T`` keeps P symmetric positive definite for any gain,
-    including the zero gain of a rejected measurement.
+    including the zero gain of a rejected measurement. Inactive rows are dropped exactly.
 
-    An entry whose ``S`` over its active rows is not finite or not positive definite fuses
-    nothing and keeps its P and state (``unusable``; its rows count as rejected). The record
-    also carries the entry's normalised innovation squared ``nu^T S^-1 nu`` over the active rows
-    before the gate, for the divergence monitor.
+    An entry whose ``S`` over its active rows is not finite or not positive definite (its
+    Cholesky factorisation fails) fuses nothing and keeps its P and state (``unusable``; its rows
+    count as rejected). The record also carries the entry's normalised innovation squared
+    ``nu^T S^-1 nu`` over the active rows before the gate, for the divergence monitor.
+    Inputs are not modified.
     """
     valid = meas.valid if apply is None else meas.valid & apply
+    batch = np.shape(P)[:-2]
     m = meas.R.shape[-1]
-    active = np.ones(valid.shape + (m,), dtype=bool) if meas.active is None else meas.active.astype(bool)
-    active = active & valid[..., None]
-    H, R, nu = _keep_rows(meas.H, meas.R, meas.innovation, active)
-    HT = np.swapaxes(H, -1, -2)
-    S_active = H @ P @ HT + R
-    usable = _is_positive_definite(S_active)
-    unusable = ~usable & active.any(axis=-1)
-    if not usable.all():
-        # no fusion for these entries: zero rows, and a stand-in P that keeps the algebra finite
-        active_use = active & usable[..., None]
-        P_in, P = P, np.where(usable[..., None, None], P, np.eye(P.shape[-1]))
-        H, R, nu = _keep_rows(H, R, nu, active_use)
-        HT = np.swapaxes(H, -1, -2)
-        S_active = H @ P @ HT + R
-    else:
-        active_use, P_in = active, P
-    s_diag = np.diagonal(S_active, axis1=-2, axis2=-1)
-    # one solve gives S^-1 nu for the NIS and, when the gate keeps every active row, the gain
-    sol = np.linalg.solve(S_active, np.concatenate((H @ P, nu[..., None]), axis=-1))
-    nis = np.einsum("...i,...i->...", nu, sol[..., -1])
-    ratio_rows = np.where(active_use, nu**2 / (gate_sigma**2 * s_diag), 0.0)
-    if meas.gate_rows:
-        keep = active_use & (ratio_rows <= 1.0)
-    else:
-        keep = active_use & np.all(ratio_rows <= 1.0, axis=-1)[..., None]
-    if np.array_equal(keep, active_use):
-        K = np.swapaxes(sol[..., :-1], -1, -2)                   # P H^T S^-1 (S, P symmetric)
-    else:
-        H, R, nu = _keep_rows(H, R, nu, keep)
-        HT = np.swapaxes(H, -1, -2)
-        S = H @ P @ HT + R
-        K = np.swapaxes(np.linalg.solve(S, H @ P), -1, -2)
-    I_KH = np.eye(P.shape[-1]) - K @ H
-    P = I_KH @ P @ np.swapaxes(I_KH, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
-    P = 0.5 * (P + np.swapaxes(P, -1, -2))
-    dx = mv(K, nu)
-    if not usable.all():
-        P = np.where(usable[..., None, None], P, P_in)
-    any_active = active_use.any(axis=-1)
-    outcome = UpdateOutcome(z=meas.z, innovation=meas.innovation,
-                            innovation_var=np.where(active_use, s_diag, np.nan),
-                            test_ratio=np.where(any_active, ratio_rows.max(axis=-1), np.nan),
-                            fused=keep.any(axis=-1), rejected=(active & ~keep).any(axis=-1),
-                            fused_rows=keep, rejected_rows=active & ~keep,
-                            nis=np.where(any_active, nis, np.nan), nis_dof=active.sum(axis=-1),
-                            unusable=unusable)
-    return P, inject(nom, dx), outcome
+    active = np.ones(batch + (m,), dtype=bool) if meas.active is None else meas.active.astype(bool)
+    active = np.broadcast_to(active & valid[..., None], batch + (m,))
+    P_new = np.array(np.broadcast_to(P, batch + (STATE.dim, STATE.dim)), dtype=float, order="C")
+    state = _state_arrays(nom, batch)
+    flat = P_new.reshape(-1, STATE.dim, STATE.dim)
+
+    def rows(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
+        return np.broadcast_to(a, batch + tail).reshape((-1,) + tail)
+    fused = fuse_in_place(flat, state, rows(meas.H, (m, STATE.dim)), rows(meas.R, (m, m)),
+                          rows(meas.innovation, (m,)), rows(active, (m,)),
+                          np.full(flat.shape[0], meas.gate_rows), gate_sigma)
+    s_diag, keep, nis, ratio, unusable = (a.reshape(batch + a.shape[1:]) for a in fused)
+    return P_new, _nominal_of(state, batch), make_outcome(meas.z, meas.innovation, active, s_diag, keep, nis, ratio,
+                                                          unusable)

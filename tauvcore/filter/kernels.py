@@ -392,6 +392,19 @@ def quadratic_into(A: np.ndarray, x: np.ndarray, idx: np.ndarray, n: int, L: np.
 
 
 @_jit
+def block_members(block_of_state: np.ndarray, num_blocks: int) -> tuple:
+    """State indices of each block (num_blocks, d) and their counts, from each state's block (d,)."""
+    d = block_of_state.shape[0]
+    members = np.empty((num_blocks, d), dtype=np.int64)
+    sizes = np.zeros(num_blocks, dtype=np.int64)
+    for s in range(d):
+        b = block_of_state[s]
+        members[b, sizes[b]] = s
+        sizes[b] += 1
+    return members, sizes
+
+
+@_jit
 def nees_batch(dx: np.ndarray, P: np.ndarray) -> np.ndarray:
     """``dx^T P^-1 dx`` for (n, d), (n, d, d) -> (n,)."""
     d = dx.shape[1]
@@ -411,12 +424,7 @@ def block_nees_batch(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, 
     L = np.empty((d, d))
     y = np.empty(d)
     out = np.empty((dx.shape[0], num_blocks))
-    members = np.empty((num_blocks, d), dtype=np.int64)
-    sizes = np.zeros(num_blocks, dtype=np.int64)
-    for s in range(d):
-        b = block_of_state[s]
-        members[b, sizes[b]] = s
-        sizes[b] += 1
+    members, sizes = block_members(block_of_state, num_blocks)
     for i in range(dx.shape[0]):
         for b in range(num_blocks):
             out[i, b] = quadratic_into(P[i], dx[i], members[b], sizes[b], L, y)
@@ -643,26 +651,11 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
     L = np.empty((N, N))
     y = np.empty(N)
     idx = np.arange(N)
-    members = np.empty((num_blocks, N), dtype=np.int64)
-    sizes = np.zeros(num_blocks, dtype=np.int64)
-    for s in range(N):
-        b = block_of_state[s]
-        members[b, sizes[b]] = s
-        sizes[b] += 1
-    vb_t = np.empty(3)
-    for c in range(3):
-        vb_t[c] = C_t[0, c] * vel_t[0] + C_t[1, c] * vel_t[1] + C_t[2, c] * vel_t[2]
+    members, sizes = block_members(block_of_state, num_blocks)
     for m in range(M):
         for r in range(R):
-            Cm = C[m, r]
+            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx)
             for i in range(3):
-                for j in range(3):
-                    Ce[i, j] = C_t[i, 0] * Cm[j, 0] + C_t[i, 1] * Cm[j, 1] + C_t[i, 2] * Cm[j, 2]
-            log_so3_into(Ce, rho)
-            for i in range(3):
-                dx[POS + i] = pos_t[i] - pos[m, r, i]
-                dx[ATT + i] = rho[i]
-                dx[VEL + i] = vb_t[i] - (Cm[0, i] * vel[m, r, 0] + Cm[1, i] * vel[m, r, 1] + Cm[2, i] * vel[m, r, 2])
                 dx[BA + i] = ba_t[r, i] - ba[m, r, i]
                 dx[BG + i] = bg_t[r, i] - bg[m, r, i]
             for i in range(4):
@@ -709,4 +702,84 @@ def positive_definite_bank(P: np.ndarray) -> np.ndarray:
     for m in range(P.shape[0]):
         for r in range(P.shape[1]):
             out[m, r] = cholesky_into(P[m, r], idx, N, L)
+    return out
+
+
+# ---------------------------------------------------------------- batched entry points for numpy callers
+@_jit
+def F_batch(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray) -> np.ndarray:
+    """:func:`F_into` for n points: (n, 3, 3), (n, 3), (n, 3) -> (n, 20, 20)."""
+    out = np.empty((C.shape[0], N, N))
+    for i in range(C.shape[0]):
+        F_into(C[i], v[i], om[i], g_n, w_ie, out[i])
+    return out
+
+
+@_jit
+def G_batch(C: np.ndarray, v: np.ndarray, num_noise: int) -> np.ndarray:
+    """:func:`G_into` for n points -> (n, 20, num_noise)."""
+    out = np.empty((C.shape[0], N, num_noise))
+    for i in range(C.shape[0]):
+        G_into(C[i], v[i], out[i])
+    return out
+
+
+@_jit
+def discretise_batch(F: np.ndarray, G: np.ndarray, q: np.ndarray, dt: float) -> tuple:
+    """``Phi = expm(F dt)`` to third order and the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2`` for
+    n points (F of the structure :func:`transition_into` requires) -> Phi, Qd (n, 20, 20)."""
+    n = F.shape[0]
+    Phi = np.empty((n, N, N))
+    Qd = np.empty((n, N, N))
+    GQG = np.empty((N, N))
+    work = np.empty((N, N))
+    for i in range(n):
+        transition_into(F[i], dt, Phi[i])
+        noise_into(G[i], q, dt, GQG)
+        sandwich_into(Phi[i], GQG, Qd[i], work)
+        for r in range(N):
+            for c in range(N):
+                Qd[i, r, c] = 0.5 * (Qd[i, r, c] + GQG[r, c])
+    return Phi, Qd
+
+
+@_jit
+def propagate_batch(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
+    """``Phi P Phi^T + Qd`` for n filters (Phi of the structure :func:`sandwich_into` requires)."""
+    out = np.empty(P.shape)
+    work = np.empty((N, N))
+    for i in range(P.shape[0]):
+        sandwich_into(Phi[i], P[i], out[i], work)
+        for r in range(N):
+            for c in range(N):
+                out[i, r, c] += 0.5 * (Qd[i, r, c] + Qd[i, c, r])
+    return out
+
+
+@_jit
+def nav_difference_into(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
+                        C: np.ndarray, Ce: np.ndarray, rho: np.ndarray, dx: np.ndarray) -> None:
+    """Navigation part of ``true (-) estimate`` (tauvcore.filter.eskf.difference) into ``dx[0:9]``:
+    position, misalignment ``log(C_t C^T)``, body velocity ``C_t^T v_t - C^T v``. Ce (3, 3), rho (3,)
+    scratch."""
+    for i in range(3):
+        for j in range(3):
+            Ce[i, j] = C_t[i, 0] * C[j, 0] + C_t[i, 1] * C[j, 1] + C_t[i, 2] * C[j, 2]
+    log_so3_into(Ce, rho)
+    for i in range(3):
+        dx[POS + i] = pos_t[i] - pos[i]
+        dx[ATT + i] = rho[i]
+        dx[VEL + i] = ((C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2])
+                       - (C[0, i] * vel[0] + C[1, i] * vel[1] + C[2, i] * vel[2]))
+
+
+@_jit
+def difference_batch(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
+                     C: np.ndarray) -> np.ndarray:
+    """:func:`nav_difference_into` for n pairs -> (n, 9)."""
+    out = np.empty((pos.shape[0], NAV))
+    Ce = np.empty((3, 3))
+    rho = np.empty(3)
+    for n in range(pos.shape[0]):
+        nav_difference_into(pos_t[n], vel_t[n], C_t[n], pos[n], vel[n], C[n], Ce, rho, out[n])
     return out

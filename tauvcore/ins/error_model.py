@@ -44,39 +44,33 @@ def _T(M: np.ndarray) -> np.ndarray:
     return np.swapaxes(M, -1, -2)
 
 
+def _flat(a: np.ndarray, batch: tuple[int, ...], tail: tuple[int, ...]) -> np.ndarray:
+    """``a`` broadcast to ``batch + tail``, as a C-contiguous float array with one leading axis."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), batch + tail)).reshape((-1,) + tail)
+
+
 def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth: Earth) -> np.ndarray:
     """Continuous-time F (eq. 4 and 9) at the nominal state. -> (..., 20, 20).
 
     C_nb (..., 3, 3), vel_b (..., 3) nominal body velocity, omega_ib_b (..., 3) bias-corrected rate.
+    The formula is the compiled kernel :func:`tauvcore.filter.kernels.F_into` (the one the filter
+    bank runs); the tests compare it with central differences of :func:`error_rate`.
     """
-    batch = vel_b.shape[:-1]
-    F = np.zeros(batch + (STATE.dim, STATE.dim))
-    C_bn = _T(C_nb)
-    W = skew(earth.omega_ie_n)
-    v_x = skew(vel_b)
-    F[..., STATE.pos, STATE.att] = -skew((C_nb @ vel_b[..., None])[..., 0])
-    F[..., STATE.pos, STATE.vel] = C_nb
-    F[..., STATE.att, STATE.att] = -W
-    F[..., STATE.att, STATE.bg] = -C_nb
-    F[..., STATE.vel, STATE.att] = C_bn @ skew(earth.g_n) + v_x @ C_bn @ W
-    F[..., STATE.vel, STATE.vel] = -skew(omega_ib_b + (C_bn @ earth.omega_ie_n))
-    F[..., STATE.vel, STATE.ba] = -np.eye(3)
-    F[..., STATE.vel, STATE.bg] = -v_x
-    return F
+    from tauvcore.filter import kernels  # numba: with the engine, not for --help
+
+    batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1], np.shape(omega_ib_b)[:-1])
+    F = kernels.F_batch(_flat(C_nb, batch, (3, 3)), _flat(vel_b, batch, (3,)), _flat(omega_ib_b, batch, (3,)),
+                        _flat(earth.g_n, (), (3,))[0], _flat(earth.omega_ie_n, (), (3,))[0])
+    return F.reshape(batch + (STATE.dim, STATE.dim))
 
 
 def G_matrix(C_nb: np.ndarray, vel_b: np.ndarray) -> np.ndarray:
-    """Continuous-time G (eq. 5 and 10). -> (..., 20, 17)."""
-    batch = vel_b.shape[:-1]
-    G = np.zeros(batch + (STATE.dim, NOISE.dim))
-    G[..., STATE.att, NOISE.gyro] = -C_nb
-    G[..., STATE.vel, NOISE.accel] = -np.eye(3)
-    G[..., STATE.vel, NOISE.gyro] = -skew(vel_b)
-    G[..., STATE.ba, NOISE.ba] = np.eye(3)
-    G[..., STATE.bg, NOISE.bg] = np.eye(3)
-    G[..., STATE.b_dvl, NOISE.b_dvl] = np.eye(4)
-    G[..., STATE.sf_dvl, NOISE.sf_dvl] = np.eye(1)
-    return G
+    """Continuous-time G (eq. 5 and 10), the kernel :func:`tauvcore.filter.kernels.G_into`. -> (..., 20, 17)."""
+    from tauvcore.filter import kernels
+
+    batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1])
+    G = kernels.G_batch(_flat(C_nb, batch, (3, 3)), _flat(vel_b, batch, (3,)), NOISE.dim)
+    return G.reshape(batch + (STATE.dim, NOISE.dim))
 
 
 def _psd_floor() -> np.ndarray:
@@ -119,14 +113,20 @@ def noise_psd(imu: ImuConfig, dvl: DvlConfig) -> np.ndarray:
 def discretise(F: np.ndarray, G: np.ndarray, q_psd: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Transition ``Phi = expm(F dt)`` (third-order series) and ``Qd`` (trapezoid rule).
 
-    ``Qd = (Phi G Q G^T Phi^T + G Q G^T) dt / 2`` (Van Loan to second order).
+    ``Qd = (Phi G Q G^T Phi^T + G Q G^T) dt / 2`` (Van Loan to second order). F must have the
+    structure of :func:`F_matrix` (zero outside rows 0-8 and columns 0-14), which the compiled
+    kernels (:func:`tauvcore.filter.kernels.transition_into`, ``sandwich_into``) exploit.
     """
-    A = F * dt_s
-    A2 = A @ A
-    Phi = np.eye(F.shape[-1]) + A + A2 / 2.0 + (A2 @ A) / 6.0
-    GQG = (G * q_psd) @ _T(G) * dt_s
-    Qd = 0.5 * (Phi @ GQG @ _T(Phi) + GQG)
-    return Phi, Qd
+    from tauvcore.filter import kernels
+
+    F = np.asarray(F, dtype=float)
+    if np.any(F[..., kernels.NAV:, :]) or np.any(F[..., :, kernels.CORE:]):
+        raise ValueError("F must be zero outside rows 0-8 and columns 0-14 (the structure of F_matrix)")
+    batch = np.broadcast_shapes(F.shape[:-2], np.shape(G)[:-2])
+    Phi, Qd = kernels.discretise_batch(_flat(F, batch, (STATE.dim, STATE.dim)),
+                                       _flat(G, batch, (STATE.dim, NOISE.dim)),
+                                       _flat(q_psd, (), (NOISE.dim,))[0], float(dt_s))
+    return Phi.reshape(batch + Phi.shape[1:]), Qd.reshape(batch + Qd.shape[1:])
 
 
 def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarray, f_meas: np.ndarray,

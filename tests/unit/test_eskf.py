@@ -138,9 +138,48 @@ def test_difference_uses_left_misalignment():
     np.testing.assert_allclose(log_so3(C_true @ np.swapaxes(est.nav.C_nb, -1, -2)), rho, rtol=0, atol=1e-14)
 
 
+def _structured_transition(rng: np.random.Generator, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """F and G of the error model at random nominal states (their zero blocks are the model's)."""
+    from tauvcore.geo.earth import Earth
+    from tauvcore.ins.error_model import F_matrix, G_matrix
+    C = exp_so3(rng.normal(0.0, 1.0, batch + (3,)))
+    v = rng.normal(0.0, 2.0, batch + (3,))
+    om = rng.normal(0.0, 0.3, batch + (3,))
+    return F_matrix(C, v, om, Earth()), G_matrix(C, v)
+
+
 def test_propagate_known_answer():
+    """The structured sandwich of the compiled kernel equals the dense product."""
+    from tauvcore.ins.error_model import discretise
     rng = np.random.default_rng(55)
-    P = _spd(rng, 4, 1.0)
-    Phi = np.eye(4) + rng.normal(0.0, 0.1, (4, 4))
-    Q = _spd(rng, 4, 0.1)
-    np.testing.assert_allclose(propagate(P, Phi, Q), Phi @ P @ Phi.T + Q, rtol=1e-14, atol=1e-15)
+    F, G = _structured_transition(rng, (3,))
+    Phi, _ = discretise(F, G, np.ones(G.shape[-1]), 0.1)
+    P = np.stack([_spd(rng, STATE.dim, 1.0) for _ in range(3)])
+    Q = np.stack([_spd(rng, STATE.dim, 0.1) for _ in range(3)])
+    dense = Phi @ P @ np.swapaxes(Phi, -1, -2) + Q
+    np.testing.assert_allclose(propagate(P, Phi, Q), 0.5 * (dense + np.swapaxes(dense, -1, -2)), rtol=1e-13,
+                               atol=1e-14)
+    with pytest.raises(ValueError, match="Phi must be"):
+        propagate(P[0], np.eye(STATE.dim) + 0.01, Q[0])
+
+
+def test_discretise_equals_the_dense_series_and_trapezoid():
+    """The kernel's structured Phi and Qd equal the dense third-order series and Van Loan trapezoid
+    (the numpy engine's formulas) at random nominal states, over steps up to 1 s."""
+    from tauvcore.ins.error_model import discretise
+    rng = np.random.default_rng(56)
+    F, G = _structured_transition(rng, (4,))
+    q = rng.uniform(1e-6, 1.0, G.shape[-1])
+    for dt in (1 / 150, 0.1, 1.0):
+        A = F * dt
+        A2 = A @ A
+        Phi_dense = np.eye(STATE.dim) + A + A2 / 2.0 + (A2 @ A) / 6.0
+        GQG = (G * q) @ np.swapaxes(G, -1, -2) * dt
+        Qd_dense = 0.5 * (Phi_dense @ GQG @ np.swapaxes(Phi_dense, -1, -2) + GQG)
+        Phi, Qd = discretise(F, G, q, dt)
+        np.testing.assert_allclose(Phi, Phi_dense, rtol=1e-13, atol=1e-15)
+        np.testing.assert_allclose(Qd, Qd_dense, rtol=1e-12, atol=1e-15 * np.abs(Qd_dense).max())
+    F_bad = F.copy()
+    F_bad[..., 15, 0] = 1.0
+    with pytest.raises(ValueError, match="F must be zero"):
+        discretise(F_bad, G, q, 0.1)
