@@ -507,10 +507,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     json_path = json_target(args.json, args.config) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
-    from tauvcore.eval.runner import run, simulate
+    from tauvcore.eval.runner import run_streaming
 
-    sim = simulate(config, rng, num_runs=1)
-    results = run(config, sim, rng)
+    results = run_streaming(config, rng)
     elapsed = time.perf_counter() - started
     if json_path is not None:
         payload = {"config": config_to_json(config), "results": {m: result_to_json(r) for m, r in results.items()}}

@@ -583,9 +583,13 @@ class Session:
         if len(pings) == 0 or t_s < pings[0]:
             return beam_states(enabled, enabled, np.zeros(4, bool))
         p = int(np.searchsorted(pings, t_s, side="right") - 1)
-        returned = tv["ping_available"][p]
+        returned = tv["ping_available"][p]      # the schedule's; a run's own record also has random drop-outs
         rejected = np.zeros(4, dtype=bool)
         results = self.results or {}
+        for record in (r.updates.get("dvl") for r in results.values()):
+            if record is not None and p < len(record.t_s) and record.beams_available is not None:
+                returned = record.beams_available[p, 0]
+                break
         for method in REJECT_REFERENCE:
             dvl = results[method].updates.get("dvl") if method in results else None
             if dvl is not None and p < len(dvl.t_s):

@@ -38,8 +38,10 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.config import from_dict
-from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.config import Config, from_dict
+from tauvcore.eval.runner import MethodResult, run_streaming
+from tauvcore.sensors.timing import epoch_indices_between
+from tauvcore.truth.kinematic import TruthStream
 from tauvcore.validation import ConfigError
 
 # Preloaded with the worker: tauvcore imports scipy.special at a run's first chi-square quantile
@@ -95,6 +97,24 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
     return out
 
 
+def truth_view(config: Config, step: int) -> dict[str, np.ndarray]:
+    """What the 3-D view needs before the run: the truth at the output epochs (every ``step``-th
+    IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
+    the schedule lets return (random drop-outs show once the results carry them)."""
+    stream = TruthStream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
+    t, pos, C = [], [], []
+    for k0, chunk in stream:
+        rows = np.arange((-k0) % step, chunk.num_samples, step)
+        t.append(chunk.t_s[rows])
+        pos.append(chunk.pos_n[rows])
+        C.append(chunk.C_nb[rows])
+    t_end = (stream.num_samples - 1) * stream.dt_s
+    pings = epoch_indices_between(config.dvl.rate_hz, t_end, stream.dt_s, stream.num_samples, 0,
+                                  stream.num_samples) * stream.dt_s
+    return {"t_s": np.concatenate(t), "pos_n": np.concatenate(pos), "C_nb": np.concatenate(C), "ping_t_s": pings,
+            "ping_available": config.dvl.scheduled_availability(pings)}
+
+
 def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_event: Any,
                progress_interval_s: float = 2.0) -> None:
     """Simulate, run all methods, stream results to ``queue`` (anything with ``put``); the run
@@ -104,13 +124,8 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
         if num_runs > 1:
             config = config.replace("initial_error", mode="random")
         rng = np.random.default_rng(config.run.seed)
-        sim = simulate(config, rng, num_runs)
         step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
-        truth = sim.truth
-        queue.put(("truth", {
-            "t_s": truth.t_s[::step], "pos_n": truth.pos_n[::step], "C_nb": truth.C_nb[::step],
-            "ping_t_s": sim.dvl.t_s, "ping_available": sim.dvl.available[:, 0, :],
-        }))
+        queue.put(("truth", truth_view(config, step)))
         last_sent = [0.0]
 
         def progress(t: float, res: dict[str, MethodResult]) -> None:
@@ -121,8 +136,8 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
                 queue.put(("progress", t, thin(res, PROGRESS_MAX_EPOCHS)))
                 last_sent[0] = now
 
-        results = run(config, sim, rng, progress=progress, progress_interval_s=progress_interval_s,
-                      should_stop=_throttled(stop_event.is_set, STOP_POLL_S))
+        results = run_streaming(config, rng, num_runs, progress=progress, progress_interval_s=progress_interval_s,
+                                should_stop=_throttled(stop_event.is_set, STOP_POLL_S))
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # the dashboard shows it; the server keeps serving
         queue.put(("error", failure_message(exc)))

@@ -6,7 +6,7 @@ import numpy as np
 
 from tauvcore.config import Config
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.eval.runner import MethodResult, run_streaming
 
 
 def monte_carlo(config: Config, num_runs: int, rng: np.random.Generator) -> dict[str, MethodResult]:
@@ -14,7 +14,7 @@ def monte_carlo(config: Config, num_runs: int, rng: np.random.Generator) -> dict
     if num_runs < 1:
         raise ValueError(f"num_runs must be >= 1, got {num_runs!r}")
     config = config.replace("initial_error", mode="random")
-    return run(config, simulate(config, rng, num_runs), rng)
+    return run_streaming(config, rng, num_runs)
 
 
 def rms_over_runs(series: np.ndarray) -> np.ndarray:

@@ -74,7 +74,9 @@ from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors import magnetometer as mag_sensor
 from tauvcore.sensors import pressure as pressure_sensor
+from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import Truth, generate
+from tauvcore.truth.kinematic import TruthStream
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -223,11 +225,18 @@ def _epoch_map(indices: np.ndarray) -> dict[int, int]:
 
 
 class _Recorder:
-    """Collects the updates of one source for one method."""
+    """Collects the updates of one source for one method. The full rows can be handed out chunk
+    by chunk (:meth:`drain`); what the divergence monitor needs (times, NIS, dof, fused, valid:
+    a few bytes per update and run) is kept for the whole mission."""
+
+    MONITOR = ("nis", "nis_dof", "fused", "valid")
 
     def __init__(self) -> None:
         self.t: list[float] = []
         self.rows: list[dict[str, np.ndarray]] = []
+        self.monitor_t: list[float] = []
+        self.monitor: dict[str, list[np.ndarray]] = {k: [] for k in self.MONITOR}
+        self.taken = 0      # rows already handed out (FilterBank.take with keep)
 
     def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray, **extra: np.ndarray) -> None:
         self.t.append(t)
@@ -235,157 +244,187 @@ class _Recorder:
                           "test_ratio": outcome.test_ratio, "fused": outcome.fused, "rejected": outcome.rejected,
                           "valid": valid, "fused_rows": outcome.fused_rows, "rejected_rows": outcome.rejected_rows,
                           "nis": outcome.nis, "nis_dof": outcome.nis_dof, "unusable": outcome.unusable, **extra})
+        self.monitor_t.append(t)
+        for k in self.MONITOR:
+            self.monitor[k].append(self.rows[-1][k])
 
-    def build(self) -> UpdateRecord:
-        keys = self.rows[0].keys()
-        return UpdateRecord(t_s=np.asarray(self.t), **{k: np.stack([r[k] for r in self.rows]) for k in keys})
+    def build(self, first: int = 0) -> UpdateRecord:
+        rows = self.rows[first:]
+        keys = rows[0].keys()
+        return UpdateRecord(t_s=np.asarray(self.t[first:]), **{k: np.stack([r[k] for r in rows]) for k in keys})
+
+    def drain(self) -> None:
+        self.t, self.rows = [], []
+
+    def divergence_s(self) -> np.ndarray:
+        """First flag of the innovation test over the whole mission so far (R,)."""
+        m = {k: np.stack(v) for k, v in self.monitor.items()}
+        return innovation_divergence_s(np.asarray(self.monitor_t), m["nis"], m["nis_dof"], m["fused"], m["valid"])
 
 
-def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.random.Generator],
-        progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None) -> dict[str, MethodResult]:
-    """Run every method of ``config.run.methods`` on the simulation; results keyed by method.
+@dataclass(frozen=True)
+class SimChunk:
+    """Samples ``k0 .. k0 + n - 1`` of a simulation: truth and IMU rows for those samples, the aiding
+    sensors' epochs among them (global sample indices), run axis after time."""
 
-    ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
-    with the results so far (for live displays); ``should_stop()`` is polled at every output
-    epoch (10 Hz of simulated time, a few milliseconds of wall time) and ends the run early,
-    returning the results up to that epoch.
+    k0: int
+    truth: Truth
+    imu: imu_sensor.ImuData
+    dvl: dvl_sensor.DvlData
+    pressure: pressure_sensor.PressureData
+    mag: mag_sensor.MagnetometerData
+
+    @classmethod
+    def whole(cls, sim: Simulation) -> SimChunk:
+        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag)
+
+
+DVL_ROWS = 4
+"""The widest DVL measurement (tightly coupled: one row per beam); narrower ones are padded with
+inactive rows so that one compiled correction fuses every DVL method of a ping."""
+
+
+class FilterBank:
+    """Every method of ``config.run.methods`` over R runs, fed a simulation chunk by chunk.
+
+    The (methods, runs) nominal states and covariances live in contiguous arrays that the
+    compiled kernels (tauvcore.filter.kernels) update in place; between two covariance or event
+    epochs the nominal state advances in one kernel call. The state carried from one chunk to the
+    next: the last raw IMU increments (coning/sculling and the ping's rate need their
+    predecessor), the gyro increments since the last covariance step, and the true DVL errors of
+    the latest ping (for the records). Results are kept (``keep``), or handed out chunk by chunk
+    (:meth:`take`) and dropped, so that memory does not grow with the mission.
     """
-    methods = tuple(config.run.methods)
-    truth, imu = sim.truth, sim.imu
-    M, R = len(methods), sim.num_runs
-    batch = (M, R)
-    dt = truth.dt_s
-    earth = config.earth
-    strapdown = Strapdown(earth, dt)
-    sd_consts = (dt, strapdown.C_earth, strapdown.C_earth_half, strapdown.g_n, strapdown.coriolis_T)
-    g_n, w_ie = np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n)
-    phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(imu.dtheta_b, imu.dv_b))  # (K, R, 3)
-    dtheta_b = np.ascontiguousarray(imu.dtheta_b)
-    q_psd = noise_psd(config.imu, config.dvl)
-    P0 = initial_covariance(config, truth.euler[0])
-    P = np.broadcast_to(P0, batch + P0.shape).copy()
-    # the (M, R) nominal states, contiguous so that the kernels update them in place
-    nom = _initial_nominal(config, truth, rng, batch, P0[STATE.att, STATE.att])
-    pos, vel, C = (np.array(a, dtype=float, order="C") for a in (nom.nav.pos_n, nom.nav.vel_n, nom.nav.C_nb))
-    ba, bg, bdvl = (np.array(a, dtype=float, order="C") for a in (nom.accel_bias, nom.gyro_bias, nom.dvl_bias))
-    sf = np.array(nom.dvl_sf, dtype=float, order="C")
-    flat = (pos.reshape(-1, 3), vel.reshape(-1, 3), C.reshape(-1, 3, 3), ba.reshape(-1, 3), bg.reshape(-1, 3),
-            bdvl.reshape(-1, 4), sf.reshape(-1))
 
-    def nominal(m: int | None = None) -> Nominal:
+    def __init__(self, config: Config, num_runs: int, num_samples: int, dt_s: float,
+                 rng: np.random.Generator | Sequence[np.random.Generator], keep: bool = True) -> None:
+        self.config, self.rng, self.keep = config, rng, keep
+        self.methods = methods = tuple(config.run.methods)
+        M, R = len(methods), num_runs
+        self.batch = (M, R)
+        self.num_samples, self.dt = num_samples, dt_s
+        earth = config.earth
+        strapdown = Strapdown(earth, dt_s)
+        self.sd_consts = (dt_s, strapdown.C_earth, strapdown.C_earth_half, strapdown.g_n, strapdown.coriolis_T)
+        self.g_n, self.w_ie = np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n)
+        self.q_psd = noise_psd(config.imu, config.dvl)
+        self.aiding = set(config.run.aiding)
+        gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
+        self.dvl_models = {
+            "lc": DvlLoose(config.dvl, earth, gyro_rate_noise),
+            "tc": DvlTight(config.dvl, earth, gyro_rate_noise),
+            **{m: DvlExtended(m, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
+                              config.nsv_epsilon_value_m2_per_s2()) for m in ELC_METHODS},
+        }
+        self.other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(self.batch, bool)
+        self.depth_model = Depth(config.pressure)
+        self.mag_model = MagAttitude(config.magnetometer)
+        self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION[m] is not None]
+        self.recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag") for m in range(M)}
+        out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
+        self.out_idx = np.arange(0, num_samples, out_step)
+        self.cov_step = max(1, int(round(config.imu.rate_hz / config.filter.covariance_rate_hz)))
+        self.check_step = max(1, int(round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ)))
+        self.block_of_state = np.full(STATE.dim, -1)
+        for b, ix in enumerate(NEES_BLOCKS.values()):
+            self.block_of_state[list(ix)] = b
+        self.gate = config.filter.gate_sigma
+        self.p_floor_count = np.zeros(self.batch, dtype=int)
+        self.nonfinite_at_s = np.full(self.batch, np.nan)   # first output epoch with a non-finite state or P
+        self.implausible_at_s = np.full(self.batch, np.nan)  # first aiding epoch with a sensor error outside its prior
+        self.slot = 0                   # output epochs recorded so far
+        self.taken = 0                  # output epochs handed out by take()
+        self.stored: list[dict[str, np.ndarray]] = []   # recorded output epochs, chunk by chunk
+        self.started = False
+        self.stopped = False
+
+    # ------------------------------------------------------------------ set-up at the first chunk
+    def _start(self, chunk: SimChunk) -> None:
+        config, truth = self.config, chunk.truth
+        self.P0 = P0 = initial_covariance(config, truth.euler[0])
+        self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
+        nom = _initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
+        arrays = [np.array(a, dtype=float, order="C") for a in (nom.nav.pos_n, nom.nav.vel_n, nom.nav.C_nb,
+                                                                nom.accel_bias, nom.gyro_bias, nom.dvl_bias,
+                                                                nom.dvl_sf)]
+        self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf = arrays
+        self.flat = (self.pos.reshape(-1, 3), self.vel.reshape(-1, 3), self.C.reshape(-1, 3, 3),
+                     self.ba.reshape(-1, 3), self.bg.reshape(-1, 3), self.bdvl.reshape(-1, 4), self.sf.reshape(-1))
+        sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
+        self.prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
+        self.prior_rate = np.concatenate([self.q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)])
+        R = self.batch[1]
+        # true DVL errors at a sample: those of the latest ping (the first ping's before it; zero without pings)
+        dvl = chunk.dvl
+        self.ping_bias = np.array(dvl.bias_mps[0] if len(dvl.index) else np.zeros((R, 4)), dtype=float)
+        self.ping_sf = np.array(dvl.scale_factor[0] if len(dvl.index) else np.zeros(R), dtype=float)
+        self.prev_raw: tuple[np.ndarray, np.ndarray] | None = None   # raw increments of the sample before a chunk
+        self.k_state = 0                # sample the nominal state is at
+        self.k_cov = 0                  # sample the covariance was last propagated to
+        self.k_checked = 0              # sample P was last checked (positive definite) at
+        self.dtheta_sum = np.zeros((R, 3))   # gyro increments since k_cov
+        self.started = True
+
+    def nominal(self, m: int | None = None) -> Nominal:
         """The current estimate (views): of method m, or of the whole bank."""
         sel = slice(None) if m is None else m
-        return Nominal(NavState(pos[sel], vel[sel], C[sel]), ba[sel], bg[sel], bdvl[sel], sf[sel])
+        return Nominal(NavState(self.pos[sel], self.vel[sel], self.C[sel]), self.ba[sel], self.bg[sel],
+                       self.bdvl[sel], self.sf[sel])
 
-    aiding = set(config.run.aiding)
-    gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt) * np.sqrt(2.5)
-    dvl_models = {
-        "lc": DvlLoose(config.dvl, earth, gyro_rate_noise),
-        "tc": DvlTight(config.dvl, earth, gyro_rate_noise),
-        **{m: DvlExtended(m, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
-                          config.nsv_epsilon_value_m2_per_s2()) for m in ELC_METHODS},
-    }
-    other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(batch, bool)
-    depth_model = Depth(config.pressure)
-    mag_model = MagAttitude(config.magnetometer)
-    dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION[m] is not None]
-    dvl_at = _epoch_map(sim.dvl.index) if "dvl" in aiding and dvl_methods else {}
-    depth_at = _epoch_map(sim.pressure.index) if "depth" in aiding and other_mask.any() else {}
-    mag_at = _epoch_map(sim.mag.index) if "mag" in aiding and other_mask.any() else {}
-    recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag") for m in range(M)}
-
-    out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
-    out_idx = np.arange(0, truth.num_samples, out_step)
-    T = out_idx.size
-    series_all = np.zeros((len(kernels.SERIES_NAMES), T, M, R))
-    series = dict(zip(kernels.SERIES_NAMES, series_all))
-    nees_block = np.zeros((T, M, R, len(NEES_BLOCKS)))
-    block_of_state = np.full(STATE.dim, -1)
-    for b, ix in enumerate(NEES_BLOCKS.values()):
-        block_of_state[list(ix)] = b
-    est_pos_n = np.zeros((T, M, R, 3))
-    # true DVL errors at a sample: those of the latest ping (the first before it; zero without pings)
-    dvl_ping_of_sample = np.clip(np.searchsorted(sim.dvl.index, np.arange(truth.num_samples), side="right") - 1,
-                                 0, max(len(sim.dvl.index) - 1, 0))
-    dvl_bias_true = sim.dvl.bias_mps if len(sim.dvl.index) else np.zeros((1, R, 4))
-    dvl_sf_true = sim.dvl.scale_factor if len(sim.dvl.index) else np.zeros((1, R))
-    gate = config.filter.gate_sigma
-    p_floor_count = np.zeros(batch, dtype=int)
-    nonfinite_at_s = np.full(batch, np.nan)   # first output epoch with a non-finite state or P
-    implausible_at_s = np.full(batch, np.nan)  # first output epoch with a sensor error outside its prior
-    sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
-    prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
-    prior_rate = np.concatenate([q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)])
-
-    def condition() -> None:
+    # ------------------------------------------------------------------ the pieces of an epoch
+    def _condition(self) -> None:
         """Keep every P positive definite (one compiled Cholesky per filter; numpy repair if one fails)."""
-        ok = kernels.positive_definite_bank(P)
+        ok = kernels.positive_definite_bank(self.P)
         if not ok.all():
-            P_new, repaired = condition_covariance(P)
-            P[...] = P_new
-            p_floor_count[...] += repaired
+            P_new, repaired = condition_covariance(self.P)
+            self.P[...] = P_new
+            self.p_floor_count[...] += repaired
 
-    def record(slot: int, k: int) -> None:
-        p = int(dvl_ping_of_sample[k])
-        kernels.record_bank(slot, float(truth.t_s[k]), truth.pos_n[k], truth.vel_n[k], truth.C_nb[k],
-                            np.ascontiguousarray(imu.accel_bias[k]), np.ascontiguousarray(imu.gyro_bias[k]),
-                            np.ascontiguousarray(dvl_bias_true[p]), np.ascontiguousarray(dvl_sf_true[p]),
-                            pos, vel, C, ba, bg, bdvl, sf, P, block_of_state, len(NEES_BLOCKS), units.DEG,
-                            series_all, nees_block, est_pos_n, nonfinite_at_s)
-
-    def check_sensor_errors(t: float) -> None:
+    def _check_sensor_errors(self, t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
-        sensor_est = np.concatenate((ba, bg, bdvl, sf[..., None]), axis=-1)
-        wild = implausible_sensor_errors(sensor_est, prior_var0 + prior_rate * t)
-        implausible_at_s[wild & np.isnan(implausible_at_s)] = t
+        sensor_est = np.concatenate((self.ba, self.bg, self.bdvl, self.sf[..., None]), axis=-1)
+        wild = implausible_sensor_errors(sensor_est, self.prior_var0 + self.prior_rate * t)
+        self.implausible_at_s[wild & np.isnan(self.implausible_at_s)] = t
 
-    def fuse(H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
-             ) -> tuple[np.ndarray, ...]:
+    def _fuse(self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
+              ) -> tuple[np.ndarray, ...]:
         """One compiled gated correction and injection of the whole bank in place (inactive rows
         and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...)."""
-        fused = fuse_in_place(P.reshape(-1, STATE.dim, STATE.dim), flat, H, Rm, nu, active, gate_rows.reshape(-1),
-                              gate)
-        return tuple(a.reshape(batch + a.shape[1:]) for a in fused)
+        fused = fuse_in_place(self.P.reshape(-1, STATE.dim, STATE.dim), self.flat, H, Rm, nu, active,
+                              gate_rows.reshape(-1), self.gate)
+        return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
 
-    def outcome_of(z: np.ndarray, nu: np.ndarray, active: np.ndarray, fused: tuple[np.ndarray, ...]
-                   ) -> UpdateOutcome:
-        return make_outcome(z, nu, active, *fused)
-
-    def update_all(source: str, meas: Measurement, t: float) -> None:
+    def _update_all(self, source: str, meas: Measurement, t: float) -> None:
         """A source every aided method takes (depth, magnetometer): one batched correction."""
-        valid = meas.valid & other_mask
+        valid = meas.valid & self.other_mask
         m_rows = meas.R.shape[-1]
-        active = np.ones(batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
+        active = np.ones(self.batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
         active = active & valid[..., None]
-        fused = fuse(meas.H, meas.R, meas.innovation, active, np.full(batch, meas.gate_rows))
-        outcome = outcome_of(meas.z, meas.innovation, active, fused)
-        for m in range(M):
-            if other_mask[m].any():
+        fused = self._fuse(meas.H, meas.R, meas.innovation, active, np.full(self.batch, meas.gate_rows))
+        outcome = make_outcome(meas.z, meas.innovation, active, *fused)
+        for m in range(self.batch[0]):
+            if self.other_mask[m].any():
                 part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
-                recorders[(source, m)].add(t, part, meas.valid[m] & other_mask[m])
+                self.recorders[(source, m)].add(t, part, meas.valid[m] & self.other_mask[m])
 
-    DVL_ROWS = 4   # the widest DVL measurement (tightly coupled: one row per beam); narrower ones padded
-
-    def update_dvl(i: int, k: int, t: float) -> None:
+    def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> None:
         """Every DVL-aided method measures the ping its own way (lc, tc, or an ELC method); one
         compiled correction then fuses them all."""
-        y, available = sim.dvl.y_beam_mps[i], sim.dvl.available[i]
-        omega_meas = (3.0 * dtheta_b[k] - dtheta_b[k - 1]) / (2.0 * dt)  # rate at t_k, 2nd order
+        batch, R = self.batch, self.batch[1]
         H = np.zeros(batch + (DVL_ROWS, STATE.dim))
         Rm = np.zeros(batch + (DVL_ROWS, DVL_ROWS))
         nu = np.zeros(batch + (DVL_ROWS,))
         active = np.zeros(batch + (DVL_ROWS,), bool)
         gate_rows = np.zeros(batch, bool)
         taken = []
-        for m, method in dvl_methods:
-            part = nominal(m)
+        for m, method in self.dvl_methods:
+            part = self.nominal(m)
             kind = DVL_FUSION[method]
             if kind == "elc":
-                meas, info = dvl_models[method].measure(part, P[m][..., STATE.vel, STATE.vel], y, available,
-                                                        omega_meas)
+                meas, info = self.dvl_models[method].measure(part, self.P[m][..., STATE.vel, STATE.vel], y, available,
+                                                             omega_meas)
             else:
-                meas = dvl_models[kind].measure(part, y, available, omega_meas)
+                meas = self.dvl_models[kind].measure(part, y, available, omega_meas)
                 code = MODE_LC if kind == "lc" else MODE_TC
                 info = DvlInfo(mode=np.where(meas.valid, code, MODE_COAST),
                                measured_axes=np.broadcast_to(meas.valid[:, None] & (kind == "lc"), (R, 3)),
@@ -397,86 +436,264 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
             active[m, :, :rows] = act & meas.valid[:, None]
             gate_rows[m] = meas.gate_rows
             taken.append((m, meas, info, rows))
-        fused = fuse(H, Rm, nu, active, gate_rows)
+        fused = self._fuse(H, Rm, nu, active, gate_rows)
         for m, meas, info, rows in taken:
             s_diag, keep, nis, ratio, unusable = (a[m] for a in fused)
-            act = active[m, :, :rows]
-            outcome = outcome_of(meas.z, meas.innovation, act, (s_diag[:, :rows], keep[:, :rows], nis, ratio, unusable))
-            recorders[("dvl", m)].add(t, outcome, meas.valid, beams_available=available, mode=info.mode,
-                                      measured_axes=info.measured_axes, elc_choice=info.elc_choice)
+            outcome = make_outcome(meas.z, meas.innovation, active[m, :, :rows], s_diag[:, :rows], keep[:, :rows],
+                                   nis, ratio, unusable)
+            self.recorders[("dvl", m)].add(t, outcome, meas.valid, beams_available=available, mode=info.mode,
+                                           measured_axes=info.measured_axes, elc_choice=info.elc_choice)
 
-    cov_step = max(1, int(round(config.imu.rate_hz / config.filter.covariance_rate_hz)))
-    events = np.zeros(truth.num_samples, dtype=bool)
-    for keys in (dvl_at, depth_at, mag_at):
-        events[list(keys)] = True
-    events[out_idx] = True
-    check_step = max(1, int(round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ)))
+    def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
+        truth, imu = chunk.truth, chunk.imu
+        kernels.record_bank(row, float(truth.t_s[i]), truth.pos_n[i], truth.vel_n[i], truth.C_nb[i],
+                            np.ascontiguousarray(imu.accel_bias[i]), np.ascontiguousarray(imu.gyro_bias[i]),
+                            self.ping_bias, self.ping_sf, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl,
+                            self.sf, self.P, self.block_of_state, len(NEES_BLOCKS), units.DEG, out["series"],
+                            out["nees_block"], out["est_pos_n"], self.nonfinite_at_s)
+        out["t_s"][row] = truth.t_s[i]
+        self.slot += 1
 
-    def results_upto(n: int) -> dict[str, MethodResult]:
+    # ------------------------------------------------------------------ the chunk loop
+    def feed(self, chunk: SimChunk,
+             progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
+             should_stop: Callable[[], bool] | None = None) -> bool:
+        """Run the bank over one chunk (chunks in order, the first at sample 0). Returns False once
+        ``should_stop()`` said so (at an output epoch); the results then end at that epoch."""
+        if self.stopped:
+            return False
+        if not self.started:
+            if chunk.k0 != 0:
+                raise ValueError(f"the first chunk must start at sample 0, got {chunk.k0}")
+            self._start(chunk)
+        k0, n = chunk.k0, chunk.truth.num_samples
+        if k0 != (0 if self.prev_raw is None else self.k_state + 1):
+            raise ValueError(f"chunks must follow each other: expected one at sample {self.k_state + 1}, got {k0}")
+        k1 = k0 + n
+        imu, dt = chunk.imu, self.dt
+        dtheta = np.ascontiguousarray(imu.dtheta_b)
+        phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(dtheta, imu.dv_b, self.prev_raw))
+        prev_dtheta = self.prev_raw[0] if self.prev_raw is not None else None
+        self.prev_raw = (dtheta[-1].copy(), np.array(imu.dv_b[-1]))
+        aiding = self.aiding
+        dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
+        depth_at = _epoch_map(chunk.pressure.index) if "depth" in aiding and self.other_mask.any() else {}
+        mag_at = _epoch_map(chunk.mag.index) if "mag" in aiding and self.other_mask.any() else {}
+        outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k1)]
+        out = {"series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
+               "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
+               "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)), "t_s": np.zeros(outs.size)}
+        out_row = {int(k): r for r, k in enumerate(outs)}
+        ping_rows = np.asarray(chunk.dvl.index)
+        rows_recorded = 0
+        if k0 == 0 and 0 in out_row:
+            self._record(out, 0, chunk, 0)
+            rows_recorded = 1
+        events = np.zeros(n, dtype=bool)
+        for keys in (dvl_at, depth_at, mag_at):
+            events[[k - k0 for k in keys]] = True
+        events[outs - k0] = True
+        progress_every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
+
+        def flush() -> None:
+            self.stored.append({name: a[:rows_recorded] if name != "series" else a[:, :rows_recorded]
+                                for name, a in out.items()})
+
+        for k in covariance_stops(np.flatnonzero(events) + k0, self.k_cov, k1, self.cov_step):
+            i = k - k0
+            kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta, self.dtheta_sum,
+                            self.k_state - k0, i, *self.sd_consts)
+            self.k_state = k
+            dt_c = (k - self.k_cov) * dt
+            kernels.propagate_bank(self.P, self.C, self.vel, self.bg, self.dtheta_sum, dt_c, self.g_n, self.w_ie,
+                                   self.q_psd)
+            self.dtheta_sum[:] = 0.0
+            if k - self.k_checked >= self.check_step:
+                self._condition()
+                self.k_checked = k
+            self.k_cov = k
+            if not events[i]:
+                continue
+            t = float(chunk.truth.t_s[i])
+            if k in dvl_at:
+                p = dvl_at[k]
+                before = dtheta[i - 1] if i > 0 else prev_dtheta
+                omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
+                self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
+            if k in depth_at:
+                self._update_all("depth", self.depth_model.measure(self.nominal(), chunk.pressure.depth_m[depth_at[k]]),
+                                 t)
+            if k in mag_at:
+                self._update_all("mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t)
+            if k in dvl_at or k in depth_at or k in mag_at:
+                self._condition()
+                self.k_checked = k
+                self._check_sensor_errors(t)
+            if k in out_row:
+                latest = np.searchsorted(ping_rows, k, side="right") - 1
+                if latest >= 0:
+                    self.ping_bias[...] = chunk.dvl.bias_mps[latest]
+                    self.ping_sf[...] = chunk.dvl.scale_factor[latest]
+                self._record(out, out_row[k], chunk, i)
+                rows_recorded += 1
+                if should_stop is not None and should_stop():
+                    self.stopped = True
+                    flush()
+                    return False
+                if progress is not None and self.slot % progress_every == 0 and self.slot < self.out_idx.size:
+                    flush()
+                    progress(t, self.results())
+                    self.stored.pop()
+        # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
+        kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta, self.dtheta_sum,
+                        self.k_state - k0, n - 1, *self.sd_consts)
+        self.k_state = k1 - 1
+        if len(ping_rows):
+            self.ping_bias[...] = chunk.dvl.bias_mps[-1]
+            self.ping_sf[...] = chunk.dvl.scale_factor[-1]
+        flush()
+        return True
+
+    # ------------------------------------------------------------------ results
+    def _results(self, stored: list[dict[str, np.ndarray]], first_update: dict[tuple[str, int], int]
+                 ) -> dict[str, MethodResult]:
+        if stored:
+            t_s = np.concatenate([c["t_s"] for c in stored])
+            series_all = np.concatenate([c["series"] for c in stored], axis=1)
+            nees_block = np.concatenate([c["nees_block"] for c in stored])
+            est_pos_n = np.concatenate([c["est_pos_n"] for c in stored])
+        else:
+            t_s, series_all = np.zeros(0), np.zeros((len(kernels.SERIES_NAMES), 0) + self.batch)
+            nees_block, est_pos_n = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),)), np.zeros((0,) + self.batch + (3,))
+        series = dict(zip(kernels.SERIES_NAMES, series_all))
         out = {}
-        for m, method in enumerate(methods):
-            updates = {src: rec.build() for (src, mm), rec in recorders.items() if mm == m and rec.rows}
-            flagged = [nonfinite_at_s[m], implausible_at_s[m]] + [
-                innovation_divergence_s(u.t_s, u.nis, u.nis_dof, u.fused, u.valid) for u in updates.values()]
+        for m, method in enumerate(self.methods):
+            recs = {src: rec for (src, mm), rec in self.recorders.items() if mm == m and rec.monitor_t}
+            updates = {src: rec.build(first_update.get((src, m), 0)) for src, rec in recs.items()
+                       if len(rec.rows) > first_update.get((src, m), 0)}
+            flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [rec.divergence_s() for rec in recs.values()]
             diverged_at = np.fmin.reduce(np.stack(flagged), axis=0)
             out[method] = MethodResult(
-                method=method, t_s=truth.t_s[out_idx[:n]],
-                vel_err_mps=series["vel_err"][:n, m], att_err_deg=series["att_err"][:n, m],
-                pos_err_m=series["pos_err"][:n, m], vel_sigma_mps=series["vel_sigma"][:n, m],
-                att_sigma_deg=series["att_sigma"][:n, m], pos_sigma_m=series["pos_sigma"][:n, m],
-                nees=series["nees"][:n, m], est_pos_n=est_pos_n[:n, m],
-                tilt_err_deg=series["tilt_err"][:n, m], heading_err_deg=series["heading_err"][:n, m],
-                tilt_sigma_deg=series["tilt_sigma"][:n, m], heading_sigma_deg=series["heading_sigma"][:n, m],
-                nees_block=nees_block[:n, m],
+                method=method, t_s=t_s,
+                vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m],
+                pos_err_m=series["pos_err"][:, m], vel_sigma_mps=series["vel_sigma"][:, m],
+                att_sigma_deg=series["att_sigma"][:, m], pos_sigma_m=series["pos_sigma"][:, m],
+                nees=series["nees"][:, m], est_pos_n=est_pos_n[:, m],
+                tilt_err_deg=series["tilt_err"][:, m], heading_err_deg=series["heading_err"][:, m],
+                tilt_sigma_deg=series["tilt_sigma"][:, m], heading_sigma_deg=series["heading_sigma"][:, m],
+                nees_block=nees_block[:, m],
                 diverged=~np.isnan(diverged_at), diverged_at_s=diverged_at,
-                p_floor_count=p_floor_count[m].copy(), updates=updates)
+                p_floor_count=self.p_floor_count[m].copy(), updates=updates)
         return out
 
-    progress_every = max(1, int(round(progress_interval_s * config.filter.output_rate_hz)))
-    record(0, 0)
-    slot = 1
-    k_cov = 0                       # sample the covariance was last propagated to (and the state advanced to)
-    k_checked = 0                   # sample P was last checked (positive definite) at
-    for k in covariance_stops(np.flatnonzero(events), truth.num_samples, cov_step):
-        kernels.advance(pos, vel, C, ba, bg, phi_raw, dv_raw, k_cov, k, *sd_consts)
-        dt_c = (k - k_cov) * dt
-        dtheta_sum = dtheta_b[k_cov + 1:k + 1].sum(axis=0)
-        kernels.propagate_bank(P, C, vel, bg, dtheta_sum, dt_c, g_n, w_ie, q_psd)
-        if k - k_checked >= check_step:
-            condition()
-            k_checked = k
-        k_cov = k
-        if not events[k]:
-            continue
-        t = float(truth.t_s[k])
-        if k in dvl_at:
-            update_dvl(dvl_at[k], k, t)
-        if k in depth_at:
-            update_all("depth", depth_model.measure(nominal(), sim.pressure.depth_m[depth_at[k]]), t)
-        if k in mag_at:
-            update_all("mag", mag_model.measure(nominal(), sim.mag.euler[mag_at[k]]), t)
-        if k in dvl_at or k in depth_at or k in mag_at:
-            condition()
-            k_checked = k
-            check_sensor_errors(t)
-        if slot < T and k == out_idx[slot]:
-            record(slot, k)
-            slot += 1
-            if should_stop is not None and should_stop():
-                break
-            if progress is not None and slot % progress_every == 0 and slot < T:
-                progress(t, results_upto(slot))
-    return results_upto(slot)
+    def results(self) -> dict[str, MethodResult]:
+        """Every output epoch and update kept so far (all of them unless ``keep`` is False)."""
+        return self._results(self.stored, {})
+
+    def take(self) -> dict[str, MethodResult]:
+        """The output epochs and updates since the last :meth:`take` (the monitor's verdict is the
+        whole mission's so far); without ``keep`` they are dropped from the bank."""
+        if self.keep:
+            new, seen = [], 0
+            for c in self.stored:
+                size = c["t_s"].size
+                if seen + size > self.taken:
+                    lo = max(0, self.taken - seen)
+                    new.append({k: (v[:, lo:] if k == "series" else v[lo:]) for k, v in c.items()})
+                seen += size
+            result = self._results(new, {key: rec.taken for key, rec in self.recorders.items()})
+            for rec in self.recorders.values():
+                rec.taken = len(rec.rows)
+            self.taken = seen
+            return result
+        result = self._results(self.stored, {})
+        self.stored = []
+        for rec in self.recorders.values():
+            rec.drain()
+        return result
 
 
-def covariance_stops(event_idx: np.ndarray, num_samples: int, cov_step: int) -> list[int]:
-    """Samples at which the covariance is propagated (and the nominal state stops): every event
-    (aiding or output epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
+def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.random.Generator],
+        progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
+        should_stop: Callable[[], bool] | None = None) -> dict[str, MethodResult]:
+    """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
+
+    ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
+    with the results so far (for live displays); ``should_stop()`` is polled at every output
+    epoch (10 Hz of simulated time, a few milliseconds of wall time) and ends the run early,
+    returning the results up to that epoch. :func:`run_streaming` does the same without holding
+    the whole simulation.
+    """
+    bank = FilterBank(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
+    bank.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
+    return bank.results()
+
+
+def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
+    """Samples in ``(k_cov, k_end)`` at which the covariance is propagated (and the nominal state
+    stops), the covariance having been propagated last at ``k_cov``: every event (aiding or output
+    epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
     stops: list[int] = []
-    prev = 0
-    for e in [int(e) for e in event_idx if e > 0] + [num_samples]:
+    prev = k_cov
+    for e in [int(e) for e in event_idx if e > k_cov] + [k_end]:
         stops.extend(range(prev + cov_step, e, cov_step))
-        if e < num_samples:
+        if e < k_end:
             stops.append(e)
         prev = e
     return stops
+
+
+STREAM_CHUNK_S = 10.0
+"""Seconds of mission :func:`run_streaming` generates and filters at a time (1,500 IMU samples at
+150 Hz): memory then holds one chunk of truth and sensors, whatever the mission's length."""
+
+
+def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.Generator], num_runs: int = 1,
+                  chunk_s: float = STREAM_CHUNK_S, on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
+                  keep: bool = True, progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+                  progress_interval_s: float = 5.0, should_stop: Callable[[], bool] | None = None
+                  ) -> dict[str, MethodResult]:
+    """Simulate and run chunk by chunk: truth (tauvcore.truth.kinematic.TruthStream) and sensors
+    (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
+    :class:`FilterBank`, so memory does not depend on the mission's length.
+
+    ``rng``: one generator for the batch of ``num_runs`` runs, or one per run (a study's runs,
+    tauvcore.eval.study). Each is split into independent named streams
+    (:meth:`~tauvcore.sensors.stream.SensorStreams.spawned`: the IMU's, the DVL's, ..., the
+    initial errors'), so the numbers do not depend on ``chunk_s`` (tests/unit/test_stream_engine.py);
+    they differ from :func:`simulate` + :func:`run`, which draw everything from one stream.
+    ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
+    verdict so far); with ``keep`` False they are not kept and the return value holds only the
+    last chunk's. ``progress`` and ``should_stop`` as in :func:`run`.
+    """
+    per_run = not isinstance(rng, np.random.Generator)
+    if per_run:
+        rngs = list(rng)
+        if len(rngs) != num_runs:
+            raise ValueError(f"one generator per run expected ({num_runs}), got {len(rngs)}")
+        streams: SensorStreams | list[SensorStreams] = [SensorStreams.spawned(g) for g in rngs]
+        initial: np.random.Generator | list[np.random.Generator] = [s.initial for s in streams]
+    else:
+        streams = SensorStreams.spawned(rng)
+        initial = streams.initial
+    ideal = config.run.ideal
+    rate = config.imu.rate_hz
+    # the first chunk holds the first DVL ping: the records before it use that ping's true errors
+    chunk_samples = max(2, int(round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate)))
+    truth_stream = TruthStream(config.trajectory, config.earth, rate, chunk_samples)
+    sensors = SensorStream(config.imu.ideal() if ideal else config.imu, config.dvl.ideal() if ideal else config.dvl,
+                           config.pressure.ideal() if ideal else config.pressure,
+                           config.magnetometer.ideal() if ideal else config.magnetometer,
+                           streams, num_runs, truth_stream.num_samples, truth_stream.dt_s)
+    bank = FilterBank(config, num_runs, truth_stream.num_samples, truth_stream.dt_s, initial, keep=keep)
+    last: dict[str, MethodResult] = {}
+    for k0, truth in truth_stream:
+        imu, dvl, pressure, mag = sensors.next_chunk(k0, truth)
+        going = bank.feed(SimChunk(k0, truth, imu, dvl, pressure, mag), progress, progress_interval_s, should_stop)
+        if on_chunk is not None or not keep:
+            last = bank.take()
+            if on_chunk is not None:
+                on_chunk(last)
+        if not going:
+            break
+    return bank.results() if keep else last

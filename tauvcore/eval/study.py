@@ -2,12 +2,13 @@
 identical whatever the split (issue 9).
 
 Run ``i`` of a study with seed ``s`` draws everything random (IMU, DVL, pressure and magnetometer
-errors, then its initial errors) from ``numpy.random.default_rng(SeedSequence(s, spawn_key=(i,)))``
-(:func:`run_rng`), the i-th child of the study's seed sequence. A chunk of runs ``[first, first +
-count)`` is one batch of the filter bank (:func:`run_chunk`); every method of a run sees the same
-sensor data. Since nothing in a run depends on the others, the study's numbers do not depend on
-how its runs are chunked, on how many workers compute them, or where (local processes, Dask):
-tests/unit/test_study.py checks it.
+errors, its initial errors) from independent streams spawned from
+``numpy.random.default_rng(SeedSequence(s, spawn_key=(i,)))`` (:func:`run_rng`, the i-th child of the
+study's seed sequence; tauvcore.sensors.stream.SensorStreams.spawned). A chunk of runs ``[first, first +
+count)`` is one batch of the filter bank (:func:`run_chunk`), truth and sensors streamed a few
+seconds at a time; every method of a run sees the same sensor data. Since nothing in a run
+depends on the others, the study's numbers do not depend on how its runs are chunked, on how many
+workers compute them, or where (local processes, Dask): tests/unit/test_study.py checks it.
 
 A finished chunk is reduced at once (:class:`StudyAccumulator`): per method and output epoch the
 sums that the RMS over runs, the mean NEES and the consistency summary need, so the study's memory
@@ -24,9 +25,8 @@ import numpy as np
 
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS, nees_band
-from tauvcore.eval.runner import MethodResult, Simulation, run, simulate
+from tauvcore.eval.runner import MethodResult, run_streaming
 from tauvcore.filter.layout import NEES_BLOCKS
-from tauvcore.truth import generate
 
 ERROR_SERIES = ("pos_err_m", "vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg")
 """Per-run error series a study keeps (norms, with the attitude split into tilt and heading)."""
@@ -53,33 +53,12 @@ def study_config(config: Config) -> Config:
     return config.replace("initial_error", mode="random")
 
 
-def _stack(parts: list) -> object:
-    """Concatenate sensor records along their run axis (axis 1); ``t_s`` and ``index`` are shared."""
-    first = parts[0]
-    fields = {}
-    for f in first.__dataclass_fields__:
-        values = [getattr(p, f) for p in parts]
-        fields[f] = values[0] if f in ("t_s", "index") else np.concatenate(values, axis=1)
-    return type(first)(**fields)
-
-
-def simulate_chunk(config: Config, seed: int, first: int, count: int) -> tuple[Simulation, list[np.random.Generator]]:
-    """Truth once, then each run's sensors from its own generator, stacked along the run axis.
-    Returns the generators too: each run's initial errors come next from the same stream."""
-    config = study_config(config)
-    truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    rngs = [run_rng(seed, i) for i in range(first, first + count)]
-    parts = [simulate(config, g, 1, truth=truth) for g in rngs]
-    sim = Simulation(truth=truth, imu=_stack([p.imu for p in parts]), dvl=_stack([p.dvl for p in parts]),
-                     pressure=_stack([p.pressure for p in parts]), mag=_stack([p.mag for p in parts]),
-                     num_runs=count)
-    return sim, rngs
-
-
 def run_chunk(config: Config, seed: int, first: int, count: int) -> dict[str, MethodResult]:
-    """Runs ``first .. first + count - 1`` of the study, every method of ``config.run.methods``."""
-    sim, rngs = simulate_chunk(config, seed, first, count)
-    return run(study_config(config), sim, rngs)
+    """Runs ``first .. first + count - 1`` of the study, every method of ``config.run.methods``:
+    one batch of the filter bank, truth and sensors streamed (:func:`~tauvcore.eval.runner.run_streaming`),
+    each run drawing from its own generator (:func:`run_rng`)."""
+    rngs = [run_rng(seed, i) for i in range(first, first + count)]
+    return run_streaming(study_config(config), rngs, num_runs=count)
 
 
 @dataclass(frozen=True)

@@ -152,13 +152,20 @@ def strapdown_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi: np.nda
 
 @_jit
 def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
-            phi_raw: np.ndarray, dv_raw: np.ndarray, k_from: int, k_to: int, dt: float, C_earth: np.ndarray,
-            C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray) -> None:
+            phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta_raw: np.ndarray, dtheta_sum: np.ndarray, k_from: int,
+            k_to: int, dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray,
+            coriolis_T: np.ndarray) -> None:
     """Advance the (M, R) nominal states over samples ``k_from + 1 .. k_to`` of the compensated
-    increments ``phi_raw``, ``dv_raw`` (K, R, 3), each corrected by its own bias estimate."""
+    increments ``phi_raw``, ``dv_raw`` (K, R, 3), each corrected by its own bias estimate, and add
+    the raw gyro increments ``dtheta_raw`` (K, R, 3) of those samples to ``dtheta_sum`` (R, 3) one
+    by one (the same sum however the samples are split between calls)."""
     E = np.empty((3, 3))
     tmp = np.empty((3, 3))
     dv = np.empty(3)
+    for r in range(pos.shape[1]):
+        for k in range(k_from + 1, k_to + 1):
+            for i in range(3):
+                dtheta_sum[r, i] += dtheta_raw[k, r, i]
     for m in range(pos.shape[0]):
         for r in range(pos.shape[1]):
             for k in range(k_from + 1, k_to + 1):

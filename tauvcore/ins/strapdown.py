@@ -54,17 +54,25 @@ class NavState:
         return mv(np.swapaxes(self.C_nb, -1, -2), self.vel_n)
 
 
-def body_increments(dtheta_b: np.ndarray, dv_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Coning- and sculling-compensated increments for every interval of a run.
+def body_increments(dtheta_b: np.ndarray, dv_b: np.ndarray,
+                    previous: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Coning- and sculling-compensated increments for every interval of a run (or of a chunk).
 
-    dtheta_b, dv_b: (K, ..., 3) raw increments, row k over (t_k-1, t_k], row 0 unused.
+    dtheta_b, dv_b: (K, ..., 3) raw increments, row k over (t_k-1, t_k]. Without ``previous`` the
+    rows are a mission's from its start: row 0 is unused and the first interval (row 1) has no
+    predecessor, so its corrections use zero. With ``previous`` = the raw increments (..., 3) of
+    the interval before row 0 (a chunk of a longer mission), every row has its predecessor.
     Returns ``phi`` (rotation vector) and ``dv_rot`` (velocity increment in the b frame at
-    t_k-1), each (K, ..., 3). The first interval has no predecessor: its corrections use zero.
+    t_k-1), each (K, ..., 3).
     """
-    prev_th = np.concatenate([np.zeros_like(dtheta_b[:1]), dtheta_b[:-1]])
-    prev_dv = np.concatenate([np.zeros_like(dv_b[:1]), dv_b[:-1]])
-    prev_th[1] = 0.0
-    prev_dv[1] = 0.0
+    if previous is None:
+        prev_th = np.concatenate([np.zeros_like(dtheta_b[:1]), dtheta_b[:-1]])
+        prev_dv = np.concatenate([np.zeros_like(dv_b[:1]), dv_b[:-1]])
+        prev_th[1:2] = 0.0
+        prev_dv[1:2] = 0.0
+    else:
+        prev_th = np.concatenate([np.asarray(previous[0])[None], dtheta_b[:-1]])
+        prev_dv = np.concatenate([np.asarray(previous[1])[None], dv_b[:-1]])
     phi = dtheta_b + np.cross(prev_th, dtheta_b) / 12.0
     dv_rot = dv_b + 0.5 * np.cross(dtheta_b, dv_b) + (np.cross(prev_th, dv_b) + np.cross(prev_dv, dtheta_b)) / 12.0
     return phi, dv_rot

@@ -16,7 +16,7 @@ import pytest
 from app.cli import _cell, build_parser, main, resolve_config
 from tauvcore.config import METHODS, Config, from_dict
 from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency
-from tauvcore.eval.runner import run, simulate
+from tauvcore.eval.runner import run_streaming
 from tauvcore.sensors.dvl import Outage
 
 SPLIT_AND_NEES_KEYS = ("tilt_err_deg", "heading_err_deg", "tilt_sigma_deg", "heading_sigma_deg", "nees", "nees_pos",
@@ -313,7 +313,7 @@ def test_json_naming_the_config_file_is_refused_before_running(capsys, tmp_path,
     elif link == "hardlink":
         os.link(config, target)
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("tauvcore.eval.runner.run", lambda *a, **k: pytest.fail("ran before refusing --json"))
+    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", lambda *a, **k: pytest.fail("ran before refusing --json"))
     _one_line_error(*_run(capsys, "run", "--config", str(config), "--json", str(target))[::2], "--json",
                     "--config file")
     assert config.read_text() == text
@@ -376,7 +376,7 @@ def _fake_results(diverged: bool, poison: bool):
     """A short real run, then (optionally) a NaN and an infinity in the series and a diverged flag."""
     config = Config().replace("trajectory", duration_s=2.0).replace("run", methods=("ins", "lc"))
     rng = np.random.default_rng(0)
-    real = run(config, simulate(config, rng), rng)
+    real = run_streaming(config, rng)
 
     def fake(*args, **kwargs):
         out = {}
@@ -399,7 +399,7 @@ def _strict_json(text: str):
 
 
 def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr("tauvcore.eval.runner.run", _fake_results(diverged=True, poison=True))
+    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", _fake_results(diverged=True, poison=True))
     out_json = tmp_path / "out.json"
     code, out, err = _run(capsys, "run", "--duration", "2", "--json", str(out_json))
     assert code == 0, err
@@ -414,7 +414,7 @@ def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, mon
 
 @pytest.mark.parametrize("failure", [OSError(28, "No space left on device"), KeyboardInterrupt()])
 def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypatch, failure) -> None:
-    monkeypatch.setattr("tauvcore.eval.runner.run", _fake_results(diverged=False, poison=False))
+    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", _fake_results(diverged=False, poison=False))
     real_dump = json.dump
 
     def dump_half_then_fail(obj, fh, **kwargs):
@@ -509,7 +509,7 @@ def test_json_carries_tilt_heading_nees_nis_and_the_consistency_of_the_run(capsy
     config = resolve_config(build_parser().parse_args(
         ["run", "--trajectory", "figure8", "--beams", "1,2", "--duration", "12", "--seed", "4", *argv]))
     rng = np.random.default_rng(config.run.seed)
-    results = run(config, simulate(config, rng, num_runs=1), rng)
+    results = run_streaming(config, rng)
     for name, r in results.items():
         series = data["results"][name]
         n = len(series["t"])
@@ -549,7 +549,7 @@ def test_summary_splits_attitude_and_prints_the_consistency_table(capsys) -> Non
     consistency = _tables(out)[1]
     config = resolve_config(build_parser().parse_args(["run", *argv]))
     rng = np.random.default_rng(config.run.seed)
-    results = run(config, simulate(config, rng, num_runs=1), rng)
+    results = run_streaming(config, rng)
     for name, r in results.items():
         c = method_consistency(r)
         cells = [_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in BLOCK_DIMS]
