@@ -1,34 +1,28 @@
 """How much memory a dashboard run takes, estimated before it starts, and the budget it must fit.
 
 A run of ``duration_s`` at the IMU rate f has K = duration_s * f + 1 samples; with R Monte Carlo
-runs and M methods, the worker process (app.worker.run_worker) goes through three peaks, counted
-from the arrays the engine allocates (8-byte floats; "d" is one double):
+runs and M methods, the worker process (app.worker.run_worker) streams the mission
+(tauvcore.eval.runner.run_streaming): truth and sensors exist one chunk at a time
+(``STREAM_CHUNK_S``, K_c samples), the results grow with the output epochs. Counted from the
+arrays the engine allocates (8-byte floats; "d" is one double):
 
-1. Truth generation (tauvcore.truth.kinematic.generate_from_profile), per IMU sample: the truth
-   record, 37 d (t, pos, vel_n, vel_b, C_nb 9, euler, omega_nb, omega_ib, f_b, dtheta, dv), and
-   while it is built the motion at 4 Gauss-Legendre nodes per interval, 27 d each (euler, C_nb 9,
-   omega_nb, omega_ib, vel_b, vel_n, f_b) plus 9 d of expression temporaries (acc_n, cross
-   products): at most 37 + 4 x 36 = 181 d; tracemalloc measures 169 d, which
-   ``TRUTH_BUILD_DOUBLES`` takes. The nodes are freed afterwards.
-2. Compensation (tauvcore.ins.strapdown.body_increments), per IMU sample and run: the IMU record
-   (dtheta, dv and the true biases, 12 d), the shifted previous-sample copies (6 d), the
-   coning/sculling compensated increments (6 d) and 13 d of cross-product temporaries (five
-   np.cross results of 3 d and their per-component products, as tracemalloc measures):
-   ``COMPENSATION_DOUBLES`` = 37 d, on top of the truth record.
-3. End of the run: the truth, the IMU record and the compensated increments (18 d per sample
-   and run); per output epoch, method and run the eleven error/sigma/NEES series (norms, tilt and
-   heading, full NEES), the five block NEES and the estimated position (19 d) twice (the run's arrays and the pickled result queued for the
-   dashboard), plus the thinned live copy (at most ``app.worker.PROGRESS_MAX_EPOCHS`` epochs,
-   twice: copy and pickle); P and one covariance step's F, G, Phi, Qd and products per method and
-   run (8 x 400 d); per update record row (DVL ping per DVL method, depth and magnetometer
-   sample per aided method) ``UPDATE_ROW_BYTES`` of numpy object overhead, and ~20 d of data
-   per run three times (rows, stacked record, pickle). The rows of one depth or magnetometer
-   update are views of one batched (M, R, ...) outcome, which they keep alive whole: M x 20 d
-   per run and update, shared by the M rows.
+- one chunk: the truth being built (tauvcore.truth.kinematic: the record and the motion at 4
+  Gauss-Legendre nodes per interval, ``TRUTH_BUILD_DOUBLES`` = 169 d per sample, as tracemalloc
+  measured), and the chunk's IMU record with its coning/sculling compensation and temporaries
+  (``COMPENSATION_DOUBLES`` = 37 d per sample and run);
+- the results: per output epoch, method and run the eleven error/sigma/NEES series, the five
+  block NEES and the estimated position (``OUTPUT_DOUBLES`` = 19 d), held four times at the end
+  (the bank's chunks, their concatenation, the result handed to the queue and its pickle); the
+  thinned live copy (at most ``app.worker.PROGRESS_MAX_EPOCHS`` epochs, copy and pickle); per
+  update (DVL ping per DVL method, depth and magnetometer sample per aided method) ~20 d per run,
+  four times as well, and ``UPDATE_ROW_BYTES`` of numpy object overhead per row of one chunk
+  (rows are stacked at the end of every chunk); P and one covariance step's scratch per method
+  and run (8 x 400 d).
 
-The estimate is the largest of the three, plus ``SLACK`` (15 %) for the allocator's pages, plus
-``FIXED_BYTES`` for what a run loads once (lazily imported modules: 3 MB measured for a 10 s
-run). tests/unit/test_budget.py checks it against the measured peak resident memory of real runs
+The estimate is the sum, plus ``SLACK`` (15 %) for the allocator's pages, plus ``FIXED_BYTES`` for
+what a run loads once: the compiled kernels of the filter bank (numba's machine code and its
+LLVM context, 60 MiB measured for a 10 s run) and lazily imported modules.
+tests/unit/test_budget.py checks it against the measured peak resident memory of real runs
 (estimate >= measured, within 1.5x). The server holds one more unpickled copy of the results
 per tab and one pickled copy is in transit through the worker's pipe: :func:`estimate_run` reports them
 apart (``results_bytes``), and the budget applies to the sum (``RunEstimate.total_bytes``).
@@ -43,16 +37,16 @@ from dataclasses import dataclass
 from tauvcore.config import Config
 
 DOUBLE = 8
-TRUTH_DOUBLES = 37
 TRUTH_BUILD_DOUBLES = 169
 COMPENSATION_DOUBLES = 12 + 6 + 6 + 13
-IMU_KEPT_DOUBLES = 12 + 6
 OUTPUT_DOUBLES = 11 + 5 + 3
+OUTPUT_COPIES = 4
 COVARIANCE_DOUBLES = 8 * 20 * 20
 UPDATE_ROW_BYTES = 3000
 UPDATE_DOUBLES = 20
-FIXED_BYTES = 14 * 2**20
+FIXED_BYTES = 62 * 2**20
 SLACK = 1.15
+STREAM_CHUNK_S = 10.0       # tauvcore.eval.runner.STREAM_CHUNK_S (not imported: it loads the engine)
 LIVE_EPOCHS = 1200          # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)
 
 DEFAULT_BUDGET_BYTES = int(1.5 * 2**30)
@@ -65,11 +59,10 @@ BUDGET_ENV = "TAUV_RUN_BUDGET_MB"
 class RunEstimate:
     """Estimated memory of one dashboard run [bytes]."""
 
-    truth_build_bytes: int      # peak 1: truth generation (Gauss nodes)
-    compensation_bytes: int     # peak 2: IMU record and its compensated copies
-    end_bytes: int              # peak 3: results, records and the queued pickle at the end
+    chunk_bytes: int            # one chunk of truth (being built) and IMU record with its compensation
+    end_bytes: int              # results, records and the queued pickle at the end
     results_bytes: int          # one copy of the results (the server's; the pipe's in transit)
-    worker_peak_bytes: int      # SLACK x the largest of the three + FIXED_BYTES: the worker's own peak
+    worker_peak_bytes: int      # SLACK x (chunk + end) + FIXED_BYTES: the worker's own peak
 
     @property
     def total_bytes(self) -> int:
@@ -94,19 +87,18 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
         other_updates += math.ceil(duration_s * config.magnetometer.rate_hz + 1) if "mag" in aiding else 0
     other_rows = other_updates * dvl_methods
 
-    truth = TRUTH_DOUBLES * DOUBLE * K
+    K_c = min(K, int(round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz)) + 1)
+    chunk = TRUTH_BUILD_DOUBLES * DOUBLE * K_c + COMPENSATION_DOUBLES * DOUBLE * K_c * R
     outputs = OUTPUT_DOUBLES * DOUBLE * T * M * R
     live = 2 * OUTPUT_DOUBLES * DOUBLE * min(T, LIVE_EPOCHS) * M * R
     update_data = UPDATE_DOUBLES * DOUBLE * R * (dvl_rows + M * other_updates)
-    update_objects = UPDATE_ROW_BYTES * (dvl_rows + other_rows)
+    chunk_fraction = min(1.0, K_c / K)
+    update_objects = int(UPDATE_ROW_BYTES * (dvl_rows + other_rows) * chunk_fraction)
     covariance = COVARIANCE_DOUBLES * DOUBLE * M * R
-    truth_build = TRUTH_BUILD_DOUBLES * DOUBLE * K
-    compensation = truth + COMPENSATION_DOUBLES * DOUBLE * K * R
-    end = (truth + IMU_KEPT_DOUBLES * DOUBLE * K * R + 2 * outputs + live + 3 * update_data
-           + update_objects + covariance)
-    return RunEstimate(truth_build_bytes=truth_build, compensation_bytes=compensation, end_bytes=end,
-                       results_bytes=outputs + update_data + update_objects,
-                       worker_peak_bytes=int(SLACK * max(truth_build, compensation, end)) + FIXED_BYTES)
+    end = OUTPUT_COPIES * (outputs + update_data) + live + update_objects + covariance
+    return RunEstimate(chunk_bytes=chunk, end_bytes=end,
+                       results_bytes=outputs + update_data,
+                       worker_peak_bytes=int(SLACK * (chunk + end)) + FIXED_BYTES)
 
 
 def budget_bytes() -> int:

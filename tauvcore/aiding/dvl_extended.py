@@ -58,9 +58,12 @@ class DvlExtended:
         return elc_vhv.solve(pitch, pattern, self.vb_nf)
 
     def measure(self, nom: Nominal, P_vel: np.ndarray, y_beam: np.ndarray, available: np.ndarray,
-                omega_meas_b: np.ndarray) -> tuple[Measurement, DvlInfo]:
+                omega_meas_b: np.ndarray, lc: Measurement | None = None) -> tuple[Measurement, DvlInfo]:
+        """``lc``: the loosely coupled measurement at ``nom`` if already made (the filter bank makes
+        it once for every method that uses it)."""
         batch = available.shape[:-1]
-        lc = DvlLoose(self.dvl, self.earth, self.gyro_rate_noise_rps).measure(nom, y_beam, available, omega_meas_b)
+        if lc is None:
+            lc = DvlLoose(self.dvl, self.earth, self.gyro_rate_noise_rps).measure(nom, y_beam, available, omega_meas_b)
         n_beams = available.sum(axis=-1)
         two = n_beams == 2
         v_meas = np.zeros(batch + (3,))

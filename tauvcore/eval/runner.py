@@ -225,18 +225,23 @@ def _epoch_map(indices: np.ndarray) -> dict[int, int]:
 
 
 class _Recorder:
-    """Collects the updates of one source for one method. The full rows can be handed out chunk
-    by chunk (:meth:`drain`); what the divergence monitor needs (times, NIS, dof, fused, valid:
-    a few bytes per update and run) is kept for the whole mission."""
+    """Collects the updates of one source for one method.
+
+    Rows (one small array per field and update) are stacked into one array per field at the end
+    of every chunk (:meth:`seal`), so a long mission holds a few arrays per chunk, not thousands of
+    tiny ones; sealed chunks can be handed out and dropped (:meth:`drain`), while what the
+    divergence monitor needs (times, NIS, dof, fused, valid: a few bytes per update and run) is
+    kept for the whole mission."""
 
     MONITOR = ("nis", "nis_dof", "fused", "valid")
 
     def __init__(self) -> None:
         self.t: list[float] = []
         self.rows: list[dict[str, np.ndarray]] = []
-        self.monitor_t: list[float] = []
-        self.monitor: dict[str, list[np.ndarray]] = {k: [] for k in self.MONITOR}
-        self.taken = 0      # rows already handed out (FilterBank.take with keep)
+        self.chunks: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []   # sealed (t, fields)
+        self.monitor: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
+        self.taken = 0      # sealed chunks already handed out (FilterBank.take with keep)
+        self.count = 0      # updates recorded over the whole mission
 
     def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray, **extra: np.ndarray) -> None:
         self.t.append(t)
@@ -244,22 +249,34 @@ class _Recorder:
                           "test_ratio": outcome.test_ratio, "fused": outcome.fused, "rejected": outcome.rejected,
                           "valid": valid, "fused_rows": outcome.fused_rows, "rejected_rows": outcome.rejected_rows,
                           "nis": outcome.nis, "nis_dof": outcome.nis_dof, "unusable": outcome.unusable, **extra})
-        self.monitor_t.append(t)
-        for k in self.MONITOR:
-            self.monitor[k].append(self.rows[-1][k])
+        self.count += 1
 
-    def build(self, first: int = 0) -> UpdateRecord:
-        rows = self.rows[first:]
-        keys = rows[0].keys()
-        return UpdateRecord(t_s=np.asarray(self.t[first:]), **{k: np.stack([r[k] for r in rows]) for k in keys})
+    def seal(self) -> None:
+        if not self.rows:
+            return
+        fields = {k: np.stack([r[k] for r in self.rows]) for k in self.rows[0]}
+        t = np.asarray(self.t)
+        self.chunks.append((t, fields))
+        self.monitor.append((t, {k: fields[k] for k in self.MONITOR}))
+        self.t, self.rows = [], []
+
+    def build(self, first: int = 0) -> UpdateRecord | None:
+        """The sealed chunks from ``first`` on as one record (None if there are none)."""
+        chunks = self.chunks[first:]
+        if not chunks:
+            return None
+        return UpdateRecord(t_s=np.concatenate([c[0] for c in chunks]),
+                            **{k: np.concatenate([c[1][k] for c in chunks]) for k in chunks[0][1]})
 
     def drain(self) -> None:
-        self.t, self.rows = [], []
+        self.chunks = []
+        self.taken = 0
 
     def divergence_s(self) -> np.ndarray:
         """First flag of the innovation test over the whole mission so far (R,)."""
-        m = {k: np.stack(v) for k, v in self.monitor.items()}
-        return innovation_divergence_s(np.asarray(self.monitor_t), m["nis"], m["nis_dof"], m["fused"], m["valid"])
+        m = {k: np.concatenate([c[1][k] for c in self.monitor]) for k in self.MONITOR}
+        t = np.concatenate([c[0] for c in self.monitor])
+        return innovation_divergence_s(t, m["nis"], m["nis_dof"], m["fused"], m["valid"])
 
 
 @dataclass(frozen=True)
@@ -407,6 +424,22 @@ class FilterBank:
                 part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
                 self.recorders[(source, m)].add(t, part, meas.valid[m] & self.other_mask[m])
 
+    def _loose(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray) -> dict[int, Measurement] | None:
+        """The loosely coupled measurement of every method that makes one (lc and the ELC methods
+        with three or four beams), in one batched call over (those methods, runs); by method."""
+        users = [m for m, method in self.dvl_methods if DVL_FUSION[method] in ("lc", "elc")]
+        if not users:
+            return None
+        sel = np.asarray(users)
+        nom = Nominal(NavState(self.pos[sel], self.vel[sel], self.C[sel]), self.ba[sel], self.bg[sel], self.bdvl[sel],
+                      self.sf[sel])
+        meas = self.dvl_models["lc"].measure(nom, y, available, omega_meas)
+        R = self.batch[1]
+        valid = np.broadcast_to(meas.valid, (len(users), R))
+        Rm = np.broadcast_to(meas.R, (len(users), R, 3, 3))
+        return {m: Measurement(z=meas.z[i], innovation=meas.innovation[i], H=meas.H[i], R=Rm[i], valid=valid[i])
+                for i, m in enumerate(users)}
+
     def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> None:
         """Every DVL-aided method measures the ping its own way (lc, tc, or an ELC method); one
         compiled correction then fuses them all."""
@@ -417,12 +450,19 @@ class FilterBank:
         active = np.zeros(batch + (DVL_ROWS,), bool)
         gate_rows = np.zeros(batch, bool)
         taken = []
+        lc_all = self._loose(y, available, omega_meas)
         for m, method in self.dvl_methods:
             part = self.nominal(m)
             kind = DVL_FUSION[method]
             if kind == "elc":
+                lc = None if lc_all is None else lc_all[m]
                 meas, info = self.dvl_models[method].measure(part, self.P[m][..., STATE.vel, STATE.vel], y, available,
-                                                             omega_meas)
+                                                             omega_meas, lc=lc)
+            elif kind == "lc" and lc_all is not None:
+                meas = lc_all[m]
+                info = DvlInfo(mode=np.where(meas.valid, MODE_LC, MODE_COAST),
+                               measured_axes=np.broadcast_to(meas.valid[:, None], (R, 3)),
+                               elc_choice=np.full((R, 3), -1))
             else:
                 meas = self.dvl_models[kind].measure(part, y, available, omega_meas)
                 code = MODE_LC if kind == "lc" else MODE_TC
@@ -498,6 +538,8 @@ class FilterBank:
         def flush() -> None:
             self.stored.append({name: a[:rows_recorded] if name != "series" else a[:, :rows_recorded]
                                 for name, a in out.items()})
+            for rec in self.recorders.values():
+                rec.seal()
 
         for k in covariance_stops(np.flatnonzero(events) + k0, self.k_cov, k1, self.cov_step):
             i = k - k0
@@ -568,9 +610,9 @@ class FilterBank:
         series = dict(zip(kernels.SERIES_NAMES, series_all))
         out = {}
         for m, method in enumerate(self.methods):
-            recs = {src: rec for (src, mm), rec in self.recorders.items() if mm == m and rec.monitor_t}
-            updates = {src: rec.build(first_update.get((src, m), 0)) for src, rec in recs.items()
-                       if len(rec.rows) > first_update.get((src, m), 0)}
+            recs = {src: rec for (src, mm), rec in self.recorders.items() if mm == m and rec.count}
+            built = {src: rec.build(first_update.get((src, m), 0)) for src, rec in recs.items()}
+            updates = {src: record for src, record in built.items() if record is not None}
             flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [rec.divergence_s() for rec in recs.values()]
             diverged_at = np.fmin.reduce(np.stack(flagged), axis=0)
             out[method] = MethodResult(
@@ -603,7 +645,7 @@ class FilterBank:
                 seen += size
             result = self._results(new, {key: rec.taken for key, rec in self.recorders.items()})
             for rec in self.recorders.values():
-                rec.taken = len(rec.rows)
+                rec.taken = len(rec.chunks)
             self.taken = seen
             return result
         result = self._results(self.stored, {})
