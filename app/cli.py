@@ -593,7 +593,12 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     beside ours with a verdict."""
     from app.study_report import report_html
     from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
-    from tauvcore.eval.study import ERROR_SERIES, run_study
+    from tauvcore.eval.study import (
+        ERROR_SERIES,
+        PAPER_CHUNK_RUNS,
+        local_pool,
+        run_study,
+    )
 
     base = Config()
     if args.duration is not None:
@@ -607,14 +612,15 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     studies = [(name, beams, methods) for name in TRAJECTORIES
                for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))]
     try:
-        with _progress_bar(num_runs * len(studies)) as bar:
+        with _progress_bar(num_runs * len(studies)) as bar, local_pool(workers if dask is None else 1) as pool:
             for name, beams, methods in studies:
                 config = base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
                 done_before = bar.n
                 with _study_failures(dask):
                     acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
                                     on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
-                                    progress=lambda done, total, b=done_before: bar.update(b + done - bar.n))
+                                    progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
+                                    chunk_runs=PAPER_CHUNK_RUNS, pool=pool)
                 part = acc.summary()
                 if name in summaries:
                     summaries[name]["methods"].update(part["methods"])

@@ -179,3 +179,18 @@ def test_earth_vectors(lat_deg):
     np.testing.assert_allclose(earth.omega_ie_n, 7.292115e-5 * np.array([np.cos(lat), 0.0, -np.sin(lat)]),
                                rtol=0, atol=1e-20)
     np.testing.assert_allclose(earth.g_n, [0.0, 0.0, normal_gravity_mps2(lat)], rtol=0, atol=0)
+
+
+def test_compiled_exp_and_log_equal_the_numpy_ones_across_the_series_switch():
+    """The filter bank's single-instance Rodrigues and its inverse (tauvcore.filter.kernels) agree
+    with the batched numpy functions on both sides of the 1e-2 rad series switch and near pi."""
+    from tauvcore.filter import kernels
+    rng = np.random.default_rng(71)
+    directions = rng.normal(size=(60, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    angles = np.concatenate([np.geomspace(1e-9, 1e-2 * 0.999, 20), np.geomspace(1e-2 * 1.001, 3.0, 40)])
+    phi = directions * angles[:, None]
+    for p, C in zip(phi, kernels.exp_so3_batch(phi)):
+        np.testing.assert_allclose(C, exp_so3(p), rtol=0, atol=2e-16 * 4)
+    np.testing.assert_allclose(kernels.log_so3_batch(exp_so3(phi)), log_so3(exp_so3(phi)), rtol=1e-13, atol=1e-16)
+    np.testing.assert_allclose(kernels.log_so3_batch(kernels.exp_so3_batch(phi)), phi, rtol=1e-9, atol=1e-15)

@@ -21,6 +21,7 @@ from tauvcore.eval.study import (
     chunks,
     compute_chunk,
     iterate_chunks,
+    local_pool,
     run_chunk,
     run_rng,
     run_study,
@@ -64,11 +65,16 @@ def _all_series(chunk_list):
 def test_local_workers_give_bit_identical_numbers():
     one = list(iterate_chunks(CONFIG, 6, 11, workers=1, chunk_runs=3))
     two = list(iterate_chunks(CONFIG, 6, 11, workers=2, chunk_runs=3))
-    assert [c.first for c in two] == [0, 3]
-    a, b = _all_series(one), _all_series(two)
+    with local_pool(2) as pool:       # one pool shared by two studies (tauv reproduce)
+        other = list(iterate_chunks(CONFIG.replace("run", methods=("lc",)), 2, 11, chunk_runs=3, pool=pool))
+        shared = list(iterate_chunks(CONFIG, 6, 11, chunk_runs=3, pool=pool))
+    assert [c.first for c in two] == [0, 3] and [c.first for c in shared] == [0, 3]
+    assert list(other[0].series) == ["lc"]
+    a, b, c = _all_series(one), _all_series(two), _all_series(shared)
     for m in a:
         for n in RUN_SERIES:
             np.testing.assert_array_equal(a[m][n], b[m][n], err_msg=f"{m} {n}")
+            np.testing.assert_array_equal(a[m][n], c[m][n], err_msg=f"{m} {n}")
 
 
 def test_the_accumulator_equals_the_whole_study_at_once():
