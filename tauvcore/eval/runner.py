@@ -239,7 +239,8 @@ class _Recorder:
         self.t: list[float] = []
         self.rows: list[dict[str, np.ndarray]] = []
         self.chunks: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []   # sealed (t, fields)
-        self.monitor: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
+        self.monitor_t = np.zeros(0)                       # the monitor's columns, grown by doubling
+        self.monitor: dict[str, np.ndarray] = {}
         self.taken = 0      # sealed chunks already handed out (FilterBank.take with keep)
         self.count = 0      # updates recorded over the whole mission
 
@@ -257,8 +258,24 @@ class _Recorder:
         fields = {k: np.stack([r[k] for r in self.rows]) for k in self.rows[0]}
         t = np.asarray(self.t)
         self.chunks.append((t, fields))
-        self.monitor.append((t, {k: fields[k] for k in self.MONITOR}))
+        self._monitor_append(t, fields)
         self.t, self.rows = [], []
+
+    def _monitor_append(self, t: np.ndarray, fields: dict[str, np.ndarray]) -> None:
+        """Copy a chunk's monitor columns into buffers that double when full (a long mission's
+        monitor is then four arrays, not four per chunk)."""
+        done = self.count - t.size
+        if not self.monitor:
+            self.monitor_t = np.empty(max(64, t.size))
+            self.monitor = {k: np.empty((self.monitor_t.size,) + fields[k].shape[1:], fields[k].dtype)
+                            for k in self.MONITOR}
+        if done + t.size > self.monitor_t.size:
+            size = max(2 * self.monitor_t.size, done + t.size)
+            self.monitor_t = np.resize(self.monitor_t, size)
+            self.monitor = {k: np.resize(v, (size,) + v.shape[1:]) for k, v in self.monitor.items()}
+        self.monitor_t[done:done + t.size] = t
+        for k in self.MONITOR:
+            self.monitor[k][done:done + t.size] = fields[k]
 
     def build(self, first: int = 0) -> UpdateRecord | None:
         """The sealed chunks from ``first`` on as one record (None if there are none)."""
@@ -274,9 +291,9 @@ class _Recorder:
 
     def divergence_s(self) -> np.ndarray:
         """First flag of the innovation test over the whole mission so far (R,)."""
-        m = {k: np.concatenate([c[1][k] for c in self.monitor]) for k in self.MONITOR}
-        t = np.concatenate([c[0] for c in self.monitor])
-        return innovation_divergence_s(t, m["nis"], m["nis_dof"], m["fused"], m["valid"])
+        n = self.count - len(self.t)            # sealed updates
+        m = {k: v[:n] for k, v in self.monitor.items()}
+        return innovation_divergence_s(self.monitor_t[:n], m["nis"], m["nis_dof"], m["fused"], m["valid"])
 
 
 @dataclass(frozen=True)
