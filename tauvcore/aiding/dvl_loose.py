@@ -30,8 +30,6 @@ from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import skew
-from tauvcore.ins.strapdown import mv
 from tauvcore.sensors.dvl import DvlConfig
 
 MIN_BEAMS_LC = 3
@@ -45,15 +43,16 @@ def solve_velocity(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, n
     Returns ``v`` (B, 3), its covariance (B, 3, 3), ``A+`` (B, 3, 4) with zero columns for the
     missing beams, and ``valid`` (B,) = at least three beams returned. ``noise_mps`` is floored
     at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS` (a zero noise is legal).
+    The kernel :func:`tauvcore.filter.kernels.lc_solve_into` (the one the filter bank runs).
     """
-    w = available / dvl_beam_sigma_mps(noise_mps)**2
-    AtWA = np.einsum("ki,...k,kj->...ij", A_b, w, A_b)
-    valid = available.sum(axis=-1) >= MIN_BEAMS_LC
-    AtWA = np.where(valid[..., None, None], AtWA, np.eye(3))
-    cov = np.linalg.inv(AtWA)
-    A_pinv = cov @ (A_b.T * w[..., None, :])
-    y0 = np.where(available, y_beam, 0.0)
-    return mv(A_pinv, y0), cov, A_pinv, valid
+    from tauvcore.filter import kernels
+
+    batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1])
+    v, cov, A_pinv, valid = kernels.lc_solve_batch(kernels.flat(A_b, (), (4, 3))[0], kernels.flat(y_beam, batch, (4,)),
+                                                   kernels.flat(available, batch, (4,), bool),
+                                                   dvl_beam_sigma_mps(noise_mps)**2)
+    return (v.reshape(batch + (3,)), cov.reshape(batch + (3, 3)), A_pinv.reshape(batch + (3, 4)),
+            valid.reshape(batch))
 
 
 @dataclass(frozen=True)
@@ -76,34 +75,46 @@ class DvlLoose:
 
     def prepare(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray,
                 omega_meas_b: np.ndarray) -> DvlLooseSetup:
-        v_head, cov, A_pinv, valid = solve_velocity(self.dvl.A_b, y_beam, available, self.dvl.noise_mps)
-        C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
-        omega_comp = omega_meas_b - nom.gyro_bias - mv(C_bn, self.earth.omega_ie_n)
-        l_x = skew(self.dvl.l_dvl_b)
-        z = v_head - np.cross(omega_comp, self.dvl.l_dvl_b)
-        R = cov + self.gyro_rate_noise_rps**2 * (l_x @ l_x.T)
-        return DvlLooseSetup(z=z, R=R, A_pinv=A_pinv, omega_meas_b=np.broadcast_to(omega_meas_b, z.shape),
-                             omega_comp_b=omega_comp, valid=valid)
+        """The measurement side (the kernel :func:`tauvcore.filter.kernels.lc_prepare_into`)."""
+        from tauvcore.filter import kernels
+
+        batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1], np.shape(omega_meas_b)[:-1],
+                                    nom.nav.C_nb.shape[:-2], nom.gyro_bias.shape[:-1])
+        f = kernels.flat
+        z, R, A_pinv, omega_comp, valid = kernels.lc_prepare_batch(
+            f(self.dvl.A_b, (), (4, 3))[0], f(self.dvl.l_dvl_b, (), (3,))[0], dvl_beam_sigma_mps(self.dvl.noise_mps)**2,
+            self.gyro_rate_noise_rps**2, f(self.earth.omega_ie_n, (), (3,))[0], f(y_beam, batch, (4,)),
+            f(available, batch, (4,), bool), f(omega_meas_b, batch, (3,)), f(nom.nav.C_nb, batch, (3, 3)),
+            f(nom.gyro_bias, batch, (3,)))
+        return DvlLooseSetup(z=z.reshape(batch + (3,)), R=R.reshape(batch + (3, 3)),
+                             A_pinv=A_pinv.reshape(batch + (3, 4)),
+                             omega_meas_b=np.broadcast_to(omega_meas_b, batch + (3,)),
+                             omega_comp_b=omega_comp.reshape(batch + (3,)), valid=valid.reshape(batch))
 
     def predict(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
-        """Nonlinear h(x) for the state ``nom``, with the measurement-side quantities held fixed."""
-        C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
-        omega_nb = setup.omega_meas_b - nom.gyro_bias - mv(C_bn, self.earth.omega_ie_n)
-        return ((1.0 + nom.dvl_sf)[..., None] * nom.vel_b
-                + np.cross(omega_nb - setup.omega_comp_b, self.dvl.l_dvl_b)
-                + mv(setup.A_pinv, nom.dvl_bias))
+        """Nonlinear h(x) for the state ``nom``, with the measurement-side quantities held fixed
+        (the kernel :func:`tauvcore.filter.kernels.lc_predict_into`)."""
+        from tauvcore.filter import kernels
+
+        batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
+        f = kernels.flat
+        h = kernels.lc_predict_batch(f(nom.nav.C_nb, batch, (3, 3)), f(nom.nav.vel_n, batch, (3,)),
+                                     f(nom.dvl_sf, batch, ()), f(nom.dvl_bias, batch, (4,)),
+                                     f(nom.gyro_bias, batch, (3,)), f(setup.A_pinv, batch, (3, 4)),
+                                     f(setup.omega_meas_b, batch, (3,)), f(setup.omega_comp_b, batch, (3,)),
+                                     f(self.earth.omega_ie_n, (), (3,))[0], f(self.dvl.l_dvl_b, (), (3,))[0])
+        return h.reshape(batch + (3,))
 
     def jacobian(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
-        batch = setup.z.shape[:-1]
-        l_x = skew(self.dvl.l_dvl_b)
-        C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
-        H = np.zeros(batch + (3, STATE.dim))
-        H[..., STATE.att] = l_x @ C_bn @ skew(self.earth.omega_ie_n)
-        H[..., STATE.vel] = (1.0 + nom.dvl_sf)[..., None, None] * np.eye(3)
-        H[..., STATE.bg] = l_x
-        H[..., STATE.b_dvl] = setup.A_pinv
-        H[..., STATE.sf_dvl] = nom.vel_b[..., None]
-        return H
+        """H (the kernel :func:`tauvcore.filter.kernels.lc_jacobian_into`)."""
+        from tauvcore.filter import kernels
+
+        batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
+        f = kernels.flat
+        H = kernels.lc_jacobian_batch(f(nom.nav.C_nb, batch, (3, 3)), f(nom.nav.vel_n, batch, (3,)),
+                                      f(nom.dvl_sf, batch, ()), f(setup.A_pinv, batch, (3, 4)),
+                                      f(self.earth.omega_ie_n, (), (3,))[0], f(self.dvl.l_dvl_b, (), (3,))[0])
+        return H.reshape(batch + (3, STATE.dim))
 
     def measure(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray) -> Measurement:
         setup = self.prepare(nom, y_beam, available, omega_meas_b)

@@ -43,7 +43,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
-from tauvcore.geo.rotations import skew
 from tauvcore.ins.strapdown import mv
 
 AXES = ("surge", "sway", "heave")
@@ -94,10 +93,15 @@ def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float
                    dvl_sf: np.ndarray) -> np.ndarray:
     """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4).
 
-    ``noise_mps`` is floored at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS`."""
-    lever = A_b @ skew(l_dvl_b)
-    S = np.eye(4) * dvl_beam_sigma_mps(noise_mps)**2 + gyro_rate_noise_rps**2 * (lever @ lever.T)
-    return S / ((1.0 + dvl_sf) ** 2)[..., None, None]
+    ``noise_mps`` is floored at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS`.
+    The kernel :func:`tauvcore.filter.kernels.beam_noise_into`."""
+    from tauvcore.filter import kernels
+
+    batch = np.shape(dvl_sf)
+    S = kernels.beam_noise_batch(kernels.flat(A_b, (), (4, 3))[0], dvl_beam_sigma_mps(noise_mps)**2,
+                                 float(gyro_rate_noise_rps)**2, kernels.flat(l_dvl_b, (), (3,))[0],
+                                 kernels.flat(dvl_sf, batch, ()))
+    return S.reshape(batch + (4, 4))
 
 
 def apply_solution(C: np.ndarray, D: np.ndarray, gain: np.ndarray, assumption_sd: np.ndarray, y_c: np.ndarray,

@@ -21,7 +21,6 @@ from tauvcore.aiding.dvl_partial import beam_noise_cov
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import skew
 from tauvcore.ins.strapdown import mv
 from tauvcore.sensors.dvl import DvlConfig
 
@@ -54,23 +53,28 @@ class DvlTight:
                              omega_comp_b=omega_comp)
 
     def predict(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
-        C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
-        omega_nb = setup.omega_meas_b - nom.gyro_bias - mv(C_bn, self.earth.omega_ie_n)
-        v_head = (1.0 + nom.dvl_sf)[..., None] * nom.vel_b + np.cross(omega_nb, self.dvl.l_dvl_b)
-        return v_head @ self.dvl.A_b.T + nom.dvl_bias
+        """Nonlinear h(x) per beam (the kernel :func:`tauvcore.filter.kernels.tc_predict_into`)."""
+        from tauvcore.filter import kernels
+
+        batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
+        f = kernels.flat
+        h = kernels.tc_predict_batch(f(self.dvl.A_b, (), (4, 3))[0], f(nom.nav.C_nb, batch, (3, 3)),
+                                     f(nom.nav.vel_n, batch, (3,)), f(nom.dvl_sf, batch, ()),
+                                     f(nom.dvl_bias, batch, (4,)), f(nom.gyro_bias, batch, (3,)),
+                                     f(setup.omega_meas_b, batch, (3,)), f(self.earth.omega_ie_n, (), (3,))[0],
+                                     f(self.dvl.l_dvl_b, (), (3,))[0])
+        return h.reshape(batch + (4,))
 
     def jacobian(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
-        A = self.dvl.A_b
-        l_x = skew(self.dvl.l_dvl_b)
-        C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
-        batch = setup.z.shape[:-1]
-        H = np.zeros(batch + (4, STATE.dim))
-        H[..., STATE.att] = A @ l_x @ C_bn @ skew(self.earth.omega_ie_n)
-        H[..., STATE.vel] = (1.0 + nom.dvl_sf)[..., None, None] * A
-        H[..., STATE.bg] = A @ l_x
-        H[..., STATE.b_dvl] = np.eye(4)
-        H[..., STATE.sf_dvl] = (nom.vel_b @ A.T)[..., None]
-        return H
+        """H, one row per beam (the kernel :func:`tauvcore.filter.kernels.tc_jacobian_into`)."""
+        from tauvcore.filter import kernels
+
+        batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
+        f = kernels.flat
+        H = kernels.tc_jacobian_batch(f(self.dvl.A_b, (), (4, 3))[0], f(nom.nav.C_nb, batch, (3, 3)),
+                                      f(nom.nav.vel_n, batch, (3,)), f(nom.dvl_sf, batch, ()),
+                                      f(self.earth.omega_ie_n, (), (3,))[0], f(self.dvl.l_dvl_b, (), (3,))[0])
+        return H.reshape(batch + (4, STATE.dim))
 
     def measure(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray) -> Measurement:
         setup = self.prepare(nom, y_beam, available, omega_meas_b)

@@ -51,6 +51,7 @@ from tauvcore.aiding.dvl_extended import (
     DvlInfo,
 )
 from tauvcore.aiding.dvl_tight import DvlTight
+from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.config import Config
 from tauvcore.eval.metrics import implausible_sensor_errors, innovation_divergence_s
 from tauvcore.filter import kernels
@@ -354,6 +355,12 @@ class FilterBank:
         self.depth_model = Depth(config.pressure)
         self.mag_model = MagAttitude(config.magnetometer)
         self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION[m] is not None]
+        self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
+        self.dvl_codes = np.array([kernels.DVL_TC if DVL_FUSION[m] == "tc" else kernels.DVL_LC
+                                   for _, m in self.dvl_methods], dtype=np.int64)
+        self.A_b = np.ascontiguousarray(config.dvl.A_b, dtype=float)
+        self.l_dvl_b = np.ascontiguousarray(config.dvl.l_dvl_b, dtype=float)
+        self.gyro_rate_noise = gyro_rate_noise
         self.recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag") for m in range(M)}
         out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
         self.out_idx = np.arange(0, num_samples, out_step)
@@ -441,64 +448,52 @@ class FilterBank:
                 part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
                 self.recorders[(source, m)].add(t, part, meas.valid[m] & self.other_mask[m])
 
-    def _loose(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray) -> dict[int, Measurement] | None:
-        """The loosely coupled measurement of every method that makes one (lc and the ELC methods
-        with three or four beams), in one batched call over (those methods, runs); by method."""
-        users = [m for m, method in self.dvl_methods if DVL_FUSION[method] in ("lc", "elc")]
-        if not users:
-            return None
-        sel = np.asarray(users)
-        nom = Nominal(NavState(self.pos[sel], self.vel[sel], self.C[sel]), self.ba[sel], self.bg[sel], self.bdvl[sel],
-                      self.sf[sel])
-        meas = self.dvl_models["lc"].measure(nom, y, available, omega_meas)
-        R = self.batch[1]
-        valid = np.broadcast_to(meas.valid, (len(users), R))
-        Rm = np.broadcast_to(meas.R, (len(users), R, 3, 3))
-        return {m: Measurement(z=meas.z[i], innovation=meas.innovation[i], H=meas.H[i], R=Rm[i], valid=valid[i])
-                for i, m in enumerate(users)}
-
     def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> None:
-        """Every DVL-aided method measures the ping its own way (lc, tc, or an ELC method); one
-        compiled correction then fuses them all."""
+        """Every DVL-aided method measures the ping its own way: one compiled call makes the
+        loosely coupled measurement (lc, and the extended methods with three or four beams) or the
+        per-beam one (tc) for every method and run; the extended methods' constructions from two
+        beams follow in numpy for the runs that have exactly two; one compiled correction then
+        fuses them all."""
         batch, R = self.batch, self.batch[1]
-        H = np.zeros(batch + (DVL_ROWS, STATE.dim))
-        Rm = np.zeros(batch + (DVL_ROWS, DVL_ROWS))
+        H = np.empty(batch + (DVL_ROWS, STATE.dim))
+        Rm = np.ones(batch + (DVL_ROWS, DVL_ROWS))
         nu = np.zeros(batch + (DVL_ROWS,))
+        z = np.zeros(batch + (DVL_ROWS,))
         active = np.zeros(batch + (DVL_ROWS,), bool)
+        valid = np.zeros(batch, bool)
         gate_rows = np.zeros(batch, bool)
+        dvl = self.config.dvl
+        kernels.dvl_measure_bank(self.dvl_index, self.dvl_codes, np.ascontiguousarray(y), np.ascontiguousarray(available),
+                                 np.ascontiguousarray(omega_meas), self.C, self.vel, self.bg, self.bdvl, self.sf,
+                                 self.A_b, self.l_dvl_b, dvl_beam_sigma_mps(dvl.noise_mps)**2,
+                                 self.gyro_rate_noise**2, self.w_ie, z, nu, H, Rm, active, valid)
+        two = available.sum(axis=-1) == 2
         taken = []
-        lc_all = self._loose(y, available, omega_meas)
         for m, method in self.dvl_methods:
-            part = self.nominal(m)
             kind = DVL_FUSION[method]
-            if kind == "elc":
-                lc = None if lc_all is None else lc_all[m]
-                meas, info = self.dvl_models[method].measure(part, self.P[m][..., STATE.vel, STATE.vel], y, available,
-                                                             omega_meas, lc=lc)
-            elif kind == "lc" and lc_all is not None:
-                meas = lc_all[m]
-                info = DvlInfo(mode=np.where(meas.valid, MODE_LC, MODE_COAST),
-                               measured_axes=np.broadcast_to(meas.valid[:, None], (R, 3)),
-                               elc_choice=np.full((R, 3), -1))
+            rows = 4 if kind == "tc" else 3
+            if kind == "elc" and two.any():
+                lc = Measurement(z=z[m, :, :3], innovation=nu[m, :, :3], H=H[m, :, :3], R=Rm[m, :, :3, :3],
+                                 valid=valid[m].copy())
+                meas, info = self.dvl_models[method].measure(self.nominal(m), self.P[m][..., STATE.vel, STATE.vel],
+                                                             y, available, omega_meas, lc=lc)
+                H[m, :, :3], Rm[m, :, :3, :3], nu[m, :, :3], z[m, :, :3] = meas.H, meas.R, meas.innovation, meas.z
+                active[m, :, :3] = meas.active & meas.valid[:, None]
+                valid[m] = meas.valid
             else:
-                meas = self.dvl_models[kind].measure(part, y, available, omega_meas)
-                code = MODE_LC if kind == "lc" else MODE_TC
-                info = DvlInfo(mode=np.where(meas.valid, code, MODE_COAST),
-                               measured_axes=np.broadcast_to(meas.valid[:, None] & (kind == "lc"), (R, 3)),
+                code = {"lc": MODE_LC, "tc": MODE_TC, "elc": MODE_LC}[kind]
+                info = DvlInfo(mode=np.where(valid[m], code, MODE_COAST),
+                               measured_axes=(active[m, :, :3] & valid[m][:, None]) if kind != "tc"
+                               else np.zeros((R, 3), bool),
                                elc_choice=np.full((R, 3), -1))
-            rows = meas.R.shape[-1]
-            act = np.ones((R, rows), bool) if meas.active is None else meas.active.astype(bool)
-            H[m, :, :rows], Rm[m, :, :rows, :rows], nu[m, :, :rows] = meas.H, meas.R, meas.innovation
-            Rm[m, :, rows:, rows:] = np.eye(DVL_ROWS - rows)
-            active[m, :, :rows] = act & meas.valid[:, None]
-            gate_rows[m] = meas.gate_rows
-            taken.append((m, meas, info, rows))
+            gate_rows[m] = kind == "tc"
+            taken.append((m, info, rows))
         fused = self._fuse(H, Rm, nu, active, gate_rows)
-        for m, meas, info, rows in taken:
+        for m, info, rows in taken:
             s_diag, keep, nis, ratio, unusable = (a[m] for a in fused)
-            outcome = make_outcome(meas.z, meas.innovation, active[m, :, :rows], s_diag[:, :rows], keep[:, :rows],
-                                   nis, ratio, unusable)
-            self.recorders[("dvl", m)].add(t, outcome, meas.valid, beams_available=available, mode=info.mode,
+            outcome = make_outcome(z[m, :, :rows], nu[m, :, :rows], active[m, :, :rows], s_diag[:, :rows],
+                                   keep[:, :rows], nis, ratio, unusable)
+            self.recorders[("dvl", m)].add(t, outcome, valid[m].copy(), beams_available=available, mode=info.mode,
                                            measured_axes=info.measured_axes, elc_choice=info.elc_choice)
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
