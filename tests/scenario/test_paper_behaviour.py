@@ -32,8 +32,9 @@ def test_standalone_ins_drifts_like_the_paper(results: tuple[str, dict]) -> None
     vel_paper, att_paper = PAPER_INS_250S[trajectory]
     assert rms_over_runs(res["ins"].vel_err_mps)[-1] == pytest.approx(vel_paper, rel=0.25)
     # the initial attitude errors alone have an RMS norm of sqrt(0.57^2 + 0.57^2 + 1.14^2) = 1.40 deg,
-    # above two of the paper's figures; a 50-run RMS scatters by ~7 %: hence 25 %
-    assert rms_over_runs(res["ins"].att_err_deg)[-1] == pytest.approx(att_paper, rel=0.25)
+    # above two of the paper's figures (+11 % on the figure eight); a 50-run RMS of a
+    # three-dimensional error scatters by 1 / sqrt(6 x 50) = 6 % (three sigma 17 %): hence 30 %
+    assert rms_over_runs(res["ins"].att_err_deg)[-1] == pytest.approx(att_paper, rel=0.3)
     # and the filter's own 1-sigma of the standalone INS predicts that drift
     assert rms_over_runs(res["ins"].vel_err_mps)[-1] == pytest.approx(np.mean(res["ins"].vel_sigma_mps[-1]), rel=0.2)
 
