@@ -43,7 +43,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
-from tauvcore.ins.strapdown import mv
 
 AXES = ("surge", "sway", "heave")
 LSQ_EXACT_TOL = 1e-9
@@ -83,10 +82,17 @@ def embed(rows: np.ndarray, beams: np.ndarray) -> np.ndarray:
 
 def compensated_beams(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray,
                       dvl_sf: np.ndarray, omega_comp_b: np.ndarray, l_dvl_b: np.ndarray) -> np.ndarray:
-    """``y_c = (y - b_hat - A (omega_hat x l)) / (1 + SF_hat)``, zero where not returned. (B, 4)."""
-    lever = mv(np.broadcast_to(A_b, omega_comp_b.shape[:-1] + A_b.shape), np.cross(omega_comp_b, l_dvl_b))
-    y_c = (y_beam - dvl_bias - lever) / (1.0 + dvl_sf)[..., None]
-    return np.where(available, y_c, 0.0)
+    """``y_c = (y - b_hat - A (omega_hat x l)) / (1 + SF_hat)``, zero where not returned. (B, 4).
+    The kernel :func:`tauvcore.filter.kernels.compensated_beams_into`."""
+    from tauvcore.filter import kernels
+
+    batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1], np.shape(dvl_bias)[:-1],
+                                np.shape(dvl_sf), np.shape(omega_comp_b)[:-1])
+    f = kernels.flat
+    y_c = kernels.compensated_beams_batch(f(A_b, (), (4, 3))[0], f(y_beam, batch, (4,)), f(available, batch, (4,), bool),
+                                          f(dvl_bias, batch, (4,)), f(dvl_sf, batch, ()),
+                                          f(omega_comp_b, batch, (3,)), f(l_dvl_b, (), (3,))[0])
+    return y_c.reshape(batch + (4,))
 
 
 def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float, l_dvl_b: np.ndarray,
@@ -106,9 +112,20 @@ def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float
 
 def apply_solution(C: np.ndarray, D: np.ndarray, gain: np.ndarray, assumption_sd: np.ndarray, y_c: np.ndarray,
                    S_y: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + a a^T``; C, D (..., 3, 4|3), a (..., 3)."""
-    v = mv(C, y_c) + mv(D, v_hat)
-    gD = gain[..., :, None] * D
-    R = C @ S_y @ np.swapaxes(C, -1, -2) + gD @ P_vel @ np.swapaxes(gD, -1, -2)
-    R = R + assumption_sd[..., :, None] * assumption_sd[..., None, :]
-    return v, R
+    """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + a a^T``; C, D (..., 3, 4|3), a (..., 3).
+    The kernel :func:`tauvcore.filter.kernels.apply_solution_into` (the one the filter bank runs)."""
+    from tauvcore.filter import kernels
+
+    r_batch = np.broadcast_shapes(np.shape(C)[:-2], np.shape(D)[:-2], np.shape(gain)[:-1],
+                                  np.shape(assumption_sd)[:-1], np.shape(S_y)[:-2], np.shape(P_vel)[:-2])
+    batch = np.broadcast_shapes(r_batch, np.shape(y_c)[:-1], np.shape(v_hat)[:-1])
+    f = kernels.flat
+
+    def call(shape: tuple[int, ...], y: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return kernels.apply_solution_batch(f(C, shape, (3, 4)), f(D, shape, (3, 3)), f(gain, shape, (3,)),
+                                            f(assumption_sd, shape, (3,)), f(y, shape, (4,)), f(S_y, shape, (4, 4)),
+                                            f(v0, shape, (3,)), f(P_vel, shape, (3, 3)))
+    v, R = call(batch, y_c, v_hat)
+    if r_batch != batch:        # R does not depend on the measurements: keep its own (smaller) shape
+        _, R = call(r_batch, np.zeros(4), np.zeros(3))
+    return v.reshape(batch + (3,)), R.reshape(r_batch + (3, 3))

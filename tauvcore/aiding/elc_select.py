@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from tauvcore.aiding import elc_nsv, elc_plcf, elc_vb, elc_vhv
-from tauvcore.aiding.dvl_partial import PartialSolution, apply_solution
+from tauvcore.aiding.dvl_partial import PartialSolution
 
 CANDIDATES = ("vb", "nsv", "plcf", "vhv")
 """Method codes of the per-axis choice record (index into this tuple; -1: no method)."""
@@ -27,25 +27,18 @@ def candidate_solutions(beam_pitch_rad: float, pattern: tuple[bool, ...], n_f: f
 
 def select(solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v_hat: np.ndarray,
            P_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per-axis minimum-variance choice for a batch sharing one availability pattern.
+    """Per-axis minimum-variance choice for a batch sharing one availability pattern (the kernel
+    :func:`tauvcore.filter.kernels.partial_into`, which the filter bank runs).
 
     Returns ``v`` (n, 3), ``R`` (n, 3, 3), ``measured`` (n, 3) and ``choice`` (n, 3) codes.
     """
-    n = y_c.shape[0]
-    var = np.full((len(solutions), n, 3), np.inf)
-    for i, sol in enumerate(solutions):
-        if sol.ok:
-            _, R = apply_solution(sol.C, sol.D, sol.pred_gain, sol.assumption_sd, y_c, S_y, v_hat, P_vel)
-            var[i] = np.where(sol.measured, np.diagonal(R, axis1=-2, axis2=-1), np.inf)
-    choice = np.argmin(var, axis=0)                      # (n, 3)
-    measured = np.isfinite(np.min(var, axis=0))
-    C_all = np.stack([s.C for s in solutions])           # (4, 3, 4)
-    D_all = np.stack([s.D for s in solutions])
-    g_all = np.stack([s.pred_gain for s in solutions])   # (4, 3)
-    e_all = np.stack([s.assumption_sd for s in solutions])
-    axes = np.arange(3)
-    C = C_all[choice, axes]                              # (n, 3, 4): row a from method choice[:, a]
-    D = D_all[choice, axes]
-    gain, extra = g_all[choice, axes], e_all[choice, axes]
-    v, R = apply_solution(C, D, gain, extra, y_c, S_y, v_hat, P_vel)
-    return v, R, measured, np.where(measured, choice, -1)
+    from tauvcore.filter import kernels
+
+    n = np.shape(y_c)[0]
+    f = kernels.flat
+    ok = np.array([s.ok for s in solutions])
+    stack = [np.stack([getattr(s, name) for s in solutions]).astype(float)
+             for name in ("C", "D", "pred_gain", "assumption_sd")]
+    measured = np.stack([s.measured for s in solutions]).astype(bool)
+    return kernels.select_batch(ok, *stack, measured, f(y_c, (n,), (4,)), f(S_y, (n,), (4, 4)),
+                                f(v_hat, (n,), (3,)), f(P_vel, (n,), (3, 3)))

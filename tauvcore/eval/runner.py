@@ -41,16 +41,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tauvcore import units
-from tauvcore.aiding import Depth, DvlLoose, MagAttitude
+from tauvcore.aiding import Depth, MagAttitude, elc_select
 from tauvcore.aiding.dvl_extended import (
     ELC_METHODS,
     MODE_COAST,
     MODE_LC,
+    MODE_PARTIAL,
     MODE_TC,
     DvlExtended,
-    DvlInfo,
 )
-from tauvcore.aiding.dvl_tight import DvlTight
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.config import Config
 from tauvcore.eval.metrics import implausible_sensor_errors, innovation_divergence_s
@@ -319,6 +318,40 @@ DVL_ROWS = 4
 inactive rows so that one compiled correction fuses every DVL method of a ping."""
 
 
+DVL_MODE_CODES = np.array([MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC], dtype=np.int64)
+"""The record's DVL mode codes in the order the compiled DVL kernel takes them."""
+
+
+def partial_tables(methods: Sequence[str], config: Config) -> tuple[np.ndarray, ...]:
+    """The two-beam constructions of each DVL method, for every pattern of two returned beams
+    (index: the sum of 2^k over the beams k), from the methods' own ``solve`` functions
+    (tauvcore.aiding.elc_*): candidates (1, or the selector's 4), ok, C, D, gain, assumption
+    error and measured rows, as :func:`tauvcore.filter.kernels.dvl_measure_bank` takes them."""
+    n, K = len(methods), kernels.MAX_CANDIDATES
+    n_cand = np.ones(n, np.int64)
+    ok = np.zeros((n, 16, K), bool)
+    Cc, Dc = np.zeros((n, 16, K, 3, 4)), np.zeros((n, 16, K, 3, 3))
+    gc, ac, mc = np.ones((n, 16, K, 3)), np.zeros((n, 16, K, 3)), np.zeros((n, 16, K, 3), bool)
+    pitch, n_f, eps = config.dvl.beam_pitch_rad, config.partial.vb_nf, config.nsv_epsilon_value_m2_per_s2()
+    for i, method in enumerate(methods):
+        if DVL_FUSION[method] != "elc":
+            continue
+        for code in range(16):
+            pattern = tuple(bool(code >> k & 1) for k in range(4))
+            if sum(pattern) != 2:
+                continue
+            if method == "elc":
+                solutions = elc_select.candidate_solutions(pitch, pattern, n_f, eps)
+                n_cand[i] = len(solutions)
+            else:
+                solutions = [DvlExtended(method, config.dvl, config.earth, 0.0, n_f, eps)._solution(pattern)]
+            for c, sol in enumerate(solutions):
+                ok[i, code, c] = sol.ok
+                Cc[i, code, c], Dc[i, code, c] = sol.C, sol.D
+                gc[i, code, c], ac[i, code, c], mc[i, code, c] = sol.pred_gain, sol.assumption_sd, sol.measured
+    return n_cand, ok, Cc, Dc, gc, ac, mc
+
+
 class FilterBank:
     """Every method of ``config.run.methods`` over R runs, fed a simulation chunk by chunk.
 
@@ -345,19 +378,14 @@ class FilterBank:
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
         gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
-        self.dvl_models = {
-            "lc": DvlLoose(config.dvl, earth, gyro_rate_noise),
-            "tc": DvlTight(config.dvl, earth, gyro_rate_noise),
-            **{m: DvlExtended(m, config.dvl, earth, gyro_rate_noise, config.partial.vb_nf,
-                              config.nsv_epsilon_value_m2_per_s2()) for m in ELC_METHODS},
-        }
         self.other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(self.batch, bool)
         self.depth_model = Depth(config.pressure)
         self.mag_model = MagAttitude(config.magnetometer)
         self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION[m] is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
-        self.dvl_codes = np.array([kernels.DVL_TC if DVL_FUSION[m] == "tc" else kernels.DVL_LC
+        self.dvl_codes = np.array([{"lc": kernels.DVL_LC, "tc": kernels.DVL_TC, "elc": kernels.DVL_ELC}[DVL_FUSION[m]]
                                    for _, m in self.dvl_methods], dtype=np.int64)
+        self.partial_tables = partial_tables([m for _, m in self.dvl_methods], config)
         self.A_b = np.ascontiguousarray(config.dvl.A_b, dtype=float)
         self.l_dvl_b = np.ascontiguousarray(config.dvl.l_dvl_b, dtype=float)
         self.gyro_rate_noise = gyro_rate_noise
@@ -449,52 +477,36 @@ class FilterBank:
                 self.recorders[(source, m)].add(t, part, meas.valid[m] & self.other_mask[m])
 
     def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> None:
-        """Every DVL-aided method measures the ping its own way: one compiled call makes the
-        loosely coupled measurement (lc, and the extended methods with three or four beams) or the
-        per-beam one (tc) for every method and run; the extended methods' constructions from two
-        beams follow in numpy for the runs that have exactly two; one compiled correction then
-        fuses them all."""
-        batch, R = self.batch, self.batch[1]
+        """Every DVL-aided method measures the ping its own way (lc, tc, an extended method's
+        loosely coupled velocity or two-beam construction) in one compiled call for every method
+        and run; one compiled correction then fuses them all."""
+        batch = self.batch
         H = np.empty(batch + (DVL_ROWS, STATE.dim))
         Rm = np.ones(batch + (DVL_ROWS, DVL_ROWS))
         nu = np.zeros(batch + (DVL_ROWS,))
         z = np.zeros(batch + (DVL_ROWS,))
         active = np.zeros(batch + (DVL_ROWS,), bool)
         valid = np.zeros(batch, bool)
-        gate_rows = np.zeros(batch, bool)
+        mode = np.zeros(batch, np.int64)
+        measured_axes = np.zeros(batch + (3,), bool)
+        choice = np.full(batch + (3,), -1, np.int64)
         dvl = self.config.dvl
         kernels.dvl_measure_bank(self.dvl_index, self.dvl_codes, np.ascontiguousarray(y), np.ascontiguousarray(available),
-                                 np.ascontiguousarray(omega_meas), self.C, self.vel, self.bg, self.bdvl, self.sf,
+                                 np.ascontiguousarray(omega_meas), self.C, self.vel, self.bg, self.bdvl, self.sf, self.P,
                                  self.A_b, self.l_dvl_b, dvl_beam_sigma_mps(dvl.noise_mps)**2,
-                                 self.gyro_rate_noise**2, self.w_ie, z, nu, H, Rm, active, valid)
-        two = available.sum(axis=-1) == 2
-        taken = []
+                                 self.gyro_rate_noise**2, self.w_ie, *self.partial_tables, DVL_MODE_CODES,
+                                 z, nu, H, Rm, active, valid, mode, measured_axes, choice)
+        gate_rows = np.zeros(batch, bool)
         for m, method in self.dvl_methods:
-            kind = DVL_FUSION[method]
-            rows = 4 if kind == "tc" else 3
-            if kind == "elc" and two.any():
-                lc = Measurement(z=z[m, :, :3], innovation=nu[m, :, :3], H=H[m, :, :3], R=Rm[m, :, :3, :3],
-                                 valid=valid[m].copy())
-                meas, info = self.dvl_models[method].measure(self.nominal(m), self.P[m][..., STATE.vel, STATE.vel],
-                                                             y, available, omega_meas, lc=lc)
-                H[m, :, :3], Rm[m, :, :3, :3], nu[m, :, :3], z[m, :, :3] = meas.H, meas.R, meas.innovation, meas.z
-                active[m, :, :3] = meas.active & meas.valid[:, None]
-                valid[m] = meas.valid
-            else:
-                code = {"lc": MODE_LC, "tc": MODE_TC, "elc": MODE_LC}[kind]
-                info = DvlInfo(mode=np.where(valid[m], code, MODE_COAST),
-                               measured_axes=(active[m, :, :3] & valid[m][:, None]) if kind != "tc"
-                               else np.zeros((R, 3), bool),
-                               elc_choice=np.full((R, 3), -1))
-            gate_rows[m] = kind == "tc"
-            taken.append((m, info, rows))
+            gate_rows[m] = DVL_FUSION[method] == "tc"
         fused = self._fuse(H, Rm, nu, active, gate_rows)
-        for m, info, rows in taken:
+        for m, method in self.dvl_methods:
+            rows = 4 if DVL_FUSION[method] == "tc" else 3
             s_diag, keep, nis, ratio, unusable = (a[m] for a in fused)
             outcome = make_outcome(z[m, :, :rows], nu[m, :, :rows], active[m, :, :rows], s_diag[:, :rows],
                                    keep[:, :rows], nis, ratio, unusable)
-            self.recorders[("dvl", m)].add(t, outcome, valid[m].copy(), beams_available=available, mode=info.mode,
-                                           measured_axes=info.measured_axes, elc_choice=info.elc_choice)
+            self.recorders[("dvl", m)].add(t, outcome, valid[m], beams_available=available, mode=mode[m],
+                                           measured_axes=measured_axes[m], elc_choice=choice[m])
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
         truth, imu = chunk.truth, chunk.imu

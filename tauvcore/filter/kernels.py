@@ -1075,23 +1075,35 @@ def beam_noise_batch(A: np.ndarray, sigma2: float, gyro_var: float, l: np.ndarra
 
 
 DVL_LC, DVL_TC = 1, 2
-"""Codes of :func:`dvl_measure_bank`: a loosely coupled velocity (lc, and the extended methods
-with three or four beams), or one row per beam (tc)."""
+"""Codes of :func:`dvl_measure_bank`: a loosely coupled velocity (lc), or one row per beam (tc);
+:data:`DVL_ELC` an extended method."""
 
 
 @_jit
 def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, available: np.ndarray,
                      omega_meas: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray,
-                     dvl_bias: np.ndarray, sf: np.ndarray, A: np.ndarray, l: np.ndarray, sigma2: float,
-                     gyro_var: float, w_ie: np.ndarray, z: np.ndarray, nu: np.ndarray, H: np.ndarray,
-                     Rm: np.ndarray, active: np.ndarray, valid: np.ndarray) -> None:
+                     dvl_bias: np.ndarray, sf: np.ndarray, P: np.ndarray, A: np.ndarray, l: np.ndarray, sigma2: float,
+                     gyro_var: float, w_ie: np.ndarray, n_cand: np.ndarray, ok: np.ndarray, Cc: np.ndarray,
+                     Dc: np.ndarray, gc: np.ndarray, ac: np.ndarray, mc: np.ndarray, mode_codes: np.ndarray,
+                     z: np.ndarray, nu: np.ndarray, H: np.ndarray, Rm: np.ndarray, active: np.ndarray,
+                     valid: np.ndarray, mode: np.ndarray, measured_axes: np.ndarray, choice: np.ndarray) -> None:
     """One DVL ping measured by every DVL method ``methods[i]`` (code ``codes[i]``) of the bank
     and every run: fills rows of z, nu (M, R, 4), H (M, R, 4, 20), Rm (M, R, 4, 4), active (M, R,
-    4) and valid (M, R) (rows beyond a measurement's width inactive, with a unit variance)."""
+    4), valid (M, R) (rows beyond a measurement's width inactive, with a unit variance), and the
+    record's mode (``mode_codes``: coast, lc, partial, tc), measured axes and selector choice.
+
+    An extended method (``DVL_ELC``) with three or four beams is loosely coupled; with exactly two
+    it builds its velocity from the tables ``n_cand[i]``, ``ok``, ``Cc``, ``Dc``, ``gc``, ``ac``,
+    ``mc`` [i, pattern, candidate] (pattern = sum of 2^k over the returned beams k), fused on its
+    measured axes with ``H = [0 0 I 0 0 0 0]`` (tauvcore.aiding.dvl_partial)."""
     A_pinv = np.empty((3, 4))
     omega_comp = np.empty(3)
     h = np.empty(4)
     S = np.empty((4, 4))
+    y_c = np.empty(4)
+    v_hat = np.empty(3)
+    meas = np.empty(3, dtype=np.bool_)
+    pick = np.empty(3, dtype=np.int64)
     for i in range(methods.shape[0]):
         m = methods[i]
         for r in range(y.shape[0]):
@@ -1099,30 +1111,211 @@ def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, avai
             Rm[m, r, :, :] = 0.0
             z[m, r, :] = 0.0
             nu[m, r, :] = 0.0
-            if codes[i] == DVL_LC:
-                ok = lc_prepare_into(A, l, sigma2, gyro_var, w_ie, y[r], available[r], omega_meas[r], C[m, r],
-                                     gyro_bias[m, r], z[m, r, :3], Rm[m, r, :3, :3], A_pinv, omega_comp)
+            for k in range(3):
+                choice[m, r, k] = -1
+            n_beams = 0
+            pattern = 0
+            for k in range(4):
+                if available[r, k]:
+                    n_beams += 1
+                    pattern += 1 << k
+            if codes[i] == DVL_ELC and n_beams == 2:
+                omega_comp_into(omega_meas[r], gyro_bias[m, r], C[m, r], w_ie, omega_comp)
+                compensated_beams_into(A, y[r], available[r], dvl_bias[m, r], sf[m, r], omega_comp, l, y_c)
+                beam_noise_into(A, sigma2, gyro_var, l, sf[m, r], S)
+                for k in range(3):
+                    v_hat[k] = C[m, r, 0, k] * vel_n[m, r, 0] + C[m, r, 1, k] * vel_n[m, r, 1] + C[m, r, 2, k] * vel_n[m, r, 2]
+                partial_into(n_cand[i], ok[i, pattern], Cc[i, pattern], Dc[i, pattern], gc[i, pattern],
+                             ac[i, pattern], mc[i, pattern], y_c, S, v_hat, P[m, r, VEL:VEL + 3, VEL:VEL + 3],
+                             z[m, r, :3], Rm[m, r, :3, :3], meas, pick)
+                any_axis = False
+                for k in range(3):
+                    nu[m, r, k] = z[m, r, k] - v_hat[k]
+                    H[m, r, k, VEL + k] = 1.0
+                    active[m, r, k] = meas[k]
+                    any_axis = any_axis or meas[k]
+                    if n_cand[i] > 1:
+                        choice[m, r, k] = pick[k]
+                active[m, r, 3] = False
+                Rm[m, r, 3, 3] = 1.0
+                valid[m, r] = any_axis
+                mode[m, r] = mode_codes[2] if any_axis else mode_codes[0]
+                for k in range(3):
+                    measured_axes[m, r, k] = meas[k] and any_axis
+            elif codes[i] != DVL_TC:
+                good = lc_prepare_into(A, l, sigma2, gyro_var, w_ie, y[r], available[r], omega_meas[r], C[m, r],
+                                       gyro_bias[m, r], z[m, r, :3], Rm[m, r, :3, :3], A_pinv, omega_comp)
                 lc_predict_into(C[m, r], vel_n[m, r], sf[m, r], dvl_bias[m, r], gyro_bias[m, r], A_pinv,
                                 omega_meas[r], omega_comp, w_ie, l, h)
                 for k in range(3):
                     nu[m, r, k] = z[m, r, k] - h[k]
-                    active[m, r, k] = ok
+                    active[m, r, k] = good
+                    measured_axes[m, r, k] = good
                 active[m, r, 3] = False
                 Rm[m, r, 3, 3] = 1.0
                 lc_jacobian_into(C[m, r], vel_n[m, r], sf[m, r], A_pinv, w_ie, l, H[m, r, :3])
-                valid[m, r] = ok
+                valid[m, r] = good
+                mode[m, r] = mode_codes[1] if good else mode_codes[0]
             else:
                 beam_noise_into(A, sigma2, gyro_var, l, 0.0, S)
                 tc_predict_into(A, C[m, r], vel_n[m, r], sf[m, r], dvl_bias[m, r], gyro_bias[m, r], omega_meas[r],
                                 w_ie, l, h)
-                any_beam = False
                 for k in range(4):
                     if available[r, k]:
                         z[m, r, k] = y[r, k]
                         nu[m, r, k] = y[r, k] - h[k]
-                        any_beam = True
                     active[m, r, k] = available[r, k]
                     for j in range(4):
                         Rm[m, r, k, j] = S[k, j]
+                for k in range(3):
+                    measured_axes[m, r, k] = False
                 tc_jacobian_into(A, C[m, r], vel_n[m, r], sf[m, r], w_ie, l, H[m, r])
-                valid[m, r] = any_beam
+                valid[m, r] = n_beams > 0
+                mode[m, r] = mode_codes[3] if n_beams > 0 else mode_codes[0]
+
+
+# ---------------------------------------------------------------- two-beam constructions
+# tauvcore.aiding.dvl_partial derives them: every extended method is affine in the compensated
+# beams and the predicted velocity, v = C y_c + D v_hat; its C, D, per-row gain g and assumption
+# error a depend only on the beam geometry and which two beams returned, so the filter bank looks
+# them up in tables built once (DVL_PATTERNS availability patterns x up to four candidates).
+
+DVL_ELC = 3
+"""Code of :func:`dvl_measure_bank`: an extended method (loosely coupled with three or four beams,
+its two-beam construction with two, the tables say which)."""
+MAX_CANDIDATES = 4
+SELECT_TIE_REL = 1e-12
+"""The selector takes a later candidate's row only if its variance is smaller by more than this
+(relative): rows that several methods build identically tie within round-off."""
+
+
+@_jit
+def compensated_beams_into(A: np.ndarray, y: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray, sf: float,
+                           omega_comp: np.ndarray, l: np.ndarray, out: np.ndarray) -> None:
+    """``y_c = (y - b_hat - A (omega_hat_nb x l)) / (1 + SF_hat)``, zero where not returned."""
+    lx = (omega_comp[1] * l[2] - omega_comp[2] * l[1], omega_comp[2] * l[0] - omega_comp[0] * l[2],
+          omega_comp[0] * l[1] - omega_comp[1] * l[0])
+    for k in range(4):
+        if available[k]:
+            lever = A[k, 0] * lx[0] + A[k, 1] * lx[1] + A[k, 2] * lx[2]
+            out[k] = (y[k] - dvl_bias[k] - lever) / (1.0 + sf)
+        else:
+            out[k] = 0.0
+
+
+@_jit
+def apply_solution_into(C: np.ndarray, D: np.ndarray, gain: np.ndarray, a: np.ndarray, y_c: np.ndarray,
+                        S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray, v: np.ndarray, R: np.ndarray) -> None:
+    """``v = C y_c + D v_hat``, ``R = C S C^T + (g D) P (g D)^T + a a^T`` (one row of C, D, g, a
+    per velocity axis)."""
+    CS = np.empty((3, 4))
+    GP = np.empty((3, 3))
+    for i in range(3):
+        s = 0.0
+        for k in range(4):
+            s += C[i, k] * y_c[k]
+        for k in range(3):
+            s += D[i, k] * v_hat[k]
+        v[i] = s
+        for j in range(4):
+            t = 0.0
+            for k in range(4):
+                t += C[i, k] * S[k, j]
+            CS[i, j] = t
+        for j in range(3):
+            t = 0.0
+            for k in range(3):
+                t += gain[i] * D[i, k] * P_vel[k, j]
+            GP[i, j] = t
+    for i in range(3):
+        for j in range(3):
+            t = 0.0
+            for k in range(4):
+                t += CS[i, k] * C[j, k]
+            u = 0.0
+            for k in range(3):
+                u += GP[i, k] * (gain[j] * D[j, k])
+            R[i, j] = (t + u) + a[i] * a[j]
+
+
+@_jit
+def partial_into(n_cand: int, ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc: np.ndarray, ac: np.ndarray,
+                 mc: np.ndarray, y_c: np.ndarray, S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray,
+                 v: np.ndarray, R: np.ndarray, measured: np.ndarray, choice: np.ndarray) -> None:
+    """A method's two-beam velocity from its candidates (one for VB, NSV, PLCF, VHV; four for the
+    selector, eq. 48-49: per axis the candidate with the smallest variance, the earlier one on a
+    tie within :data:`SELECT_TIE_REL`; rows recombined so that R keeps their cross terms). Candidate c: ok[c], C (3, 4), D (3, 3), g, a, measured (3,).
+    ``choice`` (3,): the candidate of each measured axis, -1 none (selector only; else -1)."""
+    v_c = np.empty(3)
+    R_c = np.empty((3, 3))
+    if n_cand == 1:
+        for i in range(3):
+            choice[i] = -1
+            measured[i] = ok[0] and mc[0, i]
+        if ok[0]:
+            apply_solution_into(Cc[0], Dc[0], gc[0], ac[0], y_c, S, v_hat, P_vel, v, R)
+        else:
+            for i in range(3):
+                v[i] = 0.0
+                for j in range(3):
+                    R[i, j] = 1.0 if i == j else 0.0
+        return
+    best = np.full(3, np.inf)
+    pick = np.zeros(3, dtype=np.int64)
+    for c in range(n_cand):
+        if not ok[c]:
+            continue
+        apply_solution_into(Cc[c], Dc[c], gc[c], ac[c], y_c, S, v_hat, P_vel, v_c, R_c)
+        for i in range(3):
+            # a tie within round-off (several methods share the same row, e.g. the surge of beams 1-2)
+            # goes to the earlier candidate: the last bit does not decide
+            if mc[c, i] and R_c[i, i] < best[i] * (1.0 - SELECT_TIE_REL):
+                best[i] = R_c[i, i]
+                pick[i] = c
+    C = np.empty((3, 4))
+    D = np.empty((3, 3))
+    g = np.empty(3)
+    a = np.empty(3)
+    for i in range(3):
+        measured[i] = math.isfinite(best[i])
+        choice[i] = pick[i] if measured[i] else -1
+        C[i, :] = Cc[pick[i], i, :]
+        D[i, :] = Dc[pick[i], i, :]
+        g[i] = gc[pick[i], i]
+        a[i] = ac[pick[i], i]
+    apply_solution_into(C, D, g, a, y_c, S, v_hat, P_vel, v, R)
+
+
+@_jit
+def apply_solution_batch(C: np.ndarray, D: np.ndarray, gain: np.ndarray, a: np.ndarray, y_c: np.ndarray,
+                         S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple:
+    n = y_c.shape[0]
+    v = np.empty((n, 3))
+    R = np.empty((n, 3, 3))
+    for i in range(n):
+        apply_solution_into(C[i], D[i], gain[i], a[i], y_c[i], S[i], v_hat[i], P_vel[i], v[i], R[i])
+    return v, R
+
+
+@_jit
+def compensated_beams_batch(A: np.ndarray, y: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray,
+                            sf: np.ndarray, omega_comp: np.ndarray, l: np.ndarray) -> np.ndarray:
+    out = np.empty((y.shape[0], 4))
+    for i in range(y.shape[0]):
+        compensated_beams_into(A, y[i], available[i], dvl_bias[i], sf[i], omega_comp[i], l, out[i])
+    return out
+
+
+@_jit
+def select_batch(ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc: np.ndarray, ac: np.ndarray, mc: np.ndarray,
+                 y_c: np.ndarray, S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple:
+    """:func:`partial_into` with the selector's candidates for n entries sharing one pattern."""
+    n = y_c.shape[0]
+    v = np.empty((n, 3))
+    R = np.empty((n, 3, 3))
+    measured = np.empty((n, 3), dtype=np.bool_)
+    choice = np.empty((n, 3), dtype=np.int64)
+    for i in range(n):
+        partial_into(ok.shape[0], ok, Cc, Dc, gc, ac, mc, y_c[i], S[i], v_hat[i], P_vel[i], v[i], R[i],
+                     measured[i], choice[i])
+    return v, R, measured, choice
