@@ -237,10 +237,9 @@ makes a study's numbers bit-identical whatever the workers and wherever they run
 ``tauv mc --method lc --runs 100`` under 300 MB (285 MB measured, 318 MB with 25)."""
 
 PAPER_CHUNK_RUNS = 25
-"""Runs per chunk of ``tauv reproduce`` (fixed too): its seven two-beam methods spend a third of a
-chunk in the DVL measurement models, which still run in numpy once per ping and method for the
-whole chunk; 25 runs amortise that (56 s with 10, 43 s with 25 on 2 workers) at about 70 MB of
-results per chunk."""
+"""Runs per chunk of ``tauv reproduce`` (fixed too): fewer, larger chunks amortise the Python work
+between the compiled calls and the per-chunk transfer (with numpy DVL models: 56 s with 10, 43 s
+with 25 on 2 workers) at about 70 MB of results per chunk of seven methods."""
 
 
 def run_study(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
