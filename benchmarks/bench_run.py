@@ -38,7 +38,7 @@ def main() -> None:
         label = "all eight" if methods == METHODS else ",".join(methods)
         print(f"| one 250 s run, figure8, methods {label} (simulation included) | {best_of(one):.2f} |")
     config = Config().replace("trajectory", name="figure8").replace("run", methods=("lc",))
-    mc = best_of(lambda: monte_carlo(config, 30, np.random.default_rng(0)), repeats=1)
+    mc = best_of(lambda: monte_carlo(config, 30, np.random.default_rng(0)))
     print(f"| 30-run Monte Carlo, figure8, lc, 250 s | {mc:.2f} |")
 
 
