@@ -5,4 +5,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 python3 -m venv .venv
 .venv/bin/pip install -q -e .
+.venv/bin/python -m tauvcore.eval.warmup   # compile the filter bank once, not during the first run
 exec .venv/bin/tauv serve "$@"

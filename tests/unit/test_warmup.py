@@ -1,0 +1,15 @@
+"""The warm-up mission the README's commands run after installing takes every kernel of the engine."""
+
+from __future__ import annotations
+
+from tauvcore.eval import warmup
+from tauvcore.filter import kernels
+
+ENGINE_KERNELS = ("advance", "propagate_bank", "record_bank", "correct_batch", "inject_batch",
+                  "positive_definite_bank", "dvl_measure_bank")
+
+
+def test_the_warm_up_compiles_every_kernel_the_engine_calls() -> None:
+    assert warmup.warm_up() > 0.0
+    for name in ENGINE_KERNELS:
+        assert getattr(kernels, name).signatures, f"{name} was not compiled by the warm-up"
