@@ -32,10 +32,12 @@ def rms(x: np.ndarray, axis: int | tuple[int, ...] = -1) -> np.ndarray:
 
 
 def _flat(dx: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """dx and P broadcast together, in the kernels' one-leading-axis layout, and their batch shape."""
+    from tauvcore.filter import kernels
+
     n = dx.shape[-1]
     batch = np.broadcast_shapes(dx.shape[:-1], P.shape[:-2])
-    return (np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (n,))).reshape(-1, n),
-            np.ascontiguousarray(np.broadcast_to(np.asarray(P, dtype=float), batch + (n, n))).reshape(-1, n, n), batch)
+    return kernels.flat(dx, batch, (n,)), kernels.flat(P, batch, (n, n)), batch
 
 
 def nees(dx: np.ndarray, P: np.ndarray) -> np.ndarray:

@@ -491,8 +491,9 @@ class FilterBank:
         measured_axes = np.zeros(batch + (3,), bool)
         choice = np.full(batch + (3,), -1, np.int64)
         dvl = self.config.dvl
-        kernels.dvl_measure_bank(self.dvl_index, self.dvl_codes, np.ascontiguousarray(y), np.ascontiguousarray(available),
-                                 np.ascontiguousarray(omega_meas), self.C, self.vel, self.bg, self.bdvl, self.sf, self.P,
+        kernels.dvl_measure_bank(self.dvl_index, self.dvl_codes, np.ascontiguousarray(y),
+                                 np.ascontiguousarray(available), np.ascontiguousarray(omega_meas), self.C, self.vel,
+                                 self.bg, self.bdvl, self.sf, self.P,
                                  self.A_b, self.l_dvl_b, dvl_beam_sigma_mps(dvl.noise_mps)**2,
                                  self.gyro_rate_noise**2, self.w_ie, *self.partial_tables, DVL_MODE_CODES,
                                  z, nu, H, Rm, active, valid, mode, measured_axes, choice)
@@ -630,7 +631,8 @@ class FilterBank:
             est_pos_n = np.concatenate([c["est_pos_n"] for c in stored])
         else:
             t_s, series_all = np.zeros(0), np.zeros((len(kernels.SERIES_NAMES), 0) + self.batch)
-            nees_block, est_pos_n = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),)), np.zeros((0,) + self.batch + (3,))
+            nees_block = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),))
+            est_pos_n = np.zeros((0,) + self.batch + (3,))
         series = dict(zip(kernels.SERIES_NAMES, series_all))
         out = {}
         for m, method in enumerate(self.methods):

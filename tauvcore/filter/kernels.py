@@ -1124,7 +1124,8 @@ def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, avai
                 compensated_beams_into(A, y[r], available[r], dvl_bias[m, r], sf[m, r], omega_comp, l, y_c)
                 beam_noise_into(A, sigma2, gyro_var, l, sf[m, r], S)
                 for k in range(3):
-                    v_hat[k] = C[m, r, 0, k] * vel_n[m, r, 0] + C[m, r, 1, k] * vel_n[m, r, 1] + C[m, r, 2, k] * vel_n[m, r, 2]
+                    v_hat[k] = (C[m, r, 0, k] * vel_n[m, r, 0] + C[m, r, 1, k] * vel_n[m, r, 1]
+                                + C[m, r, 2, k] * vel_n[m, r, 2])
                 partial_into(n_cand[i], ok[i, pattern], Cc[i, pattern], Dc[i, pattern], gc[i, pattern],
                              ac[i, pattern], mc[i, pattern], y_c, S, v_hat, P[m, r, VEL:VEL + 3, VEL:VEL + 3],
                              z[m, r, :3], Rm[m, r, :3, :3], meas, pick)
@@ -1244,7 +1245,8 @@ def partial_into(n_cand: int, ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc
                  v: np.ndarray, R: np.ndarray, measured: np.ndarray, choice: np.ndarray) -> None:
     """A method's two-beam velocity from its candidates (one for VB, NSV, PLCF, VHV; four for the
     selector, eq. 48-49: per axis the candidate with the smallest variance, the earlier one on a
-    tie within :data:`SELECT_TIE_REL`; rows recombined so that R keeps their cross terms). Candidate c: ok[c], C (3, 4), D (3, 3), g, a, measured (3,).
+    tie within :data:`SELECT_TIE_REL`; rows recombined so that R keeps their cross terms).
+    Candidate c: ok[c], C (3, 4), D (3, 3), g, a, measured (3,).
     ``choice`` (3,): the candidate of each measured axis, -1 none (selector only; else -1)."""
     v_c = np.empty(3)
     R_c = np.empty((3, 3))

@@ -40,15 +40,6 @@ from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.sensors.imu import ImuConfig
 
 
-def _T(M: np.ndarray) -> np.ndarray:
-    return np.swapaxes(M, -1, -2)
-
-
-def _flat(a: np.ndarray, batch: tuple[int, ...], tail: tuple[int, ...]) -> np.ndarray:
-    """``a`` broadcast to ``batch + tail``, as a C-contiguous float array with one leading axis."""
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), batch + tail)).reshape((-1,) + tail)
-
-
 def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth: Earth) -> np.ndarray:
     """Continuous-time F (eq. 4 and 9) at the nominal state. -> (..., 20, 20).
 
@@ -59,8 +50,9 @@ def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth:
     from tauvcore.filter import kernels  # numba: with the engine, not for --help
 
     batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1], np.shape(omega_ib_b)[:-1])
-    F = kernels.F_batch(_flat(C_nb, batch, (3, 3)), _flat(vel_b, batch, (3,)), _flat(omega_ib_b, batch, (3,)),
-                        _flat(earth.g_n, (), (3,))[0], _flat(earth.omega_ie_n, (), (3,))[0])
+    f = kernels.flat
+    F = kernels.F_batch(f(C_nb, batch, (3, 3)), f(vel_b, batch, (3,)), f(omega_ib_b, batch, (3,)),
+                        f(earth.g_n, (), (3,))[0], f(earth.omega_ie_n, (), (3,))[0])
     return F.reshape(batch + (STATE.dim, STATE.dim))
 
 
@@ -69,7 +61,7 @@ def G_matrix(C_nb: np.ndarray, vel_b: np.ndarray) -> np.ndarray:
     from tauvcore.filter import kernels
 
     batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1])
-    G = kernels.G_batch(_flat(C_nb, batch, (3, 3)), _flat(vel_b, batch, (3,)), NOISE.dim)
+    G = kernels.G_batch(kernels.flat(C_nb, batch, (3, 3)), kernels.flat(vel_b, batch, (3,)), NOISE.dim)
     return G.reshape(batch + (STATE.dim, NOISE.dim))
 
 
@@ -123,9 +115,9 @@ def discretise(F: np.ndarray, G: np.ndarray, q_psd: np.ndarray, dt_s: float) -> 
     if np.any(F[..., kernels.NAV:, :]) or np.any(F[..., :, kernels.CORE:]):
         raise ValueError("F must be zero outside rows 0-8 and columns 0-14 (the structure of F_matrix)")
     batch = np.broadcast_shapes(F.shape[:-2], np.shape(G)[:-2])
-    Phi, Qd = kernels.discretise_batch(_flat(F, batch, (STATE.dim, STATE.dim)),
-                                       _flat(G, batch, (STATE.dim, NOISE.dim)),
-                                       _flat(q_psd, (), (NOISE.dim,))[0], float(dt_s))
+    Phi, Qd = kernels.discretise_batch(kernels.flat(F, batch, (STATE.dim, STATE.dim)),
+                                       kernels.flat(G, batch, (STATE.dim, NOISE.dim)),
+                                       kernels.flat(q_psd, (), (NOISE.dim,))[0], float(dt_s))
     return Phi.reshape(batch + Phi.shape[1:]), Qd.reshape(batch + Qd.shape[1:])
 
 
