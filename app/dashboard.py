@@ -373,13 +373,16 @@ class Session:
 
         While every worker is busy the run waits in line, and the status says its place; a
         worker that dies ends the run with an "error" message (app.worker), shown as a
-        notification like any failed run.
+        notification like any failed run. The run's closing notification is sent only after the
+        tab is ready for the next run (Run enabled, no run held): a Run pressed as soon as "Run
+        complete" shows must start, not meet "Already running".
         """
         last_draw = 0.0
         pending: dict[str, MethodResult] | None = None
         finished = False
         running_status = self.status.content
         place = 0
+        note: tuple[str, str, bool] | None = None
         try:
             while not finished:
                 try:
@@ -395,7 +398,7 @@ class Session:
                         if pending is not None:
                             self._show_results(pending, config)
                         self.status.content = "Run stopped."
-                        self.notify("Run stopped", "The run ended before completion.")
+                        note = ("Run stopped", "The run ended before completion.", False)
                         break
                     if pending is not None and time.monotonic() - last_draw > GUI_REFRESH_S:
                         self._show_results(pending, config)
@@ -417,23 +420,25 @@ class Session:
                     t_end = float(next(iter(results.values())).t_s[-1])
                     if stopped:
                         self.status.content = f"Stopped at {t_end:.1f} s."
-                        self.notify("Run stopped", f"Stopped at t = {t_end:.1f} s.")
+                        note = ("Run stopped", f"Stopped at t = {t_end:.1f} s.", False)
                     else:
                         self.progress.value = 100.0
                         self.status.content = f"Run complete: {config.trajectory.name}, {t_end:g} s."
-                        self.notify("Run complete", summary_line(results))
+                        note = ("Run complete", summary_line(results), False)
                     finished = True
                 elif kind == "error":
                     self.status.content = "Run failed."
-                    self.notify("Run failed", msg[1], error=True)
+                    note = ("Run failed", msg[1], True)
                     finished = True
         except Exception as exc:  # a display bug must not leave the tab stuck in "running"
             self.status.content = "Display error."
-            self.notify("Display error", f"{type(exc).__name__}: {exc}", error=True)
+            note = ("Display error", f"{type(exc).__name__}: {exc}", True)
         finally:
             with self.lock:
                 self.handle = None
             self.run_button.disabled, self.stop_button.disabled = False, True
+        if note is not None:
+            self.notify(*note)
 
     # ------------------------------------------------------------------ results
     def _show_results(self, results: dict[str, MethodResult], config: Config) -> None:

@@ -47,3 +47,34 @@ def test_drawing_waits_for_the_draw_lock(call) -> None:
     assert done.wait(5.0), "never drew after the lock was released"
 
 
+
+
+@pytest.mark.parametrize("messages, title", [
+    ([("done", {}, False)], "Run complete"),
+    ([("done", {}, True)], "Run stopped"),
+    ([("error", "boom")], "Run failed"),
+], ids=["complete", "stopped", "failed"])
+def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(messages, title) -> None:
+    """Seen in the 8-client load test: a Run pressed as soon as "Run complete" showed met
+    "Already running" when the notification went out before the tab let go of its run."""
+    import queue
+
+    handle = types.SimpleNamespace(queue=queue.Queue(), finished=lambda: True, position=lambda: 0)
+    for msg in messages:
+        handle.queue.put(msg)
+    seen = []
+    session = types.SimpleNamespace(
+        lock=threading.Lock(), handle=handle, status=types.SimpleNamespace(content=""),
+        progress=types.SimpleNamespace(value=0.0), pool=types.SimpleNamespace(workers=2),
+        run_button=types.SimpleNamespace(disabled=True), stop_button=types.SimpleNamespace(disabled=False),
+        _show_results=lambda results, config: None)
+    session.notify = lambda t, body, error=False: seen.append(
+        (t, session.handle is None, session.run_button.disabled, session.stop_button.disabled))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("app.dashboard.summary_line", lambda results: "")
+        # a "done" message's results name their last epoch
+        if messages[0][0] == "done":
+            result = types.SimpleNamespace(t_s=np.array([0.0, 20.0]))
+            handle.queue.queue[0] = ("done", {"lc": result}, messages[0][2])
+        Session._pump(session, handle, Config())
+    assert seen == [(title, True, False, True)]
