@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from app.worker import RunPool, death_message
+from app.worker import WORKER_NICENESS, RunPool, death_message
 from tauvcore.config import METHODS, Config, to_dict
 
 
@@ -104,28 +104,23 @@ def test_monte_carlo_runs_draw_initial_errors_per_run(pool: RunPool) -> None:
     assert len({round(float(v), 6) for v in ins.pos_err_m[0]}) == 3
 
 
-def _busy_work_s() -> float:
-    """Wall time of a fixed piece of interpreter-bound work in this (the server's) process."""
-    t0 = time.perf_counter()
-    total = 0
-    for i in range(300_000):
-        total += i * i % 7
-    return time.perf_counter() - t0
-
-
-def test_a_run_leaves_the_server_process_its_speed(pool: RunPool) -> None:
-    """The run computes in a low-priority worker process, so the server's own interpreter (which
-    answers every tab's controls) keeps its speed while a long run goes on."""
-    # the minimum of ten samples: other processes on a shared machine add delay, never speed
-    baseline = min(_busy_work_s() for _ in range(10))
+def test_a_run_computes_in_a_lower_priority_process_than_the_server(pool: RunPool) -> None:
+    """The run computes in a worker process of lower priority (higher niceness), so the server's
+    own interpreter (which answers every tab's controls) keeps the CPU while a long run goes on.
+    (This used to time a busy loop in the server during a run: a timed assertion, which failed on
+    a loaded machine; the server's speed during a run is measured by benchmarks/server_speed.py.)"""
     config = Config().replace("trajectory", duration_s=3000.0).replace("run", methods=METHODS)
     handle = pool.start(to_dict(config), 1)
     assert _next(handle)[0] == "truth"
-    during = min(_busy_work_s() for _ in range(10))
-    handle.stop()
-    while _next(handle, timeout=10.0)[0] != "done":
-        pass
-    assert during < 1.5 * baseline, (baseline, during)
+    busy = pool.busy_pids()
+    try:
+        assert len(busy) == 1 and busy[0] != os.getpid()
+        server_nice = os.getpriority(os.PRIO_PROCESS, 0)
+        assert os.getpriority(os.PRIO_PROCESS, busy[0]) == min(19, server_nice + WORKER_NICENESS)
+    finally:
+        handle.stop()
+        while _next(handle, timeout=10.0)[0] != "done":
+            pass
 
 
 LONG = Config().replace("trajectory", duration_s=3000.0).replace("run", methods=("ins", "lc", "tc"))
