@@ -194,140 +194,232 @@ def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndar
 
 # ---------------------------------------------------------------- error model
 @_jit
-def F_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray, F: np.ndarray) -> None:
-    """Continuous F (tauvcore.ins.error_model, eq. 4 and 9) into ``F`` (20, 20), zeroed here.
+def _skew(a0: float, a1: float, a2: float, i: int, j: int) -> float:
+    """Entry (i, j) of ``[a x]``."""
+    if i == 0:
+        return -a2 if j == 1 else (a1 if j == 2 else 0.0)
+    if i == 1:
+        return a2 if j == 0 else (-a0 if j == 2 else 0.0)
+    return -a1 if j == 0 else (a0 if j == 1 else 0.0)
+
+
+@_jit
+def F_core_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray,
+                A: np.ndarray) -> None:
+    """The block of the continuous F (tauvcore.ins.error_model, eq. 4 and 9) that is not zero,
+    rows 0-8 and columns 0-14, into ``A`` (9, 15) (every entry written; no allocation).
 
     C (3, 3) nominal C_nb, v (3,) nominal body velocity, om (3,) bias-corrected rate.
     """
-    F[:, :] = 0.0
-    vn = np.empty(3)
-    for i in range(3):
-        vn[i] = C[i, 0] * v[0] + C[i, 1] * v[1] + C[i, 2] * v[2]
+    A[:, :] = 0.0
+    vn0 = C[0, 0] * v[0] + C[0, 1] * v[1] + C[0, 2] * v[2]
+    vn1 = C[1, 0] * v[0] + C[1, 1] * v[1] + C[1, 2] * v[2]
+    vn2 = C[2, 0] * v[0] + C[2, 1] * v[1] + C[2, 2] * v[2]
     # d pos' = -[(C v) x] rho + C dv
-    F[POS + 0, ATT + 1], F[POS + 0, ATT + 2] = vn[2], -vn[1]
-    F[POS + 1, ATT + 0], F[POS + 1, ATT + 2] = -vn[2], vn[0]
-    F[POS + 2, ATT + 0], F[POS + 2, ATT + 1] = vn[1], -vn[0]
+    A[POS + 0, ATT + 1], A[POS + 0, ATT + 2] = vn2, -vn1
+    A[POS + 1, ATT + 0], A[POS + 1, ATT + 2] = -vn2, vn0
+    A[POS + 2, ATT + 0], A[POS + 2, ATT + 1] = vn1, -vn0
     for i in range(3):
         for j in range(3):
-            F[POS + i, VEL + j] = C[i, j]
-            F[ATT + i, BG + j] = -C[i, j]
+            A[POS + i, VEL + j] = C[i, j]
+            A[ATT + i, BG + j] = -C[i, j]
     # rho' = -W rho
-    F[ATT + 0, ATT + 1], F[ATT + 0, ATT + 2] = w_ie[2], -w_ie[1]
-    F[ATT + 1, ATT + 0], F[ATT + 1, ATT + 2] = -w_ie[2], w_ie[0]
-    F[ATT + 2, ATT + 0], F[ATT + 2, ATT + 1] = w_ie[1], -w_ie[0]
+    A[ATT + 0, ATT + 1], A[ATT + 0, ATT + 2] = w_ie[2], -w_ie[1]
+    A[ATT + 1, ATT + 0], A[ATT + 1, ATT + 2] = -w_ie[2], w_ie[0]
+    A[ATT + 2, ATT + 0], A[ATT + 2, ATT + 1] = w_ie[1], -w_ie[0]
     # dv' = (C^T [g x] + [v x] C^T W) rho - [(om + C^T w_ie) x] dv - dba - [v x] dbg
-    Gx = np.zeros((3, 3))
-    Gx[0, 1], Gx[0, 2], Gx[1, 0], Gx[1, 2], Gx[2, 0], Gx[2, 1] = -g_n[2], g_n[1], g_n[2], -g_n[0], -g_n[1], g_n[0]
-    W = np.zeros((3, 3))
-    W[0, 1], W[0, 2], W[1, 0], W[1, 2], W[2, 0], W[2, 1] = -w_ie[2], w_ie[1], w_ie[2], -w_ie[0], -w_ie[1], w_ie[0]
-    Vx = np.zeros((3, 3))
-    Vx[0, 1], Vx[0, 2], Vx[1, 0], Vx[1, 2], Vx[2, 0], Vx[2, 1] = -v[2], v[1], v[2], -v[0], -v[1], v[0]
-    CtW = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            s = 0.0
-            t = 0.0
-            for k in range(3):
-                s += C[k, i] * Gx[k, j]
-                t += C[k, i] * W[k, j]
-            F[VEL + i, ATT + j] = s
-            CtW[i, j] = t
     for i in range(3):
         for j in range(3):
             s = 0.0
             for k in range(3):
-                s += Vx[i, k] * CtW[k, j]
-            F[VEL + i, ATT + j] += s
-    a = np.empty(3)
+                s += C[k, i] * _skew(g_n[0], g_n[1], g_n[2], k, j)
+            A[VEL + i, ATT + j] = s
     for i in range(3):
-        a[i] = om[i] + C[0, i] * w_ie[0] + C[1, i] * w_ie[1] + C[2, i] * w_ie[2]
-    F[VEL + 0, VEL + 1], F[VEL + 0, VEL + 2] = a[2], -a[1]
-    F[VEL + 1, VEL + 0], F[VEL + 1, VEL + 2] = -a[2], a[0]
-    F[VEL + 2, VEL + 0], F[VEL + 2, VEL + 1] = a[1], -a[0]
-    for i in range(3):
-        F[VEL + i, BA + i] = -1.0
         for j in range(3):
-            F[VEL + i, BG + j] = -Vx[i, j]
+            s = 0.0
+            for k in range(3):
+                ctw = 0.0                               # (C^T W)[k, j]
+                for m in range(3):
+                    ctw += C[m, k] * _skew(w_ie[0], w_ie[1], w_ie[2], m, j)
+                s += _skew(v[0], v[1], v[2], i, k) * ctw
+            A[VEL + i, ATT + j] += s
+    a0 = om[0] + C[0, 0] * w_ie[0] + C[1, 0] * w_ie[1] + C[2, 0] * w_ie[2]
+    a1 = om[1] + C[0, 1] * w_ie[0] + C[1, 1] * w_ie[1] + C[2, 1] * w_ie[2]
+    a2 = om[2] + C[0, 2] * w_ie[0] + C[1, 2] * w_ie[1] + C[2, 2] * w_ie[2]
+    A[VEL + 0, VEL + 1], A[VEL + 0, VEL + 2] = a2, -a1
+    A[VEL + 1, VEL + 0], A[VEL + 1, VEL + 2] = -a2, a0
+    A[VEL + 2, VEL + 0], A[VEL + 2, VEL + 1] = a1, -a0
+    for i in range(3):
+        A[VEL + i, BA + i] = -1.0
+        for j in range(3):
+            A[VEL + i, BG + j] = -_skew(v[0], v[1], v[2], i, j)
+
+
+@_jit
+def F_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray, F: np.ndarray) -> None:
+    """Continuous F (tauvcore.ins.error_model, eq. 4 and 9) into ``F`` (20, 20): zero but for the
+    block :func:`F_core_into` writes."""
+    F[:, :] = 0.0
+    A = np.empty((NAV, CORE))
+    F_core_into(C, v, om, g_n, w_ie, A)
+    for i in range(NAV):
+        for j in range(CORE):
+            F[i, j] = A[i, j]
+
+
+@_jit
+def G_imu_into(C: np.ndarray, v: np.ndarray, Gm: np.ndarray) -> None:
+    """Rows 3-8 (misalignment, velocity) of G's columns 0-5 (accelerometer, gyro noise) into
+    ``Gm`` (6, 6): the only non-zero entries of G besides the identity of the random walks."""
+    for i in range(3):
+        for j in range(3):
+            Gm[i, j] = 0.0                                          # misalignment <- accelerometer
+            Gm[i, 3 + j] = -C[i, j]                                 # misalignment <- gyro
+            Gm[3 + i, j] = -1.0 if i == j else 0.0                  # velocity <- accelerometer
+            Gm[3 + i, 3 + j] = -_skew(v[0], v[1], v[2], i, j)       # velocity <- gyro
+    return
 
 
 @_jit
 def G_into(C: np.ndarray, v: np.ndarray, G: np.ndarray) -> None:
     """Continuous G (eq. 5 and 10) into ``G`` (20, 17), zeroed here."""
     G[:, :] = 0.0
-    for i in range(3):
-        for j in range(3):
-            G[ATT + i, NOISE_GYRO + j] = -C[i, j]
-        G[VEL + i, NOISE_ACCEL + i] = -1.0
-    G[VEL + 0, NOISE_GYRO + 1], G[VEL + 0, NOISE_GYRO + 2] = v[2], -v[1]
-    G[VEL + 1, NOISE_GYRO + 0], G[VEL + 1, NOISE_GYRO + 2] = -v[2], v[0]
-    G[VEL + 2, NOISE_GYRO + 0], G[VEL + 2, NOISE_GYRO + 1] = v[1], -v[0]
+    Gm = np.empty((6, 6))
+    G_imu_into(C, v, Gm)
+    for i in range(6):
+        for j in range(6):
+            G[ATT + i, j] = Gm[i, j]
     for i in range(N - BA):
         G[BA + i, 6 + i] = 1.0
 
 
 @_jit
+def noise_imu_into(Gm: np.ndarray, q: np.ndarray, dt: float, Q6: np.ndarray) -> None:
+    """The misalignment-velocity block (rows and columns 3-8) of ``G diag(q) G^T dt`` into ``Q6``
+    (6, 6), from :func:`G_imu_into`'s ``Gm``; the rest of ``G diag(q) G^T dt`` is zero but for
+    the diagonal ``q[6:] dt`` of the random walks (rows 9-19). Exactly symmetric."""
+    for a in range(6):
+        for b in range(a, 6):
+            s = 0.0
+            for k in range(6):
+                s += Gm[a, k] * (q[k] * dt) * Gm[b, k]
+            Q6[a, b] = s
+            Q6[b, a] = s
+
+
+@_jit
+def transition_core_into(A: np.ndarray, X: np.ndarray, Y: np.ndarray) -> None:
+    """``X = Phi - I`` on rows 0-8 and columns 0-14 (where alone Phi differs from I), for
+    ``Phi = I + A + A^2/2 + A^3/6`` and ``A = F dt`` given as its non-zero block (9, 15): with F
+    zero outside that block, ``A^2 = A[:, :9] A``. Horner form: ``Y = A + A[:, :9] A / 3``,
+    ``X = A + A[:, :9] Y / 2``. Y (9, 15) scratch. Five columns at a time in registers (five
+    independent sums: the loop is bound by the latency of one multiply-add, not by its count)."""
+    third = 1.0 / 3.0
+    for i in range(NAV):
+        for j in range(0, CORE, 5):
+            s0 = s1 = s2 = s3 = s4 = 0.0
+            for k in range(NAV):
+                a = A[i, k]
+                s0 += a * A[k, j]
+                s1 += a * A[k, j + 1]
+                s2 += a * A[k, j + 2]
+                s3 += a * A[k, j + 3]
+                s4 += a * A[k, j + 4]
+            Y[i, j] = A[i, j] + s0 * third
+            Y[i, j + 1] = A[i, j + 1] + s1 * third
+            Y[i, j + 2] = A[i, j + 2] + s2 * third
+            Y[i, j + 3] = A[i, j + 3] + s3 * third
+            Y[i, j + 4] = A[i, j + 4] + s4 * third
+    for i in range(NAV):
+        for j in range(0, CORE, 5):
+            s0 = s1 = s2 = s3 = s4 = 0.0
+            for k in range(NAV):
+                a = A[i, k]
+                s0 += a * Y[k, j]
+                s1 += a * Y[k, j + 1]
+                s2 += a * Y[k, j + 2]
+                s3 += a * Y[k, j + 3]
+                s4 += a * Y[k, j + 4]
+            X[i, j] = A[i, j] + 0.5 * s0
+            X[i, j + 1] = A[i, j + 1] + 0.5 * s1
+            X[i, j + 2] = A[i, j + 2] + 0.5 * s2
+            X[i, j + 3] = A[i, j + 3] + 0.5 * s3
+            X[i, j + 4] = A[i, j + 4] + 0.5 * s4
+
+
+@_jit
 def transition_into(F: np.ndarray, dt: float, Phi: np.ndarray) -> None:
     """``Phi = I + A + A^2/2 + A^3/6``, ``A = F dt``, for an F that is zero outside rows 0-8 and
-    columns 0-14 (checked by the tests against the dense series): only rows 0-8 of Phi differ from I."""
+    columns 0-14 (checked by the tests against the dense series): :func:`transition_core_into`."""
     A = np.empty((NAV, CORE))
+    X = np.empty((NAV, CORE))
+    Y = np.empty((NAV, CORE))
     for i in range(NAV):
         for j in range(CORE):
             A[i, j] = F[i, j] * dt
-    A2 = np.zeros((NAV, CORE))
-    for i in range(NAV):
-        for k in range(NAV):
-            a = A[i, k]
-            if a != 0.0:
-                for j in range(CORE):
-                    A2[i, j] += a * A[k, j]
-    A3 = np.zeros((NAV, CORE))
-    for i in range(NAV):
-        for k in range(NAV):
-            a = A2[i, k]
-            if a != 0.0:
-                for j in range(CORE):
-                    A3[i, j] += a * A[k, j]
+    transition_core_into(A, X, Y)
     Phi[:, :] = 0.0
     for i in range(N):
         Phi[i, i] = 1.0
     for i in range(NAV):
         for j in range(CORE):
-            Phi[i, j] += A[i, j] + A2[i, j] / 2.0 + A3[i, j] / 6.0
+            Phi[i, j] += X[i, j]
 
 
 @_jit
-def sandwich_into(Phi: np.ndarray, P: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
-    """``out = Phi P Phi^T`` for a Phi that is I outside rows 0-8 and zero beyond column 14 in those
-    rows; symmetric result (upper triangle computed, mirrored). ``work`` (20, 20) scratch."""
-    # work = Phi P: rows 0-8 mix 15 rows of P, the others are P's
+def sandwich_core_into(P: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
+    """``P <- Phi P Phi^T`` in place for a symmetric P and ``Phi = I + X`` with X (9, 15) on rows
+    0-8 and columns 0-14 (:func:`transition_core_into`). Only rows and columns 0-8 change:
+    ``W = (Phi P)[0:9]`` (9, 20 scratch), ``(Phi P Phi^T)[0:9, 0:9] = W[:, :9] + W[:, :15] X^T``
+    (upper triangle, mirrored: exactly symmetric), ``(Phi P Phi^T)[0:9, 9:] = W[:, 9:]``.
+    Sums run five (W) or three (the 9 x 9 block) at a time in registers."""
     for i in range(NAV):
-        for j in range(N):
-            s = 0.0
+        for j in range(0, N, 5):
+            s0, s1, s2, s3, s4 = P[i, j], P[i, j + 1], P[i, j + 2], P[i, j + 3], P[i, j + 4]
             for k in range(CORE):
-                s += Phi[i, k] * P[k, j]
-            work[i, j] = s
-    for i in range(NAV, N):
+                a = X[i, k]
+                s0 += a * P[k, j]
+                s1 += a * P[k, j + 1]
+                s2 += a * P[k, j + 2]
+                s3 += a * P[k, j + 3]
+                s4 += a * P[k, j + 4]
+            W[i, j], W[i, j + 1], W[i, j + 2], W[i, j + 3], W[i, j + 4] = s0, s1, s2, s3, s4
+    for i in range(NAV):
+        for j in range(3 * (i // 3), NAV, 3):
+            s0, s1, s2 = W[i, j], W[i, j + 1], W[i, j + 2]
+            for k in range(CORE):
+                w = W[i, k]
+                s0 += w * X[j, k]
+                s1 += w * X[j + 1, k]
+                s2 += w * X[j + 2, k]
+            if j >= i:
+                P[i, j] = P[j, i] = s0
+            if j + 1 >= i:
+                P[i, j + 1] = P[j + 1, i] = s1
+            P[i, j + 2] = P[j + 2, i] = s2
+        for j in range(NAV, N):
+            P[i, j] = W[i, j]
+            P[j, i] = W[i, j]
+
+
+@_jit
+def sandwich_into(Phi: np.ndarray, P: np.ndarray, out: np.ndarray) -> None:
+    """``out = Phi P Phi^T`` for a symmetric P and a Phi that is I outside rows 0-8 and zero
+    beyond column 14 in those rows (:func:`sandwich_core_into`)."""
+    X = np.empty((NAV, CORE))
+    for i in range(NAV):
+        for j in range(CORE):
+            X[i, j] = Phi[i, j] - (1.0 if i == j else 0.0)
+    for i in range(N):
         for j in range(N):
-            work[i, j] = P[i, j]
-    # out = work Phi^T: columns 0-8 mix 15 columns of work, the others are work's
-    for i in range(N):
-        for j in range(i, N):
-            if j < NAV:
-                s = 0.0
-                for k in range(CORE):
-                    s += work[i, k] * Phi[j, k]
-            else:
-                s = work[i, j]
-            out[i, j] = s
-    for i in range(N):
-        for j in range(i):
-            out[i, j] = out[j, i]
+            out[i, j] = P[i, j]
+    sandwich_core_into(out, X, np.empty((NAV, N)))
 
 
 @_jit
 def noise_into(G: np.ndarray, q: np.ndarray, dt: float, out: np.ndarray) -> None:
-    """``out = G diag(q) G^T dt`` (20, 20), one noise column at a time over its non-zero rows
-    (G of the error model has at most five per column: 90 products instead of 6,800)."""
+    """``out = G diag(q) G^T dt`` (20, 20) for any G, one noise column at a time over its non-zero
+    rows (the filter bank's own G takes :func:`noise_imu_into`)."""
     out[:, :] = 0.0
     rows = np.empty(N, dtype=np.int64)
     for k in range(G.shape[1]):
@@ -347,29 +439,30 @@ def noise_into(G: np.ndarray, q: np.ndarray, dt: float, out: np.ndarray) -> None
 
 
 @_jit
-def propagate_into(P: np.ndarray, Phi: np.ndarray, GQG: np.ndarray, work: np.ndarray, work2: np.ndarray) -> None:
-    """``P <- Phi P Phi^T + Qd`` in place, with the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2``
-    (tauvcore.ins.error_model.discretise) folded into one product: ``Phi (P + GQG/2) Phi^T + GQG/2``."""
-    for i in range(N):
-        for j in range(N):
-            work2[i, j] = P[i, j] + 0.5 * GQG[i, j]
-    sandwich_into(Phi, work2, P, work)
-    for i in range(N):
-        for j in range(N):
-            P[i, j] += 0.5 * GQG[i, j]
+def _add_half_noise(P: np.ndarray, Q6: np.ndarray, q: np.ndarray, dt: float) -> None:
+    """``P += G diag(q) G^T dt / 2`` of the structure :func:`noise_imu_into` describes."""
+    for i in range(6):
+        for j in range(6):
+            P[ATT + i, ATT + j] += 0.5 * Q6[i, j]
+    for i in range(N - BA):
+        P[BA + i, BA + i] += 0.5 * (q[6 + i] * dt)
 
 
 @_jit
 def propagate_bank(P: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray, dtheta_sum: np.ndarray,
                    dt_c: float, g_n: np.ndarray, w_ie: np.ndarray, q: np.ndarray) -> None:
     """Covariance step of every (method, run) over ``dt_c``: F at the nominal attitude and body
-    velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``. P (M, R, 20, 20)."""
-    F = np.empty((N, N))
-    G = np.empty((N, q.shape[0]))
-    Phi = np.empty((N, N))
-    GQG = np.empty((N, N))
-    work = np.empty((N, N))
-    work2 = np.empty((N, N))
+    velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``. P (M, R, 20, 20).
+
+    ``P <- Phi P Phi^T + Qd`` with the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2``
+    (tauvcore.ins.error_model.discretise) folded into one sandwich:
+    ``P <- Phi (P + GQG/2) Phi^T + GQG/2``, every product over the non-zero blocks only."""
+    A = np.empty((NAV, CORE))
+    X = np.empty((NAV, CORE))
+    Y = np.empty((NAV, CORE))
+    W = np.empty((NAV, N))
+    Gm = np.empty((6, 6))
+    Q6 = np.empty((6, 6))
     v = np.empty(3)
     om = np.empty(3)
     for m in range(P.shape[0]):
@@ -378,11 +471,17 @@ def propagate_bank(P: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: n
             for i in range(3):
                 v[i] = Cm[0, i] * vel_n[m, r, 0] + Cm[1, i] * vel_n[m, r, 1] + Cm[2, i] * vel_n[m, r, 2]
                 om[i] = dtheta_sum[r, i] / dt_c - gyro_bias[m, r, i]
-            F_into(Cm, v, om, g_n, w_ie, F)
-            G_into(Cm, v, G)
-            transition_into(F, dt_c, Phi)
-            noise_into(G, q, dt_c, GQG)
-            propagate_into(P[m, r], Phi, GQG, work, work2)
+            F_core_into(Cm, v, om, g_n, w_ie, A)
+            for i in range(NAV):
+                for j in range(CORE):
+                    A[i, j] *= dt_c
+            transition_core_into(A, X, Y)
+            G_imu_into(Cm, v, Gm)
+            noise_imu_into(Gm, q, dt_c, Q6)
+            Pmr = P[m, r]
+            _add_half_noise(Pmr, Q6, q, dt_c)
+            sandwich_core_into(Pmr, X, W)
+            _add_half_noise(Pmr, Q6, q, dt_c)
 
 
 # ---------------------------------------------------------------- NEES by Cholesky
@@ -398,11 +497,12 @@ def cholesky_into(A: np.ndarray, idx: np.ndarray, n: int, L: np.ndarray) -> bool
             return False
         d = math.sqrt(s)
         L[j, j] = d
+        inv = 1.0 / d
         for i in range(j + 1, n):
             t = A[idx[i], idx[j]]
             for k in range(j):
                 t -= L[i, k] * L[j, k]
-            L[i, j] = t / d
+            L[i, j] = t * inv
     return True
 
 
@@ -763,11 +863,10 @@ def discretise_batch(F: np.ndarray, G: np.ndarray, q: np.ndarray, dt: float) -> 
     Phi = np.empty((n, N, N))
     Qd = np.empty((n, N, N))
     GQG = np.empty((N, N))
-    work = np.empty((N, N))
     for i in range(n):
         transition_into(F[i], dt, Phi[i])
         noise_into(G[i], q, dt, GQG)
-        sandwich_into(Phi[i], GQG, Qd[i], work)
+        sandwich_into(Phi[i], GQG, Qd[i])
         for r in range(N):
             for c in range(N):
                 Qd[i, r, c] = 0.5 * (Qd[i, r, c] + GQG[r, c])
@@ -778,9 +877,8 @@ def discretise_batch(F: np.ndarray, G: np.ndarray, q: np.ndarray, dt: float) -> 
 def propagate_batch(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
     """``Phi P Phi^T + Qd`` for n filters (Phi of the structure :func:`sandwich_into` requires)."""
     out = np.empty(P.shape)
-    work = np.empty((N, N))
     for i in range(P.shape[0]):
-        sandwich_into(Phi[i], P[i], out[i], work)
+        sandwich_into(Phi[i], P[i], out[i])
         for r in range(N):
             for c in range(N):
                 out[i, r, c] += 0.5 * (Qd[i, r, c] + Qd[i, c, r])

@@ -47,6 +47,9 @@ def test_a_study_writes_its_three_files(tmp_path, capsys):
     table = pq.read_table(out / "runs.parquet")
     assert table.num_rows == 2 * 4 * T
     assert set(PARQUET_SERIES) <= set(table.column_names)
+    assert table.column("method").to_pylist() == ["ins"] * 4 * T + ["tc"] * 4 * T
+    assert set(table.column("trajectory").to_pylist()) == {"figure8"}
+    assert table.column("run").to_pylist()[:T + 1] == [0] * T + [1]
     # the Parquet rows are the summary's runs: RMS over runs at the end, from either
     vel = np.asarray(table.column("vel_err_mps")).reshape(2, 4, T)          # method-major, run-major
     assert methods["tc"]["final_rms"]["vel_err_mps"] == pytest.approx(float(np.sqrt(np.mean(vel[1, :, -1] ** 2.0))),

@@ -183,3 +183,32 @@ def test_discretise_equals_the_dense_series_and_trapezoid():
     F_bad[..., 15, 0] = 1.0
     with pytest.raises(ValueError, match="F must be zero"):
         discretise(F_bad, G, q, 0.1)
+
+
+def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
+    """kernels.propagate_bank (F's non-zero block, Horner Phi, the structured G Q G^T of the IMU
+    noise and the random walks, one sandwich) equals the dense path P <- Phi P Phi^T + Qd of
+    F_matrix, G_matrix and discretise at random nominal states, for several filters at once."""
+    from tauvcore.filter import kernels
+    from tauvcore.geo.earth import Earth
+    from tauvcore.ins.error_model import F_matrix, G_matrix, discretise
+    rng = np.random.default_rng(57)
+    M, R, dt = 2, 3, 0.1
+    earth = Earth()
+    C = exp_so3(rng.normal(0.0, 1.0, (M, R, 3)))
+    vel_n = rng.normal(0.0, 2.0, (M, R, 3))
+    bg = rng.normal(0.0, 1e-3, (M, R, 3))
+    dtheta_sum = rng.normal(0.0, 0.05, (R, 3))
+    q = rng.uniform(1e-8, 1e-2, 17)
+    P = np.stack([np.stack([_spd(rng, STATE.dim, 1.0) for _ in range(R)]) for _ in range(M)])
+    vel_b = np.einsum("mrji,mrj->mri", C, vel_n)
+    omega = dtheta_sum[None] / dt - bg
+    F = F_matrix(C, vel_b, omega, earth)
+    G = G_matrix(C, vel_b)
+    Phi, Qd = discretise(F, G, q, dt)
+    dense = Phi @ P @ np.swapaxes(Phi, -1, -2) + Qd
+    bank = P.copy()
+    kernels.propagate_bank(bank, np.ascontiguousarray(C), vel_n, bg, dtheta_sum, dt, np.ascontiguousarray(earth.g_n),
+                           np.ascontiguousarray(earth.omega_ie_n), q)
+    np.testing.assert_allclose(bank, 0.5 * (dense + np.swapaxes(dense, -1, -2)), rtol=1e-12, atol=1e-13)
+    np.testing.assert_array_equal(bank, np.swapaxes(bank, -1, -2))

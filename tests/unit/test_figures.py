@@ -628,3 +628,26 @@ def test_fast_elc_figure_equals_plotly_validated_construction(elc_two_beams, elc
     for result in (elc_two_beams, elc_four_beams, elc_mixed):
         fast, checked = elc_choice_figure(result), elc_choice_figure(result, validate=True)
         assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+
+
+def test_the_study_report_figure_is_plotly_s_validated_figure() -> None:
+    """app.study_report builds its traces as dicts on make_subplots' grid without validation; the
+    result must be the figure plotly builds and validates (traces on their axes, log axes, NaN
+    gaps as None)."""
+    import json
+
+    from app.study_report import trajectory_figure
+
+    rng = np.random.default_rng(0)
+    T = 40
+    names = ("vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg")
+    summary = {"t_s": list(np.arange(T) * 0.1), "num_runs": 4,
+               "methods": {m: {"rms": {n: list(np.abs(rng.normal(size=T))) for n in names},
+                               "mean_nees": {"nees": list(20 * np.abs(rng.normal(size=T)))}}
+                           for m in ("ins", "lc", "elc")}}
+    summary["methods"]["lc"]["rms"]["vel_err_mps"][3] = float("nan")
+    fast = json.loads(trajectory_figure("figure8", summary).to_json())
+    checked = json.loads(trajectory_figure("figure8", summary, validate=True).to_json())
+    assert fast == checked
+    assert fast["data"][1]["y"][3] is None and fast["layout"]["yaxis"]["type"] == "log"
+    assert {d["yaxis"] for d in fast["data"]} == {"y", "y2", "y3", "y4", "y5"}
