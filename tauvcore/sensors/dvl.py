@@ -20,10 +20,13 @@ import numpy as np
 from tauvcore import units
 from tauvcore.conventions import NUM_DVL_BEAMS
 from tauvcore.sensors.timing import (
+    Rng,
     WalkState,
     batch_shape,
     epoch_indices,
     random_walk_chunk,
+    standard_normal,
+    uniform,
 )
 from tauvcore.truth.record import Truth
 from tauvcore.validation import (
@@ -169,7 +172,9 @@ def beam_velocity(A_b: np.ndarray, vel_b: np.ndarray, omega_nb_b: np.ndarray, l_
                   scale_factor: np.ndarray, bias: np.ndarray) -> np.ndarray:
     """Eq. 15 without noise: ``(v_b (1 + SF) + omega_nb_b x l) . b_k + bias_k``. -> (..., 4)."""
     v_head = vel_b * (1.0 + scale_factor[..., None]) + np.cross(omega_nb_b, l_dvl_b)
-    return v_head @ A_b.T + bias
+    # the projection summed term by term, not by matmul: BLAS may round a product differently for
+    # another batch shape, and a run's pings must not depend on how many runs are drawn with it
+    return v_head[..., 0:1] * A_b[:, 0] + v_head[..., 1:2] * A_b[:, 1] + v_head[..., 2:3] * A_b[:, 2] + bias
 
 
 @dataclass(frozen=True)
@@ -189,8 +194,7 @@ def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs
 
 
 def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, state: DvlState,
-                   bias_rng: np.random.Generator, scale_factor_rng: np.random.Generator,
-                   noise_rng: np.random.Generator, dropout_rng: np.random.Generator,
+                   bias_rng: Rng, scale_factor_rng: Rng, noise_rng: Rng, dropout_rng: Rng,
                    num_runs: int | None) -> tuple[DvlData, DvlState]:
     """Pings at the mission's IMU samples ``index`` (all within ``truth``, whose sample 0 is the
     mission's sample ``k0``), by eq. 15 plus noise, NaN where a beam is out of its schedule or drops.
@@ -198,7 +202,8 @@ def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, 
     Bias (4 per run) and scale factor are random walks stepping once per ping (period
     ``1 / rate_hz``) from a turn-on value. Draws, in order: bias (turn-on value at the first chunk,
     then its walk), scale factor, noise, dropout (only if its probability is positive, so that a
-    single generator shared with the other sensors moves as before). -> (data, next state).
+    single generator shared with the other sensors moves as before). Each generator may be one per
+    run (tauvcore.sensors.timing.Rng). -> (data, next state).
     """
     m = index.size
     runs = batch_shape(num_runs)
@@ -212,10 +217,10 @@ def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, 
     expand = (slice(None),) + (None,) * len(runs)
     y = beam_velocity(config.A_b, truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand], config.l_dvl_b, sf,
                       bias)
-    y = y + noise_rng.standard_normal(y.shape) * config.noise_mps
+    y = y + standard_normal(noise_rng, y.shape, 1) * config.noise_mps
     available = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape).copy()
     if config.dropout_probability > 0:
-        available &= dropout_rng.random(y.shape) >= config.dropout_probability
+        available &= uniform(dropout_rng, y.shape, 1) >= config.dropout_probability
     y = np.where(available, y, np.nan)
     return (DvlData(t_s=t_s, index=index, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf),
             DvlState(bias=bias_state, scale_factor=sf_state))

@@ -15,7 +15,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tauvcore import units
-from tauvcore.sensors.timing import WalkState, batch_shape, random_walk_chunk
+from tauvcore.sensors.timing import (
+    Rng,
+    WalkState,
+    batch_shape,
+    random_walk_chunk,
+    standard_normal,
+)
 from tauvcore.truth.record import Truth
 from tauvcore.validation import require_range
 
@@ -114,8 +120,7 @@ def simulate(truth: Truth, config: ImuConfig, rng: np.random.Generator, num_runs
 
 
 def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
-                   accel_bias_rng: np.random.Generator, gyro_bias_rng: np.random.Generator,
-                   accel_noise_rng: np.random.Generator, gyro_noise_rng: np.random.Generator,
+                   accel_bias_rng: Rng, gyro_bias_rng: Rng, accel_noise_rng: Rng, gyro_noise_rng: Rng,
                    num_runs: int | None, dt_s: float) -> tuple[ImuData, ImuState]:
     """IMU increments at the samples ``k0 .. k0 + K - 1`` of the mission, ``truth`` holding those K.
 
@@ -124,7 +129,8 @@ def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
     (:func:`~tauvcore.sensors.timing.random_walk_chunk`); row k = 0 of the mission is zero.
     Draws, in order: accelerometer bias (turn-on value at the first chunk, then its walk), gyro
     bias, accelerometer noise, gyro noise, each from its generator. ``dt_s`` is the mission's
-    sample interval. -> (data with arrays (K, [R,] 3), state for the next chunk).
+    sample interval. Each generator may be one per run (tauvcore.sensors.timing.Rng). -> (data with
+    arrays (K, [R,] 3), state for the next chunk).
     """
     if abs(1.0 / dt_s - config.rate_hz) > 1e-6 * config.rate_hz:
         raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {config.rate_hz:g}")
@@ -138,9 +144,9 @@ def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
     expand = (slice(None),) + (None,) * len(runs)
     sqrt_dt = np.sqrt(dt_s)
     dv = (truth.dv_b[expand] + ba * dt_s
-          + accel_noise_rng.standard_normal((k,) + shape) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt))
+          + standard_normal(accel_noise_rng, (k,) + shape, 1) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt))
     dth = (truth.dtheta_ib_b[expand] + bg * dt_s
-           + gyro_noise_rng.standard_normal((k,) + shape) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt))
+           + standard_normal(gyro_noise_rng, (k,) + shape, 1) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt))
     if k0 == 0 and k > 0:
         dv[0] = 0.0
         dth[0] = 0.0

@@ -10,7 +10,7 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.geo.rotations import wrap_angle
-from tauvcore.sensors.timing import batch_shape, epoch_indices
+from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
 from tauvcore.truth.record import Truth
 from tauvcore.validation import require_range
 
@@ -50,12 +50,12 @@ def simulate(truth: Truth, config: MagnetometerConfig, rng: np.random.Generator,
 
 
 def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: MagnetometerConfig,
-                   rng: np.random.Generator, num_runs: int | None) -> MagnetometerData:
+                   rng: Rng, num_runs: int | None) -> MagnetometerData:
     """Euler angles plus white noise, yaw wrapped, at the mission's IMU samples ``index`` (all
     within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
     rows = index - k0
     runs = batch_shape(num_runs)
     euler = truth.euler[rows][(slice(None),) + (None,) * len(runs)]
-    euler = euler + rng.standard_normal((index.size,) + runs + (3,)) * config.noise_rad
+    euler = euler + standard_normal(rng, (index.size,) + runs + (3,), 1) * config.noise_rad
     euler[..., 2] = wrap_angle(euler[..., 2])
     return MagnetometerData(t_s=truth.t_s[rows], index=index, euler=euler)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tauvcore import units
-from tauvcore.sensors.timing import batch_shape, epoch_indices
+from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
 from tauvcore.truth.record import Truth
 from tauvcore.validation import require_range
 
@@ -53,12 +53,12 @@ def simulate(truth: Truth, config: PressureConfig, rng: np.random.Generator,
     return simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, rng, num_runs)
 
 
-def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: PressureConfig, rng: np.random.Generator,
+def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: PressureConfig, rng: Rng,
                    num_runs: int | None) -> PressureData:
     """Depth ``pos_n[k, 2] + n``, ``n ~ N(0, depth_noise_m^2)``, at the mission's IMU samples
     ``index`` (all within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
     rows = index - k0
     runs = batch_shape(num_runs)
     depth = truth.pos_n[rows, 2][(slice(None),) + (None,) * len(runs)]
-    depth = depth + rng.standard_normal((index.size,) + runs) * config.depth_noise_m
+    depth = depth + standard_normal(rng, (index.size,) + runs, 1) * config.depth_noise_m
     return PressureData(t_s=truth.t_s[rows], index=index, depth_m=depth)

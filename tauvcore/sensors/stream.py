@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tauvcore.sensors import dvl, imu, magnetometer, pressure
-from tauvcore.sensors.timing import epoch_indices_between
+from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
 
 
@@ -75,16 +75,6 @@ class SensorStreams:
         return cls(**dict(zip(names, rng.spawn(len(names)), strict=True)))
 
 
-def _stack(parts: list) -> object:
-    """Concatenate sensor records along their run axis (axis 1); ``t_s`` and ``index`` are shared."""
-    if len(parts) == 1:
-        return parts[0]
-    fields = {f.name: getattr(parts[0], f.name) if f.name in ("t_s", "index")
-              else np.concatenate([getattr(p, f.name) for p in parts], axis=1)
-              for f in dataclasses.fields(parts[0])}
-    return type(parts[0])(**fields)
-
-
 class SensorStream:
     """The four sensors of a mission, chunk by chunk, for ``num_runs`` runs.
 
@@ -107,14 +97,17 @@ class SensorStream:
             raise ValueError(f"dt_s must be positive, got {dt_s!r}")
         if abs(1.0 / dt_s - imu_config.rate_hz) > 1e-6 * imu_config.rate_hz:
             raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {imu_config.rate_hz:g}")
+        names = [f.name for f in dataclasses.fields(SensorStreams)]
         if isinstance(streams, SensorStreams):
-            self._lanes = [(streams, int(num_runs))]
+            self._rngs: dict[str, Rng] = {name: getattr(streams, name) for name in names}
         else:
             streams = list(streams)
             if len(streams) != num_runs or not all(isinstance(s, SensorStreams) for s in streams):
                 raise ValueError(f"streams must be one SensorStreams or a list of num_runs ({num_runs}) of them, "
                                  f"got {len(streams)} items")
-            self._lanes = [(s, 1) for s in streams]
+            # one list of per-run generators per stream: run r draws from its own alone (the numbers
+            # it would draw as a batch of one), the runs' arithmetic is done together
+            self._rngs = {name: [getattr(st, name) for st in streams] for name in names}
         self.imu_config = imu_config
         self.dvl_config = dvl_config
         self.pressure_config = pressure_config
@@ -123,8 +116,8 @@ class SensorStream:
         self.num_samples = int(num_samples)
         self.dt_s = float(dt_s)
         self._t_end_s = (self.num_samples - 1) * self.dt_s   # = generate(...).t_s[-1]
-        self._imu_states = [imu.ImuState() for _ in self._lanes]
-        self._dvl_states = [dvl.DvlState() for _ in self._lanes]
+        self._imu_state = imu.ImuState()
+        self._dvl_state = dvl.DvlState()
         self.next_k0 = 0                                     # first sample of the next chunk expected
 
     def epochs(self, rate_hz: float, k0: int, k1: int) -> np.ndarray:
@@ -147,16 +140,14 @@ class SensorStream:
         dvl_idx = self.epochs(self.dvl_config.rate_hz, k0, k1)
         p_idx = self.epochs(self.pressure_config.rate_hz, k0, k1)
         m_idx = self.epochs(self.magnetometer_config.rate_hz, k0, k1)
-        parts: list[tuple] = []
-        for i, (s, runs) in enumerate(self._lanes):
-            imu_data, self._imu_states[i] = imu.simulate_chunk(
-                truth, k0, self.imu_config, self._imu_states[i], s.accel_bias, s.gyro_bias, s.accel_noise,
-                s.gyro_noise, runs, self.dt_s)
-            dvl_data, self._dvl_states[i] = dvl.simulate_chunk(
-                truth, k0, dvl_idx, self.dvl_config, self._dvl_states[i], s.dvl_bias, s.dvl_scale_factor,
-                s.dvl_noise, s.dvl_dropout, runs)
-            p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, s.pressure, runs)
-            m_data = magnetometer.simulate_chunk(truth, k0, m_idx, self.magnetometer_config, s.magnetometer, runs)
-            parts.append((imu_data, dvl_data, p_data, m_data))
+        g, runs = self._rngs, self.num_runs
+        imu_data, self._imu_state = imu.simulate_chunk(
+            truth, k0, self.imu_config, self._imu_state, g["accel_bias"], g["gyro_bias"], g["accel_noise"],
+            g["gyro_noise"], runs, self.dt_s)
+        dvl_data, self._dvl_state = dvl.simulate_chunk(
+            truth, k0, dvl_idx, self.dvl_config, self._dvl_state, g["dvl_bias"], g["dvl_scale_factor"],
+            g["dvl_noise"], g["dvl_dropout"], runs)
+        p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, g["pressure"], runs)
+        m_data = magnetometer.simulate_chunk(truth, k0, m_idx, self.magnetometer_config, g["magnetometer"], runs)
         self.next_k0 = k1
-        return tuple(_stack([p[j] for p in parts]) for j in range(4))   # type: ignore[return-value]
+        return imu_data, dvl_data, p_data, m_data

@@ -3,6 +3,7 @@ random walks of the sensor errors, both usable chunk by chunk (tauvcore.sensors.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +39,50 @@ def epoch_indices_between(rate_hz: float, t_end_s: float, dt_s: float, num_sampl
     return idx[(idx >= k0) & (idx < k1)]
 
 
+Rng = np.random.Generator | Sequence[np.random.Generator]
+"""Where a sensor's errors are drawn from: one generator for every run (each draw has the run
+axis), or one generator per run (a study's runs, tauvcore.eval.study): run r's numbers are then
+drawn from its own generator alone, exactly the numbers it would draw as a batch of one run, and
+the runs' arithmetic is done together."""
+
+
+def _per_run(rng: Rng, shape: tuple[int, ...], run_axis: int) -> tuple[list[np.random.Generator], tuple[int, ...]]:
+    rngs = list(rng)  # type: ignore[arg-type]
+    if len(shape) <= run_axis or shape[run_axis] != len(rngs):
+        raise ValueError(f"{len(rngs)} generators for a draw of shape {shape} (run axis {run_axis})")
+    return rngs, shape[:run_axis] + shape[run_axis + 1:]
+
+
+def standard_normal(rng: Rng, shape: tuple[int, ...], run_axis: int = 0) -> np.ndarray:
+    """Standard normal draws of ``shape``: from ``rng`` at once, or, given one generator per run,
+    each run's slice along ``run_axis`` from its own (in that slice's C order, as the generator
+    would draw it alone)."""
+    if isinstance(rng, np.random.Generator):
+        return rng.standard_normal(shape)
+    rngs, each = _per_run(rng, shape, run_axis)
+    out = np.empty((len(rngs),) + each)
+    for r, g in enumerate(rngs):
+        if each:
+            g.standard_normal(out=out[r])
+        else:
+            out[r] = g.standard_normal()
+    return np.moveaxis(out, 0, run_axis)
+
+
+def uniform(rng: Rng, shape: tuple[int, ...], run_axis: int = 0) -> np.ndarray:
+    """Uniform [0, 1) draws of ``shape``, as :func:`standard_normal` draws its normals."""
+    if isinstance(rng, np.random.Generator):
+        return rng.random(shape)
+    rngs, each = _per_run(rng, shape, run_axis)
+    out = np.empty((len(rngs),) + each)
+    for r, g in enumerate(rngs):
+        if each:
+            g.random(out=out[r])
+        else:
+            out[r] = g.random()
+    return np.moveaxis(out, 0, run_axis)
+
+
 def batch_shape(num_runs: int | None) -> tuple[int, ...]:
     """Run axis to insert after time: () for a single run, (R,) for R runs."""
     return () if num_runs is None else (int(num_runs),)
@@ -52,7 +97,7 @@ class WalkState:
     num_samples: int = 0                  # samples of the walk emitted so far
 
 
-def random_walk_chunk(rng: np.random.Generator, state: WalkState, shape: tuple[int, ...], initial_sigma: float,
+def random_walk_chunk(rng: Rng, state: WalkState, shape: tuple[int, ...], initial_sigma: float,
                       density: float, dt_s: float, num_samples: int) -> tuple[np.ndarray, WalkState]:
     """The next ``num_samples`` samples of a random walk ``x_0 ~ N(0, initial_sigma^2)``,
     ``x_j = x_j-1 + w_j``, ``w_j ~ N(0, density^2 dt_s)``. -> ((num_samples, *shape), new state).
@@ -60,17 +105,18 @@ def random_walk_chunk(rng: np.random.Generator, state: WalkState, shape: tuple[i
     Draws from ``rng``, in this order: ``x_0`` (at the first call, even for zero samples), then one
     step per sample after the first. The sum of the steps is carried and extended in sequence
     (``np.cumsum`` adds left to right), so a walk cut into chunks of any sizes is the same walk,
-    bit for bit, as one drawn whole, when ``rng`` serves this walk alone.
+    bit for bit, as one drawn whole, when ``rng`` serves this walk alone. Given one generator per
+    run (:data:`Rng`), the run axis is the first of ``shape``.
     """
     if state.initial is None:
-        initial = rng.standard_normal(shape) * initial_sigma
+        initial = standard_normal(rng, shape) * initial_sigma
         travelled = np.zeros(shape)
     else:
         initial, travelled = state.initial, state.travelled
     if num_samples == 0:
         return np.zeros((0,) + shape), WalkState(initial, travelled, state.num_samples)
     starts = state.num_samples == 0
-    steps = rng.standard_normal((num_samples - starts,) + shape) * (density * np.sqrt(dt_s))
+    steps = standard_normal(rng, (num_samples - starts,) + shape, 1) * (density * np.sqrt(dt_s))
     if starts:
         offsets = np.concatenate([np.zeros((1,) + shape), np.cumsum(steps, axis=0)])
     else:

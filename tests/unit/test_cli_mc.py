@@ -169,9 +169,11 @@ def test_a_real_worker_killed_mid_study_is_reported(tmp_path, capsys, monkeypatc
 
     monkeypatch.setattr(study_output.StudyWriter, "add_chunk", kill_workers)
     out = tmp_path / "study"
-    # 400 runs (40 chunks): the compiled engine finishes a chunk of this short mission in about
-    # 0.1 s, so with fewer the workers can be done with every chunk before the first is handed over
-    code = cli.main(["mc", *SHORT, "--runs", "400", "--out", str(out), "--workers", "2"])
+    # 60 runs of a 300 s mission (6 chunks of about half a second each): when the first chunk is
+    # handed over, the workers have at least two more to compute. (Many short chunks raced: the
+    # workers could finish them all before the first reached the writer.)
+    args = [a if a != "20" else "300" for a in SHORT]
+    code = cli.main(["mc", *args, "--runs", "60", "--out", str(out), "--workers", "2"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(err) == 1 and "a worker process died" in err[0]
     assert not out.exists()

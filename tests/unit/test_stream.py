@@ -205,3 +205,21 @@ def test_a_chunk_without_aiding_epochs_yields_empty_records() -> None:
     assert m_data.index.shape == (0,) and m_data.euler.shape == (0, 2, 3)
     with pytest.raises(ValueError, match="in order"):
         stream.next_chunk(200, chunk)                                    # samples 100-199 skipped
+
+
+@pytest.mark.parametrize("shape, run_axis", [((3,), 0), ((3, 4), 0), ((5, 3), 1), ((5, 3, 4), 1)])
+def test_per_run_draws_are_each_generator_s_own_draws(shape, run_axis) -> None:
+    """timing.standard_normal / uniform with one generator per run: run r's slice is what its
+    generator draws alone for that slice's shape (the run's numbers do not depend on the others)."""
+    from tauvcore.sensors.timing import standard_normal, uniform
+
+    R = shape[run_axis]
+    each = shape[:run_axis] + shape[run_axis + 1:]
+    for draw, method in ((standard_normal, "standard_normal"), (uniform, "random")):
+        got = draw([np.random.default_rng(10 + r) for r in range(R)], shape, run_axis)
+        assert got.shape == shape
+        for r in range(R):
+            own = getattr(np.random.default_rng(10 + r), method)(each if each else None)
+            np.testing.assert_array_equal(np.take(got, r, axis=run_axis), own)
+    with pytest.raises(ValueError, match="2 generators"):
+        standard_normal([np.random.default_rng(0)] * 2, shape, run_axis)
