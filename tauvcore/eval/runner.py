@@ -445,9 +445,13 @@ class FilterBank:
         """Keep every P positive definite (one compiled Cholesky per filter; numpy repair if one fails)."""
         ok = kernels.positive_definite_bank(self.P)
         if not ok.all():
-            P_new, repaired = condition_covariance(self.P)
-            self.P[...] = P_new
-            self.p_floor_count[...] += repaired
+            self._repair()
+
+    def _repair(self) -> None:
+        """The numpy repair of the bank's covariances (tauvcore.filter.eskf.condition_covariance)."""
+        P_new, repaired = condition_covariance(self.P)
+        self.P[...] = P_new
+        self.p_floor_count[...] += repaired
 
     def _check_sensor_errors(self, t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
@@ -510,13 +514,12 @@ class FilterBank:
                                            measured_axes=measured_axes[m], elc_choice=choice[m])
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
-        truth, imu = chunk.truth, chunk.imu
-        kernels.record_bank(row, float(truth.t_s[i]), truth.pos_n[i], truth.vel_n[i], truth.C_nb[i],
-                            np.ascontiguousarray(imu.accel_bias[i]), np.ascontiguousarray(imu.gyro_bias[i]),
+        t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
+        kernels.record_bank(row, float(t_s[i]), pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i],
                             self.ping_bias, self.ping_sf, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl,
                             self.sf, self.P, self.block_of_state, len(NEES_BLOCKS), units.DEG, out["series"],
                             out["nees_block"], out["est_pos_n"], self.nonfinite_at_s)
-        out["t_s"][row] = truth.t_s[i]
+        out["t_s"][row] = t_s[i]
         self.slot += 1
 
     # ------------------------------------------------------------------ the chunk loop
@@ -549,60 +552,77 @@ class FilterBank:
                "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
                "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)), "t_s": np.zeros(outs.size)}
         out_row = {int(k): r for r, k in enumerate(outs)}
-        ping_rows = np.asarray(chunk.dvl.index)
-        rows_recorded = 0
+        ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
+        truth = chunk.truth
+        # the chunk's inputs of the compiled stretch between aiding epochs (kernels.run_stops)
+        chunk_in = (phi_raw, dv_raw, dtheta, np.ascontiguousarray(truth.t_s), np.ascontiguousarray(truth.pos_n),
+                    np.ascontiguousarray(truth.vel_n), np.ascontiguousarray(truth.C_nb),
+                    np.ascontiguousarray(imu.accel_bias), np.ascontiguousarray(imu.gyro_bias), ping_rows,
+                    np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
+                    np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float))
+        self._chunk_in = chunk_in
+        slot0 = self.slot
         if k0 == 0 and 0 in out_row:
             self._record(out, 0, chunk, 0)
-            rows_recorded = 1
-        events = np.zeros(n, dtype=bool)
+        events = np.zeros(n, dtype=bool)            # aiding epochs
         for keys in (dvl_at, depth_at, mag_at):
             events[[k - k0 for k in keys]] = True
-        events[outs - k0] = True
+        marks = events.copy()                       # and output epochs: where the covariance step stops
+        marks[outs - k0] = True
         progress_every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
 
         def flush() -> None:
-            self.stored.append({name: a[:rows_recorded] if name != "series" else a[:, :rows_recorded]
-                                for name, a in out.items()})
+            rows = self.slot - slot0
+            self.stored.append({name: a[:rows] if name != "series" else a[:, :rows] for name, a in out.items()})
             for rec in self.recorders.values():
                 rec.seal()
 
-        for k in covariance_stops(np.flatnonzero(events) + k0, self.k_cov, k1, self.cov_step):
+        stops = np.asarray(covariance_stops(np.flatnonzero(marks) + k0, self.k_cov, k1, self.cov_step),
+                           dtype=np.int64)
+        is_event = events[stops - k0]
+        stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
+        # back to Python at every output epoch when someone polls there, else at aiding epochs only
+        yield_every = 1 if should_stop is not None else (progress_every if progress is not None else 0)
+        counters = np.zeros(4, dtype=np.int64)
+        s = 0
+        while s < stops.size:
+            counters[:] = (self.k_state, self.k_cov, self.k_checked, self.slot)
+            s, why = kernels.run_stops(stops, is_event, stop_row, s, stops.size, k0, self.check_step, yield_every,
+                                       counters, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf,
+                                       self.P, self.dtheta_sum, self.ping_bias, self.ping_sf, self.nonfinite_at_s,
+                                       *chunk_in, *self.sd_consts, self.w_ie, self.q_psd, self.block_of_state,
+                                       len(NEES_BLOCKS), units.DEG, out["series"], out["nees_block"],
+                                       out["est_pos_n"], out["t_s"])
+            self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
+            if why == kernels.STOPS_DONE:
+                break
+            k = int(stops[s])
             i = k - k0
-            kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta, self.dtheta_sum,
-                            self.k_state - k0, i, *self.sd_consts)
-            self.k_state = k
-            dt_c = (k - self.k_cov) * dt
-            kernels.propagate_bank(self.P, self.C, self.vel, self.bg, self.dtheta_sum, dt_c, self.g_n, self.w_ie,
-                                   self.q_psd)
-            self.dtheta_sum[:] = 0.0
-            if k - self.k_checked >= self.check_step:
-                self._condition()
-                self.k_checked = k
-            self.k_cov = k
-            if not events[i]:
-                continue
-            t = float(chunk.truth.t_s[i])
-            if k in dvl_at:
-                p = dvl_at[k]
-                before = dtheta[i - 1] if i > 0 else prev_dtheta
-                omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
-                self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
-            if k in depth_at:
-                self._update_all("depth", self.depth_model.measure(self.nominal(), chunk.pressure.depth_m[depth_at[k]]),
-                                 t)
-            if k in mag_at:
-                self._update_all("mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t)
-            if k in dvl_at or k in depth_at or k in mag_at:
-                self._condition()
-                self.k_checked = k
-                self._check_sensor_errors(t)
+            t = float(truth.t_s[i])
+            if why == kernels.STOPS_REPAIR:
+                self._repair()
+            if why in (kernels.STOPS_EVENT, kernels.STOPS_REPAIR):
+                if k in dvl_at:
+                    p = dvl_at[k]
+                    before = dtheta[i - 1] if i > 0 else prev_dtheta
+                    omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
+                    self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
+                if k in depth_at:
+                    self._update_all("depth", self.depth_model.measure(self.nominal(),
+                                                                       chunk.pressure.depth_m[depth_at[k]]), t)
+                if k in mag_at:
+                    self._update_all("mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t)
+                if is_event[s]:
+                    self._condition()
+                    self.k_checked = k
+                    self._check_sensor_errors(t)
+                if k in out_row:
+                    latest = np.searchsorted(ping_rows, k, side="right") - 1
+                    if latest >= 0:
+                        self.ping_bias[...] = chunk.dvl.bias_mps[latest]
+                        self.ping_sf[...] = chunk.dvl.scale_factor[latest]
+                    self._record(out, out_row[k], chunk, i)
             if k in out_row:
-                latest = np.searchsorted(ping_rows, k, side="right") - 1
-                if latest >= 0:
-                    self.ping_bias[...] = chunk.dvl.bias_mps[latest]
-                    self.ping_sf[...] = chunk.dvl.scale_factor[latest]
-                self._record(out, out_row[k], chunk, i)
-                rows_recorded += 1
                 if should_stop is not None and should_stop():
                     self.stopped = True
                     flush()
@@ -611,6 +631,7 @@ class FilterBank:
                     flush()
                     progress(t, self.results())
                     self.stored.pop()
+            s += 1
         # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
         kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta, self.dtheta_sum,
                         self.k_state - k0, n - 1, *self.sd_consts)

@@ -927,6 +927,82 @@ def positive_definite_bank(P: np.ndarray) -> np.ndarray:
     return out
 
 
+STOPS_DONE, STOPS_EVENT, STOPS_REPAIR, STOPS_YIELD = 0, 1, 2, 3
+"""Why :func:`run_stops` returned: every stop done; an aiding epoch (the caller corrects, records
+and goes on after it); a covariance failed its check (the caller repairs it, then as for an
+event); an output epoch was recorded at which the caller asked to be called back."""
+
+
+@_jit
+def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_from: int, s_to: int, k0: int,
+              check_step: int, yield_every: int, counters: np.ndarray,
+              pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray,
+              sf: np.ndarray, P: np.ndarray, dtheta_sum: np.ndarray, ping_bias: np.ndarray, ping_sf: np.ndarray,
+              nonfinite_at: np.ndarray,
+              phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray, t_s: np.ndarray, pos_t: np.ndarray,
+              vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray, bg_t: np.ndarray, ping_rows: np.ndarray,
+              ping_bias_all: np.ndarray, ping_sf_all: np.ndarray,
+              dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
+              w_ie: np.ndarray, q: np.ndarray, block_of_state: np.ndarray, num_blocks: int, deg: float,
+              series: np.ndarray, nees_block: np.ndarray, est_pos: np.ndarray, out_t: np.ndarray) -> tuple:
+    """The filter bank between aiding epochs, in one call: for each covariance stop
+    ``stops[s_from:s_to]`` (global samples; the chunk starts at ``k0``) advance the nominal states
+    (:func:`advance`), propagate the covariances (:func:`propagate_bank`), check them once every
+    ``check_step`` samples (:func:`positive_definite_bank`) and, at an output epoch
+    (``out_row[s] >= 0``), record it (:func:`record_bank`, with the true DVL errors of the latest
+    ping at or before it). Returns ``(s, why)`` at the first stop the caller must finish
+    (:data:`STOPS_EVENT`, :data:`STOPS_REPAIR`, :data:`STOPS_YIELD` every ``yield_every``
+    recorded epochs if positive) or ``(s_to, STOPS_DONE)``.
+
+    ``counters`` (int64, in place): the sample the nominal state is at, the covariance's, the
+    last check's, and the output epochs recorded. The same kernels the caller would call one by
+    one, in the same order, so the numbers are those of the step-by-step loop."""
+    M, R = pos.shape[0], pos.shape[1]
+    k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
+    why = STOPS_DONE
+    s = s_from
+    while s < s_to:
+        k = stops[s]
+        i = k - k0
+        advance(pos, vel, C, ba, bg, phi_raw, dv_raw, dtheta, dtheta_sum, k_state - k0, i, dt, C_earth,
+                C_earth_half, g_n, coriolis_T)
+        k_state = k
+        propagate_bank(P, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q)
+        for r in range(R):
+            for j in range(3):
+                dtheta_sum[r, j] = 0.0
+        k_cov = k
+        if k - k_checked >= check_step:
+            k_checked = k
+            ok = positive_definite_bank(P)
+            for m in range(M):
+                for r in range(R):
+                    if not ok[m, r]:
+                        why = STOPS_REPAIR
+        if why == STOPS_DONE and is_event[s]:
+            why = STOPS_EVENT
+        if why == STOPS_DONE and out_row[s] >= 0:
+            latest = np.searchsorted(ping_rows, k, side="right") - 1
+            if latest >= 0:
+                for r in range(R):
+                    for j in range(ping_bias.shape[1]):
+                        ping_bias[r, j] = ping_bias_all[latest, r, j]
+                    ping_sf[r] = ping_sf_all[latest, r]
+            row = out_row[s]
+            record_bank(row, t_s[i], pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i], ping_bias, ping_sf, pos, vel,
+                        C, ba, bg, bdvl, sf, P, block_of_state, num_blocks, deg, series, nees_block, est_pos,
+                        nonfinite_at)
+            out_t[row] = t_s[i]
+            slot += 1
+            if yield_every > 0 and slot % yield_every == 0:
+                why = STOPS_YIELD
+        if why != STOPS_DONE:
+            break
+        s += 1
+    counters[0], counters[1], counters[2], counters[3] = k_state, k_cov, k_checked, slot
+    return s, why
+
+
 # ---------------------------------------------------------------- batched entry points for numpy callers
 @_jit
 def F_batch(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray) -> np.ndarray:

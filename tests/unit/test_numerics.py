@@ -254,11 +254,14 @@ def test_safeguards_are_inert_on_a_healthy_run(monkeypatch):
 
 
 def _spy_on_covariances(monkeypatch) -> dict[str, int]:
-    """Check every P the runner goes on with, after each propagation of the bank and after each
-    conditioning (aiding epochs, and once a second): finite and positive definite (numpy's own
-    Cholesky factorisation succeeds, the scale-free test). -> calls per kind."""
+    """Check every P the runner goes on with, after each covariance step of the bank and after each
+    conditioning (aiding epochs; the once-a-second check inside the compiled stretch sends a failure
+    to the repair below): finite and positive definite (numpy's own Cholesky factorisation
+    succeeds, the scale-free test). The compiled stretch between aiding epochs
+    (kernels.run_stops) is made to return after every covariance stop, so that each step's P is
+    seen. -> calls per kind."""
     calls = {"propagate": 0, "condition": 0}
-    real_check, real_propagate = kernels.positive_definite_bank, kernels.propagate_bank
+    real_check, real_stops = kernels.positive_definite_bank, kernels.run_stops
     real_repair = runner.condition_covariance
 
     def check(P: np.ndarray) -> None:
@@ -278,12 +281,18 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
         calls["condition"] += 1
         return P_out, repaired
 
-    def propagate_bank(P, *args):
-        real_propagate(P, *args)
-        check(P)
-        calls["propagate"] += 1
+    def run_stops(stops, is_event, out_row, s_from, s_to, *args):
+        s, why = s_from, kernels.STOPS_DONE
+        while s < s_to:
+            s, why = real_stops(stops, is_event, out_row, s, s + 1, *args)
+            calls["propagate"] += 1
+            if why != kernels.STOPS_REPAIR:
+                check(args[11])         # P (k0, check_step, yield_every, counters, pos, ... P); a repair needs the caller first
+            if why != kernels.STOPS_DONE:
+                return s, why           # the counters (args[3]) are updated in place by each call
+        return s_to, kernels.STOPS_DONE
     monkeypatch.setattr(kernels, "positive_definite_bank", positive_definite_bank)
-    monkeypatch.setattr(kernels, "propagate_bank", propagate_bank)
+    monkeypatch.setattr(kernels, "run_stops", run_stops)
     monkeypatch.setattr(runner, "condition_covariance", repair)
     return calls
 

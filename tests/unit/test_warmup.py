@@ -5,7 +5,7 @@ from __future__ import annotations
 from tauvcore.eval import warmup
 from tauvcore.filter import kernels
 
-ENGINE_KERNELS = ("advance", "propagate_bank", "record_bank", "correct_batch", "inject_batch",
+ENGINE_KERNELS = ("run_stops", "advance", "propagate_bank", "record_bank", "correct_batch", "inject_batch",
                   "positive_definite_bank", "dvl_measure_bank")
 
 
