@@ -5,7 +5,8 @@ from __future__ import annotations
 from tauvcore.eval import warmup
 from tauvcore.filter import kernels
 
-ENGINE_KERNELS = ("run_stops", "advance", "propagate_bank", "record_bank", "correct_batch", "inject_batch",
+# the engine's entry points from Python (propagate_bank runs inside run_stops)
+ENGINE_KERNELS = ("run_stops", "advance", "record_bank", "correct_batch", "inject_batch",
                   "positive_definite_bank", "dvl_measure_bank")
 
 
