@@ -598,7 +598,6 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         PAPER_CHUNK_RUNS,
         local_pool,
         run_study,
-        submit_chunks,
     )
 
     base = Config()
@@ -613,20 +612,15 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     studies = [(name, beams, methods) for name in TRAJECTORIES
                for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))]
     try:
-        configs = [base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
-                   for name, beams, methods in studies]
         with _progress_bar(num_runs * len(studies)) as bar, local_pool(workers if dask is None else 1) as pool:
-            # every study's chunks queued at once: no worker waits at a study's boundary
-            with _study_failures(dask):
-                queued = [submit_chunks(c, num_runs, base.run.seed, pool, PAPER_CHUNK_RUNS) if pool is not None
-                          else None for c in configs]
-            for (name, _, _), config, submitted in zip(studies, configs, queued, strict=True):
+            for name, beams, methods in studies:
+                config = base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
                 done_before = bar.n
                 with _study_failures(dask):
                     acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
                                     on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
                                     progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
-                                    chunk_runs=PAPER_CHUNK_RUNS, pool=pool, submitted=submitted)
+                                    chunk_runs=PAPER_CHUNK_RUNS, pool=pool)
                 part = acc.summary()
                 if name in summaries:
                     summaries[name]["methods"].update(part["methods"])

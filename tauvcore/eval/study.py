@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -190,37 +190,15 @@ def local_pool(workers: int) -> Iterator[Executor | None]:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
-    try:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
         yield pool
-    except BaseException:
-        pool.shutdown(wait=True, cancel_futures=True)   # queued chunks (several studies') never start
-        raise
-    pool.shutdown(wait=True)
-
-
-def submit_chunks(config: Config, num_runs: int, seed: int, pool: Executor, chunk_runs: int | None = None
-                  ) -> list[Future]:
-    """Queue every chunk of a study on ``pool`` now; :func:`run_study` (``submitted=``) consumes
-    them. Studies queued back to back keep the workers busy across their boundaries (each study
-    submitted only when the previous one was done left both workers idle while the main process
-    reduced and wrote the last chunk: ``tauv reproduce`` runs six)."""
-    config_dict = to_dict(config)
-    return [pool.submit(compute_chunk, config_dict, seed, first, count)
-            for first, count in chunks(num_runs, chunk_runs or CHUNK_RUNS)]
 
 
 def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
-                   chunk_runs: int | None = None, pool: Executor | None = None,
-                   submitted: list[Future] | None = None) -> Iterator[ChunkSeries]:
+                   chunk_runs: int | None = None, pool: Executor | None = None) -> Iterator[ChunkSeries]:
     """Compute the study's chunks and yield them in run order: in this process (``workers`` 1),
     on ``workers`` local processes (or the given ``pool``, :func:`local_pool`), or on the Dask
-    scheduler at ``dask_address`` (its workers need this package installed; see the README);
-    or the chunks :func:`submit_chunks` already queued (``submitted``)."""
-    if submitted is not None:
-        for f in submitted:
-            yield f.result()
-        return
+    scheduler at ``dask_address`` (its workers need this package installed; see the README)."""
     size = chunk_runs or CHUNK_RUNS
     parts = chunks(num_runs, size)
     config_dict = to_dict(config)
@@ -267,13 +245,11 @@ with 25 on 2 workers) at about 70 MB of results per chunk of seven methods."""
 def run_study(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
               on_chunk: Callable[[ChunkSeries], None] | None = None,
               progress: Callable[[int, int], None] | None = None,
-              chunk_runs: int | None = None, pool: Executor | None = None,
-              submitted: list[Future] | None = None) -> StudyAccumulator:
+              chunk_runs: int | None = None, pool: Executor | None = None) -> StudyAccumulator:
     """A whole study: every chunk reduced into the accumulator, handed to ``on_chunk`` (e.g. a
-    Parquet writer) in run order, and ``progress(runs_done, num_runs)`` called after each.
-    ``submitted``: its chunks as :func:`submit_chunks` queued them (same config, seed, chunking)."""
+    Parquet writer) in run order, and ``progress(runs_done, num_runs)`` called after each."""
     acc = StudyAccumulator(tuple(config.run.methods))
-    for chunk in iterate_chunks(config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted):
+    for chunk in iterate_chunks(config, num_runs, seed, workers, dask_address, chunk_runs, pool):
         acc.add(chunk)
         if on_chunk is not None:
             on_chunk(chunk)
