@@ -19,8 +19,11 @@ by chunk.
 from __future__ import annotations
 
 import contextlib
+import os
+import pickle
+import tempfile
 from collections.abc import Callable, Iterator
-from concurrent.futures import Executor
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -180,18 +183,63 @@ class StudyAccumulator:
         return out
 
 
+def compute_chunk_to_file(config_dict: dict, seed: int, first: int, count: int, directory: str) -> str:
+    """:func:`compute_chunk` in a local worker process, its result pickled to a new file in
+    ``directory``; returns the file's path.
+
+    Why not return the result through the pool's pipe: a worker killed (the out-of-memory killer)
+    while it writes a large result (tens of MB) to the pipe leaves half a message in it, and
+    ``ProcessPoolExecutor``'s result thread then waits for the rest forever instead of reporting
+    the dead worker (seen with the killed-worker test). A path is a message of a few hundred
+    bytes, written to the pipe in one piece."""
+    chunk = compute_chunk(config_dict, seed, first, count)
+    fd, path = tempfile.mkstemp(prefix=f"chunk-{first}-", suffix=".pickle", dir=directory)
+    with os.fdopen(fd, "wb") as fh:
+        pickle.dump(chunk, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    return path
+
+
+def _load_chunk_file(path: str) -> ChunkSeries:
+    try:
+        with open(path, "rb") as fh:
+            return pickle.load(fh)
+    finally:
+        with contextlib.suppress(OSError):
+            os.remove(path)
+
+
+class ChunkPool(ProcessPoolExecutor):
+    """Local worker processes (spawned) that hand their chunks over as files in ``chunk_dir``
+    (:func:`compute_chunk_to_file`)."""
+
+    def __init__(self, workers: int, chunk_dir: str) -> None:
+        import multiprocessing as mp
+
+        super().__init__(max_workers=workers, mp_context=mp.get_context("spawn"))
+        self.chunk_dir = chunk_dir
+
+
 @contextlib.contextmanager
-def local_pool(workers: int) -> Iterator[Executor | None]:
-    """``workers`` local processes (spawned) to share between several studies, so that each
-    process starts and loads the compiled kernels once; None for ``workers`` <= 1."""
+def local_pool(workers: int) -> Iterator[ChunkPool | None]:
+    """``workers`` local processes to share between several studies, so that each process starts
+    and loads the compiled kernels once; None for ``workers`` <= 1. Chunk files go to a temporary
+    directory, removed at the end."""
     if workers <= 1:
         yield None
         return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
+    with tempfile.TemporaryDirectory(prefix="tauv-chunks-") as chunk_dir, ChunkPool(workers, chunk_dir) as pool:
         yield pool
+
+
+def _submit(pool: Executor, config_dict: dict, seed: int, first: int, count: int) -> Future:
+    if isinstance(pool, ChunkPool):
+        return pool.submit(compute_chunk_to_file, config_dict, seed, first, count, pool.chunk_dir)
+    return pool.submit(compute_chunk, config_dict, seed, first, count)
+
+
+def _result(future: Future) -> ChunkSeries:
+    out = future.result()
+    return _load_chunk_file(out) if isinstance(out, str) else out
 
 
 def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
@@ -203,9 +251,9 @@ def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, d
     parts = chunks(num_runs, size)
     config_dict = to_dict(config)
     if pool is not None and dask_address is None:
-        futures = [pool.submit(compute_chunk, config_dict, seed, first, count) for first, count in parts]
+        futures = [_submit(pool, config_dict, seed, first, count) for first, count in parts]
         for f in futures:
-            yield f.result()
+            yield _result(f)
         return
     if dask_address is not None:
         from distributed import Client
@@ -221,9 +269,9 @@ def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, d
             yield compute_chunk(config_dict, seed, first, count)
         return
     with local_pool(workers) as own:
-        futures = [own.submit(compute_chunk, config_dict, seed, first, count) for first, count in parts]
+        futures = [_submit(own, config_dict, seed, first, count) for first, count in parts]
         for f in futures:
-            yield f.result()
+            yield _result(f)
 
 
 DASK_CONNECT_TIMEOUT_S = 10
