@@ -308,43 +308,35 @@ def noise_imu_into(Gm: np.ndarray, q: np.ndarray, dt: float, Q6: np.ndarray) -> 
 
 
 @_jit
+def _series_step_into(A: np.ndarray, B: np.ndarray, scale: float, out: np.ndarray) -> None:
+    """``out = A + scale * A[:, :9] B`` for (9, 15) blocks: one Horner step of
+    :func:`transition_core_into`, five columns at a time in registers (five independent sums:
+    the loop is bound by the latency of one multiply-add, not by its count)."""
+    for i in range(NAV):
+        for j in range(0, CORE, 5):
+            s0 = s1 = s2 = s3 = s4 = 0.0
+            for k in range(NAV):
+                a = A[i, k]
+                s0 += a * B[k, j]
+                s1 += a * B[k, j + 1]
+                s2 += a * B[k, j + 2]
+                s3 += a * B[k, j + 3]
+                s4 += a * B[k, j + 4]
+            out[i, j] = A[i, j] + scale * s0
+            out[i, j + 1] = A[i, j + 1] + scale * s1
+            out[i, j + 2] = A[i, j + 2] + scale * s2
+            out[i, j + 3] = A[i, j + 3] + scale * s3
+            out[i, j + 4] = A[i, j + 4] + scale * s4
+
+
+@_jit
 def transition_core_into(A: np.ndarray, X: np.ndarray, Y: np.ndarray) -> None:
     """``X = Phi - I`` on rows 0-8 and columns 0-14 (where alone Phi differs from I), for
     ``Phi = I + A + A^2/2 + A^3/6`` and ``A = F dt`` given as its non-zero block (9, 15): with F
     zero outside that block, ``A^2 = A[:, :9] A``. Horner form: ``Y = A + A[:, :9] A / 3``,
-    ``X = A + A[:, :9] Y / 2``. Y (9, 15) scratch. Five columns at a time in registers (five
-    independent sums: the loop is bound by the latency of one multiply-add, not by its count)."""
-    third = 1.0 / 3.0
-    for i in range(NAV):
-        for j in range(0, CORE, 5):
-            s0 = s1 = s2 = s3 = s4 = 0.0
-            for k in range(NAV):
-                a = A[i, k]
-                s0 += a * A[k, j]
-                s1 += a * A[k, j + 1]
-                s2 += a * A[k, j + 2]
-                s3 += a * A[k, j + 3]
-                s4 += a * A[k, j + 4]
-            Y[i, j] = A[i, j] + s0 * third
-            Y[i, j + 1] = A[i, j + 1] + s1 * third
-            Y[i, j + 2] = A[i, j + 2] + s2 * third
-            Y[i, j + 3] = A[i, j + 3] + s3 * third
-            Y[i, j + 4] = A[i, j + 4] + s4 * third
-    for i in range(NAV):
-        for j in range(0, CORE, 5):
-            s0 = s1 = s2 = s3 = s4 = 0.0
-            for k in range(NAV):
-                a = A[i, k]
-                s0 += a * Y[k, j]
-                s1 += a * Y[k, j + 1]
-                s2 += a * Y[k, j + 2]
-                s3 += a * Y[k, j + 3]
-                s4 += a * Y[k, j + 4]
-            X[i, j] = A[i, j] + 0.5 * s0
-            X[i, j + 1] = A[i, j + 1] + 0.5 * s1
-            X[i, j + 2] = A[i, j + 2] + 0.5 * s2
-            X[i, j + 3] = A[i, j + 3] + 0.5 * s3
-            X[i, j + 4] = A[i, j + 4] + 0.5 * s4
+    ``X = A + A[:, :9] Y / 2`` (:func:`_series_step_into`). Y (9, 15) scratch."""
+    _series_step_into(A, A, 1.0 / 3.0, Y)
+    _series_step_into(A, Y, 0.5, X)
 
 
 @_jit

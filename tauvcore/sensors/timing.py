@@ -53,34 +53,29 @@ def _per_run(rng: Rng, shape: tuple[int, ...], run_axis: int) -> tuple[list[np.r
     return rngs, shape[:run_axis] + shape[run_axis + 1:]
 
 
-def standard_normal(rng: Rng, shape: tuple[int, ...], run_axis: int = 0) -> np.ndarray:
-    """Standard normal draws of ``shape``: from ``rng`` at once, or, given one generator per run,
-    each run's slice along ``run_axis`` from its own (in that slice's C order, as the generator
-    would draw it alone)."""
+def _draw(rng: Rng, shape: tuple[int, ...], run_axis: int, method: str) -> np.ndarray:
+    """``rng.<method>(shape)``, or with one generator per run each run's slice along ``run_axis``
+    from its own generator (in that slice's C order, as the generator would draw it alone)."""
     if isinstance(rng, np.random.Generator):
-        return rng.standard_normal(shape)
+        return getattr(rng, method)(shape)
     rngs, each = _per_run(rng, shape, run_axis)
     out = np.empty((len(rngs),) + each)
     for r, g in enumerate(rngs):
         if each:
-            g.standard_normal(out=out[r])
+            getattr(g, method)(out=out[r])
         else:
-            out[r] = g.standard_normal()
+            out[r] = getattr(g, method)()
     return np.moveaxis(out, 0, run_axis)
+
+
+def standard_normal(rng: Rng, shape: tuple[int, ...], run_axis: int = 0) -> np.ndarray:
+    """Standard normal draws of ``shape`` (:func:`_draw`)."""
+    return _draw(rng, shape, run_axis, "standard_normal")
 
 
 def uniform(rng: Rng, shape: tuple[int, ...], run_axis: int = 0) -> np.ndarray:
-    """Uniform [0, 1) draws of ``shape``, as :func:`standard_normal` draws its normals."""
-    if isinstance(rng, np.random.Generator):
-        return rng.random(shape)
-    rngs, each = _per_run(rng, shape, run_axis)
-    out = np.empty((len(rngs),) + each)
-    for r, g in enumerate(rngs):
-        if each:
-            g.random(out=out[r])
-        else:
-            out[r] = g.random()
-    return np.moveaxis(out, 0, run_axis)
+    """Uniform [0, 1) draws of ``shape`` (:func:`_draw`)."""
+    return _draw(rng, shape, run_axis, "random")
 
 
 def batch_shape(num_runs: int | None) -> tuple[int, ...]:
