@@ -595,9 +595,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
     from tauvcore.eval.study import (
         ERROR_SERIES,
-        PAPER_CHUNK_RUNS,
         local_pool,
+        paper_chunk_runs,
         run_study,
+        submit_chunks,
     )
 
     base = Config()
@@ -612,15 +613,21 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     studies = [(name, beams, methods) for name in TRAJECTORIES
                for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))]
     try:
+        configs = [base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
+                   for name, beams, methods in studies]
+        sizes = [paper_chunk_runs(c) for c in configs]
         with _progress_bar(num_runs * len(studies)) as bar, local_pool(workers if dask is None else 1) as pool:
-            for name, beams, methods in studies:
-                config = base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
+            # every study's chunks queued at once (they wait as files): no worker idles between studies
+            with _study_failures(dask):
+                queued = [submit_chunks(c, num_runs, base.run.seed, pool, size) if pool is not None else None
+                          for c, size in zip(configs, sizes, strict=True)]
+            for (name, _, _), config, size, submitted in zip(studies, configs, sizes, queued, strict=True):
                 done_before = bar.n
                 with _study_failures(dask):
                     acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
                                     on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
                                     progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
-                                    chunk_runs=PAPER_CHUNK_RUNS, pool=pool)
+                                    chunk_runs=size, pool=pool, submitted=submitted)
                 part = acc.summary()
                 if name in summaries:
                     summaries[name]["methods"].update(part["methods"])

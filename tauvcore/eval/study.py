@@ -227,8 +227,16 @@ def local_pool(workers: int) -> Iterator[ChunkPool | None]:
     if workers <= 1:
         yield None
         return
-    with tempfile.TemporaryDirectory(prefix="tauv-chunks-") as chunk_dir, ChunkPool(workers, chunk_dir) as pool:
-        yield pool
+    with tempfile.TemporaryDirectory(prefix="tauv-chunks-") as chunk_dir:
+        pool = ChunkPool(workers, chunk_dir)
+        try:
+            yield pool
+        except BaseException:
+            # an error or Ctrl-C: the queued chunks (several studies' with submit_chunks) never
+            # start; the running ones end, and their files go with the directory
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True)
 
 
 def _submit(pool: Executor, config_dict: dict, seed: int, first: int, count: int) -> Future:
@@ -242,11 +250,28 @@ def _result(future: Future) -> ChunkSeries:
     return _load_chunk_file(out) if isinstance(out, str) else out
 
 
+def submit_chunks(config: Config, num_runs: int, seed: int, pool: Executor, chunk_runs: int | None = None
+                  ) -> list[Future]:
+    """Queue every chunk of a study on ``pool`` now; :func:`run_study` (``submitted=``) consumes
+    them in run order. Several studies queued back to back keep the workers busy across their
+    boundaries (a study of one large chunk, or an odd number, leaves a worker idle otherwise);
+    with :func:`local_pool` the finished chunks wait as files, not in memory."""
+    config_dict = to_dict(config)
+    return [_submit(pool, config_dict, seed, first, count)
+            for first, count in chunks(num_runs, chunk_runs or CHUNK_RUNS)]
+
+
 def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
-                   chunk_runs: int | None = None, pool: Executor | None = None) -> Iterator[ChunkSeries]:
+                   chunk_runs: int | None = None, pool: Executor | None = None,
+                   submitted: list[Future] | None = None) -> Iterator[ChunkSeries]:
     """Compute the study's chunks and yield them in run order: in this process (``workers`` 1),
     on ``workers`` local processes (or the given ``pool``, :func:`local_pool`), or on the Dask
-    scheduler at ``dask_address`` (its workers need this package installed; see the README)."""
+    scheduler at ``dask_address`` (its workers need this package installed; see the README);
+    or the chunks :func:`submit_chunks` queued (``submitted``)."""
+    if submitted is not None:
+        for f in submitted:
+            yield _result(f)
+        return
     size = chunk_runs or CHUNK_RUNS
     parts = chunks(num_runs, size)
     config_dict = to_dict(config)
@@ -284,20 +309,28 @@ products can differ in the last bit with the batch's size (1e-13 measured), so a
 makes a study's numbers bit-identical whatever the workers and wherever they run. Ten runs keep
 ``tauv mc --method lc --runs 100`` under 300 MB (285 MB measured, 318 MB with 25)."""
 
-PAPER_CHUNK_RUNS = 25
-"""Runs per chunk of ``tauv reproduce`` (fixed too): fewer, larger chunks amortise the Python work
-between the compiled calls and the per-chunk transfer (with numpy DVL models: 56 s with 10, 43 s
-with 25 on 2 workers) at about 70 MB of results per chunk of seven methods."""
+PAPER_CHUNK_RUNS = 50
+"""Runs per chunk of ``tauv reproduce``'s studies of several methods (fixed too), and four times
+as many for a study of one method (its LC reference): larger chunks pay the per-chunk work
+(truth, the Python between compiled calls) fewer times. 25 and 25: 48.8 CPU-s, 26.1 s wall;
+50 and 100 with every study queued at once (:func:`submit_chunks`): see the README."""
+
+
+def paper_chunk_runs(config: Config) -> int:
+    """Runs per chunk of a ``tauv reproduce`` study (:data:`PAPER_CHUNK_RUNS`)."""
+    return PAPER_CHUNK_RUNS if len(config.run.methods) > 1 else 4 * PAPER_CHUNK_RUNS
 
 
 def run_study(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
               on_chunk: Callable[[ChunkSeries], None] | None = None,
               progress: Callable[[int, int], None] | None = None,
-              chunk_runs: int | None = None, pool: Executor | None = None) -> StudyAccumulator:
+              chunk_runs: int | None = None, pool: Executor | None = None,
+              submitted: list[Future] | None = None) -> StudyAccumulator:
     """A whole study: every chunk reduced into the accumulator, handed to ``on_chunk`` (e.g. a
-    Parquet writer) in run order, and ``progress(runs_done, num_runs)`` called after each."""
+    Parquet writer) in run order, and ``progress(runs_done, num_runs)`` called after each.
+    ``submitted``: its chunks as :func:`submit_chunks` queued them (same config, seed, chunking)."""
     acc = StudyAccumulator(tuple(config.run.methods))
-    for chunk in iterate_chunks(config, num_runs, seed, workers, dask_address, chunk_runs, pool):
+    for chunk in iterate_chunks(config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted):
         acc.add(chunk)
         if on_chunk is not None:
             on_chunk(chunk)

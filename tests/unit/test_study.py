@@ -25,6 +25,7 @@ from tauvcore.eval.study import (
     run_chunk,
     run_rng,
     run_study,
+    submit_chunks,
 )
 
 CONFIG = (Config().replace("trajectory", name="figure8", duration_s=15.0).replace("dvl", beams=(1, 2))
@@ -75,6 +76,36 @@ def test_local_workers_give_bit_identical_numbers():
         for n in RUN_SERIES:
             np.testing.assert_array_equal(a[m][n], b[m][n], err_msg=f"{m} {n}")
             np.testing.assert_array_equal(a[m][n], c[m][n], err_msg=f"{m} {n}")
+
+
+def test_queued_studies_give_the_same_numbers_and_an_error_cancels_what_is_queued(tmp_path):
+    """tauv reproduce queues every study's chunks at once (submit_chunks); they come back as
+    files in the pool's directory, equal to the chunks computed in this process, and the files are
+    gone afterwards. An error (or Ctrl-C) while they are queued cancels the chunks not started
+    instead of computing them all first."""
+    import os
+
+    here = list(iterate_chunks(CONFIG, 6, 11, workers=1, chunk_runs=3))
+    with local_pool(2) as pool:
+        queued = [submit_chunks(CONFIG, 6, 11, pool, 3), submit_chunks(CONFIG.replace("run", methods=("lc",)), 4, 11,
+                                                                       pool, 2)]
+        first = list(iterate_chunks(CONFIG, 6, 11, chunk_runs=3, pool=pool, submitted=queued[0]))
+        second = list(iterate_chunks(CONFIG, 4, 11, chunk_runs=2, pool=pool, submitted=queued[1]))
+        chunk_dir = pool.chunk_dir
+        assert os.listdir(chunk_dir) == []
+    assert not os.path.exists(chunk_dir)
+    assert [c.first for c in second] == [0, 2] and list(second[0].series) == ["lc"]
+    a, b = _all_series(here), _all_series(first)
+    for m in a:
+        for n in RUN_SERIES:
+            np.testing.assert_array_equal(a[m][n], b[m][n], err_msg=f"{m} {n}")
+    long = CONFIG.replace("trajectory", duration_s=60.0)
+    with pytest.raises(RuntimeError, match="stop"):
+        with local_pool(2) as pool:
+            queued = submit_chunks(long, 40, 11, pool, 2)          # 20 chunks
+            next(iterate_chunks(long, 40, 11, chunk_runs=2, pool=pool, submitted=queued))
+            raise RuntimeError("stop")
+    assert sum(f.cancelled() for f in queued) >= 10
 
 
 def test_the_accumulator_equals_the_whole_study_at_once():
