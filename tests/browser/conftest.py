@@ -127,11 +127,18 @@ class Tab:
         rows = table.locator("tr").all_inner_texts()
         return dict(tuple(c.strip() for c in row.split("\t"))[:2] for row in rows[1:])
 
+    def set_checkbox(self, label: str, checked: bool) -> None:
+        """Tick or untick the checkbox ``label`` and wait until the page shows it so. Clicked
+        without waiting for the panel to hold still, for the reason :meth:`open_folder` gives (a
+        CI run waited 30 s for the TC checkbox to be "stable"); ``set_checked`` still fails if
+        the click did not change the box."""
+        box = self.checkbox(label)
+        box.scroll_into_view_if_needed(timeout=15000)
+        box.set_checked(checked, force=True, timeout=15000)
+
     def set_methods(self, wanted: set[str]) -> None:
         for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"):
-            box = self.checkbox(m)
-            if box.is_checked() != (m in wanted):
-                box.click()
+            self.set_checkbox(m, m in wanted)
 
     def choose_trajectory(self, name: str) -> None:
         self.page.get_by_label("Trajectory").click()

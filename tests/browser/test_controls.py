@@ -69,8 +69,8 @@ def test_typed_n_f_and_epsilon_reach_the_run(new_tab) -> None:
     the "Configuration run" table shows both as typed (issue 8)."""
     tab = new_tab()
     tab.set_methods({"NSV", "VB"})
-    tab.checkbox("Beam 3").uncheck()
-    tab.checkbox("Beam 4").uncheck()
+    tab.set_checkbox("Beam 3", False)
+    tab.set_checkbox("Beam 4", False)
     tab.type_into("Duration [s]", "10")
     tab.type_into("VB n_f", "7")
     tab.type_into("NSV epsilon [m^2/s^2]", "0.5")

@@ -26,8 +26,8 @@ def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:
     plot holds their three traces and NSV ends far below the standalone INS."""
     tab = new_tab()
     tab.choose_trajectory("straight")
-    tab.checkbox("Beam 3").uncheck()
-    tab.checkbox("Beam 4").uncheck()
+    tab.set_checkbox("Beam 3", False)
+    tab.set_checkbox("Beam 4", False)
     tab.set_methods({"INS", "TC", "NSV"})
     tab.page.get_by_role("button", name="Run", exact=True).click()
     tab.notification("Run complete").wait_for(timeout=120000)
@@ -62,9 +62,9 @@ def test_two_beams_straight_line_nsv_beats_ins(new_tab) -> None:
 
 def test_a_second_tab_keeps_its_own_settings(new_tab) -> None:
     first, second = new_tab(), new_tab()
-    first.checkbox("Beam 3").uncheck()
+    first.set_checkbox("Beam 3", False)
     first.choose_trajectory("lawnmower")
-    second.checkbox("VB").check()
+    second.set_checkbox("VB", True)
     first.page.wait_for_timeout(500)
     assert second.checkbox("Beam 3").is_checked()
     assert second.page.get_by_label("Trajectory").input_value() == "straight"
@@ -80,7 +80,7 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     tab.type_into("Duration [s]", "3000")
     other.set_methods({"LC"})
     for k in range(1, 5):
-        other.checkbox(f"Beam {k}").uncheck()
+        other.set_checkbox(f"Beam {k}", False)
     tab.page.get_by_role("button", name="Run", exact=True).click()
     tab.page.get_by_text(RUNNING).wait_for(timeout=10000)
     tab.page.wait_for_timeout(2000)
@@ -126,11 +126,11 @@ def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, set
     if setup == "all_beams_off_lc_only":
         tab.set_methods({"LC"})
         for k in range(1, 5):
-            tab.checkbox(f"Beam {k}").uncheck()
+            tab.set_checkbox(f"Beam {k}", False)
     elif setup == "lc_two_beams":
         tab.set_methods({"INS", "LC"})
-        tab.checkbox("Beam 1").uncheck()
-        tab.checkbox("Beam 2").uncheck()
+        tab.set_checkbox("Beam 1", False)
+        tab.set_checkbox("Beam 2", False)
     elif setup == "outage_backwards":
         tab.open_folder("Outages [s]")
         tab.type_into("Beam 2 outage start", "200")

@@ -3,7 +3,12 @@ missions on one server until 50 runs have completed.
 
 Acknowledgement of a control change (what the round trip is measured to): the first message
 from the server that shows the change took effect in this tab:
-- Run pressed: the Run button disabled (the run is queued or computing);
+- Run pressed: the Run button disabled (the run is queued or computing), or the run's closing
+  notification. A 20 s mission can now finish within one of viser's message windows, and viser
+  sends only the last of several updates of one property in a window (its redundancy key), so
+  "disabled" then "enabled" reach the page as "enabled" alone; the notification is never merged.
+  The test then requires that notification to be "Run complete", so a refused Run ("Already
+  running") is not taken for an acknowledgement.
 - Time slider moved: the vehicle's new position (``SetPositionMessage`` for /auv);
 - Log scale toggled: a plot redrawn with the new axis type.
 Controls the server does not echo (Duration, Seed, methods) are acknowledged through the run:
@@ -83,8 +88,9 @@ class Tab:
         run_uuid = c.find("Run")
         mark = c.mark()
         self._timed("run", lambda: c.click("Run"),
-                    lambda m: m.get("type") == "GuiUpdateMessage" and m["uuid"] == run_uuid
-                    and m["updates"].get("disabled") is True)
+                    lambda m: (m.get("type") == "GuiUpdateMessage" and m["uuid"] == run_uuid
+                               and m["updates"].get("disabled") is True)
+                    or m.get("type") == "NotificationShowMessage")
         _, end = c.wait_for(lambda m: m.get("type") == "NotificationShowMessage", 300.0, "the run's end", since=mark)
         assert end["props"]["title"] == "Run complete", (self.index, end["props"])
         # while the other tabs' runs go on: move the time slider, toggle the log scale
