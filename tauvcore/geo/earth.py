@@ -1,11 +1,23 @@
-"""Earth model for a local NED tangent frame over a mission area of a few kilometres.
+"""Earth model: WGS-84 ellipsoid, normal gravity, earth and transport rates, geodetic frames.
 
-Gravity is the WGS-84 normal (plumb-bob) gravity at the origin's latitude (Somigliana), which
-already contains the centrifugal acceleration there. Over the mission area it is held constant:
-its change with depth (free-air gradient 3.1e-6 s^-2, i.e. < 1e-4 m/s^2 over 30 m) and with
-horizontal distance is below the accelerometer noise, and the paper's F_INS (eq. 4) has a zero
-position column, i.e. neglects it too. Truth and INS use this same model, so it introduces no
-inconsistency between them.
+Two uses live here.
+
+- :class:`Earth`, the flat model the filters run today: a local NED tangent frame at the origin,
+  with the WGS-84 normal (plumb-bob) gravity of the origin's latitude held constant and the
+  earth rate of that latitude. Truth and INS use this same model, so it introduces no
+  inconsistency between them; its limits over long missions are what the geodetic functions
+  below are for (the free-air change 2 g h / a with depth, and the plumb line tilting by d / R
+  with horizontal distance d: 0.16 mg per km).
+- Geodetic functions of latitude ``lat`` [rad], longitude ``lon`` [rad] and height ``h`` [m]
+  above the ellipsoid (a depth is ``-h``), for navigation on the round, rotating Earth (Groves,
+  *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed. 2013,
+  ch. 2; NIMA TR8350.2, 3rd ed., *Department of Defense World Geodetic System 1984*). Each takes
+  and returns floats or numpy arrays of one shape, component by component (vectors as tuples of
+  arrays), so the same code serves a whole trajectory at once and the compiled kernels.
+
+The local-level navigation frame n of the geodetic functions is north-east-down at the point
+itself: its down axis is the ellipsoid normal there, and it turns with the position (the
+transport rate) as well as with the Earth (the earth rate).
 """
 
 from __future__ import annotations
@@ -20,15 +32,182 @@ from tauvcore.validation import require_range
 
 OMEGA_IE_RPS = 7.292115e-5
 """WGS-84 earth rotation rate [rad/s]."""
-_GE = 9.7803253359          # WGS-84 normal gravity at the equator [m/s^2]
-_K_SOMIGLIANA = 0.00193185265241
-_E2 = 0.00669437999013       # WGS-84 first eccentricity squared
+A_M = 6378137.0
+"""WGS-84 semi-major axis (equatorial radius) [m]."""
+FLATTENING = 1.0 / 298.257223563
+"""WGS-84 flattening."""
+B_M = A_M * (1.0 - FLATTENING)
+"""WGS-84 semi-minor axis (polar radius) [m], 6356752.3142 m."""
+GM_M3PS2 = 3.986004418e14
+"""WGS-84 earth's gravitational constant (atmosphere included) [m^3/s^2]."""
+_E2 = FLATTENING * (2.0 - FLATTENING)   # first eccentricity squared, 0.00669437999014
+_GE = 9.7803253359          # WGS-84 normal gravity at the equator [m/s^2] (TR8350.2 table 3.4)
+_GP = 9.8321849378          # ... at the poles [m/s^2]
+_K_SOMIGLIANA = 0.00193185265241   # TR8350.2 eq. 4-2 (b g_p / (a g_e) - 1 from the rounded g_p: 0.0019318526464)
+_M_GRAVITY = OMEGA_IE_RPS**2 * A_M**2 * B_M / GM_M3PS2   # 0.00344978650684
+_GRAVITY_NORTH_PER_M = 8.08e-9   # north component of gravity per metre of height [1/s^2] (Groves eq. 2.140)
 
 
-def normal_gravity_mps2(latitude_rad: float) -> float:
-    """Somigliana normal gravity magnitude [m/s^2] on the ellipsoid at a geodetic latitude."""
+def normal_gravity_mps2(latitude_rad: float, height_m: float = 0.0) -> float:
+    """WGS-84 normal gravity magnitude [m/s^2] at a geodetic latitude and height.
+
+    On the ellipsoid, Somigliana's closed form (TR8350.2 eq. 4-1)
+    ``gamma_0 = g_e (1 + k sin^2 lat) / sqrt(1 - e^2 sin^2 lat)``; above or below it, the
+    free-air series (TR8350.2 eq. 4-3, Groves eq. 2.140)
+    ``gamma = gamma_0 (1 - 2 h / a (1 + f + m - 2 f sin^2 lat) + 3 h^2 / a^2)``. Under water
+    ``h < 0``: the same normal field continued downwards (the ocean's own attraction is not
+    modelled; a real survey's gravity anomalies are of the order of 1e-4 m/s^2).
+    """
     s2 = np.sin(latitude_rad) ** 2
-    return float(_GE * (1.0 + _K_SOMIGLIANA * s2) / np.sqrt(1.0 - _E2 * s2))
+    gamma_0 = _GE * (1.0 + _K_SOMIGLIANA * s2) / np.sqrt(1.0 - _E2 * s2)
+    h_a = height_m / A_M
+    return gamma_0 * (1.0 - 2.0 * h_a * (1.0 + FLATTENING + _M_GRAVITY - 2.0 * FLATTENING * s2) + 3.0 * h_a * h_a)
+
+
+def gravity_n_mps2(latitude_rad: float, height_m: float) -> tuple[float, float, float]:
+    """Plumb-bob (gravity plus centrifugal) acceleration in the local-level NED frame [m/s^2].
+
+    ``(-8.08e-9 h sin(2 lat), 0, gamma(lat, h))`` (Groves eq. 2.140): off the ellipsoid the
+    normal field's direction leans from the ellipsoid normal towards the equator; the north
+    component is 1.6e-6 m/s^2 at 200 m depth and 45 deg.
+    """
+    g_north = -_GRAVITY_NORTH_PER_M * height_m * np.sin(2.0 * latitude_rad)
+    return g_north, 0.0 * g_north, normal_gravity_mps2(latitude_rad, height_m)
+
+
+def radii_of_curvature_m(latitude_rad: float) -> tuple[float, float]:
+    """Meridian radius ``R_N = a (1 - e^2) / (1 - e^2 sin^2 lat)^1.5`` and transverse (prime
+    vertical) radius ``R_E = a / sqrt(1 - e^2 sin^2 lat)`` [m] (Groves eq. 2.105, 2.106)."""
+    w2 = 1.0 - _E2 * np.sin(latitude_rad) ** 2
+    w = np.sqrt(w2)
+    return A_M * (1.0 - _E2) / (w2 * w), A_M / w
+
+
+def earth_rate_n_rps(latitude_rad: float) -> tuple[float, float, float]:
+    """Earth rotation in the local-level NED frame [rad/s]: ``Omega (cos lat, 0, -sin lat)``."""
+    return OMEGA_IE_RPS * np.cos(latitude_rad), 0.0 * latitude_rad, -OMEGA_IE_RPS * np.sin(latitude_rad)
+
+
+def transport_rate_n_rps(latitude_rad: float, height_m: float, vel_north_mps: float,
+                         vel_east_mps: float) -> tuple[float, float, float]:
+    """Turn rate of the local-level NED frame over the ellipsoid [rad/s] (Groves eq. 5.44):
+    ``(v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(lat) / (R_E + h))``."""
+    R_N, R_E = radii_of_curvature_m(latitude_rad)
+    east = vel_east_mps / (R_E + height_m)
+    return east, -vel_north_mps / (R_N + height_m), -east * np.tan(latitude_rad)
+
+
+def geodetic_rates(latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float,
+                   vel_down_mps: float) -> tuple[float, float, float]:
+    """Time derivatives of latitude, longitude [rad/s] and height [m/s] from NED velocity
+    (Groves eq. 5.56): ``v_N / (R_N + h)``, ``v_E / ((R_E + h) cos lat)``, ``-v_D``."""
+    R_N, R_E = radii_of_curvature_m(latitude_rad)
+    return (vel_north_mps / (R_N + height_m), vel_east_mps / ((R_E + height_m) * np.cos(latitude_rad)),
+            -vel_down_mps)
+
+
+def ecef_from_geodetic(latitude_rad: float, longitude_rad: float, height_m: float) -> tuple[float, float, float]:
+    """Earth-centred earth-fixed Cartesian position [m] of a geodetic point (Groves eq. 2.112)."""
+    _, R_E = radii_of_curvature_m(latitude_rad)
+    c = (R_E + height_m) * np.cos(latitude_rad)
+    return c * np.cos(longitude_rad), c * np.sin(longitude_rad), (R_E * (1.0 - _E2) + height_m) * np.sin(latitude_rad)
+
+
+GEODETIC_ITERATIONS = 6
+"""Fixed-point iterations of :func:`geodetic_from_ecef`; each gains about six digits near the
+surface, and the round trip is exact to 1e-9 m from the Earth's centre region's 50 km out to
+geostationary height after four."""
+
+
+def geodetic_from_ecef(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]:
+    """Geodetic latitude, longitude [rad] and height [m] of an ECEF position.
+
+    Bowring's parametric-latitude iteration (Bowring 1976; Groves section C.2): start from the
+    spherical guess and repeat ``tan(beta) = (1 - f) tan(lat)``,
+    ``tan(lat) = (z + e'^2 b sin^3 beta) / (p - e^2 a cos^3 beta)`` with ``p = sqrt(x^2 + y^2)``;
+    the height then follows from ``p cos(lat) + z sin(lat) - a sqrt(1 - e^2 sin^2 lat)``, which
+    holds at the poles too.
+    """
+    p = np.sqrt(x_m * x_m + y_m * y_m)
+    ep2 = _E2 / (1.0 - _E2)
+    lat = np.arctan2(z_m, p * (1.0 - _E2))
+    for _ in range(GEODETIC_ITERATIONS):
+        beta = np.arctan2((1.0 - FLATTENING) * np.sin(lat), np.cos(lat))
+        lat = np.arctan2(z_m + ep2 * B_M * np.sin(beta) ** 3, p - _E2 * A_M * np.cos(beta) ** 3)
+    s = np.sin(lat)
+    h = p * np.cos(lat) + z_m * s - A_M * np.sqrt(1.0 - _E2 * s * s)
+    return lat, np.arctan2(y_m, x_m), h
+
+
+def C_en(latitude_rad: float, longitude_rad: float) -> np.ndarray:
+    """Rotation from the local-level NED frame to ECEF (Groves eq. 2.150 transposed): columns
+    north, east, down resolved in e. -> (..., 3, 3)."""
+    sl, cl = np.sin(latitude_rad), np.cos(latitude_rad)
+    so, co = np.sin(longitude_rad), np.cos(longitude_rad)
+    return np.stack([np.stack([-sl * co, -so, -cl * co], axis=-1),
+                     np.stack([-sl * so, co, -cl * so], axis=-1),
+                     np.stack([cl, 0.0 * cl, -sl], axis=-1)], axis=-2)
+
+
+def ned_offset_m(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,
+                 latitude_ref_rad: np.ndarray, longitude_ref_rad: np.ndarray, height_ref_m: np.ndarray) -> np.ndarray:
+    """Offset [m] of each point from its reference point, resolved in the reference's own NED
+    frame: the straight ECEF offset, not a distance along the surface (a position error, estimate
+    against truth; or a position in the tangent frame of a mission origin). -> (..., 3)
+
+    Each ECEF coordinate is near 6.4e6 m, so subtracting two of them loses everything below
+    about 1e-9 m. The offset is instead written in differences that are small themselves
+    (``cos a - cos b = -2 sin((a + b) / 2) sin((a - b) / 2)``, and the same for the transverse
+    radius), which keeps its error near 1e-16 of the offset.
+    """
+    lat, lon, h = latitude_rad, longitude_rad, height_m
+    lat0, lon0, h0 = latitude_ref_rad, longitude_ref_rad, height_ref_m
+    half_sum, half_diff = 0.5 * (lat + lat0), 0.5 * (lat - lat0)
+    d_cos_lat = -2.0 * np.sin(half_sum) * np.sin(half_diff)
+    d_sin_lat = 2.0 * np.cos(half_sum) * np.sin(half_diff)
+    lon_sum, lon_diff = 0.5 * (lon + lon0), 0.5 * (lon - lon0)
+    d_cos_lon = -2.0 * np.sin(lon_sum) * np.sin(lon_diff)
+    d_sin_lon = 2.0 * np.cos(lon_sum) * np.sin(lon_diff)
+    s, s0 = np.sin(lat), np.sin(lat0)
+    w, w0 = np.sqrt(1.0 - _E2 * s * s), np.sqrt(1.0 - _E2 * s0 * s0)
+    R_E0 = A_M / w0
+    # R_E - R_E0 = a (w0 - w) / (w w0), w0^2 - w^2 = e^2 (sin^2 lat - sin^2 lat0)
+    d_R_E = A_M * _E2 * d_sin_lat * (s + s0) / (w * w0 * (w + w0))
+    d_h = h - h0
+    axis_0 = (R_E0 + h0) * np.cos(lat0)            # distance from the polar axis
+    d_axis = (d_R_E + d_h) * np.cos(lat) + (R_E0 + h0) * d_cos_lat
+    dx = d_axis * np.cos(lon) + axis_0 * d_cos_lon
+    dy = d_axis * np.sin(lon) + axis_0 * d_sin_lon
+    dz = (d_R_E * (1.0 - _E2) + d_h) * s + (R_E0 * (1.0 - _E2) + h0) * d_sin_lat
+    d_e = np.stack([dx, dy, dz], axis=-1)
+    return (d_e[..., None, :] @ C_en(lat0, lon0))[..., 0, :]
+
+
+def ned_from_geodetic(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,
+                      origin: tuple[float, float, float]) -> np.ndarray:
+    """Position [m] in the NED tangent frame at ``origin`` = (lat, lon, h) of geodetic points:
+    :func:`ned_offset_m` from the origin. -> (..., 3)."""
+    return ned_offset_m(latitude_rad, longitude_rad, height_m, *origin)
+
+
+def geodetic_from_ned(pos_n_m: np.ndarray, origin: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray,
+                                                                                          np.ndarray]:
+    """Inverse of :func:`ned_from_geodetic`: latitude, longitude [rad] and height [m] of tangent-frame
+    positions (..., 3) about ``origin``. The ECEF solution (:func:`geodetic_from_ecef`) is refined
+    by two Newton steps on :func:`ned_from_geodetic` itself, so the round trip is as exact as the
+    forward conversion, not limited by the 1e-9 m of an ECEF coordinate."""
+    pos = np.asarray(pos_n_m, dtype=float)
+    r = pos @ C_en(origin[0], origin[1]).T + np.array(ecef_from_geodetic(*origin))
+    lat, lon, h = geodetic_from_ecef(r[..., 0], r[..., 1], r[..., 2])
+    C_0 = C_en(origin[0], origin[1])
+    for _ in range(2):
+        residual_e = (pos - ned_from_geodetic(lat, lon, h, origin)) @ C_0.T
+        residual_n = (residual_e[..., None, :] @ C_en(lat, lon))[..., 0, :]
+        R_N, R_E = radii_of_curvature_m(lat)
+        lat = lat + residual_n[..., 0] / (R_N + h)
+        lon = lon + residual_n[..., 1] / ((R_E + h) * np.cos(lat))
+        h = h - residual_n[..., 2]
+    return lat, lon, h
 
 
 @dataclass(frozen=True)
