@@ -2,8 +2,12 @@
 
     python scripts/make_engine_reference.py tests/fixtures/engine_reference.npz
 
-Generated once with the numpy engine of commit 9235ddc (the last before the compiled filter bank,
-issue 9); ``tests/unit/test_engine_reference.py`` rebuilds the same simulations from the same
+Generated with the numpy engine of commit 9235ddc (the last before the compiled filter bank,
+issue 9), with one line added to its ``body_increments`` when the strapdown gained the
+second-order rotation term (issue 10): ``dv_rot = dv_rot + np.cross(dtheta_b, np.cross(dtheta_b,
+dv_b)) / 6.0``. To regenerate: ``git worktree add /tmp/ref 9235ddc``, apply that line, copy this
+script there, and run it with ``PYTHONPATH=/tmp/ref`` (the numpy engine, not the installed one).
+``tests/unit/test_engine_reference.py`` rebuilds the same simulations from the same
 seeds and requires every series to match to 1e-9. Three trajectories, all eight methods, DVL,
 depth and magnetometer aiding, random initial errors (two runs), and a DVL schedule that goes
 through four, two (beams 3 and 4 lost) and three beams (beam 1 lost), so every fusion mode runs.

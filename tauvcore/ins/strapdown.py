@@ -12,8 +12,9 @@ and the previous interval (Savage's two-sample algorithms, Strapdown Analytics c
 - attitude: ``C_k = exp(-[omega_ie_n x] dt) C_k-1 exp([phi x])``,
   ``phi = dtheta_k + (dtheta_k-1 x dtheta_k) / 12`` (coning);
 - velocity: ``vel_k = vel_k-1 + C_e/2 C_k-1 dv_rot + (g_n - 2 omega_ie_n x vel_mid) dt`` with
-  ``dv_rot = dv_k + (dtheta_k x dv_k) / 2 + (dtheta_k-1 x dv_k + dv_k-1 x dtheta_k) / 12``
-  (rotation compensation and sculling) and ``C_e/2 = exp(-[omega_ie_n x] dt/2)``, the n frame's
+  ``dv_rot = dv_k + (dtheta_k x dv_k) / 2 + dtheta_k x (dtheta_k x dv_k) / 6
+  + (dtheta_k-1 x dv_k + dv_k-1 x dtheta_k) / 12`` (rotation compensation to second order: the
+  series of ``int exp([omega t x]) f dt`` for a constant rate over the interval; and sculling) and ``C_e/2 = exp(-[omega_ie_n x] dt/2)``, the n frame's
   own turn to mid-interval (without it a level vehicle sees a spurious ``omega_ie x g dt / 2``,
   2e-6 m/s^2 at 150 Hz);
 - position: trapezoid of velocity.
@@ -54,6 +55,11 @@ class NavState:
         return mv(np.swapaxes(self.C_nb, -1, -2), self.vel_n)
 
 
+SECOND_ORDER_ROTATION = True
+"""Include ``dtheta x (dtheta x dv) / 6`` in the velocity increment. Off only to measure what the
+term buys (benchmarks/strapdown_rate.py): 1 / rate^2 of error, metres in minutes of rolling turns."""
+
+
 def body_increments(dtheta_b: np.ndarray, dv_b: np.ndarray,
                     previous: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Coning- and sculling-compensated increments for every interval of a run (or of a chunk).
@@ -74,7 +80,10 @@ def body_increments(dtheta_b: np.ndarray, dv_b: np.ndarray,
         prev_th = np.concatenate([np.asarray(previous[0])[None], dtheta_b[:-1]])
         prev_dv = np.concatenate([np.asarray(previous[1])[None], dv_b[:-1]])
     phi = dtheta_b + np.cross(prev_th, dtheta_b) / 12.0
-    dv_rot = dv_b + 0.5 * np.cross(dtheta_b, dv_b) + (np.cross(prev_th, dv_b) + np.cross(prev_dv, dtheta_b)) / 12.0
+    cross = np.cross(dtheta_b, dv_b)
+    dv_rot = dv_b + 0.5 * cross + (np.cross(prev_th, dv_b) + np.cross(prev_dv, dtheta_b)) / 12.0
+    if SECOND_ORDER_ROTATION:
+        dv_rot = dv_rot + np.cross(dtheta_b, cross) / 6.0
     return phi, dv_rot
 
 
