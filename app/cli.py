@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import json
 import os
 import stat
@@ -48,6 +49,7 @@ from tauvcore.eval.consistency import (
 )
 from tauvcore.eval.metrics import rms
 from tauvcore.sensors.dvl import Outage
+from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.truth import TRAJECTORIES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
 
@@ -166,6 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     sv.add_argument("--workers", help="runs computed at once, one process each (default: min(2, CPUs); at most 64)")
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", help="TOML file to merge over the defaults before printing")
+    _imu_flag(c)
     return parser
 
 
@@ -185,7 +188,15 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--nsv-epsilon", metavar="E", help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
                                                      "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
                                                      "from the vehicle's sideslip in its tightest turn)")
+    _imu_flag(p)
     p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
+
+
+def _imu_flag(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--imu", metavar="PROFILE", help=f"IMU error model by name: {', '.join(IMU_PROFILES)} "
+                                                    "(default table2: Tal et al. 2017 Table 2; yoo-table1: "
+                                                    "Yoo 2014 Table 1, a 1 deg/h IMU at 100 Hz). Replaces the "
+                                                    "file's [imu] section")
 
 
 def resolve_config(args: argparse.Namespace) -> Config:
@@ -202,6 +213,10 @@ def resolve_config(args: argparse.Namespace) -> Config:
         _replace("--duration", Config(), "trajectory", duration_s=duration)   # check it on its own first
         raw = merge(raw, {"trajectory": {"duration_s": duration}})
     config = from_dict(raw)
+    if getattr(args, "imu", None) is not None:
+        if args.imu not in IMU_PROFILES:
+            raise UsageError(f"--imu: unknown IMU profile {show(args.imu)} (choose from {', '.join(IMU_PROFILES)})")
+        config = _replace("--imu", config, "imu", **dataclasses.asdict(IMU_PROFILES[args.imu]))
     if getattr(args, "trajectory", None) is not None:
         if args.trajectory not in TRAJECTORIES:
             raise UsageError(f"--trajectory: unknown trajectory {show(args.trajectory)} "

@@ -205,6 +205,13 @@ def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
 
     The attitude block maps the Euler-angle sigmas into the n-frame misalignment:
     ``P_rho = J^-1 diag(sigma_euler^2) J^-T``, ``J = d euler / d rho`` at the initial attitude.
+
+    The filter has no states for the IMU's scale factors and misalignments (the paper's 20
+    states). On a vehicle that cruises level they act on gravity alone, as a constant bias: the
+    x and y accelerometers see ``m g`` of the axis leaning towards z, the z accelerometer ``s g``;
+    so that part joins the accelerometer bias's initial sigma, and the filter's bias states take
+    it in. What they do with turn rates and accelerations stays unmodelled (150 ppm of a 10 deg/s
+    turn is 5 deg/h while it lasts).
     """
     ie, imu, dvl = config.initial_error, config.imu, config.dvl
     P0 = np.zeros((STATE.dim, STATE.dim))
@@ -212,7 +219,9 @@ def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
     J_inv = np.linalg.inv(euler_from_misalignment_jacobian(euler0))
     P0[STATE.att, STATE.att] = J_inv @ np.diag(np.square(ie.euler_rad)) @ J_inv.T
     P0[STATE.vel, STATE.vel] = np.diag(np.square(ie.vel_mps))
-    P0[STATE.ba, STATE.ba] = np.eye(3) * imu.accel_bias_mps2**2
+    g = float(np.linalg.norm(config.earth.g_n))
+    axes_on_gravity = g * np.array([imu.accel_misalignment_rad, imu.accel_misalignment_rad, imu.accel_scale_factor])
+    P0[STATE.ba, STATE.ba] = np.diag(imu.accel_bias_mps2**2 + axes_on_gravity**2)
     P0[STATE.bg, STATE.bg] = np.eye(3) * imu.gyro_bias_rps**2
     P0[STATE.b_dvl, STATE.b_dvl] = np.eye(4) * dvl.bias_mps**2
     P0[STATE.sf_dvl, STATE.sf_dvl] = dvl.scale_factor**2

@@ -1,6 +1,9 @@
 """IMU: accelerometer and gyro triads delivering increments over each sample interval, as a
-strapdown IMU does: ``dv = int f dt + b_a dt + n_a``, ``dtheta = int omega dt + b_g dt + n_g``,
-with a turn-on bias, a bias random walk and white noise (density N: increment std N sqrt(dt)).
+strapdown IMU does: ``dv = (I + M_a) int f dt + b_a dt + n_a``,
+``dtheta = (I + M_g) int omega dt + b_g dt + n_g``, with a turn-on bias, a bias random walk, white
+noise (density N: increment std N sqrt(dt)), and ``M`` the axes' errors (Groves 2013 eq. 4.16):
+scale factors on its diagonal, and off it the misalignment of each sensing axis towards the
+other two (six small angles, the axes need not stay orthogonal), each drawn once per run.
 
 Table 2 of Tal et al. 2017. Its accelerometer bias "0.5 mg/h" cannot be a bias (an acceleration
 per hour is a drift rate, and 0.5 mg/h would be negligible next to the 1e-5 m/s^2/sqrt(s) random
@@ -10,6 +13,7 @@ TAUV's Ekinox, and as the 34 m/s standalone drift of section 4.2 also requires.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,7 +27,7 @@ from tauvcore.sensors.timing import (
     standard_normal,
 )
 from tauvcore.truth.record import Truth
-from tauvcore.validation import require_range
+from tauvcore.validation import require_choice, require_range
 
 RATE_RANGE_HZ = (50.0, 2000.0)
 """IMU rate bounds [Hz]. Below 50 Hz the two-sample coning/sculling correction and the
@@ -38,6 +42,10 @@ ERROR_LIMITS = {
     "gyro_noise_deg_per_sqrt_h": 30.0,           # 90x Table 2; consumer MEMS is ~1 deg/sqrt(h)
     "accel_bias_rw_mps2_per_sqrt_s": 1e-2,       # 1000x Table 2: 0.6 m/s^2 of wander per hour
     "gyro_bias_rw_deg_per_s_per_sqrt_s": 1e-2,   # 360x Table 2: 0.6 deg/s of wander per hour
+    "accel_scale_factor_ppm": 1e4,               # 1 %: an uncalibrated consumer MEMS part
+    "gyro_scale_factor_ppm": 1e4,
+    "accel_misalignment_mrad": 20.0,             # 1.1 deg: a board-mounted MEMS triad is ~2-10 mrad
+    "gyro_misalignment_mrad": 20.0,
 }
 """Upper bound of each error field [its unit]; the lower bound is zero (an ideal sensor)."""
 
@@ -56,6 +64,10 @@ class ImuConfig:
     gyro_noise_deg_per_sqrt_h: float = 0.34         # angle random walk [deg/sqrt(h)], <= 30
     accel_bias_rw_mps2_per_sqrt_s: float = 1e-5     # accelerometer bias random walk [m/s^2/sqrt(s)], <= 1e-2
     gyro_bias_rw_deg_per_s_per_sqrt_s: float = 2.8e-5  # gyro bias random walk [deg/s/sqrt(s)], <= 1e-2
+    accel_scale_factor_ppm: float = 0.0             # scale factor per axis [ppm], <= 1e4; Table 2 has none
+    gyro_scale_factor_ppm: float = 0.0              # scale factor per axis [ppm], <= 1e4; Table 2 has none
+    accel_misalignment_mrad: float = 0.0            # misalignment per axis pair [mrad], <= 20; Table 2 has none
+    gyro_misalignment_mrad: float = 0.0             # misalignment per axis pair [mrad], <= 20; Table 2 has none
 
     def __post_init__(self) -> None:
         require_range("imu.rate_hz", self.rate_hz, *RATE_RANGE_HZ)
@@ -64,9 +76,13 @@ class ImuConfig:
 
     def ideal(self) -> ImuConfig:
         """The same IMU with every error set to zero."""
-        return ImuConfig(rate_hz=self.rate_hz, accel_bias_mg=0.0, gyro_bias_deg_per_h=0.0,
-                         accel_noise_mps_per_sqrt_h=0.0, gyro_noise_deg_per_sqrt_h=0.0,
-                         accel_bias_rw_mps2_per_sqrt_s=0.0, gyro_bias_rw_deg_per_s_per_sqrt_s=0.0)
+        return ImuConfig(rate_hz=self.rate_hz, **{name: 0.0 for name in ERROR_LIMITS})
+
+    @property
+    def has_axis_errors(self) -> bool:
+        """Whether any scale factor or misalignment is drawn (none: the draws of an IMU without
+        them, unchanged)."""
+        return any(getattr(self, name) > 0.0 for name in AXIS_ERROR_FIELDS)
 
     # SI views, used by the simulation and by the filter's Q
     @property
@@ -89,6 +105,58 @@ class ImuConfig:
     def gyro_bias_rw_rps_per_sqrt_s(self) -> float:
         return self.gyro_bias_rw_deg_per_s_per_sqrt_s * units.DEG
 
+    @property
+    def accel_scale_factor(self) -> float:
+        return self.accel_scale_factor_ppm * 1e-6
+
+    @property
+    def gyro_scale_factor(self) -> float:
+        return self.gyro_scale_factor_ppm * 1e-6
+
+    @property
+    def accel_misalignment_rad(self) -> float:
+        return self.accel_misalignment_mrad * 1e-3
+
+    @property
+    def gyro_misalignment_rad(self) -> float:
+        return self.gyro_misalignment_mrad * 1e-3
+
+
+AXIS_ERROR_FIELDS = ("accel_scale_factor_ppm", "gyro_scale_factor_ppm", "accel_misalignment_mrad",
+                     "gyro_misalignment_mrad")
+
+_BIAS_STABILITY_WINDOW_S = 3600.0
+"""A datasheet's "bias stability" read as the 1-sigma growth of the in-run bias random walk over
+one hour: density = stability / sqrt(3600 s)."""
+
+IMU_PROFILES: dict[str, ImuConfig] = {
+    "table2": ImuConfig(),
+    # Yoo 2014 Table 1: "1 deg/h" class, Honeywell HG1700's error characteristics, at the paper's
+    # 100 Hz (section 3.2). "Repeatability" is the turn-on bias; "bias stability" the in-run
+    # walk (read as above: 1 deg/h in an hour, 1 mg in an hour). Its accelerometer "VRW 0.1 mg"
+    # cannot be a random walk in mg: read as 0.1 mg/sqrt(Hz), i.e. 0.0588 m/s/sqrt(h).
+    "yoo-table1": ImuConfig(
+        rate_hz=100.0,
+        accel_bias_mg=1.0,
+        gyro_bias_deg_per_h=1.0,
+        accel_noise_mps_per_sqrt_h=0.1 * units.MG * units.SQRT_HOUR,
+        gyro_noise_deg_per_sqrt_h=0.125,
+        accel_bias_rw_mps2_per_sqrt_s=1.0 * units.MG / np.sqrt(_BIAS_STABILITY_WINDOW_S),
+        gyro_bias_rw_deg_per_s_per_sqrt_s=1.0 / units.HOUR / np.sqrt(_BIAS_STABILITY_WINDOW_S),
+        accel_scale_factor_ppm=300.0,
+        gyro_scale_factor_ppm=150.0,
+        accel_misalignment_mrad=0.5,
+        gyro_misalignment_mrad=0.5,
+    ),
+}
+"""Named IMUs (``--imu NAME``): Tal et al. 2017 Table 2 (the default) and Yoo 2014 Table 1."""
+
+
+def imu_profile(name: str) -> ImuConfig:
+    """The IMU named ``name`` (:data:`IMU_PROFILES`); ConfigError naming the choices otherwise."""
+    require_choice("imu profile", name, tuple(IMU_PROFILES))
+    return IMU_PROFILES[name]
+
 
 @dataclass(frozen=True)
 class ImuData:
@@ -110,27 +178,47 @@ class ImuState:
 
     accel_bias: WalkState = field(default_factory=WalkState)   # accelerometer bias walk
     gyro_bias: WalkState = field(default_factory=WalkState)    # gyro bias walk
+    axes_drawn: bool = False                                   # whether M_a and M_g below were drawn
+    accel_axes: np.ndarray | None = None                       # M_a ([R,] 3, 3), None if the IMU has no axis errors
+    gyro_axes: np.ndarray | None = None                        # M_g ([R,] 3, 3)
 
 
 def simulate(truth: Truth, config: ImuConfig, rng: np.random.Generator, num_runs: int | None = None) -> ImuData:
     """IMU increments at every truth epoch (the truth must be generated at ``config.rate_hz``):
     the whole mission as one chunk, every draw from ``rng``."""
-    data, _ = simulate_chunk(truth, 0, config, ImuState(), rng, rng, rng, rng, num_runs, truth.dt_s)
+    data, _ = simulate_chunk(truth, 0, config, ImuState(), rng, rng, rng, rng, num_runs, truth.dt_s, rng)
     return data
+
+
+def axis_error_matrices(rng: Rng, shape: tuple[int, ...], scale_factor: float,
+                        misalignment_rad: float) -> np.ndarray:
+    """``M`` of one triad for each run: ``diag(s) + off-diagonal m``, ``s ~ N(0, scale_factor^2)``
+    per axis and ``m_ij ~ N(0, misalignment_rad^2)`` for each sensing axis i leaning towards j.
+    ``shape``: the run axes (possibly empty). Draws 9 numbers per run: s_x, s_y, s_z, then
+    m_xy, m_xz, m_yx, m_yz, m_zx, m_zy. -> (*shape, 3, 3)."""
+    z = standard_normal(rng, shape + (9,))
+    M = np.zeros(shape + (3, 3))
+    for i in range(3):
+        M[..., i, i] = z[..., i] * scale_factor
+    for n, (i, j) in enumerate(((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))):
+        M[..., i, j] = z[..., 3 + n] * misalignment_rad
+    return M
 
 
 def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
                    accel_bias_rng: Rng, gyro_bias_rng: Rng, accel_noise_rng: Rng, gyro_noise_rng: Rng,
-                   num_runs: int | None, dt_s: float) -> tuple[ImuData, ImuState]:
+                   num_runs: int | None, dt_s: float, axes_rng: Rng | None = None) -> tuple[ImuData, ImuState]:
     """IMU increments at the samples ``k0 .. k0 + K - 1`` of the mission, ``truth`` holding those K.
 
     ``dv_k = dv_true_k + b_a,k dt + n_a,k``, ``dtheta_k = dtheta_true_k + b_g,k dt + n_g,k`` with
     ``n ~ N(0, N^2 dt)`` (N the noise density) and the biases random walks from a turn-on value
     (:func:`~tauvcore.sensors.timing.random_walk_chunk`); row k = 0 of the mission is zero.
-    Draws, in order: accelerometer bias (turn-on value at the first chunk, then its walk), gyro
-    bias, accelerometer noise, gyro noise, each from its generator. ``dt_s`` is the mission's
-    sample interval. Each generator may be one per run (tauvcore.sensors.timing.Rng). -> (data with
-    arrays (K, [R,] 3), state for the next chunk).
+    The true increments are first multiplied by ``I + M`` (the axes' errors, drawn once at the
+    first chunk from ``axes_rng``, accelerometer then gyro, only if the IMU has any:
+    :attr:`ImuConfig.has_axis_errors`). Draws, in order: accelerometer bias (turn-on value at the
+    first chunk, then its walk), gyro bias, accelerometer noise, gyro noise, axes, each from its
+    generator. ``dt_s`` is the mission's sample interval. Each generator may be one per run
+    (tauvcore.sensors.timing.Rng). -> (data with arrays (K, [R,] 3), state for the next chunk).
     """
     if abs(1.0 / dt_s - config.rate_hz) > 1e-6 * config.rate_hz:
         raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {config.rate_hz:g}")
@@ -147,8 +235,19 @@ def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
           + standard_normal(accel_noise_rng, (k,) + shape, 1) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt))
     dth = (truth.dtheta_ib_b[expand] + bg * dt_s
            + standard_normal(gyro_noise_rng, (k,) + shape, 1) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt))
+    if not state.axes_drawn:
+        M_a = M_g = None
+        if config.has_axis_errors:
+            if axes_rng is None:
+                raise ValueError("the IMU has scale factor or misalignment errors: simulate_chunk needs axes_rng")
+            M_a = axis_error_matrices(axes_rng, runs, config.accel_scale_factor, config.accel_misalignment_rad)
+            M_g = axis_error_matrices(axes_rng, runs, config.gyro_scale_factor, config.gyro_misalignment_rad)
+        state = dataclasses.replace(state, axes_drawn=True, accel_axes=M_a, gyro_axes=M_g)
+    if state.accel_axes is not None:
+        dv = dv + np.einsum("...ij,k...j->k...i", state.accel_axes, truth.dv_b[expand])
+        dth = dth + np.einsum("...ij,k...j->k...i", state.gyro_axes, truth.dtheta_ib_b[expand])
     if k0 == 0 and k > 0:
         dv[0] = 0.0
         dth[0] = 0.0
     return (ImuData(t_s=truth.t_s, dtheta_b=dth, dv_b=dv, accel_bias=ba, gyro_bias=bg),
-            ImuState(accel_bias=accel_state, gyro_bias=gyro_state))
+            dataclasses.replace(state, accel_bias=accel_state, gyro_bias=gyro_state))

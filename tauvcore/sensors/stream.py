@@ -55,6 +55,7 @@ class SensorStreams:
     pressure: np.random.Generator          # depth white noise
     magnetometer: np.random.Generator      # attitude white noise
     initial: np.random.Generator           # the filter's random initial errors (drawn by the runner)
+    imu_axes: np.random.Generator          # IMU scale factors and misalignments (drawn only if the IMU has them)
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -143,7 +144,7 @@ class SensorStream:
         g, runs = self._rngs, self.num_runs
         imu_data, self._imu_state = imu.simulate_chunk(
             truth, k0, self.imu_config, self._imu_state, g["accel_bias"], g["gyro_bias"], g["accel_noise"],
-            g["gyro_noise"], runs, self.dt_s)
+            g["gyro_noise"], runs, self.dt_s, g["imu_axes"])
         dvl_data, self._dvl_state = dvl.simulate_chunk(
             truth, k0, dvl_idx, self.dvl_config, self._dvl_state, g["dvl_bias"], g["dvl_scale_factor"],
             g["dvl_noise"], g["dvl_dropout"], runs)

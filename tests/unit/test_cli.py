@@ -41,6 +41,8 @@ def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
     (["run", "--config", "/no/such/file.toml"], "/no/such/file.toml"),
     (["run", "--json", "/no/such/dir/out.json"], "/no/such/dir/out.json"),
     (["run", "--nonsense"], "--nonsense"),
+    (["run", "--imu", "hg9900"], "'hg9900'"),
+    (["mc", "--imu", "", "--runs", "2", "--out", "/tmp/x"], "--imu"),
 ])
 def test_bad_flags_give_one_line_and_exit_2(capsys, argv, field) -> None:
     code, out, err = _run(capsys, *argv)
@@ -558,3 +560,17 @@ def test_summary_splits_attitude_and_prints_the_consistency_table(capsys) -> Non
     assert consistency["LC"].split()[1 + 2 * len(BLOCK_DIMS)] == "-"   # no DVL measurement with two beams
     assert "nan" not in out.lower()
     assert consistency["INS"].split()[-3:] == ["-", "-", "-"]
+
+
+def test_imu_profile_flag_sets_the_whole_imu_section(capsys, tmp_path) -> None:
+    """``--imu yoo-table1`` replaces the file's [imu] section with the profile; what
+    ``tauv config`` prints with it reads back as the same configuration."""
+    from tauvcore.config import from_dict, read_toml
+    from tauvcore.sensors.imu import imu_profile
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[imu]\ngyro_bias_deg_per_h = 7.0\n")
+    code, out, _ = _run(capsys, "config", "--config", str(cfg), "--imu", "yoo-table1")
+    assert code == 0
+    printed = tmp_path / "printed.toml"
+    printed.write_text(out)
+    assert from_dict(read_toml(str(printed))).imu == imu_profile("yoo-table1")

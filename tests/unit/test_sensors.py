@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import wrap_angle
 from tauvcore.sensors import dvl, imu, magnetometer, pressure
 from tauvcore.truth import TrajectoryConfig, generate
+from tauvcore.validation import ConfigError
 
 IMU_RATE_HZ = 150.0
 
@@ -90,6 +93,59 @@ def test_imu_bias_random_walk_growth(short_truth):
 def test_imu_rejects_truth_at_another_rate(short_truth):
     with pytest.raises(ValueError, match="imu.rate_hz"):
         imu.simulate(short_truth, imu.ImuConfig(rate_hz=100.0), np.random.default_rng(34))
+
+
+def test_imu_axis_errors_multiply_the_true_increments(short_truth):
+    """With scale factors and misalignments only, the increments are exactly (I + M) times the
+    true ones, M the same for every sample of a run and different between runs."""
+    cfg = dataclasses.replace(_no_bias_imu(), accel_scale_factor_ppm=300.0, gyro_scale_factor_ppm=150.0,
+                              accel_misalignment_mrad=0.5, gyro_misalignment_mrad=2.0)
+    assert cfg.has_axis_errors and not _no_bias_imu().has_axis_errors
+    rng = np.random.default_rng(35)
+    data, state = imu.simulate_chunk(short_truth, 0, cfg, imu.ImuState(), rng, rng, rng, rng, 3,
+                                     short_truth.dt_s, rng)
+    assert state.accel_axes.shape == (3, 3, 3) and state.gyro_axes.shape == (3, 3, 3)
+    for r in range(3):
+        M_a, M_g = state.accel_axes[r], state.gyro_axes[r]
+        np.testing.assert_allclose(data.dv_b[1:, r], short_truth.dv_b[1:] @ (np.eye(3) + M_a).T, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(data.dtheta_b[1:, r], short_truth.dtheta_ib_b[1:] @ (np.eye(3) + M_g).T,
+                                   rtol=0, atol=1e-16)
+    assert not np.array_equal(state.accel_axes[0], state.accel_axes[1])
+    # the next chunk keeps the run's matrices and draws nothing more for them
+    again, state2 = imu.simulate_chunk(short_truth, short_truth.num_samples, cfg, state, rng, rng, rng, rng, 3,
+                                       short_truth.dt_s, None)
+    assert state2.accel_axes is state.accel_axes
+    np.testing.assert_allclose(again.dv_b[:, 0], short_truth.dv_b @ (np.eye(3) + state.accel_axes[0]).T,
+                               rtol=0, atol=1e-15)
+
+
+def test_imu_axis_error_statistics():
+    M = imu.axis_error_matrices(np.random.default_rng(36), (20000,), 300e-6, 0.5e-3)
+    diagonal = np.stack([M[:, i, i] for i in range(3)], axis=-1)
+    off = np.stack([M[:, i, j] for i in range(3) for j in range(3) if i != j], axis=-1)
+    assert np.std(diagonal, axis=0) == pytest.approx([300e-6] * 3, rel=0.03)
+    assert np.std(off, axis=0) == pytest.approx([0.5e-3] * 6, rel=0.03)
+    assert abs(np.corrcoef(off[:, 0], off[:, 2])[0, 1]) < 0.03     # m_xy and m_yx are independent
+    np.testing.assert_array_equal(imu.axis_error_matrices(np.random.default_rng(0), (), 0.0, 0.0), np.zeros((3, 3)))
+
+
+def test_imu_profiles_and_their_units():
+    yoo = imu.imu_profile("yoo-table1")
+    assert imu.imu_profile("table2") == imu.ImuConfig()
+    assert yoo.rate_hz == 100.0 and yoo.gyro_bias_rps == pytest.approx(1.0 * units.DEG_PER_HOUR)
+    assert yoo.accel_bias_mps2 == pytest.approx(1e-3 * 9.80665)
+    assert yoo.gyro_noise_rad_per_sqrt_s == pytest.approx(0.125 * np.pi / 180 / 60)
+    # VRW "0.1 mg" read as 0.1 mg/sqrt(Hz): 9.8e-4 m/s^2/sqrt(Hz) = 9.8e-4 m/s/sqrt(s)
+    assert yoo.accel_noise_mps_per_sqrt_s == pytest.approx(0.1e-3 * 9.80665, rel=1e-12)
+    # bias stability: the walk moves the bias by the stated amount, 1 sigma, in one hour
+    assert yoo.gyro_bias_rw_rps_per_sqrt_s * np.sqrt(3600.0) == pytest.approx(1.0 * units.DEG_PER_HOUR)
+    assert yoo.accel_bias_rw_mps2_per_sqrt_s * np.sqrt(3600.0) == pytest.approx(1e-3 * 9.80665)
+    assert (yoo.accel_scale_factor, yoo.gyro_scale_factor) == pytest.approx((300e-6, 150e-6))
+    assert (yoo.accel_misalignment_rad, yoo.gyro_misalignment_rad) == pytest.approx((0.5e-3, 0.5e-3))
+    with pytest.raises(ConfigError, match="imu profile.*'nope'"):
+        imu.imu_profile("nope")
+    with pytest.raises(ConfigError, match="imu.gyro_misalignment_mrad"):
+        imu.ImuConfig(gyro_misalignment_mrad=-1.0)
 
 
 # ------------------------------------------------------------------------------------------ DVL
@@ -184,3 +240,20 @@ def test_magnetometer_noise_std_per_axis(long_truth):
 def test_magnetometer_ideal_is_exact_attitude(long_truth):
     data = magnetometer.simulate(long_truth, magnetometer.MagnetometerConfig().ideal(), np.random.default_rng(41))
     np.testing.assert_allclose(wrap_angle(data.euler - long_truth.euler[data.index]), 0.0, rtol=0, atol=1e-15)
+
+
+def test_filter_takes_the_axis_errors_on_gravity_into_its_accelerometer_bias_sigma():
+    """P0's accelerometer-bias block: the turn-on bias, plus what the misalignment (x, y) and the
+    scale factor (z) make of gravity on a level vehicle."""
+    from tauvcore.config import Config
+    from tauvcore.eval.runner import initial_covariance
+    from tauvcore.filter.layout import STATE
+    config = Config().replace("imu", accel_scale_factor_ppm=300.0, accel_misalignment_mrad=0.5)
+    P0 = initial_covariance(config, np.zeros(3))
+    g = np.linalg.norm(config.earth.g_n)
+    b = config.imu.accel_bias_mps2
+    np.testing.assert_allclose(np.diag(P0[STATE.ba, STATE.ba]),
+                               np.array([b**2 + (0.5e-3 * g) ** 2, b**2 + (0.5e-3 * g) ** 2, b**2 + (300e-6 * g) ** 2])
+                               + 1e-16, rtol=1e-12)
+    plain = initial_covariance(Config(), np.zeros(3))
+    np.testing.assert_allclose(np.diag(plain[STATE.ba, STATE.ba]), b**2 + 1e-16, rtol=1e-12)

@@ -123,6 +123,19 @@ def test_spawned_streams_do_not_depend_on_the_chunk_size() -> None:
     assert 0 < np.mean(~dvl_data["available"]) < 0.5                          # dropout and outage drawn
 
 
+def test_imu_axis_errors_do_not_depend_on_the_chunk_size() -> None:
+    trajectory = TrajectoryConfig(name="figure8", duration_s=10.0)
+    sensors = (dataclasses.replace(SENSORS[0], accel_scale_factor_ppm=300.0, gyro_misalignment_mrad=0.5),) + SENSORS[1:]
+    reference = _stream_sensors(trajectory, SensorStreams.spawned(np.random.default_rng(6)), 2, 10**6, sensors)
+    plain = _stream_sensors(trajectory, SensorStreams.spawned(np.random.default_rng(6)), 2, 10**6)
+    assert not np.array_equal(reference[0]["dv_b"], plain[0]["dv_b"])
+    np.testing.assert_array_equal(reference[1]["bias_mps"], plain[1]["bias_mps"])      # other streams untouched
+    for chunk_samples in (7, 400):
+        got = _stream_sensors(trajectory, SensorStreams.spawned(np.random.default_rng(6)), 2, chunk_samples, sensors)
+        for name in reference[0]:
+            np.testing.assert_array_equal(got[0][name], reference[0][name], err_msg=f"{chunk_samples} {name}")
+
+
 def test_spawned_streams_keep_sensors_independent() -> None:
     """Turning the DVL dropout off changes no other stream's numbers (a shared generator would)."""
     trajectory = TrajectoryConfig(name="straight", duration_s=20.0)
