@@ -28,6 +28,8 @@ import math
 import numba
 import numpy as np
 
+from tauvcore.geo import earth
+
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 N = 20          # error states
@@ -192,6 +194,84 @@ def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndar
                                     dv, dt, C_earth, C_earth_half, g_n, coriolis_T, E, tmp)
 
 
+# ---------------------------------------------------------------- earth terms of the error model
+# Rows of the (18, 3) array of earth terms F is built from (:func:`flat_terms_into`,
+# :func:`geodetic_terms_into`): vectors in n, then 3x3 Jacobians by rows.
+T_G, T_WIE, T_WEN = 0, 1, 2          # plumb-bob gravity, earth rate, transport rate in n
+T_DG, T_DWIE, T_DWEN = 3, 6, 9       # d g_n / d pos, d omega_ie_n / d pos, d omega_en_n / d pos
+T_DWENV = 12                         # d omega_en_n / d vel_n
+T_FPP = 15                           # d pos_err' / d pos_err (the position-error metrics' own change)
+NUM_TERMS = 18
+
+_radii = _jit(earth.radii_of_curvature_m)
+_normal_gravity = _jit(earth.normal_gravity_mps2)
+
+
+@_jit
+def flat_terms_into(g_n: np.ndarray, w_ie: np.ndarray, T: np.ndarray) -> None:
+    """Earth terms of the flat model (tauvcore.geo.earth.Earth): constant gravity and earth
+    rate, no transport rate, no dependence on position. T (18, 3), every entry written."""
+    T[:, :] = 0.0
+    for i in range(3):
+        T[T_G, i] = g_n[i]
+        T[T_WIE, i] = w_ie[i]
+
+
+@_jit
+def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_down: float, T: np.ndarray) -> None:
+    """Earth terms on the WGS-84 ellipsoid at latitude ``lat``, height ``h`` and NED velocity
+    (tauvcore.geo.earth), with their Jacobians with respect to the position error in metres
+    ``dpos = ((R_N + h) dlat, (R_E + h) cos(lat) dlon, -dh)`` and the NED velocity error.
+    T (18, 3), every entry written. Derivations in tauvcore.ins.error_model.
+    """
+    T[:, :] = 0.0
+    s, c = math.sin(lat), math.cos(lat)
+    t = s / c
+    R_N, R_E = _radii(lat)
+    rho_n, rho_e = R_N + h, R_E + h
+    w2 = 1.0 - earth._E2 * s * s
+    dR_N = 3.0 * earth.A_M * (1.0 - earth._E2) * earth._E2 * s * c / (w2 * w2 * math.sqrt(w2))   # d R_N / d lat
+    dR_E = earth.A_M * earth._E2 * s * c / (w2 * math.sqrt(w2))                               # d R_E / d lat
+    # gravity: (-K h sin 2lat, 0, gamma(lat, h))
+    K = earth._GRAVITY_NORTH_PER_M
+    gamma_0 = _normal_gravity(lat, 0.0)
+    h_a = h / earth.A_M
+    f, m = earth.FLATTENING, earth._M_GRAVITY
+    P = 1.0 - 2.0 * h_a * (1.0 + f + m - 2.0 * f * s * s) + 3.0 * h_a * h_a
+    T[T_G, 0] = -K * h * math.sin(2.0 * lat)
+    T[T_G, 2] = gamma_0 * P
+    u = s * s
+    dgamma0_du = earth._GE * (earth._K_SOMIGLIANA / math.sqrt(1.0 - earth._E2 * u)
+                              + (1.0 + earth._K_SOMIGLIANA * u) * earth._E2 / (2.0 * (1.0 - earth._E2 * u) ** 1.5))
+    dgamma_dlat = dgamma0_du * 2.0 * s * c * P + gamma_0 * 8.0 * f * h_a * s * c
+    dgamma_dh = gamma_0 * (-2.0 / earth.A_M * (1.0 + f + m - 2.0 * f * s * s) + 6.0 * h_a / earth.A_M)
+    T[T_DG + 0, 0] = -2.0 * K * h * math.cos(2.0 * lat) / rho_n
+    T[T_DG + 0, 2] = K * math.sin(2.0 * lat)                   # - d/dh
+    T[T_DG + 2, 0] = dgamma_dlat / rho_n
+    T[T_DG + 2, 2] = -dgamma_dh
+    # earth rate: Omega (cos lat, 0, -sin lat)
+    W = earth.OMEGA_IE_RPS
+    T[T_WIE, 0], T[T_WIE, 2] = W * c, -W * s
+    T[T_DWIE + 0, 0], T[T_DWIE + 2, 0] = -W * s / rho_n, -W * c / rho_n
+    # transport rate: (v_E / rho_E, -v_N / rho_N, -v_E tan / rho_E)
+    T[T_WEN, 0], T[T_WEN, 1], T[T_WEN, 2] = v_east / rho_e, -v_north / rho_n, -v_east * t / rho_e
+    T[T_DWEN + 0, 0] = -v_east * dR_E / (rho_e * rho_e) / rho_n
+    T[T_DWEN + 1, 0] = v_north * dR_N / (rho_n * rho_n) / rho_n
+    T[T_DWEN + 2, 0] = -v_east * (rho_e / (c * c) - t * dR_E) / (rho_e * rho_e) / rho_n
+    T[T_DWEN + 0, 2] = v_east / (rho_e * rho_e)                # - d/dh
+    T[T_DWEN + 1, 2] = -v_north / (rho_n * rho_n)
+    T[T_DWEN + 2, 2] = -v_east * t / (rho_e * rho_e)
+    T[T_DWENV + 0, 1] = 1.0 / rho_e
+    T[T_DWENV + 1, 0] = -1.0 / rho_n
+    T[T_DWENV + 2, 1] = -t / rho_e
+    # the position-error metrics change as the vehicle moves (error_model docstring)
+    T[T_FPP + 0, 0] = -v_down / rho_n
+    T[T_FPP + 0, 2] = v_north / rho_n
+    T[T_FPP + 1, 0] = -v_east * (dR_E / rho_e - t) / rho_n
+    T[T_FPP + 1, 1] = dR_E * v_north / (rho_n * rho_e) - v_down / rho_e - t * v_north / rho_n
+    T[T_FPP + 1, 2] = v_east / rho_e
+
+
 # ---------------------------------------------------------------- error model
 @_jit
 def _skew(a0: float, a1: float, a2: float, i: int, j: int) -> float:
@@ -204,48 +284,70 @@ def _skew(a0: float, a1: float, a2: float, i: int, j: int) -> float:
 
 
 @_jit
-def F_core_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray,
-                A: np.ndarray) -> None:
+def F_core_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, T: np.ndarray, A: np.ndarray) -> None:
     """The block of the continuous F (tauvcore.ins.error_model, eq. 4 and 9) that is not zero,
     rows 0-8 and columns 0-14, into ``A`` (9, 15) (every entry written; no allocation).
 
-    C (3, 3) nominal C_nb, v (3,) nominal body velocity, om (3,) bias-corrected rate.
+    C (3, 3) nominal C_nb, v (3,) nominal body velocity, om (3,) bias-corrected rate, T (18, 3)
+    the earth terms at the nominal position (:func:`flat_terms_into` or
+    :func:`geodetic_terms_into`; in the flat model the position columns stay zero).
     """
     A[:, :] = 0.0
     vn0 = C[0, 0] * v[0] + C[0, 1] * v[1] + C[0, 2] * v[2]
     vn1 = C[1, 0] * v[0] + C[1, 1] * v[1] + C[1, 2] * v[2]
     vn2 = C[2, 0] * v[0] + C[2, 1] * v[1] + C[2, 2] * v[2]
-    # d pos' = -[(C v) x] rho + C dv
+    # d pos' = F_pp d pos - [(C v) x] rho + C dv
     A[POS + 0, ATT + 1], A[POS + 0, ATT + 2] = vn2, -vn1
     A[POS + 1, ATT + 0], A[POS + 1, ATT + 2] = -vn2, vn0
     A[POS + 2, ATT + 0], A[POS + 2, ATT + 1] = vn1, -vn0
     for i in range(3):
         for j in range(3):
+            A[POS + i, POS + j] = T[T_FPP + i, j]
             A[POS + i, VEL + j] = C[i, j]
             A[ATT + i, BG + j] = -C[i, j]
-    # rho' = -W rho
-    A[ATT + 0, ATT + 1], A[ATT + 0, ATT + 2] = w_ie[2], -w_ie[1]
-    A[ATT + 1, ATT + 0], A[ATT + 1, ATT + 2] = -w_ie[2], w_ie[0]
-    A[ATT + 2, ATT + 0], A[ATT + 2, ATT + 1] = w_ie[1], -w_ie[0]
+    # rho' = -[omega_in x] rho + Wv [v_n x] rho - Wv C dv - (W_ie,p + W_en,p) dpos - C dbg
+    # (Wv = d omega_en / d vel_n; flat model: omega_in = omega_ie, the rest zero)
+    w0 = T[T_WIE, 0] + T[T_WEN, 0]
+    w1 = T[T_WIE, 1] + T[T_WEN, 1]
+    w2 = T[T_WIE, 2] + T[T_WEN, 2]
+    A[ATT + 0, ATT + 1], A[ATT + 0, ATT + 2] = w2, -w1
+    A[ATT + 1, ATT + 0], A[ATT + 1, ATT + 2] = -w2, w0
+    A[ATT + 2, ATT + 0], A[ATT + 2, ATT + 1] = w1, -w0
+    for i in range(3):
+        for j in range(3):
+            sv = 0.0
+            sc = 0.0
+            for k in range(3):
+                sv += T[T_DWENV + i, k] * _skew(vn0, vn1, vn2, k, j)
+                sc += T[T_DWENV + i, k] * C[k, j]
+            A[ATT + i, ATT + j] += sv
+            A[ATT + i, VEL + j] = -sc
+            A[ATT + i, POS + j] = -(T[T_DWIE + i, j] + T[T_DWEN + i, j])
     # dv' = (C^T [g x] + [v x] C^T W) rho - [(om + C^T w_ie) x] dv - dba - [v x] dbg
+    #       + (C^T G_p + [v x] C^T W_ie,p) dpos
     for i in range(3):
         for j in range(3):
             s = 0.0
             for k in range(3):
-                s += C[k, i] * _skew(g_n[0], g_n[1], g_n[2], k, j)
+                s += C[k, i] * _skew(T[T_G, 0], T[T_G, 1], T[T_G, 2], k, j)
             A[VEL + i, ATT + j] = s
     for i in range(3):
         for j in range(3):
             s = 0.0
+            sp = 0.0
             for k in range(3):
                 ctw = 0.0                               # (C^T W)[k, j]
+                ctp = 0.0                               # (C^T W_ie,p)[k, j]
                 for m in range(3):
-                    ctw += C[m, k] * _skew(w_ie[0], w_ie[1], w_ie[2], m, j)
+                    ctw += C[m, k] * _skew(T[T_WIE, 0], T[T_WIE, 1], T[T_WIE, 2], m, j)
+                    ctp += C[m, k] * T[T_DWIE + m, j]
                 s += _skew(v[0], v[1], v[2], i, k) * ctw
+                sp += _skew(v[0], v[1], v[2], i, k) * ctp + C[k, i] * T[T_DG + k, j]
             A[VEL + i, ATT + j] += s
-    a0 = om[0] + C[0, 0] * w_ie[0] + C[1, 0] * w_ie[1] + C[2, 0] * w_ie[2]
-    a1 = om[1] + C[0, 1] * w_ie[0] + C[1, 1] * w_ie[1] + C[2, 1] * w_ie[2]
-    a2 = om[2] + C[0, 2] * w_ie[0] + C[1, 2] * w_ie[1] + C[2, 2] * w_ie[2]
+            A[VEL + i, POS + j] = sp
+    a0 = om[0] + C[0, 0] * T[T_WIE, 0] + C[1, 0] * T[T_WIE, 1] + C[2, 0] * T[T_WIE, 2]
+    a1 = om[1] + C[0, 1] * T[T_WIE, 0] + C[1, 1] * T[T_WIE, 1] + C[2, 1] * T[T_WIE, 2]
+    a2 = om[2] + C[0, 2] * T[T_WIE, 0] + C[1, 2] * T[T_WIE, 1] + C[2, 2] * T[T_WIE, 2]
     A[VEL + 0, VEL + 1], A[VEL + 0, VEL + 2] = a2, -a1
     A[VEL + 1, VEL + 0], A[VEL + 1, VEL + 2] = -a2, a0
     A[VEL + 2, VEL + 0], A[VEL + 2, VEL + 1] = a1, -a0
@@ -256,12 +358,12 @@ def F_core_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w
 
 
 @_jit
-def F_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray, F: np.ndarray) -> None:
+def F_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, T: np.ndarray, F: np.ndarray) -> None:
     """Continuous F (tauvcore.ins.error_model, eq. 4 and 9) into ``F`` (20, 20): zero but for the
     block :func:`F_core_into` writes."""
     F[:, :] = 0.0
     A = np.empty((NAV, CORE))
-    F_core_into(C, v, om, g_n, w_ie, A)
+    F_core_into(C, v, om, T, A)
     for i in range(NAV):
         for j in range(CORE):
             F[i, j] = A[i, j]
@@ -457,13 +559,15 @@ def propagate_bank(P: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: n
     Q6 = np.empty((6, 6))
     v = np.empty(3)
     om = np.empty(3)
+    T = np.empty((NUM_TERMS, 3))
+    flat_terms_into(g_n, w_ie, T)
     for m in range(P.shape[0]):
         for r in range(P.shape[1]):
             Cm = C[m, r]
             for i in range(3):
                 v[i] = Cm[0, i] * vel_n[m, r, 0] + Cm[1, i] * vel_n[m, r, 1] + Cm[2, i] * vel_n[m, r, 2]
                 om[i] = dtheta_sum[r, i] / dt_c - gyro_bias[m, r, i]
-            F_core_into(Cm, v, om, g_n, w_ie, A)
+            F_core_into(Cm, v, om, T, A)
             for i in range(NAV):
                 for j in range(CORE):
                     A[i, j] *= dt_c
@@ -997,11 +1101,29 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
 
 # ---------------------------------------------------------------- batched entry points for numpy callers
 @_jit
-def F_batch(C: np.ndarray, v: np.ndarray, om: np.ndarray, g_n: np.ndarray, w_ie: np.ndarray) -> np.ndarray:
-    """:func:`F_into` for n points: (n, 3, 3), (n, 3), (n, 3) -> (n, 20, 20)."""
+def F_batch(C: np.ndarray, v: np.ndarray, om: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """:func:`F_into` for n points: (n, 3, 3), (n, 3), (n, 3), earth terms (n, 18, 3) -> (n, 20, 20)."""
     out = np.empty((C.shape[0], N, N))
     for i in range(C.shape[0]):
-        F_into(C[i], v[i], om[i], g_n, w_ie, out[i])
+        F_into(C[i], v[i], om[i], T[i], out[i])
+    return out
+
+
+@_jit
+def flat_terms_batch(g_n: np.ndarray, w_ie: np.ndarray, n: int) -> np.ndarray:
+    """:func:`flat_terms_into` repeated for n points -> (n, 18, 3)."""
+    out = np.empty((n, NUM_TERMS, 3))
+    for i in range(n):
+        flat_terms_into(g_n, w_ie, out[i])
+    return out
+
+
+@_jit
+def geodetic_terms_batch(lat: np.ndarray, h: np.ndarray, vel_n: np.ndarray) -> np.ndarray:
+    """:func:`geodetic_terms_into` for n points: (n,), (n,), (n, 3) -> (n, 18, 3)."""
+    out = np.empty((lat.shape[0], NUM_TERMS, 3))
+    for i in range(lat.shape[0]):
+        geodetic_terms_into(lat[i], h[i], vel_n[i, 0], vel_n[i, 1], vel_n[i, 2], out[i])
     return out
 
 

@@ -149,11 +149,12 @@ def C_en(latitude_rad: float, longitude_rad: float) -> np.ndarray:
                      np.stack([cl, 0.0 * cl, -sl], axis=-1)], axis=-2)
 
 
-def ned_offset_m(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,
-                 latitude_ref_rad: np.ndarray, longitude_ref_rad: np.ndarray, height_ref_m: np.ndarray) -> np.ndarray:
-    """Offset [m] of each point from its reference point, resolved in the reference's own NED
-    frame: the straight ECEF offset, not a distance along the surface (a position error, estimate
-    against truth; or a position in the tangent frame of a mission origin). -> (..., 3)
+def ned_offset_components(latitude_rad: float, longitude_rad: float, height_m: float, latitude_ref_rad: float,
+                          longitude_ref_rad: float, height_ref_m: float) -> tuple[float, float, float]:
+    """North, east and down [m] of a point's offset from a reference point, resolved in the
+    reference's own NED frame: the straight ECEF offset, not a distance along the surface (a
+    position error, estimate against truth; or a position in the tangent frame of a mission
+    origin). Elementwise (arrays broadcast), and compiled as it is by the filter bank.
 
     Each ECEF coordinate is near 6.4e6 m, so subtracting two of them loses everything below
     about 1e-9 m. The offset is instead written in differences that are small themselves
@@ -169,18 +170,29 @@ def ned_offset_m(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: 
     d_cos_lon = -2.0 * np.sin(lon_sum) * np.sin(lon_diff)
     d_sin_lon = 2.0 * np.cos(lon_sum) * np.sin(lon_diff)
     s, s0 = np.sin(lat), np.sin(lat0)
+    c0 = np.cos(lat0)
     w, w0 = np.sqrt(1.0 - _E2 * s * s), np.sqrt(1.0 - _E2 * s0 * s0)
     R_E0 = A_M / w0
     # R_E - R_E0 = a (w0 - w) / (w w0), w0^2 - w^2 = e^2 (sin^2 lat - sin^2 lat0)
     d_R_E = A_M * _E2 * d_sin_lat * (s + s0) / (w * w0 * (w + w0))
     d_h = h - h0
-    axis_0 = (R_E0 + h0) * np.cos(lat0)            # distance from the polar axis
+    axis_0 = (R_E0 + h0) * c0                       # distance from the polar axis
     d_axis = (d_R_E + d_h) * np.cos(lat) + (R_E0 + h0) * d_cos_lat
-    dx = d_axis * np.cos(lon) + axis_0 * d_cos_lon
-    dy = d_axis * np.sin(lon) + axis_0 * d_sin_lon
+    cl, sl = np.cos(lon), np.sin(lon)
+    dx = d_axis * cl + axis_0 * d_cos_lon
+    dy = d_axis * sl + axis_0 * d_sin_lon
     dz = (d_R_E * (1.0 - _E2) + d_h) * s + (R_E0 * (1.0 - _E2) + h0) * d_sin_lat
-    d_e = np.stack([dx, dy, dz], axis=-1)
-    return (d_e[..., None, :] @ C_en(lat0, lon0))[..., 0, :]
+    cl0, sl0 = np.cos(lon0), np.sin(lon0)
+    horizontal = cl0 * dx + sl0 * dy                # along the reference's meridian plane, outwards
+    return -s0 * horizontal + c0 * dz, -sl0 * dx + cl0 * dy, -c0 * horizontal - s0 * dz
+
+
+def ned_offset_m(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,
+                 latitude_ref_rad: np.ndarray, longitude_ref_rad: np.ndarray, height_ref_m: np.ndarray) -> np.ndarray:
+    """:func:`ned_offset_components` stacked: (..., 3) [m]."""
+    n, e, d = ned_offset_components(latitude_rad, longitude_rad, height_m, latitude_ref_rad, longitude_ref_rad,
+                                    height_ref_m)
+    return np.stack(np.broadcast_arrays(n, e, d), axis=-1)
 
 
 def ned_from_geodetic(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,

@@ -27,6 +27,34 @@ over the mission area (tauvcore.geo.earth), hence the zero position column.
 
 :func:`error_rate` is the exact nonlinear error dynamics; the tests compare F and G to its
 central finite differences.
+
+On the WGS-84 ellipsoid (the paper's F has a zero position column; ours does not)
+--------------------------------------------------------------------------------
+Position is geodetic (lat, lon, h), n is the local-level NED frame at the point itself and turns
+at ``omega_in = omega_ie(lat) + omega_en(lat, h, vel_n)`` (tauvcore.geo.earth). Each quantity of
+the true and of the nominal state is taken in its own local frame, and the position error is in
+metres at the nominal point: ``dpos = ((R_N + h) dlat, (R_E + h) cos(lat) dlon, -dh)`` with R, h,
+lat the nominal's. Then:
+
+- velocity: ``v_b' = f_b + C^T g(lat, h) - (omega_ib_b + C^T omega_ie(lat)) x v_b`` still holds
+  (the transport rate cancels from the body-frame velocity), so the velocity rows gain the
+  position columns ``C^T G_p + [v x] C^T W_ie,p`` (G_p, W_ie,p: gravity's and the earth rate's
+  Jacobians with respect to dpos: the free-air gradient, about 3.1e-6 s^-2, and the change with
+  latitude);
+- attitude: from ``C' = C [omega_ib x] - [omega_in x] C`` and ``dvel_n = C dv - [vel_n x] rho``,
+  ``rho' = -[omega_in x] rho - C dbg - d omega_in``, ``d omega_in = (W_ie,p + W_en,p) dpos +
+  W_en,v dvel_n``;
+- position: differentiating the definition of dpos (the metric itself changes as the vehicle
+  moves: meridians converge, heights change the radius),
+  ``dpos_N' = dvel_N - v_D / (R_N + h) dpos_N + v_N / (R_N + h) dpos_D``,
+  ``dpos_E' = dvel_E - v_E (R_E' / (R_E + h) - tan lat) dpos_N / (R_N + h)
+  + (R_E' v_N / ((R_N + h)(R_E + h)) - v_D / (R_E + h) - tan(lat) v_N / (R_N + h)) dpos_E
+  + v_E / (R_E + h) dpos_D`` (R_E' = dR_E / dlat), ``dpos_D' = dvel_D``; the two R_N' terms of the
+  north row cancel.
+
+These terms are of the order v / R (3e-7 s^-1 at 2 m/s) and g / R (1.5e-6 s^-2): over a
+250 s mission they are below the sensors' noise, over an hour and kilometres they are not.
+:func:`error_rate_geodetic` is the exact nonlinear counterpart the tests differentiate.
 """
 
 from __future__ import annotations
@@ -40,19 +68,32 @@ from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.sensors.imu import ImuConfig
 
 
-def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth: Earth) -> np.ndarray:
+def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth: Earth,
+             position: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Continuous-time F (eq. 4 and 9) at the nominal state. -> (..., 20, 20).
 
     C_nb (..., 3, 3), vel_b (..., 3) nominal body velocity, omega_ib_b (..., 3) bias-corrected rate.
-    The formula is the compiled kernel :func:`tauvcore.filter.kernels.F_into` (the one the filter
-    bank runs); the tests compare it with central differences of :func:`error_rate`.
+    ``position``: None for the flat model of ``earth`` (its constant gravity and earth rate); or
+    the nominal geodetic position (latitude [rad], longitude [rad], height [m], each (...,)) for
+    the WGS-84 error model of the module docstring. The formula is the compiled kernel
+    :func:`tauvcore.filter.kernels.F_into` (the one the filter bank runs); the tests compare it
+    with central differences of :func:`error_rate` and :func:`error_rate_geodetic`.
     """
     from tauvcore.filter import kernels  # numba: with the engine, not for --help
 
-    batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1], np.shape(omega_ib_b)[:-1])
+    shapes = [np.shape(C_nb)[:-2], np.shape(vel_b)[:-1], np.shape(omega_ib_b)[:-1]]
+    if position is not None:
+        shapes += [np.shape(position[0]), np.shape(position[2])]
+    batch = np.broadcast_shapes(*shapes)
     f = kernels.flat
-    F = kernels.F_batch(f(C_nb, batch, (3, 3)), f(vel_b, batch, (3,)), f(omega_ib_b, batch, (3,)),
-                        f(earth.g_n, (), (3,))[0], f(earth.omega_ie_n, (), (3,))[0])
+    C, v = f(C_nb, batch, (3, 3)), f(vel_b, batch, (3,))
+    n = C.shape[0]
+    if position is None:
+        T = kernels.flat_terms_batch(f(earth.g_n, (), (3,))[0], f(earth.omega_ie_n, (), (3,))[0], n)
+    else:
+        vel_n = np.einsum("nij,nj->ni", C, v)
+        T = kernels.geodetic_terms_batch(f(position[0], batch, ()), f(position[2], batch, ()), vel_n)
+    F = kernels.F_batch(C, v, f(omega_ib_b, batch, (3,)), T)
     return F.reshape(batch + (STATE.dim, STATE.dim))
 
 
@@ -151,6 +192,59 @@ def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarr
     E = C @ C_hat.T
     E_dot = C_dot @ C_hat.T + C @ C_hat_dot.T
     out[STATE.att] = left_jacobian_inv_so3(log_so3(E)) @ vee(E_dot @ E.T)
+    out[STATE.ba] = w[NOISE.ba]
+    out[STATE.bg] = w[NOISE.bg]
+    out[STATE.b_dvl] = w[NOISE.b_dvl]
+    out[STATE.sf_dvl] = w[NOISE.sf_dvl]
+    return out
+
+
+def error_rate_geodetic(position_hat: tuple[float, float, float], C_hat: np.ndarray, vel_b_hat: np.ndarray,
+                        omega_ib_meas: np.ndarray, f_meas: np.ndarray, bias_hat: dict[str, np.ndarray], dx: np.ndarray,
+                        w: np.ndarray) -> np.ndarray:
+    """Exact nonlinear error dynamics on the WGS-84 ellipsoid (the module docstring's second
+    part), for verification of F's geodetic terms: ``dx'`` at the nominal geodetic position
+    ``position_hat`` = (lat, lon, h) and state, with the error ``dx`` applied to make the truth,
+    both moving under the geodetic mechanization, the truth with the IMU minus its true biases
+    and the noise ``w``. ``bias_hat``: ``ba``, ``bg`` (3,)."""
+    from tauvcore.geo import earth as E
+
+    lat_h, lon_h, h_h = position_hat
+    R_N, R_E = E.radii_of_curvature_m(lat_h)
+    lat = lat_h + dx[STATE.pos][0] / (R_N + h_h)
+    lon = lon_h + dx[STATE.pos][1] / ((R_E + h_h) * np.cos(lat_h))
+    h = h_h - dx[STATE.pos][2]
+    C = exp_so3(dx[STATE.att]) @ C_hat
+    v_b = vel_b_hat + dx[STATE.vel]
+    f_true = f_meas - (bias_hat["ba"] + dx[STATE.ba]) - w[NOISE.accel]
+    om_true = omega_ib_meas - (bias_hat["bg"] + dx[STATE.bg]) - w[NOISE.gyro]
+    f_hat = f_meas - bias_hat["ba"]
+    om_hat = omega_ib_meas - bias_hat["bg"]
+
+    def rates(la: float, hh: float, Cm: np.ndarray, v: np.ndarray, f: np.ndarray, om: np.ndarray):
+        vel_n = Cm @ v
+        g = np.array(E.gravity_n_mps2(la, hh))
+        w_ie = np.array(E.earth_rate_n_rps(la))
+        w_en = np.array(E.transport_rate_n_rps(la, hh, vel_n[0], vel_n[1]))
+        v_dot = f + Cm.T @ g - np.cross(om + Cm.T @ w_ie, v)
+        C_dot = Cm @ skew(om) - skew(w_ie + w_en) @ Cm
+        return np.array(E.geodetic_rates(la, hh, *vel_n)), v_dot, C_dot
+
+    geo, v_dot, C_dot = rates(lat, h, C, v_b, f_true, om_true)
+    geo_h, v_dot_h, C_dot_h = rates(lat_h, h_h, C_hat, vel_b_hat, f_hat, om_hat)
+    w2 = 1.0 - E._E2 * np.sin(lat_h) ** 2
+    dR_N = 3.0 * E.A_M * (1.0 - E._E2) * E._E2 * np.sin(lat_h) * np.cos(lat_h) / w2**2.5
+    dR_E = E.A_M * E._E2 * np.sin(lat_h) * np.cos(lat_h) / w2**1.5
+    out = np.zeros(STATE.dim)
+    # d/dt of (R_N(lat_h) + h_h)(lat - lat_h), (R_E(lat_h) + h_h) cos(lat_h) (lon - lon_h), -(h - h_h)
+    out[STATE.pos.start + 0] = ((dR_N * geo_h[0] + geo_h[2]) * (lat - lat_h) + (R_N + h_h) * (geo[0] - geo_h[0]))
+    out[STATE.pos.start + 1] = (((dR_E * geo_h[0] + geo_h[2]) * np.cos(lat_h) - (R_E + h_h) * np.sin(lat_h) * geo_h[0])
+                                * (lon - lon_h) + (R_E + h_h) * np.cos(lat_h) * (geo[1] - geo_h[1]))
+    out[STATE.pos.start + 2] = -(geo[2] - geo_h[2])
+    out[STATE.vel] = v_dot - v_dot_h
+    E_rot = C @ C_hat.T
+    E_dot = C_dot @ C_hat.T + C @ C_dot_h.T
+    out[STATE.att] = left_jacobian_inv_so3(log_so3(E_rot)) @ vee(E_dot @ E_rot.T)
     out[STATE.ba] = w[NOISE.ba]
     out[STATE.bg] = w[NOISE.bg]
     out[STATE.b_dvl] = w[NOISE.b_dvl]

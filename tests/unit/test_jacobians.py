@@ -237,3 +237,68 @@ def test_H_with_single_entry_batch(case):
         H_fd[..., j] = _diff(model, model.predict(inject(nom, dx), setup),
                              model.predict(inject(nom, -dx), setup)) / (2 * EPS)
     np.testing.assert_allclose(H, H_fd, rtol=0, atol=1e-8)
+
+
+# ------------------------------------------------------------------------------------------ (a') geodetic F
+
+def _geodetic_point(rng: np.random.Generator, lat: float, h: float, speed: float) -> dict:
+    pt = _random_ins_point(rng)
+    # mostly east and a little north and down: every transport-rate term is exercised
+    direction = np.array([0.3, 0.9, 0.1]) / np.linalg.norm([0.3, 0.9, 0.1])
+    pt["vel_b_hat"] = pt["C_hat"].T @ direction * speed
+    pt["position"] = (lat, 0.4, h)
+    return pt
+
+
+@pytest.mark.parametrize("lat_deg, h_m, speed_mps, seed", [
+    (32.8, -150.0, 2.0, 0), (-60.0, -3000.0, 5.0, 1), (75.0, 200.0, 100.0, 2), (0.5, -20.0, 250.0, 3)])
+def test_geodetic_F_and_G_match_finite_differences(lat_deg, h_m, speed_mps, seed):
+    """Every block of F on the ellipsoid, new ones included (position columns of the velocity and
+    attitude rows, the position rows' own terms, transport rate), against central differences of
+    the exact error dynamics, entry by entry at 1e-6 of the entry's own size: the new terms are
+    of the order 1e-7 to 1e-5 and a blanket tolerance at F's scale would not see them. Position
+    columns are differenced over 1 m (the fields change over kilometres), the rest over 1e-6."""
+    from tauvcore.ins.error_model import error_rate_geodetic
+    rng = np.random.default_rng(200 + seed)
+    pt = _geodetic_point(rng, np.deg2rad(lat_deg), h_m, speed_mps)
+    omega_hat = pt["omega_ib_meas"] - pt["bias_hat"]["bg"]
+    lat, lon, h = pt["position"]
+    F = F_matrix(pt["C_hat"], pt["vel_b_hat"], omega_hat, EARTH, position=(np.float64(lat), np.float64(lon),
+                                                                         np.float64(h)))
+    G = G_matrix(pt["C_hat"], pt["vel_b_hat"])
+
+    def rate(dx: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return error_rate_geodetic(pt["position"], pt["C_hat"], pt["vel_b_hat"], pt["omega_ib_meas"], pt["f_meas"],
+                                   pt["bias_hat"], dx, w)
+
+    zero_x, zero_w = np.zeros(STATE.dim), np.zeros(NOISE.dim)
+    np.testing.assert_allclose(rate(zero_x, zero_w), 0.0, rtol=0, atol=1e-12)
+    F_fd = np.zeros_like(F)
+    for j in range(STATE.dim):
+        step = 1.0 if j in range(STATE.pos.start, STATE.pos.stop) else EPS
+        e = np.zeros(STATE.dim)
+        e[j] = step
+        F_fd[:, j] = (rate(e, zero_w) - rate(-e, zero_w)) / (2 * step)
+    G_fd = np.zeros_like(G)
+    for j in range(NOISE.dim):
+        e = np.zeros(NOISE.dim)
+        e[j] = EPS
+        G_fd[:, j] = (rate(zero_x, e) - rate(zero_x, -e)) / (2 * EPS)
+    # entry by entry: 1e-6 relative, and an absolute floor at the finite difference's round-off,
+    # 20 ulp of the row's rates over the column's step (rates: the speed for position, 0.3 rad/s
+    # for attitude, 20 m/s^2 for velocity)
+    steps = np.where(np.arange(STATE.dim) < STATE.pos.stop, 1.0, EPS)
+    scale = np.ones(STATE.dim)
+    scale[STATE.pos], scale[STATE.att], scale[STATE.vel] = speed_mps, 0.3, 20.0
+    floor = 20 * np.finfo(float).eps * scale[:, None] / steps[None, :]
+    for name in STATE.names:
+        rows = getattr(STATE, name)
+        bad = np.abs(F[rows] - F_fd[rows]) > 1e-6 * np.abs(F_fd[rows]) + floor[rows]
+        assert not bad.any(), (name, np.argwhere(bad), F[rows][bad], F_fd[rows][bad])
+    np.testing.assert_allclose(G, G_fd, rtol=0, atol=1e-7 * max(1.0, np.abs(G).max()))
+    # the geodetic terms are there and not negligible for the test: position columns of the
+    # velocity rows carry the free-air gradient 2 g / a, about 3.1e-6 s^-2
+    assert abs(F[STATE.vel, STATE.pos][:, 2]).max() > 2e-6
+    # and the flat model's F is the geodetic one without them
+    F_flat = F_matrix(pt["C_hat"], pt["vel_b_hat"], omega_hat, EARTH)
+    assert not F_flat[:, STATE.pos].any()
