@@ -181,14 +181,23 @@ def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator | Se
     """Estimate at t = 0: truth with the initial errors (fixed, or drawn per run), biases zero."""
     _, R = batch
     ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
-    pos_true, C_true, v_true_b = truth.pos_n[0], truth.C_nb[0], truth.vel_b[0]
+    pos_true, C_true, v_true_b = truth.pos_nav[0], truth.C_nb[0], truth.vel_b[0]
+
+    def moved(offset_m: np.ndarray) -> np.ndarray:
+        """The true position moved by (R, 3) north, east, down metres (on WGS-84: latitude,
+        longitude and depth through the metric there)."""
+        offset_m = np.ascontiguousarray(np.broadcast_to(offset_m, (R, 3)), dtype=float)
+        if not truth.earth.geodetic:
+            return pos_true + offset_m
+        return kernels.add_position_batch(np.ascontiguousarray(np.broadcast_to(pos_true, (R, 3))), offset_m, True)
+
     if ie.mode == "fixed":
-        pos = np.broadcast_to(pos_true + np.asarray(ie.pos_m), (R, 3))
+        pos = moved(np.asarray(ie.pos_m))
         C = np.broadcast_to(C_nb_from_euler(truth.euler[0] + np.asarray(ie.euler_rad)), (R, 3, 3))
         vel_b = np.broadcast_to(v_true_b + np.asarray(ie.vel_mps), (R, 3))
     else:
         n_pos, n_rho, n_vel = _initial_draws(rng, R)
-        pos = pos_true + n_pos * np.asarray(ie.pos_m)
+        pos = moved(n_pos * np.asarray(ie.pos_m))
         rho = (np.linalg.cholesky(P0_nav_att) @ n_rho[..., None])[..., 0]
         C = exp_so3(-rho) @ C_true  # C_true = exp(rho) C_hat
         vel_b = v_true_b + n_vel * np.asarray(ie.vel_mps)
@@ -382,7 +391,11 @@ class FilterBank:
         self.num_samples, self.dt = num_samples, dt_s
         earth = config.earth
         strapdown = Strapdown(earth, dt_s)
-        self.sd_consts = (dt_s, strapdown.C_earth, strapdown.C_earth_half, strapdown.g_n, strapdown.coriolis_T)
+        self.geodetic = earth.geodetic
+        self.sd_consts = (dt_s, strapdown.C_earth, strapdown.C_earth_half, strapdown.g_n, strapdown.coriolis_T,
+                          self.geodetic)
+        # NED positions are recorded from the sea-surface point above the start (Truth.pos_n)
+        self.origin = np.array([earth.latitude_rad, earth.longitude_rad, 0.0])
         self.g_n, self.w_ie = np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n)
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
@@ -473,7 +486,7 @@ class FilterBank:
         """One compiled gated correction and injection of the whole bank in place (inactive rows
         and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...)."""
         fused = fuse_in_place(self.P.reshape(-1, STATE.dim, STATE.dim), self.flat, H, Rm, nu, active,
-                              gate_rows.reshape(-1), self.gate)
+                              gate_rows.reshape(-1), self.gate, self.geodetic)
         return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
 
     def _update_all(self, source: str, meas: Measurement, t: float) -> None:
@@ -527,7 +540,7 @@ class FilterBank:
         kernels.record_bank(row, float(t_s[i]), pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i],
                             self.ping_bias, self.ping_sf, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl,
                             self.sf, self.P, self.block_of_state, len(NEES_BLOCKS), units.DEG, out["series"],
-                            out["nees_block"], out["est_pos_n"], self.nonfinite_at_s)
+                            out["nees_block"], out["est_pos_n"], self.nonfinite_at_s, self.geodetic, self.origin)
         out["t_s"][row] = t_s[i]
         self.slot += 1
 
@@ -564,7 +577,7 @@ class FilterBank:
         ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
         truth = chunk.truth
         # the chunk's inputs of the compiled stretch between aiding epochs (kernels.run_stops)
-        chunk_in = (phi_raw, dv_raw, dtheta, np.ascontiguousarray(truth.t_s), np.ascontiguousarray(truth.pos_n),
+        chunk_in = (phi_raw, dv_raw, dtheta, np.ascontiguousarray(truth.t_s), np.ascontiguousarray(truth.pos_nav),
                     np.ascontiguousarray(truth.vel_n), np.ascontiguousarray(truth.C_nb),
                     np.ascontiguousarray(imu.accel_bias), np.ascontiguousarray(imu.gyro_bias), ping_rows,
                     np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
@@ -599,7 +612,8 @@ class FilterBank:
             s, why = kernels.run_stops(stops, is_event, stop_row, s, stops.size, k0, self.check_step, yield_every,
                                        counters, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf,
                                        self.P, self.dtheta_sum, self.ping_bias, self.ping_sf, self.nonfinite_at_s,
-                                       *chunk_in, *self.sd_consts, self.w_ie, self.q_psd, self.block_of_state,
+                                       *chunk_in, *self.sd_consts, self.origin, self.w_ie, self.q_psd,
+                                       self.block_of_state,
                                        len(NEES_BLOCKS), units.DEG, out["series"], out["nees_block"],
                                        out["est_pos_n"], out["t_s"])
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)

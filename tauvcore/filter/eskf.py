@@ -75,24 +75,26 @@ def _nominal_of(arrays: tuple[np.ndarray, ...], batch: tuple[int, ...]) -> Nomin
                    ba.reshape(batch + (3,)), bg.reshape(batch + (3,)), bdvl.reshape(batch + (4,)), sf.reshape(batch))
 
 
-def inject(nom: Nominal, dx: np.ndarray) -> Nominal:
+def inject(nom: Nominal, dx: np.ndarray, geodetic: bool = False) -> Nominal:
     """Closed-loop correction ``x_hat <- x_hat (+) dx`` (reset of dx to zero is implicit).
 
     Position and biases add; ``C_nb <- exp([rho x]) C_nb``; the body-frame velocity adds
     (the error is defined in b), and ``vel_n`` is rebuilt with the corrected attitude. The
     reset Jacobian ``I - [rho x]/2`` of the misalignment block is taken as I (rho < 1e-2 rad).
-    The formula is the kernel :func:`tauvcore.filter.kernels.inject_batch` the filter bank runs.
+    ``geodetic``: positions are latitude, longitude, depth (WGS-84) and the position error moves
+    them through the metric at the estimate. The formula is the kernel
+    :func:`tauvcore.filter.kernels.inject_batch` the filter bank runs.
     """
     from tauvcore.filter import kernels
 
     batch = np.broadcast_shapes(nom.dvl_sf.shape, np.shape(dx)[:-1])
     arrays = _state_arrays(nom, batch)
     dx_flat = np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (STATE.dim,)))
-    kernels.inject_batch(*arrays, dx_flat.reshape(-1, STATE.dim))
+    kernels.inject_batch(*arrays, dx_flat.reshape(-1, STATE.dim), geodetic)
     return _nominal_of(arrays, batch)
 
 
-def difference(true: Nominal, est: Nominal) -> np.ndarray:
+def difference(true: Nominal, est: Nominal, geodetic: bool = False) -> np.ndarray:
     """``true (-) est``: the error state that :func:`inject` would need. -> (B, 20).
 
     The navigation part is the kernel :func:`tauvcore.filter.kernels.nav_difference_into` (the
@@ -103,7 +105,8 @@ def difference(true: Nominal, est: Nominal) -> np.ndarray:
                                 np.shape(est.nav.pos_n)[:-1])
     t, e = _state_arrays(true, batch), _state_arrays(est, batch)
     dx = np.zeros(batch + (STATE.dim,))
-    dx[..., :kernels.NAV] = kernels.difference_batch(t[0], t[1], t[2], e[0], e[1], e[2]).reshape(batch + (kernels.NAV,))
+    dx[..., :kernels.NAV] = kernels.difference_batch(t[0], t[1], t[2], e[0], e[1], e[2],
+                                                     geodetic).reshape(batch + (kernels.NAV,))
     dx[..., STATE.ba] = true.accel_bias - est.accel_bias
     dx[..., STATE.bg] = true.gyro_bias - est.gyro_bias
     dx[..., STATE.b_dvl] = true.dvl_bias - est.dvl_bias
@@ -222,7 +225,8 @@ def condition_covariance(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fuse_in_place(P: np.ndarray, state: tuple[np.ndarray, ...], H: np.ndarray, R: np.ndarray, nu: np.ndarray,
-                  active: np.ndarray, gate_rows: np.ndarray, gate_sigma: float) -> tuple[np.ndarray, ...]:
+                  active: np.ndarray, gate_rows: np.ndarray, gate_sigma: float,
+                  geodetic: bool = False) -> tuple[np.ndarray, ...]:
     """The compiled gated Joseph correction and injection of n filters, in place (the filter
     bank's layout): P (n, 20, 20), ``state`` the arrays of :func:`_state_arrays`, H (n, m, 20),
     R (n, m, m), nu, active (n, m) (rows in use: active and valid), gate_rows (n,).
@@ -235,7 +239,7 @@ def fuse_in_place(P: np.ndarray, state: tuple[np.ndarray, ...], H: np.ndarray, R
         np.ascontiguousarray(R, dtype=float).reshape(n, m, m), np.ascontiguousarray(nu, dtype=float).reshape(n, m),
         np.ascontiguousarray(active, dtype=bool).reshape(n, m), np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
         float(gate_sigma))
-    kernels.inject_batch(*state, dx)
+    kernels.inject_batch(*state, dx, geodetic)
     return s_diag, keep, nis, ratio, unusable
 
 

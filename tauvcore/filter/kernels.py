@@ -102,18 +102,76 @@ def log_so3_batch(C: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- strapdown
+# the earth functions the bank compiles as they are (tauvcore.geo.earth: those that call no other)
+_radii_nav = _jit(earth.radii_of_curvature_m)
+_ned_offset = _jit(earth.ned_offset_components)
+_normal_gravity = _jit(earth.normal_gravity_mps2)
+_gravity_north = _jit(earth.gravity_north_mps2)
+_earth_rate = _jit(earth.earth_rate_n_rps)
+_transport_rate = _jit(earth.transport_rate_with_radii)
+
+
+@_jit
+def geodetic_step_terms_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, dv: np.ndarray, g_guess: np.ndarray,
+                             coriolis_guess_T: np.ndarray, dt: float, S: np.ndarray) -> tuple:
+    """The earth terms of one IMU interval on the WGS-84 ellipsoid, at the interval's middle as
+    predicted from its start (position ``pos`` = latitude [rad], longitude [rad], depth [m];
+    NED velocity ``vel``; attitude ``C`` and velocity increment ``dv`` of the interval, gravity
+    ``g_guess`` and Coriolis ``coriolis_guess_T`` near the true ones: the flat model's at the
+    origin), into the scratch ``S`` (4, 3, 3):
+    ``S[0] = exp(-[omega_in x] dt)``, ``S[1] = exp(-[omega_in x] dt / 2)`` (the local-level
+    frame's turn: earth rate plus transport rate), ``S[2] = (-[(2 omega_ie + omega_en) x])^T``
+    (Coriolis, row form), ``S[3, 0]`` gravity. The transport rate is taken at the predicted
+    middle velocity ``vel + (C dv + g dt - 2 omega_ie x vel dt) / 2``: at the start one it lags
+    half a step, an error
+    of the first order in dt (3e-4 m in 250 s of figure eights at 150 Hz). Returns the predicted
+    middle latitude, the radii there (R_N, R_E)."""
+    h = -pos[2]
+    R_N0, _ = _radii_nav(pos[0])
+    v0, v1, v2 = vel[0], vel[1], vel[2]
+    K = coriolis_guess_T
+    v_mid0 = v0 + 0.5 * (C[0, 0] * dv[0] + C[0, 1] * dv[1] + C[0, 2] * dv[2]
+                         + (g_guess[0] + v0 * K[0, 0] + v1 * K[1, 0] + v2 * K[2, 0]) * dt)
+    v_mid1 = v1 + 0.5 * (C[1, 0] * dv[0] + C[1, 1] * dv[1] + C[1, 2] * dv[2]
+                         + (g_guess[1] + v0 * K[0, 1] + v1 * K[1, 1] + v2 * K[2, 1]) * dt)
+    v_mid2 = v2 + 0.5 * (C[2, 0] * dv[0] + C[2, 1] * dv[1] + C[2, 2] * dv[2]
+                         + (g_guess[2] + v0 * K[0, 2] + v1 * K[1, 2] + v2 * K[2, 2]) * dt)
+    lat_m = pos[0] + 0.25 * dt * (vel[0] + v_mid0) / (R_N0 + h)
+    h_m = h - 0.25 * dt * (vel[2] + v_mid2)
+    R_N, R_E = _radii_nav(lat_m)
+    w_ie0, w_ie1, w_ie2 = _earth_rate(lat_m)
+    w_en0, w_en1, w_en2 = _transport_rate(R_N, R_E, lat_m, h_m, v_mid0, v_mid1)
+    a0, a1, a2 = w_ie0 + w_en0, w_ie1 + w_en1, w_ie2 + w_en2
+    exp_so3_into(-a0 * dt, -a1 * dt, -a2 * dt, S[0])
+    exp_so3_into(-0.5 * a0 * dt, -0.5 * a1 * dt, -0.5 * a2 * dt, S[1])
+    c0, c1, c2 = 2.0 * w_ie0 + w_en0, 2.0 * w_ie1 + w_en1, 2.0 * w_ie2 + w_en2
+    for i in range(3):
+        for j in range(3):
+            S[2, j, i] = -_skew(c0, c1, c2, i, j)
+    S[3, 0, 0], S[3, 0, 1], S[3, 0, 2] = _gravity_north(lat_m, h_m), 0.0, _normal_gravity(lat_m, h_m)
+    return lat_m, R_N, R_E
+
+
 @_jit
 def strapdown_step_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi0: float, phi1: float, phi2: float,
                         dv: np.ndarray, dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray,
-                        g_n: np.ndarray, coriolis_T: np.ndarray, E: np.ndarray, tmp: np.ndarray) -> None:
+                        g_n: np.ndarray, coriolis_T: np.ndarray, geodetic: bool, S: np.ndarray, E: np.ndarray,
+                        tmp: np.ndarray) -> None:
     """One IMU interval of the mechanization (tauvcore.ins.strapdown), in place.
 
     ``C <- C_earth C exp([phi x])``; ``dv_n = C_earth/2 C dv + g dt``;
     ``v_mid = v + (dv_n + (-2 omega_ie x v) dt) / 2``; ``v <- v + dv_n + (-2 omega_ie x v_mid) dt``;
     ``pos <- pos + dt (v_old + v_new) / 2``. ``coriolis_T``: ``(-2 [omega_ie_n x])^T`` (row form).
-    ``E`` (3, 3) and ``tmp`` (3, 3) are scratch (``tmp`` also holds the velocity increment and the
-    mid-interval velocity while ``C`` is formed: no allocation per step).
+    Those are the flat model's constants. With ``geodetic`` (WGS-84; ``pos`` = latitude,
+    longitude, depth) they are replaced for this interval by :func:`geodetic_step_terms_into`'s,
+    in ``S`` (4, 3, 3), and the position integrates the geodetic rates with the trapezoid of the
+    NED velocity (depth first, then latitude, then longitude at the mean latitude; Groves 5.56).
+    ``E`` (3, 3) and ``tmp`` (3, 3) are scratch (no allocation per step).
     """
+    lat_m = R_N = R_E = 0.0
+    if geodetic:
+        lat_m, R_N, R_E = geodetic_step_terms_into(pos, vel, C, dv, g_n, coriolis_T, dt, S)
+        C_earth, C_earth_half, coriolis_T, g_n = S[0], S[1], S[2], S[3, 0]
     exp_so3_into(phi0, phi1, phi2, E)
     d0 = d1 = d2 = 0.0
     for i in range(3):
@@ -149,32 +207,43 @@ def strapdown_step_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi0: f
     n0 = v0 + d0 + (m0 * coriolis_T[0, 0] + m1 * coriolis_T[1, 0] + m2 * coriolis_T[2, 0]) * dt
     n1 = v1 + d1 + (m0 * coriolis_T[0, 1] + m1 * coriolis_T[1, 1] + m2 * coriolis_T[2, 1]) * dt
     n2 = v2 + d2 + (m0 * coriolis_T[0, 2] + m1 * coriolis_T[1, 2] + m2 * coriolis_T[2, 2]) * dt
-    pos[0] = pos[0] + 0.5 * dt * (v0 + n0)
-    pos[1] = pos[1] + 0.5 * dt * (v1 + n1)
-    pos[2] = pos[2] + 0.5 * dt * (v2 + n2)
+    if geodetic:
+        depth = pos[2] + 0.5 * dt * (v2 + n2)
+        h_mid = -0.5 * (pos[2] + depth)
+        lat = pos[0] + 0.5 * dt * (v0 + n0) / (R_N + h_mid)
+        lat_mid = 0.5 * (pos[0] + lat)
+        pos[1] = pos[1] + 0.5 * dt * (v1 + n1) / ((R_E + h_mid) * math.cos(lat_mid))
+        pos[0], pos[2] = lat, depth
+    else:
+        pos[0] = pos[0] + 0.5 * dt * (v0 + n0)
+        pos[1] = pos[1] + 0.5 * dt * (v1 + n1)
+        pos[2] = pos[2] + 0.5 * dt * (v2 + n2)
     vel[0], vel[1], vel[2] = n0, n1, n2
 
 
 @_jit
 def strapdown_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi: np.ndarray, dv: np.ndarray, dt: float,
-                    C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray) -> None:
+                    C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
+                    geodetic: bool) -> None:
     """One step for n entries in place: pos, vel (n, 3), C (n, 3, 3), phi, dv (n, 3)."""
+    S = np.empty((4, 3, 3))
     E = np.empty((3, 3))
     tmp = np.empty((3, 3))
     for i in range(pos.shape[0]):
         strapdown_step_into(pos[i], vel[i], C[i], phi[i, 0], phi[i, 1], phi[i, 2], dv[i], dt, C_earth,
-                            C_earth_half, g_n, coriolis_T, E, tmp)
+                            C_earth_half, g_n, coriolis_T, geodetic, S, E, tmp)
 
 
 @_jit
 def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
             phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta_raw: np.ndarray, dtheta_sum: np.ndarray, k_from: int,
             k_to: int, dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray,
-            coriolis_T: np.ndarray) -> None:
+            coriolis_T: np.ndarray, geodetic: bool) -> None:
     """Advance the (M, R) nominal states over samples ``k_from + 1 .. k_to`` of the compensated
     increments ``phi_raw``, ``dv_raw`` (K, R, 3), each corrected by its own bias estimate, and add
     the raw gyro increments ``dtheta_raw`` (K, R, 3) of those samples to ``dtheta_sum`` (R, 3) one
     by one (the same sum however the samples are split between calls)."""
+    S = np.empty((4, 3, 3))
     E = np.empty((3, 3))
     tmp = np.empty((3, 3))
     dv = np.empty(3)
@@ -191,7 +260,7 @@ def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndar
                                     phi_raw[k, r, 0] - gyro_bias[m, r, 0] * dt,
                                     phi_raw[k, r, 1] - gyro_bias[m, r, 1] * dt,
                                     phi_raw[k, r, 2] - gyro_bias[m, r, 2] * dt,
-                                    dv, dt, C_earth, C_earth_half, g_n, coriolis_T, E, tmp)
+                                    dv, dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic, S, E, tmp)
 
 
 # ---------------------------------------------------------------- earth terms of the error model
@@ -203,8 +272,6 @@ T_DWENV = 12                         # d omega_en_n / d vel_n
 T_FPP = 15                           # d pos_err' / d pos_err (the position-error metrics' own change)
 NUM_TERMS = 18
 
-_radii = _jit(earth.radii_of_curvature_m)
-_normal_gravity = _jit(earth.normal_gravity_mps2)
 
 
 @_jit
@@ -227,7 +294,7 @@ def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_d
     T[:, :] = 0.0
     s, c = math.sin(lat), math.cos(lat)
     t = s / c
-    R_N, R_E = _radii(lat)
+    R_N, R_E = _radii_nav(lat)
     rho_n, rho_e = R_N + h, R_E + h
     w2 = 1.0 - earth._E2 * s * s
     dR_N = 3.0 * earth.A_M * (1.0 - earth._E2) * earth._E2 * s * c / (w2 * w2 * math.sqrt(w2))   # d R_N / d lat
@@ -238,8 +305,8 @@ def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_d
     h_a = h / earth.A_M
     f, m = earth.FLATTENING, earth._M_GRAVITY
     P = 1.0 - 2.0 * h_a * (1.0 + f + m - 2.0 * f * s * s) + 3.0 * h_a * h_a
-    T[T_G, 0] = -K * h * math.sin(2.0 * lat)
-    T[T_G, 2] = gamma_0 * P
+    T[T_G, 0] = _gravity_north(lat, h)
+    T[T_G, 2] = _normal_gravity(lat, h)
     u = s * s
     dgamma0_du = earth._GE * (earth._K_SOMIGLIANA / math.sqrt(1.0 - earth._E2 * u)
                               + (1.0 + earth._K_SOMIGLIANA * u) * earth._E2 / (2.0 * (1.0 - earth._E2 * u) ** 1.5))
@@ -251,10 +318,10 @@ def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_d
     T[T_DG + 2, 2] = -dgamma_dh
     # earth rate: Omega (cos lat, 0, -sin lat)
     W = earth.OMEGA_IE_RPS
-    T[T_WIE, 0], T[T_WIE, 2] = W * c, -W * s
+    T[T_WIE, 0], T[T_WIE, 1], T[T_WIE, 2] = _earth_rate(lat)
     T[T_DWIE + 0, 0], T[T_DWIE + 2, 0] = -W * s / rho_n, -W * c / rho_n
     # transport rate: (v_E / rho_E, -v_N / rho_N, -v_E tan / rho_E)
-    T[T_WEN, 0], T[T_WEN, 1], T[T_WEN, 2] = v_east / rho_e, -v_north / rho_n, -v_east * t / rho_e
+    T[T_WEN, 0], T[T_WEN, 1], T[T_WEN, 2] = _transport_rate(R_N, R_E, lat, h, v_north, v_east)
     T[T_DWEN + 0, 0] = -v_east * dR_E / (rho_e * rho_e) / rho_n
     T[T_DWEN + 1, 0] = v_north * dR_N / (rho_n * rho_n) / rho_n
     T[T_DWEN + 2, 0] = -v_east * (rho_e / (c * c) - t * dR_E) / (rho_e * rho_e) / rho_n
@@ -543,10 +610,13 @@ def _add_half_noise(P: np.ndarray, Q6: np.ndarray, q: np.ndarray, dt: float) -> 
 
 
 @_jit
-def propagate_bank(P: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray, dtheta_sum: np.ndarray,
-                   dt_c: float, g_n: np.ndarray, w_ie: np.ndarray, q: np.ndarray) -> None:
+def propagate_bank(P: np.ndarray, pos: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray,
+                   dtheta_sum: np.ndarray, dt_c: float, g_n: np.ndarray, w_ie: np.ndarray, q: np.ndarray,
+                   geodetic: bool) -> None:
     """Covariance step of every (method, run) over ``dt_c``: F at the nominal attitude and body
-    velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``. P (M, R, 20, 20).
+    velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``; its earth terms the
+    flat model's (``g_n``, ``w_ie``) or, ``geodetic``, those at each nominal position (latitude,
+    longitude, depth) and velocity. P (M, R, 20, 20).
 
     ``P <- Phi P Phi^T + Qd`` with the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2``
     (tauvcore.ins.error_model.discretise) folded into one sandwich:
@@ -567,6 +637,8 @@ def propagate_bank(P: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: n
             for i in range(3):
                 v[i] = Cm[0, i] * vel_n[m, r, 0] + Cm[1, i] * vel_n[m, r, 1] + Cm[2, i] * vel_n[m, r, 2]
                 om[i] = dtheta_sum[r, i] / dt_c - gyro_bias[m, r, i]
+            if geodetic:
+                geodetic_terms_into(pos[m, r, 0], -pos[m, r, 2], vel_n[m, r, 0], vel_n[m, r, 1], vel_n[m, r, 2], T)
             F_core_into(Cm, v, om, T, A)
             for i in range(NAV):
                 for j in range(CORE):
@@ -918,12 +990,39 @@ def correct_batch(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, 
 
 
 @_jit
+def add_position_into(pos: np.ndarray, d_north: float, d_east: float, d_down: float, geodetic: bool) -> None:
+    """Move a position by (north, east, down) metres in place: added as they are in the flat model;
+    on WGS-84 (latitude, longitude, depth) through the metric at the position itself, the inverse
+    of :func:`nav_difference_into`'s position error."""
+    if geodetic:
+        R_N, R_E = _radii_nav(pos[0])
+        lat = pos[0]
+        pos[0] = lat + d_north / (R_N - pos[2])
+        pos[1] = pos[1] + d_east / ((R_E - pos[2]) * math.cos(lat))
+        pos[2] = pos[2] + d_down
+    else:
+        pos[0] += d_north
+        pos[1] += d_east
+        pos[2] += d_down
+
+
+@_jit
+def add_position_batch(pos: np.ndarray, d: np.ndarray, geodetic: bool) -> np.ndarray:
+    """:func:`add_position_into` for n positions (n, 3) and offsets (n, 3) -> new positions (n, 3)."""
+    out = pos.copy()
+    for i in range(pos.shape[0]):
+        add_position_into(out[i], d[i, 0], d[i, 1], d[i, 2], geodetic)
+    return out
+
+
+@_jit
 def inject_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
-                 dvl_bias: np.ndarray, dvl_sf: np.ndarray, dx: np.ndarray) -> None:
+                 dvl_bias: np.ndarray, dvl_sf: np.ndarray, dx: np.ndarray, geodetic: bool) -> None:
     """Closed-loop injection ``x_hat <- x_hat (+) dx`` (tauvcore.filter.eskf.inject) for n filters in
     place: position and biases add, ``C <- exp([rho x]) C``, the body velocity adds and ``vel_n`` is
     rebuilt with the corrected attitude. pos, vel (n, 3), C (n, 3, 3), biases (n, 3), (n, 3), (n, 4),
-    dvl_sf (n,), dx (n, 20)."""
+    dvl_sf (n,), dx (n, 20). On WGS-84 (``geodetic``) the position error in metres moves latitude,
+    longitude and depth by the metric at the estimate (:func:`add_position_into`)."""
     E = np.empty((3, 3))
     C1 = np.empty((3, 3))
     vb = np.empty(3)
@@ -934,9 +1033,9 @@ def inject_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np
                 C1[r, c] = E[r, 0] * C[i, 0, c] + E[r, 1] * C[i, 1, c] + E[r, 2] * C[i, 2, c]
         for c in range(3):
             vb[c] = C[i, 0, c] * vel[i, 0] + C[i, 1, c] * vel[i, 1] + C[i, 2, c] * vel[i, 2] + dx[i, VEL + c]
+        add_position_into(pos[i], dx[i, POS], dx[i, POS + 1], dx[i, POS + 2], geodetic)
         for r in range(3):
             vel[i, r] = C1[r, 0] * vb[0] + C1[r, 1] * vb[1] + C1[r, 2] * vb[2]
-            pos[i, r] += dx[i, POS + r]
             accel_bias[i, r] += dx[i, BA + r]
             gyro_bias[i, r] += dx[i, BG + r]
             for c in range(3):
@@ -957,14 +1056,17 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
                 bg_t: np.ndarray, bdvl_t: np.ndarray, sf_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
                 C: np.ndarray, ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray, sf: np.ndarray, P: np.ndarray,
                 block_of_state: np.ndarray, num_blocks: int, deg: float, series: np.ndarray,
-                nees_block: np.ndarray, est_pos: np.ndarray, nonfinite_at: np.ndarray) -> None:
+                nees_block: np.ndarray, est_pos: np.ndarray, nonfinite_at: np.ndarray, geodetic: bool,
+                origin: np.ndarray) -> None:
     """One output epoch of every (method, run): the error ``true (-) estimate``
     (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma, the NEES of the full
     state and of each block, the estimated position; and the health check without truth (a
     non-finite navigation state or P's variances sets ``nonfinite_at`` once).
 
     Truth: pos_t, vel_t (3,), C_t (3, 3) shared; the true sensor errors per run ba_t, bg_t (R, 3),
-    bdvl_t (R, 4), sf_t (R,). series (11, T, M, R) in :data:`SERIES_NAMES` order."""
+    bdvl_t (R, 4), sf_t (R,). series (11, T, M, R) in :data:`SERIES_NAMES` order. On WGS-84
+    (``geodetic``) the estimated position is recorded in NED metres from ``origin`` (latitude,
+    longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components)."""
     M, R = pos.shape[0], pos.shape[1]
     dx = np.empty(N)
     Ce = np.empty((3, 3))
@@ -974,7 +1076,7 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
     for m in range(M):
         for r in range(R):
-            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx)
+            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx, geodetic)
             for i in range(3):
                 dx[BA + i] = ba_t[r, i] - ba[m, r, i]
                 dx[BG + i] = bg_t[r, i] - bg[m, r, i]
@@ -1004,8 +1106,12 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
             total = 0.0
             for i in range(N):
                 total += Pm[i, i]
+            if geodetic:
+                n0, n1, n2 = _ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
+                est_pos[slot, m, r, 0], est_pos[slot, m, r, 1], est_pos[slot, m, r, 2] = n0, n1, n2
             for i in range(3):
-                est_pos[slot, m, r, i] = pos[m, r, i]
+                if not geodetic:
+                    est_pos[slot, m, r, i] = pos[m, r, i]
                 total += pos[m, r, i] + vel[m, r, i]
             if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
                 nonfinite_at[m, r] = t_s
@@ -1039,6 +1145,7 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
               vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray, bg_t: np.ndarray, ping_rows: np.ndarray,
               ping_bias_all: np.ndarray, ping_sf_all: np.ndarray,
               dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
+              geodetic: bool, origin: np.ndarray,
               w_ie: np.ndarray, q: np.ndarray, block_of_state: np.ndarray, num_blocks: int, deg: float,
               series: np.ndarray, nees_block: np.ndarray, est_pos: np.ndarray, out_t: np.ndarray) -> tuple:
     """The filter bank between aiding epochs, in one call: for each covariance stop
@@ -1061,9 +1168,9 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
         k = stops[s]
         i = k - k0
         advance(pos, vel, C, ba, bg, phi_raw, dv_raw, dtheta, dtheta_sum, k_state - k0, i, dt, C_earth,
-                C_earth_half, g_n, coriolis_T)
+                C_earth_half, g_n, coriolis_T, geodetic)
         k_state = k
-        propagate_bank(P, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q)
+        propagate_bank(P, pos, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q, geodetic)
         for r in range(R):
             for j in range(3):
                 dtheta_sum[r, j] = 0.0
@@ -1087,7 +1194,7 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
             row = out_row[s]
             record_bank(row, t_s[i], pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i], ping_bias, ping_sf, pos, vel,
                         C, ba, bg, bdvl, sf, P, block_of_state, num_blocks, deg, series, nees_block, est_pos,
-                        nonfinite_at)
+                        nonfinite_at, geodetic, origin)
             out_t[row] = t_s[i]
             slot += 1
             if yield_every > 0 and slot % yield_every == 0:
@@ -1168,16 +1275,24 @@ def propagate_batch(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarra
 
 @_jit
 def nav_difference_into(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
-                        C: np.ndarray, Ce: np.ndarray, rho: np.ndarray, dx: np.ndarray) -> None:
+                        C: np.ndarray, Ce: np.ndarray, rho: np.ndarray, dx: np.ndarray, geodetic: bool) -> None:
     """Navigation part of ``true (-) estimate`` (tauvcore.filter.eskf.difference) into ``dx[0:9]``:
     position, misalignment ``log(C_t C^T)``, body velocity ``C_t^T v_t - C^T v``. Ce (3, 3), rho (3,)
-    scratch."""
+    scratch. On WGS-84 (``geodetic``; positions latitude, longitude, depth) the position error is
+    in metres at the estimate, the filter's own definition (tauvcore.ins.error_model):
+    ``((R_N + h) dlat, (R_E + h) cos(lat) dlon, d depth)``."""
     for i in range(3):
         for j in range(3):
             Ce[i, j] = C_t[i, 0] * C[j, 0] + C_t[i, 1] * C[j, 1] + C_t[i, 2] * C[j, 2]
     log_so3_into(Ce, rho)
+    if geodetic:
+        R_N, R_E = _radii_nav(pos[0])
+        dx[POS] = (R_N - pos[2]) * (pos_t[0] - pos[0])
+        dx[POS + 1] = (R_E - pos[2]) * math.cos(pos[0]) * (pos_t[1] - pos[1])
+        dx[POS + 2] = pos_t[2] - pos[2]
     for i in range(3):
-        dx[POS + i] = pos_t[i] - pos[i]
+        if not geodetic:
+            dx[POS + i] = pos_t[i] - pos[i]
         dx[ATT + i] = rho[i]
         dx[VEL + i] = ((C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2])
                        - (C[0, i] * vel[0] + C[1, i] * vel[1] + C[2, i] * vel[2]))
@@ -1185,13 +1300,13 @@ def nav_difference_into(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, p
 
 @_jit
 def difference_batch(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
-                     C: np.ndarray) -> np.ndarray:
+                     C: np.ndarray, geodetic: bool) -> np.ndarray:
     """:func:`nav_difference_into` for n pairs -> (n, 9)."""
     out = np.empty((pos.shape[0], NAV))
     Ce = np.empty((3, 3))
     rho = np.empty(3)
     for n in range(pos.shape[0]):
-        nav_difference_into(pos_t[n], vel_t[n], C_t[n], pos[n], vel[n], C[n], Ce, rho, out[n])
+        nav_difference_into(pos_t[n], vel_t[n], C_t[n], pos[n], vel[n], C[n], Ce, rho, out[n], geodetic)
     return out
 
 

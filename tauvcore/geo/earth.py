@@ -13,7 +13,9 @@ Two uses live here.
   *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed. 2013,
   ch. 2; NIMA TR8350.2, 3rd ed., *Department of Defense World Geodetic System 1984*). Each takes
   and returns floats or numpy arrays of one shape, component by component (vectors as tuples of
-  arrays), so the same code serves a whole trajectory at once and the compiled kernels.
+  arrays), so the same code serves a whole trajectory at once and the compiled kernels (which
+  compile the functions that call no other function of this module: numba cannot call plain
+  Python functions, and this module must not import numba, for ``tauv --help``'s sake).
 
 The local-level navigation frame n of the geodetic functions is north-east-down at the point
 itself: its down axis is the ellipsoid normal there, and it turns with the position (the
@@ -28,7 +30,7 @@ from functools import cached_property
 import numpy as np
 
 from tauvcore import units
-from tauvcore.validation import require_range
+from tauvcore.validation import require_choice, require_range
 
 OMEGA_IE_RPS = 7.292115e-5
 """WGS-84 earth rotation rate [rad/s]."""
@@ -71,8 +73,13 @@ def gravity_n_mps2(latitude_rad: float, height_m: float) -> tuple[float, float, 
     normal field's direction leans from the ellipsoid normal towards the equator; the north
     component is 1.6e-6 m/s^2 at 200 m depth and 45 deg.
     """
-    g_north = -_GRAVITY_NORTH_PER_M * height_m * np.sin(2.0 * latitude_rad)
+    g_north = gravity_north_mps2(latitude_rad, height_m)
     return g_north, 0.0 * g_north, normal_gravity_mps2(latitude_rad, height_m)
+
+
+def gravity_north_mps2(latitude_rad: float, height_m: float) -> float:
+    """North component of :func:`gravity_n_mps2` [m/s^2]: ``-8.08e-9 h sin(2 lat)``."""
+    return -_GRAVITY_NORTH_PER_M * height_m * np.sin(2.0 * latitude_rad)
 
 
 def radii_of_curvature_m(latitude_rad: float) -> tuple[float, float]:
@@ -93,6 +100,12 @@ def transport_rate_n_rps(latitude_rad: float, height_m: float, vel_north_mps: fl
     """Turn rate of the local-level NED frame over the ellipsoid [rad/s] (Groves eq. 5.44):
     ``(v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(lat) / (R_E + h))``."""
     R_N, R_E = radii_of_curvature_m(latitude_rad)
+    return transport_rate_with_radii(R_N, R_E, latitude_rad, height_m, vel_north_mps, vel_east_mps)
+
+
+def transport_rate_with_radii(R_N: float, R_E: float, latitude_rad: float, height_m: float, vel_north_mps: float,
+                              vel_east_mps: float) -> tuple[float, float, float]:
+    """:func:`transport_rate_n_rps` with the radii of curvature at ``latitude_rad`` given."""
     east = vel_east_mps / (R_E + height_m)
     return east, -vel_north_mps / (R_N + height_m), -east * np.tan(latitude_rad)
 
@@ -222,15 +235,35 @@ def geodetic_from_ned(pos_n_m: np.ndarray, origin: tuple[float, float, float]) -
     return lat, lon, h
 
 
+EARTH_MODELS = ("flat", "wgs84")
+"""``flat``: the paper's (Tal et al. 2017) tangent frame at the origin with its gravity and earth
+rate held constant; ``wgs84``: navigation on the ellipsoid (geodetic position, gravity and earth
+rate along the path, transport rate)."""
+
+
 @dataclass(frozen=True)
 class Earth:
-    """Earth quantities in the NED tangent frame n at the origin's latitude."""
+    """The earth model and the mission origin's latitude and longitude (its depth is the
+    trajectory's starting depth). The properties are the flat model's constants at the origin."""
 
     latitude_deg: float = 32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates; [-89, 89]: the
                                 # NED frame and Euler yaw are singular at the poles
+    longitude_deg: float = 34.9  # origin longitude [deg]; default: off Haifa; [-180, 180]
+    model: str = "flat"         # one of EARTH_MODELS
 
     def __post_init__(self) -> None:
         require_range("earth.latitude_deg", self.latitude_deg, -89.0, 89.0)
+        require_range("earth.longitude_deg", self.longitude_deg, -180.0, 180.0)
+        require_choice("earth.model", self.model, EARTH_MODELS)
+
+    @property
+    def geodetic(self) -> bool:
+        """Whether navigation is on the ellipsoid (``model = "wgs84"``)."""
+        return self.model == "wgs84"
+
+    @property
+    def longitude_rad(self) -> float:
+        return self.longitude_deg * units.DEG
 
     @property
     def latitude_rad(self) -> float:

@@ -98,6 +98,7 @@ class Strapdown:
         self.C_earth_half = exp_so3(-0.5 * self.omega_ie_n * dt_s)
         # v @ M == -2 omega_ie_n x v  (row-vector form)
         self.coriolis_T = np.ascontiguousarray((-2.0 * skew(self.omega_ie_n)).T)
+        self.geodetic = earth.geodetic   # WGS-84: positions are latitude, longitude, depth; earth terms per step
 
     def step(self, nav: NavState, phi_b: np.ndarray, dv_rot_b: np.ndarray) -> NavState:
         """Advance one IMU interval with bias-corrected compensated increments (:func:`body_increments`).
@@ -114,6 +115,6 @@ class Strapdown:
         phi = np.ascontiguousarray(np.broadcast_to(phi_b, shape + (3,)), dtype=float).reshape(-1, 3)
         dv = np.ascontiguousarray(np.broadcast_to(dv_rot_b, shape + (3,)), dtype=float).reshape(-1, 3)
         kernels.strapdown_batch(pos, vel, C, phi, dv, self.dt_s, self.C_earth, self.C_earth_half, self.g_n,
-                                self.coriolis_T)
+                                self.coriolis_T, self.geodetic)
         return NavState(pos_n=pos.reshape(shape + (3,)), vel_n=vel.reshape(shape + (3,)),
                         C_nb=C.reshape(shape + (3, 3)))

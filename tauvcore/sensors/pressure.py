@@ -55,10 +55,10 @@ def simulate(truth: Truth, config: PressureConfig, rng: np.random.Generator,
 
 def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: PressureConfig, rng: Rng,
                    num_runs: int | None) -> PressureData:
-    """Depth ``pos_n[k, 2] + n``, ``n ~ N(0, depth_noise_m^2)``, at the mission's IMU samples
+    """Depth ``truth.depth_m[k] + n``, ``n ~ N(0, depth_noise_m^2)``, at the mission's IMU samples
     ``index`` (all within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
     rows = index - k0
     runs = batch_shape(num_runs)
-    depth = truth.pos_n[rows, 2][(slice(None),) + (None,) * len(runs)]
+    depth = truth.depth_m[rows][(slice(None),) + (None,) * len(runs)]
     depth = depth + standard_normal(rng, (index.size,) + runs, 1) * config.depth_noise_m
     return PressureData(t_s=truth.t_s[rows], index=index, depth_m=depth)

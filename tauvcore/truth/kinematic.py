@@ -35,7 +35,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from tauvcore import units
-from tauvcore.geo.earth import Earth
+from tauvcore.geo.earth import (
+    Earth,
+    earth_rate_n_rps,
+    gravity_n_mps2,
+    ned_from_geodetic,
+    transport_rate_n_rps,
+)
 from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b
 from tauvcore.truth.record import Truth
 from tauvcore.validation import (
@@ -223,19 +229,42 @@ PROFILES = {"straight": straight_profile, "figure8": figure8_profile, "lawnmower
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(4)
 
 
-def _motion(profile: Profile, earth: Earth, t: np.ndarray) -> dict[str, np.ndarray]:
+def _kinematics(profile: Profile, t: np.ndarray) -> dict[str, np.ndarray]:
+    """Attitude, rates, velocities and NED acceleration at times ``t``: the profile alone."""
     euler = profile.euler(t)
     C_nb = C_nb_from_euler(euler)
     omega_nb_b = euler_rates_to_omega_nb_b(euler, profile.euler_dot(t))
     vel_b = profile.vel_b(t)
     vel_n = np.einsum("kij,kj->ki", C_nb, vel_b)
     acc_n = np.einsum("kij,kj->ki", C_nb, profile.vel_b_dot(t) + np.cross(omega_nb_b, vel_b))
+    return {"euler": euler, "C_nb": C_nb, "omega_nb_b": omega_nb_b, "vel_b": vel_b, "vel_n": vel_n, "acc_n": acc_n}
+
+
+def _motion(profile: Profile, earth: Earth, t: np.ndarray) -> dict[str, np.ndarray]:
+    """The flat model: constant gravity and earth rate (tauvcore.geo.earth.Earth)."""
+    m = _kinematics(profile, t)
+    C_nb, vel_n = m["C_nb"], m["vel_n"]
     omega_ie_n = earth.omega_ie_n
     C_bn = np.swapaxes(C_nb, -1, -2)
-    f_b = np.einsum("kij,kj->ki", C_bn, acc_n - earth.g_n + 2.0 * np.cross(omega_ie_n, vel_n))
-    omega_ib_b = omega_nb_b + C_bn @ omega_ie_n
-    return {"euler": euler, "C_nb": C_nb, "omega_nb_b": omega_nb_b, "omega_ib_b": omega_ib_b,
-            "vel_b": vel_b, "vel_n": vel_n, "f_b": f_b}
+    m["f_b"] = np.einsum("kij,kj->ki", C_bn, m["acc_n"] - earth.g_n + 2.0 * np.cross(omega_ie_n, vel_n))
+    m["omega_ib_b"] = m["omega_nb_b"] + C_bn @ omega_ie_n
+    return m
+
+
+def _motion_geodetic(m: dict[str, np.ndarray], lat: np.ndarray, depth: np.ndarray) -> dict[str, np.ndarray]:
+    """The IMU quantities of kinematics ``m`` on the WGS-84 ellipsoid at (lat, depth) (K,): the
+    local-level frame turns at ``omega_ie + omega_en``, so ``f_n = acc_n - g + (2 omega_ie +
+    omega_en) x vel_n`` and ``omega_ib_b = omega_nb_b + C_nb^T (omega_ie + omega_en)`` (Groves
+    eq. 5.54, 5.41)."""
+    h = -depth
+    vel_n = m["vel_n"]
+    g_n = np.stack(np.broadcast_arrays(*gravity_n_mps2(lat, h)), axis=-1)
+    w_ie = np.stack(np.broadcast_arrays(*earth_rate_n_rps(lat)), axis=-1)
+    w_en = np.stack(transport_rate_n_rps(lat, h, vel_n[:, 0], vel_n[:, 1]), axis=-1)
+    C_bn = np.swapaxes(m["C_nb"], -1, -2)
+    m["f_b"] = np.einsum("kij,kj->ki", C_bn, m["acc_n"] - g_n + np.cross(2.0 * w_ie + w_en, vel_n))
+    m["omega_ib_b"] = m["omega_nb_b"] + np.einsum("kij,kj->ki", C_bn, w_ie + w_en)
+    return m
 
 
 def num_samples(duration_s: float, rate_hz: float) -> int:
@@ -244,43 +273,68 @@ def num_samples(duration_s: float, rate_hz: float) -> int:
 
 
 def _chunk_from_profile(name: str, profile: Profile, earth: Earth, rate_hz: float, k0: int, k1: int,
-                        pos0_n: np.ndarray, travelled_n: np.ndarray) -> tuple[Truth, np.ndarray]:
-    """Samples ``k0 <= k < k1`` of the mission (``t_k = k / rate_hz``) and the sum of the
-    position increments up to ``k1 - 1`` (``travelled_n`` is that sum up to ``k0 - 1``).
+                        pos0_n: np.ndarray, carried: np.ndarray | None) -> tuple[Truth, np.ndarray]:
+    """Samples ``k0 <= k < k1`` of the mission (``t_k = k / rate_hz``) and what the next chunk
+    needs to continue (``carried``: that of the chunk before; None for ``k0 = 0``).
 
     Motion at the samples; IMU and position increments over each ``(t_k-1, t_k]`` by 4-point
-    Gauss-Legendre (row k = 0 of the mission zero); ``pos_n = pos0_n + travelled``, the sum
-    extended left to right, so chunks of any size give the whole mission's numbers bit for bit.
+    Gauss-Legendre (row k = 0 of the mission zero). Flat model: ``pos_n = pos0_n + travelled``,
+    the sum of the increments extended left to right (carried: the sum up to ``k0 - 1``).
+    WGS-84: the geodetic position integrated sample after sample from the origin (latitude and
+    longitude of ``earth``, depth ``pos0_n[2]``; :func:`tauvcore.geo.path.integrate_geodetic`;
+    carried: the position of sample ``k0 - 1``), ``pos_n`` its offset from the sea-surface point
+    above the origin in that point's tangent frame (so it starts at ``pos0_n``, as the flat one). Either way chunks of any size give the whole mission's numbers bit
+    for bit.
     """
     dt = 1.0 / rate_hz
     t = np.arange(k0, k1) * dt
-    m = _motion(profile, earth, t)
     first = max(k0, 1)                                   # the chunk's first sample ending an interval
     mid = 0.5 * (np.arange(first - 1, k1 - 1) * dt + np.arange(first, k1) * dt)
     nodes = (mid[:, None] + 0.5 * dt * _GL_NODES[None, :]).ravel()
-    at_nodes = _motion(profile, earth, nodes)
 
     def interval_integral(x: np.ndarray) -> np.ndarray:
         steps = 0.5 * dt * np.einsum("g,kgi->ki", _GL_WEIGHTS, x.reshape(k1 - first, 4, 3))
         return np.concatenate([np.zeros((1, 3)), steps]) if k0 == 0 else steps
 
-    dpos_n = interval_integral(at_nodes["vel_n"])
-    if k0 == 0:
-        travelled = np.cumsum(dpos_n, axis=0)
+    if not earth.geodetic:
+        m = _motion(profile, earth, t)
+        at_nodes = _motion(profile, earth, nodes)
+        dpos_n = interval_integral(at_nodes["vel_n"])
+        travelled_n = np.zeros(3) if carried is None else carried
+        if k0 == 0:
+            travelled = np.cumsum(dpos_n, axis=0)
+        else:
+            travelled = np.cumsum(np.concatenate([travelled_n[None], dpos_n]), axis=0)[1:]
+        pos_n = pos0_n + travelled
+        pos_nav, carry = pos_n, travelled[-1]
     else:
-        travelled = np.cumsum(np.concatenate([travelled_n[None], dpos_n]), axis=0)[1:]
-    truth = Truth(name=name, earth=earth, t_s=t, pos_n=pos0_n + travelled, vel_n=m["vel_n"], vel_b=m["vel_b"],
+        from tauvcore.geo.path import (
+            integrate_geodetic,  # numba: with the engine, not for --help
+        )
+
+        origin = np.array([earth.latitude_rad, earth.longitude_rad, pos0_n[2]])
+        start = origin if carried is None else carried
+        kin_nodes = _kinematics(profile, nodes)
+        ends, node_lat, node_depth = integrate_geodetic(start[0], start[1], start[2],
+                                                        kin_nodes["vel_n"].reshape(k1 - first, 4, 3),
+                                                        _GL_NODES, _GL_WEIGHTS, dt)
+        pos_nav = np.concatenate([origin[None], ends]) if k0 == 0 else ends
+        m = _motion_geodetic(_kinematics(profile, t), pos_nav[:, 0], pos_nav[:, 2])
+        at_nodes = _motion_geodetic(kin_nodes, node_lat.ravel(), node_depth.ravel())
+        pos_n = ned_from_geodetic(pos_nav[:, 0], pos_nav[:, 1], -pos_nav[:, 2], (origin[0], origin[1], 0.0))
+        carry = pos_nav[-1].copy()
+    truth = Truth(name=name, earth=earth, t_s=t, pos_n=pos_n, vel_n=m["vel_n"], vel_b=m["vel_b"],
                   C_nb=m["C_nb"], euler=m["euler"], omega_nb_b=m["omega_nb_b"], omega_ib_b=m["omega_ib_b"],
                   f_b=m["f_b"], dtheta_ib_b=interval_integral(at_nodes["omega_ib_b"]),
-                  dv_b=interval_integral(at_nodes["f_b"]), step_s=dt)
-    return truth, travelled[-1]
+                  dv_b=interval_integral(at_nodes["f_b"]), step_s=dt, pos_nav=pos_nav)
+    return truth, carry
 
 
 def generate_from_profile(name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float,
                           pos0_n: np.ndarray) -> Truth:
     """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs."""
     truth, _ = _chunk_from_profile(name, profile, earth, rate_hz, 0, num_samples(duration_s, rate_hz), pos0_n,
-                                   np.zeros(3))
+                                   None)
     return truth
 
 
@@ -314,12 +368,10 @@ def _chunk(cfg: TrajectoryConfig, profile: Profile, earth: Earth, rate_hz: float
     total = num_samples(cfg.duration_s, rate_hz)
     if not 0 <= k0 < k1 <= total:
         raise ValueError(f"chunk samples [{k0}, {k1}) must lie within the mission's [0, {total})")
-    if travelled_n is None:
-        if k0 > 0:
-            raise ValueError(f"a chunk starting at sample {k0} > 0 needs the travelled_n of the chunk before")
-        travelled_n = np.zeros(3)
+    if travelled_n is None and k0 > 0:
+        raise ValueError(f"a chunk starting at sample {k0} > 0 needs the travelled_n of the chunk before")
     return _chunk_from_profile(cfg.name, profile, earth, rate_hz, k0, k1, _start_n(cfg),
-                               np.asarray(travelled_n, dtype=float))
+                               None if travelled_n is None else np.asarray(travelled_n, dtype=float))
 
 
 class TruthStream:

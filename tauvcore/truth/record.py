@@ -23,7 +23,8 @@ class Truth:
     name: str                 # generator/scenario name, e.g. "figure8"
     earth: Earth              # earth model the motion was generated with
     t_s: np.ndarray           # (K,) time [s]; t_s[0] = 0 for a whole mission
-    pos_n: np.ndarray         # (K, 3) position from the origin, NED [m]
+    pos_n: np.ndarray         # (K, 3) position from the sea-surface point above the start, NED [m] (WGS-84: in
+                              # that point's tangent frame)
     vel_n: np.ndarray         # (K, 3) velocity relative to the earth, NED [m/s]
     vel_b: np.ndarray         # (K, 3) the same velocity in the body frame [m/s] (surge, sway, heave)
     C_nb: np.ndarray          # (K, 3, 3) attitude, body to NED
@@ -35,6 +36,8 @@ class Truth:
     dv_b: np.ndarray          # (K, 3) exact integral of f_b over (t_k-1, t_k]; mission's row 0 zero [m/s]
     step_s: float | None = None  # sample interval [s] when known exactly (a chunk's t_s[1] - t_s[0] is off by
                                  # round-off late in a long mission, and a 1-sample chunk has none); None: from t_s
+    pos_nav: np.ndarray | None = None  # (K, 3) position as the INS holds it: pos_n in the flat model; latitude
+                                       # [rad], longitude [rad], depth [m] on WGS-84 (earth.model); None: pos_n
 
     def __post_init__(self) -> None:
         k = self.t_s.shape[0]
@@ -43,6 +46,15 @@ class Truth:
                 raise ValueError(f"Truth.{name} must have shape ({k}, 3), got {getattr(self, name).shape}")
         if self.C_nb.shape != (k, 3, 3):
             raise ValueError(f"Truth.C_nb must have shape ({k}, 3, 3), got {self.C_nb.shape}")
+        if self.pos_nav is None:
+            object.__setattr__(self, "pos_nav", self.pos_n)
+        elif self.pos_nav.shape != (k, 3):
+            raise ValueError(f"Truth.pos_nav must have shape ({k}, 3), got {self.pos_nav.shape}")
+
+    @property
+    def depth_m(self) -> np.ndarray:
+        """(K,) depth below the surface [m] (the flat model's down coordinate; -height on WGS-84)."""
+        return self.pos_nav[:, 2]
 
     @property
     def dt_s(self) -> float:

@@ -208,7 +208,7 @@ def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
     Phi, Qd = discretise(F, G, q, dt)
     dense = Phi @ P @ np.swapaxes(Phi, -1, -2) + Qd
     bank = P.copy()
-    kernels.propagate_bank(bank, np.ascontiguousarray(C), vel_n, bg, dtheta_sum, dt, np.ascontiguousarray(earth.g_n),
-                           np.ascontiguousarray(earth.omega_ie_n), q)
+    kernels.propagate_bank(bank, np.zeros(vel_n.shape), np.ascontiguousarray(C), vel_n, bg, dtheta_sum, dt,
+                           np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False)
     np.testing.assert_allclose(bank, 0.5 * (dense + np.swapaxes(dense, -1, -2)), rtol=1e-12, atol=1e-13)
     np.testing.assert_array_equal(bank, np.swapaxes(bank, -1, -2))
