@@ -249,7 +249,7 @@ class Earth:
     latitude_deg: float = 32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates; [-89, 89]: the
                                 # NED frame and Euler yaw are singular at the poles
     longitude_deg: float = 34.9  # origin longitude [deg]; default: off Haifa; [-180, 180]
-    model: str = "flat"         # one of EARTH_MODELS
+    model: str = "wgs84"        # one of EARTH_MODELS; "flat" is the paper's (tauv reproduce uses it)
 
     def __post_init__(self) -> None:
         require_range("earth.latitude_deg", self.latitude_deg, -89.0, 89.0)

@@ -212,3 +212,29 @@ def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
                            np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False)
     np.testing.assert_allclose(bank, 0.5 * (dense + np.swapaxes(dense, -1, -2)), rtol=1e-12, atol=1e-13)
     np.testing.assert_array_equal(bank, np.swapaxes(bank, -1, -2))
+
+
+def test_geodetic_inject_and_difference_are_inverse() -> None:
+    """On WGS-84 (latitude, longitude, depth) ``difference(inject(x, dx), x) == dx``: the position
+    error in metres goes through the metric at the estimate both ways (to second order in dx)."""
+    from tauvcore.filter.eskf import Nominal, difference, inject
+    from tauvcore.ins.strapdown import NavState
+    rng = np.random.default_rng(4)
+    n = 20
+    nav = NavState(pos_n=np.column_stack([rng.uniform(-1.4, 1.4, n), rng.uniform(-3, 3, n), rng.uniform(0, 3000, n)]),
+                   vel_n=rng.normal(0, 2, (n, 3)), C_nb=exp_so3(rng.normal(0, 1, (n, 3))))
+    est = Nominal(nav, rng.normal(0, 1e-3, (n, 3)), rng.normal(0, 1e-5, (n, 3)), rng.normal(0, 1e-2, (n, 4)),
+                  rng.normal(0, 1e-3, n))
+    dx = rng.normal(0, 1e-3, (n, STATE.dim)) * np.r_[[1e3] * 3, [1.0] * 17]   # metres of position error
+    moved = inject(est, dx, geodetic=True)
+    back = difference(moved, est, geodetic=True)
+    np.testing.assert_allclose(back[:, STATE.pos], dx[:, STATE.pos], rtol=0, atol=1e-6)   # (1 m)^2 / R
+    np.testing.assert_allclose(back[:, 3:], dx[:, 3:], rtol=1e-6, atol=1e-12)
+    # one metre north is 1 / (R_N + h) of latitude
+    from tauvcore.geo.earth import radii_of_curvature_m
+    north = np.zeros((n, STATE.dim))
+    north[:, STATE.pos.start] = 1.0
+    lat = inject(est, north, geodetic=True).nav.pos_n[:, 0]
+    R_N, _ = radii_of_curvature_m(nav.pos_n[:, 0])
+    # (the latitudes differ by 1.6e-7 rad, whose last place is 1.4e-9 of it)
+    np.testing.assert_allclose((lat - nav.pos_n[:, 0]) * (R_N - nav.pos_n[:, 2]), 1.0, rtol=4e-9)

@@ -60,11 +60,13 @@ def _stream_sensors(trajectory: TrajectoryConfig, streams: SensorStreams | list[
 # ------------------------------------------------------------------------------------------ truth
 
 @pytest.mark.parametrize("name", TRAJECTORIES)
-def test_truth_chunks_concatenate_to_the_whole_mission(name: str) -> None:
+@pytest.mark.parametrize("model", ["flat", "wgs84"])
+def test_truth_chunks_concatenate_to_the_whole_mission(name: str, model: str) -> None:
     cfg = TrajectoryConfig(name=name, duration_s=60.0)
-    whole = generate(cfg, Earth(), RATE_HZ)
+    earth = Earth(model=model)
+    whole = generate(cfg, earth, RATE_HZ)
     for chunk_samples in (7, 150, 1000, whole.num_samples + 5):
-        stream = TruthStream(cfg, Earth(), RATE_HZ, chunk_samples)
+        stream = TruthStream(cfg, earth, RATE_HZ, chunk_samples)
         assert stream.num_samples == whole.num_samples and stream.dt_s == whole.dt_s
         chunks = list(stream)
         assert len(chunks) == len(stream) == -(-whole.num_samples // chunk_samples)
@@ -76,6 +78,7 @@ def test_truth_chunks_concatenate_to_the_whole_mission(name: str) -> None:
         for f in TRUTH_FIELDS:
             np.testing.assert_allclose(joined[f], getattr(whole, f), rtol=0, atol=1e-12,
                                        err_msg=f"{name} {chunk_samples} {f}")
+        np.testing.assert_array_equal(joined["pos_nav"], whole.pos_nav)     # integrated sample after sample
 
 
 def test_truth_chunks_of_one_sample_work_too() -> None:
