@@ -22,7 +22,8 @@ arrays the engine allocates (8-byte floats; "d" is one double):
 The estimate is the sum, plus ``SLACK`` (15 %) for the allocator's pages, plus ``FIXED_BYTES`` for
 what a run loads once: the compiled kernels of the filter bank (numba's machine code and its
 LLVM context, 62-64 MiB measured for a 10 s run once the fused stretch kernel
-``run_stops`` joined them) and lazily imported modules.
+``run_stops`` joined them; 14-16 MiB more since the geodetic path, its truth integrator included,
+issue 10) and lazily imported modules.
 tests/unit/test_budget.py checks it against the measured peak resident memory of real runs
 (estimate >= measured, within 1.5x). The server holds one more unpickled copy of the results
 per tab and one pickled copy is in transit through the worker's pipe: :func:`estimate_run` reports them
@@ -45,7 +46,7 @@ OUTPUT_COPIES = 4
 COVARIANCE_DOUBLES = 8 * 20 * 20
 UPDATE_ROW_BYTES = 3000
 UPDATE_DOUBLES = 20
-FIXED_BYTES = 66 * 2**20
+FIXED_BYTES = 84 * 2**20
 SLACK = 1.15
 STREAM_CHUNK_S = 10.0       # tauvcore.eval.runner.STREAM_CHUNK_S (not imported: it loads the engine)
 LIVE_EPOCHS = 1200          # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)

@@ -94,8 +94,9 @@ class LoopResult:
 
 
 def lc_config(trajectory: str, duration_s: float, mode: str, seed: int = 0) -> Config:
-    """The compared scenario: ``lc`` alone, DVL aiding only, ``mode`` fixed or random initial errors."""
-    return (Config().replace("trajectory", name=trajectory, duration_s=duration_s)
+    """The compared scenario: ``lc`` alone, DVL aiding only, ``mode`` fixed or random initial errors,
+    on the paper's flat earth (the plain loop writes out that mechanization, not the ellipsoid's)."""
+    return (Config().replace("trajectory", name=trajectory, duration_s=duration_s).replace("earth", model="flat")
             .replace("initial_error", mode=mode).replace("run", methods=("lc",), aiding=("dvl",), seed=seed))
 
 

@@ -212,7 +212,7 @@ def test_pressure_depth_noise_std(long_truth):
     cfg = pressure.PressureConfig()
     data = pressure.simulate(long_truth, cfg, np.random.default_rng(38), num_runs=2000)
     np.testing.assert_allclose(long_truth.t_s[data.index], 4.0 * np.arange(1, 63), rtol=0, atol=1e-9)   # 0.25 Hz
-    err = data.depth_m - long_truth.pos_n[data.index, 2][:, None]
+    err = data.depth_m - long_truth.depth_m[data.index][:, None]
     sigma = 194.0 / (1025.0 * 9.80665)
     assert cfg.depth_noise_m == pytest.approx(sigma, rel=1e-12)
     assert np.std(err) == pytest.approx(sigma, rel=0.05)
@@ -221,7 +221,7 @@ def test_pressure_depth_noise_std(long_truth):
 
 def test_pressure_ideal_is_exact_depth(long_truth):
     data = pressure.simulate(long_truth, pressure.PressureConfig().ideal(), np.random.default_rng(39))
-    np.testing.assert_array_equal(data.depth_m, long_truth.pos_n[data.index, 2])
+    np.testing.assert_array_equal(data.depth_m, long_truth.depth_m[data.index])
 
 
 # ------------------------------------------------------------------------------------------ magnetometer
