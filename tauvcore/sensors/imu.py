@@ -168,8 +168,9 @@ class ImuData:
     t_s: np.ndarray          # (K,) sample times [s]
     dtheta_b: np.ndarray     # (K, [R,] 3) measured angle increments [rad]
     dv_b: np.ndarray         # (K, [R,] 3) measured velocity increments [m/s]
-    accel_bias: np.ndarray   # (K, [R,] 3) true accelerometer bias [m/s^2]
-    gyro_bias: np.ndarray    # (K, [R,] 3) true gyro bias [rad/s]
+    accel_bias: np.ndarray   # (K, [R,] 3) true accelerometer bias [m/s^2]: the error the filter's bias state
+                             # stands for, the turn-on bias and its walk plus M_a f_b (axis errors) at the sample
+    gyro_bias: np.ndarray    # (K, [R,] 3) true gyro bias [rad/s]: likewise, plus M_g omega_ib_b
 
 
 @dataclass(frozen=True)
@@ -246,6 +247,9 @@ def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
     if state.accel_axes is not None:
         dv = dv + np.einsum("...ij,k...j->k...i", state.accel_axes, truth.dv_b[expand])
         dth = dth + np.einsum("...ij,k...j->k...i", state.gyro_axes, truth.dtheta_ib_b[expand])
+        # what the 20-state filter's bias states can absorb of them: their value at the sample
+        ba = ba + np.einsum("...ij,k...j->k...i", state.accel_axes, truth.f_b[expand])
+        bg = bg + np.einsum("...ij,k...j->k...i", state.gyro_axes, truth.omega_ib_b[expand])
     if k0 == 0 and k > 0:
         dv[0] = 0.0
         dth[0] = 0.0

@@ -54,3 +54,29 @@ def test_dvl_updates_are_fused(lc_figure8):
     dvl = res.updates["dvl"]
     assert dvl.valid.all()
     assert dvl.fused.mean() > 0.97
+
+
+@pytest.mark.slow
+def test_lc_is_consistent_over_an_hour_on_the_ellipsoid_with_the_1_deg_per_h_imu():
+    """Issue 10: LC over 30 runs of a one-hour mission (7.2 km of 1 km figure eights, 107 m of
+    descent) on WGS-84 with Yoo 2014's Table 1 IMU (scale factors and misalignments included):
+    the run-averaged NEES of the full state stays in the two-sided 99 % band on average and at
+    80 % of the DVL epochs or more (measured 22.1 against [17.2, 23.1], 83 %). The position
+    block alone is the least consistent (NEES/3 about 1.4 here, as on the flat earth with the
+    Table 2 IMU: not an effect of the ellipsoid)."""
+    import dataclasses
+
+    from tauvcore.eval.runner import run_streaming
+    from tauvcore.sensors.imu import imu_profile
+    trajectory = dict(name="figure8", duration_s=3600.0, turn_radius_m=1000.0, dive_rate_mps=0.035)
+    cfg = (Config().replace("trajectory", **trajectory).replace("initial_error", mode="random")
+           .replace("imu", **dataclasses.asdict(imu_profile("yoo-table1"))).replace("run", methods=("lc",)))
+    assert cfg.earth.model == "wgs84" and cfg.imu.has_axis_errors
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(2025).spawn(NUM_RUNS)]
+    res = run_streaming(cfg, rngs, NUM_RUNS)["lc"]
+    t = res.t_s
+    at_dvl = (np.abs(t - np.round(t)) < 1e-9) & (t > 0)
+    avg = res.nees[at_dvl].mean(axis=1)
+    lo, hi = average_nees_bounds(STATE.dim, NUM_RUNS)
+    assert lo <= avg.mean() <= hi, (lo, hi, avg.mean())
+    assert ((avg >= lo) & (avg <= hi)).mean() >= 0.8

@@ -111,6 +111,9 @@ def test_imu_axis_errors_multiply_the_true_increments(short_truth):
         np.testing.assert_allclose(data.dtheta_b[1:, r], short_truth.dtheta_ib_b[1:] @ (np.eye(3) + M_g).T,
                                    rtol=0, atol=1e-16)
     assert not np.array_equal(state.accel_axes[0], state.accel_axes[1])
+    # the "true bias" the records compare the filter's bias states with: what M does at the sample
+    np.testing.assert_allclose(data.accel_bias[:, 1], short_truth.f_b @ state.accel_axes[1].T, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(data.gyro_bias[:, 2], short_truth.omega_ib_b @ state.gyro_axes[2].T, rtol=0, atol=1e-18)
     # the next chunk keeps the run's matrices and draws nothing more for them
     again, state2 = imu.simulate_chunk(short_truth, short_truth.num_samples, cfg, state, rng, rng, rng, rng, 3,
                                        short_truth.dt_s, None)
