@@ -147,6 +147,23 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--ideal", action="store_true", help="zero every sensor and initial error (verification mode)")
     r.add_argument("--json", help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
                                   "JSON file (strict JSON, written atomically; not the --config file)")
+    r.add_argument("--save-log", metavar="DIR", help="also write the simulated sensors and truth as a log "
+                                                     "(tauv replay reads it; see the README's log format)")
+    r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
+    rl = sub.add_parser("replay", help="run the fusion methods on a recorded log (a directory of sensor tables)")
+    rl.add_argument("log", metavar="DIR", help="the log directory (imu, reference, and dvl, depth, attitude tables)")
+    rl.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
+    rl.add_argument("--seed", help="seed of the random initial errors and DVL dropout (default 0)")
+    rl.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
+    rl.add_argument("--beams", help="beams kept for the whole run, e.g. 1,2 (default 1,2,3,4)")
+    rl.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
+                    help="beams dropped in a window of the log's time, e.g. 3,4@50:200 (seconds from its start)")
+    rl.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
+    rl.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam, a number in [1, 100]")
+    rl.add_argument("--nsv-epsilon", metavar="E", help="NSV's variance of 'sway = 0' [m^2/s^2], or 'auto'")
+    _earth_flag(rl)
+    rl.add_argument("--config", help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config')")
+    rl.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
     mc = sub.add_parser("mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html")
     _mission_flags(mc)
     mc.add_argument("--runs", required=True, help=f"number of Monte Carlo runs, 1 to {MAX_STUDY_RUNS}")
@@ -539,10 +556,62 @@ def cmd_run(args: argparse.Namespace) -> int:
     rng = np.random.default_rng(config.run.seed)
     from tauvcore.eval.runner import run_streaming
 
-    results = run_streaming(config, rng)
+    log_dir = _save_log_target(args)
+    chunks: list = []
+    results = run_streaming(config, rng, on_sim_chunk=chunks.append if log_dir is not None else None)
     elapsed = time.perf_counter() - started
+    if log_dir is not None:
+        from tauvcore.logs import simulation_tables, write_log
+        try:
+            write_log(log_dir, simulation_tables(chunks), args.log_format)
+        except OSError as exc:
+            raise UsageError(f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}") from None
     if json_path is not None:
         payload = {"config": config_to_json(config), "results": {m: result_to_json(r) for m, r in results.items()}}
+        try:
+            write_json_atomic(json_path, payload)
+        except OSError as exc:
+            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
+    print(summary_table(results, config, elapsed))
+    return 0
+
+
+def _save_log_target(args: argparse.Namespace) -> str | None:
+    """The --save-log directory, checked before the run: it must not be a file or a log already."""
+    if args.log_format not in ("csv", "parquet"):
+        raise UsageError(f"--log-format: expected csv or parquet, got {show(args.log_format)}")
+    if args.save_log is None:
+        return None
+    if not args.save_log.strip():
+        raise UsageError(f"--save-log: expected a directory, got {show(args.save_log)}")
+    target = os.path.abspath(args.save_log)
+    if os.path.exists(target) and not os.path.isdir(target):
+        raise UsageError(f"--save-log: {show_path(args.save_log)} is a file, not a directory")
+    if os.path.isdir(target) and any(os.path.exists(os.path.join(target, f"imu.{ext}")) for ext in ("csv", "parquet")):
+        raise UsageError(f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory")
+    parent = os.path.dirname(target)
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
+        raise UsageError(f"--save-log: cannot create {show_path(args.save_log)} (its parent is not a writable directory)")
+    return target
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    """``tauv replay DIR``: the methods on a recorded log (tauvcore.logs, tauvcore.eval.replay)."""
+    from tauvcore.eval.replay import replay
+    from tauvcore.logs import LogError, read_log
+
+    config = resolve_config(args)
+    json_path = json_target(args.json, args.config) if args.json is not None else None
+    started = time.perf_counter()
+    try:
+        log = read_log(args.log)
+        config, results = replay(config, log, np.random.default_rng(config.run.seed))
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
+    elapsed = time.perf_counter() - started
+    if json_path is not None:
+        payload = {"config": config_to_json(config), "log": str(args.log),
+                   "results": {m: result_to_json(r) for m, r in results.items()}}
         try:
             write_json_atomic(json_path, payload)
         except OSError as exc:
@@ -799,6 +868,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         _require_text_values(args)
         if args.command == "run":
             code = cmd_run(args)
+        elif args.command == "replay":
+            code = cmd_replay(args)
         elif args.command == "mc":
             code = cmd_mc(args)
         elif args.command == "reproduce":

@@ -69,10 +69,11 @@ def nees_band(dim: int, num_runs: int) -> tuple[float, float]:
 
 def summarise_nees(series: np.ndarray, dim: int, block: str = "") -> NeesSummary:
     """Summary of a (T, R) NEES series. Epochs where a run's NEES is not finite (a diverged
-    filter) count as outside the band and are left out of the mean."""
+    filter) count as outside the band and are left out of the mean. A series with no finite value
+    at all is unknown, not outside (a replayed log knows no true sensor errors): NaN, NaN."""
     series = np.asarray(series, dtype=float)
     band = nees_band(dim, series.shape[1])
-    if series.size == 0:
+    if series.size == 0 or not np.isfinite(series).any():
         return NeesSummary(block, dim, float("nan"), float("nan"), band)
     finite = np.isfinite(series)
     per_dim = float(series[finite].mean() / dim) if finite.any() else float("nan")

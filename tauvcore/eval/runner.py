@@ -763,8 +763,8 @@ STREAM_CHUNK_S = 10.0
 def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.Generator], num_runs: int = 1,
                   chunk_s: float = STREAM_CHUNK_S, on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
                   keep: bool = True, progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-                  progress_interval_s: float = 5.0, should_stop: Callable[[], bool] | None = None
-                  ) -> dict[str, MethodResult]:
+                  progress_interval_s: float = 5.0, should_stop: Callable[[], bool] | None = None,
+                  on_sim_chunk: Callable[[SimChunk], None] | None = None) -> dict[str, MethodResult]:
     """Simulate and run chunk by chunk: truth (tauvcore.truth.kinematic.TruthStream) and sensors
     (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
     :class:`FilterBank`, so memory does not depend on the mission's length.
@@ -776,7 +776,9 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
     they differ from :func:`simulate` + :func:`run`, which draw everything from one stream.
     ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
     verdict so far); with ``keep`` False they are not kept and the return value holds only the
-    last chunk's. ``progress`` and ``should_stop`` as in :func:`run`.
+    last chunk's. ``progress`` and ``should_stop`` as in :func:`run`. ``on_sim_chunk(chunk)``
+    receives each chunk of the simulation itself (truth and sensors) before the bank runs it
+    (``tauv run --save-log`` writes them as a log: tauvcore.logs).
     """
     per_run = not isinstance(rng, np.random.Generator)
     if per_run:
@@ -801,7 +803,10 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
     last: dict[str, MethodResult] = {}
     for k0, truth in truth_stream:
         imu, dvl, pressure, mag = sensors.next_chunk(k0, truth)
-        going = bank.feed(SimChunk(k0, truth, imu, dvl, pressure, mag), progress, progress_interval_s, should_stop)
+        chunk = SimChunk(k0, truth, imu, dvl, pressure, mag)
+        if on_sim_chunk is not None:
+            on_sim_chunk(chunk)
+        going = bank.feed(chunk, progress, progress_interval_s, should_stop)
         if on_chunk is not None or not keep:
             last = bank.take()
             if on_chunk is not None:

@@ -1,0 +1,154 @@
+"""Replay a recorded log (tauvcore.logs) through the filter bank, every method as on simulated data.
+
+The log takes the place of the simulation: its IMU increments are the IMU, its DVL, depth and
+attitude rows the aiding sensors (at the IMU sample nearest each), and its reference, interpolated
+to the IMU's times, the truth the errors and the NEES of the navigation blocks are measured
+against. What a log cannot know is left NaN: the true sensor errors, hence the NEES of the full
+state and of the sensor block. The configuration supplies the filters' tuning and the DVL's
+geometry; the log fixes the IMU rate, the mission's length and origin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from tauvcore import units
+from tauvcore.config import Config
+from tauvcore.eval.runner import MethodResult, Simulation, run
+from tauvcore.geo.earth import ned_from_geodetic
+from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
+from tauvcore.logs import Log, LogError
+from tauvcore.sensors import dvl as dvl_sensor
+from tauvcore.sensors import imu as imu_sensor
+from tauvcore.sensors import magnetometer as mag_sensor
+from tauvcore.sensors import pressure as pressure_sensor
+from tauvcore.sensors.timing import uniform
+from tauvcore.truth.record import Truth
+from tauvcore.validation import ConfigError, show_path
+
+
+def replay_config(config: Config, log: Log) -> Config:
+    """``config`` with what the log fixes: the IMU rate, the mission's length and starting depth,
+    and (a geodetic reference) the origin's latitude and longitude. LogError if the log's values
+    are outside what the configuration allows."""
+    try:
+        config = config.replace("imu", rate_hz=1.0 / log.dt_s)
+        config = config.replace("trajectory", duration_s=max(log.duration_s, 1.0),
+                                depth_m=max(float(_reference_at(log, log.imu_t_s[:1])[0][0, 2]), 0.0))
+        if log.ref_geodetic:
+            lat0, lon0 = log.ref_position[0, 0], log.ref_position[0, 1]
+            config = config.replace("earth", latitude_deg=lat0 / units.DEG, longitude_deg=lon0 / units.DEG)
+    except ConfigError as exc:
+        raise LogError(f"{show_path(log.source)}: the log does not fit the configuration: {exc}") from None
+    return config
+
+
+def _reference_at(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reference position, Euler angles and NED velocity at times ``t`` (K,): linear in position and
+    velocity, and along the shortest rotation between the two neighbouring attitudes (exact at
+    the reference's own times)."""
+    rt = log.ref_t_s
+    pos = np.column_stack([np.interp(t, rt, log.ref_position[:, i]) for i in range(3)])
+    vel = np.column_stack([np.interp(t, rt, log.ref_vel_n[:, i]) for i in range(3)])
+    C_ref = C_nb_from_euler(log.ref_euler)
+    if rt.size == 1:
+        return pos, np.broadcast_to(log.ref_euler[0], (t.size, 3)).copy(), vel
+    j = np.clip(np.searchsorted(rt, t, side="right") - 1, 0, rt.size - 2)
+    frac = np.clip((t - rt[j]) / (rt[j + 1] - rt[j]), 0.0, 1.0)
+    step = log_so3(np.swapaxes(C_ref[j], -1, -2) @ C_ref[j + 1])
+    C = C_ref[j] @ exp_so3(frac[:, None] * step)
+    at_node = frac == 0.0
+    C[at_node] = C_ref[j[at_node]]
+    euler = _euler_of(C)
+    euler[at_node] = log.ref_euler[j[at_node]]
+    return pos, euler, vel
+
+
+def _euler_of(C: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw of C_nb (ZYX, tauvcore.conventions) -> (..., 3)."""
+    roll = np.arctan2(C[..., 2, 1], C[..., 2, 2])
+    pitch = -np.arcsin(np.clip(C[..., 2, 0], -1.0, 1.0))
+    yaw = np.arctan2(C[..., 1, 0], C[..., 0, 0])
+    return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def _epochs(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """IMU sample nearest each time, and which rows land within the IMU's span (one row per
+    sample: a second row on the same sample is left out)."""
+    t0, dt, K = log.imu_t_s[0], log.dt_s, log.imu_t_s.size
+    k = np.rint((t - t0) / dt).astype(np.int64)
+    keep = (k >= 0) & (k < K)
+    keep[1:] &= k[1:] != k[:-1]
+    return k, keep
+
+
+def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
+    """The log as a one-run :class:`~tauvcore.eval.runner.Simulation` under ``config`` (from
+    :func:`replay_config`): the DVL's beams and outages of ``config.dvl`` applied to the log's
+    returns (and its dropout drawn from ``rng``), a body velocity projected onto the beams."""
+    t = log.imu_t_s
+    K = t.size
+    pos, euler, vel_n = _reference_at(log, t)
+    C = C_nb_from_euler(euler)
+    vel_b = np.einsum("kji,kj->ki", C, vel_n)
+    if log.ref_geodetic:
+        if config.earth.geodetic:
+            pos_nav = pos
+        else:
+            pos_nav = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], (pos[0, 0], pos[0, 1], 0.0))
+        pos_n = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], (config.earth.latitude_rad,
+                                                                     config.earth.longitude_rad, 0.0))
+    else:
+        if config.earth.geodetic:
+            raise LogError(f"{show_path(log.source)}: the reference is local (north_m, east_m, down_m); replay it with "
+                           "--earth flat, or give it as lat, lon and depth_m")
+        pos_n = pos_nav = pos
+    nan3 = np.full((K, 3), np.nan)
+    truth = Truth(name="log", earth=config.earth, t_s=t - t[0], pos_n=pos_n, vel_n=vel_n, vel_b=vel_b, C_nb=C,
+                  euler=euler, omega_nb_b=nan3, omega_ib_b=nan3, f_b=nan3, dtheta_ib_b=log.dtheta_b, dv_b=log.dv_b,
+                  step_s=log.dt_s, pos_nav=pos_nav)
+    imu = imu_sensor.ImuData(t_s=truth.t_s, dtheta_b=log.dtheta_b[:, None], dv_b=log.dv_b[:, None],
+                             accel_bias=np.full((K, 1, 3), np.nan), gyro_bias=np.full((K, 1, 3), np.nan))
+    dvl_cfg = config.dvl
+    if log.dvl_t_s is not None:
+        k, keep = _epochs(log, log.dvl_t_s)
+        k = k[keep]
+        if log.dvl_beams_mps is not None:
+            y = log.dvl_beams_mps[keep]
+        else:
+            y = log.dvl_body_mps[keep] @ dvl_cfg.A_b.T
+        available = ~np.isnan(y) & dvl_cfg.scheduled_availability(truth.t_s[k])
+        if dvl_cfg.dropout_probability > 0:
+            available &= uniform(rng, y.shape) >= dvl_cfg.dropout_probability
+        y = np.where(available, y, np.nan)
+        dvl = dvl_sensor.DvlData(t_s=truth.t_s[k], index=k, y_beam_mps=y[:, None], available=available[:, None],
+                                 bias_mps=np.full((k.size, 1, 4), np.nan), scale_factor=np.full((k.size, 1), np.nan))
+    else:
+        dvl = dvl_sensor.DvlData(t_s=np.zeros(0), index=np.zeros(0, np.int64), y_beam_mps=np.zeros((0, 1, 4)),
+                                 available=np.zeros((0, 1, 4), bool), bias_mps=np.zeros((0, 1, 4)),
+                                 scale_factor=np.zeros((0, 1)))
+    if log.depth_t_s is not None:
+        k, keep = _epochs(log, log.depth_t_s)
+        pressure = pressure_sensor.PressureData(t_s=truth.t_s[k[keep]], index=k[keep], depth_m=log.depth_m[keep][:, None])
+    else:
+        pressure = pressure_sensor.PressureData(t_s=np.zeros(0), index=np.zeros(0, np.int64), depth_m=np.zeros((0, 1)))
+    if log.attitude_t_s is not None:
+        k, keep = _epochs(log, log.attitude_t_s)
+        mag = mag_sensor.MagnetometerData(t_s=truth.t_s[k[keep]], index=k[keep],
+                                          euler=log.attitude_euler[keep][:, None])
+    else:
+        mag = mag_sensor.MagnetometerData(t_s=np.zeros(0), index=np.zeros(0, np.int64), euler=np.zeros((0, 1, 3)))
+    return Simulation(truth=truth, imu=imu, dvl=dvl, pressure=pressure, mag=mag, num_runs=1)
+
+
+def replay(config: Config, log: Log, rng: np.random.Generator,
+           progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+           should_stop: Callable[[], bool] | None = None) -> tuple[Config, dict[str, MethodResult]]:
+    """Every method of ``config.run.methods`` on the log; returns the configuration as the log
+    made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.eval.runner.run`
+    gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any."""
+    config = replay_config(config, log)
+    sim = log_simulation(config, log, rng)
+    return config, run(config, sim, rng, progress=progress, should_stop=should_stop)

@@ -1,0 +1,199 @@
+"""Log replay (issue 10): the format's reader, its errors, and replay against the simulation."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tauvcore.config import METHODS, Config
+from tauvcore.eval.replay import log_simulation, replay, replay_config
+from tauvcore.eval.runner import SimChunk, run, simulate
+from tauvcore.logs import LogError, read_log, simulation_tables, write_log
+
+SERIES = ("pos_err_m", "vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg", "est_pos_n", "pos_sigma_m",
+          "vel_sigma_mps", "att_sigma_deg")
+
+
+def _config(model: str, duration_s: float = 40.0) -> Config:
+    return (Config().replace("trajectory", name="figure8", duration_s=duration_s).replace("earth", model=model)
+            .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag")))
+
+
+@pytest.fixture(scope="module")
+def simulated_log(tmp_path_factory: pytest.TempPathFactory) -> tuple:
+    config = _config("wgs84")
+    rng = np.random.default_rng(5)
+    sim = simulate(config, rng)
+    ours = run(config, sim, rng)
+    directory = tmp_path_factory.mktemp("log")
+    write_log(directory, simulation_tables([SimChunk.whole(sim)]), "csv")
+    return config, sim, ours, directory
+
+
+@pytest.mark.parametrize("model, fmt", [("wgs84", "csv"), ("wgs84", "parquet"), ("flat", "csv")])
+def test_a_simulated_log_replays_to_the_simulation_to_1e_9(tmp_path: Path, model: str, fmt: str) -> None:
+    """Every method, every navigation series and every DVL decision of the replay equal the run on
+    the simulation it was written from, at 1e-9 of each series' scale."""
+    config = _config(model)
+    rng = np.random.default_rng(5)
+    sim = simulate(config, rng)
+    ours = run(config, sim, rng)
+    write_log(tmp_path, simulation_tables([SimChunk.whole(sim)]), fmt)
+    replayed_config, back = replay(config, read_log(tmp_path), np.random.default_rng(5))
+    assert replayed_config.imu.rate_hz == pytest.approx(config.imu.rate_hz, rel=1e-12)
+    for method in METHODS:
+        for name in SERIES:
+            a, b = getattr(ours[method], name), getattr(back[method], name)
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * max(np.abs(a).max(), 1e-9), err_msg=f"{method} {name}")
+        for block in range(4):       # position, velocity, tilt, heading: what a log can be judged on
+            a, b = ours[method].nees_block[..., block], back[method].nees_block[..., block]
+            np.testing.assert_allclose(b, a, rtol=1e-7, atol=1e-9, err_msg=f"{method} NEES block {block}")
+        assert np.isnan(back[method].nees).all()                   # the true sensor errors are unknown
+        for src, rec in ours[method].updates.items():
+            np.testing.assert_array_equal(back[method].updates[src].fused, rec.fused, err_msg=f"{method} {src}")
+
+
+def test_tauv_replay_reproduces_tauv_run(tmp_path: Path) -> None:
+    """End to end: ``tauv run --save-log`` then ``tauv replay`` on that log, JSON against JSON."""
+    def cli(*argv: str) -> dict:
+        out = tmp_path / f"{argv[0]}.json"
+        proc = subprocess.run([sys.executable, "-m", "app.cli", *argv, "--json", str(out)], capture_output=True,
+                              text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        return json.loads(out.read_text())["results"]
+
+    ran = cli("run", "--trajectory", "lawnmower", "--duration", "30", "--method", "ins,lc,tc,elc", "--aiding",
+              "dvl,depth", "--save-log", str(tmp_path / "log"))
+    replayed = cli("replay", str(tmp_path / "log"), "--method", "ins,lc,tc,elc", "--aiding", "dvl,depth")
+    for method, series in ran.items():
+        for name in ("pos_err_m", "vel_err_mps", "att_err_deg", "nees_pos", "nees_vel"):
+            a, b = np.array(series[name], dtype=float), np.array(replayed[method][name], dtype=float)
+            np.testing.assert_allclose(b, a, rtol=1e-7, atol=1e-9 * np.abs(a).max(), err_msg=f"{method} {name}")
+
+
+def test_beams_dropped_on_replay(simulated_log: tuple) -> None:
+    """``--beams 1,2`` on a four-beam log: the replay sees two beams, as the simulation would."""
+    config, _, _, directory = simulated_log
+    two = config.replace("dvl", beams=(1, 2))
+    sim = log_simulation(replay_config(two, read_log(directory)), read_log(directory), np.random.default_rng(0))
+    assert not sim.dvl.available[:, 0, 2:].any() and sim.dvl.available[:, 0, :2].all()
+    _, results = replay(two, read_log(directory), np.random.default_rng(0))
+    assert (results["lc"].updates["dvl"].valid == 0).all()     # LC needs three beams
+    assert results["nsv"].updates["dvl"].valid.all()
+
+
+def test_imu_rates_dvl_body_velocity_and_a_slow_reference(tmp_path: Path, simulated_log: tuple) -> None:
+    """The other column choices: IMU rates (trapezoid increments), DVL body velocity (projected
+    onto the configured beams), a reference at 1 Hz in degrees (interpolated, exact at its rows)."""
+    config, sim, _, _ = simulated_log
+    t = sim.truth.t_s
+    rates = {"t_s": t, "gyro_x_rps": np.full_like(t, 0.01), "gyro_y_rps": 0.02 * t, "gyro_z_rps": np.zeros_like(t),
+             "accel_x_mps2": np.zeros_like(t), "accel_y_mps2": np.zeros_like(t), "accel_z_mps2": np.full_like(t, -9.8)}
+    every = int(round(1.0 / sim.truth.dt_s))
+    truth = sim.truth
+    ref = {"t_s": t[::every], "lat_deg": np.degrees(truth.pos_nav[::every, 0]),
+           "lon_deg": np.degrees(truth.pos_nav[::every, 1]), "depth_m": truth.pos_nav[::every, 2],
+           "roll_deg": np.degrees(truth.euler[::every, 0]), "pitch_deg": np.degrees(truth.euler[::every, 1]),
+           "yaw_deg": np.degrees(truth.euler[::every, 2]), "vel_north_mps": truth.vel_n[::every, 0],
+           "vel_east_mps": truth.vel_n[::every, 1], "vel_down_mps": truth.vel_n[::every, 2]}
+    body = {"t_s": t[sim.dvl.index], "vel_x_mps": truth.vel_b[sim.dvl.index, 0],
+            "vel_y_mps": truth.vel_b[sim.dvl.index, 1], "vel_z_mps": truth.vel_b[sim.dvl.index, 2],
+            "valid": (np.arange(sim.dvl.index.size) % 5 != 3).astype(float)}
+    write_log(tmp_path, {"imu": rates, "reference": ref, "dvl": body})
+    log = read_log(tmp_path)
+    dt = sim.truth.dt_s
+    np.testing.assert_allclose(log.dtheta_b[1:, 1], 0.02 * 0.5 * (t[1:] + t[:-1]) * dt, rtol=1e-12)
+    np.testing.assert_array_equal(log.dtheta_b[0], 0.0)
+    cfg = replay_config(config, log)
+    replayed = log_simulation(cfg, log, np.random.default_rng(0))
+    expected = truth.vel_b[sim.dvl.index] @ cfg.dvl.A_b.T
+    kept = body["valid"] == 1.0
+    np.testing.assert_allclose(replayed.dvl.y_beam_mps[kept, 0], expected[kept], rtol=1e-12)
+    assert np.isnan(replayed.dvl.y_beam_mps[~kept]).all() and not replayed.dvl.available[~kept].any()
+    # the reference, at 1 Hz, is interpolated to the IMU: exact at its own rows, close between them
+    np.testing.assert_allclose(replayed.truth.pos_nav[::every], truth.pos_nav[::every], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(replayed.truth.C_nb[::every], truth.C_nb[::every], rtol=0, atol=1e-14)
+    assert np.abs(replayed.truth.pos_n - truth.pos_n).max() < 0.05      # 1 s of a 15 m turn, linearly
+
+
+def _log_copy(source: Path, target: Path) -> Path:
+    shutil.copytree(source, target)
+    return target
+
+
+def _edit_csv(path: Path, row: int, column: str, value: str) -> None:
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    cells = lines[row].split(",")
+    cells[header.index(column)] = value
+    lines[row] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _drop_column(path: Path, column: str) -> None:
+    lines = [line.split(",") for line in path.read_text().splitlines()]
+    j = lines[0].index(column)
+    path.write_text("\n".join(",".join(c[:j] + c[j + 1:]) for c in lines) + "\n")
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("missing_column", ["imu.csv", "'dv_y_mps'"]),
+    ("unsorted", ["imu.csv", "'t_s'", "row 7", "goes back"]),
+    ("duplicated", ["imu.csv", "'t_s'", "row 7", "repeats"]),
+    ("nan_row", ["imu.csv", "'dtheta_z_rad'", "row 12", "empty"]),
+    ("text", ["depth.csv", "'depth_m'", "row 3", "'deep'"]),
+    ("gravity_mg", ["imu.csv", "dv_x_mps", "9.8", "mg"]),
+    ("gap", ["imu.csv", "'t_s'", "row 40", "gap"]),
+    ("no_reference", ["no reference.csv"]),
+    ("local_reference_on_wgs84", ["north_m", "--earth flat"]),
+])
+def test_bad_logs_name_file_column_and_row(tmp_path: Path, simulated_log: tuple, case: str, expected: list) -> None:
+    config, _, _, directory = simulated_log
+    log = _log_copy(directory, tmp_path / "log")
+    imu = log / "imu.csv"
+    if case == "missing_column":
+        _drop_column(imu, "dv_y_mps")
+    elif case == "unsorted":
+        _edit_csv(imu, 7, "t_s", "0.0001")
+    elif case == "duplicated":
+        t6 = imu.read_text().splitlines()[6].split(",")[0]
+        _edit_csv(imu, 7, "t_s", t6)
+    elif case == "nan_row":
+        _edit_csv(imu, 12, "dtheta_z_rad", "")
+    elif case == "text":
+        _edit_csv(log / "depth.csv", 3, "depth_m", "deep")
+    elif case == "gravity_mg":
+        lines = imu.read_text().splitlines()
+        header = lines[0].split(",")
+        cols = [header.index(c) for c in ("dv_x_mps", "dv_y_mps", "dv_z_mps")]
+        out = [lines[0]]
+        for line in lines[1:]:
+            cells = line.split(",")
+            for j in cols:
+                cells[j] = repr(float(cells[j]) * 1000.0 / 9.80665)      # in mg
+            out.append(",".join(cells))
+        imu.write_text("\n".join(out) + "\n")
+    elif case == "gap":
+        lines = imu.read_text().splitlines()
+        imu.write_text("\n".join(lines[:40] + lines[45:]) + "\n")
+    elif case == "no_reference":
+        (log / "reference.csv").unlink()
+    elif case == "local_reference_on_wgs84":
+        ref = log / "reference.csv"
+        text = ref.read_text().replace("lat_rad,lon_rad,depth_m", "north_m,east_m,down_m", 1)
+        ref.write_text(text)
+    with pytest.raises(LogError) as err:
+        replay(config, read_log(log), np.random.default_rng(0))
+    message = str(err.value)
+    for part in expected:
+        assert part in message, message
+    proc = subprocess.run([sys.executable, "-m", "app.cli", "replay", str(log)], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
