@@ -162,6 +162,9 @@ def build_parser() -> argparse.ArgumentParser:
     rl.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam, a number in [1, 100]")
     rl.add_argument("--nsv-epsilon", metavar="E", help="NSV's variance of 'sway = 0' [m^2/s^2], or 'auto'")
     _earth_flag(rl)
+    rl.add_argument("--imu-errors", metavar="PROFILE", help=f"add a simulated IMU's errors to the log's IMU: "
+                                                           f"{', '.join(IMU_PROFILES)} (drawn from --seed; the "
+                                                           "filters are tuned for that IMU)")
     rl.add_argument("--config", help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config')")
     rl.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
     mc = sub.add_parser("mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html")
@@ -601,11 +604,17 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from tauvcore.logs import LogError, read_log
 
     config = resolve_config(args)
+    imu_errors = None
+    if args.imu_errors is not None:
+        if args.imu_errors not in IMU_PROFILES:
+            raise UsageError(f"--imu-errors: unknown IMU profile {show(args.imu_errors)} "
+                             f"(choose from {', '.join(IMU_PROFILES)})")
+        imu_errors = IMU_PROFILES[args.imu_errors]
     json_path = json_target(args.json, args.config) if args.json is not None else None
     started = time.perf_counter()
     try:
         log = read_log(args.log)
-        config, results = replay(config, log, np.random.default_rng(config.run.seed))
+        config, results = replay(config, log, np.random.default_rng(config.run.seed), imu_errors=imu_errors)
     except LogError as exc:
         raise UsageError(str(exc)) from None
     elapsed = time.perf_counter() - started

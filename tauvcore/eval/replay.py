@@ -10,6 +10,7 @@ geometry; the log fixes the IMU rate, the mission's length and origin.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import numpy as np
@@ -143,12 +144,29 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     return Simulation(truth=truth, imu=imu, dvl=dvl, pressure=pressure, mag=mag, num_runs=1)
 
 
+def with_imu_errors(sim: Simulation, imu_config: imu_sensor.ImuConfig, rng: np.random.Generator) -> Simulation:
+    """The log's IMU with a simulated IMU's errors added on top (turn-on biases, their walks,
+    white noise, scale factors and misalignments of ``imu_config``, drawn from ``rng`` as
+    tauvcore.sensors.imu does for a simulation): a navigation-grade log made to behave like a
+    lesser IMU. The log's own increments play the truth's part."""
+    errors = imu_sensor.simulate(sim.truth, imu_config, rng, 1)
+    imu = dataclasses.replace(sim.imu, dtheta_b=errors.dtheta_b, dv_b=errors.dv_b)
+    return dataclasses.replace(sim, imu=imu)
+
+
 def replay(config: Config, log: Log, rng: np.random.Generator,
            progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-           should_stop: Callable[[], bool] | None = None) -> tuple[Config, dict[str, MethodResult]]:
+           should_stop: Callable[[], bool] | None = None,
+           imu_errors: imu_sensor.ImuConfig | None = None) -> tuple[Config, dict[str, MethodResult]]:
     """Every method of ``config.run.methods`` on the log; returns the configuration as the log
     made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.eval.runner.run`
-    gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any."""
+    gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any.
+    ``imu_errors``: an IMU whose errors are added to the log's (:func:`with_imu_errors`); the
+    filters are then tuned for that IMU (``config.imu`` becomes it, at the log's rate)."""
+    if imu_errors is not None:
+        config = config.replace("imu", **dataclasses.asdict(imu_errors))
     config = replay_config(config, log)
     sim = log_simulation(config, log, rng)
+    if imu_errors is not None:
+        sim = with_imu_errors(sim, config.imu, rng)
     return config, run(config, sim, rng, progress=progress, should_stop=should_stop)

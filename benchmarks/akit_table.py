@@ -1,0 +1,82 @@
+"""The methods on real AUV data: position error at the end of each A-KIT segment (about 400 s).
+
+    python benchmarks/akit_table.py [--data ../shared/data/akit] [--imu-errors table2]
+
+Each segment is converted to a log (scripts/akit_to_log.py: re-timed, Y axis flipped, clock
+offsets estimated, the DVL's lever arm) and replayed (tauvcore.eval.replay) from the reference's
+state at its first row, the filters tuned with Table 2 (or, with ``--imu-errors``, the log's
+IMU degraded by that IMU's errors). Columns: the standalone INS; LC with four (synthetic) beams
+projected from the DVL's body velocity; TC, NSV and ELC with beams 3 and 4 dropped for the whole
+segment. Errors against the reference, itself an INS/DVL smoother (not independent of the DVL).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from tauvcore.config import Config
+from tauvcore.eval.replay import replay
+from tauvcore.logs import read_log
+from tauvcore.sensors.imu import IMU_PROFILES
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("akit_to_log", ROOT / "scripts" / "akit_to_log.py")
+akit = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(akit)
+
+
+def start_on_reference(config: Config) -> Config:
+    """Filters start at the reference's first row (the paper's initial errors stay as P0's sigmas)."""
+    return config.replace("initial_error", pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0,
+                          yaw_deg=0.0).replace("dvl", lever_arm_m=akit.DVL_LEVER_ARM_M)
+
+
+def segment_row(segment: Path, imu_errors: str | None, seed: int = 0) -> dict[str, float]:
+    with tempfile.TemporaryDirectory() as tmp:
+        offsets = akit.convert(segment, Path(tmp))
+        log = read_log(tmp)
+        base = start_on_reference(Config()).replace("run", seed=seed)
+        errors = IMU_PROFILES[imu_errors] if imu_errors else None
+        four = base.replace("run", methods=("ins", "lc"))
+        two = base.replace("run", methods=("tc", "nsv", "elc")).replace("dvl", beams=(1, 2))
+        out: dict[str, float] = {"imu_shift_s": offsets["imu_shift_s"], "dvl_shift_s": offsets["dvl_shift_s"],
+                                 "duration_s": log.duration_s}
+        for config in (four, two):
+            _, results = replay(config, log, np.random.default_rng(seed), imu_errors=errors)
+            for method, r in results.items():
+                out[method] = float(r.pos_err_m[-1, 0])
+        return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--data", default=str(ROOT.parent / "shared" / "data" / "akit"))
+    parser.add_argument("--imu-errors", choices=tuple(IMU_PROFILES), default=None)
+    args = parser.parse_args()
+    data = Path(args.data)
+    segments = sorted((p for p in data.glob("Trajectory*") if p.is_dir()), key=lambda p: int(p.name[10:]))
+    if not segments:
+        raise SystemExit(f"no A-KIT segments under {data}")
+    methods = ("ins", "lc", "tc", "nsv", "elc")
+    print(f"Position error [m] at the end of each segment (IMU errors added: {args.imu_errors or 'none'})\n")
+    print("| segment | length [s] | IMU / DVL clock [s] | INS | LC, 4 beams | TC, beams 1-2 | NSV, beams 1-2 "
+          "| ELC, beams 1-2 |")
+    print("|---|---|---|---|---|---|---|---|")
+    rows = []
+    for segment in segments:
+        row = segment_row(segment, args.imu_errors)
+        rows.append(row)
+        cells = " | ".join(f"{row[m]:.1f}" for m in methods)
+        print(f"| {segment.name} | {row['duration_s']:.0f} | {row['imu_shift_s']:+.2f} / {row['dvl_shift_s']:+.2f} "
+              f"| {cells} |", flush=True)
+    medians = " | ".join(f"{np.median([r[m] for r in rows]):.1f}" for m in methods)
+    print(f"| median | | | {medians} |")
+
+
+if __name__ == "__main__":
+    main()
