@@ -480,12 +480,15 @@ def _new_file_mode(path: str) -> int:
         return 0o666 & ~umask
 
 
-def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: float) -> str:
+def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: float,
+                  source: str | None = None) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
-    :func:`consistency_table`."""
+    :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a log)."""
     tr = config.trajectory
+    what = source if source is not None else f"trajectory {tr.name}"
     lines = [
-        f"trajectory {tr.name}, {tr.duration_s:g} s, seed {config.run.seed}, aiding {','.join(config.run.aiding) or 'none'}"
+        f"{what}, {tr.duration_s:g} s, earth {config.earth.model}, seed {config.run.seed}, "
+        f"aiding {','.join(config.run.aiding) or 'none'}"
         + (", IDEAL sensors" if config.run.ideal else "") + f"  ({elapsed_s:.1f} s wall)",
         "",
         (f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
@@ -625,7 +628,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             write_json_atomic(json_path, payload)
         except OSError as exc:
             raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
-    print(summary_table(results, config, elapsed))
+    print(summary_table(results, config, elapsed, source=f"log {show_path(str(args.log))}"))
     return 0
 
 
