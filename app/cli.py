@@ -617,6 +617,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     try:
         log = read_log(args.log)
+        for note in log.notes:
+            print(f"tauv: note: {one_line(note)}", file=sys.stderr)
         config, results = replay(config, log, np.random.default_rng(config.run.seed), imu_errors=imu_errors)
     except LogError as exc:
         raise UsageError(str(exc)) from None

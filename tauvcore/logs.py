@@ -5,7 +5,8 @@ per sample) or a Parquet file, ``<table>.csv`` or ``<table>.parquet``. Every tab
 column ``t_s`` [s] (one clock for all tables, strictly increasing). Units and frames are in the
 column names, as everywhere in tauvcore (b: body forward-right-down; NED: north-east-down).
 
-``imu`` (required), at a constant rate, either
+``imu`` (required), at a nominal constant rate (an irregular clock or holes of up to
+:data:`MAX_GAP_STEPS` intervals are resampled onto a constant rate and noted), either
 
 - increments over the interval ending at the row, ``dtheta_x_rad``, ``dtheta_y_rad``,
   ``dtheta_z_rad``, ``dv_x_mps``, ``dv_y_mps``, ``dv_z_mps`` (the first row's are not used), or
@@ -53,8 +54,12 @@ DVL_BODY = ("vel_x_mps", "vel_y_mps", "vel_z_mps")
 REF_VEL = ("vel_north_mps", "vel_east_mps", "vel_down_mps")
 REF_LOCAL = ("north_m", "east_m", "down_m")
 TIME_JITTER = 0.01
-"""Largest relative departure of an IMU interval from the log's median interval (1 %); beyond it
-the log has a gap or an irregular clock, which the reader names rather than integrates over."""
+"""Largest relative departure of an IMU interval from the log's median interval (1 %) taken as
+it is; beyond it (an irregular clock, dropped samples) the IMU is resampled onto a constant
+rate (:func:`_resample`) and the reader says so in :attr:`Log.notes`."""
+MAX_GAP_STEPS = 50
+"""Longest hole in the IMU record the resampling bridges, in intervals of the log (0.5 s at
+100 Hz); a longer one is refused: the INS would fly blind through it."""
 GRAVITY_BAND_MPS2 = (5.0, 15.0)
 """Average specific-force magnitude an IMU log must show over its first 10 s (a vehicle at sea
 feels gravity, 9.8 m/s^2): outside it the accelerometer columns are in other units (mg, mm/s^2,
@@ -87,6 +92,7 @@ class Log:
     depth_m: np.ndarray | None = None
     attitude_t_s: np.ndarray | None = None
     attitude_euler: np.ndarray | None = None  # (A, 3) [rad]
+    notes: tuple[str, ...] = ()               # what the reader changed (a resampled IMU), for the user
 
     @property
     def dt_s(self) -> float:
@@ -200,6 +206,25 @@ def _times(path: Path, columns: dict[str, np.ndarray]) -> np.ndarray:
     return t
 
 
+def _resample(t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, dt: float, off: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """The IMU on the constant grid ``t_0 + k dt`` up to the last sample: the cumulative angle and
+    velocity increments (the integrals the IMU measured) interpolated linearly in time and
+    differenced, so every interval of the grid gets the average rate of the log's interval(s) it
+    overlaps and nothing measured is lost or counted twice. Returns the grid, its increments
+    (row 0 zero) and a note on what was done."""
+    steps = np.diff(t)
+    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1) * dt
+    total = np.cumsum(np.concatenate([dtheta, dv], axis=1), axis=0)
+    moved = np.column_stack([np.interp(grid, t, total[:, i]) for i in range(6)])
+    inc = np.concatenate([np.zeros((1, 6)), np.diff(moved, axis=0)])
+    worst = int(np.argmax(np.abs(steps - dt)))
+    note = (f"{int(off.sum())} of {steps.size} intervals differ from {dt:.6g} s by more than {TIME_JITTER:.0%} "
+            f"(row {worst + 2}: {steps[worst]:.6g} s); resampled to a constant {1.0 / dt:.6g} Hz, "
+            f"{grid.size} samples")
+    return grid, inc[:, :3], inc[:, 3:], note
+
+
 def read_log(directory: str | os.PathLike) -> Log:
     """Read and check the log in ``directory`` (module docstring). LogError on any problem."""
     root = Path(directory)
@@ -216,17 +241,16 @@ def read_log(directory: str | os.PathLike) -> Log:
         raise LogError(f"{show_path(str(imu_path))}: {t.size} rows; an IMU log needs at least 3")
     dt = np.diff(t)
     median = float(np.median(dt))
-    off = np.abs(dt - median) > TIME_JITTER * median
-    if off.any():
-        row = int(np.argmax(off)) + 2
-        raise LogError(f"{show_path(str(imu_path))}: column 't_s', row {row}: {float(t[row - 1])!r} is {dt[row - 2]:.6g} s after "
-                       f"the row before, the log's interval is {median:.6g} s (a gap or an irregular clock; "
-                       "resample the log to a constant rate)")
+    gap = dt > MAX_GAP_STEPS * median
+    if gap.any():
+        row = int(np.argmax(dt)) + 2
+        raise LogError(f"{show_path(str(imu_path))}: column 't_s', row {row}: {float(t[row - 1])!r} is {dt[row - 2]:.6g} s "
+                       f"after the row before, a gap of more than {MAX_GAP_STEPS} of the log's {median:.6g} s "
+                       "intervals: no inertial record bridges it (cut the log there)")
     if all(n in imu for n in IMU_INCREMENTS):
         _finite(imu_path, imu, IMU_INCREMENTS)
         inc = _need(imu_path, imu, IMU_INCREMENTS, "increments")
         dtheta, dv = inc[:, :3].copy(), inc[:, 3:].copy()
-        f_mag = np.linalg.norm(dv[1:], axis=1) / dt
         accel_columns = IMU_INCREMENTS[3:]
     elif all(n in imu for n in IMU_RATES):
         _finite(imu_path, imu, IMU_RATES)
@@ -234,7 +258,6 @@ def read_log(directory: str | os.PathLike) -> Log:
         mid = 0.5 * (rates[1:] + rates[:-1]) * dt[:, None]
         inc = np.concatenate([np.zeros((1, 6)), mid])
         dtheta, dv = inc[:, :3], inc[:, 3:]
-        f_mag = np.linalg.norm(rates[1:, 3:], axis=1)
         accel_columns = IMU_RATES[3:]
     else:
         missing = next(n for n in IMU_INCREMENTS if n not in imu)
@@ -242,6 +265,16 @@ def read_log(directory: str | os.PathLike) -> Log:
                        f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})")
     dtheta[0] = 0.0
     dv[0] = 0.0
+    notes: list[str] = []
+    off = np.abs(dt - median) > TIME_JITTER * median
+    if off.any():
+        # the rate: the mean of the ordinary intervals (jitter cancels in their sum; the median of
+        # jittered intervals is off by a fraction of the jitter)
+        ordinary = np.abs(dt - median) < 0.5 * median
+        t, dtheta, dv, note = _resample(t, dtheta, dv, float(np.mean(dt[ordinary])), off)
+        notes.append(f"{imu_path.name}: {note}")
+        dt = np.diff(t)
+    f_mag = np.linalg.norm(dv[1:], axis=1) / dt
     first = t[1:] <= t[0] + 10.0
     mean_f = float(np.mean(f_mag[first]))
     if not GRAVITY_BAND_MPS2[0] <= mean_f <= GRAVITY_BAND_MPS2[1]:
@@ -273,7 +306,7 @@ def read_log(directory: str | os.PathLike) -> Log:
                        f"after the IMU's first sample ({float(t[0])!r} s): the filters start from the reference")
 
     out = dict(source=str(root), imu_t_s=t, dtheta_b=dtheta, dv_b=dv, ref_t_s=ref_t, ref_position=position,
-               ref_geodetic=geodetic, ref_euler=euler, ref_vel_n=vel)
+               ref_geodetic=geodetic, ref_euler=euler, ref_vel_n=vel, notes=tuple(notes))
     if paths["dvl"] is not None:
         p = paths["dvl"]
         cols = _read_table(p)
