@@ -187,6 +187,8 @@ def build_parser() -> argparse.ArgumentParser:
     sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
     sv.add_argument("--workers", help="runs computed at once, one process each (default: min(2, CPUs); at most 64)")
+    sv.add_argument("--logs", metavar="DIR", help="offer the recorded logs in DIR (it, or its subdirectories) as "
+                                                  "sources to replay in the dashboard")
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", help="TOML file to merge over the defaults before printing")
     _imu_flag(c)
@@ -855,9 +857,21 @@ def cmd_serve(args: argparse.Namespace) -> int:
         budget.budget_bytes()           # a bad TAUV_RUN_BUDGET_MB is refused now, not at the first Run
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    logs = None
+    if args.logs is not None:
+        from tauvcore.logs import find_logs
+        if not os.path.isdir(args.logs):
+            raise UsageError(f"--logs: {show_path(args.logs)} is not a directory")
+        try:
+            logs = find_logs(args.logs)
+        except OSError as exc:
+            raise UsageError(f"--logs: cannot list {show_path(args.logs)}: {exc.strerror or exc}") from None
+        if not logs:
+            raise UsageError(f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
+                             "imu.parquet; see the README)")
     from app.dashboard import main as serve_main  # viser only when serving
     try:
-        serve_main(args.host, port, workers)
+        serve_main(args.host, port, workers, logs)
     except OSError as exc:
         raise UsageError(f"--host/--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
     except KeyboardInterrupt:

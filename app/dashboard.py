@@ -59,7 +59,7 @@ from app.scene import (
     ned_to_view,
     wxyz_view,
 )
-from tauvcore.config import METHODS, Config, to_dict
+from tauvcore.config import METHODS, Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
@@ -124,9 +124,10 @@ def _drawing(method: Callable[..., None]) -> Callable[..., None]:
 class Session:
     """One browser tab: its controls, 3-D scene, background run and results."""
 
-    def __init__(self, client: viser.ClientHandle, pool: worker.RunPool) -> None:
+    def __init__(self, client: viser.ClientHandle, pool: worker.RunPool, logs: dict[str, str] | None = None) -> None:
         self.client = client
         self.pool = pool
+        self.logs = dict(logs or {})     # name -> directory, from tauv serve --logs (never from the page)
         self.lock = threading.Lock()
         # the run's message thread, the slider's callback and the playback thread all redraw the
         # scene and plots: one at a time (a beam re-added by one while another assigns to it
@@ -146,6 +147,10 @@ class Session:
         d = Config()
         tabs = gui.add_tab_group()
         with tabs.add_tab("Mission"):
+            self.source = (gui.add_dropdown(inputs.SOURCE, (inputs.SIMULATION, *self.logs), initial_value=inputs.SIMULATION,
+                                            hint="simulation, or a recorded log (tauv serve --logs): replayed with "
+                                                 "these methods, beams, outages and tuning; its own length")
+                           if self.logs else None)
             self.trajectory = gui.add_dropdown(inputs.TRAJECTORY, TRAJECTORIES, initial_value=d.trajectory.name)
             # numeric fields are text: the server reads what was typed (see app.inputs)
             self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
@@ -235,7 +240,8 @@ class Session:
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
-        handles: list[Any] = [self.trajectory, self.duration, *self.method_boxes.values(), self.vb_nf,
+        handles: list[Any] = [*([self.source] if self.source is not None else []), self.trajectory, self.duration,
+                              *self.method_boxes.values(), self.vb_nf,
                               self.nsv_epsilon, *self.beam_boxes,
                               self.dropout, *(h for pair in self.outage for h in pair), self.aid_depth,
                               self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
@@ -318,7 +324,8 @@ class Session:
             aid_depth=self.aid_depth.value, aid_mag=self.aid_mag.value, accel_bias=self.accel_bias.value,
             gyro_bias=self.gyro_bias.value, accel_noise=self.accel_noise.value, gyro_noise=self.gyro_noise.value,
             dvl_noise=self.dvl_noise.value, dvl_bias=self.dvl_bias.value, dvl_sf=self.dvl_sf.value,
-            seed=self.seed.value, runs=self.runs.value)
+            seed=self.seed.value, runs=self.runs.value,
+            source=self.source.value if self.source is not None else inputs.SIMULATION)
 
     def read_config(self) -> tuple[Config, int]:
         """The configuration the controls describe and its run count; InputError names the bad
@@ -350,12 +357,15 @@ class Session:
                 return
             except RuntimeError:    # the tab closed while it was asked for its controls
                 return
+            source = self.source.value if self.source is not None else inputs.SIMULATION
+            log_dir = self.logs.get(source)
             self.config, self.results, self.truth_view = config, None, None
-            self.handle = handle = self.pool.start(to_dict(config), runs)
+            self.handle = handle = self.pool.start(to_dict(config), runs, log_dir=log_dir)
         self.run_button.disabled, self.stop_button.disabled = True, False
         self.progress.value = 0.0
-        self.status.content = f"Running {config.trajectory.name}, {config.trajectory.duration_s:g} s, " \
-                              f"{runs} run(s): {', '.join(m.upper() for m in config.run.methods)}"
+        what = f"log {source}" if log_dir is not None else \
+            f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
+        self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
         self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
         self.time_slider.max = config.trajectory.duration_s
@@ -405,7 +415,13 @@ class Session:
                         pending, last_draw = None, time.monotonic()
                     continue
                 kind = msg[0]
-                if kind == "truth":
+                if kind == "config":            # a replayed log: its own length, rate and origin
+                    config = from_dict(msg[1])
+                    with self.lock:
+                        self.config = config
+                    self.time_slider.max = config.trajectory.duration_s
+                    self.run_config.content = config_markdown(config, 1)
+                elif kind == "truth":
                     self.truth_view = msg[1]
                     self._draw_truth()
                 elif kind == "progress":
@@ -783,10 +799,11 @@ def check_listen(host: str, port: int) -> None:
         s.bind((host, port))
 
 
-def build_server(host: str = "127.0.0.1", port: int = 8080,
-                 workers: int | None = None) -> tuple[viser.ViserServer, worker.RunPool]:
+def build_server(host: str = "127.0.0.1", port: int = 8080, workers: int | None = None,
+                 logs: dict[str, str] | None = None) -> tuple[viser.ViserServer, worker.RunPool]:
     """Start the viser server with one :class:`Session` per connected tab and ``workers`` run
-    processes (default :func:`app.worker.default_workers`)."""
+    processes (default :func:`app.worker.default_workers`); ``logs`` (name -> directory) are
+    offered as sources to replay."""
     check_listen(host, port)
     harden_client_messages()
     pool = worker.RunPool(workers)
@@ -807,7 +824,7 @@ def build_server(host: str = "127.0.0.1", port: int = 8080,
 
     @server.on_client_connect
     def _(client: viser.ClientHandle) -> None:
-        session = Session(client, pool)   # takes a while: the tab may close meanwhile
+        session = Session(client, pool, logs)   # takes a while: the tab may close meanwhile
         with lock:
             gone = client.client_id in departed
             departed.discard(client.client_id)
@@ -933,11 +950,12 @@ def shutdown(server: viser.ViserServer, pool: worker.RunPool) -> None:
         server.stop()
 
 
-def main(host: str = "127.0.0.1", port: int = 8080, workers: int | None = None) -> None:
+def main(host: str = "127.0.0.1", port: int = 8080, workers: int | None = None,
+         logs: dict[str, str] | None = None) -> None:
     """Serve the dashboard until SIGTERM or SIGINT (Ctrl-C); every child process ends with it."""
     request = install_shutdown_handlers()
     bound_malloc_arenas()
-    server, pool = build_server(host, port, workers)
+    server, pool = build_server(host, port, workers, logs)
     request.serving = True
     shown = "localhost" if host in ("127.0.0.1", "0.0.0.0") else host
     print(f"tauv dashboard: http://{shown}:{server.get_port()}", flush=True)

@@ -22,6 +22,9 @@ from tauvcore.sensors.dvl import Outage
 from tauvcore.validation import ConfigError, show
 
 TRAJECTORY = "Trajectory"
+SOURCE = "Source"
+SIMULATION = "simulation"
+"""The Source dropdown's first choice (``tauv serve --logs`` adds the logs it found)."""
 DURATION = "Duration [s]"
 DROPOUT = "Dropout probability"
 ACCEL_BIAS = "Accel bias [mg]"
@@ -129,6 +132,7 @@ class Controls:
     dvl_sf: str
     seed: str
     runs: str
+    source: str = SIMULATION                  # "simulation" or the name of a log (tauv serve --logs)
 
 
 def _label_for(exc: ConfigError) -> str | None:
@@ -150,6 +154,9 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     runs = parse_int(RUNS, c.runs)
     if not 1 <= runs <= RUNS_MAX:
         raise InputError(f"{RUNS}: {show(c.runs)} is out of range; Monte Carlo runs are 1 to {RUNS_MAX}")
+    if c.source != SIMULATION and runs != 1:
+        raise InputError(f"{RUNS}: {show(c.runs)} runs of the log {show(c.source)}; a recorded log is replayed "
+                         "once (set Runs to 1)")
     seed = parse_int(SEED, c.seed)
     if seed < 0:
         raise InputError(f"{SEED}: {show(c.seed)} is negative; a seed is a whole number >= 0")

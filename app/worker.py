@@ -38,8 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.config import Config, from_dict
-from tauvcore.eval.runner import MethodResult, run_streaming
+from tauvcore.config import Config, from_dict, to_dict
+from tauvcore.eval.runner import MethodResult, run, run_streaming
 from tauvcore.sensors.timing import epoch_indices_between
 from tauvcore.truth.kinematic import TruthStream
 from tauvcore.validation import ConfigError
@@ -115,17 +115,34 @@ def truth_view(config: Config, step: int) -> dict[str, np.ndarray]:
             "ping_available": config.dvl.scheduled_availability(pings)}
 
 
+def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str, np.ndarray]:
+    """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings."""
+    rows = np.arange(0, truth.num_samples, step)
+    return {"t_s": truth.t_s[rows], "pos_n": truth.pos_n[rows], "C_nb": truth.C_nb[rows], "ping_t_s": dvl.t_s,
+            "ping_available": config.dvl.scheduled_availability(dvl.t_s)}
+
+
 def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_event: Any,
-               progress_interval_s: float = 2.0) -> None:
-    """Simulate, run all methods, stream results to ``queue`` (anything with ``put``); the run
-    ends early once ``stop_event.is_set()`` (anything with ``is_set``)."""
+               progress_interval_s: float = 2.0, log_dir: str | None = None) -> None:
+    """Simulate (or, with ``log_dir``, replay that log: tauvcore.eval.replay), run all methods,
+    stream results to ``queue`` (anything with ``put``); the run ends early once
+    ``stop_event.is_set()`` (anything with ``is_set``). A replay first sends ``("config", dict)``:
+    the configuration as the log made it (its length, rate and origin)."""
     try:
         config = from_dict(config_dict)
         if num_runs > 1:
             config = config.replace("initial_error", mode="random")
         rng = np.random.default_rng(config.run.seed)
+        sim = None
+        if log_dir is not None:
+            from tauvcore.eval.replay import log_simulation, replay_config
+            from tauvcore.logs import read_log
+            log = read_log(log_dir)
+            config = replay_config(config, log)
+            sim = log_simulation(config, log, rng)
+            queue.put(("config", to_dict(config)))
         step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
-        queue.put(("truth", truth_view(config, step)))
+        queue.put(("truth", truth_view(config, step) if sim is None else log_truth_view(sim.truth, config, sim.dvl, step)))
         last_sent = [0.0]
 
         def progress(t: float, res: dict[str, MethodResult]) -> None:
@@ -136,8 +153,13 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
                 queue.put(("progress", t, thin(res, PROGRESS_MAX_EPOCHS)))
                 last_sent[0] = now
 
-        results = run_streaming(config, rng, num_runs, progress=progress, progress_interval_s=progress_interval_s,
-                                should_stop=_throttled(stop_event.is_set, STOP_POLL_S))
+        should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
+        if sim is None:
+            results = run_streaming(config, rng, num_runs, progress=progress, progress_interval_s=progress_interval_s,
+                                    should_stop=should_stop)
+        else:
+            results = run(config, sim, rng, progress=progress, progress_interval_s=progress_interval_s,
+                          should_stop=should_stop)
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # the dashboard shows it; the server keeps serving
         queue.put(("error", failure_message(exc)))
@@ -147,6 +169,9 @@ def failure_message(exc: BaseException) -> str:
     """The one line a tab is shown for a run that raised: a configuration error as its own clean
     message (it names the field and value), anything else said to be a fault of ours."""
     if isinstance(exc, ConfigError):
+        return str(exc)
+    from tauvcore.logs import LogError
+    if isinstance(exc, LogError):       # a bad log: its file, column, row and value
         return str(exc)
     if isinstance(exc, MemoryError):
         return "the run ran out of memory; shorten the duration or use fewer runs"
@@ -205,8 +230,8 @@ def _worker_main(conn: mp_connection.Connection) -> None:
         while True:
             message = conn.recv()
             if message[0] == "run":
-                _, config_dict, num_runs, progress_interval_s = message
-                run_worker(config_dict, num_runs, _PipeQueue(conn), _PipeStop(conn), progress_interval_s)
+                _, config_dict, num_runs, progress_interval_s, log_dir = message
+                run_worker(config_dict, num_runs, _PipeQueue(conn), _PipeStop(conn), progress_interval_s, log_dir)
                 conn.send(("end",))
             # ("stop",) after its run had ended: nothing to stop
     except (EOFError, OSError):  # the server closed the pipe (or died): nothing left to do
@@ -300,9 +325,10 @@ class RunPool:
             raise RuntimeError(broken)
 
     # ------------------------------------------------------------------ API
-    def start(self, config_dict: dict[str, Any], num_runs: int, progress_interval_s: float = 2.0) -> RunHandle:
-        """Queue a run; it computes as soon as a worker is free."""
-        handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s))
+    def start(self, config_dict: dict[str, Any], num_runs: int, progress_interval_s: float = 2.0,
+              log_dir: str | None = None) -> RunHandle:
+        """Queue a run (a replay of ``log_dir`` if given); it computes as soon as a worker is free."""
+        handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s, log_dir))
         with self._lock:
             if self._closed or self._broken is not None:
                 handle.queue.put(("error", self._broken or "the server is shutting down"))

@@ -347,6 +347,18 @@ def read_log(directory: str | os.PathLike) -> Log:
     return Log(**out)
 
 
+def find_logs(directory: str | os.PathLike) -> dict[str, str]:
+    """The logs in ``directory`` by name: the directory itself if it is one (it holds an ``imu``
+    table), and each of its subdirectories that is; sorted by name. Only their presence is
+    checked here (:func:`read_log` checks the rest when one is replayed)."""
+    root = Path(directory)
+    found = {}
+    for candidate in [root, *sorted(p for p in root.iterdir() if p.is_dir())]:
+        if any((candidate / f"imu.{ext}").is_file() for ext in ("csv", "parquet")):
+            found[candidate.name or str(candidate)] = str(candidate)
+    return found
+
+
 # ---------------------------------------------------------------------------------------- writing
 def write_log(directory: str | os.PathLike, tables: dict[str, dict[str, np.ndarray]], fmt: str = "csv") -> None:
     """Write ``tables`` (table -> column -> 1-D array) as a log in ``directory`` (created if need
@@ -421,4 +433,4 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
     return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}
 
 
-__all__ = ["Log", "LogError", "TABLES", "read_log", "simulation_tables", "write_log"]
+__all__ = ["Log", "LogError", "TABLES", "find_logs", "read_log", "simulation_tables", "write_log"]

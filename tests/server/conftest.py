@@ -77,12 +77,12 @@ def rss_bytes(pid: int) -> int:
 class Server:
     """A `tauv serve` process started in a new session (its own process group)."""
 
-    def __init__(self, log_path: Path, prefix: list[str] | None = None) -> None:
+    def __init__(self, log_path: Path, prefix: list[str] | None = None, extra: list[str] | None = None) -> None:
         self.port = free_port()
         self.url = f"ws://127.0.0.1:{self.port}"
         self.log_path = log_path
         self.log = open(log_path, "w")
-        cmd = [*(prefix or []), sys.executable, "-m", "app.cli", "serve", "--port", str(self.port)]
+        cmd = [*(prefix or []), sys.executable, "-m", "app.cli", "serve", "--port", str(self.port), *(extra or [])]
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         self.proc = subprocess.Popen(cmd, cwd=REPO, stdout=self.log, stderr=subprocess.STDOUT, env=env,
                                      start_new_session=True)

@@ -204,3 +204,38 @@ def test_a_failed_run_is_reported_in_one_clean_line() -> None:
         "imu.gyro_noise_deg_per_sqrt_h must be within [0, 30], got 1e6")
     assert "LinAlgError" not in failure_message(MemoryError())
     assert failure_message(RuntimeError("boom")).startswith("the run failed unexpectedly (RuntimeError: boom)")
+
+
+def test_a_log_is_replayed_by_a_worker(tmp_path) -> None:
+    """``tauv serve --logs``: the worker replays a log, sending its configuration (the log's
+    length and rate), its reference as the truth view, then the results; a bad log is one line
+    naming its file and row, and the pool goes on."""
+    from tauvcore.eval.runner import SimChunk, simulate
+    from tauvcore.logs import find_logs, simulation_tables, write_log
+    config = Config().replace("trajectory", name="figure8", duration_s=15.0).replace("run", methods=("ins", "lc"))
+    sim = simulate(config, __import__("numpy").random.default_rng(1))
+    write_log(tmp_path / "dive", simulation_tables([SimChunk.whole(sim)]))
+    logs = find_logs(tmp_path)
+    assert logs == {"dive": str(tmp_path / "dive")}
+    other = Config().replace("trajectory", duration_s=300.0).replace("run", methods=("ins", "lc"))
+    pool = RunPool(workers=1)          # its own: the module's pool was shut down by a test above
+    try:
+        _replay_checks(pool, other, logs, tmp_path)
+    finally:
+        pool.shutdown()
+
+
+def _replay_checks(pool: RunPool, other: Config, logs: dict, tmp_path) -> None:
+    handle = pool.start(to_dict(other), 1, log_dir=logs["dive"])
+    kind, replayed = _next(handle)
+    assert kind == "config", replayed
+    assert replayed["trajectory"]["duration_s"] == pytest.approx(15.0)
+    kind, truth = _next(handle)
+    assert kind == "truth" and truth["t_s"][-1] == pytest.approx(15.0)
+    while (msg := _next(handle))[0] != "done":
+        pass
+    assert msg[1]["lc"].t_s[-1] == pytest.approx(15.0) and not msg[2]
+    (tmp_path / "dive" / "depth.csv").write_text("t_s,depth_m\n1.0,deep\n")
+    handle = pool.start(to_dict(other), 1, log_dir=logs["dive"])
+    kind, message = _next(handle)
+    assert kind == "error" and "depth.csv" in message and "row 1" in message and "'deep'" in message
