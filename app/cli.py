@@ -345,9 +345,15 @@ def _number(value: float) -> float | None:
     return value if np.isfinite(value) else None
 
 
-def result_to_json(result: MethodResult, run_index: int = 0) -> dict[str, Any]:
+def result_to_json(result: MethodResult, run_index: int = 0,
+                   origin_rad: tuple[float, float] | None = None) -> dict[str, Any]:
     """Per-epoch series of one run, its divergence verdict and the method's consistency, as in the
     CLI contract (strict JSON: non-finite numbers are null).
+
+    The estimate itself: ``est_north_m``, ``est_east_m``, ``est_down_m`` from the sea-surface point
+    above the start (on WGS-84 in that point's tangent frame), with ``origin_rad`` (its latitude,
+    longitude) also ``est_lat_deg``, ``est_lon_deg``, ``est_depth_m``; ``est_vel_north_mps``,
+    ``est_vel_east_mps``, ``est_vel_down_mps``; ``est_roll_deg``, ``est_pitch_deg``, ``est_yaw_deg``.
 
     Series (length of ``t``, run ``run_index``): errors and the filter's own 1-sigma of velocity,
     attitude (the norm, and apart: ``tilt`` = roll/pitch levelling, ``heading``) and position;
@@ -366,8 +372,24 @@ def result_to_json(result: MethodResult, run_index: int = 0) -> dict[str, Any]:
     """
     i = run_index
     diverged_at = float(result.diverged_at_s[i])
+    estimate: dict[str, Any] = {}
+    pos = result.est_pos_n[:, i]
+    for k, axis in enumerate(("north", "east", "down")):
+        estimate[f"est_{axis}_m"] = _finite(pos[:, k])
+    if origin_rad is not None and len(pos):
+        from tauvcore.geo.earth import geodetic_from_ned
+        lat, lon, h = geodetic_from_ned(pos, (origin_rad[0], origin_rad[1], 0.0))
+        estimate.update(est_lat_deg=_finite(np.degrees(lat)), est_lon_deg=_finite(np.degrees(lon)),
+                        est_depth_m=_finite(-h))
+    if result.est_vel_n is not None:
+        for k, axis in enumerate(("north", "east", "down")):
+            estimate[f"est_vel_{axis}_mps"] = _finite(result.est_vel_n[:, i, k])
+    if result.est_euler_rad is not None:
+        for k, angle in enumerate(("roll", "pitch", "yaw")):
+            estimate[f"est_{angle}_deg"] = _finite(np.degrees(result.est_euler_rad[:, i, k]))
     return {
         "t": _finite(result.t_s),
+        **estimate,
         "vel_err_mps": _finite(result.vel_err_mps[:, i]),
         "att_err_deg": _finite(result.att_err_deg[:, i]),
         "tilt_err_deg": _finite(result.tilt_err_deg[:, i]),
@@ -575,7 +597,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise UsageError(f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}") from None
     if json_path is not None:
-        payload = {"config": config_to_json(config), "results": {m: result_to_json(r) for m, r in results.items()}}
+        origin = (config.earth.latitude_rad, config.earth.longitude_rad)
+        payload = {"config": config_to_json(config),
+                   "results": {m: result_to_json(r, origin_rad=origin) for m, r in results.items()}}
         try:
             write_json_atomic(json_path, payload)
         except OSError as exc:
@@ -627,7 +651,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - started
     if json_path is not None:
         payload = {"config": config_to_json(config), "log": str(args.log),
-                   "results": {m: result_to_json(r) for m, r in results.items()}}
+                   "results": {m: result_to_json(r, origin_rad=(config.earth.latitude_rad, config.earth.longitude_rad))
+                               for m, r in results.items()}}
         try:
             write_json_atomic(json_path, payload)
         except OSError as exc:

@@ -93,7 +93,9 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
             pos_sigma_m=r.pos_sigma_m[keep], nees=r.nees[keep], est_pos_n=r.est_pos_n[keep],
             tilt_err_deg=r.tilt_err_deg[keep], heading_err_deg=r.heading_err_deg[keep],
             tilt_sigma_deg=r.tilt_sigma_deg[keep], heading_sigma_deg=r.heading_sigma_deg[keep],
-            nees_block=r.nees_block[keep])
+            nees_block=r.nees_block[keep],
+            est_vel_n=None if r.est_vel_n is None else r.est_vel_n[keep],
+            est_euler_rad=None if r.est_euler_rad is None else r.est_euler_rad[keep])
     return out
 
 

@@ -157,11 +157,14 @@ class MethodResult:
     tilt_sigma_deg: np.ndarray  # (T, R) sqrt(P_NN + P_EE) of the misalignment
     heading_sigma_deg: np.ndarray  # (T, R) sqrt(P_DD) of the misalignment
     nees_block: np.ndarray      # (T, R, B) NEES of each block of layout.NEES_BLOCKS (in its order)
-    est_pos_n: np.ndarray       # (T, R, 3) estimated position, NED [m]
+    est_pos_n: np.ndarray       # (T, R, 3) estimated position, NED [m] from the sea-surface point above the start
+                                # (on WGS-84 in that point's tangent frame: tauvcore.geo.earth.geodetic_from_ned)
     diverged: np.ndarray        # (R,) bool: the divergence monitor flagged this run's solution
     diverged_at_s: np.ndarray   # (R,) time of the first flag [s], NaN if never
     p_floor_count: np.ndarray   # (R,) times an eigenvalue of P was raised to the floor
     updates: dict[str, UpdateRecord] = field(default_factory=dict)
+    est_vel_n: np.ndarray | None = None      # (T, R, 3) estimated NED velocity [m/s]
+    est_euler_rad: np.ndarray | None = None  # (T, R, 3) estimated roll, pitch, yaw [rad]
 
 
 def _initial_draws(rng: np.random.Generator | Sequence[np.random.Generator], R: int) -> tuple[np.ndarray, ...]:
@@ -540,7 +543,8 @@ class FilterBank:
         kernels.record_bank(row, float(t_s[i]), pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i],
                             self.ping_bias, self.ping_sf, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl,
                             self.sf, self.P, self.block_of_state, len(NEES_BLOCKS), units.DEG, out["series"],
-                            out["nees_block"], out["est_pos_n"], self.nonfinite_at_s, self.geodetic, self.origin)
+                            out["nees_block"], out["est_pos_n"], self.nonfinite_at_s, self.geodetic, self.origin,
+                            out["est_vel_n"], out["est_euler"])
         out["t_s"][row] = t_s[i]
         self.slot += 1
 
@@ -572,7 +576,9 @@ class FilterBank:
         outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k1)]
         out = {"series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
                "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
-               "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)), "t_s": np.zeros(outs.size)}
+               "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)), "t_s": np.zeros(outs.size),
+               "est_vel_n": np.zeros((outs.size,) + self.batch + (3,)),
+               "est_euler": np.zeros((outs.size,) + self.batch + (3,))}
         out_row = {int(k): r for r, k in enumerate(outs)}
         ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
         truth = chunk.truth
@@ -615,7 +621,7 @@ class FilterBank:
                                        *chunk_in, *self.sd_consts, self.origin, self.w_ie, self.q_psd,
                                        self.block_of_state,
                                        len(NEES_BLOCKS), units.DEG, out["series"], out["nees_block"],
-                                       out["est_pos_n"], out["t_s"])
+                                       out["est_pos_n"], out["t_s"], out["est_vel_n"], out["est_euler"])
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
             if why == kernels.STOPS_DONE:
                 break
@@ -673,10 +679,13 @@ class FilterBank:
             series_all = np.concatenate([c["series"] for c in stored], axis=1)
             nees_block = np.concatenate([c["nees_block"] for c in stored])
             est_pos_n = np.concatenate([c["est_pos_n"] for c in stored])
+            est_vel_n = np.concatenate([c["est_vel_n"] for c in stored])
+            est_euler = np.concatenate([c["est_euler"] for c in stored])
         else:
             t_s, series_all = np.zeros(0), np.zeros((len(kernels.SERIES_NAMES), 0) + self.batch)
             nees_block = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),))
             est_pos_n = np.zeros((0,) + self.batch + (3,))
+            est_vel_n = est_euler = est_pos_n
         series = dict(zip(kernels.SERIES_NAMES, series_all))
         out = {}
         for m, method in enumerate(self.methods):
@@ -690,7 +699,8 @@ class FilterBank:
                 vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m],
                 pos_err_m=series["pos_err"][:, m], vel_sigma_mps=series["vel_sigma"][:, m],
                 att_sigma_deg=series["att_sigma"][:, m], pos_sigma_m=series["pos_sigma"][:, m],
-                nees=series["nees"][:, m], est_pos_n=est_pos_n[:, m],
+                nees=series["nees"][:, m], est_pos_n=est_pos_n[:, m], est_vel_n=est_vel_n[:, m],
+                est_euler_rad=est_euler[:, m],
                 tilt_err_deg=series["tilt_err"][:, m], heading_err_deg=series["heading_err"][:, m],
                 tilt_sigma_deg=series["tilt_sigma"][:, m], heading_sigma_deg=series["heading_sigma"][:, m],
                 nees_block=nees_block[:, m],

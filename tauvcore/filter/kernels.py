@@ -1057,7 +1057,7 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
                 C: np.ndarray, ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray, sf: np.ndarray, P: np.ndarray,
                 block_of_state: np.ndarray, num_blocks: int, deg: float, series: np.ndarray,
                 nees_block: np.ndarray, est_pos: np.ndarray, nonfinite_at: np.ndarray, geodetic: bool,
-                origin: np.ndarray) -> None:
+                origin: np.ndarray, est_vel: np.ndarray, est_euler: np.ndarray) -> None:
     """One output epoch of every (method, run): the error ``true (-) estimate``
     (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma, the NEES of the full
     state and of each block, the estimated position; and the health check without truth (a
@@ -1066,7 +1066,8 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
     Truth: pos_t, vel_t (3,), C_t (3, 3) shared; the true sensor errors per run ba_t, bg_t (R, 3),
     bdvl_t (R, 4), sf_t (R,). series (11, T, M, R) in :data:`SERIES_NAMES` order. On WGS-84
     (``geodetic``) the estimated position is recorded in NED metres from ``origin`` (latitude,
-    longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components)."""
+    longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components). The
+    estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3)."""
     M, R = pos.shape[0], pos.shape[1]
     dx = np.empty(N)
     Ce = np.empty((3, 3))
@@ -1112,7 +1113,12 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
             for i in range(3):
                 if not geodetic:
                     est_pos[slot, m, r, i] = pos[m, r, i]
+                est_vel[slot, m, r, i] = vel[m, r, i]
                 total += pos[m, r, i] + vel[m, r, i]
+            Cm = C[m, r]
+            est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
+            est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
+            est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
             if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
                 nonfinite_at[m, r] = t_s
 
@@ -1147,7 +1153,8 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
               dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
               geodetic: bool, origin: np.ndarray,
               w_ie: np.ndarray, q: np.ndarray, block_of_state: np.ndarray, num_blocks: int, deg: float,
-              series: np.ndarray, nees_block: np.ndarray, est_pos: np.ndarray, out_t: np.ndarray) -> tuple:
+              series: np.ndarray, nees_block: np.ndarray, est_pos: np.ndarray, out_t: np.ndarray,
+              est_vel: np.ndarray, est_euler: np.ndarray) -> tuple:
     """The filter bank between aiding epochs, in one call: for each covariance stop
     ``stops[s_from:s_to]`` (global samples; the chunk starts at ``k0``) advance the nominal states
     (:func:`advance`), propagate the covariances (:func:`propagate_bank`), check them once every
@@ -1194,7 +1201,7 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
             row = out_row[s]
             record_bank(row, t_s[i], pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i], ping_bias, ping_sf, pos, vel,
                         C, ba, bg, bdvl, sf, P, block_of_state, num_blocks, deg, series, nees_block, est_pos,
-                        nonfinite_at, geodetic, origin)
+                        nonfinite_at, geodetic, origin, est_vel, est_euler)
             out_t[row] = t_s[i]
             slot += 1
             if yield_every > 0 and slot % yield_every == 0:

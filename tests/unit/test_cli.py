@@ -22,6 +22,10 @@ from tauvcore.sensors.dvl import Outage
 SPLIT_AND_NEES_KEYS = ("tilt_err_deg", "heading_err_deg", "tilt_sigma_deg", "heading_sigma_deg", "nees", "nees_pos",
                        "nees_vel", "nees_tilt", "nees_heading", "nees_sensor")
 """Per-epoch series --json carries since issue 8 (attitude apart, NEES per block)."""
+ESTIMATE_KEYS = ("est_north_m", "est_east_m", "est_down_m", "est_lat_deg", "est_lon_deg", "est_depth_m",
+                 "est_vel_north_mps", "est_vel_east_mps", "est_vel_down_mps", "est_roll_deg", "est_pitch_deg",
+                 "est_yaw_deg")
+"""The estimate itself, since issue 10."""
 
 
 def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
@@ -94,7 +98,7 @@ def test_run_writes_the_json_contract_and_a_summary(capsys, tmp_path) -> None:
     assert data["config"]["run"]["seed"] == 3 and data["config"]["run"]["aiding"] == ["dvl", "depth"]
     assert set(data["results"]) == {"ins", "lc"}
     keys = {"t", "vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "att_sigma_deg", "pos_sigma_m",
-            *SPLIT_AND_NEES_KEYS}
+            *SPLIT_AND_NEES_KEYS, *ESTIMATE_KEYS}
     for series in data["results"].values():
         assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count", "nis", "consistency"}
         assert len({len(series[k]) for k in keys}) == 1 and series["t"][-1] == pytest.approx(20.0)
@@ -574,3 +578,29 @@ def test_imu_profile_flag_sets_the_whole_imu_section(capsys, tmp_path) -> None:
     printed = tmp_path / "printed.toml"
     printed.write_text(out)
     assert from_dict(read_toml(str(printed))).imu == imu_profile("yoo-table1")
+
+
+def test_json_carries_the_estimate_in_ned_geodetic_velocity_and_attitude() -> None:
+    """Issue 10: the results carry the estimated trajectory, not only error norms. With ideal
+    sensors the estimate is the truth: NED from the surface point, latitude, longitude and depth,
+    NED velocity, roll, pitch, yaw."""
+    from app.cli import result_to_json
+    from tauvcore.config import Config
+    from tauvcore.eval.runner import run, simulate
+    config = (Config().replace("trajectory", name="figure8", duration_s=30.0).replace("run", ideal=True, methods=("lc",))
+              .replace("earth", latitude_deg=-41.3, longitude_deg=174.8))
+    rng = np.random.default_rng(0)
+    sim = simulate(config, rng)
+    result = run(config, sim, rng)["lc"]
+    out = result_to_json(result, origin_rad=(config.earth.latitude_rad, config.earth.longitude_rad))
+    rows = np.arange(0, sim.truth.num_samples, 15)
+    truth = sim.truth
+    np.testing.assert_allclose(out["est_north_m"], truth.pos_n[rows, 0], atol=1e-3)
+    np.testing.assert_allclose(out["est_down_m"], truth.pos_n[rows, 2], atol=1e-3)
+    np.testing.assert_allclose(out["est_lat_deg"], np.degrees(truth.pos_nav[rows, 0]), atol=1e-8)
+    np.testing.assert_allclose(out["est_lon_deg"], np.degrees(truth.pos_nav[rows, 1]), atol=1e-8)
+    np.testing.assert_allclose(out["est_depth_m"], truth.depth_m[rows], atol=1e-3)
+    np.testing.assert_allclose(out["est_vel_east_mps"], truth.vel_n[rows, 1], atol=1e-4)
+    yaw_diff = np.angle(np.exp(1j * np.radians(np.array(out["est_yaw_deg"]) - np.degrees(truth.euler[rows, 2]))))
+    assert np.abs(yaw_diff).max() < 1e-5
+    np.testing.assert_allclose(out["est_pitch_deg"], np.degrees(truth.euler[rows, 1]), atol=1e-5)

@@ -254,7 +254,8 @@ def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
         outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
-        dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seed=spy("0"), runs=spy("1"))
+        dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seed=spy("0"), runs=spy("1"),
+        source=spy("simulation"))     # the Source control of tauv serve --logs
     tab.selected_methods = lambda: Session.selected_methods(tab)
     controls = Session.controls(tab)
     assert controls.vb_nf == "20" and controls.nsv_epsilon == "auto"
