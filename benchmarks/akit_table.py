@@ -31,9 +31,9 @@ _spec.loader.exec_module(akit)
 
 
 def start_on_reference(config: Config) -> Config:
-    """Filters start at the reference's first row (the paper's initial errors stay as P0's sigmas)."""
-    return config.replace("initial_error", pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0,
-                          yaw_deg=0.0).replace("dvl", lever_arm_m=akit.DVL_LEVER_ARM_M)
+    """Filters start at the reference's first row (``run.ideal``: no initial error is added in a
+    replay) with the paper's initial errors as P0's sigmas; the DVL's lever arm of the dataset."""
+    return config.replace("run", ideal=True).replace("dvl", lever_arm_m=akit.DVL_LEVER_ARM_M)
 
 
 def segment_row(segment: Path, imu_errors: str | None, seed: int = 0) -> dict[str, float]:

@@ -22,8 +22,9 @@ dropped synthetically (``--beams``, ``--outage``) as on simulated data.
 ``depth`` (optional): ``depth_m``. ``attitude`` (optional, a magnetometer/AHRS attitude):
 ``roll``, ``pitch``, ``yaw`` each as ``_deg`` or ``_rad``.
 
-``reference`` (required: its first row is the filters' starting point, and errors are computed
-against it): position as ``lat`` and ``lon`` (``_deg`` or ``_rad``) with ``depth_m``, or as
+``reference`` (optional: its first row is the filters' starting point, and errors are computed
+against it; without it the filters start from the log's own sensors, see
+tauvcore.eval.replay, and no error can be computed): position as ``lat`` and ``lon`` (``_deg`` or ``_rad``) with ``depth_m``, or as
 ``north_m``, ``east_m``, ``down_m`` from the sea-surface point above the mission origin
 (``[earth] latitude_deg, longitude_deg``); attitude ``roll``, ``pitch``, ``yaw`` (``_deg`` or
 ``_rad``); NED velocity ``vel_north_mps``, ``vel_east_mps``, ``vel_down_mps``. It may be
@@ -80,11 +81,11 @@ class Log:
     imu_t_s: np.ndarray                   # (K,) IMU sample times [s], uniform
     dtheta_b: np.ndarray                  # (K, 3) angle increments over (t_k-1, t_k] [rad]; row 0 zero
     dv_b: np.ndarray                      # (K, 3) velocity increments [m/s]; row 0 zero
-    ref_t_s: np.ndarray                   # (N,) reference times [s]
-    ref_position: np.ndarray              # (N, 3) latitude [rad], longitude [rad], depth [m]; or NED [m] (below)
-    ref_geodetic: bool                    # whether ref_position is geodetic
-    ref_euler: np.ndarray                 # (N, 3) roll, pitch, yaw [rad]
-    ref_vel_n: np.ndarray                 # (N, 3) NED velocity [m/s]
+    ref_t_s: np.ndarray | None = None     # (N,) reference times [s]; None: the log has no reference
+    ref_position: np.ndarray | None = None  # (N, 3) latitude [rad], longitude [rad], depth [m]; or NED [m]
+    ref_geodetic: bool = False            # whether ref_position is geodetic
+    ref_euler: np.ndarray | None = None   # (N, 3) roll, pitch, yaw [rad]
+    ref_vel_n: np.ndarray | None = None   # (N, 3) NED velocity [m/s]
     dvl_t_s: np.ndarray | None = None     # (M,) ping times [s]
     dvl_beams_mps: np.ndarray | None = None   # (M, 4) beam velocities, NaN where not returned
     dvl_body_mps: np.ndarray | None = None    # (M, 3) body velocity (NaN rows: invalid), if the log has that
@@ -231,9 +232,11 @@ def read_log(directory: str | os.PathLike) -> Log:
     if not root.is_dir():
         raise LogError(f"{show_path(str(root))}: not a directory (a log is a directory of sensor tables)")
     paths = {t: _table_path(root, t) for t in TABLES}
-    for required in ("imu", "reference"):
-        if paths[required] is None:
-            raise LogError(f"{show_path(str(root))}: no {required}.csv or {required}.parquet")
+    if paths["imu"] is None:
+        raise LogError(f"{show_path(str(root))}: no imu.csv or imu.parquet")
+    if paths["reference"] is None and paths["attitude"] is None:
+        raise LogError(f"{show_path(str(root))}: no reference.csv or attitude.csv (or .parquet): the filters need a "
+                       "starting attitude, from a reference or from an attitude sensor")
     imu_path = paths["imu"]
     imu = _read_table(imu_path)
     t = _times(imu_path, imu)
@@ -282,7 +285,14 @@ def read_log(directory: str | os.PathLike) -> Log:
                        f"{mean_f:.6g} m/s^2 over the first 10 s, not gravity's 9.8 (in mg, g or mm/s^2? "
                        "the columns must be SI, m/s^2 or m/s)")
 
-    ref_path = paths["reference"]
+    out: dict = dict(source=str(root), imu_t_s=t, dtheta_b=dtheta, dv_b=dv, notes=tuple(notes))
+    if paths["reference"] is not None:
+        out.update(_read_reference(paths["reference"], t, median))
+    _read_aiding(paths, out)
+    return Log(**out)
+
+
+def _read_reference(ref_path: Path, t: np.ndarray, median: float) -> dict:
     ref = _read_table(ref_path)
     ref_t = _times(ref_path, ref)
     if any(f"lat_{u}" in ref for u in ("deg", "rad")):
@@ -305,8 +315,11 @@ def read_log(directory: str | os.PathLike) -> Log:
         raise LogError(f"{show_path(str(ref_path))}: column 't_s', row 1: the reference starts at {float(ref_t[0])!r} s, "
                        f"after the IMU's first sample ({float(t[0])!r} s): the filters start from the reference")
 
-    out = dict(source=str(root), imu_t_s=t, dtheta_b=dtheta, dv_b=dv, ref_t_s=ref_t, ref_position=position,
-               ref_geodetic=geodetic, ref_euler=euler, ref_vel_n=vel, notes=tuple(notes))
+    return dict(ref_t_s=ref_t, ref_position=position, ref_geodetic=geodetic, ref_euler=euler, ref_vel_n=vel)
+
+
+def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
+    """The optional aiding tables into ``out``."""
     if paths["dvl"] is not None:
         p = paths["dvl"]
         cols = _read_table(p)
@@ -344,7 +357,6 @@ def read_log(directory: str | os.PathLike) -> Log:
         euler_a = _angles(p, cols, ("roll", "pitch", "yaw"), "attitude")
         _finite(p, {n: euler_a[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}, ("roll", "pitch", "yaw"))
         out["attitude_euler"] = euler_a
-    return Log(**out)
 
 
 def find_logs(directory: str | os.PathLike) -> dict[str, str]:

@@ -36,11 +36,24 @@ def replay_config(config: Config, log: Log) -> Config:
     are outside what the configuration allows."""
     try:
         config = config.replace("imu", rate_hz=1.0 / log.dt_s)
-        config = config.replace("trajectory", duration_s=max(log.duration_s, 1.0),
-                                depth_m=max(float(_reference_at(log, log.imu_t_s[:1])[0][0, 2]), 0.0))
+        if log.ref_t_s is not None:
+            depth = float(_reference_at(log, log.imu_t_s[:1])[0][0, 2])
+        elif log.depth_t_s is not None:
+            depth = float(log.depth_m[0])
+        else:
+            depth = config.trajectory.depth_m
+        config = config.replace("trajectory", duration_s=max(log.duration_s, 1.0), depth_m=max(depth, 0.0))
         if log.ref_geodetic:
             lat0, lon0 = log.ref_position[0, 0], log.ref_position[0, 1]
             config = config.replace("earth", latitude_deg=lat0 / units.DEG, longitude_deg=lon0 / units.DEG)
+        if log.ref_t_s is None:
+            # the start is the sensors' own first values (no offset added: run.ideal), as uncertain
+            # as those sensors: P0's attitude and velocity sigmas at least their noise
+            ie, mag, dvl = config.initial_error, config.magnetometer, config.dvl
+            config = config.replace("initial_error", roll_pitch_deg=max(ie.roll_pitch_deg, mag.roll_pitch_noise_deg),
+                                    yaw_deg=max(ie.yaw_deg, mag.yaw_noise_deg),
+                                    vel_mps=tuple(max(v, 2.0 * dvl.noise_mps) for v in ie.vel_mps))
+            config = config.replace("run", ideal=True)
     except ConfigError as exc:
         raise LogError(f"{show_path(log.source)}: the log does not fit the configuration: {exc}") from None
     return config
@@ -85,13 +98,52 @@ def _epochs(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return k, keep
 
 
+def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Without a reference, where the filters start: the attitude sensor's first row, the first
+    valid DVL velocity (a body velocity, or the least squares of three or more beams; none: at
+    rest) turned to NED with that attitude, at the configured origin and the starting depth
+    (the depth sensor's first row). Returned as one-row reference arrays (position, Euler, NED
+    velocity; the position geodetic on WGS-84, NED from the surface point on the flat earth)."""
+    if log.attitude_t_s is None:
+        raise LogError(f"{show_path(log.source)}: no reference and no attitude table: nothing says where the "
+                       "filters start")
+    euler = log.attitude_euler[:1]
+    C = C_nb_from_euler(euler)[0]
+    vel_b = np.zeros(3)
+    if log.dvl_body_mps is not None:
+        ok = np.isfinite(log.dvl_body_mps).all(axis=1)
+        if ok.any():
+            vel_b = log.dvl_body_mps[np.argmax(ok)]
+    elif log.dvl_beams_mps is not None:
+        ok = np.isfinite(log.dvl_beams_mps).sum(axis=1) >= 3
+        if ok.any():
+            y = log.dvl_beams_mps[np.argmax(ok)]
+            use = np.isfinite(y)
+            vel_b = np.linalg.lstsq(config.dvl.A_b[use], y[use], rcond=None)[0]
+    depth = config.trajectory.depth_m
+    if config.earth.geodetic:
+        position = np.array([[config.earth.latitude_rad, config.earth.longitude_rad, depth]])
+    else:
+        position = np.array([[0.0, 0.0, depth]])
+    return position, euler, (C @ vel_b)[None]
+
+
 def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
     """The log as a one-run :class:`~tauvcore.eval.runner.Simulation` under ``config`` (from
     :func:`replay_config`): the DVL's beams and outages of ``config.dvl`` applied to the log's
-    returns (and its dropout drawn from ``rng``), a body velocity projected onto the beams."""
+    returns (and its dropout drawn from ``rng``), a body velocity projected onto the beams.
+    Without a reference the truth is known at the start only (:func:`_start_from_sensors`) and
+    NaN after it: the errors are then unknown, the estimates are not."""
     t = log.imu_t_s
     K = t.size
-    pos, euler, vel_n = _reference_at(log, t)
+    if log.ref_t_s is None:
+        start_pos, start_euler, start_vel = _start_from_sensors(config, log)
+        log = dataclasses.replace(log, ref_t_s=t[:1], ref_position=start_pos, ref_euler=start_euler,
+                                  ref_vel_n=start_vel, ref_geodetic=config.earth.geodetic)
+        pos, euler, vel_n = (np.full((K, 3), np.nan) for _ in range(3))
+        pos[0], euler[0], vel_n[0] = start_pos[0], start_euler[0], start_vel[0]
+    else:
+        pos, euler, vel_n = _reference_at(log, t)
     C = C_nb_from_euler(euler)
     vel_b = np.einsum("kji,kj->ki", C, vel_n)
     if log.ref_geodetic:

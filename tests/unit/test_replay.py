@@ -150,7 +150,7 @@ def _drop_column(path: Path, column: str) -> None:
     ("text", ["depth.csv", "'depth_m'", "row 3", "'deep'"]),
     ("gravity_mg", ["imu.csv", "dv_x_mps", "9.8", "mg"]),
     ("gap", ["imu.csv", "'t_s'", "row 40", "gap", "50"]),
-    ("no_reference", ["no reference.csv"]),
+    ("no_reference_nor_attitude", ["no reference.csv or attitude.csv", "starting attitude"]),
     ("local_reference_on_wgs84", ["north_m", "--earth flat"]),
 ])
 def test_bad_logs_name_file_column_and_row(tmp_path: Path, simulated_log: tuple, case: str, expected: list) -> None:
@@ -182,8 +182,9 @@ def test_bad_logs_name_file_column_and_row(tmp_path: Path, simulated_log: tuple,
     elif case == "gap":
         lines = imu.read_text().splitlines()
         imu.write_text("\n".join(lines[:40] + lines[100:]) + "\n")      # 0.4 s at 150 Hz: 60 intervals
-    elif case == "no_reference":
+    elif case == "no_reference_nor_attitude":
         (log / "reference.csv").unlink()
+        (log / "attitude.csv").unlink()
     elif case == "local_reference_on_wgs84":
         ref = log / "reference.csv"
         text = ref.read_text().replace("lat_rad,lon_rad,depth_m", "north_m,east_m,down_m", 1)
@@ -230,3 +231,23 @@ def test_an_irregular_imu_clock_and_a_short_gap_are_resampled(tmp_path: Path, si
         # time stamps 20 % of an interval off move the rates they are given by that much: the
         # errors (2-4 m here) change by centimetres
         assert np.abs(a[method].pos_err_m - b[method].pos_err_m).max() < 0.15, method
+
+
+def test_a_log_without_reference_starts_from_its_own_sensors(tmp_path: Path, simulated_log: tuple) -> None:
+    """No reference: the filters start from the attitude sensor's first row, the first DVL
+    velocity and the configured origin; the estimate is there, the errors are unknown (NaN)."""
+    config, sim, ours, directory = simulated_log
+    log_dir = _log_copy(directory, tmp_path / "log")
+    (log_dir / "reference.csv").unlink()
+    log = read_log(log_dir)
+    assert log.ref_t_s is None
+    _, back = replay(config, log, np.random.default_rng(0))
+    for method in ("ins", "lc", "tc"):
+        r = back[method]
+        assert np.isnan(r.pos_err_m[1:]).all() and np.isfinite(r.est_pos_n).all()
+    # LC, DVL-aided from a magnetometer start, stays within metres of the truth it never saw
+    truth_end = sim.truth.pos_n[-1]
+    assert np.linalg.norm(back["lc"].est_pos_n[-1, 0] - truth_end) < 10.0
+    # the start: the attitude sensor's first row and the origin at the first depth
+    first = back["lc"].est_pos_n[0, 0]
+    assert first[:2] == pytest.approx([0.0, 0.0], abs=1e-6) and first[2] == pytest.approx(log.depth_m[0], abs=1e-6)
