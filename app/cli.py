@@ -152,16 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
     rl = sub.add_parser("replay", help="run the fusion methods on a recorded log (a directory of sensor tables)")
     rl.add_argument("log", metavar="DIR", help="the log directory (imu, reference, and dvl, depth, attitude tables)")
-    rl.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
-    rl.add_argument("--seed", help="seed of the random initial errors and DVL dropout (default 0)")
-    rl.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
-    rl.add_argument("--beams", help="beams kept for the whole run, e.g. 1,2 (default 1,2,3,4)")
-    rl.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
-                    help="beams dropped in a window of the log's time, e.g. 3,4@50:200 (seconds from its start)")
-    rl.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
-    rl.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam, a number in [1, 100]")
-    rl.add_argument("--nsv-epsilon", metavar="E", help="NSV's variance of 'sway = 0' [m^2/s^2], or 'auto'")
-    _earth_flag(rl)
+    _method_flags(rl)
     rl.add_argument("--imu-errors", metavar="PROFILE", help=f"add a simulated IMU's errors to the log's IMU: "
                                                            f"{', '.join(IMU_PROFILES)} (drawn from --seed; the "
                                                            "filters are tuned for that IMU)")
@@ -199,9 +190,16 @@ def build_parser() -> argparse.ArgumentParser:
 def _mission_flags(p: argparse.ArgumentParser) -> None:
     """The flags that describe a mission and its methods (``run`` and ``mc``)."""
     p.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
-    p.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
     p.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
-    p.add_argument("--seed", help="seed of the random generator (default 0)")
+    _method_flags(p)
+    _imu_flag(p)
+    p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
+
+
+def _method_flags(p: argparse.ArgumentParser) -> None:
+    """The flags of the methods, their aiding and the DVL's beams (``run``, ``mc`` and ``replay``)."""
+    p.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
+    p.add_argument("--seed", help="seed of the random generator: noise, initial errors, dropout (default 0)")
     p.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
     p.add_argument("--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)")
     p.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
@@ -212,9 +210,7 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--nsv-epsilon", metavar="E", help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
                                                      "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
                                                      "from the vehicle's sideslip in its tightest turn)")
-    _imu_flag(p)
     _earth_flag(p)
-    p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
 
 
 def _earth_flag(p: argparse.ArgumentParser) -> None:

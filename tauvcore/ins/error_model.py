@@ -189,6 +189,14 @@ def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarr
     out[STATE.vel] = vel_rate(C, v_b, f_true, om_true) - vel_rate(C_hat, vel_b_hat, f_hat, om_hat)
     C_dot = C @ skew(om_true) - W @ C
     C_hat_dot = C_hat @ skew(om_hat) - W @ C_hat
+    _attitude_and_walk_rates(out, C, C_hat, C_dot, C_hat_dot, w)
+    return out
+
+
+def _attitude_and_walk_rates(out: np.ndarray, C: np.ndarray, C_hat: np.ndarray, C_dot: np.ndarray,
+                             C_hat_dot: np.ndarray, w: np.ndarray) -> None:
+    """The misalignment rate ``rho' = J_l(rho)^-1 vee(E' E^T)`` (``E = C C_hat^T``) and the
+    random walks' rates (their noise), into ``out``."""
     E = C @ C_hat.T
     E_dot = C_dot @ C_hat.T + C @ C_hat_dot.T
     out[STATE.att] = left_jacobian_inv_so3(log_so3(E)) @ vee(E_dot @ E.T)
@@ -196,7 +204,6 @@ def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarr
     out[STATE.bg] = w[NOISE.bg]
     out[STATE.b_dvl] = w[NOISE.b_dvl]
     out[STATE.sf_dvl] = w[NOISE.sf_dvl]
-    return out
 
 
 def error_rate_geodetic(position_hat: tuple[float, float, float], C_hat: np.ndarray, vel_b_hat: np.ndarray,
@@ -242,11 +249,5 @@ def error_rate_geodetic(position_hat: tuple[float, float, float], C_hat: np.ndar
                                 * (lon - lon_h) + (R_E + h_h) * np.cos(lat_h) * (geo[1] - geo_h[1]))
     out[STATE.pos.start + 2] = -(geo[2] - geo_h[2])
     out[STATE.vel] = v_dot - v_dot_h
-    E_rot = C @ C_hat.T
-    E_dot = C_dot @ C_hat.T + C @ C_dot_h.T
-    out[STATE.att] = left_jacobian_inv_so3(log_so3(E_rot)) @ vee(E_dot @ E_rot.T)
-    out[STATE.ba] = w[NOISE.ba]
-    out[STATE.bg] = w[NOISE.bg]
-    out[STATE.b_dvl] = w[NOISE.b_dvl]
-    out[STATE.sf_dvl] = w[NOISE.sf_dvl]
+    _attitude_and_walk_rates(out, C, C_hat, C_dot, C_dot_h, w)
     return out
