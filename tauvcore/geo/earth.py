@@ -128,8 +128,8 @@ def ecef_from_geodetic(latitude_rad: float, longitude_rad: float, height_m: floa
 
 GEODETIC_ITERATIONS = 6
 """Fixed-point iterations of :func:`geodetic_from_ecef`; each gains about six digits near the
-surface, and the round trip is exact to 1e-9 m from the Earth's centre region's 50 km out to
-geostationary height after four."""
+surface. Measured (tests/unit/test_geodetic.py): from 11 km under the sea to 100 km up, latitude
+and longitude come back within 4 units in their last place and height within 5e-9 m."""
 
 
 def geodetic_from_ecef(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]:
