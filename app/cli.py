@@ -51,7 +51,7 @@ from tauvcore.eval.metrics import rms
 from tauvcore.geo.earth import EARTH_MODELS
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.imu import IMU_PROFILES
-from tauvcore.truth import TRAJECTORIES
+from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
 
 if TYPE_CHECKING:   # the engine (numba, compiled-code cache) loads when a command runs, not for --help
@@ -191,6 +191,10 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
     """The flags that describe a mission and its methods (``run`` and ``mc``)."""
     p.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
     p.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
+    p.add_argument("--truth", metavar="SOURCE", help=f"how the truth is made: {', '.join(TRUTH_SOURCES)} "
+                                                     "(default kinematic: closed-form profiles; dynamic: the 6-DOF "
+                                                     "TAUV flown through the scenario by its autopilot, with fins "
+                                                     "and propeller)")
     _method_flags(p)
     _imu_flag(p)
     p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
@@ -255,6 +259,10 @@ def resolve_config(args: argparse.Namespace) -> Config:
             raise UsageError(f"--trajectory: unknown trajectory {show(args.trajectory)} "
                              f"(choose from {', '.join(TRAJECTORIES)})")
         config = config.replace("trajectory", name=args.trajectory)
+    if getattr(args, "truth", None) is not None:
+        if args.truth not in TRUTH_SOURCES:
+            raise UsageError(f"--truth: unknown truth source {show(args.truth)} (choose from {', '.join(TRUTH_SOURCES)})")
+        config = _replace("--truth", config, "trajectory", truth=args.truth)
     if getattr(args, "seed", None) is not None:
         config = _replace("--seed", config, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
     if getattr(args, "method", None) is not None:
@@ -505,7 +513,7 @@ def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: f
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
     :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a log)."""
     tr = config.trajectory
-    what = source if source is not None else f"trajectory {tr.name}"
+    what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
     lines = [
         f"{what}, {tr.duration_s:g} s, earth {config.earth.model}, seed {config.run.seed}, "
         f"aiding {','.join(config.run.aiding) or 'none'}"

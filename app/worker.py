@@ -41,7 +41,7 @@ import numpy as np
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.eval.runner import MethodResult, run, run_streaming
 from tauvcore.sensors.timing import epoch_indices_between
-from tauvcore.truth.kinematic import TruthStream
+from tauvcore.truth import truth_stream
 from tauvcore.validation import ConfigError
 
 # Preloaded with the worker: tauvcore imports scipy.special at a run's first chi-square quantile
@@ -103,7 +103,7 @@ def truth_view(config: Config, step: int) -> dict[str, np.ndarray]:
     """What the 3-D view needs before the run: the truth at the output epochs (every ``step``-th
     IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
     the schedule lets return (random drop-outs show once the results carry them)."""
-    stream = TruthStream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
+    stream = truth_stream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
     t, pos, C = [], [], []
     for k0, chunk in stream:
         rows = np.arange((-k0) % step, chunk.num_samples, step)

@@ -75,8 +75,7 @@ from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors import magnetometer as mag_sensor
 from tauvcore.sensors import pressure as pressure_sensor
 from tauvcore.sensors.stream import SensorStream, SensorStreams
-from tauvcore.truth import Truth, generate
-from tauvcore.truth.kinematic import TruthStream
+from tauvcore.truth import Truth, generate, truth_stream
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -775,7 +774,7 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
                   keep: bool = True, progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
                   progress_interval_s: float = 5.0, should_stop: Callable[[], bool] | None = None,
                   on_sim_chunk: Callable[[SimChunk], None] | None = None) -> dict[str, MethodResult]:
-    """Simulate and run chunk by chunk: truth (tauvcore.truth.kinematic.TruthStream) and sensors
+    """Simulate and run chunk by chunk: truth (tauvcore.truth.truth_stream: kinematic or dynamic) and sensors
     (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
     :class:`FilterBank`, so memory does not depend on the mission's length.
 
@@ -804,14 +803,14 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
     rate = config.imu.rate_hz
     # the first chunk holds the first DVL ping: the records before it use that ping's true errors
     chunk_samples = max(2, int(round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate)))
-    truth_stream = TruthStream(config.trajectory, config.earth, rate, chunk_samples)
+    truths = truth_stream(config.trajectory, config.earth, rate, chunk_samples)
     sensors = SensorStream(config.imu.ideal() if ideal else config.imu, config.dvl.ideal() if ideal else config.dvl,
                            config.pressure.ideal() if ideal else config.pressure,
                            config.magnetometer.ideal() if ideal else config.magnetometer,
-                           streams, num_runs, truth_stream.num_samples, truth_stream.dt_s)
-    bank = FilterBank(config, num_runs, truth_stream.num_samples, truth_stream.dt_s, initial, keep=keep)
+                           streams, num_runs, truths.num_samples, truths.dt_s)
+    bank = FilterBank(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
-    for k0, truth in truth_stream:
+    for k0, truth in truths:
         imu, dvl, pressure, mag = sensors.next_chunk(k0, truth)
         chunk = SimChunk(k0, truth, imu, dvl, pressure, mag)
         if on_sim_chunk is not None:

@@ -50,10 +50,14 @@ from tauvcore.validation import (
     require_nonnegative,
     require_positive,
     require_range,
+    require_vector3,
     show,
 )
 
 TRAJECTORIES = ("straight", "figure8", "lawnmower")
+TRUTH_SOURCES = ("kinematic", "dynamic")
+"""How the truth is made: ``kinematic`` closed-form profiles (this module); ``dynamic`` the 6-DOF
+TAUV flown through the same scenario by its autopilot (tauvcore.truth.dynamic)."""
 BESSEL_J0_FIRST_ZERO = 2.404825557695773
 MAX_DURATION_S = 36000.0
 """Longest run [s]: 10 h, a long AUV mission and the length of the heading-drift study."""
@@ -80,6 +84,10 @@ class TrajectoryConfig:
     blend_s: float = 4.0                # half-cosine blend time of rate changes [s]; [0.1, 600]: from a sharp but
                                         # sampled change (15 IMU samples at 150 Hz) to a 10-minute ramp
     seabed_depth_m: float = 60.0        # flat seabed the DVL beams reach [m]; (0, 11000]: the deepest ocean
+    truth: str = "kinematic"            # one of TRUTH_SOURCES: closed-form profile or the 6-DOF vehicle flying it
+    current_n_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # constant ocean current, NED [m/s] (dynamic
+                                        # truth only: the kinematic truth is motion over ground); each within
+                                        # +-3 m/s, beyond the strongest tidal streams an AUV works in
 
     def __post_init__(self) -> None:
         require_choice("trajectory.name", self.name, TRAJECTORIES)
@@ -95,6 +103,11 @@ class TrajectoryConfig:
         require_range("trajectory.turn_sideslip_deg", self.turn_sideslip_deg, -30.0, 30.0)
         require_range("trajectory.blend_s", self.blend_s, 0.1, 600.0)
         require_range("trajectory.seabed_depth_m", self.seabed_depth_m, 0.0, 11000.0, low_open=True)
+        require_choice("trajectory.truth", self.truth, TRUTH_SOURCES)
+        require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
+        if self.truth == "kinematic" and any(c != 0.0 for c in self.current_n_mps):
+            raise ConfigError(f"trajectory.current_n_mps needs trajectory.truth = \"dynamic\" (the kinematic truth is "
+                              f"motion over ground), got {show(list(self.current_n_mps))}")
         for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
             if getattr(self, field) >= self.speed_mps:
                 raise ConfigError(

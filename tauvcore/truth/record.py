@@ -1,4 +1,4 @@
-"""The one truth record that every generator fills (kinematic now, 6-DOF dynamics later)."""
+"""The one truth record that every generator fills (kinematic and 6-DOF dynamic)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from tauvcore.geo.earth import Earth
+
+
+@dataclass(frozen=True)
+class VehicleRecord:
+    """What only a simulated vehicle has, at the same samples as its :class:`Truth`
+    (tauvcore.truth.dynamic): actuators and the autopilot's view of its mission."""
+
+    propeller_rpm: np.ndarray    # (K,) propeller speed [rev/min]
+    fin_angles_rad: np.ndarray   # (K, 4) fin deflections, fins 1-4 of tauvcore.truth.vehicle [rad]
+    heading_cmd_rad: np.ndarray  # (K,) guidance's heading command [rad]
+    pitch_cmd_rad: np.ndarray    # (K,) guidance's pitch command [rad]
+    cross_track_m: np.ndarray    # (K,) distance from the mission's path, positive to its right [m]
+    depth_error_m: np.ndarray    # (K,) depth less the mission's depth schedule [m]
+
+    def __post_init__(self) -> None:
+        k = self.propeller_rpm.shape[0]
+        for name in ("propeller_rpm", "heading_cmd_rad", "pitch_cmd_rad", "cross_track_m", "depth_error_m"):
+            if getattr(self, name).shape != (k,):
+                raise ValueError(f"VehicleRecord.{name} must have shape ({k},), got {getattr(self, name).shape}")
+        if self.fin_angles_rad.shape != (k, 4):
+            raise ValueError(f"VehicleRecord.fin_angles_rad must have shape ({k}, 4), got {self.fin_angles_rad.shape}")
 
 
 @dataclass(frozen=True)
@@ -38,6 +59,7 @@ class Truth:
                                  # round-off late in a long mission, and a 1-sample chunk has none); None: from t_s
     pos_nav: np.ndarray | None = None  # (K, 3) position as the INS holds it: pos_n in the flat model; latitude
                                        # [rad], longitude [rad], depth [m] on WGS-84 (earth.model); None: pos_n
+    vehicle: VehicleRecord | None = None  # actuators and guidance of the dynamic truth; None: kinematic
 
     def __post_init__(self) -> None:
         k = self.t_s.shape[0]
@@ -50,6 +72,8 @@ class Truth:
             object.__setattr__(self, "pos_nav", self.pos_n)
         elif self.pos_nav.shape != (k, 3):
             raise ValueError(f"Truth.pos_nav must have shape ({k}, 3), got {self.pos_nav.shape}")
+        if self.vehicle is not None and self.vehicle.propeller_rpm.shape != (k,):
+            raise ValueError(f"Truth.vehicle must have {k} samples, got {self.vehicle.propeller_rpm.shape[0]}")
 
     @property
     def depth_m(self) -> np.ndarray:

@@ -1,0 +1,253 @@
+"""Dynamic truth: the TAUV flown through the scenario by its autopilot (Tal et al. 2017 section
+2: hydrodynamic and motion block, control system, guidance).
+
+The mission of a scenario (tauvcore.truth.kinematic) becomes a horizontal path, the track of the
+kinematic scenario sampled every 0.25 s, and a depth schedule, its depth against time; the
+vehicle starts where and as the kinematic one does and tracks them at ``speed_mps``
+(tauvcore.truth.control). The 17 states of tauvcore.truth.vehicle (velocity relative to the water,
+NED position, Euler angles, fins, propeller) are integrated by classical Runge-Kutta 4 with the
+IMU's step, the autopilot's commands held over each step (it runs at the IMU rate).
+
+From the integration to the truth record: at every IMU sample (a knot) the integrator gives the
+Euler angles and body velocity over ground and, from the equations of motion, their exact time
+derivatives (fins and propeller are states, so the forces and hence these derivatives are
+continuous in time). Between knots the truth *is* the cubic Hermite interpolant of those values
+and derivatives (C1 in attitude and velocity), which agrees with the integrated motion to the
+integrator's O(dt^4). That interpolant is a :class:`~tauvcore.truth.kinematic.Profile`, so the
+kinematic generator's machinery turns it into the truth record: angular rate from the Euler
+rates, specific force from the velocity's derivative with gravity and the earth's rotation of
+the chosen earth model, position and the IMU increments by Gauss-Legendre quadrature. Specific
+force, angular rate and positions are therefore consistent with one another to round-off, as on
+the kinematic truth (an ideal INS follows it: tests/scenario/test_dynamic_truth.py).
+
+Streaming: the simulation runs chunk by chunk, carrying its state, so :class:`DynamicTruthStream`
+holds one chunk whatever the mission's length, and chunks of any size give the same numbers bit
+for bit (the integration does not know where a chunk ends; the interpolant at a time depends only
+on the two knots around it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from tauvcore.geo.earth import Earth
+from tauvcore.truth import control as ctl
+from tauvcore.truth import vehicle as veh
+from tauvcore.truth.kinematic import (
+    PROFILES,
+    Profile,
+    TrajectoryConfig,
+    _chunk_from_profile,
+    _kinematics,
+    _start_n,
+    num_samples,
+)
+from tauvcore.truth.record import Truth, VehicleRecord
+from tauvcore.validation import require_positive
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+MISSION_STEP_S = 0.25
+"""Spacing in time of the kinematic scenario's points that make the path and depth schedule [s]."""
+MISSION_MARGIN_S = 120.0
+"""Path beyond the mission's duration [s]: the vehicle may get ahead of the schedule."""
+
+# columns of a knot row
+K_EULER, K_EULER_DOT, K_VEL, K_VEL_DOT = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+K_FINS, K_RPM, K_HEADING_CMD, K_PITCH_CMD, K_TRACK, K_DEPTH_REF, K_POS = (
+    slice(12, 16), 16, 17, 18, 19, 20, slice(21, 24))
+KNOT_COLUMNS = 24
+
+
+@_jit
+def _rk4_step(p: veh.VehicleParams, x: np.ndarray, d1: np.ndarray, fins: np.ndarray, rps: float,
+              current_n: np.ndarray, dt: float) -> None:
+    d2 = veh.state_derivative(p, x + 0.5 * dt * d1, fins, rps, current_n)
+    d3 = veh.state_derivative(p, x + 0.5 * dt * d2, fins, rps, current_n)
+    d4 = veh.state_derivative(p, x + dt * d3, fins, rps, current_n)
+    x += dt / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+
+
+@_jit
+def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs: np.ndarray,
+                   current_n: np.ndarray, path_ne: np.ndarray, s_m: np.ndarray, depth_ref_m: np.ndarray,
+                   depth_rate_ref_mps: np.ndarray, speed_ref_mps: float, dt: float, out: np.ndarray) -> None:
+    """Record ``out.shape[0]`` knots (rows: the K_* columns) from the vehicle state ``x`` and
+    controller state ``cs``, stepping both forward one IMU interval per knot (in place)."""
+    guidance = np.zeros(3)
+    for i in range(out.shape[0]):
+        fins, rps = ctl.autopilot(c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps,
+                                  dt, guidance)
+        d1 = veh.state_derivative(p, x, fins, rps, current_n)
+        C_nb = veh.C_nb_of(x[9], x[10], x[11])
+        current_b = veh._matvec(C_nb.T, current_n)
+        w_x_current = veh._cross(x[3:6], current_b)
+        for j in range(3):
+            out[i, j] = x[9 + j]
+            out[i, 3 + j] = d1[9 + j]
+            out[i, 6 + j] = x[j] + current_b[j]
+            out[i, 9 + j] = d1[j] - w_x_current[j]      # d/dt (C_nb.T v_c) = -omega_nb_b x (C_nb.T v_c)
+            out[i, 21 + j] = x[6 + j]
+        for j in range(4):
+            out[i, 12 + j] = x[12 + j]
+        out[i, 16] = 60.0 * x[16]
+        out[i, 17], out[i, 18], out[i, 19] = guidance[0], guidance[1], guidance[2]
+        out[i, 20] = depth_ref_m[i]
+        _rk4_step(p, x, d1, fins, rps, current_n, dt)
+
+
+class HermiteProfile:
+    """The :class:`~tauvcore.truth.kinematic.Profile` through knots ``first .. first + n - 1`` at
+    ``t_k = k dt``: cubic Hermite in each interval of the Euler angles and body velocity, from
+    their values and derivatives at the knots; the derivatives are the interpolant's own."""
+
+    def __init__(self, knots: np.ndarray, first: int, dt: float) -> None:
+        self.knots, self.first, self.dt = knots, first, dt
+
+    def _basis(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u = np.asarray(t, dtype=float) / self.dt
+        i = np.clip(np.floor(u).astype(np.int64), self.first, self.first + self.knots.shape[0] - 2)
+        return i - self.first, u - i
+
+    def _value(self, t: np.ndarray, cols: slice, dcols: slice) -> tuple[np.ndarray, np.ndarray]:
+        j, tau = self._basis(t)
+        h = self.dt
+        y0, y1 = self.knots[j, cols], self.knots[j + 1, cols]
+        m0, m1 = self.knots[j, dcols], self.knots[j + 1, dcols]
+        s = tau[:, None]
+        s2, s3 = s * s, s * s * s
+        value = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * h * m0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * h * m1
+        rate = ((6 * s2 - 6 * s) * (y0 - y1)) / h + (3 * s2 - 4 * s + 1) * m0 + (3 * s2 - 2 * s) * m1
+        return value, rate
+
+    def profile(self) -> Profile:
+        return Profile(euler=lambda t: self._value(t, K_EULER, K_EULER_DOT)[0],
+                       euler_dot=lambda t: self._value(t, K_EULER, K_EULER_DOT)[1],
+                       vel_b=lambda t: self._value(t, K_VEL, K_VEL_DOT)[0],
+                       vel_b_dot=lambda t: self._value(t, K_VEL, K_VEL_DOT)[1])
+
+
+@dataclass(frozen=True)
+class Mission:
+    """What the guidance follows: the horizontal path and the depth schedule of a scenario."""
+
+    path_ne: np.ndarray      # (P, 2) north, east [m]
+    s_m: np.ndarray          # (P,) arc length along the path [m]
+    t_s: np.ndarray          # (P,) schedule times [s]
+    depth_m: np.ndarray      # (P,) depth schedule [m]
+    depth_rate_mps: np.ndarray  # (P,) its rate [m/s]
+    euler0: np.ndarray       # (3,) attitude at the start [rad]
+
+
+def mission(cfg: TrajectoryConfig) -> Mission:
+    """The kinematic scenario ``cfg`` as a path and depth schedule (trapezoidal integration of its
+    velocity every MISSION_STEP_S: the path's points, not the truth)."""
+    profile = PROFILES[cfg.name](cfg)
+    t = np.arange(0.0, cfg.duration_s + MISSION_MARGIN_S + MISSION_STEP_S, MISSION_STEP_S)
+    kin = _kinematics(profile, t)
+    vel_n = kin["vel_n"]
+    pos = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * MISSION_STEP_S * (vel_n[1:] + vel_n[:-1]), axis=0)])
+    pos += _start_n(cfg)
+    path = np.ascontiguousarray(pos[:, :2])
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    return Mission(path_ne=path, s_m=s, t_s=t, depth_m=pos[:, 2], depth_rate_mps=vel_n[:, 2],
+                   euler0=kin["euler"][0])
+
+
+class DynamicSimulation:
+    """The vehicle flying a mission, advanced knot by knot (:meth:`knots`)."""
+
+    def __init__(self, cfg: TrajectoryConfig, rate_hz: float, vehicle: veh.VehicleConfig = veh.VehicleConfig(),
+                 control: ctl.ControlConfig = ctl.ControlConfig()) -> None:
+        self.cfg = cfg
+        self.dt = 1.0 / rate_hz
+        self.params = veh.vehicle_params(vehicle)
+        rps_per_mps = 1.0 / veh.steady_speed_per_rps(self.params)
+        self.control = ctl.control_params(control, self.params.fin_max_rad, self.params.rps_max, rps_per_mps)
+        self.mission = mission(cfg)
+        self.current_n = np.asarray(cfg.current_n_mps, dtype=float)
+        x = np.zeros(veh.NUM_STATES)
+        x[veh.EULER] = self.mission.euler0
+        C_nb = veh.C_nb_of.py_func(*self.mission.euler0)
+        x[0:3] = np.array([cfg.speed_mps, 0.0, 0.0]) - C_nb.T @ self.current_n
+        x[veh.POS] = _start_n(cfg)
+        x[veh.RPS] = rps_per_mps * cfg.speed_mps
+        self.x = x
+        self.cs = np.zeros(ctl.NUM_CONTROL_STATES)
+        self.next_knot = 0
+
+    def knots(self, count: int) -> np.ndarray:
+        """The next ``count`` knots (count, KNOT_COLUMNS), from knot ``next_knot`` on."""
+        m = self.mission
+        t = (self.next_knot + np.arange(count)) * self.dt
+        depth_ref = np.interp(t, m.t_s, m.depth_m)
+        depth_rate = np.interp(t, m.t_s, m.depth_rate_mps)
+        out = np.empty((count, KNOT_COLUMNS))
+        simulate_knots(self.params, self.control, self.x, self.cs, self.current_n, m.path_ne, m.s_m, depth_ref,
+                       depth_rate, self.cfg.speed_mps, self.dt, out)
+        self.next_knot += count
+        return out
+
+
+def _vehicle_record(knots: np.ndarray) -> VehicleRecord:
+    return VehicleRecord(propeller_rpm=knots[:, K_RPM].copy(), fin_angles_rad=knots[:, K_FINS].copy(),
+                         heading_cmd_rad=knots[:, K_HEADING_CMD].copy(), pitch_cmd_rad=knots[:, K_PITCH_CMD].copy(),
+                         cross_track_m=knots[:, K_TRACK].copy(),
+                         depth_error_m=knots[:, K_POS][:, 2] - knots[:, K_DEPTH_REF])
+
+
+class DynamicTruthStream:
+    """The dynamic truth chunk by chunk, as tauvcore.truth.kinematic.TruthStream gives the kinematic
+    one (same interface); each chunk's :attr:`Truth.vehicle` carries fins, propeller and guidance."""
+
+    def __init__(self, cfg: TrajectoryConfig, earth: Earth, rate_hz: float, chunk_samples: int,
+                 vehicle: veh.VehicleConfig = veh.VehicleConfig(),
+                 control: ctl.ControlConfig = ctl.ControlConfig()) -> None:
+        require_positive("imu.rate_hz", rate_hz)
+        if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, (int, np.integer)) or chunk_samples < 1:
+            raise ValueError(f"chunk_samples must be a whole number >= 1, got {chunk_samples!r}")
+        self.cfg, self.earth, self.rate_hz = cfg, earth, float(rate_hz)
+        self.chunk_samples = int(chunk_samples)
+        self.num_samples = num_samples(cfg.duration_s, rate_hz)
+        self.dt_s = 1.0 / rate_hz
+        self.vehicle, self.control = vehicle, control
+
+    def __len__(self) -> int:
+        return -(-self.num_samples // self.chunk_samples)
+
+    def __iter__(self) -> Iterator[tuple[int, Truth]]:
+        sim = DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control)
+        pos0_n = _start_n(self.cfg)
+        carried = None
+        kept = sim.knots(1)                       # knots first .. first + len - 1
+        first = 0
+        for k0 in range(0, self.num_samples, self.chunk_samples):
+            k1 = min(k0 + self.chunk_samples, self.num_samples)
+            # the chunk's samples and intervals need knots max(k0 - 1, 0) .. k1 (one past its last sample)
+            new = sim.knots(k1 + 1 - sim.next_knot)
+            knots = np.concatenate([kept, new])
+            start = max(k0 - 1, 0)
+            knots, first = knots[start - first:], start
+            profile = HermiteProfile(knots, first, self.dt_s).profile()
+            truth, carried = _chunk_from_profile(self.cfg.name, profile, self.earth, self.rate_hz, k0, k1, pos0_n,
+                                                 carried)
+            rows = knots[k0 - first:k1 - first]
+            yield k0, _with_vehicle(truth, _vehicle_record(rows))
+            kept, first = knots[k1 - 1 - first:], k1 - 1
+
+
+def _with_vehicle(truth: Truth, record: VehicleRecord) -> Truth:
+    import dataclasses
+
+    return dataclasses.replace(truth, vehicle=record)
+
+
+def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float, vehicle: veh.VehicleConfig = veh.VehicleConfig(),
+             control: ctl.ControlConfig = ctl.ControlConfig()) -> Truth:
+    """The whole mission's dynamic truth at ``rate_hz`` (one chunk of :class:`DynamicTruthStream`)."""
+    stream = DynamicTruthStream(cfg, earth, rate_hz, num_samples(cfg.duration_s, rate_hz), vehicle, control)
+    return next(iter(stream))[1]
