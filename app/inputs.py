@@ -19,9 +19,13 @@ from dataclasses import dataclass
 
 from tauvcore.config import AUTO, METHODS, Config
 from tauvcore.sensors.dvl import Outage
+from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, show
 
 TRAJECTORY = "Trajectory"
+TRUTH = "Truth"
+TRUTH_HINT = ("kinematic: closed-form motion along the trajectory; dynamic: the 6-DOF TAUV flown along it by its "
+              "autopilot (fins and propeller in the Vehicle tab and the 3-D view). A log replays its own reference")
 SOURCE = "Source"
 SIMULATION = "simulation"
 """The Source dropdown's first choice (``tauv serve --logs`` adds the logs it found)."""
@@ -54,6 +58,7 @@ def outage_labels(beam: int) -> tuple[str, str]:
 
 FIELD_LABELS = {
     "trajectory.duration_s": DURATION,
+    "trajectory.truth": TRUTH,
     "imu.accel_bias_mg": ACCEL_BIAS,
     "imu.gyro_bias_deg_per_h": GYRO_BIAS,
     "imu.accel_noise_mps_per_sqrt_h": ACCEL_NOISE,
@@ -133,6 +138,7 @@ class Controls:
     seed: str
     runs: str
     source: str = SIMULATION                  # "simulation" or the name of a log (tauv serve --logs)
+    truth: str = TrajectoryConfig.truth       # one of tauvcore.truth.TRUTH_SOURCES (a simulation's only)
 
 
 def _label_for(exc: ConfigError) -> str | None:
@@ -185,9 +191,11 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
             raise InputError(f"Beam {k} outage ends ({end:g} s) before it starts ({start:g} s)")
         outages.append(Outage(beams=(k,), start_s=start, end_s=end))
     aiding = ("dvl",) + (("depth",) if c.aid_depth else ()) + (("mag",) if c.aid_mag else ())
+    # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
+    truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
     try:
         config = (Config()
-                  .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION])
+                  .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION], truth=truth)
                   .replace("imu", accel_bias_mg=numbers[ACCEL_BIAS], gyro_bias_deg_per_h=numbers[GYRO_BIAS],
                            accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
                            gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE])
@@ -215,6 +223,7 @@ def config_markdown(config: Config, runs: int) -> str:
                         for o in d.outages) or "none"
     rows = [
         ("Trajectory", config.trajectory.name),
+        (TRUTH, config.trajectory.truth),
         (DURATION, f"{config.trajectory.duration_s:g}"),
         ("Methods", ", ".join(m.upper() for m in run.methods)),
         (VB_NF, f"{config.partial.vb_nf:g}"),

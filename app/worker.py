@@ -99,29 +99,40 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
     return out
 
 
-def truth_view(config: Config, step: int) -> dict[str, np.ndarray]:
+def truth_view(config: Config, step: int) -> dict[str, np.ndarray | None]:
     """What the 3-D view needs before the run: the truth at the output epochs (every ``step``-th
     IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
-    the schedule lets return (random drop-outs show once the results carry them)."""
+    the schedule lets return (random drop-outs show once the results carry them).
+
+    With the dynamic truth (its chunks carry a :class:`~tauvcore.truth.VehicleRecord`) also the
+    vehicle's actuators at the same rows: ``propeller_rpm`` (T,) [rev/min] and ``fin_angles_rad``
+    (T, 4), fins 1-4 of tauvcore.truth.vehicle [rad]; both None for the kinematic truth."""
     stream = truth_stream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
-    t, pos, C = [], [], []
+    t, pos, C, rpm, fins = [], [], [], [], []
     for k0, chunk in stream:
         rows = np.arange((-k0) % step, chunk.num_samples, step)
         t.append(chunk.t_s[rows])
         pos.append(chunk.pos_n[rows])
         C.append(chunk.C_nb[rows])
+        if chunk.vehicle is not None:
+            rpm.append(chunk.vehicle.propeller_rpm[rows])
+            fins.append(chunk.vehicle.fin_angles_rad[rows])
     t_end = (stream.num_samples - 1) * stream.dt_s
     pings = epoch_indices_between(config.dvl.rate_hz, t_end, stream.dt_s, stream.num_samples, 0,
                                   stream.num_samples) * stream.dt_s
     return {"t_s": np.concatenate(t), "pos_n": np.concatenate(pos), "C_nb": np.concatenate(C), "ping_t_s": pings,
-            "ping_available": config.dvl.scheduled_availability(pings)}
+            "ping_available": config.dvl.scheduled_availability(pings),
+            "propeller_rpm": np.concatenate(rpm) if rpm else None,
+            "fin_angles_rad": np.concatenate(fins) if fins else None}
 
 
-def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str, np.ndarray]:
-    """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings."""
+def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str, np.ndarray | None]:
+    """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings
+    (a log records no actuators: ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
     rows = np.arange(0, truth.num_samples, step)
     return {"t_s": truth.t_s[rows], "pos_n": truth.pos_n[rows], "C_nb": truth.C_nb[rows], "ping_t_s": dvl.t_s,
-            "ping_available": config.dvl.scheduled_availability(dvl.t_s)}
+            "ping_available": config.dvl.scheduled_availability(dvl.t_s), "propeller_rpm": None,
+            "fin_angles_rad": None}
 
 
 def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_event: Any,
