@@ -37,8 +37,10 @@ from viser import _messages as viser_messages
 from app import budget, inputs, worker
 from app.figures import (
     AUTO,
+    FIN_COLORS,
     METHOD_COLORS,
     TRUTH_COLOR,
+    actuator_figure,
     decimate,
     elc_choice_figure,
     error_figure,
@@ -53,9 +55,10 @@ from app.scene import (
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
     M_VIEW_FROM_NED,
-    auv_mesh_view_body,
+    auv_parts_body,
     beam_segments_n,
     beam_states,
+    fin_wxyz_body,
     ned_to_view,
     wxyz_view,
 )
@@ -63,7 +66,7 @@ from tauvcore.config import METHODS, Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
-from tauvcore.truth import TRAJECTORIES
+from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import ConfigError, show
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
@@ -73,6 +76,15 @@ CONSISTENCY_NOTE = (
     "block's dimension, averaged over the runs. **1: the method knows its error**; above the grey 99 % "
     "band it is over-confident (its sigma is too small), below it cautious. The band narrows as runs "
     "are added; the Results tab sums it up per method.")
+VEHICLE_NOTES = {
+    "dynamic": ("Fins (positive: pushing along the fin's normal) and propeller of the 6-DOF vehicle the dynamic "
+                "truth flies; in the 3-D view the fins, coloured as here, turn with the time slider."),
+    "kinematic": ("No fins or propeller: the **kinematic** truth is closed-form motion, no vehicle flies it. "
+                  "Choose **Truth: dynamic** and press **Run** to see the 6-DOF vehicle's fins and propeller."),
+    "log": "No fins or propeller: a recorded log has no actuator record.",
+    "none": "Fins and propeller of the dynamic truth show here after a run with **Truth: dynamic**.",
+}
+"""The Vehicle tab's note for each kind of truth (its figure shows for the dynamic truth only)."""
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
@@ -135,7 +147,8 @@ class Session:
         self.draw_lock = threading.RLock()
         self.handle: worker.RunHandle | None = None
         self.config: Config | None = None
-        self.truth_view: dict[str, np.ndarray] | None = None
+        self.truth_view: dict[str, np.ndarray | None] | None = None
+        self.replaying = False           # the current run replays a log (tauv serve --logs)
         self.results: dict[str, MethodResult] | None = None
         self.playing = False
         self._build_gui()
@@ -152,6 +165,8 @@ class Session:
                                                  "these methods, beams, outages and tuning; its own length")
                            if self.logs else None)
             self.trajectory = gui.add_dropdown(inputs.TRAJECTORY, TRAJECTORIES, initial_value=d.trajectory.name)
+            self.truth = gui.add_dropdown(inputs.TRUTH, TRUTH_SOURCES, initial_value=d.trajectory.truth,
+                                          hint=inputs.TRUTH_HINT)
             # numeric fields are text: the server reads what was typed (see app.inputs)
             self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
             with gui.add_folder("Methods"):
@@ -207,10 +222,16 @@ class Session:
                                                hint="full: all 20 error states; or one block of them")
             self.nees_plot = gui.add_plotly(go.Figure(), aspect=1.5)   # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
+        with tabs.add_tab("Vehicle"):
+            self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
+            self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
         with tabs.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
             self.run_config = gui.add_markdown("")
 
+        if self.source is not None:
+            # a log replays its own reference: the truth's generator does not apply to it
+            self.source.on_update(lambda _: setattr(self.truth, "disabled", self.source.value != inputs.SIMULATION))
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
         self.show_sigma.on_update(lambda _: self.refresh_plots())
@@ -240,8 +261,8 @@ class Session:
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
-        handles: list[Any] = [*([self.source] if self.source is not None else []), self.trajectory, self.duration,
-                              *self.method_boxes.values(), self.vb_nf,
+        handles: list[Any] = [*([self.source] if self.source is not None else []), self.trajectory, self.truth,
+                              self.duration, *self.method_boxes.values(), self.vb_nf,
                               self.nsv_epsilon, *self.beam_boxes,
                               self.dropout, *(h for pair in self.outage for h in pair), self.aid_depth,
                               self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
@@ -317,8 +338,8 @@ class Session:
     def controls(self) -> Controls:
         """What the controls hold (the server's copy; see :meth:`confirm_page_state`)."""
         return Controls(
-            trajectory=self.trajectory.value, duration=self.duration.value, methods=self.selected_methods(),
-            vb_nf=self.vb_nf.value, nsv_epsilon=self.nsv_epsilon.value,
+            trajectory=self.trajectory.value, truth=self.truth.value, duration=self.duration.value,
+            methods=self.selected_methods(), vb_nf=self.vb_nf.value, nsv_epsilon=self.nsv_epsilon.value,
             beams=tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value), dropout=self.dropout.value,
             outages=tuple((start.value, end.value) for start, end in self.outage),
             aid_depth=self.aid_depth.value, aid_mag=self.aid_mag.value, accel_bias=self.accel_bias.value,
@@ -360,6 +381,7 @@ class Session:
             source = self.source.value if self.source is not None else inputs.SIMULATION
             log_dir = self.logs.get(source)
             self.config, self.results, self.truth_view = config, None, None
+            self.replaying = log_dir is not None
             self.handle = handle = self.pool.start(to_dict(config), runs, log_dir=log_dir)
         self.run_button.disabled, self.stop_button.disabled = True, False
         self.progress.value = 0.0
@@ -424,6 +446,7 @@ class Session:
                 elif kind == "truth":
                     self.truth_view = msg[1]
                     self._draw_truth()
+                    self._draw_vehicle_plot()
                 elif kind == "progress":
                     pending = msg[2]
                     self.progress.value = 100.0 * msg[1] / config.trajectory.duration_s
@@ -498,9 +521,13 @@ class Session:
         surface_v = np.array([[-300, -150, 0], [300, -150, 0], [300, 450, 0], [-300, 450, 0]], dtype=float)
         scene.add_mesh_simple("/surface", surface_v, np.array([[0, 1, 2], [0, 2, 3]]), color=(90, 170, 230),
                               opacity=0.15, side="double")
-        verts, faces = auv_mesh_view_body()
+        (verts, faces), fins = auv_parts_body()
         self.auv = scene.add_mesh_simple("/auv", verts, faces, color=(250, 200, 40), flat_shading=False,
                                          position=tuple(ned_to_view(np.array([0.0, 0.0, d.trajectory.depth_m]))))
+        # children of the hull's node: placed in the body frame, each turned about its hinge (show_time)
+        self.fins = [scene.add_mesh_simple(f"/auv/fin{k + 1}", fin.verts_hinge, fin.faces, color=_hex_rgb(color),
+                                           flat_shading=True, side="double", position=tuple(fin.hinge_b))
+                     for k, (fin, color) in enumerate(zip(fins, FIN_COLORS))]
         self.beams: list[Any] = []
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
@@ -563,6 +590,20 @@ class Session:
         self.show_time(0.0)
 
     @_drawing
+    def _draw_vehicle_plot(self) -> None:
+        """The Vehicle tab: fins and propeller of a dynamic truth, otherwise a note saying why none."""
+        tv, config = self.truth_view, self.config
+        if tv is None or config is None:
+            return
+        if tv.get("fin_angles_rad") is not None and tv.get("propeller_rpm") is not None:
+            self.vehicle_plot.figure = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"])
+            self.vehicle_plot.visible = True
+            self.vehicle_note.content = VEHICLE_NOTES["dynamic"]
+            return
+        self.vehicle_plot.visible = False
+        self.vehicle_note.content = VEHICLE_NOTES["log" if self.replaying else config.trajectory.truth]
+
+    @_drawing
     def _draw_estimates(self, results: dict[str, MethodResult]) -> None:
         for method, res in results.items():
             est = res.est_pos_n[decimate(len(res.t_s), TRAJECTORY_POINTS), 0]
@@ -594,6 +635,10 @@ class Session:
             self._set_camera(target + offset, target)
         self.auv.position = tuple(ned_to_view(pos_n))
         self.auv.wxyz = tuple(wxyz_view(C_nb))
+        fin_angles = tv.get("fin_angles_rad")
+        deflection = fin_angles[i] if fin_angles is not None else np.zeros(len(self.fins))  # kinematic: no fins move
+        for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
+            fin.wxyz = tuple(wxyz)
         self.show_beams_static(config, pos_n, C_nb, self.beam_states_at(t_s))
 
     def beam_states_at(self, t_s: float) -> list[str]:

@@ -6,7 +6,8 @@ the paper's figures) and the sigma band is the RMS of the filter's own 1-sigma. 
 shown as tilt (roll, pitch: levelling) and heading apart, and as their norm: with DVL aiding alone
 heading is unobservable, so the norm is almost all heading and hides how well tilt is estimated.
 The consistency figure shows whether each method knows its own error: its NEES divided by the
-block's dimension (1 for a consistent filter) against the two-sided 99 % band.
+block's dimension (1 for a consistent filter) against the two-sided 99 % band. The actuator figure
+shows what the dynamic truth's vehicle did: its four fins and its propeller.
 
 Figures are assembled as plain dicts and wrapped without plotly's per-property validation
 (:func:`_figure`): validation took 45 of the 56 ms that the four live plots cost per redraw, and
@@ -55,6 +56,12 @@ NEES_BLOCK_NAMES = {"full": "full state", "pos": "position", "vel": "velocity", 
                     "heading": "heading", "sensor": "sensor errors"}
 """Consistency blocks (tauvcore.eval.consistency.BLOCK_DIMS) as the figure names them."""
 BAND_COLOR = "rgba(120,120,120,0.18)"
+FIN_NAMES = ("fin 1 lower stbd", "fin 2 lower port", "fin 3 upper port", "fin 4 upper stbd")
+"""Fins 1-4 of tauvcore.truth.vehicle (FIN_POSITION_ANGLES_RAD: 45, 135, 225, 315 deg from starboard
+towards down)."""
+FIN_COLORS = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a")
+"""One colour per fin, in the actuator figure and on the fins of the 3-D view."""
+PROPELLER_COLOR = "#444444"
 
 
 def method_color(method: str) -> str:
@@ -219,6 +226,43 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool
               "margin": {"l": 60, "r": 10, "t": 35, "b": 35}, "xaxis": {"title": {"text": "time [s]"}},
               "template": "plotly_white", "legend": {"orientation": "h", "y": -0.35},
               "yaxis": {"categoryorder": "array", "categoryarray": ["heave", "sway", "surge"]}}
+    return _figure(data, layout, validate)
+
+
+def actuator_figure(t_s: np.ndarray, fin_angles_rad: np.ndarray, propeller_rpm: np.ndarray, height_px: int = 380,
+                    max_points: int | None = 600, validate: bool = False) -> go.Figure:
+    """The dynamic truth's actuators against time: the four fin deflections [deg] (top panel,
+    one trace per fin named by FIN_NAMES; positive pushes along the fin's normal, see
+    tauvcore.truth.vehicle) and the propeller speed [rev/min] (bottom panel, trace "propeller"),
+    on one shared time axis.
+
+    Parameters
+    ----------
+    t_s : (T,) time [s].
+    fin_angles_rad : (T, 4) fin deflections [rad], fins 1-4.
+    propeller_rpm : (T,) propeller speed [rev/min].
+
+    At most about ``max_points`` points per trace (:func:`decimate`, the last sample kept).
+    """
+    t_s, fins, rpm = np.asarray(t_s, float), np.asarray(fin_angles_rad, float), np.asarray(propeller_rpm, float)
+    if fins.shape != (t_s.size, 4) or rpm.shape != t_s.shape:
+        raise ValueError(f"actuator_figure needs t_s (T,), fin_angles_rad (T, 4) and propeller_rpm (T,), got "
+                         f"{t_s.shape}, {fins.shape} and {rpm.shape}")
+    keep = decimate(t_s.size, max_points)
+    t, fins_deg = t_s[keep], np.degrees(fins[keep])
+    data: list[dict[str, Any]] = [
+        {"type": "scatter", "x": t, "y": fins_deg[:, k], "name": name, "mode": "lines",
+         "line": {"color": color, "width": 1.5}, "xaxis": "x", "yaxis": "y"}
+        for k, (name, color) in enumerate(zip(FIN_NAMES, FIN_COLORS))]
+    data.append({"type": "scatter", "x": t, "y": rpm[keep], "name": "propeller", "mode": "lines",
+                 "line": {"color": PROPELLER_COLOR, "width": 1.5}, "xaxis": "x2", "yaxis": "y2"})
+    layout = {"title": {"text": "Dynamic truth: fins and propeller", "font": {"size": 13}}, "height": height_px,
+              "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.15},
+              "template": "plotly_white",
+              "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
+              "yaxis": {"domain": [0.4, 1.0], "title": {"text": "fin deflection [deg]", "font": {"size": 11}}},
+              "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
+              "yaxis2": {"domain": [0.0, 0.3], "title": {"text": "propeller [rpm]", "font": {"size": 11}}}}
     return _figure(data, layout, validate)
 
 

@@ -3,15 +3,23 @@
 viser's world is right-handed with z up; we show east as x, north as y, up as z:
 ``p_view = M p_n`` with ``M = [[0, 1, 0], [1, 0, 0], [0, 0, -1]]`` (a proper rotation, det +1).
 A body-frame vector goes to the view as ``M C_nb v_b``.
+
+The fins are children of the vehicle's node: their placement (:func:`fin_wxyz_body`) is a
+rotation in the body frame, which the parent's ``M C_nb`` carries into the view.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import viser.transforms as vtf
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD
 
 ASSETS_DIR = Path(__file__).resolve().parent.parent / "assets"
 M_VIEW_FROM_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
@@ -53,6 +61,75 @@ def load_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
 def auv_mesh_view_body() -> tuple[np.ndarray, np.ndarray]:
     """The AUV mesh in the body frame (apply ``wxyz_view`` to place it)."""
     return load_obj(str(ASSETS_DIR / "auv.obj"))
+
+
+@dataclass(frozen=True)
+class Fin:
+    """One fin of the AUV mesh, ready to turn about its hinge."""
+
+    verts_hinge: np.ndarray   # (V, 3) vertices relative to the hinge point, body axes [m]
+    faces: np.ndarray         # (F, 3) triangles
+    hinge_b: np.ndarray       # (3,) hinge point in the body frame [m]: on the hull's axis below the root chord's middle
+    angle_rad: float          # where the fin stands about x, from starboard towards down [rad]
+
+
+def _components(verts: np.ndarray, faces: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The mesh's connected parts (vertices linked by triangles), each re-indexed from 0."""
+    n = len(verts)
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]]])
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    parts = []
+    for c in np.unique(label):
+        keep = np.flatnonzero(label == c)
+        index = np.full(n, -1)
+        index[keep] = np.arange(keep.size)
+        parts.append((verts[keep], index[faces[label[faces[:, 0]] == c]]))
+    return parts
+
+
+@lru_cache(maxsize=1)
+def auv_parts_body() -> tuple[tuple[np.ndarray, np.ndarray], tuple[Fin, ...]]:
+    """The AUV mesh (:func:`auv_mesh_view_body`) split into the hull (vertices, faces) and its
+    four fins, ordered as tauvcore.truth.vehicle numbers them (FIN_POSITION_ANGLES_RAD).
+
+    The hull is the largest connected part; each fin is a separate part, matched to the nearest
+    fin position by the angle of its centroid about x. A fin's hinge is its radial line
+    ``e_r = (0, cos g, sin g)`` through the middle of its root chord.
+    """
+    verts, faces = auv_mesh_view_body()
+    parts = sorted(_components(verts, faces), key=lambda p: len(p[0]), reverse=True)
+    hull, others = parts[0], parts[1:]
+    if len(others) != len(FIN_POSITION_ANGLES_RAD):
+        raise ValueError(f"the AUV mesh has {len(others)} parts besides the hull, expected "
+                         f"{len(FIN_POSITION_ANGLES_RAD)} fins")
+    fins: list[Fin | None] = [None] * len(FIN_POSITION_ANGLES_RAD)
+    for v, f in others:
+        centre = v.mean(axis=0)
+        angle = np.arctan2(centre[2], centre[1])
+        off = np.abs(np.angle(np.exp(1j * (FIN_POSITION_ANGLES_RAD - angle))))
+        k = int(np.argmin(off))
+        if fins[k] is not None or off[k] > np.radians(10.0):
+            raise ValueError(f"the AUV mesh has a part at {np.degrees(angle):.1f} deg about x, not a fin of its own")
+        radius = np.hypot(v[:, 1], v[:, 2])
+        root = v[np.isclose(radius, radius.min(), atol=1e-3)]
+        hinge = np.array([0.5 * (root[:, 0].min() + root[:, 0].max()), 0.0, 0.0])
+        fins[k] = Fin(verts_hinge=v - hinge, faces=f, hinge_b=hinge, angle_rad=float(FIN_POSITION_ANGLES_RAD[k]))
+    return hull, tuple(fins)  # type: ignore[arg-type]
+
+
+def fin_wxyz_body(fin_angles_rad: np.ndarray) -> np.ndarray:
+    """Quaternions (4, 4) (w, x, y, z) turning fins 1-4 about their hinges by their deflections
+    ``fin_angles_rad`` (4,) [rad], in the body frame.
+
+    A positive deflection pushes along the fin's normal ``n = (0, -sin g, cos g)``
+    (tauvcore.truth.vehicle): its leading edge turns towards n, ``x_b -> cos(d) x_b + sin(d) n``,
+    a rotation by d about ``x_b x n = -e_r``.
+    """
+    d = np.asarray(fin_angles_rad, float)
+    g = FIN_POSITION_ANGLES_RAD
+    minus_e_r = np.stack([np.zeros_like(g), -np.cos(g), -np.sin(g)], axis=1)
+    return vtf.SO3.exp(minus_e_r * d[:, None]).wxyz
 
 
 def beam_segments_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray,

@@ -65,11 +65,21 @@ KNOT_COLUMNS = 24
 
 @_jit
 def _rk4_step(p: veh.VehicleParams, x: np.ndarray, d1: np.ndarray, fins: np.ndarray, rps: float,
-              current_n: np.ndarray, dt: float) -> None:
-    d2 = veh.state_derivative(p, x + 0.5 * dt * d1, fins, rps, current_n)
-    d3 = veh.state_derivative(p, x + 0.5 * dt * d2, fins, rps, current_n)
-    d4 = veh.state_derivative(p, x + dt * d3, fins, rps, current_n)
-    x += dt / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+              current_n: np.ndarray, dt: float, work: np.ndarray) -> None:
+    """x += one classical Runge-Kutta step, d1 = f(x) given; ``work`` (5, 17) scratch."""
+    n = x.shape[0]
+    xs, d2, d3, d4, tau = work[0], work[1], work[2], work[3], work[4, :6]
+    for i in range(n):
+        xs[i] = x[i] + 0.5 * dt * d1[i]
+    veh.derivative_into(p, xs, fins, rps, current_n, tau, d2)
+    for i in range(n):
+        xs[i] = x[i] + 0.5 * dt * d2[i]
+    veh.derivative_into(p, xs, fins, rps, current_n, tau, d3)
+    for i in range(n):
+        xs[i] = x[i] + dt * d3[i]
+    veh.derivative_into(p, xs, fins, rps, current_n, tau, d4)
+    for i in range(n):
+        x[i] += dt / 6.0 * (d1[i] + 2.0 * d2[i] + 2.0 * d3[i] + d4[i])
 
 
 @_jit
@@ -79,12 +89,16 @@ def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs
     """Record ``out.shape[0]`` knots (rows: the K_* columns) from the vehicle state ``x`` and
     controller state ``cs``, stepping both forward one IMU interval per knot (in place)."""
     guidance = np.zeros(3)
+    work = np.zeros((5, x.shape[0]))
+    d1 = np.empty(x.shape[0])
+    current_b = np.empty(3)
     for i in range(out.shape[0]):
         fins, rps = ctl.autopilot(c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps,
                                   dt, guidance)
-        d1 = veh.state_derivative(p, x, fins, rps, current_n)
+        veh.derivative_into(p, x, fins, rps, current_n, work[4, :6], d1)
         C_nb = veh.C_nb_of(x[9], x[10], x[11])
-        current_b = veh._matvec(C_nb.T, current_n)
+        for j in range(3):
+            current_b[j] = C_nb[0, j] * current_n[0] + C_nb[1, j] * current_n[1] + C_nb[2, j] * current_n[2]
         w_x_current = veh._cross(x[3:6], current_b)
         for j in range(3):
             out[i, j] = x[9 + j]
@@ -97,7 +111,7 @@ def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs
         out[i, 16] = 60.0 * x[16]
         out[i, 17], out[i, 18], out[i, 19] = guidance[0], guidance[1], guidance[2]
         out[i, 20] = depth_ref_m[i]
-        _rk4_step(p, x, d1, fins, rps, current_n, dt)
+        _rk4_step(p, x, d1, fins, rps, current_n, dt, work)
 
 
 class HermiteProfile:

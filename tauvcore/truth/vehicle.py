@@ -280,15 +280,6 @@ def _skew(v: np.ndarray) -> np.ndarray:
 
 
 @_jit
-def _matvec(M: np.ndarray, v: np.ndarray) -> np.ndarray:
-    out = np.zeros(M.shape[0])
-    for i in range(M.shape[0]):
-        for j in range(M.shape[1]):
-            out[i] += M[i, j] * v[j]
-    return out
-
-
-@_jit
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
@@ -322,64 +313,116 @@ def thrust_torque(p: VehicleParams, rps: float, u_r: float) -> tuple[float, floa
 
 
 @_jit
-def generalized_force(p: VehicleParams, nu_r: np.ndarray, C_nb: np.ndarray, fins: np.ndarray,
-                      rps: float) -> np.ndarray:
-    """Everything but the mass-matrix term, tau in ``M nu_r' = tau`` (6,) [N, N m]: hydrostatics,
-    drag, body and fin lift, thrust, rigid-body and added-mass Coriolis."""
-    v, w = nu_r[:3], nu_r[3:]
-    u = v[0]
-    tau = np.zeros(6)
+def _cx(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> tuple[float, float, float]:
+    """a x b on scalars (no array allocated in the compiled loop)."""
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@_jit
+def force_into(p: VehicleParams, nu_r: np.ndarray, down_b: tuple[float, float, float], fins: np.ndarray,
+               rps: float, tau: np.ndarray) -> None:
+    """Everything but the mass-matrix term, tau in ``M nu_r' = tau`` (6,) [N, N m], written into
+    ``tau``: rigid-body and added-mass Coriolis, hydrostatics, drag, body and fin lift, thrust.
+    ``down_b``: n's down axis in b (the third row of C_nb)."""
+    u, v, w, p_, q, r = nu_r[0], nu_r[1], nu_r[2], nu_r[3], nu_r[4], nu_r[5]
+    m = p.mass_kg
+    gx, gy, gz = p.r_g_b[0], p.r_g_b[1], p.r_g_b[2]
     # rigid-body Coriolis about the CB: -m (w x v + w x (w x r_g)), -(w x I w) - m r_g x (w x v)
-    wxv = _cross(w, v)
-    tau[:3] -= p.mass_kg * (wxv + _cross(w, _cross(w, p.r_g_b)))
-    tau[3:] -= _cross(w, p.inertia * w) + p.mass_kg * _cross(p.r_g_b, wxv)
+    c0, c1, c2 = _cx(p_, q, r, u, v, w)
+    e0, e1, e2 = _cx(p_, q, r, gx, gy, gz)
+    f0, f1, f2 = _cx(p_, q, r, e0, e1, e2)
+    h0, h1, h2 = _cx(p_, q, r, p.inertia[0] * p_, p.inertia[1] * q, p.inertia[2] * r)
+    k0, k1, k2 = _cx(gx, gy, gz, c0, c1, c2)
+    t0, t1, t2 = -m * (c0 + f0), -m * (c1 + f1), -m * (c2 + f2)
+    t3, t4, t5 = -h0 - m * k0, -h1 - m * k1, -h2 - m * k2
     # added-mass Coriolis (Fossen eq. 6.43): -C_A(nu) nu = -[w x a1; v x a1 + w x a2], a = M_A nu
-    a = _matvec(p.M_A, nu_r)
-    tau[:3] -= _cross(w, a[:3])
-    tau[3:] -= _cross(v, a[:3]) + _cross(w, a[3:])
+    A = p.M_A
+    a = np.empty(6)
+    for i in range(6):
+        a[i] = A[i, 0] * u + A[i, 1] * v + A[i, 2] * w + A[i, 3] * p_ + A[i, 4] * q + A[i, 5] * r
+    c0, c1, c2 = _cx(p_, q, r, a[0], a[1], a[2])
+    e0, e1, e2 = _cx(u, v, w, a[0], a[1], a[2])
+    f0, f1, f2 = _cx(p_, q, r, a[3], a[4], a[5])
+    t0, t1, t2 = t0 - c0, t1 - c1, t2 - c2
+    t3, t4, t5 = t3 - e0 - f0, t4 - e1 - f1, t5 - e2 - f2
     # hydrostatics: weight at r_g, buoyancy at the origin, both along n's down axis
-    down_b = C_nb[2, :]                       # n's z axis in b: C_nb.T @ [0, 0, 1]
-    tau[:3] += (p.weight_n - p.buoyancy_n) * down_b
-    tau[3:] += _cross(p.r_g_b, p.weight_n * down_b)
+    d0, d1, d2 = down_b
+    net = p.weight_n - p.buoyancy_n
+    t0, t1, t2 = t0 + net * d0, t1 + net * d1, t2 + net * d2
+    c0, c1, c2 = _cx(gx, gy, gz, p.weight_n * d0, p.weight_n * d1, p.weight_n * d2)
+    t3, t4, t5 = t3 + c0, t4 + c1, t5 + c2
     # axial drag, hull cross-flow drag, body lift
-    tau[0] += p.x_uu * u * abs(u)
-    tau[1] += p.y_vv * v[1] * abs(v[1]) + p.y_rr * w[2] * abs(w[2]) + p.y_uv_lift * u * v[1]
-    tau[2] += p.y_vv * v[2] * abs(v[2]) - p.y_rr * w[1] * abs(w[1]) + p.y_uv_lift * u * v[2]
-    tau[3] += p.k_pp * w[0] * abs(w[0])
-    tau[4] += -p.n_vv * v[2] * abs(v[2]) + p.n_rr * w[1] * abs(w[1]) - p.x_lift_m * p.y_uv_lift * u * v[2]
-    tau[5] += p.n_vv * v[1] * abs(v[1]) + p.n_rr * w[2] * abs(w[2]) + p.x_lift_m * p.y_uv_lift * u * v[1]
+    t0 += p.x_uu * u * abs(u)
+    t1 += p.y_vv * v * abs(v) + p.y_rr * r * abs(r) + p.y_uv_lift * u * v
+    t2 += p.y_vv * w * abs(w) - p.y_rr * q * abs(q) + p.y_uv_lift * u * w
+    t3 += p.k_pp * p_ * abs(p_)
+    t4 += -p.n_vv * w * abs(w) + p.n_rr * q * abs(q) - p.x_lift_m * p.y_uv_lift * u * w
+    t5 += p.n_vv * v * abs(v) + p.n_rr * r * abs(r) + p.x_lift_m * p.y_uv_lift * u * v
     # fins: lift along the fin's normal from its deflection less the local cross flow
     for i in range(fins.shape[0]):
-        pos, nrm = p.fin_pos_b[i], p.fin_normal_b[i]
-        v_loc = v + _cross(w, pos)
-        across = nrm[0] * v_loc[0] + nrm[1] * v_loc[1] + nrm[2] * v_loc[2]
+        x0, x1, x2 = p.fin_pos_b[i, 0], p.fin_pos_b[i, 1], p.fin_pos_b[i, 2]
+        n0, n1, n2 = p.fin_normal_b[i, 0], p.fin_normal_b[i, 1], p.fin_normal_b[i, 2]
+        l0, l1, l2 = _cx(p_, q, r, x0, x1, x2)
+        across = n0 * (u + l0) + n1 * (v + l1) + n2 * (w + l2)
         lift = p.fin_lift * (u * abs(u) * fins[i] - abs(u) * across)
-        force = lift * nrm
-        tau[:3] += force
-        tau[3:] += _cross(pos, force)
+        t0, t1, t2 = t0 + lift * n0, t1 + lift * n1, t2 + lift * n2
+        c0, c1, c2 = _cx(x0, x1, x2, lift * n0, lift * n1, lift * n2)
+        t3, t4, t5 = t3 + c0, t4 + c1, t5 + c2
     thrust, torque = thrust_torque(p, rps, u)
-    tau[0] += thrust
-    tau[3] -= torque
+    tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = t0 + thrust, t1, t2, t3 - torque, t4, t5
+
+
+@_jit
+def generalized_force(p: VehicleParams, nu_r: np.ndarray, C_nb: np.ndarray, fins: np.ndarray,
+                      rps: float) -> np.ndarray:
+    """:func:`force_into` as a new (6,) array, the attitude given as C_nb."""
+    tau = np.empty(6)
+    force_into(p, nu_r, (C_nb[2, 0], C_nb[2, 1], C_nb[2, 2]), fins, rps, tau)
     return tau
+
+
+@_jit
+def derivative_into(p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cmd: float, current_n: np.ndarray,
+                    tau: np.ndarray, dx: np.ndarray) -> None:
+    """dx/dt of the 17 states (index slices NU, POS, EULER, FINS, RPS) into ``dx``, under commanded
+    fin angles [rad] and propeller speed [rev/s] held constant; ``current_n`` (3,) [m/s] NED;
+    ``tau`` (6,) scratch."""
+    phi, theta, psi = x[9], x[10], x[11]
+    cf, sf, ct, st, cp, sp = math.cos(phi), math.sin(phi), math.cos(theta), math.sin(theta), math.cos(psi), \
+        math.sin(psi)
+    # C_nb (tauvcore.conventions, ZYX)
+    c00, c01, c02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
+    c10, c11, c12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
+    c20, c21, c22 = -st, ct * sf, ct * cf
+    force_into(p, x, (c20, c21, c22), x[12:16], x[16], tau)
+    Mi = p.M_inv
+    for i in range(6):
+        dx[i] = (Mi[i, 0] * tau[0] + Mi[i, 1] * tau[1] + Mi[i, 2] * tau[2] + Mi[i, 3] * tau[3]
+                 + Mi[i, 4] * tau[4] + Mi[i, 5] * tau[5])
+    cn, ce, cd = current_n[0], current_n[1], current_n[2]
+    vb0 = x[0] + c00 * cn + c10 * ce + c20 * cd
+    vb1 = x[1] + c01 * cn + c11 * ce + c21 * cd
+    vb2 = x[2] + c02 * cn + c12 * ce + c22 * cd
+    dx[6] = c00 * vb0 + c01 * vb1 + c02 * vb2
+    dx[7] = c10 * vb0 + c11 * vb1 + c12 * vb2
+    dx[8] = c20 * vb0 + c21 * vb1 + c22 * vb2
+    p_, q, r = x[3], x[4], x[5]
+    tt = st / ct
+    dx[9] = p_ + sf * tt * q + cf * tt * r
+    dx[10] = cf * q - sf * r
+    dx[11] = (sf * q + cf * r) / ct
+    for i in range(NUM_FINS):
+        rate = (fin_cmd[i] - x[12 + i]) / p.fin_tau_s
+        dx[12 + i] = min(max(rate, -p.fin_rate_max_rps), p.fin_rate_max_rps)
+    dx[16] = (rps_cmd - x[16]) / p.motor_tau_s
 
 
 @_jit
 def state_derivative(p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cmd: float,
                      current_n: np.ndarray) -> np.ndarray:
-    """dx/dt of the 17 states (index slices NU, POS, EULER, FINS, RPS) under commanded fin
-    angles [rad] and propeller speed [rev/s] held constant; ``current_n`` (3,) [m/s] NED."""
-    nu_r = x[0:6]
-    phi, theta, psi = x[9], x[10], x[11]
-    C_nb = C_nb_of(phi, theta, psi)
+    """:func:`derivative_into` as a new (17,) array."""
     dx = np.empty(NUM_STATES)
-    dx[0:6] = _matvec(p.M_inv, generalized_force(p, nu_r, C_nb, x[12:16], x[16]))
-    vel_b = nu_r[:3] + _matvec(C_nb.T, current_n)
-    dx[6:9] = _matvec(C_nb, vel_b)
-    dx[9:12] = euler_dot_of(phi, theta, nu_r[3:])
-    for i in range(NUM_FINS):
-        rate = (fin_cmd[i] - x[12 + i]) / p.fin_tau_s
-        dx[12 + i] = min(max(rate, -p.fin_rate_max_rps), p.fin_rate_max_rps)
-    dx[16] = (rps_cmd - x[16]) / p.motor_tau_s
+    derivative_into(p, x, fin_cmd, rps_cmd, current_n, np.empty(6), dx)
     return dx
 
 

@@ -232,6 +232,7 @@ def _replay_checks(pool: RunPool, other: Config, logs: dict, tmp_path) -> None:
     assert replayed["trajectory"]["duration_s"] == pytest.approx(15.0)
     kind, truth = _next(handle)
     assert kind == "truth" and truth["t_s"][-1] == pytest.approx(15.0)
+    assert truth["propeller_rpm"] is None and truth["fin_angles_rad"] is None     # a log records no actuators
     while (msg := _next(handle))[0] != "done":
         pass
     assert msg[1]["lc"].t_s[-1] == pytest.approx(15.0) and not msg[2]
@@ -239,3 +240,41 @@ def _replay_checks(pool: RunPool, other: Config, logs: dict, tmp_path) -> None:
     handle = pool.start(to_dict(other), 1, log_dir=logs["dive"])
     kind, message = _next(handle)
     assert kind == "error" and "depth.csv" in message and "row 1" in message and "'deep'" in message
+
+
+# ---------------------------------------------------------------------------- the truth view
+def _output_step(config: Config) -> int:
+    return int(round(config.imu.rate_hz / config.filter.output_rate_hz))
+
+
+@pytest.mark.parametrize("duration_s", [5.0, 105.0], ids=["one chunk", "two chunks"])
+def test_the_truth_view_of_a_dynamic_truth_carries_fins_and_propeller(duration_s: float) -> None:
+    """Given the dynamic truth on the figure eight, when the worker builds the 3-D view's truth
+    (chunks of 100 s, thinned to the output rate), then it carries the propeller and fins at the
+    rows of pos_n and C_nb: the whole mission's vehicle record at every output epoch."""
+    import numpy as np
+
+    from app.worker import truth_view
+    from tauvcore.truth import generate
+    config = Config().replace("trajectory", name="figure8", duration_s=duration_s, truth="dynamic")
+    step = _output_step(config)
+    view = truth_view(config, step)
+    whole = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    rows = np.arange(0, whole.t_s.size, step)
+    assert view["propeller_rpm"].shape == (rows.size,) and view["fin_angles_rad"].shape == (rows.size, 4)
+    assert view["pos_n"].shape == (rows.size, 3) and view["C_nb"].shape == (rows.size, 3, 3)
+    np.testing.assert_array_equal(view["t_s"], whole.t_s[rows])
+    np.testing.assert_allclose(view["propeller_rpm"], whole.vehicle.propeller_rpm[rows], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(view["fin_angles_rad"], whole.vehicle.fin_angles_rad[rows], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(view["pos_n"], whole.pos_n[rows], rtol=0, atol=1e-9)
+    # the vehicle flies: the propeller turns and the autopilot moves the fins in the turns
+    assert np.all(view["propeller_rpm"] > 100.0)
+    assert np.max(np.abs(view["fin_angles_rad"])) > np.radians(0.5)
+
+
+def test_the_truth_view_of_the_kinematic_truth_has_no_actuators() -> None:
+    from app.worker import truth_view
+    config = Config().replace("trajectory", name="figure8", duration_s=5.0)
+    view = truth_view(config, _output_step(config))
+    assert view["propeller_rpm"] is None and view["fin_angles_rad"] is None
+    assert view["pos_n"].shape == (51, 3)
