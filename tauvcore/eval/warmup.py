@@ -8,7 +8,8 @@ module right after installing, so that neither the first dashboard run (whose wo
 would otherwise compile side by side while the server answers its clients) nor the first test
 pays it. It runs a 12 s mission that takes every path of the engine: all eight methods, DVL,
 depth and magnetometer aiding, four, two and three beams, two runs with random initial errors,
-streamed in two chunks.
+streamed in two chunks; then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations
+of motion and autopilot).
 """
 
 from __future__ import annotations
@@ -32,6 +33,10 @@ def warm_up() -> float:
               .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag")))
     t0 = time.perf_counter()
     run_streaming(config, np.random.default_rng(0), num_runs=2, chunk_s=6.0)
+    from tauvcore.truth import generate
+
+    generate(config.trajectory.__class__(name="figure8", duration_s=2.0, truth="dynamic"), config.earth,
+             config.imu.rate_hz)
     return time.perf_counter() - t0
 
 

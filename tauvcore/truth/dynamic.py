@@ -23,11 +23,14 @@ the kinematic truth (an ideal INS follows it: tests/scenario/test_dynamic_truth.
 Streaming: the simulation runs chunk by chunk, carrying its state, so :class:`DynamicTruthStream`
 holds one chunk whatever the mission's length, and chunks of any size give the same numbers bit
 for bit (the integration does not know where a chunk ends; the interpolant at a time depends only
-on the two knots around it).
+on the two knots around it). A mission of up to CACHE_MAX_KNOTS samples (11 min at 150 Hz) is
+simulated once per process and its knots kept (a few MB): every Monte Carlo run and every chunk of
+runs a process computes then shares one simulation, as they share the kinematic profile.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -55,6 +58,12 @@ MISSION_STEP_S = 0.25
 """Spacing in time of the kinematic scenario's points that make the path and depth schedule [s]."""
 MISSION_MARGIN_S = 120.0
 """Path beyond the mission's duration [s]: the vehicle may get ahead of the schedule."""
+
+CACHE_MAX_KNOTS = 100_000
+"""Longest mission whose knots a process keeps [samples] (19 MB); longer ones are streamed."""
+CACHE_MISSIONS = 2
+"""Missions kept (the most recent)."""
+_knots_cache: dict[tuple, np.ndarray] = {}
 
 # columns of a knot row
 K_EULER, K_EULER_DOT, K_VEL, K_VEL_DOT = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
@@ -220,7 +229,7 @@ class DynamicTruthStream:
 
     def __init__(self, cfg: TrajectoryConfig, earth: Earth, rate_hz: float, chunk_samples: int,
                  vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-                 control: ctl.ControlConfig = ctl.ControlConfig()) -> None:
+                 control: ctl.ControlConfig = ctl.ControlConfig(), cache: bool = True) -> None:
         require_positive("imu.rate_hz", rate_hz)
         if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, (int, np.integer)) or chunk_samples < 1:
             raise ValueError(f"chunk_samples must be a whole number >= 1, got {chunk_samples!r}")
@@ -229,35 +238,45 @@ class DynamicTruthStream:
         self.num_samples = num_samples(cfg.duration_s, rate_hz)
         self.dt_s = 1.0 / rate_hz
         self.vehicle, self.control = vehicle, control
+        self.cache = cache and self.num_samples + 1 <= CACHE_MAX_KNOTS
 
     def __len__(self) -> int:
         return -(-self.num_samples // self.chunk_samples)
 
+    def _whole(self) -> np.ndarray:
+        """Every knot of the mission (0 .. num_samples), simulated once per process."""
+        key = (self.cfg, self.rate_hz, self.vehicle, self.control)
+        whole = _knots_cache.pop(key, None)
+        if whole is None:
+            whole = DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control).knots(self.num_samples + 1)
+            whole.flags.writeable = False
+        _knots_cache[key] = whole                 # the most recent last
+        while len(_knots_cache) > CACHE_MISSIONS:
+            del _knots_cache[next(iter(_knots_cache))]
+        return whole
+
     def __iter__(self) -> Iterator[tuple[int, Truth]]:
-        sim = DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control)
+        whole = self._whole() if self.cache else None
+        sim = None if self.cache else DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control)
         pos0_n = _start_n(self.cfg)
         carried = None
-        kept = sim.knots(1)                       # knots first .. first + len - 1
+        kept = None if sim is None else sim.knots(1)      # streamed: knots first .. first + len - 1
         first = 0
         for k0 in range(0, self.num_samples, self.chunk_samples):
             k1 = min(k0 + self.chunk_samples, self.num_samples)
             # the chunk's samples and intervals need knots max(k0 - 1, 0) .. k1 (one past its last sample)
-            new = sim.knots(k1 + 1 - sim.next_knot)
-            knots = np.concatenate([kept, new])
             start = max(k0 - 1, 0)
-            knots, first = knots[start - first:], start
+            if sim is None:
+                knots, first = whole[start:k1 + 1], start
+            else:
+                knots = np.concatenate([kept, sim.knots(k1 + 1 - sim.next_knot)])
+                knots, first = knots[start - first:], start
             profile = HermiteProfile(knots, first, self.dt_s).profile()
             truth, carried = _chunk_from_profile(self.cfg.name, profile, self.earth, self.rate_hz, k0, k1, pos0_n,
                                                  carried)
             rows = knots[k0 - first:k1 - first]
-            yield k0, _with_vehicle(truth, _vehicle_record(rows))
+            yield k0, dataclasses.replace(truth, vehicle=_vehicle_record(rows))
             kept, first = knots[k1 - 1 - first:], k1 - 1
-
-
-def _with_vehicle(truth: Truth, record: VehicleRecord) -> Truth:
-    import dataclasses
-
-    return dataclasses.replace(truth, vehicle=record)
 
 
 def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float, vehicle: veh.VehicleConfig = veh.VehicleConfig(),

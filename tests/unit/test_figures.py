@@ -18,8 +18,11 @@ from app.figures import (
     CONSISTENCY_COLUMNS,
     CONSISTENCY_HEADING,
     ERROR_COLUMNS,
+    FIN_COLORS,
+    FIN_NAMES,
     LOG_SPAN,
     METHOD_COLORS,
+    actuator_figure,
     elc_choice_figure,
     error_figure,
     nees_figure,
@@ -651,3 +654,68 @@ def test_the_study_report_figure_is_plotly_s_validated_figure() -> None:
     assert fast == checked
     assert fast["data"][1]["y"][3] is None and fast["layout"]["yaxis"]["type"] == "log"
     assert {d["yaxis"] for d in fast["data"]} == {"y", "y2", "y3", "y4", "y5"}
+
+
+# ------------------------------------------------------------------------------------------ actuators
+
+@pytest.fixture(scope="module")
+def dynamic_view() -> dict[str, np.ndarray]:
+    """The worker's truth view of a short dynamic figure eight (fins and propeller at 10 Hz)."""
+    from app.worker import truth_view
+    config = Config().replace("trajectory", name="figure8", duration_s=5.0, truth="dynamic")
+    return truth_view(config, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
+
+
+def test_actuator_figure_fins_in_degrees_and_propeller_against_time(dynamic_view):
+    """Four fin traces (deg) on the top panel, the propeller [rpm] on the bottom one, one time axis."""
+    tv = dynamic_view
+    fig = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"])
+    traces = _by_name(fig)
+    assert list(traces) == [*FIN_NAMES, "propeller"]
+    for k, name in enumerate(FIN_NAMES):
+        np.testing.assert_array_equal(np.asarray(traces[name].x), tv["t_s"])
+        np.testing.assert_allclose(np.asarray(traces[name].y), tv["fin_angles_rad"][:, k] * 180.0 / np.pi,
+                                   rtol=1e-12, atol=0)
+        assert (traces[name].xaxis, traces[name].yaxis) == ("x", "y")
+        assert traces[name].line.color == FIN_COLORS[k]
+    np.testing.assert_array_equal(np.asarray(traces["propeller"].x), tv["t_s"])
+    np.testing.assert_array_equal(np.asarray(traces["propeller"].y), tv["propeller_rpm"])
+    assert (traces["propeller"].xaxis, traces["propeller"].yaxis) == ("x2", "y2")
+    # degrees, not radians: the figure eight's turns need more than a degree of fin
+    assert np.max(np.abs(np.asarray(traces[FIN_NAMES[0]].y))) > 1.0
+    layout = fig.layout
+    assert layout.xaxis2.title.text == "time [s]" and layout.xaxis.matches == "x2"
+    assert "[deg]" in layout.yaxis.title.text and "[rpm]" in layout.yaxis2.title.text
+    # the two panels do not overlap
+    assert layout.yaxis2.domain[1] < layout.yaxis.domain[0]
+
+
+def test_actuator_figure_known_answer():
+    t = np.array([0.0, 0.1, 0.2])
+    fins = np.radians([[0.0, 1.0, -2.0, 3.0], [10.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, -25.0]])
+    fig = actuator_figure(t, fins, np.array([900.0, 910.0, 920.0]))
+    traces = _by_name(fig)
+    np.testing.assert_allclose(np.asarray(traces[FIN_NAMES[0]].y), [0.0, 10.0, 0.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(traces[FIN_NAMES[3]].y), [3.0, 0.0, -25.0], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(np.asarray(traces["propeller"].y), [900.0, 910.0, 920.0])
+
+
+def test_actuator_figure_decimates_and_keeps_the_last_sample():
+    t = np.arange(2001) * 0.1
+    fins = np.column_stack([np.sin(t), np.cos(t), -np.sin(t), -np.cos(t)]) * 0.2
+    fig = actuator_figure(t, fins, 900.0 + t, max_points=100)
+    for trace in fig.data:
+        x = np.asarray(trace.x)
+        assert len(x) <= 101 and x[-1] == t[-1]
+
+
+def test_actuator_figure_refuses_mismatched_arrays():
+    with pytest.raises(ValueError, match="fin_angles_rad \\(T, 4\\)"):
+        actuator_figure(np.zeros(3), np.zeros((3, 3)), np.zeros(3))
+
+
+def test_fast_actuator_figure_equals_plotly_validated_construction(dynamic_view):
+    tv = dynamic_view
+    fast = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"])
+    checked = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"], validate=True)
+    assert json.loads(fast.to_json()) == json.loads(checked.to_json())

@@ -20,14 +20,17 @@ from app.scene import (
     BEAM_SWITCHED_OFF,
     M_VIEW_FROM_NED,
     auv_mesh_view_body,
+    auv_parts_body,
     beam_segments_n,
     beam_states,
+    fin_wxyz_body,
     load_obj,
     ned_to_view,
     wxyz_view,
 )
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3
 from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD, vehicle_params
 
 DVL = DvlConfig()
 A_B = DVL.A_b                    # (4, 3) beam directions, body frame
@@ -187,6 +190,67 @@ def test_auv_asset_is_what_the_generator_writes(auv_mesh):
     assert module.LENGTH_M == HULL_LENGTH_M and module.RADIUS_M == HULL_RADIUS_M
     np.testing.assert_allclose(verts, verts_gen, rtol=0, atol=OBJ_DECIMALS_ATOL)
     np.testing.assert_array_equal(faces, faces_gen)
+
+
+# ------------------------------------------------------------------------------------------ moving fins
+
+def _sorted_rows(v: np.ndarray) -> list[tuple[float, ...]]:
+    return sorted(map(tuple, np.round(v, 5)))
+
+
+def test_the_mesh_splits_into_the_hull_and_four_fins(auv_mesh):
+    """Hull and fins together are the whole mesh; fin k stands where tauvcore.truth.vehicle puts
+    fin k (45, 135, 225, 315 deg from starboard towards down), its hinge on the hull's axis."""
+    verts, faces = auv_mesh
+    (hull_v, hull_f), fins = auv_parts_body()
+    assert len(fins) == 4
+    assert len(hull_v) + sum(len(f.verts_hinge) for f in fins) == len(verts)
+    assert len(hull_f) + sum(len(f.faces) for f in fins) == len(faces)
+    assert hull_v[:, 0].min() == pytest.approx(-HULL_LENGTH_M / 2, abs=OBJ_DECIMALS_ATOL)
+    assert np.hypot(hull_v[:, 1], hull_v[:, 2]).max() == pytest.approx(HULL_RADIUS_M, abs=OBJ_DECIMALS_ATOL)
+    placed = np.vstack([hull_v] + [f.verts_hinge + f.hinge_b for f in fins])
+    assert _sorted_rows(placed) == _sorted_rows(verts)               # every vertex where the OBJ has it
+    for fin, angle in zip(fins, FIN_POSITION_ANGLES_RAD):
+        assert fin.angle_rad == angle
+        v = fin.verts_hinge + fin.hinge_b
+        assert fin.faces.min() == 0 and fin.faces.max() == len(v) - 1
+        centre = v.mean(axis=0)
+        np.testing.assert_allclose(centre[1:] / np.hypot(*centre[1:]), [np.cos(angle), np.sin(angle)], atol=1e-6)
+        assert fin.hinge_b[1] == fin.hinge_b[2] == 0.0 and v[:, 0].min() <= fin.hinge_b[0] <= v[:, 0].max()
+    lower_starboard = fins[0].verts_hinge.mean(axis=0) + fins[0].hinge_b
+    assert lower_starboard[1] > 0 and lower_starboard[2] > 0            # fin 1: +y starboard, +z down
+
+
+def test_zero_deflection_leaves_the_fins_as_the_mesh_has_them():
+    q = fin_wxyz_body(np.zeros(4))
+    assert q.shape == (4, 4)
+    for qk in q:
+        _same_quaternion(qk, np.array([1.0, 0.0, 0.0, 0.0]))
+
+
+@pytest.mark.parametrize("fin", range(4))
+@pytest.mark.parametrize("deflection_deg", [10.0, -25.0])
+def test_a_deflection_turns_the_leading_edge_towards_the_fin_s_force(fin, deflection_deg):
+    """A positive deflection pushes along the fin's normal (the dynamics' fin_normal_b): the fin's
+    chord turns from x_b towards that normal by the deflection, about the fin's own radial axis."""
+    normal = vehicle_params().fin_normal_b[fin]
+    g = FIN_POSITION_ANGLES_RAD[fin]
+    e_r = np.array([0.0, np.cos(g), np.sin(g)])
+    d = deflection_deg * DEG
+    deflections = np.zeros(4)
+    deflections[fin] = d
+    q = fin_wxyz_body(deflections)
+    R = vtf.SO3(q[fin]).as_matrix()
+    np.testing.assert_allclose(R @ [1.0, 0.0, 0.0], np.cos(d) * np.array([1.0, 0.0, 0.0]) + np.sin(d) * normal,
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(R @ e_r, e_r, rtol=0, atol=1e-12)        # the hinge axis stays
+    for other in set(range(4)) - {fin}:                                  # the other fins stay
+        _same_quaternion(q[other], np.array([1.0, 0.0, 0.0, 0.0]))
+    # the mesh's fin: its leading edge (front of the root chord) moves along +normal for d > 0
+    fin_mesh = auv_parts_body()[1][fin]
+    leading = fin_mesh.verts_hinge[np.argmax(fin_mesh.verts_hinge[:, 0])]
+    moved = R @ leading - leading
+    assert np.sign(moved @ normal) == np.sign(d)
 
 
 # ------------------------------------------------------------------------------------------ DVL beams

@@ -14,6 +14,7 @@ import pytest
 
 from app.inputs import (
     NSV_EPSILON,
+    TRUTH,
     VB_NF,
     Controls,
     InputError,
@@ -236,32 +237,60 @@ class _Spy:
         return self._value
 
 
-def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
-    """Session.controls() reads exactly the controls Session.confirm_page_state asks the page for
-    (n_f and epsilon included): a control missing from the confirmation could lose a change."""
+def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simulation") -> object:
+    """What Session.controls and Session._confirmed_inputs read of a tab, each control a _Spy."""
     from types import SimpleNamespace
 
     from app.dashboard import Session
-    read_ids: set[str] = set()
     count = iter(range(1000))
 
     def spy(value: object) -> _Spy:
         return _Spy(f"id{next(count)}", value, read_ids)
     tab = SimpleNamespace(
-        trajectory=spy("straight"), duration=spy("250"), method_boxes={m: spy(True) for m in ("ins", "lc", "tc", "vb",
-                                                                                            "nsv", "plcf", "vhv",
-                                                                                            "elc")},
+        trajectory=spy("figure8"), truth=spy(truth), duration=spy("250"),
+        method_boxes={m: spy(True) for m in ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")},
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
         outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
         dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seed=spy("0"), runs=spy("1"),
-        source=spy("simulation"))     # the Source control of tauv serve --logs
+        source=spy(source))     # the Source control of tauv serve --logs
     tab.selected_methods = lambda: Session.selected_methods(tab)
+    return tab
+
+
+def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
+    """Session.controls() reads exactly the controls Session.confirm_page_state asks the page for
+    (n_f, epsilon and Truth included): a control missing from the confirmation could lose a change."""
+    from app.dashboard import Session
+    read_ids: set[str] = set()
+    tab = _spy_tab(read_ids)
     controls = Session.controls(tab)
     assert controls.vb_nf == "20" and controls.nsv_epsilon == "auto"
     confirmed = set(Session._confirmed_inputs(tab))
-    assert {tab.vb_nf._impl.uuid, tab.nsv_epsilon._impl.uuid} <= confirmed
+    assert {tab.vb_nf._impl.uuid, tab.nsv_epsilon._impl.uuid, tab.truth._impl.uuid} <= confirmed
     assert read_ids == confirmed
+
+
+@pytest.mark.parametrize("truth", ["kinematic", "dynamic"])
+def test_the_truth_dropdown_reaches_the_configuration(truth: str) -> None:
+    """The tab's Truth control, read by Session.controls, is the run's trajectory.truth and is
+    shown in the "Configuration run" table."""
+    from app.dashboard import Session
+    config, _ = config_from_controls(Session.controls(_spy_tab(set(), truth=truth)))
+    assert config.trajectory.truth == truth and config.trajectory.name == "figure8"
+    assert f"| {TRUTH} | {truth} |" in config_markdown(config, 1)
+
+
+def test_a_log_ignores_the_truth_control() -> None:
+    """A log replays its own reference: Truth (disabled on the page for a log) does not reach it."""
+    from app.dashboard import Session
+    config, _ = config_from_controls(Session.controls(_spy_tab(set(), truth="dynamic", source="dive")))
+    assert config.trajectory.truth == "kinematic"
+
+
+def test_an_unknown_truth_is_refused_by_name() -> None:
+    """A value the dropdown does not offer (a scripted client can send one) is a message, not a traceback."""
+    assert refused(truth="moon") == "Truth: trajectory.truth must be one of kinematic, dynamic, got 'moon'"
 
 
 # ---------------------------------------------------------------- the page's answer at Run
