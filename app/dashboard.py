@@ -513,6 +513,10 @@ class Session:
         scene = self.client.scene
         scene.set_up_direction("+z")
         scene.configure_environment_map(hdri=None)
+        # without an environment map only viser's default lights shine, from ahead: the chase view
+        # from behind showed the hull and its fins as a black silhouette
+        scene.add_light_hemisphere("/light/sky", sky_color=(255, 255, 255), ground_color=(150, 130, 100),
+                                   intensity=1.5)
         d = Config()
         self.seabed = scene.add_grid("/seabed", width=600.0, height=600.0, plane="xy", cell_size=10.0,
                                      section_size=50.0, cell_color=(150, 120, 80), section_color=(120, 90, 60),

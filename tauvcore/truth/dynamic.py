@@ -130,28 +130,34 @@ class HermiteProfile:
 
     def __init__(self, knots: np.ndarray, first: int, dt: float) -> None:
         self.knots, self.first, self.dt = knots, first, dt
+        self._last: tuple[np.ndarray, dict[str, np.ndarray]] | None = None
 
-    def _basis(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _at(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """Values and rates at ``t``, computed once per time array (the kinematic generator asks
+        for the four quantities at the same times in turn)."""
+        if self._last is not None and self._last[0] is t:
+            return self._last[1]
         u = np.asarray(t, dtype=float) / self.dt
         i = np.clip(np.floor(u).astype(np.int64), self.first, self.first + self.knots.shape[0] - 2)
-        return i - self.first, u - i
-
-    def _value(self, t: np.ndarray, cols: slice, dcols: slice) -> tuple[np.ndarray, np.ndarray]:
-        j, tau = self._basis(t)
+        s = (u - i)[:, None]
+        j = i - self.first
         h = self.dt
-        y0, y1 = self.knots[j, cols], self.knots[j + 1, cols]
-        m0, m1 = self.knots[j, dcols], self.knots[j + 1, dcols]
-        s = tau[:, None]
-        s2, s3 = s * s, s * s * s
-        value = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * h * m0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * h * m1
-        rate = ((6 * s2 - 6 * s) * (y0 - y1)) / h + (3 * s2 - 4 * s + 1) * m0 + (3 * s2 - 2 * s) * m1
-        return value, rate
+        k0, k1 = self.knots[j, :12], self.knots[j + 1, :12]
+        s2 = s * s
+        s3 = s2 * s
+        h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, (s3 - 2 * s2 + s) * h, 3 * s2 - 2 * s3, (s3 - s2) * h
+        g0, g10, g11 = (6 * s2 - 6 * s) / h, 3 * s2 - 4 * s + 1, 3 * s2 - 2 * s
+        out = {}
+        for name, cols, dcols in (("euler", K_EULER, K_EULER_DOT), ("vel", K_VEL, K_VEL_DOT)):
+            y0, y1, m0, m1 = k0[:, cols], k1[:, cols], k0[:, dcols], k1[:, dcols]
+            out[name] = h00 * y0 + h10 * m0 + h01 * y1 + h11 * m1
+            out[name + "_dot"] = g0 * (y0 - y1) + g10 * m0 + g11 * m1
+        self._last = (t, out)
+        return out
 
     def profile(self) -> Profile:
-        return Profile(euler=lambda t: self._value(t, K_EULER, K_EULER_DOT)[0],
-                       euler_dot=lambda t: self._value(t, K_EULER, K_EULER_DOT)[1],
-                       vel_b=lambda t: self._value(t, K_VEL, K_VEL_DOT)[0],
-                       vel_b_dot=lambda t: self._value(t, K_VEL, K_VEL_DOT)[1])
+        return Profile(euler=lambda t: self._at(t)["euler"], euler_dot=lambda t: self._at(t)["euler_dot"],
+                       vel_b=lambda t: self._at(t)["vel"], vel_b_dot=lambda t: self._at(t)["vel_dot"])
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import pytest
 
+from app.figures import FIN_NAMES
 from tauvcore.config import Config
+from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser
 
@@ -104,3 +106,35 @@ def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, 
     assert page.get_by_text("Cannot run", exact=True).is_visible()
     assert page.get_by_text("Ready. Choose a mission", exact=False).is_visible()   # no run started
     assert page.get_by_role("button", name="Run", exact=True).is_enabled()
+
+
+def test_truth_dynamic_reaches_the_run_and_shows_its_fins_and_propeller(new_tab) -> None:
+    """Given Truth: dynamic on the figure eight, when a 10 s run completes, then the run used the
+    dynamic truth and the Vehicle tab plots the four fins and the propeller; given Truth back to
+    kinematic, the next run's Vehicle tab has no figure and says why (issue 11)."""
+    tab = new_tab()
+    page = tab.page
+    tab.choose_trajectory("figure8")
+    page.get_by_label("Truth", exact=True).click()
+    page.get_by_role("option", name="dynamic", exact=True).click()
+    tab.set_methods({"INS", "TC"})
+    tab.type_into("Duration [s]", "10")
+    run_and_wait(tab)
+    used = tab.run_config()
+    assert used["Truth"] == "dynamic" and used["Trajectory"] == "figure8"
+    page.get_by_role("tab", name="Vehicle").click()
+    page.wait_for_timeout(1000)
+    fins = [dict(f) for f in tab.plot_traces() if any(name == "propeller" for name, _ in f)]
+    assert len(fins) == 1, tab.plot_traces()
+    assert set(fins[0]) == {*FIN_NAMES, "propeller"}
+    assert all(n == 101 for n in fins[0].values())          # 10 s at the 10 Hz output rate
+    page.screenshot(path=str(ARTIFACTS / "dashboard_vehicle.png"))
+    page.get_by_role("tab", name="Mission").click()
+    page.get_by_label("Truth", exact=True).click()
+    page.get_by_role("option", name="kinematic", exact=True).click()
+    page.get_by_text("Run complete", exact=True).first.wait_for(state="hidden", timeout=15000)
+    run_and_wait(tab)
+    assert tab.run_config()["Truth"] == "kinematic"
+    page.get_by_role("tab", name="Vehicle").click()
+    page.get_by_text("the kinematic truth is closed-form motion", exact=False).wait_for(timeout=10000)
+    assert not [f for f in tab.plot_traces() if any(name == "propeller" for name, _ in f)]

@@ -32,13 +32,21 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
         client = ViserClient(server.url)
         source = client.find("Source")
         assert source is not None
+        # Truth picks a simulation's generator: a log replays its own reference, so it is disabled
+        truth = client.find("Truth")
+        client.set_value("Truth", "dynamic")
+        mark = client.mark()
         client.set_value("Source", "good")
+        client.wait_for(lambda m: m.get("type") == "GuiUpdateMessage" and m.get("uuid") == truth
+                        and m["updates"].get("disabled") is True, 10.0, "Truth disabled", since=mark)
         mark = client.mark()
         client.click("Run")
         props = _notification(client, mark)
         assert props["title"] == "Run complete", props
         table = client.value(client.markdown_containing("Configuration run"))
         assert re.search(r"\|\s*Duration \[s\]\s*\|\s*20\s*\|", table), table      # the log's length, not 250 s
+        assert re.search(r"\|\s*Truth\s*\|\s*kinematic\s*\|", table), table          # not the disabled control's
+        assert client.markdown_containing("a recorded log has no actuator record") is not None
         client.set_value("Source", "bad")
         mark = client.mark()
         client.click("Run")
@@ -50,6 +58,10 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
         client.click("Run")
         props = _notification(client, mark)
         assert props["title"] == "Cannot run" and "replayed once" in props["body"]
+        mark = client.mark()
+        client.set_value("Source", "simulation")
+        client.wait_for(lambda m: m.get("type") == "GuiUpdateMessage" and m.get("uuid") == truth
+                        and m["updates"].get("disabled") is False, 10.0, "Truth enabled again", since=mark)
         assert "Traceback" not in server.text()
         client.close()
     finally:
