@@ -23,7 +23,10 @@ The estimate is the sum, plus ``SLACK`` (15 %) for the allocator's pages, plus `
 what a run loads once: the compiled kernels of the filter bank (numba's machine code and its
 LLVM context, 62-64 MiB measured for a 10 s run once the fused stretch kernel
 ``run_stops`` joined them; 14-16 MiB more since the geodetic path, its truth integrator included,
-issue 10) and lazily imported modules.
+issue 10) and lazily imported modules. The dynamic truth (tauvcore.truth.dynamic) adds its
+compiled vehicle and autopilot and its mission (``DYNAMIC_FIXED_BYTES``, 12 MiB measured for a
+streamed 20 min mission) and, for a mission short enough to keep, its knots (``KNOT_DOUBLES`` per
+sample).
 tests/unit/test_budget.py checks it against the measured peak resident memory of real runs
 (estimate >= measured, within 1.5x). The server holds one more unpickled copy of the results
 per tab and one pickled copy is in transit through the worker's pipe: :func:`estimate_run` reports them
@@ -48,6 +51,9 @@ UPDATE_ROW_BYTES = 3000
 UPDATE_DOUBLES = 20
 FIXED_BYTES = 84 * 2**20
 SLACK = 1.15
+DYNAMIC_FIXED_BYTES = 13 * 2**20
+KNOT_DOUBLES = 24           # tauvcore.truth.dynamic.KNOT_COLUMNS (not imported: it loads numba)
+CACHE_MAX_KNOTS = 100_000   # tauvcore.truth.dynamic.CACHE_MAX_KNOTS
 STREAM_CHUNK_S = 10.0       # tauvcore.eval.runner.STREAM_CHUNK_S (not imported: it loads the engine)
 LIVE_EPOCHS = 1200          # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)
 
@@ -98,9 +104,13 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     update_objects = int(UPDATE_ROW_BYTES * (dvl_rows + other_rows) * chunk_fraction)
     covariance = COVARIANCE_DOUBLES * DOUBLE * M * R
     end = OUTPUT_COPIES * (outputs + update_data) + live + update_objects + covariance
+    fixed = FIXED_BYTES
+    if config.trajectory.truth == "dynamic":
+        fixed += DYNAMIC_FIXED_BYTES
+        chunk += KNOT_DOUBLES * DOUBLE * ((K + 1) if K + 1 <= CACHE_MAX_KNOTS else K_c)
     return RunEstimate(chunk_bytes=chunk, end_bytes=end,
                        results_bytes=outputs + update_data,
-                       worker_peak_bytes=int(SLACK * (chunk + end)) + FIXED_BYTES)
+                       worker_peak_bytes=int(SLACK * (chunk + end)) + fixed)
 
 
 def budget_bytes() -> int:

@@ -61,8 +61,8 @@ MISSION_MARGIN_S = 120.0
 
 CACHE_MAX_KNOTS = 100_000
 """Longest mission whose knots a process keeps [samples] (19 MB); longer ones are streamed."""
-CACHE_MISSIONS = 2
-"""Missions kept (the most recent)."""
+CACHE_MISSIONS = 1
+"""Missions kept (the most recent: a dashboard worker draws the 3-D view and runs the same one)."""
 _knots_cache: dict[tuple, np.ndarray] = {}
 
 # columns of a knot row

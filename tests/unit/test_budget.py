@@ -53,6 +53,12 @@ def test_the_live_copy_bound_is_the_workers() -> None:
     assert budget.LIVE_EPOCHS == worker.PROGRESS_MAX_EPOCHS
 
 
+def test_the_dynamic_truths_constants_are_its_own() -> None:
+    from tauvcore.truth import dynamic
+    assert budget.KNOT_DOUBLES == dynamic.KNOT_COLUMNS
+    assert budget.CACHE_MAX_KNOTS == dynamic.CACHE_MAX_KNOTS
+
+
 def test_the_budget_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv(budget.BUDGET_ENV, raising=False)
     assert budget.budget_bytes() == budget.DEFAULT_BUDGET_BYTES
@@ -83,8 +89,8 @@ MEASURE = textwrap.dedent("""
                 raise SystemExit(message[1])
             pickle.dumps(message)
 
-    duration_s, runs, methods, aiding, name = json.loads(sys.argv[1])
-    config = (Config().replace("trajectory", name=name, duration_s=duration_s)
+    duration_s, runs, methods, aiding, name, truth = json.loads(sys.argv[1])
+    config = (Config().replace("trajectory", name=name, duration_s=duration_s, truth=truth)
               .replace("run", methods=tuple(methods), aiding=tuple(aiding)))
     base = rss_bytes()
     worker.run_worker(to_dict(config), runs, PicklingQueue(), threading.Event())
@@ -96,18 +102,21 @@ MEASURE = textwrap.dedent("""
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("duration_s, runs, methods, aiding, name", [
-    (250.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8"),      # the dashboard's default
-    (600.0, 1, ("ins",), ("dvl",), "straight"),                               # truth generation dominates
-    (250.0, 12, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8"),     # IMU and compensation dominate
-    (300.0, 6, ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc"), ("dvl", "depth", "mag"), "lawnmower"),
+@pytest.mark.parametrize("duration_s, runs, methods, aiding, name, truth", [
+    (250.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic"),   # the dashboard's default
+    (600.0, 1, ("ins",), ("dvl",), "straight", "kinematic"),                  # truth generation dominates
+    (250.0, 12, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic"),  # IMU and compensation
+    (300.0, 6, ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc"), ("dvl", "depth", "mag"), "lawnmower",
+     "kinematic"),
+    (600.0, 1, ("ins",), ("dvl",), "figure8", "dynamic"),                     # the vehicle's kept knots
+    (1200.0, 1, ("ins",), ("dvl",), "lawnmower", "dynamic"),                  # too long to keep: streamed
 ])
-def test_the_estimate_bounds_the_measured_peak_within_1_5x(duration_s, runs, methods, aiding, name) -> None:
-    arg = json.dumps([duration_s, runs, methods, aiding, name])
+def test_the_estimate_bounds_the_measured_peak_within_1_5x(duration_s, runs, methods, aiding, name, truth) -> None:
+    arg = json.dumps([duration_s, runs, methods, aiding, name, truth])
     out = subprocess.run([sys.executable, "-c", MEASURE, arg], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     figures = json.loads(out.stdout.strip().splitlines()[-1])
     measured, estimate = figures["measured"], figures["estimate"]
-    print(f"{duration_s:g} s x {runs} runs, {len(methods)} methods, {'+'.join(aiding)}: "
+    print(f"{duration_s:g} s x {runs} runs, {len(methods)} methods, {'+'.join(aiding)}, {truth}: "
           f"measured {measured / 2**20:.0f} MiB, estimate {estimate / 2**20:.0f} MiB ({estimate / measured:.2f}x)")
     assert measured <= estimate <= 1.5 * measured

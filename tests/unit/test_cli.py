@@ -46,6 +46,8 @@ def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
     (["run", "--json", "/no/such/dir/out.json"], "/no/such/dir/out.json"),
     (["run", "--nonsense"], "--nonsense"),
     (["run", "--imu", "hg9900"], "'hg9900'"),
+    (["run", "--truth", "6dof"], "'6dof'"),
+    (["mc", "--truth", "", "--runs", "2", "--out", "/tmp/x"], "--truth"),
     (["mc", "--imu", "", "--runs", "2", "--out", "/tmp/x"], "--imu"),
 ])
 def test_bad_flags_give_one_line_and_exit_2(capsys, argv, field) -> None:
@@ -65,6 +67,9 @@ def test_bad_flags_give_one_line_and_exit_2(capsys, argv, field) -> None:
     ("[trajectory\nname = 'x'\n", "malformed TOML", ""),
     ("[dvl]\nbeams = [1, 7]\n", "dvl.beams", "7"),
     ("[run]\nmethods = ['lc', 'magic']\n", "run.methods", "'magic'"),
+    ("[trajectory]\ntruth = 'cfd'\n", "trajectory.truth", "'cfd'"),
+    ("[trajectory]\ncurrent_n_mps = [0.0, 0.5, 0.0]\n", "trajectory.current_n_mps", "0.5"),
+    ("[trajectory]\ntruth = 'dynamic'\ncurrent_n_mps = [0.0, 9.0, 0.0]\n", "trajectory.current_n_mps[1]", "9.0"),
 ])
 def test_bad_config_files_give_one_line_and_exit_2(capsys, tmp_path, toml, field, value) -> None:
     path = tmp_path / "bad.toml"
@@ -604,3 +609,19 @@ def test_json_carries_the_estimate_in_ned_geodetic_velocity_and_attitude() -> No
     yaw_diff = np.angle(np.exp(1j * np.radians(np.array(out["est_yaw_deg"]) - np.degrees(truth.euler[rows, 2]))))
     assert np.abs(yaw_diff).max() < 1e-5
     np.testing.assert_allclose(out["est_pitch_deg"], np.degrees(truth.euler[rows, 1]), atol=1e-5)
+
+
+def test_truth_flag_flies_the_vehicle_and_reaches_the_json(capsys, tmp_path) -> None:
+    """``--truth dynamic`` (issue 11): the summary names the truth, the JSON's configuration
+    carries it, and a file's current reads back."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[trajectory]\ncurrent_n_mps = [0.1, -0.2, 0.0]\ntruth = 'dynamic'\n")
+    out_json = tmp_path / "r.json"
+    code, out, _ = _run(capsys, "run", "--config", str(cfg), "--truth", "dynamic", "--duration", "10",
+                        "--json", str(out_json))
+    assert code == 0 and "(dynamic truth)" in out
+    data = json.loads(out_json.read_text())
+    assert data["config"]["trajectory"]["truth"] == "dynamic"
+    assert data["config"]["trajectory"]["current_n_mps"] == [0.1, -0.2, 0.0]
+    code, _, err = _run(capsys, "run", "--config", str(cfg), "--truth", "kinematic")
+    assert code == 2 and "--truth" in err and "current_n_mps" in err
