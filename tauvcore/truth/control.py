@@ -29,6 +29,7 @@ The per-step functions are compiled (numba); ``.py_func`` of each is the plain P
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -37,6 +38,7 @@ import numba
 import numpy as np
 
 from tauvcore import units
+from tauvcore.validation import require_nonnegative, require_positive
 
 FIN_SIGN_PITCH = np.array([1.0, -1.0, -1.0, 1.0])   # sgn(cos gamma_i), gamma = 45, 135, 225, 315 deg
 FIN_SIGN_YAW = np.array([1.0, 1.0, -1.0, -1.0])     # sgn(sin gamma_i)
@@ -69,6 +71,12 @@ class ControlConfig:
     track_ki: float = 0.002        # integral LOS gain [1/(m s)], contribution clamped to 10 deg
     depth_ki: float = 0.002
     pitch_max_deg: float = 30.0    # pitch command limit
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            require_nonnegative(f"control.{f.name}", getattr(self, f.name))
+        for name in ("lookahead_m", "depth_lookahead_m", "pitch_max_deg"):
+            require_positive(f"control.{name}", getattr(self, name))
 
 
 class ControlParams(NamedTuple):

@@ -61,7 +61,7 @@ import numba
 import numpy as np
 
 from tauvcore import units
-from tauvcore.validation import require_range
+from tauvcore.validation import require_positive, require_range
 
 RHO_KGPM3 = 1025.0           # sea water density [kg/m^3]
 NUM_FINS = 4
@@ -118,6 +118,18 @@ class VehicleConfig:
         require_range("vehicle.length_m", self.length_m, 1.0, 20.0)
         require_range("vehicle.diameter_m", self.diameter_m, 0.05, 2.0)
         require_range("vehicle.fin_max_deg", self.fin_max_deg, 1.0, 45.0)
+        require_range("vehicle.nose_fraction", self.nose_fraction, 0.01, 0.45)
+        require_range("vehicle.tail_fraction", self.tail_fraction, 0.01, 0.45)
+        require_range("vehicle.tail_angle_deg", self.tail_angle_deg, 0.0, 60.0)
+        require_range("vehicle.buoyancy_reserve", self.buoyancy_reserve, -0.1, 0.1)
+        require_range("vehicle.cg_below_cb_m", self.cg_below_cb_m, 0.0, 0.5 * self.diameter_m)
+        for name in ("drag_coefficient", "crossflow_drag_coefficient", "body_lift_coefficient",
+                     "body_lift_centre_fraction", "fin_span_m", "fin_chord_m", "fin_lift_slope_per_rad",
+                     "fin_from_tail_m", "fin_time_constant_s", "fin_rate_max_dps", "propeller_diameter_m", "kt0",
+                     "kq0", "rpm_max", "motor_time_constant_s", "max_depth_m"):
+            require_positive(f"vehicle.{name}", getattr(self, name))
+        for name in ("kt1", "kq1", "wake_fraction", "thrust_deduction"):
+            require_range(f"vehicle.{name}", getattr(self, name), 0.0, 1.0)
 
 
 class VehicleParams(NamedTuple):
