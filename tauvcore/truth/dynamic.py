@@ -31,6 +31,7 @@ runs a process computes then shares one simulation, as they share the kinematic 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -170,6 +171,7 @@ class Mission:
     depth_m: np.ndarray      # (P,) depth schedule [m]
     depth_rate_mps: np.ndarray  # (P,) its rate [m/s]
     euler0: np.ndarray       # (3,) attitude at the start [rad]
+    yaw_rate0_rps: float     # the scenario's turn rate at the start [rad/s]
 
 
 def mission(cfg: TrajectoryConfig) -> Mission:
@@ -184,7 +186,7 @@ def mission(cfg: TrajectoryConfig) -> Mission:
     path = np.ascontiguousarray(pos[:, :2])
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
     return Mission(path_ne=path, s_m=s, t_s=t, depth_m=pos[:, 2], depth_rate_mps=vel_n[:, 2],
-                   euler0=kin["euler"][0])
+                   euler0=kin["euler"][0], yaw_rate0_rps=float(profile.euler_dot(t[:1])[0, 2]))
 
 
 class DynamicSimulation:
@@ -201,7 +203,13 @@ class DynamicSimulation:
         self.current_n = np.asarray(cfg.current_n_mps, dtype=float)
         x = np.zeros(veh.NUM_STATES)
         x[veh.EULER] = self.mission.euler0
-        C_nb = veh.C_nb_of.py_func(*self.mission.euler0)
+        # level (the autopilot holds the roll at zero), heading at the guidance's first target and
+        # turning as the scenario does (figure8): the autopilot's steady state, no start-up kick
+        x[9] = 0.0
+        target = ctl.point_at(self.mission.path_ne, self.mission.s_m, 0, control.lookahead_m)
+        x[11] = math.atan2(target[1] - self.mission.path_ne[0, 1], target[0] - self.mission.path_ne[0, 0])
+        x[5] = self.mission.yaw_rate0_rps / math.cos(x[10])
+        C_nb = veh.C_nb_of.py_func(x[9], x[10], x[11])
         x[0:3] = np.array([cfg.speed_mps, 0.0, 0.0]) - C_nb.T @ self.current_n
         x[veh.POS] = _start_n(cfg)
         x[veh.RPS] = rps_per_mps * cfg.speed_mps
