@@ -35,9 +35,11 @@ SENSORS = (imu.ImuConfig(),
 
 
 def _concat(records: list) -> dict[str, np.ndarray]:
-    """Fields of a list of records joined along time (``name``/``earth``/``step_s`` left out)."""
+    """Fields of a list of records joined along time (``name``/``earth``/``step_s`` and fields that
+    are None, the kinematic truth's ``vehicle``, left out)."""
     return {f.name: np.concatenate([getattr(r, f.name) for r in records])
-            for f in dataclasses.fields(records[0]) if f.name not in ("name", "earth", "step_s")}
+            for f in dataclasses.fields(records[0])
+            if f.name not in ("name", "earth", "step_s") and getattr(records[0], f.name) is not None}
 
 
 def _assert_same(got: dict, expected: object) -> None:
