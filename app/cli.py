@@ -40,6 +40,7 @@ from tauvcore.config import (
     read_toml,
     to_dict,
     to_toml,
+    trajectory_preset,
 )
 from tauvcore.eval.consistency import (
     BLOCK_DIMS,
@@ -245,6 +246,11 @@ def resolve_config(args: argparse.Namespace) -> Config:
         duration = _parse("--duration", args.duration, float, "a number of seconds")
         _replace("--duration", Config(), "trajectory", duration_s=duration)   # check it on its own first
         raw = merge(raw, {"trajectory": {"duration_s": duration}})
+    name = getattr(args, "trajectory", None)
+    if name is None and isinstance(raw.get("trajectory"), dict):
+        name = raw["trajectory"].get("name")
+    if isinstance(name, str):
+        raw = merge(trajectory_preset(name), raw)     # the scenario's own values, under the file's
     config = from_dict(raw)
     if getattr(args, "imu", None) is not None:
         if args.imu not in IMU_PROFILES:

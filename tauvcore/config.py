@@ -185,6 +185,26 @@ class Config:
         return dataclasses.replace(self, **{section: dataclasses.replace(getattr(self, section), **changes)})
 
 
+def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
+    """The sections a scenario brings with it, as a partial configuration to lay under a file's
+    and the flags' values (``tauv run --trajectory longrange`` flies the paper's mission without
+    further flags; a file or flag still wins).
+
+    ``longrange`` (Yoo 2014 section 3): 24 minutes at 10 knots, at 50 m over a seabed at 110 m
+    (60 m of altitude, 140 m over its trenches), the paper's IMU (Table 1, ``yoo-table1``, 100 Hz)
+    and DVL rate (5 Hz). The other scenarios bring nothing.
+    """
+    if name != "longrange":
+        return {}
+    from tauvcore.sensors.imu import imu_profile
+
+    return {"trajectory": {"duration_s": 1440.0, "speed_mps": 10.0 * units.KNOT, "depth_m": 50.0,
+                           "seabed_depth_m": 110.0},
+            "imu": {f.name: _plain(getattr(imu_profile("yoo-table1"), f.name))
+                    for f in dataclasses.fields(imu_profile("yoo-table1"))},
+            "dvl": {"rate_hz": 5.0}}
+
+
 def to_dict(config: Config) -> dict[str, dict[str, Any]]:
     """Plain nested dict (lists for tuples), as written to TOML and JSON."""
     out: dict[str, dict[str, Any]] = {}

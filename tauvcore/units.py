@@ -24,3 +24,6 @@ MPS_PER_SQRT_HOUR = 1.0 / SQRT_HOUR
 """One m/s/sqrt(h) (velocity random walk) in m/s/sqrt(s)."""
 PERCENT = 1e-2
 """One percent as a fraction."""
+
+KNOT = 1852.0 / 3600.0
+"""One knot [m/s] (a nautical mile, 1852 m, per hour)."""

@@ -76,6 +76,7 @@ from tauvcore.sensors import magnetometer as mag_sensor
 from tauvcore.sensors import pressure as pressure_sensor
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import Truth, generate, truth_stream
+from tauvcore.truth.kinematic import bathymetry
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -109,7 +110,7 @@ def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1, truth:
     m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
     return Simulation(truth=truth,
                       imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
-                      dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs),
+                      dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, bathymetry(config.trajectory)),
                       pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
                       mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
                       num_runs=num_runs)
@@ -807,7 +808,7 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
     sensors = SensorStream(config.imu.ideal() if ideal else config.imu, config.dvl.ideal() if ideal else config.dvl,
                            config.pressure.ideal() if ideal else config.pressure,
                            config.magnetometer.ideal() if ideal else config.magnetometer,
-                           streams, num_runs, truths.num_samples, truths.dt_s)
+                           streams, num_runs, truths.num_samples, truths.dt_s, bathymetry(config.trajectory))
     bank = FilterBank(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:

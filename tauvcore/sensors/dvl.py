@@ -9,6 +9,14 @@ in the body frame (eq. 13), beam pitch ``theta`` (20 deg), beam yaw ``psi_k = 45
 with one scale factor SF common to all beams (speed of sound, eq. 12), a bias per beam, white
 noise, and all four transducers at the DVL head ``l_dvl_b`` (the transducer spacing on a
 small head is a few centimetres, below the 0.042 m/s noise for any plausible rate).
+
+Range (issue 12): given the mission's seabed (tauvcore.truth.seabed), each beam is traced from the
+head to the bottom; a beam whose slant range exceeds ``max_range_m`` (``max_altitude_m / cos(beam
+pitch)``: the range of a beam of a level DVL at its rated altitude, Yoo 2014's 100 m) has no
+bottom lock. ``beyond_range = "lost"``: it returns nothing, and the availability mask the
+partial-beam methods read says so; ``"noisy"``: Yoo 2014's own model (section 3.2, eq. 30-32),
+it returns with ``beyond_range_noise_mps`` (5 m/s) of extra white noise and is marked available,
+so only a gate or an echo sounder can tell.
 """
 
 from __future__ import annotations
@@ -29,8 +37,10 @@ from tauvcore.sensors.timing import (
     uniform,
 )
 from tauvcore.truth.record import Truth
+from tauvcore.truth.seabed import Bathymetry
 from tauvcore.validation import (
     ConfigError,
+    require_choice,
     require_finite,
     require_nonnegative,
     require_range,
@@ -38,6 +48,7 @@ from tauvcore.validation import (
     show,
 )
 
+BEYOND_RANGE = ("lost", "noisy")
 MAX_OUTAGES = 1000
 """Scheduled outage windows per run: a schedule, not a per-ping mask (random losses are
 ``dropout_probability``); each window is applied to every ping."""
@@ -97,6 +108,11 @@ class DvlConfig:
     outages: tuple[Outage, ...] = ()                      # scheduled losses of some beams, at most MAX_OUTAGES
     dropout_probability: float = 0.0                      # chance that a beam misses a ping, each beam independently,
                                                           # [0, 1] (a probability)
+    max_altitude_m: float = 100.0                         # bottom lock up to this altitude (Yoo 2014 section 3.2),
+                                                          # (0, 11000]: the deepest ocean
+    beyond_range: str = "lost"                            # "lost" (no return) or "noisy" (Yoo 2014 eq. 30-32)
+    beyond_range_noise_mps: float = 5.0                   # extra noise of a "noisy" beam beyond range [m/s] (Yoo:
+                                                          # 5 m/s), [0, 100]
 
     def __post_init__(self) -> None:
         require_range("dvl.rate_hz", self.rate_hz, 0.05, 25.0)
@@ -112,17 +128,26 @@ class DvlConfig:
             if not isinstance(outage, Outage):
                 raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {show(outage)}")
         require_range("dvl.dropout_probability", self.dropout_probability, 0.0, 1.0)
+        require_range("dvl.max_altitude_m", self.max_altitude_m, 0.0, 11000.0, low_open=True)
+        require_choice("dvl.beyond_range", self.beyond_range, BEYOND_RANGE)
+        require_range("dvl.beyond_range_noise_mps", self.beyond_range_noise_mps, 0.0, 100.0)
 
     def ideal(self) -> DvlConfig:
         """The same DVL (geometry, lever arm, beams) with every error set to zero."""
         return DvlConfig(rate_hz=self.rate_hz, beam_pitch_deg=self.beam_pitch_deg, noise_mps=0.0, bias_mps=0.0,
                          bias_rw_mps_per_sqrt_s=0.0, scale_factor_pct=0.0, scale_factor_rw_pct_per_sqrt_s=0.0,
                          lever_arm_m=self.lever_arm_m, beams=self.beams, outages=self.outages,
-                         dropout_probability=self.dropout_probability)
+                         dropout_probability=self.dropout_probability, max_altitude_m=self.max_altitude_m,
+                         beyond_range=self.beyond_range, beyond_range_noise_mps=self.beyond_range_noise_mps)
 
     @property
     def beam_pitch_rad(self) -> float:
         return self.beam_pitch_deg * units.DEG
+
+    @property
+    def max_range_m(self) -> float:
+        """Longest slant range with bottom lock [m]: a level DVL's beam at ``max_altitude_m``."""
+        return self.max_altitude_m / np.cos(self.beam_pitch_rad)
 
     @property
     def A_b(self) -> np.ndarray:
@@ -166,6 +191,8 @@ class DvlData:
     available: np.ndarray     # (M, [R,] 4) bool, beam returned
     bias_mps: np.ndarray      # (M, [R,] 4) true beam biases [m/s]
     scale_factor: np.ndarray  # (M, [R]) true scale factor error [-]
+    slant_range_m: np.ndarray | None = None  # (M, 4) range from the head to the seabed along each beam, inf
+                                             # beyond max_range_m [m]; None: no seabed given (a log, a test)
 
 
 def beam_velocity(A_b: np.ndarray, vel_b: np.ndarray, omega_nb_b: np.ndarray, l_dvl_b: np.ndarray,
@@ -186,24 +213,39 @@ class DvlState:
     scale_factor: WalkState = field(default_factory=WalkState)   # scale factor walk, one step per ping
 
 
-def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs: int | None = None) -> DvlData:
+def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs: int | None = None,
+             seabed: Bathymetry | None = None) -> DvlData:
     """Pings of the whole mission as one chunk, every draw from ``rng``."""
     index = epoch_indices(truth, config.rate_hz)
-    data, _ = simulate_chunk(truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs)
+    data, _ = simulate_chunk(truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs, seabed)
     return data
+
+
+def slant_ranges_m(truth: Truth, rows: np.ndarray, config: DvlConfig, seabed: Bathymetry) -> np.ndarray:
+    """(M, 4) range [m] from the DVL head along each beam to ``seabed`` at the truth's ``rows``;
+    inf beyond ``config.max_range_m``. The head's horizontal position is the tangent-plane NED
+    one, its vertical the true depth (on WGS-84 the plane falls below the surface with distance)."""
+    C = truth.C_nb[rows]
+    head = np.concatenate([truth.pos_n[rows, :2], truth.depth_m[rows, None]], axis=1)
+    head = head + np.einsum("mij,j->mi", C, config.l_dvl_b)
+    beams_n = np.einsum("mij,kj->mki", C, config.A_b)
+    return seabed.slant_range_m(head[:, None, :], beams_n, config.max_range_m)
 
 
 def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, state: DvlState,
                    bias_rng: Rng, scale_factor_rng: Rng, noise_rng: Rng, dropout_rng: Rng,
-                   num_runs: int | None) -> tuple[DvlData, DvlState]:
+                   num_runs: int | None, seabed: Bathymetry | None = None) -> tuple[DvlData, DvlState]:
     """Pings at the mission's IMU samples ``index`` (all within ``truth``, whose sample 0 is the
     mission's sample ``k0``), by eq. 15 plus noise, NaN where a beam is out of its schedule or drops.
 
     Bias (4 per run) and scale factor are random walks stepping once per ping (period
     ``1 / rate_hz``) from a turn-on value. Draws, in order: bias (turn-on value at the first chunk,
     then its walk), scale factor, noise, dropout (only if its probability is positive, so that a
-    single generator shared with the other sensors moves as before). Each generator may be one per
-    run (tauvcore.sensors.timing.Rng). -> (data, next state).
+    single generator shared with the other sensors moves as before). With a ``seabed``, beams
+    beyond ``max_range_m`` are lost, or, ``beyond_range = "noisy"``, get the extra noise, drawn
+    for every beam of every ping after the noise (so a run's numbers do not depend on where a
+    chunk ends). Each generator may be one per run (tauvcore.sensors.timing.Rng). -> (data, next
+    state).
     """
     m = index.size
     runs = batch_shape(num_runs)
@@ -219,8 +261,18 @@ def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, 
                       bias)
     y = y + standard_normal(noise_rng, y.shape, 1) * config.noise_mps
     available = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape).copy()
+    ranges = None
+    if seabed is not None:
+        ranges = slant_ranges_m(truth, rows, config, seabed)
+        beyond = np.broadcast_to(np.isinf(ranges)[expand], y.shape)
+        if config.beyond_range == "noisy":
+            extra = standard_normal(noise_rng, y.shape, 1) * config.beyond_range_noise_mps
+            y = np.where(beyond, y + extra, y)
+        else:
+            available &= ~beyond
     if config.dropout_probability > 0:
         available &= uniform(dropout_rng, y.shape, 1) >= config.dropout_probability
     y = np.where(available, y, np.nan)
-    return (DvlData(t_s=t_s, index=index, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf),
+    return (DvlData(t_s=t_s, index=index, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf,
+                    slant_range_m=ranges),
             DvlState(bias=bias_state, scale_factor=sf_state))

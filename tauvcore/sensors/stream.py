@@ -33,6 +33,7 @@ import numpy as np
 from tauvcore.sensors import dvl, imu, magnetometer, pressure
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
+from tauvcore.truth.seabed import Bathymetry
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,7 @@ class SensorStream:
     def __init__(self, imu_config: imu.ImuConfig, dvl_config: dvl.DvlConfig, pressure_config: pressure.PressureConfig,
                  magnetometer_config: magnetometer.MagnetometerConfig,
                  streams: SensorStreams | Sequence[SensorStreams], num_runs: int, num_samples: int,
-                 dt_s: float) -> None:
+                 dt_s: float, seabed: Bathymetry | None = None) -> None:
         if isinstance(num_runs, bool) or not isinstance(num_runs, (int, np.integer)) or num_runs < 1:
             raise ValueError(f"num_runs must be a whole number >= 1, got {num_runs!r}")
         if isinstance(num_samples, bool) or not isinstance(num_samples, (int, np.integer)) or num_samples < 1:
@@ -113,6 +114,7 @@ class SensorStream:
         self.dvl_config = dvl_config
         self.pressure_config = pressure_config
         self.magnetometer_config = magnetometer_config
+        self.seabed = seabed                                 # DVL beams traced to it (None: no range limit)
         self.num_runs = int(num_runs)
         self.num_samples = int(num_samples)
         self.dt_s = float(dt_s)
@@ -147,7 +149,7 @@ class SensorStream:
             g["gyro_noise"], runs, self.dt_s, g["imu_axes"])
         dvl_data, self._dvl_state = dvl.simulate_chunk(
             truth, k0, dvl_idx, self.dvl_config, self._dvl_state, g["dvl_bias"], g["dvl_scale_factor"],
-            g["dvl_noise"], g["dvl_dropout"], runs)
+            g["dvl_noise"], g["dvl_dropout"], runs, self.seabed)
         p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, g["pressure"], runs)
         m_data = magnetometer.simulate_chunk(truth, k0, m_idx, self.magnetometer_config, g["magnetometer"], runs)
         self.next_k0 = k1

@@ -21,6 +21,12 @@ figure8    heading ``psi = A sin(w t)`` with ``A = j_0,1 = 2.4048`` (first zero 
            ``turn_radius_m``. Constant-rate dive all along.
 lawnmower  constant-rate dive for ``dive_duration_s``, then level; legs of ``leg_length_m``
            north and south joined by 180-degree turns of ``turn_radius_m``.
+longrange  Yoo 2014 section 3: north, level, at constant depth, cruising at ``speed_mps`` (its
+           preset, tauvcore.config.TRAJECTORY_PRESETS: 10 knots for 24 minutes) after starting
+           at 60 % of it, with one slow-down to 70 % for a minute in the middle (the changes of
+           RPM that let a velocity filter tell its scale factor from its bias); over a seabed
+           whose two trenches (:func:`bathymetry`) put it out of a 100 m-altitude DVL's range
+           from 5 to 8 and from 15 to 16 minutes, as in the paper's Figure 6.
 
 In turns the vehicle rolls (``turn_roll_deg`` at the tightest turn, proportional to yaw rate)
 and slips outward (``turn_sideslip_deg``), so sway is non-zero while manoeuvring, as a real
@@ -54,7 +60,17 @@ from tauvcore.validation import (
     show,
 )
 
-TRAJECTORIES = ("straight", "figure8", "lawnmower")
+PAPER_TRAJECTORIES = ("straight", "figure8", "lawnmower")
+"""The three scenarios of Tal et al. 2017 section 4.1 (its study, ``tauv reproduce``)."""
+TRAJECTORIES = PAPER_TRAJECTORIES + ("longrange",)
+"""Every scenario: the first paper's three and Yoo 2014's long-range mission."""
+SEABED_MODELS = ("flat", "terrain")
+LONGRANGE_DVL_ALTITUDE_M = 100.0
+"""The DVL's range the long-range mission's trenches are cut for (Yoo 2014 section 3.2) [m]."""
+LONGRANGE_OUT_OF_RANGE_S = ((300.0, 480.0), (900.0, 960.0))
+"""When the long-range mission's seabed lies beyond that range: 5-8 and 15-16 minutes [s]."""
+LONGRANGE_WALL_M = 200.0
+"""Length of the trenches' walls along the track [m]."""
 TRUTH_SOURCES = ("kinematic", "dynamic")
 """How the truth is made: ``kinematic`` closed-form profiles (this module); ``dynamic`` the 6-DOF
 TAUV flown through the same scenario by its autopilot (tauvcore.truth.dynamic)."""
@@ -83,7 +99,11 @@ class TrajectoryConfig:
     turn_sideslip_deg: float = 3.0      # outward sideslip at the tightest turn [deg]; [-30, 30]: beyond, it skids
     blend_s: float = 4.0                # half-cosine blend time of rate changes [s]; [0.1, 600]: from a sharp but
                                         # sampled change (15 IMU samples at 150 Hz) to a 10-minute ramp
-    seabed_depth_m: float = 60.0        # flat seabed the DVL beams reach [m]; (0, 11000]: the deepest ocean
+    seabed_depth_m: float = 60.0        # seabed depth (flat, or the terrain's mean) [m]; (0, 11000]: the deepest ocean
+    seabed: str = "flat"                # one of SEABED_MODELS: flat, or seeded terrain (tauvcore.truth.seabed)
+    terrain_seed: int = 0               # seed of the terrain (the world: the same for every run), [0, 2**63 - 1]
+    terrain_relief_m: float = 10.0      # RMS of the terrain about seabed_depth_m [m]; [0, 1000]
+    terrain_wavelength_m: float = 400.0  # typical distance between ridges [m]; [10, 100000]
     truth: str = "kinematic"            # one of TRUTH_SOURCES: closed-form profile or the 6-DOF vehicle flying it
     current_n_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # constant ocean current, NED [m/s] (dynamic
                                         # truth only: the kinematic truth is motion over ground); each within
@@ -104,6 +124,13 @@ class TrajectoryConfig:
         require_range("trajectory.blend_s", self.blend_s, 0.1, 600.0)
         require_range("trajectory.seabed_depth_m", self.seabed_depth_m, 0.0, 11000.0, low_open=True)
         require_choice("trajectory.truth", self.truth, TRUTH_SOURCES)
+        require_choice("trajectory.seabed", self.seabed, SEABED_MODELS)
+        if (not isinstance(self.terrain_seed, int) or isinstance(self.terrain_seed, bool)
+                or not 0 <= self.terrain_seed <= 2**63 - 1):
+            raise ConfigError(f"trajectory.terrain_seed must be an integer within [0, 2**63 - 1], "
+                              f"got {show(self.terrain_seed)}")
+        require_range("trajectory.terrain_relief_m", self.terrain_relief_m, 0.0, 1000.0)
+        require_range("trajectory.terrain_wavelength_m", self.terrain_wavelength_m, 10.0, 100000.0)
         require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
         if self.truth == "kinematic" and any(c != 0.0 for c in self.current_n_mps):
             raise ConfigError(f"trajectory.current_n_mps needs trajectory.truth = \"dynamic\" (the kinematic truth is "
@@ -238,7 +265,50 @@ def lawnmower_profile(cfg: TrajectoryConfig) -> Profile:
     return _turn_profile(cfg, yaw_rate.integral, yaw_rate.value, yaw_rate.derivative, pitch)
 
 
-PROFILES = {"straight": straight_profile, "figure8": figure8_profile, "lawnmower": lawnmower_profile}
+LONGRANGE_SPEED_KNOTS = ((0.0, 0.6), (60.0, 1.0), (600.0, 1.0), (630.0, 0.7), (690.0, 0.7), (720.0, 1.0))
+"""The long-range mission's surge as a fraction of ``speed_mps`` at knot times [s] (half-cosine
+blends between)."""
+
+
+def longrange_speed(cfg: TrajectoryConfig) -> BlendedSchedule:
+    """Surge [m/s] of the long-range mission against time (its north position is the integral)."""
+    return BlendedSchedule([t for t, _ in LONGRANGE_SPEED_KNOTS], [f * cfg.speed_mps for _, f in LONGRANGE_SPEED_KNOTS])
+
+
+def longrange_profile(cfg: TrajectoryConfig) -> Profile:
+    speed = longrange_speed(cfg)
+
+    def zeros(t: np.ndarray) -> np.ndarray:
+        return np.zeros(np.shape(t) + (3,))
+
+    def vel_b(t: np.ndarray) -> np.ndarray:
+        return np.stack([speed.value(t), np.zeros_like(t), np.zeros_like(t)], axis=-1)
+
+    def vel_b_dot(t: np.ndarray) -> np.ndarray:
+        return np.stack([speed.derivative(t), np.zeros_like(t), np.zeros_like(t)], axis=-1)
+
+    return Profile(zeros, zeros, vel_b, vel_b_dot)
+
+
+PROFILES = {"straight": straight_profile, "figure8": figure8_profile, "lawnmower": lawnmower_profile,
+            "longrange": longrange_profile}
+
+
+def bathymetry(cfg: TrajectoryConfig):
+    """The seabed of the mission ``cfg`` (tauvcore.truth.seabed.Bathymetry): ``seabed_depth_m``,
+    the seeded terrain if ``seabed = "terrain"``, and for ``longrange`` its two trenches, placed
+    where the mission is at LONGRANGE_OUT_OF_RANGE_S and deep enough that the altitude crosses
+    LONGRANGE_DVL_ALTITUDE_M at the middle of each wall (floor ``2 (depth_m + 100) - seabed_depth_m``)."""
+    from tauvcore.truth.seabed import Bathymetry, Trench
+
+    trenches = ()
+    if cfg.name == "longrange":
+        north = longrange_speed(cfg).integral
+        floor = max(2.0 * (cfg.depth_m + LONGRANGE_DVL_ALTITUDE_M) - cfg.seabed_depth_m, cfg.seabed_depth_m)
+        trenches = tuple(Trench(float(north(np.array(a))), float(north(np.array(b))), floor, LONGRANGE_WALL_M)
+                         for a, b in LONGRANGE_OUT_OF_RANGE_S)
+    return Bathymetry(cfg.seabed_depth_m, cfg.seabed, cfg.terrain_seed, cfg.terrain_relief_m, cfg.terrain_wavelength_m,
+                      trenches=trenches)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(4)
 
 
