@@ -52,7 +52,7 @@ from tauvcore.eval.metrics import rms
 from tauvcore.geo.earth import EARTH_MODELS
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.imu import IMU_PROFILES
-from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
+from tauvcore.truth import PAPER_TRAJECTORIES, TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
 
 if TYPE_CHECKING:   # the engine (numba, compiled-code cache) loads when a command runs, not for --help
@@ -762,7 +762,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     num_runs, workers, dask, writer = _study_setup(args, 100)
     started = time.perf_counter()
     summaries, tables = {}, []
-    studies = [(name, beams, methods) for name in TRAJECTORIES
+    studies = [(name, beams, methods) for name in PAPER_TRAJECTORIES
                for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))]
     try:
         configs = [base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)

@@ -26,7 +26,7 @@ import numpy as np
 from tauvcore.config import METHODS, Config
 from tauvcore.eval.consistency import BLOCK_DIMS, MethodConsistency, method_consistency
 from tauvcore.eval.montecarlo import monte_carlo
-from tauvcore.truth import TRAJECTORIES
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 
 FOUR_BEAM_METHODS = ("lc",)
 """Methods that cannot use two beams: they run with all four (LC would only coast on two)."""

@@ -21,7 +21,8 @@ import time
 import numpy as np
 
 from tauvcore.geo.earth import Earth
-from tauvcore.truth import TRAJECTORIES, TrajectoryConfig, dynamic, generate
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
+from tauvcore.truth import TrajectoryConfig, dynamic, generate
 
 SETTLE_S = 20.0
 

@@ -23,7 +23,8 @@ from tauvcore.config import AUTO, Config
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
-from tauvcore.truth import TRAJECTORIES, generate
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
+from tauvcore.truth import generate
 
 SETTLE_S = 30.0
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from tauvcore.config import Config
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
-from tauvcore.truth import TRAJECTORIES
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 
 PAPER_INS = {"straight": (34.0, 1.4), "figure8": (31.8, 1.26), "lawnmower": (36.5, 1.29)}  # m/s, deg at 250 s
 

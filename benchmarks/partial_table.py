@@ -23,7 +23,8 @@ import numpy as np
 from tauvcore.config import METHODS, Config
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
 from tauvcore.eval.runner import run, simulate
-from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
+from tauvcore.truth import TRUTH_SOURCES
 
 QUANTITIES = (("vel_err_mps", "vel [m/s]", ".3g"), ("att_err_deg", "att [deg]", ".2f"),
               ("tilt_err_deg", "tilt [deg]", ".3f"), ("heading_err_deg", "heading [deg]", ".2f"),

@@ -22,7 +22,7 @@ from tauvcore.config import Config
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
-from tauvcore.truth import TRAJECTORIES
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 
 SETTLE_S = 30.0     # the lawnmower's dive; the time-averaged RMS starts after it
 

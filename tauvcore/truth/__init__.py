@@ -10,6 +10,7 @@ from __future__ import annotations
 from tauvcore.geo.earth import Earth
 from tauvcore.truth import kinematic
 from tauvcore.truth.kinematic import (
+    PAPER_TRAJECTORIES,
     TRAJECTORIES,
     TRUTH_SOURCES,
     TrajectoryConfig,
@@ -17,7 +18,7 @@ from tauvcore.truth.kinematic import (
 )
 from tauvcore.truth.record import Truth, VehicleRecord
 
-__all__ = ["TRAJECTORIES", "TRUTH_SOURCES", "TrajectoryConfig", "Truth", "VehicleRecord", "generate", "truth_stream"]
+__all__ = ["PAPER_TRAJECTORIES", "TRAJECTORIES", "TRUTH_SOURCES", "TrajectoryConfig", "Truth", "VehicleRecord", "generate", "truth_stream"]
 
 
 def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:

@@ -3,7 +3,7 @@
 
 The mission of a scenario (tauvcore.truth.kinematic) becomes a horizontal path, the track of the
 kinematic scenario sampled every 0.25 s, and a depth schedule, its depth against time; the
-vehicle starts where and as the kinematic one does and tracks them at ``speed_mps``
+vehicle starts where and as the kinematic one does and tracks them at the scenario's speed
 (tauvcore.truth.control). The 17 states of tauvcore.truth.vehicle (velocity relative to the water,
 NED position, Euler angles, fins, propeller) are integrated by classical Runge-Kutta 4 with the
 IMU's step, the autopilot's commands held over each step (it runs at the IMU rate).
@@ -95,7 +95,7 @@ def _rk4_step(p: veh.VehicleParams, x: np.ndarray, d1: np.ndarray, fins: np.ndar
 @_jit
 def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs: np.ndarray,
                    current_n: np.ndarray, path_ne: np.ndarray, s_m: np.ndarray, depth_ref_m: np.ndarray,
-                   depth_rate_ref_mps: np.ndarray, speed_ref_mps: float, dt: float, out: np.ndarray) -> None:
+                   depth_rate_ref_mps: np.ndarray, speed_ref_mps: np.ndarray, dt: float, out: np.ndarray) -> None:
     """Record ``out.shape[0]`` knots (rows: the K_* columns) from the vehicle state ``x`` and
     controller state ``cs``, stepping both forward one IMU interval per knot (in place)."""
     guidance = np.zeros(3)
@@ -103,7 +103,7 @@ def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs
     d1 = np.empty(x.shape[0])
     current_b = np.empty(3)
     for i in range(out.shape[0]):
-        fins, rps = ctl.autopilot(c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps,
+        fins, rps = ctl.autopilot(c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps[i],
                                   dt, guidance)
         veh.derivative_into(p, x, fins, rps, current_n, work[4, :6], d1)
         C_nb = veh.C_nb_of(x[9], x[10], x[11])
@@ -170,6 +170,7 @@ class Mission:
     t_s: np.ndarray          # (P,) schedule times [s]
     depth_m: np.ndarray      # (P,) depth schedule [m]
     depth_rate_mps: np.ndarray  # (P,) its rate [m/s]
+    speed_mps: np.ndarray    # (P,) speed schedule (the scenario's surge) [m/s]
     euler0: np.ndarray       # (3,) attitude at the start [rad]
     yaw_rate0_rps: float     # the scenario's turn rate at the start [rad/s]
 
@@ -185,7 +186,7 @@ def mission(cfg: TrajectoryConfig) -> Mission:
     pos += _start_n(cfg)
     path = np.ascontiguousarray(pos[:, :2])
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
-    return Mission(path_ne=path, s_m=s, t_s=t, depth_m=pos[:, 2], depth_rate_mps=vel_n[:, 2],
+    return Mission(path_ne=path, s_m=s, t_s=t, depth_m=pos[:, 2], depth_rate_mps=vel_n[:, 2], speed_mps=kin["vel_b"][:, 0],
                    euler0=kin["euler"][0], yaw_rate0_rps=float(profile.euler_dot(t[:1])[0, 2]))
 
 
@@ -210,9 +211,9 @@ class DynamicSimulation:
         x[11] = math.atan2(target[1] - self.mission.path_ne[0, 1], target[0] - self.mission.path_ne[0, 0])
         x[5] = self.mission.yaw_rate0_rps / math.cos(x[10])
         C_nb = veh.C_nb_of.py_func(x[9], x[10], x[11])
-        x[0:3] = np.array([cfg.speed_mps, 0.0, 0.0]) - C_nb.T @ self.current_n
+        x[0:3] = np.array([self.mission.speed_mps[0], 0.0, 0.0]) - C_nb.T @ self.current_n
         x[veh.POS] = _start_n(cfg)
-        x[veh.RPS] = rps_per_mps * cfg.speed_mps
+        x[veh.RPS] = rps_per_mps * self.mission.speed_mps[0]
         self.x = x
         self.cs = np.zeros(ctl.NUM_CONTROL_STATES)
         self.next_knot = 0
@@ -224,8 +225,9 @@ class DynamicSimulation:
         depth_ref = np.interp(t, m.t_s, m.depth_m)
         depth_rate = np.interp(t, m.t_s, m.depth_rate_mps)
         out = np.empty((count, KNOT_COLUMNS))
+        speed = np.interp(t, m.t_s, m.speed_mps)
         simulate_knots(self.params, self.control, self.x, self.cs, self.current_n, m.path_ne, m.s_m, depth_ref,
-                       depth_rate, self.cfg.speed_mps, self.dt, out)
+                       depth_rate, speed, self.dt, out)
         self.next_knot += count
         return out
 

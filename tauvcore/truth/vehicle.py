@@ -110,7 +110,7 @@ class VehicleConfig:
     kq1: float = 0.050
     wake_fraction: float = 0.2             # u_a = (1 - w) u
     thrust_deduction: float = 0.1          # hull sees (1 - t) T
-    rpm_max: float = 1500.0                # motor limit [rev/min]
+    rpm_max: float = 2500.0                # motor limit [rev/min]: 5.9 m/s, within reach of Yoo 2014's 10 kn mission
     motor_time_constant_s: float = 0.3     # RPM follows its command with this lag [s]
     max_depth_m: float = 200.0             # section 1: maximum operating depth [m]
 

@@ -107,8 +107,12 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     assert tab.page.get_by_text(RUNNING).is_visible()      # still running
     tab.page.get_by_role("button", name="Stop", exact=True).evaluate("b => b.click()")
     tab.notification("Run stopped").wait_for(timeout=20000)
-    stopped_at = tab.page.get_by_text("Stopped at t =", exact=False).first.inner_text()
-    assert float(stopped_at.split("=")[1].split("s")[0]) < 3000.0
+    # a worker that answers Stop within 2 s reports where it stopped; one that does not (a niced
+    # process starved on a loaded 2-core machine) is killed and the tab says the run ended early
+    # (README "Live"): either way the run did not go on to its end
+    said = tab.page.get_by_text(re.compile("Stopped at t =|The run ended before completion")).first.inner_text()
+    if "Stopped at t =" in said:
+        assert float(said.split("=")[1].split("s")[0]) < 3000.0
     tab.page.get_by_role("button", name="Run", exact=True).wait_for(state="visible")
     assert tab.page.get_by_role("button", name="Run", exact=True).is_enabled()
 

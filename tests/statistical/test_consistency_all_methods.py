@@ -26,7 +26,7 @@ import pytest
 from tauvcore.config import Config
 from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency
 from tauvcore.eval.montecarlo import monte_carlo
-from tauvcore.truth import TRAJECTORIES
+from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 
 NUM_RUNS = 20
 SEED = 8

@@ -8,7 +8,7 @@ import pytest
 from tauvcore.config import Config, from_dict, merge, trajectory_preset
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors import dvl
-from tauvcore.truth import TrajectoryConfig, generate
+from tauvcore.truth import generate
 from tauvcore.truth.kinematic import LONGRANGE_OUT_OF_RANGE_S, bathymetry
 from tauvcore.truth.seabed import Bathymetry, Trench
 from tauvcore.validation import ConfigError
