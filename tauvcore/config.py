@@ -19,11 +19,14 @@ import tomli_w
 
 from tauvcore import units
 from tauvcore.aiding import AIDING_SOURCES, elc_nsv
+from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
+from tauvcore.sensors.echosounder import EchoSounderConfig
 from tauvcore.sensors.imu import ImuConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
+from tauvcore.sensors.rpm import RpmConfig
 from tauvcore.truth.kinematic import TrajectoryConfig
 from tauvcore.validation import (
     ConfigError,
@@ -153,6 +156,9 @@ class Config:
     dvl: DvlConfig = field(default_factory=DvlConfig)
     pressure: PressureConfig = field(default_factory=PressureConfig)
     magnetometer: MagnetometerConfig = field(default_factory=MagnetometerConfig)
+    echo_sounder: EchoSounderConfig = field(default_factory=EchoSounderConfig)
+    rpm: RpmConfig = field(default_factory=RpmConfig)
+    vkf: VkfConfig = field(default_factory=VkfConfig)
     initial_error: InitialErrorConfig = field(default_factory=InitialErrorConfig)
     filter: FilterConfig = field(default_factory=FilterConfig)
     partial: PartialConfig = field(default_factory=PartialConfig)
@@ -162,6 +168,7 @@ class Config:
         imu_rate = self.imu.rate_hz
         for name, rate in (("dvl.rate_hz", self.dvl.rate_hz), ("pressure.rate_hz", self.pressure.rate_hz),
                            ("magnetometer.rate_hz", self.magnetometer.rate_hz),
+                           ("echo_sounder.rate_hz", self.echo_sounder.rate_hz), ("rpm.rate_hz", self.rpm.rate_hz),
                            ("filter.output_rate_hz", self.filter.output_rate_hz),
                            ("filter.covariance_rate_hz", self.filter.covariance_rate_hz)):
             if rate > imu_rate:     # every epoch falls on an IMU sample; a faster one would repeat samples

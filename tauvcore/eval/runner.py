@@ -71,9 +71,11 @@ from tauvcore.geo.rotations import (
 from tauvcore.ins.error_model import noise_psd
 from tauvcore.ins.strapdown import NavState, Strapdown, body_increments, mv
 from tauvcore.sensors import dvl as dvl_sensor
+from tauvcore.sensors import echosounder as echo_sensor
 from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors import magnetometer as mag_sensor
 from tauvcore.sensors import pressure as pressure_sensor
+from tauvcore.sensors import rpm as rpm_sensor
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import Truth, generate, truth_stream
 from tauvcore.truth.kinematic import bathymetry
@@ -97,6 +99,8 @@ class Simulation:
     pressure: pressure_sensor.PressureData
     mag: mag_sensor.MagnetometerData
     num_runs: int
+    echo: echo_sensor.EchoSounderData | None = None   # echo sounder (None: a log without one)
+    rpm: rpm_sensor.RpmData | None = None               # propeller RPM (None: a log without one)
 
 
 def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None) -> Simulation:
@@ -108,12 +112,19 @@ def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1, truth:
     dvl_cfg = config.dvl.ideal() if ideal else config.dvl
     p_cfg = config.pressure.ideal() if ideal else config.pressure
     m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
+    seabed = bathymetry(config.trajectory)
+    extra = rng.spawn(1)[0]
     return Simulation(truth=truth,
                       imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
-                      dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, bathymetry(config.trajectory)),
+                      dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
                       pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
                       mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
-                      num_runs=num_runs)
+                      num_runs=num_runs,
+                      # from a child of rng (spawning draws nothing): what rng draws next, the filters'
+                      # initial errors, is what it drew before these sensors existed
+                      echo=echo_sensor.simulate(truth, config.echo_sounder.ideal() if ideal else config.echo_sounder,
+                                                seabed, extra, num_runs),
+                      rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs))
 
 
 @dataclass(frozen=True)
@@ -328,10 +339,12 @@ class SimChunk:
     dvl: dvl_sensor.DvlData
     pressure: pressure_sensor.PressureData
     mag: mag_sensor.MagnetometerData
+    echo: echo_sensor.EchoSounderData | None = None
+    rpm: rpm_sensor.RpmData | None = None
 
     @classmethod
     def whole(cls, sim: Simulation) -> SimChunk:
-        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag)
+        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag, sim.echo, sim.rpm)
 
 
 DVL_ROWS = 4
@@ -808,12 +821,13 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
     sensors = SensorStream(config.imu.ideal() if ideal else config.imu, config.dvl.ideal() if ideal else config.dvl,
                            config.pressure.ideal() if ideal else config.pressure,
                            config.magnetometer.ideal() if ideal else config.magnetometer,
-                           streams, num_runs, truths.num_samples, truths.dt_s, bathymetry(config.trajectory))
+                           streams, num_runs, truths.num_samples, truths.dt_s, bathymetry(config.trajectory),
+                           config.echo_sounder.ideal() if ideal else config.echo_sounder,
+                           config.rpm.ideal() if ideal else config.rpm)
     bank = FilterBank(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
-        imu, dvl, pressure, mag = sensors.next_chunk(k0, truth)
-        chunk = SimChunk(k0, truth, imu, dvl, pressure, mag)
+        chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth))
         if on_sim_chunk is not None:
             on_sim_chunk(chunk)
         going = bank.feed(chunk, progress, progress_interval_s, should_stop)

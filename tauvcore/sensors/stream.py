@@ -18,6 +18,8 @@ chunks of :class:`tauvcore.truth.kinematic.TruthStream` in order::
     for k0, chunk in truth:
         imu, dvl, pressure, mag = sensors.next_chunk(k0, chunk)
 
+(:meth:`SensorStream.next_chunk_all` adds the echo sounder and the RPM sensor, when configured.)
+
 Every output has the run axis after time, ``(K, R, ...)``; the aiding sensors' ``index`` are
 global IMU sample indices, those of ``timing.epoch_indices`` for the whole mission.
 """
@@ -27,13 +29,25 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from tauvcore.sensors import dvl, imu, magnetometer, pressure
+from tauvcore.sensors import dvl, echosounder, imu, magnetometer, pressure, rpm
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
+
+
+class SensorChunk(NamedTuple):
+    """One chunk of every sensor (:meth:`SensorStream.next_chunk_all`)."""
+
+    imu: imu.ImuData
+    dvl: dvl.DvlData
+    pressure: pressure.PressureData
+    mag: magnetometer.MagnetometerData
+    echo: echosounder.EchoSounderData | None
+    rpm: rpm.RpmData | None
 
 
 @dataclass(frozen=True)
@@ -57,6 +71,10 @@ class SensorStreams:
     magnetometer: np.random.Generator      # attitude white noise
     initial: np.random.Generator           # the filter's random initial errors (drawn by the runner)
     imu_axes: np.random.Generator          # IMU scale factors and misalignments (drawn only if the IMU has them)
+    echo_sounder: np.random.Generator      # altitude white noise
+    rpm_scale_factor: np.random.Generator  # RPM-to-speed scale factor walk (kinematic truth)
+    rpm_bias: np.random.Generator          # RPM-to-speed bias walk (kinematic truth)
+    rpm_noise: np.random.Generator         # RPM white noise
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -90,7 +108,9 @@ class SensorStream:
     def __init__(self, imu_config: imu.ImuConfig, dvl_config: dvl.DvlConfig, pressure_config: pressure.PressureConfig,
                  magnetometer_config: magnetometer.MagnetometerConfig,
                  streams: SensorStreams | Sequence[SensorStreams], num_runs: int, num_samples: int,
-                 dt_s: float, seabed: Bathymetry | None = None) -> None:
+                 dt_s: float, seabed: Bathymetry | None = None,
+                 echo_sounder_config: echosounder.EchoSounderConfig | None = None,
+                 rpm_config: rpm.RpmConfig | None = None) -> None:
         if isinstance(num_runs, bool) or not isinstance(num_runs, (int, np.integer)) or num_runs < 1:
             raise ValueError(f"num_runs must be a whole number >= 1, got {num_runs!r}")
         if isinstance(num_samples, bool) or not isinstance(num_samples, (int, np.integer)) or num_samples < 1:
@@ -115,6 +135,11 @@ class SensorStream:
         self.pressure_config = pressure_config
         self.magnetometer_config = magnetometer_config
         self.seabed = seabed                                 # DVL beams traced to it (None: no range limit)
+        if echo_sounder_config is not None and seabed is None:
+            raise ValueError("an echo sounder needs the seabed")
+        self.echo_sounder_config = echo_sounder_config       # None: not simulated
+        self.rpm_config = rpm_config                         # None: not simulated
+        self._rpm_state = rpm.RpmState()
         self.num_runs = int(num_runs)
         self.num_samples = int(num_samples)
         self.dt_s = float(dt_s)
@@ -129,10 +154,15 @@ class SensorStream:
 
     def next_chunk(self, k0: int, truth: Truth) -> tuple[imu.ImuData, dvl.DvlData, pressure.PressureData,
                                                          magnetometer.MagnetometerData]:
+        """IMU, DVL, pressure and magnetometer of :meth:`next_chunk_all`."""
+        return tuple(self.next_chunk_all(k0, truth)[:4])  # type: ignore[return-value]
+
+    def next_chunk_all(self, k0: int, truth: Truth) -> SensorChunk:
         """Sensor outputs over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
 
         Chunks must come in order, each starting where the previous one ended. Returns IMU
-        arrays (K, R, 3) and the aiding sensors' epochs within the chunk (possibly none).
+        arrays (K, R, 3) and the aiding sensors' epochs within the chunk (possibly none); the
+        echo sounder and the RPM sensor when configured (else None), each from its own streams.
         """
         k = truth.num_samples
         if k0 != self.next_k0:
@@ -152,5 +182,13 @@ class SensorStream:
             g["dvl_noise"], g["dvl_dropout"], runs, self.seabed)
         p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, g["pressure"], runs)
         m_data = magnetometer.simulate_chunk(truth, k0, m_idx, self.magnetometer_config, g["magnetometer"], runs)
+        e_data = r_data = None
+        if self.echo_sounder_config is not None:
+            e_data = echosounder.simulate_chunk(truth, k0, self.epochs(self.echo_sounder_config.rate_hz, k0, k1),
+                                                self.echo_sounder_config, self.seabed, g["echo_sounder"], runs)
+        if self.rpm_config is not None:
+            r_data, self._rpm_state = rpm.simulate_chunk(
+                truth, k0, self.epochs(self.rpm_config.rate_hz, k0, k1), self.rpm_config, self._rpm_state,
+                g["rpm_scale_factor"], g["rpm_bias"], g["rpm_noise"], runs)
         self.next_k0 = k1
-        return imu_data, dvl_data, p_data, m_data
+        return SensorChunk(imu_data, dvl_data, p_data, m_data, e_data, r_data)

@@ -1,0 +1,109 @@
+"""Propeller RPM (Yoo 2014 section 2.2: the velocity filter's input, eq. 20).
+
+What the propeller turns at:
+
+- dynamic truth (tauvcore.truth.dynamic): the simulated thruster's RPM (``Truth.vehicle``), which
+  the 6-DOF model relates to speed through its thrust and drag (steady speed proportional to
+  RPM, transients and currents on top);
+- kinematic truth: a speed model inverting eq. 20, ``rpm = (u + b) / sf`` with ``u`` the surge
+  through the water (the kinematic truth has no current, so the surge), where the scale factor
+  ``sf`` [m/s per rpm] and bias ``b`` [m/s] are slow random walks from their nominal values (a
+  hull fouling, a propeller nicked, a current the vehicle does not know): what the velocity
+  filter must learn, and recorded as its truth.
+
+The sensor adds white noise ``noise_rpm`` (a shaft encoder's quantisation and jitter).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tauvcore.sensors.timing import (
+    Rng,
+    WalkState,
+    batch_shape,
+    epoch_indices,
+    random_walk_chunk,
+    standard_normal,
+)
+from tauvcore.truth.record import Truth
+from tauvcore.validation import require_range
+
+
+@dataclass(frozen=True)
+class RpmConfig:
+    """Propeller shaft speed sensor and the kinematic truth's speed model (module docstring)."""
+
+    rate_hz: float = 5.0                      # [Hz], the DVL rate of Yoo 2014; [0.01, 100]
+    noise_rpm: float = 2.0                    # white noise [rev/min]; [0, 1000]: zero is an ideal sensor
+    mps_per_rpm: float = 2.3525e-3            # nominal sf: the TAUV's steady speed per rpm (tauvcore.truth.vehicle,
+                                              # 2 m/s at 850 rpm) [m/s per rpm]; (0, 1]
+    bias_mps: float = 0.05                    # nominal b [m/s]; [-5, 5]
+    scale_factor_rw_per_sqrt_s: float = 2e-7  # walk of sf [m/s per rpm per sqrt(s)]: 0.4 % of sf in an hour; [0, 1e-3]
+    bias_rw_mps_per_sqrt_s: float = 5e-4      # walk of b [m/s/sqrt(s)]: 3 cm/s in an hour; [0, 1]
+
+    def __post_init__(self) -> None:
+        require_range("rpm.rate_hz", self.rate_hz, 0.01, 100.0)
+        require_range("rpm.noise_rpm", self.noise_rpm, 0.0, 1000.0)
+        require_range("rpm.mps_per_rpm", self.mps_per_rpm, 0.0, 1.0, low_open=True)
+        require_range("rpm.bias_mps", self.bias_mps, -5.0, 5.0)
+        require_range("rpm.scale_factor_rw_per_sqrt_s", self.scale_factor_rw_per_sqrt_s, 0.0, 1e-3)
+        require_range("rpm.bias_rw_mps_per_sqrt_s", self.bias_rw_mps_per_sqrt_s, 0.0, 1.0)
+
+    def ideal(self) -> RpmConfig:
+        """No noise and no walks (the nominal sf and b stay)."""
+        return RpmConfig(rate_hz=self.rate_hz, noise_rpm=0.0, mps_per_rpm=self.mps_per_rpm, bias_mps=self.bias_mps,
+                         scale_factor_rw_per_sqrt_s=0.0, bias_rw_mps_per_sqrt_s=0.0)
+
+
+@dataclass(frozen=True)
+class RpmData:
+    t_s: np.ndarray            # (M,) [s]
+    index: np.ndarray          # (M,) IMU sample index
+    rpm: np.ndarray            # (M, [R]) measured propeller speed [rev/min]
+    true_rpm: np.ndarray       # (M, [R]) what the propeller turned at [rev/min]
+    scale_factor: np.ndarray   # (M, [R]) true sf of eq. 20 [m/s per rpm]; NaN on the dynamic truth (no such map)
+    bias_mps: np.ndarray       # (M, [R]) true b of eq. 20 [m/s]; NaN on the dynamic truth
+
+
+@dataclass(frozen=True)
+class RpmState:
+    scale_factor: WalkState = field(default_factory=WalkState)
+    bias: WalkState = field(default_factory=WalkState)
+
+
+def simulate(truth: Truth, config: RpmConfig, rng: np.random.Generator, num_runs: int | None = None) -> RpmData:
+    """RPM of the whole mission as one chunk, every draw from ``rng``."""
+    data, _ = simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, RpmState(), rng, rng, rng,
+                             num_runs)
+    return data
+
+
+def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: RpmConfig, state: RpmState, sf_rng: Rng,
+                   bias_rng: Rng, noise_rng: Rng, num_runs: int | None) -> tuple[RpmData, RpmState]:
+    """RPM at the mission's IMU samples ``index`` (within ``truth``, whose sample 0 is the mission's
+    sample ``k0``). Draws: the sf walk and the b walk, each from its own generator (both start at
+    their nominal values; one step per epoch; kinematic truth only), then the noise. -> (data,
+    next state)."""
+    rows = index - k0
+    runs = batch_shape(num_runs)
+    expand = (slice(None),) + (None,) * len(runs)
+    shape = (index.size,) + runs
+    if truth.vehicle is not None:
+        true_rpm = np.broadcast_to(truth.vehicle.propeller_rpm[rows][expand], shape)
+        sf = b = np.full(shape, np.nan)
+        new_state = state
+    else:
+        period = 1.0 / config.rate_hz
+        d_sf, sf_state = random_walk_chunk(sf_rng, state.scale_factor, runs, 0.0,
+                                           config.scale_factor_rw_per_sqrt_s, period, index.size)
+        d_b, b_state = random_walk_chunk(bias_rng, state.bias, runs, 0.0, config.bias_rw_mps_per_sqrt_s, period,
+                                         index.size)
+        sf, b = config.mps_per_rpm + d_sf, config.bias_mps + d_b
+        true_rpm = (truth.vel_b[rows, 0][expand] + b) / sf
+        new_state = RpmState(scale_factor=sf_state, bias=b_state)
+    rpm = true_rpm + standard_normal(noise_rng, shape, 1) * config.noise_rpm
+    return (RpmData(t_s=truth.t_s[rows], index=index, rpm=rpm, true_rpm=np.array(true_rpm), scale_factor=sf,
+                    bias_mps=b), new_state)

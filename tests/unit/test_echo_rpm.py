@@ -1,0 +1,88 @@
+"""The echo sounder and the propeller RPM sensor (issue 12): known answers, chunk invariance, bad
+input naming the field."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from tauvcore.config import Config
+from tauvcore.geo.earth import Earth
+from tauvcore.sensors import dvl, echosounder, imu, magnetometer, pressure, rpm
+from tauvcore.sensors.stream import SensorStream, SensorStreams
+from tauvcore.truth import TrajectoryConfig, generate
+from tauvcore.truth.kinematic import TruthStream, bathymetry
+from tauvcore.truth.seabed import Bathymetry
+from tauvcore.validation import ConfigError
+
+RATE_HZ = 150.0
+
+
+def test_echo_sounder_measures_the_altitude_and_nothing_beyond_its_range() -> None:
+    truth = generate(TrajectoryConfig(name="figure8", duration_s=60.0), Earth(model="flat"), RATE_HZ)
+    bed = Bathymetry(60.0)
+    ideal = echosounder.simulate(truth, echosounder.EchoSounderConfig().ideal(), bed, np.random.default_rng(0))
+    np.testing.assert_allclose(ideal.altitude_m, 60.0 - truth.depth_m[ideal.index], atol=1e-12)
+    assert ideal.t_s[0] == pytest.approx(0.2)                                  # 5 Hz
+    short = echosounder.simulate(truth, echosounder.EchoSounderConfig(max_range_m=38.0), bed,
+                                 np.random.default_rng(0))
+    assert np.all(np.isnan(short.altitude_m[short.true_altitude_m > 38.0]))
+    assert np.all(np.isfinite(short.altitude_m[short.true_altitude_m <= 38.0]))
+    noisy = echosounder.simulate(truth, echosounder.EchoSounderConfig(noise_m=0.5), bed, np.random.default_rng(1), 40)
+    assert np.std(noisy.altitude_m - noisy.true_altitude_m[:, None]) == pytest.approx(0.5, rel=0.03)
+
+
+def test_rpm_of_the_kinematic_truth_inverts_eq_20() -> None:
+    """Without noise or walks: ``rpm = (u + b) / sf`` with the nominal sf and b (2 m/s is 871 rpm)."""
+    truth = generate(TrajectoryConfig(name="lawnmower", duration_s=60.0), Earth(), RATE_HZ)
+    cfg = rpm.RpmConfig().ideal()
+    data = rpm.simulate(truth, cfg, np.random.default_rng(0))
+    np.testing.assert_allclose(data.rpm * cfg.mps_per_rpm - cfg.bias_mps, truth.vel_b[data.index, 0], atol=1e-12)
+    assert data.rpm[0] == pytest.approx((2.0 + 0.05) / 2.3525e-3)
+    np.testing.assert_array_equal(data.scale_factor, cfg.mps_per_rpm)
+
+
+def test_rpm_of_the_dynamic_truth_is_the_thrusters() -> None:
+    truth = generate(TrajectoryConfig(name="figure8", duration_s=20.0, truth="dynamic"), Earth(), RATE_HZ)
+    data = rpm.simulate(truth, rpm.RpmConfig(noise_rpm=0.0), np.random.default_rng(0))
+    np.testing.assert_array_equal(data.rpm, truth.vehicle.propeller_rpm[data.index])
+    assert np.all(np.isnan(data.scale_factor)) and np.all(np.isnan(data.bias_mps))
+
+
+def test_rpm_walks_and_noise_do_not_depend_on_the_chunk_size() -> None:
+    """sf and b walk from their own streams and the noise from a third: chunks of 7 samples give
+    the numbers of one chunk, run by run; the walks move (sf by ~0.4 % in an hour)."""
+    trajectory = TrajectoryConfig(name="longrange", duration_s=120.0, speed_mps=5.0, depth_m=50.0,
+                                  seabed_depth_m=110.0)
+    sensors = (imu.ImuConfig(), dvl.DvlConfig(), pressure.PressureConfig(), magnetometer.MagnetometerConfig())
+    joined = []
+    for chunk_samples in (7, 100_000):
+        truth = TruthStream(trajectory, Earth(), RATE_HZ, chunk_samples)
+        stream = SensorStream(*sensors, SensorStreams.spawned(np.random.default_rng(5)), 3, truth.num_samples,
+                              truth.dt_s, bathymetry(trajectory), echosounder.EchoSounderConfig(), rpm.RpmConfig())
+        parts = [stream.next_chunk_all(k0, c) for k0, c in truth]
+        joined.append({name: np.concatenate([getattr(getattr(p, kind), name) for p in parts])
+                       for kind, names in (("rpm", ("rpm", "scale_factor", "bias_mps")), ("echo", ("altitude_m",)))
+                       for name in names})
+    for name, value in joined[0].items():
+        np.testing.assert_array_equal(value, joined[1][name], err_msg=name)
+    assert np.ptp(joined[0]["bias_mps"]) > 1e-3
+
+
+@pytest.mark.parametrize("section, key, value, field", [
+    ("rpm", "noise_rpm", -1.0, "rpm.noise_rpm"),
+    ("rpm", "noise_rpm", float("nan"), "rpm.noise_rpm"),
+    ("rpm", "mps_per_rpm", 0.0, "rpm.mps_per_rpm"),
+    ("echo_sounder", "max_range_m", 0.0, "echo_sounder.max_range_m"),
+    ("echo_sounder", "noise_m", -0.1, "echo_sounder.noise_m"),
+    ("vkf", "switch_altitude_m", -5.0, "vkf.switch_altitude_m"),
+    ("vkf", "switch_altitude_m", float("nan"), "vkf.switch_altitude_m"),
+])
+def test_bad_sensor_settings_name_the_field(section: str, key: str, value: float, field: str) -> None:
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        Config().replace(section, **{key: value})
+
+
+def test_the_new_sensors_rates_may_not_exceed_the_imus() -> None:
+    with pytest.raises(ConfigError, match=r"rpm\.rate_hz"):
+        dataclasses.replace(Config().replace("imu", rate_hz=50.0), rpm=rpm.RpmConfig(rate_hz=60.0))
