@@ -1,0 +1,97 @@
+"""The error model of Yoo 2014's 12-state indirect feedback filter (section 2.1, eq. 7-18).
+
+State (eq. 12), in tauvcore's sign convention (every error is *true minus estimate*, and the
+attitude error ``rho`` is the left, n-frame one of tauvcore.conventions: ``C_nb_true =
+exp([rho x]) C_nb_est``)::
+
+    dx = [dv_n (3), rho (3), d_ba (3), d_bg (3)]     velocity error in NED [m/s], attitude [rad],
+                                                    accelerometer and gyro bias errors (body)
+
+No position states: "the velocity information is the only one as the external sensor", so the
+paper leaves position out of the filter (its eq. 9-10 drop the position-dependent terms); the
+position follows from the corrected velocity. The error dynamics ``dx' = F dx + G w`` on the
+geodetic mechanization of eq. 1 and 6 (NED frame turning at ``omega_in = omega_ie + omega_en``)::
+
+    dv'  = -(f_n x) rho - C_nb d_ba - (2 omega_ie + omega_en) x dv + (v x) J_en dv
+    rho' = -omega_in x rho - C_nb d_bg - J_en dv
+    d_ba' = 0,  d_bg' = 0   (plus their random walks)
+
+with ``J_en = d omega_en / d v_n`` (omega_en = (v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(L) /
+(R_E + h))). :func:`F_matrix` is that; tests/unit/test_yoo.py holds it to finite differences of
+the exact nonlinear error dynamics.
+
+Against the paper's printed F (eq. 13-15, :func:`F_paper`): the paper writes the velocity error
+as *estimate minus true* (eq. 17: ``z = v_INS - v_VKF``), its sensor errors ``delta f``,
+``delta omega`` as the corrected measurement's error, i.e. our bias errors (true minus estimate),
+and uses one earth radius R. Under that change of sign of the velocity its blocks are ours: F11 (velocity-velocity, Titterton's full form, which the paper prints
+although its eq. 9 shows only the Coriolis part), F12 = [f_n x], F13 = C_nb, F22 = -[omega_in x],
+F24 = -C_nb, except one entry: F21's (3, 2), d(rho_D')/d(dv_E), is printed ``tan L / R``; the
+derivative of ``omega_en,D = -v_E tan L / R`` is ``-tan L / R``, so the paper's sign is a typo (our
+finite-difference test fails with it). The paper also keeps F21 (its 1/R terms) although eq. 10
+drops ``delta omega_in``; we keep them, as its matrix does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tauvcore.geo.earth import OMEGA_IE_RPS, radii_of_curvature_m
+
+VEL, ATT, BA, BG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+DIM = 12
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def rates(lat_rad: float, h_m: float, vel_n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """omega_ie_n, omega_en_n [rad/s] and J_en = d omega_en / d v_n at (lat, h) and velocity."""
+    R_N, R_E = radii_of_curvature_m(lat_rad)
+    rn, re = R_N + h_m, R_E + h_m
+    w_ie = OMEGA_IE_RPS * np.array([np.cos(lat_rad), 0.0, -np.sin(lat_rad)])
+    t = np.tan(lat_rad)
+    w_en = np.array([vel_n[1] / re, -vel_n[0] / rn, -vel_n[1] * t / re])
+    J_en = np.array([[0.0, 1.0 / re, 0.0], [-1.0 / rn, 0.0, 0.0], [0.0, -t / re, 0.0]])
+    return w_ie, w_en, J_en
+
+
+def F_matrix(lat_rad: float, h_m: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray) -> np.ndarray:
+    """(12, 12) error dynamics of the module docstring at the estimated state; ``f_n`` the
+    specific force in n [m/s^2]."""
+    w_ie, w_en, J_en = rates(lat_rad, h_m, vel_n)
+    F = np.zeros((DIM, DIM))
+    F[VEL, VEL] = -skew(2.0 * w_ie + w_en) + skew(vel_n) @ J_en
+    F[VEL, ATT] = -skew(f_n)
+    F[VEL, BA] = -C_nb
+    F[ATT, VEL] = -J_en
+    F[ATT, ATT] = -skew(w_ie + w_en)
+    F[ATT, BG] = -C_nb
+    return F
+
+
+def F_paper(lat_rad: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray, R_m: float,
+            typo: bool = True) -> np.ndarray:
+    """The paper's F (eq. 13-15) as printed, in its convention (velocity and bias errors estimate
+    minus true) and with one radius ``R_m``; ``typo=False`` corrects F21's (3, 2) sign."""
+    vN, vE, vD = vel_n
+    fN, fE, fD = f_n
+    W, L = OMEGA_IE_RPS, lat_rad
+    s, c, t = np.sin(L), np.cos(L), np.tan(L)
+    F = np.zeros((DIM, DIM))
+    F[VEL, VEL] = [[vD / R_m, -2.0 * (W * s + vE * t / R_m), vN / R_m],
+                   [2.0 * W * s + vE * t / R_m, (vN * t + vD) / R_m, 2.0 * W * c + vE / R_m],
+                   [-2.0 * vN / R_m, -2.0 * (W * c + vE / R_m), 0.0]]
+    F[VEL, ATT] = [[0.0, -fD, fE], [fD, 0.0, -fN], [-fE, fN, 0.0]]
+    F[ATT, VEL] = [[0.0, 1.0 / R_m, 0.0], [-1.0 / R_m, 0.0, 0.0], [0.0, (1.0 if typo else -1.0) * t / R_m, 0.0]]
+    F[ATT, ATT] = [[0.0, -(W * s + vE * t / R_m), vN / R_m], [W * s + vE * t / R_m, 0.0, W * c + vE / R_m],
+                   [-vN / R_m, -(W * c + vE / R_m), 0.0]]
+    F[VEL, BA] = C_nb
+    F[ATT, BG] = -C_nb
+    return F
+
+
+def paper_convention() -> np.ndarray:
+    """(12, 12) diagonal sign change from tauvcore's error state to the paper's: the velocity error
+    flips (estimate minus true), attitude and bias errors do not. ``F_paper = S F S``."""
+    return np.diag(np.r_[-np.ones(3), np.ones(9)])
