@@ -32,6 +32,7 @@ import numpy as np
 
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.config import (
+    ALL_METHODS,
     AUTO,
     METHODS,
     Config,
@@ -126,10 +127,11 @@ def attach_dash_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
-def _csv(flag: str, text: str, choices: Sequence[str], allow_all: bool = False) -> tuple[str, ...]:
+def _csv(flag: str, text: str, choices: Sequence[str], allow_all: bool = False,
+         all_means: Sequence[str] | None = None) -> tuple[str, ...]:
     items = tuple(s.strip() for s in text.split(",") if s.strip())
     if allow_all and items == ("all",):
-        return tuple(choices)
+        return tuple(choices if all_means is None else all_means)
     if not items:
         raise UsageError(f"{flag}: expected a comma-separated list from {', '.join(choices)}, got {show(text)}")
     for item in items:
@@ -203,7 +205,10 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
 
 def _method_flags(p: argparse.ArgumentParser) -> None:
     """The flags of the methods, their aiding and the DVL's beams (``run``, ``mc`` and ``replay``)."""
-    p.add_argument("--method", help=f"comma-separated from {', '.join(METHODS)}, or 'all' (default: ins,lc)")
+    p.add_argument("--method", help=f"comma-separated from {', '.join(ALL_METHODS)}, or 'all' (the first paper's "
+                                    "eight) (default: ins,lc). ins-dvl and vkf are Yoo 2014's 12-state filter, aided "
+                                    "by the DVL, or by its velocity Kalman filter switching to the propeller RPM "
+                                    "beyond DVL range")
     p.add_argument("--seed", help="seed of the random generator: noise, initial errors, dropout (default 0)")
     p.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
     p.add_argument("--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)")
@@ -272,7 +277,8 @@ def resolve_config(args: argparse.Namespace) -> Config:
     if getattr(args, "seed", None) is not None:
         config = _replace("--seed", config, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
     if getattr(args, "method", None) is not None:
-        config = config.replace("run", methods=_csv("--method", args.method, METHODS, allow_all=True))
+        config = config.replace("run", methods=_csv("--method", args.method, ALL_METHODS, allow_all=True,
+                                                    all_means=METHODS))
     if getattr(args, "aiding", None) is not None:
         config = config.replace("run", aiding=_csv("--aiding", args.aiding, AIDING_SOURCES))
     if getattr(args, "ideal", False):
@@ -586,7 +592,11 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
 
     title = ("Consistency (1 = consistent, above 1 over-confident, below 1 cautious; in brackets the fraction "
              "inside the 99 % band)")
-    return "\n".join([title, line(head), line(units), *(line(row) for row in rows)])
+    notes = []
+    if any(r.block_dims is not None for r in results.values()):
+        notes = ["INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
+                 "NEES over 6, and they have no position state"]
+    return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
 
 
 def cmd_run(args: argparse.Namespace) -> int:

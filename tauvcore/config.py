@@ -45,6 +45,12 @@ beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled met
 3 (LC with 3-4 beams, their partial construction with 2): ``vb`` virtual beam, ``nsv``
 nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector."""
 
+YOO_METHODS = ("ins-dvl", "vkf")
+"""Yoo 2014's 12-state filter (tauvcore.eval.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,
+``vkf`` by the velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all"."""
+ALL_METHODS = METHODS + YOO_METHODS
+"""Every method ``run.methods`` may hold."""
+
 DEFAULT_METHODS = ("ins", "lc")
 AUTO = "auto"
 """A parameter derived from the rest of the configuration (``partial.nsv_epsilon_m2_per_s2``)."""
@@ -140,7 +146,7 @@ class RunConfig:
     ideal: bool = False                           # zero every sensor and initial error in the simulation
 
     def __post_init__(self) -> None:
-        require_choices("run.methods", self.methods, METHODS)
+        require_choices("run.methods", self.methods, ALL_METHODS)
         require_choices("run.aiding", self.aiding, AIDING_SOURCES, allow_empty=True)
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or not 0 <= self.seed <= MAX_SEED:
             raise ConfigError(f"run.seed must be an integer within [0, 2**63 - 1], got {show(self.seed)}")

@@ -105,5 +105,6 @@ class MethodConsistency:
 def method_consistency(result: MethodResult) -> MethodConsistency:
     """NEES of the full state and every block, and NIS of every aiding source, of one method."""
     return MethodConsistency(
-        nees={block: summarise_nees(nees_series(result, block), dim, block) for block, dim in BLOCK_DIMS.items()},
+        nees={block: summarise_nees(nees_series(result, block), dim, block)
+              for block, dim in (result.block_dims or BLOCK_DIMS).items()},
         nis={src: summarise_nis(rec, src) for src, rec in result.updates.items()})

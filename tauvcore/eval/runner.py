@@ -176,6 +176,8 @@ class MethodResult:
     updates: dict[str, UpdateRecord] = field(default_factory=dict)
     est_vel_n: np.ndarray | None = None      # (T, R, 3) estimated NED velocity [m/s]
     est_euler_rad: np.ndarray | None = None  # (T, R, 3) estimated roll, pitch, yaw [rad]
+    block_dims: dict[str, int] | None = None  # NEES dimensions when not the 20-state filter's (Yoo 2014's
+                                              # 12: tauvcore.eval.yoo_bank.BLOCK_DIMS); None: consistency.BLOCK_DIMS
 
 
 def _initial_draws(rng: np.random.Generator | Sequence[np.random.Generator], R: int) -> tuple[np.ndarray, ...]:
@@ -455,6 +457,7 @@ class FilterBank:
                                                                 nom.accel_bias, nom.gyro_bias, nom.dvl_bias,
                                                                 nom.dvl_sf)]
         self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf = arrays
+        self.initial_nav = (self.pos[0].copy(), self.vel[0].copy(), self.C[0].copy())   # per run (methods share it)
         self.flat = (self.pos.reshape(-1, 3), self.vel.reshape(-1, 3), self.C.reshape(-1, 3, 3),
                      self.ba.reshape(-1, 3), self.bg.reshape(-1, 3), self.bdvl.reshape(-1, 4), self.sf.reshape(-1))
         sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
@@ -759,9 +762,61 @@ def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.
     returning the results up to that epoch. :func:`run_streaming` does the same without holding
     the whole simulation.
     """
-    bank = FilterBank(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
-    bank.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
-    return bank.results()
+    banks = _Banks(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
+    banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
+    return banks.results()
+
+
+class _Banks:
+    """The 20-state FilterBank for the first paper's methods and the YooBank for Yoo 2014's
+    (tauvcore.eval.yoo_bank), fed the same chunks, their results in ``config.run.methods`` order.
+    The Yoo methods start from the same initial errors as the others (the same draws)."""
+
+    def __init__(self, config: Config, num_runs: int, num_samples: int, dt_s: float,
+                 rng: np.random.Generator | Sequence[np.random.Generator], keep: bool = True) -> None:
+        from tauvcore.config import YOO_METHODS
+        from tauvcore.eval.yoo_bank import YooBank
+
+        self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
+        self.order = config.run.methods
+        first = tuple(m for m in self.order if m not in YOO_METHODS)
+        second = tuple(m for m in self.order if m in YOO_METHODS)
+        self.bank = (FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
+                     if first or not second else None)
+        self.yoo = YooBank(config, second, num_runs, num_samples, dt_s) if second else None
+
+    def feed(self, chunk: SimChunk, progress: Callable | None = None, progress_interval_s: float = 5.0,
+             should_stop: Callable[[], bool] | None = None) -> bool:
+        going = True
+        if self.bank is not None:
+            going = self.bank.feed(chunk, progress, progress_interval_s, should_stop)
+        if self.yoo is not None:
+            if not self.yoo.started:
+                self._start_yoo(chunk)
+            self.yoo.feed(chunk)
+        return going
+
+    def _start_yoo(self, chunk: SimChunk) -> None:
+        config, truth = self.config, chunk.truth
+        P0 = initial_covariance(config, truth.euler[0])
+        if self.bank is not None:
+            nav = self.bank.initial_nav                                 # its draws, before any update
+        else:
+            nom = _initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att])
+            nav = nom.nav.pos_n[0], nom.nav.vel_n[0], nom.nav.C_nb[0]
+        self.yoo.start(*nav, P0[STATE.att, STATE.att], P0[STATE.ba, STATE.ba], P0[STATE.bg, STATE.bg])
+
+    def _merge(self, first: dict[str, MethodResult], second: dict[str, MethodResult]) -> dict[str, MethodResult]:
+        both = {**first, **second}
+        return {m: both[m] for m in self.order if m in both}
+
+    def results(self) -> dict[str, MethodResult]:
+        return self._merge(self.bank.results() if self.bank is not None else {},
+                           self.yoo.results() if self.yoo is not None else {})
+
+    def take(self) -> dict[str, MethodResult]:
+        return self._merge(self.bank.take() if self.bank is not None else {},
+                           self.yoo.take(self.keep) if self.yoo is not None else {})
 
 
 def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
@@ -824,7 +879,7 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
                            streams, num_runs, truths.num_samples, truths.dt_s, bathymetry(config.trajectory),
                            config.echo_sounder.ideal() if ideal else config.echo_sounder,
                            config.rpm.ideal() if ideal else config.rpm)
-    bank = FilterBank(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
+    bank = _Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
         chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth))
