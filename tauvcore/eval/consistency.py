@@ -35,6 +35,16 @@ CONFIDENCE = 0.99
 
 BLOCK_DIMS: dict[str, int] = {"full": STATE.dim, **{name: len(ix) for name, ix in NEES_BLOCKS.items()}}
 """Degrees of freedom of every NEES the results carry: the full state and each block."""
+YOO_BLOCK_DIMS: dict[str, int] = {"full": 12, "pos": 3, "vel": 3, "tilt": 2, "heading": 1, "sensor": 6}
+"""The same for Yoo 2014's 12-state filter (tauvcore.eval.yoo_bank; no position state, so its
+position NEES is NaN throughout)."""
+
+
+def block_dims(method: str) -> dict[str, int]:
+    """NEES dimensions of a method's results (by name: a study's chunks carry only series)."""
+    from tauvcore.config import YOO_METHODS
+
+    return YOO_BLOCK_DIMS if method in YOO_METHODS else BLOCK_DIMS
 
 
 @dataclass(frozen=True)

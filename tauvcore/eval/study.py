@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tauvcore.config import Config, from_dict, to_dict
-from tauvcore.eval.consistency import BLOCK_DIMS, nees_band
+from tauvcore.eval.consistency import BLOCK_DIMS, block_dims, nees_band
 from tauvcore.eval.runner import MethodResult, run_streaming
 from tauvcore.filter.layout import NEES_BLOCKS
 
@@ -155,7 +155,7 @@ class StudyAccumulator:
         and runs (finite entries) and the fraction of epochs whose run mean lies in the 99 % band."""
         s = self._sums[method]
         name = "nees" if block == "full" else f"nees_{block}"
-        dim = BLOCK_DIMS[block]
+        dim = block_dims(method)[block]
         total, count = s.nees_sum[name].sum(), s.nees_finite[name].sum()
         lo, hi = nees_band(dim, self.num_runs)
         all_finite = s.nees_finite[name] == self.num_runs

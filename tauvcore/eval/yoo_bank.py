@@ -34,14 +34,14 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
+from tauvcore.eval.consistency import YOO_BLOCK_DIMS
 from tauvcore.filter import kernels, vkf, yoo
 from tauvcore.geo.earth import OMEGA_IE_RPS, ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
-BLOCK_DIMS = {"full": yoo.DIM, "pos": 3, "vel": 3, "tilt": 2, "heading": 1, "sensor": 6}
-"""Degrees of freedom of this filter's NEES (the 20-state methods': tauvcore.eval.consistency);
-no position state, so its position NEES is NaN throughout."""
+BLOCK_DIMS = YOO_BLOCK_DIMS
+"""Degrees of freedom of this filter's NEES (tauvcore.eval.consistency.YOO_BLOCK_DIMS)."""
 RPM_LATERAL_SIGMA_MPS = 0.1
 """1-sigma of the sway and heave the RPM velocity takes as zero [m/s] (a cruising AUV's few cm/s,
 more in turns)."""
