@@ -41,6 +41,7 @@ from app.figures import (
     METHOD_COLORS,
     TRUTH_COLOR,
     actuator_figure,
+    altitude_figure,
     decimate,
     elc_choice_figure,
     error_figure,
@@ -55,11 +56,15 @@ from app.scene import (
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
     M_VIEW_FROM_NED,
+    SEABED_COLOR,
     auv_parts_body,
+    beam_readout,
     beam_segments_n,
     beam_states,
     fin_wxyz_body,
     ned_to_view,
+    seabed_mesh_n,
+    seabed_ranges_m,
     wxyz_view,
 )
 from tauvcore.config import METHODS, Config, from_dict, to_dict
@@ -67,6 +72,7 @@ from tauvcore.eval.consistency import BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
+from tauvcore.truth.kinematic import bathymetry
 from tauvcore.validation import ConfigError, show
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
@@ -85,6 +91,15 @@ VEHICLE_NOTES = {
     "none": "Fins and propeller of the dynamic truth show here after a run with **Truth: dynamic**.",
 }
 """The Vehicle tab's note for each kind of truth (its figure shows for the dynamic truth only)."""
+SEABED_NOTES = {
+    "simulation": ("Height above the seabed straight below (an ideal echo sounder). Above the DVL's range its "
+                   "beams find no bottom (drawn orange, *lost*, in the 3-D view); above the switch the velocity "
+                   "filter uses the propeller RPM instead (shaded). Choose **Trajectory: longrange** for the "
+                   "paper's mission over two trenches."),
+    "log": "No altitude: a recorded log has no seabed.",
+    "none": "The altitude above the seabed shows here after a run.",
+}
+"""The Seabed tab's note (its figure shows for simulated missions)."""
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
@@ -207,6 +222,7 @@ class Session:
                 self.follow = gui.add_checkbox("Follow vehicle", True, hint="keep the camera on the AUV")
                 self.play_button = gui.add_button("Play")
                 self.pause_button = gui.add_button("Pause")
+                self.readout = gui.add_markdown("")
             self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
         with tabs.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
@@ -225,6 +241,9 @@ class Session:
         with tabs.add_tab("Vehicle"):
             self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
             self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
+        with tabs.add_tab("Seabed"):
+            self.seabed_note = gui.add_markdown(SEABED_NOTES["none"])
+            self.seabed_plot = gui.add_plotly(go.Figure(), aspect=0.8, visible=False)
         with tabs.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
             self.run_config = gui.add_markdown("")
@@ -232,6 +251,10 @@ class Session:
         if self.source is not None:
             # a log replays its own reference: the truth's generator does not apply to it
             self.source.on_update(lambda _: setattr(self.truth, "disabled", self.source.value != inputs.SIMULATION))
+        # a scenario's preset fills in the controls when the user picks it (not when the server
+        # itself sets the dropdown to what the page shows, at Run: the page's values stand then)
+        self.preset: str | None = None
+        self.trajectory.on_update(lambda event: self.apply_trajectory_preset() if event.client is not None else None)
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
         self.show_sigma.on_update(lambda _: self.refresh_plots())
@@ -256,6 +279,33 @@ class Session:
                                      color="red" if error else "green")
 
     # ------------------------------------------------------------------ inputs
+    def apply_trajectory_preset(self) -> None:
+        """Fill in the controls the chosen scenario's preset sets (longrange: Duration 1440 s and
+        the paper's IMU; tauvcore.config.trajectory_preset) and say so in the status and a
+        notification. Leaving such a scenario for one without a preset puts those controls back to
+        their defaults, so a figure eight does not fly 1440 s with the long-range IMU."""
+        name = self.trajectory.value
+        texts = inputs.preset_controls(name)
+        previous, self.preset = self.preset, (name if texts else None)
+        if texts:
+            title, note, headline = f"Preset {name} applied", inputs.preset_note(name), inputs.preset_headline(name)
+        elif previous is not None:
+            texts = inputs.preset_controls(previous, Config())
+            title = "Defaults restored"
+            note = headline = f"{', '.join(texts)} back to their defaults (the {previous} preset no longer applies)."
+        else:
+            return
+        fields = {inputs.DURATION: self.duration, inputs.ACCEL_BIAS: self.accel_bias, inputs.GYRO_BIAS: self.gyro_bias,
+                  inputs.ACCEL_NOISE: self.accel_noise, inputs.GYRO_NOISE: self.gyro_noise,
+                  inputs.DVL_NOISE: self.dvl_noise, inputs.DVL_BIAS: self.dvl_bias, inputs.DVL_SF: self.dvl_sf,
+                  inputs.DROPOUT: self.dropout, inputs.VB_NF: self.vb_nf, inputs.NSV_EPSILON: self.nsv_epsilon,
+                  inputs.SEED: self.seed}
+        for label, text in texts.items():
+            if label in fields:
+                fields[label].value = text
+        self.status.content = note
+        self.notify(title, headline)
+
     def selected_methods(self) -> tuple[str, ...]:
         return tuple(m for m in METHODS if self.method_boxes[m].value)
 
@@ -447,6 +497,7 @@ class Session:
                     self.truth_view = msg[1]
                     self._draw_truth()
                     self._draw_vehicle_plot()
+                    self._draw_seabed_plot()
                 elif kind == "progress":
                     pending = msg[2]
                     self.progress.value = 100.0 * msg[1] / config.trajectory.duration_s
@@ -533,6 +584,7 @@ class Session:
                                            flat_shading=True, side="double", position=tuple(fin.hinge_b))
                      for k, (fin, color) in enumerate(zip(fins, FIN_COLORS))]
         self.beams: list[Any] = []
+        self.terrain: Any = None         # the seabed's mesh when it is not flat (_draw_seabed)
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
         self.show_beams_static(d, np.array([0.0, 0.0, d.trajectory.depth_m]), np.eye(3))
@@ -552,14 +604,18 @@ class Session:
 
     @_drawing
     def show_beams_static(self, config: Config, pos_n: np.ndarray, C_nb: np.ndarray,
-                          states: list[str] | None = None) -> None:
+                          states: list[str] | None = None, range_m: np.ndarray | None = None) -> None:
         """Draw the four beams from the DVL head to the seabed, coloured by state.
 
-        Each beam is re-added under its name rather than recoloured: assigning ``colors`` to an
-        existing line-segments node hides it in viser 1.1 (seen in headless Chromium).
+        ``range_m`` (4,): each beam's slant range (the truth view's, inf beyond the DVL's range:
+        drawn at that range); None: traced here to the configured mission's seabed (before a run,
+        a replayed log). Each beam is re-added under its name rather than recoloured: assigning
+        ``colors`` to an existing line-segments node hides it in viser 1.1 (seen in headless Chromium).
         """
-        segs = ned_to_view(beam_segments_n(pos_n, C_nb, config.dvl.l_dvl_b, config.dvl.A_b,
-                                           config.trajectory.seabed_depth_m))
+        dvl = config.dvl
+        if range_m is None:
+            range_m = seabed_ranges_m(pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m)
+        segs = ned_to_view(beam_segments_n(pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m))
         states = states or [BEAM_RETURNING] * 4
         self.beams = [self.client.scene.add_line_segments(
             f"/beams/{k + 1}", segs[k:k + 1], BEAM_COLORS[state], thickness=2.5, thickness_units="screen")
@@ -585,13 +641,46 @@ class Session:
             thickness_units="screen")
         lo, hi = tv["pos_n"].min(axis=0), tv["pos_n"].max(axis=0)
         center = 0.5 * (lo + hi)
-        self.seabed.position = (float(ned_to_view(center)[0]), float(ned_to_view(center)[1]),
-                                -config.trajectory.seabed_depth_m)
+        self._draw_seabed(config, tv["pos_n"], center)
         if self.follow.value:
             self._aim_camera(tv["pos_n"][0], 25.0)
         else:
             self._aim_camera(center, max(60.0, 0.8 * float(np.max(hi[:2] - lo[:2]))))
         self.show_time(0.0)
+
+    @_drawing
+    def _draw_seabed(self, config: Config, pos_n: np.ndarray, center_n: np.ndarray) -> None:
+        """A flat seabed is the grid, centred under the track; any other (terrain, the longrange
+        trenches) a mesh of the mission's bathymetry under the track (app.scene.seabed_mesh_n).
+        A replayed log records no seabed: the grid at the configured depth."""
+        if self.terrain is not None:
+            self.terrain.remove()
+            self.terrain = None
+        seabed = bathymetry(config.trajectory)
+        if seabed.is_plane or self.replaying:
+            self.seabed.position = (float(ned_to_view(center_n)[0]), float(ned_to_view(center_n)[1]),
+                                    -config.trajectory.seabed_depth_m)
+            self.seabed.visible = True
+            return
+        verts_n, faces = seabed_mesh_n(seabed, pos_n)
+        self.seabed.visible = False
+        self.terrain = self.client.scene.add_mesh_simple("/terrain", ned_to_view(verts_n), faces, color=SEABED_COLOR,
+                                                         flat_shading=False, side="double")
+
+    @_drawing
+    def _draw_seabed_plot(self) -> None:
+        """The Seabed tab: the altitude above the seabed of a simulated mission, otherwise a note."""
+        tv, config = self.truth_view, self.config
+        if tv is None or config is None:
+            return
+        if tv.get("altitude_m") is None:
+            self.seabed_plot.visible = False
+            self.seabed_note.content = SEABED_NOTES["log" if self.replaying else "none"]
+            return
+        self.seabed_plot.figure = altitude_figure(tv["t_s"], tv["altitude_m"], config.dvl.max_altitude_m,
+                                                  config.vkf.switch_altitude_m)
+        self.seabed_plot.visible = True
+        self.seabed_note.content = SEABED_NOTES["simulation"]
 
     @_drawing
     def _draw_vehicle_plot(self) -> None:
@@ -643,15 +732,26 @@ class Session:
         deflection = fin_angles[i] if fin_angles is not None else np.zeros(len(self.fins))  # kinematic: no fins move
         for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
             fin.wxyz = tuple(wxyz)
-        self.show_beams_static(config, pos_n, C_nb, self.beam_states_at(t_s))
+        ranges = tv.get("slant_range_m")
+        range_m = ranges[i] if ranges is not None else None
+        states = self.beam_states_at(t_s, range_m)
+        self.show_beams_static(config, pos_n, C_nb, states, range_m)
+        altitude = tv.get("altitude_m")
+        in_range = np.isfinite(range_m) if range_m is not None else np.ones(4, dtype=bool)
+        self.readout.content = beam_readout(float(tv["t_s"][i]), states, in_range,
+                                            float(altitude[i]) if altitude is not None else None)
 
-    def beam_states_at(self, t_s: float) -> list[str]:
+    def beam_states_at(self, t_s: float, range_m: np.ndarray | None = None) -> list[str]:
+        """Each beam's state at ``t_s``: the schedule's (or, once results arrive, the run's record
+        of) returned beams, lost also where ``range_m`` (4,) says the seabed is beyond range (inf),
+        rejected by the gate of the first of REJECT_REFERENCE that ran."""
         tv, config = self.truth_view, self.config
         assert tv is not None and config is not None
         enabled = config.dvl.beam_mask
+        in_range = np.isfinite(range_m) if range_m is not None else np.ones(4, dtype=bool)
         pings = tv["ping_t_s"]
         if len(pings) == 0 or t_s < pings[0]:
-            return beam_states(enabled, enabled, np.zeros(4, bool))
+            return beam_states(enabled, enabled & in_range, np.zeros(4, bool))
         p = int(np.searchsorted(pings, t_s, side="right") - 1)
         returned = tv["ping_available"][p]      # the schedule's; a run's own record also has random drop-outs
         rejected = np.zeros(4, dtype=bool)
@@ -660,6 +760,7 @@ class Session:
             if record is not None and p < len(record.t_s) and record.beams_available is not None:
                 returned = record.beams_available[p, 0]
                 break
+        returned = returned & in_range
         for method in REJECT_REFERENCE:
             dvl = results[method].updates.get("dvl") if method in results else None
             if dvl is not None and p < len(dvl.t_s):

@@ -7,7 +7,8 @@ shown as tilt (roll, pitch: levelling) and heading apart, and as their norm: wit
 heading is unobservable, so the norm is almost all heading and hides how well tilt is estimated.
 The consistency figure shows whether each method knows its own error: its NEES divided by the
 block's dimension (1 for a consistent filter) against the two-sided 99 % band. The actuator figure
-shows what the dynamic truth's vehicle did: its four fins and its propeller.
+shows what the dynamic truth's vehicle did: its four fins and its propeller; the altitude figure
+how high it flew above the seabed, against the DVL's range and the velocity filter's switch to RPM.
 
 Figures are assembled as plain dicts and wrapped without plotly's per-property validation
 (:func:`_figure`): validation took 45 of the 56 ms that the four live plots cost per redraw, and
@@ -263,6 +264,88 @@ def actuator_figure(t_s: np.ndarray, fin_angles_rad: np.ndarray, propeller_rpm: 
               "yaxis": {"domain": [0.4, 1.0], "title": {"text": "fin deflection [deg]", "font": {"size": 11}}},
               "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
               "yaxis2": {"domain": [0.0, 0.3], "title": {"text": "propeller [rpm]", "font": {"size": 11}}}}
+    return _figure(data, layout, validate)
+
+
+def intervals_above(t_s: np.ndarray, x: np.ndarray, threshold: float) -> np.ndarray:
+    """(K, 2) start and end times of the stretches where ``x`` > ``threshold``, each crossing
+    placed by linear interpolation between the samples either side (a stretch open at either end
+    of the series starts or ends there). NaN counts as not above."""
+    t_s, x = np.asarray(t_s, float), np.asarray(x, float)
+    above = np.zeros(x.size + 2, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        above[1:-1] = x > threshold
+    edges = np.diff(above.astype(np.int8))
+    first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1   # first and last sample above
+
+    def crossing(i: int, j: int) -> float:
+        # between sample i (one side of the threshold) and j (the other); NaN neighbour: at the sample above
+        if not np.isfinite(x[i]) or x[j] == x[i]:
+            return float(t_s[j])
+        return float(t_s[i] + (threshold - x[i]) / (x[j] - x[i]) * (t_s[j] - t_s[i]))
+
+    starts = [float(t_s[k]) if k == 0 else crossing(k - 1, k) for k in first]
+    ends = [float(t_s[k]) if k == x.size - 1 else crossing(k, k + 1) for k in last]
+    return np.array([starts, ends], dtype=float).T.reshape(-1, 2)
+
+
+ALTITUDE_NAME = "altitude"
+DVL_LIMIT_NAME = "DVL range limit"
+SWITCH_NAME = "VKF switch (RPM above)"
+RPM_NAME = "RPM in use"
+"""The altitude figure's traces (:func:`altitude_figure`)."""
+ALTITUDE_COLOR = "#8c6d31"
+DVL_LIMIT_COLOR = "#d62728"
+SWITCH_COLOR = "#1f77b4"
+RPM_FILL = "rgba(255,150,30,0.2)"
+"""The "lost" beams' orange of the 3-D view (app.scene.BEAM_COLORS), light: where the DVL is out of reach."""
+
+
+def altitude_figure(t_s: np.ndarray, altitude_m: np.ndarray, dvl_max_altitude_m: float, switch_altitude_m: float,
+                    height_px: int = 320, max_points: int | None = 600, validate: bool = False) -> go.Figure:
+    """The vehicle's true altitude above the seabed against time (issue 12; Yoo 2014 section 3),
+    with the DVL's range limit (``dvl.max_altitude_m``: higher, the beams of a level DVL find no
+    bottom) and the velocity filter's switch (``vkf.switch_altitude_m``: higher, it uses the
+    propeller RPM instead of the DVL) as horizontal lines, and the stretches above the switch
+    shaded as one trace named RPM_NAME (present only if there are any).
+
+    Parameters
+    ----------
+    t_s : (T,) time [s].
+    altitude_m : (T,) height above the seabed straight below [m] (NaN: none).
+
+    The curve is drawn with at most about ``max_points`` points (:func:`decimate`); the shaded
+    stretches are found on every sample (:func:`intervals_above`).
+    """
+    t_s, alt = np.asarray(t_s, float), np.asarray(altitude_m, float)
+    if alt.shape != t_s.shape or t_s.ndim != 1:
+        raise ValueError(f"altitude_figure needs t_s (T,) and altitude_m (T,), got {t_s.shape} and {alt.shape}")
+    finite = alt[np.isfinite(alt)]
+    top = 1.1 * max(dvl_max_altitude_m, switch_altitude_m, float(finite.max()) if finite.size else 0.0)
+    bottom = min(0.0, float(finite.min()) if finite.size else 0.0)
+    t0, t1 = (float(t_s[0]), float(t_s[-1])) if t_s.size else (0.0, 0.0)
+    data: list[dict[str, Any]] = []
+    spans = intervals_above(t_s, alt, switch_altitude_m)
+    if len(spans):
+        x: list[float | None] = []
+        y: list[float | None] = []
+        for a, b in spans:
+            x += [a, a, b, b, a, None]
+            y += [bottom, top, top, bottom, bottom, None]
+        data.append({"type": "scatter", "x": x, "y": y, "name": RPM_NAME, "mode": "lines", "fill": "toself",
+                     "fillcolor": RPM_FILL, "line": {"width": 0}, "hoverinfo": "skip"})
+    data.append({"type": "scatter", "x": [t0, t1], "y": [dvl_max_altitude_m] * 2, "name": DVL_LIMIT_NAME,
+                 "mode": "lines", "line": {"color": DVL_LIMIT_COLOR, "width": 1.5, "dash": "dash"}})
+    data.append({"type": "scatter", "x": [t0, t1], "y": [switch_altitude_m] * 2, "name": SWITCH_NAME,
+                 "mode": "lines", "line": {"color": SWITCH_COLOR, "width": 1.5, "dash": "dot"}})
+    keep = decimate(t_s.size, max_points)
+    data.append({"type": "scatter", "x": t_s[keep], "y": alt[keep], "name": ALTITUDE_NAME, "mode": "lines",
+                 "line": {"color": ALTITUDE_COLOR, "width": 2}})
+    title = f"Altitude (DVL limit {dvl_max_altitude_m:g} m, RPM above {switch_altitude_m:g} m)"
+    layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
+              "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
+              "template": "plotly_white", "xaxis": {"title": {"text": "time [s]"}},
+              "yaxis": {"range": [bottom, top], "title": {"text": "altitude [m]", "font": {"size": 11}}}}
     return _figure(data, layout, validate)
 
 

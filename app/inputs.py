@@ -17,7 +17,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from tauvcore.config import AUTO, METHODS, Config
+from tauvcore.config import AUTO, METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, show
@@ -141,6 +141,47 @@ class Controls:
     truth: str = TrajectoryConfig.truth       # one of tauvcore.truth.TRUTH_SOURCES (a simulation's only)
 
 
+def _field_text(value: object) -> str:
+    """A configuration value as a numeric control shows it (the text reads back as the same number
+    to twelve significant digits)."""
+    return f"{value:.12g}" if isinstance(value, float) else str(value)
+
+
+def preset_controls(name: str, config: Config | None = None) -> dict[str, str]:
+    """Control label -> text for each control the scenario ``name``'s preset sets
+    (tauvcore.config.trajectory_preset; ``{}`` for a scenario that brings none): the preset's own
+    values, or with ``config`` that configuration's (``Config()``: the defaults the controls had
+    before the preset)."""
+    preset = trajectory_preset(name)
+    source = config if config is not None else from_dict(preset)
+    return {FIELD_LABELS[f"{sec}.{key}"]: _field_text(getattr(getattr(source, sec), key))
+            for sec, values in preset.items() for key in values if f"{sec}.{key}" in FIELD_LABELS}
+
+
+def preset_note(name: str) -> str:
+    """What the scenario ``name``'s preset sets, in one Markdown paragraph: the controls it fills
+    in on this tab, and the settings without a control that a Run of ``name`` takes from it."""
+    preset = trajectory_preset(name)
+    if not preset:
+        return ""
+    shown = ", ".join(f"{label} {text}" for label, text in preset_controls(name).items())
+    hidden = ", ".join(f"{sec}.{key} {value:.4g}" for sec, values in preset.items()
+                       for key, value in values.items() if f"{sec}.{key}" not in FIELD_LABELS)
+    return (f"**{name}** preset applied: {shown} (on this tab); a Run of {name} also takes {hidden} "
+            "from it.")
+
+
+def preset_headline(name: str) -> str:
+    """:func:`preset_note` in one short line, for a notification ("" without a preset)."""
+    preset = trajectory_preset(name)
+    if not preset:
+        return ""
+    shown = preset_controls(name)
+    hidden = sum(len(values) for values in preset.values()) - len(shown)
+    return (f"{', '.join(shown)} filled in; {hidden} settings without a control apply at Run "
+            "(listed under the Run button).")
+
+
 def _label_for(exc: ConfigError) -> str | None:
     message = str(exc)
     for field_name in sorted(FIELD_LABELS, key=len, reverse=True):
@@ -150,7 +191,8 @@ def _label_for(exc: ConfigError) -> str | None:
 
 
 def config_from_controls(c: Controls) -> tuple[Config, int]:
-    """The configuration and Monte Carlo run count the controls describe.
+    """The configuration and Monte Carlo run count the controls describe, over the chosen
+    scenario's preset (tauvcore.config.trajectory_preset) where it sets what no control does.
 
     Raises InputError with one line naming the control and the value as typed.
     """
@@ -194,7 +236,9 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
     truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
     try:
-        config = (Config()
+        # the scenario's own settings (longrange: the paper's speed, depth, seabed, IMU and DVL
+        # rate) under the controls', as `tauv run --trajectory` lays them under a file's
+        config = (from_dict(trajectory_preset(c.trajectory))
                   .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION], truth=truth)
                   .replace("imu", accel_bias_mg=numbers[ACCEL_BIAS], gyro_bias_deg_per_h=numbers[GYRO_BIAS],
                            accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
@@ -225,6 +269,9 @@ def config_markdown(config: Config, runs: int) -> str:
         ("Trajectory", config.trajectory.name),
         (TRUTH, config.trajectory.truth),
         (DURATION, f"{config.trajectory.duration_s:g}"),
+        ("Speed, depth", f"{config.trajectory.speed_mps:.3g} m/s at {config.trajectory.depth_m:g} m"),
+        ("Seabed", f"{config.trajectory.seabed}, {config.trajectory.seabed_depth_m:g} m"),
+        ("Rates", f"IMU {imu.rate_hz:g} Hz, DVL {d.rate_hz:g} Hz"),
         ("Methods", ", ".join(m.upper() for m in run.methods)),
         (VB_NF, f"{config.partial.vb_nf:g}"),
         (NSV_EPSILON, epsilon_text),

@@ -4,6 +4,9 @@ viser's world is right-handed with z up; we show east as x, north as y, up as z:
 ``p_view = M p_n`` with ``M = [[0, 1, 0], [1, 0, 0], [0, 0, -1]]`` (a proper rotation, det +1).
 A body-frame vector goes to the view as ``M C_nb v_b``.
 
+The seabed is a triangle mesh of the mission's bathymetry under the track (:func:`seabed_mesh_n`),
+and each DVL beam ends where it meets it, or at the DVL's range where it does not (drawn "lost").
+
 The fins are children of the vehicle's node: their placement (:func:`fin_wxyz_body`) is a
 rotation in the body frame, which the parent's ``M C_nb`` carries into the view.
 """
@@ -19,6 +22,7 @@ import viser.transforms as vtf
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from tauvcore.truth.seabed import Bathymetry
 from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD
 
 ASSETS_DIR = Path(__file__).resolve().parent.parent / "assets"
@@ -31,6 +35,10 @@ BEAM_COLORS = {
     BEAM_OUTAGE: (255, 150, 30),
     BEAM_REJECTED: (220, 30, 30),
 }
+SEABED_MARGIN_M = 300.0        # the seabed mesh reaches this far beyond the track on every side (the flat grid: 600 m square)
+SEABED_MAX_TRIANGLES = 20000   # ... in at most this many triangles
+SEABED_MIN_CELL_M = 5.0        # ... and cells no finer than this (a short track's seabed needs no more)
+SEABED_COLOR = (194, 170, 120)  # sand, as the flat seabed's plane
 
 
 def ned_to_view(p_n: np.ndarray) -> np.ndarray:
@@ -132,22 +140,65 @@ def fin_wxyz_body(fin_angles_rad: np.ndarray) -> np.ndarray:
     return vtf.SO3.exp(minus_e_r * d[:, None]).wxyz
 
 
-def beam_segments_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray,
-                    seabed_depth_m: float, max_range_m: float = 200.0) -> np.ndarray:
-    """DVL beams from the head to where they meet the seabed (flat, at ``seabed_depth_m``), NED.
+def beam_rays_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray,
+                A_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The DVL head ``pos_n + C_nb l_dvl_b`` (3,) and the unit beam directions ``C_nb b_k`` (4, 3), NED."""
+    return pos_n + C_nb @ l_dvl_b, A_b @ C_nb.T
 
-    Returns (4, 2, 3): start and end of each beam. A beam pointing level or up, or reaching the
-    seabed only beyond ``max_range_m``, is drawn ``max_range_m`` long; with the DVL head below
-    the seabed the beams have zero length.
+
+def seabed_ranges_m(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray,
+                    seabed: Bathymetry, max_range_m: float) -> np.ndarray:
+    """(4,) range [m] along each beam from the DVL head to ``seabed``; inf beyond ``max_range_m``
+    (:meth:`tauvcore.truth.seabed.Bathymetry.slant_range_m`). For a view with no per-epoch ranges
+    of the simulated DVL (before a run, a replayed log)."""
+    head, dirs = beam_rays_n(pos_n, C_nb, l_dvl_b, A_b)
+    return seabed.slant_range_m(head, dirs, max_range_m)
+
+
+def beam_segments_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray,
+                    range_m: np.ndarray, max_range_m: float) -> np.ndarray:
+    """DVL beams from the head to where they meet the seabed, NED.
+
+    ``range_m`` (4,) [m] is each beam's slant range to the seabed, inf where it does not meet it
+    within the DVL's range (tauvcore.sensors.dvl.slant_ranges_m, :func:`seabed_ranges_m`): such a
+    beam (beyond range, no bottom lock) is drawn ``max_range_m`` long. Returns (4, 2, 3): start
+    and end of each beam.
     """
-    head = pos_n + C_nb @ l_dvl_b
-    dirs = A_b @ C_nb.T                                   # (4, 3) beam directions in n
-    down = dirs[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rng = np.where(down > 1e-6, (seabed_depth_m - head[2]) / down, max_range_m)
-    rng = np.clip(rng, 0.0, max_range_m)
+    head, dirs = beam_rays_n(pos_n, C_nb, l_dvl_b, A_b)
+    rng = np.clip(np.where(np.isfinite(range_m), range_m, max_range_m), 0.0, max_range_m)
     ends = head + dirs * rng[:, None]
     return np.stack([np.broadcast_to(head, (4, 3)), ends], axis=1)
+
+
+def seabed_mesh_n(seabed: Bathymetry, pos_n: np.ndarray, margin_m: float = SEABED_MARGIN_M,
+                  max_triangles: int = SEABED_MAX_TRIANGLES, min_cell_m: float = SEABED_MIN_CELL_M,
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """A triangle mesh of ``seabed`` under the track ``pos_n`` (T, 3), NED.
+
+    The grid spans the track's north and east extent plus ``margin_m`` on every side, in square-ish
+    cells no smaller than ``min_cell_m`` and at most ``max_triangles`` triangles (two per cell):
+    a 7 km track stays a few hundred kB for the browser. Each vertex lies on the seabed,
+    ``(n, e, depth_m(n, e))``. Returns vertices (V, 3) and faces (F, 3) int32, wound so that their
+    normals point up (towards -down: +z in the view).
+    """
+    lo = pos_n[:, :2].min(axis=0) - margin_m
+    hi = pos_n[:, :2].max(axis=0) + margin_m
+    size = hi - lo
+    max_cells = max(1, max_triangles // 2)
+    cell = max(min_cell_m, float(np.sqrt(size[0] * size[1] / max_cells)))
+    cells_n = max(1, int(size[0] // cell))
+    cells_e = max(1, int(size[1] // cell))
+    cells_n = min(cells_n, max(1, max_cells // cells_e))
+    north = np.linspace(lo[0], hi[0], cells_n + 1)
+    east = np.linspace(lo[1], hi[1], cells_e + 1)
+    n_grid, e_grid = np.meshgrid(north, east, indexing="ij")          # (cells_n + 1, cells_e + 1)
+    verts = np.stack([n_grid, e_grid, seabed.depth_m(n_grid, e_grid)], axis=-1).reshape(-1, 3)
+    index = np.arange(verts.shape[0]).reshape(n_grid.shape)
+    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()          # (i, j), (i, j + 1): a step east
+    c, d = index[1:, 1:].ravel(), index[1:, :-1].ravel()            # (i + 1, j + 1), (i + 1, j): north of them
+    # in the view (x east, y north, z up) a -> b -> c turns from +x to +y: counter-clockwise from above
+    faces = np.concatenate([np.stack([a, b, c], axis=1), np.stack([a, c, d], axis=1)]).astype(np.int32)
+    return verts, faces
 
 
 def beam_states(enabled: np.ndarray, returned: np.ndarray, rejected: np.ndarray) -> list[str]:
@@ -164,3 +215,17 @@ def beam_states(enabled: np.ndarray, returned: np.ndarray, rejected: np.ndarray)
         else:
             states.append(BEAM_RETURNING)
     return states
+
+
+def beam_readout(t_s: float, states: list[str], in_range: np.ndarray, altitude_m: float | None = None) -> str:
+    """One Markdown line under the time slider: the time, the altitude above the seabed (if known)
+    and each beam's state, naming the beams that are beyond the DVL's range (``in_range`` (4,) bool
+    False: the seabed is too far for a bottom lock)."""
+    text = f"**{t_s:.1f} s**"
+    if altitude_m is not None and np.isfinite(altitude_m):
+        text += f", altitude {altitude_m:.1f} m"
+    text += ". Beams: " + ", ".join(f"{k} {state}" for k, state in enumerate(states, start=1))
+    beyond = [str(k) for k, ok in enumerate(in_range, start=1) if not ok]
+    if beyond:
+        text += f" (beyond the DVL's range: {', '.join(beyond)})"
+    return text

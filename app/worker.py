@@ -6,7 +6,8 @@ with the server (numpy, scipy and tauvcore already imported when Run is pressed)
 their own priority, so on a small machine the interactive server and the browser win the CPU
 over a background computation. Messages on a run's queue (:attr:`RunHandle.queue`):
 
-- ``("truth", dict)``: the truth at the output epochs and the DVL pings, for the 3-D view;
+- ``("truth", dict)``: the truth at the output epochs (with the seabed under it) and the DVL
+  pings, for the 3-D view and the Seabed tab;
 - ``("progress", t_s, results)``: results so far, every ``progress_interval_s`` simulated seconds;
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results;
 - ``("error", message)``: one line, for a notification (also when the worker process died).
@@ -40,8 +41,10 @@ import numpy as np
 
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.eval.runner import MethodResult, run, run_streaming
+from tauvcore.sensors.dvl import slant_ranges_m
 from tauvcore.sensors.timing import epoch_indices_between
 from tauvcore.truth import truth_stream
+from tauvcore.truth.kinematic import bathymetry
 from tauvcore.validation import ConfigError
 
 # Preloaded with the worker: tauvcore imports scipy.special at a run's first chi-square quantile
@@ -104,16 +107,25 @@ def truth_view(config: Config, step: int) -> dict[str, np.ndarray | None]:
     IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
     the schedule lets return (random drop-outs show once the results carry them).
 
+    The seabed at the same rows (issue 12; the mission's bathymetry, tauvcore.truth.kinematic):
+    ``altitude_m`` (T,) the true height above the seabed straight below, what an ideal echo
+    sounder measures [m]; ``slant_range_m`` (T, 4) each beam's range from the DVL head to the
+    seabed, inf beyond the DVL's range, by the DVL simulation's own tracer
+    (tauvcore.sensors.dvl.slant_ranges_m) [m].
+
     With the dynamic truth (its chunks carry a :class:`~tauvcore.truth.VehicleRecord`) also the
     vehicle's actuators at the same rows: ``propeller_rpm`` (T,) [rev/min] and ``fin_angles_rad``
     (T, 4), fins 1-4 of tauvcore.truth.vehicle [rad]; both None for the kinematic truth."""
     stream = truth_stream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
-    t, pos, C, rpm, fins = [], [], [], [], []
+    seabed = bathymetry(config.trajectory)
+    t, pos, C, altitude, ranges, rpm, fins = [], [], [], [], [], [], []
     for k0, chunk in stream:
         rows = np.arange((-k0) % step, chunk.num_samples, step)
         t.append(chunk.t_s[rows])
         pos.append(chunk.pos_n[rows])
         C.append(chunk.C_nb[rows])
+        altitude.append(seabed.depth_m(chunk.pos_n[rows, 0], chunk.pos_n[rows, 1]) - chunk.depth_m[rows])
+        ranges.append(slant_ranges_m(chunk, rows, config.dvl, seabed))
         if chunk.vehicle is not None:
             rpm.append(chunk.vehicle.propeller_rpm[rows])
             fins.append(chunk.vehicle.fin_angles_rad[rows])
@@ -122,17 +134,19 @@ def truth_view(config: Config, step: int) -> dict[str, np.ndarray | None]:
                                   stream.num_samples) * stream.dt_s
     return {"t_s": np.concatenate(t), "pos_n": np.concatenate(pos), "C_nb": np.concatenate(C), "ping_t_s": pings,
             "ping_available": config.dvl.scheduled_availability(pings),
+            "altitude_m": np.concatenate(altitude), "slant_range_m": np.concatenate(ranges),
             "propeller_rpm": np.concatenate(rpm) if rpm else None,
             "fin_angles_rad": np.concatenate(fins) if fins else None}
 
 
 def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str, np.ndarray | None]:
     """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings
-    (a log records no actuators: ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
+    (a log records no seabed and no actuators: ``altitude_m``, ``slant_range_m``,
+    ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
     rows = np.arange(0, truth.num_samples, step)
     return {"t_s": truth.t_s[rows], "pos_n": truth.pos_n[rows], "C_nb": truth.C_nb[rows], "ping_t_s": dvl.t_s,
-            "ping_available": config.dvl.scheduled_availability(dvl.t_s), "propeller_rpm": None,
-            "fin_angles_rad": None}
+            "ping_available": config.dvl.scheduled_availability(dvl.t_s), "altitude_m": None,
+            "slant_range_m": None, "propeller_rpm": None, "fin_angles_rad": None}
 
 
 def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_event: Any,

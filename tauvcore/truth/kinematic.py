@@ -309,6 +309,8 @@ def bathymetry(cfg: TrajectoryConfig):
                          for a, b in LONGRANGE_OUT_OF_RANGE_S)
     return Bathymetry(cfg.seabed_depth_m, cfg.seabed, cfg.terrain_seed, cfg.terrain_relief_m, cfg.terrain_wavelength_m,
                       trenches=trenches)
+
+
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(4)
 
 

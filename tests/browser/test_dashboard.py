@@ -150,3 +150,43 @@ def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, set
     # the server still serves a fresh tab
     fresh = new_tab()
     assert fresh.checkbox("Beam 1").is_checked()
+
+
+def test_longrange_preset_flies_over_the_trench_and_shows_the_altitude(new_tab) -> None:
+    """Given Trajectory: longrange picked, the tab fills in the paper's Duration and IMU and says
+    so; when the first 330 s of it run (its first trench from 300 s), then the run used the
+    paper's rates and depth, at its end all four beams are lost beyond the DVL's range, and the
+    Seabed tab's altitude figure shades the time above the VKF's switch. Back on the straight
+    line, the preset's controls return to their defaults (issue 12)."""
+    tab = new_tab()
+    page = tab.page
+    tab.choose_trajectory("longrange")
+    tab.notification("Preset longrange applied").wait_for(timeout=15000)
+    assert tab.field("Duration [s]").input_value() == "1440"
+    tab.set_methods({"INS", "TC"})
+    tab.type_into("Duration [s]", "330")
+    page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=120000)
+    used = tab.run_config()
+    assert used["Trajectory"] == "longrange" and used["Duration [s]"] == "330"
+    assert used["Rates"] == "IMU 100 Hz, DVL 5 Hz" and used["Speed, depth"] == "5.14 m/s at 50 m"
+    assert used["Accel bias [mg]"] == "1" and used["Gyro noise [deg/sqrt(h)]"] == "0.125"
+    # the time slider stands at the run's end, over the trench's floor (140 m of altitude)
+    page.get_by_role("tab", name="Mission").click()
+    readout = page.get_by_text("beyond the DVL's range: 1, 2, 3, 4", exact=False)
+    readout.wait_for(timeout=15000)
+    assert "altitude 140.0 m" in readout.inner_text() and "1 lost, 2 lost, 3 lost, 4 lost" in readout.inner_text()
+    page.screenshot(path=str(ARTIFACTS / "dashboard_longrange_3d.png"))
+    page.get_by_role("tab", name="Seabed").click()
+    page.wait_for_timeout(1000)
+    figures = [dict(f) for f in tab.plot_traces() if any(name == "altitude" for name, _ in f)]
+    assert len(figures) == 1, tab.plot_traces()
+    altitude = figures[0]
+    assert set(altitude) == {"altitude", "DVL range limit", "VKF switch (RPM above)", "RPM in use"}
+    assert altitude["altitude"] >= 300 and altitude["RPM in use"] == 6     # one shaded stretch, 300-330 s
+    page.screenshot(path=str(ARTIFACTS / "dashboard_seabed.png"))
+    page.get_by_role("tab", name="Mission").click()
+    tab.choose_trajectory("straight")
+    tab.notification("Defaults restored").wait_for(timeout=15000)
+    assert tab.field("Duration [s]").input_value() == "250"
+    assert tab.external_requests == []

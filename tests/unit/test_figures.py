@@ -15,16 +15,22 @@ import numpy as np
 import pytest
 
 from app.figures import (
+    ALTITUDE_NAME,
     CONSISTENCY_COLUMNS,
     CONSISTENCY_HEADING,
+    DVL_LIMIT_NAME,
     ERROR_COLUMNS,
     FIN_COLORS,
     FIN_NAMES,
     LOG_SPAN,
     METHOD_COLORS,
+    RPM_NAME,
+    SWITCH_NAME,
     actuator_figure,
+    altitude_figure,
     elc_choice_figure,
     error_figure,
+    intervals_above,
     nees_figure,
     summary_markdown,
     summary_rows,
@@ -718,4 +724,90 @@ def test_fast_actuator_figure_equals_plotly_validated_construction(dynamic_view)
     tv = dynamic_view
     fast = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"])
     checked = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"], validate=True)
+    assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+
+
+
+# ------------------------------------------------------------------------------------------ altitude
+
+@pytest.fixture(scope="module")
+def longrange_view() -> dict[str, np.ndarray]:
+    """The worker's truth view of the paper's long-range mission (24 min, 10 Hz)."""
+    from app.worker import truth_view
+    from tauvcore.config import from_dict, merge, trajectory_preset
+    config = from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange"}}))
+    return truth_view(config, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
+
+
+def _shaded_spans(trace) -> list[tuple[float, float]]:
+    """(start, end) of each rectangle of a "toself" trace of rectangles separated by None."""
+    x = list(trace.x)
+    spans, corners = [], []
+    for value in x + [None]:
+        if value is None:
+            if corners:
+                spans.append((min(corners), max(corners)))
+            corners = []
+        else:
+            corners.append(value)
+    return spans
+
+
+def test_intervals_above_known_answer():
+    """Crossings by linear interpolation; a stretch open at either end runs to that end; NaN is not above."""
+    t = np.arange(11.0)
+    np.testing.assert_allclose(intervals_above(t, np.array([0, 1, 2, 3, 4, 5, 4, 3, 2, 1, 0.0]), 2.5),
+                               [[2.5, 7.5]], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(intervals_above(t, np.array([3, 3, 0, 0, 0, 0, 0, 0, np.nan, 3, 3.0]), 1.0),
+                               [[0.0, 1.0 + 2.0 / 3.0], [9.0, 10.0]], rtol=0, atol=1e-12)
+    assert intervals_above(t, np.zeros(11), 2.5).shape == (0, 2)
+    np.testing.assert_array_equal(intervals_above(t, np.full(11, 5.0), 2.5), [[0.0, 10.0]])
+
+
+def test_altitude_figure_shades_the_longrange_trenches(longrange_view):
+    """Given the long-range mission, the altitude curve is the truth view's, the DVL limit and the
+    VKF switch are horizontal lines at their values, and the stretches above the switch are shaded:
+    5-8 and 15-16 minutes (Yoo 2014 section 3), to the output epoch."""
+    tv = longrange_view
+    config = Config()
+    fig = altitude_figure(tv["t_s"], tv["altitude_m"], config.dvl.max_altitude_m, config.vkf.switch_altitude_m)
+    traces = _by_name(fig)
+    assert set(traces) == {ALTITUDE_NAME, DVL_LIMIT_NAME, SWITCH_NAME, RPM_NAME}
+    alt_x, alt_y = np.asarray(traces[ALTITUDE_NAME].x), np.asarray(traces[ALTITUDE_NAME].y)
+    assert len(alt_x) <= 601 and alt_x[-1] == tv["t_s"][-1]
+    np.testing.assert_array_equal(alt_y, np.interp(alt_x, tv["t_s"], tv["altitude_m"]))
+    assert alt_y.min() == pytest.approx(60.0) and alt_y.max() == pytest.approx(140.0)
+    for name, level in ((DVL_LIMIT_NAME, config.dvl.max_altitude_m), (SWITCH_NAME, config.vkf.switch_altitude_m)):
+        np.testing.assert_array_equal(traces[name].y, [level, level])
+        np.testing.assert_array_equal(traces[name].x, [0.0, tv["t_s"][-1]])
+    spans = _shaded_spans(traces[RPM_NAME])
+    np.testing.assert_allclose(spans, [(300.0, 480.0), (900.0, 960.0)], rtol=0, atol=0.1)
+    assert traces[RPM_NAME].fill == "toself"
+    lo, hi = fig.layout.yaxis.range
+    assert lo <= 0.0 and hi > 140.0                                 # the shading spans the plot's height
+    assert min(v for v in traces[RPM_NAME].y if v is not None) == lo
+    assert max(v for v in traces[RPM_NAME].y if v is not None) == hi
+
+
+def test_altitude_figure_follows_the_thresholds():
+    """The shading is where the altitude exceeds the VKF switch, not the DVL's limit."""
+    t = np.arange(101.0)
+    alt = 50.0 + t                                                    # 50 m to 150 m
+    fig = altitude_figure(t, alt, dvl_max_altitude_m=100.0, switch_altitude_m=80.0)
+    np.testing.assert_allclose(_shaded_spans(_by_name(fig)[RPM_NAME]), [(30.0, 100.0)], rtol=0, atol=1e-12)
+    assert "100 m" in fig.layout.title.text and "80 m" in fig.layout.title.text
+    # never above the switch: no shading trace
+    low = altitude_figure(t, np.full(101, 60.0), 100.0, 100.0)
+    assert RPM_NAME not in _by_name(low)
+
+
+def test_altitude_figure_refuses_mismatched_arrays():
+    with pytest.raises(ValueError, match="altitude_m \\(T,\\)"):
+        altitude_figure(np.zeros(3), np.zeros(4), 100.0, 100.0)
+
+
+def test_fast_altitude_figure_equals_plotly_validated_construction(longrange_view):
+    tv = longrange_view
+    fast = altitude_figure(tv["t_s"], tv["altitude_m"], 100.0, 100.0)
+    checked = altitude_figure(tv["t_s"], tv["altitude_m"], 100.0, 100.0, validate=True)
     assert json.loads(fast.to_json()) == json.loads(checked.to_json())

@@ -1,5 +1,6 @@
 """Geometry of the 3-D view (app/scene.py): NED -> view frame, mesh placement, the AUV mesh,
-DVL beam segments to a flat seabed and the beam states, by known answers."""
+DVL beam segments to the seabed (flat, sloping, the longrange trenches), the seabed's mesh and the
+beam states, by known answers."""
 
 from __future__ import annotations
 
@@ -19,22 +20,33 @@ from app.scene import (
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
     M_VIEW_FROM_NED,
+    SEABED_MARGIN_M,
+    SEABED_MAX_TRIANGLES,
+    SEABED_MIN_CELL_M,
     auv_mesh_view_body,
     auv_parts_body,
+    beam_readout,
     beam_segments_n,
     beam_states,
     fin_wxyz_body,
     load_obj,
     ned_to_view,
+    seabed_mesh_n,
+    seabed_ranges_m,
     wxyz_view,
 )
+from tauvcore.config import Config, from_dict, merge, trajectory_preset
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3
 from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.truth import generate
+from tauvcore.truth.kinematic import bathymetry
+from tauvcore.truth.seabed import Bathymetry
 from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD, vehicle_params
 
 DVL = DvlConfig()
 A_B = DVL.A_b                    # (4, 3) beam directions, body frame
 L_DVL_B = DVL.l_dvl_b            # (0.6, 0, 0.15) m
+MAX_RANGE_M = 200.0
 DEG = np.pi / 180.0
 NORTH, EAST, DOWN = np.eye(3)
 HULL_LENGTH_M, HULL_RADIUS_M = 3.0, 0.15
@@ -255,8 +267,12 @@ def test_a_deflection_turns_the_leading_edge_towards_the_fin_s_force(fin, deflec
 
 # ------------------------------------------------------------------------------------------ DVL beams
 
+def _flat_ranges(pos_n: np.ndarray, C_nb: np.ndarray, depth_m: float, max_range_m: float = MAX_RANGE_M) -> np.ndarray:
+    return seabed_ranges_m(pos_n, C_nb, L_DVL_B, A_B, Bathymetry(depth_m), max_range_m)
+
+
 def _check_beams_reach_seabed(pos_n: np.ndarray, C_nb: np.ndarray, seabed: float) -> np.ndarray:
-    seg = beam_segments_n(pos_n, C_nb, L_DVL_B, A_B, seabed)
+    seg = beam_segments_n(pos_n, C_nb, L_DVL_B, A_B, _flat_ranges(pos_n, C_nb, seabed), MAX_RANGE_M)
     assert seg.shape == (4, 2, 3)
     head = pos_n + C_nb @ L_DVL_B
     np.testing.assert_allclose(seg[:, 0], np.broadcast_to(head, (4, 3)), rtol=0, atol=1e-12)
@@ -273,7 +289,7 @@ def test_beams_level_vehicle_known_answer():
     pos = np.array([12.0, -7.0, 20.0])
     seg = _check_beams_reach_seabed(pos, np.eye(3), 60.0)
     head = pos + L_DVL_B
-    np.testing.assert_array_equal(seg[:, 1, 2], np.full(4, 60.0))       # exactly 60 m
+    np.testing.assert_allclose(seg[:, 1, 2], np.full(4, 60.0), rtol=0, atol=1e-12)       # 60 m
     # level: each beam is 20 deg off vertical, so the slant range is (60 - 20.15) / cos 20 deg
     expected_range = (60.0 - head[2]) / np.cos(20.0 * DEG)
     np.testing.assert_allclose(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1), expected_range, rtol=1e-12)
@@ -289,16 +305,19 @@ def test_beams_pitched_vehicle_still_end_on_seabed(euler_deg):
 
 
 def test_beams_vehicle_below_seabed_no_nan():
-    seg = beam_segments_n(np.array([0.0, 0.0, 70.0]), np.eye(3), L_DVL_B, A_B, 60.0, max_range_m=200.0)
+    """No bottom to lock on: every range is inf, every beam drawn at the DVL's range."""
+    ranges = _flat_ranges(np.array([0.0, 0.0, 70.0]), np.eye(3), 60.0)
+    assert np.isinf(ranges).all()
+    seg = beam_segments_n(np.array([0.0, 0.0, 70.0]), np.eye(3), L_DVL_B, A_B, ranges, MAX_RANGE_M)
     assert np.isfinite(seg).all()
-    length = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1)
-    assert np.all(np.isclose(length, 0.0, atol=1e-12) | np.isclose(length, 200.0, rtol=1e-12)), length
+    np.testing.assert_allclose(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1), MAX_RANGE_M, rtol=1e-12)
     np.testing.assert_allclose(seg[:, 0], np.broadcast_to([0.6, 0.0, 70.15], (4, 3)), rtol=0, atol=1e-12)
 
 
 def test_beams_pointing_up_drawn_at_max_range():
     C = C_nb_from_euler(np.array([180.0 * DEG, 0.0, 0.0]))        # upside down: every beam points up
-    seg = beam_segments_n(np.array([0.0, 0.0, 20.0]), C, L_DVL_B, A_B, 60.0, max_range_m=150.0)
+    pos = np.array([0.0, 0.0, 20.0])
+    seg = beam_segments_n(pos, C, L_DVL_B, A_B, _flat_ranges(pos, C, 60.0, 150.0), 150.0)
     assert np.isfinite(seg).all()
     d = seg[:, 1] - seg[:, 0]
     np.testing.assert_allclose(np.linalg.norm(d, axis=1), 150.0, rtol=1e-12)
@@ -307,7 +326,10 @@ def test_beams_pointing_up_drawn_at_max_range():
 
 
 def test_beams_seabed_beyond_max_range_stop_at_max_range():
-    seg = beam_segments_n(np.array([0.0, 0.0, 20.0]), np.eye(3), L_DVL_B, A_B, 5000.0, max_range_m=200.0)
+    pos = np.array([0.0, 0.0, 20.0])
+    ranges = _flat_ranges(pos, np.eye(3), 5000.0, 200.0)
+    assert np.isinf(ranges).all()
+    seg = beam_segments_n(pos, np.eye(3), L_DVL_B, A_B, ranges, 200.0)
     np.testing.assert_allclose(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1), 200.0, rtol=1e-12)
     assert (seg[:, 1, 2] < 5000.0).all()
 
@@ -318,9 +340,100 @@ def test_beams_horizontal_beam_no_nan():
     roll = -np.arctan2(b1[2], b1[1])          # the roll that brings b1's (y, z) onto the horizontal
     C = C_nb_from_euler(np.array([roll, 0.0, 0.0]))
     assert abs((C @ b1)[2]) < 1e-12
-    seg = beam_segments_n(np.array([0.0, 0.0, 20.0]), C, L_DVL_B, A_B, 60.0, max_range_m=200.0)
+    pos = np.array([0.0, 0.0, 20.0])
+    seg = beam_segments_n(pos, C, L_DVL_B, A_B, _flat_ranges(pos, C, 60.0, 200.0), 200.0)
     assert np.isfinite(seg).all()
     assert np.linalg.norm(seg[0, 1] - seg[0, 0]) == pytest.approx(200.0, rel=1e-12)
+
+
+def test_beams_end_on_a_sloping_seabed_where_the_ranges_say():
+    """Given the ranges to a seabed that is not flat, each beam is that long along its direction,
+    its end lies on that seabed, and a beam whose range is inf is drawn at the DVL's range."""
+    seabed = Bathymetry(60.0, slope=(0.3, -0.1))
+    pos, C = np.array([5.0, -3.0, 20.0]), C_nb_from_euler(np.radians([4.0, -6.0, 35.0]))
+    ranges = seabed_ranges_m(pos, C, L_DVL_B, A_B, seabed, MAX_RANGE_M)
+    assert np.isfinite(ranges).all() and len(set(np.round(ranges, 6))) == 4      # four different ranges
+    seg = beam_segments_n(pos, C, L_DVL_B, A_B, ranges, MAX_RANGE_M)
+    np.testing.assert_allclose(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1), ranges, rtol=1e-12)
+    ends = seg[:, 1]
+    np.testing.assert_allclose(ends[:, 2], seabed.depth_m(ends[:, 0], ends[:, 1]), rtol=0, atol=1e-9)
+    lost = ranges.copy()
+    lost[[0, 3]] = np.inf
+    seg = beam_segments_n(pos, C, L_DVL_B, A_B, lost, MAX_RANGE_M)
+    np.testing.assert_allclose(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1),
+                               [MAX_RANGE_M, ranges[1], ranges[2], MAX_RANGE_M], rtol=1e-12)
+
+
+def test_the_longrange_trench_puts_the_forward_beams_out_of_range_first():
+    """Over the longrange mission's first trench wall the seabed falls away ahead: the forward beams
+    (1 and 4) lose the bottom before the aft ones, and over its floor all four are beyond range."""
+    config = _longrange()
+    seabed = bathymetry(config.trajectory)
+    wall = seabed.trenches[0].north_start_m
+    ranges = seabed_ranges_m(np.array([wall + 10.0, 0.0, 50.0]), np.eye(3), L_DVL_B, A_B, seabed,
+                             config.dvl.max_range_m)
+    np.testing.assert_array_equal(np.isinf(ranges), [True, False, False, True])
+    floor = 0.5 * (seabed.trenches[0].north_start_m + seabed.trenches[0].north_end_m)
+    ranges = seabed_ranges_m(np.array([floor, 0.0, 50.0]), np.eye(3), L_DVL_B, A_B, seabed, config.dvl.max_range_m)
+    assert np.isinf(ranges).all()
+
+
+# ------------------------------------------------------------------------------------------ seabed mesh
+
+def _longrange() -> Config:
+    return from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange"}}))
+
+
+@pytest.fixture(scope="module")
+def longrange_track() -> np.ndarray:
+    config = _longrange()
+    return generate(config.trajectory, config.earth, 1.0).pos_n
+
+
+@pytest.mark.parametrize("seabed", ["longrange", "terrain"])
+def test_seabed_mesh_vertices_lie_on_the_seabed_and_cover_the_track(seabed, longrange_track):
+    """Given the longrange track (7.2 km north) over its trenches or over seeded terrain, the mesh's
+    vertices are the seabed's depth at the grid points, its faces index its vertices, it covers
+    the track with the margin on every side and stays within the triangle budget."""
+    config = _longrange()
+    if seabed == "terrain":
+        config = config.replace("trajectory", name="straight", seabed="terrain")
+    bathy = bathymetry(config.trajectory)
+    verts, faces = seabed_mesh_n(bathy, longrange_track)
+    assert verts.shape[1] == 3 and faces.shape[1] == 3 and faces.dtype == np.int32
+    np.testing.assert_array_equal(verts[:, 2], bathy.depth_m(verts[:, 0], verts[:, 1]))
+    assert faces.min() == 0 and faces.max() == len(verts) - 1
+    assert len(np.unique(faces)) == len(verts)                       # every vertex in some triangle
+    assert 1000 < len(faces) <= SEABED_MAX_TRIANGLES
+    lo, hi = longrange_track[:, :2].min(axis=0), longrange_track[:, :2].max(axis=0)
+    np.testing.assert_allclose(verts[:, :2].min(axis=0), lo - SEABED_MARGIN_M, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(verts[:, :2].max(axis=0), hi + SEABED_MARGIN_M, rtol=0, atol=1e-9)
+    # fine enough for the trenches' 200 m walls
+    north = np.unique(verts[:, 0])
+    assert np.max(np.diff(north)) < 25.0
+    if seabed == "longrange":                                        # the trenches are in it
+        assert verts[:, 2].max() == pytest.approx(bathy.trenches[0].floor_depth_m)
+        assert verts[:, 2].min() == pytest.approx(config.trajectory.seabed_depth_m)
+
+
+def test_seabed_mesh_triangles_face_up_and_tile_the_extent():
+    """Every triangle's normal points up in the view (+z) and the triangles' plan areas add up to
+    the extent: no hole, no overlap."""
+    track = np.array([[0.0, 0.0, 20.0], [130.0, 40.0, 20.0], [60.0, -25.0, 22.0]])
+    verts, faces = seabed_mesh_n(Bathymetry(60.0, "terrain", seed=3, relief_m=5.0, wavelength_m=100.0), track,
+                                 margin_m=50.0)
+    v = ned_to_view(verts)[faces]                                    # (F, 3 corners, 3)
+    normal = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    assert (normal[:, 2] > 0).all()
+    extent = (130.0 + 100.0) * (65.0 + 100.0)
+    assert 0.5 * normal[:, 2].sum() == pytest.approx(extent, rel=1e-12)
+    assert np.max(np.diff(np.unique(verts[:, 0]))) >= SEABED_MIN_CELL_M - 1e-9
+
+
+@pytest.mark.parametrize("max_triangles", [2, 50, 999, 20000])
+def test_seabed_mesh_keeps_to_its_triangle_budget(max_triangles, longrange_track):
+    verts, faces = seabed_mesh_n(Bathymetry(110.0), longrange_track, max_triangles=max_triangles)
+    assert 2 <= len(faces) <= max(2, max_triangles)
 
 
 # ------------------------------------------------------------------------------------------ beam states
@@ -356,3 +469,12 @@ def test_every_beam_state_has_a_distinct_colour():
     assert len(set(BEAM_COLORS.values())) == 4
     for rgb in BEAM_COLORS.values():
         assert len(rgb) == 3 and all(0 <= c <= 255 for c in rgb)
+
+
+def test_beam_readout_names_the_lost_beams_beyond_range():
+    states = [BEAM_OUTAGE, BEAM_RETURNING, BEAM_RETURNING, BEAM_OUTAGE]
+    text = beam_readout(301.04, states, np.array([False, True, True, False]), 103.2288)
+    assert text == ("**301.0 s**, altitude 103.2 m. Beams: 1 lost, 2 returning, 3 returning, 4 lost "
+                    "(beyond the DVL's range: 1, 4)")
+    assert beam_readout(0.0, [BEAM_RETURNING] * 4, np.ones(4, bool)) == (
+        "**0.0 s**. Beams: 1 returning, 2 returning, 3 returning, 4 returning")

@@ -13,6 +13,11 @@ import dataclasses
 import pytest
 
 from app.inputs import (
+    ACCEL_BIAS,
+    ACCEL_NOISE,
+    DURATION,
+    GYRO_BIAS,
+    GYRO_NOISE,
     NSV_EPSILON,
     TRUTH,
     VB_NF,
@@ -23,8 +28,18 @@ from app.inputs import (
     parse_float,
     parse_float_or_auto,
     parse_int,
+    preset_controls,
+    preset_headline,
+    preset_note,
 )
-from tauvcore.config import Config
+from tauvcore.config import (
+    METHODS,
+    Config,
+    from_dict,
+    merge,
+    to_dict,
+    trajectory_preset,
+)
 from tauvcore.validation import SHOW_CHARS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
@@ -248,7 +263,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         return _Spy(f"id{next(count)}", value, read_ids)
     tab = SimpleNamespace(
         trajectory=spy("figure8"), truth=spy(truth), duration=spy("250"),
-        method_boxes={m: spy(True) for m in ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")},
+        method_boxes={m: spy(True) for m in METHODS},
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
         outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
@@ -345,3 +360,61 @@ def test_a_page_value_a_control_cannot_hold_is_refused(handles) -> None:
         Session.apply_page_values(by_id, answer({ids["choice"]: "moon"}))
     with pytest.raises(InputError, match=r"^Duration \[s\]: the page shows '9+'\.\.\. \(5000 characters\)"):
         Session.apply_page_values(by_id, answer({ids["text"]: "9" * 5000}))
+
+
+
+# ---------------------------------------------------------------- a scenario's preset (issue 12)
+PRESET_LABELS = {DURATION: "duration", ACCEL_BIAS: "accel_bias", GYRO_BIAS: "gyro_bias", ACCEL_NOISE: "accel_noise",
+                 GYRO_NOISE: "gyro_noise"}
+
+
+def test_the_longrange_preset_fills_in_the_duration_and_the_paper_s_imu() -> None:
+    assert preset_controls("longrange") == {DURATION: "1440", ACCEL_BIAS: "1", GYRO_BIAS: "1",
+                                            ACCEL_NOISE: "0.0588399", GYRO_NOISE: "0.125"}
+    # leaving it: the same controls at their defaults, which are the tab's initial texts
+    defaults = preset_controls("longrange", Config())
+    assert defaults == {label: getattr(DEFAULTS, field) for label, field in PRESET_LABELS.items()}
+    assert preset_controls("straight") == {} and preset_note("straight") == ""
+
+
+def test_a_run_of_longrange_with_its_preset_controls_flies_the_paper_s_mission() -> None:
+    """Given longrange picked and its preset filled in, the run's configuration is the preset's
+    (as `tauv run --trajectory longrange` makes it), also where no control reaches (speed, depth,
+    seabed, IMU rate and its other errors, DVL rate), and the "Configuration run" table says so."""
+    typed = {PRESET_LABELS[label]: text for label, text in preset_controls("longrange").items()}
+    config, _ = read(trajectory="longrange", **typed)
+    expected = from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange"}}))
+    assert config.trajectory == expected.trajectory
+    assert config.dvl.rate_hz == 5.0 and config.imu.rate_hz == 100.0
+    for key, value in to_dict(expected)["imu"].items():
+        assert getattr(config.imu, key) == pytest.approx(value, rel=1e-11, abs=0), key
+    rows = dict((cell.strip() for cell in line.strip("|").split("|")) for line in config_markdown(config, 1).splitlines()
+                if line.startswith("| ") and "---" not in line)
+    assert rows["Rates"] == "IMU 100 Hz, DVL 5 Hz" and rows["Speed, depth"] == "5.14 m/s at 50 m"
+    assert rows["Seabed"] == "flat, 110 m" and rows[DURATION] == "1440"
+    # the controls still win where they reach: a shortened longrange keeps the rest of the preset
+    short, _ = read(trajectory="longrange", duration="330")
+    assert short.trajectory.duration_s == 330.0 and short.trajectory.depth_m == 50.0 and short.dvl.rate_hz == 5.0
+
+
+def test_other_trajectories_keep_the_defaults_where_no_control_reaches() -> None:
+    config, _ = read(trajectory="figure8")
+    d = Config()
+    assert config.imu.rate_hz == d.imu.rate_hz and config.dvl.rate_hz == d.dvl.rate_hz
+    assert config.trajectory.speed_mps == d.trajectory.speed_mps
+    assert config.trajectory.seabed_depth_m == d.trajectory.seabed_depth_m
+
+
+def test_the_preset_note_names_every_setting_the_preset_brings() -> None:
+    note = preset_note("longrange")
+    assert note.startswith("**longrange** preset applied: ")
+    for sec, values in trajectory_preset("longrange").items():
+        for key in values:
+            assert f"{sec}.{key}" in note or any(label in note for label in PRESET_LABELS), key
+    for key in ("trajectory.speed_mps 5.144", "trajectory.depth_m 50", "trajectory.seabed_depth_m 110",
+                "imu.rate_hz 100", "dvl.rate_hz 5", f"{DURATION} 1440"):
+        assert key in note
+    headline = preset_headline("longrange")
+    assert headline == (f"{DURATION}, {ACCEL_BIAS}, {GYRO_BIAS}, {ACCEL_NOISE}, {GYRO_NOISE} filled in; 11 settings "
+                        "without a control apply at Run (listed under the Run button).")
+    assert preset_headline("straight") == ""

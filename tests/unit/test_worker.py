@@ -278,3 +278,51 @@ def test_the_truth_view_of_the_kinematic_truth_has_no_actuators() -> None:
     view = truth_view(config, _output_step(config))
     assert view["propeller_rpm"] is None and view["fin_angles_rad"] is None
     assert view["pos_n"].shape == (51, 3)
+
+
+def test_the_truth_view_carries_the_seabed_under_the_longrange_mission() -> None:
+    """Given the first 400 s of the long-range mission (its first trench from 300 s), when the
+    worker builds the 3-D view's truth, then it carries the altitude above the seabed and each
+    beam's slant range at the output epochs: the DVL simulation's own ranges (tauvcore.sensors.dvl),
+    all four within range at the start's 60 m, all four beyond it (inf) over the trench's floor."""
+    import numpy as np
+
+    from app.worker import truth_view
+    from tauvcore.config import from_dict, merge, trajectory_preset
+    from tauvcore.sensors.dvl import slant_ranges_m
+    from tauvcore.truth import generate
+    from tauvcore.truth.kinematic import bathymetry
+    config = from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange", "duration_s": 400.0}}))
+    step = _output_step(config)
+    view = truth_view(config, step)
+    whole = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    rows = np.arange(0, whole.t_s.size, step)
+    assert view["altitude_m"].shape == (rows.size,) and view["slant_range_m"].shape == (rows.size, 4)
+    seabed = bathymetry(config.trajectory)
+    # the echo sounder's altitude: the seabed under the tangent-plane position, less the true depth
+    expected = seabed.depth_m(whole.pos_n[rows, 0], whole.pos_n[rows, 1]) - whole.depth_m[rows]
+    np.testing.assert_allclose(view["altitude_m"], expected, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(view["slant_range_m"], slant_ranges_m(whole, rows, config.dvl, seabed))
+    t = view["t_s"]
+    start, floor = t < 250.0, (t > 330.0)
+    np.testing.assert_allclose(view["altitude_m"][start], 60.0, rtol=0, atol=1e-6)
+    assert np.isfinite(view["slant_range_m"][start]).all()
+    assert np.all(view["slant_range_m"][start] < config.dvl.max_range_m)
+    assert np.isinf(view["slant_range_m"][floor]).all()
+    assert np.all(view["altitude_m"][floor] > config.vkf.switch_altitude_m)
+    # the altitude crosses the DVL's limit at 300 s, to the output epoch
+    first_high = t[np.argmax(view["altitude_m"] > config.dvl.max_altitude_m)]
+    assert first_high == pytest.approx(300.0, abs=0.1 + 1e-9)
+
+
+def test_a_replayed_log_s_truth_view_has_no_seabed() -> None:
+    import types
+
+    import numpy as np
+
+    from app.worker import log_truth_view
+    truth = types.SimpleNamespace(num_samples=5, t_s=np.arange(5.0), pos_n=np.zeros((5, 3)),
+                                  C_nb=np.broadcast_to(np.eye(3), (5, 3, 3)))
+    dvl = types.SimpleNamespace(t_s=np.arange(5.0))
+    view = log_truth_view(truth, Config(), dvl, 1)
+    assert view["altitude_m"] is None and view["slant_range_m"] is None
