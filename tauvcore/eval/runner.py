@@ -178,6 +178,8 @@ class MethodResult:
     est_euler_rad: np.ndarray | None = None  # (T, R, 3) estimated roll, pitch, yaw [rad]
     block_dims: dict[str, int] | None = None  # NEES dimensions when not the 20-state filter's (Yoo 2014's
                                               # 12: tauvcore.eval.yoo_bank.BLOCK_DIMS); None: consistency.BLOCK_DIMS
+    vkf_trace: dict[str, np.ndarray] | None = None  # the velocity Kalman filter at every ping (method vkf:
+                                                    # tauvcore.eval.yoo_bank.YooBank._vkf_series)
 
 
 def _initial_draws(rng: np.random.Generator | Sequence[np.random.Generator], R: int) -> tuple[np.ndarray, ...]:

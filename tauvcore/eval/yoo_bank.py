@@ -116,6 +116,7 @@ class YooBank:
         self.records: list[dict[str, np.ndarray]] = []
         self.updates: list[dict[str, np.ndarray]] = []
         self._taken = (0, 0)
+        self.vkf_trace: list[dict] = []
 
     # ------------------------------------------------------------------ set-up
     def start(self, pos: np.ndarray, vel_n: np.ndarray, C: np.ndarray, P0_att: np.ndarray, P0_ba: np.ndarray,
@@ -236,6 +237,7 @@ class YooBank:
             z, Rm, valid = v_dvl_n, R_dvl, ok.copy()
             if method == "vkf":
                 z, Rm, valid = self._vkf_switch(chunk, i, m, v_b, v_dvl_n, R_dvl, ok)
+                self._trace_vkf(chunk, i, t)
             self._fuse(m, z, Rm, valid, t)
 
     def _vkf_switch(self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray,
@@ -265,6 +267,18 @@ class YooBank:
         valid = np.where(use_rpm, have_rpm, ok)
         self._vkf_trace = (use_rpm, altitude)
         return z, Rm, valid
+
+    def _trace_vkf(self, chunk, i: int, t: float) -> None:
+        """The VKF's state at this ping beside the RPM model's truth (the dashboard's plot, tests)."""
+        k = chunk.k0 + i
+        R = self.batch[1]
+        rpm_data = chunk.rpm
+        sf_true = self._latest(rpm_data.index, rpm_data.scale_factor, k) if rpm_data is not None else np.full(R, np.nan)
+        b_true = self._latest(rpm_data.index, rpm_data.bias_mps, k) if rpm_data is not None else np.full(R, np.nan)
+        use_rpm, altitude = self._vkf_trace
+        self.vkf_trace.append({"t_s": t, "x": self.vkf_x.copy(), "sigma": np.sqrt(np.einsum("rii->ri", self.vkf_P)),
+                               "sf_true": sf_true, "b_true": b_true, "rpm_in_use": use_rpm.copy(),
+                               "altitude_m": np.asarray(altitude, dtype=float).copy()})
 
     @staticmethod
     def _latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
@@ -359,6 +373,13 @@ class YooBank:
             self.records, self.updates = [], []
         return self._results(recs, ups)
 
+    def _vkf_series(self) -> dict[str, np.ndarray] | None:
+        """The VKF at every ping so far (all of the mission when results are kept): ``t_s`` (U,),
+        ``x`` (U, R, 3) = V [m/s], sf [m/s per rpm], b [m/s], ``sigma`` (U, R, 3), the RPM model's
+        ``sf_true``, ``b_true`` (U, R; NaN on the dynamic truth), ``rpm_in_use`` (U, R) (eq. 29
+        chose the RPM) and the echo sounder's ``altitude_m`` (U, R)."""
+        return _stack_trace(self.vkf_trace) if self.vkf_trace else None
+
     def results(self):
         """MethodResult per method, every output epoch and update so far."""
         return self._results(self.records, self.updates)
@@ -403,8 +424,14 @@ class YooBank:
                 est_vel_n=(np.stack([r["est_vel_n"] for r in recs]) if recs else np.zeros((0, M, R, 3)))[:, m],
                 est_euler_rad=(np.stack([r["est_euler"] for r in recs]) if recs else np.zeros((0, M, R, 3)))[:, m],
                 diverged=~np.isnan(first_bad), diverged_at_s=first_bad, p_floor_count=np.zeros(R, int),
-                updates=updates, block_dims=BLOCK_DIMS)
+                updates=updates, block_dims=BLOCK_DIMS,
+                vkf_trace=self._vkf_series() if method == "vkf" else None)
         return out
+
+
+def _stack_trace(trace: list[dict]) -> dict[str, np.ndarray]:
+    keys = ("t_s", "x", "sigma", "sf_true", "b_true", "rpm_in_use", "altitude_m")
+    return {k: np.array([e[k] for e in trace]) for k in keys}
 
 
 def _euler_batch(C: np.ndarray) -> np.ndarray:

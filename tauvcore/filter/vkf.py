@@ -84,9 +84,10 @@ V, SF, B = 0, 1, 2
 class VkfConfig:
     """VKF noise model and switch (Yoo 2014 section 2.2); 1-sigma values."""
 
-    initial_sf_mps_per_rpm: float = 0.006            # sf at start [m/s per rpm]: not in the paper; 10 kn (Yoo
-                                                     # section 3.2, 5.14 m/s) at ~860 rpm, a small AUV's propeller
-    initial_sf_sigma_mps_per_rpm: float = 0.001      # its 1-sigma [m/s per rpm], > 0: ~17 % of sf, a propeller
+    initial_sf_mps_per_rpm: float = 0.0025           # sf at start [m/s per rpm]: not in the paper; a propeller
+                                                     # rating near the TAUV's own 2.35e-3 (tauvcore.truth.vehicle,
+                                                     # tauvcore.sensors.rpm), 10 kn at ~2000 rpm
+    initial_sf_sigma_mps_per_rpm: float = 0.0004     # its 1-sigma [m/s per rpm], > 0: ~17 % of sf, a propeller
                                                      # known to within a sixth before any DVL data
     initial_b_mps: float = 0.0                       # b at start [m/s] (eq. 20's bias): none assumed
     initial_b_sigma_mps: float = 0.3                 # its 1-sigma [m/s], > 0: 6 % of the cruise speed

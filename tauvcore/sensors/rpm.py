@@ -42,7 +42,8 @@ class RpmConfig:
                                               # 2 m/s at 850 rpm) [m/s per rpm]; (0, 1]
     bias_mps: float = 0.05                    # nominal b [m/s]; [-5, 5]
     scale_factor_rw_per_sqrt_s: float = 2e-7  # walk of sf [m/s per rpm per sqrt(s)]: 0.4 % of sf in an hour; [0, 1e-3]
-    bias_rw_mps_per_sqrt_s: float = 5e-4      # walk of b [m/s/sqrt(s)]: 3 cm/s in an hour; [0, 1]
+    bias_rw_mps_per_sqrt_s: float = 1e-4      # walk of b [m/s/sqrt(s)]: 6 mm/s in an hour, the velocity filter's
+                                              # own model (tauvcore.filter.vkf); [0, 1]
 
     def __post_init__(self) -> None:
         require_range("rpm.rate_hz", self.rate_hz, 0.01, 100.0)

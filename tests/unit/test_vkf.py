@@ -95,7 +95,7 @@ def test_transition_and_noise_are_eq_24_and_the_stated_densities() -> None:
     assert cfg.R == pytest.approx(0.087 ** 2)
 
 
-SF_TRUE, B_TRUE = 0.0065, 0.25       # within 0.5 and 0.9 sigma of the default prior (0.006, 0)
+SF_TRUE, B_TRUE = 0.0027, 0.25       # within 0.5 and 0.9 sigma of the default prior (0.0025, 0)
 
 
 def _noise_free(rpm_levels: tuple[float, ...], seconds_each: float) -> tuple[VkfConfig, np.ndarray, vkf.VkfRun]:
