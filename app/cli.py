@@ -199,6 +199,9 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
                                                      "TAUV flown through the scenario by its autopilot, with fins "
                                                      "and propeller)")
     _method_flags(p)
+    p.add_argument("--rpm-fallback", action="store_true", help="the DVL methods fuse the propeller RPM's velocity "
+                                                               "(Yoo 2014's velocity Kalman filter, learnt from the "
+                                                               "DVL) whenever they have no DVL velocity")
     _imu_flag(p)
     p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
 
@@ -283,6 +286,8 @@ def resolve_config(args: argparse.Namespace) -> Config:
         config = config.replace("run", aiding=_csv("--aiding", args.aiding, AIDING_SOURCES))
     if getattr(args, "ideal", False):
         config = config.replace("run", ideal=True)
+    if getattr(args, "rpm_fallback", False):
+        config = config.replace("run", rpm_fallback=True)
     if getattr(args, "beams", None) is not None:
         config = config.replace("dvl", beams=_beam_list("--beams", args.beams))
     if getattr(args, "outage", None):

@@ -144,6 +144,8 @@ class RunConfig:
     aiding: tuple[str, ...] = ("dvl",)            # aiding sources on (section 4: DVL alone), each at most once
     seed: int = 0                                 # seed of the numpy Generator, [0, MAX_SEED]
     ideal: bool = False                           # zero every sensor and initial error in the simulation
+    rpm_fallback: bool = False                    # the first paper's DVL methods fuse the velocity Kalman filter's
+                                                  # RPM velocity when they have no DVL velocity (neither paper does)
 
     def __post_init__(self) -> None:
         require_choices("run.methods", self.methods, ALL_METHODS)
@@ -152,6 +154,8 @@ class RunConfig:
             raise ConfigError(f"run.seed must be an integer within [0, 2**63 - 1], got {show(self.seed)}")
         if not isinstance(self.ideal, bool):
             raise ConfigError(f"run.ideal must be true or false, got {show(self.ideal)}")
+        if not isinstance(self.rpm_fallback, bool):
+            raise ConfigError(f"run.rpm_fallback must be true or false, got {show(self.rpm_fallback)}")
 
 
 @dataclass(frozen=True)

@@ -431,7 +431,13 @@ class FilterBank:
         self.A_b = np.ascontiguousarray(config.dvl.A_b, dtype=float)
         self.l_dvl_b = np.ascontiguousarray(config.dvl.l_dvl_b, dtype=float)
         self.gyro_rate_noise = gyro_rate_noise
-        self.recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag") for m in range(M)}
+        self.recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag", "rpm") for m in range(M)}
+        # --rpm-fallback: one velocity Kalman filter per run (tauvcore.eval.yoo_bank.RpmAid)
+        self.rpm_aid = None
+        if config.run.rpm_fallback and self.dvl_methods and "dvl" in self.aiding:
+            from tauvcore.eval.yoo_bank import RpmAid
+
+            self.rpm_aid = RpmAid(config.vkf, R)
         out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
         self.out_idx = np.arange(0, num_samples, out_step)
         self.cov_step = max(1, int(round(config.imu.rate_hz / config.filter.covariance_rate_hz)))
@@ -523,10 +529,11 @@ class FilterBank:
                 part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
                 self.recorders[(source, m)].add(t, part, meas.valid[m] & self.other_mask[m])
 
-    def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> None:
+    def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> np.ndarray:
         """Every DVL-aided method measures the ping its own way (lc, tc, an extended method's
         loosely coupled velocity or two-beam construction) in one compiled call for every method
-        and run; one compiled correction then fuses them all."""
+        and run; one compiled correction then fuses them all. Returns (M, R): which methods had a
+        velocity from the ping."""
         batch = self.batch
         H = np.empty(batch + (DVL_ROWS, STATE.dim))
         Rm = np.ones(batch + (DVL_ROWS, DVL_ROWS))
@@ -555,6 +562,37 @@ class FilterBank:
                                    keep[:, :rows], nis, ratio, unusable)
             self.recorders[("dvl", m)].add(t, outcome, valid[m], beams_available=available, mode=mode[m],
                                            measured_axes=measured_axes[m], elc_choice=choice[m])
+        return valid
+
+    def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
+        """``run.rpm_fallback``: step the runs' velocity Kalman filters (learning from the DVL while
+        it is in range), and where a DVL method had no velocity from this ping, fuse the RPM's body
+        velocity ``[V_rpm, 0, 0]`` (H on the body-velocity block, R from the VKF and
+        RPM_LATERAL_SIGMA_MPS; source "rpm" in the records)."""
+        from tauvcore.eval.yoo_bank import dvl_body_velocity
+
+        dvl = self.config.dvl
+        R = self.batch[1]
+        lat = self.pos[0, :, 0] if self.geodetic else np.full(R, self.config.earth.latitude_rad)
+        v_b, _, ok = dvl_body_velocity(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], chunk.imu.dtheta_b[i],
+                                       self.dt, self.C[0], lat, self.A_b, self.l_dvl_b,
+                                       dvl_beam_sigma_mps(dvl.noise_mps) ** 2)
+        _, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
+        coast = np.zeros(self.batch, bool)
+        coast[self.dvl_index] = ~dvl_valid[self.dvl_index] & have_rpm
+        if not coast.any():           # every method had its DVL velocity: the bank is left as it was
+            return
+        z = np.broadcast_to(self.rpm_aid.velocity_b(), self.batch + (3,))
+        H = np.zeros(self.batch + (3, STATE.dim))
+        H[..., STATE.vel] = np.eye(3)
+        nu = z - np.einsum("mrji,mrj->mri", self.C, self.vel)
+        Rm = np.ascontiguousarray(np.broadcast_to(self.rpm_aid.covariance_b(), self.batch + (3, 3)))
+        active = np.repeat(coast[..., None], 3, axis=-1)
+        fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))
+        outcome = make_outcome(np.array(z), nu, active, *fused)
+        for m, _ in self.dvl_methods:
+            part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
+            self.recorders[("rpm", m)].add(t, part, coast[m])
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
         t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
@@ -653,7 +691,9 @@ class FilterBank:
                     p = dvl_at[k]
                     before = dtheta[i - 1] if i > 0 else prev_dtheta
                     omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
-                    self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
+                    dvl_valid = self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
+                    if self.rpm_aid is not None:
+                        self._rpm_fallback(chunk, p, i, t, dvl_valid)
                 if k in depth_at:
                     self._update_all("depth", self.depth_model.measure(self.nominal(),
                                                                        chunk.pressure.depth_m[depth_at[k]]), t)

@@ -85,6 +85,88 @@ def F_batch(lat: np.ndarray, h: np.ndarray, vel_n: np.ndarray, f_n: np.ndarray, 
     return F
 
 
+def latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
+    """``values`` of the last epoch at or before IMU sample ``k`` (NaN before the first)."""
+    j = np.searchsorted(index, k, side="right") - 1
+    if j < 0:
+        return np.full(values.shape[1:], np.nan)
+    return np.asarray(values[j], dtype=float)
+
+
+def dvl_body_velocity(y: np.ndarray, available: np.ndarray, dtheta_b: np.ndarray, dt_s: float, C_nb: np.ndarray,
+                      lat_rad: np.ndarray, A_b: np.ndarray, l_dvl_b: np.ndarray,
+                      beam_var: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The DVL's body velocity at a ping by least squares over the beams that returned (R, 3), its
+    covariance from the beams' white noise (R, 3, 3), and whether at least MIN_BEAMS returned (R,).
+    The head's own motion ``omega_nb x l`` is taken out with the gyro rate less the earth's
+    (first order)."""
+    R = y.shape[0]
+    avail = available & np.isfinite(y)
+    W = avail.astype(float)
+    N = np.einsum("rk,ki,kj->rij", W, A_b, A_b)
+    ok = avail.sum(axis=1) >= MIN_BEAMS
+    Ninv = np.linalg.inv(np.where(ok[:, None, None], N, np.eye(3)))
+    v_head = np.einsum("rij,rk,ki,rk->rj", Ninv, W, A_b, np.where(avail, y, 0.0))
+    w_ie_n = np.stack([np.cos(lat_rad), np.zeros(R), -np.sin(lat_rad)], axis=-1) * OMEGA_IE_RPS
+    omega = np.asarray(dtheta_b) / dt_s - np.einsum("rji,rj->ri", C_nb, w_ie_n)
+    return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok
+
+
+class RpmAid:
+    """One velocity Kalman filter per run (tauvcore.filter.vkf), stepped at every DVL ping with the
+    latest RPM, updated with the DVL's forward speed while the echo sounder's altitude is within
+    ``switch_altitude_m`` and enough beams return; what it offers then is the body velocity
+    ``[V_rpm, 0, 0]`` with the VKF's variance on surge and RPM_LATERAL_SIGMA_MPS on sway and heave.
+    Used by the ``vkf`` method (eq. 29) and by the first paper's methods with ``run.rpm_fallback``."""
+
+    def __init__(self, cfg, num_runs: int) -> None:
+        self.cfg = cfg
+        self.x = np.broadcast_to(cfg.x0, (num_runs, 3)).copy()
+        self.P = np.broadcast_to(cfg.P0, (num_runs, 3, 3)).copy()
+        self.use_rpm = np.zeros(num_runs, bool)
+        self.altitude = np.full(num_runs, np.nan)
+
+    def step(self, chunk, i: int, v_b: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predict with the RPM, learn from the DVL where eq. 29 picks it; -> (RPM chosen (R,),
+        an RPM was read (R,))."""
+        cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
+        rpm_now = latest(chunk.rpm.index, chunk.rpm.rpm, k) if chunk.rpm is not None else np.full(R, np.nan)
+        altitude = latest(chunk.echo.index, chunk.echo.altitude_m, k) if chunk.echo is not None else np.full(R, np.nan)
+        use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
+        have_rpm = np.isfinite(rpm_now)
+        x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
+        self.x = np.where(have_rpm[:, None], x, self.x)
+        self.P = np.where(have_rpm[:, None, None], P, self.P)
+        learn = ~use_rpm & ok & have_rpm
+        z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
+        self.x, self.P, _, _ = vkf.update(self.x, self.P, z_fwd, learn, cfg.R)
+        self.use_rpm, self.altitude = use_rpm, np.asarray(altitude, dtype=float)
+        return use_rpm, have_rpm
+
+    def velocity_b(self) -> np.ndarray:
+        """(R, 3) the RPM's body velocity ``[V_rpm, 0, 0]`` (eq. 27 before the rotation)."""
+        v = np.zeros_like(self.x)
+        v[:, 0] = self.x[:, 0]
+        return v
+
+    def covariance_b(self) -> np.ndarray:
+        """(R, 3, 3) its covariance in b: the VKF's on surge, RPM_LATERAL_SIGMA_MPS on sway and heave."""
+        cov = np.zeros(self.x.shape[:1] + (3, 3))
+        cov[:, 0, 0] = self.P[:, 0, 0]
+        cov[:, 1, 1] = cov[:, 2, 2] = RPM_LATERAL_SIGMA_MPS**2
+        return cov
+
+    def trace(self, chunk, i: int, t: float) -> dict:
+        """The VKF's state now beside the RPM model's truth (YooBank._vkf_series)."""
+        k, R = chunk.k0 + i, self.x.shape[0]
+        rpm = chunk.rpm
+        nan = np.full(R, np.nan)
+        return {"t_s": t, "x": self.x.copy(), "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
+                "sf_true": latest(rpm.index, rpm.scale_factor, k) if rpm is not None else nan,
+                "b_true": latest(rpm.index, rpm.bias_mps, k) if rpm is not None else nan,
+                "rpm_in_use": self.use_rpm.copy(), "altitude_m": self.altitude.copy()}
+
+
 class YooBank:
     """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk (as FilterBank)."""
 
@@ -138,9 +220,7 @@ class YooBank:
         P0[yoo.BA, yoo.BA] = P0_ba
         P0[yoo.BG, yoo.BG] = P0_bg
         self.P = np.broadcast_to(P0 + np.eye(yoo.DIM) * 1e-16, (M, R, yoo.DIM, yoo.DIM)).copy()
-        vc = config.vkf
-        self.vkf_x = np.broadcast_to(vc.x0, (R, 3)).copy()
-        self.vkf_P = np.broadcast_to(vc.P0, (R, 3, 3)).copy()
+        self.rpm_aid = RpmAid(config.vkf, R)
         self.dtheta_sum = np.zeros((R, 3))
         self.prev_raw: tuple[np.ndarray, np.ndarray] | None = None
         self.k_state = 0
@@ -203,24 +283,10 @@ class YooBank:
         self.k_cov = k
 
     def _dvl_velocity(self, chunk, p: int, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Body velocity from the beams (R, 3), its covariance (R, 3, 3) and whether enough beams
-        returned (R,)."""
-        y = chunk.dvl.y_beam_mps[p]                                    # (R, 4)
-        R = y.shape[0]
-        avail = chunk.dvl.available[p] & np.isfinite(y)
-        A = self.A_b
-        W = avail.astype(float)
-        N = np.einsum("rk,ki,kj->rij", W, A, A)
-        ok = avail.sum(axis=1) >= MIN_BEAMS
-        N_safe = np.where(ok[:, None, None], N, np.eye(3))
-        Ninv = np.linalg.inv(N_safe)
-        v_head = np.einsum("rij,rk,ki,rk->rj", Ninv, W, A, np.where(avail, y, 0.0))
-        # the head turns with the body relative to the earth: gyro rate less the earth's (first order)
         lat, _ = self._lat_h()
-        w_ie_n = np.stack([np.cos(lat[:R]), np.zeros(R), -np.sin(lat[:R])], axis=-1) * OMEGA_IE_RPS
-        omega = np.asarray(chunk.imu.dtheta_b[i]) / self.dt - np.einsum("rji,rj->ri", self.C[0], w_ie_n)
-        v_b = v_head - np.cross(omega, self.l_dvl_b)
-        return v_b, self.beam_var * Ninv, ok
+        R = self.batch[1]
+        return dvl_body_velocity(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], chunk.imu.dtheta_b[i], self.dt,
+                                 self.C[0], lat[:R], self.A_b, self.l_dvl_b, self.beam_var)
 
     def _update(self, chunk, p: int, i: int) -> None:
         M, R = self.batch
@@ -242,50 +308,19 @@ class YooBank:
 
     def _vkf_switch(self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray,
                     ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        cfg = self.config.vkf
-        k = chunk.k0 + i
-        rpm_data, echo = chunk.rpm, chunk.echo
-        R = self.batch[1]
-        rpm_now = self._latest(rpm_data.index, rpm_data.rpm, k) if rpm_data is not None else np.full(R, np.nan)
-        altitude = self._latest(echo.index, echo.altitude_m, k) if echo is not None else np.full(R, np.nan)
-        use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
-        have_rpm = np.isfinite(rpm_now)
-        x, P = vkf.predict(self.vkf_x, self.vkf_P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
-        self.vkf_x = np.where(have_rpm[:, None], x, self.vkf_x)
-        self.vkf_P = np.where(have_rpm[:, None, None], P, self.vkf_P)
-        learn = ~use_rpm & ok & have_rpm
+        """Eq. 29: the DVL's NED velocity within the switch altitude (and with enough beams), else
+        the VKF's RPM velocity (eq. 27-28), the VKF stepped and, while the DVL is chosen, updated."""
+        use_rpm, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
         C = self.C[m]
-        z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
-        self.vkf_x, self.vkf_P, _, _ = vkf.update(self.vkf_x, self.vkf_P, z_fwd, learn, cfg.R)
-        v_rpm_n = vkf.rpm_velocity_n(self.vkf_x, C)
-        lateral = np.zeros((R, 3, 3))
-        lateral[:, 0, 0] = self.vkf_P[:, 0, 0]
-        lateral[:, 1, 1] = lateral[:, 2, 2] = RPM_LATERAL_SIGMA_MPS**2
-        R_rpm = np.einsum("rij,rjk,rlk->ril", C, lateral, C)
+        v_rpm_n = np.einsum("rij,rj->ri", C, self.rpm_aid.velocity_b())
+        R_rpm = np.einsum("rij,rjk,rlk->ril", C, self.rpm_aid.covariance_b(), C)
         z = np.where(use_rpm[:, None], v_rpm_n, v_dvl_n)
         Rm = np.where(use_rpm[:, None, None], R_rpm, R_dvl)
         valid = np.where(use_rpm, have_rpm, ok)
-        self._vkf_trace = (use_rpm, altitude)
         return z, Rm, valid
 
     def _trace_vkf(self, chunk, i: int, t: float) -> None:
-        """The VKF's state at this ping beside the RPM model's truth (the dashboard's plot, tests)."""
-        k = chunk.k0 + i
-        R = self.batch[1]
-        rpm_data = chunk.rpm
-        sf_true = self._latest(rpm_data.index, rpm_data.scale_factor, k) if rpm_data is not None else np.full(R, np.nan)
-        b_true = self._latest(rpm_data.index, rpm_data.bias_mps, k) if rpm_data is not None else np.full(R, np.nan)
-        use_rpm, altitude = self._vkf_trace
-        self.vkf_trace.append({"t_s": t, "x": self.vkf_x.copy(), "sigma": np.sqrt(np.einsum("rii->ri", self.vkf_P)),
-                               "sf_true": sf_true, "b_true": b_true, "rpm_in_use": use_rpm.copy(),
-                               "altitude_m": np.asarray(altitude, dtype=float).copy()})
-
-    @staticmethod
-    def _latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
-        j = np.searchsorted(index, k, side="right") - 1
-        if j < 0:
-            return np.full(values.shape[1:], np.nan)
-        return np.asarray(values[j], dtype=float)
+        self.vkf_trace.append(self.rpm_aid.trace(chunk, i, t))
 
     def _fuse(self, m: int, z: np.ndarray, Rm: np.ndarray, valid: np.ndarray, t: float) -> None:
         """Fuse a NED velocity ``z`` (R, 3) rotated into n with the estimated attitude: its error is

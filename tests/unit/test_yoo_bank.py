@@ -94,3 +94,24 @@ def test_the_vkf_learns_the_rpm_models_scale_factor_and_bias_in_the_engine() -> 
     before_trench = np.searchsorted(t, 290.0)
     assert np.all(sigma[before_trench, :, 1] < 0.1 * config.vkf.initial_sf_sigma_mps_per_rpm)
     assert trace["rpm_in_use"][(t > 320.0) & (t < 470.0)].all()
+
+
+def test_rpm_fallback_aids_the_first_papers_methods_where_they_had_no_dvl_velocity() -> None:
+    """``run.rpm_fallback``: until the first ping at which any method has no DVL velocity nothing
+    changes, number for number; over the trench LC and TC fuse the RPM velocity (source "rpm") instead of coasting, and
+    their velocity error stays at centimetres."""
+    base = _longrange(480.0).replace("run", methods=("lc", "tc"))
+    plain = run_streaming(base, np.random.default_rng(6))
+    aided = run_streaming(base.replace("run", rpm_fallback=True), np.random.default_rng(6))
+    first_coast = min(plain[m].updates["dvl"].t_s[~plain[m].updates["dvl"].valid[:, 0]][0] for m in ("lc", "tc"))
+    for method in ("lc", "tc"):
+        t = plain[method].t_s
+        before = t < first_coast
+        np.testing.assert_array_equal(aided[method].vel_err_mps[before], plain[method].vel_err_mps[before])
+        rpm = aided[method].updates["rpm"]
+        in_trench = (rpm.t_s > 320.0) & (rpm.t_s < 470.0)
+        assert rpm.fused[in_trench].all() and not rpm.valid[rpm.t_s < first_coast - 1.0].any()
+        trench = (t > 320.0) & (t < 480.0)
+        assert np.mean(aided[method].vel_err_mps[trench]) < 0.1
+        assert np.mean(aided[method].vel_err_mps[trench]) < 0.5 * np.mean(plain[method].vel_err_mps[trench])
+    assert "rpm" not in plain["lc"].updates
