@@ -16,24 +16,15 @@ target: 250 s of mission in under 0.25 s (1,000 times faster than real time).
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
+from bench_run import best_of  # a sibling script (run from the repository root)
 
 from tauvcore.geo.earth import Earth
 from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 from tauvcore.truth import TrajectoryConfig, dynamic, generate
 
 SETTLE_S = 20.0
-
-
-def best_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
@@ -50,8 +41,8 @@ def main() -> None:
     for name in TRAJECTORIES:
         cfg = TrajectoryConfig(name=name, duration_s=args.duration, truth="dynamic")
         n = dynamic.num_samples(cfg.duration_s, rate_hz) + 1
-        sim_s = best_time(lambda: dynamic.DynamicSimulation(cfg, rate_hz).knots(n), args.repeats)
-        record_s = best_time(lambda: dynamic.DynamicTruthStream(cfg, Earth(), rate_hz, n - 1, cache=False)
+        sim_s = best_of(lambda: dynamic.DynamicSimulation(cfg, rate_hz).knots(n), args.repeats)
+        record_s = best_of(lambda: dynamic.DynamicTruthStream(cfg, Earth(), rate_hz, n - 1, cache=False)
                              .__iter__().__next__(), args.repeats)
         truth = generate(cfg, Earth(), rate_hz)
         v = truth.vehicle
