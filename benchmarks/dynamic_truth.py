@@ -32,6 +32,8 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=250.0)
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
+    if not args.duration > SETTLE_S:
+        parser.error(f"--duration must exceed the {SETTLE_S:g} s the statistics leave out, got {args.duration:g}")
     rate_hz = 150.0
     generate(TrajectoryConfig(name="figure8", duration_s=2.0, truth="dynamic"), Earth(), rate_hz)   # compile
     print(f"{args.duration:g} s missions at {rate_hz:g} Hz, statistics after the first {SETTLE_S:g} s\n")
