@@ -38,15 +38,16 @@ from app import budget, inputs, worker
 from app.figures import (
     AUTO,
     FIN_COLORS,
-    METHOD_COLORS,
     TRUTH_COLOR,
     actuator_figure,
     altitude_figure,
     decimate,
     elc_choice_figure,
     error_figure,
+    method_color,
     nees_figure,
     summary_markdown,
+    vkf_figure,
 )
 from app.inputs import Controls, InputError, config_from_controls, config_markdown
 from app.scene import (
@@ -67,8 +68,8 @@ from app.scene import (
     seabed_ranges_m,
     wxyz_view,
 )
-from tauvcore.config import METHODS, Config, from_dict, to_dict
-from tauvcore.eval.consistency import BLOCK_DIMS
+from tauvcore.config import ALL_METHODS, YOO_METHODS, Config, from_dict, to_dict
+from tauvcore.eval.consistency import BLOCK_DIMS, YOO_BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
@@ -100,10 +101,20 @@ SEABED_NOTES = {
     "none": "The altitude above the seabed shows here after a run.",
 }
 """The Seabed tab's note (its figure shows for simulated missions)."""
+VKF_NOTES = {
+    "shown": ("What the velocity Kalman filter (method **VKF**, Yoo 2014 eq. 20-26) learned of the propeller: "
+              "scale factor and bias with their 1-sigma, against the RPM model's truth (dashed; none on the dynamic "
+              "truth). Shaded where eq. 29 aids with the RPM instead of the DVL: there it only predicts."),
+    "running": "The VKF's scale factor and bias show here when the run ends (Yoo 2014's methods report at the end).",
+    "stopped": "The run ended before the VKF's results arrived (Yoo 2014's methods report at the end of a run).",
+    "none": ("The VKF's propeller scale factor and bias show here after a run with **VKF** checked "
+             "(Mission tab, Methods)."),
+}
+"""The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
-REJECT_REFERENCE = ("tc", "elc", "nsv", "vb", "vhv", "plcf", "lc")  # whose gate decides the red beams
+REJECT_REFERENCE = ("tc", "elc", "nsv", "vb", "vhv", "plcf", "lc", "ins-dvl")  # whose gate decides the red beams
 CONFIRM_TIMEOUT_S = 10.0     # how long Run waits for the page to report its controls (software WebGL stalls)
 VISER_STORAGE_PREFIX = "viser-user:"   # viser's client prefixes local_storage keys (MessageHandler.tsx)
 SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
@@ -185,7 +196,10 @@ class Session:
             # numeric fields are text: the server reads what was typed (see app.inputs)
             self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
             with gui.add_folder("Methods"):
-                self.method_boxes = {m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS) for m in METHODS}
+                # both papers' methods: the first's, then Yoo 2014's (tauvcore.config.ALL_METHODS)
+                self.method_boxes = {m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS,
+                                                         hint=inputs.METHOD_HINTS.get(m))
+                                     for m in ALL_METHODS}
             with gui.add_folder("Partial-beam methods"):
                 # each method's assumption, visible and settable (issue 8): VB's virtual-beam
                 # inflation and NSV's sway variance
@@ -196,6 +210,8 @@ class Session:
                 self.beam_boxes = [gui.add_checkbox(f"Beam {k}", True) for k in range(1, 5)]
                 self.dropout = gui.add_text(inputs.DROPOUT, f"{d.dvl.dropout_probability:g}",
                                             hint="chance that each beam misses each ping")
+                self.rpm_fallback = gui.add_checkbox(inputs.RPM_FALLBACK, d.run.rpm_fallback,
+                                                     hint=inputs.RPM_FALLBACK_HINT)
             with gui.add_folder("Outages [s] (start = end: none)", expand_by_default=False):
                 self.outage = [tuple(gui.add_text(label, "0") for label in inputs.outage_labels(k))
                                for k in range(1, 5)]
@@ -234,8 +250,10 @@ class Session:
                           for q in PLOTTED_QUANTITIES}
             self.elc_plot = gui.add_plotly(go.Figure(), aspect=2.2, visible=False)
         with tabs.add_tab("Consistency"):
-            self.nees_block = gui.add_dropdown("NEES block", tuple(BLOCK_DIMS), initial_value="full",
-                                               hint="full: all 20 error states; or one block of them")
+            self.nees_block = gui.add_dropdown(
+                "NEES block", tuple(BLOCK_DIMS), initial_value="full",
+                hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
+                     "no position); or one block of them")
             self.nees_plot = gui.add_plotly(go.Figure(), aspect=1.5)   # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
         with tabs.add_tab("Vehicle"):
@@ -244,6 +262,8 @@ class Session:
         with tabs.add_tab("Seabed"):
             self.seabed_note = gui.add_markdown(SEABED_NOTES["none"])
             self.seabed_plot = gui.add_plotly(go.Figure(), aspect=0.8, visible=False)
+            self.vkf_note = gui.add_markdown(VKF_NOTES["none"])
+            self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
         with tabs.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
             self.run_config = gui.add_markdown("")
@@ -268,7 +288,7 @@ class Session:
     @staticmethod
     def _legend_html(methods: tuple[str, ...]) -> str:
         items = [f'<span style="color:{TRUTH_COLOR}">&#9632;</span> truth']
-        items += [f'<span style="color:{METHOD_COLORS[m]}">&#9632;</span> {m.upper()}' for m in methods]
+        items += [f'<span style="color:{method_color(m)}">&#9632;</span> {m.upper()}' for m in methods]
         beams = [f'<span style="color:rgb{BEAM_COLORS[s]}">&#9646;</span> {s}'
                  for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)]
         return ('<div style="font-size:0.8em;line-height:1.6">Trajectories: ' + " &nbsp; ".join(items)
@@ -307,14 +327,15 @@ class Session:
         self.notify(title, headline)
 
     def selected_methods(self) -> tuple[str, ...]:
-        return tuple(m for m in METHODS if self.method_boxes[m].value)
+        return tuple(m for m in ALL_METHODS if self.method_boxes[m].value)
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
         handles: list[Any] = [*([self.source] if self.source is not None else []), self.trajectory, self.truth,
                               self.duration, *self.method_boxes.values(), self.vb_nf,
                               self.nsv_epsilon, *self.beam_boxes,
-                              self.dropout, *(h for pair in self.outage for h in pair), self.aid_depth,
+                              self.dropout, self.rpm_fallback, *(h for pair in self.outage for h in pair),
+                              self.aid_depth,
                               self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
                               self.dvl_noise, self.dvl_bias, self.dvl_sf, self.seed, self.runs]
         return {h._impl.uuid: h for h in handles}
@@ -396,7 +417,8 @@ class Session:
             gyro_bias=self.gyro_bias.value, accel_noise=self.accel_noise.value, gyro_noise=self.gyro_noise.value,
             dvl_noise=self.dvl_noise.value, dvl_bias=self.dvl_bias.value, dvl_sf=self.dvl_sf.value,
             seed=self.seed.value, runs=self.runs.value,
-            source=self.source.value if self.source is not None else inputs.SIMULATION)
+            source=self.source.value if self.source is not None else inputs.SIMULATION,
+            rpm_fallback=self.rpm_fallback.value)
 
     def read_config(self) -> tuple[Config, int]:
         """The configuration the controls describe and its run count; InputError names the bad
@@ -437,11 +459,14 @@ class Session:
         self.progress.value = 0.0
         what = f"log {source}" if log_dir is not None else \
             f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
-        self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
+        yoo = [m.upper() for m in config.run.methods if m in YOO_METHODS]
+        self.status.content = (f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
+                               + (f" ({', '.join(yoo)} shown when the run ends)" if yoo else ""))
         self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
         self.time_slider.max = config.trajectory.duration_s
         self._clear_trajectories()
+        self._draw_vkf_plot(None, config)
         threading.Thread(target=self._pump, args=(handle, config), daemon=True).start()
 
     def stop_run(self) -> None:
@@ -480,6 +505,8 @@ class Session:
                         if pending is not None:
                             self._show_results(pending, config)
                         self.status.content = "Run stopped."
+                        if "vkf" in config.run.methods:     # no final results: the VKF's never came
+                            self.vkf_note.content = VKF_NOTES["stopped"]
                         note = ("Run stopped", "The run ended before completion.", False)
                         break
                     if pending is not None and time.monotonic() - last_draw > GUI_REFRESH_S:
@@ -536,6 +563,8 @@ class Session:
         self.refresh_plots()
         self.table.content = summary_markdown(results)
         self._draw_estimates(results)
+        if "vkf" in results:            # Yoo 2014's methods arrive with the final results only
+            self._draw_vkf_plot(results["vkf"], config)
         t_last = float(next(iter(results.values())).t_s[-1])
         if not self.playing:
             self.time_slider.value = min(t_last, self.time_slider.max)
@@ -683,6 +712,19 @@ class Session:
         self.seabed_note.content = SEABED_NOTES["simulation"]
 
     @_drawing
+    def _draw_vkf_plot(self, result: MethodResult | None, config: Config) -> None:
+        """The Seabed tab's VKF figure: what the velocity Kalman filter learned (``result``, the
+        ``vkf`` method's), or a note: the run has no VKF, or its results are still to come."""
+        trace = result.vkf_trace if result is not None else None
+        if trace is not None and len(trace["t_s"]):
+            self.vkf_plot.figure = vkf_figure(trace)
+            self.vkf_plot.visible = True
+            self.vkf_note.content = VKF_NOTES["shown"]
+            return
+        self.vkf_plot.visible = False
+        self.vkf_note.content = VKF_NOTES["running" if "vkf" in config.run.methods else "none"]
+
+    @_drawing
     def _draw_vehicle_plot(self) -> None:
         """The Vehicle tab: fins and propeller of a dynamic truth, otherwise a note saying why none."""
         tv, config = self.truth_view, self.config
@@ -708,7 +750,7 @@ class Session:
                 self.est_lines[method].points = segs
             else:
                 self.est_lines[method] = self.client.scene.add_line_segments(
-                    f"/traj/{method}", segs, _hex_rgb(METHOD_COLORS[method]), thickness=2.0,
+                    f"/traj/{method}", segs, _hex_rgb(method_color(method)), thickness=2.0,
                     thickness_units="screen")
 
     @_drawing

@@ -8,7 +8,12 @@ heading is unobservable, so the norm is almost all heading and hides how well ti
 The consistency figure shows whether each method knows its own error: its NEES divided by the
 block's dimension (1 for a consistent filter) against the two-sided 99 % band. The actuator figure
 shows what the dynamic truth's vehicle did: its four fins and its propeller; the altitude figure
-how high it flew above the seabed, against the DVL's range and the velocity filter's switch to RPM.
+how high it flew above the seabed, against the DVL's range and the velocity filter's switch to RPM;
+the VKF figure what that velocity filter learned of the propeller (Yoo 2014's ``vkf`` method).
+
+Yoo 2014's methods (``ins-dvl``, ``vkf``) run a 12-state filter with no position state: their
+position 1-sigma and NEES are NaN (no band, no curve) and their NEES is divided by their own
+block dimensions (``MethodResult.block_dims``), not the 20-state filter's.
 
 Figures are assembled as plain dicts and wrapped without plotly's per-property validation
 (:func:`_figure`): validation took 45 of the 56 ms that the four live plots cost per redraw, and
@@ -40,6 +45,7 @@ from tauvcore.eval.runner import MethodResult
 METHOD_COLORS = {
     "ins": "#7f7f7f", "lc": "#1f77b4", "tc": "#ff7f0e", "vb": "#2ca02c",
     "nsv": "#d62728", "plcf": "#9467bd", "vhv": "#8c564b", "elc": "#e377c2",
+    "ins-dvl": "#bcbd22", "vkf": "#17becf",      # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
 }
 TRUTH_COLOR = "#111111"
 QUANTITIES = {
@@ -66,7 +72,7 @@ PROPELLER_COLOR = "#444444"
 
 
 def method_color(method: str) -> str:
-    return METHOD_COLORS.get(method, "#17becf")
+    return METHOD_COLORS.get(method, "#393b79")
 
 
 def _hex_to_rgba(color: str, alpha: float) -> str:
@@ -110,7 +116,8 @@ def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", sho
     """Error norm against time for every method; one trace per method named by its short name.
 
     ``quantity``: "vel", "tilt", "heading", "att" (the attitude norm) or "pos". ``show_sigma``
-    adds the filter's 1-sigma as a shaded band under each curve (a trace named "<NAME> 1-sigma").
+    adds the filter's 1-sigma as a shaded band under each curve (a trace named "<NAME> 1-sigma"),
+    where the method has one (not for the position of Yoo 2014's methods: NaN, no position state).
     ``log_y``: True, False, or "auto" (log only where the drawn values span more than LOG_SPAN).
     At most about ``max_points`` points are drawn per trace (evenly strided, the last epoch
     always included): a plot panel is a few hundred pixels wide, and every point drawn is data
@@ -134,10 +141,12 @@ def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", sho
         if show_sigma:
             sigma = getattr(res, sigma_field)[keep]
             band = sigma[:, 0] if runs == 1 else rms(sigma, axis=1)
-            drawn.append(band)
-            data.append({"type": "scatter", "x": t, "y": band, "name": f"{method.upper()} 1-sigma", "mode": "lines",
-                         "line": {"width": 0}, "fill": "tozeroy", "fillcolor": _hex_to_rgba(color, 0.15),
-                         "hoverinfo": "skip", "showlegend": False, "legendgroup": method})
+            if np.isfinite(band).any():     # Yoo 2014's filter has no position state: no position band
+                drawn.append(band)
+                data.append({"type": "scatter", "x": t, "y": band, "name": f"{method.upper()} 1-sigma",
+                             "mode": "lines", "line": {"width": 0}, "fill": "tozeroy",
+                             "fillcolor": _hex_to_rgba(color, 0.15), "hoverinfo": "skip", "showlegend": False,
+                             "legendgroup": method})
         drawn.append(curve)
         data.append({"type": "scatter", "x": t, "y": curve, "name": method.upper(), "mode": "lines",
                      "line": {"color": color, "width": 2}, "legendgroup": method})
@@ -150,27 +159,38 @@ def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", sho
     return _figure(data, layout, validate)
 
 
+def block_dims(result: MethodResult) -> dict[str, int]:
+    """NEES dimension of each block of ``result``: the 20-state filter's (BLOCK_DIMS), or the
+    method's own (Yoo 2014's 12-state filter: ``MethodResult.block_dims``)."""
+    return result.block_dims or BLOCK_DIMS
+
+
 def nees_figure(results: Mapping[str, MethodResult], block: str = "full", height_px: int = 300,
                 max_points: int | None = 600, validate: bool = False) -> go.Figure:
     """Does each method know its own error? Its NEES of ``block`` divided by the block's
     dimension n, averaged over the Monte Carlo runs, against time; one trace per method.
 
-    ``block``: "full" (the 20 error states) or "pos", "vel", "tilt", "heading", "sensor"
-    (tauvcore.eval.consistency.BLOCK_DIMS). A consistent filter's curve lies near 1 (a dotted
-    line, trace "1 = consistent") and inside the two-sided 99 % band of the run-averaged NEES
-    (:func:`tauvcore.eval.consistency.nees_band`; a grey shaded trace "99 % band", which narrows
-    as runs are added); above it the filter is over-confident, below it cautious. NEES spans
-    decades (VB at a small n_f reached thousands), so the y-axis is logarithmic. Epochs where a
-    run's NEES is not finite (a diverged filter) are gaps.
+    ``block``: "full" (all error states) or "pos", "vel", "tilt", "heading", "sensor"
+    (tauvcore.eval.consistency.BLOCK_DIMS). n is each method's own (:func:`block_dims`: the full
+    state is 20 for the first paper's methods, 12 for Yoo 2014's, whose position NEES is NaN: no
+    curve). A consistent filter's curve lies near 1 (a dotted line, trace "1 = consistent") and
+    inside the two-sided 99 % band of the run-averaged NEES (:func:`tauvcore.eval.consistency.nees_band`;
+    a grey shaded trace "99 % band", which narrows as runs are added; when the methods drawn have
+    different n, one band per n, "99 % band (dim n)", the first dashed, the others dotted); above
+    it the filter is over-confident, below it cautious. NEES spans decades (VB at a small n_f
+    reached thousands), so the y-axis is logarithmic. Epochs where a run's NEES is not finite (a
+    diverged filter) are gaps.
     """
     if block not in BLOCK_DIMS:
         raise ValueError(f"block must be one of {', '.join(BLOCK_DIMS)}, got {block!r}")
-    dim = BLOCK_DIMS[block]
     data: list[dict[str, Any]] = []
+    by_dim: dict[int, list[str]] = {}      # block dimension -> the methods drawn with it, in order
     runs, t_first, t_last = 1, np.inf, -np.inf
     for method, res in results.items():
         if len(res.t_s) == 0:
             continue
+        dim = block_dims(res)[block]
+        by_dim.setdefault(dim, []).append(method.upper())
         keep = decimate(len(res.t_s), max_points)
         series = nees_series(res, block)[keep]
         runs = series.shape[1]
@@ -181,19 +201,26 @@ def nees_figure(results: Mapping[str, MethodResult], block: str = "full", height
         t_first, t_last = min(t_first, float(t[0])), max(t_last, float(t[-1]))
         data.append({"type": "scatter", "x": t, "y": curve, "name": method.upper(), "mode": "lines",
                      "line": {"color": method_color(method), "width": 2}, "legendgroup": method})
+    band_name = f"{CONFIDENCE:.0%} band".replace("%", " %")
     if data:
-        lo, hi = nees_band(dim, runs)
-        reference = [
-            {"type": "scatter", "x": [t_first, t_last, t_last, t_first], "y": [lo, lo, hi, hi],
-             "name": f"{CONFIDENCE:.0%} band".replace("%", " %"), "mode": "lines", "fill": "toself",
-             "fillcolor": BAND_COLOR, "line": {"color": "rgba(120,120,120,0.6)", "width": 1, "dash": "dash"},
-             "hoverinfo": "skip"},
+        reference = []
+        for k, dim in enumerate(by_dim):
+            lo, hi = nees_band(dim, runs)
+            reference.append(
+                {"type": "scatter", "x": [t_first, t_last, t_last, t_first], "y": [lo, lo, hi, hi],
+                 "name": band_name if len(by_dim) == 1 else f"{band_name} (dim {dim})", "mode": "lines",
+                 "fill": "toself", "fillcolor": BAND_COLOR,
+                 "line": {"color": "rgba(120,120,120,0.6)", "width": 1, "dash": "dash" if k == 0 else "dot"},
+                 "hoverinfo": "skip"})
+        reference.append(
             {"type": "scatter", "x": [t_first, t_last], "y": [1.0, 1.0], "name": "1 = consistent", "mode": "lines",
-             "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"}, "hoverinfo": "skip"},
-        ]
+             "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"}, "hoverinfo": "skip"})
         data = reference + data
+    groups = list(by_dim.items()) or [(BLOCK_DIMS[block], [])]
+    dims_text = "; ".join(f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}"
+                          for k, (dim, names) in enumerate(groups))
     runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
-    title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} (dim {dim}){runs_text}"
+    title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} ({dims_text}){runs_text}"
     layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
               "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
               "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
@@ -349,10 +376,100 @@ def altitude_figure(t_s: np.ndarray, altitude_m: np.ndarray, dvl_max_altitude_m:
     return _figure(data, layout, validate)
 
 
+VKF_SF_NAME = "scale factor"
+VKF_B_NAME = "bias"
+TRUE_SUFFIX = " (true)"
+SIGMA_SUFFIX = " 1-sigma"
+"""The VKF figure's traces (:func:`vkf_figure`): each estimate, its band "<name> 1-sigma" (in the
+legend with its estimate) and the RPM model's truth "<name> (true)"; the shading RPM_NAME (the bias
+panel's copy, "RPM in use (bias)", in the legend with it)."""
+MM_PER_M = 1e3
+"""The scale factor is drawn in mm/s per rpm: 2.35, not 0.00235."""
+
+
+def vkf_figure(trace: Mapping[str, np.ndarray], run: int = 0, height_px: int = 420, max_points: int | None = 600,
+               validate: bool = False) -> go.Figure:
+    """What Yoo 2014's velocity Kalman filter learned of the propeller (method ``vkf``; eq. 20,
+    ``V_rpm = rpm sf - b``): its scale factor sf [mm/s per rpm] (top panel) and bias b [m/s]
+    (bottom panel) against time, each with its 1-sigma band and, where finite, the RPM model's
+    true value (dashed; NaN on the dynamic truth, whose propeller has no such model), and the
+    pings where eq. 29 aids with the RPM instead of the DVL shaded (trace RPM_NAME): there the
+    VKF only predicts, so its estimates hold still.
+
+    Parameters
+    ----------
+    trace : ``MethodResult.vkf_trace`` (tauvcore.eval.yoo_bank): ``t_s`` (U,) [s], ``x`` and
+        ``sigma`` (U, R, 3) = V [m/s], sf [m/s per rpm], b [m/s], ``sf_true``, ``b_true`` (U, R),
+        ``rpm_in_use`` (U, R) bool.
+    run : which of the R runs is drawn (the title names it when there are several).
+
+    The curves are drawn with at most about ``max_points`` points (:func:`decimate`); the shaded
+    stretches are found on every ping (:func:`intervals_above`).
+    """
+    t_s, x, sigma = (np.asarray(trace[k], float) for k in ("t_s", "x", "sigma"))
+    sf_true, b_true = np.asarray(trace["sf_true"], float), np.asarray(trace["b_true"], float)
+    in_use = np.asarray(trace["rpm_in_use"], bool)
+    U = t_s.size
+    if t_s.ndim != 1 or x.ndim != 3 or x.shape[::2] != (U, 3) or sigma.shape != x.shape \
+            or not sf_true.shape == b_true.shape == in_use.shape == x.shape[:2]:
+        raise ValueError(f"vkf_figure needs t_s (U,), x and sigma (U, R, 3), sf_true, b_true and rpm_in_use (U, R), "
+                         f"got {t_s.shape}, {x.shape}, {sigma.shape}, {sf_true.shape}, {b_true.shape} and "
+                         f"{in_use.shape}")
+    runs = x.shape[1]
+    if not 0 <= run < runs:
+        raise ValueError(f"run must be within [0, {runs - 1}], got {run}")
+    color = method_color("vkf")
+    keep = decimate(U, max_points)
+    t = t_s[keep]
+    spans = intervals_above(t_s, in_use[:, run].astype(float), 0.5)
+    data: list[dict[str, Any]] = []
+    panels = ((VKF_SF_NAME, 1, MM_PER_M, sf_true, "x", "y"), (VKF_B_NAME, 2, 1.0, b_true, "x2", "y2"))
+    ranges = []
+    for name, k, scale, truth, xaxis, yaxis in panels:
+        est, sig = scale * x[keep, run, k], scale * sigma[keep, run, k]
+        true = scale * truth[keep, run]
+        drawn = np.concatenate([est - sig, est + sig, true])
+        drawn = drawn[np.isfinite(drawn)]
+        lo, hi = (float(drawn.min()), float(drawn.max())) if drawn.size else (0.0, 1.0)
+        pad = 0.05 * (hi - lo) or 0.05 * abs(hi) or 1.0
+        lo, hi = lo - pad, hi + pad
+        ranges.append([lo, hi])
+        if len(spans):
+            xs: list[float | None] = []
+            ys: list[float | None] = []
+            for a, b in spans:
+                xs += [a, a, b, b, a, None]
+                ys += [lo, hi, hi, lo, lo, None]
+            data.append({"type": "scatter", "x": xs, "y": ys, "name": RPM_NAME if k == 1 else f"{RPM_NAME} (bias)",
+                         "mode": "lines", "fill": "toself", "fillcolor": RPM_FILL, "line": {"width": 0},
+                         "hoverinfo": "skip", "legendgroup": "rpm", "showlegend": k == 1,
+                         "xaxis": xaxis, "yaxis": yaxis})
+        data.append({"type": "scatter", "x": np.r_[t, t[::-1]], "y": np.r_[est + sig, (est - sig)[::-1]],
+                     "name": name + SIGMA_SUFFIX, "mode": "lines", "fill": "toself",
+                     "fillcolor": _hex_to_rgba(color, 0.2), "line": {"width": 0}, "hoverinfo": "skip",
+                     "legendgroup": name, "showlegend": False, "xaxis": xaxis, "yaxis": yaxis})
+        if np.isfinite(true).any():
+            data.append({"type": "scatter", "x": t, "y": true, "name": name + TRUE_SUFFIX, "mode": "lines",
+                         "line": {"color": TRUTH_COLOR, "width": 1.5, "dash": "dash"}, "xaxis": xaxis, "yaxis": yaxis})
+        data.append({"type": "scatter", "x": t, "y": est, "name": name, "mode": "lines",
+                     "line": {"color": color, "width": 2}, "legendgroup": name, "xaxis": xaxis, "yaxis": yaxis})
+    title = "VKF: propeller scale factor and bias" + (f" (run {run + 1} of {runs})" if runs > 1 else "")
+    layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
+              "margin": {"l": 60, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
+              "template": "plotly_white",
+              "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
+              "yaxis": {"domain": [0.55, 1.0], "range": ranges[0],
+                        "title": {"text": "sf [mm/s per rpm]", "font": {"size": 11}}},
+              "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
+              "yaxis2": {"domain": [0.0, 0.45], "range": ranges[1], "title": {"text": "b [m/s]", "font": {"size": 11}}}}
+    return _figure(data, layout, validate)
+
+
 def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | str]]:
     """Per method: final and RMS-over-time errors (RMS over runs first when there are several),
-    tilt and heading apart; consistency (tauvcore.eval.consistency.method_consistency): mean
-    NEES/dim of the full state and the fraction of epochs inside its 99 % band, velocity
+    tilt and heading apart; consistency (tauvcore.eval.consistency.method_consistency, each
+    method with its own NEES dimensions): the full state's dimension, its mean
+    NEES/dim and the fraction of epochs inside its 99 % band, velocity
     NEES/dim, DVL NIS per degree of freedom (NaN without DVL updates); and the filter's health:
     how many runs the divergence monitor flagged, the earliest flag [s] (NaN if none) and the P
     eigenvalue-floor repairs summed over runs."""
@@ -368,6 +485,7 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | 
                      "tilt_rms_deg": float(rms(curve(res.tilt_err_deg))),
                      "heading_rms_deg": float(rms(curve(res.heading_err_deg))),
                      "pos_final_m": float(pos[-1]), "pos_rms_m": float(rms(pos)),
+                     "nees_dim": consistency.nees["full"].dim,
                      "nees_per_dim": consistency.nees["full"].per_dim,
                      "nees_in_band": consistency.nees["full"].in_band,
                      "vel_nees_per_dim": consistency.nees["vel"].per_dim,
@@ -410,7 +528,7 @@ def _in_band_cell(per_dim: float, in_band: float) -> str:
 
 ERROR_COLUMNS = ("method", "vel final [m/s]", "vel RMS [m/s]", "att final [deg]", "pos final [m]",
                  "tilt RMS [deg]", "heading RMS [deg]")
-CONSISTENCY_COLUMNS = ("method", "NEES/dim (in 99 % band)", "vel NEES/dim", "DVL NIS/dof", "monitor")
+CONSISTENCY_COLUMNS = ("method", "states", "NEES/dim (in 99 % band)", "vel NEES/dim", "DVL NIS/dof", "monitor")
 """The results' two tables (a "P floors" column ends the second when some method needed a repair):
 one table of eleven columns is wider than the dashboard's panel, which cut off its right end."""
 CONSISTENCY_HEADING = "**Consistency** (1 = the method knows its error; above 1 it is over-confident)"
@@ -426,7 +544,8 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     can read): errors, then consistency below the line CONSISTENCY_HEADING.
 
     Errors: final and RMS velocity, the attitude norm, position, and tilt and heading RMS apart.
-    Consistency: NEES/dim of the full state with the fraction of epochs inside its two-sided 99 %
+    Consistency: the number of error states (the full NEES's dimension: 20, Yoo 2014's 12), the
+    NEES/dim of the full state with the fraction of epochs inside its two-sided 99 %
     band, velocity NEES/dim and DVL NIS per degree of freedom (1 = the method knows its error; "-"
     where there is nothing to measure, as for DVL NIS without DVL updates, or a value is NaN).
     The "monitor" column is the divergence monitor's verdict (tauvcore.eval.runner: state or P
@@ -441,7 +560,7 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     errors = [[str(r["method"]), _fixed(r["vel_final_mps"], 4), _fixed(r["vel_rms_mps"], 4),
                _fixed(r["att_final_deg"], 3), _fixed(r["pos_final_m"], 2), _fixed(r["tilt_rms_deg"], 3),
                _fixed(r["heading_rms_deg"], 3)] for r in rows]
-    consistency = [[str(r["method"]), _in_band_cell(r["nees_per_dim"], r["nees_in_band"]),
+    consistency = [[str(r["method"]), str(r["nees_dim"]), _in_band_cell(r["nees_per_dim"], r["nees_in_band"]),
                     _ratio(r["vel_nees_per_dim"]), _ratio(r["dvl_nis_per_dof"]), _health_cell(r)]
                    + ([str(r["p_floor_count"])] if floors else []) for r in rows]
     columns = CONSISTENCY_COLUMNS + (("P floors",) if floors else ())

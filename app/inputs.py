@@ -17,7 +17,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from tauvcore.config import AUTO, METHODS, Config, from_dict, trajectory_preset
+from tauvcore.config import ALL_METHODS, AUTO, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, show
@@ -44,6 +44,17 @@ VB_NF_HINT = ("n_f of eq. 28, 1 to 100: how many times the virtual beam's predic
               "(VB, VHV, ELC); small values fuse the filter's own prediction as news")
 NSV_EPSILON_HINT = ('variance of the "sway = 0" assumption (NSV, ELC), (0, 100] m^2/s^2, or "auto": '
                     "derived from the vehicle's sideslip in its tightest turn")
+RPM_FALLBACK = "RPM fallback"
+RPM_FALLBACK_HINT = ("the first paper's DVL methods fuse the propeller's velocity (RPM through the VKF's learned "
+                     "scale factor and bias) at pings that give them no DVL velocity; neither paper does")
+METHOD_HINTS = {
+    "ins-dvl": "Yoo 2014's 12-state INS aided by the DVL's velocity (at least three beams); no position state",
+    "vkf": ("Yoo 2014's 12-state INS aided by the DVL within 100 m of the seabed, else by the propeller RPM "
+            "through the velocity Kalman filter (eq. 29); its learned scale factor and bias in the Seabed tab"),
+}
+"""Hints of the method checkboxes that need one (Yoo 2014's; the first paper's are named in the README)."""
+FULL_BEAM_METHODS = ("lc", "ins-dvl")
+"""Methods that fuse no DVL velocity with fewer than three beams (tauvcore.eval.yoo_bank for INS-DVL)."""
 SEED = "Seed"
 RUNS = "Runs"
 RUNS_MAX = 1000
@@ -139,6 +150,7 @@ class Controls:
     runs: str
     source: str = SIMULATION                  # "simulation" or the name of a log (tauv serve --logs)
     truth: str = TrajectoryConfig.truth       # one of tauvcore.truth.TRUTH_SOURCES (a simulation's only)
+    rpm_fallback: bool = False                # run.rpm_fallback: DVL methods fuse the RPM velocity without DVL
 
 
 def _field_text(value: object) -> str:
@@ -196,7 +208,7 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
 
     Raises InputError with one line naming the control and the value as typed.
     """
-    methods = tuple(m for m in METHODS if m in c.methods)
+    methods = tuple(m for m in ALL_METHODS if m in c.methods)
     if not methods:
         raise InputError("Methods: select at least one method")
     runs = parse_int(RUNS, c.runs)
@@ -212,9 +224,13 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     dvl_methods = [m for m in methods if m != "ins"]
     if dvl_methods and not beams:
         raise InputError("DVL beams: all four are off, so no DVL method can aid; switch a beam on or select INS only")
-    if dvl_methods == ["lc"] and len(beams) < 3:
-        raise InputError(f"LC needs three or more beams, but only {len(beams)} "
-                         f"({', '.join(map(str, beams)) or 'none'}) are on; add TC or an ELC method")
+    # with the RPM fallback LC fuses the propeller's velocity where it has too few beams
+    full_beam = tuple(m for m in FULL_BEAM_METHODS if not (c.rpm_fallback and m == "lc"))
+    if dvl_methods and set(dvl_methods) <= set(full_beam) and len(beams) < 3:
+        names = " and ".join(m.upper() for m in dvl_methods)
+        raise InputError(f"{names} need{'s' if len(dvl_methods) == 1 else ''} three or more beams, but only "
+                         f"{len(beams)} ({', '.join(map(str, beams)) or 'none'}) are on; add TC, an ELC method "
+                         "or VKF")
     numbers = {label: parse_float(label, text) for label, text in (
         (DURATION, c.duration), (DROPOUT, c.dropout), (ACCEL_BIAS, c.accel_bias), (GYRO_BIAS, c.gyro_bias),
         (ACCEL_NOISE, c.accel_noise), (GYRO_NOISE, c.gyro_noise), (DVL_NOISE, c.dvl_noise),
@@ -246,7 +262,7 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
                   .replace("dvl", noise_mps=numbers[DVL_NOISE], bias_mps=numbers[DVL_BIAS],
                            scale_factor_pct=numbers[DVL_SF], beams=beams, dropout_probability=numbers[DROPOUT])
                   .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
-                  .replace("run", methods=methods, aiding=aiding, seed=seed))
+                  .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback))
         config = config.replace("dvl", outages=tuple(outages))
     except ConfigError as exc:
         label = _label_for(exc)
@@ -273,6 +289,7 @@ def config_markdown(config: Config, runs: int) -> str:
         ("Seabed", f"{config.trajectory.seabed}, {config.trajectory.seabed_depth_m:g} m"),
         ("Rates", f"IMU {imu.rate_hz:g} Hz, DVL {d.rate_hz:g} Hz"),
         ("Methods", ", ".join(m.upper() for m in run.methods)),
+        (RPM_FALLBACK, "on" if run.rpm_fallback else "off"),
         (VB_NF, f"{config.partial.vb_nf:g}"),
         (NSV_EPSILON, epsilon_text),
         ("DVL beams", ", ".join(str(b) for b in d.beams) or "none"),

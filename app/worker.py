@@ -8,8 +8,9 @@ over a background computation. Messages on a run's queue (:attr:`RunHandle.queue
 
 - ``("truth", dict)``: the truth at the output epochs (with the seabed under it) and the DVL
   pings, for the 3-D view and the Seabed tab;
-- ``("progress", t_s, results)``: results so far, every ``progress_interval_s`` simulated seconds;
-- ``("done", results, stopped)``: the final (or, after Stop, partial) results;
+- ``("progress", t_s, results)``: results so far, every ``progress_interval_s`` simulated seconds
+  (the first paper's methods only: the engine's live callback does not carry Yoo 2014's);
+- ``("done", results, stopped)``: the final (or, after Stop, partial) results, every method's;
 - ``("error", message)``: one line, for a notification (also when the worker process died).
 
 The pool is this module's own, not ``concurrent.futures.ProcessPoolExecutor``: one dead

@@ -137,7 +137,7 @@ class Tab:
         box.set_checked(checked, force=True, timeout=15000)
 
     def set_methods(self, wanted: set[str]) -> None:
-        for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"):
+        for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC", "INS-DVL", "VKF"):
             self.set_checkbox(m, m in wanted)
 
     def choose_trajectory(self, name: str) -> None:

@@ -190,3 +190,46 @@ def test_longrange_preset_flies_over_the_trench_and_shows_the_altitude(new_tab) 
     tab.notification("Defaults restored").wait_for(timeout=15000)
     assert tab.field("Duration [s]").input_value() == "250"
     assert tab.external_requests == []
+
+
+def test_yoo_s_methods_beside_lc_over_the_trench_show_the_vkf_figure(new_tab) -> None:
+    """Given the first 500 s of longrange (its first trench from 300 s) with LC, Yoo 2014's
+    INS-DVL and VKF checked and the RPM fallback on, when it runs, then the run used them, the
+    Results tables hold all three (the 12-state filter with its own state count), the plots and the
+    consistency figure draw them, and the Seabed tab shows the VKF's scale factor and bias with
+    the RPM's stretch shaded (issue 12)."""
+    tab = new_tab()
+    page = tab.page
+    tab.choose_trajectory("longrange")
+    tab.notification("Preset longrange applied").wait_for(timeout=15000)
+    tab.set_methods({"LC", "INS-DVL", "VKF"})
+    tab.set_checkbox("RPM fallback", True)
+    tab.type_into("Duration [s]", "500")
+    page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=180000)
+    used = tab.run_config()
+    assert used["Methods"] == "LC, INS-DVL, VKF" and used["RPM fallback"] == "on" and used["Duration [s]"] == "500"
+    table = tab.results_table()
+    assert set(table) == {"LC", "INS-DVL", "VKF"}
+    assert all(v < 1.0 for v in (table["LC"][0], table["INS-DVL"][0], table["VKF"][0]))   # aided: final vel error
+    states = {row.split("\t")[0].strip(): row.split("\t")[1].strip()
+              for row in page.locator("table").nth(1).locator("tr").all_inner_texts()[1:]}
+    assert states == {"LC": "20", "INS-DVL": "12", "VKF": "12"}
+    page.get_by_role("tab", name="Plots").click()
+    page.wait_for_timeout(1000)
+    assert set(dict(tab.plot_traces()[0])) == {"LC", "INS-DVL", "VKF"}
+    page.screenshot(path=str(ARTIFACTS / "dashboard_yoo_plots.png"))
+    page.get_by_role("tab", name="Consistency").click()
+    page.wait_for_timeout(1000)
+    nees = [dict(f) for f in tab.plot_traces() if any(name.startswith("99 % band") for name, _ in f)]
+    assert len(nees) == 1 and {"99 % band (dim 20)", "99 % band (dim 12)", "LC", "INS-DVL", "VKF"} <= set(nees[0])
+    page.get_by_role("tab", name="Seabed").click()
+    page.wait_for_timeout(1000)
+    vkf = [dict(f) for f in tab.plot_traces() if any(name == "scale factor" for name, _ in f)]
+    assert len(vkf) == 1, tab.plot_traces()
+    assert {"scale factor", "scale factor (true)", "bias", "bias (true)", "RPM in use"} <= set(vkf[0])
+    assert vkf[0]["scale factor"] >= 500 and vkf[0]["RPM in use"] == 6        # one shaded stretch
+    page.get_by_text("What the velocity Kalman filter", exact=False).wait_for(timeout=5000)
+    page.screenshot(path=str(ARTIFACTS / "dashboard_vkf.png"))
+    assert tab.external_requests == []
+

@@ -26,6 +26,9 @@ from app.figures import (
     METHOD_COLORS,
     RPM_NAME,
     SWITCH_NAME,
+    TRUTH_COLOR,
+    VKF_B_NAME,
+    VKF_SF_NAME,
     actuator_figure,
     altitude_figure,
     elc_choice_figure,
@@ -34,11 +37,17 @@ from app.figures import (
     nees_figure,
     summary_markdown,
     summary_rows,
+    vkf_figure,
 )
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
 from tauvcore.aiding.elc_select import CANDIDATES
-from tauvcore.config import METHODS, Config
-from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency, nees_band
+from tauvcore.config import ALL_METHODS, Config, from_dict, merge, trajectory_preset
+from tauvcore.eval.consistency import (
+    BLOCK_DIMS,
+    YOO_BLOCK_DIMS,
+    method_consistency,
+    nees_band,
+)
 from tauvcore.eval.runner import MethodResult, run, simulate
 from tauvcore.filter.layout import NEES_BLOCKS
 from tauvcore.sensors.dvl import Outage
@@ -236,8 +245,9 @@ def test_error_figure_colours_are_the_method_colours(single):
 
 
 def test_every_method_has_its_own_colour():
-    assert set(METHODS) <= set(METHOD_COLORS)
-    colours = [METHOD_COLORS[m] for m in METHODS]
+    """Both papers' methods (Yoo 2014's INS-DVL and VKF too), each its own colour."""
+    assert set(ALL_METHODS) <= set(METHOD_COLORS)
+    colours = [METHOD_COLORS[m] for m in ALL_METHODS]
     assert len(set(colours)) == len(colours)
     for c in colours:
         assert re.fullmatch(r"#[0-9a-fA-F]{6}", c), c
@@ -445,12 +455,12 @@ def _expected_row(res: MethodResult) -> dict[str, float]:
     return out
 
 
-CONSISTENCY_KEYS = ("nees_per_dim", "nees_in_band", "vel_nees_per_dim", "dvl_nis_per_dof")
+CONSISTENCY_KEYS = ("nees_dim", "nees_per_dim", "nees_in_band", "vel_nees_per_dim", "dvl_nis_per_dof")
 
 
 def _expected_consistency(res: MethodResult) -> dict[str, float]:
     c = method_consistency(res)
-    return {"nees_per_dim": c.nees["full"].per_dim, "nees_in_band": c.nees["full"].in_band,
+    return {"nees_dim": c.nees["full"].dim, "nees_per_dim": c.nees["full"].per_dim, "nees_in_band": c.nees["full"].in_band,
             "vel_nees_per_dim": c.nees["vel"].per_dim,
             "dvl_nis_per_dof": c.nis["dvl"].per_dof if "dvl" in c.nis else float("nan")}
 
@@ -497,7 +507,7 @@ def test_summary_rows_consistency_is_method_consistency(request, fixture):
 
 ERRORS_HEADER = ("| method | vel final [m/s] | vel RMS [m/s] | att final [deg] | pos final [m] | tilt RMS [deg] "
                  "| heading RMS [deg] |")
-CONSISTENCY_HEADER = "| method | NEES/dim (in 99 % band) | vel NEES/dim | DVL NIS/dof | monitor |"
+CONSISTENCY_HEADER = "| method | states | NEES/dim (in 99 % band) | vel NEES/dim | DVL NIS/dof | monitor |"
 
 
 def _tables(markdown: str) -> tuple[list[str], list[str]]:
@@ -510,7 +520,7 @@ def _tables(markdown: str) -> tuple[list[str], list[str]]:
 
 def _table_rows(markdown: str) -> tuple[list[str], list[list[str]]]:
     """Header and body cells of both tables side by side, one row per method (columns 0-6: the
-    errors table, 7-10: the consistency table after its method column, 11: P floors if shown)."""
+    errors table, 7-11: the consistency table after its method column, 12: P floors if shown)."""
     errors, consistency = _tables(markdown)
     assert len(errors) == len(consistency)
     header = _cells(errors[0]) + _cells(consistency[0])[1:]
@@ -530,14 +540,15 @@ def test_summary_markdown_table(request, fixture):
     results = request.getfixturevalue(fixture)
     errors, consistency = _tables(summary_markdown(results))
     assert errors[0] == ERRORS_HEADER and errors[1] == "|" + "---|" * 7
-    assert consistency[0] == CONSISTENCY_HEADER and consistency[1] == "|" + "---|" * 5
+    assert consistency[0] == CONSISTENCY_HEADER and consistency[1] == "|" + "---|" * 6
     header, body = _table_rows(summary_markdown(results))
     assert tuple(header) == ERROR_COLUMNS + CONSISTENCY_COLUMNS[1:]
     assert len(body) == len(METHODS_UNDER_TEST)
     for method, name, cells in zip(METHODS_UNDER_TEST, NAMES, body):
-        assert len(cells) == 11
+        assert len(cells) == 12
         assert cells[0] == name
-        assert cells[10] == "ok"
+        assert cells[7] == str(BLOCK_DIMS["full"])                   # the 20-state filter
+        assert cells[11] == "ok"
         exp = _expected_row(results[method])
         assert float(cells[1]) == pytest.approx(exp["vel_final_mps"], abs=0.5e-4)
         assert float(cells[2]) == pytest.approx(exp["vel_rms_mps"], abs=0.5e-4)
@@ -546,16 +557,16 @@ def test_summary_markdown_table(request, fixture):
         assert float(cells[5]) == pytest.approx(exp["tilt_rms_deg"], abs=0.5e-3)
         assert float(cells[6]) == pytest.approx(exp["heading_rms_deg"], abs=0.5e-3)
         c = _expected_consistency(results[method])
-        nees_cell = re.fullmatch(r"([0-9.e+-]+) \((\d+) %\)", cells[7])
-        assert nees_cell is not None, cells[7]
+        nees_cell = re.fullmatch(r"([0-9.e+-]+) \((\d+) %\)", cells[8])
+        assert nees_cell is not None, cells[8]
         assert float(nees_cell.group(1)) == pytest.approx(c["nees_per_dim"], rel=0.01, abs=0.005)
         assert int(nees_cell.group(2)) == round(100 * c["nees_in_band"])
-        assert _ratio_value(cells[8]) == pytest.approx(c["vel_nees_per_dim"], rel=0.01, abs=0.005)
+        assert _ratio_value(cells[9]) == pytest.approx(c["vel_nees_per_dim"], rel=0.01, abs=0.005)
         if np.isnan(c["dvl_nis_per_dof"]):
-            assert cells[9] == "-"
+            assert cells[10] == "-"
         else:
-            assert _ratio_value(cells[9]) == pytest.approx(c["dvl_nis_per_dof"], rel=0.01, abs=0.005)
-    assert body[0][9] == "-"                                         # INS: no DVL NIS
+            assert _ratio_value(cells[10]) == pytest.approx(c["dvl_nis_per_dof"], rel=0.01, abs=0.005)
+    assert body[0][10] == "-"                                        # INS: no DVL NIS
 
 
 def test_summary_markdown_shows_nan_as_a_dash(single):
@@ -564,7 +575,7 @@ def test_summary_markdown_shows_nan_as_a_dash(single):
     nan = np.full_like(res.vel_err_mps, np.nan)
     broken = dataclasses.replace(res, vel_err_mps=nan, nees=nan, nees_block=np.full_like(res.nees_block, np.nan))
     cells = _table_rows(summary_markdown({"tc": broken}))[1][0]
-    assert cells[1] == cells[2] == cells[7] == cells[8] == "-"
+    assert cells[1] == cells[2] == cells[8] == cells[9] == "-"
     assert "nan" not in summary_markdown({"tc": broken}).lower()
 
 
@@ -576,7 +587,7 @@ def test_summary_markdown_ratio_reads_near_one_and_in_the_thousands(single, per_
     nees_block = res.nees_block.copy()
     nees_block[..., vel_ix] = per_dim * dim
     cells = _table_rows(summary_markdown({"tc": dataclasses.replace(res, nees_block=nees_block)}))[1][0]
-    assert cells[8] == shown
+    assert cells[9] == shown
 
 
 def _flagged(res: MethodResult, at_s: list[float], floors: list[int]) -> MethodResult:
@@ -596,7 +607,7 @@ def test_summary_marks_a_diverged_single_run_with_its_time(single):
     assert rows[1]["diverged_first_s"] == 12.3456
     header, body = _table_rows(summary_markdown(results))
     assert "P floors" not in header                        # no repair anywhere: no column
-    assert [cells[10] for cells in body] == ["ok", "diverged at 12.3 s", "ok"]
+    assert [cells[11] for cells in body] == ["ok", "diverged at 12.3 s", "ok"]
 
 
 def test_summary_counts_diverged_monte_carlo_runs_and_the_first_time(monte_carlo):
@@ -604,18 +615,18 @@ def test_summary_counts_diverged_monte_carlo_runs_and_the_first_time(monte_carlo
     row = summary_rows(results)[0]
     assert (row["runs"], row["diverged_runs"], row["diverged_first_s"]) == (3, 2, 41.25)
     cells = _table_rows(summary_markdown(results))[1][0]
-    assert cells[10] == "2 of 3 runs, first diverged at 41.2 s"
+    assert cells[11] == "2 of 3 runs, first diverged at 41.2 s"
 
 
 def test_summary_shows_p_floor_column_only_when_a_repair_happened(monte_carlo):
     results = {"tc": _flagged(monte_carlo["tc"], [np.nan] * 3, [2, 0, 5]), "nsv": monte_carlo["nsv"]}
     assert summary_rows(results)[0]["p_floor_count"] == 7
     errors, consistency = _tables(summary_markdown(results))
-    assert consistency[0].endswith("| monitor | P floors |") and consistency[1] == "|" + "---|" * 6
+    assert consistency[0].endswith("| monitor | P floors |") and consistency[1] == "|" + "---|" * 7
     assert "P floors" not in errors[0]
     body = _table_rows(summary_markdown(results))[1]
-    assert [cells[11] for cells in body] == ["7", "0"]
-    assert [cells[10] for cells in body] == ["ok", "ok"]
+    assert [cells[12] for cells in body] == ["7", "0"]
+    assert [cells[11] for cells in body] == ["ok", "ok"]
 
 
 @pytest.mark.parametrize("show_sigma", [False, True])
@@ -811,3 +822,175 @@ def test_fast_altitude_figure_equals_plotly_validated_construction(longrange_vie
     fast = altitude_figure(tv["t_s"], tv["altitude_m"], 100.0, 100.0)
     checked = altitude_figure(tv["t_s"], tv["altitude_m"], 100.0, 100.0, validate=True)
     assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+
+
+# ------------------------------------------------------------------------------------------ Yoo 2014's methods
+
+YOO_DURATION_S = 330.0
+"""The long-range mission's first 330 s: its first trench (above the VKF's switch) from about 300 s."""
+
+
+@pytest.fixture(scope="module")
+def yoo() -> dict[str, MethodResult]:
+    """LC (with the RPM fallback) beside Yoo 2014's INS-DVL and VKF over the first trench."""
+    config = from_dict(merge(trajectory_preset("longrange"), {
+        "trajectory": {"name": "longrange", "duration_s": YOO_DURATION_S},
+        "run": {"methods": ["lc", "ins-dvl", "vkf"], "rpm_fallback": True}}))
+    return _results(config, 1, seed=61)
+
+
+def test_yoo_fixture_has_the_12_state_filter_s_dims_and_no_position_state(yoo):
+    assert list(yoo) == ["lc", "ins-dvl", "vkf"]
+    assert yoo["lc"].block_dims is None and "rpm" in yoo["lc"].updates
+    for method in ("ins-dvl", "vkf"):
+        res = yoo[method]
+        assert res.block_dims == YOO_BLOCK_DIMS
+        assert np.isnan(res.pos_sigma_m).all() and np.isnan(_block_series(res, "pos")).all()
+        assert np.isfinite(res.nees).all() and np.isfinite(res.pos_err_m).all()
+    assert yoo["vkf"].vkf_trace is not None and yoo["ins-dvl"].vkf_trace is None
+
+
+@pytest.mark.parametrize("block", list(BLOCK_DIMS))
+def test_nees_figure_divides_each_method_s_nees_by_its_own_dim(yoo, block):
+    """Given LC (20 states) beside INS-DVL and VKF (12), each curve is the method's NEES over its own
+    dimension; where the dimensions differ there is one 99 % band per dimension, and the title
+    names both."""
+    fig = nees_figure(yoo, block=block, max_points=None)
+    traces = _by_name(fig)
+    for method in yoo:
+        dim = (yoo[method].block_dims or BLOCK_DIMS)[block]
+        y = np.asarray(traces[method.upper()].y, dtype=float)
+        expected = _block_series(yoo[method], block)[:, 0] / dim
+        np.testing.assert_allclose(y, expected, rtol=1e-12, atol=0)
+        assert traces[method.upper()].line.color == METHOD_COLORS[method]
+    dims = [BLOCK_DIMS[block], YOO_BLOCK_DIMS[block]]
+    if dims[0] == dims[1]:
+        assert BAND in traces and f"dim {dims[0]}" in fig.layout.title.text
+    else:
+        for dim in dims:
+            band = traces[f"{BAND} (dim {dim})"]
+            np.testing.assert_allclose(np.asarray(band.y), np.repeat(nees_band(dim, 1), 2), rtol=1e-12)
+        assert f"(dim {dims[0]}; INS-DVL, VKF dim {dims[1]})" in fig.layout.title.text
+    if block == "pos":                                   # no position state: no curve at all
+        assert np.isnan(np.asarray(traces["VKF"].y, dtype=float)).all()
+
+
+def test_error_figure_has_no_position_band_for_yoo_s_methods(yoo):
+    """The 12-state filter has no position sigma (NaN): its position error is drawn, its band is
+    not; its velocity band is."""
+    pos = _by_name(error_figure(yoo, "pos", show_sigma=True, log_y="auto", max_points=None))
+    assert set(pos) == {"LC", "LC 1-sigma", "INS-DVL", "VKF"}
+    np.testing.assert_array_equal(np.asarray(pos["VKF"].y), yoo["vkf"].pos_err_m[:, 0])
+    vel = _by_name(error_figure(yoo, "vel", show_sigma=True))
+    assert {"INS-DVL 1-sigma", "VKF 1-sigma"} <= set(vel)
+
+
+def test_summary_shows_each_method_s_own_state_count_and_nees(yoo):
+    """The Results consistency table: 20 states for LC, 12 for INS-DVL and VKF, each NEES/dim over
+    its own dimension (method_consistency); no "nan" anywhere."""
+    markdown = summary_markdown(yoo)
+    assert "nan" not in markdown.lower()
+    _, body = _table_rows(markdown)
+    assert [cells[0] for cells in body] == ["LC", "INS-DVL", "VKF"]
+    assert [cells[7] for cells in body] == ["20", "12", "12"]
+    for method, cells in zip(yoo, body):
+        c = _expected_consistency(yoo[method])
+        assert _ratio_value(cells[8]) == pytest.approx(c["nees_per_dim"], rel=0.01, abs=0.005)
+        assert np.isfinite(c["dvl_nis_per_dof"]) and cells[10] != "-"
+    rows = summary_rows(yoo)
+    assert [r["nees_dim"] for r in rows] == [20, 12, 12]
+
+
+def _vkf_trace(U: int = 10, R: int = 1, in_use: tuple[int, ...] = (3, 4, 5), truth: bool = True) -> dict:
+    """A VKF trace with known numbers: pings every second, sf 2e-3 + 1e-5 k [m/s per rpm], b 0.1 - 0.01 k [m/s]."""
+    t = np.arange(U, dtype=float)
+    x = np.zeros((U, R, 3))
+    x[..., 0] = 5.0
+    x[..., 1] = (2e-3 + 1e-5 * t)[:, None] + 1e-4 * np.arange(R)
+    x[..., 2] = (0.1 - 0.01 * t)[:, None]
+    sigma = np.empty((U, R, 3))
+    sigma[..., 0], sigma[..., 1], sigma[..., 2] = 0.05, 2e-5, 0.02
+    rpm = np.zeros((U, R), bool)
+    rpm[list(in_use)] = True
+    nan = np.full((U, R), np.nan)
+    return {"t_s": t, "x": x, "sigma": sigma, "sf_true": np.full((U, R), 2.05e-3) if truth else nan,
+            "b_true": np.full((U, R), 0.05) if truth else nan, "rpm_in_use": rpm, "altitude_m": np.full((U, R), 90.0)}
+
+
+def test_vkf_figure_known_answer():
+    """Scale factor in mm/s per rpm on top, bias in m/s below, each with its 1-sigma band (a closed
+    polygon est + sigma forward, est - sigma back), the truth dashed, and the pings with the RPM in
+    use shaded on both panels from crossing to crossing (2.5 to 5.5 s)."""
+    trace = _vkf_trace()
+    fig = vkf_figure(trace)
+    traces = _by_name(fig)
+    assert set(traces) == {VKF_SF_NAME, f"{VKF_SF_NAME} 1-sigma", f"{VKF_SF_NAME} (true)", VKF_B_NAME,
+                           f"{VKF_B_NAME} 1-sigma", f"{VKF_B_NAME} (true)", RPM_NAME, f"{RPM_NAME} (bias)"}
+    t = trace["t_s"]
+    for name, k, scale, axis in ((VKF_SF_NAME, 1, 1e3, "y"), (VKF_B_NAME, 2, 1.0, "y2")):
+        est, sig = scale * trace["x"][:, 0, k], scale * trace["sigma"][:, 0, k]
+        np.testing.assert_array_equal(np.asarray(traces[name].x), t)
+        np.testing.assert_allclose(np.asarray(traces[name].y), est, rtol=1e-12)
+        band = traces[f"{name} 1-sigma"]
+        np.testing.assert_array_equal(np.asarray(band.x), np.r_[t, t[::-1]])
+        np.testing.assert_allclose(np.asarray(band.y), np.r_[est + sig, (est - sig)[::-1]], rtol=1e-12)
+        assert band.fill == "toself" and band.yaxis == axis and traces[name].yaxis == axis
+        assert band.showlegend is False and band.legendgroup == traces[name].legendgroup      # one legend entry
+        true = traces[f"{name} (true)"]
+        assert true.line.dash == "dash" and true.line.color == TRUTH_COLOR
+        np.testing.assert_allclose(np.asarray(true.y), scale * trace[f"{'sf' if k == 1 else 'b'}_true"][:, 0])
+        lo, hi = (fig.layout.yaxis if k == 1 else fig.layout.yaxis2).range
+        assert lo < min(est - sig) and hi > max(est + sig)            # the band fits in the panel
+    assert traces[VKF_SF_NAME].line.color == METHOD_COLORS["vkf"]
+    np.testing.assert_allclose(_shaded_spans(traces[RPM_NAME]), [(2.5, 5.5)], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(_shaded_spans(traces[f"{RPM_NAME} (bias)"]), [(2.5, 5.5)], rtol=0, atol=1e-12)
+    assert traces[RPM_NAME].showlegend and not traces[f"{RPM_NAME} (bias)"].showlegend
+    assert fig.layout.yaxis.title.text == "sf [mm/s per rpm]" and fig.layout.yaxis2.title.text == "b [m/s]"
+    assert fig.layout.title.text == "VKF: propeller scale factor and bias"
+
+
+def test_vkf_figure_without_truth_or_rpm_has_neither_trace():
+    """The dynamic truth has no RPM model (truth NaN); a mission within the DVL's range never uses the RPM."""
+    traces = _by_name(vkf_figure(_vkf_trace(in_use=(), truth=False)))
+    assert set(traces) == {VKF_SF_NAME, f"{VKF_SF_NAME} 1-sigma", VKF_B_NAME, f"{VKF_B_NAME} 1-sigma"}
+
+
+def test_vkf_figure_draws_the_chosen_run_and_names_it():
+    trace = _vkf_trace(R=3)
+    fig = vkf_figure(trace, run=2)
+    np.testing.assert_allclose(np.asarray(_by_name(fig)[VKF_SF_NAME].y), 1e3 * trace["x"][:, 2, 1], rtol=1e-12)
+    assert fig.layout.title.text.endswith("(run 3 of 3)")
+    with pytest.raises(ValueError, match="run must be within \\[0, 2\\], got 3"):
+        vkf_figure(trace, run=3)
+
+
+def test_vkf_figure_refuses_mismatched_arrays():
+    trace = _vkf_trace()
+    with pytest.raises(ValueError, match="x and sigma \\(U, R, 3\\)"):
+        vkf_figure({**trace, "sigma": trace["sigma"][:-1]})
+
+
+def test_vkf_figure_of_the_longrange_trench(yoo):
+    """Given the first 330 s of the long-range mission, the VKF's figure shades the stretch over
+    the trench (from about 300 s to the end), the truth lies within 3 sigma of the learned scale
+    factor and bias at the end, and the curves are decimated with the last ping kept."""
+    trace = yoo["vkf"].vkf_trace
+    fig = vkf_figure(trace, max_points=300)
+    traces = _by_name(fig)
+    (start, end), = _shaded_spans(traces[RPM_NAME])
+    assert 290.0 < start < 305.0 and end == pytest.approx(YOO_DURATION_S)
+    x = np.asarray(traces[VKF_SF_NAME].x)
+    assert len(x) <= 301 and x[-1] == trace["t_s"][-1]
+    for k, key in ((1, "sf_true"), (2, "b_true")):
+        assert abs(trace["x"][-1, 0, k] - trace[key][-1, 0]) < 3 * trace["sigma"][-1, 0, k], key
+    fast, checked = vkf_figure(trace), vkf_figure(trace, validate=True)
+    assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+
+
+def test_fast_figures_of_yoo_s_methods_equal_plotly_validated_construction(yoo):
+    for block in BLOCK_DIMS:
+        assert json.loads(nees_figure(yoo, block).to_json()) == json.loads(nees_figure(yoo, block, validate=True).to_json())
+    for quantity in QUANTITY_FIELDS:
+        fast = error_figure(yoo, quantity, show_sigma=True, log_y="auto")
+        checked = error_figure(yoo, quantity, show_sigma=True, log_y="auto", validate=True)
+        assert json.loads(fast.to_json()) == json.loads(checked.to_json())

@@ -23,7 +23,9 @@ def _idle_session() -> types.SimpleNamespace:
     """The state a Session's drawing methods read, with nothing to draw (each returns at once)."""
     scene = types.SimpleNamespace(add_line_segments=lambda *args, **kwargs: object())
     return types.SimpleNamespace(draw_lock=threading.RLock(), truth_view=None, config=None, results=None,
-                                 est_lines={}, truth_line=None, client=types.SimpleNamespace(scene=scene))
+                                 est_lines={}, truth_line=None, client=types.SimpleNamespace(scene=scene),
+                                 vkf_plot=types.SimpleNamespace(figure=None, visible=False),
+                                 vkf_note=types.SimpleNamespace(content=""))
 
 
 @pytest.mark.parametrize("call", [
@@ -33,7 +35,9 @@ def _idle_session() -> types.SimpleNamespace:
     lambda s: Session._clear_trajectories(s),
     lambda s: Session.refresh_plots(s),
     lambda s: Session.show_beams_static(s, Config(), np.zeros(3), np.eye(3)),
-], ids=["show_time", "_draw_truth", "_draw_estimates", "_clear_trajectories", "refresh_plots", "show_beams_static"])
+    lambda s: Session._draw_vkf_plot(s, None, Config()),
+], ids=["show_time", "_draw_truth", "_draw_estimates", "_clear_trajectories", "refresh_plots", "show_beams_static",
+        "_draw_vkf_plot"])
 def test_drawing_waits_for_the_draw_lock(call) -> None:
     session = _idle_session()
     done = threading.Event()
@@ -78,3 +82,23 @@ def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(mes
             handle.queue.queue[0] = ("done", {"lc": result}, messages[0][2])
         Session._pump(session, handle, Config())
     assert seen == [(title, True, False, True)]
+
+
+def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
+    """The Seabed tab: the VKF's figure once its results arrive; before that (Yoo 2014's methods
+    report at the end of a run) a note that they will, and without VKF a note how to get it."""
+    from app.dashboard import VKF_NOTES
+    from app.figures import VKF_SF_NAME
+    session = _idle_session()
+    with_vkf = Config().replace("run", methods=("lc", "vkf"))
+    Session._draw_vkf_plot(session, None, with_vkf)
+    assert not session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["running"]
+    Session._draw_vkf_plot(session, None, Config())
+    assert not session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["none"]
+    U = 5
+    trace = {"t_s": np.arange(U, dtype=float), "x": np.full((U, 1, 3), 0.1), "sigma": np.full((U, 1, 3), 0.01),
+             "sf_true": np.full((U, 1), np.nan), "b_true": np.full((U, 1), np.nan),
+             "rpm_in_use": np.zeros((U, 1), bool), "altitude_m": np.full((U, 1), 50.0)}
+    Session._draw_vkf_plot(session, types.SimpleNamespace(vkf_trace=trace), with_vkf)
+    assert session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["shown"]
+    assert VKF_SF_NAME in [t.name for t in session.vkf_plot.figure.data]

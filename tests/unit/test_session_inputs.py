@@ -19,6 +19,7 @@ from app.inputs import (
     GYRO_BIAS,
     GYRO_NOISE,
     NSV_EPSILON,
+    RPM_FALLBACK,
     TRUTH,
     VB_NF,
     Controls,
@@ -33,7 +34,7 @@ from app.inputs import (
     preset_note,
 )
 from tauvcore.config import (
-    METHODS,
+    ALL_METHODS,
     Config,
     from_dict,
     merge,
@@ -252,7 +253,8 @@ class _Spy:
         return self._value
 
 
-def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simulation") -> object:
+def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simulation",
+             methods: tuple[str, ...] = ALL_METHODS, rpm_fallback: bool = False) -> object:
     """What Session.controls and Session._confirmed_inputs read of a tab, each control a _Spy."""
     from types import SimpleNamespace
 
@@ -263,7 +265,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         return _Spy(f"id{next(count)}", value, read_ids)
     tab = SimpleNamespace(
         trajectory=spy("figure8"), truth=spy(truth), duration=spy("250"),
-        method_boxes={m: spy(True) for m in METHODS},
+        method_boxes={m: spy(m in methods) for m in ALL_METHODS}, rpm_fallback=spy(rpm_fallback),
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
         outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
@@ -283,6 +285,8 @@ def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
     assert controls.vb_nf == "20" and controls.nsv_epsilon == "auto"
     confirmed = set(Session._confirmed_inputs(tab))
     assert {tab.vb_nf._impl.uuid, tab.nsv_epsilon._impl.uuid, tab.truth._impl.uuid} <= confirmed
+    assert {tab.rpm_fallback._impl.uuid, tab.method_boxes["ins-dvl"]._impl.uuid,
+            tab.method_boxes["vkf"]._impl.uuid} <= confirmed
     assert read_ids == confirmed
 
 
@@ -418,3 +422,39 @@ def test_the_preset_note_names_every_setting_the_preset_brings() -> None:
     assert headline == (f"{DURATION}, {ACCEL_BIAS}, {GYRO_BIAS}, {ACCEL_NOISE}, {GYRO_NOISE} filled in; 11 settings "
                         "without a control apply at Run (listed under the Run button).")
     assert preset_headline("straight") == ""
+
+
+# ---------------------------------------------------------------- Yoo 2014's methods and the RPM fallback (issue 12)
+def test_both_papers_methods_reach_the_configuration_in_their_order() -> None:
+    """The INS-DVL and VKF checkboxes sit beside the first paper's methods: any mix of them runs,
+    in tauvcore.config.ALL_METHODS order, and the "Configuration run" table names them."""
+    config, _ = read(methods=("vkf", "lc", "ins-dvl", "ins"))
+    assert config.run.methods == ("ins", "lc", "ins-dvl", "vkf")
+    assert config.run.rpm_fallback is False
+    rows = dict((cell.strip() for cell in line.strip("|").split("|")) for line in config_markdown(config, 1).splitlines()
+                if line.startswith("| ") and "---" not in line)
+    assert rows["Methods"] == "INS, LC, INS-DVL, VKF" and rows[RPM_FALLBACK] == "off"
+    assert read(methods=("vkf",))[0].run.methods == ("vkf",)
+
+
+def test_the_rpm_fallback_checkbox_reaches_the_configuration() -> None:
+    """From the tab's controls (Session.controls) to run.rpm_fallback and the "Configuration run" table."""
+    from app.dashboard import Session
+    tab = _spy_tab(set(), methods=("ins", "lc", "ins-dvl", "vkf"), rpm_fallback=True)
+    controls = Session.controls(tab)
+    assert controls.rpm_fallback is True and controls.methods == ("ins", "lc", "ins-dvl", "vkf")
+    config, _ = config_from_controls(controls)
+    assert config.run.rpm_fallback is True and config.run.methods == ("ins", "lc", "ins-dvl", "vkf")
+    assert f"| {RPM_FALLBACK} | on |" in config_markdown(config, 1)
+    assert config_from_controls(Session.controls(_spy_tab(set())))[0].run.rpm_fallback is False
+
+
+def test_ins_dvl_with_two_beams_is_refused_like_lc() -> None:
+    """INS-DVL, like LC, fuses no DVL velocity from fewer than three beams; VKF (the RPM) and, with
+    the RPM fallback, LC do."""
+    assert refused(methods=("ins", "ins-dvl"), beams=(1, 2)).startswith("INS-DVL needs three or more beams, but only 2")
+    assert refused(methods=("lc", "ins-dvl"), beams=(1, 2)).startswith("LC and INS-DVL need three or more beams")
+    assert refused(methods=("lc",), beams=(1, 2)).startswith("LC needs three or more beams")
+    assert read(methods=("ins-dvl", "vkf"), beams=(1, 2))[0].run.methods == ("ins-dvl", "vkf")
+    assert read(methods=("lc",), beams=(1, 2), rpm_fallback=True)[0].run.rpm_fallback is True
+    assert refused(methods=("ins-dvl",), beams=(1, 2), rpm_fallback=True).startswith("INS-DVL needs")

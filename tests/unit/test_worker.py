@@ -93,6 +93,29 @@ def test_bad_configuration_reports_one_line(pool: RunPool) -> None:
         handle.queue.get(timeout=0.5)
 
 
+def test_yoo_s_methods_and_the_rpm_fallback_reach_the_dashboard_with_the_final_results(pool: RunPool) -> None:
+    """Given LC with the RPM fallback beside Yoo 2014's INS-DVL and VKF over the long-range
+    mission's first trench, the final results carry every method in the configuration's order,
+    the 12-state filter's own NEES dimensions, the VKF's trace (the Seabed tab's figure) and LC's
+    RPM updates. Live progress carries what the engine reports live (the first paper's methods)."""
+    from tauvcore.config import from_dict, merge, trajectory_preset
+    config = from_dict(merge(trajectory_preset("longrange"), {
+        "trajectory": {"name": "longrange", "duration_s": 320.0},
+        "run": {"methods": ["lc", "ins-dvl", "vkf"], "rpm_fallback": True}}))
+    handle = pool.start(to_dict(config), 1)
+    progress = []
+    while (msg := _next(handle, timeout=120.0))[0] != "done":
+        if msg[0] == "progress":
+            progress.append(set(msg[2]))
+    results, stopped = msg[1], msg[2]
+    assert not stopped and list(results) == ["lc", "ins-dvl", "vkf"]
+    assert results["vkf"].block_dims["full"] == 12 and results["lc"].block_dims is None
+    trace = results["vkf"].vkf_trace
+    assert trace["t_s"][-1] == pytest.approx(320.0) and trace["rpm_in_use"][-1].all()
+    assert results["lc"].updates["rpm"].fused.any()                 # over the trench: the RPM's velocity
+    assert progress and all(seen <= set(results) and "lc" in seen for seen in progress)
+
+
 def test_monte_carlo_runs_draw_initial_errors_per_run(pool: RunPool) -> None:
     config = Config().replace("trajectory", duration_s=5.0).replace("run", methods=("ins",))
     handle = pool.start(to_dict(config), 3)
