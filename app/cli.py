@@ -929,6 +929,24 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return 0
 
 
+PATH_FLAGS = ("config", "json", "save_log", "out", "log", "logs")
+"""The flags that name files or directories (``args`` attributes)."""
+
+
+def _require_file_names(args: argparse.Namespace) -> None:
+    """A file name the system cannot encode (a lone surrogate such as '\\ud800', which
+    ``main(argv)`` can be given though no shell passes one) is refused naming its flag, before
+    any system call raises UnicodeEncodeError on it."""
+    for attr in PATH_FLAGS:
+        value = getattr(args, attr, None)
+        if isinstance(value, str):
+            try:
+                os.fsencode(value)
+            except UnicodeError:
+                flag = "DIR" if attr == "log" else f"--{attr.replace('_', '-')}"
+                raise UsageError(f"{flag}: the file name is not valid text, got {show(value)}") from None
+
+
 def cmd_config(args: argparse.Namespace) -> int:
     sys.stdout.write(to_toml(resolve_config(args)))
     return 0
@@ -943,6 +961,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = build_parser().parse_args(attach_dash_values(argv))
+        _require_file_names(args)
         _require_text_values(args)
         if args.command == "run":
             code = cmd_run(args)

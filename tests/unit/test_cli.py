@@ -47,6 +47,8 @@ def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
     (["run", "--nonsense"], "--nonsense"),
     (["run", "--imu", "hg9900"], "'hg9900'"),
     (["run", "--truth", "6dof"], "'6dof'"),
+    (["run", "--config", "\ud800"], "--config"),          # a lone surrogate: found by tests/fuzz (UnicodeEncodeError)
+    (["mc", "--runs", "2", "--out", "\udfff"], "--out"),
     (["mc", "--truth", "", "--runs", "2", "--out", "/tmp/x"], "--truth"),
     (["mc", "--imu", "", "--runs", "2", "--out", "/tmp/x"], "--imu"),
 ])
