@@ -36,7 +36,7 @@ from tauvcore import units
 from tauvcore.config import Config
 from tauvcore.eval.consistency import YOO_BLOCK_DIMS
 from tauvcore.filter import kernels, vkf, yoo
-from tauvcore.geo.earth import OMEGA_IE_RPS, ned_from_geodetic
+from tauvcore.geo.earth import OMEGA_IE_RPS, ned_from_geodetic, radii_of_curvature_m
 from tauvcore.geo.rotations import exp_so3, log_so3
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
@@ -63,8 +63,6 @@ def F_batch(lat: np.ndarray, h: np.ndarray, vel_n: np.ndarray, f_n: np.ndarray, 
     B = vel_n.shape[0]
     F = np.zeros((B, yoo.DIM, yoo.DIM))
     if geodetic:
-        from tauvcore.geo.earth import OMEGA_IE_RPS, radii_of_curvature_m
-
         R_N, R_E = radii_of_curvature_m(lat)
         rn, re = R_N + h, R_E + h
         t = np.tan(lat)

@@ -65,3 +65,17 @@ def test_the_papers_F_is_ours_in_its_sign_convention_but_for_one_typo() -> None:
     printed = yoo.F_paper(LAT, vel_n, f_n, C, R_m=np.sqrt(R_N * R_E), typo=True)
     differs = ~np.isclose(S @ ours @ S, printed, rtol=1e-2, atol=1e-12)
     assert list(zip(*np.nonzero(differs), strict=True)) == [(5, 1)]
+
+
+def test_the_engines_batched_F_is_the_checked_F() -> None:
+    """tauvcore.eval.yoo_bank.F_batch (what the filter propagates with) equals F_matrix (what the
+    finite differences above check), state by state, on WGS-84."""
+    from tauvcore.eval.yoo_bank import F_batch
+
+    rng = np.random.default_rng(3)
+    lat, h = np.radians(rng.uniform(-60, 60, 4)), rng.uniform(-200, 0, 4)
+    vel, f = rng.normal(size=(4, 3)) * 3.0, rng.normal(size=(4, 3)) + [0, 0, -9.8]
+    C = C_nb_from_euler(np.radians(rng.uniform(-30, 30, (4, 3))))
+    batch = F_batch(lat, h, vel, f, C, True, np.zeros(3))
+    for b in range(4):
+        np.testing.assert_allclose(batch[b], yoo.F_matrix(lat[b], h[b], vel[b], f[b], C[b]), rtol=1e-12, atol=1e-18)
