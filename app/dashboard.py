@@ -212,6 +212,16 @@ class Session:
                                             hint="chance that each beam misses each ping")
                 self.rpm_fallback = gui.add_checkbox(inputs.RPM_FALLBACK, d.run.rpm_fallback,
                                                      hint=inputs.RPM_FALLBACK_HINT)
+            with gui.add_folder(inputs.SEABED_FOLDER, expand_by_default=False):
+                # Yoo 2014's mission (issue 12): where the seabed is, how far the DVL sees it, where
+                # the VKF turns to the propeller, and how noisy the propeller's RPM is
+                self.seabed_depth = gui.add_text(inputs.SEABED_DEPTH, f"{d.trajectory.seabed_depth_m:g}",
+                                                 hint=inputs.SEABED_DEPTH_HINT)
+                self.dvl_max_altitude = gui.add_text(inputs.DVL_MAX_ALTITUDE, f"{d.dvl.max_altitude_m:g}",
+                                                     hint=inputs.DVL_MAX_ALTITUDE_HINT)
+                self.switch_altitude = gui.add_text(inputs.SWITCH_ALTITUDE, f"{d.vkf.switch_altitude_m:g}",
+                                                    hint=inputs.SWITCH_ALTITUDE_HINT)
+                self.rpm_noise = gui.add_text(inputs.RPM_NOISE, f"{d.rpm.noise_rpm:g}", hint=inputs.RPM_NOISE_HINT)
             with gui.add_folder("Outages [s] (start = end: none)", expand_by_default=False):
                 self.outage = [tuple(gui.add_text(label, "0") for label in inputs.outage_labels(k))
                                for k in range(1, 5)]
@@ -300,10 +310,11 @@ class Session:
 
     # ------------------------------------------------------------------ inputs
     def apply_trajectory_preset(self) -> None:
-        """Fill in the controls the chosen scenario's preset sets (longrange: Duration 1440 s and
-        the paper's IMU; tauvcore.config.trajectory_preset) and say so in the status and a
-        notification. Leaving such a scenario for one without a preset puts those controls back to
-        their defaults, so a figure eight does not fly 1440 s with the long-range IMU."""
+        """Fill in the controls the chosen scenario's preset sets (longrange: Duration 1440 s,
+        Seabed depth 110 m and the paper's IMU; tauvcore.config.trajectory_preset) and say so in
+        the status and a notification. Leaving such a scenario for one without a preset puts those
+        controls back to their defaults, so a figure eight does not fly 1440 s with the long-range
+        IMU."""
         name = self.trajectory.value
         texts = inputs.preset_controls(name)
         previous, self.preset = self.preset, (name if texts else None)
@@ -319,6 +330,8 @@ class Session:
                   inputs.ACCEL_NOISE: self.accel_noise, inputs.GYRO_NOISE: self.gyro_noise,
                   inputs.DVL_NOISE: self.dvl_noise, inputs.DVL_BIAS: self.dvl_bias, inputs.DVL_SF: self.dvl_sf,
                   inputs.DROPOUT: self.dropout, inputs.VB_NF: self.vb_nf, inputs.NSV_EPSILON: self.nsv_epsilon,
+                  inputs.SEABED_DEPTH: self.seabed_depth, inputs.DVL_MAX_ALTITUDE: self.dvl_max_altitude,
+                  inputs.SWITCH_ALTITUDE: self.switch_altitude, inputs.RPM_NOISE: self.rpm_noise,
                   inputs.SEED: self.seed}
         for label, text in texts.items():
             if label in fields:
@@ -337,7 +350,8 @@ class Session:
                               self.dropout, self.rpm_fallback, *(h for pair in self.outage for h in pair),
                               self.aid_depth,
                               self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
-                              self.dvl_noise, self.dvl_bias, self.dvl_sf, self.seed, self.runs]
+                              self.dvl_noise, self.dvl_bias, self.dvl_sf, self.seabed_depth, self.dvl_max_altitude,
+                              self.switch_altitude, self.rpm_noise, self.seed, self.runs]
         return {h._impl.uuid: h for h in handles}
 
     def confirm_page_state(self) -> int:
@@ -416,6 +430,8 @@ class Session:
             aid_depth=self.aid_depth.value, aid_mag=self.aid_mag.value, accel_bias=self.accel_bias.value,
             gyro_bias=self.gyro_bias.value, accel_noise=self.accel_noise.value, gyro_noise=self.gyro_noise.value,
             dvl_noise=self.dvl_noise.value, dvl_bias=self.dvl_bias.value, dvl_sf=self.dvl_sf.value,
+            seabed_depth=self.seabed_depth.value, dvl_max_altitude=self.dvl_max_altitude.value,
+            switch_altitude=self.switch_altitude.value, rpm_noise=self.rpm_noise.value,
             seed=self.seed.value, runs=self.runs.value,
             source=self.source.value if self.source is not None else inputs.SIMULATION,
             rpm_fallback=self.rpm_fallback.value)

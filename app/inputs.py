@@ -47,10 +47,24 @@ NSV_EPSILON_HINT = ('variance of the "sway = 0" assumption (NSV, ELC), (0, 100] 
 RPM_FALLBACK = "RPM fallback"
 RPM_FALLBACK_HINT = ("the first paper's DVL methods fuse the propeller's velocity (RPM through the VKF's learned "
                      "scale factor and bias) at pings that give them no DVL velocity; neither paper does")
+SEABED_FOLDER = "Seabed and RPM"
+"""The folder of the seabed's, the DVL's range's and the propeller's controls (Yoo 2014's mission)."""
+SEABED_DEPTH = "Seabed depth [m]"
+DVL_MAX_ALTITUDE = "DVL max altitude [m]"
+SWITCH_ALTITUDE = "Switch altitude [m]"
+RPM_NOISE = "RPM noise [rpm]"
+SEABED_DEPTH_HINT = ("depth of the seabed (flat, or the terrain's mean; longrange cuts its two trenches below it), "
+                     "(0, 11000] m")
+DVL_MAX_ALTITUDE_HINT = ("the DVL's bottom lock reaches this altitude, (0, 11000] m; higher, its beams find no "
+                         "seabed (lost)")
+SWITCH_ALTITUDE_HINT = ("alpha of Yoo 2014 eq. 29, (0, 11000] m: above this altitude the VKF aids with the "
+                        "propeller RPM instead of the DVL")
+RPM_NOISE_HINT = "white noise of the propeller's shaft speed (VKF, RPM fallback), [0, 1000] rpm; 0: ideal"
 METHOD_HINTS = {
     "ins-dvl": "Yoo 2014's 12-state INS aided by the DVL's velocity (at least three beams); no position state",
-    "vkf": ("Yoo 2014's 12-state INS aided by the DVL within 100 m of the seabed, else by the propeller RPM "
-            "through the velocity Kalman filter (eq. 29); its learned scale factor and bias in the Seabed tab"),
+    "vkf": ("Yoo 2014's 12-state INS aided by the DVL within the switch altitude (100 m) of the seabed, else by "
+            "the propeller RPM through the velocity Kalman filter (eq. 29); its learned scale factor and bias in "
+            "the Seabed tab"),
 }
 """Hints of the method checkboxes that need one (Yoo 2014's; the first paper's are named in the README)."""
 FULL_BEAM_METHODS = ("lc", "ins-dvl")
@@ -79,6 +93,10 @@ FIELD_LABELS = {
     "dvl.scale_factor_pct": DVL_SF,
     "dvl.dropout_probability": DROPOUT,
     "dvl.outages": "Outages",
+    "dvl.max_altitude_m": DVL_MAX_ALTITUDE,
+    "trajectory.seabed_depth_m": SEABED_DEPTH,
+    "vkf.switch_altitude_m": SWITCH_ALTITUDE,
+    "rpm.noise_rpm": RPM_NOISE,
     "partial.vb_nf": VB_NF,
     "partial.nsv_epsilon_m2_per_s2": NSV_EPSILON,
     "run.seed": SEED,
@@ -146,6 +164,10 @@ class Controls:
     dvl_noise: str
     dvl_bias: str
     dvl_sf: str
+    seabed_depth: str                         # trajectory.seabed_depth_m, as typed [m]
+    dvl_max_altitude: str                     # dvl.max_altitude_m, as typed [m]
+    switch_altitude: str                      # vkf.switch_altitude_m, as typed [m]
+    rpm_noise: str                            # rpm.noise_rpm, as typed [rpm]
     seed: str
     runs: str
     source: str = SIMULATION                  # "simulation" or the name of a log (tauv serve --logs)
@@ -234,11 +256,14 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     numbers = {label: parse_float(label, text) for label, text in (
         (DURATION, c.duration), (DROPOUT, c.dropout), (ACCEL_BIAS, c.accel_bias), (GYRO_BIAS, c.gyro_bias),
         (ACCEL_NOISE, c.accel_noise), (GYRO_NOISE, c.gyro_noise), (DVL_NOISE, c.dvl_noise),
-        (DVL_BIAS, c.dvl_bias), (DVL_SF, c.dvl_sf), (VB_NF, c.vb_nf))}
+        (DVL_BIAS, c.dvl_bias), (DVL_SF, c.dvl_sf), (VB_NF, c.vb_nf), (SEABED_DEPTH, c.seabed_depth),
+        (DVL_MAX_ALTITUDE, c.dvl_max_altitude), (SWITCH_ALTITUDE, c.switch_altitude), (RPM_NOISE, c.rpm_noise))}
     epsilon = parse_float_or_auto(NSV_EPSILON, c.nsv_epsilon)
     typed = {DURATION: c.duration, DROPOUT: c.dropout, ACCEL_BIAS: c.accel_bias, GYRO_BIAS: c.gyro_bias,
              ACCEL_NOISE: c.accel_noise, GYRO_NOISE: c.gyro_noise, DVL_NOISE: c.dvl_noise, DVL_BIAS: c.dvl_bias,
-             DVL_SF: c.dvl_sf, SEED: c.seed, VB_NF: c.vb_nf, NSV_EPSILON: c.nsv_epsilon}
+             DVL_SF: c.dvl_sf, SEED: c.seed, VB_NF: c.vb_nf, NSV_EPSILON: c.nsv_epsilon,
+             SEABED_DEPTH: c.seabed_depth, DVL_MAX_ALTITUDE: c.dvl_max_altitude, SWITCH_ALTITUDE: c.switch_altitude,
+             RPM_NOISE: c.rpm_noise}
     outages = []
     for k, (start_text, end_text) in enumerate(c.outages, start=1):
         start_label, end_label = outage_labels(k)
@@ -252,15 +277,20 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
     truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
     try:
-        # the scenario's own settings (longrange: the paper's speed, depth, seabed, IMU and DVL
-        # rate) under the controls', as `tauv run --trajectory` lays them under a file's
+        # the scenario's own settings (longrange: the paper's speed, depth, IMU and DVL rate;
+        # its seabed and IMU errors fill in controls) under the controls', as `tauv run
+        # --trajectory` lays them under a file's
         config = (from_dict(trajectory_preset(c.trajectory))
-                  .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION], truth=truth)
+                  .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION], truth=truth,
+                           seabed_depth_m=numbers[SEABED_DEPTH])
                   .replace("imu", accel_bias_mg=numbers[ACCEL_BIAS], gyro_bias_deg_per_h=numbers[GYRO_BIAS],
                            accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
                            gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE])
                   .replace("dvl", noise_mps=numbers[DVL_NOISE], bias_mps=numbers[DVL_BIAS],
-                           scale_factor_pct=numbers[DVL_SF], beams=beams, dropout_probability=numbers[DROPOUT])
+                           scale_factor_pct=numbers[DVL_SF], beams=beams, dropout_probability=numbers[DROPOUT],
+                           max_altitude_m=numbers[DVL_MAX_ALTITUDE])
+                  .replace("vkf", switch_altitude_m=numbers[SWITCH_ALTITUDE])
+                  .replace("rpm", noise_rpm=numbers[RPM_NOISE])
                   .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
                   .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback))
         config = config.replace("dvl", outages=tuple(outages))
@@ -288,6 +318,9 @@ def config_markdown(config: Config, runs: int) -> str:
         ("Speed, depth", f"{config.trajectory.speed_mps:.3g} m/s at {config.trajectory.depth_m:g} m"),
         ("Seabed", f"{config.trajectory.seabed}, {config.trajectory.seabed_depth_m:g} m"),
         ("Rates", f"IMU {imu.rate_hz:g} Hz, DVL {d.rate_hz:g} Hz"),
+        (DVL_MAX_ALTITUDE, f"{d.max_altitude_m:g}"),
+        (SWITCH_ALTITUDE, f"{config.vkf.switch_altitude_m:g}"),
+        (RPM_NOISE, f"{config.rpm.noise_rpm:g}"),
         ("Methods", ", ".join(m.upper() for m in run.methods)),
         (RPM_FALLBACK, "on" if run.rpm_fallback else "off"),
         (VB_NF, f"{config.partial.vb_nf:g}"),

@@ -454,9 +454,12 @@ class FilterBank:
         self.stored: list[dict[str, np.ndarray]] = []   # recorded output epochs, chunk by chunk
         self.started = False
         self.stopped = False
+        self.stopped_at_s = np.nan      # the output epoch a stop request ended the results at
 
     # ------------------------------------------------------------------ set-up at the first chunk
-    def _start(self, chunk: SimChunk) -> None:
+    def start(self, chunk: SimChunk) -> None:
+        """Initial states from the first chunk (its truth and the initial-error draws); done by
+        :meth:`feed` unless called first."""
         config, truth = self.config, chunk.truth
         self.P0 = P0 = initial_covariance(config, truth.euler[0])
         self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
@@ -615,7 +618,7 @@ class FilterBank:
         if not self.started:
             if chunk.k0 != 0:
                 raise ValueError(f"the first chunk must start at sample 0, got {chunk.k0}")
-            self._start(chunk)
+            self.start(chunk)
         k0, n = chunk.k0, chunk.truth.num_samples
         if k0 != (0 if self.prev_raw is None else self.k_state + 1):
             raise ValueError(f"chunks must follow each other: expected one at sample {self.k_state + 1}, got {k0}")
@@ -711,7 +714,7 @@ class FilterBank:
                     self._record(out, out_row[k], chunk, i)
             if k in out_row:
                 if should_stop is not None and should_stop():
-                    self.stopped = True
+                    self.stopped, self.stopped_at_s = True, t
                     flush()
                     return False
                 if progress is not None and self.slot % progress_every == 0 and self.slot < self.out_idx.size:
@@ -826,16 +829,33 @@ class _Banks:
         self.bank = (FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
                      if first or not second else None)
         self.yoo = YooBank(config, second, num_runs, num_samples, dt_s) if second else None
+        self.stopped = False
+        self.until_s: float | None = None      # where the 20-state bank stopped the run (the Yoo bank goes on)
 
     def feed(self, chunk: SimChunk, progress: Callable | None = None, progress_interval_s: float = 5.0,
              should_stop: Callable[[], bool] | None = None) -> bool:
-        going = True
-        if self.bank is not None:
+        """Both banks over one chunk. The Yoo bank goes first (compiled, it takes a few percent of
+        the time), so the 20-state bank's progress can carry its results up to the same time; a
+        stop request, polled by the 20-state bank, ends both at its epoch (:attr:`until_s`)."""
+        if self.stopped:
+            return False
+        if self.yoo is None:
             going = self.bank.feed(chunk, progress, progress_interval_s, should_stop)
-        if self.yoo is not None:
+        else:
             if not self.yoo.started:
+                if self.bank is not None and not self.bank.started:
+                    self.bank.start(chunk)                               # its draws first (_start_yoo)
                 self._start_yoo(chunk)
-            self.yoo.feed(chunk)
+            if self.bank is None:
+                going = self.yoo.feed(chunk, progress, progress_interval_s, should_stop)
+            else:
+                self.yoo.feed(chunk)
+                both = None if progress is None else \
+                    (lambda t, first: progress(t, self._merge(first, self.yoo.results(until_s=t))))
+                going = self.bank.feed(chunk, both, progress_interval_s, should_stop)
+                if not going:
+                    self.until_s = self.bank.stopped_at_s
+        self.stopped = not going
         return going
 
     def _start_yoo(self, chunk: SimChunk) -> None:
@@ -854,11 +874,11 @@ class _Banks:
 
     def results(self) -> dict[str, MethodResult]:
         return self._merge(self.bank.results() if self.bank is not None else {},
-                           self.yoo.results() if self.yoo is not None else {})
+                           self.yoo.results(self.until_s) if self.yoo is not None else {})
 
     def take(self) -> dict[str, MethodResult]:
         return self._merge(self.bank.take() if self.bank is not None else {},
-                           self.yoo.take(self.keep) if self.yoo is not None else {})
+                           self.yoo.take(self.keep, self.until_s) if self.yoo is not None else {})
 
 
 def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:

@@ -30,12 +30,15 @@ dimensions are the filter's own (:data:`BLOCK_DIMS`: 12 in all, 6 sensor states)
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
+from tauvcore.eval import metrics
 from tauvcore.eval.consistency import YOO_BLOCK_DIMS
-from tauvcore.filter import kernels, vkf, yoo
+from tauvcore.filter import kernels, vkf, yoo, yoo_kernels
 from tauvcore.geo.earth import OMEGA_IE_RPS, ned_from_geodetic, radii_of_curvature_m
 from tauvcore.geo.rotations import exp_so3, log_so3
 from tauvcore.ins.strapdown import Strapdown, body_increments
@@ -165,12 +168,28 @@ class RpmAid:
                 "rpm_in_use": self.use_rpm.copy(), "altitude_m": self.altitude.copy()}
 
 
+SERIES = ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees", "tilt_err", "heading_err",
+          "tilt_sigma", "heading_sigma")
+"""The per-epoch series (tauvcore.filter.kernels.SERIES_NAMES, the 20-state bank's)."""
+BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
+"""Each of the 12 states' NEES block (tauvcore.eval.consistency's blocks: position (none here),
+velocity, tilt, heading, sensors)."""
+NUM_BLOCKS = 5
+METHOD_CODES = {"ins-dvl": yoo_kernels.INS_DVL, "vkf": yoo_kernels.VKF}
+
+
 class YooBank:
-    """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk (as FilterBank)."""
+    """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk (as FilterBank).
+
+    ``compiled`` (the default) runs each chunk in tauvcore.filter.yoo_kernels; ``compiled=False``
+    runs the numpy methods below, the reference the compiled loop is held equal to
+    (tests/unit/test_yoo_bank.py). Both store a chunk's output epochs, updates and VKF trace as
+    arrays (:meth:`_pack`), handed out by :meth:`take` and :meth:`results`."""
 
     def __init__(self, config: Config, methods: tuple[str, ...], num_runs: int, num_samples: int,
-                 dt_s: float) -> None:
+                 dt_s: float, compiled: bool = True) -> None:
         self.config, self.methods = config, methods
+        self.compiled = compiled
         M, R = len(methods), num_runs
         self.batch = (M, R)
         self.dt = dt_s
@@ -193,10 +212,10 @@ class YooBank:
         self.l_dvl_b = dvl.l_dvl_b
         self.beam_var = max(dvl.noise_mps, 1e-3) ** 2
         self.started = False
-        self.records: list[dict[str, np.ndarray]] = []
-        self.updates: list[dict[str, np.ndarray]] = []
-        self._taken = (0, 0)
-        self.vkf_trace: list[dict] = []
+        self.stopped = False
+        self.has_vkf = "vkf" in methods
+        self.chunks: list[dict[str, np.ndarray]] = []     # packed chunks (:meth:`_pack`)
+        self.taken = 0
 
     # ------------------------------------------------------------------ set-up
     def start(self, pos: np.ndarray, vel_n: np.ndarray, C: np.ndarray, P0_att: np.ndarray, P0_ba: np.ndarray,
@@ -226,22 +245,139 @@ class YooBank:
         self.started = True
 
     # ------------------------------------------------------------------ one chunk
-    def feed(self, chunk) -> None:
-        """Run over one chunk of the simulation (tauvcore.eval.runner.SimChunk), in order."""
+    def feed(self, chunk, progress: Callable[[float, dict], None] | None = None, progress_interval_s: float = 5.0,
+             should_stop: Callable[[], bool] | None = None) -> bool:
+        """Run over one chunk of the simulation (tauvcore.eval.runner.SimChunk), in order. As
+        FilterBank.feed: ``progress(t_s, results so far)`` every ``progress_interval_s`` of
+        simulated time, ``should_stop()`` polled at every output epoch; returns False once it said
+        so (the results then end at that epoch)."""
+        if self.stopped:
+            return False
         k0, n = chunk.k0, chunk.truth.num_samples
         imu = chunk.imu
         dtheta = np.ascontiguousarray(imu.dtheta_b)
         phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(dtheta, imu.dv_b, self.prev_raw))
         self.prev_raw = (dtheta[-1].copy(), np.array(imu.dv_b[-1]))
-        self._dv = dv_raw
-        dvl_at = {int(k): p for p, k in enumerate(chunk.dvl.index)} if "dvl" in self.config.run.aiding else {}
+        pings = np.asarray(chunk.dvl.index, dtype=np.int64) if "dvl" in self.config.run.aiding \
+            else np.zeros(0, np.int64)
         outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k0 + n)]
-        marks = set(dvl_at) | {int(k) for k in outs}
-        last_cov = self.k_cov
-        stops = sorted(marks | set(range(last_cov + self.cov_step, k0 + n, self.cov_step)))
-        for k in stops:
-            if k < k0:
+        cov = np.arange(self.k_cov + self.cov_step, k0 + n, self.cov_step)
+        stops = np.unique(np.concatenate([pings, outs, cov]).astype(np.int64))
+        stops = stops[stops >= k0]
+        ping_of_stop = np.full(stops.size, -1, np.int64)
+        ping_of_stop[np.searchsorted(stops, pings)] = np.arange(pings.size)
+        row_of_stop = np.full(stops.size, -1, np.int64)
+        row_of_stop[np.searchsorted(stops, outs)] = np.arange(outs.size)
+        out_stops = np.flatnonzero(row_of_stop >= 0)
+        every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
+        if should_stop is not None:
+            ends = out_stops + 1                                   # back to Python at every output epoch
+        elif progress is not None:
+            ends = out_stops[(len(self.out_idx[self.out_idx < k0]) + np.arange(out_stops.size) + 1) % every == 0] + 1
+        else:
+            ends = np.zeros(0, np.int64)
+        ends = np.unique(np.r_[ends, stops.size]).astype(np.int64)
+        store = self._chunk_store(outs, pings, chunk.truth.t_s[outs - k0], chunk.truth.t_s[pings - k0])
+        run = self._run_compiled if self.compiled else self._run_numpy
+        s0 = 0
+        for s1 in ends:
+            run(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, phi_raw, dv_raw, dtheta, store)
+            s0 = int(s1)
+            if s1 == 0 or row_of_stop[s1 - 1] < 0:
                 continue
+            t = float(chunk.truth.t_s[stops[s1 - 1] - k0])
+            if should_stop is not None and should_stop():
+                self.stopped = True
+                self._seal(store, stops[s1 - 1])
+                return False
+            done = int(row_of_stop[s1 - 1]) + 1 + len(self.out_idx[self.out_idx < k0])
+            if progress is not None and done % every == 0 and done < self.out_idx.size:
+                self._seal(store, stops[s1 - 1])
+                progress(t, self.results())
+                self.chunks.pop()
+        if k0 + n - 1 > self.k_state:
+            kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta,
+                            self.dtheta_sum, self.k_state - k0, n - 1, *self.sd_consts)
+            self.k_state = k0 + n - 1
+        self._seal(store, k0 + n - 1)
+        return True
+
+    def _chunk_store(self, outs: np.ndarray, pings: np.ndarray, out_t_s: np.ndarray,
+                     ping_t_s: np.ndarray) -> dict[str, np.ndarray]:
+        """The arrays a chunk's results are written into (NaN until written): output epochs at
+        samples ``outs`` (times ``out_t_s``), updates at the pings ``pings`` (``ping_t_s``)."""
+        M, R = self.batch
+        T, U = len(outs), len(pings)
+        nan = np.nan
+        return {"t_s": np.asarray(out_t_s, dtype=float), "out_k": outs,
+                "series": np.full((len(SERIES), T, M, R), nan), "nees_block": np.full((T, M, R, NUM_BLOCKS), nan),
+                "est_pos_n": np.full((T, M, R, 3), nan), "est_vel_n": np.full((T, M, R, 3), nan),
+                "est_euler": np.full((T, M, R, 3), nan),
+                "up_t": np.asarray(ping_t_s, dtype=float), "up_k": pings,
+                "up_z": np.full((U, M, R, 3), nan), "up_nu": np.full((U, M, R, 3), nan),
+                "up_S": np.full((U, M, R, 3), nan), "up_flags": np.zeros((U, M, R, 3), bool),
+                "up_nis": np.full((U, M, R), nan),
+                "tr_x": np.full((U, R, 3), nan), "tr_sigma": np.full((U, R, 3), nan),
+                "tr_truth": np.full((U, R, 2), nan), "tr_use": np.zeros((U, R), bool), "tr_alt": np.full((U, R), nan)}
+
+    def _seal(self, store: dict[str, np.ndarray], k_last: int) -> None:
+        """Keep the chunk's arrays up to sample ``k_last`` (the whole chunk, or up to a stop)."""
+        T = int(np.searchsorted(store["out_k"], k_last, side="right"))
+        U = int(np.searchsorted(store["up_k"], k_last, side="right"))
+        packed = {}
+        for name, a in store.items():
+            if name == "series":
+                packed[name] = a[:, :T].copy()
+            elif name in ("t_s", "out_k", "nees_block", "est_pos_n", "est_vel_n", "est_euler"):
+                packed[name] = a[:T].copy()
+            else:
+                packed[name] = a[:U].copy()
+        self.chunks.append(packed)
+
+    def _run_compiled(self, chunk, s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray,
+                      row_of_stop: np.ndarray, phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray,
+                      store: dict[str, np.ndarray]) -> None:
+        config, R = self.config, self.batch[1]
+        dvl, cfg = config.dvl, config.vkf
+        truth, imu = chunk.truth, chunk.imu
+        rpm, echo = chunk.rpm, chunk.echo
+        empty_k, empty_v = np.zeros(0, np.int64), np.zeros((0, R))
+        aid = self.rpm_aid
+        aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
+        counters = np.array([self.k_state, self.k_cov], dtype=np.int64)
+        yoo_kernels.run_stops(
+            s0, s1, stops, ping_of_stop, row_of_stop, chunk.k0, counters, self.pos, self.vel, self.C, self.ba,
+            self.bg, self.P, self.dtheta_sum, aid.x, aid.P, aid_use, aid_alt, phi_raw, dv_raw, dtheta,
+            *self.sd_consts, np.asarray(self.origin), self.w_ie, self.q,
+            np.array([METHOD_CODES[m] for m in self.methods], np.int64),
+            np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float), np.ascontiguousarray(chunk.dvl.available, bool),
+            np.ascontiguousarray(self.A_b, dtype=float), np.ascontiguousarray(self.l_dvl_b, dtype=float),
+            self.beam_var, float(dvl.bias_mps), float(dvl.scale_factor), float(self.gate),
+            np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
+            np.ascontiguousarray(rpm.rpm, dtype=float) if rpm is not None else empty_v,
+            np.ascontiguousarray(rpm.scale_factor, dtype=float) if rpm is not None else empty_v,
+            np.ascontiguousarray(rpm.bias_mps, dtype=float) if rpm is not None else empty_v,
+            np.asarray(echo.index, np.int64) if echo is not None else empty_k,
+            np.ascontiguousarray(echo.altitude_m, dtype=float) if echo is not None else empty_v,
+            np.ascontiguousarray(cfg.Q, dtype=float), float(cfg.R), float(cfg.switch_altitude_m),
+            cfg.forward_speed == "norm", RPM_LATERAL_SIGMA_MPS**2,
+            np.ascontiguousarray(truth.pos_n, dtype=float), np.ascontiguousarray(truth.vel_n, dtype=float),
+            np.ascontiguousarray(truth.C_nb, dtype=float), np.ascontiguousarray(imu.accel_bias, dtype=float),
+            np.ascontiguousarray(imu.gyro_bias, dtype=float), BLOCK_OF_STATE, NUM_BLOCKS, 1.0 / units.DEG,
+            store["series"], store["nees_block"], store["est_pos_n"], store["est_vel_n"], store["est_euler"],
+            store["up_z"], store["up_nu"], store["up_S"], store["up_flags"], store["up_nis"],
+            store["tr_x"], store["tr_sigma"], store["tr_truth"], store["tr_use"], store["tr_alt"])
+        aid.use_rpm, aid.altitude = aid_use, aid_alt
+        self.k_state, self.k_cov = int(counters[0]), int(counters[1])
+
+    # ------------------------------------------------------------------ the numpy reference
+    def _run_numpy(self, chunk, s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray,
+                   row_of_stop: np.ndarray, phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray,
+                   store: dict[str, np.ndarray]) -> None:
+        k0 = chunk.k0
+        self._dv = dv_raw
+        for s in range(s0, s1):
+            k = int(stops[s])
             i = k - k0
             if k > self.k_state:
                 kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta,
@@ -249,14 +385,10 @@ class YooBank:
                 self.k_state = k
             if k > self.k_cov:
                 self._propagate(i, k)
-            if k in dvl_at:
-                self._update(chunk, dvl_at[k], i)
-            if k in outs:
-                self._record(chunk, i)
-        if k0 + n - 1 > self.k_state:
-            kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta,
-                            self.dtheta_sum, self.k_state - k0, n - 1, *self.sd_consts)
-            self.k_state = k0 + n - 1
+            if ping_of_stop[s] >= 0:
+                self._update(chunk, int(ping_of_stop[s]), i, store)
+            if row_of_stop[s] >= 0:
+                self._record(chunk, i, int(row_of_stop[s]), store)
 
     def _lat_h(self) -> tuple[np.ndarray, np.ndarray]:
         pos = self.pos.reshape(-1, 3)
@@ -286,14 +418,12 @@ class YooBank:
         return dvl_body_velocity(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], chunk.imu.dtheta_b[i], self.dt,
                                  self.C[0], lat[:R], self.A_b, self.l_dvl_b, self.beam_var)
 
-    def _update(self, chunk, p: int, i: int) -> None:
-        M, R = self.batch
+    def _update(self, chunk, p: int, i: int, store: dict[str, np.ndarray]) -> None:
         config = self.config
         v_b, cov_b, ok = self._dvl_velocity(chunk, p, i)
         dvl = config.dvl
         speed = np.linalg.norm(self.vel, axis=-1)                       # (M, R)
         extra = dvl.bias_mps**2 + (dvl.scale_factor * speed) ** 2       # unmodelled DVL errors as noise
-        t = float(chunk.truth.t_s[i])
         for m, method in enumerate(self.methods):
             C = self.C[m]
             v_dvl_n = np.einsum("rij,rj->ri", C, v_b)
@@ -301,8 +431,11 @@ class YooBank:
             z, Rm, valid = v_dvl_n, R_dvl, ok.copy()
             if method == "vkf":
                 z, Rm, valid = self._vkf_switch(chunk, i, m, v_b, v_dvl_n, R_dvl, ok)
-                self._trace_vkf(chunk, i, t)
-            self._fuse(m, z, Rm, valid, t)
+                tr = self.rpm_aid.trace(chunk, i, 0.0)
+                store["tr_x"][p], store["tr_sigma"][p] = tr["x"], tr["sigma"]
+                store["tr_truth"][p] = np.stack([tr["sf_true"], tr["b_true"]], axis=-1)
+                store["tr_use"][p], store["tr_alt"][p] = tr["rpm_in_use"], tr["altitude_m"]
+            self._fuse(m, z, Rm, valid, p, store)
 
     def _vkf_switch(self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray,
                     ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -317,13 +450,12 @@ class YooBank:
         valid = np.where(use_rpm, have_rpm, ok)
         return z, Rm, valid
 
-    def _trace_vkf(self, chunk, i: int, t: float) -> None:
-        self.vkf_trace.append(self.rpm_aid.trace(chunk, i, t))
-
-    def _fuse(self, m: int, z: np.ndarray, Rm: np.ndarray, valid: np.ndarray, t: float) -> None:
+    def _fuse(self, m: int, z: np.ndarray, Rm: np.ndarray, valid: np.ndarray, p: int,
+              store: dict[str, np.ndarray]) -> None:
         """Fuse a NED velocity ``z`` (R, 3) rotated into n with the estimated attitude: its error is
         ``dv + [v x] rho`` (``C_est = exp(-[rho x]) C_true``), so ``H = [I, [v x], 0, 0]`` (the
-        paper's H of eq. 18 leaves the attitude column out)."""
+        paper's H of eq. 18 leaves the attitude column out). The NIS is over S before the gate
+        (NaN where S is not finite or not invertible)."""
         P = self.P[m]
         R = P.shape[0]
         nu = z - self.vel[m]                                             # dv = true - estimate
@@ -335,27 +467,30 @@ class YooBank:
         S_diag = np.einsum("rii->ri", S)
         with np.errstate(invalid="ignore"):
             passed = np.all(nu**2 <= self.gate**2 * S_diag, axis=-1)
-        use = valid & passed & np.isfinite(nu).all(axis=-1)
-        S_safe = np.where(use[:, None, None], S, np.eye(3))
-        K = PHt @ np.linalg.inv(S_safe)                                  # (R, 12, 3)
+        invertible = np.isfinite(S).all(axis=(-2, -1)) & (np.abs(np.linalg.det(np.where(
+            np.isfinite(S), S, 0.0))) > 0.0)
+        use = valid & passed & np.isfinite(nu).all(axis=-1) & invertible
+        S_inv = np.linalg.inv(np.where(invertible[:, None, None], S, np.eye(3)))
+        K = PHt @ np.where(use[:, None, None], S_inv, np.eye(3))         # (R, 12, 3)
         dx = np.einsum("rij,rj->ri", K, np.where(use[:, None], nu, 0.0))
         I_KH = np.eye(yoo.DIM) - K @ H
         P_new = I_KH @ P @ I_KH.swapaxes(-1, -2) + K @ Rm @ K.swapaxes(-1, -2)
         P_new = 0.5 * (P_new + P_new.swapaxes(-1, -2))
         self.P[m] = np.where(use[:, None, None], P_new, P)
         with np.errstate(invalid="ignore"):
-            nis = np.einsum("ri,rij,rj->r", nu, np.linalg.inv(S_safe), nu)
+            nis = np.where(invertible, np.einsum("ri,rij,rj->r", nu, S_inv, nu), np.nan)
         # inject and reset (feedback)
         self.vel[m] += dx[:, yoo.VEL]
         self.C[m] = exp_so3(dx[:, yoo.ATT]) @ self.C[m]
         self.ba[m] += dx[:, yoo.BA]
         self.bg[m] += dx[:, yoo.BG]
-        self.updates.append({"m": m, "t": t, "z": z, "nu": np.where(valid[:, None], nu, np.nan),
-                             "S": np.where(valid[:, None], S_diag, np.nan), "valid": valid, "fused": use,
-                             "rejected": valid & ~passed, "nis": np.where(valid, nis, np.nan)})
+        store["up_z"][p, m] = z
+        store["up_nu"][p, m] = np.where(valid[:, None], nu, np.nan)
+        store["up_S"][p, m] = np.where(valid[:, None], S_diag, np.nan)
+        store["up_flags"][p, m] = np.stack([valid, use, valid & ~passed], axis=-1)
+        store["up_nis"][p, m] = np.where(valid, nis, np.nan)
 
-    def _record(self, chunk, i: int) -> None:
-        M, R = self.batch
+    def _record(self, chunk, i: int, row: int, store: dict[str, np.ndarray]) -> None:
         truth = chunk.truth
         v_t, C_t = truth.vel_n[i], truth.C_nb[i]
         ba_t, bg_t = np.asarray(chunk.imu.accel_bias[i]), np.asarray(chunk.imu.gyro_bias[i])   # (R, 3)
@@ -364,107 +499,103 @@ class YooBank:
         else:
             est_ned = self.pos
         pos_err = np.linalg.norm(est_ned - truth.pos_n[i], axis=-1)
-        dx = np.zeros((M, R, yoo.DIM))
+        dx = np.zeros(self.batch + (yoo.DIM,))
         dx[..., yoo.VEL] = v_t - self.vel
         dx[..., yoo.ATT] = log_so3(C_t @ self.C.swapaxes(-1, -2))
         dx[..., yoo.BA] = ba_t - self.ba
         dx[..., yoo.BG] = bg_t - self.bg
         vel_b_err = np.einsum("ji,j->i", C_t, v_t) - np.einsum("mrji,mrj->mri", self.C, self.vel)
         P = self.P
-        Pinv = np.linalg.inv(P)
-        nees = np.einsum("mri,mrij,mrj->mr", dx, Pinv, dx)
-
-        def block(ix: list[int]) -> np.ndarray:
-            sub = P[..., ix, :][..., :, ix]
-            d = dx[..., ix]
-            return np.einsum("mri,mrij,mrj->mr", d, np.linalg.inv(sub), d)
-
+        blocks = metrics.block_nees(dx, P, BLOCK_OF_STATE, NUM_BLOCKS)
+        blocks[..., 0] = np.nan                                          # no position state
         att = dx[..., yoo.ATT]
         deg = 1.0 / units.DEG
-        rec = {
-            "t_s": float(truth.t_s[i]),
+        series = {
             "vel_err": np.linalg.norm(vel_b_err, axis=-1), "att_err": np.linalg.norm(att, axis=-1) * deg,
             "pos_err": pos_err, "vel_sigma": np.sqrt(np.einsum("mrii->mr", P[..., :3, :3])),
-            "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg, "pos_sigma": np.full((M, R), np.nan),
-            "nees": nees, "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg, "heading_err": np.abs(att[..., 2]) * deg,
-            "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg, "heading_sigma": np.sqrt(P[..., 5, 5]) * deg,
-            "nees_block": np.stack([np.full((M, R), np.nan), block([0, 1, 2]), block([3, 4]), block([5]),
-                                    block(list(range(6, 12)))], axis=-1),
-            "est_pos_n": est_ned.copy(), "est_vel_n": self.vel.copy(),
-            "est_euler": _euler_batch(self.C),
-        }
-        self.records.append(rec)
+            "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg, "pos_sigma": np.nan,
+            "nees": metrics.nees(dx, P), "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg,
+            "heading_err": np.abs(att[..., 2]) * deg, "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
+            "heading_sigma": np.sqrt(P[..., 5, 5]) * deg}
+        for j, name in enumerate(SERIES):
+            store["series"][j, row] = series[name]
+        store["nees_block"][row] = blocks
+        store["est_pos_n"][row] = est_ned
+        store["est_vel_n"][row] = self.vel
+        store["est_euler"][row] = _euler_batch(self.C)
 
     # ------------------------------------------------------------------ results
-    def take(self, keep: bool = True):
+    def take(self, keep: bool = True, until_s: float | None = None):
         """The output epochs and updates since the last :meth:`take`; without ``keep`` they are
-        dropped (as FilterBank.take)."""
-        recs, ups = self.records[self._taken[0]:], self.updates[self._taken[1]:]
+        dropped (as FilterBank.take). ``until_s``: none after this time (where the 20-state bank
+        stopped, tauvcore.eval.runner._Banks)."""
+        chunks = self.chunks[self.taken:]
         if keep:
-            self._taken = (len(self.records), len(self.updates))
+            self.taken = len(self.chunks)
         else:
-            self.records, self.updates = [], []
-        return self._results(recs, ups)
+            self.chunks, self.taken = [], 0
+        return self._results(chunks, until_s)
 
-    def _vkf_series(self) -> dict[str, np.ndarray] | None:
-        """The VKF at every ping so far (all of the mission when results are kept): ``t_s`` (U,),
-        ``x`` (U, R, 3) = V [m/s], sf [m/s per rpm], b [m/s], ``sigma`` (U, R, 3), the RPM model's
-        ``sf_true``, ``b_true`` (U, R; NaN on the dynamic truth), ``rpm_in_use`` (U, R) (eq. 29
-        chose the RPM) and the echo sounder's ``altitude_m`` (U, R)."""
-        return _stack_trace(self.vkf_trace) if self.vkf_trace else None
+    def results(self, until_s: float | None = None):
+        """MethodResult per method, every output epoch and update so far (up to ``until_s``)."""
+        return self._results(self.chunks, until_s)
 
-    def results(self):
-        """MethodResult per method, every output epoch and update so far."""
-        return self._results(self.records, self.updates)
-
-    def _results(self, recs: list, all_updates: list):
+    def _results(self, chunks: list[dict[str, np.ndarray]], until_s: float | None):
         from tauvcore.eval.runner import MethodResult, UpdateRecord
 
         M, R = self.batch
-        t_s = np.array([r["t_s"] for r in recs])
-
-        def series(name: str) -> np.ndarray:
-            return np.stack([r[name] for r in recs]) if recs else np.zeros((0, M, R))
-
+        if chunks:
+            cat = {name: np.concatenate([c[name] for c in chunks], axis=1 if name == "series" else 0)
+                   for name in chunks[0]}
+        else:
+            none = np.zeros(0, np.int64)
+            cat = self._chunk_store(none, none, np.zeros(0), np.zeros(0))
+        if until_s is not None:
+            T = int(np.searchsorted(cat["t_s"], until_s, side="right"))
+            U = int(np.searchsorted(cat["up_t"], until_s, side="right"))
+            cat = {name: (a[:, :T] if name == "series" else a[:T] if name in _EPOCH_FIELDS else a[:U])
+                   for name, a in cat.items()}
+        t_s = cat["t_s"]
+        series = dict(zip(SERIES, cat["series"]))
+        U = cat["up_t"].size
+        trace = None
+        if self.has_vkf and U:
+            trace = {"t_s": cat["up_t"], "x": cat["tr_x"], "sigma": cat["tr_sigma"],
+                     "sf_true": cat["tr_truth"][..., 0], "b_true": cat["tr_truth"][..., 1],
+                     "rpm_in_use": cat["tr_use"], "altitude_m": cat["tr_alt"]}
         out = {}
         for m, method in enumerate(self.methods):
-            ups = [u for u in all_updates if u["m"] == m]
             updates = {}
-            if ups:
-                nu = np.stack([u["nu"] for u in ups])
-                fused = np.stack([u["fused"] for u in ups])
-                rejected = np.stack([u["rejected"] for u in ups])
-                valid = np.stack([u["valid"] for u in ups])
-                S = np.stack([u["S"] for u in ups])
+            if U:
+                nu, S = cat["up_nu"][:, m], cat["up_S"][:, m]
+                valid, fused, rejected = (cat["up_flags"][:, m, :, j] for j in range(3))
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    ratio = np.max(nu**2 / (self.gate**2 * S), axis=-1)
                 updates["dvl"] = UpdateRecord(           # the velocity aid, from the DVL or (vkf) the RPM
-                    t_s=np.array([u["t"] for u in ups]), z=np.stack([u["z"] for u in ups]), innovation=nu,
-                    innovation_var=S, test_ratio=np.max(nu**2 / (self.gate**2 * S), axis=-1),
+                    t_s=cat["up_t"], z=cat["up_z"][:, m], innovation=nu, innovation_var=S, test_ratio=ratio,
                     fused=fused, rejected=rejected, valid=valid, fused_rows=np.repeat(fused[..., None], 3, -1),
-                    rejected_rows=np.repeat(rejected[..., None], 3, -1), nis=np.stack([u["nis"] for u in ups]),
+                    rejected_rows=np.repeat(rejected[..., None], 3, -1), nis=cat["up_nis"][:, m],
                     nis_dof=np.where(valid, 3, 0), unusable=np.zeros_like(valid))
-            nonfinite = ~np.isfinite(series("nees")[:, m]) if recs else np.zeros((0, R), bool)
-            first_bad = np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T]) if recs \
-                else np.full(R, np.nan)
+            nonfinite = ~np.isfinite(series["nees"][:, m])
+            first_bad = np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T]) \
+                if t_s.size else np.full(R, np.nan)
             out[method] = MethodResult(
-                method=method, t_s=t_s, vel_err_mps=series("vel_err")[:, m], att_err_deg=series("att_err")[:, m],
-                pos_err_m=series("pos_err")[:, m], vel_sigma_mps=series("vel_sigma")[:, m],
-                att_sigma_deg=series("att_sigma")[:, m], pos_sigma_m=series("pos_sigma")[:, m],
-                nees=series("nees")[:, m], tilt_err_deg=series("tilt_err")[:, m],
-                heading_err_deg=series("heading_err")[:, m], tilt_sigma_deg=series("tilt_sigma")[:, m],
-                heading_sigma_deg=series("heading_sigma")[:, m],
-                nees_block=(np.stack([r["nees_block"] for r in recs]) if recs else np.zeros((0, M, R, 5)))[:, m],
-                est_pos_n=(np.stack([r["est_pos_n"] for r in recs]) if recs else np.zeros((0, M, R, 3)))[:, m],
-                est_vel_n=(np.stack([r["est_vel_n"] for r in recs]) if recs else np.zeros((0, M, R, 3)))[:, m],
-                est_euler_rad=(np.stack([r["est_euler"] for r in recs]) if recs else np.zeros((0, M, R, 3)))[:, m],
-                diverged=~np.isnan(first_bad), diverged_at_s=first_bad, p_floor_count=np.zeros(R, int),
-                updates=updates, block_dims=BLOCK_DIMS,
-                vkf_trace=self._vkf_series() if method == "vkf" else None)
+                method=method, t_s=t_s, vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m],
+                pos_err_m=series["pos_err"][:, m], vel_sigma_mps=series["vel_sigma"][:, m],
+                att_sigma_deg=series["att_sigma"][:, m], pos_sigma_m=series["pos_sigma"][:, m],
+                nees=series["nees"][:, m], tilt_err_deg=series["tilt_err"][:, m],
+                heading_err_deg=series["heading_err"][:, m], tilt_sigma_deg=series["tilt_sigma"][:, m],
+                heading_sigma_deg=series["heading_sigma"][:, m], nees_block=cat["nees_block"][:, m],
+                est_pos_n=cat["est_pos_n"][:, m], est_vel_n=cat["est_vel_n"][:, m],
+                est_euler_rad=cat["est_euler"][:, m], diverged=~np.isnan(first_bad), diverged_at_s=first_bad,
+                p_floor_count=np.zeros(R, int), updates=updates, block_dims=BLOCK_DIMS,
+                vkf_trace=trace if method == "vkf" else None)
         return out
 
 
-def _stack_trace(trace: list[dict]) -> dict[str, np.ndarray]:
-    keys = ("t_s", "x", "sigma", "sf_true", "b_true", "rpm_in_use", "altitude_m")
-    return {k: np.array([e[k] for e in trace]) for k in keys}
+_EPOCH_FIELDS = ("t_s", "out_k", "nees_block", "est_pos_n", "est_vel_n", "est_euler")
+
+
 
 
 def _euler_batch(C: np.ndarray) -> np.ndarray:

@@ -11,6 +11,13 @@ from __future__ import annotations
 import pytest
 
 from app.figures import FIN_NAMES
+from app.inputs import (
+    DVL_MAX_ALTITUDE,
+    RPM_NOISE,
+    SEABED_DEPTH,
+    SEABED_FOLDER,
+    SWITCH_ALTITUDE,
+)
 from tauvcore.config import Config
 from tests.browser.conftest import ARTIFACTS
 
@@ -106,6 +113,40 @@ def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, 
     assert page.get_by_text("Cannot run", exact=True).is_visible()
     assert page.get_by_text("Ready. Choose a mission", exact=False).is_visible()   # no run started
     assert page.get_by_role("button", name="Run", exact=True).is_enabled()
+
+
+def test_bad_seabed_and_rpm_values_are_refused_by_name_then_a_good_run_uses_them(new_tab) -> None:
+    """Given Switch altitude -5 and RPM noise -1 typed, when Run is pressed, then a notification
+    names the switch altitude and its value and nothing runs; with it corrected, the RPM noise;
+    then DVL max altitude 0, then Seabed depth 12000 (deeper than the deepest ocean). Corrected,
+    the same tab runs and the run used the values as typed: the server kept serving (issue 12)."""
+    tab = new_tab()
+    page = tab.page
+    tab.set_methods({"INS", "TC"})
+    tab.type_into("Duration [s]", "10")
+    tab.open_folder(SEABED_FOLDER)
+    tab.type_into(SWITCH_ALTITUDE, "-5")
+    tab.type_into(RPM_NOISE, "-1")
+    steps = (  # the message a Run shows, then what is typed before the next Run
+        (f"{SWITCH_ALTITUDE}: '-5' is out of range: vkf.switch_altitude_m", ((SWITCH_ALTITUDE, "40"),)),
+        (f"{RPM_NOISE}: '-1' is out of range: rpm.noise_rpm", ((RPM_NOISE, "0"), (DVL_MAX_ALTITUDE, "0"))),
+        (f"{DVL_MAX_ALTITUDE}: '0' is out of range: dvl.max_altitude_m", ((DVL_MAX_ALTITUDE, "50"),
+                                                                           (SEABED_DEPTH, "12000"))),
+        (f"{SEABED_DEPTH}: '12000' is out of range: trajectory.seabed_depth_m", ((SEABED_DEPTH, "80"),)),
+    )
+    for message, typed in steps:
+        page.get_by_role("button", name="Run", exact=True).click()
+        note = page.get_by_text(message, exact=False)
+        note.wait_for(timeout=15000)
+        assert "Error" not in note.inner_text() and "Traceback" not in note.inner_text()
+        assert page.get_by_text("Ready. Choose a mission", exact=False).is_visible()   # no run started
+        assert page.get_by_role("button", name="Run", exact=True).is_enabled()
+        for label, text in typed:
+            tab.type_into(label, text)
+    run_and_wait(tab)
+    used = tab.run_config()
+    assert used[SWITCH_ALTITUDE] == "40" and used[RPM_NOISE] == "0" and used[DVL_MAX_ALTITUDE] == "50"
+    assert used["Duration [s]"] == "10" and used["Seabed"] == "flat, 80 m"
 
 
 def test_truth_dynamic_reaches_the_run_and_shows_its_fins_and_propeller(new_tab) -> None:

@@ -16,10 +16,14 @@ from app.inputs import (
     ACCEL_BIAS,
     ACCEL_NOISE,
     DURATION,
+    DVL_MAX_ALTITUDE,
     GYRO_BIAS,
     GYRO_NOISE,
     NSV_EPSILON,
     RPM_FALLBACK,
+    RPM_NOISE,
+    SEABED_DEPTH,
+    SWITCH_ALTITUDE,
     TRUTH,
     VB_NF,
     Controls,
@@ -47,7 +51,8 @@ DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc",
                     vb_nf="20", nsv_epsilon="auto",
                     beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4, aid_depth=False, aid_mag=False,
                     accel_bias="0.5", gyro_bias="3", accel_noise="0.072", gyro_noise="0.34", dvl_noise="0.042",
-                    dvl_bias="0.005", dvl_sf="0.7", seed="0", runs="1")
+                    dvl_bias="0.005", dvl_sf="0.7", seabed_depth="60", dvl_max_altitude="100", switch_altitude="100",
+                    rpm_noise="2", seed="0", runs="1")
 
 
 def read(**changes: object) -> tuple[Config, int]:
@@ -269,7 +274,8 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
         outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
-        dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seed=spy("0"), runs=spy("1"),
+        dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seabed_depth=spy("60"),
+        dvl_max_altitude=spy("100"), switch_altitude=spy("100"), rpm_noise=spy("2"), seed=spy("0"), runs=spy("1"),
         source=spy(source))     # the Source control of tauv serve --logs
     tab.selected_methods = lambda: Session.selected_methods(tab)
     return tab
@@ -287,6 +293,8 @@ def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
     assert {tab.vb_nf._impl.uuid, tab.nsv_epsilon._impl.uuid, tab.truth._impl.uuid} <= confirmed
     assert {tab.rpm_fallback._impl.uuid, tab.method_boxes["ins-dvl"]._impl.uuid,
             tab.method_boxes["vkf"]._impl.uuid} <= confirmed
+    assert {tab.seabed_depth._impl.uuid, tab.dvl_max_altitude._impl.uuid, tab.switch_altitude._impl.uuid,
+            tab.rpm_noise._impl.uuid} <= confirmed
     assert read_ids == confirmed
 
 
@@ -368,12 +376,12 @@ def test_a_page_value_a_control_cannot_hold_is_refused(handles) -> None:
 
 
 # ---------------------------------------------------------------- a scenario's preset (issue 12)
-PRESET_LABELS = {DURATION: "duration", ACCEL_BIAS: "accel_bias", GYRO_BIAS: "gyro_bias", ACCEL_NOISE: "accel_noise",
-                 GYRO_NOISE: "gyro_noise"}
+PRESET_LABELS = {DURATION: "duration", SEABED_DEPTH: "seabed_depth", ACCEL_BIAS: "accel_bias", GYRO_BIAS: "gyro_bias",
+                 ACCEL_NOISE: "accel_noise", GYRO_NOISE: "gyro_noise"}
 
 
 def test_the_longrange_preset_fills_in_the_duration_and_the_paper_s_imu() -> None:
-    assert preset_controls("longrange") == {DURATION: "1440", ACCEL_BIAS: "1", GYRO_BIAS: "1",
+    assert preset_controls("longrange") == {DURATION: "1440", SEABED_DEPTH: "110", ACCEL_BIAS: "1", GYRO_BIAS: "1",
                                             ACCEL_NOISE: "0.0588399", GYRO_NOISE: "0.125"}
     # leaving it: the same controls at their defaults, which are the tab's initial texts
     defaults = preset_controls("longrange", Config())
@@ -415,12 +423,13 @@ def test_the_preset_note_names_every_setting_the_preset_brings() -> None:
     for sec, values in trajectory_preset("longrange").items():
         for key in values:
             assert f"{sec}.{key}" in note or any(label in note for label in PRESET_LABELS), key
-    for key in ("trajectory.speed_mps 5.144", "trajectory.depth_m 50", "trajectory.seabed_depth_m 110",
+    for key in ("trajectory.speed_mps 5.144", "trajectory.depth_m 50", f"{SEABED_DEPTH} 110",
                 "imu.rate_hz 100", "dvl.rate_hz 5", f"{DURATION} 1440"):
         assert key in note
+    assert "trajectory.seabed_depth_m" not in note          # it has a control now (issue 12)
     headline = preset_headline("longrange")
-    assert headline == (f"{DURATION}, {ACCEL_BIAS}, {GYRO_BIAS}, {ACCEL_NOISE}, {GYRO_NOISE} filled in; 11 settings "
-                        "without a control apply at Run (listed under the Run button).")
+    assert headline == (f"{DURATION}, {SEABED_DEPTH}, {ACCEL_BIAS}, {GYRO_BIAS}, {ACCEL_NOISE}, {GYRO_NOISE} filled in; "
+                        "10 settings without a control apply at Run (listed under the Run button).")
     assert preset_headline("straight") == ""
 
 
@@ -458,3 +467,71 @@ def test_ins_dvl_with_two_beams_is_refused_like_lc() -> None:
     assert read(methods=("ins-dvl", "vkf"), beams=(1, 2))[0].run.methods == ("ins-dvl", "vkf")
     assert read(methods=("lc",), beams=(1, 2), rpm_fallback=True)[0].run.rpm_fallback is True
     assert refused(methods=("ins-dvl",), beams=(1, 2), rpm_fallback=True).startswith("INS-DVL needs")
+
+
+# ---------------------------------------------------------------- seabed, DVL range, VKF switch, RPM noise (issue 12)
+def test_an_untouched_tab_reads_back_as_the_default_configuration() -> None:
+    """The four controls start at the configuration's defaults (the tab's initial texts, as
+    app.dashboard writes them), so an untouched tab runs exactly Config() with its methods."""
+    d = Config()
+    assert (DEFAULTS.seabed_depth, DEFAULTS.dvl_max_altitude, DEFAULTS.switch_altitude, DEFAULTS.rpm_noise) == (
+        f"{d.trajectory.seabed_depth_m:g}", f"{d.dvl.max_altitude_m:g}", f"{d.vkf.switch_altitude_m:g}",
+        f"{d.rpm.noise_rpm:g}")
+    config, _ = read()
+    assert config == d.replace("run", methods=DEFAULTS.methods)
+
+
+def test_the_seabed_and_rpm_controls_reach_the_configuration() -> None:
+    config, _ = read(seabed_depth="80", dvl_max_altitude="5e1", switch_altitude=" 40 ", rpm_noise="0")
+    assert config.trajectory.seabed_depth_m == 80.0 and config.dvl.max_altitude_m == 50.0
+    assert config.vkf.switch_altitude_m == 40.0 and config.rpm.noise_rpm == 0.0
+    rows = dict((cell.strip() for cell in line.strip("|").split("|")) for line in config_markdown(config, 1).splitlines()
+                if line.startswith("| ") and "---" not in line)
+    assert rows["Seabed"] == "flat, 80 m" and rows[DVL_MAX_ALTITUDE] == "50"
+    assert rows[SWITCH_ALTITUDE] == "40" and rows[RPM_NOISE] == "0"
+
+
+@pytest.mark.parametrize("field, typed, message", [
+    ("switch_altitude", "-5",
+     "Switch altitude [m]: '-5' is out of range: vkf.switch_altitude_m must be within (0, 11000], got -5.0"),
+    ("switch_altitude", "NaN", "Switch altitude [m]: 'NaN' is not a number"),
+    ("switch_altitude", "0", "Switch altitude [m]: '0' is out of range: vkf.switch_altitude_m"),
+    ("dvl_max_altitude", "0",
+     "DVL max altitude [m]: '0' is out of range: dvl.max_altitude_m must be within (0, 11000], got 0.0"),
+    ("dvl_max_altitude", "-1", "DVL max altitude [m]: '-1' is out of range: dvl.max_altitude_m"),
+    # deeper than the deepest ocean, the bound tauvcore.truth.kinematic.TrajectoryConfig enforces
+    ("seabed_depth", "12000",
+     "Seabed depth [m]: '12000' is out of range: trajectory.seabed_depth_m must be within (0, 11000], got 12000.0"),
+    ("seabed_depth", "0", "Seabed depth [m]: '0' is out of range: trajectory.seabed_depth_m"),
+    ("rpm_noise", "-1", "RPM noise [rpm]: '-1' is out of range: rpm.noise_rpm must be within [0, 1000], got -1.0"),
+    ("rpm_noise", "nan", "RPM noise [rpm]: 'nan' is not a number"),
+])
+def test_a_bad_seabed_or_rpm_value_is_refused_by_name(field: str, typed: str, message: str) -> None:
+    got = refused(**{field: typed})
+    assert got.startswith(message), got
+    assert "\n" not in got
+    # refused also where no method uses it (INS alone): the field shows the bad value
+    assert refused(methods=("ins",), **{field: typed}) == got
+
+
+def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_default() -> None:
+    """app.dashboard.Session.apply_trajectory_preset sets the Seabed depth control to longrange's
+    110 m (and back to 60 m on the straight line); the filled-in tab reads back as the preset."""
+    from types import SimpleNamespace
+
+    from app.dashboard import Session
+    names = ("duration", "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise", "dvl_bias", "dvl_sf",
+             "dropout", "vb_nf", "nsv_epsilon", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise",
+             "seed")
+    notes: list[str] = []
+    tab = SimpleNamespace(trajectory=SimpleNamespace(value="longrange"), preset=None, status=SimpleNamespace(content=""),
+                          notify=lambda title, body, error=False: notes.append(title),
+                          **{n: SimpleNamespace(value=getattr(DEFAULTS, n)) for n in names})
+    Session.apply_trajectory_preset(tab)
+    assert tab.seabed_depth.value == "110" and tab.duration.value == "1440" and notes == ["Preset longrange applied"]
+    assert (tab.dvl_max_altitude.value, tab.switch_altitude.value, tab.rpm_noise.value) == ("100", "100", "2")
+    config, _ = read(trajectory="longrange", **{n: getattr(tab, n).value for n in names})
+    assert config.trajectory.seabed_depth_m == trajectory_preset("longrange")["trajectory"]["seabed_depth_m"]
+    tab.trajectory.value = "straight"
+    Session.apply_trajectory_preset(tab)
+    assert tab.seabed_depth.value == "60" and tab.duration.value == "250" and notes[-1] == "Defaults restored"

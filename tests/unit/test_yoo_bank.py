@@ -115,3 +115,92 @@ def test_rpm_fallback_aids_the_first_papers_methods_where_they_had_no_dvl_veloci
         assert np.mean(aided[method].vel_err_mps[trench]) < 0.1
         assert np.mean(aided[method].vel_err_mps[trench]) < 0.5 * np.mean(plain[method].vel_err_mps[trench])
     assert "rpm" not in plain["lc"].updates
+
+
+def _numpy_bank(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make the engine run the Yoo methods with the numpy reference (YooBank(compiled=False))."""
+    from tauvcore.eval import yoo_bank
+
+    compiled = yoo_bank.YooBank
+
+    class NumpyBank(compiled):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, compiled=False, **kwargs)
+
+    monkeypatch.setattr(yoo_bank, "YooBank", NumpyBank)
+
+
+def _assert_results_equal(fast: dict, slow: dict, rtol: float = 1e-9) -> None:
+    """Every float of every MethodResult (series, updates, the VKF's trace) equal to ``rtol``
+    relative to max(1, |value|), NaN where the other is NaN; every flag identical."""
+    import dataclasses
+
+    def same(a: object, b: object, where: str) -> None:
+        if isinstance(a, dict):
+            assert a.keys() == b.keys(), where
+            for key in a:
+                same(a[key], b[key], f"{where}.{key}")
+        elif dataclasses.is_dataclass(a):
+            for f in dataclasses.fields(a):
+                same(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
+        elif isinstance(a, np.ndarray) and a.dtype.kind == "f":
+            assert a.shape == b.shape, where
+            np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=where)
+            ok = ~np.isnan(a)
+            assert np.all(np.abs(a[ok] - b[ok]) <= rtol * np.maximum(1.0, np.abs(b[ok]))), where
+        elif isinstance(a, np.ndarray):
+            np.testing.assert_array_equal(a, b, err_msg=where)
+        else:
+            assert a == b, where
+
+    assert fast.keys() == slow.keys()
+    for method in fast:
+        same(fast[method], slow[method], method)
+
+
+@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8"])
+def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """tauvcore.filter.yoo_kernels against YooBank(compiled=False), to 1e-9, every field: over the
+    first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
+    Yoo's noisy beams (the gate refusing some), and on the flat earth in turns; 3 runs each."""
+    if case == "flat-figure8":
+        config = Config().replace("trajectory", name="figure8", duration_s=120.0).replace("earth", model="flat")
+        config = config.replace("run", methods=("ins-dvl", "vkf"))
+    else:
+        config = _longrange(400.0).replace("run", methods=("vkf", "ins-dvl"))
+        if case.startswith("noisy"):
+            config = config.replace("dvl", beyond_range="noisy")
+    fast = run_streaming(config, np.random.default_rng(3), num_runs=3)
+    _numpy_bank(monkeypatch)
+    slow = run_streaming(config, np.random.default_rng(3), num_runs=3)
+    _assert_results_equal(fast, slow)
+    ups = fast["vkf"].updates["dvl"]
+    assert ups.fused.any() and (case == "flat-figure8" or fast["vkf"].vkf_trace["rpm_in_use"].any())
+    if case.startswith("noisy"):
+        assert fast["ins-dvl"].updates["dvl"].rejected.any()
+
+
+def test_progress_and_stop_reach_the_yoo_methods() -> None:
+    """With only Yoo methods (no 20-state bank) the live progress comes when the 20-state bank's
+    would (every 5 s of simulated time), with results up to then, and a stop request ends the
+    results at that epoch; alongside the 20-state methods, their progress carries the Yoo methods
+    too, up to the same time, and a stop cuts both at the same epoch."""
+    times = {}
+    for methods in (("lc",), ("ins-dvl", "vkf"), ("lc", "vkf")):
+        config = _longrange(30.0).replace("run", methods=methods)
+        seen: list[tuple[float, dict]] = []
+        run_streaming(config, np.random.default_rng(0), progress=lambda t, r: seen.append((t, r)))
+        times[methods] = [t for t, _ in seen]
+        for t, partial in seen:
+            assert set(partial) == set(methods)
+            for r in partial.values():
+                assert r.t_s[-1] == pytest.approx(t), methods
+        calls = iter(range(1000))
+        stopped = run_streaming(config, np.random.default_rng(0), should_stop=lambda: next(calls) >= 120)
+        ends = {m: r.t_s[-1] for m, r in stopped.items()}
+        assert len(set(ends.values())) == 1 and 10.0 < ends[methods[-1]] < 29.0, ends
+        if "vkf" in methods:
+            assert stopped["vkf"].updates["dvl"].t_s[-1] <= ends["vkf"]
+            assert stopped["vkf"].vkf_trace["t_s"][-1] <= ends["vkf"]
+    assert len(times[("lc",)]) >= 5
+    assert times[("ins-dvl", "vkf")] == times[("lc",)] == times[("lc", "vkf")]
