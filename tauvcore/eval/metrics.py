@@ -142,7 +142,9 @@ SENSOR_PRIOR_FALSE_ALARM = 1e-6
 
 
 @lru_cache(maxsize=16)
-def _prior_bound(num_states: int, false_alarm: float) -> float:
+def sensor_prior_bound(num_states: int, false_alarm: float = SENSOR_PRIOR_FALSE_ALARM) -> float:
+    """The chi-square (1 dof) quantile :func:`implausible_sensor_errors` holds each of
+    ``num_states`` estimates to (Bonferroni)."""
     return float(chi2_isf(false_alarm / num_states, 1))
 
 
@@ -159,6 +161,6 @@ def implausible_sensor_errors(estimate: np.ndarray, prior_var: np.ndarray,
     -100 % that cancels a velocity estimate of kilometres per second. The innovations of such a
     filter can look perfect. estimate (..., n), prior_var (n,).
     """
-    bound = _prior_bound(estimate.shape[-1], false_alarm)
+    bound = sensor_prior_bound(estimate.shape[-1], false_alarm)
     with np.errstate(invalid="ignore"):
         return np.any(np.square(estimate) > bound * prior_var, axis=-1)

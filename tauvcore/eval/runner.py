@@ -52,7 +52,7 @@ from tauvcore.aiding.dvl_extended import (
 )
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.config import Config
-from tauvcore.eval.metrics import implausible_sensor_errors, innovation_divergence_s
+from tauvcore.eval.metrics import innovation_divergence_s, sensor_prior_bound
 from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
     Measurement,
@@ -261,17 +261,26 @@ def _epoch_map(indices: np.ndarray) -> dict[int, int]:
 
 
 class _Recorder:
-    """Collects the updates of one source for one method.
+    """Collects the updates of one source for the whole bank (methods x runs, one row per update:
+    the compiled correction's outcome as it comes, no per-method copies), and hands out each
+    method's record (:meth:`build`).
 
-    Rows (one small array per field and update) are stacked into one array per field at the end
-    of every chunk (:meth:`seal`), so a long mission holds a few arrays per chunk, not thousands of
-    tiny ones; sealed chunks can be handed out and dropped (:meth:`drain`), while what the
-    divergence monitor needs (times, NIS, dof, fused, valid: a few bytes per update and run) is
-    kept for the whole mission."""
+    Rows are stacked into one array per field at the end of every chunk (:meth:`seal`), so a long
+    mission holds a few arrays per chunk, not thousands of tiny ones; sealed chunks can be handed
+    out and dropped (:meth:`drain`), while what the divergence monitor needs (times, NIS, dof,
+    fused, valid: a few bytes per update and run) is kept for the whole mission.
+
+    ``members`` (M,): the methods this source updates (they get a record); ``rows`` (M,): how many
+    measurement rows each method's record has (the DVL's widest is tightly coupled's 4; the loosely
+    coupled velocity's 3), None: all. ``shared``: fields of the ping, the same for every method
+    (the beams that returned)."""
 
     MONITOR = ("nis", "nis_dof", "fused", "valid")
+    ROW_FIELDS = ("z", "innovation", "innovation_var", "fused_rows", "rejected_rows")
 
-    def __init__(self) -> None:
+    def __init__(self, members: np.ndarray, rows: np.ndarray | None = None) -> None:
+        self.members = np.asarray(members, dtype=bool)
+        self.rows_of = rows
         self.t: list[float] = []
         self.rows: list[dict[str, np.ndarray]] = []
         self.chunks: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []   # sealed (t, fields)
@@ -280,12 +289,16 @@ class _Recorder:
         self.taken = 0      # sealed chunks already handed out (FilterBank.take with keep)
         self.count = 0      # updates recorded over the whole mission
 
-    def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray, **extra: np.ndarray) -> None:
+    def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray, shared: dict[str, np.ndarray] | None = None,
+            **extra: np.ndarray) -> None:
+        """One update of every method and run: ``outcome`` and ``valid``, ``extra`` (M, R, ...);
+        ``shared`` (R, ...)."""
         self.t.append(t)
         self.rows.append({"z": outcome.z, "innovation": outcome.innovation, "innovation_var": outcome.innovation_var,
                           "test_ratio": outcome.test_ratio, "fused": outcome.fused, "rejected": outcome.rejected,
                           "valid": valid, "fused_rows": outcome.fused_rows, "rejected_rows": outcome.rejected_rows,
-                          "nis": outcome.nis, "nis_dof": outcome.nis_dof, "unusable": outcome.unusable, **extra})
+                          "nis": outcome.nis, "nis_dof": outcome.nis_dof, "unusable": outcome.unusable, **extra,
+                          **{f"shared:{k}": v for k, v in (shared or {}).items()}})
         self.count += 1
 
     def seal(self) -> None:
@@ -313,23 +326,30 @@ class _Recorder:
         for k in self.MONITOR:
             self.monitor[k][done:done + t.size] = fields[k]
 
-    def build(self, first: int = 0) -> UpdateRecord | None:
-        """The sealed chunks from ``first`` on as one record (None if there are none)."""
+    def build(self, m: int, first: int = 0) -> UpdateRecord | None:
+        """Method ``m``'s record of the sealed chunks from ``first`` on (None if there are none)."""
         chunks = self.chunks[first:]
         if not chunks:
             return None
-        return UpdateRecord(t_s=np.concatenate([c[0] for c in chunks]),
-                            **{k: np.concatenate([c[1][k] for c in chunks]) for k in chunks[0][1]})
+        rows = None if self.rows_of is None else int(self.rows_of[m])
+        fields = {}
+        for k in chunks[0][1]:
+            if k.startswith("shared:"):
+                fields[k[len("shared:"):]] = np.concatenate([c[1][k] for c in chunks])
+                continue
+            a = np.concatenate([c[1][k][:, m] for c in chunks])
+            fields[k] = a[..., :rows] if rows is not None and k in self.ROW_FIELDS else a
+        return UpdateRecord(t_s=np.concatenate([c[0] for c in chunks]), **fields)
 
     def drain(self) -> None:
         self.chunks = []
         self.taken = 0
 
-    def divergence_s(self) -> np.ndarray:
-        """First flag of the innovation test over the whole mission so far (R,)."""
+    def divergence_s(self, m: int) -> np.ndarray:
+        """First flag of method ``m``'s innovation test over the whole mission so far (R,)."""
         n = self.count - len(self.t)            # sealed updates
-        m = {k: v[:n] for k, v in self.monitor.items()}
-        return innovation_divergence_s(self.monitor_t[:n], m["nis"], m["nis_dof"], m["fused"], m["valid"])
+        c = {k: v[:n, m] for k, v in self.monitor.items()}
+        return innovation_divergence_s(self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"])
 
 
 @dataclass(frozen=True)
@@ -431,7 +451,15 @@ class FilterBank:
         self.A_b = np.ascontiguousarray(config.dvl.A_b, dtype=float)
         self.l_dvl_b = np.ascontiguousarray(config.dvl.l_dvl_b, dtype=float)
         self.gyro_rate_noise = gyro_rate_noise
-        self.recorders = {(src, m): _Recorder() for src in ("dvl", "depth", "mag", "rpm") for m in range(M)}
+        # tightly coupled beams are gated row by row, the velocities whole (eskf.correct)
+        self.dvl_gate_rows = np.zeros(self.batch, bool)
+        for m, method in self.dvl_methods:
+            self.dvl_gate_rows[m] = DVL_FUSION[method] == "tc"
+        dvl_members = np.isin(np.arange(M), self.dvl_index)
+        dvl_rows = np.array([DVL_ROWS if DVL_FUSION[m] == "tc" else 3 for m in methods], dtype=np.int64)
+        others = self.other_mask.any(axis=1)
+        self.recorders = {"dvl": _Recorder(dvl_members, dvl_rows), "depth": _Recorder(others),
+                          "mag": _Recorder(others), "rpm": _Recorder(dvl_members, dvl_rows)}
         # --rpm-fallback: one velocity Kalman filter per run (tauvcore.eval.yoo_bank.RpmAid)
         self.rpm_aid = None
         if config.run.rpm_fallback and self.dvl_methods and "dvl" in self.aiding:
@@ -474,6 +502,7 @@ class FilterBank:
         sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
         self.prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
         self.prior_rate = np.concatenate([self.q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)])
+        self.sensor_bound = sensor_prior_bound(self.prior_var0.size)
         R = self.batch[1]
         # true DVL errors at a sample: those of the latest ping (the first ping's before it; zero without pings)
         dvl = chunk.dvl
@@ -507,9 +536,8 @@ class FilterBank:
 
     def _check_sensor_errors(self, t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
-        sensor_est = np.concatenate((self.ba, self.bg, self.bdvl, self.sf[..., None]), axis=-1)
-        wild = implausible_sensor_errors(sensor_est, self.prior_var0 + self.prior_rate * t)
-        self.implausible_at_s[wild & np.isnan(self.implausible_at_s)] = t
+        kernels.flag_implausible_bank(self.ba, self.bg, self.bdvl, self.sf, self.prior_var0, self.prior_rate, t,
+                                      self.sensor_bound, self.implausible_at_s)   # metrics.implausible_sensor_errors
 
     def _fuse(self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
               ) -> tuple[np.ndarray, ...]:
@@ -527,10 +555,7 @@ class FilterBank:
         active = active & valid[..., None]
         fused = self._fuse(meas.H, meas.R, meas.innovation, active, np.full(self.batch, meas.gate_rows))
         outcome = make_outcome(meas.z, meas.innovation, active, *fused)
-        for m in range(self.batch[0]):
-            if self.other_mask[m].any():
-                part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
-                self.recorders[(source, m)].add(t, part, meas.valid[m] & self.other_mask[m])
+        self.recorders[source].add(t, outcome, meas.valid & self.other_mask)
 
     def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> np.ndarray:
         """Every DVL-aided method measures the ping its own way (lc, tc, an extended method's
@@ -554,17 +579,9 @@ class FilterBank:
                                  self.A_b, self.l_dvl_b, dvl_beam_sigma_mps(dvl.noise_mps)**2,
                                  self.gyro_rate_noise**2, self.w_ie, *self.partial_tables, DVL_MODE_CODES,
                                  z, nu, H, Rm, active, valid, mode, measured_axes, choice)
-        gate_rows = np.zeros(batch, bool)
-        for m, method in self.dvl_methods:
-            gate_rows[m] = DVL_FUSION[method] == "tc"
-        fused = self._fuse(H, Rm, nu, active, gate_rows)
-        for m, method in self.dvl_methods:
-            rows = 4 if DVL_FUSION[method] == "tc" else 3
-            s_diag, keep, nis, ratio, unusable = (a[m] for a in fused)
-            outcome = make_outcome(z[m, :, :rows], nu[m, :, :rows], active[m, :, :rows], s_diag[:, :rows],
-                                   keep[:, :rows], nis, ratio, unusable)
-            self.recorders[("dvl", m)].add(t, outcome, valid[m], beams_available=available, mode=mode[m],
-                                           measured_axes=measured_axes[m], elc_choice=choice[m])
+        fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
+        self.recorders["dvl"].add(t, make_outcome(z, nu, active, *fused), valid, shared={"beams_available": available},
+                                  mode=mode, measured_axes=measured_axes, elc_choice=choice)
         return valid
 
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
@@ -592,10 +609,7 @@ class FilterBank:
         Rm = np.ascontiguousarray(np.broadcast_to(self.rpm_aid.covariance_b(), self.batch + (3, 3)))
         active = np.repeat(coast[..., None], 3, axis=-1)
         fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))
-        outcome = make_outcome(np.array(z), nu, active, *fused)
-        for m, _ in self.dvl_methods:
-            part = UpdateOutcome(**{f: getattr(outcome, f)[m] for f in UpdateOutcome.__dataclass_fields__})
-            self.recorders[("rpm", m)].add(t, part, coast[m])
+        self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
         t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
@@ -750,10 +764,10 @@ class FilterBank:
         series = dict(zip(kernels.SERIES_NAMES, series_all))
         out = {}
         for m, method in enumerate(self.methods):
-            recs = {src: rec for (src, mm), rec in self.recorders.items() if mm == m and rec.count}
-            built = {src: rec.build(first_update.get((src, m), 0)) for src, rec in recs.items()}
+            recs = {src: rec for src, rec in self.recorders.items() if rec.members[m] and rec.count}
+            built = {src: rec.build(m, first_update.get(src, 0)) for src, rec in recs.items()}
             updates = {src: record for src, record in built.items() if record is not None}
-            flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [rec.divergence_s() for rec in recs.values()]
+            flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [rec.divergence_s(m) for rec in recs.values()]
             diverged_at = np.fmin.reduce(np.stack(flagged), axis=0)
             out[method] = MethodResult(
                 method=method, t_s=t_s,

@@ -1822,3 +1822,27 @@ def select_batch(ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc: np.ndarray,
         partial_into(ok.shape[0], ok, Cc, Dc, gc, ac, mc, y_c[i], S[i], v_hat[i], P_vel[i], v[i], R[i],
                      measured[i], choice[i])
     return v, R, measured, choice
+
+
+@_jit
+def flag_implausible_bank(ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray, sf: np.ndarray, prior_var0: np.ndarray,
+                          prior_rate: np.ndarray, t: float, bound: float, flagged_at: np.ndarray) -> None:
+    """tauvcore.eval.metrics.implausible_sensor_errors over the bank's sensor-error estimates
+    (ba, bg (M, R, 3), bdvl (M, R, 4), sf (M, R): 11 states in that order) at time ``t``: an entry
+    not yet flagged whose estimate has a component with ``x^2 > bound (sigma_0^2 + q t)`` gets
+    ``flagged_at = t``."""
+    est = np.empty(11)
+    for m in range(ba.shape[0]):
+        for r in range(ba.shape[1]):
+            if not math.isnan(flagged_at[m, r]):
+                continue
+            for i in range(3):
+                est[i] = ba[m, r, i]
+                est[3 + i] = bg[m, r, i]
+            for i in range(4):
+                est[6 + i] = bdvl[m, r, i]
+            est[10] = sf[m, r]
+            for i in range(11):
+                if est[i] * est[i] > bound * (prior_var0[i] + prior_rate[i] * t):
+                    flagged_at[m, r] = t
+                    break

@@ -400,6 +400,30 @@ def test_sensor_error_prior_bound_is_the_bonferroni_chi_square_quantile():
     assert 5.3 < k < 5.5
 
 
+def test_the_banks_compiled_sensor_check_flags_what_implausible_sensor_errors_flags():
+    """tauvcore.filter.kernels.flag_implausible_bank (the filter bank's check at every aiding
+    epoch) against the numpy function: the same entries flagged, at the first time, NaN estimates
+    never flagged, an entry flagged once keeps its first time."""
+    from tauvcore.eval.metrics import sensor_prior_bound
+    from tauvcore.filter import kernels
+
+    rng = np.random.default_rng(5)
+    M, R = 3, 50
+    var0, rate = np.linspace(1e-6, 1e-2, 11), np.linspace(1e-9, 1e-5, 11)
+    flagged = np.full((M, R), np.nan)
+    expected = np.full((M, R), np.nan)
+    for t in (1.0, 10.0, 100.0):
+        est = rng.normal(size=(M, R, 11)) * 2.5 * np.sqrt(var0 + rate * t)   # ~30 % of entries beyond 5.3 sigma
+        est[0, 0, 1] = np.nan
+        ba, bg, bdvl, sf = (np.ascontiguousarray(a) for a in (est[..., :3], est[..., 3:6], est[..., 6:10],
+                                                              est[..., 10]))
+        kernels.flag_implausible_bank(ba, bg, bdvl, sf, var0, rate, t, sensor_prior_bound(11), flagged)
+        wild = implausible_sensor_errors(est, var0 + rate * t)
+        expected[wild & np.isnan(expected)] = t
+    np.testing.assert_array_equal(flagged, expected)
+    assert np.isfinite(flagged).any() and np.isnan(flagged).any() and (flagged > 1.0).any()
+
+
 def test_monitor_flags_a_filter_tuned_far_below_its_sensor():
     """DVL tuned at 2 mm/s while the sensor has Table 2's 42 mm/s: the gate rejects nearly every
     ping (NEES in the hundreds and thousands). INS has no innovations and is not judged."""
