@@ -68,7 +68,7 @@ from app.scene import (
     seabed_ranges_m,
     wxyz_view,
 )
-from tauvcore.config import ALL_METHODS, YOO_METHODS, Config, from_dict, to_dict
+from tauvcore.config import ALL_METHODS, Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS, YOO_BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
@@ -105,8 +105,8 @@ VKF_NOTES = {
     "shown": ("What the velocity Kalman filter (method **VKF**, Yoo 2014 eq. 20-26) learned of the propeller: "
               "scale factor and bias with their 1-sigma, against the RPM model's truth (dashed; none on the dynamic "
               "truth). Shaded where eq. 29 aids with the RPM instead of the DVL: there it only predicts."),
-    "running": "The VKF's scale factor and bias show here when the run ends (Yoo 2014's methods report at the end).",
-    "stopped": "The run ended before the VKF's results arrived (Yoo 2014's methods report at the end of a run).",
+    "running": "The VKF's scale factor and bias show here as the run goes.",
+    "stopped": "The run ended before the VKF's first results arrived.",
     "none": ("The VKF's propeller scale factor and bias show here after a run with **VKF** checked "
              "(Mission tab, Methods)."),
 }
@@ -475,9 +475,7 @@ class Session:
         self.progress.value = 0.0
         what = f"log {source}" if log_dir is not None else \
             f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
-        yoo = [m.upper() for m in config.run.methods if m in YOO_METHODS]
-        self.status.content = (f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
-                               + (f" ({', '.join(yoo)} shown when the run ends)" if yoo else ""))
+        self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
         self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
         self.time_slider.max = config.trajectory.duration_s
@@ -521,8 +519,8 @@ class Session:
                         if pending is not None:
                             self._show_results(pending, config)
                         self.status.content = "Run stopped."
-                        if "vkf" in config.run.methods:     # no final results: the VKF's never came
-                            self.vkf_note.content = VKF_NOTES["stopped"]
+                        if "vkf" in config.run.methods and not (self.results and "vkf" in self.results):
+                            self.vkf_note.content = VKF_NOTES["stopped"]    # killed before its first progress
                         note = ("Run stopped", "The run ended before completion.", False)
                         break
                     if pending is not None and time.monotonic() - last_draw > GUI_REFRESH_S:
@@ -579,7 +577,7 @@ class Session:
         self.refresh_plots()
         self.table.content = summary_markdown(results)
         self._draw_estimates(results)
-        if "vkf" in results:            # Yoo 2014's methods arrive with the final results only
+        if "vkf" in results:            # the VKF's learned scale factor and bias, as far as the run got
             self._draw_vkf_plot(results["vkf"], config)
         t_last = float(next(iter(results.values())).t_s[-1])
         if not self.playing:

@@ -131,6 +131,13 @@ class TrajectoryConfig:
                               f"got {show(self.terrain_seed)}")
         require_range("trajectory.terrain_relief_m", self.terrain_relief_m, 0.0, 1000.0)
         require_range("trajectory.terrain_wavelength_m", self.terrain_wavelength_m, 10.0, 100000.0)
+        floor = seabed_floor_m(self)
+        if not floor > self.depth_m:
+            relief = (f" less 3 x terrain_relief_m {show(self.terrain_relief_m)} m = {show(floor)} m"
+                      if self.seabed == "terrain" else "")
+            raise ConfigError(f"trajectory.seabed_depth_m must lie below the vehicle's depth trajectory.depth_m "
+                              f"({show(self.depth_m)} m), got {show(self.seabed_depth_m)} m{relief}: the vehicle "
+                              f"would start in the seabed")
         require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
         if self.truth == "kinematic" and any(c != 0.0 for c in self.current_n_mps):
             raise ConfigError(f"trajectory.current_n_mps needs trajectory.truth = \"dynamic\" (the kinematic truth is "
@@ -232,10 +239,37 @@ def straight_profile(cfg: TrajectoryConfig) -> Profile:
     return _turn_profile(cfg, zero.integral, zero.value, zero.derivative, zero)
 
 
+MIN_ALTITUDE_M = 10.0
+"""The figure eight's descent ends this high above the seabed (:func:`figure8_level_off_s`)."""
+
+
+def seabed_floor_m(cfg: TrajectoryConfig) -> float:
+    """The shallowest the seabed is taken to be under a mission: its mean depth, less three times
+    the terrain's RMS relief when there is terrain [m]."""
+    return cfg.seabed_depth_m - (3.0 * cfg.terrain_relief_m if cfg.seabed == "terrain" else 0.0)
+
+
+def figure8_level_off_s(cfg: TrajectoryConfig) -> float:
+    """When the figure eight stops descending [s]: ``MIN_ALTITUDE_M`` above :func:`seabed_floor_m`
+    (the paper's 250 s at 0.1 m/s from 20 m end at 45 m, far above the 60 m seabed; a longer
+    mission would otherwise fly into the bottom, where no DVL beam returns). ``inf``: it never
+    gets there."""
+    if cfg.dive_rate_mps <= 0.0:
+        return np.inf
+    return max(0.0, (seabed_floor_m(cfg) - MIN_ALTITUDE_M - cfg.depth_m) / cfg.dive_rate_mps)
+
+
 def figure8_profile(cfg: TrajectoryConfig) -> Profile:
     amp = BESSEL_J0_FIRST_ZERO
     w = cfg.speed_mps / (cfg.turn_radius_m * amp)  # max yaw rate amp*w = V/R
-    pitch = BlendedSchedule([0.0, 1.0], [_dive_pitch_rad(cfg, cfg.dive_rate_mps)] * 2)
+    theta = _dive_pitch_rad(cfg, cfg.dive_rate_mps)
+    level_s = figure8_level_off_s(cfg)
+    if level_s >= cfg.duration_s:
+        pitch = BlendedSchedule([0.0, 1.0], [theta, theta])
+    elif level_s > 0.0:
+        pitch = BlendedSchedule([0.0, level_s, level_s + cfg.blend_s], [theta, theta, 0.0])
+    else:
+        pitch = BlendedSchedule([0.0, 1.0], [0.0, 0.0])
     return _turn_profile(
         cfg,
         lambda t: amp * np.sin(w * t),

@@ -122,6 +122,8 @@ def test_bottom_lock_is_lost_exactly_beyond_the_range(mode: str) -> None:
     ("trajectory", "terrain_relief_m", 5000.0, "trajectory.terrain_relief_m"),
     ("trajectory", "terrain_wavelength_m", float("nan"), "trajectory.terrain_wavelength_m"),
     ("trajectory", "terrain_seed", -1, "trajectory.terrain_seed"),
+    ("trajectory", "seabed_depth_m", 20.0, "trajectory.seabed_depth_m"),       # the vehicle starts at 20 m
+    ("trajectory", "seabed_depth_m", 12000.0, "trajectory.seabed_depth_m"),    # deeper than the deepest ocean
 ])
 def test_bad_seabed_and_range_settings_name_the_field(section: str, key: str, value: object, field: str) -> None:
     with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
@@ -173,3 +175,38 @@ def test_the_compiled_march_equals_a_plain_numpy_march(model: str) -> None:
     np.testing.assert_array_equal(np.isinf(fast), np.isinf(slow))
     np.testing.assert_allclose(fast[np.isfinite(fast)], slow[np.isfinite(slow)], rtol=0.0, atol=2e-9)
     assert 50 < np.isfinite(fast).sum() < 290 and (bed.altitude_m(head) <= 0.0).any()
+
+
+def test_a_seabed_above_the_vehicle_is_refused_on_the_command_line_by_name(tmp_path, capsys) -> None:
+    """A seabed shallower than the vehicle (here terrain whose ridges reach 20 m: 50 m less three
+    times 10 m of relief) would put the vehicle in the bottom: exit status 2, one line naming the
+    field and the value, nothing written."""
+    from app.cli import main
+
+    cfg = tmp_path / "shallow.toml"
+    cfg.write_text('[trajectory]\nseabed = "terrain"\nseabed_depth_m = 50.0\nterrain_relief_m = 10.0\n')
+    out = tmp_path / "out.json"
+    assert main(["run", "--config", str(cfg), "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "trajectory.seabed_depth_m" in err and "50" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("truth", ["kinematic", "dynamic"])
+def test_a_long_figure_eight_levels_off_above_the_seabed(truth: str) -> None:
+    """The figure eight descends 0.1 m/s; past MIN_ALTITUDE_M above the seabed (300 s with the
+    defaults) it levels off instead of flying into the bottom, so the DVL keeps its beams for the
+    whole of a 20-minute mission. The paper's 250 s are untouched (a constant descent)."""
+    from tauvcore.truth import TrajectoryConfig
+    from tauvcore.truth.kinematic import MIN_ALTITUDE_M, figure8_level_off_s
+
+    cfg = TrajectoryConfig(name="figure8", duration_s=1200.0, truth=truth)
+    assert figure8_level_off_s(cfg) == pytest.approx(300.0)
+    truth_rec = generate(cfg, Earth(), 20.0)
+    altitude = bathymetry(cfg).altitude_m(truth_rec.pos_n)
+    assert altitude.min() > MIN_ALTITUDE_M - 0.5
+    late = truth_rec.t_s > 320.0
+    assert truth_rec.pos_n[late, 2].max() < truth_rec.pos_n[late, 2][0] + 0.5      # no deeper once level
+    paper = generate(TrajectoryConfig(name="figure8", duration_s=250.0), Earth(), 20.0)
+    never_level = generate(TrajectoryConfig(name="figure8", duration_s=250.0, seabed_depth_m=5000.0), Earth(), 20.0)
+    np.testing.assert_array_equal(paper.pos_n, never_level.pos_n)

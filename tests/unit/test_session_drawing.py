@@ -85,8 +85,8 @@ def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(mes
 
 
 def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
-    """The Seabed tab: the VKF's figure once its results arrive; before that (Yoo 2014's methods
-    report at the end of a run) a note that they will, and without VKF a note how to get it."""
+    """The Seabed tab: the VKF's figure once its results arrive (with the run's progress); before
+    that a note that they will, and without VKF a note how to get it."""
     from app.dashboard import VKF_NOTES
     from app.figures import VKF_SF_NAME
     session = _idle_session()
