@@ -25,7 +25,7 @@ import stat
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
@@ -456,6 +456,19 @@ def config_to_json(config: Config) -> dict[str, Any]:
     return data
 
 
+def run_payload(config: Config, results: dict[str, MethodResult], log: str | None = None) -> dict[str, Any]:
+    """The document ``tauv run --json`` writes (with ``log``, ``tauv replay --json``; the
+    dashboard's JSON download, app.export, is the same): ``{"config": ..., ["log": ...,]
+    "results": {method: ...}}``, the configuration by :func:`config_to_json` and each method's run
+    0 by :func:`result_to_json`, the estimate's origin the configured latitude and longitude."""
+    origin = (config.earth.latitude_rad, config.earth.longitude_rad)
+    payload: dict[str, Any] = {"config": config_to_json(config)}
+    if log is not None:
+        payload["log"] = log
+    payload["results"] = {m: result_to_json(r, origin_rad=origin) for m, r in results.items()}
+    return payload
+
+
 def json_target(path: str, config_path: str | None) -> str:
     """The real path ``--json`` will replace, checked before the run starts.
 
@@ -622,11 +635,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise UsageError(f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}") from None
     if json_path is not None:
-        origin = (config.earth.latitude_rad, config.earth.longitude_rad)
-        payload = {"config": config_to_json(config),
-                   "results": {m: result_to_json(r, origin_rad=origin) for m, r in results.items()}}
         try:
-            write_json_atomic(json_path, payload)
+            write_json_atomic(json_path, run_payload(config, results))
         except OSError as exc:
             raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
     print(summary_table(results, config, elapsed))
@@ -675,11 +685,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     elapsed = time.perf_counter() - started
     if json_path is not None:
-        payload = {"config": config_to_json(config), "log": str(args.log),
-                   "results": {m: result_to_json(r, origin_rad=(config.earth.latitude_rad, config.earth.longitude_rad))
-                               for m, r in results.items()}}
         try:
-            write_json_atomic(json_path, payload)
+            write_json_atomic(json_path, run_payload(config, results, log=str(args.log)))
         except OSError as exc:
             raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
     print(summary_table(results, config, elapsed, source=f"log {show_path(str(args.log))}"))
@@ -888,6 +895,23 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
     return "\n".join(lines)
 
 
+@contextlib.contextmanager
+def viser_console_muted() -> Iterator[None]:
+    """Mute rich's console for the duration: viser (1.x) prints its own address box there when
+    the server starts, whatever its ``verbose`` (``http://127.0.0.1:8080``, beside the
+    dashboard's ``http://localhost:8080``), and "(viser) Server stopped" at the end. In the
+    server nothing else writes to it: callbacks' tracebacks reach stderr through plain print,
+    and the dashboard's own lines through ``print``."""
+    # viser's dependency: imported when serving only, as viser is
+    import rich
+    console = rich.get_console()
+    quiet, console.quiet = console.quiet, True
+    try:
+        yield
+    finally:
+        console.quiet = quiet
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     try:
         port = int(args.port)
@@ -921,7 +945,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
                              "imu.parquet; see the README)")
     from app.dashboard import main as serve_main  # viser only when serving
     try:
-        serve_main(args.host, port, workers, logs)
+        with viser_console_muted():     # the dashboard prints the one address to open
+            serve_main(args.host, port, workers, logs)
     except OSError as exc:
         raise UsageError(f"--host/--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
     except KeyboardInterrupt:

@@ -34,7 +34,7 @@ import plotly.graph_objects as go
 import viser
 from viser import _messages as viser_messages
 
-from app import budget, inputs, worker
+from app import budget, export, inputs, links, worker
 from app.figures import (
     AUTO,
     FIN_COLORS,
@@ -177,8 +177,17 @@ class Session:
         self.replaying = False           # the current run replays a log (tauv serve --logs)
         self.results: dict[str, MethodResult] | None = None
         self.playing = False
+        self.run_log: str | None = None          # the log the current run replays (its name), None: a simulation
+        self.finished_run: export.FinishedRun | None = None   # what the Download buttons send
+        # the page's address carries the controls (app.links): written only once the page's own
+        # query has been read, so a link is never overwritten before it applies
+        self.address_lock = threading.Lock()
+        self.address_ready = False
+        self.address_shown: str | None = None
+        self.viser_params: tuple[str, ...] = ()
         self._build_gui()
         self._build_scene()
+        threading.Thread(target=self.read_link, daemon=True).start()
 
     # ------------------------------------------------------------------ GUI
     def _build_gui(self) -> None:
@@ -276,6 +285,11 @@ class Session:
             self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
         with tabs.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
+            with gui.add_folder("Download"):
+                # the finished run's results as the CLI writes them, and an offline report (app.export)
+                self.download_buttons = {kind: gui.add_button(label, disabled=True, icon=viser.Icon.DOWNLOAD,
+                                                              hint=export.FORMAT_HINTS[kind])
+                                         for kind, label in export.FORMATS.items()}
             self.run_config = gui.add_markdown("")
 
         if self.source is not None:
@@ -294,6 +308,10 @@ class Session:
         self.time_slider.on_update(lambda _: self.show_time(self.time_slider.value))
         self.play_button.on_click(lambda _: self.play())
         self.pause_button.on_click(lambda _: setattr(self, "playing", False))
+        for kind, button in self.download_buttons.items():
+            button.on_click(lambda _, kind=kind: self.download(kind))
+        for handle in self._confirmed_inputs().values():      # every control a run reads
+            handle.on_update(lambda _: self.update_address())
 
     @staticmethod
     def _legend_html(methods: tuple[str, ...]) -> str:
@@ -436,6 +454,91 @@ class Session:
             source=self.source.value if self.source is not None else inputs.SIMULATION,
             rpm_fallback=self.rpm_fallback.value)
 
+    def set_controls(self, c: Controls) -> None:
+        """Set every control to what ``c`` holds (the inverse of :meth:`controls`); a control
+        already holding its value is left alone."""
+        def put(handle: Any, value: Any) -> None:
+            if handle.value != value:
+                handle.value = value
+        if self.source is not None:
+            put(self.source, c.source)
+        put(self.trajectory, c.trajectory)
+        put(self.truth, c.truth)
+        put(self.duration, c.duration)
+        for m, box in self.method_boxes.items():
+            put(box, m in c.methods)
+        put(self.vb_nf, c.vb_nf)
+        put(self.nsv_epsilon, c.nsv_epsilon)
+        for k, box in enumerate(self.beam_boxes, start=1):
+            put(box, k in c.beams)
+        put(self.dropout, c.dropout)
+        put(self.rpm_fallback, c.rpm_fallback)
+        for (start, end), (start_text, end_text) in zip(self.outage, c.outages):
+            put(start, start_text)
+            put(end, end_text)
+        for handle, value in ((self.aid_depth, c.aid_depth), (self.aid_mag, c.aid_mag),
+                              (self.accel_bias, c.accel_bias), (self.gyro_bias, c.gyro_bias),
+                              (self.accel_noise, c.accel_noise), (self.gyro_noise, c.gyro_noise),
+                              (self.dvl_noise, c.dvl_noise), (self.dvl_bias, c.dvl_bias), (self.dvl_sf, c.dvl_sf),
+                              (self.seabed_depth, c.seabed_depth), (self.dvl_max_altitude, c.dvl_max_altitude),
+                              (self.switch_altitude, c.switch_altitude), (self.rpm_noise, c.rpm_noise),
+                              (self.seed, c.seed), (self.runs, c.runs)):
+            put(handle, value)
+
+    # ------------------------------------------------------------------ the page's address
+    def read_link(self) -> None:
+        """Apply the setup the page's address carries (app.links), then keep the address in step
+        with the controls (runs in its own thread from the start of the session)."""
+        try:
+            query = links.read_address(self.client)
+        except TimeoutError:
+            self.notify("Address not read", "The page did not report its address in time: the settings of its "
+                        "link were not applied, and the address will not follow the controls. Reload to retry.",
+                        error=True)
+            return
+        except RuntimeError as exc:
+            if "disconnected" not in str(exc):      # the tab's storage is blocked: say so; a closed tab is gone
+                self.notify("Address not read", f"The page could not report its address: {show(str(exc))}",
+                            error=True)
+            return
+        if query is not None:       # None: no page ran the script (a scripted client)
+            self.apply_link(query)
+        self.address_ready = True
+        self.update_address()
+
+    def apply_link(self, query: str) -> None:
+        """Set the controls a page's query (``location.search``) names (app.links.parse): a
+        trajectory first, with its preset when the link does not set every control the preset
+        does; one notification lists what was refused, key and value."""
+        sources = tuple(self.source.options) if self.source is not None else (inputs.SIMULATION,)
+        link = links.parse(query, sources)
+        self.viser_params = link.viser_params
+        if link.keys:
+            name = link.values.get("trajectory")
+            if name is not None and name != self.trajectory.value:
+                self.trajectory.value = name
+                preset = inputs.preset_controls(name)
+                if set(preset) - link.labels():
+                    self.apply_trajectory_preset()
+                else:
+                    self.preset = name if preset else None
+            self.set_controls(links.apply(self.controls(), link))
+            self.status.content = f"Ready. The page's address set {len(link.keys)} control(s); press **Run**."
+        if link.problems:
+            self.notify("Address: settings not applied", "; ".join(link.problems), error=True)
+
+    def update_address(self) -> None:
+        """Show the controls' setup in the page's address (app.links), once its own query has
+        been read (:meth:`read_link`); nothing is sent when it is unchanged."""
+        if not self.address_ready:
+            return
+        with self.address_lock:
+            query = links.address(self.controls(), self.viser_params)
+            if query == self.address_shown:
+                return
+            self.address_shown = query
+            links.show_address(self.client, query)
+
     def read_config(self) -> tuple[Config, int]:
         """The configuration the controls describe and its run count; InputError names the bad
         control and its value, also when the run would not fit the memory budget (app.budget)."""
@@ -470,8 +573,10 @@ class Session:
             log_dir = self.logs.get(source)
             self.config, self.results, self.truth_view = config, None, None
             self.replaying = log_dir is not None
+            self.run_log = source if log_dir is not None else None
             self.handle = handle = self.pool.start(to_dict(config), runs, log_dir=log_dir)
         self.run_button.disabled, self.stop_button.disabled = True, False
+        self._set_finished(None)
         self.progress.value = 0.0
         what = f"log {source}" if log_dir is not None else \
             f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
@@ -548,6 +653,7 @@ class Session:
                 elif kind == "done":
                     results, stopped = msg[1], msg[2]
                     self._show_results(results, config)
+                    self._keep_finished(results, config, stopped)
                     t_end = float(next(iter(results.values())).t_s[-1])
                     if stopped:
                         self.status.content = f"Stopped at {t_end:.1f} s."
@@ -582,6 +688,28 @@ class Session:
         t_last = float(next(iter(results.values())).t_s[-1])
         if not self.playing:
             self.time_slider.value = min(t_last, self.time_slider.max)
+
+    def _keep_finished(self, results: dict[str, MethodResult], config: Config, stopped: bool) -> None:
+        """The run's final results arrived (``stopped``: Stop ended it): offer them for download."""
+        self._set_finished(export.finished_run(config, results, self.run_log, stopped))
+
+    def _set_finished(self, run: export.FinishedRun | None) -> None:
+        """Keep ``run``, whose final results arrived, for the Download buttons and enable them
+        (None: a new run started, they are disabled until it ends)."""
+        self.finished_run = run
+        for button in self.download_buttons.values():
+            button.disabled = run is None
+
+    def download(self, kind: str) -> None:
+        """Send the finished run as ``kind`` (app.export.FORMATS) to this tab; a notification,
+        never a traceback, when there is none or it cannot be made."""
+        try:
+            export.send(self.client, kind, self.finished_run)
+        except export.ExportError as exc:
+            self.notify("Cannot download", str(exc), error=True)
+        except Exception as exc:  # a fault of ours: said in the tab, the server keeps serving
+            self.notify("Cannot download", f"{export.FORMATS.get(kind, kind)}: {type(exc).__name__}: {exc}",
+                        error=True)
 
     @_drawing
     def refresh_plots(self) -> None:

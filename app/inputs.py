@@ -303,8 +303,9 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     return config, runs
 
 
-def config_markdown(config: Config, runs: int) -> str:
-    """The configuration a run used, as a Markdown table (shown beside its results)."""
+def config_rows(config: Config, runs: int) -> list[tuple[str, str]]:
+    """The configuration a run used as (setting, value) rows, settings named as the controls are
+    (the Results tab's table, :func:`config_markdown`, and the HTML report, app.export)."""
     d, imu, run = config.dvl, config.imu, config.run
     epsilon = config.partial.nsv_epsilon_m2_per_s2
     epsilon_text = (f"{AUTO} ({config.nsv_epsilon_value_m2_per_s2():.3g})" if isinstance(epsilon, str)
@@ -339,5 +340,10 @@ def config_markdown(config: Config, runs: int) -> str:
         (SEED, str(run.seed)),
         (RUNS, str(runs)),
     ]
+    return rows
+
+
+def config_markdown(config: Config, runs: int) -> str:
+    """The configuration a run used, as a Markdown table (shown beside its results)."""
     return "**Configuration run**\n\n| Setting | Value |\n|---|---|\n" + "\n".join(
-        f"| {name} | {value} |" for name, value in rows)
+        f"| {name} | {value} |" for name, value in config_rows(config, runs))

@@ -76,6 +76,38 @@ def _plain(value: Any) -> Any:
     return value
 
 
+PARQUET_WRITE_OPTIONS: dict[str, Any] = {"compression": "zstd", "use_dictionary": ["trajectory", "method"]}
+"""How runs.parquet is written (``pyarrow.parquet.ParquetWriter`` keywords): zstd, and dictionary
+encoding for the two name columns only."""
+
+
+def runs_table(trajectory: str, chunk: ChunkSeries) -> Any:
+    """One chunk's runs as rows of runs.parquet: a ``pyarrow.Table`` with one row per (method,
+    run, epoch), method-major then run-major, columns ``trajectory``, ``method`` (dictionary, int8
+    codes), ``run`` (int32, the study's run index), ``t_s`` (float64) and :data:`PARQUET_SERIES`
+    (float32). A dashboard run's download is the same table (app.export)."""
+    import pyarrow as pa
+
+    T = chunk.t_s.size
+    methods = list(chunk.series)
+    rows = chunk.count * T
+    n = rows * len(methods)
+    # trajectory and method as dictionary columns (one small dictionary, int8 codes): no
+    # string per row; the floats without dictionary encoding (pyarrow's default tries it on
+    # every column, which took 5 of the study's 7 s of Parquet writing and made the file larger)
+    columns: dict[str, Any] = {
+        "trajectory": pa.DictionaryArray.from_arrays(np.zeros(n, np.int8), pa.array([trajectory])),
+        "method": pa.DictionaryArray.from_arrays(np.repeat(np.arange(len(methods), dtype=np.int8), rows),
+                                                 pa.array(methods)),
+        "run": np.tile(np.repeat(np.arange(chunk.first, chunk.first + chunk.count, dtype=np.int32), T),
+                       len(methods)),
+        "t_s": np.tile(chunk.t_s, chunk.count * len(methods))}
+    for name in PARQUET_SERIES:
+        columns[name] = np.concatenate([np.asarray(chunk.series[m][name], dtype=np.float32).T.reshape(-1)
+                                        for m in methods])                             # run-major
+    return pa.table(columns)
+
+
 class StudyWriter:
     """Collects a study's outputs under temporary names; :meth:`commit` renames them into place."""
 
@@ -93,31 +125,13 @@ class StudyWriter:
         self._parquet = None
 
     def add_chunk(self, trajectory: str, chunk: ChunkSeries) -> None:
-        """Append one chunk's runs to runs.parquet (long form)."""
-        import pyarrow as pa
+        """Append one chunk's runs to runs.parquet (long form, :func:`runs_table`)."""
         import pyarrow.parquet as pq
 
-        T = chunk.t_s.size
-        methods = list(chunk.series)
-        rows = chunk.count * T
-        n = rows * len(methods)
-        # trajectory and method as dictionary columns (one small dictionary, int8 codes): no
-        # string per row; the floats without dictionary encoding (pyarrow's default tries it on
-        # every column, which took 5 of the study's 7 s of Parquet writing and made the file larger)
-        columns: dict[str, Any] = {
-            "trajectory": pa.DictionaryArray.from_arrays(np.zeros(n, np.int8), pa.array([trajectory])),
-            "method": pa.DictionaryArray.from_arrays(np.repeat(np.arange(len(methods), dtype=np.int8), rows),
-                                                     pa.array(methods)),
-            "run": np.tile(np.repeat(np.arange(chunk.first, chunk.first + chunk.count, dtype=np.int32), T),
-                           len(methods)),
-            "t_s": np.tile(chunk.t_s, chunk.count * len(methods))}
-        for name in PARQUET_SERIES:
-            columns[name] = np.concatenate([np.asarray(chunk.series[m][name], dtype=np.float32).T.reshape(-1)
-                                            for m in methods])                             # run-major
-        table = pa.table(columns)
+        table = runs_table(trajectory, chunk)
         if self._parquet is None:
-            self._parquet = pq.ParquetWriter(os.path.join(self.tmp, "runs.parquet"), table.schema, compression="zstd",
-                                             use_dictionary=["trajectory", "method"])
+            self._parquet = pq.ParquetWriter(os.path.join(self.tmp, "runs.parquet"), table.schema,
+                                             **PARQUET_WRITE_OPTIONS)
         self._parquet.write_table(table)
 
     def finish(self, summary: dict[str, Any], report_html: str, comparison_md: str | None = None) -> None:

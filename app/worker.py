@@ -277,7 +277,10 @@ class RunHandle:
         self._done = threading.Event()
 
     def stop(self) -> None:
-        """End the run: a waiting run never starts, a computing one returns its partial results."""
+        """End the run. A waiting run leaves the line at once: :meth:`finished` is true when this
+        returns, its queue stays empty and no worker ever receives it. A computing run is sent
+        Stop and returns its partial results (its worker is killed if it has not ended
+        ``STOP_GRACE_S`` later)."""
         self._pool._stop(self)
 
     def finished(self) -> bool:
@@ -285,7 +288,8 @@ class RunHandle:
         return self._done.is_set()
 
     def position(self) -> int:
-        """0 while computing (or finished), k >= 1 while waiting with k - 1 runs ahead of it."""
+        """0 while computing (or finished), k >= 1 while waiting with k - 1 runs ahead of it;
+        exact from the moment :meth:`RunPool.start` returns (the run is in line by then)."""
         return self._pool._position(self)
 
 

@@ -168,11 +168,12 @@ class Tab:
 def new_tab(browser, server_url):
     contexts = []
 
-    def make() -> Tab:
+    def make(query: str = "") -> Tab:
+        """A new tab (its own browser context) at the dashboard's address followed by ``query``."""
         ctx = browser.new_context(viewport={"width": 1500, "height": 950})
         ctx.add_init_script(THROTTLE_FRAMES)
         contexts.append(ctx)
-        return Tab(ctx.new_page(), server_url)
+        return Tab(ctx.new_page(), server_url + query)
 
     yield make
     for ctx in contexts:

@@ -147,6 +147,8 @@ def test_a_run_computes_in_a_lower_priority_process_than_the_server(pool: RunPoo
 
 
 LONG = Config().replace("trajectory", duration_s=3000.0).replace("run", methods=("ins", "lc", "tc"))
+MEDIUM = Config().replace("trajectory", duration_s=1000.0).replace("run", methods=("ins", "lc"))   # ~3 s
+STOP_QUEUED_WITHIN_S = 0.5
 SHORT = Config().replace("trajectory", duration_s=5.0).replace("run", methods=("ins", "lc"))
 
 
@@ -177,6 +179,31 @@ def test_a_run_waits_in_line_while_every_worker_is_busy(pool: RunPool) -> None:
     first.stop()
     assert _until_done(first)[0] == "done"
     assert _until_done(second)[0] == "done" and second.position() == 0
+
+
+def test_stop_on_a_waiting_run_ends_it_at_once_and_no_worker_ever_receives_it(pool: RunPool) -> None:
+    """Given the one worker busy on a run, when a second run is queued its place is 1 at once
+    (the dashboard's "Waiting for a free worker"); when Stop is pressed on it, it is finished
+    within 0.5 s without a message, no worker receives it, and the computing run goes on to its
+    end, not stopped."""
+    first = pool.start(to_dict(MEDIUM), 1)
+    assert _next(first)[0] == "truth"
+    busy = pool.busy_pids()
+    waiting = pool.start(to_dict(LONG), 1)
+    assert (first.position(), waiting.position()) == (0, 1)
+    t0 = time.monotonic()
+    waiting.stop()
+    while not waiting.finished() and time.monotonic() - t0 < STOP_QUEUED_WITHIN_S:
+        time.sleep(0.01)
+    assert waiting.finished(), f"a waiting run still not finished {STOP_QUEUED_WITHIN_S} s after Stop"
+    assert waiting.position() == 0 and waiting.queue.empty()
+    assert pool.busy_pids() == busy                               # the same worker, on the first run only
+    kind, results, stopped = _until_done(first)
+    assert kind == "done" and not stopped and results["lc"].t_s[-1] == pytest.approx(MEDIUM.trajectory.duration_s)
+    # a worker handed the stopped run would now compute it: busy, and its truth (or an error)
+    # on its queue
+    time.sleep(1.0)
+    assert pool.busy_pids() == [] and waiting.queue.empty()
 
 
 def test_a_killed_worker_ends_its_run_with_a_message_and_is_replaced(pool: RunPool) -> None:
