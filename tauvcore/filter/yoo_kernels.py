@@ -35,6 +35,8 @@ from tauvcore.filter.kernels import (
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
 DIM = 12
+NC = 5                                  # consider states (tauvcore.eval.yoo_bank.NC): DVL scale factor, 4 beam biases
+NA = DIM + NC
 VEL, ATT, BA, BG = 0, 3, 6, 9           # tauvcore.filter.yoo's blocks
 INS_DVL, VKF = 0, 1                     # method codes (tauvcore.eval.yoo_bank.METHOD_CODES)
 MIN_BEAMS = 3
@@ -101,11 +103,13 @@ def _symmetrise_into(A: np.ndarray, out: np.ndarray) -> None:
 
 @_jit
 def propagate(P: np.ndarray, pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, dv_raw_i: np.ndarray,
-              dt: float, dt_c: float, geodetic: bool, w_ie_flat: np.ndarray, q: np.ndarray, F: np.ndarray,
-              Phi: np.ndarray, tmp: np.ndarray, out: np.ndarray) -> None:
+              dt: float, dt_c: float, geodetic: bool, w_ie_flat: np.ndarray, q: np.ndarray, qc: np.ndarray,
+              F: np.ndarray, Phi: np.ndarray, tmp: np.ndarray, out: np.ndarray) -> None:
     """One covariance step of every (method, run) over ``dt_c`` (yoo_bank.YooBank._propagate):
-    ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P <- Phi P Phi^T + diag(q) dt_c``, symmetrised; F of
-    tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific force."""
+    ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the consider
+    states' cross terms ``P_xc <- Phi P_xc`` and ``P_cc += diag(qc) dt_c``, symmetrised; F of
+    tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific force. P (M, R, NA,
+    NA); out (NA, NA), tmp (DIM, DIM) work space."""
     M, R = P.shape[0], P.shape[1]
     f_b = np.empty(3)
     f_n = np.empty(3)
@@ -159,19 +163,31 @@ def propagate(P: np.ndarray, pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba
                     for k in range(DIM):
                         s += F[i, k] * F[k, j]
                     Phi[i, j] = (1.0 if i == j else 0.0) + F[i, j] + 0.5 * s
-            _sandwich_into(Phi, P[m, r], tmp, out)
+            Pm = P[m, r]
+            _sandwich_into(Phi, Pm[:DIM, :DIM], tmp, out[:DIM, :DIM])
             for i in range(DIM):
                 out[i, i] += q[i] * dt_c
-            _symmetrise_into(out, P[m, r])
+                for c in range(NC):
+                    s = 0.0
+                    for k in range(DIM):
+                        s += Phi[i, k] * Pm[k, DIM + c]
+                    out[i, DIM + c] = s
+                    out[DIM + c, i] = s
+            for a in range(NC):
+                for c in range(NC):
+                    out[DIM + a, DIM + c] = Pm[DIM + a, DIM + c]
+                out[DIM + a, DIM + a] += qc[a] * dt_c
+            _symmetrise_into(out, Pm)
 
 
 @_jit
 def dvl_body_velocity_into(y: np.ndarray, available: np.ndarray, dtheta_i: np.ndarray, dt: float, C_nb: np.ndarray,
                            lat: float, A_b: np.ndarray, l_dvl_b: np.ndarray, beam_var: float, v_b: np.ndarray,
-                           cov_b: np.ndarray) -> bool:
+                           cov_b: np.ndarray, gain: np.ndarray) -> bool:
     """One run's DVL body velocity by least squares over the beams that returned, its covariance,
-    and whether at least MIN_BEAMS returned (yoo_bank.dvl_body_velocity; with fewer the normal
-    matrix is replaced by I, as there)."""
+    the least squares' gain from the beams (3, 4), and whether at least MIN_BEAMS returned
+    (yoo_bank.dvl_body_velocity with ``with_gain``; with fewer the normal matrix is replaced by I,
+    as there)."""
     Nm = np.zeros((3, 3))
     b = np.zeros(3)
     count = 0
@@ -195,6 +211,9 @@ def dvl_body_velocity_into(y: np.ndarray, available: np.ndarray, dtheta_i: np.nd
         v_b[i] = Ninv[i, 0] * b[0] + Ninv[i, 1] * b[1] + Ninv[i, 2] * b[2]
         for j in range(3):
             cov_b[i, j] = beam_var * Ninv[i, j]
+        for k in range(A_b.shape[0]):
+            used = 1.0 if available[k] and math.isfinite(y[k]) else 0.0
+            gain[i, k] = (Ninv[i, 0] * A_b[k, 0] + Ninv[i, 1] * A_b[k, 1] + Ninv[i, 2] * A_b[k, 2]) * used
     v_b[0] -= om[1] * l_dvl_b[2] - om[2] * l_dvl_b[1]
     v_b[1] -= om[2] * l_dvl_b[0] - om[0] * l_dvl_b[2]
     v_b[2] -= om[0] * l_dvl_b[1] - om[1] * l_dvl_b[0]
@@ -249,34 +268,34 @@ def vkf_step(x: np.ndarray, P: np.ndarray, rpm: float, altitude: float, z_fwd: f
 
 @_jit
 def fuse(P: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray, z: np.ndarray,
-         Rm: np.ndarray, valid: bool, gate: float, S_diag: np.ndarray, nu: np.ndarray) -> tuple:
-    """Fuse one NED velocity ``z`` into one filter (yoo_bank.YooBank._fuse): ``H = [I, [z x], 0, 0]``,
-    every row gated, Joseph form, inject and reset. -> (fused, passed the gate, NIS before the
-    gate (NaN if S cannot be inverted)); ``S_diag`` and ``nu`` written."""
-    H = np.zeros((3, DIM))
+         Rm: np.ndarray, Hc: np.ndarray, valid: bool, gate: float, S_diag: np.ndarray, nu: np.ndarray) -> tuple:
+    """Fuse one NED velocity ``z`` into one filter (yoo_bank.YooBank._fuse): ``H = [I, [v x], 0, 0,
+    Hc]`` (v the estimated velocity, Hc (3, NC) on the consider states, whose gain is zero), every
+    row gated, Joseph form over the NA states, inject and reset. -> (fused, passed the gate, NIS
+    before the gate (NaN if S cannot be inverted)); ``S_diag`` and ``nu`` written."""
+    H = np.zeros((3, NA))
     for i in range(3):
         H[i, VEL + i] = 1.0
-    zf = np.empty(3)
-    for i in range(3):
-        zf[i] = z[i] if math.isfinite(z[i]) else 0.0
         nu[i] = z[i] - vel[i]
+        for c in range(NC):
+            H[i, DIM + c] = Hc[i, c] if math.isfinite(Hc[i, c]) else 0.0
     Sk = np.empty((3, 3))
-    _skew_into(zf[0], zf[1], zf[2], Sk)
+    _skew_into(vel[0], vel[1], vel[2], Sk)
     for i in range(3):
         for j in range(3):
             H[i, ATT + j] = Sk[i, j]
-    PHt = np.empty((DIM, 3))
-    for i in range(DIM):
+    PHt = np.empty((NA, 3))
+    for i in range(NA):
         for j in range(3):
             s = 0.0
-            for k in range(DIM):
+            for k in range(NA):
                 s += P[i, k] * H[j, k]
             PHt[i, j] = s
     S = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
             s = 0.0
-            for k in range(DIM):
+            for k in range(NA):
                 s += H[i, k] * PHt[k, j]
             S[i, j] = s + Rm[i, j]
     passed = True
@@ -298,26 +317,26 @@ def fuse(P: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.n
     else:
         use = False
     if use:
-        K = np.empty((DIM, 3))
+        K = np.zeros((NA, 3))                           # the consider rows stay zero
         for i in range(DIM):
             for j in range(3):
                 K[i, j] = PHt[i, 0] * Sinv[0, j] + PHt[i, 1] * Sinv[1, j] + PHt[i, 2] * Sinv[2, j]
         dx = np.empty(DIM)
         for i in range(DIM):
             dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
-        I_KH = np.empty((DIM, DIM))
-        for i in range(DIM):
-            for j in range(DIM):
+        I_KH = np.empty((NA, NA))
+        for i in range(NA):
+            for j in range(NA):
                 I_KH[i, j] = (1.0 if i == j else 0.0) - (K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j])
-        tmp = np.empty((DIM, DIM))
-        out = np.empty((DIM, DIM))
+        tmp = np.empty((NA, NA))
+        out = np.empty((NA, NA))
         _sandwich_into(I_KH, P, tmp, out)
-        KR = np.empty((DIM, 3))
-        for i in range(DIM):
+        KR = np.empty((NA, 3))
+        for i in range(NA):
             for j in range(3):
                 KR[i, j] = K[i, 0] * Rm[0, j] + K[i, 1] * Rm[1, j] + K[i, 2] * Rm[2, j]
-        for i in range(DIM):
-            for j in range(DIM):
+        for i in range(NA):
+            for j in range(NA):
                 out[i, j] += KR[i, 0] * K[j, 0] + KR[i, 1] * K[j, 1] + KR[i, 2] * K[j, 2]
         _symmetrise_into(out, P)
         for i in range(3):
@@ -405,7 +424,7 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
               C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
               geodetic: bool, origin: np.ndarray, w_ie_flat: np.ndarray, q: np.ndarray, method_code: np.ndarray,
               y_beam: np.ndarray, available: np.ndarray, A_b: np.ndarray, l_dvl_b: np.ndarray, beam_var: float,
-              dvl_bias_mps: float, dvl_scale_factor: float, gate: float, rpm_index: np.ndarray,
+              qc: np.ndarray, L4: np.ndarray, gate: float, rpm_index: np.ndarray,
               rpm_value: np.ndarray, rpm_sf: np.ndarray, rpm_b: np.ndarray, echo_index: np.ndarray,
               echo_alt: np.ndarray, vkf_Q: np.ndarray, vkf_R: float, switch_altitude: float, forward_norm: bool,
               lateral_var: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray,
@@ -422,9 +441,12 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
     F = np.empty((DIM, DIM))
     Phi = np.empty((DIM, DIM))
     tmp = np.empty((DIM, DIM))
-    out = np.empty((DIM, DIM))
+    out = np.empty((NA, NA))
     v_b = np.empty((R, 3))
     cov_b = np.empty((R, 3, 3))
+    gain = np.empty((R, 3, 4))
+    Hb = np.empty((3, NC))
+    Hc = np.empty((3, NC))
     ok = np.empty(R, dtype=np.bool_)
     have_rpm = np.empty(R, dtype=np.bool_)
     z = np.empty(3)
@@ -442,7 +464,7 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
                     C_earth_half, g_n, coriolis_T, geodetic)
             counters[0] = k
         if k > counters[1]:
-            propagate(P, pos, vel, C, ba, dv_raw[i], dt, (k - counters[1]) * dt, geodetic, w_ie_flat, q, F, Phi,
+            propagate(P, pos, vel, C, ba, dv_raw[i], dt, (k - counters[1]) * dt, geodetic, w_ie_flat, q, qc, F, Phi,
                       tmp, out)
             dtheta_sum[:, :] = 0.0
             counters[1] = k
@@ -451,12 +473,16 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
             for r in range(R):
                 lat = pos[0, r, 0] if geodetic else origin[0]
                 ok[r] = dvl_body_velocity_into(y_beam[p, r], available[p, r], dtheta[i, r], dt, C[0, r], lat, A_b,
-                                               l_dvl_b, beam_var, v_b[r], cov_b[r])
+                                               l_dvl_b, beam_var, v_b[r], cov_b[r], gain[r])
             for m in range(M):
                 for r in range(R):
                     Cm = C[m, r]
-                    speed = math.sqrt(vel[m, r, 0] ** 2 + vel[m, r, 1] ** 2 + vel[m, r, 2] ** 2)
-                    extra = dvl_bias_mps ** 2 + (dvl_scale_factor * speed) ** 2
+                    # the consider states' columns in b: the scale factor scales the estimated body
+                    # velocity, a beam bias goes through the least squares of the beams that returned
+                    for a in range(3):
+                        Hb[a, 0] = Cm[0, a] * vel[m, r, 0] + Cm[1, a] * vel[m, r, 1] + Cm[2, a] * vel[m, r, 2]
+                        for c in range(4):
+                            Hb[a, 1 + c] = gain[r, a, c]
                     use_rpm = False
                     if method_code[m] == VKF:
                         jr = _latest(rpm_index, k)
@@ -479,6 +505,10 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
                         tr_use[p, r], tr_alt[p, r] = use_rpm, altitude
                     if use_rpm:         # C [V_rpm, 0, 0] with diag(P_VV, lateral, lateral) rotated
                         valid = have_rpm[r]
+                        Hb[:, :] = 0.0                  # its surge was learnt from the DVL's (4 beams)
+                        Hb[0, 0] = vkf_x[r, 0]
+                        for c in range(4):
+                            Hb[0, 1 + c] = L4[0, c]
                         for a in range(3):
                             z[a] = Cm[a, 0] * vkf_x[r, 0]
                             for b in range(3):
@@ -494,9 +524,11 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
                         for a in range(3):
                             for b in range(3):
                                 Rm[a, b] = Cc[a, 0] * Cm[b, 0] + Cc[a, 1] * Cm[b, 1] + Cc[a, 2] * Cm[b, 2]
-                            Rm[a, a] += extra
-                    fused, passed, nis = fuse(P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], z, Rm, valid, gate,
-                                              S_diag, nu)
+                    for a in range(3):
+                        for c in range(NC):
+                            Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
+                    fused, passed, nis = fuse(P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], z, Rm, Hc, valid,
+                                              gate, S_diag, nu)
                     for a in range(3):
                         up_z[p, m, r, a] = z[a]
                         up_nu[p, m, r, a] = nu[a] if valid else np.nan
