@@ -19,6 +19,7 @@ import tomli_w
 
 from tauvcore import units
 from tauvcore.aiding import AIDING_SOURCES, elc_nsv
+from tauvcore.aiding.registry import REGISTRY
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
@@ -49,6 +50,12 @@ YOO_METHODS = ("ins-dvl", "vkf")
 """Yoo 2014's 12-state filter (tauvcore.eval.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,
 ``vkf`` by the velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all"."""
 ALL_METHODS = METHODS + YOO_METHODS
+"""Both papers' methods: what the CLI's --method and the dashboard offer."""
+REGISTERED_METHODS = tuple(REGISTRY)
+"""Methods added as one file each (tauvcore.aiding.registry; ``cv``: constant body velocity, no
+DVL). ``run.methods`` (a TOML file, the library) takes them; the CLI and dashboard do not offer
+them yet (app/ lists ALL_METHODS, with a colour each)."""
+RUN_METHODS = ALL_METHODS + REGISTERED_METHODS
 """Every method ``run.methods`` may hold."""
 
 DEFAULT_METHODS = ("ins", "lc")
@@ -148,7 +155,7 @@ class RunConfig:
                                                   # RPM velocity when they have no DVL velocity (neither paper does)
 
     def __post_init__(self) -> None:
-        require_choices("run.methods", self.methods, ALL_METHODS)
+        require_choices("run.methods", self.methods, RUN_METHODS)
         require_choices("run.aiding", self.aiding, AIDING_SOURCES, allow_empty=True)
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or not 0 <= self.seed <= MAX_SEED:
             raise ConfigError(f"run.seed must be an integer within [0, 2**63 - 1], got {show(self.seed)}")

@@ -51,6 +51,7 @@ from tauvcore.aiding.dvl_extended import (
     DvlExtended,
 )
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
+from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import Config
 from tauvcore.eval.metrics import innovation_divergence_s, sensor_prior_bound
 from tauvcore.filter import kernels
@@ -86,7 +87,8 @@ updates can lose definiteness to round-off, and at least this often in between (
 alone, e.g. the standalone INS or a DVL outage, only carries a positive definite P forward)."""
 
 DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}}
-"""How each method fuses the DVL (None: not at all)."""
+"""How each method fuses the DVL (None: not at all; a registered method, tauvcore.aiding.registry,
+is not in it and takes no DVL)."""
 
 
 @dataclass(frozen=True)
@@ -440,10 +442,12 @@ class FilterBank:
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
         gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
-        self.other_mask = np.array([DVL_FUSION[m] is not None for m in methods])[:, None] & np.ones(self.batch, bool)
+        # the aided methods (every one but the standalone INS) take the depth and magnetometer
+        self.other_mask = (np.array([DVL_FUSION.get(m) is not None or m in REGISTRY for m in methods])[:, None]
+                           & np.ones(self.batch, bool))
         self.depth_model = Depth(config.pressure)
         self.mag_model = MagAttitude(config.magnetometer)
-        self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION[m] is not None]
+        self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION.get(m) is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
         self.dvl_codes = np.array([{"lc": kernels.DVL_LC, "tc": kernels.DVL_TC, "elc": kernels.DVL_ELC}[DVL_FUSION[m]]
                                    for _, m in self.dvl_methods], dtype=np.int64)
@@ -456,10 +460,18 @@ class FilterBank:
         for m, method in self.dvl_methods:
             self.dvl_gate_rows[m] = DVL_FUSION[method] == "tc"
         dvl_members = np.isin(np.arange(M), self.dvl_index)
-        dvl_rows = np.array([DVL_ROWS if DVL_FUSION[m] == "tc" else 3 for m in methods], dtype=np.int64)
+        dvl_rows = np.array([DVL_ROWS if DVL_FUSION.get(m) == "tc" else 3 for m in methods], dtype=np.int64)
         others = self.other_mask.any(axis=1)
         self.recorders = {"dvl": _Recorder(dvl_members, dvl_rows), "depth": _Recorder(others),
                           "mag": _Recorder(others), "rpm": _Recorder(dvl_members, dvl_rows)}
+        # registered methods (tauvcore.aiding.registry): each its model, members and epochs
+        self.registered = []
+        for name in (m for m in methods if m in REGISTRY):
+            spec = REGISTRY[name]
+            step = max(1, int(round(config.imu.rate_hz / spec.rate_hz)))
+            members = np.array([m == name for m in methods])
+            self.registered.append((spec.source, spec.model(config), members, np.arange(step, num_samples, step)))
+            self.recorders[spec.source] = _Recorder(members)
         # --rpm-fallback: one velocity Kalman filter per run (tauvcore.eval.yoo_bank.RpmAid)
         self.rpm_aid = None
         if config.run.rpm_fallback and self.dvl_methods and "dvl" in self.aiding:
@@ -557,6 +569,19 @@ class FilterBank:
         outcome = make_outcome(meas.z, meas.innovation, active, *fused)
         self.recorders[source].add(t, outcome, meas.valid & self.other_mask)
 
+    def _update_registered(self, r: int, t: float) -> None:
+        """Registered method ``r`` (tauvcore.aiding.registry): its model's measurement, fused into
+        its own rows of the bank only, in the same compiled correction as every source."""
+        source, model, members, _ = self.registered[r]
+        meas = model.measure(self.nominal())
+        valid = meas.valid & members[:, None]
+        m_rows = meas.R.shape[-1]
+        active = np.ones(self.batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
+        active = active & valid[..., None]
+        fused = self._fuse(np.ascontiguousarray(meas.H), np.ascontiguousarray(meas.R),
+                           np.ascontiguousarray(meas.innovation), active, np.full(self.batch, meas.gate_rows))
+        self.recorders[source].add(t, make_outcome(meas.z, meas.innovation, active, *fused), valid)
+
     def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> np.ndarray:
         """Every DVL-aided method measures the ping its own way (lc, tc, an extended method's
         loosely coupled velocity or two-beam construction) in one compiled call for every method
@@ -646,6 +671,8 @@ class FilterBank:
         dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
         depth_at = _epoch_map(chunk.pressure.index) if "depth" in aiding and self.other_mask.any() else {}
         mag_at = _epoch_map(chunk.mag.index) if "mag" in aiding and self.other_mask.any() else {}
+        registered_at = [{int(k) for k in epochs[(epochs >= k0) & (epochs < k1)]}
+                         for _, _, _, epochs in self.registered]
         outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k1)]
         out = {"series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
                "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
@@ -666,7 +693,7 @@ class FilterBank:
         if k0 == 0 and 0 in out_row:
             self._record(out, 0, chunk, 0)
         events = np.zeros(n, dtype=bool)            # aiding epochs
-        for keys in (dvl_at, depth_at, mag_at):
+        for keys in (dvl_at, depth_at, mag_at, *registered_at):
             events[[k - k0 for k in keys]] = True
         marks = events.copy()                       # and output epochs: where the covariance step stops
         marks[outs - k0] = True
@@ -716,6 +743,9 @@ class FilterBank:
                                                                        chunk.pressure.depth_m[depth_at[k]]), t)
                 if k in mag_at:
                     self._update_all("mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t)
+                for r, keys in enumerate(registered_at):
+                    if k in keys:
+                        self._update_registered(r, t)
                 if is_event[s]:
                     self._condition()
                     self.k_checked = k
