@@ -12,6 +12,7 @@ message handlers are removed (:func:`disable_share_tunnel`); nothing is fetched 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import gc
 import inspect
@@ -37,33 +38,63 @@ from viser import _messages as viser_messages
 from app import budget, export, inputs, links, worker
 from app.figures import (
     AUTO,
+    COMPONENTS,
     FIN_COLORS,
     TRUTH_COLOR,
     actuator_figure,
     altitude_figure,
+    compare_figure,
+    compare_markdown,
+    components_figure,
+    config_diff_markdown,
+    cursor_shape,
     decimate,
     elc_choice_figure,
+    error_components,
     error_figure,
+    flat_config,
+    identical_methods,
+    identical_note,
+    innovation_figure,
+    innovation_sources,
     method_color,
     nees_figure,
+    rms_markdown,
     summary_markdown,
     vkf_figure,
+    with_cursor,
 )
 from app.inputs import Controls, InputError, config_from_controls, config_markdown
 from app.scene import (
+    BEAM_COLOR_NAMES,
     BEAM_COLORS,
     BEAM_OUTAGE,
     BEAM_REJECTED,
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
-    M_VIEW_FROM_NED,
+    CAMERA_FREE,
+    CAMERA_MODES,
+    CAMERA_SIDE,
+    PLAYBACK_DEFAULT_SPEED,
+    PLAYBACK_FPS,
+    PLAYBACK_SPEEDS,
     SEABED_COLOR,
+    MissionFrame,
     auv_parts_body,
+    beam_label_positions_b,
     beam_readout,
-    beam_segments_n,
+    beam_segments_b,
     beam_states,
+    chase_camera_view,
+    compass_view,
     fin_wxyz_body,
+    fit_camera_view,
+    interpolate_pose,
+    mission_frame,
     ned_to_view,
+    playback_speed,
+    playback_time,
+    scale_bar_view,
     seabed_mesh_n,
     seabed_ranges_m,
     wxyz_view,
@@ -94,7 +125,7 @@ VEHICLE_NOTES = {
 """The Vehicle tab's note for each kind of truth (its figure shows for the dynamic truth only)."""
 SEABED_NOTES = {
     "simulation": ("Height above the seabed straight below (an ideal echo sounder). Above the DVL's range its "
-                   "beams find no bottom (drawn orange, *lost*, in the 3-D view); above the switch the velocity "
+                   "beams find no bottom (drawn aqua, *lost*, in the 3-D view); above the switch the velocity "
                    "filter uses the propeller RPM instead (shaded). Choose **Trajectory: longrange** for the "
                    "paper's mission over two trenches."),
     "log": "No altitude: a recorded log has no seabed.",
@@ -111,6 +142,38 @@ VKF_NOTES = {
              "(Mission tab, Methods)."),
 }
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
+WORKBENCH_WIDTH_PX = 640     # the plot panel docked left of the 3-D view (the user can resize or minimise it)
+PLOT_ASPECT = 0.42           # each error plot's height / width: three or four in view at once
+KEPT_RUNS_MAX = 5            # finished runs kept for comparison (memory: each holds its full results)
+COMPONENTS_NOTE = (
+    "Signed errors, estimate minus truth: position north/east/down, body velocity surge/sway/heave, Euler "
+    "angles roll/pitch/heading. The truth's velocity is the central difference of its positions at the output "
+    "epochs. With several runs the curves are the RMS over runs.")
+INNOVATION_NOTE = (
+    "Each method's innovations (measurement minus prediction) with its filter's 3-sigma envelope "
+    "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
+    "INS (and any method without this source) has none.")
+RUNS_NOTE = (
+    f"Every finished run is kept here with its configuration until removed (at most {KEPT_RUNS_MAX}: the "
+    "oldest goes when another finishes). Tick two or more to overlay them in the Plots tab (one line style per "
+    "run, the method colours kept) and to compare them below.")
+CURSOR_JS = """(() => {
+  // the shared time cursor: every plotly plot of the page gets a vertical line at the slider's
+  // time; moves arriving faster than the page draws are merged into one relayout
+  window.__tauvCursor = __T__;
+  if (window.__tauvCursorPending) return;
+  window.__tauvCursorPending = true;
+  setTimeout(() => {
+    window.__tauvCursorPending = false;
+    if (!window.Plotly) return;
+    const t = window.__tauvCursor;
+    const shape = __SHAPE__;
+    shape.x0 = t; shape.x1 = t;
+    for (const p of document.querySelectorAll('.js-plotly-plot')) {
+      if (p.layout && p.data && p.data.length) window.Plotly.relayout(p, {shapes: [shape]});
+    }
+  }, 80);
+})();"""
 GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
@@ -144,6 +207,25 @@ _SNAPSHOT_JS = """(() => {
   }
   localStorage.setItem(__KEY__, JSON.stringify({t: now, values: out}));
 })();"""
+
+
+@dataclasses.dataclass(frozen=True)
+class KeptRun:
+    """A finished run kept in the Runs tab for comparison."""
+
+    number: int                          # 1, 2, ... in the order the tab's runs finished
+    config: Config                       # what ran
+    runs: int                            # Monte Carlo runs
+    results: dict[str, MethodResult]     # its final results
+
+    @property
+    def label(self) -> str:
+        return f"run {self.number}"
+
+    def description(self) -> str:
+        tr = self.config.trajectory
+        return (f"{tr.name}, {tr.duration_s:g} s, {', '.join(m.upper() for m in self.config.run.methods)}"
+                + (f", {self.runs} runs" if self.runs > 1 else ""))
 
 
 def _hex_rgb(color: str) -> tuple[int, int, int]:
@@ -193,6 +275,8 @@ class Session:
     def _build_gui(self) -> None:
         gui = self.client.gui
         d = Config()
+        # the colours' legend heads the panel, above the tabs: in view whatever tab is open
+        self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
         tabs = gui.add_tab_group()
         with tabs.add_tab("Mission"):
             self.source = (gui.add_dropdown(inputs.SOURCE, (inputs.SIMULATION, *self.logs), initial_value=inputs.SIMULATION,
@@ -254,27 +338,47 @@ class Session:
             self.status = gui.add_markdown("Ready. Choose a mission and press **Run**.")
             with gui.add_folder("Playback"):
                 self.time_slider = gui.add_slider("Time [s]", 0.0, d.trajectory.duration_s, 0.1, 0.0)
-                self.follow = gui.add_checkbox("Follow vehicle", True, hint="keep the camera on the AUV")
                 self.play_button = gui.add_button("Play")
                 self.pause_button = gui.add_button("Pause")
+                self.speed = gui.add_dropdown("Speed", PLAYBACK_SPEEDS, initial_value=PLAYBACK_DEFAULT_SPEED,
+                                              hint="seconds of mission per second of playback")
+                self.camera_mode = gui.add_dropdown("Camera", CAMERA_MODES, initial_value=CAMERA_SIDE,
+                                                    hint="follow the AUV from its side or from above, or orbit freely")
+                self.fit_button = gui.add_button("Fit mission", hint="frame the whole mission (camera: free)")
                 self.readout = gui.add_markdown("")
-            self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
-        with tabs.add_tab("Plots"):
+        # the workbench (issue 13): plots, diagnostics, results and kept runs in a panel of their
+        # own docked left of the 3-D view, several plots in view at once (viser: height = aspect x width)
+        self.cursor_t: float | None = None
+        self.kept_runs: list[KeptRun] = []
+        self.kept_widgets: dict[int, Any] = {}       # run number -> its folder in the Runs tab
+        self.run_number = 0
+        self.workbench = gui.add_panel()
+        self.workbench.dock_left()
+        self.workbench.set_width(WORKBENCH_WIDTH_PX)
+        with self.workbench.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
             self.log_y = gui.add_checkbox("Log scale", True,
                                           hint="log y where the errors span more than a decade, linear elsewhere")
             self.show_att_norm = gui.add_checkbox("Attitude norm", False,
                                                   hint="also plot |attitude error| (tilt and heading together)")
-            self.plots = {q: gui.add_plotly(go.Figure(), aspect=1.4, visible=q != "att")
+            self.plots_note = gui.add_markdown("")
+            self.plots = {q: gui.add_plotly(go.Figure(), aspect=PLOT_ASPECT, visible=q != "att")
                           for q in PLOTTED_QUANTITIES}
-            self.elc_plot = gui.add_plotly(go.Figure(), aspect=2.2, visible=False)
-        with tabs.add_tab("Consistency"):
+            self.elc_plot = gui.add_plotly(go.Figure(), aspect=0.4, visible=False)
+        with self.workbench.add_tab("Components"):
+            self.components_note = gui.add_markdown(COMPONENTS_NOTE)
+            self.component_plots = {q: gui.add_plotly(go.Figure(), aspect=0.75) for q in COMPONENTS}
+        with self.workbench.add_tab("Consistency"):
             self.nees_block = gui.add_dropdown(
                 "NEES block", tuple(BLOCK_DIMS), initial_value="full",
                 hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
                      "no position); or one block of them")
-            self.nees_plot = gui.add_plotly(go.Figure(), aspect=1.5)   # viser: height / width
+            self.nees_plot = gui.add_plotly(go.Figure(), aspect=0.6)   # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
+        with self.workbench.add_tab("Innovations"):
+            self.innovation_source = gui.add_dropdown("Aiding source", ("dvl",), initial_value="dvl")
+            self.innovation_plot = gui.add_plotly(go.Figure(), aspect=0.85)
+            self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
         with tabs.add_tab("Vehicle"):
             self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
             self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
@@ -283,7 +387,7 @@ class Session:
             self.seabed_plot = gui.add_plotly(go.Figure(), aspect=0.8, visible=False)
             self.vkf_note = gui.add_markdown(VKF_NOTES["none"])
             self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
-        with tabs.add_tab("Results"):
+        with self.workbench.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
             with gui.add_folder("Download"):
                 # the finished run's results as the CLI writes them, and an offline report (app.export)
@@ -291,6 +395,13 @@ class Session:
                                                               hint=export.FORMAT_HINTS[kind])
                                          for kind, label in export.FORMATS.items()}
             self.run_config = gui.add_markdown("")
+        with self.workbench.add_tab("Runs"):
+            gui.add_markdown(RUNS_NOTE)
+            self.runs_folder = gui.add_folder("Kept runs")
+            with self.runs_folder:
+                self.no_runs = gui.add_markdown("No finished run yet.")
+            self.diff_table = gui.add_markdown("")
+            self.compare_table = gui.add_markdown("")
 
         if self.source is not None:
             # a log replays its own reference: the truth's generator does not apply to it
@@ -305,9 +416,15 @@ class Session:
         self.log_y.on_update(lambda _: self.refresh_plots())
         self.show_att_norm.on_update(lambda _: self.refresh_plots())
         self.nees_block.on_update(lambda _: self.refresh_plots())
-        self.time_slider.on_update(lambda _: self.show_time(self.time_slider.value))
+        self.innovation_source.on_update(lambda _: self.refresh_plots())
+        self.time_slider.on_update(lambda _: self.move_cursor(self.time_slider.value))
+        self.time_slider.on_update(self._slider_moved)
         self.play_button.on_click(lambda _: self.play())
         self.pause_button.on_click(lambda _: setattr(self, "playing", False))
+        self.camera_mode.on_update(lambda _: self._camera_changed())
+        self.fit_button.on_click(lambda _: self.fit_mission())
+        for box in self.beam_boxes:     # before a run the 3-D beams show the boxes at once
+            box.on_update(lambda _: self._beams_from_boxes())
         for kind, button in self.download_buttons.items():
             button.on_click(lambda _, kind=kind: self.download(kind))
         for handle in self._confirmed_inputs().values():      # every control a run reads
@@ -317,10 +434,10 @@ class Session:
     def _legend_html(methods: tuple[str, ...]) -> str:
         items = [f'<span style="color:{TRUTH_COLOR}">&#9632;</span> truth']
         items += [f'<span style="color:{method_color(m)}">&#9632;</span> {m.upper()}' for m in methods]
-        beams = [f'<span style="color:rgb{BEAM_COLORS[s]}">&#9646;</span> {s}'
+        beams = [f'<span style="color:rgb{BEAM_COLORS[s]}">&#9646;</span> {s} ({BEAM_COLOR_NAMES[s]})'
                  for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)]
         return ('<div style="font-size:0.8em;line-height:1.6">Trajectories: ' + " &nbsp; ".join(items)
-                + "<br>Beams: " + " &nbsp; ".join(beams) + "</div>")
+                + "<br>Beams (numbered 1-4 in the view): " + " &nbsp; ".join(beams) + "</div>")
 
     def notify(self, title: str, body: str, error: bool = False) -> None:
         self.client.add_notification(title, body, auto_close_seconds=None if error else 6.0,
@@ -583,6 +700,7 @@ class Session:
         self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
         self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
+        self.slider_pinned, self.slider_set_s = False, None   # the slider follows the new run until the user moves it
         self.time_slider.max = config.trajectory.duration_s
         self._clear_trajectories()
         self._draw_vkf_plot(None, config)
@@ -624,6 +742,8 @@ class Session:
                         if pending is not None:
                             self._show_results(pending, config)
                         self.status.content = "Run stopped."
+                        if self.results:                 # the slider spans what was run
+                            self._span_slider(float(next(iter(self.results.values())).t_s[-1]))
                         if "vkf" in config.run.methods and not (self.results and "vkf" in self.results):
                             self.vkf_note.content = VKF_NOTES["stopped"]    # killed before its first progress
                         note = ("Run stopped", "The run ended before completion.", False)
@@ -681,17 +801,84 @@ class Session:
     def _show_results(self, results: dict[str, MethodResult], config: Config) -> None:
         self.results = results
         self.refresh_plots()
-        self.table.content = summary_markdown(results)
+        self.table.content = summary_markdown(results) + "\n\n" + rms_markdown(results)
         self._draw_estimates(results)
         if "vkf" in results:            # the VKF's learned scale factor and bias, as far as the run got
             self._draw_vkf_plot(results["vkf"], config)
-        t_last = float(next(iter(results.values())).t_s[-1])
-        if not self.playing:
-            self.time_slider.value = min(t_last, self.time_slider.max)
+        self._follow_run_time(float(next(iter(results.values())).t_s[-1]))
 
     def _keep_finished(self, results: dict[str, MethodResult], config: Config, stopped: bool) -> None:
-        """The run's final results arrived (``stopped``: Stop ended it): offer them for download."""
+        """The run's final results arrived (``stopped``: Stop ended it): offer them for download,
+        and let the time slider span what was run."""
         self._set_finished(export.finished_run(config, results, self.run_log, stopped))
+        if results:
+            self.keep_run(config, results)      # the Runs tab keeps it for comparison
+        if results:
+            self._span_slider(float(next(iter(results.values())).t_s[-1]))
+
+    # ------------------------------------------------------------------ kept runs
+    def keep_run(self, config: Config, results: dict[str, MethodResult]) -> None:
+        """Keep a finished run in the Runs tab (its description, an Overlay checkbox, a Remove
+        button); the oldest goes beyond KEPT_RUNS_MAX, said in a notification."""
+        gui = self.client.gui
+        with self.draw_lock:
+            self.run_number += 1
+            kept = KeptRun(self.run_number, config, int(next(iter(results.values())).vel_err_mps.shape[1]), results)
+            self.kept_runs.append(kept)
+            dropped, self.kept_runs = self.kept_runs[:-KEPT_RUNS_MAX], self.kept_runs[-KEPT_RUNS_MAX:]
+            for old in dropped:
+                self.kept_widgets.pop(old.number)[0].remove()
+            self.no_runs.visible = False
+            with self.runs_folder:
+                folder = gui.add_folder(f"Run {kept.number}")
+                with folder:
+                    gui.add_markdown(kept.description())
+                    box = gui.add_checkbox(f"Overlay run {kept.number}", False,
+                                           hint="overlay this run in the Plots tab and compare it below")
+                    button = gui.add_button(f"Remove run {kept.number}", color="red")
+            self.kept_widgets[kept.number] = (folder, box)
+            self.refresh_runs()
+        box.on_update(lambda _: self.refresh_runs())
+        button.on_click(lambda _, n=kept.number: self.remove_run(n))
+        if dropped:
+            self.notify("Run removed", f"Run {dropped[0].number} was removed: at most {KEPT_RUNS_MAX} runs are kept.")
+
+    def remove_run(self, number: int) -> None:
+        """Forget kept run ``number`` and its widgets."""
+        with self.draw_lock:
+            self.kept_runs = [r for r in self.kept_runs if r.number != number]
+            widgets = self.kept_widgets.pop(number, None)
+            if widgets is not None:
+                widgets[0].remove()
+            self.no_runs.visible = not self.kept_runs
+            self.refresh_runs()
+
+    def overlay_runs(self) -> list[KeptRun]:
+        """The kept runs ticked for overlay, oldest first."""
+        return [r for r in self.kept_runs if r.number in self.kept_widgets and self.kept_widgets[r.number][1].value]
+
+    @_drawing
+    def refresh_runs(self) -> None:
+        """The Runs tab's comparison (configuration differences above the results side by side)
+        and the Plots tab's overlay, for the runs ticked."""
+        overlay = self.overlay_runs()
+        if len(overlay) >= 2:
+            self.diff_table.content = config_diff_markdown([r.label for r in overlay],
+                                                           [flat_config(r.config, r.runs) for r in overlay])
+            self.compare_table.content = "**Results side by side**\n\n" + compare_markdown(
+                [(r.label, r.results) for r in overlay])
+        else:
+            self.diff_table.content = "Tick two or more runs to compare them." if self.kept_runs else ""
+            self.compare_table.content = ""
+        self.refresh_plots()
+
+    def move_cursor(self, t_s: float) -> None:
+        """Move the time cursor of every plot on the page to ``t_s`` [s]: a few hundred bytes of
+        script (Plotly.relayout of the cursor shape) instead of every figure again; the figures
+        the server sends next carry it too (:meth:`refresh_plots`)."""
+        self.cursor_t = float(t_s)
+        script = CURSOR_JS.replace("__T__", json.dumps(self.cursor_t)).replace("__SHAPE__", json.dumps(cursor_shape(0.0)))
+        self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
     def _set_finished(self, run: export.FinishedRun | None) -> None:
         """Keep ``run``, whose final results arrived, for the Download buttons and enable them
@@ -713,19 +900,50 @@ class Session:
 
     @_drawing
     def refresh_plots(self) -> None:
+        """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
+        ticked for overlay), their components, NEES and innovations, each with the time cursor."""
         results = self.results
         if not results:
             return
+        t = self.cursor_t
         log_y = AUTO if self.log_y.value else False
+        overlay = self.overlay_runs()
+        same = identical_methods(results)
+        notes = []
+        if len(overlay) >= 2:
+            notes.append(f"**Overlay of {', '.join(r.label for r in overlay)}** (Runs tab; line styles in the titles). "
+                         "Untick them there to see the current run alone.")
+        if same:
+            notes.append(identical_note(same))
+        note = "\n\n".join(notes)
+        if self.plots_note.content != note:
+            self.plots_note.content = note
         for q, handle in self.plots.items():
             shown = q != "att" or self.show_att_norm.value
             if handle.visible != shown:
                 handle.visible = shown
             if shown:
-                handle.figure = error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y)
-        self.nees_plot.figure = nees_figure(results, self.nees_block.value)
+                figure = (compare_figure([(r.label, r.results) for r in overlay], q, log_y=log_y) if len(overlay) >= 2
+                          else error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y))
+                handle.figure = with_cursor(figure, t)
+        self.nees_plot.figure = with_cursor(nees_figure(results, self.nees_block.value), t)
+        tv = self.truth_view
+        if tv is not None:
+            components = {m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"])
+                          for m, r in results.items() if len(r.t_s)}
+            for q, handle in self.component_plots.items():
+                handle.figure = with_cursor(components_figure(results, components, q), t)
+        sources = innovation_sources(results)
+        if sources:
+            if tuple(self.innovation_source.options) != sources:
+                self.innovation_source.options = sources
+            source = self.innovation_source.value if self.innovation_source.value in sources else sources[0]
+            self.innovation_plot.figure = with_cursor(innovation_figure(results, source), t)
+            without = [m.upper() for m, r in results.items() if source not in r.updates]
+            self.innovation_note.content = INNOVATION_NOTE + (
+                f" No {source.upper()} updates: {', '.join(without)}." if without else "")
         if "elc" in results:
-            self.elc_plot.figure = elc_choice_figure(results["elc"])
+            self.elc_plot.figure = with_cursor(elc_choice_figure(results["elc"]), t)
             self.elc_plot.visible = True
         else:
             self.elc_plot.visible = False
@@ -740,29 +958,58 @@ class Session:
         scene.add_light_hemisphere("/light/sky", sky_color=(255, 255, 255), ground_color=(150, 130, 100),
                                    intensity=1.5)
         d = Config()
-        self.seabed = scene.add_grid("/seabed", width=600.0, height=600.0, plane="xy", cell_size=10.0,
-                                     section_size=50.0, cell_color=(150, 120, 80), section_color=(120, 90, 60),
-                                     plane_color=(194, 170, 120), plane_opacity=0.5,
-                                     position=(0.0, 150.0, -d.trajectory.seabed_depth_m))
-        surface_v = np.array([[-300, -150, 0], [300, -150, 0], [300, 450, 0], [-300, 450, 0]], dtype=float)
-        scene.add_mesh_simple("/surface", surface_v, np.array([[0, 1, 2], [0, 2, 3]]), color=(90, 170, 230),
-                              opacity=0.15, side="double")
+        start_n = np.array([0.0, 0.0, d.trajectory.depth_m])
         (verts, faces), fins = auv_parts_body()
         self.auv = scene.add_mesh_simple("/auv", verts, faces, color=(250, 200, 40), flat_shading=False,
-                                         position=tuple(ned_to_view(np.array([0.0, 0.0, d.trajectory.depth_m]))))
+                                         position=tuple(ned_to_view(start_n)), wxyz=tuple(wxyz_view(np.eye(3))))
         # children of the hull's node: placed in the body frame, each turned about its hinge (show_time)
         self.fins = [scene.add_mesh_simple(f"/auv/fin{k + 1}", fin.verts_hinge, fin.faces, color=_hex_rgb(color),
                                            flat_shading=True, side="double", position=tuple(fin.hinge_b))
                      for k, (fin, color) in enumerate(zip(fins, FIN_COLORS))]
-        self.beams: list[Any] = []
+        self.beam_nodes: list[list[Any]] | None = None   # [beam][state] under /auv (show_beams_static)
+        self.beam_shown: list[str] = []
         self.terrain: Any = None         # the seabed's mesh when it is not flat (_draw_seabed)
+        self.furniture: list[Any] = []   # seabed grid, surface, compass and scale (_size_scene)
+        self.frame: MissionFrame | None = None
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
-        self.show_beams_static(d, np.array([0.0, 0.0, d.trajectory.depth_m]), np.eye(3))
+        self.slider_pinned = False       # the user put the time slider somewhere during the run: it stays
+        self.run_time_s = 0.0            # the latest time the running run has results for [s]
+        self.slider_set_s: float | None = None   # where the run last put the slider [s]
+        # before a run: the default straight line's first 300 m, at the default seabed
+        self._size_scene(mission_frame(np.array([start_n, start_n + [300.0, 0.0, 0.0]]), d.trajectory.seabed_depth_m))
+        self._beams_from_boxes()
+        for k, p in enumerate(beam_label_positions_b(d.dvl.l_dvl_b, d.dvl.A_b), start=1):
+            scene.add_label(f"/auv/beams/{k}/label", str(k), position=tuple(p), font_screen_scale=0.8,
+                            anchor="center-center")
 
-    def _aim_camera(self, center_n: np.ndarray, distance_m: float) -> None:
-        center = ned_to_view(center_n)
-        self._set_camera(center + np.array([-0.6, -0.8, 0.6]) * distance_m, center)
+    @_drawing
+    def _size_scene(self, frame: MissionFrame) -> None:
+        """Seabed grid, sea surface, compass rose and scale bar sized to the mission ``frame``
+        (app.scene.mission_frame); re-added once per run."""
+        for handle in self.furniture:
+            handle.remove()
+        scene, self.frame = self.client.scene, frame
+        (w, h), c = frame.seabed_size_m, frame.seabed_center_view
+        self.seabed = scene.add_grid("/seabed", width=w, height=h, plane="xy", cell_size=frame.cell_m,
+                                     section_size=5 * frame.cell_m, cell_color=(150, 120, 80),
+                                     section_color=(120, 90, 60), plane_color=SEABED_COLOR, plane_opacity=0.5,
+                                     position=tuple(c), visible=self.terrain is None)
+        corners = np.array([[-w, -h, 0.0], [w, -h, 0.0], [w, h, 0.0], [-w, h, 0.0]]) / 2 + [c[0], c[1], 0.0]
+        surface = scene.add_mesh_simple("/surface", corners, np.array([[0, 1, 2], [0, 2, 3]]), color=(90, 170, 230),
+                                        opacity=0.15, side="double")
+        s = frame.scale_m
+        corner = np.array([frame.lo_view[0] - 0.3 * s, frame.lo_view[1] - 0.3 * s, 0.0])
+        arrows, label_at = compass_view(corner, s)
+        compass = scene.add_arrows("/compass/arrows", arrows, (40, 40, 40), shaft_radius=0.015 * s,
+                                   head_radius=0.05 * s, head_length=0.12 * s)
+        labels = [scene.add_label(f"/compass/{name}", name, position=tuple(p), anchor="center-center")
+                  for name, p in zip("NE", label_at)]
+        bar = scale_bar_view(corner - [0.0, 0.3 * s, 0.0], s)
+        scale = scene.add_line_segments("/scale/bar", bar, (40, 40, 40), thickness=3.0, thickness_units="screen")
+        scale_label = scene.add_label("/scale/label", f"{s:g} m", position=tuple(bar[0].mean(axis=0) - [0, 0.08 * s, 0]),
+                                      anchor="top-center")
+        self.furniture = [self.seabed, surface, compass, *labels, scale, scale_label]
 
     def _set_camera(self, position: np.ndarray, look_at: np.ndarray) -> None:
         """Position first, then look_at (viser moves look_at with the position otherwise)."""
@@ -773,24 +1020,73 @@ class Session:
         except AssertionError:  # the browser has not reported its camera yet; initial_camera applies
             pass
 
+    def fit_mission(self) -> None:
+        """Frame the whole mission (the track down to the seabed) and leave the camera free."""
+        if self.camera_mode.value != CAMERA_FREE:
+            self.camera_mode.value = CAMERA_FREE
+        if self.frame is None:
+            return
+        try:
+            fov = float(self.client.camera.fov)
+        except AssertionError:  # the browser has not reported its camera yet
+            fov = np.radians(50.0)
+        self._set_camera(*fit_camera_view(self.frame.lo_view, self.frame.hi_view, fov))
+
+    def _camera_changed(self) -> None:
+        """A chase view moves the camera to the vehicle at once (free: the camera stays)."""
+        if self.camera_mode.value != CAMERA_FREE:
+            self.show_time(float(self.time_slider.value))
+
     @_drawing
     def show_beams_static(self, config: Config, pos_n: np.ndarray, C_nb: np.ndarray,
                           states: list[str] | None = None, range_m: np.ndarray | None = None) -> None:
-        """Draw the four beams from the DVL head to the seabed, coloured by state.
+        """Draw the four beams from the DVL head to the seabed, coloured by state (None: each
+        enabled beam of ``config`` returning where the seabed is in range).
 
         ``range_m`` (4,): each beam's slant range (the truth view's, inf beyond the DVL's range:
-        drawn at that range); None: traced here to the configured mission's seabed (before a run,
-        a replayed log). Each beam is re-added under its name rather than recoloured: assigning
-        ``colors`` to an existing line-segments node hides it in viser 1.1 (seen in headless Chromium).
+        drawn at that range); None: traced here from ``pos_n``, ``C_nb`` to the configured
+        mission's seabed (before a run, a replayed log). The beams are children of the hull's node
+        in the body frame (app.scene.beam_segments_b), so hull and beams move in one message.
+        Each beam has one node per state, made once and then updated in place: its points change
+        and one node is shown (assigning ``colors`` to a line-segments node hid it in viser 1.1,
+        and re-adding every beam at every time step blanked the beams in frames between the
+        removal and the new node, and drew them from another time than the hull).
         """
         dvl = config.dvl
         if range_m is None:
             range_m = seabed_ranges_m(pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m)
-        segs = ned_to_view(beam_segments_n(pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m))
-        states = states or [BEAM_RETURNING] * 4
-        self.beams = [self.client.scene.add_line_segments(
-            f"/beams/{k + 1}", segs[k:k + 1], BEAM_COLORS[state], thickness=2.5, thickness_units="screen")
-            for k, state in enumerate(states)]
+        if states is None:
+            states = beam_states(dvl.beam_mask, dvl.beam_mask & np.isfinite(range_m), np.zeros(4, bool))
+        segs = beam_segments_b(dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m)
+        order = (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
+        nodes = getattr(self, "beam_nodes", None)
+        if nodes is None:        # the first drawing makes the nodes, each as it is to be shown
+            self.beam_nodes = [[self.client.scene.add_line_segments(
+                f"/auv/beams/{k + 1}/{j}", segs[k:k + 1], BEAM_COLORS[s], thickness=2.5, thickness_units="screen",
+                visible=s == states[k]) for j, s in enumerate(order)] for k in range(4)]
+            self.beam_shown = list(states)
+            return
+        for k, state in enumerate(states):
+            node = nodes[k][order.index(state)]
+            node.points = segs[k:k + 1]
+            if state != self.beam_shown[k]:
+                node.visible = True
+                nodes[k][order.index(self.beam_shown[k])].visible = False
+                self.beam_shown[k] = state
+
+    def _beams_from_boxes(self) -> None:
+        """Before a run's truth arrives the beams stand at the mission's start as the DVL beam
+        boxes say: a box unticked, its beam is drawn switched off at once. A run's beams show
+        what that run did."""
+        if self.truth_view is not None:
+            return
+        config = self.config or Config()
+        enabled = np.array([box.value for box in self.beam_boxes])
+        pos_n, dvl = np.array([0.0, 0.0, config.trajectory.depth_m]), config.dvl
+        range_m = seabed_ranges_m(pos_n, np.eye(3), dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory),
+                                  dvl.max_range_m)
+        states = beam_states(enabled, enabled & np.isfinite(range_m), np.zeros(4, bool))
+        self.show_beams_static(config, pos_n, np.eye(3), states, range_m)
 
     @_drawing
     def _clear_trajectories(self) -> None:
@@ -810,31 +1106,25 @@ class Session:
         self.truth_line = self.client.scene.add_line_segments(
             "/traj/truth", np.stack([pts[:-1], pts[1:]], axis=1), _hex_rgb(TRUTH_COLOR), thickness=3.0,
             thickness_units="screen")
-        lo, hi = tv["pos_n"].min(axis=0), tv["pos_n"].max(axis=0)
-        center = 0.5 * (lo + hi)
-        self._draw_seabed(config, tv["pos_n"], center)
-        if self.follow.value:
-            self._aim_camera(tv["pos_n"][0], 25.0)
-        else:
-            self._aim_camera(center, max(60.0, 0.8 * float(np.max(hi[:2] - lo[:2]))))
-        self.show_time(0.0)
+        self._draw_seabed(config, tv["pos_n"])
+        self._size_scene(mission_frame(tv["pos_n"], config.trajectory.seabed_depth_m))
+        if self.camera_mode.value == CAMERA_FREE:
+            self.fit_mission()
+        self.show_time(min(float(self.time_slider.value), float(tv["t_s"][-1])))
 
     @_drawing
-    def _draw_seabed(self, config: Config, pos_n: np.ndarray, center_n: np.ndarray) -> None:
-        """A flat seabed is the grid, centred under the track; any other (terrain, the longrange
-        trenches) a mesh of the mission's bathymetry under the track (app.scene.seabed_mesh_n).
-        A replayed log records no seabed: the grid at the configured depth."""
+    def _draw_seabed(self, config: Config, pos_n: np.ndarray) -> None:
+        """A flat seabed is the grid (:meth:`_size_scene`: under the track with a margin); any other
+        (terrain, the longrange trenches) a mesh of the mission's bathymetry under the track
+        (app.scene.seabed_mesh_n), the grid hidden. A replayed log records no seabed: the grid at
+        the configured depth."""
         if self.terrain is not None:
             self.terrain.remove()
             self.terrain = None
         seabed = bathymetry(config.trajectory)
         if seabed.is_plane or self.replaying:
-            self.seabed.position = (float(ned_to_view(center_n)[0]), float(ned_to_view(center_n)[1]),
-                                    -config.trajectory.seabed_depth_m)
-            self.seabed.visible = True
             return
         verts_n, faces = seabed_mesh_n(seabed, pos_n)
-        self.seabed.visible = False
         self.terrain = self.client.scene.add_mesh_simple("/terrain", ned_to_view(verts_n), faces, color=SEABED_COLOR,
                                                          flat_shading=False, side="double")
 
@@ -897,33 +1187,67 @@ class Session:
 
     @_drawing
     def show_time(self, t_s: float) -> None:
-        """Place the vehicle and colour the beams at time ``t_s`` of the current run."""
+        """Place the vehicle and colour the beams at time ``t_s`` of the current run.
+
+        The pose is interpolated between the truth's samples (app.scene.interpolate_pose: playback
+        is smooth at any speed); ranges, fins and beam states are the sample's at or before
+        ``t_s``. Camera, hull, fins and beams change in one atomic batch: the page never draws a
+        frame with some of them moved.
+        """
         tv, config = self.truth_view, self.config
         if tv is None or config is None:
             return
-        i = int(np.clip(np.searchsorted(tv["t_s"], t_s), 0, len(tv["t_s"]) - 1))
-        pos_n, C_nb = tv["pos_n"][i], tv["C_nb"][i]
-        if self.follow.value:
-            # chase view: behind and above the vehicle's track; untick "Follow vehicle" to orbit freely
-            target = ned_to_view(pos_n)
-            heading_view = M_VIEW_FROM_NED @ C_nb[:, 0]
-            back = -heading_view / max(np.linalg.norm(heading_view[:2]), 1e-6)
-            offset = FOLLOW_DISTANCE_M * (0.7 * np.array([back[0], back[1], 0.0]) + np.array([0.0, 0.0, 0.7]))
-            self._set_camera(target + offset, target)
-        self.auv.position = tuple(ned_to_view(pos_n))
-        self.auv.wxyz = tuple(wxyz_view(C_nb))
-        fin_angles = tv.get("fin_angles_rad")
-        deflection = fin_angles[i] if fin_angles is not None else np.zeros(len(self.fins))  # kinematic: no fins move
-        for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
-            fin.wxyz = tuple(wxyz)
+        t_s = float(np.clip(t_s, tv["t_s"][0], tv["t_s"][-1]))
+        i, pos_n, C_nb = interpolate_pose(t_s, tv["t_s"], tv["pos_n"], tv["C_nb"])
         ranges = tv.get("slant_range_m")
         range_m = ranges[i] if ranges is not None else None
         states = self.beam_states_at(t_s, range_m)
-        self.show_beams_static(config, pos_n, C_nb, states, range_m)
+        fin_angles = tv.get("fin_angles_rad")
+        deflection = fin_angles[i] if fin_angles is not None else np.zeros(len(self.fins))  # kinematic: no fins move
+        with self.client.atomic():
+            if self.camera_mode.value != CAMERA_FREE:
+                self._set_camera(*chase_camera_view(ned_to_view(pos_n), C_nb, self.camera_mode.value,
+                                                    FOLLOW_DISTANCE_M))
+            self.auv.position = tuple(ned_to_view(pos_n))
+            self.auv.wxyz = tuple(wxyz_view(C_nb))
+            for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
+                fin.wxyz = tuple(wxyz)
+            self.show_beams_static(config, pos_n, C_nb, states, range_m)
         altitude = tv.get("altitude_m")
         in_range = np.isfinite(range_m) if range_m is not None else np.ones(4, dtype=bool)
-        self.readout.content = beam_readout(float(tv["t_s"][i]), states, in_range,
-                                            float(altitude[i]) if altitude is not None else None)
+        text = beam_readout(t_s, states, in_range, float(altitude[i]) if altitude is not None else None)
+        if text != self.readout.content:
+            self.readout.content = text
+
+    def _slider_moved(self, event: viser.GuiEvent) -> None:
+        """The time slider moved: show that time. Moved by the user's hand during a run, it stays
+        there as results arrive (unless put at the latest time, where it follows the run again)."""
+        t_s = float(self.time_slider.value)
+        if event.client is not None and self.handle is not None:
+            self.slider_pinned, self.slider_set_s = t_s < self.run_time_s - 0.5, t_s
+        self.show_time(t_s)
+
+    def _follow_run_time(self, t_last_s: float) -> None:
+        """A run's results reach ``t_last_s``: the slider moves there, unless the user put it
+        elsewhere during this run or playback drives it. A slider that no longer stands where the
+        run put it was moved by the user: viser runs the slider's callback in a thread pool, which
+        may come after this (and read the value this would set), so the value itself decides."""
+        self.run_time_s = t_last_s
+        if self.playing or self.slider_pinned:
+            return
+        if self.slider_set_s is not None and self.time_slider.value != self.slider_set_s:
+            self.slider_pinned = True
+            return
+        self.slider_set_s = min(t_last_s, self.time_slider.max)
+        self.time_slider.value = self.slider_set_s
+
+    def _span_slider(self, t_end_s: float) -> None:
+        """The run ended at ``t_end_s`` (Stop, or its end): the slider spans what was run, not the
+        requested duration; a value beyond it comes back to the end."""
+        t_end_s = max(float(t_end_s), float(self.time_slider.step))
+        if self.time_slider.value > t_end_s:
+            self.time_slider.value = t_end_s
+        self.time_slider.max = t_end_s
 
     def beam_states_at(self, t_s: float, range_m: np.ndarray | None = None) -> list[str]:
         """Each beam's state at ``t_s``: the schedule's (or, once results arrive, the run's record
@@ -956,21 +1280,38 @@ class Session:
         return beam_states(enabled, returned, rejected)
 
     def play(self) -> None:
+        """Play the run from the slider's time (from the start if at the end) at the Speed chosen."""
         if self.truth_view is None or self.playing:
             return
         self.playing = True
+        threading.Thread(target=self._play_loop, daemon=True).start()
 
-        def loop() -> None:
-            t = float(self.time_slider.value)
+    def _play_loop(self) -> None:
+        """Move the slider at a steady PLAYBACK_FPS, to the time the wall clock and the speed give
+        (app.scene.playback_time; the speed may change while playing). The slider's callback moves
+        the vehicle in place (show_time). Formerly 2 s of mission every 50 ms of sleep plus drawing:
+        about 35x, at the pace of each frame's cost."""
+        try:
             t_end = float(self.time_slider.max)
-            if t >= t_end - 0.1:
-                t = 0.0
-            while self.playing and t <= t_end:
-                self.time_slider.value = t       # on_update moves the vehicle
-                t += 2.0
-                time.sleep(0.05)
+            t0 = float(self.time_slider.value)
+            if t0 >= t_end - 0.1:
+                t0 = 0.0
+            speed = playback_speed(self.speed.value)
+            start = time.monotonic()
+            frame = 0
+            while self.playing:
+                now = time.monotonic()
+                if playback_speed(self.speed.value) != speed:       # carry on from here at the new speed
+                    t0, start = playback_time(t0, speed, now - start, t_end), now
+                    speed, frame = playback_speed(self.speed.value), 0
+                t = playback_time(t0, speed, now - start, t_end)
+                self.time_slider.value = t
+                if t >= t_end:
+                    break
+                frame += 1
+                time.sleep(max(0.0, start + frame / PLAYBACK_FPS - time.monotonic()))
+        finally:
             self.playing = False
-        threading.Thread(target=loop, daemon=True).start()
 
     def close(self) -> None:
         self.playing = False

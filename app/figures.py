@@ -24,7 +24,7 @@ that every figure validates and equals its validated construction.
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 
 from tauvcore.aiding.elc_select import CANDIDATES
+from tauvcore.config import Config, to_dict
 from tauvcore.eval.consistency import (
     BLOCK_DIMS,
     CONFIDENCE,
@@ -41,6 +42,7 @@ from tauvcore.eval.consistency import (
 )
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
+from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
 
 METHOD_COLORS = {
     "ins": "#7f7f7f", "lc": "#1f77b4", "tc": "#ff7f0e", "vb": "#2ca02c",
@@ -492,8 +494,19 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | 
                      "dvl_nis_per_dof": dvl_nis.per_dof if dvl_nis is not None else float("nan"),
                      "runs": int(res.diverged.size), "diverged_runs": int(np.count_nonzero(res.diverged)),
                      "diverged_first_s": float(np.nanmin(res.diverged_at_s)) if res.diverged.any() else float("nan"),
-                     "p_floor_count": int(np.sum(res.p_floor_count))})
+                     "p_floor_count": int(np.sum(res.p_floor_count)), **dvl_counts(res)})
     return rows
+
+
+def dvl_counts(result: MethodResult) -> dict[str, int | None]:
+    """The DVL updates of ``result`` summed over its runs, as the CLI counts them (app.cli
+    summary_table): ``dvl_fused``, ``dvl_rejected`` (failed the gate) and ``dvl_coast`` (pings
+    with no measurement); None each for a method without DVL updates (INS)."""
+    dvl = result.updates.get("dvl")
+    if dvl is None:
+        return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None}
+    return {"dvl_fused": int(np.sum(dvl.fused)), "dvl_rejected": int(np.sum(dvl.rejected)),
+            "dvl_coast": int(np.sum(~dvl.valid))}
 
 
 def _health_cell(row: Mapping[str, float | str]) -> str:
@@ -532,6 +545,11 @@ CONSISTENCY_COLUMNS = ("method", "states", "NEES/dim (in 99 % band)", "vel NEES/
 """The results' two tables (a "P floors" column ends the second when some method needed a repair):
 one table of eleven columns is wider than the dashboard's panel, which cut off its right end."""
 CONSISTENCY_HEADING = "**Consistency** (1 = the method knows its error; above 1 it is over-confident)"
+RMS_COLUMNS = ("method", "vel RMS [m/s]", "att RMS [deg]", "tilt RMS [deg]", "heading RMS [deg]", "pos RMS [m]",
+               "DVL fused", "DVL rejected", "DVL coast")
+RMS_HEADING = ("**RMS over time and DVL updates** (fused; rejected by the gate; coast: pings without a "
+               "measurement; summed over the runs)")
+"""The results' third table: every RMS figure the CLI prints and its DVL counts."""
 
 
 def _table(columns: tuple[str, ...], rows: list[list[str]]) -> list[str]:
@@ -553,7 +571,7 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     gate locked out). It sees only what the measurements reveal: "ok" is not a proof of
     consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma); the
     NEES columns beside it are. A "P floors" column (repairs of P summed over runs) appears
-    only when some method needed one.
+    only when some method needed one. The RMS figures and DVL counts are :func:`rms_markdown`.
     """
     rows = summary_rows(results)
     floors = any(r["p_floor_count"] for r in rows)
@@ -565,3 +583,338 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
                    + ([str(r["p_floor_count"])] if floors else []) for r in rows]
     columns = CONSISTENCY_COLUMNS + (("P floors",) if floors else ())
     return "\n".join(_table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency))
+
+
+def rms_markdown(results: Mapping[str, MethodResult]) -> str:
+    """The Results tab's third table, below RMS_HEADING: every RMS over time the CLI prints
+    (velocity, attitude norm, tilt, heading, position) and the DVL's fused, rejected and coast
+    counts (:func:`dvl_counts`; "-" for a method without DVL updates)."""
+    def count(x: int | None) -> str:
+        return "-" if x is None else str(x)
+    rows = [[str(r["method"]), _fixed(r["vel_rms_mps"], 4), _fixed(r["att_rms_deg"], 3), _fixed(r["tilt_rms_deg"], 3),
+             _fixed(r["heading_rms_deg"], 3), _fixed(r["pos_rms_m"], 2), count(r["dvl_fused"]),
+             count(r["dvl_rejected"]), count(r["dvl_coast"])] for r in summary_rows(results)]
+    return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows))
+
+
+# ------------------------------------------------------------------ the workbench (issue 13)
+CURSOR_NAME = "time cursor"
+CURSOR_COLOR = "rgba(40,40,40,0.7)"
+
+
+def cursor_shape(t_s: float) -> dict[str, Any]:
+    """The shared time cursor: a vertical line at ``t_s`` [s] across the whole plot (a plotly
+    layout shape named CURSOR_NAME; the dashboard moves it in the page with the time slider)."""
+    return {"type": "line", "name": CURSOR_NAME, "xref": "x", "yref": "paper", "x0": float(t_s), "x1": float(t_s),
+            "y0": 0.0, "y1": 1.0, "line": {"color": CURSOR_COLOR, "width": 1.5, "dash": "dot"}}
+
+
+def with_cursor(figure: go.Figure, t_s: float | None) -> go.Figure:
+    """``figure`` with the time cursor at ``t_s`` (None: none), in place; returned for chaining."""
+    figure.layout.shapes = [] if t_s is None else [cursor_shape(t_s)]
+    return figure
+
+
+COMPONENTS = {
+    "pos": (("north", "east", "down"), "Position error", "m"),
+    "vel": (("surge", "sway", "heave"), "Body velocity error", "m/s"),
+    "att": (("roll", "pitch", "heading"), "Attitude error (Euler angles)", "deg"),
+}
+"""Signed error components (:func:`error_components`): names of the three axes, title, unit."""
+
+
+def _nearest(t_from: np.ndarray, t_to: np.ndarray) -> np.ndarray:
+    """Index into ``t_from`` (sorted) of the sample nearest each of ``t_to``."""
+    i = np.clip(np.searchsorted(t_from, t_to), 1, max(len(t_from) - 1, 1))
+    before = np.abs(t_to - t_from[i - 1]) <= np.abs(t_from[np.minimum(i, len(t_from) - 1)] - t_to)
+    return np.where(before, i - 1, i).clip(0, len(t_from) - 1)
+
+
+def error_components(result: MethodResult, truth_t_s: np.ndarray, truth_pos_n: np.ndarray, truth_C_nb: np.ndarray,
+                     truth_vel_n: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Signed errors (estimate minus truth) of ``result`` at its output epochs, per axis.
+
+    ``pos`` (T, R, 3): north, east, down [m], ``est_pos_n - pos_n``. ``vel`` (T, R, 3): surge,
+    sway, heave [m/s], the body-frame velocity error ``C_nb_est.T v_est_n - C_nb.T v_n`` (the
+    norm of it is ``MethodResult.vel_err_mps``). ``att`` (T, R, 3): roll, pitch, heading [deg],
+    the difference of the estimated and true ZYX Euler angles, heading wrapped to (-180, 180].
+    ``vel`` needs ``est_vel_n`` and ``est_euler_rad``, ``att`` the latter: missing, the key is absent.
+
+    Parameters
+    ----------
+    truth_t_s : (N,) epochs of the truth [s]; each output epoch takes the nearest (the dashboard's
+        truth view is sampled at the output epochs, so they coincide).
+    truth_pos_n, truth_C_nb : (N, 3), (N, 3, 3) true position [m] and attitude.
+    truth_vel_n : (N, 3) true NED velocity [m/s]; None: the central difference of ``truth_pos_n``
+        (``np.gradient``, second order: error ~ dt^2/6 |d3r/dt3|, 2e-5 m/s at 10 Hz for a jerk of 0.01 m/s^3).
+    """
+    truth_t_s = np.asarray(truth_t_s, float)
+    if len(truth_t_s) == 0 or len(result.t_s) == 0:
+        raise ValueError(f"error_components needs epochs, got {len(truth_t_s)} of truth and {len(result.t_s)} of results")
+    k = _nearest(truth_t_s, np.asarray(result.t_s, float))
+    pos, C = np.asarray(truth_pos_n, float)[k], np.asarray(truth_C_nb, float)[k]
+    out = {"pos": result.est_pos_n - pos[:, None, :]}
+    if result.est_euler_rad is not None:
+        euler_true = euler_from_C_nb(C)
+        d = result.est_euler_rad - euler_true[:, None, :]
+        d[..., 2] = wrap_angle(d[..., 2])
+        out["att"] = np.degrees(d)
+        if result.est_vel_n is not None:
+            if truth_vel_n is None:
+                vel_all = (np.gradient(np.asarray(truth_pos_n, float), truth_t_s, axis=0) if len(truth_t_s) > 1
+                           else np.zeros((1, 3)))
+            else:
+                vel_all = np.asarray(truth_vel_n, float)
+            v_true_b = np.einsum("tji,tj->ti", C, vel_all[k])                           # C_nb.T v_n
+            v_est_b = np.einsum("trji,trj->tri", C_nb_from_euler(result.est_euler_rad), result.est_vel_n)
+            out["vel"] = v_est_b - v_true_b[:, None, :]
+    return out
+
+
+def identical_methods(results: Mapping[str, MethodResult]) -> dict[str, str]:
+    """Methods whose results equal an earlier method's, each mapped to that method (the first
+    in ``results``' order): every error series, its sigma and NEES equal element for element (NaN
+    equal to NaN). ELC, NSV, VB, ... with all four beams returning are LC: the same numbers."""
+    fields = ("vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "pos_sigma_m", "nees")
+    same: dict[str, str] = {}
+    seen: list[str] = []
+    for method, res in results.items():
+        for other in seen:
+            ref = results[other]
+            if ref.t_s.shape == res.t_s.shape and all(
+                    getattr(ref, f).shape == getattr(res, f).shape
+                    and np.array_equal(getattr(ref, f), getattr(res, f), equal_nan=True) for f in fields):
+                same[method] = other
+                break
+        else:
+            seen.append(method)
+    return same
+
+
+def identical_note(same: Mapping[str, str]) -> str:
+    """One sentence per group of identical methods (:func:`identical_methods`), "" if none."""
+    groups: dict[str, list[str]] = {}
+    for method, ref in same.items():
+        groups.setdefault(ref, []).append(method.upper())
+    parts = [f"{' and '.join(names)} {'give' if len(names) > 1 else 'gives'} exactly the results of {ref.upper()}"
+             for ref, names in groups.items()]
+    if not parts:
+        return ""
+    return ("**Identical methods:** " + "; ".join(parts) + " (with 3-4 beams returning, the partial-beam methods "
+            "fuse as LC). Their curves lie on one another: the one drawn last hides the others.")
+
+
+def _panels(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
+    """y domains of ``n`` stacked panels, the first on top."""
+    h = (1.0 - gap * (n - 1)) / n
+    return [(max(0.0, round(1.0 - k * (h + gap) - h, 6)), min(1.0, round(1.0 - k * (h + gap), 6))) for k in range(n)]
+
+
+def _stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, Any]:
+    """Layout of len(``names``) panels sharing the time axis, each y-axis titled by its name."""
+    layout: dict[str, Any] = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
+                              "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
+                              "legend": {"orientation": "h", "y": -0.12}, "template": "plotly_white"}
+    n = len(names)
+    for k, ((lo, hi), name) in enumerate(zip(_panels(n), names)):
+        suffix = "" if k == 0 else str(k + 1)
+        layout[f"xaxis{suffix}"] = ({"anchor": f"y{suffix}", "title": {"text": "time [s]"}} if k == n - 1 else
+                                    {"anchor": f"y{suffix}", "matches": f"x{n if n > 1 else ''}", "showticklabels": False})
+        layout[f"yaxis{suffix}"] = {"domain": [lo, hi], "title": {"text": name, "font": {"size": 11}},
+                                    "zeroline": True}
+    return layout
+
+
+def components_figure(results: Mapping[str, MethodResult], components: Mapping[str, Mapping[str, np.ndarray]],
+                      quantity: str = "vel", height_px: int = 480, max_points: int | None = 600,
+                      validate: bool = False) -> go.Figure:
+    """Signed error components of ``quantity`` ("pos", "vel", "att": COMPONENTS) against time,
+    one panel per axis (north/east/down, surge/sway/heave, roll/pitch/heading), one trace per
+    method and panel named by the method (in the legend once, its panels grouped with it).
+
+    ``components``: method -> :func:`error_components` of it (a method absent, or without
+    ``quantity``, is not drawn). With several Monte Carlo runs the curves are the RMS over runs
+    (unsigned). At most about ``max_points`` points per trace (:func:`decimate`).
+    """
+    if quantity not in COMPONENTS:
+        raise ValueError(f"quantity must be one of {', '.join(COMPONENTS)}, got {quantity!r}")
+    axes, title, unit = COMPONENTS[quantity]
+    data: list[dict[str, Any]] = []
+    runs = 1
+    for method, res in results.items():
+        comp = components.get(method, {}).get(quantity)
+        if comp is None or len(res.t_s) == 0:
+            continue
+        keep = decimate(len(res.t_s), max_points)
+        runs = comp.shape[1]
+        curves = comp[keep, 0, :] if runs == 1 else rms(comp[keep], axis=1)
+        for k in range(3):
+            suffix = "" if k == 0 else str(k + 1)
+            data.append({"type": "scatter", "x": res.t_s[keep], "y": curves[:, k], "name": method.upper(),
+                         "mode": "lines", "line": {"color": method_color(method), "width": 1.5},
+                         "legendgroup": method, "showlegend": k == 0, "xaxis": f"x{suffix}", "yaxis": f"y{suffix}"})
+    label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else ", estimate - truth")
+    return _figure(data, _stacked_layout(label, [f"{a} [{unit}]" for a in axes], height_px), validate)
+
+
+INNOVATION_ROWS = {"dvl": {3: ("surge", "sway", "heave"), 4: ("beam 1", "beam 2", "beam 3", "beam 4")}}
+"""What the rows of a source's innovation are, by their number (DVL: body axes, TC: beams)."""
+BAND_SUFFIX = " 3-sigma"
+REJECTED_SUFFIX = " rejected"
+
+
+def innovation_sources(results: Mapping[str, MethodResult]) -> tuple[str, ...]:
+    """The aiding sources any method of ``results`` updated with, in order of appearance."""
+    return tuple(dict.fromkeys(s for res in results.values() for s in res.updates))
+
+
+def innovation_figure(results: Mapping[str, MethodResult], source: str = "dvl", run: int = 0, height_px: int = 520,
+                      max_points: int | None = 600, validate: bool = False) -> go.Figure:
+    """Innovations of aiding ``source`` against time for run ``run`` of each method that has such
+    updates, one panel per measurement row (the DVL's body axes, or TC's beams), with the
+    filter's 3-sigma envelope ``+-3 sqrt(S_ii)`` (``UpdateRecord.innovation_var``) as a shaded
+    band (trace "<METHOD> 3-sigma") and the rows the gate rejected marked with a cross (trace
+    "<METHOD> rejected", at every rejected row, never decimated). Epochs where the source gave
+    no measurement are gaps. A consistent filter keeps about 99.7 % of its innovations in its band.
+    Methods whose number of rows differ share panels by row number (the y-axis says which is which).
+    """
+    records = {m: r.updates[source] for m, r in results.items() if source in r.updates and len(r.updates[source].t_s)}
+    rows = max((rec.innovation.shape[2] for rec in records.values()), default=1)
+    dims = {rec.innovation.shape[2] for rec in records.values()}
+    named = INNOVATION_ROWS.get(source, {})
+    names = []
+    for k in range(rows):
+        labels = sorted({named[d][k] if d in named and k < d else f"row {k + 1}" for d in dims if k < d})
+        names.append(" / ".join(labels) if labels else f"row {k + 1}")
+    data: list[dict[str, Any]] = []
+    for method, rec in records.items():
+        if not 0 <= run < rec.innovation.shape[1]:
+            raise ValueError(f"run must be within [0, {rec.innovation.shape[1] - 1}], got {run}")
+        color = method_color(method)
+        keep = decimate(len(rec.t_s), max_points)
+        t = rec.t_s[keep]
+        valid = rec.valid[:, run]
+        for k in range(rec.innovation.shape[2]):
+            suffix = "" if k == 0 else str(k + 1)
+            axes = {"xaxis": f"x{suffix}", "yaxis": f"y{suffix}"}
+            nu = np.where(valid, rec.innovation[:, run, k], np.nan)
+            with np.errstate(invalid="ignore"):
+                env = np.where(valid, 3.0 * np.sqrt(rec.innovation_var[:, run, k]), np.nan)
+            e = env[keep]
+            data.append({"type": "scatter", "x": np.r_[t, t[::-1]], "y": np.r_[e, -e[::-1]],
+                         "name": method.upper() + BAND_SUFFIX, "mode": "lines", "fill": "toself",
+                         "fillcolor": _hex_to_rgba(color, 0.12), "line": {"width": 0}, "hoverinfo": "skip",
+                         "legendgroup": method, "showlegend": False, **axes})
+            data.append({"type": "scatter", "x": t, "y": nu[keep], "name": method.upper(), "mode": "lines+markers",
+                         "marker": {"size": 3}, "line": {"color": color, "width": 1}, "legendgroup": method,
+                         "showlegend": k == 0, **axes})
+            hit = rec.rejected_rows[:, run, k] & valid
+            if hit.any():
+                data.append({"type": "scatter", "x": rec.t_s[hit], "y": rec.innovation[hit, run, k],
+                             "name": method.upper() + REJECTED_SUFFIX, "mode": "markers",
+                             "marker": {"color": color, "size": 8, "symbol": "x"}, "legendgroup": method,
+                             "showlegend": not any(d["name"] == method.upper() + REJECTED_SUFFIX for d in data), **axes})
+    runs_text = f", run {run + 1}" if any(rec.innovation.shape[1] > 1 for rec in records.values()) else ""
+    title = f"{source.upper()} innovations with their 3-sigma (x: rejected){runs_text}"
+    return _figure(data, _stacked_layout(title, names, height_px), validate)
+
+
+RUN_DASHES = ("solid", "dash", "dot", "dashdot", "longdash")
+"""Line style of each overlaid run (:func:`compare_figure`), the method colours kept."""
+
+
+def compare_figure(runs: Sequence[tuple[str, Mapping[str, MethodResult]]], quantity: str = "vel",
+                   log_y: bool | str = False, height_px: int = 300, max_points: int | None = 600,
+                   validate: bool = False) -> go.Figure:
+    """:func:`error_figure` of several runs overlaid: ``runs`` is (label, results) per run, each
+    run's curves in its method's colour and the run's line style (RUN_DASHES, in order: the first
+    solid), each trace named "<METHOD> (<label>)"."""
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    if log_y not in (True, False, AUTO):
+        raise ValueError(f"log_y must be True, False or {AUTO!r}, got {log_y!r}")
+    err_field, _, title, unit = QUANTITIES[quantity]
+    data: list[dict[str, Any]] = []
+    drawn: list[np.ndarray] = []
+    for n, (label, results) in enumerate(runs):
+        for method, res in results.items():
+            if len(res.t_s) == 0:
+                continue
+            keep = decimate(len(res.t_s), max_points)
+            err = getattr(res, err_field)[keep]
+            curve = err[:, 0] if err.shape[1] == 1 else rms(err, axis=1)
+            drawn.append(curve)
+            data.append({"type": "scatter", "x": res.t_s[keep], "y": curve, "name": f"{method.upper()} ({label})",
+                         "mode": "lines", "legendgroup": f"{label}/{method}",
+                         "line": {"color": method_color(method), "width": 2, "dash": RUN_DASHES[n % len(RUN_DASHES)]}})
+    log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
+    labels = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
+    layout = {"title": {"text": f"{title} [{unit}]: {labels}", "font": {"size": 13}}, "height": height_px,
+              "margin": {"l": 50, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
+              "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
+              "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"}}
+    return _figure(data, layout, validate)
+
+
+COMPARE_COLUMNS = ("method", "run", "vel RMS [m/s]", "att RMS [deg]", "tilt RMS [deg]", "heading RMS [deg]",
+                   "pos RMS [m]", "pos final [m]", "NEES/dim")
+
+
+def compare_markdown(runs: Sequence[tuple[str, Mapping[str, MethodResult]]]) -> str:
+    """The runs' results side by side: one Markdown table, a line per method and run, the runs
+    of one method together (methods in order of first appearance; :func:`summary_rows`' numbers)."""
+    rows: dict[str, list[list[str]]] = {}
+    for label, results in runs:
+        for r in summary_rows(results):
+            rows.setdefault(str(r["method"]), []).append(
+                [str(r["method"]), label, _fixed(r["vel_rms_mps"], 4), _fixed(r["att_rms_deg"], 3),
+                 _fixed(r["tilt_rms_deg"], 3), _fixed(r["heading_rms_deg"], 3), _fixed(r["pos_rms_m"], 2),
+                 _fixed(r["pos_final_m"], 2), _ratio(r["nees_per_dim"])])
+    return "\n".join(_table(COMPARE_COLUMNS, [line for lines in rows.values() for line in lines]))
+
+
+def flat_config(config: Config, runs: int | None = None) -> dict[str, Any]:
+    """``config`` (tauvcore.config.to_dict) as "section.field" -> value (nested records joined by
+    dots, lists as they are); ``runs``: also the Monte Carlo run count, as "runs"."""
+    out: dict[str, Any] = {}
+
+    def walk(prefix: str, value: Any) -> None:
+        if isinstance(value, dict):
+            for key, v in value.items():
+                walk(f"{prefix}.{key}" if prefix else key, v)
+        else:
+            out[prefix] = value
+    walk("", to_dict(config))
+    if runs is not None:
+        out["runs"] = runs
+    return out
+
+
+def config_differences(configs: Sequence[Mapping[str, Any]]) -> dict[str, list[Any]]:
+    """The settings (keys of :func:`flat_config`) whose values are not all equal across
+    ``configs``, each with its value in every config (None where one lacks it), in key order."""
+    keys = sorted(set().union(*configs)) if configs else []
+    out = {}
+    for key in keys:
+        values = [c.get(key) for c in configs]
+        if any(v != values[0] for v in values[1:]):
+            out[key] = values
+    return out
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, list):
+        return ", ".join(_cell(v) for v in value) or "(none)"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return "-" if value is None else str(value).replace("|", "/")
+
+
+def config_diff_markdown(labels: Sequence[str], configs: Sequence[Mapping[str, Any]]) -> str:
+    """A Markdown table of the settings that differ between the runs (:func:`config_differences`),
+    one column per run; a sentence when they all ran the same configuration."""
+    diff = config_differences(configs)
+    if not diff:
+        return "**Configuration:** the same for " + ", ".join(labels) + "."
+    return "\n".join(["**Configuration differences**", ""]
+                     + _table(("setting", *labels), [[key, *(_cell(v) for v in values)] for key, values in diff.items()]))

@@ -24,6 +24,8 @@ from app.figures import (
     FIN_NAMES,
     LOG_SPAN,
     METHOD_COLORS,
+    RMS_COLUMNS,
+    RMS_HEADING,
     RPM_NAME,
     SWITCH_NAME,
     TRUTH_COLOR,
@@ -473,7 +475,8 @@ def test_summary_rows_final_and_rms(request, fixture):
     for method, row in zip(METHODS_UNDER_TEST, rows):
         expected = _expected_row(results[method])
         assert set(row) == (set(expected) | set(CONSISTENCY_KEYS)
-                            | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count"})
+                            | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count",
+                               "dvl_fused", "dvl_rejected", "dvl_coast"})
         for key, value in expected.items():
             assert row[key] == pytest.approx(value, rel=1e-12), key
         # a healthy default run: nothing flagged, P never repaired
@@ -994,3 +997,198 @@ def test_fast_figures_of_yoo_s_methods_equal_plotly_validated_construction(yoo):
         fast = error_figure(yoo, quantity, show_sigma=True, log_y="auto")
         checked = error_figure(yoo, quantity, show_sigma=True, log_y="auto", validate=True)
         assert json.loads(fast.to_json()) == json.loads(checked.to_json())
+
+
+# ------------------------------------------------------------------------------------------ workbench (issue 13)
+from app.figures import (  # noqa: E402
+    BAND_SUFFIX,
+    CURSOR_NAME,
+    REJECTED_SUFFIX,
+    RUN_DASHES,
+    compare_figure,
+    compare_markdown,
+    components_figure,
+    config_diff_markdown,
+    config_differences,
+    cursor_shape,
+    dvl_counts,
+    error_components,
+    flat_config,
+    identical_methods,
+    identical_note,
+    innovation_figure,
+    innovation_sources,
+    rms_markdown,
+    with_cursor,
+)
+from tauvcore.geo.rotations import euler_from_C_nb, wrap_angle  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def four_beams() -> tuple[Config, object, dict[str, MethodResult]]:
+    """All four beams: LC, ELC and NSV fuse alike; TC fuses beams; the truth kept for components."""
+    config = _short_config(methods=("ins", "lc", "tc", "elc", "nsv"))
+    sim = simulate(config, np.random.default_rng(61), 1)
+    return config, sim.truth, run(config, sim, np.random.default_rng(62))
+
+
+def test_error_components_are_estimate_minus_truth(four_beams):
+    """Known case: at the output epochs, position is est - truth per NED axis, attitude the
+    difference of the Euler angles (heading wrapped), and the body velocity's norm is the
+    runner's own velocity error norm."""
+    _, truth, results = four_beams
+    for method, res in results.items():
+        comp = error_components(res, truth.t_s, truth.pos_n, truth.C_nb, truth.vel_n)
+        k = np.searchsorted(truth.t_s, res.t_s)
+        np.testing.assert_allclose(truth.t_s[k], res.t_s, atol=1e-9)
+        np.testing.assert_array_equal(comp["pos"], res.est_pos_n - truth.pos_n[k][:, None, :])
+        d = res.est_euler_rad - euler_from_C_nb(truth.C_nb[k])[:, None, :]
+        d[..., 2] = wrap_angle(d[..., 2])
+        np.testing.assert_allclose(comp["att"], np.degrees(d), atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(comp["vel"], axis=-1), res.vel_err_mps, atol=1e-9)
+        np.testing.assert_allclose(np.linalg.norm(comp["pos"], axis=-1), res.pos_err_m, atol=1e-5)
+        # without the truth's velocity: the central difference of its positions, close
+        approx = error_components(res, truth.t_s[k], truth.pos_n[k], truth.C_nb[k])["vel"]
+        np.testing.assert_allclose(approx, comp["vel"], atol=1e-3)
+
+
+def test_error_components_of_a_synthetic_offset():
+    """Truth at rest, level, heading north; the estimate 1 m north, 0.1 m/s east, 2 deg heading
+    right: the components are exactly these, in the body frame for velocity."""
+    T = 5
+    t = np.arange(T, dtype=float)
+    res = MethodResult(
+        method="lc", t_s=t, vel_err_mps=np.zeros((T, 1)), att_err_deg=np.zeros((T, 1)), pos_err_m=np.zeros((T, 1)),
+        vel_sigma_mps=np.zeros((T, 1)), att_sigma_deg=np.zeros((T, 1)), pos_sigma_m=np.zeros((T, 1)),
+        nees=np.zeros((T, 1)), tilt_err_deg=np.zeros((T, 1)), heading_err_deg=np.zeros((T, 1)),
+        tilt_sigma_deg=np.zeros((T, 1)), heading_sigma_deg=np.zeros((T, 1)), nees_block=np.zeros((T, 1, 6)),
+        est_pos_n=np.tile([1.0, 0.0, 0.0], (T, 1, 1)), diverged=np.zeros(1, bool), diverged_at_s=np.full(1, np.nan),
+        p_floor_count=np.zeros(1, int), est_vel_n=np.tile([0.0, 0.1, 0.0], (T, 1, 1)),
+        est_euler_rad=np.tile([0.0, 0.0, np.radians(2.0)], (T, 1, 1)))
+    comp = error_components(res, t, np.zeros((T, 3)), np.tile(np.eye(3), (T, 1, 1)), np.zeros((T, 3)))
+    np.testing.assert_allclose(comp["pos"][:, 0], np.tile([1.0, 0.0, 0.0], (T, 1)))
+    np.testing.assert_allclose(comp["att"][:, 0], np.tile([0.0, 0.0, 2.0], (T, 1)), atol=1e-12)
+    c, s = np.cos(np.radians(2.0)), np.sin(np.radians(2.0))
+    np.testing.assert_allclose(comp["vel"][:, 0], np.tile([0.1 * s, 0.1 * c, 0.0], (T, 1)), atol=1e-12)
+
+
+@pytest.mark.parametrize("quantity", ["pos", "vel", "att"])
+def test_components_figure_three_panels_per_method(four_beams, quantity):
+    _, truth, results = four_beams
+    comps = {m: error_components(r, truth.t_s, truth.pos_n, truth.C_nb, truth.vel_n) for m, r in results.items()}
+    fig = components_figure(results, comps, quantity, max_points=None)
+    assert len(fig.data) == 3 * len(results)
+    for method, res in results.items():
+        traces = [d for d in fig.data if d.name == method.upper()]
+        assert [d.yaxis for d in traces] == ["y", "y2", "y3"]
+        assert sum(bool(d.showlegend) for d in traces) == 1
+        for k, d in enumerate(traces):
+            np.testing.assert_array_equal(d.y, comps[method][quantity][:, 0, k])
+            assert d.line.color == METHOD_COLORS[method]
+    with_check = components_figure(results, comps, quantity, validate=True)
+    assert json.loads(with_check.to_json()) == json.loads(components_figure(results, comps, quantity).to_json())
+
+
+def test_identical_methods_four_beams_partial_methods_are_lc(four_beams):
+    _, _, results = four_beams
+    same = identical_methods(results)
+    assert same == {"elc": "lc", "nsv": "lc"}           # TC fuses beams, not the LC velocity: its own numbers
+    note = identical_note(same)
+    assert "ELC and NSV" in note and "LC" in note
+    assert identical_note({}) == ""
+
+
+def test_identical_methods_two_beams_none(single):
+    assert identical_methods(single) == {}
+
+
+def _with_rejections(res: MethodResult, rows: list[tuple[int, int]]) -> MethodResult:
+    dvl = res.updates["dvl"]
+    rejected_rows = np.zeros_like(dvl.rejected_rows)
+    for u, k in rows:
+        rejected_rows[u, 0, k] = True
+    updates = {**res.updates, "dvl": dataclasses.replace(dvl, rejected_rows=rejected_rows,
+                                                         rejected=rejected_rows.any(axis=2))}
+    return dataclasses.replace(res, updates=updates)
+
+
+def test_innovation_figure_envelopes_and_rejected_markers(four_beams):
+    _, _, results = four_beams
+    lc = _with_rejections(results["lc"], [(2, 0), (5, 0), (5, 2)])
+    drawn = {"ins": results["ins"], "lc": lc, "tc": results["tc"]}
+    assert innovation_sources(drawn) == ("dvl",)
+    fig = innovation_figure(drawn, "dvl", max_points=None)
+    assert fig.layout.yaxis.title.text == "beam 1 / surge" and fig.layout.yaxis4.title.text == "beam 4"
+    for method, m in (("lc", 3), ("tc", 4)):
+        dvl = drawn[method].updates["dvl"]
+        lines = [d for d in fig.data if d.name == method.upper()]
+        bands = [d for d in fig.data if d.name == method.upper() + BAND_SUFFIX]
+        assert len(lines) == len(bands) == m
+        for k in range(m):
+            np.testing.assert_array_equal(lines[k].x, dvl.t_s)
+            np.testing.assert_array_equal(lines[k].y, dvl.innovation[:, 0, k])
+            env = 3.0 * np.sqrt(dvl.innovation_var[:, 0, k])
+            np.testing.assert_allclose(bands[k].y, np.r_[env, -env[::-1]])
+            np.testing.assert_array_equal(bands[k].x, np.r_[dvl.t_s, dvl.t_s[::-1]])
+    assert not any(d.name.startswith("INS") for d in fig.data)          # no DVL updates
+    marks = [d for d in fig.data if d.name == "LC" + REJECTED_SUFFIX]
+    t = lc.updates["dvl"].t_s
+    assert [(list(d.x), d.yaxis) for d in marks] == [([t[2], t[5]], "y"), ([t[5]], "y3")]
+    np.testing.assert_array_equal(marks[0].y, lc.updates["dvl"].innovation[[2, 5], 0, 0])
+    assert sum(bool(d.showlegend) for d in marks) == 1
+    assert not any(d.name == "TC" + REJECTED_SUFFIX for d in fig.data)
+    checked = innovation_figure(drawn, "dvl", validate=True)
+    assert json.loads(checked.to_json()) == json.loads(innovation_figure(drawn, "dvl").to_json())
+
+
+def test_cursor_is_a_vertical_line_at_the_time(single):
+    fig = with_cursor(error_figure(single, "vel"), 7.5)
+    (shape,) = fig.layout.shapes
+    assert shape.name == CURSOR_NAME and shape.x0 == shape.x1 == 7.5 and (shape.y0, shape.y1) == (0.0, 1.0)
+    assert shape.yref == "paper" and cursor_shape(3.0)["x0"] == 3.0
+    assert with_cursor(fig, None).layout.shapes == ()
+
+
+def test_summary_rms_and_dvl_counts_table(four_beams):
+    _, _, results = four_beams
+    lines = rms_markdown(results).splitlines()
+    assert lines[0] == RMS_HEADING
+    start = 2
+    assert lines[start] == "| " + " | ".join(RMS_COLUMNS) + " |"
+    body = {cells[0]: cells for cells in (_cells(line) for line in lines[start + 2:])}
+    assert body["INS"][6:] == ["-", "-", "-"]
+    dvl = results["tc"].updates["dvl"]
+    assert body["TC"][6:] == [str(int(dvl.fused.sum())), str(int(dvl.rejected.sum())), str(int((~dvl.valid).sum()))]
+    assert dvl_counts(results["tc"])["dvl_fused"] == int(dvl.fused.sum()) > 0
+    exp = _expected_row(results["tc"])
+    assert float(body["TC"][2]) == pytest.approx(exp["att_rms_deg"], abs=0.5e-3)
+    assert float(body["TC"][5]) == pytest.approx(exp["pos_rms_m"], abs=0.5e-2)
+
+
+def test_compare_figure_one_dash_per_run_method_colours_kept(single, four_beams):
+    runs = [("run 1", single), ("run 2", four_beams[2])]
+    fig = compare_figure(runs, "vel", max_points=None)
+    assert len(fig.data) == len(single) + len(four_beams[2])
+    for n, (label, results) in enumerate(runs):
+        for method, res in results.items():
+            (trace,) = [d for d in fig.data if d.name == f"{method.upper()} ({label})"]
+            assert trace.line.dash == RUN_DASHES[n] and trace.line.color == METHOD_COLORS[method]
+            np.testing.assert_array_equal(trace.y, res.vel_err_mps[:, 0])
+    checked = compare_figure(runs, "vel", validate=True)
+    assert json.loads(checked.to_json()) == json.loads(compare_figure(runs, "vel").to_json())
+    table = compare_markdown(runs).splitlines()
+    assert [_cells(line)[:2] for line in table[2:4]] == [["INS", "run 1"], ["INS", "run 2"]]
+    assert len(table) == 2 + len(single) + len(four_beams[2])
+
+
+def test_config_diff_names_the_changed_fields():
+    a = _short_config(methods=("lc",))
+    b = a.replace("dvl", noise_mps=0.02).replace("run", methods=("lc", "tc"))
+    flat_a, flat_b = flat_config(a, 1), flat_config(b, 3)
+    assert flat_a["dvl.noise_mps"] == a.dvl.noise_mps and flat_a["runs"] == 1
+    assert config_differences([flat_a, flat_b]) == {"dvl.noise_mps": [a.dvl.noise_mps, 0.02],
+                                                    "run.methods": [["lc"], ["lc", "tc"]], "runs": [1, 3]}
+    table = config_diff_markdown(["run 1", "run 2"], [flat_a, flat_b]).splitlines()
+    assert table[2] == "| setting | run 1 | run 2 |"
+    assert f"| dvl.noise_mps | {a.dvl.noise_mps:g} | 0.02 |" in table and "| run.methods | lc | lc, tc |" in table
+    assert "the same" in config_diff_markdown(["run 1", "run 2"], [flat_a, flat_a])

@@ -25,7 +25,10 @@ def _idle_session() -> types.SimpleNamespace:
     return types.SimpleNamespace(draw_lock=threading.RLock(), truth_view=None, config=None, results=None,
                                  est_lines={}, truth_line=None, client=types.SimpleNamespace(scene=scene),
                                  vkf_plot=types.SimpleNamespace(figure=None, visible=False),
-                                 vkf_note=types.SimpleNamespace(content=""))
+                                 vkf_note=types.SimpleNamespace(content=""), kept_runs=[], kept_widgets={},
+                                 diff_table=types.SimpleNamespace(content=""),
+                                 compare_table=types.SimpleNamespace(content=""),
+                                 overlay_runs=lambda: [], refresh_plots=lambda: None)
 
 
 @pytest.mark.parametrize("call", [
@@ -36,8 +39,9 @@ def _idle_session() -> types.SimpleNamespace:
     lambda s: Session.refresh_plots(s),
     lambda s: Session.show_beams_static(s, Config(), np.zeros(3), np.eye(3)),
     lambda s: Session._draw_vkf_plot(s, None, Config()),
+    lambda s: Session.refresh_runs(s),
 ], ids=["show_time", "_draw_truth", "_draw_estimates", "_clear_trajectories", "refresh_plots", "show_beams_static",
-        "_draw_vkf_plot"])
+        "_draw_vkf_plot", "refresh_runs"])
 def test_drawing_waits_for_the_draw_lock(call) -> None:
     session = _idle_session()
     done = threading.Event()
@@ -102,3 +106,78 @@ def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
     Session._draw_vkf_plot(session, types.SimpleNamespace(vkf_trace=trace), with_vkf)
     assert session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["shown"]
     assert VKF_SF_NAME in [t.name for t in session.vkf_plot.figure.data]
+
+
+def _slider_session(value: float, max_s: float) -> types.SimpleNamespace:
+    """What the time slider's methods read: a slider, a run in progress, nothing to draw."""
+    slider = types.SimpleNamespace(value=value, max=max_s, step=0.1)
+    session = types.SimpleNamespace(time_slider=slider, handle=object(), playing=False, slider_pinned=False,
+                                    run_time_s=0.0, slider_set_s=None, shown=[])
+    session.show_time = lambda t: session.shown.append(t)
+    return session
+
+
+def test_the_slider_stays_where_the_user_put_it_while_the_run_goes_on() -> None:
+    """Issue 13: the slider snapped back to the latest time at every results update."""
+    session = _slider_session(0.0, 250.0)
+    Session._follow_run_time(session, 40.0)
+    assert session.time_slider.value == 40.0                    # untouched: it follows the run
+    session.time_slider.value = 12.0                            # the user's hand
+    Session._slider_moved(session, types.SimpleNamespace(client=object()))
+    assert session.slider_pinned and session.shown == [12.0]
+    Session._follow_run_time(session, 80.0)
+    assert session.time_slider.value == 12.0
+    session.time_slider.value = 80.0                            # put back at the latest time: follows again
+    Session._slider_moved(session, types.SimpleNamespace(client=object()))
+    Session._follow_run_time(session, 120.0)
+    assert session.time_slider.value == 120.0
+    # the user's move seen before its callback ran (viser runs it in a thread pool): it stays
+    session.time_slider.value = 7.0
+    Session._follow_run_time(session, 130.0)
+    assert session.time_slider.value == 7.0 and session.slider_pinned
+
+
+def test_after_a_stop_the_slider_spans_what_was_run() -> None:
+    session = _slider_session(200.0, 1200.0)
+    Session._span_slider(session, 150.0)
+    assert session.time_slider.max == 150.0 and session.time_slider.value == 150.0
+    session = _slider_session(30.0, 1200.0)
+    session._set_finished = session.keep_run = lambda *args: None     # the downloads' and runs' part
+    session._span_slider = lambda t: Session._span_slider(session, t)
+    session.run_log = None
+    result = types.SimpleNamespace(t_s=np.array([0.0, 41.5]))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("app.dashboard.export.finished_run", lambda *args: None)
+        Session._keep_finished(session, {"lc": result}, Config(), True)
+    assert session.time_slider.max == 41.5 and session.time_slider.value == 30.0
+
+
+class _Node:
+    def __init__(self, points, visible) -> None:
+        self.points, self.visible = points, visible
+
+
+def test_beams_are_updated_in_place_not_re_added() -> None:
+    """Beams vanished in 4 of 14 frames during a run: each was removed and re-added at every time
+    step. Now one node per beam and state is made once; later drawings move points and switch
+    which node shows, under the hull's node."""
+    from app.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF
+    added = []
+
+    def add(name, points, colors, **kwargs):
+        added.append(name)
+        return _Node(points, kwargs.get("visible", True))
+    session = types.SimpleNamespace(draw_lock=threading.RLock(),
+                                    client=types.SimpleNamespace(scene=types.SimpleNamespace(add_line_segments=add)))
+    states = [BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_RETURNING, BEAM_RETURNING]
+    Session.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states)
+    assert len(added) == 16 and all(name.startswith("/auv/beams/") for name in added)
+    shown = [[n.visible for n in beam] for beam in session.beam_nodes]
+    assert [row.index(True) for row in shown] == [0, 1, 0, 0] and all(sum(row) == 1 for row in shown)
+    states2 = [BEAM_OUTAGE, BEAM_SWITCHED_OFF, BEAM_RETURNING, BEAM_RETURNING]
+    ranges = np.array([np.inf, 50.0, 45.0, 40.0])
+    Session.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states2, ranges)
+    assert len(added) == 16                                       # nothing re-added
+    assert [[n.visible for n in beam].index(True) for beam in session.beam_nodes] == [2, 1, 0, 0]
+    assert session.beam_nodes[2][0].points[0, 1] == pytest.approx(
+        Config().dvl.l_dvl_b + Config().dvl.A_b[2] * 45.0)       # body frame, to the range

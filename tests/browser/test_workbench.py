@@ -1,0 +1,71 @@
+"""The workbench (issue 13): runs kept and overlaid, the shared time cursor, diagnostics per method."""
+
+from __future__ import annotations
+
+import pytest
+
+from app.inputs import DVL_NOISE
+from tests.browser.conftest import ARTIFACTS
+
+pytestmark = pytest.mark.browser
+CURSORS_JS = ("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+              ".filter(p => p.data && p.data.length)"
+              ".map(p => ((p.layout.shapes || []).find(s => s.name === 'time cursor') || {}).x0)")
+
+
+def _run(tab, number: int) -> None:
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.page.get_by_role("tab", name="Runs").click()
+    tab.checkbox(f"Overlay run {number}").wait_for(timeout=120000)
+
+
+def test_two_runs_overlaid_compared_cursor_and_diagnostics(new_tab) -> None:
+    """Given two 10 s straight runs (LC; then LC and TC with a quieter DVL), when both are ticked
+    in the Runs tab, then the plots overlay both runs' traces and the configuration differences
+    name the changed fields; moving the time slider moves the cursor on every plot; the NEES and
+    innovation plots hold a curve with data for every selected method."""
+    tab = new_tab()
+    tab.type_into("Duration [s]", "10")
+    tab.set_methods({"LC"})
+    _run(tab, 1)
+    tab.page.get_by_role("tab", name="Mission").click()
+    tab.set_methods({"LC", "TC"})
+    tab.open_folder("Sensors (Table 2)")
+    tab.type_into(DVL_NOISE, "0.02")
+    _run(tab, 2)
+    for n in (1, 2):
+        tab.set_checkbox(f"Overlay run {n}", True)
+    diff = tab.page.locator("table", has=tab.page.get_by_text("setting", exact=True))
+    diff.wait_for(timeout=20000)
+    rows = diff.locator("tr").all_inner_texts()
+    assert any(r.startswith("dvl.noise_mps") and "0.02" in r for r in rows), rows
+    assert any(r.startswith("run.methods") for r in rows), rows
+    side = tab.page.locator("table", has=tab.page.get_by_text("run 2", exact=True)).last.locator("tr").all_inner_texts()
+    assert any(r.startswith("TC\trun 2") for r in side), side
+    tab.page.get_by_role("tab", name="Plots").click()
+    tab.page.wait_for_function("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                               ".some(p => (p.data || []).some(t => t.name === 'TC (run 2)'))", timeout=20000)
+    velocity = dict(tab.plot_traces()[0])
+    assert {"LC (run 1)", "LC (run 2)", "TC (run 2)"} <= set(velocity) and min(velocity.values()) > 50, velocity
+    tab.page.screenshot(path=str(ARTIFACTS / "workbench.png"))
+
+    # the shared cursor: the run left the slider at its end; Home takes it to 0 on every plot
+    tab.page.get_by_role("tab", name="Mission").click()
+    slider = tab.page.locator('xpath=//label[normalize-space()="Time [s]"]/../../following-sibling::*[1]'
+                              '//*[@role="slider"]')
+    slider.focus()
+    slider.press("End")
+    tab.page.wait_for_function(f"(() => {{ const c = {CURSORS_JS}; return c.length > 3 && c.every(x => x > 9); }})()",
+                               timeout=20000)
+    slider.press("Home")
+    tab.page.wait_for_function(f"(() => {{ const c = {CURSORS_JS}; return c.length > 3 && c.every(x => x === 0); }})()",
+                               timeout=20000)
+
+    # diagnostics of the current run (LC, TC): NEES and innovations with data for each
+    tab.page.get_by_role("tab", name="Consistency").click()
+    nees = [dict(f) for f in tab.plot_traces() if any(name == "99 % band" for name, _ in f)]
+    assert len(nees) == 1 and nees[0]["LC"] > 50 and nees[0]["TC"] > 50, nees
+    tab.page.get_by_role("tab", name="Innovations").click()
+    innovations = [dict(f) for f in tab.plot_traces() if "TC" in dict(f) and "LC" in dict(f) and "LC (run 1)" not in dict(f)]
+    assert any(f["LC"] >= 9 and f["TC"] >= 9 for f in innovations), innovations   # 10 s of 1 Hz DVL
+    assert tab.external_requests == []
