@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -25,17 +26,23 @@ from scipy.sparse.csgraph import connected_components
 from tauvcore.truth.seabed import Bathymetry
 from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD
 
-ASSETS_DIR = Path(__file__).resolve().parent.parent / "assets"
+ASSETS_DIR = Path(str(files("app") / "assets"))   # package data (pyproject.toml), so in the wheel too
 M_VIEW_FROM_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED = "returning", "switched off", "lost", "rejected"
+# The beams' palette is kept apart from the methods' (app.figures.METHOD_COLORS, matplotlib's tab10, which
+# covers the hue circle at middle lightness): saturated blue, magenta and aqua, and a navy near black,
+# each at least BEAM_MIN_DELTA_E (CIE76) from every method's colour and the truth's (tests/unit/test_scene.py).
 BEAM_COLORS = {
-    BEAM_RETURNING: (40, 200, 90),
-    BEAM_SWITCHED_OFF: (150, 150, 150),
-    BEAM_OUTAGE: (255, 150, 30),
-    BEAM_REJECTED: (220, 30, 30),
+    BEAM_RETURNING: (0, 0, 255),       # blue
+    BEAM_SWITCHED_OFF: (0, 0, 102),    # navy, nearly black: a dead beam
+    BEAM_OUTAGE: (0, 255, 204),        # aqua
+    BEAM_REJECTED: (255, 0, 255),      # magenta
 }
-SEABED_MARGIN_M = 300.0        # the seabed mesh reaches this far beyond the track on every side (the flat grid: 600 m square)
+BEAM_COLOR_NAMES = {BEAM_RETURNING: "blue", BEAM_SWITCHED_OFF: "navy", BEAM_OUTAGE: "aqua", BEAM_REJECTED: "magenta"}
+BEAM_MIN_DELTA_E = 40.0        # CIE76 distance every beam colour keeps from every method colour (a clear difference: > 10)
+BEAM_LABEL_DISTANCE_M = 4.0    # each beam's number stands this far along it from the DVL head
+SEABED_MARGIN_M = 300.0        # the seabed (mesh or flat grid) reaches this far beyond the track on every side
 SEABED_MAX_TRIANGLES = 20000   # ... in at most this many triangles
 SEABED_MIN_CELL_M = 5.0        # ... and cells no finer than this (a short track's seabed needs no more)
 SEABED_COLOR = (194, 170, 120)  # sand, as the flat seabed's plane
@@ -229,3 +236,150 @@ def beam_readout(t_s: float, states: list[str], in_range: np.ndarray, altitude_m
     if beyond:
         text += f" (beyond the DVL's range: {', '.join(beyond)})"
     return text
+
+
+# ---------------------------------------------------------------------------------- beams on the hull
+def beam_segments_b(l_dvl_b: np.ndarray, A_b: np.ndarray, range_m: np.ndarray, max_range_m: float) -> np.ndarray:
+    """The four beams in the body frame (4, 2, 3): :func:`beam_segments_n` of a vehicle at the origin,
+    level and heading north. Drawn as children of the hull's node, whose pose ``M C_nb`` and position
+    carry them into the view: beam and hull move in one message and cannot come apart."""
+    return beam_segments_n(np.zeros(3), np.eye(3), l_dvl_b, A_b, range_m, max_range_m)
+
+
+def beam_label_positions_b(l_dvl_b: np.ndarray, A_b: np.ndarray,
+                           distance_m: float = BEAM_LABEL_DISTANCE_M) -> np.ndarray:
+    """(4, 3) where beams 1-4 carry their numbers, body frame: ``distance_m`` along each from the head."""
+    return l_dvl_b + np.asarray(A_b) * distance_m
+
+
+def interpolate_pose(t_s: float, t_grid: np.ndarray, pos_n: np.ndarray,
+                     C_nb: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """The vehicle between two samples of its track, for smooth playback.
+
+    ``t_grid`` (T,) [s] increasing, ``pos_n`` (T, 3) [m], ``C_nb`` (T, 3, 3). With ``i`` the last
+    sample at or before ``t_s`` and ``a = (t_s - t_i) / (t_{i+1} - t_i)``: position
+    ``p_i + a (p_{i+1} - p_i)``, attitude ``C_i exp(a log(C_i^T C_{i+1}))`` (slerp). Clamped to
+    the track's ends. Returns ``(i, pos_n (3,), C_nb (3, 3))``.
+    """
+    last = len(t_grid) - 1
+    i = int(np.clip(np.searchsorted(t_grid, t_s, side="right") - 1, 0, last))
+    if i == last or t_s <= t_grid[i]:
+        return i, np.asarray(pos_n[i], float), np.asarray(C_nb[i], float)
+    a = float((t_s - t_grid[i]) / (t_grid[i + 1] - t_grid[i]))
+    pos = pos_n[i] + a * (pos_n[i + 1] - pos_n[i])
+    step = vtf.SO3.from_matrix(C_nb[i].T @ C_nb[i + 1]).log()
+    return i, pos, C_nb[i] @ vtf.SO3.exp(a * step).as_matrix()
+
+
+# ---------------------------------------------------------------------------------- the mission's extent
+def nice_length(x_m: float) -> float:
+    """The largest 1, 2 or 5 times a power of ten not above ``x_m`` (> 0) [m]: a scale bar's length."""
+    power = 10.0 ** np.floor(np.log10(x_m))
+    return float(max(m * power for m in (1.0, 2.0, 5.0) if m * power <= x_m * (1 + 1e-12)))
+
+
+@dataclass(frozen=True)
+class MissionFrame:
+    """Where the mission is, in the view (x east, y north, z up), and the scene's furniture sized to it."""
+
+    lo_view: np.ndarray        # (3,) south-west-bottom corner of the track's box, seabed included [m]
+    hi_view: np.ndarray        # (3,) north-east-top corner (the surface, z = 0) [m]
+    seabed_center_view: np.ndarray  # (3,) centre of the seabed grid, at the seabed's depth [m]
+    seabed_size_m: tuple[float, float]  # (east, north) size of the seabed grid and the surface [m]
+    cell_m: float              # the grid's cell [m] (its sections: 5 cells)
+    scale_m: float             # length of the scale bar and the compass's arrows [m]
+
+
+def mission_frame(pos_n: np.ndarray, seabed_depth_m: float, margin_m: float = SEABED_MARGIN_M) -> MissionFrame:
+    """The box of the track ``pos_n`` (T, 3) NED from the surface to ``seabed_depth_m`` [m] and a seabed
+    ``margin_m`` beyond the track on every side (a 1,200 s straight run's 1.8 km, not a fixed 600 m).
+    The scale bar is a :func:`nice_length` of about a fifth of the track's larger side (at least 10 m)."""
+    p = ned_to_view(np.asarray(pos_n, float).reshape(-1, 3))
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    lo_view = np.array([lo[0], lo[1], min(lo[2], -seabed_depth_m)])
+    hi_view = np.array([hi[0], hi[1], max(hi[2], 0.0)])
+    size = (float(hi[0] - lo[0] + 2 * margin_m), float(hi[1] - lo[1] + 2 * margin_m))
+    centre = 0.5 * (lo + hi)
+    span = float(max(hi[0] - lo[0], hi[1] - lo[1], 50.0))
+    return MissionFrame(lo_view=lo_view, hi_view=hi_view,
+                        seabed_center_view=np.array([centre[0], centre[1], -seabed_depth_m]),
+                        seabed_size_m=size, cell_m=nice_length(max(size) / 60.0),
+                        scale_m=nice_length(span / 5.0))
+
+
+def compass_view(corner_view: np.ndarray, length_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """A compass rose at ``corner_view`` (3,): arrows to north and east ``length_m`` long, (2, 2, 3)
+    start and end in the view, and where their labels "N" and "E" stand (2, 3), just beyond the tips."""
+    north_v, east_v = ned_to_view(np.array([1.0, 0.0, 0.0])), ned_to_view(np.array([0.0, 1.0, 0.0]))
+    tips = corner_view + length_m * np.stack([north_v, east_v])
+    arrows = np.stack([np.broadcast_to(corner_view, (2, 3)), tips], axis=1)
+    return arrows, corner_view + 1.12 * length_m * np.stack([north_v, east_v])
+
+
+def scale_bar_view(start_view: np.ndarray, length_m: float) -> np.ndarray:
+    """A scale bar ``length_m`` long from ``start_view`` (3,) to the east, with a tick at each end
+    pointing north (a twentieth of its length): (3, 2, 3) segments in the view."""
+    east_v, north_v = ned_to_view(np.array([0.0, 1.0, 0.0])), ned_to_view(np.array([1.0, 0.0, 0.0]))
+    end = start_view + length_m * east_v
+    tick = 0.05 * length_m * north_v
+    return np.stack([[start_view, end], [start_view, start_view + tick], [end, end + tick]])
+
+
+# ---------------------------------------------------------------------------------- cameras
+CAMERA_SIDE, CAMERA_ABOVE, CAMERA_FREE = "chase: side", "chase: above", "free"
+CAMERA_MODES = (CAMERA_SIDE, CAMERA_ABOVE, CAMERA_FREE)
+CHASE_SIDE_ELEVATION_RAD = np.radians(20.0)   # the side view looks down this much: the hull lies across the screen
+CHASE_ABOVE_TILT_RAD = np.radians(8.0)        # the view from above leans this much from the vertical (up = +z stays defined)
+
+
+def chase_camera_view(pos_view: np.ndarray, C_nb: np.ndarray, mode: str,
+                      distance_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Camera position and look-at (view frame) that show the hull at ``pos_view`` lengthwise.
+
+    From behind (the former chase view) the 3 m hull pointed into the screen and showed as a
+    vertical stick. ``chase: side`` stands to starboard, ``distance_m`` away and
+    CHASE_SIDE_ELEVATION_RAD above; ``chase: above`` looks down, leaning CHASE_ABOVE_TILT_RAD to
+    starboard. With the scene's up +z, either puts the bow to the right of the screen. Uses the
+    horizontal heading only: the camera does not roll or pitch with the vehicle.
+    """
+    forward = M_VIEW_FROM_NED @ C_nb[:, 0]
+    f = np.array([forward[0], forward[1], 0.0])
+    f = f / np.linalg.norm(f) if np.linalg.norm(f) > 1e-6 else np.array([0.0, 1.0, 0.0])
+    starboard = np.array([f[1], -f[0], 0.0])          # f turned clockwise seen from above (z up)
+    up = np.array([0.0, 0.0, 1.0])
+    e = CHASE_SIDE_ELEVATION_RAD if mode == CAMERA_SIDE else 0.5 * np.pi - CHASE_ABOVE_TILT_RAD
+    offset = distance_m * (np.cos(e) * starboard + np.sin(e) * up)
+    return pos_view + offset, np.asarray(pos_view, float)
+
+
+def fit_camera_view(lo_view: np.ndarray, hi_view: np.ndarray,
+                    fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """Camera position and look-at that frame the box ``lo_view``-``hi_view`` (3,) whole: from the
+    south-west and above (a 50 deg elevation), at the distance where the box's bounding sphere
+    fits the narrower field of view ``fov_rad`` [rad] with 10 % to spare."""
+    centre = 0.5 * (np.asarray(lo_view, float) + np.asarray(hi_view, float))
+    radius = max(0.5 * float(np.linalg.norm(np.asarray(hi_view) - np.asarray(lo_view))), 5.0)
+    distance = 1.1 * radius / np.sin(0.5 * fov_rad)
+    e = np.radians(50.0)
+    direction = np.array([-np.sqrt(0.5) * np.cos(e), -np.sqrt(0.5) * np.cos(e), np.sin(e)])
+    return centre + distance * direction, centre
+
+
+# ---------------------------------------------------------------------------------- playback
+PLAYBACK_SPEEDS = ("1x", "2x", "5x", "10x", "20x", "50x", "100x")
+PLAYBACK_DEFAULT_SPEED = "20x"
+PLAYBACK_FPS = 15.0            # frames per second of wall time: the pose is interpolated between them
+
+
+def playback_speed(label: str) -> float:
+    """Seconds of mission per second of wall time for a choice of PLAYBACK_SPEEDS ("20x": 20)."""
+    if label not in PLAYBACK_SPEEDS:
+        raise ValueError(f"playback speed: {label!r} is not one of {', '.join(PLAYBACK_SPEEDS)}")
+    return float(label[:-1])
+
+
+def playback_time(t_start_s: float, speed: float, elapsed_s: float, t_end_s: float) -> float:
+    """The mission time [s] shown ``elapsed_s`` of wall time after playback started at
+    ``t_start_s`` at ``speed`` (:func:`playback_speed`), stopping at ``t_end_s``. Time drives the
+    frames, not a count of them: a late frame shows the right moment, the pace stays steady."""
+    return min(t_start_s + speed * max(elapsed_s, 0.0), t_end_s)

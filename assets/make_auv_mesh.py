@@ -1,4 +1,4 @@
-"""Generate ``assets/auv.obj``: the TAUV-like hull shown by the dashboard.
+"""Generate ``app/assets/auv.obj``: the TAUV-like hull shown by the dashboard.
 
 3.0 m long, 0.30 m diameter (Tal et al. 2017, section 1), a body of revolution about the body
 x axis (forward) with an ellipsoidal nose, a cylindrical mid-body and a tapered tail, and four
@@ -6,6 +6,9 @@ fins in an "x" at the tail (45, 135, 225, 315 deg about x). Vertices are in the 
 (x forward, y starboard, z down), metres, origin at mid-length.
 
     python assets/make_auv_mesh.py
+
+The mesh is package data of ``app`` (shipped in the wheel, found by ``app.scene`` through
+``importlib.resources``); this generator stays out of the package.
 """
 
 from __future__ import annotations
@@ -89,5 +92,7 @@ def write_obj(path: Path) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+OUTPUT = Path(__file__).resolve().parent.parent / "app" / "assets" / "auv.obj"
+
 if __name__ == "__main__":
-    write_obj(Path(__file__).with_name("auv.obj"))
+    write_obj(OUTPUT)

@@ -193,12 +193,14 @@ def test_auv_mesh_has_four_x_fins_at_the_tail(auv_mesh):
 
 
 def test_auv_asset_is_what_the_generator_writes(auv_mesh):
-    """assets/auv.obj is the output of assets/make_auv_mesh.py (not stale)."""
-    spec = importlib.util.spec_from_file_location("make_auv_mesh", Path(ASSETS_DIR) / "make_auv_mesh.py")
+    """app/assets/auv.obj is the output of assets/make_auv_mesh.py (not stale), which writes it there."""
+    generator = Path(__file__).resolve().parents[2] / "assets" / "make_auv_mesh.py"
+    spec = importlib.util.spec_from_file_location("make_auv_mesh", generator)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     verts_gen, faces_gen = module.build()
     verts, faces = auv_mesh
+    assert module.OUTPUT == (Path(ASSETS_DIR) / "auv.obj").resolve()    # the file app.scene reads
     assert module.LENGTH_M == HULL_LENGTH_M and module.RADIUS_M == HULL_RADIUS_M
     np.testing.assert_allclose(verts, verts_gen, rtol=0, atol=OBJ_DECIMALS_ATOL)
     np.testing.assert_array_equal(faces, faces_gen)
@@ -478,3 +480,172 @@ def test_beam_readout_names_the_lost_beams_beyond_range():
                     "(beyond the DVL's range: 1, 4)")
     assert beam_readout(0.0, [BEAM_RETURNING] * 4, np.ones(4, bool)) == (
         "**0.0 s**. Beams: 1 returning, 2 returning, 3 returning, 4 returning")
+
+
+# ------------------------------------------------------------------------------------------ palettes (issue 13)
+
+def _lab(rgb) -> np.ndarray:
+    """sRGB (0-255) to CIE L*a*b* (D65), the textbook formulas."""
+    c = np.asarray(rgb, float) / 255.0
+    c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    xyz = np.array([[0.4124564, 0.3575761, 0.1804375], [0.2126729, 0.7151522, 0.0721750],
+                    [0.0193339, 0.1191920, 0.9503041]]) @ c / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
+
+
+def _delta_e76(a, b) -> float:
+    return float(np.linalg.norm(_lab(a) - _lab(b)))
+
+
+def test_lab_known_answers():
+    np.testing.assert_allclose(_lab((255, 255, 255)), [100.0, 0.0, 0.0], atol=0.01)
+    np.testing.assert_allclose(_lab((255, 0, 0)), [53.24, 80.09, 67.20], atol=0.05)
+
+
+def test_beam_colours_cannot_be_taken_for_a_method_s_or_the_truth_s():
+    """Every beam colour is at least BEAM_MIN_DELTA_E (CIE76) from every method's colour and the
+    truth's, and from every other beam colour (before: lost 20 from TC's orange, rejected 9 from
+    NSV's red, returning 17 from VB's green, switched off 12 from INS's grey)."""
+    from app.figures import METHOD_COLORS, TRUTH_COLOR
+    from app.scene import BEAM_MIN_DELTA_E
+
+    def rgb(h: str) -> tuple[int, ...]:
+        return tuple(int(h[i:i + 2], 16) for i in (1, 3, 5))
+    others = {m: rgb(c) for m, c in METHOD_COLORS.items()} | {"truth": rgb(TRUTH_COLOR)}
+    for state, beam in BEAM_COLORS.items():
+        for name, color in others.items():
+            assert _delta_e76(beam, color) >= BEAM_MIN_DELTA_E, (state, name, _delta_e76(beam, color))
+    for (s1, c1), (s2, c2) in itertools.combinations(BEAM_COLORS.items(), 2):
+        assert _delta_e76(c1, c2) >= BEAM_MIN_DELTA_E, (s1, s2)
+    # the former palette fails the test: it measures what the issue saw
+    assert _delta_e76((255, 150, 30), rgb(METHOD_COLORS["tc"])) < BEAM_MIN_DELTA_E
+
+
+# ------------------------------------------------------------------------------------------ beams on the hull
+
+def test_body_frame_beams_placed_by_the_hull_s_pose_are_the_ned_beams():
+    """A beam drawn in the body frame under the hull's node (view pose ``M C_nb``, position
+    ``M p_n``) lands where beam_segments_n draws it in NED: hull and beams cannot come apart."""
+    from app.scene import beam_segments_b
+    rng_m = np.array([40.0, np.inf, 55.0, 61.0])
+    for C_nb in _random_rotations(5, seed=21):
+        pos_n = np.array([120.0, -35.0, 22.0])
+        body = beam_segments_b(L_DVL_B, A_B, rng_m, MAX_RANGE_M)
+        placed = ned_to_view(pos_n) + body @ (M_VIEW_FROM_NED @ C_nb).T
+        np.testing.assert_allclose(placed, ned_to_view(beam_segments_n(pos_n, C_nb, L_DVL_B, A_B, rng_m, MAX_RANGE_M)),
+                                   rtol=0, atol=1e-9)
+
+
+def test_beam_numbers_stand_on_their_beams():
+    from app.scene import BEAM_LABEL_DISTANCE_M, beam_label_positions_b
+    at = beam_label_positions_b(L_DVL_B, A_B)
+    for k in range(4):
+        np.testing.assert_allclose(at[k] - L_DVL_B, A_B[k] * BEAM_LABEL_DISTANCE_M, atol=1e-12)
+
+
+def test_interpolated_pose_is_between_the_samples():
+    from app.scene import interpolate_pose
+    t = np.array([0.0, 0.1, 0.2])
+    pos = np.array([[0.0, 0, 20], [1.0, 0, 20], [2.0, 0, 20]])
+    C = np.stack([C_nb_from_euler(np.array([0.0, 0.0, h * DEG])) for h in (0.0, 10.0, 20.0)])
+    i, p, R = interpolate_pose(0.125, t, pos, C)
+    assert i == 1
+    np.testing.assert_allclose(p, [1.25, 0, 20], atol=1e-12)
+    np.testing.assert_allclose(R, C_nb_from_euler(np.array([0.0, 0.0, 12.5 * DEG])), atol=1e-12)
+    for t_s, k in ((-1.0, 0), (0.2, 2), (5.0, 2)):        # clamped at the ends
+        i, p, R = interpolate_pose(t_s, t, pos, C)
+        assert i == k and np.array_equal(p, pos[k]) and np.array_equal(R, C[k])
+
+
+# ------------------------------------------------------------------------------------------ mission, compass, scale
+
+@pytest.mark.parametrize("x, nice", [(1.0, 1.0), (3.7, 2.0), (7.9, 5.0), (240.0, 200.0), (1000.0, 1000.0),
+                                     (0.049, 0.02)])
+def test_nice_length(x, nice):
+    from app.scene import nice_length
+    assert nice_length(x) == pytest.approx(nice)
+
+
+def test_the_seabed_covers_a_long_straight_run_with_its_margin():
+    """A 1,200 s straight run (1.8 km north) left the fixed 600 m seabed: now the grid covers the
+    track plus SEABED_MARGIN_M on every side, and the scale bar is a fifth of it, rounded."""
+    from app.scene import mission_frame
+    track = np.column_stack([np.linspace(0.0, 1800.0, 50), np.linspace(0.0, 30.0, 50), np.full(50, 20.0)])
+    frame = mission_frame(track, 60.0)
+    view = ned_to_view(track)
+    (w, h), c = frame.seabed_size_m, frame.seabed_center_view
+    assert np.all(view[:, 0] >= c[0] - w / 2 + SEABED_MARGIN_M - 1e-9)
+    assert np.all(view[:, 0] <= c[0] + w / 2 - SEABED_MARGIN_M + 1e-9)
+    assert np.all(view[:, 1] >= c[1] - h / 2 + SEABED_MARGIN_M - 1e-9)
+    assert np.all(view[:, 1] <= c[1] + h / 2 - SEABED_MARGIN_M + 1e-9)
+    assert c[2] == -60.0 and h == pytest.approx(1800.0 + 2 * SEABED_MARGIN_M)
+    assert frame.scale_m == 200.0                       # 1800 / 5 = 360 -> 200
+    assert frame.lo_view[2] == -60.0 and frame.hi_view[2] == 0.0
+
+
+def test_compass_points_north_and_east_and_the_scale_bar_is_its_length():
+    from app.scene import compass_view, scale_bar_view
+    corner = np.array([10.0, -20.0, 0.0])
+    arrows, labels = compass_view(corner, 50.0)
+    np.testing.assert_allclose(arrows[:, 0], [corner, corner])
+    np.testing.assert_allclose(arrows[0, 1] - corner, 50.0 * ned_to_view(NORTH))
+    np.testing.assert_allclose(arrows[1, 1] - corner, 50.0 * ned_to_view(EAST))
+    assert np.all(np.linalg.norm(labels - corner, axis=1) > 50.0)       # beyond the tips
+    bar = scale_bar_view(corner, 200.0)
+    np.testing.assert_allclose(bar[0, 1] - bar[0, 0], 200.0 * ned_to_view(EAST))
+    assert bar.shape == (3, 2, 3)
+
+
+# ------------------------------------------------------------------------------------------ cameras
+
+@pytest.mark.parametrize("heading_deg", [0.0, 37.0, 135.0, -90.0])
+def test_chase_views_see_the_hull_lengthwise_with_the_bow_to_the_right(heading_deg):
+    """From behind, the hull pointed into the screen (a vertical stick). The side view looks at it
+    nearly square to its axis and the view from above nearly straight down; in both the bow is to
+    the screen's right (scene up +z)."""
+    from app.scene import CAMERA_ABOVE, CAMERA_SIDE, chase_camera_view
+    C_nb = C_nb_from_euler(np.array([0.0, 5 * DEG, heading_deg * DEG]))
+    pos = np.array([3.0, 4.0, -20.0])
+    bow = M_VIEW_FROM_NED @ C_nb[:, 0]
+    for mode, max_dot in ((CAMERA_SIDE, 0.1), (CAMERA_ABOVE, 0.1)):
+        cam, look = chase_camera_view(pos, C_nb, mode, 22.0)
+        np.testing.assert_allclose(look, pos)
+        assert np.linalg.norm(cam - pos) == pytest.approx(22.0)
+        forward = (look - cam) / np.linalg.norm(look - cam)
+        assert abs(forward @ bow) < max_dot                  # the hull lies across the view
+        right = np.cross(forward, [0.0, 0.0, 1.0])          # the screen's right, the scene's up being +z
+        assert right @ bow / np.linalg.norm(right) > 0.9                             # bow to the right
+    cam, _ = chase_camera_view(pos, C_nb, CAMERA_ABOVE, 22.0)
+    assert (cam - pos)[2] > 0.98 * 22.0                       # from above
+
+
+def test_fit_mission_frames_every_corner_of_the_mission():
+    from app.scene import fit_camera_view
+    lo, hi = np.array([-300.0, 0.0, -110.0]), np.array([50.0, 7000.0, 0.0])
+    fov = np.radians(50.0)
+    cam, look = fit_camera_view(lo, hi, fov)
+    axis = (look - cam) / np.linalg.norm(look - cam)
+    for corner in itertools.product(*zip(lo, hi)):
+        d = np.asarray(corner) - cam
+        assert np.degrees(np.arccos(d @ axis / np.linalg.norm(d))) < 0.5 * np.degrees(fov)
+    assert cam[2] > hi[2]                                   # above the water
+
+
+# ------------------------------------------------------------------------------------------ playback
+
+def test_playback_speeds_span_1x_to_100x():
+    from app.scene import PLAYBACK_DEFAULT_SPEED, PLAYBACK_SPEEDS, playback_speed
+    speeds = [playback_speed(s) for s in PLAYBACK_SPEEDS]
+    assert speeds[0] == 1.0 and speeds[-1] == 100.0 and speeds == sorted(speeds)
+    assert PLAYBACK_DEFAULT_SPEED in PLAYBACK_SPEEDS
+    with pytest.raises(ValueError, match="playback speed: '3x'"):
+        playback_speed("3x")
+
+
+def test_playback_time_follows_the_wall_clock_and_stops_at_the_end():
+    from app.scene import playback_time
+    assert playback_time(10.0, 20.0, 0.5, 250.0) == 20.0
+    assert playback_time(10.0, 1.0, 2.0, 250.0) == 12.0
+    assert playback_time(10.0, 100.0, 10.0, 250.0) == 250.0
+    assert playback_time(10.0, 5.0, -1.0, 250.0) == 10.0
