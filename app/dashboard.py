@@ -144,6 +144,7 @@ VKF_NOTES = {
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
 WORKBENCH_WIDTH_PX = 640     # the plot panel docked left of the 3-D view (the user can resize or minimise it)
 PLOT_ASPECT = 0.42           # each error plot's height / width: three or four in view at once
+DIAGNOSTICS_DELAY_S = 0.05   # the innovations and components plots follow the others by this much
 KEPT_RUNS_MAX = 5            # finished runs kept for comparison (memory: each holds its full results)
 COMPONENTS_NOTE = (
     "Signed errors, estimate minus truth: position north/east/down, body velocity surge/sway/heave, Euler "
@@ -412,11 +413,12 @@ class Session:
         self.trajectory.on_update(lambda event: self.apply_trajectory_preset() if event.client is not None else None)
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
-        self.show_sigma.on_update(lambda _: self.refresh_plots())
-        self.log_y.on_update(lambda _: self.refresh_plots())
-        self.show_att_norm.on_update(lambda _: self.refresh_plots())
-        self.nees_block.on_update(lambda _: self.refresh_plots())
-        self.innovation_source.on_update(lambda _: self.refresh_plots())
+        # each option redraws only the plots it changes (a full redraw is ten figures)
+        self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
+        self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.time_slider.on_update(lambda _: self.move_cursor(self.time_slider.value))
         self.time_slider.on_update(self._slider_moved)
         self.play_button.on_click(lambda _: self.play())
@@ -819,13 +821,15 @@ class Session:
     # ------------------------------------------------------------------ kept runs
     def keep_run(self, config: Config, results: dict[str, MethodResult]) -> None:
         """Keep a finished run in the Runs tab (its description, an Overlay checkbox, a Remove
-        button); the oldest goes beyond KEPT_RUNS_MAX, said in a notification."""
+        button); beyond KEPT_RUNS_MAX the oldest goes, as the tab's note says (no notification:
+        the run's own closing notification is the one a user waits for)."""
         gui = self.client.gui
         with self.draw_lock:
             self.run_number += 1
             kept = KeptRun(self.run_number, config, int(next(iter(results.values())).vel_err_mps.shape[1]), results)
             self.kept_runs.append(kept)
             dropped, self.kept_runs = self.kept_runs[:-KEPT_RUNS_MAX], self.kept_runs[-KEPT_RUNS_MAX:]
+            overlaid = any(self.kept_widgets[old.number][1].value for old in dropped)
             for old in dropped:
                 self.kept_widgets.pop(old.number)[0].remove()
             self.no_runs.visible = False
@@ -837,11 +841,11 @@ class Session:
                                            hint="overlay this run in the Plots tab and compare it below")
                     button = gui.add_button(f"Remove run {kept.number}", color="red")
             self.kept_widgets[kept.number] = (folder, box)
-            self.refresh_runs()
+            # the plots were just drawn with the results (_show_results) and the new run is not
+            # ticked: they change only if a dropped run was in the overlay
+            self.refresh_runs(redraw=overlaid)
         box.on_update(lambda _: self.refresh_runs())
         button.on_click(lambda _, n=kept.number: self.remove_run(n))
-        if dropped:
-            self.notify("Run removed", f"Run {dropped[0].number} was removed: at most {KEPT_RUNS_MAX} runs are kept.")
 
     def remove_run(self, number: int) -> None:
         """Forget kept run ``number`` and its widgets."""
@@ -858,9 +862,9 @@ class Session:
         return [r for r in self.kept_runs if r.number in self.kept_widgets and self.kept_widgets[r.number][1].value]
 
     @_drawing
-    def refresh_runs(self) -> None:
+    def refresh_runs(self, redraw: bool = True) -> None:
         """The Runs tab's comparison (configuration differences above the results side by side)
-        and the Plots tab's overlay, for the runs ticked."""
+        and (``redraw``) the Plots tab's overlay, for the runs ticked."""
         overlay = self.overlay_runs()
         if len(overlay) >= 2:
             self.diff_table.content = config_diff_markdown([r.label for r in overlay],
@@ -870,7 +874,8 @@ class Session:
         else:
             self.diff_table.content = "Tick two or more runs to compare them." if self.kept_runs else ""
             self.compare_table.content = ""
-        self.refresh_plots()
+        if redraw:
+            self.refresh_plots()
 
     def move_cursor(self, t_s: float) -> None:
         """Move the time cursor of every plot on the page to ``t_s`` [s]: a few hundred bytes of
@@ -899,12 +904,52 @@ class Session:
                         error=True)
 
     @_drawing
-    def refresh_plots(self) -> None:
+    def refresh_plots(self, only: str | None = None) -> None:
         """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
-        ticked for overlay), their components, NEES and innovations, each with the time cursor."""
+        ticked for overlay), their components, NEES and innovations, each with the time cursor;
+        ``only`` one group of them ("errors", "nees", "innovations": what an option changes)."""
         results = self.results
         if not results:
             return
+        if only is None or only == "errors":
+            self._draw_error_plots(results)
+        if only is None or only == "nees":
+            self.nees_plot.figure = with_cursor(nees_figure(results, self.nees_block.value), self.cursor_t)
+        if only == "innovations":
+            self._draw_innovations(results)
+        if only is None:
+            self._schedule_diagnostics()
+
+    def _schedule_diagnostics(self) -> None:
+        """Draw the innovations, components and ELC plots soon, one figure at a time in a thread of
+        their own (called under the draw lock). They are half of a full redraw; drawn inline they
+        held the draw lock, so this tab's slider and Run waited behind them (8 tabs: p95 300 ms
+        in tests/server/test_load.py). New results while they are drawn start them again."""
+        self.diagnostics_due = True
+        if getattr(self, "diagnostics_thread", None) is None:
+            self.diagnostics_thread = threading.Thread(target=self._diagnostics_loop, daemon=True)
+            self.diagnostics_thread.start()
+
+    def _diagnostics_loop(self) -> None:
+        while True:
+            time.sleep(DIAGNOSTICS_DELAY_S)          # what the user acted on goes out first
+            with self.draw_lock:
+                if not self.diagnostics_due:
+                    self.diagnostics_thread = None
+                    return
+                self.diagnostics_due = False
+                results = self.results
+            for step in (self._draw_innovations, self._draw_components_and_elc):
+                with self.draw_lock:
+                    if self.diagnostics_due or not results:
+                        break                        # newer results: draw those instead
+                    try:
+                        step(results)
+                    except Exception as exc:  # a display bug must not kill the thread silently
+                        self.notify("Display error", f"{type(exc).__name__}: {exc}", error=True)
+                time.sleep(0.0)
+
+    def _draw_error_plots(self, results: dict[str, MethodResult]) -> None:
         t = self.cursor_t
         log_y = AUTO if self.log_y.value else False
         overlay = self.overlay_runs()
@@ -926,13 +971,23 @@ class Session:
                 figure = (compare_figure([(r.label, r.results) for r in overlay], q, log_y=log_y) if len(overlay) >= 2
                           else error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y))
                 handle.figure = with_cursor(figure, t)
-        self.nees_plot.figure = with_cursor(nees_figure(results, self.nees_block.value), t)
+
+    def _draw_components_and_elc(self, results: dict[str, MethodResult]) -> None:
+        t = self.cursor_t
         tv = self.truth_view
         if tv is not None:
             components = {m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"])
                           for m, r in results.items() if len(r.t_s)}
             for q, handle in self.component_plots.items():
                 handle.figure = with_cursor(components_figure(results, components, q), t)
+        if "elc" in results:
+            self.elc_plot.figure = with_cursor(elc_choice_figure(results["elc"]), t)
+            self.elc_plot.visible = True
+        else:
+            self.elc_plot.visible = False
+
+    def _draw_innovations(self, results: dict[str, MethodResult]) -> None:
+        t = self.cursor_t
         sources = innovation_sources(results)
         if sources:
             if tuple(self.innovation_source.options) != sources:
@@ -942,11 +997,6 @@ class Session:
             without = [m.upper() for m, r in results.items() if source not in r.updates]
             self.innovation_note.content = INNOVATION_NOTE + (
                 f" No {source.upper()} updates: {', '.join(without)}." if without else "")
-        if "elc" in results:
-            self.elc_plot.figure = with_cursor(elc_choice_figure(results["elc"]), t)
-            self.elc_plot.visible = True
-        else:
-            self.elc_plot.visible = False
 
     # ------------------------------------------------------------------ scene
     def _build_scene(self) -> None:
