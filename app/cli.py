@@ -943,7 +943,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
         if not logs:
             raise UsageError(f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
                              "imu.parquet; see the README)")
-    from app.dashboard import main as serve_main  # viser only when serving
+    from app.dashboard import exit_now  # viser only when serving
+    from app.dashboard import main as serve_main
     try:
         with viser_console_muted():     # the dashboard prints the one address to open
             serve_main(args.host, port, workers, logs)
@@ -954,12 +955,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     # Stopped by SIGTERM/SIGINT, the workers already gone: leave without the interpreter's
     # finalization, whose garbage collection of the tabs' sessions took 0.5-1.1 s on a loaded
     # machine (docker stop's SIGTERM must end the container within 2 s: tests/release).
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
-    os._exit(0)
+    exit_now()
 
 
 PATH_FLAGS = ("config", "json", "save_log", "out", "log", "logs")

@@ -1650,8 +1650,9 @@ class _MemoryReclaimer:
 RECLAIM = _MemoryReclaimer()
 
 
-def _exit_now() -> None:
-    """The shutdown deadline passed (a callback thread hangs): leave without waiting for it."""
+def exit_now() -> None:
+    """Leave at once with status 0, output flushed, without the interpreter's finalization: when
+    the shutdown deadline passed (a callback thread hangs), and after a clean stop (app.cli)."""
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
@@ -1666,7 +1667,7 @@ def shutdown(server: viser.ViserServer, pool: worker.RunPool) -> None:
     short by a daemon timer that ends the process with status 0 (the children are dead by then)."""
     # a tab's run thread may still update its page after viser has closed the connections
     warnings.filterwarnings("ignore", message="Queued a .* on a closed connection")
-    watchdog = threading.Timer(SHUTDOWN_DEADLINE_S, _exit_now)
+    watchdog = threading.Timer(SHUTDOWN_DEADLINE_S, exit_now)
     watchdog.daemon = True
     watchdog.start()         # never cancelled: it also bounds the interpreter's own exit
     try:
