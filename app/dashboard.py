@@ -144,7 +144,8 @@ VKF_NOTES = {
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
 WORKBENCH_WIDTH_PX = 640     # the plot panel docked left of the 3-D view (the user can resize or minimise it)
 PLOT_ASPECT = 0.42           # each error plot's height / width: three or four in view at once
-DIAGNOSTICS_DELAY_S = 0.05   # the innovations and components plots follow the others by this much
+DIAGNOSTICS_DELAY_S = 0.05   # the innovations and components plots follow the others by this much,
+QUIET_S = 1.0                # once the tab has had no action for this long
 KEPT_RUNS_MAX = 5            # finished runs kept for comparison (memory: each holds its full results)
 COMPONENTS_NOTE = (
     "Signed errors, estimate minus truth: position north/east/down, body velocity surge/sway/heave, Euler "
@@ -649,6 +650,7 @@ class Session:
     def update_address(self) -> None:
         """Show the controls' setup in the page's address (app.links), once its own query has
         been read (:meth:`read_link`); nothing is sent when it is unchanged."""
+        self.last_action_s = time.monotonic()
         if not self.address_ready:
             return
         with self.address_lock:
@@ -823,15 +825,28 @@ class Session:
         """Keep a finished run in the Runs tab (its description, an Overlay checkbox, a Remove
         button); beyond KEPT_RUNS_MAX the oldest goes, as the tab's note says (no notification:
         the run's own closing notification is the one a user waits for)."""
-        gui = self.client.gui
         with self.draw_lock:
             self.run_number += 1
             kept = KeptRun(self.run_number, config, int(next(iter(results.values())).vel_err_mps.shape[1]), results)
             self.kept_runs.append(kept)
             dropped, self.kept_runs = self.kept_runs[:-KEPT_RUNS_MAX], self.kept_runs[-KEPT_RUNS_MAX:]
-            overlaid = any(self.kept_widgets[old.number][1].value for old in dropped)
+            overlaid = any(old.number in self.kept_widgets and self.kept_widgets[old.number][1].value
+                           for old in dropped)
             for old in dropped:
-                self.kept_widgets.pop(old.number)[0].remove()
+                if old.number in self.kept_widgets:
+                    self.kept_widgets.pop(old.number)[0].remove()
+            if overlaid:
+                self.refresh_runs()
+            self._schedule_diagnostics()        # its widgets come with the diagnostics, once the tab is still
+
+    def _add_run_widgets(self) -> None:
+        """The Runs tab's entries (description, Overlay checkbox, Remove button) of kept runs that
+        have none yet (called under the draw lock, from the diagnostics' thread)."""
+        gui = self.client.gui
+        added = []
+        for kept in self.kept_runs:
+            if kept.number in self.kept_widgets:
+                continue
             self.no_runs.visible = False
             with self.runs_folder:
                 folder = gui.add_folder(f"Run {kept.number}")
@@ -841,11 +856,11 @@ class Session:
                                            hint="overlay this run in the Plots tab and compare it below")
                     button = gui.add_button(f"Remove run {kept.number}", color="red")
             self.kept_widgets[kept.number] = (folder, box)
-            # the plots were just drawn with the results (_show_results) and the new run is not
-            # ticked: they change only if a dropped run was in the overlay
-            self.refresh_runs(redraw=overlaid)
-        box.on_update(lambda _: self.refresh_runs())
-        button.on_click(lambda _, n=kept.number: self.remove_run(n))
+            box.on_update(lambda _: self.refresh_runs())
+            button.on_click(lambda _, n=kept.number: self.remove_run(n))
+            added.append(kept)
+        if added:
+            self.refresh_runs(redraw=False)     # a new run is not ticked: the plots stay
 
     def remove_run(self, number: int) -> None:
         """Forget kept run ``number`` and its widgets."""
@@ -908,6 +923,8 @@ class Session:
         """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
         ticked for overlay), their components, NEES and innovations, each with the time cursor;
         ``only`` one group of them ("errors", "nees", "innovations": what an option changes)."""
+        if only is not None:
+            self.last_action_s = time.monotonic()
         results = self.results
         if not results:
             return
@@ -924,7 +941,9 @@ class Session:
         """Draw the innovations, components and ELC plots soon, one figure at a time in a thread of
         their own (called under the draw lock). They are half of a full redraw; drawn inline they
         held the draw lock, so this tab's slider and Run waited behind them (8 tabs: p95 300 ms
-        in tests/server/test_load.py). New results while they are drawn start them again."""
+        in tests/server/test_load.py). They wait until the tab has been still for QUIET_S (the
+        slider, a control, an option), so what the user does now is answered first. New results
+        while they are drawn start them again."""
         self.diagnostics_due = True
         if getattr(self, "diagnostics_thread", None) is None:
             self.diagnostics_thread = threading.Thread(target=self._diagnostics_loop, daemon=True)
@@ -933,13 +952,15 @@ class Session:
     def _diagnostics_loop(self) -> None:
         while True:
             time.sleep(DIAGNOSTICS_DELAY_S)          # what the user acted on goes out first
+            if time.monotonic() - getattr(self, "last_action_s", 0.0) < QUIET_S:
+                continue                             # still busy in this tab: wait
             with self.draw_lock:
                 if not self.diagnostics_due:
                     self.diagnostics_thread = None
                     return
                 self.diagnostics_due = False
                 results = self.results
-            for step in (self._draw_innovations, self._draw_components_and_elc):
+            for step in (self._draw_innovations, self._draw_components_and_elc, lambda _: self._add_run_widgets()):
                 with self.draw_lock:
                     if self.diagnostics_due or not results:
                         break                        # newer results: draw those instead
@@ -1273,6 +1294,8 @@ class Session:
         """The time slider moved: show that time. Moved by the user's hand during a run, it stays
         there as results arrive (unless put at the latest time, where it follows the run again)."""
         t_s = float(self.time_slider.value)
+        if event.client is not None:
+            self.last_action_s = time.monotonic()
         if event.client is not None and self.handle is not None:
             self.slider_pinned, self.slider_set_s = t_s < self.run_time_s - 0.5, t_s
         self.show_time(t_s)
