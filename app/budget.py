@@ -52,10 +52,10 @@ UPDATE_DOUBLES = 20
 FIXED_BYTES = 84 * 2**20
 SLACK = 1.15
 DYNAMIC_FIXED_BYTES = 13 * 2**20
-KNOT_DOUBLES = 24           # tauvcore.truth.dynamic.KNOT_COLUMNS (not imported: it loads numba)
-CACHE_MAX_KNOTS = 100_000   # tauvcore.truth.dynamic.CACHE_MAX_KNOTS
-STREAM_CHUNK_S = 10.0       # tauvcore.eval.runner.STREAM_CHUNK_S (not imported: it loads the engine)
-LIVE_EPOCHS = 1200          # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)
+KNOT_DOUBLES = 24  # tauvcore.truth.dynamic.KNOT_COLUMNS (not imported: it loads numba)
+CACHE_MAX_KNOTS = 100_000  # tauvcore.truth.dynamic.CACHE_MAX_KNOTS
+STREAM_CHUNK_S = 10.0  # tauvcore.eval.runner.STREAM_CHUNK_S (not imported: it loads the engine)
+LIVE_EPOCHS = 1200  # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)
 
 DEFAULT_BUDGET_BYTES = int(1.5 * 2**30)
 """Default memory a single dashboard run may take (1.5 GiB): two runs at once and the server fit
@@ -67,10 +67,10 @@ BUDGET_ENV = "TAUV_RUN_BUDGET_MB"
 class RunEstimate:
     """Estimated memory of one dashboard run [bytes]."""
 
-    chunk_bytes: int            # one chunk of truth (being built) and IMU record with its compensation
-    end_bytes: int              # results, records and the queued pickle at the end
-    results_bytes: int          # one copy of the results (the server's; the pipe's in transit)
-    worker_peak_bytes: int      # SLACK x (chunk + end) + FIXED_BYTES: the worker's own peak
+    chunk_bytes: int  # one chunk of truth (being built) and IMU record with its compensation
+    end_bytes: int  # results, records and the queued pickle at the end
+    results_bytes: int  # one copy of the results (the server's; the pipe's in transit)
+    worker_peak_bytes: int  # SLACK x (chunk + end) + FIXED_BYTES: the worker's own peak
 
     @property
     def total_bytes(self) -> int:
@@ -108,9 +108,12 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     if config.trajectory.truth == "dynamic":
         fixed += DYNAMIC_FIXED_BYTES
         chunk += KNOT_DOUBLES * DOUBLE * ((K + 1) if K + 1 <= CACHE_MAX_KNOTS else K_c)
-    return RunEstimate(chunk_bytes=chunk, end_bytes=end,
-                       results_bytes=outputs + update_data,
-                       worker_peak_bytes=int(SLACK * (chunk + end)) + fixed)
+    return RunEstimate(
+        chunk_bytes=chunk,
+        end_bytes=end,
+        results_bytes=outputs + update_data,
+        worker_peak_bytes=int(SLACK * (chunk + end)) + fixed,
+    )
 
 
 def budget_bytes() -> int:
@@ -135,5 +138,7 @@ def over_budget_message(estimate: RunEstimate, budget: int) -> str | None:
     need = estimate.total_bytes
     if need <= budget:
         return None
-    return (f"this run would need about {need / 2**30:.2f} GB of memory, more than the "
-            f"{budget / 2**30:.2f} GB a run may take ({BUDGET_ENV}); shorten Duration or lower Runs")
+    return (
+        f"this run would need about {need / 2**30:.2f} GB of memory, more than the "
+        f"{budget / 2**30:.2f} GB a run may take ({BUDGET_ENV}); shorten Duration or lower Runs"
+    )

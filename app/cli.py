@@ -56,7 +56,7 @@ from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.truth import PAPER_TRAJECTORIES, TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
 
-if TYPE_CHECKING:   # the engine (numba, compiled-code cache) loads when a command runs, not for --help
+if TYPE_CHECKING:  # the engine (numba, compiled-code cache) loads when a command runs, not for --help
     from tauvcore.eval.runner import MethodResult, UpdateRecord
 
 EXIT_BAD_INPUT = 2
@@ -94,9 +94,28 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(" ".join(shorten(word) for word in message.split(" ")))
 
 
-VALUE_FLAGS = frozenset({"--trajectory", "--method", "--duration", "--seed", "--aiding", "--beams", "--outage",
-                         "--dropout", "--vb-nf", "--nsv-epsilon", "--config", "--json", "--host", "--port",
-                         "--workers", "--runs", "--out", "--dask"})
+VALUE_FLAGS = frozenset(
+    {
+        "--trajectory",
+        "--method",
+        "--duration",
+        "--seed",
+        "--aiding",
+        "--beams",
+        "--outage",
+        "--dropout",
+        "--vb-nf",
+        "--nsv-epsilon",
+        "--config",
+        "--json",
+        "--host",
+        "--port",
+        "--workers",
+        "--runs",
+        "--out",
+        "--dask",
+    }
+)
 """Flags that take a value (every subcommand); see :func:`attach_dash_values`."""
 OTHER_FLAGS = frozenset({"--ideal", "-h", "--help"})
 
@@ -117,8 +136,13 @@ def attach_dash_values(argv: Sequence[str]) -> list[str]:
             out.extend(argv[i:])
             break
         nxt = argv[i + 1] if i + 1 < len(argv) else None
-        if (token in VALUE_FLAGS and nxt is not None and nxt.startswith("-")
-                and nxt not in VALUE_FLAGS | OTHER_FLAGS and nxt != "--"):
+        if (
+            token in VALUE_FLAGS
+            and nxt is not None
+            and nxt.startswith("-")
+            and nxt not in VALUE_FLAGS | OTHER_FLAGS
+            and nxt != "--"
+        ):
             out.append(f"{token}={nxt}")
             i += 2
         else:
@@ -127,13 +151,20 @@ def attach_dash_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
-def _csv(flag: str, text: str, choices: Sequence[str], allow_all: bool = False,
-         all_means: Sequence[str] | None = None) -> tuple[str, ...]:
+def _csv(
+    flag: str,
+    text: str,
+    choices: Sequence[str],
+    allow_all: bool = False,
+    all_means: Sequence[str] | None = None,
+) -> tuple[str, ...]:
     items = tuple(s.strip() for s in text.split(",") if s.strip())
     if allow_all and items == ("all",):
         return tuple(choices if all_means is None else all_means)
     if not items:
-        raise UsageError(f"{flag}: expected a comma-separated list from {', '.join(choices)}, got {show(text)}")
+        raise UsageError(
+            f"{flag}: expected a comma-separated list from {', '.join(choices)}, got {show(text)}"
+        )
     for item in items:
         if item not in choices:
             raise UsageError(f"{flag}: unknown value {show(item)} (choose from {', '.join(choices)})")
@@ -147,30 +178,61 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("run", help="simulate a mission and run fusion methods side by side")
     _mission_flags(r)
-    r.add_argument("--ideal", action="store_true", help="zero every sensor and initial error (verification mode)")
-    r.add_argument("--json", help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
-                                  "JSON file (strict JSON, written atomically; not the --config file)")
-    r.add_argument("--save-log", metavar="DIR", help="also write the simulated sensors and truth as a log "
-                                                     "(tauv replay reads it; see the README's log format)")
+    r.add_argument(
+        "--ideal", action="store_true", help="zero every sensor and initial error (verification mode)"
+    )
+    r.add_argument(
+        "--json",
+        help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
+        "JSON file (strict JSON, written atomically; not the --config file)",
+    )
+    r.add_argument(
+        "--save-log",
+        metavar="DIR",
+        help="also write the simulated sensors and truth as a log "
+        "(tauv replay reads it; see the README's log format)",
+    )
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
-    rl = sub.add_parser("replay", help="run the fusion methods on a recorded log (a directory of sensor tables)")
-    rl.add_argument("log", metavar="DIR", help="the log directory (imu, reference, and dvl, depth, attitude tables)")
+    rl = sub.add_parser(
+        "replay", help="run the fusion methods on a recorded log (a directory of sensor tables)"
+    )
+    rl.add_argument(
+        "log", metavar="DIR", help="the log directory (imu, reference, and dvl, depth, attitude tables)"
+    )
     _method_flags(rl)
-    rl.add_argument("--imu-errors", metavar="PROFILE", help=f"add a simulated IMU's errors to the log's IMU: "
-                                                           f"{', '.join(IMU_PROFILES)} (drawn from --seed; the "
-                                                           "filters are tuned for that IMU)")
-    rl.add_argument("--config", help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config')")
+    rl.add_argument(
+        "--imu-errors",
+        metavar="PROFILE",
+        help=f"add a simulated IMU's errors to the log's IMU: "
+        f"{', '.join(IMU_PROFILES)} (drawn from --seed; the "
+        "filters are tuned for that IMU)",
+    )
+    rl.add_argument(
+        "--config", help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config')"
+    )
     rl.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
-    mc = sub.add_parser("mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html")
+    mc = sub.add_parser(
+        "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
+    )
     _mission_flags(mc)
     mc.add_argument("--runs", required=True, help=f"number of Monte Carlo runs, 1 to {MAX_STUDY_RUNS}")
-    mc.add_argument("--out", required=True, help="output directory (created if missing; files appear only when "
-                                                 "the study has finished)")
+    mc.add_argument(
+        "--out",
+        required=True,
+        help="output directory (created if missing; files appear only when the study has finished)",
+    )
     mc.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
-    mc.add_argument("--dask", metavar="ADDRESS", help="send the chunks to this Dask scheduler instead, e.g. "
-                                                     "tcp://10.0.0.5:8786 (its workers need tauv installed)")
-    rp = sub.add_parser("reproduce", help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
-                                           "with every figure of its section 4.2 beside ours")
+    mc.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="send the chunks to this Dask scheduler instead, e.g. "
+        "tcp://10.0.0.5:8786 (its workers need tauv installed)",
+    )
+    rp = sub.add_parser(
+        "reproduce",
+        help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
+        "with every figure of its section 4.2 beside ours",
+    )
     rp.add_argument("--out", required=True, help="output directory (as for mc)")
     rp.add_argument("--runs", help="Monte Carlo runs per trajectory (default 100, the paper's study)")
     rp.add_argument("--duration", help="run length [s] (default 250, the paper's; shorter for a quick check)")
@@ -178,11 +240,19 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
     rp.add_argument("--dask", metavar="ADDRESS", help="send the chunks to this Dask scheduler instead")
     sv = sub.add_parser("serve", help="start the browser dashboard")
-    sv.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)")
+    sv.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)"
+    )
     sv.add_argument("--port", default="8080", help="TCP port (default 8080)")
-    sv.add_argument("--workers", help="runs computed at once, one process each (default: min(2, CPUs); at most 64)")
-    sv.add_argument("--logs", metavar="DIR", help="offer the recorded logs in DIR (it, or its subdirectories) as "
-                                                  "sources to replay in the dashboard")
+    sv.add_argument(
+        "--workers", help="runs computed at once, one process each (default: min(2, CPUs); at most 64)"
+    )
+    sv.add_argument(
+        "--logs",
+        metavar="DIR",
+        help="offer the recorded logs in DIR (it, or its subdirectories) as "
+        "sources to replay in the dashboard",
+    )
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", help="TOML file to merge over the defaults before printing")
     _imu_flag(c)
@@ -194,51 +264,85 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
     """The flags that describe a mission and its methods (``run`` and ``mc``)."""
     p.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
     p.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
-    p.add_argument("--truth", metavar="SOURCE", help=f"how the truth is made: {', '.join(TRUTH_SOURCES)} "
-                                                     "(default kinematic: closed-form profiles; dynamic: the 6-DOF "
-                                                     "TAUV flown through the scenario by its autopilot, with fins "
-                                                     "and propeller)")
+    p.add_argument(
+        "--truth",
+        metavar="SOURCE",
+        help=f"how the truth is made: {', '.join(TRUTH_SOURCES)} "
+        "(default kinematic: closed-form profiles; dynamic: the 6-DOF "
+        "TAUV flown through the scenario by its autopilot, with fins "
+        "and propeller)",
+    )
     _method_flags(p)
-    p.add_argument("--rpm-fallback", action="store_true", help="the DVL methods fuse the propeller RPM's velocity "
-                                                               "(Yoo 2014's velocity Kalman filter, learnt from the "
-                                                               "DVL) whenever they have no DVL velocity")
+    p.add_argument(
+        "--rpm-fallback",
+        action="store_true",
+        help="the DVL methods fuse the propeller RPM's velocity "
+        "(Yoo 2014's velocity Kalman filter, learnt from the "
+        "DVL) whenever they have no DVL velocity",
+    )
     _imu_flag(p)
     p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
 
 
 def _method_flags(p: argparse.ArgumentParser) -> None:
     """The flags of the methods, their aiding and the DVL's beams (``run``, ``mc`` and ``replay``)."""
-    p.add_argument("--method", help=f"comma-separated from {', '.join(ALL_METHODS)}, or 'all' (the first paper's "
-                                    "eight) (default: ins,lc). ins-dvl and vkf are Yoo 2014's 12-state filter, aided "
-                                    "by the DVL, or by its velocity Kalman filter switching to the propeller RPM "
-                                    "beyond DVL range")
+    p.add_argument(
+        "--method",
+        help=f"comma-separated from {', '.join(ALL_METHODS)}, or 'all' (the first paper's "
+        "eight) (default: ins,lc). ins-dvl and vkf are Yoo 2014's 12-state filter, aided "
+        "by the DVL, or by its velocity Kalman filter switching to the propeller RPM "
+        "beyond DVL range",
+    )
     p.add_argument("--seed", help="seed of the random generator: noise, initial errors, dropout (default 0)")
     p.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
-    p.add_argument("--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)")
-    p.add_argument("--outage", action="append", default=[], metavar="BEAMS@START:END",
-                   help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable")
+    p.add_argument(
+        "--beams", help="comma-separated beams that return for the whole run, e.g. 1,2 (default 1,2,3,4)"
+    )
+    p.add_argument(
+        "--outage",
+        action="append",
+        default=[],
+        metavar="BEAMS@START:END",
+        help="beams lost in a window, e.g. 3,4@50:200 (seconds); repeatable",
+    )
     p.add_argument("--dropout", help="probability in [0, 1] that each beam misses each ping")
-    p.add_argument("--vb-nf", metavar="N", help="n_f of VB's virtual beam (also inflates VHV's predicted heave), "
-                                               f"a number in [1, 100] (default {Config().partial.vb_nf:g})")
-    p.add_argument("--nsv-epsilon", metavar="E", help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
-                                                     "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
-                                                     "from the vehicle's sideslip in its tightest turn)")
+    p.add_argument(
+        "--vb-nf",
+        metavar="N",
+        help="n_f of VB's virtual beam (also inflates VHV's predicted heave), "
+        f"a number in [1, 100] (default {Config().partial.vb_nf:g})",
+    )
+    p.add_argument(
+        "--nsv-epsilon",
+        metavar="E",
+        help="NSV's (and ELC's) variance of the 'sway = 0' assumption "
+        "[m^2/s^2], a number in (0, 100] or 'auto' (default auto: "
+        "from the vehicle's sideslip in its tightest turn)",
+    )
     _earth_flag(p)
 
 
 def _earth_flag(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--earth", metavar="MODEL", help=f"earth model: {', '.join(EARTH_MODELS)} (default wgs84: "
-                                                    "geodetic position, gravity and earth rate along the path, "
-                                                    "transport rate; flat: the paper's tangent plane with constant "
-                                                    "gravity). The origin is [earth] latitude_deg, longitude_deg "
-                                                    "and [trajectory] depth_m")
+    p.add_argument(
+        "--earth",
+        metavar="MODEL",
+        help=f"earth model: {', '.join(EARTH_MODELS)} (default wgs84: "
+        "geodetic position, gravity and earth rate along the path, "
+        "transport rate; flat: the paper's tangent plane with constant "
+        "gravity). The origin is [earth] latitude_deg, longitude_deg "
+        "and [trajectory] depth_m",
+    )
 
 
 def _imu_flag(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--imu", metavar="PROFILE", help=f"IMU error model by name: {', '.join(IMU_PROFILES)} "
-                                                    "(default table2: Tal et al. 2017 Table 2; yoo-table1: "
-                                                    "Yoo 2014 Table 1, a 1 deg/h IMU at 100 Hz). Replaces the "
-                                                    "file's [imu] section")
+    p.add_argument(
+        "--imu",
+        metavar="PROFILE",
+        help=f"IMU error model by name: {', '.join(IMU_PROFILES)} "
+        "(default table2: Tal et al. 2017 Table 2; yoo-table1: "
+        "Yoo 2014 Table 1, a 1 deg/h IMU at 100 Hz). Replaces the "
+        "file's [imu] section",
+    )
 
 
 def resolve_config(args: argparse.Namespace) -> Config:
@@ -252,36 +356,47 @@ def resolve_config(args: argparse.Namespace) -> Config:
     raw = read_toml(args.config) if args.config else {}
     if getattr(args, "duration", None) is not None:
         duration = _parse("--duration", args.duration, float, "a number of seconds")
-        _replace("--duration", Config(), "trajectory", duration_s=duration)   # check it on its own first
+        _replace("--duration", Config(), "trajectory", duration_s=duration)  # check it on its own first
         raw = merge(raw, {"trajectory": {"duration_s": duration}})
     name = getattr(args, "trajectory", None)
     if name is None and isinstance(raw.get("trajectory"), dict):
         name = raw["trajectory"].get("name")
     if isinstance(name, str):
-        raw = merge(trajectory_preset(name), raw)     # the scenario's own values, under the file's
+        raw = merge(trajectory_preset(name), raw)  # the scenario's own values, under the file's
     config = from_dict(raw)
     if getattr(args, "imu", None) is not None:
         if args.imu not in IMU_PROFILES:
-            raise UsageError(f"--imu: unknown IMU profile {show(args.imu)} (choose from {', '.join(IMU_PROFILES)})")
+            raise UsageError(
+                f"--imu: unknown IMU profile {show(args.imu)} (choose from {', '.join(IMU_PROFILES)})"
+            )
         config = _replace("--imu", config, "imu", **dataclasses.asdict(IMU_PROFILES[args.imu]))
     if getattr(args, "earth", None) is not None:
         if args.earth not in EARTH_MODELS:
-            raise UsageError(f"--earth: unknown earth model {show(args.earth)} (choose from {', '.join(EARTH_MODELS)})")
+            raise UsageError(
+                f"--earth: unknown earth model {show(args.earth)} (choose from {', '.join(EARTH_MODELS)})"
+            )
         config = config.replace("earth", model=args.earth)
     if getattr(args, "trajectory", None) is not None:
         if args.trajectory not in TRAJECTORIES:
-            raise UsageError(f"--trajectory: unknown trajectory {show(args.trajectory)} "
-                             f"(choose from {', '.join(TRAJECTORIES)})")
+            raise UsageError(
+                f"--trajectory: unknown trajectory {show(args.trajectory)} "
+                f"(choose from {', '.join(TRAJECTORIES)})"
+            )
         config = config.replace("trajectory", name=args.trajectory)
     if getattr(args, "truth", None) is not None:
         if args.truth not in TRUTH_SOURCES:
-            raise UsageError(f"--truth: unknown truth source {show(args.truth)} (choose from {', '.join(TRUTH_SOURCES)})")
+            raise UsageError(
+                f"--truth: unknown truth source {show(args.truth)} (choose from {', '.join(TRUTH_SOURCES)})"
+            )
         config = _replace("--truth", config, "trajectory", truth=args.truth)
     if getattr(args, "seed", None) is not None:
-        config = _replace("--seed", config, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
+        config = _replace(
+            "--seed", config, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer")
+        )
     if getattr(args, "method", None) is not None:
-        config = config.replace("run", methods=_csv("--method", args.method, ALL_METHODS, allow_all=True,
-                                                    all_means=METHODS))
+        config = config.replace(
+            "run", methods=_csv("--method", args.method, ALL_METHODS, allow_all=True, all_means=METHODS)
+        )
     if getattr(args, "aiding", None) is not None:
         config = config.replace("run", aiding=_csv("--aiding", args.aiding, AIDING_SOURCES))
     if getattr(args, "ideal", False):
@@ -297,11 +412,15 @@ def resolve_config(args: argparse.Namespace) -> Config:
         probability = _parse("--dropout", args.dropout, float, "a probability in [0, 1]")
         config = _replace("--dropout", config, "dvl", dropout_probability=probability)
     if getattr(args, "vb_nf", None) is not None:
-        config = _replace("--vb-nf", config, "partial",
-                          vb_nf=_parse("--vb-nf", args.vb_nf, float, "a number in [1, 100]"))
+        config = _replace(
+            "--vb-nf", config, "partial", vb_nf=_parse("--vb-nf", args.vb_nf, float, "a number in [1, 100]")
+        )
     if getattr(args, "nsv_epsilon", None) is not None:
-        epsilon = (AUTO if args.nsv_epsilon == AUTO
-                   else _parse("--nsv-epsilon", args.nsv_epsilon, float, f"a number in (0, 100] or {AUTO!r}"))
+        epsilon = (
+            AUTO
+            if args.nsv_epsilon == AUTO
+            else _parse("--nsv-epsilon", args.nsv_epsilon, float, f"a number in (0, 100] or {AUTO!r}")
+        )
         config = _replace("--nsv-epsilon", config, "partial", nsv_epsilon_m2_per_s2=epsilon)
     return config
 
@@ -310,9 +429,9 @@ def _parse(flag: str, text: str, cast: type, expected: str) -> Any:
     """``cast(text)``, or one line naming the flag, what it expects and what it got."""
     try:
         value = cast(text)
-    except ValueError:      # also an integer of more than 4300 digits
+    except ValueError:  # also an integer of more than 4300 digits
         raise UsageError(f"{flag}: expected {expected}, got {show(text)}") from None
-    if isinstance(value, float) and not np.isfinite(value):   # "nan", "-inf", or "9" * 500 overflowing to inf
+    if isinstance(value, float) and not np.isfinite(value):  # "nan", "-inf", or "9" * 500 overflowing to inf
         raise UsageError(f"{flag}: expected {expected}, got {show(text)}")
     return value
 
@@ -347,7 +466,9 @@ def _outage(text: str) -> Outage:
     try:
         start, end = float(start_text), float(end_text)
     except ValueError:
-        raise UsageError(f"--outage: start and end must be seconds, got {show(window)} in {show(text)}") from None
+        raise UsageError(
+            f"--outage: start and end must be seconds, got {show(window)} in {show(text)}"
+        ) from None
     try:
         return Outage(beams=beams, start_s=start, end_s=end)
     except ConfigError as exc:
@@ -366,8 +487,9 @@ def _number(value: float) -> float | None:
     return value if np.isfinite(value) else None
 
 
-def result_to_json(result: MethodResult, run_index: int = 0,
-                   origin_rad: tuple[float, float] | None = None) -> dict[str, Any]:
+def result_to_json(
+    result: MethodResult, run_index: int = 0, origin_rad: tuple[float, float] | None = None
+) -> dict[str, Any]:
     """Per-epoch series of one run, its divergence verdict and the method's consistency, as in the
     CLI contract (strict JSON: non-finite numbers are null).
 
@@ -399,9 +521,13 @@ def result_to_json(result: MethodResult, run_index: int = 0,
         estimate[f"est_{axis}_m"] = _finite(pos[:, k])
     if origin_rad is not None and len(pos):
         from tauvcore.geo.earth import geodetic_from_ned
+
         lat, lon, h = geodetic_from_ned(pos, (origin_rad[0], origin_rad[1], 0.0))
-        estimate.update(est_lat_deg=_finite(np.degrees(lat)), est_lon_deg=_finite(np.degrees(lon)),
-                        est_depth_m=_finite(-h))
+        estimate.update(
+            est_lat_deg=_finite(np.degrees(lat)),
+            est_lon_deg=_finite(np.degrees(lon)),
+            est_depth_m=_finite(-h),
+        )
     if result.est_vel_n is not None:
         for k, axis in enumerate(("north", "east", "down")):
             estimate[f"est_vel_{axis}_mps"] = _finite(result.est_vel_n[:, i, k])
@@ -422,7 +548,11 @@ def result_to_json(result: MethodResult, run_index: int = 0,
         "heading_sigma_deg": _finite(result.heading_sigma_deg[:, i]),
         "pos_sigma_m": _finite(result.pos_sigma_m[:, i]),
         "nees": _finite(result.nees[:, i]),
-        **{f"nees_{block}": _finite(nees_series(result, block)[:, i]) for block in BLOCK_DIMS if block != "full"},
+        **{
+            f"nees_{block}": _finite(nees_series(result, block)[:, i])
+            for block in BLOCK_DIMS
+            if block != "full"
+        },
         "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
         "consistency": consistency_to_json(method_consistency(result)),
         "diverged": bool(result.diverged[i]),
@@ -434,17 +564,29 @@ def result_to_json(result: MethodResult, run_index: int = 0,
 def _nis_to_json(record: UpdateRecord, run_index: int) -> dict[str, list]:
     nis, dof = record.nis[:, run_index], record.nis_dof[:, run_index]
     used = record.valid[:, run_index] & (dof > 0)
-    return {"t": _finite(record.t_s), "nis": _finite(np.where(used, nis, np.nan)),
-            "dof": [int(d) for d in dof]}
+    return {
+        "t": _finite(record.t_s),
+        "nis": _finite(np.where(used, nis, np.nan)),
+        "dof": [int(d) for d in dof],
+    }
 
 
 def consistency_to_json(c: MethodConsistency) -> dict[str, Any]:
     """:class:`~tauvcore.eval.consistency.MethodConsistency` as strict-JSON data (NaN -> null)."""
     return {
-        "nees": {block: {"dim": s.dim, "per_dim": _number(s.per_dim), "in_band": _number(s.in_band),
-                         "band_per_dim": [_number(b) for b in s.band_per_dim]} for block, s in c.nees.items()},
-        "nis": {source: {"per_dof": _number(s.per_dof), "in_band": _number(s.in_band), "count": s.count}
-                for source, s in c.nis.items()},
+        "nees": {
+            block: {
+                "dim": s.dim,
+                "per_dim": _number(s.per_dim),
+                "in_band": _number(s.in_band),
+                "band_per_dim": [_number(b) for b in s.band_per_dim],
+            }
+            for block, s in c.nees.items()
+        },
+        "nis": {
+            source: {"per_dof": _number(s.per_dof), "in_band": _number(s.in_band), "count": s.count}
+            for source, s in c.nis.items()
+        },
     }
 
 
@@ -538,8 +680,9 @@ def _new_file_mode(path: str) -> int:
         return 0o666 & ~umask
 
 
-def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: float,
-                  source: str | None = None) -> str:
+def summary_table(
+    results: dict[str, MethodResult], config: Config, elapsed_s: float, source: str | None = None
+) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
     :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a log)."""
     tr = config.trajectory
@@ -547,17 +690,25 @@ def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: f
     lines = [
         f"{what}, {tr.duration_s:g} s, earth {config.earth.model}, seed {config.run.seed}, "
         f"aiding {','.join(config.run.aiding) or 'none'}"
-        + (", IDEAL sensors" if config.run.ideal else "") + f"  ({elapsed_s:.1f} s wall)",
+        + (", IDEAL sensors" if config.run.ideal else "")
+        + f"  ({elapsed_s:.1f} s wall)",
         "",
-        (f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
-         f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}"),
-        (f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[deg]':>9} {'[deg]':>9} {'[m]':>10} "
-         f"{'[m]':>9} {'[m/s]':>10}"),
+        (
+            f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
+            f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}"
+        ),
+        (
+            f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[deg]':>9} {'[deg]':>9} {'[m]':>10} "
+            f"{'[m]':>9} {'[m/s]':>10}"
+        ),
     ]
     for name, r in results.items():
         dvl = r.updates.get("dvl")
-        fused = (f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
-                 if dvl is not None else "-")
+        fused = (
+            f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
+            if dvl is not None
+            else "-"
+        )
         marker = ""
         if bool(r.diverged[0]):
             at = float(r.diverged_at_s[0])
@@ -566,7 +717,8 @@ def summary_table(results: dict[str, MethodResult], config: Config, elapsed_s: f
             f"{name.upper():<7} {r.vel_err_mps[-1, 0]:>10.4f} {rms(r.vel_err_mps[:, 0]):>9.4f} "
             f"{r.att_err_deg[-1, 0]:>10.4f} {rms(r.att_err_deg[:, 0]):>9.4f} {rms(r.tilt_err_deg[:, 0]):>9.4f} "
             f"{rms(r.heading_err_deg[:, 0]):>9.4f} {r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} "
-            f"{r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}" + marker)
+            f"{r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}" + marker
+        )
     return "\n".join(lines + ["", consistency_table(results, config.run.aiding)])
 
 
@@ -600,20 +752,31 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
     for name, r in results.items():
         c = method_consistency(r)
         nis = [c.nis.get(s) for s in sources]
-        rows.append([name.upper(), *(_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in blocks),
-                     *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis)])
+        rows.append(
+            [
+                name.upper(),
+                *(_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in blocks),
+                *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis),
+            ]
+        )
     widths = [max(len(row[k]) for row in [head, units, *rows]) for k in range(len(head))]
     widths[0] = max(widths[0], 7)
 
     def line(cells: list[str]) -> str:
-        return " ".join([cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]).rstrip()
+        return " ".join(
+            [cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]
+        ).rstrip()
 
-    title = ("Consistency (1 = consistent, above 1 over-confident, below 1 cautious; in brackets the fraction "
-             "inside the 99 % band)")
+    title = (
+        "Consistency (1 = consistent, above 1 over-confident, below 1 cautious; in brackets the fraction "
+        "inside the 99 % band)"
+    )
     notes = []
     if any(r.block_dims is not None for r in results.values()):
-        notes = ["INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
-                 "NEES over 6, and they have no position state"]
+        notes = [
+            "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
+            "NEES over 6, and they have no position state"
+        ]
     return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
 
 
@@ -630,10 +793,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - started
     if log_dir is not None:
         from tauvcore.logs import simulation_tables, write_log
+
         try:
             write_log(log_dir, simulation_tables(chunks), args.log_format)
         except OSError as exc:
-            raise UsageError(f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}") from None
+            raise UsageError(
+                f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}"
+            ) from None
     if json_path is not None:
         try:
             write_json_atomic(json_path, run_payload(config, results))
@@ -654,11 +820,17 @@ def _save_log_target(args: argparse.Namespace) -> str | None:
     target = os.path.abspath(args.save_log)
     if os.path.exists(target) and not os.path.isdir(target):
         raise UsageError(f"--save-log: {show_path(args.save_log)} is a file, not a directory")
-    if os.path.isdir(target) and any(os.path.exists(os.path.join(target, f"imu.{ext}")) for ext in ("csv", "parquet")):
-        raise UsageError(f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory")
+    if os.path.isdir(target) and any(
+        os.path.exists(os.path.join(target, f"imu.{ext}")) for ext in ("csv", "parquet")
+    ):
+        raise UsageError(
+            f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
+        )
     parent = os.path.dirname(target)
     if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
-        raise UsageError(f"--save-log: cannot create {show_path(args.save_log)} (its parent is not a writable directory)")
+        raise UsageError(
+            f"--save-log: cannot create {show_path(args.save_log)} (its parent is not a writable directory)"
+        )
     return target
 
 
@@ -671,8 +843,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     imu_errors = None
     if args.imu_errors is not None:
         if args.imu_errors not in IMU_PROFILES:
-            raise UsageError(f"--imu-errors: unknown IMU profile {show(args.imu_errors)} "
-                             f"(choose from {', '.join(IMU_PROFILES)})")
+            raise UsageError(
+                f"--imu-errors: unknown IMU profile {show(args.imu_errors)} "
+                f"(choose from {', '.join(IMU_PROFILES)})"
+            )
         imu_errors = IMU_PROFILES[args.imu_errors]
     json_path = json_target(args.json, args.config) if args.json is not None else None
     started = time.perf_counter()
@@ -710,7 +884,9 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
     num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, default_runs)
     workers = _count("--workers", args.workers, 1, MAX_WORKERS, 1)
     if args.dask is not None and not args.dask.strip():
-        raise UsageError(f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}")
+        raise UsageError(
+            f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}"
+        )
     if args.dask is not None and args.workers is not None:
         raise UsageError("--workers: not with --dask (the Dask cluster has its own workers)")
     try:
@@ -738,16 +914,30 @@ def cmd_mc(args: argparse.Namespace) -> int:
     try:
         with _progress_bar(num_runs) as bar:
             with _study_failures(dask):
-                acc = run_study(config, num_runs, config.run.seed, workers=workers, dask_address=dask,
-                                on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
-                                progress=lambda done, total: bar.update(done - bar.n))
+                acc = run_study(
+                    config,
+                    num_runs,
+                    config.run.seed,
+                    workers=workers,
+                    dask_address=dask,
+                    on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
+                    progress=lambda done, total: bar.update(done - bar.n),
+                )
         summary = acc.summary()
-        description = (f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
-                       f"methods {', '.join(config.run.methods)}, beams {','.join(map(str, config.dvl.beams))}, "
-                       f"aiding {','.join(config.run.aiding) or 'none'}; tauv mc")
-        writer.finish({"config": config_to_json(config), "num_runs": num_runs, "seed": config.run.seed,
-                       "trajectories": {trajectory: summary}},
-                      report_html("tauv Monte Carlo study", description, {trajectory: summary}))
+        description = (
+            f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
+            f"methods {', '.join(config.run.methods)}, beams {','.join(map(str, config.dvl.beams))}, "
+            f"aiding {','.join(config.run.aiding) or 'none'}; tauv mc"
+        )
+        writer.finish(
+            {
+                "config": config_to_json(config),
+                "num_runs": num_runs,
+                "seed": config.run.seed,
+                "trajectories": {trajectory: summary},
+            },
+            report_html("tauv Monte Carlo study", description, {trajectory: summary}),
+        )
         written = writer.commit()
     except BaseException:
         writer.abort()
@@ -777,31 +967,55 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     # over 250 s and 500 m the round Earth changes its figures in the fourth digit at most
     base = Config().replace("earth", model="flat")
     if args.duration is not None:
-        base = _replace("--duration", base, "trajectory",
-                        duration_s=_parse("--duration", args.duration, float, "a number of seconds"))
+        base = _replace(
+            "--duration",
+            base,
+            "trajectory",
+            duration_s=_parse("--duration", args.duration, float, "a number of seconds"),
+        )
     if args.seed is not None:
-        base = _replace("--seed", base, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer"))
+        base = _replace(
+            "--seed", base, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer")
+        )
     num_runs, workers, dask, writer = _study_setup(args, 100)
     started = time.perf_counter()
     summaries, tables = {}, []
-    studies = [(name, beams, methods) for name in PAPER_TRAJECTORIES
-               for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))]
+    studies = [
+        (name, beams, methods)
+        for name in PAPER_TRAJECTORIES
+        for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))
+    ]
     try:
-        configs = [base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
-                   for name, beams, methods in studies]
+        configs = [
+            base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
+            for name, beams, methods in studies
+        ]
         sizes = [paper_chunk_runs(c) for c in configs]
-        with _progress_bar(num_runs * len(studies)) as bar, local_pool(workers if dask is None else 1) as pool:
+        with (
+            _progress_bar(num_runs * len(studies)) as bar,
+            local_pool(workers if dask is None else 1) as pool,
+        ):
             # every study's chunks queued at once (they wait as files): no worker idles between studies
             with _study_failures(dask):
-                queued = [submit_chunks(c, num_runs, base.run.seed, pool, size) if pool is not None else None
-                          for c, size in zip(configs, sizes, strict=True)]
+                queued = [
+                    submit_chunks(c, num_runs, base.run.seed, pool, size) if pool is not None else None
+                    for c, size in zip(configs, sizes, strict=True)
+                ]
             for (name, _, _), config, size, submitted in zip(studies, configs, sizes, queued, strict=True):
                 done_before = bar.n
                 with _study_failures(dask):
-                    acc = run_study(config, num_runs, base.run.seed, workers=workers, dask_address=dask,
-                                    on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
-                                    progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
-                                    chunk_runs=size, pool=pool, submitted=submitted)
+                    acc = run_study(
+                        config,
+                        num_runs,
+                        base.run.seed,
+                        workers=workers,
+                        dask_address=dask,
+                        on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
+                        progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
+                        chunk_runs=size,
+                        pool=pool,
+                        submitted=submitted,
+                    )
                 part = acc.summary()
                 if name in summaries:
                     summaries[name]["methods"].update(part["methods"])
@@ -810,15 +1024,27 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         order = ("ins", "lc") + TWO_BEAM_METHODS[1:]
         for s in summaries.values():
             s["methods"] = {m: s["methods"][m] for m in order}
-        finals = {name: {m: {n: s["methods"][m]["final_rms"][n] for n in ERROR_SERIES} for m in s["methods"]}
-                  for name, s in summaries.items()}
+        finals = {
+            name: {m: {n: s["methods"][m]["final_rms"][n] for n in ERROR_SERIES} for m in s["methods"]}
+            for name, s in summaries.items()
+        }
         table = comparison_table(finals)
-        description = (f"Tal, Klein & Katz 2017, section 4.2: {num_runs} seeded runs per trajectory (seed "
-                       f"{base.run.seed}), {base.trajectory.duration_s:g} s, beams 3 and 4 lost (LC with all four as "
-                       "the reference), DVL aiding only; tauv reproduce")
-        writer.finish({"config": config_to_json(base), "num_runs": num_runs, "seed": base.run.seed,
-                       "trajectories": summaries, "paper_comparison": table},
-                      report_html("tauv reproduce: Tal, Klein & Katz 2017", description, summaries), table)
+        description = (
+            f"Tal, Klein & Katz 2017, section 4.2: {num_runs} seeded runs per trajectory (seed "
+            f"{base.run.seed}), {base.trajectory.duration_s:g} s, beams 3 and 4 lost (LC with all four as "
+            "the reference), DVL aiding only; tauv reproduce"
+        )
+        writer.finish(
+            {
+                "config": config_to_json(base),
+                "num_runs": num_runs,
+                "seed": base.run.seed,
+                "trajectories": summaries,
+                "paper_comparison": table,
+            },
+            report_html("tauv reproduce: Tal, Klein & Katz 2017", description, summaries),
+            table,
+        )
         written = writer.commit()
     except BaseException:
         writer.abort()
@@ -844,13 +1070,16 @@ def _study_failures(dask: str | None):
     try:
         yield
     except BrokenProcessPool as exc:
-        raise StudyFailed(f"a worker process died during the study ({one_line(str(exc)) or 'killed'}); "
-                          "nothing was written") from None
+        raise StudyFailed(
+            f"a worker process died during the study ({one_line(str(exc)) or 'killed'}); nothing was written"
+        ) from None
     except (OSError, TimeoutError) as exc:
         if dask is None:
             raise
-        raise StudyFailed(f"--dask {dask}: the cluster failed during the study ({type(exc).__name__}: "
-                          f"{one_line(str(exc))}); nothing was written") from None
+        raise StudyFailed(
+            f"--dask {dask}: the cluster failed during the study ({type(exc).__name__}: "
+            f"{one_line(str(exc))}); nothing was written"
+        ) from None
 
 
 def _check_dask(address: str) -> None:
@@ -865,7 +1094,9 @@ def _check_dask(address: str) -> None:
         with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
             pass
     except (OSError, TimeoutError, ValueError) as exc:
-        raise UsageError(f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}") from None
+        raise UsageError(
+            f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}"
+        ) from None
 
 
 @contextlib.contextmanager
@@ -873,8 +1104,14 @@ def _progress_bar(total: int):
     """A tqdm bar on stderr (runs done of total); silent when stderr is not a terminal."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, unit="run", desc="tauv mc", file=sys.stderr, disable=not sys.stderr.isatty(),
-               dynamic_ncols=True)
+    bar = tqdm(
+        total=total,
+        unit="run",
+        desc="tauv mc",
+        file=sys.stderr,
+        disable=not sys.stderr.isatty(),
+        dynamic_ncols=True,
+    )
     try:
         yield bar
     finally:
@@ -882,16 +1119,20 @@ def _progress_bar(total: int):
 
 
 def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
-    lines = [f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
-             "",
-             f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
-             f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"]
+    lines = [
+        f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
+        "",
+        f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
+        f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}",
+    ]
     for method, m in summary["methods"].items():
         f, c = m["final_rms"], m["consistency"]
-        lines.append(f"{method.upper():<7} {f['vel_err_mps']:>10.4g} {f['tilt_err_deg']:>11.4f} "
-                     f"{f['heading_err_deg']:>11.4f} {f['pos_err_m']:>10.4g} "
-                     f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
-                     f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}")
+        lines.append(
+            f"{method.upper():<7} {f['vel_err_mps']:>10.4g} {f['tilt_err_deg']:>11.4f} "
+            f"{f['heading_err_deg']:>11.4f} {f['pos_err_m']:>10.4g} "
+            f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
+            f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}"
+        )
     return "\n".join(lines)
 
 
@@ -904,6 +1145,7 @@ def viser_console_muted() -> Iterator[None]:
     and the dashboard's own lines through ``print``."""
     # viser's dependency: imported when serving only, as viser is
     import rich
+
     console = rich.get_console()
     quiet, console.quiet = console.quiet, True
     try:
@@ -927,13 +1169,15 @@ def cmd_serve(args: argparse.Namespace) -> int:
         if not 1 <= workers <= 64:
             raise UsageError(f"--workers: must be within 1-64, got {workers}")
     from app import budget
+
     try:
-        budget.budget_bytes()           # a bad TAUV_RUN_BUDGET_MB is refused now, not at the first Run
+        budget.budget_bytes()  # a bad TAUV_RUN_BUDGET_MB is refused now, not at the first Run
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     logs = None
     if args.logs is not None:
         from tauvcore.logs import find_logs
+
         if not os.path.isdir(args.logs):
             raise UsageError(f"--logs: {show_path(args.logs)} is not a directory")
         try:
@@ -941,15 +1185,20 @@ def cmd_serve(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise UsageError(f"--logs: cannot list {show_path(args.logs)}: {exc.strerror or exc}") from None
         if not logs:
-            raise UsageError(f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
-                             "imu.parquet; see the README)")
+            raise UsageError(
+                f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
+                "imu.parquet; see the README)"
+            )
     from app.dashboard import exit_now  # viser only when serving
     from app.dashboard import main as serve_main
+
     try:
-        with viser_console_muted():     # the dashboard prints the one address to open
+        with viser_console_muted():  # the dashboard prints the one address to open
             serve_main(args.host, port, workers, logs)
     except OSError as exc:
-        raise UsageError(f"--host/--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}") from None
+        raise UsageError(
+            f"--host/--port: cannot listen on {args.host}:{port}: {exc.strerror or exc}"
+        ) from None
     except KeyboardInterrupt:
         pass
     # Stopped by SIGTERM/SIGINT, the workers already gone: leave without the interpreter's
@@ -1004,7 +1253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = cmd_serve(args)
         else:
             code = cmd_config(args)
-        sys.stdout.flush()      # inside the try: a closed pipe is reported here, not at exit
+        sys.stdout.flush()  # inside the try: a closed pipe is reported here, not at exit
         return code
     except (UsageError, ConfigError) as exc:
         print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
@@ -1023,7 +1272,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _require_text_values(args: argparse.Namespace) -> None:
     """argparse drops a value of exactly ``--`` (``--method=--``) and leaves an empty list."""
     for name, value in vars(args).items():
-        name = name.replace("_", "-")           # dest vb_nf is the flag --vb-nf
+        name = name.replace("_", "-")  # dest vb_nf is the flag --vb-nf
         if f"--{name}" not in VALUE_FLAGS:
             continue
         values = value if name == "outage" else [value]

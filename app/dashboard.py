@@ -108,57 +108,77 @@ from tauvcore.truth.kinematic import bathymetry
 from tauvcore.validation import ConfigError, show
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
-PLOTTED_QUANTITIES = ("vel", "tilt", "heading", "att", "pos")   # the error plots, top to bottom ("att" on demand)
+PLOTTED_QUANTITIES = (
+    "vel",
+    "tilt",
+    "heading",
+    "att",
+    "pos",
+)  # the error plots, top to bottom ("att" on demand)
 CONSISTENCY_NOTE = (
     "NEES/dim: the squared estimation error weighed by the filter's own covariance, divided by the "
     "block's dimension, averaged over the runs. **1: the method knows its error**; above the grey 99 % "
     "band it is over-confident (its sigma is too small), below it cautious. The band narrows as runs "
-    "are added; the Results tab sums it up per method.")
+    "are added; the Results tab sums it up per method."
+)
 VEHICLE_NOTES = {
-    "dynamic": ("Fins (positive: pushing along the fin's normal) and propeller of the 6-DOF vehicle the dynamic "
-                "truth flies; in the 3-D view the fins, coloured as here, turn with the time slider."),
-    "kinematic": ("No fins or propeller: the **kinematic** truth is closed-form motion, no vehicle flies it. "
-                  "Choose **Truth: dynamic** and press **Run** to see the 6-DOF vehicle's fins and propeller."),
+    "dynamic": (
+        "Fins (positive: pushing along the fin's normal) and propeller of the 6-DOF vehicle the dynamic "
+        "truth flies; in the 3-D view the fins, coloured as here, turn with the time slider."
+    ),
+    "kinematic": (
+        "No fins or propeller: the **kinematic** truth is closed-form motion, no vehicle flies it. "
+        "Choose **Truth: dynamic** and press **Run** to see the 6-DOF vehicle's fins and propeller."
+    ),
     "log": "No fins or propeller: a recorded log has no actuator record.",
     "none": "Fins and propeller of the dynamic truth show here after a run with **Truth: dynamic**.",
 }
 """The Vehicle tab's note for each kind of truth (its figure shows for the dynamic truth only)."""
 SEABED_NOTES = {
-    "simulation": ("Height above the seabed straight below (an ideal echo sounder). Above the DVL's range its "
-                   "beams find no bottom (drawn aqua, *lost*, in the 3-D view); above the switch the velocity "
-                   "filter uses the propeller RPM instead (shaded). Choose **Trajectory: longrange** for the "
-                   "paper's mission over two trenches."),
+    "simulation": (
+        "Height above the seabed straight below (an ideal echo sounder). Above the DVL's range its "
+        "beams find no bottom (drawn aqua, *lost*, in the 3-D view); above the switch the velocity "
+        "filter uses the propeller RPM instead (shaded). Choose **Trajectory: longrange** for the "
+        "paper's mission over two trenches."
+    ),
     "log": "No altitude: a recorded log has no seabed.",
     "none": "The altitude above the seabed shows here after a run.",
 }
 """The Seabed tab's note (its figure shows for simulated missions)."""
 VKF_NOTES = {
-    "shown": ("What the velocity Kalman filter (method **VKF**, Yoo 2014 eq. 20-26) learned of the propeller: "
-              "scale factor and bias with their 1-sigma, against the RPM model's truth (dashed; none on the dynamic "
-              "truth). Shaded where eq. 29 aids with the RPM instead of the DVL: there it only predicts."),
+    "shown": (
+        "What the velocity Kalman filter (method **VKF**, Yoo 2014 eq. 20-26) learned of the propeller: "
+        "scale factor and bias with their 1-sigma, against the RPM model's truth (dashed; none on the dynamic "
+        "truth). Shaded where eq. 29 aids with the RPM instead of the DVL: there it only predicts."
+    ),
     "running": "The VKF's scale factor and bias show here as the run goes.",
     "stopped": "The run ended before the VKF's first results arrived.",
-    "none": ("The VKF's propeller scale factor and bias show here after a run with **VKF** checked "
-             "(Mission tab, Methods)."),
+    "none": (
+        "The VKF's propeller scale factor and bias show here after a run with **VKF** checked "
+        "(Mission tab, Methods)."
+    ),
 }
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
-WORKBENCH_WIDTH_PX = 640     # the plot panel docked left of the 3-D view (the user can resize or minimise it)
-PLOT_ASPECT = 0.42           # each error plot's height / width: three or four in view at once
-DIAGNOSTICS_DELAY_S = 0.05   # the innovations and components plots follow the others by this much,
-QUIET_S = 1.0                # once the tab has had no action for this long
-KEPT_RUNS_MAX = 5            # finished runs kept for comparison (memory: each holds its full results)
+WORKBENCH_WIDTH_PX = 640  # the plot panel docked left of the 3-D view (the user can resize or minimise it)
+PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
+DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
+QUIET_S = 1.0  # once the tab has had no action for this long
+KEPT_RUNS_MAX = 5  # finished runs kept for comparison (memory: each holds its full results)
 COMPONENTS_NOTE = (
     "Signed errors, estimate minus truth: position north/east/down, body velocity surge/sway/heave, Euler "
     "angles roll/pitch/heading. The truth's velocity is the central difference of its positions at the output "
-    "epochs. With several runs the curves are the RMS over runs.")
+    "epochs. With several runs the curves are the RMS over runs."
+)
 INNOVATION_NOTE = (
     "Each method's innovations (measurement minus prediction) with its filter's 3-sigma envelope "
     "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
-    "INS (and any method without this source) has none.")
+    "INS (and any method without this source) has none."
+)
 RUNS_NOTE = (
     f"Every finished run is kept here with its configuration until removed (at most {KEPT_RUNS_MAX}: the "
     "oldest goes when another finishes). Tick two or more to overlay them in the Plots tab (one line style per "
-    "run, the method colours kept) and to compare them below.")
+    "run, the method colours kept) and to compare them below."
+)
 CURSOR_JS = """(() => {
   // the shared time cursor: every plotly plot of the page gets a vertical line at the slider's
   // time; moves arriving faster than the page draws are merged into one relayout
@@ -176,12 +196,21 @@ CURSOR_JS = """(() => {
     }
   }, 80);
 })();"""
-GUI_REFRESH_S = 1.5          # at most this often the plots are redrawn during a run (wall time)
-FOLLOW_DISTANCE_M = 22.0     # chase-camera distance: the 3 m hull and its beams fill the view
-TRAJECTORY_POINTS = 600      # points per drawn trajectory (a 250 s run has 2501 epochs)
-REJECT_REFERENCE = ("tc", "elc", "nsv", "vb", "vhv", "plcf", "lc", "ins-dvl")  # whose gate decides the red beams
-CONFIRM_TIMEOUT_S = 10.0     # how long Run waits for the page to report its controls (software WebGL stalls)
-VISER_STORAGE_PREFIX = "viser-user:"   # viser's client prefixes local_storage keys (MessageHandler.tsx)
+GUI_REFRESH_S = 1.5  # at most this often the plots are redrawn during a run (wall time)
+FOLLOW_DISTANCE_M = 22.0  # chase-camera distance: the 3 m hull and its beams fill the view
+TRAJECTORY_POINTS = 600  # points per drawn trajectory (a 250 s run has 2501 epochs)
+REJECT_REFERENCE = (
+    "tc",
+    "elc",
+    "nsv",
+    "vb",
+    "vhv",
+    "plcf",
+    "lc",
+    "ins-dvl",
+)  # whose gate decides the red beams
+CONFIRM_TIMEOUT_S = 10.0  # how long Run waits for the page to report its controls (software WebGL stalls)
+VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
 SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
 CHECKING_STATUS = "Checking the controls the page shows..."
 _SNAPSHOT_JS = """(() => {
@@ -215,10 +244,10 @@ _SNAPSHOT_JS = """(() => {
 class KeptRun:
     """A finished run kept in the Runs tab for comparison."""
 
-    number: int                          # 1, 2, ... in the order the tab's runs finished
-    config: Config                       # what ran
-    runs: int                            # Monte Carlo runs
-    results: dict[str, MethodResult]     # its final results
+    number: int  # 1, 2, ... in the order the tab's runs finished
+    config: Config  # what ran
+    runs: int  # Monte Carlo runs
+    results: dict[str, MethodResult]  # its final results
 
     @property
     def label(self) -> str:
@@ -226,30 +255,35 @@ class KeptRun:
 
     def description(self) -> str:
         tr = self.config.trajectory
-        return (f"{tr.name}, {tr.duration_s:g} s, {', '.join(m.upper() for m in self.config.run.methods)}"
-                + (f", {self.runs} runs" if self.runs > 1 else ""))
+        return f"{tr.name}, {tr.duration_s:g} s, {', '.join(m.upper() for m in self.config.run.methods)}" + (
+            f", {self.runs} runs" if self.runs > 1 else ""
+        )
 
 
 def _hex_rgb(color: str) -> tuple[int, int, int]:
-    return tuple(int(color[i:i + 2], 16) for i in (1, 3, 5))  # type: ignore[return-value]
+    return tuple(int(color[i : i + 2], 16) for i in (1, 3, 5))  # type: ignore[return-value]
 
 
 def _drawing(method: Callable[..., None]) -> Callable[..., None]:
     """Run a Session method that changes the scene or plots under the session's draw lock."""
+
     @functools.wraps(method)
     def locked(self: Session, *args: Any, **kwargs: Any) -> None:
         with self.draw_lock:
             method(self, *args, **kwargs)
+
     return locked
 
 
 class Session:
     """One browser tab: its controls, 3-D scene, background run and results."""
 
-    def __init__(self, client: viser.ClientHandle, pool: worker.RunPool, logs: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, client: viser.ClientHandle, pool: worker.RunPool, logs: dict[str, str] | None = None
+    ) -> None:
         self.client = client
         self.pool = pool
-        self.logs = dict(logs or {})     # name -> directory, from tauv serve --logs (never from the page)
+        self.logs = dict(logs or {})  # name -> directory, from tauv serve --logs (never from the page)
         self.lock = threading.Lock()
         # the run's message thread, the slider's callback and the playback thread all redraw the
         # scene and plots: one at a time (a beam re-added by one while another assigns to it
@@ -258,11 +292,11 @@ class Session:
         self.handle: worker.RunHandle | None = None
         self.config: Config | None = None
         self.truth_view: dict[str, np.ndarray | None] | None = None
-        self.replaying = False           # the current run replays a log (tauv serve --logs)
+        self.replaying = False  # the current run replays a log (tauv serve --logs)
         self.results: dict[str, MethodResult] | None = None
         self.playing = False
-        self.run_log: str | None = None          # the log the current run replays (its name), None: a simulation
-        self.finished_run: export.FinishedRun | None = None   # what the Download buttons send
+        self.run_log: str | None = None  # the log the current run replays (its name), None: a simulation
+        self.finished_run: export.FinishedRun | None = None  # what the Download buttons send
         # the page's address carries the controls (app.links): written only once the page's own
         # query has been read, so a link is never overwritten before it applies
         self.address_lock = threading.Lock()
@@ -281,45 +315,67 @@ class Session:
         self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
         tabs = gui.add_tab_group()
         with tabs.add_tab("Mission"):
-            self.source = (gui.add_dropdown(inputs.SOURCE, (inputs.SIMULATION, *self.logs), initial_value=inputs.SIMULATION,
-                                            hint="simulation, or a recorded log (tauv serve --logs): replayed with "
-                                                 "these methods, beams, outages and tuning; its own length")
-                           if self.logs else None)
-            self.trajectory = gui.add_dropdown(inputs.TRAJECTORY, TRAJECTORIES, initial_value=d.trajectory.name)
-            self.truth = gui.add_dropdown(inputs.TRUTH, TRUTH_SOURCES, initial_value=d.trajectory.truth,
-                                          hint=inputs.TRUTH_HINT)
+            self.source = (
+                gui.add_dropdown(
+                    inputs.SOURCE,
+                    (inputs.SIMULATION, *self.logs),
+                    initial_value=inputs.SIMULATION,
+                    hint="simulation, or a recorded log (tauv serve --logs): replayed with "
+                    "these methods, beams, outages and tuning; its own length",
+                )
+                if self.logs
+                else None
+            )
+            self.trajectory = gui.add_dropdown(
+                inputs.TRAJECTORY, TRAJECTORIES, initial_value=d.trajectory.name
+            )
+            self.truth = gui.add_dropdown(
+                inputs.TRUTH, TRUTH_SOURCES, initial_value=d.trajectory.truth, hint=inputs.TRUTH_HINT
+            )
             # numeric fields are text: the server reads what was typed (see app.inputs)
             self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
             with gui.add_folder("Methods"):
                 # both papers' methods: the first's, then Yoo 2014's (tauvcore.config.ALL_METHODS)
-                self.method_boxes = {m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS,
-                                                         hint=inputs.METHOD_HINTS.get(m))
-                                     for m in ALL_METHODS}
+                self.method_boxes = {
+                    m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS, hint=inputs.METHOD_HINTS.get(m))
+                    for m in ALL_METHODS
+                }
             with gui.add_folder("Partial-beam methods"):
                 # each method's assumption, visible and settable (issue 8): VB's virtual-beam
                 # inflation and NSV's sway variance
                 self.vb_nf = gui.add_text(inputs.VB_NF, f"{d.partial.vb_nf:g}", hint=inputs.VB_NF_HINT)
-                self.nsv_epsilon = gui.add_text(inputs.NSV_EPSILON, str(d.partial.nsv_epsilon_m2_per_s2),
-                                                hint=inputs.NSV_EPSILON_HINT)
+                self.nsv_epsilon = gui.add_text(
+                    inputs.NSV_EPSILON, str(d.partial.nsv_epsilon_m2_per_s2), hint=inputs.NSV_EPSILON_HINT
+                )
             with gui.add_folder("DVL beams"):
                 self.beam_boxes = [gui.add_checkbox(f"Beam {k}", True) for k in range(1, 5)]
-                self.dropout = gui.add_text(inputs.DROPOUT, f"{d.dvl.dropout_probability:g}",
-                                            hint="chance that each beam misses each ping")
-                self.rpm_fallback = gui.add_checkbox(inputs.RPM_FALLBACK, d.run.rpm_fallback,
-                                                     hint=inputs.RPM_FALLBACK_HINT)
+                self.dropout = gui.add_text(
+                    inputs.DROPOUT,
+                    f"{d.dvl.dropout_probability:g}",
+                    hint="chance that each beam misses each ping",
+                )
+                self.rpm_fallback = gui.add_checkbox(
+                    inputs.RPM_FALLBACK, d.run.rpm_fallback, hint=inputs.RPM_FALLBACK_HINT
+                )
             with gui.add_folder(inputs.SEABED_FOLDER, expand_by_default=False):
                 # Yoo 2014's mission (issue 12): where the seabed is, how far the DVL sees it, where
                 # the VKF turns to the propeller, and how noisy the propeller's RPM is
-                self.seabed_depth = gui.add_text(inputs.SEABED_DEPTH, f"{d.trajectory.seabed_depth_m:g}",
-                                                 hint=inputs.SEABED_DEPTH_HINT)
-                self.dvl_max_altitude = gui.add_text(inputs.DVL_MAX_ALTITUDE, f"{d.dvl.max_altitude_m:g}",
-                                                     hint=inputs.DVL_MAX_ALTITUDE_HINT)
-                self.switch_altitude = gui.add_text(inputs.SWITCH_ALTITUDE, f"{d.vkf.switch_altitude_m:g}",
-                                                    hint=inputs.SWITCH_ALTITUDE_HINT)
-                self.rpm_noise = gui.add_text(inputs.RPM_NOISE, f"{d.rpm.noise_rpm:g}", hint=inputs.RPM_NOISE_HINT)
+                self.seabed_depth = gui.add_text(
+                    inputs.SEABED_DEPTH, f"{d.trajectory.seabed_depth_m:g}", hint=inputs.SEABED_DEPTH_HINT
+                )
+                self.dvl_max_altitude = gui.add_text(
+                    inputs.DVL_MAX_ALTITUDE, f"{d.dvl.max_altitude_m:g}", hint=inputs.DVL_MAX_ALTITUDE_HINT
+                )
+                self.switch_altitude = gui.add_text(
+                    inputs.SWITCH_ALTITUDE, f"{d.vkf.switch_altitude_m:g}", hint=inputs.SWITCH_ALTITUDE_HINT
+                )
+                self.rpm_noise = gui.add_text(
+                    inputs.RPM_NOISE, f"{d.rpm.noise_rpm:g}", hint=inputs.RPM_NOISE_HINT
+                )
             with gui.add_folder("Outages [s] (start = end: none)", expand_by_default=False):
-                self.outage = [tuple(gui.add_text(label, "0") for label in inputs.outage_labels(k))
-                               for k in range(1, 5)]
+                self.outage = [
+                    tuple(gui.add_text(label, "0") for label in inputs.outage_labels(k)) for k in range(1, 5)
+                ]
             with gui.add_folder("Aiding", expand_by_default=False):
                 self.aid_depth = gui.add_checkbox("Depth (pressure)", False)
                 self.aid_mag = gui.add_checkbox("Magnetometer", False)
@@ -332,8 +388,9 @@ class Session:
                 self.dvl_bias = gui.add_text(inputs.DVL_BIAS, f"{d.dvl.bias_mps:g}")
                 self.dvl_sf = gui.add_text(inputs.DVL_SF, f"{d.dvl.scale_factor_pct:g}")
             self.seed = gui.add_text(inputs.SEED, str(d.run.seed))
-            self.runs = gui.add_text(inputs.RUNS, "1",
-                                     hint=f"Monte Carlo runs (1 to {inputs.RUNS_MAX}); > 1 plots RMS curves")
+            self.runs = gui.add_text(
+                inputs.RUNS, "1", hint=f"Monte Carlo runs (1 to {inputs.RUNS_MAX}); > 1 plots RMS curves"
+            )
             self.run_button = gui.add_button("Run", color="green")
             self.stop_button = gui.add_button("Stop", color="red", disabled=True)
             self.progress = gui.add_progress_bar(0.0, animated=False)
@@ -342,40 +399,55 @@ class Session:
                 self.time_slider = gui.add_slider("Time [s]", 0.0, d.trajectory.duration_s, 0.1, 0.0)
                 self.play_button = gui.add_button("Play")
                 self.pause_button = gui.add_button("Pause")
-                self.speed = gui.add_dropdown("Speed", PLAYBACK_SPEEDS, initial_value=PLAYBACK_DEFAULT_SPEED,
-                                              hint="seconds of mission per second of playback")
-                self.camera_mode = gui.add_dropdown("Camera", CAMERA_MODES, initial_value=CAMERA_SIDE,
-                                                    hint="follow the AUV from its side or from above, or orbit freely")
+                self.speed = gui.add_dropdown(
+                    "Speed",
+                    PLAYBACK_SPEEDS,
+                    initial_value=PLAYBACK_DEFAULT_SPEED,
+                    hint="seconds of mission per second of playback",
+                )
+                self.camera_mode = gui.add_dropdown(
+                    "Camera",
+                    CAMERA_MODES,
+                    initial_value=CAMERA_SIDE,
+                    hint="follow the AUV from its side or from above, or orbit freely",
+                )
                 self.fit_button = gui.add_button("Fit mission", hint="frame the whole mission (camera: free)")
                 self.readout = gui.add_markdown("")
         # the workbench (issue 13): plots, diagnostics, results and kept runs in a panel of their
         # own docked left of the 3-D view, several plots in view at once (viser: height = aspect x width)
         self.cursor_t: float | None = None
         self.kept_runs: list[KeptRun] = []
-        self.kept_widgets: dict[int, Any] = {}       # run number -> its folder in the Runs tab
+        self.kept_widgets: dict[int, Any] = {}  # run number -> its folder in the Runs tab
         self.run_number = 0
         self.workbench = gui.add_panel()
         self.workbench.dock_left()
         self.workbench.set_width(WORKBENCH_WIDTH_PX)
         with self.workbench.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
-            self.log_y = gui.add_checkbox("Log scale", True,
-                                          hint="log y where the errors span more than a decade, linear elsewhere")
-            self.show_att_norm = gui.add_checkbox("Attitude norm", False,
-                                                  hint="also plot |attitude error| (tilt and heading together)")
+            self.log_y = gui.add_checkbox(
+                "Log scale", True, hint="log y where the errors span more than a decade, linear elsewhere"
+            )
+            self.show_att_norm = gui.add_checkbox(
+                "Attitude norm", False, hint="also plot |attitude error| (tilt and heading together)"
+            )
             self.plots_note = gui.add_markdown("")
-            self.plots = {q: gui.add_plotly(go.Figure(), aspect=PLOT_ASPECT, visible=q != "att")
-                          for q in PLOTTED_QUANTITIES}
+            self.plots = {
+                q: gui.add_plotly(go.Figure(), aspect=PLOT_ASPECT, visible=q != "att")
+                for q in PLOTTED_QUANTITIES
+            }
             self.elc_plot = gui.add_plotly(go.Figure(), aspect=0.4, visible=False)
         with self.workbench.add_tab("Components"):
             self.components_note = gui.add_markdown(COMPONENTS_NOTE)
             self.component_plots = {q: gui.add_plotly(go.Figure(), aspect=0.75) for q in COMPONENTS}
         with self.workbench.add_tab("Consistency"):
             self.nees_block = gui.add_dropdown(
-                "NEES block", tuple(BLOCK_DIMS), initial_value="full",
+                "NEES block",
+                tuple(BLOCK_DIMS),
+                initial_value="full",
                 hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
-                     "no position); or one block of them")
-            self.nees_plot = gui.add_plotly(go.Figure(), aspect=0.6)   # viser: height / width
+                "no position); or one block of them",
+            )
+            self.nees_plot = gui.add_plotly(go.Figure(), aspect=0.6)  # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
         with self.workbench.add_tab("Innovations"):
             self.innovation_source = gui.add_dropdown("Aiding source", ("dvl",), initial_value="dvl")
@@ -393,9 +465,12 @@ class Session:
             self.table = gui.add_markdown("No run yet.")
             with gui.add_folder("Download"):
                 # the finished run's results as the CLI writes them, and an offline report (app.export)
-                self.download_buttons = {kind: gui.add_button(label, disabled=True, icon=viser.Icon.DOWNLOAD,
-                                                              hint=export.FORMAT_HINTS[kind])
-                                         for kind, label in export.FORMATS.items()}
+                self.download_buttons = {
+                    kind: gui.add_button(
+                        label, disabled=True, icon=viser.Icon.DOWNLOAD, hint=export.FORMAT_HINTS[kind]
+                    )
+                    for kind, label in export.FORMATS.items()
+                }
             self.run_config = gui.add_markdown("")
         with self.workbench.add_tab("Runs"):
             gui.add_markdown(RUNS_NOTE)
@@ -407,11 +482,15 @@ class Session:
 
         if self.source is not None:
             # a log replays its own reference: the truth's generator does not apply to it
-            self.source.on_update(lambda _: setattr(self.truth, "disabled", self.source.value != inputs.SIMULATION))
+            self.source.on_update(
+                lambda _: setattr(self.truth, "disabled", self.source.value != inputs.SIMULATION)
+            )
         # a scenario's preset fills in the controls when the user picks it (not when the server
         # itself sets the dropdown to what the page shows, at Run: the page's values stand then)
         self.preset: str | None = None
-        self.trajectory.on_update(lambda event: self.apply_trajectory_preset() if event.client is not None else None)
+        self.trajectory.on_update(
+            lambda event: self.apply_trajectory_preset() if event.client is not None else None
+        )
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
         # each option redraws only the plots it changes (a full redraw is ten figures)
@@ -426,25 +505,33 @@ class Session:
         self.pause_button.on_click(lambda _: setattr(self, "playing", False))
         self.camera_mode.on_update(lambda _: self._camera_changed())
         self.fit_button.on_click(lambda _: self.fit_mission())
-        for box in self.beam_boxes:     # before a run the 3-D beams show the boxes at once
+        for box in self.beam_boxes:  # before a run the 3-D beams show the boxes at once
             box.on_update(lambda _: self._beams_from_boxes())
         for kind, button in self.download_buttons.items():
             button.on_click(lambda _, kind=kind: self.download(kind))
-        for handle in self._confirmed_inputs().values():      # every control a run reads
+        for handle in self._confirmed_inputs().values():  # every control a run reads
             handle.on_update(lambda _: self.update_address())
 
     @staticmethod
     def _legend_html(methods: tuple[str, ...]) -> str:
         items = [f'<span style="color:{TRUTH_COLOR}">&#9632;</span> truth']
         items += [f'<span style="color:{method_color(m)}">&#9632;</span> {m.upper()}' for m in methods]
-        beams = [f'<span style="color:rgb{BEAM_COLORS[s]}">&#9646;</span> {s} ({BEAM_COLOR_NAMES[s]})'
-                 for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)]
-        return ('<div style="font-size:0.8em;line-height:1.6">Trajectories: ' + " &nbsp; ".join(items)
-                + "<br>Beams (numbered 1-4 in the view): " + " &nbsp; ".join(beams) + "</div>")
+        beams = [
+            f'<span style="color:rgb{BEAM_COLORS[s]}">&#9646;</span> {s} ({BEAM_COLOR_NAMES[s]})'
+            for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
+        ]
+        return (
+            '<div style="font-size:0.8em;line-height:1.6">Trajectories: '
+            + " &nbsp; ".join(items)
+            + "<br>Beams (numbered 1-4 in the view): "
+            + " &nbsp; ".join(beams)
+            + "</div>"
+        )
 
     def notify(self, title: str, body: str, error: bool = False) -> None:
-        self.client.add_notification(title, body, auto_close_seconds=None if error else 6.0,
-                                     color="red" if error else "green")
+        self.client.add_notification(
+            title, body, auto_close_seconds=None if error else 6.0, color="red" if error else "green"
+        )
 
     # ------------------------------------------------------------------ inputs
     def apply_trajectory_preset(self) -> None:
@@ -457,20 +544,37 @@ class Session:
         texts = inputs.preset_controls(name)
         previous, self.preset = self.preset, (name if texts else None)
         if texts:
-            title, note, headline = f"Preset {name} applied", inputs.preset_note(name), inputs.preset_headline(name)
+            title, note, headline = (
+                f"Preset {name} applied",
+                inputs.preset_note(name),
+                inputs.preset_headline(name),
+            )
         elif previous is not None:
             texts = inputs.preset_controls(previous, Config())
             title = "Defaults restored"
-            note = headline = f"{', '.join(texts)} back to their defaults (the {previous} preset no longer applies)."
+            note = headline = (
+                f"{', '.join(texts)} back to their defaults (the {previous} preset no longer applies)."
+            )
         else:
             return
-        fields = {inputs.DURATION: self.duration, inputs.ACCEL_BIAS: self.accel_bias, inputs.GYRO_BIAS: self.gyro_bias,
-                  inputs.ACCEL_NOISE: self.accel_noise, inputs.GYRO_NOISE: self.gyro_noise,
-                  inputs.DVL_NOISE: self.dvl_noise, inputs.DVL_BIAS: self.dvl_bias, inputs.DVL_SF: self.dvl_sf,
-                  inputs.DROPOUT: self.dropout, inputs.VB_NF: self.vb_nf, inputs.NSV_EPSILON: self.nsv_epsilon,
-                  inputs.SEABED_DEPTH: self.seabed_depth, inputs.DVL_MAX_ALTITUDE: self.dvl_max_altitude,
-                  inputs.SWITCH_ALTITUDE: self.switch_altitude, inputs.RPM_NOISE: self.rpm_noise,
-                  inputs.SEED: self.seed}
+        fields = {
+            inputs.DURATION: self.duration,
+            inputs.ACCEL_BIAS: self.accel_bias,
+            inputs.GYRO_BIAS: self.gyro_bias,
+            inputs.ACCEL_NOISE: self.accel_noise,
+            inputs.GYRO_NOISE: self.gyro_noise,
+            inputs.DVL_NOISE: self.dvl_noise,
+            inputs.DVL_BIAS: self.dvl_bias,
+            inputs.DVL_SF: self.dvl_sf,
+            inputs.DROPOUT: self.dropout,
+            inputs.VB_NF: self.vb_nf,
+            inputs.NSV_EPSILON: self.nsv_epsilon,
+            inputs.SEABED_DEPTH: self.seabed_depth,
+            inputs.DVL_MAX_ALTITUDE: self.dvl_max_altitude,
+            inputs.SWITCH_ALTITUDE: self.switch_altitude,
+            inputs.RPM_NOISE: self.rpm_noise,
+            inputs.SEED: self.seed,
+        }
         for label, text in texts.items():
             if label in fields:
                 fields[label].value = text
@@ -482,14 +586,34 @@ class Session:
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
-        handles: list[Any] = [*([self.source] if self.source is not None else []), self.trajectory, self.truth,
-                              self.duration, *self.method_boxes.values(), self.vb_nf,
-                              self.nsv_epsilon, *self.beam_boxes,
-                              self.dropout, self.rpm_fallback, *(h for pair in self.outage for h in pair),
-                              self.aid_depth,
-                              self.aid_mag, self.accel_bias, self.gyro_bias, self.accel_noise, self.gyro_noise,
-                              self.dvl_noise, self.dvl_bias, self.dvl_sf, self.seabed_depth, self.dvl_max_altitude,
-                              self.switch_altitude, self.rpm_noise, self.seed, self.runs]
+        handles: list[Any] = [
+            *([self.source] if self.source is not None else []),
+            self.trajectory,
+            self.truth,
+            self.duration,
+            *self.method_boxes.values(),
+            self.vb_nf,
+            self.nsv_epsilon,
+            *self.beam_boxes,
+            self.dropout,
+            self.rpm_fallback,
+            *(h for pair in self.outage for h in pair),
+            self.aid_depth,
+            self.aid_mag,
+            self.accel_bias,
+            self.gyro_bias,
+            self.accel_noise,
+            self.gyro_noise,
+            self.dvl_noise,
+            self.dvl_bias,
+            self.dvl_sf,
+            self.seabed_depth,
+            self.dvl_max_altitude,
+            self.switch_altitude,
+            self.rpm_noise,
+            self.seed,
+            self.runs,
+        ]
         return {h._impl.uuid: h for h in handles}
 
     def confirm_page_state(self) -> int:
@@ -507,20 +631,24 @@ class Session:
         """
         by_id = self._confirmed_inputs()
         key = f"{SNAPSHOT_KEY_PREFIX}{uuid.uuid4().hex}"
-        script = (_SNAPSHOT_JS.replace("__IDS__", json.dumps(list(by_id)))
-                  .replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + SNAPSHOT_KEY_PREFIX))
-                  .replace("__KEY__", json.dumps(VISER_STORAGE_PREFIX + key)))
+        script = (
+            _SNAPSHOT_JS.replace("__IDS__", json.dumps(list(by_id)))
+            .replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + SNAPSHOT_KEY_PREFIX))
+            .replace("__KEY__", json.dumps(VISER_STORAGE_PREFIX + key))
+        )
         self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
         try:
             raw = self.client.local_storage.get_item(key, timeout=CONFIRM_TIMEOUT_S)
         except TimeoutError:
-            raise InputError(f"the page did not report its controls within {CONFIRM_TIMEOUT_S:g} s; "
-                             "press Run again") from None
+            raise InputError(
+                f"the page did not report its controls within {CONFIRM_TIMEOUT_S:g} s; press Run again"
+            ) from None
         except RuntimeError as exc:
             if "disconnected" in str(exc):
-                raise                       # the tab is gone: start_run drops the Run quietly
-            raise InputError("the page could not report its controls (its browser storage is blocked?): "
-                             f"{show(str(exc))}") from None
+                raise  # the tab is gone: start_run drops the Run quietly
+            raise InputError(
+                f"the page could not report its controls (its browser storage is blocked?): {show(str(exc))}"
+            ) from None
         return self.apply_page_values(by_id, raw)
 
     @staticmethod
@@ -538,11 +666,13 @@ class Session:
             answer = None
         shown_values = answer.get("values") if isinstance(answer, dict) else None
         if not isinstance(shown_values, dict):
-            raise InputError("the page reported its controls in a form the server cannot read; reload the page")
+            raise InputError(
+                "the page reported its controls in a form the server cannot read; reload the page"
+            )
         changed = 0
         for uid, handle in by_id.items():
             if uid not in shown_values:
-                continue        # not on the page (an unmounted panel): the server's value stands
+                continue  # not on the page (an unmounted panel): the server's value stands
             value = shown_values[uid]
             if isinstance(handle, viser.GuiCheckboxHandle):
                 ok = isinstance(value, bool)
@@ -551,8 +681,10 @@ class Session:
             else:
                 ok = isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
             if not ok:
-                raise InputError(f"{handle.label}: the page shows {show(str(value))}, "
-                                 "which this control cannot hold; reload the page")
+                raise InputError(
+                    f"{handle.label}: the page shows {show(str(value))}, "
+                    "which this control cannot hold; reload the page"
+                )
             if value != handle.value:
                 handle.value = value
                 changed += 1
@@ -561,25 +693,42 @@ class Session:
     def controls(self) -> Controls:
         """What the controls hold (the server's copy; see :meth:`confirm_page_state`)."""
         return Controls(
-            trajectory=self.trajectory.value, truth=self.truth.value, duration=self.duration.value,
-            methods=self.selected_methods(), vb_nf=self.vb_nf.value, nsv_epsilon=self.nsv_epsilon.value,
-            beams=tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value), dropout=self.dropout.value,
+            trajectory=self.trajectory.value,
+            truth=self.truth.value,
+            duration=self.duration.value,
+            methods=self.selected_methods(),
+            vb_nf=self.vb_nf.value,
+            nsv_epsilon=self.nsv_epsilon.value,
+            beams=tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value),
+            dropout=self.dropout.value,
             outages=tuple((start.value, end.value) for start, end in self.outage),
-            aid_depth=self.aid_depth.value, aid_mag=self.aid_mag.value, accel_bias=self.accel_bias.value,
-            gyro_bias=self.gyro_bias.value, accel_noise=self.accel_noise.value, gyro_noise=self.gyro_noise.value,
-            dvl_noise=self.dvl_noise.value, dvl_bias=self.dvl_bias.value, dvl_sf=self.dvl_sf.value,
-            seabed_depth=self.seabed_depth.value, dvl_max_altitude=self.dvl_max_altitude.value,
-            switch_altitude=self.switch_altitude.value, rpm_noise=self.rpm_noise.value,
-            seed=self.seed.value, runs=self.runs.value,
+            aid_depth=self.aid_depth.value,
+            aid_mag=self.aid_mag.value,
+            accel_bias=self.accel_bias.value,
+            gyro_bias=self.gyro_bias.value,
+            accel_noise=self.accel_noise.value,
+            gyro_noise=self.gyro_noise.value,
+            dvl_noise=self.dvl_noise.value,
+            dvl_bias=self.dvl_bias.value,
+            dvl_sf=self.dvl_sf.value,
+            seabed_depth=self.seabed_depth.value,
+            dvl_max_altitude=self.dvl_max_altitude.value,
+            switch_altitude=self.switch_altitude.value,
+            rpm_noise=self.rpm_noise.value,
+            seed=self.seed.value,
+            runs=self.runs.value,
             source=self.source.value if self.source is not None else inputs.SIMULATION,
-            rpm_fallback=self.rpm_fallback.value)
+            rpm_fallback=self.rpm_fallback.value,
+        )
 
     def set_controls(self, c: Controls) -> None:
         """Set every control to what ``c`` holds (the inverse of :meth:`controls`); a control
         already holding its value is left alone."""
+
         def put(handle: Any, value: Any) -> None:
             if handle.value != value:
                 handle.value = value
+
         if self.source is not None:
             put(self.source, c.source)
         put(self.trajectory, c.trajectory)
@@ -596,13 +745,23 @@ class Session:
         for (start, end), (start_text, end_text) in zip(self.outage, c.outages):
             put(start, start_text)
             put(end, end_text)
-        for handle, value in ((self.aid_depth, c.aid_depth), (self.aid_mag, c.aid_mag),
-                              (self.accel_bias, c.accel_bias), (self.gyro_bias, c.gyro_bias),
-                              (self.accel_noise, c.accel_noise), (self.gyro_noise, c.gyro_noise),
-                              (self.dvl_noise, c.dvl_noise), (self.dvl_bias, c.dvl_bias), (self.dvl_sf, c.dvl_sf),
-                              (self.seabed_depth, c.seabed_depth), (self.dvl_max_altitude, c.dvl_max_altitude),
-                              (self.switch_altitude, c.switch_altitude), (self.rpm_noise, c.rpm_noise),
-                              (self.seed, c.seed), (self.runs, c.runs)):
+        for handle, value in (
+            (self.aid_depth, c.aid_depth),
+            (self.aid_mag, c.aid_mag),
+            (self.accel_bias, c.accel_bias),
+            (self.gyro_bias, c.gyro_bias),
+            (self.accel_noise, c.accel_noise),
+            (self.gyro_noise, c.gyro_noise),
+            (self.dvl_noise, c.dvl_noise),
+            (self.dvl_bias, c.dvl_bias),
+            (self.dvl_sf, c.dvl_sf),
+            (self.seabed_depth, c.seabed_depth),
+            (self.dvl_max_altitude, c.dvl_max_altitude),
+            (self.switch_altitude, c.switch_altitude),
+            (self.rpm_noise, c.rpm_noise),
+            (self.seed, c.seed),
+            (self.runs, c.runs),
+        ):
             put(handle, value)
 
     # ------------------------------------------------------------------ the page's address
@@ -612,16 +771,20 @@ class Session:
         try:
             query = links.read_address(self.client)
         except TimeoutError:
-            self.notify("Address not read", "The page did not report its address in time: the settings of its "
-                        "link were not applied, and the address will not follow the controls. Reload to retry.",
-                        error=True)
+            self.notify(
+                "Address not read",
+                "The page did not report its address in time: the settings of its "
+                "link were not applied, and the address will not follow the controls. Reload to retry.",
+                error=True,
+            )
             return
         except RuntimeError as exc:
-            if "disconnected" not in str(exc):      # the tab's storage is blocked: say so; a closed tab is gone
-                self.notify("Address not read", f"The page could not report its address: {show(str(exc))}",
-                            error=True)
+            if "disconnected" not in str(exc):  # the tab's storage is blocked: say so; a closed tab is gone
+                self.notify(
+                    "Address not read", f"The page could not report its address: {show(str(exc))}", error=True
+                )
             return
-        if query is not None:       # None: no page ran the script (a scripted client)
+        if query is not None:  # None: no page ran the script (a scripted client)
             self.apply_link(query)
         self.address_ready = True
         self.update_address()
@@ -670,7 +833,9 @@ class Session:
             raise InputError(str(exc)) from None
         too_big = budget.over_budget_message(budget.estimate_run(config, runs), limit)
         if too_big is not None:
-            raise InputError(f"{inputs.DURATION} {config.trajectory.duration_s:g} s, {inputs.RUNS} {runs}: {too_big}")
+            raise InputError(
+                f"{inputs.DURATION} {config.trajectory.duration_s:g} s, {inputs.RUNS} {runs}: {too_big}"
+            )
         return config, runs
 
     # ------------------------------------------------------------------ runs
@@ -688,7 +853,7 @@ class Session:
                 self.status.content = previous
                 self.notify("Cannot run", str(exc), error=True)
                 return
-            except RuntimeError:    # the tab closed while it was asked for its controls
+            except RuntimeError:  # the tab closed while it was asked for its controls
                 return
             source = self.source.value if self.source is not None else inputs.SIMULATION
             log_dir = self.logs.get(source)
@@ -699,12 +864,18 @@ class Session:
         self.run_button.disabled, self.stop_button.disabled = True, False
         self._set_finished(None)
         self.progress.value = 0.0
-        what = f"log {source}" if log_dir is not None else \
-            f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
+        what = (
+            f"log {source}"
+            if log_dir is not None
+            else f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
+        )
         self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
         self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
-        self.slider_pinned, self.slider_set_s = False, None   # the slider follows the new run until the user moves it
+        self.slider_pinned, self.slider_set_s = (
+            False,
+            None,
+        )  # the slider follows the new run until the user moves it
         self.time_slider.max = config.trajectory.duration_s
         self._clear_trajectories()
         self._draw_vkf_plot(None, config)
@@ -739,17 +910,20 @@ class Session:
                     now_place = handle.position()
                     if now_place != place:
                         place = now_place
-                        self.status.content = (running_status if place == 0 else
-                                               f"Waiting for a free worker: {place - 1} run(s) ahead "
-                                               f"({self.pool.workers} compute at once).")
+                        self.status.content = (
+                            running_status
+                            if place == 0
+                            else f"Waiting for a free worker: {place - 1} run(s) ahead "
+                            f"({self.pool.workers} compute at once)."
+                        )
                     if handle.finished() and handle.queue.empty():
                         if pending is not None:
                             self._show_results(pending, config)
                         self.status.content = "Run stopped."
-                        if self.results:                 # the slider spans what was run
+                        if self.results:  # the slider spans what was run
                             self._span_slider(float(next(iter(self.results.values())).t_s[-1]))
                         if "vkf" in config.run.methods and not (self.results and "vkf" in self.results):
-                            self.vkf_note.content = VKF_NOTES["stopped"]    # killed before its first progress
+                            self.vkf_note.content = VKF_NOTES["stopped"]  # killed before its first progress
                         note = ("Run stopped", "The run ended before completion.", False)
                         break
                     if pending is not None and time.monotonic() - last_draw > GUI_REFRESH_S:
@@ -757,7 +931,7 @@ class Session:
                         pending, last_draw = None, time.monotonic()
                     continue
                 kind = msg[0]
-                if kind == "config":            # a replayed log: its own length, rate and origin
+                if kind == "config":  # a replayed log: its own length, rate and origin
                     config = from_dict(msg[1])
                     with self.lock:
                         self.config = config
@@ -807,7 +981,7 @@ class Session:
         self.refresh_plots()
         self.table.content = summary_markdown(results) + "\n\n" + rms_markdown(results)
         self._draw_estimates(results)
-        if "vkf" in results:            # the VKF's learned scale factor and bias, as far as the run got
+        if "vkf" in results:  # the VKF's learned scale factor and bias, as far as the run got
             self._draw_vkf_plot(results["vkf"], config)
         self._follow_run_time(float(next(iter(results.values())).t_s[-1]))
 
@@ -816,7 +990,7 @@ class Session:
         and let the time slider span what was run."""
         self._set_finished(export.finished_run(config, results, self.run_log, stopped))
         if results:
-            self.keep_run(config, results)      # the Runs tab keeps it for comparison
+            self.keep_run(config, results)  # the Runs tab keeps it for comparison
         if results:
             self._span_slider(float(next(iter(results.values())).t_s[-1]))
 
@@ -827,17 +1001,20 @@ class Session:
         the run's own closing notification is the one a user waits for)."""
         with self.draw_lock:
             self.run_number += 1
-            kept = KeptRun(self.run_number, config, int(next(iter(results.values())).vel_err_mps.shape[1]), results)
+            kept = KeptRun(
+                self.run_number, config, int(next(iter(results.values())).vel_err_mps.shape[1]), results
+            )
             self.kept_runs.append(kept)
             dropped, self.kept_runs = self.kept_runs[:-KEPT_RUNS_MAX], self.kept_runs[-KEPT_RUNS_MAX:]
-            overlaid = any(old.number in self.kept_widgets and self.kept_widgets[old.number][1].value
-                           for old in dropped)
+            overlaid = any(
+                old.number in self.kept_widgets and self.kept_widgets[old.number][1].value for old in dropped
+            )
             for old in dropped:
                 if old.number in self.kept_widgets:
                     self.kept_widgets.pop(old.number)[0].remove()
             if overlaid:
                 self.refresh_runs()
-            self._schedule_diagnostics()        # its widgets come with the diagnostics, once the tab is still
+            self._schedule_diagnostics()  # its widgets come with the diagnostics, once the tab is still
 
     def _add_run_widgets(self) -> None:
         """The Runs tab's entries (description, Overlay checkbox, Remove button) of kept runs that
@@ -852,15 +1029,18 @@ class Session:
                 folder = gui.add_folder(f"Run {kept.number}")
                 with folder:
                     gui.add_markdown(kept.description())
-                    box = gui.add_checkbox(f"Overlay run {kept.number}", False,
-                                           hint="overlay this run in the Plots tab and compare it below")
+                    box = gui.add_checkbox(
+                        f"Overlay run {kept.number}",
+                        False,
+                        hint="overlay this run in the Plots tab and compare it below",
+                    )
                     button = gui.add_button(f"Remove run {kept.number}", color="red")
             self.kept_widgets[kept.number] = (folder, box)
             box.on_update(lambda _: self.refresh_runs())
             button.on_click(lambda _, n=kept.number: self.remove_run(n))
             added.append(kept)
         if added:
-            self.refresh_runs(redraw=False)     # a new run is not ticked: the plots stay
+            self.refresh_runs(redraw=False)  # a new run is not ticked: the plots stay
 
     def remove_run(self, number: int) -> None:
         """Forget kept run ``number`` and its widgets."""
@@ -874,7 +1054,11 @@ class Session:
 
     def overlay_runs(self) -> list[KeptRun]:
         """The kept runs ticked for overlay, oldest first."""
-        return [r for r in self.kept_runs if r.number in self.kept_widgets and self.kept_widgets[r.number][1].value]
+        return [
+            r
+            for r in self.kept_runs
+            if r.number in self.kept_widgets and self.kept_widgets[r.number][1].value
+        ]
 
     @_drawing
     def refresh_runs(self, redraw: bool = True) -> None:
@@ -882,10 +1066,12 @@ class Session:
         and (``redraw``) the Plots tab's overlay, for the runs ticked."""
         overlay = self.overlay_runs()
         if len(overlay) >= 2:
-            self.diff_table.content = config_diff_markdown([r.label for r in overlay],
-                                                           [flat_config(r.config, r.runs) for r in overlay])
+            self.diff_table.content = config_diff_markdown(
+                [r.label for r in overlay], [flat_config(r.config, r.runs) for r in overlay]
+            )
             self.compare_table.content = "**Results side by side**\n\n" + compare_markdown(
-                [(r.label, r.results) for r in overlay])
+                [(r.label, r.results) for r in overlay]
+            )
         else:
             self.diff_table.content = "Tick two or more runs to compare them." if self.kept_runs else ""
             self.compare_table.content = ""
@@ -897,7 +1083,9 @@ class Session:
         script (Plotly.relayout of the cursor shape) instead of every figure again; the figures
         the server sends next carry it too (:meth:`refresh_plots`)."""
         self.cursor_t = float(t_s)
-        script = CURSOR_JS.replace("__T__", json.dumps(self.cursor_t)).replace("__SHAPE__", json.dumps(cursor_shape(0.0)))
+        script = CURSOR_JS.replace("__T__", json.dumps(self.cursor_t)).replace(
+            "__SHAPE__", json.dumps(cursor_shape(0.0))
+        )
         self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
     def _set_finished(self, run: export.FinishedRun | None) -> None:
@@ -915,8 +1103,11 @@ class Session:
         except export.ExportError as exc:
             self.notify("Cannot download", str(exc), error=True)
         except Exception as exc:  # a fault of ours: said in the tab, the server keeps serving
-            self.notify("Cannot download", f"{export.FORMATS.get(kind, kind)}: {type(exc).__name__}: {exc}",
-                        error=True)
+            self.notify(
+                "Cannot download",
+                f"{export.FORMATS.get(kind, kind)}: {type(exc).__name__}: {exc}",
+                error=True,
+            )
 
     @_drawing
     def refresh_plots(self, only: str | None = None) -> None:
@@ -951,19 +1142,23 @@ class Session:
 
     def _diagnostics_loop(self) -> None:
         while True:
-            time.sleep(DIAGNOSTICS_DELAY_S)          # what the user acted on goes out first
+            time.sleep(DIAGNOSTICS_DELAY_S)  # what the user acted on goes out first
             if time.monotonic() - getattr(self, "last_action_s", 0.0) < QUIET_S:
-                continue                             # still busy in this tab: wait
+                continue  # still busy in this tab: wait
             with self.draw_lock:
                 if not self.diagnostics_due:
                     self.diagnostics_thread = None
                     return
                 self.diagnostics_due = False
                 results = self.results
-            for step in (self._draw_innovations, self._draw_components_and_elc, lambda _: self._add_run_widgets()):
+            for step in (
+                self._draw_innovations,
+                self._draw_components_and_elc,
+                lambda _: self._add_run_widgets(),
+            ):
                 with self.draw_lock:
                     if self.diagnostics_due or not results:
-                        break                        # newer results: draw those instead
+                        break  # newer results: draw those instead
                     try:
                         step(results)
                     except Exception as exc:  # a display bug must not kill the thread silently
@@ -977,8 +1172,10 @@ class Session:
         same = identical_methods(results)
         notes = []
         if len(overlay) >= 2:
-            notes.append(f"**Overlay of {', '.join(r.label for r in overlay)}** (Runs tab; line styles in the titles). "
-                         "Untick them there to see the current run alone.")
+            notes.append(
+                f"**Overlay of {', '.join(r.label for r in overlay)}** (Runs tab; line styles in the titles). "
+                "Untick them there to see the current run alone."
+            )
         if same:
             notes.append(identical_note(same))
         note = "\n\n".join(notes)
@@ -989,16 +1186,22 @@ class Session:
             if handle.visible != shown:
                 handle.visible = shown
             if shown:
-                figure = (compare_figure([(r.label, r.results) for r in overlay], q, log_y=log_y) if len(overlay) >= 2
-                          else error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y))
+                figure = (
+                    compare_figure([(r.label, r.results) for r in overlay], q, log_y=log_y)
+                    if len(overlay) >= 2
+                    else error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y)
+                )
                 handle.figure = with_cursor(figure, t)
 
     def _draw_components_and_elc(self, results: dict[str, MethodResult]) -> None:
         t = self.cursor_t
         tv = self.truth_view
         if tv is not None:
-            components = {m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"])
-                          for m, r in results.items() if len(r.t_s)}
+            components = {
+                m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"])
+                for m, r in results.items()
+                if len(r.t_s)
+            }
             for q, handle in self.component_plots.items():
                 handle.figure = with_cursor(components_figure(results, components, q), t)
         if "elc" in results:
@@ -1017,7 +1220,8 @@ class Session:
             self.innovation_plot.figure = with_cursor(innovation_figure(results, source), t)
             without = [m.upper() for m, r in results.items() if source not in r.updates]
             self.innovation_note.content = INNOVATION_NOTE + (
-                f" No {source.upper()} updates: {', '.join(without)}." if without else "")
+                f" No {source.upper()} updates: {', '.join(without)}." if without else ""
+            )
 
     # ------------------------------------------------------------------ scene
     def _build_scene(self) -> None:
@@ -1026,33 +1230,57 @@ class Session:
         scene.configure_environment_map(hdri=None)
         # without an environment map only viser's default lights shine, from ahead: the chase view
         # from behind showed the hull and its fins as a black silhouette
-        scene.add_light_hemisphere("/light/sky", sky_color=(255, 255, 255), ground_color=(150, 130, 100),
-                                   intensity=1.5)
+        scene.add_light_hemisphere(
+            "/light/sky", sky_color=(255, 255, 255), ground_color=(150, 130, 100), intensity=1.5
+        )
         d = Config()
         start_n = np.array([0.0, 0.0, d.trajectory.depth_m])
         (verts, faces), fins = auv_parts_body()
-        self.auv = scene.add_mesh_simple("/auv", verts, faces, color=(250, 200, 40), flat_shading=False,
-                                         position=tuple(ned_to_view(start_n)), wxyz=tuple(wxyz_view(np.eye(3))))
+        self.auv = scene.add_mesh_simple(
+            "/auv",
+            verts,
+            faces,
+            color=(250, 200, 40),
+            flat_shading=False,
+            position=tuple(ned_to_view(start_n)),
+            wxyz=tuple(wxyz_view(np.eye(3))),
+        )
         # children of the hull's node: placed in the body frame, each turned about its hinge (show_time)
-        self.fins = [scene.add_mesh_simple(f"/auv/fin{k + 1}", fin.verts_hinge, fin.faces, color=_hex_rgb(color),
-                                           flat_shading=True, side="double", position=tuple(fin.hinge_b))
-                     for k, (fin, color) in enumerate(zip(fins, FIN_COLORS))]
-        self.beam_nodes: list[list[Any]] | None = None   # [beam][state] under /auv (show_beams_static)
+        self.fins = [
+            scene.add_mesh_simple(
+                f"/auv/fin{k + 1}",
+                fin.verts_hinge,
+                fin.faces,
+                color=_hex_rgb(color),
+                flat_shading=True,
+                side="double",
+                position=tuple(fin.hinge_b),
+            )
+            for k, (fin, color) in enumerate(zip(fins, FIN_COLORS))
+        ]
+        self.beam_nodes: list[list[Any]] | None = None  # [beam][state] under /auv (show_beams_static)
         self.beam_shown: list[str] = []
-        self.terrain: Any = None         # the seabed's mesh when it is not flat (_draw_seabed)
-        self.furniture: list[Any] = []   # seabed grid, surface, compass and scale (_size_scene)
+        self.terrain: Any = None  # the seabed's mesh when it is not flat (_draw_seabed)
+        self.furniture: list[Any] = []  # seabed grid, surface, compass and scale (_size_scene)
         self.frame: MissionFrame | None = None
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
-        self.slider_pinned = False       # the user put the time slider somewhere during the run: it stays
-        self.run_time_s = 0.0            # the latest time the running run has results for [s]
-        self.slider_set_s: float | None = None   # where the run last put the slider [s]
+        self.slider_pinned = False  # the user put the time slider somewhere during the run: it stays
+        self.run_time_s = 0.0  # the latest time the running run has results for [s]
+        self.slider_set_s: float | None = None  # where the run last put the slider [s]
         # before a run: the default straight line's first 300 m, at the default seabed
-        self._size_scene(mission_frame(np.array([start_n, start_n + [300.0, 0.0, 0.0]]), d.trajectory.seabed_depth_m))
+        self._size_scene(
+            mission_frame(np.array([start_n, start_n + [300.0, 0.0, 0.0]]), d.trajectory.seabed_depth_m)
+        )
         self._beams_from_boxes()
         for k, p in enumerate(beam_label_positions_b(d.dvl.l_dvl_b, d.dvl.A_b), start=1):
-            scene.add_label(f"/auv/beams/{k}/label", str(k), position=tuple(p), font_screen_scale=0.8,
-                            anchor="center-center")
+            scene.add_label(
+                f"/auv/beams/{k}/label",
+                str(k),
+                position=tuple(p),
+                font_screen_scale=0.8,
+                anchor="center-center",
+            )
 
     @_drawing
     def _size_scene(self, frame: MissionFrame) -> None:
@@ -1062,24 +1290,54 @@ class Session:
             handle.remove()
         scene, self.frame = self.client.scene, frame
         (w, h), c = frame.seabed_size_m, frame.seabed_center_view
-        self.seabed = scene.add_grid("/seabed", width=w, height=h, plane="xy", cell_size=frame.cell_m,
-                                     section_size=5 * frame.cell_m, cell_color=(150, 120, 80),
-                                     section_color=(120, 90, 60), plane_color=SEABED_COLOR, plane_opacity=0.5,
-                                     position=tuple(c), visible=self.terrain is None)
+        self.seabed = scene.add_grid(
+            "/seabed",
+            width=w,
+            height=h,
+            plane="xy",
+            cell_size=frame.cell_m,
+            section_size=5 * frame.cell_m,
+            cell_color=(150, 120, 80),
+            section_color=(120, 90, 60),
+            plane_color=SEABED_COLOR,
+            plane_opacity=0.5,
+            position=tuple(c),
+            visible=self.terrain is None,
+        )
         corners = np.array([[-w, -h, 0.0], [w, -h, 0.0], [w, h, 0.0], [-w, h, 0.0]]) / 2 + [c[0], c[1], 0.0]
-        surface = scene.add_mesh_simple("/surface", corners, np.array([[0, 1, 2], [0, 2, 3]]), color=(90, 170, 230),
-                                        opacity=0.15, side="double")
+        surface = scene.add_mesh_simple(
+            "/surface",
+            corners,
+            np.array([[0, 1, 2], [0, 2, 3]]),
+            color=(90, 170, 230),
+            opacity=0.15,
+            side="double",
+        )
         s = frame.scale_m
         corner = np.array([frame.lo_view[0] - 0.3 * s, frame.lo_view[1] - 0.3 * s, 0.0])
         arrows, label_at = compass_view(corner, s)
-        compass = scene.add_arrows("/compass/arrows", arrows, (40, 40, 40), shaft_radius=0.015 * s,
-                                   head_radius=0.05 * s, head_length=0.12 * s)
-        labels = [scene.add_label(f"/compass/{name}", name, position=tuple(p), anchor="center-center")
-                  for name, p in zip("NE", label_at)]
+        compass = scene.add_arrows(
+            "/compass/arrows",
+            arrows,
+            (40, 40, 40),
+            shaft_radius=0.015 * s,
+            head_radius=0.05 * s,
+            head_length=0.12 * s,
+        )
+        labels = [
+            scene.add_label(f"/compass/{name}", name, position=tuple(p), anchor="center-center")
+            for name, p in zip("NE", label_at)
+        ]
         bar = scale_bar_view(corner - [0.0, 0.3 * s, 0.0], s)
-        scale = scene.add_line_segments("/scale/bar", bar, (40, 40, 40), thickness=3.0, thickness_units="screen")
-        scale_label = scene.add_label("/scale/label", f"{s:g} m", position=tuple(bar[0].mean(axis=0) - [0, 0.08 * s, 0]),
-                                      anchor="top-center")
+        scale = scene.add_line_segments(
+            "/scale/bar", bar, (40, 40, 40), thickness=3.0, thickness_units="screen"
+        )
+        scale_label = scene.add_label(
+            "/scale/label",
+            f"{s:g} m",
+            position=tuple(bar[0].mean(axis=0) - [0, 0.08 * s, 0]),
+            anchor="top-center",
+        )
         self.furniture = [self.seabed, surface, compass, *labels, scale, scale_label]
 
     def _set_camera(self, position: np.ndarray, look_at: np.ndarray) -> None:
@@ -1109,8 +1367,14 @@ class Session:
             self.show_time(float(self.time_slider.value))
 
     @_drawing
-    def show_beams_static(self, config: Config, pos_n: np.ndarray, C_nb: np.ndarray,
-                          states: list[str] | None = None, range_m: np.ndarray | None = None) -> None:
+    def show_beams_static(
+        self,
+        config: Config,
+        pos_n: np.ndarray,
+        C_nb: np.ndarray,
+        states: list[str] | None = None,
+        range_m: np.ndarray | None = None,
+    ) -> None:
         """Draw the four beams from the DVL head to the seabed, coloured by state (None: each
         enabled beam of ``config`` returning where the seabed is in range).
 
@@ -1125,21 +1389,34 @@ class Session:
         """
         dvl = config.dvl
         if range_m is None:
-            range_m = seabed_ranges_m(pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m)
+            range_m = seabed_ranges_m(
+                pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m
+            )
         if states is None:
             states = beam_states(dvl.beam_mask, dvl.beam_mask & np.isfinite(range_m), np.zeros(4, bool))
         segs = beam_segments_b(dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m)
         order = (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
         nodes = getattr(self, "beam_nodes", None)
-        if nodes is None:        # the first drawing makes the nodes, each as it is to be shown
-            self.beam_nodes = [[self.client.scene.add_line_segments(
-                f"/auv/beams/{k + 1}/{j}", segs[k:k + 1], BEAM_COLORS[s], thickness=2.5, thickness_units="screen",
-                visible=s == states[k]) for j, s in enumerate(order)] for k in range(4)]
+        if nodes is None:  # the first drawing makes the nodes, each as it is to be shown
+            self.beam_nodes = [
+                [
+                    self.client.scene.add_line_segments(
+                        f"/auv/beams/{k + 1}/{j}",
+                        segs[k : k + 1],
+                        BEAM_COLORS[s],
+                        thickness=2.5,
+                        thickness_units="screen",
+                        visible=s == states[k],
+                    )
+                    for j, s in enumerate(order)
+                ]
+                for k in range(4)
+            ]
             self.beam_shown = list(states)
             return
         for k, state in enumerate(states):
             node = nodes[k][order.index(state)]
-            node.points = segs[k:k + 1]
+            node.points = segs[k : k + 1]
             if state != self.beam_shown[k]:
                 node.visible = True
                 nodes[k][order.index(self.beam_shown[k])].visible = False
@@ -1154,8 +1431,9 @@ class Session:
         config = self.config or Config()
         enabled = np.array([box.value for box in self.beam_boxes])
         pos_n, dvl = np.array([0.0, 0.0, config.trajectory.depth_m]), config.dvl
-        range_m = seabed_ranges_m(pos_n, np.eye(3), dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory),
-                                  dvl.max_range_m)
+        range_m = seabed_ranges_m(
+            pos_n, np.eye(3), dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m
+        )
         states = beam_states(enabled, enabled & np.isfinite(range_m), np.zeros(4, bool))
         self.show_beams_static(config, pos_n, np.eye(3), states, range_m)
 
@@ -1175,8 +1453,12 @@ class Session:
             return
         pts = ned_to_view(tv["pos_n"][decimate(len(tv["t_s"]), TRAJECTORY_POINTS)])
         self.truth_line = self.client.scene.add_line_segments(
-            "/traj/truth", np.stack([pts[:-1], pts[1:]], axis=1), _hex_rgb(TRUTH_COLOR), thickness=3.0,
-            thickness_units="screen")
+            "/traj/truth",
+            np.stack([pts[:-1], pts[1:]], axis=1),
+            _hex_rgb(TRUTH_COLOR),
+            thickness=3.0,
+            thickness_units="screen",
+        )
         self._draw_seabed(config, tv["pos_n"])
         self._size_scene(mission_frame(tv["pos_n"], config.trajectory.seabed_depth_m))
         if self.camera_mode.value == CAMERA_FREE:
@@ -1196,8 +1478,9 @@ class Session:
         if seabed.is_plane or self.replaying:
             return
         verts_n, faces = seabed_mesh_n(seabed, pos_n)
-        self.terrain = self.client.scene.add_mesh_simple("/terrain", ned_to_view(verts_n), faces, color=SEABED_COLOR,
-                                                         flat_shading=False, side="double")
+        self.terrain = self.client.scene.add_mesh_simple(
+            "/terrain", ned_to_view(verts_n), faces, color=SEABED_COLOR, flat_shading=False, side="double"
+        )
 
     @_drawing
     def _draw_seabed_plot(self) -> None:
@@ -1209,8 +1492,9 @@ class Session:
             self.seabed_plot.visible = False
             self.seabed_note.content = SEABED_NOTES["log" if self.replaying else "none"]
             return
-        self.seabed_plot.figure = altitude_figure(tv["t_s"], tv["altitude_m"], config.dvl.max_altitude_m,
-                                                  config.vkf.switch_altitude_m)
+        self.seabed_plot.figure = altitude_figure(
+            tv["t_s"], tv["altitude_m"], config.dvl.max_altitude_m, config.vkf.switch_altitude_m
+        )
         self.seabed_plot.visible = True
         self.seabed_note.content = SEABED_NOTES["simulation"]
 
@@ -1253,8 +1537,12 @@ class Session:
                 self.est_lines[method].points = segs
             else:
                 self.est_lines[method] = self.client.scene.add_line_segments(
-                    f"/traj/{method}", segs, _hex_rgb(method_color(method)), thickness=2.0,
-                    thickness_units="screen")
+                    f"/traj/{method}",
+                    segs,
+                    _hex_rgb(method_color(method)),
+                    thickness=2.0,
+                    thickness_units="screen",
+                )
 
     @_drawing
     def show_time(self, t_s: float) -> None:
@@ -1274,11 +1562,14 @@ class Session:
         range_m = ranges[i] if ranges is not None else None
         states = self.beam_states_at(t_s, range_m)
         fin_angles = tv.get("fin_angles_rad")
-        deflection = fin_angles[i] if fin_angles is not None else np.zeros(len(self.fins))  # kinematic: no fins move
+        deflection = (
+            fin_angles[i] if fin_angles is not None else np.zeros(len(self.fins))
+        )  # kinematic: no fins move
         with self.client.atomic():
             if self.camera_mode.value != CAMERA_FREE:
-                self._set_camera(*chase_camera_view(ned_to_view(pos_n), C_nb, self.camera_mode.value,
-                                                    FOLLOW_DISTANCE_M))
+                self._set_camera(
+                    *chase_camera_view(ned_to_view(pos_n), C_nb, self.camera_mode.value, FOLLOW_DISTANCE_M)
+                )
             self.auv.position = tuple(ned_to_view(pos_n))
             self.auv.wxyz = tuple(wxyz_view(C_nb))
             for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
@@ -1334,7 +1625,7 @@ class Session:
         if len(pings) == 0 or t_s < pings[0]:
             return beam_states(enabled, enabled & in_range, np.zeros(4, bool))
         p = int(np.searchsorted(pings, t_s, side="right") - 1)
-        returned = tv["ping_available"][p]      # the schedule's; a run's own record also has random drop-outs
+        returned = tv["ping_available"][p]  # the schedule's; a run's own record also has random drop-outs
         rejected = np.zeros(4, dtype=bool)
         results = self.results or {}
         for record in (r.updates.get("dvl") for r in results.values()):
@@ -1374,7 +1665,7 @@ class Session:
             frame = 0
             while self.playing:
                 now = time.monotonic()
-                if playback_speed(self.speed.value) != speed:       # carry on from here at the new speed
+                if playback_speed(self.speed.value) != speed:  # carry on from here at the new speed
                     t0, start = playback_time(t0, speed, now - start, t_end), now
                     speed, frame = playback_speed(self.speed.value), 0
                 t = playback_time(t0, speed, now - start, t_end)
@@ -1397,13 +1688,13 @@ def summary_line(results: dict[str, MethodResult]) -> str:
     return "Final velocity error: " + ", ".join(parts)
 
 
-MAX_CLIENT_MESSAGE_BYTES = 1 << 20   # a page sends control changes and camera poses: a few kB
-MALFORMED_LOG_PERIOD_S = 10.0        # dropped client messages are summed into one log line per period
-SHUTDOWN_DEADLINE_S = 1.5            # after SIGTERM/SIGINT the process exits by then, whatever hangs
+MAX_CLIENT_MESSAGE_BYTES = 1 << 20  # a page sends control changes and camera poses: a few kB
+MALFORMED_LOG_PERIOD_S = 10.0  # dropped client messages are summed into one log line per period
+SHUTDOWN_DEADLINE_S = 1.5  # after SIGTERM/SIGINT the process exits by then, whatever hangs
 REFUSED_CLIENT_MESSAGES = ("ShareUrlRequest", "ShareUrlDisconnect")  # the share tunnel reaches the internet
-RECLAIM_PERIOD_S = 2.0               # after a tab closes, its memory is collected and trimmed this much later
-MALLOC_ARENAS = 2                    # glibc malloc arenas of the server process (see bound_malloc_arenas)
-M_ARENA_MAX = -8                     # mallopt parameter number (glibc malloc.h)
+RECLAIM_PERIOD_S = 2.0  # after a tab closes, its memory is collected and trimmed this much later
+MALLOC_ARENAS = 2  # glibc malloc arenas of the server process (see bound_malloc_arenas)
+M_ARENA_MAX = -8  # mallopt parameter number (glibc malloc.h)
 
 
 class _DropLog:
@@ -1411,7 +1702,7 @@ class _DropLog:
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
-        self.count = 0          # dropped since the server started
+        self.count = 0  # dropped since the server started
         self.unlogged = 0
         self.last_log = -MALFORMED_LOG_PERIOD_S
 
@@ -1424,8 +1715,11 @@ class _DropLog:
                 return
             n, self.unlogged, self.last_log = self.unlogged, 0, now
         reason = reason if len(reason) <= 200 else reason[:200] + "..."
-        print(f"tauv dashboard: dropped {n} malformed client message(s); last: {reason}",
-              file=sys.stderr, flush=True)
+        print(
+            f"tauv dashboard: dropped {n} malformed client message(s); last: {reason}",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 DROPPED = _DropLog()
@@ -1450,6 +1744,7 @@ def harden_client_messages() -> bool:
     """
     try:
         from viser.infra import _infra
+
         consumer_params = list(inspect.signature(_infra._message_consumer).parameters)
         dispatch = _infra.WebsockMessageHandler._handle_incoming_message
     except (ImportError, AttributeError, TypeError, ValueError):
@@ -1462,7 +1757,7 @@ def harden_client_messages() -> bool:
     async def message_consumer(websocket: Any, handle_message: Any, message_class: Any) -> None:
         _limit_frames(websocket)
         while True:
-            raw = await websocket.recv()     # ConnectionClosed ends the connection, as in viser
+            raw = await websocket.recv()  # ConnectionClosed ends the connection, as in viser
             if not isinstance(raw, (bytes, bytearray)):
                 DROPPED.drop("a text frame")
                 continue
@@ -1531,8 +1826,11 @@ def disable_share_tunnel(server: viser.ViserServer) -> None:
             websock.unregister_handler(cls)
 
     def refuse(verbose: bool = True) -> None:
-        print("tauv dashboard: share URL refused (the dashboard never connects outside this machine)",
-              file=sys.stderr, flush=True)
+        print(
+            "tauv dashboard: share URL refused (the dashboard never connects outside this machine)",
+            file=sys.stderr,
+            flush=True,
+        )
         return None
 
     server.request_share_url = refuse  # type: ignore[method-assign]
@@ -1547,8 +1845,9 @@ def check_listen(host: str, port: int) -> None:
         s.bind((host, port))
 
 
-def build_server(host: str = "127.0.0.1", port: int = 8080, workers: int | None = None,
-                 logs: dict[str, str] | None = None) -> tuple[viser.ViserServer, worker.RunPool]:
+def build_server(
+    host: str = "127.0.0.1", port: int = 8080, workers: int | None = None, logs: dict[str, str] | None = None
+) -> tuple[viser.ViserServer, worker.RunPool]:
     """Start the viser server with one :class:`Session` per connected tab and ``workers`` run
     processes (default :func:`app.worker.default_workers`); ``logs`` (name -> directory) are
     offered as sources to replay."""
@@ -1564,21 +1863,26 @@ def build_server(host: str = "127.0.0.1", port: int = 8080, workers: int | None 
     start = ned_to_view(np.array([0.0, 0.0, Config().trajectory.depth_m]))
     server.initial_camera.position = tuple(start + np.array([-0.6, -0.8, 0.6]) * FOLLOW_DISTANCE_M)
     server.initial_camera.look_at = tuple(start)
-    server.gui.configure_theme(control_layout="fixed", control_width="large", show_share_button=False,
-                               show_logo=False, brand_color=(31, 119, 180))
+    server.gui.configure_theme(
+        control_layout="fixed",
+        control_width="large",
+        show_share_button=False,
+        show_logo=False,
+        brand_color=(31, 119, 180),
+    )
     sessions: dict[int, Session] = {}
-    departed: set[int] = set()     # tabs that left while their Session was still being built
+    departed: set[int] = set()  # tabs that left while their Session was still being built
     lock = threading.Lock()
 
     @server.on_client_connect
     def _(client: viser.ClientHandle) -> None:
-        session = Session(client, pool, logs)   # takes a while: the tab may close meanwhile
+        session = Session(client, pool, logs)  # takes a while: the tab may close meanwhile
         with lock:
             gone = client.client_id in departed
             departed.discard(client.client_id)
             if not gone:
                 sessions[client.client_id] = session
-        if gone:   # its disconnect came first: without this the Session (~MBs) lived forever
+        if gone:  # its disconnect came first: without this the Session (~MBs) lived forever
             session.close()
             RECLAIM.soon()
 
@@ -1599,8 +1903,8 @@ class ShutdownRequest:
     """Set by SIGTERM or SIGINT (see :func:`install_shutdown_handlers`)."""
 
     def __init__(self) -> None:
-        self.signum: int | None = None   # the first signal received
-        self.serving = False             # startup finished: a signal now only asks the loop to end
+        self.signum: int | None = None  # the first signal received
+        self.serving = False  # startup finished: a signal now only asks the loop to end
 
 
 def install_shutdown_handlers() -> ShutdownRequest:
@@ -1635,8 +1939,9 @@ def bound_malloc_arenas(arenas: int = MALLOC_ARENAS) -> bool:
     cost to a server whose threads mostly wait. Must run before those threads start."""
     try:
         import ctypes
+
         return ctypes.CDLL(None).mallopt(M_ARENA_MAX, arenas) == 1
-    except (OSError, AttributeError):   # not glibc
+    except (OSError, AttributeError):  # not glibc
         return False
 
 
@@ -1665,8 +1970,9 @@ class _MemoryReclaimer:
         gc.collect()
         try:
             import ctypes
+
             ctypes.CDLL(None).malloc_trim(0)
-        except (OSError, AttributeError):   # not glibc
+        except (OSError, AttributeError):  # not glibc
             pass
 
 
@@ -1692,15 +1998,16 @@ def shutdown(server: viser.ViserServer, pool: worker.RunPool) -> None:
     warnings.filterwarnings("ignore", message="Queued a .* on a closed connection")
     watchdog = threading.Timer(SHUTDOWN_DEADLINE_S, exit_now)
     watchdog.daemon = True
-    watchdog.start()         # never cancelled: it also bounds the interpreter's own exit
+    watchdog.start()  # never cancelled: it also bounds the interpreter's own exit
     try:
         pool.shutdown()
     finally:
         server.stop()
 
 
-def main(host: str = "127.0.0.1", port: int = 8080, workers: int | None = None,
-         logs: dict[str, str] | None = None) -> None:
+def main(
+    host: str = "127.0.0.1", port: int = 8080, workers: int | None = None, logs: dict[str, str] | None = None
+) -> None:
     """Serve the dashboard until SIGTERM or SIGINT (Ctrl-C); every child process ends with it."""
     request = install_shutdown_handlers()
     bound_malloc_arenas()

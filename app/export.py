@@ -58,10 +58,10 @@ class ExportError(Exception):
 class FinishedRun:
     """A run whose final results arrived (a stopped run's are final up to where it stopped)."""
 
-    config: Config                        # the configuration it ran (a replayed log's, as the log made it)
-    results: dict[str, MethodResult]      # every method's, at every output epoch
-    log: str | None = None                # the replayed log's name; None: a simulation
-    stopped: bool = False                 # Stop ended it before the requested duration
+    config: Config  # the configuration it ran (a replayed log's, as the log made it)
+    results: dict[str, MethodResult]  # every method's, at every output epoch
+    log: str | None = None  # the replayed log's name; None: a simulation
+    stopped: bool = False  # Stop ended it before the requested duration
 
     @property
     def runs(self) -> int:
@@ -69,8 +69,9 @@ class FinishedRun:
         return int(next(iter(self.results.values())).vel_err_mps.shape[1]) if self.results else 0
 
 
-def finished_run(config: Config, results: dict[str, MethodResult], log: str | None = None,
-                 stopped: bool = False) -> FinishedRun:
+def finished_run(
+    config: Config, results: dict[str, MethodResult], log: str | None = None, stopped: bool = False
+) -> FinishedRun:
     """The run as the worker ran ``config``: with more than one run, each draws its initial errors
     (app.worker.run_worker, as a study does: tauvcore.eval.study.study_config), so the exported
     configuration says so."""
@@ -84,7 +85,7 @@ def finished_run(config: Config, results: dict[str, MethodResult], log: str | No
 class File:
     """One file to download."""
 
-    name: str          # file name offered to the browser
+    name: str  # file name offered to the browser
     content: bytes
 
 
@@ -129,8 +130,16 @@ def _chunks(results: dict[str, MethodResult]) -> list[ChunkSeries]:
         else:
             groups.append((result.t_s, [method]))
     runs = int(next(iter(results.values())).vel_err_mps.shape[1])
-    return [ChunkSeries(first=0, count=runs, t_s=t_s, series={m: series_of(results[m]) for m in methods},
-                        diverged={m: results[m].diverged for m in methods}) for t_s, methods in groups]
+    return [
+        ChunkSeries(
+            first=0,
+            count=runs,
+            t_s=t_s,
+            series={m: series_of(results[m]) for m in methods},
+            diverged={m: results[m].diverged for m in methods},
+        )
+        for t_s, methods in groups
+    ]
 
 
 def results_parquet(run: FinishedRun) -> bytes:
@@ -147,7 +156,7 @@ def results_parquet(run: FinishedRun) -> bytes:
         if writer is None:
             writer = pq.ParquetWriter(buffer, table.schema, **PARQUET_WRITE_OPTIONS)
         writer.write_table(table)
-    assert writer is not None       # _check: at least one method
+    assert writer is not None  # _check: at least one method
     writer.close()
     return buffer.getvalue()
 
@@ -175,7 +184,7 @@ def markdown_html(text: str) -> str:
     for line in [*text.splitlines(), ""]:
         if line.startswith("|"):
             cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if not all(c and set(c) <= set("-:") for c in cells):     # not the |---|---| line
+            if not all(c and set(c) <= set("-:") for c in cells):  # not the |---|---| line
                 table.append(cells)
             continue
         if table:
@@ -186,10 +195,12 @@ def markdown_html(text: str) -> str:
     return "".join(out)
 
 
-REPORT_STYLE = ("body{font-family:sans-serif;margin:2em auto;max-width:1300px;padding:0 1em}"
-                "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #ccc;padding:3px 8px}"
-                "td+td,th+th{text-align:right}.figures{display:grid;grid-template-columns:1fr 1fr;gap:8px}"
-                "pre{background:#f6f6f6;padding:1em;overflow:auto}")
+REPORT_STYLE = (
+    "body{font-family:sans-serif;margin:2em auto;max-width:1300px;padding:0 1em}"
+    "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #ccc;padding:3px 8px}"
+    "td+td,th+th{text-align:right}.figures{display:grid;grid-template-columns:1fr 1fr;gap:8px}"
+    "pre{background:#f6f6f6;padding:1em;overflow:auto}"
+)
 
 
 def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) -> str:
@@ -201,25 +212,41 @@ def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) ->
     a network address)."""
     run = _check(run)
     config, results = run.config, run.results
-    what = f"log {run.log}" if run.log is not None else f"{config.trajectory.name} ({config.trajectory.truth} truth)"
+    what = (
+        f"log {run.log}"
+        if run.log is not None
+        else f"{config.trajectory.name} ({config.trajectory.truth} truth)"
+    )
     t_end = max(float(r.t_s[-1]) for r in results.values())
     title = f"tauv run: {what}, {t_end:g} s, seed {config.run.seed}"
     ended = f"stopped at t = {t_end:g} s" if run.stopped else "complete"
-    description = (f"Methods {', '.join(m.upper() for m in results)}; {run.runs} run(s); {ended}. "
-                   "Exported from the tauv dashboard; the JSON and Parquet downloads hold every epoch.")
-    figures = [error_figure(results, q, log_y=AUTO, height_px=340, max_points=max_points) for q in REPORT_FIGURES]
+    description = (
+        f"Methods {', '.join(m.upper() for m in results)}; {run.runs} run(s); {ended}. "
+        "Exported from the tauv dashboard; the JSON and Parquet downloads hold every epoch."
+    )
+    figures = [
+        error_figure(results, q, log_y=AUTO, height_px=340, max_points=max_points) for q in REPORT_FIGURES
+    ]
     figures.append(nees_figure(results, "full", height_px=340, max_points=max_points))
-    plots = [f.to_html(full_html=False, include_plotlyjs=k == 0, include_mathjax=False,
-                       config={"displaylogo": False}) for k, f in enumerate(figures)]
+    plots = [
+        f.to_html(
+            full_html=False, include_plotlyjs=k == 0, include_mathjax=False, config={"displaylogo": False}
+        )
+        for k, f in enumerate(figures)
+    ]
     settings = [["Setting", "Value"], *([name, value] for name, value in config_rows(config, run.runs))]
     full_config = json.dumps(config_to_json(config), indent=2, allow_nan=False)
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
         f"<style>{REPORT_STYLE}</style></head><body>",
         f"<h1>{html.escape(title)}</h1><p>{html.escape(description)}</p>",
-        "<h2>Configuration</h2>", _table(settings),
-        "<h2>Results</h2>", markdown_html(summary_markdown(results)),
-        "<h2>Figures</h2><div class='figures'>", *(f"<div>{p}</div>" for p in plots), "</div>",
+        "<h2>Configuration</h2>",
+        _table(settings),
+        "<h2>Results</h2>",
+        markdown_html(summary_markdown(results)),
+        "<h2>Figures</h2><div class='figures'>",
+        *(f"<div>{p}</div>" for p in plots),
+        "</div>",
         "<h2>Full configuration</h2><details><summary>as <code>tauv config</code> prints it (JSON)</summary>",
         f"<pre>{html.escape(full_config, quote=False)}</pre></details>",
         "</body></html>",
@@ -249,5 +276,17 @@ def send(client: viser.ClientHandle, kind: str, run: FinishedRun | None) -> File
     return file
 
 
-__all__ = ["FORMATS", "ExportError", "File", "FinishedRun", "file_name", "finished_run", "make", "markdown_html", "report_html",
-           "results_json", "results_parquet", "send"]
+__all__ = [
+    "FORMATS",
+    "ExportError",
+    "File",
+    "FinishedRun",
+    "file_name",
+    "finished_run",
+    "make",
+    "markdown_html",
+    "report_html",
+    "results_json",
+    "results_parquet",
+    "send",
+]

@@ -45,9 +45,16 @@ from tauvcore.eval.runner import MethodResult
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
 
 METHOD_COLORS = {
-    "ins": "#7f7f7f", "lc": "#1f77b4", "tc": "#ff7f0e", "vb": "#2ca02c",
-    "nsv": "#d62728", "plcf": "#9467bd", "vhv": "#8c564b", "elc": "#e377c2",
-    "ins-dvl": "#bcbd22", "vkf": "#17becf",      # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
+    "ins": "#7f7f7f",
+    "lc": "#1f77b4",
+    "tc": "#ff7f0e",
+    "vb": "#2ca02c",
+    "nsv": "#d62728",
+    "plcf": "#9467bd",
+    "vhv": "#8c564b",
+    "elc": "#e377c2",
+    "ins-dvl": "#bcbd22",
+    "vkf": "#17becf",  # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
 }
 TRUTH_COLOR = "#111111"
 QUANTITIES = {
@@ -61,8 +68,14 @@ AUTO = "auto"
 LOG_SPAN = 10.0
 """``log_y="auto"`` draws a log axis only when the drawn values span more than this factor: over a
 narrower range (heading error 1.0-1.2 deg) a log axis has no ticks and flattens the curves."""
-NEES_BLOCK_NAMES = {"full": "full state", "pos": "position", "vel": "velocity", "tilt": "tilt",
-                    "heading": "heading", "sensor": "sensor errors"}
+NEES_BLOCK_NAMES = {
+    "full": "full state",
+    "pos": "position",
+    "vel": "velocity",
+    "tilt": "tilt",
+    "heading": "heading",
+    "sensor": "sensor errors",
+}
 """Consistency blocks (tauvcore.eval.consistency.BLOCK_DIMS) as the figure names them."""
 BAND_COLOR = "rgba(120,120,120,0.18)"
 FIN_NAMES = ("fin 1 lower stbd", "fin 2 lower port", "fin 3 upper port", "fin 4 upper stbd")
@@ -78,7 +91,7 @@ def method_color(method: str) -> str:
 
 
 def _hex_to_rgba(color: str, alpha: float) -> str:
-    r, g, b = (int(color[i:i + 2], 16) for i in (1, 3, 5))
+    r, g, b = (int(color[i : i + 2], 16) for i in (1, 3, 5))
     return f"rgba({r},{g},{b},{alpha})"
 
 
@@ -112,9 +125,15 @@ def _spans_decades(curves: list[np.ndarray]) -> bool:
     return values.size > 0 and float(values.max()) > LOG_SPAN * float(values.min())
 
 
-def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", show_sigma: bool = False,
-                 log_y: bool | str = False, height_px: int = 300, max_points: int | None = 600,
-                 validate: bool = False) -> go.Figure:
+def error_figure(
+    results: Mapping[str, MethodResult],
+    quantity: str = "vel",
+    show_sigma: bool = False,
+    log_y: bool | str = False,
+    height_px: int = 300,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """Error norm against time for every method; one trace per method named by its short name.
 
     ``quantity``: "vel", "tilt", "heading", "att" (the attitude norm) or "pos". ``show_sigma``
@@ -143,21 +162,46 @@ def error_figure(results: Mapping[str, MethodResult], quantity: str = "vel", sho
         if show_sigma:
             sigma = getattr(res, sigma_field)[keep]
             band = sigma[:, 0] if runs == 1 else rms(sigma, axis=1)
-            if np.isfinite(band).any():     # Yoo 2014's filter has no position state: no position band
+            if np.isfinite(band).any():  # Yoo 2014's filter has no position state: no position band
                 drawn.append(band)
-                data.append({"type": "scatter", "x": t, "y": band, "name": f"{method.upper()} 1-sigma",
-                             "mode": "lines", "line": {"width": 0}, "fill": "tozeroy",
-                             "fillcolor": _hex_to_rgba(color, 0.15), "hoverinfo": "skip", "showlegend": False,
-                             "legendgroup": method})
+                data.append(
+                    {
+                        "type": "scatter",
+                        "x": t,
+                        "y": band,
+                        "name": f"{method.upper()} 1-sigma",
+                        "mode": "lines",
+                        "line": {"width": 0},
+                        "fill": "tozeroy",
+                        "fillcolor": _hex_to_rgba(color, 0.15),
+                        "hoverinfo": "skip",
+                        "showlegend": False,
+                        "legendgroup": method,
+                    }
+                )
         drawn.append(curve)
-        data.append({"type": "scatter", "x": t, "y": curve, "name": method.upper(), "mode": "lines",
-                     "line": {"color": color, "width": 2}, "legendgroup": method})
+        data.append(
+            {
+                "type": "scatter",
+                "x": t,
+                "y": curve,
+                "name": method.upper(),
+                "mode": "lines",
+                "line": {"color": color, "width": 2},
+                "legendgroup": method,
+            }
+        )
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "")
-    layout = {"title": {"text": label, "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 50, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
-              "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
-              "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"}}
+    layout = {
+        "title": {"text": label, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.2},
+        "xaxis": {"title": {"text": "time [s]"}},
+        "template": "plotly_white",
+        "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
+    }
     return _figure(data, layout, validate)
 
 
@@ -167,8 +211,13 @@ def block_dims(result: MethodResult) -> dict[str, int]:
     return result.block_dims or BLOCK_DIMS
 
 
-def nees_figure(results: Mapping[str, MethodResult], block: str = "full", height_px: int = 300,
-                max_points: int | None = 600, validate: bool = False) -> go.Figure:
+def nees_figure(
+    results: Mapping[str, MethodResult],
+    block: str = "full",
+    height_px: int = 300,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """Does each method know its own error? Its NEES of ``block`` divided by the block's
     dimension n, averaged over the Monte Carlo runs, against time; one trace per method.
 
@@ -186,7 +235,7 @@ def nees_figure(results: Mapping[str, MethodResult], block: str = "full", height
     if block not in BLOCK_DIMS:
         raise ValueError(f"block must be one of {', '.join(BLOCK_DIMS)}, got {block!r}")
     data: list[dict[str, Any]] = []
-    by_dim: dict[int, list[str]] = {}      # block dimension -> the methods drawn with it, in order
+    by_dim: dict[int, list[str]] = {}  # block dimension -> the methods drawn with it, in order
     runs, t_first, t_last = 1, np.inf, -np.inf
     for method, res in results.items():
         if len(res.t_s) == 0:
@@ -201,33 +250,70 @@ def nees_figure(results: Mapping[str, MethodResult], block: str = "full", height
         curve = np.where(np.isfinite(curve), curve, np.nan)
         t = res.t_s[keep]
         t_first, t_last = min(t_first, float(t[0])), max(t_last, float(t[-1]))
-        data.append({"type": "scatter", "x": t, "y": curve, "name": method.upper(), "mode": "lines",
-                     "line": {"color": method_color(method), "width": 2}, "legendgroup": method})
+        data.append(
+            {
+                "type": "scatter",
+                "x": t,
+                "y": curve,
+                "name": method.upper(),
+                "mode": "lines",
+                "line": {"color": method_color(method), "width": 2},
+                "legendgroup": method,
+            }
+        )
     band_name = f"{CONFIDENCE:.0%} band".replace("%", " %")
     if data:
         reference = []
         for k, dim in enumerate(by_dim):
             lo, hi = nees_band(dim, runs)
             reference.append(
-                {"type": "scatter", "x": [t_first, t_last, t_last, t_first], "y": [lo, lo, hi, hi],
-                 "name": band_name if len(by_dim) == 1 else f"{band_name} (dim {dim})", "mode": "lines",
-                 "fill": "toself", "fillcolor": BAND_COLOR,
-                 "line": {"color": "rgba(120,120,120,0.6)", "width": 1, "dash": "dash" if k == 0 else "dot"},
-                 "hoverinfo": "skip"})
+                {
+                    "type": "scatter",
+                    "x": [t_first, t_last, t_last, t_first],
+                    "y": [lo, lo, hi, hi],
+                    "name": band_name if len(by_dim) == 1 else f"{band_name} (dim {dim})",
+                    "mode": "lines",
+                    "fill": "toself",
+                    "fillcolor": BAND_COLOR,
+                    "line": {
+                        "color": "rgba(120,120,120,0.6)",
+                        "width": 1,
+                        "dash": "dash" if k == 0 else "dot",
+                    },
+                    "hoverinfo": "skip",
+                }
+            )
         reference.append(
-            {"type": "scatter", "x": [t_first, t_last], "y": [1.0, 1.0], "name": "1 = consistent", "mode": "lines",
-             "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"}, "hoverinfo": "skip"})
+            {
+                "type": "scatter",
+                "x": [t_first, t_last],
+                "y": [1.0, 1.0],
+                "name": "1 = consistent",
+                "mode": "lines",
+                "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"},
+                "hoverinfo": "skip",
+            }
+        )
         data = reference + data
     groups = list(by_dim.items()) or [(BLOCK_DIMS[block], [])]
-    dims_text = "; ".join(f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}"
-                          for k, (dim, names) in enumerate(groups))
+    dims_text = "; ".join(
+        f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}" for k, (dim, names) in enumerate(groups)
+    )
     runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
     title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} ({dims_text}){runs_text}"
-    layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
-              "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
-              "yaxis": {"type": "log", "exponentformat": "power",
-                        "title": {"text": "NEES/dim (1 = consistent, >1 over-confident)", "font": {"size": 11}}}}
+    layout = {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.2},
+        "xaxis": {"title": {"text": "time [s]"}},
+        "template": "plotly_white",
+        "yaxis": {
+            "type": "log",
+            "exponentformat": "power",
+            "title": {"text": "NEES/dim (1 = consistent, >1 over-confident)", "font": {"size": 11}},
+        },
+    }
     return _figure(data, layout, validate)
 
 
@@ -237,12 +323,19 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool
     dvl = result.updates.get("dvl")
 
     def markers(t: np.ndarray, axis_name: str, color: str, name: str, group: str) -> dict[str, Any]:
-        return {"type": "scatter", "x": t, "y": [axis_name] * len(t), "mode": "markers",
-                "marker": {"color": color, "size": 6, "symbol": "square"}, "name": name, "legendgroup": group,
-                "showlegend": not any(d["name"] == name for d in data)}
+        return {
+            "type": "scatter",
+            "x": t,
+            "y": [axis_name] * len(t),
+            "mode": "markers",
+            "marker": {"color": color, "size": 6, "symbol": "square"},
+            "name": name,
+            "legendgroup": group,
+            "showlegend": not any(d["name"] == name for d in data),
+        }
 
     if dvl is not None and dvl.elc_choice is not None:
-        choice = dvl.elc_choice[:, 0, :]                      # (U, 3)
+        choice = dvl.elc_choice[:, 0, :]  # (U, 3)
         mode = dvl.mode[:, 0]
         for axis, axis_name in enumerate(("surge", "sway", "heave")):
             for code, name in enumerate(CANDIDATES):
@@ -252,15 +345,26 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool
             lc_hit = mode == 1
             if lc_hit.any():
                 data.append(markers(dvl.t_s[lc_hit], axis_name, method_color("lc"), "LC (3-4 beams)", "lc"))
-    layout = {"title": {"text": "ELC selector: method per axis", "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 60, "r": 10, "t": 35, "b": 35}, "xaxis": {"title": {"text": "time [s]"}},
-              "template": "plotly_white", "legend": {"orientation": "h", "y": -0.35},
-              "yaxis": {"categoryorder": "array", "categoryarray": ["heave", "sway", "surge"]}}
+    layout = {
+        "title": {"text": "ELC selector: method per axis", "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
+        "xaxis": {"title": {"text": "time [s]"}},
+        "template": "plotly_white",
+        "legend": {"orientation": "h", "y": -0.35},
+        "yaxis": {"categoryorder": "array", "categoryarray": ["heave", "sway", "surge"]},
+    }
     return _figure(data, layout, validate)
 
 
-def actuator_figure(t_s: np.ndarray, fin_angles_rad: np.ndarray, propeller_rpm: np.ndarray, height_px: int = 380,
-                    max_points: int | None = 600, validate: bool = False) -> go.Figure:
+def actuator_figure(
+    t_s: np.ndarray,
+    fin_angles_rad: np.ndarray,
+    propeller_rpm: np.ndarray,
+    height_px: int = 380,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """The dynamic truth's actuators against time: the four fin deflections [deg] (top panel,
     one trace per fin named by FIN_NAMES; positive pushes along the fin's normal, see
     tauvcore.truth.vehicle) and the propeller speed [rev/min] (bottom panel, trace "propeller"),
@@ -274,25 +378,54 @@ def actuator_figure(t_s: np.ndarray, fin_angles_rad: np.ndarray, propeller_rpm: 
 
     At most about ``max_points`` points per trace (:func:`decimate`, the last sample kept).
     """
-    t_s, fins, rpm = np.asarray(t_s, float), np.asarray(fin_angles_rad, float), np.asarray(propeller_rpm, float)
+    t_s, fins, rpm = (
+        np.asarray(t_s, float),
+        np.asarray(fin_angles_rad, float),
+        np.asarray(propeller_rpm, float),
+    )
     if fins.shape != (t_s.size, 4) or rpm.shape != t_s.shape:
-        raise ValueError(f"actuator_figure needs t_s (T,), fin_angles_rad (T, 4) and propeller_rpm (T,), got "
-                         f"{t_s.shape}, {fins.shape} and {rpm.shape}")
+        raise ValueError(
+            f"actuator_figure needs t_s (T,), fin_angles_rad (T, 4) and propeller_rpm (T,), got "
+            f"{t_s.shape}, {fins.shape} and {rpm.shape}"
+        )
     keep = decimate(t_s.size, max_points)
     t, fins_deg = t_s[keep], np.degrees(fins[keep])
     data: list[dict[str, Any]] = [
-        {"type": "scatter", "x": t, "y": fins_deg[:, k], "name": name, "mode": "lines",
-         "line": {"color": color, "width": 1.5}, "xaxis": "x", "yaxis": "y"}
-        for k, (name, color) in enumerate(zip(FIN_NAMES, FIN_COLORS))]
-    data.append({"type": "scatter", "x": t, "y": rpm[keep], "name": "propeller", "mode": "lines",
-                 "line": {"color": PROPELLER_COLOR, "width": 1.5}, "xaxis": "x2", "yaxis": "y2"})
-    layout = {"title": {"text": "Dynamic truth: fins and propeller", "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.15},
-              "template": "plotly_white",
-              "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
-              "yaxis": {"domain": [0.4, 1.0], "title": {"text": "fin deflection [deg]", "font": {"size": 11}}},
-              "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
-              "yaxis2": {"domain": [0.0, 0.3], "title": {"text": "propeller [rpm]", "font": {"size": 11}}}}
+        {
+            "type": "scatter",
+            "x": t,
+            "y": fins_deg[:, k],
+            "name": name,
+            "mode": "lines",
+            "line": {"color": color, "width": 1.5},
+            "xaxis": "x",
+            "yaxis": "y",
+        }
+        for k, (name, color) in enumerate(zip(FIN_NAMES, FIN_COLORS))
+    ]
+    data.append(
+        {
+            "type": "scatter",
+            "x": t,
+            "y": rpm[keep],
+            "name": "propeller",
+            "mode": "lines",
+            "line": {"color": PROPELLER_COLOR, "width": 1.5},
+            "xaxis": "x2",
+            "yaxis": "y2",
+        }
+    )
+    layout = {
+        "title": {"text": "Dynamic truth: fins and propeller", "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.15},
+        "template": "plotly_white",
+        "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
+        "yaxis": {"domain": [0.4, 1.0], "title": {"text": "fin deflection [deg]", "font": {"size": 11}}},
+        "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
+        "yaxis2": {"domain": [0.0, 0.3], "title": {"text": "propeller [rpm]", "font": {"size": 11}}},
+    }
     return _figure(data, layout, validate)
 
 
@@ -305,7 +438,7 @@ def intervals_above(t_s: np.ndarray, x: np.ndarray, threshold: float) -> np.ndar
     with np.errstate(invalid="ignore"):
         above[1:-1] = x > threshold
     edges = np.diff(above.astype(np.int8))
-    first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1   # first and last sample above
+    first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1  # first and last sample above
 
     def crossing(i: int, j: int) -> float:
         # between sample i (one side of the threshold) and j (the other); NaN neighbour: at the sample above
@@ -330,8 +463,15 @@ RPM_FILL = "rgba(255,150,30,0.2)"
 """The "lost" beams' orange of the 3-D view (app.scene.BEAM_COLORS), light: where the DVL is out of reach."""
 
 
-def altitude_figure(t_s: np.ndarray, altitude_m: np.ndarray, dvl_max_altitude_m: float, switch_altitude_m: float,
-                    height_px: int = 320, max_points: int | None = 600, validate: bool = False) -> go.Figure:
+def altitude_figure(
+    t_s: np.ndarray,
+    altitude_m: np.ndarray,
+    dvl_max_altitude_m: float,
+    switch_altitude_m: float,
+    height_px: int = 320,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """The vehicle's true altitude above the seabed against time (issue 12; Yoo 2014 section 3),
     with the DVL's range limit (``dvl.max_altitude_m``: higher, the beams of a level DVL find no
     bottom) and the velocity filter's switch (``vkf.switch_altitude_m``: higher, it uses the
@@ -348,7 +488,9 @@ def altitude_figure(t_s: np.ndarray, altitude_m: np.ndarray, dvl_max_altitude_m:
     """
     t_s, alt = np.asarray(t_s, float), np.asarray(altitude_m, float)
     if alt.shape != t_s.shape or t_s.ndim != 1:
-        raise ValueError(f"altitude_figure needs t_s (T,) and altitude_m (T,), got {t_s.shape} and {alt.shape}")
+        raise ValueError(
+            f"altitude_figure needs t_s (T,) and altitude_m (T,), got {t_s.shape} and {alt.shape}"
+        )
     finite = alt[np.isfinite(alt)]
     top = 1.1 * max(dvl_max_altitude_m, switch_altitude_m, float(finite.max()) if finite.size else 0.0)
     bottom = min(0.0, float(finite.min()) if finite.size else 0.0)
@@ -361,20 +503,60 @@ def altitude_figure(t_s: np.ndarray, altitude_m: np.ndarray, dvl_max_altitude_m:
         for a, b in spans:
             x += [a, a, b, b, a, None]
             y += [bottom, top, top, bottom, bottom, None]
-        data.append({"type": "scatter", "x": x, "y": y, "name": RPM_NAME, "mode": "lines", "fill": "toself",
-                     "fillcolor": RPM_FILL, "line": {"width": 0}, "hoverinfo": "skip"})
-    data.append({"type": "scatter", "x": [t0, t1], "y": [dvl_max_altitude_m] * 2, "name": DVL_LIMIT_NAME,
-                 "mode": "lines", "line": {"color": DVL_LIMIT_COLOR, "width": 1.5, "dash": "dash"}})
-    data.append({"type": "scatter", "x": [t0, t1], "y": [switch_altitude_m] * 2, "name": SWITCH_NAME,
-                 "mode": "lines", "line": {"color": SWITCH_COLOR, "width": 1.5, "dash": "dot"}})
+        data.append(
+            {
+                "type": "scatter",
+                "x": x,
+                "y": y,
+                "name": RPM_NAME,
+                "mode": "lines",
+                "fill": "toself",
+                "fillcolor": RPM_FILL,
+                "line": {"width": 0},
+                "hoverinfo": "skip",
+            }
+        )
+    data.append(
+        {
+            "type": "scatter",
+            "x": [t0, t1],
+            "y": [dvl_max_altitude_m] * 2,
+            "name": DVL_LIMIT_NAME,
+            "mode": "lines",
+            "line": {"color": DVL_LIMIT_COLOR, "width": 1.5, "dash": "dash"},
+        }
+    )
+    data.append(
+        {
+            "type": "scatter",
+            "x": [t0, t1],
+            "y": [switch_altitude_m] * 2,
+            "name": SWITCH_NAME,
+            "mode": "lines",
+            "line": {"color": SWITCH_COLOR, "width": 1.5, "dash": "dot"},
+        }
+    )
     keep = decimate(t_s.size, max_points)
-    data.append({"type": "scatter", "x": t_s[keep], "y": alt[keep], "name": ALTITUDE_NAME, "mode": "lines",
-                 "line": {"color": ALTITUDE_COLOR, "width": 2}})
+    data.append(
+        {
+            "type": "scatter",
+            "x": t_s[keep],
+            "y": alt[keep],
+            "name": ALTITUDE_NAME,
+            "mode": "lines",
+            "line": {"color": ALTITUDE_COLOR, "width": 2},
+        }
+    )
     title = f"Altitude (DVL limit {dvl_max_altitude_m:g} m, RPM above {switch_altitude_m:g} m)"
-    layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 55, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
-              "template": "plotly_white", "xaxis": {"title": {"text": "time [s]"}},
-              "yaxis": {"range": [bottom, top], "title": {"text": "altitude [m]", "font": {"size": 11}}}}
+    layout = {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.2},
+        "template": "plotly_white",
+        "xaxis": {"title": {"text": "time [s]"}},
+        "yaxis": {"range": [bottom, top], "title": {"text": "altitude [m]", "font": {"size": 11}}},
+    }
     return _figure(data, layout, validate)
 
 
@@ -389,8 +571,13 @@ MM_PER_M = 1e3
 """The scale factor is drawn in mm/s per rpm: 2.35, not 0.00235."""
 
 
-def vkf_figure(trace: Mapping[str, np.ndarray], run: int = 0, height_px: int = 420, max_points: int | None = 600,
-               validate: bool = False) -> go.Figure:
+def vkf_figure(
+    trace: Mapping[str, np.ndarray],
+    run: int = 0,
+    height_px: int = 420,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """What Yoo 2014's velocity Kalman filter learned of the propeller (method ``vkf``; eq. 20,
     ``V_rpm = rpm sf - b``): its scale factor sf [mm/s per rpm] (top panel) and bias b [m/s]
     (bottom panel) against time, each with its 1-sigma band and, where finite, the RPM model's
@@ -412,11 +599,18 @@ def vkf_figure(trace: Mapping[str, np.ndarray], run: int = 0, height_px: int = 4
     sf_true, b_true = np.asarray(trace["sf_true"], float), np.asarray(trace["b_true"], float)
     in_use = np.asarray(trace["rpm_in_use"], bool)
     U = t_s.size
-    if t_s.ndim != 1 or x.ndim != 3 or x.shape[::2] != (U, 3) or sigma.shape != x.shape \
-            or not sf_true.shape == b_true.shape == in_use.shape == x.shape[:2]:
-        raise ValueError(f"vkf_figure needs t_s (U,), x and sigma (U, R, 3), sf_true, b_true and rpm_in_use (U, R), "
-                         f"got {t_s.shape}, {x.shape}, {sigma.shape}, {sf_true.shape}, {b_true.shape} and "
-                         f"{in_use.shape}")
+    if (
+        t_s.ndim != 1
+        or x.ndim != 3
+        or x.shape[::2] != (U, 3)
+        or sigma.shape != x.shape
+        or not sf_true.shape == b_true.shape == in_use.shape == x.shape[:2]
+    ):
+        raise ValueError(
+            f"vkf_figure needs t_s (U,), x and sigma (U, R, 3), sf_true, b_true and rpm_in_use (U, R), "
+            f"got {t_s.shape}, {x.shape}, {sigma.shape}, {sf_true.shape}, {b_true.shape} and "
+            f"{in_use.shape}"
+        )
     runs = x.shape[1]
     if not 0 <= run < runs:
         raise ValueError(f"run must be within [0, {runs - 1}], got {run}")
@@ -442,28 +636,86 @@ def vkf_figure(trace: Mapping[str, np.ndarray], run: int = 0, height_px: int = 4
             for a, b in spans:
                 xs += [a, a, b, b, a, None]
                 ys += [lo, hi, hi, lo, lo, None]
-            data.append({"type": "scatter", "x": xs, "y": ys, "name": RPM_NAME if k == 1 else f"{RPM_NAME} (bias)",
-                         "mode": "lines", "fill": "toself", "fillcolor": RPM_FILL, "line": {"width": 0},
-                         "hoverinfo": "skip", "legendgroup": "rpm", "showlegend": k == 1,
-                         "xaxis": xaxis, "yaxis": yaxis})
-        data.append({"type": "scatter", "x": np.r_[t, t[::-1]], "y": np.r_[est + sig, (est - sig)[::-1]],
-                     "name": name + SIGMA_SUFFIX, "mode": "lines", "fill": "toself",
-                     "fillcolor": _hex_to_rgba(color, 0.2), "line": {"width": 0}, "hoverinfo": "skip",
-                     "legendgroup": name, "showlegend": False, "xaxis": xaxis, "yaxis": yaxis})
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": xs,
+                    "y": ys,
+                    "name": RPM_NAME if k == 1 else f"{RPM_NAME} (bias)",
+                    "mode": "lines",
+                    "fill": "toself",
+                    "fillcolor": RPM_FILL,
+                    "line": {"width": 0},
+                    "hoverinfo": "skip",
+                    "legendgroup": "rpm",
+                    "showlegend": k == 1,
+                    "xaxis": xaxis,
+                    "yaxis": yaxis,
+                }
+            )
+        data.append(
+            {
+                "type": "scatter",
+                "x": np.r_[t, t[::-1]],
+                "y": np.r_[est + sig, (est - sig)[::-1]],
+                "name": name + SIGMA_SUFFIX,
+                "mode": "lines",
+                "fill": "toself",
+                "fillcolor": _hex_to_rgba(color, 0.2),
+                "line": {"width": 0},
+                "hoverinfo": "skip",
+                "legendgroup": name,
+                "showlegend": False,
+                "xaxis": xaxis,
+                "yaxis": yaxis,
+            }
+        )
         if np.isfinite(true).any():
-            data.append({"type": "scatter", "x": t, "y": true, "name": name + TRUE_SUFFIX, "mode": "lines",
-                         "line": {"color": TRUTH_COLOR, "width": 1.5, "dash": "dash"}, "xaxis": xaxis, "yaxis": yaxis})
-        data.append({"type": "scatter", "x": t, "y": est, "name": name, "mode": "lines",
-                     "line": {"color": color, "width": 2}, "legendgroup": name, "xaxis": xaxis, "yaxis": yaxis})
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": t,
+                    "y": true,
+                    "name": name + TRUE_SUFFIX,
+                    "mode": "lines",
+                    "line": {"color": TRUTH_COLOR, "width": 1.5, "dash": "dash"},
+                    "xaxis": xaxis,
+                    "yaxis": yaxis,
+                }
+            )
+        data.append(
+            {
+                "type": "scatter",
+                "x": t,
+                "y": est,
+                "name": name,
+                "mode": "lines",
+                "line": {"color": color, "width": 2},
+                "legendgroup": name,
+                "xaxis": xaxis,
+                "yaxis": yaxis,
+            }
+        )
     title = "VKF: propeller scale factor and bias" + (f" (run {run + 1} of {runs})" if runs > 1 else "")
-    layout = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 60, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
-              "template": "plotly_white",
-              "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
-              "yaxis": {"domain": [0.55, 1.0], "range": ranges[0],
-                        "title": {"text": "sf [mm/s per rpm]", "font": {"size": 11}}},
-              "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
-              "yaxis2": {"domain": [0.0, 0.45], "range": ranges[1], "title": {"text": "b [m/s]", "font": {"size": 11}}}}
+    layout = {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.2},
+        "template": "plotly_white",
+        "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
+        "yaxis": {
+            "domain": [0.55, 1.0],
+            "range": ranges[0],
+            "title": {"text": "sf [mm/s per rpm]", "font": {"size": 11}},
+        },
+        "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
+        "yaxis2": {
+            "domain": [0.0, 0.45],
+            "range": ranges[1],
+            "title": {"text": "b [m/s]", "font": {"size": 11}},
+        },
+    }
     return _figure(data, layout, validate)
 
 
@@ -477,24 +729,38 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | 
     eigenvalue-floor repairs summed over runs."""
     rows = []
     for method, res in results.items():
+
         def curve(x: np.ndarray) -> np.ndarray:
             return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
+
         vel, att, pos = curve(res.vel_err_mps), curve(res.att_err_deg), curve(res.pos_err_m)
         consistency = method_consistency(res)
         dvl_nis = consistency.nis.get("dvl")
-        rows.append({"method": method.upper(), "vel_final_mps": float(vel[-1]), "vel_rms_mps": float(rms(vel)),
-                     "att_final_deg": float(att[-1]), "att_rms_deg": float(rms(att)),
-                     "tilt_rms_deg": float(rms(curve(res.tilt_err_deg))),
-                     "heading_rms_deg": float(rms(curve(res.heading_err_deg))),
-                     "pos_final_m": float(pos[-1]), "pos_rms_m": float(rms(pos)),
-                     "nees_dim": consistency.nees["full"].dim,
-                     "nees_per_dim": consistency.nees["full"].per_dim,
-                     "nees_in_band": consistency.nees["full"].in_band,
-                     "vel_nees_per_dim": consistency.nees["vel"].per_dim,
-                     "dvl_nis_per_dof": dvl_nis.per_dof if dvl_nis is not None else float("nan"),
-                     "runs": int(res.diverged.size), "diverged_runs": int(np.count_nonzero(res.diverged)),
-                     "diverged_first_s": float(np.nanmin(res.diverged_at_s)) if res.diverged.any() else float("nan"),
-                     "p_floor_count": int(np.sum(res.p_floor_count)), **dvl_counts(res)})
+        rows.append(
+            {
+                "method": method.upper(),
+                "vel_final_mps": float(vel[-1]),
+                "vel_rms_mps": float(rms(vel)),
+                "att_final_deg": float(att[-1]),
+                "att_rms_deg": float(rms(att)),
+                "tilt_rms_deg": float(rms(curve(res.tilt_err_deg))),
+                "heading_rms_deg": float(rms(curve(res.heading_err_deg))),
+                "pos_final_m": float(pos[-1]),
+                "pos_rms_m": float(rms(pos)),
+                "nees_dim": consistency.nees["full"].dim,
+                "nees_per_dim": consistency.nees["full"].per_dim,
+                "nees_in_band": consistency.nees["full"].in_band,
+                "vel_nees_per_dim": consistency.nees["vel"].per_dim,
+                "dvl_nis_per_dof": dvl_nis.per_dof if dvl_nis is not None else float("nan"),
+                "runs": int(res.diverged.size),
+                "diverged_runs": int(np.count_nonzero(res.diverged)),
+                "diverged_first_s": float(np.nanmin(res.diverged_at_s))
+                if res.diverged.any()
+                else float("nan"),
+                "p_floor_count": int(np.sum(res.p_floor_count)),
+                **dvl_counts(res),
+            }
+        )
     return rows
 
 
@@ -505,12 +771,15 @@ def dvl_counts(result: MethodResult) -> dict[str, int | None]:
     dvl = result.updates.get("dvl")
     if dvl is None:
         return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None}
-    return {"dvl_fused": int(np.sum(dvl.fused)), "dvl_rejected": int(np.sum(dvl.rejected)),
-            "dvl_coast": int(np.sum(~dvl.valid))}
+    return {
+        "dvl_fused": int(np.sum(dvl.fused)),
+        "dvl_rejected": int(np.sum(dvl.rejected)),
+        "dvl_coast": int(np.sum(~dvl.valid)),
+    }
 
 
 def _health_cell(row: Mapping[str, float | str]) -> str:
-    """"ok", or when the divergence monitor flagged runs, when (and how many of the runs)."""
+    """ "ok", or when the divergence monitor flagged runs, when (and how many of the runs)."""
     if not row["diverged_runs"]:
         return "ok"
     at = f"diverged at {row['diverged_first_s']:.1f} s"
@@ -539,22 +808,48 @@ def _in_band_cell(per_dim: float, in_band: float) -> str:
     return _ratio(per_dim) + (f" ({in_band:.0%})".replace("%", " %") if np.isfinite(in_band) else "")
 
 
-ERROR_COLUMNS = ("method", "vel final [m/s]", "vel RMS [m/s]", "att final [deg]", "pos final [m]",
-                 "tilt RMS [deg]", "heading RMS [deg]")
-CONSISTENCY_COLUMNS = ("method", "states", "NEES/dim (in 99 % band)", "vel NEES/dim", "DVL NIS/dof", "monitor")
+ERROR_COLUMNS = (
+    "method",
+    "vel final [m/s]",
+    "vel RMS [m/s]",
+    "att final [deg]",
+    "pos final [m]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+)
+CONSISTENCY_COLUMNS = (
+    "method",
+    "states",
+    "NEES/dim (in 99 % band)",
+    "vel NEES/dim",
+    "DVL NIS/dof",
+    "monitor",
+)
 """The results' two tables (a "P floors" column ends the second when some method needed a repair):
 one table of eleven columns is wider than the dashboard's panel, which cut off its right end."""
 CONSISTENCY_HEADING = "**Consistency** (1 = the method knows its error; above 1 it is over-confident)"
-RMS_COLUMNS = ("method", "vel RMS [m/s]", "att RMS [deg]", "tilt RMS [deg]", "heading RMS [deg]", "pos RMS [m]",
-               "DVL fused", "DVL rejected", "DVL coast")
-RMS_HEADING = ("**RMS over time and DVL updates** (fused; rejected by the gate; coast: pings without a "
-               "measurement; summed over the runs)")
+RMS_COLUMNS = (
+    "method",
+    "vel RMS [m/s]",
+    "att RMS [deg]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+    "pos RMS [m]",
+    "DVL fused",
+    "DVL rejected",
+    "DVL coast",
+)
+RMS_HEADING = (
+    "**RMS over time and DVL updates** (fused; rejected by the gate; coast: pings without a "
+    "measurement; summed over the runs)"
+)
 """The results' third table: every RMS figure the CLI prints and its DVL counts."""
 
 
 def _table(columns: tuple[str, ...], rows: list[list[str]]) -> list[str]:
     return ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)] + [
-        "| " + " | ".join(cells) + " |" for cells in rows]
+        "| " + " | ".join(cells) + " |" for cells in rows
+    ]
 
 
 def summary_markdown(results: Mapping[str, MethodResult]) -> str:
@@ -575,25 +870,58 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     """
     rows = summary_rows(results)
     floors = any(r["p_floor_count"] for r in rows)
-    errors = [[str(r["method"]), _fixed(r["vel_final_mps"], 4), _fixed(r["vel_rms_mps"], 4),
-               _fixed(r["att_final_deg"], 3), _fixed(r["pos_final_m"], 2), _fixed(r["tilt_rms_deg"], 3),
-               _fixed(r["heading_rms_deg"], 3)] for r in rows]
-    consistency = [[str(r["method"]), str(r["nees_dim"]), _in_band_cell(r["nees_per_dim"], r["nees_in_band"]),
-                    _ratio(r["vel_nees_per_dim"]), _ratio(r["dvl_nis_per_dof"]), _health_cell(r)]
-                   + ([str(r["p_floor_count"])] if floors else []) for r in rows]
+    errors = [
+        [
+            str(r["method"]),
+            _fixed(r["vel_final_mps"], 4),
+            _fixed(r["vel_rms_mps"], 4),
+            _fixed(r["att_final_deg"], 3),
+            _fixed(r["pos_final_m"], 2),
+            _fixed(r["tilt_rms_deg"], 3),
+            _fixed(r["heading_rms_deg"], 3),
+        ]
+        for r in rows
+    ]
+    consistency = [
+        [
+            str(r["method"]),
+            str(r["nees_dim"]),
+            _in_band_cell(r["nees_per_dim"], r["nees_in_band"]),
+            _ratio(r["vel_nees_per_dim"]),
+            _ratio(r["dvl_nis_per_dof"]),
+            _health_cell(r),
+        ]
+        + ([str(r["p_floor_count"])] if floors else [])
+        for r in rows
+    ]
     columns = CONSISTENCY_COLUMNS + (("P floors",) if floors else ())
-    return "\n".join(_table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency))
+    return "\n".join(
+        _table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency)
+    )
 
 
 def rms_markdown(results: Mapping[str, MethodResult]) -> str:
     """The Results tab's third table, below RMS_HEADING: every RMS over time the CLI prints
     (velocity, attitude norm, tilt, heading, position) and the DVL's fused, rejected and coast
     counts (:func:`dvl_counts`; "-" for a method without DVL updates)."""
+
     def count(x: int | None) -> str:
         return "-" if x is None else str(x)
-    rows = [[str(r["method"]), _fixed(r["vel_rms_mps"], 4), _fixed(r["att_rms_deg"], 3), _fixed(r["tilt_rms_deg"], 3),
-             _fixed(r["heading_rms_deg"], 3), _fixed(r["pos_rms_m"], 2), count(r["dvl_fused"]),
-             count(r["dvl_rejected"]), count(r["dvl_coast"])] for r in summary_rows(results)]
+
+    rows = [
+        [
+            str(r["method"]),
+            _fixed(r["vel_rms_mps"], 4),
+            _fixed(r["att_rms_deg"], 3),
+            _fixed(r["tilt_rms_deg"], 3),
+            _fixed(r["heading_rms_deg"], 3),
+            _fixed(r["pos_rms_m"], 2),
+            count(r["dvl_fused"]),
+            count(r["dvl_rejected"]),
+            count(r["dvl_coast"]),
+        ]
+        for r in summary_rows(results)
+    ]
     return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows))
 
 
@@ -605,8 +933,17 @@ CURSOR_COLOR = "rgba(40,40,40,0.7)"
 def cursor_shape(t_s: float) -> dict[str, Any]:
     """The shared time cursor: a vertical line at ``t_s`` [s] across the whole plot (a plotly
     layout shape named CURSOR_NAME; the dashboard moves it in the page with the time slider)."""
-    return {"type": "line", "name": CURSOR_NAME, "xref": "x", "yref": "paper", "x0": float(t_s), "x1": float(t_s),
-            "y0": 0.0, "y1": 1.0, "line": {"color": CURSOR_COLOR, "width": 1.5, "dash": "dot"}}
+    return {
+        "type": "line",
+        "name": CURSOR_NAME,
+        "xref": "x",
+        "yref": "paper",
+        "x0": float(t_s),
+        "x1": float(t_s),
+        "y0": 0.0,
+        "y1": 1.0,
+        "line": {"color": CURSOR_COLOR, "width": 1.5, "dash": "dot"},
+    }
 
 
 def with_cursor(figure: go.Figure, t_s: float | None) -> go.Figure:
@@ -630,8 +967,13 @@ def _nearest(t_from: np.ndarray, t_to: np.ndarray) -> np.ndarray:
     return np.where(before, i - 1, i).clip(0, len(t_from) - 1)
 
 
-def error_components(result: MethodResult, truth_t_s: np.ndarray, truth_pos_n: np.ndarray, truth_C_nb: np.ndarray,
-                     truth_vel_n: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def error_components(
+    result: MethodResult,
+    truth_t_s: np.ndarray,
+    truth_pos_n: np.ndarray,
+    truth_C_nb: np.ndarray,
+    truth_vel_n: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
     """Signed errors (estimate minus truth) of ``result`` at its output epochs, per axis.
 
     ``pos`` (T, R, 3): north, east, down [m], ``est_pos_n - pos_n``. ``vel`` (T, R, 3): surge,
@@ -650,7 +992,9 @@ def error_components(result: MethodResult, truth_t_s: np.ndarray, truth_pos_n: n
     """
     truth_t_s = np.asarray(truth_t_s, float)
     if len(truth_t_s) == 0 or len(result.t_s) == 0:
-        raise ValueError(f"error_components needs epochs, got {len(truth_t_s)} of truth and {len(result.t_s)} of results")
+        raise ValueError(
+            f"error_components needs epochs, got {len(truth_t_s)} of truth and {len(result.t_s)} of results"
+        )
     k = _nearest(truth_t_s, np.asarray(result.t_s, float))
     pos, C = np.asarray(truth_pos_n, float)[k], np.asarray(truth_C_nb, float)[k]
     out = {"pos": result.est_pos_n - pos[:, None, :]}
@@ -661,11 +1005,14 @@ def error_components(result: MethodResult, truth_t_s: np.ndarray, truth_pos_n: n
         out["att"] = np.degrees(d)
         if result.est_vel_n is not None:
             if truth_vel_n is None:
-                vel_all = (np.gradient(np.asarray(truth_pos_n, float), truth_t_s, axis=0) if len(truth_t_s) > 1
-                           else np.zeros((1, 3)))
+                vel_all = (
+                    np.gradient(np.asarray(truth_pos_n, float), truth_t_s, axis=0)
+                    if len(truth_t_s) > 1
+                    else np.zeros((1, 3))
+                )
             else:
                 vel_all = np.asarray(truth_vel_n, float)
-            v_true_b = np.einsum("tji,tj->ti", C, vel_all[k])                           # C_nb.T v_n
+            v_true_b = np.einsum("tji,tj->ti", C, vel_all[k])  # C_nb.T v_n
             v_est_b = np.einsum("trji,trj->tri", C_nb_from_euler(result.est_euler_rad), result.est_vel_n)
             out["vel"] = v_est_b - v_true_b[:, None, :]
     return out
@@ -682,8 +1029,10 @@ def identical_methods(results: Mapping[str, MethodResult]) -> dict[str, str]:
         for other in seen:
             ref = results[other]
             if ref.t_s.shape == res.t_s.shape and all(
-                    getattr(ref, f).shape == getattr(res, f).shape
-                    and np.array_equal(getattr(ref, f), getattr(res, f), equal_nan=True) for f in fields):
+                getattr(ref, f).shape == getattr(res, f).shape
+                and np.array_equal(getattr(ref, f), getattr(res, f), equal_nan=True)
+                for f in fields
+            ):
                 same[method] = other
                 break
         else:
@@ -696,38 +1045,60 @@ def identical_note(same: Mapping[str, str]) -> str:
     groups: dict[str, list[str]] = {}
     for method, ref in same.items():
         groups.setdefault(ref, []).append(method.upper())
-    parts = [f"{' and '.join(names)} {'give' if len(names) > 1 else 'gives'} exactly the results of {ref.upper()}"
-             for ref, names in groups.items()]
+    parts = [
+        f"{' and '.join(names)} {'give' if len(names) > 1 else 'gives'} exactly the results of {ref.upper()}"
+        for ref, names in groups.items()
+    ]
     if not parts:
         return ""
-    return ("**Identical methods:** " + "; ".join(parts) + " (with 3-4 beams returning, the partial-beam methods "
-            "fuse as LC). Their curves lie on one another: the one drawn last hides the others.")
+    return (
+        "**Identical methods:** " + "; ".join(parts) + " (with 3-4 beams returning, the partial-beam methods "
+        "fuse as LC). Their curves lie on one another: the one drawn last hides the others."
+    )
 
 
 def _panels(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
     """y domains of ``n`` stacked panels, the first on top."""
     h = (1.0 - gap * (n - 1)) / n
-    return [(max(0.0, round(1.0 - k * (h + gap) - h, 6)), min(1.0, round(1.0 - k * (h + gap), 6))) for k in range(n)]
+    return [
+        (max(0.0, round(1.0 - k * (h + gap) - h, 6)), min(1.0, round(1.0 - k * (h + gap), 6)))
+        for k in range(n)
+    ]
 
 
 def _stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, Any]:
     """Layout of len(``names``) panels sharing the time axis, each y-axis titled by its name."""
-    layout: dict[str, Any] = {"title": {"text": title, "font": {"size": 13}}, "height": height_px,
-                              "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
-                              "legend": {"orientation": "h", "y": -0.12}, "template": "plotly_white"}
+    layout: dict[str, Any] = {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.12},
+        "template": "plotly_white",
+    }
     n = len(names)
     for k, ((lo, hi), name) in enumerate(zip(_panels(n), names)):
         suffix = "" if k == 0 else str(k + 1)
-        layout[f"xaxis{suffix}"] = ({"anchor": f"y{suffix}", "title": {"text": "time [s]"}} if k == n - 1 else
-                                    {"anchor": f"y{suffix}", "matches": f"x{n if n > 1 else ''}", "showticklabels": False})
-        layout[f"yaxis{suffix}"] = {"domain": [lo, hi], "title": {"text": name, "font": {"size": 11}},
-                                    "zeroline": True}
+        layout[f"xaxis{suffix}"] = (
+            {"anchor": f"y{suffix}", "title": {"text": "time [s]"}}
+            if k == n - 1
+            else {"anchor": f"y{suffix}", "matches": f"x{n if n > 1 else ''}", "showticklabels": False}
+        )
+        layout[f"yaxis{suffix}"] = {
+            "domain": [lo, hi],
+            "title": {"text": name, "font": {"size": 11}},
+            "zeroline": True,
+        }
     return layout
 
 
-def components_figure(results: Mapping[str, MethodResult], components: Mapping[str, Mapping[str, np.ndarray]],
-                      quantity: str = "vel", height_px: int = 480, max_points: int | None = 600,
-                      validate: bool = False) -> go.Figure:
+def components_figure(
+    results: Mapping[str, MethodResult],
+    components: Mapping[str, Mapping[str, np.ndarray]],
+    quantity: str = "vel",
+    height_px: int = 480,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """Signed error components of ``quantity`` ("pos", "vel", "att": COMPONENTS) against time,
     one panel per axis (north/east/down, surge/sway/heave, roll/pitch/heading), one trace per
     method and panel named by the method (in the legend once, its panels grouped with it).
@@ -750,9 +1121,20 @@ def components_figure(results: Mapping[str, MethodResult], components: Mapping[s
         curves = comp[keep, 0, :] if runs == 1 else rms(comp[keep], axis=1)
         for k in range(3):
             suffix = "" if k == 0 else str(k + 1)
-            data.append({"type": "scatter", "x": res.t_s[keep], "y": curves[:, k], "name": method.upper(),
-                         "mode": "lines", "line": {"color": method_color(method), "width": 1.5},
-                         "legendgroup": method, "showlegend": k == 0, "xaxis": f"x{suffix}", "yaxis": f"y{suffix}"})
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": res.t_s[keep],
+                    "y": curves[:, k],
+                    "name": method.upper(),
+                    "mode": "lines",
+                    "line": {"color": method_color(method), "width": 1.5},
+                    "legendgroup": method,
+                    "showlegend": k == 0,
+                    "xaxis": f"x{suffix}",
+                    "yaxis": f"y{suffix}",
+                }
+            )
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else ", estimate - truth")
     return _figure(data, _stacked_layout(label, [f"{a} [{unit}]" for a in axes], height_px), validate)
 
@@ -768,8 +1150,14 @@ def innovation_sources(results: Mapping[str, MethodResult]) -> tuple[str, ...]:
     return tuple(dict.fromkeys(s for res in results.values() for s in res.updates))
 
 
-def innovation_figure(results: Mapping[str, MethodResult], source: str = "dvl", run: int = 0, height_px: int = 520,
-                      max_points: int | None = 600, validate: bool = False) -> go.Figure:
+def innovation_figure(
+    results: Mapping[str, MethodResult],
+    source: str = "dvl",
+    run: int = 0,
+    height_px: int = 520,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """Innovations of aiding ``source`` against time for run ``run`` of each method that has such
     updates, one panel per measurement row (the DVL's body axes, or TC's beams), with the
     filter's 3-sigma envelope ``+-3 sqrt(S_ii)`` (``UpdateRecord.innovation_var``) as a shaded
@@ -778,7 +1166,9 @@ def innovation_figure(results: Mapping[str, MethodResult], source: str = "dvl", 
     no measurement are gaps. A consistent filter keeps about 99.7 % of its innovations in its band.
     Methods whose number of rows differ share panels by row number (the y-axis says which is which).
     """
-    records = {m: r.updates[source] for m, r in results.items() if source in r.updates and len(r.updates[source].t_s)}
+    records = {
+        m: r.updates[source] for m, r in results.items() if source in r.updates and len(r.updates[source].t_s)
+    }
     rows = max((rec.innovation.shape[2] for rec in records.values()), default=1)
     dims = {rec.innovation.shape[2] for rec in records.values()}
     named = INNOVATION_ROWS.get(source, {})
@@ -801,19 +1191,51 @@ def innovation_figure(results: Mapping[str, MethodResult], source: str = "dvl", 
             with np.errstate(invalid="ignore"):
                 env = np.where(valid, 3.0 * np.sqrt(rec.innovation_var[:, run, k]), np.nan)
             e = env[keep]
-            data.append({"type": "scatter", "x": np.r_[t, t[::-1]], "y": np.r_[e, -e[::-1]],
-                         "name": method.upper() + BAND_SUFFIX, "mode": "lines", "fill": "toself",
-                         "fillcolor": _hex_to_rgba(color, 0.12), "line": {"width": 0}, "hoverinfo": "skip",
-                         "legendgroup": method, "showlegend": False, **axes})
-            data.append({"type": "scatter", "x": t, "y": nu[keep], "name": method.upper(), "mode": "lines+markers",
-                         "marker": {"size": 3}, "line": {"color": color, "width": 1}, "legendgroup": method,
-                         "showlegend": k == 0, **axes})
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": np.r_[t, t[::-1]],
+                    "y": np.r_[e, -e[::-1]],
+                    "name": method.upper() + BAND_SUFFIX,
+                    "mode": "lines",
+                    "fill": "toself",
+                    "fillcolor": _hex_to_rgba(color, 0.12),
+                    "line": {"width": 0},
+                    "hoverinfo": "skip",
+                    "legendgroup": method,
+                    "showlegend": False,
+                    **axes,
+                }
+            )
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": t,
+                    "y": nu[keep],
+                    "name": method.upper(),
+                    "mode": "lines+markers",
+                    "marker": {"size": 3},
+                    "line": {"color": color, "width": 1},
+                    "legendgroup": method,
+                    "showlegend": k == 0,
+                    **axes,
+                }
+            )
             hit = rec.rejected_rows[:, run, k] & valid
             if hit.any():
-                data.append({"type": "scatter", "x": rec.t_s[hit], "y": rec.innovation[hit, run, k],
-                             "name": method.upper() + REJECTED_SUFFIX, "mode": "markers",
-                             "marker": {"color": color, "size": 8, "symbol": "x"}, "legendgroup": method,
-                             "showlegend": not any(d["name"] == method.upper() + REJECTED_SUFFIX for d in data), **axes})
+                data.append(
+                    {
+                        "type": "scatter",
+                        "x": rec.t_s[hit],
+                        "y": rec.innovation[hit, run, k],
+                        "name": method.upper() + REJECTED_SUFFIX,
+                        "mode": "markers",
+                        "marker": {"color": color, "size": 8, "symbol": "x"},
+                        "legendgroup": method,
+                        "showlegend": not any(d["name"] == method.upper() + REJECTED_SUFFIX for d in data),
+                        **axes,
+                    }
+                )
     runs_text = f", run {run + 1}" if any(rec.innovation.shape[1] > 1 for rec in records.values()) else ""
     title = f"{source.upper()} innovations with their 3-sigma (x: rejected){runs_text}"
     return _figure(data, _stacked_layout(title, names, height_px), validate)
@@ -823,9 +1245,14 @@ RUN_DASHES = ("solid", "dash", "dot", "dashdot", "longdash")
 """Line style of each overlaid run (:func:`compare_figure`), the method colours kept."""
 
 
-def compare_figure(runs: Sequence[tuple[str, Mapping[str, MethodResult]]], quantity: str = "vel",
-                   log_y: bool | str = False, height_px: int = 300, max_points: int | None = 600,
-                   validate: bool = False) -> go.Figure:
+def compare_figure(
+    runs: Sequence[tuple[str, Mapping[str, MethodResult]]],
+    quantity: str = "vel",
+    log_y: bool | str = False,
+    height_px: int = 300,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
     """:func:`error_figure` of several runs overlaid: ``runs`` is (label, results) per run, each
     run's curves in its method's colour and the run's line style (RUN_DASHES, in order: the first
     solid), each trace named "<METHOD> (<label>)"."""
@@ -844,20 +1271,46 @@ def compare_figure(runs: Sequence[tuple[str, Mapping[str, MethodResult]]], quant
             err = getattr(res, err_field)[keep]
             curve = err[:, 0] if err.shape[1] == 1 else rms(err, axis=1)
             drawn.append(curve)
-            data.append({"type": "scatter", "x": res.t_s[keep], "y": curve, "name": f"{method.upper()} ({label})",
-                         "mode": "lines", "legendgroup": f"{label}/{method}",
-                         "line": {"color": method_color(method), "width": 2, "dash": RUN_DASHES[n % len(RUN_DASHES)]}})
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": res.t_s[keep],
+                    "y": curve,
+                    "name": f"{method.upper()} ({label})",
+                    "mode": "lines",
+                    "legendgroup": f"{label}/{method}",
+                    "line": {
+                        "color": method_color(method),
+                        "width": 2,
+                        "dash": RUN_DASHES[n % len(RUN_DASHES)],
+                    },
+                }
+            )
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     labels = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
-    layout = {"title": {"text": f"{title} [{unit}]: {labels}", "font": {"size": 13}}, "height": height_px,
-              "margin": {"l": 50, "r": 10, "t": 35, "b": 35}, "legend": {"orientation": "h", "y": -0.2},
-              "xaxis": {"title": {"text": "time [s]"}}, "template": "plotly_white",
-              "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"}}
+    layout = {
+        "title": {"text": f"{title} [{unit}]: {labels}", "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.2},
+        "xaxis": {"title": {"text": "time [s]"}},
+        "template": "plotly_white",
+        "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
+    }
     return _figure(data, layout, validate)
 
 
-COMPARE_COLUMNS = ("method", "run", "vel RMS [m/s]", "att RMS [deg]", "tilt RMS [deg]", "heading RMS [deg]",
-                   "pos RMS [m]", "pos final [m]", "NEES/dim")
+COMPARE_COLUMNS = (
+    "method",
+    "run",
+    "vel RMS [m/s]",
+    "att RMS [deg]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+    "pos RMS [m]",
+    "pos final [m]",
+    "NEES/dim",
+)
 
 
 def compare_markdown(runs: Sequence[tuple[str, Mapping[str, MethodResult]]]) -> str:
@@ -867,9 +1320,18 @@ def compare_markdown(runs: Sequence[tuple[str, Mapping[str, MethodResult]]]) -> 
     for label, results in runs:
         for r in summary_rows(results):
             rows.setdefault(str(r["method"]), []).append(
-                [str(r["method"]), label, _fixed(r["vel_rms_mps"], 4), _fixed(r["att_rms_deg"], 3),
-                 _fixed(r["tilt_rms_deg"], 3), _fixed(r["heading_rms_deg"], 3), _fixed(r["pos_rms_m"], 2),
-                 _fixed(r["pos_final_m"], 2), _ratio(r["nees_per_dim"])])
+                [
+                    str(r["method"]),
+                    label,
+                    _fixed(r["vel_rms_mps"], 4),
+                    _fixed(r["att_rms_deg"], 3),
+                    _fixed(r["tilt_rms_deg"], 3),
+                    _fixed(r["heading_rms_deg"], 3),
+                    _fixed(r["pos_rms_m"], 2),
+                    _fixed(r["pos_final_m"], 2),
+                    _ratio(r["nees_per_dim"]),
+                ]
+            )
     return "\n".join(_table(COMPARE_COLUMNS, [line for lines in rows.values() for line in lines]))
 
 
@@ -884,6 +1346,7 @@ def flat_config(config: Config, runs: int | None = None) -> dict[str, Any]:
                 walk(f"{prefix}.{key}" if prefix else key, v)
         else:
             out[prefix] = value
+
     walk("", to_dict(config))
     if runs is not None:
         out["runs"] = runs
@@ -916,5 +1379,7 @@ def config_diff_markdown(labels: Sequence[str], configs: Sequence[Mapping[str, A
     diff = config_differences(configs)
     if not diff:
         return "**Configuration:** the same for " + ", ".join(labels) + "."
-    return "\n".join(["**Configuration differences**", ""]
-                     + _table(("setting", *labels), [[key, *(_cell(v) for v in values)] for key, values in diff.items()]))
+    return "\n".join(
+        ["**Configuration differences**", ""]
+        + _table(("setting", *labels), [[key, *(_cell(v) for v in values)] for key, values in diff.items()])
+    )

@@ -24,8 +24,10 @@ from tauvcore.validation import ConfigError, show
 
 TRAJECTORY = "Trajectory"
 TRUTH = "Truth"
-TRUTH_HINT = ("kinematic: closed-form motion along the trajectory; dynamic: the 6-DOF TAUV flown along it by its "
-              "autopilot (fins and propeller in the Vehicle tab and the 3-D view). A log replays its own reference")
+TRUTH_HINT = (
+    "kinematic: closed-form motion along the trajectory; dynamic: the 6-DOF TAUV flown along it by its "
+    "autopilot (fins and propeller in the Vehicle tab and the 3-D view). A log replays its own reference"
+)
 SOURCE = "Source"
 SIMULATION = "simulation"
 """The Source dropdown's first choice (``tauv serve --logs`` adds the logs it found)."""
@@ -40,31 +42,44 @@ DVL_BIAS = "DVL bias [m/s]"
 DVL_SF = "DVL scale factor [%]"
 VB_NF = "VB n_f"
 NSV_EPSILON = "NSV epsilon [m^2/s^2]"
-VB_NF_HINT = ("n_f of eq. 28, 1 to 100: how many times the virtual beam's predicted sigma is inflated "
-              "(VB, VHV, ELC); small values fuse the filter's own prediction as news")
-NSV_EPSILON_HINT = ('variance of the "sway = 0" assumption (NSV, ELC), (0, 100] m^2/s^2, or "auto": '
-                    "derived from the vehicle's sideslip in its tightest turn")
+VB_NF_HINT = (
+    "n_f of eq. 28, 1 to 100: how many times the virtual beam's predicted sigma is inflated "
+    "(VB, VHV, ELC); small values fuse the filter's own prediction as news"
+)
+NSV_EPSILON_HINT = (
+    'variance of the "sway = 0" assumption (NSV, ELC), (0, 100] m^2/s^2, or "auto": '
+    "derived from the vehicle's sideslip in its tightest turn"
+)
 RPM_FALLBACK = "RPM fallback"
-RPM_FALLBACK_HINT = ("the first paper's DVL methods fuse the propeller's velocity (RPM through the VKF's learned "
-                     "scale factor and bias) at pings that give them no DVL velocity; neither paper does")
+RPM_FALLBACK_HINT = (
+    "the first paper's DVL methods fuse the propeller's velocity (RPM through the VKF's learned "
+    "scale factor and bias) at pings that give them no DVL velocity; neither paper does"
+)
 SEABED_FOLDER = "Seabed and RPM"
 """The folder of the seabed's, the DVL's range's and the propeller's controls (Yoo 2014's mission)."""
 SEABED_DEPTH = "Seabed depth [m]"
 DVL_MAX_ALTITUDE = "DVL max altitude [m]"
 SWITCH_ALTITUDE = "Switch altitude [m]"
 RPM_NOISE = "RPM noise [rpm]"
-SEABED_DEPTH_HINT = ("depth of the seabed (flat, or the terrain's mean; longrange cuts its two trenches below it), "
-                     "(0, 11000] m")
-DVL_MAX_ALTITUDE_HINT = ("the DVL's bottom lock reaches this altitude, (0, 11000] m; higher, its beams find no "
-                         "seabed (lost)")
-SWITCH_ALTITUDE_HINT = ("alpha of Yoo 2014 eq. 29, (0, 11000] m: above this altitude the VKF aids with the "
-                        "propeller RPM instead of the DVL")
+SEABED_DEPTH_HINT = (
+    "depth of the seabed (flat, or the terrain's mean; longrange cuts its two trenches below it), "
+    "(0, 11000] m"
+)
+DVL_MAX_ALTITUDE_HINT = (
+    "the DVL's bottom lock reaches this altitude, (0, 11000] m; higher, its beams find no seabed (lost)"
+)
+SWITCH_ALTITUDE_HINT = (
+    "alpha of Yoo 2014 eq. 29, (0, 11000] m: above this altitude the VKF aids with the "
+    "propeller RPM instead of the DVL"
+)
 RPM_NOISE_HINT = "white noise of the propeller's shaft speed (VKF, RPM fallback), [0, 1000] rpm; 0: ideal"
 METHOD_HINTS = {
     "ins-dvl": "Yoo 2014's 12-state INS aided by the DVL's velocity (at least three beams); no position state",
-    "vkf": ("Yoo 2014's 12-state INS aided by the DVL within the switch altitude (100 m) of the seabed, else by "
-            "the propeller RPM through the velocity Kalman filter (eq. 29); its learned scale factor and bias in "
-            "the Seabed tab"),
+    "vkf": (
+        "Yoo 2014's 12-state INS aided by the DVL within the switch altitude (100 m) of the seabed, else by "
+        "the propeller RPM through the velocity Kalman filter (eq. 29); its learned scale factor and bias in "
+        "the Seabed tab"
+    ),
 }
 """Hints of the method checkboxes that need one (Yoo 2014's; the first paper's are named in the README)."""
 FULL_BEAM_METHODS = ("lc", "ins-dvl")
@@ -124,7 +139,7 @@ def _spelled(label: str, text: str, pattern: re.Pattern[str], what: str) -> str:
 def parse_float(label: str, text: str) -> float:
     """The finite number ``text`` spells, or InputError naming ``label`` and ``text``."""
     value = float(_spelled(label, text, _FLOAT, "a number"))
-    if not math.isfinite(value):        # "1e999" matches the pattern and overflows
+    if not math.isfinite(value):  # "1e999" matches the pattern and overflows
         raise InputError(f"{label}: {show(text)} is too large")
     return value
 
@@ -149,12 +164,12 @@ class Controls:
 
     trajectory: str
     duration: str
-    methods: tuple[str, ...]                  # selected, lower case
-    vb_nf: str                                # VB's n_f (also VHV, ELC), as typed
-    nsv_epsilon: str                          # NSV's epsilon [m^2/s^2] or "auto", as typed
-    beams: tuple[int, ...]                    # switched on, 1..4
+    methods: tuple[str, ...]  # selected, lower case
+    vb_nf: str  # VB's n_f (also VHV, ELC), as typed
+    nsv_epsilon: str  # NSV's epsilon [m^2/s^2] or "auto", as typed
+    beams: tuple[int, ...]  # switched on, 1..4
     dropout: str
-    outages: tuple[tuple[str, str], ...]      # (start, end) per beam 1..4, as typed [s]
+    outages: tuple[tuple[str, str], ...]  # (start, end) per beam 1..4, as typed [s]
     aid_depth: bool
     aid_mag: bool
     accel_bias: str
@@ -164,15 +179,15 @@ class Controls:
     dvl_noise: str
     dvl_bias: str
     dvl_sf: str
-    seabed_depth: str                         # trajectory.seabed_depth_m, as typed [m]
-    dvl_max_altitude: str                     # dvl.max_altitude_m, as typed [m]
-    switch_altitude: str                      # vkf.switch_altitude_m, as typed [m]
-    rpm_noise: str                            # rpm.noise_rpm, as typed [rpm]
+    seabed_depth: str  # trajectory.seabed_depth_m, as typed [m]
+    dvl_max_altitude: str  # dvl.max_altitude_m, as typed [m]
+    switch_altitude: str  # vkf.switch_altitude_m, as typed [m]
+    rpm_noise: str  # rpm.noise_rpm, as typed [rpm]
     seed: str
     runs: str
-    source: str = SIMULATION                  # "simulation" or the name of a log (tauv serve --logs)
-    truth: str = TrajectoryConfig.truth       # one of tauvcore.truth.TRUTH_SOURCES (a simulation's only)
-    rpm_fallback: bool = False                # run.rpm_fallback: DVL methods fuse the RPM velocity without DVL
+    source: str = SIMULATION  # "simulation" or the name of a log (tauv serve --logs)
+    truth: str = TrajectoryConfig.truth  # one of tauvcore.truth.TRUTH_SOURCES (a simulation's only)
+    rpm_fallback: bool = False  # run.rpm_fallback: DVL methods fuse the RPM velocity without DVL
 
 
 def _field_text(value: object) -> str:
@@ -188,8 +203,12 @@ def preset_controls(name: str, config: Config | None = None) -> dict[str, str]:
     before the preset)."""
     preset = trajectory_preset(name)
     source = config if config is not None else from_dict(preset)
-    return {FIELD_LABELS[f"{sec}.{key}"]: _field_text(getattr(getattr(source, sec), key))
-            for sec, values in preset.items() for key in values if f"{sec}.{key}" in FIELD_LABELS}
+    return {
+        FIELD_LABELS[f"{sec}.{key}"]: _field_text(getattr(getattr(source, sec), key))
+        for sec, values in preset.items()
+        for key in values
+        if f"{sec}.{key}" in FIELD_LABELS
+    }
 
 
 def preset_note(name: str) -> str:
@@ -199,10 +218,13 @@ def preset_note(name: str) -> str:
     if not preset:
         return ""
     shown = ", ".join(f"{label} {text}" for label, text in preset_controls(name).items())
-    hidden = ", ".join(f"{sec}.{key} {value:.4g}" for sec, values in preset.items()
-                       for key, value in values.items() if f"{sec}.{key}" not in FIELD_LABELS)
-    return (f"**{name}** preset applied: {shown} (on this tab); a Run of {name} also takes {hidden} "
-            "from it.")
+    hidden = ", ".join(
+        f"{sec}.{key} {value:.4g}"
+        for sec, values in preset.items()
+        for key, value in values.items()
+        if f"{sec}.{key}" not in FIELD_LABELS
+    )
+    return f"**{name}** preset applied: {shown} (on this tab); a Run of {name} also takes {hidden} from it."
 
 
 def preset_headline(name: str) -> str:
@@ -212,8 +234,10 @@ def preset_headline(name: str) -> str:
         return ""
     shown = preset_controls(name)
     hidden = sum(len(values) for values in preset.values()) - len(shown)
-    return (f"{', '.join(shown)} filled in; {hidden} settings without a control apply at Run "
-            "(listed under the Run button).")
+    return (
+        f"{', '.join(shown)} filled in; {hidden} settings without a control apply at Run "
+        "(listed under the Run button)."
+    )
 
 
 def _label_for(exc: ConfigError) -> str | None:
@@ -237,33 +261,66 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     if not 1 <= runs <= RUNS_MAX:
         raise InputError(f"{RUNS}: {show(c.runs)} is out of range; Monte Carlo runs are 1 to {RUNS_MAX}")
     if c.source != SIMULATION and runs != 1:
-        raise InputError(f"{RUNS}: {show(c.runs)} runs of the log {show(c.source)}; a recorded log is replayed "
-                         "once (set Runs to 1)")
+        raise InputError(
+            f"{RUNS}: {show(c.runs)} runs of the log {show(c.source)}; a recorded log is replayed "
+            "once (set Runs to 1)"
+        )
     seed = parse_int(SEED, c.seed)
     if seed < 0:
         raise InputError(f"{SEED}: {show(c.seed)} is negative; a seed is a whole number >= 0")
     beams = tuple(k for k in range(1, 5) if k in c.beams)
     dvl_methods = [m for m in methods if m != "ins"]
     if dvl_methods and not beams:
-        raise InputError("DVL beams: all four are off, so no DVL method can aid; switch a beam on or select INS only")
+        raise InputError(
+            "DVL beams: all four are off, so no DVL method can aid; switch a beam on or select INS only"
+        )
     # with the RPM fallback LC fuses the propeller's velocity where it has too few beams
     full_beam = tuple(m for m in FULL_BEAM_METHODS if not (c.rpm_fallback and m == "lc"))
     if dvl_methods and set(dvl_methods) <= set(full_beam) and len(beams) < 3:
         names = " and ".join(m.upper() for m in dvl_methods)
-        raise InputError(f"{names} need{'s' if len(dvl_methods) == 1 else ''} three or more beams, but only "
-                         f"{len(beams)} ({', '.join(map(str, beams)) or 'none'}) are on; add TC, an ELC method "
-                         "or VKF")
-    numbers = {label: parse_float(label, text) for label, text in (
-        (DURATION, c.duration), (DROPOUT, c.dropout), (ACCEL_BIAS, c.accel_bias), (GYRO_BIAS, c.gyro_bias),
-        (ACCEL_NOISE, c.accel_noise), (GYRO_NOISE, c.gyro_noise), (DVL_NOISE, c.dvl_noise),
-        (DVL_BIAS, c.dvl_bias), (DVL_SF, c.dvl_sf), (VB_NF, c.vb_nf), (SEABED_DEPTH, c.seabed_depth),
-        (DVL_MAX_ALTITUDE, c.dvl_max_altitude), (SWITCH_ALTITUDE, c.switch_altitude), (RPM_NOISE, c.rpm_noise))}
+        raise InputError(
+            f"{names} need{'s' if len(dvl_methods) == 1 else ''} three or more beams, but only "
+            f"{len(beams)} ({', '.join(map(str, beams)) or 'none'}) are on; add TC, an ELC method "
+            "or VKF"
+        )
+    numbers = {
+        label: parse_float(label, text)
+        for label, text in (
+            (DURATION, c.duration),
+            (DROPOUT, c.dropout),
+            (ACCEL_BIAS, c.accel_bias),
+            (GYRO_BIAS, c.gyro_bias),
+            (ACCEL_NOISE, c.accel_noise),
+            (GYRO_NOISE, c.gyro_noise),
+            (DVL_NOISE, c.dvl_noise),
+            (DVL_BIAS, c.dvl_bias),
+            (DVL_SF, c.dvl_sf),
+            (VB_NF, c.vb_nf),
+            (SEABED_DEPTH, c.seabed_depth),
+            (DVL_MAX_ALTITUDE, c.dvl_max_altitude),
+            (SWITCH_ALTITUDE, c.switch_altitude),
+            (RPM_NOISE, c.rpm_noise),
+        )
+    }
     epsilon = parse_float_or_auto(NSV_EPSILON, c.nsv_epsilon)
-    typed = {DURATION: c.duration, DROPOUT: c.dropout, ACCEL_BIAS: c.accel_bias, GYRO_BIAS: c.gyro_bias,
-             ACCEL_NOISE: c.accel_noise, GYRO_NOISE: c.gyro_noise, DVL_NOISE: c.dvl_noise, DVL_BIAS: c.dvl_bias,
-             DVL_SF: c.dvl_sf, SEED: c.seed, VB_NF: c.vb_nf, NSV_EPSILON: c.nsv_epsilon,
-             SEABED_DEPTH: c.seabed_depth, DVL_MAX_ALTITUDE: c.dvl_max_altitude, SWITCH_ALTITUDE: c.switch_altitude,
-             RPM_NOISE: c.rpm_noise}
+    typed = {
+        DURATION: c.duration,
+        DROPOUT: c.dropout,
+        ACCEL_BIAS: c.accel_bias,
+        GYRO_BIAS: c.gyro_bias,
+        ACCEL_NOISE: c.accel_noise,
+        GYRO_NOISE: c.gyro_noise,
+        DVL_NOISE: c.dvl_noise,
+        DVL_BIAS: c.dvl_bias,
+        DVL_SF: c.dvl_sf,
+        SEED: c.seed,
+        VB_NF: c.vb_nf,
+        NSV_EPSILON: c.nsv_epsilon,
+        SEABED_DEPTH: c.seabed_depth,
+        DVL_MAX_ALTITUDE: c.dvl_max_altitude,
+        SWITCH_ALTITUDE: c.switch_altitude,
+        RPM_NOISE: c.rpm_noise,
+    }
     outages = []
     for k, (start_text, end_text) in enumerate(c.outages, start=1):
         start_label, end_label = outage_labels(k)
@@ -280,19 +337,36 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
         # the scenario's own settings (longrange: the paper's speed, depth, IMU and DVL rate;
         # its seabed and IMU errors fill in controls) under the controls', as `tauv run
         # --trajectory` lays them under a file's
-        config = (from_dict(trajectory_preset(c.trajectory))
-                  .replace("trajectory", name=c.trajectory, duration_s=numbers[DURATION], truth=truth,
-                           seabed_depth_m=numbers[SEABED_DEPTH])
-                  .replace("imu", accel_bias_mg=numbers[ACCEL_BIAS], gyro_bias_deg_per_h=numbers[GYRO_BIAS],
-                           accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
-                           gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE])
-                  .replace("dvl", noise_mps=numbers[DVL_NOISE], bias_mps=numbers[DVL_BIAS],
-                           scale_factor_pct=numbers[DVL_SF], beams=beams, dropout_probability=numbers[DROPOUT],
-                           max_altitude_m=numbers[DVL_MAX_ALTITUDE])
-                  .replace("vkf", switch_altitude_m=numbers[SWITCH_ALTITUDE])
-                  .replace("rpm", noise_rpm=numbers[RPM_NOISE])
-                  .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
-                  .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback))
+        config = (
+            from_dict(trajectory_preset(c.trajectory))
+            .replace(
+                "trajectory",
+                name=c.trajectory,
+                duration_s=numbers[DURATION],
+                truth=truth,
+                seabed_depth_m=numbers[SEABED_DEPTH],
+            )
+            .replace(
+                "imu",
+                accel_bias_mg=numbers[ACCEL_BIAS],
+                gyro_bias_deg_per_h=numbers[GYRO_BIAS],
+                accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
+                gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE],
+            )
+            .replace(
+                "dvl",
+                noise_mps=numbers[DVL_NOISE],
+                bias_mps=numbers[DVL_BIAS],
+                scale_factor_pct=numbers[DVL_SF],
+                beams=beams,
+                dropout_probability=numbers[DROPOUT],
+                max_altitude_m=numbers[DVL_MAX_ALTITUDE],
+            )
+            .replace("vkf", switch_altitude_m=numbers[SWITCH_ALTITUDE])
+            .replace("rpm", noise_rpm=numbers[RPM_NOISE])
+            .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
+            .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback)
+        )
         config = config.replace("dvl", outages=tuple(outages))
     except ConfigError as exc:
         label = _label_for(exc)
@@ -308,10 +382,16 @@ def config_rows(config: Config, runs: int) -> list[tuple[str, str]]:
     (the Results tab's table, :func:`config_markdown`, and the HTML report, app.export)."""
     d, imu, run = config.dvl, config.imu, config.run
     epsilon = config.partial.nsv_epsilon_m2_per_s2
-    epsilon_text = (f"{AUTO} ({config.nsv_epsilon_value_m2_per_s2():.3g})" if isinstance(epsilon, str)
-                    else f"{epsilon:g}")
-    outages = ", ".join(f"beam {o.beams[0] if len(o.beams) == 1 else o.beams} {o.start_s:g}-{o.end_s:g} s"
-                        for o in d.outages) or "none"
+    epsilon_text = (
+        f"{AUTO} ({config.nsv_epsilon_value_m2_per_s2():.3g})" if isinstance(epsilon, str) else f"{epsilon:g}"
+    )
+    outages = (
+        ", ".join(
+            f"beam {o.beams[0] if len(o.beams) == 1 else o.beams} {o.start_s:g}-{o.end_s:g} s"
+            for o in d.outages
+        )
+        or "none"
+    )
     rows = [
         ("Trajectory", config.trajectory.name),
         (TRUTH, config.trajectory.truth),
@@ -346,4 +426,5 @@ def config_rows(config: Config, runs: int) -> list[tuple[str, str]]:
 def config_markdown(config: Config, runs: int) -> str:
     """The configuration a run used, as a Markdown table (shown beside its results)."""
     return "**Configuration run**\n\n| Setting | Value |\n|---|---|\n" + "\n".join(
-        f"| {name} | {value} |" for name, value in config_rows(config, runs))
+        f"| {name} | {value} |" for name, value in config_rows(config, runs)
+    )

@@ -58,10 +58,10 @@ from tauvcore.validation import show
 class Key:
     """One control in the address."""
 
-    key: str          # the query's key
-    field: str        # the app.inputs.Controls field it sets
-    label: str        # the control's label, for messages
-    kind: str         # how its value is written: one of KINDS
+    key: str  # the query's key
+    field: str  # the app.inputs.Controls field it sets
+    label: str  # the control's label, for messages
+    kind: str  # how its value is written: one of KINDS
 
 
 KINDS = ("choice", "number", "integer", "number_or_auto", "flag", "methods", "beams", "outage")
@@ -96,18 +96,35 @@ KEYS = (
 )
 """Every control of app.inputs.Controls, in the page's order (the four outages one key per beam)."""
 BY_KEY = {k.key: k for k in KEYS}
-VISER_PARAMS = ("websocket", "playbackPath", "darkMode", "showStats", "fixedDpr", "logCamera", "hideViserLogo",
-                "forceOrbitOriginTool", "initialCameraPosition", "initialCameraLookAt", "initialCameraUp",
-                "initialCameraFov", "initialCameraNear", "initialCameraFar", "dummyWindowDimensions",
-                "dummyWindowTitle")
+VISER_PARAMS = (
+    "websocket",
+    "playbackPath",
+    "darkMode",
+    "showStats",
+    "fixedDpr",
+    "logCamera",
+    "hideViserLogo",
+    "forceOrbitOriginTool",
+    "initialCameraPosition",
+    "initialCameraLookAt",
+    "initialCameraUp",
+    "initialCameraFov",
+    "initialCameraNear",
+    "initialCameraFar",
+    "dummyWindowDimensions",
+    "dummyWindowTitle",
+)
 """The query parameters viser's page reads itself (client/src: App.tsx, DevSettingsStore.ts, ...)."""
 MAX_QUERY_CHARS = 4000
 """Longest query read (every control at its longest is about 1,500 characters)."""
 SAFE = "-._~,:"
 """Characters written unescaped besides letters and digits (none has a meaning inside a query value)."""
 _NUMERIC = ("number", "integer", "number_or_auto")
-_PARSERS: dict[str, Callable[[str, str], Any]] = {"number": inputs.parse_float, "integer": inputs.parse_int,
-                                                  "number_or_auto": inputs.parse_float_or_auto}
+_PARSERS: dict[str, Callable[[str, str], Any]] = {
+    "number": inputs.parse_float,
+    "integer": inputs.parse_int,
+    "number_or_auto": inputs.parse_float_or_auto,
+}
 _SIGNED = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 
 
@@ -115,10 +132,10 @@ _SIGNED = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 class Link:
     """What a page's query says: the values it sets well, what it got wrong, and viser's own part."""
 
-    values: dict[str, Any]        # Controls field -> value (outages: beam 1..4 -> (start, end) texts)
-    keys: tuple[str, ...]         # the keys applied, in the query's order
-    problems: tuple[str, ...]     # one line per refused key: the key, its value as given, why
-    viser_params: tuple[str, ...] = ()   # viser's own "key=value" parts, as they were (kept in the address)
+    values: dict[str, Any]  # Controls field -> value (outages: beam 1..4 -> (start, end) texts)
+    keys: tuple[str, ...]  # the keys applied, in the query's order
+    problems: tuple[str, ...]  # one line per refused key: the key, its value as given, why
+    viser_params: tuple[str, ...] = ()  # viser's own "key=value" parts, as they were (kept in the address)
 
     def labels(self) -> set[str]:
         """The labels of the controls the link sets (for app.inputs.preset_controls' labels)."""
@@ -153,8 +170,11 @@ def _value(key: Key, c: Controls) -> str:
 def encode(c: Controls) -> str:
     """The query (without ``?``) that sets every control to what ``c`` holds; the source only
     when it is a log (the Source control exists only then)."""
-    parts = [f"{k.key}={quote(_value(k, c), safe=SAFE)}" for k in KEYS
-             if not (k.field == "source" and c.source == inputs.SIMULATION)]
+    parts = [
+        f"{k.key}={quote(_value(k, c), safe=SAFE)}"
+        for k in KEYS
+        if not (k.field == "source" and c.source == inputs.SIMULATION)
+    ]
     return "&".join(parts)
 
 
@@ -211,8 +231,10 @@ def _parse_value(key: Key, text: str, sources: Sequence[str]) -> Any:
         if not sep:
             raise InputError("expected start:end in seconds, e.g. 50:200")
         start_label, end_label = inputs.outage_labels(OUTAGE_KEYS.index(key.key) + 1)
-        return (_number_text(Key(key.key, key.field, start_label, "number"), start),
-                _number_text(Key(key.key, key.field, end_label, "number"), end))
+        return (
+            _number_text(Key(key.key, key.field, start_label, "number"), start),
+            _number_text(Key(key.key, key.field, end_label, "number"), end),
+        )
     return _number_text(key, text)
 
 
@@ -222,8 +244,14 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
     logs, only "simulation"). Never raises: what cannot be applied is in ``problems``."""
     query = query[1:] if query.startswith("?") else query
     if len(query) > MAX_QUERY_CHARS:
-        return Link({}, (), (f"the address's query is {len(query)} characters long; at most {MAX_QUERY_CHARS} "
-                             "are read, so none of it was applied",))
+        return Link(
+            {},
+            (),
+            (
+                f"the address's query is {len(query)} characters long; at most {MAX_QUERY_CHARS} "
+                "are read, so none of it was applied",
+            ),
+        )
     values: dict[str, Any] = {}
     keys: list[str] = []
     problems: list[str] = []
@@ -271,9 +299,9 @@ def apply(c: Controls, link: Link) -> Controls:
 
 
 # ---------------------------------------------------------------------------------------- page
-VISER_STORAGE_PREFIX = "viser-user:"   # viser's client prefixes local_storage keys (MessageHandler.tsx)
-ADDRESS_KEY_PREFIX = "tauv-address-"   # + a fresh id per read: tabs of one browser share localStorage
-READ_TIMEOUT_S = 30.0                  # a page loading under software WebGL answers late
+VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
+ADDRESS_KEY_PREFIX = "tauv-address-"  # + a fresh id per read: tabs of one browser share localStorage
+READ_TIMEOUT_S = 30.0  # a page loading under software WebGL answers late
 _READ_JS = """(() => {
   // the page's query, for the server (it has no other way to learn it)
   const now = Date.now();
@@ -296,8 +324,12 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
     the script (a scripted client). Raises TimeoutError, or RuntimeError if the tab closed or its
     storage is blocked (viser's ``local_storage.get_item``)."""
     key = f"{ADDRESS_KEY_PREFIX}{uuid.uuid4().hex}"
-    _run_script(client, _READ_JS.replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + ADDRESS_KEY_PREFIX))
-                .replace("__KEY__", json.dumps(VISER_STORAGE_PREFIX + key)))
+    _run_script(
+        client,
+        _READ_JS.replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + ADDRESS_KEY_PREFIX)).replace(
+            "__KEY__", json.dumps(VISER_STORAGE_PREFIX + key)
+        ),
+    )
     raw = client.local_storage.get_item(key, timeout=timeout_s)
     if raw is None:
         return None
@@ -311,7 +343,9 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
 def show_address(client: viser.ClientHandle, query: str) -> None:
     """Make ``query`` (from :func:`address`) the page's query, in place: no reload, no new entry
     in the browser's history."""
-    _run_script(client, f"history.replaceState(history.state, '', {json.dumps(query)} + window.location.hash);")
+    _run_script(
+        client, f"history.replaceState(history.state, '', {json.dumps(query)} + window.location.hash);"
+    )
 
 
 __all__ = ["KEYS", "Key", "Link", "address", "apply", "encode", "parse", "read_address", "show_address"]

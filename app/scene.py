@@ -26,25 +26,37 @@ from scipy.sparse.csgraph import connected_components
 from tauvcore.truth.seabed import Bathymetry
 from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD
 
-ASSETS_DIR = Path(str(files("app") / "assets"))   # package data (pyproject.toml), so in the wheel too
+ASSETS_DIR = Path(str(files("app") / "assets"))  # package data (pyproject.toml), so in the wheel too
 M_VIEW_FROM_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
-BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED = "returning", "switched off", "lost", "rejected"
+BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED = (
+    "returning",
+    "switched off",
+    "lost",
+    "rejected",
+)
 # The beams' palette is kept apart from the methods' (app.figures.METHOD_COLORS, matplotlib's tab10, which
 # covers the hue circle at middle lightness): saturated blue, magenta and aqua, and a navy near black,
 # each at least BEAM_MIN_DELTA_E (CIE76) from every method's colour and the truth's (tests/unit/test_scene.py).
 BEAM_COLORS = {
-    BEAM_RETURNING: (0, 0, 255),       # blue
-    BEAM_SWITCHED_OFF: (0, 0, 102),    # navy, nearly black: a dead beam
-    BEAM_OUTAGE: (0, 255, 204),        # aqua
-    BEAM_REJECTED: (255, 0, 255),      # magenta
+    BEAM_RETURNING: (0, 0, 255),  # blue
+    BEAM_SWITCHED_OFF: (0, 0, 102),  # navy, nearly black: a dead beam
+    BEAM_OUTAGE: (0, 255, 204),  # aqua
+    BEAM_REJECTED: (255, 0, 255),  # magenta
 }
-BEAM_COLOR_NAMES = {BEAM_RETURNING: "blue", BEAM_SWITCHED_OFF: "navy", BEAM_OUTAGE: "aqua", BEAM_REJECTED: "magenta"}
-BEAM_MIN_DELTA_E = 40.0        # CIE76 distance every beam colour keeps from every method colour (a clear difference: > 10)
-BEAM_LABEL_DISTANCE_M = 4.0    # each beam's number stands this far along it from the DVL head
-SEABED_MARGIN_M = 300.0        # the seabed (mesh or flat grid) reaches this far beyond the track on every side
-SEABED_MAX_TRIANGLES = 20000   # ... in at most this many triangles
-SEABED_MIN_CELL_M = 5.0        # ... and cells no finer than this (a short track's seabed needs no more)
+BEAM_COLOR_NAMES = {
+    BEAM_RETURNING: "blue",
+    BEAM_SWITCHED_OFF: "navy",
+    BEAM_OUTAGE: "aqua",
+    BEAM_REJECTED: "magenta",
+}
+BEAM_MIN_DELTA_E = (
+    40.0  # CIE76 distance every beam colour keeps from every method colour (a clear difference: > 10)
+)
+BEAM_LABEL_DISTANCE_M = 4.0  # each beam's number stands this far along it from the DVL head
+SEABED_MARGIN_M = 300.0  # the seabed (mesh or flat grid) reaches this far beyond the track on every side
+SEABED_MAX_TRIANGLES = 20000  # ... in at most this many triangles
+SEABED_MIN_CELL_M = 5.0  # ... and cells no finer than this (a short track's seabed needs no more)
 SEABED_COLOR = (194, 170, 120)  # sand, as the flat seabed's plane
 
 
@@ -82,10 +94,12 @@ def auv_mesh_view_body() -> tuple[np.ndarray, np.ndarray]:
 class Fin:
     """One fin of the AUV mesh, ready to turn about its hinge."""
 
-    verts_hinge: np.ndarray   # (V, 3) vertices relative to the hinge point, body axes [m]
-    faces: np.ndarray         # (F, 3) triangles
-    hinge_b: np.ndarray       # (3,) hinge point in the body frame [m]: on the hull's axis below the root chord's middle
-    angle_rad: float          # where the fin stands about x, from starboard towards down [rad]
+    verts_hinge: np.ndarray  # (V, 3) vertices relative to the hinge point, body axes [m]
+    faces: np.ndarray  # (F, 3) triangles
+    hinge_b: (
+        np.ndarray
+    )  # (3,) hinge point in the body frame [m]: on the hull's axis below the root chord's middle
+    angle_rad: float  # where the fin stands about x, from starboard towards down [rad]
 
 
 def _components(verts: np.ndarray, faces: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -116,8 +130,10 @@ def auv_parts_body() -> tuple[tuple[np.ndarray, np.ndarray], tuple[Fin, ...]]:
     parts = sorted(_components(verts, faces), key=lambda p: len(p[0]), reverse=True)
     hull, others = parts[0], parts[1:]
     if len(others) != len(FIN_POSITION_ANGLES_RAD):
-        raise ValueError(f"the AUV mesh has {len(others)} parts besides the hull, expected "
-                         f"{len(FIN_POSITION_ANGLES_RAD)} fins")
+        raise ValueError(
+            f"the AUV mesh has {len(others)} parts besides the hull, expected "
+            f"{len(FIN_POSITION_ANGLES_RAD)} fins"
+        )
     fins: list[Fin | None] = [None] * len(FIN_POSITION_ANGLES_RAD)
     for v, f in others:
         centre = v.mean(axis=0)
@@ -125,11 +141,15 @@ def auv_parts_body() -> tuple[tuple[np.ndarray, np.ndarray], tuple[Fin, ...]]:
         off = np.abs(np.angle(np.exp(1j * (FIN_POSITION_ANGLES_RAD - angle))))
         k = int(np.argmin(off))
         if fins[k] is not None or off[k] > np.radians(10.0):
-            raise ValueError(f"the AUV mesh has a part at {np.degrees(angle):.1f} deg about x, not a fin of its own")
+            raise ValueError(
+                f"the AUV mesh has a part at {np.degrees(angle):.1f} deg about x, not a fin of its own"
+            )
         radius = np.hypot(v[:, 1], v[:, 2])
         root = v[np.isclose(radius, radius.min(), atol=1e-3)]
         hinge = np.array([0.5 * (root[:, 0].min() + root[:, 0].max()), 0.0, 0.0])
-        fins[k] = Fin(verts_hinge=v - hinge, faces=f, hinge_b=hinge, angle_rad=float(FIN_POSITION_ANGLES_RAD[k]))
+        fins[k] = Fin(
+            verts_hinge=v - hinge, faces=f, hinge_b=hinge, angle_rad=float(FIN_POSITION_ANGLES_RAD[k])
+        )
     return hull, tuple(fins)  # type: ignore[arg-type]
 
 
@@ -147,14 +167,21 @@ def fin_wxyz_body(fin_angles_rad: np.ndarray) -> np.ndarray:
     return vtf.SO3.exp(minus_e_r * d[:, None]).wxyz
 
 
-def beam_rays_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray,
-                A_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def beam_rays_n(
+    pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The DVL head ``pos_n + C_nb l_dvl_b`` (3,) and the unit beam directions ``C_nb b_k`` (4, 3), NED."""
     return pos_n + C_nb @ l_dvl_b, A_b @ C_nb.T
 
 
-def seabed_ranges_m(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray,
-                    seabed: Bathymetry, max_range_m: float) -> np.ndarray:
+def seabed_ranges_m(
+    pos_n: np.ndarray,
+    C_nb: np.ndarray,
+    l_dvl_b: np.ndarray,
+    A_b: np.ndarray,
+    seabed: Bathymetry,
+    max_range_m: float,
+) -> np.ndarray:
     """(4,) range [m] along each beam from the DVL head to ``seabed``; inf beyond ``max_range_m``
     (:meth:`tauvcore.truth.seabed.Bathymetry.slant_range_m`). For a view with no per-epoch ranges
     of the simulated DVL (before a run, a replayed log)."""
@@ -162,8 +189,14 @@ def seabed_ranges_m(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_
     return seabed.slant_range_m(head, dirs, max_range_m)
 
 
-def beam_segments_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_b: np.ndarray,
-                    range_m: np.ndarray, max_range_m: float) -> np.ndarray:
+def beam_segments_n(
+    pos_n: np.ndarray,
+    C_nb: np.ndarray,
+    l_dvl_b: np.ndarray,
+    A_b: np.ndarray,
+    range_m: np.ndarray,
+    max_range_m: float,
+) -> np.ndarray:
     """DVL beams from the head to where they meet the seabed, NED.
 
     ``range_m`` (4,) [m] is each beam's slant range to the seabed, inf where it does not meet it
@@ -177,9 +210,13 @@ def beam_segments_n(pos_n: np.ndarray, C_nb: np.ndarray, l_dvl_b: np.ndarray, A_
     return np.stack([np.broadcast_to(head, (4, 3)), ends], axis=1)
 
 
-def seabed_mesh_n(seabed: Bathymetry, pos_n: np.ndarray, margin_m: float = SEABED_MARGIN_M,
-                  max_triangles: int = SEABED_MAX_TRIANGLES, min_cell_m: float = SEABED_MIN_CELL_M,
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def seabed_mesh_n(
+    seabed: Bathymetry,
+    pos_n: np.ndarray,
+    margin_m: float = SEABED_MARGIN_M,
+    max_triangles: int = SEABED_MAX_TRIANGLES,
+    min_cell_m: float = SEABED_MIN_CELL_M,
+) -> tuple[np.ndarray, np.ndarray]:
     """A triangle mesh of ``seabed`` under the track ``pos_n`` (T, 3), NED.
 
     The grid spans the track's north and east extent plus ``margin_m`` on every side, in square-ish
@@ -198,11 +235,11 @@ def seabed_mesh_n(seabed: Bathymetry, pos_n: np.ndarray, margin_m: float = SEABE
     cells_n = min(cells_n, max(1, max_cells // cells_e))
     north = np.linspace(lo[0], hi[0], cells_n + 1)
     east = np.linspace(lo[1], hi[1], cells_e + 1)
-    n_grid, e_grid = np.meshgrid(north, east, indexing="ij")          # (cells_n + 1, cells_e + 1)
+    n_grid, e_grid = np.meshgrid(north, east, indexing="ij")  # (cells_n + 1, cells_e + 1)
     verts = np.stack([n_grid, e_grid, seabed.depth_m(n_grid, e_grid)], axis=-1).reshape(-1, 3)
     index = np.arange(verts.shape[0]).reshape(n_grid.shape)
-    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()          # (i, j), (i, j + 1): a step east
-    c, d = index[1:, 1:].ravel(), index[1:, :-1].ravel()            # (i + 1, j + 1), (i + 1, j): north of them
+    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()  # (i, j), (i, j + 1): a step east
+    c, d = index[1:, 1:].ravel(), index[1:, :-1].ravel()  # (i + 1, j + 1), (i + 1, j): north of them
     # in the view (x east, y north, z up) a -> b -> c turns from +x to +y: counter-clockwise from above
     faces = np.concatenate([np.stack([a, b, c], axis=1), np.stack([a, c, d], axis=1)]).astype(np.int32)
     return verts, faces
@@ -239,21 +276,25 @@ def beam_readout(t_s: float, states: list[str], in_range: np.ndarray, altitude_m
 
 
 # ---------------------------------------------------------------------------------- beams on the hull
-def beam_segments_b(l_dvl_b: np.ndarray, A_b: np.ndarray, range_m: np.ndarray, max_range_m: float) -> np.ndarray:
+def beam_segments_b(
+    l_dvl_b: np.ndarray, A_b: np.ndarray, range_m: np.ndarray, max_range_m: float
+) -> np.ndarray:
     """The four beams in the body frame (4, 2, 3): :func:`beam_segments_n` of a vehicle at the origin,
     level and heading north. Drawn as children of the hull's node, whose pose ``M C_nb`` and position
     carry them into the view: beam and hull move in one message and cannot come apart."""
     return beam_segments_n(np.zeros(3), np.eye(3), l_dvl_b, A_b, range_m, max_range_m)
 
 
-def beam_label_positions_b(l_dvl_b: np.ndarray, A_b: np.ndarray,
-                           distance_m: float = BEAM_LABEL_DISTANCE_M) -> np.ndarray:
+def beam_label_positions_b(
+    l_dvl_b: np.ndarray, A_b: np.ndarray, distance_m: float = BEAM_LABEL_DISTANCE_M
+) -> np.ndarray:
     """(4, 3) where beams 1-4 carry their numbers, body frame: ``distance_m`` along each from the head."""
     return l_dvl_b + np.asarray(A_b) * distance_m
 
 
-def interpolate_pose(t_s: float, t_grid: np.ndarray, pos_n: np.ndarray,
-                     C_nb: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+def interpolate_pose(
+    t_s: float, t_grid: np.ndarray, pos_n: np.ndarray, C_nb: np.ndarray
+) -> tuple[int, np.ndarray, np.ndarray]:
     """The vehicle between two samples of its track, for smooth playback.
 
     ``t_grid`` (T,) [s] increasing, ``pos_n`` (T, 3) [m], ``C_nb`` (T, 3, 3). With ``i`` the last
@@ -282,15 +323,17 @@ def nice_length(x_m: float) -> float:
 class MissionFrame:
     """Where the mission is, in the view (x east, y north, z up), and the scene's furniture sized to it."""
 
-    lo_view: np.ndarray        # (3,) south-west-bottom corner of the track's box, seabed included [m]
-    hi_view: np.ndarray        # (3,) north-east-top corner (the surface, z = 0) [m]
+    lo_view: np.ndarray  # (3,) south-west-bottom corner of the track's box, seabed included [m]
+    hi_view: np.ndarray  # (3,) north-east-top corner (the surface, z = 0) [m]
     seabed_center_view: np.ndarray  # (3,) centre of the seabed grid, at the seabed's depth [m]
     seabed_size_m: tuple[float, float]  # (east, north) size of the seabed grid and the surface [m]
-    cell_m: float              # the grid's cell [m] (its sections: 5 cells)
-    scale_m: float             # length of the scale bar and the compass's arrows [m]
+    cell_m: float  # the grid's cell [m] (its sections: 5 cells)
+    scale_m: float  # length of the scale bar and the compass's arrows [m]
 
 
-def mission_frame(pos_n: np.ndarray, seabed_depth_m: float, margin_m: float = SEABED_MARGIN_M) -> MissionFrame:
+def mission_frame(
+    pos_n: np.ndarray, seabed_depth_m: float, margin_m: float = SEABED_MARGIN_M
+) -> MissionFrame:
     """The box of the track ``pos_n`` (T, 3) NED from the surface to ``seabed_depth_m`` [m] and a seabed
     ``margin_m`` beyond the track on every side (a 1,200 s straight run's 1.8 km, not a fixed 600 m).
     The scale bar is a :func:`nice_length` of about a fifth of the track's larger side (at least 10 m)."""
@@ -301,10 +344,14 @@ def mission_frame(pos_n: np.ndarray, seabed_depth_m: float, margin_m: float = SE
     size = (float(hi[0] - lo[0] + 2 * margin_m), float(hi[1] - lo[1] + 2 * margin_m))
     centre = 0.5 * (lo + hi)
     span = float(max(hi[0] - lo[0], hi[1] - lo[1], 50.0))
-    return MissionFrame(lo_view=lo_view, hi_view=hi_view,
-                        seabed_center_view=np.array([centre[0], centre[1], -seabed_depth_m]),
-                        seabed_size_m=size, cell_m=nice_length(max(size) / 60.0),
-                        scale_m=nice_length(span / 5.0))
+    return MissionFrame(
+        lo_view=lo_view,
+        hi_view=hi_view,
+        seabed_center_view=np.array([centre[0], centre[1], -seabed_depth_m]),
+        seabed_size_m=size,
+        cell_m=nice_length(max(size) / 60.0),
+        scale_m=nice_length(span / 5.0),
+    )
 
 
 def compass_view(corner_view: np.ndarray, length_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -328,12 +375,17 @@ def scale_bar_view(start_view: np.ndarray, length_m: float) -> np.ndarray:
 # ---------------------------------------------------------------------------------- cameras
 CAMERA_SIDE, CAMERA_ABOVE, CAMERA_FREE = "chase: side", "chase: above", "free"
 CAMERA_MODES = (CAMERA_SIDE, CAMERA_ABOVE, CAMERA_FREE)
-CHASE_SIDE_ELEVATION_RAD = np.radians(20.0)   # the side view looks down this much: the hull lies across the screen
-CHASE_ABOVE_TILT_RAD = np.radians(8.0)        # the view from above leans this much from the vertical (up = +z stays defined)
+CHASE_SIDE_ELEVATION_RAD = np.radians(
+    20.0
+)  # the side view looks down this much: the hull lies across the screen
+CHASE_ABOVE_TILT_RAD = np.radians(
+    8.0
+)  # the view from above leans this much from the vertical (up = +z stays defined)
 
 
-def chase_camera_view(pos_view: np.ndarray, C_nb: np.ndarray, mode: str,
-                      distance_m: float) -> tuple[np.ndarray, np.ndarray]:
+def chase_camera_view(
+    pos_view: np.ndarray, C_nb: np.ndarray, mode: str, distance_m: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Camera position and look-at (view frame) that show the hull at ``pos_view`` lengthwise.
 
     From behind (the former chase view) the 3 m hull pointed into the screen and showed as a
@@ -345,15 +397,16 @@ def chase_camera_view(pos_view: np.ndarray, C_nb: np.ndarray, mode: str,
     forward = M_VIEW_FROM_NED @ C_nb[:, 0]
     f = np.array([forward[0], forward[1], 0.0])
     f = f / np.linalg.norm(f) if np.linalg.norm(f) > 1e-6 else np.array([0.0, 1.0, 0.0])
-    starboard = np.array([f[1], -f[0], 0.0])          # f turned clockwise seen from above (z up)
+    starboard = np.array([f[1], -f[0], 0.0])  # f turned clockwise seen from above (z up)
     up = np.array([0.0, 0.0, 1.0])
     e = CHASE_SIDE_ELEVATION_RAD if mode == CAMERA_SIDE else 0.5 * np.pi - CHASE_ABOVE_TILT_RAD
     offset = distance_m * (np.cos(e) * starboard + np.sin(e) * up)
     return pos_view + offset, np.asarray(pos_view, float)
 
 
-def fit_camera_view(lo_view: np.ndarray, hi_view: np.ndarray,
-                    fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+def fit_camera_view(
+    lo_view: np.ndarray, hi_view: np.ndarray, fov_rad: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Camera position and look-at that frame the box ``lo_view``-``hi_view`` (3,) whole: from the
     south-west and above (a 50 deg elevation), at the distance where the box's bounding sphere
     fits the narrower field of view ``fov_rad`` [rad] with 10 % to spare."""
@@ -368,7 +421,7 @@ def fit_camera_view(lo_view: np.ndarray, hi_view: np.ndarray,
 # ---------------------------------------------------------------------------------- playback
 PLAYBACK_SPEEDS = ("1x", "2x", "5x", "10x", "20x", "50x", "100x")
 PLAYBACK_DEFAULT_SPEED = "20x"
-PLAYBACK_FPS = 15.0            # frames per second of wall time: the pose is interpolated between them
+PLAYBACK_FPS = 15.0  # frames per second of wall time: the pose is interpolated between them
 
 
 def playback_speed(label: str) -> float:

@@ -97,14 +97,18 @@ def runs_table(trajectory: str, chunk: ChunkSeries) -> Any:
     # every column, which took 5 of the study's 7 s of Parquet writing and made the file larger)
     columns: dict[str, Any] = {
         "trajectory": pa.DictionaryArray.from_arrays(np.zeros(n, np.int8), pa.array([trajectory])),
-        "method": pa.DictionaryArray.from_arrays(np.repeat(np.arange(len(methods), dtype=np.int8), rows),
-                                                 pa.array(methods)),
-        "run": np.tile(np.repeat(np.arange(chunk.first, chunk.first + chunk.count, dtype=np.int32), T),
-                       len(methods)),
-        "t_s": np.tile(chunk.t_s, chunk.count * len(methods))}
+        "method": pa.DictionaryArray.from_arrays(
+            np.repeat(np.arange(len(methods), dtype=np.int8), rows), pa.array(methods)
+        ),
+        "run": np.tile(
+            np.repeat(np.arange(chunk.first, chunk.first + chunk.count, dtype=np.int32), T), len(methods)
+        ),
+        "t_s": np.tile(chunk.t_s, chunk.count * len(methods)),
+    }
     for name in PARQUET_SERIES:
-        columns[name] = np.concatenate([np.asarray(chunk.series[m][name], dtype=np.float32).T.reshape(-1)
-                                        for m in methods])                             # run-major
+        columns[name] = np.concatenate(
+            [np.asarray(chunk.series[m][name], dtype=np.float32).T.reshape(-1) for m in methods]
+        )  # run-major
     return pa.table(columns)
 
 
@@ -130,8 +134,9 @@ class StudyWriter:
 
         table = runs_table(trajectory, chunk)
         if self._parquet is None:
-            self._parquet = pq.ParquetWriter(os.path.join(self.tmp, "runs.parquet"), table.schema,
-                                             **PARQUET_WRITE_OPTIONS)
+            self._parquet = pq.ParquetWriter(
+                os.path.join(self.tmp, "runs.parquet"), table.schema, **PARQUET_WRITE_OPTIONS
+            )
         self._parquet.write_table(table)
 
     def finish(self, summary: dict[str, Any], report_html: str, comparison_md: str | None = None) -> None:
@@ -165,10 +170,10 @@ class StudyWriter:
         if self._parquet is not None:
             try:
                 self._parquet.close()
-            except Exception:   # noqa: BLE001 - the file is thrown away with the directory
+            except Exception:  # noqa: BLE001 - the file is thrown away with the directory
                 pass
             self._parquet = None
         shutil.rmtree(self.tmp, ignore_errors=True)
         if self.created:
             with contextlib.suppress(OSError):
-                os.rmdir(self.out_dir)      # only if empty: never anything of the user's
+                os.rmdir(self.out_dir)  # only if empty: never anything of the user's

@@ -36,8 +36,13 @@ def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool =
     shares the machine with the workers. ``validate`` True builds the validated figure (the tests
     check both are equal)."""
     t = np.asarray(summary["t_s"], dtype=float)
-    grid = make_subplots(rows=3, cols=2, vertical_spacing=0.09, horizontal_spacing=0.08,
-                         subplot_titles=[p[1] for p in PANELS] + ["NEES/dim, full state (1 = consistent)"])
+    grid = make_subplots(
+        rows=3,
+        cols=2,
+        vertical_spacing=0.09,
+        horizontal_spacing=0.08,
+        subplot_titles=[p[1] for p in PANELS] + ["NEES/dim, full state (1 = consistent)"],
+    )
     layout = grid.layout.to_plotly_json()
     layout.pop("template", None)
 
@@ -47,32 +52,72 @@ def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool =
 
     def line(x: Any, y: Any, method: str, showlegend: bool, row: int, col: int) -> dict[str, Any]:
         xa, ya = axes(row, col)
-        return {"type": "scatter", "x": x, "y": y, "mode": "lines", "name": method.upper(), "legendgroup": method,
-                "showlegend": showlegend, "line": {"color": method_color(method), "width": 1.5},
-                "xaxis": xa, "yaxis": ya}
+        return {
+            "type": "scatter",
+            "x": x,
+            "y": y,
+            "mode": "lines",
+            "name": method.upper(),
+            "legendgroup": method,
+            "showlegend": showlegend,
+            "line": {"color": method_color(method), "width": 1.5},
+            "xaxis": xa,
+            "yaxis": ya,
+        }
 
     data: list[dict[str, Any]] = []
     for i, (name, _, log) in enumerate(PANELS):
         row, col = divmod(i, 2)
         for method, m in summary["methods"].items():
-            data.append(line(t, _finite_or_none(np.asarray(m["rms"][name], dtype=float)), method, i == 0,
-                             row + 1, col + 1))
+            data.append(
+                line(
+                    t,
+                    _finite_or_none(np.asarray(m["rms"][name], dtype=float)),
+                    method,
+                    i == 0,
+                    row + 1,
+                    col + 1,
+                )
+            )
         if log:
             layout[f"yaxis{'' if i == 0 else i + 1}"]["type"] = "log"
     lo, hi = nees_band(20, summary["num_runs"])
     xa, ya = axes(3, 1)
-    data.append({"type": "scatter", "x": [t[0], t[-1], t[-1], t[0]], "y": [lo, lo, hi, hi], "fill": "toself",
-                 "mode": "none", "fillcolor": "rgba(128,128,128,0.2)", "name": "99 % band", "showlegend": True,
-                 "xaxis": xa, "yaxis": ya})
+    data.append(
+        {
+            "type": "scatter",
+            "x": [t[0], t[-1], t[-1], t[0]],
+            "y": [lo, lo, hi, hi],
+            "fill": "toself",
+            "mode": "none",
+            "fillcolor": "rgba(128,128,128,0.2)",
+            "name": "99 % band",
+            "showlegend": True,
+            "xaxis": xa,
+            "yaxis": ya,
+        }
+    )
     for method, m in summary["methods"].items():
-        data.append(line(t, _finite_or_none(np.asarray(m["mean_nees"]["nees"], dtype=float) / 20.0), method, False,
-                         3, 1))
+        data.append(
+            line(
+                t,
+                _finite_or_none(np.asarray(m["mean_nees"]["nees"], dtype=float) / 20.0),
+                method,
+                False,
+                3,
+                1,
+            )
+        )
     layout[f"yaxis{ya[1:]}"]["type"] = "log"
     for key in list(layout):
         if key.startswith("xaxis"):
             layout[key]["title"] = {"text": "time [s]"}
-    layout.update(height=900, title={"text": f"{trajectory}: RMS over {summary['num_runs']} runs"},
-                  margin={"l": 60, "r": 20, "t": 70, "b": 40}, template="plotly_white")
+    layout.update(
+        height=900,
+        title={"text": f"{trajectory}: RMS over {summary['num_runs']} runs"},
+        margin={"l": 60, "r": 20, "t": 70, "b": 40},
+        template="plotly_white",
+    )
     return _figure(data, layout, validate=validate)
 
 
@@ -90,24 +135,35 @@ def summary_table_html(summary: dict[str, Any]) -> str:
             f"<td>{_cell(f['pos_err_m'], '.3g')}</td>"
             f"<td>{_cell(c['full']['per_dim'], '.3g')} ({_cell(c['full']['in_band'], '.2f')})</td>"
             f"<td>{_cell(c['vel']['per_dim'], '.3g')} ({_cell(c['vel']['in_band'], '.2f')})</td>"
-            f"<td>{m['runs_flagged_by_monitor']}</td></tr>")
-    return ("<table><tr><th>method</th><th>vel [m/s]</th><th>tilt [deg]</th><th>heading [deg]</th><th>pos [m]</th>"
-            "<th>NEES/dim full (in band)</th><th>NEES/dim vel (in band)</th><th>runs flagged</th></tr>"
-            + "".join(rows) + "</table>")
+            f"<td>{m['runs_flagged_by_monitor']}</td></tr>"
+        )
+    return (
+        "<table><tr><th>method</th><th>vel [m/s]</th><th>tilt [deg]</th><th>heading [deg]</th><th>pos [m]</th>"
+        "<th>NEES/dim full (in band)</th><th>NEES/dim vel (in band)</th><th>runs flagged</th></tr>"
+        + "".join(rows)
+        + "</table>"
+    )
 
 
 def report_html(title: str, description: str, summaries: dict[str, dict[str, Any]]) -> str:
     """The whole page; ``summaries`` maps trajectory to its StudyAccumulator.summary()."""
-    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-             "<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}"
-             "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1><p>{html.escape(description)}</p>"]
+    parts = [
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
+        "<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1><p>{html.escape(description)}</p>",
+    ]
     first = True
     for trajectory, summary in summaries.items():
-        parts.append(f"<h2>{html.escape(trajectory)}</h2><p>Final values (RMS over the runs at the last epoch):</p>")
+        parts.append(
+            f"<h2>{html.escape(trajectory)}</h2><p>Final values (RMS over the runs at the last epoch):</p>"
+        )
         parts.append(summary_table_html(summary))
-        parts.append(trajectory_figure(trajectory, summary).to_html(full_html=False, include_plotlyjs=first,
-                                                                    include_mathjax=False))
+        parts.append(
+            trajectory_figure(trajectory, summary).to_html(
+                full_html=False, include_plotlyjs=first, include_mathjax=False
+            )
+        )
         first = False
     parts.append("</body></html>")
     return "".join(parts)

@@ -54,14 +54,14 @@ from tauvcore.validation import ConfigError
 importlib.import_module("scipy.special")
 
 WORKER_NICENESS = 10
-PROGRESS_MIN_WALL_S = 0.8     # live updates at most this often (wall time)
-PROGRESS_MAX_EPOCHS = 1200    # output epochs per live update (evenly thinned, last one kept)
-STOP_POLL_S = 0.05            # how often the run looks for a Stop message on its pipe (wall time)
-STOP_GRACE_S = 2.0            # a run that has not ended this long after Stop (it polls only once the
-                              # filter loop runs, not while truth and sensors are generated) is killed
+PROGRESS_MIN_WALL_S = 0.8  # live updates at most this often (wall time)
+PROGRESS_MAX_EPOCHS = 1200  # output epochs per live update (evenly thinned, last one kept)
+STOP_POLL_S = 0.05  # how often the run looks for a Stop message on its pipe (wall time)
+STOP_GRACE_S = 2.0  # a run that has not ended this long after Stop (it polls only once the
+# filter loop runs, not while truth and sensors are generated) is killed
 WORKER_START_TIMEOUT_S = 120.0  # a worker imports numpy, scipy and tauvcore before it is ready
-MAX_START_FAILURES = 3        # workers dying before they are ready: give up replacing them
-PR_SET_PDEATHSIG = 1          # prctl option (linux/prctl.h): signal this process when its parent dies
+MAX_START_FAILURES = 3  # workers dying before they are ready: give up replacing them
+PR_SET_PDEATHSIG = 1  # prctl option (linux/prctl.h): signal this process when its parent dies
 
 
 def default_workers() -> int:
@@ -78,6 +78,7 @@ def _throttled(check: Callable[[], bool], period_s: float) -> Callable[[], bool]
         if not state["value"] and now - state["t"] >= period_s:
             state["t"], state["value"] = now, bool(check())
         return state["value"]
+
     return wrapped
 
 
@@ -92,14 +93,24 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
         step = int(np.ceil(n / max_epochs))
         keep = np.r_[np.arange(0, n - 1, step), n - 1]
         out[method] = dataclasses.replace(
-            r, t_s=r.t_s[keep], vel_err_mps=r.vel_err_mps[keep], att_err_deg=r.att_err_deg[keep],
-            pos_err_m=r.pos_err_m[keep], vel_sigma_mps=r.vel_sigma_mps[keep], att_sigma_deg=r.att_sigma_deg[keep],
-            pos_sigma_m=r.pos_sigma_m[keep], nees=r.nees[keep], est_pos_n=r.est_pos_n[keep],
-            tilt_err_deg=r.tilt_err_deg[keep], heading_err_deg=r.heading_err_deg[keep],
-            tilt_sigma_deg=r.tilt_sigma_deg[keep], heading_sigma_deg=r.heading_sigma_deg[keep],
+            r,
+            t_s=r.t_s[keep],
+            vel_err_mps=r.vel_err_mps[keep],
+            att_err_deg=r.att_err_deg[keep],
+            pos_err_m=r.pos_err_m[keep],
+            vel_sigma_mps=r.vel_sigma_mps[keep],
+            att_sigma_deg=r.att_sigma_deg[keep],
+            pos_sigma_m=r.pos_sigma_m[keep],
+            nees=r.nees[keep],
+            est_pos_n=r.est_pos_n[keep],
+            tilt_err_deg=r.tilt_err_deg[keep],
+            heading_err_deg=r.heading_err_deg[keep],
+            tilt_sigma_deg=r.tilt_sigma_deg[keep],
+            heading_sigma_deg=r.heading_sigma_deg[keep],
             nees_block=r.nees_block[keep],
             est_vel_n=None if r.est_vel_n is None else r.est_vel_n[keep],
-            est_euler_rad=None if r.est_euler_rad is None else r.est_euler_rad[keep])
+            est_euler_rad=None if r.est_euler_rad is None else r.est_euler_rad[keep],
+        )
     return out
 
 
@@ -131,13 +142,23 @@ def truth_view(config: Config, step: int) -> dict[str, np.ndarray | None]:
             rpm.append(chunk.vehicle.propeller_rpm[rows])
             fins.append(chunk.vehicle.fin_angles_rad[rows])
     t_end = (stream.num_samples - 1) * stream.dt_s
-    pings = epoch_indices_between(config.dvl.rate_hz, t_end, stream.dt_s, stream.num_samples, 0,
-                                  stream.num_samples) * stream.dt_s
-    return {"t_s": np.concatenate(t), "pos_n": np.concatenate(pos), "C_nb": np.concatenate(C), "ping_t_s": pings,
-            "ping_available": config.dvl.scheduled_availability(pings),
-            "altitude_m": np.concatenate(altitude), "slant_range_m": np.concatenate(ranges),
-            "propeller_rpm": np.concatenate(rpm) if rpm else None,
-            "fin_angles_rad": np.concatenate(fins) if fins else None}
+    pings = (
+        epoch_indices_between(
+            config.dvl.rate_hz, t_end, stream.dt_s, stream.num_samples, 0, stream.num_samples
+        )
+        * stream.dt_s
+    )
+    return {
+        "t_s": np.concatenate(t),
+        "pos_n": np.concatenate(pos),
+        "C_nb": np.concatenate(C),
+        "ping_t_s": pings,
+        "ping_available": config.dvl.scheduled_availability(pings),
+        "altitude_m": np.concatenate(altitude),
+        "slant_range_m": np.concatenate(ranges),
+        "propeller_rpm": np.concatenate(rpm) if rpm else None,
+        "fin_angles_rad": np.concatenate(fins) if fins else None,
+    }
 
 
 def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str, np.ndarray | None]:
@@ -145,13 +166,27 @@ def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str,
     (a log records no seabed and no actuators: ``altitude_m``, ``slant_range_m``,
     ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
     rows = np.arange(0, truth.num_samples, step)
-    return {"t_s": truth.t_s[rows], "pos_n": truth.pos_n[rows], "C_nb": truth.C_nb[rows], "ping_t_s": dvl.t_s,
-            "ping_available": config.dvl.scheduled_availability(dvl.t_s), "altitude_m": None,
-            "slant_range_m": None, "propeller_rpm": None, "fin_angles_rad": None}
+    return {
+        "t_s": truth.t_s[rows],
+        "pos_n": truth.pos_n[rows],
+        "C_nb": truth.C_nb[rows],
+        "ping_t_s": dvl.t_s,
+        "ping_available": config.dvl.scheduled_availability(dvl.t_s),
+        "altitude_m": None,
+        "slant_range_m": None,
+        "propeller_rpm": None,
+        "fin_angles_rad": None,
+    }
 
 
-def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_event: Any,
-               progress_interval_s: float = 2.0, log_dir: str | None = None) -> None:
+def run_worker(
+    config_dict: dict[str, Any],
+    num_runs: int,
+    queue: Any,
+    stop_event: Any,
+    progress_interval_s: float = 2.0,
+    log_dir: str | None = None,
+) -> None:
     """Simulate (or, with ``log_dir``, replay that log: tauvcore.eval.replay), run all methods,
     stream results to ``queue`` (anything with ``put``); the run ends early once
     ``stop_event.is_set()`` (anything with ``is_set``). A replay first sends ``("config", dict)``:
@@ -165,12 +200,18 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
         if log_dir is not None:
             from tauvcore.eval.replay import log_simulation, replay_config
             from tauvcore.logs import read_log
+
             log = read_log(log_dir)
             config = replay_config(config, log)
             sim = log_simulation(config, log, rng)
             queue.put(("config", to_dict(config)))
         step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
-        queue.put(("truth", truth_view(config, step) if sim is None else log_truth_view(sim.truth, config, sim.dvl, step)))
+        queue.put(
+            (
+                "truth",
+                truth_view(config, step) if sim is None else log_truth_view(sim.truth, config, sim.dvl, step),
+            )
+        )
         last_sent = [0.0]
 
         def progress(t: float, res: dict[str, MethodResult]) -> None:
@@ -183,11 +224,23 @@ def run_worker(config_dict: dict[str, Any], num_runs: int, queue: Any, stop_even
 
         should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
         if sim is None:
-            results = run_streaming(config, rng, num_runs, progress=progress, progress_interval_s=progress_interval_s,
-                                    should_stop=should_stop)
+            results = run_streaming(
+                config,
+                rng,
+                num_runs,
+                progress=progress,
+                progress_interval_s=progress_interval_s,
+                should_stop=should_stop,
+            )
         else:
-            results = run(config, sim, rng, progress=progress, progress_interval_s=progress_interval_s,
-                          should_stop=should_stop)
+            results = run(
+                config,
+                sim,
+                rng,
+                progress=progress,
+                progress_interval_s=progress_interval_s,
+                should_stop=should_stop,
+            )
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # the dashboard shows it; the server keeps serving
         queue.put(("error", failure_message(exc)))
@@ -199,7 +252,8 @@ def failure_message(exc: BaseException) -> str:
     if isinstance(exc, ConfigError):
         return str(exc)
     from tauvcore.logs import LogError
-    if isinstance(exc, LogError):       # a bad log: its file, column, row and value
+
+    if isinstance(exc, LogError):  # a bad log: its file, column, row and value
         return str(exc)
     if isinstance(exc, MemoryError):
         return "the run ran out of memory; shorten the duration or use fewer runs"
@@ -237,6 +291,7 @@ def _die_with_parent() -> None:
     parent = os.getppid()
     try:
         import ctypes
+
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
     except (OSError, AttributeError):
@@ -259,7 +314,9 @@ def _worker_main(conn: mp_connection.Connection) -> None:
             message = conn.recv()
             if message[0] == "run":
                 _, config_dict, num_runs, progress_interval_s, log_dir = message
-                run_worker(config_dict, num_runs, _PipeQueue(conn), _PipeStop(conn), progress_interval_s, log_dir)
+                run_worker(
+                    config_dict, num_runs, _PipeQueue(conn), _PipeStop(conn), progress_interval_s, log_dir
+                )
                 conn.send(("end",))
             # ("stop",) after its run had ended: nothing to stop
     except (EOFError, OSError):  # the server closed the pipe (or died): nothing left to do
@@ -297,13 +354,13 @@ class RunHandle:
 class _Worker:
     """One worker process as the server sees it."""
 
-    process: Any                    # multiprocessing Process (spawn context)
+    process: Any  # multiprocessing Process (spawn context)
     conn: mp_connection.Connection  # the server's end of the worker's pipe
-    ready: bool = False             # imports done, waiting for a task
+    ready: bool = False  # imports done, waiting for a task
     handle: RunHandle | None = None  # the run it computes
-    stop_sent: bool = False         # Stop already sent for that run
-    stop_sent_at: float = 0.0       # when (time.monotonic)
-    killed_for_stop: bool = False   # killed because its run ignored Stop: the run ends as stopped
+    stop_sent: bool = False  # Stop already sent for that run
+    stop_sent_at: float = 0.0  # when (time.monotonic)
+    killed_for_stop: bool = False  # killed because its run ignored Stop: the run ends as stopped
 
 
 def death_message(exitcode: int | None) -> str:
@@ -317,8 +374,10 @@ def death_message(exitcode: int | None) -> str:
         cause += ", as the out-of-memory killer does)" if -exitcode == signal.SIGKILL else ")"
     else:
         cause = f"exit status {exitcode}"
-    return (f"the worker computing this run died ({cause}); a new worker replaces it. "
-            "Press Run to try again (a shorter mission or fewer runs needs less memory).")
+    return (
+        f"the worker computing this run died ({cause}); a new worker replaces it. "
+        "Press Run to try again (a shorter mission or fewer runs needs less memory)."
+    )
 
 
 class RunPool:
@@ -333,13 +392,13 @@ class RunPool:
         self.workers = default_workers() if workers is None else int(workers)
         if self.workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers!r}")
-        self._ctx = mp.get_context("spawn")   # no fork of a threaded server
+        self._ctx = mp.get_context("spawn")  # no fork of a threaded server
         self._lock = threading.Lock()
         self._workers: list[_Worker] = []
         self._pending: collections.deque[RunHandle] = collections.deque()
         self._closed = False
         self._start_failures = 0
-        self._broken: str | None = None       # set when workers cannot even start
+        self._broken: str | None = None  # set when workers cannot even start
         self._wake_r, self._wake_w = os.pipe()
         self._ready = threading.Condition(self._lock)
         # every worker is started by the dispatcher thread, which lives as long as the pool:
@@ -357,8 +416,13 @@ class RunPool:
             raise RuntimeError(broken)
 
     # ------------------------------------------------------------------ API
-    def start(self, config_dict: dict[str, Any], num_runs: int, progress_interval_s: float = 2.0,
-              log_dir: str | None = None) -> RunHandle:
+    def start(
+        self,
+        config_dict: dict[str, Any],
+        num_runs: int,
+        progress_interval_s: float = 2.0,
+        log_dir: str | None = None,
+    ) -> RunHandle:
         """Queue a run (a replay of ``log_dir`` if given); it computes as soon as a worker is free."""
         handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s, log_dir))
         with self._lock:
@@ -427,22 +491,22 @@ class RunPool:
         with self._lock:
             if handle in self._pending:
                 self._pending.remove(handle)
-                handle._done.set()        # never started: no message, the queue stays empty
+                handle._done.set()  # never started: no message, the queue stays empty
                 return
             for w in self._workers:
                 if w.handle is handle and not w.stop_sent:
                     w.stop_sent, w.stop_sent_at = True, time.monotonic()
                     try:
                         w.conn.send(("stop",))
-                    except OSError:       # it just died; the dispatcher reports it
+                    except OSError:  # it just died; the dispatcher reports it
                         pass
-        self._wake()                      # the dispatcher times the grace period from now
+        self._wake()  # the dispatcher times the grace period from now
 
     def _spawn(self) -> None:
         parent_conn, child_conn = self._ctx.Pipe(duplex=True)
         process = self._ctx.Process(target=_worker_main, args=(child_conn,), name="tauv-worker", daemon=True)
         process.start()
-        child_conn.close()   # the worker holds the only other end: its death reads as EOF here
+        child_conn.close()  # the worker holds the only other end: its death reads as EOF here
         self._workers.append(_Worker(process=process, conn=parent_conn))
 
     def _dispatch(self) -> None:
@@ -477,7 +541,7 @@ class RunPool:
                 watched += [w.conn, w.process.sentinel]
             try:
                 ready = mp_connection.wait(watched, timeout=self._kill_overdue())
-            except OSError:   # a descriptor closed under us: shutting down
+            except OSError:  # a descriptor closed under us: shutting down
                 return
             with self._lock:
                 if self._closed:
@@ -555,8 +619,10 @@ class RunPool:
             if not w.ready:
                 self._start_failures += 1
             if self._start_failures >= MAX_START_FAILURES:
-                self._broken = (f"the worker processes cannot start ({death_message(w.process.exitcode)}); "
-                                "restart the server")
+                self._broken = (
+                    f"the worker processes cannot start ({death_message(w.process.exitcode)}); "
+                    "restart the server"
+                )
                 failed = list(self._pending)
                 self._pending.clear()
             else:
@@ -564,7 +630,7 @@ class RunPool:
                 self._spawn()
             self._ready.notify_all()
         if handle is not None:
-            if not w.killed_for_stop:     # killed for Stop: the tab reports "Run stopped"
+            if not w.killed_for_stop:  # killed for Stop: the tab reports "Run stopped"
                 handle.queue.put(("error", death_message(w.process.exitcode)))
             handle._done.set()
         for other in failed:
@@ -580,7 +646,7 @@ class RunPool:
                     handle = self._pending.popleft()
                     try:
                         w.conn.send(handle._task)
-                    except OSError:     # died this instant: the run waits for the replacement
+                    except OSError:  # died this instant: the run waits for the replacement
                         self._pending.appendleft(handle)
                         continue
                     w.handle, w.stop_sent = handle, False
@@ -596,6 +662,7 @@ def _stop_resource_tracker() -> None:
         return
     try:
         from multiprocessing import resource_tracker
+
         resource_tracker._resource_tracker._stop()
     except Exception:  # best effort: it also ends when this process exits
         pass

@@ -31,8 +31,9 @@ def main() -> None:
     p = parser(__doc__, duration_s=250.0, short_duration_s=20.0)
     p.add_argument("--trajectory", default="straight", choices=PAPER_TRAJECTORIES)
     args = p.parse_args()
-    base = (Config().replace("trajectory", name=args.trajectory, duration_s=args.duration)
-            .replace("run", seed=1))
+    base = (
+        Config().replace("trajectory", name=args.trajectory, duration_s=args.duration).replace("run", seed=1)
+    )
     rng_seed = base.run.seed
 
     reference = run_streaming(base.replace("run", methods=("lc",)), np.random.default_rng(rng_seed))
@@ -50,8 +51,12 @@ def main() -> None:
             print(f"{name:<8} no DVL")
             continue
         modes = dvl.mode[:, 0]
-        counts = ", ".join(f"{MODE_NAMES[int(code)]} {int(np.sum(modes == code))}" for code in np.unique(modes))
-        print(f"{name:<8} {counts}; fused {int(dvl.fused[:, 0].sum())}, rejected {int(dvl.rejected[:, 0].sum())}")
+        counts = ", ".join(
+            f"{MODE_NAMES[int(code)]} {int(np.sum(modes == code))}" for code in np.unique(modes)
+        )
+        print(
+            f"{name:<8} {counts}; fused {int(dvl.fused[:, 0].sum())}, rejected {int(dvl.rejected[:, 0].sum())}"
+        )
     if not (finite(reference) and finite(results)):
         raise SystemExit("a method's errors are not finite")
 

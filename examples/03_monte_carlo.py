@@ -29,26 +29,54 @@ def main() -> None:
     p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     args = p.parse_args()
     num_runs = args.runs if args.runs is not None else (3 if args.duration <= 30.0 else 20)
-    config = (Config().replace("trajectory", name="lawnmower", duration_s=args.duration)
-              .replace("dvl", beams=(1, 2)).replace("run", methods=("ins", "tc", "nsv", "elc"), seed=3))
+    config = (
+        Config()
+        .replace("trajectory", name="lawnmower", duration_s=args.duration)
+        .replace("dvl", beams=(1, 2))
+        .replace("run", methods=("ins", "tc", "nsv", "elc"), seed=3)
+    )
 
-    acc = run_study(config, num_runs, config.run.seed, workers=args.workers,
-                    progress=lambda done, total: print(f"  {done}/{total} runs", end="\r", flush=True))
+    acc = run_study(
+        config,
+        num_runs,
+        config.run.seed,
+        workers=args.workers,
+        progress=lambda done, total: print(f"  {done}/{total} runs", end="\r", flush=True),
+    )
     print()
     summary = acc.summary()
     t_s = summary["t_s"]
 
     print(f"\nlawnmower, beams 1 and 2, {num_runs} runs of {args.duration:g} s\n")
-    print(f"{'method':<7} {'pos RMS end':>12} {'vel RMS end':>12} {'NEES/dim':>9} {'in band':>8} {'flagged':>8}")
-    fig = make_subplots(rows=2, cols=1, shared_xaxes=True,
-                        subplot_titles=("RMS position error over runs", "mean full-state NEES / dim"))
+    print(
+        f"{'method':<7} {'pos RMS end':>12} {'vel RMS end':>12} {'NEES/dim':>9} {'in band':>8} {'flagged':>8}"
+    )
+    fig = make_subplots(
+        rows=2,
+        cols=1,
+        shared_xaxes=True,
+        subplot_titles=("RMS position error over runs", "mean full-state NEES / dim"),
+    )
     for method, s in summary["methods"].items():
         full = s["consistency"]["full"]
-        print(f"{method:<7} {s['final_rms']['pos_err_m']:>10.3f} m {s['final_rms']['vel_err_mps']:>8.4f} m/s "
-              f"{full['per_dim']:>9.2f} {full['in_band']:>8.2f} {s['runs_flagged_by_monitor']:>8d}")
-        fig.add_trace(go.Scatter(x=t_s, y=s["rms"]["pos_err_m"], name=method, legendgroup=method), row=1, col=1)
-        fig.add_trace(go.Scatter(x=t_s, y=s["mean_nees"]["nees"] / BLOCK_DIMS["full"], name=method,
-                                 legendgroup=method, showlegend=False), row=2, col=1)
+        print(
+            f"{method:<7} {s['final_rms']['pos_err_m']:>10.3f} m {s['final_rms']['vel_err_mps']:>8.4f} m/s "
+            f"{full['per_dim']:>9.2f} {full['in_band']:>8.2f} {s['runs_flagged_by_monitor']:>8d}"
+        )
+        fig.add_trace(
+            go.Scatter(x=t_s, y=s["rms"]["pos_err_m"], name=method, legendgroup=method), row=1, col=1
+        )
+        fig.add_trace(
+            go.Scatter(
+                x=t_s,
+                y=s["mean_nees"]["nees"] / BLOCK_DIMS["full"],
+                name=method,
+                legendgroup=method,
+                showlegend=False,
+            ),
+            row=2,
+            col=1,
+        )
     lo, hi = summary["methods"][next(iter(summary["methods"]))]["consistency"]["full"]["band_per_dim"]
     for bound in (lo, hi):
         fig.add_hline(y=bound, line_dash="dot", line_color="grey", row=2, col=1)
@@ -58,7 +86,7 @@ def main() -> None:
     fig.update_layout(title=f"Monte Carlo: {num_runs} runs, lawnmower, beams 1 and 2")
 
     target = out_dir(args.out, "tauv-example-03-") / "monte_carlo.html"
-    fig.write_html(target, include_plotlyjs=True)        # embedded: the page needs no network
+    fig.write_html(target, include_plotlyjs=True)  # embedded: the page needs no network
     print(f"\nwrote {target}")
     if not all(np.isfinite(s["final_rms"]["pos_err_m"]) for s in summary["methods"].values()):
         raise SystemExit("a method's RMS error is not finite")

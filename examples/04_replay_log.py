@@ -32,14 +32,19 @@ def main() -> None:
     p = parser(__doc__, duration_s=60.0, short_duration_s=10.0)
     p.add_argument("--log-format", choices=("csv", "parquet"), default="csv")
     args = p.parse_args()
-    config = (Config().replace("trajectory", name="lawnmower", duration_s=args.duration)
-              .replace("run", methods=METHODS, aiding=("dvl", "depth"), seed=5))
+    config = (
+        Config()
+        .replace("trajectory", name="lawnmower", duration_s=args.duration)
+        .replace("run", methods=METHODS, aiding=("dvl", "depth"), seed=5)
+    )
 
     chunks: list[SimChunk] = []
     simulated = run_streaming(config, np.random.default_rng(config.run.seed), on_sim_chunk=chunks.append)
     directory = out_dir(args.out, "tauv-example-04-") / "log"
     write_log(directory, simulation_tables(chunks), args.log_format)
-    print(f"wrote a {args.duration:g} s log to {directory}: {', '.join(sorted(f.name for f in directory.iterdir()))}")
+    print(
+        f"wrote a {args.duration:g} s log to {directory}: {', '.join(sorted(f.name for f in directory.iterdir()))}"
+    )
 
     log = read_log(directory)
     for note in log.notes:

@@ -30,12 +30,21 @@ def short() -> bool:
 def parser(doc: str | None, duration_s: float, short_duration_s: float) -> argparse.ArgumentParser:
     """The examples' common flags: ``--duration`` (default ``duration_s``, or ``short_duration_s``
     under ``TAUV_EXAMPLE_SHORT=1``) and ``--out``."""
-    p = argparse.ArgumentParser(description=(doc or "").split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--duration", type=float, default=short_duration_s if short() else duration_s,
-                   help=f"mission length [s] (default {duration_s:g}; {short_duration_s:g} with {SHORT_ENV}=1)")
-    p.add_argument("--out", type=Path, default=None,
-                   help="directory for the files the example writes (default: a new temporary directory)")
+    p = argparse.ArgumentParser(
+        description=(doc or "").split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=short_duration_s if short() else duration_s,
+        help=f"mission length [s] (default {duration_s:g}; {short_duration_s:g} with {SHORT_ENV}=1)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="directory for the files the example writes (default: a new temporary directory)",
+    )
     return p
 
 
@@ -50,13 +59,17 @@ def out_dir(path: Path | None, prefix: str) -> Path:
 def error_table(results: dict[str, MethodResult], run: int = 0, block: str = "full") -> str:
     """End and RMS errors of run ``run`` and the NEES/dim of ``block`` ("full", "pos", "vel",
     "tilt", "heading", "sensor": tauvcore.eval.consistency.BLOCK_DIMS) of every method, one line each."""
-    lines = [f"{'method':<8} {'pos end':>9} {'pos RMS':>9} {'vel end':>9} {'att end':>9} {'NEES/dim':>9}",
-             f"{'':<8} {'[m]':>9} {'[m]':>9} {'[m/s]':>9} {'[deg]':>9} {'(' + block + ')':>9}"]
+    lines = [
+        f"{'method':<8} {'pos end':>9} {'pos RMS':>9} {'vel end':>9} {'att end':>9} {'NEES/dim':>9}",
+        f"{'':<8} {'[m]':>9} {'[m]':>9} {'[m/s]':>9} {'[deg]':>9} {'(' + block + ')':>9}",
+    ]
     for name, r in results.items():
         nees = method_consistency(r).nees[block].per_dim
         flag = "  diverged" if bool(r.diverged[run]) else ""
-        lines.append(f"{name:<8} {r.pos_err_m[-1, run]:>9.3f} {rms(r.pos_err_m[:, run]):>9.3f} "
-                     f"{r.vel_err_mps[-1, run]:>9.4f} {r.att_err_deg[-1, run]:>9.4f} {nees:>9.2f}{flag}")
+        lines.append(
+            f"{name:<8} {r.pos_err_m[-1, run]:>9.3f} {rms(r.pos_err_m[:, run]):>9.3f} "
+            f"{r.vel_err_mps[-1, run]:>9.4f} {r.att_err_deg[-1, run]:>9.4f} {nees:>9.2f}{flag}"
+        )
     return "\n".join(lines)
 
 

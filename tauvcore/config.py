@@ -79,13 +79,17 @@ class InitialErrorConfig:
     ``"random"`` draws each as a 1-sigma Gaussian per Monte Carlo run.
     """
 
-    pos_m: tuple[float, float, float] = (2.0, 2.0, 2.0)        # north, east, down [m]; each within +-1000 m: a
-                                                                # surface fix is good to metres, 1 km is a lost start
-    vel_mps: tuple[float, float, float] = (0.05, 0.05, 0.05)   # surge, sway, heave (u, v, w) [m/s]; each within
-                                                                # +-10 m/s, the speed bound of trajectory.speed_mps
-    roll_pitch_deg: float = 0.57                                # [deg]; [-10, 10]: the small-angle error model
-    yaw_deg: float = 1.14                                       # [deg]; [-30, 30]: the small-angle error model
-    mode: str = "fixed"                                         # "fixed" or "random"
+    pos_m: tuple[float, float, float] = (2.0, 2.0, 2.0)  # north, east, down [m]; each within +-1000 m: a
+    # surface fix is good to metres, 1 km is a lost start
+    vel_mps: tuple[float, float, float] = (
+        0.05,
+        0.05,
+        0.05,
+    )  # surge, sway, heave (u, v, w) [m/s]; each within
+    # +-10 m/s, the speed bound of trajectory.speed_mps
+    roll_pitch_deg: float = 0.57  # [deg]; [-10, 10]: the small-angle error model
+    yaw_deg: float = 1.14  # [deg]; [-30, 30]: the small-angle error model
+    mode: str = "fixed"  # "fixed" or "random"
 
     def __post_init__(self) -> None:
         require_vector3("initial_error.pos_m", self.pos_m, bound=1000.0)
@@ -95,8 +99,9 @@ class InitialErrorConfig:
         require_choice("initial_error.mode", self.mode, ("fixed", "random"))
 
     def ideal(self) -> InitialErrorConfig:
-        return InitialErrorConfig(pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0, yaw_deg=0.0,
-                                  mode=self.mode)
+        return InitialErrorConfig(
+            pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0, yaw_deg=0.0, mode=self.mode
+        )
 
     @property
     def euler_rad(self) -> tuple[float, float, float]:
@@ -107,12 +112,14 @@ class InitialErrorConfig:
 class FilterConfig:
     """Filter settings that are not sensor models (those are the sensor sections, used as tuning)."""
 
-    gate_sigma: float = 3.0          # innovation gate [standard deviations], section 2.1.1; [1, 1000]: below 1
-                                     # the gate rejects most good pings, 1000 is no gate at all
-    output_rate_hz: float = 10.0     # rate of the per-epoch error records [Hz]; [0.1, imu.rate_hz]: at least one
-                                     # record every 10 s, at most one per IMU sample
-    covariance_rate_hz: float = 10.0  # covariance propagation rate (the nominal state runs at the IMU rate) [Hz];
-                                      # [1, imu.rate_hz]: below 1 Hz Phi = I + F dt misses the turns
+    gate_sigma: float = 3.0  # innovation gate [standard deviations], section 2.1.1; [1, 1000]: below 1
+    # the gate rejects most good pings, 1000 is no gate at all
+    output_rate_hz: float = 10.0  # rate of the per-epoch error records [Hz]; [0.1, imu.rate_hz]: at least one
+    # record every 10 s, at most one per IMU sample
+    covariance_rate_hz: float = (
+        10.0  # covariance propagation rate (the nominal state runs at the IMU rate) [Hz];
+    )
+    # [1, imu.rate_hz]: below 1 Hz Phi = I + F dt misses the turns
 
     def __post_init__(self) -> None:
         require_range("filter.gate_sigma", self.gate_sigma, 1.0, 1000.0)
@@ -124,35 +131,39 @@ class FilterConfig:
 class PartialConfig:
     """Parameters of the extended loosely coupled methods (section 3); the paper gives no values."""
 
-    vb_nf: float = 20.0                     # n_f of eq. 28: inflation of the virtual beam's prediction sigma;
-                                            # [1, 100]: an inflation, and beyond 100 the beam carries nothing.
-                                            # 20 from benchmarks/vb_nf_sweep.py: VB consistent on all three
-                                            # trajectories (NEES/dim 0.99-1.05, 89-100 % of epochs in the 99 %
-                                            # band); at 2 it fused its own prediction as news (NEES/dim to 5000)
+    vb_nf: float = 20.0  # n_f of eq. 28: inflation of the virtual beam's prediction sigma;
+    # [1, 100]: an inflation, and beyond 100 the beam carries nothing.
+    # 20 from benchmarks/vb_nf_sweep.py: VB consistent on all three
+    # trajectories (NEES/dim 0.99-1.05, 89-100 % of epochs in the 99 %
+    # band); at 2 it fused its own prediction as news (NEES/dim to 5000)
     nsv_epsilon_m2_per_s2: float | str = AUTO  # epsilon of eq. 36: variance of the "sway = 0" assumption
-                                            # [m^2/s^2]; "auto" derives it from the vehicle's sideslip in its
-                                            # tightest turn (tauvcore.aiding.elc_nsv.epsilon_from_vehicle; 0.26
-                                            # for the defaults, benchmarks/nsv_epsilon_sweep.py); or a number in
-                                            # (0, 100]: a variance; beyond 10 m/s of sway it says nothing
+    # [m^2/s^2]; "auto" derives it from the vehicle's sideslip in its
+    # tightest turn (tauvcore.aiding.elc_nsv.epsilon_from_vehicle; 0.26
+    # for the defaults, benchmarks/nsv_epsilon_sweep.py); or a number in
+    # (0, 100]: a variance; beyond 10 m/s of sway it says nothing
 
     def __post_init__(self) -> None:
         require_range("partial.vb_nf", self.vb_nf, 1.0, 100.0)
         if isinstance(self.nsv_epsilon_m2_per_s2, str):
             if self.nsv_epsilon_m2_per_s2 != AUTO:
-                raise ConfigError(f'partial.nsv_epsilon_m2_per_s2 must be a number in (0, 100] or "{AUTO}", '
-                                  f"got {show(self.nsv_epsilon_m2_per_s2)}")
+                raise ConfigError(
+                    f'partial.nsv_epsilon_m2_per_s2 must be a number in (0, 100] or "{AUTO}", '
+                    f"got {show(self.nsv_epsilon_m2_per_s2)}"
+                )
         else:
-            require_range("partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2, 0.0, 100.0, low_open=True)
+            require_range(
+                "partial.nsv_epsilon_m2_per_s2", self.nsv_epsilon_m2_per_s2, 0.0, 100.0, low_open=True
+            )
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    methods: tuple[str, ...] = DEFAULT_METHODS    # fusion methods to run side by side, each at most once
-    aiding: tuple[str, ...] = ("dvl",)            # aiding sources on (section 4: DVL alone), each at most once
-    seed: int = 0                                 # seed of the numpy Generator, [0, MAX_SEED]
-    ideal: bool = False                           # zero every sensor and initial error in the simulation
-    rpm_fallback: bool = False                    # the first paper's DVL methods fuse the velocity Kalman filter's
-                                                  # RPM velocity when they have no DVL velocity (neither paper does)
+    methods: tuple[str, ...] = DEFAULT_METHODS  # fusion methods to run side by side, each at most once
+    aiding: tuple[str, ...] = ("dvl",)  # aiding sources on (section 4: DVL alone), each at most once
+    seed: int = 0  # seed of the numpy Generator, [0, MAX_SEED]
+    ideal: bool = False  # zero every sensor and initial error in the simulation
+    rpm_fallback: bool = False  # the first paper's DVL methods fuse the velocity Kalman filter's
+    # RPM velocity when they have no DVL velocity (neither paper does)
 
     def __post_init__(self) -> None:
         require_choices("run.methods", self.methods, RUN_METHODS)
@@ -183,18 +194,24 @@ class Config:
 
     def __post_init__(self) -> None:
         imu_rate = self.imu.rate_hz
-        for name, rate in (("dvl.rate_hz", self.dvl.rate_hz), ("pressure.rate_hz", self.pressure.rate_hz),
-                           ("magnetometer.rate_hz", self.magnetometer.rate_hz),
-                           ("echo_sounder.rate_hz", self.echo_sounder.rate_hz), ("rpm.rate_hz", self.rpm.rate_hz),
-                           ("filter.output_rate_hz", self.filter.output_rate_hz),
-                           ("filter.covariance_rate_hz", self.filter.covariance_rate_hz)):
-            if rate > imu_rate:     # every epoch falls on an IMU sample; a faster one would repeat samples
+        for name, rate in (
+            ("dvl.rate_hz", self.dvl.rate_hz),
+            ("pressure.rate_hz", self.pressure.rate_hz),
+            ("magnetometer.rate_hz", self.magnetometer.rate_hz),
+            ("echo_sounder.rate_hz", self.echo_sounder.rate_hz),
+            ("rpm.rate_hz", self.rpm.rate_hz),
+            ("filter.output_rate_hz", self.filter.output_rate_hz),
+            ("filter.covariance_rate_hz", self.filter.covariance_rate_hz),
+        ):
+            if rate > imu_rate:  # every epoch falls on an IMU sample; a faster one would repeat samples
                 raise ConfigError(f"{name} must not exceed imu.rate_hz ({imu_rate:g} Hz), got {show(rate)}")
         duration = self.trajectory.duration_s
         for o in self.dvl.outages:
             if o.start_s >= duration or o.end_s > duration:
-                raise ConfigError(f"dvl.outages: window {o.start_s:g}:{o.end_s:g} s lies outside the run "
-                                  f"(0 to {duration:g} s)")
+                raise ConfigError(
+                    f"dvl.outages: window {o.start_s:g}:{o.end_s:g} s lies outside the run "
+                    f"(0 to {duration:g} s)"
+                )
 
     def nsv_epsilon_value_m2_per_s2(self) -> float:
         """NSV's epsilon: the configured number, or for "auto" the one derived from the vehicle."""
@@ -202,7 +219,9 @@ class Config:
         if not isinstance(eps, str):
             return float(eps)
         tr = self.trajectory
-        return elc_nsv.epsilon_from_vehicle(tr.speed_mps, tr.turn_sideslip_deg, tr.turn_radius_m, self.dvl.rate_hz)
+        return elc_nsv.epsilon_from_vehicle(
+            tr.speed_mps, tr.turn_sideslip_deg, tr.turn_radius_m, self.dvl.rate_hz
+        )
 
     def replace(self, section: str, **changes: Any) -> Config:
         """A copy with ``changes`` applied to one section (validated)."""
@@ -222,11 +241,19 @@ def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
         return {}
     from tauvcore.sensors.imu import imu_profile
 
-    return {"trajectory": {"duration_s": 1440.0, "speed_mps": 10.0 * units.KNOT, "depth_m": 50.0,
-                           "seabed_depth_m": 110.0},
-            "imu": {f.name: _plain(getattr(imu_profile("yoo-table1"), f.name))
-                    for f in dataclasses.fields(imu_profile("yoo-table1"))},
-            "dvl": {"rate_hz": 5.0}}
+    return {
+        "trajectory": {
+            "duration_s": 1440.0,
+            "speed_mps": 10.0 * units.KNOT,
+            "depth_m": 50.0,
+            "seabed_depth_m": 110.0,
+        },
+        "imu": {
+            f.name: _plain(getattr(imu_profile("yoo-table1"), f.name))
+            for f in dataclasses.fields(imu_profile("yoo-table1"))
+        },
+        "dvl": {"rate_hz": 5.0},
+    }
 
 
 def to_dict(config: Config) -> dict[str, dict[str, Any]]:
@@ -248,15 +275,23 @@ def _plain(value: Any) -> Any:
 
 def _outages(field_name: str, value: Any) -> tuple[Outage, ...]:
     if not isinstance(value, list) or len(value) > MAX_OUTAGES:
-        raise ConfigError(f"{field_name} must be a list of at most {MAX_OUTAGES} tables {{beams, start_s, end_s}}, "
-                          f"got {show(value)}")
+        raise ConfigError(
+            f"{field_name} must be a list of at most {MAX_OUTAGES} tables {{beams, start_s, end_s}}, "
+            f"got {show(value)}"
+        )
     out = []
     for i, item in enumerate(value):
         if not isinstance(item, dict) or set(item) != {"beams", "start_s", "end_s"}:
-            raise ConfigError(f"{field_name}[{i}] must be a table with keys beams, start_s, end_s, got {show(item)}")
-        out.append(Outage(beams=tuple(_coerce(f"{field_name}[{i}].beams", (1,), item["beams"])),
-                          start_s=_coerce(f"{field_name}[{i}].start_s", 0.0, item["start_s"]),
-                          end_s=_coerce(f"{field_name}[{i}].end_s", 0.0, item["end_s"])))
+            raise ConfigError(
+                f"{field_name}[{i}] must be a table with keys beams, start_s, end_s, got {show(item)}"
+            )
+        out.append(
+            Outage(
+                beams=tuple(_coerce(f"{field_name}[{i}].beams", (1,), item["beams"])),
+                start_s=_coerce(f"{field_name}[{i}].start_s", 0.0, item["start_s"]),
+                end_s=_coerce(f"{field_name}[{i}].end_s", 0.0, item["end_s"]),
+            )
+        )
     return tuple(out)
 
 
@@ -278,14 +313,14 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
         if not isinstance(value, (int, float)) or isinstance(value, bool):
             raise ConfigError(f"{field_name} must be a number, got {show(value)}")
         try:
-            number = float(value)           # an integer such as 10**400 has no float
+            number = float(value)  # an integer such as 10**400 has no float
         except OverflowError:
             raise ConfigError(f"{field_name} must be a finite number, got {show(value)}") from None
         if number != number or number in (float("inf"), float("-inf")):
             raise ConfigError(f"{field_name} must be a finite number, got {show(value)}")
         return number
     if isinstance(default, str):
-        if default == AUTO:                             # "auto" or a number
+        if default == AUTO:  # "auto" or a number
             if isinstance(value, (int, float)) and not isinstance(value, bool):
                 return _coerce(field_name, 0.0, value)
             if not isinstance(value, str):
@@ -297,7 +332,7 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
         if not isinstance(value, (list, tuple)):
             raise ConfigError(f"{field_name} must be a list, got {show(value)}")
         if default and isinstance(default[0], float):
-            if len(value) != len(default):      # before any element: a huge list costs nothing
+            if len(value) != len(default):  # before any element: a huge list costs nothing
                 raise ConfigError(f"{field_name} must be a list of {len(default)} numbers, got {show(value)}")
             return tuple(_coerce(f"{field_name}[{i}]", 0.0, v) for i, v in enumerate(value))
         return tuple(value)
@@ -316,7 +351,9 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
     sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
     for sec_name, values in data.items():
         if sec_name not in sections:
-            raise ConfigError(f"unknown section [{shorten(str(sec_name))}] (known: {', '.join(sorted(sections))})")
+            raise ConfigError(
+                f"unknown section [{shorten(str(sec_name))}] (known: {', '.join(sorted(sections))})"
+            )
         if not isinstance(values, dict):
             raise ConfigError(f"[{sec_name}] must be a table, got {show(values)}")
         section = sections[sec_name]
@@ -324,7 +361,9 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
         changes = {}
         for key, value in values.items():
             if key not in known:
-                raise ConfigError(f"unknown key {sec_name}.{shorten(str(key))} (known: {', '.join(sorted(known))})")
+                raise ConfigError(
+                    f"unknown key {sec_name}.{shorten(str(key))} (known: {', '.join(sorted(known))})"
+                )
             if (sec_name, key) == ("dvl", "outages"):
                 changes[key] = _outages("dvl.outages", value)
             else:
@@ -360,7 +399,7 @@ def read_toml(path: str) -> dict[str, Any]:
     name = show_path(path)
     if not path:
         raise ConfigError("--config: expected a file name, got ''")
-    if "\x00" in path:     # no system call takes it (argv cannot carry one; main(argv) can)
+    if "\x00" in path:  # no system call takes it (argv cannot carry one; main(argv) can)
         raise ConfigError(f"--config: a file name cannot contain a NUL character, got {name}")
     try:
         _require_small_regular_file(path, os.stat(path))
@@ -373,7 +412,7 @@ def read_toml(path: str) -> dict[str, Any]:
             os.close(fd)
     except FileNotFoundError:
         raise ConfigError(f"--config: file not found: {name}") from None
-    except OSError as exc:      # ELOOP, ENAMETOOLONG, EACCES, ENOTDIR, EIO, ...
+    except OSError as exc:  # ELOOP, ENAMETOOLONG, EACCES, ENOTDIR, EIO, ...
         reason = exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
         raise ConfigError(f"--config: cannot read {name}: {reason}") from None
     if len(data) > MAX_CONFIG_BYTES:
@@ -381,8 +420,9 @@ def read_toml(path: str) -> dict[str, Any]:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"--config: {name} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
-                          f"{exc.start})") from None
+        raise ConfigError(
+            f"--config: {name} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
+        ) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -398,8 +438,9 @@ def _require_small_regular_file(path: str, st: os.stat_result) -> None:
     if not stat.S_ISREG(st.st_mode):
         raise ConfigError(f"--config: not a regular file (a device, FIFO or socket): {show_path(path)}")
     if st.st_size > MAX_CONFIG_BYTES:
-        raise ConfigError(f"--config: {show_path(path)} is larger than {MAX_CONFIG_BYTES} bytes "
-                          f"({st.st_size} bytes)")
+        raise ConfigError(
+            f"--config: {show_path(path)} is larger than {MAX_CONFIG_BYTES} bytes ({st.st_size} bytes)"
+        )
 
 
 def load_toml(path: str) -> Config:

@@ -77,23 +77,23 @@ class LogError(ValueError):
 class Log:
     """A validated log, in SI units and the frames of tauvcore.conventions."""
 
-    source: str                           # the directory it was read from
-    imu_t_s: np.ndarray                   # (K,) IMU sample times [s], uniform
-    dtheta_b: np.ndarray                  # (K, 3) angle increments over (t_k-1, t_k] [rad]; row 0 zero
-    dv_b: np.ndarray                      # (K, 3) velocity increments [m/s]; row 0 zero
-    ref_t_s: np.ndarray | None = None     # (N,) reference times [s]; None: the log has no reference
+    source: str  # the directory it was read from
+    imu_t_s: np.ndarray  # (K,) IMU sample times [s], uniform
+    dtheta_b: np.ndarray  # (K, 3) angle increments over (t_k-1, t_k] [rad]; row 0 zero
+    dv_b: np.ndarray  # (K, 3) velocity increments [m/s]; row 0 zero
+    ref_t_s: np.ndarray | None = None  # (N,) reference times [s]; None: the log has no reference
     ref_position: np.ndarray | None = None  # (N, 3) latitude [rad], longitude [rad], depth [m]; or NED [m]
-    ref_geodetic: bool = False            # whether ref_position is geodetic
-    ref_euler: np.ndarray | None = None   # (N, 3) roll, pitch, yaw [rad]
-    ref_vel_n: np.ndarray | None = None   # (N, 3) NED velocity [m/s]
-    dvl_t_s: np.ndarray | None = None     # (M,) ping times [s]
-    dvl_beams_mps: np.ndarray | None = None   # (M, 4) beam velocities, NaN where not returned
-    dvl_body_mps: np.ndarray | None = None    # (M, 3) body velocity (NaN rows: invalid), if the log has that
+    ref_geodetic: bool = False  # whether ref_position is geodetic
+    ref_euler: np.ndarray | None = None  # (N, 3) roll, pitch, yaw [rad]
+    ref_vel_n: np.ndarray | None = None  # (N, 3) NED velocity [m/s]
+    dvl_t_s: np.ndarray | None = None  # (M,) ping times [s]
+    dvl_beams_mps: np.ndarray | None = None  # (M, 4) beam velocities, NaN where not returned
+    dvl_body_mps: np.ndarray | None = None  # (M, 3) body velocity (NaN rows: invalid), if the log has that
     depth_t_s: np.ndarray | None = None
     depth_m: np.ndarray | None = None
     attitude_t_s: np.ndarray | None = None
     attitude_euler: np.ndarray | None = None  # (A, 3) [rad]
-    notes: tuple[str, ...] = ()               # what the reader changed (a resampled IMU), for the user
+    notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user
 
     @property
     def dt_s(self) -> float:
@@ -123,29 +123,39 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
         if not path.is_file():
             raise LogError(f"{name}: not a regular file")
         if path.stat().st_size > MAX_LOG_BYTES:
-            raise LogError(f"{name}: {path.stat().st_size} bytes, more than the {MAX_LOG_BYTES >> 30} GiB a table may have")
+            raise LogError(
+                f"{name}: {path.stat().st_size} bytes, more than the {MAX_LOG_BYTES >> 30} GiB a table may have"
+            )
         if path.suffix == ".parquet":
             import pyarrow.parquet as pq
+
             table = pq.read_table(path)
         else:
             import pyarrow.csv as pcsv
+
             table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(strings_can_be_null=True))
     except LogError:
         raise
     except (OSError, pa.ArrowException) as exc:
-        raise LogError(f"{name}: cannot be read as a {path.suffix[1:].upper()} table: {show_path(str(exc))}") from None
+        raise LogError(
+            f"{name}: cannot be read as a {path.suffix[1:].upper()} table: {show_path(str(exc))}"
+        ) from None
     columns = {}
     for column in table.column_names:
         col = table.column(column)
         if pa.types.is_boolean(col.type):
             columns[column] = col.to_numpy(zero_copy_only=False).astype(float)
             continue
-        if not (pa.types.is_integer(col.type) or pa.types.is_floating(col.type) or pa.types.is_null(col.type)):
+        if not (
+            pa.types.is_integer(col.type) or pa.types.is_floating(col.type) or pa.types.is_null(col.type)
+        ):
             values = col.to_pylist()
             bad = next((i for i, v in enumerate(values) if v is not None and not _is_number(v)), None)
             if bad is None:
                 raise LogError(f"{name}: column {show(column)} is not numeric")
-            raise LogError(f"{name}: column {show(column)}, row {bad + 1}: {show(values[bad])} is not a number")
+            raise LogError(
+                f"{name}: column {show(column)}, row {bad + 1}: {show(values[bad])} is not a number"
+            )
         columns[column] = col.to_numpy(zero_copy_only=False).astype(float)
     return columns
 
@@ -161,7 +171,9 @@ def _is_number(value: object) -> bool:
 def _need(path: Path, columns: dict[str, np.ndarray], names: tuple[str, ...], what: str) -> np.ndarray:
     missing = [n for n in names if n not in columns]
     if missing:
-        raise LogError(f"{show_path(str(path))}: missing column {show(missing[0])} ({what}: {', '.join(names)})")
+        raise LogError(
+            f"{show_path(str(path))}: missing column {show(missing[0])} ({what}: {', '.join(names)})"
+        )
     return np.stack([columns[n] for n in names], axis=-1)
 
 
@@ -174,11 +186,15 @@ def _angles(path: Path, columns: dict[str, np.ndarray], names: tuple[str, ...], 
         elif f"{n}_deg" in columns:
             out.append(columns[f"{n}_deg"] * units.DEG)
         else:
-            raise LogError(f"{show_path(str(path))}: missing column {show(n + '_deg')} or {show(n + '_rad')} ({what})")
+            raise LogError(
+                f"{show_path(str(path))}: missing column {show(n + '_deg')} or {show(n + '_rad')} ({what})"
+            )
     return np.stack(out, axis=-1)
 
 
-def _finite(path: Path, columns: dict[str, np.ndarray], names: tuple[str, ...], allow_nan: bool = False) -> None:
+def _finite(
+    path: Path, columns: dict[str, np.ndarray], names: tuple[str, ...], allow_nan: bool = False
+) -> None:
     """Every value of ``names`` finite (or NaN where allowed): the first offender by row and column."""
     for n in names:
         if n not in columns:
@@ -188,7 +204,9 @@ def _finite(path: Path, columns: dict[str, np.ndarray], names: tuple[str, ...], 
         if bad.any():
             row = int(np.argmax(bad))
             value = "empty" if np.isnan(v[row]) else show(float(v[row]))
-            raise LogError(f"{show_path(str(path))}: column {show(n)}, row {row + 1}: {value} is not a finite number")
+            raise LogError(
+                f"{show_path(str(path))}: column {show(n)}, row {row + 1}: {value} is not a finite number"
+            )
 
 
 def _times(path: Path, columns: dict[str, np.ndarray]) -> np.ndarray:
@@ -202,13 +220,16 @@ def _times(path: Path, columns: dict[str, np.ndarray]) -> np.ndarray:
     if (step <= 0).any():
         row = int(np.argmax(step <= 0)) + 2
         kind = "repeats" if step[row - 2] == 0 else "goes back from"
-        raise LogError(f"{show_path(str(path))}: column 't_s', row {row}: {float(t[row - 1])!r} {kind} the row before "
-                       f"({float(t[row - 2])!r}); times must increase strictly (sort the log, drop duplicates)")
+        raise LogError(
+            f"{show_path(str(path))}: column 't_s', row {row}: {float(t[row - 1])!r} {kind} the row before "
+            f"({float(t[row - 2])!r}); times must increase strictly (sort the log, drop duplicates)"
+        )
     return t
 
 
-def _resample(t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, dt: float, off: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+def _resample(
+    t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, dt: float, off: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """The IMU on the constant grid ``t_0 + k dt`` up to the last sample: the cumulative angle and
     velocity increments (the integrals the IMU measured) interpolated linearly in time and
     differenced, so every interval of the grid gets the average rate of the log's interval(s) it
@@ -220,9 +241,11 @@ def _resample(t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, dt: float, off:
     moved = np.column_stack([np.interp(grid, t, total[:, i]) for i in range(6)])
     inc = np.concatenate([np.zeros((1, 6)), np.diff(moved, axis=0)])
     worst = int(np.argmax(np.abs(steps - dt)))
-    note = (f"{int(off.sum())} of {steps.size} intervals differ from {dt:.6g} s by more than {TIME_JITTER:.0%} "
-            f"(row {worst + 2}: {steps[worst]:.6g} s); resampled to a constant {1.0 / dt:.6g} Hz, "
-            f"{grid.size} samples")
+    note = (
+        f"{int(off.sum())} of {steps.size} intervals differ from {dt:.6g} s by more than {TIME_JITTER:.0%} "
+        f"(row {worst + 2}: {steps[worst]:.6g} s); resampled to a constant {1.0 / dt:.6g} Hz, "
+        f"{grid.size} samples"
+    )
     return grid, inc[:, :3], inc[:, 3:], note
 
 
@@ -235,8 +258,10 @@ def read_log(directory: str | os.PathLike) -> Log:
     if paths["imu"] is None:
         raise LogError(f"{show_path(str(root))}: no imu.csv or imu.parquet")
     if paths["reference"] is None and paths["attitude"] is None:
-        raise LogError(f"{show_path(str(root))}: no reference.csv or attitude.csv (or .parquet): the filters need a "
-                       "starting attitude, from a reference or from an attitude sensor")
+        raise LogError(
+            f"{show_path(str(root))}: no reference.csv or attitude.csv (or .parquet): the filters need a "
+            "starting attitude, from a reference or from an attitude sensor"
+        )
     imu_path = paths["imu"]
     imu = _read_table(imu_path)
     t = _times(imu_path, imu)
@@ -247,9 +272,11 @@ def read_log(directory: str | os.PathLike) -> Log:
     gap = dt > MAX_GAP_STEPS * median
     if gap.any():
         row = int(np.argmax(dt)) + 2
-        raise LogError(f"{show_path(str(imu_path))}: column 't_s', row {row}: {float(t[row - 1])!r} is {dt[row - 2]:.6g} s "
-                       f"after the row before, a gap of more than {MAX_GAP_STEPS} of the log's {median:.6g} s "
-                       "intervals: no inertial record bridges it (cut the log there)")
+        raise LogError(
+            f"{show_path(str(imu_path))}: column 't_s', row {row}: {float(t[row - 1])!r} is {dt[row - 2]:.6g} s "
+            f"after the row before, a gap of more than {MAX_GAP_STEPS} of the log's {median:.6g} s "
+            "intervals: no inertial record bridges it (cut the log there)"
+        )
     if all(n in imu for n in IMU_INCREMENTS):
         _finite(imu_path, imu, IMU_INCREMENTS)
         inc = _need(imu_path, imu, IMU_INCREMENTS, "increments")
@@ -264,8 +291,10 @@ def read_log(directory: str | os.PathLike) -> Log:
         accel_columns = IMU_RATES[3:]
     else:
         missing = next(n for n in IMU_INCREMENTS if n not in imu)
-        raise LogError(f"{show_path(str(imu_path))}: missing column {show(missing)} (the IMU as increments: "
-                       f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})")
+        raise LogError(
+            f"{show_path(str(imu_path))}: missing column {show(missing)} (the IMU as increments: "
+            f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})"
+        )
     dtheta[0] = 0.0
     dv[0] = 0.0
     notes: list[str] = []
@@ -281,9 +310,11 @@ def read_log(directory: str | os.PathLike) -> Log:
     first = t[1:] <= t[0] + 10.0
     mean_f = float(np.mean(f_mag[first]))
     if not GRAVITY_BAND_MPS2[0] <= mean_f <= GRAVITY_BAND_MPS2[1]:
-        raise LogError(f"{show_path(str(imu_path))}: columns {', '.join(accel_columns)}: the specific force averages "
-                       f"{mean_f:.6g} m/s^2 over the first 10 s, not gravity's 9.8 (in mg, g or mm/s^2? "
-                       "the columns must be SI, m/s^2 or m/s)")
+        raise LogError(
+            f"{show_path(str(imu_path))}: columns {', '.join(accel_columns)}: the specific force averages "
+            f"{mean_f:.6g} m/s^2 over the first 10 s, not gravity's 9.8 (in mg, g or mm/s^2? "
+            "the columns must be SI, m/s^2 or m/s)"
+        )
 
     out: dict = dict(source=str(root), imu_t_s=t, dtheta_b=dtheta, dv_b=dv, notes=tuple(notes))
     if paths["reference"] is not None:
@@ -299,21 +330,32 @@ def _read_reference(ref_path: Path, t: np.ndarray, median: float) -> dict:
         lat_lon = _angles(ref_path, ref, ("lat", "lon"), "geodetic position")
         depth = _need(ref_path, ref, ("depth_m",), "geodetic position: lat, lon and depth_m")
         position, geodetic = np.column_stack([lat_lon, depth]), True
-        _finite(ref_path, {"lat": position[:, 0], "lon": position[:, 1], "depth_m": position[:, 2]},
-                ("lat", "lon", "depth_m"))
+        _finite(
+            ref_path,
+            {"lat": position[:, 0], "lon": position[:, 1], "depth_m": position[:, 2]},
+            ("lat", "lon", "depth_m"),
+        )
     elif all(n in ref for n in REF_LOCAL):
         _finite(ref_path, ref, REF_LOCAL)
         position, geodetic = _need(ref_path, ref, REF_LOCAL, "local position"), False
     else:
-        raise LogError(f"{show_path(str(ref_path))}: missing column 'lat_deg' or 'north_m' (the reference position: "
-                       "lat, lon (_deg or _rad) and depth_m; or north_m, east_m, down_m)")
+        raise LogError(
+            f"{show_path(str(ref_path))}: missing column 'lat_deg' or 'north_m' (the reference position: "
+            "lat, lon (_deg or _rad) and depth_m; or north_m, east_m, down_m)"
+        )
     euler = _angles(ref_path, ref, ("roll", "pitch", "yaw"), "the reference attitude")
-    _finite(ref_path, {f"{n}": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}, ("roll", "pitch", "yaw"))
+    _finite(
+        ref_path,
+        {f"{n}": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))},
+        ("roll", "pitch", "yaw"),
+    )
     _finite(ref_path, ref, REF_VEL)
     vel = _need(ref_path, ref, REF_VEL, "the reference NED velocity")
     if ref_t[0] > t[0] + 0.5 * median or ref_t[-1] < t[0]:
-        raise LogError(f"{show_path(str(ref_path))}: column 't_s', row 1: the reference starts at {float(ref_t[0])!r} s, "
-                       f"after the IMU's first sample ({float(t[0])!r} s): the filters start from the reference")
+        raise LogError(
+            f"{show_path(str(ref_path))}: column 't_s', row 1: the reference starts at {float(ref_t[0])!r} s, "
+            f"after the IMU's first sample ({float(t[0])!r} s): the filters start from the reference"
+        )
 
     return dict(ref_t_s=ref_t, ref_position=position, ref_geodetic=geodetic, ref_euler=euler, ref_vel_n=vel)
 
@@ -334,15 +376,19 @@ def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
             bad = ~np.isin(valid, (0.0, 1.0))
             if bad.any():
                 row = int(np.argmax(bad))
-                raise LogError(f"{show_path(str(p))}: column 'valid', row {row + 1}: {show(float(valid[row]))} is not 0 or 1")
+                raise LogError(
+                    f"{show_path(str(p))}: column 'valid', row {row + 1}: {show(float(valid[row]))} is not 0 or 1"
+                )
             body = body.copy()
             body[valid == 0.0] = np.nan
             _finite(p, {n: body[:, i] for i, n in enumerate(DVL_BODY)}, DVL_BODY, allow_nan=True)
             partial = np.isnan(body).any(axis=1) & ~np.isnan(body).all(axis=1)
             if partial.any():
                 row = int(np.argmax(partial))
-                raise LogError(f"{show_path(str(p))}: row {row + 1}: a body velocity with some components empty "
-                               "(leave all three empty, or set valid = 0)")
+                raise LogError(
+                    f"{show_path(str(p))}: row {row + 1}: a body velocity with some components empty "
+                    "(leave all three empty, or set valid = 0)"
+                )
             out["dvl_body_mps"] = body
     if paths["depth"] is not None:
         p = paths["depth"]
@@ -355,7 +401,9 @@ def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
         cols = _read_table(p)
         out["attitude_t_s"] = _times(p, cols)
         euler_a = _angles(p, cols, ("roll", "pitch", "yaw"), "attitude")
-        _finite(p, {n: euler_a[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}, ("roll", "pitch", "yaw"))
+        _finite(
+            p, {n: euler_a[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}, ("roll", "pitch", "yaw")
+        )
         out["attitude_euler"] = euler_a
 
 
@@ -372,7 +420,9 @@ def find_logs(directory: str | os.PathLike) -> dict[str, str]:
 
 
 # ---------------------------------------------------------------------------------------- writing
-def write_log(directory: str | os.PathLike, tables: dict[str, dict[str, np.ndarray]], fmt: str = "csv") -> None:
+def write_log(
+    directory: str | os.PathLike, tables: dict[str, dict[str, np.ndarray]], fmt: str = "csv"
+) -> None:
     """Write ``tables`` (table -> column -> 1-D array) as a log in ``directory`` (created if need
     be), CSV with every float written to its last digit (``repr``, so reading back is exact) or
     Parquet. Each file is written under a temporary name and renamed when complete."""
@@ -389,6 +439,7 @@ def write_log(directory: str | os.PathLike, tables: dict[str, dict[str, np.ndarr
         if fmt == "parquet":
             import pyarrow as pa
             import pyarrow.parquet as pq
+
             pq.write_table(pa.table({n: np.asarray(columns[n], dtype=float) for n in names}), tmp)
         else:
             data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])

@@ -63,13 +63,13 @@ def show(value: Any) -> str:
             return repr(value)
         return f"{value[:SHOW_CHARS]!r}... ({len(value)} characters)"
     if isinstance(value, int) and not isinstance(value, bool):
-        if value.bit_length() > 3 * SHOW_CHARS:      # more digits than a message should hold
+        if value.bit_length() > 3 * SHOW_CHARS:  # more digits than a message should hold
             digits = int(value.bit_length() * math.log10(2)) + 1
             return f"<{'a negative' if value < 0 else 'an'} integer of about {digits} digits>"
         return repr(value)
     text = _REPR.repr(value)
     if isinstance(value, (list, tuple, dict, set, frozenset)):
-        if len(text) > SHOW_CHARS or "..." in text:     # cut here or by reprlib
+        if len(text) > SHOW_CHARS or "..." in text:  # cut here or by reprlib
             return f"{text[:SHOW_CHARS]}... ({len(value)} item{'' if len(value) == 1 else 's'})"
         return text
     if len(text) > SHOW_CHARS:
@@ -84,7 +84,7 @@ def _is_number(value: Any) -> bool:
 def _is_finite(value: Any) -> bool:
     try:
         return math.isfinite(value)
-    except OverflowError:       # an integer beyond the float range (TOML allows 10**400)
+    except OverflowError:  # an integer beyond the float range (TOML allows 10**400)
         return False
 
 
@@ -109,7 +109,9 @@ def require_range(field: str, value: Any, low: float, high: float, *, low_open: 
     """``low <= value <= high`` (``low < value`` if ``low_open``)."""
     require_finite(field, value)
     if not (low < value if low_open else low <= value) or not value <= high:
-        raise ConfigError(f"{field} must be within {'(' if low_open else '['}{low:g}, {high:g}], got {show(value)}")
+        raise ConfigError(
+            f"{field} must be within {'(' if low_open else '['}{low:g}, {high:g}], got {show(value)}"
+        )
 
 
 def require_choice(field: str, value: Any, choices: tuple[str, ...]) -> None:

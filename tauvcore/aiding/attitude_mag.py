@@ -25,19 +25,19 @@ from tauvcore.sensors.magnetometer import MagnetometerConfig
 
 @dataclass(frozen=True)
 class MagSetup:
-    z: np.ndarray   # (B, 3) measured roll, pitch, yaw [rad]
-    R: np.ndarray   # (B, 3, 3)
+    z: np.ndarray  # (B, 3) measured roll, pitch, yaw [rad]
+    R: np.ndarray  # (B, 3, 3)
 
 
 @dataclass(frozen=True)
 class MagAttitude:
-    config: MagnetometerConfig   # filter tuning
+    config: MagnetometerConfig  # filter tuning
 
     name = "mag"
 
     def prepare(self, euler: np.ndarray, batch: tuple[int, ...]) -> MagSetup:
         z = np.broadcast_to(np.asarray(euler, dtype=float), batch + (3,))
-        R = np.broadcast_to(np.diag(mag_attitude_sigma_rad(self.config.noise_rad)**2), batch + (3, 3))
+        R = np.broadcast_to(np.diag(mag_attitude_sigma_rad(self.config.noise_rad) ** 2), batch + (3, 3))
         return MagSetup(z=z, R=R)
 
     def predict(self, nom: Nominal, setup: MagSetup) -> np.ndarray:
@@ -54,5 +54,10 @@ class MagAttitude:
     def measure(self, nom: Nominal, euler: np.ndarray) -> Measurement:
         batch = nom.vel_b.shape[:-1]
         setup = self.prepare(euler, batch)
-        return Measurement(z=setup.z, innovation=self.innovation(setup.z, self.predict(nom, setup)),
-                           H=self.jacobian(nom, setup), R=setup.R, valid=np.ones(batch, dtype=bool))
+        return Measurement(
+            z=setup.z,
+            innovation=self.innovation(setup.z, self.predict(nom, setup)),
+            H=self.jacobian(nom, setup),
+            R=setup.R,
+            valid=np.ones(batch, dtype=bool),
+        )

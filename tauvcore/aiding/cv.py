@@ -44,15 +44,15 @@ seconds, so even 1 Hz counts it many times: the sigmas above are the margin)."""
 
 @dataclass(frozen=True)
 class ConstantVelocitySetup:
-    z: np.ndarray   # (B, 3) assumed body velocity [m/s]
-    R: np.ndarray   # (B, 3, 3) its covariance [m^2/s^2]
+    z: np.ndarray  # (B, 3) assumed body velocity [m/s]
+    R: np.ndarray  # (B, 3, 3) its covariance [m^2/s^2]
 
 
 @dataclass(frozen=True)
 class ConstantVelocity:
     """The pseudo-measurement "the body velocity is the cruise velocity", small and pure."""
 
-    speed_mps: float                                   # commanded surge speed U [m/s]
+    speed_mps: float  # commanded surge speed U [m/s]
     sigma_mps: tuple[float, float, float] = CV_SIGMA_MPS  # 1-sigma surge, sway, heave [m/s]
 
     name = "cv"
@@ -86,10 +86,20 @@ class ConstantVelocity:
     def measure(self, nom: Nominal) -> Measurement:
         batch = nom.vel_b.shape[:-1]
         setup = self.prepare(batch)
-        return Measurement(z=setup.z, innovation=setup.z - self.predict(nom, setup), H=self.jacobian(nom, setup),
-                           R=setup.R, valid=np.ones(batch, dtype=bool))
+        return Measurement(
+            z=setup.z,
+            innovation=setup.z - self.predict(nom, setup),
+            H=self.jacobian(nom, setup),
+            R=setup.R,
+            valid=np.ones(batch, dtype=bool),
+        )
 
 
-METHOD = FusionMethod(name="cv", source="cv", rate_hz=CV_RATE_HZ, model=ConstantVelocity.from_config,
-                      summary="no DVL: the body velocity held near the cruise velocity [U, 0, 0] (pseudo-measurement)")
+METHOD = FusionMethod(
+    name="cv",
+    source="cv",
+    rate_hz=CV_RATE_HZ,
+    model=ConstantVelocity.from_config,
+    summary="no DVL: the body velocity held near the cruise velocity [U, 0, 0] (pseudo-measurement)",
+)
 """The registry's entry (tauvcore.aiding.registry.MODULES names this module)."""

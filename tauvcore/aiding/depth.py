@@ -17,19 +17,19 @@ from tauvcore.sensors.pressure import PressureConfig
 
 @dataclass(frozen=True)
 class DepthSetup:
-    z: np.ndarray   # (B, 1) measured depth [m]
-    R: np.ndarray   # (B, 1, 1)
+    z: np.ndarray  # (B, 1) measured depth [m]
+    R: np.ndarray  # (B, 1, 1)
 
 
 @dataclass(frozen=True)
 class Depth:
-    config: PressureConfig   # filter tuning
+    config: PressureConfig  # filter tuning
 
     name = "depth"
 
     def prepare(self, depth_m: np.ndarray, batch: tuple[int, ...]) -> DepthSetup:
         z = np.broadcast_to(np.asarray(depth_m, dtype=float), batch)[..., None]
-        return DepthSetup(z=z, R=np.full(batch + (1, 1), depth_sigma_m(self.config.depth_noise_m)**2))
+        return DepthSetup(z=z, R=np.full(batch + (1, 1), depth_sigma_m(self.config.depth_noise_m) ** 2))
 
     def predict(self, nom: Nominal, setup: DepthSetup) -> np.ndarray:
         return nom.nav.pos_n[..., 2:3]
@@ -42,5 +42,10 @@ class Depth:
     def measure(self, nom: Nominal, depth_m: np.ndarray) -> Measurement:
         batch = nom.vel_b.shape[:-1]
         setup = self.prepare(depth_m, batch)
-        return Measurement(z=setup.z, innovation=setup.z - self.predict(nom, setup), H=self.jacobian(nom, setup),
-                           R=setup.R, valid=np.ones(batch, dtype=bool))
+        return Measurement(
+            z=setup.z,
+            innovation=setup.z - self.predict(nom, setup),
+            H=self.jacobian(nom, setup),
+            R=setup.R,
+            valid=np.ones(batch, dtype=bool),
+        )

@@ -31,18 +31,18 @@ MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC = 0, 1, 2, 3
 class DvlInfo:
     """What the DVL fusion did at one ping, per batch entry."""
 
-    mode: np.ndarray            # (B,) MODE_* code
-    measured_axes: np.ndarray   # (B, 3) bool: body axes the velocity measurement carried
-    elc_choice: np.ndarray      # (B, 3) index into elc_select.CANDIDATES, -1 none (ELC only)
+    mode: np.ndarray  # (B,) MODE_* code
+    measured_axes: np.ndarray  # (B, 3) bool: body axes the velocity measurement carried
+    elc_choice: np.ndarray  # (B, 3) index into elc_select.CANDIDATES, -1 none (ELC only)
 
 
 @dataclass(frozen=True)
 class DvlExtended:
-    method: str                  # one of ELC_METHODS
+    method: str  # one of ELC_METHODS
     dvl: DvlConfig
     earth: Earth
     gyro_rate_noise_rps: float
-    vb_nf: float                 # n_f of eq. 28 (VB), also VHV's (tauvcore.aiding.elc_vhv)
+    vb_nf: float  # n_f of eq. 28 (VB), also VHV's (tauvcore.aiding.elc_vhv)
     nsv_epsilon_m2_per_s2: float  # epsilon of eq. 36
 
     name = "dvl"
@@ -57,13 +57,22 @@ class DvlExtended:
             return elc_plcf.solve(pitch, pattern)
         return elc_vhv.solve(pitch, pattern, self.vb_nf)
 
-    def measure(self, nom: Nominal, P_vel: np.ndarray, y_beam: np.ndarray, available: np.ndarray,
-                omega_meas_b: np.ndarray, lc: Measurement | None = None) -> tuple[Measurement, DvlInfo]:
+    def measure(
+        self,
+        nom: Nominal,
+        P_vel: np.ndarray,
+        y_beam: np.ndarray,
+        available: np.ndarray,
+        omega_meas_b: np.ndarray,
+        lc: Measurement | None = None,
+    ) -> tuple[Measurement, DvlInfo]:
         """``lc``: the loosely coupled measurement at ``nom`` if already made (the filter bank makes
         it once for every method that uses it)."""
         batch = available.shape[:-1]
         if lc is None:
-            lc = DvlLoose(self.dvl, self.earth, self.gyro_rate_noise_rps).measure(nom, y_beam, available, omega_meas_b)
+            lc = DvlLoose(self.dvl, self.earth, self.gyro_rate_noise_rps).measure(
+                nom, y_beam, available, omega_meas_b
+            )
         n_beams = available.sum(axis=-1)
         two = n_beams == 2
         v_meas = np.zeros(batch + (3,))
@@ -73,25 +82,36 @@ class DvlExtended:
         if two.any():
             C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
             omega_comp = omega_meas_b - nom.gyro_bias - mv(C_bn, self.earth.omega_ie_n)
-            y_c = compensated_beams(self.dvl.A_b, y_beam, available, nom.dvl_bias, nom.dvl_sf, omega_comp,
-                                    self.dvl.l_dvl_b)
-            S_y = beam_noise_cov(self.dvl.A_b, self.dvl.noise_mps, self.gyro_rate_noise_rps, self.dvl.l_dvl_b,
-                                 nom.dvl_sf)
+            y_c = compensated_beams(
+                self.dvl.A_b, y_beam, available, nom.dvl_bias, nom.dvl_sf, omega_comp, self.dvl.l_dvl_b
+            )
+            S_y = beam_noise_cov(
+                self.dvl.A_b, self.dvl.noise_mps, self.gyro_rate_noise_rps, self.dvl.l_dvl_b, nom.dvl_sf
+            )
             v_hat = nom.vel_b
             for pattern in np.unique(available[two], axis=0):
                 idx = two & np.all(available == pattern, axis=-1)
                 key = tuple(bool(b) for b in pattern)
                 if self.method == "elc":
-                    sols = elc_select.candidate_solutions(self.dvl.beam_pitch_rad, key, self.vb_nf,
-                                                          self.nsv_epsilon_m2_per_s2)
+                    sols = elc_select.candidate_solutions(
+                        self.dvl.beam_pitch_rad, key, self.vb_nf, self.nsv_epsilon_m2_per_s2
+                    )
                     v, Rm, meas, ch = elc_select.select(sols, y_c[idx], S_y[idx], v_hat[idx], P_vel[idx])
                     choice[idx] = ch
                 else:
                     sol = self._solution(key)
                     if not sol.ok:
                         continue
-                    v, Rm = apply_solution(sol.C, sol.D, sol.pred_gain, sol.assumption_sd, y_c[idx], S_y[idx],
-                                           v_hat[idx], P_vel[idx])
+                    v, Rm = apply_solution(
+                        sol.C,
+                        sol.D,
+                        sol.pred_gain,
+                        sol.assumption_sd,
+                        y_c[idx],
+                        S_y[idx],
+                        v_hat[idx],
+                        P_vel[idx],
+                    )
                     meas = np.broadcast_to(sol.measured, v.shape)
                 v_meas[idx], R[idx], measured[idx] = v, Rm, meas
         partial_ok = two & measured.any(axis=-1)

@@ -35,8 +35,9 @@ from tauvcore.sensors.dvl import DvlConfig
 MIN_BEAMS_LC = 3
 
 
-def solve_velocity(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, noise_mps: float
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def solve_velocity(
+    A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, noise_mps: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Weighted least squares over the returned beams (eq. 17, 19, 21).
 
     A_b (4, 3); y_beam (B, 4) with anything (NaN allowed) where ``available`` (B, 4) is false.
@@ -48,48 +49,72 @@ def solve_velocity(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, n
     from tauvcore.filter import kernels
 
     batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1])
-    v, cov, A_pinv, valid = kernels.lc_solve_batch(kernels.flat(A_b, (), (4, 3))[0], kernels.flat(y_beam, batch, (4,)),
-                                                   kernels.flat(available, batch, (4,), bool),
-                                                   dvl_beam_sigma_mps(noise_mps)**2)
-    return (v.reshape(batch + (3,)), cov.reshape(batch + (3, 3)), A_pinv.reshape(batch + (3, 4)),
-            valid.reshape(batch))
+    v, cov, A_pinv, valid = kernels.lc_solve_batch(
+        kernels.flat(A_b, (), (4, 3))[0],
+        kernels.flat(y_beam, batch, (4,)),
+        kernels.flat(available, batch, (4,), bool),
+        dvl_beam_sigma_mps(noise_mps) ** 2,
+    )
+    return (
+        v.reshape(batch + (3,)),
+        cov.reshape(batch + (3, 3)),
+        A_pinv.reshape(batch + (3, 4)),
+        valid.reshape(batch),
+    )
 
 
 @dataclass(frozen=True)
 class DvlLooseSetup:
-    z: np.ndarray            # (B, 3) lever-arm compensated LS velocity [m/s]
-    R: np.ndarray            # (B, 3, 3)
-    A_pinv: np.ndarray       # (B, 3, 4)
+    z: np.ndarray  # (B, 3) lever-arm compensated LS velocity [m/s]
+    R: np.ndarray  # (B, 3, 3)
+    A_pinv: np.ndarray  # (B, 3, 4)
     omega_meas_b: np.ndarray  # (B, 3) measured (uncorrected) gyro rate at the ping [rad/s]
     omega_comp_b: np.ndarray  # (B, 3) omega_hat_nb used for the lever-arm compensation [rad/s]
-    valid: np.ndarray        # (B,)
+    valid: np.ndarray  # (B,)
 
 
 @dataclass(frozen=True)
 class DvlLoose:
-    dvl: DvlConfig               # filter tuning (noise, geometry, lever arm)
+    dvl: DvlConfig  # filter tuning (noise, geometry, lever arm)
     earth: Earth
-    gyro_rate_noise_rps: float   # 1-sigma noise of the gyro rate at the ping [rad/s]
+    gyro_rate_noise_rps: float  # 1-sigma noise of the gyro rate at the ping [rad/s]
 
     name = "dvl"
 
-    def prepare(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray,
-                omega_meas_b: np.ndarray) -> DvlLooseSetup:
+    def prepare(
+        self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray
+    ) -> DvlLooseSetup:
         """The measurement side (the kernel :func:`tauvcore.filter.kernels.lc_prepare_into`)."""
         from tauvcore.filter import kernels
 
-        batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1], np.shape(omega_meas_b)[:-1],
-                                    nom.nav.C_nb.shape[:-2], nom.gyro_bias.shape[:-1])
+        batch = np.broadcast_shapes(
+            np.shape(y_beam)[:-1],
+            np.shape(available)[:-1],
+            np.shape(omega_meas_b)[:-1],
+            nom.nav.C_nb.shape[:-2],
+            nom.gyro_bias.shape[:-1],
+        )
         f = kernels.flat
         z, R, A_pinv, omega_comp, valid = kernels.lc_prepare_batch(
-            f(self.dvl.A_b, (), (4, 3))[0], f(self.dvl.l_dvl_b, (), (3,))[0], dvl_beam_sigma_mps(self.dvl.noise_mps)**2,
-            self.gyro_rate_noise_rps**2, f(self.earth.omega_ie_n, (), (3,))[0], f(y_beam, batch, (4,)),
-            f(available, batch, (4,), bool), f(omega_meas_b, batch, (3,)), f(nom.nav.C_nb, batch, (3, 3)),
-            f(nom.gyro_bias, batch, (3,)))
-        return DvlLooseSetup(z=z.reshape(batch + (3,)), R=R.reshape(batch + (3, 3)),
-                             A_pinv=A_pinv.reshape(batch + (3, 4)),
-                             omega_meas_b=np.broadcast_to(omega_meas_b, batch + (3,)),
-                             omega_comp_b=omega_comp.reshape(batch + (3,)), valid=valid.reshape(batch))
+            f(self.dvl.A_b, (), (4, 3))[0],
+            f(self.dvl.l_dvl_b, (), (3,))[0],
+            dvl_beam_sigma_mps(self.dvl.noise_mps) ** 2,
+            self.gyro_rate_noise_rps**2,
+            f(self.earth.omega_ie_n, (), (3,))[0],
+            f(y_beam, batch, (4,)),
+            f(available, batch, (4,), bool),
+            f(omega_meas_b, batch, (3,)),
+            f(nom.nav.C_nb, batch, (3, 3)),
+            f(nom.gyro_bias, batch, (3,)),
+        )
+        return DvlLooseSetup(
+            z=z.reshape(batch + (3,)),
+            R=R.reshape(batch + (3, 3)),
+            A_pinv=A_pinv.reshape(batch + (3, 4)),
+            omega_meas_b=np.broadcast_to(omega_meas_b, batch + (3,)),
+            omega_comp_b=omega_comp.reshape(batch + (3,)),
+            valid=valid.reshape(batch),
+        )
 
     def predict(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
         """Nonlinear h(x) for the state ``nom``, with the measurement-side quantities held fixed
@@ -98,11 +123,18 @@ class DvlLoose:
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         f = kernels.flat
-        h = kernels.lc_predict_batch(f(nom.nav.C_nb, batch, (3, 3)), f(nom.nav.vel_n, batch, (3,)),
-                                     f(nom.dvl_sf, batch, ()), f(nom.dvl_bias, batch, (4,)),
-                                     f(nom.gyro_bias, batch, (3,)), f(setup.A_pinv, batch, (3, 4)),
-                                     f(setup.omega_meas_b, batch, (3,)), f(setup.omega_comp_b, batch, (3,)),
-                                     f(self.earth.omega_ie_n, (), (3,))[0], f(self.dvl.l_dvl_b, (), (3,))[0])
+        h = kernels.lc_predict_batch(
+            f(nom.nav.C_nb, batch, (3, 3)),
+            f(nom.nav.vel_n, batch, (3,)),
+            f(nom.dvl_sf, batch, ()),
+            f(nom.dvl_bias, batch, (4,)),
+            f(nom.gyro_bias, batch, (3,)),
+            f(setup.A_pinv, batch, (3, 4)),
+            f(setup.omega_meas_b, batch, (3,)),
+            f(setup.omega_comp_b, batch, (3,)),
+            f(self.earth.omega_ie_n, (), (3,))[0],
+            f(self.dvl.l_dvl_b, (), (3,))[0],
+        )
         return h.reshape(batch + (3,))
 
     def jacobian(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
@@ -111,12 +143,24 @@ class DvlLoose:
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         f = kernels.flat
-        H = kernels.lc_jacobian_batch(f(nom.nav.C_nb, batch, (3, 3)), f(nom.nav.vel_n, batch, (3,)),
-                                      f(nom.dvl_sf, batch, ()), f(setup.A_pinv, batch, (3, 4)),
-                                      f(self.earth.omega_ie_n, (), (3,))[0], f(self.dvl.l_dvl_b, (), (3,))[0])
+        H = kernels.lc_jacobian_batch(
+            f(nom.nav.C_nb, batch, (3, 3)),
+            f(nom.nav.vel_n, batch, (3,)),
+            f(nom.dvl_sf, batch, ()),
+            f(setup.A_pinv, batch, (3, 4)),
+            f(self.earth.omega_ie_n, (), (3,))[0],
+            f(self.dvl.l_dvl_b, (), (3,))[0],
+        )
         return H.reshape(batch + (3, STATE.dim))
 
-    def measure(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray) -> Measurement:
+    def measure(
+        self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray
+    ) -> Measurement:
         setup = self.prepare(nom, y_beam, available, omega_meas_b)
-        return Measurement(z=setup.z, innovation=setup.z - self.predict(nom, setup), H=self.jacobian(nom, setup),
-                           R=setup.R, valid=setup.valid)
+        return Measurement(
+            z=setup.z,
+            innovation=setup.z - self.predict(nom, setup),
+            H=self.jacobian(nom, setup),
+            R=setup.R,
+            valid=setup.valid,
+        )

@@ -53,13 +53,15 @@ class PartialSolution:
     """One method's affine velocity construction for one availability pattern."""
 
     method: str
-    ok: bool                       # False: the method cannot use this pattern (see reason)
-    reason: str = ""               # why not, for the record and the user
-    C: np.ndarray = field(default_factory=lambda: np.zeros((3, 4)))   # from compensated beams
-    D: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))   # from the predicted velocity
+    ok: bool  # False: the method cannot use this pattern (see reason)
+    reason: str = ""  # why not, for the record and the user
+    C: np.ndarray = field(default_factory=lambda: np.zeros((3, 4)))  # from compensated beams
+    D: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))  # from the predicted velocity
     measured: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))  # rows fused
-    assumption_sd: np.ndarray = field(default_factory=lambda: np.zeros(3))  # a: an assumption's 1-sigma error per row
-    pred_gain: np.ndarray = field(default_factory=lambda: np.ones(3))   # g per row (n_f for VB)
+    assumption_sd: np.ndarray = field(
+        default_factory=lambda: np.zeros(3)
+    )  # a: an assumption's 1-sigma error per row
+    pred_gain: np.ndarray = field(default_factory=lambda: np.ones(3))  # g per row (n_f for VB)
 
 
 def cannot(method: str, reason: str) -> PartialSolution:
@@ -80,23 +82,42 @@ def embed(rows: np.ndarray, beams: np.ndarray) -> np.ndarray:
     return C
 
 
-def compensated_beams(A_b: np.ndarray, y_beam: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray,
-                      dvl_sf: np.ndarray, omega_comp_b: np.ndarray, l_dvl_b: np.ndarray) -> np.ndarray:
+def compensated_beams(
+    A_b: np.ndarray,
+    y_beam: np.ndarray,
+    available: np.ndarray,
+    dvl_bias: np.ndarray,
+    dvl_sf: np.ndarray,
+    omega_comp_b: np.ndarray,
+    l_dvl_b: np.ndarray,
+) -> np.ndarray:
     """``y_c = (y - b_hat - A (omega_hat x l)) / (1 + SF_hat)``, zero where not returned. (B, 4).
     The kernel :func:`tauvcore.filter.kernels.compensated_beams_into`."""
     from tauvcore.filter import kernels
 
-    batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1], np.shape(dvl_bias)[:-1],
-                                np.shape(dvl_sf), np.shape(omega_comp_b)[:-1])
+    batch = np.broadcast_shapes(
+        np.shape(y_beam)[:-1],
+        np.shape(available)[:-1],
+        np.shape(dvl_bias)[:-1],
+        np.shape(dvl_sf),
+        np.shape(omega_comp_b)[:-1],
+    )
     f = kernels.flat
-    y_c = kernels.compensated_beams_batch(f(A_b, (), (4, 3))[0], f(y_beam, batch, (4,)), f(available, batch, (4,), bool),
-                                          f(dvl_bias, batch, (4,)), f(dvl_sf, batch, ()),
-                                          f(omega_comp_b, batch, (3,)), f(l_dvl_b, (), (3,))[0])
+    y_c = kernels.compensated_beams_batch(
+        f(A_b, (), (4, 3))[0],
+        f(y_beam, batch, (4,)),
+        f(available, batch, (4,), bool),
+        f(dvl_bias, batch, (4,)),
+        f(dvl_sf, batch, ()),
+        f(omega_comp_b, batch, (3,)),
+        f(l_dvl_b, (), (3,))[0],
+    )
     return y_c.reshape(batch + (4,))
 
 
-def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float, l_dvl_b: np.ndarray,
-                   dvl_sf: np.ndarray) -> np.ndarray:
+def beam_noise_cov(
+    A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float, l_dvl_b: np.ndarray, dvl_sf: np.ndarray
+) -> np.ndarray:
     """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4).
 
     ``noise_mps`` is floored at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS`.
@@ -104,28 +125,54 @@ def beam_noise_cov(A_b: np.ndarray, noise_mps: float, gyro_rate_noise_rps: float
     from tauvcore.filter import kernels
 
     batch = np.shape(dvl_sf)
-    S = kernels.beam_noise_batch(kernels.flat(A_b, (), (4, 3))[0], dvl_beam_sigma_mps(noise_mps)**2,
-                                 float(gyro_rate_noise_rps)**2, kernels.flat(l_dvl_b, (), (3,))[0],
-                                 kernels.flat(dvl_sf, batch, ()))
+    S = kernels.beam_noise_batch(
+        kernels.flat(A_b, (), (4, 3))[0],
+        dvl_beam_sigma_mps(noise_mps) ** 2,
+        float(gyro_rate_noise_rps) ** 2,
+        kernels.flat(l_dvl_b, (), (3,))[0],
+        kernels.flat(dvl_sf, batch, ()),
+    )
     return S.reshape(batch + (4, 4))
 
 
-def apply_solution(C: np.ndarray, D: np.ndarray, gain: np.ndarray, assumption_sd: np.ndarray, y_c: np.ndarray,
-                   S_y: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def apply_solution(
+    C: np.ndarray,
+    D: np.ndarray,
+    gain: np.ndarray,
+    assumption_sd: np.ndarray,
+    y_c: np.ndarray,
+    S_y: np.ndarray,
+    v_hat: np.ndarray,
+    P_vel: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + a a^T``; C, D (..., 3, 4|3), a (..., 3).
     The kernel :func:`tauvcore.filter.kernels.apply_solution_into` (the one the filter bank runs)."""
     from tauvcore.filter import kernels
 
-    r_batch = np.broadcast_shapes(np.shape(C)[:-2], np.shape(D)[:-2], np.shape(gain)[:-1],
-                                  np.shape(assumption_sd)[:-1], np.shape(S_y)[:-2], np.shape(P_vel)[:-2])
+    r_batch = np.broadcast_shapes(
+        np.shape(C)[:-2],
+        np.shape(D)[:-2],
+        np.shape(gain)[:-1],
+        np.shape(assumption_sd)[:-1],
+        np.shape(S_y)[:-2],
+        np.shape(P_vel)[:-2],
+    )
     batch = np.broadcast_shapes(r_batch, np.shape(y_c)[:-1], np.shape(v_hat)[:-1])
     f = kernels.flat
 
     def call(shape: tuple[int, ...], y: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return kernels.apply_solution_batch(f(C, shape, (3, 4)), f(D, shape, (3, 3)), f(gain, shape, (3,)),
-                                            f(assumption_sd, shape, (3,)), f(y, shape, (4,)), f(S_y, shape, (4, 4)),
-                                            f(v0, shape, (3,)), f(P_vel, shape, (3, 3)))
+        return kernels.apply_solution_batch(
+            f(C, shape, (3, 4)),
+            f(D, shape, (3, 3)),
+            f(gain, shape, (3,)),
+            f(assumption_sd, shape, (3,)),
+            f(y, shape, (4,)),
+            f(S_y, shape, (4, 4)),
+            f(v0, shape, (3,)),
+            f(P_vel, shape, (3, 3)),
+        )
+
     v, R = call(batch, y_c, v_hat)
-    if r_batch != batch:        # R does not depend on the measurements: keep its own (smaller) shape
+    if r_batch != batch:  # R does not depend on the measurements: keep its own (smaller) shape
         _, R = call(r_batch, np.zeros(4), np.zeros(3))
     return v.reshape(batch + (3,)), R.reshape(r_batch + (3, 3))

@@ -27,9 +27,9 @@ from tauvcore.sensors.dvl import DvlConfig
 
 @dataclass(frozen=True)
 class DvlTightSetup:
-    z: np.ndarray             # (B, 4) beam velocities, 0 where not returned [m/s]
-    R: np.ndarray             # (B, 4, 4)
-    available: np.ndarray     # (B, 4)
+    z: np.ndarray  # (B, 4) beam velocities, 0 where not returned [m/s]
+    R: np.ndarray  # (B, 4, 4)
+    available: np.ndarray  # (B, 4)
     omega_meas_b: np.ndarray  # (B, 3) measured gyro rate at the ping
     omega_comp_b: np.ndarray  # (B, 3) omega_hat_nb at the nominal state
 
@@ -42,15 +42,26 @@ class DvlTight:
 
     name = "dvl"
 
-    def prepare(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray,
-                omega_meas_b: np.ndarray) -> DvlTightSetup:
+    def prepare(
+        self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray
+    ) -> DvlTightSetup:
         C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
         omega_comp = omega_meas_b - nom.gyro_bias - mv(C_bn, self.earth.omega_ie_n)
         z = np.where(available, y_beam, 0.0)
-        R = beam_noise_cov(self.dvl.A_b, self.dvl.noise_mps, self.gyro_rate_noise_rps, self.dvl.l_dvl_b,
-                           np.zeros(z.shape[:-1]))
-        return DvlTightSetup(z=z, R=R, available=available, omega_meas_b=np.broadcast_to(omega_meas_b, omega_comp.shape),
-                             omega_comp_b=omega_comp)
+        R = beam_noise_cov(
+            self.dvl.A_b,
+            self.dvl.noise_mps,
+            self.gyro_rate_noise_rps,
+            self.dvl.l_dvl_b,
+            np.zeros(z.shape[:-1]),
+        )
+        return DvlTightSetup(
+            z=z,
+            R=R,
+            available=available,
+            omega_meas_b=np.broadcast_to(omega_meas_b, omega_comp.shape),
+            omega_comp_b=omega_comp,
+        )
 
     def predict(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
         """Nonlinear h(x) per beam (the kernel :func:`tauvcore.filter.kernels.tc_predict_into`)."""
@@ -58,11 +69,17 @@ class DvlTight:
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         f = kernels.flat
-        h = kernels.tc_predict_batch(f(self.dvl.A_b, (), (4, 3))[0], f(nom.nav.C_nb, batch, (3, 3)),
-                                     f(nom.nav.vel_n, batch, (3,)), f(nom.dvl_sf, batch, ()),
-                                     f(nom.dvl_bias, batch, (4,)), f(nom.gyro_bias, batch, (3,)),
-                                     f(setup.omega_meas_b, batch, (3,)), f(self.earth.omega_ie_n, (), (3,))[0],
-                                     f(self.dvl.l_dvl_b, (), (3,))[0])
+        h = kernels.tc_predict_batch(
+            f(self.dvl.A_b, (), (4, 3))[0],
+            f(nom.nav.C_nb, batch, (3, 3)),
+            f(nom.nav.vel_n, batch, (3,)),
+            f(nom.dvl_sf, batch, ()),
+            f(nom.dvl_bias, batch, (4,)),
+            f(nom.gyro_bias, batch, (3,)),
+            f(setup.omega_meas_b, batch, (3,)),
+            f(self.earth.omega_ie_n, (), (3,))[0],
+            f(self.dvl.l_dvl_b, (), (3,))[0],
+        )
         return h.reshape(batch + (4,))
 
     def jacobian(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
@@ -71,13 +88,26 @@ class DvlTight:
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         f = kernels.flat
-        H = kernels.tc_jacobian_batch(f(self.dvl.A_b, (), (4, 3))[0], f(nom.nav.C_nb, batch, (3, 3)),
-                                      f(nom.nav.vel_n, batch, (3,)), f(nom.dvl_sf, batch, ()),
-                                      f(self.earth.omega_ie_n, (), (3,))[0], f(self.dvl.l_dvl_b, (), (3,))[0])
+        H = kernels.tc_jacobian_batch(
+            f(self.dvl.A_b, (), (4, 3))[0],
+            f(nom.nav.C_nb, batch, (3, 3)),
+            f(nom.nav.vel_n, batch, (3,)),
+            f(nom.dvl_sf, batch, ()),
+            f(self.earth.omega_ie_n, (), (3,))[0],
+            f(self.dvl.l_dvl_b, (), (3,))[0],
+        )
         return H.reshape(batch + (4, STATE.dim))
 
-    def measure(self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray) -> Measurement:
+    def measure(
+        self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray
+    ) -> Measurement:
         setup = self.prepare(nom, y_beam, available, omega_meas_b)
-        return Measurement(z=setup.z, innovation=np.where(available, setup.z - self.predict(nom, setup), 0.0),
-                           H=self.jacobian(nom, setup), R=setup.R, valid=available.any(axis=-1),
-                           active=available, gate_rows=True)
+        return Measurement(
+            z=setup.z,
+            innovation=np.where(available, setup.z - self.predict(nom, setup), 0.0),
+            H=self.jacobian(nom, setup),
+            R=setup.R,
+            valid=available.any(axis=-1),
+            active=available,
+            gate_rows=True,
+        )

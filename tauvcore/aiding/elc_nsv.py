@@ -29,7 +29,9 @@ EPSILON_FLOOR_M2_PER_S2 = 1e-4
 zero sideslip would otherwise state ``v = 0`` with zero variance)."""
 
 
-def epsilon_from_vehicle(speed_mps: float, sideslip_deg: float, turn_radius_m: float, dvl_rate_hz: float) -> float:
+def epsilon_from_vehicle(
+    speed_mps: float, sideslip_deg: float, turn_radius_m: float, dvl_rate_hz: float
+) -> float:
     """Default epsilon of eq. 36 from the vehicle and its mission [m^2/s^2] (the paper gives none).
 
     The assumption's error is the true sway, which is not white: it keeps its sign through a
@@ -53,10 +55,15 @@ def solve(beam_pitch_rad: float, pattern: tuple[bool, ...], epsilon_m2_per_s2: f
     A_0 = beam_directions_b(beam_pitch_rad)[beams][:, [0, 2]]
     if abs(np.linalg.det(A_0)) < 1e-9:
         return cannot(NAME, "the pair differs only in its sway components: surge and heave are not separable")
-    inv = np.linalg.inv(A_0)                       # rows: u, w
+    inv = np.linalg.inv(A_0)  # rows: u, w
     rows = np.zeros((3, 2))
     rows[0], rows[2] = inv[0], inv[1]
     C = embed(rows, beams)
-    sensitivity = (C @ beam_directions_b(beam_pitch_rad) - np.eye(3))[:, SWAY]   # d(v_meas - v_true) / d sway
-    return PartialSolution(method=NAME, ok=True, C=C, measured=np.ones(3, dtype=bool),
-                           assumption_sd=np.sqrt(epsilon_m2_per_s2) * sensitivity)
+    sensitivity = (C @ beam_directions_b(beam_pitch_rad) - np.eye(3))[:, SWAY]  # d(v_meas - v_true) / d sway
+    return PartialSolution(
+        method=NAME,
+        ok=True,
+        C=C,
+        measured=np.ones(3, dtype=bool),
+        assumption_sd=np.sqrt(epsilon_m2_per_s2) * sensitivity,
+    )

@@ -19,14 +19,20 @@ CANDIDATES = ("vb", "nsv", "plcf", "vhv")
 """Method codes of the per-axis choice record (index into this tuple; -1: no method)."""
 
 
-def candidate_solutions(beam_pitch_rad: float, pattern: tuple[bool, ...], n_f: float,
-                        epsilon_m2_per_s2: float) -> list[PartialSolution]:
-    return [elc_vb.solve(beam_pitch_rad, pattern, n_f), elc_nsv.solve(beam_pitch_rad, pattern, epsilon_m2_per_s2),
-            elc_plcf.solve(beam_pitch_rad, pattern), elc_vhv.solve(beam_pitch_rad, pattern, n_f)]
+def candidate_solutions(
+    beam_pitch_rad: float, pattern: tuple[bool, ...], n_f: float, epsilon_m2_per_s2: float
+) -> list[PartialSolution]:
+    return [
+        elc_vb.solve(beam_pitch_rad, pattern, n_f),
+        elc_nsv.solve(beam_pitch_rad, pattern, epsilon_m2_per_s2),
+        elc_plcf.solve(beam_pitch_rad, pattern),
+        elc_vhv.solve(beam_pitch_rad, pattern, n_f),
+    ]
 
 
-def select(solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v_hat: np.ndarray,
-           P_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def select(
+    solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-axis minimum-variance choice for a batch sharing one availability pattern (the kernel
     :func:`tauvcore.filter.kernels.partial_into`, which the filter bank runs).
 
@@ -37,8 +43,17 @@ def select(solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v
     n = np.shape(y_c)[0]
     f = kernels.flat
     ok = np.array([s.ok for s in solutions])
-    stack = [np.stack([getattr(s, name) for s in solutions]).astype(float)
-             for name in ("C", "D", "pred_gain", "assumption_sd")]
+    stack = [
+        np.stack([getattr(s, name) for s in solutions]).astype(float)
+        for name in ("C", "D", "pred_gain", "assumption_sd")
+    ]
     measured = np.stack([s.measured for s in solutions]).astype(bool)
-    return kernels.select_batch(ok, *stack, measured, f(y_c, (n,), (4,)), f(S_y, (n,), (4, 4)),
-                                f(v_hat, (n,), (3,)), f(P_vel, (n,), (3, 3)))
+    return kernels.select_batch(
+        ok,
+        *stack,
+        measured,
+        f(y_c, (n,), (4,)),
+        f(S_y, (n,), (4, 4)),
+        f(v_hat, (n,), (3,)),
+        f(P_vel, (n,), (3, 3)),
+    )

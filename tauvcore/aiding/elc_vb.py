@@ -31,5 +31,6 @@ def solve(beam_pitch_rad: float, pattern: tuple[bool, ...], n_f: float) -> Parti
     inv = np.linalg.inv(np.vstack([A[beams], A[virtual]]))
     C = embed(inv[:, :2], beams)
     D = np.outer(inv[:, 2], A[virtual])
-    return PartialSolution(method=NAME, ok=True, C=C, D=D, measured=np.ones(3, dtype=bool),
-                           pred_gain=np.full(3, n_f))
+    return PartialSolution(
+        method=NAME, ok=True, C=C, D=D, measured=np.ones(3, dtype=bool), pred_gain=np.full(3, n_f)
+    )

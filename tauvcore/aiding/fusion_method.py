@@ -11,7 +11,22 @@ if TYPE_CHECKING:
     from tauvcore.config import Config
     from tauvcore.filter.eskf import Measurement, Nominal
 
-RESERVED = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc", "ins-dvl", "vkf", "dvl", "depth", "mag", "rpm")
+RESERVED = (
+    "ins",
+    "lc",
+    "tc",
+    "vb",
+    "nsv",
+    "plcf",
+    "vhv",
+    "elc",
+    "ins-dvl",
+    "vkf",
+    "dvl",
+    "depth",
+    "mag",
+    "rpm",
+)
 """Names a registered method or its source may not take: the built-in methods and aiding sources."""
 
 
@@ -25,17 +40,21 @@ class MeasurementModel(Protocol):
 class FusionMethod:
     """One registered method: its name, when it fuses, and how (its model, from the configuration)."""
 
-    name: str                                      # in run.methods, --method and the results (lower case)
-    source: str                                    # key of its update records in MethodResult.updates
-    rate_hz: float                                 # fusion rate [Hz]; (0, 1000]
-    model: Callable[[Config], MeasurementModel]    # builds the model from the run's configuration
-    summary: str                                   # one line: what the method fuses
+    name: str  # in run.methods, --method and the results (lower case)
+    source: str  # key of its update records in MethodResult.updates
+    rate_hz: float  # fusion rate [Hz]; (0, 1000]
+    model: Callable[[Config], MeasurementModel]  # builds the model from the run's configuration
+    summary: str  # one line: what the method fuses
 
     def __post_init__(self) -> None:
         for field_name, value in (("name", self.name), ("source", self.source)):
             if not isinstance(value, str) or not value or value != value.strip().lower() or "," in value:
-                raise ValueError(f"FusionMethod.{field_name} must be a lower-case name without commas, got {value!r}")
+                raise ValueError(
+                    f"FusionMethod.{field_name} must be a lower-case name without commas, got {value!r}"
+                )
             if value in RESERVED:
-                raise ValueError(f"FusionMethod.{field_name} {value!r} is taken by a built-in method or source")
+                raise ValueError(
+                    f"FusionMethod.{field_name} {value!r} is taken by a built-in method or source"
+                )
         if not 0.0 < self.rate_hz <= 1000.0:
             raise ValueError(f"FusionMethod.rate_hz must be in (0, 1000], got {self.rate_hz!r}")

@@ -25,7 +25,7 @@ import importlib
 from tauvcore.aiding.fusion_method import FusionMethod
 
 MODULES = (
-    "cv",          # tauvcore/aiding/cv.py: constant body velocity, the worked example of docs/adding_a_method.md
+    "cv",  # tauvcore/aiding/cv.py: constant body velocity, the worked example of docs/adding_a_method.md
 )
 """The modules of tauvcore.aiding that define a registered method (each its ``METHOD``), one line each."""
 
@@ -35,9 +35,13 @@ def _load(modules: tuple[str, ...]) -> dict[str, FusionMethod]:
     for module_name in modules:
         method = getattr(importlib.import_module(f"tauvcore.aiding.{module_name}"), "METHOD", None)
         if not isinstance(method, FusionMethod):
-            raise TypeError(f"tauvcore.aiding.{module_name} must define METHOD = FusionMethod(...), got {method!r}")
+            raise TypeError(
+                f"tauvcore.aiding.{module_name} must define METHOD = FusionMethod(...), got {method!r}"
+            )
         if method.name in out or method.source in {m.source for m in out.values()}:
-            raise ValueError(f"tauvcore.aiding.{module_name}: method or source {method.name!r} registered twice")
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: method or source {method.name!r} registered twice"
+            )
         out[method.name] = method
     return out
 

@@ -27,7 +27,7 @@ import numpy as np
 from tauvcore.eval.metrics import average_nees_bounds, chi2_ppf
 from tauvcore.filter.layout import NEES_BLOCKS, STATE
 
-if TYPE_CHECKING:   # the engine (numba) is not loaded to summarise its results
+if TYPE_CHECKING:  # the engine (numba) is not loaded to summarise its results
     from tauvcore.eval.runner import MethodResult, UpdateRecord
 
 CONFIDENCE = 0.99
@@ -51,17 +51,17 @@ def block_dims(method: str) -> dict[str, int]:
 class NeesSummary:
     block: str
     dim: int
-    per_dim: float      # mean NEES / dim over epochs and runs (NaN if none finite)
-    in_band: float      # fraction of epochs with the run-averaged NEES inside the 99 % band
+    per_dim: float  # mean NEES / dim over epochs and runs (NaN if none finite)
+    in_band: float  # fraction of epochs with the run-averaged NEES inside the 99 % band
     band_per_dim: tuple[float, float]  # the band of the run-averaged NEES, divided by dim
 
 
 @dataclass(frozen=True)
 class NisSummary:
     source: str
-    per_dof: float      # sum(NIS) / sum(dof) over the updates that produced a measurement
-    in_band: float      # fraction of those whose NIS lies inside its two-sided 99 % band
-    count: int          # number of (update, run) entries counted
+    per_dof: float  # sum(NIS) / sum(dof) over the updates that produced a measurement
+    in_band: float  # fraction of those whose NIS lies inside its two-sided 99 % band
+    count: int  # number of (update, run) entries counted
 
 
 def nees_series(result: MethodResult, block: str) -> np.ndarray:
@@ -100,21 +100,25 @@ def summarise_nis(record: UpdateRecord, source: str = "") -> NisSummary:
         return NisSummary(source, float("nan"), float("nan"), 0)
     nis, dof = record.nis[used], record.nis_dof[used]
     alpha = 1.0 - CONFIDENCE
-    dofs, inverse = np.unique(dof, return_inverse=True)        # a few distinct dof: one quantile each
+    dofs, inverse = np.unique(dof, return_inverse=True)  # a few distinct dof: one quantile each
     lo, hi = chi2_ppf(alpha / 2, dofs)[inverse], chi2_ppf(1 - alpha / 2, dofs)[inverse]
-    return NisSummary(source, float(nis.sum() / dof.sum()), float(np.mean((nis >= lo) & (nis <= hi))),
-                      int(used.sum()))
+    return NisSummary(
+        source, float(nis.sum() / dof.sum()), float(np.mean((nis >= lo) & (nis <= hi))), int(used.sum())
+    )
 
 
 @dataclass(frozen=True)
 class MethodConsistency:
-    nees: dict[str, NeesSummary]   # "full" and every block of NEES_BLOCKS
-    nis: dict[str, NisSummary]     # every aiding source the method used
+    nees: dict[str, NeesSummary]  # "full" and every block of NEES_BLOCKS
+    nis: dict[str, NisSummary]  # every aiding source the method used
 
 
 def method_consistency(result: MethodResult) -> MethodConsistency:
     """NEES of the full state and every block, and NIS of every aiding source, of one method."""
     return MethodConsistency(
-        nees={block: summarise_nees(nees_series(result, block), dim, block)
-              for block, dim in (result.block_dims or BLOCK_DIMS).items()},
-        nis={src: summarise_nis(rec, src) for src, rec in result.updates.items()})
+        nees={
+            block: summarise_nees(nees_series(result, block), dim, block)
+            for block, dim in (result.block_dims or BLOCK_DIMS).items()
+        },
+        nis={src: summarise_nis(rec, src) for src, rec in result.updates.items()},
+    )

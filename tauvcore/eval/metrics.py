@@ -62,7 +62,9 @@ def block_nees(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_bl
     from tauvcore.filter import kernels
 
     dx_f, P_f, batch = _flat(np.asarray(dx), np.asarray(P))
-    out = kernels.block_nees_batch(dx_f, P_f, np.ascontiguousarray(block_of_state, dtype=np.int64), int(num_blocks))
+    out = kernels.block_nees_batch(
+        dx_f, P_f, np.ascontiguousarray(block_of_state, dtype=np.int64), int(num_blocks)
+    )
     return out.reshape(batch + (num_blocks,))
 
 
@@ -94,9 +96,16 @@ consistent filter rejects a three-axis DVL update at a 3-sigma gate with probabi
 a row with probability 1e-21."""
 
 
-def innovation_divergence_s(t_s: np.ndarray, nis: np.ndarray, nis_dof: np.ndarray, fused: np.ndarray,
-                            valid: np.ndarray, window: int = NIS_WINDOW_UPDATES,
-                            false_alarm: float = NIS_FALSE_ALARM, lockout: int = LOCKOUT_UPDATES) -> np.ndarray:
+def innovation_divergence_s(
+    t_s: np.ndarray,
+    nis: np.ndarray,
+    nis_dof: np.ndarray,
+    fused: np.ndarray,
+    valid: np.ndarray,
+    window: int = NIS_WINDOW_UPDATES,
+    false_alarm: float = NIS_FALSE_ALARM,
+    lockout: int = LOCKOUT_UPDATES,
+) -> np.ndarray:
     """Time of the first innovation inconsistency of one aiding source per run, NaN if none. -> (R,).
 
     Without truth, a filter can only judge itself by its innovations. Over the updates in which
@@ -148,8 +157,9 @@ def sensor_prior_bound(num_states: int, false_alarm: float = SENSOR_PRIOR_FALSE_
     return float(chi2_isf(false_alarm / num_states, 1))
 
 
-def implausible_sensor_errors(estimate: np.ndarray, prior_var: np.ndarray,
-                              false_alarm: float = SENSOR_PRIOR_FALSE_ALARM) -> np.ndarray:
+def implausible_sensor_errors(
+    estimate: np.ndarray, prior_var: np.ndarray, false_alarm: float = SENSOR_PRIOR_FALSE_ALARM
+) -> np.ndarray:
     """True where an estimated sensor error lies far outside the filter's own prior. -> (...).
 
     The sensor-error states (IMU biases, DVL beam biases and scale factor) have a prior: zero mean,

@@ -50,9 +50,12 @@ def replay_config(config: Config, log: Log) -> Config:
             # the start is the sensors' own first values (no offset added: run.ideal), as uncertain
             # as those sensors: P0's attitude and velocity sigmas at least their noise
             ie, mag, dvl = config.initial_error, config.magnetometer, config.dvl
-            config = config.replace("initial_error", roll_pitch_deg=max(ie.roll_pitch_deg, mag.roll_pitch_noise_deg),
-                                    yaw_deg=max(ie.yaw_deg, mag.yaw_noise_deg),
-                                    vel_mps=tuple(max(v, 2.0 * dvl.noise_mps) for v in ie.vel_mps))
+            config = config.replace(
+                "initial_error",
+                roll_pitch_deg=max(ie.roll_pitch_deg, mag.roll_pitch_noise_deg),
+                yaw_deg=max(ie.yaw_deg, mag.yaw_noise_deg),
+                vel_mps=tuple(max(v, 2.0 * dvl.noise_mps) for v in ie.vel_mps),
+            )
             config = config.replace("run", ideal=True)
     except ConfigError as exc:
         raise LogError(f"{show_path(log.source)}: the log does not fit the configuration: {exc}") from None
@@ -105,8 +108,10 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
     (the depth sensor's first row). Returned as one-row reference arrays (position, Euler, NED
     velocity; the position geodetic on WGS-84, NED from the surface point on the flat earth)."""
     if log.attitude_t_s is None:
-        raise LogError(f"{show_path(log.source)}: no reference and no attitude table: nothing says where the "
-                       "filters start")
+        raise LogError(
+            f"{show_path(log.source)}: no reference and no attitude table: nothing says where the "
+            "filters start"
+        )
     euler = log.attitude_euler[:1]
     C = C_nb_from_euler(euler)[0]
     vel_b = np.zeros(3)
@@ -138,8 +143,14 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     K = t.size
     if log.ref_t_s is None:
         start_pos, start_euler, start_vel = _start_from_sensors(config, log)
-        log = dataclasses.replace(log, ref_t_s=t[:1], ref_position=start_pos, ref_euler=start_euler,
-                                  ref_vel_n=start_vel, ref_geodetic=config.earth.geodetic)
+        log = dataclasses.replace(
+            log,
+            ref_t_s=t[:1],
+            ref_position=start_pos,
+            ref_euler=start_euler,
+            ref_vel_n=start_vel,
+            ref_geodetic=config.earth.geodetic,
+        )
         pos, euler, vel_n = (np.full((K, 3), np.nan) for _ in range(3))
         pos[0], euler[0], vel_n[0] = start_pos[0], start_euler[0], start_vel[0]
     else:
@@ -151,19 +162,41 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
             pos_nav = pos
         else:
             pos_nav = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], (pos[0, 0], pos[0, 1], 0.0))
-        pos_n = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], (config.earth.latitude_rad,
-                                                                     config.earth.longitude_rad, 0.0))
+        pos_n = ned_from_geodetic(
+            pos[:, 0], pos[:, 1], -pos[:, 2], (config.earth.latitude_rad, config.earth.longitude_rad, 0.0)
+        )
     else:
         if config.earth.geodetic:
-            raise LogError(f"{show_path(log.source)}: the reference is local (north_m, east_m, down_m); replay it with "
-                           "--earth flat, or give it as lat, lon and depth_m")
+            raise LogError(
+                f"{show_path(log.source)}: the reference is local (north_m, east_m, down_m); replay it with "
+                "--earth flat, or give it as lat, lon and depth_m"
+            )
         pos_n = pos_nav = pos
     nan3 = np.full((K, 3), np.nan)
-    truth = Truth(name="log", earth=config.earth, t_s=t - t[0], pos_n=pos_n, vel_n=vel_n, vel_b=vel_b, C_nb=C,
-                  euler=euler, omega_nb_b=nan3, omega_ib_b=nan3, f_b=nan3, dtheta_ib_b=log.dtheta_b, dv_b=log.dv_b,
-                  step_s=log.dt_s, pos_nav=pos_nav)
-    imu = imu_sensor.ImuData(t_s=truth.t_s, dtheta_b=log.dtheta_b[:, None], dv_b=log.dv_b[:, None],
-                             accel_bias=np.full((K, 1, 3), np.nan), gyro_bias=np.full((K, 1, 3), np.nan))
+    truth = Truth(
+        name="log",
+        earth=config.earth,
+        t_s=t - t[0],
+        pos_n=pos_n,
+        vel_n=vel_n,
+        vel_b=vel_b,
+        C_nb=C,
+        euler=euler,
+        omega_nb_b=nan3,
+        omega_ib_b=nan3,
+        f_b=nan3,
+        dtheta_ib_b=log.dtheta_b,
+        dv_b=log.dv_b,
+        step_s=log.dt_s,
+        pos_nav=pos_nav,
+    )
+    imu = imu_sensor.ImuData(
+        t_s=truth.t_s,
+        dtheta_b=log.dtheta_b[:, None],
+        dv_b=log.dv_b[:, None],
+        accel_bias=np.full((K, 1, 3), np.nan),
+        gyro_bias=np.full((K, 1, 3), np.nan),
+    )
     dvl_cfg = config.dvl
     if log.dvl_t_s is not None:
         k, keep = _epochs(log, log.dvl_t_s)
@@ -176,27 +209,47 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
         if dvl_cfg.dropout_probability > 0:
             available &= uniform(rng, y.shape) >= dvl_cfg.dropout_probability
         y = np.where(available, y, np.nan)
-        dvl = dvl_sensor.DvlData(t_s=truth.t_s[k], index=k, y_beam_mps=y[:, None], available=available[:, None],
-                                 bias_mps=np.full((k.size, 1, 4), np.nan), scale_factor=np.full((k.size, 1), np.nan))
+        dvl = dvl_sensor.DvlData(
+            t_s=truth.t_s[k],
+            index=k,
+            y_beam_mps=y[:, None],
+            available=available[:, None],
+            bias_mps=np.full((k.size, 1, 4), np.nan),
+            scale_factor=np.full((k.size, 1), np.nan),
+        )
     else:
-        dvl = dvl_sensor.DvlData(t_s=np.zeros(0), index=np.zeros(0, np.int64), y_beam_mps=np.zeros((0, 1, 4)),
-                                 available=np.zeros((0, 1, 4), bool), bias_mps=np.zeros((0, 1, 4)),
-                                 scale_factor=np.zeros((0, 1)))
+        dvl = dvl_sensor.DvlData(
+            t_s=np.zeros(0),
+            index=np.zeros(0, np.int64),
+            y_beam_mps=np.zeros((0, 1, 4)),
+            available=np.zeros((0, 1, 4), bool),
+            bias_mps=np.zeros((0, 1, 4)),
+            scale_factor=np.zeros((0, 1)),
+        )
     if log.depth_t_s is not None:
         k, keep = _epochs(log, log.depth_t_s)
-        pressure = pressure_sensor.PressureData(t_s=truth.t_s[k[keep]], index=k[keep], depth_m=log.depth_m[keep][:, None])
+        pressure = pressure_sensor.PressureData(
+            t_s=truth.t_s[k[keep]], index=k[keep], depth_m=log.depth_m[keep][:, None]
+        )
     else:
-        pressure = pressure_sensor.PressureData(t_s=np.zeros(0), index=np.zeros(0, np.int64), depth_m=np.zeros((0, 1)))
+        pressure = pressure_sensor.PressureData(
+            t_s=np.zeros(0), index=np.zeros(0, np.int64), depth_m=np.zeros((0, 1))
+        )
     if log.attitude_t_s is not None:
         k, keep = _epochs(log, log.attitude_t_s)
-        mag = mag_sensor.MagnetometerData(t_s=truth.t_s[k[keep]], index=k[keep],
-                                          euler=log.attitude_euler[keep][:, None])
+        mag = mag_sensor.MagnetometerData(
+            t_s=truth.t_s[k[keep]], index=k[keep], euler=log.attitude_euler[keep][:, None]
+        )
     else:
-        mag = mag_sensor.MagnetometerData(t_s=np.zeros(0), index=np.zeros(0, np.int64), euler=np.zeros((0, 1, 3)))
+        mag = mag_sensor.MagnetometerData(
+            t_s=np.zeros(0), index=np.zeros(0, np.int64), euler=np.zeros((0, 1, 3))
+        )
     return Simulation(truth=truth, imu=imu, dvl=dvl, pressure=pressure, mag=mag, num_runs=1)
 
 
-def with_imu_errors(sim: Simulation, imu_config: imu_sensor.ImuConfig, rng: np.random.Generator) -> Simulation:
+def with_imu_errors(
+    sim: Simulation, imu_config: imu_sensor.ImuConfig, rng: np.random.Generator
+) -> Simulation:
     """The log's IMU with a simulated IMU's errors added on top (turn-on biases, their walks,
     white noise, scale factors and misalignments of ``imu_config``, drawn from ``rng`` as
     tauvcore.sensors.imu does for a simulation): a navigation-grade log made to behave like a
@@ -206,10 +259,14 @@ def with_imu_errors(sim: Simulation, imu_config: imu_sensor.ImuConfig, rng: np.r
     return dataclasses.replace(sim, imu=imu)
 
 
-def replay(config: Config, log: Log, rng: np.random.Generator,
-           progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-           should_stop: Callable[[], bool] | None = None,
-           imu_errors: imu_sensor.ImuConfig | None = None) -> tuple[Config, dict[str, MethodResult]]:
+def replay(
+    config: Config,
+    log: Log,
+    rng: np.random.Generator,
+    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    imu_errors: imu_sensor.ImuConfig | None = None,
+) -> tuple[Config, dict[str, MethodResult]]:
     """Every method of ``config.run.methods`` on the log; returns the configuration as the log
     made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.eval.runner.run`
     gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any.

@@ -101,11 +101,13 @@ class Simulation:
     pressure: pressure_sensor.PressureData
     mag: mag_sensor.MagnetometerData
     num_runs: int
-    echo: echo_sensor.EchoSounderData | None = None   # echo sounder (None: a log without one)
-    rpm: rpm_sensor.RpmData | None = None               # propeller RPM (None: a log without one)
+    echo: echo_sensor.EchoSounderData | None = None  # echo sounder (None: a log without one)
+    rpm: rpm_sensor.RpmData | None = None  # propeller RPM (None: a log without one)
 
 
-def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None) -> Simulation:
+def simulate(
+    config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None
+) -> Simulation:
     """Generate the truth (unless given) and the sensor outputs (errors zeroed if ``config.run.ideal``)."""
     ideal = config.run.ideal
     if truth is None:
@@ -116,40 +118,43 @@ def simulate(config: Config, rng: np.random.Generator, num_runs: int = 1, truth:
     m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
     seabed = bathymetry(config.trajectory)
     extra = rng.spawn(1)[0]
-    return Simulation(truth=truth,
-                      imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
-                      dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
-                      pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
-                      mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
-                      num_runs=num_runs,
-                      # from a child of rng (spawning draws nothing): what rng draws next, the filters'
-                      # initial errors, is what it drew before these sensors existed
-                      echo=echo_sensor.simulate(truth, config.echo_sounder.ideal() if ideal else config.echo_sounder,
-                                                seabed, extra, num_runs),
-                      rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs))
+    return Simulation(
+        truth=truth,
+        imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
+        dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
+        pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
+        mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
+        num_runs=num_runs,
+        # from a child of rng (spawning draws nothing): what rng draws next, the filters'
+        # initial errors, is what it drew before these sensors existed
+        echo=echo_sensor.simulate(
+            truth, config.echo_sounder.ideal() if ideal else config.echo_sounder, seabed, extra, num_runs
+        ),
+        rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs),
+    )
 
 
 @dataclass(frozen=True)
 class UpdateRecord:
     """Every update of one aiding source for one method: U epochs x R runs."""
 
-    t_s: np.ndarray             # (U,)
-    z: np.ndarray               # (U, R, m) observation
-    innovation: np.ndarray      # (U, R, m)
+    t_s: np.ndarray  # (U,)
+    z: np.ndarray  # (U, R, m) observation
+    innovation: np.ndarray  # (U, R, m)
     innovation_var: np.ndarray  # (U, R, m) diagonal of S
-    test_ratio: np.ndarray      # (U, R) max_i nu_i^2 / (gate^2 S_ii)
-    fused: np.ndarray           # (U, R) bool
-    rejected: np.ndarray        # (U, R) bool (failed the gate)
-    valid: np.ndarray           # (U, R) bool (the source produced a measurement)
-    fused_rows: np.ndarray      # (U, R, m) bool
-    rejected_rows: np.ndarray   # (U, R, m) bool
-    nis: np.ndarray             # (U, R) normalised innovation squared over the active rows, before the gate
-    nis_dof: np.ndarray         # (U, R) int: its degrees of freedom (active rows)
-    unusable: np.ndarray        # (U, R) bool: S not finite or not positive definite, nothing fused
+    test_ratio: np.ndarray  # (U, R) max_i nu_i^2 / (gate^2 S_ii)
+    fused: np.ndarray  # (U, R) bool
+    rejected: np.ndarray  # (U, R) bool (failed the gate)
+    valid: np.ndarray  # (U, R) bool (the source produced a measurement)
+    fused_rows: np.ndarray  # (U, R, m) bool
+    rejected_rows: np.ndarray  # (U, R, m) bool
+    nis: np.ndarray  # (U, R) normalised innovation squared over the active rows, before the gate
+    nis_dof: np.ndarray  # (U, R) int: its degrees of freedom (active rows)
+    unusable: np.ndarray  # (U, R) bool: S not finite or not positive definite, nothing fused
     beams_available: np.ndarray | None = None  # (U, R, 4) DVL only: beams that returned
-    mode: np.ndarray | None = None             # (U, R) DVL only: MODE_* code (coast, lc, partial, tc)
-    measured_axes: np.ndarray | None = None    # (U, R, 3) DVL only: body axes the velocity carried
-    elc_choice: np.ndarray | None = None       # (U, R, 3) ELC only: index into elc_select.CANDIDATES
+    mode: np.ndarray | None = None  # (U, R) DVL only: MODE_* code (coast, lc, partial, tc)
+    measured_axes: np.ndarray | None = None  # (U, R, 3) DVL only: body axes the velocity carried
+    elc_choice: np.ndarray | None = None  # (U, R, 3) ELC only: index into elc_select.CANDIDATES
 
 
 @dataclass(frozen=True)
@@ -157,34 +162,36 @@ class MethodResult:
     """Per-epoch results of one method over R runs (time first)."""
 
     method: str
-    t_s: np.ndarray             # (T,) output epochs [s]
-    vel_err_mps: np.ndarray     # (T, R) |body velocity error|
-    att_err_deg: np.ndarray     # (T, R) |misalignment| (tilt and heading together)
-    pos_err_m: np.ndarray       # (T, R) |position error|
-    vel_sigma_mps: np.ndarray   # (T, R) sqrt(trace P_vel), the filter's own 1-sigma of the norm
-    att_sigma_deg: np.ndarray   # (T, R)
-    pos_sigma_m: np.ndarray     # (T, R)
-    nees: np.ndarray            # (T, R) full 20-state NEES against truth
-    tilt_err_deg: np.ndarray    # (T, R) |(rho_N, rho_E)|: roll/pitch (levelling) error
+    t_s: np.ndarray  # (T,) output epochs [s]
+    vel_err_mps: np.ndarray  # (T, R) |body velocity error|
+    att_err_deg: np.ndarray  # (T, R) |misalignment| (tilt and heading together)
+    pos_err_m: np.ndarray  # (T, R) |position error|
+    vel_sigma_mps: np.ndarray  # (T, R) sqrt(trace P_vel), the filter's own 1-sigma of the norm
+    att_sigma_deg: np.ndarray  # (T, R)
+    pos_sigma_m: np.ndarray  # (T, R)
+    nees: np.ndarray  # (T, R) full 20-state NEES against truth
+    tilt_err_deg: np.ndarray  # (T, R) |(rho_N, rho_E)|: roll/pitch (levelling) error
     heading_err_deg: np.ndarray  # (T, R) |rho_D|: heading (azimuth) error
     tilt_sigma_deg: np.ndarray  # (T, R) sqrt(P_NN + P_EE) of the misalignment
     heading_sigma_deg: np.ndarray  # (T, R) sqrt(P_DD) of the misalignment
-    nees_block: np.ndarray      # (T, R, B) NEES of each block of layout.NEES_BLOCKS (in its order)
-    est_pos_n: np.ndarray       # (T, R, 3) estimated position, NED [m] from the sea-surface point above the start
-                                # (on WGS-84 in that point's tangent frame: tauvcore.geo.earth.geodetic_from_ned)
-    diverged: np.ndarray        # (R,) bool: the divergence monitor flagged this run's solution
-    diverged_at_s: np.ndarray   # (R,) time of the first flag [s], NaN if never
-    p_floor_count: np.ndarray   # (R,) times an eigenvalue of P was raised to the floor
+    nees_block: np.ndarray  # (T, R, B) NEES of each block of layout.NEES_BLOCKS (in its order)
+    est_pos_n: np.ndarray  # (T, R, 3) estimated position, NED [m] from the sea-surface point above the start
+    # (on WGS-84 in that point's tangent frame: tauvcore.geo.earth.geodetic_from_ned)
+    diverged: np.ndarray  # (R,) bool: the divergence monitor flagged this run's solution
+    diverged_at_s: np.ndarray  # (R,) time of the first flag [s], NaN if never
+    p_floor_count: np.ndarray  # (R,) times an eigenvalue of P was raised to the floor
     updates: dict[str, UpdateRecord] = field(default_factory=dict)
-    est_vel_n: np.ndarray | None = None      # (T, R, 3) estimated NED velocity [m/s]
+    est_vel_n: np.ndarray | None = None  # (T, R, 3) estimated NED velocity [m/s]
     est_euler_rad: np.ndarray | None = None  # (T, R, 3) estimated roll, pitch, yaw [rad]
     block_dims: dict[str, int] | None = None  # NEES dimensions when not the 20-state filter's (Yoo 2014's
-                                              # 12: tauvcore.eval.yoo_bank.BLOCK_DIMS); None: consistency.BLOCK_DIMS
+    # 12: tauvcore.eval.yoo_bank.BLOCK_DIMS); None: consistency.BLOCK_DIMS
     vkf_trace: dict[str, np.ndarray] | None = None  # the velocity Kalman filter at every ping (method vkf:
-                                                    # tauvcore.eval.yoo_bank.YooBank._vkf_series)
+    # tauvcore.eval.yoo_bank.YooBank._vkf_series)
 
 
-def _initial_draws(rng: np.random.Generator | Sequence[np.random.Generator], R: int) -> tuple[np.ndarray, ...]:
+def _initial_draws(
+    rng: np.random.Generator | Sequence[np.random.Generator], R: int
+) -> tuple[np.ndarray, ...]:
     """Standard normals of the random initial errors (position, misalignment, velocity), (R, 3)
     each: from one generator for the whole batch, or one per run (a study's runs, each its own
     seeded unit: tauvcore.eval.study)."""
@@ -196,8 +203,13 @@ def _initial_draws(rng: np.random.Generator | Sequence[np.random.Generator], R: 
     return tuple(np.stack([d[i] for d in draws]) for i in range(3))
 
 
-def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator | Sequence[np.random.Generator],
-                     batch: tuple[int, int], P0_nav_att: np.ndarray) -> Nominal:
+def _initial_nominal(
+    config: Config,
+    truth: Truth,
+    rng: np.random.Generator | Sequence[np.random.Generator],
+    batch: tuple[int, int],
+    P0_nav_att: np.ndarray,
+) -> Nominal:
     """Estimate at t = 0: truth with the initial errors (fixed, or drawn per run), biases zero."""
     _, R = batch
     ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
@@ -209,7 +221,9 @@ def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator | Se
         offset_m = np.ascontiguousarray(np.broadcast_to(offset_m, (R, 3)), dtype=float)
         if not truth.earth.geodetic:
             return pos_true + offset_m
-        return kernels.add_position_batch(np.ascontiguousarray(np.broadcast_to(pos_true, (R, 3))), offset_m, True)
+        return kernels.add_position_batch(
+            np.ascontiguousarray(np.broadcast_to(pos_true, (R, 3))), offset_m, True
+        )
 
     if ie.mode == "fixed":
         pos = moved(np.asarray(ie.pos_m))
@@ -222,11 +236,18 @@ def _initial_nominal(config: Config, truth: Truth, rng: np.random.Generator | Se
         C = exp_so3(-rho) @ C_true  # C_true = exp(rho) C_hat
         vel_b = v_true_b + n_vel * np.asarray(ie.vel_mps)
     vel_n = mv(C, vel_b)
-    nav = NavState(pos_n=np.broadcast_to(pos, batch + (3,)).copy(),
-                   vel_n=np.broadcast_to(vel_n, batch + (3,)).copy(),
-                   C_nb=np.broadcast_to(C, batch + (3, 3)).copy())
-    return Nominal(nav=nav, accel_bias=np.zeros(batch + (3,)), gyro_bias=np.zeros(batch + (3,)),
-                   dvl_bias=np.zeros(batch + (4,)), dvl_sf=np.zeros(batch))
+    nav = NavState(
+        pos_n=np.broadcast_to(pos, batch + (3,)).copy(),
+        vel_n=np.broadcast_to(vel_n, batch + (3,)).copy(),
+        C_nb=np.broadcast_to(C, batch + (3, 3)).copy(),
+    )
+    return Nominal(
+        nav=nav,
+        accel_bias=np.zeros(batch + (3,)),
+        gyro_bias=np.zeros(batch + (3,)),
+        dvl_bias=np.zeros(batch + (4,)),
+        dvl_sf=np.zeros(batch),
+    )
 
 
 def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
@@ -249,7 +270,9 @@ def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
     P0[STATE.att, STATE.att] = J_inv @ np.diag(np.square(ie.euler_rad)) @ J_inv.T
     P0[STATE.vel, STATE.vel] = np.diag(np.square(ie.vel_mps))
     g = float(np.linalg.norm(config.earth.g_n))
-    axes_on_gravity = g * np.array([imu.accel_misalignment_rad, imu.accel_misalignment_rad, imu.accel_scale_factor])
+    axes_on_gravity = g * np.array(
+        [imu.accel_misalignment_rad, imu.accel_misalignment_rad, imu.accel_scale_factor]
+    )
     P0[STATE.ba, STATE.ba] = np.diag(imu.accel_bias_mps2**2 + axes_on_gravity**2)
     P0[STATE.bg, STATE.bg] = np.eye(3) * imu.gyro_bias_rps**2
     P0[STATE.b_dvl, STATE.b_dvl] = np.eye(4) * dvl.bias_mps**2
@@ -285,22 +308,41 @@ class _Recorder:
         self.rows_of = rows
         self.t: list[float] = []
         self.rows: list[dict[str, np.ndarray]] = []
-        self.chunks: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []   # sealed (t, fields)
-        self.monitor_t = np.zeros(0)                       # the monitor's columns, grown by doubling
+        self.chunks: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []  # sealed (t, fields)
+        self.monitor_t = np.zeros(0)  # the monitor's columns, grown by doubling
         self.monitor: dict[str, np.ndarray] = {}
-        self.taken = 0      # sealed chunks already handed out (FilterBank.take with keep)
-        self.count = 0      # updates recorded over the whole mission
+        self.taken = 0  # sealed chunks already handed out (FilterBank.take with keep)
+        self.count = 0  # updates recorded over the whole mission
 
-    def add(self, t: float, outcome: UpdateOutcome, valid: np.ndarray, shared: dict[str, np.ndarray] | None = None,
-            **extra: np.ndarray) -> None:
+    def add(
+        self,
+        t: float,
+        outcome: UpdateOutcome,
+        valid: np.ndarray,
+        shared: dict[str, np.ndarray] | None = None,
+        **extra: np.ndarray,
+    ) -> None:
         """One update of every method and run: ``outcome`` and ``valid``, ``extra`` (M, R, ...);
         ``shared`` (R, ...)."""
         self.t.append(t)
-        self.rows.append({"z": outcome.z, "innovation": outcome.innovation, "innovation_var": outcome.innovation_var,
-                          "test_ratio": outcome.test_ratio, "fused": outcome.fused, "rejected": outcome.rejected,
-                          "valid": valid, "fused_rows": outcome.fused_rows, "rejected_rows": outcome.rejected_rows,
-                          "nis": outcome.nis, "nis_dof": outcome.nis_dof, "unusable": outcome.unusable, **extra,
-                          **{f"shared:{k}": v for k, v in (shared or {}).items()}})
+        self.rows.append(
+            {
+                "z": outcome.z,
+                "innovation": outcome.innovation,
+                "innovation_var": outcome.innovation_var,
+                "test_ratio": outcome.test_ratio,
+                "fused": outcome.fused,
+                "rejected": outcome.rejected,
+                "valid": valid,
+                "fused_rows": outcome.fused_rows,
+                "rejected_rows": outcome.rejected_rows,
+                "nis": outcome.nis,
+                "nis_dof": outcome.nis_dof,
+                "unusable": outcome.unusable,
+                **extra,
+                **{f"shared:{k}": v for k, v in (shared or {}).items()},
+            }
+        )
         self.count += 1
 
     def seal(self) -> None:
@@ -318,15 +360,17 @@ class _Recorder:
         done = self.count - t.size
         if not self.monitor:
             self.monitor_t = np.empty(max(64, t.size))
-            self.monitor = {k: np.empty((self.monitor_t.size,) + fields[k].shape[1:], fields[k].dtype)
-                            for k in self.MONITOR}
+            self.monitor = {
+                k: np.empty((self.monitor_t.size,) + fields[k].shape[1:], fields[k].dtype)
+                for k in self.MONITOR
+            }
         if done + t.size > self.monitor_t.size:
             size = max(2 * self.monitor_t.size, done + t.size)
             self.monitor_t = np.resize(self.monitor_t, size)
             self.monitor = {k: np.resize(v, (size,) + v.shape[1:]) for k, v in self.monitor.items()}
-        self.monitor_t[done:done + t.size] = t
+        self.monitor_t[done : done + t.size] = t
         for k in self.MONITOR:
-            self.monitor[k][done:done + t.size] = fields[k]
+            self.monitor[k][done : done + t.size] = fields[k]
 
     def build(self, m: int, first: int = 0) -> UpdateRecord | None:
         """Method ``m``'s record of the sealed chunks from ``first`` on (None if there are none)."""
@@ -337,7 +381,7 @@ class _Recorder:
         fields = {}
         for k in chunks[0][1]:
             if k.startswith("shared:"):
-                fields[k[len("shared:"):]] = np.concatenate([c[1][k] for c in chunks])
+                fields[k[len("shared:") :]] = np.concatenate([c[1][k] for c in chunks])
                 continue
             a = np.concatenate([c[1][k][:, m] for c in chunks])
             fields[k] = a[..., :rows] if rows is not None and k in self.ROW_FIELDS else a
@@ -349,7 +393,7 @@ class _Recorder:
 
     def divergence_s(self, m: int) -> np.ndarray:
         """First flag of method ``m``'s innovation test over the whole mission so far (R,)."""
-        n = self.count - len(self.t)            # sealed updates
+        n = self.count - len(self.t)  # sealed updates
         c = {k: v[:n, m] for k, v in self.monitor.items()}
         return innovation_divergence_s(self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"])
 
@@ -408,7 +452,11 @@ def partial_tables(methods: Sequence[str], config: Config) -> tuple[np.ndarray, 
             for c, sol in enumerate(solutions):
                 ok[i, code, c] = sol.ok
                 Cc[i, code, c], Dc[i, code, c] = sol.C, sol.D
-                gc[i, code, c], ac[i, code, c], mc[i, code, c] = sol.pred_gain, sol.assumption_sd, sol.measured
+                gc[i, code, c], ac[i, code, c], mc[i, code, c] = (
+                    sol.pred_gain,
+                    sol.assumption_sd,
+                    sol.measured,
+                )
     return n_cand, ok, Cc, Dc, gc, ac, mc
 
 
@@ -424,8 +472,15 @@ class FilterBank:
     (:meth:`take`) and dropped, so that memory does not grow with the mission.
     """
 
-    def __init__(self, config: Config, num_runs: int, num_samples: int, dt_s: float,
-                 rng: np.random.Generator | Sequence[np.random.Generator], keep: bool = True) -> None:
+    def __init__(
+        self,
+        config: Config,
+        num_runs: int,
+        num_samples: int,
+        dt_s: float,
+        rng: np.random.Generator | Sequence[np.random.Generator],
+        keep: bool = True,
+    ) -> None:
         self.config, self.rng, self.keep = config, rng, keep
         self.methods = methods = tuple(config.run.methods)
         M, R = len(methods), num_runs
@@ -434,8 +489,14 @@ class FilterBank:
         earth = config.earth
         strapdown = Strapdown(earth, dt_s)
         self.geodetic = earth.geodetic
-        self.sd_consts = (dt_s, strapdown.C_earth, strapdown.C_earth_half, strapdown.g_n, strapdown.coriolis_T,
-                          self.geodetic)
+        self.sd_consts = (
+            dt_s,
+            strapdown.C_earth,
+            strapdown.C_earth_half,
+            strapdown.g_n,
+            strapdown.coriolis_T,
+            self.geodetic,
+        )
         # NED positions are recorded from the sea-surface point above the start (Truth.pos_n)
         self.origin = np.array([earth.latitude_rad, earth.longitude_rad, 0.0])
         self.g_n, self.w_ie = np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n)
@@ -443,14 +504,20 @@ class FilterBank:
         self.aiding = set(config.run.aiding)
         gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
         # the aided methods (every one but the standalone INS) take the depth and magnetometer
-        self.other_mask = (np.array([DVL_FUSION.get(m) is not None or m in REGISTRY for m in methods])[:, None]
-                           & np.ones(self.batch, bool))
+        self.other_mask = np.array([DVL_FUSION.get(m) is not None or m in REGISTRY for m in methods])[
+            :, None
+        ] & np.ones(self.batch, bool)
         self.depth_model = Depth(config.pressure)
         self.mag_model = MagAttitude(config.magnetometer)
         self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION.get(m) is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
-        self.dvl_codes = np.array([{"lc": kernels.DVL_LC, "tc": kernels.DVL_TC, "elc": kernels.DVL_ELC}[DVL_FUSION[m]]
-                                   for _, m in self.dvl_methods], dtype=np.int64)
+        self.dvl_codes = np.array(
+            [
+                {"lc": kernels.DVL_LC, "tc": kernels.DVL_TC, "elc": kernels.DVL_ELC}[DVL_FUSION[m]]
+                for _, m in self.dvl_methods
+            ],
+            dtype=np.int64,
+        )
         self.partial_tables = partial_tables([m for _, m in self.dvl_methods], config)
         self.A_b = np.ascontiguousarray(config.dvl.A_b, dtype=float)
         self.l_dvl_b = np.ascontiguousarray(config.dvl.l_dvl_b, dtype=float)
@@ -462,15 +529,21 @@ class FilterBank:
         dvl_members = np.isin(np.arange(M), self.dvl_index)
         dvl_rows = np.array([DVL_ROWS if DVL_FUSION.get(m) == "tc" else 3 for m in methods], dtype=np.int64)
         others = self.other_mask.any(axis=1)
-        self.recorders = {"dvl": _Recorder(dvl_members, dvl_rows), "depth": _Recorder(others),
-                          "mag": _Recorder(others), "rpm": _Recorder(dvl_members, dvl_rows)}
+        self.recorders = {
+            "dvl": _Recorder(dvl_members, dvl_rows),
+            "depth": _Recorder(others),
+            "mag": _Recorder(others),
+            "rpm": _Recorder(dvl_members, dvl_rows),
+        }
         # registered methods (tauvcore.aiding.registry): each its model, members and epochs
         self.registered = []
         for name in (m for m in methods if m in REGISTRY):
             spec = REGISTRY[name]
             step = max(1, int(round(config.imu.rate_hz / spec.rate_hz)))
             members = np.array([m == name for m in methods])
-            self.registered.append((spec.source, spec.model(config), members, np.arange(step, num_samples, step)))
+            self.registered.append(
+                (spec.source, spec.model(config), members, np.arange(step, num_samples, step))
+            )
             self.recorders[spec.source] = _Recorder(members)
         # --rpm-fallback: one velocity Kalman filter per run (tauvcore.eval.yoo_bank.RpmAid)
         self.rpm_aid = None
@@ -487,14 +560,16 @@ class FilterBank:
             self.block_of_state[list(ix)] = b
         self.gate = config.filter.gate_sigma
         self.p_floor_count = np.zeros(self.batch, dtype=int)
-        self.nonfinite_at_s = np.full(self.batch, np.nan)   # first output epoch with a non-finite state or P
-        self.implausible_at_s = np.full(self.batch, np.nan)  # first aiding epoch with a sensor error outside its prior
-        self.slot = 0                   # output epochs recorded so far
-        self.taken = 0                  # output epochs handed out by take()
-        self.stored: list[dict[str, np.ndarray]] = []   # recorded output epochs, chunk by chunk
+        self.nonfinite_at_s = np.full(self.batch, np.nan)  # first output epoch with a non-finite state or P
+        self.implausible_at_s = np.full(
+            self.batch, np.nan
+        )  # first aiding epoch with a sensor error outside its prior
+        self.slot = 0  # output epochs recorded so far
+        self.taken = 0  # output epochs handed out by take()
+        self.stored: list[dict[str, np.ndarray]] = []  # recorded output epochs, chunk by chunk
         self.started = False
         self.stopped = False
-        self.stopped_at_s = np.nan      # the output epoch a stop request ended the results at
+        self.stopped_at_s = np.nan  # the output epoch a stop request ended the results at
 
     # ------------------------------------------------------------------ set-up at the first chunk
     def start(self, chunk: SimChunk) -> None:
@@ -504,34 +579,63 @@ class FilterBank:
         self.P0 = P0 = initial_covariance(config, truth.euler[0])
         self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
         nom = _initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
-        arrays = [np.array(a, dtype=float, order="C") for a in (nom.nav.pos_n, nom.nav.vel_n, nom.nav.C_nb,
-                                                                nom.accel_bias, nom.gyro_bias, nom.dvl_bias,
-                                                                nom.dvl_sf)]
+        arrays = [
+            np.array(a, dtype=float, order="C")
+            for a in (
+                nom.nav.pos_n,
+                nom.nav.vel_n,
+                nom.nav.C_nb,
+                nom.accel_bias,
+                nom.gyro_bias,
+                nom.dvl_bias,
+                nom.dvl_sf,
+            )
+        ]
         self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf = arrays
-        self.initial_nav = (self.pos[0].copy(), self.vel[0].copy(), self.C[0].copy())   # per run (methods share it)
-        self.flat = (self.pos.reshape(-1, 3), self.vel.reshape(-1, 3), self.C.reshape(-1, 3, 3),
-                     self.ba.reshape(-1, 3), self.bg.reshape(-1, 3), self.bdvl.reshape(-1, 4), self.sf.reshape(-1))
+        self.initial_nav = (
+            self.pos[0].copy(),
+            self.vel[0].copy(),
+            self.C[0].copy(),
+        )  # per run (methods share it)
+        self.flat = (
+            self.pos.reshape(-1, 3),
+            self.vel.reshape(-1, 3),
+            self.C.reshape(-1, 3, 3),
+            self.ba.reshape(-1, 3),
+            self.bg.reshape(-1, 3),
+            self.bdvl.reshape(-1, 4),
+            self.sf.reshape(-1),
+        )
         sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
         self.prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
-        self.prior_rate = np.concatenate([self.q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)])
+        self.prior_rate = np.concatenate(
+            [self.q_psd[n] for n in (NOISE.ba, NOISE.bg, NOISE.b_dvl, NOISE.sf_dvl)]
+        )
         self.sensor_bound = sensor_prior_bound(self.prior_var0.size)
         R = self.batch[1]
         # true DVL errors at a sample: those of the latest ping (the first ping's before it; zero without pings)
         dvl = chunk.dvl
         self.ping_bias = np.array(dvl.bias_mps[0] if len(dvl.index) else np.zeros((R, 4)), dtype=float)
         self.ping_sf = np.array(dvl.scale_factor[0] if len(dvl.index) else np.zeros(R), dtype=float)
-        self.prev_raw: tuple[np.ndarray, np.ndarray] | None = None   # raw increments of the sample before a chunk
-        self.k_state = 0                # sample the nominal state is at
-        self.k_cov = 0                  # sample the covariance was last propagated to
-        self.k_checked = 0              # sample P was last checked (positive definite) at
-        self.dtheta_sum = np.zeros((R, 3))   # gyro increments since k_cov
+        self.prev_raw: tuple[np.ndarray, np.ndarray] | None = (
+            None  # raw increments of the sample before a chunk
+        )
+        self.k_state = 0  # sample the nominal state is at
+        self.k_cov = 0  # sample the covariance was last propagated to
+        self.k_checked = 0  # sample P was last checked (positive definite) at
+        self.dtheta_sum = np.zeros((R, 3))  # gyro increments since k_cov
         self.started = True
 
     def nominal(self, m: int | None = None) -> Nominal:
         """The current estimate (views): of method m, or of the whole bank."""
         sel = slice(None) if m is None else m
-        return Nominal(NavState(self.pos[sel], self.vel[sel], self.C[sel]), self.ba[sel], self.bg[sel],
-                       self.bdvl[sel], self.sf[sel])
+        return Nominal(
+            NavState(self.pos[sel], self.vel[sel], self.C[sel]),
+            self.ba[sel],
+            self.bg[sel],
+            self.bdvl[sel],
+            self.sf[sel],
+        )
 
     # ------------------------------------------------------------------ the pieces of an epoch
     def _condition(self) -> None:
@@ -548,15 +652,34 @@ class FilterBank:
 
     def _check_sensor_errors(self, t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
-        kernels.flag_implausible_bank(self.ba, self.bg, self.bdvl, self.sf, self.prior_var0, self.prior_rate, t,
-                                      self.sensor_bound, self.implausible_at_s)   # metrics.implausible_sensor_errors
+        kernels.flag_implausible_bank(
+            self.ba,
+            self.bg,
+            self.bdvl,
+            self.sf,
+            self.prior_var0,
+            self.prior_rate,
+            t,
+            self.sensor_bound,
+            self.implausible_at_s,
+        )  # metrics.implausible_sensor_errors
 
-    def _fuse(self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
-              ) -> tuple[np.ndarray, ...]:
+    def _fuse(
+        self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
+    ) -> tuple[np.ndarray, ...]:
         """One compiled gated correction and injection of the whole bank in place (inactive rows
         and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...)."""
-        fused = fuse_in_place(self.P.reshape(-1, STATE.dim, STATE.dim), self.flat, H, Rm, nu, active,
-                              gate_rows.reshape(-1), self.gate, self.geodetic)
+        fused = fuse_in_place(
+            self.P.reshape(-1, STATE.dim, STATE.dim),
+            self.flat,
+            H,
+            Rm,
+            nu,
+            active,
+            gate_rows.reshape(-1),
+            self.gate,
+            self.geodetic,
+        )
         return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
 
     def _update_all(self, source: str, meas: Measurement, t: float) -> None:
@@ -578,11 +701,18 @@ class FilterBank:
         m_rows = meas.R.shape[-1]
         active = np.ones(self.batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
         active = active & valid[..., None]
-        fused = self._fuse(np.ascontiguousarray(meas.H), np.ascontiguousarray(meas.R),
-                           np.ascontiguousarray(meas.innovation), active, np.full(self.batch, meas.gate_rows))
+        fused = self._fuse(
+            np.ascontiguousarray(meas.H),
+            np.ascontiguousarray(meas.R),
+            np.ascontiguousarray(meas.innovation),
+            active,
+            np.full(self.batch, meas.gate_rows),
+        )
         self.recorders[source].add(t, make_outcome(meas.z, meas.innovation, active, *fused), valid)
 
-    def _update_dvl(self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float) -> np.ndarray:
+    def _update_dvl(
+        self, y: np.ndarray, available: np.ndarray, omega_meas: np.ndarray, t: float
+    ) -> np.ndarray:
         """Every DVL-aided method measures the ping its own way (lc, tc, an extended method's
         loosely coupled velocity or two-beam construction) in one compiled call for every method
         and run; one compiled correction then fuses them all. Returns (M, R): which methods had a
@@ -598,15 +728,45 @@ class FilterBank:
         measured_axes = np.zeros(batch + (3,), bool)
         choice = np.full(batch + (3,), -1, np.int64)
         dvl = self.config.dvl
-        kernels.dvl_measure_bank(self.dvl_index, self.dvl_codes, np.ascontiguousarray(y),
-                                 np.ascontiguousarray(available), np.ascontiguousarray(omega_meas), self.C, self.vel,
-                                 self.bg, self.bdvl, self.sf, self.P,
-                                 self.A_b, self.l_dvl_b, dvl_beam_sigma_mps(dvl.noise_mps)**2,
-                                 self.gyro_rate_noise**2, self.w_ie, *self.partial_tables, DVL_MODE_CODES,
-                                 z, nu, H, Rm, active, valid, mode, measured_axes, choice)
+        kernels.dvl_measure_bank(
+            self.dvl_index,
+            self.dvl_codes,
+            np.ascontiguousarray(y),
+            np.ascontiguousarray(available),
+            np.ascontiguousarray(omega_meas),
+            self.C,
+            self.vel,
+            self.bg,
+            self.bdvl,
+            self.sf,
+            self.P,
+            self.A_b,
+            self.l_dvl_b,
+            dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
+            self.gyro_rate_noise**2,
+            self.w_ie,
+            *self.partial_tables,
+            DVL_MODE_CODES,
+            z,
+            nu,
+            H,
+            Rm,
+            active,
+            valid,
+            mode,
+            measured_axes,
+            choice,
+        )
         fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
-        self.recorders["dvl"].add(t, make_outcome(z, nu, active, *fused), valid, shared={"beams_available": available},
-                                  mode=mode, measured_axes=measured_axes, elc_choice=choice)
+        self.recorders["dvl"].add(
+            t,
+            make_outcome(z, nu, active, *fused),
+            valid,
+            shared={"beams_available": available},
+            mode=mode,
+            measured_axes=measured_axes,
+            elc_choice=choice,
+        )
         return valid
 
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
@@ -619,13 +779,21 @@ class FilterBank:
         dvl = self.config.dvl
         R = self.batch[1]
         lat = self.pos[0, :, 0] if self.geodetic else np.full(R, self.config.earth.latitude_rad)
-        v_b, _, ok = dvl_body_velocity(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], chunk.imu.dtheta_b[i],
-                                       self.dt, self.C[0], lat, self.A_b, self.l_dvl_b,
-                                       dvl_beam_sigma_mps(dvl.noise_mps) ** 2)
+        v_b, _, ok = dvl_body_velocity(
+            chunk.dvl.y_beam_mps[p],
+            chunk.dvl.available[p],
+            chunk.imu.dtheta_b[i],
+            self.dt,
+            self.C[0],
+            lat,
+            self.A_b,
+            self.l_dvl_b,
+            dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
+        )
         _, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
         coast = np.zeros(self.batch, bool)
         coast[self.dvl_index] = ~dvl_valid[self.dvl_index] & have_rpm
-        if not coast.any():           # every method had its DVL velocity: the bank is left as it was
+        if not coast.any():  # every method had its DVL velocity: the bank is left as it was
             return
         z = np.broadcast_to(self.rpm_aid.velocity_b(), self.batch + (3,))
         H = np.zeros(self.batch + (3, STATE.dim))
@@ -638,18 +806,47 @@ class FilterBank:
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
         t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
-        kernels.record_bank(row, float(t_s[i]), pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i],
-                            self.ping_bias, self.ping_sf, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl,
-                            self.sf, self.P, self.block_of_state, len(NEES_BLOCKS), units.DEG, out["series"],
-                            out["nees_block"], out["est_pos_n"], self.nonfinite_at_s, self.geodetic, self.origin,
-                            out["est_vel_n"], out["est_euler"])
+        kernels.record_bank(
+            row,
+            float(t_s[i]),
+            pos_t[i],
+            vel_t[i],
+            C_t[i],
+            ba_t[i],
+            bg_t[i],
+            self.ping_bias,
+            self.ping_sf,
+            self.pos,
+            self.vel,
+            self.C,
+            self.ba,
+            self.bg,
+            self.bdvl,
+            self.sf,
+            self.P,
+            self.block_of_state,
+            len(NEES_BLOCKS),
+            units.DEG,
+            out["series"],
+            out["nees_block"],
+            out["est_pos_n"],
+            self.nonfinite_at_s,
+            self.geodetic,
+            self.origin,
+            out["est_vel_n"],
+            out["est_euler"],
+        )
         out["t_s"][row] = t_s[i]
         self.slot += 1
 
     # ------------------------------------------------------------------ the chunk loop
-    def feed(self, chunk: SimChunk,
-             progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
-             should_stop: Callable[[], bool] | None = None) -> bool:
+    def feed(
+        self,
+        chunk: SimChunk,
+        progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+        progress_interval_s: float = 5.0,
+        should_stop: Callable[[], bool] | None = None,
+    ) -> bool:
         """Run the bank over one chunk (chunks in order, the first at sample 0). Returns False once
         ``should_stop()`` said so (at an output epoch); the results then end at that epoch."""
         if self.stopped:
@@ -660,7 +857,9 @@ class FilterBank:
             self.start(chunk)
         k0, n = chunk.k0, chunk.truth.num_samples
         if k0 != (0 if self.prev_raw is None else self.k_state + 1):
-            raise ValueError(f"chunks must follow each other: expected one at sample {self.k_state + 1}, got {k0}")
+            raise ValueError(
+                f"chunks must follow each other: expected one at sample {self.k_state + 1}, got {k0}"
+            )
         k1 = k0 + n
         imu, dt = chunk.imu, self.dt
         dtheta = np.ascontiguousarray(imu.dtheta_b)
@@ -671,42 +870,58 @@ class FilterBank:
         dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
         depth_at = _epoch_map(chunk.pressure.index) if "depth" in aiding and self.other_mask.any() else {}
         mag_at = _epoch_map(chunk.mag.index) if "mag" in aiding and self.other_mask.any() else {}
-        registered_at = [{int(k) for k in epochs[(epochs >= k0) & (epochs < k1)]}
-                         for _, _, _, epochs in self.registered]
+        registered_at = [
+            {int(k) for k in epochs[(epochs >= k0) & (epochs < k1)]} for _, _, _, epochs in self.registered
+        ]
         outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k1)]
-        out = {"series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
-               "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
-               "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)), "t_s": np.zeros(outs.size),
-               "est_vel_n": np.zeros((outs.size,) + self.batch + (3,)),
-               "est_euler": np.zeros((outs.size,) + self.batch + (3,))}
+        out = {
+            "series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
+            "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
+            "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)),
+            "t_s": np.zeros(outs.size),
+            "est_vel_n": np.zeros((outs.size,) + self.batch + (3,)),
+            "est_euler": np.zeros((outs.size,) + self.batch + (3,)),
+        }
         out_row = {int(k): r for r, k in enumerate(outs)}
         ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
         truth = chunk.truth
         # the chunk's inputs of the compiled stretch between aiding epochs (kernels.run_stops)
-        chunk_in = (phi_raw, dv_raw, dtheta, np.ascontiguousarray(truth.t_s), np.ascontiguousarray(truth.pos_nav),
-                    np.ascontiguousarray(truth.vel_n), np.ascontiguousarray(truth.C_nb),
-                    np.ascontiguousarray(imu.accel_bias), np.ascontiguousarray(imu.gyro_bias), ping_rows,
-                    np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
-                    np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float))
+        chunk_in = (
+            phi_raw,
+            dv_raw,
+            dtheta,
+            np.ascontiguousarray(truth.t_s),
+            np.ascontiguousarray(truth.pos_nav),
+            np.ascontiguousarray(truth.vel_n),
+            np.ascontiguousarray(truth.C_nb),
+            np.ascontiguousarray(imu.accel_bias),
+            np.ascontiguousarray(imu.gyro_bias),
+            ping_rows,
+            np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
+            np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
+        )
         self._chunk_in = chunk_in
         slot0 = self.slot
         if k0 == 0 and 0 in out_row:
             self._record(out, 0, chunk, 0)
-        events = np.zeros(n, dtype=bool)            # aiding epochs
+        events = np.zeros(n, dtype=bool)  # aiding epochs
         for keys in (dvl_at, depth_at, mag_at, *registered_at):
             events[[k - k0 for k in keys]] = True
-        marks = events.copy()                       # and output epochs: where the covariance step stops
+        marks = events.copy()  # and output epochs: where the covariance step stops
         marks[outs - k0] = True
         progress_every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
 
         def flush() -> None:
             rows = self.slot - slot0
-            self.stored.append({name: a[:rows] if name != "series" else a[:, :rows] for name, a in out.items()})
+            self.stored.append(
+                {name: a[:rows] if name != "series" else a[:, :rows] for name, a in out.items()}
+            )
             for rec in self.recorders.values():
                 rec.seal()
 
-        stops = np.asarray(covariance_stops(np.flatnonzero(marks) + k0, self.k_cov, k1, self.cov_step),
-                           dtype=np.int64)
+        stops = np.asarray(
+            covariance_stops(np.flatnonzero(marks) + k0, self.k_cov, k1, self.cov_step), dtype=np.int64
+        )
         is_event = events[stops - k0]
         stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
         # back to Python at every output epoch when someone polls there, else at aiding epochs only
@@ -715,13 +930,43 @@ class FilterBank:
         s = 0
         while s < stops.size:
             counters[:] = (self.k_state, self.k_cov, self.k_checked, self.slot)
-            s, why = kernels.run_stops(stops, is_event, stop_row, s, stops.size, k0, self.check_step, yield_every,
-                                       counters, self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf,
-                                       self.P, self.dtheta_sum, self.ping_bias, self.ping_sf, self.nonfinite_at_s,
-                                       *chunk_in, *self.sd_consts, self.origin, self.w_ie, self.q_psd,
-                                       self.block_of_state,
-                                       len(NEES_BLOCKS), units.DEG, out["series"], out["nees_block"],
-                                       out["est_pos_n"], out["t_s"], out["est_vel_n"], out["est_euler"])
+            s, why = kernels.run_stops(
+                stops,
+                is_event,
+                stop_row,
+                s,
+                stops.size,
+                k0,
+                self.check_step,
+                yield_every,
+                counters,
+                self.pos,
+                self.vel,
+                self.C,
+                self.ba,
+                self.bg,
+                self.bdvl,
+                self.sf,
+                self.P,
+                self.dtheta_sum,
+                self.ping_bias,
+                self.ping_sf,
+                self.nonfinite_at_s,
+                *chunk_in,
+                *self.sd_consts,
+                self.origin,
+                self.w_ie,
+                self.q_psd,
+                self.block_of_state,
+                len(NEES_BLOCKS),
+                units.DEG,
+                out["series"],
+                out["nees_block"],
+                out["est_pos_n"],
+                out["t_s"],
+                out["est_vel_n"],
+                out["est_euler"],
+            )
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
             if why == kernels.STOPS_DONE:
                 break
@@ -735,14 +980,21 @@ class FilterBank:
                     p = dvl_at[k]
                     before = dtheta[i - 1] if i > 0 else prev_dtheta
                     omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
-                    dvl_valid = self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
+                    dvl_valid = self._update_dvl(
+                        chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t
+                    )
                     if self.rpm_aid is not None:
                         self._rpm_fallback(chunk, p, i, t, dvl_valid)
                 if k in depth_at:
-                    self._update_all("depth", self.depth_model.measure(self.nominal(),
-                                                                       chunk.pressure.depth_m[depth_at[k]]), t)
+                    self._update_all(
+                        "depth",
+                        self.depth_model.measure(self.nominal(), chunk.pressure.depth_m[depth_at[k]]),
+                        t,
+                    )
                 if k in mag_at:
-                    self._update_all("mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t)
+                    self._update_all(
+                        "mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t
+                    )
                 for r, keys in enumerate(registered_at):
                     if k in keys:
                         self._update_registered(r, t)
@@ -767,8 +1019,20 @@ class FilterBank:
                     self.stored.pop()
             s += 1
         # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
-        kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta, self.dtheta_sum,
-                        self.k_state - k0, n - 1, *self.sd_consts)
+        kernels.advance(
+            self.pos,
+            self.vel,
+            self.C,
+            self.ba,
+            self.bg,
+            phi_raw,
+            dv_raw,
+            dtheta,
+            self.dtheta_sum,
+            self.k_state - k0,
+            n - 1,
+            *self.sd_consts,
+        )
         self.k_state = k1 - 1
         if len(ping_rows):
             self.ping_bias[...] = chunk.dvl.bias_mps[-1]
@@ -777,8 +1041,9 @@ class FilterBank:
         return True
 
     # ------------------------------------------------------------------ results
-    def _results(self, stored: list[dict[str, np.ndarray]], first_update: dict[tuple[str, int], int]
-                 ) -> dict[str, MethodResult]:
+    def _results(
+        self, stored: list[dict[str, np.ndarray]], first_update: dict[tuple[str, int], int]
+    ) -> dict[str, MethodResult]:
         if stored:
             t_s = np.concatenate([c["t_s"] for c in stored])
             series_all = np.concatenate([c["series"] for c in stored], axis=1)
@@ -797,20 +1062,33 @@ class FilterBank:
             recs = {src: rec for src, rec in self.recorders.items() if rec.members[m] and rec.count}
             built = {src: rec.build(m, first_update.get(src, 0)) for src, rec in recs.items()}
             updates = {src: record for src, record in built.items() if record is not None}
-            flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [rec.divergence_s(m) for rec in recs.values()]
+            flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [
+                rec.divergence_s(m) for rec in recs.values()
+            ]
             diverged_at = np.fmin.reduce(np.stack(flagged), axis=0)
             out[method] = MethodResult(
-                method=method, t_s=t_s,
-                vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m],
-                pos_err_m=series["pos_err"][:, m], vel_sigma_mps=series["vel_sigma"][:, m],
-                att_sigma_deg=series["att_sigma"][:, m], pos_sigma_m=series["pos_sigma"][:, m],
-                nees=series["nees"][:, m], est_pos_n=est_pos_n[:, m], est_vel_n=est_vel_n[:, m],
+                method=method,
+                t_s=t_s,
+                vel_err_mps=series["vel_err"][:, m],
+                att_err_deg=series["att_err"][:, m],
+                pos_err_m=series["pos_err"][:, m],
+                vel_sigma_mps=series["vel_sigma"][:, m],
+                att_sigma_deg=series["att_sigma"][:, m],
+                pos_sigma_m=series["pos_sigma"][:, m],
+                nees=series["nees"][:, m],
+                est_pos_n=est_pos_n[:, m],
+                est_vel_n=est_vel_n[:, m],
                 est_euler_rad=est_euler[:, m],
-                tilt_err_deg=series["tilt_err"][:, m], heading_err_deg=series["heading_err"][:, m],
-                tilt_sigma_deg=series["tilt_sigma"][:, m], heading_sigma_deg=series["heading_sigma"][:, m],
+                tilt_err_deg=series["tilt_err"][:, m],
+                heading_err_deg=series["heading_err"][:, m],
+                tilt_sigma_deg=series["tilt_sigma"][:, m],
+                heading_sigma_deg=series["heading_sigma"][:, m],
                 nees_block=nees_block[:, m],
-                diverged=~np.isnan(diverged_at), diverged_at_s=diverged_at,
-                p_floor_count=self.p_floor_count[m].copy(), updates=updates)
+                diverged=~np.isnan(diverged_at),
+                diverged_at_s=diverged_at,
+                p_floor_count=self.p_floor_count[m].copy(),
+                updates=updates,
+            )
         return out
 
     def results(self) -> dict[str, MethodResult]:
@@ -840,9 +1118,14 @@ class FilterBank:
         return result
 
 
-def run(config: Config, sim: Simulation, rng: np.random.Generator | Sequence[np.random.Generator],
-        progress: Callable[[float, dict[str, MethodResult]], None] | None = None, progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None) -> dict[str, MethodResult]:
+def run(
+    config: Config,
+    sim: Simulation,
+    rng: np.random.Generator | Sequence[np.random.Generator],
+    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+    progress_interval_s: float = 5.0,
+    should_stop: Callable[[], bool] | None = None,
+) -> dict[str, MethodResult]:
     """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
 
     ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
@@ -861,8 +1144,15 @@ class _Banks:
     (tauvcore.eval.yoo_bank), fed the same chunks, their results in ``config.run.methods`` order.
     The Yoo methods start from the same initial errors as the others (the same draws)."""
 
-    def __init__(self, config: Config, num_runs: int, num_samples: int, dt_s: float,
-                 rng: np.random.Generator | Sequence[np.random.Generator], keep: bool = True) -> None:
+    def __init__(
+        self,
+        config: Config,
+        num_runs: int,
+        num_samples: int,
+        dt_s: float,
+        rng: np.random.Generator | Sequence[np.random.Generator],
+        keep: bool = True,
+    ) -> None:
         from tauvcore.config import YOO_METHODS
         from tauvcore.eval.yoo_bank import YooBank
 
@@ -870,14 +1160,22 @@ class _Banks:
         self.order = config.run.methods
         first = tuple(m for m in self.order if m not in YOO_METHODS)
         second = tuple(m for m in self.order if m in YOO_METHODS)
-        self.bank = (FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
-                     if first or not second else None)
+        self.bank = (
+            FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
+            if first or not second
+            else None
+        )
         self.yoo = YooBank(config, second, num_runs, num_samples, dt_s) if second else None
         self.stopped = False
-        self.until_s: float | None = None      # where the 20-state bank stopped the run (the Yoo bank goes on)
+        self.until_s: float | None = None  # where the 20-state bank stopped the run (the Yoo bank goes on)
 
-    def feed(self, chunk: SimChunk, progress: Callable | None = None, progress_interval_s: float = 5.0,
-             should_stop: Callable[[], bool] | None = None) -> bool:
+    def feed(
+        self,
+        chunk: SimChunk,
+        progress: Callable | None = None,
+        progress_interval_s: float = 5.0,
+        should_stop: Callable[[], bool] | None = None,
+    ) -> bool:
         """Both banks over one chunk. The Yoo bank goes first (compiled, it takes a few percent of
         the time), so the 20-state bank's progress can carry its results up to the same time; a
         stop request, polled by the 20-state bank, ends both at its epoch (:attr:`until_s`)."""
@@ -888,14 +1186,17 @@ class _Banks:
         else:
             if not self.yoo.started:
                 if self.bank is not None and not self.bank.started:
-                    self.bank.start(chunk)                               # its draws first (_start_yoo)
+                    self.bank.start(chunk)  # its draws first (_start_yoo)
                 self._start_yoo(chunk)
             if self.bank is None:
                 going = self.yoo.feed(chunk, progress, progress_interval_s, should_stop)
             else:
                 self.yoo.feed(chunk)
-                both = None if progress is None else \
-                    (lambda t, first: progress(t, self._merge(first, self.yoo.results(until_s=t))))
+                both = (
+                    None
+                    if progress is None
+                    else (lambda t, first: progress(t, self._merge(first, self.yoo.results(until_s=t))))
+                )
                 going = self.bank.feed(chunk, both, progress_interval_s, should_stop)
                 if not going:
                     self.until_s = self.bank.stopped_at_s
@@ -906,23 +1207,29 @@ class _Banks:
         config, truth = self.config, chunk.truth
         P0 = initial_covariance(config, truth.euler[0])
         if self.bank is not None:
-            nav = self.bank.initial_nav                                 # its draws, before any update
+            nav = self.bank.initial_nav  # its draws, before any update
         else:
             nom = _initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att])
             nav = nom.nav.pos_n[0], nom.nav.vel_n[0], nom.nav.C_nb[0]
         self.yoo.start(*nav, P0[STATE.att, STATE.att], P0[STATE.ba, STATE.ba], P0[STATE.bg, STATE.bg])
 
-    def _merge(self, first: dict[str, MethodResult], second: dict[str, MethodResult]) -> dict[str, MethodResult]:
+    def _merge(
+        self, first: dict[str, MethodResult], second: dict[str, MethodResult]
+    ) -> dict[str, MethodResult]:
         both = {**first, **second}
         return {m: both[m] for m in self.order if m in both}
 
     def results(self) -> dict[str, MethodResult]:
-        return self._merge(self.bank.results() if self.bank is not None else {},
-                           self.yoo.results(self.until_s) if self.yoo is not None else {})
+        return self._merge(
+            self.bank.results() if self.bank is not None else {},
+            self.yoo.results(self.until_s) if self.yoo is not None else {},
+        )
 
     def take(self) -> dict[str, MethodResult]:
-        return self._merge(self.bank.take() if self.bank is not None else {},
-                           self.yoo.take(self.keep, self.until_s) if self.yoo is not None else {})
+        return self._merge(
+            self.bank.take() if self.bank is not None else {},
+            self.yoo.take(self.keep, self.until_s) if self.yoo is not None else {},
+        )
 
 
 def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
@@ -944,11 +1251,18 @@ STREAM_CHUNK_S = 10.0
 150 Hz): memory then holds one chunk of truth and sensors, whatever the mission's length."""
 
 
-def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.Generator], num_runs: int = 1,
-                  chunk_s: float = STREAM_CHUNK_S, on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
-                  keep: bool = True, progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-                  progress_interval_s: float = 5.0, should_stop: Callable[[], bool] | None = None,
-                  on_sim_chunk: Callable[[SimChunk], None] | None = None) -> dict[str, MethodResult]:
+def run_streaming(
+    config: Config,
+    rng: np.random.Generator | Sequence[np.random.Generator],
+    num_runs: int = 1,
+    chunk_s: float = STREAM_CHUNK_S,
+    on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
+    keep: bool = True,
+    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+    progress_interval_s: float = 5.0,
+    should_stop: Callable[[], bool] | None = None,
+    on_sim_chunk: Callable[[SimChunk], None] | None = None,
+) -> dict[str, MethodResult]:
     """Simulate and run chunk by chunk: truth (tauvcore.truth.truth_stream: kinematic or dynamic) and sensors
     (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
     :class:`FilterBank`, so memory does not depend on the mission's length.
@@ -979,12 +1293,19 @@ def run_streaming(config: Config, rng: np.random.Generator | Sequence[np.random.
     # the first chunk holds the first DVL ping: the records before it use that ping's true errors
     chunk_samples = max(2, int(round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate)))
     truths = truth_stream(config.trajectory, config.earth, rate, chunk_samples)
-    sensors = SensorStream(config.imu.ideal() if ideal else config.imu, config.dvl.ideal() if ideal else config.dvl,
-                           config.pressure.ideal() if ideal else config.pressure,
-                           config.magnetometer.ideal() if ideal else config.magnetometer,
-                           streams, num_runs, truths.num_samples, truths.dt_s, bathymetry(config.trajectory),
-                           config.echo_sounder.ideal() if ideal else config.echo_sounder,
-                           config.rpm.ideal() if ideal else config.rpm)
+    sensors = SensorStream(
+        config.imu.ideal() if ideal else config.imu,
+        config.dvl.ideal() if ideal else config.dvl,
+        config.pressure.ideal() if ideal else config.pressure,
+        config.magnetometer.ideal() if ideal else config.magnetometer,
+        streams,
+        num_runs,
+        truths.num_samples,
+        truths.dt_s,
+        bathymetry(config.trajectory),
+        config.echo_sounder.ideal() if ideal else config.echo_sounder,
+        config.rpm.ideal() if ideal else config.rpm,
+    )
     bank = _Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:

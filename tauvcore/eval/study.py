@@ -74,8 +74,8 @@ class ChunkSeries:
     first: int
     count: int
     t_s: np.ndarray
-    series: dict[str, dict[str, np.ndarray]]     # method -> RUN_SERIES name -> (T, count)
-    diverged: dict[str, np.ndarray]              # method -> (count,) bool
+    series: dict[str, dict[str, np.ndarray]]  # method -> RUN_SERIES name -> (T, count)
+    diverged: dict[str, np.ndarray]  # method -> (count,) bool
 
 
 def series_of(result: MethodResult) -> dict[str, np.ndarray]:
@@ -90,18 +90,22 @@ def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> Chunk
     """A worker's whole job (a local process or a Dask worker): plain inputs, plain outputs."""
     results = run_chunk(from_dict(config_dict), seed, first, count)
     any_result = next(iter(results.values()))
-    return ChunkSeries(first=first, count=count, t_s=any_result.t_s,
-                       series={m: series_of(r) for m, r in results.items()},
-                       diverged={m: r.diverged.copy() for m, r in results.items()})
+    return ChunkSeries(
+        first=first,
+        count=count,
+        t_s=any_result.t_s,
+        series={m: series_of(r) for m, r in results.items()},
+        diverged={m: r.diverged.copy() for m, r in results.items()},
+    )
 
 
 @dataclass
 class _MethodSums:
-    sum_sq: dict[str, np.ndarray]       # ERROR_SERIES + SIGMA_SERIES: sum over runs of x^2 per epoch (finite only)
-    finite: dict[str, np.ndarray]       # their finite counts per epoch
-    nees_sum: dict[str, np.ndarray]     # NEES_SERIES: sum over runs per epoch (finite only)
+    sum_sq: dict[str, np.ndarray]  # ERROR_SERIES + SIGMA_SERIES: sum over runs of x^2 per epoch (finite only)
+    finite: dict[str, np.ndarray]  # their finite counts per epoch
+    nees_sum: dict[str, np.ndarray]  # NEES_SERIES: sum over runs per epoch (finite only)
     nees_finite: dict[str, np.ndarray]
-    final: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)   # chunk's first run -> final values
+    final: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)  # chunk's first run -> final values
     diverged: int = 0
 
 
@@ -120,9 +124,12 @@ class StudyAccumulator:
             T = chunk.t_s.size
             for m in self.methods:
                 zeros = {n: np.zeros(T) for n in ERROR_SERIES + SIGMA_SERIES}
-                self._sums[m] = _MethodSums(sum_sq=zeros, finite={n: np.zeros(T, int) for n in zeros},
-                                            nees_sum={n: np.zeros(T) for n in NEES_SERIES},
-                                            nees_finite={n: np.zeros(T, int) for n in NEES_SERIES})
+                self._sums[m] = _MethodSums(
+                    sum_sq=zeros,
+                    finite={n: np.zeros(T, int) for n in zeros},
+                    nees_sum={n: np.zeros(T) for n in NEES_SERIES},
+                    nees_finite={n: np.zeros(T, int) for n in NEES_SERIES},
+                )
         self.num_runs += chunk.count
         for m in self.methods:
             s, series = self._sums[m], chunk.series[m]
@@ -161,8 +168,12 @@ class StudyAccumulator:
         all_finite = s.nees_finite[name] == self.num_runs
         avg = s.nees_sum[name] / self.num_runs / dim
         inside = all_finite & (avg >= lo) & (avg <= hi)
-        return {"dim": dim, "per_dim": float(total / count / dim) if count else float("nan"),
-                "in_band": float(inside.mean()), "band_per_dim": [lo, hi]}
+        return {
+            "dim": dim,
+            "per_dim": float(total / count / dim) if count else float("nan"),
+            "in_band": float(inside.mean()),
+            "band_per_dim": [lo, hi],
+        }
 
     def summary(self) -> dict:
         """JSON-ready: per method, per-epoch RMS of every error series and mean NEES, final values
@@ -176,7 +187,9 @@ class StudyAccumulator:
                 "rms": {n: self.rms(m, n) for n in ERROR_SERIES + SIGMA_SERIES},
                 "mean_nees": {n: self.mean_nees(m, n) for n in NEES_SERIES},
                 "final_rms": {n: float(self.rms(m, n)[-1]) for n in ERROR_SERIES},
-                "final_per_run": {n: np.concatenate([s.final[k][n] for k in sorted(s.final)]) for n in ERROR_SERIES},
+                "final_per_run": {
+                    n: np.concatenate([s.final[k][n] for k in sorted(s.final)]) for n in ERROR_SERIES
+                },
                 "consistency": {b: self.consistency(m, b) for b in BLOCK_DIMS},
                 "runs_flagged_by_monitor": s.diverged,
             }
@@ -250,20 +263,30 @@ def _result(future: Future) -> ChunkSeries:
     return _load_chunk_file(out) if isinstance(out, str) else out
 
 
-def submit_chunks(config: Config, num_runs: int, seed: int, pool: Executor, chunk_runs: int | None = None
-                  ) -> list[Future]:
+def submit_chunks(
+    config: Config, num_runs: int, seed: int, pool: Executor, chunk_runs: int | None = None
+) -> list[Future]:
     """Queue every chunk of a study on ``pool`` now; :func:`run_study` (``submitted=``) consumes
     them in run order. Several studies queued back to back keep the workers busy across their
     boundaries (a study of one large chunk, or an odd number, leaves a worker idle otherwise);
     with :func:`local_pool` the finished chunks wait as files, not in memory."""
     config_dict = to_dict(config)
-    return [_submit(pool, config_dict, seed, first, count)
-            for first, count in chunks(num_runs, chunk_runs or CHUNK_RUNS)]
+    return [
+        _submit(pool, config_dict, seed, first, count)
+        for first, count in chunks(num_runs, chunk_runs or CHUNK_RUNS)
+    ]
 
 
-def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
-                   chunk_runs: int | None = None, pool: Executor | None = None,
-                   submitted: list[Future] | None = None) -> Iterator[ChunkSeries]:
+def iterate_chunks(
+    config: Config,
+    num_runs: int,
+    seed: int,
+    workers: int = 1,
+    dask_address: str | None = None,
+    chunk_runs: int | None = None,
+    pool: Executor | None = None,
+    submitted: list[Future] | None = None,
+) -> Iterator[ChunkSeries]:
     """Compute the study's chunks and yield them in run order: in this process (``workers`` 1),
     on ``workers`` local processes (or the given ``pool``, :func:`local_pool`), or on the Dask
     scheduler at ``dask_address`` (its workers need this package installed; see the README);
@@ -284,8 +307,10 @@ def iterate_chunks(config: Config, num_runs: int, seed: int, workers: int = 1, d
         from distributed import Client
 
         with Client(dask_address, timeout=DASK_CONNECT_TIMEOUT_S) as client:
-            futures = [client.submit(compute_chunk, config_dict, seed, first, count, pure=False)
-                       for first, count in parts]
+            futures = [
+                client.submit(compute_chunk, config_dict, seed, first, count, pure=False)
+                for first, count in parts
+            ]
             for f in futures:
                 yield f.result()
         return
@@ -321,11 +346,18 @@ def paper_chunk_runs(config: Config) -> int:
     return PAPER_CHUNK_RUNS if len(config.run.methods) > 1 else 4 * PAPER_CHUNK_RUNS
 
 
-def run_study(config: Config, num_runs: int, seed: int, workers: int = 1, dask_address: str | None = None,
-              on_chunk: Callable[[ChunkSeries], None] | None = None,
-              progress: Callable[[int, int], None] | None = None,
-              chunk_runs: int | None = None, pool: Executor | None = None,
-              submitted: list[Future] | None = None) -> StudyAccumulator:
+def run_study(
+    config: Config,
+    num_runs: int,
+    seed: int,
+    workers: int = 1,
+    dask_address: str | None = None,
+    on_chunk: Callable[[ChunkSeries], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    chunk_runs: int | None = None,
+    pool: Executor | None = None,
+    submitted: list[Future] | None = None,
+) -> StudyAccumulator:
     """A whole study: every chunk reduced into the accumulator, handed to ``on_chunk`` (e.g. a
     Parquet writer) in run order, and ``progress(runs_done, num_runs)`` called after each.
     ``submitted``: its chunks as :func:`submit_chunks` queued them (same config, seed, chunking)."""

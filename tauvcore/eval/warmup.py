@@ -26,17 +26,28 @@ def warm_up() -> float:
     """Run the warm-up mission; returns its wall time [s]."""
     from tauvcore.eval.runner import run_streaming
 
-    config = (Config().replace("trajectory", name="figure8", duration_s=12.0)
-              .replace("dvl", outages=(Outage(beams=(3, 4), start_s=3.0, end_s=7.0),
-                                       Outage(beams=(1,), start_s=8.0, end_s=10.0)))
-              .replace("initial_error", mode="random")
-              .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag")))
+    config = (
+        Config()
+        .replace("trajectory", name="figure8", duration_s=12.0)
+        .replace(
+            "dvl",
+            outages=(
+                Outage(beams=(3, 4), start_s=3.0, end_s=7.0),
+                Outage(beams=(1,), start_s=8.0, end_s=10.0),
+            ),
+        )
+        .replace("initial_error", mode="random")
+        .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag"))
+    )
     t0 = time.perf_counter()
     run_streaming(config, np.random.default_rng(0), num_runs=2, chunk_s=6.0)
     from tauvcore.truth import generate
 
-    generate(config.trajectory.__class__(name="figure8", duration_s=2.0, truth="dynamic"), config.earth,
-             config.imu.rate_hz)
+    generate(
+        config.trajectory.__class__(name="figure8", duration_s=2.0, truth="dynamic"),
+        config.earth,
+        config.imu.rate_hz,
+    )
     return time.perf_counter() - t0
 
 

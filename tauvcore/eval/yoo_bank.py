@@ -72,8 +72,15 @@ def _skew_batch(v: np.ndarray) -> np.ndarray:
     return out
 
 
-def F_batch(lat: np.ndarray, h: np.ndarray, vel_n: np.ndarray, f_n: np.ndarray, C: np.ndarray,
-            geodetic: bool, w_ie_flat: np.ndarray) -> np.ndarray:
+def F_batch(
+    lat: np.ndarray,
+    h: np.ndarray,
+    vel_n: np.ndarray,
+    f_n: np.ndarray,
+    C: np.ndarray,
+    geodetic: bool,
+    w_ie_flat: np.ndarray,
+) -> np.ndarray:
     """:func:`tauvcore.filter.yoo.F_matrix` for a batch (B,) of states -> (B, 12, 12). On the flat
     earth the transport rate is zero and the earth rate constant (``w_ie_flat``)."""
     B = vel_n.shape[0]
@@ -107,9 +114,18 @@ def latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
     return np.asarray(values[j], dtype=float)
 
 
-def dvl_body_velocity(y: np.ndarray, available: np.ndarray, dtheta_b: np.ndarray, dt_s: float, C_nb: np.ndarray,
-                      lat_rad: np.ndarray, A_b: np.ndarray, l_dvl_b: np.ndarray,
-                      beam_var: float, with_gain: bool = False) -> tuple[np.ndarray, ...]:
+def dvl_body_velocity(
+    y: np.ndarray,
+    available: np.ndarray,
+    dtheta_b: np.ndarray,
+    dt_s: float,
+    C_nb: np.ndarray,
+    lat_rad: np.ndarray,
+    A_b: np.ndarray,
+    l_dvl_b: np.ndarray,
+    beam_var: float,
+    with_gain: bool = False,
+) -> tuple[np.ndarray, ...]:
     """The DVL's body velocity at a ping by least squares over the beams that returned (R, 3), its
     covariance from the beams' white noise (R, 3, 3), and whether at least MIN_BEAMS returned (R,);
     with ``with_gain`` also the least squares' gain from the beams to the velocity (R, 3, 4)
@@ -150,7 +166,11 @@ class RpmAid:
         an RPM was read (R,))."""
         cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
         rpm_now = latest(chunk.rpm.index, chunk.rpm.rpm, k) if chunk.rpm is not None else np.full(R, np.nan)
-        altitude = latest(chunk.echo.index, chunk.echo.altitude_m, k) if chunk.echo is not None else np.full(R, np.nan)
+        altitude = (
+            latest(chunk.echo.index, chunk.echo.altitude_m, k)
+            if chunk.echo is not None
+            else np.full(R, np.nan)
+        )
         use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
         have_rpm = np.isfinite(rpm_now)
         x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
@@ -180,14 +200,30 @@ class RpmAid:
         k, R = chunk.k0 + i, self.x.shape[0]
         rpm = chunk.rpm
         nan = np.full(R, np.nan)
-        return {"t_s": t, "x": self.x.copy(), "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
-                "sf_true": latest(rpm.index, rpm.scale_factor, k) if rpm is not None else nan,
-                "b_true": latest(rpm.index, rpm.bias_mps, k) if rpm is not None else nan,
-                "rpm_in_use": self.use_rpm.copy(), "altitude_m": self.altitude.copy()}
+        return {
+            "t_s": t,
+            "x": self.x.copy(),
+            "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
+            "sf_true": latest(rpm.index, rpm.scale_factor, k) if rpm is not None else nan,
+            "b_true": latest(rpm.index, rpm.bias_mps, k) if rpm is not None else nan,
+            "rpm_in_use": self.use_rpm.copy(),
+            "altitude_m": self.altitude.copy(),
+        }
 
 
-SERIES = ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees", "tilt_err", "heading_err",
-          "tilt_sigma", "heading_sigma")
+SERIES = (
+    "vel_err",
+    "att_err",
+    "pos_err",
+    "vel_sigma",
+    "att_sigma",
+    "pos_sigma",
+    "nees",
+    "tilt_err",
+    "heading_err",
+    "tilt_sigma",
+    "heading_sigma",
+)
 """The per-epoch series (tauvcore.filter.kernels.SERIES_NAMES, the 20-state bank's)."""
 BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 """Each of the 12 states' NEES block (tauvcore.eval.consistency's blocks: position (none here),
@@ -204,8 +240,15 @@ class YooBank:
     (tests/unit/test_yoo_bank.py). Both store a chunk's output epochs, updates and VKF trace as
     arrays (:meth:`_pack`), handed out by :meth:`take` and :meth:`results`."""
 
-    def __init__(self, config: Config, methods: tuple[str, ...], num_runs: int, num_samples: int,
-                 dt_s: float, compiled: bool = True) -> None:
+    def __init__(
+        self,
+        config: Config,
+        methods: tuple[str, ...],
+        num_runs: int,
+        num_samples: int,
+        dt_s: float,
+        compiled: bool = True,
+    ) -> None:
         self.config, self.methods = config, methods
         self.compiled = compiled
         M, R = len(methods), num_runs
@@ -218,8 +261,12 @@ class YooBank:
         self.origin = (earth.latitude_rad, earth.longitude_rad, 0.0)
         self.w_ie = np.asarray(earth.omega_ie_n, dtype=float)
         imu = config.imu
-        self.q = np.r_[np.full(3, imu.accel_noise_mps_per_sqrt_s**2), np.full(3, imu.gyro_noise_rad_per_sqrt_s**2),
-                       np.full(3, imu.accel_bias_rw_mps2_per_sqrt_s**2), np.full(3, imu.gyro_bias_rw_rps_per_sqrt_s**2)]
+        self.q = np.r_[
+            np.full(3, imu.accel_noise_mps_per_sqrt_s**2),
+            np.full(3, imu.gyro_noise_rad_per_sqrt_s**2),
+            np.full(3, imu.accel_bias_rw_mps2_per_sqrt_s**2),
+            np.full(3, imu.gyro_bias_rw_rps_per_sqrt_s**2),
+        ]
         self.q = np.maximum(self.q, 1e-24)
         self.cov_step = max(1, int(round(imu.rate_hz / config.filter.covariance_rate_hz)))
         out_step = max(1, int(round(imu.rate_hz / config.filter.output_rate_hz)))
@@ -232,23 +279,30 @@ class YooBank:
         # the consider states' prior and random walks (the DVL's error model, tauvcore.sensors.dvl)
         self.c_var0 = np.r_[dvl.scale_factor**2, np.full(4, dvl.bias_mps**2)] + 1e-16
         self.qc = np.r_[dvl.scale_factor_rw_per_sqrt_s**2, np.full(4, dvl.bias_rw_mps_per_sqrt_s**2)]
-        self.L4 = np.linalg.pinv(np.asarray(self.A_b, dtype=float))        # the 4-beam least squares (3, 4)
+        self.L4 = np.linalg.pinv(np.asarray(self.A_b, dtype=float))  # the 4-beam least squares (3, 4)
         self.started = False
         self.stopped = False
         self.has_vkf = "vkf" in methods
-        self.chunks: list[dict[str, np.ndarray]] = []     # packed chunks (:meth:`_pack`)
+        self.chunks: list[dict[str, np.ndarray]] = []  # packed chunks (:meth:`_pack`)
         self.taken = 0
 
     # ------------------------------------------------------------------ set-up
-    def start(self, pos: np.ndarray, vel_n: np.ndarray, C: np.ndarray, P0_att: np.ndarray, P0_ba: np.ndarray,
-              P0_bg: np.ndarray) -> None:
+    def start(
+        self,
+        pos: np.ndarray,
+        vel_n: np.ndarray,
+        C: np.ndarray,
+        P0_att: np.ndarray,
+        P0_ba: np.ndarray,
+        P0_bg: np.ndarray,
+    ) -> None:
         """Initial nominal states (R, ...) shared with the 20-state methods, and the attitude and
         bias blocks of their P0 (the same initial uncertainty)."""
         M, R = self.batch
         config = self.config
         ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
-        self.pos = np.array(np.broadcast_to(pos, (M, R, 3)), dtype=float, order="C")      # copies: the kernels
-        self.vel = np.array(np.broadcast_to(vel_n, (M, R, 3)), dtype=float, order="C")    # write in place
+        self.pos = np.array(np.broadcast_to(pos, (M, R, 3)), dtype=float, order="C")  # copies: the kernels
+        self.vel = np.array(np.broadcast_to(vel_n, (M, R, 3)), dtype=float, order="C")  # write in place
         self.C = np.array(np.broadcast_to(C, (M, R, 3, 3)), dtype=float, order="C")
         self.ba = np.zeros((M, R, 3))
         self.bg = np.zeros((M, R, 3))
@@ -258,7 +312,7 @@ class YooBank:
         P0[yoo.ATT, yoo.ATT] = P0_att
         P0[yoo.BA, yoo.BA] = P0_ba
         P0[yoo.BG, yoo.BG] = P0_bg
-        P0[yoo.DIM:, yoo.DIM:] = np.diag(self.c_var0)
+        P0[yoo.DIM :, yoo.DIM :] = np.diag(self.c_var0)
         self.P = np.broadcast_to(P0 + np.eye(NA) * 1e-16, (M, R, NA, NA)).copy()
         # the initial NED velocity is the body velocity rotated with the estimated attitude, so its
         # error carries the attitude's: dv = ... - [v x] rho (without this correlation the first
@@ -275,8 +329,13 @@ class YooBank:
         self.started = True
 
     # ------------------------------------------------------------------ one chunk
-    def feed(self, chunk, progress: Callable[[float, dict], None] | None = None, progress_interval_s: float = 5.0,
-             should_stop: Callable[[], bool] | None = None) -> bool:
+    def feed(
+        self,
+        chunk,
+        progress: Callable[[float, dict], None] | None = None,
+        progress_interval_s: float = 5.0,
+        should_stop: Callable[[], bool] | None = None,
+    ) -> bool:
         """Run over one chunk of the simulation (tauvcore.eval.runner.SimChunk), in order. As
         FilterBank.feed: ``progress(t_s, results so far)`` every ``progress_interval_s`` of
         simulated time, ``should_stop()`` polled at every output epoch; returns False once it said
@@ -288,8 +347,11 @@ class YooBank:
         dtheta = np.ascontiguousarray(imu.dtheta_b)
         phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(dtheta, imu.dv_b, self.prev_raw))
         self.prev_raw = (dtheta[-1].copy(), np.array(imu.dv_b[-1]))
-        pings = np.asarray(chunk.dvl.index, dtype=np.int64) if "dvl" in self.config.run.aiding \
+        pings = (
+            np.asarray(chunk.dvl.index, dtype=np.int64)
+            if "dvl" in self.config.run.aiding
             else np.zeros(0, np.int64)
+        )
         outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k0 + n)]
         cov = np.arange(self.k_cov + self.cov_step, k0 + n, self.cov_step)
         stops = np.unique(np.concatenate([pings, outs, cov]).astype(np.int64))
@@ -301,9 +363,12 @@ class YooBank:
         out_stops = np.flatnonzero(row_of_stop >= 0)
         every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
         if should_stop is not None:
-            ends = out_stops + 1                                   # back to Python at every output epoch
+            ends = out_stops + 1  # back to Python at every output epoch
         elif progress is not None:
-            ends = out_stops[(len(self.out_idx[self.out_idx < k0]) + np.arange(out_stops.size) + 1) % every == 0] + 1
+            ends = (
+                out_stops[(len(self.out_idx[self.out_idx < k0]) + np.arange(out_stops.size) + 1) % every == 0]
+                + 1
+            )
         else:
             ends = np.zeros(0, np.int64)
         ends = np.unique(np.r_[ends, stops.size]).astype(np.int64)
@@ -326,29 +391,53 @@ class YooBank:
                 progress(t, self.results())
                 self.chunks.pop()
         if k0 + n - 1 > self.k_state:
-            kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta,
-                            self.dtheta_sum, self.k_state - k0, n - 1, *self.sd_consts)
+            kernels.advance(
+                self.pos,
+                self.vel,
+                self.C,
+                self.ba,
+                self.bg,
+                phi_raw,
+                dv_raw,
+                dtheta,
+                self.dtheta_sum,
+                self.k_state - k0,
+                n - 1,
+                *self.sd_consts,
+            )
             self.k_state = k0 + n - 1
         self._seal(store, k0 + n - 1)
         return True
 
-    def _chunk_store(self, outs: np.ndarray, pings: np.ndarray, out_t_s: np.ndarray,
-                     ping_t_s: np.ndarray) -> dict[str, np.ndarray]:
+    def _chunk_store(
+        self, outs: np.ndarray, pings: np.ndarray, out_t_s: np.ndarray, ping_t_s: np.ndarray
+    ) -> dict[str, np.ndarray]:
         """The arrays a chunk's results are written into (NaN until written): output epochs at
         samples ``outs`` (times ``out_t_s``), updates at the pings ``pings`` (``ping_t_s``)."""
         M, R = self.batch
         T, U = len(outs), len(pings)
         nan = np.nan
-        return {"t_s": np.asarray(out_t_s, dtype=float), "out_k": outs,
-                "series": np.full((len(SERIES), T, M, R), nan), "nees_block": np.full((T, M, R, NUM_BLOCKS), nan),
-                "est_pos_n": np.full((T, M, R, 3), nan), "est_vel_n": np.full((T, M, R, 3), nan),
-                "est_euler": np.full((T, M, R, 3), nan),
-                "up_t": np.asarray(ping_t_s, dtype=float), "up_k": pings,
-                "up_z": np.full((U, M, R, 3), nan), "up_nu": np.full((U, M, R, 3), nan),
-                "up_S": np.full((U, M, R, 3), nan), "up_flags": np.zeros((U, M, R, 3), bool),
-                "up_nis": np.full((U, M, R), nan),
-                "tr_x": np.full((U, R, 3), nan), "tr_sigma": np.full((U, R, 3), nan),
-                "tr_truth": np.full((U, R, 2), nan), "tr_use": np.zeros((U, R), bool), "tr_alt": np.full((U, R), nan)}
+        return {
+            "t_s": np.asarray(out_t_s, dtype=float),
+            "out_k": outs,
+            "series": np.full((len(SERIES), T, M, R), nan),
+            "nees_block": np.full((T, M, R, NUM_BLOCKS), nan),
+            "est_pos_n": np.full((T, M, R, 3), nan),
+            "est_vel_n": np.full((T, M, R, 3), nan),
+            "est_euler": np.full((T, M, R, 3), nan),
+            "up_t": np.asarray(ping_t_s, dtype=float),
+            "up_k": pings,
+            "up_z": np.full((U, M, R, 3), nan),
+            "up_nu": np.full((U, M, R, 3), nan),
+            "up_S": np.full((U, M, R, 3), nan),
+            "up_flags": np.zeros((U, M, R, 3), bool),
+            "up_nis": np.full((U, M, R), nan),
+            "tr_x": np.full((U, R, 3), nan),
+            "tr_sigma": np.full((U, R, 3), nan),
+            "tr_truth": np.full((U, R, 2), nan),
+            "tr_use": np.zeros((U, R), bool),
+            "tr_alt": np.full((U, R), nan),
+        }
 
     def _seal(self, store: dict[str, np.ndarray], k_last: int) -> None:
         """Keep the chunk's arrays up to sample ``k_last`` (the whole chunk, or up to a stop)."""
@@ -364,9 +453,19 @@ class YooBank:
                 packed[name] = a[:U].copy()
         self.chunks.append(packed)
 
-    def _run_compiled(self, chunk, s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray,
-                      row_of_stop: np.ndarray, phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray,
-                      store: dict[str, np.ndarray]) -> None:
+    def _run_compiled(
+        self,
+        chunk,
+        s0: int,
+        s1: int,
+        stops: np.ndarray,
+        ping_of_stop: np.ndarray,
+        row_of_stop: np.ndarray,
+        phi_raw: np.ndarray,
+        dv_raw: np.ndarray,
+        dtheta: np.ndarray,
+        store: dict[str, np.ndarray],
+    ) -> None:
         config, R = self.config, self.batch[1]
         cfg = config.vkf
         truth, imu = chunk.truth, chunk.imu
@@ -376,42 +475,112 @@ class YooBank:
         aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
         counters = np.array([self.k_state, self.k_cov], dtype=np.int64)
         yoo_kernels.run_stops(
-            s0, s1, stops, ping_of_stop, row_of_stop, chunk.k0, counters, self.pos, self.vel, self.C, self.ba,
-            self.bg, self.P, self.dtheta_sum, aid.x, aid.P, aid_use, aid_alt, phi_raw, dv_raw, dtheta,
-            *self.sd_consts, np.asarray(self.origin), self.w_ie, self.q,
+            s0,
+            s1,
+            stops,
+            ping_of_stop,
+            row_of_stop,
+            chunk.k0,
+            counters,
+            self.pos,
+            self.vel,
+            self.C,
+            self.ba,
+            self.bg,
+            self.P,
+            self.dtheta_sum,
+            aid.x,
+            aid.P,
+            aid_use,
+            aid_alt,
+            phi_raw,
+            dv_raw,
+            dtheta,
+            *self.sd_consts,
+            np.asarray(self.origin),
+            self.w_ie,
+            self.q,
             np.array([METHOD_CODES[m] for m in self.methods], np.int64),
-            np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float), np.ascontiguousarray(chunk.dvl.available, bool),
-            np.ascontiguousarray(self.A_b, dtype=float), np.ascontiguousarray(self.l_dvl_b, dtype=float),
-            self.beam_var, self.qc, np.ascontiguousarray(self.L4), float(self.gate),
+            np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float),
+            np.ascontiguousarray(chunk.dvl.available, bool),
+            np.ascontiguousarray(self.A_b, dtype=float),
+            np.ascontiguousarray(self.l_dvl_b, dtype=float),
+            self.beam_var,
+            self.qc,
+            np.ascontiguousarray(self.L4),
+            float(self.gate),
             np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
             np.ascontiguousarray(rpm.rpm, dtype=float) if rpm is not None else empty_v,
             np.ascontiguousarray(rpm.scale_factor, dtype=float) if rpm is not None else empty_v,
             np.ascontiguousarray(rpm.bias_mps, dtype=float) if rpm is not None else empty_v,
             np.asarray(echo.index, np.int64) if echo is not None else empty_k,
             np.ascontiguousarray(echo.altitude_m, dtype=float) if echo is not None else empty_v,
-            np.ascontiguousarray(cfg.Q, dtype=float), float(cfg.R), float(cfg.switch_altitude_m),
-            cfg.forward_speed == "norm", RPM_LATERAL_SIGMA_MPS**2,
-            np.ascontiguousarray(truth.pos_n, dtype=float), np.ascontiguousarray(truth.vel_n, dtype=float),
-            np.ascontiguousarray(truth.C_nb, dtype=float), np.ascontiguousarray(imu.accel_bias, dtype=float),
-            np.ascontiguousarray(imu.gyro_bias, dtype=float), BLOCK_OF_STATE, NUM_BLOCKS, 1.0 / units.DEG,
-            store["series"], store["nees_block"], store["est_pos_n"], store["est_vel_n"], store["est_euler"],
-            store["up_z"], store["up_nu"], store["up_S"], store["up_flags"], store["up_nis"],
-            store["tr_x"], store["tr_sigma"], store["tr_truth"], store["tr_use"], store["tr_alt"])
+            np.ascontiguousarray(cfg.Q, dtype=float),
+            float(cfg.R),
+            float(cfg.switch_altitude_m),
+            cfg.forward_speed == "norm",
+            RPM_LATERAL_SIGMA_MPS**2,
+            np.ascontiguousarray(truth.pos_n, dtype=float),
+            np.ascontiguousarray(truth.vel_n, dtype=float),
+            np.ascontiguousarray(truth.C_nb, dtype=float),
+            np.ascontiguousarray(imu.accel_bias, dtype=float),
+            np.ascontiguousarray(imu.gyro_bias, dtype=float),
+            BLOCK_OF_STATE,
+            NUM_BLOCKS,
+            1.0 / units.DEG,
+            store["series"],
+            store["nees_block"],
+            store["est_pos_n"],
+            store["est_vel_n"],
+            store["est_euler"],
+            store["up_z"],
+            store["up_nu"],
+            store["up_S"],
+            store["up_flags"],
+            store["up_nis"],
+            store["tr_x"],
+            store["tr_sigma"],
+            store["tr_truth"],
+            store["tr_use"],
+            store["tr_alt"],
+        )
         aid.use_rpm, aid.altitude = aid_use, aid_alt
         self.k_state, self.k_cov = int(counters[0]), int(counters[1])
 
     # ------------------------------------------------------------------ the numpy reference
-    def _run_numpy(self, chunk, s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray,
-                   row_of_stop: np.ndarray, phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray,
-                   store: dict[str, np.ndarray]) -> None:
+    def _run_numpy(
+        self,
+        chunk,
+        s0: int,
+        s1: int,
+        stops: np.ndarray,
+        ping_of_stop: np.ndarray,
+        row_of_stop: np.ndarray,
+        phi_raw: np.ndarray,
+        dv_raw: np.ndarray,
+        dtheta: np.ndarray,
+        store: dict[str, np.ndarray],
+    ) -> None:
         k0 = chunk.k0
         self._dv = dv_raw
         for s in range(s0, s1):
             k = int(stops[s])
             i = k - k0
             if k > self.k_state:
-                kernels.advance(self.pos, self.vel, self.C, self.ba, self.bg, phi_raw, dv_raw, dtheta,
-                                self.dtheta_sum, self.k_state - k0, i, *self.sd_consts)
+                kernels.advance(
+                    self.pos,
+                    self.vel,
+                    self.C,
+                    self.ba,
+                    self.bg,
+                    phi_raw,
+                    dv_raw,
+                    dtheta,
+                    self.dtheta_sum,
+                    self.k_state - k0,
+                    i,
+                    *self.sd_consts,
+                )
                 self.k_state = k
             if k > self.k_cov:
                 self._propagate(i, k)
@@ -431,17 +600,19 @@ class YooBank:
         M, R = self.batch
         dt_c = (k - self.k_cov) * self.dt
         C = self.C.reshape(-1, 3, 3)
-        f_b = self._dv[i].reshape(1, R, 3) / self.dt - self.ba          # the latest specific force
+        f_b = self._dv[i].reshape(1, R, 3) / self.dt - self.ba  # the latest specific force
         f_n = np.einsum("bij,bj->bi", C, f_b.reshape(-1, 3))
         lat, h = self._lat_h()
         F = F_batch(lat, h, self.vel.reshape(-1, 3), f_n, C, self.geodetic, self.w_ie) * dt_c
         Phi = np.eye(yoo.DIM) + F + 0.5 * F @ F
         P = self.P.reshape(-1, NA, NA).copy()
         X = slice(0, yoo.DIM)
-        P[:, X, X] = Phi @ P[:, X, X] @ Phi.swapaxes(-1, -2) + np.diag(self.q) * dt_c   # isotropic: G Q G^T = Q
-        P[:, X, yoo.DIM:] = Phi @ P[:, X, yoo.DIM:]                    # consider states: constant plus walks
-        P[:, yoo.DIM:, X] = P[:, X, yoo.DIM:].swapaxes(-1, -2)
-        P[:, yoo.DIM:, yoo.DIM:] += np.diag(self.qc) * dt_c
+        P[:, X, X] = (
+            Phi @ P[:, X, X] @ Phi.swapaxes(-1, -2) + np.diag(self.q) * dt_c
+        )  # isotropic: G Q G^T = Q
+        P[:, X, yoo.DIM :] = Phi @ P[:, X, yoo.DIM :]  # consider states: constant plus walks
+        P[:, yoo.DIM :, X] = P[:, X, yoo.DIM :].swapaxes(-1, -2)
+        P[:, yoo.DIM :, yoo.DIM :] += np.diag(self.qc) * dt_c
         self.P = (0.5 * (P + P.swapaxes(-1, -2))).reshape(M, R, NA, NA)
         self.dtheta_sum[:] = 0.0
         self.k_cov = k
@@ -449,8 +620,18 @@ class YooBank:
     def _dvl_velocity(self, chunk, p: int, i: int) -> tuple[np.ndarray, ...]:
         lat, _ = self._lat_h()
         R = self.batch[1]
-        return dvl_body_velocity(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], chunk.imu.dtheta_b[i], self.dt,
-                                 self.C[0], lat[:R], self.A_b, self.l_dvl_b, self.beam_var, with_gain=True)
+        return dvl_body_velocity(
+            chunk.dvl.y_beam_mps[p],
+            chunk.dvl.available[p],
+            chunk.imu.dtheta_b[i],
+            self.dt,
+            self.C[0],
+            lat[:R],
+            self.A_b,
+            self.l_dvl_b,
+            self.beam_var,
+            with_gain=True,
+        )
 
     def _update(self, chunk, p: int, i: int, store: dict[str, np.ndarray]) -> None:
         v_b, cov_b, ok, gain = self._dvl_velocity(chunk, p, i)
@@ -462,11 +643,11 @@ class YooBank:
             # the consider states' columns: the scale factor scales the (estimated) body velocity, a
             # beam bias goes through the least squares of the beams that returned
             v_est_b = np.einsum("rji,rj->ri", C, self.vel[m])
-            Hc = C @ np.concatenate([v_est_b[:, :, None], gain], axis=-1)     # (R, 3, NC)
+            Hc = C @ np.concatenate([v_est_b[:, :, None], gain], axis=-1)  # (R, 3, NC)
             z, Rm, valid = v_dvl_n, R_dvl, ok.copy()
             if method == "vkf":
                 z, Rm, valid = self._vkf_switch(chunk, i, m, v_b, v_dvl_n, R_dvl, ok)
-                Hr = np.zeros((R, 3, NC))              # the RPM's surge was learnt from the DVL's (4 beams)
+                Hr = np.zeros((R, 3, NC))  # the RPM's surge was learnt from the DVL's (4 beams)
                 Hr[:, 0, 0] = self.rpm_aid.x[:, 0]
                 Hr[:, 0, 1:] = self.L4[0]
                 Hc = np.where(self.rpm_aid.use_rpm[:, None, None], C @ Hr, Hc)
@@ -476,8 +657,9 @@ class YooBank:
                 store["tr_use"][p], store["tr_alt"][p] = tr["rpm_in_use"], tr["altitude_m"]
             self._fuse(m, z, Rm, valid, Hc, p, store)
 
-    def _vkf_switch(self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray,
-                    ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _vkf_switch(
+        self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray, ok: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Eq. 29: the DVL's NED velocity within the switch altitude (and with enough beams), else
         the VKF's RPM velocity (eq. 27-28), the VKF stepped and, while the DVL is chosen, updated."""
         use_rpm, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
@@ -489,8 +671,16 @@ class YooBank:
         valid = np.where(use_rpm, have_rpm, ok)
         return z, Rm, valid
 
-    def _fuse(self, m: int, z: np.ndarray, Rm: np.ndarray, valid: np.ndarray, Hc: np.ndarray, p: int,
-              store: dict[str, np.ndarray]) -> None:
+    def _fuse(
+        self,
+        m: int,
+        z: np.ndarray,
+        Rm: np.ndarray,
+        valid: np.ndarray,
+        Hc: np.ndarray,
+        p: int,
+        store: dict[str, np.ndarray],
+    ) -> None:
         """Fuse a NED velocity ``z`` (R, 3) rotated into n with the estimated attitude: its error is
         ``dv + [v x] rho`` (``C_est = exp(-[rho x]) C_true``), so ``H = [I, [v x], 0, 0]`` (the
         paper's H of eq. 18 leaves the attitude column out), ``v`` the estimated velocity (the
@@ -500,22 +690,23 @@ class YooBank:
         not invertible)."""
         P = self.P[m]
         R = P.shape[0]
-        nu = z - self.vel[m]                                             # dv = true - estimate
+        nu = z - self.vel[m]  # dv = true - estimate
         H = np.zeros((R, 3, NA))
         H[:, :, yoo.VEL] = np.eye(3)
         H[:, :, yoo.ATT] = _skew_batch(self.vel[m])
-        H[:, :, yoo.DIM:] = np.where(np.isfinite(Hc), Hc, 0.0)
-        PHt = P @ H.swapaxes(-1, -2)                                     # (R, NA, 3)
+        H[:, :, yoo.DIM :] = np.where(np.isfinite(Hc), Hc, 0.0)
+        PHt = P @ H.swapaxes(-1, -2)  # (R, NA, 3)
         S = H @ PHt + Rm
         S_diag = np.einsum("rii->ri", S)
         with np.errstate(invalid="ignore"):
             passed = np.all(nu**2 <= self.gate**2 * S_diag, axis=-1)
-        invertible = np.isfinite(S).all(axis=(-2, -1)) & (np.abs(np.linalg.det(np.where(
-            np.isfinite(S), S, 0.0))) > 0.0)
+        invertible = np.isfinite(S).all(axis=(-2, -1)) & (
+            np.abs(np.linalg.det(np.where(np.isfinite(S), S, 0.0))) > 0.0
+        )
         use = valid & passed & np.isfinite(nu).all(axis=-1) & invertible
         S_inv = np.linalg.inv(np.where(invertible[:, None, None], S, np.eye(3)))
-        K = PHt @ np.where(use[:, None, None], S_inv, np.eye(3))         # (R, NA, 3)
-        K[:, yoo.DIM:, :] = 0.0                                          # consider states: never corrected
+        K = PHt @ np.where(use[:, None, None], S_inv, np.eye(3))  # (R, NA, 3)
+        K[:, yoo.DIM :, :] = 0.0  # consider states: never corrected
         dx = np.einsum("rij,rj->ri", K, np.where(use[:, None], nu, 0.0))
         I_KH = np.eye(NA) - K @ H
         P_new = I_KH @ P @ I_KH.swapaxes(-1, -2) + K @ Rm @ K.swapaxes(-1, -2)
@@ -537,7 +728,7 @@ class YooBank:
     def _record(self, chunk, i: int, row: int, store: dict[str, np.ndarray]) -> None:
         truth = chunk.truth
         v_t, C_t = truth.vel_n[i], truth.C_nb[i]
-        ba_t, bg_t = np.asarray(chunk.imu.accel_bias[i]), np.asarray(chunk.imu.gyro_bias[i])   # (R, 3)
+        ba_t, bg_t = np.asarray(chunk.imu.accel_bias[i]), np.asarray(chunk.imu.gyro_bias[i])  # (R, 3)
         if self.geodetic:
             est_ned = ned_from_geodetic(self.pos[..., 0], self.pos[..., 1], -self.pos[..., 2], self.origin)
         else:
@@ -549,18 +740,24 @@ class YooBank:
         dx[..., yoo.BA] = ba_t - self.ba
         dx[..., yoo.BG] = bg_t - self.bg
         vel_b_err = np.einsum("ji,j->i", C_t, v_t) - np.einsum("mrji,mrj->mri", self.C, self.vel)
-        P = np.ascontiguousarray(self.P[..., :yoo.DIM, :yoo.DIM])          # the 12 estimated states
+        P = np.ascontiguousarray(self.P[..., : yoo.DIM, : yoo.DIM])  # the 12 estimated states
         blocks = metrics.block_nees(dx, P, BLOCK_OF_STATE, NUM_BLOCKS)
-        blocks[..., 0] = np.nan                                          # no position state
+        blocks[..., 0] = np.nan  # no position state
         att = dx[..., yoo.ATT]
         deg = 1.0 / units.DEG
         series = {
-            "vel_err": np.linalg.norm(vel_b_err, axis=-1), "att_err": np.linalg.norm(att, axis=-1) * deg,
-            "pos_err": pos_err, "vel_sigma": np.sqrt(np.einsum("mrii->mr", P[..., :3, :3])),
-            "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg, "pos_sigma": np.nan,
-            "nees": metrics.nees(dx, P), "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg,
-            "heading_err": np.abs(att[..., 2]) * deg, "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
-            "heading_sigma": np.sqrt(P[..., 5, 5]) * deg}
+            "vel_err": np.linalg.norm(vel_b_err, axis=-1),
+            "att_err": np.linalg.norm(att, axis=-1) * deg,
+            "pos_err": pos_err,
+            "vel_sigma": np.sqrt(np.einsum("mrii->mr", P[..., :3, :3])),
+            "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg,
+            "pos_sigma": np.nan,
+            "nees": metrics.nees(dx, P),
+            "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg,
+            "heading_err": np.abs(att[..., 2]) * deg,
+            "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
+            "heading_sigma": np.sqrt(P[..., 5, 5]) * deg,
+        }
         for j, name in enumerate(SERIES):
             store["series"][j, row] = series[name]
         store["nees_block"][row] = blocks
@@ -573,7 +770,7 @@ class YooBank:
         """The output epochs and updates since the last :meth:`take`; without ``keep`` they are
         dropped (as FilterBank.take). ``until_s``: none after this time (where the 20-state bank
         stopped, tauvcore.eval.runner._Banks)."""
-        chunks = self.chunks[self.taken:]
+        chunks = self.chunks[self.taken :]
         if keep:
             self.taken = len(self.chunks)
         else:
@@ -589,24 +786,34 @@ class YooBank:
 
         M, R = self.batch
         if chunks:
-            cat = {name: np.concatenate([c[name] for c in chunks], axis=1 if name == "series" else 0)
-                   for name in chunks[0]}
+            cat = {
+                name: np.concatenate([c[name] for c in chunks], axis=1 if name == "series" else 0)
+                for name in chunks[0]
+            }
         else:
             none = np.zeros(0, np.int64)
             cat = self._chunk_store(none, none, np.zeros(0), np.zeros(0))
         if until_s is not None:
             T = int(np.searchsorted(cat["t_s"], until_s, side="right"))
             U = int(np.searchsorted(cat["up_t"], until_s, side="right"))
-            cat = {name: (a[:, :T] if name == "series" else a[:T] if name in _EPOCH_FIELDS else a[:U])
-                   for name, a in cat.items()}
+            cat = {
+                name: (a[:, :T] if name == "series" else a[:T] if name in _EPOCH_FIELDS else a[:U])
+                for name, a in cat.items()
+            }
         t_s = cat["t_s"]
         series = dict(zip(SERIES, cat["series"]))
         U = cat["up_t"].size
         trace = None
         if self.has_vkf and U:
-            trace = {"t_s": cat["up_t"], "x": cat["tr_x"], "sigma": cat["tr_sigma"],
-                     "sf_true": cat["tr_truth"][..., 0], "b_true": cat["tr_truth"][..., 1],
-                     "rpm_in_use": cat["tr_use"], "altitude_m": cat["tr_alt"]}
+            trace = {
+                "t_s": cat["up_t"],
+                "x": cat["tr_x"],
+                "sigma": cat["tr_sigma"],
+                "sf_true": cat["tr_truth"][..., 0],
+                "b_true": cat["tr_truth"][..., 1],
+                "rpm_in_use": cat["tr_use"],
+                "altitude_m": cat["tr_alt"],
+            }
         out = {}
         for m, method in enumerate(self.methods):
             updates = {}
@@ -615,31 +822,56 @@ class YooBank:
                 valid, fused, rejected = (cat["up_flags"][:, m, :, j] for j in range(3))
                 with np.errstate(invalid="ignore", divide="ignore"):
                     ratio = np.max(nu**2 / (self.gate**2 * S), axis=-1)
-                updates["dvl"] = UpdateRecord(           # the velocity aid, from the DVL or (vkf) the RPM
-                    t_s=cat["up_t"], z=cat["up_z"][:, m], innovation=nu, innovation_var=S, test_ratio=ratio,
-                    fused=fused, rejected=rejected, valid=valid, fused_rows=np.repeat(fused[..., None], 3, -1),
-                    rejected_rows=np.repeat(rejected[..., None], 3, -1), nis=cat["up_nis"][:, m],
-                    nis_dof=np.where(valid, 3, 0), unusable=np.zeros_like(valid))
+                updates["dvl"] = UpdateRecord(  # the velocity aid, from the DVL or (vkf) the RPM
+                    t_s=cat["up_t"],
+                    z=cat["up_z"][:, m],
+                    innovation=nu,
+                    innovation_var=S,
+                    test_ratio=ratio,
+                    fused=fused,
+                    rejected=rejected,
+                    valid=valid,
+                    fused_rows=np.repeat(fused[..., None], 3, -1),
+                    rejected_rows=np.repeat(rejected[..., None], 3, -1),
+                    nis=cat["up_nis"][:, m],
+                    nis_dof=np.where(valid, 3, 0),
+                    unusable=np.zeros_like(valid),
+                )
             nonfinite = ~np.isfinite(series["nees"][:, m])
-            first_bad = np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T]) \
-                if t_s.size else np.full(R, np.nan)
+            first_bad = (
+                np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T])
+                if t_s.size
+                else np.full(R, np.nan)
+            )
             out[method] = MethodResult(
-                method=method, t_s=t_s, vel_err_mps=series["vel_err"][:, m], att_err_deg=series["att_err"][:, m],
-                pos_err_m=series["pos_err"][:, m], vel_sigma_mps=series["vel_sigma"][:, m],
-                att_sigma_deg=series["att_sigma"][:, m], pos_sigma_m=series["pos_sigma"][:, m],
-                nees=series["nees"][:, m], tilt_err_deg=series["tilt_err"][:, m],
-                heading_err_deg=series["heading_err"][:, m], tilt_sigma_deg=series["tilt_sigma"][:, m],
-                heading_sigma_deg=series["heading_sigma"][:, m], nees_block=cat["nees_block"][:, m],
-                est_pos_n=cat["est_pos_n"][:, m], est_vel_n=cat["est_vel_n"][:, m],
-                est_euler_rad=cat["est_euler"][:, m], diverged=~np.isnan(first_bad), diverged_at_s=first_bad,
-                p_floor_count=np.zeros(R, int), updates=updates, block_dims=BLOCK_DIMS,
-                vkf_trace=trace if method == "vkf" else None)
+                method=method,
+                t_s=t_s,
+                vel_err_mps=series["vel_err"][:, m],
+                att_err_deg=series["att_err"][:, m],
+                pos_err_m=series["pos_err"][:, m],
+                vel_sigma_mps=series["vel_sigma"][:, m],
+                att_sigma_deg=series["att_sigma"][:, m],
+                pos_sigma_m=series["pos_sigma"][:, m],
+                nees=series["nees"][:, m],
+                tilt_err_deg=series["tilt_err"][:, m],
+                heading_err_deg=series["heading_err"][:, m],
+                tilt_sigma_deg=series["tilt_sigma"][:, m],
+                heading_sigma_deg=series["heading_sigma"][:, m],
+                nees_block=cat["nees_block"][:, m],
+                est_pos_n=cat["est_pos_n"][:, m],
+                est_vel_n=cat["est_vel_n"][:, m],
+                est_euler_rad=cat["est_euler"][:, m],
+                diverged=~np.isnan(first_bad),
+                diverged_at_s=first_bad,
+                p_floor_count=np.zeros(R, int),
+                updates=updates,
+                block_dims=BLOCK_DIMS,
+                vkf_trace=trace if method == "vkf" else None,
+            )
         return out
 
 
 _EPOCH_FIELDS = ("t_s", "out_k", "nees_block", "est_pos_n", "est_vel_n", "est_euler")
-
-
 
 
 def _euler_batch(C: np.ndarray) -> np.ndarray:

@@ -47,9 +47,9 @@ class Nominal:
 
     nav: NavState
     accel_bias: np.ndarray  # (B, 3) [m/s^2]
-    gyro_bias: np.ndarray   # (B, 3) [rad/s]
-    dvl_bias: np.ndarray    # (B, 4) [m/s]
-    dvl_sf: np.ndarray      # (B,) [-]
+    gyro_bias: np.ndarray  # (B, 3) [rad/s]
+    dvl_bias: np.ndarray  # (B, 4) [m/s]
+    dvl_sf: np.ndarray  # (B,) [-]
 
     @property
     def vel_b(self) -> np.ndarray:
@@ -63,16 +63,32 @@ def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> tuple[np.ndarray, ...
     """Fresh C-contiguous copies of the nominal state broadcast to ``batch``, flattened to one
     leading axis (the compiled kernels' layout): pos, vel (n, 3), C (n, 3, 3), accel and gyro bias
     (n, 3), DVL bias (n, 4), scale factor (n,)."""
+
     def flat(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
-        return np.array(np.broadcast_to(np.asarray(a, dtype=float), batch + tail), order="C").reshape((-1,) + tail)
-    return (flat(nom.nav.pos_n, (3,)), flat(nom.nav.vel_n, (3,)), flat(nom.nav.C_nb, (3, 3)),
-            flat(nom.accel_bias, (3,)), flat(nom.gyro_bias, (3,)), flat(nom.dvl_bias, (4,)), flat(nom.dvl_sf, ()))
+        return np.array(np.broadcast_to(np.asarray(a, dtype=float), batch + tail), order="C").reshape(
+            (-1,) + tail
+        )
+
+    return (
+        flat(nom.nav.pos_n, (3,)),
+        flat(nom.nav.vel_n, (3,)),
+        flat(nom.nav.C_nb, (3, 3)),
+        flat(nom.accel_bias, (3,)),
+        flat(nom.gyro_bias, (3,)),
+        flat(nom.dvl_bias, (4,)),
+        flat(nom.dvl_sf, ()),
+    )
 
 
 def _nominal_of(arrays: tuple[np.ndarray, ...], batch: tuple[int, ...]) -> Nominal:
     pos, vel, C, ba, bg, bdvl, sf = arrays
-    return Nominal(NavState(pos.reshape(batch + (3,)), vel.reshape(batch + (3,)), C.reshape(batch + (3, 3))),
-                   ba.reshape(batch + (3,)), bg.reshape(batch + (3,)), bdvl.reshape(batch + (4,)), sf.reshape(batch))
+    return Nominal(
+        NavState(pos.reshape(batch + (3,)), vel.reshape(batch + (3,)), C.reshape(batch + (3, 3))),
+        ba.reshape(batch + (3,)),
+        bg.reshape(batch + (3,)),
+        bdvl.reshape(batch + (4,)),
+        sf.reshape(batch),
+    )
 
 
 def inject(nom: Nominal, dx: np.ndarray, geodetic: bool = False) -> Nominal:
@@ -101,12 +117,14 @@ def difference(true: Nominal, est: Nominal, geodetic: bool = False) -> np.ndarra
     filter bank's records use it); the sensor errors subtract."""
     from tauvcore.filter import kernels
 
-    batch = np.broadcast_shapes(true.dvl_sf.shape, est.dvl_sf.shape, np.shape(true.nav.pos_n)[:-1],
-                                np.shape(est.nav.pos_n)[:-1])
+    batch = np.broadcast_shapes(
+        true.dvl_sf.shape, est.dvl_sf.shape, np.shape(true.nav.pos_n)[:-1], np.shape(est.nav.pos_n)[:-1]
+    )
     t, e = _state_arrays(true, batch), _state_arrays(est, batch)
     dx = np.zeros(batch + (STATE.dim,))
-    dx[..., :kernels.NAV] = kernels.difference_batch(t[0], t[1], t[2], e[0], e[1], e[2],
-                                                     geodetic).reshape(batch + (kernels.NAV,))
+    dx[..., : kernels.NAV] = kernels.difference_batch(t[0], t[1], t[2], e[0], e[1], e[2], geodetic).reshape(
+        batch + (kernels.NAV,)
+    )
     dx[..., STATE.ba] = true.accel_bias - est.accel_bias
     dx[..., STATE.bg] = true.gyro_bias - est.gyro_bias
     dx[..., STATE.b_dvl] = true.dvl_bias - est.dvl_bias
@@ -125,11 +143,11 @@ class Measurement:
     the whole vector at once (a velocity solution).
     """
 
-    z: np.ndarray           # (B, m) observation
+    z: np.ndarray  # (B, m) observation
     innovation: np.ndarray  # (B, m)
-    H: np.ndarray           # (B, m, 20)
-    R: np.ndarray           # (B, m, m)
-    valid: np.ndarray       # (B,) bool: the source produced a measurement for this batch entry
+    H: np.ndarray  # (B, m, 20)
+    R: np.ndarray  # (B, m, m)
+    valid: np.ndarray  # (B,) bool: the source produced a measurement for this batch entry
     active: np.ndarray | None = None  # (B, m) bool rows in use; None = all
     gate_rows: bool = False
 
@@ -138,19 +156,19 @@ class Measurement:
 class UpdateOutcome:
     """What one correction did, per batch entry (the record PX4 keeps for every source)."""
 
-    z: np.ndarray                  # (B, m)
-    innovation: np.ndarray         # (B, m)
-    innovation_var: np.ndarray     # (B, m) diagonal of S = H P H^T + R (NaN for unused rows)
-    test_ratio: np.ndarray         # (B,) max over active rows of nu_i^2 / (gate^2 S_ii); > 1: rejected
-    fused: np.ndarray              # (B,) bool: at least one row fused
-    rejected: np.ndarray           # (B,) bool: at least one valid row failed the gate
-    fused_rows: np.ndarray         # (B, m) bool
-    rejected_rows: np.ndarray      # (B, m) bool
-    nis: np.ndarray                # (B,) normalised innovation squared nu^T S^-1 nu over the active rows, before
+    z: np.ndarray  # (B, m)
+    innovation: np.ndarray  # (B, m)
+    innovation_var: np.ndarray  # (B, m) diagonal of S = H P H^T + R (NaN for unused rows)
+    test_ratio: np.ndarray  # (B,) max over active rows of nu_i^2 / (gate^2 S_ii); > 1: rejected
+    fused: np.ndarray  # (B,) bool: at least one row fused
+    rejected: np.ndarray  # (B,) bool: at least one valid row failed the gate
+    fused_rows: np.ndarray  # (B, m) bool
+    rejected_rows: np.ndarray  # (B, m) bool
+    nis: np.ndarray  # (B,) normalised innovation squared nu^T S^-1 nu over the active rows, before
     #                                the gate (NaN: no active row, or S unusable)
-    nis_dof: np.ndarray            # (B,) int: number of active rows (the NIS's chi-square degrees of freedom;
+    nis_dof: np.ndarray  # (B,) int: number of active rows (the NIS's chi-square degrees of freedom;
     #                                rows of an unusable update count too: the source did measure)
-    unusable: np.ndarray           # (B,) bool: S not finite or not positive definite: nothing fused
+    unusable: np.ndarray  # (B,) bool: S not finite or not positive definite: nothing fused
 
 
 def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
@@ -161,15 +179,22 @@ def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
 
     Phi = np.asarray(Phi, dtype=float)
     eye = np.eye(STATE.dim)
-    if not (np.array_equal(np.broadcast_to(Phi[..., kernels.NAV:, :], Phi.shape[:-2] + eye[kernels.NAV:].shape),
-                           np.broadcast_to(eye[kernels.NAV:], Phi.shape[:-2] + eye[kernels.NAV:].shape))
-            and not np.any(Phi[..., :kernels.NAV, kernels.CORE:])):
+    if not (
+        np.array_equal(
+            np.broadcast_to(Phi[..., kernels.NAV :, :], Phi.shape[:-2] + eye[kernels.NAV :].shape),
+            np.broadcast_to(eye[kernels.NAV :], Phi.shape[:-2] + eye[kernels.NAV :].shape),
+        )
+        and not np.any(Phi[..., : kernels.NAV, kernels.CORE :])
+    ):
         raise ValueError("Phi must be the identity outside rows 0-8 and zero beyond column 14 in them")
     batch = np.broadcast_shapes(np.shape(P)[:-2], Phi.shape[:-2], np.shape(Qd)[:-2])
     shape = (STATE.dim, STATE.dim)
 
     def flat(a: np.ndarray) -> np.ndarray:
-        return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), batch + shape)).reshape((-1,) + shape)
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), batch + shape)).reshape(
+            (-1,) + shape
+        )
+
     return kernels.propagate_batch(flat(P), flat(Phi), flat(Qd)).reshape(batch + shape)
 
 
@@ -224,9 +249,17 @@ def condition_covariance(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return P, repair
 
 
-def fuse_in_place(P: np.ndarray, state: tuple[np.ndarray, ...], H: np.ndarray, R: np.ndarray, nu: np.ndarray,
-                  active: np.ndarray, gate_rows: np.ndarray, gate_sigma: float,
-                  geodetic: bool = False) -> tuple[np.ndarray, ...]:
+def fuse_in_place(
+    P: np.ndarray,
+    state: tuple[np.ndarray, ...],
+    H: np.ndarray,
+    R: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    gate_rows: np.ndarray,
+    gate_sigma: float,
+    geodetic: bool = False,
+) -> tuple[np.ndarray, ...]:
     """The compiled gated Joseph correction and injection of n filters, in place (the filter
     bank's layout): P (n, 20, 20), ``state`` the arrays of :func:`_state_arrays`, H (n, m, 20),
     R (n, m, m), nu, active (n, m) (rows in use: active and valid), gate_rows (n,).
@@ -235,24 +268,47 @@ def fuse_in_place(P: np.ndarray, state: tuple[np.ndarray, ...], H: np.ndarray, R
 
     n, m = P.shape[0], nu.shape[-1]
     dx, s_diag, keep, nis, ratio, unusable = kernels.correct_batch(
-        P, np.ascontiguousarray(H, dtype=float).reshape(n, m, STATE.dim),
-        np.ascontiguousarray(R, dtype=float).reshape(n, m, m), np.ascontiguousarray(nu, dtype=float).reshape(n, m),
-        np.ascontiguousarray(active, dtype=bool).reshape(n, m), np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
-        float(gate_sigma))
+        P,
+        np.ascontiguousarray(H, dtype=float).reshape(n, m, STATE.dim),
+        np.ascontiguousarray(R, dtype=float).reshape(n, m, m),
+        np.ascontiguousarray(nu, dtype=float).reshape(n, m),
+        np.ascontiguousarray(active, dtype=bool).reshape(n, m),
+        np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
+        float(gate_sigma),
+    )
     kernels.inject_batch(*state, dx, geodetic)
     return s_diag, keep, nis, ratio, unusable
 
 
-def make_outcome(z: np.ndarray, innovation: np.ndarray, active: np.ndarray, s_diag: np.ndarray, keep: np.ndarray,
-                 nis: np.ndarray, test_ratio: np.ndarray, unusable: np.ndarray) -> UpdateOutcome:
+def make_outcome(
+    z: np.ndarray,
+    innovation: np.ndarray,
+    active: np.ndarray,
+    s_diag: np.ndarray,
+    keep: np.ndarray,
+    nis: np.ndarray,
+    test_ratio: np.ndarray,
+    unusable: np.ndarray,
+) -> UpdateOutcome:
     """The record of one correction from the kernel's outcome (``active``: rows measured)."""
-    return UpdateOutcome(z=z, innovation=innovation, innovation_var=s_diag, test_ratio=test_ratio,
-                         fused=keep.any(axis=-1), rejected=(active & ~keep).any(axis=-1), fused_rows=keep,
-                         rejected_rows=active & ~keep, nis=nis, nis_dof=active.sum(axis=-1), unusable=unusable)
+    return UpdateOutcome(
+        z=z,
+        innovation=innovation,
+        innovation_var=s_diag,
+        test_ratio=test_ratio,
+        fused=keep.any(axis=-1),
+        rejected=(active & ~keep).any(axis=-1),
+        fused_rows=keep,
+        rejected_rows=active & ~keep,
+        nis=nis,
+        nis_dof=active.sum(axis=-1),
+        unusable=unusable,
+    )
 
 
-def correct(P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float,
-            apply: np.ndarray | None = None) -> tuple[np.ndarray, Nominal, UpdateOutcome]:
+def correct(
+    P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float, apply: np.ndarray | None = None
+) -> tuple[np.ndarray, Nominal, UpdateOutcome]:
     """Gated Joseph-form update and injection (the kernel :func:`tauvcore.filter.kernels.correct_into`).
 
     The gate is the paper's (section 2.1.1): a row must lie within ``gate_sigma`` standard
@@ -280,9 +336,20 @@ def correct(P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float,
 
     def rows(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
         return np.broadcast_to(a, batch + tail).reshape((-1,) + tail)
-    fused = fuse_in_place(flat, state, rows(meas.H, (m, STATE.dim)), rows(meas.R, (m, m)),
-                          rows(meas.innovation, (m,)), rows(active, (m,)),
-                          np.full(flat.shape[0], meas.gate_rows), gate_sigma)
+
+    fused = fuse_in_place(
+        flat,
+        state,
+        rows(meas.H, (m, STATE.dim)),
+        rows(meas.R, (m, m)),
+        rows(meas.innovation, (m,)),
+        rows(active, (m,)),
+        np.full(flat.shape[0], meas.gate_rows),
+        gate_sigma,
+    )
     s_diag, keep, nis, ratio, unusable = (a.reshape(batch + a.shape[1:]) for a in fused)
-    return P_new, _nominal_of(state, batch), make_outcome(meas.z, meas.innovation, active, s_diag, keep, nis, ratio,
-                                                          unusable)
+    return (
+        P_new,
+        _nominal_of(state, batch),
+        make_outcome(meas.z, meas.innovation, active, s_diag, keep, nis, ratio, unusable),
+    )

@@ -32,19 +32,21 @@ from tauvcore.geo import earth
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
-N = 20          # error states
-NAV = 9         # rows of F that are not zero: position, misalignment, velocity
-CORE = 15       # columns of F that are not zero: those plus accelerometer and gyro biases
-POS, ATT, VEL, BA, BG, BDVL, SF = 0, 3, 6, 9, 12, 15, 19   # tauvcore.filter.layout.STATE starts
-NOISE_ACCEL, NOISE_GYRO = 0, 3                               # tauvcore.filter.layout.NOISE starts
-SERIES_ANGLE2 = 1e-4   # below (1e-2 rad)^2 exp_so3 uses its Taylor series (exact to double precision)
+N = 20  # error states
+NAV = 9  # rows of F that are not zero: position, misalignment, velocity
+CORE = 15  # columns of F that are not zero: those plus accelerometer and gyro biases
+POS, ATT, VEL, BA, BG, BDVL, SF = 0, 3, 6, 9, 12, 15, 19  # tauvcore.filter.layout.STATE starts
+NOISE_ACCEL, NOISE_GYRO = 0, 3  # tauvcore.filter.layout.NOISE starts
+SERIES_ANGLE2 = 1e-4  # below (1e-2 rad)^2 exp_so3 uses its Taylor series (exact to double precision)
 LOG_SMALL_ANGLE_RAD = 1e-6
 
 
 def flat(a: np.ndarray, batch: tuple[int, ...], tail: tuple[int, ...], dtype: type = float) -> np.ndarray:
     """``a`` broadcast to ``batch + tail`` as a C-contiguous array with one leading axis: the
     layout the batched kernels take from their numpy callers."""
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=dtype), batch + tail)).reshape((-1,) + tail)
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=dtype), batch + tail)).reshape(
+        (-1,) + tail
+    )
 
 
 # ---------------------------------------------------------------- rotations
@@ -112,8 +114,16 @@ _transport_rate = _jit(earth.transport_rate_with_radii)
 
 
 @_jit
-def geodetic_step_terms_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, dv: np.ndarray, g_guess: np.ndarray,
-                             coriolis_guess_T: np.ndarray, dt: float, S: np.ndarray) -> tuple:
+def geodetic_step_terms_into(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    dv: np.ndarray,
+    g_guess: np.ndarray,
+    coriolis_guess_T: np.ndarray,
+    dt: float,
+    S: np.ndarray,
+) -> tuple:
     """The earth terms of one IMU interval on the WGS-84 ellipsoid, at the interval's middle as
     predicted from its start (position ``pos`` = latitude [rad], longitude [rad], depth [m];
     NED velocity ``vel``; attitude ``C`` and velocity increment ``dv`` of the interval, gravity
@@ -130,12 +140,24 @@ def geodetic_step_terms_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, dv
     R_N0, _ = _radii_nav(pos[0])
     v0, v1, v2 = vel[0], vel[1], vel[2]
     K = coriolis_guess_T
-    v_mid0 = v0 + 0.5 * (C[0, 0] * dv[0] + C[0, 1] * dv[1] + C[0, 2] * dv[2]
-                         + (g_guess[0] + v0 * K[0, 0] + v1 * K[1, 0] + v2 * K[2, 0]) * dt)
-    v_mid1 = v1 + 0.5 * (C[1, 0] * dv[0] + C[1, 1] * dv[1] + C[1, 2] * dv[2]
-                         + (g_guess[1] + v0 * K[0, 1] + v1 * K[1, 1] + v2 * K[2, 1]) * dt)
-    v_mid2 = v2 + 0.5 * (C[2, 0] * dv[0] + C[2, 1] * dv[1] + C[2, 2] * dv[2]
-                         + (g_guess[2] + v0 * K[0, 2] + v1 * K[1, 2] + v2 * K[2, 2]) * dt)
+    v_mid0 = v0 + 0.5 * (
+        C[0, 0] * dv[0]
+        + C[0, 1] * dv[1]
+        + C[0, 2] * dv[2]
+        + (g_guess[0] + v0 * K[0, 0] + v1 * K[1, 0] + v2 * K[2, 0]) * dt
+    )
+    v_mid1 = v1 + 0.5 * (
+        C[1, 0] * dv[0]
+        + C[1, 1] * dv[1]
+        + C[1, 2] * dv[2]
+        + (g_guess[1] + v0 * K[0, 1] + v1 * K[1, 1] + v2 * K[2, 1]) * dt
+    )
+    v_mid2 = v2 + 0.5 * (
+        C[2, 0] * dv[0]
+        + C[2, 1] * dv[1]
+        + C[2, 2] * dv[2]
+        + (g_guess[2] + v0 * K[0, 2] + v1 * K[1, 2] + v2 * K[2, 2]) * dt
+    )
     lat_m = pos[0] + 0.25 * dt * (vel[0] + v_mid0) / (R_N0 + h)
     h_m = h - 0.25 * dt * (vel[2] + v_mid2)
     R_N, R_E = _radii_nav(lat_m)
@@ -153,10 +175,24 @@ def geodetic_step_terms_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, dv
 
 
 @_jit
-def strapdown_step_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi0: float, phi1: float, phi2: float,
-                        dv: np.ndarray, dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray,
-                        g_n: np.ndarray, coriolis_T: np.ndarray, geodetic: bool, S: np.ndarray, E: np.ndarray,
-                        tmp: np.ndarray) -> None:
+def strapdown_step_into(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    phi0: float,
+    phi1: float,
+    phi2: float,
+    dv: np.ndarray,
+    dt: float,
+    C_earth: np.ndarray,
+    C_earth_half: np.ndarray,
+    g_n: np.ndarray,
+    coriolis_T: np.ndarray,
+    geodetic: bool,
+    S: np.ndarray,
+    E: np.ndarray,
+    tmp: np.ndarray,
+) -> None:
     """One IMU interval of the mechanization (tauvcore.ins.strapdown), in place.
 
     ``C <- C_earth C exp([phi x])``; ``dv_n = C_earth/2 C dv + g dt``;
@@ -222,23 +258,64 @@ def strapdown_step_into(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi0: f
 
 
 @_jit
-def strapdown_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, phi: np.ndarray, dv: np.ndarray, dt: float,
-                    C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
-                    geodetic: bool) -> None:
+def strapdown_batch(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    phi: np.ndarray,
+    dv: np.ndarray,
+    dt: float,
+    C_earth: np.ndarray,
+    C_earth_half: np.ndarray,
+    g_n: np.ndarray,
+    coriolis_T: np.ndarray,
+    geodetic: bool,
+) -> None:
     """One step for n entries in place: pos, vel (n, 3), C (n, 3, 3), phi, dv (n, 3)."""
     S = np.empty((4, 3, 3))
     E = np.empty((3, 3))
     tmp = np.empty((3, 3))
     for i in range(pos.shape[0]):
-        strapdown_step_into(pos[i], vel[i], C[i], phi[i, 0], phi[i, 1], phi[i, 2], dv[i], dt, C_earth,
-                            C_earth_half, g_n, coriolis_T, geodetic, S, E, tmp)
+        strapdown_step_into(
+            pos[i],
+            vel[i],
+            C[i],
+            phi[i, 0],
+            phi[i, 1],
+            phi[i, 2],
+            dv[i],
+            dt,
+            C_earth,
+            C_earth_half,
+            g_n,
+            coriolis_T,
+            geodetic,
+            S,
+            E,
+            tmp,
+        )
 
 
 @_jit
-def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
-            phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta_raw: np.ndarray, dtheta_sum: np.ndarray, k_from: int,
-            k_to: int, dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray,
-            coriolis_T: np.ndarray, geodetic: bool) -> None:
+def advance(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    accel_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    phi_raw: np.ndarray,
+    dv_raw: np.ndarray,
+    dtheta_raw: np.ndarray,
+    dtheta_sum: np.ndarray,
+    k_from: int,
+    k_to: int,
+    dt: float,
+    C_earth: np.ndarray,
+    C_earth_half: np.ndarray,
+    g_n: np.ndarray,
+    coriolis_T: np.ndarray,
+    geodetic: bool,
+) -> None:
     """Advance the (M, R) nominal states over samples ``k_from + 1 .. k_to`` of the compensated
     increments ``phi_raw``, ``dv_raw`` (K, R, 3), each corrected by its own bias estimate, and add
     the raw gyro increments ``dtheta_raw`` (K, R, 3) of those samples to ``dtheta_sum`` (R, 3) one
@@ -256,22 +333,34 @@ def advance(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndar
             for k in range(k_from + 1, k_to + 1):
                 for i in range(3):
                     dv[i] = dv_raw[k, r, i] - accel_bias[m, r, i] * dt
-                strapdown_step_into(pos[m, r], vel[m, r], C[m, r],
-                                    phi_raw[k, r, 0] - gyro_bias[m, r, 0] * dt,
-                                    phi_raw[k, r, 1] - gyro_bias[m, r, 1] * dt,
-                                    phi_raw[k, r, 2] - gyro_bias[m, r, 2] * dt,
-                                    dv, dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic, S, E, tmp)
+                strapdown_step_into(
+                    pos[m, r],
+                    vel[m, r],
+                    C[m, r],
+                    phi_raw[k, r, 0] - gyro_bias[m, r, 0] * dt,
+                    phi_raw[k, r, 1] - gyro_bias[m, r, 1] * dt,
+                    phi_raw[k, r, 2] - gyro_bias[m, r, 2] * dt,
+                    dv,
+                    dt,
+                    C_earth,
+                    C_earth_half,
+                    g_n,
+                    coriolis_T,
+                    geodetic,
+                    S,
+                    E,
+                    tmp,
+                )
 
 
 # ---------------------------------------------------------------- earth terms of the error model
 # Rows of the (18, 3) array of earth terms F is built from (:func:`flat_terms_into`,
 # :func:`geodetic_terms_into`): vectors in n, then 3x3 Jacobians by rows.
-T_G, T_WIE, T_WEN = 0, 1, 2          # plumb-bob gravity, earth rate, transport rate in n
-T_DG, T_DWIE, T_DWEN = 3, 6, 9       # d g_n / d pos, d omega_ie_n / d pos, d omega_en_n / d pos
-T_DWENV = 12                         # d omega_en_n / d vel_n
-T_FPP = 15                           # d pos_err' / d pos_err (the position-error metrics' own change)
+T_G, T_WIE, T_WEN = 0, 1, 2  # plumb-bob gravity, earth rate, transport rate in n
+T_DG, T_DWIE, T_DWEN = 3, 6, 9  # d g_n / d pos, d omega_ie_n / d pos, d omega_en_n / d pos
+T_DWENV = 12  # d omega_en_n / d vel_n
+T_FPP = 15  # d pos_err' / d pos_err (the position-error metrics' own change)
 NUM_TERMS = 18
-
 
 
 @_jit
@@ -285,7 +374,9 @@ def flat_terms_into(g_n: np.ndarray, w_ie: np.ndarray, T: np.ndarray) -> None:
 
 
 @_jit
-def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_down: float, T: np.ndarray) -> None:
+def geodetic_terms_into(
+    lat: float, h: float, v_north: float, v_east: float, v_down: float, T: np.ndarray
+) -> None:
     """Earth terms on the WGS-84 ellipsoid at latitude ``lat``, height ``h`` and NED velocity
     (tauvcore.geo.earth), with their Jacobians with respect to the position error in metres
     ``dpos = ((R_N + h) dlat, (R_E + h) cos(lat) dlon, -dh)`` and the NED velocity error.
@@ -297,8 +388,10 @@ def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_d
     R_N, R_E = _radii_nav(lat)
     rho_n, rho_e = R_N + h, R_E + h
     w2 = 1.0 - earth._E2 * s * s
-    dR_N = 3.0 * earth.A_M * (1.0 - earth._E2) * earth._E2 * s * c / (w2 * w2 * math.sqrt(w2))   # d R_N / d lat
-    dR_E = earth.A_M * earth._E2 * s * c / (w2 * math.sqrt(w2))                               # d R_E / d lat
+    dR_N = (
+        3.0 * earth.A_M * (1.0 - earth._E2) * earth._E2 * s * c / (w2 * w2 * math.sqrt(w2))
+    )  # d R_N / d lat
+    dR_E = earth.A_M * earth._E2 * s * c / (w2 * math.sqrt(w2))  # d R_E / d lat
     # gravity: (-K h sin 2lat, 0, gamma(lat, h))
     K = earth._GRAVITY_NORTH_PER_M
     gamma_0 = _normal_gravity(lat, 0.0)
@@ -308,12 +401,14 @@ def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_d
     T[T_G, 0] = _gravity_north(lat, h)
     T[T_G, 2] = _normal_gravity(lat, h)
     u = s * s
-    dgamma0_du = earth._GE * (earth._K_SOMIGLIANA / math.sqrt(1.0 - earth._E2 * u)
-                              + (1.0 + earth._K_SOMIGLIANA * u) * earth._E2 / (2.0 * (1.0 - earth._E2 * u) ** 1.5))
+    dgamma0_du = earth._GE * (
+        earth._K_SOMIGLIANA / math.sqrt(1.0 - earth._E2 * u)
+        + (1.0 + earth._K_SOMIGLIANA * u) * earth._E2 / (2.0 * (1.0 - earth._E2 * u) ** 1.5)
+    )
     dgamma_dlat = dgamma0_du * 2.0 * s * c * P + gamma_0 * 8.0 * f * h_a * s * c
     dgamma_dh = gamma_0 * (-2.0 / earth.A_M * (1.0 + f + m - 2.0 * f * s * s) + 6.0 * h_a / earth.A_M)
     T[T_DG + 0, 0] = -2.0 * K * h * math.cos(2.0 * lat) / rho_n
-    T[T_DG + 0, 2] = K * math.sin(2.0 * lat)                   # - d/dh
+    T[T_DG + 0, 2] = K * math.sin(2.0 * lat)  # - d/dh
     T[T_DG + 2, 0] = dgamma_dlat / rho_n
     T[T_DG + 2, 2] = -dgamma_dh
     # earth rate: Omega (cos lat, 0, -sin lat)
@@ -325,7 +420,7 @@ def geodetic_terms_into(lat: float, h: float, v_north: float, v_east: float, v_d
     T[T_DWEN + 0, 0] = -v_east * dR_E / (rho_e * rho_e) / rho_n
     T[T_DWEN + 1, 0] = v_north * dR_N / (rho_n * rho_n) / rho_n
     T[T_DWEN + 2, 0] = -v_east * (rho_e / (c * c) - t * dR_E) / (rho_e * rho_e) / rho_n
-    T[T_DWEN + 0, 2] = v_east / (rho_e * rho_e)                # - d/dh
+    T[T_DWEN + 0, 2] = v_east / (rho_e * rho_e)  # - d/dh
     T[T_DWEN + 1, 2] = -v_north / (rho_n * rho_n)
     T[T_DWEN + 2, 2] = -v_east * t / (rho_e * rho_e)
     T[T_DWENV + 0, 1] = 1.0 / rho_e
@@ -403,8 +498,8 @@ def F_core_into(C: np.ndarray, v: np.ndarray, om: np.ndarray, T: np.ndarray, A: 
             s = 0.0
             sp = 0.0
             for k in range(3):
-                ctw = 0.0                               # (C^T W)[k, j]
-                ctp = 0.0                               # (C^T W_ie,p)[k, j]
+                ctw = 0.0  # (C^T W)[k, j]
+                ctp = 0.0  # (C^T W_ie,p)[k, j]
                 for m in range(3):
                     ctw += C[m, k] * _skew(T[T_WIE, 0], T[T_WIE, 1], T[T_WIE, 2], m, j)
                     ctp += C[m, k] * T[T_DWIE + m, j]
@@ -442,10 +537,10 @@ def G_imu_into(C: np.ndarray, v: np.ndarray, Gm: np.ndarray) -> None:
     ``Gm`` (6, 6): the only non-zero entries of G besides the identity of the random walks."""
     for i in range(3):
         for j in range(3):
-            Gm[i, j] = 0.0                                          # misalignment <- accelerometer
-            Gm[i, 3 + j] = -C[i, j]                                 # misalignment <- gyro
-            Gm[3 + i, j] = -1.0 if i == j else 0.0                  # velocity <- accelerometer
-            Gm[3 + i, 3 + j] = -_skew(v[0], v[1], v[2], i, j)       # velocity <- gyro
+            Gm[i, j] = 0.0  # misalignment <- accelerometer
+            Gm[i, 3 + j] = -C[i, j]  # misalignment <- gyro
+            Gm[3 + i, j] = -1.0 if i == j else 0.0  # velocity <- accelerometer
+            Gm[3 + i, 3 + j] = -_skew(v[0], v[1], v[2], i, j)  # velocity <- gyro
     return
 
 
@@ -596,7 +691,7 @@ def noise_into(G: np.ndarray, q: np.ndarray, dt: float, out: np.ndarray) -> None
                 value = ga * G[rows[b], k]
                 out[rows[a], rows[b]] += value
                 if b != a:
-                    out[rows[b], rows[a]] += value      # exactly symmetric
+                    out[rows[b], rows[a]] += value  # exactly symmetric
 
 
 @_jit
@@ -610,9 +705,19 @@ def _add_half_noise(P: np.ndarray, Q6: np.ndarray, q: np.ndarray, dt: float) -> 
 
 
 @_jit
-def propagate_bank(P: np.ndarray, pos: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray,
-                   dtheta_sum: np.ndarray, dt_c: float, g_n: np.ndarray, w_ie: np.ndarray, q: np.ndarray,
-                   geodetic: bool) -> None:
+def propagate_bank(
+    P: np.ndarray,
+    pos: np.ndarray,
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    gyro_bias: np.ndarray,
+    dtheta_sum: np.ndarray,
+    dt_c: float,
+    g_n: np.ndarray,
+    w_ie: np.ndarray,
+    q: np.ndarray,
+    geodetic: bool,
+) -> None:
     """Covariance step of every (method, run) over ``dt_c``: F at the nominal attitude and body
     velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``; its earth terms the
     flat model's (``g_n``, ``w_ie``) or, ``geodetic``, those at each nominal position (latitude,
@@ -638,7 +743,9 @@ def propagate_bank(P: np.ndarray, pos: np.ndarray, C: np.ndarray, vel_n: np.ndar
                 v[i] = Cm[0, i] * vel_n[m, r, 0] + Cm[1, i] * vel_n[m, r, 1] + Cm[2, i] * vel_n[m, r, 2]
                 om[i] = dtheta_sum[r, i] / dt_c - gyro_bias[m, r, i]
             if geodetic:
-                geodetic_terms_into(pos[m, r, 0], -pos[m, r, 2], vel_n[m, r, 0], vel_n[m, r, 1], vel_n[m, r, 2], T)
+                geodetic_terms_into(
+                    pos[m, r, 0], -pos[m, r, 2], vel_n[m, r, 0], vel_n[m, r, 1], vel_n[m, r, 2], T
+                )
             F_core_into(Cm, v, om, T, A)
             for i in range(NAV):
                 for j in range(CORE):
@@ -726,7 +833,9 @@ def whiten_into(A: np.ndarray, x: np.ndarray, idx: np.ndarray, n: int, L: np.nda
 
 
 @_jit
-def quadratic_into(A: np.ndarray, x: np.ndarray, idx: np.ndarray, n: int, L: np.ndarray, y: np.ndarray) -> float:
+def quadratic_into(
+    A: np.ndarray, x: np.ndarray, idx: np.ndarray, n: int, L: np.ndarray, y: np.ndarray
+) -> float:
     """``x_s^T (A_ss)^-1 x_s`` over the states ``s = idx[:n]`` by Cholesky; NaN if ``A_ss`` is not
     positive definite or anything is not finite."""
     if not whiten_into(A, x, idx, n, L, y):
@@ -774,8 +883,17 @@ def nees_plan(block_of_state: np.ndarray, num_blocks: int) -> tuple:
 
 
 @_jit
-def nees_blocks_into(P: np.ndarray, dx: np.ndarray, members: np.ndarray, sizes: np.ndarray, lead: int,
-                     order: np.ndarray, L: np.ndarray, y: np.ndarray, out: np.ndarray) -> float:
+def nees_blocks_into(
+    P: np.ndarray,
+    dx: np.ndarray,
+    members: np.ndarray,
+    sizes: np.ndarray,
+    lead: int,
+    order: np.ndarray,
+    L: np.ndarray,
+    y: np.ndarray,
+    out: np.ndarray,
+) -> float:
     """NEES of the full state (returned) and of every block (its marginal covariance, into
     ``out``), from :func:`nees_plan`: one Cholesky of the whole P in ``order`` gives the full NEES
     and, from its leading rows, the largest block's (11 sensor states: a quarter of the work of
@@ -811,7 +929,9 @@ def nees_batch(dx: np.ndarray, P: np.ndarray) -> np.ndarray:
 
 
 @_jit
-def block_nees_batch(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_blocks: int) -> np.ndarray:
+def block_nees_batch(
+    dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_blocks: int
+) -> np.ndarray:
     """NEES of every block (its marginal covariance) for (n, d), (n, d, d) -> (n, num_blocks):
     :func:`nees_blocks_into`, as the filter bank's records compute them."""
     d = dx.shape[1]
@@ -841,8 +961,18 @@ def _solve_chol(L: np.ndarray, n: int, b: np.ndarray, x: np.ndarray) -> None:
 
 
 @_jit
-def correct_into(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: bool,
-                 gate_sigma: float, dx: np.ndarray, s_diag: np.ndarray, keep: np.ndarray) -> tuple[float, float, bool]:
+def correct_into(
+    P: np.ndarray,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    gate_rows: bool,
+    gate_sigma: float,
+    dx: np.ndarray,
+    s_diag: np.ndarray,
+    keep: np.ndarray,
+) -> tuple[float, float, bool]:
     """Gated Joseph-form correction of one filter (tauvcore.filter.eskf.correct), P in place.
 
     Rows with ``active`` False are dropped exactly. ``S`` over the active rows must factorise
@@ -862,7 +992,7 @@ def correct_into(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, a
     dx[:] = 0.0
     if n_a == 0:
         return np.nan, np.nan, False
-    U = np.empty((m, N))           # H P over the rows in use
+    U = np.empty((m, N))  # H P over the rows in use
     S = np.empty((m, m))
     L = np.empty((m, m))
     for a in range(n_a):
@@ -901,7 +1031,7 @@ def correct_into(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, a
     n_k = 0
     for a in range(n_a):
         if keep[rows[a]]:
-            if n_k != a:                   # compact the kept rows to the front
+            if n_k != a:  # compact the kept rows to the front
                 rows[n_k] = rows[a]
                 for j in range(N):
                     U[n_k, j] = U[a, j]
@@ -909,7 +1039,7 @@ def correct_into(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, a
             n_k += 1
     if n_k == 0:
         return nis, ratio_max, False
-    if n_k != n_a:                         # S over the kept rows
+    if n_k != n_a:  # S over the kept rows
         for a in range(n_k):
             for b in range(n_k):
                 s = Rm[rows[a], rows[b]]
@@ -971,8 +1101,15 @@ def correct_into(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, a
 
 
 @_jit
-def correct_batch(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray,
-                  gate_rows: np.ndarray, gate_sigma: float) -> tuple:
+def correct_batch(
+    P: np.ndarray,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    gate_rows: np.ndarray,
+    gate_sigma: float,
+) -> tuple:
     """:func:`correct_into` for n filters: P (n, 20, 20) in place, H (n, m, 20), Rm (n, m, m), nu,
     active (n, m), gate_rows (n,). -> dx (n, 20), s_diag (n, m), keep (n, m), nis, test_ratio,
     unusable (n,)."""
@@ -984,8 +1121,9 @@ def correct_batch(P: np.ndarray, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, 
     ratio = np.empty(n)
     unusable = np.empty(n, dtype=np.bool_)
     for i in range(n):
-        nis[i], ratio[i], unusable[i] = correct_into(P[i], H[i], Rm[i], nu[i], active[i], gate_rows[i], gate_sigma,
-                                                     dx[i], s_diag[i], keep[i])
+        nis[i], ratio[i], unusable[i] = correct_into(
+            P[i], H[i], Rm[i], nu[i], active[i], gate_rows[i], gate_sigma, dx[i], s_diag[i], keep[i]
+        )
     return dx, s_diag, keep, nis, ratio, unusable
 
 
@@ -1016,8 +1154,17 @@ def add_position_batch(pos: np.ndarray, d: np.ndarray, geodetic: bool) -> np.nda
 
 
 @_jit
-def inject_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np.ndarray, gyro_bias: np.ndarray,
-                 dvl_bias: np.ndarray, dvl_sf: np.ndarray, dx: np.ndarray, geodetic: bool) -> None:
+def inject_batch(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    accel_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    dvl_bias: np.ndarray,
+    dvl_sf: np.ndarray,
+    dx: np.ndarray,
+    geodetic: bool,
+) -> None:
     """Closed-loop injection ``x_hat <- x_hat (+) dx`` (tauvcore.filter.eskf.inject) for n filters in
     place: position and biases add, ``C <- exp([rho x]) C``, the body velocity adds and ``vel_n`` is
     rebuilt with the corrected attitude. pos, vel (n, 3), C (n, 3, 3), biases (n, 3), (n, 3), (n, 4),
@@ -1046,18 +1193,53 @@ def inject_batch(pos: np.ndarray, vel: np.ndarray, C: np.ndarray, accel_bias: np
 
 
 # ---------------------------------------------------------------- records
-SERIES_NAMES = ("vel_err", "att_err", "pos_err", "vel_sigma", "att_sigma", "pos_sigma", "nees",
-                "tilt_err", "heading_err", "tilt_sigma", "heading_sigma")
+SERIES_NAMES = (
+    "vel_err",
+    "att_err",
+    "pos_err",
+    "vel_sigma",
+    "att_sigma",
+    "pos_sigma",
+    "nees",
+    "tilt_err",
+    "heading_err",
+    "tilt_sigma",
+    "heading_sigma",
+)
 """Rows of the ``series`` array :func:`record_bank` fills (norms, 1-sigma, NEES; attitude in deg)."""
 
 
 @_jit
-def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray,
-                bg_t: np.ndarray, bdvl_t: np.ndarray, sf_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
-                C: np.ndarray, ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray, sf: np.ndarray, P: np.ndarray,
-                block_of_state: np.ndarray, num_blocks: int, deg: float, series: np.ndarray,
-                nees_block: np.ndarray, est_pos: np.ndarray, nonfinite_at: np.ndarray, geodetic: bool,
-                origin: np.ndarray, est_vel: np.ndarray, est_euler: np.ndarray) -> None:
+def record_bank(
+    slot: int,
+    t_s: float,
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    ba_t: np.ndarray,
+    bg_t: np.ndarray,
+    bdvl_t: np.ndarray,
+    sf_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    bdvl: np.ndarray,
+    sf: np.ndarray,
+    P: np.ndarray,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    deg: float,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+    est_pos: np.ndarray,
+    nonfinite_at: np.ndarray,
+    geodetic: bool,
+    origin: np.ndarray,
+    est_vel: np.ndarray,
+    est_euler: np.ndarray,
+) -> None:
     """One output epoch of every (method, run): the error ``true (-) estimate``
     (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma, the NEES of the full
     state and of each block, the estimated position; and the health check without truth (a
@@ -1099,7 +1281,9 @@ def record_bank(slot: int, t_s: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t
             series[3, slot, m, r] = math.sqrt(sv)
             series[4, slot, m, r] = math.sqrt(sa) / deg
             series[5, slot, m, r] = math.sqrt(sp)
-            series[6, slot, m, r] = nees_blocks_into(Pm, dx, members, sizes, lead, order, L, y, nees_block[slot, m, r])
+            series[6, slot, m, r] = nees_blocks_into(
+                Pm, dx, members, sizes, lead, order, L, y, nees_block[slot, m, r]
+            )
             series[7, slot, m, r] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
             series[8, slot, m, r] = abs(dx[ATT + 2]) / deg
             series[9, slot, m, r] = math.sqrt(Pm[ATT, ATT] + Pm[ATT + 1, ATT + 1]) / deg
@@ -1142,19 +1326,59 @@ event); an output epoch was recorded at which the caller asked to be called back
 
 
 @_jit
-def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_from: int, s_to: int, k0: int,
-              check_step: int, yield_every: int, counters: np.ndarray,
-              pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray,
-              sf: np.ndarray, P: np.ndarray, dtheta_sum: np.ndarray, ping_bias: np.ndarray, ping_sf: np.ndarray,
-              nonfinite_at: np.ndarray,
-              phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray, t_s: np.ndarray, pos_t: np.ndarray,
-              vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray, bg_t: np.ndarray, ping_rows: np.ndarray,
-              ping_bias_all: np.ndarray, ping_sf_all: np.ndarray,
-              dt: float, C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
-              geodetic: bool, origin: np.ndarray,
-              w_ie: np.ndarray, q: np.ndarray, block_of_state: np.ndarray, num_blocks: int, deg: float,
-              series: np.ndarray, nees_block: np.ndarray, est_pos: np.ndarray, out_t: np.ndarray,
-              est_vel: np.ndarray, est_euler: np.ndarray) -> tuple:
+def run_stops(
+    stops: np.ndarray,
+    is_event: np.ndarray,
+    out_row: np.ndarray,
+    s_from: int,
+    s_to: int,
+    k0: int,
+    check_step: int,
+    yield_every: int,
+    counters: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    bdvl: np.ndarray,
+    sf: np.ndarray,
+    P: np.ndarray,
+    dtheta_sum: np.ndarray,
+    ping_bias: np.ndarray,
+    ping_sf: np.ndarray,
+    nonfinite_at: np.ndarray,
+    phi_raw: np.ndarray,
+    dv_raw: np.ndarray,
+    dtheta: np.ndarray,
+    t_s: np.ndarray,
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    ba_t: np.ndarray,
+    bg_t: np.ndarray,
+    ping_rows: np.ndarray,
+    ping_bias_all: np.ndarray,
+    ping_sf_all: np.ndarray,
+    dt: float,
+    C_earth: np.ndarray,
+    C_earth_half: np.ndarray,
+    g_n: np.ndarray,
+    coriolis_T: np.ndarray,
+    geodetic: bool,
+    origin: np.ndarray,
+    w_ie: np.ndarray,
+    q: np.ndarray,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    deg: float,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+    est_pos: np.ndarray,
+    out_t: np.ndarray,
+    est_vel: np.ndarray,
+    est_euler: np.ndarray,
+) -> tuple:
     """The filter bank between aiding epochs, in one call: for each covariance stop
     ``stops[s_from:s_to]`` (global samples; the chunk starts at ``k0``) advance the nominal states
     (:func:`advance`), propagate the covariances (:func:`propagate_bank`), check them once every
@@ -1174,8 +1398,25 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
     while s < s_to:
         k = stops[s]
         i = k - k0
-        advance(pos, vel, C, ba, bg, phi_raw, dv_raw, dtheta, dtheta_sum, k_state - k0, i, dt, C_earth,
-                C_earth_half, g_n, coriolis_T, geodetic)
+        advance(
+            pos,
+            vel,
+            C,
+            ba,
+            bg,
+            phi_raw,
+            dv_raw,
+            dtheta,
+            dtheta_sum,
+            k_state - k0,
+            i,
+            dt,
+            C_earth,
+            C_earth_half,
+            g_n,
+            coriolis_T,
+            geodetic,
+        )
         k_state = k
         propagate_bank(P, pos, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q, geodetic)
         for r in range(R):
@@ -1199,9 +1440,36 @@ def run_stops(stops: np.ndarray, is_event: np.ndarray, out_row: np.ndarray, s_fr
                         ping_bias[r, j] = ping_bias_all[latest, r, j]
                     ping_sf[r] = ping_sf_all[latest, r]
             row = out_row[s]
-            record_bank(row, t_s[i], pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i], ping_bias, ping_sf, pos, vel,
-                        C, ba, bg, bdvl, sf, P, block_of_state, num_blocks, deg, series, nees_block, est_pos,
-                        nonfinite_at, geodetic, origin, est_vel, est_euler)
+            record_bank(
+                row,
+                t_s[i],
+                pos_t[i],
+                vel_t[i],
+                C_t[i],
+                ba_t[i],
+                bg_t[i],
+                ping_bias,
+                ping_sf,
+                pos,
+                vel,
+                C,
+                ba,
+                bg,
+                bdvl,
+                sf,
+                P,
+                block_of_state,
+                num_blocks,
+                deg,
+                series,
+                nees_block,
+                est_pos,
+                nonfinite_at,
+                geodetic,
+                origin,
+                est_vel,
+                est_euler,
+            )
             out_t[row] = t_s[i]
             slot += 1
             if yield_every > 0 and slot % yield_every == 0:
@@ -1281,8 +1549,18 @@ def propagate_batch(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarra
 
 
 @_jit
-def nav_difference_into(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
-                        C: np.ndarray, Ce: np.ndarray, rho: np.ndarray, dx: np.ndarray, geodetic: bool) -> None:
+def nav_difference_into(
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    Ce: np.ndarray,
+    rho: np.ndarray,
+    dx: np.ndarray,
+    geodetic: bool,
+) -> None:
     """Navigation part of ``true (-) estimate`` (tauvcore.filter.eskf.difference) into ``dx[0:9]``:
     position, misalignment ``log(C_t C^T)``, body velocity ``C_t^T v_t - C^T v``. Ce (3, 3), rho (3,)
     scratch. On WGS-84 (``geodetic``; positions latitude, longitude, depth) the position error is
@@ -1301,13 +1579,21 @@ def nav_difference_into(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, p
         if not geodetic:
             dx[POS + i] = pos_t[i] - pos[i]
         dx[ATT + i] = rho[i]
-        dx[VEL + i] = ((C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2])
-                       - (C[0, i] * vel[0] + C[1, i] * vel[1] + C[2, i] * vel[2]))
+        dx[VEL + i] = (C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2]) - (
+            C[0, i] * vel[0] + C[1, i] * vel[1] + C[2, i] * vel[2]
+        )
 
 
 @_jit
-def difference_batch(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos: np.ndarray, vel: np.ndarray,
-                     C: np.ndarray, geodetic: bool) -> np.ndarray:
+def difference_batch(
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    geodetic: bool,
+) -> np.ndarray:
     """:func:`nav_difference_into` for n pairs -> (n, 9)."""
     out = np.empty((pos.shape[0], NAV))
     Ce = np.empty((3, 3))
@@ -1322,17 +1608,26 @@ def difference_batch(pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, pos:
 # docstrings derive them): those classes call these kernels, and the filter bank calls them for
 # every (method, run) of a ping at once.
 
+
 @_jit
-def omega_comp_into(omega_meas: np.ndarray, gyro_bias: np.ndarray, C: np.ndarray, w_ie: np.ndarray,
-                    out: np.ndarray) -> None:
+def omega_comp_into(
+    omega_meas: np.ndarray, gyro_bias: np.ndarray, C: np.ndarray, w_ie: np.ndarray, out: np.ndarray
+) -> None:
     """``omega_hat_nb = omega_meas - b_g - C^T omega_ie``: the body rate the lever arm uses."""
     for i in range(3):
         out[i] = omega_meas[i] - gyro_bias[i] - (C[0, i] * w_ie[0] + C[1, i] * w_ie[1] + C[2, i] * w_ie[2])
 
 
 @_jit
-def lc_solve_into(A: np.ndarray, y: np.ndarray, available: np.ndarray, sigma2: float, cov: np.ndarray,
-                  A_pinv: np.ndarray, v: np.ndarray) -> bool:
+def lc_solve_into(
+    A: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    sigma2: float,
+    cov: np.ndarray,
+    A_pinv: np.ndarray,
+    v: np.ndarray,
+) -> bool:
     """Weighted least squares over the returned beams (eq. 17, 19, 21): ``cov = (A^T W A)^-1``,
     ``A+ = cov A^T W`` (zero columns for missing beams), ``v = A+ y``; False with fewer than three
     beams (then cov = I)."""
@@ -1350,8 +1645,11 @@ def lc_solve_into(A: np.ndarray, y: np.ndarray, available: np.ndarray, sigma2: f
     else:
         for i in range(3):
             M[i, i] = 1.0
-    det = (M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]) - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
-           + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0]))
+    det = (
+        M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1])
+        - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
+        + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0])
+    )
     cov[0, 0] = (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]) / det
     cov[0, 1] = (M[0, 2] * M[2, 1] - M[0, 1] * M[2, 2]) / det
     cov[0, 2] = (M[0, 1] * M[1, 2] - M[0, 2] * M[1, 1]) / det
@@ -1373,9 +1671,22 @@ def lc_solve_into(A: np.ndarray, y: np.ndarray, available: np.ndarray, sigma2: f
 
 
 @_jit
-def lc_prepare_into(A: np.ndarray, l: np.ndarray, sigma2: float, gyro_var: float, w_ie: np.ndarray, y: np.ndarray,
-                    available: np.ndarray, omega_meas: np.ndarray, C: np.ndarray, gyro_bias: np.ndarray,
-                    z: np.ndarray, R: np.ndarray, A_pinv: np.ndarray, omega_comp: np.ndarray) -> bool:
+def lc_prepare_into(
+    A: np.ndarray,
+    l: np.ndarray,
+    sigma2: float,
+    gyro_var: float,
+    w_ie: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    omega_meas: np.ndarray,
+    C: np.ndarray,
+    gyro_bias: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    A_pinv: np.ndarray,
+    omega_comp: np.ndarray,
+) -> bool:
     """The loosely coupled measurement's data side: ``z = v_head - omega_hat_nb x l`` and
     ``R = (A^T W A)^-1 + sigma_w^2 [l x][l x]^T``; returns valid (three or more beams)."""
     v = np.empty(3)
@@ -1393,9 +1704,19 @@ def lc_prepare_into(A: np.ndarray, l: np.ndarray, sigma2: float, gyro_var: float
 
 
 @_jit
-def lc_predict_into(C: np.ndarray, vel_n: np.ndarray, sf: float, dvl_bias: np.ndarray, gyro_bias: np.ndarray,
-                    A_pinv: np.ndarray, omega_meas: np.ndarray, omega_comp: np.ndarray, w_ie: np.ndarray,
-                    l: np.ndarray, out: np.ndarray) -> None:
+def lc_predict_into(
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    sf: float,
+    dvl_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    A_pinv: np.ndarray,
+    omega_meas: np.ndarray,
+    omega_comp: np.ndarray,
+    w_ie: np.ndarray,
+    l: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """Nonlinear ``h(x) = (1 + SF) v_b + (omega_nb - omega_hat_nb) x l + A+ b_dvl`` at a state,
     the measurement side (``A+``, the rates) held fixed."""
     om = np.empty(3)
@@ -1405,19 +1726,35 @@ def lc_predict_into(C: np.ndarray, vel_n: np.ndarray, sf: float, dvl_bias: np.nd
     cx = (om[1] * l[2] - om[2] * l[1], om[2] * l[0] - om[0] * l[2], om[0] * l[1] - om[1] * l[0])
     for i in range(3):
         vb = C[0, i] * vel_n[0] + C[1, i] * vel_n[1] + C[2, i] * vel_n[2]
-        out[i] = (1.0 + sf) * vb + cx[i] + (A_pinv[i, 0] * dvl_bias[0] + A_pinv[i, 1] * dvl_bias[1]
-                                            + A_pinv[i, 2] * dvl_bias[2] + A_pinv[i, 3] * dvl_bias[3])
+        out[i] = (
+            (1.0 + sf) * vb
+            + cx[i]
+            + (
+                A_pinv[i, 0] * dvl_bias[0]
+                + A_pinv[i, 1] * dvl_bias[1]
+                + A_pinv[i, 2] * dvl_bias[2]
+                + A_pinv[i, 3] * dvl_bias[3]
+            )
+        )
 
 
 @_jit
-def lever_rows_into(A: np.ndarray, C: np.ndarray, w_ie: np.ndarray, l: np.ndarray, rows: int, att: np.ndarray,
-                    bg: np.ndarray) -> None:
+def lever_rows_into(
+    A: np.ndarray, C: np.ndarray, w_ie: np.ndarray, l: np.ndarray, rows: int, att: np.ndarray, bg: np.ndarray
+) -> None:
     """``B [l x] C^T [omega_ie x]`` and ``B [l x]`` for ``B`` = the first ``rows`` rows of ``A``
     (the beams, tightly coupled) or I (``A`` = identity, loosely coupled)."""
     lx = np.zeros((3, 3))
     lx[0, 1], lx[0, 2], lx[1, 0], lx[1, 2], lx[2, 0], lx[2, 1] = -l[2], l[1], l[2], -l[0], -l[1], l[0]
     W = np.zeros((3, 3))
-    W[0, 1], W[0, 2], W[1, 0], W[1, 2], W[2, 0], W[2, 1] = -w_ie[2], w_ie[1], w_ie[2], -w_ie[0], -w_ie[1], w_ie[0]
+    W[0, 1], W[0, 2], W[1, 0], W[1, 2], W[2, 0], W[2, 1] = (
+        -w_ie[2],
+        w_ie[1],
+        w_ie[2],
+        -w_ie[0],
+        -w_ie[1],
+        w_ie[0],
+    )
     CtW = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
@@ -1431,8 +1768,15 @@ def lever_rows_into(A: np.ndarray, C: np.ndarray, w_ie: np.ndarray, l: np.ndarra
 
 
 @_jit
-def lc_jacobian_into(C: np.ndarray, vel_n: np.ndarray, sf: float, A_pinv: np.ndarray, w_ie: np.ndarray,
-                     l: np.ndarray, H: np.ndarray) -> None:
+def lc_jacobian_into(
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    sf: float,
+    A_pinv: np.ndarray,
+    w_ie: np.ndarray,
+    l: np.ndarray,
+    H: np.ndarray,
+) -> None:
     """``H = [0, [l x] C^T [omega_ie x], (1 + SF) I, 0, [l x], A+, v_b]`` (3, 20), zeroed here."""
     H[:, :] = 0.0
     att = np.empty((3, 3))
@@ -1449,24 +1793,37 @@ def lc_jacobian_into(C: np.ndarray, vel_n: np.ndarray, sf: float, A_pinv: np.nda
 
 
 @_jit
-def beam_noise_into(A: np.ndarray, sigma2: float, gyro_var: float, l: np.ndarray, sf: float, S: np.ndarray) -> None:
+def beam_noise_into(
+    A: np.ndarray, sigma2: float, gyro_var: float, l: np.ndarray, sf: float, S: np.ndarray
+) -> None:
     """Covariance of the four (compensated) beams: ``(sigma^2 I + sigma_w^2 (A [l x])(A [l x])^T) / (1 + SF)^2``."""
     L = np.empty((4, 3))
     for k in range(4):
-        L[k, 0] = A[k, 1] * l[2] - A[k, 2] * l[1]        # row k of A [l x]
+        L[k, 0] = A[k, 1] * l[2] - A[k, 2] * l[1]  # row k of A [l x]
         L[k, 1] = A[k, 2] * l[0] - A[k, 0] * l[2]
         L[k, 2] = A[k, 0] * l[1] - A[k, 1] * l[0]
     d = (1.0 + sf) * (1.0 + sf)
     for i in range(4):
         for j in range(4):
-            S[i, j] = ((sigma2 if i == j else 0.0) + gyro_var * (L[i, 0] * L[j, 0] + L[i, 1] * L[j, 1]
-                                                                   + L[i, 2] * L[j, 2])) / d
+            S[i, j] = (
+                (sigma2 if i == j else 0.0)
+                + gyro_var * (L[i, 0] * L[j, 0] + L[i, 1] * L[j, 1] + L[i, 2] * L[j, 2])
+            ) / d
 
 
 @_jit
-def tc_predict_into(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: float, dvl_bias: np.ndarray,
-                    gyro_bias: np.ndarray, omega_meas: np.ndarray, w_ie: np.ndarray, l: np.ndarray,
-                    out: np.ndarray) -> None:
+def tc_predict_into(
+    A: np.ndarray,
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    sf: float,
+    dvl_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    omega_meas: np.ndarray,
+    w_ie: np.ndarray,
+    l: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """``h_k = b_k . ((1 + SF) v_b + omega_nb x l) + b_dvl,k`` for the four beams."""
     om = np.empty(3)
     omega_comp_into(omega_meas, gyro_bias, C, w_ie, om)
@@ -1481,8 +1838,9 @@ def tc_predict_into(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: float, 
 
 
 @_jit
-def tc_jacobian_into(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: float, w_ie: np.ndarray, l: np.ndarray,
-                     H: np.ndarray) -> None:
+def tc_jacobian_into(
+    A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: float, w_ie: np.ndarray, l: np.ndarray, H: np.ndarray
+) -> None:
     """``H_k = [0, b_k^T [l x] C^T [omega_ie x], (1 + SF) b_k^T, 0, b_k^T [l x], e_k^T, b_k^T v_b]`` (4, 20)."""
     H[:, :] = 0.0
     att = np.empty((4, 3))
@@ -1501,8 +1859,18 @@ def tc_jacobian_into(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: float,
 
 
 @_jit
-def lc_prepare_batch(A: np.ndarray, l: np.ndarray, sigma2: float, gyro_var: float, w_ie: np.ndarray, y: np.ndarray,
-                     available: np.ndarray, omega_meas: np.ndarray, C: np.ndarray, gyro_bias: np.ndarray) -> tuple:
+def lc_prepare_batch(
+    A: np.ndarray,
+    l: np.ndarray,
+    sigma2: float,
+    gyro_var: float,
+    w_ie: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    omega_meas: np.ndarray,
+    C: np.ndarray,
+    gyro_bias: np.ndarray,
+) -> tuple:
     """:func:`lc_prepare_into` for n entries -> z (n, 3), R (n, 3, 3), A+ (n, 3, 4), omega_hat_nb (n, 3), valid (n,)."""
     n = y.shape[0]
     z = np.empty((n, 3))
@@ -1511,8 +1879,22 @@ def lc_prepare_batch(A: np.ndarray, l: np.ndarray, sigma2: float, gyro_var: floa
     omega_comp = np.empty((n, 3))
     valid = np.empty(n, dtype=np.bool_)
     for i in range(n):
-        valid[i] = lc_prepare_into(A, l, sigma2, gyro_var, w_ie, y[i], available[i], omega_meas[i], C[i], gyro_bias[i],
-                                   z[i], R[i], A_pinv[i], omega_comp[i])
+        valid[i] = lc_prepare_into(
+            A,
+            l,
+            sigma2,
+            gyro_var,
+            w_ie,
+            y[i],
+            available[i],
+            omega_meas[i],
+            C[i],
+            gyro_bias[i],
+            z[i],
+            R[i],
+            A_pinv[i],
+            omega_comp[i],
+        )
     return z, R, A_pinv, omega_comp, valid
 
 
@@ -1530,19 +1912,40 @@ def lc_solve_batch(A: np.ndarray, y: np.ndarray, available: np.ndarray, sigma2: 
 
 
 @_jit
-def lc_predict_batch(C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, dvl_bias: np.ndarray, gyro_bias: np.ndarray,
-                     A_pinv: np.ndarray, omega_meas: np.ndarray, omega_comp: np.ndarray, w_ie: np.ndarray,
-                     l: np.ndarray) -> np.ndarray:
+def lc_predict_batch(
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    sf: np.ndarray,
+    dvl_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    A_pinv: np.ndarray,
+    omega_meas: np.ndarray,
+    omega_comp: np.ndarray,
+    w_ie: np.ndarray,
+    l: np.ndarray,
+) -> np.ndarray:
     out = np.empty((C.shape[0], 3))
     for i in range(C.shape[0]):
-        lc_predict_into(C[i], vel_n[i], sf[i], dvl_bias[i], gyro_bias[i], A_pinv[i], omega_meas[i], omega_comp[i],
-                        w_ie, l, out[i])
+        lc_predict_into(
+            C[i],
+            vel_n[i],
+            sf[i],
+            dvl_bias[i],
+            gyro_bias[i],
+            A_pinv[i],
+            omega_meas[i],
+            omega_comp[i],
+            w_ie,
+            l,
+            out[i],
+        )
     return out
 
 
 @_jit
-def lc_jacobian_batch(C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, A_pinv: np.ndarray, w_ie: np.ndarray,
-                      l: np.ndarray) -> np.ndarray:
+def lc_jacobian_batch(
+    C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, A_pinv: np.ndarray, w_ie: np.ndarray, l: np.ndarray
+) -> np.ndarray:
     out = np.empty((C.shape[0], 3, N))
     for i in range(C.shape[0]):
         lc_jacobian_into(C[i], vel_n[i], sf[i], A_pinv[i], w_ie, l, out[i])
@@ -1550,8 +1953,17 @@ def lc_jacobian_batch(C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, A_pinv: 
 
 
 @_jit
-def tc_predict_batch(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, dvl_bias: np.ndarray,
-                     gyro_bias: np.ndarray, omega_meas: np.ndarray, w_ie: np.ndarray, l: np.ndarray) -> np.ndarray:
+def tc_predict_batch(
+    A: np.ndarray,
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    sf: np.ndarray,
+    dvl_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    omega_meas: np.ndarray,
+    w_ie: np.ndarray,
+    l: np.ndarray,
+) -> np.ndarray:
     out = np.empty((C.shape[0], 4))
     for i in range(C.shape[0]):
         tc_predict_into(A, C[i], vel_n[i], sf[i], dvl_bias[i], gyro_bias[i], omega_meas[i], w_ie, l, out[i])
@@ -1559,8 +1971,9 @@ def tc_predict_batch(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: np.nda
 
 
 @_jit
-def tc_jacobian_batch(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, w_ie: np.ndarray,
-                      l: np.ndarray) -> np.ndarray:
+def tc_jacobian_batch(
+    A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: np.ndarray, w_ie: np.ndarray, l: np.ndarray
+) -> np.ndarray:
     out = np.empty((C.shape[0], 4, N))
     for i in range(C.shape[0]):
         tc_jacobian_into(A, C[i], vel_n[i], sf[i], w_ie, l, out[i])
@@ -1568,7 +1981,9 @@ def tc_jacobian_batch(A: np.ndarray, C: np.ndarray, vel_n: np.ndarray, sf: np.nd
 
 
 @_jit
-def beam_noise_batch(A: np.ndarray, sigma2: float, gyro_var: float, l: np.ndarray, sf: np.ndarray) -> np.ndarray:
+def beam_noise_batch(
+    A: np.ndarray, sigma2: float, gyro_var: float, l: np.ndarray, sf: np.ndarray
+) -> np.ndarray:
     out = np.empty((sf.shape[0], 4, 4))
     for i in range(sf.shape[0]):
         beam_noise_into(A, sigma2, gyro_var, l, sf[i], out[i])
@@ -1581,13 +1996,41 @@ DVL_LC, DVL_TC = 1, 2
 
 
 @_jit
-def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, available: np.ndarray,
-                     omega_meas: np.ndarray, C: np.ndarray, vel_n: np.ndarray, gyro_bias: np.ndarray,
-                     dvl_bias: np.ndarray, sf: np.ndarray, P: np.ndarray, A: np.ndarray, l: np.ndarray, sigma2: float,
-                     gyro_var: float, w_ie: np.ndarray, n_cand: np.ndarray, ok: np.ndarray, Cc: np.ndarray,
-                     Dc: np.ndarray, gc: np.ndarray, ac: np.ndarray, mc: np.ndarray, mode_codes: np.ndarray,
-                     z: np.ndarray, nu: np.ndarray, H: np.ndarray, Rm: np.ndarray, active: np.ndarray,
-                     valid: np.ndarray, mode: np.ndarray, measured_axes: np.ndarray, choice: np.ndarray) -> None:
+def dvl_measure_bank(
+    methods: np.ndarray,
+    codes: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    omega_meas: np.ndarray,
+    C: np.ndarray,
+    vel_n: np.ndarray,
+    gyro_bias: np.ndarray,
+    dvl_bias: np.ndarray,
+    sf: np.ndarray,
+    P: np.ndarray,
+    A: np.ndarray,
+    l: np.ndarray,
+    sigma2: float,
+    gyro_var: float,
+    w_ie: np.ndarray,
+    n_cand: np.ndarray,
+    ok: np.ndarray,
+    Cc: np.ndarray,
+    Dc: np.ndarray,
+    gc: np.ndarray,
+    ac: np.ndarray,
+    mc: np.ndarray,
+    mode_codes: np.ndarray,
+    z: np.ndarray,
+    nu: np.ndarray,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    active: np.ndarray,
+    valid: np.ndarray,
+    mode: np.ndarray,
+    measured_axes: np.ndarray,
+    choice: np.ndarray,
+) -> None:
     """One DVL ping measured by every DVL method ``methods[i]`` (code ``codes[i]``) of the bank
     and every run: fills rows of z, nu (M, R, 4), H (M, R, 4, 20), Rm (M, R, 4, 4), active (M, R,
     4), valid (M, R) (rows beyond a measurement's width inactive, with a unit variance), and the
@@ -1625,11 +2068,28 @@ def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, avai
                 compensated_beams_into(A, y[r], available[r], dvl_bias[m, r], sf[m, r], omega_comp, l, y_c)
                 beam_noise_into(A, sigma2, gyro_var, l, sf[m, r], S)
                 for k in range(3):
-                    v_hat[k] = (C[m, r, 0, k] * vel_n[m, r, 0] + C[m, r, 1, k] * vel_n[m, r, 1]
-                                + C[m, r, 2, k] * vel_n[m, r, 2])
-                partial_into(n_cand[i], ok[i, pattern], Cc[i, pattern], Dc[i, pattern], gc[i, pattern],
-                             ac[i, pattern], mc[i, pattern], y_c, S, v_hat, P[m, r, VEL:VEL + 3, VEL:VEL + 3],
-                             z[m, r, :3], Rm[m, r, :3, :3], meas, pick)
+                    v_hat[k] = (
+                        C[m, r, 0, k] * vel_n[m, r, 0]
+                        + C[m, r, 1, k] * vel_n[m, r, 1]
+                        + C[m, r, 2, k] * vel_n[m, r, 2]
+                    )
+                partial_into(
+                    n_cand[i],
+                    ok[i, pattern],
+                    Cc[i, pattern],
+                    Dc[i, pattern],
+                    gc[i, pattern],
+                    ac[i, pattern],
+                    mc[i, pattern],
+                    y_c,
+                    S,
+                    v_hat,
+                    P[m, r, VEL : VEL + 3, VEL : VEL + 3],
+                    z[m, r, :3],
+                    Rm[m, r, :3, :3],
+                    meas,
+                    pick,
+                )
                 any_axis = False
                 for k in range(3):
                     nu[m, r, k] = z[m, r, k] - v_hat[k]
@@ -1645,10 +2105,35 @@ def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, avai
                 for k in range(3):
                     measured_axes[m, r, k] = meas[k] and any_axis
             elif codes[i] != DVL_TC:
-                good = lc_prepare_into(A, l, sigma2, gyro_var, w_ie, y[r], available[r], omega_meas[r], C[m, r],
-                                       gyro_bias[m, r], z[m, r, :3], Rm[m, r, :3, :3], A_pinv, omega_comp)
-                lc_predict_into(C[m, r], vel_n[m, r], sf[m, r], dvl_bias[m, r], gyro_bias[m, r], A_pinv,
-                                omega_meas[r], omega_comp, w_ie, l, h)
+                good = lc_prepare_into(
+                    A,
+                    l,
+                    sigma2,
+                    gyro_var,
+                    w_ie,
+                    y[r],
+                    available[r],
+                    omega_meas[r],
+                    C[m, r],
+                    gyro_bias[m, r],
+                    z[m, r, :3],
+                    Rm[m, r, :3, :3],
+                    A_pinv,
+                    omega_comp,
+                )
+                lc_predict_into(
+                    C[m, r],
+                    vel_n[m, r],
+                    sf[m, r],
+                    dvl_bias[m, r],
+                    gyro_bias[m, r],
+                    A_pinv,
+                    omega_meas[r],
+                    omega_comp,
+                    w_ie,
+                    l,
+                    h,
+                )
                 for k in range(3):
                     nu[m, r, k] = z[m, r, k] - h[k]
                     active[m, r, k] = good
@@ -1660,8 +2145,18 @@ def dvl_measure_bank(methods: np.ndarray, codes: np.ndarray, y: np.ndarray, avai
                 mode[m, r] = mode_codes[1] if good else mode_codes[0]
             else:
                 beam_noise_into(A, sigma2, gyro_var, l, 0.0, S)
-                tc_predict_into(A, C[m, r], vel_n[m, r], sf[m, r], dvl_bias[m, r], gyro_bias[m, r], omega_meas[r],
-                                w_ie, l, h)
+                tc_predict_into(
+                    A,
+                    C[m, r],
+                    vel_n[m, r],
+                    sf[m, r],
+                    dvl_bias[m, r],
+                    gyro_bias[m, r],
+                    omega_meas[r],
+                    w_ie,
+                    l,
+                    h,
+                )
                 for k in range(4):
                     if available[r, k]:
                         z[m, r, k] = y[r, k]
@@ -1692,11 +2187,22 @@ SELECT_TIE_REL = 1e-12
 
 
 @_jit
-def compensated_beams_into(A: np.ndarray, y: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray, sf: float,
-                           omega_comp: np.ndarray, l: np.ndarray, out: np.ndarray) -> None:
+def compensated_beams_into(
+    A: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    dvl_bias: np.ndarray,
+    sf: float,
+    omega_comp: np.ndarray,
+    l: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """``y_c = (y - b_hat - A (omega_hat_nb x l)) / (1 + SF_hat)``, zero where not returned."""
-    lx = (omega_comp[1] * l[2] - omega_comp[2] * l[1], omega_comp[2] * l[0] - omega_comp[0] * l[2],
-          omega_comp[0] * l[1] - omega_comp[1] * l[0])
+    lx = (
+        omega_comp[1] * l[2] - omega_comp[2] * l[1],
+        omega_comp[2] * l[0] - omega_comp[0] * l[2],
+        omega_comp[0] * l[1] - omega_comp[1] * l[0],
+    )
     for k in range(4):
         if available[k]:
             lever = A[k, 0] * lx[0] + A[k, 1] * lx[1] + A[k, 2] * lx[2]
@@ -1706,8 +2212,18 @@ def compensated_beams_into(A: np.ndarray, y: np.ndarray, available: np.ndarray, 
 
 
 @_jit
-def apply_solution_into(C: np.ndarray, D: np.ndarray, gain: np.ndarray, a: np.ndarray, y_c: np.ndarray,
-                        S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray, v: np.ndarray, R: np.ndarray) -> None:
+def apply_solution_into(
+    C: np.ndarray,
+    D: np.ndarray,
+    gain: np.ndarray,
+    a: np.ndarray,
+    y_c: np.ndarray,
+    S: np.ndarray,
+    v_hat: np.ndarray,
+    P_vel: np.ndarray,
+    v: np.ndarray,
+    R: np.ndarray,
+) -> None:
     """``v = C y_c + D v_hat``, ``R = C S C^T + (g D) P (g D)^T + a a^T`` (one row of C, D, g, a
     per velocity axis)."""
     CS = np.empty((3, 4))
@@ -1741,9 +2257,23 @@ def apply_solution_into(C: np.ndarray, D: np.ndarray, gain: np.ndarray, a: np.nd
 
 
 @_jit
-def partial_into(n_cand: int, ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc: np.ndarray, ac: np.ndarray,
-                 mc: np.ndarray, y_c: np.ndarray, S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray,
-                 v: np.ndarray, R: np.ndarray, measured: np.ndarray, choice: np.ndarray) -> None:
+def partial_into(
+    n_cand: int,
+    ok: np.ndarray,
+    Cc: np.ndarray,
+    Dc: np.ndarray,
+    gc: np.ndarray,
+    ac: np.ndarray,
+    mc: np.ndarray,
+    y_c: np.ndarray,
+    S: np.ndarray,
+    v_hat: np.ndarray,
+    P_vel: np.ndarray,
+    v: np.ndarray,
+    R: np.ndarray,
+    measured: np.ndarray,
+    choice: np.ndarray,
+) -> None:
     """A method's two-beam velocity from its candidates (one for VB, NSV, PLCF, VHV; four for the
     selector, eq. 48-49: per axis the candidate with the smallest variance, the earlier one on a
     tie within :data:`SELECT_TIE_REL`; rows recombined so that R keeps their cross terms).
@@ -1790,8 +2320,16 @@ def partial_into(n_cand: int, ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc
 
 
 @_jit
-def apply_solution_batch(C: np.ndarray, D: np.ndarray, gain: np.ndarray, a: np.ndarray, y_c: np.ndarray,
-                         S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple:
+def apply_solution_batch(
+    C: np.ndarray,
+    D: np.ndarray,
+    gain: np.ndarray,
+    a: np.ndarray,
+    y_c: np.ndarray,
+    S: np.ndarray,
+    v_hat: np.ndarray,
+    P_vel: np.ndarray,
+) -> tuple:
     n = y_c.shape[0]
     v = np.empty((n, 3))
     R = np.empty((n, 3, 3))
@@ -1801,8 +2339,15 @@ def apply_solution_batch(C: np.ndarray, D: np.ndarray, gain: np.ndarray, a: np.n
 
 
 @_jit
-def compensated_beams_batch(A: np.ndarray, y: np.ndarray, available: np.ndarray, dvl_bias: np.ndarray,
-                            sf: np.ndarray, omega_comp: np.ndarray, l: np.ndarray) -> np.ndarray:
+def compensated_beams_batch(
+    A: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    dvl_bias: np.ndarray,
+    sf: np.ndarray,
+    omega_comp: np.ndarray,
+    l: np.ndarray,
+) -> np.ndarray:
     out = np.empty((y.shape[0], 4))
     for i in range(y.shape[0]):
         compensated_beams_into(A, y[i], available[i], dvl_bias[i], sf[i], omega_comp[i], l, out[i])
@@ -1810,8 +2355,18 @@ def compensated_beams_batch(A: np.ndarray, y: np.ndarray, available: np.ndarray,
 
 
 @_jit
-def select_batch(ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc: np.ndarray, ac: np.ndarray, mc: np.ndarray,
-                 y_c: np.ndarray, S: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray) -> tuple:
+def select_batch(
+    ok: np.ndarray,
+    Cc: np.ndarray,
+    Dc: np.ndarray,
+    gc: np.ndarray,
+    ac: np.ndarray,
+    mc: np.ndarray,
+    y_c: np.ndarray,
+    S: np.ndarray,
+    v_hat: np.ndarray,
+    P_vel: np.ndarray,
+) -> tuple:
     """:func:`partial_into` with the selector's candidates for n entries sharing one pattern."""
     n = y_c.shape[0]
     v = np.empty((n, 3))
@@ -1819,14 +2374,38 @@ def select_batch(ok: np.ndarray, Cc: np.ndarray, Dc: np.ndarray, gc: np.ndarray,
     measured = np.empty((n, 3), dtype=np.bool_)
     choice = np.empty((n, 3), dtype=np.int64)
     for i in range(n):
-        partial_into(ok.shape[0], ok, Cc, Dc, gc, ac, mc, y_c[i], S[i], v_hat[i], P_vel[i], v[i], R[i],
-                     measured[i], choice[i])
+        partial_into(
+            ok.shape[0],
+            ok,
+            Cc,
+            Dc,
+            gc,
+            ac,
+            mc,
+            y_c[i],
+            S[i],
+            v_hat[i],
+            P_vel[i],
+            v[i],
+            R[i],
+            measured[i],
+            choice[i],
+        )
     return v, R, measured, choice
 
 
 @_jit
-def flag_implausible_bank(ba: np.ndarray, bg: np.ndarray, bdvl: np.ndarray, sf: np.ndarray, prior_var0: np.ndarray,
-                          prior_rate: np.ndarray, t: float, bound: float, flagged_at: np.ndarray) -> None:
+def flag_implausible_bank(
+    ba: np.ndarray,
+    bg: np.ndarray,
+    bdvl: np.ndarray,
+    sf: np.ndarray,
+    prior_var0: np.ndarray,
+    prior_rate: np.ndarray,
+    t: float,
+    bound: float,
+    flagged_at: np.ndarray,
+) -> None:
     """tauvcore.eval.metrics.implausible_sensor_errors over the bank's sensor-error estimates
     (ba, bg (M, R, 3), bdvl (M, R, 4), sf (M, R): 11 states in that order) at time ``t``: an entry
     not yet flagged whose estimate has a component with ``x^2 > bound (sigma_0^2 + q t)`` gets

@@ -11,11 +11,11 @@ from typing import ClassVar
 class ErrorStateLayout:
     """Named slices of the 20-state error vector ``dx = x_true - x_hat``."""
 
-    pos: ClassVar[slice] = slice(0, 3)      # position error, n frame [m]
-    att: ClassVar[slice] = slice(3, 6)      # misalignment rho, n frame [rad]: C_true = exp([rho x]) C_hat
-    vel: ClassVar[slice] = slice(6, 9)      # body-frame velocity error [m/s]
-    ba: ClassVar[slice] = slice(9, 12)      # accelerometer bias error, b frame [m/s^2]
-    bg: ClassVar[slice] = slice(12, 15)     # gyro bias error, b frame [rad/s]
+    pos: ClassVar[slice] = slice(0, 3)  # position error, n frame [m]
+    att: ClassVar[slice] = slice(3, 6)  # misalignment rho, n frame [rad]: C_true = exp([rho x]) C_hat
+    vel: ClassVar[slice] = slice(6, 9)  # body-frame velocity error [m/s]
+    ba: ClassVar[slice] = slice(9, 12)  # accelerometer bias error, b frame [m/s^2]
+    bg: ClassVar[slice] = slice(12, 15)  # gyro bias error, b frame [rad/s]
     b_dvl: ClassVar[slice] = slice(15, 19)  # DVL beam bias errors, beams 1-4 [m/s]
     sf_dvl: ClassVar[slice] = slice(19, 20)  # DVL scale factor error [-]
     dim: ClassVar[int] = 20
@@ -28,12 +28,12 @@ class ErrorStateLayout:
 class ProcessNoiseLayout:
     """Named slices of the 17-element process noise ``w`` (eq. 11)."""
 
-    accel: ClassVar[slice] = slice(0, 3)      # accelerometer white noise [m/s^2/sqrt(Hz)]
-    gyro: ClassVar[slice] = slice(3, 6)       # gyro white noise [rad/s/sqrt(Hz)]
-    ba: ClassVar[slice] = slice(6, 9)         # accelerometer bias random walk
-    bg: ClassVar[slice] = slice(9, 12)        # gyro bias random walk
-    b_dvl: ClassVar[slice] = slice(12, 16)    # DVL beam bias random walk
-    sf_dvl: ClassVar[slice] = slice(16, 17)   # DVL scale factor random walk
+    accel: ClassVar[slice] = slice(0, 3)  # accelerometer white noise [m/s^2/sqrt(Hz)]
+    gyro: ClassVar[slice] = slice(3, 6)  # gyro white noise [rad/s/sqrt(Hz)]
+    ba: ClassVar[slice] = slice(6, 9)  # accelerometer bias random walk
+    bg: ClassVar[slice] = slice(9, 12)  # gyro bias random walk
+    b_dvl: ClassVar[slice] = slice(12, 16)  # DVL beam bias random walk
+    sf_dvl: ClassVar[slice] = slice(16, 17)  # DVL scale factor random walk
     dim: ClassVar[int] = 17
 
 
@@ -48,7 +48,7 @@ def _indices(*slices: slice) -> tuple[int, ...]:
 NEES_BLOCKS: dict[str, tuple[int, ...]] = {
     "pos": _indices(STATE.pos),
     "vel": _indices(STATE.vel),
-    "tilt": _indices(slice(STATE.att.start, STATE.att.start + 2)),    # rho_N, rho_E: roll and pitch
+    "tilt": _indices(slice(STATE.att.start, STATE.att.start + 2)),  # rho_N, rho_E: roll and pitch
     "heading": _indices(slice(STATE.att.start + 2, STATE.att.stop)),  # rho_D: rotation about the vertical
     "sensor": _indices(STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl),
 }

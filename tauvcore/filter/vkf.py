@@ -84,30 +84,30 @@ V, SF, B = 0, 1, 2
 class VkfConfig:
     """VKF noise model and switch (Yoo 2014 section 2.2); 1-sigma values."""
 
-    initial_sf_mps_per_rpm: float = 0.0025           # sf at start [m/s per rpm]: not in the paper; a propeller
-                                                     # rating near the TAUV's own 2.35e-3 (tauvcore.truth.vehicle,
-                                                     # tauvcore.sensors.rpm), 10 kn at ~2000 rpm
-    initial_sf_sigma_mps_per_rpm: float = 0.0004     # its 1-sigma [m/s per rpm], > 0: ~17 % of sf, a propeller
-                                                     # known to within a sixth before any DVL data
-    initial_b_mps: float = 0.0                       # b at start [m/s] (eq. 20's bias): none assumed
-    initial_b_sigma_mps: float = 0.3                 # its 1-sigma [m/s], > 0: 6 % of the cruise speed
-    initial_v_mps: float = 0.0                       # V_rpm at start [m/s]; forgotten at the first step (F's first
-                                                     # column is zero), kept for the state's completeness
-    initial_v_sigma_mps: float = 1.0                 # its 1-sigma [m/s], >= 0 (likewise forgotten)
-    step_s: float = 0.2                              # filter step = DVL ping period [s] (Yoo section 3.2: 5 Hz),
-                                                     # (0, 60]: one step a minute is already no filter of speed
-    v_noise_mps: float = 0.02                        # V's process noise, std PER STEP [m/s], >= 0 (white: V has no
-                                                     # memory): eq. 20's model error; not in the paper
-    sf_rw_mps_per_rpm_per_sqrt_s: float = 1e-6       # sf random-walk DENSITY [m/s/rpm/sqrt(s)], >= 0: 2.4e-5
-                                                     # (0.4 % of sf) in 10 min (fouling, load); not in the paper
-    b_rw_mps_per_sqrt_s: float = 1e-4                # b random-walk DENSITY [m/s/sqrt(s)], >= 0: 2.4 mm/s in
-                                                     # 10 min; not in the paper
-    dvl_forward_noise_mps: float = 0.087             # R's 1-sigma: the DVL forward speed [m/s], > 0: a Janus DVL's
-                                                     # body-x axis with Tal 2017 Table 2's 0.042 m/s per beam at
-                                                     # 20 deg beam pitch, 0.042 / (sqrt(2) sin 20 deg)
-    switch_altitude_m: float = 100.0                 # alpha of eq. 29 [m], (0, 11000]: the DVL's range (Yoo
-                                                     # section 3.2); the deepest ocean bounds it
-    forward_speed: str = "body_x"                    # eq. 21: "body_x" (default, a departure) or "norm" (paper)
+    initial_sf_mps_per_rpm: float = 0.0025  # sf at start [m/s per rpm]: not in the paper; a propeller
+    # rating near the TAUV's own 2.35e-3 (tauvcore.truth.vehicle,
+    # tauvcore.sensors.rpm), 10 kn at ~2000 rpm
+    initial_sf_sigma_mps_per_rpm: float = 0.0004  # its 1-sigma [m/s per rpm], > 0: ~17 % of sf, a propeller
+    # known to within a sixth before any DVL data
+    initial_b_mps: float = 0.0  # b at start [m/s] (eq. 20's bias): none assumed
+    initial_b_sigma_mps: float = 0.3  # its 1-sigma [m/s], > 0: 6 % of the cruise speed
+    initial_v_mps: float = 0.0  # V_rpm at start [m/s]; forgotten at the first step (F's first
+    # column is zero), kept for the state's completeness
+    initial_v_sigma_mps: float = 1.0  # its 1-sigma [m/s], >= 0 (likewise forgotten)
+    step_s: float = 0.2  # filter step = DVL ping period [s] (Yoo section 3.2: 5 Hz),
+    # (0, 60]: one step a minute is already no filter of speed
+    v_noise_mps: float = 0.02  # V's process noise, std PER STEP [m/s], >= 0 (white: V has no
+    # memory): eq. 20's model error; not in the paper
+    sf_rw_mps_per_rpm_per_sqrt_s: float = 1e-6  # sf random-walk DENSITY [m/s/rpm/sqrt(s)], >= 0: 2.4e-5
+    # (0.4 % of sf) in 10 min (fouling, load); not in the paper
+    b_rw_mps_per_sqrt_s: float = 1e-4  # b random-walk DENSITY [m/s/sqrt(s)], >= 0: 2.4 mm/s in
+    # 10 min; not in the paper
+    dvl_forward_noise_mps: float = 0.087  # R's 1-sigma: the DVL forward speed [m/s], > 0: a Janus DVL's
+    # body-x axis with Tal 2017 Table 2's 0.042 m/s per beam at
+    # 20 deg beam pitch, 0.042 / (sqrt(2) sin 20 deg)
+    switch_altitude_m: float = 100.0  # alpha of eq. 29 [m], (0, 11000]: the DVL's range (Yoo
+    # section 3.2); the deepest ocean bounds it
+    forward_speed: str = "body_x"  # eq. 21: "body_x" (default, a departure) or "norm" (paper)
 
     def __post_init__(self) -> None:
         require_finite("vkf.initial_sf_mps_per_rpm", self.initial_sf_mps_per_rpm)
@@ -133,19 +133,25 @@ class VkfConfig:
     @property
     def P0(self) -> np.ndarray:
         """Initial covariance (3, 3), diagonal."""
-        return np.diag(np.square([self.initial_v_sigma_mps, self.initial_sf_sigma_mps_per_rpm,
-                                  self.initial_b_sigma_mps]))
+        return np.diag(
+            np.square([self.initial_v_sigma_mps, self.initial_sf_sigma_mps_per_rpm, self.initial_b_sigma_mps])
+        )
 
     @property
     def Q(self) -> np.ndarray:
         """Process noise per step (3, 3): V's per-step variance, the walks' density^2 * step_s."""
-        return np.diag([self.v_noise_mps ** 2, self.sf_rw_mps_per_rpm_per_sqrt_s ** 2 * self.step_s,
-                        self.b_rw_mps_per_sqrt_s ** 2 * self.step_s])
+        return np.diag(
+            [
+                self.v_noise_mps**2,
+                self.sf_rw_mps_per_rpm_per_sqrt_s**2 * self.step_s,
+                self.b_rw_mps_per_sqrt_s**2 * self.step_s,
+            ]
+        )
 
     @property
     def R(self) -> float:
         """Variance of the DVL forward speed [m^2/s^2]."""
-        return self.dvl_forward_noise_mps ** 2
+        return self.dvl_forward_noise_mps**2
 
 
 @dataclass(frozen=True)
@@ -153,15 +159,15 @@ class VkfRun:
     """Per-step posteriors of the VKF, time first: ``(K, ...)`` with ``...`` = () for one run
     (:func:`vkf_filterpy`) or (R,) for a batch (:func:`run_vkf_batch`)."""
 
-    x: np.ndarray               # (K, ..., 3) posterior [V m/s, sf m/s/rpm, b m/s]
-    P: np.ndarray               # (K, ..., 3, 3) posterior covariance
-    innovation: np.ndarray      # (K, ...) z - V_prior [m/s]; NaN where not updated
+    x: np.ndarray  # (K, ..., 3) posterior [V m/s, sf m/s/rpm, b m/s]
+    P: np.ndarray  # (K, ..., 3, 3) posterior covariance
+    innovation: np.ndarray  # (K, ...) z - V_prior [m/s]; NaN where not updated
     innovation_var: np.ndarray  # (K, ...) S = P_VV_prior + R [m^2/s^2]; NaN where not updated
 
     @property
     def nis(self) -> np.ndarray:
         """Normalised innovation squared ``y^2 / S`` (K, ...); NaN where not updated."""
-        return self.innovation ** 2 / self.innovation_var
+        return self.innovation**2 / self.innovation_var
 
 
 def _check_inputs(rpm: np.ndarray, z_fwd: np.ndarray, dvl_valid: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -169,8 +175,10 @@ def _check_inputs(rpm: np.ndarray, z_fwd: np.ndarray, dvl_valid: np.ndarray) -> 
     z_fwd = np.asarray(z_fwd, dtype=float)
     dvl_valid = np.asarray(dvl_valid)
     if rpm.shape != z_fwd.shape or rpm.shape != dvl_valid.shape or rpm.ndim < 1:
-        raise ValueError(f"rpm {rpm.shape}, z_fwd {z_fwd.shape} and dvl_valid {dvl_valid.shape} must share "
-                         "one shape, time first")
+        raise ValueError(
+            f"rpm {rpm.shape}, z_fwd {z_fwd.shape} and dvl_valid {dvl_valid.shape} must share "
+            "one shape, time first"
+        )
     if dvl_valid.dtype != bool:
         raise ValueError(f"dvl_valid must be boolean, got {dvl_valid.dtype}")
     if not np.isfinite(rpm).all():
@@ -202,9 +210,7 @@ def vkf_filterpy(rpm: np.ndarray, z_fwd: np.ndarray, dvl_valid: np.ndarray, cfg:
     xs, Ps = np.empty((K, DIM_X)), np.empty((K, DIM_X, DIM_X))
     ys, Ss = np.full(K, np.nan), np.full(K, np.nan)
     for k in range(K):
-        kf.F = np.array([[0.0, rpm[k], -1.0],
-                         [0.0, 1.0, 0.0],
-                         [0.0, 0.0, 1.0]])
+        kf.F = np.array([[0.0, rpm[k], -1.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
         kf.predict()
         if dvl_valid[k]:
             kf.update(z_fwd[k])
@@ -233,8 +239,9 @@ def predict(x: np.ndarray, P: np.ndarray, rpm: np.ndarray, Q: np.ndarray) -> tup
     return x, 0.5 * (P + P.swapaxes(-1, -2))
 
 
-def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, valid: np.ndarray,
-           noise_var: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def update(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, valid: np.ndarray, noise_var: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Scalar update ``z = V + v`` (eq. 25-26) where ``valid``; elsewhere x, P unchanged.
 
     x (R, 3), P (R, 3, 3), z (R,) [m/s] (any value where not valid), valid (R,) bool, noise_var
@@ -248,14 +255,18 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, valid: np.ndarray,
     """
     y = np.where(valid, z, 0.0) - x[:, V]
     S = P[:, V, V] + noise_var
-    gain = P[:, :, V] / S[:, None]                                  # K = P H^T / S, (R, 3)
+    gain = P[:, :, V] / S[:, None]  # K = P H^T / S, (R, 3)
     I_KH = np.eye(DIM_X) - gain[:, :, None] * np.eye(DIM_X)[V][None, None, :]
     P_new = np.einsum("rij,rjk,rlk->ril", I_KH, P, I_KH) + noise_var * gain[:, :, None] * gain[:, None, :]
     P_new = 0.5 * (P_new + P_new.swapaxes(-1, -2))
     x_new = x + gain * y[:, None]
     use = np.asarray(valid, dtype=bool)
-    return (np.where(use[:, None], x_new, x), np.where(use[:, None, None], P_new, P),
-            np.where(use, y, np.nan), np.where(use, S, np.nan))
+    return (
+        np.where(use[:, None], x_new, x),
+        np.where(use[:, None, None], P_new, P),
+        np.where(use, y, np.nan),
+        np.where(use, S, np.nan),
+    )
 
 
 def run_vkf_batch(rpm: np.ndarray, z_fwd: np.ndarray, dvl_valid: np.ndarray, cfg: VkfConfig) -> VkfRun:
@@ -307,11 +318,12 @@ def rpm_selected(altitude_m: np.ndarray, cfg: VkfConfig) -> np.ndarray:
     """Eq. 29's condition ``ES > alpha``: True where the RPM velocity is used. A NaN altitude (the
     echo sounder sees no bottom: the vehicle is beyond its range, so beyond the DVL's) counts as
     above alpha. altitude_m (...) -> (...) bool."""
-    return ~(np.asarray(altitude_m, dtype=float) <= cfg.switch_altitude_m)     # NaN <= a is False
+    return ~(np.asarray(altitude_m, dtype=float) <= cfg.switch_altitude_m)  # NaN <= a is False
 
 
-def switched_velocity_n(altitude_m: np.ndarray, v_rpm_n: np.ndarray, v_dvl_n: np.ndarray,
-                        cfg: VkfConfig) -> np.ndarray:
+def switched_velocity_n(
+    altitude_m: np.ndarray, v_rpm_n: np.ndarray, v_dvl_n: np.ndarray, cfg: VkfConfig
+) -> np.ndarray:
     """Eq. 29: the aiding velocity in NED: ``v_rpm_n`` where the echo sounder's altitude is above
     ``switch_altitude_m`` or NaN, else ``v_dvl_n`` (at alpha exactly: the DVL, as ``ES > alpha``
     reads). altitude_m (...), v_rpm_n and v_dvl_n (..., 3) [m/s] -> (..., 3)."""

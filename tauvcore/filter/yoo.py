@@ -70,8 +70,9 @@ def F_matrix(lat_rad: float, h_m: float, vel_n: np.ndarray, f_n: np.ndarray, C_n
     return F
 
 
-def F_paper(lat_rad: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray, R_m: float,
-            typo: bool = True) -> np.ndarray:
+def F_paper(
+    lat_rad: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray, R_m: float, typo: bool = True
+) -> np.ndarray:
     """The paper's F (eq. 13-15) as printed, in its convention (velocity and bias errors estimate
     minus true) and with one radius ``R_m``; ``typo=False`` corrects F21's (3, 2) sign."""
     vN, vE, vD = vel_n
@@ -79,13 +80,22 @@ def F_paper(lat_rad: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray
     W, L = OMEGA_IE_RPS, lat_rad
     s, c, t = np.sin(L), np.cos(L), np.tan(L)
     F = np.zeros((DIM, DIM))
-    F[VEL, VEL] = [[vD / R_m, -2.0 * (W * s + vE * t / R_m), vN / R_m],
-                   [2.0 * W * s + vE * t / R_m, (vN * t + vD) / R_m, 2.0 * W * c + vE / R_m],
-                   [-2.0 * vN / R_m, -2.0 * (W * c + vE / R_m), 0.0]]
+    F[VEL, VEL] = [
+        [vD / R_m, -2.0 * (W * s + vE * t / R_m), vN / R_m],
+        [2.0 * W * s + vE * t / R_m, (vN * t + vD) / R_m, 2.0 * W * c + vE / R_m],
+        [-2.0 * vN / R_m, -2.0 * (W * c + vE / R_m), 0.0],
+    ]
     F[VEL, ATT] = [[0.0, -fD, fE], [fD, 0.0, -fN], [-fE, fN, 0.0]]
-    F[ATT, VEL] = [[0.0, 1.0 / R_m, 0.0], [-1.0 / R_m, 0.0, 0.0], [0.0, (1.0 if typo else -1.0) * t / R_m, 0.0]]
-    F[ATT, ATT] = [[0.0, -(W * s + vE * t / R_m), vN / R_m], [W * s + vE * t / R_m, 0.0, W * c + vE / R_m],
-                   [-vN / R_m, -(W * c + vE / R_m), 0.0]]
+    F[ATT, VEL] = [
+        [0.0, 1.0 / R_m, 0.0],
+        [-1.0 / R_m, 0.0, 0.0],
+        [0.0, (1.0 if typo else -1.0) * t / R_m, 0.0],
+    ]
+    F[ATT, ATT] = [
+        [0.0, -(W * s + vE * t / R_m), vN / R_m],
+        [W * s + vE * t / R_m, 0.0, W * c + vE / R_m],
+        [-vN / R_m, -(W * c + vE / R_m), 0.0],
+    ]
     F[VEL, BA] = C_nb
     F[ATT, BG] = -C_nb
     return F

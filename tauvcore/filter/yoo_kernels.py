@@ -35,10 +35,10 @@ from tauvcore.filter.kernels import (
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
 DIM = 12
-NC = 5                                  # consider states (tauvcore.eval.yoo_bank.NC): DVL scale factor, 4 beam biases
+NC = 5  # consider states (tauvcore.eval.yoo_bank.NC): DVL scale factor, 4 beam biases
 NA = DIM + NC
-VEL, ATT, BA, BG = 0, 3, 6, 9           # tauvcore.filter.yoo's blocks
-INS_DVL, VKF = 0, 1                     # method codes (tauvcore.eval.yoo_bank.METHOD_CODES)
+VEL, ATT, BA, BG = 0, 3, 6, 9  # tauvcore.filter.yoo's blocks
+INS_DVL, VKF = 0, 1  # method codes (tauvcore.eval.yoo_bank.METHOD_CODES)
 MIN_BEAMS = 3
 # rows of the per-epoch series (tauvcore.eval.yoo_bank.SERIES)
 NUM_SERIES = 11
@@ -102,9 +102,24 @@ def _symmetrise_into(A: np.ndarray, out: np.ndarray) -> None:
 
 
 @_jit
-def propagate(P: np.ndarray, pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, dv_raw_i: np.ndarray,
-              dt: float, dt_c: float, geodetic: bool, w_ie_flat: np.ndarray, q: np.ndarray, qc: np.ndarray,
-              F: np.ndarray, Phi: np.ndarray, tmp: np.ndarray, out: np.ndarray) -> None:
+def propagate(
+    P: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    dv_raw_i: np.ndarray,
+    dt: float,
+    dt_c: float,
+    geodetic: bool,
+    w_ie_flat: np.ndarray,
+    q: np.ndarray,
+    qc: np.ndarray,
+    F: np.ndarray,
+    Phi: np.ndarray,
+    tmp: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """One covariance step of every (method, run) over ``dt_c`` (yoo_bank.YooBank._propagate):
     ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the consider
     states' cross terms ``P_xc <- Phi P_xc`` and ``P_cc += diag(qc) dt_c``, symmetrised; F of
@@ -181,9 +196,20 @@ def propagate(P: np.ndarray, pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba
 
 
 @_jit
-def dvl_body_velocity_into(y: np.ndarray, available: np.ndarray, dtheta_i: np.ndarray, dt: float, C_nb: np.ndarray,
-                           lat: float, A_b: np.ndarray, l_dvl_b: np.ndarray, beam_var: float, v_b: np.ndarray,
-                           cov_b: np.ndarray, gain: np.ndarray) -> bool:
+def dvl_body_velocity_into(
+    y: np.ndarray,
+    available: np.ndarray,
+    dtheta_i: np.ndarray,
+    dt: float,
+    C_nb: np.ndarray,
+    lat: float,
+    A_b: np.ndarray,
+    l_dvl_b: np.ndarray,
+    beam_var: float,
+    v_b: np.ndarray,
+    cov_b: np.ndarray,
+    gain: np.ndarray,
+) -> bool:
     """One run's DVL body velocity by least squares over the beams that returned, its covariance,
     the least squares' gain from the beams (3, 4), and whether at least MIN_BEAMS returned
     (yoo_bank.dvl_body_velocity with ``with_gain``; with fewer the normal matrix is replaced by I,
@@ -227,8 +253,17 @@ def _latest(index: np.ndarray, k: int) -> int:
 
 
 @_jit
-def vkf_step(x: np.ndarray, P: np.ndarray, rpm: float, altitude: float, z_fwd: float, ok: bool, Q: np.ndarray,
-             noise_var: float, switch_altitude: float) -> tuple:
+def vkf_step(
+    x: np.ndarray,
+    P: np.ndarray,
+    rpm: float,
+    altitude: float,
+    z_fwd: float,
+    ok: bool,
+    Q: np.ndarray,
+    noise_var: float,
+    switch_altitude: float,
+) -> tuple:
     """One run's VKF at a ping (yoo_bank.RpmAid.step): predict with the RPM (if one was read),
     update with the DVL's forward speed where eq. 29 picks the DVL and it has a velocity.
     -> (RPM chosen, an RPM was read)."""
@@ -267,8 +302,20 @@ def vkf_step(x: np.ndarray, P: np.ndarray, rpm: float, altitude: float, z_fwd: f
 
 
 @_jit
-def fuse(P: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray, z: np.ndarray,
-         Rm: np.ndarray, Hc: np.ndarray, valid: bool, gate: float, S_diag: np.ndarray, nu: np.ndarray) -> tuple:
+def fuse(
+    P: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    z: np.ndarray,
+    Rm: np.ndarray,
+    Hc: np.ndarray,
+    valid: bool,
+    gate: float,
+    S_diag: np.ndarray,
+    nu: np.ndarray,
+) -> tuple:
     """Fuse one NED velocity ``z`` into one filter (yoo_bank.YooBank._fuse): ``H = [I, [v x], 0, 0,
     Hc]`` (v the estimated velocity, Hc (3, NC) on the consider states, whose gain is zero), every
     row gated, Joseph form over the NA states, inject and reset. -> (fused, passed the gate, NIS
@@ -317,7 +364,7 @@ def fuse(P: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.n
     else:
         use = False
     if use:
-        K = np.zeros((NA, 3))                           # the consider rows stay zero
+        K = np.zeros((NA, 3))  # the consider rows stay zero
         for i in range(DIM):
             for j in range(3):
                 K[i, j] = PHt[i, 0] * Sinv[0, j] + PHt[i, 1] * Sinv[1, j] + PHt[i, 2] * Sinv[2, j]
@@ -327,7 +374,9 @@ def fuse(P: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.n
         I_KH = np.empty((NA, NA))
         for i in range(NA):
             for j in range(NA):
-                I_KH[i, j] = (1.0 if i == j else 0.0) - (K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j])
+                I_KH[i, j] = (1.0 if i == j else 0.0) - (
+                    K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j]
+                )
         tmp = np.empty((NA, NA))
         out = np.empty((NA, NA))
         _sandwich_into(I_KH, P, tmp, out)
@@ -354,11 +403,30 @@ def fuse(P: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.n
 
 
 @_jit
-def record(row: int, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray, bg_t: np.ndarray,
-           pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray, P: np.ndarray,
-           geodetic: bool, origin: np.ndarray, block_of_state: np.ndarray, num_blocks: int, deg: float,
-           series: np.ndarray, nees_block: np.ndarray, est_pos: np.ndarray, est_vel: np.ndarray,
-           est_euler: np.ndarray) -> None:
+def record(
+    row: int,
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    ba_t: np.ndarray,
+    bg_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    P: np.ndarray,
+    geodetic: bool,
+    origin: np.ndarray,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    deg: float,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+    est_pos: np.ndarray,
+    est_vel: np.ndarray,
+    est_euler: np.ndarray,
+) -> None:
     """One output epoch of every (method, run) (yoo_bank.YooBank._record): errors ``true - estimate``,
     1-sigma, NEES of the 12 states and of each block (no position state: NaN), the estimates."""
     M, R = pos.shape[0], pos.shape[1]
@@ -383,7 +451,9 @@ def record(row: int, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t
                 dx[BA + i] = ba_t[r, i] - ba[m, r, i]
                 dx[BG + i] = bg_t[r, i] - bg[m, r, i]
             if geodetic:
-                e0, e1, e2 = _ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], origin[2])
+                e0, e1, e2 = _ned_offset(
+                    pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], origin[2]
+                )
                 est_pos[row, m, r, 0], est_pos[row, m, r, 1], est_pos[row, m, r, 2] = e0, e1, e2
             else:
                 for i in range(3):
@@ -392,8 +462,9 @@ def record(row: int, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t
             ev = 0.0
             for i in range(3):
                 ep += (est_pos[row, m, r, i] - pos_t[i]) ** 2
-                vb = (C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2]) \
-                    - (Cm[0, i] * vel[m, r, 0] + Cm[1, i] * vel[m, r, 1] + Cm[2, i] * vel[m, r, 2])
+                vb = (C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2]) - (
+                    Cm[0, i] * vel[m, r, 0] + Cm[1, i] * vel[m, r, 1] + Cm[2, i] * vel[m, r, 2]
+                )
                 ev += vb * vb
                 est_vel[row, m, r, i] = vel[m, r, i]
             Pm = P[m, r]
@@ -417,22 +488,81 @@ def record(row: int, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t
 
 
 @_jit
-def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row_of_stop: np.ndarray, k0: int,
-              counters: np.ndarray, pos: np.ndarray, vel: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray,
-              P: np.ndarray, dtheta_sum: np.ndarray, vkf_x: np.ndarray, vkf_P: np.ndarray, vkf_use: np.ndarray,
-              vkf_alt: np.ndarray, phi_raw: np.ndarray, dv_raw: np.ndarray, dtheta: np.ndarray, dt: float,
-              C_earth: np.ndarray, C_earth_half: np.ndarray, g_n: np.ndarray, coriolis_T: np.ndarray,
-              geodetic: bool, origin: np.ndarray, w_ie_flat: np.ndarray, q: np.ndarray, method_code: np.ndarray,
-              y_beam: np.ndarray, available: np.ndarray, A_b: np.ndarray, l_dvl_b: np.ndarray, beam_var: float,
-              qc: np.ndarray, L4: np.ndarray, gate: float, rpm_index: np.ndarray,
-              rpm_value: np.ndarray, rpm_sf: np.ndarray, rpm_b: np.ndarray, echo_index: np.ndarray,
-              echo_alt: np.ndarray, vkf_Q: np.ndarray, vkf_R: float, switch_altitude: float, forward_norm: bool,
-              lateral_var: float, pos_t: np.ndarray, vel_t: np.ndarray, C_t: np.ndarray, ba_t: np.ndarray,
-              bg_t: np.ndarray, block_of_state: np.ndarray, num_blocks: int, deg: float, series: np.ndarray,
-              nees_block: np.ndarray, est_pos: np.ndarray, est_vel: np.ndarray, est_euler: np.ndarray,
-              up_z: np.ndarray, up_nu: np.ndarray, up_S: np.ndarray, up_flags: np.ndarray, up_nis: np.ndarray,
-              tr_x: np.ndarray, tr_sigma: np.ndarray, tr_truth: np.ndarray, tr_use: np.ndarray,
-              tr_alt: np.ndarray) -> None:
+def run_stops(
+    s0: int,
+    s1: int,
+    stops: np.ndarray,
+    ping_of_stop: np.ndarray,
+    row_of_stop: np.ndarray,
+    k0: int,
+    counters: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    P: np.ndarray,
+    dtheta_sum: np.ndarray,
+    vkf_x: np.ndarray,
+    vkf_P: np.ndarray,
+    vkf_use: np.ndarray,
+    vkf_alt: np.ndarray,
+    phi_raw: np.ndarray,
+    dv_raw: np.ndarray,
+    dtheta: np.ndarray,
+    dt: float,
+    C_earth: np.ndarray,
+    C_earth_half: np.ndarray,
+    g_n: np.ndarray,
+    coriolis_T: np.ndarray,
+    geodetic: bool,
+    origin: np.ndarray,
+    w_ie_flat: np.ndarray,
+    q: np.ndarray,
+    method_code: np.ndarray,
+    y_beam: np.ndarray,
+    available: np.ndarray,
+    A_b: np.ndarray,
+    l_dvl_b: np.ndarray,
+    beam_var: float,
+    qc: np.ndarray,
+    L4: np.ndarray,
+    gate: float,
+    rpm_index: np.ndarray,
+    rpm_value: np.ndarray,
+    rpm_sf: np.ndarray,
+    rpm_b: np.ndarray,
+    echo_index: np.ndarray,
+    echo_alt: np.ndarray,
+    vkf_Q: np.ndarray,
+    vkf_R: float,
+    switch_altitude: float,
+    forward_norm: bool,
+    lateral_var: float,
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    ba_t: np.ndarray,
+    bg_t: np.ndarray,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    deg: float,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+    est_pos: np.ndarray,
+    est_vel: np.ndarray,
+    est_euler: np.ndarray,
+    up_z: np.ndarray,
+    up_nu: np.ndarray,
+    up_S: np.ndarray,
+    up_flags: np.ndarray,
+    up_nis: np.ndarray,
+    tr_x: np.ndarray,
+    tr_sigma: np.ndarray,
+    tr_truth: np.ndarray,
+    tr_use: np.ndarray,
+    tr_alt: np.ndarray,
+) -> None:
     """Stops ``s0 .. s1 - 1`` of a chunk (yoo_bank.YooBank.feed's loop): advance the nominal states
     to the stop, step the covariance, fuse a DVL ping (its row of the chunk's pings in
     ``ping_of_stop``), record an output epoch (its row in ``row_of_stop``). ``counters`` =
@@ -460,20 +590,65 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
             continue
         i = k - k0
         if k > counters[0]:
-            advance(pos, vel, C, ba, bg, phi_raw, dv_raw, dtheta, dtheta_sum, counters[0] - k0, i, dt, C_earth,
-                    C_earth_half, g_n, coriolis_T, geodetic)
+            advance(
+                pos,
+                vel,
+                C,
+                ba,
+                bg,
+                phi_raw,
+                dv_raw,
+                dtheta,
+                dtheta_sum,
+                counters[0] - k0,
+                i,
+                dt,
+                C_earth,
+                C_earth_half,
+                g_n,
+                coriolis_T,
+                geodetic,
+            )
             counters[0] = k
         if k > counters[1]:
-            propagate(P, pos, vel, C, ba, dv_raw[i], dt, (k - counters[1]) * dt, geodetic, w_ie_flat, q, qc, F, Phi,
-                      tmp, out)
+            propagate(
+                P,
+                pos,
+                vel,
+                C,
+                ba,
+                dv_raw[i],
+                dt,
+                (k - counters[1]) * dt,
+                geodetic,
+                w_ie_flat,
+                q,
+                qc,
+                F,
+                Phi,
+                tmp,
+                out,
+            )
             dtheta_sum[:, :] = 0.0
             counters[1] = k
         p = ping_of_stop[s]
         if p >= 0:
             for r in range(R):
                 lat = pos[0, r, 0] if geodetic else origin[0]
-                ok[r] = dvl_body_velocity_into(y_beam[p, r], available[p, r], dtheta[i, r], dt, C[0, r], lat, A_b,
-                                               l_dvl_b, beam_var, v_b[r], cov_b[r], gain[r])
+                ok[r] = dvl_body_velocity_into(
+                    y_beam[p, r],
+                    available[p, r],
+                    dtheta[i, r],
+                    dt,
+                    C[0, r],
+                    lat,
+                    A_b,
+                    l_dvl_b,
+                    beam_var,
+                    v_b[r],
+                    cov_b[r],
+                    gain[r],
+                )
             for m in range(M):
                 for r in range(R):
                     Cm = C[m, r]
@@ -493,8 +668,9 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
                             z_fwd = math.sqrt(v_b[r, 0] ** 2 + v_b[r, 1] ** 2 + v_b[r, 2] ** 2)
                         else:
                             z_fwd = v_b[r, 0]
-                        use_rpm, got_rpm = vkf_step(vkf_x[r], vkf_P[r], rpm_now, altitude, z_fwd, ok[r], vkf_Q,
-                                                    vkf_R, switch_altitude)
+                        use_rpm, got_rpm = vkf_step(
+                            vkf_x[r], vkf_P[r], rpm_now, altitude, z_fwd, ok[r], vkf_Q, vkf_R, switch_altitude
+                        )
                         have_rpm[r] = got_rpm
                         vkf_use[r], vkf_alt[r] = use_rpm, altitude
                         for j in range(3):
@@ -503,32 +679,39 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
                         tr_truth[p, r, 0] = rpm_sf[jr, r] if jr >= 0 else np.nan
                         tr_truth[p, r, 1] = rpm_b[jr, r] if jr >= 0 else np.nan
                         tr_use[p, r], tr_alt[p, r] = use_rpm, altitude
-                    if use_rpm:         # C [V_rpm, 0, 0] with diag(P_VV, lateral, lateral) rotated
+                    if use_rpm:  # C [V_rpm, 0, 0] with diag(P_VV, lateral, lateral) rotated
                         valid = have_rpm[r]
-                        Hb[:, :] = 0.0                  # its surge was learnt from the DVL's (4 beams)
+                        Hb[:, :] = 0.0  # its surge was learnt from the DVL's (4 beams)
                         Hb[0, 0] = vkf_x[r, 0]
                         for c in range(4):
                             Hb[0, 1 + c] = L4[0, c]
                         for a in range(3):
                             z[a] = Cm[a, 0] * vkf_x[r, 0]
                             for b in range(3):
-                                Rm[a, b] = Cm[a, 0] * vkf_P[r, 0, 0] * Cm[b, 0] + Cm[a, 1] * lateral_var * Cm[b, 1] \
+                                Rm[a, b] = (
+                                    Cm[a, 0] * vkf_P[r, 0, 0] * Cm[b, 0]
+                                    + Cm[a, 1] * lateral_var * Cm[b, 1]
                                     + Cm[a, 2] * lateral_var * Cm[b, 2]
+                                )
                     else:
                         valid = ok[r]
                         for a in range(3):
                             z[a] = Cm[a, 0] * v_b[r, 0] + Cm[a, 1] * v_b[r, 1] + Cm[a, 2] * v_b[r, 2]
                             for b in range(3):
-                                Cc[a, b] = Cm[a, 0] * cov_b[r, 0, b] + Cm[a, 1] * cov_b[r, 1, b] \
+                                Cc[a, b] = (
+                                    Cm[a, 0] * cov_b[r, 0, b]
+                                    + Cm[a, 1] * cov_b[r, 1, b]
                                     + Cm[a, 2] * cov_b[r, 2, b]
+                                )
                         for a in range(3):
                             for b in range(3):
                                 Rm[a, b] = Cc[a, 0] * Cm[b, 0] + Cc[a, 1] * Cm[b, 1] + Cc[a, 2] * Cm[b, 2]
                     for a in range(3):
                         for c in range(NC):
                             Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
-                    fused, passed, nis = fuse(P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], z, Rm, Hc, valid,
-                                              gate, S_diag, nu)
+                    fused, passed, nis = fuse(
+                        P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], z, Rm, Hc, valid, gate, S_diag, nu
+                    )
                     for a in range(3):
                         up_z[p, m, r, a] = z[a]
                         up_nu[p, m, r, a] = nu[a] if valid else np.nan
@@ -539,5 +722,27 @@ def run_stops(s0: int, s1: int, stops: np.ndarray, ping_of_stop: np.ndarray, row
                     up_nis[p, m, r] = nis if valid else np.nan
         row = row_of_stop[s]
         if row >= 0:
-            record(row, pos_t[i], vel_t[i], C_t[i], ba_t[i], bg_t[i], pos, vel, C, ba, bg, P, geodetic, origin,
-                   block_of_state, num_blocks, deg, series, nees_block, est_pos, est_vel, est_euler)
+            record(
+                row,
+                pos_t[i],
+                vel_t[i],
+                C_t[i],
+                ba_t[i],
+                bg_t[i],
+                pos,
+                vel,
+                C,
+                ba,
+                bg,
+                P,
+                geodetic,
+                origin,
+                block_of_state,
+                num_blocks,
+                deg,
+                series,
+                nees_block,
+                est_pos,
+                est_vel,
+                est_euler,
+            )

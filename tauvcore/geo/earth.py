@@ -42,12 +42,14 @@ B_M = A_M * (1.0 - FLATTENING)
 """WGS-84 semi-minor axis (polar radius) [m], 6356752.3142 m."""
 GM_M3PS2 = 3.986004418e14
 """WGS-84 earth's gravitational constant (atmosphere included) [m^3/s^2]."""
-_E2 = FLATTENING * (2.0 - FLATTENING)   # first eccentricity squared, 0.00669437999014
-_GE = 9.7803253359          # WGS-84 normal gravity at the equator [m/s^2] (TR8350.2 table 3.4)
-_GP = 9.8321849378          # ... at the poles [m/s^2]
-_K_SOMIGLIANA = 0.00193185265241   # TR8350.2 eq. 4-2 (b g_p / (a g_e) - 1 from the rounded g_p: 0.0019318526464)
-_M_GRAVITY = OMEGA_IE_RPS**2 * A_M**2 * B_M / GM_M3PS2   # 0.00344978650684
-_GRAVITY_NORTH_PER_M = 8.08e-9   # north component of gravity per metre of height [1/s^2] (Groves eq. 2.140)
+_E2 = FLATTENING * (2.0 - FLATTENING)  # first eccentricity squared, 0.00669437999014
+_GE = 9.7803253359  # WGS-84 normal gravity at the equator [m/s^2] (TR8350.2 table 3.4)
+_GP = 9.8321849378  # ... at the poles [m/s^2]
+_K_SOMIGLIANA = (
+    0.00193185265241  # TR8350.2 eq. 4-2 (b g_p / (a g_e) - 1 from the rounded g_p: 0.0019318526464)
+)
+_M_GRAVITY = OMEGA_IE_RPS**2 * A_M**2 * B_M / GM_M3PS2  # 0.00344978650684
+_GRAVITY_NORTH_PER_M = 8.08e-9  # north component of gravity per metre of height [1/s^2] (Groves eq. 2.140)
 
 
 def normal_gravity_mps2(latitude_rad: float, height_m: float = 0.0) -> float:
@@ -63,7 +65,9 @@ def normal_gravity_mps2(latitude_rad: float, height_m: float = 0.0) -> float:
     s2 = np.sin(latitude_rad) ** 2
     gamma_0 = _GE * (1.0 + _K_SOMIGLIANA * s2) / np.sqrt(1.0 - _E2 * s2)
     h_a = height_m / A_M
-    return gamma_0 * (1.0 - 2.0 * h_a * (1.0 + FLATTENING + _M_GRAVITY - 2.0 * FLATTENING * s2) + 3.0 * h_a * h_a)
+    return gamma_0 * (
+        1.0 - 2.0 * h_a * (1.0 + FLATTENING + _M_GRAVITY - 2.0 * FLATTENING * s2) + 3.0 * h_a * h_a
+    )
 
 
 def gravity_n_mps2(latitude_rad: float, height_m: float) -> tuple[float, float, float]:
@@ -95,35 +99,47 @@ def earth_rate_n_rps(latitude_rad: float) -> tuple[float, float, float]:
     return OMEGA_IE_RPS * np.cos(latitude_rad), 0.0 * latitude_rad, -OMEGA_IE_RPS * np.sin(latitude_rad)
 
 
-def transport_rate_n_rps(latitude_rad: float, height_m: float, vel_north_mps: float,
-                         vel_east_mps: float) -> tuple[float, float, float]:
+def transport_rate_n_rps(
+    latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float
+) -> tuple[float, float, float]:
     """Turn rate of the local-level NED frame over the ellipsoid [rad/s] (Groves eq. 5.44):
     ``(v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(lat) / (R_E + h))``."""
     R_N, R_E = radii_of_curvature_m(latitude_rad)
     return transport_rate_with_radii(R_N, R_E, latitude_rad, height_m, vel_north_mps, vel_east_mps)
 
 
-def transport_rate_with_radii(R_N: float, R_E: float, latitude_rad: float, height_m: float, vel_north_mps: float,
-                              vel_east_mps: float) -> tuple[float, float, float]:
+def transport_rate_with_radii(
+    R_N: float, R_E: float, latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float
+) -> tuple[float, float, float]:
     """:func:`transport_rate_n_rps` with the radii of curvature at ``latitude_rad`` given."""
     east = vel_east_mps / (R_E + height_m)
     return east, -vel_north_mps / (R_N + height_m), -east * np.tan(latitude_rad)
 
 
-def geodetic_rates(latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float,
-                   vel_down_mps: float) -> tuple[float, float, float]:
+def geodetic_rates(
+    latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float, vel_down_mps: float
+) -> tuple[float, float, float]:
     """Time derivatives of latitude, longitude [rad/s] and height [m/s] from NED velocity
     (Groves eq. 5.56): ``v_N / (R_N + h)``, ``v_E / ((R_E + h) cos lat)``, ``-v_D``."""
     R_N, R_E = radii_of_curvature_m(latitude_rad)
-    return (vel_north_mps / (R_N + height_m), vel_east_mps / ((R_E + height_m) * np.cos(latitude_rad)),
-            -vel_down_mps)
+    return (
+        vel_north_mps / (R_N + height_m),
+        vel_east_mps / ((R_E + height_m) * np.cos(latitude_rad)),
+        -vel_down_mps,
+    )
 
 
-def ecef_from_geodetic(latitude_rad: float, longitude_rad: float, height_m: float) -> tuple[float, float, float]:
+def ecef_from_geodetic(
+    latitude_rad: float, longitude_rad: float, height_m: float
+) -> tuple[float, float, float]:
     """Earth-centred earth-fixed Cartesian position [m] of a geodetic point (Groves eq. 2.112)."""
     _, R_E = radii_of_curvature_m(latitude_rad)
     c = (R_E + height_m) * np.cos(latitude_rad)
-    return c * np.cos(longitude_rad), c * np.sin(longitude_rad), (R_E * (1.0 - _E2) + height_m) * np.sin(latitude_rad)
+    return (
+        c * np.cos(longitude_rad),
+        c * np.sin(longitude_rad),
+        (R_E * (1.0 - _E2) + height_m) * np.sin(latitude_rad),
+    )
 
 
 GEODETIC_ITERATIONS = 6
@@ -157,13 +173,24 @@ def C_en(latitude_rad: float, longitude_rad: float) -> np.ndarray:
     north, east, down resolved in e. -> (..., 3, 3)."""
     sl, cl = np.sin(latitude_rad), np.cos(latitude_rad)
     so, co = np.sin(longitude_rad), np.cos(longitude_rad)
-    return np.stack([np.stack([-sl * co, -so, -cl * co], axis=-1),
-                     np.stack([-sl * so, co, -cl * so], axis=-1),
-                     np.stack([cl, 0.0 * cl, -sl], axis=-1)], axis=-2)
+    return np.stack(
+        [
+            np.stack([-sl * co, -so, -cl * co], axis=-1),
+            np.stack([-sl * so, co, -cl * so], axis=-1),
+            np.stack([cl, 0.0 * cl, -sl], axis=-1),
+        ],
+        axis=-2,
+    )
 
 
-def ned_offset_components(latitude_rad: float, longitude_rad: float, height_m: float, latitude_ref_rad: float,
-                          longitude_ref_rad: float, height_ref_m: float) -> tuple[float, float, float]:
+def ned_offset_components(
+    latitude_rad: float,
+    longitude_rad: float,
+    height_m: float,
+    latitude_ref_rad: float,
+    longitude_ref_rad: float,
+    height_ref_m: float,
+) -> tuple[float, float, float]:
     """North, east and down [m] of a point's offset from a reference point, resolved in the
     reference's own NED frame: the straight ECEF offset, not a distance along the surface (a
     position error, estimate against truth; or a position in the tangent frame of a mission
@@ -189,34 +216,46 @@ def ned_offset_components(latitude_rad: float, longitude_rad: float, height_m: f
     # R_E - R_E0 = a (w0 - w) / (w w0), w0^2 - w^2 = e^2 (sin^2 lat - sin^2 lat0)
     d_R_E = A_M * _E2 * d_sin_lat * (s + s0) / (w * w0 * (w + w0))
     d_h = h - h0
-    axis_0 = (R_E0 + h0) * c0                       # distance from the polar axis
+    axis_0 = (R_E0 + h0) * c0  # distance from the polar axis
     d_axis = (d_R_E + d_h) * np.cos(lat) + (R_E0 + h0) * d_cos_lat
     cl, sl = np.cos(lon), np.sin(lon)
     dx = d_axis * cl + axis_0 * d_cos_lon
     dy = d_axis * sl + axis_0 * d_sin_lon
     dz = (d_R_E * (1.0 - _E2) + d_h) * s + (R_E0 * (1.0 - _E2) + h0) * d_sin_lat
     cl0, sl0 = np.cos(lon0), np.sin(lon0)
-    horizontal = cl0 * dx + sl0 * dy                # along the reference's meridian plane, outwards
+    horizontal = cl0 * dx + sl0 * dy  # along the reference's meridian plane, outwards
     return -s0 * horizontal + c0 * dz, -sl0 * dx + cl0 * dy, -c0 * horizontal - s0 * dz
 
 
-def ned_offset_m(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,
-                 latitude_ref_rad: np.ndarray, longitude_ref_rad: np.ndarray, height_ref_m: np.ndarray) -> np.ndarray:
+def ned_offset_m(
+    latitude_rad: np.ndarray,
+    longitude_rad: np.ndarray,
+    height_m: np.ndarray,
+    latitude_ref_rad: np.ndarray,
+    longitude_ref_rad: np.ndarray,
+    height_ref_m: np.ndarray,
+) -> np.ndarray:
     """:func:`ned_offset_components` stacked: (..., 3) [m]."""
-    n, e, d = ned_offset_components(latitude_rad, longitude_rad, height_m, latitude_ref_rad, longitude_ref_rad,
-                                    height_ref_m)
+    n, e, d = ned_offset_components(
+        latitude_rad, longitude_rad, height_m, latitude_ref_rad, longitude_ref_rad, height_ref_m
+    )
     return np.stack(np.broadcast_arrays(n, e, d), axis=-1)
 
 
-def ned_from_geodetic(latitude_rad: np.ndarray, longitude_rad: np.ndarray, height_m: np.ndarray,
-                      origin: tuple[float, float, float]) -> np.ndarray:
+def ned_from_geodetic(
+    latitude_rad: np.ndarray,
+    longitude_rad: np.ndarray,
+    height_m: np.ndarray,
+    origin: tuple[float, float, float],
+) -> np.ndarray:
     """Position [m] in the NED tangent frame at ``origin`` = (lat, lon, h) of geodetic points:
     :func:`ned_offset_m` from the origin. -> (..., 3)."""
     return ned_offset_m(latitude_rad, longitude_rad, height_m, *origin)
 
 
-def geodetic_from_ned(pos_n_m: np.ndarray, origin: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray,
-                                                                                          np.ndarray]:
+def geodetic_from_ned(
+    pos_n_m: np.ndarray, origin: tuple[float, float, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Inverse of :func:`ned_from_geodetic`: latitude, longitude [rad] and height [m] of tangent-frame
     positions (..., 3) about ``origin``. The ECEF solution (:func:`geodetic_from_ecef`) is refined
     by two Newton steps on :func:`ned_from_geodetic` itself, so the round trip is as exact as the
@@ -246,10 +285,12 @@ class Earth:
     """The earth model and the mission origin's latitude and longitude (its depth is the
     trajectory's starting depth). The properties are the flat model's constants at the origin."""
 
-    latitude_deg: float = 32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates; [-89, 89]: the
-                                # NED frame and Euler yaw are singular at the poles
+    latitude_deg: float = (
+        32.8  # origin latitude [deg]; default: off Haifa, where TAUV operates; [-89, 89]: the
+    )
+    # NED frame and Euler yaw are singular at the poles
     longitude_deg: float = 34.9  # origin longitude [deg]; default: off Haifa; [-180, 180]
-    model: str = "wgs84"        # one of EARTH_MODELS; "flat" is the paper's (tauv reproduce uses it)
+    model: str = "wgs84"  # one of EARTH_MODELS; "flat" is the paper's (tauv reproduce uses it)
 
     def __post_init__(self) -> None:
         require_range("earth.latitude_deg", self.latitude_deg, -89.0, 89.0)

@@ -24,8 +24,15 @@ _radii = _jit(earth.radii_of_curvature_m)
 
 
 @_jit
-def integrate_geodetic(lat0: float, lon0: float, depth0: float, vel_nodes: np.ndarray, nodes: np.ndarray,
-                       weights: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def integrate_geodetic(
+    lat0: float,
+    lon0: float,
+    depth0: float,
+    vel_nodes: np.ndarray,
+    nodes: np.ndarray,
+    weights: np.ndarray,
+    dt: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions at the ends of n intervals from the start (lat0 [rad], lon0 [rad], depth0 [m]).
 
     vel_nodes (n, G, 3): NED velocity at the G Gauss nodes of each interval (``nodes`` in [-1, 1],

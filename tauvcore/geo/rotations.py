@@ -14,9 +14,9 @@ _SERIES_ANGLE_RAD = 1e-2
 
 # skew(v) = v @ _SKEW_MAP reshaped: one product instead of six indexed writes (hot path)
 _SKEW_MAP = np.zeros((3, 9))
-_SKEW_MAP[2, 1], _SKEW_MAP[1, 2] = -1.0, 1.0   # row 0: [0, -z, y]
-_SKEW_MAP[2, 3], _SKEW_MAP[0, 5] = 1.0, -1.0   # row 1: [z, 0, -x]
-_SKEW_MAP[1, 6], _SKEW_MAP[0, 7] = -1.0, 1.0   # row 2: [-y, x, 0]
+_SKEW_MAP[2, 1], _SKEW_MAP[1, 2] = -1.0, 1.0  # row 0: [0, -z, y]
+_SKEW_MAP[2, 3], _SKEW_MAP[0, 5] = 1.0, -1.0  # row 1: [z, 0, -x]
+_SKEW_MAP[1, 6], _SKEW_MAP[0, 7] = -1.0, 1.0  # row 2: [-y, x, 0]
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -75,8 +75,11 @@ def left_jacobian_inv_so3(phi: np.ndarray) -> np.ndarray:
     angle = np.linalg.norm(phi, axis=-1)[..., None, None]
     small = angle < 1e-4
     safe = np.where(small, 1.0, angle)
-    c = np.where(small, 1.0 / 12.0 + angle**2 / 720.0,
-                 1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)))
+    c = np.where(
+        small,
+        1.0 / 12.0 + angle**2 / 720.0,
+        1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)),
+    )
     k = skew(phi)
     return np.eye(3) - 0.5 * k + c * (k @ k)
 

@@ -68,8 +68,13 @@ from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.sensors.imu import ImuConfig
 
 
-def F_matrix(C_nb: np.ndarray, vel_b: np.ndarray, omega_ib_b: np.ndarray, earth: Earth,
-             position: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+def F_matrix(
+    C_nb: np.ndarray,
+    vel_b: np.ndarray,
+    omega_ib_b: np.ndarray,
+    earth: Earth,
+    position: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Continuous-time F (eq. 4 and 9) at the nominal state. -> (..., 20, 20).
 
     C_nb (..., 3, 3), vel_b (..., 3) nominal body velocity, omega_ib_b (..., 3) bias-corrected rate.
@@ -108,12 +113,12 @@ def G_matrix(C_nb: np.ndarray, vel_b: np.ndarray) -> np.ndarray:
 
 def _psd_floor() -> np.ndarray:
     q = np.zeros(NOISE.dim)
-    q[NOISE.accel] = 1e-6**2      # [m/s/sqrt(s)]: Table 2 1.2e-3 (0.072 m/s/sqrt(h))
-    q[NOISE.gyro] = 1e-7**2       # [rad/sqrt(s)]: Table 2 9.9e-5 (0.34 deg/sqrt(h))
-    q[NOISE.ba] = 1e-8**2         # [m/s^2/sqrt(s)]: Table 2 1e-5
-    q[NOISE.bg] = 1e-10**2        # [rad/s/sqrt(s)]: Table 2 4.9e-7 (2.8e-5 deg/s/sqrt(s))
-    q[NOISE.b_dvl] = 1e-8**2      # [m/s/sqrt(s)]: Table 2 5e-5
-    q[NOISE.sf_dvl] = 1e-8**2     # [1/sqrt(s)]: Table 2 5e-5 (5e-3 %/sqrt(s))
+    q[NOISE.accel] = 1e-6**2  # [m/s/sqrt(s)]: Table 2 1.2e-3 (0.072 m/s/sqrt(h))
+    q[NOISE.gyro] = 1e-7**2  # [rad/sqrt(s)]: Table 2 9.9e-5 (0.34 deg/sqrt(h))
+    q[NOISE.ba] = 1e-8**2  # [m/s^2/sqrt(s)]: Table 2 1e-5
+    q[NOISE.bg] = 1e-10**2  # [rad/s/sqrt(s)]: Table 2 4.9e-7 (2.8e-5 deg/s/sqrt(s))
+    q[NOISE.b_dvl] = 1e-8**2  # [m/s/sqrt(s)]: Table 2 5e-5
+    q[NOISE.sf_dvl] = 1e-8**2  # [1/sqrt(s)]: Table 2 5e-5 (5e-3 %/sqrt(s))
     return q
 
 
@@ -153,17 +158,28 @@ def discretise(F: np.ndarray, G: np.ndarray, q_psd: np.ndarray, dt_s: float) -> 
     from tauvcore.filter import kernels
 
     F = np.asarray(F, dtype=float)
-    if np.any(F[..., kernels.NAV:, :]) or np.any(F[..., :, kernels.CORE:]):
+    if np.any(F[..., kernels.NAV :, :]) or np.any(F[..., :, kernels.CORE :]):
         raise ValueError("F must be zero outside rows 0-8 and columns 0-14 (the structure of F_matrix)")
     batch = np.broadcast_shapes(F.shape[:-2], np.shape(G)[:-2])
-    Phi, Qd = kernels.discretise_batch(kernels.flat(F, batch, (STATE.dim, STATE.dim)),
-                                       kernels.flat(G, batch, (STATE.dim, NOISE.dim)),
-                                       kernels.flat(q_psd, (), (NOISE.dim,))[0], float(dt_s))
+    Phi, Qd = kernels.discretise_batch(
+        kernels.flat(F, batch, (STATE.dim, STATE.dim)),
+        kernels.flat(G, batch, (STATE.dim, NOISE.dim)),
+        kernels.flat(q_psd, (), (NOISE.dim,))[0],
+        float(dt_s),
+    )
     return Phi.reshape(batch + Phi.shape[1:]), Qd.reshape(batch + Qd.shape[1:])
 
 
-def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarray, f_meas: np.ndarray,
-               bias_hat: dict[str, np.ndarray], dx: np.ndarray, w: np.ndarray, earth: Earth) -> np.ndarray:
+def error_rate(
+    C_hat: np.ndarray,
+    vel_b_hat: np.ndarray,
+    omega_ib_meas: np.ndarray,
+    f_meas: np.ndarray,
+    bias_hat: dict[str, np.ndarray],
+    dx: np.ndarray,
+    w: np.ndarray,
+    earth: Earth,
+) -> np.ndarray:
     """Exact nonlinear error dynamics ``dx'`` (no linearisation), for verification of F and G.
 
     The true state is the nominal one with ``dx`` applied; both evolve under the continuous model
@@ -193,8 +209,9 @@ def error_rate(C_hat: np.ndarray, vel_b_hat: np.ndarray, omega_ib_meas: np.ndarr
     return out
 
 
-def _attitude_and_walk_rates(out: np.ndarray, C: np.ndarray, C_hat: np.ndarray, C_dot: np.ndarray,
-                             C_hat_dot: np.ndarray, w: np.ndarray) -> None:
+def _attitude_and_walk_rates(
+    out: np.ndarray, C: np.ndarray, C_hat: np.ndarray, C_dot: np.ndarray, C_hat_dot: np.ndarray, w: np.ndarray
+) -> None:
     """The misalignment rate ``rho' = J_l(rho)^-1 vee(E' E^T)`` (``E = C C_hat^T``) and the
     random walks' rates (their noise), into ``out``."""
     E = C @ C_hat.T
@@ -206,9 +223,16 @@ def _attitude_and_walk_rates(out: np.ndarray, C: np.ndarray, C_hat: np.ndarray, 
     out[STATE.sf_dvl] = w[NOISE.sf_dvl]
 
 
-def error_rate_geodetic(position_hat: tuple[float, float, float], C_hat: np.ndarray, vel_b_hat: np.ndarray,
-                        omega_ib_meas: np.ndarray, f_meas: np.ndarray, bias_hat: dict[str, np.ndarray], dx: np.ndarray,
-                        w: np.ndarray) -> np.ndarray:
+def error_rate_geodetic(
+    position_hat: tuple[float, float, float],
+    C_hat: np.ndarray,
+    vel_b_hat: np.ndarray,
+    omega_ib_meas: np.ndarray,
+    f_meas: np.ndarray,
+    bias_hat: dict[str, np.ndarray],
+    dx: np.ndarray,
+    w: np.ndarray,
+) -> np.ndarray:
     """Exact nonlinear error dynamics on the WGS-84 ellipsoid (the module docstring's second
     part), for verification of F's geodetic terms: ``dx'`` at the nominal geodetic position
     ``position_hat`` = (lat, lon, h) and state, with the error ``dx`` applied to make the truth,
@@ -244,9 +268,12 @@ def error_rate_geodetic(position_hat: tuple[float, float, float], C_hat: np.ndar
     dR_E = E.A_M * E._E2 * np.sin(lat_h) * np.cos(lat_h) / w2**1.5
     out = np.zeros(STATE.dim)
     # d/dt of (R_N(lat_h) + h_h)(lat - lat_h), (R_E(lat_h) + h_h) cos(lat_h) (lon - lon_h), -(h - h_h)
-    out[STATE.pos.start + 0] = ((dR_N * geo_h[0] + geo_h[2]) * (lat - lat_h) + (R_N + h_h) * (geo[0] - geo_h[0]))
-    out[STATE.pos.start + 1] = (((dR_E * geo_h[0] + geo_h[2]) * np.cos(lat_h) - (R_E + h_h) * np.sin(lat_h) * geo_h[0])
-                                * (lon - lon_h) + (R_E + h_h) * np.cos(lat_h) * (geo[1] - geo_h[1]))
+    out[STATE.pos.start + 0] = (dR_N * geo_h[0] + geo_h[2]) * (lat - lat_h) + (R_N + h_h) * (
+        geo[0] - geo_h[0]
+    )
+    out[STATE.pos.start + 1] = (
+        (dR_E * geo_h[0] + geo_h[2]) * np.cos(lat_h) - (R_E + h_h) * np.sin(lat_h) * geo_h[0]
+    ) * (lon - lon_h) + (R_E + h_h) * np.cos(lat_h) * (geo[1] - geo_h[1])
     out[STATE.pos.start + 2] = -(geo[2] - geo_h[2])
     out[STATE.vel] = v_dot - v_dot_h
     _attitude_and_walk_rates(out, C, C_hat, C_dot, C_dot_h, w)

@@ -45,9 +45,9 @@ def mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
 class NavState:
     """Navigation solution: position, velocity, attitude (batch shape ``...``)."""
 
-    pos_n: np.ndarray   # (..., 3) [m]
-    vel_n: np.ndarray   # (..., 3) [m/s]
-    C_nb: np.ndarray    # (..., 3, 3)
+    pos_n: np.ndarray  # (..., 3) [m]
+    vel_n: np.ndarray  # (..., 3) [m/s]
+    C_nb: np.ndarray  # (..., 3, 3)
 
     @property
     def vel_b(self) -> np.ndarray:
@@ -60,8 +60,9 @@ SECOND_ORDER_ROTATION = True
 term buys (benchmarks/strapdown_rate.py): 1 / rate^2 of error, metres in minutes of rolling turns."""
 
 
-def body_increments(dtheta_b: np.ndarray, dv_b: np.ndarray,
-                    previous: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def body_increments(
+    dtheta_b: np.ndarray, dv_b: np.ndarray, previous: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Coning- and sculling-compensated increments for every interval of a run (or of a chunk).
 
     dtheta_b, dv_b: (K, ..., 3) raw increments, row k over (t_k-1, t_k]. Without ``previous`` the
@@ -94,11 +95,13 @@ class Strapdown:
         self.dt_s = dt_s
         self.g_n = np.ascontiguousarray(earth.g_n, dtype=float)
         self.omega_ie_n = earth.omega_ie_n
-        self.C_earth = exp_so3(-self.omega_ie_n * dt_s)   # n-frame turn of one step
+        self.C_earth = exp_so3(-self.omega_ie_n * dt_s)  # n-frame turn of one step
         self.C_earth_half = exp_so3(-0.5 * self.omega_ie_n * dt_s)
         # v @ M == -2 omega_ie_n x v  (row-vector form)
         self.coriolis_T = np.ascontiguousarray((-2.0 * skew(self.omega_ie_n)).T)
-        self.geodetic = earth.geodetic   # WGS-84: positions are latitude, longitude, depth; earth terms per step
+        self.geodetic = (
+            earth.geodetic
+        )  # WGS-84: positions are latitude, longitude, depth; earth terms per step
 
     def step(self, nav: NavState, phi_b: np.ndarray, dv_rot_b: np.ndarray) -> NavState:
         """Advance one IMU interval with bias-corrected compensated increments (:func:`body_increments`).
@@ -114,7 +117,19 @@ class Strapdown:
         C = np.array(np.broadcast_to(nav.C_nb, shape + (3, 3)), dtype=float).reshape(-1, 3, 3)
         phi = np.ascontiguousarray(np.broadcast_to(phi_b, shape + (3,)), dtype=float).reshape(-1, 3)
         dv = np.ascontiguousarray(np.broadcast_to(dv_rot_b, shape + (3,)), dtype=float).reshape(-1, 3)
-        kernels.strapdown_batch(pos, vel, C, phi, dv, self.dt_s, self.C_earth, self.C_earth_half, self.g_n,
-                                self.coriolis_T, self.geodetic)
-        return NavState(pos_n=pos.reshape(shape + (3,)), vel_n=vel.reshape(shape + (3,)),
-                        C_nb=C.reshape(shape + (3, 3)))
+        kernels.strapdown_batch(
+            pos,
+            vel,
+            C,
+            phi,
+            dv,
+            self.dt_s,
+            self.C_earth,
+            self.C_earth_half,
+            self.g_n,
+            self.coriolis_T,
+            self.geodetic,
+        )
+        return NavState(
+            pos_n=pos.reshape(shape + (3,)), vel_n=vel.reshape(shape + (3,)), C_nb=C.reshape(shape + (3, 3))
+        )

@@ -58,16 +58,18 @@ def beam_directions_b(beam_pitch_rad: float) -> np.ndarray:
     """Unit beam directions in b, one row per beam (the matrix A of eq. 16). -> (4, 3)."""
     yaw = np.deg2rad(45.0 + 90.0 * np.arange(NUM_DVL_BEAMS))
     s = np.sin(beam_pitch_rad)
-    return np.stack([np.cos(yaw) * s, np.sin(yaw) * s, np.full(NUM_DVL_BEAMS, np.cos(beam_pitch_rad))], axis=-1)
+    return np.stack(
+        [np.cos(yaw) * s, np.sin(yaw) * s, np.full(NUM_DVL_BEAMS, np.cos(beam_pitch_rad))], axis=-1
+    )
 
 
 @dataclass(frozen=True)
 class Outage:
     """Beams lost (no bottom lock) during ``start_s <= t < end_s``."""
 
-    beams: tuple[int, ...]   # beam numbers 1-4
-    start_s: float           # [s]
-    end_s: float             # [s]
+    beams: tuple[int, ...]  # beam numbers 1-4
+    start_s: float  # [s]
+    end_s: float  # [s]
 
     def __post_init__(self) -> None:
         _check_beams("dvl.outages.beams", self.beams)
@@ -78,7 +80,9 @@ class Outage:
 
 
 def _check_beams(field: str, beams: object) -> None:
-    if not isinstance(beams, (tuple, list)) or len(beams) > NUM_DVL_BEAMS:   # length first: cheap on huge lists
+    if (
+        not isinstance(beams, (tuple, list)) or len(beams) > NUM_DVL_BEAMS
+    ):  # length first: cheap on huge lists
         raise ConfigError(f"{field} must be a list of distinct beam numbers 1-4, got {show(beams)}")
     for b in beams:
         if not isinstance(b, int) or isinstance(b, bool) or b not in (1, 2, 3, 4):
@@ -92,38 +96,51 @@ class DvlConfig:
     """DVL error model; 1-sigma values, defaults Table 2 of Tal et al. 2017."""
 
     # Ranges: zero error is legal (verification, --ideal); each bound's reason is beside it.
-    rate_hz: float = 1.0                                  # ping rate [Hz], [0.05, 25]: DVLs ping from every 20 s to ~25 Hz
-    beam_pitch_deg: float = 20.0                          # eq. 13-14, [10, 45]: Janus heads are 20-30 deg; below 10 the
-                                                          # horizontal velocity is barely observed, above 45 beams graze
-    noise_mps: float = 0.042                              # white noise per beam [m/s], <= 1: beyond half the AUV's
-                                                          # 2 m/s a ping says nothing about the velocity
-    bias_mps: float = 0.005                               # turn-on bias per beam [m/s], <= 0.5 (100x Table 2)
-    bias_rw_mps_per_sqrt_s: float = 5e-5                  # beam bias random walk [m/s/sqrt(s)], <= 5e-3 (100x Table 2)
-    scale_factor_pct: float = 0.7                         # turn-on scale factor error [%], <= 10: a sound speed off by
-                                                          # 150 m/s, more than any water mass differs from 1500 m/s
-    scale_factor_rw_pct_per_sqrt_s: float = 5e-3          # scale factor random walk [%/sqrt(s)], <= 0.5 (100x Table 2)
-    lever_arm_m: tuple[float, float, float] = (0.6, 0.0, 0.15)  # DVL head from the IMU, body frame [m]; not in the
-                                                          # paper; each axis within +-10 m: an AUV is a few metres long
-    beams: tuple[int, ...] = (1, 2, 3, 4)                 # beams that return (others never do)
-    outages: tuple[Outage, ...] = ()                      # scheduled losses of some beams, at most MAX_OUTAGES
-    dropout_probability: float = 0.0                      # chance that a beam misses a ping, each beam independently,
-                                                          # [0, 1] (a probability)
-    max_altitude_m: float = 100.0                         # bottom lock up to this altitude (Yoo 2014 section 3.2),
-                                                          # (0, 11000]: the deepest ocean
-    beyond_range: str = "lost"                            # "lost" (no return) or "noisy" (Yoo 2014 eq. 30-32)
-    beyond_range_noise_mps: float = 5.0                   # extra noise of a "noisy" beam beyond range [m/s] (Yoo:
-                                                          # 5 m/s), [0, 100]
+    rate_hz: float = 1.0  # ping rate [Hz], [0.05, 25]: DVLs ping from every 20 s to ~25 Hz
+    beam_pitch_deg: float = 20.0  # eq. 13-14, [10, 45]: Janus heads are 20-30 deg; below 10 the
+    # horizontal velocity is barely observed, above 45 beams graze
+    noise_mps: float = 0.042  # white noise per beam [m/s], <= 1: beyond half the AUV's
+    # 2 m/s a ping says nothing about the velocity
+    bias_mps: float = 0.005  # turn-on bias per beam [m/s], <= 0.5 (100x Table 2)
+    bias_rw_mps_per_sqrt_s: float = 5e-5  # beam bias random walk [m/s/sqrt(s)], <= 5e-3 (100x Table 2)
+    scale_factor_pct: float = 0.7  # turn-on scale factor error [%], <= 10: a sound speed off by
+    # 150 m/s, more than any water mass differs from 1500 m/s
+    scale_factor_rw_pct_per_sqrt_s: float = (
+        5e-3  # scale factor random walk [%/sqrt(s)], <= 0.5 (100x Table 2)
+    )
+    lever_arm_m: tuple[float, float, float] = (
+        0.6,
+        0.0,
+        0.15,
+    )  # DVL head from the IMU, body frame [m]; not in the
+    # paper; each axis within +-10 m: an AUV is a few metres long
+    beams: tuple[int, ...] = (1, 2, 3, 4)  # beams that return (others never do)
+    outages: tuple[Outage, ...] = ()  # scheduled losses of some beams, at most MAX_OUTAGES
+    dropout_probability: float = 0.0  # chance that a beam misses a ping, each beam independently,
+    # [0, 1] (a probability)
+    max_altitude_m: float = 100.0  # bottom lock up to this altitude (Yoo 2014 section 3.2),
+    # (0, 11000]: the deepest ocean
+    beyond_range: str = "lost"  # "lost" (no return) or "noisy" (Yoo 2014 eq. 30-32)
+    beyond_range_noise_mps: float = 5.0  # extra noise of a "noisy" beam beyond range [m/s] (Yoo:
+    # 5 m/s), [0, 100]
 
     def __post_init__(self) -> None:
         require_range("dvl.rate_hz", self.rate_hz, 0.05, 25.0)
         require_range("dvl.beam_pitch_deg", self.beam_pitch_deg, 10.0, 45.0)
-        for name, high in (("noise_mps", 1.0), ("bias_mps", 0.5), ("bias_rw_mps_per_sqrt_s", 5e-3),
-                           ("scale_factor_pct", 10.0), ("scale_factor_rw_pct_per_sqrt_s", 0.5)):
+        for name, high in (
+            ("noise_mps", 1.0),
+            ("bias_mps", 0.5),
+            ("bias_rw_mps_per_sqrt_s", 5e-3),
+            ("scale_factor_pct", 10.0),
+            ("scale_factor_rw_pct_per_sqrt_s", 0.5),
+        ):
             require_range(f"dvl.{name}", getattr(self, name), 0.0, high)
         require_vector3("dvl.lever_arm_m", self.lever_arm_m, bound=10.0)
         _check_beams("dvl.beams", self.beams)
         if not isinstance(self.outages, (tuple, list)) or len(self.outages) > MAX_OUTAGES:
-            raise ConfigError(f"dvl.outages must be a list of at most {MAX_OUTAGES} windows, got {show(self.outages)}")
+            raise ConfigError(
+                f"dvl.outages must be a list of at most {MAX_OUTAGES} windows, got {show(self.outages)}"
+            )
         for outage in self.outages:
             if not isinstance(outage, Outage):
                 raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {show(outage)}")
@@ -134,11 +151,22 @@ class DvlConfig:
 
     def ideal(self) -> DvlConfig:
         """The same DVL (geometry, lever arm, beams) with every error set to zero."""
-        return DvlConfig(rate_hz=self.rate_hz, beam_pitch_deg=self.beam_pitch_deg, noise_mps=0.0, bias_mps=0.0,
-                         bias_rw_mps_per_sqrt_s=0.0, scale_factor_pct=0.0, scale_factor_rw_pct_per_sqrt_s=0.0,
-                         lever_arm_m=self.lever_arm_m, beams=self.beams, outages=self.outages,
-                         dropout_probability=self.dropout_probability, max_altitude_m=self.max_altitude_m,
-                         beyond_range=self.beyond_range, beyond_range_noise_mps=self.beyond_range_noise_mps)
+        return DvlConfig(
+            rate_hz=self.rate_hz,
+            beam_pitch_deg=self.beam_pitch_deg,
+            noise_mps=0.0,
+            bias_mps=0.0,
+            bias_rw_mps_per_sqrt_s=0.0,
+            scale_factor_pct=0.0,
+            scale_factor_rw_pct_per_sqrt_s=0.0,
+            lever_arm_m=self.lever_arm_m,
+            beams=self.beams,
+            outages=self.outages,
+            dropout_probability=self.dropout_probability,
+            max_altitude_m=self.max_altitude_m,
+            beyond_range=self.beyond_range,
+            beyond_range_noise_mps=self.beyond_range_noise_mps,
+        )
 
     @property
     def beam_pitch_rad(self) -> float:
@@ -185,18 +213,24 @@ class DvlConfig:
 class DvlData:
     """DVL pings with the true error states; M pings, run axis R optional."""
 
-    t_s: np.ndarray           # (M,) ping times [s]
-    index: np.ndarray         # (M,) IMU sample index of each ping
-    y_beam_mps: np.ndarray    # (M, [R,] 4) beam velocities (NaN where not returned) [m/s]
-    available: np.ndarray     # (M, [R,] 4) bool, beam returned
-    bias_mps: np.ndarray      # (M, [R,] 4) true beam biases [m/s]
+    t_s: np.ndarray  # (M,) ping times [s]
+    index: np.ndarray  # (M,) IMU sample index of each ping
+    y_beam_mps: np.ndarray  # (M, [R,] 4) beam velocities (NaN where not returned) [m/s]
+    available: np.ndarray  # (M, [R,] 4) bool, beam returned
+    bias_mps: np.ndarray  # (M, [R,] 4) true beam biases [m/s]
     scale_factor: np.ndarray  # (M, [R]) true scale factor error [-]
     slant_range_m: np.ndarray | None = None  # (M, 4) range from the head to the seabed along each beam, inf
-                                             # beyond max_range_m [m]; None: no seabed given (a log, a test)
+    # beyond max_range_m [m]; None: no seabed given (a log, a test)
 
 
-def beam_velocity(A_b: np.ndarray, vel_b: np.ndarray, omega_nb_b: np.ndarray, l_dvl_b: np.ndarray,
-                  scale_factor: np.ndarray, bias: np.ndarray) -> np.ndarray:
+def beam_velocity(
+    A_b: np.ndarray,
+    vel_b: np.ndarray,
+    omega_nb_b: np.ndarray,
+    l_dvl_b: np.ndarray,
+    scale_factor: np.ndarray,
+    bias: np.ndarray,
+) -> np.ndarray:
     """Eq. 15 without noise: ``(v_b (1 + SF) + omega_nb_b x l) . b_k + bias_k``. -> (..., 4)."""
     v_head = vel_b * (1.0 + scale_factor[..., None]) + np.cross(omega_nb_b, l_dvl_b)
     # the projection summed term by term, not by matmul: BLAS may round a product differently for
@@ -209,12 +243,17 @@ class DvlState:
     """What a DVL simulated chunk by chunk carries from one chunk to the next (the walks count
     the pings emitted so far)."""
 
-    bias: WalkState = field(default_factory=WalkState)           # beam bias walk, one step per ping
-    scale_factor: WalkState = field(default_factory=WalkState)   # scale factor walk, one step per ping
+    bias: WalkState = field(default_factory=WalkState)  # beam bias walk, one step per ping
+    scale_factor: WalkState = field(default_factory=WalkState)  # scale factor walk, one step per ping
 
 
-def simulate(truth: Truth, config: DvlConfig, rng: np.random.Generator, num_runs: int | None = None,
-             seabed: Bathymetry | None = None) -> DvlData:
+def simulate(
+    truth: Truth,
+    config: DvlConfig,
+    rng: np.random.Generator,
+    num_runs: int | None = None,
+    seabed: Bathymetry | None = None,
+) -> DvlData:
     """Pings of the whole mission as one chunk, every draw from ``rng``."""
     index = epoch_indices(truth, config.rate_hz)
     data, _ = simulate_chunk(truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs, seabed)
@@ -232,9 +271,19 @@ def slant_ranges_m(truth: Truth, rows: np.ndarray, config: DvlConfig, seabed: Ba
     return seabed.slant_range_m(head[:, None, :], beams_n, config.max_range_m)
 
 
-def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, state: DvlState,
-                   bias_rng: Rng, scale_factor_rng: Rng, noise_rng: Rng, dropout_rng: Rng,
-                   num_runs: int | None, seabed: Bathymetry | None = None) -> tuple[DvlData, DvlState]:
+def simulate_chunk(
+    truth: Truth,
+    k0: int,
+    index: np.ndarray,
+    config: DvlConfig,
+    state: DvlState,
+    bias_rng: Rng,
+    scale_factor_rng: Rng,
+    noise_rng: Rng,
+    dropout_rng: Rng,
+    num_runs: int | None,
+    seabed: Bathymetry | None = None,
+) -> tuple[DvlData, DvlState]:
     """Pings at the mission's IMU samples ``index`` (all within ``truth``, whose sample 0 is the
     mission's sample ``k0``), by eq. 15 plus noise, NaN where a beam is out of its schedule or drops.
 
@@ -250,15 +299,24 @@ def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, 
     m = index.size
     runs = batch_shape(num_runs)
     period = 1.0 / config.rate_hz
-    bias, bias_state = random_walk_chunk(bias_rng, state.bias, runs + (4,), config.bias_mps,
-                                         config.bias_rw_mps_per_sqrt_s, period, m)
-    sf, sf_state = random_walk_chunk(scale_factor_rng, state.scale_factor, runs, config.scale_factor,
-                                     config.scale_factor_rw_per_sqrt_s, period, m)
+    bias, bias_state = random_walk_chunk(
+        bias_rng, state.bias, runs + (4,), config.bias_mps, config.bias_rw_mps_per_sqrt_s, period, m
+    )
+    sf, sf_state = random_walk_chunk(
+        scale_factor_rng,
+        state.scale_factor,
+        runs,
+        config.scale_factor,
+        config.scale_factor_rw_per_sqrt_s,
+        period,
+        m,
+    )
     rows = index - k0
     t_s = truth.t_s[rows]
     expand = (slice(None),) + (None,) * len(runs)
-    y = beam_velocity(config.A_b, truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand], config.l_dvl_b, sf,
-                      bias)
+    y = beam_velocity(
+        config.A_b, truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand], config.l_dvl_b, sf, bias
+    )
     y = y + standard_normal(noise_rng, y.shape, 1) * config.noise_mps
     available = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape).copy()
     ranges = None
@@ -273,6 +331,15 @@ def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: DvlConfig, 
     if config.dropout_probability > 0:
         available &= uniform(dropout_rng, y.shape, 1) >= config.dropout_probability
     y = np.where(available, y, np.nan)
-    return (DvlData(t_s=t_s, index=index, y_beam_mps=y, available=available, bias_mps=bias, scale_factor=sf,
-                    slant_range_m=ranges),
-            DvlState(bias=bias_state, scale_factor=sf_state))
+    return (
+        DvlData(
+            t_s=t_s,
+            index=index,
+            y_beam_mps=y,
+            available=available,
+            bias_mps=bias,
+            scale_factor=sf,
+            slant_range_m=ranges,
+        ),
+        DvlState(bias=bias_state, scale_factor=sf_state),
+    )

@@ -23,9 +23,9 @@ from tauvcore.validation import require_range
 class EchoSounderConfig:
     """Single-beam altimeter looking straight down; 1-sigma white noise."""
 
-    rate_hz: float = 5.0          # [Hz]; the DVL rate of Yoo 2014, so every ping has an altitude; [0.01, 100]
-    noise_m: float = 0.2          # [m]; [0, 100]: zero is an ideal sensor
-    max_range_m: float = 500.0    # longest altitude with an echo [m]; (0, 11000]: the deepest ocean
+    rate_hz: float = 5.0  # [Hz]; the DVL rate of Yoo 2014, so every ping has an altitude; [0.01, 100]
+    noise_m: float = 0.2  # [m]; [0, 100]: zero is an ideal sensor
+    max_range_m: float = 500.0  # longest altitude with an echo [m]; (0, 11000]: the deepest ocean
 
     def __post_init__(self) -> None:
         require_range("echo_sounder.rate_hz", self.rate_hz, 0.01, 100.0)
@@ -38,20 +38,32 @@ class EchoSounderConfig:
 
 @dataclass(frozen=True)
 class EchoSounderData:
-    t_s: np.ndarray              # (M,) [s]
-    index: np.ndarray            # (M,) IMU sample index
-    altitude_m: np.ndarray       # (M, [R]) measured altitude, NaN without an echo [m]
+    t_s: np.ndarray  # (M,) [s]
+    index: np.ndarray  # (M,) IMU sample index
+    altitude_m: np.ndarray  # (M, [R]) measured altitude, NaN without an echo [m]
     true_altitude_m: np.ndarray  # (M,) true altitude [m]
 
 
-def simulate(truth: Truth, config: EchoSounderConfig, seabed: Bathymetry, rng: np.random.Generator,
-             num_runs: int | None = None) -> EchoSounderData:
+def simulate(
+    truth: Truth,
+    config: EchoSounderConfig,
+    seabed: Bathymetry,
+    rng: np.random.Generator,
+    num_runs: int | None = None,
+) -> EchoSounderData:
     """Altitudes of the whole mission as one chunk."""
     return simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, seabed, rng, num_runs)
 
 
-def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: EchoSounderConfig, seabed: Bathymetry,
-                   rng: Rng, num_runs: int | None) -> EchoSounderData:
+def simulate_chunk(
+    truth: Truth,
+    k0: int,
+    index: np.ndarray,
+    config: EchoSounderConfig,
+    seabed: Bathymetry,
+    rng: Rng,
+    num_runs: int | None,
+) -> EchoSounderData:
     """Altitudes at the mission's IMU samples ``index`` (within ``truth``, whose sample 0 is the
     mission's sample ``k0``). The noise is drawn for every epoch, echo or not (a run's numbers do
     not depend on where a chunk ends)."""

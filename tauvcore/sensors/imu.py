@@ -36,15 +36,15 @@ navigation IMU delivers increments above 2 kHz, and the run time grows with the 
 a 5 s mission take 31 s)."""
 
 ERROR_LIMITS = {
-    "accel_bias_mg": 100.0,                      # 200x Table 2; an uncalibrated consumer MEMS is ~50 mg
-    "gyro_bias_deg_per_h": 3600.0,               # 1 deg/s, 1200x Table 2; an uncalibrated MEMS gyro
-    "accel_noise_mps_per_sqrt_h": 10.0,          # 140x Table 2; consumer MEMS is ~0.5 m/s/sqrt(h)
-    "gyro_noise_deg_per_sqrt_h": 30.0,           # 90x Table 2; consumer MEMS is ~1 deg/sqrt(h)
-    "accel_bias_rw_mps2_per_sqrt_s": 1e-2,       # 1000x Table 2: 0.6 m/s^2 of wander per hour
-    "gyro_bias_rw_deg_per_s_per_sqrt_s": 1e-2,   # 360x Table 2: 0.6 deg/s of wander per hour
-    "accel_scale_factor_ppm": 1e4,               # 1 %: an uncalibrated consumer MEMS part
+    "accel_bias_mg": 100.0,  # 200x Table 2; an uncalibrated consumer MEMS is ~50 mg
+    "gyro_bias_deg_per_h": 3600.0,  # 1 deg/s, 1200x Table 2; an uncalibrated MEMS gyro
+    "accel_noise_mps_per_sqrt_h": 10.0,  # 140x Table 2; consumer MEMS is ~0.5 m/s/sqrt(h)
+    "gyro_noise_deg_per_sqrt_h": 30.0,  # 90x Table 2; consumer MEMS is ~1 deg/sqrt(h)
+    "accel_bias_rw_mps2_per_sqrt_s": 1e-2,  # 1000x Table 2: 0.6 m/s^2 of wander per hour
+    "gyro_bias_rw_deg_per_s_per_sqrt_s": 1e-2,  # 360x Table 2: 0.6 deg/s of wander per hour
+    "accel_scale_factor_ppm": 1e4,  # 1 %: an uncalibrated consumer MEMS part
     "gyro_scale_factor_ppm": 1e4,
-    "accel_misalignment_mrad": 20.0,             # 1.1 deg: a board-mounted MEMS triad is ~2-10 mrad
+    "accel_misalignment_mrad": 20.0,  # 1.1 deg: a board-mounted MEMS triad is ~2-10 mrad
     "gyro_misalignment_mrad": 20.0,
 }
 """Upper bound of each error field [its unit]; the lower bound is zero (an ideal sensor)."""
@@ -57,17 +57,17 @@ class ImuConfig:
     # Ranges: zero error is legal everywhere (verification, --ideal); the upper bounds are a few
     # hundred times Table 2, past the worst uncalibrated consumer MEMS part, where a
     # navigation-grade filter and its linearisation have nothing left to say.
-    rate_hz: float = 150.0                          # IMU rate [Hz], within [50, 2000] (RATE_RANGE_HZ)
-    accel_bias_mg: float = 0.5                      # turn-on bias per axis [mg] (Table 2 "mg/h", see module doc), <= 100
-    gyro_bias_deg_per_h: float = 3.0                # turn-on bias per axis [deg/h], <= 3600 (1 deg/s)
-    accel_noise_mps_per_sqrt_h: float = 0.072       # velocity random walk [m/s/sqrt(h)], <= 10
-    gyro_noise_deg_per_sqrt_h: float = 0.34         # angle random walk [deg/sqrt(h)], <= 30
-    accel_bias_rw_mps2_per_sqrt_s: float = 1e-5     # accelerometer bias random walk [m/s^2/sqrt(s)], <= 1e-2
+    rate_hz: float = 150.0  # IMU rate [Hz], within [50, 2000] (RATE_RANGE_HZ)
+    accel_bias_mg: float = 0.5  # turn-on bias per axis [mg] (Table 2 "mg/h", see module doc), <= 100
+    gyro_bias_deg_per_h: float = 3.0  # turn-on bias per axis [deg/h], <= 3600 (1 deg/s)
+    accel_noise_mps_per_sqrt_h: float = 0.072  # velocity random walk [m/s/sqrt(h)], <= 10
+    gyro_noise_deg_per_sqrt_h: float = 0.34  # angle random walk [deg/sqrt(h)], <= 30
+    accel_bias_rw_mps2_per_sqrt_s: float = 1e-5  # accelerometer bias random walk [m/s^2/sqrt(s)], <= 1e-2
     gyro_bias_rw_deg_per_s_per_sqrt_s: float = 2.8e-5  # gyro bias random walk [deg/s/sqrt(s)], <= 1e-2
-    accel_scale_factor_ppm: float = 0.0             # scale factor per axis [ppm], <= 1e4; Table 2 has none
-    gyro_scale_factor_ppm: float = 0.0              # scale factor per axis [ppm], <= 1e4; Table 2 has none
-    accel_misalignment_mrad: float = 0.0            # misalignment per axis pair [mrad], <= 20; Table 2 has none
-    gyro_misalignment_mrad: float = 0.0             # misalignment per axis pair [mrad], <= 20; Table 2 has none
+    accel_scale_factor_ppm: float = 0.0  # scale factor per axis [ppm], <= 1e4; Table 2 has none
+    gyro_scale_factor_ppm: float = 0.0  # scale factor per axis [ppm], <= 1e4; Table 2 has none
+    accel_misalignment_mrad: float = 0.0  # misalignment per axis pair [mrad], <= 20; Table 2 has none
+    gyro_misalignment_mrad: float = 0.0  # misalignment per axis pair [mrad], <= 20; Table 2 has none
 
     def __post_init__(self) -> None:
         require_range("imu.rate_hz", self.rate_hz, *RATE_RANGE_HZ)
@@ -122,8 +122,12 @@ class ImuConfig:
         return self.gyro_misalignment_mrad * 1e-3
 
 
-AXIS_ERROR_FIELDS = ("accel_scale_factor_ppm", "gyro_scale_factor_ppm", "accel_misalignment_mrad",
-                     "gyro_misalignment_mrad")
+AXIS_ERROR_FIELDS = (
+    "accel_scale_factor_ppm",
+    "gyro_scale_factor_ppm",
+    "accel_misalignment_mrad",
+    "gyro_misalignment_mrad",
+)
 
 _BIAS_STABILITY_WINDOW_S = 3600.0
 """A datasheet's "bias stability" read as the 1-sigma growth of the in-run bias random walk over
@@ -165,34 +169,37 @@ class ImuData:
     Row k covers the interval (t_k-1, t_k]; row 0 is zero (no interval before the first sample).
     """
 
-    t_s: np.ndarray          # (K,) sample times [s]
-    dtheta_b: np.ndarray     # (K, [R,] 3) measured angle increments [rad]
-    dv_b: np.ndarray         # (K, [R,] 3) measured velocity increments [m/s]
-    accel_bias: np.ndarray   # (K, [R,] 3) true accelerometer bias [m/s^2]: the error the filter's bias state
-                             # stands for, the turn-on bias and its walk plus M_a f_b (axis errors) at the sample
-    gyro_bias: np.ndarray    # (K, [R,] 3) true gyro bias [rad/s]: likewise, plus M_g omega_ib_b
+    t_s: np.ndarray  # (K,) sample times [s]
+    dtheta_b: np.ndarray  # (K, [R,] 3) measured angle increments [rad]
+    dv_b: np.ndarray  # (K, [R,] 3) measured velocity increments [m/s]
+    accel_bias: np.ndarray  # (K, [R,] 3) true accelerometer bias [m/s^2]: the error the filter's bias state
+    # stands for, the turn-on bias and its walk plus M_a f_b (axis errors) at the sample
+    gyro_bias: np.ndarray  # (K, [R,] 3) true gyro bias [rad/s]: likewise, plus M_g omega_ib_b
 
 
 @dataclass(frozen=True)
 class ImuState:
     """What an IMU simulated chunk by chunk carries from one chunk to the next."""
 
-    accel_bias: WalkState = field(default_factory=WalkState)   # accelerometer bias walk
-    gyro_bias: WalkState = field(default_factory=WalkState)    # gyro bias walk
-    axes_drawn: bool = False                                   # whether M_a and M_g below were drawn
-    accel_axes: np.ndarray | None = None                       # M_a ([R,] 3, 3), None if the IMU has no axis errors
-    gyro_axes: np.ndarray | None = None                        # M_g ([R,] 3, 3)
+    accel_bias: WalkState = field(default_factory=WalkState)  # accelerometer bias walk
+    gyro_bias: WalkState = field(default_factory=WalkState)  # gyro bias walk
+    axes_drawn: bool = False  # whether M_a and M_g below were drawn
+    accel_axes: np.ndarray | None = None  # M_a ([R,] 3, 3), None if the IMU has no axis errors
+    gyro_axes: np.ndarray | None = None  # M_g ([R,] 3, 3)
 
 
-def simulate(truth: Truth, config: ImuConfig, rng: np.random.Generator, num_runs: int | None = None) -> ImuData:
+def simulate(
+    truth: Truth, config: ImuConfig, rng: np.random.Generator, num_runs: int | None = None
+) -> ImuData:
     """IMU increments at every truth epoch (the truth must be generated at ``config.rate_hz``):
     the whole mission as one chunk, every draw from ``rng``."""
     data, _ = simulate_chunk(truth, 0, config, ImuState(), rng, rng, rng, rng, num_runs, truth.dt_s, rng)
     return data
 
 
-def axis_error_matrices(rng: Rng, shape: tuple[int, ...], scale_factor: float,
-                        misalignment_rad: float) -> np.ndarray:
+def axis_error_matrices(
+    rng: Rng, shape: tuple[int, ...], scale_factor: float, misalignment_rad: float
+) -> np.ndarray:
     """``M`` of one triad for each run: ``diag(s) + off-diagonal m``, ``s ~ N(0, scale_factor^2)``
     per axis and ``m_ij ~ N(0, misalignment_rad^2)`` for each sensing axis i leaning towards j.
     ``shape``: the run axes (possibly empty). Draws 9 numbers per run: s_x, s_y, s_z, then
@@ -206,9 +213,19 @@ def axis_error_matrices(rng: Rng, shape: tuple[int, ...], scale_factor: float,
     return M
 
 
-def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
-                   accel_bias_rng: Rng, gyro_bias_rng: Rng, accel_noise_rng: Rng, gyro_noise_rng: Rng,
-                   num_runs: int | None, dt_s: float, axes_rng: Rng | None = None) -> tuple[ImuData, ImuState]:
+def simulate_chunk(
+    truth: Truth,
+    k0: int,
+    config: ImuConfig,
+    state: ImuState,
+    accel_bias_rng: Rng,
+    gyro_bias_rng: Rng,
+    accel_noise_rng: Rng,
+    gyro_noise_rng: Rng,
+    num_runs: int | None,
+    dt_s: float,
+    axes_rng: Rng | None = None,
+) -> tuple[ImuData, ImuState]:
     """IMU increments at the samples ``k0 .. k0 + K - 1`` of the mission, ``truth`` holding those K.
 
     ``dv_k = dv_true_k + b_a,k dt + n_a,k``, ``dtheta_k = dtheta_true_k + b_g,k dt + n_g,k`` with
@@ -226,22 +243,46 @@ def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
     k = truth.num_samples
     runs = batch_shape(num_runs)
     shape = runs + (3,)
-    ba, accel_state = random_walk_chunk(accel_bias_rng, state.accel_bias, shape, config.accel_bias_mps2,
-                                        config.accel_bias_rw_mps2_per_sqrt_s, dt_s, k)
-    bg, gyro_state = random_walk_chunk(gyro_bias_rng, state.gyro_bias, shape, config.gyro_bias_rps,
-                                       config.gyro_bias_rw_rps_per_sqrt_s, dt_s, k)
+    ba, accel_state = random_walk_chunk(
+        accel_bias_rng,
+        state.accel_bias,
+        shape,
+        config.accel_bias_mps2,
+        config.accel_bias_rw_mps2_per_sqrt_s,
+        dt_s,
+        k,
+    )
+    bg, gyro_state = random_walk_chunk(
+        gyro_bias_rng,
+        state.gyro_bias,
+        shape,
+        config.gyro_bias_rps,
+        config.gyro_bias_rw_rps_per_sqrt_s,
+        dt_s,
+        k,
+    )
     expand = (slice(None),) + (None,) * len(runs)
     sqrt_dt = np.sqrt(dt_s)
-    dv = (truth.dv_b[expand] + ba * dt_s
-          + standard_normal(accel_noise_rng, (k,) + shape, 1) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt))
-    dth = (truth.dtheta_ib_b[expand] + bg * dt_s
-           + standard_normal(gyro_noise_rng, (k,) + shape, 1) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt))
+    dv = (
+        truth.dv_b[expand]
+        + ba * dt_s
+        + standard_normal(accel_noise_rng, (k,) + shape, 1) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt)
+    )
+    dth = (
+        truth.dtheta_ib_b[expand]
+        + bg * dt_s
+        + standard_normal(gyro_noise_rng, (k,) + shape, 1) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt)
+    )
     if not state.axes_drawn:
         M_a = M_g = None
         if config.has_axis_errors:
             if axes_rng is None:
-                raise ValueError("the IMU has scale factor or misalignment errors: simulate_chunk needs axes_rng")
-            M_a = axis_error_matrices(axes_rng, runs, config.accel_scale_factor, config.accel_misalignment_rad)
+                raise ValueError(
+                    "the IMU has scale factor or misalignment errors: simulate_chunk needs axes_rng"
+                )
+            M_a = axis_error_matrices(
+                axes_rng, runs, config.accel_scale_factor, config.accel_misalignment_rad
+            )
             M_g = axis_error_matrices(axes_rng, runs, config.gyro_scale_factor, config.gyro_misalignment_rad)
         state = dataclasses.replace(state, axes_drawn=True, accel_axes=M_a, gyro_axes=M_g)
     if state.accel_axes is not None:
@@ -253,5 +294,7 @@ def simulate_chunk(truth: Truth, k0: int, config: ImuConfig, state: ImuState,
     if k0 == 0 and k > 0:
         dv[0] = 0.0
         dth[0] = 0.0
-    return (ImuData(t_s=truth.t_s, dtheta_b=dth, dv_b=dv, accel_bias=ba, gyro_bias=bg),
-            dataclasses.replace(state, accel_bias=accel_state, gyro_bias=gyro_state))
+    return (
+        ImuData(t_s=truth.t_s, dtheta_b=dth, dv_b=dv, accel_bias=ba, gyro_bias=bg),
+        dataclasses.replace(state, accel_bias=accel_state, gyro_bias=gyro_state),
+    )

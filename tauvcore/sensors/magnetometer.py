@@ -17,10 +17,10 @@ from tauvcore.validation import require_range
 
 @dataclass(frozen=True)
 class MagnetometerConfig:
-    rate_hz: float = 0.5                # Table 2 [Hz]; [0.01, 100]: compasses report at up to ~100 Hz
+    rate_hz: float = 0.5  # Table 2 [Hz]; [0.01, 100]: compasses report at up to ~100 Hz
     roll_pitch_noise_deg: float = 1.15  # Table 2, 1-sigma [deg]; [0, 30]: beyond, tilt sensing says nothing
-    yaw_noise_deg: float = 5.72         # Table 2, 1-sigma [deg]; [0, 90]: beyond, the wrap to +-180 deg makes
-                                        # the error far from Gaussian and the heading unknown
+    yaw_noise_deg: float = 5.72  # Table 2, 1-sigma [deg]; [0, 90]: beyond, the wrap to +-180 deg makes
+    # the error far from Gaussian and the heading unknown
 
     def __post_init__(self) -> None:
         require_range("magnetometer.rate_hz", self.rate_hz, 0.01, 100.0)
@@ -33,24 +33,28 @@ class MagnetometerConfig:
     @property
     def noise_rad(self) -> np.ndarray:
         """(3,) roll, pitch, yaw 1-sigma [rad]."""
-        return np.array([self.roll_pitch_noise_deg, self.roll_pitch_noise_deg, self.yaw_noise_deg]) * units.DEG
+        return (
+            np.array([self.roll_pitch_noise_deg, self.roll_pitch_noise_deg, self.yaw_noise_deg]) * units.DEG
+        )
 
 
 @dataclass(frozen=True)
 class MagnetometerData:
-    t_s: np.ndarray     # (M,) [s]
-    index: np.ndarray   # (M,) IMU sample index
-    euler: np.ndarray   # (M, [R,] 3) measured roll, pitch, yaw [rad]
+    t_s: np.ndarray  # (M,) [s]
+    index: np.ndarray  # (M,) IMU sample index
+    euler: np.ndarray  # (M, [R,] 3) measured roll, pitch, yaw [rad]
 
 
-def simulate(truth: Truth, config: MagnetometerConfig, rng: np.random.Generator,
-             num_runs: int | None = None) -> MagnetometerData:
+def simulate(
+    truth: Truth, config: MagnetometerConfig, rng: np.random.Generator, num_runs: int | None = None
+) -> MagnetometerData:
     """Attitudes of the whole mission as one chunk."""
     return simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, rng, num_runs)
 
 
-def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: MagnetometerConfig,
-                   rng: Rng, num_runs: int | None) -> MagnetometerData:
+def simulate_chunk(
+    truth: Truth, k0: int, index: np.ndarray, config: MagnetometerConfig, rng: Rng, num_runs: int | None
+) -> MagnetometerData:
     """Euler angles plus white noise, yaw wrapped, at the mission's IMU samples ``index`` (all
     within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
     rows = index - k0

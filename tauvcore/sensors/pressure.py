@@ -22,10 +22,10 @@ from tauvcore.validation import require_range
 class PressureConfig:
     """Depth from pressure, ``depth = p / (rho g0)``; 1-sigma white noise."""
 
-    rate_hz: float = 0.25                 # Table 2 [Hz]; [0.01, 100]: depth sensors sample up to ~100 Hz
-    noise_pa: float = 194.0               # Table 2 "194 Mpa", read as 194 Pa (module doc); [0, 1e5]: 1 bar, i.e.
-                                          # 10 m of water, half the TAUV's rated depth; zero is an ideal sensor
-    water_density_kg_m3: float = 1025.0   # sea water; [950, 1250]: hot fresh water to the Dead Sea
+    rate_hz: float = 0.25  # Table 2 [Hz]; [0.01, 100]: depth sensors sample up to ~100 Hz
+    noise_pa: float = 194.0  # Table 2 "194 Mpa", read as 194 Pa (module doc); [0, 1e5]: 1 bar, i.e.
+    # 10 m of water, half the TAUV's rated depth; zero is an ideal sensor
+    water_density_kg_m3: float = 1025.0  # sea water; [950, 1250]: hot fresh water to the Dead Sea
 
     def __post_init__(self) -> None:
         require_range("pressure.rate_hz", self.rate_hz, 0.01, 100.0)
@@ -33,7 +33,9 @@ class PressureConfig:
         require_range("pressure.water_density_kg_m3", self.water_density_kg_m3, 950.0, 1250.0)
 
     def ideal(self) -> PressureConfig:
-        return PressureConfig(rate_hz=self.rate_hz, noise_pa=0.0, water_density_kg_m3=self.water_density_kg_m3)
+        return PressureConfig(
+            rate_hz=self.rate_hz, noise_pa=0.0, water_density_kg_m3=self.water_density_kg_m3
+        )
 
     @property
     def depth_noise_m(self) -> float:
@@ -42,19 +44,21 @@ class PressureConfig:
 
 @dataclass(frozen=True)
 class PressureData:
-    t_s: np.ndarray       # (M,) [s]
-    index: np.ndarray     # (M,) IMU sample index
-    depth_m: np.ndarray   # (M, [R]) measured depth [m]
+    t_s: np.ndarray  # (M,) [s]
+    index: np.ndarray  # (M,) IMU sample index
+    depth_m: np.ndarray  # (M, [R]) measured depth [m]
 
 
-def simulate(truth: Truth, config: PressureConfig, rng: np.random.Generator,
-             num_runs: int | None = None) -> PressureData:
+def simulate(
+    truth: Truth, config: PressureConfig, rng: np.random.Generator, num_runs: int | None = None
+) -> PressureData:
     """Depths of the whole mission as one chunk."""
     return simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, rng, num_runs)
 
 
-def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: PressureConfig, rng: Rng,
-                   num_runs: int | None) -> PressureData:
+def simulate_chunk(
+    truth: Truth, k0: int, index: np.ndarray, config: PressureConfig, rng: Rng, num_runs: int | None
+) -> PressureData:
     """Depth ``truth.depth_m[k] + n``, ``n ~ N(0, depth_noise_m^2)``, at the mission's IMU samples
     ``index`` (all within ``truth``, whose sample 0 is the mission's sample ``k0``)."""
     rows = index - k0

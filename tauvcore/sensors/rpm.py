@@ -36,14 +36,16 @@ from tauvcore.validation import require_range
 class RpmConfig:
     """Propeller shaft speed sensor and the kinematic truth's speed model (module docstring)."""
 
-    rate_hz: float = 5.0                      # [Hz], the DVL rate of Yoo 2014; [0.01, 100]
-    noise_rpm: float = 2.0                    # white noise [rev/min]; [0, 1000]: zero is an ideal sensor
-    mps_per_rpm: float = 2.3525e-3            # nominal sf: the TAUV's steady speed per rpm (tauvcore.truth.vehicle,
-                                              # 2 m/s at 850 rpm) [m/s per rpm]; (0, 1]
-    bias_mps: float = 0.05                    # nominal b [m/s]; [-5, 5]
-    scale_factor_rw_per_sqrt_s: float = 2e-7  # walk of sf [m/s per rpm per sqrt(s)]: 0.4 % of sf in an hour; [0, 1e-3]
-    bias_rw_mps_per_sqrt_s: float = 1e-4      # walk of b [m/s/sqrt(s)]: 6 mm/s in an hour, the velocity filter's
-                                              # own model (tauvcore.filter.vkf); [0, 1]
+    rate_hz: float = 5.0  # [Hz], the DVL rate of Yoo 2014; [0.01, 100]
+    noise_rpm: float = 2.0  # white noise [rev/min]; [0, 1000]: zero is an ideal sensor
+    mps_per_rpm: float = 2.3525e-3  # nominal sf: the TAUV's steady speed per rpm (tauvcore.truth.vehicle,
+    # 2 m/s at 850 rpm) [m/s per rpm]; (0, 1]
+    bias_mps: float = 0.05  # nominal b [m/s]; [-5, 5]
+    scale_factor_rw_per_sqrt_s: float = (
+        2e-7  # walk of sf [m/s per rpm per sqrt(s)]: 0.4 % of sf in an hour; [0, 1e-3]
+    )
+    bias_rw_mps_per_sqrt_s: float = 1e-4  # walk of b [m/s/sqrt(s)]: 6 mm/s in an hour, the velocity filter's
+    # own model (tauvcore.filter.vkf); [0, 1]
 
     def __post_init__(self) -> None:
         require_range("rpm.rate_hz", self.rate_hz, 0.01, 100.0)
@@ -55,18 +57,26 @@ class RpmConfig:
 
     def ideal(self) -> RpmConfig:
         """No noise and no walks (the nominal sf and b stay)."""
-        return RpmConfig(rate_hz=self.rate_hz, noise_rpm=0.0, mps_per_rpm=self.mps_per_rpm, bias_mps=self.bias_mps,
-                         scale_factor_rw_per_sqrt_s=0.0, bias_rw_mps_per_sqrt_s=0.0)
+        return RpmConfig(
+            rate_hz=self.rate_hz,
+            noise_rpm=0.0,
+            mps_per_rpm=self.mps_per_rpm,
+            bias_mps=self.bias_mps,
+            scale_factor_rw_per_sqrt_s=0.0,
+            bias_rw_mps_per_sqrt_s=0.0,
+        )
 
 
 @dataclass(frozen=True)
 class RpmData:
-    t_s: np.ndarray            # (M,) [s]
-    index: np.ndarray          # (M,) IMU sample index
-    rpm: np.ndarray            # (M, [R]) measured propeller speed [rev/min]
-    true_rpm: np.ndarray       # (M, [R]) what the propeller turned at [rev/min]
-    scale_factor: np.ndarray   # (M, [R]) true sf of eq. 20 [m/s per rpm]; NaN on the dynamic truth (no such map)
-    bias_mps: np.ndarray       # (M, [R]) true b of eq. 20 [m/s]; NaN on the dynamic truth
+    t_s: np.ndarray  # (M,) [s]
+    index: np.ndarray  # (M,) IMU sample index
+    rpm: np.ndarray  # (M, [R]) measured propeller speed [rev/min]
+    true_rpm: np.ndarray  # (M, [R]) what the propeller turned at [rev/min]
+    scale_factor: (
+        np.ndarray
+    )  # (M, [R]) true sf of eq. 20 [m/s per rpm]; NaN on the dynamic truth (no such map)
+    bias_mps: np.ndarray  # (M, [R]) true b of eq. 20 [m/s]; NaN on the dynamic truth
 
 
 @dataclass(frozen=True)
@@ -75,15 +85,27 @@ class RpmState:
     bias: WalkState = field(default_factory=WalkState)
 
 
-def simulate(truth: Truth, config: RpmConfig, rng: np.random.Generator, num_runs: int | None = None) -> RpmData:
+def simulate(
+    truth: Truth, config: RpmConfig, rng: np.random.Generator, num_runs: int | None = None
+) -> RpmData:
     """RPM of the whole mission as one chunk, every draw from ``rng``."""
-    data, _ = simulate_chunk(truth, 0, epoch_indices(truth, config.rate_hz), config, RpmState(), rng, rng, rng,
-                             num_runs)
+    data, _ = simulate_chunk(
+        truth, 0, epoch_indices(truth, config.rate_hz), config, RpmState(), rng, rng, rng, num_runs
+    )
     return data
 
 
-def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: RpmConfig, state: RpmState, sf_rng: Rng,
-                   bias_rng: Rng, noise_rng: Rng, num_runs: int | None) -> tuple[RpmData, RpmState]:
+def simulate_chunk(
+    truth: Truth,
+    k0: int,
+    index: np.ndarray,
+    config: RpmConfig,
+    state: RpmState,
+    sf_rng: Rng,
+    bias_rng: Rng,
+    noise_rng: Rng,
+    num_runs: int | None,
+) -> tuple[RpmData, RpmState]:
     """RPM at the mission's IMU samples ``index`` (within ``truth``, whose sample 0 is the mission's
     sample ``k0``). Draws: the sf walk and the b walk, each from its own generator (both start at
     their nominal values; one step per epoch; kinematic truth only), then the noise. -> (data,
@@ -98,13 +120,24 @@ def simulate_chunk(truth: Truth, k0: int, index: np.ndarray, config: RpmConfig, 
         new_state = state
     else:
         period = 1.0 / config.rate_hz
-        d_sf, sf_state = random_walk_chunk(sf_rng, state.scale_factor, runs, 0.0,
-                                           config.scale_factor_rw_per_sqrt_s, period, index.size)
-        d_b, b_state = random_walk_chunk(bias_rng, state.bias, runs, 0.0, config.bias_rw_mps_per_sqrt_s, period,
-                                         index.size)
+        d_sf, sf_state = random_walk_chunk(
+            sf_rng, state.scale_factor, runs, 0.0, config.scale_factor_rw_per_sqrt_s, period, index.size
+        )
+        d_b, b_state = random_walk_chunk(
+            bias_rng, state.bias, runs, 0.0, config.bias_rw_mps_per_sqrt_s, period, index.size
+        )
         sf, b = config.mps_per_rpm + d_sf, config.bias_mps + d_b
         true_rpm = (truth.vel_b[rows, 0][expand] + b) / sf
         new_state = RpmState(scale_factor=sf_state, bias=b_state)
     rpm = true_rpm + standard_normal(noise_rng, shape, 1) * config.noise_rpm
-    return (RpmData(t_s=truth.t_s[rows], index=index, rpm=rpm, true_rpm=np.array(true_rpm), scale_factor=sf,
-                    bias_mps=b), new_state)
+    return (
+        RpmData(
+            t_s=truth.t_s[rows],
+            index=index,
+            rpm=rpm,
+            true_rpm=np.array(true_rpm),
+            scale_factor=sf,
+            bias_mps=b,
+        ),
+        new_state,
+    )

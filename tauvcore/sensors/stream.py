@@ -59,28 +59,30 @@ class SensorStreams:
     differently for different chunkings.
     """
 
-    accel_bias: np.random.Generator        # IMU accelerometer bias: turn-on value, then its walk
-    gyro_bias: np.random.Generator         # IMU gyro bias: turn-on value, then its walk
-    accel_noise: np.random.Generator       # IMU accelerometer white noise
-    gyro_noise: np.random.Generator        # IMU gyro white noise
-    dvl_bias: np.random.Generator          # DVL beam biases: turn-on values, then their walk
+    accel_bias: np.random.Generator  # IMU accelerometer bias: turn-on value, then its walk
+    gyro_bias: np.random.Generator  # IMU gyro bias: turn-on value, then its walk
+    accel_noise: np.random.Generator  # IMU accelerometer white noise
+    gyro_noise: np.random.Generator  # IMU gyro white noise
+    dvl_bias: np.random.Generator  # DVL beam biases: turn-on values, then their walk
     dvl_scale_factor: np.random.Generator  # DVL scale factor: turn-on value, then its walk
-    dvl_noise: np.random.Generator         # DVL beam white noise
-    dvl_dropout: np.random.Generator       # DVL random beam losses
-    pressure: np.random.Generator          # depth white noise
-    magnetometer: np.random.Generator      # attitude white noise
-    initial: np.random.Generator           # the filter's random initial errors (drawn by the runner)
-    imu_axes: np.random.Generator          # IMU scale factors and misalignments (drawn only if the IMU has them)
-    echo_sounder: np.random.Generator      # altitude white noise
+    dvl_noise: np.random.Generator  # DVL beam white noise
+    dvl_dropout: np.random.Generator  # DVL random beam losses
+    pressure: np.random.Generator  # depth white noise
+    magnetometer: np.random.Generator  # attitude white noise
+    initial: np.random.Generator  # the filter's random initial errors (drawn by the runner)
+    imu_axes: np.random.Generator  # IMU scale factors and misalignments (drawn only if the IMU has them)
+    echo_sounder: np.random.Generator  # altitude white noise
     rpm_scale_factor: np.random.Generator  # RPM-to-speed scale factor walk (kinematic truth)
-    rpm_bias: np.random.Generator          # RPM-to-speed bias walk (kinematic truth)
-    rpm_noise: np.random.Generator         # RPM white noise
+    rpm_bias: np.random.Generator  # RPM-to-speed bias walk (kinematic truth)
+    rpm_noise: np.random.Generator  # RPM white noise
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             if not isinstance(getattr(self, f.name), np.random.Generator):
-                raise TypeError(f"SensorStreams.{f.name} must be a numpy.random.Generator, "
-                                f"got {type(getattr(self, f.name)).__name__}")
+                raise TypeError(
+                    f"SensorStreams.{f.name} must be a numpy.random.Generator, "
+                    f"got {type(getattr(self, f.name)).__name__}"
+                )
 
     @classmethod
     def single(cls, rng: np.random.Generator) -> SensorStreams:
@@ -105,12 +107,20 @@ class SensorStream:
     ideal first if need be).
     """
 
-    def __init__(self, imu_config: imu.ImuConfig, dvl_config: dvl.DvlConfig, pressure_config: pressure.PressureConfig,
-                 magnetometer_config: magnetometer.MagnetometerConfig,
-                 streams: SensorStreams | Sequence[SensorStreams], num_runs: int, num_samples: int,
-                 dt_s: float, seabed: Bathymetry | None = None,
-                 echo_sounder_config: echosounder.EchoSounderConfig | None = None,
-                 rpm_config: rpm.RpmConfig | None = None) -> None:
+    def __init__(
+        self,
+        imu_config: imu.ImuConfig,
+        dvl_config: dvl.DvlConfig,
+        pressure_config: pressure.PressureConfig,
+        magnetometer_config: magnetometer.MagnetometerConfig,
+        streams: SensorStreams | Sequence[SensorStreams],
+        num_runs: int,
+        num_samples: int,
+        dt_s: float,
+        seabed: Bathymetry | None = None,
+        echo_sounder_config: echosounder.EchoSounderConfig | None = None,
+        rpm_config: rpm.RpmConfig | None = None,
+    ) -> None:
         if isinstance(num_runs, bool) or not isinstance(num_runs, (int, np.integer)) or num_runs < 1:
             raise ValueError(f"num_runs must be a whole number >= 1, got {num_runs!r}")
         if isinstance(num_samples, bool) or not isinstance(num_samples, (int, np.integer)) or num_samples < 1:
@@ -118,15 +128,19 @@ class SensorStream:
         if not dt_s > 0:
             raise ValueError(f"dt_s must be positive, got {dt_s!r}")
         if abs(1.0 / dt_s - imu_config.rate_hz) > 1e-6 * imu_config.rate_hz:
-            raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {imu_config.rate_hz:g}")
+            raise ValueError(
+                f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {imu_config.rate_hz:g}"
+            )
         names = [f.name for f in dataclasses.fields(SensorStreams)]
         if isinstance(streams, SensorStreams):
             self._rngs: dict[str, Rng] = {name: getattr(streams, name) for name in names}
         else:
             streams = list(streams)
             if len(streams) != num_runs or not all(isinstance(s, SensorStreams) for s in streams):
-                raise ValueError(f"streams must be one SensorStreams or a list of num_runs ({num_runs}) of them, "
-                                 f"got {len(streams)} items")
+                raise ValueError(
+                    f"streams must be one SensorStreams or a list of num_runs ({num_runs}) of them, "
+                    f"got {len(streams)} items"
+                )
             # one list of per-run generators per stream: run r draws from its own alone (the numbers
             # it would draw as a batch of one), the runs' arithmetic is done together
             self._rngs = {name: [getattr(st, name) for st in streams] for name in names}
@@ -134,26 +148,27 @@ class SensorStream:
         self.dvl_config = dvl_config
         self.pressure_config = pressure_config
         self.magnetometer_config = magnetometer_config
-        self.seabed = seabed                                 # DVL beams traced to it (None: no range limit)
+        self.seabed = seabed  # DVL beams traced to it (None: no range limit)
         if echo_sounder_config is not None and seabed is None:
             raise ValueError("an echo sounder needs the seabed")
-        self.echo_sounder_config = echo_sounder_config       # None: not simulated
-        self.rpm_config = rpm_config                         # None: not simulated
+        self.echo_sounder_config = echo_sounder_config  # None: not simulated
+        self.rpm_config = rpm_config  # None: not simulated
         self._rpm_state = rpm.RpmState()
         self.num_runs = int(num_runs)
         self.num_samples = int(num_samples)
         self.dt_s = float(dt_s)
-        self._t_end_s = (self.num_samples - 1) * self.dt_s   # = generate(...).t_s[-1]
+        self._t_end_s = (self.num_samples - 1) * self.dt_s  # = generate(...).t_s[-1]
         self._imu_state = imu.ImuState()
         self._dvl_state = dvl.DvlState()
-        self.next_k0 = 0                                     # first sample of the next chunk expected
+        self.next_k0 = 0  # first sample of the next chunk expected
 
     def epochs(self, rate_hz: float, k0: int, k1: int) -> np.ndarray:
         """Global IMU sample indices of a sensor at ``rate_hz`` within ``[k0, k1)``."""
         return epoch_indices_between(rate_hz, self._t_end_s, self.dt_s, self.num_samples, k0, k1)
 
-    def next_chunk(self, k0: int, truth: Truth) -> tuple[imu.ImuData, dvl.DvlData, pressure.PressureData,
-                                                         magnetometer.MagnetometerData]:
+    def next_chunk(
+        self, k0: int, truth: Truth
+    ) -> tuple[imu.ImuData, dvl.DvlData, pressure.PressureData, magnetometer.MagnetometerData]:
         """IMU, DVL, pressure and magnetometer of :meth:`next_chunk_all`."""
         return tuple(self.next_chunk_all(k0, truth)[:4])  # type: ignore[return-value]
 
@@ -166,29 +181,70 @@ class SensorStream:
         """
         k = truth.num_samples
         if k0 != self.next_k0:
-            raise ValueError(f"chunks must come in order: expected one starting at sample {self.next_k0}, got {k0}")
+            raise ValueError(
+                f"chunks must come in order: expected one starting at sample {self.next_k0}, got {k0}"
+            )
         if k < 1 or k0 + k > self.num_samples:
-            raise ValueError(f"a chunk of {k} samples from {k0} does not fit the mission's {self.num_samples}")
+            raise ValueError(
+                f"a chunk of {k} samples from {k0} does not fit the mission's {self.num_samples}"
+            )
         k1 = k0 + k
         dvl_idx = self.epochs(self.dvl_config.rate_hz, k0, k1)
         p_idx = self.epochs(self.pressure_config.rate_hz, k0, k1)
         m_idx = self.epochs(self.magnetometer_config.rate_hz, k0, k1)
         g, runs = self._rngs, self.num_runs
         imu_data, self._imu_state = imu.simulate_chunk(
-            truth, k0, self.imu_config, self._imu_state, g["accel_bias"], g["gyro_bias"], g["accel_noise"],
-            g["gyro_noise"], runs, self.dt_s, g["imu_axes"])
+            truth,
+            k0,
+            self.imu_config,
+            self._imu_state,
+            g["accel_bias"],
+            g["gyro_bias"],
+            g["accel_noise"],
+            g["gyro_noise"],
+            runs,
+            self.dt_s,
+            g["imu_axes"],
+        )
         dvl_data, self._dvl_state = dvl.simulate_chunk(
-            truth, k0, dvl_idx, self.dvl_config, self._dvl_state, g["dvl_bias"], g["dvl_scale_factor"],
-            g["dvl_noise"], g["dvl_dropout"], runs, self.seabed)
+            truth,
+            k0,
+            dvl_idx,
+            self.dvl_config,
+            self._dvl_state,
+            g["dvl_bias"],
+            g["dvl_scale_factor"],
+            g["dvl_noise"],
+            g["dvl_dropout"],
+            runs,
+            self.seabed,
+        )
         p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, g["pressure"], runs)
-        m_data = magnetometer.simulate_chunk(truth, k0, m_idx, self.magnetometer_config, g["magnetometer"], runs)
+        m_data = magnetometer.simulate_chunk(
+            truth, k0, m_idx, self.magnetometer_config, g["magnetometer"], runs
+        )
         e_data = r_data = None
         if self.echo_sounder_config is not None:
-            e_data = echosounder.simulate_chunk(truth, k0, self.epochs(self.echo_sounder_config.rate_hz, k0, k1),
-                                                self.echo_sounder_config, self.seabed, g["echo_sounder"], runs)
+            e_data = echosounder.simulate_chunk(
+                truth,
+                k0,
+                self.epochs(self.echo_sounder_config.rate_hz, k0, k1),
+                self.echo_sounder_config,
+                self.seabed,
+                g["echo_sounder"],
+                runs,
+            )
         if self.rpm_config is not None:
             r_data, self._rpm_state = rpm.simulate_chunk(
-                truth, k0, self.epochs(self.rpm_config.rate_hz, k0, k1), self.rpm_config, self._rpm_state,
-                g["rpm_scale_factor"], g["rpm_bias"], g["rpm_noise"], runs)
+                truth,
+                k0,
+                self.epochs(self.rpm_config.rate_hz, k0, k1),
+                self.rpm_config,
+                self._rpm_state,
+                g["rpm_scale_factor"],
+                g["rpm_bias"],
+                g["rpm_noise"],
+                runs,
+            )
         self.next_k0 = k1
         return SensorChunk(imu_data, dvl_data, p_data, m_data, e_data, r_data)

@@ -21,8 +21,9 @@ def epoch_indices(truth: Truth, rate_hz: float) -> np.ndarray:
     return epoch_indices_between(rate_hz, float(truth.t_s[-1]), truth.dt_s, k, 0, k)
 
 
-def epoch_indices_between(rate_hz: float, t_end_s: float, dt_s: float, num_samples: int, k0: int,
-                          k1: int) -> np.ndarray:
+def epoch_indices_between(
+    rate_hz: float, t_end_s: float, dt_s: float, num_samples: int, k0: int, k1: int
+) -> np.ndarray:
     """The indices :func:`epoch_indices` gives for a whole mission (last sample at ``t_end_s``,
     ``num_samples`` samples ``dt_s`` apart), restricted to the samples ``k0 <= k < k1``.
 
@@ -31,7 +32,7 @@ def epoch_indices_between(rate_hz: float, t_end_s: float, dt_s: float, num_sampl
     mission, element for element.
     """
     period = 1.0 / rate_hz
-    last = int(np.floor(t_end_s / period + 1e-9))            # epochs m = 1 .. last
+    last = int(np.floor(t_end_s / period + 1e-9))  # epochs m = 1 .. last
     first_m = max(1, int(np.floor((k0 - 1) * dt_s / period)) - 1)
     last_m = min(last, int(np.ceil((k1 + 1) * dt_s / period)) + 1)
     times = np.arange(first_m, last_m + 1) * period
@@ -46,11 +47,13 @@ drawn from its own generator alone, exactly the numbers it would draw as a batch
 the runs' arithmetic is done together."""
 
 
-def _per_run(rng: Rng, shape: tuple[int, ...], run_axis: int) -> tuple[list[np.random.Generator], tuple[int, ...]]:
+def _per_run(
+    rng: Rng, shape: tuple[int, ...], run_axis: int
+) -> tuple[list[np.random.Generator], tuple[int, ...]]:
     rngs = list(rng)  # type: ignore[arg-type]
     if len(shape) <= run_axis or shape[run_axis] != len(rngs):
         raise ValueError(f"{len(rngs)} generators for a draw of shape {shape} (run axis {run_axis})")
-    return rngs, shape[:run_axis] + shape[run_axis + 1:]
+    return rngs, shape[:run_axis] + shape[run_axis + 1 :]
 
 
 def _draw(rng: Rng, shape: tuple[int, ...], run_axis: int, method: str) -> np.ndarray:
@@ -87,13 +90,20 @@ def batch_shape(num_runs: int | None) -> tuple[int, ...]:
 class WalkState:
     """What a random walk generated chunk by chunk carries from one chunk to the next."""
 
-    initial: np.ndarray | None = None     # (S) the walk's first sample (turn-on value); None until drawn
-    travelled: np.ndarray | None = None   # (S) running sum of the steps drawn so far
-    num_samples: int = 0                  # samples of the walk emitted so far
+    initial: np.ndarray | None = None  # (S) the walk's first sample (turn-on value); None until drawn
+    travelled: np.ndarray | None = None  # (S) running sum of the steps drawn so far
+    num_samples: int = 0  # samples of the walk emitted so far
 
 
-def random_walk_chunk(rng: Rng, state: WalkState, shape: tuple[int, ...], initial_sigma: float,
-                      density: float, dt_s: float, num_samples: int) -> tuple[np.ndarray, WalkState]:
+def random_walk_chunk(
+    rng: Rng,
+    state: WalkState,
+    shape: tuple[int, ...],
+    initial_sigma: float,
+    density: float,
+    dt_s: float,
+    num_samples: int,
+) -> tuple[np.ndarray, WalkState]:
     """The next ``num_samples`` samples of a random walk ``x_0 ~ N(0, initial_sigma^2)``,
     ``x_j = x_j-1 + w_j``, ``w_j ~ N(0, density^2 dt_s)``. -> ((num_samples, *shape), new state).
 

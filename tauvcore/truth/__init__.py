@@ -18,7 +18,16 @@ from tauvcore.truth.kinematic import (
 )
 from tauvcore.truth.record import Truth, VehicleRecord
 
-__all__ = ["PAPER_TRAJECTORIES", "TRAJECTORIES", "TRUTH_SOURCES", "TrajectoryConfig", "Truth", "VehicleRecord", "generate", "truth_stream"]
+__all__ = [
+    "PAPER_TRAJECTORIES",
+    "TRAJECTORIES",
+    "TRUTH_SOURCES",
+    "TrajectoryConfig",
+    "Truth",
+    "VehicleRecord",
+    "generate",
+    "truth_stream",
+]
 
 
 def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:

@@ -40,8 +40,8 @@ import numpy as np
 from tauvcore import units
 from tauvcore.validation import require_nonnegative, require_positive
 
-FIN_SIGN_PITCH = np.array([1.0, -1.0, -1.0, 1.0])   # sgn(cos gamma_i), gamma = 45, 135, 225, 315 deg
-FIN_SIGN_YAW = np.array([1.0, 1.0, -1.0, -1.0])     # sgn(sin gamma_i)
+FIN_SIGN_PITCH = np.array([1.0, -1.0, -1.0, 1.0])  # sgn(cos gamma_i), gamma = 45, 135, 225, 315 deg
+FIN_SIGN_YAW = np.array([1.0, 1.0, -1.0, -1.0])  # sgn(sin gamma_i)
 
 # controller state (one float array): integrators, then the path segment index
 I_SPEED, I_ROLL, I_PITCH, I_YAW, I_DEPTH, I_TRACK, SEGMENT = range(7)
@@ -54,23 +54,23 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 class ControlConfig:
     """Autopilot gains and guidance constants (tuned on the default TAUV; module docstring)."""
 
-    roll_kp: float = 1.0           # virtual roll fin [rad] per rad of roll error
-    roll_ki: float = 0.5           # per rad s
-    roll_kd: float = 0.2           # per rad/s of roll rate
+    roll_kp: float = 1.0  # virtual roll fin [rad] per rad of roll error
+    roll_ki: float = 0.5  # per rad s
+    roll_kd: float = 0.2  # per rad/s of roll rate
     pitch_kp: float = 1.5
     pitch_ki: float = 0.2
     pitch_kd: float = 0.8
     yaw_kp: float = 1.5
     yaw_ki: float = 0.05
     yaw_kd: float = 0.8
-    speed_kp: float = 10.0         # rev/s per m/s of speed error
-    speed_ki: float = 2.0          # rev/s per m
-    integral_max: float = 0.2      # clamp of each attitude integrator's contribution [rad]
-    lookahead_m: float = 8.0       # horizontal lookahead (below the tightest turn radius) [m]
+    speed_kp: float = 10.0  # rev/s per m/s of speed error
+    speed_ki: float = 2.0  # rev/s per m
+    integral_max: float = 0.2  # clamp of each attitude integrator's contribution [rad]
+    lookahead_m: float = 8.0  # horizontal lookahead (below the tightest turn radius) [m]
     depth_lookahead_m: float = 8.0
-    track_ki: float = 0.002        # integral LOS gain [1/(m s)], contribution clamped to 10 deg
+    track_ki: float = 0.002  # integral LOS gain [1/(m s)], contribution clamped to 10 deg
     depth_ki: float = 0.002
-    pitch_max_deg: float = 30.0    # pitch command limit
+    pitch_max_deg: float = 30.0  # pitch command limit
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -80,7 +80,7 @@ class ControlConfig:
 
 
 class ControlParams(NamedTuple):
-    roll: np.ndarray         # (3,) kp, ki, kd
+    roll: np.ndarray  # (3,) kp, ki, kd
     pitch: np.ndarray
     yaw: np.ndarray
     speed_kp: float
@@ -93,17 +93,28 @@ class ControlParams(NamedTuple):
     pitch_max_rad: float
     fin_max_rad: float
     rps_max: float
-    rps_per_mps: float       # feed-forward: steady propeller speed per m/s
+    rps_per_mps: float  # feed-forward: steady propeller speed per m/s
 
 
-def control_params(cfg: ControlConfig, fin_max_rad: float, rps_max: float, rps_per_mps: float) -> ControlParams:
-    return ControlParams(roll=np.array([cfg.roll_kp, cfg.roll_ki, cfg.roll_kd]),
-                         pitch=np.array([cfg.pitch_kp, cfg.pitch_ki, cfg.pitch_kd]),
-                         yaw=np.array([cfg.yaw_kp, cfg.yaw_ki, cfg.yaw_kd]), speed_kp=cfg.speed_kp,
-                         speed_ki=cfg.speed_ki, integral_max=cfg.integral_max, lookahead_m=cfg.lookahead_m,
-                         depth_lookahead_m=cfg.depth_lookahead_m, track_ki=cfg.track_ki, depth_ki=cfg.depth_ki,
-                         pitch_max_rad=cfg.pitch_max_deg * units.DEG, fin_max_rad=fin_max_rad, rps_max=rps_max,
-                         rps_per_mps=rps_per_mps)
+def control_params(
+    cfg: ControlConfig, fin_max_rad: float, rps_max: float, rps_per_mps: float
+) -> ControlParams:
+    return ControlParams(
+        roll=np.array([cfg.roll_kp, cfg.roll_ki, cfg.roll_kd]),
+        pitch=np.array([cfg.pitch_kp, cfg.pitch_ki, cfg.pitch_kd]),
+        yaw=np.array([cfg.yaw_kp, cfg.yaw_ki, cfg.yaw_kd]),
+        speed_kp=cfg.speed_kp,
+        speed_ki=cfg.speed_ki,
+        integral_max=cfg.integral_max,
+        lookahead_m=cfg.lookahead_m,
+        depth_lookahead_m=cfg.depth_lookahead_m,
+        track_ki=cfg.track_ki,
+        depth_ki=cfg.depth_ki,
+        pitch_max_rad=cfg.pitch_max_deg * units.DEG,
+        fin_max_rad=fin_max_rad,
+        rps_max=rps_max,
+        rps_per_mps=rps_per_mps,
+    )
 
 
 @_jit
@@ -114,7 +125,7 @@ def wrap_pi(a: float) -> float:
 @_jit
 def allocate(d_roll: float, d_pitch: float, d_yaw: float, fin_max: float) -> np.ndarray:
     """Four fin angles [rad] from virtual roll, pitch and yaw angles (module docstring)."""
-    steer = abs(d_pitch) + abs(d_yaw)          # the largest |pitch part + yaw part| over the fins
+    steer = abs(d_pitch) + abs(d_yaw)  # the largest |pitch part + yaw part| over the fins
     if steer > fin_max:
         d_pitch *= fin_max / steer
         d_yaw *= fin_max / steer
@@ -125,8 +136,9 @@ def allocate(d_roll: float, d_pitch: float, d_yaw: float, fin_max: float) -> np.
 
 
 @_jit
-def closest_on_path(path_ne: np.ndarray, s_m: np.ndarray, first: int, north: float, east: float,
-                    window: int) -> tuple[int, float, float]:
+def closest_on_path(
+    path_ne: np.ndarray, s_m: np.ndarray, first: int, north: float, east: float, window: int
+) -> tuple[int, float, float]:
     """Closest point of segments ``first .. first + window`` of the polyline to (north, east):
     its segment, its arc length [m] and the signed cross-track error [m] (positive: the vehicle
     is to the right of the path's direction)."""
@@ -158,13 +170,23 @@ def point_at(path_ne: np.ndarray, s_m: np.ndarray, first: int, s: float) -> tupl
         j += 1
     seg = s_m[j + 1] - s_m[j]
     tau = (s - s_m[j]) / seg if seg > 0.0 else 0.0
-    return (path_ne[j, 0] + tau * (path_ne[j + 1, 0] - path_ne[j, 0]),
-            path_ne[j, 1] + tau * (path_ne[j + 1, 1] - path_ne[j, 1]))
+    return (
+        path_ne[j, 0] + tau * (path_ne[j + 1, 0] - path_ne[j, 0]),
+        path_ne[j, 1] + tau * (path_ne[j + 1, 1] - path_ne[j, 1]),
+    )
 
 
 @_jit
-def _pid(gains: np.ndarray, error: float, rate: float, cs: np.ndarray, slot: int, limit: float, dt: float,
-         integral_max: float) -> float:
+def _pid(
+    gains: np.ndarray,
+    error: float,
+    rate: float,
+    cs: np.ndarray,
+    slot: int,
+    limit: float,
+    dt: float,
+    integral_max: float,
+) -> float:
     """PID with derivative on the measured rate; the integrator runs only while the output is
     within ``limit`` (or moving back into it) and its contribution is clamped."""
     out_free = gains[0] * error - gains[2] * rate
@@ -178,9 +200,18 @@ def _pid(gains: np.ndarray, error: float, rate: float, cs: np.ndarray, slot: int
 
 
 @_jit
-def autopilot(c: ControlParams, x: np.ndarray, cs: np.ndarray, path_ne: np.ndarray, s_m: np.ndarray,
-              depth_ref_m: float, depth_rate_ref_mps: float, speed_ref_mps: float, dt: float,
-              out_guidance: np.ndarray) -> tuple[np.ndarray, float]:
+def autopilot(
+    c: ControlParams,
+    x: np.ndarray,
+    cs: np.ndarray,
+    path_ne: np.ndarray,
+    s_m: np.ndarray,
+    depth_ref_m: float,
+    depth_rate_ref_mps: float,
+    speed_ref_mps: float,
+    dt: float,
+    out_guidance: np.ndarray,
+) -> tuple[np.ndarray, float]:
     """Fin angle commands (4,) [rad] and propeller command [rev/s] for the vehicle state ``x``
     (tauvcore.truth.vehicle state layout), advancing the controller state ``cs`` by ``dt``.
     ``out_guidance`` receives heading command [rad], pitch command [rad], cross-track error [m]."""

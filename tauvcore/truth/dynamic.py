@@ -69,13 +69,28 @@ _knots_cache: dict[tuple, np.ndarray] = {}
 # columns of a knot row
 K_EULER, K_EULER_DOT, K_VEL, K_VEL_DOT = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 K_FINS, K_RPM, K_HEADING_CMD, K_PITCH_CMD, K_TRACK, K_DEPTH_REF, K_POS = (
-    slice(12, 16), 16, 17, 18, 19, 20, slice(21, 24))
+    slice(12, 16),
+    16,
+    17,
+    18,
+    19,
+    20,
+    slice(21, 24),
+)
 KNOT_COLUMNS = 24
 
 
 @_jit
-def _rk4_step(p: veh.VehicleParams, x: np.ndarray, d1: np.ndarray, fins: np.ndarray, rps: float,
-              current_n: np.ndarray, dt: float, work: np.ndarray) -> None:
+def _rk4_step(
+    p: veh.VehicleParams,
+    x: np.ndarray,
+    d1: np.ndarray,
+    fins: np.ndarray,
+    rps: float,
+    current_n: np.ndarray,
+    dt: float,
+    work: np.ndarray,
+) -> None:
     """x += one classical Runge-Kutta step, d1 = f(x) given; ``work`` (5, 17) scratch."""
     n = x.shape[0]
     xs, d2, d3, d4, tau = work[0], work[1], work[2], work[3], work[4, :6]
@@ -93,9 +108,20 @@ def _rk4_step(p: veh.VehicleParams, x: np.ndarray, d1: np.ndarray, fins: np.ndar
 
 
 @_jit
-def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs: np.ndarray,
-                   current_n: np.ndarray, path_ne: np.ndarray, s_m: np.ndarray, depth_ref_m: np.ndarray,
-                   depth_rate_ref_mps: np.ndarray, speed_ref_mps: np.ndarray, dt: float, out: np.ndarray) -> None:
+def simulate_knots(
+    p: veh.VehicleParams,
+    c: ctl.ControlParams,
+    x: np.ndarray,
+    cs: np.ndarray,
+    current_n: np.ndarray,
+    path_ne: np.ndarray,
+    s_m: np.ndarray,
+    depth_ref_m: np.ndarray,
+    depth_rate_ref_mps: np.ndarray,
+    speed_ref_mps: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+) -> None:
     """Record ``out.shape[0]`` knots (rows: the K_* columns) from the vehicle state ``x`` and
     controller state ``cs``, stepping both forward one IMU interval per knot (in place)."""
     guidance = np.zeros(3)
@@ -103,8 +129,9 @@ def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs
     d1 = np.empty(x.shape[0])
     current_b = np.empty(3)
     for i in range(out.shape[0]):
-        fins, rps = ctl.autopilot(c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps[i],
-                                  dt, guidance)
+        fins, rps = ctl.autopilot(
+            c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps[i], dt, guidance
+        )
         veh.derivative_into(p, x, fins, rps, current_n, work[4, :6], d1)
         C_nb = veh.C_nb_of(x[9], x[10], x[11])
         for j in range(3):
@@ -114,7 +141,7 @@ def simulate_knots(p: veh.VehicleParams, c: ctl.ControlParams, x: np.ndarray, cs
             out[i, j] = x[9 + j]
             out[i, 3 + j] = d1[9 + j]
             out[i, 6 + j] = x[j] + current_b[j]
-            out[i, 9 + j] = d1[j] - w_x_current[j]      # d/dt (C_nb.T v_c) = -omega_nb_b x (C_nb.T v_c)
+            out[i, 9 + j] = d1[j] - w_x_current[j]  # d/dt (C_nb.T v_c) = -omega_nb_b x (C_nb.T v_c)
             out[i, 21 + j] = x[6 + j]
         for j in range(4):
             out[i, 12 + j] = x[12 + j]
@@ -157,22 +184,26 @@ class HermiteProfile:
         return out
 
     def profile(self) -> Profile:
-        return Profile(euler=lambda t: self._at(t)["euler"], euler_dot=lambda t: self._at(t)["euler_dot"],
-                       vel_b=lambda t: self._at(t)["vel"], vel_b_dot=lambda t: self._at(t)["vel_dot"])
+        return Profile(
+            euler=lambda t: self._at(t)["euler"],
+            euler_dot=lambda t: self._at(t)["euler_dot"],
+            vel_b=lambda t: self._at(t)["vel"],
+            vel_b_dot=lambda t: self._at(t)["vel_dot"],
+        )
 
 
 @dataclass(frozen=True)
 class Mission:
     """What the guidance follows: the horizontal path and the depth schedule of a scenario."""
 
-    path_ne: np.ndarray      # (P, 2) north, east [m]
-    s_m: np.ndarray          # (P,) arc length along the path [m]
-    t_s: np.ndarray          # (P,) schedule times [s]
-    depth_m: np.ndarray      # (P,) depth schedule [m]
+    path_ne: np.ndarray  # (P, 2) north, east [m]
+    s_m: np.ndarray  # (P,) arc length along the path [m]
+    t_s: np.ndarray  # (P,) schedule times [s]
+    depth_m: np.ndarray  # (P,) depth schedule [m]
     depth_rate_mps: np.ndarray  # (P,) its rate [m/s]
-    speed_mps: np.ndarray    # (P,) speed schedule (the scenario's surge) [m/s]
-    euler0: np.ndarray       # (3,) attitude at the start [rad]
-    yaw_rate0_rps: float     # the scenario's turn rate at the start [rad/s]
+    speed_mps: np.ndarray  # (P,) speed schedule (the scenario's surge) [m/s]
+    euler0: np.ndarray  # (3,) attitude at the start [rad]
+    yaw_rate0_rps: float  # the scenario's turn rate at the start [rad/s]
 
 
 def mission(cfg: TrajectoryConfig) -> Mission:
@@ -182,19 +213,34 @@ def mission(cfg: TrajectoryConfig) -> Mission:
     t = np.arange(0.0, cfg.duration_s + MISSION_MARGIN_S + MISSION_STEP_S, MISSION_STEP_S)
     kin = _kinematics(profile, t)
     vel_n = kin["vel_n"]
-    pos = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * MISSION_STEP_S * (vel_n[1:] + vel_n[:-1]), axis=0)])
+    pos = np.concatenate(
+        [np.zeros((1, 3)), np.cumsum(0.5 * MISSION_STEP_S * (vel_n[1:] + vel_n[:-1]), axis=0)]
+    )
     pos += _start_n(cfg)
     path = np.ascontiguousarray(pos[:, :2])
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
-    return Mission(path_ne=path, s_m=s, t_s=t, depth_m=pos[:, 2], depth_rate_mps=vel_n[:, 2], speed_mps=kin["vel_b"][:, 0],
-                   euler0=kin["euler"][0], yaw_rate0_rps=float(profile.euler_dot(t[:1])[0, 2]))
+    return Mission(
+        path_ne=path,
+        s_m=s,
+        t_s=t,
+        depth_m=pos[:, 2],
+        depth_rate_mps=vel_n[:, 2],
+        speed_mps=kin["vel_b"][:, 0],
+        euler0=kin["euler"][0],
+        yaw_rate0_rps=float(profile.euler_dot(t[:1])[0, 2]),
+    )
 
 
 class DynamicSimulation:
     """The vehicle flying a mission, advanced knot by knot (:meth:`knots`)."""
 
-    def __init__(self, cfg: TrajectoryConfig, rate_hz: float, vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-                 control: ctl.ControlConfig = ctl.ControlConfig()) -> None:
+    def __init__(
+        self,
+        cfg: TrajectoryConfig,
+        rate_hz: float,
+        vehicle: veh.VehicleConfig = veh.VehicleConfig(),
+        control: ctl.ControlConfig = ctl.ControlConfig(),
+    ) -> None:
         self.cfg = cfg
         self.dt = 1.0 / rate_hz
         self.params = veh.vehicle_params(vehicle)
@@ -226,28 +272,55 @@ class DynamicSimulation:
         depth_rate = np.interp(t, m.t_s, m.depth_rate_mps)
         out = np.empty((count, KNOT_COLUMNS))
         speed = np.interp(t, m.t_s, m.speed_mps)
-        simulate_knots(self.params, self.control, self.x, self.cs, self.current_n, m.path_ne, m.s_m, depth_ref,
-                       depth_rate, speed, self.dt, out)
+        simulate_knots(
+            self.params,
+            self.control,
+            self.x,
+            self.cs,
+            self.current_n,
+            m.path_ne,
+            m.s_m,
+            depth_ref,
+            depth_rate,
+            speed,
+            self.dt,
+            out,
+        )
         self.next_knot += count
         return out
 
 
 def _vehicle_record(knots: np.ndarray) -> VehicleRecord:
-    return VehicleRecord(propeller_rpm=knots[:, K_RPM].copy(), fin_angles_rad=knots[:, K_FINS].copy(),
-                         heading_cmd_rad=knots[:, K_HEADING_CMD].copy(), pitch_cmd_rad=knots[:, K_PITCH_CMD].copy(),
-                         cross_track_m=knots[:, K_TRACK].copy(),
-                         depth_error_m=knots[:, K_POS][:, 2] - knots[:, K_DEPTH_REF])
+    return VehicleRecord(
+        propeller_rpm=knots[:, K_RPM].copy(),
+        fin_angles_rad=knots[:, K_FINS].copy(),
+        heading_cmd_rad=knots[:, K_HEADING_CMD].copy(),
+        pitch_cmd_rad=knots[:, K_PITCH_CMD].copy(),
+        cross_track_m=knots[:, K_TRACK].copy(),
+        depth_error_m=knots[:, K_POS][:, 2] - knots[:, K_DEPTH_REF],
+    )
 
 
 class DynamicTruthStream:
     """The dynamic truth chunk by chunk, as tauvcore.truth.kinematic.TruthStream gives the kinematic
     one (same interface); each chunk's :attr:`Truth.vehicle` carries fins, propeller and guidance."""
 
-    def __init__(self, cfg: TrajectoryConfig, earth: Earth, rate_hz: float, chunk_samples: int,
-                 vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-                 control: ctl.ControlConfig = ctl.ControlConfig(), cache: bool = True) -> None:
+    def __init__(
+        self,
+        cfg: TrajectoryConfig,
+        earth: Earth,
+        rate_hz: float,
+        chunk_samples: int,
+        vehicle: veh.VehicleConfig = veh.VehicleConfig(),
+        control: ctl.ControlConfig = ctl.ControlConfig(),
+        cache: bool = True,
+    ) -> None:
         require_positive("imu.rate_hz", rate_hz)
-        if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, (int, np.integer)) or chunk_samples < 1:
+        if (
+            isinstance(chunk_samples, bool)
+            or not isinstance(chunk_samples, (int, np.integer))
+            or chunk_samples < 1
+        ):
             raise ValueError(f"chunk_samples must be a whole number >= 1, got {chunk_samples!r}")
         self.cfg, self.earth, self.rate_hz = cfg, earth, float(rate_hz)
         self.chunk_samples = int(chunk_samples)
@@ -264,9 +337,11 @@ class DynamicTruthStream:
         key = (self.cfg, self.rate_hz, self.vehicle, self.control)
         whole = _knots_cache.pop(key, None)
         if whole is None:
-            whole = DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control).knots(self.num_samples + 1)
+            whole = DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control).knots(
+                self.num_samples + 1
+            )
             whole.flags.writeable = False
-        _knots_cache[key] = whole                 # the most recent last
+        _knots_cache[key] = whole  # the most recent last
         while len(_knots_cache) > CACHE_MISSIONS:
             del _knots_cache[next(iter(_knots_cache))]
         return whole
@@ -276,27 +351,33 @@ class DynamicTruthStream:
         sim = None if self.cache else DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control)
         pos0_n = _start_n(self.cfg)
         carried = None
-        kept = None if sim is None else sim.knots(1)      # streamed: knots first .. first + len - 1
+        kept = None if sim is None else sim.knots(1)  # streamed: knots first .. first + len - 1
         first = 0
         for k0 in range(0, self.num_samples, self.chunk_samples):
             k1 = min(k0 + self.chunk_samples, self.num_samples)
             # the chunk's samples and intervals need knots max(k0 - 1, 0) .. k1 (one past its last sample)
             start = max(k0 - 1, 0)
             if sim is None:
-                knots, first = whole[start:k1 + 1], start
+                knots, first = whole[start : k1 + 1], start
             else:
                 knots = np.concatenate([kept, sim.knots(k1 + 1 - sim.next_knot)])
-                knots, first = knots[start - first:], start
+                knots, first = knots[start - first :], start
             profile = HermiteProfile(knots, first, self.dt_s).profile()
-            truth, carried = _chunk_from_profile(self.cfg.name, profile, self.earth, self.rate_hz, k0, k1, pos0_n,
-                                                 carried)
-            rows = knots[k0 - first:k1 - first]
+            truth, carried = _chunk_from_profile(
+                self.cfg.name, profile, self.earth, self.rate_hz, k0, k1, pos0_n, carried
+            )
+            rows = knots[k0 - first : k1 - first]
             yield k0, dataclasses.replace(truth, vehicle=_vehicle_record(rows))
-            kept, first = knots[k1 - 1 - first:], k1 - 1
+            kept, first = knots[k1 - 1 - first :], k1 - 1
 
 
-def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float, vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-             control: ctl.ControlConfig = ctl.ControlConfig()) -> Truth:
+def generate(
+    cfg: TrajectoryConfig,
+    earth: Earth,
+    rate_hz: float,
+    vehicle: veh.VehicleConfig = veh.VehicleConfig(),
+    control: ctl.ControlConfig = ctl.ControlConfig(),
+) -> Truth:
     """The whole mission's dynamic truth at ``rate_hz`` (one chunk of :class:`DynamicTruthStream`)."""
     stream = DynamicTruthStream(cfg, earth, rate_hz, num_samples(cfg.duration_s, rate_hz), vehicle, control)
     return next(iter(stream))[1]

@@ -83,31 +83,35 @@ MAX_DURATION_S = 36000.0
 class TrajectoryConfig:
     """Scenario geometry. Defaults follow Tal et al. 2017 section 4 / Table 2 where it gives them."""
 
-    name: str = "straight"              # one of TRAJECTORIES
-    duration_s: float = 250.0           # Table 2: time duration 250 s; [1, 36000]: 10 h, a long AUV mission (the
-                                        # heading-drift study runs 10 h); memory grows with it (engine, dashboard)
-    speed_mps: float = 2.0              # Table 2: AUV velocity 2 m/s (surge); (0, 10]: no AUV cruises faster
-    depth_m: float = 20.0               # initial depth [m]; [0, 11000]: the deepest ocean
-    leg_length_m: float = 100.0         # lawnmower leg length [m]; [1, 10000]: beyond 10 km the flat tangent frame
-                                        # of tauvcore.geo.earth no longer holds
-    turn_radius_m: float = 15.0         # tightest turn radius (figure8) / U-turn radius (lawnmower) [m]; [1, 1000]:
-                                        # an AUV turns in a few metres to tens; beyond 1 km it is not a manoeuvre
-    dive_rate_mps: float = 0.1          # figure8 constant descent rate [m/s]; [0, speed_mps)
+    name: str = "straight"  # one of TRAJECTORIES
+    duration_s: float = 250.0  # Table 2: time duration 250 s; [1, 36000]: 10 h, a long AUV mission (the
+    # heading-drift study runs 10 h); memory grows with it (engine, dashboard)
+    speed_mps: float = 2.0  # Table 2: AUV velocity 2 m/s (surge); (0, 10]: no AUV cruises faster
+    depth_m: float = 20.0  # initial depth [m]; [0, 11000]: the deepest ocean
+    leg_length_m: float = 100.0  # lawnmower leg length [m]; [1, 10000]: beyond 10 km the flat tangent frame
+    # of tauvcore.geo.earth no longer holds
+    turn_radius_m: float = 15.0  # tightest turn radius (figure8) / U-turn radius (lawnmower) [m]; [1, 1000]:
+    # an AUV turns in a few metres to tens; beyond 1 km it is not a manoeuvre
+    dive_rate_mps: float = 0.1  # figure8 constant descent rate [m/s]; [0, speed_mps)
     lawnmower_dive_rate_mps: float = 0.3  # lawnmower initial descent rate [m/s]; [0, speed_mps)
-    dive_duration_s: float = 30.0       # lawnmower dive phase; the paper's "first 30 s" [s]; [0, 36000] as duration_s
-    turn_roll_deg: float = 5.0          # roll at the tightest turn [deg]; [-45, 45]: a hull does not bank further
-    turn_sideslip_deg: float = 3.0      # outward sideslip at the tightest turn [deg]; [-30, 30]: beyond, it skids
-    blend_s: float = 4.0                # half-cosine blend time of rate changes [s]; [0.1, 600]: from a sharp but
-                                        # sampled change (15 IMU samples at 150 Hz) to a 10-minute ramp
-    seabed_depth_m: float = 60.0        # seabed depth (flat, or the terrain's mean) [m]; (0, 11000]: the deepest ocean
-    seabed: str = "flat"                # one of SEABED_MODELS: flat, or seeded terrain (tauvcore.truth.seabed)
-    terrain_seed: int = 0               # seed of the terrain (the world: the same for every run), [0, 2**63 - 1]
-    terrain_relief_m: float = 10.0      # RMS of the terrain about seabed_depth_m [m]; [0, 1000]
+    dive_duration_s: float = (
+        30.0  # lawnmower dive phase; the paper's "first 30 s" [s]; [0, 36000] as duration_s
+    )
+    turn_roll_deg: float = 5.0  # roll at the tightest turn [deg]; [-45, 45]: a hull does not bank further
+    turn_sideslip_deg: float = 3.0  # outward sideslip at the tightest turn [deg]; [-30, 30]: beyond, it skids
+    blend_s: float = 4.0  # half-cosine blend time of rate changes [s]; [0.1, 600]: from a sharp but
+    # sampled change (15 IMU samples at 150 Hz) to a 10-minute ramp
+    seabed_depth_m: float = (
+        60.0  # seabed depth (flat, or the terrain's mean) [m]; (0, 11000]: the deepest ocean
+    )
+    seabed: str = "flat"  # one of SEABED_MODELS: flat, or seeded terrain (tauvcore.truth.seabed)
+    terrain_seed: int = 0  # seed of the terrain (the world: the same for every run), [0, 2**63 - 1]
+    terrain_relief_m: float = 10.0  # RMS of the terrain about seabed_depth_m [m]; [0, 1000]
     terrain_wavelength_m: float = 400.0  # typical distance between ridges [m]; [10, 100000]
-    truth: str = "kinematic"            # one of TRUTH_SOURCES: closed-form profile or the 6-DOF vehicle flying it
+    truth: str = "kinematic"  # one of TRUTH_SOURCES: closed-form profile or the 6-DOF vehicle flying it
     current_n_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # constant ocean current, NED [m/s] (dynamic
-                                        # truth only: the kinematic truth is motion over ground); each within
-                                        # +-3 m/s, beyond the strongest tidal streams an AUV works in
+    # truth only: the kinematic truth is motion over ground); each within
+    # +-3 m/s, beyond the strongest tidal streams an AUV works in
 
     def __post_init__(self) -> None:
         require_choice("trajectory.name", self.name, TRAJECTORIES)
@@ -125,28 +129,41 @@ class TrajectoryConfig:
         require_range("trajectory.seabed_depth_m", self.seabed_depth_m, 0.0, 11000.0, low_open=True)
         require_choice("trajectory.truth", self.truth, TRUTH_SOURCES)
         require_choice("trajectory.seabed", self.seabed, SEABED_MODELS)
-        if (not isinstance(self.terrain_seed, int) or isinstance(self.terrain_seed, bool)
-                or not 0 <= self.terrain_seed <= 2**63 - 1):
-            raise ConfigError(f"trajectory.terrain_seed must be an integer within [0, 2**63 - 1], "
-                              f"got {show(self.terrain_seed)}")
+        if (
+            not isinstance(self.terrain_seed, int)
+            or isinstance(self.terrain_seed, bool)
+            or not 0 <= self.terrain_seed <= 2**63 - 1
+        ):
+            raise ConfigError(
+                f"trajectory.terrain_seed must be an integer within [0, 2**63 - 1], "
+                f"got {show(self.terrain_seed)}"
+            )
         require_range("trajectory.terrain_relief_m", self.terrain_relief_m, 0.0, 1000.0)
         require_range("trajectory.terrain_wavelength_m", self.terrain_wavelength_m, 10.0, 100000.0)
         floor = seabed_floor_m(self)
         if not floor > self.depth_m:
-            relief = (f" less 3 x terrain_relief_m {show(self.terrain_relief_m)} m = {show(floor)} m"
-                      if self.seabed == "terrain" else "")
-            raise ConfigError(f"trajectory.seabed_depth_m must lie below the vehicle's depth trajectory.depth_m "
-                              f"({show(self.depth_m)} m), got {show(self.seabed_depth_m)} m{relief}: the vehicle "
-                              f"would start in the seabed")
+            relief = (
+                f" less 3 x terrain_relief_m {show(self.terrain_relief_m)} m = {show(floor)} m"
+                if self.seabed == "terrain"
+                else ""
+            )
+            raise ConfigError(
+                f"trajectory.seabed_depth_m must lie below the vehicle's depth trajectory.depth_m "
+                f"({show(self.depth_m)} m), got {show(self.seabed_depth_m)} m{relief}: the vehicle "
+                f"would start in the seabed"
+            )
         require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
         if self.truth == "kinematic" and any(c != 0.0 for c in self.current_n_mps):
-            raise ConfigError(f"trajectory.current_n_mps needs trajectory.truth = \"dynamic\" (the kinematic truth is "
-                              f"motion over ground), got {show(list(self.current_n_mps))}")
+            raise ConfigError(
+                f'trajectory.current_n_mps needs trajectory.truth = "dynamic" (the kinematic truth is '
+                f"motion over ground), got {show(list(self.current_n_mps))}"
+            )
         for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
             if getattr(self, field) >= self.speed_mps:
                 raise ConfigError(
                     f"trajectory.{field} must be below trajectory.speed_mps ({self.speed_mps}), "
-                    f"got {show(getattr(self, field))}")
+                    f"got {show(getattr(self, field))}"
+                )
 
 
 class BlendedSchedule:
@@ -201,14 +218,15 @@ class BlendedSchedule:
 class Profile:
     """Closed-form motion: functions of time arrays (K,) returning (K, 3) arrays."""
 
-    euler: Callable[[np.ndarray], np.ndarray]       # roll, pitch, yaw [rad]
-    euler_dot: Callable[[np.ndarray], np.ndarray]   # their rates [rad/s]
-    vel_b: Callable[[np.ndarray], np.ndarray]       # surge, sway, heave [m/s]
-    vel_b_dot: Callable[[np.ndarray], np.ndarray]   # their rates [m/s^2]
+    euler: Callable[[np.ndarray], np.ndarray]  # roll, pitch, yaw [rad]
+    euler_dot: Callable[[np.ndarray], np.ndarray]  # their rates [rad/s]
+    vel_b: Callable[[np.ndarray], np.ndarray]  # surge, sway, heave [m/s]
+    vel_b_dot: Callable[[np.ndarray], np.ndarray]  # their rates [m/s^2]
 
 
-def _turn_profile(cfg: TrajectoryConfig, yaw: Callable, yaw_rate: Callable, yaw_acc: Callable,
-                  pitch: BlendedSchedule) -> Profile:
+def _turn_profile(
+    cfg: TrajectoryConfig, yaw: Callable, yaw_rate: Callable, yaw_acc: Callable, pitch: BlendedSchedule
+) -> Profile:
     """Profile from a heading law: roll and outward sway proportional to the yaw rate."""
     yaw_rate_max_rps = cfg.speed_mps / cfg.turn_radius_m
     roll_gain_s = cfg.turn_roll_deg * units.DEG / yaw_rate_max_rps
@@ -221,7 +239,9 @@ def _turn_profile(cfg: TrajectoryConfig, yaw: Callable, yaw_rate: Callable, yaw_
         return np.stack([roll_gain_s * yaw_acc(t), pitch.derivative(t), yaw_rate(t)], axis=-1)
 
     def vel_b(t: np.ndarray) -> np.ndarray:
-        return np.stack([np.full_like(t, cfg.speed_mps), sway_gain_m * yaw_rate(t), np.zeros_like(t)], axis=-1)
+        return np.stack(
+            [np.full_like(t, cfg.speed_mps), sway_gain_m * yaw_rate(t), np.zeros_like(t)], axis=-1
+        )
 
     def vel_b_dot(t: np.ndarray) -> np.ndarray:
         return np.stack([np.zeros_like(t), sway_gain_m * yaw_acc(t), np.zeros_like(t)], axis=-1)
@@ -281,8 +301,8 @@ def figure8_profile(cfg: TrajectoryConfig) -> Profile:
 
 def lawnmower_profile(cfg: TrajectoryConfig) -> Profile:
     rate = cfg.speed_mps / cfg.turn_radius_m
-    blend = min(cfg.blend_s, 0.5 * np.pi / rate)       # a turn must reach its full rate
-    hold = np.pi / rate - blend                        # ramps in and out add rate*blend
+    blend = min(cfg.blend_s, 0.5 * np.pi / rate)  # a turn must reach its full rate
+    hold = np.pi / rate - blend  # ramps in and out add rate*blend
     leg = cfg.leg_length_m / cfg.speed_mps
     t_knots, r_knots = [0.0], [0.0]
     t, sign = leg, 1.0
@@ -293,7 +313,9 @@ def lawnmower_profile(cfg: TrajectoryConfig) -> Profile:
     yaw_rate = BlendedSchedule(t_knots, r_knots)
     theta = _dive_pitch_rad(cfg, cfg.lawnmower_dive_rate_mps)
     if cfg.dive_duration_s > 0:
-        pitch = BlendedSchedule([0.0, cfg.dive_duration_s, cfg.dive_duration_s + cfg.blend_s], [theta, theta, 0.0])
+        pitch = BlendedSchedule(
+            [0.0, cfg.dive_duration_s, cfg.dive_duration_s + cfg.blend_s], [theta, theta, 0.0]
+        )
     else:
         pitch = BlendedSchedule([0.0, 1.0], [0.0, 0.0])
     return _turn_profile(cfg, yaw_rate.integral, yaw_rate.value, yaw_rate.derivative, pitch)
@@ -306,7 +328,9 @@ blends between)."""
 
 def longrange_speed(cfg: TrajectoryConfig) -> BlendedSchedule:
     """Surge [m/s] of the long-range mission against time (its north position is the integral)."""
-    return BlendedSchedule([t for t, _ in LONGRANGE_SPEED_KNOTS], [f * cfg.speed_mps for _, f in LONGRANGE_SPEED_KNOTS])
+    return BlendedSchedule(
+        [t for t, _ in LONGRANGE_SPEED_KNOTS], [f * cfg.speed_mps for _, f in LONGRANGE_SPEED_KNOTS]
+    )
 
 
 def longrange_profile(cfg: TrajectoryConfig) -> Profile:
@@ -324,8 +348,12 @@ def longrange_profile(cfg: TrajectoryConfig) -> Profile:
     return Profile(zeros, zeros, vel_b, vel_b_dot)
 
 
-PROFILES = {"straight": straight_profile, "figure8": figure8_profile, "lawnmower": lawnmower_profile,
-            "longrange": longrange_profile}
+PROFILES = {
+    "straight": straight_profile,
+    "figure8": figure8_profile,
+    "lawnmower": lawnmower_profile,
+    "longrange": longrange_profile,
+}
 
 
 def bathymetry(cfg: TrajectoryConfig):
@@ -339,10 +367,18 @@ def bathymetry(cfg: TrajectoryConfig):
     if cfg.name == "longrange":
         north = longrange_speed(cfg).integral
         floor = max(2.0 * (cfg.depth_m + LONGRANGE_DVL_ALTITUDE_M) - cfg.seabed_depth_m, cfg.seabed_depth_m)
-        trenches = tuple(Trench(float(north(np.array(a))), float(north(np.array(b))), floor, LONGRANGE_WALL_M)
-                         for a, b in LONGRANGE_OUT_OF_RANGE_S)
-    return Bathymetry(cfg.seabed_depth_m, cfg.seabed, cfg.terrain_seed, cfg.terrain_relief_m, cfg.terrain_wavelength_m,
-                      trenches=trenches)
+        trenches = tuple(
+            Trench(float(north(np.array(a))), float(north(np.array(b))), floor, LONGRANGE_WALL_M)
+            for a, b in LONGRANGE_OUT_OF_RANGE_S
+        )
+    return Bathymetry(
+        cfg.seabed_depth_m,
+        cfg.seabed,
+        cfg.terrain_seed,
+        cfg.terrain_relief_m,
+        cfg.terrain_wavelength_m,
+        trenches=trenches,
+    )
 
 
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(4)
@@ -356,7 +392,14 @@ def _kinematics(profile: Profile, t: np.ndarray) -> dict[str, np.ndarray]:
     vel_b = profile.vel_b(t)
     vel_n = np.einsum("kij,kj->ki", C_nb, vel_b)
     acc_n = np.einsum("kij,kj->ki", C_nb, profile.vel_b_dot(t) + np.cross(omega_nb_b, vel_b))
-    return {"euler": euler, "C_nb": C_nb, "omega_nb_b": omega_nb_b, "vel_b": vel_b, "vel_n": vel_n, "acc_n": acc_n}
+    return {
+        "euler": euler,
+        "C_nb": C_nb,
+        "omega_nb_b": omega_nb_b,
+        "vel_b": vel_b,
+        "vel_n": vel_n,
+        "acc_n": acc_n,
+    }
 
 
 def _motion(profile: Profile, earth: Earth, t: np.ndarray) -> dict[str, np.ndarray]:
@@ -391,8 +434,16 @@ def num_samples(duration_s: float, rate_hz: float) -> int:
     return int(round(duration_s * rate_hz)) + 1
 
 
-def _chunk_from_profile(name: str, profile: Profile, earth: Earth, rate_hz: float, k0: int, k1: int,
-                        pos0_n: np.ndarray, carried: np.ndarray | None) -> tuple[Truth, np.ndarray]:
+def _chunk_from_profile(
+    name: str,
+    profile: Profile,
+    earth: Earth,
+    rate_hz: float,
+    k0: int,
+    k1: int,
+    pos0_n: np.ndarray,
+    carried: np.ndarray | None,
+) -> tuple[Truth, np.ndarray]:
     """Samples ``k0 <= k < k1`` of the mission (``t_k = k / rate_hz``) and what the next chunk
     needs to continue (``carried``: that of the chunk before; None for ``k0 = 0``).
 
@@ -407,7 +458,7 @@ def _chunk_from_profile(name: str, profile: Profile, earth: Earth, rate_hz: floa
     """
     dt = 1.0 / rate_hz
     t = np.arange(k0, k1) * dt
-    first = max(k0, 1)                                   # the chunk's first sample ending an interval
+    first = max(k0, 1)  # the chunk's first sample ending an interval
     mid = 0.5 * (np.arange(first - 1, k1 - 1) * dt + np.arange(first, k1) * dt)
     nodes = (mid[:, None] + 0.5 * dt * _GL_NODES[None, :]).ravel()
 
@@ -434,26 +485,47 @@ def _chunk_from_profile(name: str, profile: Profile, earth: Earth, rate_hz: floa
         origin = np.array([earth.latitude_rad, earth.longitude_rad, pos0_n[2]])
         start = origin if carried is None else carried
         kin_nodes = _kinematics(profile, nodes)
-        ends, node_lat, node_depth = integrate_geodetic(start[0], start[1], start[2],
-                                                        kin_nodes["vel_n"].reshape(k1 - first, 4, 3),
-                                                        _GL_NODES, _GL_WEIGHTS, dt)
+        ends, node_lat, node_depth = integrate_geodetic(
+            start[0],
+            start[1],
+            start[2],
+            kin_nodes["vel_n"].reshape(k1 - first, 4, 3),
+            _GL_NODES,
+            _GL_WEIGHTS,
+            dt,
+        )
         pos_nav = np.concatenate([origin[None], ends]) if k0 == 0 else ends
         m = _motion_geodetic(_kinematics(profile, t), pos_nav[:, 0], pos_nav[:, 2])
         at_nodes = _motion_geodetic(kin_nodes, node_lat.ravel(), node_depth.ravel())
         pos_n = ned_from_geodetic(pos_nav[:, 0], pos_nav[:, 1], -pos_nav[:, 2], (origin[0], origin[1], 0.0))
         carry = pos_nav[-1].copy()
-    truth = Truth(name=name, earth=earth, t_s=t, pos_n=pos_n, vel_n=m["vel_n"], vel_b=m["vel_b"],
-                  C_nb=m["C_nb"], euler=m["euler"], omega_nb_b=m["omega_nb_b"], omega_ib_b=m["omega_ib_b"],
-                  f_b=m["f_b"], dtheta_ib_b=interval_integral(at_nodes["omega_ib_b"]),
-                  dv_b=interval_integral(at_nodes["f_b"]), step_s=dt, pos_nav=pos_nav)
+    truth = Truth(
+        name=name,
+        earth=earth,
+        t_s=t,
+        pos_n=pos_n,
+        vel_n=m["vel_n"],
+        vel_b=m["vel_b"],
+        C_nb=m["C_nb"],
+        euler=m["euler"],
+        omega_nb_b=m["omega_nb_b"],
+        omega_ib_b=m["omega_ib_b"],
+        f_b=m["f_b"],
+        dtheta_ib_b=interval_integral(at_nodes["omega_ib_b"]),
+        dv_b=interval_integral(at_nodes["f_b"]),
+        step_s=dt,
+        pos_nav=pos_nav,
+    )
     return truth, carry
 
 
-def generate_from_profile(name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float,
-                          pos0_n: np.ndarray) -> Truth:
+def generate_from_profile(
+    name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float, pos0_n: np.ndarray
+) -> Truth:
     """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs."""
-    truth, _ = _chunk_from_profile(name, profile, earth, rate_hz, 0, num_samples(duration_s, rate_hz), pos0_n,
-                                   None)
+    truth, _ = _chunk_from_profile(
+        name, profile, earth, rate_hz, 0, num_samples(duration_s, rate_hz), pos0_n, None
+    )
     return truth
 
 
@@ -468,8 +540,14 @@ def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:
     return generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz, _start_n(cfg))
 
 
-def generate_chunk(cfg: TrajectoryConfig, earth: Earth, rate_hz: float, k0: int, k1: int,
-                   travelled_n: np.ndarray | None = None) -> tuple[Truth, np.ndarray]:
+def generate_chunk(
+    cfg: TrajectoryConfig,
+    earth: Earth,
+    rate_hz: float,
+    k0: int,
+    k1: int,
+    travelled_n: np.ndarray | None = None,
+) -> tuple[Truth, np.ndarray]:
     """Samples ``k0 <= k < k1`` of :func:`generate`'s truth (the same numbers), with the mission's
     times, and the sum of the position increments to pass on to the chunk starting at ``k1``.
 
@@ -482,15 +560,30 @@ def generate_chunk(cfg: TrajectoryConfig, earth: Earth, rate_hz: float, k0: int,
     return _chunk(cfg, PROFILES[cfg.name](cfg), earth, rate_hz, k0, k1, travelled_n)
 
 
-def _chunk(cfg: TrajectoryConfig, profile: Profile, earth: Earth, rate_hz: float, k0: int, k1: int,
-           travelled_n: np.ndarray | None) -> tuple[Truth, np.ndarray]:
+def _chunk(
+    cfg: TrajectoryConfig,
+    profile: Profile,
+    earth: Earth,
+    rate_hz: float,
+    k0: int,
+    k1: int,
+    travelled_n: np.ndarray | None,
+) -> tuple[Truth, np.ndarray]:
     total = num_samples(cfg.duration_s, rate_hz)
     if not 0 <= k0 < k1 <= total:
         raise ValueError(f"chunk samples [{k0}, {k1}) must lie within the mission's [0, {total})")
     if travelled_n is None and k0 > 0:
         raise ValueError(f"a chunk starting at sample {k0} > 0 needs the travelled_n of the chunk before")
-    return _chunk_from_profile(cfg.name, profile, earth, rate_hz, k0, k1, _start_n(cfg),
-                               None if travelled_n is None else np.asarray(travelled_n, dtype=float))
+    return _chunk_from_profile(
+        cfg.name,
+        profile,
+        earth,
+        rate_hz,
+        k0,
+        k1,
+        _start_n(cfg),
+        None if travelled_n is None else np.asarray(travelled_n, dtype=float),
+    )
 
 
 class TruthStream:
@@ -502,14 +595,18 @@ class TruthStream:
 
     def __init__(self, cfg: TrajectoryConfig, earth: Earth, rate_hz: float, chunk_samples: int) -> None:
         require_positive("imu.rate_hz", rate_hz)
-        if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, (int, np.integer)) or chunk_samples < 1:
+        if (
+            isinstance(chunk_samples, bool)
+            or not isinstance(chunk_samples, (int, np.integer))
+            or chunk_samples < 1
+        ):
             raise ValueError(f"chunk_samples must be a whole number >= 1, got {chunk_samples!r}")
         self.cfg = cfg
         self.earth = earth
         self.rate_hz = float(rate_hz)
         self.chunk_samples = int(chunk_samples)
-        self.num_samples = num_samples(cfg.duration_s, rate_hz)   # of the whole mission
-        self.dt_s = 1.0 / rate_hz                                 # equal to generate(...).dt_s
+        self.num_samples = num_samples(cfg.duration_s, rate_hz)  # of the whole mission
+        self.dt_s = 1.0 / rate_hz  # equal to generate(...).dt_s
         self._profile = PROFILES[cfg.name](cfg)
 
     def __len__(self) -> int:
@@ -520,5 +617,7 @@ class TruthStream:
         travelled_n = None
         for k0 in range(0, self.num_samples, self.chunk_samples):
             k1 = min(k0 + self.chunk_samples, self.num_samples)
-            chunk, travelled_n = _chunk(self.cfg, self._profile, self.earth, self.rate_hz, k0, k1, travelled_n)
+            chunk, travelled_n = _chunk(
+                self.cfg, self._profile, self.earth, self.rate_hz, k0, k1, travelled_n
+            )
             yield k0, chunk

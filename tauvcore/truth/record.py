@@ -14,20 +14,24 @@ class VehicleRecord:
     """What only a simulated vehicle has, at the same samples as its :class:`Truth`
     (tauvcore.truth.dynamic): actuators and the autopilot's view of its mission."""
 
-    propeller_rpm: np.ndarray    # (K,) propeller speed [rev/min]
-    fin_angles_rad: np.ndarray   # (K, 4) fin deflections, fins 1-4 of tauvcore.truth.vehicle [rad]
+    propeller_rpm: np.ndarray  # (K,) propeller speed [rev/min]
+    fin_angles_rad: np.ndarray  # (K, 4) fin deflections, fins 1-4 of tauvcore.truth.vehicle [rad]
     heading_cmd_rad: np.ndarray  # (K,) guidance's heading command [rad]
-    pitch_cmd_rad: np.ndarray    # (K,) guidance's pitch command [rad]
-    cross_track_m: np.ndarray    # (K,) distance from the mission's path, positive to its right [m]
-    depth_error_m: np.ndarray    # (K,) depth less the mission's depth schedule [m]
+    pitch_cmd_rad: np.ndarray  # (K,) guidance's pitch command [rad]
+    cross_track_m: np.ndarray  # (K,) distance from the mission's path, positive to its right [m]
+    depth_error_m: np.ndarray  # (K,) depth less the mission's depth schedule [m]
 
     def __post_init__(self) -> None:
         k = self.propeller_rpm.shape[0]
         for name in ("propeller_rpm", "heading_cmd_rad", "pitch_cmd_rad", "cross_track_m", "depth_error_m"):
             if getattr(self, name).shape != (k,):
-                raise ValueError(f"VehicleRecord.{name} must have shape ({k},), got {getattr(self, name).shape}")
+                raise ValueError(
+                    f"VehicleRecord.{name} must have shape ({k},), got {getattr(self, name).shape}"
+                )
         if self.fin_angles_rad.shape != (k, 4):
-            raise ValueError(f"VehicleRecord.fin_angles_rad must have shape ({k}, 4), got {self.fin_angles_rad.shape}")
+            raise ValueError(
+                f"VehicleRecord.fin_angles_rad must have shape ({k}, 4), got {self.fin_angles_rad.shape}"
+            )
 
 
 @dataclass(frozen=True)
@@ -41,29 +45,43 @@ class Truth:
     the increments an error-free strapdown IMU outputs over each sample interval.
     """
 
-    name: str                 # generator/scenario name, e.g. "figure8"
-    earth: Earth              # earth model the motion was generated with
-    t_s: np.ndarray           # (K,) time [s]; t_s[0] = 0 for a whole mission
-    pos_n: np.ndarray         # (K, 3) position from the sea-surface point above the start, NED [m] (WGS-84: in
-                              # that point's tangent frame)
-    vel_n: np.ndarray         # (K, 3) velocity relative to the earth, NED [m/s]
-    vel_b: np.ndarray         # (K, 3) the same velocity in the body frame [m/s] (surge, sway, heave)
-    C_nb: np.ndarray          # (K, 3, 3) attitude, body to NED
-    euler: np.ndarray         # (K, 3) roll, pitch, yaw [rad]
-    omega_nb_b: np.ndarray    # (K, 3) body rate relative to the tangent frame [rad/s]
-    omega_ib_b: np.ndarray    # (K, 3) body rate relative to inertial space (gyro truth) [rad/s]
-    f_b: np.ndarray           # (K, 3) specific force (accelerometer truth) [m/s^2]
-    dtheta_ib_b: np.ndarray   # (K, 3) exact integral of omega_ib_b over (t_k-1, t_k]; mission's row 0 zero [rad]
-    dv_b: np.ndarray          # (K, 3) exact integral of f_b over (t_k-1, t_k]; mission's row 0 zero [m/s]
+    name: str  # generator/scenario name, e.g. "figure8"
+    earth: Earth  # earth model the motion was generated with
+    t_s: np.ndarray  # (K,) time [s]; t_s[0] = 0 for a whole mission
+    pos_n: np.ndarray  # (K, 3) position from the sea-surface point above the start, NED [m] (WGS-84: in
+    # that point's tangent frame)
+    vel_n: np.ndarray  # (K, 3) velocity relative to the earth, NED [m/s]
+    vel_b: np.ndarray  # (K, 3) the same velocity in the body frame [m/s] (surge, sway, heave)
+    C_nb: np.ndarray  # (K, 3, 3) attitude, body to NED
+    euler: np.ndarray  # (K, 3) roll, pitch, yaw [rad]
+    omega_nb_b: np.ndarray  # (K, 3) body rate relative to the tangent frame [rad/s]
+    omega_ib_b: np.ndarray  # (K, 3) body rate relative to inertial space (gyro truth) [rad/s]
+    f_b: np.ndarray  # (K, 3) specific force (accelerometer truth) [m/s^2]
+    dtheta_ib_b: (
+        np.ndarray
+    )  # (K, 3) exact integral of omega_ib_b over (t_k-1, t_k]; mission's row 0 zero [rad]
+    dv_b: np.ndarray  # (K, 3) exact integral of f_b over (t_k-1, t_k]; mission's row 0 zero [m/s]
     step_s: float | None = None  # sample interval [s] when known exactly (a chunk's t_s[1] - t_s[0] is off by
-                                 # round-off late in a long mission, and a 1-sample chunk has none); None: from t_s
-    pos_nav: np.ndarray | None = None  # (K, 3) position as the INS holds it: pos_n in the flat model; latitude
-                                       # [rad], longitude [rad], depth [m] on WGS-84 (earth.model); None: pos_n
+    # round-off late in a long mission, and a 1-sample chunk has none); None: from t_s
+    pos_nav: np.ndarray | None = (
+        None  # (K, 3) position as the INS holds it: pos_n in the flat model; latitude
+    )
+    # [rad], longitude [rad], depth [m] on WGS-84 (earth.model); None: pos_n
     vehicle: VehicleRecord | None = None  # actuators and guidance of the dynamic truth; None: kinematic
 
     def __post_init__(self) -> None:
         k = self.t_s.shape[0]
-        for name in ("pos_n", "vel_n", "vel_b", "euler", "omega_nb_b", "omega_ib_b", "f_b", "dtheta_ib_b", "dv_b"):
+        for name in (
+            "pos_n",
+            "vel_n",
+            "vel_b",
+            "euler",
+            "omega_nb_b",
+            "omega_ib_b",
+            "f_b",
+            "dtheta_ib_b",
+            "dv_b",
+        ):
             if getattr(self, name).shape != (k, 3):
                 raise ValueError(f"Truth.{name} must have shape ({k}, 3), got {getattr(self, name).shape}")
         if self.C_nb.shape != (k, 3, 3):
@@ -73,7 +91,9 @@ class Truth:
         elif self.pos_nav.shape != (k, 3):
             raise ValueError(f"Truth.pos_nav must have shape ({k}, 3), got {self.pos_nav.shape}")
         if self.vehicle is not None and self.vehicle.propeller_rpm.shape != (k,):
-            raise ValueError(f"Truth.vehicle must have {k} samples, got {self.vehicle.propeller_rpm.shape[0]}")
+            raise ValueError(
+                f"Truth.vehicle must have {k} samples, got {self.vehicle.propeller_rpm.shape[0]}"
+            )
 
     @property
     def depth_m(self) -> np.ndarray:

@@ -50,9 +50,16 @@ class Trench:
 class Bathymetry:
     """Seabed depth, and the ranges at which rays meet it (module docstring)."""
 
-    def __init__(self, mean_depth_m: float, model: str = "flat", seed: int = 0, relief_m: float = 0.0,
-                 wavelength_m: float = 500.0, slope: tuple[float, float] = (0.0, 0.0),
-                 trenches: tuple[Trench, ...] = ()) -> None:
+    def __init__(
+        self,
+        mean_depth_m: float,
+        model: str = "flat",
+        seed: int = 0,
+        relief_m: float = 0.0,
+        wavelength_m: float = 500.0,
+        slope: tuple[float, float] = (0.0, 0.0),
+        trenches: tuple[Trench, ...] = (),
+    ) -> None:
         self.mean_depth_m = float(mean_depth_m)
         self.slope = np.asarray(slope, dtype=float)
         self.trenches = tuple(trenches)
@@ -62,9 +69,11 @@ class Bathymetry:
             rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0x5EABED,)))
             heading = rng.uniform(0.0, 2.0 * np.pi, TERRAIN_WAVES)
             wavelength = wavelength_m * 2.0 ** rng.uniform(-1.0, 1.0, TERRAIN_WAVES)
-            self._k = np.stack([np.cos(heading), np.sin(heading)], axis=1) * (2.0 * np.pi / wavelength)[:, None]
+            self._k = (
+                np.stack([np.cos(heading), np.sin(heading)], axis=1) * (2.0 * np.pi / wavelength)[:, None]
+            )
             self._phase = rng.uniform(0.0, 2.0 * np.pi, TERRAIN_WAVES)
-            self._amp = self.relief_m * np.sqrt(2.0 / TERRAIN_WAVES)   # RMS of the sum: relief_m
+            self._amp = self.relief_m * np.sqrt(2.0 / TERRAIN_WAVES)  # RMS of the sum: relief_m
         self.is_plane = self.relief_m == 0.0 and not self.trenches
 
     def depth_m(self, north_m: np.ndarray, east_m: np.ndarray) -> np.ndarray:
@@ -76,7 +85,9 @@ class Bathymetry:
             depth = depth + self._amp * np.sin(arg).sum(axis=-1)
         for tr in self.trenches:
             deeper = tr.floor_depth_m - self.mean_depth_m
-            depth = depth + deeper * _wall(n - tr.north_start_m, tr.wall_m) * _wall(tr.north_end_m - n, tr.wall_m)
+            depth = depth + deeper * _wall(n - tr.north_start_m, tr.wall_m) * _wall(
+                tr.north_end_m - n, tr.wall_m
+            )
         return depth
 
     def altitude_m(self, pos_n: np.ndarray) -> np.ndarray:
@@ -104,7 +115,9 @@ class Bathymetry:
             return np.where((altitude > 0.0) & (r <= max_range_m), r, np.inf)
         return self._marched(head, d, altitude, max_range_m)
 
-    def _marched(self, head: np.ndarray, d: np.ndarray, altitude: np.ndarray, max_range_m: float) -> np.ndarray:
+    def _marched(
+        self, head: np.ndarray, d: np.ndarray, altitude: np.ndarray, max_range_m: float
+    ) -> np.ndarray:
         """The march and bisection of the module docstring, compiled (:func:`_march_into`: one ray
         at a time; numpy's per-call overhead over a few hundred rays per chunk was half of the
         ``longrange`` mission's simulation)."""
@@ -115,16 +128,42 @@ class Bathymetry:
             k, phase, amp = self._k, self._phase, self._amp
         else:
             k, phase, amp = np.zeros((0, 2)), np.zeros(0), 0.0
-        trenches = np.array([[tr.north_start_m, tr.north_end_m, tr.floor_depth_m - self.mean_depth_m, tr.wall_m]
-                             for tr in self.trenches], dtype=float).reshape(-1, 4)
-        _march_into(flat_head, flat_d, np.ascontiguousarray(altitude.reshape(-1), dtype=float), float(max_range_m),
-                    self._step_m(), self.mean_depth_m, self.slope, k, phase, amp, trenches, out)
+        trenches = np.array(
+            [
+                [tr.north_start_m, tr.north_end_m, tr.floor_depth_m - self.mean_depth_m, tr.wall_m]
+                for tr in self.trenches
+            ],
+            dtype=float,
+        ).reshape(-1, 4)
+        _march_into(
+            flat_head,
+            flat_d,
+            np.ascontiguousarray(altitude.reshape(-1), dtype=float),
+            float(max_range_m),
+            self._step_m(),
+            self.mean_depth_m,
+            self.slope,
+            k,
+            phase,
+            amp,
+            trenches,
+            out,
+        )
         return out.reshape(altitude.shape)
 
 
 @numba.njit(cache=True, nogil=True)
-def _height_along(head: np.ndarray, d: np.ndarray, r: float, mean: float, slope: np.ndarray, k: np.ndarray,
-                  phase: np.ndarray, amp: float, trenches: np.ndarray) -> float:
+def _height_along(
+    head: np.ndarray,
+    d: np.ndarray,
+    r: float,
+    mean: float,
+    slope: np.ndarray,
+    k: np.ndarray,
+    phase: np.ndarray,
+    amp: float,
+    trenches: np.ndarray,
+) -> float:
     """Height above the seabed of the point ``head + r d`` (Bathymetry.depth_m, one point)."""
     n, e, down = head[0] + r * d[0], head[1] + r * d[1], head[2] + r * d[2]
     depth = mean + slope[0] * n + slope[1] * e
@@ -137,14 +176,27 @@ def _height_along(head: np.ndarray, d: np.ndarray, r: float, mean: float, slope:
         start, end, deeper, wall = trenches[t, 0], trenches[t, 1], trenches[t, 2], trenches[t, 3]
         up = min(1.0, max(0.0, (n - start) / wall + 0.5))
         down_wall = min(1.0, max(0.0, (end - n) / wall + 0.5))
-        depth += deeper * (0.5 * (1.0 - math.cos(math.pi * up))) * (0.5 * (1.0 - math.cos(math.pi * down_wall)))
+        depth += (
+            deeper * (0.5 * (1.0 - math.cos(math.pi * up))) * (0.5 * (1.0 - math.cos(math.pi * down_wall)))
+        )
     return depth - down
 
 
 @numba.njit(cache=True, nogil=True)
-def _march_into(head: np.ndarray, d: np.ndarray, altitude: np.ndarray, max_range_m: float, step: float,
-                mean: float, slope: np.ndarray, k: np.ndarray, phase: np.ndarray, amp: float, trenches: np.ndarray,
-                out: np.ndarray) -> None:
+def _march_into(
+    head: np.ndarray,
+    d: np.ndarray,
+    altitude: np.ndarray,
+    max_range_m: float,
+    step: float,
+    mean: float,
+    slope: np.ndarray,
+    k: np.ndarray,
+    phase: np.ndarray,
+    amp: float,
+    trenches: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """Range along each ray (n, 3) to the seabed into ``out`` (n,): march in ``step`` to the first
     point at or below it, then bisect the last step until the bracket is under 1e-9 m; ``inf``
     where the head is not above the seabed or nothing is met within ``max_range_m``. Trenches

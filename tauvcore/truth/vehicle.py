@@ -63,18 +63,18 @@ import numpy as np
 from tauvcore import units
 from tauvcore.validation import require_positive, require_range
 
-RHO_KGPM3 = 1025.0           # sea water density [kg/m^3]
+RHO_KGPM3 = 1025.0  # sea water density [kg/m^3]
 NUM_FINS = 4
 FIN_POSITION_ANGLES_RAD = np.array([45.0, 135.0, 225.0, 315.0]) * units.DEG
 """Where each fin stands around the hull, measured from starboard (+y) towards down (+z): fin 1
 lower starboard, 2 lower port, 3 upper port, 4 upper starboard (the "x" of the paper)."""
 
 # indices of the state vector x of the equations of motion
-NU = slice(0, 6)        # nu_r: surge, sway, heave [m/s], roll, pitch, yaw rates [rad/s], relative to the water
-POS = slice(6, 9)       # NED position [m]
-EULER = slice(9, 12)    # roll, pitch, yaw [rad] (yaw unwrapped)
-FINS = slice(12, 16)    # fin deflections [rad]
-RPS = 16                # propeller speed [rev/s]
+NU = slice(0, 6)  # nu_r: surge, sway, heave [m/s], roll, pitch, yaw rates [rad/s], relative to the water
+POS = slice(6, 9)  # NED position [m]
+EULER = slice(9, 12)  # roll, pitch, yaw [rad] (yaw unwrapped)
+FINS = slice(12, 16)  # fin deflections [rad]
+RPS = 16  # propeller speed [rev/s]
 NUM_STATES = 17
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -85,34 +85,34 @@ class VehicleConfig:
     """The TAUV's geometry and the empirical constants its hydrodynamic coefficients come from
     (module docstring: the method and each source)."""
 
-    length_m: float = 3.0                  # Tal et al. 2017 section 1: 3000 mm; [1, 20]
-    diameter_m: float = 0.3                # section 1: 300 mm; [0.05, 2]
-    nose_fraction: float = 0.144           # Myring nose length / length (REMUS 0.191 / 1.33)
-    tail_fraction: float = 0.277           # Myring tail length / length (REMUS 0.368 / 1.33)
-    tail_angle_deg: float = 25.0           # Myring tail half-angle at its start (REMUS 0.436 rad)
-    buoyancy_reserve: float = 0.005        # (B - W) / B: a little positive, as AUVs are trimmed
-    cg_below_cb_m: float = 0.02            # z_g: metacentric height of roll and pitch (REMUS 0.0196 m)
-    drag_coefficient: float = 0.2          # c_d of the axial drag on the frontal area (Prestero)
+    length_m: float = 3.0  # Tal et al. 2017 section 1: 3000 mm; [1, 20]
+    diameter_m: float = 0.3  # section 1: 300 mm; [0.05, 2]
+    nose_fraction: float = 0.144  # Myring nose length / length (REMUS 0.191 / 1.33)
+    tail_fraction: float = 0.277  # Myring tail length / length (REMUS 0.368 / 1.33)
+    tail_angle_deg: float = 25.0  # Myring tail half-angle at its start (REMUS 0.436 rad)
+    buoyancy_reserve: float = 0.005  # (B - W) / B: a little positive, as AUVs are trimmed
+    cg_below_cb_m: float = 0.02  # z_g: metacentric height of roll and pitch (REMUS 0.0196 m)
+    drag_coefficient: float = 0.2  # c_d of the axial drag on the frontal area (Prestero)
     crossflow_drag_coefficient: float = 1.1  # c_dc of a cylinder in cross flow (Hoerner, Prestero)
-    body_lift_coefficient: float = 1.2     # c_ydb (Prestero, after Hoerner)
+    body_lift_coefficient: float = 1.2  # c_ydb (Prestero, after Hoerner)
     body_lift_centre_fraction: float = 0.241  # body lift's centre aft of the CB / length (REMUS 0.321 / 1.33)
-    fin_span_m: float = 0.15               # each fin's span (REMUS's scaled by the diameter ratio)
-    fin_chord_m: float = 0.12              # each fin's chord
-    fin_lift_slope_per_rad: float = 3.12   # c_La (Prestero, Hoerner for the fin's aspect ratio)
-    fin_from_tail_m: float = 0.2           # fins' quarter chord ahead of the tail's end
-    fin_max_deg: float = 25.0              # deflection limit [deg]; [1, 45]
-    fin_time_constant_s: float = 0.1       # servo lag [s]
-    fin_rate_max_dps: float = 60.0         # servo rate limit [deg/s]
+    fin_span_m: float = 0.15  # each fin's span (REMUS's scaled by the diameter ratio)
+    fin_chord_m: float = 0.12  # each fin's chord
+    fin_lift_slope_per_rad: float = 3.12  # c_La (Prestero, Hoerner for the fin's aspect ratio)
+    fin_from_tail_m: float = 0.2  # fins' quarter chord ahead of the tail's end
+    fin_max_deg: float = 25.0  # deflection limit [deg]; [1, 45]
+    fin_time_constant_s: float = 0.1  # servo lag [s]
+    fin_rate_max_dps: float = 60.0  # servo rate limit [deg/s]
     propeller_diameter_m: float = 0.18
-    kt0: float = 0.40                      # K_T = kt0 - kt1 J (J = u_a / (n D))
+    kt0: float = 0.40  # K_T = kt0 - kt1 J (J = u_a / (n D))
     kt1: float = 0.40
-    kq0: float = 0.060                     # K_Q = kq0 - kq1 J
+    kq0: float = 0.060  # K_Q = kq0 - kq1 J
     kq1: float = 0.050
-    wake_fraction: float = 0.2             # u_a = (1 - w) u
-    thrust_deduction: float = 0.1          # hull sees (1 - t) T
-    rpm_max: float = 2500.0                # motor limit [rev/min]: 5.9 m/s, within reach of Yoo 2014's 10 kn mission
-    motor_time_constant_s: float = 0.3     # RPM follows its command with this lag [s]
-    max_depth_m: float = 200.0             # section 1: maximum operating depth [m]
+    wake_fraction: float = 0.2  # u_a = (1 - w) u
+    thrust_deduction: float = 0.1  # hull sees (1 - t) T
+    rpm_max: float = 2500.0  # motor limit [rev/min]: 5.9 m/s, within reach of Yoo 2014's 10 kn mission
+    motor_time_constant_s: float = 0.3  # RPM follows its command with this lag [s]
+    max_depth_m: float = 200.0  # section 1: maximum operating depth [m]
 
     def __post_init__(self) -> None:
         require_range("vehicle.length_m", self.length_m, 1.0, 20.0)
@@ -123,10 +123,24 @@ class VehicleConfig:
         require_range("vehicle.tail_angle_deg", self.tail_angle_deg, 0.0, 60.0)
         require_range("vehicle.buoyancy_reserve", self.buoyancy_reserve, -0.1, 0.1)
         require_range("vehicle.cg_below_cb_m", self.cg_below_cb_m, 0.0, 0.5 * self.diameter_m)
-        for name in ("drag_coefficient", "crossflow_drag_coefficient", "body_lift_coefficient",
-                     "body_lift_centre_fraction", "fin_span_m", "fin_chord_m", "fin_lift_slope_per_rad",
-                     "fin_from_tail_m", "fin_time_constant_s", "fin_rate_max_dps", "propeller_diameter_m", "kt0",
-                     "kq0", "rpm_max", "motor_time_constant_s", "max_depth_m"):
+        for name in (
+            "drag_coefficient",
+            "crossflow_drag_coefficient",
+            "body_lift_coefficient",
+            "body_lift_centre_fraction",
+            "fin_span_m",
+            "fin_chord_m",
+            "fin_lift_slope_per_rad",
+            "fin_from_tail_m",
+            "fin_time_constant_s",
+            "fin_rate_max_dps",
+            "propeller_diameter_m",
+            "kt0",
+            "kq0",
+            "rpm_max",
+            "motor_time_constant_s",
+            "max_depth_m",
+        ):
             require_positive(f"vehicle.{name}", getattr(self, name))
         for name in ("kt1", "kq1", "wake_fraction", "thrust_deduction"):
             require_range(f"vehicle.{name}", getattr(self, name), 0.0, 1.0)
@@ -135,24 +149,24 @@ class VehicleConfig:
 class VehicleParams(NamedTuple):
     """Everything the compiled equations of motion need, derived once by :func:`vehicle_params`."""
 
-    M_inv: np.ndarray        # (6, 6) inverse of rigid-body plus added mass
-    M_A: np.ndarray          # (6, 6) added mass (positive definite) [kg, kg m, kg m^2]
+    M_inv: np.ndarray  # (6, 6) inverse of rigid-body plus added mass
+    M_A: np.ndarray  # (6, 6) added mass (positive definite) [kg, kg m, kg m^2]
     mass_kg: float
-    inertia: np.ndarray      # (3,) Ixx, Iyy, Izz about the centre of buoyancy [kg m^2]
-    r_g_b: np.ndarray        # (3,) centre of gravity from the centre of buoyancy [m]
+    inertia: np.ndarray  # (3,) Ixx, Iyy, Izz about the centre of buoyancy [kg m^2]
+    r_g_b: np.ndarray  # (3,) centre of gravity from the centre of buoyancy [m]
     weight_n: float
     buoyancy_n: float
-    x_uu: float              # axial drag X_u|u| [kg/m]
-    y_vv: float              # hull cross-flow drag, Y_v|v| = Z_w|w| [kg/m]
-    y_rr: float              # Y_r|r| = -Z_q|q| [kg m / rad^2]
-    n_vv: float              # N_v|v| = -M_w|w| [kg]
-    n_rr: float              # N_r|r| = M_q|q| [kg m^2 / rad^2]
-    k_pp: float              # K_p|p| (fins' roll drag) [kg m^2 / rad^2]
-    y_uv_lift: float         # body lift Y = y_uv_lift u v (= Z for w) [kg/m]
-    x_lift_m: float          # its centre [m]
-    fin_pos_b: np.ndarray    # (4, 3) fins' centres of pressure [m]
+    x_uu: float  # axial drag X_u|u| [kg/m]
+    y_vv: float  # hull cross-flow drag, Y_v|v| = Z_w|w| [kg/m]
+    y_rr: float  # Y_r|r| = -Z_q|q| [kg m / rad^2]
+    n_vv: float  # N_v|v| = -M_w|w| [kg]
+    n_rr: float  # N_r|r| = M_q|q| [kg m^2 / rad^2]
+    k_pp: float  # K_p|p| (fins' roll drag) [kg m^2 / rad^2]
+    y_uv_lift: float  # body lift Y = y_uv_lift u v (= Z for w) [kg/m]
+    x_lift_m: float  # its centre [m]
+    fin_pos_b: np.ndarray  # (4, 3) fins' centres of pressure [m]
     fin_normal_b: np.ndarray  # (4, 3) direction of each fin's force for a positive deflection
-    fin_lift: float          # rho c_La S / 2 per fin [kg/m]
+    fin_lift: float  # rho c_La S / 2 per fin [kg/m]
     fin_max_rad: float
     fin_tau_s: float
     fin_rate_max_rps: float
@@ -225,7 +239,7 @@ def coefficients(cfg: VehicleConfig = VehicleConfig()) -> Coefficients:
     area = np.pi * r**2
     volume = float(np.trapezoid(area, x_nose))
     cb = float(np.trapezoid(x_nose * area, x_nose)) / volume
-    x = cb - x_nose                                   # body x of each station (forward positive)
+    x = cb - x_nose  # body x of each station (forward positive)
     mass = RHO_KGPM3 * volume * (1.0 - cfg.buoyancy_reserve)
     density = mass / volume
     Ixx = float(np.trapezoid(density * np.pi * r**4 / 2.0, x_nose))
@@ -249,13 +263,30 @@ def coefficients(cfg: VehicleConfig = VehicleConfig()) -> Coefficients:
     r_span = np.linspace(r_root, tip, 201)
     K_pp = -4.0 * 0.5 * RHO_KGPM3 * 1.1 * cfg.fin_chord_m * float(np.trapezoid(r_span**3, r_span))
     return Coefficients(
-        volume_m3=volume, mass_kg=mass, cb_from_nose_m=cb, Ixx=Ixx, Iyy=Iyy, Izz=Iyy,
-        X_udot=X_udot, Y_vdot=Y_vdot, Y_rdot=Y_rdot, K_pdot=K_pdot, M_qdot=N_rdot, N_rdot=N_rdot,
-        X_uu=-0.5 * RHO_KGPM3 * cfg.drag_coefficient * np.pi * R**2, Y_vv=Y_vv, Y_rr=Y_rr, N_vv=N_vv, N_rr=N_rr,
-        K_pp=K_pp, Y_uv_lift=-0.5 * RHO_KGPM3 * cfg.diameter_m**2 * cfg.body_lift_coefficient,
+        volume_m3=volume,
+        mass_kg=mass,
+        cb_from_nose_m=cb,
+        Ixx=Ixx,
+        Iyy=Iyy,
+        Izz=Iyy,
+        X_udot=X_udot,
+        Y_vdot=Y_vdot,
+        Y_rdot=Y_rdot,
+        K_pdot=K_pdot,
+        M_qdot=N_rdot,
+        N_rdot=N_rdot,
+        X_uu=-0.5 * RHO_KGPM3 * cfg.drag_coefficient * np.pi * R**2,
+        Y_vv=Y_vv,
+        Y_rr=Y_rr,
+        N_vv=N_vv,
+        N_rr=N_rr,
+        K_pp=K_pp,
+        Y_uv_lift=-0.5 * RHO_KGPM3 * cfg.diameter_m**2 * cfg.body_lift_coefficient,
         x_lift_m=-cfg.body_lift_centre_fraction * L,
         fin_lift=0.5 * RHO_KGPM3 * cfg.fin_lift_slope_per_rad * cfg.fin_span_m * cfg.fin_chord_m,
-        fin_x_m=cb - fin_x_nose, fin_r_m=r_root + 0.4 * cfg.fin_span_m)
+        fin_x_m=cb - fin_x_nose,
+        fin_r_m=r_root + 0.4 * cfg.fin_span_m,
+    )
 
 
 def vehicle_params(cfg: VehicleConfig = VehicleConfig()) -> VehicleParams:
@@ -274,17 +305,42 @@ def vehicle_params(cfg: VehicleConfig = VehicleConfig()) -> VehicleParams:
     M_A[1, 5] = M_A[5, 1] = -co.Y_rdot
     M_A[2, 4] = M_A[4, 2] = co.Y_rdot
     gamma = FIN_POSITION_ANGLES_RAD
-    fin_pos = np.stack([np.full(NUM_FINS, co.fin_x_m), co.fin_r_m * np.cos(gamma), co.fin_r_m * np.sin(gamma)], 1)
+    fin_pos = np.stack(
+        [np.full(NUM_FINS, co.fin_x_m), co.fin_r_m * np.cos(gamma), co.fin_r_m * np.sin(gamma)], 1
+    )
     fin_normal = np.stack([np.zeros(NUM_FINS), -np.sin(gamma), np.cos(gamma)], 1)
     return VehicleParams(
-        M_inv=np.linalg.inv(M_RB + M_A), M_A=M_A, mass_kg=m, inertia=inertia, r_g_b=r_g,
-        weight_n=m * units.G0, buoyancy_n=RHO_KGPM3 * co.volume_m3 * units.G0,
-        x_uu=co.X_uu, y_vv=co.Y_vv, y_rr=co.Y_rr, n_vv=co.N_vv, n_rr=co.N_rr, k_pp=co.K_pp,
-        y_uv_lift=co.Y_uv_lift, x_lift_m=co.x_lift_m, fin_pos_b=fin_pos, fin_normal_b=fin_normal,
-        fin_lift=co.fin_lift, fin_max_rad=cfg.fin_max_deg * units.DEG, fin_tau_s=cfg.fin_time_constant_s,
-        fin_rate_max_rps=cfg.fin_rate_max_dps * units.DEG, prop_d_m=cfg.propeller_diameter_m,
-        kt0=cfg.kt0, kt1=cfg.kt1, kq0=cfg.kq0, kq1=cfg.kq1, wake=cfg.wake_fraction,
-        deduction=cfg.thrust_deduction, rps_max=cfg.rpm_max / 60.0, motor_tau_s=cfg.motor_time_constant_s)
+        M_inv=np.linalg.inv(M_RB + M_A),
+        M_A=M_A,
+        mass_kg=m,
+        inertia=inertia,
+        r_g_b=r_g,
+        weight_n=m * units.G0,
+        buoyancy_n=RHO_KGPM3 * co.volume_m3 * units.G0,
+        x_uu=co.X_uu,
+        y_vv=co.Y_vv,
+        y_rr=co.Y_rr,
+        n_vv=co.N_vv,
+        n_rr=co.N_rr,
+        k_pp=co.K_pp,
+        y_uv_lift=co.Y_uv_lift,
+        x_lift_m=co.x_lift_m,
+        fin_pos_b=fin_pos,
+        fin_normal_b=fin_normal,
+        fin_lift=co.fin_lift,
+        fin_max_rad=cfg.fin_max_deg * units.DEG,
+        fin_tau_s=cfg.fin_time_constant_s,
+        fin_rate_max_rps=cfg.fin_rate_max_dps * units.DEG,
+        prop_d_m=cfg.propeller_diameter_m,
+        kt0=cfg.kt0,
+        kt1=cfg.kt1,
+        kq0=cfg.kq0,
+        kq1=cfg.kq1,
+        wake=cfg.wake_fraction,
+        deduction=cfg.thrust_deduction,
+        rps_max=cfg.rpm_max / 60.0,
+        motor_tau_s=cfg.motor_time_constant_s,
+    )
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -299,11 +355,21 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 @_jit
 def C_nb_of(phi: float, theta: float, psi: float) -> np.ndarray:
     """ZYX Euler angles to C_nb (tauvcore.conventions), scalar form for the compiled loop."""
-    cf, sf, ct, st, cp, sp = math.cos(phi), math.sin(phi), math.cos(theta), math.sin(theta), math.cos(psi), \
-        math.sin(psi)
-    return np.array([[cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
-                     [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
-                     [-st, ct * sf, ct * cf]])
+    cf, sf, ct, st, cp, sp = (
+        math.cos(phi),
+        math.sin(phi),
+        math.cos(theta),
+        math.sin(theta),
+        math.cos(psi),
+        math.sin(psi),
+    )
+    return np.array(
+        [
+            [cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
+            [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
+            [-st, ct * sf, ct * cf],
+        ]
+    )
 
 
 @_jit
@@ -331,8 +397,14 @@ def _cx(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> tup
 
 
 @_jit
-def force_into(p: VehicleParams, nu_r: np.ndarray, down_b: tuple[float, float, float], fins: np.ndarray,
-               rps: float, tau: np.ndarray) -> None:
+def force_into(
+    p: VehicleParams,
+    nu_r: np.ndarray,
+    down_b: tuple[float, float, float],
+    fins: np.ndarray,
+    rps: float,
+    tau: np.ndarray,
+) -> None:
     """Everything but the mass-matrix term, tau in ``M nu_r' = tau`` (6,) [N, N m], written into
     ``tau``: rigid-body and added-mass Coriolis, hydrostatics, drag, body and fin lift, thrust.
     ``down_b``: n's down axis in b (the third row of C_nb)."""
@@ -385,8 +457,9 @@ def force_into(p: VehicleParams, nu_r: np.ndarray, down_b: tuple[float, float, f
 
 
 @_jit
-def generalized_force(p: VehicleParams, nu_r: np.ndarray, C_nb: np.ndarray, fins: np.ndarray,
-                      rps: float) -> np.ndarray:
+def generalized_force(
+    p: VehicleParams, nu_r: np.ndarray, C_nb: np.ndarray, fins: np.ndarray, rps: float
+) -> np.ndarray:
     """:func:`force_into` as a new (6,) array, the attitude given as C_nb."""
     tau = np.empty(6)
     force_into(p, nu_r, (C_nb[2, 0], C_nb[2, 1], C_nb[2, 2]), fins, rps, tau)
@@ -394,14 +467,27 @@ def generalized_force(p: VehicleParams, nu_r: np.ndarray, C_nb: np.ndarray, fins
 
 
 @_jit
-def derivative_into(p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cmd: float, current_n: np.ndarray,
-                    tau: np.ndarray, dx: np.ndarray) -> None:
+def derivative_into(
+    p: VehicleParams,
+    x: np.ndarray,
+    fin_cmd: np.ndarray,
+    rps_cmd: float,
+    current_n: np.ndarray,
+    tau: np.ndarray,
+    dx: np.ndarray,
+) -> None:
     """dx/dt of the 17 states (index slices NU, POS, EULER, FINS, RPS) into ``dx``, under commanded
     fin angles [rad] and propeller speed [rev/s] held constant; ``current_n`` (3,) [m/s] NED;
     ``tau`` (6,) scratch."""
     phi, theta, psi = x[9], x[10], x[11]
-    cf, sf, ct, st, cp, sp = math.cos(phi), math.sin(phi), math.cos(theta), math.sin(theta), math.cos(psi), \
-        math.sin(psi)
+    cf, sf, ct, st, cp, sp = (
+        math.cos(phi),
+        math.sin(phi),
+        math.cos(theta),
+        math.sin(theta),
+        math.cos(psi),
+        math.sin(psi),
+    )
     # C_nb (tauvcore.conventions, ZYX)
     c00, c01, c02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
     c10, c11, c12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
@@ -409,8 +495,14 @@ def derivative_into(p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cm
     force_into(p, x, (c20, c21, c22), x[12:16], x[16], tau)
     Mi = p.M_inv
     for i in range(6):
-        dx[i] = (Mi[i, 0] * tau[0] + Mi[i, 1] * tau[1] + Mi[i, 2] * tau[2] + Mi[i, 3] * tau[3]
-                 + Mi[i, 4] * tau[4] + Mi[i, 5] * tau[5])
+        dx[i] = (
+            Mi[i, 0] * tau[0]
+            + Mi[i, 1] * tau[1]
+            + Mi[i, 2] * tau[2]
+            + Mi[i, 3] * tau[3]
+            + Mi[i, 4] * tau[4]
+            + Mi[i, 5] * tau[5]
+        )
     cn, ce, cd = current_n[0], current_n[1], current_n[2]
     vb0 = x[0] + c00 * cn + c10 * ce + c20 * cd
     vb1 = x[1] + c01 * cn + c11 * ce + c21 * cd
@@ -430,8 +522,9 @@ def derivative_into(p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cm
 
 
 @_jit
-def state_derivative(p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cmd: float,
-                     current_n: np.ndarray) -> np.ndarray:
+def state_derivative(
+    p: VehicleParams, x: np.ndarray, fin_cmd: np.ndarray, rps_cmd: float, current_n: np.ndarray
+) -> np.ndarray:
     """:func:`derivative_into` as a new (17,) array."""
     dx = np.empty(NUM_STATES)
     derivative_into(p, x, fin_cmd, rps_cmd, current_n, np.empty(6), dx)
