@@ -82,10 +82,10 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     """Estimated memory of ``num_runs`` Monte Carlo runs of ``config`` (see the module docstring)."""
     rate_hz = config.imu.rate_hz
     duration_s = config.trajectory.duration_s
-    K = int(round(duration_s * rate_hz)) + 1
+    K = round(duration_s * rate_hz) + 1
     R = int(num_runs)
     M = len(config.run.methods)
-    T = math.ceil(K / max(1, int(round(rate_hz / config.filter.output_rate_hz))))
+    T = math.ceil(K / max(1, round(rate_hz / config.filter.output_rate_hz)))
     aiding = set(config.run.aiding)
     dvl_methods = sum(1 for m in config.run.methods if m != "ins")
     dvl_rows = math.ceil(duration_s * config.dvl.rate_hz + 1) * dvl_methods if "dvl" in aiding else 0
@@ -95,7 +95,7 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
         other_updates += math.ceil(duration_s * config.magnetometer.rate_hz + 1) if "mag" in aiding else 0
     other_rows = other_updates * dvl_methods
 
-    K_c = min(K, int(round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz)) + 1)
+    K_c = min(K, round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz) + 1)
     chunk = TRUTH_BUILD_DOUBLES * DOUBLE * K_c + COMPENSATION_DOUBLES * DOUBLE * K_c * R
     outputs = OUTPUT_DOUBLES * DOUBLE * T * M * R
     live = 2 * OUTPUT_DOUBLES * DOUBLE * min(T, LIVE_EPOCHS) * M * R

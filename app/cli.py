@@ -69,7 +69,7 @@ MAX_WORKERS = 64
 EXIT_STUDY_FAILED = 1
 
 
-class StudyFailed(Exception):
+class StudyFailedError(Exception):
     """A study could not finish for a reason outside its input (a worker process died, the Dask
     scheduler or a worker went away); the message is the one line shown to the user."""
 
@@ -478,7 +478,9 @@ def _outage(text: str) -> Outage:
 def _finite(values: np.ndarray) -> list[float | None]:
     """Plain list with every non-finite number (NaN, +-inf) as None (JSON null)."""
     values = np.asarray(values, dtype=float)
-    return np.where(np.isfinite(values), values, None).tolist()
+    plain = values.astype(object)
+    plain[~np.isfinite(values)] = None
+    return plain.tolist()
 
 
 def _number(value: float) -> float | None:
@@ -774,8 +776,10 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
     notes = []
     if any(r.block_dims is not None for r in results.values()):
         notes = [
-            "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
-            "NEES over 6, and they have no position state"
+            (
+                "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
+                "NEES over 6, and they have no position state"
+            )
         ]
     return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
 
@@ -801,6 +805,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}"
             ) from None
     if json_path is not None:
+        assert args.json is not None  # json_path is set only when --json was given
         try:
             write_json_atomic(json_path, run_payload(config, results))
         except OSError as exc:
@@ -859,6 +864,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     elapsed = time.perf_counter() - started
     if json_path is not None:
+        assert args.json is not None  # json_path is set only when --json was given
         try:
             write_json_atomic(json_path, run_payload(config, results, log=str(args.log)))
         except OSError as exc:
@@ -912,17 +918,16 @@ def cmd_mc(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     trajectory = config.trajectory.name
     try:
-        with _progress_bar(num_runs) as bar:
-            with _study_failures(dask):
-                acc = run_study(
-                    config,
-                    num_runs,
-                    config.run.seed,
-                    workers=workers,
-                    dask_address=dask,
-                    on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
-                    progress=lambda done, total: bar.update(done - bar.n),
-                )
+        with _progress_bar(num_runs) as bar, _study_failures(dask):
+            acc = run_study(
+                config,
+                num_runs,
+                config.run.seed,
+                workers=workers,
+                dask_address=dask,
+                on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
+                progress=lambda done, total: bar.update(done - bar.n),
+            )
         summary = acc.summary()
         description = (
             f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
@@ -1070,13 +1075,13 @@ def _study_failures(dask: str | None):
     try:
         yield
     except BrokenProcessPool as exc:
-        raise StudyFailed(
+        raise StudyFailedError(
             f"a worker process died during the study ({one_line(str(exc)) or 'killed'}); nothing was written"
         ) from None
     except (OSError, TimeoutError) as exc:
         if dask is None:
             raise
-        raise StudyFailed(
+        raise StudyFailedError(
             f"--dask {dask}: the cluster failed during the study ({type(exc).__name__}: "
             f"{one_line(str(exc))}); nothing was written"
         ) from None
@@ -1122,8 +1127,10 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
     lines = [
         f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
         "",
-        f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
-        f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}",
+        (
+            f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
+            f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"
+        ),
     ]
     for method, m in summary["methods"].items():
         f, c = m["final_rms"], m["consistency"]
@@ -1258,7 +1265,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (UsageError, ConfigError) as exc:
         print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except StudyFailed as exc:
+    except StudyFailedError as exc:
         print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_STUDY_FAILED
     except BrokenPipeError:

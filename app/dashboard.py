@@ -28,7 +28,7 @@ import time
 import uuid
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import plotly.graph_objects as go
@@ -174,6 +174,9 @@ INNOVATION_NOTE = (
     "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
     "INS (and any method without this source) has none."
 )
+INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
+"""The Innovations tab's choices before a run: any source name (a run's own replace them), so
+``str``, not the literal "dvl"."""
 RUNS_NOTE = (
     f"Every finished run is kept here with its configuration until removed (at most {KEPT_RUNS_MAX}: the "
     "oldest goes when another finishes). Tick two or more to overlay them in the Plots tab (one line style per "
@@ -275,6 +278,16 @@ def _drawing(method: Callable[..., None]) -> Callable[..., None]:
     return locked
 
 
+def _can_hold(handle: Any, value: Any) -> bool:
+    """Whether ``value``, as the page reported it, is one the control ``handle`` can hold: a
+    checkbox true/false, a dropdown one of its options, a text box a string of bounded length."""
+    if isinstance(handle, viser.GuiCheckboxHandle):
+        return isinstance(value, bool)
+    if isinstance(handle, viser.GuiDropdownHandle):
+        return value in handle.options
+    return isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
+
+
 class Session:
     """One browser tab: its controls, 3-D scene, background run and results."""
 
@@ -291,7 +304,7 @@ class Session:
         self.draw_lock = threading.RLock()
         self.handle: worker.RunHandle | None = None
         self.config: Config | None = None
-        self.truth_view: dict[str, np.ndarray | None] | None = None
+        self.truth_view: worker.TruthView | None = None
         self.replaying = False  # the current run replays a log (tauv serve --logs)
         self.results: dict[str, MethodResult] | None = None
         self.playing = False
@@ -450,7 +463,9 @@ class Session:
             self.nees_plot = gui.add_plotly(go.Figure(), aspect=0.6)  # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
         with self.workbench.add_tab("Innovations"):
-            self.innovation_source = gui.add_dropdown("Aiding source", ("dvl",), initial_value="dvl")
+            self.innovation_source = gui.add_dropdown(
+                "Aiding source", INITIAL_INNOVATION_SOURCES, initial_value=INITIAL_INNOVATION_SOURCES[0]
+            )
             self.innovation_plot = gui.add_plotly(go.Figure(), aspect=0.85)
             self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
         with tabs.add_tab("Vehicle"):
@@ -480,11 +495,10 @@ class Session:
             self.diff_table = gui.add_markdown("")
             self.compare_table = gui.add_markdown("")
 
-        if self.source is not None:
+        source = self.source
+        if source is not None:
             # a log replays its own reference: the truth's generator does not apply to it
-            self.source.on_update(
-                lambda _: setattr(self.truth, "disabled", self.source.value != inputs.SIMULATION)
-            )
+            source.on_update(lambda _: setattr(self.truth, "disabled", source.value != inputs.SIMULATION))
         # a scenario's preset fills in the controls when the user picks it (not when the server
         # itself sets the dropdown to what the page shows, at Run: the page's values stand then)
         self.preset: str | None = None
@@ -674,13 +688,7 @@ class Session:
             if uid not in shown_values:
                 continue  # not on the page (an unmounted panel): the server's value stands
             value = shown_values[uid]
-            if isinstance(handle, viser.GuiCheckboxHandle):
-                ok = isinstance(value, bool)
-            elif isinstance(handle, viser.GuiDropdownHandle):
-                ok = value in handle.options
-            else:
-                ok = isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
-            if not ok:
+            if not _can_hold(handle, value):
                 raise InputError(
                     f"{handle.label}: the page shows {show(str(value))}, "
                     "which this control cannot hold; reload the page"
@@ -943,10 +951,11 @@ class Session:
                     self._draw_vehicle_plot()
                     self._draw_seabed_plot()
                 elif kind == "progress":
-                    pending = msg[2]
+                    latest: dict[str, MethodResult] = msg[2]
+                    pending = latest
                     self.progress.value = 100.0 * msg[1] / config.trajectory.duration_s
                     if time.monotonic() - last_draw > GUI_REFRESH_S:
-                        self._show_results(pending, config)
+                        self._show_results(latest, config)
                         pending, last_draw = None, time.monotonic()
                 elif kind == "done":
                     results, stopped = msg[1], msg[2]
@@ -965,7 +974,7 @@ class Session:
                     self.status.content = "Run failed."
                     note = ("Run failed", msg[1], True)
                     finished = True
-        except Exception as exc:  # a display bug must not leave the tab stuck in "running"
+        except Exception as exc:  # noqa: BLE001 - a display bug must not leave the tab stuck in "running"
             self.status.content = "Display error."
             note = ("Display error", f"{type(exc).__name__}: {exc}", True)
         finally:
@@ -1102,7 +1111,7 @@ class Session:
             export.send(self.client, kind, self.finished_run)
         except export.ExportError as exc:
             self.notify("Cannot download", str(exc), error=True)
-        except Exception as exc:  # a fault of ours: said in the tab, the server keeps serving
+        except Exception as exc:  # noqa: BLE001 - a fault of ours: said in the tab, the server keeps serving
             self.notify(
                 "Cannot download",
                 f"{export.FORMATS.get(kind, kind)}: {type(exc).__name__}: {exc}",
@@ -1161,7 +1170,7 @@ class Session:
                         break  # newer results: draw those instead
                     try:
                         step(results)
-                    except Exception as exc:  # a display bug must not kill the thread silently
+                    except Exception as exc:  # noqa: BLE001 - a display bug must not kill the thread silently
                         self.notify("Display error", f"{type(exc).__name__}: {exc}", error=True)
                 time.sleep(0.0)
 
@@ -1488,12 +1497,13 @@ class Session:
         tv, config = self.truth_view, self.config
         if tv is None or config is None:
             return
-        if tv.get("altitude_m") is None:
+        altitude_m = tv.get("altitude_m")
+        if altitude_m is None:
             self.seabed_plot.visible = False
             self.seabed_note.content = SEABED_NOTES["log" if self.replaying else "none"]
             return
         self.seabed_plot.figure = altitude_figure(
-            tv["t_s"], tv["altitude_m"], config.dvl.max_altitude_m, config.vkf.switch_altitude_m
+            tv["t_s"], altitude_m, config.dvl.max_altitude_m, config.vkf.switch_altitude_m
         )
         self.seabed_plot.visible = True
         self.seabed_note.content = SEABED_NOTES["simulation"]
@@ -1517,8 +1527,9 @@ class Session:
         tv, config = self.truth_view, self.config
         if tv is None or config is None:
             return
-        if tv.get("fin_angles_rad") is not None and tv.get("propeller_rpm") is not None:
-            self.vehicle_plot.figure = actuator_figure(tv["t_s"], tv["fin_angles_rad"], tv["propeller_rpm"])
+        fin_angles_rad, propeller_rpm = tv.get("fin_angles_rad"), tv.get("propeller_rpm")
+        if fin_angles_rad is not None and propeller_rpm is not None:
+            self.vehicle_plot.figure = actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm)
             self.vehicle_plot.visible = True
             self.vehicle_note.content = VEHICLE_NOTES["dynamic"]
             return
@@ -1609,7 +1620,8 @@ class Session:
         """The run ended at ``t_end_s`` (Stop, or its end): the slider spans what was run, not the
         requested duration; a value beyond it comes back to the end."""
         t_end_s = max(float(t_end_s), float(self.time_slider.step))
-        if self.time_slider.value > t_end_s:
+        # written only when out of range: min() would write back a value a tab has just moved
+        if self.time_slider.value > t_end_s:  # noqa: PLR1730
             self.time_slider.value = t_end_s
         self.time_slider.max = t_end_s
 
@@ -1688,6 +1700,7 @@ def summary_line(results: dict[str, MethodResult]) -> str:
     return "Final velocity error: " + ", ".join(parts)
 
 
+HARDENED_MARKER = "_tauv_hardened"  # set on viser's _infra module once harden_client_messages patched it
 MAX_CLIENT_MESSAGE_BYTES = 1 << 20  # a page sends control changes and camera poses: a few kB
 MALFORMED_LOG_PERIOD_S = 10.0  # dropped client messages are summed into one log line per period
 SHUTDOWN_DEADLINE_S = 1.5  # after SIGTERM/SIGINT the process exits by then, whatever hangs
@@ -1749,7 +1762,7 @@ def harden_client_messages() -> bool:
         dispatch = _infra.WebsockMessageHandler._handle_incoming_message
     except (ImportError, AttributeError, TypeError, ValueError):
         return False
-    if getattr(_infra, "_tauv_hardened", False):
+    if getattr(_infra, HARDENED_MARKER, False):
         return True
     if consumer_params != ["websocket", "handle_message", "message_class"]:
         return False
@@ -1766,7 +1779,7 @@ def harden_client_messages() -> bool:
                 continue
             try:
                 message = message_class.deserialize(bytes(raw))
-            except Exception as exc:  # any decoding failure is the client's
+            except Exception as exc:  # noqa: BLE001 - any decoding failure is the client's: drop the frame
                 DROPPED.drop(f"{type(exc).__name__}: {exc}")
                 continue
             if type(message).__name__ in REFUSED_CLIENT_MESSAGES:
@@ -1777,13 +1790,13 @@ def harden_client_messages() -> bool:
     async def guarded_dispatch(self: Any, client_id: Any, message: Any) -> None:
         try:
             await dispatch(self, client_id, message)
-        except Exception as exc:  # a handler refusing a malformed message
+        except Exception as exc:  # noqa: BLE001 - a handler refusing a malformed message: drop that one
             DROPPED.drop(f"{type(message).__name__}: {type(exc).__name__}: {exc}")
 
     _infra._message_consumer = message_consumer
     _infra.WebsockMessageHandler._handle_incoming_message = guarded_dispatch
     logging.getLogger("websockets.server").addFilter(_connection_failure_filter)
-    _infra._tauv_hardened = True
+    setattr(_infra, HARDENED_MARKER, True)
     return True
 
 
@@ -1822,7 +1835,7 @@ def disable_share_tunnel(server: viser.ViserServer) -> None:
     for name in REFUSED_CLIENT_MESSAGES:
         cls = getattr(viser_messages, name, None)
         handlers = getattr(websock, "_incoming_handlers", {})
-        if cls is not None and cls in handlers:
+        if websock is not None and cls is not None and cls in handlers:
             websock.unregister_handler(cls)
 
     def refuse(verbose: bool = True) -> None:
@@ -1831,7 +1844,6 @@ def disable_share_tunnel(server: viser.ViserServer) -> None:
             file=sys.stderr,
             flush=True,
         )
-        return None
 
     server.request_share_url = refuse  # type: ignore[method-assign]
 
@@ -1979,7 +1991,7 @@ class _MemoryReclaimer:
 RECLAIM = _MemoryReclaimer()
 
 
-def exit_now() -> None:
+def exit_now() -> NoReturn:
     """Leave at once with status 0, output flushed, without the interpreter's finalization: when
     the shutdown deadline passed (a callback thread hangs), and after a clean stop (app.cli)."""
     for stream in (sys.stdout, sys.stderr):

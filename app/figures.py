@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import plotly.graph_objects as go
@@ -335,6 +335,7 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool
         }
 
     if dvl is not None and dvl.elc_choice is not None:
+        assert dvl.mode is not None  # the DVL record that carries the ELC's choices carries its modes
         choice = dvl.elc_choice[:, 0, :]  # (U, 3)
         mode = dvl.mode[:, 0]
         for axis, axis_name in enumerate(("surge", "sway", "heave")):
@@ -446,8 +447,8 @@ def intervals_above(t_s: np.ndarray, x: np.ndarray, threshold: float) -> np.ndar
             return float(t_s[j])
         return float(t_s[i] + (threshold - x[i]) / (x[j] - x[i]) * (t_s[j] - t_s[i]))
 
-    starts = [float(t_s[k]) if k == 0 else crossing(k - 1, k) for k in first]
-    ends = [float(t_s[k]) if k == x.size - 1 else crossing(k, k + 1) for k in last]
+    starts = [float(t_s[k]) if k == 0 else crossing(k - 1, k) for k in first.tolist()]
+    ends = [float(t_s[k]) if k == x.size - 1 else crossing(k, k + 1) for k in last.tolist()]
     return np.array([starts, ends], dtype=float).T.reshape(-1, 2)
 
 
@@ -719,7 +720,38 @@ def vkf_figure(
     return _figure(data, layout, validate)
 
 
-def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | str]]:
+class DvlCounts(TypedDict):
+    """:func:`dvl_counts`: the DVL updates summed over the runs; None each without DVL updates."""
+
+    dvl_fused: int | None
+    dvl_rejected: int | None
+    dvl_coast: int | None
+
+
+class SummaryRow(DvlCounts):
+    """One method's line of :func:`summary_rows`."""
+
+    method: str  # upper case
+    vel_final_mps: float
+    vel_rms_mps: float
+    att_final_deg: float
+    att_rms_deg: float
+    tilt_rms_deg: float
+    heading_rms_deg: float
+    pos_final_m: float
+    pos_rms_m: float
+    nees_dim: int
+    nees_per_dim: float
+    nees_in_band: float
+    vel_nees_per_dim: float
+    dvl_nis_per_dof: float
+    runs: int
+    diverged_runs: int
+    diverged_first_s: float
+    p_floor_count: int
+
+
+def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
     """Per method: final and RMS-over-time errors (RMS over runs first when there are several),
     tilt and heading apart; consistency (tauvcore.eval.consistency.method_consistency, each
     method with its own NEES dimensions): the full state's dimension, its mean
@@ -727,7 +759,7 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | 
     NEES/dim, DVL NIS per degree of freedom (NaN without DVL updates); and the filter's health:
     how many runs the divergence monitor flagged, the earliest flag [s] (NaN if none) and the P
     eigenvalue-floor repairs summed over runs."""
-    rows = []
+    rows: list[SummaryRow] = []
     for method, res in results.items():
 
         def curve(x: np.ndarray) -> np.ndarray:
@@ -764,7 +796,7 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[dict[str, float | 
     return rows
 
 
-def dvl_counts(result: MethodResult) -> dict[str, int | None]:
+def dvl_counts(result: MethodResult) -> DvlCounts:
     """The DVL updates of ``result`` summed over its runs, as the CLI counts them (app.cli
     summary_table): ``dvl_fused``, ``dvl_rejected`` (failed the gate) and ``dvl_coast`` (pings
     with no measurement); None each for a method without DVL updates (INS)."""
@@ -778,7 +810,7 @@ def dvl_counts(result: MethodResult) -> dict[str, int | None]:
     }
 
 
-def _health_cell(row: Mapping[str, float | str]) -> str:
+def _health_cell(row: SummaryRow) -> str:
     """ "ok", or when the divergence monitor flagged runs, when (and how many of the runs)."""
     if not row["diverged_runs"]:
         return "ok"

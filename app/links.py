@@ -242,14 +242,16 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
     """Read a page's ``location.search`` (with or without ``?``, percent-escaped as the browser
     holds it; ``+`` is a plus, not a space). ``sources``: the Source control's choices (without
     logs, only "simulation"). Never raises: what cannot be applied is in ``problems``."""
-    query = query[1:] if query.startswith("?") else query
+    query = query.removeprefix("?")
     if len(query) > MAX_QUERY_CHARS:
         return Link(
             {},
             (),
             (
-                f"the address's query is {len(query)} characters long; at most {MAX_QUERY_CHARS} "
-                "are read, so none of it was applied",
+                (
+                    f"the address's query is {len(query)} characters long; at most {MAX_QUERY_CHARS} "
+                    "are read, so none of it was applied"
+                ),
             ),
         )
     values: dict[str, Any] = {}

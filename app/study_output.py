@@ -67,7 +67,9 @@ def _plain(value: Any) -> Any:
         return [_plain(v) for v in value]
     if isinstance(value, np.ndarray):
         if value.dtype.kind == "f":
-            return np.where(np.isfinite(value), value, None).tolist()
+            plain = value.astype(object)
+            plain[~np.isfinite(value)] = None
+            return plain.tolist()
         return value.tolist()
     if isinstance(value, (float, np.floating)):
         return float(value) if np.isfinite(value) else None
@@ -170,7 +172,7 @@ class StudyWriter:
         if self._parquet is not None:
             try:
                 self._parquet.close()
-            except Exception:  # noqa: BLE001 - the file is thrown away with the directory
+            except Exception:  # noqa: BLE001, S110 - the file is thrown away with the directory
                 pass
             self._parquet = None
         shutil.rmtree(self.tmp, ignore_errors=True)

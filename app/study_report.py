@@ -24,7 +24,9 @@ PANELS = (
 
 
 def _finite_or_none(x: np.ndarray) -> list[float | None]:
-    return np.where(np.isfinite(x), x, None).tolist()
+    plain = x.astype(object)
+    plain[~np.isfinite(x)] = None
+    return plain.tolist()
 
 
 def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool = False) -> go.Figure:
@@ -149,8 +151,10 @@ def report_html(title: str, description: str, summaries: dict[str, dict[str, Any
     """The whole page; ``summaries`` maps trajectory to its StudyAccumulator.summary()."""
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-        "<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}"
-        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>",
+        (
+            "<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}"
+            "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>"
+        ),
         f"<h1>{html.escape(title)}</h1><p>{html.escape(description)}</p>",
     ]
     first = True

@@ -36,7 +36,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -114,7 +114,21 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
     return out
 
 
-def truth_view(config: Config, step: int) -> dict[str, np.ndarray | None]:
+class TruthView(TypedDict):
+    """The ``("truth", ...)`` message's dict: :func:`truth_view` or :func:`log_truth_view`."""
+
+    t_s: np.ndarray  # (T,) the output epochs [s]
+    pos_n: np.ndarray  # (T, 3)
+    C_nb: np.ndarray  # (T, 3, 3)
+    ping_t_s: np.ndarray  # the DVL pings [s]
+    ping_available: np.ndarray  # (pings, 4) the beams the schedule lets return
+    altitude_m: np.ndarray | None  # (T,); None for a replayed log
+    slant_range_m: np.ndarray | None  # (T, 4); None for a replayed log
+    propeller_rpm: np.ndarray | None  # (T,); None but for the dynamic truth
+    fin_angles_rad: np.ndarray | None  # (T, 4); None but for the dynamic truth
+
+
+def truth_view(config: Config, step: int) -> TruthView:
     """What the 3-D view needs before the run: the truth at the output epochs (every ``step``-th
     IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
     the schedule lets return (random drop-outs show once the results carry them).
@@ -161,7 +175,7 @@ def truth_view(config: Config, step: int) -> dict[str, np.ndarray | None]:
     }
 
 
-def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> dict[str, np.ndarray | None]:
+def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> TruthView:
     """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings
     (a log records no seabed and no actuators: ``altitude_m``, ``slant_range_m``,
     ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
@@ -205,7 +219,7 @@ def run_worker(
             config = replay_config(config, log)
             sim = log_simulation(config, log, rng)
             queue.put(("config", to_dict(config)))
-        step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
+        step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
         queue.put(
             (
                 "truth",
@@ -242,7 +256,7 @@ def run_worker(
                 should_stop=should_stop,
             )
         queue.put(("done", results, stop_event.is_set()))
-    except Exception as exc:  # the dashboard shows it; the server keeps serving
+    except Exception as exc:  # noqa: BLE001 - any failure is the run's: the dashboard shows it, the server keeps serving
         queue.put(("error", failure_message(exc)))
 
 
@@ -355,7 +369,8 @@ class _Worker:
     """One worker process as the server sees it."""
 
     process: Any  # multiprocessing Process (spawn context)
-    conn: mp_connection.Connection  # the server's end of the worker's pipe
+    # the server's end of the worker's pipe (PipeConnection: Pipe()'s on Windows, as the checker sees all platforms)
+    conn: mp_connection.Connection | mp_connection.PipeConnection
     ready: bool = False  # imports done, waiting for a task
     handle: RunHandle | None = None  # the run it computes
     stop_sent: bool = False  # Stop already sent for that run
@@ -514,7 +529,7 @@ class RunPool:
         waiting or computing run gets the error, and later runs get it at once."""
         try:
             self._dispatch_loop()
-        except Exception as exc:  # told to every tab instead of a silent dead thread
+        except Exception as exc:  # noqa: BLE001 - told to every tab instead of a silent dead thread
             with self._lock:
                 self._broken = f"the run pool failed ({type(exc).__name__}: {exc}); restart the server"
                 handles = [w.handle for w in self._workers if w.handle is not None] + list(self._pending)
@@ -584,7 +599,7 @@ class RunPool:
         except (EOFError, OSError):
             w.conn.close()
             return
-        except Exception as exc:  # a message cut off by the worker's death
+        except Exception as exc:  # noqa: BLE001 - a message cut off by the worker's death: unpickling it raises anything
             message = ("error", f"unreadable message from the worker: {type(exc).__name__}")
         kind = message[0]
         with self._lock:
@@ -663,6 +678,8 @@ def _stop_resource_tracker() -> None:
     try:
         from multiprocessing import resource_tracker
 
-        resource_tracker._resource_tracker._stop()
-    except Exception:  # best effort: it also ends when this process exits
+        stop = getattr(resource_tracker._resource_tracker, "_stop", None)  # private: not in the stubs
+        if stop is not None:
+            stop()
+    except Exception:  # noqa: BLE001, S110 - best effort: it also ends when this process exits
         pass
