@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import errno
+import math
 import os
 import stat
 import tomllib
@@ -316,7 +317,7 @@ def _coerce(field_name: str, default: Any, value: Any) -> Any:
             number = float(value)  # an integer such as 10**400 has no float
         except OverflowError:
             raise ConfigError(f"{field_name} must be a finite number, got {show(value)}") from None
-        if number != number or number in (float("inf"), float("-inf")):
+        if math.isnan(number) or number in (float("inf"), float("-inf")):
             raise ConfigError(f"{field_name} must be a finite number, got {show(value)}")
         return number
     if isinstance(default, str):

@@ -316,7 +316,7 @@ def read_log(directory: str | os.PathLike) -> Log:
             "the columns must be SI, m/s^2 or m/s)"
         )
 
-    out: dict = dict(source=str(root), imu_t_s=t, dtheta_b=dtheta, dv_b=dv, notes=tuple(notes))
+    out: dict = {"source": str(root), "imu_t_s": t, "dtheta_b": dtheta, "dv_b": dv, "notes": tuple(notes)}
     if paths["reference"] is not None:
         out.update(_read_reference(paths["reference"], t, median))
     _read_aiding(paths, out)
@@ -357,7 +357,13 @@ def _read_reference(ref_path: Path, t: np.ndarray, median: float) -> dict:
             f"after the IMU's first sample ({float(t[0])!r} s): the filters start from the reference"
         )
 
-    return dict(ref_t_s=ref_t, ref_position=position, ref_geodetic=geodetic, ref_euler=euler, ref_vel_n=vel)
+    return {
+        "ref_t_s": ref_t,
+        "ref_position": position,
+        "ref_geodetic": geodetic,
+        "ref_euler": euler,
+        "ref_vel_n": vel,
+    }
 
 
 def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
@@ -445,8 +451,9 @@ def write_log(
             data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
             with open(tmp, "w", encoding="utf-8") as fh:
                 fh.write(",".join(names) + "\n")
-                for row in data:
-                    fh.write(",".join("" if np.isnan(v) else repr(float(v)) for v in row) + "\n")
+                fh.writelines(
+                    ",".join("" if np.isnan(v) else repr(float(v)) for v in row) + "\n" for row in data
+                )
         os.replace(tmp, final)
 
 
@@ -496,4 +503,4 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
     return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}
 
 
-__all__ = ["Log", "LogError", "TABLES", "find_logs", "read_log", "simulation_tables", "write_log"]
+__all__ = ["TABLES", "Log", "LogError", "find_logs", "read_log", "simulation_tables", "write_log"]

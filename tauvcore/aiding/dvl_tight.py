@@ -107,7 +107,7 @@ class DvlTight:
             innovation=np.where(available, setup.z - self.predict(nom, setup), 0.0),
             H=self.jacobian(nom, setup),
             R=setup.R,
-            valid=available.any(axis=-1),
+            valid=np.any(available, axis=-1),
             active=available,
             gate_rows=True,
         )

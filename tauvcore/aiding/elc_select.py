@@ -43,14 +43,17 @@ def select(
     n = np.shape(y_c)[0]
     f = kernels.flat
     ok = np.array([s.ok for s in solutions])
-    stack = [
+    C, D, pred_gain, assumption_sd = (
         np.stack([getattr(s, name) for s in solutions]).astype(float)
         for name in ("C", "D", "pred_gain", "assumption_sd")
-    ]
+    )
     measured = np.stack([s.measured for s in solutions]).astype(bool)
     return kernels.select_batch(
         ok,
-        *stack,
+        C,
+        D,
+        pred_gain,
+        assumption_sd,
         measured,
         f(y_c, (n,), (4,)),
         f(S_y, (n,), (4, 4)),

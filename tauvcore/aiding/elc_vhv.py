@@ -46,7 +46,7 @@ def solve(beam_pitch_rad: float, pattern: tuple[bool, ...], n_f: float = 1.0) ->
     beams = np.flatnonzero(pattern)
     A_s = beam_directions_b(beam_pitch_rad)[beams]
     (axis_measured,) = np.flatnonzero(plcf.measured)
-    other = [a for a in range(3) if a not in (axis_measured, HEAVE)][0]
+    other = next(a for a in range(3) if a not in (axis_measured, HEAVE))
     # [A_s^T, -e_w] [c; d] = e_other  ->  v_other = c^T y - d w_hat
     M = np.column_stack([A_s.T, -np.eye(3)[HEAVE]])
     sol = np.linalg.solve(M, np.eye(3)[other])

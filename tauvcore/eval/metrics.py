@@ -120,7 +120,7 @@ def innovation_divergence_s(
 
     t_s (U,) update times [s]; nis (U, R); nis_dof (U, R) int; fused, valid (U, R) bool.
     """
-    U, R = nis.shape
+    _, R = nis.shape
     out = np.full(R, np.nan)
     for r in range(R):
         used = np.flatnonzero(valid[:, r] & (nis_dof[:, r] > 0))

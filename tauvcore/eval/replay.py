@@ -30,6 +30,14 @@ from tauvcore.truth.record import Truth
 from tauvcore.validation import ConfigError, show_path
 
 
+def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
+    """A table's column that the reader fills together with the table's times (``what``: the
+    table's name), so present wherever the caller found those times; LogError if not."""
+    if values is None:
+        raise LogError(f"{show_path(log.source)}: the log has no {what}")
+    return values
+
+
 def replay_config(config: Config, log: Log) -> Config:
     """``config`` with what the log fixes: the IMU rate, the mission's length and starting depth,
     and (a geodetic reference) the origin's latitude and longitude. LogError if the log's values
@@ -39,12 +47,13 @@ def replay_config(config: Config, log: Log) -> Config:
         if log.ref_t_s is not None:
             depth = float(_reference_at(log, log.imu_t_s[:1])[0][0, 2])
         elif log.depth_t_s is not None:
-            depth = float(log.depth_m[0])
+            depth = float(_column(log, log.depth_m, "depth")[0])
         else:
             depth = config.trajectory.depth_m
         config = config.replace("trajectory", duration_s=max(log.duration_s, 1.0), depth_m=max(depth, 0.0))
         if log.ref_geodetic:
-            lat0, lon0 = log.ref_position[0, 0], log.ref_position[0, 1]
+            ref_position = _column(log, log.ref_position, "reference position")
+            lat0, lon0 = ref_position[0, 0], ref_position[0, 1]
             config = config.replace("earth", latitude_deg=lat0 / units.DEG, longitude_deg=lon0 / units.DEG)
         if log.ref_t_s is None:
             # the start is the sensors' own first values (no offset added: run.ideal), as uncertain
@@ -66,12 +75,15 @@ def _reference_at(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     """Reference position, Euler angles and NED velocity at times ``t`` (K,): linear in position and
     velocity, and along the shortest rotation between the two neighbouring attitudes (exact at
     the reference's own times)."""
-    rt = log.ref_t_s
-    pos = np.column_stack([np.interp(t, rt, log.ref_position[:, i]) for i in range(3)])
-    vel = np.column_stack([np.interp(t, rt, log.ref_vel_n[:, i]) for i in range(3)])
-    C_ref = C_nb_from_euler(log.ref_euler)
+    rt = _column(log, log.ref_t_s, "reference")
+    ref_position = _column(log, log.ref_position, "reference position")
+    ref_vel_n = _column(log, log.ref_vel_n, "reference velocity")
+    ref_euler = _column(log, log.ref_euler, "reference attitude")
+    pos = np.column_stack([np.interp(t, rt, ref_position[:, i]) for i in range(3)])
+    vel = np.column_stack([np.interp(t, rt, ref_vel_n[:, i]) for i in range(3)])
+    C_ref = C_nb_from_euler(ref_euler)
     if rt.size == 1:
-        return pos, np.broadcast_to(log.ref_euler[0], (t.size, 3)).copy(), vel
+        return pos, np.broadcast_to(ref_euler[0], (t.size, 3)).copy(), vel
     j = np.clip(np.searchsorted(rt, t, side="right") - 1, 0, rt.size - 2)
     frac = np.clip((t - rt[j]) / (rt[j + 1] - rt[j]), 0.0, 1.0)
     step = log_so3(np.swapaxes(C_ref[j], -1, -2) @ C_ref[j + 1])
@@ -79,7 +91,7 @@ def _reference_at(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     at_node = frac == 0.0
     C[at_node] = C_ref[j[at_node]]
     euler = _euler_of(C)
-    euler[at_node] = log.ref_euler[j[at_node]]
+    euler[at_node] = ref_euler[j[at_node]]
     return pos, euler, vel
 
 
@@ -112,7 +124,7 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
             f"{show_path(log.source)}: no reference and no attitude table: nothing says where the "
             "filters start"
         )
-    euler = log.attitude_euler[:1]
+    euler = _column(log, log.attitude_euler, "attitude")[:1]
     C = C_nb_from_euler(euler)[0]
     vel_b = np.zeros(3)
     if log.dvl_body_mps is not None:
@@ -204,7 +216,7 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
         if log.dvl_beams_mps is not None:
             y = log.dvl_beams_mps[keep]
         else:
-            y = log.dvl_body_mps[keep] @ dvl_cfg.A_b.T
+            y = _column(log, log.dvl_body_mps, "DVL velocity")[keep] @ dvl_cfg.A_b.T
         available = ~np.isnan(y) & dvl_cfg.scheduled_availability(truth.t_s[k])
         if dvl_cfg.dropout_probability > 0:
             available &= uniform(rng, y.shape) >= dvl_cfg.dropout_probability
@@ -229,7 +241,7 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     if log.depth_t_s is not None:
         k, keep = _epochs(log, log.depth_t_s)
         pressure = pressure_sensor.PressureData(
-            t_s=truth.t_s[k[keep]], index=k[keep], depth_m=log.depth_m[keep][:, None]
+            t_s=truth.t_s[k[keep]], index=k[keep], depth_m=_column(log, log.depth_m, "depth")[keep][:, None]
         )
     else:
         pressure = pressure_sensor.PressureData(
@@ -238,7 +250,9 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     if log.attitude_t_s is not None:
         k, keep = _epochs(log, log.attitude_t_s)
         mag = mag_sensor.MagnetometerData(
-            t_s=truth.t_s[k[keep]], index=k[keep], euler=log.attitude_euler[keep][:, None]
+            t_s=truth.t_s[k[keep]],
+            index=k[keep],
+            euler=_column(log, log.attitude_euler, "attitude")[keep][:, None],
         )
     else:
         mag = mag_sensor.MagnetometerData(

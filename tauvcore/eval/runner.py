@@ -39,6 +39,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from tauvcore import units
 from tauvcore.aiding import Depth, MagAttitude, elc_select
@@ -213,6 +214,7 @@ def _initial_nominal(
     """Estimate at t = 0: truth with the initial errors (fixed, or drawn per run), biases zero."""
     _, R = batch
     ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
+    assert truth.pos_nav is not None  # Truth.__post_init__ sets pos_n where it was not given
     pos_true, C_true, v_true_b = truth.pos_nav[0], truth.C_nb[0], truth.vel_b[0]
 
     def moved(offset_m: np.ndarray) -> np.ndarray:
@@ -303,7 +305,7 @@ class _Recorder:
     MONITOR = ("nis", "nis_dof", "fused", "valid")
     ROW_FIELDS = ("z", "innovation", "innovation_var", "fused_rows", "rejected_rows")
 
-    def __init__(self, members: np.ndarray, rows: np.ndarray | None = None) -> None:
+    def __init__(self, members: npt.ArrayLike, rows: np.ndarray | None = None) -> None:
         self.members = np.asarray(members, dtype=bool)
         self.rows_of = rows
         self.t: list[float] = []
@@ -426,7 +428,11 @@ DVL_MODE_CODES = np.array([MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC], dtype=np
 """The record's DVL mode codes in the order the compiled DVL kernel takes them."""
 
 
-def partial_tables(methods: Sequence[str], config: Config) -> tuple[np.ndarray, ...]:
+PartialTables = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""n_cand, ok, C, D, gain, assumption error and measured rows: :func:`partial_tables`."""
+
+
+def partial_tables(methods: Sequence[str], config: Config) -> PartialTables:
     """The two-beam constructions of each DVL method, for every pattern of two returned beams
     (index: the sum of 2^k over the beams k), from the methods' own ``solve`` functions
     (tauvcore.aiding.elc_*): candidates (1, or the selector's 4), ok, C, D, gain, assumption
@@ -539,7 +545,7 @@ class FilterBank:
         self.registered = []
         for name in (m for m in methods if m in REGISTRY):
             spec = REGISTRY[name]
-            step = max(1, int(round(config.imu.rate_hz / spec.rate_hz)))
+            step = max(1, round(config.imu.rate_hz / spec.rate_hz))
             members = np.array([m == name for m in methods])
             self.registered.append(
                 (spec.source, spec.model(config), members, np.arange(step, num_samples, step))
@@ -551,10 +557,10 @@ class FilterBank:
             from tauvcore.eval.yoo_bank import RpmAid
 
             self.rpm_aid = RpmAid(config.vkf, R)
-        out_step = max(1, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
+        out_step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
         self.out_idx = np.arange(0, num_samples, out_step)
-        self.cov_step = max(1, int(round(config.imu.rate_hz / config.filter.covariance_rate_hz)))
-        self.check_step = max(1, int(round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ)))
+        self.cov_step = max(1, round(config.imu.rate_hz / config.filter.covariance_rate_hz))
+        self.check_step = max(1, round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ))
         self.block_of_state = np.full(STATE.dim, -1)
         for b, ix in enumerate(NEES_BLOCKS.values()):
             self.block_of_state[list(ix)] = b
@@ -790,6 +796,7 @@ class FilterBank:
             self.l_dvl_b,
             dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
         )
+        assert self.rpm_aid is not None  # called only with run.rpm_fallback's filters (see the caller)
         _, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
         coast = np.zeros(self.batch, bool)
         coast[self.dvl_index] = ~dvl_valid[self.dvl_index] & have_rpm
@@ -909,7 +916,7 @@ class FilterBank:
             events[[k - k0 for k in keys]] = True
         marks = events.copy()  # and output epochs: where the covariance step stops
         marks[outs - k0] = True
-        progress_every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
+        progress_every = max(1, round(progress_interval_s * self.config.filter.output_rate_hz))
 
         def flush() -> None:
             rows = self.slot - slot0
@@ -1042,7 +1049,7 @@ class FilterBank:
 
     # ------------------------------------------------------------------ results
     def _results(
-        self, stored: list[dict[str, np.ndarray]], first_update: dict[tuple[str, int], int]
+        self, stored: list[dict[str, np.ndarray]], first_update: dict[str, int]
     ) -> dict[str, MethodResult]:
         if stored:
             t_s = np.concatenate([c["t_s"] for c in stored])
@@ -1181,25 +1188,27 @@ class _Banks:
         stop request, polled by the 20-state bank, ends both at its epoch (:attr:`until_s`)."""
         if self.stopped:
             return False
-        if self.yoo is None:
-            going = self.bank.feed(chunk, progress, progress_interval_s, should_stop)
+        bank, yoo = self.bank, self.yoo
+        if yoo is None:
+            assert bank is not None  # __init__ builds the 20-state bank whenever there is no Yoo method
+            going = bank.feed(chunk, progress, progress_interval_s, should_stop)
         else:
-            if not self.yoo.started:
-                if self.bank is not None and not self.bank.started:
-                    self.bank.start(chunk)  # its draws first (_start_yoo)
+            if not yoo.started:
+                if bank is not None and not bank.started:
+                    bank.start(chunk)  # its draws first (_start_yoo)
                 self._start_yoo(chunk)
-            if self.bank is None:
-                going = self.yoo.feed(chunk, progress, progress_interval_s, should_stop)
+            if bank is None:
+                going = yoo.feed(chunk, progress, progress_interval_s, should_stop)
             else:
-                self.yoo.feed(chunk)
+                yoo.feed(chunk)
                 both = (
                     None
                     if progress is None
-                    else (lambda t, first: progress(t, self._merge(first, self.yoo.results(until_s=t))))
+                    else (lambda t, first: progress(t, self._merge(first, yoo.results(until_s=t))))
                 )
-                going = self.bank.feed(chunk, both, progress_interval_s, should_stop)
+                going = bank.feed(chunk, both, progress_interval_s, should_stop)
                 if not going:
-                    self.until_s = self.bank.stopped_at_s
+                    self.until_s = bank.stopped_at_s
         self.stopped = not going
         return going
 
@@ -1211,6 +1220,7 @@ class _Banks:
         else:
             nom = _initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att])
             nav = nom.nav.pos_n[0], nom.nav.vel_n[0], nom.nav.C_nb[0]
+        assert self.yoo is not None  # called by feed only when there are Yoo methods
         self.yoo.start(*nav, P0[STATE.att, STATE.att], P0[STATE.ba, STATE.ba], P0[STATE.bg, STATE.bg])
 
     def _merge(
@@ -1291,7 +1301,7 @@ def run_streaming(
     ideal = config.run.ideal
     rate = config.imu.rate_hz
     # the first chunk holds the first DVL ping: the records before it use that ping's true errors
-    chunk_samples = max(2, int(round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate)))
+    chunk_samples = max(2, round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate))
     truths = truth_stream(config.trajectory, config.earth, rate, chunk_samples)
     sensors = SensorStream(
         config.imu.ideal() if ideal else config.imu,

@@ -157,7 +157,7 @@ class StudyAccumulator:
         with np.errstate(invalid="ignore", divide="ignore"):
             return s.nees_sum[name] / s.nees_finite[name]
 
-    def consistency(self, method: str, block: str) -> dict[str, float]:
+    def consistency(self, method: str, block: str) -> dict[str, float | list[float]]:
         """As :func:`tauvcore.eval.consistency.summarise_nees` over all runs: NEES/dim over epochs
         and runs (finite entries) and the fraction of epochs whose run mean lies in the 99 % band."""
         s = self._sums[method]
@@ -319,6 +319,7 @@ def iterate_chunks(
             yield compute_chunk(config_dict, seed, first, count)
         return
     with local_pool(workers) as own:
+        assert own is not None  # workers > 1 here: local_pool gives its processes
         futures = [_submit(own, config_dict, seed, first, count) for first, count in parts]
         for f in futures:
             yield _result(f)
@@ -352,8 +353,8 @@ def run_study(
     seed: int,
     workers: int = 1,
     dask_address: str | None = None,
-    on_chunk: Callable[[ChunkSeries], None] | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    on_chunk: Callable[[ChunkSeries], object] | None = None,
+    progress: Callable[[int, int], object] | None = None,  # what they return is not used
     chunk_runs: int | None = None,
     pool: Executor | None = None,
     submitted: list[Future] | None = None,

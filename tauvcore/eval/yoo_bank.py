@@ -268,8 +268,8 @@ class YooBank:
             np.full(3, imu.gyro_bias_rw_rps_per_sqrt_s**2),
         ]
         self.q = np.maximum(self.q, 1e-24)
-        self.cov_step = max(1, int(round(imu.rate_hz / config.filter.covariance_rate_hz)))
-        out_step = max(1, int(round(imu.rate_hz / config.filter.output_rate_hz)))
+        self.cov_step = max(1, round(imu.rate_hz / config.filter.covariance_rate_hz))
+        out_step = max(1, round(imu.rate_hz / config.filter.output_rate_hz))
         self.out_idx = np.arange(0, num_samples, out_step)
         self.gate = config.filter.gate_sigma
         dvl = config.dvl
@@ -361,7 +361,7 @@ class YooBank:
         row_of_stop = np.full(stops.size, -1, np.int64)
         row_of_stop[np.searchsorted(stops, outs)] = np.arange(outs.size)
         out_stops = np.flatnonzero(row_of_stop >= 0)
-        every = max(1, int(round(progress_interval_s * self.config.filter.output_rate_hz)))
+        every = max(1, round(progress_interval_s * self.config.filter.output_rate_hz))
         if should_stop is not None:
             ends = out_stops + 1  # back to Python at every output epoch
         elif progress is not None:
@@ -383,11 +383,11 @@ class YooBank:
             t = float(chunk.truth.t_s[stops[s1 - 1] - k0])
             if should_stop is not None and should_stop():
                 self.stopped = True
-                self._seal(store, stops[s1 - 1])
+                self._seal(store, int(stops[s1 - 1]))
                 return False
             done = int(row_of_stop[s1 - 1]) + 1 + len(self.out_idx[self.out_idx < k0])
             if progress is not None and done % every == 0 and done < self.out_idx.size:
-                self._seal(store, stops[s1 - 1])
+                self._seal(store, int(stops[s1 - 1]))
                 progress(t, self.results())
                 self.chunks.pop()
         if k0 + n - 1 > self.k_state:
@@ -784,7 +784,7 @@ class YooBank:
     def _results(self, chunks: list[dict[str, np.ndarray]], until_s: float | None):
         from tauvcore.eval.runner import MethodResult, UpdateRecord
 
-        M, R = self.batch
+        _, R = self.batch
         if chunks:
             cat = {
                 name: np.concatenate([c[name] for c in chunks], axis=1 if name == "series" else 0)

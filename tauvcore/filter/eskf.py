@@ -59,7 +59,11 @@ class Nominal:
         return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf)
 
 
-def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+StateArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""pos, vel, C, accel bias, gyro bias, DVL bias, scale factor: the kernels' state (:func:`_state_arrays`)."""
+
+
+def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> StateArrays:
     """Fresh C-contiguous copies of the nominal state broadcast to ``batch``, flattened to one
     leading axis (the compiled kernels' layout): pos, vel (n, 3), C (n, 3, 3), accel and gyro bias
     (n, 3), DVL bias (n, 4), scale factor (n,)."""
@@ -80,7 +84,7 @@ def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> tuple[np.ndarray, ...
     )
 
 
-def _nominal_of(arrays: tuple[np.ndarray, ...], batch: tuple[int, ...]) -> Nominal:
+def _nominal_of(arrays: StateArrays, batch: tuple[int, ...]) -> Nominal:
     pos, vel, C, ba, bg, bdvl, sf = arrays
     return Nominal(
         NavState(pos.reshape(batch + (3,)), vel.reshape(batch + (3,)), C.reshape(batch + (3, 3))),
@@ -205,7 +209,7 @@ def _is_positive_definite(A: np.ndarray) -> np.ndarray:
     a NaN through to the factor instead of failing, hence the finiteness test on the factor's
     diagonal (a NaN or inf anywhere in the lower triangle reaches the diagonal of its row)."""
     try:
-        return np.isfinite(np.diagonal(np.linalg.cholesky(A), axis1=-2, axis2=-1)).all(axis=-1)
+        return np.all(np.isfinite(np.diagonal(np.linalg.cholesky(A), axis1=-2, axis2=-1)), axis=-1)
     except np.linalg.LinAlgError:
         pass
     flat = A.reshape((-1,) + A.shape[-2:])
@@ -251,7 +255,7 @@ def condition_covariance(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def fuse_in_place(
     P: np.ndarray,
-    state: tuple[np.ndarray, ...],
+    state: StateArrays,
     H: np.ndarray,
     R: np.ndarray,
     nu: np.ndarray,
@@ -296,8 +300,8 @@ def make_outcome(
         innovation=innovation,
         innovation_var=s_diag,
         test_ratio=test_ratio,
-        fused=keep.any(axis=-1),
-        rejected=(active & ~keep).any(axis=-1),
+        fused=np.any(keep, axis=-1),
+        rejected=np.any(active & ~keep, axis=-1),
         fused_rows=keep,
         rejected_rows=active & ~keep,
         nis=nis,

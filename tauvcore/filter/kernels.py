@@ -24,6 +24,8 @@ instead of two). NEES use a Cholesky factorisation (20^3/6 operations), not a ge
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import cast
 
 import numba
 import numpy as np
@@ -104,13 +106,20 @@ def log_so3_batch(C: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- strapdown
-# the earth functions the bank compiles as they are (tauvcore.geo.earth: those that call no other)
-_radii_nav = _jit(earth.radii_of_curvature_m)
-_ned_offset = _jit(earth.ned_offset_components)
-_normal_gravity = _jit(earth.normal_gravity_mps2)
-_gravity_north = _jit(earth.gravity_north_mps2)
-_earth_rate = _jit(earth.earth_rate_n_rps)
-_transport_rate = _jit(earth.transport_rate_with_radii)
+# the earth functions the bank compiles as they are (tauvcore.geo.earth: those that call no other);
+# earth's functions take floats or arrays, the kernels call them on floats only: typed so here
+_F2 = tuple[float, float]
+_F3 = tuple[float, float, float]
+_radii_nav = cast(Callable[[float], _F2], _jit(earth.radii_of_curvature_m))
+_ned_offset = cast(
+    Callable[[float, float, float, float, float, float], _F3], _jit(earth.ned_offset_components)
+)
+_normal_gravity = cast(Callable[[float, float], float], _jit(earth.normal_gravity_mps2))
+_gravity_north = cast(Callable[[float, float], float], _jit(earth.gravity_north_mps2))
+_earth_rate = cast(Callable[[float], _F3], _jit(earth.earth_rate_n_rps))
+_transport_rate = cast(
+    Callable[[float, float, float, float, float, float], _F3], _jit(earth.transport_rate_with_radii)
+)
 
 
 @_jit
@@ -204,9 +213,9 @@ def strapdown_step_into(
     NED velocity (depth first, then latitude, then longitude at the mean latitude; Groves 5.56).
     ``E`` (3, 3) and ``tmp`` (3, 3) are scratch (no allocation per step).
     """
-    lat_m = R_N = R_E = 0.0
+    R_N = R_E = 0.0
     if geodetic:
-        lat_m, R_N, R_E = geodetic_step_terms_into(pos, vel, C, dv, g_n, coriolis_T, dt, S)
+        _, R_N, R_E = geodetic_step_terms_into(pos, vel, C, dv, g_n, coriolis_T, dt, S)
         C_earth, C_earth_half, coriolis_T, g_n = S[0], S[1], S[2], S[3, 0]
     exp_so3_into(phi0, phi1, phi2, E)
     d0 = d1 = d2 = 0.0
@@ -541,7 +550,6 @@ def G_imu_into(C: np.ndarray, v: np.ndarray, Gm: np.ndarray) -> None:
             Gm[i, 3 + j] = -C[i, j]  # misalignment <- gyro
             Gm[3 + i, j] = -1.0 if i == j else 0.0  # velocity <- accelerometer
             Gm[3 + i, 3 + j] = -_skew(v[0], v[1], v[2], i, j)  # velocity <- gyro
-    return
 
 
 @_jit
@@ -1397,7 +1405,7 @@ def run_stops(
     s = s_from
     while s < s_to:
         k = stops[s]
-        i = k - k0
+        i: int = k - k0
         advance(
             pos,
             vel,

@@ -247,7 +247,7 @@ def dvl_body_velocity_into(
 
 
 @_jit
-def _latest(index: np.ndarray, k: int) -> int:
+def _latest(index: np.ndarray, k: int) -> np.intp:
     """Row of the last epoch at or before sample ``k`` (-1 before the first)."""
     return np.searchsorted(index, k, side="right") - 1
 

@@ -26,11 +26,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TypeAlias, overload
 
 import numpy as np
 
 from tauvcore import units
 from tauvcore.validation import require_choice, require_range
+
+FloatOrArray: TypeAlias = float | np.ndarray
+"""What the geodetic functions take and return: a float, or an array of them (elementwise; arrays
+broadcast). A float in gives a numpy float out."""
 
 OMEGA_IE_RPS = 7.292115e-5
 """WGS-84 earth rotation rate [rad/s]."""
@@ -52,7 +57,7 @@ _M_GRAVITY = OMEGA_IE_RPS**2 * A_M**2 * B_M / GM_M3PS2  # 0.00344978650684
 _GRAVITY_NORTH_PER_M = 8.08e-9  # north component of gravity per metre of height [1/s^2] (Groves eq. 2.140)
 
 
-def normal_gravity_mps2(latitude_rad: float, height_m: float = 0.0) -> float:
+def normal_gravity_mps2(latitude_rad: FloatOrArray, height_m: FloatOrArray = 0.0) -> FloatOrArray:
     """WGS-84 normal gravity magnitude [m/s^2] at a geodetic latitude and height.
 
     On the ellipsoid, Somigliana's closed form (TR8350.2 eq. 4-1)
@@ -70,7 +75,9 @@ def normal_gravity_mps2(latitude_rad: float, height_m: float = 0.0) -> float:
     )
 
 
-def gravity_n_mps2(latitude_rad: float, height_m: float) -> tuple[float, float, float]:
+def gravity_n_mps2(
+    latitude_rad: FloatOrArray, height_m: FloatOrArray
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """Plumb-bob (gravity plus centrifugal) acceleration in the local-level NED frame [m/s^2].
 
     ``(-8.08e-9 h sin(2 lat), 0, gamma(lat, h))`` (Groves eq. 2.140): off the ellipsoid the
@@ -81,12 +88,16 @@ def gravity_n_mps2(latitude_rad: float, height_m: float) -> tuple[float, float, 
     return g_north, 0.0 * g_north, normal_gravity_mps2(latitude_rad, height_m)
 
 
-def gravity_north_mps2(latitude_rad: float, height_m: float) -> float:
+def gravity_north_mps2(latitude_rad: FloatOrArray, height_m: FloatOrArray) -> FloatOrArray:
     """North component of :func:`gravity_n_mps2` [m/s^2]: ``-8.08e-9 h sin(2 lat)``."""
     return -_GRAVITY_NORTH_PER_M * height_m * np.sin(2.0 * latitude_rad)
 
 
-def radii_of_curvature_m(latitude_rad: float) -> tuple[float, float]:
+@overload
+def radii_of_curvature_m(latitude_rad: float) -> tuple[float, float]: ...
+@overload
+def radii_of_curvature_m(latitude_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+def radii_of_curvature_m(latitude_rad: FloatOrArray) -> tuple[FloatOrArray, FloatOrArray]:
     """Meridian radius ``R_N = a (1 - e^2) / (1 - e^2 sin^2 lat)^1.5`` and transverse (prime
     vertical) radius ``R_E = a / sqrt(1 - e^2 sin^2 lat)`` [m] (Groves eq. 2.105, 2.106)."""
     w2 = 1.0 - _E2 * np.sin(latitude_rad) ** 2
@@ -94,14 +105,17 @@ def radii_of_curvature_m(latitude_rad: float) -> tuple[float, float]:
     return A_M * (1.0 - _E2) / (w2 * w), A_M / w
 
 
-def earth_rate_n_rps(latitude_rad: float) -> tuple[float, float, float]:
+def earth_rate_n_rps(latitude_rad: FloatOrArray) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """Earth rotation in the local-level NED frame [rad/s]: ``Omega (cos lat, 0, -sin lat)``."""
     return OMEGA_IE_RPS * np.cos(latitude_rad), 0.0 * latitude_rad, -OMEGA_IE_RPS * np.sin(latitude_rad)
 
 
 def transport_rate_n_rps(
-    latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float
-) -> tuple[float, float, float]:
+    latitude_rad: FloatOrArray,
+    height_m: FloatOrArray,
+    vel_north_mps: FloatOrArray,
+    vel_east_mps: FloatOrArray,
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """Turn rate of the local-level NED frame over the ellipsoid [rad/s] (Groves eq. 5.44):
     ``(v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(lat) / (R_E + h))``."""
     R_N, R_E = radii_of_curvature_m(latitude_rad)
@@ -109,16 +123,25 @@ def transport_rate_n_rps(
 
 
 def transport_rate_with_radii(
-    R_N: float, R_E: float, latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float
-) -> tuple[float, float, float]:
+    R_N: FloatOrArray,
+    R_E: FloatOrArray,
+    latitude_rad: FloatOrArray,
+    height_m: FloatOrArray,
+    vel_north_mps: FloatOrArray,
+    vel_east_mps: FloatOrArray,
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """:func:`transport_rate_n_rps` with the radii of curvature at ``latitude_rad`` given."""
     east = vel_east_mps / (R_E + height_m)
     return east, -vel_north_mps / (R_N + height_m), -east * np.tan(latitude_rad)
 
 
 def geodetic_rates(
-    latitude_rad: float, height_m: float, vel_north_mps: float, vel_east_mps: float, vel_down_mps: float
-) -> tuple[float, float, float]:
+    latitude_rad: FloatOrArray,
+    height_m: FloatOrArray,
+    vel_north_mps: FloatOrArray,
+    vel_east_mps: FloatOrArray,
+    vel_down_mps: FloatOrArray,
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """Time derivatives of latitude, longitude [rad/s] and height [m/s] from NED velocity
     (Groves eq. 5.56): ``v_N / (R_N + h)``, ``v_E / ((R_E + h) cos lat)``, ``-v_D``."""
     R_N, R_E = radii_of_curvature_m(latitude_rad)
@@ -130,8 +153,8 @@ def geodetic_rates(
 
 
 def ecef_from_geodetic(
-    latitude_rad: float, longitude_rad: float, height_m: float
-) -> tuple[float, float, float]:
+    latitude_rad: FloatOrArray, longitude_rad: FloatOrArray, height_m: FloatOrArray
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """Earth-centred earth-fixed Cartesian position [m] of a geodetic point (Groves eq. 2.112)."""
     _, R_E = radii_of_curvature_m(latitude_rad)
     c = (R_E + height_m) * np.cos(latitude_rad)
@@ -148,7 +171,15 @@ surface. Measured (tests/unit/test_geodetic.py): from 11 km under the sea to 100
 and longitude come back within 4 units in their last place and height within 5e-9 m."""
 
 
-def geodetic_from_ecef(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]:
+@overload
+def geodetic_from_ecef(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]: ...
+@overload
+def geodetic_from_ecef(
+    x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+def geodetic_from_ecef(
+    x_m: FloatOrArray, y_m: FloatOrArray, z_m: FloatOrArray
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """Geodetic latitude, longitude [rad] and height [m] of an ECEF position.
 
     Bowring's parametric-latitude iteration (Bowring 1976; Groves section C.2): start from the
@@ -168,7 +199,7 @@ def geodetic_from_ecef(x_m: float, y_m: float, z_m: float) -> tuple[float, float
     return lat, np.arctan2(y_m, x_m), h
 
 
-def C_en(latitude_rad: float, longitude_rad: float) -> np.ndarray:
+def C_en(latitude_rad: FloatOrArray, longitude_rad: FloatOrArray) -> np.ndarray:
     """Rotation from the local-level NED frame to ECEF (Groves eq. 2.150 transposed): columns
     north, east, down resolved in e. -> (..., 3, 3)."""
     sl, cl = np.sin(latitude_rad), np.cos(latitude_rad)
@@ -184,13 +215,13 @@ def C_en(latitude_rad: float, longitude_rad: float) -> np.ndarray:
 
 
 def ned_offset_components(
-    latitude_rad: float,
-    longitude_rad: float,
-    height_m: float,
-    latitude_ref_rad: float,
-    longitude_ref_rad: float,
-    height_ref_m: float,
-) -> tuple[float, float, float]:
+    latitude_rad: FloatOrArray,
+    longitude_rad: FloatOrArray,
+    height_m: FloatOrArray,
+    latitude_ref_rad: FloatOrArray,
+    longitude_ref_rad: FloatOrArray,
+    height_ref_m: FloatOrArray,
+) -> tuple[FloatOrArray, FloatOrArray, FloatOrArray]:
     """North, east and down [m] of a point's offset from a reference point, resolved in the
     reference's own NED frame: the straight ECEF offset, not a distance along the surface (a
     position error, estimate against truth; or a position in the tangent frame of a mission
@@ -228,12 +259,12 @@ def ned_offset_components(
 
 
 def ned_offset_m(
-    latitude_rad: np.ndarray,
-    longitude_rad: np.ndarray,
-    height_m: np.ndarray,
-    latitude_ref_rad: np.ndarray,
-    longitude_ref_rad: np.ndarray,
-    height_ref_m: np.ndarray,
+    latitude_rad: FloatOrArray,
+    longitude_rad: FloatOrArray,
+    height_m: FloatOrArray,
+    latitude_ref_rad: FloatOrArray,
+    longitude_ref_rad: FloatOrArray,
+    height_ref_m: FloatOrArray,
 ) -> np.ndarray:
     """:func:`ned_offset_components` stacked: (..., 3) [m]."""
     n, e, d = ned_offset_components(
@@ -243,9 +274,9 @@ def ned_offset_m(
 
 
 def ned_from_geodetic(
-    latitude_rad: np.ndarray,
-    longitude_rad: np.ndarray,
-    height_m: np.ndarray,
+    latitude_rad: FloatOrArray,
+    longitude_rad: FloatOrArray,
+    height_m: FloatOrArray,
     origin: tuple[float, float, float],
 ) -> np.ndarray:
     """Position [m] in the NED tangent frame at ``origin`` = (lat, lon, h) of geodetic points:

@@ -286,6 +286,7 @@ def simulate_chunk(
             M_g = axis_error_matrices(axes_rng, runs, config.gyro_scale_factor, config.gyro_misalignment_rad)
         state = dataclasses.replace(state, axes_drawn=True, accel_axes=M_a, gyro_axes=M_g)
     if state.accel_axes is not None:
+        assert state.gyro_axes is not None  # drawn together with accel_axes (above)
         dv = dv + np.einsum("...ij,k...j->k...i", state.accel_axes, truth.dv_b[expand])
         dth = dth + np.einsum("...ij,k...j->k...i", state.gyro_axes, truth.dtheta_ib_b[expand])
         # what the 20-state filter's bias states can absorb of them: their value at the sample

@@ -170,7 +170,8 @@ class SensorStream:
         self, k0: int, truth: Truth
     ) -> tuple[imu.ImuData, dvl.DvlData, pressure.PressureData, magnetometer.MagnetometerData]:
         """IMU, DVL, pressure and magnetometer of :meth:`next_chunk_all`."""
-        return tuple(self.next_chunk_all(k0, truth)[:4])  # type: ignore[return-value]
+        chunk = self.next_chunk_all(k0, truth)
+        return chunk.imu, chunk.dvl, chunk.pressure, chunk.mag
 
     def next_chunk_all(self, k0: int, truth: Truth) -> SensorChunk:
         """Sensor outputs over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
@@ -225,6 +226,7 @@ class SensorStream:
         )
         e_data = r_data = None
         if self.echo_sounder_config is not None:
+            assert self.seabed is not None  # __init__: an echo sounder needs the seabed
             e_data = echosounder.simulate_chunk(
                 truth,
                 k0,

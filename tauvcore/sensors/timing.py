@@ -48,9 +48,9 @@ the runs' arithmetic is done together."""
 
 
 def _per_run(
-    rng: Rng, shape: tuple[int, ...], run_axis: int
+    rng: Sequence[np.random.Generator], shape: tuple[int, ...], run_axis: int
 ) -> tuple[list[np.random.Generator], tuple[int, ...]]:
-    rngs = list(rng)  # type: ignore[arg-type]
+    rngs = list(rng)
     if len(shape) <= run_axis or shape[run_axis] != len(rngs):
         raise ValueError(f"{len(rngs)} generators for a draw of shape {shape} (run axis {run_axis})")
     return rngs, shape[:run_axis] + shape[run_axis + 1 :]
@@ -118,6 +118,7 @@ def random_walk_chunk(
         travelled = np.zeros(shape)
     else:
         initial, travelled = state.initial, state.travelled
+        assert travelled is not None  # set together with initial (the returned WalkState below)
     if num_samples == 0:
         return np.zeros((0,) + shape), WalkState(initial, travelled, state.num_samples)
     starts = state.num_samples == 0

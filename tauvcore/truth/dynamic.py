@@ -55,6 +55,11 @@ from tauvcore.validation import require_positive
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
+DEFAULT_VEHICLE = veh.VehicleConfig()
+"""The vehicle when none is given (the configuration's default)."""
+DEFAULT_CONTROL = ctl.ControlConfig()
+"""The autopilot when none is given (the configuration's default)."""
+
 MISSION_STEP_S = 0.25
 """Spacing in time of the kinematic scenario's points that make the path and depth schedule [s]."""
 MISSION_MARGIN_S = 120.0
@@ -238,8 +243,8 @@ class DynamicSimulation:
         self,
         cfg: TrajectoryConfig,
         rate_hz: float,
-        vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-        control: ctl.ControlConfig = ctl.ControlConfig(),
+        vehicle: veh.VehicleConfig = DEFAULT_VEHICLE,
+        control: ctl.ControlConfig = DEFAULT_CONTROL,
     ) -> None:
         self.cfg = cfg
         self.dt = 1.0 / rate_hz
@@ -311,8 +316,8 @@ class DynamicTruthStream:
         earth: Earth,
         rate_hz: float,
         chunk_samples: int,
-        vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-        control: ctl.ControlConfig = ctl.ControlConfig(),
+        vehicle: veh.VehicleConfig = DEFAULT_VEHICLE,
+        control: ctl.ControlConfig = DEFAULT_CONTROL,
         cache: bool = True,
     ) -> None:
         require_positive("imu.rate_hz", rate_hz)
@@ -330,7 +335,7 @@ class DynamicTruthStream:
         self.cache = cache and self.num_samples + 1 <= CACHE_MAX_KNOTS
 
     def __len__(self) -> int:
-        return -(-self.num_samples // self.chunk_samples)
+        return (self.num_samples + self.chunk_samples - 1) // self.chunk_samples
 
     def _whole(self) -> np.ndarray:
         """Every knot of the mission (0 .. num_samples), simulated once per process."""
@@ -358,8 +363,10 @@ class DynamicTruthStream:
             # the chunk's samples and intervals need knots max(k0 - 1, 0) .. k1 (one past its last sample)
             start = max(k0 - 1, 0)
             if sim is None:
+                assert whole is not None  # cached: the whole mission's knots (above)
                 knots, first = whole[start : k1 + 1], start
             else:
+                assert kept is not None  # streamed: sim's knots so far (above, and each chunk)
                 knots = np.concatenate([kept, sim.knots(k1 + 1 - sim.next_knot)])
                 knots, first = knots[start - first :], start
             profile = HermiteProfile(knots, first, self.dt_s).profile()
@@ -375,8 +382,8 @@ def generate(
     cfg: TrajectoryConfig,
     earth: Earth,
     rate_hz: float,
-    vehicle: veh.VehicleConfig = veh.VehicleConfig(),
-    control: ctl.ControlConfig = ctl.ControlConfig(),
+    vehicle: veh.VehicleConfig = DEFAULT_VEHICLE,
+    control: ctl.ControlConfig = DEFAULT_CONTROL,
 ) -> Truth:
     """The whole mission's dynamic truth at ``rate_hz`` (one chunk of :class:`DynamicTruthStream`)."""
     stream = DynamicTruthStream(cfg, earth, rate_hz, num_samples(cfg.duration_s, rate_hz), vehicle, control)

@@ -431,7 +431,7 @@ def _motion_geodetic(m: dict[str, np.ndarray], lat: np.ndarray, depth: np.ndarra
 
 def num_samples(duration_s: float, rate_hz: float) -> int:
     """Samples of a mission of ``duration_s`` at ``rate_hz``, both ends included."""
-    return int(round(duration_s * rate_hz)) + 1
+    return round(duration_s * rate_hz) + 1
 
 
 def _chunk_from_profile(
@@ -611,7 +611,7 @@ class TruthStream:
 
     def __len__(self) -> int:
         """Number of chunks."""
-        return -(-self.num_samples // self.chunk_samples)
+        return (self.num_samples + self.chunk_samples - 1) // self.chunk_samples
 
     def __iter__(self) -> Iterator[tuple[int, Truth]]:
         travelled_n = None

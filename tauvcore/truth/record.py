@@ -98,6 +98,7 @@ class Truth:
     @property
     def depth_m(self) -> np.ndarray:
         """(K,) depth below the surface [m] (the flat model's down coordinate; -height on WGS-84)."""
+        assert self.pos_nav is not None  # __post_init__ sets pos_n where it was not given
         return self.pos_nav[:, 2]
 
     @property
