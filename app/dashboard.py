@@ -35,7 +35,7 @@ import plotly.graph_objects as go
 import viser
 from viser import _messages as viser_messages
 
-from app import budget, export, inputs, links, worker
+from app import budget, export, inputs, links, plot_click, worker
 from app.figures import (
     AUTO,
     COMPONENTS,
@@ -318,6 +318,7 @@ class Session:
         self.viser_params: tuple[str, ...] = ()
         self._build_gui()
         self._build_scene()
+        plot_click.install(self.client)  # a click on any plot moves the playback (app.plot_click)
         threading.Thread(target=self.read_link, daemon=True).start()
 
     # ------------------------------------------------------------------ GUI
@@ -410,6 +411,7 @@ class Session:
             self.status = gui.add_markdown("Ready. Choose a mission and press **Run**.")
             with gui.add_folder("Playback"):
                 self.time_slider = gui.add_slider("Time [s]", 0.0, d.trajectory.duration_s, 0.1, 0.0)
+                self.go_to = gui.add_text(plot_click.GO_TO_LABEL, "", hint=plot_click.GO_TO_HINT)
                 self.play_button = gui.add_button("Play")
                 self.pause_button = gui.add_button("Pause")
                 self.speed = gui.add_dropdown(
@@ -515,6 +517,7 @@ class Session:
         self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.time_slider.on_update(lambda _: self.move_cursor(self.time_slider.value))
         self.time_slider.on_update(self._slider_moved)
+        self.go_to.on_update(self._go_to)
         self.play_button.on_click(lambda _: self.play())
         self.pause_button.on_click(lambda _: setattr(self, "playing", False))
         self.camera_mode.on_update(lambda _: self._camera_changed())
@@ -880,10 +883,8 @@ class Session:
         self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
         self.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
-        self.slider_pinned, self.slider_set_s = (
-            False,
-            None,
-        )  # the slider follows the new run until the user moves it
+        # the slider follows the new run until the user moves it
+        self.slider_pinned, self.slider_set_s, self.slider_follow_sent = False, None, False
         self.time_slider.max = config.trajectory.duration_s
         self._clear_trajectories()
         self._draw_vkf_plot(None, config)
@@ -1277,6 +1278,7 @@ class Session:
         self.slider_pinned = False  # the user put the time slider somewhere during the run: it stays
         self.run_time_s = 0.0  # the latest time the running run has results for [s]
         self.slider_set_s: float | None = None  # where the run last put the slider [s]
+        self.slider_follow_sent = False  # the run moved the slider since the user last did
         # before a run: the default straight line's first 300 m, at the default seabed
         self._size_scene(
             mission_frame(np.array([start_n, start_n + [300.0, 0.0, 0.0]]), d.trajectory.seabed_depth_m)
@@ -1365,10 +1367,10 @@ class Session:
         if self.frame is None:
             return
         try:
-            fov = float(self.client.camera.fov)
-        except AssertionError:  # the browser has not reported its camera yet
-            fov = np.radians(50.0)
-        self._set_camera(*fit_camera_view(self.frame.lo_view, self.frame.hi_view, fov))
+            fov_v, aspect = float(self.client.camera.fov), float(self.client.camera.aspect)
+        except (AssertionError, ZeroDivisionError):  # the browser has not reported its camera yet
+            fov_v, aspect = np.radians(50.0), 1.0
+        self._set_camera(*fit_camera_view(self.frame.lo_view, self.frame.hi_view, fov_v, aspect))
 
     def _camera_changed(self) -> None:
         """A chase view moves the camera to the vehicle at once (free: the camera stays)."""
@@ -1600,7 +1602,37 @@ class Session:
             self.last_action_s = time.monotonic()
         if event.client is not None and self.handle is not None:
             self.slider_pinned, self.slider_set_s = t_s < self.run_time_s - 0.5, t_s
+            if self.slider_follow_sent:
+                self.slider_follow_sent = False
+                self._echo_slider(event.client, t_s)
         self.show_time(t_s)
+
+    def _echo_slider(self, client: viser.ClientHandle, t_s: float) -> None:
+        """Send the page its own slider value back. viser echoes a value to every tab but the one
+        that moved it; a value the run set (:meth:`_follow_run_time`) and sent before this tab's
+        move reached the server arrives after the move and snapped the page's slider back to the
+        run's latest time, while the server held the user's. Once the move is in, the run stops
+        moving the slider, so one echo after it puts the page right."""
+        message = viser_messages.GuiUpdateMessage(self.time_slider._impl.uuid, {"value": float(t_s)})
+        client._websock_connection.queue_message(message)
+
+    def _go_to(self, event: viser.GuiEvent) -> None:
+        """The "Go to [s]" field changed (typed, or written by a click on a plot: app.plot_click):
+        move the playback there, kept within what was run. During a run the slider then stays
+        there, as if put there by hand."""
+        if event.client is None:
+            return
+        self.last_action_s = time.monotonic()
+        try:
+            t_s = plot_click.parse_go_to_s(self.go_to.value, float(self.time_slider.max))
+        except ValueError as exc:
+            self.notify("Go to: not moved", show(str(exc)), error=True)
+            return
+        if t_s is None:
+            return
+        if self.handle is not None:
+            self.slider_pinned, self.slider_set_s = t_s < self.run_time_s - 0.5, t_s
+        self.time_slider.value = t_s
 
     def _follow_run_time(self, t_last_s: float) -> None:
         """A run's results reach ``t_last_s``: the slider moves there, unless the user put it
@@ -1615,6 +1647,7 @@ class Session:
             return
         self.slider_set_s = min(t_last_s, self.time_slider.max)
         self.time_slider.value = self.slider_set_s
+        self.slider_follow_sent = True
 
     def _span_slider(self, t_end_s: float) -> None:
         """The run ended at ``t_end_s`` (Stop, or its end): the slider spans what was run, not the

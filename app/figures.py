@@ -112,7 +112,13 @@ def _template(name: str) -> dict[str, Any]:
 def _figure(data: list[dict[str, Any]], layout: dict[str, Any], validate: bool = False) -> go.Figure:
     """``go.Figure`` of plain trace and layout dicts; ``validate`` False skips plotly's property
     checks (the same figure, several times faster to build)."""
-    layout = {**layout, "template": _template(layout.get("template", "plotly_white"))}
+    # "x unified": hovering anywhere reads every curve at that time, and a click anywhere in a plot
+    # names a time (app.plot_click moves the playback there)
+    layout = {
+        "hovermode": "x unified",
+        **layout,
+        "template": _template(layout.get("template", "plotly_white")),
+    }
     if validate:
         return go.Figure(data=data, layout=layout)
     return go.Figure(data=data, layout=layout, _validate=False)

@@ -405,11 +405,16 @@ def chase_camera_view(
 
 
 def fit_camera_view(
-    lo_view: np.ndarray, hi_view: np.ndarray, fov_rad: float
+    lo_view: np.ndarray, hi_view: np.ndarray, fov_v_rad: float, aspect: float = 1.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Camera position and look-at that frame the box ``lo_view``-``hi_view`` (3,) whole: from the
     south-west and above (a 50 deg elevation), at the distance where the box's bounding sphere
-    fits the narrower field of view ``fov_rad`` [rad] with 10 % to spare."""
+    fits the narrower of the two fields of view with 10 % to spare. ``fov_v_rad`` is the vertical
+    field of view [rad] (three.js's, viser's ``camera.fov``) and ``aspect`` the canvas's width over
+    its height (viser's ``camera.aspect``): in a view narrower than it is tall (the 3-D view beside
+    the workbench) the horizontal field, 2 atan(aspect tan(fov_v / 2)), is the narrower one."""
+    fov_h_rad = 2.0 * np.arctan(max(float(aspect), 1e-3) * np.tan(0.5 * fov_v_rad))
+    fov_rad = min(float(fov_v_rad), float(fov_h_rad))
     centre = 0.5 * (np.asarray(lo_view, float) + np.asarray(hi_view, float))
     radius = max(0.5 * float(np.linalg.norm(np.asarray(hi_view) - np.asarray(lo_view))), 5.0)
     distance = 1.1 * radius / np.sin(0.5 * fov_rad)

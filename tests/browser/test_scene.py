@@ -113,3 +113,39 @@ def test_the_playback_speed_sets_the_pace_of_the_time(new_tab) -> None:
     page.wait_for_timeout(1500)
     page.screenshot(path=str(ARTIFACTS / "scene.png"))
     assert tab.external_requests == []
+
+
+def test_a_click_on_a_plot_moves_the_playback_there(new_tab) -> None:
+    """Given a finished run with the slider at 0, when the user clicks three quarters of the way
+    along the velocity plot, then the slider (and so the scene and every plot's cursor) moves to
+    the time under the click; a time typed into "Go to [s]" does the same, and text that is no
+    time is refused in a notification naming the field and the value."""
+    tab = new_tab()
+    page = tab.page
+    tab.set_methods({"LC"})
+    page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=120000)
+    thumb = page.get_by_role("slider").first
+    thumb.focus()
+    thumb.press("Home")
+    page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 0",
+                           timeout=10000)
+    plot = page.locator(".js-plotly-plot").first
+    plot.scroll_into_view_if_needed()
+    area = plot.locator(".nsewdrag").first.bounding_box()
+    x_range = plot.evaluate("gd => gd._fullLayout.xaxis.range")
+    wanted_s = x_range[0] + 0.75 * (x_range[1] - x_range[0])
+    page.mouse.click(area["x"] + 0.75 * area["width"], area["y"] + 0.5 * area["height"])
+    page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') > 0",
+                           timeout=15000)
+    page.wait_for_timeout(500)
+    now = slider(tab)["now"]
+    assert abs(now - wanted_s) < 0.02 * (x_range[1] - x_range[0]), (now, wanted_s)   # the nearest sample
+    assert float(tab.field("Go to [s]").input_value()) == pytest.approx(now, abs=0.06)
+    tab.type_into("Go to [s]", "42")
+    page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 42",
+                           timeout=15000)
+    tab.type_into("Go to [s]", "soon")
+    tab.notification("Go to: not moved").wait_for(timeout=10000)
+    assert page.get_by_text("Go to [s]: 'soon' is not a number of seconds").count() >= 1
+    assert slider(tab)["now"] == 42.0

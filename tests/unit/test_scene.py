@@ -620,16 +620,38 @@ def test_chase_views_see_the_hull_lengthwise_with_the_bow_to_the_right(heading_d
     assert (cam - pos)[2] > 0.98 * 22.0                       # from above
 
 
-def test_fit_mission_frames_every_corner_of_the_mission():
+@pytest.mark.parametrize("aspect", [0.45, 1.0, 1.8])
+def test_fit_mission_frames_every_corner_of_the_mission(aspect):
+    """Every corner of the mission's box lies inside the view's frustum, horizontally and
+    vertically, also in a view narrower than it is tall (the 3-D view beside the workbench)."""
     from app.scene import fit_camera_view
     lo, hi = np.array([-300.0, 0.0, -110.0]), np.array([50.0, 7000.0, 0.0])
-    fov = np.radians(50.0)
-    cam, look = fit_camera_view(lo, hi, fov)
-    axis = (look - cam) / np.linalg.norm(look - cam)
+    fov_v = np.radians(50.0)
+    cam, look = fit_camera_view(lo, hi, fov_v, aspect)
+    forward = (look - cam) / np.linalg.norm(look - cam)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    tan_h, tan_v = aspect * np.tan(0.5 * fov_v), np.tan(0.5 * fov_v)
     for corner in itertools.product(*zip(lo, hi)):
         d = np.asarray(corner) - cam
-        assert np.degrees(np.arccos(d @ axis / np.linalg.norm(d))) < 0.5 * np.degrees(fov)
+        depth = d @ forward
+        assert depth > 0
+        assert abs(d @ right) / depth < tan_h and abs(d @ up) / depth < tan_v, (aspect, corner)
     assert cam[2] > hi[2]                                   # above the water
+
+
+def test_fit_mission_in_a_narrow_view_stands_back_by_the_horizontal_field():
+    """The former fit used the vertical field alone: in a view half as wide as tall the mission's
+    ends fell outside the sides. The distance grows as tan(fov_v / 2) / tan(fov_h / 2) says."""
+    from app.scene import fit_camera_view
+    lo, hi = np.array([-300.0, 0.0, -110.0]), np.array([50.0, 7000.0, 0.0])
+    fov_v = np.radians(50.0)
+    wide, look = fit_camera_view(lo, hi, fov_v, 1.5)
+    narrow, _ = fit_camera_view(lo, hi, fov_v, 0.5)
+    fov_h = 2.0 * np.arctan(0.5 * np.tan(0.5 * fov_v))
+    ratio = np.linalg.norm(narrow - look) / np.linalg.norm(wide - look)
+    assert ratio == pytest.approx(np.sin(0.5 * fov_v) / np.sin(0.5 * fov_h), rel=1e-12)
 
 
 # ------------------------------------------------------------------------------------------ playback

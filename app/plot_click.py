@@ -1,0 +1,86 @@
+"""Clicking a plot moves the playback (issue 13, item 1): one timeline for the plots and the scene.
+
+viser 1.1 draws plotly figures but tells the server nothing of a click on them (no plotly event
+reaches Python). The page does run the scripts the server sends (app.links explains the channel),
+so at connect a script (:data:`CLICK_JS`) listens for plotly's ``plotly_click`` on every figure of
+the page, the ones drawn later too, and writes the clicked point's time into the Playback folder's
+"Go to [s]" field, as if typed: viser then sends the field's new value, and the dashboard moves the
+time slider there (app.dashboard.Session.go_to). The field is an ordinary control too: a time typed
+into it moves the playback the same way.
+
+Every plot of the workbench has the mission time in seconds on its x axis (app.figures), so the
+clicked point's ``x`` is the time to show. A click between points takes the nearest point in x
+(plotly's ``hovermode`` "x unified"), so any click inside a plot's area moves the playback.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import viser
+from viser import _messages as viser_messages
+
+GO_TO_LABEL = "Go to [s]"
+GO_TO_HINT = "type a mission time, or click any plot: the playback moves there"
+# viser's label[for] names the row, not the Mantine input: the input follows the label's row
+_FIELD_XPATH = (
+    '//label[normalize-space()="{label}"]/../../following-sibling::*[1]//input[not(@type="hidden")]'
+)
+CLICK_JS = """(() => {
+  // a click on any plotly figure writes its time into the "Go to [s]" field (app.plot_click)
+  if (window.__tauvPlotClick) return;
+  window.__tauvPlotClick = true;
+  const XPATH = __XPATH__;
+  const setValue = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
+  function type(box, text) {
+    setValue.call(box, text);
+    box.dispatchEvent(new Event('input', {bubbles: true}));
+  }
+  function onClick(ev) {
+    const p = ev && ev.points && ev.points[0];
+    if (!p || typeof p.x !== 'number' || !isFinite(p.x)) return;
+    const box = document.evaluate(XPATH, document, null, XPathResult.FIRST_ORDERED_NODE_TYPE, null)
+      .singleNodeValue;
+    if (!box) return;
+    type(box, '');                      // the same time clicked twice still moves the playback
+    type(box, p.x.toFixed(2));
+  }
+  function hook() {
+    for (const gd of document.querySelectorAll('.js-plotly-plot')) {
+      // a figure redrawn by Plotly.newPlot loses its listeners: hook it again
+      if (typeof gd.on !== 'function' || !gd._ev) continue;
+      if (gd._ev.listeners('plotly_click').indexOf(onClick) < 0) gd.on('plotly_click', onClick);
+    }
+  }
+  hook();
+  setInterval(hook, 500);
+})();"""
+
+
+def script() -> str:
+    """The page script, with the field's locator filled in."""
+    return CLICK_JS.replace("__XPATH__", json.dumps(_FIELD_XPATH.format(label=GO_TO_LABEL)))
+
+
+def install(client: viser.ClientHandle) -> None:
+    """Send :data:`CLICK_JS` to ``client``'s page (once per page: the script guards itself)."""
+    client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script()))
+
+
+def parse_go_to_s(text: str, t_max_s: float) -> float | None:
+    """The time the "Go to [s]" field asks for, within [0, ``t_max_s``]; None for an empty field.
+    Raises ValueError naming the field and the value for anything but a finite number."""
+    stripped = text.strip()
+    if stripped == "":
+        return None
+    try:
+        t_s = float(stripped)
+    except ValueError:
+        raise ValueError(f"{GO_TO_LABEL}: {stripped!r} is not a number of seconds") from None
+    if not math.isfinite(t_s):
+        raise ValueError(f"{GO_TO_LABEL}: {stripped!r} is not a finite time")
+    return min(max(t_s, 0.0), float(t_max_s))
+
+
+__all__ = ["CLICK_JS", "GO_TO_HINT", "GO_TO_LABEL", "install", "parse_go_to_s", "script"]
