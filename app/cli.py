@@ -31,10 +31,11 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import numpy as np
 
 from tauvcore.aiding import AIDING_SOURCES
+from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import (
-    ALL_METHODS,
     AUTO,
     METHODS,
+    RUN_METHODS,
     Config,
     from_dict,
     merge,
@@ -288,10 +289,12 @@ def _method_flags(p: argparse.ArgumentParser) -> None:
     """The flags of the methods, their aiding and the DVL's beams (``run``, ``mc`` and ``replay``)."""
     p.add_argument(
         "--method",
-        help=f"comma-separated from {', '.join(ALL_METHODS)}, or 'all' (the first paper's "
+        help=f"comma-separated from {', '.join(RUN_METHODS)}, or 'all' (the first paper's "
         "eight) (default: ins,lc). ins-dvl and vkf are Yoo 2014's 12-state filter, aided "
         "by the DVL, or by its velocity Kalman filter switching to the propeller RPM "
-        "beyond DVL range",
+        "beyond DVL range; "
+        + "; ".join(f"{m.name}: {m.summary}" for m in REGISTRY.values())
+        + " (registered in tauvcore/aiding/registry.py)",
     )
     p.add_argument("--seed", help="seed of the random generator: noise, initial errors, dropout (default 0)")
     p.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
@@ -395,7 +398,7 @@ def resolve_config(args: argparse.Namespace) -> Config:
         )
     if getattr(args, "method", None) is not None:
         config = config.replace(
-            "run", methods=_csv("--method", args.method, ALL_METHODS, allow_all=True, all_means=METHODS)
+            "run", methods=_csv("--method", args.method, RUN_METHODS, allow_all=True, all_means=METHODS)
         )
     if getattr(args, "aiding", None) is not None:
         config = config.replace("run", aiding=_csv("--aiding", args.aiding, AIDING_SOURCES))

@@ -72,6 +72,7 @@ from app.scene import (
     BEAM_REJECTED,
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
+    BEAM_THICKNESS_PX,
     CAMERA_FREE,
     CAMERA_MODES,
     CAMERA_SIDE,
@@ -85,6 +86,7 @@ from app.scene import (
     beam_readout,
     beam_segments_b,
     beam_states,
+    beam_stub,
     chase_camera_view,
     compass_view,
     fin_wxyz_body,
@@ -99,7 +101,7 @@ from app.scene import (
     seabed_ranges_m,
     wxyz_view,
 )
-from tauvcore.config import ALL_METHODS, Config, from_dict, to_dict
+from tauvcore.config import RUN_METHODS, Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS, YOO_BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
@@ -159,6 +161,7 @@ VKF_NOTES = {
     ),
 }
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
+LEGEND_WIDTH_PX, LEGEND_HEIGHT_PX = 420, 118  # the floating legend over the 3-D view
 WORKBENCH_WIDTH_PX = 640  # the plot panel docked left of the 3-D view (the user can resize or minimise it)
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
@@ -325,8 +328,12 @@ class Session:
     def _build_gui(self) -> None:
         gui = self.client.gui
         d = Config()
-        # the colours' legend heads the panel, above the tabs: in view whatever tab is open
-        self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
+        # the colours' legend floats over the 3-D view's bottom-left corner, in its own small panel:
+        # in view whatever the control panel or the workbench scrolls to (the user may move it)
+        self.legend_panel = gui.add_panel()
+        with self.legend_panel.add_tab("Legend"):
+            self.legend = gui.add_html(self._legend_html(DEFAULT_METHODS))
+        self.legend_panel.float(x=12, y=-12, width=LEGEND_WIDTH_PX, height=LEGEND_HEIGHT_PX)
         tabs = gui.add_tab_group()
         with tabs.add_tab("Mission"):
             self.source = (
@@ -349,10 +356,11 @@ class Session:
             # numeric fields are text: the server reads what was typed (see app.inputs)
             self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
             with gui.add_folder("Methods"):
-                # both papers' methods: the first's, then Yoo 2014's (tauvcore.config.ALL_METHODS)
+                # both papers' methods, the first's then Yoo 2014's, then the registered ones
+                # (tauvcore.config.RUN_METHODS)
                 self.method_boxes = {
                     m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS, hint=inputs.METHOD_HINTS.get(m))
-                    for m in ALL_METHODS
+                    for m in RUN_METHODS
                 }
             with gui.add_folder("Partial-beam methods"):
                 # each method's assumption, visible and settable (issue 8): VB's virtual-beam
@@ -538,7 +546,7 @@ class Session:
             for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
         ]
         return (
-            '<div style="font-size:0.8em;line-height:1.6">Trajectories: '
+            '<div id="tauv-legend" style="font-size:0.8em;line-height:1.6">Trajectories: '
             + " &nbsp; ".join(items)
             + "<br>Beams (numbered 1-4 in the view): "
             + " &nbsp; ".join(beams)
@@ -599,7 +607,7 @@ class Session:
         self.notify(title, headline)
 
     def selected_methods(self) -> tuple[str, ...]:
-        return tuple(m for m in ALL_METHODS if self.method_boxes[m].value)
+        return tuple(m for m in RUN_METHODS if self.method_boxes[m].value)
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
@@ -1405,7 +1413,8 @@ class Session:
             )
         if states is None:
             states = beam_states(dvl.beam_mask, dvl.beam_mask & np.isfinite(range_m), np.zeros(4, bool))
-        segs = beam_segments_b(dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m)
+        full = beam_segments_b(dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m)
+        segs = {s: beam_stub(full) if s == BEAM_SWITCHED_OFF else full for s in BEAM_THICKNESS_PX}
         order = (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
         nodes = getattr(self, "beam_nodes", None)
         if nodes is None:  # the first drawing makes the nodes, each as it is to be shown
@@ -1413,9 +1422,9 @@ class Session:
                 [
                     self.client.scene.add_line_segments(
                         f"/auv/beams/{k + 1}/{j}",
-                        segs[k : k + 1],
+                        segs[s][k : k + 1],
                         BEAM_COLORS[s],
-                        thickness=2.5,
+                        thickness=BEAM_THICKNESS_PX[s],
                         thickness_units="screen",
                         visible=s == states[k],
                     )
@@ -1427,7 +1436,7 @@ class Session:
             return
         for k, state in enumerate(states):
             node = nodes[k][order.index(state)]
-            node.points = segs[k : k + 1]
+            node.points = segs[state][k : k + 1]
             if state != self.beam_shown[k]:
                 node.visible = True
                 nodes[k][order.index(self.beam_shown[k])].visible = False

@@ -32,7 +32,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 
 from tauvcore.aiding.elc_select import CANDIDATES
-from tauvcore.config import Config, to_dict
+from tauvcore.config import REGISTERED_METHODS, Config, to_dict
 from tauvcore.eval.consistency import (
     BLOCK_DIMS,
     CONFIDENCE,
@@ -56,6 +56,13 @@ METHOD_COLORS = {
     "ins-dvl": "#bcbd22",
     "vkf": "#17becf",  # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
 }
+# Methods added as one file each (tauvcore.aiding.registry), coloured in registration order from
+# tab20's paler and darker companions of the colours above; each keeps the beams' distance
+# (app.scene.BEAM_MIN_DELTA_E, tests/unit/test_scene.py) like the papers' methods.
+REGISTERED_COLORS = ("#637939", "#e7969c", "#ffbb78", "#aec7e8", "#c5b0d5", "#8c6d31")
+METHOD_COLORS.update(
+    {m: REGISTERED_COLORS[i % len(REGISTERED_COLORS)] for i, m in enumerate(REGISTERED_METHODS)}
+)
 TRUTH_COLOR = "#111111"
 QUANTITIES = {
     "vel": ("vel_err_mps", "vel_sigma_mps", "Velocity error", "m/s"),

@@ -17,7 +17,8 @@ import math
 import re
 from dataclasses import dataclass
 
-from tauvcore.config import ALL_METHODS, AUTO, Config, from_dict, trajectory_preset
+from tauvcore.aiding.registry import REGISTRY
+from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, show
@@ -81,7 +82,9 @@ METHOD_HINTS = {
         "the Seabed tab"
     ),
 }
-"""Hints of the method checkboxes that need one (Yoo 2014's; the first paper's are named in the README)."""
+METHOD_HINTS.update({m.name: m.summary for m in REGISTRY.values()})  # registered: their own summary
+"""Hints of the method checkboxes that need one (Yoo 2014's, and the registered methods'; the first
+paper's are named in the README)."""
 FULL_BEAM_METHODS = ("lc", "ins-dvl")
 """Methods that fuse no DVL velocity with fewer than three beams (tauvcore.eval.yoo_bank for INS-DVL)."""
 SEED = "Seed"
@@ -254,7 +257,7 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
 
     Raises InputError with one line naming the control and the value as typed.
     """
-    methods = tuple(m for m in ALL_METHODS if m in c.methods)
+    methods = tuple(m for m in RUN_METHODS if m in c.methods)
     if not methods:
         raise InputError("Methods: select at least one method")
     runs = parse_int(RUNS, c.runs)

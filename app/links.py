@@ -49,7 +49,7 @@ from viser import _messages as viser_messages
 
 from app import inputs
 from app.inputs import Controls, InputError
-from tauvcore.config import ALL_METHODS
+from tauvcore.config import RUN_METHODS
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import show
 
@@ -161,7 +161,7 @@ def _value(key: Key, c: Controls) -> str:
     if key.kind == "flag":
         return "1" if value else "0"
     if key.kind == "methods":
-        return ",".join(m for m in ALL_METHODS if m in value)
+        return ",".join(m for m in RUN_METHODS if m in value)
     if key.kind == "beams":
         return ",".join(str(b) for b in sorted(value))
     return _text(value) if key.kind in _NUMERIC else str(value)
@@ -223,7 +223,7 @@ def _parse_value(key: Key, text: str, sources: Sequence[str]) -> Any:
             raise InputError("expected 1 (on) or 0 (off)")
         return text == "1"
     if key.kind == "methods":
-        return _list(text, ALL_METHODS, "a method")
+        return _list(text, RUN_METHODS, "a method")
     if key.kind == "beams":
         return tuple(int(b) for b in _list(text, ("1", "2", "3", "4"), "a beam"))
     if key.kind == "outage":

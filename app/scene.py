@@ -46,13 +46,17 @@ BEAM_COLORS = {
 }
 BEAM_COLOR_NAMES = {
     BEAM_RETURNING: "blue",
-    BEAM_SWITCHED_OFF: "navy",
+    BEAM_SWITCHED_OFF: "navy stub",
     BEAM_OUTAGE: "aqua",
     BEAM_REJECTED: "magenta",
 }
 BEAM_MIN_DELTA_E = (
     40.0  # CIE76 distance every beam colour keeps from every method colour (a clear difference: > 10)
 )
+# A switched-off beam is drawn thin and short, a stub of its first BEAM_OFF_FRACTION: blue and navy
+# lines read alike where the beams are thin or far away, a stub beside a full beam does not.
+BEAM_OFF_FRACTION = 0.25
+BEAM_THICKNESS_PX = {BEAM_RETURNING: 2.5, BEAM_SWITCHED_OFF: 1.5, BEAM_OUTAGE: 2.5, BEAM_REJECTED: 2.5}
 BEAM_LABEL_DISTANCE_M = 4.0  # each beam's number stands this far along it from the DVL head
 SEABED_MARGIN_M = 300.0  # the seabed (mesh or flat grid) reaches this far beyond the track on every side
 SEABED_MAX_TRIANGLES = 20000  # ... in at most this many triangles
@@ -283,6 +287,14 @@ def beam_segments_b(
     level and heading north. Drawn as children of the hull's node, whose pose ``M C_nb`` and position
     carry them into the view: beam and hull move in one message and cannot come apart."""
     return beam_segments_n(np.zeros(3), np.eye(3), l_dvl_b, A_b, range_m, max_range_m)
+
+
+def beam_stub(segments: np.ndarray, fraction: float = BEAM_OFF_FRACTION) -> np.ndarray:
+    """The first ``fraction`` of each beam of ``segments`` (..., 2, 3): a switched-off beam's stub."""
+    segments = np.asarray(segments, float)
+    out = segments.copy()
+    out[..., 1, :] = segments[..., 0, :] + fraction * (segments[..., 1, :] - segments[..., 0, :])
+    return out
 
 
 def beam_label_positions_b(

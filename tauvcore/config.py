@@ -51,13 +51,14 @@ YOO_METHODS = ("ins-dvl", "vkf")
 """Yoo 2014's 12-state filter (tauvcore.eval.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,
 ``vkf`` by the velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all"."""
 ALL_METHODS = METHODS + YOO_METHODS
-"""Both papers' methods: what the CLI's --method and the dashboard offer."""
+"""Both papers' methods."""
 REGISTERED_METHODS = tuple(REGISTRY)
 """Methods added as one file each (tauvcore.aiding.registry; ``cv``: constant body velocity, no
-DVL). ``run.methods`` (a TOML file, the library) takes them; the CLI and dashboard do not offer
-them yet (app/ lists ALL_METHODS, with a colour each)."""
+DVL). ``run.methods`` (a TOML file, the library), the CLI's ``--method`` and the dashboard take
+them like the papers' methods."""
 RUN_METHODS = ALL_METHODS + REGISTERED_METHODS
-"""Every method ``run.methods`` may hold."""
+"""Every method ``run.methods`` may hold: what the CLI's --method and the dashboard offer (app/
+gives each a colour: app.figures.METHOD_COLORS)."""
 
 DEFAULT_METHODS = ("ins", "lc")
 AUTO = "auto"

@@ -14,8 +14,8 @@ Adding a method (docs/adding_a_method.md walks through :mod:`tauvcore.aiding.cv`
 ``tauvcore/aiding/<name>.py`` with the model and a ``METHOD = FusionMethod(...)``
 (:class:`tauvcore.aiding.fusion_method.FusionMethod`), then add ``"<name>"`` to :data:`MODULES`
 below (one line). ``run.methods`` then takes it (tauvcore.config.RUN_METHODS: a TOML file, the
-library); the CLI's ``--method`` and the dashboard list tauvcore.config.ALL_METHODS, and offer
-registered methods once app/ adds REGISTERED_METHODS to its lists (and a colour).
+library), the CLI's ``--method`` offers it, and the dashboard shows a checkbox for it (its hint:
+the method's ``summary``) and a colour of its own (app.figures.REGISTERED_COLORS, in MODULES order).
 """
 
 from __future__ import annotations

@@ -34,8 +34,10 @@ COUNT_COLOURS_JS = """async ([png, colours]) => {
 
 
 def beam_pixels(tab) -> tuple[int, int]:
-    """(returning, switched off) beam pixels in the 3-D view as drawn now (the legend left out)."""
+    """(returning, switched off) beam pixels in the 3-D view as drawn now (the legend, which floats
+    over the view, hidden for the count)."""
     tab.page.wait_for_timeout(1500)        # frames at 5/s under test (conftest.THROTTLE_FRAMES)
+    tab.page.evaluate("() => { const l = document.getElementById('tauv-legend'); if (l) l.style.visibility = 'hidden'; }")
     png = base64.b64encode(tab.page.locator("canvas").first.screenshot()).decode()
     return tuple(tab.page.evaluate(COUNT_COLOURS_JS, [png, [BEAM_COLORS[BEAM_RETURNING],
                                                             BEAM_COLORS[BEAM_SWITCHED_OFF]]]))

@@ -69,3 +69,30 @@ def test_two_runs_overlaid_compared_cursor_and_diagnostics(new_tab) -> None:
     innovations = [dict(f) for f in tab.plot_traces() if "TC" in dict(f) and "LC" in dict(f) and "LC (run 1)" not in dict(f)]
     assert any(f["LC"] >= 9 and f["TC"] >= 9 for f in innovations), innovations   # 10 s of 1 Hz DVL
     assert tab.external_requests == []
+
+
+def test_a_registered_method_runs_from_the_dashboard(new_tab) -> None:
+    """Given the registered method CV (tauvcore/aiding/cv.py) ticked beside LC, when a 10 s run
+    ends, then the error plots hold a CV curve with data, in CV's own colour, and the Innovations
+    tab offers CV's updates as a source of their own."""
+    from app.figures import METHOD_COLORS
+    from tauvcore.aiding.registry import REGISTRY
+
+    tab = new_tab()
+    tab.type_into("Duration [s]", "10")
+    tab.set_methods({"LC"})
+    tab.set_checkbox("CV", True)
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=120000)
+    velocity = dict(tab.plot_traces()[0])
+    assert velocity.get("CV", 0) > 50 and velocity.get("LC", 0) > 50, velocity
+    colour = tab.page.evaluate("Array.from(document.querySelectorAll('.js-plotly-plot'))[0]"
+                               "._fullData.find(t => t.name === 'CV').line.color")
+    assert colour == METHOD_COLORS["cv"]
+    tab.page.get_by_role("tab", name="Innovations").click()
+    source = REGISTRY["cv"].source
+    tab.page.wait_for_function("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                               ".some(p => (p.layout.title && p.layout.title.text || '').includes('innovation'))",
+                               timeout=30000)   # the diagnostics are drawn once the tab is still (QUIET_S)
+    tab.page.get_by_label("Aiding source", exact=True).click()
+    tab.page.get_by_role("option", name=source, exact=True).wait_for(timeout=10000)

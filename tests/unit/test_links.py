@@ -15,7 +15,7 @@ import pytest
 
 from app import links
 from app.inputs import SIMULATION, Controls, config_from_controls
-from tauvcore.config import ALL_METHODS
+from tauvcore.config import RUN_METHODS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
                     vb_nf="20", nsv_epsilon="auto",
@@ -152,8 +152,8 @@ def test_no_query_sets_nothing() -> None:
 
 
 def test_methods_are_written_in_the_page_s_order() -> None:
-    reordered = dataclasses.replace(DEFAULTS, methods=tuple(reversed(ALL_METHODS)))
-    assert f"m={','.join(ALL_METHODS)}&" in links.encode(reordered)
+    reordered = dataclasses.replace(DEFAULTS, methods=tuple(reversed(RUN_METHODS)))
+    assert f"m={','.join(RUN_METHODS)}&" in links.encode(reordered)
 
 
 class _Tab:
@@ -175,7 +175,7 @@ class _Tab:
                      "dvl_bias", "dvl_sf", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise", "seed",
                      "runs"):
             setattr(self, name, handle(getattr(DEFAULTS, name)))
-        self.method_boxes = {m: handle(m in DEFAULTS.methods) for m in ALL_METHODS}
+        self.method_boxes = {m: handle(m in DEFAULTS.methods) for m in RUN_METHODS}
         self.beam_boxes = [handle(True) for _ in range(4)]
         self.outage = [(handle("0"), handle("0")) for _ in range(4)]
         for method in ("controls", "set_controls", "selected_methods", "apply_trajectory_preset", "apply_link"):

@@ -5,6 +5,8 @@ end to end, a short run whose results hold it beside the others (its own update 
 NEES), the runs of the other methods unchanged by its presence, and its position error bounded
 where the standalone INS drifts away."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -33,8 +35,36 @@ def _random_nominal(rng: np.random.Generator, batch: tuple[int, ...]) -> Nominal
 
 def test_cv_is_registered_and_run_methods_takes_it() -> None:
     assert "cv" in REGISTRY and REGISTRY["cv"].rate_hz == CV_RATE_HZ
-    assert "cv" in RUN_METHODS and "cv" not in ALL_METHODS    # the CLI and dashboard lists stay as they were
+    assert "cv" in RUN_METHODS and "cv" not in ALL_METHODS    # not one of the papers' methods
     assert Config().replace("run", methods=("cv",)).run.methods == ("cv",)
+
+
+def test_the_cli_and_the_dashboard_offer_a_registered_method(capsys, tmp_path) -> None:
+    """`tauv run --method cv` runs it (its summary in --help), the dashboard's controls and a
+    page's address take it, and it has a colour of its own."""
+    import json
+
+    from app import inputs, links
+    from app.cli import main
+    from app.figures import METHOD_COLORS, REGISTERED_COLORS
+
+    out_json = tmp_path / "cv.json"
+    assert main(["run", "--method", "lc,cv", "--duration", "20", "--json", str(out_json)]) == 0
+    data = json.loads(out_json.read_text())
+    assert set(data["results"]) == {"lc", "cv"}
+    assert data["results"]["cv"]["pos_err_m"][-1] < 50.0             # aided: the free INS drifts further
+    assert "CV" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    assert REGISTRY["cv"].summary.split()[0] in " ".join(capsys.readouterr().out.split())
+    from tests.unit.test_links import DEFAULTS
+
+    config, _ = inputs.config_from_controls(dataclasses.replace(DEFAULTS, methods=("ins", "cv")))
+    assert config.run.methods == ("ins", "cv")
+    assert inputs.METHOD_HINTS["cv"] == REGISTRY["cv"].summary
+    link = links.parse("?m=lc,cv", (inputs.SIMULATION,))
+    assert link.problems == () and link.values["methods"] == ("lc", "cv")
+    assert METHOD_COLORS["cv"] == REGISTERED_COLORS[0] and list(METHOD_COLORS.values()).count(METHOD_COLORS["cv"]) == 1
 
 
 @pytest.mark.parametrize("name", list(REGISTRY))

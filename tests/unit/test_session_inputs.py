@@ -38,7 +38,7 @@ from app.inputs import (
     preset_note,
 )
 from tauvcore.config import (
-    ALL_METHODS,
+    RUN_METHODS,
     Config,
     from_dict,
     merge,
@@ -259,7 +259,7 @@ class _Spy:
 
 
 def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simulation",
-             methods: tuple[str, ...] = ALL_METHODS, rpm_fallback: bool = False) -> object:
+             methods: tuple[str, ...] = RUN_METHODS, rpm_fallback: bool = False) -> object:
     """What Session.controls and Session._confirmed_inputs read of a tab, each control a _Spy."""
     from types import SimpleNamespace
 
@@ -270,7 +270,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         return _Spy(f"id{next(count)}", value, read_ids)
     tab = SimpleNamespace(
         trajectory=spy("figure8"), truth=spy(truth), duration=spy("250"),
-        method_boxes={m: spy(m in methods) for m in ALL_METHODS}, rpm_fallback=spy(rpm_fallback),
+        method_boxes={m: spy(m in methods) for m in RUN_METHODS}, rpm_fallback=spy(rpm_fallback),
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
         outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
