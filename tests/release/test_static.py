@@ -57,3 +57,9 @@ def test_pyright_finds_no_type_error() -> None:
     done = _run([_tool("basedpyright"), "--pythonpath", sys.executable], 600)
     assert done.returncode == 0, done.stdout[-20000:] + done.stderr
     assert "0 errors" in done.stdout, done.stdout[-2000:]
+
+
+def test_the_tests_benchmarks_and_scripts_have_no_pyflakes_finding() -> None:
+    """Outside the package, pyflakes' findings (unused or undefined names) and import order."""
+    done = _run([_tool("ruff"), "check", "--no-cache", "--select", "F,I", "tests", "benchmarks", "scripts"], 120)
+    assert done.returncode == 0, done.stdout + done.stderr
