@@ -59,6 +59,7 @@ from app.figures import (
     innovation_sources,
     method_color,
     nees_figure,
+    overlay_figure,
     rms_markdown,
     summary_markdown,
     vkf_figure,
@@ -177,6 +178,7 @@ INNOVATION_NOTE = (
     "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
     "INS (and any method without this source) has none."
 )
+INNOVATION_PANEL_ASPECT = 0.25  # each panel of the innovations plot: a quarter of the panel's width high
 INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
 """The Innovations tab's choices before a run: any source name (a run's own replace them), so
 ``str``, not the literal "dvl"."""
@@ -476,6 +478,9 @@ class Session:
             self.innovation_source = gui.add_dropdown(
                 "Aiding source", INITIAL_INNOVATION_SOURCES, initial_value=INITIAL_INNOVATION_SOURCES[0]
             )
+            self.innovation_run = gui.add_number(
+                "Run", 1, min=1, max=1, step=1, hint="which Monte Carlo run's innovations", visible=False
+            )
             self.innovation_plot = gui.add_plotly(go.Figure(), aspect=0.85)
             self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
         with tabs.add_tab("Vehicle"):
@@ -523,6 +528,7 @@ class Session:
         self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
         self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
         self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
+        self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.time_slider.on_update(lambda _: self.move_cursor(self.time_slider.value))
         self.time_slider.on_update(self._slider_moved)
         self.go_to.on_update(self._go_to)
@@ -1140,7 +1146,13 @@ class Session:
         if only is None or only == "errors":
             self._draw_error_plots(results)
         if only is None or only == "nees":
-            self.nees_plot.figure = with_cursor(nees_figure(results, self.nees_block.value), self.cursor_t)
+            block, overlay = self.nees_block.value, self.overlay_runs()
+            figure = (
+                overlay_figure([(r.label, nees_figure(r.results, block)) for r in overlay])
+                if len(overlay) >= 2
+                else nees_figure(results, block)
+            )
+            self.nees_plot.figure = with_cursor(figure, self.cursor_t)
         if only == "innovations":
             self._draw_innovations(results)
         if only is None:
@@ -1235,7 +1247,19 @@ class Session:
             if tuple(self.innovation_source.options) != sources:
                 self.innovation_source.options = sources
             source = self.innovation_source.value if self.innovation_source.value in sources else sources[0]
-            self.innovation_plot.figure = with_cursor(innovation_figure(results, source), t)
+            runs = max(r.updates[source].innovation.shape[1] for r in results.values() if source in r.updates)
+            if self.innovation_run.max != runs:  # a Monte Carlo run's innovations, one run at a time
+                self.innovation_run.max = runs
+                self.innovation_run.visible = runs > 1
+            run = min(max(int(self.innovation_run.value), 1), runs) - 1
+            figure = innovation_figure(results, source, run=run)
+            panels = sum(1 for key in figure.layout.to_plotly_json() if key.startswith("yaxis"))
+            aspect = (
+                INNOVATION_PANEL_ASPECT * max(panels, 1) + 0.1
+            )  # viser: height / width; the panels keep their height
+            if self.innovation_plot.aspect != aspect:
+                self.innovation_plot.aspect = aspect
+            self.innovation_plot.figure = with_cursor(figure, t)
             without = [m.upper() for m, r in results.items() if source not in r.updates]
             self.innovation_note.content = INNOVATION_NOTE + (
                 f" No {source.upper()} updates: {', '.join(without)}." if without else ""

@@ -1209,18 +1209,18 @@ def innovation_figure(
     band (trace "<METHOD> 3-sigma") and the rows the gate rejected marked with a cross (trace
     "<METHOD> rejected", at every rejected row, never decimated). Epochs where the source gave
     no measurement are gaps. A consistent filter keeps about 99.7 % of its innovations in its band.
-    Methods whose number of rows differ share panels by row number (the y-axis says which is which).
+    Each panel holds one quantity: methods whose rows mean different things (LC's body axes, TC's
+    beams) get panels of their own, one per row name (:data:`INNOVATION_ROWS`), never a shared one.
     """
     records = {
         m: r.updates[source] for m, r in results.items() if source in r.updates and len(r.updates[source].t_s)
     }
-    rows = max((rec.innovation.shape[2] for rec in records.values()), default=1)
-    dims = {rec.innovation.shape[2] for rec in records.values()}
     named = INNOVATION_ROWS.get(source, {})
-    names = []
-    for k in range(rows):
-        labels = sorted({named[d][k] if d in named and k < d else f"row {k + 1}" for d in dims if k < d})
-        names.append(" / ".join(labels) if labels else f"row {k + 1}")
+    row_names = {
+        m: named.get(d, tuple(f"row {k + 1}" for k in range(d)))
+        for m, d in ((m, rec.innovation.shape[2]) for m, rec in records.items())
+    }
+    names = list(dict.fromkeys(name for labels in row_names.values() for name in labels)) or ["row 1"]
     data: list[dict[str, Any]] = []
     for method, rec in records.items():
         if not 0 <= run < rec.innovation.shape[1]:
@@ -1230,7 +1230,8 @@ def innovation_figure(
         t = rec.t_s[keep]
         valid = rec.valid[:, run]
         for k in range(rec.innovation.shape[2]):
-            suffix = "" if k == 0 else str(k + 1)
+            panel = names.index(row_names[method][k])
+            suffix = "" if panel == 0 else str(panel + 1)
             axes = {"xaxis": f"x{suffix}", "yaxis": f"y{suffix}"}
             nu = np.where(valid, rec.innovation[:, run, k], np.nan)
             with np.errstate(invalid="ignore"):
@@ -1343,6 +1344,33 @@ def compare_figure(
         "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
     }
     return _figure(data, layout, validate)
+
+
+def overlay_figure(runs: Sequence[tuple[str, go.Figure]]) -> go.Figure:
+    """Figures of one kind, one per run (``runs``: (label, figure)), overlaid: every method's curve
+    of every run in its method's colour and the run's line style (RUN_DASHES, the first solid),
+    named "<METHOD> (<label>)"; what is not a method's curve (a 99 % band, the "1 = consistent"
+    line, 1-sigma bands) is drawn once, from the first run's figure. The first figure's layout is
+    kept, its title followed by the runs' line styles. Used for the NEES plots of runs kept side by
+    side (:func:`nees_figure`), as :func:`compare_figure` is for the errors."""
+    if not runs:
+        raise ValueError("overlay_figure needs at least one run")
+    methods = {m.upper() for m in METHOD_COLORS}
+    out = go.Figure(layout=runs[0][1].layout)
+    for n, (label, figure) in enumerate(runs):
+        dash = RUN_DASHES[n % len(RUN_DASHES)]
+        for trace in figure.data:
+            name = getattr(trace, "name", None)
+            if name in methods:
+                copy = type(trace)(trace)  # a trace copies from its own kind
+                copy.update(name=f"{name} ({label})", legendgroup=f"{label}/{name}", line={"dash": dash})
+                out.add_trace(copy)
+            elif n == 0:
+                out.add_trace(trace)
+    styles = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
+    title = runs[0][1].to_dict()["layout"].get("title", {}).get("text", "")
+    out.update_layout(title_text=f"{title}: {styles}")
+    return out
 
 
 COMPARE_COLUMNS = (

@@ -48,7 +48,9 @@ def test_three_changes_within_20_ms_all_reach_the_run(new_tab) -> None:
     tab = new_tab()
     tab.type_into("Duration [s]", "20")
     spread_ms = tab.page.evaluate(THREE_CLICKS_JS, ["VB", "PLCF", "Beam 4"])
-    assert spread_ms < 40.0, spread_ms       # the clicks themselves were quick (timer granularity)
+    # the clicks fell within one 50 ms window of viser's sender, where the middle one was lost
+    # (a loaded CI machine took 40.1 ms)
+    assert spread_ms < 50.0, spread_ms
     tab.page.wait_for_timeout(500)
     assert tab.checkbox("VB").is_checked() and tab.checkbox("PLCF").is_checked()
     assert not tab.checkbox("Beam 4").is_checked()

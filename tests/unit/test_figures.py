@@ -37,6 +37,7 @@ from app.figures import (
     error_figure,
     intervals_above,
     nees_figure,
+    overlay_figure,
     summary_markdown,
     summary_rows,
     vkf_figure,
@@ -1118,7 +1119,11 @@ def test_innovation_figure_envelopes_and_rejected_markers(four_beams):
     drawn = {"ins": results["ins"], "lc": lc, "tc": results["tc"]}
     assert innovation_sources(drawn) == ("dvl",)
     fig = innovation_figure(drawn, "dvl", max_points=None)
-    assert fig.layout.yaxis.title.text == "beam 1 / surge" and fig.layout.yaxis4.title.text == "beam 4"
+    # one quantity per panel: LC's body axes first (y, y2, y3), then TC's beams (y4 to y7)
+    titles = [fig.layout[f"yaxis{'' if i == 1 else i}"].title.text for i in range(1, 8)]
+    assert titles == ["surge", "sway", "heave", "beam 1", "beam 2", "beam 3", "beam 4"]
+    assert {d.yaxis for d in fig.data if d.name.startswith("LC")} == {"y", "y2", "y3"}
+    assert {d.yaxis for d in fig.data if d.name.startswith("TC")} == {"y4", "y5", "y6", "y7"}
     for method, m in (("lc", 3), ("tc", 4)):
         dvl = drawn[method].updates["dvl"]
         lines = [d for d in fig.data if d.name == method.upper()]
@@ -1192,3 +1197,22 @@ def test_config_diff_names_the_changed_fields():
     assert table[2] == "| setting | run 1 | run 2 |"
     assert f"| dvl.noise_mps | {a.dvl.noise_mps:g} | 0.02 |" in table and "| run.methods | lc | lc, tc |" in table
     assert "the same" in config_diff_markdown(["run 1", "run 2"], [flat_a, flat_a])
+
+
+def test_overlay_figure_draws_each_run_s_nees_in_its_line_style(single, four_beams):
+    """The NEES of two kept runs overlaid: each method's curve of each run, in its colour and the
+    run's line style, its data unchanged; the 99 % band and the reference line drawn once."""
+    first, second = nees_figure(single, "vel"), nees_figure(four_beams[2], "vel")
+    fig = overlay_figure([("run 1", first), ("run 2", second)])
+    by_name = {d.name: d for d in fig.data}
+    for label, source, dash in (("run 1", first, "solid"), ("run 2", second, "dash")):
+        for trace in source.data:
+            if trace.name.lower() in METHOD_COLORS:
+                drawn = by_name[f"{trace.name} ({label})"]
+                assert drawn.line.dash == dash and drawn.line.color == METHOD_COLORS[trace.name.lower()]
+                np.testing.assert_array_equal(np.asarray(drawn.y, float), np.asarray(trace.y, float))
+    others = [d.name for d in fig.data if "(run" not in d.name]
+    assert others == [d.name for d in first.data if d.name.lower() not in METHOD_COLORS]
+    assert fig.layout.title.text.endswith(": run 1 solid, run 2 dash")
+    with pytest.raises(ValueError, match="at least one run"):
+        overlay_figure([])

@@ -112,8 +112,10 @@ def _slider_session(value: float, max_s: float) -> types.SimpleNamespace:
     """What the time slider's methods read: a slider, a run in progress, nothing to draw."""
     slider = types.SimpleNamespace(value=value, max=max_s, step=0.1)
     session = types.SimpleNamespace(time_slider=slider, handle=object(), playing=False, slider_pinned=False,
-                                    run_time_s=0.0, slider_set_s=None, shown=[])
+                                    run_time_s=0.0, slider_set_s=None, slider_follow_sent=False, shown=[],
+                                    echoed=[])
     session.show_time = lambda t: session.shown.append(t)
+    session._echo_slider = lambda client, t: session.echoed.append(t)
     return session
 
 
@@ -135,6 +137,23 @@ def test_the_slider_stays_where_the_user_put_it_while_the_run_goes_on() -> None:
     session.time_slider.value = 7.0
     Session._follow_run_time(session, 130.0)
     assert session.time_slider.value == 7.0 and session.slider_pinned
+
+
+def test_a_move_that_raced_a_follow_set_is_echoed_to_its_page_once() -> None:
+    """viser echoes a slider's value to every tab but the one that moved it: a value the run set
+    just before the user's move reached the server arrived at the page after the move and snapped
+    the page's slider back, while the server held the user's. The page gets its own value back
+    once, after a follow-set; moves without one in between (dragging) get none."""
+    session = _slider_session(0.0, 250.0)
+    Session._follow_run_time(session, 40.0)                     # sent to the page
+    session.time_slider.value = 12.0
+    Session._slider_moved(session, types.SimpleNamespace(client=object()))
+    assert session.echoed == [12.0]
+    for t in (11.0, 10.0):                                      # the user drags on: the run is pinned
+        session.time_slider.value = t
+        Session._slider_moved(session, types.SimpleNamespace(client=object()))
+    Session._follow_run_time(session, 80.0)
+    assert session.echoed == [12.0] and session.time_slider.value == 10.0
 
 
 def test_after_a_stop_the_slider_spans_what_was_run() -> None:
