@@ -23,15 +23,14 @@ from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser
 
-# three checkbox clicks, 10 ms apart (20 ms first to last), by their input ids
-THREE_CLICKS_JS = """async (names) => {
+# three checkbox clicks in one task, by their input ids: all three within one 50 ms window of
+# viser's sender whatever the page is doing (clicks 10 ms apart by setTimeout took 40-79 ms on a
+# loaded machine, the page's first frames under software WebGL delaying the timers)
+THREE_CLICKS_JS = """(names) => {
   const box = (name) => document.getElementById(
       [...document.querySelectorAll('label')].find(l => l.textContent === name).htmlFor);
   const t0 = performance.now();
-  for (const [i, name] of names.entries()) {
-    if (i > 0) await new Promise(r => setTimeout(r, 10));
-    box(name).click();
-  }
+  for (const name of names) box(name).click();
   return performance.now() - t0;
 }"""
 
@@ -42,15 +41,13 @@ def run_and_wait(tab) -> None:
 
 
 def test_three_changes_within_20_ms_all_reach_the_run(new_tab) -> None:
-    """Given VB and PLCF off and beam 4 on, when the three are toggled within 20 ms and Run is
-    pressed, then the run used VB and PLCF and not beam 4 (before: PLCF, the middle change, was
-    lost while its box showed ticked)."""
+    """Given VB and PLCF off and beam 4 on, when the three are toggled at once (one script, well
+    within viser's 50 ms window) and Run is pressed, then the run used VB and PLCF and not beam 4
+    (before: PLCF, the middle change, was lost while its box showed ticked)."""
     tab = new_tab()
     tab.type_into("Duration [s]", "20")
     spread_ms = tab.page.evaluate(THREE_CLICKS_JS, ["VB", "PLCF", "Beam 4"])
-    # the clicks fell within one 50 ms window of viser's sender, where the middle one was lost
-    # (a loaded CI machine took 40.1 ms)
-    assert spread_ms < 50.0, spread_ms
+    assert spread_ms < 50.0, spread_ms       # within one window of viser's sender
     tab.page.wait_for_timeout(500)
     assert tab.checkbox("VB").is_checked() and tab.checkbox("PLCF").is_checked()
     assert not tab.checkbox("Beam 4").is_checked()
