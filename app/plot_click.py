@@ -33,6 +33,7 @@ CLICK_JS = """(() => {
   window.__tauvPlotClick = true;
   const XPATH = __XPATH__;
   const setValue = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
+  let flip = false;
   function type(box, text) {
     setValue.call(box, text);
     box.dispatchEvent(new Event('input', {bubbles: true}));
@@ -43,8 +44,10 @@ CLICK_JS = """(() => {
     const box = document.evaluate(XPATH, document, null, XPathResult.FIRST_ORDERED_NODE_TYPE, null)
       .singleNodeValue;
     if (!box) return;
-    type(box, '');                      // the same time clicked twice still moves the playback
-    type(box, p.x.toFixed(2));
+    // a trailing space every other click: the same time clicked twice is still a change (viser
+    // sends a field's latest value only, so clearing it first would not reach the server)
+    flip = !flip;
+    type(box, p.x.toFixed(2) + (flip ? ' ' : ''));
   }
   function hook() {
     for (const gd of document.querySelectorAll('.js-plotly-plot')) {

@@ -143,6 +143,13 @@ def test_a_click_on_a_plot_moves_the_playback_there(new_tab) -> None:
     now = slider(tab)["now"]
     assert abs(now - wanted_s) < 0.02 * (x_range[1] - x_range[0]), (now, wanted_s)   # the nearest sample
     assert float(tab.field("Go to [s]").input_value()) == pytest.approx(now, abs=0.06)
+    thumb.focus()
+    thumb.press("Home")                                      # away, then the same point again
+    page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 0",
+                           timeout=10000)
+    page.mouse.click(area["x"] + 0.75 * area["width"], area["y"] + 0.5 * area["height"])
+    page.wait_for_function(f"() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === {now}",
+                           timeout=15000)
     tab.type_into("Go to [s]", "42")
     page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 42",
                            timeout=15000)

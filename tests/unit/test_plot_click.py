@@ -19,8 +19,9 @@ from app.plot_click import GO_TO_LABEL, parse_go_to_s
         ("1e2", 250.0, 100.0),
         ("-3", 100.0, 0.0),       # before the start: the start
         ("400", 250.0, 250.0),    # beyond what was run: its end
-        ("", 100.0, None),        # the script clears the field before it types
+        ("", 100.0, None),        # an emptied field: nothing to do
         ("   ", 100.0, None),
+        ("12.5 ", 100.0, 12.5),   # the script adds a space every other click
     ],
 )
 def test_a_time_is_read_and_kept_within_what_was_run(text: str, t_max_s: float, expected: float | None) -> None:
