@@ -466,6 +466,24 @@ def partial_tables(methods: Sequence[str], config: Config) -> PartialTables:
     return n_cand, ok, Cc, Dc, gc, ac, mc
 
 
+def rpm_measurement(
+    v_b: np.ndarray, sf: np.ndarray, b_dvl: np.ndarray, A_pinv: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The RPM velocity's prediction ``h`` (..., 3) and Jacobian ``H`` (..., 3, 20) at a state of
+    body velocity ``v_b`` (..., 3) [m/s], DVL scale factor ``sf`` (...) and beam biases ``b_dvl``
+    (..., 4) [m/s] (``--rpm-fallback``, FilterBank._rpm_fallback). Surge is the speed the VKF
+    learned from the DVL, ``(1 + SF) v_b1 + A+_1 . b`` (the first row of the LC measurement, with
+    ``A_pinv`` (3, 4) the DVL's A+); sway and heave are the body velocity (taken as zero)."""
+    h = np.array(v_b, dtype=float, copy=True)
+    h[..., 0] = (1.0 + sf) * v_b[..., 0] + b_dvl @ A_pinv[0]
+    H = np.zeros(np.shape(v_b)[:-1] + (3, STATE.dim))
+    H[..., STATE.vel] = np.eye(3)
+    H[..., 0, STATE.vel.start] = 1.0 + sf
+    H[..., 0, STATE.b_dvl] = A_pinv[0]
+    H[..., 0, STATE.sf_dvl.start] = v_b[..., 0]
+    return h, H
+
+
 class FilterBank:
     """Every method of ``config.run.methods`` over R runs, fed a simulation chunk by chunk.
 
@@ -557,6 +575,7 @@ class FilterBank:
             from tauvcore.eval.yoo_bank import RpmAid
 
             self.rpm_aid = RpmAid(config.vkf, R)
+            self.rpm_A_pinv = np.linalg.pinv(np.asarray(config.dvl.A_b, dtype=float))  # (3, 4): LC's A+
         out_step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
         self.out_idx = np.arange(0, num_samples, out_step)
         self.cov_step = max(1, round(config.imu.rate_hz / config.filter.covariance_rate_hz))
@@ -778,8 +797,16 @@ class FilterBank:
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
         """``run.rpm_fallback``: step the runs' velocity Kalman filters (learning from the DVL while
         it is in range), and where a DVL method had no velocity from this ping, fuse the RPM's body
-        velocity ``[V_rpm, 0, 0]`` (H on the body-velocity block, R from the VKF and
-        RPM_LATERAL_SIGMA_MPS; source "rpm" in the records)."""
+        velocity ``[V_rpm, 0, 0]`` (R from the VKF and RPM_LATERAL_SIGMA_MPS; source "rpm" in the
+        records).
+
+        The VKF learns the speed the DVL measures, ``(1 + SF) v_b + A+ b`` (the LC measurement,
+        kernels.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
+        0.7 % off. So the surge row is predicted and linearised as that measurement is, with the
+        DVL scale factor and beam bias columns (H = [(1 + SF) e1, A+ row 1, v_b1] on the velocity,
+        beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
+        errors; the sway and heave rows are the zero lateral velocity on the velocity block. (With
+        H on the velocity alone the methods were over-confident, velocity NEES/dim about 2.)"""
         from tauvcore.eval.yoo_bank import dvl_body_velocity
 
         dvl = self.config.dvl
@@ -803,9 +830,11 @@ class FilterBank:
         if not coast.any():  # every method had its DVL velocity: the bank is left as it was
             return
         z = np.broadcast_to(self.rpm_aid.velocity_b(), self.batch + (3,))
-        H = np.zeros(self.batch + (3, STATE.dim))
-        H[..., STATE.vel] = np.eye(3)
-        nu = z - np.einsum("mrji,mrj->mri", self.C, self.vel)
+        v_b = np.einsum("mrji,mrj->mri", self.C, self.vel)
+        h, H = rpm_measurement(
+            v_b, self.sf.reshape(self.batch), self.bdvl.reshape(self.batch + (4,)), self.rpm_A_pinv
+        )
+        nu = z - h
         Rm = np.ascontiguousarray(np.broadcast_to(self.rpm_aid.covariance_b(), self.batch + (3, 3)))
         active = np.repeat(coast[..., None], 3, axis=-1)
         fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))

@@ -302,3 +302,28 @@ def test_geodetic_F_and_G_match_finite_differences(lat_deg, h_m, speed_mps, seed
     # and the flat model's F is the geodetic one without them
     F_flat = F_matrix(pt["C_hat"], pt["vel_b_hat"], omega_hat, EARTH)
     assert not F_flat[:, STATE.pos].any()
+
+
+def test_rpm_fallback_H_matches_finite_difference_of_its_prediction():
+    """--rpm-fallback's RPM velocity (tauvcore.eval.runner.rpm_measurement): surge the speed the
+    VKF learned from the DVL, (1 + SF) v_b1 + A+_1 . b; sway and heave the body velocity. Its H
+    against central differences over every error state (the DVL scale factor and bias columns
+    included: with H on the velocity alone the filter did not know the RPM speed shares the DVL's
+    errors)."""
+    from tauvcore.eval.runner import rpm_measurement
+
+    rng = np.random.default_rng(91)
+    nom = _random_nominal(rng, (2,))
+    A_pinv = np.linalg.pinv(DVL_CFG.A_b)
+
+    def predict(n: Nominal) -> np.ndarray:
+        return rpm_measurement(n.vel_b, np.reshape(n.dvl_sf, (2,)), n.dvl_bias, A_pinv)[0]
+
+    _, H = rpm_measurement(nom.vel_b, np.reshape(nom.dvl_sf, (2,)), nom.dvl_bias, A_pinv)
+    H_fd = np.zeros_like(H)
+    for j in range(STATE.dim):
+        dx = np.zeros((2, STATE.dim))
+        dx[:, j] = EPS
+        H_fd[..., j] = (predict(inject(nom, dx)) - predict(inject(nom, -dx))) / (2 * EPS)
+    np.testing.assert_allclose(H, H_fd, rtol=0, atol=1e-8)
+    assert np.all(H[..., 0, STATE.sf_dvl] != 0.0) and np.all(H[..., 0, STATE.b_dvl] != 0.0)

@@ -112,7 +112,9 @@ def test_rpm_fallback_aids_the_first_papers_methods_where_they_had_no_dvl_veloci
         in_trench = (rpm.t_s > 320.0) & (rpm.t_s < 470.0)
         assert rpm.fused[in_trench].all() and not rpm.valid[rpm.t_s < first_coast - 1.0].any()
         trench = (t > 320.0) & (t < 480.0)
-        assert np.mean(aided[method].vel_err_mps[trench]) < 0.1
+        # within a DVL's error of the truth: the RPM speed carries the DVL's scale factor (0.7 % of
+        # 5.1 m/s) and its sway and heave are a guessed zero (0.1 m/s); coasting, 0.3 m/s and more
+        assert np.mean(aided[method].vel_err_mps[trench]) < 0.15
         assert np.mean(aided[method].vel_err_mps[trench]) < 0.5 * np.mean(plain[method].vel_err_mps[trench])
     assert "rpm" not in plain["lc"].updates
 
