@@ -178,6 +178,7 @@ INNOVATION_NOTE = (
     "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
     "INS (and any method without this source) has none."
 )
+GO_TO_REFUSAL_DELAY_S = 0.8  # a bad "Go to [s]" is refused once it has stood this long (typing stopped)
 INNOVATION_PANEL_ASPECT = 0.25  # each panel of the innovations plot: a quarter of the panel's width high
 INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
 """The Innovations tab's choices before a run: any source name (a run's own replace them), so
@@ -1254,9 +1255,8 @@ class Session:
             run = min(max(int(self.innovation_run.value), 1), runs) - 1
             figure = innovation_figure(results, source, run=run)
             panels = sum(1 for key in figure.layout.to_plotly_json() if key.startswith("yaxis"))
-            aspect = (
-                INNOVATION_PANEL_ASPECT * max(panels, 1) + 0.1
-            )  # viser: height / width; the panels keep their height
+            # viser sizes a plot by height / width: each panel keeps its height as panels are added
+            aspect = INNOVATION_PANEL_ASPECT * max(panels, 1) + 0.1
             if self.innovation_plot.aspect != aspect:
                 self.innovation_plot.aspect = aspect
             self.innovation_plot.figure = with_cursor(figure, t)
@@ -1649,6 +1649,12 @@ class Session:
         message = viser_messages.GuiUpdateMessage(self.time_slider._impl.uuid, {"value": float(t_s)})
         client._websock_connection.queue_message(message)
 
+    def _go_to_refused(self, text: str, message: str) -> None:
+        """Refuse ``text`` of the "Go to [s]" field in a notification, if the field still holds
+        it (a value typed key by key is refused once, when the typing stops)."""
+        if self.go_to.value == text:
+            self.notify("Go to: not moved", show(message), error=True)
+
     def _go_to(self, event: viser.GuiEvent) -> None:
         """The "Go to [s]" field changed (typed, or written by a click on a plot: app.plot_click):
         move the playback there, kept within what was run. During a run the slider then stays
@@ -1656,10 +1662,11 @@ class Session:
         if event.client is None:
             return
         self.last_action_s = time.monotonic()
+        text = self.go_to.value
         try:
-            t_s = plot_click.parse_go_to_s(self.go_to.value, float(self.time_slider.max))
-        except ValueError as exc:
-            self.notify("Go to: not moved", show(str(exc)), error=True)
+            t_s = plot_click.parse_go_to_s(text, float(self.time_slider.max))
+        except ValueError as exc:  # said once the typing stops there, not at every key
+            threading.Timer(GO_TO_REFUSAL_DELAY_S, self._go_to_refused, (text, str(exc))).start()
             return
         if t_s is None:
             return

@@ -153,7 +153,9 @@ def test_a_click_on_a_plot_moves_the_playback_there(new_tab) -> None:
     tab.type_into("Go to [s]", "42")
     page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 42",
                            timeout=15000)
-    tab.type_into("Go to [s]", "soon")
+    tab.type_into("Go to [s]", "soon")                       # key by key: refused once, when the typing stops
     tab.notification("Go to: not moved").wait_for(timeout=10000)
-    assert page.get_by_text("Go to [s]: 'soon' is not a number of seconds").count() >= 1
+    page.wait_for_timeout(1500)
+    assert tab.notification("Go to: not moved").count() == 1     # a CI run showed two ("soo", "soon")
+    assert page.get_by_text("Go to [s]: 'soon' is not a number of seconds").count() == 1
     assert slider(tab)["now"] == 42.0
