@@ -21,6 +21,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import signal
 import stat
 import sys
 import tempfile
@@ -95,30 +96,18 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(" ".join(shorten(word) for word in message.split(" ")))
 
 
-VALUE_FLAGS = frozenset(
-    {
-        "--trajectory",
-        "--method",
-        "--duration",
-        "--seed",
-        "--aiding",
-        "--beams",
-        "--outage",
-        "--dropout",
-        "--vb-nf",
-        "--nsv-epsilon",
-        "--config",
-        "--json",
-        "--host",
-        "--port",
-        "--workers",
-        "--runs",
-        "--out",
-        "--dask",
-    }
-)
-"""Flags that take a value (every subcommand); see :func:`attach_dash_values`."""
-OTHER_FLAGS = frozenset({"--ideal", "-h", "--help"})
+def option_actions(parser: argparse.ArgumentParser) -> dict[str, list[argparse.Action]]:
+    """The optional arguments of ``parser`` ('' for its own) and of each subcommand, by name.
+    :data:`VALUE_FLAGS` and :data:`OTHER_FLAGS` are derived from them, so a flag added to the
+    parser is known to :func:`attach_dash_values` and :func:`_require_text_values` at once."""
+    found: dict[str, list[argparse.Action]] = {"": []}
+    for action in parser._actions:  # argparse keeps no public list of them
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                found[name] = [a for a in sub._actions if a.option_strings]
+        elif action.option_strings:
+            found[""].append(action)
+    return found
 
 
 def attach_dash_values(argv: Sequence[str]) -> list[str]:
@@ -209,7 +198,21 @@ def build_parser() -> argparse.ArgumentParser:
         "filters are tuned for that IMU)",
     )
     rl.add_argument(
-        "--config", help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config')"
+        "--config",
+        help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config'), laid over "
+        "the log's own DIR/log.toml",
+    )
+    rl.add_argument(
+        "--no-log-config",
+        action="store_true",
+        help="ignore the log's own configuration file (DIR/log.toml)",
+    )
+    rl.add_argument(
+        "--initial-errors",
+        action="store_true",
+        help="start the filters off the log's reference by the initial errors, as a simulation does "
+        "([initial_error]: fixed values, or drawn from --seed with mode = random); default: on the "
+        "reference's first row, with those errors as the starting sigmas",
     )
     rl.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
     mc = sub.add_parser(
@@ -348,15 +351,28 @@ def _imu_flag(p: argparse.ArgumentParser) -> None:
     )
 
 
-def resolve_config(args: argparse.Namespace) -> Config:
-    """Defaults, then the --config file, then the command-line flags.
+OPTIONS = option_actions(build_parser())
+"""Every subcommand's optional arguments, by subcommand ('' for ``tauv``'s own): :func:`option_actions`."""
+VALUE_FLAGS = frozenset(
+    s for actions in OPTIONS.values() for a in actions if a.nargs != 0 for s in a.option_strings
+)
+"""Flags that take a value, in any subcommand (from the parser); see :func:`attach_dash_values`."""
+OTHER_FLAGS = frozenset(
+    s for actions in OPTIONS.values() for a in actions if a.nargs == 0 for s in a.option_strings
+)
+"""Flags that take none (``--ideal``, ``--help``, ...), in any subcommand (from the parser)."""
+
+
+def resolve_config(args: argparse.Namespace, under: dict[str, Any] | None = None) -> Config:
+    """Defaults, then ``under`` (a replayed log's own configuration), then the --config file, then
+    the command-line flags.
 
     The run length is applied together with the file, so a file's outage after the default 250 s
     is valid when --duration makes the run long enough.
     """
     if getattr(args, "config", None) is not None and not args.config.strip():
         raise UsageError(f"--config: expected a TOML file name, got {show(args.config)}")
-    raw = read_toml(args.config) if args.config else {}
+    raw = merge(under or {}, read_toml(args.config) if args.config else {})
     if getattr(args, "duration", None) is not None:
         duration = _parse("--duration", args.duration, float, "a number of seconds")
         _replace("--duration", Config(), "trajectory", duration_s=duration)  # check it on its own first
@@ -406,6 +422,8 @@ def resolve_config(args: argparse.Namespace) -> Config:
         config = config.replace("run", ideal=True)
     if getattr(args, "rpm_fallback", False):
         config = config.replace("run", rpm_fallback=True)
+    if getattr(args, "initial_errors", False):
+        config = config.replace("replay", initial_errors=True)
     if getattr(args, "beams", None) is not None:
         config = config.replace("dvl", beams=_beam_list("--beams", args.beams))
     if getattr(args, "outage", None):
@@ -447,14 +465,21 @@ def _replace(flag: str, config: Config, section: str, **changes: Any) -> Config:
         raise UsageError(f"{flag}: {exc}") from None
 
 
-def _beam_list(flag: str, text: str) -> tuple[int, ...]:
+def _beam_list(flag: str, text: str, whole: str | None = None) -> tuple[int, ...]:
+    """Parse the comma-separated beams ``text`` (``1,2``); ``whole``: the flag's whole value
+    that ``text`` is part of (``--outage``'s ``3,4@50:200``), for the messages."""
+    shown = show(text if whole is None else whole)
+    if not text.strip():
+        raise UsageError(f"{flag}: no beams in {shown} (expected comma-separated beams from 1, 2, 3, 4)")
     beams = []
     for item in text.split(","):
         item = item.strip()
+        if not item:
+            raise UsageError(f"{flag}: an empty beam in {shown} (beams are 1, 2, 3, 4)")
         if item not in ("1", "2", "3", "4"):
-            raise UsageError(f"{flag}: unknown beam {show(item)} in {show(text)} (beams are 1, 2, 3, 4)")
+            raise UsageError(f"{flag}: unknown beam {show(item)} in {shown} (beams are 1, 2, 3, 4)")
         if int(item) in beams:
-            raise UsageError(f"{flag}: beam {item} repeated in {show(text)}")
+            raise UsageError(f"{flag}: beam {item} repeated in {shown}")
         beams.append(int(item))
     return tuple(beams)
 
@@ -465,7 +490,11 @@ def _outage(text: str) -> Outage:
     start_text, colon, end_text = window.partition(":")
     if not at or not colon:
         raise UsageError(f"--outage: expected BEAMS@START:END such as 3,4@50:200, got {show(text)}")
-    beams = _beam_list("--outage", beams_text)
+    if not beams_text.strip():
+        raise UsageError(
+            f"--outage: no beams before '@' in {show(text)} (expected BEAMS@START:END such as 3,4@50:200)"
+        )
+    beams = _beam_list("--outage", beams_text, text)
     try:
         start, end = float(start_text), float(end_text)
     except ValueError:
@@ -603,11 +632,15 @@ def config_to_json(config: Config) -> dict[str, Any]:
     return data
 
 
-def run_payload(config: Config, results: dict[str, MethodResult], log: str | None = None) -> dict[str, Any]:
+def run_payload(
+    config: Config, results: dict[str, MethodResult], log: str | dict[str, Any] | None = None
+) -> dict[str, Any]:
     """The document ``tauv run --json`` writes (with ``log``, ``tauv replay --json``; the
     dashboard's JSON download, app.export, is the same): ``{"config": ..., ["log": ...,]
-    "results": {method: ...}}``, the configuration by :func:`config_to_json` and each method's run
-    0 by :func:`result_to_json`, the estimate's origin the configured latitude and longitude."""
+    "results": {method: ...}}``: the configuration by :func:`config_to_json` and each method's run
+    0 by :func:`result_to_json`, the estimate's origin the configured latitude and longitude. A
+    replay's ``log`` holds its directory, its own configuration file, what configured the run,
+    where the filters started and the reader's notes."""
     origin = (config.earth.latitude_rad, config.earth.longitude_rad)
     payload: dict[str, Any] = {"config": config_to_json(config)}
     if log is not None:
@@ -616,12 +649,19 @@ def run_payload(config: Config, results: dict[str, MethodResult], log: str | Non
     return payload
 
 
-def json_target(path: str, config_path: str | None) -> str:
+Inputs = Sequence[tuple[str, str | None]]
+"""What a command reads (or writes elsewhere), as (description, path) pairs such as
+``("the --config file", args.config)`` or ``("the log directory", args.log)``; a directory
+stands for every file in it. An output may be none of them (:func:`json_target`)."""
+
+
+def json_target(path: str, inputs: Inputs = ()) -> str:
     """The real path ``--json`` will replace, checked before the run starts.
 
-    Refused: an empty name, the ``--config`` file itself (same real path or same inode), a
-    directory, anything but a regular file (``/dev/null`` would be replaced by a file), a missing
-    or unwritable directory, and a name the system cannot resolve (loops, too long).
+    Refused: an empty name, one of ``inputs`` (:func:`_refuse_input`: the --config file, a
+    replayed log's tables and its log.toml, by real path or inode), a directory, anything but a
+    regular file (``/dev/null`` would be replaced by a file), a missing or unwritable directory,
+    and a name the system cannot resolve (loops, too long).
     """
     if not path.strip():
         raise UsageError(f"--json: expected a file name, got {show(path)}")
@@ -629,8 +669,7 @@ def json_target(path: str, config_path: str | None) -> str:
     if "\x00" in path:
         raise UsageError(f"--json: a file name cannot contain a NUL character, got {name}")
     real = os.path.realpath(path)
-    if config_path and (os.path.realpath(config_path) == real or _same_file(config_path, real)):
-        raise UsageError(f"--json: {name} is the --config file; writing it would overwrite the configuration")
+    _refuse_input("--json", path, inputs)
     try:
         st = os.stat(real)
     except FileNotFoundError:
@@ -652,8 +691,85 @@ def json_target(path: str, config_path: str | None) -> str:
 def _same_file(a: str, b: str) -> bool:
     try:
         return os.path.samefile(a, b)
-    except OSError:
+    except (OSError, ValueError):
         return False
+
+
+def _real(path: str | None) -> str | None:
+    """The real path of ``path``; None for none or a name no system call takes (a NUL, which
+    the command refuses where it reads the file)."""
+    if not path:
+        return None
+    try:
+        return os.path.realpath(path)
+    except (OSError, ValueError):
+        return None
+
+
+def _inside(path: str, directory: str) -> bool:
+    """Whether the real path ``path`` is the real path ``directory`` or below it."""
+    return os.path.commonpath([path, directory]) == directory
+
+
+def _same_as_one_in(path: str, directory: str) -> str | None:
+    """The file directly in ``directory`` that is the file ``path`` (a hard link, or a symlink of
+    either to the other), if any."""
+    if not os.path.lexists(path) or not os.path.isdir(directory):
+        return None
+    try:
+        with os.scandir(directory) as entries:
+            return next((e.path for e in entries if _same_file(path, e.path)), None)
+    except OSError:
+        return None
+
+
+def _refuse_input(flag: str, path: str, inputs: Inputs) -> None:
+    """UsageError if writing the file ``path`` for ``flag`` would replace one of ``inputs``: the
+    same real path (symlinks resolved) or the same file (a hard link), a path inside an input
+    directory, or the same file as one in it."""
+    real, name = os.path.realpath(path), show_path(path)
+    for what, source in inputs:
+        source_real = _real(source)
+        if source is None or source_real is None:
+            continue
+        if real == source_real or _same_file(source_real, real):
+            raise UsageError(f"{flag}: {name} is {what}; writing it would overwrite it")
+        if _inside(real, source_real):
+            raise UsageError(
+                f"{flag}: {name} is in {what} {show_path(source)}; writing it could overwrite its files"
+            )
+        twin = _same_as_one_in(real, source_real)
+        if twin is not None:
+            raise UsageError(
+                f"{flag}: {name} is the same file as {show_path(os.path.join(source, os.path.basename(twin)))} "
+                f"in {what} {show_path(source)}; writing it would overwrite it"
+            )
+
+
+def _refuse_holding_inputs(flag: str, given: str, directory: str, inputs: Inputs) -> None:
+    """UsageError if the output directory ``directory`` (``given`` on the command line) holds
+    one of ``inputs``, or is in an input directory: its writer could replace them."""
+    out_real = os.path.realpath(directory)
+    for what, source in inputs:
+        source_real = _real(source)
+        if source is None or source_real is None:
+            continue
+        if _inside(source_real, out_real) or _same_as_one_in(source_real, out_real) is not None:
+            raise UsageError(
+                f"{flag}: {show_path(given)} holds {what} {show_path(source)}; choose another directory"
+            )
+        if os.path.isdir(source_real) and _inside(out_real, source_real):
+            raise UsageError(
+                f"{flag}: {show_path(given)} is in {what} {show_path(source)}; choose another directory"
+            )
+
+
+def _log_table(directory: str) -> str | None:
+    """The name of the imu table that makes ``directory`` a log (tauvcore.logs.find_logs), if any."""
+    for ext in ("csv", "parquet"):
+        if os.path.lexists(os.path.join(directory, f"imu.{ext}")):
+            return f"imu.{ext}"
+    return None
 
 
 def write_json_atomic(path: str, payload: Any) -> None:
@@ -686,17 +802,24 @@ def _new_file_mode(path: str) -> int:
 
 
 def summary_table(
-    results: dict[str, MethodResult], config: Config, elapsed_s: float, source: str | None = None
+    results: dict[str, MethodResult],
+    config: Config,
+    elapsed_s: float,
+    source: str | None = None,
+    preamble: Sequence[str] = (),
 ) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
-    :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a log)."""
+    :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a
+    log); ``preamble``: lines after the first (a log: what configured it, where it started)."""
     tr = config.trajectory
     what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
+    ideal = config.run.ideal and source is None  # a replay's sensors are the log's: it has no ideal mode
     lines = [
         f"{what}, {tr.duration_s:g} s, earth {config.earth.model}, seed {config.run.seed}, "
         f"aiding {','.join(config.run.aiding) or 'none'}"
-        + (", IDEAL sensors" if config.run.ideal else "")
+        + (", IDEAL sensors" if ideal else "")
         + f"  ({elapsed_s:.1f} s wall)",
+        *preamble,
         "",
         (
             f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
@@ -719,12 +842,20 @@ def summary_table(
             at = float(r.diverged_at_s[0])
             marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
         lines.append(
-            f"{name.upper():<7} {r.vel_err_mps[-1, 0]:>10.4f} {rms(r.vel_err_mps[:, 0]):>9.4f} "
-            f"{r.att_err_deg[-1, 0]:>10.4f} {rms(r.att_err_deg[:, 0]):>9.4f} {rms(r.tilt_err_deg[:, 0]):>9.4f} "
-            f"{rms(r.heading_err_deg[:, 0]):>9.4f} {r.pos_err_m[-1, 0]:>10.3f} {rms(r.pos_err_m[:, 0]):>9.3f} "
-            f"{r.vel_sigma_mps[-1, 0]:>10.4f} {fused:>20}" + marker
+            f"{name.upper():<7} {_fixed(r.vel_err_mps[-1, 0], 10, 4)} {_fixed(rms(r.vel_err_mps[:, 0]), 9, 4)} "
+            f"{_fixed(r.att_err_deg[-1, 0], 10, 4)} {_fixed(rms(r.att_err_deg[:, 0]), 9, 4)} "
+            f"{_fixed(rms(r.tilt_err_deg[:, 0]), 9, 4)} {_fixed(rms(r.heading_err_deg[:, 0]), 9, 4)} "
+            f"{_fixed(r.pos_err_m[-1, 0], 10, 3)} {_fixed(rms(r.pos_err_m[:, 0]), 9, 3)} "
+            f"{_fixed(r.vel_sigma_mps[-1, 0], 10, 4)} {fused:>20}" + marker
         )
     return "\n".join(lines + ["", consistency_table(results, config.run.aiding)])
+
+
+def _fixed(value: float | np.ndarray, width: int, digits: int) -> str:
+    """``value`` (a number, or a 0-d array) right-aligned in ``width`` with ``digits`` decimals;
+    "-" if unknown (NaN: a log without a reference has no errors)."""
+    number = float(value)
+    return f"{number:>{width}.{digits}f}" if np.isfinite(number) else f"{'-':>{width}}"
 
 
 def _ratio(value: float) -> str:
@@ -788,25 +919,38 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    """``tauv run``: simulate, run the methods, print the summary; with ``--save-log`` the
+    simulation as a log (all or nothing, the directory locked meanwhile), with ``--json`` the
+    results (atomically). Every output is checked before the run, and none may be an input."""
     config = resolve_config(args)
-    json_path = json_target(args.json, args.config) if args.json is not None else None
+    log_dir = _save_log_target(args)
+    inputs = [("the --config file", args.config), ("the --save-log directory", args.save_log)]
+    json_path = json_target(args.json, inputs) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
     from tauvcore.eval.runner import run_streaming
 
-    log_dir = _save_log_target(args)
-    chunks: list = []
-    results = run_streaming(config, rng, on_sim_chunk=chunks.append if log_dir is not None else None)
-    elapsed = time.perf_counter() - started
-    if log_dir is not None:
-        from tauvcore.logs import simulation_tables, write_log
+    lock = _lock_save_log(args, log_dir) if log_dir is not None else None
+    try:
+        chunks: list = []
+        results = run_streaming(config, rng, on_sim_chunk=chunks.append if lock is not None else None)
+        elapsed = time.perf_counter() - started
+        if log_dir is not None:
+            from app.study_output import os_reason
+            from tauvcore.logs import simulation_tables, write_log
 
-        try:
-            write_log(log_dir, simulation_tables(chunks), args.log_format)
-        except OSError as exc:
-            raise UsageError(
-                f"--save-log: cannot write {show_path(args.save_log)}: {exc.strerror or exc}"
-            ) from None
+            try:
+                write_log(log_dir, simulation_tables(chunks), args.log_format)
+            except OSError as exc:
+                raise UsageError(
+                    f"--save-log: cannot write {show_path(args.save_log)}: {os_reason(exc)}"
+                ) from None
+    except BaseException:
+        if lock is not None:
+            lock.release(remove_created=True)
+        raise
+    if lock is not None:
+        lock.release()
     if json_path is not None:
         assert args.json is not None  # json_path is set only when --json was given
         try:
@@ -818,7 +962,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _save_log_target(args: argparse.Namespace) -> str | None:
-    """The --save-log directory, checked before the run: it must not be a file or a log already."""
+    """The --save-log directory, checked before the run: it must not be a file, a log already,
+    or hold the --config file; it must be writable, or creatable in a writable directory."""
     if args.log_format not in ("csv", "parquet"):
         raise UsageError(f"--log-format: expected csv or parquet, got {show(args.log_format)}")
     if args.save_log is None:
@@ -828,26 +973,53 @@ def _save_log_target(args: argparse.Namespace) -> str | None:
     target = os.path.abspath(args.save_log)
     if os.path.exists(target) and not os.path.isdir(target):
         raise UsageError(f"--save-log: {show_path(args.save_log)} is a file, not a directory")
-    if os.path.isdir(target) and any(
-        os.path.exists(os.path.join(target, f"imu.{ext}")) for ext in ("csv", "parquet")
-    ):
+    if os.path.isdir(target) and _log_table(target) is not None:
         raise UsageError(
             f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
         )
+    _refuse_holding_inputs("--save-log", args.save_log, target, [("the --config file", args.config)])
+    if os.path.isdir(target):
+        if not os.access(target, os.W_OK | os.X_OK):
+            raise UsageError(f"--save-log: cannot write into {show_path(args.save_log)}: permission denied")
+        return target
     parent = os.path.dirname(target)
-    if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
         raise UsageError(
             f"--save-log: cannot create {show_path(args.save_log)} (its parent is not a writable directory)"
         )
     return target
 
 
+def _lock_save_log(args: argparse.Namespace, target: str) -> Any:
+    """The --save-log directory created if need be and locked for this run
+    (app.study_output.DirectoryLock), or one line if another tauv holds it or has meanwhile
+    written a log there."""
+    from app.study_output import DirectoryLock, OutputDirError
+
+    try:
+        lock = DirectoryLock(target, name=args.save_log)
+    except OutputDirError as exc:
+        raise UsageError(f"--save-log: {exc}") from None
+    if _log_table(target) is not None:
+        lock.release(remove_created=True)
+        raise UsageError(
+            f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
+        )
+    return lock
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
-    """``tauv replay DIR``: the methods on a recorded log (tauvcore.logs, tauvcore.eval.replay)."""
-    from tauvcore.eval.replay import replay
+    """``tauv replay DIR``: the methods on a recorded log (tauvcore.logs, tauvcore.eval.replay),
+    configured by the defaults, the log's own configuration file, ``--config``, then the flags."""
+    from tauvcore.eval.replay import judged, log_config, prepare, start_description
+    from tauvcore.eval.runner import run
     from tauvcore.logs import LogError, read_log
 
-    config = resolve_config(args)
+    try:
+        log_raw, log_config_path = ({}, None) if args.no_log_config else log_config(args.log)
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
+    config = resolve_config(args, under=log_raw)
     imu_errors = None
     if args.imu_errors is not None:
         if args.imu_errors not in IMU_PROFILES:
@@ -856,24 +1028,72 @@ def cmd_replay(args: argparse.Namespace) -> int:
                 f"(choose from {', '.join(IMU_PROFILES)})"
             )
         imu_errors = IMU_PROFILES[args.imu_errors]
-    json_path = json_target(args.json, args.config) if args.json is not None else None
+    json_path = (
+        json_target(args.json, [("the --config file", args.config), ("the log directory", args.log)])
+        if args.json is not None
+        else None
+    )
     started = time.perf_counter()
     try:
         log = read_log(args.log)
-        for note in log.notes:
-            print(f"tauv: note: {one_line(note)}", file=sys.stderr)
-        config, results = replay(config, log, np.random.default_rng(config.run.seed), imu_errors=imu_errors)
+        rng = np.random.default_rng(config.run.seed)
+        config, sim = prepare(config, log, rng, imu_errors)
+        results = judged(log, run(config, sim, rng))
     except LogError as exc:
         raise UsageError(str(exc)) from None
+    for note in log.notes:  # after the run: a log refused is one line, its error
+        print(f"tauv: note: {one_line(note)}", file=sys.stderr)
     elapsed = time.perf_counter() - started
+    source = {
+        "directory": str(args.log),
+        "config_file": log_config_path,
+        "configuration": replay_layers(args, log_raw, log_config_path),
+        "start": start_description(config, log),
+        "notes": list(log.notes),
+    }
     if json_path is not None:
         assert args.json is not None  # json_path is set only when --json was given
         try:
-            write_json_atomic(json_path, run_payload(config, results, log=str(args.log)))
+            write_json_atomic(json_path, run_payload(config, results, log=source))
         except OSError as exc:
             raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
-    print(summary_table(results, config, elapsed, source=f"log {show_path(str(args.log))}"))
+    start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
+    preamble = ["configuration: " + " < ".join(source["configuration"]), start]
+    print(
+        summary_table(results, config, elapsed, source=f"log {show_path(str(args.log))}", preamble=preamble)
+    )
     return 0
+
+
+REPLAY_NOT_CONFIG = frozenset({"command", "log", "json", "config", "no_log_config"})
+"""``tauv replay``'s arguments that are not configuration (what to read, where to write)."""
+
+
+def replay_layers(
+    args: argparse.Namespace, log_raw: dict[str, Any], log_config_path: str | None
+) -> list[str]:
+    """What configured a replay, lowest first: the defaults, the log's own file and the keys it
+    sets, ``--config`` and its keys, the flags given."""
+
+    def keys(raw: dict[str, Any]) -> str:
+        names = [f"{sec}.{key}" for sec, values in raw.items() if isinstance(values, dict) for key in values]
+        return ", ".join(names) if len(names) <= 6 else f"{', '.join(names[:6])} and {len(names) - 6} more"
+
+    layers = ["defaults"]
+    if log_config_path is not None:
+        layers.append(f"the log's {show_path(log_config_path)} ({keys(log_raw) or 'empty'})")
+    elif args.no_log_config:
+        layers.append("the log's own configuration ignored (--no-log-config)")
+    if args.config:
+        layers.append(f"--config {show_path(args.config)}")
+    flags = [
+        f"--{name.replace('_', '-')}"
+        for name, value in vars(args).items()
+        if name not in REPLAY_NOT_CONFIG and value not in (None, False, [])
+    ]
+    if flags:
+        layers.append("flags " + " ".join(flags))
+    return layers
 
 
 def _count(flag: str, text: str | None, low: int, high: int, default: int) -> int:
@@ -886,8 +1106,9 @@ def _count(flag: str, text: str | None, low: int, high: int, default: int) -> in
 
 
 def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int, str | None, Any]:
-    """Runs, workers, Dask address and the output writer of a study command, every check done
-    before anything is computed or created."""
+    """Runs, workers, Dask address and the output writer of a study command (holding the
+    output directory's lock), every check done before anything is computed or created: the
+    output directory must not be a log or hold the --config file."""
     from app.study_output import OutputDirError, StudyWriter, check_out_dir
 
     num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, default_runs)
@@ -902,24 +1123,41 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
         out_dir = check_out_dir(args.out)
     except OutputDirError as exc:
         raise UsageError(f"--out: {exc}") from None
+    _refuse_log_dir(args.out, out_dir)
+    _refuse_holding_inputs("--out", args.out, out_dir, [("the --config file", getattr(args, "config", None))])
     if args.dask is not None:
         _check_dask(args.dask)
     try:
-        writer = StudyWriter(out_dir)
+        writer = StudyWriter(out_dir, name=args.out)
     except OutputDirError as exc:
         raise UsageError(f"--out: {exc}") from None
+    try:
+        _refuse_log_dir(args.out, out_dir)  # again, now that no other tauv writes there
+    except BaseException:
+        writer.abort()
+        raise
     return num_runs, workers, args.dask, writer
+
+
+def _refuse_log_dir(given: str, out_dir: str) -> None:
+    """UsageError if the output directory ``out_dir`` (``given`` as ``--out``) is a log."""
+    table = _log_table(out_dir)
+    if table is not None:
+        raise UsageError(
+            f"--out: {show_path(given)} is a log directory (it holds {table}); choose another directory"
+        )
 
 
 def cmd_mc(args: argparse.Namespace) -> int:
     """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output)."""
+    from app.study_output import OutputDirError
     from app.study_report import report_html
     from tauvcore.eval.study import run_study
 
     config = resolve_config(args)
+    trajectory = config.trajectory.name
     num_runs, workers, dask, writer = _study_setup(args, 1)
     started = time.perf_counter()
-    trajectory = config.trajectory.name
     try:
         with _progress_bar(num_runs) as bar, _study_failures(dask):
             acc = run_study(
@@ -947,6 +1185,9 @@ def cmd_mc(args: argparse.Namespace) -> int:
             report_html("tauv Monte Carlo study", description, {trajectory: summary}),
         )
         written = writer.commit()
+    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
+        writer.abort()
+        raise UsageError(f"--out: {exc}") from None
     except BaseException:
         writer.abort()
         raise
@@ -961,6 +1202,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     """``tauv reproduce``: Tal et al. 2017 section 4.2 (three trajectories, beams 3 and 4 lost,
     INS, TC and the ELC methods; LC with four beams as the reference), every stated figure
     beside ours with a verdict."""
+    from app.study_output import OutputDirError
     from app.study_report import report_html
     from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
     from tauvcore.eval.study import (
@@ -985,14 +1227,14 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         base = _replace(
             "--seed", base, "run", seed=_parse("--seed", args.seed, int, "a non-negative integer")
         )
-    num_runs, workers, dask, writer = _study_setup(args, 100)
-    started = time.perf_counter()
     summaries, tables = {}, []
     studies = [
         (name, beams, methods)
         for name in PAPER_TRAJECTORIES
         for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))
     ]
+    num_runs, workers, dask, writer = _study_setup(args, 100)
+    started = time.perf_counter()
     try:
         configs = [
             base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
@@ -1054,6 +1296,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             table,
         )
         written = writer.commit()
+    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
+        writer.abort()
+        raise UsageError(f"--out: {exc}") from None
     except BaseException:
         writer.abort()
         raise
@@ -1164,6 +1409,18 @@ def viser_console_muted() -> Iterator[None]:
         console.quiet = quiet
 
 
+def _raw_layouts_in(directory: str) -> str:
+    """The vendor hint (tauvcore.logs.raw_layout_hint) of the first subdirectory that has one."""
+    from tauvcore.logs import raw_layout_hint
+
+    with contextlib.suppress(OSError):
+        for entry in sorted(os.scandir(directory), key=lambda e: e.name):
+            hint = raw_layout_hint(entry.path) if entry.is_dir() else ""
+            if hint:
+                return f"; {entry.name!r}{hint.replace('; it holds', ' holds', 1)}"
+    return ""
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     try:
         port = int(args.port)
@@ -1197,7 +1454,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         if not logs:
             raise UsageError(
                 f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
-                "imu.parquet; see the README)"
+                f"imu.parquet; see the README){_raw_layouts_in(args.logs)}"
             )
     from app.dashboard import exit_now  # viser only when serving
     from app.dashboard import main as serve_main
@@ -1247,6 +1504,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     2 on bad input with one line on stderr, 130 when interrupted.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
+    # past a file-size limit a write fails with EFBIG (one line, nothing left half-written)
+    # instead of the signal killing the process mid-file
+    with contextlib.suppress(ValueError):  # only the main thread may set it (main() in a thread: left alone)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         args = build_parser().parse_args(attach_dash_values(argv))
         _require_file_names(args)
@@ -1280,14 +1541,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _require_text_values(args: argparse.Namespace) -> None:
-    """argparse drops a value of exactly ``--`` (``--method=--``) and leaves an empty list."""
-    for name, value in vars(args).items():
-        name = name.replace("_", "-")  # dest vb_nf is the flag --vb-nf
-        if f"--{name}" not in VALUE_FLAGS:
+    """argparse drops a value of exactly ``--`` (``--method=--``) and leaves an empty list (in
+    the list of a repeatable flag, ``--outage=--``)."""
+    for action in OPTIONS[""] + OPTIONS.get(args.command, []):
+        value = getattr(args, action.dest, None)
+        if action.nargs == 0 or value is None:
             continue
-        values = value if name == "outage" else [value]
+        values = value if isinstance(action, argparse._AppendAction) else [value]
         if any(v is not None and not isinstance(v, str) for v in values):
-            raise UsageError(f"--{name}: expected a value, got '--'")
+            raise UsageError(f"{action.option_strings[-1]}: expected a value, got '--'")
 
 
 def _silence_stdout() -> None:

@@ -106,6 +106,7 @@ from tauvcore.config import RUN_METHODS, Config, from_dict, to_dict
 from tauvcore.eval.consistency import BLOCK_DIMS, YOO_BLOCK_DIMS
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.runner import MethodResult
+from tauvcore.logs import CONFIG_FILE, LogError
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.truth.kinematic import bathymetry
 from tauvcore.validation import ConfigError, show
@@ -315,6 +316,7 @@ class Session:
         self.results: dict[str, MethodResult] | None = None
         self.playing = False
         self.run_log: str | None = None  # the log the current run replays (its name), None: a simulation
+        self.run_source: dict[str, Any] | None = None  # that log as app.worker.replay_source describes it
         self.finished_run: export.FinishedRun | None = None  # what the Download buttons send
         # the page's address carries the controls (app.links): written only once the page's own
         # query has been read, so a link is never overwritten before it applies
@@ -515,6 +517,7 @@ class Session:
         if source is not None:
             # a log replays its own reference: the truth's generator does not apply to it
             source.on_update(lambda _: setattr(self.truth, "disabled", source.value != inputs.SIMULATION))
+            source.on_update(lambda event: self.apply_log_config() if event.client is not None else None)
         # a scenario's preset fills in the controls when the user picks it (not when the server
         # itself sets the dropdown to what the page shows, at Run: the page's values stand then)
         self.preset: str | None = None
@@ -589,7 +592,16 @@ class Session:
             )
         else:
             return
-        fields = {
+        fields = self._text_fields()
+        for label, text in texts.items():
+            if label in fields:
+                fields[label].value = text
+        self.status.content = note
+        self.notify(title, headline)
+
+    def _text_fields(self) -> dict[str, Any]:
+        """The text controls a preset or a log's configuration may fill in, by label."""
+        return {
             inputs.DURATION: self.duration,
             inputs.ACCEL_BIAS: self.accel_bias,
             inputs.GYRO_BIAS: self.gyro_bias,
@@ -607,11 +619,54 @@ class Session:
             inputs.RPM_NOISE: self.rpm_noise,
             inputs.SEED: self.seed,
         }
-        for label, text in texts.items():
+
+    def apply_log_config(self) -> None:
+        """The chosen log's own configuration file (tauvcore.logs.CONFIG_FILE) fills in the
+        controls it sets, as a preset does, and a notification says what it sets; a file that
+        cannot be used is a notification naming it (the Run would refuse it too)."""
+        source = self.source.value if self.source is not None else inputs.SIMULATION
+        if source not in self.logs:
+            return
+        try:
+            raw = self.log_config(source)
+        except InputError as exc:
+            self.notify("Log configuration not applied", str(exc), error=True)
+            return
+        if not raw:
+            self.notify(f"Log {source}", "No configuration file of its own: the controls apply as they are.")
+            return
+        config = from_dict(raw)
+        fields = self._text_fields()
+        filled = []
+        for key in sorted(
+            {f"{sec}.{k}" for sec, values in raw.items() if isinstance(values, dict) for k in values}
+        ):
+            label = inputs.FIELD_LABELS.get(key)
             if label in fields:
-                fields[label].value = text
-        self.status.content = note
-        self.notify(title, headline)
+                sec, name = key.split(".", 1)
+                fields[label].value = inputs.field_text(getattr(getattr(config, sec), name))
+                filled.append(label)
+        hidden = [
+            f"{sec}.{k}"
+            for sec, values in raw.items()
+            if isinstance(values, dict)
+            for k in values
+            if inputs.FIELD_LABELS.get(f"{sec}.{k}") not in fields
+        ]
+        parts = ([f"{', '.join(filled)} filled in"] if filled else []) + (
+            [f"{', '.join(hidden)} apply at Run"] if hidden else []
+        )
+        self.notify(f"Log {source}: its {CONFIG_FILE} applied", "; ".join(parts) + ".")
+
+    def log_config(self, source: str) -> dict[str, Any]:
+        """The raw tables of log ``source``'s own configuration file ({} without one);
+        InputError naming the file when it cannot be read or does not check."""
+        from tauvcore.eval.replay import log_config
+
+        try:
+            return log_config(self.logs[source])[0]
+        except LogError as exc:
+            raise InputError(f"{inputs.SOURCE} {source}: {exc}") from None
 
     def selected_methods(self) -> tuple[str, ...]:
         return tuple(m for m in RUN_METHODS if self.method_boxes[m].value)
@@ -852,7 +907,9 @@ class Session:
     def read_config(self) -> tuple[Config, int]:
         """The configuration the controls describe and its run count; InputError names the bad
         control and its value, also when the run would not fit the memory budget (app.budget)."""
-        config, runs = config_from_controls(self.controls())
+        controls = self.controls()
+        log_raw = self.log_config(controls.source) if controls.source in self.logs else None
+        config, runs = config_from_controls(controls, log_raw)
         try:
             limit = budget.budget_bytes()
         except ValueError as exc:
@@ -886,6 +943,7 @@ class Session:
             self.config, self.results, self.truth_view = config, None, None
             self.replaying = log_dir is not None
             self.run_log = source if log_dir is not None else None
+            self.run_source = None  # the worker describes a replayed log with its configuration
             self.handle = handle = self.pool.start(to_dict(config), runs, log_dir=log_dir)
         self.run_button.disabled, self.stop_button.disabled = True, False
         self._set_finished(None)
@@ -955,12 +1013,12 @@ class Session:
                         pending, last_draw = None, time.monotonic()
                     continue
                 kind = msg[0]
-                if kind == "config":  # a replayed log: its own length, rate and origin
-                    config = from_dict(msg[1])
+                if kind == "config":  # a replayed log: its own length, rate, origin and start
+                    config, self.run_source = from_dict(msg[1]), msg[2]
                     with self.lock:
                         self.config = config
                     self.time_slider.max = config.trajectory.duration_s
-                    self.run_config.content = config_markdown(config, 1)
+                    self.run_config.content = config_markdown(config, 1, self.run_source)
                 elif kind == "truth":
                     self.truth_view = msg[1]
                     self._draw_truth()
@@ -983,7 +1041,8 @@ class Session:
                         note = ("Run stopped", f"Stopped at t = {t_end:.1f} s.", False)
                     else:
                         self.progress.value = 100.0
-                        self.status.content = f"Run complete: {config.trajectory.name}, {t_end:g} s."
+                        what = f"log {self.run_log}" if self.run_log is not None else config.trajectory.name
+                        self.status.content = f"Run complete: {what}, {t_end:g} s."
                         note = ("Run complete", summary_line(results), False)
                     finished = True
                 elif kind == "error":
@@ -1013,7 +1072,7 @@ class Session:
     def _keep_finished(self, results: dict[str, MethodResult], config: Config, stopped: bool) -> None:
         """The run's final results arrived (``stopped``: Stop ended it): offer them for download,
         and let the time slider span what was run."""
-        self._set_finished(export.finished_run(config, results, self.run_log, stopped))
+        self._set_finished(export.finished_run(config, results, self.run_log, stopped, self.run_source))
         if results:
             self.keep_run(config, results)  # the Runs tab keeps it for comparison
         if results:

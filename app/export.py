@@ -23,6 +23,7 @@ import io
 import json
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import viser
@@ -62,6 +63,7 @@ class FinishedRun:
     results: dict[str, MethodResult]  # every method's, at every output epoch
     log: str | None = None  # the replayed log's name; None: a simulation
     stopped: bool = False  # Stop ended it before the requested duration
+    source: dict[str, Any] | None = None  # the replayed log as app.worker.replay_source describes it
 
     @property
     def runs(self) -> int:
@@ -70,14 +72,18 @@ class FinishedRun:
 
 
 def finished_run(
-    config: Config, results: dict[str, MethodResult], log: str | None = None, stopped: bool = False
+    config: Config,
+    results: dict[str, MethodResult],
+    log: str | None = None,
+    stopped: bool = False,
+    source: dict[str, Any] | None = None,
 ) -> FinishedRun:
     """The run as the worker ran ``config``: with more than one run, each draws its initial errors
     (app.worker.run_worker, as a study does: tauvcore.eval.study.study_config), so the exported
     configuration says so."""
-    run = FinishedRun(config, results, log, stopped)
+    run = FinishedRun(config, results, log, stopped, source)
     if run.runs > 1:
-        run = FinishedRun(study_config(config), results, log, stopped)
+        run = FinishedRun(study_config(config), results, log, stopped, source)
     return run
 
 
@@ -111,7 +117,7 @@ def results_json(run: FinishedRun) -> bytes:
     name for its path), plus ``"num_runs"`` after ``"results"`` when Runs > 1: strict UTF-8
     JSON, non-finite numbers as null."""
     run = _check(run)
-    payload = run_payload(run.config, run.results, log=run.log)
+    payload = run_payload(run.config, run.results, log=run.source if run.source is not None else run.log)
     if run.runs > 1:
         payload["num_runs"] = run.runs
     # the options write_json_atomic gives json.dump: the same text, byte for byte
@@ -234,7 +240,10 @@ def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) ->
         )
         for k, f in enumerate(figures)
     ]
-    settings = [["Setting", "Value"], *([name, value] for name, value in config_rows(config, run.runs))]
+    settings = [
+        ["Setting", "Value"],
+        *([name, value] for name, value in config_rows(config, run.runs, run.source)),
+    ]
     full_config = json.dumps(config_to_json(config), indent=2, allow_nan=False)
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",

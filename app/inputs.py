@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import Any
 
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
@@ -193,7 +194,7 @@ class Controls:
     rpm_fallback: bool = False  # run.rpm_fallback: DVL methods fuse the RPM velocity without DVL
 
 
-def _field_text(value: object) -> str:
+def field_text(value: object) -> str:
     """A configuration value as a numeric control shows it (the text reads back as the same number
     to twelve significant digits)."""
     return f"{value:.12g}" if isinstance(value, float) else str(value)
@@ -207,7 +208,7 @@ def preset_controls(name: str, config: Config | None = None) -> dict[str, str]:
     preset = trajectory_preset(name)
     source = config if config is not None else from_dict(preset)
     return {
-        FIELD_LABELS[f"{sec}.{key}"]: _field_text(getattr(getattr(source, sec), key))
+        FIELD_LABELS[f"{sec}.{key}"]: field_text(getattr(getattr(source, sec), key))
         for sec, values in preset.items()
         for key in values
         if f"{sec}.{key}" in FIELD_LABELS
@@ -251,9 +252,11 @@ def _label_for(exc: ConfigError) -> str | None:
     return None
 
 
-def config_from_controls(c: Controls) -> tuple[Config, int]:
+def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) -> tuple[Config, int]:
     """The configuration and Monte Carlo run count the controls describe, over the chosen
-    scenario's preset (tauvcore.config.trajectory_preset) where it sets what no control does.
+    scenario's preset (tauvcore.config.trajectory_preset) where it sets what no control does;
+    for a log (``c.source``), over the log's own configuration file instead (``log_config``, its
+    raw tables: tauvcore.eval.replay.log_config), as ``tauv replay`` lays the flags over it.
 
     Raises InputError with one line naming the control and the value as typed.
     """
@@ -340,8 +343,9 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
         # the scenario's own settings (longrange: the paper's speed, depth, IMU and DVL rate;
         # its seabed and IMU errors fill in controls) under the controls', as `tauv run
         # --trajectory` lays them under a file's
+        base = trajectory_preset(c.trajectory) if c.source == SIMULATION else (log_config or {})
         config = (
-            from_dict(trajectory_preset(c.trajectory))
+            from_dict(base)
             .replace(
                 "trajectory",
                 name=c.trajectory,
@@ -380,9 +384,12 @@ def config_from_controls(c: Controls) -> tuple[Config, int]:
     return config, runs
 
 
-def config_rows(config: Config, runs: int) -> list[tuple[str, str]]:
+def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None) -> list[tuple[str, str]]:
     """The configuration a run used as (setting, value) rows, settings named as the controls are
-    (the Results tab's table, :func:`config_markdown`, and the HTML report, app.export)."""
+    (the Results tab's table, :func:`config_markdown`, and the HTML report, app.export). A replay
+    (``source``: what app.worker sends of the log, as ``tauv replay --json``'s ``"log"``) is named
+    by its log, what configured it and where its filters started, without the simulation's
+    trajectory, truth and seabed."""
     d, imu, run = config.dvl, config.imu, config.run
     epsilon = config.partial.nsv_epsilon_m2_per_s2
     epsilon_text = (
@@ -423,11 +430,32 @@ def config_rows(config: Config, runs: int) -> list[tuple[str, str]]:
         (SEED, str(run.seed)),
         (RUNS, str(runs)),
     ]
+    if source is not None:
+        simulation_only = {"Trajectory", TRUTH, "Seabed", DVL_MAX_ALTITUDE, SWITCH_ALTITUDE}
+        rows = [
+            ("Source", f"log {source.get('name') or source['directory']}"),
+            ("Log directory", str(source["directory"])),
+            ("Log configuration", str(source.get("config_file") or "none")),
+            ("Configured by", " < ".join(source.get("configuration", ()))),
+            ("Start", str(source.get("start", ""))),
+            *(("Log note", str(note)) for note in source.get("notes", ())),
+        ] + [
+            (name, value)
+            if name != "Speed, depth"
+            else ("Starting depth", f"{config.trajectory.depth_m:.3g} m")
+            for name, value in rows
+            if name not in simulation_only
+        ]
     return rows
 
 
-def config_markdown(config: Config, runs: int) -> str:
+def config_markdown(config: Config, runs: int, source: dict[str, Any] | None = None) -> str:
     """The configuration a run used, as a Markdown table (shown beside its results)."""
     return "**Configuration run**\n\n| Setting | Value |\n|---|---|\n" + "\n".join(
-        f"| {name} | {value} |" for name, value in config_rows(config, runs)
+        f"| {name} | {_cell_text(value)} |" for name, value in config_rows(config, runs, source)
     )
+
+
+def _cell_text(value: str) -> str:
+    """A value for a Markdown table cell: ``|`` escaped (a log's name or path may hold one)."""
+    return value.replace("|", "\\|")

@@ -13,22 +13,28 @@
   attitude RMS against time per trajectory, with tilt, heading and NEES/dim beside them), with
   plotly.js embedded so that it opens offline.
 
-Everything is written in a hidden temporary directory inside the output directory and renamed
-into place only when the study has finished; an error or an interrupt removes it.
+Everything is written in a hidden temporary directory inside the output directory, flushed to
+disk, and renamed into place only when the study has finished; an error (a full disk, a
+file-size limit) or an interrupt removes it. The output directory is locked for the study
+(:class:`DirectoryLock`): a second writer is refused at once.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import json
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from tauvcore.eval.study import ERROR_SERIES, NEES_SERIES, ChunkSeries
+from tauvcore.logs import replace_files
+from tauvcore.validation import one_line, show_path
 
 PARQUET_SERIES = ERROR_SERIES + NEES_SERIES
 """The per-run columns of runs.parquet: the errors and the NEES (full and per block), as 32-bit
@@ -114,61 +120,172 @@ def runs_table(trajectory: str, chunk: ChunkSeries) -> Any:
     return pa.table(columns)
 
 
-class StudyWriter:
-    """Collects a study's outputs under temporary names; :meth:`commit` renames them into place."""
+LOCK_FILE = ".tauv.lock"
+"""The file in an output directory that a writer holds an exclusive ``fcntl.flock`` on while it
+writes there (:class:`DirectoryLock`); it holds the writer's process id."""
 
-    def __init__(self, out_dir: str) -> None:
-        """``out_dir`` from :func:`check_out_dir`; created here if missing (and removed again by
-        :meth:`abort` if the study fails)."""
-        self.out_dir = out_dir
-        self.created = not os.path.isdir(out_dir)
+
+def os_reason(exc: OSError) -> str:
+    """Why a file operation failed, in a few words ("No space left on device"): the system's
+    text for the error number (pyarrow's own wraps it in a sentence), else the message."""
+    if exc.errno:
+        return os.strerror(exc.errno)
+    return one_line(exc.strerror or str(exc)) or type(exc).__name__
+
+
+class DirectoryLock:
+    """``directory`` held by one writer until :meth:`release`: an exclusive, non-blocking
+    ``fcntl.flock`` on its :data:`LOCK_FILE`, refused at once (OutputDirError naming the
+    holder's process id) while another holds it. The directory is created if missing
+    (:attr:`created`). The kernel drops the lock when the process ends, however it ends, so a
+    lock file left by a killed writer is harmless. ``name``: the directory as messages show it
+    (default ``directory``)."""
+
+    def __init__(self, directory: str, name: str | None = None) -> None:
+        self.directory = directory
+        self.shown = show_path(directory if name is None else name)
+        self.path = os.path.join(directory, LOCK_FILE)
+        self.created = False
+        self._fd: int | None = None
         try:
-            if self.created:
-                os.mkdir(out_dir)
+            os.mkdir(directory)
+            self.created = True
+        except FileExistsError:
+            pass
+        except OSError as exc:
+            raise OutputDirError(f"cannot create {self.shown}: {os_reason(exc)}") from None
+        try:
+            self._fd = self._take()
+        except BaseException:
+            self.release()
+            raise
+
+    def _take(self) -> int:
+        while True:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+            except OSError as exc:
+                raise OutputDirError(f"cannot write into {self.shown}: {os_reason(exc)}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
+                os.close(fd)
+                pid = f" (pid {holder})" if holder.isdigit() else ""
+                raise OutputDirError(f"{self.shown} is being written by another tauv{pid}") from None
+            except BaseException:
+                os.close(fd)
+                raise
+            # the holder removes the file before it lets go: a lock on a file no longer there
+            # (or replaced since) holds nothing, so open the one there now
+            try:
+                current = os.stat(self.path)
+            except FileNotFoundError:
+                current = None
+            mine = os.fstat(fd)
+            if current is not None and (current.st_dev, current.st_ino) == (mine.st_dev, mine.st_ino):
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+                return fd
+            os.close(fd)
+
+    def release(self, remove_created: bool = False) -> None:
+        """Let go of the lock (its file removed first); with ``remove_created``, also remove the
+        directory if this lock created it and it is empty."""
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)
+            os.close(self._fd)
+            self._fd = None
+        if remove_created and self.created:
+            with contextlib.suppress(OSError):
+                os.rmdir(self.directory)  # only if empty: never anything of the user's
+
+
+class StudyWriter:
+    """Collects a study's outputs under temporary names, holding the output directory's
+    :class:`DirectoryLock`; :meth:`commit` renames them into place. Every failure to write is an
+    :class:`OutputDirError` naming the file and the reason."""
+
+    def __init__(self, out_dir: str, name: str | None = None) -> None:
+        """``out_dir`` from :func:`check_out_dir`; created here if missing (and removed again by
+        :meth:`abort` if the study fails); OutputDirError if another writer holds it. ``name``:
+        the directory as messages show it (default ``out_dir``)."""
+        self.out_dir = out_dir
+        self.name = out_dir if name is None else name
+        self._parquet = None
+        self.lock = DirectoryLock(out_dir, self.name)
+        self.created = self.lock.created
+        try:
             self.tmp = tempfile.mkdtemp(prefix=".tauv-mc-", dir=out_dir)
         except OSError as exc:
-            raise OutputDirError(f"cannot write into {out_dir!r}: {exc.strerror or exc}") from None
-        self._parquet = None
+            self.lock.release(remove_created=True)
+            raise OutputDirError(f"cannot write into {show_path(self.name)}: {os_reason(exc)}") from None
+        except BaseException:
+            self.lock.release(remove_created=True)
+            raise
+
+    @contextlib.contextmanager
+    def _writing(self, name: str) -> Iterator[str]:
+        """The temporary path of output ``name``; an OSError while writing it becomes an
+        OutputDirError naming the file it is for."""
+        try:
+            yield os.path.join(self.tmp, name)
+        except OSError as exc:
+            target = show_path(os.path.join(self.name, name))
+            raise OutputDirError(f"cannot write {target}: {os_reason(exc)}") from None
 
     def add_chunk(self, trajectory: str, chunk: ChunkSeries) -> None:
         """Append one chunk's runs to runs.parquet (long form, :func:`runs_table`)."""
         import pyarrow.parquet as pq
 
         table = runs_table(trajectory, chunk)
-        if self._parquet is None:
-            self._parquet = pq.ParquetWriter(
-                os.path.join(self.tmp, "runs.parquet"), table.schema, **PARQUET_WRITE_OPTIONS
-            )
-        self._parquet.write_table(table)
+        with self._writing("runs.parquet") as path:
+            if self._parquet is None:
+                self._parquet = pq.ParquetWriter(path, table.schema, **PARQUET_WRITE_OPTIONS)
+            self._parquet.write_table(table)
+
+    def _write_text(self, name: str, text: str) -> None:
+        with self._writing(name) as path, open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
 
     def finish(self, summary: dict[str, Any], report_html: str, comparison_md: str | None = None) -> None:
-        if self._parquet is not None:
-            self._parquet.close()
-            self._parquet = None
-        with open(os.path.join(self.tmp, "summary.json"), "w", encoding="utf-8") as fh:
-            # dumps, not dump: json.dump always takes the pure-Python encoder (2.7 s for the
-            # study's 19 MB), dumps without indent the C one
-            fh.write(json.dumps(_plain(summary), allow_nan=False))
-        with open(os.path.join(self.tmp, "report.html"), "w", encoding="utf-8") as fh:
-            fh.write(report_html)
+        """Write the study's other outputs (module docstring), each flushed to disk."""
+        with self._writing("runs.parquet") as path:
+            if self._parquet is not None:
+                self._parquet.close()
+                self._parquet = None
+                _fsync_file(path)
+        # dumps, not dump: json.dump always takes the pure-Python encoder (2.7 s for the
+        # study's 19 MB), dumps without indent the C one
+        self._write_text("summary.json", json.dumps(_plain(summary), allow_nan=False))
+        self._write_text("report.html", report_html)
         if comparison_md is not None:
-            with open(os.path.join(self.tmp, "paper_comparison.md"), "w", encoding="utf-8") as fh:
-                fh.write(comparison_md + "\n")
+            self._write_text("paper_comparison.md", comparison_md + "\n")
 
     def commit(self) -> list[str]:
-        """Rename every output into the output directory (each an atomic replace); remove the
-        temporary directory. Returns the paths written."""
-        written = []
-        for name in OUTPUT_FILES:
-            src = os.path.join(self.tmp, name)
-            if os.path.exists(src):
-                dst = os.path.join(self.out_dir, name)
-                os.replace(src, dst)
-                written.append(dst)
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        return written
+        """Rename every output into the output directory as one change (if a rename fails, the
+        ones done are undone: tauvcore.logs.replace_files), remove the temporary directory and
+        let go of the lock. Returns the paths written."""
+        moves = [
+            (os.path.join(self.tmp, name), os.path.join(self.out_dir, name))
+            for name in OUTPUT_FILES
+            if os.path.exists(os.path.join(self.tmp, name))
+        ]
+        try:
+            replace_files(moves, os.path.join(self.tmp, "replaced"))
+            _fsync_file(self.out_dir)
+        except OSError as exc:
+            raise OutputDirError(f"cannot write into {show_path(self.name)}: {os_reason(exc)}") from None
+        shutil.rmtree(self.tmp, ignore_errors=True)  # what the outputs replaced
+        self.lock.release()
+        return [target for _, target in moves]
 
     def abort(self) -> None:
+        """Throw away everything written (the temporary directory, and the output directory if
+        it was created here) and let go of the lock."""
         if self._parquet is not None:
             try:
                 self._parquet.close()
@@ -176,6 +293,13 @@ class StudyWriter:
                 pass
             self._parquet = None
         shutil.rmtree(self.tmp, ignore_errors=True)
-        if self.created:
-            with contextlib.suppress(OSError):
-                os.rmdir(self.out_dir)  # only if empty: never anything of the user's
+        self.lock.release(remove_created=True)
+
+
+def _fsync_file(path: str) -> None:
+    """Flush the file or directory ``path`` to the disk."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

@@ -193,6 +193,38 @@ def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> TruthView
     }
 
 
+def replay_source(
+    config: Config, log_dir: str, rng: np.random.Generator
+) -> tuple[Config, Any, dict[str, Any], Any]:
+    """The dashboard's replay of ``log_dir`` under ``config`` (the controls over the log's own
+    configuration file, app.inputs.config_from_controls): the configuration and simulation
+    tauvcore.eval.replay.prepare makes of them, as ``tauv replay`` does, and the log described as
+    ``tauv replay --json``'s ``"log"`` (its directory, its configuration file, what configured
+    the run, where the filters started, the reader's notes), and the log itself."""
+    from tauvcore.eval.replay import log_config, prepare, start_description
+    from tauvcore.logs import read_log
+
+    raw, config_file = log_config(log_dir)
+    log = read_log(log_dir)
+    config, sim = prepare(config, log, rng)
+    layers = ["defaults"]
+    if config_file is not None:
+        keys = ", ".join(
+            f"{sec}.{key}" for sec, values in raw.items() if isinstance(values, dict) for key in values
+        )
+        layers.append(f"the log's {config_file} ({keys or 'empty'})")
+    layers.append("the dashboard's controls")
+    source = {
+        "name": os.path.basename(os.path.normpath(log_dir)),
+        "directory": log_dir,
+        "config_file": config_file,
+        "configuration": layers,
+        "start": start_description(config, log),
+        "notes": list(log.notes),
+    }
+    return config, sim, source, log
+
+
 def run_worker(
     config_dict: dict[str, Any],
     num_runs: int,
@@ -203,22 +235,18 @@ def run_worker(
 ) -> None:
     """Simulate (or, with ``log_dir``, replay that log: tauvcore.eval.replay), run all methods,
     stream results to ``queue`` (anything with ``put``); the run ends early once
-    ``stop_event.is_set()`` (anything with ``is_set``). A replay first sends ``("config", dict)``:
-    the configuration as the log made it (its length, rate and origin)."""
+    ``stop_event.is_set()`` (anything with ``is_set``). A replay first sends ``("config", dict,
+    source)``: the configuration as the log made it (its length, rate, origin and start) and
+    :func:`replay_source`'s description of the log."""
     try:
         config = from_dict(config_dict)
         if num_runs > 1:
             config = config.replace("initial_error", mode="random")
         rng = np.random.default_rng(config.run.seed)
-        sim = None
+        sim = log = None
         if log_dir is not None:
-            from tauvcore.eval.replay import log_simulation, replay_config
-            from tauvcore.logs import read_log
-
-            log = read_log(log_dir)
-            config = replay_config(config, log)
-            sim = log_simulation(config, log, rng)
-            queue.put(("config", to_dict(config)))
+            config, sim, source, log = replay_source(config, log_dir, rng)
+            queue.put(("config", to_dict(config), source))
         step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
         queue.put(
             (
@@ -247,13 +275,18 @@ def run_worker(
                 should_stop=should_stop,
             )
         else:
-            results = run(
-                config,
-                sim,
-                rng,
-                progress=progress,
-                progress_interval_s=progress_interval_s,
-                should_stop=should_stop,
+            from tauvcore.eval.replay import judged
+
+            results = judged(
+                log,
+                run(
+                    config,
+                    sim,
+                    rng,
+                    progress=progress,
+                    progress_interval_s=progress_interval_s,
+                    should_stop=should_stop,
+                ),
             )
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # noqa: BLE001 - any failure is the run's: the dashboard shows it, the server keeps serving

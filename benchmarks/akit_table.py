@@ -3,8 +3,9 @@
     python benchmarks/akit_table.py [--data ../shared/data/akit] [--imu-errors table2]
 
 Each segment is converted to a log (scripts/akit_to_log.py: re-timed, Y axis flipped, clock
-offsets estimated, the DVL's lever arm) and replayed (tauvcore.eval.replay) from the reference's
-state at its first row, the filters tuned with Table 2 (or, with ``--imu-errors``, the log's
+offsets estimated, the DVL's lever arm in the log's own log.toml) and replayed as ``tauv replay
+OUT`` does by default (tauvcore.eval.replay: the log's configuration applied, the filters
+starting on the reference's first row), tuned with Table 2 (or, with ``--imu-errors``, the log's
 IMU degraded by that IMU's errors). Columns: the standalone INS; LC with four (synthetic) beams
 projected from the DVL's body velocity; TC, NSV and ELC with beams 3 and 4 dropped for the whole
 segment. Errors against the reference, itself an INS/DVL smoother (not independent of the DVL).
@@ -19,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tauvcore.config import Config
-from tauvcore.eval.replay import replay
+from tauvcore.config import from_dict
+from tauvcore.eval.replay import log_config, replay
 from tauvcore.logs import read_log
 from tauvcore.sensors.imu import IMU_PROFILES
 
@@ -30,17 +31,11 @@ akit = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(akit)
 
 
-def start_on_reference(config: Config) -> Config:
-    """Filters start at the reference's first row (``run.ideal``: no initial error is added in a
-    replay) with the paper's initial errors as P0's sigmas; the DVL's lever arm of the dataset."""
-    return config.replace("run", ideal=True).replace("dvl", lever_arm_m=akit.DVL_LEVER_ARM_M)
-
-
 def segment_row(segment: Path, imu_errors: str | None, seed: int = 0) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as tmp:
         offsets = akit.convert(segment, Path(tmp))
         log = read_log(tmp)
-        base = start_on_reference(Config()).replace("run", seed=seed)
+        base = from_dict(log_config(tmp)[0]).replace("run", seed=seed)   # the log's own configuration
         errors = IMU_PROFILES[imu_errors] if imu_errors else None
         four = base.replace("run", methods=("ins", "lc"))
         two = base.replace("run", methods=("tc", "nsv", "elc")).replace("dvl", beams=(1, 2))

@@ -7,7 +7,8 @@ Parquet, one clock ``t_s``). Here the log is made as ``tauv run --save-log DIR``
 ``on_sim_chunk``, :func:`tauvcore.logs.simulation_tables` turns run 0 into tables and
 :func:`tauvcore.logs.write_log` writes them. :func:`tauvcore.logs.read_log` reads and checks the
 directory, and :func:`tauvcore.eval.replay.replay` runs the methods on it exactly as on a
-simulation (what ``tauv replay DIR`` does), so the replayed errors equal the simulated ones.
+simulation (what ``tauv replay DIR --initial-errors`` does: the filters start off the reference
+by the simulation's initial errors), so the replayed errors equal the simulated ones.
 Replace the written directory with your own log to navigate on real data.
 
 Run::
@@ -49,7 +50,9 @@ def main() -> None:
     log = read_log(directory)
     for note in log.notes:
         print(f"note: {note}")
-    _, replayed = replay(config, log, np.random.default_rng(config.run.seed))
+    # the simulation's filters started off the truth by the initial errors: so do the replay's
+    offset = config.replace("replay", initial_errors=True)
+    _, replayed = replay(offset, log, np.random.default_rng(config.run.seed))
     print(f"\nreplayed {log.duration_s:g} s at {1.0 / log.dt_s:g} Hz\n")
     # a log has no true sensor errors, so the full NEES is NaN; position and attitude have a reference
     print(error_table(replayed, block="pos"))

@@ -16,7 +16,8 @@ describe and this script measures per segment:
    IMU's yaw rate against the reference's; the DVL's body velocity against the reference's,
    resolved in the body) over shifts of +-2 s in 0.01 s steps;
 4. the DVL sits about (-1.86, -0.03, +0.18) m from the INS reference point: a lever arm for the
-   configuration (:data:`DVL_LEVER_ARM_M`, written to ``akit.toml`` beside the tables).
+   configuration (:data:`DVL_LEVER_ARM_M`, written to the log's own configuration file,
+   ``log.toml`` beside the tables, which ``tauv replay`` and the dashboard apply).
 
 The IMU is written as rates, the DVL as a body velocity (the replay projects it onto the
 configured Janus beams, so beams can be dropped), the reference as geodetic position (depth =
@@ -102,9 +103,8 @@ def convert(segment: Path, out: Path, fmt: str = "csv") -> dict[str, float]:
     }
     ref_keep = t_ref >= first_ref - 1e-9
     tables["reference"] = {k: v[ref_keep] for k, v in tables["reference"].items()}
-    write_log(out, tables, fmt)
-    (out / "akit.toml").write_text(f"[dvl]\nlever_arm_m = [{DVL_LEVER_ARM_M[0]}, {DVL_LEVER_ARM_M[1]}, "
-                                   f"{DVL_LEVER_ARM_M[2]}]\n")
+    lever_arm = f"[dvl]\nlever_arm_m = [{DVL_LEVER_ARM_M[0]}, {DVL_LEVER_ARM_M[1]}, {DVL_LEVER_ARM_M[2]}]\n"
+    write_log(out, tables, fmt, config_toml=lever_arm)
     return {"imu_shift_s": imu_shift, "dvl_shift_s": dvl_shift}
 
 

@@ -179,6 +179,22 @@ class RunConfig:
 
 
 @dataclass(frozen=True)
+class ReplayConfig:
+    """How a recorded log is replayed (tauvcore.eval.replay); a simulation ignores it."""
+
+    initial_errors: bool = (
+        False  # true: the filters start off the log's reference by the initial errors, as a
+    )
+    # simulation's do (``initial_error``: its values as given when mode = "fixed", drawn from the
+    # seed with them as 1-sigma when "random"); false: they start on the reference's first row,
+    # ``initial_error``'s values serving as P0's sigmas only
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.initial_errors, bool):
+            raise ConfigError(f"replay.initial_errors must be true or false, got {show(self.initial_errors)}")
+
+
+@dataclass(frozen=True)
 class Config:
     trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
     earth: Earth = field(default_factory=Earth)
@@ -193,6 +209,7 @@ class Config:
     filter: FilterConfig = field(default_factory=FilterConfig)
     partial: PartialConfig = field(default_factory=PartialConfig)
     run: RunConfig = field(default_factory=RunConfig)
+    replay: ReplayConfig = field(default_factory=ReplayConfig)
 
     def __post_init__(self) -> None:
         imu_rate = self.imu.rate_hz
@@ -389,7 +406,7 @@ def merge(base: dict[str, Any], overlay: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def read_toml(path: str) -> dict[str, Any]:
+def read_toml(path: str, label: str = "--config") -> dict[str, Any]:
     """The raw tables of a TOML file (checked by :func:`from_dict`).
 
     Only a regular file of at most :data:`MAX_CONFIG_BYTES` is read, and that is checked with
@@ -400,48 +417,48 @@ def read_toml(path: str) -> dict[str, Any]:
     """
     name = show_path(path)
     if not path:
-        raise ConfigError("--config: expected a file name, got ''")
+        raise ConfigError(f"{label}: expected a file name, got ''")
     if "\x00" in path:  # no system call takes it (argv cannot carry one; main(argv) can)
-        raise ConfigError(f"--config: a file name cannot contain a NUL character, got {name}")
+        raise ConfigError(f"{label}: a file name cannot contain a NUL character, got {name}")
     try:
-        _require_small_regular_file(path, os.stat(path))
+        _require_small_regular_file(path, os.stat(path), label)
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
         try:
-            _require_small_regular_file(path, os.fstat(fd))
+            _require_small_regular_file(path, os.fstat(fd), label)
             with os.fdopen(fd, "rb", closefd=False) as fh:
                 data = fh.read(MAX_CONFIG_BYTES + 1)
         finally:
             os.close(fd)
     except FileNotFoundError:
-        raise ConfigError(f"--config: file not found: {name}") from None
+        raise ConfigError(f"{label}: file not found: {name}") from None
     except OSError as exc:  # ELOOP, ENAMETOOLONG, EACCES, ENOTDIR, EIO, ...
         reason = exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
-        raise ConfigError(f"--config: cannot read {name}: {reason}") from None
+        raise ConfigError(f"{label}: cannot read {name}: {reason}") from None
     if len(data) > MAX_CONFIG_BYTES:
-        raise ConfigError(f"--config: {name} is larger than {MAX_CONFIG_BYTES} bytes")
+        raise ConfigError(f"{label}: {name} is larger than {MAX_CONFIG_BYTES} bytes")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError(
-            f"--config: {name} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
+            f"{label}: {name} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
         ) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"--config: malformed TOML in {name}: {shorten(str(exc))}") from None
+        raise ConfigError(f"{label}: malformed TOML in {name}: {shorten(str(exc))}") from None
     except RecursionError:
-        raise ConfigError(f"--config: malformed TOML in {name}: arrays or tables nested too deeply") from None
+        raise ConfigError(f"{label}: malformed TOML in {name}: arrays or tables nested too deeply") from None
 
 
-def _require_small_regular_file(path: str, st: os.stat_result) -> None:
+def _require_small_regular_file(path: str, st: os.stat_result, label: str) -> None:
     """A ConfigError naming the file unless it is a regular file within the size limit."""
     if stat.S_ISDIR(st.st_mode):
-        raise ConfigError(f"--config: is a directory, not a file: {show_path(path)}")
+        raise ConfigError(f"{label}: is a directory, not a file: {show_path(path)}")
     if not stat.S_ISREG(st.st_mode):
-        raise ConfigError(f"--config: not a regular file (a device, FIFO or socket): {show_path(path)}")
+        raise ConfigError(f"{label}: not a regular file (a device, FIFO or socket): {show_path(path)}")
     if st.st_size > MAX_CONFIG_BYTES:
         raise ConfigError(
-            f"--config: {show_path(path)} is larger than {MAX_CONFIG_BYTES} bytes ({st.st_size} bytes)"
+            f"{label}: {show_path(path)} is larger than {MAX_CONFIG_BYTES} bytes ({st.st_size} bytes)"
         )
 
 

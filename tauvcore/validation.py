@@ -22,6 +22,11 @@ class ConfigError(ValueError):
     """A configuration value is invalid. The message names the field and the offending value."""
 
 
+class LogError(ValueError):
+    """A recorded log that cannot be used as it is (tauvcore.logs): the message names the file,
+    column, row and value."""
+
+
 def shorten(text: str) -> str:
     """``text`` itself when short, else its first :data:`SHOW_CHARS` characters and its length
     (for names echoed without quotes: keys, sections, file names)."""

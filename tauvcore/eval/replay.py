@@ -11,16 +11,18 @@ geometry; the log fixes the IMU rate, the mission's length and origin.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from tauvcore import units
-from tauvcore.config import Config
+from tauvcore.config import Config, from_dict, read_toml
 from tauvcore.eval.runner import MethodResult, Simulation, run
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
-from tauvcore.logs import Log, LogError
+from tauvcore.logs import CONFIG_FILE, Log, LogError
 from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors import magnetometer as mag_sensor
@@ -38,10 +40,34 @@ def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
     return values
 
 
+def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None]:
+    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory): its raw
+    tables, checked on their own, and its path; ``({}, None)`` when the log has none. LogError
+    naming the file for a file that cannot be read or does not check."""
+    path = os.path.join(os.fspath(directory), CONFIG_FILE)
+    if not os.path.lexists(path):
+        return {}, None
+    try:
+        raw = read_toml(path, label="the log's configuration")
+        from_dict(raw)
+    except ConfigError as exc:
+        text = str(exc)
+        if not text.startswith("the log's configuration"):
+            text = f"the log's configuration {show_path(path)}: {text}"
+        raise LogError(text) from None
+    return raw, path
+
+
 def replay_config(config: Config, log: Log) -> Config:
     """``config`` with what the log fixes: the IMU rate, the mission's length and starting depth,
-    and (a geodetic reference) the origin's latitude and longitude. LogError if the log's values
-    are outside what the configuration allows."""
+    (a geodetic reference) the origin's latitude and longitude, and where the filters start.
+
+    With a reference the filters start on its first row (``run.ideal``: no offset added, the
+    initial errors as P0's sigmas), or off it by the initial errors as a simulation adds them
+    when ``replay.initial_errors`` (fixed, or drawn from the seed). Without one they start from the
+    sensors' own first values (:func:`_start_from_sensors`), as uncertain as those sensors. A
+    replay sets ``run.ideal`` itself: the log's sensors are what they are. LogError if the log's
+    values are outside what the configuration allows."""
     try:
         config = config.replace("imu", rate_hz=1.0 / log.dt_s)
         if log.ref_t_s is not None:
@@ -56,8 +82,8 @@ def replay_config(config: Config, log: Log) -> Config:
             lat0, lon0 = ref_position[0, 0], ref_position[0, 1]
             config = config.replace("earth", latitude_deg=lat0 / units.DEG, longitude_deg=lon0 / units.DEG)
         if log.ref_t_s is None:
-            # the start is the sensors' own first values (no offset added: run.ideal), as uncertain
-            # as those sensors: P0's attitude and velocity sigmas at least their noise
+            # the start is the sensors' own first values, as uncertain as those sensors: P0's
+            # attitude and velocity sigmas at least their noise
             ie, mag, dvl = config.initial_error, config.magnetometer, config.dvl
             config = config.replace(
                 "initial_error",
@@ -65,10 +91,28 @@ def replay_config(config: Config, log: Log) -> Config:
                 yaw_deg=max(ie.yaw_deg, mag.yaw_noise_deg),
                 vel_mps=tuple(max(v, 2.0 * dvl.noise_mps) for v in ie.vel_mps),
             )
-            config = config.replace("run", ideal=True)
+        config = config.replace("run", ideal=not config.replay.initial_errors)
     except ConfigError as exc:
         raise LogError(f"{show_path(log.source)}: the log does not fit the configuration: {exc}") from None
     return config
+
+
+def start_description(config: Config, log: Log) -> str:
+    """One line on where the filters of a replay (``config`` from :func:`replay_config`) start."""
+    ie = config.initial_error
+    sigmas = (
+        f"position {'/'.join(f'{v:g}' for v in ie.pos_m)} m, velocity {'/'.join(f'{v:g}' for v in ie.vel_mps)} m/s, "
+        f"roll/pitch {ie.roll_pitch_deg:g} deg, yaw {ie.yaw_deg:g} deg"
+    )
+    if log.ref_t_s is not None:
+        where = f"the reference's state at t = {float(log.imu_t_s[0]):g} s"
+    else:
+        where = "the log's own sensors (first attitude row, first DVL velocity, first depth)"
+    if config.replay.initial_errors and ie.mode == "random":
+        return f"start: {where} plus initial errors drawn from seed {config.run.seed}, 1-sigma {sigmas}"
+    if config.replay.initial_errors:
+        return f"start: {where} plus the fixed initial errors {sigmas}"
+    return f"start: on {where}, initial sigmas {sigmas}"
 
 
 def _reference_at(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -273,6 +317,25 @@ def with_imu_errors(
     return dataclasses.replace(sim, imu=imu)
 
 
+def prepare(
+    config: Config,
+    log: Log,
+    rng: np.random.Generator,
+    imu_errors: imu_sensor.ImuConfig | None = None,
+) -> tuple[Config, Simulation]:
+    """The configuration as the log makes it (:func:`replay_config`) and the log as a one-run
+    simulation under it (:func:`log_simulation`; with ``imu_errors``, that IMU's errors added to
+    the log's, :func:`with_imu_errors`, and the filters tuned for that IMU). ``tauv replay`` and
+    the dashboard's replay both start here, so the same log and configuration give the same run."""
+    if imu_errors is not None:
+        config = config.replace("imu", **dataclasses.asdict(imu_errors))
+    config = replay_config(config, log)
+    sim = log_simulation(config, log, rng)
+    if imu_errors is not None:
+        sim = with_imu_errors(sim, config.imu, rng)
+    return config, sim
+
+
 def replay(
     config: Config,
     log: Log,
@@ -284,12 +347,31 @@ def replay(
     """Every method of ``config.run.methods`` on the log; returns the configuration as the log
     made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.eval.runner.run`
     gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any.
-    ``imu_errors``: an IMU whose errors are added to the log's (:func:`with_imu_errors`); the
-    filters are then tuned for that IMU (``config.imu`` becomes it, at the log's rate)."""
-    if imu_errors is not None:
-        config = config.replace("imu", **dataclasses.asdict(imu_errors))
-    config = replay_config(config, log)
-    sim = log_simulation(config, log, rng)
-    if imu_errors is not None:
-        sim = with_imu_errors(sim, config.imu, rng)
-    return config, run(config, sim, rng, progress=progress, should_stop=should_stop)
+    ``imu_errors``: an IMU whose errors are added to the log's (:func:`prepare`)."""
+    config, sim = prepare(config, log, rng, imu_errors)
+    return config, judged(log, run(config, sim, rng, progress=progress, should_stop=should_stop))
+
+
+JUDGED_SERIES = (
+    "vel_err_mps",
+    "att_err_deg",
+    "pos_err_m",
+    "tilt_err_deg",
+    "heading_err_deg",
+    "nees",
+    "nees_block",
+)
+"""The series of a :class:`~tauvcore.eval.runner.MethodResult` measured against the truth."""
+
+
+def judged(log: Log | None, results: dict[str, MethodResult]) -> dict[str, MethodResult]:
+    """``results`` as far as the log can judge them: a log without a reference has no truth, so
+    its errors and NEES are unknown at every epoch, the first included (the filters were put
+    there, so a zero error at t = 0 would be no measurement). A log with one (or None, a
+    simulation): unchanged."""
+    if log is None or log.ref_t_s is not None:
+        return results
+    return {
+        m: dataclasses.replace(r, **{n: np.full_like(getattr(r, n), np.nan) for n in JUDGED_SERIES})
+        for m, r in results.items()
+    }

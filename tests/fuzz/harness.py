@@ -20,6 +20,7 @@ import resource
 import signal
 import stat
 import time
+import warnings
 from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -51,6 +52,9 @@ class Stats:
     slowest_s: float = 0.0
     slowest_argv: str = ""
     rss_start_bytes: int = 0
+    log_classes: Counter = field(default_factory=Counter)  # hostile logs run, per class
+    log_exits: Counter = field(default_factory=Counter)  # their exit statuses ("raised": an exception escaped)
+    log_slowest_s: float = 0.0
 
 
 STATS = Stats()
@@ -94,6 +98,8 @@ class Result:
     code: int
     out: str
     err: str
+    warnings: list[str] = field(default_factory=list)  # RuntimeWarnings raised in the case (if recorded)
+    elapsed_s: float = 0.0
 
 
 def _temp_leftovers(dirs: Iterable[str]) -> list[str]:
@@ -113,6 +119,36 @@ def _snapshot(path: str | None) -> bytes | None:
         return None
 
 
+def invoke(argv: Sequence[str], *, record_warnings: bool = False) -> Result:
+    """``main(argv)`` with its output captured, under the time alarm and the address-space limit.
+
+    record_warnings: collect the RuntimeWarnings the case raises (a process would print them on
+    stderr; in-process pytest would only count them) into :attr:`Result.warnings`.
+    """
+    if not STATS.rss_start_bytes:
+        STATS.rss_start_bytes = _rss_bytes()
+    out, err = io.StringIO(), io.StringIO()
+    previous = signal.signal(signal.SIGALRM, _on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, CASE_TIMEOUT_S)
+    started = time.perf_counter()
+    recorder = warnings.catch_warnings(record=True) if record_warnings else contextlib.nullcontext()
+    with recorder as caught:
+        if record_warnings:
+            warnings.simplefilter("always", RuntimeWarning)
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), _address_space_limit():
+                try:
+                    code = main(list(argv))
+                except SystemExit as exc:           # --help / -h: argparse prints and exits 0
+                    code = exc.code if isinstance(exc.code, int) else 1
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+    found = [f"{w.category.__name__}: {w.message} ({os.path.basename(w.filename)}:{w.lineno})"
+             for w in caught or () if issubclass(w.category, RuntimeWarning)]
+    return Result(code, out.getvalue(), err.getvalue(), found, time.perf_counter() - started)
+
+
 def run_case(argv: Sequence[str], tier: str, *, names: Sequence[str] = (), json_path: str | None = None,
              watch_dirs: Sequence[str] = (), long_values: Sequence[str] = ()) -> Result:
     """``main(argv)`` with its output captured, then every check of the contract.
@@ -122,30 +158,19 @@ def run_case(argv: Sequence[str], tier: str, *, names: Sequence[str] = (), json_
     watch_dirs: directories that must hold no temporary file afterwards.
     long_values: values that must not appear whole in the message.
     """
-    if not STATS.rss_start_bytes:
-        STATS.rss_start_bytes = _rss_bytes()
     before = _snapshot(json_path)
-    out, err = io.StringIO(), io.StringIO()
-    previous = signal.signal(signal.SIGALRM, _on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, CASE_TIMEOUT_S)
-    started = time.perf_counter()
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), _address_space_limit():
-            try:
-                code = main(list(argv))
-            except SystemExit as exc:           # --help / -h: argparse prints and exits 0
-                code = exc.code if isinstance(exc.code, int) else 1
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-    elapsed = time.perf_counter() - started
+    result = invoke(argv)
     STATS.cases[tier] += 1
-    STATS.exits[code] += 1
-    if elapsed > STATS.slowest_s:
-        STATS.slowest_s, STATS.slowest_argv = elapsed, " ".join(a[:40] for a in argv)[:200]
-    result = Result(code, out.getvalue(), err.getvalue())
+    STATS.exits[result.code] += 1
+    if result.elapsed_s > STATS.slowest_s:
+        STATS.slowest_s, STATS.slowest_argv = result.elapsed_s, " ".join(a[:40] for a in argv)[:200]
     check(result, names=names, json_path=json_path, before=before, watch_dirs=watch_dirs, long_values=long_values)
     return result
+
+
+def rss_growth_bytes() -> int:
+    """How much the process's peak RSS has grown since the first case of the session."""
+    return _rss_bytes() - STATS.rss_start_bytes
 
 
 def check(result: Result, *, names: Sequence[str], json_path: str | None, before: bytes | None,
@@ -153,7 +178,7 @@ def check(result: Result, *, names: Sequence[str], json_path: str | None, before
     code, err = result.code, result.err
     assert code in (0, 2), f"exit status {code}: {err[-2000:]}"
     assert "Traceback" not in err, err[-2000:]
-    growth = _rss_bytes() - STATS.rss_start_bytes
+    growth = rss_growth_bytes()
     assert growth < RSS_GROWTH_LIMIT_BYTES, f"peak RSS grew by {growth / 2**20:.0f} MiB"
     if code == 2:
         lines = err.splitlines()
@@ -171,7 +196,7 @@ def check(result: Result, *, names: Sequence[str], json_path: str | None, before
     elif json_path is not None and result.out:       # exit 0 of `run` with --json: strict JSON, complete
         data = _snapshot(json_path)
         assert data is not None, "exit 0 but no --json file"
-        parsed = json.loads(data, parse_constant=_refuse_constant)
+        parsed = strict_json(data)
         assert set(parsed) == {"config", "results"}
         for method in parsed["results"].values():
             assert isinstance(method["diverged"], bool) and isinstance(method["p_floor_count"], int)
@@ -180,6 +205,11 @@ def check(result: Result, *, names: Sequence[str], json_path: str | None, before
 
 def _refuse_constant(name: str) -> None:
     raise AssertionError(f"--json holds {name}, which is not JSON")
+
+
+def strict_json(data: bytes) -> object:
+    """``data`` parsed as strict JSON: NaN, Infinity and -Infinity raise AssertionError."""
+    return json.loads(data, parse_constant=_refuse_constant)
 
 
 FIELD_NAME = re.compile(r"[a-z_]+\.[a-z_]+|\[[^\]]*\]|--[a-z]+")

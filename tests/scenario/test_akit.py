@@ -4,6 +4,9 @@ present and skips otherwise (the data is not part of the repository; its NOTES.m
 from __future__ import annotations
 
 import importlib.util
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -39,3 +42,102 @@ def test_an_akit_segment_converts_and_the_dvl_methods_beat_the_ins(tmp_path: Pat
     assert np.isfinite([row[m] for m in ("ins", "lc", "tc", "nsv", "elc")]).all()
     assert row["lc"] < 10.0 < row["ins"]
     assert row["tc"] < row["ins"] and row["nsv"] < row["ins"]
+
+
+METHODS = ("ins", "lc", "tc", "nsv", "elc")
+
+
+def _readme_table() -> dict[str, dict[str, float]]:
+    """The README's A-KIT table: segment -> method -> position error at the end [m]."""
+    rows = {}
+    for line in (ROOT / "README.md").read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells[0].startswith("Trajectory") and len(cells) == 3 + len(METHODS):
+            rows[cells[0]] = dict(zip(METHODS, map(float, cells[3:]), strict=True))
+    return rows
+
+
+def _replay_json(out: Path, json_path: Path, *argv: str) -> dict:
+    """``tauv replay OUT ARGV --json JSON`` in this process: the JSON document it wrote."""
+    from app.cli import main
+
+    assert main(["replay", str(out), *argv, "--json", str(json_path)]) == 0
+    return json.loads(json_path.read_text())
+
+
+def _convert(segment: Path, out: Path) -> None:
+    """The README's command: ``python scripts/akit_to_log.py SEGMENT OUT``."""
+    proc = subprocess.run([sys.executable, str(ROOT / "scripts" / "akit_to_log.py"), str(segment), str(out)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_the_readme_commands_give_the_readme_figures_on_segment_1(tmp_path: Path) -> None:
+    """``akit_to_log.py`` then ``tauv replay OUT --method ins,lc``, as the README says, with no
+    further flag or file: the README's INS and LC on Trajectory1 to their 0.1 m (the log's own
+    log.toml applied, the filters starting on the reference), and the JSON says so."""
+    out = tmp_path / "akit1"
+    _convert(SEGMENT, out)
+    proc = subprocess.run([sys.executable, "-m", "app.cli", "replay", str(out), "--method", "ins,lc", "--json",
+                           str(tmp_path / "r.json")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads((tmp_path / "r.json").read_text())
+    expected = _readme_table()["Trajectory1"]
+    for method in ("ins", "lc"):
+        assert doc["results"][method]["pos_err_m"][-1] == pytest.approx(expected[method], abs=0.051), method
+    log = doc["log"]
+    assert log["config_file"] == str(out / "log.toml") and log["start"].startswith("start: on the reference")
+    assert doc["config"]["dvl"]["lever_arm_m"] == [-1.86, -0.03, 0.18] and doc["config"]["run"]["ideal"]
+    header = proc.stdout.splitlines()[:3]
+    assert header[0].startswith("log ") and "akit1" in header[0] and "IDEAL" not in header[0]
+    assert "log.toml" in header[1] and "dvl.lever_arm_m" in header[1] and header[2].startswith("start: on")
+
+
+@pytest.mark.slow
+def test_the_readme_commands_give_the_readme_table(tmp_path: Path) -> None:
+    """Every segment of the README's table, by its own commands: the INS and LC with four beams,
+    TC, NSV and ELC with beams 1 and 2, to the table's 0.1 m."""
+    table = _readme_table()
+    assert len(table) == 13
+    for name, expected in table.items():
+        out = tmp_path / name
+        _convert(DATA / name, out)
+        got = {}
+        for argv in (("--method", "ins,lc"), ("--beams", "1,2", "--method", "tc,nsv,elc")):
+            results = _replay_json(out, tmp_path / f"{name}.json", *argv)["results"]
+            got.update({m: r["pos_err_m"][-1] for m, r in results.items()})
+        for method, value in expected.items():
+            assert got[method] == pytest.approx(value, abs=0.051), (name, method)
+
+
+def test_the_dashboards_replay_equals_the_clis(tmp_path: Path) -> None:
+    """The dashboard's controls at their defaults with the converted segment as Source (its own
+    log.toml under them, app.inputs.config_from_controls) and the worker's replay
+    (app.worker.replay_source): LC's errors equal ``tauv replay OUT --method ins,lc``'s to 1e-9."""
+    import dataclasses
+
+    from app.inputs import Controls, config_from_controls
+    from app.worker import replay_source
+    from tauvcore.eval.replay import log_config
+    from tauvcore.eval.runner import run
+
+    out = tmp_path / "akit1"
+    _convert(SEGMENT, out)
+    cli = _replay_json(out, tmp_path / "cli.json", "--method", "ins,lc")
+    controls = Controls(trajectory="straight", duration="250", methods=("ins", "lc"), vb_nf="20",
+                        nsv_epsilon="auto", beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4,
+                        aid_depth=False, aid_mag=False, accel_bias="0.5", gyro_bias="3", accel_noise="0.072",
+                        gyro_noise="0.34", dvl_noise="0.042", dvl_bias="0.005", dvl_sf="0.7", seabed_depth="60",
+                        dvl_max_altitude="100", switch_altitude="100", rpm_noise="2", seed="0", runs="1",
+                        source="akit1")
+    config, runs = config_from_controls(controls, log_config(out)[0])
+    assert runs == 1 and config.dvl.lever_arm_m == (-1.86, -0.03, 0.18)
+    rng = np.random.default_rng(config.run.seed)
+    config, sim, source, _ = replay_source(config, str(out), rng)
+    assert source["config_file"] == str(out / "log.toml") and "the dashboard's controls" in source["configuration"]
+    ours = run(config, sim, rng)
+    for method in ("ins", "lc"):
+        a = np.array(cli["results"][method]["pos_err_m"], dtype=float)
+        np.testing.assert_allclose(ours[method].pos_err_m[:, 0], a, rtol=0, atol=1e-9 * np.abs(a).max())
+    without = config_from_controls(dataclasses.replace(controls), None)[0]
+    assert without.dvl.lever_arm_m != config.dvl.lever_arm_m      # the log's own file is what set it

@@ -25,11 +25,15 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
     config = Config().replace("trajectory", name="figure8", duration_s=20.0)
     sim = simulate(config, np.random.default_rng(2))
     write_log(tmp_path / "logs" / "good", simulation_tables([SimChunk.whole(sim)]))
+    # the log's own configuration: a control's field (DVL noise) and one without a control
+    (tmp_path / "logs" / "good" / "log.toml").write_text("[dvl]\nnoise_mps = 0.05\nlever_arm_m = [0.5, 0.0, 0.2]\n")
     write_log(tmp_path / "logs" / "bad", simulation_tables([SimChunk.whole(sim)]))
     (tmp_path / "logs" / "bad" / "imu.csv").write_text("t_s,dtheta_x_rad\n0.0,0.0\n0.01,0.0\n0.02,0.0\n")
     server = Server(tmp_path / "server.log", extra=["--logs", str(tmp_path / "logs")])
     try:
         client = ViserClient(server.url)
+        # the tab's callbacks are in place once it has shown its controls in the page's address
+        client.wait_for(lambda m: "replaceState" in str(m.get("source", "")), 60.0, "the page's address")
         source = client.find("Source")
         assert source is not None
         # Truth picks a simulation's generator: a log replays its own reference, so it is disabled
@@ -38,21 +42,34 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
         mark = client.mark()
         client.set_value("Source", "good")
         client.wait_for(lambda m: m.get("type") == "GuiUpdateMessage" and m.get("uuid") == truth
-                        and m["updates"].get("disabled") is True, 10.0, "Truth disabled", since=mark)
+                        and m["updates"].get("disabled") is True, 30.0, "Truth disabled", since=mark)
+        props = _notification(client, mark)
+        assert props["title"] == "Log good: its log.toml applied", props
+        assert "DVL noise" in props["body"] and "dvl.lever_arm_m apply at Run" in props["body"], props
         mark = client.mark()
         client.click("Run")
         props = _notification(client, mark)
         assert props["title"] == "Run complete", props
+        assert client.markdown_containing("Run complete: log good, 20 s.") is not None
         table = client.value(client.markdown_containing("Configuration run"))
         assert re.search(r"\|\s*Duration \[s\]\s*\|\s*20\s*\|", table), table      # the log's length, not 250 s
-        assert re.search(r"\|\s*Truth\s*\|\s*kinematic\s*\|", table), table          # not the disabled control's
+        assert re.search(r"\|\s*Source\s*\|\s*log good\s*\|", table), table
+        assert re.search(r"\|\s*Log configuration\s*\|\s*\S*good/log.toml\s*\|", table), table
+        assert re.search(r"\|\s*Start\s*\|\s*start: on the reference", table), table
+        assert re.search(r"\|\s*DVL noise[^|]*\|\s*0.05\s*\|", table), table       # the log's own value
+        assert "Trajectory" not in table and "| Truth" not in table and "Seabed" not in table, table
         assert client.markdown_containing("a recorded log has no actuator record") is not None
+        mark = client.mark()
         client.set_value("Source", "bad")
+        props = _notification(client, mark)
+        assert props["title"] == "Log bad" and "No configuration file" in props["body"], props
         mark = client.mark()
         client.click("Run")
         props = _notification(client, mark)
         assert props["title"] == "Run failed" and "imu.csv" in props["body"] and "dtheta_y_rad" in props["body"]
+        mark = client.mark()
         client.set_value("Source", "good")
+        assert _notification(client, mark)["title"] == "Log good: its log.toml applied"
         client.set_value("Runs", "3")
         mark = client.mark()
         client.click("Run")

@@ -145,6 +145,21 @@ def test_a_log_s_name_makes_a_safe_file_name_and_the_trajectory_column(finished)
     assert json.loads(export.results_json(run))["log"] == "../my log/é"
 
 
+def test_a_replayed_log_s_downloads_name_it_and_what_configured_it(finished) -> None:
+    """A replay's JSON holds the log as ``tauv replay --json`` does (directory, its own
+    configuration file, the layers, the start); the report's configuration table names the log
+    instead of a simulated trajectory."""
+    source = {"name": "dive7", "directory": "/data/dive7", "config_file": "/data/dive7/log.toml",
+              "configuration": ["defaults", "the log's /data/dive7/log.toml (dvl.lever_arm_m)",
+                                "the dashboard's controls"],
+              "start": "start: on the reference's state at t = 0 s", "notes": []}
+    run = FinishedRun(finished.config, finished.results, log="dive7", source=source)
+    assert json.loads(export.results_json(run))["log"] == source
+    page = export.report_html(run)
+    assert "log dive7" in page and "/data/dive7/log.toml" in page and "start: on the reference" in page
+    assert "<td>Trajectory</td>" not in page and "<td>Seabed</td>" not in page
+
+
 def test_the_dashboard_s_download_button_notifies_instead_of_raising(finished) -> None:
     """app.dashboard.Session.download: no run, or a failure while sending, is a notification in
     the tab (red, naming why), never an exception in viser's callback thread."""

@@ -178,7 +178,8 @@ class _Tab:
         self.method_boxes = {m: handle(m in DEFAULTS.methods) for m in RUN_METHODS}
         self.beam_boxes = [handle(True) for _ in range(4)]
         self.outage = [(handle("0"), handle("0")) for _ in range(4)]
-        for method in ("controls", "set_controls", "selected_methods", "apply_trajectory_preset", "apply_link"):
+        for method in ("controls", "set_controls", "selected_methods", "apply_trajectory_preset", "apply_link",
+                       "_text_fields"):
             setattr(self, method, getattr(Session, method).__get__(self))
 
     def notify(self, title: str, body: str, error: bool = False) -> None:

@@ -45,7 +45,9 @@ def test_a_simulated_log_replays_to_the_simulation_to_1e_9(tmp_path: Path, model
     sim = simulate(config, rng)
     ours = run(config, sim, rng)
     write_log(tmp_path, simulation_tables([SimChunk.whole(sim)]), fmt)
-    replayed_config, back = replay(config, read_log(tmp_path), np.random.default_rng(5))
+    # the simulation's filters start off the truth by the initial errors: so must the replay's
+    replayed_config, back = replay(config.replace("replay", initial_errors=True), read_log(tmp_path),
+                                   np.random.default_rng(5))
     assert replayed_config.imu.rate_hz == pytest.approx(config.imu.rate_hz, rel=1e-12)
     for method in METHODS:
         for name in SERIES:
@@ -70,7 +72,8 @@ def test_tauv_replay_reproduces_tauv_run(tmp_path: Path) -> None:
 
     ran = cli("run", "--trajectory", "lawnmower", "--duration", "30", "--method", "ins,lc,tc,elc", "--aiding",
               "dvl,depth", "--save-log", str(tmp_path / "log"))
-    replayed = cli("replay", str(tmp_path / "log"), "--method", "ins,lc,tc,elc", "--aiding", "dvl,depth")
+    replayed = cli("replay", str(tmp_path / "log"), "--method", "ins,lc,tc,elc", "--aiding", "dvl,depth",
+                   "--initial-errors")
     for method, series in ran.items():
         for name in ("pos_err_m", "vel_err_mps", "att_err_deg", "nees_pos", "nees_vel"):
             a, b = np.array(series[name], dtype=float), np.array(replayed[method][name], dtype=float)
@@ -225,8 +228,9 @@ def test_an_irregular_imu_clock_and_a_short_gap_are_resampled(tmp_path: Path, si
     # nothing measured is lost but the part of the last interval past the grid's end
     np.testing.assert_allclose(jittered.dv_b.sum(axis=0), clean.dv_b.sum(axis=0), rtol=0,
                                atol=2 * np.abs(clean.dv_b).max())
-    _, a = replay(config, clean, np.random.default_rng(0))
-    _, b = replay(config, jittered, np.random.default_rng(0))
+    offset = config.replace("replay", initial_errors=True)   # both start off the reference alike
+    _, a = replay(offset, clean, np.random.default_rng(0))
+    _, b = replay(offset, jittered, np.random.default_rng(0))
     for method in ("ins", "lc", "tc"):
         # time stamps 20 % of an interval off move the rates they are given by that much: the
         # errors (2-4 m here) change by centimetres
@@ -244,10 +248,90 @@ def test_a_log_without_reference_starts_from_its_own_sensors(tmp_path: Path, sim
     _, back = replay(config, log, np.random.default_rng(0))
     for method in ("ins", "lc", "tc"):
         r = back[method]
-        assert np.isnan(r.pos_err_m[1:]).all() and np.isfinite(r.est_pos_n).all()
+        # no truth, no error: not even the zero at the start the filters were put on
+        assert np.isnan(r.pos_err_m).all() and np.isnan(r.nees_block).all() and np.isfinite(r.est_pos_n).all()
     # LC, DVL-aided from a magnetometer start, stays within metres of the truth it never saw
     truth_end = sim.truth.pos_n[-1]
     assert np.linalg.norm(back["lc"].est_pos_n[-1, 0] - truth_end) < 10.0
     # the start: the attitude sensor's first row and the origin at the first depth
     first = back["lc"].est_pos_n[0, 0]
     assert first[:2] == pytest.approx([0.0, 0.0], abs=1e-6) and first[2] == pytest.approx(log.depth_m[0], abs=1e-6)
+
+
+def _cli(*argv: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "app.cli", *argv], capture_output=True, text=True, timeout=120)
+
+
+def test_a_replay_starts_on_the_reference_unless_told_otherwise(simulated_log: tuple) -> None:
+    """By default the filters start on the reference's first row (zero error at t = 0) with the
+    initial errors as their sigmas; ``replay.initial_errors`` puts them off it as the simulation
+    was (its first error is the initial offset's norm, 2 m in each axis: 3.46 m)."""
+    config, _, ours, directory = simulated_log
+    log = read_log(directory)
+    on, back = replay(config, log, np.random.default_rng(5))
+    assert on.run.ideal and not on.replay.initial_errors
+    for method in ("ins", "lc"):
+        assert back[method].pos_err_m[0, 0] == pytest.approx(0.0, abs=1e-9)
+        assert back[method].pos_sigma_m[0, 0] == pytest.approx(ours[method].pos_sigma_m[0, 0], rel=1e-12)
+    off, back = replay(config.replace("replay", initial_errors=True), log, np.random.default_rng(5))
+    assert not off.run.ideal
+    assert back["lc"].pos_err_m[0, 0] == pytest.approx(np.sqrt(12.0), rel=1e-6)
+
+
+def test_the_log_s_own_configuration_is_applied_under_config_and_flags(tmp_path: Path, simulated_log: tuple) -> None:
+    """``DIR/log.toml`` sets the replay's configuration; ``--config`` and the flags win over it;
+    ``--no-log-config`` leaves it out; the header and the JSON say which applied."""
+    _, _, _, directory = simulated_log
+    log_dir = _log_copy(directory, tmp_path / "log")
+    (log_dir / "log.toml").write_text("[dvl]\nlever_arm_m = [0.5, 0.0, 0.2]\nnoise_mps = 0.05\n")
+    over = tmp_path / "over.toml"
+    over.write_text("[dvl]\nnoise_mps = 0.06\n")
+
+    def replayed(*argv: str) -> tuple[dict, list[str]]:
+        out = tmp_path / "r.json"
+        proc = _cli("replay", str(log_dir), "--method", "ins,lc", "--json", str(out), *argv)
+        assert proc.returncode == 0, proc.stderr
+        return json.loads(out.read_text()), proc.stdout.splitlines()
+
+    doc, lines = replayed()
+    assert doc["config"]["dvl"]["lever_arm_m"] == [0.5, 0.0, 0.2] and doc["config"]["dvl"]["noise_mps"] == 0.05
+    assert doc["log"]["config_file"] == str(log_dir / "log.toml")
+    assert "dvl.lever_arm_m, dvl.noise_mps" in lines[1] and lines[2].startswith("start: on the reference")
+    doc, lines = replayed("--config", str(over), "--beams", "1,2,3")
+    assert doc["config"]["dvl"]["lever_arm_m"] == [0.5, 0.0, 0.2] and doc["config"]["dvl"]["noise_mps"] == 0.06
+    assert doc["config"]["dvl"]["beams"] == [1, 2, 3] and "--config" in lines[1] and "--beams" in lines[1]
+    doc, lines = replayed("--no-log-config")
+    assert doc["config"]["dvl"]["lever_arm_m"] == list(Config().dvl.lever_arm_m) and doc["log"]["config_file"] is None
+    assert "ignored (--no-log-config)" in lines[1]
+    doc, lines = replayed("--initial-errors")
+    assert doc["config"]["replay"]["initial_errors"] and "plus the fixed initial errors" in lines[2]
+
+
+@pytest.mark.parametrize("content, expected", [
+    ("[dvl]\nlever_arm = 1\n", "unknown key dvl.lever_arm"),
+    ("[dvl\n", "malformed TOML"),
+    ("[dvl]\nnoise_mps = -1.0\n", "dvl.noise_mps"),
+])
+def test_a_bad_log_configuration_is_named(tmp_path: Path, simulated_log: tuple, content: str, expected: str) -> None:
+    """A log's own configuration that cannot be used: one line naming the file and what is wrong."""
+    _, _, _, directory = simulated_log
+    log_dir = _log_copy(directory, tmp_path / "log")
+    (log_dir / "log.toml").write_text(content)
+    proc = _cli("replay", str(log_dir))
+    assert proc.returncode == 2 and proc.stdout == "" and "Traceback" not in proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    assert "log.toml" in line and expected in line and "the log's configuration" in line
+
+
+def test_a_vendor_s_raw_layout_gets_the_converter_named(tmp_path: Path) -> None:
+    """A folder in A-KIT's own layout (IMU.csv, DVL.csv, GT.csv) replayed or served as it is:
+    one line naming the converter, not only "no imu.csv"."""
+    raw = tmp_path / "segments" / "Trajectory1"
+    raw.mkdir(parents=True)
+    for name in ("IMU.csv", "DVL.csv", "GT.csv"):
+        (raw / name).write_text("time,x\n0,0\n")
+    for argv in (("replay", str(raw)), ("serve", "--logs", str(tmp_path / "segments"))):
+        proc = _cli(*argv)
+        assert proc.returncode == 2 and "Traceback" not in proc.stderr
+        line, = proc.stderr.strip().splitlines()
+        assert "IMU.csv, DVL.csv, GT.csv" in line and "scripts/akit_to_log.py" in line, line

@@ -75,7 +75,8 @@ def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(mes
         lock=threading.Lock(), handle=handle, status=types.SimpleNamespace(content=""),
         progress=types.SimpleNamespace(value=0.0), pool=types.SimpleNamespace(workers=2),
         run_button=types.SimpleNamespace(disabled=True), stop_button=types.SimpleNamespace(disabled=False),
-        _show_results=lambda results, config: None, _keep_finished=lambda results, config, stopped: None)
+        _show_results=lambda results, config: None, _keep_finished=lambda results, config, stopped: None,
+        run_log=None)
     session.notify = lambda t, body, error=False: seen.append(
         (t, session.handle is None, session.run_button.disabled, session.stop_button.disabled))
     with pytest.MonkeyPatch.context() as mp:
@@ -163,7 +164,7 @@ def test_after_a_stop_the_slider_spans_what_was_run() -> None:
     session = _slider_session(30.0, 1200.0)
     session._set_finished = session.keep_run = lambda *args: None     # the downloads' and runs' part
     session._span_slider = lambda t: Session._span_slider(session, t)
-    session.run_log = None
+    session.run_log = session.run_source = None
     result = types.SimpleNamespace(t_s=np.array([0.0, 41.5]))
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr("app.dashboard.export.finished_run", lambda *args: None)

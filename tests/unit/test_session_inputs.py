@@ -527,6 +527,7 @@ def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_defau
     tab = SimpleNamespace(trajectory=SimpleNamespace(value="longrange"), preset=None, status=SimpleNamespace(content=""),
                           notify=lambda title, body, error=False: notes.append(title),
                           **{n: SimpleNamespace(value=getattr(DEFAULTS, n)) for n in names})
+    tab._text_fields = lambda: Session._text_fields(tab)
     Session.apply_trajectory_preset(tab)
     assert tab.seabed_depth.value == "110" and tab.duration.value == "1440" and notes == ["Preset longrange applied"]
     assert (tab.dvl_max_altitude.value, tab.switch_altitude.value, tab.rpm_noise.value) == ("100", "100", "2")

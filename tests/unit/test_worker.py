@@ -277,9 +277,11 @@ def test_a_log_is_replayed_by_a_worker(tmp_path) -> None:
 
 def _replay_checks(pool: RunPool, other: Config, logs: dict, tmp_path) -> None:
     handle = pool.start(to_dict(other), 1, log_dir=logs["dive"])
-    kind, replayed = _next(handle)
+    kind, replayed, source = _next(handle)
     assert kind == "config", replayed
     assert replayed["trajectory"]["duration_s"] == pytest.approx(15.0)
+    assert replayed["run"]["ideal"] and not replayed["replay"]["initial_errors"]   # on the reference
+    assert source["directory"] == logs["dive"] and source["start"].startswith("start: on the reference")
     kind, truth = _next(handle)
     assert kind == "truth" and truth["t_s"][-1] == pytest.approx(15.0)
     assert truth["propeller_rpm"] is None and truth["fin_angles_rad"] is None     # a log records no actuators
