@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.eval.study import ERROR_SERIES, NEES_SERIES, ChunkSeries
-from tauvcore.logs import replace_files
+from tauvcore.logs import fsync_path, replace_files
 from tauvcore.validation import one_line, show_path
 
 PARQUET_SERIES = ERROR_SERIES + NEES_SERIES
@@ -257,7 +257,7 @@ class StudyWriter:
             if self._parquet is not None:
                 self._parquet.close()
                 self._parquet = None
-                _fsync_file(path)
+                fsync_path(path)
         # dumps, not dump: json.dump always takes the pure-Python encoder (2.7 s for the
         # study's 19 MB), dumps without indent the C one
         self._write_text("summary.json", json.dumps(_plain(summary), allow_nan=False))
@@ -276,7 +276,7 @@ class StudyWriter:
         ]
         try:
             replace_files(moves, os.path.join(self.tmp, "replaced"))
-            _fsync_file(self.out_dir)
+            fsync_path(self.out_dir)
         except OSError as exc:
             raise OutputDirError(f"cannot write into {show_path(self.name)}: {os_reason(exc)}") from None
         shutil.rmtree(self.tmp, ignore_errors=True)  # what the outputs replaced
@@ -294,12 +294,3 @@ class StudyWriter:
             self._parquet = None
         shutil.rmtree(self.tmp, ignore_errors=True)
         self.lock.release(remove_created=True)
-
-
-def _fsync_file(path: str) -> None:
-    """Flush the file or directory ``path`` to the disk."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)

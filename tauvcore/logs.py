@@ -950,7 +950,7 @@ def write_log(
             _write_table(part, tables[table], fmt)
             moves.append((part, root / f"{table}.{fmt}"))
         replace_files(moves, tmp / "replaced")
-        _fsync_dir(root)
+        fsync_path(root)
     except BaseException:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -1010,9 +1010,10 @@ def _flush(fh: IO) -> None:
     os.fsync(fh.fileno())
 
 
-def _fsync_dir(directory: Path) -> None:
-    """Flush ``directory``'s entries (the renames into it) to the disk."""
-    fd = os.open(directory, os.O_RDONLY)
+def fsync_path(path: str | os.PathLike) -> None:
+    """Flush the file or directory ``path`` to the disk (a directory: its entries, the renames
+    into it)."""
+    fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
     finally:
@@ -1106,6 +1107,8 @@ __all__ = [
     "Log",
     "LogError",
     "find_logs",
+    "fsync_path",
+    "raw_layout_hint",
     "read_log",
     "replace_files",
     "simulation_tables",
