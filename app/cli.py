@@ -1075,13 +1075,11 @@ def replay_layers(
     """What configured a replay, lowest first: the defaults, the log's own file and the keys it
     sets, ``--config`` and its keys, the flags given."""
 
-    def keys(raw: dict[str, Any]) -> str:
-        names = [f"{sec}.{key}" for sec, values in raw.items() if isinstance(values, dict) for key in values]
-        return ", ".join(names) if len(names) <= 6 else f"{', '.join(names[:6])} and {len(names) - 6} more"
+    from tauvcore.eval.replay import config_keys
 
     layers = ["defaults"]
     if log_config_path is not None:
-        layers.append(f"the log's {show_path(log_config_path)} ({keys(log_raw) or 'empty'})")
+        layers.append(f"the log's {show_path(log_config_path)} ({config_keys(log_raw) or 'empty'})")
     elif args.no_log_config:
         layers.append("the log's own configuration ignored (--no-log-config)")
     if args.config:

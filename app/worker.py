@@ -201,7 +201,7 @@ def replay_source(
     tauvcore.eval.replay.prepare makes of them, as ``tauv replay`` does, and the log described as
     ``tauv replay --json``'s ``"log"`` (its directory, its configuration file, what configured
     the run, where the filters started, the reader's notes), and the log itself."""
-    from tauvcore.eval.replay import log_config, prepare, start_description
+    from tauvcore.eval.replay import config_keys, log_config, prepare, start_description
     from tauvcore.logs import read_log
 
     raw, config_file = log_config(log_dir)
@@ -209,10 +209,7 @@ def replay_source(
     config, sim = prepare(config, log, rng)
     layers = ["defaults"]
     if config_file is not None:
-        keys = ", ".join(
-            f"{sec}.{key}" for sec, values in raw.items() if isinstance(values, dict) for key in values
-        )
-        layers.append(f"the log's {config_file} ({keys or 'empty'})")
+        layers.append(f"the log's {config_file} ({config_keys(raw) or 'empty'})")
     layers.append("the dashboard's controls")
     source = {
         "name": os.path.basename(os.path.normpath(log_dir)),

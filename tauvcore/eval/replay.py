@@ -58,6 +58,13 @@ def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None
     return raw, path
 
 
+def config_keys(raw: dict[str, Any]) -> str:
+    """The keys a raw configuration sets, ``section.key``, comma-separated (past six: how many
+    more), for the line that says what configured a replay."""
+    names = [f"{sec}.{key}" for sec, values in raw.items() if isinstance(values, dict) for key in values]
+    return ", ".join(names) if len(names) <= 6 else f"{', '.join(names[:6])} and {len(names) - 6} more"
+
+
 def replay_config(config: Config, log: Log) -> Config:
     """``config`` with what the log fixes: the IMU rate, the mission's length and starting depth,
     (a geodetic reference) the origin's latitude and longitude, and where the filters start.
