@@ -39,7 +39,7 @@ RUN pip install --no-cache-dir --no-deps /tmp/dist/*.whl \
 USER 10001:10001
 WORKDIR /home/tauv
 # Compile the filter bank's kernels once, into the user's numba cache (else the first run pays ~20 s).
-RUN python -m tauvcore.eval.warmup
+RUN python -m tauvcore.engine.warmup
 EXPOSE 8080
 HEALTHCHECK --interval=30s --timeout=5s --start-period=30s --retries=3 \
     CMD ["python", "-c", "import sys, urllib.request; sys.exit(urllib.request.urlopen('http://127.0.0.1:8080/', timeout=4).status != 200)"]

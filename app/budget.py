@@ -2,7 +2,7 @@
 
 A run of ``duration_s`` at the IMU rate f has K = duration_s * f + 1 samples; with R Monte Carlo
 runs and M methods, the worker process (app.worker.run_worker) streams the mission
-(tauvcore.eval.runner.run_streaming): truth and sensors exist one chunk at a time
+(tauvcore.engine.mission.run_streaming): truth and sensors exist one chunk at a time
 (``STREAM_CHUNK_S``, K_c samples), the results grow with the output epochs. Counted from the
 arrays the engine allocates (8-byte floats; "d" is one double):
 
@@ -54,7 +54,7 @@ SLACK = 1.15
 DYNAMIC_FIXED_BYTES = 13 * 2**20
 KNOT_DOUBLES = 24  # tauvcore.truth.dynamic.KNOT_COLUMNS (not imported: it loads numba)
 CACHE_MAX_KNOTS = 100_000  # tauvcore.truth.dynamic.CACHE_MAX_KNOTS
-STREAM_CHUNK_S = 10.0  # tauvcore.eval.runner.STREAM_CHUNK_S (not imported: it loads the engine)
+STREAM_CHUNK_S = 10.0  # tauvcore.engine.mission.STREAM_CHUNK_S (not imported: it loads the engine)
 LIVE_EPOCHS = 1200  # app.worker.PROGRESS_MAX_EPOCHS (not imported: app.worker starts processes)
 
 DEFAULT_BUDGET_BYTES = int(1.5 * 2**30)

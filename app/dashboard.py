@@ -103,9 +103,8 @@ from app.scene import (
     wxyz_view,
 )
 from tauvcore.config import RUN_METHODS, Config, from_dict, to_dict
-from tauvcore.eval.consistency import BLOCK_DIMS, YOO_BLOCK_DIMS
+from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult
 from tauvcore.logs import CONFIG_FILE, LogError
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.truth.kinematic import bathymetry

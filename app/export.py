@@ -2,7 +2,7 @@
 that opens offline.
 
 - ``json``: the document ``tauv run --json`` writes for the same configuration and seed
-  (app.cli.run_payload), byte for byte: the configuration, and per method the per-epoch series,
+  (app.payload.run_payload), byte for byte: the configuration, and per method the per-epoch series,
   NIS and consistency of run 0. A Monte Carlo run (Runs > 1) adds ``"num_runs"``; every run's
   series are in the Parquet file (the CLI's JSON holds one run).
 - ``parquet``: the long form of ``tauv mc``'s runs.parquet (app.study_output.runs_table): one row
@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.cli import config_to_json, run_payload
 from app.figures import AUTO, error_figure, nees_figure, summary_markdown
 from app.inputs import config_rows
+from app.payload import config_to_json, run_payload
 from app.study_output import PARQUET_WRITE_OPTIONS, runs_table
 from tauvcore.config import Config
-from tauvcore.eval.runner import MethodResult
+from tauvcore.engine.results import MethodResult
 from tauvcore.eval.study import ChunkSeries, series_of, study_config
 
 FORMATS = {"json": "JSON", "parquet": "Parquet", "html": "HTML report"}

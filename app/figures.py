@@ -33,15 +33,9 @@ import plotly.io as pio
 
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import REGISTERED_METHODS, Config, to_dict
-from tauvcore.eval.consistency import (
-    BLOCK_DIMS,
-    CONFIDENCE,
-    method_consistency,
-    nees_band,
-    nees_series,
-)
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult
+from tauvcore.eval.consistency import CONFIDENCE, method_consistency, nees_band, nees_series
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
 
 METHOD_COLORS = {
@@ -83,7 +77,7 @@ NEES_BLOCK_NAMES = {
     "heading": "heading",
     "sensor": "sensor errors",
 }
-"""Consistency blocks (tauvcore.eval.consistency.BLOCK_DIMS) as the figure names them."""
+"""Consistency blocks (tauvcore.engine.results.BLOCK_DIMS) as the figure names them."""
 BAND_COLOR = "rgba(120,120,120,0.18)"
 FIN_NAMES = ("fin 1 lower stbd", "fin 2 lower port", "fin 3 upper port", "fin 4 upper stbd")
 """Fins 1-4 of tauvcore.truth.vehicle (FIN_POSITION_ANGLES_RAD: 45, 135, 225, 315 deg from starboard
@@ -235,7 +229,7 @@ def nees_figure(
     dimension n, averaged over the Monte Carlo runs, against time; one trace per method.
 
     ``block``: "full" (all error states) or "pos", "vel", "tilt", "heading", "sensor"
-    (tauvcore.eval.consistency.BLOCK_DIMS). n is each method's own (:func:`block_dims`: the full
+    (tauvcore.engine.results.BLOCK_DIMS). n is each method's own (:func:`block_dims`: the full
     state is 20 for the first paper's methods, 12 for Yoo 2014's, whose position NEES is NaN: no
     curve). A consistent filter's curve lies near 1 (a dotted line, trace "1 = consistent") and
     inside the two-sided 99 % band of the run-averaged NEES (:func:`tauvcore.eval.consistency.nees_band`;
@@ -601,7 +595,7 @@ def vkf_figure(
 
     Parameters
     ----------
-    trace : ``MethodResult.vkf_trace`` (tauvcore.eval.yoo_bank): ``t_s`` (U,) [s], ``x`` and
+    trace : ``MethodResult.vkf_trace`` (tauvcore.engine.yoo_bank): ``t_s`` (U,) [s], ``x`` and
         ``sigma`` (U, R, 3) = V [m/s], sf [m/s per rpm], b [m/s], ``sf_true``, ``b_true`` (U, R),
         ``rpm_in_use`` (U, R) bool.
     run : which of the R runs is drawn (the title names it when there are several).
@@ -906,7 +900,7 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     NEES/dim of the full state with the fraction of epochs inside its two-sided 99 %
     band, velocity NEES/dim and DVL NIS per degree of freedom (1 = the method knows its error; "-"
     where there is nothing to measure, as for DVL NIS without DVL updates, or a value is NaN).
-    The "monitor" column is the divergence monitor's verdict (tauvcore.eval.runner: state or P
+    The "monitor" column is the divergence monitor's verdict (tauvcore.engine: state or P
     not finite, an estimated sensor error far beyond its prior, innovations inconsistent, or the
     gate locked out). It sees only what the measurements reveal: "ok" is not a proof of
     consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma); the

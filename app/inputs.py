@@ -87,7 +87,7 @@ METHOD_HINTS.update({m.name: m.summary for m in REGISTRY.values()})  # registere
 """Hints of the method checkboxes that need one (Yoo 2014's, and the registered methods'; the first
 paper's are named in the README)."""
 FULL_BEAM_METHODS = ("lc", "ins-dvl")
-"""Methods that fuse no DVL velocity with fewer than three beams (tauvcore.eval.yoo_bank for INS-DVL)."""
+"""Methods that fuse no DVL velocity with fewer than three beams (tauvcore.engine.yoo_bank for INS-DVL)."""
 SEED = "Seed"
 RUNS = "Runs"
 RUNS_MAX = 1000

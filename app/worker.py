@@ -41,7 +41,8 @@ from typing import Any, TypedDict
 import numpy as np
 
 from tauvcore.config import Config, from_dict, to_dict
-from tauvcore.eval.runner import MethodResult, run, run_streaming
+from tauvcore.engine.mission import run, run_streaming
+from tauvcore.engine.results import MethodResult
 from tauvcore.sensors.dvl import slant_ranges_m
 from tauvcore.sensors.timing import epoch_indices_between
 from tauvcore.truth import truth_stream

@@ -13,8 +13,9 @@ import time
 import numpy as np
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.montecarlo import monte_carlo
-from tauvcore.eval.runner import run, simulate
 
 
 def best_of(fn, repeats: int = 3) -> float:

@@ -24,7 +24,8 @@ import time
 import numpy as np
 
 from tauvcore.config import METHODS, Config
-from tauvcore.eval.consistency import BLOCK_DIMS, MethodConsistency, method_consistency
+from tauvcore.engine.results import BLOCK_DIMS
+from tauvcore.eval.consistency import MethodConsistency, method_consistency
 from tauvcore.eval.montecarlo import monte_carlo
 from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 

@@ -74,7 +74,7 @@ def main() -> None:
     wall, _ = measure(TAUV + ["run", "--trajectory", "figure8", "--method", "all"], args.repeats)
     print(f"| `tauv run --trajectory figure8 --method all`, whole process | {wall:.2f} s | < 1 s |", flush=True)
     scenario = ("import time, numpy as np; from tauvcore.config import Config, METHODS; "
-                "from tauvcore.eval.runner import run_streaming; "
+                "from tauvcore.engine.mission import run_streaming; "
                 "c = Config().replace('trajectory', name='figure8').replace('run', methods=METHODS); "
                 "run_streaming(c.replace('trajectory', duration_s=1.0), np.random.default_rng(0)); "
                 "t = time.perf_counter(); run_streaming(c, np.random.default_rng(0)); "
@@ -105,7 +105,7 @@ def main() -> None:
 
 
 _STREAM = ("import sys, numpy as np; from tauvcore.config import Config, METHODS; "
-           "from tauvcore.eval.runner import run_streaming; "
+           "from tauvcore.engine.mission import run_streaming; "
            "c = Config().replace('trajectory', name='figure8', duration_s=float(sys.argv[1]))"
            ".replace('run', methods=METHODS).replace('initial_error', mode='random'); "
            "last = {}; run_streaming(c, np.random.default_rng(0), int(sys.argv[2]), on_chunk=last.update, keep=False); "

@@ -4,7 +4,7 @@
 
 The reference is the loosely coupled DVL method (``lc``, :class:`tauvcore.aiding.DvlLoose`) written
 the plain way: one ``filterpy.kalman.KalmanFilter(dim_x=20, dim_z=3)`` per Monte Carlo run, stepped
-sample by sample in Python, doing what :func:`tauvcore.eval.runner.run` does, in the same order and
+sample by sample in Python, doing what :func:`tauvcore.engine.mission.run` does, in the same order and
 with our public model functions (not copies of their formulas):
 
 - the nominal state at the IMU rate: :meth:`Strapdown.step` with the coning/sculling-compensated
@@ -30,7 +30,7 @@ What the plain loop leaves out, and why that changes no number here:
   symmetrise, and the plain loop does not either; P's asymmetry stays at round-off (the loop's
   final P is returned to show it) and moves nothing at 1e-9.
 
-The initial estimate is the engine's own (:func:`runner.initial_covariance` and the runner's draw of
+The initial estimate is the engine's own (:func:`~tauvcore.engine.start.initial_covariance` and the runner's draw of
 the initial errors from the same generator state), so both filters start from identical inputs;
 what is compared is everything after t = 0.
 
@@ -64,12 +64,15 @@ from filterpy.kalman import KalmanFilter
 from tauvcore import units
 from tauvcore.aiding import DvlLoose
 from tauvcore.config import Config
-from tauvcore.eval import runner
-from tauvcore.eval.metrics import nees
+from tauvcore.engine.mission import run
+from tauvcore.engine.results import MethodResult
+from tauvcore.engine.simulation import Simulation, simulate
+from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import Nominal, difference, inject
-from tauvcore.filter.layout import STATE
+from tauvcore.filter.layout import STATE, NavState
+from tauvcore.filter.statistics import nees
 from tauvcore.ins.error_model import F_matrix, G_matrix, discretise, noise_psd
-from tauvcore.ins.strapdown import NavState, Strapdown, body_increments
+from tauvcore.ins.strapdown import Strapdown, body_increments
 
 TOLERANCE = 1e-9
 """Largest difference allowed between ours and the filterpy loop, relative to each series' scale."""
@@ -100,7 +103,7 @@ def lc_config(trajectory: str, duration_s: float, mode: str, seed: int = 0) -> C
             .replace("initial_error", mode=mode).replace("run", methods=("lc",), aiding=("dvl",), seed=seed))
 
 
-def filterpy_loop(config: Config, sim: runner.Simulation, rng: np.random.Generator) -> LoopResult:
+def filterpy_loop(config: Config, sim: Simulation, rng: np.random.Generator) -> LoopResult:
     """Run ``lc`` on ``sim`` the plain way: one filterpy KalmanFilter per run, stepped per IMU sample.
 
     ``rng`` must be in the state ``run(config, sim, rng)`` would receive (the initial errors are
@@ -117,9 +120,9 @@ def filterpy_loop(config: Config, sim: runner.Simulation, rng: np.random.Generat
     strapdown = Strapdown(earth, dt)
     phi_raw, dv_raw = body_increments(imu.dtheta_b, imu.dv_b)       # (K, R, 3)
     q_psd = noise_psd(config.imu, config.dvl)
-    P0 = runner.initial_covariance(config, truth.euler[0])
+    P0 = initial_covariance(config, truth.euler[0])
     # the engine's own initial estimate from the same generator state: identical inputs at t = 0
-    nom0 = runner._initial_nominal(config, truth, rng, (1, R), P0[STATE.att, STATE.att])
+    nom0 = initial_nominal(config, truth, rng, (1, R), P0[STATE.att, STATE.att])
     gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt) * np.sqrt(2.5)
     model = DvlLoose(config.dvl, earth, gyro_rate_noise)
     gate = config.filter.gate_sigma
@@ -227,7 +230,7 @@ def _differences(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     return float(d.max()), float((d / np.maximum(np.abs(b), 1.0)).max())
 
 
-def compare(ours: runner.MethodResult, theirs: LoopResult) -> dict[str, tuple[float, float]]:
+def compare(ours: MethodResult, theirs: LoopResult) -> dict[str, tuple[float, float]]:
     """Largest differences between the engine's ``lc`` results and the loop's.
 
     Returns ``{series: (max |difference|, max relative difference)}`` for every series of
@@ -250,7 +253,7 @@ def compare(ours: runner.MethodResult, theirs: LoopResult) -> dict[str, tuple[fl
     return out
 
 
-def check(ours: runner.MethodResult, theirs: LoopResult, tolerance: float = TOLERANCE) -> dict[str, tuple[float, float]]:
+def check(ours: MethodResult, theirs: LoopResult, tolerance: float = TOLERANCE) -> dict[str, tuple[float, float]]:
     """:func:`compare`, raising AssertionError if any difference exceeds ``tolerance`` (relative
     above 1 SI unit, absolute below), a ping is decided differently, or ours repaired P (the
     loop does not condition it)."""
@@ -263,15 +266,15 @@ def check(ours: runner.MethodResult, theirs: LoopResult, tolerance: float = TOLE
     return diffs
 
 
-def prepare(config: Config, num_runs: int) -> tuple[Callable[[], runner.MethodResult], Callable[[], LoopResult]]:
+def prepare(config: Config, num_runs: int) -> tuple[Callable[[], MethodResult], Callable[[], LoopResult]]:
     """Simulate once (seed ``config.run.seed``); return the two calls to compare on these inputs:
     ours (``run(config, sim, rng)["lc"]``) and the filterpy loop, each given a copy of the
     generator in the state run() receives after the simulation (it draws the initial errors)."""
     rng = np.random.default_rng(config.run.seed)
-    sim = runner.simulate(config, rng, num_runs)
+    sim = simulate(config, rng, num_runs)
 
-    def ours() -> runner.MethodResult:
-        return runner.run(config, sim, copy.deepcopy(rng))["lc"]
+    def ours() -> MethodResult:
+        return run(config, sim, copy.deepcopy(rng))["lc"]
 
     def loop() -> LoopResult:
         return filterpy_loop(config, sim, copy.deepcopy(rng))
@@ -300,7 +303,7 @@ def machine() -> str:
 
 def main() -> None:
     print(f"Machine: {machine()}")
-    print("Ours: tauvcore.eval.runner.run (simulation excluded); filterpy loop: one filterpy KalmanFilter per run, "
+    print("Ours: tauvcore.engine.mission.run (simulation excluded); filterpy loop: one filterpy KalmanFilter per run, "
           "stepped per IMU sample in Python; the same simulation and initial errors. Best of 3, time.perf_counter.\n")
     print("| workload | ours [s] | filterpy loop [s] | ratio | max abs. difference | max rel. difference "
           "| gate decisions differing |")

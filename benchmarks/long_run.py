@@ -11,7 +11,7 @@ heading dominates, roll and pitch are held by gravity) and the filter's 1-sigma 
 floor count, wall time and peak memory. A speed and behaviour record, not a test
 (tests/statistical/test_long_run.py is the bounded-cost test).
 
-The run is streamed (tauvcore.eval.runner.run_streaming, ``keep=False``): truth, sensors and
+The run is streamed (tauvcore.engine.mission.run_streaming, ``keep=False``): truth, sensors and
 results pass 10 s at a time and only the figures above are kept, so the memory does not grow
 with the mission's length.
 """
@@ -32,7 +32,7 @@ AIDINGS = ("dvl", "dvl,mag")
 
 def child(hours: float, imu_rate_hz: float, seed: int, aiding: str) -> None:
     from tauvcore.config import Config
-    from tauvcore.eval.runner import run_streaming
+    from tauvcore.engine.mission import run_streaming
 
     config = (Config().replace("trajectory", name="straight", duration_s=hours * 3600.0)
               .replace("imu", rate_hz=imu_rate_hz).replace("run", methods=("lc",), aiding=tuple(aiding.split(","))))

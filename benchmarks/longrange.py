@@ -5,7 +5,7 @@ measurement, not a test; README "Beyond DVL range"; issue 12's target: under 3 s
 
 The mission is ``tauv run --trajectory longrange`` (1,440 s at 10 knots over the trenches; IMU
 100 Hz, DVL 5 Hz: 144,000 IMU samples, 7,200 pings) streamed as the CLI streams it
-(tauvcore.eval.runner.run_streaming), compiled code warm (a 20 s mission first). Wall time of the
+(tauvcore.engine.mission.run_streaming), compiled code warm (a 20 s mission first). Wall time of the
 whole run, median and spread of ``--repeats``, for: the simulation with the INS alone; the first
 paper's eight methods; Yoo's two; all ten.
 """
@@ -25,7 +25,7 @@ from tauvcore.config import (
     merge,
     trajectory_preset,
 )
-from tauvcore.eval.runner import run_streaming
+from tauvcore.engine.mission import run_streaming
 
 TARGET_S = 3.0
 

@@ -40,7 +40,8 @@ def scenarios():
 
 
 def child(out_path: str) -> None:
-    from tauvcore.eval.runner import run, simulate
+    from tauvcore.engine.mission import run
+    from tauvcore.engine.simulation import simulate
     arrays = {}
     for name, config, runs in scenarios():
         rng = np.random.default_rng(5)

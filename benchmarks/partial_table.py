@@ -21,8 +21,9 @@ import time
 import numpy as np
 
 from tauvcore.config import METHODS, Config
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
-from tauvcore.eval.runner import run, simulate
 from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 from tauvcore.truth import TRUTH_SOURCES
 

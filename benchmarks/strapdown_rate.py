@@ -17,7 +17,8 @@ import argparse
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.eval.runner import run, simulate
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.ins import strapdown
 
 CASES = {

@@ -1,10 +1,10 @@
 """One scenario and its errors: the figure-eight mission, standalone INS against the DVL-aided filters.
 
 Shows the library's basic loop, as ``tauv run`` does it: a :class:`tauvcore.config.Config`
-(defaults, with sections replaced), a seeded generator, :func:`tauvcore.eval.runner.run_streaming`
+(defaults, with sections replaced), a seeded generator, :func:`tauvcore.engine.mission.run_streaming`
 (truth, sensors and every method, a few seconds at a time), and the per-epoch errors, the filter's
 own sigma and the consistency (:func:`tauvcore.eval.consistency.method_consistency`) of each
-method's :class:`~tauvcore.eval.runner.MethodResult`. It also writes run 0's error series as CSV.
+method's :class:`~tauvcore.engine.results.MethodResult`. It also writes run 0's error series as CSV.
 
 Run::
 
@@ -17,8 +17,8 @@ import numpy as np
 from _common import error_table, finite, out_dir, parser
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.consistency import method_consistency
-from tauvcore.eval.runner import run_streaming
 
 
 def main() -> None:

@@ -20,7 +20,7 @@ from _common import error_table, finite, parser
 
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC
 from tauvcore.config import Config
-from tauvcore.eval.runner import run_streaming
+from tauvcore.engine.mission import run_streaming
 from tauvcore.truth import PAPER_TRAJECTORIES
 
 TWO_BEAM_METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")

@@ -19,7 +19,7 @@ from _common import out_dir, parser
 from plotly.subplots import make_subplots
 
 from tauvcore.config import Config
-from tauvcore.eval.consistency import BLOCK_DIMS
+from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.study import run_study
 
 

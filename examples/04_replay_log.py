@@ -3,7 +3,7 @@
 Shows the path your own data takes (the README's "Your own data: ``tauv replay``"): a log is a
 directory of tables (``imu``, ``reference``, optional ``dvl``, ``depth``, ``attitude``; CSV or
 Parquet, one clock ``t_s``). Here the log is made as ``tauv run --save-log DIR`` makes it:
-:func:`~tauvcore.eval.runner.run_streaming` hands every chunk of the simulation to
+:func:`~tauvcore.engine.mission.run_streaming` hands every chunk of the simulation to
 ``on_sim_chunk``, :func:`tauvcore.logs.simulation_tables` turns run 0 into tables and
 :func:`tauvcore.logs.write_log` writes them. :func:`tauvcore.logs.read_log` reads and checks the
 directory, and :func:`tauvcore.eval.replay.replay` runs the methods on it exactly as on a
@@ -22,8 +22,9 @@ import numpy as np
 from _common import error_table, finite, out_dir, parser
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.simulation import SimChunk
 from tauvcore.eval.replay import replay
-from tauvcore.eval.runner import SimChunk, run_streaming
 from tauvcore.logs import read_log, simulation_tables, write_log
 
 METHODS = ("ins", "lc", "tc", "elc")

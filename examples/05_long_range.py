@@ -21,7 +21,7 @@ import numpy as np
 from _common import error_table, finite, parser
 
 from tauvcore.config import from_dict, merge, trajectory_preset
-from tauvcore.eval.runner import run_streaming
+from tauvcore.engine.mission import run_streaming
 
 
 def main() -> None:

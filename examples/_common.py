@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult
 
 SHORT_ENV = "TAUV_EXAMPLE_SHORT"
 """Set to 1 for short missions (tests/unit/test_examples.py)."""
@@ -58,7 +58,7 @@ def out_dir(path: Path | None, prefix: str) -> Path:
 
 def error_table(results: dict[str, MethodResult], run: int = 0, block: str = "full") -> str:
     """End and RMS errors of run ``run`` and the NEES/dim of ``block`` ("full", "pos", "vel",
-    "tilt", "heading", "sensor": tauvcore.eval.consistency.BLOCK_DIMS) of every method, one line each."""
+    "tilt", "heading", "sensor": tauvcore.engine.results.BLOCK_DIMS) of every method, one line each."""
     lines = [
         f"{'method':<8} {'pos end':>9} {'pos RMS':>9} {'vel end':>9} {'att end':>9} {'NEES/dim':>9}",
         f"{'':<8} {'[m]':>9} {'[m]':>9} {'[m/s]':>9} {'[deg]':>9} {'(' + block + ')':>9}",

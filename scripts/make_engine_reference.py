@@ -43,7 +43,8 @@ def reference_config(trajectory: str) -> Config:
 
 
 def main() -> None:
-    from tauvcore.eval.runner import run, simulate
+    from tauvcore.engine.mission import run
+    from tauvcore.engine.simulation import simulate
     out = {}
     for trajectory in TRAJECTORIES:
         config = reference_config(trajectory)

@@ -7,5 +7,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/install_if_changed.sh
 install_if_changed .venv
-.venv/bin/python -m tauvcore.eval.warmup   # compile the filter bank once (later: loads the cache, ~1 s)
+.venv/bin/python -m tauvcore.engine.warmup   # compile the filter bank once (later: loads the cache, ~1 s)
 exec .venv/bin/tauv serve "$@"

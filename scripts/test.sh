@@ -10,5 +10,5 @@ if ! command -v chromium >/dev/null 2>&1; then
 fi
 python3 -m venv .venv
 .venv/bin/pip install -q -e '.[test]'
-.venv/bin/python -m tauvcore.eval.warmup   # compile the filter bank once, not inside a test
+.venv/bin/python -m tauvcore.engine.warmup   # compile the filter bank once, not inside a test
 exec .venv/bin/python -m pytest "$@"

@@ -48,7 +48,7 @@ beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled met
 nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector."""
 
 YOO_METHODS = ("ins-dvl", "vkf")
-"""Yoo 2014's 12-state filter (tauvcore.eval.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,
+"""Yoo 2014's 12-state filter (tauvcore.engine.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,
 ``vkf`` by the velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all"."""
 ALL_METHODS = METHODS + YOO_METHODS
 """Both papers' methods."""
@@ -241,6 +241,13 @@ class Config:
         return elc_nsv.epsilon_from_vehicle(
             tr.speed_mps, tr.turn_sideslip_deg, tr.turn_radius_m, self.dvl.rate_hz
         )
+
+    def section(self, name: str) -> Any:
+        """Section ``name`` (``"trajectory"``, ``"dvl"``, ...): how a plug-in (tauvcore.aiding.
+        fusion_method.Sections) reads the configuration without importing this module."""
+        if name not in {f.name for f in dataclasses.fields(self)}:
+            raise KeyError(f"no configuration section {name!r}")
+        return getattr(self, name)
 
     def replace(self, section: str, **changes: Any) -> Config:
         """A copy with ``changes`` applied to one section (validated)."""

@@ -41,18 +41,15 @@ import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tauvcore import units
 from tauvcore.geo.earth import OMEGA_IE_RPS, radii_of_curvature_m
 from tauvcore.geo.rotations import C_nb_from_euler, log_so3
+from tauvcore.log_record import Log
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.validation import LogError, show, show_path
-
-if TYPE_CHECKING:
-    from tauvcore.logs import Log
 
 IMU_INTERVAL_RANGE_S = (1e-4, 1.0)
 """The IMU's median sample interval [s]: an IMU samples at 1 Hz to 10 kHz. Outside, the clock is

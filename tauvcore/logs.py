@@ -51,13 +51,13 @@ import stat
 import tempfile
 import typing
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
 import numpy as np
 
 from tauvcore import units
+from tauvcore.log_record import Log
 from tauvcore.validation import LogError, one_line, show, show_path
 
 if typing.TYPE_CHECKING:
@@ -158,38 +158,6 @@ def _bounds() -> dict[str, tuple[float, float, str, str]]:
 _BOUNDS = _bounds()
 """Each column's physical bounds (low, high, unit, what a value beyond them is, in words), checked
 as a table is read (:func:`_within`)."""
-
-
-@dataclass(frozen=True)
-class Log:
-    """A validated log, in SI units and the frames of tauvcore.conventions."""
-
-    source: str  # the directory it was read from
-    imu_t_s: np.ndarray  # (K,) IMU sample times [s], uniform
-    dtheta_b: np.ndarray  # (K, 3) angle increments over (t_k-1, t_k] [rad]; row 0 zero
-    dv_b: np.ndarray  # (K, 3) velocity increments [m/s]; row 0 zero
-    ref_t_s: np.ndarray | None = None  # (N,) reference times [s]; None: the log has no reference
-    ref_position: np.ndarray | None = None  # (N, 3) latitude [rad], longitude [rad], depth [m]; or NED [m]
-    ref_geodetic: bool = False  # whether ref_position is geodetic
-    ref_euler: np.ndarray | None = None  # (N, 3) roll, pitch, yaw [rad]
-    ref_vel_n: np.ndarray | None = None  # (N, 3) NED velocity [m/s]
-    dvl_t_s: np.ndarray | None = None  # (M,) ping times [s]
-    dvl_beams_mps: np.ndarray | None = None  # (M, 4) beam velocities, NaN where not returned
-    dvl_body_mps: np.ndarray | None = None  # (M, 3) body velocity (NaN rows: invalid), if the log has that
-    depth_t_s: np.ndarray | None = None
-    depth_m: np.ndarray | None = None
-    attitude_t_s: np.ndarray | None = None
-    attitude_euler: np.ndarray | None = None  # (A, 3) [rad]
-    notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user
-
-    @property
-    def dt_s(self) -> float:
-        """The IMU's sample interval [s] (the median of the log's)."""
-        return float(np.median(np.diff(self.imu_t_s)))
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.imu_t_s[-1] - self.imu_t_s[0])
 
 
 # ---------------------------------------------------------------------------------------- reading
@@ -1057,7 +1025,7 @@ def replace_files(
 
 def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, np.ndarray]]:
     """The tables of a log holding one run of a simulation given as its chunks in order
-    (tauvcore.eval.runner.SimChunk; ``[SimChunk.whole(sim)]`` for a whole one): the IMU as
+    (tauvcore.engine.simulation.SimChunk; ``[SimChunk.whole(sim)]`` for a whole one): the IMU as
     increments, the DVL as beams (NaN where not returned), depth, the magnetometer's attitude,
     and the truth as the reference (at the IMU rate; geodetic in radians on WGS-84, else NED)."""
     r = run_index

@@ -3,7 +3,7 @@
 A model turns the data of one epoch and the predicted nominal state into a
 :class:`~tauvcore.filter.eskf.Measurement` (z, innovation, H, R, valid) and exposes its nonlinear
 ``predict`` so the tests can check H against finite differences. "When to fuse" lives in the
-runner (tauvcore.eval.runner), not here.
+runner (tauvcore.engine), not here.
 """
 
 from tauvcore.aiding.attitude_mag import MagAttitude

@@ -21,16 +21,12 @@ correlated error would be counted as independent news and the filter would grow 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tauvcore.aiding.fusion_method import FusionMethod
+from tauvcore.aiding.fusion_method import FusionMethod, Sections
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
-
-if TYPE_CHECKING:
-    from tauvcore.config import Config
 
 CV_SIGMA_MPS = (0.15, 0.15, 0.1)
 """1-sigma of the assumption, surge, sway, heave [m/s]: the autopilot holds speed to a few percent
@@ -64,9 +60,9 @@ class ConstantVelocity:
             raise ValueError(f"sigma_mps must be three positive numbers, got {self.sigma_mps!r}")
 
     @classmethod
-    def from_config(cls, config: Config) -> ConstantVelocity:
+    def from_config(cls, config: Sections) -> ConstantVelocity:
         """The model a run uses: the mission's commanded speed, the default sigmas."""
-        return cls(speed_mps=float(config.trajectory.speed_mps))
+        return cls(speed_mps=float(config.section("trajectory").speed_mps))
 
     def prepare(self, batch: tuple[int, ...]) -> ConstantVelocitySetup:
         z = np.broadcast_to(np.array([self.speed_mps, 0.0, 0.0]), batch + (3,))

@@ -21,7 +21,7 @@ from tauvcore.aiding.dvl_partial import beam_noise_cov
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import Earth
-from tauvcore.ins.strapdown import mv
+from tauvcore.geo.rotations import mv
 from tauvcore.sensors.dvl import DvlConfig
 
 

@@ -5,10 +5,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
-    from tauvcore.config import Config
     from tauvcore.filter.eskf import Measurement, Nominal
 
 RESERVED = (
@@ -30,6 +29,14 @@ RESERVED = (
 """Names a registered method or its source may not take: the built-in methods and aiding sources."""
 
 
+class Sections(Protocol):
+    """What a model is built from: the run's configuration, read by section
+    (:meth:`tauvcore.config.Config.section`; this layer sits below the configuration, which
+    gathers the registry's methods, so it names no Config)."""
+
+    def section(self, name: str) -> Any: ...
+
+
 class MeasurementModel(Protocol):
     """What the bank calls at each of the method's epochs, for the whole batch (methods x runs)."""
 
@@ -43,7 +50,7 @@ class FusionMethod:
     name: str  # in run.methods, --method and the results (lower case)
     source: str  # key of its update records in MethodResult.updates
     rate_hz: float  # fusion rate [Hz]; (0, 1000]
-    model: Callable[[Config], MeasurementModel]  # builds the model from the run's configuration
+    model: Callable[[Sections], MeasurementModel]  # builds the model from the run's configuration
     summary: str  # one line: what the method fuses
 
     def __post_init__(self) -> None:

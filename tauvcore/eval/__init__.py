@@ -1,1 +1,2 @@
-"""Running scenarios (simulation + filters side by side) and the metrics that judge them."""
+"""Judging the engine's results: error metrics, consistency (NEES and NIS) summaries, Monte Carlo
+studies, replays of recorded logs against their reference, and the papers' tables."""

@@ -20,31 +20,16 @@ active. Its ``per_dof`` is ``sum(NIS) / sum(dof)`` over every update that produc
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tauvcore.eval.metrics import average_nees_bounds, chi2_ppf
-from tauvcore.filter.layout import NEES_BLOCKS, STATE
-
-if TYPE_CHECKING:  # the engine (numba) is not loaded to summarise its results
-    from tauvcore.eval.runner import MethodResult, UpdateRecord
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult, UpdateRecord
+from tauvcore.eval.metrics import average_nees_bounds
+from tauvcore.filter.layout import NEES_BLOCKS
+from tauvcore.filter.statistics import chi2_ppf
 
 CONFIDENCE = 0.99
 """Two-sided confidence of every band."""
-
-BLOCK_DIMS: dict[str, int] = {"full": STATE.dim, **{name: len(ix) for name, ix in NEES_BLOCKS.items()}}
-"""Degrees of freedom of every NEES the results carry: the full state and each block."""
-YOO_BLOCK_DIMS: dict[str, int] = {"full": 12, "pos": 3, "vel": 3, "tilt": 2, "heading": 1, "sensor": 6}
-"""The same for Yoo 2014's 12-state filter (tauvcore.eval.yoo_bank; no position state, so its
-position NEES is NaN throughout)."""
-
-
-def block_dims(method: str) -> dict[str, int]:
-    """NEES dimensions of a method's results (by name: a study's chunks carry only series)."""
-    from tauvcore.config import YOO_METHODS
-
-    return YOO_BLOCK_DIMS if method in YOO_METHODS else BLOCK_DIMS
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run
+from tauvcore.engine.results import MethodResult
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.runner import MethodResult, run, simulate
 
 
 def monte_carlo(config: Config, num_runs: int, rng: np.random.Generator) -> dict[str, MethodResult]:
@@ -15,7 +17,7 @@ def monte_carlo(config: Config, num_runs: int, rng: np.random.Generator) -> dict
     The whole simulation is made first, every draw from ``rng`` in one stream (the sampling of the
     README's accuracy tables and of the statistical tests, reproducible since they were
     measured); it holds the mission's truth and sensors whole, so for long missions or many runs
-    use :func:`tauvcore.eval.runner.run_streaming` (what ``tauv mc`` does), whose per-source
+    use :func:`tauvcore.engine.mission.run_streaming` (what ``tauv mc`` does), whose per-source
     streams give other draws of the same distributions."""
     if num_runs < 1:
         raise ValueError(f"num_runs must be >= 1, got {num_runs!r}")

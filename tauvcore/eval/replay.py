@@ -19,7 +19,9 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config, from_dict, read_toml
-from tauvcore.eval.runner import MethodResult, Simulation, run
+from tauvcore.engine.mission import run
+from tauvcore.engine.results import MethodResult
+from tauvcore.engine.simulation import Simulation
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
@@ -197,7 +199,7 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
 
 
 def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
-    """The log as a one-run :class:`~tauvcore.eval.runner.Simulation` under ``config`` (from
+    """The log as a one-run :class:`~tauvcore.engine.simulation.Simulation` under ``config`` (from
     :func:`replay_config`): the DVL's beams and outages of ``config.dvl`` applied to the log's
     returns (and its dropout drawn from ``rng``), a body velocity projected onto the beams.
     Without a reference the truth is known at the start only (:func:`_start_from_sensors`) and
@@ -352,7 +354,7 @@ def replay(
     imu_errors: imu_sensor.ImuConfig | None = None,
 ) -> tuple[Config, dict[str, MethodResult]]:
     """Every method of ``config.run.methods`` on the log; returns the configuration as the log
-    made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.eval.runner.run`
+    made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.engine.mission.run`
     gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any.
     ``imu_errors``: an IMU whose errors are added to the log's (:func:`prepare`)."""
     config, sim = prepare(config, log, rng, imu_errors)
@@ -368,7 +370,7 @@ JUDGED_SERIES = (
     "nees",
     "nees_block",
 )
-"""The series of a :class:`~tauvcore.eval.runner.MethodResult` measured against the truth."""
+"""The series of a :class:`~tauvcore.engine.results.MethodResult` measured against the truth."""
 
 
 def judged(log: Log | None, results: dict[str, MethodResult]) -> dict[str, MethodResult]:

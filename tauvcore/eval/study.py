@@ -29,8 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tauvcore.config import Config, from_dict, to_dict
-from tauvcore.eval.consistency import BLOCK_DIMS, block_dims, nees_band
-from tauvcore.eval.runner import MethodResult, run_streaming
+from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult, block_dims
+from tauvcore.eval.consistency import nees_band
 from tauvcore.filter.layout import NEES_BLOCKS
 
 ERROR_SERIES = ("pos_err_m", "vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg")
@@ -60,7 +61,7 @@ def study_config(config: Config) -> Config:
 
 def run_chunk(config: Config, seed: int, first: int, count: int) -> dict[str, MethodResult]:
     """Runs ``first .. first + count - 1`` of the study, every method of ``config.run.methods``:
-    one batch of the filter bank, truth and sensors streamed (:func:`~tauvcore.eval.runner.run_streaming`),
+    one batch of the filter bank, truth and sensors streamed (:func:`~tauvcore.engine.mission.run_streaming`),
     each run drawing from its own generator (:func:`run_rng`)."""
     rngs = [run_rng(seed, i) for i in range(first, first + count)]
     return run_streaming(study_config(config), rngs, num_runs=count)

@@ -24,8 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tauvcore.filter.layout import STATE
-from tauvcore.ins.strapdown import NavState
+from tauvcore.filter.layout import STATE, NavState
 
 P_CORRELATION_EIGEN_FLOOR = 1e-9
 """Smallest eigenvalue of P's correlation matrix after a repair (:func:`condition_covariance`).
@@ -37,7 +36,7 @@ far below anything the filter resolves, while the repaired P has a correlation c
 
 P_VARIANCE_FLOOR = 1e-16
 """Smallest diagonal entry of P after a repair, in the state's SI unit squared: the same floor
-as the initial covariance's (tauvcore.eval.runner.initial_covariance), e.g. 1e-8 m or 2e-3 deg/h
+as the initial covariance's (tauvcore.engine.start.initial_covariance), e.g. 1e-8 m or 2e-3 deg/h
 of gyro bias as a 1-sigma, below anything the filter estimates."""
 
 

@@ -9,7 +9,7 @@ stored beside this file, or in numba's user cache when that is read-only).
 These kernels ARE the formulas: :class:`tauvcore.ins.strapdown.Strapdown`,
 :func:`tauvcore.ins.error_model.F_matrix` / :func:`~tauvcore.ins.error_model.G_matrix` /
 :func:`~tauvcore.ins.error_model.discretise`, :func:`tauvcore.filter.eskf.propagate` and
-:func:`tauvcore.eval.metrics.nees` / :func:`~tauvcore.eval.metrics.block_nees` call them for their
+:func:`tauvcore.filter.statistics.nees` / :func:`~tauvcore.filter.statistics.block_nees` call them for their
 batched numpy callers, so the tests that check those functions (finite differences, known answers)
 check these kernels; the runner calls them directly on its (methods, runs) batch.
 
@@ -2414,7 +2414,7 @@ def flag_implausible_bank(
     bound: float,
     flagged_at: np.ndarray,
 ) -> None:
-    """tauvcore.eval.metrics.implausible_sensor_errors over the bank's sensor-error estimates
+    """tauvcore.engine.monitor.implausible_sensor_errors over the bank's sensor-error estimates
     (ba, bg (M, R, 3), bdvl (M, R, 4), sf (M, R): 11 states in that order) at time ``t``: an entry
     not yet flagged whose estimate has a component with ``x^2 > bound (sigma_0^2 + q t)`` gets
     ``flagged_at = t``."""

@@ -1,11 +1,31 @@
-"""The one error-state layout (Tal et al. 2017 eq. 8) and process-noise layout (eq. 11).
+"""The nominal navigation state, the one error-state layout (Tal et al. 2017 eq. 8) and the
+process-noise layout (eq. 11).
 
 No other module spells a numeric state index: use ``STATE.vel`` etc.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import ClassVar
+
+import numpy as np
+
+from tauvcore.geo.rotations import mv
+
+
+@dataclass(frozen=True)
+class NavState:
+    """Navigation solution: position, velocity, attitude (batch shape ``...``)."""
+
+    pos_n: np.ndarray  # (..., 3) [m]
+    vel_n: np.ndarray  # (..., 3) [m/s]
+    C_nb: np.ndarray  # (..., 3, 3)
+
+    @property
+    def vel_b(self) -> np.ndarray:
+        """Body-frame velocity (surge, sway, heave) [m/s]."""
+        return mv(np.swapaxes(self.C_nb, -1, -2), self.vel_n)
 
 
 class ErrorStateLayout:

@@ -105,3 +105,45 @@ def paper_convention() -> np.ndarray:
     """(12, 12) diagonal sign change from tauvcore's error state to the paper's: the velocity error
     flips (estimate minus true), attitude and bias errors do not. ``F_paper = S F S``."""
     return np.diag(np.r_[-np.ones(3), np.ones(9)])
+
+
+def skew_batch(v: np.ndarray) -> np.ndarray:
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def F_batch(
+    lat: np.ndarray,
+    h: np.ndarray,
+    vel_n: np.ndarray,
+    f_n: np.ndarray,
+    C: np.ndarray,
+    geodetic: bool,
+    w_ie_flat: np.ndarray,
+) -> np.ndarray:
+    """:func:`F_matrix` for a batch (B,) of states -> (B, 12, 12). On the flat
+    earth the transport rate is zero and the earth rate constant (``w_ie_flat``)."""
+    B = vel_n.shape[0]
+    F = np.zeros((B, DIM, DIM))
+    if geodetic:
+        R_N, R_E = radii_of_curvature_m(lat)
+        rn, re = R_N + h, R_E + h
+        t = np.tan(lat)
+        w_ie = OMEGA_IE_RPS * np.stack([np.cos(lat), np.zeros_like(lat), -np.sin(lat)], axis=-1)
+        w_en = np.stack([vel_n[:, 1] / re, -vel_n[:, 0] / rn, -vel_n[:, 1] * t / re], axis=-1)
+        J = np.zeros((B, 3, 3))
+        J[:, 0, 1], J[:, 1, 0], J[:, 2, 1] = 1.0 / re, -1.0 / rn, -t / re
+    else:
+        w_ie = np.broadcast_to(w_ie_flat, (B, 3))
+        w_en = np.zeros((B, 3))
+        J = np.zeros((B, 3, 3))
+    F[:, VEL, VEL] = -skew_batch(2.0 * w_ie + w_en) + skew_batch(vel_n) @ J
+    F[:, VEL, ATT] = -skew_batch(f_n)
+    F[:, VEL, BA] = -C
+    F[:, ATT, VEL] = -J
+    F[:, ATT, ATT] = -skew_batch(w_ie + w_en)
+    F[:, ATT, BG] = -C
+    return F

@@ -1,4 +1,4 @@
-"""The compiled chunk loop of Yoo 2014's methods (numba): tauvcore.eval.yoo_bank's numpy methods
+"""The compiled chunk loop of Yoo 2014's methods (numba): tauvcore.engine.yoo_bank's numpy methods
 as one call per chunk.
 
 Why: the numpy bank (``YooBank(..., compiled=False)``, kept as the reference) spends its time in
@@ -35,12 +35,12 @@ from tauvcore.filter.kernels import (
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
 DIM = 12
-NC = 5  # consider states (tauvcore.eval.yoo_bank.NC): DVL scale factor, 4 beam biases
+NC = 5  # consider states (tauvcore.engine.yoo_bank.NC): DVL scale factor, 4 beam biases
 NA = DIM + NC
 VEL, ATT, BA, BG = 0, 3, 6, 9  # tauvcore.filter.yoo's blocks
-INS_DVL, VKF = 0, 1  # method codes (tauvcore.eval.yoo_bank.METHOD_CODES)
+INS_DVL, VKF = 0, 1  # method codes (tauvcore.engine.yoo_bank.METHOD_CODES)
 MIN_BEAMS = 3
-# rows of the per-epoch series (tauvcore.eval.yoo_bank.SERIES)
+# rows of the per-epoch series (tauvcore.engine.yoo_bank.SERIES)
 NUM_SERIES = 11
 # flags of an update
 U_VALID, U_FUSED, U_REJECTED = 0, 1, 2
@@ -212,7 +212,7 @@ def dvl_body_velocity_into(
 ) -> bool:
     """One run's DVL body velocity by least squares over the beams that returned, its covariance,
     the least squares' gain from the beams (3, 4), and whether at least MIN_BEAMS returned
-    (yoo_bank.dvl_body_velocity with ``with_gain``; with fewer the normal matrix is replaced by I,
+    (rpm_aid.dvl_body_velocity with ``with_gain``; with fewer the normal matrix is replaced by I,
     as there)."""
     Nm = np.zeros((3, 3))
     b = np.zeros(3)
@@ -264,7 +264,7 @@ def vkf_step(
     noise_var: float,
     switch_altitude: float,
 ) -> tuple:
-    """One run's VKF at a ping (yoo_bank.RpmAid.step): predict with the RPM (if one was read),
+    """One run's VKF at a ping (rpm_aid.RpmAid.step): predict with the RPM (if one was read),
     update with the DVL's forward speed where eq. 29 picks the DVL and it has a velocity.
     -> (RPM chosen, an RPM was read)."""
     use_rpm = (not (altitude <= switch_altitude)) or (not ok)

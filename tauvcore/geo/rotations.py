@@ -19,6 +19,11 @@ _SKEW_MAP[2, 3], _SKEW_MAP[0, 5] = 1.0, -1.0  # row 1: [z, 0, -x]
 _SKEW_MAP[1, 6], _SKEW_MAP[0, 7] = -1.0, 1.0  # row 2: [-y, x, 0]
 
 
+def mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Batched matrix-vector product ``M @ v``: (..., m, n), (..., n) -> (..., m)."""
+    return (M @ v[..., None])[..., 0]
+
+
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix ``[v x]`` with ``skew(a) @ b == cross(a, b)``. (..., 3) -> (..., 3, 3)."""
     v = np.asarray(v, dtype=float)

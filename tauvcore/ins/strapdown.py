@@ -28,32 +28,11 @@ part of the coning/sculling terms is below 1e-12 and dropped).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from tauvcore.filter.layout import NavState
 from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import exp_so3, skew
-
-
-def mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Batched matrix-vector product ``M @ v``: (..., m, n), (..., n) -> (..., m)."""
-    return (M @ v[..., None])[..., 0]
-
-
-@dataclass(frozen=True)
-class NavState:
-    """Navigation solution: position, velocity, attitude (batch shape ``...``)."""
-
-    pos_n: np.ndarray  # (..., 3) [m]
-    vel_n: np.ndarray  # (..., 3) [m/s]
-    C_nb: np.ndarray  # (..., 3, 3)
-
-    @property
-    def vel_b(self) -> np.ndarray:
-        """Body-frame velocity (surge, sway, heave) [m/s]."""
-        return mv(np.swapaxes(self.C_nb, -1, -2), self.vel_n)
-
 
 SECOND_ORDER_ROTATION = True
 """Include ``dtheta x (dtheta x dv) / 6`` in the velocity increment. Off only to measure what the

@@ -4,7 +4,7 @@ A run's random numbers come from named streams (:class:`SensorStreams`). With
 :meth:`SensorStreams.spawned` each stream is an independent generator drawn in sequence, chunk
 after chunk, so a run's numbers do not depend on how the mission is cut into chunks. With
 :meth:`SensorStreams.single` every stream is one generator, and the whole mission as one chunk
-repeats the whole-mission ``simulate`` functions (and ``tauvcore.eval.runner.simulate``) draw for
+repeats the whole-mission ``simulate`` functions (and ``tauvcore.engine.simulation.simulate``) draw for
 draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise,
 then DVL, pressure, magnetometer.
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
-from tauvcore.eval.runner import SimChunk, simulate
+from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.logs import (
     DVL_BEAMS,
     DVL_BODY,

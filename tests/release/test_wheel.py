@@ -116,7 +116,7 @@ def test_wheel_ships_the_mesh_and_only_the_packages(installed: Installed) -> Non
 
 
 def test_fresh_venv_imports_the_wheel_not_the_source_tree(installed: Installed, tmp_path: Path) -> None:
-    code = ("import app, tauvcore, tauvcore.eval.runner as r, app.scene as s; print(app.__file__);"
+    code = ("import app, tauvcore, tauvcore.engine as r, app.scene as s; print(app.__file__);"
             " print(*tauvcore.__path__); print(r.__file__); print(s.ASSETS_DIR);"
             " print((s.ASSETS_DIR / 'auv.obj').is_file())")
     out = _run([str(installed.python), "-c", code], cwd=tmp_path).stdout.split()

@@ -118,8 +118,8 @@ def test_the_dashboards_replay_equals_the_clis(tmp_path: Path) -> None:
 
     from app.inputs import Controls, config_from_controls
     from app.worker import replay_source
+    from tauvcore.engine.mission import run
     from tauvcore.eval.replay import log_config
-    from tauvcore.eval.runner import run
 
     out = tmp_path / "akit1"
     _convert(SEGMENT, out)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.eval.runner import run, run_streaming, simulate
+from tauvcore.engine.mission import run, run_streaming
+from tauvcore.engine.simulation import simulate
 from tauvcore.truth import TRAJECTORIES, generate
 from tauvcore.truth.dynamic import mission
 

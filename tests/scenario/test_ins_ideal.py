@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.eval.runner import run, simulate
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.truth import TRAJECTORIES
 
 

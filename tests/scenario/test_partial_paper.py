@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from tauvcore.config import METHODS, Config
-from tauvcore.eval.runner import run, simulate
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.eval.runner import SimChunk, simulate
+from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.logs import simulation_tables, write_log
 from tests.server.conftest import Server
 from tests.server.viser_client import ViserClient

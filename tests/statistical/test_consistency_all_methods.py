@@ -24,7 +24,8 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency
+from tauvcore.engine.results import BLOCK_DIMS
+from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.montecarlo import monte_carlo
 from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
 

@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.metrics import average_nees_bounds, rms
-from tauvcore.eval.runner import run, simulate
 from tauvcore.filter.layout import STATE
 
 DURATION_S = 3600.0

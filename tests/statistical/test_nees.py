@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.metrics import average_nees_bounds
-from tauvcore.eval.runner import run, simulate
 from tauvcore.filter.layout import STATE
 
 NUM_RUNS = 30
@@ -67,7 +68,7 @@ def test_lc_is_consistent_over_an_hour_on_the_ellipsoid_with_the_1_deg_per_h_imu
     Table 2 IMU: not an effect of the ellipsoid)."""
     import dataclasses
 
-    from tauvcore.eval.runner import run_streaming
+    from tauvcore.engine.mission import run_streaming
     from tauvcore.sensors.imu import imu_profile
     trajectory = dict(name="figure8", duration_s=3600.0, turn_radius_m=1000.0, dive_rate_mps=0.035)
     cfg = (Config().replace("trajectory", **trajectory).replace("initial_error", mode="random")

@@ -6,7 +6,7 @@ Measured: INS-DVL 1.02 / 1.05 / 1.09, VKF 0.99 / 1.06 / 1.06, LC 1.18 / 1.06 / 0
 Before the DVL's scale factor and beam biases were carried as consider states (they were white
 noise in R), the attitude column of H was built from the measured velocity and the initial
 covariance lacked the velocity-attitude correlation, the same runs gave velocity NEES/dim 1.8
-(INS-DVL) and 2.7 (VKF), 4.1 and 7.7 with other seeds: tauvcore.eval.yoo_bank's docstring.
+(INS-DVL) and 2.7 (VKF), 4.1 and 7.7 with other seeds: tauvcore.engine.yoo_bank's docstring.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from tauvcore.config import from_dict, merge, trajectory_preset
+from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.consistency import method_consistency
-from tauvcore.eval.runner import run_streaming
 
 NUM_RUNS = 20
 BAND = (0.6, 1.4)
@@ -43,7 +43,7 @@ def test_the_rpm_fallback_keeps_the_first_paper_s_methods_consistent() -> None:
     RPM speed were the true one, `tauv mc` gave 2.10 and 1.93 (5.3 over the trenches), and this
     test's runs 4.8 for LC: the VKF
     learns the speed the DVL measures, scale factor and beam biases included
-    (tauvcore.eval.runner.rpm_measurement)."""
+    (tauvcore.engine.dvl_fusion.rpm_measurement)."""
     config = from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange"},
                                                               "run": {"methods": ["lc", "tc"],
                                                                       "rpm_fallback": True}}))

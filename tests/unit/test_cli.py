@@ -15,8 +15,9 @@ import pytest
 
 from app.cli import _cell, build_parser, main, resolve_config
 from tauvcore.config import METHODS, Config, from_dict
-from tauvcore.eval.consistency import BLOCK_DIMS, method_consistency
-from tauvcore.eval.runner import run_streaming
+from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.results import BLOCK_DIMS
+from tauvcore.eval.consistency import method_consistency
 from tauvcore.sensors.dvl import Outage
 
 SPLIT_AND_NEES_KEYS = ("tilt_err_deg", "heading_err_deg", "tilt_sigma_deg", "heading_sigma_deg", "nees", "nees_pos",
@@ -326,7 +327,7 @@ def test_json_naming_the_config_file_is_refused_before_running(capsys, tmp_path,
     elif link == "hardlink":
         os.link(config, target)
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", lambda *a, **k: pytest.fail("ran before refusing --json"))
+    monkeypatch.setattr("tauvcore.engine.mission.run_streaming", lambda *a, **k: pytest.fail("ran before refusing --json"))
     _one_line_error(*_run(capsys, "run", "--config", str(config), "--json", str(target))[::2], "--json",
                     "--config file")
     assert config.read_text() == text
@@ -412,7 +413,7 @@ def _strict_json(text: str):
 
 
 def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", _fake_results(diverged=True, poison=True))
+    monkeypatch.setattr("tauvcore.engine.mission.run_streaming", _fake_results(diverged=True, poison=True))
     out_json = tmp_path / "out.json"
     code, out, err = _run(capsys, "run", "--duration", "2", "--json", str(out_json))
     assert code == 0, err
@@ -427,7 +428,7 @@ def test_json_is_strict_and_carries_the_divergence_verdict(capsys, tmp_path, mon
 
 @pytest.mark.parametrize("failure", [OSError(28, "No space left on device"), KeyboardInterrupt()])
 def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypatch, failure) -> None:
-    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", _fake_results(diverged=False, poison=False))
+    monkeypatch.setattr("tauvcore.engine.mission.run_streaming", _fake_results(diverged=False, poison=False))
     real_dump = json.dump
 
     def dump_half_then_fail(obj, fh, **kwargs):
@@ -591,9 +592,10 @@ def test_json_carries_the_estimate_in_ned_geodetic_velocity_and_attitude() -> No
     """Issue 10: the results carry the estimated trajectory, not only error norms. With ideal
     sensors the estimate is the truth: NED from the surface point, latitude, longitude and depth,
     NED velocity, roll, pitch, yaw."""
-    from app.cli import result_to_json
+    from app.payload import result_to_json
     from tauvcore.config import Config
-    from tauvcore.eval.runner import run, simulate
+    from tauvcore.engine.mission import run
+    from tauvcore.engine.simulation import simulate
     config = (Config().replace("trajectory", name="figure8", duration_s=30.0).replace("run", ideal=True, methods=("lc",))
               .replace("earth", latitude_deg=-41.3, longitude_deg=174.8))
     rng = np.random.default_rng(0)

@@ -12,17 +12,18 @@ import pytest
 from scipy import stats
 
 from tauvcore.config import Config
+from tauvcore.engine.mission import run
+from tauvcore.engine.results import BLOCK_DIMS, UpdateRecord
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.consistency import (
-    BLOCK_DIMS,
     method_consistency,
     nees_band,
     nees_series,
     summarise_nees,
     summarise_nis,
 )
-from tauvcore.eval.metrics import block_nees, nees
-from tauvcore.eval.runner import UpdateRecord, run, simulate
 from tauvcore.filter.layout import NEES_BLOCKS, STATE
+from tauvcore.filter.statistics import block_nees, nees
 
 
 def _block_of_state() -> np.ndarray:
@@ -138,7 +139,7 @@ def test_method_consistency_has_every_block_and_every_source(lawnmower_run):
 
 def test_the_chi_square_quantiles_equal_scipy_stats():
     """metrics.chi2_ppf / chi2_isf replace scipy.stats.chi2 (whose import costs 0.3 s per command)."""
-    from tauvcore.eval.metrics import chi2_isf, chi2_ppf
+    from tauvcore.filter.statistics import chi2_isf, chi2_ppf
 
     dof = np.array([1, 2, 3, 11, 20, 90, 400, 2000])
     for q in (0.005, 0.5, 0.995):

@@ -9,10 +9,9 @@ import pytest
 
 from tauvcore.aiding.dvl_loose import DvlLoose, solve_velocity
 from tauvcore.filter.eskf import Nominal, difference, inject
-from tauvcore.filter.layout import STATE
+from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.ins.strapdown import NavState, mv
+from tauvcore.geo.rotations import C_nb_from_euler, mv
 from tauvcore.sensors.dvl import DvlConfig, beam_directions_b, beam_velocity
 
 EARTH = Earth()

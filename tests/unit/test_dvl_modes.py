@@ -21,7 +21,8 @@ from tauvcore.aiding.dvl_extended import (
 )
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import METHODS, Config
-from tauvcore.eval.runner import run, simulate
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 from tauvcore.sensors.dvl import Outage
 
 DVL_METHODS = tuple(m for m in METHODS if m != "ins")

@@ -27,7 +27,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from tauvcore.eval.runner import run, simulate
+from tauvcore.engine.mission import run
+from tauvcore.engine.simulation import simulate
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("make_engine_reference", ROOT / "scripts" / "make_engine_reference.py")
@@ -64,3 +65,14 @@ def test_compiled_engine_equals_numpy_reference(trajectory: str) -> None:
                 checked += 1
     expected_keys = [k for k in REFERENCE.files if k.startswith(f"{trajectory}/")]
     assert checked == len(expected_keys) == 146
+
+
+def test_both_banks_record_the_series_in_the_order_the_results_unpack_them() -> None:
+    """tauvcore.engine.results.method_result unpacks the rows of both banks' series by SERIES_FIELDS:
+    the 20-state kernels' rows and the Yoo kernels' must be the same names in the same order."""
+    from tauvcore.engine import yoo_bank
+    from tauvcore.engine.results import SERIES_FIELDS
+    from tauvcore.filter import kernels, yoo_kernels
+
+    assert tuple(SERIES_FIELDS) == kernels.SERIES_NAMES == yoo_bank.SERIES
+    assert yoo_kernels.NUM_SERIES == len(SERIES_FIELDS)

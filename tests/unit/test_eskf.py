@@ -13,9 +13,8 @@ from tauvcore.filter.eskf import (
     inject,
     propagate,
 )
-from tauvcore.filter.layout import STATE
-from tauvcore.geo.rotations import exp_so3, log_so3
-from tauvcore.ins.strapdown import NavState, mv
+from tauvcore.filter.layout import STATE, NavState
+from tauvcore.geo.rotations import exp_so3, log_so3, mv
 
 GATE = 3.0
 
@@ -218,7 +217,7 @@ def test_geodetic_inject_and_difference_are_inverse() -> None:
     """On WGS-84 (latitude, longitude, depth) ``difference(inject(x, dx), x) == dx``: the position
     error in metres goes through the metric at the estimate both ways (to second order in dx)."""
     from tauvcore.filter.eskf import Nominal, difference, inject
-    from tauvcore.ins.strapdown import NavState
+    from tauvcore.filter.layout import NavState
     rng = np.random.default_rng(4)
     n = 20
     nav = NavState(pos_n=np.column_stack([rng.uniform(-1.4, 1.4, n), rng.uniform(-3, 3, n), rng.uniform(0, 3000, n)]),

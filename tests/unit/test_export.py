@@ -20,7 +20,7 @@ from app import cli, export
 from app.export import ExportError, FinishedRun
 from app.figures import CONSISTENCY_COLUMNS, ERROR_COLUMNS, summary_markdown
 from app.study_output import PARQUET_SERIES, StudyWriter
-from tauvcore.eval.runner import run_streaming
+from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.study import ChunkSeries, series_of
 
 ARGV = ["--trajectory", "straight", "--duration", "10", "--method", "ins,lc,tc", "--beams", "1,2,3", "--seed", "3"]

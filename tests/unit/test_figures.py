@@ -45,13 +45,10 @@ from app.figures import (
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import RUN_METHODS, Config, from_dict, merge, trajectory_preset
-from tauvcore.eval.consistency import (
-    BLOCK_DIMS,
-    YOO_BLOCK_DIMS,
-    method_consistency,
-    nees_band,
-)
-from tauvcore.eval.runner import MethodResult, run, simulate
+from tauvcore.engine.mission import run
+from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+from tauvcore.engine.simulation import simulate
+from tauvcore.eval.consistency import method_consistency, nees_band
 from tauvcore.filter.layout import NEES_BLOCKS
 from tauvcore.sensors.dvl import Outage
 

@@ -2,7 +2,7 @@
 
 The loop is ``benchmarks/filterpy_compare.py``'s: ``lc`` written the plain way, one filterpy
 filter per run stepped per IMU sample, on the same simulation and initial errors as
-``tauvcore.eval.runner.run``. A short mission (30 s, 2 runs) here; the benchmark runs 250 s and
+``tauvcore.engine.mission.run``. A short mission (30 s, 2 runs) here; the benchmark runs 250 s and
 times both. No timing in this test.
 """
 
@@ -77,7 +77,7 @@ def test_different_initial_errors_are_caught() -> None:
     config = fc.lc_config("figure8", 10.0, "random")
     ours, _ = fc.prepare(config, 1)
     rng = np.random.default_rng(config.run.seed)
-    sim = fc.runner.simulate(config, rng, 1)
+    sim = fc.simulate(config, rng, 1)
     theirs = fc.filterpy_loop(config, sim, np.random.default_rng(12345))
     with pytest.raises(AssertionError, match="differ beyond"):
         fc.check(ours(), theirs)
@@ -87,6 +87,6 @@ def test_different_initial_errors_are_caught() -> None:
 def test_loop_refuses_what_it_does_not_implement(section: str, change: dict) -> None:
     config = fc.lc_config("figure8", 2.0, "fixed").replace(section, **change)
     rng = np.random.default_rng(0)
-    sim = fc.runner.simulate(config, rng, 1)
+    sim = fc.simulate(config, rng, 1)
     with pytest.raises(ValueError, match="lc with DVL aiding only"):
         fc.filterpy_loop(config, sim, rng)

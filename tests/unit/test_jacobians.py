@@ -16,13 +16,12 @@ import pytest
 
 from tauvcore.aiding import AIDING_SOURCES, Depth, DvlLoose, MagAttitude
 from tauvcore.aiding.dvl_tight import DvlTight
-from tauvcore.eval.runner import DVL_FUSION
+from tauvcore.engine.dvl_fusion import DVL_FUSION
 from tauvcore.filter.eskf import Nominal, inject
-from tauvcore.filter.layout import NOISE, STATE
+from tauvcore.filter.layout import NOISE, STATE, NavState
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import C_nb_from_euler, exp_so3
+from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, mv
 from tauvcore.ins.error_model import F_matrix, G_matrix, error_rate
-from tauvcore.ins.strapdown import NavState, mv
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
@@ -305,12 +304,12 @@ def test_geodetic_F_and_G_match_finite_differences(lat_deg, h_m, speed_mps, seed
 
 
 def test_rpm_fallback_H_matches_finite_difference_of_its_prediction():
-    """--rpm-fallback's RPM velocity (tauvcore.eval.runner.rpm_measurement): surge the speed the
+    """--rpm-fallback's RPM velocity (tauvcore.engine.dvl_fusion.rpm_measurement): surge the speed the
     VKF learned from the DVL, (1 + SF) v_b1 + A+_1 . b; sway and heave the body velocity. Its H
     against central differences over every error state (the DVL scale factor and bias columns
     included: with H on the velocity alone the filter did not know the RPM speed shares the DVL's
     errors)."""
-    from tauvcore.eval.runner import rpm_measurement
+    from tauvcore.engine.dvl_fusion import rpm_measurement
 
     rng = np.random.default_rng(91)
     nom = _random_nominal(rng, (2,))

@@ -20,7 +20,7 @@ import pytest
 
 from tauvcore import log_checks, logs, units
 from tauvcore.config import Config
-from tauvcore.eval.runner import SimChunk, simulate
+from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.log_checks import check_plausible
 from tauvcore.logs import Log, read_log, simulation_tables, write_log
 from tauvcore.sensors.dvl import DvlConfig

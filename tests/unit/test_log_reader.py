@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.eval.runner import SimChunk, simulate
+from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.logs import LogError, _read_table, find_logs, read_log, simulation_tables, write_log
 
 ROOT = Path(__file__).resolve().parents[2]

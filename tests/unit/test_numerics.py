@@ -13,18 +13,19 @@ from scipy import stats
 from tauvcore.aiding import noise_floors
 from tauvcore.aiding.dvl_loose import solve_velocity
 from tauvcore.config import Config
-from tauvcore.eval import runner
-from tauvcore.eval.metrics import (
+from tauvcore.engine import filter_bank
+from tauvcore.engine.mission import run
+from tauvcore.engine.monitor import (
     LOCKOUT_UPDATES,
     NIS_WINDOW_UPDATES,
     implausible_sensor_errors,
     innovation_divergence_s,
-    nees,
 )
-from tauvcore.eval.runner import run, simulate
+from tauvcore.engine.simulation import simulate
 from tauvcore.filter import eskf, kernels
 from tauvcore.filter.eskf import Measurement, condition_covariance, correct
 from tauvcore.filter.layout import STATE
+from tauvcore.filter.statistics import nees
 from tauvcore.ins import error_model
 from tauvcore.ins.error_model import PROCESS_NOISE_PSD_FLOOR, noise_psd
 from tauvcore.sensors.dvl import beam_directions_b
@@ -242,7 +243,7 @@ def test_safeguards_are_inert_on_a_healthy_run(monkeypatch):
     monkeypatch.setattr(noise_floors, "MAG_ATTITUDE_NOISE_FLOOR_RAD", 0.0)
     monkeypatch.setattr(error_model, "PROCESS_NOISE_PSD_FLOOR", np.zeros_like(PROCESS_NOISE_PSD_FLOOR))
     monkeypatch.setattr(eskf, "_is_positive_definite", lambda A: np.ones(A.shape[:-2], dtype=bool))
-    monkeypatch.setattr(runner, "condition_covariance", lambda P: (P, np.zeros(P.shape[:-2], dtype=bool)))
+    monkeypatch.setattr(filter_bank, "condition_covariance", lambda P: (P, np.zeros(P.shape[:-2], dtype=bool)))
     bare = _run(config, num_runs=2, seed=7)
     assert (guarded["vb"].updates["dvl"].mode == 2).any()           # the partial constructions were exercised
     for method, res in guarded.items():
@@ -262,7 +263,7 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
     seen. -> calls per kind."""
     calls = {"propagate": 0, "condition": 0}
     real_check, real_stops = kernels.positive_definite_bank, kernels.run_stops
-    real_repair = runner.condition_covariance
+    real_repair = filter_bank.condition_covariance
 
     def check(P: np.ndarray) -> None:
         assert np.isfinite(P).all()
@@ -293,7 +294,7 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
         return s_to, kernels.STOPS_DONE
     monkeypatch.setattr(kernels, "positive_definite_bank", positive_definite_bank)
     monkeypatch.setattr(kernels, "run_stops", run_stops)
-    monkeypatch.setattr(runner, "condition_covariance", repair)
+    monkeypatch.setattr(filter_bank, "condition_covariance", repair)
     return calls
 
 
@@ -404,7 +405,7 @@ def test_the_banks_compiled_sensor_check_flags_what_implausible_sensor_errors_fl
     """tauvcore.filter.kernels.flag_implausible_bank (the filter bank's check at every aiding
     epoch) against the numpy function: the same entries flagged, at the first time, NaN estimates
     never flagged, an entry flagged once keeps its first time."""
-    from tauvcore.eval.metrics import sensor_prior_bound
+    from tauvcore.engine.monitor import sensor_prior_bound
     from tauvcore.filter import kernels
 
     rng = np.random.default_rng(5)

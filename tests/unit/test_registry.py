@@ -14,12 +14,11 @@ from tauvcore.aiding.cv import CV_RATE_HZ, ConstantVelocity
 from tauvcore.aiding.fusion_method import FusionMethod
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import ALL_METHODS, RUN_METHODS, Config
+from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.consistency import method_consistency
-from tauvcore.eval.runner import run_streaming
 from tauvcore.filter.eskf import Nominal, inject
-from tauvcore.filter.layout import STATE
-from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.ins.strapdown import NavState, mv
+from tauvcore.filter.layout import STATE, NavState
+from tauvcore.geo.rotations import C_nb_from_euler, mv
 
 EPS = 1e-6
 

@@ -249,7 +249,7 @@ def test_filter_takes_the_axis_errors_on_gravity_into_its_accelerometer_bias_sig
     """P0's accelerometer-bias block: the turn-on bias, plus what the misalignment (x, y) and the
     scale factor (z) make of gravity on a level vehicle."""
     from tauvcore.config import Config
-    from tauvcore.eval.runner import initial_covariance
+    from tauvcore.engine.start import initial_covariance
     from tauvcore.filter.layout import STATE
     config = Config().replace("imu", accel_scale_factor_ppm=300.0, accel_misalignment_mrad=0.5)
     P0 = initial_covariance(config, np.zeros(3))

@@ -14,7 +14,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 INSTALL = "pip install -q -e ."
-WARMUP = "python -m tauvcore.eval.warmup"
+WARMUP = "python -m tauvcore.engine.warmup"
 
 PYTHON3_STUB = """#!/usr/bin/env bash
 # python3: `-m venv DIR` makes a fake virtualenv (and is recorded); anything else runs $REAL_PYTHON

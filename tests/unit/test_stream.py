@@ -2,7 +2,7 @@
 
 - truth chunks of any size concatenate to ``generate`` (bit for bit in practice; 1e-12 asserted);
 - with spawned streams, sensors cut into chunks of any size are the same data, bit for bit;
-- with a single generator and one whole-mission chunk, exactly ``runner.simulate``'s draws;
+- with a single generator and one whole-mission chunk, exactly ``tauvcore.engine.simulation.simulate``'s draws;
 - a list of per-run streams gives each run what it gets alone;
 - a chunk without aiding epochs yields empty records of the right shapes.
 """
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.eval.runner import simulate
+from tauvcore.engine.simulation import simulate
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors import dvl, imu, magnetometer, pressure
 from tauvcore.sensors.dvl import Outage

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from tauvcore.config import METHODS, Config
-from tauvcore.eval.runner import FilterBank, SimChunk, run_streaming
+from tauvcore.engine.filter_bank import FilterBank
+from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.simulation import SimChunk
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import generate

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from tauvcore.eval import warmup
+from tauvcore.engine import warmup
 from tauvcore.filter import kernels
 from tauvcore.truth import dynamic
 

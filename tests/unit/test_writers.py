@@ -139,7 +139,7 @@ def test_replay_json_onto_its_config_file_is_refused(capsys, log_dir) -> None:
 
 def test_run_outputs_that_hold_or_are_inputs_are_refused(capsys, tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", _never)
+    monkeypatch.setattr("tauvcore.engine.mission.run_streaming", _never)
     Path("d").mkdir()
     Path("d/x.toml").write_text("[run]\nseed = 1\n")
     _one_line(*_run(capsys, *RUN, "--save-log", "d", "--config", "d/x.toml")[::2], "--save-log", "'d'",
@@ -328,7 +328,7 @@ def test_a_directory_another_tauv_writes_is_refused_at_once(capsys, tmp_path, mo
                                                             flag) -> None:
     held = tmp_path / "held"
     monkeypatch.setattr("tauvcore.eval.study.run_study", _never)
-    monkeypatch.setattr("tauvcore.eval.runner.run_streaming", _never)
+    monkeypatch.setattr("tauvcore.engine.mission.run_streaming", _never)
     started = time.perf_counter()
     monkeypatch.chdir(tmp_path)
     code, _, err = _run(capsys, *argv, flag, "held")

@@ -68,9 +68,9 @@ def test_the_papers_F_is_ours_in_its_sign_convention_but_for_one_typo() -> None:
 
 
 def test_the_engines_batched_F_is_the_checked_F() -> None:
-    """tauvcore.eval.yoo_bank.F_batch (what the filter propagates with) equals F_matrix (what the
+    """tauvcore.filter.yoo.F_batch (what the filter propagates with) equals F_matrix (what the
     finite differences above check), state by state, on WGS-84."""
-    from tauvcore.eval.yoo_bank import F_batch
+    from tauvcore.filter.yoo import F_batch
 
     rng = np.random.default_rng(3)
     lat, h = np.radians(rng.uniform(-60, 60, 4)), rng.uniform(-200, 0, 4)

@@ -1,11 +1,12 @@
-"""Yoo 2014's navigation methods in the engine (tauvcore.eval.yoo_bank): ``ins-dvl`` and ``vkf``."""
+"""Yoo 2014's navigation methods in the engine (tauvcore.engine.yoo_bank): ``ins-dvl`` and ``vkf``."""
 
 import numpy as np
 import pytest
 
 from tauvcore.config import Config, from_dict, merge, trajectory_preset
+from tauvcore.engine.mission import run, run_streaming
+from tauvcore.engine.simulation import simulate
 from tauvcore.eval.consistency import method_consistency
-from tauvcore.eval.runner import run, run_streaming, simulate
 
 
 def _longrange(duration_s: float, **run_section) -> Config:
@@ -121,7 +122,7 @@ def test_rpm_fallback_aids_the_first_papers_methods_where_they_had_no_dvl_veloci
 
 def _numpy_bank(monkeypatch: pytest.MonkeyPatch) -> None:
     """Make the engine run the Yoo methods with the numpy reference (YooBank(compiled=False))."""
-    from tauvcore.eval import yoo_bank
+    from tauvcore.engine import yoo_bank
 
     compiled = yoo_bank.YooBank
 

@@ -1,6 +1,6 @@
 """Compile the filter bank's kernels once per install, before anything needs them fast.
 
-    python -m tauvcore.eval.warmup
+    python -m tauvcore.engine.warmup
 
 numba compiles a kernel at its first call and caches the machine code (``cache=True``), so the
 first run after an install pays about 20 s of compilation. The README's two commands run this
@@ -24,7 +24,7 @@ from tauvcore.sensors.dvl import Outage
 
 def warm_up() -> float:
     """Run the warm-up mission; returns its wall time [s]."""
-    from tauvcore.eval.runner import run_streaming
+    from tauvcore.engine.mission import run_streaming
 
     config = (
         Config()

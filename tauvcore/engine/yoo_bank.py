@@ -45,186 +45,24 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
-from tauvcore.eval import metrics
-from tauvcore.eval.consistency import YOO_BLOCK_DIMS
-from tauvcore.filter import kernels, vkf, yoo, yoo_kernels
-from tauvcore.geo.earth import OMEGA_IE_RPS, ned_from_geodetic, radii_of_curvature_m
+from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, UpdateRecord, method_result
+from tauvcore.engine.rpm_aid import RPM_LATERAL_SIGMA_MPS, RpmAid, dvl_body_velocity
+from tauvcore.filter import kernels, statistics, yoo, yoo_kernels
+from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
 BLOCK_DIMS = YOO_BLOCK_DIMS
-"""Degrees of freedom of this filter's NEES (tauvcore.eval.consistency.YOO_BLOCK_DIMS)."""
+"""Degrees of freedom of this filter's NEES (tauvcore.engine.results.YOO_BLOCK_DIMS)."""
 NC = 5
 """Consider states after the 12: the DVL's scale factor error and its 4 beam biases (never corrected)."""
 NA = yoo.DIM + NC
 """The covariance's dimension: the 12 estimated states and the consider states."""
-RPM_LATERAL_SIGMA_MPS = 0.1
-"""1-sigma of the sway and heave the RPM velocity takes as zero [m/s] (a cruising AUV's few cm/s,
-more in turns)."""
-MIN_BEAMS = 3
 
 
-def _skew_batch(v: np.ndarray) -> np.ndarray:
-    out = np.zeros(v.shape + (3,))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
-
-
-def F_batch(
-    lat: np.ndarray,
-    h: np.ndarray,
-    vel_n: np.ndarray,
-    f_n: np.ndarray,
-    C: np.ndarray,
-    geodetic: bool,
-    w_ie_flat: np.ndarray,
-) -> np.ndarray:
-    """:func:`tauvcore.filter.yoo.F_matrix` for a batch (B,) of states -> (B, 12, 12). On the flat
-    earth the transport rate is zero and the earth rate constant (``w_ie_flat``)."""
-    B = vel_n.shape[0]
-    F = np.zeros((B, yoo.DIM, yoo.DIM))
-    if geodetic:
-        R_N, R_E = radii_of_curvature_m(lat)
-        rn, re = R_N + h, R_E + h
-        t = np.tan(lat)
-        w_ie = OMEGA_IE_RPS * np.stack([np.cos(lat), np.zeros_like(lat), -np.sin(lat)], axis=-1)
-        w_en = np.stack([vel_n[:, 1] / re, -vel_n[:, 0] / rn, -vel_n[:, 1] * t / re], axis=-1)
-        J = np.zeros((B, 3, 3))
-        J[:, 0, 1], J[:, 1, 0], J[:, 2, 1] = 1.0 / re, -1.0 / rn, -t / re
-    else:
-        w_ie = np.broadcast_to(w_ie_flat, (B, 3))
-        w_en = np.zeros((B, 3))
-        J = np.zeros((B, 3, 3))
-    F[:, yoo.VEL, yoo.VEL] = -_skew_batch(2.0 * w_ie + w_en) + _skew_batch(vel_n) @ J
-    F[:, yoo.VEL, yoo.ATT] = -_skew_batch(f_n)
-    F[:, yoo.VEL, yoo.BA] = -C
-    F[:, yoo.ATT, yoo.VEL] = -J
-    F[:, yoo.ATT, yoo.ATT] = -_skew_batch(w_ie + w_en)
-    F[:, yoo.ATT, yoo.BG] = -C
-    return F
-
-
-def latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
-    """``values`` of the last epoch at or before IMU sample ``k`` (NaN before the first)."""
-    j = np.searchsorted(index, k, side="right") - 1
-    if j < 0:
-        return np.full(values.shape[1:], np.nan)
-    return np.asarray(values[j], dtype=float)
-
-
-def dvl_body_velocity(
-    y: np.ndarray,
-    available: np.ndarray,
-    dtheta_b: np.ndarray,
-    dt_s: float,
-    C_nb: np.ndarray,
-    lat_rad: np.ndarray,
-    A_b: np.ndarray,
-    l_dvl_b: np.ndarray,
-    beam_var: float,
-    with_gain: bool = False,
-) -> tuple[np.ndarray, ...]:
-    """The DVL's body velocity at a ping by least squares over the beams that returned (R, 3), its
-    covariance from the beams' white noise (R, 3, 3), and whether at least MIN_BEAMS returned (R,);
-    with ``with_gain`` also the least squares' gain from the beams to the velocity (R, 3, 4)
-    (zero columns for beams that did not return; what a beam bias does to the velocity). The
-    head's own motion ``omega_nb x l`` is taken out with the gyro rate less the earth's (first
-    order)."""
-    R = y.shape[0]
-    avail = available & np.isfinite(y)
-    W = avail.astype(float)
-    N = np.einsum("rk,ki,kj->rij", W, A_b, A_b)
-    ok = avail.sum(axis=1) >= MIN_BEAMS
-    Ninv = np.linalg.inv(np.where(ok[:, None, None], N, np.eye(3)))
-    v_head = np.einsum("rij,rk,ki,rk->rj", Ninv, W, A_b, np.where(avail, y, 0.0))
-    w_ie_n = np.stack([np.cos(lat_rad), np.zeros(R), -np.sin(lat_rad)], axis=-1) * OMEGA_IE_RPS
-    omega = np.asarray(dtheta_b) / dt_s - np.einsum("rji,rj->ri", C_nb, w_ie_n)
-    if not with_gain:
-        return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok
-    gain = np.einsum("rij,kj,rk->rik", Ninv, A_b, W)
-    return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok, gain
-
-
-class RpmAid:
-    """One velocity Kalman filter per run (tauvcore.filter.vkf), stepped at every DVL ping with the
-    latest RPM, updated with the DVL's forward speed while the echo sounder's altitude is within
-    ``switch_altitude_m`` and enough beams return; what it offers then is the body velocity
-    ``[V_rpm, 0, 0]`` with the VKF's variance on surge and RPM_LATERAL_SIGMA_MPS on sway and heave.
-    Used by the ``vkf`` method (eq. 29) and by the first paper's methods with ``run.rpm_fallback``."""
-
-    def __init__(self, cfg, num_runs: int) -> None:
-        self.cfg = cfg
-        self.x = np.broadcast_to(cfg.x0, (num_runs, 3)).copy()
-        self.P = np.broadcast_to(cfg.P0, (num_runs, 3, 3)).copy()
-        self.use_rpm = np.zeros(num_runs, bool)
-        self.altitude = np.full(num_runs, np.nan)
-
-    def step(self, chunk, i: int, v_b: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Predict with the RPM, learn from the DVL where eq. 29 picks it; -> (RPM chosen (R,),
-        an RPM was read (R,))."""
-        cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
-        rpm_now = latest(chunk.rpm.index, chunk.rpm.rpm, k) if chunk.rpm is not None else np.full(R, np.nan)
-        altitude = (
-            latest(chunk.echo.index, chunk.echo.altitude_m, k)
-            if chunk.echo is not None
-            else np.full(R, np.nan)
-        )
-        use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
-        have_rpm = np.isfinite(rpm_now)
-        x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
-        self.x = np.where(have_rpm[:, None], x, self.x)
-        self.P = np.where(have_rpm[:, None, None], P, self.P)
-        learn = ~use_rpm & ok & have_rpm
-        z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
-        self.x, self.P, _, _ = vkf.update(self.x, self.P, z_fwd, learn, cfg.R)
-        self.use_rpm, self.altitude = use_rpm, np.asarray(altitude, dtype=float)
-        return use_rpm, have_rpm
-
-    def velocity_b(self) -> np.ndarray:
-        """(R, 3) the RPM's body velocity ``[V_rpm, 0, 0]`` (eq. 27 before the rotation)."""
-        v = np.zeros_like(self.x)
-        v[:, 0] = self.x[:, 0]
-        return v
-
-    def covariance_b(self) -> np.ndarray:
-        """(R, 3, 3) its covariance in b: the VKF's on surge, RPM_LATERAL_SIGMA_MPS on sway and heave."""
-        cov = np.zeros(self.x.shape[:1] + (3, 3))
-        cov[:, 0, 0] = self.P[:, 0, 0]
-        cov[:, 1, 1] = cov[:, 2, 2] = RPM_LATERAL_SIGMA_MPS**2
-        return cov
-
-    def trace(self, chunk, i: int, t: float) -> dict:
-        """The VKF's state now beside the RPM model's truth (YooBank._vkf_series)."""
-        k, R = chunk.k0 + i, self.x.shape[0]
-        rpm = chunk.rpm
-        nan = np.full(R, np.nan)
-        return {
-            "t_s": t,
-            "x": self.x.copy(),
-            "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
-            "sf_true": latest(rpm.index, rpm.scale_factor, k) if rpm is not None else nan,
-            "b_true": latest(rpm.index, rpm.bias_mps, k) if rpm is not None else nan,
-            "rpm_in_use": self.use_rpm.copy(),
-            "altitude_m": self.altitude.copy(),
-        }
-
-
-SERIES = (
-    "vel_err",
-    "att_err",
-    "pos_err",
-    "vel_sigma",
-    "att_sigma",
-    "pos_sigma",
-    "nees",
-    "tilt_err",
-    "heading_err",
-    "tilt_sigma",
-    "heading_sigma",
-)
-"""The per-epoch series (tauvcore.filter.kernels.SERIES_NAMES, the 20-state bank's)."""
+SERIES = tuple(SERIES_FIELDS)
+"""The per-epoch series, as the 20-state bank's (tauvcore.engine.results.SERIES_FIELDS)."""
+NEES_ROW = SERIES.index("nees")
 BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 """Each of the 12 states' NEES block (tauvcore.eval.consistency's blocks: position (none here),
 velocity, tilt, heading, sensors)."""
@@ -317,7 +155,7 @@ class YooBank:
         # the initial NED velocity is the body velocity rotated with the estimated attitude, so its
         # error carries the attitude's: dv = ... - [v x] rho (without this correlation the first
         # updates moved the heading by up to 1 deg at random)
-        Vx = _skew_batch(self.vel)
+        Vx = yoo.skew_batch(self.vel)
         self.P[..., yoo.VEL, yoo.VEL] += Vx @ P0_att @ Vx.swapaxes(-1, -2)
         self.P[..., yoo.VEL, yoo.ATT] = -Vx @ P0_att
         self.P[..., yoo.ATT, yoo.VEL] = (-Vx @ P0_att).swapaxes(-1, -2)
@@ -336,7 +174,7 @@ class YooBank:
         progress_interval_s: float = 5.0,
         should_stop: Callable[[], bool] | None = None,
     ) -> bool:
-        """Run over one chunk of the simulation (tauvcore.eval.runner.SimChunk), in order. As
+        """Run over one chunk of the simulation (tauvcore.engine.simulation.SimChunk), in order. As
         FilterBank.feed: ``progress(t_s, results so far)`` every ``progress_interval_s`` of
         simulated time, ``should_stop()`` polled at every output epoch; returns False once it said
         so (the results then end at that epoch)."""
@@ -603,7 +441,7 @@ class YooBank:
         f_b = self._dv[i].reshape(1, R, 3) / self.dt - self.ba  # the latest specific force
         f_n = np.einsum("bij,bj->bi", C, f_b.reshape(-1, 3))
         lat, h = self._lat_h()
-        F = F_batch(lat, h, self.vel.reshape(-1, 3), f_n, C, self.geodetic, self.w_ie) * dt_c
+        F = yoo.F_batch(lat, h, self.vel.reshape(-1, 3), f_n, C, self.geodetic, self.w_ie) * dt_c
         Phi = np.eye(yoo.DIM) + F + 0.5 * F @ F
         P = self.P.reshape(-1, NA, NA).copy()
         X = slice(0, yoo.DIM)
@@ -693,7 +531,7 @@ class YooBank:
         nu = z - self.vel[m]  # dv = true - estimate
         H = np.zeros((R, 3, NA))
         H[:, :, yoo.VEL] = np.eye(3)
-        H[:, :, yoo.ATT] = _skew_batch(self.vel[m])
+        H[:, :, yoo.ATT] = yoo.skew_batch(self.vel[m])
         H[:, :, yoo.DIM :] = np.where(np.isfinite(Hc), Hc, 0.0)
         PHt = P @ H.swapaxes(-1, -2)  # (R, NA, 3)
         S = H @ PHt + Rm
@@ -741,7 +579,7 @@ class YooBank:
         dx[..., yoo.BG] = bg_t - self.bg
         vel_b_err = np.einsum("ji,j->i", C_t, v_t) - np.einsum("mrji,mrj->mri", self.C, self.vel)
         P = np.ascontiguousarray(self.P[..., : yoo.DIM, : yoo.DIM])  # the 12 estimated states
-        blocks = metrics.block_nees(dx, P, BLOCK_OF_STATE, NUM_BLOCKS)
+        blocks = statistics.block_nees(dx, P, BLOCK_OF_STATE, NUM_BLOCKS)
         blocks[..., 0] = np.nan  # no position state
         att = dx[..., yoo.ATT]
         deg = 1.0 / units.DEG
@@ -752,7 +590,7 @@ class YooBank:
             "vel_sigma": np.sqrt(np.einsum("mrii->mr", P[..., :3, :3])),
             "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg,
             "pos_sigma": np.nan,
-            "nees": metrics.nees(dx, P),
+            "nees": statistics.nees(dx, P),
             "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg,
             "heading_err": np.abs(att[..., 2]) * deg,
             "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
@@ -769,7 +607,7 @@ class YooBank:
     def take(self, keep: bool = True, until_s: float | None = None):
         """The output epochs and updates since the last :meth:`take`; without ``keep`` they are
         dropped (as FilterBank.take). ``until_s``: none after this time (where the 20-state bank
-        stopped, tauvcore.eval.runner._Banks)."""
+        stopped, tauvcore.engine.mission.Banks)."""
         chunks = self.chunks[self.taken :]
         if keep:
             self.taken = len(self.chunks)
@@ -782,8 +620,6 @@ class YooBank:
         return self._results(self.chunks, until_s)
 
     def _results(self, chunks: list[dict[str, np.ndarray]], until_s: float | None):
-        from tauvcore.eval.runner import MethodResult, UpdateRecord
-
         _, R = self.batch
         if chunks:
             cat = {
@@ -801,7 +637,6 @@ class YooBank:
                 for name, a in cat.items()
             }
         t_s = cat["t_s"]
-        series = dict(zip(SERIES, cat["series"]))
         U = cat["up_t"].size
         trace = None
         if self.has_vkf and U:
@@ -837,32 +672,19 @@ class YooBank:
                     nis_dof=np.where(valid, 3, 0),
                     unusable=np.zeros_like(valid),
                 )
-            nonfinite = ~np.isfinite(series["nees"][:, m])
+            nonfinite = ~np.isfinite(cat["series"][NEES_ROW, m])
             first_bad = (
                 np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T])
                 if t_s.size
                 else np.full(R, np.nan)
             )
-            out[method] = MethodResult(
-                method=method,
-                t_s=t_s,
-                vel_err_mps=series["vel_err"][:, m],
-                att_err_deg=series["att_err"][:, m],
-                pos_err_m=series["pos_err"][:, m],
-                vel_sigma_mps=series["vel_sigma"][:, m],
-                att_sigma_deg=series["att_sigma"][:, m],
-                pos_sigma_m=series["pos_sigma"][:, m],
-                nees=series["nees"][:, m],
-                tilt_err_deg=series["tilt_err"][:, m],
-                heading_err_deg=series["heading_err"][:, m],
-                tilt_sigma_deg=series["tilt_sigma"][:, m],
-                heading_sigma_deg=series["heading_sigma"][:, m],
-                nees_block=cat["nees_block"][:, m],
-                est_pos_n=cat["est_pos_n"][:, m],
-                est_vel_n=cat["est_vel_n"][:, m],
-                est_euler_rad=cat["est_euler"][:, m],
-                diverged=~np.isnan(first_bad),
-                diverged_at_s=first_bad,
+            out[method] = method_result(
+                method,
+                m,
+                t_s,
+                cat["series"],
+                cat,
+                first_bad,
                 p_floor_count=np.zeros(R, int),
                 updates=updates,
                 block_dims=BLOCK_DIMS,

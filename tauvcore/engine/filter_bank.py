@@ -22,9 +22,9 @@ monitor flags a run's solution (``MethodResult.diverged``, ``diverged_at_s``) at
 
 - an output epoch where its state or P is not finite;
 - an aiding epoch after which an estimated sensor error (IMU or DVL bias, DVL scale factor) lies far
-  outside the filter's own prior (:func:`~tauvcore.eval.metrics.implausible_sensor_errors`);
+  outside the filter's own prior (:func:`~tauvcore.engine.monitor.implausible_sensor_errors`);
 - an innovation inconsistency of any of its aiding sources
-  (:func:`~tauvcore.eval.metrics.innovation_divergence_s`: windowed NIS above its chi-square
+  (:func:`~tauvcore.engine.monitor.innovation_divergence_s`: windowed NIS above its chi-square
   bound, or the source locked out by the gate).
 
 It uses no truth, as a real filter could not; so it cannot see an error in a direction nothing
@@ -36,452 +36,47 @@ INS has no innovations and estimates no sensor error: it is flagged only if not 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
-import numpy.typing as npt
 
 from tauvcore import units
-from tauvcore.aiding import Depth, MagAttitude, elc_select
-from tauvcore.aiding.dvl_extended import (
-    ELC_METHODS,
-    MODE_COAST,
-    MODE_LC,
-    MODE_PARTIAL,
-    MODE_TC,
-    DvlExtended,
-)
+from tauvcore.aiding import Depth, MagAttitude
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import Config
-from tauvcore.eval.metrics import innovation_divergence_s, sensor_prior_bound
+from tauvcore.engine.dvl_fusion import (
+    DVL_FUSION,
+    DVL_MODE_CODES,
+    DVL_ROWS,
+    partial_tables,
+    rpm_measurement,
+)
+from tauvcore.engine.monitor import sensor_prior_bound
+from tauvcore.engine.recorder import Recorder
+from tauvcore.engine.results import MethodResult, method_result
+from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
+from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
     Measurement,
     Nominal,
-    UpdateOutcome,
     condition_covariance,
     fuse_in_place,
     make_outcome,
 )
-from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE
-from tauvcore.geo.rotations import (
-    C_nb_from_euler,
-    euler_from_misalignment_jacobian,
-    exp_so3,
-)
+from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
-from tauvcore.ins.strapdown import NavState, Strapdown, body_increments, mv
-from tauvcore.sensors import dvl as dvl_sensor
-from tauvcore.sensors import echosounder as echo_sensor
-from tauvcore.sensors import imu as imu_sensor
-from tauvcore.sensors import magnetometer as mag_sensor
-from tauvcore.sensors import pressure as pressure_sensor
-from tauvcore.sensors import rpm as rpm_sensor
-from tauvcore.sensors.stream import SensorStream, SensorStreams
-from tauvcore.truth import Truth, generate, truth_stream
-from tauvcore.truth.kinematic import bathymetry
+from tauvcore.ins.strapdown import Strapdown, body_increments
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
 updates can lose definiteness to round-off, and at least this often in between (propagation
 alone, e.g. the standalone INS or a DVL outage, only carries a positive definite P forward)."""
 
-DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}}
-"""How each method fuses the DVL (None: not at all; a registered method, tauvcore.aiding.registry,
-is not in it and takes no DVL)."""
-
-
-@dataclass(frozen=True)
-class Simulation:
-    """Truth and every sensor's output for R Monte Carlo runs (run axis after time)."""
-
-    truth: Truth
-    imu: imu_sensor.ImuData
-    dvl: dvl_sensor.DvlData
-    pressure: pressure_sensor.PressureData
-    mag: mag_sensor.MagnetometerData
-    num_runs: int
-    echo: echo_sensor.EchoSounderData | None = None  # echo sounder (None: a log without one)
-    rpm: rpm_sensor.RpmData | None = None  # propeller RPM (None: a log without one)
-
-
-def simulate(
-    config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None
-) -> Simulation:
-    """Generate the truth (unless given) and the sensor outputs (errors zeroed if ``config.run.ideal``)."""
-    ideal = config.run.ideal
-    if truth is None:
-        truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    imu_cfg = config.imu.ideal() if ideal else config.imu
-    dvl_cfg = config.dvl.ideal() if ideal else config.dvl
-    p_cfg = config.pressure.ideal() if ideal else config.pressure
-    m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
-    seabed = bathymetry(config.trajectory)
-    extra = rng.spawn(1)[0]
-    return Simulation(
-        truth=truth,
-        imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
-        dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
-        pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
-        mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
-        num_runs=num_runs,
-        # from a child of rng (spawning draws nothing): what rng draws next, the filters'
-        # initial errors, is what it drew before these sensors existed
-        echo=echo_sensor.simulate(
-            truth, config.echo_sounder.ideal() if ideal else config.echo_sounder, seabed, extra, num_runs
-        ),
-        rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs),
-    )
-
-
-@dataclass(frozen=True)
-class UpdateRecord:
-    """Every update of one aiding source for one method: U epochs x R runs."""
-
-    t_s: np.ndarray  # (U,)
-    z: np.ndarray  # (U, R, m) observation
-    innovation: np.ndarray  # (U, R, m)
-    innovation_var: np.ndarray  # (U, R, m) diagonal of S
-    test_ratio: np.ndarray  # (U, R) max_i nu_i^2 / (gate^2 S_ii)
-    fused: np.ndarray  # (U, R) bool
-    rejected: np.ndarray  # (U, R) bool (failed the gate)
-    valid: np.ndarray  # (U, R) bool (the source produced a measurement)
-    fused_rows: np.ndarray  # (U, R, m) bool
-    rejected_rows: np.ndarray  # (U, R, m) bool
-    nis: np.ndarray  # (U, R) normalised innovation squared over the active rows, before the gate
-    nis_dof: np.ndarray  # (U, R) int: its degrees of freedom (active rows)
-    unusable: np.ndarray  # (U, R) bool: S not finite or not positive definite, nothing fused
-    beams_available: np.ndarray | None = None  # (U, R, 4) DVL only: beams that returned
-    mode: np.ndarray | None = None  # (U, R) DVL only: MODE_* code (coast, lc, partial, tc)
-    measured_axes: np.ndarray | None = None  # (U, R, 3) DVL only: body axes the velocity carried
-    elc_choice: np.ndarray | None = None  # (U, R, 3) ELC only: index into elc_select.CANDIDATES
-
-
-@dataclass(frozen=True)
-class MethodResult:
-    """Per-epoch results of one method over R runs (time first)."""
-
-    method: str
-    t_s: np.ndarray  # (T,) output epochs [s]
-    vel_err_mps: np.ndarray  # (T, R) |body velocity error|
-    att_err_deg: np.ndarray  # (T, R) |misalignment| (tilt and heading together)
-    pos_err_m: np.ndarray  # (T, R) |position error|
-    vel_sigma_mps: np.ndarray  # (T, R) sqrt(trace P_vel), the filter's own 1-sigma of the norm
-    att_sigma_deg: np.ndarray  # (T, R)
-    pos_sigma_m: np.ndarray  # (T, R)
-    nees: np.ndarray  # (T, R) full 20-state NEES against truth
-    tilt_err_deg: np.ndarray  # (T, R) |(rho_N, rho_E)|: roll/pitch (levelling) error
-    heading_err_deg: np.ndarray  # (T, R) |rho_D|: heading (azimuth) error
-    tilt_sigma_deg: np.ndarray  # (T, R) sqrt(P_NN + P_EE) of the misalignment
-    heading_sigma_deg: np.ndarray  # (T, R) sqrt(P_DD) of the misalignment
-    nees_block: np.ndarray  # (T, R, B) NEES of each block of layout.NEES_BLOCKS (in its order)
-    est_pos_n: np.ndarray  # (T, R, 3) estimated position, NED [m] from the sea-surface point above the start
-    # (on WGS-84 in that point's tangent frame: tauvcore.geo.earth.geodetic_from_ned)
-    diverged: np.ndarray  # (R,) bool: the divergence monitor flagged this run's solution
-    diverged_at_s: np.ndarray  # (R,) time of the first flag [s], NaN if never
-    p_floor_count: np.ndarray  # (R,) times an eigenvalue of P was raised to the floor
-    updates: dict[str, UpdateRecord] = field(default_factory=dict)
-    est_vel_n: np.ndarray | None = None  # (T, R, 3) estimated NED velocity [m/s]
-    est_euler_rad: np.ndarray | None = None  # (T, R, 3) estimated roll, pitch, yaw [rad]
-    block_dims: dict[str, int] | None = None  # NEES dimensions when not the 20-state filter's (Yoo 2014's
-    # 12: tauvcore.eval.yoo_bank.BLOCK_DIMS); None: consistency.BLOCK_DIMS
-    vkf_trace: dict[str, np.ndarray] | None = None  # the velocity Kalman filter at every ping (method vkf:
-    # tauvcore.eval.yoo_bank.YooBank._vkf_series)
-
-
-def _initial_draws(
-    rng: np.random.Generator | Sequence[np.random.Generator], R: int
-) -> tuple[np.ndarray, ...]:
-    """Standard normals of the random initial errors (position, misalignment, velocity), (R, 3)
-    each: from one generator for the whole batch, or one per run (a study's runs, each its own
-    seeded unit: tauvcore.eval.study)."""
-    if isinstance(rng, np.random.Generator):
-        return rng.standard_normal((R, 3)), rng.standard_normal((R, 3)), rng.standard_normal((R, 3))
-    if len(rng) != R:
-        raise ValueError(f"one generator per run expected ({R}), got {len(rng)}")
-    draws = [(g.standard_normal(3), g.standard_normal(3), g.standard_normal(3)) for g in rng]
-    return tuple(np.stack([d[i] for d in draws]) for i in range(3))
-
-
-def _initial_nominal(
-    config: Config,
-    truth: Truth,
-    rng: np.random.Generator | Sequence[np.random.Generator],
-    batch: tuple[int, int],
-    P0_nav_att: np.ndarray,
-) -> Nominal:
-    """Estimate at t = 0: truth with the initial errors (fixed, or drawn per run), biases zero."""
-    _, R = batch
-    ie = config.initial_error.ideal() if config.run.ideal else config.initial_error
-    assert truth.pos_nav is not None  # Truth.__post_init__ sets pos_n where it was not given
-    pos_true, C_true, v_true_b = truth.pos_nav[0], truth.C_nb[0], truth.vel_b[0]
-
-    def moved(offset_m: np.ndarray) -> np.ndarray:
-        """The true position moved by (R, 3) north, east, down metres (on WGS-84: latitude,
-        longitude and depth through the metric there)."""
-        offset_m = np.ascontiguousarray(np.broadcast_to(offset_m, (R, 3)), dtype=float)
-        if not truth.earth.geodetic:
-            return pos_true + offset_m
-        return kernels.add_position_batch(
-            np.ascontiguousarray(np.broadcast_to(pos_true, (R, 3))), offset_m, True
-        )
-
-    if ie.mode == "fixed":
-        pos = moved(np.asarray(ie.pos_m))
-        C = np.broadcast_to(C_nb_from_euler(truth.euler[0] + np.asarray(ie.euler_rad)), (R, 3, 3))
-        vel_b = np.broadcast_to(v_true_b + np.asarray(ie.vel_mps), (R, 3))
-    else:
-        n_pos, n_rho, n_vel = _initial_draws(rng, R)
-        pos = moved(n_pos * np.asarray(ie.pos_m))
-        rho = (np.linalg.cholesky(P0_nav_att) @ n_rho[..., None])[..., 0]
-        C = exp_so3(-rho) @ C_true  # C_true = exp(rho) C_hat
-        vel_b = v_true_b + n_vel * np.asarray(ie.vel_mps)
-    vel_n = mv(C, vel_b)
-    nav = NavState(
-        pos_n=np.broadcast_to(pos, batch + (3,)).copy(),
-        vel_n=np.broadcast_to(vel_n, batch + (3,)).copy(),
-        C_nb=np.broadcast_to(C, batch + (3, 3)).copy(),
-    )
-    return Nominal(
-        nav=nav,
-        accel_bias=np.zeros(batch + (3,)),
-        gyro_bias=np.zeros(batch + (3,)),
-        dvl_bias=np.zeros(batch + (4,)),
-        dvl_sf=np.zeros(batch),
-    )
-
-
-def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
-    """P0 (20, 20) from the initial-error and sensor sections (Table 2 values as 1-sigma).
-
-    The attitude block maps the Euler-angle sigmas into the n-frame misalignment:
-    ``P_rho = J^-1 diag(sigma_euler^2) J^-T``, ``J = d euler / d rho`` at the initial attitude.
-
-    The filter has no states for the IMU's scale factors and misalignments (the paper's 20
-    states). On a vehicle that cruises level they act on gravity alone, as a constant bias: the
-    x and y accelerometers see ``m g`` of the axis leaning towards z, the z accelerometer ``s g``;
-    so that part joins the accelerometer bias's initial sigma, and the filter's bias states take
-    it in. What they do with turn rates and accelerations stays unmodelled (150 ppm of a 10 deg/s
-    turn is 5 deg/h while it lasts).
-    """
-    ie, imu, dvl = config.initial_error, config.imu, config.dvl
-    P0 = np.zeros((STATE.dim, STATE.dim))
-    P0[STATE.pos, STATE.pos] = np.diag(np.square(ie.pos_m))
-    J_inv = np.linalg.inv(euler_from_misalignment_jacobian(euler0))
-    P0[STATE.att, STATE.att] = J_inv @ np.diag(np.square(ie.euler_rad)) @ J_inv.T
-    P0[STATE.vel, STATE.vel] = np.diag(np.square(ie.vel_mps))
-    g = float(np.linalg.norm(config.earth.g_n))
-    axes_on_gravity = g * np.array(
-        [imu.accel_misalignment_rad, imu.accel_misalignment_rad, imu.accel_scale_factor]
-    )
-    P0[STATE.ba, STATE.ba] = np.diag(imu.accel_bias_mps2**2 + axes_on_gravity**2)
-    P0[STATE.bg, STATE.bg] = np.eye(3) * imu.gyro_bias_rps**2
-    P0[STATE.b_dvl, STATE.b_dvl] = np.eye(4) * dvl.bias_mps**2
-    P0[STATE.sf_dvl, STATE.sf_dvl] = dvl.scale_factor**2
-    # a zero tuning value would make P0 singular; keep a floor far below any real error
-    return P0 + np.eye(STATE.dim) * 1e-16
-
 
 def _epoch_map(indices: np.ndarray) -> dict[int, int]:
     return {int(k): i for i, k in enumerate(indices)}
-
-
-class _Recorder:
-    """Collects the updates of one source for the whole bank (methods x runs, one row per update:
-    the compiled correction's outcome as it comes, no per-method copies), and hands out each
-    method's record (:meth:`build`).
-
-    Rows are stacked into one array per field at the end of every chunk (:meth:`seal`), so a long
-    mission holds a few arrays per chunk, not thousands of tiny ones; sealed chunks can be handed
-    out and dropped (:meth:`drain`), while what the divergence monitor needs (times, NIS, dof,
-    fused, valid: a few bytes per update and run) is kept for the whole mission.
-
-    ``members`` (M,): the methods this source updates (they get a record); ``rows`` (M,): how many
-    measurement rows each method's record has (the DVL's widest is tightly coupled's 4; the loosely
-    coupled velocity's 3), None: all. ``shared``: fields of the ping, the same for every method
-    (the beams that returned)."""
-
-    MONITOR = ("nis", "nis_dof", "fused", "valid")
-    ROW_FIELDS = ("z", "innovation", "innovation_var", "fused_rows", "rejected_rows")
-
-    def __init__(self, members: npt.ArrayLike, rows: np.ndarray | None = None) -> None:
-        self.members = np.asarray(members, dtype=bool)
-        self.rows_of = rows
-        self.t: list[float] = []
-        self.rows: list[dict[str, np.ndarray]] = []
-        self.chunks: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []  # sealed (t, fields)
-        self.monitor_t = np.zeros(0)  # the monitor's columns, grown by doubling
-        self.monitor: dict[str, np.ndarray] = {}
-        self.taken = 0  # sealed chunks already handed out (FilterBank.take with keep)
-        self.count = 0  # updates recorded over the whole mission
-
-    def add(
-        self,
-        t: float,
-        outcome: UpdateOutcome,
-        valid: np.ndarray,
-        shared: dict[str, np.ndarray] | None = None,
-        **extra: np.ndarray,
-    ) -> None:
-        """One update of every method and run: ``outcome`` and ``valid``, ``extra`` (M, R, ...);
-        ``shared`` (R, ...)."""
-        self.t.append(t)
-        self.rows.append(
-            {
-                "z": outcome.z,
-                "innovation": outcome.innovation,
-                "innovation_var": outcome.innovation_var,
-                "test_ratio": outcome.test_ratio,
-                "fused": outcome.fused,
-                "rejected": outcome.rejected,
-                "valid": valid,
-                "fused_rows": outcome.fused_rows,
-                "rejected_rows": outcome.rejected_rows,
-                "nis": outcome.nis,
-                "nis_dof": outcome.nis_dof,
-                "unusable": outcome.unusable,
-                **extra,
-                **{f"shared:{k}": v for k, v in (shared or {}).items()},
-            }
-        )
-        self.count += 1
-
-    def seal(self) -> None:
-        if not self.rows:
-            return
-        fields = {k: np.stack([r[k] for r in self.rows]) for k in self.rows[0]}
-        t = np.asarray(self.t)
-        self.chunks.append((t, fields))
-        self._monitor_append(t, fields)
-        self.t, self.rows = [], []
-
-    def _monitor_append(self, t: np.ndarray, fields: dict[str, np.ndarray]) -> None:
-        """Copy a chunk's monitor columns into buffers that double when full (a long mission's
-        monitor is then four arrays, not four per chunk)."""
-        done = self.count - t.size
-        if not self.monitor:
-            self.monitor_t = np.empty(max(64, t.size))
-            self.monitor = {
-                k: np.empty((self.monitor_t.size,) + fields[k].shape[1:], fields[k].dtype)
-                for k in self.MONITOR
-            }
-        if done + t.size > self.monitor_t.size:
-            size = max(2 * self.monitor_t.size, done + t.size)
-            self.monitor_t = np.resize(self.monitor_t, size)
-            self.monitor = {k: np.resize(v, (size,) + v.shape[1:]) for k, v in self.monitor.items()}
-        self.monitor_t[done : done + t.size] = t
-        for k in self.MONITOR:
-            self.monitor[k][done : done + t.size] = fields[k]
-
-    def build(self, m: int, first: int = 0) -> UpdateRecord | None:
-        """Method ``m``'s record of the sealed chunks from ``first`` on (None if there are none)."""
-        chunks = self.chunks[first:]
-        if not chunks:
-            return None
-        rows = None if self.rows_of is None else int(self.rows_of[m])
-        fields = {}
-        for k in chunks[0][1]:
-            if k.startswith("shared:"):
-                fields[k[len("shared:") :]] = np.concatenate([c[1][k] for c in chunks])
-                continue
-            a = np.concatenate([c[1][k][:, m] for c in chunks])
-            fields[k] = a[..., :rows] if rows is not None and k in self.ROW_FIELDS else a
-        return UpdateRecord(t_s=np.concatenate([c[0] for c in chunks]), **fields)
-
-    def drain(self) -> None:
-        self.chunks = []
-        self.taken = 0
-
-    def divergence_s(self, m: int) -> np.ndarray:
-        """First flag of method ``m``'s innovation test over the whole mission so far (R,)."""
-        n = self.count - len(self.t)  # sealed updates
-        c = {k: v[:n, m] for k, v in self.monitor.items()}
-        return innovation_divergence_s(self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"])
-
-
-@dataclass(frozen=True)
-class SimChunk:
-    """Samples ``k0 .. k0 + n - 1`` of a simulation: truth and IMU rows for those samples, the aiding
-    sensors' epochs among them (global sample indices), run axis after time."""
-
-    k0: int
-    truth: Truth
-    imu: imu_sensor.ImuData
-    dvl: dvl_sensor.DvlData
-    pressure: pressure_sensor.PressureData
-    mag: mag_sensor.MagnetometerData
-    echo: echo_sensor.EchoSounderData | None = None
-    rpm: rpm_sensor.RpmData | None = None
-
-    @classmethod
-    def whole(cls, sim: Simulation) -> SimChunk:
-        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag, sim.echo, sim.rpm)
-
-
-DVL_ROWS = 4
-"""The widest DVL measurement (tightly coupled: one row per beam); narrower ones are padded with
-inactive rows so that one compiled correction fuses every DVL method of a ping."""
-
-
-DVL_MODE_CODES = np.array([MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC], dtype=np.int64)
-"""The record's DVL mode codes in the order the compiled DVL kernel takes them."""
-
-
-PartialTables = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""n_cand, ok, C, D, gain, assumption error and measured rows: :func:`partial_tables`."""
-
-
-def partial_tables(methods: Sequence[str], config: Config) -> PartialTables:
-    """The two-beam constructions of each DVL method, for every pattern of two returned beams
-    (index: the sum of 2^k over the beams k), from the methods' own ``solve`` functions
-    (tauvcore.aiding.elc_*): candidates (1, or the selector's 4), ok, C, D, gain, assumption
-    error and measured rows, as :func:`tauvcore.filter.kernels.dvl_measure_bank` takes them."""
-    n, K = len(methods), kernels.MAX_CANDIDATES
-    n_cand = np.ones(n, np.int64)
-    ok = np.zeros((n, 16, K), bool)
-    Cc, Dc = np.zeros((n, 16, K, 3, 4)), np.zeros((n, 16, K, 3, 3))
-    gc, ac, mc = np.ones((n, 16, K, 3)), np.zeros((n, 16, K, 3)), np.zeros((n, 16, K, 3), bool)
-    pitch, n_f, eps = config.dvl.beam_pitch_rad, config.partial.vb_nf, config.nsv_epsilon_value_m2_per_s2()
-    for i, method in enumerate(methods):
-        if DVL_FUSION[method] != "elc":
-            continue
-        for code in range(16):
-            pattern = tuple(bool(code >> k & 1) for k in range(4))
-            if sum(pattern) != 2:
-                continue
-            if method == "elc":
-                solutions = elc_select.candidate_solutions(pitch, pattern, n_f, eps)
-                n_cand[i] = len(solutions)
-            else:
-                solutions = [DvlExtended(method, config.dvl, config.earth, 0.0, n_f, eps)._solution(pattern)]
-            for c, sol in enumerate(solutions):
-                ok[i, code, c] = sol.ok
-                Cc[i, code, c], Dc[i, code, c] = sol.C, sol.D
-                gc[i, code, c], ac[i, code, c], mc[i, code, c] = (
-                    sol.pred_gain,
-                    sol.assumption_sd,
-                    sol.measured,
-                )
-    return n_cand, ok, Cc, Dc, gc, ac, mc
-
-
-def rpm_measurement(
-    v_b: np.ndarray, sf: np.ndarray, b_dvl: np.ndarray, A_pinv: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The RPM velocity's prediction ``h`` (..., 3) and Jacobian ``H`` (..., 3, 20) at a state of
-    body velocity ``v_b`` (..., 3) [m/s], DVL scale factor ``sf`` (...) and beam biases ``b_dvl``
-    (..., 4) [m/s] (``--rpm-fallback``, FilterBank._rpm_fallback). Surge is the speed the VKF
-    learned from the DVL, ``(1 + SF) v_b1 + A+_1 . b`` (the first row of the LC measurement, with
-    ``A_pinv`` (3, 4) the DVL's A+); sway and heave are the body velocity (taken as zero)."""
-    h = np.array(v_b, dtype=float, copy=True)
-    h[..., 0] = (1.0 + sf) * v_b[..., 0] + b_dvl @ A_pinv[0]
-    H = np.zeros(np.shape(v_b)[:-1] + (3, STATE.dim))
-    H[..., STATE.vel] = np.eye(3)
-    H[..., 0, STATE.vel.start] = 1.0 + sf
-    H[..., 0, STATE.b_dvl] = A_pinv[0]
-    H[..., 0, STATE.sf_dvl.start] = v_b[..., 0]
-    return h, H
 
 
 class FilterBank:
@@ -554,10 +149,10 @@ class FilterBank:
         dvl_rows = np.array([DVL_ROWS if DVL_FUSION.get(m) == "tc" else 3 for m in methods], dtype=np.int64)
         others = self.other_mask.any(axis=1)
         self.recorders = {
-            "dvl": _Recorder(dvl_members, dvl_rows),
-            "depth": _Recorder(others),
-            "mag": _Recorder(others),
-            "rpm": _Recorder(dvl_members, dvl_rows),
+            "dvl": Recorder(dvl_members, dvl_rows),
+            "depth": Recorder(others),
+            "mag": Recorder(others),
+            "rpm": Recorder(dvl_members, dvl_rows),
         }
         # registered methods (tauvcore.aiding.registry): each its model, members and epochs
         self.registered = []
@@ -568,12 +163,10 @@ class FilterBank:
             self.registered.append(
                 (spec.source, spec.model(config), members, np.arange(step, num_samples, step))
             )
-            self.recorders[spec.source] = _Recorder(members)
-        # --rpm-fallback: one velocity Kalman filter per run (tauvcore.eval.yoo_bank.RpmAid)
+            self.recorders[spec.source] = Recorder(members)
+        # --rpm-fallback: one velocity Kalman filter per run (tauvcore.engine.rpm_aid.RpmAid)
         self.rpm_aid = None
         if config.run.rpm_fallback and self.dvl_methods and "dvl" in self.aiding:
-            from tauvcore.eval.yoo_bank import RpmAid
-
             self.rpm_aid = RpmAid(config.vkf, R)
             self.rpm_A_pinv = np.linalg.pinv(np.asarray(config.dvl.A_b, dtype=float))  # (3, 4): LC's A+
         out_step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
@@ -603,7 +196,7 @@ class FilterBank:
         config, truth = self.config, chunk.truth
         self.P0 = P0 = initial_covariance(config, truth.euler[0])
         self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
-        nom = _initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
+        nom = initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
         arrays = [
             np.array(a, dtype=float, order="C")
             for a in (
@@ -807,8 +400,6 @@ class FilterBank:
         beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
         errors; the sway and heave rows are the zero lateral velocity on the velocity block. (With
         H on the velocity alone the methods were over-confident, velocity NEES/dim about 2.)"""
-        from tauvcore.eval.yoo_bank import dvl_body_velocity
-
         dvl = self.config.dvl
         R = self.batch[1]
         lat = self.pos[0, :, 0] if self.geodetic else np.full(R, self.config.earth.latitude_rad)
@@ -1092,38 +683,28 @@ class FilterBank:
             nees_block = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),))
             est_pos_n = np.zeros((0,) + self.batch + (3,))
             est_vel_n = est_euler = est_pos_n
-        series = dict(zip(kernels.SERIES_NAMES, series_all))
+        epochs = {
+            "nees_block": nees_block,
+            "est_pos_n": est_pos_n,
+            "est_vel_n": est_vel_n,
+            "est_euler": est_euler,
+        }
         out = {}
         for m, method in enumerate(self.methods):
             recs = {src: rec for src, rec in self.recorders.items() if rec.members[m] and rec.count}
             built = {src: rec.build(m, first_update.get(src, 0)) for src, rec in recs.items()}
-            updates = {src: record for src, record in built.items() if record is not None}
             flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [
                 rec.divergence_s(m) for rec in recs.values()
             ]
-            diverged_at = np.fmin.reduce(np.stack(flagged), axis=0)
-            out[method] = MethodResult(
-                method=method,
-                t_s=t_s,
-                vel_err_mps=series["vel_err"][:, m],
-                att_err_deg=series["att_err"][:, m],
-                pos_err_m=series["pos_err"][:, m],
-                vel_sigma_mps=series["vel_sigma"][:, m],
-                att_sigma_deg=series["att_sigma"][:, m],
-                pos_sigma_m=series["pos_sigma"][:, m],
-                nees=series["nees"][:, m],
-                est_pos_n=est_pos_n[:, m],
-                est_vel_n=est_vel_n[:, m],
-                est_euler_rad=est_euler[:, m],
-                tilt_err_deg=series["tilt_err"][:, m],
-                heading_err_deg=series["heading_err"][:, m],
-                tilt_sigma_deg=series["tilt_sigma"][:, m],
-                heading_sigma_deg=series["heading_sigma"][:, m],
-                nees_block=nees_block[:, m],
-                diverged=~np.isnan(diverged_at),
-                diverged_at_s=diverged_at,
+            out[method] = method_result(
+                method,
+                m,
+                t_s,
+                series_all,
+                epochs,
+                np.fmin.reduce(np.stack(flagged), axis=0),
                 p_floor_count=self.p_floor_count[m].copy(),
-                updates=updates,
+                updates={src: record for src, record in built.items() if record is not None},
             )
         return out
 
@@ -1154,123 +735,6 @@ class FilterBank:
         return result
 
 
-def run(
-    config: Config,
-    sim: Simulation,
-    rng: np.random.Generator | Sequence[np.random.Generator],
-    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-    progress_interval_s: float = 5.0,
-    should_stop: Callable[[], bool] | None = None,
-) -> dict[str, MethodResult]:
-    """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
-
-    ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
-    with the results so far (for live displays); ``should_stop()`` is polled at every output
-    epoch (10 Hz of simulated time, a few milliseconds of wall time) and ends the run early,
-    returning the results up to that epoch. :func:`run_streaming` does the same without holding
-    the whole simulation.
-    """
-    banks = _Banks(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
-    banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
-    return banks.results()
-
-
-class _Banks:
-    """The 20-state FilterBank for the first paper's methods and the YooBank for Yoo 2014's
-    (tauvcore.eval.yoo_bank), fed the same chunks, their results in ``config.run.methods`` order.
-    The Yoo methods start from the same initial errors as the others (the same draws)."""
-
-    def __init__(
-        self,
-        config: Config,
-        num_runs: int,
-        num_samples: int,
-        dt_s: float,
-        rng: np.random.Generator | Sequence[np.random.Generator],
-        keep: bool = True,
-    ) -> None:
-        from tauvcore.config import YOO_METHODS
-        from tauvcore.eval.yoo_bank import YooBank
-
-        self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
-        self.order = config.run.methods
-        first = tuple(m for m in self.order if m not in YOO_METHODS)
-        second = tuple(m for m in self.order if m in YOO_METHODS)
-        self.bank = (
-            FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
-            if first or not second
-            else None
-        )
-        self.yoo = YooBank(config, second, num_runs, num_samples, dt_s) if second else None
-        self.stopped = False
-        self.until_s: float | None = None  # where the 20-state bank stopped the run (the Yoo bank goes on)
-
-    def feed(
-        self,
-        chunk: SimChunk,
-        progress: Callable | None = None,
-        progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None,
-    ) -> bool:
-        """Both banks over one chunk. The Yoo bank goes first (compiled, it takes a few percent of
-        the time), so the 20-state bank's progress can carry its results up to the same time; a
-        stop request, polled by the 20-state bank, ends both at its epoch (:attr:`until_s`)."""
-        if self.stopped:
-            return False
-        bank, yoo = self.bank, self.yoo
-        if yoo is None:
-            assert bank is not None  # __init__ builds the 20-state bank whenever there is no Yoo method
-            going = bank.feed(chunk, progress, progress_interval_s, should_stop)
-        else:
-            if not yoo.started:
-                if bank is not None and not bank.started:
-                    bank.start(chunk)  # its draws first (_start_yoo)
-                self._start_yoo(chunk)
-            if bank is None:
-                going = yoo.feed(chunk, progress, progress_interval_s, should_stop)
-            else:
-                yoo.feed(chunk)
-                both = (
-                    None
-                    if progress is None
-                    else (lambda t, first: progress(t, self._merge(first, yoo.results(until_s=t))))
-                )
-                going = bank.feed(chunk, both, progress_interval_s, should_stop)
-                if not going:
-                    self.until_s = bank.stopped_at_s
-        self.stopped = not going
-        return going
-
-    def _start_yoo(self, chunk: SimChunk) -> None:
-        config, truth = self.config, chunk.truth
-        P0 = initial_covariance(config, truth.euler[0])
-        if self.bank is not None:
-            nav = self.bank.initial_nav  # its draws, before any update
-        else:
-            nom = _initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att])
-            nav = nom.nav.pos_n[0], nom.nav.vel_n[0], nom.nav.C_nb[0]
-        assert self.yoo is not None  # called by feed only when there are Yoo methods
-        self.yoo.start(*nav, P0[STATE.att, STATE.att], P0[STATE.ba, STATE.ba], P0[STATE.bg, STATE.bg])
-
-    def _merge(
-        self, first: dict[str, MethodResult], second: dict[str, MethodResult]
-    ) -> dict[str, MethodResult]:
-        both = {**first, **second}
-        return {m: both[m] for m in self.order if m in both}
-
-    def results(self) -> dict[str, MethodResult]:
-        return self._merge(
-            self.bank.results() if self.bank is not None else {},
-            self.yoo.results(self.until_s) if self.yoo is not None else {},
-        )
-
-    def take(self) -> dict[str, MethodResult]:
-        return self._merge(
-            self.bank.take() if self.bank is not None else {},
-            self.yoo.take(self.keep, self.until_s) if self.yoo is not None else {},
-        )
-
-
 def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
     """Samples in ``(k_cov, k_end)`` at which the covariance is propagated (and the nominal state
     stops), the covariance having been propagated last at ``k_cov``: every event (aiding or output
@@ -1283,79 +747,3 @@ def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: in
             stops.append(e)
         prev = e
     return stops
-
-
-STREAM_CHUNK_S = 10.0
-"""Seconds of mission :func:`run_streaming` generates and filters at a time (1,500 IMU samples at
-150 Hz): memory then holds one chunk of truth and sensors, whatever the mission's length."""
-
-
-def run_streaming(
-    config: Config,
-    rng: np.random.Generator | Sequence[np.random.Generator],
-    num_runs: int = 1,
-    chunk_s: float = STREAM_CHUNK_S,
-    on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
-    keep: bool = True,
-    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-    progress_interval_s: float = 5.0,
-    should_stop: Callable[[], bool] | None = None,
-    on_sim_chunk: Callable[[SimChunk], None] | None = None,
-) -> dict[str, MethodResult]:
-    """Simulate and run chunk by chunk: truth (tauvcore.truth.truth_stream: kinematic or dynamic) and sensors
-    (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
-    :class:`FilterBank`, so memory does not depend on the mission's length.
-
-    ``rng``: one generator for the batch of ``num_runs`` runs, or one per run (a study's runs,
-    tauvcore.eval.study). Each is split into independent named streams
-    (:meth:`~tauvcore.sensors.stream.SensorStreams.spawned`: the IMU's, the DVL's, ..., the
-    initial errors'), so the numbers do not depend on ``chunk_s`` (tests/unit/test_stream_engine.py);
-    they differ from :func:`simulate` + :func:`run`, which draw everything from one stream.
-    ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
-    verdict so far); with ``keep`` False they are not kept and the return value holds only the
-    last chunk's. ``progress`` and ``should_stop`` as in :func:`run`. ``on_sim_chunk(chunk)``
-    receives each chunk of the simulation itself (truth and sensors) before the bank runs it
-    (``tauv run --save-log`` writes them as a log: tauvcore.logs).
-    """
-    per_run = not isinstance(rng, np.random.Generator)
-    if per_run:
-        rngs = list(rng)
-        if len(rngs) != num_runs:
-            raise ValueError(f"one generator per run expected ({num_runs}), got {len(rngs)}")
-        streams: SensorStreams | list[SensorStreams] = [SensorStreams.spawned(g) for g in rngs]
-        initial: np.random.Generator | list[np.random.Generator] = [s.initial for s in streams]
-    else:
-        streams = SensorStreams.spawned(rng)
-        initial = streams.initial
-    ideal = config.run.ideal
-    rate = config.imu.rate_hz
-    # the first chunk holds the first DVL ping: the records before it use that ping's true errors
-    chunk_samples = max(2, round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate))
-    truths = truth_stream(config.trajectory, config.earth, rate, chunk_samples)
-    sensors = SensorStream(
-        config.imu.ideal() if ideal else config.imu,
-        config.dvl.ideal() if ideal else config.dvl,
-        config.pressure.ideal() if ideal else config.pressure,
-        config.magnetometer.ideal() if ideal else config.magnetometer,
-        streams,
-        num_runs,
-        truths.num_samples,
-        truths.dt_s,
-        bathymetry(config.trajectory),
-        config.echo_sounder.ideal() if ideal else config.echo_sounder,
-        config.rpm.ideal() if ideal else config.rpm,
-    )
-    bank = _Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
-    last: dict[str, MethodResult] = {}
-    for k0, truth in truths:
-        chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth))
-        if on_sim_chunk is not None:
-            on_sim_chunk(chunk)
-        going = bank.feed(chunk, progress, progress_interval_s, should_stop)
-        if on_chunk is not None or not keep:
-            last = bank.take()
-            if on_chunk is not None:
-                on_chunk(last)
-        if not going:
-            break
-    return bank.results() if keep else last

@@ -1,0 +1,159 @@
+"""Results as strict JSON: the document ``tauv run --json`` and ``tauv replay --json`` write and
+the dashboard's JSON download is (app.export), per method the per-epoch series of one run, its
+divergence verdict, its NIS per aiding source and its consistency summary; non-finite numbers are
+null."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from tauvcore.config import Config, to_dict
+from tauvcore.engine.results import BLOCK_DIMS
+from tauvcore.eval.consistency import MethodConsistency, method_consistency, nees_series
+
+if TYPE_CHECKING:
+    from tauvcore.engine.results import MethodResult, UpdateRecord
+
+
+def _finite(values: np.ndarray) -> list[float | None]:
+    """Plain list with every non-finite number (NaN, +-inf) as None (JSON null)."""
+    values = np.asarray(values, dtype=float)
+    plain = values.astype(object)
+    plain[~np.isfinite(values)] = None
+    return plain.tolist()
+
+
+def _number(value: float) -> float | None:
+    """A float for JSON, None (null) if not finite."""
+    value = float(value)
+    return value if np.isfinite(value) else None
+
+
+def result_to_json(
+    result: MethodResult, run_index: int = 0, origin_rad: tuple[float, float] | None = None
+) -> dict[str, Any]:
+    """Per-epoch series of one run, its divergence verdict and the method's consistency, as in the
+    CLI contract (strict JSON: non-finite numbers are null).
+
+    The estimate itself: ``est_north_m``, ``est_east_m``, ``est_down_m`` from the sea-surface point
+    above the start (on WGS-84 in that point's tangent frame), with ``origin_rad`` (its latitude,
+    longitude) also ``est_lat_deg``, ``est_lon_deg``, ``est_depth_m``; ``est_vel_north_mps``,
+    ``est_vel_east_mps``, ``est_vel_down_mps``; ``est_roll_deg``, ``est_pitch_deg``, ``est_yaw_deg``.
+
+    Series (length of ``t``, run ``run_index``): errors and the filter's own 1-sigma of velocity,
+    attitude (the norm, and apart: ``tilt`` = roll/pitch levelling, ``heading``) and position;
+    ``nees`` (full 20-state) and ``nees_<block>`` for the blocks pos, vel, tilt, heading, sensor.
+
+    ``nis``: per aiding source the method used, ``{"t", "nis", "dof"}`` at every update time of
+    that source (the length of its own ``t``, not of the output epochs). ``nis`` is null where the
+    source produced no measurement (outage, no beam, nothing active: ``dof`` 0) or NIS is not
+    finite, so the non-null entries are exactly those that ``consistency.nis.<source>.count``
+    counts; NIS is taken before the gate, so a rejected update keeps its value.
+
+    ``consistency``: :func:`tauvcore.eval.consistency.method_consistency` over all runs of
+    ``result`` (the CLI runs one): ``{"nees": {block: {"dim", "per_dim", "in_band",
+    "band_per_dim"}}, "nis": {source: {"per_dof", "in_band", "count"}}}``; NEES/dim and NIS/dof
+    are 1 for a consistent filter, ``in_band`` is the fraction inside the two-sided 99 % band.
+    """
+    i = run_index
+    diverged_at = float(result.diverged_at_s[i])
+    estimate: dict[str, Any] = {}
+    pos = result.est_pos_n[:, i]
+    for k, axis in enumerate(("north", "east", "down")):
+        estimate[f"est_{axis}_m"] = _finite(pos[:, k])
+    if origin_rad is not None and len(pos):
+        from tauvcore.geo.earth import geodetic_from_ned
+
+        lat, lon, h = geodetic_from_ned(pos, (origin_rad[0], origin_rad[1], 0.0))
+        estimate.update(
+            est_lat_deg=_finite(np.degrees(lat)),
+            est_lon_deg=_finite(np.degrees(lon)),
+            est_depth_m=_finite(-h),
+        )
+    if result.est_vel_n is not None:
+        for k, axis in enumerate(("north", "east", "down")):
+            estimate[f"est_vel_{axis}_mps"] = _finite(result.est_vel_n[:, i, k])
+    if result.est_euler_rad is not None:
+        for k, angle in enumerate(("roll", "pitch", "yaw")):
+            estimate[f"est_{angle}_deg"] = _finite(np.degrees(result.est_euler_rad[:, i, k]))
+    return {
+        "t": _finite(result.t_s),
+        **estimate,
+        "vel_err_mps": _finite(result.vel_err_mps[:, i]),
+        "att_err_deg": _finite(result.att_err_deg[:, i]),
+        "tilt_err_deg": _finite(result.tilt_err_deg[:, i]),
+        "heading_err_deg": _finite(result.heading_err_deg[:, i]),
+        "pos_err_m": _finite(result.pos_err_m[:, i]),
+        "vel_sigma_mps": _finite(result.vel_sigma_mps[:, i]),
+        "att_sigma_deg": _finite(result.att_sigma_deg[:, i]),
+        "tilt_sigma_deg": _finite(result.tilt_sigma_deg[:, i]),
+        "heading_sigma_deg": _finite(result.heading_sigma_deg[:, i]),
+        "pos_sigma_m": _finite(result.pos_sigma_m[:, i]),
+        "nees": _finite(result.nees[:, i]),
+        **{
+            f"nees_{block}": _finite(nees_series(result, block)[:, i])
+            for block in BLOCK_DIMS
+            if block != "full"
+        },
+        "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
+        "consistency": consistency_to_json(method_consistency(result)),
+        "diverged": bool(result.diverged[i]),
+        "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
+        "p_floor_count": int(result.p_floor_count[i]),
+    }
+
+
+def _nis_to_json(record: UpdateRecord, run_index: int) -> dict[str, list]:
+    nis, dof = record.nis[:, run_index], record.nis_dof[:, run_index]
+    used = record.valid[:, run_index] & (dof > 0)
+    return {
+        "t": _finite(record.t_s),
+        "nis": _finite(np.where(used, nis, np.nan)),
+        "dof": [int(d) for d in dof],
+    }
+
+
+def consistency_to_json(c: MethodConsistency) -> dict[str, Any]:
+    """:class:`~tauvcore.eval.consistency.MethodConsistency` as strict-JSON data (NaN -> null)."""
+    return {
+        "nees": {
+            block: {
+                "dim": s.dim,
+                "per_dim": _number(s.per_dim),
+                "in_band": _number(s.in_band),
+                "band_per_dim": [_number(b) for b in s.band_per_dim],
+            }
+            for block, s in c.nees.items()
+        },
+        "nis": {
+            source: {"per_dof": _number(s.per_dof), "in_band": _number(s.in_band), "count": s.count}
+            for source, s in c.nis.items()
+        },
+    }
+
+
+def config_to_json(config: Config) -> dict[str, Any]:
+    """The configuration as ``tauv config`` prints it, plus the value NSV's epsilon resolved to
+    (``partial.nsv_epsilon_value_m2_per_s2``: derived, not a key a --config file may set)."""
+    data = to_dict(config)
+    data["partial"]["nsv_epsilon_value_m2_per_s2"] = config.nsv_epsilon_value_m2_per_s2()
+    return data
+
+
+def run_payload(
+    config: Config, results: dict[str, MethodResult], log: str | dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """The document ``tauv run --json`` writes (with ``log``, ``tauv replay --json``; the
+    dashboard's JSON download, app.export, is the same): ``{"config": ..., ["log": ...,]
+    "results": {method: ...}}``: the configuration by :func:`config_to_json` and each method's run
+    0 by :func:`result_to_json`, the estimate's origin the configured latitude and longitude. A
+    replay's ``log`` holds its directory, its own configuration file, what configured the run,
+    where the filters started and the reader's notes."""
+    origin = (config.earth.latitude_rad, config.earth.longitude_rad)
+    payload: dict[str, Any] = {"config": config_to_json(config)}
+    if log is not None:
+        payload["log"] = log
+    payload["results"] = {m: result_to_json(r, origin_rad=origin) for m, r in results.items()}
+    return payload

@@ -1,0 +1,211 @@
+"""Run a mission: the 20-state bank and Yoo 2014's bank side by side over the same chunks, on a
+whole simulation (:func:`run`) or generated chunk by chunk so that memory does not grow with the
+mission's length (:func:`run_streaming`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from tauvcore.config import YOO_METHODS, Config
+from tauvcore.engine.filter_bank import FilterBank
+from tauvcore.engine.results import MethodResult
+from tauvcore.engine.simulation import SimChunk, Simulation
+from tauvcore.engine.start import initial_covariance, initial_nominal
+from tauvcore.engine.yoo_bank import YooBank
+from tauvcore.filter.layout import STATE
+from tauvcore.sensors.stream import SensorStream, SensorStreams
+from tauvcore.truth import truth_stream
+from tauvcore.truth.kinematic import bathymetry
+
+
+def run(
+    config: Config,
+    sim: Simulation,
+    rng: np.random.Generator | Sequence[np.random.Generator],
+    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+    progress_interval_s: float = 5.0,
+    should_stop: Callable[[], bool] | None = None,
+) -> dict[str, MethodResult]:
+    """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
+
+    ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
+    with the results so far (for live displays); ``should_stop()`` is polled at every output
+    epoch (10 Hz of simulated time, a few milliseconds of wall time) and ends the run early,
+    returning the results up to that epoch. :func:`run_streaming` does the same without holding
+    the whole simulation.
+    """
+    banks = Banks(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
+    banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
+    return banks.results()
+
+
+class Banks:
+    """The 20-state FilterBank for the first paper's methods and the YooBank for Yoo 2014's
+    (tauvcore.engine.yoo_bank), fed the same chunks, their results in ``config.run.methods`` order.
+    The Yoo methods start from the same initial errors as the others (the same draws)."""
+
+    def __init__(
+        self,
+        config: Config,
+        num_runs: int,
+        num_samples: int,
+        dt_s: float,
+        rng: np.random.Generator | Sequence[np.random.Generator],
+        keep: bool = True,
+    ) -> None:
+
+        self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
+        self.order = config.run.methods
+        first = tuple(m for m in self.order if m not in YOO_METHODS)
+        second = tuple(m for m in self.order if m in YOO_METHODS)
+        self.bank = (
+            FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
+            if first or not second
+            else None
+        )
+        self.yoo = YooBank(config, second, num_runs, num_samples, dt_s) if second else None
+        self.stopped = False
+        self.until_s: float | None = None  # where the 20-state bank stopped the run (the Yoo bank goes on)
+
+    def feed(
+        self,
+        chunk: SimChunk,
+        progress: Callable | None = None,
+        progress_interval_s: float = 5.0,
+        should_stop: Callable[[], bool] | None = None,
+    ) -> bool:
+        """Both banks over one chunk. The Yoo bank goes first (compiled, it takes a few percent of
+        the time), so the 20-state bank's progress can carry its results up to the same time; a
+        stop request, polled by the 20-state bank, ends both at its epoch (:attr:`until_s`)."""
+        if self.stopped:
+            return False
+        bank, yoo = self.bank, self.yoo
+        if yoo is None:
+            assert bank is not None  # __init__ builds the 20-state bank whenever there is no Yoo method
+            going = bank.feed(chunk, progress, progress_interval_s, should_stop)
+        else:
+            if not yoo.started:
+                if bank is not None and not bank.started:
+                    bank.start(chunk)  # its draws first (_start_yoo)
+                self._start_yoo(chunk)
+            if bank is None:
+                going = yoo.feed(chunk, progress, progress_interval_s, should_stop)
+            else:
+                yoo.feed(chunk)
+                both = (
+                    None
+                    if progress is None
+                    else (lambda t, first: progress(t, self._merge(first, yoo.results(until_s=t))))
+                )
+                going = bank.feed(chunk, both, progress_interval_s, should_stop)
+                if not going:
+                    self.until_s = bank.stopped_at_s
+        self.stopped = not going
+        return going
+
+    def _start_yoo(self, chunk: SimChunk) -> None:
+        config, truth = self.config, chunk.truth
+        P0 = initial_covariance(config, truth.euler[0])
+        if self.bank is not None:
+            nav = self.bank.initial_nav  # its draws, before any update
+        else:
+            nom = initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att])
+            nav = nom.nav.pos_n[0], nom.nav.vel_n[0], nom.nav.C_nb[0]
+        assert self.yoo is not None  # called by feed only when there are Yoo methods
+        self.yoo.start(*nav, P0[STATE.att, STATE.att], P0[STATE.ba, STATE.ba], P0[STATE.bg, STATE.bg])
+
+    def _merge(
+        self, first: dict[str, MethodResult], second: dict[str, MethodResult]
+    ) -> dict[str, MethodResult]:
+        both = {**first, **second}
+        return {m: both[m] for m in self.order if m in both}
+
+    def results(self) -> dict[str, MethodResult]:
+        return self._merge(
+            self.bank.results() if self.bank is not None else {},
+            self.yoo.results(self.until_s) if self.yoo is not None else {},
+        )
+
+    def take(self) -> dict[str, MethodResult]:
+        return self._merge(
+            self.bank.take() if self.bank is not None else {},
+            self.yoo.take(self.keep, self.until_s) if self.yoo is not None else {},
+        )
+
+
+STREAM_CHUNK_S = 10.0
+"""Seconds of mission :func:`run_streaming` generates and filters at a time (1,500 IMU samples at
+150 Hz): memory then holds one chunk of truth and sensors, whatever the mission's length."""
+
+
+def run_streaming(
+    config: Config,
+    rng: np.random.Generator | Sequence[np.random.Generator],
+    num_runs: int = 1,
+    chunk_s: float = STREAM_CHUNK_S,
+    on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
+    keep: bool = True,
+    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
+    progress_interval_s: float = 5.0,
+    should_stop: Callable[[], bool] | None = None,
+    on_sim_chunk: Callable[[SimChunk], None] | None = None,
+) -> dict[str, MethodResult]:
+    """Simulate and run chunk by chunk: truth (tauvcore.truth.truth_stream: kinematic or dynamic) and sensors
+    (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
+    :class:`FilterBank`, so memory does not depend on the mission's length.
+
+    ``rng``: one generator for the batch of ``num_runs`` runs, or one per run (a study's runs,
+    tauvcore.eval.study). Each is split into independent named streams
+    (:meth:`~tauvcore.sensors.stream.SensorStreams.spawned`: the IMU's, the DVL's, ..., the
+    initial errors'), so the numbers do not depend on ``chunk_s`` (tests/unit/test_stream_engine.py);
+    they differ from :func:`simulate` + :func:`run`, which draw everything from one stream.
+    ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
+    verdict so far); with ``keep`` False they are not kept and the return value holds only the
+    last chunk's. ``progress`` and ``should_stop`` as in :func:`run`. ``on_sim_chunk(chunk)``
+    receives each chunk of the simulation itself (truth and sensors) before the bank runs it
+    (``tauv run --save-log`` writes them as a log: tauvcore.logs).
+    """
+    per_run = not isinstance(rng, np.random.Generator)
+    if per_run:
+        rngs = list(rng)
+        if len(rngs) != num_runs:
+            raise ValueError(f"one generator per run expected ({num_runs}), got {len(rngs)}")
+        streams: SensorStreams | list[SensorStreams] = [SensorStreams.spawned(g) for g in rngs]
+        initial: np.random.Generator | list[np.random.Generator] = [s.initial for s in streams]
+    else:
+        streams = SensorStreams.spawned(rng)
+        initial = streams.initial
+    ideal = config.run.ideal
+    rate = config.imu.rate_hz
+    # the first chunk holds the first DVL ping: the records before it use that ping's true errors
+    chunk_samples = max(2, round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate))
+    truths = truth_stream(config.trajectory, config.earth, rate, chunk_samples)
+    sensors = SensorStream(
+        config.imu.ideal() if ideal else config.imu,
+        config.dvl.ideal() if ideal else config.dvl,
+        config.pressure.ideal() if ideal else config.pressure,
+        config.magnetometer.ideal() if ideal else config.magnetometer,
+        streams,
+        num_runs,
+        truths.num_samples,
+        truths.dt_s,
+        bathymetry(config.trajectory),
+        config.echo_sounder.ideal() if ideal else config.echo_sounder,
+        config.rpm.ideal() if ideal else config.rpm,
+    )
+    bank = Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
+    last: dict[str, MethodResult] = {}
+    for k0, truth in truths:
+        chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth))
+        if on_sim_chunk is not None:
+            on_sim_chunk(chunk)
+        going = bank.feed(chunk, progress, progress_interval_s, should_stop)
+        if on_chunk is not None or not keep:
+            last = bank.take()
+            if on_chunk is not None:
+                on_chunk(last)
+        if not going:
+            break
+    return bank.results() if keep else last

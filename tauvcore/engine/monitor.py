@@ -1,0 +1,107 @@
+"""The divergence monitor: whether a filter has lost its way, judged as a real filter could,
+without truth, from its own innovations and its sensor-error estimates against its own prior
+(the banks flag a run with it: tauvcore.engine.filter_bank)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from tauvcore.filter.statistics import chi2_isf
+
+NIS_WINDOW_UPDATES = 30
+"""Window of the divergence monitor's innovation test: the last 30 updates of one source in which
+the source produced a measurement (30 s of DVL pings at 1 Hz)."""
+
+NIS_FALSE_ALARM = 1e-6
+"""Probability that a consistent filter's windowed NIS exceeds the bound, per window. Far below the
+usual 0.1 %: the window slides by one update, so a 10-hour run tests some 36,000 (overlapping)
+windows, and a consistent run must practically never be flagged. The bound for 90 degrees of
+freedom (30 three-axis DVL updates) is 1.87 times the expected sum; a diverged filter exceeds it
+by orders of magnitude."""
+
+LOCKOUT_UPDATES = 10
+"""Locked out: the last 10 measurements of a source all rejected by the gate (or unusable). A
+consistent filter rejects a three-axis DVL update at a 3-sigma gate with probability 0.8 %, ten in
+a row with probability 1e-21."""
+
+
+def innovation_divergence_s(
+    t_s: np.ndarray,
+    nis: np.ndarray,
+    nis_dof: np.ndarray,
+    fused: np.ndarray,
+    valid: np.ndarray,
+    window: int = NIS_WINDOW_UPDATES,
+    false_alarm: float = NIS_FALSE_ALARM,
+    lockout: int = LOCKOUT_UPDATES,
+) -> np.ndarray:
+    """Time of the first innovation inconsistency of one aiding source per run, NaN if none. -> (R,).
+
+    Without truth, a filter can only judge itself by its innovations. Over the updates in which
+    the source produced a measurement (``valid`` and at least one active row), a run is flagged
+
+    - *inconsistent* at the first update that completes a window of ``window`` updates whose summed
+      normalised innovation squared (before the gate) exceeds the chi-square quantile
+      ``1 - false_alarm`` for the window's summed degrees of freedom: for a consistent filter each
+      NIS is chi-square with ``nis_dof`` degrees of freedom and independent of the others;
+    - *locked out* at the ``lockout``-th consecutive update that fused nothing (every row rejected
+      by the gate, or S unusable): the filter no longer accepts its sensor.
+
+    t_s (U,) update times [s]; nis (U, R); nis_dof (U, R) int; fused, valid (U, R) bool.
+    """
+    _, R = nis.shape
+    out = np.full(R, np.nan)
+    for r in range(R):
+        used = np.flatnonzero(valid[:, r] & (nis_dof[:, r] > 0))
+        first = np.inf
+        if used.size >= lockout:
+            run = np.convolve((~fused[used, r]).astype(np.int64), np.ones(lockout, dtype=np.int64), "valid")
+            hit = np.flatnonzero(run == lockout)
+            if hit.size:
+                first = min(first, float(t_s[used[hit[0] + lockout - 1]]))
+        ok = used[np.isfinite(nis[used, r])]
+        if ok.size >= window:
+            s = np.concatenate(([0.0], np.cumsum(nis[ok, r])))
+            d = np.concatenate(([0], np.cumsum(nis_dof[ok, r])))
+            total, dof = s[window:] - s[:-window], d[window:] - d[:-window]
+            dofs, inverse = np.unique(dof, return_inverse=True)
+            bound = chi2_isf(false_alarm, dofs)[inverse]
+            hit = np.flatnonzero(total > bound)
+            if hit.size:
+                first = min(first, float(t_s[ok[hit[0] + window - 1]]))
+        if np.isfinite(first):
+            out[r] = first
+    return out
+
+
+SENSOR_PRIOR_FALSE_ALARM = 1e-6
+"""Probability, per output epoch, that a consistent filter's sensor-error estimates fail
+:func:`implausible_sensor_errors` (shared over the components, Bonferroni)."""
+
+
+@lru_cache(maxsize=16)
+def sensor_prior_bound(num_states: int, false_alarm: float = SENSOR_PRIOR_FALSE_ALARM) -> float:
+    """The chi-square (1 dof) quantile :func:`implausible_sensor_errors` holds each of
+    ``num_states`` estimates to (Bonferroni)."""
+    return float(chi2_isf(false_alarm / num_states, 1))
+
+
+def implausible_sensor_errors(
+    estimate: np.ndarray, prior_var: np.ndarray, false_alarm: float = SENSOR_PRIOR_FALSE_ALARM
+) -> np.ndarray:
+    """True where an estimated sensor error lies far outside the filter's own prior. -> (...).
+
+    The sensor-error states (IMU biases, DVL beam biases and scale factor) have a prior: zero mean,
+    variance ``prior_var = sigma_0^2 + q t`` (turn-on sigma and random walk, the tuning the filter
+    was given). For a consistent filter the estimate's variance is the prior's minus P, so each
+    ``x_hat_i^2 / prior_var_i`` is at most chi-square with one degree of freedom; a component above
+    its ``1 - false_alarm / n`` quantile (5.3 sigma for the 11 states) says the filter explains its
+    measurements with a sensor error its own model calls impossible, e.g. a DVL scale factor near
+    -100 % that cancels a velocity estimate of kilometres per second. The innovations of such a
+    filter can look perfect. estimate (..., n), prior_var (n,).
+    """
+    bound = sensor_prior_bound(estimate.shape[-1], false_alarm)
+    with np.errstate(invalid="ignore"):
+        return np.any(np.square(estimate) > bound * prior_var, axis=-1)

@@ -1,0 +1,121 @@
+"""The propeller-RPM velocity aid of Yoo 2014, shared by both banks: one velocity Kalman filter per
+run (tauvcore.filter.vkf) that learns the propeller's scale factor and bias from the DVL's
+forward speed while the seabed is in range, and the DVL's least-squares body velocity it learns
+from."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tauvcore.filter import vkf
+from tauvcore.geo.earth import OMEGA_IE_RPS
+
+RPM_LATERAL_SIGMA_MPS = 0.1
+"""1-sigma of the sway and heave the RPM velocity takes as zero [m/s] (a cruising AUV's few cm/s,
+more in turns)."""
+MIN_BEAMS = 3
+
+
+def latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
+    """``values`` of the last epoch at or before IMU sample ``k`` (NaN before the first)."""
+    j = np.searchsorted(index, k, side="right") - 1
+    if j < 0:
+        return np.full(values.shape[1:], np.nan)
+    return np.asarray(values[j], dtype=float)
+
+
+def dvl_body_velocity(
+    y: np.ndarray,
+    available: np.ndarray,
+    dtheta_b: np.ndarray,
+    dt_s: float,
+    C_nb: np.ndarray,
+    lat_rad: np.ndarray,
+    A_b: np.ndarray,
+    l_dvl_b: np.ndarray,
+    beam_var: float,
+    with_gain: bool = False,
+) -> tuple[np.ndarray, ...]:
+    """The DVL's body velocity at a ping by least squares over the beams that returned (R, 3), its
+    covariance from the beams' white noise (R, 3, 3), and whether at least MIN_BEAMS returned (R,);
+    with ``with_gain`` also the least squares' gain from the beams to the velocity (R, 3, 4)
+    (zero columns for beams that did not return; what a beam bias does to the velocity). The
+    head's own motion ``omega_nb x l`` is taken out with the gyro rate less the earth's (first
+    order)."""
+    R = y.shape[0]
+    avail = available & np.isfinite(y)
+    W = avail.astype(float)
+    N = np.einsum("rk,ki,kj->rij", W, A_b, A_b)
+    ok = avail.sum(axis=1) >= MIN_BEAMS
+    Ninv = np.linalg.inv(np.where(ok[:, None, None], N, np.eye(3)))
+    v_head = np.einsum("rij,rk,ki,rk->rj", Ninv, W, A_b, np.where(avail, y, 0.0))
+    w_ie_n = np.stack([np.cos(lat_rad), np.zeros(R), -np.sin(lat_rad)], axis=-1) * OMEGA_IE_RPS
+    omega = np.asarray(dtheta_b) / dt_s - np.einsum("rji,rj->ri", C_nb, w_ie_n)
+    if not with_gain:
+        return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok
+    gain = np.einsum("rij,kj,rk->rik", Ninv, A_b, W)
+    return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok, gain
+
+
+class RpmAid:
+    """One velocity Kalman filter per run (tauvcore.filter.vkf), stepped at every DVL ping with the
+    latest RPM, updated with the DVL's forward speed while the echo sounder's altitude is within
+    ``switch_altitude_m`` and enough beams return; what it offers then is the body velocity
+    ``[V_rpm, 0, 0]`` with the VKF's variance on surge and RPM_LATERAL_SIGMA_MPS on sway and heave.
+    Used by the ``vkf`` method (eq. 29) and by the first paper's methods with ``run.rpm_fallback``."""
+
+    def __init__(self, cfg, num_runs: int) -> None:
+        self.cfg = cfg
+        self.x = np.broadcast_to(cfg.x0, (num_runs, 3)).copy()
+        self.P = np.broadcast_to(cfg.P0, (num_runs, 3, 3)).copy()
+        self.use_rpm = np.zeros(num_runs, bool)
+        self.altitude = np.full(num_runs, np.nan)
+
+    def step(self, chunk, i: int, v_b: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predict with the RPM, learn from the DVL where eq. 29 picks it; -> (RPM chosen (R,),
+        an RPM was read (R,))."""
+        cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
+        rpm_now = latest(chunk.rpm.index, chunk.rpm.rpm, k) if chunk.rpm is not None else np.full(R, np.nan)
+        altitude = (
+            latest(chunk.echo.index, chunk.echo.altitude_m, k)
+            if chunk.echo is not None
+            else np.full(R, np.nan)
+        )
+        use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
+        have_rpm = np.isfinite(rpm_now)
+        x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
+        self.x = np.where(have_rpm[:, None], x, self.x)
+        self.P = np.where(have_rpm[:, None, None], P, self.P)
+        learn = ~use_rpm & ok & have_rpm
+        z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
+        self.x, self.P, _, _ = vkf.update(self.x, self.P, z_fwd, learn, cfg.R)
+        self.use_rpm, self.altitude = use_rpm, np.asarray(altitude, dtype=float)
+        return use_rpm, have_rpm
+
+    def velocity_b(self) -> np.ndarray:
+        """(R, 3) the RPM's body velocity ``[V_rpm, 0, 0]`` (eq. 27 before the rotation)."""
+        v = np.zeros_like(self.x)
+        v[:, 0] = self.x[:, 0]
+        return v
+
+    def covariance_b(self) -> np.ndarray:
+        """(R, 3, 3) its covariance in b: the VKF's on surge, RPM_LATERAL_SIGMA_MPS on sway and heave."""
+        cov = np.zeros(self.x.shape[:1] + (3, 3))
+        cov[:, 0, 0] = self.P[:, 0, 0]
+        cov[:, 1, 1] = cov[:, 2, 2] = RPM_LATERAL_SIGMA_MPS**2
+        return cov
+
+    def trace(self, chunk, i: int, t: float) -> dict:
+        """The VKF's state now beside the RPM model's truth (YooBank._vkf_series)."""
+        k, R = chunk.k0 + i, self.x.shape[0]
+        rpm = chunk.rpm
+        nan = np.full(R, np.nan)
+        return {
+            "t_s": t,
+            "x": self.x.copy(),
+            "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
+            "sf_true": latest(rpm.index, rpm.scale_factor, k) if rpm is not None else nan,
+            "b_true": latest(rpm.index, rpm.bias_mps, k) if rpm is not None else nan,
+            "rpm_in_use": self.use_rpm.copy(),
+            "altitude_m": self.altitude.copy(),
+        }

@@ -1,0 +1,81 @@
+"""A mission's data: the truth and every sensor's output for R Monte Carlo runs, whole
+(:class:`Simulation`, :func:`simulate`) or as the chunks the banks are fed (:class:`SimChunk`),
+from a simulation or a recorded log (tauvcore.logs) alike."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tauvcore.config import Config
+from tauvcore.sensors import dvl as dvl_sensor
+from tauvcore.sensors import echosounder as echo_sensor
+from tauvcore.sensors import imu as imu_sensor
+from tauvcore.sensors import magnetometer as mag_sensor
+from tauvcore.sensors import pressure as pressure_sensor
+from tauvcore.sensors import rpm as rpm_sensor
+from tauvcore.truth import Truth, generate
+from tauvcore.truth.kinematic import bathymetry
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """Truth and every sensor's output for R Monte Carlo runs (run axis after time)."""
+
+    truth: Truth
+    imu: imu_sensor.ImuData
+    dvl: dvl_sensor.DvlData
+    pressure: pressure_sensor.PressureData
+    mag: mag_sensor.MagnetometerData
+    num_runs: int
+    echo: echo_sensor.EchoSounderData | None = None  # echo sounder (None: a log without one)
+    rpm: rpm_sensor.RpmData | None = None  # propeller RPM (None: a log without one)
+
+
+def simulate(
+    config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None
+) -> Simulation:
+    """Generate the truth (unless given) and the sensor outputs (errors zeroed if ``config.run.ideal``)."""
+    ideal = config.run.ideal
+    if truth is None:
+        truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    imu_cfg = config.imu.ideal() if ideal else config.imu
+    dvl_cfg = config.dvl.ideal() if ideal else config.dvl
+    p_cfg = config.pressure.ideal() if ideal else config.pressure
+    m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
+    seabed = bathymetry(config.trajectory)
+    extra = rng.spawn(1)[0]
+    return Simulation(
+        truth=truth,
+        imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
+        dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
+        pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
+        mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
+        num_runs=num_runs,
+        # from a child of rng (spawning draws nothing): what rng draws next, the filters'
+        # initial errors, is what it drew before these sensors existed
+        echo=echo_sensor.simulate(
+            truth, config.echo_sounder.ideal() if ideal else config.echo_sounder, seabed, extra, num_runs
+        ),
+        rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs),
+    )
+
+
+@dataclass(frozen=True)
+class SimChunk:
+    """Samples ``k0 .. k0 + n - 1`` of a simulation: truth and IMU rows for those samples, the aiding
+    sensors' epochs among them (global sample indices), run axis after time."""
+
+    k0: int
+    truth: Truth
+    imu: imu_sensor.ImuData
+    dvl: dvl_sensor.DvlData
+    pressure: pressure_sensor.PressureData
+    mag: mag_sensor.MagnetometerData
+    echo: echo_sensor.EchoSounderData | None = None
+    rpm: rpm_sensor.RpmData | None = None
+
+    @classmethod
+    def whole(cls, sim: Simulation) -> SimChunk:
+        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag, sim.echo, sim.rpm)

@@ -1,0 +1,41 @@
+"""A recorded log as the reader hands it out (tauvcore.logs.read_log) and the plausibility checks
+judge it (tauvcore.log_checks): every table validated, in SI units and the frames of
+tauvcore.conventions."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Log:
+    """A validated log, in SI units and the frames of tauvcore.conventions."""
+
+    source: str  # the directory it was read from
+    imu_t_s: np.ndarray  # (K,) IMU sample times [s], uniform
+    dtheta_b: np.ndarray  # (K, 3) angle increments over (t_k-1, t_k] [rad]; row 0 zero
+    dv_b: np.ndarray  # (K, 3) velocity increments [m/s]; row 0 zero
+    ref_t_s: np.ndarray | None = None  # (N,) reference times [s]; None: the log has no reference
+    ref_position: np.ndarray | None = None  # (N, 3) latitude [rad], longitude [rad], depth [m]; or NED [m]
+    ref_geodetic: bool = False  # whether ref_position is geodetic
+    ref_euler: np.ndarray | None = None  # (N, 3) roll, pitch, yaw [rad]
+    ref_vel_n: np.ndarray | None = None  # (N, 3) NED velocity [m/s]
+    dvl_t_s: np.ndarray | None = None  # (M,) ping times [s]
+    dvl_beams_mps: np.ndarray | None = None  # (M, 4) beam velocities, NaN where not returned
+    dvl_body_mps: np.ndarray | None = None  # (M, 3) body velocity (NaN rows: invalid), if the log has that
+    depth_t_s: np.ndarray | None = None
+    depth_m: np.ndarray | None = None
+    attitude_t_s: np.ndarray | None = None
+    attitude_euler: np.ndarray | None = None  # (A, 3) [rad]
+    notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user
+
+    @property
+    def dt_s(self) -> float:
+        """The IMU's sample interval [s] (the median of the log's)."""
+        return float(np.median(np.diff(self.imu_t_s)))
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.imu_t_s[-1] - self.imu_t_s[0])
