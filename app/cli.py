@@ -27,11 +27,12 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterator, Sequence
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 
 from app.payload import config_to_json, run_payload
+from app.tables import study_table, summary_table
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import (
@@ -45,17 +46,11 @@ from tauvcore.config import (
     to_toml,
     trajectory_preset,
 )
-from tauvcore.engine.results import BLOCK_DIMS
-from tauvcore.eval.consistency import method_consistency
-from tauvcore.eval.metrics import rms
 from tauvcore.geo.earth import EARTH_MODELS
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.truth import PAPER_TRAJECTORIES, TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import ConfigError, one_line, shorten, show, show_path
-
-if TYPE_CHECKING:  # the engine (numba, compiled-code cache) loads when a command runs, not for --help
-    from tauvcore.engine.results import MethodResult
 
 EXIT_BAD_INPUT = 2
 MAX_STUDY_RUNS = 100_000
@@ -159,6 +154,12 @@ def _csv(
     return items
 
 
+def _path(text: str) -> str:
+    """The argparse ``type`` of a flag that names a file or directory (:data:`PATH_FLAGS` is derived
+    from it); the text is kept as given."""
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="tauv", description="Underwater INS/DVL navigation lab (Tal, Klein & Katz 2017).")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -169,11 +170,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument(
         "--json",
+        type=_path,
         help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
         "JSON file (strict JSON, written atomically; not the --config file)",
     )
     r.add_argument(
         "--save-log",
+        type=_path,
         metavar="DIR",
         help="also write the simulated sensors and truth as a log "
         "(tauv replay reads it; see the README's log format)",
@@ -183,7 +186,10 @@ def build_parser() -> argparse.ArgumentParser:
         "replay", help="run the fusion methods on a recorded log (a directory of sensor tables)"
     )
     rl.add_argument(
-        "log", metavar="DIR", help="the log directory (imu, reference, and dvl, depth, attitude tables)"
+        "log",
+        type=_path,
+        metavar="DIR",
+        help="the log directory (imu, reference, and dvl, depth, attitude tables)",
     )
     _method_flags(rl)
     rl.add_argument(
@@ -195,6 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rl.add_argument(
         "--config",
+        type=_path,
         help="TOML file: the filters' tuning and the DVL's geometry (see 'tauv config'), laid over "
         "the log's own DIR/log.toml",
     )
@@ -210,7 +217,9 @@ def build_parser() -> argparse.ArgumentParser:
         "([initial_error]: fixed values, or drawn from --seed with mode = random); default: on the "
         "reference's first row, with those errors as the starting sigmas",
     )
-    rl.add_argument("--json", help="write the configuration and per-epoch results to this JSON file")
+    rl.add_argument(
+        "--json", type=_path, help="write the configuration and per-epoch results to this JSON file"
+    )
     mc = sub.add_parser(
         "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
     )
@@ -218,6 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     mc.add_argument("--runs", required=True, help=f"number of Monte Carlo runs, 1 to {MAX_STUDY_RUNS}")
     mc.add_argument(
         "--out",
+        type=_path,
         required=True,
         help="output directory (created if missing; files appear only when the study has finished)",
     )
@@ -233,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
         "with every figure of its section 4.2 beside ours",
     )
-    rp.add_argument("--out", required=True, help="output directory (as for mc)")
+    rp.add_argument("--out", type=_path, required=True, help="output directory (as for mc)")
     rp.add_argument("--runs", help="Monte Carlo runs per trajectory (default 100, the paper's study)")
     rp.add_argument("--duration", help="run length [s] (default 250, the paper's; shorter for a quick check)")
     rp.add_argument("--seed", help="seed of the study (default 0)")
@@ -249,14 +259,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sv.add_argument(
         "--logs",
+        type=_path,
         metavar="DIR",
         help="offer the recorded logs in DIR (it, or its subdirectories) as "
         "sources to replay in the dashboard",
     )
     c = sub.add_parser("config", help="print the full configuration as TOML")
-    c.add_argument("--config", help="TOML file to merge over the defaults before printing")
+    c.add_argument("--config", type=_path, help="TOML file to merge over the defaults before printing")
     _imu_flag(c)
     _earth_flag(c)
+    for subparser, command in (
+        (r, cmd_run),
+        (rl, cmd_replay),
+        (mc, cmd_mc),
+        (rp, cmd_reproduce),
+        (sv, cmd_serve),
+        (c, cmd_config),
+    ):
+        subparser.set_defaults(func=command)
     return parser
 
 
@@ -281,7 +301,7 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
         "DVL) whenever they have no DVL velocity",
     )
     _imu_flag(p)
-    p.add_argument("--config", help="TOML file (partial files allowed; see 'tauv config')")
+    p.add_argument("--config", type=_path, help="TOML file (partial files allowed; see 'tauv config')")
 
 
 def _method_flags(p: argparse.ArgumentParser) -> None:
@@ -345,18 +365,6 @@ def _imu_flag(p: argparse.ArgumentParser) -> None:
         "Yoo 2014 Table 1, a 1 deg/h IMU at 100 Hz). Replaces the "
         "file's [imu] section",
     )
-
-
-OPTIONS = option_actions(build_parser())
-"""Every subcommand's optional arguments, by subcommand ('' for ``tauv``'s own): :func:`option_actions`."""
-VALUE_FLAGS = frozenset(
-    s for actions in OPTIONS.values() for a in actions if a.nargs != 0 for s in a.option_strings
-)
-"""Flags that take a value, in any subcommand (from the parser); see :func:`attach_dash_values`."""
-OTHER_FLAGS = frozenset(
-    s for actions in OPTIONS.values() for a in actions if a.nargs == 0 for s in a.option_strings
-)
-"""Flags that take none (``--ideal``, ``--help``, ...), in any subcommand (from the parser)."""
 
 
 def resolve_config(args: argparse.Namespace, under: dict[str, Any] | None = None) -> Config:
@@ -655,123 +663,6 @@ def _new_file_mode(path: str) -> int:
         return 0o666 & ~umask
 
 
-def summary_table(
-    results: dict[str, MethodResult],
-    config: Config,
-    elapsed_s: float,
-    source: str | None = None,
-    preamble: Sequence[str] = (),
-) -> str:
-    """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
-    :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a
-    log); ``preamble``: lines after the first (a log: what configured it, where it started)."""
-    tr = config.trajectory
-    what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
-    ideal = config.run.ideal and source is None  # a replay's sensors are the log's: it has no ideal mode
-    lines = [
-        f"{what}, {tr.duration_s:g} s, earth {config.earth.model}, seed {config.run.seed}, "
-        f"aiding {','.join(config.run.aiding) or 'none'}"
-        + (", IDEAL sensors" if ideal else "")
-        + f"  ({elapsed_s:.1f} s wall)",
-        *preamble,
-        "",
-        (
-            f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
-            f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}"
-        ),
-        (
-            f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[deg]':>9} {'[deg]':>9} {'[m]':>10} "
-            f"{'[m]':>9} {'[m/s]':>10}"
-        ),
-    ]
-    for name, r in results.items():
-        dvl = r.updates.get("dvl")
-        fused = (
-            f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
-            if dvl is not None
-            else "-"
-        )
-        marker = ""
-        if bool(r.diverged[0]):
-            at = float(r.diverged_at_s[0])
-            marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
-        lines.append(
-            f"{name.upper():<7} {_fixed(r.vel_err_mps[-1, 0], 10, 4)} {_fixed(rms(r.vel_err_mps[:, 0]), 9, 4)} "
-            f"{_fixed(r.att_err_deg[-1, 0], 10, 4)} {_fixed(rms(r.att_err_deg[:, 0]), 9, 4)} "
-            f"{_fixed(rms(r.tilt_err_deg[:, 0]), 9, 4)} {_fixed(rms(r.heading_err_deg[:, 0]), 9, 4)} "
-            f"{_fixed(r.pos_err_m[-1, 0], 10, 3)} {_fixed(rms(r.pos_err_m[:, 0]), 9, 3)} "
-            f"{_fixed(r.vel_sigma_mps[-1, 0], 10, 4)} {fused:>20}" + marker
-        )
-    return "\n".join(lines + ["", consistency_table(results, config.run.aiding)])
-
-
-def _fixed(value: float | np.ndarray, width: int, digits: int) -> str:
-    """``value`` (a number, or a 0-d array) right-aligned in ``width`` with ``digits`` decimals;
-    "-" if unknown (NaN: a log without a reference has no errors)."""
-    number = float(value)
-    return f"{number:>{width}.{digits}f}" if np.isfinite(number) else f"{'-':>{width}}"
-
-
-def _ratio(value: float) -> str:
-    """NEES/dim or NIS/dof in at most 7 characters; "-" if not finite."""
-    if not np.isfinite(value):
-        return "-"
-    if abs(value) < 10:
-        return f"{value:.2f}"
-    if abs(value) < 100:
-        return f"{value:.1f}"
-    return f"{value:.0f}" if abs(value) < 1e5 else f"{value:.1e}"
-
-
-def _cell(ratio: float, in_band: float) -> str:
-    """``1.03 (0.98)``: the ratio and, in brackets, the fraction inside the band; "-" for neither."""
-    if not (np.isfinite(ratio) or np.isfinite(in_band)):
-        return "-"
-    return f"{_ratio(ratio)} ({f'{in_band:.2f}' if np.isfinite(in_band) else '-'})"
-
-
-def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) -> str:
-    """Per method: NEES/dim of the full state and each block, NIS/dof of each aiding source in
-    ``sources``, each with the fraction of epochs (NIS: updates) inside its two-sided 99 %
-    chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
-    single-run band)."""
-    blocks = list(BLOCK_DIMS)
-    head = ["method", *blocks, *sources]
-    units = ["", *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
-    rows = []
-    for name, r in results.items():
-        c = method_consistency(r)
-        nis = [c.nis.get(s) for s in sources]
-        rows.append(
-            [
-                name.upper(),
-                *(_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in blocks),
-                *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis),
-            ]
-        )
-    widths = [max(len(row[k]) for row in [head, units, *rows]) for k in range(len(head))]
-    widths[0] = max(widths[0], 7)
-
-    def line(cells: list[str]) -> str:
-        return " ".join(
-            [cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]
-        ).rstrip()
-
-    title = (
-        "Consistency (1 = consistent, above 1 over-confident, below 1 cautious; in brackets the fraction "
-        "inside the 99 % band)"
-    )
-    notes = []
-    if any(r.block_dims is not None for r in results.values()):
-        notes = [
-            (
-                "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
-                "NEES over 6, and they have no position state"
-            )
-        ]
-    return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     """``tauv run``: simulate, run the methods, print the summary; with ``--save-log`` the
     simulation as a log (all or nothing, the directory locked meanwhile), with ``--json`` the
@@ -791,7 +682,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         elapsed = time.perf_counter() - started
         if log_dir is not None:
             from app.study_output import os_reason
-            from tauvcore.logs import simulation_tables, write_log
+            from tauvcore.log_writer import simulation_tables, write_log
 
             try:
                 write_log(log_dir, simulation_tables(chunks), args.log_format)
@@ -1223,26 +1114,6 @@ def _progress_bar(total: int):
         bar.close()
 
 
-def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
-    lines = [
-        f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
-        "",
-        (
-            f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
-            f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"
-        ),
-    ]
-    for method, m in summary["methods"].items():
-        f, c = m["final_rms"], m["consistency"]
-        lines.append(
-            f"{method.upper():<7} {f['vel_err_mps']:>10.4g} {f['tilt_err_deg']:>11.4f} "
-            f"{f['heading_err_deg']:>11.4f} {f['pos_err_m']:>10.4g} "
-            f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
-            f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}"
-        )
-    return "\n".join(lines)
-
-
 @contextlib.contextmanager
 def viser_console_muted() -> Iterator[None]:
     """Mute rich's console for the duration: viser (1.x) prints its own address box there when
@@ -1326,10 +1197,6 @@ def cmd_serve(args: argparse.Namespace) -> int:
     exit_now()
 
 
-PATH_FLAGS = ("config", "json", "save_log", "out", "log", "logs")
-"""The flags that name files or directories (``args`` attributes)."""
-
-
 def _require_file_names(args: argparse.Namespace) -> None:
     """A file name the system cannot encode (a lone surrogate such as '\\ud800', which
     ``main(argv)`` can be given though no shell passes one) is refused naming its flag, before
@@ -1364,18 +1231,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = build_parser().parse_args(attach_dash_values(argv))
         _require_file_names(args)
         _require_text_values(args)
-        if args.command == "run":
-            code = cmd_run(args)
-        elif args.command == "replay":
-            code = cmd_replay(args)
-        elif args.command == "mc":
-            code = cmd_mc(args)
-        elif args.command == "reproduce":
-            code = cmd_reproduce(args)
-        elif args.command == "serve":
-            code = cmd_serve(args)
-        else:
-            code = cmd_config(args)
+        code = args.func(args)
         sys.stdout.flush()  # inside the try: a closed pipe is reported here, not at exit
         return code
     except (UsageError, ConfigError) as exc:
@@ -1410,6 +1266,28 @@ def _silence_stdout() -> None:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
+
+
+OPTIONS = option_actions(build_parser())
+"""Every subcommand's optional arguments, by subcommand ('' for ``tauv``'s own): :func:`option_actions`."""
+VALUE_FLAGS = frozenset(
+    s for actions in OPTIONS.values() for a in actions if a.nargs != 0 for s in a.option_strings
+)
+"""Flags that take a value, in any subcommand (from the parser); see :func:`attach_dash_values`."""
+OTHER_FLAGS = frozenset(
+    s for actions in OPTIONS.values() for a in actions if a.nargs == 0 for s in a.option_strings
+)
+"""Flags that take none (``--ideal``, ``--help``, ...), in any subcommand (from the parser)."""
+PATH_FLAGS = frozenset(
+    a.dest
+    for action in build_parser()._actions
+    if isinstance(action, argparse._SubParsersAction)
+    for sub in action.choices.values()
+    for a in sub._actions
+    if a.type is _path
+)
+"""The arguments that name files or directories (``args`` attributes: the flags and the log
+directory typed :func:`_path`, from the parser)."""
 
 
 if __name__ == "__main__":

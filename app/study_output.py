@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.eval.study import ERROR_SERIES, NEES_SERIES, ChunkSeries
-from tauvcore.logs import fsync_path, replace_files
+from tauvcore.log_writer import fsync_path, replace_files
 from tauvcore.validation import one_line, show_path
 
 PARQUET_SERIES = ERROR_SERIES + NEES_SERIES
@@ -267,7 +267,7 @@ class StudyWriter:
 
     def commit(self) -> list[str]:
         """Rename every output into the output directory as one change (if a rename fails, the
-        ones done are undone: tauvcore.logs.replace_files), remove the temporary directory and
+        ones done are undone: tauvcore.log_writer.replace_files), remove the temporary directory and
         let go of the lock. Returns the paths written."""
         moves = [
             (os.path.join(self.tmp, name), os.path.join(self.out_dir, name))

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.logs import write_log
+from tauvcore.log_writer import write_log
 
 IMU_DT_S = 0.01
 REF_DT_S = 1.0

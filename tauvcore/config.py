@@ -21,6 +21,7 @@ import tomli_w
 from tauvcore import units
 from tauvcore.aiding import AIDING_SOURCES, elc_nsv
 from tauvcore.aiding.registry import REGISTRY
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
@@ -210,6 +211,10 @@ class Config:
     partial: PartialConfig = field(default_factory=PartialConfig)
     run: RunConfig = field(default_factory=RunConfig)
     replay: ReplayConfig = field(default_factory=ReplayConfig)
+    sources: tuple[tuple[str, Any], ...] = field(
+        default_factory=lambda: tuple((name, source.config_type()) for name, source in SOURCES.items())
+    )  # the plug-in sources' sections (tauvcore.aiding.sources), each by name; in TOML each its own
+    # [<name>] section, in the library config.section(name) and config.replace(name, ...)
 
     def __post_init__(self) -> None:
         imu_rate = self.imu.rate_hz
@@ -243,15 +248,32 @@ class Config:
         )
 
     def section(self, name: str) -> Any:
-        """Section ``name`` (``"trajectory"``, ``"dvl"``, ...): how a plug-in (tauvcore.aiding.
-        fusion_method.Sections) reads the configuration without importing this module."""
-        if name not in {f.name for f in dataclasses.fields(self)}:
+        """Section ``name`` (``"trajectory"``, ``"dvl"``, ..., or a plug-in source's): how a plug-in
+        (tauvcore.aiding.fusion_method.Sections) reads the configuration without importing this
+        module."""
+        plugins = dict(self.sources)
+        if name in plugins:
+            return plugins[name]
+        if name not in SECTION_NAMES:
             raise KeyError(f"no configuration section {name!r}")
         return getattr(self, name)
 
     def replace(self, section: str, **changes: Any) -> Config:
         """A copy with ``changes`` applied to one section (validated)."""
-        return dataclasses.replace(self, **{section: dataclasses.replace(getattr(self, section), **changes)})
+        new = dataclasses.replace(self.section(section), **changes)
+        if section in SOURCES:
+            return dataclasses.replace(
+                self, sources=tuple((n, new if n == section else s) for n, s in self.sources)
+            )
+        return dataclasses.replace(self, **{section: new})
+
+    def sections(self) -> dict[str, Any]:
+        """Every section by its TOML name, the plug-in sources' after the others."""
+        return {**{name: getattr(self, name) for name in SECTION_NAMES}, **dict(self.sources)}
+
+
+SECTION_NAMES = tuple(f.name for f in dataclasses.fields(Config) if f.name != "sources")
+"""The built-in sections (a plug-in source's is named after it: Config.sources)."""
 
 
 def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
@@ -284,11 +306,10 @@ def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
 
 def to_dict(config: Config) -> dict[str, dict[str, Any]]:
     """Plain nested dict (lists for tuples), as written to TOML and JSON."""
-    out: dict[str, dict[str, Any]] = {}
-    for sec in dataclasses.fields(config):
-        obj = getattr(config, sec.name)
-        out[sec.name] = {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
-    return out
+    return {
+        name: {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        for name, obj in config.sections().items()
+    }
 
 
 def _plain(value: Any) -> Any:
@@ -374,7 +395,7 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
     config = base or Config()
     if not isinstance(data, dict):
         raise ConfigError(f"configuration must be a table, got {show(data)}")
-    sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
+    sections = config.sections()
     for sec_name, values in data.items():
         if sec_name not in sections:
             raise ConfigError(
@@ -395,7 +416,10 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
             else:
                 changes[key] = _coerce(f"{sec_name}.{key}", getattr(section, key), value)
         sections[sec_name] = dataclasses.replace(section, **changes)
-    return Config(**sections)
+    return Config(
+        **{name: sections[name] for name in SECTION_NAMES},
+        sources=tuple((name, sections[name]) for name in SOURCES),
+    )
 
 
 def merge(base: dict[str, Any], overlay: dict[str, Any]) -> dict[str, Any]:

@@ -4,7 +4,8 @@ tauvcore.conventions."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,6 +31,8 @@ class Log:
     attitude_t_s: np.ndarray | None = None
     attitude_euler: np.ndarray | None = None  # (A, 3) [rad]
     notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user
+    sources: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)  # the plug-in
+    # sources' tables (tauvcore.aiding.sources) by name: "t_s" (E,) [s] and each of its columns (E,)
 
     @property
     def dt_s(self) -> float:

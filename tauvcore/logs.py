@@ -42,21 +42,18 @@ not included) and the value.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import errno
 import os
-import shutil
 import stat
-import tempfile
 import typing
-from collections.abc import Sequence
 from pathlib import Path
-from typing import IO
 
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding.source import AidingSource
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_record import Log
 from tauvcore.validation import LogError, one_line, show, show_path
 
@@ -64,6 +61,7 @@ if typing.TYPE_CHECKING:
     import pyarrow as pa
 
 TABLES = ("imu", "dvl", "depth", "attitude", "reference")
+"""The built-in tables; a plug-in source's is named after it (tauvcore.aiding.sources)."""
 IMU_INCREMENTS = ("dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps")
 IMU_RATES = ("gyro_x_rps", "gyro_y_rps", "gyro_z_rps", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2")
 DVL_BEAMS = ("beam1_mps", "beam2_mps", "beam3_mps", "beam4_mps")
@@ -587,13 +585,18 @@ def _finite(
             )
 
 
-def _within(path: Path, columns: dict[str, np.ndarray], names: tuple[str, ...]) -> None:
-    """Every value of ``names`` within its physical bound (:data:`_BOUNDS`; NaN passes,
-    :func:`_finite` judges it): LogError at the first that is not, with the bound in words."""
+def _within(
+    path: Path,
+    columns: dict[str, np.ndarray],
+    names: tuple[str, ...],
+    bounds: dict[str, tuple[float, float, str, str]] = _BOUNDS,
+) -> None:
+    """Every value of ``names`` within its physical bound (:data:`_BOUNDS`, or ``bounds``; NaN
+    passes, :func:`_finite` judges it): LogError at the first that is not, with the bound in words."""
     for n in names:
         if n not in columns:
             continue
-        low, high, unit, what = _BOUNDS[n]
+        low, high, unit, what = bounds[n]
         v = columns[n]
         bad = (v < low) | (v > high)
         if bad.any():
@@ -725,6 +728,11 @@ def read_log(directory: str | os.PathLike) -> Log:
     if paths["reference"] is not None:
         out.update(_read_reference(paths["reference"], t, median))
     _read_aiding(paths, out)
+    out["sources"] = {
+        name: _read_source(path, SOURCES[name])
+        for name in SOURCES
+        if (path := _table_path(root, name)) is not None
+    }
     log = Log(**out)
     from tauvcore import log_checks  # cross-table plausibility (time and sensor units, signs)
 
@@ -823,6 +831,21 @@ def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
         out["attitude_euler"], _ = _angles(p, cols, ("roll", "pitch", "yaw"), "attitude")
 
 
+def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
+    """A plug-in source's table (``t_s`` and :attr:`~tauvcore.aiding.source.AidingSource.columns`),
+    each column finite (or empty where the source allows it) and within its bounds."""
+    cols = _read_table(path)
+    out = {"t_s": _times(path, cols)}
+    names = tuple(c.name for c in source.columns)
+    _need(path, cols, names, f"the {source.name} table: {source.summary}")
+    for column in source.columns:
+        _finite(path, cols, (column.name,), allow_nan=column.allow_nan)
+        bounds = {column.name: (column.low, column.high, column.unit, column.what)}
+        _within(path, cols, (column.name,), bounds)
+        out[column.name] = cols[column.name]
+    return out
+
+
 def _has_imu(directory: Path) -> bool:
     """Whether ``directory`` has an entry named ``imu.csv`` or ``imu.parquet`` (of any kind: a
     file, a directory, a dangling link); False if it cannot be searched."""
@@ -876,209 +899,12 @@ def raw_layout_hint(directory: str | os.PathLike) -> str:
     return ""
 
 
-# ---------------------------------------------------------------------------------------- writing
-def write_log(
-    directory: str | os.PathLike,
-    tables: dict[str, dict[str, np.ndarray]],
-    fmt: str = "csv",
-    config_toml: str | None = None,
-) -> None:
-    """Write ``tables`` (table -> column -> 1-D array) as a log in ``directory`` (created if need
-    be), CSV with every float written to its last digit (``repr``, so reading back is exact) or
-    Parquet, and with ``config_toml`` the log's own configuration file :data:`CONFIG_FILE`. A
-    file of the same name already there is replaced.
-
-    All or nothing: every file is written into a hidden temporary directory inside ``directory``
-    (the same file system) under a name no reader takes for a table, flushed to disk, and moved
-    into place only when all are complete, the ``imu`` table last (a log is recognised by it,
-    :func:`find_logs`). On any failure or interrupt (a full disk, a file-size limit, Ctrl-C) the
-    temporary directory is removed, the files already moved are taken back (what they replaced
-    restored) and the directories created here are removed, then the exception propagates:
-    nothing partial and nothing that looks like a log is left.
-    """
-    if fmt not in ("csv", "parquet"):
-        raise ValueError(f"fmt must be 'csv' or 'parquet', got {fmt!r}")
-    for table in tables:
-        if table not in TABLES:
-            raise ValueError(f"unknown table {table!r} (tables: {', '.join(TABLES)})")
-    root = Path(directory)
-    made = _make_dirs(root)
-    tmp: Path | None = None
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=".tauv-log-", dir=root))
-        moves = []
-        if config_toml is not None:
-            part = tmp / f"{CONFIG_FILE}.partial"
-            with open(part, "w", encoding="utf-8") as fh:
-                fh.write(config_toml)
-                _flush(fh)
-            moves.append((part, root / CONFIG_FILE))
-        for table in sorted(tables, key=lambda t: t == "imu"):  # the imu table last
-            part = tmp / f"{table}.{fmt}.partial"
-            _write_table(part, tables[table], fmt)
-            moves.append((part, root / f"{table}.{fmt}"))
-        replace_files(moves, tmp / "replaced")
-        fsync_path(root)
-    except BaseException:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
-        for made_dir in reversed(made):
-            with contextlib.suppress(OSError):
-                made_dir.rmdir()  # only if empty: never anything of the user's
-        raise
-    shutil.rmtree(tmp, ignore_errors=True)  # what the tables replaced
-
-
-def _make_dirs(root: Path) -> list[Path]:
-    """Create ``root`` and its missing parents; the directories created, outermost first."""
-    missing = []
-    for candidate in (root, *root.parents):
-        if candidate.is_dir():
-            break
-        missing.append(candidate)
-    made = []
-    try:
-        for candidate in reversed(missing):
-            try:
-                candidate.mkdir()
-            except FileExistsError:
-                if not candidate.is_dir():
-                    raise
-                continue  # made by someone else meanwhile: not ours to remove
-            made.append(candidate)
-    except BaseException:
-        for made_dir in reversed(made):
-            with contextlib.suppress(OSError):
-                made_dir.rmdir()
-        raise
-    return made
-
-
-def _write_table(path: Path, columns: dict[str, np.ndarray], fmt: str) -> None:
-    """One table as a CSV or Parquet file at ``path``, flushed to disk."""
-    names = list(columns)
-    if fmt == "parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        with open(path, "wb") as fh:
-            pq.write_table(pa.table({n: np.asarray(columns[n], dtype=float) for n in names}), fh)
-            _flush(fh)
-        return
-    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(",".join(names) + "\n")
-        fh.writelines(",".join("" if np.isnan(v) else repr(float(v)) for v in row) + "\n" for row in data)
-        _flush(fh)
-
-
-def _flush(fh: IO) -> None:
-    """Flush ``fh`` through Python's buffer and the system's cache to the disk."""
-    fh.flush()
-    os.fsync(fh.fileno())
-
-
-def fsync_path(path: str | os.PathLike) -> None:
-    """Flush the file or directory ``path`` to the disk (a directory: its entries, the renames
-    into it)."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def replace_files(
-    moves: Sequence[tuple[str | os.PathLike, str | os.PathLike]], aside: str | os.PathLike
-) -> None:
-    """Rename each ``(source, target)`` of ``moves``, in order, as one change.
-
-    A target that exists is first renamed into the directory ``aside`` (created here, on the
-    targets' file system); on any failure or interrupt every target already moved is removed and
-    what it replaced is put back, then the exception propagates. On success ``aside`` holds the
-    replaced files, for the caller to remove. A target that is a directory is refused
-    (IsADirectoryError) before anything moves.
-    """
-    for _, target in moves:
-        if os.path.isdir(target) and not os.path.islink(target):
-            raise IsADirectoryError(21, "Is a directory", os.fspath(target))
-    os.mkdir(aside)
-    done: list[tuple[str | os.PathLike, str | None, bool]] = []  # target, where it went, placed
-    try:
-        for k, (source, target) in enumerate(moves):
-            kept = None
-            if os.path.lexists(target):
-                kept = os.path.join(aside, str(k))
-                os.rename(target, kept)
-            done.append((target, kept, False))
-            os.rename(source, target)
-            done[-1] = (target, kept, True)
-    except BaseException:
-        for target, kept, placed in reversed(done):
-            with contextlib.suppress(OSError):
-                if placed:
-                    os.unlink(target)
-                if kept is not None:
-                    os.rename(kept, target)
-        raise
-
-
-def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, np.ndarray]]:
-    """The tables of a log holding one run of a simulation given as its chunks in order
-    (tauvcore.engine.simulation.SimChunk; ``[SimChunk.whole(sim)]`` for a whole one): the IMU as
-    increments, the DVL as beams (NaN where not returned), depth, the magnetometer's attitude,
-    and the truth as the reference (at the IMU rate; geodetic in radians on WGS-84, else NED)."""
-    r = run_index
-
-    def run_of(a: np.ndarray, time_axis_dims: int) -> np.ndarray:
-        return a[:, r] if a.ndim > time_axis_dims else a
-
-    parts: dict[str, dict[str, list[np.ndarray]]] = {t: {} for t in TABLES}
-
-    def add(table: str, column: str, values: np.ndarray) -> None:
-        parts[table].setdefault(column, []).append(np.asarray(values, dtype=float))
-
-    for chunk in chunks:
-        truth, imu, dvl, pressure, mag = chunk.truth, chunk.imu, chunk.dvl, chunk.pressure, chunk.mag
-        add("imu", "t_s", truth.t_s)
-        dth, dv = run_of(imu.dtheta_b, 2), run_of(imu.dv_b, 2)
-        for i in range(3):
-            add("imu", IMU_INCREMENTS[i], dth[:, i])
-            add("imu", IMU_INCREMENTS[3 + i], dv[:, i])
-        y = np.where(run_of(dvl.available, 2), run_of(dvl.y_beam_mps, 2), np.nan)
-        add("dvl", "t_s", dvl.t_s)
-        for i, n in enumerate(DVL_BEAMS):
-            add("dvl", n, y[:, i])
-        add("depth", "t_s", pressure.t_s)
-        add("depth", "depth_m", run_of(pressure.depth_m, 1))
-        e = run_of(mag.euler, 2)
-        add("attitude", "t_s", mag.t_s)
-        for i, n in enumerate(("roll_rad", "pitch_rad", "yaw_rad")):
-            add("attitude", n, e[:, i])
-        add("reference", "t_s", truth.t_s)
-        if truth.earth.geodetic:
-            for i, n in enumerate(("lat_rad", "lon_rad", "depth_m")):
-                add("reference", n, truth.pos_nav[:, i])
-        else:
-            for i, n in enumerate(REF_LOCAL):
-                add("reference", n, truth.pos_n[:, i])
-        for i, n in enumerate(("roll_rad", "pitch_rad", "yaw_rad")):
-            add("reference", n, truth.euler[:, i])
-        for i, n in enumerate(REF_VEL):
-            add("reference", n, truth.vel_n[:, i])
-    return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}
-
-
 __all__ = [
     "CONFIG_FILE",
     "TABLES",
     "Log",
     "LogError",
     "find_logs",
-    "fsync_path",
     "raw_layout_hint",
     "read_log",
-    "replace_files",
-    "simulation_tables",
-    "write_log",
 ]

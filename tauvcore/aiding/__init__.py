@@ -9,7 +9,9 @@ runner (tauvcore.engine), not here.
 from tauvcore.aiding.attitude_mag import MagAttitude
 from tauvcore.aiding.depth import Depth
 from tauvcore.aiding.dvl_loose import DvlLoose
+from tauvcore.aiding.sources import SOURCES
 
-AIDING_SOURCES = ("dvl", "depth", "mag")
+AIDING_SOURCES = ("dvl", "depth", "mag", *SOURCES)
+"""Every source ``run.aiding`` may hold: the built-in ones and the plug-ins of tauvcore.aiding.sources."""
 
 __all__ = ["AIDING_SOURCES", "Depth", "DvlLoose", "MagAttitude"]

@@ -43,6 +43,7 @@ from tauvcore import units
 from tauvcore.aiding import Depth, MagAttitude
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
@@ -56,6 +57,7 @@ from tauvcore.engine.recorder import Recorder
 from tauvcore.engine.results import MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.sources import active
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
@@ -154,6 +156,10 @@ class FilterBank:
             "mag": Recorder(others),
             "rpm": Recorder(dvl_members, dvl_rows),
         }
+        # plug-in sources (tauvcore.aiding.sources): fused by every aided method, as depth and mag
+        self.plugins = [(name, SOURCES[name].model(config.section(name), config)) for name in active(config)]
+        for name, _ in self.plugins:
+            self.recorders[name] = Recorder(others)
         # registered methods (tauvcore.aiding.registry): each its model, members and epochs
         self.registered = []
         for name in (m for m in methods if m in REGISTRY):
@@ -497,6 +503,11 @@ class FilterBank:
         dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
         depth_at = _epoch_map(chunk.pressure.index) if "depth" in aiding and self.other_mask.any() else {}
         mag_at = _epoch_map(chunk.mag.index) if "mag" in aiding and self.other_mask.any() else {}
+        plugin_at = {
+            name: _epoch_map(chunk.sources[name].index)
+            for name, _ in self.plugins
+            if name in chunk.sources and self.other_mask.any()
+        }
         registered_at = [
             {int(k) for k in epochs[(epochs >= k0) & (epochs < k1)]} for _, _, _, epochs in self.registered
         ]
@@ -532,7 +543,7 @@ class FilterBank:
         if k0 == 0 and 0 in out_row:
             self._record(out, 0, chunk, 0)
         events = np.zeros(n, dtype=bool)  # aiding epochs
-        for keys in (dvl_at, depth_at, mag_at, *registered_at):
+        for keys in (dvl_at, depth_at, mag_at, *plugin_at.values(), *registered_at):
             events[[k - k0 for k in keys]] = True
         marks = events.copy()  # and output epochs: where the covariance step stops
         marks[outs - k0] = True
@@ -622,6 +633,11 @@ class FilterBank:
                     self._update_all(
                         "mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t
                     )
+                for name, model in self.plugins:
+                    if k in plugin_at.get(name, ()):
+                        self._update_all(
+                            name, model.measure(self.nominal(), chunk.sources[name], plugin_at[name][k]), t
+                        )
                 for r, keys in enumerate(registered_at):
                     if k in keys:
                         self._update_registered(r, t)

@@ -12,6 +12,7 @@ from tauvcore.config import YOO_METHODS, Config
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import SimChunk, Simulation
+from tauvcore.engine.sources import SourceStream
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.engine.yoo_bank import YooBank
 from tauvcore.filter.layout import STATE
@@ -174,9 +175,11 @@ def run_streaming(
             raise ValueError(f"one generator per run expected ({num_runs}), got {len(rngs)}")
         streams: SensorStreams | list[SensorStreams] = [SensorStreams.spawned(g) for g in rngs]
         initial: np.random.Generator | list[np.random.Generator] = [s.initial for s in streams]
+        plugin_rng: np.random.Generator | list[np.random.Generator] = rngs
     else:
         streams = SensorStreams.spawned(rng)
         initial = streams.initial
+        plugin_rng = rng
     ideal = config.run.ideal
     rate = config.imu.rate_hz
     # the first chunk holds the first DVL ping: the records before it use that ping's true errors
@@ -195,10 +198,11 @@ def run_streaming(
         config.echo_sounder.ideal() if ideal else config.echo_sounder,
         config.rpm.ideal() if ideal else config.rpm,
     )
+    plugins = SourceStream(config, plugin_rng, num_runs, truths.num_samples, truths.dt_s)
     bank = Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
-        chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth))
+        chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth), sources=plugins.next_chunk(k0, truth))
         if on_sim_chunk is not None:
             on_sim_chunk(chunk)
         going = bank.feed(chunk, progress, progress_interval_s, should_stop)

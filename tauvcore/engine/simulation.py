@@ -4,11 +4,14 @@ from a simulation or a recorded log (tauvcore.logs) alike."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from tauvcore.aiding.source import SourceData
 from tauvcore.config import Config
+from tauvcore.engine.sources import SourceStream
 from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import echosounder as echo_sensor
 from tauvcore.sensors import imu as imu_sensor
@@ -31,6 +34,8 @@ class Simulation:
     num_runs: int
     echo: echo_sensor.EchoSounderData | None = None  # echo sounder (None: a log without one)
     rpm: rpm_sensor.RpmData | None = None  # propeller RPM (None: a log without one)
+    sources: Mapping[str, SourceData] = field(default_factory=dict)  # the plug-in sources run.aiding
+    # turns on (tauvcore.aiding.sources), by name
 
 
 def simulate(
@@ -45,7 +50,7 @@ def simulate(
     p_cfg = config.pressure.ideal() if ideal else config.pressure
     m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
     seabed = bathymetry(config.trajectory)
-    extra = rng.spawn(1)[0]
+    extra, plugins = rng.spawn(2)
     return Simulation(
         truth=truth,
         imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
@@ -59,6 +64,7 @@ def simulate(
             truth, config.echo_sounder.ideal() if ideal else config.echo_sounder, seabed, extra, num_runs
         ),
         rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs),
+        sources=SourceStream(config, plugins, num_runs, truth.num_samples, truth.dt_s).next_chunk(0, truth),
     )
 
 
@@ -75,7 +81,8 @@ class SimChunk:
     mag: mag_sensor.MagnetometerData
     echo: echo_sensor.EchoSounderData | None = None
     rpm: rpm_sensor.RpmData | None = None
+    sources: Mapping[str, SourceData] = field(default_factory=dict)  # as Simulation.sources
 
     @classmethod
     def whole(cls, sim: Simulation) -> SimChunk:
-        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag, sim.echo, sim.rpm)
+        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag, sim.echo, sim.rpm, sim.sources)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding.source import SourceData
 from tauvcore.config import Config, from_dict, read_toml
 from tauvcore.engine.mission import run
 from tauvcore.engine.results import MethodResult
@@ -311,7 +312,15 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
         mag = mag_sensor.MagnetometerData(
             t_s=np.zeros(0), index=np.zeros(0, np.int64), euler=np.zeros((0, 1, 3))
         )
-    return Simulation(truth=truth, imu=imu, dvl=dvl, pressure=pressure, mag=mag, num_runs=1)
+    sources = {}
+    for name, table in log.sources.items():
+        k, keep = _epochs(log, table["t_s"])
+        sources[name] = SourceData(
+            t_s=truth.t_s[k[keep]],
+            index=k[keep],
+            values={column: values[keep][:, None] for column, values in table.items() if column != "t_s"},
+        )
+    return Simulation(truth=truth, imu=imu, dvl=dvl, pressure=pressure, mag=mag, num_runs=1, sources=sources)
 
 
 def with_imu_errors(

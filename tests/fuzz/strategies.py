@@ -78,8 +78,8 @@ def is_long_duration(text: str) -> bool:
 
 def _fields() -> list[tuple[str, str, Any]]:
     config = Config()
-    return [(sec.name, f.name, getattr(getattr(config, sec.name), f.name))
-            for sec in dataclasses.fields(config) for f in dataclasses.fields(getattr(config, sec.name))]
+    return [(name, f.name, getattr(section, f.name))
+            for name, section in config.sections().items() for f in dataclasses.fields(section)]
 
 
 FIELDS = _fields()

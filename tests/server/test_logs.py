@@ -10,7 +10,7 @@ import numpy as np
 
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.logs import simulation_tables, write_log
+from tauvcore.log_writer import simulation_tables, write_log
 from tests.server.conftest import Server
 from tests.server.viser_client import ViserClient
 

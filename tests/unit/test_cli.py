@@ -13,7 +13,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from app.cli import _cell, build_parser, main, resolve_config
+from app.cli import build_parser, main, resolve_config
+from app.tables import _cell
 from tauvcore.config import METHODS, Config, from_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS

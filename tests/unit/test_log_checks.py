@@ -22,7 +22,8 @@ from tauvcore import log_checks, logs, units
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.log_checks import check_plausible
-from tauvcore.logs import Log, read_log, simulation_tables, write_log
+from tauvcore.log_writer import simulation_tables, write_log
+from tauvcore.logs import Log, read_log
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.validation import MESSAGE_CHARS, LogError, show_path
 

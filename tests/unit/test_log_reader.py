@@ -19,7 +19,8 @@ import pytest
 
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.logs import LogError, _read_table, find_logs, read_log, simulation_tables, write_log
+from tauvcore.log_writer import simulation_tables, write_log
+from tauvcore.logs import LogError, _read_table, find_logs, read_log
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -23,8 +23,9 @@ import pytest
 
 from app import cli, study_output
 from app.study_output import LOCK_FILE, OUTPUT_FILES, DirectoryLock, OutputDirError, StudyWriter
-from tauvcore import logs
-from tauvcore.logs import CONFIG_FILE, read_log, replace_files, write_log
+from tauvcore import log_writer, logs
+from tauvcore.log_writer import replace_files, write_log
+from tauvcore.logs import CONFIG_FILE, read_log
 
 RUN = ["run", "--duration", "5", "--method", "ins"]
 MC = ["mc", "--duration", "10", "--method", "ins", "--runs", "2"]
@@ -190,7 +191,7 @@ def test_save_log_on_a_full_disk_leaves_nothing_and_a_retry_works(capsys, tmp_pa
 @pytest.mark.parametrize("failure", [OSError(errno.ENOSPC, "No space left on device"), KeyboardInterrupt()])
 @pytest.mark.parametrize("failing", ["depth", "imu"])
 def test_save_log_failing_mid_way_leaves_nothing(capsys, tmp_path, monkeypatch, failure, failing) -> None:
-    real = logs._write_table
+    real = log_writer._write_table
 
     def fail_at_one(path, columns, fmt):
         if path.name.startswith(f"{failing}."):
@@ -198,7 +199,7 @@ def test_save_log_failing_mid_way_leaves_nothing(capsys, tmp_path, monkeypatch, 
             raise failure
         real(path, columns, fmt)
 
-    monkeypatch.setattr(logs, "_write_table", fail_at_one)
+    monkeypatch.setattr(log_writer, "_write_table", fail_at_one)
     monkeypatch.chdir(tmp_path)
     code, out, err = _run(capsys, *RUN, "--save-log", "log")
     if isinstance(failure, KeyboardInterrupt):
@@ -206,7 +207,7 @@ def test_save_log_failing_mid_way_leaves_nothing(capsys, tmp_path, monkeypatch, 
     else:
         _one_line(code, err, "--save-log: cannot write 'log': No space left on device")
     assert out == "" and os.listdir(tmp_path) == []
-    monkeypatch.setattr(logs, "_write_table", real)
+    monkeypatch.setattr(log_writer, "_write_table", real)
     assert _run(capsys, *RUN, "--save-log", "log")[0] == 0
     assert read_log("log").duration_s == pytest.approx(5.0)
 
@@ -244,7 +245,7 @@ def _interrupt(*args, **kwargs):
 
 
 def test_write_log_removes_the_directories_it_made_on_failure(tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr(logs, "_write_table", _interrupt)
+    monkeypatch.setattr(log_writer, "_write_table", _interrupt)
     with pytest.raises(KeyboardInterrupt):
         write_log(tmp_path / "a" / "b" / "log", {"imu": {"t_s": np.arange(3.0)}})
     assert os.listdir(tmp_path) == []

@@ -1,0 +1,153 @@
+"""The tables ``tauv`` prints: a run's errors and consistency per method, and a study's summary."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from tauvcore.config import Config
+from tauvcore.engine.results import BLOCK_DIMS
+from tauvcore.eval.consistency import method_consistency
+from tauvcore.eval.metrics import rms
+
+if TYPE_CHECKING:
+    from tauvcore.engine.results import MethodResult
+
+
+def summary_table(
+    results: dict[str, MethodResult],
+    config: Config,
+    elapsed_s: float,
+    source: str | None = None,
+    preamble: Sequence[str] = (),
+) -> str:
+    """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
+    :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a
+    log); ``preamble``: lines after the first (a log: what configured it, where it started)."""
+    tr = config.trajectory
+    what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
+    ideal = config.run.ideal and source is None  # a replay's sensors are the log's: it has no ideal mode
+    lines = [
+        f"{what}, {tr.duration_s:g} s, earth {config.earth.model}, seed {config.run.seed}, "
+        f"aiding {','.join(config.run.aiding) or 'none'}"
+        + (", IDEAL sensors" if ideal else "")
+        + f"  ({elapsed_s:.1f} s wall)",
+        *preamble,
+        "",
+        (
+            f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
+            f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}"
+        ),
+        (
+            f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[deg]':>9} {'[deg]':>9} {'[m]':>10} "
+            f"{'[m]':>9} {'[m/s]':>10}"
+        ),
+    ]
+    for name, r in results.items():
+        dvl = r.updates.get("dvl")
+        fused = (
+            f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
+            if dvl is not None
+            else "-"
+        )
+        marker = ""
+        if bool(r.diverged[0]):
+            at = float(r.diverged_at_s[0])
+            marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
+        lines.append(
+            f"{name.upper():<7} {_fixed(r.vel_err_mps[-1, 0], 10, 4)} {_fixed(rms(r.vel_err_mps[:, 0]), 9, 4)} "
+            f"{_fixed(r.att_err_deg[-1, 0], 10, 4)} {_fixed(rms(r.att_err_deg[:, 0]), 9, 4)} "
+            f"{_fixed(rms(r.tilt_err_deg[:, 0]), 9, 4)} {_fixed(rms(r.heading_err_deg[:, 0]), 9, 4)} "
+            f"{_fixed(r.pos_err_m[-1, 0], 10, 3)} {_fixed(rms(r.pos_err_m[:, 0]), 9, 3)} "
+            f"{_fixed(r.vel_sigma_mps[-1, 0], 10, 4)} {fused:>20}" + marker
+        )
+    return "\n".join(lines + ["", consistency_table(results, config.run.aiding)])
+
+
+def _fixed(value: float | np.ndarray, width: int, digits: int) -> str:
+    """``value`` (a number, or a 0-d array) right-aligned in ``width`` with ``digits`` decimals;
+    "-" if unknown (NaN: a log without a reference has no errors)."""
+    number = float(value)
+    return f"{number:>{width}.{digits}f}" if np.isfinite(number) else f"{'-':>{width}}"
+
+
+def _ratio(value: float) -> str:
+    """NEES/dim or NIS/dof in at most 7 characters; "-" if not finite."""
+    if not np.isfinite(value):
+        return "-"
+    if abs(value) < 10:
+        return f"{value:.2f}"
+    if abs(value) < 100:
+        return f"{value:.1f}"
+    return f"{value:.0f}" if abs(value) < 1e5 else f"{value:.1e}"
+
+
+def _cell(ratio: float, in_band: float) -> str:
+    """``1.03 (0.98)``: the ratio and, in brackets, the fraction inside the band; "-" for neither."""
+    if not (np.isfinite(ratio) or np.isfinite(in_band)):
+        return "-"
+    return f"{_ratio(ratio)} ({f'{in_band:.2f}' if np.isfinite(in_band) else '-'})"
+
+
+def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) -> str:
+    """Per method: NEES/dim of the full state and each block, NIS/dof of each aiding source in
+    ``sources``, each with the fraction of epochs (NIS: updates) inside its two-sided 99 %
+    chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
+    single-run band)."""
+    blocks = list(BLOCK_DIMS)
+    head = ["method", *blocks, *sources]
+    units = ["", *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
+    rows = []
+    for name, r in results.items():
+        c = method_consistency(r)
+        nis = [c.nis.get(s) for s in sources]
+        rows.append(
+            [
+                name.upper(),
+                *(_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in blocks),
+                *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis),
+            ]
+        )
+    widths = [max(len(row[k]) for row in [head, units, *rows]) for k in range(len(head))]
+    widths[0] = max(widths[0], 7)
+
+    def line(cells: list[str]) -> str:
+        return " ".join(
+            [cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]
+        ).rstrip()
+
+    title = (
+        "Consistency (1 = consistent, above 1 over-confident, below 1 cautious; in brackets the fraction "
+        "inside the 99 % band)"
+    )
+    notes = []
+    if any(r.block_dims is not None for r in results.values()):
+        notes = [
+            (
+                "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
+                "NEES over 6, and they have no position state"
+            )
+        ]
+    return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
+
+
+def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
+    lines = [
+        f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
+        "",
+        (
+            f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
+            f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"
+        ),
+    ]
+    for method, m in summary["methods"].items():
+        f, c = m["final_rms"], m["consistency"]
+        lines.append(
+            f"{method.upper():<7} {f['vel_err_mps']:>10.4g} {f['tilt_err_deg']:>11.4f} "
+            f"{f['heading_err_deg']:>11.4f} {f['pos_err_m']:>10.4g} "
+            f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
+            f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}"
+        )
+    return "\n".join(lines)

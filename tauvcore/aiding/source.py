@@ -1,0 +1,136 @@
+"""An aiding source as one plug-in: everything about one sensor in one module.
+
+A source (a subclass of :class:`AidingSource`, registered in one line of
+:mod:`tauvcore.aiding.sources`) carries
+
+- its configuration section: a frozen dataclass (:attr:`AidingSource.config_type`) whose
+  ``__post_init__`` checks every field's range (``[<name>]`` in a TOML file, ``config.section(name)``
+  in the library);
+- when it measures: :meth:`AidingSource.rate_hz`;
+- its simulation from truth chunks with its own random streams (:attr:`AidingSource.streams`,
+  :meth:`AidingSource.simulate_chunk`), carrying what it needs from chunk to chunk in a state of its
+  own;
+- the columns of its log table (:attr:`AidingSource.columns`, ``<name>.csv`` or ``.parquet``: the
+  reader checks them and hands them over as :class:`SourceData`);
+- its measurement model (:meth:`AidingSource.model`): ``measure(nom, data, j)`` returns the
+  :class:`~tauvcore.filter.eskf.Measurement` (z, innovation, H, R, valid) of epoch ``j`` for the whole
+  batch, with ``predict`` and ``jacobian`` for the finite-difference test;
+- what the user sees of it: a summary and the names of its measurement's rows.
+
+The engine fuses a registered source into every method of the 20-state bank that takes aiding
+(all but the standalone INS), at its epochs, with the gate and the records of every source. A
+source's data is measured at the IMU sample it is fused at (``SourceData.index``); a measurement
+of an earlier instant (a latency) is the source's own business, in its model.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from tauvcore.aiding.fusion_method import Sections
+    from tauvcore.filter.eskf import Measurement, Nominal
+    from tauvcore.sensors.timing import Rng
+    from tauvcore.truth.record import Truth
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a source's log table: SI, its unit in its name."""
+
+    name: str  # e.g. "north_m"
+    unit: str  # e.g. "m"
+    low: float  # physical bounds: a value beyond them is refused, naming the row and the column
+    high: float
+    what: str  # what a value beyond the bounds would be, in words ("farther than the earth is wide")
+    allow_nan: bool = False  # an empty cell (NaN) means "no measurement in this row"
+
+
+@dataclass(frozen=True)
+class SourceData:
+    """A source's epochs within a chunk (or a whole mission), the run axis after time.
+
+    ``index`` are the mission's IMU samples the epochs are fused at (global, sorted); ``values``
+    one array per log column, (E, R); a NaN marks a row without a measurement (a dropout)."""
+
+    t_s: np.ndarray  # (E,) [s]
+    index: np.ndarray  # (E,) int
+    values: Mapping[str, np.ndarray]  # column name -> (E, R)
+
+    @classmethod
+    def empty(cls, columns: Sequence[Column], num_runs: int) -> SourceData:
+        return cls(
+            t_s=np.zeros(0),
+            index=np.zeros(0, np.int64),
+            values={c.name: np.zeros((0, num_runs)) for c in columns},
+        )
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[SourceData]) -> SourceData:
+        """The epochs of consecutive chunks as one."""
+        return cls(
+            t_s=np.concatenate([p.t_s for p in parts]),
+            index=np.concatenate([p.index for p in parts]).astype(np.int64),
+            values={k: np.concatenate([p.values[k] for p in parts]) for k in parts[0].values},
+        )
+
+    def stacked(self, names: Sequence[str]) -> np.ndarray:
+        """The columns ``names`` side by side: (E, R, len(names))."""
+        return np.stack([self.values[n] for n in names], axis=-1)
+
+
+class SourceModel(Protocol):
+    """What the bank calls at each epoch of the source, for the whole batch (methods x runs)."""
+
+    def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement: ...
+
+
+class AidingSource(ABC):
+    """One aiding sensor: its configuration, simulation, log table and measurement model."""
+
+    name: ClassVar[str]  # in --aiding, run.aiding, the records (MethodResult.updates), its TOML section
+    # and its log table's file name (lower case)
+    summary: ClassVar[str]  # one line: what it measures
+    config_type: ClassVar[type]  # its section: a frozen dataclass, every field with a default
+    streams: ClassVar[tuple[str, ...]]  # its random streams, each its own generator per run
+    columns: ClassVar[tuple[Column, ...]]  # its log table's columns besides t_s
+    row_labels: ClassVar[tuple[str, ...]]  # its measurement's rows, e.g. ("north", "east", "down")
+
+    @abstractmethod
+    def rate_hz(self, section: Any) -> float:
+        """Its measurement rate [Hz]."""
+
+    def initial_state(self, section: Any, num_runs: int) -> Any:
+        """What :meth:`simulate_chunk` carries from one chunk to the next (None: nothing)."""
+        return None
+
+    @abstractmethod
+    def simulate_chunk(
+        self,
+        truth: Truth,
+        k0: int,
+        epochs: np.ndarray,
+        section: Any,
+        state: Any,
+        rngs: Mapping[str, Rng],
+        num_runs: int,
+        num_samples: int,
+    ) -> tuple[SourceData, Any]:
+        """Its measurements fused within the chunk ``truth`` (the mission's samples ``k0`` on) and
+        the state for the next chunk. ``epochs``: the mission's samples at :meth:`rate_hz` within the
+        chunk; ``rngs``: a generator (or one per run) for each of :attr:`streams`; ``num_samples``:
+        the mission's length. ``section`` is as given (zero-noise when the run is ideal:
+        :meth:`ideal`)."""
+
+    def ideal(self, section: Any) -> Any:
+        """The section with every error zeroed (``run.ideal``); as given unless overridden."""
+        return section
+
+    @abstractmethod
+    def model(self, section: Any, config: Sections) -> SourceModel:
+        """Its measurement model, from its section and the rest of the configuration."""

@@ -1,0 +1,52 @@
+"""Aiding sources added as one plug-in each: the registry the configuration, the engine and the
+log reader and writer read.
+
+Adding a source (docs/adding_a_sensor.md walks through :mod:`tauvcore.aiding.usbl`): write
+``tauvcore/aiding/<name>.py`` with a subclass of :class:`tauvcore.aiding.source.AidingSource` and a
+``SOURCE = <Class>()``, then add ``"<name>"`` to :data:`MODULES` below (one line). ``run.aiding``
+and ``--aiding`` then take it, ``[<name>]`` configures it (a TOML file, ``tauv config``), a log's
+``<name>.csv`` or ``.parquet`` table feeds it in a replay, ``tauv run --save-log`` writes it, and
+every method of the 20-state bank that takes aiding fuses it, with a record of every update in the
+results, tables, studies and consistency summaries.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from tauvcore.aiding.source import AidingSource
+
+MODULES: tuple[str, ...] = ()
+"""The modules of tauvcore.aiding that define a plug-in source (each its ``SOURCE``), one line each."""
+
+BUILT_IN = ("dvl", "depth", "mag", "rpm", "echo", "cv", "imu", "reference", "attitude")
+"""Names a plug-in source may not take: the built-in sources and the log's own tables."""
+
+
+def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
+    """Each module's ``SOURCE`` by name, checked."""
+    out: dict[str, AidingSource] = {}
+    for module_name in modules:
+        source = getattr(importlib.import_module(f"tauvcore.aiding.{module_name}"), "SOURCE", None)
+        if not isinstance(source, AidingSource):
+            raise TypeError(
+                f"tauvcore.aiding.{module_name} must define SOURCE = <AidingSource>(), got {source!r}"
+            )
+        name = source.name
+        if not isinstance(name, str) or not name or name != name.strip().lower() or not name.isidentifier():
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: SOURCE.name must be a lower-case identifier, got {name!r}"
+            )
+        if name in BUILT_IN or name in out:
+            raise ValueError(f"tauvcore.aiding.{module_name}: source name {name!r} is taken")
+        columns = [c.name for c in source.columns]
+        if "t_s" in columns or len(set(columns)) != len(columns) or not columns:
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: SOURCE.columns must be distinct names other than t_s, got {columns}"
+            )
+        out[name] = source
+    return out
+
+
+SOURCES: dict[str, AidingSource] = load(MODULES)
+"""Every plug-in source by name, in :data:`MODULES` order."""

@@ -1,0 +1,83 @@
+"""The plug-in aiding sources of a run (tauvcore.aiding.sources), simulated chunk by chunk.
+
+Every registered source's streams are children of the run's generator, spawned after the built-in
+sensors' (tauvcore.sensors.stream.SensorStreams) in registry order whether the source is on or
+not: turning a source on changes no other source's numbers, and the numbers do not depend on how
+the mission is cut into chunks. Only the sources ``run.aiding`` turns on are simulated.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from tauvcore.aiding.source import SourceData
+from tauvcore.aiding.sources import SOURCES
+from tauvcore.config import Config
+from tauvcore.sensors.timing import Rng, epoch_indices_between
+from tauvcore.truth.record import Truth
+
+
+def active(config: Config) -> tuple[str, ...]:
+    """The plug-in sources ``config.run.aiding`` turns on, in its order."""
+    return tuple(name for name in config.run.aiding if name in SOURCES)
+
+
+def _children(rng: np.random.Generator) -> dict[str, dict[str, np.random.Generator]]:
+    """One child of ``rng`` per stream of every registered source, in registry order."""
+    names = [(source, stream) for source, s in SOURCES.items() for stream in s.streams]
+    children = rng.spawn(len(names)) if names else []
+    out: dict[str, dict[str, np.random.Generator]] = {source: {} for source in SOURCES}
+    for (source, stream), child in zip(names, children, strict=True):
+        out[source][stream] = child
+    return out
+
+
+class SourceStream:
+    """The plug-in sources of ``config`` over a mission of ``num_samples`` IMU samples ``dt_s``
+    apart, for ``num_runs`` runs: one generator for the batch, or one per run (each run's numbers
+    then its own, as a batch of one would draw them)."""
+
+    def __init__(
+        self,
+        config: Config,
+        rng: np.random.Generator | Sequence[np.random.Generator],
+        num_runs: int,
+        num_samples: int,
+        dt_s: float,
+    ) -> None:
+        self.num_runs, self.num_samples, self.dt_s = num_runs, num_samples, dt_s
+        self.t_end_s = (num_samples - 1) * dt_s
+        if isinstance(rng, np.random.Generator):
+            per_source: dict[str, dict[str, Rng]] = {k: dict(v) for k, v in _children(rng).items()}
+        else:
+            runs = [_children(g) for g in rng]
+            per_source = {
+                source: {stream: [r[source][stream] for r in runs] for stream in SOURCES[source].streams}
+                for source in SOURCES
+            }
+        self.sources = []
+        for name in active(config):
+            source = SOURCES[name]
+            section = config.section(name)
+            if config.run.ideal:
+                section = source.ideal(section)
+            self.sources.append(
+                [name, source, section, per_source[name], source.initial_state(section, num_runs)]
+            )
+
+    def next_chunk(self, k0: int, truth: Truth) -> dict[str, SourceData]:
+        """Every active source's epochs within the chunk ``truth`` (the mission's samples ``k0`` on;
+        chunks in order)."""
+        k1 = k0 + truth.num_samples
+        out = {}
+        for entry in self.sources:
+            name, source, section, rngs, state = entry
+            epochs = epoch_indices_between(
+                source.rate_hz(section), self.t_end_s, self.dt_s, self.num_samples, k0, k1
+            )
+            out[name], entry[4] = source.simulate_chunk(
+                truth, k0, epochs, section, state, rngs, self.num_runs, self.num_samples
+            )
+        return out

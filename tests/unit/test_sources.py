@@ -1,0 +1,179 @@
+"""Every plug-in aiding source (tauvcore.aiding.sources), through the one interface the engine, the
+configuration and the log reader and writer use:
+
+- its H against central differences of its own innovation, ``-(nu(x (+) eps e_j) - nu(x (-) eps
+  e_j)) / 2 eps``, at a state off the truth, on the flat earth and on WGS-84;
+- its simulation does not depend on how the mission is cut into chunks, nor on whether the runs
+  are drawn as a batch or one generator each (run r of a batch of per-run generators is the run a
+  batch of one draws);
+- its section round-trips through TOML and leaves the built-in sections' defaults alone;
+- its log table round-trips (``tauv run --save-log`` -> ``tauv replay``) to the last digit, lost
+  measurements (NaN) included, and the replay fuses it;
+- the registry refuses a module without a source.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tauvcore.aiding.sources import SOURCES, load
+from tauvcore.config import Config, from_dict, to_dict
+from tauvcore.engine.mission import run, run_streaming
+from tauvcore.engine.simulation import SimChunk, simulate
+from tauvcore.engine.sources import SourceStream
+from tauvcore.filter.eskf import Nominal, inject
+from tauvcore.filter.layout import STATE, NavState
+from tauvcore.geo.rotations import exp_so3
+from tauvcore.sensors.stream import SensorStreams
+from tauvcore.truth import generate, truth_stream
+
+NAMES = sorted(SOURCES)
+EPS = 1e-4  # large enough that a position step moves latitude by far more than its rounding
+
+
+def _config(name: str, earth: str = "flat", duration_s: float = 120.0) -> Config:
+    return (
+        Config()
+        .replace("trajectory", name="lawnmower", duration_s=duration_s)
+        .replace("earth", model=earth)
+        .replace("run", methods=("ins", "lc"), aiding=("dvl", name))
+    )
+
+
+def _epoch_with_data(name: str, config: Config):
+    truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    data = SourceStream(config, np.random.default_rng(5), 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)[name]
+    values = np.stack(list(data.values.values()), axis=-1)
+    j = int(np.flatnonzero(np.isfinite(values).all(axis=(1, 2)))[len(data.index) // 2])
+    return truth, data, j
+
+
+def _nominal_near(truth, k: int, rng: np.random.Generator, batch: tuple[int, ...]) -> Nominal:
+    """The truth at sample k, off by a few metres, a few degrees and a few dm/s."""
+    C = exp_so3(rng.normal(0.0, 0.03, batch + (3,))) @ truth.C_nb[k]
+    pos = truth.pos_nav[k] + rng.normal(0.0, 1.0, batch + (3,)) * (
+        np.array([1e-6, 1e-6, 1.0]) if truth.earth.geodetic else 1.0
+    )
+    vel_n = truth.vel_n[k] + rng.normal(0.0, 0.2, batch + (3,))
+    return Nominal(
+        nav=NavState(pos_n=pos, vel_n=vel_n, C_nb=C),
+        accel_bias=np.zeros(batch + (3,)),
+        gyro_bias=np.zeros(batch + (3,)),
+        dvl_bias=np.zeros(batch + (4,)),
+        dvl_sf=np.zeros(batch),
+    )
+
+
+@pytest.mark.parametrize("earth", ["flat", "wgs84"])
+@pytest.mark.parametrize("name", NAMES)
+def test_H_matches_central_differences_of_the_innovation(name: str, earth: str) -> None:
+    config = _config(name, earth)
+    truth, data, j = _epoch_with_data(name, config)
+    source = SOURCES[name]
+    model = source.model(config.section(name), config)
+    geodetic = config.earth.geodetic
+    nom = _nominal_near(truth, int(data.index[j]), np.random.default_rng(1), (3, 2))
+    meas = model.measure(nom, data, j)
+    assert meas.valid.all()
+    # on WGS-84 the innovation is resolved in the estimate's NED frame, which turns as the estimate
+    # moves: H is exact to |nu| / R_earth (1e-6 for metres of innovation)
+    atol = 1e-5 if geodetic else 1e-6
+    H_fd = np.zeros_like(meas.H)
+    for i in range(STATE.dim):
+        dx = np.zeros((3, 2, STATE.dim))
+        dx[..., i] = EPS
+        plus = model.measure(inject(nom, dx, geodetic), data, j).innovation
+        minus = model.measure(inject(nom, -dx, geodetic), data, j).innovation
+        H_fd[..., i] = -(plus - minus) / (2 * EPS)
+    for block in STATE.names:
+        sl = getattr(STATE, block)
+        np.testing.assert_allclose(meas.H[..., sl], H_fd[..., sl], rtol=0, atol=atol, err_msg=f"{name}: H[{block}]")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) -> None:
+    config = _config(name, duration_s=200.0)
+    truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    K, dt = truth.num_samples, truth.dt_s
+
+    def chunked(size: int, rng) -> dict[str, np.ndarray]:
+        stream = SourceStream(config, rng, 3, K, dt)
+        parts = [stream.next_chunk(k0, part)[name]
+                 for k0, part in truth_stream(config.trajectory, config.earth, config.imu.rate_hz, size)]
+        index = np.concatenate([p.index for p in parts])
+        return {"index": index, **{c: np.concatenate([p.values[c] for p in parts]) for c in parts[0].values}}
+
+    whole = chunked(K, np.random.default_rng(3))
+    for size in (1500, 977):
+        cut = chunked(size, np.random.default_rng(3))
+        assert cut.keys() == whole.keys()
+        for key in whole:
+            np.testing.assert_array_equal(cut[key], whole[key], err_msg=f"{name}: {key}, chunks of {size}")
+    # per-run generators: run r is the run a batch of one draws from the same generator
+    runs = [np.random.default_rng(s) for s in (11, 12, 13)]
+    batch = chunked(1500, runs)
+    for r, seed in enumerate((11, 12, 13)):
+        stream = SourceStream(config, [np.random.default_rng(seed)], 1, K, dt)
+        alone = stream.next_chunk(0, truth)[name]
+        for column, values in alone.values.items():
+            np.testing.assert_array_equal(batch[column][:, r], values[:, 0], err_msg=f"{name}: run {r}")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_its_section_round_trips_and_leaves_the_rest_alone(name: str) -> None:
+    config = Config()
+    data = to_dict(config)
+    assert name in data  # its own [name] section
+    assert from_dict(data) == config
+    section = config.section(name)
+    assert config.replace(name, **{}).section(name) == section
+    plain = {k: v for k, v in data.items() if k not in SOURCES}
+    assert to_dict(from_dict(plain)) == data
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_its_log_table_round_trips_and_the_replay_fuses_it(name: str, tmp_path) -> None:
+    from tauvcore.eval.replay import prepare
+    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs import read_log
+
+    config = _config(name, duration_s=90.0)
+    sim = simulate(config, np.random.default_rng(2), 1)
+    tables = simulation_tables([SimChunk.whole(sim)])
+    assert name in tables
+    write_log(tmp_path / "log", tables)
+    log = read_log(tmp_path / "log")
+    table = log.sources[name]
+    np.testing.assert_array_equal(table["t_s"], sim.sources[name].t_s)
+    for column, values in sim.sources[name].values.items():
+        np.testing.assert_array_equal(table[column], values[:, 0])
+    replay_config, replay_sim = prepare(config, log, np.random.default_rng(0))
+    results = run(replay_config, replay_sim, np.random.default_rng(0))
+    record = results["lc"].updates[name]
+    assert record.fused.any() and name not in results["ins"].updates
+    np.testing.assert_array_equal(replay_sim.sources[name].index, sim.sources[name].index)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_streaming_engine_fuses_every_epoch_of_the_source(name: str) -> None:
+    """run_streaming fuses the source at each of its epochs, with the data its streams draw (the
+    children of the run's generator after the built-in sensors')."""
+    config = _config(name)
+    results = run_streaming(config, np.random.default_rng(0), 2)
+    truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
+    rng = np.random.default_rng(0)
+    SensorStreams.spawned(rng)
+    data = SourceStream(config, rng, 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)[name]
+    record = results["lc"].updates[name]
+    np.testing.assert_array_equal(record.t_s, data.t_s)
+    values = np.stack(list(data.values.values()), axis=-1)
+    have = np.isfinite(values).all(axis=-1)
+    np.testing.assert_array_equal(record.valid, have)
+    np.testing.assert_array_equal(record.z[have], values[have])
+    assert name not in results["ins"].updates  # the standalone INS takes no aiding
+
+
+def test_the_registry_refuses_a_module_without_a_source() -> None:
+    with pytest.raises(TypeError, match="must define SOURCE"):
+        load(("cv",))  # a fusion method's module, not a source's
