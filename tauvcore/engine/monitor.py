@@ -21,6 +21,11 @@ windows, and a consistent run must practically never be flagged. The bound for 9
 freedom (30 three-axis DVL updates) is 1.87 times the expected sum; a diverged filter exceeds it
 by orders of magnitude."""
 
+NIS_CAP_FALSE_ALARM = 1e-3
+"""What one update may add to a window of :func:`innovation_divergence_s`: at most the NIS its
+degrees of freedom exceed with this probability (16.3 for 3, 10.8 for 1). A consistent filter's
+NIS is capped once in a thousand updates, by little; an outlier's, by orders of magnitude."""
+
 LOCKOUT_UPDATES = 10
 """Locked out: the last 10 measurements of a source all rejected by the gate (or unusable). A
 consistent filter rejects a three-axis DVL update at a 3-sigma gate with probability 0.8 %, ten in
@@ -45,7 +50,11 @@ def innovation_divergence_s(
     - *inconsistent* at the first update that completes a window of ``window`` updates whose summed
       normalised innovation squared (before the gate) exceeds the chi-square quantile
       ``1 - false_alarm`` for the window's summed degrees of freedom: for a consistent filter each
-      NIS is chi-square with ``nis_dof`` degrees of freedom and independent of the others;
+      NIS is chi-square with ``nis_dof`` degrees of freedom and independent of the others. Each
+      update counts at most its own ``1 - NIS_CAP_FALSE_ALARM`` quantile (16.3 for 3 degrees of
+      freedom): a sensor's outlier (a USBL's multipath fix, thousands of sigmas off) is the gate's
+      to catch and cannot flag a window alone, while a filter that underrates its sensor's noise
+      raises many NIS values and still does (a real DVL's heavier tails than the tuning's);
     - *locked out* at the ``lockout``-th consecutive update that fused nothing (every row rejected
       by the gate, or S unusable): the filter no longer accepts its sensor.
 
@@ -63,7 +72,9 @@ def innovation_divergence_s(
                 first = min(first, float(t_s[used[hit[0] + lockout - 1]]))
         ok = used[np.isfinite(nis[used, r])]
         if ok.size >= window:
-            s = np.concatenate(([0.0], np.cumsum(nis[ok, r])))
+            each, at = np.unique(nis_dof[ok, r], return_inverse=True)
+            capped = np.minimum(nis[ok, r], chi2_isf(NIS_CAP_FALSE_ALARM, each)[at])
+            s = np.concatenate(([0.0], np.cumsum(capped)))
             d = np.concatenate(([0], np.cumsum(nis_dof[ok, r])))
             total, dof = s[window:] - s[:-window], d[window:] - d[:-window]
             dofs, inverse = np.unique(dof, return_inverse=True)
