@@ -16,7 +16,9 @@ import importlib
 
 from tauvcore.aiding.source import AidingSource
 
-MODULES: tuple[str, ...] = ()
+MODULES: tuple[str, ...] = (
+    "usbl",  # tauvcore/aiding/usbl.py: a ship's USBL position fix, the worked example of docs/adding_a_sensor.md
+)
 """The modules of tauvcore.aiding that define a plug-in source (each its ``SOURCE``), one line each."""
 
 BUILT_IN = ("dvl", "depth", "mag", "rpm", "echo", "cv", "imu", "reference", "attitude")

@@ -1,0 +1,275 @@
+"""A USBL position fix: a ship's ultra-short-baseline transceiver fixes the vehicle's position.
+
+The transceiver, on the surface at ``transceiver_n_m`` (NED from the origin, the sea-surface point
+above the start), pings the vehicle's transponder (at ``lever_arm_b_m`` in body axes) every
+``interval_s``; the fix, the transponder's position in NED, reaches the vehicle ``latency_s`` later
+(the acoustic travel, the ship's processing, the acoustic or radio link down). Its error, per axis
+of the transceiver's frame (taken as NED: a ship that keeps its heading compensated), is white with
+a fixed term and a fraction of the slant range ``s = |p_transponder - p_transceiver|``::
+
+    sigma_i = noise_fixed_m + noise_fraction * s          (0.1 m + 0.2 % of s by default)
+
+A fix is lost with ``dropout_probability`` (the ray bent away, the ship's noise) and, with
+``outlier_probability``, off by ``outlier_m`` in a random direction (a multipath return): the
+gate must refuse those.
+
+Measurement, at the fix's arrival ``t_a`` of the ping at ``t_p = t_a - tau``::
+
+    z = p(t_p) + C_nb(t_p) l_b + n
+    h(x) = p + C_nb l_b - tau v_n              (the state at t_a; v_n = C_nb v_b)
+
+The latency is handled by a documented approximation rather than a delayed state: the position at
+ping time is the current one gone back along the current velocity. What it leaves out is the
+acceleration's ``a tau^2 / 2`` (a turn's 0.1 m/s^2 over 1 s: 5 cm, against the fix's decimetres to
+metres) and the attitude's change over ``tau`` in the lever arm's term (2 deg/s for 1 s over 0.3 m:
+1 cm). Ignored altogether (``compensate_latency = false``, ``tau = 0`` in h), the latency puts every
+fix ``v tau`` behind the vehicle: 2 m at 2 m/s for 1 s, a bias the filter cannot tell from a
+position error (docs/adding_a_sensor.md measures its cost). The error state (tauvcore.filter.layout:
+position in NED, the n-frame misalignment ``C_true = exp([rho x]) C_hat``, the body velocity)::
+
+    dh = dp - [(C l_b) x] rho + tau [v_n x] rho - tau C dv_b
+    H  = [I,  -[(C l_b) x] + tau [v_n x],  -tau C,  0 ...]      (position, attitude, velocity)
+
+R is the fix's own variance, ``diag(sigma_i^2)`` at the fix's measured slant range (what the USBL
+itself knows). On WGS-84 the fix, given in the origin's tangent frame, is taken to geodetic
+coordinates and the innovation is its offset from the estimate in the estimate's own NED frame
+(tauvcore.geo.earth.ned_offset_m), so a fix far from the origin is not bent by the tangent plane.
+
+Its log table ``usbl.csv``: ``t_s`` the fix's arrival, ``north_m``, ``east_m``, ``down_m`` the
+transponder's position in the origin's tangent frame; an empty row is a lost fix.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from tauvcore.aiding.fusion_method import Sections
+from tauvcore.aiding.source import AidingSource, Column, SourceData
+from tauvcore.filter.eskf import Measurement, Nominal
+from tauvcore.filter.layout import STATE
+from tauvcore.geo.earth import geodetic_from_ned, ned_offset_m
+from tauvcore.geo.rotations import mv, skew
+from tauvcore.sensors.timing import Rng, standard_normal, uniform
+from tauvcore.truth.record import Truth
+from tauvcore.validation import ConfigError, require_range, require_vector3, show
+
+AXES = ("north_m", "east_m", "down_m")
+"""The fix's columns: the transponder's position in the origin's tangent frame [m]."""
+
+
+@dataclass(frozen=True)
+class UsblConfig:
+    """A ship-mounted USBL transceiver fixing the vehicle (module docstring)."""
+
+    interval_s: float = 10.0  # time between fixes [s]; [0.5, 600]: a USBL pings at 2 Hz at most, and a
+    # fix every ten minutes is all but none
+    latency_s: float = 1.0  # ping to fix at the vehicle [s]; [0, 30]: 2 s of acoustic travel for 1.5 km
+    # of slant range, the ship's processing and the link down
+    compensate_latency: bool = True  # predict the position at ping time (p - latency v); false: take the
+    # fix as of its arrival (what ignoring the latency costs)
+    noise_fixed_m: float = 0.1  # per axis [m]; [0, 100]: centimetres for the best systems, 100 m is no fix
+    noise_fraction: float = 0.002  # of the slant range, per axis; [0, 0.1]: commercial USBLs quote
+    # 0.1-1 % of slant range, 10 % is a bearing error of 6 deg
+    transceiver_n_m: tuple[float, float, float] = (0.0, 0.0, 2.0)  # NED from the origin [m]; north and east
+    # within +-1e5 m (a ship 100 km off is out of acoustic range), down within [0, 50]: on a hull or
+    # a pole under the surface
+    lever_arm_b_m: tuple[float, float, float] = (0.0, 0.0, -0.3)  # the transponder in body axes [m]; each
+    # within +-10 m, the size of an AUV
+    dropout_probability: float = 0.05  # a fix lost [-]; [0, 1]
+    outlier_probability: float = 0.01  # a fix off by outlier_m [-]; [0, 1]
+    outlier_m: float = 30.0  # an outlier's offset, in a random direction [m]; [0, 1e4]
+
+    def __post_init__(self) -> None:
+        require_range("usbl.interval_s", self.interval_s, 0.5, 600.0)
+        require_range("usbl.latency_s", self.latency_s, 0.0, 30.0)
+        if not isinstance(self.compensate_latency, bool):
+            raise ConfigError(
+                f"usbl.compensate_latency must be true or false, got {show(self.compensate_latency)}"
+            )
+        require_range("usbl.noise_fixed_m", self.noise_fixed_m, 0.0, 100.0)
+        require_range("usbl.noise_fraction", self.noise_fraction, 0.0, 0.1)
+        require_vector3("usbl.transceiver_n_m", self.transceiver_n_m, bound=1e5)
+        require_range("usbl.transceiver_n_m[2]", self.transceiver_n_m[2], 0.0, 50.0)
+        require_vector3("usbl.lever_arm_b_m", self.lever_arm_b_m, bound=10.0)
+        require_range("usbl.dropout_probability", self.dropout_probability, 0.0, 1.0)
+        require_range("usbl.outlier_probability", self.outlier_probability, 0.0, 1.0)
+        require_range("usbl.outlier_m", self.outlier_m, 0.0, 1e4)
+
+    def sigma_m(self, slant_range_m: np.ndarray) -> np.ndarray:
+        """Per-axis 1-sigma of a fix at ``slant_range_m`` [m] (same shape)."""
+        return self.noise_fixed_m + self.noise_fraction * np.asarray(slant_range_m, dtype=float)
+
+
+@dataclass(frozen=True)
+class UsblSetup:
+    z: np.ndarray  # (B, 3) the fix, transponder NED from the origin [m] (zero where invalid)
+    valid: np.ndarray  # (B,) a fix in this epoch
+    R: np.ndarray  # (B, 3, 3) [m^2]
+    tau_s: float  # the latency the prediction goes back by
+
+
+@dataclass(frozen=True)
+class UsblFix:
+    """The fix as a measurement of the state at its arrival (module docstring), small and pure."""
+
+    config: UsblConfig
+    geodetic: bool  # the nominal position is latitude, longitude, depth (WGS-84), else NED [m]
+    origin: tuple[float, float, float]  # latitude, longitude [rad], height [m] of the tangent frame
+
+    name = "usbl"
+
+    def prepare(self, z_n_m: np.ndarray, batch: tuple[int, ...]) -> UsblSetup:
+        """From the fixes ``z_n_m`` (R, 3) of one epoch (NaN: lost), for the batch (M, R)."""
+        z = np.broadcast_to(np.asarray(z_n_m, dtype=float), batch + (3,))
+        valid = np.asarray(np.isfinite(z).all(axis=-1))
+        z = np.where(valid[..., None], z, 0.0)
+        slant = np.linalg.norm(z - np.asarray(self.config.transceiver_n_m), axis=-1)
+        sigma = self.config.sigma_m(slant)
+        R = np.zeros(batch + (3, 3))
+        R[..., [0, 1, 2], [0, 1, 2]] = np.maximum(sigma, 1e-3)[..., None] ** 2
+        tau = self.config.latency_s if self.config.compensate_latency else 0.0
+        return UsblSetup(z=np.ascontiguousarray(z), valid=valid, R=R, tau_s=tau)
+
+    def offset_n_m(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
+        """What the prediction adds to the estimated position [m]: ``C l_b - tau v_n`` (B, 3)."""
+        return mv(nom.nav.C_nb, np.asarray(self.config.lever_arm_b_m)) - setup.tau_s * nom.nav.vel_n
+
+    def predict(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
+        """h(x) (B, 3) on the flat earth: the transponder at ping time, NED [m]."""
+        return nom.nav.pos_n + self.offset_n_m(nom, setup)
+
+    def jacobian(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
+        """H (B, 3, 20) (module docstring)."""
+        batch = nom.nav.pos_n.shape[:-1]
+        H = np.zeros(batch + (3, STATE.dim))
+        H[..., STATE.pos] = np.eye(3)
+        lever_n = mv(nom.nav.C_nb, np.asarray(self.config.lever_arm_b_m))
+        H[..., STATE.att] = -skew(lever_n) + setup.tau_s * skew(nom.nav.vel_n)
+        H[..., STATE.vel] = -setup.tau_s * nom.nav.C_nb
+        return H
+
+    def innovation(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
+        """``z (-) h(x)`` (B, 3) [m], in the estimate's NED frame (module docstring)."""
+        if not self.geodetic:
+            return setup.z - self.predict(nom, setup)
+        lat, lon, h = geodetic_from_ned(setup.z, self.origin)
+        pos = nom.nav.pos_n
+        offset = ned_offset_m(lat, lon, h, pos[..., 0], pos[..., 1], -pos[..., 2])
+        return offset - self.offset_n_m(nom, setup)
+
+    def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement:
+        batch = nom.nav.pos_n.shape[:-1]
+        setup = self.prepare(data.stacked(AXES)[j], batch)
+        nu = np.where(setup.valid[..., None], self.innovation(nom, setup), 0.0)
+        return Measurement(
+            z=setup.z,
+            innovation=np.ascontiguousarray(nu),
+            H=np.ascontiguousarray(self.jacobian(nom, setup)),
+            R=setup.R,
+            valid=setup.valid,
+        )
+
+
+@dataclass(frozen=True)
+class _Pending:
+    """Fixes pinged but not yet arrived at the end of a chunk."""
+
+    data: SourceData | None = None
+
+
+class Usbl(AidingSource):
+    name = "usbl"
+    summary = "a ship's USBL fixing the vehicle's position (slant-range noise, latency, dropouts, outliers)"
+    config_type = UsblConfig
+    streams = ("noise", "dropout", "outlier", "outlier_direction")  # each drawn alone, so that the
+    # numbers do not depend on how the mission is cut into chunks
+    columns = tuple(
+        Column(axis, "m", -1e7, 1e7, "farther from the origin than the earth is wide", allow_nan=True)
+        for axis in AXES
+    )
+    row_labels = ("north", "east", "down")
+
+    def rate_hz(self, section: UsblConfig) -> float:
+        return 1.0 / section.interval_s
+
+    def ideal(self, section: UsblConfig) -> UsblConfig:
+        return UsblConfig(
+            interval_s=section.interval_s,
+            latency_s=section.latency_s,
+            compensate_latency=section.compensate_latency,
+            noise_fixed_m=0.0,
+            noise_fraction=0.0,
+            transceiver_n_m=section.transceiver_n_m,
+            lever_arm_b_m=section.lever_arm_b_m,
+            dropout_probability=0.0,
+            outlier_probability=0.0,
+            outlier_m=section.outlier_m,
+        )
+
+    def initial_state(self, section: UsblConfig, num_runs: int) -> _Pending:
+        return _Pending()
+
+    def simulate_chunk(
+        self,
+        truth: Truth,
+        k0: int,
+        epochs: np.ndarray,
+        section: UsblConfig,
+        state: _Pending,
+        rngs: Mapping[str, Rng],
+        num_runs: int,
+        num_samples: int,
+    ) -> tuple[SourceData, _Pending]:
+        """The fixes of the pings at ``epochs`` (transponder at ping time, with its errors), due
+        ``latency_s`` later; those due within this chunk are returned, the later ones carried."""
+        E, R = epochs.size, num_runs
+        rows = epochs - k0
+        lever_n = mv(truth.C_nb[rows], np.asarray(section.lever_arm_b_m))
+        true_n = truth.pos_n[rows] + lever_n  # (E, 3)
+        slant = np.linalg.norm(true_n - np.asarray(section.transceiver_n_m), axis=-1)
+        sigma = section.sigma_m(slant)[:, None, None]
+        fix = true_n[:, None, :] + sigma * standard_normal(rngs["noise"], (E, R, 3), 1)
+        lost = uniform(rngs["dropout"], (E, R), 1) < section.dropout_probability
+        outlier = uniform(rngs["outlier"], (E, R), 1) < section.outlier_probability
+        direction = standard_normal(rngs["outlier_direction"], (E, R, 3), 1)
+        direction /= np.maximum(np.linalg.norm(direction, axis=-1, keepdims=True), 1e-12)
+        fix = np.where(outlier[..., None], fix + section.outlier_m * direction, fix)
+        fix[lost] = np.nan
+        lag = round(section.latency_s / truth.dt_s)
+        arrival = epochs + lag
+        due = arrival < num_samples
+        new = SourceData(
+            t_s=truth.t_s[rows][due] + lag * truth.dt_s,
+            index=arrival[due].astype(np.int64),
+            values={axis: fix[due, :, i] for i, axis in enumerate(AXES)},
+        )
+        pending = new if state.data is None else SourceData.concatenate([state.data, new])
+        k1 = k0 + truth.num_samples
+        now = pending.index < k1
+        take = SourceData(  # at the mission's own clock of its arrival sample
+            t_s=truth.t_s[pending.index[now] - k0],
+            index=pending.index[now],
+            values={k: v[now] for k, v in pending.values.items()},
+        )
+        later = SourceData(
+            t_s=pending.t_s[~now],
+            index=pending.index[~now],
+            values={k: v[~now] for k, v in pending.values.items()},
+        )
+        return take, _Pending(later)
+
+    def model(self, section: UsblConfig, config: Sections) -> UsblFix:
+        earth: Any = config.section("earth")
+        return UsblFix(
+            config=section,
+            geodetic=bool(earth.geodetic),
+            origin=(float(earth.latitude_rad), float(earth.longitude_rad), 0.0),
+        )
+
+
+SOURCE = Usbl()
+"""The registry's entry (tauvcore.aiding.sources.MODULES names this module)."""
