@@ -15,10 +15,8 @@ Yoo 2014's methods (``ins-dvl``, ``vkf``) run a 12-state filter with no position
 position 1-sigma and NEES are NaN (no band, no curve) and their NEES is divided by their own
 block dimensions (``MethodResult.block_dims``), not the 20-state filter's.
 
-Figures are assembled as plain dicts and wrapped without plotly's per-property validation
-(:func:`_figure`): validation took 45 of the 56 ms that the four live plots cost per redraw, and
-redraws run on the server's threads while other tabs wait for their controls. The tests check
-that every figure validates and equals its validated construction.
+Figures are plain dicts wrapped without plotly's per-property validation (:func:`_figure`; validating
+costs most of a redraw); the tests check that each validates and equals its validated construction.
 """
 
 from __future__ import annotations
@@ -32,6 +30,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 
 from tauvcore.aiding.elc_select import CANDIDATES
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import REGISTERED_METHODS, Config, to_dict
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.consistency import CONFIDENCE, method_consistency, nees_band, nees_series
@@ -1179,7 +1178,8 @@ def components_figure(
 
 
 INNOVATION_ROWS = {"dvl": {3: ("surge", "sway", "heave"), 4: ("beam 1", "beam 2", "beam 3", "beam 4")}}
-"""What the rows of a source's innovation are, by their number (DVL: body axes, TC: beams)."""
+INNOVATION_ROWS.update({name: {len(s.row_labels): s.row_labels} for name, s in SOURCES.items()})
+"""What a source's innovation rows are, by their number (DVL: body axes, TC: beams; a plug-in: its own)."""
 BAND_SUFFIX = " 3-sigma"
 REJECTED_SUFFIX = " rejected"
 

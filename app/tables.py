@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import method_consistency
@@ -124,11 +125,11 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
     )
     notes = []
     if any(r.block_dims is not None for r in results.values()):
+        plugins = [s for s in sources if s in SOURCES]
         notes = [
-            (
-                "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
-                "NEES over 6, and they have no position state"
-            )
+            "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
+            "NEES over 6, and they have no position state"
+            + (f"; they fuse the DVL only, not {', '.join(plugins)}" if plugins else "")
         ]
     return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
 

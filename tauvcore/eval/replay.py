@@ -23,6 +23,7 @@ from tauvcore.config import Config, from_dict, read_toml
 from tauvcore.engine.mission import run
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import Simulation
+from tauvcore.engine.sources import active
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
@@ -348,6 +349,12 @@ def prepare(
     if imu_errors is not None:
         config = config.replace("imu", **dataclasses.asdict(imu_errors))
     config = replay_config(config, log)
+    for name in active(config):
+        if name not in log.sources:
+            raise LogError(
+                f"{show_path(log.source)}: run.aiding (--aiding) names {name}, but the log has no "
+                f"{name}.csv or {name}.parquet"
+            )
     sim = log_simulation(config, log, rng)
     if imu_errors is not None:
         sim = with_imu_errors(sim, config.imu, rng)

@@ -177,3 +177,29 @@ def test_the_streaming_engine_fuses_every_epoch_of_the_source(name: str) -> None
 def test_the_registry_refuses_a_module_without_a_source() -> None:
     with pytest.raises(TypeError, match="must define SOURCE"):
         load(("cv",))  # a fusion method's module, not a source's
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_table(name: str, tmp_path, capsys) -> None:
+    from app.cli import main
+    from tauvcore.eval.replay import prepare
+    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs import LogError, read_log
+
+    config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
+    write_log(tmp_path / "log", simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))]))
+    with pytest.raises(LogError, match=f"names {name}, but the log has no {name}.csv or {name}.parquet"):
+        prepare(config.replace("run", aiding=("dvl", name)), read_log(tmp_path / "log"), np.random.default_rng(0))
+    assert main(["replay", str(tmp_path / "log"), "--aiding", f"dvl,{name}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"no {name}.csv" in err[0]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_run_table_says_that_yoos_methods_do_not_fuse_the_source(name: str) -> None:
+    from app.tables import summary_table
+
+    config = _config(name, duration_s=30.0).replace("run", methods=("lc", "vkf"))
+    results = run_streaming(config, np.random.default_rng(0))
+    assert name in results["lc"].updates and name not in results["vkf"].updates
+    assert f"they fuse the DVL only, not {name}" in summary_table(results, config, 1.0)
