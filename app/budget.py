@@ -23,7 +23,7 @@ The estimate is the sum, plus ``SLACK`` (15 %) for the allocator's pages, plus `
 what a run loads once: the compiled kernels of the filter bank (numba's machine code and its
 LLVM context, 62-64 MiB measured for a 10 s run once the fused stretch kernel
 ``run_stops`` joined them; 14-16 MiB more since the geodetic path, its truth integrator included,
-issue 10) and lazily imported modules. The dynamic truth (tauvcore.truth.dynamic) adds its
+and lazily imported modules. The dynamic truth (tauvcore.truth.dynamic) adds its
 compiled vehicle and autopilot and its mission (``DYNAMIC_FIXED_BYTES``, 12 MiB measured for a
 streamed 20 min mission) and, for a mission short enough to keep, its knots (``KNOT_DOUBLES`` per
 sample).

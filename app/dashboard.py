@@ -367,7 +367,7 @@ class Session:
                     for m in RUN_METHODS
                 }
             with gui.add_folder("Partial-beam methods"):
-                # each method's assumption, visible and settable (issue 8): VB's virtual-beam
+                # each method's assumption, visible and settable: VB's virtual-beam
                 # inflation and NSV's sway variance
                 self.vb_nf = gui.add_text(inputs.VB_NF, f"{d.partial.vb_nf:g}", hint=inputs.VB_NF_HINT)
                 self.nsv_epsilon = gui.add_text(
@@ -384,7 +384,7 @@ class Session:
                     inputs.RPM_FALLBACK, d.run.rpm_fallback, hint=inputs.RPM_FALLBACK_HINT
                 )
             with gui.add_folder(inputs.SEABED_FOLDER, expand_by_default=False):
-                # Yoo 2014's mission (issue 12): where the seabed is, how far the DVL sees it, where
+                # Yoo 2014's mission: where the seabed is, how far the DVL sees it, where
                 # the VKF turns to the propeller, and how noisy the propeller's RPM is
                 self.seabed_depth = gui.add_text(
                     inputs.SEABED_DEPTH, f"{d.trajectory.seabed_depth_m:g}", hint=inputs.SEABED_DEPTH_HINT
@@ -440,7 +440,7 @@ class Session:
                 )
                 self.fit_button = gui.add_button("Fit mission", hint="frame the whole mission (camera: free)")
                 self.readout = gui.add_markdown("")
-        # the workbench (issue 13): plots, diagnostics, results and kept runs in a panel of their
+        # the workbench: plots, diagnostics, results and kept runs in a panel of their
         # own docked left of the 3-D view, several plots in view at once (viser: height = aspect x width)
         self.cursor_t: float | None = None
         self.kept_runs: list[KeptRun] = []

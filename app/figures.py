@@ -479,7 +479,7 @@ def altitude_figure(
     max_points: int | None = 600,
     validate: bool = False,
 ) -> go.Figure:
-    """The vehicle's true altitude above the seabed against time (issue 12; Yoo 2014 section 3),
+    """The vehicle's true altitude above the seabed against time (Yoo 2014 section 3),
     with the DVL's range limit (``dvl.max_altitude_m``: higher, the beams of a level DVL find no
     bottom) and the velocity filter's switch (``vkf.switch_altitude_m``: higher, it uses the
     propeller RPM instead of the DVL) as horizontal lines, and the stretches above the switch
@@ -963,7 +963,7 @@ def rms_markdown(results: Mapping[str, MethodResult]) -> str:
     return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows))
 
 
-# ------------------------------------------------------------------ the workbench (issue 13)
+# ------------------------------------------------------------------ the workbench
 CURSOR_NAME = "time cursor"
 CURSOR_COLOR = "rgba(40,40,40,0.7)"
 

@@ -1,4 +1,4 @@
-"""Clicking a plot moves the playback (issue 13, item 1): one timeline for the plots and the scene.
+"""Clicking a plot moves the playback: one timeline for the plots and the scene.
 
 viser 1.1 draws plotly figures but tells the server nothing of a click on them (no plotly event
 reaches Python). The page does run the scripts the server sends (app.links explains the channel),

@@ -134,7 +134,7 @@ def truth_view(config: Config, step: int) -> TruthView:
     IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
     the schedule lets return (random drop-outs show once the results carry them).
 
-    The seabed at the same rows (issue 12; the mission's bathymetry, tauvcore.truth.kinematic):
+    The seabed at the same rows (the mission's bathymetry, tauvcore.truth.kinematic):
     ``altitude_m`` (T,) the true height above the seabed straight below, what an ideal echo
     sounder measures [m]; ``slant_range_m`` (T, 4) each beam's range from the DVL head to the
     seabed, inf beyond the DVL's range, by the DVL simulation's own tracer

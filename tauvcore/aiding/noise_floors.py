@@ -1,4 +1,4 @@
-"""Variance floors of the measurement noises the filter assumes (issue 7: zero noise is legal).
+"""Variance floors of the measurement noises the filter assumes (zero noise is legal).
 
 A configuration may set a sensor's noise to zero: the simulation then produces ideal
 measurements (the truth sensors stay ideal, nothing here touches them), but a filter that took

@@ -14,7 +14,7 @@ error norms (attitude also split into tilt and heading), the filter's own 1-sigm
 against truth of the full state and of each block of :data:`~tauvcore.filter.layout.NEES_BLOCKS`
 (position, velocity, tilt, heading, sensor errors); every update record carries its NIS.
 
-Numerical health (issue 7): after the corrections of every aiding epoch, and at least once per
+Numerical health: after the corrections of every aiding epoch, and at least once per
 second of propagation (:data:`CONDITION_CHECK_RATE_HZ`), P goes through
 :func:`~tauvcore.filter.eskf.condition_covariance` (one batched Cholesky for all methods and
 runs; an eigenvalue floor only where it fails, counted per run in ``MethodResult.p_floor_count``). The divergence

@@ -1,4 +1,4 @@
-"""Yoo 2014's navigation filter as methods of the engine: ``ins-dvl`` and ``vkf`` (issue 12).
+"""Yoo 2014's navigation filter as methods of the engine: ``ins-dvl`` and ``vkf``.
 
 Each is the paper's 12-state indirect feedback Kalman filter (section 2.1; error model
 tauvcore.filter.yoo: NED velocity, attitude, accelerometer and gyro bias errors, no position)
@@ -27,7 +27,7 @@ scale stays 0.7 % off from ping to ping. The RPM velocity of ``vkf`` was learnt 
 forward speed, so its surge inherits the same errors: its row of ``H_c`` is the DVL's surge row
 (``V_rpm`` for the scale factor, the 4-beam least squares' x row for the biases). Updates are
 gated like the 20-state methods' (every row within ``filter.gate_sigma``), then injected and the
-error reset (feedback). As white noise of their 1-sigma size (what we first did) they left both
+error reset (feedback). As white noise of their 1-sigma size they would leave both
 methods over-confident (velocity NEES/dim 1.8-4 and 2.7-7.7 over seeds on ``longrange``).
 
 The covariance is propagated at ``filter.covariance_rate_hz`` with ``Phi = I + F dt + (F dt)^2 / 2``

@@ -1,4 +1,4 @@
-"""Does a filter know its own error? NEES and NIS summaries of a method's results (issue 8).
+"""Does a filter know its own error? NEES and NIS summaries of a method's results.
 
 A consistent filter's NEES of an n-dimensional block is chi-square with n degrees of freedom, so
 its mean divided by n is 1. Averaged over R Monte Carlo runs at one epoch, ``R * mean(NEES)`` is

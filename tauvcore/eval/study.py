@@ -1,5 +1,5 @@
 """Monte Carlo studies: every run its own seeded unit, runs computed in chunks anywhere, results
-identical whatever the split (issue 9).
+identical whatever the split.
 
 Run ``i`` of a study with seed ``s`` draws everything random (IMU, DVL, pressure and magnetometer
 errors, its initial errors) from independent streams spawned from

@@ -4,7 +4,7 @@ innovation gate, closed-loop injection and reset (Tal et al. 2017 section 2.1.1)
 Everything takes a leading batch shape ``B`` (methods x Monte Carlo runs). "How" a source is
 modelled lives in ``tauvcore.aiding``; this module only knows a :class:`Measurement`.
 
-Numerical safeguards (issue 7), none of which acts on a healthy filter:
+Numerical safeguards, none of which acts on a healthy filter:
 
 - :func:`correct` fuses nothing for a batch entry whose innovation covariance ``S`` is not
   finite or not positive definite (its Cholesky factorisation fails) and says so in

@@ -72,7 +72,7 @@ NEES_BLOCKS: dict[str, tuple[int, ...]] = {
     "heading": _indices(slice(STATE.att.start + 2, STATE.att.stop)),  # rho_D: rotation about the vertical
     "sensor": _indices(STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl),
 }
-"""The blocks whose NEES every method reports beside the full state's (issue 8), as state indices.
+"""The blocks whose NEES every method reports beside the full state's, as state indices.
 
 The misalignment ``rho`` is in the n (NED) frame, so its horizontal components are the tilt
 (levelling error: what the accelerometers and gravity observe) and its down component is the

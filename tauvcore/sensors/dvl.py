@@ -10,7 +10,7 @@ with one scale factor SF common to all beams (speed of sound, eq. 12), a bias pe
 noise, and all four transducers at the DVL head ``l_dvl_b`` (the transducer spacing on a
 small head is a few centimetres, below the 0.042 m/s noise for any plausible rate).
 
-Range (issue 12): given the mission's seabed (tauvcore.truth.seabed), each beam is traced from the
+Range: given the mission's seabed (tauvcore.truth.seabed), each beam is traced from the
 head to the bottom; a beam whose slant range exceeds ``max_range_m`` (``max_altitude_m / cos(beam
 pitch)``: the range of a beam of a level DVL at its rated altitude, Yoo 2014's 100 m) has no
 bottom lock. ``beyond_range = "lost"``: it returns nothing, and the availability mask the

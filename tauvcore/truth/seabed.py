@@ -1,5 +1,5 @@
 """The seabed under a mission: bathymetry, the depth under the vehicle, and where each DVL beam
-meets the bottom (issue 12; Yoo 2014 section 3: the DVL loses the bottom where the sea is deeper
+meets the bottom (Yoo 2014 section 3: the DVL loses the bottom where the sea is deeper
 than its range).
 
 Depth of the seabed at a horizontal position (NED frame of the mission, metres from the
