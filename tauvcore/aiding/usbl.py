@@ -59,6 +59,9 @@ from tauvcore.validation import ConfigError, require_range, require_vector3, sho
 
 AXES = ("north_m", "east_m", "down_m")
 """The fix's columns: the transponder's position in the origin's tangent frame [m]."""
+SIGMA_FLOOR_M = 1e-3
+"""The least 1-sigma the filter assumes for a fix, per axis [m]: an ideal USBL (zero noise, legal)
+keeps an invertible S, as the built-in sources' floors do (tauvcore.aiding.noise_floors)."""
 
 
 @dataclass(frozen=True)
@@ -130,7 +133,7 @@ class UsblFix:
         slant = np.linalg.norm(z - np.asarray(self.config.transceiver_n_m), axis=-1)
         sigma = self.config.sigma_m(slant)
         R = np.zeros(batch + (3, 3))
-        R[..., [0, 1, 2], [0, 1, 2]] = np.maximum(sigma, 1e-3)[..., None] ** 2
+        R[..., [0, 1, 2], [0, 1, 2]] = np.maximum(sigma, SIGMA_FLOOR_M)[..., None] ** 2
         tau = self.config.latency_s if self.config.compensate_latency else 0.0
         return UsblSetup(z=np.ascontiguousarray(z), valid=valid, R=R, tau_s=tau)
 
