@@ -41,6 +41,7 @@ transponder's position in the origin's tangent frame; an empty row is a lost fix
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -200,17 +201,8 @@ class Usbl(AidingSource):
         return 1.0 / section.interval_s
 
     def ideal(self, section: UsblConfig) -> UsblConfig:
-        return UsblConfig(
-            interval_s=section.interval_s,
-            latency_s=section.latency_s,
-            compensate_latency=section.compensate_latency,
-            noise_fixed_m=0.0,
-            noise_fraction=0.0,
-            transceiver_n_m=section.transceiver_n_m,
-            lever_arm_b_m=section.lever_arm_b_m,
-            dropout_probability=0.0,
-            outlier_probability=0.0,
-            outlier_m=section.outlier_m,
+        return dataclasses.replace(
+            section, noise_fixed_m=0.0, noise_fraction=0.0, dropout_probability=0.0, outlier_probability=0.0
         )
 
     def initial_state(self, section: UsblConfig, num_runs: int) -> _Pending:
