@@ -35,7 +35,7 @@ INS has no innovations and estimates no sensor error: it is flagged only if not 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
@@ -45,6 +45,7 @@ from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
+from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
     DVL_MODE_CODES,
@@ -69,7 +70,6 @@ from tauvcore.filter.eskf import (
 )
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
-from tauvcore.ins.strapdown import Strapdown, body_increments
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -81,8 +81,9 @@ def _epoch_map(indices: np.ndarray) -> dict[int, int]:
     return {int(k): i for i, k in enumerate(indices)}
 
 
-class FilterBank:
-    """Every method of ``config.run.methods`` over R runs, fed a simulation chunk by chunk.
+class FilterBank(ChunkDriver):
+    """Every method of ``config.run.methods`` over R runs, fed a simulation chunk by chunk
+    (tauvcore.engine.chunk_driver.ChunkDriver: the chunk order, polling, store and hand-out).
 
     The (methods, runs) nominal states and covariances live in contiguous arrays that the
     compiled kernels (tauvcore.filter.kernels) update in place; between two covariance or event
@@ -102,25 +103,10 @@ class FilterBank:
         rng: np.random.Generator | Sequence[np.random.Generator],
         keep: bool = True,
     ) -> None:
-        self.config, self.rng, self.keep = config, rng, keep
-        self.methods = methods = tuple(config.run.methods)
-        M, R = len(methods), num_runs
-        self.batch = (M, R)
-        self.num_samples, self.dt = num_samples, dt_s
-        earth = config.earth
-        strapdown = Strapdown(earth, dt_s)
-        self.geodetic = earth.geodetic
-        self.sd_consts = (
-            dt_s,
-            strapdown.C_earth,
-            strapdown.C_earth_half,
-            strapdown.g_n,
-            strapdown.coriolis_T,
-            self.geodetic,
-        )
-        # NED positions are recorded from the sea-surface point above the start (Truth.pos_n)
-        self.origin = np.array([earth.latitude_rad, earth.longitude_rad, 0.0])
-        self.g_n, self.w_ie = np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n)
+        methods = tuple(config.run.methods)
+        super().__init__(config, methods, num_runs, num_samples, dt_s, keep)
+        self.rng = rng
+        M, R = self.batch
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
         gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
@@ -175,25 +161,16 @@ class FilterBank:
         if config.run.rpm_fallback and self.dvl_methods and "dvl" in self.aiding:
             self.rpm_aid = RpmAid(config.vkf, R)
             self.rpm_A_pinv = np.linalg.pinv(np.asarray(config.dvl.A_b, dtype=float))  # (3, 4): LC's A+
-        out_step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
-        self.out_idx = np.arange(0, num_samples, out_step)
-        self.cov_step = max(1, round(config.imu.rate_hz / config.filter.covariance_rate_hz))
         self.check_step = max(1, round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ))
         self.block_of_state = np.full(STATE.dim, -1)
         for b, ix in enumerate(NEES_BLOCKS.values()):
             self.block_of_state[list(ix)] = b
-        self.gate = config.filter.gate_sigma
         self.p_floor_count = np.zeros(self.batch, dtype=int)
         self.nonfinite_at_s = np.full(self.batch, np.nan)  # first output epoch with a non-finite state or P
         self.implausible_at_s = np.full(
             self.batch, np.nan
         )  # first aiding epoch with a sensor error outside its prior
         self.slot = 0  # output epochs recorded so far
-        self.taken = 0  # output epochs handed out by take()
-        self.stored: list[dict[str, np.ndarray]] = []  # recorded output epochs, chunk by chunk
-        self.started = False
-        self.stopped = False
-        self.stopped_at_s = np.nan  # the output epoch a stop request ended the results at
 
     # ------------------------------------------------------------------ set-up at the first chunk
     def start(self, chunk: SimChunk) -> None:
@@ -241,11 +218,6 @@ class FilterBank:
         dvl = chunk.dvl
         self.ping_bias = np.array(dvl.bias_mps[0] if len(dvl.index) else np.zeros((R, 4)), dtype=float)
         self.ping_sf = np.array(dvl.scale_factor[0] if len(dvl.index) else np.zeros(R), dtype=float)
-        self.prev_raw: tuple[np.ndarray, np.ndarray] | None = (
-            None  # raw increments of the sample before a chunk
-        )
-        self.k_state = 0  # sample the nominal state is at
-        self.k_cov = 0  # sample the covariance was last propagated to
         self.k_checked = 0  # sample P was last checked (positive definite) at
         self.dtheta_sum = np.zeros((R, 3))  # gyro increments since k_cov
         self.started = True
@@ -437,7 +409,7 @@ class FilterBank:
         fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))
         self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
 
-    def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
+    def _record(self, out: Store, row: int, i: int) -> None:
         t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
         kernels.record_bank(
             row,
@@ -472,33 +444,41 @@ class FilterBank:
         out["t_s"][row] = t_s[i]
         self.slot += 1
 
-    # ------------------------------------------------------------------ the chunk loop
-    def feed(
-        self,
-        chunk: SimChunk,
-        progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-        progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None,
-    ) -> bool:
-        """Run the bank over one chunk (chunks in order, the first at sample 0). Returns False once
-        ``should_stop()`` said so (at an output epoch); the results then end at that epoch."""
-        if self.stopped:
-            return False
-        if not self.started:
-            if chunk.k0 != 0:
-                raise ValueError(f"the first chunk must start at sample 0, got {chunk.k0}")
-            self.start(chunk)
+    # ------------------------------------------------------------------ the chunk
+    def _begin(self, chunk: SimChunk) -> None:
+        self.start(chunk)
+
+    def _store(self, outs: np.ndarray, chunk: SimChunk | None) -> Store:
+        T = outs.size
+        return {
+            "t_s": np.zeros(T),
+            "out_k": outs,
+            "series": np.zeros((len(kernels.SERIES_NAMES), T) + self.batch),
+            "nees_block": np.zeros((T,) + self.batch + (len(NEES_BLOCKS),)),
+            "est_pos_n": np.zeros((T,) + self.batch + (3,)),
+            "est_vel_n": np.zeros((T,) + self.batch + (3,)),
+            "est_euler": np.zeros((T,) + self.batch + (3,)),
+        }
+
+    def _sealed(self) -> None:
+        for rec in self.recorders.values():
+            rec.seal()
+
+    def _chunk_end(self, chunk: SimChunk) -> None:
+        if len(chunk.dvl.index):
+            self.ping_bias[...] = chunk.dvl.bias_mps[-1]
+            self.ping_sf[...] = chunk.dvl.scale_factor[-1]
+
+    def _run_chunk(
+        self, chunk: SimChunk, inputs: ChunkInputs, store: Store, poll_every: int
+    ) -> Iterator[int]:
+        """The chunk's stops: the compiled stretch between aiding epochs
+        (:func:`~tauvcore.filter.kernels.run_stops`, which records the output epochs in between),
+        the corrections of each aiding epoch here."""
         k0, n = chunk.k0, chunk.truth.num_samples
-        if k0 != (0 if self.prev_raw is None else self.k_state + 1):
-            raise ValueError(
-                f"chunks must follow each other: expected one at sample {self.k_state + 1}, got {k0}"
-            )
         k1 = k0 + n
-        imu, dt = chunk.imu, self.dt
-        dtheta = np.ascontiguousarray(imu.dtheta_b)
-        phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(dtheta, imu.dv_b, self.prev_raw))
-        prev_dtheta = self.prev_raw[0] if self.prev_raw is not None else None
-        self.prev_raw = (dtheta[-1].copy(), np.array(imu.dv_b[-1]))
+        dt = self.dt
+        phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
         aiding = self.aiding
         dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
         depth_at = _epoch_map(chunk.pressure.index) if "depth" in aiding and self.other_mask.any() else {}
@@ -511,15 +491,7 @@ class FilterBank:
         registered_at = [
             {int(k) for k in epochs[(epochs >= k0) & (epochs < k1)]} for _, _, _, epochs in self.registered
         ]
-        outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k1)]
-        out = {
-            "series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
-            "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
-            "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)),
-            "t_s": np.zeros(outs.size),
-            "est_vel_n": np.zeros((outs.size,) + self.batch + (3,)),
-            "est_euler": np.zeros((outs.size,) + self.batch + (3,)),
-        }
+        outs = store["out_k"]
         out_row = {int(k): r for r, k in enumerate(outs)}
         ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
         truth = chunk.truth
@@ -532,38 +504,25 @@ class FilterBank:
             np.ascontiguousarray(truth.pos_nav),
             np.ascontiguousarray(truth.vel_n),
             np.ascontiguousarray(truth.C_nb),
-            np.ascontiguousarray(imu.accel_bias),
-            np.ascontiguousarray(imu.gyro_bias),
+            np.ascontiguousarray(chunk.imu.accel_bias),
+            np.ascontiguousarray(chunk.imu.gyro_bias),
             ping_rows,
             np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
             np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
         )
         self._chunk_in = chunk_in
-        slot0 = self.slot
         if k0 == 0 and 0 in out_row:
-            self._record(out, 0, chunk, 0)
+            self._record(store, 0, 0)
         events = np.zeros(n, dtype=bool)  # aiding epochs
         for keys in (dvl_at, depth_at, mag_at, *plugin_at.values(), *registered_at):
             events[[k - k0 for k in keys]] = True
         marks = events.copy()  # and output epochs: where the covariance step stops
         marks[outs - k0] = True
-        progress_every = max(1, round(progress_interval_s * self.config.filter.output_rate_hz))
-
-        def flush() -> None:
-            rows = self.slot - slot0
-            self.stored.append(
-                {name: a[:rows] if name != "series" else a[:, :rows] for name, a in out.items()}
-            )
-            for rec in self.recorders.values():
-                rec.seal()
-
         stops = np.asarray(
             covariance_stops(np.flatnonzero(marks) + k0, self.k_cov, k1, self.cov_step), dtype=np.int64
         )
         is_event = events[stops - k0]
         stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
-        # back to Python at every output epoch when someone polls there, else at aiding epochs only
-        yield_every = 1 if should_stop is not None else (progress_every if progress is not None else 0)
         counters = np.zeros(4, dtype=np.int64)
         s = 0
         while s < stops.size:
@@ -576,7 +535,7 @@ class FilterBank:
                 stops.size,
                 k0,
                 self.check_step,
-                yield_every,
+                poll_every,
                 counters,
                 self.pos,
                 self.vel,
@@ -598,12 +557,12 @@ class FilterBank:
                 self.block_of_state,
                 len(NEES_BLOCKS),
                 units.DEG,
-                out["series"],
-                out["nees_block"],
-                out["est_pos_n"],
-                out["t_s"],
-                out["est_vel_n"],
-                out["est_euler"],
+                store["series"],
+                store["nees_block"],
+                store["est_pos_n"],
+                store["t_s"],
+                store["est_vel_n"],
+                store["est_euler"],
             )
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
             if why == kernels.STOPS_DONE:
@@ -616,7 +575,7 @@ class FilterBank:
             if why in (kernels.STOPS_EVENT, kernels.STOPS_REPAIR):
                 if k in dvl_at:
                     p = dvl_at[k]
-                    before = dtheta[i - 1] if i > 0 else prev_dtheta
+                    before = dtheta[i - 1] if i > 0 else inputs.prev_dtheta
                     omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
                     dvl_valid = self._update_dvl(
                         chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t
@@ -650,61 +609,14 @@ class FilterBank:
                     if latest >= 0:
                         self.ping_bias[...] = chunk.dvl.bias_mps[latest]
                         self.ping_sf[...] = chunk.dvl.scale_factor[latest]
-                    self._record(out, out_row[k], chunk, i)
-            if k in out_row:
-                if should_stop is not None and should_stop():
-                    self.stopped, self.stopped_at_s = True, t
-                    flush()
-                    return False
-                if progress is not None and self.slot % progress_every == 0 and self.slot < self.out_idx.size:
-                    flush()
-                    progress(t, self.results())
-                    self.stored.pop()
+                    self._record(store, out_row[k], i)
+            if k in out_row and poll_every and self.slot % poll_every == 0:
+                yield k
             s += 1
-        # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
-        kernels.advance(
-            self.pos,
-            self.vel,
-            self.C,
-            self.ba,
-            self.bg,
-            phi_raw,
-            dv_raw,
-            dtheta,
-            self.dtheta_sum,
-            self.k_state - k0,
-            n - 1,
-            *self.sd_consts,
-        )
-        self.k_state = k1 - 1
-        if len(ping_rows):
-            self.ping_bias[...] = chunk.dvl.bias_mps[-1]
-            self.ping_sf[...] = chunk.dvl.scale_factor[-1]
-        flush()
-        return True
 
     # ------------------------------------------------------------------ results
-    def _results(
-        self, stored: list[dict[str, np.ndarray]], first_update: dict[str, int]
-    ) -> dict[str, MethodResult]:
-        if stored:
-            t_s = np.concatenate([c["t_s"] for c in stored])
-            series_all = np.concatenate([c["series"] for c in stored], axis=1)
-            nees_block = np.concatenate([c["nees_block"] for c in stored])
-            est_pos_n = np.concatenate([c["est_pos_n"] for c in stored])
-            est_vel_n = np.concatenate([c["est_vel_n"] for c in stored])
-            est_euler = np.concatenate([c["est_euler"] for c in stored])
-        else:
-            t_s, series_all = np.zeros(0), np.zeros((len(kernels.SERIES_NAMES), 0) + self.batch)
-            nees_block = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),))
-            est_pos_n = np.zeros((0,) + self.batch + (3,))
-            est_vel_n = est_euler = est_pos_n
-        epochs = {
-            "nees_block": nees_block,
-            "est_pos_n": est_pos_n,
-            "est_vel_n": est_vel_n,
-            "est_euler": est_euler,
-        }
+    def _results(self, cat: Store, taking: bool) -> dict[str, MethodResult]:
+        first_update = {key: rec.taken for key, rec in self.recorders.items()} if taking and self.keep else {}
         out = {}
         for m, method in enumerate(self.methods):
             recs = {src: rec for src, rec in self.recorders.items() if rec.members[m] and rec.count}
@@ -715,40 +627,20 @@ class FilterBank:
             out[method] = method_result(
                 method,
                 m,
-                t_s,
-                series_all,
-                epochs,
+                cat["t_s"],
+                cat["series"],
+                cat,
                 np.fmin.reduce(np.stack(flagged), axis=0),
                 p_floor_count=self.p_floor_count[m].copy(),
                 updates={src: record for src, record in built.items() if record is not None},
             )
-        return out
-
-    def results(self) -> dict[str, MethodResult]:
-        """Every output epoch and update kept so far (all of them unless ``keep`` is False)."""
-        return self._results(self.stored, {})
-
-    def take(self) -> dict[str, MethodResult]:
-        """The output epochs and updates since the last :meth:`take` (the monitor's verdict is the
-        whole mission's so far); without ``keep`` they are dropped from the bank."""
-        if self.keep:
-            new, seen = [], 0
-            for c in self.stored:
-                size = c["t_s"].size
-                if seen + size > self.taken:
-                    lo = max(0, self.taken - seen)
-                    new.append({k: (v[:, lo:] if k == "series" else v[lo:]) for k, v in c.items()})
-                seen += size
-            result = self._results(new, {key: rec.taken for key, rec in self.recorders.items()})
+        if taking:
             for rec in self.recorders.values():
-                rec.taken = len(rec.chunks)
-            self.taken = seen
-            return result
-        result = self._results(self.stored, {})
-        self.stored = []
-        for rec in self.recorders.values():
-            rec.drain()
-        return result
+                if self.keep:
+                    rec.taken = len(rec.chunks)
+                else:
+                    rec.drain()
+        return out
 
 
 def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:

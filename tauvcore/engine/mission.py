@@ -66,7 +66,7 @@ class Banks:
             if first or not second
             else None
         )
-        self.yoo = YooBank(config, second, num_runs, num_samples, dt_s) if second else None
+        self.yoo = YooBank(config, second, num_runs, num_samples, dt_s, keep=keep) if second else None
         self.stopped = False
         self.until_s: float | None = None  # where the 20-state bank stopped the run (the Yoo bank goes on)
 
@@ -132,7 +132,7 @@ class Banks:
     def take(self) -> dict[str, MethodResult]:
         return self._merge(
             self.bank.take() if self.bank is not None else {},
-            self.yoo.take(self.keep, self.until_s) if self.yoo is not None else {},
+            self.yoo.take(self.until_s) if self.yoo is not None else {},
         )
 
 

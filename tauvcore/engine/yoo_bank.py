@@ -39,18 +39,19 @@ dimensions are the filter's own (:data:`BLOCK_DIMS`: 12 in all, 6 sensor states)
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Iterator
 
 import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
-from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, UpdateRecord, method_result
+from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
+from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult, UpdateRecord, method_result
 from tauvcore.engine.rpm_aid import RPM_LATERAL_SIGMA_MPS, RpmAid, dvl_body_velocity
+from tauvcore.engine.simulation import SimChunk
 from tauvcore.filter import kernels, statistics, yoo, yoo_kernels
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
-from tauvcore.ins.strapdown import Strapdown, body_increments
 
 BLOCK_DIMS = YOO_BLOCK_DIMS
 """Degrees of freedom of this filter's NEES (tauvcore.engine.results.YOO_BLOCK_DIMS)."""
@@ -70,13 +71,14 @@ NUM_BLOCKS = 5
 METHOD_CODES = {"ins-dvl": yoo_kernels.INS_DVL, "vkf": yoo_kernels.VKF}
 
 
-class YooBank:
-    """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk (as FilterBank).
+class YooBank(ChunkDriver):
+    """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk
+    (tauvcore.engine.chunk_driver.ChunkDriver, as FilterBank).
 
     ``compiled`` (the default) runs each chunk in tauvcore.filter.yoo_kernels; ``compiled=False``
     runs the numpy methods below, the reference the compiled loop is held equal to
-    (tests/unit/test_yoo_bank.py). Both store a chunk's output epochs, updates and VKF trace as
-    arrays (:meth:`_pack`), handed out by :meth:`take` and :meth:`results`."""
+    (tests/unit/test_yoo_bank.py). Both write a chunk's output epochs, updates and VKF trace into
+    the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`."""
 
     def __init__(
         self,
@@ -86,18 +88,10 @@ class YooBank:
         num_samples: int,
         dt_s: float,
         compiled: bool = True,
+        keep: bool = True,
     ) -> None:
-        self.config, self.methods = config, methods
+        super().__init__(config, methods, num_runs, num_samples, dt_s, keep)
         self.compiled = compiled
-        M, R = len(methods), num_runs
-        self.batch = (M, R)
-        self.dt = dt_s
-        earth = config.earth
-        sd = Strapdown(earth, dt_s)
-        self.geodetic = earth.geodetic
-        self.sd_consts = (dt_s, sd.C_earth, sd.C_earth_half, sd.g_n, sd.coriolis_T, self.geodetic)
-        self.origin = (earth.latitude_rad, earth.longitude_rad, 0.0)
-        self.w_ie = np.asarray(earth.omega_ie_n, dtype=float)
         imu = config.imu
         self.q = np.r_[
             np.full(3, imu.accel_noise_mps_per_sqrt_s**2),
@@ -106,10 +100,6 @@ class YooBank:
             np.full(3, imu.gyro_bias_rw_rps_per_sqrt_s**2),
         ]
         self.q = np.maximum(self.q, 1e-24)
-        self.cov_step = max(1, round(imu.rate_hz / config.filter.covariance_rate_hz))
-        out_step = max(1, round(imu.rate_hz / config.filter.output_rate_hz))
-        self.out_idx = np.arange(0, num_samples, out_step)
-        self.gate = config.filter.gate_sigma
         dvl = config.dvl
         self.A_b = dvl.A_b
         self.l_dvl_b = dvl.l_dvl_b
@@ -118,11 +108,7 @@ class YooBank:
         self.c_var0 = np.r_[dvl.scale_factor**2, np.full(4, dvl.bias_mps**2)] + 1e-16
         self.qc = np.r_[dvl.scale_factor_rw_per_sqrt_s**2, np.full(4, dvl.bias_rw_mps_per_sqrt_s**2)]
         self.L4 = np.linalg.pinv(np.asarray(self.A_b, dtype=float))  # the 4-beam least squares (3, 4)
-        self.started = False
-        self.stopped = False
         self.has_vkf = "vkf" in methods
-        self.chunks: list[dict[str, np.ndarray]] = []  # packed chunks (:meth:`_pack`)
-        self.taken = 0
 
     # ------------------------------------------------------------------ set-up
     def start(
@@ -161,36 +147,20 @@ class YooBank:
         self.P[..., yoo.ATT, yoo.VEL] = (-Vx @ P0_att).swapaxes(-1, -2)
         self.rpm_aid = RpmAid(config.vkf, R)
         self.dtheta_sum = np.zeros((R, 3))
-        self.prev_raw: tuple[np.ndarray, np.ndarray] | None = None
-        self.k_state = 0
-        self.k_cov = 0
         self.started = True
 
     # ------------------------------------------------------------------ one chunk
-    def feed(
-        self,
-        chunk,
-        progress: Callable[[float, dict], None] | None = None,
-        progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None,
-    ) -> bool:
-        """Run over one chunk of the simulation (tauvcore.engine.simulation.SimChunk), in order. As
-        FilterBank.feed: ``progress(t_s, results so far)`` every ``progress_interval_s`` of
-        simulated time, ``should_stop()`` polled at every output epoch; returns False once it said
-        so (the results then end at that epoch)."""
-        if self.stopped:
-            return False
+    def _begin(self, chunk: SimChunk) -> None:
+        raise ValueError("YooBank.start must come before the first chunk (tauvcore.engine.mission.Banks)")
+
+    def _run_chunk(
+        self, chunk: SimChunk, inputs: ChunkInputs, store: Store, poll_every: int
+    ) -> Iterator[int]:
+        """The chunk's stops (covariance steps, DVL pings, output epochs) in compiled spans that
+        end at the output epochs where the driver polls."""
         k0, n = chunk.k0, chunk.truth.num_samples
-        imu = chunk.imu
-        dtheta = np.ascontiguousarray(imu.dtheta_b)
-        phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(dtheta, imu.dv_b, self.prev_raw))
-        self.prev_raw = (dtheta[-1].copy(), np.array(imu.dv_b[-1]))
-        pings = (
-            np.asarray(chunk.dvl.index, dtype=np.int64)
-            if "dvl" in self.config.run.aiding
-            else np.zeros(0, np.int64)
-        )
-        outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k0 + n)]
+        pings = store["up_k"]
+        outs = store["out_k"]
         cov = np.arange(self.k_cov + self.cov_step, k0 + n, self.cov_step)
         stops = np.unique(np.concatenate([pings, outs, cov]).astype(np.int64))
         stops = stops[stops >= k0]
@@ -199,53 +169,28 @@ class YooBank:
         row_of_stop = np.full(stops.size, -1, np.int64)
         row_of_stop[np.searchsorted(stops, outs)] = np.arange(outs.size)
         out_stops = np.flatnonzero(row_of_stop >= 0)
-        every = max(1, round(progress_interval_s * self.config.filter.output_rate_hz))
-        if should_stop is not None:
-            ends = out_stops + 1  # back to Python at every output epoch
-        elif progress is not None:
-            ends = (
-                out_stops[(len(self.out_idx[self.out_idx < k0]) + np.arange(out_stops.size) + 1) % every == 0]
-                + 1
-            )
+        if poll_every:
+            before = int(np.count_nonzero(self.out_idx < k0))  # output epochs of the earlier chunks
+            ends = out_stops[(before + np.arange(out_stops.size) + 1) % poll_every == 0] + 1
         else:
             ends = np.zeros(0, np.int64)
         ends = np.unique(np.r_[ends, stops.size]).astype(np.int64)
-        store = self._chunk_store(outs, pings, chunk.truth.t_s[outs - k0], chunk.truth.t_s[pings - k0])
         run = self._run_compiled if self.compiled else self._run_numpy
         s0 = 0
         for s1 in ends:
-            run(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, phi_raw, dv_raw, dtheta, store)
+            run(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, inputs, store)
             s0 = int(s1)
-            if s1 == 0 or row_of_stop[s1 - 1] < 0:
-                continue
-            t = float(chunk.truth.t_s[stops[s1 - 1] - k0])
-            if should_stop is not None and should_stop():
-                self.stopped = True
-                self._seal(store, int(stops[s1 - 1]))
-                return False
-            done = int(row_of_stop[s1 - 1]) + 1 + len(self.out_idx[self.out_idx < k0])
-            if progress is not None and done % every == 0 and done < self.out_idx.size:
-                self._seal(store, int(stops[s1 - 1]))
-                progress(t, self.results())
-                self.chunks.pop()
-        if k0 + n - 1 > self.k_state:
-            kernels.advance(
-                self.pos,
-                self.vel,
-                self.C,
-                self.ba,
-                self.bg,
-                phi_raw,
-                dv_raw,
-                dtheta,
-                self.dtheta_sum,
-                self.k_state - k0,
-                n - 1,
-                *self.sd_consts,
-            )
-            self.k_state = k0 + n - 1
-        self._seal(store, k0 + n - 1)
-        return True
+            if s1 > 0 and row_of_stop[s1 - 1] >= 0 and poll_every:
+                yield int(stops[s1 - 1])
+
+    def _store(self, outs: np.ndarray, chunk: SimChunk | None) -> Store:
+        k0 = chunk.k0 if chunk is not None else 0
+        if chunk is not None and "dvl" in self.config.run.aiding:
+            pings = np.asarray(chunk.dvl.index, dtype=np.int64)
+        else:
+            pings = np.zeros(0, np.int64)
+        t_s = chunk.truth.t_s if chunk is not None else np.zeros(0)
+        return self._chunk_store(outs, pings, t_s[outs - k0], t_s[pings - k0])
 
     def _chunk_store(
         self, outs: np.ndarray, pings: np.ndarray, out_t_s: np.ndarray, ping_t_s: np.ndarray
@@ -277,33 +222,18 @@ class YooBank:
             "tr_alt": np.full((U, R), nan),
         }
 
-    def _seal(self, store: dict[str, np.ndarray], k_last: int) -> None:
-        """Keep the chunk's arrays up to sample ``k_last`` (the whole chunk, or up to a stop)."""
-        T = int(np.searchsorted(store["out_k"], k_last, side="right"))
-        U = int(np.searchsorted(store["up_k"], k_last, side="right"))
-        packed = {}
-        for name, a in store.items():
-            if name == "series":
-                packed[name] = a[:, :T].copy()
-            elif name in ("t_s", "out_k", "nees_block", "est_pos_n", "est_vel_n", "est_euler"):
-                packed[name] = a[:T].copy()
-            else:
-                packed[name] = a[:U].copy()
-        self.chunks.append(packed)
-
     def _run_compiled(
         self,
-        chunk,
+        chunk: SimChunk,
         s0: int,
         s1: int,
         stops: np.ndarray,
         ping_of_stop: np.ndarray,
         row_of_stop: np.ndarray,
-        phi_raw: np.ndarray,
-        dv_raw: np.ndarray,
-        dtheta: np.ndarray,
-        store: dict[str, np.ndarray],
+        inputs: ChunkInputs,
+        store: Store,
     ) -> None:
+        phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
         config, R = self.config, self.batch[1]
         cfg = config.vkf
         truth, imu = chunk.truth, chunk.imu
@@ -388,17 +318,16 @@ class YooBank:
     # ------------------------------------------------------------------ the numpy reference
     def _run_numpy(
         self,
-        chunk,
+        chunk: SimChunk,
         s0: int,
         s1: int,
         stops: np.ndarray,
         ping_of_stop: np.ndarray,
         row_of_stop: np.ndarray,
-        phi_raw: np.ndarray,
-        dv_raw: np.ndarray,
-        dtheta: np.ndarray,
-        store: dict[str, np.ndarray],
+        inputs: ChunkInputs,
+        store: Store,
     ) -> None:
+        phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
         k0 = chunk.k0
         self._dv = dv_raw
         for s in range(s0, s1):
@@ -568,7 +497,10 @@ class YooBank:
         v_t, C_t = truth.vel_n[i], truth.C_nb[i]
         ba_t, bg_t = np.asarray(chunk.imu.accel_bias[i]), np.asarray(chunk.imu.gyro_bias[i])  # (R, 3)
         if self.geodetic:
-            est_ned = ned_from_geodetic(self.pos[..., 0], self.pos[..., 1], -self.pos[..., 2], self.origin)
+            lat0, lon0, h0 = (float(v) for v in self.origin)
+            est_ned = ned_from_geodetic(
+                self.pos[..., 0], self.pos[..., 1], -self.pos[..., 2], (lat0, lon0, h0)
+            )
         else:
             est_ned = self.pos
         pos_err = np.linalg.norm(est_ned - truth.pos_n[i], axis=-1)
@@ -604,38 +536,8 @@ class YooBank:
         store["est_euler"][row] = _euler_batch(self.C)
 
     # ------------------------------------------------------------------ results
-    def take(self, keep: bool = True, until_s: float | None = None):
-        """The output epochs and updates since the last :meth:`take`; without ``keep`` they are
-        dropped (as FilterBank.take). ``until_s``: none after this time (where the 20-state bank
-        stopped, tauvcore.engine.mission.Banks)."""
-        chunks = self.chunks[self.taken :]
-        if keep:
-            self.taken = len(self.chunks)
-        else:
-            self.chunks, self.taken = [], 0
-        return self._results(chunks, until_s)
-
-    def results(self, until_s: float | None = None):
-        """MethodResult per method, every output epoch and update so far (up to ``until_s``)."""
-        return self._results(self.chunks, until_s)
-
-    def _results(self, chunks: list[dict[str, np.ndarray]], until_s: float | None):
+    def _results(self, cat: Store, taking: bool) -> dict[str, MethodResult]:
         _, R = self.batch
-        if chunks:
-            cat = {
-                name: np.concatenate([c[name] for c in chunks], axis=1 if name == "series" else 0)
-                for name in chunks[0]
-            }
-        else:
-            none = np.zeros(0, np.int64)
-            cat = self._chunk_store(none, none, np.zeros(0), np.zeros(0))
-        if until_s is not None:
-            T = int(np.searchsorted(cat["t_s"], until_s, side="right"))
-            U = int(np.searchsorted(cat["up_t"], until_s, side="right"))
-            cat = {
-                name: (a[:, :T] if name == "series" else a[:T] if name in _EPOCH_FIELDS else a[:U])
-                for name, a in cat.items()
-            }
         t_s = cat["t_s"]
         U = cat["up_t"].size
         trace = None
@@ -691,9 +593,6 @@ class YooBank:
                 vkf_trace=trace if method == "vkf" else None,
             )
         return out
-
-
-_EPOCH_FIELDS = ("t_s", "out_k", "nees_block", "est_pos_n", "est_vel_n", "est_euler")
 
 
 def _euler_batch(C: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The filter bank fed chunk by chunk (issue 9, streaming): the same numbers whatever the chunk,
+"""The filter bank fed chunk by chunk: the same numbers whatever the chunk,
 the same as one whole chunk, and results handed out chunk by chunk add up to the whole."""
 
 from __future__ import annotations
