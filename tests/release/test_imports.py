@@ -24,7 +24,6 @@ MAX_LINES = 800
 STILL_TO_SPLIT = {
     "tauvcore/filter/kernels.py": 2435,
     "app/dashboard.py": 2169,
-    "tauvcore/log_checks.py": 968,
 }
 """The modules over MAX_LINES, each at most the size it has now (a ratchet: it may shrink, not grow;
 once under MAX_LINES it leaves this table)."""
