@@ -9,7 +9,7 @@ that opens offline.
   per method, run and epoch, the errors and NEES as 32-bit floats; ``trajectory`` is the
   trajectory's name, or the replayed log's.
 - ``html``: one self-contained page (plotly.js embedded inline, nothing fetched when it opens):
-  the configuration, the Results tab's tables (app.figures.summary_markdown), the error and
+  the configuration, the Results tab's tables (app.markdown_tables.summary_markdown), the error and
   NEES/dim figures, and the full configuration as JSON.
 
 Everything here is a pure function of the finished run, tested without a browser
@@ -28,8 +28,9 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.figures import AUTO, error_figure, nees_figure, summary_markdown
+from app.error_figures import AUTO, error_figure, nees_figure
 from app.inputs import config_rows
+from app.markdown_tables import summary_markdown
 from app.payload import config_to_json, run_payload
 from app.study_output import PARQUET_WRITE_OPTIONS, runs_table
 from tauvcore.config import Config
@@ -44,7 +45,7 @@ FORMAT_HINTS = {
     "html": "one page that opens offline: configuration, results tables, error and NEES figures",
 }
 REPORT_FIGURES = ("vel", "tilt", "heading", "pos")
-"""The report's error figures (app.figures.error_figure quantities), then NEES/dim of the full state."""
+"""The report's error figures (app.error_figures.error_figure quantities), then NEES/dim of the full state."""
 REPORT_MAX_POINTS = 2000
 """Points per trace in the report's figures (evenly strided, the last epoch kept): a 1440 s run at
 10 Hz has 14,400 epochs, which would make the page tens of MB for no visible difference."""
@@ -212,7 +213,7 @@ REPORT_STYLE = (
 def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) -> str:
     """The run as one HTML page that needs no network: a heading naming the mission, the
     configuration table (the Results tab's, app.inputs.config_rows), the results tables
-    (app.figures.summary_markdown), the error figures REPORT_FIGURES and NEES/dim of the full
+    (app.markdown_tables.summary_markdown), the error figures REPORT_FIGURES and NEES/dim of the full
     state (at most ``max_points`` points per trace), and the full configuration as JSON.
     plotly.js is embedded once, inline; no element loads anything (no ``src`` or ``href`` to
     a network address)."""

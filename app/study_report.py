@@ -12,7 +12,7 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
-from app.figures import _figure, method_color
+from app.figures import make_figure, method_color
 from tauvcore.eval.consistency import nees_band
 
 PANELS = (
@@ -33,7 +33,7 @@ def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool =
     """Five panels for one trajectory: velocity, attitude, tilt, heading RMS and NEES/dim.
 
     The grid comes from ``make_subplots``; the traces are plain dicts placed on its axes and the
-    figure is wrapped without plotly's per-property validation (app.figures._figure): validating
+    figure is wrapped without plotly's per-property validation (app.figures.make_figure): validating
     the 123 traces of ``tauv reproduce``'s report took 2.7 s of the study's main process, which
     shares the machine with the workers. ``validate`` True builds the validated figure (the tests
     check both are equal)."""
@@ -120,7 +120,7 @@ def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool =
         margin={"l": 60, "r": 20, "t": 70, "b": 40},
         template="plotly_white",
     )
-    return _figure(data, layout, validate=validate)
+    return make_figure(data, layout, validate=validate)
 
 
 def _cell(x: Any, fmt: str) -> str:

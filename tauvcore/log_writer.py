@@ -14,7 +14,8 @@ from typing import IO
 import numpy as np
 
 from tauvcore.aiding.sources import SOURCES
-from tauvcore.logs import CONFIG_FILE, DVL_BEAMS, IMU_INCREMENTS, REF_LOCAL, REF_VEL, TABLES
+from tauvcore.log_columns import DVL_BEAMS, IMU_INCREMENTS, REF_LOCAL, REF_VEL
+from tauvcore.logs import CONFIG_FILE, TABLES
 
 
 def write_log(

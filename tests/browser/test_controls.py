@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import pytest
 
-from app.figures import FIN_NAMES
 from app.inputs import (
     DVL_MAX_ALTITUDE,
     RPM_NOISE,
@@ -18,6 +17,7 @@ from app.inputs import (
     SEABED_FOLDER,
     SWITCH_ALTITUDE,
 )
+from app.vehicle_figures import FIN_NAMES
 from tauvcore.config import Config
 from tests.browser.conftest import ARTIFACTS
 

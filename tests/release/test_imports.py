@@ -24,10 +24,6 @@ MAX_LINES = 800
 STILL_TO_SPLIT = {
     "tauvcore/filter/kernels.py": 2435,
     "app/dashboard.py": 2169,
-    "app/figures.py": 1452,
-    "app/cli.py": 1294,
-    "tauvcore/log_checks.py": 968,
-    "tauvcore/logs.py": 910,
 }
 """The modules over MAX_LINES, each at most the size it has now (a ratchet: it may shrink, not grow;
 once under MAX_LINES it leaves this table)."""

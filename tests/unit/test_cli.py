@@ -435,7 +435,7 @@ def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypa
     def dump_half_then_fail(obj, fh, **kwargs):
         fh.write(json.dumps(obj, **kwargs)[:100])        # a partial file exists at this point
         raise failure
-    monkeypatch.setattr("app.cli.json.dump", dump_half_then_fail)
+    monkeypatch.setattr("app.commands.outputs.json.dump", dump_half_then_fail)
     fresh = tmp_path / "fresh.json"
     code, out, err = _run(capsys, "run", "--duration", "2", "--json", str(fresh))
     assert code == (130 if isinstance(failure, KeyboardInterrupt) else 2), err
@@ -446,7 +446,7 @@ def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypa
     old.write_text('{"previous": true}')
     _run(capsys, "run", "--duration", "2", "--json", str(old))
     assert old.read_text() == '{"previous": true}' and sorted(p.name for p in tmp_path.iterdir()) == ["old.json"]
-    monkeypatch.setattr("app.cli.json.dump", real_dump)
+    monkeypatch.setattr("app.commands.outputs.json.dump", real_dump)
     assert _run(capsys, "run", "--duration", "2", "--json", str(old))[0] == 0
     assert "previous" not in _strict_json(old.read_text())
 

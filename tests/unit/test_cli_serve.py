@@ -13,7 +13,7 @@ import pytest
 import rich
 import viser
 
-from app.cli import viser_console_muted
+from app.commands.serve import viser_console_muted
 
 REPO = Path(__file__).resolve().parents[2]
 START_TIMEOUT_S = 90.0

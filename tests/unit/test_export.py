@@ -18,7 +18,7 @@ import pytest
 
 from app import cli, export
 from app.export import ExportError, FinishedRun
-from app.figures import CONSISTENCY_COLUMNS, ERROR_COLUMNS, summary_markdown
+from app.markdown_tables import CONSISTENCY_COLUMNS, ERROR_COLUMNS, summary_markdown
 from app.study_output import PARQUET_SERIES, StudyWriter
 from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.study import ChunkSeries, series_of

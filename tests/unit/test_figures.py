@@ -1,4 +1,6 @@
-"""Plotly figures of run results (app/figures.py), checked against the MethodResult they draw.
+"""Plotly figures of run results (app/figures.py and the figure modules on it: app/error_figures.py,
+app/innovation_figures.py, app/vehicle_figures.py) and the Results tab's tables (app/markdown_tables.py),
+checked against the MethodResult they draw.
 
 Every figure is a pure function of the results, so each test runs the real pipeline once
 (20 s straight run, seeded, module-scoped fixtures) and compares what the figure holds (trace
@@ -14,32 +16,38 @@ import re
 import numpy as np
 import pytest
 
+from app.error_figures import (
+    LOG_SPAN,
+    elc_choice_figure,
+    error_figure,
+    nees_figure,
+    overlay_figure,
+)
 from app.figures import (
-    ALTITUDE_NAME,
+    METHOD_COLORS,
+    TRUTH_COLOR,
+)
+from app.markdown_tables import (
     CONSISTENCY_COLUMNS,
     CONSISTENCY_HEADING,
-    DVL_LIMIT_NAME,
     ERROR_COLUMNS,
-    FIN_COLORS,
-    FIN_NAMES,
-    LOG_SPAN,
-    METHOD_COLORS,
     RMS_COLUMNS,
     RMS_HEADING,
+    summary_markdown,
+    summary_rows,
+)
+from app.vehicle_figures import (
+    ALTITUDE_NAME,
+    DVL_LIMIT_NAME,
+    FIN_COLORS,
+    FIN_NAMES,
     RPM_NAME,
     SWITCH_NAME,
-    TRUTH_COLOR,
     VKF_B_NAME,
     VKF_SF_NAME,
     actuator_figure,
     altitude_figure,
-    elc_choice_figure,
-    error_figure,
     intervals_above,
-    nees_figure,
-    overlay_figure,
-    summary_markdown,
-    summary_rows,
     vkf_figure,
 )
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
@@ -998,26 +1006,32 @@ def test_fast_figures_of_yoo_s_methods_equal_plotly_validated_construction(yoo):
 
 
 # ------------------------------------------------------------------------------------------ workbench (issue 13)
-from app.figures import (  # noqa: E402
-    BAND_SUFFIX,
-    CURSOR_NAME,
-    REJECTED_SUFFIX,
+from app.error_figures import (  # noqa: E402
     RUN_DASHES,
     compare_figure,
-    compare_markdown,
     components_figure,
+    error_components,
+)
+from app.figures import (  # noqa: E402
+    CURSOR_NAME,
+    cursor_shape,
+    with_cursor,
+)
+from app.innovation_figures import (  # noqa: E402
+    BAND_SUFFIX,
+    REJECTED_SUFFIX,
+    innovation_figure,
+    innovation_sources,
+)
+from app.markdown_tables import (  # noqa: E402
+    compare_markdown,
     config_diff_markdown,
     config_differences,
-    cursor_shape,
     dvl_counts,
-    error_components,
     flat_config,
     identical_methods,
     identical_note,
-    innovation_figure,
-    innovation_sources,
     rms_markdown,
-    with_cursor,
 )
 from tauvcore.geo.rotations import euler_from_C_nb, wrap_angle  # noqa: E402
 

@@ -19,8 +19,9 @@ import pytest
 
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
+from tauvcore.log_tables import read_table
 from tauvcore.log_writer import simulation_tables, write_log
-from tauvcore.logs import LogError, _read_table, find_logs, read_log
+from tauvcore.logs import LogError, find_logs, read_log
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -141,7 +142,7 @@ def test_a_bad_cell_far_into_a_table_is_named_by_its_row(tmp_path: Path, edit: s
     _big_table(path, 20_000, (15_001, line))
     assert path.stat().st_size > 2 << 20
     with pytest.raises(LogError) as err:
-        _read_table(path)
+        read_table(path)
     _assert_names(str(err.value), "imu.csv", *expected)
 
 
@@ -160,7 +161,7 @@ def test_a_parquet_null_and_a_nan_are_told_apart(log: Path) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    columns = _read_table(log / "depth.csv")
+    columns = read_table(log / "depth.csv")
     (log / "depth.csv").unlink()
     for value, said in [(None, "row 2: empty (null)"), (float("nan"), "row 2: NaN")]:
         depth: list[float | None] = [float(v) for v in columns["depth_m"]]
@@ -289,7 +290,7 @@ def test_a_value_beyond_physics_is_refused_as_it_is_read(log: Path, table: str, 
 @pytest.mark.parametrize("column, text, bound", [("gyro_y_rps", "25.0", "beyond +-20 rad/s"),
                                                  ("accel_x_mps2", "1e300", "beyond +-500 m/s^2")])
 def test_imu_rates_beyond_physics_are_refused(log: Path, column: str, text: str, bound: str) -> None:
-    inc = _read_table(log / "imu.csv")
+    inc = read_table(log / "imu.csv")
     dt = float(np.median(np.diff(inc["t_s"])))
     rates = {"t_s": inc["t_s"]}
     for axis in "xyz":
@@ -304,12 +305,12 @@ def test_imu_rates_beyond_physics_are_refused(log: Path, column: str, text: str,
 def test_a_dvl_body_velocity_beyond_physics_and_its_valid_column(log: Path) -> None:
     """``valid`` as 1/0, 1.0/0.0 or true/false in any case, mixed; another word is named; a
     body velocity of 40 m/s is refused."""
-    t = _read_table(log / "dvl.csv")["t_s"]
+    t = read_table(log / "dvl.csv")["t_s"]
     words = ["1", "TRUE", "0.0", " false", "1.0", "True", "0"]
     rows = [f"{float(t[k])!r},1.0,0.0,0.1,{words[k % len(words)]}" for k in range(t.size)]
     dvl = log / "dvl.csv"
     dvl.write_text("t_s,vel_x_mps,vel_y_mps,vel_z_mps,valid\n" + "\n".join(rows) + "\n")
-    valid = _read_table(dvl)["valid"]
+    valid = read_table(dvl)["valid"]
     np.testing.assert_array_equal(valid[:7], [1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0])
     _set_cell(dvl, 3, "vel_y_mps", "40.0")
     _assert_names(_refusal(log), "dvl.csv", "column 'vel_y_mps'", "row 3: 40.0", "beyond +-30 m/s")
@@ -345,16 +346,16 @@ def test_reading_a_csv_table_costs_about_its_size_in_memory(tmp_path: Path) -> N
     _big_table(tmp_path / "small.csv", 10)
     script = textwrap.dedent(f"""
         from pathlib import Path
-        from tauvcore.logs import _read_table
+        from tauvcore.log_tables import read_table
 
         def peak():
             for line in open("/proc/self/status"):
                 if line.startswith("VmHWM:"):
                     return int(line.split()[1]) * 1024
 
-        _read_table(Path({str(tmp_path / "small.csv")!r}))  # every module loaded
+        read_table(Path({str(tmp_path / "small.csv")!r}))  # every module loaded
         before = peak()
-        columns = _read_table(Path({str(path)!r}))
+        columns = read_table(Path({str(path)!r}))
         assert len(columns["t_s"]) == 300_000
         print(peak() - before)
     """)

@@ -93,7 +93,7 @@ def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
     """The Seabed tab: the VKF's figure once its results arrive (with the run's progress); before
     that a note that they will, and without VKF a note how to get it."""
     from app.dashboard import VKF_NOTES
-    from app.figures import VKF_SF_NAME
+    from app.vehicle_figures import VKF_SF_NAME
     session = _idle_session()
     with_vkf = Config().replace("run", methods=("lc", "vkf"))
     Session._draw_vkf_plot(session, None, with_vkf)

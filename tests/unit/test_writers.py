@@ -23,7 +23,7 @@ import pytest
 
 from app import cli, study_output
 from app.study_output import LOCK_FILE, OUTPUT_FILES, DirectoryLock, OutputDirError, StudyWriter
-from tauvcore import log_writer, logs
+from tauvcore import log_tables, log_writer, logs
 from tauvcore.log_writer import replace_files, write_log
 from tauvcore.logs import CONFIG_FILE, read_log
 
@@ -123,7 +123,7 @@ def test_replay_json_onto_the_log_is_refused_before_anything_runs(capsys, log_di
 def test_replay_json_onto_the_log_s_parquet_table_is_refused(capsys, tmp_path, monkeypatch, recorded) -> None:
     monkeypatch.chdir(tmp_path)
     log = Path("pq")
-    write_log(log, {t: logs._read_table(p) for t in logs.TABLES if (p := logs._table_path(recorded, t))},
+    write_log(log, {t: log_tables.read_table(p) for t in logs.TABLES if (p := log_tables.table_path(recorded, t))},
               "parquet")
     before = _everything(log)
     _one_line(*_run(capsys, "replay", str(log), "--json", str(log / "imu.parquet"))[::2], "--json", "imu.parquet")

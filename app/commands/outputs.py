@@ -1,0 +1,169 @@
+"""Where a command writes, checked before it computes anything: ``--json`` names a regular file (or
+none yet) in a writable directory, and no output is, holds or lies in one of the command's inputs
+(the ``--config`` file, a replayed log's directory), by real path, hard link or symbolic link. JSON
+is written atomically (:func:`write_json_atomic`), so no half-written file is ever left.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import stat
+import tempfile
+from collections.abc import Sequence
+from typing import Any
+
+from app.commands.values import UsageError
+from tauvcore.validation import show, show_path
+
+Inputs = Sequence[tuple[str, str | None]]
+"""What a command reads (or writes elsewhere), as (description, path) pairs such as
+``("the --config file", args.config)`` or ``("the log directory", args.log)``; a directory
+stands for every file in it. An output may be none of them (:func:`json_target`)."""
+
+
+def json_target(path: str, inputs: Inputs = ()) -> str:
+    """The real path ``--json`` will replace, checked before the run starts.
+
+    Refused: an empty name, one of ``inputs`` (:func:`_refuse_input`: the --config file, a
+    replayed log's tables and its log.toml, by real path or inode), a directory, anything but a
+    regular file (``/dev/null`` would be replaced by a file), a missing or unwritable directory,
+    and a name the system cannot resolve (loops, too long).
+    """
+    if not path.strip():
+        raise UsageError(f"--json: expected a file name, got {show(path)}")
+    name = show_path(path)
+    if "\x00" in path:
+        raise UsageError(f"--json: a file name cannot contain a NUL character, got {name}")
+    real = os.path.realpath(path)
+    _refuse_input("--json", path, inputs)
+    try:
+        st = os.stat(real)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        raise UsageError(f"--json: cannot write {name}: {exc.strerror or exc}") from None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise UsageError(f"--json: cannot write {name}: is a directory")
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        raise UsageError(f"--json: cannot write {name}: not a regular file")
+    directory = os.path.dirname(real)
+    if not os.path.isdir(directory):
+        raise UsageError(f"--json: cannot write {name}: no such directory")
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise UsageError(f"--json: cannot write {name}: directory not writable")
+    return real
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def _real(path: str | None) -> str | None:
+    """The real path of ``path``; None for none or a name no system call takes (a NUL, which
+    the command refuses where it reads the file)."""
+    if not path:
+        return None
+    try:
+        return os.path.realpath(path)
+    except (OSError, ValueError):
+        return None
+
+
+def _inside(path: str, directory: str) -> bool:
+    """Whether the real path ``path`` is the real path ``directory`` or below it."""
+    return os.path.commonpath([path, directory]) == directory
+
+
+def _same_as_one_in(path: str, directory: str) -> str | None:
+    """The file directly in ``directory`` that is the file ``path`` (a hard link, or a symlink of
+    either to the other), if any."""
+    if not os.path.lexists(path) or not os.path.isdir(directory):
+        return None
+    try:
+        with os.scandir(directory) as entries:
+            return next((e.path for e in entries if _same_file(path, e.path)), None)
+    except OSError:
+        return None
+
+
+def _refuse_input(flag: str, path: str, inputs: Inputs) -> None:
+    """UsageError if writing the file ``path`` for ``flag`` would replace one of ``inputs``: the
+    same real path (symlinks resolved) or the same file (a hard link), a path inside an input
+    directory, or the same file as one in it."""
+    real, name = os.path.realpath(path), show_path(path)
+    for what, source in inputs:
+        source_real = _real(source)
+        if source is None or source_real is None:
+            continue
+        if real == source_real or _same_file(source_real, real):
+            raise UsageError(f"{flag}: {name} is {what}; writing it would overwrite it")
+        if _inside(real, source_real):
+            raise UsageError(
+                f"{flag}: {name} is in {what} {show_path(source)}; writing it could overwrite its files"
+            )
+        twin = _same_as_one_in(real, source_real)
+        if twin is not None:
+            raise UsageError(
+                f"{flag}: {name} is the same file as {show_path(os.path.join(source, os.path.basename(twin)))} "
+                f"in {what} {show_path(source)}; writing it would overwrite it"
+            )
+
+
+def refuse_holding_inputs(flag: str, given: str, directory: str, inputs: Inputs) -> None:
+    """UsageError if the output directory ``directory`` (``given`` on the command line) holds
+    one of ``inputs``, or is in an input directory: its writer could replace them."""
+    out_real = os.path.realpath(directory)
+    for what, source in inputs:
+        source_real = _real(source)
+        if source is None or source_real is None:
+            continue
+        if _inside(source_real, out_real) or _same_as_one_in(source_real, out_real) is not None:
+            raise UsageError(
+                f"{flag}: {show_path(given)} holds {what} {show_path(source)}; choose another directory"
+            )
+        if os.path.isdir(source_real) and _inside(out_real, source_real):
+            raise UsageError(
+                f"{flag}: {show_path(given)} is in {what} {show_path(source)}; choose another directory"
+            )
+
+
+def log_table(directory: str) -> str | None:
+    """The name of the imu table that makes ``directory`` a log (tauvcore.logs.find_logs), if any."""
+    for ext in ("csv", "parquet"):
+        if os.path.lexists(os.path.join(directory, f"imu.{ext}")):
+            return f"imu.{ext}"
+    return None
+
+
+def write_json_atomic(path: str, payload: Any) -> None:
+    """Write ``payload`` as strict JSON to ``path``: a temporary file in the same directory,
+    flushed to disk, then renamed over ``path``. On any failure or interruption the temporary
+    file is removed and ``path`` is untouched, so no half-written file is ever left."""
+    directory = os.path.dirname(path) or "."
+    fd, tmp = tempfile.mkstemp(prefix=".tauv-", suffix=".json.tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(payload, fh, allow_nan=False)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, _new_file_mode(path))
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _new_file_mode(path: str) -> int:
+    """The mode the file would have got from ``open``: its own if it exists, else 0o666 less umask."""
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask

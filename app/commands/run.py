@@ -1,0 +1,108 @@
+"""``tauv run``: simulate a mission, run the fusion methods side by side and print their summary;
+``--save-log`` writes the simulation as a log (``tauv replay`` reads it), ``--json`` the results.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from app.commands.outputs import json_target, log_table, refuse_holding_inputs, write_json_atomic
+from app.commands.values import UsageError, resolve_config
+from app.payload import run_payload
+from app.tables import summary_table
+from tauvcore.validation import show, show_path
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``tauv run``: simulate, run the methods, print the summary; with ``--save-log`` the
+    simulation as a log (all or nothing, the directory locked meanwhile), with ``--json`` the
+    results (atomically). Every output is checked before the run, and none may be an input."""
+    config = resolve_config(args)
+    log_dir = _save_log_target(args)
+    inputs = [("the --config file", args.config), ("the --save-log directory", args.save_log)]
+    json_path = json_target(args.json, inputs) if args.json is not None else None
+    started = time.perf_counter()
+    rng = np.random.default_rng(config.run.seed)
+    from tauvcore.engine.mission import run_streaming
+
+    lock = _lock_save_log(args, log_dir) if log_dir is not None else None
+    try:
+        chunks: list = []
+        results = run_streaming(config, rng, on_sim_chunk=chunks.append if lock is not None else None)
+        elapsed = time.perf_counter() - started
+        if log_dir is not None:
+            from app.study_output import os_reason
+            from tauvcore.log_writer import simulation_tables, write_log
+
+            try:
+                write_log(log_dir, simulation_tables(chunks), args.log_format)
+            except OSError as exc:
+                raise UsageError(
+                    f"--save-log: cannot write {show_path(args.save_log)}: {os_reason(exc)}"
+                ) from None
+    except BaseException:
+        if lock is not None:
+            lock.release(remove_created=True)
+        raise
+    if lock is not None:
+        lock.release()
+    if json_path is not None:
+        assert args.json is not None  # json_path is set only when --json was given
+        try:
+            write_json_atomic(json_path, run_payload(config, results))
+        except OSError as exc:
+            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
+    print(summary_table(results, config, elapsed))
+    return 0
+
+
+def _save_log_target(args: argparse.Namespace) -> str | None:
+    """The --save-log directory, checked before the run: it must not be a file, a log already,
+    or hold the --config file; it must be writable, or creatable in a writable directory."""
+    if args.log_format not in ("csv", "parquet"):
+        raise UsageError(f"--log-format: expected csv or parquet, got {show(args.log_format)}")
+    if args.save_log is None:
+        return None
+    if not args.save_log.strip():
+        raise UsageError(f"--save-log: expected a directory, got {show(args.save_log)}")
+    target = os.path.abspath(args.save_log)
+    if os.path.exists(target) and not os.path.isdir(target):
+        raise UsageError(f"--save-log: {show_path(args.save_log)} is a file, not a directory")
+    if os.path.isdir(target) and log_table(target) is not None:
+        raise UsageError(
+            f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
+        )
+    refuse_holding_inputs("--save-log", args.save_log, target, [("the --config file", args.config)])
+    if os.path.isdir(target):
+        if not os.access(target, os.W_OK | os.X_OK):
+            raise UsageError(f"--save-log: cannot write into {show_path(args.save_log)}: permission denied")
+        return target
+    parent = os.path.dirname(target)
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(
+            f"--save-log: cannot create {show_path(args.save_log)} (its parent is not a writable directory)"
+        )
+    return target
+
+
+def _lock_save_log(args: argparse.Namespace, target: str) -> Any:
+    """The --save-log directory created if need be and locked for this run
+    (app.study_output.DirectoryLock), or one line if another tauv holds it or has meanwhile
+    written a log there."""
+    from app.study_output import DirectoryLock, OutputDirError
+
+    try:
+        lock = DirectoryLock(target, name=args.save_log)
+    except OutputDirError as exc:
+        raise UsageError(f"--save-log: {exc}") from None
+    if log_table(target) is not None:
+        lock.release(remove_created=True)
+        raise UsageError(
+            f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
+        )
+    return lock

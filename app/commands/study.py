@@ -1,0 +1,306 @@
+"""``tauv mc`` and ``tauv reproduce``: seeded Monte Carlo studies computed by local worker processes
+or a Dask cluster and written to an output directory all at once (app.study_output), with a
+progress bar on a terminal. A study that fails for a reason outside its input (a worker died, the
+cluster went away) is one line and exit status 1 (:class:`StudyFailedError`); nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import time
+from typing import Any
+
+from app.commands.outputs import log_table, refuse_holding_inputs
+from app.commands.values import UsageError, parse_flag, replace_for_flag, resolve_config
+from app.payload import config_to_json
+from app.tables import study_table
+from tauvcore.config import Config
+from tauvcore.truth import PAPER_TRAJECTORIES
+from tauvcore.validation import one_line, show, show_path
+
+MAX_STUDY_RUNS = 100_000
+"""Most runs of one ``tauv mc`` study: memory stays flat (chunks are reduced as they finish), so
+the bound is time: 100,000 runs of 250 s are hours even on a cluster."""
+MAX_WORKERS = 64
+
+
+class StudyFailedError(Exception):
+    """A study could not finish for a reason outside its input (a worker process died, the Dask
+    scheduler or a worker went away); the message is the one line shown to the user."""
+
+
+def _count(flag: str, text: str | None, low: int, high: int, default: int) -> int:
+    if text is None:
+        return default
+    value = parse_flag(flag, text, int, f"a whole number from {low} to {high}")
+    if not low <= value <= high:
+        raise UsageError(f"{flag}: must be a whole number from {low} to {high}, got {show(text)}")
+    return value
+
+
+def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int, str | None, Any]:
+    """Runs, workers, Dask address and the output writer of a study command (holding the
+    output directory's lock), every check done before anything is computed or created: the
+    output directory must not be a log or hold the --config file."""
+    from app.study_output import OutputDirError, StudyWriter, check_out_dir
+
+    num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, default_runs)
+    workers = _count("--workers", args.workers, 1, MAX_WORKERS, 1)
+    if args.dask is not None and not args.dask.strip():
+        raise UsageError(
+            f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}"
+        )
+    if args.dask is not None and args.workers is not None:
+        raise UsageError("--workers: not with --dask (the Dask cluster has its own workers)")
+    try:
+        out_dir = check_out_dir(args.out)
+    except OutputDirError as exc:
+        raise UsageError(f"--out: {exc}") from None
+    _refuse_log_dir(args.out, out_dir)
+    refuse_holding_inputs("--out", args.out, out_dir, [("the --config file", getattr(args, "config", None))])
+    if args.dask is not None:
+        _check_dask(args.dask)
+    try:
+        writer = StudyWriter(out_dir, name=args.out)
+    except OutputDirError as exc:
+        raise UsageError(f"--out: {exc}") from None
+    try:
+        _refuse_log_dir(args.out, out_dir)  # again, now that no other tauv writes there
+    except BaseException:
+        writer.abort()
+        raise
+    return num_runs, workers, args.dask, writer
+
+
+def _refuse_log_dir(given: str, out_dir: str) -> None:
+    """UsageError if the output directory ``out_dir`` (``given`` as ``--out``) is a log."""
+    table = log_table(out_dir)
+    if table is not None:
+        raise UsageError(
+            f"--out: {show_path(given)} is a log directory (it holds {table}); choose another directory"
+        )
+
+
+def cmd_mc(args: argparse.Namespace) -> int:
+    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output)."""
+    from app.study_output import OutputDirError
+    from app.study_report import report_html
+    from tauvcore.eval.study import run_study
+
+    config = resolve_config(args)
+    trajectory = config.trajectory.name
+    num_runs, workers, dask, writer = _study_setup(args, 1)
+    started = time.perf_counter()
+    try:
+        with _progress_bar(num_runs) as bar, _study_failures(dask):
+            acc = run_study(
+                config,
+                num_runs,
+                config.run.seed,
+                workers=workers,
+                dask_address=dask,
+                on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
+                progress=lambda done, total: bar.update(done - bar.n),
+            )
+        summary = acc.summary()
+        description = (
+            f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
+            f"methods {', '.join(config.run.methods)}, beams {','.join(map(str, config.dvl.beams))}, "
+            f"aiding {','.join(config.run.aiding) or 'none'}; tauv mc"
+        )
+        writer.finish(
+            {
+                "config": config_to_json(config),
+                "num_runs": num_runs,
+                "seed": config.run.seed,
+                "trajectories": {trajectory: summary},
+            },
+            report_html("tauv Monte Carlo study", description, {trajectory: summary}),
+        )
+        written = writer.commit()
+    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
+        writer.abort()
+        raise UsageError(f"--out: {exc}") from None
+    except BaseException:
+        writer.abort()
+        raise
+    elapsed = time.perf_counter() - started
+    print(study_table(summary, trajectory, num_runs, elapsed))
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    """``tauv reproduce``: Tal et al. 2017 section 4.2 (three trajectories, beams 3 and 4 lost,
+    INS, TC and the ELC methods; LC with four beams as the reference), every stated figure
+    beside ours with a verdict."""
+    from app.study_output import OutputDirError
+    from app.study_report import report_html
+    from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
+    from tauvcore.eval.study import (
+        ERROR_SERIES,
+        local_pool,
+        paper_chunk_runs,
+        run_study,
+        submit_chunks,
+    )
+
+    # the paper's earth: a tangent plane with constant gravity (its F has a zero position column);
+    # over 250 s and 500 m the round Earth changes its figures in the fourth digit at most
+    base = Config().replace("earth", model="flat")
+    if args.duration is not None:
+        base = replace_for_flag(
+            "--duration",
+            base,
+            "trajectory",
+            duration_s=parse_flag("--duration", args.duration, float, "a number of seconds"),
+        )
+    if args.seed is not None:
+        base = replace_for_flag(
+            "--seed", base, "run", seed=parse_flag("--seed", args.seed, int, "a non-negative integer")
+        )
+    summaries, tables = {}, []
+    studies = [
+        (name, beams, methods)
+        for name in PAPER_TRAJECTORIES
+        for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))
+    ]
+    num_runs, workers, dask, writer = _study_setup(args, 100)
+    started = time.perf_counter()
+    try:
+        configs = [
+            base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
+            for name, beams, methods in studies
+        ]
+        sizes = [paper_chunk_runs(c) for c in configs]
+        with (
+            _progress_bar(num_runs * len(studies)) as bar,
+            local_pool(workers if dask is None else 1) as pool,
+        ):
+            # every study's chunks queued at once (they wait as files): no worker idles between studies
+            with _study_failures(dask):
+                queued = [
+                    submit_chunks(c, num_runs, base.run.seed, pool, size) if pool is not None else None
+                    for c, size in zip(configs, sizes, strict=True)
+                ]
+            for (name, _, _), config, size, submitted in zip(studies, configs, sizes, queued, strict=True):
+                done_before = bar.n
+                with _study_failures(dask):
+                    acc = run_study(
+                        config,
+                        num_runs,
+                        base.run.seed,
+                        workers=workers,
+                        dask_address=dask,
+                        on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
+                        progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
+                        chunk_runs=size,
+                        pool=pool,
+                        submitted=submitted,
+                    )
+                part = acc.summary()
+                if name in summaries:
+                    summaries[name]["methods"].update(part["methods"])
+                else:
+                    summaries[name] = part
+        order = ("ins", "lc") + TWO_BEAM_METHODS[1:]
+        for s in summaries.values():
+            s["methods"] = {m: s["methods"][m] for m in order}
+        finals = {
+            name: {m: {n: s["methods"][m]["final_rms"][n] for n in ERROR_SERIES} for m in s["methods"]}
+            for name, s in summaries.items()
+        }
+        table = comparison_table(finals)
+        description = (
+            f"Tal, Klein & Katz 2017, section 4.2: {num_runs} seeded runs per trajectory (seed "
+            f"{base.run.seed}), {base.trajectory.duration_s:g} s, beams 3 and 4 lost (LC with all four as "
+            "the reference), DVL aiding only; tauv reproduce"
+        )
+        writer.finish(
+            {
+                "config": config_to_json(base),
+                "num_runs": num_runs,
+                "seed": base.run.seed,
+                "trajectories": summaries,
+                "paper_comparison": table,
+            },
+            report_html("tauv reproduce: Tal, Klein & Katz 2017", description, summaries),
+            table,
+        )
+        written = writer.commit()
+    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
+        writer.abort()
+        raise UsageError(f"--out: {exc}") from None
+    except BaseException:
+        writer.abort()
+        raise
+    elapsed = time.perf_counter() - started
+    for name, s in summaries.items():
+        tables.append(study_table(s, name, num_runs, elapsed))
+    print("\n\n".join(tables))
+    print("\nEvery figure of the paper's section 4.2 beside ours\n")
+    print(table)
+    print(f"\n({elapsed:.1f} s wall)")
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+@contextlib.contextmanager
+def _study_failures(dask: str | None):
+    """A worker process that dies (out of memory, killed) or a Dask cluster that goes away ends
+    the study with one line and exit status 1, not a traceback; nothing is written."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        yield
+    except BrokenProcessPool as exc:
+        raise StudyFailedError(
+            f"a worker process died during the study ({one_line(str(exc)) or 'killed'}); nothing was written"
+        ) from None
+    except (OSError, TimeoutError) as exc:
+        if dask is None:
+            raise
+        raise StudyFailedError(
+            f"--dask {dask}: the cluster failed during the study ({type(exc).__name__}: "
+            f"{one_line(str(exc))}); nothing was written"
+        ) from None
+
+
+def _check_dask(address: str) -> None:
+    """Fail fast, with one line, if no Dask scheduler answers at ``address``."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError("--dask: the 'distributed' package is not installed") from None
+    from tauvcore.eval.study import DASK_CONNECT_TIMEOUT_S
+
+    try:
+        with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
+            pass
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UsageError(
+            f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}"
+        ) from None
+
+
+@contextlib.contextmanager
+def _progress_bar(total: int):
+    """A tqdm bar on stderr (runs done of total); silent when stderr is not a terminal."""
+    from tqdm import tqdm
+
+    bar = tqdm(
+        total=total,
+        unit="run",
+        desc="tauv mc",
+        file=sys.stderr,
+        disable=not sys.stderr.isatty(),
+        dynamic_ncols=True,
+    )
+    try:
+        yield bar
+    finally:
+        bar.close()

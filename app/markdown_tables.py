@@ -1,0 +1,379 @@
+"""The Results tab's tables, as Markdown a person and a test can read: each method's errors and
+consistency (:func:`summary_markdown`), its RMS errors and DVL updates (:func:`rms_markdown`),
+runs kept side by side (:func:`compare_markdown`), the settings that differ between them
+(:func:`config_diff_markdown`), and the note on methods whose results are identical
+(:func:`identical_note`). The numbers are :func:`summary_rows`', one row per method.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, TypedDict
+
+import numpy as np
+
+from tauvcore.config import Config, to_dict
+from tauvcore.engine.results import MethodResult
+from tauvcore.eval.consistency import method_consistency
+from tauvcore.eval.metrics import rms
+
+
+class DvlCounts(TypedDict):
+    """:func:`dvl_counts`: the DVL updates summed over the runs; None each without DVL updates."""
+
+    dvl_fused: int | None
+    dvl_rejected: int | None
+    dvl_coast: int | None
+
+
+class SummaryRow(DvlCounts):
+    """One method's line of :func:`summary_rows`."""
+
+    method: str  # upper case
+    vel_final_mps: float
+    vel_rms_mps: float
+    att_final_deg: float
+    att_rms_deg: float
+    tilt_rms_deg: float
+    heading_rms_deg: float
+    pos_final_m: float
+    pos_rms_m: float
+    nees_dim: int
+    nees_per_dim: float
+    nees_in_band: float
+    vel_nees_per_dim: float
+    dvl_nis_per_dof: float
+    runs: int
+    diverged_runs: int
+    diverged_first_s: float
+    p_floor_count: int
+
+
+def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
+    """Per method: final and RMS-over-time errors (RMS over runs first when there are several),
+    tilt and heading apart; consistency (tauvcore.eval.consistency.method_consistency, each
+    method with its own NEES dimensions): the full state's dimension, its mean
+    NEES/dim and the fraction of epochs inside its 99 % band, velocity
+    NEES/dim, DVL NIS per degree of freedom (NaN without DVL updates); and the filter's health:
+    how many runs the divergence monitor flagged, the earliest flag [s] (NaN if none) and the P
+    eigenvalue-floor repairs summed over runs."""
+    rows: list[SummaryRow] = []
+    for method, res in results.items():
+
+        def curve(x: np.ndarray) -> np.ndarray:
+            return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
+
+        vel, att, pos = curve(res.vel_err_mps), curve(res.att_err_deg), curve(res.pos_err_m)
+        consistency = method_consistency(res)
+        dvl_nis = consistency.nis.get("dvl")
+        rows.append(
+            {
+                "method": method.upper(),
+                "vel_final_mps": float(vel[-1]),
+                "vel_rms_mps": float(rms(vel)),
+                "att_final_deg": float(att[-1]),
+                "att_rms_deg": float(rms(att)),
+                "tilt_rms_deg": float(rms(curve(res.tilt_err_deg))),
+                "heading_rms_deg": float(rms(curve(res.heading_err_deg))),
+                "pos_final_m": float(pos[-1]),
+                "pos_rms_m": float(rms(pos)),
+                "nees_dim": consistency.nees["full"].dim,
+                "nees_per_dim": consistency.nees["full"].per_dim,
+                "nees_in_band": consistency.nees["full"].in_band,
+                "vel_nees_per_dim": consistency.nees["vel"].per_dim,
+                "dvl_nis_per_dof": dvl_nis.per_dof if dvl_nis is not None else float("nan"),
+                "runs": int(res.diverged.size),
+                "diverged_runs": int(np.count_nonzero(res.diverged)),
+                "diverged_first_s": float(np.nanmin(res.diverged_at_s))
+                if res.diverged.any()
+                else float("nan"),
+                "p_floor_count": int(np.sum(res.p_floor_count)),
+                **dvl_counts(res),
+            }
+        )
+    return rows
+
+
+def dvl_counts(result: MethodResult) -> DvlCounts:
+    """The DVL updates of ``result`` summed over its runs, as the CLI counts them
+    (app.tables.summary_table): ``dvl_fused``, ``dvl_rejected`` (failed the gate) and ``dvl_coast`` (pings
+    with no measurement); None each for a method without DVL updates (INS)."""
+    dvl = result.updates.get("dvl")
+    if dvl is None:
+        return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None}
+    return {
+        "dvl_fused": int(np.sum(dvl.fused)),
+        "dvl_rejected": int(np.sum(dvl.rejected)),
+        "dvl_coast": int(np.sum(~dvl.valid)),
+    }
+
+
+def _health_cell(row: SummaryRow) -> str:
+    """ "ok", or when the divergence monitor flagged runs, when (and how many of the runs)."""
+    if not row["diverged_runs"]:
+        return "ok"
+    at = f"diverged at {row['diverged_first_s']:.1f} s"
+    if row["runs"] == 1:
+        return at
+    return f"{row['diverged_runs']} of {row['runs']} runs, first {at}"
+
+
+def _fixed(x: float, decimals: int) -> str:
+    """``x`` with ``decimals`` decimals, "-" if it is not finite."""
+    return f"{x:.{decimals}f}" if np.isfinite(x) else "-"
+
+
+def _ratio(x: float) -> str:
+    """A NEES or NIS ratio (1 = consistent, up to thousands): two decimals near 1, "-" if not finite."""
+    if not np.isfinite(x):
+        return "-"
+    if x >= 100.0:
+        return f"{x:.0f}"
+    return f"{x:.2f}" if x >= 0.1 else f"{x:.2g}"
+
+
+def _in_band_cell(per_dim: float, in_band: float) -> str:
+    if not np.isfinite(per_dim):
+        return "-"
+    return _ratio(per_dim) + (f" ({in_band:.0%})".replace("%", " %") if np.isfinite(in_band) else "")
+
+
+ERROR_COLUMNS = (
+    "method",
+    "vel final [m/s]",
+    "vel RMS [m/s]",
+    "att final [deg]",
+    "pos final [m]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+)
+CONSISTENCY_COLUMNS = (
+    "method",
+    "states",
+    "NEES/dim (in 99 % band)",
+    "vel NEES/dim",
+    "DVL NIS/dof",
+    "monitor",
+)
+"""The results' two tables (a "P floors" column ends the second when some method needed a repair):
+one table of eleven columns is wider than the dashboard's panel, which cut off its right end."""
+CONSISTENCY_HEADING = "**Consistency** (1 = the method knows its error; above 1 it is over-confident)"
+RMS_COLUMNS = (
+    "method",
+    "vel RMS [m/s]",
+    "att RMS [deg]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+    "pos RMS [m]",
+    "DVL fused",
+    "DVL rejected",
+    "DVL coast",
+)
+RMS_HEADING = (
+    "**RMS over time and DVL updates** (fused; rejected by the gate; coast: pings without a "
+    "measurement; summed over the runs)"
+)
+"""The results' third table: every RMS figure the CLI prints and its DVL counts."""
+
+
+def _table(columns: tuple[str, ...], rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)] + [
+        "| " + " | ".join(cells) + " |" for cells in rows
+    ]
+
+
+def summary_markdown(results: Mapping[str, MethodResult]) -> str:
+    """The results as two Markdown tables (the dashboard shows them as text a person and a test
+    can read): errors, then consistency below the line CONSISTENCY_HEADING.
+
+    Errors: final and RMS velocity, the attitude norm, position, and tilt and heading RMS apart.
+    Consistency: the number of error states (the full NEES's dimension: 20, Yoo 2014's 12), the
+    NEES/dim of the full state with the fraction of epochs inside its two-sided 99 %
+    band, velocity NEES/dim and DVL NIS per degree of freedom (1 = the method knows its error; "-"
+    where there is nothing to measure, as for DVL NIS without DVL updates, or a value is NaN).
+    The "monitor" column is the divergence monitor's verdict (tauvcore.engine: state or P
+    not finite, an estimated sensor error far beyond its prior, innovations inconsistent, or the
+    gate locked out). It sees only what the measurements reveal: "ok" is not a proof of
+    consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma); the
+    NEES columns beside it are. A "P floors" column (repairs of P summed over runs) appears
+    only when some method needed one. The RMS figures and DVL counts are :func:`rms_markdown`.
+    """
+    rows = summary_rows(results)
+    floors = any(r["p_floor_count"] for r in rows)
+    errors = [
+        [
+            str(r["method"]),
+            _fixed(r["vel_final_mps"], 4),
+            _fixed(r["vel_rms_mps"], 4),
+            _fixed(r["att_final_deg"], 3),
+            _fixed(r["pos_final_m"], 2),
+            _fixed(r["tilt_rms_deg"], 3),
+            _fixed(r["heading_rms_deg"], 3),
+        ]
+        for r in rows
+    ]
+    consistency = [
+        [
+            str(r["method"]),
+            str(r["nees_dim"]),
+            _in_band_cell(r["nees_per_dim"], r["nees_in_band"]),
+            _ratio(r["vel_nees_per_dim"]),
+            _ratio(r["dvl_nis_per_dof"]),
+            _health_cell(r),
+        ]
+        + ([str(r["p_floor_count"])] if floors else [])
+        for r in rows
+    ]
+    columns = CONSISTENCY_COLUMNS + (("P floors",) if floors else ())
+    return "\n".join(
+        _table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency)
+    )
+
+
+def rms_markdown(results: Mapping[str, MethodResult]) -> str:
+    """The Results tab's third table, below RMS_HEADING: every RMS over time the CLI prints
+    (velocity, attitude norm, tilt, heading, position) and the DVL's fused, rejected and coast
+    counts (:func:`dvl_counts`; "-" for a method without DVL updates)."""
+
+    def count(x: int | None) -> str:
+        return "-" if x is None else str(x)
+
+    rows = [
+        [
+            str(r["method"]),
+            _fixed(r["vel_rms_mps"], 4),
+            _fixed(r["att_rms_deg"], 3),
+            _fixed(r["tilt_rms_deg"], 3),
+            _fixed(r["heading_rms_deg"], 3),
+            _fixed(r["pos_rms_m"], 2),
+            count(r["dvl_fused"]),
+            count(r["dvl_rejected"]),
+            count(r["dvl_coast"]),
+        ]
+        for r in summary_rows(results)
+    ]
+    return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows))
+
+
+def identical_methods(results: Mapping[str, MethodResult]) -> dict[str, str]:
+    """Methods whose results equal an earlier method's, each mapped to that method (the first
+    in ``results``' order): every error series, its sigma and NEES equal element for element (NaN
+    equal to NaN). ELC, NSV, VB, ... with all four beams returning are LC: the same numbers."""
+    fields = ("vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "pos_sigma_m", "nees")
+    same: dict[str, str] = {}
+    seen: list[str] = []
+    for method, res in results.items():
+        for other in seen:
+            ref = results[other]
+            if ref.t_s.shape == res.t_s.shape and all(
+                getattr(ref, f).shape == getattr(res, f).shape
+                and np.array_equal(getattr(ref, f), getattr(res, f), equal_nan=True)
+                for f in fields
+            ):
+                same[method] = other
+                break
+        else:
+            seen.append(method)
+    return same
+
+
+def identical_note(same: Mapping[str, str]) -> str:
+    """One sentence per group of identical methods (:func:`identical_methods`), "" if none."""
+    groups: dict[str, list[str]] = {}
+    for method, ref in same.items():
+        groups.setdefault(ref, []).append(method.upper())
+    parts = [
+        f"{' and '.join(names)} {'give' if len(names) > 1 else 'gives'} exactly the results of {ref.upper()}"
+        for ref, names in groups.items()
+    ]
+    if not parts:
+        return ""
+    return (
+        "**Identical methods:** " + "; ".join(parts) + " (with 3-4 beams returning, the partial-beam methods "
+        "fuse as LC). Their curves lie on one another: the one drawn last hides the others."
+    )
+
+
+COMPARE_COLUMNS = (
+    "method",
+    "run",
+    "vel RMS [m/s]",
+    "att RMS [deg]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+    "pos RMS [m]",
+    "pos final [m]",
+    "NEES/dim",
+)
+
+
+def compare_markdown(runs: Sequence[tuple[str, Mapping[str, MethodResult]]]) -> str:
+    """The runs' results side by side: one Markdown table, a line per method and run, the runs
+    of one method together (methods in order of first appearance; :func:`summary_rows`' numbers)."""
+    rows: dict[str, list[list[str]]] = {}
+    for label, results in runs:
+        for r in summary_rows(results):
+            rows.setdefault(str(r["method"]), []).append(
+                [
+                    str(r["method"]),
+                    label,
+                    _fixed(r["vel_rms_mps"], 4),
+                    _fixed(r["att_rms_deg"], 3),
+                    _fixed(r["tilt_rms_deg"], 3),
+                    _fixed(r["heading_rms_deg"], 3),
+                    _fixed(r["pos_rms_m"], 2),
+                    _fixed(r["pos_final_m"], 2),
+                    _ratio(r["nees_per_dim"]),
+                ]
+            )
+    return "\n".join(_table(COMPARE_COLUMNS, [line for lines in rows.values() for line in lines]))
+
+
+def flat_config(config: Config, runs: int | None = None) -> dict[str, Any]:
+    """``config`` (tauvcore.config.to_dict) as "section.field" -> value (nested records joined by
+    dots, lists as they are); ``runs``: also the Monte Carlo run count, as "runs"."""
+    out: dict[str, Any] = {}
+
+    def walk(prefix: str, value: Any) -> None:
+        if isinstance(value, dict):
+            for key, v in value.items():
+                walk(f"{prefix}.{key}" if prefix else key, v)
+        else:
+            out[prefix] = value
+
+    walk("", to_dict(config))
+    if runs is not None:
+        out["runs"] = runs
+    return out
+
+
+def config_differences(configs: Sequence[Mapping[str, Any]]) -> dict[str, list[Any]]:
+    """The settings (keys of :func:`flat_config`) whose values are not all equal across
+    ``configs``, each with its value in every config (None where one lacks it), in key order."""
+    keys = sorted(set().union(*configs)) if configs else []
+    out = {}
+    for key in keys:
+        values = [c.get(key) for c in configs]
+        if any(v != values[0] for v in values[1:]):
+            out[key] = values
+    return out
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, list):
+        return ", ".join(_cell(v) for v in value) or "(none)"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return "-" if value is None else str(value).replace("|", "/")
+
+
+def config_diff_markdown(labels: Sequence[str], configs: Sequence[Mapping[str, Any]]) -> str:
+    """A Markdown table of the settings that differ between the runs (:func:`config_differences`),
+    one column per run; a sentence when they all ran the same configuration."""
+    diff = config_differences(configs)
+    if not diff:
+        return "**Configuration:** the same for " + ", ".join(labels) + "."
+    return "\n".join(
+        ["**Configuration differences**", ""]
+        + _table(("setting", *labels), [[key, *(_cell(v) for v in values)] for key, values in diff.items()])
+    )
