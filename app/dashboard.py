@@ -36,36 +36,29 @@ import viser
 from viser import _messages as viser_messages
 
 from app import budget, export, inputs, links, plot_click, worker
-from app.figures import (
+from app.error_figures import (
     AUTO,
     COMPONENTS,
-    FIN_COLORS,
-    TRUTH_COLOR,
-    actuator_figure,
-    altitude_figure,
     compare_figure,
-    compare_markdown,
     components_figure,
-    config_diff_markdown,
-    cursor_shape,
-    decimate,
     elc_choice_figure,
     error_components,
     error_figure,
+    nees_figure,
+    overlay_figure,
+)
+from app.figures import TRUTH_COLOR, cursor_shape, decimate, method_color, with_cursor
+from app.innovation_figures import innovation_figure, innovation_sources
+from app.inputs import Controls, InputError, config_from_controls, config_markdown
+from app.markdown_tables import (
+    compare_markdown,
+    config_diff_markdown,
     flat_config,
     identical_methods,
     identical_note,
-    innovation_figure,
-    innovation_sources,
-    method_color,
-    nees_figure,
-    overlay_figure,
     rms_markdown,
     summary_markdown,
-    vkf_figure,
-    with_cursor,
 )
-from app.inputs import Controls, InputError, config_from_controls, config_markdown
 from app.scene import (
     BEAM_COLOR_NAMES,
     BEAM_COLORS,
@@ -102,6 +95,7 @@ from app.scene import (
     seabed_ranges_m,
     wxyz_view,
 )
+from app.vehicle_figures import FIN_COLORS, actuator_figure, altitude_figure, vkf_figure
 from tauvcore.config import RUN_METHODS, Config, from_dict, to_dict
 from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
 from tauvcore.eval.metrics import rms
@@ -2124,7 +2118,7 @@ RECLAIM = _MemoryReclaimer()
 
 def exit_now() -> NoReturn:
     """Leave at once with status 0, output flushed, without the interpreter's finalization: when
-    the shutdown deadline passed (a callback thread hangs), and after a clean stop (app.cli)."""
+    the shutdown deadline passed (a callback thread hangs), and after a clean stop (app.commands.serve)."""
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
