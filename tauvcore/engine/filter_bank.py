@@ -45,6 +45,7 @@ from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
+from tauvcore.engine import loop
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
     DVL_MODE_CODES,
@@ -59,7 +60,6 @@ from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.sources import active
 from tauvcore.engine.start import initial_covariance, initial_nominal
-from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
     Measurement,
     Nominal,
@@ -67,6 +67,8 @@ from tauvcore.filter.eskf import (
     fuse_in_place,
     make_outcome,
 )
+from tauvcore.filter.kernels.dvl import DVL_ELC, DVL_LC, DVL_TC, dvl_measure_bank
+from tauvcore.filter.kernels.strapdown import advance
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
 from tauvcore.ins.strapdown import Strapdown, body_increments
@@ -133,10 +135,7 @@ class FilterBank:
         self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION.get(m) is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
         self.dvl_codes = np.array(
-            [
-                {"lc": kernels.DVL_LC, "tc": kernels.DVL_TC, "elc": kernels.DVL_ELC}[DVL_FUSION[m]]
-                for _, m in self.dvl_methods
-            ],
+            [{"lc": DVL_LC, "tc": DVL_TC, "elc": DVL_ELC}[DVL_FUSION[m]] for _, m in self.dvl_methods],
             dtype=np.int64,
         )
         self.partial_tables = partial_tables([m for _, m in self.dvl_methods], config)
@@ -264,7 +263,7 @@ class FilterBank:
     # ------------------------------------------------------------------ the pieces of an epoch
     def _condition(self) -> None:
         """Keep every P positive definite (one compiled Cholesky per filter; numpy repair if one fails)."""
-        ok = kernels.positive_definite_bank(self.P)
+        ok = loop.positive_definite_bank(self.P)
         if not ok.all():
             self._repair()
 
@@ -276,7 +275,7 @@ class FilterBank:
 
     def _check_sensor_errors(self, t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
-        kernels.flag_implausible_bank(
+        loop.flag_implausible_bank(
             self.ba,
             self.bg,
             self.bdvl,
@@ -352,7 +351,7 @@ class FilterBank:
         measured_axes = np.zeros(batch + (3,), bool)
         choice = np.full(batch + (3,), -1, np.int64)
         dvl = self.config.dvl
-        kernels.dvl_measure_bank(
+        dvl_measure_bank(
             self.dvl_index,
             self.dvl_codes,
             np.ascontiguousarray(y),
@@ -439,7 +438,7 @@ class FilterBank:
 
     def _record(self, out: dict[str, np.ndarray], row: int, chunk: SimChunk, i: int) -> None:
         t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
-        kernels.record_bank(
+        loop.record_bank(
             row,
             float(t_s[i]),
             pos_t[i],
@@ -513,7 +512,7 @@ class FilterBank:
         ]
         outs = self.out_idx[(self.out_idx >= k0) & (self.out_idx < k1)]
         out = {
-            "series": np.zeros((len(kernels.SERIES_NAMES), outs.size) + self.batch),
+            "series": np.zeros((len(loop.SERIES_NAMES), outs.size) + self.batch),
             "nees_block": np.zeros((outs.size,) + self.batch + (len(NEES_BLOCKS),)),
             "est_pos_n": np.zeros((outs.size,) + self.batch + (3,)),
             "t_s": np.zeros(outs.size),
@@ -568,7 +567,7 @@ class FilterBank:
         s = 0
         while s < stops.size:
             counters[:] = (self.k_state, self.k_cov, self.k_checked, self.slot)
-            s, why = kernels.run_stops(
+            s, why = loop.run_stops(
                 stops,
                 is_event,
                 stop_row,
@@ -606,14 +605,14 @@ class FilterBank:
                 out["est_euler"],
             )
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
-            if why == kernels.STOPS_DONE:
+            if why == loop.STOPS_DONE:
                 break
             k = int(stops[s])
             i = k - k0
             t = float(truth.t_s[i])
-            if why == kernels.STOPS_REPAIR:
+            if why == loop.STOPS_REPAIR:
                 self._repair()
-            if why in (kernels.STOPS_EVENT, kernels.STOPS_REPAIR):
+            if why in (loop.STOPS_EVENT, loop.STOPS_REPAIR):
                 if k in dvl_at:
                     p = dvl_at[k]
                     before = dtheta[i - 1] if i > 0 else prev_dtheta
@@ -662,7 +661,7 @@ class FilterBank:
                     self.stored.pop()
             s += 1
         # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
-        kernels.advance(
+        advance(
             self.pos,
             self.vel,
             self.C,
@@ -695,7 +694,7 @@ class FilterBank:
             est_vel_n = np.concatenate([c["est_vel_n"] for c in stored])
             est_euler = np.concatenate([c["est_euler"] for c in stored])
         else:
-            t_s, series_all = np.zeros(0), np.zeros((len(kernels.SERIES_NAMES), 0) + self.batch)
+            t_s, series_all = np.zeros(0), np.zeros((len(loop.SERIES_NAMES), 0) + self.batch)
             nees_block = np.zeros((0,) + self.batch + (len(NEES_BLOCKS),))
             est_pos_n = np.zeros((0,) + self.batch + (3,))
             est_vel_n = est_euler = est_pos_n

@@ -45,9 +45,11 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
+from tauvcore.engine import yoo_loop
 from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, UpdateRecord, method_result
 from tauvcore.engine.rpm_aid import RPM_LATERAL_SIGMA_MPS, RpmAid, dvl_body_velocity
-from tauvcore.filter import kernels, statistics, yoo, yoo_kernels
+from tauvcore.filter import statistics, yoo
+from tauvcore.filter.kernels.strapdown import advance
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 from tauvcore.ins.strapdown import Strapdown, body_increments
@@ -67,7 +69,7 @@ BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 """Each of the 12 states' NEES block (tauvcore.eval.consistency's blocks: position (none here),
 velocity, tilt, heading, sensors)."""
 NUM_BLOCKS = 5
-METHOD_CODES = {"ins-dvl": yoo_kernels.INS_DVL, "vkf": yoo_kernels.VKF}
+METHOD_CODES = {"ins-dvl": yoo_loop.INS_DVL, "vkf": yoo_loop.VKF}
 
 
 class YooBank:
@@ -229,7 +231,7 @@ class YooBank:
                 progress(t, self.results())
                 self.chunks.pop()
         if k0 + n - 1 > self.k_state:
-            kernels.advance(
+            advance(
                 self.pos,
                 self.vel,
                 self.C,
@@ -312,7 +314,7 @@ class YooBank:
         aid = self.rpm_aid
         aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
         counters = np.array([self.k_state, self.k_cov], dtype=np.int64)
-        yoo_kernels.run_stops(
+        yoo_loop.run_stops(
             s0,
             s1,
             stops,
@@ -405,7 +407,7 @@ class YooBank:
             k = int(stops[s])
             i = k - k0
             if k > self.k_state:
-                kernels.advance(
+                advance(
                     self.pos,
                     self.vel,
                     self.C,
