@@ -20,7 +20,7 @@ arrays the engine allocates (8-byte floats; "d" is one double):
   and run (8 x 400 d).
 
 The estimate is the sum, plus ``SLACK`` (15 %) for the allocator's pages, plus ``FIXED_BYTES`` for
-what a run loads once: the compiled kernels of the filter bank (numba's machine code and its
+what a run loads once: the compiled kernels of the filter bank (tauvcore.filter.kernels, tauvcore.engine.loop: numba's machine code and its
 LLVM context, 62-64 MiB measured for a 10 s run once the fused stretch kernel
 ``run_stops`` joined them; 14-16 MiB more since the geodetic path, its truth integrator included,
 and lazily imported modules. The dynamic truth (tauvcore.truth.dynamic) adds its

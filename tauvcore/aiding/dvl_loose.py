@@ -44,15 +44,16 @@ def solve_velocity(
     Returns ``v`` (B, 3), its covariance (B, 3, 3), ``A+`` (B, 3, 4) with zero columns for the
     missing beams, and ``valid`` (B,) = at least three beams returned. ``noise_mps`` is floored
     at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS` (a zero noise is legal).
-    The kernel :func:`tauvcore.filter.kernels.lc_solve_into` (the one the filter bank runs).
+    The kernel :func:`tauvcore.filter.kernels.dvl.lc_solve_into` (the one the filter bank runs).
     """
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.common import flat
+    from tauvcore.filter.kernels.dvl import lc_solve_batch
 
     batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1])
-    v, cov, A_pinv, valid = kernels.lc_solve_batch(
-        kernels.flat(A_b, (), (4, 3))[0],
-        kernels.flat(y_beam, batch, (4,)),
-        kernels.flat(available, batch, (4,), bool),
+    v, cov, A_pinv, valid = lc_solve_batch(
+        flat(A_b, (), (4, 3))[0],
+        flat(y_beam, batch, (4,)),
+        flat(available, batch, (4,), bool),
         dvl_beam_sigma_mps(noise_mps) ** 2,
     )
     return (
@@ -84,8 +85,9 @@ class DvlLoose:
     def prepare(
         self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray
     ) -> DvlLooseSetup:
-        """The measurement side (the kernel :func:`tauvcore.filter.kernels.lc_prepare_into`)."""
-        from tauvcore.filter import kernels
+        """The measurement side (the kernel :func:`tauvcore.filter.kernels.dvl.lc_prepare_into`)."""
+        from tauvcore.filter.kernels.common import flat as f
+        from tauvcore.filter.kernels.dvl import lc_prepare_batch
 
         batch = np.broadcast_shapes(
             np.shape(y_beam)[:-1],
@@ -94,8 +96,7 @@ class DvlLoose:
             nom.nav.C_nb.shape[:-2],
             nom.gyro_bias.shape[:-1],
         )
-        f = kernels.flat
-        z, R, A_pinv, omega_comp, valid = kernels.lc_prepare_batch(
+        z, R, A_pinv, omega_comp, valid = lc_prepare_batch(
             f(self.dvl.A_b, (), (4, 3))[0],
             f(self.dvl.l_dvl_b, (), (3,))[0],
             dvl_beam_sigma_mps(self.dvl.noise_mps) ** 2,
@@ -118,12 +119,12 @@ class DvlLoose:
 
     def predict(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
         """Nonlinear h(x) for the state ``nom``, with the measurement-side quantities held fixed
-        (the kernel :func:`tauvcore.filter.kernels.lc_predict_into`)."""
-        from tauvcore.filter import kernels
+        (the kernel :func:`tauvcore.filter.kernels.dvl.lc_predict_into`)."""
+        from tauvcore.filter.kernels.common import flat as f
+        from tauvcore.filter.kernels.dvl import lc_predict_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
-        f = kernels.flat
-        h = kernels.lc_predict_batch(
+        h = lc_predict_batch(
             f(nom.nav.C_nb, batch, (3, 3)),
             f(nom.nav.vel_n, batch, (3,)),
             f(nom.dvl_sf, batch, ()),
@@ -138,12 +139,12 @@ class DvlLoose:
         return h.reshape(batch + (3,))
 
     def jacobian(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
-        """H (the kernel :func:`tauvcore.filter.kernels.lc_jacobian_into`)."""
-        from tauvcore.filter import kernels
+        """H (the kernel :func:`tauvcore.filter.kernels.dvl.lc_jacobian_into`)."""
+        from tauvcore.filter.kernels.common import flat as f
+        from tauvcore.filter.kernels.dvl import lc_jacobian_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
-        f = kernels.flat
-        H = kernels.lc_jacobian_batch(
+        H = lc_jacobian_batch(
             f(nom.nav.C_nb, batch, (3, 3)),
             f(nom.nav.vel_n, batch, (3,)),
             f(nom.dvl_sf, batch, ()),

@@ -92,8 +92,9 @@ def compensated_beams(
     l_dvl_b: np.ndarray,
 ) -> np.ndarray:
     """``y_c = (y - b_hat - A (omega_hat x l)) / (1 + SF_hat)``, zero where not returned. (B, 4).
-    The kernel :func:`tauvcore.filter.kernels.compensated_beams_into`."""
-    from tauvcore.filter import kernels
+    The kernel :func:`tauvcore.filter.kernels.two_beam.compensated_beams_into`."""
+    from tauvcore.filter.kernels.common import flat as f
+    from tauvcore.filter.kernels.two_beam import compensated_beams_batch
 
     batch = np.broadcast_shapes(
         np.shape(y_beam)[:-1],
@@ -102,8 +103,7 @@ def compensated_beams(
         np.shape(dvl_sf),
         np.shape(omega_comp_b)[:-1],
     )
-    f = kernels.flat
-    y_c = kernels.compensated_beams_batch(
+    y_c = compensated_beams_batch(
         f(A_b, (), (4, 3))[0],
         f(y_beam, batch, (4,)),
         f(available, batch, (4,), bool),
@@ -121,16 +121,17 @@ def beam_noise_cov(
     """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4).
 
     ``noise_mps`` is floored at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS`.
-    The kernel :func:`tauvcore.filter.kernels.beam_noise_into`."""
-    from tauvcore.filter import kernels
+    The kernel :func:`tauvcore.filter.kernels.dvl.beam_noise_into`."""
+    from tauvcore.filter.kernels.common import flat
+    from tauvcore.filter.kernels.dvl import beam_noise_batch
 
     batch = np.shape(dvl_sf)
-    S = kernels.beam_noise_batch(
-        kernels.flat(A_b, (), (4, 3))[0],
+    S = beam_noise_batch(
+        flat(A_b, (), (4, 3))[0],
         dvl_beam_sigma_mps(noise_mps) ** 2,
         float(gyro_rate_noise_rps) ** 2,
-        kernels.flat(l_dvl_b, (), (3,))[0],
-        kernels.flat(dvl_sf, batch, ()),
+        flat(l_dvl_b, (), (3,))[0],
+        flat(dvl_sf, batch, ()),
     )
     return S.reshape(batch + (4, 4))
 
@@ -146,8 +147,9 @@ def apply_solution(
     P_vel: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``v = C y_c + D v_hat`` and ``R = C S_y C^T + (g D) P (g D)^T + a a^T``; C, D (..., 3, 4|3), a (..., 3).
-    The kernel :func:`tauvcore.filter.kernels.apply_solution_into` (the one the filter bank runs)."""
-    from tauvcore.filter import kernels
+    The kernel :func:`tauvcore.filter.kernels.two_beam.apply_solution_into` (the one the filter bank runs)."""
+    from tauvcore.filter.kernels.common import flat as f
+    from tauvcore.filter.kernels.two_beam import apply_solution_batch
 
     r_batch = np.broadcast_shapes(
         np.shape(C)[:-2],
@@ -158,10 +160,9 @@ def apply_solution(
         np.shape(P_vel)[:-2],
     )
     batch = np.broadcast_shapes(r_batch, np.shape(y_c)[:-1], np.shape(v_hat)[:-1])
-    f = kernels.flat
 
     def call(shape: tuple[int, ...], y: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return kernels.apply_solution_batch(
+        return apply_solution_batch(
             f(C, shape, (3, 4)),
             f(D, shape, (3, 3)),
             f(gain, shape, (3,)),

@@ -64,12 +64,12 @@ class DvlTight:
         )
 
     def predict(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
-        """Nonlinear h(x) per beam (the kernel :func:`tauvcore.filter.kernels.tc_predict_into`)."""
-        from tauvcore.filter import kernels
+        """Nonlinear h(x) per beam (the kernel :func:`tauvcore.filter.kernels.dvl.tc_predict_into`)."""
+        from tauvcore.filter.kernels.common import flat as f
+        from tauvcore.filter.kernels.dvl import tc_predict_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
-        f = kernels.flat
-        h = kernels.tc_predict_batch(
+        h = tc_predict_batch(
             f(self.dvl.A_b, (), (4, 3))[0],
             f(nom.nav.C_nb, batch, (3, 3)),
             f(nom.nav.vel_n, batch, (3,)),
@@ -83,12 +83,12 @@ class DvlTight:
         return h.reshape(batch + (4,))
 
     def jacobian(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
-        """H, one row per beam (the kernel :func:`tauvcore.filter.kernels.tc_jacobian_into`)."""
-        from tauvcore.filter import kernels
+        """H, one row per beam (the kernel :func:`tauvcore.filter.kernels.dvl.tc_jacobian_into`)."""
+        from tauvcore.filter.kernels.common import flat as f
+        from tauvcore.filter.kernels.dvl import tc_jacobian_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
-        f = kernels.flat
-        H = kernels.tc_jacobian_batch(
+        H = tc_jacobian_batch(
             f(self.dvl.A_b, (), (4, 3))[0],
             f(nom.nav.C_nb, batch, (3, 3)),
             f(nom.nav.vel_n, batch, (3,)),

@@ -34,21 +34,21 @@ def select(
     solutions: list[PartialSolution], y_c: np.ndarray, S_y: np.ndarray, v_hat: np.ndarray, P_vel: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-axis minimum-variance choice for a batch sharing one availability pattern (the kernel
-    :func:`tauvcore.filter.kernels.partial_into`, which the filter bank runs).
+    :func:`tauvcore.filter.kernels.two_beam.partial_into`, which the filter bank runs).
 
     Returns ``v`` (n, 3), ``R`` (n, 3, 3), ``measured`` (n, 3) and ``choice`` (n, 3) codes.
     """
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.common import flat as f
+    from tauvcore.filter.kernels.two_beam import select_batch
 
     n = np.shape(y_c)[0]
-    f = kernels.flat
     ok = np.array([s.ok for s in solutions])
     C, D, pred_gain, assumption_sd = (
         np.stack([getattr(s, name) for s in solutions]).astype(float)
         for name in ("C", "D", "pred_gain", "assumption_sd")
     )
     measured = np.stack([s.measured for s in solutions]).astype(bool)
-    return kernels.select_batch(
+    return select_batch(
         ok,
         C,
         D,

@@ -29,7 +29,7 @@ import numpy as np
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.filter.kernels import advance
+from tauvcore.filter.kernels.strapdown import advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
 EPOCH_FIELDS = frozenset(("t_s", "out_k", "series", "nees_block", "est_pos_n", "est_vel_n", "est_euler"))

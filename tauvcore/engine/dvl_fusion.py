@@ -18,7 +18,7 @@ from tauvcore.aiding.dvl_extended import (
     DvlExtended,
 )
 from tauvcore.config import Config
-from tauvcore.filter import kernels
+from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE
 
 DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}}
@@ -43,8 +43,8 @@ def partial_tables(methods: Sequence[str], config: Config) -> PartialTables:
     """The two-beam constructions of each DVL method, for every pattern of two returned beams
     (index: the sum of 2^k over the beams k), from the methods' own ``solve`` functions
     (tauvcore.aiding.elc_*): candidates (1, or the selector's 4), ok, C, D, gain, assumption
-    error and measured rows, as :func:`tauvcore.filter.kernels.dvl_measure_bank` takes them."""
-    n, K = len(methods), kernels.MAX_CANDIDATES
+    error and measured rows, as :func:`tauvcore.filter.kernels.dvl.dvl_measure_bank` takes them."""
+    n, K = len(methods), MAX_CANDIDATES
     n_cand = np.ones(n, np.int64)
     ok = np.zeros((n, 16, K), bool)
     Cc, Dc = np.zeros((n, 16, K, 3, 4)), np.zeros((n, 16, K, 3, 3))

@@ -45,6 +45,7 @@ from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
+from tauvcore.engine import loop
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
@@ -60,7 +61,6 @@ from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.sources import active
 from tauvcore.engine.start import initial_covariance, initial_nominal
-from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
     Measurement,
     Nominal,
@@ -68,6 +68,7 @@ from tauvcore.filter.eskf import (
     fuse_in_place,
     make_outcome,
 )
+from tauvcore.filter.kernels.dvl import DVL_ELC, DVL_LC, DVL_TC, dvl_measure_bank
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
 
@@ -119,10 +120,7 @@ class FilterBank(ChunkDriver):
         self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION.get(m) is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
         self.dvl_codes = np.array(
-            [
-                {"lc": kernels.DVL_LC, "tc": kernels.DVL_TC, "elc": kernels.DVL_ELC}[DVL_FUSION[m]]
-                for _, m in self.dvl_methods
-            ],
+            [{"lc": DVL_LC, "tc": DVL_TC, "elc": DVL_ELC}[DVL_FUSION[m]] for _, m in self.dvl_methods],
             dtype=np.int64,
         )
         self.partial_tables = partial_tables([m for _, m in self.dvl_methods], config)
@@ -236,7 +234,7 @@ class FilterBank(ChunkDriver):
     # ------------------------------------------------------------------ the pieces of an epoch
     def _condition(self) -> None:
         """Keep every P positive definite (one compiled Cholesky per filter; numpy repair if one fails)."""
-        ok = kernels.positive_definite_bank(self.P)
+        ok = loop.positive_definite_bank(self.P)
         if not ok.all():
             self._repair()
 
@@ -248,7 +246,7 @@ class FilterBank(ChunkDriver):
 
     def _check_sensor_errors(self, t: float) -> None:
         """After the corrections of an aiding epoch (the only moments the estimates change)."""
-        kernels.flag_implausible_bank(
+        loop.flag_implausible_bank(
             self.ba,
             self.bg,
             self.bdvl,
@@ -324,7 +322,7 @@ class FilterBank(ChunkDriver):
         measured_axes = np.zeros(batch + (3,), bool)
         choice = np.full(batch + (3,), -1, np.int64)
         dvl = self.config.dvl
-        kernels.dvl_measure_bank(
+        dvl_measure_bank(
             self.dvl_index,
             self.dvl_codes,
             np.ascontiguousarray(y),
@@ -372,7 +370,7 @@ class FilterBank(ChunkDriver):
         records).
 
         The VKF learns the speed the DVL measures, ``(1 + SF) v_b + A+ b`` (the LC measurement,
-        kernels.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
+        tauvcore.filter.kernels.dvl.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
         0.7 % off. So the surge row is predicted and linearised as that measurement is, with the
         DVL scale factor and beam bias columns (H = [(1 + SF) e1, A+ row 1, v_b1] on the velocity,
         beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
@@ -411,7 +409,7 @@ class FilterBank(ChunkDriver):
 
     def _record(self, out: Store, row: int, i: int) -> None:
         t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
-        kernels.record_bank(
+        loop.record_bank(
             row,
             float(t_s[i]),
             pos_t[i],
@@ -453,7 +451,7 @@ class FilterBank(ChunkDriver):
         return {
             "t_s": np.zeros(T),
             "out_k": outs,
-            "series": np.zeros((len(kernels.SERIES_NAMES), T) + self.batch),
+            "series": np.zeros((len(loop.SERIES_NAMES), T) + self.batch),
             "nees_block": np.zeros((T,) + self.batch + (len(NEES_BLOCKS),)),
             "est_pos_n": np.zeros((T,) + self.batch + (3,)),
             "est_vel_n": np.zeros((T,) + self.batch + (3,)),
@@ -473,7 +471,7 @@ class FilterBank(ChunkDriver):
         self, chunk: SimChunk, inputs: ChunkInputs, store: Store, poll_every: int
     ) -> Iterator[int]:
         """The chunk's stops: the compiled stretch between aiding epochs
-        (:func:`~tauvcore.filter.kernels.run_stops`, which records the output epochs in between),
+        (:func:`~tauvcore.engine.loop.run_stops`, which records the output epochs in between),
         the corrections of each aiding epoch here."""
         k0, n = chunk.k0, chunk.truth.num_samples
         k1 = k0 + n
@@ -495,7 +493,7 @@ class FilterBank(ChunkDriver):
         out_row = {int(k): r for r, k in enumerate(outs)}
         ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
         truth = chunk.truth
-        # the chunk's inputs of the compiled stretch between aiding epochs (kernels.run_stops)
+        # the chunk's inputs of the compiled stretch between aiding epochs (loop.run_stops)
         chunk_in = (
             phi_raw,
             dv_raw,
@@ -527,7 +525,7 @@ class FilterBank(ChunkDriver):
         s = 0
         while s < stops.size:
             counters[:] = (self.k_state, self.k_cov, self.k_checked, self.slot)
-            s, why = kernels.run_stops(
+            s, why = loop.run_stops(
                 stops,
                 is_event,
                 stop_row,
@@ -565,14 +563,14 @@ class FilterBank(ChunkDriver):
                 store["est_euler"],
             )
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
-            if why == kernels.STOPS_DONE:
+            if why == loop.STOPS_DONE:
                 break
             k = int(stops[s])
             i = k - k0
             t = float(truth.t_s[i])
-            if why == kernels.STOPS_REPAIR:
+            if why == loop.STOPS_REPAIR:
                 self._repair()
-            if why in (kernels.STOPS_EVENT, kernels.STOPS_REPAIR):
+            if why in (loop.STOPS_EVENT, loop.STOPS_REPAIR):
                 if k in dvl_at:
                     p = dvl_at[k]
                     before = dtheta[i - 1] if i > 0 else inputs.prev_dtheta

@@ -94,8 +94,8 @@ SERIES_FIELDS = {
     "tilt_sigma": "tilt_sigma_deg",
     "heading_sigma": "heading_sigma_deg",
 }
-"""The per-epoch series both banks record, in the order of their rows (tauvcore.filter.kernels.
-SERIES_NAMES, tauvcore.filter.yoo_kernels), and the MethodResult field each becomes."""
+"""The per-epoch series both banks record, in the order of their rows (tauvcore.engine.loop.
+SERIES_NAMES, tauvcore.engine.yoo_loop), and the MethodResult field each becomes."""
 
 
 def method_result(

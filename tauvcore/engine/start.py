@@ -8,10 +8,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.filter import kernels
 from tauvcore.filter.eskf import (
     Nominal,
 )
+from tauvcore.filter.kernels.correction import add_position_batch
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.rotations import (
     C_nb_from_euler,
@@ -53,9 +53,7 @@ def initial_nominal(
         offset_m = np.ascontiguousarray(np.broadcast_to(offset_m, (R, 3)), dtype=float)
         if not truth.earth.geodetic:
             return pos_true + offset_m
-        return kernels.add_position_batch(
-            np.ascontiguousarray(np.broadcast_to(pos_true, (R, 3))), offset_m, True
-        )
+        return add_position_batch(np.ascontiguousarray(np.broadcast_to(pos_true, (R, 3))), offset_m, True)
 
     if ie.mode == "fixed":
         pos = moved(np.asarray(ie.pos_m))

@@ -6,10 +6,11 @@ numba compiles a kernel at its first call and caches the machine code (``cache=T
 first run after an install pays about 20 s of compilation. The README's two commands run this
 module right after installing, so that neither the first dashboard run (whose worker processes
 would otherwise compile side by side while the server answers its clients) nor the first test
-pays it. It runs a 12 s mission that takes every path of the engine: all eight methods, DVL,
-depth and magnetometer aiding, four, two and three beams, two runs with random initial errors,
-streamed in two chunks; then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations
-of motion and autopilot).
+pays it. It runs a 12 s mission that takes every path of the engine: all ten methods (the
+20-state bank's eight, Yoo 2014's two in their own compiled loop), DVL, depth and magnetometer
+aiding, four, two and three beams, two runs with random initial errors, streamed in two
+chunks; then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations of motion and
+autopilot).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import time
 
 import numpy as np
 
-from tauvcore.config import METHODS, Config
+from tauvcore.config import ALL_METHODS, Config
 from tauvcore.sensors.dvl import Outage
 
 
@@ -37,7 +38,7 @@ def warm_up() -> float:
             ),
         )
         .replace("initial_error", mode="random")
-        .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag"))
+        .replace("run", methods=ALL_METHODS, aiding=("dvl", "depth", "mag"))
     )
     t0 = time.perf_counter()
     run_streaming(config, np.random.default_rng(0), num_runs=2, chunk_s=6.0)

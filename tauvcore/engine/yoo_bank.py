@@ -2,7 +2,7 @@
 
 Each is the paper's 12-state indirect feedback Kalman filter (section 2.1; error model
 tauvcore.filter.yoo: NED velocity, attitude, accelerometer and gyro bias errors, no position)
-on the same strapdown as the 20-state methods (tauvcore.filter.kernels.advance, geodetic on
+on the same strapdown as the 20-state methods (tauvcore.filter.kernels.strapdown.advance, geodetic on
 WGS-84), aided at every DVL ping by a NED velocity (eq. 16-18; with the attitude column the paper's H
 leaves out, :meth:`YooBank._fuse`):
 
@@ -45,11 +45,13 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import Config
+from tauvcore.engine import yoo_loop
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
 from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult, UpdateRecord, method_result
 from tauvcore.engine.rpm_aid import RPM_LATERAL_SIGMA_MPS, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.filter import kernels, statistics, yoo, yoo_kernels
+from tauvcore.filter import statistics, yoo
+from tauvcore.filter.kernels.strapdown import advance
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 
@@ -68,7 +70,7 @@ BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 """Each of the 12 states' NEES block (tauvcore.eval.consistency's blocks: position (none here),
 velocity, tilt, heading, sensors)."""
 NUM_BLOCKS = 5
-METHOD_CODES = {"ins-dvl": yoo_kernels.INS_DVL, "vkf": yoo_kernels.VKF}
+METHOD_CODES = {"ins-dvl": yoo_loop.INS_DVL, "vkf": yoo_loop.VKF}
 
 
 class YooBank(ChunkDriver):
@@ -242,7 +244,7 @@ class YooBank(ChunkDriver):
         aid = self.rpm_aid
         aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
         counters = np.array([self.k_state, self.k_cov], dtype=np.int64)
-        yoo_kernels.run_stops(
+        yoo_loop.run_stops(
             s0,
             s1,
             stops,
@@ -334,7 +336,7 @@ class YooBank(ChunkDriver):
             k = int(stops[s])
             i = k - k0
             if k > self.k_state:
-                kernels.advance(
+                advance(
                     self.pos,
                     self.vel,
                     self.C,

@@ -102,32 +102,31 @@ def inject(nom: Nominal, dx: np.ndarray, geodetic: bool = False) -> Nominal:
     reset Jacobian ``I - [rho x]/2`` of the misalignment block is taken as I (rho < 1e-2 rad).
     ``geodetic``: positions are latitude, longitude, depth (WGS-84) and the position error moves
     them through the metric at the estimate. The formula is the kernel
-    :func:`tauvcore.filter.kernels.inject_batch` the filter bank runs.
+    :func:`tauvcore.filter.kernels.correction.inject_batch` the filter bank runs.
     """
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.correction import inject_batch
 
     batch = np.broadcast_shapes(nom.dvl_sf.shape, np.shape(dx)[:-1])
     arrays = _state_arrays(nom, batch)
     dx_flat = np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (STATE.dim,)))
-    kernels.inject_batch(*arrays, dx_flat.reshape(-1, STATE.dim), geodetic)
+    inject_batch(*arrays, dx_flat.reshape(-1, STATE.dim), geodetic)
     return _nominal_of(arrays, batch)
 
 
 def difference(true: Nominal, est: Nominal, geodetic: bool = False) -> np.ndarray:
     """``true (-) est``: the error state that :func:`inject` would need. -> (B, 20).
 
-    The navigation part is the kernel :func:`tauvcore.filter.kernels.nav_difference_into` (the
+    The navigation part is the kernel :func:`tauvcore.filter.kernels.correction.nav_difference_into` (the
     filter bank's records use it); the sensor errors subtract."""
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.common import NAV
+    from tauvcore.filter.kernels.correction import difference_batch
 
     batch = np.broadcast_shapes(
         true.dvl_sf.shape, est.dvl_sf.shape, np.shape(true.nav.pos_n)[:-1], np.shape(est.nav.pos_n)[:-1]
     )
     t, e = _state_arrays(true, batch), _state_arrays(est, batch)
     dx = np.zeros(batch + (STATE.dim,))
-    dx[..., : kernels.NAV] = kernels.difference_batch(t[0], t[1], t[2], e[0], e[1], e[2], geodetic).reshape(
-        batch + (kernels.NAV,)
-    )
+    dx[..., :NAV] = difference_batch(t[0], t[1], t[2], e[0], e[1], e[2], geodetic).reshape(batch + (NAV,))
     dx[..., STATE.ba] = true.accel_bias - est.accel_bias
     dx[..., STATE.bg] = true.gyro_bias - est.gyro_bias
     dx[..., STATE.b_dvl] = true.dvl_bias - est.dvl_bias
@@ -177,17 +176,18 @@ class UpdateOutcome:
 def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
     """``P <- Phi P Phi^T + Qd``, symmetric; Phi of the structure of
     :func:`tauvcore.ins.error_model.discretise`'s (identity outside rows 0-8, zero beyond column 14
-    in them), the kernel :func:`tauvcore.filter.kernels.sandwich_into` the filter bank runs."""
-    from tauvcore.filter import kernels
+    in them), the kernel :func:`tauvcore.filter.kernels.error_model.sandwich_into` the filter bank runs."""
+    from tauvcore.filter.kernels.common import CORE, NAV
+    from tauvcore.filter.kernels.error_model import propagate_batch
 
     Phi = np.asarray(Phi, dtype=float)
     eye = np.eye(STATE.dim)
     if not (
         np.array_equal(
-            np.broadcast_to(Phi[..., kernels.NAV :, :], Phi.shape[:-2] + eye[kernels.NAV :].shape),
-            np.broadcast_to(eye[kernels.NAV :], Phi.shape[:-2] + eye[kernels.NAV :].shape),
+            np.broadcast_to(Phi[..., NAV:, :], Phi.shape[:-2] + eye[NAV:].shape),
+            np.broadcast_to(eye[NAV:], Phi.shape[:-2] + eye[NAV:].shape),
         )
-        and not np.any(Phi[..., : kernels.NAV, kernels.CORE :])
+        and not np.any(Phi[..., :NAV, CORE:])
     ):
         raise ValueError("Phi must be the identity outside rows 0-8 and zero beyond column 14 in them")
     batch = np.broadcast_shapes(np.shape(P)[:-2], Phi.shape[:-2], np.shape(Qd)[:-2])
@@ -198,7 +198,7 @@ def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
             (-1,) + shape
         )
 
-    return kernels.propagate_batch(flat(P), flat(Phi), flat(Qd)).reshape(batch + shape)
+    return propagate_batch(flat(P), flat(Phi), flat(Qd)).reshape(batch + shape)
 
 
 def _is_positive_definite(A: np.ndarray) -> np.ndarray:
@@ -267,10 +267,10 @@ def fuse_in_place(
     bank's layout): P (n, 20, 20), ``state`` the arrays of :func:`_state_arrays`, H (n, m, 20),
     R (n, m, m), nu, active (n, m) (rows in use: active and valid), gate_rows (n,).
     -> s_diag (n, m), keep (n, m), nis, test_ratio, unusable (n,): see :func:`correct`."""
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.correction import correct_batch, inject_batch
 
     n, m = P.shape[0], nu.shape[-1]
-    dx, s_diag, keep, nis, ratio, unusable = kernels.correct_batch(
+    dx, s_diag, keep, nis, ratio, unusable = correct_batch(
         P,
         np.ascontiguousarray(H, dtype=float).reshape(n, m, STATE.dim),
         np.ascontiguousarray(R, dtype=float).reshape(n, m, m),
@@ -279,7 +279,7 @@ def fuse_in_place(
         np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
         float(gate_sigma),
     )
-    kernels.inject_batch(*state, dx, geodetic)
+    inject_batch(*state, dx, geodetic)
     return s_diag, keep, nis, ratio, unusable
 
 
@@ -312,7 +312,7 @@ def make_outcome(
 def correct(
     P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float, apply: np.ndarray | None = None
 ) -> tuple[np.ndarray, Nominal, UpdateOutcome]:
-    """Gated Joseph-form update and injection (the kernel :func:`tauvcore.filter.kernels.correct_into`).
+    """Gated Joseph-form update and injection (the kernel :func:`tauvcore.filter.kernels.correction.correct_into`).
 
     The gate is the paper's (section 2.1.1): a row must lie within ``gate_sigma`` standard
     deviations of its prediction, ``nu_i^2 <= gate^2 S_ii``. A vector measurement is rejected

@@ -27,23 +27,23 @@ def chi2_isf(p: float | np.ndarray, dof: float | np.ndarray) -> np.ndarray:
 
 def _flat(dx: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     """dx and P broadcast together, in the kernels' one-leading-axis layout, and their batch shape."""
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.common import flat
 
     n = dx.shape[-1]
     batch = np.broadcast_shapes(dx.shape[:-1], P.shape[:-2])
-    return kernels.flat(dx, batch, (n,)), kernels.flat(P, batch, (n, n)), batch
+    return flat(dx, batch, (n,)), flat(P, batch, (n, n)), batch
 
 
 def nees(dx: np.ndarray, P: np.ndarray) -> np.ndarray:
     """Normalised estimation error squared ``dx^T P^-1 dx``. dx (..., n), P (..., n, n) -> (...).
 
-    By Cholesky (the kernel :func:`tauvcore.filter.kernels.quadratic_into` the filter bank's records
+    By Cholesky (the kernel :func:`tauvcore.filter.kernels.nees.quadratic_into` the filter bank's records
     use). NaN for an entry whose dx or P is not finite or whose P is not positive definite (a
     diverged filter's record, never an exception)."""
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.nees import nees_batch
 
     dx_f, P_f, batch = _flat(np.asarray(dx), np.asarray(P))
-    return kernels.nees_batch(dx_f, P_f).reshape(batch)
+    return nees_batch(dx_f, P_f).reshape(batch)
 
 
 def block_nees(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_blocks: int) -> np.ndarray:
@@ -53,10 +53,8 @@ def block_nees(dx: np.ndarray, P: np.ndarray, block_of_state: np.ndarray, num_bl
     Block b's NEES is ``dx_b^T (P_bb)^-1 dx_b`` with P_bb the marginal covariance of the block,
     one Cholesky factorisation per block. NaN for a block whose error or marginal covariance is not
     finite or not positive definite (the other blocks keep their values)."""
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.nees import block_nees_batch
 
     dx_f, P_f, batch = _flat(np.asarray(dx), np.asarray(P))
-    out = kernels.block_nees_batch(
-        dx_f, P_f, np.ascontiguousarray(block_of_state, dtype=np.int64), int(num_blocks)
-    )
+    out = block_nees_batch(dx_f, P_f, np.ascontiguousarray(block_of_state, dtype=np.int64), int(num_blocks))
     return out.reshape(batch + (num_blocks,))

@@ -81,33 +81,34 @@ def F_matrix(
     ``position``: None for the flat model of ``earth`` (its constant gravity and earth rate); or
     the nominal geodetic position (latitude [rad], longitude [rad], height [m], each (...,)) for
     the WGS-84 error model of the module docstring. The formula is the compiled kernel
-    :func:`tauvcore.filter.kernels.F_into` (the one the filter bank runs); the tests compare it
+    :func:`tauvcore.filter.kernels.error_model.F_into` (the one the filter bank runs); the tests compare it
     with central differences of :func:`error_rate` and :func:`error_rate_geodetic`.
     """
-    from tauvcore.filter import kernels  # numba: with the engine, not for --help
+    from tauvcore.filter.kernels.common import flat as f  # numba: with the engine, not for --help
+    from tauvcore.filter.kernels.error_model import F_batch, flat_terms_batch, geodetic_terms_batch
 
     shapes = [np.shape(C_nb)[:-2], np.shape(vel_b)[:-1], np.shape(omega_ib_b)[:-1]]
     if position is not None:
         shapes += [np.shape(position[0]), np.shape(position[2])]
     batch = np.broadcast_shapes(*shapes)
-    f = kernels.flat
     C, v = f(C_nb, batch, (3, 3)), f(vel_b, batch, (3,))
     n = C.shape[0]
     if position is None:
-        T = kernels.flat_terms_batch(f(earth.g_n, (), (3,))[0], f(earth.omega_ie_n, (), (3,))[0], n)
+        T = flat_terms_batch(f(earth.g_n, (), (3,))[0], f(earth.omega_ie_n, (), (3,))[0], n)
     else:
         vel_n = np.einsum("nij,nj->ni", C, v)
-        T = kernels.geodetic_terms_batch(f(position[0], batch, ()), f(position[2], batch, ()), vel_n)
-    F = kernels.F_batch(C, v, f(omega_ib_b, batch, (3,)), T)
+        T = geodetic_terms_batch(f(position[0], batch, ()), f(position[2], batch, ()), vel_n)
+    F = F_batch(C, v, f(omega_ib_b, batch, (3,)), T)
     return F.reshape(batch + (STATE.dim, STATE.dim))
 
 
 def G_matrix(C_nb: np.ndarray, vel_b: np.ndarray) -> np.ndarray:
-    """Continuous-time G (eq. 5 and 10), the kernel :func:`tauvcore.filter.kernels.G_into`. -> (..., 20, 17)."""
-    from tauvcore.filter import kernels
+    """Continuous-time G (eq. 5 and 10), the kernel :func:`tauvcore.filter.kernels.error_model.G_into`. -> (..., 20, 17)."""
+    from tauvcore.filter.kernels.common import flat
+    from tauvcore.filter.kernels.error_model import G_batch
 
     batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1])
-    G = kernels.G_batch(kernels.flat(C_nb, batch, (3, 3)), kernels.flat(vel_b, batch, (3,)), NOISE.dim)
+    G = G_batch(flat(C_nb, batch, (3, 3)), flat(vel_b, batch, (3,)), NOISE.dim)
     return G.reshape(batch + (STATE.dim, NOISE.dim))
 
 
@@ -153,18 +154,19 @@ def discretise(F: np.ndarray, G: np.ndarray, q_psd: np.ndarray, dt_s: float) -> 
 
     ``Qd = (Phi G Q G^T Phi^T + G Q G^T) dt / 2`` (Van Loan to second order). F must have the
     structure of :func:`F_matrix` (zero outside rows 0-8 and columns 0-14), which the compiled
-    kernels (:func:`tauvcore.filter.kernels.transition_into`, ``sandwich_into``) exploit.
+    kernels (:func:`tauvcore.filter.kernels.error_model.transition_into`, ``sandwich_into``) exploit.
     """
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.common import CORE, NAV, flat
+    from tauvcore.filter.kernels.error_model import discretise_batch
 
     F = np.asarray(F, dtype=float)
-    if np.any(F[..., kernels.NAV :, :]) or np.any(F[..., :, kernels.CORE :]):
+    if np.any(F[..., NAV:, :]) or np.any(F[..., :, CORE:]):
         raise ValueError("F must be zero outside rows 0-8 and columns 0-14 (the structure of F_matrix)")
     batch = np.broadcast_shapes(F.shape[:-2], np.shape(G)[:-2])
-    Phi, Qd = kernels.discretise_batch(
-        kernels.flat(F, batch, (STATE.dim, STATE.dim)),
-        kernels.flat(G, batch, (STATE.dim, NOISE.dim)),
-        kernels.flat(q_psd, (), (NOISE.dim,))[0],
+    Phi, Qd = discretise_batch(
+        flat(F, batch, (STATE.dim, STATE.dim)),
+        flat(G, batch, (STATE.dim, NOISE.dim)),
+        flat(q_psd, (), (NOISE.dim,))[0],
         float(dt_s),
     )
     return Phi.reshape(batch + Phi.shape[1:]), Qd.reshape(batch + Qd.shape[1:])

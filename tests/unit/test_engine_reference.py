@@ -70,9 +70,8 @@ def test_compiled_engine_equals_numpy_reference(trajectory: str) -> None:
 def test_both_banks_record_the_series_in_the_order_the_results_unpack_them() -> None:
     """tauvcore.engine.results.method_result unpacks the rows of both banks' series by SERIES_FIELDS:
     the 20-state kernels' rows and the Yoo kernels' must be the same names in the same order."""
-    from tauvcore.engine import yoo_bank
+    from tauvcore.engine import loop, yoo_bank, yoo_loop
     from tauvcore.engine.results import SERIES_FIELDS
-    from tauvcore.filter import kernels, yoo_kernels
 
-    assert tuple(SERIES_FIELDS) == kernels.SERIES_NAMES == yoo_bank.SERIES
-    assert yoo_kernels.NUM_SERIES == len(SERIES_FIELDS)
+    assert tuple(SERIES_FIELDS) == loop.SERIES_NAMES == yoo_bank.SERIES
+    assert yoo_loop.NUM_SERIES == len(SERIES_FIELDS)

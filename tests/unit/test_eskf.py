@@ -185,10 +185,10 @@ def test_discretise_equals_the_dense_series_and_trapezoid():
 
 
 def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
-    """kernels.propagate_bank (F's non-zero block, Horner Phi, the structured G Q G^T of the IMU
+    """propagate_bank (F's non-zero block, Horner Phi, the structured G Q G^T of the IMU
     noise and the random walks, one sandwich) equals the dense path P <- Phi P Phi^T + Qd of
     F_matrix, G_matrix and discretise at random nominal states, for several filters at once."""
-    from tauvcore.filter import kernels
+    from tauvcore.filter.kernels.error_model import propagate_bank
     from tauvcore.geo.earth import Earth
     from tauvcore.ins.error_model import F_matrix, G_matrix, discretise
     rng = np.random.default_rng(57)
@@ -207,7 +207,7 @@ def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
     Phi, Qd = discretise(F, G, q, dt)
     dense = Phi @ P @ np.swapaxes(Phi, -1, -2) + Qd
     bank = P.copy()
-    kernels.propagate_bank(bank, np.zeros(vel_n.shape), np.ascontiguousarray(C), vel_n, bg, dtheta_sum, dt,
+    propagate_bank(bank, np.zeros(vel_n.shape), np.ascontiguousarray(C), vel_n, bg, dtheta_sum, dt,
                            np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False)
     np.testing.assert_allclose(bank, 0.5 * (dense + np.swapaxes(dense, -1, -2)), rtol=1e-12, atol=1e-13)
     np.testing.assert_array_equal(bank, np.swapaxes(bank, -1, -2))

@@ -13,7 +13,7 @@ from scipy import stats
 from tauvcore.aiding import noise_floors
 from tauvcore.aiding.dvl_loose import solve_velocity
 from tauvcore.config import Config
-from tauvcore.engine import filter_bank
+from tauvcore.engine import filter_bank, loop
 from tauvcore.engine.mission import run
 from tauvcore.engine.monitor import (
     LOCKOUT_UPDATES,
@@ -22,7 +22,7 @@ from tauvcore.engine.monitor import (
     innovation_divergence_s,
 )
 from tauvcore.engine.simulation import simulate
-from tauvcore.filter import eskf, kernels
+from tauvcore.filter import eskf
 from tauvcore.filter.eskf import Measurement, condition_covariance, correct
 from tauvcore.filter.layout import STATE
 from tauvcore.filter.statistics import nees
@@ -259,10 +259,10 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
     conditioning (aiding epochs; the once-a-second check inside the compiled stretch sends a failure
     to the repair below): finite and positive definite (numpy's own Cholesky factorisation
     succeeds, the scale-free test). The compiled stretch between aiding epochs
-    (kernels.run_stops) is made to return after every covariance stop, so that each step's P is
+    (loop.run_stops) is made to return after every covariance stop, so that each step's P is
     seen. -> calls per kind."""
     calls = {"propagate": 0, "condition": 0}
-    real_check, real_stops = kernels.positive_definite_bank, kernels.run_stops
+    real_check, real_stops = loop.positive_definite_bank, loop.run_stops
     real_repair = filter_bank.condition_covariance
 
     def check(P: np.ndarray) -> None:
@@ -283,17 +283,17 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
         return P_out, repaired
 
     def run_stops(stops, is_event, out_row, s_from, s_to, *args):
-        s, why = s_from, kernels.STOPS_DONE
+        s, why = s_from, loop.STOPS_DONE
         while s < s_to:
             s, why = real_stops(stops, is_event, out_row, s, s + 1, *args)
             calls["propagate"] += 1
-            if why != kernels.STOPS_REPAIR:
+            if why != loop.STOPS_REPAIR:
                 check(args[11])         # P (k0, check_step, yield_every, counters, pos, ... P); a repair needs the caller first
-            if why != kernels.STOPS_DONE:
+            if why != loop.STOPS_DONE:
                 return s, why           # the counters (args[3]) are updated in place by each call
-        return s_to, kernels.STOPS_DONE
-    monkeypatch.setattr(kernels, "positive_definite_bank", positive_definite_bank)
-    monkeypatch.setattr(kernels, "run_stops", run_stops)
+        return s_to, loop.STOPS_DONE
+    monkeypatch.setattr(loop, "positive_definite_bank", positive_definite_bank)
+    monkeypatch.setattr(loop, "run_stops", run_stops)
     monkeypatch.setattr(filter_bank, "condition_covariance", repair)
     return calls
 
@@ -402,11 +402,11 @@ def test_sensor_error_prior_bound_is_the_bonferroni_chi_square_quantile():
 
 
 def test_the_banks_compiled_sensor_check_flags_what_implausible_sensor_errors_flags():
-    """tauvcore.filter.kernels.flag_implausible_bank (the filter bank's check at every aiding
+    """tauvcore.engine.loop.flag_implausible_bank (the filter bank's check at every aiding
     epoch) against the numpy function: the same entries flagged, at the first time, NaN estimates
     never flagged, an entry flagged once keeps its first time."""
+    from tauvcore.engine.loop import flag_implausible_bank
     from tauvcore.engine.monitor import sensor_prior_bound
-    from tauvcore.filter import kernels
 
     rng = np.random.default_rng(5)
     M, R = 3, 50
@@ -418,7 +418,7 @@ def test_the_banks_compiled_sensor_check_flags_what_implausible_sensor_errors_fl
         est[0, 0, 1] = np.nan
         ba, bg, bdvl, sf = (np.ascontiguousarray(a) for a in (est[..., :3], est[..., 3:6], est[..., 6:10],
                                                               est[..., 10]))
-        kernels.flag_implausible_bank(ba, bg, bdvl, sf, var0, rate, t, sensor_prior_bound(11), flagged)
+        flag_implausible_bank(ba, bg, bdvl, sf, var0, rate, t, sensor_prior_bound(11), flagged)
         wild = implausible_sensor_errors(est, var0 + rate * t)
         expected[wild & np.isnan(expected)] = t
     np.testing.assert_array_equal(flagged, expected)

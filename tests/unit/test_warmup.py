@@ -2,17 +2,23 @@
 
 from __future__ import annotations
 
-from tauvcore.engine import warmup
-from tauvcore.filter import kernels
+from tauvcore.engine import loop, warmup, yoo_loop
+from tauvcore.filter.kernels import correction, dvl, strapdown
 from tauvcore.truth import dynamic
 
-# the engine's entry points from Python (propagate_bank runs inside run_stops)
-ENGINE_KERNELS = ("run_stops", "advance", "record_bank", "correct_batch", "inject_batch",
-                  "positive_definite_bank", "dvl_measure_bank")
+# the engine's entry points from Python (propagate_bank runs inside run_stops), by their modules
+ENGINE_KERNELS = (
+    (loop, ("run_stops", "record_bank", "positive_definite_bank", "flag_implausible_bank")),
+    (yoo_loop, ("run_stops",)),
+    (strapdown, ("advance",)),
+    (correction, ("correct_batch", "inject_batch")),
+    (dvl, ("dvl_measure_bank",)),
+)
 
 
 def test_the_warm_up_compiles_every_kernel_the_engine_calls() -> None:
     assert warmup.warm_up() > 0.0
-    for name in ENGINE_KERNELS:
-        assert getattr(kernels, name).signatures, f"{name} was not compiled by the warm-up"
+    for module, names in ENGINE_KERNELS:
+        for name in names:
+            assert getattr(module, name).signatures, f"{module.__name__}.{name} was not compiled by the warm-up"
     assert dynamic.simulate_knots.signatures, "the dynamic truth was not compiled by the warm-up"

@@ -1,0 +1,337 @@
+"""The filter bank's compiled loop: what tauvcore.engine.filter_bank runs between aiding epochs in
+one call (:func:`run_stops`: the nominal states advanced, the covariances propagated and checked,
+the output epochs recorded), the record of an output epoch (:func:`record_bank`) and the bank's
+health checks (:func:`positive_definite_bank`, :func:`flag_implausible_bank`). It calls the
+filter's kernels (tauvcore.filter.kernels) in the order the step-by-step loop would."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, N, jit, ned_offset
+from tauvcore.filter.kernels.correction import nav_difference_into
+from tauvcore.filter.kernels.error_model import propagate_bank
+from tauvcore.filter.kernels.nees import cholesky_into, nees_blocks_into, nees_plan
+from tauvcore.filter.kernels.strapdown import advance
+
+SERIES_NAMES = (
+    "vel_err",
+    "att_err",
+    "pos_err",
+    "vel_sigma",
+    "att_sigma",
+    "pos_sigma",
+    "nees",
+    "tilt_err",
+    "heading_err",
+    "tilt_sigma",
+    "heading_sigma",
+)
+"""Rows of the ``series`` array :func:`record_bank` fills (norms, 1-sigma, NEES; attitude in deg)."""
+
+
+@jit
+def record_bank(
+    slot: int,
+    t_s: float,
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    ba_t: np.ndarray,
+    bg_t: np.ndarray,
+    bdvl_t: np.ndarray,
+    sf_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    bdvl: np.ndarray,
+    sf: np.ndarray,
+    P: np.ndarray,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    deg: float,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+    est_pos: np.ndarray,
+    nonfinite_at: np.ndarray,
+    geodetic: bool,
+    origin: np.ndarray,
+    est_vel: np.ndarray,
+    est_euler: np.ndarray,
+) -> None:
+    """One output epoch of every (method, run): the error ``true (-) estimate``
+    (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma, the NEES of the full
+    state and of each block, the estimated position; and the health check without truth (a
+    non-finite navigation state or P's variances sets ``nonfinite_at`` once).
+
+    Truth: pos_t, vel_t (3,), C_t (3, 3) shared; the true sensor errors per run ba_t, bg_t (R, 3),
+    bdvl_t (R, 4), sf_t (R,). series (11, T, M, R) in :data:`SERIES_NAMES` order. On WGS-84
+    (``geodetic``) the estimated position is recorded in NED metres from ``origin`` (latitude,
+    longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components). The
+    estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3)."""
+    M, R = pos.shape[0], pos.shape[1]
+    dx = np.empty(N)
+    Ce = np.empty((3, 3))
+    rho = np.empty(3)
+    L = np.empty((N, N))
+    y = np.empty(N)
+    members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
+    for m in range(M):
+        for r in range(R):
+            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx, geodetic)
+            for i in range(3):
+                dx[BA + i] = ba_t[r, i] - ba[m, r, i]
+                dx[BG + i] = bg_t[r, i] - bg[m, r, i]
+            for i in range(4):
+                dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
+            dx[SF] = sf_t[r] - sf[m, r]
+            Pm = P[m, r]
+            ev = ea = ep = sv = sa = sp = 0.0
+            for i in range(3):
+                ev += dx[VEL + i] ** 2
+                ea += dx[ATT + i] ** 2
+                ep += dx[POS + i] ** 2
+                sv += Pm[VEL + i, VEL + i]
+                sa += Pm[ATT + i, ATT + i]
+                sp += Pm[POS + i, POS + i]
+            series[0, slot, m, r] = math.sqrt(ev)
+            series[1, slot, m, r] = math.sqrt(ea) / deg
+            series[2, slot, m, r] = math.sqrt(ep)
+            series[3, slot, m, r] = math.sqrt(sv)
+            series[4, slot, m, r] = math.sqrt(sa) / deg
+            series[5, slot, m, r] = math.sqrt(sp)
+            series[6, slot, m, r] = nees_blocks_into(
+                Pm, dx, members, sizes, lead, order, L, y, nees_block[slot, m, r]
+            )
+            series[7, slot, m, r] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
+            series[8, slot, m, r] = abs(dx[ATT + 2]) / deg
+            series[9, slot, m, r] = math.sqrt(Pm[ATT, ATT] + Pm[ATT + 1, ATT + 1]) / deg
+            series[10, slot, m, r] = math.sqrt(Pm[ATT + 2, ATT + 2]) / deg
+            total = 0.0
+            for i in range(N):
+                total += Pm[i, i]
+            if geodetic:
+                n0, n1, n2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
+                est_pos[slot, m, r, 0], est_pos[slot, m, r, 1], est_pos[slot, m, r, 2] = n0, n1, n2
+            for i in range(3):
+                if not geodetic:
+                    est_pos[slot, m, r, i] = pos[m, r, i]
+                est_vel[slot, m, r, i] = vel[m, r, i]
+                total += pos[m, r, i] + vel[m, r, i]
+            Cm = C[m, r]
+            est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
+            est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
+            est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
+            if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
+                nonfinite_at[m, r] = t_s
+
+
+@jit
+def positive_definite_bank(P: np.ndarray) -> np.ndarray:
+    """(M, R) bool: each P (M, R, 20, 20) is finite and its Cholesky factorisation succeeds."""
+    out = np.empty(P.shape[:2], dtype=np.bool_)
+    L = np.empty((N, N))
+    idx = np.arange(N)
+    for m in range(P.shape[0]):
+        for r in range(P.shape[1]):
+            out[m, r] = cholesky_into(P[m, r], idx, N, L)
+    return out
+
+
+STOPS_DONE, STOPS_EVENT, STOPS_REPAIR, STOPS_YIELD = 0, 1, 2, 3
+"""Why :func:`run_stops` returned: every stop done; an aiding epoch (the caller corrects, records
+and goes on after it); a covariance failed its check (the caller repairs it, then as for an
+event); an output epoch was recorded at which the caller asked to be called back."""
+
+
+@jit
+def run_stops(
+    stops: np.ndarray,
+    is_event: np.ndarray,
+    out_row: np.ndarray,
+    s_from: int,
+    s_to: int,
+    k0: int,
+    check_step: int,
+    yield_every: int,
+    counters: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    bdvl: np.ndarray,
+    sf: np.ndarray,
+    P: np.ndarray,
+    dtheta_sum: np.ndarray,
+    ping_bias: np.ndarray,
+    ping_sf: np.ndarray,
+    nonfinite_at: np.ndarray,
+    phi_raw: np.ndarray,
+    dv_raw: np.ndarray,
+    dtheta: np.ndarray,
+    t_s: np.ndarray,
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    ba_t: np.ndarray,
+    bg_t: np.ndarray,
+    ping_rows: np.ndarray,
+    ping_bias_all: np.ndarray,
+    ping_sf_all: np.ndarray,
+    dt: float,
+    C_earth: np.ndarray,
+    C_earth_half: np.ndarray,
+    g_n: np.ndarray,
+    coriolis_T: np.ndarray,
+    geodetic: bool,
+    origin: np.ndarray,
+    w_ie: np.ndarray,
+    q: np.ndarray,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    deg: float,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+    est_pos: np.ndarray,
+    out_t: np.ndarray,
+    est_vel: np.ndarray,
+    est_euler: np.ndarray,
+) -> tuple:
+    """The filter bank between aiding epochs, in one call: for each covariance stop
+    ``stops[s_from:s_to]`` (global samples; the chunk starts at ``k0``) advance the nominal states
+    (:func:`advance`), propagate the covariances (:func:`propagate_bank`), check them once every
+    ``check_step`` samples (:func:`positive_definite_bank`) and, at an output epoch
+    (``out_row[s] >= 0``), record it (:func:`record_bank`, with the true DVL errors of the latest
+    ping at or before it). Returns ``(s, why)`` at the first stop the caller must finish
+    (:data:`STOPS_EVENT`, :data:`STOPS_REPAIR`, :data:`STOPS_YIELD` every ``yield_every``
+    recorded epochs if positive) or ``(s_to, STOPS_DONE)``.
+
+    ``counters`` (int64, in place): the sample the nominal state is at, the covariance's, the
+    last check's, and the output epochs recorded. The same kernels the caller would call one by
+    one, in the same order, so the numbers are those of the step-by-step loop."""
+    M, R = pos.shape[0], pos.shape[1]
+    k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
+    why = STOPS_DONE
+    s = s_from
+    while s < s_to:
+        k = stops[s]
+        i: int = k - k0
+        advance(
+            pos,
+            vel,
+            C,
+            ba,
+            bg,
+            phi_raw,
+            dv_raw,
+            dtheta,
+            dtheta_sum,
+            k_state - k0,
+            i,
+            dt,
+            C_earth,
+            C_earth_half,
+            g_n,
+            coriolis_T,
+            geodetic,
+        )
+        k_state = k
+        propagate_bank(P, pos, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q, geodetic)
+        for r in range(R):
+            for j in range(3):
+                dtheta_sum[r, j] = 0.0
+        k_cov = k
+        if k - k_checked >= check_step:
+            k_checked = k
+            ok = positive_definite_bank(P)
+            for m in range(M):
+                for r in range(R):
+                    if not ok[m, r]:
+                        why = STOPS_REPAIR
+        if why == STOPS_DONE and is_event[s]:
+            why = STOPS_EVENT
+        if why == STOPS_DONE and out_row[s] >= 0:
+            latest = np.searchsorted(ping_rows, k, side="right") - 1
+            if latest >= 0:
+                for r in range(R):
+                    for j in range(ping_bias.shape[1]):
+                        ping_bias[r, j] = ping_bias_all[latest, r, j]
+                    ping_sf[r] = ping_sf_all[latest, r]
+            row = out_row[s]
+            record_bank(
+                row,
+                t_s[i],
+                pos_t[i],
+                vel_t[i],
+                C_t[i],
+                ba_t[i],
+                bg_t[i],
+                ping_bias,
+                ping_sf,
+                pos,
+                vel,
+                C,
+                ba,
+                bg,
+                bdvl,
+                sf,
+                P,
+                block_of_state,
+                num_blocks,
+                deg,
+                series,
+                nees_block,
+                est_pos,
+                nonfinite_at,
+                geodetic,
+                origin,
+                est_vel,
+                est_euler,
+            )
+            out_t[row] = t_s[i]
+            slot += 1
+            if yield_every > 0 and slot % yield_every == 0:
+                why = STOPS_YIELD
+        if why != STOPS_DONE:
+            break
+        s += 1
+    counters[0], counters[1], counters[2], counters[3] = k_state, k_cov, k_checked, slot
+    return s, why
+
+
+@jit
+def flag_implausible_bank(
+    ba: np.ndarray,
+    bg: np.ndarray,
+    bdvl: np.ndarray,
+    sf: np.ndarray,
+    prior_var0: np.ndarray,
+    prior_rate: np.ndarray,
+    t: float,
+    bound: float,
+    flagged_at: np.ndarray,
+) -> None:
+    """tauvcore.engine.monitor.implausible_sensor_errors over the bank's sensor-error estimates
+    (ba, bg (M, R, 3), bdvl (M, R, 4), sf (M, R): 11 states in that order) at time ``t``: an entry
+    not yet flagged whose estimate has a component with ``x^2 > bound (sigma_0^2 + q t)`` gets
+    ``flagged_at = t``."""
+    est = np.empty(11)
+    for m in range(ba.shape[0]):
+        for r in range(ba.shape[1]):
+            if not math.isnan(flagged_at[m, r]):
+                continue
+            for i in range(3):
+                est[i] = ba[m, r, i]
+                est[3 + i] = bg[m, r, i]
+            for i in range(4):
+                est[6 + i] = bdvl[m, r, i]
+            est[10] = sf[m, r]
+            for i in range(11):
+                if est[i] * est[i] > bound * (prior_var0[i] + prior_rate[i] * t):
+                    flagged_at[m, r] = t
+                    break

@@ -1,0 +1,316 @@
+"""The error state's arithmetic with the nominal state, compiled: the gated Joseph-form
+correction (tauvcore.filter.eskf.correct), the closed-loop injection ``x_hat (+) dx``
+(tauvcore.filter.eskf.inject), and the difference ``true (-) estimate``
+(tauvcore.filter.eskf.difference); positions on WGS-84 through the metric at the estimate."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, NAV, POS, SF, VEL, N, jit, radii_nav
+from tauvcore.filter.kernels.nees import cholesky_into
+from tauvcore.filter.kernels.rotations import exp_so3_into, log_so3_into
+
+
+@jit
+def _solve_chol(L: np.ndarray, n: int, b: np.ndarray, x: np.ndarray) -> None:
+    """Solve ``L L^T x = b`` (n,) with the factor in ``L[:n, :n]``."""
+    for i in range(n):
+        t = b[i]
+        for k in range(i):
+            t -= L[i, k] * x[k]
+        x[i] = t / L[i, i]
+    for i in range(n - 1, -1, -1):
+        t = x[i]
+        for k in range(i + 1, n):
+            t -= L[k, i] * x[k]
+        x[i] = t / L[i, i]
+
+
+@jit
+def correct_into(
+    P: np.ndarray,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    gate_rows: bool,
+    gate_sigma: float,
+    dx: np.ndarray,
+    s_diag: np.ndarray,
+    keep: np.ndarray,
+) -> tuple[float, float, bool]:
+    """Gated Joseph-form correction of one filter (tauvcore.filter.eskf.correct), P in place.
+
+    Rows with ``active`` False are dropped exactly. ``S`` over the active rows must factorise
+    (else: unusable, nothing fused). The paper's gate keeps a row if ``nu_i^2 <= gate^2 S_ii``
+    (all rows or none unless ``gate_rows``). Fills ``dx`` (20,), ``s_diag`` (m,; NaN where not
+    used), ``keep`` (m,); returns ``(nis, test_ratio, unusable)`` (NaN when no row was used).
+    """
+    m = nu.shape[0]
+    rows = np.empty(m, dtype=np.int64)
+    n_a = 0
+    for i in range(m):
+        keep[i] = False
+        s_diag[i] = np.nan
+        if active[i]:
+            rows[n_a] = i
+            n_a += 1
+    dx[:] = 0.0
+    if n_a == 0:
+        return np.nan, np.nan, False
+    U = np.empty((m, N))  # H P over the rows in use
+    S = np.empty((m, m))
+    L = np.empty((m, m))
+    for a in range(n_a):
+        for j in range(N):
+            s = 0.0
+            for k in range(N):
+                s += H[rows[a], k] * P[k, j]
+            U[a, j] = s
+    for a in range(n_a):
+        for b in range(n_a):
+            s = Rm[rows[a], rows[b]]
+            for k in range(N):
+                s += U[a, k] * H[rows[b], k]
+            S[a, b] = s
+    ident = np.arange(m)
+    if not cholesky_into(S, ident, n_a, L):
+        return np.nan, np.nan, True
+    nu_a = np.empty(m)
+    sol = np.empty(m)
+    for a in range(n_a):
+        nu_a[a] = nu[rows[a]]
+    _solve_chol(L, n_a, nu_a, sol)
+    nis = 0.0
+    ratio_max = 0.0
+    all_pass = True
+    for a in range(n_a):
+        nis += nu_a[a] * sol[a]
+        s_diag[rows[a]] = S[a, a]
+        ratio = nu_a[a] * nu_a[a] / (gate_sigma * gate_sigma * S[a, a])
+        ratio_max = max(ratio_max, ratio)
+        keep[rows[a]] = ratio <= 1.0
+        all_pass = all_pass and ratio <= 1.0
+    if not gate_rows and not all_pass:
+        for a in range(n_a):
+            keep[rows[a]] = False
+    n_k = 0
+    for a in range(n_a):
+        if keep[rows[a]]:
+            if n_k != a:  # compact the kept rows to the front
+                rows[n_k] = rows[a]
+                for j in range(N):
+                    U[n_k, j] = U[a, j]
+                nu_a[n_k] = nu_a[a]
+            n_k += 1
+    if n_k == 0:
+        return nis, ratio_max, False
+    if n_k != n_a:  # S over the kept rows
+        for a in range(n_k):
+            for b in range(n_k):
+                s = Rm[rows[a], rows[b]]
+                for k in range(N):
+                    s += U[a, k] * H[rows[b], k]
+                S[a, b] = s
+        if not cholesky_into(S, ident, n_k, L):
+            return nis, ratio_max, True
+    # K = P H^T S^-1 = (S^-1 U)^T: column j of U through the factor
+    K = np.empty((N, m))
+    col = np.empty(m)
+    out = np.empty(m)
+    for j in range(N):
+        for a in range(n_k):
+            col[a] = U[a, j]
+        _solve_chol(L, n_k, col, out)
+        for a in range(n_k):
+            K[j, a] = out[a]
+    # Joseph: P = (I - K H) P (I - K H)^T + K R K^T
+    IKH = np.empty((N, N))
+    for i in range(N):
+        for j in range(N):
+            s = 1.0 if i == j else 0.0
+            for a in range(n_k):
+                s -= K[i, a] * H[rows[a], j]
+            IKH[i, j] = s
+    W = np.empty((N, N))
+    for i in range(N):
+        for j in range(N):
+            s = 0.0
+            for k in range(N):
+                s += IKH[i, k] * P[k, j]
+            W[i, j] = s
+    KR = np.empty((N, m))
+    for i in range(N):
+        for b in range(n_k):
+            s = 0.0
+            for a in range(n_k):
+                s += K[i, a] * Rm[rows[a], rows[b]]
+            KR[i, b] = s
+    for i in range(N):
+        for j in range(i, N):
+            s = 0.0
+            for k in range(N):
+                s += W[i, k] * IKH[j, k]
+            t = 0.0
+            for b in range(n_k):
+                t += KR[i, b] * K[j, b]
+            P[i, j] = s + t
+    for i in range(N):
+        for j in range(i):
+            P[i, j] = P[j, i]
+    for i in range(N):
+        s = 0.0
+        for a in range(n_k):
+            s += K[i, a] * nu_a[a]
+        dx[i] = s
+    return nis, ratio_max, False
+
+
+@jit
+def correct_batch(
+    P: np.ndarray,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    gate_rows: np.ndarray,
+    gate_sigma: float,
+) -> tuple:
+    """:func:`correct_into` for n filters: P (n, 20, 20) in place, H (n, m, 20), Rm (n, m, m), nu,
+    active (n, m), gate_rows (n,). -> dx (n, 20), s_diag (n, m), keep (n, m), nis, test_ratio,
+    unusable (n,)."""
+    n, m = nu.shape
+    dx = np.empty((n, N))
+    s_diag = np.empty((n, m))
+    keep = np.empty((n, m), dtype=np.bool_)
+    nis = np.empty(n)
+    ratio = np.empty(n)
+    unusable = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        nis[i], ratio[i], unusable[i] = correct_into(
+            P[i], H[i], Rm[i], nu[i], active[i], gate_rows[i], gate_sigma, dx[i], s_diag[i], keep[i]
+        )
+    return dx, s_diag, keep, nis, ratio, unusable
+
+
+@jit
+def add_position_into(pos: np.ndarray, d_north: float, d_east: float, d_down: float, geodetic: bool) -> None:
+    """Move a position by (north, east, down) metres in place: added as they are in the flat model;
+    on WGS-84 (latitude, longitude, depth) through the metric at the position itself, the inverse
+    of :func:`nav_difference_into`'s position error."""
+    if geodetic:
+        R_N, R_E = radii_nav(pos[0])
+        lat = pos[0]
+        pos[0] = lat + d_north / (R_N - pos[2])
+        pos[1] = pos[1] + d_east / ((R_E - pos[2]) * math.cos(lat))
+        pos[2] = pos[2] + d_down
+    else:
+        pos[0] += d_north
+        pos[1] += d_east
+        pos[2] += d_down
+
+
+@jit
+def add_position_batch(pos: np.ndarray, d: np.ndarray, geodetic: bool) -> np.ndarray:
+    """:func:`add_position_into` for n positions (n, 3) and offsets (n, 3) -> new positions (n, 3)."""
+    out = pos.copy()
+    for i in range(pos.shape[0]):
+        add_position_into(out[i], d[i, 0], d[i, 1], d[i, 2], geodetic)
+    return out
+
+
+@jit
+def inject_batch(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    accel_bias: np.ndarray,
+    gyro_bias: np.ndarray,
+    dvl_bias: np.ndarray,
+    dvl_sf: np.ndarray,
+    dx: np.ndarray,
+    geodetic: bool,
+) -> None:
+    """Closed-loop injection ``x_hat <- x_hat (+) dx`` (tauvcore.filter.eskf.inject) for n filters in
+    place: position and biases add, ``C <- exp([rho x]) C``, the body velocity adds and ``vel_n`` is
+    rebuilt with the corrected attitude. pos, vel (n, 3), C (n, 3, 3), biases (n, 3), (n, 3), (n, 4),
+    dvl_sf (n,), dx (n, 20). On WGS-84 (``geodetic``) the position error in metres moves latitude,
+    longitude and depth by the metric at the estimate (:func:`add_position_into`)."""
+    E = np.empty((3, 3))
+    C1 = np.empty((3, 3))
+    vb = np.empty(3)
+    for i in range(pos.shape[0]):
+        exp_so3_into(dx[i, ATT], dx[i, ATT + 1], dx[i, ATT + 2], E)
+        for r in range(3):
+            for c in range(3):
+                C1[r, c] = E[r, 0] * C[i, 0, c] + E[r, 1] * C[i, 1, c] + E[r, 2] * C[i, 2, c]
+        for c in range(3):
+            vb[c] = C[i, 0, c] * vel[i, 0] + C[i, 1, c] * vel[i, 1] + C[i, 2, c] * vel[i, 2] + dx[i, VEL + c]
+        add_position_into(pos[i], dx[i, POS], dx[i, POS + 1], dx[i, POS + 2], geodetic)
+        for r in range(3):
+            vel[i, r] = C1[r, 0] * vb[0] + C1[r, 1] * vb[1] + C1[r, 2] * vb[2]
+            accel_bias[i, r] += dx[i, BA + r]
+            gyro_bias[i, r] += dx[i, BG + r]
+            for c in range(3):
+                C[i, r, c] = C1[r, c]
+        for b in range(4):
+            dvl_bias[i, b] += dx[i, BDVL + b]
+        dvl_sf[i] += dx[i, SF]
+
+
+@jit
+def nav_difference_into(
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    Ce: np.ndarray,
+    rho: np.ndarray,
+    dx: np.ndarray,
+    geodetic: bool,
+) -> None:
+    """Navigation part of ``true (-) estimate`` (tauvcore.filter.eskf.difference) into ``dx[0:9]``:
+    position, misalignment ``log(C_t C^T)``, body velocity ``C_t^T v_t - C^T v``. Ce (3, 3), rho (3,)
+    scratch. On WGS-84 (``geodetic``; positions latitude, longitude, depth) the position error is
+    in metres at the estimate, the filter's own definition (tauvcore.ins.error_model):
+    ``((R_N + h) dlat, (R_E + h) cos(lat) dlon, d depth)``."""
+    for i in range(3):
+        for j in range(3):
+            Ce[i, j] = C_t[i, 0] * C[j, 0] + C_t[i, 1] * C[j, 1] + C_t[i, 2] * C[j, 2]
+    log_so3_into(Ce, rho)
+    if geodetic:
+        R_N, R_E = radii_nav(pos[0])
+        dx[POS] = (R_N - pos[2]) * (pos_t[0] - pos[0])
+        dx[POS + 1] = (R_E - pos[2]) * math.cos(pos[0]) * (pos_t[1] - pos[1])
+        dx[POS + 2] = pos_t[2] - pos[2]
+    for i in range(3):
+        if not geodetic:
+            dx[POS + i] = pos_t[i] - pos[i]
+        dx[ATT + i] = rho[i]
+        dx[VEL + i] = (C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2]) - (
+            C[0, i] * vel[0] + C[1, i] * vel[1] + C[2, i] * vel[2]
+        )
+
+
+@jit
+def difference_batch(
+    pos_t: np.ndarray,
+    vel_t: np.ndarray,
+    C_t: np.ndarray,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    geodetic: bool,
+) -> np.ndarray:
+    """:func:`nav_difference_into` for n pairs -> (n, 9)."""
+    out = np.empty((pos.shape[0], NAV))
+    Ce = np.empty((3, 3))
+    rho = np.empty(3)
+    for n in range(pos.shape[0]):
+        nav_difference_into(pos_t[n], vel_t[n], C_t[n], pos[n], vel[n], C[n], Ce, rho, out[n], geodetic)
+    return out
