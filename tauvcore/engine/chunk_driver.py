@@ -29,7 +29,7 @@ import numpy as np
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.filter.kernels.strapdown import advance
+from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
 EPOCH_FIELDS = frozenset(("t_s", "out_k", "series", "nees_block", "est_pos_n", "est_vel_n", "est_euler"))
@@ -81,7 +81,7 @@ class ChunkDriver:
         earth = config.earth
         strapdown = Strapdown(earth, dt_s)
         self.geodetic = earth.geodetic
-        self.sd_consts = (
+        self.sd_consts = StrapdownConstants(
             dt_s,
             strapdown.C_earth,
             strapdown.C_earth_half,

@@ -407,8 +407,33 @@ class FilterBank(ChunkDriver):
         fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))
         self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
 
+    def _bank_state(self) -> loop.BankState:
+        """The bank's states as the compiled loop takes them (the arrays themselves, not copies)."""
+        return loop.BankState(
+            self.pos,
+            self.vel,
+            self.C,
+            self.ba,
+            self.bg,
+            self.bdvl,
+            self.sf,
+            self.P,
+            self.dtheta_sum,
+            self.ping_bias,
+            self.ping_sf,
+            self.nonfinite_at_s,
+        )
+
     def _record(self, out: Store, row: int, i: int) -> None:
-        t_s, pos_t, vel_t, C_t, ba_t, bg_t = self._chunk_in[3:9]
+        truth = self._chunk_in
+        t_s, pos_t, vel_t, C_t, ba_t, bg_t = (
+            truth.t_s,
+            truth.pos_t,
+            truth.vel_t,
+            truth.C_t,
+            truth.ba_t,
+            truth.bg_t,
+        )
         loop.record_bank(
             row,
             float(t_s[i]),
@@ -494,7 +519,7 @@ class FilterBank(ChunkDriver):
         ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
         truth = chunk.truth
         # the chunk's inputs of the compiled stretch between aiding epochs (loop.run_stops)
-        chunk_in = (
+        chunk_in = loop.ChunkTruth(
             phi_raw,
             dv_raw,
             dtheta,
@@ -521,46 +546,32 @@ class FilterBank(ChunkDriver):
         )
         is_event = events[stops - k0]
         stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
+        schedule = loop.Schedule(stops, is_event, stop_row, k0, self.check_step, poll_every)
+        constants = loop.Model(
+            self.origin, self.w_ie, self.q_psd, self.block_of_state, len(NEES_BLOCKS), units.DEG
+        )
+        outputs = loop.Outputs(
+            store["series"],
+            store["nees_block"],
+            store["est_pos_n"],
+            store["t_s"],
+            store["est_vel_n"],
+            store["est_euler"],
+        )
         counters = np.zeros(4, dtype=np.int64)
         s = 0
         while s < stops.size:
             counters[:] = (self.k_state, self.k_cov, self.k_checked, self.slot)
             s, why = loop.run_stops(
-                stops,
-                is_event,
-                stop_row,
+                schedule,
                 s,
                 stops.size,
-                k0,
-                self.check_step,
-                poll_every,
                 counters,
-                self.pos,
-                self.vel,
-                self.C,
-                self.ba,
-                self.bg,
-                self.bdvl,
-                self.sf,
-                self.P,
-                self.dtheta_sum,
-                self.ping_bias,
-                self.ping_sf,
-                self.nonfinite_at_s,
-                *chunk_in,
-                *self.sd_consts,
-                self.origin,
-                self.w_ie,
-                self.q_psd,
-                self.block_of_state,
-                len(NEES_BLOCKS),
-                units.DEG,
-                store["series"],
-                store["nees_block"],
-                store["est_pos_n"],
-                store["t_s"],
-                store["est_vel_n"],
-                store["est_euler"],
+                self._bank_state(),
+                chunk_in,
+                self.sd_consts,
+                constants,
+                outputs,
             )
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
             if why == loop.STOPS_DONE:

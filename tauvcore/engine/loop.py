@@ -7,6 +7,7 @@ filter's kernels (tauvcore.filter.kernels) in the order the step-by-step loop wo
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -14,7 +15,7 @@ from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, N, j
 from tauvcore.filter.kernels.correction import nav_difference_into
 from tauvcore.filter.kernels.error_model import propagate_bank
 from tauvcore.filter.kernels.nees import cholesky_into, nees_blocks_into, nees_plan
-from tauvcore.filter.kernels.strapdown import advance
+from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 
 SERIES_NAMES = (
     "vel_err",
@@ -148,59 +149,85 @@ and goes on after it); a covariance failed its check (the caller repairs it, the
 event); an output epoch was recorded at which the caller asked to be called back."""
 
 
+class Schedule(NamedTuple):
+    """A chunk's stops for :func:`run_stops` (tauvcore.engine.filter_bank.FilterBank._run_chunk)."""
+
+    stops: np.ndarray  # (S,) int64: the global samples the covariance is propagated at, in order
+    is_event: np.ndarray  # (S,) bool: an aiding epoch (the caller corrects there)
+    out_row: np.ndarray  # (S,) int64: the output row recorded at the stop, -1 for none
+    k0: int  # the chunk's first sample
+    check_step: int  # samples between two checks of P (positive definite)
+    yield_every: int  # back to the caller every this many recorded epochs (0: never)
+
+
+class BankState(NamedTuple):
+    """The bank's states, (methods, runs, ...) unless said, written in place."""
+
+    pos: np.ndarray
+    vel: np.ndarray
+    C: np.ndarray
+    ba: np.ndarray
+    bg: np.ndarray
+    bdvl: np.ndarray
+    sf: np.ndarray
+    P: np.ndarray
+    dtheta_sum: np.ndarray  # (R, 3) gyro increments since the last covariance step
+    ping_bias: np.ndarray  # (R, 4) the true DVL beam biases of the latest ping (for the records)
+    ping_sf: np.ndarray  # (R,) and its true scale factor
+    nonfinite_at: np.ndarray  # (M, R) first output epoch [s] with a state or P not finite (NaN: none)
+
+
+class ChunkTruth(NamedTuple):
+    """A chunk's IMU increments (tauvcore.engine.chunk_driver.ChunkInputs), its truth at the IMU
+    samples and the DVL errors of its pings (for the records)."""
+
+    phi_raw: np.ndarray
+    dv_raw: np.ndarray
+    dtheta: np.ndarray
+    t_s: np.ndarray
+    pos_t: np.ndarray
+    vel_t: np.ndarray
+    C_t: np.ndarray
+    ba_t: np.ndarray
+    bg_t: np.ndarray
+    ping_rows: np.ndarray
+    ping_bias_all: np.ndarray
+    ping_sf_all: np.ndarray
+
+
+class Model(NamedTuple):
+    """The bank's constants of the covariance step and the records."""
+
+    origin: np.ndarray  # (3,) the NED records' origin: latitude, longitude [rad], height [m]
+    w_ie: np.ndarray  # (3,) the earth rate in n [rad/s]
+    q: np.ndarray  # the process noise PSDs (tauvcore.ins.error_model.noise_psd)
+    block_of_state: np.ndarray  # (N,) each state's NEES block, -1 for none
+    num_blocks: int
+    deg: float  # degrees per radian of the attitude series
+
+
+class Outputs(NamedTuple):
+    """A chunk's store (tauvcore.engine.chunk_driver), the arrays :func:`record_bank` fills."""
+
+    series: np.ndarray
+    nees_block: np.ndarray
+    est_pos: np.ndarray
+    out_t: np.ndarray
+    est_vel: np.ndarray
+    est_euler: np.ndarray
+
+
 @jit
 def run_stops(
-    stops: np.ndarray,
-    is_event: np.ndarray,
-    out_row: np.ndarray,
+    schedule: Schedule,
     s_from: int,
     s_to: int,
-    k0: int,
-    check_step: int,
-    yield_every: int,
     counters: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    bdvl: np.ndarray,
-    sf: np.ndarray,
-    P: np.ndarray,
-    dtheta_sum: np.ndarray,
-    ping_bias: np.ndarray,
-    ping_sf: np.ndarray,
-    nonfinite_at: np.ndarray,
-    phi_raw: np.ndarray,
-    dv_raw: np.ndarray,
-    dtheta: np.ndarray,
-    t_s: np.ndarray,
-    pos_t: np.ndarray,
-    vel_t: np.ndarray,
-    C_t: np.ndarray,
-    ba_t: np.ndarray,
-    bg_t: np.ndarray,
-    ping_rows: np.ndarray,
-    ping_bias_all: np.ndarray,
-    ping_sf_all: np.ndarray,
-    dt: float,
-    C_earth: np.ndarray,
-    C_earth_half: np.ndarray,
-    g_n: np.ndarray,
-    coriolis_T: np.ndarray,
-    geodetic: bool,
-    origin: np.ndarray,
-    w_ie: np.ndarray,
-    q: np.ndarray,
-    block_of_state: np.ndarray,
-    num_blocks: int,
-    deg: float,
-    series: np.ndarray,
-    nees_block: np.ndarray,
-    est_pos: np.ndarray,
-    out_t: np.ndarray,
-    est_vel: np.ndarray,
-    est_euler: np.ndarray,
+    bank: BankState,
+    chunk: ChunkTruth,
+    sd: StrapdownConstants,
+    constants: Model,
+    outputs: Outputs,
 ) -> tuple:
     """The filter bank between aiding epochs, in one call: for each covariance stop
     ``stops[s_from:s_to]`` (global samples; the chunk starts at ``k0``) advance the nominal states
@@ -214,6 +241,12 @@ def run_stops(
     ``counters`` (int64, in place): the sample the nominal state is at, the covariance's, the
     last check's, and the output epochs recorded. The same kernels the caller would call one by
     one, in the same order, so the numbers are those of the step-by-step loop."""
+    stops, is_event, out_row, k0, check_step, yield_every = schedule
+    pos, vel, C, ba, bg, bdvl, sf, P, dtheta_sum, ping_bias, ping_sf, nonfinite_at = bank
+    phi_raw, dv_raw, dtheta, t_s, pos_t, vel_t, C_t, ba_t, bg_t, ping_rows, ping_bias_all, ping_sf_all = chunk
+    dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
+    origin, w_ie, q, block_of_state, num_blocks, deg = constants
+    series, nees_block, est_pos, out_t, est_vel, est_euler = outputs
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
     why = STOPS_DONE

@@ -14,13 +14,14 @@ so the caller can come back between output epochs (progress, stop requests).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from tauvcore.filter.kernels.common import jit, ned_offset
 from tauvcore.filter.kernels.nees import nees_blocks_into, nees_plan, quadratic_into
 from tauvcore.filter.kernels.rotations import log_so3_into
-from tauvcore.filter.kernels.strapdown import advance
+from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 from tauvcore.filter.yoo_kernels import (
     ATT,
     BA,
@@ -133,86 +134,169 @@ def record(
             est_euler[row, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
 
 
+class YooSchedule(NamedTuple):
+    """A chunk's stops (tauvcore.engine.yoo_bank.YooBank._run_chunk): the global samples, the row of the chunk's pings and of its output epochs at each (-1 for none), the chunk's first sample."""
+
+    stops: np.ndarray
+    ping_of_stop: np.ndarray
+    row_of_stop: np.ndarray
+    k0: int
+
+
+class YooState(NamedTuple):
+    """The bank's states, (methods, runs, ...), and the VKF's, (runs, ...), written in place."""
+
+    pos: np.ndarray
+    vel: np.ndarray
+    C: np.ndarray
+    ba: np.ndarray
+    bg: np.ndarray
+    P: np.ndarray
+    dtheta_sum: np.ndarray
+    vkf_x: np.ndarray
+    vkf_P: np.ndarray
+    vkf_use: np.ndarray
+    vkf_alt: np.ndarray
+
+
+class YooChunk(NamedTuple):
+    """A chunk's IMU increments, DVL beams, RPM and echo sounder epochs, and its truth at the IMU samples (for the records and the VKF's trace)."""
+
+    phi_raw: np.ndarray
+    dv_raw: np.ndarray
+    dtheta: np.ndarray
+    y_beam: np.ndarray
+    available: np.ndarray
+    rpm_index: np.ndarray
+    rpm_value: np.ndarray
+    rpm_sf: np.ndarray
+    rpm_b: np.ndarray
+    echo_index: np.ndarray
+    echo_alt: np.ndarray
+    pos_t: np.ndarray
+    vel_t: np.ndarray
+    C_t: np.ndarray
+    ba_t: np.ndarray
+    bg_t: np.ndarray
+
+
+class YooModel(NamedTuple):
+    """The filters' constants: the records' origin, the earth rate, the process noise, the methods, the DVL geometry and noise, the consider states' walks, the gate, the VKF's tuning and switch, the NEES blocks."""
+
+    origin: np.ndarray
+    w_ie_flat: np.ndarray
+    q: np.ndarray
+    method_code: np.ndarray
+    A_b: np.ndarray
+    l_dvl_b: np.ndarray
+    beam_var: float
+    qc: np.ndarray
+    L4: np.ndarray
+    gate: float
+    vkf_Q: np.ndarray
+    vkf_R: float
+    switch_altitude: float
+    forward_norm: bool
+    lateral_var: float
+    block_of_state: np.ndarray
+    num_blocks: int
+    deg: float
+
+
+class YooOutputs(NamedTuple):
+    """A chunk's store (tauvcore.engine.yoo_bank.YooBank._store): the output epochs, the updates and the VKF's trace."""
+
+    series: np.ndarray
+    nees_block: np.ndarray
+    est_pos: np.ndarray
+    est_vel: np.ndarray
+    est_euler: np.ndarray
+    up_z: np.ndarray
+    up_nu: np.ndarray
+    up_S: np.ndarray
+    up_flags: np.ndarray
+    up_nis: np.ndarray
+    tr_x: np.ndarray
+    tr_sigma: np.ndarray
+    tr_truth: np.ndarray
+    tr_use: np.ndarray
+    tr_alt: np.ndarray
+
+
 @jit
 def run_stops(
     s0: int,
     s1: int,
-    stops: np.ndarray,
-    ping_of_stop: np.ndarray,
-    row_of_stop: np.ndarray,
-    k0: int,
+    schedule: YooSchedule,
     counters: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    P: np.ndarray,
-    dtheta_sum: np.ndarray,
-    vkf_x: np.ndarray,
-    vkf_P: np.ndarray,
-    vkf_use: np.ndarray,
-    vkf_alt: np.ndarray,
-    phi_raw: np.ndarray,
-    dv_raw: np.ndarray,
-    dtheta: np.ndarray,
-    dt: float,
-    C_earth: np.ndarray,
-    C_earth_half: np.ndarray,
-    g_n: np.ndarray,
-    coriolis_T: np.ndarray,
-    geodetic: bool,
-    origin: np.ndarray,
-    w_ie_flat: np.ndarray,
-    q: np.ndarray,
-    method_code: np.ndarray,
-    y_beam: np.ndarray,
-    available: np.ndarray,
-    A_b: np.ndarray,
-    l_dvl_b: np.ndarray,
-    beam_var: float,
-    qc: np.ndarray,
-    L4: np.ndarray,
-    gate: float,
-    rpm_index: np.ndarray,
-    rpm_value: np.ndarray,
-    rpm_sf: np.ndarray,
-    rpm_b: np.ndarray,
-    echo_index: np.ndarray,
-    echo_alt: np.ndarray,
-    vkf_Q: np.ndarray,
-    vkf_R: float,
-    switch_altitude: float,
-    forward_norm: bool,
-    lateral_var: float,
-    pos_t: np.ndarray,
-    vel_t: np.ndarray,
-    C_t: np.ndarray,
-    ba_t: np.ndarray,
-    bg_t: np.ndarray,
-    block_of_state: np.ndarray,
-    num_blocks: int,
-    deg: float,
-    series: np.ndarray,
-    nees_block: np.ndarray,
-    est_pos: np.ndarray,
-    est_vel: np.ndarray,
-    est_euler: np.ndarray,
-    up_z: np.ndarray,
-    up_nu: np.ndarray,
-    up_S: np.ndarray,
-    up_flags: np.ndarray,
-    up_nis: np.ndarray,
-    tr_x: np.ndarray,
-    tr_sigma: np.ndarray,
-    tr_truth: np.ndarray,
-    tr_use: np.ndarray,
-    tr_alt: np.ndarray,
+    state: YooState,
+    chunk: YooChunk,
+    sd: StrapdownConstants,
+    model: YooModel,
+    outputs: YooOutputs,
 ) -> None:
     """Stops ``s0 .. s1 - 1`` of a chunk (yoo_bank.YooBank.feed's loop): advance the nominal states
     to the stop, step the covariance, fuse a DVL ping (its row of the chunk's pings in
     ``ping_of_stop``), record an output epoch (its row in ``row_of_stop``). ``counters`` =
     (k_state, k_cov), read and written."""
+    stops, ping_of_stop, row_of_stop, k0 = schedule
+    pos, vel, C, ba, bg, P, dtheta_sum, vkf_x, vkf_P, vkf_use, vkf_alt = state
+    (
+        phi_raw,
+        dv_raw,
+        dtheta,
+        y_beam,
+        available,
+        rpm_index,
+        rpm_value,
+        rpm_sf,
+        rpm_b,
+        echo_index,
+        echo_alt,
+        pos_t,
+        vel_t,
+        C_t,
+        ba_t,
+        bg_t,
+    ) = chunk
+    dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
+    (
+        origin,
+        w_ie_flat,
+        q,
+        method_code,
+        A_b,
+        l_dvl_b,
+        beam_var,
+        qc,
+        L4,
+        gate,
+        vkf_Q,
+        vkf_R,
+        switch_altitude,
+        forward_norm,
+        lateral_var,
+        block_of_state,
+        num_blocks,
+        deg,
+    ) = model
+    (
+        series,
+        nees_block,
+        est_pos,
+        est_vel,
+        est_euler,
+        up_z,
+        up_nu,
+        up_S,
+        up_flags,
+        up_nis,
+        tr_x,
+        tr_sigma,
+        tr_truth,
+        tr_use,
+        tr_alt,
+    ) = outputs
     M, R = pos.shape[0], pos.shape[1]
     F = np.empty((DIM, DIM))
     Phi = np.empty((DIM, DIM))

@@ -282,15 +282,15 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
         calls["condition"] += 1
         return P_out, repaired
 
-    def run_stops(stops, is_event, out_row, s_from, s_to, *args):
+    def run_stops(schedule, s_from, s_to, counters, bank, *args):
         s, why = s_from, loop.STOPS_DONE
         while s < s_to:
-            s, why = real_stops(stops, is_event, out_row, s, s + 1, *args)
+            s, why = real_stops(schedule, s, s + 1, counters, bank, *args)
             calls["propagate"] += 1
             if why != loop.STOPS_REPAIR:
-                check(args[11])         # P (k0, check_step, yield_every, counters, pos, ... P); a repair needs the caller first
+                check(bank.P)           # a repair needs the caller first
             if why != loop.STOPS_DONE:
-                return s, why           # the counters (args[3]) are updated in place by each call
+                return s, why           # the counters are updated in place by each call
         return s_to, loop.STOPS_DONE
     monkeypatch.setattr(loop, "positive_definite_bank", positive_definite_bank)
     monkeypatch.setattr(loop, "run_stops", run_stops)

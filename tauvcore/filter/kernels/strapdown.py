@@ -6,6 +6,7 @@ each corrected by its own bias estimates."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -18,6 +19,18 @@ from tauvcore.filter.kernels.common import (
     transport_rate,
 )
 from tauvcore.filter.kernels.rotations import exp_so3_into, skew_entry
+
+
+class StrapdownConstants(NamedTuple):
+    """What every strapdown step of a mission shares (tauvcore.ins.strapdown.Strapdown), in the
+    order :func:`advance` takes them after its states."""
+
+    dt: float  # IMU interval [s]
+    C_earth: np.ndarray  # (3, 3) the flat model's local-level turn over one interval
+    C_earth_half: np.ndarray  # (3, 3) and over half of one
+    g_n: np.ndarray  # (3,) the flat model's gravity [m/s^2]
+    coriolis_T: np.ndarray  # (3, 3) the flat model's Coriolis term, transposed
+    geodetic: bool  # WGS-84 position (latitude, longitude, depth) instead of the flat NED model
 
 
 @jit
