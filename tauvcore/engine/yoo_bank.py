@@ -77,7 +77,7 @@ class YooBank(ChunkDriver):
     """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk
     (tauvcore.engine.chunk_driver.ChunkDriver, as FilterBank).
 
-    ``compiled`` (the default) runs each chunk in tauvcore.filter.yoo_kernels; ``compiled=False``
+    ``compiled`` (the default) runs each chunk in tauvcore.engine.yoo_loop; ``compiled=False``
     runs the numpy methods below, the reference the compiled loop is held equal to
     (tests/unit/test_yoo_bank.py). Both write a chunk's output epochs, updates and VKF trace into
     the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`."""
