@@ -36,6 +36,7 @@ import viser
 from viser import _messages as viser_messages
 
 from app import budget, export, inputs, links, plot_click, worker
+from app.controls import PLUGIN_FIELDS, add_source_controls
 from app.figures import (
     AUTO,
     COMPONENTS,
@@ -405,6 +406,8 @@ class Session:
             with gui.add_folder("Aiding", expand_by_default=False):
                 self.aid_depth = gui.add_checkbox("Depth (pressure)", False)
                 self.aid_mag = gui.add_checkbox("Magnetometer", False)
+                # the plug-in sources (tauvcore.aiding.sources), each with its section's controls
+                self.source_boxes, self.source_fields = add_source_controls(gui)
             with gui.add_folder("Sensors (Table 2)", expand_by_default=False):
                 self.accel_bias = gui.add_text(inputs.ACCEL_BIAS, f"{d.imu.accel_bias_mg:g}")
                 self.gyro_bias = gui.add_text(inputs.GYRO_BIAS, f"{d.imu.gyro_bias_deg_per_h:g}")
@@ -635,7 +638,10 @@ class Session:
             self.notify(f"Log {source}", "No configuration file of its own: the controls apply as they are.")
             return
         config = from_dict(raw)
-        fields = self._text_fields()
+        fields = {
+            **self._text_fields(),
+            **{PLUGIN_FIELDS[key].label: handle for key, handle in self.source_fields.items()},
+        }
         filled = []
         for key in sorted(
             {f"{sec}.{k}" for sec, values in raw.items() if isinstance(values, dict) for k in values}
@@ -643,7 +649,10 @@ class Session:
             label = inputs.FIELD_LABELS.get(key)
             if label in fields:
                 sec, name = key.split(".", 1)
-                fields[label].value = inputs.field_text(getattr(getattr(config, sec), name))
+                value = getattr(config.section(sec), name)
+                fields[label].value = (
+                    PLUGIN_FIELDS[key].shown(value) if key in PLUGIN_FIELDS else inputs.field_text(value)
+                )
                 filled.append(label)
         hidden = [
             f"{sec}.{k}"
@@ -686,6 +695,8 @@ class Session:
             *(h for pair in self.outage for h in pair),
             self.aid_depth,
             self.aid_mag,
+            *self.source_boxes.values(),
+            *self.source_fields.values(),
             self.accel_bias,
             self.gyro_bias,
             self.accel_noise,
@@ -799,6 +810,8 @@ class Session:
             runs=self.runs.value,
             source=self.source.value if self.source is not None else inputs.SIMULATION,
             rpm_fallback=self.rpm_fallback.value,
+            aid_sources=tuple(name for name, box in self.source_boxes.items() if box.value),
+            source_fields=tuple((key, handle.value) for key, handle in self.source_fields.items()),
         )
 
     def set_controls(self, c: Controls) -> None:
@@ -825,6 +838,10 @@ class Session:
         for (start, end), (start_text, end_text) in zip(self.outage, c.outages):
             put(start, start_text)
             put(end, end_text)
+        for name, box in self.source_boxes.items():
+            put(box, name in c.aid_sources)
+        for key, value in c.source_fields:
+            put(self.source_fields[key], value)
         for handle, value in (
             (self.aid_depth, c.aid_depth),
             (self.aid_mag, c.aid_mag),
