@@ -35,7 +35,7 @@ import plotly.graph_objects as go
 import viser
 from viser import _messages as viser_messages
 
-from app import budget, export, inputs, links, plot_click, worker
+from app import budget, export, inputs, links, page_scripts, plot_click, worker
 from app.controls import PLUGIN_FIELDS, add_source_controls
 from app.figures import (
     AUTO,
@@ -189,23 +189,6 @@ RUNS_NOTE = (
     "oldest goes when another finishes). Tick two or more to overlay them in the Plots tab (one line style per "
     "run, the method colours kept) and to compare them below."
 )
-CURSOR_JS = """(() => {
-  // the shared time cursor: every plotly plot of the page gets a vertical line at the slider's
-  // time; moves arriving faster than the page draws are merged into one relayout
-  window.__tauvCursor = __T__;
-  if (window.__tauvCursorPending) return;
-  window.__tauvCursorPending = true;
-  setTimeout(() => {
-    window.__tauvCursorPending = false;
-    if (!window.Plotly) return;
-    const t = window.__tauvCursor;
-    const shape = __SHAPE__;
-    shape.x0 = t; shape.x1 = t;
-    for (const p of document.querySelectorAll('.js-plotly-plot')) {
-      if (p.layout && p.data && p.data.length) window.Plotly.relayout(p, {shapes: [shape]});
-    }
-  }, 80);
-})();"""
 GUI_REFRESH_S = 1.5  # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0  # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600  # points per drawn trajectory (a 250 s run has 2501 epochs)
@@ -220,34 +203,8 @@ REJECT_REFERENCE = (
     "ins-dvl",
 )  # whose gate decides the red beams
 CONFIRM_TIMEOUT_S = 10.0  # how long Run waits for the page to report its controls (software WebGL stalls)
-VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
 SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
 CHECKING_STATUS = "Checking the controls the page shows..."
-_SNAPSHOT_JS = """(() => {
-  // every control a run reads, as the page shows it: checkboxes by their input's id, the other
-  // inputs through their label (viser labels each input's row with label[for=id])
-  const out = {};
-  for (const id of __IDS__) {
-    let el = document.getElementById(id);
-    if (!(el instanceof HTMLInputElement)) {
-      const label = document.querySelector('label[for="' + id + '"]');
-      const row = label && label.parentElement && label.parentElement.parentElement;
-      const box = row && row.nextElementSibling;
-      el = box ? box.querySelector('input:not([type=hidden]), textarea') : null;
-    }
-    if (el) out[id] = el.type === "checkbox" ? el.checked : el.value;
-  }
-  // answers older than a minute were read long ago (or never will be): drop them here, since a
-  // removal sent by the server would wait for a 3-D frame and hold up the notification behind it
-  const now = Date.now();
-  for (const k of Object.keys(localStorage)) {
-    if (!k.startsWith(__PREFIX__)) continue;
-    let t = 0;
-    try { t = JSON.parse(localStorage.getItem(k)).t || 0; } catch (e) {}
-    if (now - t > 60000) localStorage.removeItem(k);
-  }
-  localStorage.setItem(__KEY__, JSON.stringify({t: now, values: out}));
-})();"""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -728,12 +685,7 @@ class Session:
         """
         by_id = self._confirmed_inputs()
         key = f"{SNAPSHOT_KEY_PREFIX}{uuid.uuid4().hex}"
-        script = (
-            _SNAPSHOT_JS.replace("__IDS__", json.dumps(list(by_id)))
-            .replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + SNAPSHOT_KEY_PREFIX))
-            .replace("__KEY__", json.dumps(VISER_STORAGE_PREFIX + key))
-        )
-        self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
+        page_scripts.run(self.client, page_scripts.report(list(by_id), SNAPSHOT_KEY_PREFIX, key))
         try:
             raw = self.client.local_storage.get_item(key, timeout=CONFIRM_TIMEOUT_S)
         except TimeoutError:
@@ -1183,10 +1135,9 @@ class Session:
         script (Plotly.relayout of the cursor shape) instead of every figure again; the figures
         the server sends next carry it too (:meth:`refresh_plots`)."""
         self.cursor_t = float(t_s)
-        script = CURSOR_JS.replace("__T__", json.dumps(self.cursor_t)).replace(
-            "__SHAPE__", json.dumps(cursor_shape(0.0))
+        page_scripts.run(
+            self.client, page_scripts.source("time_cursor.js", t=self.cursor_t, shape=cursor_shape(0.0))
         )
-        self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
     def _set_finished(self, run: export.FinishedRun | None) -> None:
         """Keep ``run``, whose final results arrived, for the Download buttons and enable them

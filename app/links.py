@@ -47,9 +47,8 @@ from typing import Any
 from urllib.parse import quote, unquote
 
 import viser
-from viser import _messages as viser_messages
 
-from app import inputs
+from app import inputs, page_scripts
 from app.controls import PLUGIN_FIELDS, PLUGIN_SOURCES
 from app.inputs import Controls, InputError
 from tauvcore.config import RUN_METHODS
@@ -328,24 +327,8 @@ def apply(c: Controls, link: Link) -> Controls:
 
 
 # ---------------------------------------------------------------------------------------- page
-VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
 ADDRESS_KEY_PREFIX = "tauv-address-"  # + a fresh id per read: tabs of one browser share localStorage
 READ_TIMEOUT_S = 30.0  # a page loading under software WebGL answers late
-_READ_JS = """(() => {
-  // the page's query, for the server (it has no other way to learn it)
-  const now = Date.now();
-  for (const k of Object.keys(localStorage)) {
-    if (!k.startsWith(__PREFIX__)) continue;
-    let t = 0;
-    try { t = JSON.parse(localStorage.getItem(k)).t || 0; } catch (e) {}
-    if (now - t > 60000) localStorage.removeItem(k);
-  }
-  localStorage.setItem(__KEY__, JSON.stringify({t: now, search: window.location.search}));
-})();"""
-
-
-def _run_script(client: viser.ClientHandle, source: str) -> None:
-    client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=source))
 
 
 def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) -> str | None:
@@ -353,12 +336,7 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
     the script (a scripted client). Raises TimeoutError, or RuntimeError if the tab closed or its
     storage is blocked (viser's ``local_storage.get_item``)."""
     key = f"{ADDRESS_KEY_PREFIX}{uuid.uuid4().hex}"
-    _run_script(
-        client,
-        _READ_JS.replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + ADDRESS_KEY_PREFIX)).replace(
-            "__KEY__", json.dumps(VISER_STORAGE_PREFIX + key)
-        ),
-    )
+    page_scripts.run(client, page_scripts.report([], ADDRESS_KEY_PREFIX, key))
     raw = client.local_storage.get_item(key, timeout=timeout_s)
     if raw is None:
         return None
@@ -372,7 +350,7 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
 def show_address(client: viser.ClientHandle, query: str) -> None:
     """Make ``query`` (from :func:`address`) the page's query, in place: no reload, no new entry
     in the browser's history."""
-    _run_script(
+    page_scripts.run(
         client, f"history.replaceState(history.state, '', {json.dumps(query)} + window.location.hash);"
     )
 
