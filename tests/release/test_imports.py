@@ -23,7 +23,7 @@ MAX_LINES = 800
 """A module longer than this is split along its own sections."""
 STILL_TO_SPLIT = {
     "tauvcore/filter/kernels.py": 2435,
-    "app/dashboard.py": 2169,
+    "app/dashboard.py": 1876,
     "app/figures.py": 1452,
     "app/cli.py": 1294,
     "tauvcore/log_checks.py": 968,
