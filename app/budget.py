@@ -14,7 +14,8 @@ arrays the engine allocates (8-byte floats; "d" is one double):
   block NEES and the estimated position (``OUTPUT_DOUBLES`` = 19 d), held four times at the end
   (the bank's chunks, their concatenation, the result handed to the queue and its pickle); the
   thinned live copy (at most ``app.worker.PROGRESS_MAX_EPOCHS`` epochs, copy and pickle); per
-  update (DVL ping per DVL method, depth and magnetometer sample per aided method) ~20 d per run,
+  update (DVL ping per DVL method, depth and magnetometer sample and a plug-in source's epoch,
+  at its ``rate_hz``, per aided method) ~20 d per run,
   four times as well, and ``UPDATE_ROW_BYTES`` of numpy object overhead per row of one chunk
   (rows are stacked at the end of every chunk); P and one covariance step's scratch per method
   and run (8 x 400 d).
@@ -39,6 +40,7 @@ import math
 import os
 from dataclasses import dataclass
 
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 
 DOUBLE = 8
@@ -93,6 +95,9 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     if dvl_methods:
         other_updates += math.ceil(duration_s * config.pressure.rate_hz + 1) if "depth" in aiding else 0
         other_updates += math.ceil(duration_s * config.magnetometer.rate_hz + 1) if "mag" in aiding else 0
+        for name, source in SOURCES.items():
+            if name in aiding:
+                other_updates += math.ceil(duration_s * source.rate_hz(config.section(name)) + 1)
     other_rows = other_updates * dvl_methods
 
     K_c = min(K, round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz) + 1)

@@ -7,35 +7,29 @@ the navigation errors live, and whether each method knows its error (NEES agains
 Every browser tab is a :class:`Session` with its own controls, scene, run and results; a run
 goes in its own process (app.worker) so the server and the other tabs stay responsive.
 viser's share tunnel (an external relay service) cannot be started: its button is off and its
-message handlers are removed (:func:`disable_share_tunnel`); nothing is fetched from the internet.
+message handlers are removed (app.hardening.disable_share_tunnel); nothing is fetched from the internet.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import gc
-import inspect
 import json
-import logging
-import os
 import queue as queue_mod
 import signal
-import socket
-import sys
 import threading
 import time
 import uuid
-import warnings
 from collections.abc import Callable
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 import plotly.graph_objects as go
 import viser
 from viser import _messages as viser_messages
 
-from app import budget, export, inputs, links, plot_click, worker
+from app import budget, export, inputs, links, page_scripts, plot_click, worker
+from app.controls import PLUGIN_FIELDS, add_source_controls
 from app.error_figures import (
     AUTO,
     COMPONENTS,
@@ -48,6 +42,15 @@ from app.error_figures import (
     overlay_figure,
 )
 from app.figures import TRUTH_COLOR, cursor_shape, decimate, method_color, with_cursor
+from app.hardening import (
+    RECLAIM,
+    bound_malloc_arenas,
+    check_listen,
+    disable_share_tunnel,
+    harden_client_messages,
+    install_shutdown_handlers,
+    shutdown,
+)
 from app.innovation_figures import innovation_figure, innovation_sources
 from app.inputs import Controls, InputError, config_from_controls, config_markdown
 from app.markdown_tables import (
@@ -182,23 +185,6 @@ RUNS_NOTE = (
     "oldest goes when another finishes). Tick two or more to overlay them in the Plots tab (one line style per "
     "run, the method colours kept) and to compare them below."
 )
-CURSOR_JS = """(() => {
-  // the shared time cursor: every plotly plot of the page gets a vertical line at the slider's
-  // time; moves arriving faster than the page draws are merged into one relayout
-  window.__tauvCursor = __T__;
-  if (window.__tauvCursorPending) return;
-  window.__tauvCursorPending = true;
-  setTimeout(() => {
-    window.__tauvCursorPending = false;
-    if (!window.Plotly) return;
-    const t = window.__tauvCursor;
-    const shape = __SHAPE__;
-    shape.x0 = t; shape.x1 = t;
-    for (const p of document.querySelectorAll('.js-plotly-plot')) {
-      if (p.layout && p.data && p.data.length) window.Plotly.relayout(p, {shapes: [shape]});
-    }
-  }, 80);
-})();"""
 GUI_REFRESH_S = 1.5  # at most this often the plots are redrawn during a run (wall time)
 FOLLOW_DISTANCE_M = 22.0  # chase-camera distance: the 3 m hull and its beams fill the view
 TRAJECTORY_POINTS = 600  # points per drawn trajectory (a 250 s run has 2501 epochs)
@@ -213,34 +199,8 @@ REJECT_REFERENCE = (
     "ins-dvl",
 )  # whose gate decides the red beams
 CONFIRM_TIMEOUT_S = 10.0  # how long Run waits for the page to report its controls (software WebGL stalls)
-VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
 SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
 CHECKING_STATUS = "Checking the controls the page shows..."
-_SNAPSHOT_JS = """(() => {
-  // every control a run reads, as the page shows it: checkboxes by their input's id, the other
-  // inputs through their label (viser labels each input's row with label[for=id])
-  const out = {};
-  for (const id of __IDS__) {
-    let el = document.getElementById(id);
-    if (!(el instanceof HTMLInputElement)) {
-      const label = document.querySelector('label[for="' + id + '"]');
-      const row = label && label.parentElement && label.parentElement.parentElement;
-      const box = row && row.nextElementSibling;
-      el = box ? box.querySelector('input:not([type=hidden]), textarea') : null;
-    }
-    if (el) out[id] = el.type === "checkbox" ? el.checked : el.value;
-  }
-  // answers older than a minute were read long ago (or never will be): drop them here, since a
-  // removal sent by the server would wait for a 3-D frame and hold up the notification behind it
-  const now = Date.now();
-  for (const k of Object.keys(localStorage)) {
-    if (!k.startsWith(__PREFIX__)) continue;
-    let t = 0;
-    try { t = JSON.parse(localStorage.getItem(k)).t || 0; } catch (e) {}
-    if (now - t > 60000) localStorage.removeItem(k);
-  }
-  localStorage.setItem(__KEY__, JSON.stringify({t: now, values: out}));
-})();"""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -399,6 +359,8 @@ class Session:
             with gui.add_folder("Aiding", expand_by_default=False):
                 self.aid_depth = gui.add_checkbox("Depth (pressure)", False)
                 self.aid_mag = gui.add_checkbox("Magnetometer", False)
+                # the plug-in sources (tauvcore.aiding.sources), each with its section's controls
+                self.source_boxes, self.source_fields = add_source_controls(gui)
             with gui.add_folder("Sensors (Table 2)", expand_by_default=False):
                 self.accel_bias = gui.add_text(inputs.ACCEL_BIAS, f"{d.imu.accel_bias_mg:g}")
                 self.gyro_bias = gui.add_text(inputs.GYRO_BIAS, f"{d.imu.gyro_bias_deg_per_h:g}")
@@ -629,7 +591,10 @@ class Session:
             self.notify(f"Log {source}", "No configuration file of its own: the controls apply as they are.")
             return
         config = from_dict(raw)
-        fields = self._text_fields()
+        fields = {
+            **self._text_fields(),
+            **{PLUGIN_FIELDS[key].label: handle for key, handle in self.source_fields.items()},
+        }
         filled = []
         for key in sorted(
             {f"{sec}.{k}" for sec, values in raw.items() if isinstance(values, dict) for k in values}
@@ -637,7 +602,10 @@ class Session:
             label = inputs.FIELD_LABELS.get(key)
             if label in fields:
                 sec, name = key.split(".", 1)
-                fields[label].value = inputs.field_text(getattr(getattr(config, sec), name))
+                value = getattr(config.section(sec), name)
+                fields[label].value = (
+                    PLUGIN_FIELDS[key].shown(value) if key in PLUGIN_FIELDS else inputs.field_text(value)
+                )
                 filled.append(label)
         hidden = [
             f"{sec}.{k}"
@@ -680,6 +648,8 @@ class Session:
             *(h for pair in self.outage for h in pair),
             self.aid_depth,
             self.aid_mag,
+            *self.source_boxes.values(),
+            *self.source_fields.values(),
             self.accel_bias,
             self.gyro_bias,
             self.accel_noise,
@@ -711,12 +681,7 @@ class Session:
         """
         by_id = self._confirmed_inputs()
         key = f"{SNAPSHOT_KEY_PREFIX}{uuid.uuid4().hex}"
-        script = (
-            _SNAPSHOT_JS.replace("__IDS__", json.dumps(list(by_id)))
-            .replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + SNAPSHOT_KEY_PREFIX))
-            .replace("__KEY__", json.dumps(VISER_STORAGE_PREFIX + key))
-        )
-        self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
+        page_scripts.run(self.client, page_scripts.report(list(by_id), SNAPSHOT_KEY_PREFIX, key))
         try:
             raw = self.client.local_storage.get_item(key, timeout=CONFIRM_TIMEOUT_S)
         except TimeoutError:
@@ -793,6 +758,8 @@ class Session:
             runs=self.runs.value,
             source=self.source.value if self.source is not None else inputs.SIMULATION,
             rpm_fallback=self.rpm_fallback.value,
+            aid_sources=tuple(name for name, box in self.source_boxes.items() if box.value),
+            source_fields=tuple((key, handle.value) for key, handle in self.source_fields.items()),
         )
 
     def set_controls(self, c: Controls) -> None:
@@ -819,6 +786,10 @@ class Session:
         for (start, end), (start_text, end_text) in zip(self.outage, c.outages):
             put(start, start_text)
             put(end, end_text)
+        for name, box in self.source_boxes.items():
+            put(box, name in c.aid_sources)
+        for key, value in c.source_fields:
+            put(self.source_fields[key], value)
         for handle, value in (
             (self.aid_depth, c.aid_depth),
             (self.aid_mag, c.aid_mag),
@@ -1160,10 +1131,9 @@ class Session:
         script (Plotly.relayout of the cursor shape) instead of every figure again; the figures
         the server sends next carry it too (:meth:`refresh_plots`)."""
         self.cursor_t = float(t_s)
-        script = CURSOR_JS.replace("__T__", json.dumps(self.cursor_t)).replace(
-            "__SHAPE__", json.dumps(cursor_shape(0.0))
+        page_scripts.run(
+            self.client, page_scripts.source("time_cursor.js", t=self.cursor_t, shape=cursor_shape(0.0))
         )
-        self.client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
     def _set_finished(self, run: export.FinishedRun | None) -> None:
         """Keep ``run``, whose final results arrived, for the Download buttons and enable them
@@ -1825,163 +1795,6 @@ def summary_line(results: dict[str, MethodResult]) -> str:
     return "Final velocity error: " + ", ".join(parts)
 
 
-HARDENED_MARKER = "_tauv_hardened"  # set on viser's _infra module once harden_client_messages patched it
-MAX_CLIENT_MESSAGE_BYTES = 1 << 20  # a page sends control changes and camera poses: a few kB
-MALFORMED_LOG_PERIOD_S = 10.0  # dropped client messages are summed into one log line per period
-SHUTDOWN_DEADLINE_S = 1.5  # after SIGTERM/SIGINT the process exits by then, whatever hangs
-REFUSED_CLIENT_MESSAGES = ("ShareUrlRequest", "ShareUrlDisconnect")  # the share tunnel reaches the internet
-RECLAIM_PERIOD_S = 2.0  # after a tab closes, its memory is collected and trimmed this much later
-MALLOC_ARENAS = 2  # glibc malloc arenas of the server process (see bound_malloc_arenas)
-M_ARENA_MAX = -8  # mallopt parameter number (glibc malloc.h)
-
-
-class _DropLog:
-    """Counts dropped client messages; at most one line per MALFORMED_LOG_PERIOD_S on stderr, no traceback."""
-
-    def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.count = 0  # dropped since the server started
-        self.unlogged = 0
-        self.last_log = -MALFORMED_LOG_PERIOD_S
-
-    def drop(self, reason: str) -> None:
-        with self.lock:
-            self.count += 1
-            self.unlogged += 1
-            now = time.monotonic()
-            if now - self.last_log < MALFORMED_LOG_PERIOD_S:
-                return
-            n, self.unlogged, self.last_log = self.unlogged, 0, now
-        reason = reason if len(reason) <= 200 else reason[:200] + "..."
-        print(
-            f"tauv dashboard: dropped {n} malformed client message(s); last: {reason}",
-            file=sys.stderr,
-            flush=True,
-        )
-
-
-DROPPED = _DropLog()
-
-
-def harden_client_messages() -> bool:
-    """Make viser drop a malformed client message instead of failing on it; True if installed.
-
-    viser 1.1 reads each connection's frames in ``viser.infra._infra._message_consumer``
-    (``raw = await websocket.recv(); assert isinstance(raw, bytes); message =
-    Message.deserialize(raw); handle_message(message)``): random bytes, truncated msgpack, an
-    unknown ``type`` or a text frame raise there, which ends the connection with a traceback in
-    the log; a message that decodes but carries wrong field types raises later in its handler
-    task (``WebsockMessageHandler._handle_incoming_message``), logged by asyncio with a traceback
-    as "Task exception was never retrieved". This replaces the consumer with one that drops such
-    a frame (and any frame over MAX_CLIENT_MESSAGE_BYTES; websockets itself refuses larger frames
-    before reading them, see :func:`_limit_frames`) and the share-tunnel requests, and wraps the
-    handler dispatch so a handler's exception drops that one message. Both are counted in
-    :data:`DROPPED` and summed into one log line per MALFORMED_LOG_PERIOD_S. The connection and
-    every other client carry on. Process-wide and idempotent; if viser's internals have changed
-    shape, nothing is patched and False is returned (the server still runs, as viser made it).
-    """
-    try:
-        from viser.infra import _infra
-
-        consumer_params = list(inspect.signature(_infra._message_consumer).parameters)
-        dispatch = _infra.WebsockMessageHandler._handle_incoming_message
-    except (ImportError, AttributeError, TypeError, ValueError):
-        return False
-    if getattr(_infra, HARDENED_MARKER, False):
-        return True
-    if consumer_params != ["websocket", "handle_message", "message_class"]:
-        return False
-
-    async def message_consumer(websocket: Any, handle_message: Any, message_class: Any) -> None:
-        _limit_frames(websocket)
-        while True:
-            raw = await websocket.recv()  # ConnectionClosed ends the connection, as in viser
-            if not isinstance(raw, (bytes, bytearray)):
-                DROPPED.drop("a text frame")
-                continue
-            if len(raw) > MAX_CLIENT_MESSAGE_BYTES:
-                DROPPED.drop(f"a frame of {len(raw)} bytes")
-                continue
-            try:
-                message = message_class.deserialize(bytes(raw))
-            except Exception as exc:  # noqa: BLE001 - any decoding failure is the client's: drop the frame
-                DROPPED.drop(f"{type(exc).__name__}: {exc}")
-                continue
-            if type(message).__name__ in REFUSED_CLIENT_MESSAGES:
-                DROPPED.drop(f"{type(message).__name__} (the share tunnel is disabled)")
-                continue
-            handle_message(message)
-
-    async def guarded_dispatch(self: Any, client_id: Any, message: Any) -> None:
-        try:
-            await dispatch(self, client_id, message)
-        except Exception as exc:  # noqa: BLE001 - a handler refusing a malformed message: drop that one
-            DROPPED.drop(f"{type(message).__name__}: {type(exc).__name__}: {exc}")
-
-    _infra._message_consumer = message_consumer
-    _infra.WebsockMessageHandler._handle_incoming_message = guarded_dispatch
-    logging.getLogger("websockets.server").addFilter(_connection_failure_filter)
-    setattr(_infra, HARDENED_MARKER, True)
-    return True
-
-
-def _connection_failure_filter(record: logging.LogRecord) -> bool:
-    """websockets logs a connection that is not a websocket handshake (a port scan, a bare TCP
-    connect, garbage instead of HTTP) or whose handler failed with a full traceback: count it as
-    a dropped client message instead (one summed line, see :data:`DROPPED`)."""
-    message = record.getMessage()
-    if message in ("opening handshake failed", "connection handler failed"):
-        exc = record.exc_info[1] if record.exc_info else None
-        DROPPED.drop(f"{message}: {type(exc).__name__}: {exc}" if exc is not None else message)
-        return False
-    return True
-
-
-def _limit_frames(websocket: Any) -> None:
-    """Lower this connection's largest accepted message to MAX_CLIENT_MESSAGE_BYTES (viser asks
-    websockets for 50 MB). websockets checks a frame's declared length before reading its payload
-    and closes the connection with code 1009, so an oversized frame costs no memory."""
-    protocol = getattr(websocket, "protocol", None)
-    current = getattr(protocol, "max_message_size", None)
-    if protocol is not None and (current is None or current > MAX_CLIENT_MESSAGE_BYTES):
-        protocol.max_message_size = MAX_CLIENT_MESSAGE_BYTES
-
-
-def disable_share_tunnel(server: viser.ViserServer) -> None:
-    """Make viser's share tunnel (a relay at share.viser.studio) impossible to start.
-
-    ``show_share_button=False`` only hides the button: viser still registers handlers that start
-    the tunnel on a client's ``ShareUrlRequest``. They are unregistered here, and
-    ``request_share_url`` (which they call) is replaced by a refusal, so neither a client message
-    nor a stray call reaches outside this machine; :func:`harden_client_messages` also drops the
-    two messages before dispatch.
-    """
-    websock = getattr(server, "_websock_server", None)
-    for name in REFUSED_CLIENT_MESSAGES:
-        cls = getattr(viser_messages, name, None)
-        handlers = getattr(websock, "_incoming_handlers", {})
-        if websock is not None and cls is not None and cls in handlers:
-            websock.unregister_handler(cls)
-
-    def refuse(verbose: bool = True) -> None:
-        print(
-            "tauv dashboard: share URL refused (the dashboard never connects outside this machine)",
-            file=sys.stderr,
-            flush=True,
-        )
-
-    server.request_share_url = refuse  # type: ignore[method-assign]
-
-
-def check_listen(host: str, port: int) -> None:
-    """Raise OSError if ``host:port`` cannot be bound: viser would silently move to another
-    port, and a user (or a Docker port mapping) would look for the dashboard in the wrong place."""
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as s:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        s.bind((host, port))
-
-
 def build_server(
     host: str = "127.0.0.1", port: int = 8080, workers: int | None = None, logs: dict[str, str] | None = None
 ) -> tuple[viser.ViserServer, worker.RunPool]:
@@ -2034,112 +1847,6 @@ def build_server(
         RECLAIM.soon()
 
     return server, pool
-
-
-class ShutdownRequest:
-    """Set by SIGTERM or SIGINT (see :func:`install_shutdown_handlers`)."""
-
-    def __init__(self) -> None:
-        self.signum: int | None = None  # the first signal received
-        self.serving = False  # startup finished: a signal now only asks the loop to end
-
-
-def install_shutdown_handlers() -> ShutdownRequest:
-    """Handle SIGTERM and SIGINT explicitly, both ending the server with exit status 0.
-
-    Explicit handlers matter as PID 1 of a PID namespace (Docker without ``--init``): the kernel
-    drops a signal PID 1 has no handler for, so SIGTERM did nothing and ``docker stop`` waited
-    10 s for SIGKILL. The handler only records the signal (it runs between two bytecodes of the
-    main thread, possibly inside a lock, so it must not take one); :func:`main`'s loop sees it
-    within 0.1 s. During startup it raises SystemExit(0) instead, so a slow start can be stopped.
-    """
-    request = ShutdownRequest()
-
-    def handler(signum: int, frame: Any) -> None:
-        if request.signum is None:
-            request.signum = signum
-        if not request.serving:
-            raise SystemExit(0)
-
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, handler)
-    return request
-
-
-def bound_malloc_arenas(arenas: int = MALLOC_ARENAS) -> bool:
-    """Cap glibc's malloc arenas for this process (True if set).
-
-    glibc gives each thread that allocates concurrently its own arena (up to 8 per core) and
-    rarely returns their memory: viser builds each tab and runs each callback on a pool of up to
-    32 threads, so a burst of connections (even hostile ones, closed at once) left the server's
-    resident memory hundreds of MB higher for good. Two arenas keep it flat at no measurable
-    cost to a server whose threads mostly wait. Must run before those threads start."""
-    try:
-        import ctypes
-
-        return ctypes.CDLL(None).mallopt(M_ARENA_MAX, arenas) == 1
-    except (OSError, AttributeError):  # not glibc
-        return False
-
-
-class _MemoryReclaimer:
-    """After tabs close, collect their cycles and hand freed heap back to the OS (glibc's
-    ``malloc_trim``), at most once per RECLAIM_PERIOD_S: a tab's Session holds MBs of figures and
-    scene buffers in reference cycles, and without this the server's resident memory only grows
-    under a stream of connections, even hostile ones that close at once."""
-
-    def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.scheduled = False
-
-    def soon(self) -> None:
-        with self.lock:
-            if self.scheduled:
-                return
-            self.scheduled = True
-        timer = threading.Timer(RECLAIM_PERIOD_S, self._run)
-        timer.daemon = True
-        timer.start()
-
-    def _run(self) -> None:
-        with self.lock:
-            self.scheduled = False
-        gc.collect()
-        try:
-            import ctypes
-
-            ctypes.CDLL(None).malloc_trim(0)
-        except (OSError, AttributeError):  # not glibc
-            pass
-
-
-RECLAIM = _MemoryReclaimer()
-
-
-def exit_now() -> NoReturn:
-    """Leave at once with status 0, output flushed, without the interpreter's finalization: when
-    the shutdown deadline passed (a callback thread hangs), and after a clean stop (app.commands.serve)."""
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
-    os._exit(0)
-
-
-def shutdown(server: viser.ViserServer, pool: worker.RunPool) -> None:
-    """Kill the run workers first (a busy one is not awaited), then stop viser. Whatever still
-    hangs after SHUTDOWN_DEADLINE_S (a tab's callback thread waiting on its page, say) is cut
-    short by a daemon timer that ends the process with status 0 (the children are dead by then)."""
-    # a tab's run thread may still update its page after viser has closed the connections
-    warnings.filterwarnings("ignore", message="Queued a .* on a closed connection")
-    watchdog = threading.Timer(SHUTDOWN_DEADLINE_S, exit_now)
-    watchdog.daemon = True
-    watchdog.start()  # never cancelled: it also bounds the interpreter's own exit
-    try:
-        pool.shutdown()
-    finally:
-        server.stop()
 
 
 def main(

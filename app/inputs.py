@@ -8,7 +8,9 @@ not rounded). Anything else, empty, ``NaN``, ``inf``, hexadecimal or ``1_000``, 
 one message naming the control and the value as typed. Ranges are the configuration's own
 (tauvcore.config): a value out of range is refused with the control's label in front of the
 configuration's message. NSV's epsilon also takes the word ``auto`` (derived from the vehicle,
-tauvcore.config.PartialConfig).
+tauvcore.config.PartialConfig). A plug-in aiding source's controls (app.controls) are read the same
+way into its section (``Config.sources``), a 3-vector as three numbers separated by commas; a
+ticked source joins ``run.aiding``.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
@@ -119,6 +123,7 @@ FIELD_LABELS = {
     "partial.vb_nf": VB_NF,
     "partial.nsv_epsilon_m2_per_s2": NSV_EPSILON,
     "run.seed": SEED,
+    **{f.key: f.label for f in PLUGIN_FIELDS.values()},  # the plug-in sources' (app.controls)
 }
 """Configuration field -> the control that sets it (for messages)."""
 
@@ -162,6 +167,19 @@ def parse_float_or_auto(label: str, text: str) -> float | str:
     return parse_float(label, text)
 
 
+def parse_vector(label: str, text: str) -> tuple[float, float, float]:
+    """The three finite numbers ``text`` spells separated by commas (each as :func:`parse_float`
+    reads it), or InputError naming ``label`` and ``text``."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 3:
+            raise InputError(label)
+        x, y, z = (parse_float(label, part) for part in parts)
+    except InputError:
+        raise InputError(f"{label}: {show(text)} is not three numbers separated by commas") from None
+    return x, y, z
+
+
 @dataclass(frozen=True)
 class Controls:
     """What the page's controls hold: numeric fields as typed, checkboxes and choices as set."""
@@ -192,6 +210,9 @@ class Controls:
     source: str = SIMULATION  # "simulation" or the name of a log (tauv serve --logs)
     truth: str = TrajectoryConfig.truth  # one of tauvcore.truth.TRUTH_SOURCES (a simulation's only)
     rpm_fallback: bool = False  # run.rpm_fallback: DVL methods fuse the RPM velocity without DVL
+    aid_sources: tuple[str, ...] = ()  # the plug-in sources ticked (app.controls), by name
+    source_fields: tuple[tuple[str, str | bool], ...] = DEFAULT_SOURCE_FIELDS  # "<source>.<field>" ->
+    # as typed (a checkbox: on or off), every plug-in field in the registry's order
 
 
 def field_text(value: object) -> str:
@@ -327,6 +348,17 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         SWITCH_ALTITUDE: c.switch_altitude,
         RPM_NOISE: c.rpm_noise,
     }
+    held = dict(c.source_fields)
+    plugin_sections: dict[str, dict[str, Any]] = {}
+    for f in PLUGIN_FIELDS.values():
+        value = held.get(f.key, f.default)
+        if f.kind == "flag":
+            plugin_sections.setdefault(f.source, {})[f.field] = bool(value)
+            continue
+        text = str(value)
+        typed[f.label] = text
+        parse = parse_vector if f.kind == "vector" else parse_float
+        plugin_sections.setdefault(f.source, {})[f.field] = parse(f.label, text)
     outages = []
     for k, (start_text, end_text) in enumerate(c.outages, start=1):
         start_label, end_label = outage_labels(k)
@@ -336,7 +368,12 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         if end <= start:
             raise InputError(f"Beam {k} outage ends ({end:g} s) before it starts ({start:g} s)")
         outages.append(Outage(beams=(k,), start_s=start, end_s=end))
-    aiding = ("dvl",) + (("depth",) if c.aid_depth else ()) + (("mag",) if c.aid_mag else ())
+    aiding = (
+        ("dvl",)
+        + (("depth",) if c.aid_depth else ())
+        + (("mag",) if c.aid_mag else ())
+        + tuple(name for name in SOURCES if name in c.aid_sources)
+    )
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
     truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
     try:
@@ -375,6 +412,8 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
             .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback)
         )
         config = config.replace("dvl", outages=tuple(outages))
+        for name, changes in plugin_sections.items():
+            config = config.replace(name, **changes)
     except ConfigError as exc:
         label = _label_for(exc)
         if label is None:
@@ -420,6 +459,11 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
         ("Outages", outages),
         (DROPOUT, f"{d.dropout_probability:g}"),
         ("Aiding", ", ".join(run.aiding)),
+        *(  # each plug-in source aided with: its section, as its controls name it
+            (f.label, _field_row(f.kind, getattr(config.section(f.source), f.field)))
+            for f in PLUGIN_FIELDS.values()
+            if f.source in run.aiding
+        ),
         (ACCEL_BIAS, f"{imu.accel_bias_mg:g}"),
         (GYRO_BIAS, f"{imu.gyro_bias_deg_per_h:g}"),
         (ACCEL_NOISE, f"{imu.accel_noise_mps_per_sqrt_h:g}"),
@@ -447,6 +491,14 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
             if name not in simulation_only
         ]
     return rows
+
+
+def _field_row(kind: str, value: Any) -> str:
+    if kind == "flag":
+        return "on" if value else "off"
+    if kind == "vector":
+        return ", ".join(f"{v:g}" for v in value)
+    return f"{value:g}"
 
 
 def config_markdown(config: Config, runs: int, source: dict[str, Any] | None = None) -> str:

@@ -11,7 +11,9 @@ gets its preset first, as if picked in the dropdown (app.inputs.preset_controls)
 Values, as the controls hold them: a choice by its name (``traj=longrange``, ``truth=dynamic``,
 ``src=<log>``), checkboxes as ``1`` or ``0``, methods and beams as comma lists (``m=ins,lc``,
 ``b=1,2``; empty: none ticked), a beam's outage as ``start:end`` in seconds (``o3=50:200``), the
-numeric fields as typed. Parsing is as strict as the controls' (app.inputs.parse_float,
+numeric fields as typed. A plug-in aiding source (app.controls, from the registry) is keyed by its
+name (``usbl=1``) and each field of its section by ``<source>.<field>`` (``usbl.interval_s=5``,
+a 3-vector as a comma list: ``usbl.lever_arm_b_m=0,0,-0.3``). Parsing is as strict as the controls' (app.inputs.parse_float,
 parse_int, parse_float_or_auto; ranges are checked at Run, as for a typed value): an unknown
 key, a repeated key or a bad value is refused with one line naming the key and the value
 (:attr:`Link.problems`), and the rest still applies.
@@ -45,9 +47,9 @@ from typing import Any
 from urllib.parse import quote, unquote
 
 import viser
-from viser import _messages as viser_messages
 
-from app import inputs
+from app import inputs, page_scripts
+from app.controls import PLUGIN_FIELDS, PLUGIN_SOURCES
 from app.inputs import Controls, InputError
 from tauvcore.config import RUN_METHODS
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
@@ -64,7 +66,9 @@ class Key:
     kind: str  # how its value is written: one of KINDS
 
 
-KINDS = ("choice", "number", "integer", "number_or_auto", "flag", "methods", "beams", "outage")
+KINDS = ("choice", "number", "integer", "number_or_auto", "vector", "flag", "methods", "beams", "outage")
+PER_KEY_FIELDS = ("aid_sources", "source_fields")
+"""Controls fields that several keys set, one entry each (a plug-in source, a field of its section)."""
 OUTAGE_KEYS = tuple(f"o{k}" for k in range(1, 5))
 KEYS = (
     Key("src", "source", inputs.SOURCE, "choice"),
@@ -84,6 +88,8 @@ KEYS = (
     *(Key(key, "outages", f"Beam {k} outage", "outage") for k, key in enumerate(OUTAGE_KEYS, start=1)),
     Key("dep", "aid_depth", "Depth (pressure)", "flag"),
     Key("mag", "aid_mag", "Magnetometer", "flag"),
+    *(Key(p.name, "aid_sources", p.label, "flag") for p in PLUGIN_SOURCES),
+    *(Key(f.key, "source_fields", f.label, f.kind) for f in PLUGIN_FIELDS.values()),
     Key("ab", "accel_bias", inputs.ACCEL_BIAS, "number"),
     Key("gb", "gyro_bias", inputs.GYRO_BIAS, "number"),
     Key("an", "accel_noise", inputs.ACCEL_NOISE, "number"),
@@ -94,7 +100,8 @@ KEYS = (
     Key("seed", "seed", inputs.SEED, "integer"),
     Key("runs", "runs", inputs.RUNS, "integer"),
 )
-"""Every control of app.inputs.Controls, in the page's order (the four outages one key per beam)."""
+"""Every control of app.inputs.Controls, in the page's order (the four outages one key per beam,
+each plug-in source and each field of its section one key: app.controls)."""
 BY_KEY = {k.key: k for k in KEYS}
 VISER_PARAMS = (
     "websocket",
@@ -124,6 +131,7 @@ _PARSERS: dict[str, Callable[[str, str], Any]] = {
     "number": inputs.parse_float,
     "integer": inputs.parse_int,
     "number_or_auto": inputs.parse_float_or_auto,
+    "vector": inputs.parse_vector,
 }
 _SIGNED = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 
@@ -132,7 +140,8 @@ _SIGNED = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 class Link:
     """What a page's query says: the values it sets well, what it got wrong, and viser's own part."""
 
-    values: dict[str, Any]  # Controls field -> value (outages: beam 1..4 -> (start, end) texts)
+    values: dict[str, Any]  # Controls field -> value (outages: beam 1..4 -> (start, end) texts;
+    # aid_sources: source -> on; source_fields: key -> value)
     keys: tuple[str, ...]  # the keys applied, in the query's order
     problems: tuple[str, ...]  # one line per refused key: the key, its value as given, why
     viser_params: tuple[str, ...] = ()  # viser's own "key=value" parts, as they were (kept in the address)
@@ -157,7 +166,14 @@ def _value(key: Key, c: Controls) -> str:
     if key.kind == "outage":
         start, end = c.outages[OUTAGE_KEYS.index(key.key)]
         return f"{_text(start)}:{_text(end)}"
-    value = getattr(c, key.field)
+    if key.field == "aid_sources":
+        value: Any = key.key in c.aid_sources
+    elif key.field == "source_fields":
+        value = dict(c.source_fields)[key.key]
+    else:
+        value = getattr(c, key.field)
+    if key.kind == "vector":
+        return ",".join(_text(part) for part in value.split(","))
     if key.kind == "flag":
         return "1" if value else "0"
     if key.kind == "methods":
@@ -282,6 +298,8 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
         keys.append(name)
         if key.kind == "outage":
             outages[OUTAGE_KEYS.index(name) + 1] = value
+        elif key.field in PER_KEY_FIELDS:
+            values.setdefault(key.field, {})[name] = value
         else:
             values[key.field] = value
     if outages:
@@ -297,28 +315,20 @@ def apply(c: Controls, link: Link) -> Controls:
         for beam, pair in changes["outages"].items():
             outages[beam - 1] = pair
         changes["outages"] = tuple(outages)
+    if "aid_sources" in changes:
+        on = {name for name in c.aid_sources if changes["aid_sources"].get(name, True)}
+        on |= {name for name, ticked in changes["aid_sources"].items() if ticked}
+        changes["aid_sources"] = tuple(p.name for p in PLUGIN_SOURCES if p.name in on)
+    if "source_fields" in changes:
+        changes["source_fields"] = tuple(
+            (key, changes["source_fields"].get(key, value)) for key, value in c.source_fields
+        )
     return dataclasses.replace(c, **changes)
 
 
 # ---------------------------------------------------------------------------------------- page
-VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
 ADDRESS_KEY_PREFIX = "tauv-address-"  # + a fresh id per read: tabs of one browser share localStorage
 READ_TIMEOUT_S = 30.0  # a page loading under software WebGL answers late
-_READ_JS = """(() => {
-  // the page's query, for the server (it has no other way to learn it)
-  const now = Date.now();
-  for (const k of Object.keys(localStorage)) {
-    if (!k.startsWith(__PREFIX__)) continue;
-    let t = 0;
-    try { t = JSON.parse(localStorage.getItem(k)).t || 0; } catch (e) {}
-    if (now - t > 60000) localStorage.removeItem(k);
-  }
-  localStorage.setItem(__KEY__, JSON.stringify({t: now, search: window.location.search}));
-})();"""
-
-
-def _run_script(client: viser.ClientHandle, source: str) -> None:
-    client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=source))
 
 
 def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) -> str | None:
@@ -326,12 +336,7 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
     the script (a scripted client). Raises TimeoutError, or RuntimeError if the tab closed or its
     storage is blocked (viser's ``local_storage.get_item``)."""
     key = f"{ADDRESS_KEY_PREFIX}{uuid.uuid4().hex}"
-    _run_script(
-        client,
-        _READ_JS.replace("__PREFIX__", json.dumps(VISER_STORAGE_PREFIX + ADDRESS_KEY_PREFIX)).replace(
-            "__KEY__", json.dumps(VISER_STORAGE_PREFIX + key)
-        ),
-    )
+    page_scripts.run(client, page_scripts.report([], ADDRESS_KEY_PREFIX, key))
     raw = client.local_storage.get_item(key, timeout=timeout_s)
     if raw is None:
         return None
@@ -345,7 +350,7 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
 def show_address(client: viser.ClientHandle, query: str) -> None:
     """Make ``query`` (from :func:`address`) the page's query, in place: no reload, no new entry
     in the browser's history."""
-    _run_script(
+    page_scripts.run(
         client, f"history.replaceState(history.state, '', {json.dumps(query)} + window.location.hash);"
     )
 

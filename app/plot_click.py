@@ -2,7 +2,7 @@
 
 viser 1.1 draws plotly figures but tells the server nothing of a click on them (no plotly event
 reaches Python). The page does run the scripts the server sends (app.links explains the channel),
-so at connect a script (:data:`CLICK_JS`) listens for plotly's ``plotly_click`` on every figure of
+so at connect a script (app/assets/plot_click.js) listens for plotly's ``plotly_click`` on every figure of
 the page, the ones drawn later too, and writes the clicked point's time into the Playback folder's
 "Go to [s]" field, as if typed: viser then sends the field's new value, and the dashboard moves the
 time slider there (app.dashboard.Session.go_to). The field is an ordinary control too: a time typed
@@ -15,11 +15,11 @@ clicked point's ``x`` is the time to show. A click between points takes the near
 
 from __future__ import annotations
 
-import json
 import math
 
 import viser
-from viser import _messages as viser_messages
+
+from app import page_scripts
 
 GO_TO_LABEL = "Go to [s]"
 GO_TO_HINT = "type a mission time, or click any plot: the playback moves there"
@@ -27,48 +27,16 @@ GO_TO_HINT = "type a mission time, or click any plot: the playback moves there"
 _FIELD_XPATH = (
     '//label[normalize-space()="{label}"]/../../following-sibling::*[1]//input[not(@type="hidden")]'
 )
-CLICK_JS = """(() => {
-  // a click on any plotly figure writes its time into the "Go to [s]" field (app.plot_click)
-  if (window.__tauvPlotClick) return;
-  window.__tauvPlotClick = true;
-  const XPATH = __XPATH__;
-  const setValue = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
-  let flip = false;
-  function type(box, text) {
-    setValue.call(box, text);
-    box.dispatchEvent(new Event('input', {bubbles: true}));
-  }
-  function onClick(ev) {
-    const p = ev && ev.points && ev.points[0];
-    if (!p || typeof p.x !== 'number' || !isFinite(p.x)) return;
-    const box = document.evaluate(XPATH, document, null, XPathResult.FIRST_ORDERED_NODE_TYPE, null)
-      .singleNodeValue;
-    if (!box) return;
-    // a trailing space every other click: the same time clicked twice is still a change (viser
-    // sends a field's latest value only, so clearing it first would not reach the server)
-    flip = !flip;
-    type(box, p.x.toFixed(2) + (flip ? ' ' : ''));
-  }
-  function hook() {
-    for (const gd of document.querySelectorAll('.js-plotly-plot')) {
-      // a figure redrawn by Plotly.newPlot loses its listeners: hook it again
-      if (typeof gd.on !== 'function' || !gd._ev) continue;
-      if (gd._ev.listeners('plotly_click').indexOf(onClick) < 0) gd.on('plotly_click', onClick);
-    }
-  }
-  hook();
-  setInterval(hook, 500);
-})();"""
 
 
 def script() -> str:
     """The page script, with the field's locator filled in."""
-    return CLICK_JS.replace("__XPATH__", json.dumps(_FIELD_XPATH.format(label=GO_TO_LABEL)))
+    return page_scripts.source("plot_click.js", xpath=_FIELD_XPATH.format(label=GO_TO_LABEL))
 
 
 def install(client: viser.ClientHandle) -> None:
-    """Send :data:`CLICK_JS` to ``client``'s page (once per page: the script guards itself)."""
-    client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script()))
+    """Send app/assets/plot_click.js to ``client``'s page (once per page: the script guards itself)."""
+    page_scripts.run(client, script())
 
 
 def parse_go_to_s(text: str, t_max_s: float) -> float | None:
@@ -86,4 +54,4 @@ def parse_go_to_s(text: str, t_max_s: float) -> float | None:
     return min(max(t_s, 0.0), float(t_max_s))
 
 
-__all__ = ["CLICK_JS", "GO_TO_HINT", "GO_TO_LABEL", "install", "parse_go_to_s", "script"]
+__all__ = ["GO_TO_HINT", "GO_TO_LABEL", "install", "parse_go_to_s", "script"]

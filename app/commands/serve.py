@@ -78,8 +78,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
                 f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
                 f"imu.parquet; see the README){_raw_layouts_in(args.logs)}"
             )
-    from app.dashboard import exit_now  # viser only when serving
     from app.dashboard import main as serve_main
+    from app.hardening import exit_now  # viser only when serving
 
     try:
         with viser_console_muted():  # the dashboard prints the one address to open

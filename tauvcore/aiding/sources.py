@@ -12,9 +12,10 @@ results, tables, studies and consistency summaries.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 
-from tauvcore.aiding.source import AidingSource
+from tauvcore.aiding.source import AidingSource, settings
 
 MODULES: tuple[str, ...] = (
     "usbl",  # tauvcore/aiding/usbl.py: a ship's USBL position fix, the worked example of docs/adding_a_sensor.md
@@ -45,6 +46,18 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
         if "t_s" in columns or len(set(columns)) != len(columns) or not columns:
             raise ValueError(
                 f"tauvcore.aiding.{module_name}: SOURCE.columns must be distinct names other than t_s, got {columns}"
+            )
+        label = getattr(source, "label", None)
+        if not isinstance(label, str) or not label.strip():
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: SOURCE.label must be a few words, got {label!r}"
+            )
+        bare = [f.name for f in dataclasses.fields(source.config_type)]
+        declared = {key for key, _, _ in settings(source.config_type)}
+        if [f for f in bare if f not in declared]:
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: every field of {source.config_type.__name__} must declare "
+                f"its Setting (tauvcore.aiding.source.setting); {', '.join(f for f in bare if f not in declared)} do not"
             )
         out[name] = source
     return out

@@ -49,14 +49,14 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.fusion_method import Sections
-from tauvcore.aiding.source import AidingSource, Column, SourceData
+from tauvcore.aiding.source import AidingSource, Column, SourceData, check_settings, setting
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import geodetic_from_ned, ned_offset_m
 from tauvcore.geo.rotations import mv, skew
 from tauvcore.sensors.timing import Rng, standard_normal, uniform
 from tauvcore.truth.record import Truth
-from tauvcore.validation import ConfigError, require_range, require_vector3, show
+from tauvcore.validation import require_range
 
 AXES = ("north_m", "east_m", "down_m")
 """The fix's columns: the transponder's position in the origin's tangent frame [m]."""
@@ -69,39 +69,46 @@ keeps an invertible S, as the built-in sources' floors do (tauvcore.aiding.noise
 class UsblConfig:
     """A ship-mounted USBL transceiver fixing the vehicle (module docstring)."""
 
-    interval_s: float = 10.0  # time between fixes [s]; [0.5, 600]: a USBL pings at 2 Hz at most, and a
-    # fix every ten minutes is all but none
-    latency_s: float = 1.0  # ping to fix at the vehicle [s]; [0, 30]: 2 s of acoustic travel for 1.5 km
-    # of slant range, the ship's processing and the link down
-    compensate_latency: bool = True  # predict the position at ping time (p - latency v); false: take the
-    # fix as of its arrival (what ignoring the latency costs)
-    noise_fixed_m: float = 0.1  # per axis [m]; [0, 100]: centimetres for the best systems, 100 m is no fix
-    noise_fraction: float = 0.002  # of the slant range, per axis; [0, 0.1]: commercial USBLs quote
-    # 0.1-1 % of slant range, 10 % is a bearing error of 6 deg
-    transceiver_n_m: tuple[float, float, float] = (0.0, 0.0, 2.0)  # NED from the origin [m]; north and east
-    # within +-1e5 m (a ship 100 km off is out of acoustic range), down within [0, 50]: on a hull or
-    # a pole under the surface
-    lever_arm_b_m: tuple[float, float, float] = (0.0, 0.0, -0.3)  # the transponder in body axes [m]; each
-    # within +-10 m, the size of an AUV
-    dropout_probability: float = 0.05  # a fix lost [-]; [0, 1]
-    outlier_probability: float = 0.01  # a fix off by outlier_m [-]; [0, 1]
-    outlier_m: float = 30.0  # an outlier's offset, in a random direction [m]; [0, 1e4]
+    interval_s: float = setting(10.0, "fix interval", "s", 0.5, 600.0, hint="time between fixes")
+    # [0.5, 600]: a USBL pings at 2 Hz at most, and a fix every ten minutes is all but none
+    latency_s: float = setting(1.0, "latency", "s", 0.0, 30.0, hint="ping to fix at the vehicle")
+    # [0, 30]: 2 s of acoustic travel for 1.5 km of slant range, the ship's processing and the link down
+    compensate_latency: bool = setting(
+        True,
+        "compensates its latency",
+        hint="predict the position at ping time (p - latency v); off: take the fix as of its arrival",
+    )  # off: what ignoring the latency costs
+    noise_fixed_m: float = setting(0.1, "noise", "m", 0.0, 100.0, hint="per axis, the fixed part")
+    # [0, 100]: centimetres for the best systems, 100 m is no fix
+    noise_fraction: float = setting(
+        0.002, "noise fraction", "", 0.0, 0.1, hint="per axis, of the slant range"
+    )  # [0, 0.1]: commercial USBLs quote 0.1-1 % of slant range, 10 % is a bearing error of 6 deg
+    transceiver_n_m: tuple[float, float, float] = setting(
+        (0.0, 0.0, 2.0),
+        "transceiver NED",
+        "m",
+        bound=1e5,
+        hint="the ship's transceiver from the origin: north, east, down (down within [0, 50])",
+    )  # north and east within +-1e5 m (a ship 100 km off is out of acoustic range), down within
+    # [0, 50]: on a hull or a pole under the surface
+    lever_arm_b_m: tuple[float, float, float] = setting(
+        (0.0, 0.0, -0.3),
+        "lever arm",
+        "m",
+        bound=10.0,
+        hint="the transponder in body axes: forward, right, down",
+    )  # each within +-10 m, the size of an AUV
+    dropout_probability: float = setting(0.05, "dropout probability", "", 0.0, 1.0, hint="a fix lost")
+    outlier_probability: float = setting(
+        0.01, "outlier probability", "", 0.0, 1.0, hint="a fix off by the outlier offset"
+    )
+    outlier_m: float = setting(
+        30.0, "outlier offset", "m", 0.0, 1e4, hint="an outlier's offset, in a random direction"
+    )
 
     def __post_init__(self) -> None:
-        require_range("usbl.interval_s", self.interval_s, 0.5, 600.0)
-        require_range("usbl.latency_s", self.latency_s, 0.0, 30.0)
-        if not isinstance(self.compensate_latency, bool):
-            raise ConfigError(
-                f"usbl.compensate_latency must be true or false, got {show(self.compensate_latency)}"
-            )
-        require_range("usbl.noise_fixed_m", self.noise_fixed_m, 0.0, 100.0)
-        require_range("usbl.noise_fraction", self.noise_fraction, 0.0, 0.1)
-        require_vector3("usbl.transceiver_n_m", self.transceiver_n_m, bound=1e5)
+        check_settings("usbl", self)
         require_range("usbl.transceiver_n_m[2]", self.transceiver_n_m[2], 0.0, 50.0)
-        require_vector3("usbl.lever_arm_b_m", self.lever_arm_b_m, bound=10.0)
-        require_range("usbl.dropout_probability", self.dropout_probability, 0.0, 1.0)
-        require_range("usbl.outlier_probability", self.outlier_probability, 0.0, 1.0)
-        require_range("usbl.outlier_m", self.outlier_m, 0.0, 1e4)
 
     def sigma_m(self, slant_range_m: np.ndarray) -> np.ndarray:
         """Per-axis 1-sigma of a fix at ``slant_range_m`` [m] (same shape)."""
@@ -187,6 +194,7 @@ class _Pending:
 
 class Usbl(AidingSource):
     name = "usbl"
+    label = "USBL"
     summary = "a ship's USBL fixing the vehicle's position (slant-range noise, latency, dropouts, outliers)"
     config_type = UsblConfig
     streams = ("noise", "dropout", "outlier", "outlier_direction")  # each drawn alone, so that the

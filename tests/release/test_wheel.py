@@ -107,6 +107,8 @@ def test_wheel_ships_the_mesh_and_only_the_packages(installed: Installed) -> Non
     with zipfile.ZipFile(installed.wheel) as wheel:
         names = wheel.namelist()
         assert wheel.read("app/assets/auv.obj") == (REPO / "app" / "assets" / "auv.obj").read_bytes()
+        scripts = sorted((REPO / "app" / "assets").glob("*.js"))     # the page scripts (app/page_scripts.py)
+        assert scripts and all(wheel.read(f"app/assets/{p.name}") == p.read_bytes() for p in scripts)
     tops = {n.split("/")[0] for n in names if not n.startswith("tauv-")}
     assert tops == {"app", "tauvcore"}, tops
     sources = {p.relative_to(REPO).as_posix() for top in tops for p in (REPO / top).rglob("*.py")
@@ -118,13 +120,14 @@ def test_wheel_ships_the_mesh_and_only_the_packages(installed: Installed) -> Non
 def test_fresh_venv_imports_the_wheel_not_the_source_tree(installed: Installed, tmp_path: Path) -> None:
     code = ("import app, tauvcore, tauvcore.engine as r, app.scene as s; print(app.__file__);"
             " print(*tauvcore.__path__); print(r.__file__); print(s.ASSETS_DIR);"
-            " print((s.ASSETS_DIR / 'auv.obj').is_file())")
+            " print((s.ASSETS_DIR / 'auv.obj').is_file());"
+            " import app.page_scripts as ps; print('localStorage.setItem' in ps.report([], 'p-', 'k'))")
     out = _run([str(installed.python), "-c", code], cwd=tmp_path).stdout.split()
-    app_file, tauvcore_dir, runner_file, assets_dir, found = out    # tauvcore: a namespace package, one portion
+    app_file, tauvcore_dir, runner_file, assets_dir, found, script = out    # tauvcore: a namespace package, one portion
     for path in (app_file, tauvcore_dir, runner_file, assets_dir):
         assert Path(path).is_relative_to(installed.site), out
         assert not Path(path).is_relative_to(REPO), out
-    assert found == "True"
+    assert found == "True" and script == "True"
 
 
 def _decode_batch(data: bytes) -> list[dict]:

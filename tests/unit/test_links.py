@@ -14,6 +14,7 @@ from urllib.parse import parse_qsl, quote
 import pytest
 
 from app import links
+from app.controls import PLUGIN_SOURCES
 from app.inputs import SIMULATION, Controls, config_from_controls
 from tauvcore.config import RUN_METHODS
 
@@ -178,6 +179,8 @@ class _Tab:
         self.method_boxes = {m: handle(m in DEFAULTS.methods) for m in RUN_METHODS}
         self.beam_boxes = [handle(True) for _ in range(4)]
         self.outage = [(handle("0"), handle("0")) for _ in range(4)]
+        self.source_boxes = {p.name: handle(p.name in DEFAULTS.aid_sources) for p in PLUGIN_SOURCES}
+        self.source_fields = {key: handle(value) for key, value in DEFAULTS.source_fields}
         for method in ("controls", "set_controls", "selected_methods", "apply_trajectory_preset", "apply_link",
                        "_text_fields"):
             setattr(self, method, getattr(Session, method).__get__(self))

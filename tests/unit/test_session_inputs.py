@@ -12,6 +12,7 @@ import dataclasses
 
 import pytest
 
+from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_SOURCES
 from app.inputs import (
     ACCEL_BIAS,
     ACCEL_NOISE,
@@ -276,7 +277,9 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
         dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seabed_depth=spy("60"),
         dvl_max_altitude=spy("100"), switch_altitude=spy("100"), rpm_noise=spy("2"), seed=spy("0"), runs=spy("1"),
-        source=spy(source))     # the Source control of tauv serve --logs
+        source=spy(source),     # the Source control of tauv serve --logs
+        source_boxes={p.name: spy(False) for p in PLUGIN_SOURCES},
+        source_fields={key: spy(value) for key, value in DEFAULT_SOURCE_FIELDS})
     tab.selected_methods = lambda: Session.selected_methods(tab)
     return tab
 
@@ -295,6 +298,8 @@ def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
             tab.method_boxes["vkf"]._impl.uuid} <= confirmed
     assert {tab.seabed_depth._impl.uuid, tab.dvl_max_altitude._impl.uuid, tab.switch_altitude._impl.uuid,
             tab.rpm_noise._impl.uuid} <= confirmed
+    plugins = {*tab.source_boxes.values(), *tab.source_fields.values()}
+    assert plugins and {h._impl.uuid for h in plugins} <= confirmed
     assert read_ids == confirmed
 
 
