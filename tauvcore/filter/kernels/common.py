@@ -13,9 +13,9 @@ recompiles it; an edit elsewhere leaves it cached.
 
 from __future__ import annotations
 
-import ast
 import hashlib
 import importlib.util
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -45,19 +45,28 @@ def _origin(module_name: str) -> str | None:
     return spec.origin if spec is not None and spec.has_location else None
 
 
+_IMPORT = re.compile(
+    rb"^from[ \t]+([\w.]+)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)|^import[ \t]+([^\n]+)", re.MULTILINE
+)
+"""A module-level import statement (the imports a kernel's globals can come from)."""
+
+
 def _imported_modules(module_name: str, source: bytes) -> set[str]:
-    """The tauvcore modules ``module_name``'s import statements name (a ``from`` import's names
-    where they are submodules, else the module they come from)."""
+    """The tauvcore modules the module-level import statements of ``module_name`` name (a
+    ``from`` import's names where they are submodules, else the module they come from)."""
     found: set[str] = set()
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            package = module_name.rpartition(".")[0]
-            base = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
-            for alias in node.names:
-                sub = f"{base}.{alias.name}"
-                found.add(sub if _origin(sub) is not None else base)
+    for match in _IMPORT.finditer(source):
+        if match[3] is not None:
+            names = re.sub(rb"#.*", b"", match[3]).decode().split(",")
+            found.update(name.split()[0] for name in names if name.split())
+            continue
+        base = match[1].decode()
+        if base.startswith("."):
+            base = importlib.util.resolve_name(base, module_name.rpartition(".")[0])
+        names = re.sub(rb"#.*", b"", match[2]).decode().strip("()").split(",")
+        for name in (name.split()[0] for name in names if name.split()):
+            sub = f"{base}.{name}"
+            found.add(sub if _origin(sub) is not None else base)
     return {name for name in found if name.split(".")[0] == "tauvcore" and name != module_name}
 
 
