@@ -131,10 +131,21 @@ class Tab:
         """Tick or untick the checkbox ``label`` and wait until the page shows it so. Clicked
         without waiting for the panel to hold still, for the reason :meth:`open_folder` gives (a
         CI run waited 30 s for the TC checkbox to be "stable"); ``set_checked`` still fails if
-        the click did not change the box."""
+        the click did not change the box. A click that misses (the panel still settling after a
+        folder opened: the box was not where its position said) is tried again, twice at most,
+        half a second apart."""
+        from playwright.sync_api import Error as PlaywrightError
+
         box = self.checkbox(label)
-        box.scroll_into_view_if_needed(timeout=15000)
-        box.set_checked(checked, force=True, timeout=15000)
+        for attempt in range(3):
+            box.scroll_into_view_if_needed(timeout=15000)
+            try:
+                box.set_checked(checked, force=True, timeout=15000)
+                return
+            except PlaywrightError:
+                if attempt == 2:
+                    raise
+                self.page.wait_for_timeout(500)
 
     def set_methods(self, wanted: set[str]) -> None:
         for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC", "INS-DVL", "VKF"):
