@@ -181,24 +181,28 @@ class ChunkDriver:
                 self.chunks.pop()
         # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
         if k0 + n - 1 > self.k_state:
-            advance(
-                self.pos,
-                self.vel,
-                self.C,
-                self.ba,
-                self.bg,
-                phi_raw,
-                dv_raw,
-                dtheta,
-                self.dtheta_sum,
-                self.k_state - k0,
-                n - 1,
-                *self.sd_consts,
-            )
-            self.k_state = k0 + n - 1
+            self._advance_to(inputs, k0, k0 + n - 1)
         self._chunk_end(chunk)
         self._seal(store, k0 + n - 1)
         return True
+
+    def _advance_to(self, inputs: ChunkInputs, k0: int, k: int) -> None:
+        """The nominal states from ``self.k_state`` to sample ``k`` of the chunk starting at ``k0``."""
+        advance(
+            self.pos,
+            self.vel,
+            self.C,
+            self.ba,
+            self.bg,
+            inputs.phi_raw,
+            inputs.dv_raw,
+            inputs.dtheta,
+            self.dtheta_sum,
+            self.k_state - k0,
+            k - k0,
+            *self.sd_consts,
+        )
+        self.k_state = k
 
     # ------------------------------------------------------------------ the store
     def _seal(self, store: Store, k_last: int) -> None:

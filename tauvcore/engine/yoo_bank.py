@@ -51,7 +51,6 @@ from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult,
 from tauvcore.engine.rpm_aid import RPM_LATERAL_SIGMA_MPS, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.filter import statistics, yoo
-from tauvcore.filter.kernels.strapdown import advance
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 
@@ -334,28 +333,14 @@ class YooBank(ChunkDriver):
         inputs: ChunkInputs,
         store: Store,
     ) -> None:
-        phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
+        dv_raw = inputs.dv_raw
         k0 = chunk.k0
         self._dv = dv_raw
         for s in range(s0, s1):
             k = int(stops[s])
             i = k - k0
             if k > self.k_state:
-                advance(
-                    self.pos,
-                    self.vel,
-                    self.C,
-                    self.ba,
-                    self.bg,
-                    phi_raw,
-                    dv_raw,
-                    dtheta,
-                    self.dtheta_sum,
-                    self.k_state - k0,
-                    i,
-                    *self.sd_consts,
-                )
-                self.k_state = k
+                self._advance_to(inputs, k0, k)
             if k > self.k_cov:
                 self._propagate(i, k)
             if ping_of_stop[s] >= 0:
