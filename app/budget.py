@@ -93,11 +93,11 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     dvl_rows = math.ceil(duration_s * config.dvl.rate_hz + 1) * dvl_methods if "dvl" in aiding else 0
     other_updates = 0
     if dvl_methods:
-        other_updates += math.ceil(duration_s * config.pressure.rate_hz + 1) if "depth" in aiding else 0
-        other_updates += math.ceil(duration_s * config.magnetometer.rate_hz + 1) if "mag" in aiding else 0
         for name, source in SOURCES.items():
             if name in aiding:
-                other_updates += math.ceil(duration_s * source.rate_hz(config.section(name)) + 1)
+                other_updates += math.ceil(
+                    duration_s * source.rate_hz(config.section(source.section_name)) + 1
+                )
     other_rows = other_updates * dvl_methods
 
     K_c = min(K, round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz) + 1)

@@ -29,8 +29,9 @@ KINDS = ("number", "vector", "flag")
 class FieldControl:
     """One field of a plug-in source's section as the dashboard shows it."""
 
-    key: str  # "<source>.<field>": the configuration field, the address key, the Controls entry
+    key: str  # "<section>.<field>": the configuration field, the address key, the Controls entry
     source: str  # the plug-in's name
+    section: str  # its configuration section
     field: str  # the field of its config_type
     label: str  # the control's label, e.g. "USBL fix interval [s]"
     kind: str  # one of KINDS
@@ -90,13 +91,18 @@ def describe(source: AidingSource) -> SourceControl:
     for name, default, s in settings(source.config_type):
         kind = _kind(default)
         label = f"{source.label} {s.label}" + (f" [{s.unit}]" if s.unit else "")
-        key = f"{source.name}.{name}"
-        fields.append(FieldControl(key, source.name, name, label, kind, _hint(kind, s), shown(kind, default)))
+        key = f"{source.section_name}.{name}"
+        fields.append(
+            FieldControl(
+                key, source.name, source.section_name, name, label, kind, _hint(kind, s), shown(kind, default)
+            )
+        )
     return SourceControl(source.name, source.label, source.summary, tuple(fields))
 
 
-PLUGIN_SOURCES: tuple[SourceControl, ...] = tuple(describe(s) for s in SOURCES.values())
-"""Every plug-in source's controls, in the registry's order."""
+PLUGIN_SOURCES: tuple[SourceControl, ...] = tuple(describe(s) for s in SOURCES.values() if not s.aboard)
+"""Every plug-in source's controls, in the registry's order (the sources aboard, the depth and the
+magnetometer, have their checkboxes in app.dashboard)."""
 PLUGIN_FIELDS: dict[str, FieldControl] = {f.key: f for s in PLUGIN_SOURCES for f in s.fields}
 """Every plug-in field's control by its key."""
 DEFAULT_SOURCE_FIELDS: tuple[tuple[str, str | bool], ...] = tuple(

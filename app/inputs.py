@@ -353,12 +353,12 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
     for f in PLUGIN_FIELDS.values():
         value = held.get(f.key, f.default)
         if f.kind == "flag":
-            plugin_sections.setdefault(f.source, {})[f.field] = bool(value)
+            plugin_sections.setdefault(f.section, {})[f.field] = bool(value)
             continue
         text = str(value)
         typed[f.label] = text
         parse = parse_vector if f.kind == "vector" else parse_float
-        plugin_sections.setdefault(f.source, {})[f.field] = parse(f.label, text)
+        plugin_sections.setdefault(f.section, {})[f.field] = parse(f.label, text)
     outages = []
     for k, (start_text, end_text) in enumerate(c.outages, start=1):
         start_label, end_label = outage_labels(k)
@@ -460,7 +460,7 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
         (DROPOUT, f"{d.dropout_probability:g}"),
         ("Aiding", ", ".join(run.aiding)),
         *(  # each plug-in source aided with: its section, as its controls name it
-            (f.label, _field_row(f.kind, getattr(config.section(f.source), f.field)))
+            (f.label, _field_row(f.kind, getattr(config.section(f.section), f.field)))
             for f in PLUGIN_FIELDS.values()
             if f.source in run.aiding
         ),

@@ -21,6 +21,7 @@ import tomli_w
 from tauvcore import units
 from tauvcore.aiding import AIDING_SOURCES, elc_nsv
 from tauvcore.aiding.registry import REGISTRY
+from tauvcore.aiding.source import AidingSource
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
@@ -212,9 +213,10 @@ class Config:
     run: RunConfig = field(default_factory=RunConfig)
     replay: ReplayConfig = field(default_factory=ReplayConfig)
     sources: tuple[tuple[str, Any], ...] = field(
-        default_factory=lambda: tuple((name, source.config_type()) for name, source in SOURCES.items())
-    )  # the plug-in sources' sections (tauvcore.aiding.sources), each by name; in TOML each its own
-    # [<name>] section, in the library config.section(name) and config.replace(name, ...)
+        default_factory=lambda: tuple((name, SOURCE_SECTIONS[name].config_type()) for name in SOURCE_SECTIONS)
+    )  # the sections of the sources of tauvcore.aiding.sources whose section is not one of the
+    # above (the USBL's), each by its section name; in TOML each its own [<section_name>] section, in
+    # the library config.section(name) and config.replace(name, ...)
 
     def __post_init__(self) -> None:
         imu_rate = self.imu.rate_hz
@@ -261,7 +263,7 @@ class Config:
     def replace(self, section: str, **changes: Any) -> Config:
         """A copy with ``changes`` applied to one section (validated)."""
         new = dataclasses.replace(self.section(section), **changes)
-        if section in SOURCES:
+        if section in SOURCE_SECTIONS:
             return dataclasses.replace(
                 self, sources=tuple((n, new if n == section else s) for n, s in self.sources)
             )
@@ -272,8 +274,13 @@ class Config:
         return {**{name: getattr(self, name) for name in SECTION_NAMES}, **dict(self.sources)}
 
 
-SECTION_NAMES = tuple(f.name for f in dataclasses.fields(Config) if f.name != "sources")
+SECTION_NAMES: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(Config) if f.name != "sources")
 """The built-in sections (a plug-in source's is named after it: Config.sources)."""
+SOURCE_SECTIONS: dict[str, AidingSource] = {
+    s.section_name: s for s in SOURCES.values() if s.section_name not in SECTION_NAMES
+}
+"""The sources whose sections :attr:`Config.sources` holds, by section name (the others, the
+depth's ``pressure`` and the magnetometer's ``magnetometer``, are sections of their own above)."""
 
 
 def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
@@ -418,7 +425,7 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
         sections[sec_name] = dataclasses.replace(section, **changes)
     return Config(
         **{name: sections[name] for name in SECTION_NAMES},
-        sources=tuple((name, sections[name]) for name in SOURCES),
+        sources=tuple((name, sections[name]) for name in SOURCE_SECTIONS),
     )
 
 

@@ -53,6 +53,8 @@ from pathlib import Path
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding.attitude_mag import EULER
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_evidence import file_angle_columns, table_file
 from tauvcore.log_motion_checks import (
     MAX_TURN_RATE_RPS,
@@ -126,8 +128,7 @@ def _check_clocks(log: Log, files: Mapping[str, Path], notes: list[str]) -> None
     start, end = float(t_imu[0]), float(t_imu[-1])
     for table, t in (
         ("dvl", log.dvl_t_s),
-        ("depth", log.depth_t_s),
-        ("attitude", log.attitude_t_s),
+        *((SOURCES[name].table, rows["t_s"]) for name, rows in log.sources.items()),
         ("reference", log.ref_t_s),
     ):
         if t is None or t.size == 0:
@@ -178,9 +179,10 @@ def _check_ranges(log: Log, files: Mapping[str, Path]) -> None:
     that turns too slowly to tell is left to the gyro's comparison,
     :func:`~tauvcore.log_motion_checks.check_gyro`)."""
     sets = []
+    attitude = log.table("mag", EULER)
     for table, t, euler in (
         ("reference", log.ref_t_s, log.ref_euler),
-        ("attitude", log.attitude_t_s, log.attitude_euler),
+        (SOURCES["mag"].table, *(attitude or (None, None))),
     ):
         if t is None or euler is None:
             continue
@@ -239,20 +241,21 @@ def _check_depth(log: Log, files: Mapping[str, Path], notes: list[str]) -> None:
                 f"the sea surface (a depth is positive down, and above {MIN_DEPTH_M:g} m a vehicle is out of the "
                 "water): a height or altitude given as depth? Negate it"
             )
-    if log.depth_t_s is None or log.depth_m is None or log.depth_m.size == 0:
+    depth = log.table("depth", ("depth_m",))
+    if depth is None or depth[0].size == 0:
         return
-    path = table_file(files, log, "depth")
-    d = log.depth_m
+    path = table_file(files, log, SOURCES["depth"].table)
+    depth_t_s, d = depth[0], depth[1][:, 0]
     compare = None
     if ref_t is not None and ref_depth is not None:
-        inside = (log.depth_t_s >= ref_t[0]) & (log.depth_t_s <= ref_t[-1])
+        inside = (depth_t_s >= ref_t[0]) & (depth_t_s <= ref_t[-1])
         if inside.any():
-            compare = d[inside] - np.interp(log.depth_t_s[inside], ref_t, ref_depth)
+            compare = d[inside] - np.interp(depth_t_s[inside], ref_t, ref_depth)
     if float(np.median(d)) < MIN_DEPTH_M:
         row = int(np.argmax(d < MIN_DEPTH_M)) + 1
         against = ""
         if ref_t is not None and ref_depth is not None:
-            at = float(np.interp(log.depth_t_s[row - 1], ref_t, ref_depth))
+            at = float(np.interp(depth_t_s[row - 1], ref_t, ref_depth))
             against = f"; the reference is at {at:.6g} m then"
         raise LogError(
             f"{show_path(str(path))}: column 'depth_m', row {row}: {float(d[row - 1]):.6g} m, above the sea surface as "

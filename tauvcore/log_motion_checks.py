@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding.attitude_mag import EULER
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.geo.earth import OMEGA_IE_RPS, radii_of_curvature_m
 from tauvcore.geo.rotations import C_nb_from_euler, log_so3
 from tauvcore.log_evidence import (
@@ -182,8 +184,9 @@ def _attitude_source(log: Log) -> tuple[str, np.ndarray, np.ndarray] | None:
     """The attitude the gyro is judged against: the reference's, else the attitude table's."""
     if log.ref_t_s is not None and log.ref_euler is not None:
         return "reference", log.ref_t_s, log.ref_euler
-    if log.attitude_t_s is not None and log.attitude_euler is not None:
-        return "attitude", log.attitude_t_s, log.attitude_euler
+    attitude = log.table("mag", EULER)
+    if attitude is not None:
+        return SOURCES["mag"].table, *attitude
     return None
 
 

@@ -4,7 +4,7 @@ tauvcore.conventions."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,13 +26,18 @@ class Log:
     dvl_t_s: np.ndarray | None = None  # (M,) ping times [s]
     dvl_beams_mps: np.ndarray | None = None  # (M, 4) beam velocities, NaN where not returned
     dvl_body_mps: np.ndarray | None = None  # (M, 3) body velocity (NaN rows: invalid), if the log has that
-    depth_t_s: np.ndarray | None = None
-    depth_m: np.ndarray | None = None
-    attitude_t_s: np.ndarray | None = None
-    attitude_euler: np.ndarray | None = None  # (A, 3) [rad]
     notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user
-    sources: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)  # the plug-in
-    # sources' tables (tauvcore.aiding.sources) by name: "t_s" (E,) [s] and each of its columns (E,)
+    sources: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)  # the aiding
+    # sources' tables (tauvcore.aiding.sources: the depth's, the magnetometer's attitude, a USBL's)
+    # by source name: "t_s" (E,) [s] and each of its columns (E,) in SI (an angle in radians)
+
+    def table(self, name: str, columns: Sequence[str]) -> tuple[np.ndarray, np.ndarray] | None:
+        """Source ``name``'s times (E,) [s] and its ``columns`` side by side (E, len(columns));
+        None if the log has no table for it."""
+        table = self.sources.get(name)
+        if table is None:
+            return None
+        return table["t_s"], np.stack([table[c] for c in columns], axis=-1)
 
     @property
     def dt_s(self) -> float:

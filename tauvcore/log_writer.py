@@ -13,9 +13,8 @@ from typing import IO
 
 import numpy as np
 
-from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_columns import DVL_BEAMS, IMU_INCREMENTS, REF_LOCAL, REF_VEL
-from tauvcore.logs import CONFIG_FILE, TABLES
+from tauvcore.logs import CONFIG_FILE, SOURCE_TABLES, TABLES
 
 
 def write_log(
@@ -40,8 +39,10 @@ def write_log(
     if fmt not in ("csv", "parquet"):
         raise ValueError(f"fmt must be 'csv' or 'parquet', got {fmt!r}")
     for table in tables:
-        if table not in TABLES + tuple(SOURCES):
-            raise ValueError(f"unknown table {table!r} (tables: {', '.join(TABLES + tuple(SOURCES))})")
+        if table not in TABLES + tuple(SOURCE_TABLES.values()):
+            raise ValueError(
+                f"unknown table {table!r} (tables: {', '.join(TABLES + tuple(SOURCE_TABLES.values()))})"
+            )
     root = Path(directory)
     made = _make_dirs(root)
     tmp: Path | None = None
@@ -167,20 +168,20 @@ def replace_files(
 def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, np.ndarray]]:
     """The tables of a log holding one run of a simulation given as its chunks in order
     (tauvcore.engine.simulation.SimChunk; ``[SimChunk.whole(sim)]`` for a whole one): the IMU as
-    increments, the DVL as beams (NaN where not returned), depth, the magnetometer's attitude,
+    increments, the DVL as beams (NaN where not returned), each aiding source's (the depth, the attitude, ...),
     and the truth as the reference (at the IMU rate; geodetic in radians on WGS-84, else NED)."""
     r = run_index
 
     def run_of(a: np.ndarray, time_axis_dims: int) -> np.ndarray:
         return a[:, r] if a.ndim > time_axis_dims else a
 
-    parts: dict[str, dict[str, list[np.ndarray]]] = {t: {} for t in TABLES + tuple(SOURCES)}
+    parts: dict[str, dict[str, list[np.ndarray]]] = {t: {} for t in TABLES + tuple(SOURCE_TABLES.values())}
 
     def add(table: str, column: str, values: np.ndarray) -> None:
         parts[table].setdefault(column, []).append(np.asarray(values, dtype=float))
 
     for chunk in chunks:
-        truth, imu, dvl, pressure, mag = chunk.truth, chunk.imu, chunk.dvl, chunk.pressure, chunk.mag
+        truth, imu, dvl = chunk.truth, chunk.imu, chunk.dvl
         add("imu", "t_s", truth.t_s)
         dth, dv = run_of(imu.dtheta_b, 2), run_of(imu.dv_b, 2)
         for i in range(3):
@@ -190,12 +191,6 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
         add("dvl", "t_s", dvl.t_s)
         for i, n in enumerate(DVL_BEAMS):
             add("dvl", n, y[:, i])
-        add("depth", "t_s", pressure.t_s)
-        add("depth", "depth_m", run_of(pressure.depth_m, 1))
-        e = run_of(mag.euler, 2)
-        add("attitude", "t_s", mag.t_s)
-        for i, n in enumerate(("roll_rad", "pitch_rad", "yaw_rad")):
-            add("attitude", n, e[:, i])
         add("reference", "t_s", truth.t_s)
         if truth.earth.geodetic:
             for i, n in enumerate(("lat_rad", "lon_rad", "depth_m")):
@@ -207,8 +202,8 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
             add("reference", n, truth.euler[:, i])
         for i, n in enumerate(REF_VEL):
             add("reference", n, truth.vel_n[:, i])
-        for name, data in getattr(chunk, "sources", {}).items():
-            add(name, "t_s", data.t_s)
+        for name, data in chunk.sources.items():
+            add(SOURCE_TABLES[name], "t_s", data.t_s)
             for column, values in data.values.items():
-                add(name, column, run_of(values, 1))
+                add(SOURCE_TABLES[name], column, run_of(values, 1))
     return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}

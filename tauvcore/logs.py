@@ -72,8 +72,11 @@ from tauvcore.log_record import Log
 from tauvcore.log_tables import held, read_table, table_path
 from tauvcore.validation import LogError, show, show_path
 
-TABLES = ("imu", "dvl", "depth", "attitude", "reference")
-"""The built-in tables; a plug-in source's is named after it (tauvcore.aiding.sources)."""
+TABLES = ("imu", "dvl", "reference")
+"""The log's own tables; each aiding source has its own besides
+(:attr:`~tauvcore.aiding.source.AidingSource.table`: ``depth``, ``attitude``, ``usbl``)."""
+SOURCE_TABLES = {name: source.table for name, source in SOURCES.items()}
+"""Each aiding source's table, by source name."""
 TIME_JITTER = 0.01
 """Largest relative departure of an IMU interval from the log's median interval (1 %) taken as
 it is; beyond it (an irregular clock, dropped samples) the IMU is resampled onto a constant
@@ -119,7 +122,7 @@ def read_log(directory: str | os.PathLike) -> Log:
     root = Path(directory)
     if not root.is_dir():
         raise LogError(f"{show_path(str(root))}: not a directory (a log is a directory of sensor tables)")
-    paths = {t: table_path(root, t) for t in TABLES}
+    paths = {t: table_path(root, t) for t in TABLES + tuple(SOURCE_TABLES.values())}
     if paths["imu"] is None:
         raise LogError(f"{show_path(str(root))}: no imu.csv or imu.parquet{raw_layout_hint(root)}")
     if paths["reference"] is None and paths["attitude"] is None:
@@ -192,11 +195,11 @@ def read_log(directory: str | os.PathLike) -> Log:
     out: dict = {"source": str(root), "imu_t_s": t, "dtheta_b": dtheta, "dv_b": dv, "notes": tuple(notes)}
     if paths["reference"] is not None:
         out.update(_read_reference(paths["reference"], t, median))
-    _read_aiding(paths, out)
+    _read_dvl(paths, out)
     out["sources"] = {
         name: _read_source(path, SOURCES[name])
-        for name in SOURCES
-        if (path := table_path(root, name)) is not None
+        for name, table in SOURCE_TABLES.items()
+        if (path := paths[table]) is not None
     }
     log = Log(**out)
     from tauvcore import log_checks  # cross-table plausibility (time and sensor units, signs)
@@ -245,8 +248,8 @@ def _read_reference(ref_path: Path, t: np.ndarray, median: float) -> dict:
     }
 
 
-def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
-    """The optional aiding tables into ``out``."""
+def _read_dvl(paths: dict[str, Path | None], out: dict) -> None:
+    """The optional DVL table into ``out``."""
     if paths["dvl"] is not None:
         p = paths["dvl"]
         cols = read_table(p)
@@ -281,29 +284,24 @@ def _read_aiding(paths: dict[str, Path | None], out: dict) -> None:
                     "empty, or set valid = 0)"
                 )
             out["dvl_body_mps"] = body
-    if paths["depth"] is not None:
-        p = paths["depth"]
-        cols = read_table(p)
-        out["depth_t_s"] = time_column(p, cols)
-        depth = need_columns(p, cols, ("depth_m",), "depth")[:, 0]
-        check_finite(p, cols, ("depth_m",))
-        check_within(p, cols, ("depth_m",))
-        out["depth_m"] = depth
-    if paths["attitude"] is not None:
-        p = paths["attitude"]
-        cols = read_table(p)
-        out["attitude_t_s"] = time_column(p, cols)
-        out["attitude_euler"], _ = angle_columns(p, cols, ("roll", "pitch", "yaw"), "attitude")
 
 
 def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
-    """A plug-in source's table (``t_s`` and :attr:`~tauvcore.aiding.source.AidingSource.columns`),
-    each column finite (or empty where the source allows it) and within its bounds."""
+    """A source's table (``t_s`` and :attr:`~tauvcore.aiding.source.AidingSource.columns`), each
+    column finite (or empty where the source allows it) and within its bounds; an angle column as
+    ``<stem>_rad`` or ``<stem>_deg`` (in radians here)."""
     cols = read_table(path)
     out = {"t_s": time_column(path, cols)}
-    names = tuple(c.name for c in source.columns)
-    need_columns(path, cols, names, f"the {source.name} table: {source.summary}")
+    angles = tuple(c for c in source.columns if c.angle)
+    if angles:
+        values, _ = angle_columns(path, cols, tuple(c.stem for c in angles), source.table)
+        out.update({c.name: values[:, i] for i, c in enumerate(angles)})
+    names = tuple(c.name for c in source.columns if not c.angle)
+    if names:
+        need_columns(path, cols, names, f"the {source.table} table: {source.summary}")
     for column in source.columns:
+        if column.angle:
+            continue
         check_finite(path, cols, (column.name,), allow_nan=column.allow_nan)
         bounds = {column.name: (column.low, column.high, column.unit, column.what)}
         check_within(path, cols, (column.name,), bounds)

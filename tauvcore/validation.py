@@ -1,5 +1,9 @@
 """Field checks for the frozen config dataclasses: one clear message naming field and value.
 
+A section's field may declare what it is once, as a :class:`Setting` in its metadata
+(:func:`setting`): its label, unit and range, which :func:`check_settings` enforces and the
+dashboard shows.
+
 Every message that echoes a value goes through :func:`show`, so a 500 kB string or a
 100,000-entry list is quoted as its first characters and its size, never whole.
 """
@@ -8,6 +12,7 @@ from __future__ import annotations
 
 import math
 import reprlib
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 SHOW_CHARS = 60
@@ -150,3 +155,58 @@ def require_vector3(field: str, value: Any, bound: float | None = None) -> None:
             require_finite(f"{field}[{i}]", v)
         else:
             require_range(f"{field}[{i}]", v, -bound, bound)
+
+
+SETTING = "tauv.setting"
+"""The metadata key of a section field's :class:`Setting`."""
+
+
+@dataclass(frozen=True)
+class Setting:
+    """What one field of a source's section is, for its check and for the dashboard's control.
+
+    A float field is within ``[low, high]``; a bool field is true or false; a 3-vector field
+    (a tuple of three floats) has each component within ``[-bound, bound]``. A range of its own on
+    one component (a depth under the surface) is the section's ``__post_init__``'s to add."""
+
+    label: str  # the control's words after the source's label, e.g. "fix interval"
+    unit: str = ""  # e.g. "s", "m"; "" for a dimensionless number or a switch
+    low: float | None = None  # a float's range
+    high: float | None = None
+    bound: float | None = None  # a 3-vector's bound on each component
+    hint: str = ""  # one line: what it is (the range is added where it is shown)
+
+
+def setting(
+    default: Any,
+    label: str,
+    unit: str = "",
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    bound: float | None = None,
+    hint: str = "",
+) -> Any:
+    """A section field with its default and its :class:`Setting` (``dataclasses.field``)."""
+    return field(default=default, metadata={SETTING: Setting(label, unit, low, high, bound, hint)})
+
+
+def settings(section_type: type) -> tuple[tuple[str, Any, Setting], ...]:
+    """(field name, default, setting) of every field of ``section_type`` that declares one, in order."""
+    return tuple(
+        (f.name, f.default, f.metadata[SETTING]) for f in fields(section_type) if SETTING in f.metadata
+    )
+
+
+def check_settings(name: str, section: Any) -> None:
+    """Every declared field of ``section`` (the section of source ``name``) within its
+    :class:`Setting`; ConfigError naming ``<name>.<field>`` and the value."""
+    for key, default, s in settings(type(section)):
+        value, where = getattr(section, key), f"{name}.{key}"
+        if isinstance(default, bool):
+            if not isinstance(value, bool):
+                raise ConfigError(f"{where} must be true or false, got {show(value)}")
+        elif isinstance(default, tuple):
+            require_vector3(where, value, bound=s.bound)
+        elif s.low is not None and s.high is not None:
+            require_range(where, value, s.low, s.high)

@@ -11,7 +11,8 @@ from tauvcore.aiding.depth import Depth
 from tauvcore.aiding.dvl_loose import DvlLoose
 from tauvcore.aiding.sources import SOURCES
 
-AIDING_SOURCES = ("dvl", "depth", "mag", *SOURCES)
-"""Every source ``run.aiding`` may hold: the built-in ones and the plug-ins of tauvcore.aiding.sources."""
+AIDING_SOURCES = ("dvl", *SOURCES)
+"""Every source ``run.aiding`` may hold: the DVL (fused by each method its own way) and the sources
+of tauvcore.aiding.sources."""
 
 __all__ = ["AIDING_SOURCES", "Depth", "DvlLoose", "MagAttitude"]

@@ -29,73 +29,18 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from tauvcore.validation import ConfigError, require_range, require_vector3, show
+from tauvcore.validation import SETTING, Setting, check_settings, setting, settings
 
 if TYPE_CHECKING:
     from tauvcore.aiding.fusion_method import Sections
     from tauvcore.filter.eskf import Measurement, Nominal
     from tauvcore.sensors.timing import Rng
     from tauvcore.truth.record import Truth
-
-
-SETTING = "tauv.setting"
-"""The metadata key of a section field's :class:`Setting`."""
-
-
-@dataclass(frozen=True)
-class Setting:
-    """What one field of a source's section is, for its check and for the dashboard's control.
-
-    A float field is within ``[low, high]``; a bool field is true or false; a 3-vector field
-    (a tuple of three floats) has each component within ``[-bound, bound]``. A range of its own on
-    one component (a depth under the surface) is the section's ``__post_init__``'s to add."""
-
-    label: str  # the control's words after the source's label, e.g. "fix interval"
-    unit: str = ""  # e.g. "s", "m"; "" for a dimensionless number or a switch
-    low: float | None = None  # a float's range
-    high: float | None = None
-    bound: float | None = None  # a 3-vector's bound on each component
-    hint: str = ""  # one line: what it is (the range is added where it is shown)
-
-
-def setting(
-    default: Any,
-    label: str,
-    unit: str = "",
-    low: float | None = None,
-    high: float | None = None,
-    *,
-    bound: float | None = None,
-    hint: str = "",
-) -> Any:
-    """A section field with its default and its :class:`Setting` (``dataclasses.field``)."""
-    return field(default=default, metadata={SETTING: Setting(label, unit, low, high, bound, hint)})
-
-
-def settings(section_type: type) -> tuple[tuple[str, Any, Setting], ...]:
-    """(field name, default, setting) of every field of ``section_type`` that declares one, in order."""
-    return tuple(
-        (f.name, f.default, f.metadata[SETTING]) for f in fields(section_type) if SETTING in f.metadata
-    )
-
-
-def check_settings(name: str, section: Any) -> None:
-    """Every declared field of ``section`` (the section of source ``name``) within its
-    :class:`Setting`; ConfigError naming ``<name>.<field>`` and the value."""
-    for key, default, s in settings(type(section)):
-        value, where = getattr(section, key), f"{name}.{key}"
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                raise ConfigError(f"{where} must be true or false, got {show(value)}")
-        elif isinstance(default, tuple):
-            require_vector3(where, value, bound=s.bound)
-        elif s.low is not None and s.high is not None:
-            require_range(where, value, s.low, s.high)
 
 
 @dataclass(frozen=True)
@@ -108,6 +53,12 @@ class Column:
     high: float
     what: str  # what a value beyond the bounds would be, in words ("farther than the earth is wide")
     allow_nan: bool = False  # an empty cell (NaN) means "no measurement in this row"
+    angle: bool = False  # an angle [rad] named <stem>_rad; the table may give it in degrees, <stem>_deg
+
+    @property
+    def stem(self) -> str:
+        """An angle's name without its unit (``roll`` of ``roll_rad``)."""
+        return self.name.removesuffix("_rad")
 
 
 @dataclass(frozen=True)
@@ -152,8 +103,15 @@ class SourceModel(Protocol):
 class AidingSource(ABC):
     """One aiding sensor: its configuration, simulation, log table and measurement model."""
 
-    name: ClassVar[str]  # in --aiding, run.aiding, the records (MethodResult.updates), its TOML section
-    # and its log table's file name (lower case)
+    name: ClassVar[str]  # in --aiding, run.aiding and the records (MethodResult.updates) (lower case)
+    section_name: ClassVar[str]  # its configuration section ([<section_name>] in TOML,
+    # Config.section): its name unless the class says otherwise
+    table: ClassVar[str]  # its log table's file name (<table>.csv or .parquet): its name unless the
+    # class says otherwise
+    aboard: ClassVar[bool] = False  # True: a sensor every vehicle of the lab carries, simulated and
+    # written to a log whether or not run.aiding fuses it, its streams named after fields of
+    # tauvcore.sensors.stream.SensorStreams (the streams the IMU and DVL draw beside); False: simulated
+    # only when fused, its streams spawned for it (tauvcore.engine.sources)
     label: ClassVar[str]  # a few words: the dashboard's checkbox and the head of its controls' labels
     summary: ClassVar[str]  # one line: what it measures
     config_type: ClassVar[type]  # its section: a frozen dataclass, every field with a default (and
@@ -161,6 +119,13 @@ class AidingSource(ABC):
     streams: ClassVar[tuple[str, ...]]  # its random streams, each its own generator per run
     columns: ClassVar[tuple[Column, ...]]  # its log table's columns besides t_s
     row_labels: ClassVar[tuple[str, ...]]  # its measurement's rows, e.g. ("north", "east", "down")
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        name = cls.__dict__.get("name")
+        if isinstance(name, str):
+            cls.section_name = cls.__dict__.get("section_name", name)
+            cls.table = cls.__dict__.get("table", name)
 
     @abstractmethod
     def rate_hz(self, section: Any) -> float:
@@ -195,3 +160,16 @@ class AidingSource(ABC):
     @abstractmethod
     def model(self, section: Any, config: Sections) -> SourceModel:
         """Its measurement model, from its section and the rest of the configuration."""
+
+
+__all__ = [
+    "SETTING",
+    "AidingSource",
+    "Column",
+    "Setting",
+    "SourceData",
+    "SourceModel",
+    "check_settings",
+    "setting",
+    "settings",
+]

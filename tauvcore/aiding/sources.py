@@ -1,7 +1,9 @@
 """Aiding sources added as one plug-in each: the registry the configuration, the engine and the
 log reader and writer read.
 
-Adding a source (docs/adding_a_sensor.md walks through :mod:`tauvcore.aiding.usbl`): write
+The sensors aboard every vehicle of the lab, the depth and the magnetometer, are sources like any
+other (:attr:`~tauvcore.aiding.source.AidingSource.aboard`). Adding a source
+(docs/adding_a_sensor.md walks through :mod:`tauvcore.aiding.usbl`): write
 ``tauvcore/aiding/<name>.py`` with a subclass of :class:`tauvcore.aiding.source.AidingSource` and a
 ``SOURCE = <Class>()``, then add ``"<name>"`` to :data:`MODULES` below (one line). ``run.aiding``
 and ``--aiding`` then take it, ``[<name>]`` configures it (a TOML file, ``tauv config``), a log's
@@ -18,12 +20,15 @@ import importlib
 from tauvcore.aiding.source import AidingSource, settings
 
 MODULES: tuple[str, ...] = (
+    "depth",  # tauvcore/aiding/depth.py: depth from the pressure sensor aboard
+    "attitude_mag",  # tauvcore/aiding/attitude_mag.py: the magnetometer's attitude
     "usbl",  # tauvcore/aiding/usbl.py: a ship's USBL position fix, the worked example of docs/adding_a_sensor.md
 )
 """The modules of tauvcore.aiding that define a plug-in source (each its ``SOURCE``), one line each."""
 
-BUILT_IN = ("dvl", "depth", "mag", "rpm", "echo", "cv", "imu", "reference", "attitude")
-"""Names a plug-in source may not take: the built-in sources and the log's own tables."""
+BUILT_IN = ("dvl", "rpm", "echo", "cv", "imu", "reference")
+"""Names a source, its section or its table may not take: the sources the engine fuses itself (the
+DVL, the RPM fallback, the constant-velocity model) and the log's own tables."""
 
 
 def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
@@ -42,6 +47,14 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
             )
         if name in BUILT_IN or name in out:
             raise ValueError(f"tauvcore.aiding.{module_name}: source name {name!r} is taken")
+        for what, value, others in (
+            ("section_name", source.section_name, {s.section_name for s in out.values()}),
+            ("table", source.table, {s.table for s in out.values()}),
+        ):
+            if not isinstance(value, str) or not value.isidentifier() or value in BUILT_IN or value in others:
+                raise ValueError(
+                    f"tauvcore.aiding.{module_name}: SOURCE.{what} {value!r} is taken or no name"
+                )
         columns = [c.name for c in source.columns]
         if "t_s" in columns or len(set(columns)) != len(columns) or not columns:
             raise ValueError(

@@ -40,7 +40,6 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 
 from tauvcore import units
-from tauvcore.aiding import Depth, MagAttitude
 from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
@@ -111,12 +110,10 @@ class FilterBank(ChunkDriver):
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
         gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
-        # the aided methods (every one but the standalone INS) take the depth and magnetometer
+        # the aided methods (every one but the standalone INS) take every source of the registry
         self.other_mask = np.array([DVL_FUSION.get(m) is not None or m in REGISTRY for m in methods])[
             :, None
         ] & np.ones(self.batch, bool)
-        self.depth_model = Depth(config.pressure)
-        self.mag_model = MagAttitude(config.magnetometer)
         self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION.get(m) is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
         self.dvl_codes = np.array(
@@ -136,14 +133,15 @@ class FilterBank(ChunkDriver):
         others = self.other_mask.any(axis=1)
         self.recorders = {
             "dvl": Recorder(dvl_members, dvl_rows),
-            "depth": Recorder(others),
-            "mag": Recorder(others),
-            "rpm": Recorder(dvl_members, dvl_rows),
         }
-        # plug-in sources (tauvcore.aiding.sources): fused by every aided method, as depth and mag
-        self.plugins = [(name, SOURCES[name].model(config.section(name), config)) for name in active(config)]
+        # the sources of tauvcore.aiding.sources that run.aiding turns on: fused by every aided method
+        self.plugins = [
+            (name, SOURCES[name].model(config.section(SOURCES[name].section_name), config))
+            for name in active(config)
+        ]
         for name, _ in self.plugins:
             self.recorders[name] = Recorder(others)
+        self.recorders["rpm"] = Recorder(dvl_members, dvl_rows)
         # registered methods (tauvcore.aiding.registry): each its model, members and epochs
         self.registered = []
         for name in (m for m in methods if m in REGISTRY):
@@ -277,7 +275,7 @@ class FilterBank(ChunkDriver):
         return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
 
     def _update_all(self, source: str, meas: Measurement, t: float) -> None:
-        """A source every aided method takes (depth, magnetometer): one batched correction."""
+        """A source every aided method takes (tauvcore.aiding.sources): one batched correction."""
         valid = meas.valid & self.other_mask
         m_rows = meas.R.shape[-1]
         active = np.ones(self.batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
@@ -504,8 +502,6 @@ class FilterBank(ChunkDriver):
         phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
         aiding = self.aiding
         dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
-        depth_at = _epoch_map(chunk.pressure.index) if "depth" in aiding and self.other_mask.any() else {}
-        mag_at = _epoch_map(chunk.mag.index) if "mag" in aiding and self.other_mask.any() else {}
         plugin_at = {
             name: _epoch_map(chunk.sources[name].index)
             for name, _ in self.plugins
@@ -537,7 +533,7 @@ class FilterBank(ChunkDriver):
         if k0 == 0 and 0 in out_row:
             self._record(store, 0, 0)
         events = np.zeros(n, dtype=bool)  # aiding epochs
-        for keys in (dvl_at, depth_at, mag_at, *plugin_at.values(), *registered_at):
+        for keys in (dvl_at, *plugin_at.values(), *registered_at):
             events[[k - k0 for k in keys]] = True
         marks = events.copy()  # and output epochs: where the covariance step stops
         marks[outs - k0] = True
@@ -591,16 +587,6 @@ class FilterBank(ChunkDriver):
                     )
                     if self.rpm_aid is not None:
                         self._rpm_fallback(chunk, p, i, t, dvl_valid)
-                if k in depth_at:
-                    self._update_all(
-                        "depth",
-                        self.depth_model.measure(self.nominal(), chunk.pressure.depth_m[depth_at[k]]),
-                        t,
-                    )
-                if k in mag_at:
-                    self._update_all(
-                        "mag", self.mag_model.measure(self.nominal(), chunk.mag.euler[mag_at[k]]), t
-                    )
                 for name, model in self.plugins:
                     if k in plugin_at.get(name, ()):
                         self._update_all(

@@ -15,9 +15,8 @@ from tauvcore.engine.sources import SourceStream
 from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import echosounder as echo_sensor
 from tauvcore.sensors import imu as imu_sensor
-from tauvcore.sensors import magnetometer as mag_sensor
-from tauvcore.sensors import pressure as pressure_sensor
 from tauvcore.sensors import rpm as rpm_sensor
+from tauvcore.sensors.stream import SensorStreams
 from tauvcore.truth import Truth, generate
 from tauvcore.truth.kinematic import bathymetry
 
@@ -29,13 +28,11 @@ class Simulation:
     truth: Truth
     imu: imu_sensor.ImuData
     dvl: dvl_sensor.DvlData
-    pressure: pressure_sensor.PressureData
-    mag: mag_sensor.MagnetometerData
     num_runs: int
     echo: echo_sensor.EchoSounderData | None = None  # echo sounder (None: a log without one)
     rpm: rpm_sensor.RpmData | None = None  # propeller RPM (None: a log without one)
-    sources: Mapping[str, SourceData] = field(default_factory=dict)  # the plug-in sources run.aiding
-    # turns on (tauvcore.aiding.sources), by name
+    sources: Mapping[str, SourceData] = field(default_factory=dict)  # the aiding sources
+    # (tauvcore.aiding.sources) by name: those aboard (depth, mag) and those run.aiding turns on
 
 
 def simulate(
@@ -47,16 +44,17 @@ def simulate(
         truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
     imu_cfg = config.imu.ideal() if ideal else config.imu
     dvl_cfg = config.dvl.ideal() if ideal else config.dvl
-    p_cfg = config.pressure.ideal() if ideal else config.pressure
-    m_cfg = config.magnetometer.ideal() if ideal else config.magnetometer
     seabed = bathymetry(config.trajectory)
     extra, plugins = rng.spawn(2)
     return Simulation(
         truth=truth,
         imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
         dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
-        pressure=pressure_sensor.simulate(truth, p_cfg, rng, num_runs),
-        mag=mag_sensor.simulate(truth, m_cfg, rng, num_runs),
+        # the sources aboard (depth, then the magnetometer) from rng after the DVL, the others from
+        # their children of a child of rng
+        sources=SourceStream(
+            config, plugins, num_runs, truth.num_samples, truth.dt_s, SensorStreams.single(rng)
+        ).next_chunk(0, truth),
         num_runs=num_runs,
         # from a child of rng (spawning draws nothing): what rng draws next, the filters'
         # initial errors, is what it drew before these sensors existed
@@ -64,7 +62,6 @@ def simulate(
             truth, config.echo_sounder.ideal() if ideal else config.echo_sounder, seabed, extra, num_runs
         ),
         rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs),
-        sources=SourceStream(config, plugins, num_runs, truth.num_samples, truth.dt_s).next_chunk(0, truth),
     )
 
 
@@ -77,12 +74,10 @@ class SimChunk:
     truth: Truth
     imu: imu_sensor.ImuData
     dvl: dvl_sensor.DvlData
-    pressure: pressure_sensor.PressureData
-    mag: mag_sensor.MagnetometerData
     echo: echo_sensor.EchoSounderData | None = None
     rpm: rpm_sensor.RpmData | None = None
     sources: Mapping[str, SourceData] = field(default_factory=dict)  # as Simulation.sources
 
     @classmethod
     def whole(cls, sim: Simulation) -> SimChunk:
-        return cls(0, sim.truth, sim.imu, sim.dvl, sim.pressure, sim.mag, sim.echo, sim.rpm, sim.sources)
+        return cls(0, sim.truth, sim.imu, sim.dvl, sim.echo, sim.rpm, sim.sources)

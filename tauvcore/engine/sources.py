@@ -1,9 +1,11 @@
-"""The plug-in aiding sources of a run (tauvcore.aiding.sources), simulated chunk by chunk.
+"""The aiding sources of a run (tauvcore.aiding.sources), simulated chunk by chunk.
 
-Every registered source's streams are children of the run's generator, spawned after the built-in
-sensors' (tauvcore.sensors.stream.SensorStreams) in registry order whether the source is on or
-not: turning a source on changes no other source's numbers, and the numbers do not depend on how
-the mission is cut into chunks. Only the sources ``run.aiding`` turns on are simulated.
+A source aboard every vehicle (the depth, the magnetometer) draws from its streams of the run's
+tauvcore.sensors.stream.SensorStreams and is simulated whether or not ``run.aiding`` fuses it.
+Every other registered source's streams are children of the run's generator, spawned after the
+sensors' in registry order whether the source is on or not: turning a source on changes no other
+source's numbers; it is simulated only when ``run.aiding`` turns it on. Either way the numbers do
+not depend on how the mission is cut into chunks.
 """
 
 from __future__ import annotations
@@ -15,29 +17,38 @@ import numpy as np
 from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
+from tauvcore.sensors.stream import SensorStreams
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
 
 
 def active(config: Config) -> tuple[str, ...]:
-    """The plug-in sources ``config.run.aiding`` turns on, in its order."""
-    return tuple(name for name in config.run.aiding if name in SOURCES)
+    """The sources ``config.run.aiding`` turns on, in registry order (their order of fusion at an
+    epoch they share)."""
+    return tuple(name for name in SOURCES if name in config.run.aiding)
+
+
+def simulated(config: Config) -> tuple[str, ...]:
+    """The sources a run simulates: those aboard, and those ``config.run.aiding`` turns on."""
+    return tuple(name for name, s in SOURCES.items() if s.aboard or name in config.run.aiding)
 
 
 def _children(rng: np.random.Generator) -> dict[str, dict[str, np.random.Generator]]:
-    """One child of ``rng`` per stream of every registered source, in registry order."""
-    names = [(source, stream) for source, s in SOURCES.items() for stream in s.streams]
+    """One child of ``rng`` per stream of every registered source not aboard, in registry order."""
+    spawned = {name: s for name, s in SOURCES.items() if not s.aboard}
+    names = [(source, stream) for source, s in spawned.items() for stream in s.streams]
     children = rng.spawn(len(names)) if names else []
-    out: dict[str, dict[str, np.random.Generator]] = {source: {} for source in SOURCES}
+    out: dict[str, dict[str, np.random.Generator]] = {source: {} for source in spawned}
     for (source, stream), child in zip(names, children, strict=True):
         out[source][stream] = child
     return out
 
 
 class SourceStream:
-    """The plug-in sources of ``config`` over a mission of ``num_samples`` IMU samples ``dt_s``
-    apart, for ``num_runs`` runs: one generator for the batch, or one per run (each run's numbers
-    then its own, as a batch of one would draw them)."""
+    """The sources of ``config`` over a mission of ``num_samples`` IMU samples ``dt_s`` apart, for
+    ``num_runs`` runs: one generator for the batch, or one per run (each run's numbers then its own,
+    as a batch of one would draw them), and the run's sensor streams (the same one or per run) for
+    the sources aboard."""
 
     def __init__(
         self,
@@ -46,6 +57,7 @@ class SourceStream:
         num_runs: int,
         num_samples: int,
         dt_s: float,
+        streams: SensorStreams | Sequence[SensorStreams],
     ) -> None:
         self.num_runs, self.num_samples, self.dt_s = num_runs, num_samples, dt_s
         self.t_end_s = (num_samples - 1) * dt_s
@@ -55,12 +67,20 @@ class SourceStream:
             runs = [_children(g) for g in rng]
             per_source = {
                 source: {stream: [r[source][stream] for r in runs] for stream in SOURCES[source].streams}
-                for source in SOURCES
+                for source in runs[0]
             }
+        for name, source in SOURCES.items():
+            if source.aboard:
+                per_source[name] = {
+                    stream: getattr(streams, stream)
+                    if isinstance(streams, SensorStreams)
+                    else [getattr(st, stream) for st in streams]
+                    for stream in source.streams
+                }
         self.sources = []
-        for name in active(config):
+        for name in simulated(config):
             source = SOURCES[name]
-            section = config.section(name)
+            section = config.section(source.section_name)
             if config.run.ideal:
                 section = source.ideal(section)
             self.sources.append(
@@ -68,7 +88,7 @@ class SourceStream:
             )
 
     def next_chunk(self, k0: int, truth: Truth) -> dict[str, SourceData]:
-        """Every active source's epochs within the chunk ``truth`` (the mission's samples ``k0`` on;
+        """Every simulated source's epochs within the chunk ``truth`` (the mission's samples ``k0`` on;
         chunks in order)."""
         k1 = k0 + truth.num_samples
         out = {}

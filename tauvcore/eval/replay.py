@@ -18,7 +18,9 @@ from typing import Any
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.source import SourceData
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config, from_dict, read_toml
 from tauvcore.engine.mission import run
 from tauvcore.engine.results import MethodResult
@@ -29,8 +31,6 @@ from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
 from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
-from tauvcore.sensors import magnetometer as mag_sensor
-from tauvcore.sensors import pressure as pressure_sensor
 from tauvcore.sensors.timing import uniform
 from tauvcore.truth.record import Truth
 from tauvcore.validation import ConfigError, show_path
@@ -83,8 +83,8 @@ def replay_config(config: Config, log: Log) -> Config:
         config = config.replace("imu", rate_hz=1.0 / log.dt_s)
         if log.ref_t_s is not None:
             depth = float(_reference_at(log, log.imu_t_s[:1])[0][0, 2])
-        elif log.depth_t_s is not None:
-            depth = float(_column(log, log.depth_m, "depth")[0])
+        elif (depth_table := log.table("depth", ("depth_m",))) is not None and depth_table[0].size:
+            depth = float(depth_table[1][0, 0])
         else:
             depth = config.trajectory.depth_m
         config = config.replace("trajectory", duration_s=max(log.duration_s, 1.0), depth_m=max(depth, 0.0))
@@ -174,12 +174,13 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
     rest) turned to NED with that attitude, at the configured origin and the starting depth
     (the depth sensor's first row). Returned as one-row reference arrays (position, Euler, NED
     velocity; the position geodetic on WGS-84, NED from the surface point on the flat earth)."""
-    if log.attitude_t_s is None:
+    attitude = log.table("mag", EULER)
+    if attitude is None or attitude[0].size == 0:
         raise LogError(
             f"{show_path(log.source)}: no reference and no attitude table: nothing says where the "
             "filters start"
         )
-    euler = _column(log, log.attitude_euler, "attitude")[:1]
+    euler = attitude[1][:1]
     C = C_nb_from_euler(euler)[0]
     vel_b = np.zeros(3)
     if log.dvl_body_mps is not None:
@@ -293,26 +294,6 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
             bias_mps=np.zeros((0, 1, 4)),
             scale_factor=np.zeros((0, 1)),
         )
-    if log.depth_t_s is not None:
-        k, keep = _epochs(log, log.depth_t_s)
-        pressure = pressure_sensor.PressureData(
-            t_s=truth.t_s[k[keep]], index=k[keep], depth_m=_column(log, log.depth_m, "depth")[keep][:, None]
-        )
-    else:
-        pressure = pressure_sensor.PressureData(
-            t_s=np.zeros(0), index=np.zeros(0, np.int64), depth_m=np.zeros((0, 1))
-        )
-    if log.attitude_t_s is not None:
-        k, keep = _epochs(log, log.attitude_t_s)
-        mag = mag_sensor.MagnetometerData(
-            t_s=truth.t_s[k[keep]],
-            index=k[keep],
-            euler=_column(log, log.attitude_euler, "attitude")[keep][:, None],
-        )
-    else:
-        mag = mag_sensor.MagnetometerData(
-            t_s=np.zeros(0), index=np.zeros(0, np.int64), euler=np.zeros((0, 1, 3))
-        )
     sources = {}
     for name, table in log.sources.items():
         k, keep = _epochs(log, table["t_s"])
@@ -321,7 +302,7 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
             index=k[keep],
             values={column: values[keep][:, None] for column, values in table.items() if column != "t_s"},
         )
-    return Simulation(truth=truth, imu=imu, dvl=dvl, pressure=pressure, mag=mag, num_runs=1, sources=sources)
+    return Simulation(truth=truth, imu=imu, dvl=dvl, num_runs=1, sources=sources)
 
 
 def with_imu_errors(
@@ -353,7 +334,7 @@ def prepare(
         if name not in log.sources:
             raise LogError(
                 f"{show_path(log.source)}: run.aiding (--aiding) names {name}, but the log has no "
-                f"{name}.csv or {name}.parquet"
+                f"{SOURCES[name].table}.csv or {SOURCES[name].table}.parquet"
             )
     sim = log_simulation(config, log, rng)
     if imu_errors is not None:

@@ -12,20 +12,22 @@ from tauvcore import units
 from tauvcore.geo.rotations import wrap_angle
 from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
 from tauvcore.truth.record import Truth
-from tauvcore.validation import require_range
+from tauvcore.validation import check_settings, setting
 
 
 @dataclass(frozen=True)
 class MagnetometerConfig:
-    rate_hz: float = 0.5  # Table 2 [Hz]; [0.01, 100]: compasses report at up to ~100 Hz
-    roll_pitch_noise_deg: float = 1.15  # Table 2, 1-sigma [deg]; [0, 30]: beyond, tilt sensing says nothing
-    yaw_noise_deg: float = 5.72  # Table 2, 1-sigma [deg]; [0, 90]: beyond, the wrap to +-180 deg makes
-    # the error far from Gaussian and the heading unknown
+    rate_hz: float = setting(0.5, "rate", "Hz", 0.01, 100.0, hint="attitudes per second")
+    # Table 2; [0.01, 100]: compasses report at up to ~100 Hz
+    roll_pitch_noise_deg: float = setting(
+        1.15, "roll/pitch noise", "deg", 0.0, 30.0, hint="1-sigma white noise of roll and of pitch"
+    )  # Table 2; [0, 30]: beyond, tilt sensing says nothing
+    yaw_noise_deg: float = setting(5.72, "yaw noise", "deg", 0.0, 90.0, hint="1-sigma white noise of yaw")
+    # Table 2; [0, 90]: beyond, the wrap to +-180 deg makes the error far from Gaussian and the
+    # heading unknown
 
     def __post_init__(self) -> None:
-        require_range("magnetometer.rate_hz", self.rate_hz, 0.01, 100.0)
-        require_range("magnetometer.roll_pitch_noise_deg", self.roll_pitch_noise_deg, 0.0, 30.0)
-        require_range("magnetometer.yaw_noise_deg", self.yaw_noise_deg, 0.0, 90.0)
+        check_settings("magnetometer", self)
 
     def ideal(self) -> MagnetometerConfig:
         return MagnetometerConfig(rate_hz=self.rate_hz, roll_pitch_noise_deg=0.0, yaw_noise_deg=0.0)

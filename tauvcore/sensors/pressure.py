@@ -15,22 +15,24 @@ import numpy as np
 from tauvcore import units
 from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
 from tauvcore.truth.record import Truth
-from tauvcore.validation import require_range
+from tauvcore.validation import check_settings, setting
 
 
 @dataclass(frozen=True)
 class PressureConfig:
     """Depth from pressure, ``depth = p / (rho g0)``; 1-sigma white noise."""
 
-    rate_hz: float = 0.25  # Table 2 [Hz]; [0.01, 100]: depth sensors sample up to ~100 Hz
-    noise_pa: float = 194.0  # Table 2 "194 Mpa", read as 194 Pa (module doc); [0, 1e5]: 1 bar, i.e.
-    # 10 m of water, half the TAUV's rated depth; zero is an ideal sensor
-    water_density_kg_m3: float = 1025.0  # sea water; [950, 1250]: hot fresh water to the Dead Sea
+    rate_hz: float = setting(0.25, "rate", "Hz", 0.01, 100.0, hint="samples per second")
+    # Table 2; [0.01, 100]: depth sensors sample up to ~100 Hz
+    noise_pa: float = setting(194.0, "noise", "Pa", 0.0, 1e5, hint="1-sigma white noise of the pressure")
+    # Table 2 "194 Mpa", read as 194 Pa (module doc); [0, 1e5]: 1 bar, i.e. 10 m of water, half the
+    # TAUV's rated depth; zero is an ideal sensor
+    water_density_kg_m3: float = setting(
+        1025.0, "water density", "kg/m^3", 950.0, 1250.0, hint="turns pressure into depth"
+    )  # sea water; [950, 1250]: hot fresh water to the Dead Sea
 
     def __post_init__(self) -> None:
-        require_range("pressure.rate_hz", self.rate_hz, 0.01, 100.0)
-        require_range("pressure.noise_pa", self.noise_pa, 0.0, 1e5)
-        require_range("pressure.water_density_kg_m3", self.water_density_kg_m3, 950.0, 1250.0)
+        check_settings("pressure", self)
 
     def ideal(self) -> PressureConfig:
         return PressureConfig(

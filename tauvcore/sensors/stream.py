@@ -6,17 +6,18 @@ after chunk, so a run's numbers do not depend on how the mission is cut into chu
 :meth:`SensorStreams.single` every stream is one generator, and the whole mission as one chunk
 repeats the whole-mission ``simulate`` functions (and ``tauvcore.engine.simulation.simulate``) draw for
 draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise,
-then DVL, pressure, magnetometer.
+then DVL (then the depth and the magnetometer, aiding sources drawn by tauvcore.engine.sources from
+their streams here).
 
 :class:`SensorStream` carries the sensors' state from chunk to chunk (the last value of each
 random walk, whether its turn-on value was drawn, the DVL's ping count) and is fed the truth
 chunks of :class:`tauvcore.truth.kinematic.TruthStream` in order::
 
     truth = TruthStream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=1500)
-    sensors = SensorStream(imu_cfg, dvl_cfg, p_cfg, m_cfg, SensorStreams.spawned(rng), num_runs,
+    sensors = SensorStream(imu_cfg, dvl_cfg, SensorStreams.spawned(rng), num_runs,
                            truth.num_samples, truth.dt_s)
     for k0, chunk in truth:
-        imu, dvl, pressure, mag = sensors.next_chunk(k0, chunk)
+        imu, dvl = sensors.next_chunk(k0, chunk)
 
 (:meth:`SensorStream.next_chunk_all` adds the echo sounder and the RPM sensor, when configured.)
 
@@ -33,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tauvcore.sensors import dvl, echosounder, imu, magnetometer, pressure, rpm
+from tauvcore.sensors import dvl, echosounder, imu, rpm
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
@@ -44,8 +45,6 @@ class SensorChunk(NamedTuple):
 
     imu: imu.ImuData
     dvl: dvl.DvlData
-    pressure: pressure.PressureData
-    mag: magnetometer.MagnetometerData
     echo: echosounder.EchoSounderData | None
     rpm: rpm.RpmData | None
 
@@ -67,8 +66,8 @@ class SensorStreams:
     dvl_scale_factor: np.random.Generator  # DVL scale factor: turn-on value, then its walk
     dvl_noise: np.random.Generator  # DVL beam white noise
     dvl_dropout: np.random.Generator  # DVL random beam losses
-    pressure: np.random.Generator  # depth white noise
-    magnetometer: np.random.Generator  # attitude white noise
+    pressure: np.random.Generator  # depth white noise (tauvcore.aiding.depth)
+    magnetometer: np.random.Generator  # attitude white noise (tauvcore.aiding.attitude_mag)
     initial: np.random.Generator  # the filter's random initial errors (drawn by the runner)
     imu_axes: np.random.Generator  # IMU scale factors and misalignments (drawn only if the IMU has them)
     echo_sounder: np.random.Generator  # altitude white noise
@@ -98,7 +97,8 @@ class SensorStreams:
 
 
 class SensorStream:
-    """The four sensors of a mission, chunk by chunk, for ``num_runs`` runs.
+    """The IMU and the DVL of a mission (and the echo sounder and the RPM sensor, when configured),
+    chunk by chunk, for ``num_runs`` runs.
 
     ``streams``: one :class:`SensorStreams` for all runs (each draw has the run axis, as
     ``simulate(..., num_runs)`` does), or a list of ``num_runs`` of them, run r drawn from its own
@@ -111,8 +111,6 @@ class SensorStream:
         self,
         imu_config: imu.ImuConfig,
         dvl_config: dvl.DvlConfig,
-        pressure_config: pressure.PressureConfig,
-        magnetometer_config: magnetometer.MagnetometerConfig,
         streams: SensorStreams | Sequence[SensorStreams],
         num_runs: int,
         num_samples: int,
@@ -146,8 +144,6 @@ class SensorStream:
             self._rngs = {name: [getattr(st, name) for st in streams] for name in names}
         self.imu_config = imu_config
         self.dvl_config = dvl_config
-        self.pressure_config = pressure_config
-        self.magnetometer_config = magnetometer_config
         self.seabed = seabed  # DVL beams traced to it (None: no range limit)
         if echo_sounder_config is not None and seabed is None:
             raise ValueError("an echo sounder needs the seabed")
@@ -166,12 +162,10 @@ class SensorStream:
         """Global IMU sample indices of a sensor at ``rate_hz`` within ``[k0, k1)``."""
         return epoch_indices_between(rate_hz, self._t_end_s, self.dt_s, self.num_samples, k0, k1)
 
-    def next_chunk(
-        self, k0: int, truth: Truth
-    ) -> tuple[imu.ImuData, dvl.DvlData, pressure.PressureData, magnetometer.MagnetometerData]:
-        """IMU, DVL, pressure and magnetometer of :meth:`next_chunk_all`."""
+    def next_chunk(self, k0: int, truth: Truth) -> tuple[imu.ImuData, dvl.DvlData]:
+        """IMU and DVL of :meth:`next_chunk_all`."""
         chunk = self.next_chunk_all(k0, truth)
-        return chunk.imu, chunk.dvl, chunk.pressure, chunk.mag
+        return chunk.imu, chunk.dvl
 
     def next_chunk_all(self, k0: int, truth: Truth) -> SensorChunk:
         """Sensor outputs over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
@@ -191,8 +185,6 @@ class SensorStream:
             )
         k1 = k0 + k
         dvl_idx = self.epochs(self.dvl_config.rate_hz, k0, k1)
-        p_idx = self.epochs(self.pressure_config.rate_hz, k0, k1)
-        m_idx = self.epochs(self.magnetometer_config.rate_hz, k0, k1)
         g, runs = self._rngs, self.num_runs
         imu_data, self._imu_state = imu.simulate_chunk(
             truth,
@@ -220,10 +212,6 @@ class SensorStream:
             runs,
             self.seabed,
         )
-        p_data = pressure.simulate_chunk(truth, k0, p_idx, self.pressure_config, g["pressure"], runs)
-        m_data = magnetometer.simulate_chunk(
-            truth, k0, m_idx, self.magnetometer_config, g["magnetometer"], runs
-        )
         e_data = r_data = None
         if self.echo_sounder_config is not None:
             assert self.seabed is not None  # __init__: an echo sounder needs the seabed
@@ -249,4 +237,4 @@ class SensorStream:
                 runs,
             )
         self.next_k0 = k1
-        return SensorChunk(imu_data, dvl_data, p_data, m_data, e_data, r_data)
+        return SensorChunk(imu_data, dvl_data, e_data, r_data)

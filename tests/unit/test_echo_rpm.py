@@ -8,7 +8,7 @@ import pytest
 
 from tauvcore.config import Config
 from tauvcore.geo.earth import Earth
-from tauvcore.sensors import dvl, echosounder, imu, magnetometer, pressure, rpm
+from tauvcore.sensors import dvl, echosounder, imu, rpm
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import TrajectoryConfig, generate
 from tauvcore.truth.kinematic import TruthStream, bathymetry
@@ -54,7 +54,7 @@ def test_rpm_walks_and_noise_do_not_depend_on_the_chunk_size() -> None:
     the numbers of one chunk, run by run; the walks move (sf by ~0.4 % in an hour)."""
     trajectory = TrajectoryConfig(name="longrange", duration_s=120.0, speed_mps=5.0, depth_m=50.0,
                                   seabed_depth_m=110.0)
-    sensors = (imu.ImuConfig(), dvl.DvlConfig(), pressure.PressureConfig(), magnetometer.MagnetometerConfig())
+    sensors = (imu.ImuConfig(), dvl.DvlConfig())
     joined = []
     for chunk_samples in (7, 100_000):
         truth = TruthStream(trajectory, Earth(), RATE_HZ, chunk_samples)

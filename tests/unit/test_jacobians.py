@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 
 from tauvcore.aiding import AIDING_SOURCES, Depth, DvlLoose, MagAttitude
+from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.dvl_tight import DvlTight
+from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.engine.dvl_fusion import DVL_FUSION
 from tauvcore.filter.eskf import Nominal, inject
@@ -162,14 +164,17 @@ def _build_depth(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
     batch = nom.vel_b.shape[:-1]
     model = Depth(PressureConfig())
     depth = rng.uniform(0.0, 50.0, batch)
-    return model, model.prepare(depth, batch), model.measure(nom, depth).H
+    data = SourceData(t_s=np.zeros(1), index=np.zeros(1, np.int64), values={"depth_m": depth[None]})
+    return model, model.prepare(depth, batch), model.measure(nom, data, 0).H
 
 
 def _build_mag(nom: Nominal, rng: np.random.Generator, available: np.ndarray):
     batch = nom.vel_b.shape[:-1]
     model = MagAttitude(MagnetometerConfig())
     euler = rng.uniform(-1.0, 1.0, batch + (3,))
-    return model, model.prepare(euler, batch), model.measure(nom, euler).H
+    data = SourceData(t_s=np.zeros(1), index=np.zeros(1, np.int64),
+                      values={n: euler[None, ..., i] for i, n in enumerate(EULER)})
+    return model, model.prepare(euler, batch), model.measure(nom, data, 0).H
 
 
 AIDING_REGISTRY = [
@@ -185,8 +190,10 @@ NO_NONLINEAR_MODEL = {"elc"}
 
 
 def test_registry_covers_every_aiding_source_and_dvl_fusion():
-    # the plug-in sources' H is checked through their own interface (tests/unit/test_sources.py)
-    assert {c.source for c in AIDING_REGISTRY} == set(AIDING_SOURCES) - set(SOURCES)
+    # the registry's sources' H is checked through their own interface (tests/unit/test_sources.py);
+    # the depth's and the magnetometer's also here, at random states of a batch
+    assert {c.source for c in AIDING_REGISTRY} - set(SOURCES) == set(AIDING_SOURCES) - set(SOURCES)
+    assert {c.source for c in AIDING_REGISTRY} & set(SOURCES) == {"depth", "mag"}
     assert len({c.name for c in AIDING_REGISTRY}) == len(AIDING_REGISTRY)
     runner_kinds = {k for k in DVL_FUSION.values() if k is not None} - NO_NONLINEAR_MODEL
     assert {c.dvl_fusion for c in AIDING_REGISTRY if c.source == "dvl"} == runner_kinds

@@ -1,5 +1,5 @@
-"""Every plug-in aiding source (tauvcore.aiding.sources), through the one interface the engine, the
-configuration and the log reader and writer use:
+"""Every aiding source of the registry (tauvcore.aiding.sources: the depth, the magnetometer, the
+USBL), through the one interface the engine, the configuration and the log reader and writer use:
 
 - its H against central differences of its own innovation, ``-(nu(x (+) eps e_j) - nu(x (-) eps
   e_j)) / 2 eps``, at a state off the truth, on the flat earth and on WGS-84;
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from tauvcore.aiding.sources import SOURCES, load
-from tauvcore.config import Config, from_dict, to_dict
+from tauvcore.config import SOURCE_SECTIONS, Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.engine.sources import SourceStream
@@ -32,6 +32,15 @@ NAMES = sorted(SOURCES)
 EPS = 1e-4  # large enough that a position step moves latitude by far more than its rounding
 
 
+def _source_stream(config: Config, rng, num_runs: int, num_samples: int, dt_s: float) -> SourceStream:
+    """The sources' stream as tauvcore.engine.mission.run_streaming makes it: the sensor streams
+    spawned from each generator first, then the sources' own children."""
+    streams = (
+        SensorStreams.spawned(rng) if isinstance(rng, np.random.Generator) else [SensorStreams.spawned(g) for g in rng]
+    )
+    return SourceStream(config, rng, num_runs, num_samples, dt_s, streams)
+
+
 def _config(name: str, earth: str = "flat", duration_s: float = 120.0) -> Config:
     return (
         Config()
@@ -43,7 +52,7 @@ def _config(name: str, earth: str = "flat", duration_s: float = 120.0) -> Config
 
 def _epoch_with_data(name: str, config: Config):
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    data = SourceStream(config, np.random.default_rng(5), 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)[name]
+    data = _source_stream(config, np.random.default_rng(5), 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)[name]
     values = np.stack(list(data.values.values()), axis=-1)
     j = int(np.flatnonzero(np.isfinite(values).all(axis=(1, 2)))[len(data.index) // 2])
     return truth, data, j
@@ -71,7 +80,7 @@ def test_H_matches_central_differences_of_the_innovation(name: str, earth: str) 
     config = _config(name, earth)
     truth, data, j = _epoch_with_data(name, config)
     source = SOURCES[name]
-    model = source.model(config.section(name), config)
+    model = source.model(config.section(source.section_name), config)
     geodetic = config.earth.geodetic
     nom = _nominal_near(truth, int(data.index[j]), np.random.default_rng(1), (3, 2))
     meas = model.measure(nom, data, j)
@@ -98,7 +107,7 @@ def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) ->
     K, dt = truth.num_samples, truth.dt_s
 
     def chunked(size: int, rng) -> dict[str, np.ndarray]:
-        stream = SourceStream(config, rng, 3, K, dt)
+        stream = _source_stream(config, rng, 3, K, dt)
         parts = [stream.next_chunk(k0, part)[name]
                  for k0, part in truth_stream(config.trajectory, config.earth, config.imu.rate_hz, size)]
         index = np.concatenate([p.index for p in parts])
@@ -114,7 +123,7 @@ def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) ->
     runs = [np.random.default_rng(s) for s in (11, 12, 13)]
     batch = chunked(1500, runs)
     for r, seed in enumerate((11, 12, 13)):
-        stream = SourceStream(config, [np.random.default_rng(seed)], 1, K, dt)
+        stream = _source_stream(config, [np.random.default_rng(seed)], 1, K, dt)
         alone = stream.next_chunk(0, truth)[name]
         for column, values in alone.values.items():
             np.testing.assert_array_equal(batch[column][:, r], values[:, 0], err_msg=f"{name}: run {r}")
@@ -124,11 +133,12 @@ def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) ->
 def test_its_section_round_trips_and_leaves_the_rest_alone(name: str) -> None:
     config = Config()
     data = to_dict(config)
-    assert name in data  # its own [name] section
+    section_name = SOURCES[name].section_name
+    assert section_name in data  # its own [section_name] section
     assert from_dict(data) == config
-    section = config.section(name)
-    assert config.replace(name, **{}).section(name) == section
-    plain = {k: v for k, v in data.items() if k not in SOURCES}
+    section = config.section(section_name)
+    assert config.replace(section_name, **{}).section(section_name) == section
+    plain = {k: v for k, v in data.items() if k not in SOURCE_SECTIONS}
     assert to_dict(from_dict(plain)) == data
 
 
@@ -141,7 +151,7 @@ def test_its_log_table_round_trips_and_the_replay_fuses_it(name: str, tmp_path) 
     config = _config(name, duration_s=90.0)
     sim = simulate(config, np.random.default_rng(2), 1)
     tables = simulation_tables([SimChunk.whole(sim)])
-    assert name in tables
+    assert SOURCES[name].table in tables
     write_log(tmp_path / "log", tables)
     log = read_log(tmp_path / "log")
     table = log.sources[name]
@@ -163,8 +173,7 @@ def test_the_streaming_engine_fuses_every_epoch_of_the_source(name: str) -> None
     results = run_streaming(config, np.random.default_rng(0), 2)
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
     rng = np.random.default_rng(0)
-    SensorStreams.spawned(rng)
-    data = SourceStream(config, rng, 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)[name]
+    data = _source_stream(config, rng, 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)[name]
     record = results["lc"].updates[name]
     np.testing.assert_array_equal(record.t_s, data.t_s)
     values = np.stack(list(data.values.values()), axis=-1)
@@ -187,12 +196,15 @@ def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_ta
     from tauvcore.logs import LogError, read_log
 
     config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
-    write_log(tmp_path / "log", simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))]))
-    with pytest.raises(LogError, match=f"names {name}, but the log has no {name}.csv or {name}.parquet"):
+    table = SOURCES[name].table
+    tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])
+    tables.pop(table, None)  # a source aboard is in every simulation's log
+    write_log(tmp_path / "log", tables)
+    with pytest.raises(LogError, match=f"names {name}, but the log has no {table}.csv or {table}.parquet"):
         prepare(config.replace("run", aiding=("dvl", name)), read_log(tmp_path / "log"), np.random.default_rng(0))
     assert main(["replay", str(tmp_path / "log"), "--aiding", f"dvl,{name}"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"no {name}.csv" in err[0]
+    assert len(err) == 1 and f"no {table}.csv" in err[0]
 
 
 @pytest.mark.parametrize("name", NAMES)

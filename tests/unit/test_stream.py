@@ -16,8 +16,9 @@ import pytest
 
 from tauvcore.config import Config
 from tauvcore.engine.simulation import simulate
+from tauvcore.engine.sources import SourceStream
 from tauvcore.geo.earth import Earth
-from tauvcore.sensors import dvl, imu, magnetometer, pressure
+from tauvcore.sensors import dvl, imu
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.sensors.timing import epoch_indices
@@ -29,9 +30,7 @@ TRUTH_FIELDS = ("t_s", "pos_n", "vel_n", "vel_b", "C_nb", "euler", "omega_nb_b",
                 "dtheta_ib_b", "dv_b")
 # rates that are not divisors of the IMU rate, dropout and an outage: every epoch and draw path
 SENSORS = (imu.ImuConfig(),
-           dvl.DvlConfig(rate_hz=3.0, dropout_probability=0.2, outages=(Outage((2,), 5.0, 9.0),)),
-           pressure.PressureConfig(rate_hz=7.0),
-           magnetometer.MagnetometerConfig(rate_hz=1.3))
+           dvl.DvlConfig(rate_hz=3.0, dropout_probability=0.2, outages=(Outage((2,), 5.0, 9.0),)))
 
 
 def _concat(records: list) -> dict[str, np.ndarray]:
@@ -52,7 +51,7 @@ def _stream_sensors(trajectory: TrajectoryConfig, streams: SensorStreams | list[
     """Every sensor's output over the mission, generated chunk by chunk, joined along time."""
     truth = TruthStream(trajectory, Earth(), RATE_HZ, chunk_samples)
     stream = SensorStream(*sensors, streams, num_runs, truth.num_samples, truth.dt_s)
-    parts: list[list] = [[], [], [], []]
+    parts: list[list] = [[], []]
     for k0, chunk in truth:
         for part, record in zip(parts, stream.next_chunk(k0, chunk), strict=True):
             part.append(record)
@@ -147,9 +146,8 @@ def test_spawned_streams_keep_sensors_independent() -> None:
     no_dropout = (SENSORS[0], dataclasses.replace(SENSORS[1], dropout_probability=0.0)) + SENSORS[2:]
     a = _stream_sensors(trajectory, SensorStreams.spawned(np.random.default_rng(8)), 1, 500)
     b = _stream_sensors(trajectory, SensorStreams.spawned(np.random.default_rng(8)), 1, 500, no_dropout)
-    for j in (0, 2, 3):
-        for name in a[j]:
-            np.testing.assert_array_equal(a[j][name], b[j][name], err_msg=name)
+    for name in a[0]:
+        np.testing.assert_array_equal(a[0][name], b[0][name], err_msg=name)
     np.testing.assert_array_equal(a[1]["bias_mps"], b[1]["bias_mps"])
     assert not np.array_equal(a[1]["available"], b[1]["available"])
     streams = SensorStreams.spawned(np.random.default_rng(8))          # each walk starts from its own stream
@@ -167,11 +165,17 @@ def test_single_stream_one_chunk_is_the_runner_simulation() -> None:
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
     rng_old, rng_new = np.random.default_rng(21), np.random.default_rng(21)
     sim = simulate(config, rng_old, 3, truth=truth)
-    stream = SensorStream(config.imu, config.dvl, config.pressure, config.magnetometer,
-                          SensorStreams.single(rng_new), 3, truth.num_samples, truth.dt_s,
+    stream = SensorStream(config.imu, config.dvl, SensorStreams.single(rng_new), 3, truth.num_samples, truth.dt_s,
                           bathymetry(config.trajectory))
-    for record, expected in zip(stream.next_chunk(0, truth), (sim.imu, sim.dvl, sim.pressure, sim.mag), strict=True):
+    for record, expected in zip(stream.next_chunk(0, truth), (sim.imu, sim.dvl), strict=True):
         _assert_same({f.name: getattr(record, f.name) for f in dataclasses.fields(record)}, expected)
+    # then the sources aboard (depth, magnetometer), from the same generator
+    sources = SourceStream(config, rng_new.spawn(2)[1], 3, truth.num_samples, truth.dt_s,
+                           SensorStreams.single(rng_new)).next_chunk(0, truth)
+    for name in ("depth", "mag"):
+        _assert_same({"t_s": sources[name].t_s, "index": sources[name].index}, sim.sources[name])
+        for column, values in sources[name].values.items():
+            np.testing.assert_array_equal(values, sim.sources[name].values[column], err_msg=f"{name}.{column}")
     np.testing.assert_array_equal(rng_new.standard_normal(5), rng_old.standard_normal(5))   # same draws consumed
 
 
@@ -194,13 +198,12 @@ def test_per_run_single_streams_repeat_the_runner_run_by_run() -> None:
     """As a study draws today: run r's sensors from its own generator, one run at a time."""
     config = Config().replace("trajectory", name="figure8", duration_s=15.0)
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    stream = SensorStream(config.imu, config.dvl, config.pressure, config.magnetometer,
-                          [SensorStreams.single(np.random.default_rng(s)) for s in (1, 2)], 2,
+    stream = SensorStream(config.imu, config.dvl, [SensorStreams.single(np.random.default_rng(s)) for s in (1, 2)], 2,
                           truth.num_samples, truth.dt_s, bathymetry(config.trajectory))
     records = stream.next_chunk(0, truth)
     for r, seed in enumerate((1, 2)):
         sim = simulate(config, np.random.default_rng(seed), 1, truth=truth)
-        for record, expected in zip(records, (sim.imu, sim.dvl, sim.pressure, sim.mag), strict=True):
+        for record, expected in zip(records, (sim.imu, sim.dvl), strict=True):
             for f in dataclasses.fields(record):
                 value = getattr(record, f.name)
                 if f.name not in ("t_s", "index", "slant_range_m"):     # per ping, the same for every run
@@ -211,17 +214,14 @@ def test_per_run_single_streams_repeat_the_runner_run_by_run() -> None:
 def test_a_chunk_without_aiding_epochs_yields_empty_records() -> None:
     trajectory = TrajectoryConfig(name="straight", duration_s=10.0)
     truth = TruthStream(trajectory, Earth(), RATE_HZ, 100)               # first ping at sample 150
-    stream = SensorStream(imu.ImuConfig(), dvl.DvlConfig(), pressure.PressureConfig(),
-                          magnetometer.MagnetometerConfig(), SensorStreams.spawned(np.random.default_rng(0)), 2,
+    stream = SensorStream(imu.ImuConfig(), dvl.DvlConfig(), SensorStreams.spawned(np.random.default_rng(0)), 2,
                           truth.num_samples, truth.dt_s)
     k0, chunk = next(iter(truth))
-    imu_data, dvl_data, p_data, m_data = stream.next_chunk(k0, chunk)
+    imu_data, dvl_data = stream.next_chunk(k0, chunk)
     assert imu_data.dv_b.shape == (100, 2, 3) and np.all(imu_data.dv_b[0] == 0)
     assert dvl_data.index.shape == dvl_data.t_s.shape == (0,)
     assert dvl_data.y_beam_mps.shape == dvl_data.available.shape == dvl_data.bias_mps.shape == (0, 2, 4)
     assert dvl_data.scale_factor.shape == (0, 2)
-    assert p_data.index.shape == (0,) and p_data.depth_m.shape == (0, 2)
-    assert m_data.index.shape == (0,) and m_data.euler.shape == (0, 2, 3)
     with pytest.raises(ValueError, match="in order"):
         stream.next_chunk(200, chunk)                                    # samples 100-199 skipped
 

@@ -10,6 +10,7 @@ from tauvcore.config import METHODS, Config
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.sources import SourceStream
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import generate
@@ -54,12 +55,13 @@ def test_chunks_equal_the_bank_fed_the_whole_simulation_at_once() -> None:
     whole-mission chunk give the streaming run's numbers."""
     config = _config()
     streamed = run_streaming(config, np.random.default_rng(8), num_runs=2, chunk_s=2.0)
-    streams = SensorStreams.spawned(np.random.default_rng(8))
+    rng = np.random.default_rng(8)
+    streams = SensorStreams.spawned(rng)
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    sensors = SensorStream(config.imu, config.dvl, config.pressure, config.magnetometer, streams, 2,
-                           truth.num_samples, truth.dt_s)
+    sensors = SensorStream(config.imu, config.dvl, streams, 2, truth.num_samples, truth.dt_s)
+    sources = SourceStream(config, rng, 2, truth.num_samples, truth.dt_s, streams)
     bank = FilterBank(config, 2, truth.num_samples, truth.dt_s, streams.initial)
-    bank.feed(SimChunk(0, truth, *sensors.next_chunk(0, truth)))
+    bank.feed(SimChunk(0, truth, *sensors.next_chunk(0, truth), sources=sources.next_chunk(0, truth)))
     _assert_same(streamed, bank.results())
 
 

@@ -93,8 +93,8 @@ def test_the_gate_refuses_the_outliers_and_the_latency_compensation_removes_the_
     rng = np.random.default_rng(4)
     from tauvcore.engine.sources import SourceStream
     from tauvcore.sensors.stream import SensorStreams
-    SensorStreams.spawned(rng)
-    data = SourceStream(base, rng, 1, truth.num_samples, truth.dt_s).next_chunk(0, truth)["usbl"]
+    streams = SensorStreams.spawned(rng)
+    data = SourceStream(base, rng, 1, truth.num_samples, truth.dt_s, streams).next_chunk(0, truth)["usbl"]
     ping = data.index - 150
     true_n = truth.pos_n[ping] + mv(truth.C_nb[ping], np.asarray(base.section("usbl").lever_arm_b_m))
     outlier = np.linalg.norm(data.stacked(AXES)[:, 0] - true_n, axis=-1) > 10.0
