@@ -257,7 +257,7 @@ def test_a_log_without_reference_starts_from_its_own_sensors(tmp_path: Path, sim
     assert np.linalg.norm(back["lc"].est_pos_n[-1, 0] - truth_end) < 10.0
     # the start: the attitude sensor's first row and the origin at the first depth
     first = back["lc"].est_pos_n[0, 0]
-    assert first[:2] == pytest.approx([0.0, 0.0], abs=1e-6) and first[2] == pytest.approx(log.depth_m[0], abs=1e-6)
+    assert first[:2] == pytest.approx([0.0, 0.0], abs=1e-6) and first[2] == pytest.approx(log.sources["depth"]["depth_m"][0], abs=1e-6)
 
 
 def _cli(*argv: str) -> subprocess.CompletedProcess:

@@ -24,9 +24,12 @@ import pytest
 from app import cli, study_output
 from app.study_output import LOCK_FILE, OUTPUT_FILES, DirectoryLock, OutputDirError, StudyWriter
 from tauvcore import log_tables, log_writer, logs
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_writer import replace_files, write_log
 from tauvcore.logs import CONFIG_FILE, read_log
 
+SIMULATED_TABLES = logs.TABLES + tuple(s.table for s in SOURCES.values() if s.aboard)
+"""The tables of a simulation's log: the log's own and those of the sources aboard (depth, attitude)."""
 RUN = ["run", "--duration", "5", "--method", "ins"]
 MC = ["mc", "--duration", "10", "--method", "ins", "--runs", "2"]
 REPRODUCE = ["reproduce", "--duration", "5", "--runs", "1"]
@@ -123,7 +126,7 @@ def test_replay_json_onto_the_log_is_refused_before_anything_runs(capsys, log_di
 def test_replay_json_onto_the_log_s_parquet_table_is_refused(capsys, tmp_path, monkeypatch, recorded) -> None:
     monkeypatch.chdir(tmp_path)
     log = Path("pq")
-    write_log(log, {t: log_tables.read_table(p) for t in logs.TABLES if (p := log_tables.table_path(recorded, t))},
+    write_log(log, {t: log_tables.read_table(p) for t in logs.TABLES + tuple(logs.SOURCE_TABLES.values()) if (p := log_tables.table_path(recorded, t))},
               "parquet")
     before = _everything(log)
     _one_line(*_run(capsys, "replay", str(log), "--json", str(log / "imu.parquet"))[::2], "--json", "imu.parquet")
@@ -184,7 +187,7 @@ def test_save_log_on_a_full_disk_leaves_nothing_and_a_retry_works(capsys, tmp_pa
     assert sorted(os.listdir(tmp_path)) == ["empty"] and os.listdir(tmp_path / "empty") == []
     code, _, err = _run(capsys, *RUN, "--save-log", str(tmp_path / "empty"), "--log-format", fmt)
     assert code == 0, err
-    assert sorted(os.listdir(tmp_path / "empty")) == sorted(f"{t}.{fmt}" for t in logs.TABLES)
+    assert sorted(os.listdir(tmp_path / "empty")) == sorted(f"{t}.{fmt}" for t in SIMULATED_TABLES)
     assert read_log(tmp_path / "empty").duration_s == pytest.approx(5.0)
 
 
@@ -365,7 +368,7 @@ def test_two_tauv_runs_saving_into_one_directory(capsys, tmp_path, monkeypatch) 
     second = _run(capsys, *argv)
     assert first.wait(timeout=300) == 0, first.stderr.read()
     _one_line(*second[::2], f"--save-log: 'D' is being written by another tauv (pid {first.pid})")
-    assert sorted(os.listdir(tmp_path / "D")) == sorted(f"{t}.csv" for t in logs.TABLES)
+    assert sorted(os.listdir(tmp_path / "D")) == sorted(f"{t}.csv" for t in SIMULATED_TABLES)
     assert read_log(tmp_path / "D").duration_s == pytest.approx(300.0)
 
 
