@@ -27,6 +27,7 @@ import numpy as np
 import viser
 
 from app import export, inputs, plot_click, worker
+from app.control_table import DEFAULT_METHODS
 from app.figures import TRUTH_COLOR, method_color
 from app.hardening import (
     RECLAIM,
@@ -48,7 +49,7 @@ from app.scene import (
     BEAM_SWITCHED_OFF,
     ned_to_view,
 )
-from app.session_controls import DEFAULT_METHODS, ControlPanel
+from app.session_controls import ControlPanel
 from app.session_playback import Playback
 from app.session_plots import VKF_NOTES, PlotTabs
 from app.session_runs import RunTabs

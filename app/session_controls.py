@@ -2,6 +2,8 @@
 app.inputs.Controls holds them), its Run and Stop buttons, progress and status; what the controls
 hold and setting them, the scenarios' presets and a log's own configuration filling them in, the
 page's own values confirmed at Run, and the page's address (app.links) kept in step with them.
+The controls themselves are described once, in app.control_table.CONTROLS: built, read, set and
+confirmed by iterating it.
 """
 
 from __future__ import annotations
@@ -15,16 +17,15 @@ from typing import Any
 
 import viser
 
-from app import budget, inputs, links, page_scripts
-from app.controls import PLUGIN_FIELDS, add_source_controls
+from app import budget, control_table, inputs, links, page_scripts
+from app.controls import PLUGIN_FIELDS
 from app.inputs import Controls, InputError, config_from_controls
 from app.session_state import TabState
-from tauvcore.config import RUN_METHODS, Config, from_dict
+from tauvcore.config import Config, from_dict
 from tauvcore.logs import CONFIG_FILE, LogError
-from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import show
 
-DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
+METHODS = next(c for c in control_table.CONTROLS if c.field == "methods")
 CONFIRM_TIMEOUT_S = 10.0  # how long Run waits for the page to report its controls (software WebGL stalls)
 SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
 
@@ -42,7 +43,15 @@ def _can_hold(handle: Any, value: Any) -> bool:
 class ControlPanel:
     """The Mission tab's controls down to the status line, added where the tab's GUI adds controls
     now; ``logs`` (name -> directory, from tauv serve --logs, never from the page) are offered as
-    sources to replay."""
+    sources to replay. Each control of app.control_table.CONTROLS is the attribute its entry names;
+    those the code names are declared here."""
+
+    source: viser.GuiDropdownHandle[str] | None  # only with logs
+    trajectory: viser.GuiDropdownHandle[str]
+    truth: viser.GuiDropdownHandle[str]
+    method_boxes: dict[str, viser.GuiCheckboxHandle]
+    beam_boxes: list[viser.GuiCheckboxHandle]
+    source_fields: dict[str, Any]  # the plug-in fields' controls by key (app.controls)
 
     def __init__(self, state: TabState, logs: dict[str, str], notify: Callable[..., None]) -> None:
         self.state = state
@@ -56,84 +65,8 @@ class ControlPanel:
         self.address_shown: str | None = None
         self.viser_params: tuple[str, ...] = ()
         gui = self.client.gui
-        d = Config()
-        self.source = (
-            gui.add_dropdown(
-                inputs.SOURCE,
-                (inputs.SIMULATION, *self.logs),
-                initial_value=inputs.SIMULATION,
-                hint="simulation, or a recorded log (tauv serve --logs): replayed with "
-                "these methods, beams, outages and tuning; its own length",
-            )
-            if self.logs
-            else None
-        )
-        self.trajectory = gui.add_dropdown(inputs.TRAJECTORY, TRAJECTORIES, initial_value=d.trajectory.name)
-        self.truth = gui.add_dropdown(
-            inputs.TRUTH, TRUTH_SOURCES, initial_value=d.trajectory.truth, hint=inputs.TRUTH_HINT
-        )
-        # numeric fields are text: the server reads what was typed (see app.inputs)
-        self.duration = gui.add_text(inputs.DURATION, f"{d.trajectory.duration_s:g}")
-        with gui.add_folder("Methods"):
-            # both papers' methods, the first's then Yoo 2014's, then the registered ones
-            # (tauvcore.config.RUN_METHODS)
-            self.method_boxes = {
-                m: gui.add_checkbox(m.upper(), m in DEFAULT_METHODS, hint=inputs.METHOD_HINTS.get(m))
-                for m in RUN_METHODS
-            }
-        with gui.add_folder("Partial-beam methods"):
-            # each method's assumption, visible and settable: VB's virtual-beam
-            # inflation and NSV's sway variance
-            self.vb_nf = gui.add_text(inputs.VB_NF, f"{d.partial.vb_nf:g}", hint=inputs.VB_NF_HINT)
-            self.nsv_epsilon = gui.add_text(
-                inputs.NSV_EPSILON, str(d.partial.nsv_epsilon_m2_per_s2), hint=inputs.NSV_EPSILON_HINT
-            )
-        with gui.add_folder("DVL beams"):
-            self.beam_boxes = [gui.add_checkbox(f"Beam {k}", True) for k in range(1, 5)]
-            self.dropout = gui.add_text(
-                inputs.DROPOUT,
-                f"{d.dvl.dropout_probability:g}",
-                hint="chance that each beam misses each ping",
-            )
-            self.rpm_fallback = gui.add_checkbox(
-                inputs.RPM_FALLBACK, d.run.rpm_fallback, hint=inputs.RPM_FALLBACK_HINT
-            )
-        with gui.add_folder(inputs.SEABED_FOLDER, expand_by_default=False):
-            # Yoo 2014's mission: where the seabed is, how far the DVL sees it, where
-            # the VKF turns to the propeller, and how noisy the propeller's RPM is
-            self.seabed_depth = gui.add_text(
-                inputs.SEABED_DEPTH, f"{d.trajectory.seabed_depth_m:g}", hint=inputs.SEABED_DEPTH_HINT
-            )
-            self.dvl_max_altitude = gui.add_text(
-                inputs.DVL_MAX_ALTITUDE, f"{d.dvl.max_altitude_m:g}", hint=inputs.DVL_MAX_ALTITUDE_HINT
-            )
-            self.switch_altitude = gui.add_text(
-                inputs.SWITCH_ALTITUDE, f"{d.vkf.switch_altitude_m:g}", hint=inputs.SWITCH_ALTITUDE_HINT
-            )
-            self.rpm_noise = gui.add_text(
-                inputs.RPM_NOISE, f"{d.rpm.noise_rpm:g}", hint=inputs.RPM_NOISE_HINT
-            )
-        with gui.add_folder("Outages [s] (start = end: none)", expand_by_default=False):
-            self.outage = [
-                tuple(gui.add_text(label, "0") for label in inputs.outage_labels(k)) for k in range(1, 5)
-            ]
-        with gui.add_folder("Aiding", expand_by_default=False):
-            self.aid_depth = gui.add_checkbox("Depth (pressure)", False)
-            self.aid_mag = gui.add_checkbox("Magnetometer", False)
-            # the plug-in sources (tauvcore.aiding.sources), each with its section's controls
-            self.source_boxes, self.source_fields = add_source_controls(gui)
-        with gui.add_folder("Sensors (Table 2)", expand_by_default=False):
-            self.accel_bias = gui.add_text(inputs.ACCEL_BIAS, f"{d.imu.accel_bias_mg:g}")
-            self.gyro_bias = gui.add_text(inputs.GYRO_BIAS, f"{d.imu.gyro_bias_deg_per_h:g}")
-            self.accel_noise = gui.add_text(inputs.ACCEL_NOISE, f"{d.imu.accel_noise_mps_per_sqrt_h:g}")
-            self.gyro_noise = gui.add_text(inputs.GYRO_NOISE, f"{d.imu.gyro_noise_deg_per_sqrt_h:g}")
-            self.dvl_noise = gui.add_text(inputs.DVL_NOISE, f"{d.dvl.noise_mps:g}")
-            self.dvl_bias = gui.add_text(inputs.DVL_BIAS, f"{d.dvl.bias_mps:g}")
-            self.dvl_sf = gui.add_text(inputs.DVL_SF, f"{d.dvl.scale_factor_pct:g}")
-        self.seed = gui.add_text(inputs.SEED, str(d.run.seed))
-        self.runs = gui.add_text(
-            inputs.RUNS, "1", hint=f"Monte Carlo runs (1 to {inputs.RUNS_MAX}); > 1 plots RMS curves"
-        )
+        for attr, handle in control_table.build(gui, self.logs).items():
+            setattr(self, attr, handle)
         self.run_button = gui.add_button("Run", color="green")
         self.stop_button = gui.add_button("Stop", color="red", disabled=True)
         self.progress = gui.add_progress_bar(0.0, animated=False)
@@ -185,24 +118,8 @@ class ControlPanel:
 
     def _text_fields(self) -> dict[str, Any]:
         """The text controls a preset or a log's configuration may fill in, by label."""
-        return {
-            inputs.DURATION: self.duration,
-            inputs.ACCEL_BIAS: self.accel_bias,
-            inputs.GYRO_BIAS: self.gyro_bias,
-            inputs.ACCEL_NOISE: self.accel_noise,
-            inputs.GYRO_NOISE: self.gyro_noise,
-            inputs.DVL_NOISE: self.dvl_noise,
-            inputs.DVL_BIAS: self.dvl_bias,
-            inputs.DVL_SF: self.dvl_sf,
-            inputs.DROPOUT: self.dropout,
-            inputs.VB_NF: self.vb_nf,
-            inputs.NSV_EPSILON: self.nsv_epsilon,
-            inputs.SEABED_DEPTH: self.seabed_depth,
-            inputs.DVL_MAX_ALTITUDE: self.dvl_max_altitude,
-            inputs.SWITCH_ALTITUDE: self.switch_altitude,
-            inputs.RPM_NOISE: self.rpm_noise,
-            inputs.SEED: self.seed,
-        }
+        by_label = {c.label: c for c in control_table.CONTROLS}
+        return {label: getattr(self, by_label[label].attr) for label in control_table.TEXT_LABELS}
 
     def apply_log_config(self) -> None:
         """The chosen log's own configuration file (tauvcore.logs.CONFIG_FILE) fills in the
@@ -259,41 +176,11 @@ class ControlPanel:
             raise InputError(f"{inputs.SOURCE} {source}: {exc}") from None
 
     def selected_methods(self) -> tuple[str, ...]:
-        return tuple(m for m in RUN_METHODS if self.method_boxes[m].value)
+        return control_table.read(self, METHODS)
 
     def _confirmed_inputs(self) -> dict[str, Any]:
         """The controls a run reads, keyed by their viser id."""
-        handles: list[Any] = [
-            *([self.source] if self.source is not None else []),
-            self.trajectory,
-            self.truth,
-            self.duration,
-            *self.method_boxes.values(),
-            self.vb_nf,
-            self.nsv_epsilon,
-            *self.beam_boxes,
-            self.dropout,
-            self.rpm_fallback,
-            *(h for pair in self.outage for h in pair),
-            self.aid_depth,
-            self.aid_mag,
-            *self.source_boxes.values(),
-            *self.source_fields.values(),
-            self.accel_bias,
-            self.gyro_bias,
-            self.accel_noise,
-            self.gyro_noise,
-            self.dvl_noise,
-            self.dvl_bias,
-            self.dvl_sf,
-            self.seabed_depth,
-            self.dvl_max_altitude,
-            self.switch_altitude,
-            self.rpm_noise,
-            self.seed,
-            self.runs,
-        ]
-        return {h._impl.uuid: h for h in handles}
+        return {h._impl.uuid: h for c in control_table.CONTROLS for h in control_table.handles(self, c)}
 
     def confirm_page_state(self) -> int:
         """Make the server's control values those the page shows; return how many differed.
@@ -360,83 +247,13 @@ class ControlPanel:
 
     def controls(self) -> Controls:
         """What the controls hold (the server's copy; see :meth:`confirm_page_state`)."""
-        return Controls(
-            trajectory=self.trajectory.value,
-            truth=self.truth.value,
-            duration=self.duration.value,
-            methods=self.selected_methods(),
-            vb_nf=self.vb_nf.value,
-            nsv_epsilon=self.nsv_epsilon.value,
-            beams=tuple(k for k in range(1, 5) if self.beam_boxes[k - 1].value),
-            dropout=self.dropout.value,
-            outages=tuple((start.value, end.value) for start, end in self.outage),
-            aid_depth=self.aid_depth.value,
-            aid_mag=self.aid_mag.value,
-            accel_bias=self.accel_bias.value,
-            gyro_bias=self.gyro_bias.value,
-            accel_noise=self.accel_noise.value,
-            gyro_noise=self.gyro_noise.value,
-            dvl_noise=self.dvl_noise.value,
-            dvl_bias=self.dvl_bias.value,
-            dvl_sf=self.dvl_sf.value,
-            seabed_depth=self.seabed_depth.value,
-            dvl_max_altitude=self.dvl_max_altitude.value,
-            switch_altitude=self.switch_altitude.value,
-            rpm_noise=self.rpm_noise.value,
-            seed=self.seed.value,
-            runs=self.runs.value,
-            source=self.source.value if self.source is not None else inputs.SIMULATION,
-            rpm_fallback=self.rpm_fallback.value,
-            aid_sources=tuple(name for name, box in self.source_boxes.items() if box.value),
-            source_fields=tuple((key, handle.value) for key, handle in self.source_fields.items()),
-        )
+        return Controls(**{c.field: control_table.read(self, c) for c in control_table.CONTROLS})
 
     def set_controls(self, c: Controls) -> None:
         """Set every control to what ``c`` holds (the inverse of :meth:`controls`); a control
         already holding its value is left alone."""
-
-        def put(handle: Any, value: Any) -> None:
-            if handle.value != value:
-                handle.value = value
-
-        if self.source is not None:
-            put(self.source, c.source)
-        put(self.trajectory, c.trajectory)
-        put(self.truth, c.truth)
-        put(self.duration, c.duration)
-        for m, box in self.method_boxes.items():
-            put(box, m in c.methods)
-        put(self.vb_nf, c.vb_nf)
-        put(self.nsv_epsilon, c.nsv_epsilon)
-        for k, box in enumerate(self.beam_boxes, start=1):
-            put(box, k in c.beams)
-        put(self.dropout, c.dropout)
-        put(self.rpm_fallback, c.rpm_fallback)
-        for (start, end), (start_text, end_text) in zip(self.outage, c.outages):
-            put(start, start_text)
-            put(end, end_text)
-        for name, box in self.source_boxes.items():
-            put(box, name in c.aid_sources)
-        for key, value in c.source_fields:
-            put(self.source_fields[key], value)
-        for handle, value in (
-            (self.aid_depth, c.aid_depth),
-            (self.aid_mag, c.aid_mag),
-            (self.accel_bias, c.accel_bias),
-            (self.gyro_bias, c.gyro_bias),
-            (self.accel_noise, c.accel_noise),
-            (self.gyro_noise, c.gyro_noise),
-            (self.dvl_noise, c.dvl_noise),
-            (self.dvl_bias, c.dvl_bias),
-            (self.dvl_sf, c.dvl_sf),
-            (self.seabed_depth, c.seabed_depth),
-            (self.dvl_max_altitude, c.dvl_max_altitude),
-            (self.switch_altitude, c.switch_altitude),
-            (self.rpm_noise, c.rpm_noise),
-            (self.seed, c.seed),
-            (self.runs, c.runs),
-        ):
-            put(handle, value)
+        for entry in control_table.CONTROLS:
+            control_table.write(self, entry, getattr(c, entry.field))
 
     # ------------------------------------------------------------------ the page's address
     def read_link(self) -> None:

@@ -541,3 +541,41 @@ def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_defau
     tab.trajectory.value = "straight"
     ControlPanel.apply_trajectory_preset(tab)
     assert tab.seabed_depth.value == "60" and tab.duration.value == "250" and notes[-1] == "Defaults restored"
+
+
+# ---------------------------------------------------------------- the control table (app/control_table.py)
+def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_round_trips() -> None:
+    """The Mission tab's controls as app.control_table builds them (a server-level GUI: no browser)
+    hold the default Controls, which run exactly Config() with its methods; every field written
+    through the table reads back as written, and a control already holding its value is not set."""
+    import socket
+    from types import SimpleNamespace
+
+    import viser
+
+    from app import control_table
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)
+    try:
+        panel = SimpleNamespace(**control_table.build(server.gui, {}))
+        assert panel.source is None                               # no logs: no Source control
+
+        def controls() -> Controls:
+            return Controls(**{c.field: control_table.read(panel, c) for c in control_table.CONTROLS})
+        assert controls() == DEFAULTS
+        assert read()[0] == Config().replace("run", methods=DEFAULTS.methods)
+        changed = dataclasses.replace(
+            DEFAULTS, trajectory="figure8", truth="dynamic", duration="1e3", methods=("lc", "vkf"), beams=(1, 3),
+            outages=(("0", "0"), ("10", "20"), ("0", "0"), ("0", "0")), aid_depth=True, rpm_fallback=True,
+            seed="7", runs="2", aid_sources=tuple(p.name for p in PLUGIN_SOURCES))
+        for c in control_table.CONTROLS:
+            control_table.write(panel, c, getattr(changed, c.field))
+        assert controls() == changed
+        confirmed = [h for c in control_table.CONTROLS for h in control_table.handles(panel, c)]
+        # 22 single controls, a box per method, 4 beams, 4 outages of two texts, the plug-ins and their fields
+        assert len({id(h) for h in confirmed}) == len(confirmed) == 22 + len(RUN_METHODS) + 4 + 8 + len(
+            PLUGIN_SOURCES) + len(DEFAULT_SOURCE_FIELDS)
+    finally:
+        server.stop()
