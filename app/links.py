@@ -2,7 +2,8 @@
 
     http://localhost:8080/?traj=figure8&truth=kinematic&dur=60&m=lc,tc,nsv&nf=20&eps=auto&b=1,2&...&seed=3&runs=1
 
-Every control of app.inputs.Controls has a short key (:data:`KEYS`, in the order of the page); the
+Every control of app.inputs.Controls has a short key (:data:`KEYS`, in the order of the page, made
+of the control table app.control_table.CONTROLS); the
 address carries them all, so a link opened by a later version with other defaults still
 reproduces the setup. A link written by hand may name only some: the others keep what the page
 holds (a new page: the defaults), and a trajectory whose preset the link does not cover in full
@@ -23,7 +24,7 @@ opens its websocket at the address without its query (client/src/App.tsx,
 ``getDefaultServerFromUrl``), no message carries it, and there is no public call that runs a
 script in the page or sets its address. The page does run any script the server sends in
 viser's ``RunJavascriptMessage`` (viser loads plotly.js that way; the dashboard reads the page's
-controls that way, app.dashboard.Session.confirm_page_state). So at connect a script writes
+controls that way, app.session_controls.ControlPanel.confirm_page_state). So at connect a script writes
 ``location.search`` to the tab's localStorage and the server reads it back (viser's
 ``local_storage.get_item``, :func:`read_address`), and on each change the server sends a script
 calling ``history.replaceState`` (:func:`show_address`). viser's own client rewrites the query on
@@ -49,6 +50,7 @@ from urllib.parse import quote, unquote
 import viser
 
 from app import inputs, page_scripts
+from app.control_table import CONTROLS, Control
 from app.controls import PLUGIN_FIELDS, PLUGIN_SOURCES
 from app.inputs import Controls, InputError
 from tauvcore.config import RUN_METHODS
@@ -69,39 +71,27 @@ class Key:
 KINDS = ("choice", "number", "integer", "number_or_auto", "vector", "flag", "methods", "beams", "outage")
 PER_KEY_FIELDS = ("aid_sources", "source_fields")
 """Controls fields that several keys set, one entry each (a plug-in source, a field of its section)."""
-OUTAGE_KEYS = tuple(f"o{k}" for k in range(1, 5))
-KEYS = (
-    Key("src", "source", inputs.SOURCE, "choice"),
-    Key("traj", "trajectory", inputs.TRAJECTORY, "choice"),
-    Key("truth", "truth", inputs.TRUTH, "choice"),
-    Key("dur", "duration", inputs.DURATION, "number"),
-    Key("m", "methods", "Methods", "methods"),
-    Key("nf", "vb_nf", inputs.VB_NF, "number"),
-    Key("eps", "nsv_epsilon", inputs.NSV_EPSILON, "number_or_auto"),
-    Key("b", "beams", "DVL beams", "beams"),
-    Key("drop", "dropout", inputs.DROPOUT, "number"),
-    Key("fb", "rpm_fallback", inputs.RPM_FALLBACK, "flag"),
-    Key("sd", "seabed_depth", inputs.SEABED_DEPTH, "number"),
-    Key("alt", "dvl_max_altitude", inputs.DVL_MAX_ALTITUDE, "number"),
-    Key("sw", "switch_altitude", inputs.SWITCH_ALTITUDE, "number"),
-    Key("rpmn", "rpm_noise", inputs.RPM_NOISE, "number"),
-    *(Key(key, "outages", f"Beam {k} outage", "outage") for k, key in enumerate(OUTAGE_KEYS, start=1)),
-    Key("dep", "aid_depth", "Depth (pressure)", "flag"),
-    Key("mag", "aid_mag", "Magnetometer", "flag"),
-    *(Key(p.name, "aid_sources", p.label, "flag") for p in PLUGIN_SOURCES),
-    *(Key(f.key, "source_fields", f.label, f.kind) for f in PLUGIN_FIELDS.values()),
-    Key("ab", "accel_bias", inputs.ACCEL_BIAS, "number"),
-    Key("gb", "gyro_bias", inputs.GYRO_BIAS, "number"),
-    Key("an", "accel_noise", inputs.ACCEL_NOISE, "number"),
-    Key("gn", "gyro_noise", inputs.GYRO_NOISE, "number"),
-    Key("dn", "dvl_noise", inputs.DVL_NOISE, "number"),
-    Key("db", "dvl_bias", inputs.DVL_BIAS, "number"),
-    Key("dsf", "dvl_sf", inputs.DVL_SF, "number"),
-    Key("seed", "seed", inputs.SEED, "integer"),
-    Key("runs", "runs", inputs.RUNS, "integer"),
-)
-"""Every control of app.inputs.Controls, in the page's order (the four outages one key per beam,
-each plug-in source and each field of its section one key: app.controls)."""
+OUTAGES = next(c for c in CONTROLS if c.widget == "outages")
+OUTAGE_KEYS = tuple(f"{OUTAGES.key}{k}" for k in range(1, 5))
+
+
+def _keys(c: Control) -> tuple[Key, ...]:
+    """The address keys of control table entry ``c``."""
+    if c.widget == "outages":
+        return tuple(
+            Key(key, c.field, f"Beam {k} outage", c.kind) for k, key in enumerate(OUTAGE_KEYS, start=1)
+        )
+    if c.widget == "plugins":
+        return tuple(Key(p.name, c.field, p.label, c.kind) for p in PLUGIN_SOURCES)
+    if c.widget == "plugin_fields":
+        return tuple(Key(f.key, c.field, f.label, f.kind) for f in PLUGIN_FIELDS.values())
+    return (Key(c.key, c.field, c.label, c.kind),)
+
+
+KEYS = tuple(key for c in CONTROLS for key in _keys(c))
+"""Every control of app.inputs.Controls, in the page's order (app.control_table.CONTROLS: the four
+outages one key per beam, each plug-in source and each field of its section one key:
+app.controls)."""
 BY_KEY = {k.key: k for k in KEYS}
 VISER_PARAMS = (
     "websocket",

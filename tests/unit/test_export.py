@@ -161,9 +161,9 @@ def test_a_replayed_log_s_downloads_name_it_and_what_configured_it(finished) -> 
 
 
 def test_the_dashboard_s_download_button_notifies_instead_of_raising(finished) -> None:
-    """app.dashboard.Session.download: no run, or a failure while sending, is a notification in
+    """app.session_runs.RunTabs.download: no run, or a failure while sending, is a notification in
     the tab (red, naming why), never an exception in viser's callback thread."""
-    from app.dashboard import Session
+    from app.session_runs import RunTabs
 
     class Client:
         def __init__(self, fail: bool) -> None:
@@ -180,13 +180,13 @@ def test_the_dashboard_s_download_button_notifies_instead_of_raising(finished) -
         return types.SimpleNamespace(client=Client(fail), finished_run=run,
                                      notify=lambda title, body, error=False: notes.append((title, body, error)))
 
-    Session.download(tab(None), "json")
+    RunTabs.download(tab(None), "json")
     assert notes == [("Cannot download", "no results yet: press Run and wait until the run completes (or Stop it)",
                       True)]
     notes.clear()
     ok = tab(finished)
-    Session.download(ok, "parquet")
+    RunTabs.download(ok, "parquet")
     assert notes == [] and [(name, now) for name, _, now in ok.client.sent] == [("tauv-straight-10s-seed3.parquet",
                                                                                  True)]
-    Session.download(tab(finished, fail=True), "json")
+    RunTabs.download(tab(finished, fail=True), "json")
     assert notes == [("Cannot download", "JSON: OSError: connection reset", True)]

@@ -158,12 +158,12 @@ def test_methods_are_written_in_the_page_s_order() -> None:
 
 
 class _Tab:
-    """The controls of app.dashboard.Session as plain values, with its link methods."""
+    """The controls of app.session_controls.ControlPanel as plain values, with its link methods."""
 
     def __init__(self) -> None:
         from types import SimpleNamespace
 
-        from app.dashboard import Session
+        from app.session_controls import ControlPanel
 
         def handle(value: object) -> SimpleNamespace:
             return SimpleNamespace(value=value)
@@ -183,7 +183,7 @@ class _Tab:
         self.source_fields = {key: handle(value) for key, value in DEFAULTS.source_fields}
         for method in ("controls", "set_controls", "selected_methods", "apply_trajectory_preset", "apply_link",
                        "_text_fields"):
-            setattr(self, method, getattr(Session, method).__get__(self))
+            setattr(self, method, getattr(ControlPanel, method).__get__(self))
 
     def notify(self, title: str, body: str, error: bool = False) -> None:
         self.notes.append((title, body))

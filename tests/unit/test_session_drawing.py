@@ -3,8 +3,8 @@
 The run's message thread redraws the plots, trajectories and vehicle while the time slider's
 callback (or playback) moves the vehicle and re-adds the beams; interleaved, one thread
 assigned to a beam the other had just replaced ("Cannot assign to 'visible' on a removed
-LineSegmentsHandle", seen in the 8-client load test). Every drawing method of Session takes the
-session's draw lock.
+LineSegmentsHandle", seen in the 8-client load test). Every drawing method of a Session's rooms
+(app.session_scene, app.session_plots, app.session_runs) takes the tab's one draw lock.
 """
 
 from __future__ import annotations
@@ -16,13 +16,18 @@ import numpy as np
 import pytest
 
 from app.dashboard import Session
+from app.session_playback import Playback
+from app.session_plots import PlotTabs
+from app.session_runs import RunTabs
+from app.session_scene import SceneView
 from tauvcore.config import Config
 
 
 def _idle_session() -> types.SimpleNamespace:
     """The state a Session's drawing methods read, with nothing to draw (each returns at once)."""
     scene = types.SimpleNamespace(add_line_segments=lambda *args, **kwargs: object())
-    return types.SimpleNamespace(draw_lock=threading.RLock(), truth_view=None, config=None, results=None,
+    state = types.SimpleNamespace(truth_view=None, config=None, results=None, cursor_t=None, last_action_s=0.0)
+    return types.SimpleNamespace(draw_lock=threading.RLock(), state=state,
                                  est_lines={}, truth_line=None, client=types.SimpleNamespace(scene=scene),
                                  vkf_plot=types.SimpleNamespace(figure=None, visible=False),
                                  vkf_note=types.SimpleNamespace(content=""), kept_runs=[], kept_widgets={},
@@ -32,16 +37,16 @@ def _idle_session() -> types.SimpleNamespace:
 
 
 @pytest.mark.parametrize("call", [
-    lambda s: Session.show_time(s, 1.0),
-    lambda s: Session._draw_truth(s),
-    lambda s: Session._draw_estimates(s, {}),
-    lambda s: Session._clear_trajectories(s),
-    lambda s: Session.refresh_plots(s),
-    lambda s: Session.show_beams_static(s, Config(), np.zeros(3), np.eye(3)),
-    lambda s: Session._draw_vkf_plot(s, None, Config()),
-    lambda s: Session.refresh_runs(s),
-], ids=["show_time", "_draw_truth", "_draw_estimates", "_clear_trajectories", "refresh_plots", "show_beams_static",
-        "_draw_vkf_plot", "refresh_runs"])
+    lambda s: SceneView.show_time(s, 1.0),
+    lambda s: SceneView.draw_truth(s),
+    lambda s: SceneView.draw_estimates(s, {}),
+    lambda s: SceneView.clear_trajectories(s),
+    lambda s: PlotTabs.refresh_plots(s),
+    lambda s: SceneView.show_beams_static(s, Config(), np.zeros(3), np.eye(3)),
+    lambda s: PlotTabs.draw_vkf_plot(s, None, Config()),
+    lambda s: RunTabs.refresh_runs(s),
+], ids=["show_time", "draw_truth", "draw_estimates", "clear_trajectories", "refresh_plots", "show_beams_static",
+        "draw_vkf_plot", "refresh_runs"])
 def test_drawing_waits_for_the_draw_lock(call) -> None:
     session = _idle_session()
     done = threading.Event()
@@ -96,15 +101,15 @@ def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
     from app.vehicle_figures import VKF_SF_NAME
     session = _idle_session()
     with_vkf = Config().replace("run", methods=("lc", "vkf"))
-    Session._draw_vkf_plot(session, None, with_vkf)
+    PlotTabs.draw_vkf_plot(session, None, with_vkf)
     assert not session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["running"]
-    Session._draw_vkf_plot(session, None, Config())
+    PlotTabs.draw_vkf_plot(session, None, Config())
     assert not session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["none"]
     U = 5
     trace = {"t_s": np.arange(U, dtype=float), "x": np.full((U, 1, 3), 0.1), "sigma": np.full((U, 1, 3), 0.01),
              "sf_true": np.full((U, 1), np.nan), "b_true": np.full((U, 1), np.nan),
              "rpm_in_use": np.zeros((U, 1), bool), "altitude_m": np.full((U, 1), 50.0)}
-    Session._draw_vkf_plot(session, types.SimpleNamespace(vkf_trace=trace), with_vkf)
+    PlotTabs.draw_vkf_plot(session, types.SimpleNamespace(vkf_trace=trace), with_vkf)
     assert session.vkf_plot.visible and session.vkf_note.content == VKF_NOTES["shown"]
     assert VKF_SF_NAME in [t.name for t in session.vkf_plot.figure.data]
 
@@ -112,9 +117,9 @@ def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
 def _slider_session(value: float, max_s: float) -> types.SimpleNamespace:
     """What the time slider's methods read: a slider, a run in progress, nothing to draw."""
     slider = types.SimpleNamespace(value=value, max=max_s, step=0.1)
-    session = types.SimpleNamespace(time_slider=slider, handle=object(), playing=False, slider_pinned=False,
+    session = types.SimpleNamespace(time_slider=slider, running=lambda: True, playing=False, slider_pinned=False,
                                     run_time_s=0.0, slider_set_s=None, slider_follow_sent=False, shown=[],
-                                    echoed=[])
+                                    echoed=[], state=types.SimpleNamespace(last_action_s=0.0))
     session.show_time = lambda t: session.shown.append(t)
     session._echo_slider = lambda client, t: session.echoed.append(t)
     return session
@@ -123,20 +128,20 @@ def _slider_session(value: float, max_s: float) -> types.SimpleNamespace:
 def test_the_slider_stays_where_the_user_put_it_while_the_run_goes_on() -> None:
     """Issue 13: the slider snapped back to the latest time at every results update."""
     session = _slider_session(0.0, 250.0)
-    Session._follow_run_time(session, 40.0)
+    Playback.follow_run_time(session, 40.0)
     assert session.time_slider.value == 40.0                    # untouched: it follows the run
     session.time_slider.value = 12.0                            # the user's hand
-    Session._slider_moved(session, types.SimpleNamespace(client=object()))
+    Playback._slider_moved(session, types.SimpleNamespace(client=object()))
     assert session.slider_pinned and session.shown == [12.0]
-    Session._follow_run_time(session, 80.0)
+    Playback.follow_run_time(session, 80.0)
     assert session.time_slider.value == 12.0
     session.time_slider.value = 80.0                            # put back at the latest time: follows again
-    Session._slider_moved(session, types.SimpleNamespace(client=object()))
-    Session._follow_run_time(session, 120.0)
+    Playback._slider_moved(session, types.SimpleNamespace(client=object()))
+    Playback.follow_run_time(session, 120.0)
     assert session.time_slider.value == 120.0
     # the user's move seen before its callback ran (viser runs it in a thread pool): it stays
     session.time_slider.value = 7.0
-    Session._follow_run_time(session, 130.0)
+    Playback.follow_run_time(session, 130.0)
     assert session.time_slider.value == 7.0 and session.slider_pinned
 
 
@@ -146,24 +151,25 @@ def test_a_move_that_raced_a_follow_set_is_echoed_to_its_page_once() -> None:
     the page's slider back, while the server held the user's. The page gets its own value back
     once, after a follow-set; moves without one in between (dragging) get none."""
     session = _slider_session(0.0, 250.0)
-    Session._follow_run_time(session, 40.0)                     # sent to the page
+    Playback.follow_run_time(session, 40.0)                     # sent to the page
     session.time_slider.value = 12.0
-    Session._slider_moved(session, types.SimpleNamespace(client=object()))
+    Playback._slider_moved(session, types.SimpleNamespace(client=object()))
     assert session.echoed == [12.0]
     for t in (11.0, 10.0):                                      # the user drags on: the run is pinned
         session.time_slider.value = t
-        Session._slider_moved(session, types.SimpleNamespace(client=object()))
-    Session._follow_run_time(session, 80.0)
+        Playback._slider_moved(session, types.SimpleNamespace(client=object()))
+    Playback.follow_run_time(session, 80.0)
     assert session.echoed == [12.0] and session.time_slider.value == 10.0
 
 
 def test_after_a_stop_the_slider_spans_what_was_run() -> None:
     session = _slider_session(200.0, 1200.0)
-    Session._span_slider(session, 150.0)
+    Playback.span_slider(session, 150.0)
     assert session.time_slider.max == 150.0 and session.time_slider.value == 150.0
     session = _slider_session(30.0, 1200.0)
-    session._set_finished = session.keep_run = lambda *args: None     # the downloads' and runs' part
-    session._span_slider = lambda t: Session._span_slider(session, t)
+    session.run_tabs = types.SimpleNamespace(set_finished=lambda *args: None,   # the downloads' and runs' part
+                                             keep_run=lambda *args: None)
+    session.playback = types.SimpleNamespace(span_slider=lambda t: Playback.span_slider(session, t))
     session.run_log = session.run_source = None
     result = types.SimpleNamespace(t_s=np.array([0.0, 41.5]))
     with pytest.MonkeyPatch.context() as mp:
@@ -190,13 +196,13 @@ def test_beams_are_updated_in_place_not_re_added() -> None:
     session = types.SimpleNamespace(draw_lock=threading.RLock(),
                                     client=types.SimpleNamespace(scene=types.SimpleNamespace(add_line_segments=add)))
     states = [BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_RETURNING, BEAM_RETURNING]
-    Session.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states)
+    SceneView.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states)
     assert len(added) == 16 and all(name.startswith("/auv/beams/") for name in added)
     shown = [[n.visible for n in beam] for beam in session.beam_nodes]
     assert [row.index(True) for row in shown] == [0, 1, 0, 0] and all(sum(row) == 1 for row in shown)
     states2 = [BEAM_OUTAGE, BEAM_SWITCHED_OFF, BEAM_RETURNING, BEAM_RETURNING]
     ranges = np.array([np.inf, 50.0, 45.0, 40.0])
-    Session.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states2, ranges)
+    SceneView.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states2, ranges)
     assert len(added) == 16                                       # nothing re-added
     assert [[n.visible for n in beam].index(True) for beam in session.beam_nodes] == [2, 1, 0, 0]
     assert session.beam_nodes[2][0].points[0, 1] == pytest.approx(

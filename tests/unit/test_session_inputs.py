@@ -261,10 +261,10 @@ class _Spy:
 
 def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simulation",
              methods: tuple[str, ...] = RUN_METHODS, rpm_fallback: bool = False) -> object:
-    """What Session.controls and Session._confirmed_inputs read of a tab, each control a _Spy."""
+    """What ControlPanel.controls and ControlPanel._confirmed_inputs read of a tab, each control a _Spy."""
     from types import SimpleNamespace
 
-    from app.dashboard import Session
+    from app.session_controls import ControlPanel
     count = iter(range(1000))
 
     def spy(value: object) -> _Spy:
@@ -280,19 +280,19 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         source=spy(source),     # the Source control of tauv serve --logs
         source_boxes={p.name: spy(False) for p in PLUGIN_SOURCES},
         source_fields={key: spy(value) for key, value in DEFAULT_SOURCE_FIELDS})
-    tab.selected_methods = lambda: Session.selected_methods(tab)
+    tab.selected_methods = lambda: ControlPanel.selected_methods(tab)
     return tab
 
 
 def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
-    """Session.controls() reads exactly the controls Session.confirm_page_state asks the page for
+    """ControlPanel.controls() reads exactly the controls ControlPanel.confirm_page_state asks the page for
     (n_f, epsilon and Truth included): a control missing from the confirmation could lose a change."""
-    from app.dashboard import Session
+    from app.session_controls import ControlPanel
     read_ids: set[str] = set()
     tab = _spy_tab(read_ids)
-    controls = Session.controls(tab)
+    controls = ControlPanel.controls(tab)
     assert controls.vb_nf == "20" and controls.nsv_epsilon == "auto"
-    confirmed = set(Session._confirmed_inputs(tab))
+    confirmed = set(ControlPanel._confirmed_inputs(tab))
     assert {tab.vb_nf._impl.uuid, tab.nsv_epsilon._impl.uuid, tab.truth._impl.uuid} <= confirmed
     assert {tab.rpm_fallback._impl.uuid, tab.method_boxes["ins-dvl"]._impl.uuid,
             tab.method_boxes["vkf"]._impl.uuid} <= confirmed
@@ -305,18 +305,18 @@ def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
 
 @pytest.mark.parametrize("truth", ["kinematic", "dynamic"])
 def test_the_truth_dropdown_reaches_the_configuration(truth: str) -> None:
-    """The tab's Truth control, read by Session.controls, is the run's trajectory.truth and is
+    """The tab's Truth control, read by ControlPanel.controls, is the run's trajectory.truth and is
     shown in the "Configuration run" table."""
-    from app.dashboard import Session
-    config, _ = config_from_controls(Session.controls(_spy_tab(set(), truth=truth)))
+    from app.session_controls import ControlPanel
+    config, _ = config_from_controls(ControlPanel.controls(_spy_tab(set(), truth=truth)))
     assert config.trajectory.truth == truth and config.trajectory.name == "figure8"
     assert f"| {TRUTH} | {truth} |" in config_markdown(config, 1)
 
 
 def test_a_log_ignores_the_truth_control() -> None:
     """A log replays its own reference: Truth (disabled on the page for a log) does not reach it."""
-    from app.dashboard import Session
-    config, _ = config_from_controls(Session.controls(_spy_tab(set(), truth="dynamic", source="dive")))
+    from app.session_controls import ControlPanel
+    config, _ = config_from_controls(ControlPanel.controls(_spy_tab(set(), truth="dynamic", source="dive")))
     assert config.trajectory.truth == "kinematic"
 
 
@@ -350,33 +350,33 @@ def answer(values: dict) -> str:
 def test_the_page_values_replace_what_the_server_heard(handles) -> None:
     """The lost change: the page shows PLCF ticked, the server never heard it; at Run the page's
     answer wins."""
-    from app.dashboard import Session
+    from app.session_controls import ControlPanel
     by_id, made = handles
     ids = {name: h._impl.uuid for name, h in made.items()}
-    changed = Session.apply_page_values(by_id, answer({ids["box"]: True, ids["text"]: "1e3", ids["choice"]: "figure8"}))
+    changed = ControlPanel.apply_page_values(by_id, answer({ids["box"]: True, ids["text"]: "1e3", ids["choice"]: "figure8"}))
     assert changed == 3
     assert made["box"].value is True and made["text"].value == "1e3" and made["choice"].value == "figure8"
-    assert Session.apply_page_values(by_id, answer({ids["box"]: True})) == 0      # nothing new
-    assert Session.apply_page_values(by_id, None) == 0                           # a scripted client
+    assert ControlPanel.apply_page_values(by_id, answer({ids["box"]: True})) == 0      # nothing new
+    assert ControlPanel.apply_page_values(by_id, None) == 0                           # a scripted client
 
 
 @pytest.mark.parametrize("bad", ["not json", "[]", '{"values": 3}'])
 def test_an_unreadable_page_answer_is_refused(handles, bad: str) -> None:
-    from app.dashboard import Session
+    from app.session_controls import ControlPanel
     with pytest.raises(InputError, match="cannot read; reload the page"):
-        Session.apply_page_values(handles[0], bad)
+        ControlPanel.apply_page_values(handles[0], bad)
 
 
 def test_a_page_value_a_control_cannot_hold_is_refused(handles) -> None:
-    from app.dashboard import Session
+    from app.session_controls import ControlPanel
     by_id, made = handles
     ids = {name: h._impl.uuid for name, h in made.items()}
     with pytest.raises(InputError, match=r"^PLCF: the page shows 'yes'"):
-        Session.apply_page_values(by_id, answer({ids["box"]: "yes"}))
+        ControlPanel.apply_page_values(by_id, answer({ids["box"]: "yes"}))
     with pytest.raises(InputError, match=r"^Trajectory: the page shows 'moon'"):
-        Session.apply_page_values(by_id, answer({ids["choice"]: "moon"}))
+        ControlPanel.apply_page_values(by_id, answer({ids["choice"]: "moon"}))
     with pytest.raises(InputError, match=r"^Duration \[s\]: the page shows '9+'\.\.\. \(5000 characters\)"):
-        Session.apply_page_values(by_id, answer({ids["text"]: "9" * 5000}))
+        ControlPanel.apply_page_values(by_id, answer({ids["text"]: "9" * 5000}))
 
 
 
@@ -452,15 +452,15 @@ def test_both_papers_methods_reach_the_configuration_in_their_order() -> None:
 
 
 def test_the_rpm_fallback_checkbox_reaches_the_configuration() -> None:
-    """From the tab's controls (Session.controls) to run.rpm_fallback and the "Configuration run" table."""
-    from app.dashboard import Session
+    """From the tab's controls (ControlPanel.controls) to run.rpm_fallback and the "Configuration run" table."""
+    from app.session_controls import ControlPanel
     tab = _spy_tab(set(), methods=("ins", "lc", "ins-dvl", "vkf"), rpm_fallback=True)
-    controls = Session.controls(tab)
+    controls = ControlPanel.controls(tab)
     assert controls.rpm_fallback is True and controls.methods == ("ins", "lc", "ins-dvl", "vkf")
     config, _ = config_from_controls(controls)
     assert config.run.rpm_fallback is True and config.run.methods == ("ins", "lc", "ins-dvl", "vkf")
     assert f"| {RPM_FALLBACK} | on |" in config_markdown(config, 1)
-    assert config_from_controls(Session.controls(_spy_tab(set())))[0].run.rpm_fallback is False
+    assert config_from_controls(ControlPanel.controls(_spy_tab(set())))[0].run.rpm_fallback is False
 
 
 def test_ins_dvl_with_two_beams_is_refused_like_lc() -> None:
@@ -520,11 +520,11 @@ def test_a_bad_seabed_or_rpm_value_is_refused_by_name(field: str, typed: str, me
 
 
 def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_default() -> None:
-    """app.dashboard.Session.apply_trajectory_preset sets the Seabed depth control to longrange's
+    """app.session_controls.ControlPanel.apply_trajectory_preset sets the Seabed depth control to longrange's
     110 m (and back to 60 m on the straight line); the filled-in tab reads back as the preset."""
     from types import SimpleNamespace
 
-    from app.dashboard import Session
+    from app.session_controls import ControlPanel
     names = ("duration", "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise", "dvl_bias", "dvl_sf",
              "dropout", "vb_nf", "nsv_epsilon", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise",
              "seed")
@@ -532,12 +532,50 @@ def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_defau
     tab = SimpleNamespace(trajectory=SimpleNamespace(value="longrange"), preset=None, status=SimpleNamespace(content=""),
                           notify=lambda title, body, error=False: notes.append(title),
                           **{n: SimpleNamespace(value=getattr(DEFAULTS, n)) for n in names})
-    tab._text_fields = lambda: Session._text_fields(tab)
-    Session.apply_trajectory_preset(tab)
+    tab._text_fields = lambda: ControlPanel._text_fields(tab)
+    ControlPanel.apply_trajectory_preset(tab)
     assert tab.seabed_depth.value == "110" and tab.duration.value == "1440" and notes == ["Preset longrange applied"]
     assert (tab.dvl_max_altitude.value, tab.switch_altitude.value, tab.rpm_noise.value) == ("100", "100", "2")
     config, _ = read(trajectory="longrange", **{n: getattr(tab, n).value for n in names})
     assert config.trajectory.seabed_depth_m == trajectory_preset("longrange")["trajectory"]["seabed_depth_m"]
     tab.trajectory.value = "straight"
-    Session.apply_trajectory_preset(tab)
+    ControlPanel.apply_trajectory_preset(tab)
     assert tab.seabed_depth.value == "60" and tab.duration.value == "250" and notes[-1] == "Defaults restored"
+
+
+# ---------------------------------------------------------------- the control table (app/control_table.py)
+def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_round_trips() -> None:
+    """The Mission tab's controls as app.control_table builds them (a server-level GUI: no browser)
+    hold the default Controls, which run exactly Config() with its methods; every field written
+    through the table reads back as written, and a control already holding its value is not set."""
+    import socket
+    from types import SimpleNamespace
+
+    import viser
+
+    from app import control_table
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)
+    try:
+        panel = SimpleNamespace(**control_table.build(server.gui, {}))
+        assert panel.source is None                               # no logs: no Source control
+
+        def controls() -> Controls:
+            return Controls(**{c.field: control_table.read(panel, c) for c in control_table.CONTROLS})
+        assert controls() == DEFAULTS
+        assert read()[0] == Config().replace("run", methods=DEFAULTS.methods)
+        changed = dataclasses.replace(
+            DEFAULTS, trajectory="figure8", truth="dynamic", duration="1e3", methods=("lc", "vkf"), beams=(1, 3),
+            outages=(("0", "0"), ("10", "20"), ("0", "0"), ("0", "0")), aid_depth=True, rpm_fallback=True,
+            seed="7", runs="2", aid_sources=tuple(p.name for p in PLUGIN_SOURCES))
+        for c in control_table.CONTROLS:
+            control_table.write(panel, c, getattr(changed, c.field))
+        assert controls() == changed
+        confirmed = [h for c in control_table.CONTROLS for h in control_table.handles(panel, c)]
+        # 22 single controls, a box per method, 4 beams, 4 outages of two texts, the plug-ins and their fields
+        assert len({id(h) for h in confirmed}) == len(confirmed) == 22 + len(RUN_METHODS) + 4 + 8 + len(
+            PLUGIN_SOURCES) + len(DEFAULT_SOURCE_FIELDS)
+    finally:
+        server.stop()

@@ -1,0 +1,381 @@
+"""The plot tabs of a dashboard tab: the workbench's Plots (error norms, the ELC's choice),
+Components, Consistency (NEES) and Innovations, and the Mission tab group's Vehicle (fins and
+propeller) and Seabed (altitude, the VKF's propeller model) tabs.
+
+:data:`PLOT_GROUPS` names each group of the workbench's plots, the tab it is in and what draws
+it: :meth:`PlotTabs.refresh_plots` draws the groups a change asks for, and a full redraw draws
+the quick ones at once and leaves the others (innovations, components) to a thread of their own
+that waits until the tab is still. The overlay of kept runs comes from app.session_runs (the
+``overlay_runs`` this room is given).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import plotly.graph_objects as go
+import viser
+
+from app.error_figures import (
+    AUTO,
+    COMPONENTS,
+    compare_figure,
+    components_figure,
+    elc_choice_figure,
+    error_components,
+    error_figure,
+    nees_figure,
+    overlay_figure,
+)
+from app.figures import with_cursor
+from app.innovation_figures import innovation_figure, innovation_sources
+from app.markdown_tables import identical_methods, identical_note
+from app.session_runs import KeptRun
+from app.session_state import TabState, drawing
+from app.vehicle_figures import actuator_figure, altitude_figure, vkf_figure
+from tauvcore.config import Config
+from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+
+PLOTTED_QUANTITIES = (
+    "vel",
+    "tilt",
+    "heading",
+    "att",
+    "pos",
+)  # the error plots, top to bottom ("att" on demand)
+CONSISTENCY_NOTE = (
+    "NEES/dim: the squared estimation error weighed by the filter's own covariance, divided by the "
+    "block's dimension, averaged over the runs. **1: the method knows its error**; above the grey 99 % "
+    "band it is over-confident (its sigma is too small), below it cautious. The band narrows as runs "
+    "are added; the Results tab sums it up per method."
+)
+VEHICLE_NOTES = {
+    "dynamic": (
+        "Fins (positive: pushing along the fin's normal) and propeller of the 6-DOF vehicle the dynamic "
+        "truth flies; in the 3-D view the fins, coloured as here, turn with the time slider."
+    ),
+    "kinematic": (
+        "No fins or propeller: the **kinematic** truth is closed-form motion, no vehicle flies it. "
+        "Choose **Truth: dynamic** and press **Run** to see the 6-DOF vehicle's fins and propeller."
+    ),
+    "log": "No fins or propeller: a recorded log has no actuator record.",
+    "none": "Fins and propeller of the dynamic truth show here after a run with **Truth: dynamic**.",
+}
+"""The Vehicle tab's note for each kind of truth (its figure shows for the dynamic truth only)."""
+SEABED_NOTES = {
+    "simulation": (
+        "Height above the seabed straight below (an ideal echo sounder). Above the DVL's range its "
+        "beams find no bottom (drawn aqua, *lost*, in the 3-D view); above the switch the velocity "
+        "filter uses the propeller RPM instead (shaded). Choose **Trajectory: longrange** for the "
+        "paper's mission over two trenches."
+    ),
+    "log": "No altitude: a recorded log has no seabed.",
+    "none": "The altitude above the seabed shows here after a run.",
+}
+"""The Seabed tab's note (its figure shows for simulated missions)."""
+VKF_NOTES = {
+    "shown": (
+        "What the velocity Kalman filter (method **VKF**, Yoo 2014 eq. 20-26) learned of the propeller: "
+        "scale factor and bias with their 1-sigma, against the RPM model's truth (dashed; none on the dynamic "
+        "truth). Shaded where eq. 29 aids with the RPM instead of the DVL: there it only predicts."
+    ),
+    "running": "The VKF's scale factor and bias show here as the run goes.",
+    "stopped": "The run ended before the VKF's first results arrived.",
+    "none": (
+        "The VKF's propeller scale factor and bias show here after a run with **VKF** checked "
+        "(Mission tab, Methods)."
+    ),
+}
+"""The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
+PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
+DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
+QUIET_S = 1.0  # once the tab has had no action for this long
+COMPONENTS_NOTE = (
+    "Signed errors, estimate minus truth: position north/east/down, body velocity surge/sway/heave, Euler "
+    "angles roll/pitch/heading. The truth's velocity is the central difference of its positions at the output "
+    "epochs. With several runs the curves are the RMS over runs."
+)
+INNOVATION_NOTE = (
+    "Each method's innovations (measurement minus prediction) with its filter's 3-sigma envelope "
+    "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
+    "INS (and any method without this source) has none."
+)
+INNOVATION_PANEL_ASPECT = 0.25  # each panel of the innovations plot: a quarter of the panel's width high
+INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
+"""The Innovations tab's choices before a run: any source name (a run's own replace them), so
+``str``, not the literal "dvl"."""
+
+
+class PlotTabs:
+    """The plot tabs: the workbench's four (added to ``workbench``) and Vehicle and Seabed (added
+    to the Mission tab group ``tabs``)."""
+
+    def __init__(
+        self,
+        state: TabState,
+        workbench: viser.PanelHandle,
+        tabs: viser.GuiTabGroupHandle,
+        overlay_runs: Callable[[], list[KeptRun]],
+        add_run_widgets: Callable[[], None],
+        notify: Callable[..., None],
+    ) -> None:
+        self.state = state
+        self.draw_lock = state.draw_lock
+        self.overlay_runs = overlay_runs  # the kept runs ticked for overlay (app.session_runs)
+        self.add_run_widgets = add_run_widgets  # the Runs tab's new entries, drawn with the diagnostics
+        self.notify = notify
+        self.diagnostics_due = False
+        self.diagnostics_thread: threading.Thread | None = None
+        gui = state.client.gui
+        with workbench.add_tab("Plots"):
+            self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
+            self.log_y = gui.add_checkbox(
+                "Log scale", True, hint="log y where the errors span more than a decade, linear elsewhere"
+            )
+            self.show_att_norm = gui.add_checkbox(
+                "Attitude norm", False, hint="also plot |attitude error| (tilt and heading together)"
+            )
+            self.plots_note = gui.add_markdown("")
+            self.plots = {
+                q: gui.add_plotly(go.Figure(), aspect=PLOT_ASPECT, visible=q != "att")
+                for q in PLOTTED_QUANTITIES
+            }
+            self.elc_plot = gui.add_plotly(go.Figure(), aspect=0.4, visible=False)
+        with workbench.add_tab("Components"):
+            self.components_note = gui.add_markdown(COMPONENTS_NOTE)
+            self.component_plots = {q: gui.add_plotly(go.Figure(), aspect=0.75) for q in COMPONENTS}
+        with workbench.add_tab("Consistency"):
+            self.nees_block = gui.add_dropdown(
+                "NEES block",
+                tuple(BLOCK_DIMS),
+                initial_value="full",
+                hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
+                "no position); or one block of them",
+            )
+            self.nees_plot = gui.add_plotly(go.Figure(), aspect=0.6)  # viser: height / width
+            gui.add_markdown(CONSISTENCY_NOTE)
+        with workbench.add_tab("Innovations"):
+            self.innovation_source = gui.add_dropdown(
+                "Aiding source", INITIAL_INNOVATION_SOURCES, initial_value=INITIAL_INNOVATION_SOURCES[0]
+            )
+            self.innovation_run = gui.add_number(
+                "Run", 1, min=1, max=1, step=1, hint="which Monte Carlo run's innovations", visible=False
+            )
+            self.innovation_plot = gui.add_plotly(go.Figure(), aspect=0.85)
+            self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
+        with tabs.add_tab("Vehicle"):
+            self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
+            self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
+        with tabs.add_tab("Seabed"):
+            self.seabed_note = gui.add_markdown(SEABED_NOTES["none"])
+            self.seabed_plot = gui.add_plotly(go.Figure(), aspect=0.8, visible=False)
+            self.vkf_note = gui.add_markdown(VKF_NOTES["none"])
+            self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
+        # each option redraws only the plots it changes (a full redraw is ten figures)
+        self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
+        self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
+        self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
+
+    @drawing
+    def refresh_plots(self, only: str | None = None) -> None:
+        """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
+        ticked for overlay), their components, NEES and innovations, each with the time cursor;
+        ``only`` one group of them ("errors", "nees", "innovations": what an option changes)."""
+        if only is not None:
+            self.state.last_action_s = time.monotonic()
+        results = self.state.results
+        if not results:
+            return
+        for group in PLOT_GROUPS:  # a full redraw leaves the deferred ones to the diagnostics' thread
+            if only == group.name or (only is None and not group.deferred):
+                group.draw(self, results)
+        if only is None:
+            self.schedule_diagnostics()
+
+    def _draw_nees(self, results: dict[str, MethodResult]) -> None:
+        block, overlay = self.nees_block.value, self.overlay_runs()
+        figure = (
+            overlay_figure([(r.label, nees_figure(r.results, block)) for r in overlay])
+            if len(overlay) >= 2
+            else nees_figure(results, block)
+        )
+        self.nees_plot.figure = with_cursor(figure, self.state.cursor_t)
+
+    def schedule_diagnostics(self) -> None:
+        """Draw the innovations, components and ELC plots soon, one figure at a time in a thread of
+        their own (called under the draw lock). They are half of a full redraw; drawn inline they
+        held the draw lock, so this tab's slider and Run waited behind them (8 tabs: p95 300 ms
+        in tests/server/test_load.py). They wait until the tab has been still for QUIET_S (the
+        slider, a control, an option), so what the user does now is answered first. New results
+        while they are drawn start them again."""
+        self.diagnostics_due = True
+        if self.diagnostics_thread is None:
+            self.diagnostics_thread = threading.Thread(target=self._diagnostics_loop, daemon=True)
+            self.diagnostics_thread.start()
+
+    def _diagnostics_loop(self) -> None:
+        while True:
+            time.sleep(DIAGNOSTICS_DELAY_S)  # what the user acted on goes out first
+            if time.monotonic() - self.state.last_action_s < QUIET_S:
+                continue  # still busy in this tab: wait
+            with self.draw_lock:
+                if not self.diagnostics_due:
+                    self.diagnostics_thread = None
+                    return
+                self.diagnostics_due = False
+                results = self.state.results
+            steps: list[Callable[[dict[str, MethodResult]], None]] = [
+                functools.partial(group.draw, self) for group in PLOT_GROUPS if group.deferred
+            ]
+            for step in (*steps, lambda _: self.add_run_widgets()):
+                with self.draw_lock:
+                    if self.diagnostics_due or not results:
+                        break  # newer results: draw those instead
+                    try:
+                        step(results)
+                    except Exception as exc:  # noqa: BLE001 - a display bug must not kill the thread silently
+                        self.notify("Display error", f"{type(exc).__name__}: {exc}", error=True)
+                time.sleep(0.0)
+
+    def _draw_error_plots(self, results: dict[str, MethodResult]) -> None:
+        t = self.state.cursor_t
+        log_y = AUTO if self.log_y.value else False
+        overlay = self.overlay_runs()
+        same = identical_methods(results)
+        notes = []
+        if len(overlay) >= 2:
+            notes.append(
+                f"**Overlay of {', '.join(r.label for r in overlay)}** (Runs tab; line styles in the titles). "
+                "Untick them there to see the current run alone."
+            )
+        if same:
+            notes.append(identical_note(same))
+        note = "\n\n".join(notes)
+        if self.plots_note.content != note:
+            self.plots_note.content = note
+        for q, handle in self.plots.items():
+            shown = q != "att" or self.show_att_norm.value
+            if handle.visible != shown:
+                handle.visible = shown
+            if shown:
+                figure = (
+                    compare_figure([(r.label, r.results) for r in overlay], q, log_y=log_y)
+                    if len(overlay) >= 2
+                    else error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y)
+                )
+                handle.figure = with_cursor(figure, t)
+
+    def _draw_components_and_elc(self, results: dict[str, MethodResult]) -> None:
+        t = self.state.cursor_t
+        tv = self.state.truth_view
+        if tv is not None:
+            components = {
+                m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"])
+                for m, r in results.items()
+                if len(r.t_s)
+            }
+            for q, handle in self.component_plots.items():
+                handle.figure = with_cursor(components_figure(results, components, q), t)
+        if "elc" in results:
+            self.elc_plot.figure = with_cursor(elc_choice_figure(results["elc"]), t)
+            self.elc_plot.visible = True
+        else:
+            self.elc_plot.visible = False
+
+    def _draw_innovations(self, results: dict[str, MethodResult]) -> None:
+        t = self.state.cursor_t
+        sources = innovation_sources(results)
+        if sources:
+            if tuple(self.innovation_source.options) != sources:
+                self.innovation_source.options = sources
+            source = self.innovation_source.value if self.innovation_source.value in sources else sources[0]
+            runs = max(r.updates[source].innovation.shape[1] for r in results.values() if source in r.updates)
+            if self.innovation_run.max != runs:  # a Monte Carlo run's innovations, one run at a time
+                self.innovation_run.max = runs
+                self.innovation_run.visible = runs > 1
+            run = min(max(int(self.innovation_run.value), 1), runs) - 1
+            figure = innovation_figure(results, source, run=run)
+            panels = sum(1 for key in figure.layout.to_plotly_json() if key.startswith("yaxis"))
+            # viser sizes a plot by height / width: each panel keeps its height as panels are added
+            aspect = INNOVATION_PANEL_ASPECT * max(panels, 1) + 0.1
+            if self.innovation_plot.aspect != aspect:
+                self.innovation_plot.aspect = aspect
+            self.innovation_plot.figure = with_cursor(figure, t)
+            without = [m.upper() for m, r in results.items() if source not in r.updates]
+            self.innovation_note.content = INNOVATION_NOTE + (
+                f" No {source.upper()} updates: {', '.join(without)}." if without else ""
+            )
+
+    @drawing
+    def draw_seabed_plot(self) -> None:
+        """The Seabed tab: the altitude above the seabed of a simulated mission, otherwise a note."""
+        tv, config = self.state.truth_view, self.state.config
+        if tv is None or config is None:
+            return
+        altitude_m = tv.get("altitude_m")
+        if altitude_m is None:
+            self.seabed_plot.visible = False
+            self.seabed_note.content = SEABED_NOTES["log" if self.state.replaying else "none"]
+            return
+        self.seabed_plot.figure = altitude_figure(
+            tv["t_s"], altitude_m, config.dvl.max_altitude_m, config.vkf.switch_altitude_m
+        )
+        self.seabed_plot.visible = True
+        self.seabed_note.content = SEABED_NOTES["simulation"]
+
+    @drawing
+    def draw_vkf_plot(self, result: MethodResult | None, config: Config) -> None:
+        """The Seabed tab's VKF figure: what the velocity Kalman filter learned (``result``, the
+        ``vkf`` method's), or a note: the run has no VKF, or its results are still to come."""
+        trace = result.vkf_trace if result is not None else None
+        if trace is not None and len(trace["t_s"]):
+            self.vkf_plot.figure = vkf_figure(trace)
+            self.vkf_plot.visible = True
+            self.vkf_note.content = VKF_NOTES["shown"]
+            return
+        self.vkf_plot.visible = False
+        self.vkf_note.content = VKF_NOTES["running" if "vkf" in config.run.methods else "none"]
+
+    @drawing
+    def draw_vehicle_plot(self) -> None:
+        """The Vehicle tab: fins and propeller of a dynamic truth, otherwise a note saying why none."""
+        tv, config = self.state.truth_view, self.state.config
+        if tv is None or config is None:
+            return
+        fin_angles_rad, propeller_rpm = tv.get("fin_angles_rad"), tv.get("propeller_rpm")
+        if fin_angles_rad is not None and propeller_rpm is not None:
+            self.vehicle_plot.figure = actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm)
+            self.vehicle_plot.visible = True
+            self.vehicle_note.content = VEHICLE_NOTES["dynamic"]
+            return
+        self.vehicle_plot.visible = False
+        self.vehicle_note.content = VEHICLE_NOTES["log" if self.state.replaying else config.trajectory.truth]
+
+
+@dataclasses.dataclass(frozen=True)
+class PlotGroup:
+    """One group of the workbench's plots: what :meth:`PlotTabs.refresh_plots` calls it
+    (``only=``), the tab it is in, and what draws it from a run's results."""
+
+    name: str
+    tab: str  # the workbench tab
+    draw: Callable[[PlotTabs, dict[str, MethodResult]], Any]
+    deferred: bool  # a full redraw leaves it to the diagnostics' thread (drawn once the tab is still)
+
+
+PLOT_GROUPS = (
+    PlotGroup("errors", "Plots", PlotTabs._draw_error_plots, deferred=False),
+    PlotGroup("nees", "Consistency", PlotTabs._draw_nees, deferred=False),
+    PlotGroup("innovations", "Innovations", PlotTabs._draw_innovations, deferred=True),
+    PlotGroup("components", "Components", PlotTabs._draw_components_and_elc, deferred=True),
+)
+"""The workbench's plot groups, in the order a full redraw draws them (the ELC's choice, in the
+Plots tab, is drawn with the components)."""
