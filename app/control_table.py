@@ -205,11 +205,8 @@ CONTROLS = (
         inputs.RPM_NOISE_HINT,
     ),
     Control("outages", "outage", "Outages", "outages", "o", "outage", "Outages [s] (start = end: none)"),
-    Control(
-        "aid_depth", "aid_depth", "Depth (pressure)", "checkbox", "dep", "flag", "Aiding", lambda d: False
-    ),
-    Control("aid_mag", "aid_mag", "Magnetometer", "checkbox", "mag", "flag", "Aiding", lambda d: False),
-    # the plug-in sources (tauvcore.aiding.sources), each with its section's controls (app.controls)
+    # the aiding sources (tauvcore.aiding.sources: depth, magnetometer, USBL), each with its section's
+    # controls (app.controls)
     Control("aid_sources", "source_boxes", "Aiding sources", "plugins", "", "flag", "Aiding"),
     Control("source_fields", "source_fields", "Aiding settings", "plugin_fields", "", "", "Aiding"),
     *(

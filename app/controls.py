@@ -100,9 +100,8 @@ def describe(source: AidingSource) -> SourceControl:
     return SourceControl(source.name, source.label, source.summary, tuple(fields))
 
 
-PLUGIN_SOURCES: tuple[SourceControl, ...] = tuple(describe(s) for s in SOURCES.values() if not s.aboard)
-"""Every plug-in source's controls, in the registry's order (the sources aboard, the depth and the
-magnetometer, have their checkboxes in app.dashboard)."""
+PLUGIN_SOURCES: tuple[SourceControl, ...] = tuple(describe(s) for s in SOURCES.values())
+"""Every source's controls, in the registry's order."""
 PLUGIN_FIELDS: dict[str, FieldControl] = {f.key: f for s in PLUGIN_SOURCES for f in s.fields}
 """Every plug-in field's control by its key."""
 DEFAULT_SOURCE_FIELDS: tuple[tuple[str, str | bool], ...] = tuple(

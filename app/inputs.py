@@ -192,8 +192,6 @@ class Controls:
     beams: tuple[int, ...]  # switched on, 1..4
     dropout: str
     outages: tuple[tuple[str, str], ...]  # (start, end) per beam 1..4, as typed [s]
-    aid_depth: bool
-    aid_mag: bool
     accel_bias: str
     gyro_bias: str
     accel_noise: str
@@ -368,12 +366,7 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         if end <= start:
             raise InputError(f"Beam {k} outage ends ({end:g} s) before it starts ({start:g} s)")
         outages.append(Outage(beams=(k,), start_s=start, end_s=end))
-    aiding = (
-        ("dvl",)
-        + (("depth",) if c.aid_depth else ())
-        + (("mag",) if c.aid_mag else ())
-        + tuple(name for name in SOURCES if name in c.aid_sources)
-    )
+    aiding = ("dvl",) + tuple(name for name in SOURCES if name in c.aid_sources)
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
     truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
     try:

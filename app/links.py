@@ -93,6 +93,9 @@ KEYS = tuple(key for c in CONTROLS for key in _keys(c))
 outages one key per beam, each plug-in source and each field of its section one key:
 app.controls)."""
 BY_KEY = {k.key: k for k in KEYS}
+ALIASES = {"dep": "depth"}
+"""Other keys read as a control's own: ``dep``, a short key of the depth's checkbox that saved
+addresses hold (the page writes ``depth``, its source's name)."""
 VISER_PARAMS = (
     "websocket",
     "playbackPath",
@@ -270,6 +273,7 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
             continue
         raw_key, _, raw_value = part.partition("=")
         name, text = unquote(raw_key), unquote(raw_value)
+        name = ALIASES.get(name, name)
         if name in VISER_PARAMS:
             kept.append(part)
             continue

@@ -121,7 +121,7 @@ def test_an_address_sets_the_controls_a_reload_keeps_them_and_run_uses_them(new_
     page.wait_for_function("() => location.search.includes('seed=9') && location.search.includes('m=lc,tc,vb&')",
                            timeout=30000)
     query = page.evaluate("location.search")
-    assert re.fullmatch(r"\?[A-Za-z0-9._~,:=&-]+", query) and "o3=2:6" in query and "dep=1" in query
+    assert re.fullmatch(r"\?[A-Za-z0-9._~,:=&-]+", query) and "o3=2:6" in query and "depth=1" in query
 
     page.reload()
     page.get_by_role("button", name="Run", exact=True).wait_for(timeout=30000)

@@ -126,7 +126,7 @@ def test_the_dashboards_replay_equals_the_clis(tmp_path: Path) -> None:
     cli = _replay_json(out, tmp_path / "cli.json", "--method", "ins,lc")
     controls = Controls(trajectory="straight", duration="250", methods=("ins", "lc"), vb_nf="20",
                         nsv_epsilon="auto", beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4,
-                        aid_depth=False, aid_mag=False, accel_bias="0.5", gyro_bias="3", accel_noise="0.072",
+                        accel_bias="0.5", gyro_bias="3", accel_noise="0.072",
                         gyro_noise="0.34", dvl_noise="0.042", dvl_bias="0.005", dvl_sf="0.7", seabed_depth="60",
                         dvl_max_altitude="100", switch_altitude="100", rpm_noise="2", seed="0", runs="1",
                         source="akit1")

@@ -20,17 +20,18 @@ from tauvcore.config import RUN_METHODS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
                     vb_nf="20", nsv_epsilon="auto",
-                    beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4, aid_depth=False, aid_mag=False,
+                    beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4,
                     accel_bias="0.5", gyro_bias="3", accel_noise="0.072", gyro_noise="0.34", dvl_noise="0.042",
                     dvl_bias="0.005", dvl_sf="0.7", seabed_depth="60", dvl_max_altitude="100", switch_altitude="100",
                     rpm_noise="2", seed="0", runs="1")
 """What a new page's controls hold (as tests/unit/test_session_inputs.py has them)."""
 CHANGED = Controls(trajectory="figure8", duration="1e3", methods=("lc", "vb", "ins-dvl", "vkf"), vb_nf="7.5",
                    nsv_epsilon="0.05", beams=(1, 3), dropout="0.05",
-                   outages=(("0", "0"), ("10", "20.5"), ("0", "0"), ("50", "2E2")), aid_depth=True, aid_mag=True,
+                   outages=(("0", "0"), ("10", "20.5"), ("0", "0"), ("50", "2E2")),
                    accel_bias="0.25", gyro_bias="1.5", accel_noise="0.1", gyro_noise="0.5", dvl_noise="0.08",
                    dvl_bias="0.01", dvl_sf="1", seabed_depth="110", dvl_max_altitude="90", switch_altitude="80",
-                   rpm_noise="0", seed="42", runs="3", source="pool-log_2", truth="dynamic", rpm_fallback=True)
+                   rpm_noise="0", seed="42", runs="3", source="pool-log_2", truth="dynamic", rpm_fallback=True,
+                   aid_sources=("depth", "mag"))
 """Every control away from its default."""
 SOURCES = (SIMULATION, "pool-log_2")
 
@@ -125,7 +126,7 @@ def test_a_bad_key_or_value_is_named_and_the_rest_applies(part: str, named: str)
     assert len(link.problems) == 1, link.problems
     assert named in link.problems[0]
     assert "Error" not in link.problems[0] and "Traceback" not in link.problems[0]
-    assert back.aid_depth and back.seed == "7"
+    assert "depth" in back.aid_sources and back.seed == "7"  # dep: the depth's short key
 
 
 def test_a_repeated_key_is_named_and_the_first_applies() -> None:
@@ -172,7 +173,7 @@ class _Tab:
         self.notes: list[tuple[str, str]] = []
         self.status = SimpleNamespace(content="Ready. Choose a mission and press **Run**.")
         for name in ("trajectory", "truth", "duration", "vb_nf", "nsv_epsilon", "dropout", "rpm_fallback",
-                     "aid_depth", "aid_mag", "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise",
+                     "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise",
                      "dvl_bias", "dvl_sf", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise", "seed",
                      "runs"):
             setattr(self, name, handle(getattr(DEFAULTS, name)))

@@ -26,13 +26,31 @@ def with_fields(**typed: str | bool) -> tuple[tuple[str, str | bool], ...]:
 
 
 def test_every_field_of_every_plug_in_has_a_control_with_its_default() -> None:
-    shown = [s for s in SOURCES.values() if not s.aboard]
-    assert [s.name for s in PLUGIN_SOURCES] == [s.name for s in shown]
-    for source in shown:
+    assert [s.name for s in PLUGIN_SOURCES] == list(SOURCES) == ["depth", "mag", "usbl"]
+    for source in SOURCES.values():
         keys = [f"{source.section_name}.{name}" for name, _, _ in settings(source.config_type)]
         assert keys == [k for k in PLUGIN_FIELDS if k.startswith(source.section_name + ".")]
     config, _ = config_from_controls(DEFAULTS)
     assert config.sources == Config().sources and config.run.aiding == ("dvl",)
+    assert (config.pressure, config.magnetometer) == (Config().pressure, Config().magnetometer)
+
+
+def test_the_depth_and_magnetometer_controls_reach_their_own_sections() -> None:
+    """The sources aboard are ticked and set as a plug-in is: their sections are ``[pressure]`` and
+    ``[magnetometer]``, their controls' keys ``pressure.<field>`` and ``magnetometer.<field>``."""
+    assert PLUGIN_FIELDS["pressure.noise_pa"].label == "Depth (pressure) noise [Pa]"
+    assert PLUGIN_FIELDS["magnetometer.yaw_noise_deg"].label == "Magnetometer yaw noise [deg]"
+    c = dataclasses.replace(
+        DEFAULTS,
+        aid_sources=("depth", "mag"),
+        source_fields=with_fields(pressure__noise_pa="500", magnetometer__yaw_noise_deg="2.5"),
+    )
+    config, _ = config_from_controls(c)
+    assert config.run.aiding == ("dvl", "depth", "mag")
+    assert config.pressure.noise_pa == 500.0 and config.magnetometer.yaw_noise_deg == 2.5
+    bad = dataclasses.replace(DEFAULTS, source_fields=with_fields(pressure__noise_pa="2e5"))
+    with pytest.raises(InputError, match=r"Depth \(pressure\) noise \[Pa\]"):
+        config_from_controls(bad)
 
 
 def test_the_usbl_controls_carry_label_unit_and_range() -> None:
@@ -79,7 +97,7 @@ def test_the_address_carries_the_plug_ins_and_reads_them_back() -> None:
     c = dataclasses.replace(DEFAULTS, aid_sources=("usbl",), source_fields=with_fields(
         usbl__interval_s="5", usbl__compensate_latency=False, usbl__transceiver_n_m="10,-20,1e+1"))
     query = links.address(c)
-    assert "&usbl=1&usbl.interval_s=5&" in query and "usbl.transceiver_n_m=10,-20,1e1&" in query
+    assert "&usbl=1&" in query and "&usbl.interval_s=5&" in query and "usbl.transceiver_n_m=10,-20,1e1&" in query
     back = links.apply(DEFAULTS, links.parse(query))
     assert back == dataclasses.replace(c, source_fields=with_fields(
         usbl__interval_s="5", usbl__compensate_latency=False, usbl__transceiver_n_m="10,-20,1e1"))

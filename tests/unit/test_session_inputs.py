@@ -50,7 +50,7 @@ from tauvcore.validation import SHOW_CHARS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
                     vb_nf="20", nsv_epsilon="auto",
-                    beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4, aid_depth=False, aid_mag=False,
+                    beams=(1, 2, 3, 4), dropout="0", outages=(("0", "0"),) * 4,
                     accel_bias="0.5", gyro_bias="3", accel_noise="0.072", gyro_noise="0.34", dvl_noise="0.042",
                     dvl_bias="0.005", dvl_sf="0.7", seabed_depth="60", dvl_max_altitude="100", switch_altitude="100",
                     rpm_noise="2", seed="0", runs="1")
@@ -157,7 +157,7 @@ def test_parsers_accept_plain_and_scientific_notation_only() -> None:
 
 
 def test_the_configuration_run_is_shown_as_a_table() -> None:
-    config, runs = read(duration="1e1", methods=("ins", "vb"), beams=(1, 3), seed="7", runs="3", aid_mag=True,
+    config, runs = read(duration="1e1", methods=("ins", "vb"), beams=(1, 3), seed="7", runs="3", aid_sources=("mag",),
                         gyro_noise="0.5", outages=(("0", "0"), ("0", "0"), ("2", "4"), ("0", "0")))
     table = config_markdown(config, runs)
     rows = dict((cell.strip() for cell in line.strip("|").split("|")) for line in table.splitlines()
@@ -273,7 +273,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         trajectory=spy("figure8"), truth=spy(truth), duration=spy("250"),
         method_boxes={m: spy(m in methods) for m in RUN_METHODS}, rpm_fallback=spy(rpm_fallback),
         vb_nf=spy("20"), nsv_epsilon=spy("auto"), beam_boxes=[spy(True) for _ in range(4)], dropout=spy("0"),
-        outage=[(spy("0"), spy("0")) for _ in range(4)], aid_depth=spy(False), aid_mag=spy(False),
+        outage=[(spy("0"), spy("0")) for _ in range(4)],
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
         dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seabed_depth=spy("60"),
         dvl_max_altitude=spy("100"), switch_altitude=spy("100"), rpm_noise=spy("2"), seed=spy("0"), runs=spy("1"),
@@ -568,14 +568,14 @@ def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_
         assert read()[0] == Config().replace("run", methods=DEFAULTS.methods)
         changed = dataclasses.replace(
             DEFAULTS, trajectory="figure8", truth="dynamic", duration="1e3", methods=("lc", "vkf"), beams=(1, 3),
-            outages=(("0", "0"), ("10", "20"), ("0", "0"), ("0", "0")), aid_depth=True, rpm_fallback=True,
+            outages=(("0", "0"), ("10", "20"), ("0", "0"), ("0", "0")), rpm_fallback=True,
             seed="7", runs="2", aid_sources=tuple(p.name for p in PLUGIN_SOURCES))
         for c in control_table.CONTROLS:
             control_table.write(panel, c, getattr(changed, c.field))
         assert controls() == changed
         confirmed = [h for c in control_table.CONTROLS for h in control_table.handles(panel, c)]
-        # 22 single controls, a box per method, 4 beams, 4 outages of two texts, the plug-ins and their fields
-        assert len({id(h) for h in confirmed}) == len(confirmed) == 22 + len(RUN_METHODS) + 4 + 8 + len(
+        # 20 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
+        assert len({id(h) for h in confirmed}) == len(confirmed) == 20 + len(RUN_METHODS) + 4 + 8 + len(
             PLUGIN_SOURCES) + len(DEFAULT_SOURCE_FIELDS)
     finally:
         server.stop()
