@@ -68,6 +68,7 @@ from tauvcore.filter.eskf import (
     fuse_in_place,
     make_outcome,
 )
+from tauvcore.filter.kernels.common import plain
 from tauvcore.filter.kernels.dvl import (
     DVL_ELC,
     DVL_LC,
@@ -346,7 +347,7 @@ class FilterBank(ChunkDriver):
             np.ascontiguousarray(y), np.ascontiguousarray(available), np.ascontiguousarray(omega_meas)
         )
         state = DvlState(self.C, self.vel, self.bg, self.bdvl, self.sf, self.P)
-        dvl_measure_bank(dvl, self.partial_tables, ping, state, rows)
+        dvl_measure_bank(plain(dvl), plain(self.partial_tables), plain(ping), plain(state), plain(rows))
         z, nu, H, Rm, active, valid, mode, measured_axes, choice = rows
         fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
         self.recorders["dvl"].add(
@@ -405,8 +406,10 @@ class FilterBank(ChunkDriver):
         self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
 
     def _bank_state(self) -> loop.BankState:
-        """The bank's states as the compiled loop takes them (the arrays themselves, not copies)."""
-        return loop.BankState(
+        """The bank's states as the compiled kernels take them: the arrays themselves, not copies,
+        in a plain tuple (tauvcore.filter.kernels.common.plain). The arrays are made at
+        :meth:`start` and written in place after, so one tuple serves a whole chunk."""
+        state = loop.BankState(
             self.pos,
             self.vel,
             self.C,
@@ -420,6 +423,7 @@ class FilterBank(ChunkDriver):
             self.ping_sf,
             self.nonfinite_at_s,
         )
+        return plain(state)
 
     def _record(self, out: Store, row: int, i: int) -> None:
         """Output epoch ``row`` of the store ``out``, at sample ``i`` of the current chunk."""
@@ -429,7 +433,9 @@ class FilterBank(ChunkDriver):
         outputs = loop.Outputs(
             out["series"], out["nees_block"], out["est_pos_n"], out["t_s"], out["est_vel_n"], out["est_euler"]
         )
-        loop.record_bank(row, i, self._chunk_in, self._bank_state(), constants, self.geodetic, outputs)
+        loop.record_bank(
+            row, i, self._chunk_in, self._bank_state(), plain(constants), self.geodetic, plain(outputs)
+        )
         self.slot += 1
 
     # ------------------------------------------------------------------ the chunk
@@ -498,7 +504,7 @@ class FilterBank(ChunkDriver):
             np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
             np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
         )
-        self._chunk_in = chunk_in
+        self._chunk_in = chunk_in = plain(chunk_in)
         if k0 == 0 and 0 in out_row:
             self._record(store, 0, 0)
         events = np.zeros(n, dtype=bool)  # aiding epochs
@@ -523,6 +529,8 @@ class FilterBank(ChunkDriver):
             store["est_vel_n"],
             store["est_euler"],
         )
+        schedule, constants, outputs = plain(schedule), plain(constants), plain(outputs)
+        bank, sd = self._bank_state(), plain(self.sd_consts)  # the same arrays for the whole chunk
         counters = np.zeros(4, dtype=np.int64)
         s = 0
         while s < stops.size:
@@ -532,9 +540,9 @@ class FilterBank(ChunkDriver):
                 s,
                 stops.size,
                 counters,
-                self._bank_state(),
+                bank,
                 chunk_in,
-                self.sd_consts,
+                sd,
                 constants,
                 outputs,
             )

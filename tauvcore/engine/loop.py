@@ -112,11 +112,11 @@ def record_bank(
     WGS-84 (``geodetic``) the estimated position is recorded in NED metres from ``origin``
     (latitude, longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components).
     The estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3)."""
-    t_s = chunk.t_s[i_chunk]
-    pos_t, vel_t, C_t = chunk.pos_t[i_chunk], chunk.vel_t[i_chunk], chunk.C_t[i_chunk]
-    ba_t, bg_t = chunk.ba_t[i_chunk], chunk.bg_t[i_chunk]
-    pos, vel, C, ba, bg, bdvl, sf, P, _dtheta_sum, bdvl_t, sf_t, nonfinite_at = bank
-    origin, _w_ie, _q, block_of_state, num_blocks, deg = constants
+    _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _ = chunk
+    t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
+    ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
+    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at = bank
+    origin, _, _, block_of_state, num_blocks, deg = constants
     series, nees_block, est_pos, out_t, est_vel, est_euler = outputs
     M, R = pos.shape[0], pos.shape[1]
     dx = np.empty(N)
@@ -230,12 +230,10 @@ def run_stops(
     last check's, and the output epochs recorded. The same kernels the caller would call one by
     one, in the same order, so the numbers are those of the step-by-step loop."""
     stops, is_event, out_row, k0, check_step, yield_every = schedule
-    pos, vel, C, ba, bg, P = bank.pos, bank.vel, bank.C, bank.ba, bank.bg, bank.P
-    dtheta_sum, ping_bias, ping_sf = bank.dtheta_sum, bank.ping_bias, bank.ping_sf
-    phi_raw, dv_raw, dtheta = chunk.phi_raw, chunk.dv_raw, chunk.dtheta
-    ping_rows, ping_bias_all, ping_sf_all = chunk.ping_rows, chunk.ping_bias_all, chunk.ping_sf_all
+    pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _ = bank
+    phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all = chunk
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    w_ie, q = constants.w_ie, constants.q
+    _, w_ie, q, _, _, _ = constants
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
     why = STOPS_DONE

@@ -102,6 +102,19 @@ def flat(a: np.ndarray, batch: tuple[int, ...], tail: tuple[int, ...], dtype: ty
     )
 
 
+_Args = TypeVar("_Args", bound=tuple[Any, ...])
+
+
+def plain(args: _Args) -> _Args:
+    """A kernel's structured argument (one of the ``typing.NamedTuple`` s named beside the kernel)
+    as a plain tuple of the same items, for the call: numba types a plain tuple from its items as
+    fast as it types separate arguments, a named tuple about a microsecond slower at every call (its
+    fingerprint spells the class), which the filter bank's thousands of calls per mission would
+    pay. The kernels unpack their tuples by position, so they take either; the class stays the
+    documentation of the order (and the type the checker sees)."""
+    return cast(_Args, tuple(args))
+
+
 # the earth functions the kernels compile as they are (tauvcore.geo.earth: those that call no
 # other); earth's functions take floats or arrays, the kernels call them on floats only: typed so
 _F2 = tuple[float, float]
