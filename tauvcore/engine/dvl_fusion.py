@@ -18,6 +18,7 @@ from tauvcore.aiding.dvl_extended import (
     DvlExtended,
 )
 from tauvcore.config import Config
+from tauvcore.filter.kernels.dvl import TwoBeamTables
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE
 
@@ -35,11 +36,7 @@ DVL_MODE_CODES = np.array([MODE_COAST, MODE_LC, MODE_PARTIAL, MODE_TC], dtype=np
 """The record's DVL mode codes in the order the compiled DVL kernel takes them."""
 
 
-PartialTables = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""n_cand, ok, C, D, gain, assumption error and measured rows: :func:`partial_tables`."""
-
-
-def partial_tables(methods: Sequence[str], config: Config) -> PartialTables:
+def partial_tables(methods: Sequence[str], config: Config) -> TwoBeamTables:
     """The two-beam constructions of each DVL method, for every pattern of two returned beams
     (index: the sum of 2^k over the beams k), from the methods' own ``solve`` functions
     (tauvcore.aiding.elc_*): candidates (1, or the selector's 4), ok, C, D, gain, assumption
@@ -70,7 +67,7 @@ def partial_tables(methods: Sequence[str], config: Config) -> PartialTables:
                     sol.assumption_sd,
                     sol.measured,
                 )
-    return n_cand, ok, Cc, Dc, gc, ac, mc
+    return TwoBeamTables(n_cand, ok, Cc, Dc, gc, ac, mc)
 
 
 def rpm_measurement(

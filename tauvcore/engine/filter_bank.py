@@ -67,7 +67,17 @@ from tauvcore.filter.eskf import (
     fuse_in_place,
     make_outcome,
 )
-from tauvcore.filter.kernels.dvl import DVL_ELC, DVL_LC, DVL_TC, dvl_measure_bank
+from tauvcore.filter.kernels.common import plain
+from tauvcore.filter.kernels.dvl import (
+    DVL_ELC,
+    DVL_LC,
+    DVL_TC,
+    DvlMethods,
+    DvlRows,
+    DvlState,
+    Ping,
+    dvl_measure_bank,
+)
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
 
@@ -310,45 +320,33 @@ class FilterBank(ChunkDriver):
         and run; one compiled correction then fuses them all. Returns (M, R): which methods had a
         velocity from the ping."""
         batch = self.batch
-        H = np.empty(batch + (DVL_ROWS, STATE.dim))
-        Rm = np.ones(batch + (DVL_ROWS, DVL_ROWS))
-        nu = np.zeros(batch + (DVL_ROWS,))
-        z = np.zeros(batch + (DVL_ROWS,))
-        active = np.zeros(batch + (DVL_ROWS,), bool)
-        valid = np.zeros(batch, bool)
-        mode = np.zeros(batch, np.int64)
-        measured_axes = np.zeros(batch + (3,), bool)
-        choice = np.full(batch + (3,), -1, np.int64)
-        dvl = self.config.dvl
-        dvl_measure_bank(
+        rows = DvlRows(
+            z=np.zeros(batch + (DVL_ROWS,)),
+            nu=np.zeros(batch + (DVL_ROWS,)),
+            H=np.empty(batch + (DVL_ROWS, STATE.dim)),
+            Rm=np.ones(batch + (DVL_ROWS, DVL_ROWS)),
+            active=np.zeros(batch + (DVL_ROWS,), bool),
+            valid=np.zeros(batch, bool),
+            mode=np.zeros(batch, np.int64),
+            measured_axes=np.zeros(batch + (3,), bool),
+            choice=np.full(batch + (3,), -1, np.int64),
+        )
+        dvl = DvlMethods(
             self.dvl_index,
             self.dvl_codes,
-            np.ascontiguousarray(y),
-            np.ascontiguousarray(available),
-            np.ascontiguousarray(omega_meas),
-            self.C,
-            self.vel,
-            self.bg,
-            self.bdvl,
-            self.sf,
-            self.P,
             self.A_b,
             self.l_dvl_b,
-            dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
+            dvl_beam_sigma_mps(self.config.dvl.noise_mps) ** 2,
             self.gyro_rate_noise**2,
             self.w_ie,
-            *self.partial_tables,
             DVL_MODE_CODES,
-            z,
-            nu,
-            H,
-            Rm,
-            active,
-            valid,
-            mode,
-            measured_axes,
-            choice,
         )
+        ping = Ping(
+            np.ascontiguousarray(y), np.ascontiguousarray(available), np.ascontiguousarray(omega_meas)
+        )
+        state = DvlState(self.C, self.vel, self.bg, self.bdvl, self.sf, self.P)
+        dvl_measure_bank(plain(dvl), plain(self.partial_tables), plain(ping), plain(state), plain(rows))
+        z, nu, H, Rm, active, valid, mode, measured_axes, choice = rows
         fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
         self.recorders["dvl"].add(
             t,
@@ -406,8 +404,10 @@ class FilterBank(ChunkDriver):
         self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
 
     def _bank_state(self) -> loop.BankState:
-        """The bank's states as the compiled loop takes them (the arrays themselves, not copies)."""
-        return loop.BankState(
+        """The bank's states as the compiled kernels take them: the arrays themselves, not copies,
+        in a plain tuple (tauvcore.filter.kernels.common.plain). The arrays are made at
+        :meth:`start` and written in place after, so one tuple serves a whole chunk."""
+        state = loop.BankState(
             self.pos,
             self.vel,
             self.C,
@@ -421,48 +421,19 @@ class FilterBank(ChunkDriver):
             self.ping_sf,
             self.nonfinite_at_s,
         )
+        return plain(state)
 
     def _record(self, out: Store, row: int, i: int) -> None:
-        truth = self._chunk_in
-        t_s, pos_t, vel_t, C_t, ba_t, bg_t = (
-            truth.t_s,
-            truth.pos_t,
-            truth.vel_t,
-            truth.C_t,
-            truth.ba_t,
-            truth.bg_t,
+        """Output epoch ``row`` of the store ``out``, at sample ``i`` of the current chunk."""
+        constants = loop.Model(
+            self.origin, self.w_ie, self.q_psd, self.block_of_state, len(NEES_BLOCKS), units.DEG
+        )
+        outputs = loop.Outputs(
+            out["series"], out["nees_block"], out["est_pos_n"], out["t_s"], out["est_vel_n"], out["est_euler"]
         )
         loop.record_bank(
-            row,
-            float(t_s[i]),
-            pos_t[i],
-            vel_t[i],
-            C_t[i],
-            ba_t[i],
-            bg_t[i],
-            self.ping_bias,
-            self.ping_sf,
-            self.pos,
-            self.vel,
-            self.C,
-            self.ba,
-            self.bg,
-            self.bdvl,
-            self.sf,
-            self.P,
-            self.block_of_state,
-            len(NEES_BLOCKS),
-            units.DEG,
-            out["series"],
-            out["nees_block"],
-            out["est_pos_n"],
-            self.nonfinite_at_s,
-            self.geodetic,
-            self.origin,
-            out["est_vel_n"],
-            out["est_euler"],
+            row, i, self._chunk_in, self._bank_state(), plain(constants), self.geodetic, plain(outputs)
         )
-        out["t_s"][row] = t_s[i]
         self.slot += 1
 
     # ------------------------------------------------------------------ the chunk
@@ -529,7 +500,7 @@ class FilterBank(ChunkDriver):
             np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
             np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
         )
-        self._chunk_in = chunk_in
+        self._chunk_in = chunk_in = plain(chunk_in)
         if k0 == 0 and 0 in out_row:
             self._record(store, 0, 0)
         events = np.zeros(n, dtype=bool)  # aiding epochs
@@ -554,6 +525,8 @@ class FilterBank(ChunkDriver):
             store["est_vel_n"],
             store["est_euler"],
         )
+        schedule, constants, outputs = plain(schedule), plain(constants), plain(outputs)
+        bank, sd = self._bank_state(), plain(self.sd_consts)  # the same arrays for the whole chunk
         counters = np.zeros(4, dtype=np.int64)
         s = 0
         while s < stops.size:
@@ -563,9 +536,9 @@ class FilterBank(ChunkDriver):
                 s,
                 stops.size,
                 counters,
-                self._bank_state(),
+                bank,
                 chunk_in,
-                self.sd_consts,
+                sd,
                 constants,
                 outputs,
             )

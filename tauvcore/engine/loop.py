@@ -33,133 +33,6 @@ SERIES_NAMES = (
 """Rows of the ``series`` array :func:`record_bank` fills (norms, 1-sigma, NEES; attitude in deg)."""
 
 
-@jit
-def record_bank(
-    slot: int,
-    t_s: float,
-    pos_t: np.ndarray,
-    vel_t: np.ndarray,
-    C_t: np.ndarray,
-    ba_t: np.ndarray,
-    bg_t: np.ndarray,
-    bdvl_t: np.ndarray,
-    sf_t: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    bdvl: np.ndarray,
-    sf: np.ndarray,
-    P: np.ndarray,
-    block_of_state: np.ndarray,
-    num_blocks: int,
-    deg: float,
-    series: np.ndarray,
-    nees_block: np.ndarray,
-    est_pos: np.ndarray,
-    nonfinite_at: np.ndarray,
-    geodetic: bool,
-    origin: np.ndarray,
-    est_vel: np.ndarray,
-    est_euler: np.ndarray,
-) -> None:
-    """One output epoch of every (method, run): the error ``true (-) estimate``
-    (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma, the NEES of the full
-    state and of each block, the estimated position; and the health check without truth (a
-    non-finite navigation state or P's variances sets ``nonfinite_at`` once).
-
-    Truth: pos_t, vel_t (3,), C_t (3, 3) shared; the true sensor errors per run ba_t, bg_t (R, 3),
-    bdvl_t (R, 4), sf_t (R,). series (11, T, M, R) in :data:`SERIES_NAMES` order. On WGS-84
-    (``geodetic``) the estimated position is recorded in NED metres from ``origin`` (latitude,
-    longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components). The
-    estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3)."""
-    M, R = pos.shape[0], pos.shape[1]
-    dx = np.empty(N)
-    Ce = np.empty((3, 3))
-    rho = np.empty(3)
-    L = np.empty((N, N))
-    y = np.empty(N)
-    members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
-    for m in range(M):
-        for r in range(R):
-            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx, geodetic)
-            for i in range(3):
-                dx[BA + i] = ba_t[r, i] - ba[m, r, i]
-                dx[BG + i] = bg_t[r, i] - bg[m, r, i]
-            for i in range(4):
-                dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
-            dx[SF] = sf_t[r] - sf[m, r]
-            Pm = P[m, r]
-            ev = ea = ep = sv = sa = sp = 0.0
-            for i in range(3):
-                ev += dx[VEL + i] ** 2
-                ea += dx[ATT + i] ** 2
-                ep += dx[POS + i] ** 2
-                sv += Pm[VEL + i, VEL + i]
-                sa += Pm[ATT + i, ATT + i]
-                sp += Pm[POS + i, POS + i]
-            series[0, slot, m, r] = math.sqrt(ev)
-            series[1, slot, m, r] = math.sqrt(ea) / deg
-            series[2, slot, m, r] = math.sqrt(ep)
-            series[3, slot, m, r] = math.sqrt(sv)
-            series[4, slot, m, r] = math.sqrt(sa) / deg
-            series[5, slot, m, r] = math.sqrt(sp)
-            series[6, slot, m, r] = nees_blocks_into(
-                Pm, dx, members, sizes, lead, order, L, y, nees_block[slot, m, r]
-            )
-            series[7, slot, m, r] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
-            series[8, slot, m, r] = abs(dx[ATT + 2]) / deg
-            series[9, slot, m, r] = math.sqrt(Pm[ATT, ATT] + Pm[ATT + 1, ATT + 1]) / deg
-            series[10, slot, m, r] = math.sqrt(Pm[ATT + 2, ATT + 2]) / deg
-            total = 0.0
-            for i in range(N):
-                total += Pm[i, i]
-            if geodetic:
-                n0, n1, n2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
-                est_pos[slot, m, r, 0], est_pos[slot, m, r, 1], est_pos[slot, m, r, 2] = n0, n1, n2
-            for i in range(3):
-                if not geodetic:
-                    est_pos[slot, m, r, i] = pos[m, r, i]
-                est_vel[slot, m, r, i] = vel[m, r, i]
-                total += pos[m, r, i] + vel[m, r, i]
-            Cm = C[m, r]
-            est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
-            est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
-            est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
-            if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
-                nonfinite_at[m, r] = t_s
-
-
-@jit
-def positive_definite_bank(P: np.ndarray) -> np.ndarray:
-    """(M, R) bool: each P (M, R, 20, 20) is finite and its Cholesky factorisation succeeds."""
-    out = np.empty(P.shape[:2], dtype=np.bool_)
-    L = np.empty((N, N))
-    idx = np.arange(N)
-    for m in range(P.shape[0]):
-        for r in range(P.shape[1]):
-            out[m, r] = cholesky_into(P[m, r], idx, N, L)
-    return out
-
-
-STOPS_DONE, STOPS_EVENT, STOPS_REPAIR, STOPS_YIELD = 0, 1, 2, 3
-"""Why :func:`run_stops` returned: every stop done; an aiding epoch (the caller corrects, records
-and goes on after it); a covariance failed its check (the caller repairs it, then as for an
-event); an output epoch was recorded at which the caller asked to be called back."""
-
-
-class Schedule(NamedTuple):
-    """A chunk's stops for :func:`run_stops` (tauvcore.engine.filter_bank.FilterBank._run_chunk)."""
-
-    stops: np.ndarray  # (S,) int64: the global samples the covariance is propagated at, in order
-    is_event: np.ndarray  # (S,) bool: an aiding epoch (the caller corrects there)
-    out_row: np.ndarray  # (S,) int64: the output row recorded at the stop, -1 for none
-    k0: int  # the chunk's first sample
-    check_step: int  # samples between two checks of P (positive definite)
-    yield_every: int  # back to the caller every this many recorded epochs (0: never)
-
-
 class BankState(NamedTuple):
     """The bank's states, (methods, runs, ...) unless said, written in place."""
 
@@ -218,6 +91,121 @@ class Outputs(NamedTuple):
 
 
 @jit
+def record_bank(
+    slot: int,
+    i_chunk: int,
+    chunk: ChunkTruth,
+    bank: BankState,
+    constants: Model,
+    geodetic: bool,
+    outputs: Outputs,
+) -> None:
+    """Output epoch ``slot`` of every (method, run), at sample ``i_chunk`` of the chunk: the error
+    ``true (-) estimate`` (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma,
+    the NEES of the full state and of each block, the estimated position, the epoch's time
+    (``out_t``); and the health check without truth (a non-finite navigation state or P's
+    variances sets ``nonfinite_at`` once).
+
+    Truth: the chunk's at sample ``i_chunk`` (pos_t, vel_t (3,), C_t (3, 3) shared; the true IMU
+    errors per run ba_t, bg_t (R, 3)) and the bank's true DVL errors of the latest ping
+    (ping_bias (R, 4), ping_sf (R,)). series (11, T, M, R) in :data:`SERIES_NAMES` order. On
+    WGS-84 (``geodetic``) the estimated position is recorded in NED metres from ``origin``
+    (latitude, longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components).
+    The estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3)."""
+    _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _ = chunk
+    t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
+    ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
+    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at = bank
+    origin, _, _, block_of_state, num_blocks, deg = constants
+    series, nees_block, est_pos, out_t, est_vel, est_euler = outputs
+    M, R = pos.shape[0], pos.shape[1]
+    dx = np.empty(N)
+    Ce = np.empty((3, 3))
+    rho = np.empty(3)
+    L = np.empty((N, N))
+    y = np.empty(N)
+    members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
+    for m in range(M):
+        for r in range(R):
+            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx, geodetic)
+            for i in range(3):
+                dx[BA + i] = ba_t[r, i] - ba[m, r, i]
+                dx[BG + i] = bg_t[r, i] - bg[m, r, i]
+            for i in range(4):
+                dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
+            dx[SF] = sf_t[r] - sf[m, r]
+            Pm = P[m, r]
+            ev = ea = ep = sv = sa = sp = 0.0
+            for i in range(3):
+                ev += dx[VEL + i] ** 2
+                ea += dx[ATT + i] ** 2
+                ep += dx[POS + i] ** 2
+                sv += Pm[VEL + i, VEL + i]
+                sa += Pm[ATT + i, ATT + i]
+                sp += Pm[POS + i, POS + i]
+            series[0, slot, m, r] = math.sqrt(ev)
+            series[1, slot, m, r] = math.sqrt(ea) / deg
+            series[2, slot, m, r] = math.sqrt(ep)
+            series[3, slot, m, r] = math.sqrt(sv)
+            series[4, slot, m, r] = math.sqrt(sa) / deg
+            series[5, slot, m, r] = math.sqrt(sp)
+            series[6, slot, m, r] = nees_blocks_into(
+                Pm, dx, members, sizes, lead, order, L, y, nees_block[slot, m, r]
+            )
+            series[7, slot, m, r] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
+            series[8, slot, m, r] = abs(dx[ATT + 2]) / deg
+            series[9, slot, m, r] = math.sqrt(Pm[ATT, ATT] + Pm[ATT + 1, ATT + 1]) / deg
+            series[10, slot, m, r] = math.sqrt(Pm[ATT + 2, ATT + 2]) / deg
+            total = 0.0
+            for i in range(N):
+                total += Pm[i, i]
+            if geodetic:
+                n0, n1, n2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
+                est_pos[slot, m, r, 0], est_pos[slot, m, r, 1], est_pos[slot, m, r, 2] = n0, n1, n2
+            for i in range(3):
+                if not geodetic:
+                    est_pos[slot, m, r, i] = pos[m, r, i]
+                est_vel[slot, m, r, i] = vel[m, r, i]
+                total += pos[m, r, i] + vel[m, r, i]
+            Cm = C[m, r]
+            est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
+            est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
+            est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
+            if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
+                nonfinite_at[m, r] = t_s
+    out_t[slot] = t_s
+
+
+@jit
+def positive_definite_bank(P: np.ndarray) -> np.ndarray:
+    """(M, R) bool: each P (M, R, 20, 20) is finite and its Cholesky factorisation succeeds."""
+    out = np.empty(P.shape[:2], dtype=np.bool_)
+    L = np.empty((N, N))
+    idx = np.arange(N)
+    for m in range(P.shape[0]):
+        for r in range(P.shape[1]):
+            out[m, r] = cholesky_into(P[m, r], idx, N, L)
+    return out
+
+
+STOPS_DONE, STOPS_EVENT, STOPS_REPAIR, STOPS_YIELD = 0, 1, 2, 3
+"""Why :func:`run_stops` returned: every stop done; an aiding epoch (the caller corrects, records
+and goes on after it); a covariance failed its check (the caller repairs it, then as for an
+event); an output epoch was recorded at which the caller asked to be called back."""
+
+
+class Schedule(NamedTuple):
+    """A chunk's stops for :func:`run_stops` (tauvcore.engine.filter_bank.FilterBank._run_chunk)."""
+
+    stops: np.ndarray  # (S,) int64: the global samples the covariance is propagated at, in order
+    is_event: np.ndarray  # (S,) bool: an aiding epoch (the caller corrects there)
+    out_row: np.ndarray  # (S,) int64: the output row recorded at the stop, -1 for none
+    k0: int  # the chunk's first sample
+    check_step: int  # samples between two checks of P (positive definite)
+    yield_every: int  # back to the caller every this many recorded epochs (0: never)
+
+
+@jit
 def run_stops(
     schedule: Schedule,
     s_from: int,
@@ -242,11 +230,10 @@ def run_stops(
     last check's, and the output epochs recorded. The same kernels the caller would call one by
     one, in the same order, so the numbers are those of the step-by-step loop."""
     stops, is_event, out_row, k0, check_step, yield_every = schedule
-    pos, vel, C, ba, bg, bdvl, sf, P, dtheta_sum, ping_bias, ping_sf, nonfinite_at = bank
-    phi_raw, dv_raw, dtheta, t_s, pos_t, vel_t, C_t, ba_t, bg_t, ping_rows, ping_bias_all, ping_sf_all = chunk
+    pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _ = bank
+    phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all = chunk
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    origin, w_ie, q, block_of_state, num_blocks, deg = constants
-    series, nees_block, est_pos, out_t, est_vel, est_euler = outputs
+    _, w_ie, q, _, _, _ = constants
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
     why = STOPS_DONE
@@ -296,37 +283,7 @@ def run_stops(
                         ping_bias[r, j] = ping_bias_all[latest, r, j]
                     ping_sf[r] = ping_sf_all[latest, r]
             row = out_row[s]
-            record_bank(
-                row,
-                t_s[i],
-                pos_t[i],
-                vel_t[i],
-                C_t[i],
-                ba_t[i],
-                bg_t[i],
-                ping_bias,
-                ping_sf,
-                pos,
-                vel,
-                C,
-                ba,
-                bg,
-                bdvl,
-                sf,
-                P,
-                block_of_state,
-                num_blocks,
-                deg,
-                series,
-                nees_block,
-                est_pos,
-                nonfinite_at,
-                geodetic,
-                origin,
-                est_vel,
-                est_euler,
-            )
-            out_t[row] = t_s[i]
+            record_bank(row, i, chunk, bank, constants, geodetic, outputs)
             slot += 1
             if yield_every > 0 and slot % yield_every == 0:
                 why = STOPS_YIELD

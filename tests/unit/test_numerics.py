@@ -288,7 +288,7 @@ def _spy_on_covariances(monkeypatch) -> dict[str, int]:
             s, why = real_stops(schedule, s, s + 1, counters, bank, *args)
             calls["propagate"] += 1
             if why != loop.STOPS_REPAIR:
-                check(bank.P)           # a repair needs the caller first
+                check(loop.BankState(*bank).P)  # a repair needs the caller first (bank: a plain tuple)
             if why != loop.STOPS_DONE:
                 return s, why           # the counters are updated in place by each call
         return s_to, loop.STOPS_DONE

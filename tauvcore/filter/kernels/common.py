@@ -1,5 +1,6 @@
 """What every kernel module shares: the decorator, the error-state layout by number, the earth
-functions compiled as they are, and :func:`flat` (the layout numpy callers hand the kernels).
+functions compiled as they are, :func:`flat` (the layout numpy callers hand the kernels) and
+``plain`` (the tuples the engine hands them).
 
 :func:`jit` is numba's ``njit`` with the cache on (``cache=True``: the machine code is stored
 beside the module, or in numba's user cache when that is read-only, and reused while the source
@@ -18,7 +19,7 @@ import importlib.util
 import re
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numba
 import numpy as np
@@ -100,6 +101,23 @@ def flat(a: np.ndarray, batch: tuple[int, ...], tail: tuple[int, ...], dtype: ty
     return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=dtype), batch + tail)).reshape(
         (-1,) + tail
     )
+
+
+_Args = TypeVar("_Args", bound=tuple[Any, ...])
+
+# plain(args): a kernel's structured argument (one of the typing.NamedTuples named beside the
+# kernel) as a plain tuple of the same items, for the call. numba types a plain tuple from its
+# items as fast as it types separate arguments, a named tuple about a microsecond slower at every
+# call (its fingerprint spells the class), which the filter bank's some 22,000 calls of a longrange
+# mission would pay. The kernels unpack their tuples by position, so they take either; the class
+# stays the documentation of the order and the type the checker sees. At run time it is tuple
+# itself (no Python frame per call).
+if TYPE_CHECKING:
+
+    def plain(args: _Args) -> _Args: ...
+
+else:
+    plain = tuple
 
 
 # the earth functions the kernels compile as they are (tauvcore.geo.earth: those that call no

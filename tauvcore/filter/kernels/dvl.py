@@ -5,6 +5,8 @@ filter bank at once (an extended method through tauvcore.filter.kernels.two_beam
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from tauvcore.filter.kernels.common import ATT, BDVL, BG, SF, VEL, N, jit
@@ -400,41 +402,68 @@ DVL_ELC = 3
 its two-beam construction with two, the tables say which)."""
 
 
+class DvlMethods(NamedTuple):
+    """The bank's DVL methods and the constants of their measurements (:func:`dvl_measure_bank`)."""
+
+    methods: np.ndarray  # (D,) int64: the bank's rows (methods) that fuse the DVL
+    codes: np.ndarray  # (D,) int64: each one's DVL_LC, DVL_TC or DVL_ELC
+    A: np.ndarray  # (4, 3) the beams' unit vectors in b
+    l: np.ndarray  # (3,) the DVL's lever arm in b [m]
+    sigma2: float  # a beam's noise variance [m^2/s^2]
+    gyro_var: float  # the gyro rate's noise variance [rad^2/s^2] (through the lever arm)
+    w_ie: np.ndarray  # (3,) the earth rate in n [rad/s]
+    mode_codes: np.ndarray  # (4,) int64: the record's mode codes of coast, lc, partial, tc
+
+
+class TwoBeamTables(NamedTuple):
+    """The two-beam constructions of each DVL method [i, pattern, candidate] (pattern = sum of
+    2^k over the returned beams k; tauvcore.engine.dvl_fusion.partial_tables)."""
+
+    n_cand: np.ndarray  # (D,) int64: candidates (1, or the selector's)
+    ok: np.ndarray  # (D, 16, K) bool
+    Cc: np.ndarray  # (D, 16, K, 3, 4): velocity from the compensated beams
+    Dc: np.ndarray  # (D, 16, K, 3, 3): velocity from the predicted velocity
+    gc: np.ndarray  # (D, 16, K, 3): prediction gain
+    ac: np.ndarray  # (D, 16, K, 3): assumption error [m/s]
+    mc: np.ndarray  # (D, 16, K, 3) bool: measured rows
+
+
+class Ping(NamedTuple):
+    """One DVL ping of every run."""
+
+    y: np.ndarray  # (R, 4) beam velocities [m/s]
+    available: np.ndarray  # (R, 4) bool: the beams that returned
+    omega_meas: np.ndarray  # (R, 3) the measured body rate at the ping [rad/s]
+
+
+class DvlState(NamedTuple):
+    """The bank's estimates a ping is predicted from, (methods, runs, ...), read only."""
+
+    C: np.ndarray  # (M, R, 3, 3) C_nb
+    vel_n: np.ndarray  # (M, R, 3) [m/s]
+    gyro_bias: np.ndarray  # (M, R, 3) [rad/s]
+    dvl_bias: np.ndarray  # (M, R, 4) [m/s]
+    sf: np.ndarray  # (M, R) the DVL scale factor
+    P: np.ndarray  # (M, R, 20, 20)
+
+
+class DvlRows(NamedTuple):
+    """What :func:`dvl_measure_bank` fills, (methods, runs, ...): the measurement rows and the record."""
+
+    z: np.ndarray  # (M, R, 4)
+    nu: np.ndarray  # (M, R, 4) innovation
+    H: np.ndarray  # (M, R, 4, 20)
+    Rm: np.ndarray  # (M, R, 4, 4)
+    active: np.ndarray  # (M, R, 4) bool
+    valid: np.ndarray  # (M, R) bool
+    mode: np.ndarray  # (M, R) int64: a mode code
+    measured_axes: np.ndarray  # (M, R, 3) bool
+    choice: np.ndarray  # (M, R, 3) int64: the selector's candidate per axis, -1 for none
+
+
 @jit
 def dvl_measure_bank(
-    methods: np.ndarray,
-    codes: np.ndarray,
-    y: np.ndarray,
-    available: np.ndarray,
-    omega_meas: np.ndarray,
-    C: np.ndarray,
-    vel_n: np.ndarray,
-    gyro_bias: np.ndarray,
-    dvl_bias: np.ndarray,
-    sf: np.ndarray,
-    P: np.ndarray,
-    A: np.ndarray,
-    l: np.ndarray,
-    sigma2: float,
-    gyro_var: float,
-    w_ie: np.ndarray,
-    n_cand: np.ndarray,
-    ok: np.ndarray,
-    Cc: np.ndarray,
-    Dc: np.ndarray,
-    gc: np.ndarray,
-    ac: np.ndarray,
-    mc: np.ndarray,
-    mode_codes: np.ndarray,
-    z: np.ndarray,
-    nu: np.ndarray,
-    H: np.ndarray,
-    Rm: np.ndarray,
-    active: np.ndarray,
-    valid: np.ndarray,
-    mode: np.ndarray,
-    measured_axes: np.ndarray,
-    choice: np.ndarray,
+    dvl: DvlMethods, tables: TwoBeamTables, ping: Ping, state: DvlState, out: DvlRows
 ) -> None:
     """One DVL ping measured by every DVL method ``methods[i]`` (code ``codes[i]``) of the bank
     and every run: fills rows of z, nu (M, R, 4), H (M, R, 4, 20), Rm (M, R, 4, 4), active (M, R,
@@ -445,6 +474,11 @@ def dvl_measure_bank(
     it builds its velocity from the tables ``n_cand[i]``, ``ok``, ``Cc``, ``Dc``, ``gc``, ``ac``,
     ``mc`` [i, pattern, candidate] (pattern = sum of 2^k over the returned beams k), fused on its
     measured axes with ``H = [0 0 I 0 0 0 0]`` (tauvcore.aiding.dvl_partial)."""
+    methods, codes, A, l, sigma2, gyro_var, w_ie, mode_codes = dvl
+    n_cand, ok, Cc, Dc, gc, ac, mc = tables
+    y, available, omega_meas = ping
+    C, vel_n, gyro_bias, dvl_bias, sf, P = state
+    z, nu, H, Rm, active, valid, mode, measured_axes, choice = out
     A_pinv = np.empty((3, 4))
     omega_comp = np.empty(3)
     h = np.empty(4)
