@@ -128,21 +128,23 @@ class Tab:
         return dict(tuple(c.strip() for c in row.split("\t"))[:2] for row in rows[1:])
 
     def set_checkbox(self, label: str, checked: bool) -> None:
-        """Tick or untick the checkbox ``label`` and wait until the page shows it so. Clicked
-        without waiting for the panel to hold still, for the reason :meth:`open_folder` gives (a
-        CI run waited 30 s for the TC checkbox to be "stable"); ``set_checked`` still fails if
-        the click did not change the box. A click that misses (the panel still settling after a
-        folder opened: the box was not where its position said) is tried again, twice at most,
+        """Tick or untick the checkbox ``label`` and wait until the page shows it so. The click is
+        the element's own (``el.click()`` in the page), not a mouse click at where the box was
+        drawn: while the panel settles after a folder opens, a click at a position can land on the
+        box above and tick that one instead (the run would then aid with a source it was not
+        asked for). A click that does not change the box is tried again, twice at most,
         half a second apart."""
-        from playwright.sync_api import Error as PlaywrightError
+        from playwright.sync_api import expect
 
         box = self.checkbox(label)
         for attempt in range(3):
             box.scroll_into_view_if_needed(timeout=15000)
+            if box.is_checked() != checked:
+                box.evaluate("el => el.click()")
             try:
-                box.set_checked(checked, force=True, timeout=15000)
+                expect(box).to_be_checked(checked=checked, timeout=5000)
                 return
-            except PlaywrightError:
+            except AssertionError:
                 if attempt == 2:
                     raise
                 self.page.wait_for_timeout(500)
