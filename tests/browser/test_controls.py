@@ -2,7 +2,7 @@
 
 viser's page sends control changes through one sender throttled to a message per 50 ms that
 keeps only the latest, whatever control it is for: of three changes within 50 ms the middle one
-never reached the server (app.dashboard.Session.confirm_page_state). The configuration a run used
+never reached the server (app.session_controls.ControlPanel.confirm_page_state). The configuration a run used
 is shown in the Results tab ("Configuration run"), which is what these tests read.
 """
 
