@@ -67,7 +67,7 @@ class MagAttitude:
     def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement:
         """The attitude of epoch ``j`` of ``data``."""
         batch = nom.vel_b.shape[:-1]
-        setup = self.prepare(data.stacked(EULER)[j], batch)
+        setup = self.prepare(data.row(EULER, j), batch)
         return Measurement(
             z=setup.z,
             innovation=self.innovation(setup.z, self.predict(nom, setup)),

@@ -93,6 +93,12 @@ class SourceData:
         """The columns ``names`` side by side: (E, R, len(names))."""
         return np.stack([self.values[n] for n in names], axis=-1)
 
+    def row(self, names: Sequence[str], j: int) -> np.ndarray:
+        """Epoch ``j`` of the columns ``names`` side by side: (R, len(names)), ``stacked(names)[j]``
+        without stacking the other epochs (a model reads one epoch at a time; a replay's chunk is
+        the whole log)."""
+        return np.stack([self.values[n][j] for n in names], axis=-1)
+
 
 class SourceModel(Protocol):
     """What the bank calls at each epoch of the source, for the whole batch (methods x runs)."""

@@ -174,7 +174,7 @@ class UsblFix:
 
     def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement:
         batch = nom.nav.pos_n.shape[:-1]
-        setup = self.prepare(data.stacked(AXES)[j], batch)
+        setup = self.prepare(data.row(AXES, j), batch)
         nu = np.where(setup.valid[..., None], self.innovation(nom, setup), 0.0)
         return Measurement(
             z=setup.z,

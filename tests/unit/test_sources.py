@@ -101,6 +101,15 @@ def test_H_matches_central_differences_of_the_innovation(name: str, earth: str) 
 
 
 @pytest.mark.parametrize("name", NAMES)
+def test_one_epoch_s_row_is_that_epoch_of_the_stacked_columns(name: str) -> None:
+    _, data, j = _epoch_with_data(name, _config(name))
+    columns = list(data.values)
+    for k in (0, j, len(data.index) - 1):
+        np.testing.assert_array_equal(data.row(columns, k), data.stacked(columns)[k])
+    assert data.row(columns, j).shape == (2, len(columns))
+
+
+@pytest.mark.parametrize("name", NAMES)
 def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) -> None:
     config = _config(name, duration_s=200.0)
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
