@@ -36,6 +36,7 @@ from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.config import RUN_METHODS, Config, to_toml
 from tauvcore.geo.earth import EARTH_MODELS
+from tauvcore.logs import SOURCE_TABLES
 from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import ConfigError, one_line, shorten, show
@@ -140,7 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
         "log",
         type=_path,
         metavar="DIR",
-        help="the log directory (imu, reference, and dvl, depth, attitude tables)",
+        help=f"the log directory (imu, reference, and {', '.join(('dvl', *SOURCE_TABLES.values()))} tables)",
     )
     _method_flags(rl)
     rl.add_argument(
@@ -244,13 +245,6 @@ def _mission_flags(p: argparse.ArgumentParser) -> None:
         "and propeller)",
     )
     _method_flags(p)
-    p.add_argument(
-        "--rpm-fallback",
-        action="store_true",
-        help="the DVL methods fuse the propeller RPM's velocity "
-        "(Yoo 2014's velocity Kalman filter, learnt from the "
-        "DVL) whenever they have no DVL velocity",
-    )
     _imu_flag(p)
     p.add_argument("--config", type=_path, help="TOML file (partial files allowed; see 'tauv config')")
 
@@ -293,6 +287,14 @@ def _method_flags(p: argparse.ArgumentParser) -> None:
         "from the vehicle's sideslip in its tightest turn)",
     )
     _earth_flag(p)
+
+    p.add_argument(
+        "--rpm-fallback",
+        action="store_true",
+        help="the DVL methods fuse the propeller RPM's velocity "
+        "(Yoo 2014's velocity Kalman filter, learnt from the "
+        "DVL) whenever they have no DVL velocity",
+    )
 
 
 def _earth_flag(p: argparse.ArgumentParser) -> None:

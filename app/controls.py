@@ -1,14 +1,16 @@
 """The plug-in aiding sources' controls, described from the registry (tauvcore.aiding.sources).
 
-Every source of :data:`~tauvcore.aiding.sources.SOURCES` gets, in the Mission tab's Aiding
-folder, a checkbox (its ``label``, its ``summary`` as the hint) and a folder of its section's
+Every source with a measurement of its own (:data:`~tauvcore.aiding.sources.FUSED`) gets, in the
+Mission tab's Aiding folder, a checkbox (its ``label``, its ``summary`` as the hint) and a folder of its section's
 controls, one per field of its ``config_type``, each described by the field's
 :class:`~tauvcore.aiding.source.Setting` (label, unit, range, hint): a float is a text field read
 as the other numeric controls are (app.inputs.parse_float), a 3-vector one text field of three
 comma-separated numbers, a bool a checkbox. Each control's key, ``<source>.<field>``, is the
 configuration field the section's messages name, the control's address key (app.links) and its
 entry in :attr:`app.inputs.Controls.source_fields`. Nothing here names a source: a new plug-in
-shows up in the dashboard with its registry line.
+shows up in the dashboard with its registry line. The sources that are data for Yoo 2014's
+methods (the echo sounder, the RPM) are nothing to tick: the mission's "Seabed and RPM" folder
+(app.control_table) holds what a user of those methods tunes.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import Any
 import viser
 
 from tauvcore.aiding.source import AidingSource, Setting, settings
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED
 
 KINDS = ("number", "vector", "flag")
 """How a field's control holds its value: a float as typed, three floats as typed, a bool."""
@@ -100,8 +102,8 @@ def describe(source: AidingSource) -> SourceControl:
     return SourceControl(source.name, source.label, source.summary, tuple(fields))
 
 
-PLUGIN_SOURCES: tuple[SourceControl, ...] = tuple(describe(s) for s in SOURCES.values())
-"""Every source's controls, in the registry's order."""
+PLUGIN_SOURCES: tuple[SourceControl, ...] = tuple(describe(s) for s in FUSED.values())
+"""Every fused source's controls, in the registry's order."""
 PLUGIN_FIELDS: dict[str, FieldControl] = {f.key: f for s in PLUGIN_SOURCES for f in s.fields}
 """Every plug-in field's control by its key."""
 DEFAULT_SOURCE_FIELDS: tuple[tuple[str, str | bool], ...] = tuple(

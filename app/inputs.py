@@ -22,7 +22,7 @@ from typing import Any
 
 from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED
 from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
@@ -366,7 +366,7 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         if end <= start:
             raise InputError(f"Beam {k} outage ends ({end:g} s) before it starts ({start:g} s)")
         outages.append(Outage(beams=(k,), start_s=start, end_s=end))
-    aiding = ("dvl",) + tuple(name for name in SOURCES if name in c.aid_sources)
+    aiding = ("dvl",) + tuple(name for name in FUSED if name in c.aid_sources)
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
     truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
     try:

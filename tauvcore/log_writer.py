@@ -204,6 +204,6 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
             add("reference", n, truth.vel_n[:, i])
         for name, data in chunk.sources.items():
             add(SOURCE_TABLES[name], "t_s", data.t_s)
-            for column, values in data.values.items():
+            for column, values in {**data.values, **data.truth}.items():
                 add(SOURCE_TABLES[name], column, run_of(values, 1))
     return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}

@@ -289,7 +289,9 @@ def _read_dvl(paths: dict[str, Path | None], out: dict) -> None:
 def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
     """A source's table (``t_s`` and :attr:`~tauvcore.aiding.source.AidingSource.columns`), each
     column finite (or empty where the source allows it) and within its bounds; an angle column as
-    ``<stem>_rad`` or ``<stem>_deg`` (in radians here)."""
+    ``<stem>_rad`` or ``<stem>_deg`` (in radians here). Its truth columns
+    (:attr:`~tauvcore.aiding.source.AidingSource.truth_columns`, a simulated log's) are checked the
+    same way where the table has them, NaN where it does not."""
     cols = read_table(path)
     out = {"t_s": time_column(path, cols)}
     angles = tuple(c for c in source.columns if c.angle)
@@ -299,8 +301,11 @@ def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
     names = tuple(c.name for c in source.columns if not c.angle)
     if names:
         need_columns(path, cols, names, f"the {source.table} table: {source.summary}")
-    for column in source.columns:
+    for column in source.columns + source.truth_columns:
         if column.angle:
+            continue
+        if column.name not in cols:  # a truth column the table does not have
+            out[column.name] = np.full(out["t_s"].shape, np.nan)
             continue
         check_finite(path, cols, (column.name,), allow_nan=column.allow_nan)
         bounds = {column.name: (column.low, column.high, column.unit, column.what)}

@@ -175,6 +175,7 @@ class Setting:
     high: float | None = None
     bound: float | None = None  # a 3-vector's bound on each component
     hint: str = ""  # one line: what it is (the range is added where it is shown)
+    low_open: bool = False  # the float's range excludes low: (low, high]
 
 
 def setting(
@@ -186,9 +187,10 @@ def setting(
     *,
     bound: float | None = None,
     hint: str = "",
+    low_open: bool = False,
 ) -> Any:
     """A section field with its default and its :class:`Setting` (``dataclasses.field``)."""
-    return field(default=default, metadata={SETTING: Setting(label, unit, low, high, bound, hint)})
+    return field(default=default, metadata={SETTING: Setting(label, unit, low, high, bound, hint, low_open)})
 
 
 def settings(section_type: type) -> tuple[tuple[str, Any, Setting], ...]:
@@ -209,4 +211,4 @@ def check_settings(name: str, section: Any) -> None:
         elif isinstance(default, tuple):
             require_vector3(where, value, bound=s.bound)
         elif s.low is not None and s.high is not None:
-            require_range(where, value, s.low, s.high)
+            require_range(where, value, s.low, s.high, low_open=s.low_open)

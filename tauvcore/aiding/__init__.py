@@ -9,10 +9,10 @@ runner (tauvcore.engine), not here.
 from tauvcore.aiding.attitude_mag import MagAttitude
 from tauvcore.aiding.depth import Depth
 from tauvcore.aiding.dvl_loose import DvlLoose
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED
 
-AIDING_SOURCES = ("dvl", *SOURCES)
-"""Every source ``run.aiding`` may hold: the DVL (fused by each method its own way) and the sources
+AIDING_SOURCES = ("dvl", *FUSED)
+"""Every source ``run.aiding`` may hold: the DVL (fused by each method its own way) and the fused sources
 of tauvcore.aiding.sources."""
 
 __all__ = ["AIDING_SOURCES", "Depth", "DvlLoose", "MagAttitude"]

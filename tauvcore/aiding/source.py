@@ -23,13 +23,20 @@ The engine fuses a registered source into every method of the 20-state bank that
 (all but the standalone INS), at its epochs, with the gate and the records of every source. A
 source's data is measured at the IMU sample it is fused at (``SourceData.index``); a measurement
 of an earlier instant (a latency) is the source's own business, in its model.
+
+A source that is data for a method rather than a measurement of its own (:attr:`AidingSource.fused`
+False: the echo sounder's altitude that switches Yoo 2014's filters, the propeller's RPM its velocity
+filter reads) is simulated, logged and read the same way and handed to the banks in
+``SimChunk.sources``; it has no model and no place in ``run.aiding``. What only a simulation knows
+of a source (the RPM model's true scale factor) are its :attr:`AidingSource.truth_columns`: written
+to a simulated log beside its columns, read back when a log has them (NaN when it does not).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -41,6 +48,7 @@ if TYPE_CHECKING:
     from tauvcore.filter.eskf import Measurement, Nominal
     from tauvcore.sensors.timing import Rng
     from tauvcore.truth.record import Truth
+    from tauvcore.truth.world import World
 
 
 @dataclass(frozen=True)
@@ -71,6 +79,8 @@ class SourceData:
     t_s: np.ndarray  # (E,) [s]
     index: np.ndarray  # (E,) int
     values: Mapping[str, np.ndarray]  # column name -> (E, R)
+    truth: Mapping[str, np.ndarray] = field(default_factory=dict)  # truth column name -> (E, R)
+    # (AidingSource.truth_columns; NaN where a log has none)
 
     @classmethod
     def empty(cls, columns: Sequence[Column], num_runs: int) -> SourceData:
@@ -87,7 +97,15 @@ class SourceData:
             t_s=np.concatenate([p.t_s for p in parts]),
             index=np.concatenate([p.index for p in parts]).astype(np.int64),
             values={k: np.concatenate([p.values[k] for p in parts]) for k in parts[0].values},
+            truth={k: np.concatenate([p.truth[k] for p in parts]) for k in parts[0].truth},
         )
+
+    def latest(self, name: str, k: int, num_runs: int) -> np.ndarray:
+        """Column (or truth column) ``name`` at the last epoch at or before the mission's IMU sample
+        ``k``: (R,), NaN before the first epoch."""
+        values = self.values[name] if name in self.values else self.truth[name]
+        j = int(np.searchsorted(self.index, k, side="right")) - 1
+        return np.asarray(values[j], dtype=float) if j >= 0 else np.full(num_runs, np.nan)
 
     def stacked(self, names: Sequence[str]) -> np.ndarray:
         """The columns ``names`` side by side: (E, R, len(names))."""
@@ -124,7 +142,11 @@ class AidingSource(ABC):
     # a Setting: setting())
     streams: ClassVar[tuple[str, ...]]  # its random streams, each its own generator per run
     columns: ClassVar[tuple[Column, ...]]  # its log table's columns besides t_s
-    row_labels: ClassVar[tuple[str, ...]]  # its measurement's rows, e.g. ("north", "east", "down")
+    row_labels: ClassVar[tuple[str, ...]] = ()  # its measurement's rows, e.g. ("north", "east", "down")
+    fused: ClassVar[bool] = True  # False: data a method reads, no measurement of its own (no model,
+    # not in run.aiding; the module docstring)
+    truth_columns: ClassVar[tuple[Column, ...]] = ()  # what a simulation knows of it besides its
+    # columns: in SourceData.truth, written to a simulated log, optional in a log's table
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -137,8 +159,9 @@ class AidingSource(ABC):
     def rate_hz(self, section: Any) -> float:
         """Its measurement rate [Hz]."""
 
-    def initial_state(self, section: Any, num_runs: int) -> Any:
-        """What :meth:`simulate_chunk` carries from one chunk to the next (None: nothing)."""
+    def initial_state(self, section: Any, num_runs: int, world: World) -> Any:
+        """What :meth:`simulate_chunk` carries from one chunk to the next (None: nothing); ``world``:
+        what the vehicle flies through (the seabed)."""
         return None
 
     @abstractmethod
@@ -163,9 +186,10 @@ class AidingSource(ABC):
         """The section with every error zeroed (``run.ideal``); as given unless overridden."""
         return section
 
-    @abstractmethod
     def model(self, section: Any, config: Sections) -> SourceModel:
-        """Its measurement model, from its section and the rest of the configuration."""
+        """Its measurement model, from its section and the rest of the configuration (a
+        :attr:`fused` source must define it)."""
+        raise TypeError(f"source {self.name!r} is data for a method, not a measurement: it has no model")
 
 
 __all__ = [

@@ -1,8 +1,10 @@
 """Aiding sources added as one plug-in each: the registry the configuration, the engine and the
 log reader and writer read.
 
-The sensors aboard every vehicle of the lab, the depth and the magnetometer, are sources like any
-other (:attr:`~tauvcore.aiding.source.AidingSource.aboard`). Adding a source
+The sensors aboard every vehicle of the lab, the depth, the magnetometer, the echo sounder and the
+propeller's RPM, are sources like any other (:attr:`~tauvcore.aiding.source.AidingSource.aboard`);
+the last two are data for Yoo 2014's methods, not measurements of their own
+(:attr:`~tauvcore.aiding.source.AidingSource.fused`). Adding a source
 (docs/adding_a_sensor.md walks through :mod:`tauvcore.aiding.usbl`): write
 ``tauvcore/aiding/<name>.py`` with a subclass of :class:`tauvcore.aiding.source.AidingSource` and a
 ``SOURCE = <Class>()``, then add ``"<name>"`` to :data:`MODULES` below (one line). ``run.aiding``
@@ -22,13 +24,15 @@ from tauvcore.aiding.source import AidingSource, settings
 MODULES: tuple[str, ...] = (
     "depth",  # tauvcore/aiding/depth.py: depth from the pressure sensor aboard
     "attitude_mag",  # tauvcore/aiding/attitude_mag.py: the magnetometer's attitude
+    "echo_altitude",  # tauvcore/aiding/echo_altitude.py: the echo sounder's altitude (Yoo's switch)
+    "propeller_rpm",  # tauvcore/aiding/propeller_rpm.py: the propeller's RPM (Yoo's velocity filter)
     "usbl",  # tauvcore/aiding/usbl.py: a ship's USBL position fix, the worked example of docs/adding_a_sensor.md
 )
 """The modules of tauvcore.aiding that define a plug-in source (each its ``SOURCE``), one line each."""
 
-BUILT_IN = ("dvl", "rpm", "echo", "cv", "imu", "reference")
+BUILT_IN = ("dvl", "cv", "imu", "reference")
 """Names a source, its section or its table may not take: the sources the engine fuses itself (the
-DVL, the RPM fallback, the constant-velocity model) and the log's own tables."""
+DVL, the constant-velocity model) and the log's own tables."""
 
 
 def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
@@ -60,6 +64,17 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
             raise ValueError(
                 f"tauvcore.aiding.{module_name}: SOURCE.columns must be distinct names other than t_s, got {columns}"
             )
+        truth = [c.name for c in source.truth_columns]
+        if "t_s" in truth or len(set(columns + truth)) != len(columns) + len(truth):
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: SOURCE.truth_columns must be distinct names other than t_s "
+                f"and the columns, got {truth}"
+            )
+        if source.fused and (type(source).model is AidingSource.model or not source.row_labels):
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: a fused SOURCE needs its model() and its row_labels "
+                "(or fused = False: data a method reads)"
+            )
         label = getattr(source, "label", None)
         if not isinstance(label, str) or not label.strip():
             raise ValueError(
@@ -78,3 +93,5 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
 
 SOURCES: dict[str, AidingSource] = load(MODULES)
 """Every plug-in source by name, in :data:`MODULES` order."""
+FUSED: dict[str, AidingSource] = {name: s for name, s in SOURCES.items() if s.fused}
+"""The sources with a measurement of their own (those ``run.aiding`` may name), in registry order."""

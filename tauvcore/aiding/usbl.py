@@ -56,6 +56,7 @@ from tauvcore.geo.earth import geodetic_from_ned, ned_offset_m
 from tauvcore.geo.rotations import mv, skew
 from tauvcore.sensors.timing import Rng, standard_normal, uniform
 from tauvcore.truth.record import Truth
+from tauvcore.truth.world import World
 from tauvcore.validation import require_range
 
 AXES = ("north_m", "east_m", "down_m")
@@ -213,7 +214,7 @@ class Usbl(AidingSource):
             section, noise_fixed_m=0.0, noise_fraction=0.0, dropout_probability=0.0, outlier_probability=0.0
         )
 
-    def initial_state(self, section: UsblConfig, num_runs: int) -> _Pending:
+    def initial_state(self, section: UsblConfig, num_runs: int, world: World) -> _Pending:
         return _Pending()
 
     def simulate_chunk(

@@ -193,14 +193,12 @@ def run_streaming(
         truths.num_samples,
         truths.dt_s,
         bathymetry(config.trajectory),
-        config.echo_sounder.ideal() if ideal else config.echo_sounder,
-        config.rpm.ideal() if ideal else config.rpm,
     )
     sources = SourceStream(config, plugin_rng, num_runs, truths.num_samples, truths.dt_s, streams)
     bank = Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
-        chunk = SimChunk(k0, truth, *sensors.next_chunk_all(k0, truth), sources=sources.next_chunk(k0, truth))
+        chunk = SimChunk(k0, truth, *sensors.next_chunk(k0, truth), sources=sources.next_chunk(k0, truth))
         if on_sim_chunk is not None:
             on_sim_chunk(chunk)
         going = bank.feed(chunk, progress, progress_interval_s, should_stop)

@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from tauvcore.aiding import echo_altitude, propeller_rpm
+from tauvcore.aiding.echo_altitude import ALTITUDE
+from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
 from tauvcore.filter import vkf
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
@@ -14,14 +17,7 @@ RPM_LATERAL_SIGMA_MPS = 0.1
 """1-sigma of the sway and heave the RPM velocity takes as zero [m/s] (a cruising AUV's few cm/s,
 more in turns)."""
 MIN_BEAMS = 3
-
-
-def latest(index: np.ndarray, values: np.ndarray, k: int) -> np.ndarray:
-    """``values`` of the last epoch at or before IMU sample ``k`` (NaN before the first)."""
-    j = np.searchsorted(index, k, side="right") - 1
-    if j < 0:
-        return np.full(values.shape[1:], np.nan)
-    return np.asarray(values[j], dtype=float)
+RPM_SOURCE, ECHO_SOURCE = propeller_rpm.SOURCE.name, echo_altitude.SOURCE.name  # in SimChunk.sources
 
 
 def dvl_body_velocity(
@@ -75,12 +71,9 @@ class RpmAid:
         """Predict with the RPM, learn from the DVL where eq. 29 picks it; -> (RPM chosen (R,),
         an RPM was read (R,))."""
         cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
-        rpm_now = latest(chunk.rpm.index, chunk.rpm.rpm, k) if chunk.rpm is not None else np.full(R, np.nan)
-        altitude = (
-            latest(chunk.echo.index, chunk.echo.altitude_m, k)
-            if chunk.echo is not None
-            else np.full(R, np.nan)
-        )
+        rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
+        rpm_now = rpm.latest(RPM, k, R) if rpm is not None else np.full(R, np.nan)
+        altitude = echo.latest(ALTITUDE, k, R) if echo is not None else np.full(R, np.nan)
         use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
         have_rpm = np.isfinite(rpm_now)
         x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
@@ -108,14 +101,14 @@ class RpmAid:
     def trace(self, chunk, i: int, t: float) -> dict:
         """The VKF's state now beside the RPM model's truth (YooBank._vkf_series)."""
         k, R = chunk.k0 + i, self.x.shape[0]
-        rpm = chunk.rpm
+        rpm = chunk.sources.get(RPM_SOURCE)
         nan = np.full(R, np.nan)
         return {
             "t_s": t,
             "x": self.x.copy(),
             "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
-            "sf_true": latest(rpm.index, rpm.scale_factor, k) if rpm is not None else nan,
-            "b_true": latest(rpm.index, rpm.bias_mps, k) if rpm is not None else nan,
+            "sf_true": rpm.latest(TRUE_SCALE_FACTOR, k, R) if rpm is not None else nan,
+            "b_true": rpm.latest(TRUE_BIAS, k, R) if rpm is not None else nan,
             "rpm_in_use": self.use_rpm.copy(),
             "altitude_m": self.altitude.copy(),
         }

@@ -4,6 +4,7 @@ from a simulation or a recorded log (tauvcore.logs) alike."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -13,9 +14,7 @@ from tauvcore.aiding.source import SourceData
 from tauvcore.config import Config
 from tauvcore.engine.sources import SourceStream
 from tauvcore.sensors import dvl as dvl_sensor
-from tauvcore.sensors import echosounder as echo_sensor
 from tauvcore.sensors import imu as imu_sensor
-from tauvcore.sensors import rpm as rpm_sensor
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.truth import Truth, generate
 from tauvcore.truth.kinematic import bathymetry
@@ -29,10 +28,9 @@ class Simulation:
     imu: imu_sensor.ImuData
     dvl: dvl_sensor.DvlData
     num_runs: int
-    echo: echo_sensor.EchoSounderData | None = None  # echo sounder (None: a log without one)
-    rpm: rpm_sensor.RpmData | None = None  # propeller RPM (None: a log without one)
     sources: Mapping[str, SourceData] = field(default_factory=dict)  # the aiding sources
-    # (tauvcore.aiding.sources) by name: those aboard (depth, mag) and those run.aiding turns on
+    # (tauvcore.aiding.sources) by name: those aboard (depth, mag, echo, rpm; a log's: those it has
+    # tables of) and those run.aiding turns on
 
 
 def simulate(
@@ -46,22 +44,21 @@ def simulate(
     dvl_cfg = config.dvl.ideal() if ideal else config.dvl
     seabed = bathymetry(config.trajectory)
     extra, plugins = rng.spawn(2)
+    # the depth and the magnetometer draw from rng after the DVL; the echo sounder and the RPM from
+    # a child of rng (spawning draws nothing: what rng draws next, the filters' initial errors, is
+    # what it drew before those two sensors existed); the other sources from their children of a
+    # second child
+    aboard = dataclasses.replace(
+        SensorStreams.single(rng), echo_sounder=extra, rpm_scale_factor=extra, rpm_bias=extra, rpm_noise=extra
+    )
     return Simulation(
         truth=truth,
         imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
         dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
-        # the sources aboard (depth, then the magnetometer) from rng after the DVL, the others from
-        # their children of a child of rng
-        sources=SourceStream(
-            config, plugins, num_runs, truth.num_samples, truth.dt_s, SensorStreams.single(rng)
-        ).next_chunk(0, truth),
-        num_runs=num_runs,
-        # from a child of rng (spawning draws nothing): what rng draws next, the filters'
-        # initial errors, is what it drew before these sensors existed
-        echo=echo_sensor.simulate(
-            truth, config.echo_sounder.ideal() if ideal else config.echo_sounder, seabed, extra, num_runs
+        sources=SourceStream(config, plugins, num_runs, truth.num_samples, truth.dt_s, aboard).next_chunk(
+            0, truth
         ),
-        rpm=rpm_sensor.simulate(truth, config.rpm.ideal() if ideal else config.rpm, extra, num_runs),
+        num_runs=num_runs,
     )
 
 
@@ -74,10 +71,8 @@ class SimChunk:
     truth: Truth
     imu: imu_sensor.ImuData
     dvl: dvl_sensor.DvlData
-    echo: echo_sensor.EchoSounderData | None = None
-    rpm: rpm_sensor.RpmData | None = None
     sources: Mapping[str, SourceData] = field(default_factory=dict)  # as Simulation.sources
 
     @classmethod
     def whole(cls, sim: Simulation) -> SimChunk:
-        return cls(0, sim.truth, sim.imu, sim.dvl, sim.echo, sim.rpm, sim.sources)
+        return cls(0, sim.truth, sim.imu, sim.dvl, sim.sources)

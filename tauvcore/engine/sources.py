@@ -1,6 +1,6 @@
 """The aiding sources of a run (tauvcore.aiding.sources), simulated chunk by chunk.
 
-A source aboard every vehicle (the depth, the magnetometer) draws from its streams of the run's
+A source aboard every vehicle (the depth, the magnetometer, the echo sounder, the RPM) draws from its streams of the run's
 tauvcore.sensors.stream.SensorStreams and is simulated whether or not ``run.aiding`` fuses it.
 Every other registered source's streams are children of the run's generator, spawned after the
 sensors' in registry order whether the source is on or not: turning a source on changes no other
@@ -20,6 +20,7 @@ from tauvcore.config import Config
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
+from tauvcore.truth.world import World
 
 
 def active(config: Config) -> tuple[str, ...]:
@@ -77,6 +78,7 @@ class SourceStream:
                     else [getattr(st, stream) for st in streams]
                     for stream in source.streams
                 }
+        world = World.of(config.trajectory)
         self.sources = []
         for name in simulated(config):
             source = SOURCES[name]
@@ -84,7 +86,7 @@ class SourceStream:
             if config.run.ideal:
                 section = source.ideal(section)
             self.sources.append(
-                [name, source, section, per_source[name], source.initial_state(section, num_runs)]
+                [name, source, section, per_source[name], source.initial_state(section, num_runs, world)]
             )
 
     def next_chunk(self, k0: int, truth: Truth) -> dict[str, SourceData]:

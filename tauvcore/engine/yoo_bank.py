@@ -44,11 +44,13 @@ from collections.abc import Iterator
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding.echo_altitude import ALTITUDE
+from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
 from tauvcore.config import Config
 from tauvcore.engine import yoo_loop
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
 from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult, UpdateRecord, method_result
-from tauvcore.engine.rpm_aid import RPM_LATERAL_SIGMA_MPS, RpmAid, dvl_body_velocity
+from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.filter import statistics, yoo
 from tauvcore.geo.earth import ned_from_geodetic
@@ -238,7 +240,7 @@ class YooBank(ChunkDriver):
         config, R = self.config, self.batch[1]
         cfg = config.vkf
         truth, imu = chunk.truth, chunk.imu
-        rpm, echo = chunk.rpm, chunk.echo
+        rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
         empty_k, empty_v = np.zeros(0, np.int64), np.zeros((0, R))
         aid = self.rpm_aid
         aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
@@ -268,11 +270,13 @@ class YooBank(ChunkDriver):
                 np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float),
                 np.ascontiguousarray(chunk.dvl.available, bool),
                 np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
-                np.ascontiguousarray(rpm.rpm, dtype=float) if rpm is not None else empty_v,
-                np.ascontiguousarray(rpm.scale_factor, dtype=float) if rpm is not None else empty_v,
-                np.ascontiguousarray(rpm.bias_mps, dtype=float) if rpm is not None else empty_v,
+                np.ascontiguousarray(rpm.values[RPM], dtype=float) if rpm is not None else empty_v,
+                np.ascontiguousarray(rpm.truth[TRUE_SCALE_FACTOR], dtype=float)
+                if rpm is not None
+                else empty_v,
+                np.ascontiguousarray(rpm.truth[TRUE_BIAS], dtype=float) if rpm is not None else empty_v,
                 np.asarray(echo.index, np.int64) if echo is not None else empty_k,
-                np.ascontiguousarray(echo.altitude_m, dtype=float) if echo is not None else empty_v,
+                np.ascontiguousarray(echo.values[ALTITUDE], dtype=float) if echo is not None else empty_v,
                 np.ascontiguousarray(truth.pos_n, dtype=float),
                 np.ascontiguousarray(truth.vel_n, dtype=float),
                 np.ascontiguousarray(truth.C_nb, dtype=float),

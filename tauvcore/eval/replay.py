@@ -24,6 +24,7 @@ from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config, from_dict, read_toml
 from tauvcore.engine.mission import run
 from tauvcore.engine.results import MethodResult
+from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
 from tauvcore.engine.simulation import Simulation
 from tauvcore.engine.sources import active
 from tauvcore.geo.earth import ned_from_geodetic
@@ -297,10 +298,12 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     sources = {}
     for name, table in log.sources.items():
         k, keep = _epochs(log, table["t_s"])
+        source = SOURCES[name]
         sources[name] = SourceData(
             t_s=truth.t_s[k[keep]],
             index=k[keep],
-            values={column: values[keep][:, None] for column, values in table.items() if column != "t_s"},
+            values={c.name: table[c.name][keep][:, None] for c in source.columns},
+            truth={c.name: table[c.name][keep][:, None] for c in source.truth_columns},
         )
     return Simulation(truth=truth, imu=imu, dvl=dvl, num_runs=1, sources=sources)
 
@@ -315,6 +318,19 @@ def with_imu_errors(
     errors = imu_sensor.simulate(sim.truth, imu_config, rng, 1)
     imu = dataclasses.replace(sim.imu, dtheta_b=errors.dtheta_b, dv_b=errors.dv_b)
     return dataclasses.replace(sim, imu=imu)
+
+
+def rpm_readers(config: Config) -> list[tuple[str, tuple[str, ...]]]:
+    """What of ``config`` reads the propeller's RPM and the echo sounder's altitude (the velocity
+    Kalman filter of tauvcore.engine.rpm_aid), each with the sources it reads: the ``vkf`` method
+    (--method) and ``run.rpm_fallback`` (--rpm-fallback)."""
+    needed = (RPM_SOURCE, ECHO_SOURCE)
+    out = []
+    if "vkf" in config.run.methods:
+        out.append(("run.methods (--method) names vkf, which", needed))
+    if config.run.rpm_fallback:
+        out.append(("run.rpm_fallback (--rpm-fallback)", needed))
+    return out
 
 
 def prepare(
@@ -336,6 +352,13 @@ def prepare(
                 f"{show_path(log.source)}: run.aiding (--aiding) names {name}, but the log has no "
                 f"{SOURCES[name].table}.csv or {SOURCES[name].table}.parquet"
             )
+    for what, needed in rpm_readers(config):
+        for name in needed:
+            if name not in log.sources:
+                raise LogError(
+                    f"{show_path(log.source)}: {what} reads the {SOURCES[name].label.lower()}, but the log has "
+                    f"no {SOURCES[name].table}.csv or {SOURCES[name].table}.parquet"
+                )
     sim = log_simulation(config, log, rng)
     if imu_errors is not None:
         sim = with_imu_errors(sim, config.imu, rng)

@@ -16,21 +16,23 @@ import numpy as np
 from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
 from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
-from tauvcore.validation import require_range
+from tauvcore.validation import check_settings, setting
 
 
 @dataclass(frozen=True)
 class EchoSounderConfig:
     """Single-beam altimeter looking straight down; 1-sigma white noise."""
 
-    rate_hz: float = 5.0  # [Hz]; the DVL rate of Yoo 2014, so every ping has an altitude; [0.01, 100]
-    noise_m: float = 0.2  # [m]; [0, 100]: zero is an ideal sensor
-    max_range_m: float = 500.0  # longest altitude with an echo [m]; (0, 11000]: the deepest ocean
+    rate_hz: float = setting(5.0, "rate", "Hz", 0.01, 100.0, hint="altitudes per second")
+    # the DVL rate of Yoo 2014, so every ping has an altitude; [0.01, 100]: altimeters ping up to ~100 Hz
+    noise_m: float = setting(0.2, "noise", "m", 0.0, 100.0, hint="1-sigma white noise of the altitude")
+    # [0, 100]: zero is an ideal sensor
+    max_range_m: float = setting(
+        500.0, "range", "m", 0.0, 11000.0, low_open=True, hint="longest altitude with an echo"
+    )  # (0, 11000]: the deepest ocean
 
     def __post_init__(self) -> None:
-        require_range("echo_sounder.rate_hz", self.rate_hz, 0.01, 100.0)
-        require_range("echo_sounder.noise_m", self.noise_m, 0.0, 100.0)
-        require_range("echo_sounder.max_range_m", self.max_range_m, 0.0, 11000.0, low_open=True)
+        check_settings("echo_sounder", self)
 
     def ideal(self) -> EchoSounderConfig:
         return EchoSounderConfig(rate_hz=self.rate_hz, noise_m=0.0, max_range_m=self.max_range_m)

@@ -29,31 +29,43 @@ from tauvcore.sensors.timing import (
     standard_normal,
 )
 from tauvcore.truth.record import Truth
-from tauvcore.validation import require_range
+from tauvcore.validation import check_settings, setting
 
 
 @dataclass(frozen=True)
 class RpmConfig:
     """Propeller shaft speed sensor and the kinematic truth's speed model (module docstring)."""
 
-    rate_hz: float = 5.0  # [Hz], the DVL rate of Yoo 2014; [0.01, 100]
-    noise_rpm: float = 2.0  # white noise [rev/min]; [0, 1000]: zero is an ideal sensor
-    mps_per_rpm: float = 2.3525e-3  # nominal sf: the TAUV's steady speed per rpm (tauvcore.truth.vehicle,
-    # 2 m/s at 850 rpm) [m/s per rpm]; (0, 1]
-    bias_mps: float = 0.05  # nominal b [m/s]; [-5, 5]
-    scale_factor_rw_per_sqrt_s: float = (
-        2e-7  # walk of sf [m/s per rpm per sqrt(s)]: 0.4 % of sf in an hour; [0, 1e-3]
-    )
-    bias_rw_mps_per_sqrt_s: float = 1e-4  # walk of b [m/s/sqrt(s)]: 6 mm/s in an hour, the velocity filter's
-    # own model (tauvcore.filter.vkf); [0, 1]
+    rate_hz: float = setting(5.0, "rate", "Hz", 0.01, 100.0, hint="readings per second")
+    # the DVL rate of Yoo 2014; [0.01, 100]
+    noise_rpm: float = setting(2.0, "noise", "rev/min", 0.0, 1000.0, hint="white noise of the shaft speed")
+    # a shaft encoder's quantisation and jitter; [0, 1000]: zero is an ideal sensor
+    mps_per_rpm: float = setting(
+        2.3525e-3,
+        "scale factor",
+        "m/s per rev/min",
+        0.0,
+        1.0,
+        low_open=True,
+        hint="nominal speed per propeller rpm (the kinematic truth's speed model)",
+    )  # the TAUV's steady speed per rpm (tauvcore.truth.vehicle, 2 m/s at 850 rpm); (0, 1]
+    bias_mps: float = setting(
+        0.05, "bias", "m/s", -5.0, 5.0, hint="nominal speed at zero rpm (the kinematic truth's speed model)"
+    )  # [-5, 5]: a current along the track at most
+    scale_factor_rw_per_sqrt_s: float = setting(
+        2e-7,
+        "scale factor walk",
+        "m/s per rev/min per sqrt(s)",
+        0.0,
+        1e-3,
+        hint="random walk of the scale factor (kinematic truth)",
+    )  # 0.4 % of the scale factor in an hour; [0, 1e-3]
+    bias_rw_mps_per_sqrt_s: float = setting(
+        1e-4, "bias walk", "m/s/sqrt(s)", 0.0, 1.0, hint="random walk of the bias (kinematic truth)"
+    )  # 6 mm/s in an hour, the velocity filter's own model (tauvcore.filter.vkf); [0, 1]
 
     def __post_init__(self) -> None:
-        require_range("rpm.rate_hz", self.rate_hz, 0.01, 100.0)
-        require_range("rpm.noise_rpm", self.noise_rpm, 0.0, 1000.0)
-        require_range("rpm.mps_per_rpm", self.mps_per_rpm, 0.0, 1.0, low_open=True)
-        require_range("rpm.bias_mps", self.bias_mps, -5.0, 5.0)
-        require_range("rpm.scale_factor_rw_per_sqrt_s", self.scale_factor_rw_per_sqrt_s, 0.0, 1e-3)
-        require_range("rpm.bias_rw_mps_per_sqrt_s", self.bias_rw_mps_per_sqrt_s, 0.0, 1.0)
+        check_settings("rpm", self)
 
     def ideal(self) -> RpmConfig:
         """No noise and no walks (the nominal sf and b stay)."""

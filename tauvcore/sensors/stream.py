@@ -6,8 +6,8 @@ after chunk, so a run's numbers do not depend on how the mission is cut into chu
 :meth:`SensorStreams.single` every stream is one generator, and the whole mission as one chunk
 repeats the whole-mission ``simulate`` functions (and ``tauvcore.engine.simulation.simulate``) draw for
 draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise,
-then DVL (then the depth and the magnetometer, aiding sources drawn by tauvcore.engine.sources from
-their streams here).
+then DVL (then the depth and the magnetometer, the echo sounder and the RPM: aiding sources drawn by
+tauvcore.engine.sources from their streams here).
 
 :class:`SensorStream` carries the sensors' state from chunk to chunk (the last value of each
 random walk, whether its turn-on value was drawn, the DVL's ping count) and is fed the truth
@@ -19,8 +19,6 @@ chunks of :class:`tauvcore.truth.kinematic.TruthStream` in order::
     for k0, chunk in truth:
         imu, dvl = sensors.next_chunk(k0, chunk)
 
-(:meth:`SensorStream.next_chunk_all` adds the echo sounder and the RPM sensor, when configured.)
-
 Every output has the run axis after time, ``(K, R, ...)``; the aiding sensors' ``index`` are
 global IMU sample indices, those of ``timing.epoch_indices`` for the whole mission.
 """
@@ -30,23 +28,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
-from tauvcore.sensors import dvl, echosounder, imu, rpm
+from tauvcore.sensors import dvl, imu
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
-
-
-class SensorChunk(NamedTuple):
-    """One chunk of every sensor (:meth:`SensorStream.next_chunk_all`)."""
-
-    imu: imu.ImuData
-    dvl: dvl.DvlData
-    echo: echosounder.EchoSounderData | None
-    rpm: rpm.RpmData | None
 
 
 @dataclass(frozen=True)
@@ -70,8 +58,9 @@ class SensorStreams:
     magnetometer: np.random.Generator  # attitude white noise (tauvcore.aiding.attitude_mag)
     initial: np.random.Generator  # the filter's random initial errors (drawn by the runner)
     imu_axes: np.random.Generator  # IMU scale factors and misalignments (drawn only if the IMU has them)
-    echo_sounder: np.random.Generator  # altitude white noise
-    rpm_scale_factor: np.random.Generator  # RPM-to-speed scale factor walk (kinematic truth)
+    echo_sounder: np.random.Generator  # altitude white noise (tauvcore.aiding.echo_altitude)
+    rpm_scale_factor: np.random.Generator  # RPM-to-speed scale factor walk, kinematic truth
+    # (tauvcore.aiding.propeller_rpm, as the two below)
     rpm_bias: np.random.Generator  # RPM-to-speed bias walk (kinematic truth)
     rpm_noise: np.random.Generator  # RPM white noise
 
@@ -97,8 +86,8 @@ class SensorStreams:
 
 
 class SensorStream:
-    """The IMU and the DVL of a mission (and the echo sounder and the RPM sensor, when configured),
-    chunk by chunk, for ``num_runs`` runs.
+    """The IMU and the DVL of a mission, chunk by chunk, for ``num_runs`` runs (the other sensors
+    are aiding sources: tauvcore.engine.sources).
 
     ``streams``: one :class:`SensorStreams` for all runs (each draw has the run axis, as
     ``simulate(..., num_runs)`` does), or a list of ``num_runs`` of them, run r drawn from its own
@@ -116,8 +105,6 @@ class SensorStream:
         num_samples: int,
         dt_s: float,
         seabed: Bathymetry | None = None,
-        echo_sounder_config: echosounder.EchoSounderConfig | None = None,
-        rpm_config: rpm.RpmConfig | None = None,
     ) -> None:
         if isinstance(num_runs, bool) or not isinstance(num_runs, (int, np.integer)) or num_runs < 1:
             raise ValueError(f"num_runs must be a whole number >= 1, got {num_runs!r}")
@@ -145,11 +132,6 @@ class SensorStream:
         self.imu_config = imu_config
         self.dvl_config = dvl_config
         self.seabed = seabed  # DVL beams traced to it (None: no range limit)
-        if echo_sounder_config is not None and seabed is None:
-            raise ValueError("an echo sounder needs the seabed")
-        self.echo_sounder_config = echo_sounder_config  # None: not simulated
-        self.rpm_config = rpm_config  # None: not simulated
-        self._rpm_state = rpm.RpmState()
         self.num_runs = int(num_runs)
         self.num_samples = int(num_samples)
         self.dt_s = float(dt_s)
@@ -163,16 +145,10 @@ class SensorStream:
         return epoch_indices_between(rate_hz, self._t_end_s, self.dt_s, self.num_samples, k0, k1)
 
     def next_chunk(self, k0: int, truth: Truth) -> tuple[imu.ImuData, dvl.DvlData]:
-        """IMU and DVL of :meth:`next_chunk_all`."""
-        chunk = self.next_chunk_all(k0, truth)
-        return chunk.imu, chunk.dvl
-
-    def next_chunk_all(self, k0: int, truth: Truth) -> SensorChunk:
-        """Sensor outputs over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
+        """IMU and DVL over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
 
         Chunks must come in order, each starting where the previous one ended. Returns IMU
-        arrays (K, R, 3) and the aiding sensors' epochs within the chunk (possibly none); the
-        echo sounder and the RPM sensor when configured (else None), each from its own streams.
+        arrays (K, R, 3) and the DVL's pings within the chunk (possibly none).
         """
         k = truth.num_samples
         if k0 != self.next_k0:
@@ -212,29 +188,5 @@ class SensorStream:
             runs,
             self.seabed,
         )
-        e_data = r_data = None
-        if self.echo_sounder_config is not None:
-            assert self.seabed is not None  # __init__: an echo sounder needs the seabed
-            e_data = echosounder.simulate_chunk(
-                truth,
-                k0,
-                self.epochs(self.echo_sounder_config.rate_hz, k0, k1),
-                self.echo_sounder_config,
-                self.seabed,
-                g["echo_sounder"],
-                runs,
-            )
-        if self.rpm_config is not None:
-            r_data, self._rpm_state = rpm.simulate_chunk(
-                truth,
-                k0,
-                self.epochs(self.rpm_config.rate_hz, k0, k1),
-                self.rpm_config,
-                self._rpm_state,
-                g["rpm_scale_factor"],
-                g["rpm_bias"],
-                g["rpm_noise"],
-                runs,
-            )
         self.next_k0 = k1
-        return SensorChunk(imu_data, dvl_data, e_data, r_data)
+        return imu_data, dvl_data

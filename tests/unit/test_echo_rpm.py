@@ -1,15 +1,18 @@
-"""The echo sounder and the propeller RPM sensor (issue 12): known answers, chunk invariance, bad
-input naming the field."""
+"""The echo sounder and the propeller RPM sensor: known answers, chunk invariance (as the registry's
+sources, tauvcore.aiding.echo_altitude and propeller_rpm), bad input naming the field."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
+from tauvcore.aiding import echo_altitude, propeller_rpm
 from tauvcore.config import Config
+from tauvcore.engine.simulation import simulate
+from tauvcore.engine.sources import SourceStream
 from tauvcore.geo.earth import Earth
-from tauvcore.sensors import dvl, echosounder, imu, rpm
-from tauvcore.sensors.stream import SensorStream, SensorStreams
+from tauvcore.sensors import echosounder, rpm
+from tauvcore.sensors.stream import SensorStreams
 from tauvcore.truth import TrajectoryConfig, generate
 from tauvcore.truth.kinematic import TruthStream, bathymetry
 from tauvcore.truth.seabed import Bathymetry
@@ -50,23 +53,45 @@ def test_rpm_of_the_dynamic_truth_is_the_thrusters() -> None:
 
 
 def test_rpm_walks_and_noise_do_not_depend_on_the_chunk_size() -> None:
-    """sf and b walk from their own streams and the noise from a third: chunks of 7 samples give
-    the numbers of one chunk, run by run; the walks move (sf by ~0.4 % in an hour)."""
+    """sf and b walk from their own streams and the noise from a third, the echo sounder from a fourth
+    (the sources' streams of SensorStreams): chunks of 7 samples give the numbers of one chunk, run by
+    run; the walks move (sf by ~0.4 % in an hour)."""
     trajectory = TrajectoryConfig(name="longrange", duration_s=120.0, speed_mps=5.0, depth_m=50.0,
                                   seabed_depth_m=110.0)
-    sensors = (imu.ImuConfig(), dvl.DvlConfig())
+    config = dataclasses.replace(Config(), trajectory=trajectory)
     joined = []
     for chunk_samples in (7, 100_000):
-        truth = TruthStream(trajectory, Earth(), RATE_HZ, chunk_samples)
-        stream = SensorStream(*sensors, SensorStreams.spawned(np.random.default_rng(5)), 3, truth.num_samples,
-                              truth.dt_s, bathymetry(trajectory), echosounder.EchoSounderConfig(), rpm.RpmConfig())
-        parts = [stream.next_chunk_all(k0, c) for k0, c in truth]
-        joined.append({name: np.concatenate([getattr(getattr(p, kind), name) for p in parts])
-                       for kind, names in (("rpm", ("rpm", "scale_factor", "bias_mps")), ("echo", ("altitude_m",)))
+        truth = TruthStream(trajectory, Earth(), config.imu.rate_hz, chunk_samples)
+        streams = SensorStreams.spawned(np.random.default_rng(5))
+        stream = SourceStream(config, np.random.default_rng(6), 3, truth.num_samples, truth.dt_s, streams)
+        parts = [stream.next_chunk(k0, c) for k0, c in truth]
+        joined.append({name: np.concatenate([{**p[source].values, **p[source].truth}[name] for p in parts])
+                       for source, names in (("rpm", (propeller_rpm.RPM, propeller_rpm.TRUE_SCALE_FACTOR,
+                                                       propeller_rpm.TRUE_BIAS)),
+                                             ("echo", (echo_altitude.ALTITUDE,)))
                        for name in names})
     for name, value in joined[0].items():
         np.testing.assert_array_equal(value, joined[1][name], err_msg=name)
-    assert np.ptp(joined[0]["bias_mps"]) > 1e-3
+    assert np.ptp(joined[0][propeller_rpm.TRUE_BIAS]) > 1e-3
+    assert joined[0][propeller_rpm.RPM].shape[1] == 3 and np.isfinite(joined[0][echo_altitude.ALTITUDE]).all()
+
+
+def test_the_sources_draw_what_the_sensors_own_simulations_draw() -> None:
+    """A whole-mission simulation's echo and RPM sources are tauvcore.sensors.echosounder.simulate and
+    rpm.simulate from the generator both share (the first child of the simulation's): the registry
+    moved them, their numbers did not change."""
+    trajectory = TrajectoryConfig(name="longrange", duration_s=60.0, speed_mps=5.0, depth_m=50.0,
+                                  seabed_depth_m=110.0)
+    config = dataclasses.replace(Config(), trajectory=trajectory)
+    sim = simulate(config, np.random.default_rng(3), 2)
+    extra, _ = np.random.default_rng(3).spawn(2)
+    echo = echosounder.simulate(sim.truth, config.echo_sounder, bathymetry(trajectory), extra, 2)
+    speed = rpm.simulate(sim.truth, config.rpm, extra, 2)
+    np.testing.assert_array_equal(sim.sources["echo"].values[echo_altitude.ALTITUDE], echo.altitude_m)
+    np.testing.assert_array_equal(sim.sources["echo"].index, echo.index)
+    np.testing.assert_array_equal(sim.sources["rpm"].values[propeller_rpm.RPM], speed.rpm)
+    np.testing.assert_array_equal(sim.sources["rpm"].truth[propeller_rpm.TRUE_SCALE_FACTOR], speed.scale_factor)
+    np.testing.assert_array_equal(sim.sources["rpm"].truth[propeller_rpm.TRUE_BIAS], speed.bias_mps)
 
 
 @pytest.mark.parametrize("section, key, value, field", [

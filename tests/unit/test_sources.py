@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tauvcore.aiding.sources import SOURCES, load
+from tauvcore.aiding.sources import FUSED, SOURCES, load
 from tauvcore.config import SOURCE_SECTIONS, Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import SimChunk, simulate
@@ -29,6 +29,7 @@ from tauvcore.sensors.stream import SensorStreams
 from tauvcore.truth import generate, truth_stream
 
 NAMES = sorted(SOURCES)
+FUSED_NAMES = sorted(FUSED)  # those with a measurement model (the others: data Yoo's methods read)
 EPS = 1e-4  # large enough that a position step moves latitude by far more than its rounding
 
 
@@ -46,7 +47,7 @@ def _config(name: str, earth: str = "flat", duration_s: float = 120.0) -> Config
         Config()
         .replace("trajectory", name="lawnmower", duration_s=duration_s)
         .replace("earth", model=earth)
-        .replace("run", methods=("ins", "lc"), aiding=("dvl", name))
+        .replace("run", methods=("ins", "lc"), aiding=("dvl", name) if SOURCES[name].fused else ("dvl",))
     )
 
 
@@ -75,7 +76,7 @@ def _nominal_near(truth, k: int, rng: np.random.Generator, batch: tuple[int, ...
 
 
 @pytest.mark.parametrize("earth", ["flat", "wgs84"])
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", FUSED_NAMES)
 def test_H_matches_central_differences_of_the_innovation(name: str, earth: str) -> None:
     config = _config(name, earth)
     truth, data, j = _epoch_with_data(name, config)
@@ -120,7 +121,8 @@ def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) ->
         parts = [stream.next_chunk(k0, part)[name]
                  for k0, part in truth_stream(config.trajectory, config.earth, config.imu.rate_hz, size)]
         index = np.concatenate([p.index for p in parts])
-        return {"index": index, **{c: np.concatenate([p.values[c] for p in parts]) for c in parts[0].values}}
+        columns = {**parts[0].values, **parts[0].truth}
+        return {"index": index, **{c: np.concatenate([{**p.values, **p.truth}[c] for p in parts]) for c in columns}}
 
     whole = chunked(K, np.random.default_rng(3))
     for size in (1500, 977):
@@ -134,7 +136,7 @@ def test_the_simulation_does_not_depend_on_the_chunks_or_the_batch(name: str) ->
     for r, seed in enumerate((11, 12, 13)):
         stream = _source_stream(config, [np.random.default_rng(seed)], 1, K, dt)
         alone = stream.next_chunk(0, truth)[name]
-        for column, values in alone.values.items():
+        for column, values in {**alone.values, **alone.truth}.items():
             np.testing.assert_array_equal(batch[column][:, r], values[:, 0], err_msg=f"{name}: run {r}")
 
 
@@ -165,16 +167,20 @@ def test_its_log_table_round_trips_and_the_replay_fuses_it(name: str, tmp_path) 
     log = read_log(tmp_path / "log")
     table = log.sources[name]
     np.testing.assert_array_equal(table["t_s"], sim.sources[name].t_s)
-    for column, values in sim.sources[name].values.items():
-        np.testing.assert_array_equal(table[column], values[:, 0])
+    for column, values in {**sim.sources[name].values, **sim.sources[name].truth}.items():
+        np.testing.assert_array_equal(table[column], values[:, 0], err_msg=column)
     replay_config, replay_sim = prepare(config, log, np.random.default_rng(0))
-    results = run(replay_config, replay_sim, np.random.default_rng(0))
-    record = results["lc"].updates[name]
-    assert record.fused.any() and name not in results["ins"].updates
     np.testing.assert_array_equal(replay_sim.sources[name].index, sim.sources[name].index)
+    for part in ("values", "truth"):
+        for column, values in getattr(sim.sources[name], part).items():
+            np.testing.assert_array_equal(getattr(replay_sim.sources[name], part)[column], values, err_msg=column)
+    if SOURCES[name].fused:
+        results = run(replay_config, replay_sim, np.random.default_rng(0))
+        record = results["lc"].updates[name]
+        assert record.fused.any() and name not in results["ins"].updates
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", FUSED_NAMES)
 def test_the_streaming_engine_fuses_every_epoch_of_the_source(name: str) -> None:
     """run_streaming fuses the source at each of its epochs, with the data its streams draw (the
     children of the run's generator after the built-in sensors')."""
@@ -197,7 +203,7 @@ def test_the_registry_refuses_a_module_without_a_source() -> None:
         load(("cv",))  # a fusion method's module, not a source's
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", FUSED_NAMES)
 def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_table(name: str, tmp_path, capsys) -> None:
     from app.cli import main
     from tauvcore.eval.replay import prepare
@@ -216,7 +222,7 @@ def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_ta
     assert len(err) == 1 and f"no {table}.csv" in err[0]
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", FUSED_NAMES)
 def test_the_run_table_says_that_yoos_methods_do_not_fuse_the_source(name: str) -> None:
     from app.tables import summary_table
 
@@ -224,3 +230,52 @@ def test_the_run_table_says_that_yoos_methods_do_not_fuse_the_source(name: str) 
     results = run_streaming(config, np.random.default_rng(0))
     assert name in results["lc"].updates and name not in results["vkf"].updates
     assert f"they fuse the DVL only, not {name}" in summary_table(results, config, 1.0)
+
+
+@pytest.mark.parametrize("name", sorted(set(NAMES) - set(FUSED_NAMES)))
+def test_a_source_that_is_data_for_a_method_has_no_place_in_run_aiding(name: str) -> None:
+    from tauvcore.validation import ConfigError
+
+    with pytest.raises(ConfigError, match=f"run.aiding must be one of .*got '{name}'"):
+        Config().replace("run", aiding=("dvl", name))
+    with pytest.raises(TypeError, match="no model"):
+        SOURCES[name].model(Config().section(SOURCES[name].section_name), Config())
+
+
+def test_a_log_without_truth_columns_reads_them_as_nan(tmp_path) -> None:
+    """A recorded log's RPM table has only ``t_s`` and ``propeller_rpm``: the RPM model's truth reads
+    as NaN, and the replay's VKF trace has no truth to judge its scale factor against."""
+    from tauvcore.aiding.propeller_rpm import RPM, TRUE_SCALE_FACTOR
+    from tauvcore.eval.replay import prepare
+    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs import read_log
+
+    config = Config().replace("trajectory", name="lawnmower", duration_s=30.0).replace("run", methods=("vkf",))
+    sim = simulate(config, np.random.default_rng(0))
+    tables = simulation_tables([SimChunk.whole(sim)])
+    tables["rpm"] = {"t_s": tables["rpm"]["t_s"], RPM: tables["rpm"][RPM]}
+    write_log(tmp_path / "log", tables)
+    log = read_log(tmp_path / "log")
+    assert np.isnan(log.sources["rpm"][TRUE_SCALE_FACTOR]).all()
+    np.testing.assert_array_equal(log.sources["rpm"][RPM], sim.sources["rpm"].values[RPM][:, 0])
+    replay_config, replay_sim = prepare(config, log, np.random.default_rng(0))
+    trace = run(replay_config, replay_sim, np.random.default_rng(0))["vkf"].vkf_trace
+    assert trace is not None and np.isnan(trace["sf_true"]).all() and np.isfinite(trace["x"]).all()
+
+
+@pytest.mark.parametrize("missing", ["rpm", "echo"])
+@pytest.mark.parametrize("what", ["vkf", "rpm_fallback"])
+def test_a_replay_of_the_velocity_filter_without_its_tables_is_refused_naming_the_table(
+    missing: str, what: str, tmp_path, capsys
+) -> None:
+    from app.cli import main
+    from tauvcore.log_writer import simulation_tables, write_log
+
+    config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
+    tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])
+    tables.pop(SOURCES[missing].table)
+    write_log(tmp_path / "log", tables)
+    flags = ["--method", "vkf"] if what == "vkf" else ["--method", "lc", "--rpm-fallback"]
+    assert main(["replay", str(tmp_path / "log"), *flags]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"no {SOURCES[missing].table}.csv or {SOURCES[missing].table}.parquet" in err[0], err

@@ -169,13 +169,18 @@ def test_single_stream_one_chunk_is_the_runner_simulation() -> None:
                           bathymetry(config.trajectory))
     for record, expected in zip(stream.next_chunk(0, truth), (sim.imu, sim.dvl), strict=True):
         _assert_same({f.name: getattr(record, f.name) for f in dataclasses.fields(record)}, expected)
-    # then the sources aboard (depth, magnetometer), from the same generator
-    sources = SourceStream(config, rng_new.spawn(2)[1], 3, truth.num_samples, truth.dt_s,
-                           SensorStreams.single(rng_new)).next_chunk(0, truth)
-    for name in ("depth", "mag"):
+    # then the sources aboard: depth and magnetometer from the same generator, the echo sounder and
+    # the RPM from its first child
+    extra, plugins = rng_new.spawn(2)
+    aboard = dataclasses.replace(SensorStreams.single(rng_new), echo_sounder=extra, rpm_scale_factor=extra,
+                                 rpm_bias=extra, rpm_noise=extra)
+    sources = SourceStream(config, plugins, 3, truth.num_samples, truth.dt_s, aboard).next_chunk(0, truth)
+    assert set(sources) == set(sim.sources) == {"depth", "mag", "echo", "rpm"}
+    for name in sources:
         _assert_same({"t_s": sources[name].t_s, "index": sources[name].index}, sim.sources[name])
-        for column, values in sources[name].values.items():
-            np.testing.assert_array_equal(values, sim.sources[name].values[column], err_msg=f"{name}.{column}")
+        for column, values in {**sources[name].values, **sources[name].truth}.items():
+            expected = {**sim.sources[name].values, **sim.sources[name].truth}[column]
+            np.testing.assert_array_equal(values, expected, err_msg=f"{name}.{column}")
     np.testing.assert_array_equal(rng_new.standard_normal(5), rng_old.standard_normal(5))   # same draws consumed
 
 

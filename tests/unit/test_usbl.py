@@ -28,7 +28,7 @@ def _fixes(section: UsblConfig, num_runs: int, seed: int = 0, truth=None) -> tup
     truth = truth if truth is not None else _truth()
     pings = np.arange(150, truth.num_samples, 150)  # one a second
     rngs = {name: np.random.default_rng([seed, i]) for i, name in enumerate(SOURCE.streams)}
-    data, _ = SOURCE.simulate_chunk(truth, 0, pings, section, SOURCE.initial_state(section, num_runs),
+    data, _ = SOURCE.simulate_chunk(truth, 0, pings, section, SOURCE.initial_state(section, num_runs, None),
                                     rngs, num_runs, truth.num_samples)
     return data, pings
 
