@@ -279,3 +279,31 @@ def test_a_replay_of_the_velocity_filter_without_its_tables_is_refused_naming_th
     assert main(["replay", str(tmp_path / "log"), *flags]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"no {SOURCES[missing].table}.csv or {SOURCES[missing].table}.parquet" in err[0], err
+
+
+@pytest.mark.parametrize("table, column, value, words", [
+    ("rpm", "propeller_rpm", np.nan, "column 'propeller_rpm', row 3"),   # an empty RPM cell is no reading
+    ("rpm", "propeller_rpm", 1e9, "column 'propeller_rpm', row 3"),
+    ("rpm", "true_scale_factor_mps_per_rpm", 5.0, "column 'true_scale_factor_mps_per_rpm', row 3"),
+    ("echo", "altitude_m", np.inf, "column 'altitude_m', row 3"),
+    ("echo", "true_altitude_m", 1e6, "column 'true_altitude_m', row 3"),
+])
+def test_a_bad_cell_of_the_velocity_filter_s_tables_names_the_file_the_column_and_the_row(
+    table: str, column: str, value: float, words: str, tmp_path, capsys
+) -> None:
+    """Every column of a source's table is checked, its truth columns where the table has them;
+    the replay exits 2 with one line, whatever the methods (the log is read whole)."""
+    from app.cli import main
+    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs import LogError, read_log
+
+    config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
+    tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])
+    cells = tables[table][column].copy()
+    cells[2] = value
+    write_log(tmp_path / "log", {**tables, table: {**tables[table], column: cells}})
+    with pytest.raises(LogError, match=words):
+        read_log(tmp_path / "log")
+    assert main(["replay", str(tmp_path / "log"), "--method", "vkf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{table}.csv" in err[0] and words in err[0], err
