@@ -100,12 +100,12 @@ class SourceData:
             truth={k: np.concatenate([p.truth[k] for p in parts]) for k in parts[0].truth},
         )
 
-    def latest(self, name: str, k: int, num_runs: int) -> np.ndarray:
+    def latest(self, name: str, k: int) -> np.ndarray:
         """Column (or truth column) ``name`` at the last epoch at or before the mission's IMU sample
         ``k``: (R,), NaN before the first epoch."""
         values = self.values[name] if name in self.values else self.truth[name]
         j = int(np.searchsorted(self.index, k, side="right")) - 1
-        return np.asarray(values[j], dtype=float) if j >= 0 else np.full(num_runs, np.nan)
+        return np.asarray(values[j], dtype=float) if j >= 0 else np.full(values.shape[1:], np.nan)
 
     def stacked(self, names: Sequence[str]) -> np.ndarray:
         """The columns ``names`` side by side: (E, R, len(names))."""

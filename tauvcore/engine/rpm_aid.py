@@ -72,8 +72,8 @@ class RpmAid:
         an RPM was read (R,))."""
         cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
         rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
-        rpm_now = rpm.latest(RPM, k, R) if rpm is not None else np.full(R, np.nan)
-        altitude = echo.latest(ALTITUDE, k, R) if echo is not None else np.full(R, np.nan)
+        rpm_now = rpm.latest(RPM, k) if rpm is not None else np.full(R, np.nan)
+        altitude = echo.latest(ALTITUDE, k) if echo is not None else np.full(R, np.nan)
         use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
         have_rpm = np.isfinite(rpm_now)
         x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
@@ -107,8 +107,8 @@ class RpmAid:
             "t_s": t,
             "x": self.x.copy(),
             "sigma": np.sqrt(np.einsum("rii->ri", self.P)),
-            "sf_true": rpm.latest(TRUE_SCALE_FACTOR, k, R) if rpm is not None else nan,
-            "b_true": rpm.latest(TRUE_BIAS, k, R) if rpm is not None else nan,
+            "sf_true": rpm.latest(TRUE_SCALE_FACTOR, k) if rpm is not None else nan,
+            "b_true": rpm.latest(TRUE_BIAS, k) if rpm is not None else nan,
             "rpm_in_use": self.use_rpm.copy(),
             "altitude_m": self.altitude.copy(),
         }
