@@ -40,7 +40,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED
 from tauvcore.config import Config
 
 DOUBLE = 8
@@ -93,7 +93,7 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     dvl_rows = math.ceil(duration_s * config.dvl.rate_hz + 1) * dvl_methods if "dvl" in aiding else 0
     other_updates = 0
     if dvl_methods:
-        for name, source in SOURCES.items():
+        for name, source in FUSED.items():
             if name in aiding:
                 other_updates += math.ceil(
                     duration_s * source.rate_hz(config.section(source.section_name)) + 1

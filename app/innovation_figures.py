@@ -16,11 +16,11 @@ import numpy as np
 import plotly.graph_objects as go
 
 from app.figures import decimate, hex_to_rgba, make_figure, method_color, stacked_layout
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED
 from tauvcore.engine.results import MethodResult
 
 INNOVATION_ROWS = {"dvl": {3: ("surge", "sway", "heave"), 4: ("beam 1", "beam 2", "beam 3", "beam 4")}}
-INNOVATION_ROWS.update({name: {len(s.row_labels): s.row_labels} for name, s in SOURCES.items()})
+INNOVATION_ROWS.update({name: {len(s.row_labels): s.row_labels} for name, s in FUSED.items()})
 """What a source's innovation rows are, by their number (DVL: body axes, TC: beams; a plug-in: its own)."""
 BAND_SUFFIX = " 3-sigma"
 REJECTED_SUFFIX = " rejected"

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED
 from tauvcore.config import Config
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import method_consistency
@@ -125,7 +125,7 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
     )
     notes = []
     if any(r.block_dims is not None for r in results.values()):
-        plugins = [s for s in sources if s in SOURCES]
+        plugins = [s for s in sources if s in FUSED]
         notes = [
             "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
             "NEES over 6, and they have no position state"

@@ -13,7 +13,8 @@ from typing import IO
 
 import numpy as np
 
-from tauvcore.log_columns import DVL_BEAMS, IMU_INCREMENTS, REF_LOCAL, REF_VEL
+from tauvcore.aiding.sources import SOURCES
+from tauvcore.log_columns import IMU_INCREMENTS, REF_LOCAL, REF_VEL
 from tauvcore.logs import CONFIG_FILE, SOURCE_TABLES, TABLES
 
 
@@ -181,16 +182,12 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
         parts[table].setdefault(column, []).append(np.asarray(values, dtype=float))
 
     for chunk in chunks:
-        truth, imu, dvl = chunk.truth, chunk.imu, chunk.dvl
+        truth, imu = chunk.truth, chunk.imu
         add("imu", "t_s", truth.t_s)
         dth, dv = run_of(imu.dtheta_b, 2), run_of(imu.dv_b, 2)
         for i in range(3):
             add("imu", IMU_INCREMENTS[i], dth[:, i])
             add("imu", IMU_INCREMENTS[3 + i], dv[:, i])
-        y = np.where(run_of(dvl.available, 2), run_of(dvl.y_beam_mps, 2), np.nan)
-        add("dvl", "t_s", dvl.t_s)
-        for i, n in enumerate(DVL_BEAMS):
-            add("dvl", n, y[:, i])
         add("reference", "t_s", truth.t_s)
         if truth.earth.geodetic:
             for i, n in enumerate(("lat_rad", "lon_rad", "depth_m")):
@@ -203,7 +200,8 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
         for i, n in enumerate(REF_VEL):
             add("reference", n, truth.vel_n[:, i])
         for name, data in chunk.sources.items():
-            add(SOURCE_TABLES[name], "t_s", data.t_s)
+            table = SOURCES[name].table
+            add(table, "t_s", data.t_s)
             for column, values in {**data.values, **data.truth}.items():
-                add(SOURCE_TABLES[name], column, run_of(values, 1))
+                add(table, column, run_of(values, 1))
     return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}

@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tauvcore.aiding.source import AidingSource
+from tauvcore.aiding.source import AidingSource, Column
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_columns import (
     DVL_BEAMS,
@@ -75,8 +75,10 @@ from tauvcore.validation import LogError, show, show_path
 TABLES = ("imu", "dvl", "reference")
 """The log's own tables; each aiding source has its own besides
 (:attr:`~tauvcore.aiding.source.AidingSource.table`: ``depth``, ``attitude``, ``usbl``)."""
-SOURCE_TABLES = {name: source.table for name, source in SOURCES.items()}
-"""Each aiding source's table, by source name."""
+SOURCE_TABLES = {name: source.table for name, source in SOURCES.items() if source.table not in TABLES}
+"""Each aiding source's table, by source name, but the DVL's: a log's ``dvl`` table has two forms
+(beams, or a body velocity), read here (:func:`_read_dvl`) and made the source's pings by the
+replay (tauvcore.aiding.dvl_beams.from_log)."""
 TIME_JITTER = 0.01
 """Largest relative departure of an IMU interval from the log's median interval (1 %) taken as
 it is; beyond it (an irregular clock, dropped samples) the IMU is resampled onto a constant
@@ -284,6 +286,20 @@ def _read_dvl(paths: dict[str, Path | None], out: dict) -> None:
                     "empty, or set valid = 0)"
                 )
             out["dvl_body_mps"] = body
+        out["dvl_truth"] = {  # a simulated log's true errors; NaN in a recorded one
+            c.name: _column_of(p, cols, c) if c.name in cols else np.full(out["dvl_t_s"].shape, np.nan)
+            for c in SOURCES["dvl"].truth_columns
+        }
+
+
+def _column_of(path: Path, cols: dict[str, np.ndarray], column: Column) -> np.ndarray:
+    """Column ``column`` of the table ``cols`` (of ``path``), finite (or empty where it may be) and
+    within its bounds."""
+    check_finite(path, cols, (column.name,), allow_nan=column.allow_nan)
+    check_within(
+        path, cols, (column.name,), {column.name: (column.low, column.high, column.unit, column.what)}
+    )
+    return cols[column.name]
 
 
 def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
@@ -307,10 +323,7 @@ def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
         if column.name not in cols:  # a truth column the table does not have
             out[column.name] = np.full(out["t_s"].shape, np.nan)
             continue
-        check_finite(path, cols, (column.name,), allow_nan=column.allow_nan)
-        bounds = {column.name: (column.low, column.high, column.unit, column.what)}
-        check_within(path, cols, (column.name,), bounds)
-        out[column.name] = cols[column.name]
+        out[column.name] = _column_of(path, cols, column)
     return out
 
 

@@ -167,7 +167,9 @@ class Setting:
 
     A float field is within ``[low, high]``; a bool field is true or false; a 3-vector field
     (a tuple of three floats) has each component within ``[-bound, bound]``. A range of its own on
-    one component (a depth under the surface) is the section's ``__post_init__``'s to add."""
+    one component (a depth under the surface), and the check of a field of another kind (a list of
+    beams, a choice of words: a Setting without a range or a bound), is the section's
+    ``__post_init__``'s to add."""
 
     label: str  # the control's words after the source's label, e.g. "fix interval"
     unit: str = ""  # e.g. "s", "m"; "" for a dimensionless number or a switch
@@ -208,7 +210,7 @@ def check_settings(name: str, section: Any) -> None:
         if isinstance(default, bool):
             if not isinstance(value, bool):
                 raise ConfigError(f"{where} must be true or false, got {show(value)}")
-        elif isinstance(default, tuple):
+        elif isinstance(default, tuple) and s.bound is not None:
             require_vector3(where, value, bound=s.bound)
         elif s.low is not None and s.high is not None:
             require_range(where, value, s.low, s.high, low_open=s.low_open)

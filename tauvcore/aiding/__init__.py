@@ -9,9 +9,9 @@ runner (tauvcore.engine), not here.
 from tauvcore.aiding.attitude_mag import MagAttitude
 from tauvcore.aiding.depth import Depth
 from tauvcore.aiding.dvl_loose import DvlLoose
-from tauvcore.aiding.sources import FUSED
+from tauvcore.aiding.sources import AIDING
 
-AIDING_SOURCES = ("dvl", *FUSED)
+AIDING_SOURCES = AIDING
 """Every source ``run.aiding`` may hold: the DVL (fused by each method its own way) and the fused sources
 of tauvcore.aiding.sources."""
 

@@ -30,6 +30,10 @@ filter reads) is simulated, logged and read the same way and handed to the banks
 ``SimChunk.sources``; it has no model and no place in ``run.aiding``. What only a simulation knows
 of a source (the RPM model's true scale factor) are its :attr:`AidingSource.truth_columns`: written
 to a simulated log beside its columns, read back when a log has them (NaN when it does not).
+
+The DVL (tauvcore.aiding.dvl_beams) is a source of a third kind: simulated, logged and read as the
+others, it has no model of the engine's, because the methods are built around it and fuse its beams
+themselves (:attr:`AidingSource.methods_fuse`).
 """
 
 from __future__ import annotations
@@ -145,6 +149,9 @@ class AidingSource(ABC):
     row_labels: ClassVar[tuple[str, ...]] = ()  # its measurement's rows, e.g. ("north", "east", "down")
     fused: ClassVar[bool] = True  # False: data a method reads, no measurement of its own (no model,
     # not in run.aiding; the module docstring)
+    methods_fuse: ClassVar[bool] = False  # True (with fused False): measurements the methods fuse
+    # themselves (the DVL's beams: LC, TC, the partial-beam methods), named in run.aiding to turn
+    # those methods' updates on
     truth_columns: ClassVar[tuple[Column, ...]] = ()  # what a simulation knows of it besides its
     # columns: in SourceData.truth, written to a simulated log, optional in a log's table
 

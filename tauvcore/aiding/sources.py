@@ -1,8 +1,8 @@
 """Aiding sources added as one plug-in each: the registry the configuration, the engine and the
 log reader and writer read.
 
-The sensors aboard every vehicle of the lab, the depth, the magnetometer, the echo sounder and the
-propeller's RPM, are sources like any other (:attr:`~tauvcore.aiding.source.AidingSource.aboard`);
+The sensors aboard every vehicle of the lab, the DVL, the depth, the magnetometer, the echo sounder
+and the propeller's RPM, are sources like any other (:attr:`~tauvcore.aiding.source.AidingSource.aboard`);
 the last two are data for Yoo 2014's methods, not measurements of their own
 (:attr:`~tauvcore.aiding.source.AidingSource.fused`). Adding a source
 (docs/adding_a_sensor.md walks through :mod:`tauvcore.aiding.usbl`): write
@@ -22,6 +22,7 @@ import importlib
 from tauvcore.aiding.source import AidingSource, settings
 
 MODULES: tuple[str, ...] = (
+    "dvl_beams",  # tauvcore/aiding/dvl_beams.py: the Janus DVL's beams (the methods fuse them)
     "depth",  # tauvcore/aiding/depth.py: depth from the pressure sensor aboard
     "attitude_mag",  # tauvcore/aiding/attitude_mag.py: the magnetometer's attitude
     "echo_altitude",  # tauvcore/aiding/echo_altitude.py: the echo sounder's altitude (Yoo's switch)
@@ -30,9 +31,9 @@ MODULES: tuple[str, ...] = (
 )
 """The modules of tauvcore.aiding that define a plug-in source (each its ``SOURCE``), one line each."""
 
-BUILT_IN = ("dvl", "cv", "imu", "reference")
-"""Names a source, its section or its table may not take: the sources the engine fuses itself (the
-DVL, the constant-velocity model) and the log's own tables."""
+BUILT_IN = ("cv", "imu", "reference")
+"""Names a source, its section or its table may not take: the constant-velocity model (a method's
+measurement without data) and the log's own tables."""
 
 
 def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
@@ -70,6 +71,11 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
                 f"tauvcore.aiding.{module_name}: SOURCE.truth_columns must be distinct names other than t_s "
                 f"and the columns, got {truth}"
             )
+        if source.methods_fuse and source.fused:
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: SOURCE.methods_fuse is for a source the engine does not "
+                "fuse (fused = False)"
+            )
         if source.fused and (type(source).model is AidingSource.model or not source.row_labels):
             raise ValueError(
                 f"tauvcore.aiding.{module_name}: a fused SOURCE needs its model() and its row_labels "
@@ -94,4 +100,7 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
 SOURCES: dict[str, AidingSource] = load(MODULES)
 """Every plug-in source by name, in :data:`MODULES` order."""
 FUSED: dict[str, AidingSource] = {name: s for name, s in SOURCES.items() if s.fused}
-"""The sources with a measurement of their own (those ``run.aiding`` may name), in registry order."""
+"""The sources with a measurement the engine fuses, in registry order."""
+AIDING: tuple[str, ...] = tuple(name for name, s in SOURCES.items() if s.fused or s.methods_fuse)
+"""The sources ``run.aiding`` may name (``--aiding``): the DVL, whose beams the methods fuse, and
+those of :data:`FUSED`, in registry order."""

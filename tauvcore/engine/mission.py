@@ -18,7 +18,6 @@ from tauvcore.engine.yoo_bank import YooBank
 from tauvcore.filter.layout import STATE
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import truth_stream
-from tauvcore.truth.kinematic import bathymetry
 
 
 def run(
@@ -186,19 +185,13 @@ def run_streaming(
     chunk_samples = max(2, round(max(chunk_s, 1.0 / config.dvl.rate_hz + 1.0 / rate) * rate))
     truths = truth_stream(config.trajectory, config.earth, rate, chunk_samples)
     sensors = SensorStream(
-        config.imu.ideal() if ideal else config.imu,
-        config.dvl.ideal() if ideal else config.dvl,
-        streams,
-        num_runs,
-        truths.num_samples,
-        truths.dt_s,
-        bathymetry(config.trajectory),
+        config.imu.ideal() if ideal else config.imu, streams, num_runs, truths.num_samples, truths.dt_s
     )
     sources = SourceStream(config, plugin_rng, num_runs, truths.num_samples, truths.dt_s, streams)
     bank = Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
-        chunk = SimChunk(k0, truth, *sensors.next_chunk(k0, truth), sources=sources.next_chunk(k0, truth))
+        chunk = SimChunk(k0, truth, sensors.next_chunk(k0, truth), sources=sources.next_chunk(k0, truth))
         if on_sim_chunk is not None:
             on_sim_chunk(chunk)
         going = bank.feed(chunk, progress, progress_interval_s, should_stop)

@@ -7,9 +7,11 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
+from tauvcore.aiding import dvl_beams
 from tauvcore.aiding.source import SourceData
 from tauvcore.config import Config
 from tauvcore.engine.sources import SourceStream
@@ -17,7 +19,6 @@ from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.truth import Truth, generate
-from tauvcore.truth.kinematic import bathymetry
 
 
 @dataclass(frozen=True)
@@ -26,11 +27,15 @@ class Simulation:
 
     truth: Truth
     imu: imu_sensor.ImuData
-    dvl: dvl_sensor.DvlData
     num_runs: int
     sources: Mapping[str, SourceData] = field(default_factory=dict)  # the aiding sources
-    # (tauvcore.aiding.sources) by name: those aboard (depth, mag, echo, rpm; a log's: those it has
-    # tables of) and those run.aiding turns on
+    # (tauvcore.aiding.sources) by name: those aboard (dvl, depth, mag, echo, rpm; a log's: those it
+    # has tables of) and those run.aiding turns on
+
+    @cached_property
+    def dvl(self) -> dvl_sensor.DvlData:
+        """The DVL source's epochs as the pings the banks read (none if there is no DVL)."""
+        return dvl_beams.pings(self.sources.get("dvl"), self.num_runs)
 
 
 def simulate(
@@ -41,20 +46,18 @@ def simulate(
     if truth is None:
         truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
     imu_cfg = config.imu.ideal() if ideal else config.imu
-    dvl_cfg = config.dvl.ideal() if ideal else config.dvl
-    seabed = bathymetry(config.trajectory)
+    imu = imu_sensor.simulate(truth, imu_cfg, rng, num_runs)
     extra, plugins = rng.spawn(2)
-    # the depth and the magnetometer draw from rng after the DVL; the echo sounder and the RPM from
-    # a child of rng (spawning draws nothing: what rng draws next, the filters' initial errors, is
-    # what it drew before those two sensors existed); the other sources from their children of a
-    # second child
+    # the DVL, the depth and the magnetometer draw from rng after the IMU; the echo sounder and the
+    # RPM from a child of rng (spawning draws nothing: what rng draws next, the filters' initial
+    # errors, is what it drew before those two sensors existed); the other sources from their
+    # children of a second child
     aboard = dataclasses.replace(
         SensorStreams.single(rng), echo_sounder=extra, rpm_scale_factor=extra, rpm_bias=extra, rpm_noise=extra
     )
     return Simulation(
         truth=truth,
-        imu=imu_sensor.simulate(truth, imu_cfg, rng, num_runs),
-        dvl=dvl_sensor.simulate(truth, dvl_cfg, rng, num_runs, seabed),
+        imu=imu,
         sources=SourceStream(config, plugins, num_runs, truth.num_samples, truth.dt_s, aboard).next_chunk(
             0, truth
         ),
@@ -70,9 +73,14 @@ class SimChunk:
     k0: int
     truth: Truth
     imu: imu_sensor.ImuData
-    dvl: dvl_sensor.DvlData
     sources: Mapping[str, SourceData] = field(default_factory=dict)  # as Simulation.sources
+
+    @cached_property
+    def dvl(self) -> dvl_sensor.DvlData:
+        """As :attr:`Simulation.dvl`."""
+        runs = self.imu.dtheta_b.shape[1] if self.imu.dtheta_b.ndim == 3 else 1
+        return dvl_beams.pings(self.sources.get("dvl"), runs)
 
     @classmethod
     def whole(cls, sim: Simulation) -> SimChunk:
-        return cls(0, sim.truth, sim.imu, sim.dvl, sim.sources)
+        return cls(0, sim.truth, sim.imu, sim.sources)

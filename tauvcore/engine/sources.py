@@ -1,6 +1,6 @@
 """The aiding sources of a run (tauvcore.aiding.sources), simulated chunk by chunk.
 
-A source aboard every vehicle (the depth, the magnetometer, the echo sounder, the RPM) draws from its streams of the run's
+A source aboard every vehicle (the DVL, the depth, the magnetometer, the echo sounder, the RPM) draws from its streams of the run's
 tauvcore.sensors.stream.SensorStreams and is simulated whether or not ``run.aiding`` fuses it.
 Every other registered source's streams are children of the run's generator, spawned after the
 sensors' in registry order whether the source is on or not: turning a source on changes no other
@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tauvcore.aiding.source import SourceData
-from tauvcore.aiding.sources import SOURCES
+from tauvcore.aiding.sources import FUSED, SOURCES
 from tauvcore.config import Config
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.sensors.timing import Rng, epoch_indices_between
@@ -24,9 +24,9 @@ from tauvcore.truth.world import World
 
 
 def active(config: Config) -> tuple[str, ...]:
-    """The sources ``config.run.aiding`` turns on, in registry order (their order of fusion at an
-    epoch they share)."""
-    return tuple(name for name in SOURCES if name in config.run.aiding)
+    """The sources the engine fuses that ``config.run.aiding`` turns on, in registry order (their
+    order of fusion at an epoch they share; the DVL's beams the methods fuse themselves)."""
+    return tuple(name for name in FUSED if name in config.run.aiding)
 
 
 def simulated(config: Config) -> tuple[str, ...]:

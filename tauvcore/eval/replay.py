@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding import dvl_beams
 from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import SOURCES
@@ -30,9 +31,7 @@ from tauvcore.engine.sources import active
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
-from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
-from tauvcore.sensors.timing import uniform
 from tauvcore.truth.record import Truth
 from tauvcore.validation import ConfigError, show_path
 
@@ -266,36 +265,16 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
         accel_bias=np.full((K, 1, 3), np.nan),
         gyro_bias=np.full((K, 1, 3), np.nan),
     )
-    dvl_cfg = config.dvl
+    sources = {}
     if log.dvl_t_s is not None:
         k, keep = _epochs(log, log.dvl_t_s)
         k = k[keep]
         if log.dvl_beams_mps is not None:
             y = log.dvl_beams_mps[keep]
         else:
-            y = _column(log, log.dvl_body_mps, "DVL velocity")[keep] @ dvl_cfg.A_b.T
-        available = ~np.isnan(y) & dvl_cfg.scheduled_availability(truth.t_s[k])
-        if dvl_cfg.dropout_probability > 0:
-            available &= uniform(rng, y.shape) >= dvl_cfg.dropout_probability
-        y = np.where(available, y, np.nan)
-        dvl = dvl_sensor.DvlData(
-            t_s=truth.t_s[k],
-            index=k,
-            y_beam_mps=y[:, None],
-            available=available[:, None],
-            bias_mps=np.full((k.size, 1, 4), np.nan),
-            scale_factor=np.full((k.size, 1), np.nan),
-        )
-    else:
-        dvl = dvl_sensor.DvlData(
-            t_s=np.zeros(0),
-            index=np.zeros(0, np.int64),
-            y_beam_mps=np.zeros((0, 1, 4)),
-            available=np.zeros((0, 1, 4), bool),
-            bias_mps=np.zeros((0, 1, 4)),
-            scale_factor=np.zeros((0, 1)),
-        )
-    sources = {}
+            y = _column(log, log.dvl_body_mps, "DVL velocity")[keep] @ config.dvl.A_b.T
+        truths = {name: values[keep] for name, values in log.dvl_truth.items()}
+        sources["dvl"] = dvl_beams.from_log(truth.t_s[k], k, y, truths, config.dvl, rng)
     for name, table in log.sources.items():
         k, keep = _epochs(log, table["t_s"])
         source = SOURCES[name]
@@ -305,7 +284,7 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
             values={c.name: table[c.name][keep][:, None] for c in source.columns},
             truth={c.name: table[c.name][keep][:, None] for c in source.truth_columns},
         )
-    return Simulation(truth=truth, imu=imu, dvl=dvl, num_runs=1, sources=sources)
+    return Simulation(truth=truth, imu=imu, num_runs=1, sources=sources)
 
 
 def with_imu_errors(

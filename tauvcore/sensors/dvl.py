@@ -40,11 +40,11 @@ from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
 from tauvcore.validation import (
     ConfigError,
+    check_settings,
     require_choice,
     require_finite,
     require_nonnegative,
-    require_range,
-    require_vector3,
+    setting,
     show,
 )
 
@@ -96,46 +96,48 @@ class DvlConfig:
     """DVL error model; 1-sigma values, defaults Table 2 of Tal et al. 2017."""
 
     # Ranges: zero error is legal (verification, --ideal); each bound's reason is beside it.
-    rate_hz: float = 1.0  # ping rate [Hz], [0.05, 25]: DVLs ping from every 20 s to ~25 Hz
-    beam_pitch_deg: float = 20.0  # eq. 13-14, [10, 45]: Janus heads are 20-30 deg; below 10 the
-    # horizontal velocity is barely observed, above 45 beams graze
-    noise_mps: float = 0.042  # white noise per beam [m/s], <= 1: beyond half the AUV's
-    # 2 m/s a ping says nothing about the velocity
-    bias_mps: float = 0.005  # turn-on bias per beam [m/s], <= 0.5 (100x Table 2)
-    bias_rw_mps_per_sqrt_s: float = 5e-5  # beam bias random walk [m/s/sqrt(s)], <= 5e-3 (100x Table 2)
-    scale_factor_pct: float = 0.7  # turn-on scale factor error [%], <= 10: a sound speed off by
-    # 150 m/s, more than any water mass differs from 1500 m/s
-    scale_factor_rw_pct_per_sqrt_s: float = (
-        5e-3  # scale factor random walk [%/sqrt(s)], <= 0.5 (100x Table 2)
+    rate_hz: float = setting(1.0, "rate", "Hz", 0.05, 25.0, hint="pings per second")
+    # [0.05, 25]: DVLs ping from every 20 s to ~25 Hz
+    beam_pitch_deg: float = setting(20.0, "beam pitch", "deg", 10.0, 45.0, hint="each beam from the vertical")
+    # eq. 13-14, [10, 45]: Janus heads are 20-30 deg; below 10 the horizontal velocity is barely
+    # observed, above 45 beams graze
+    noise_mps: float = setting(0.042, "noise", "m/s", 0.0, 1.0, hint="1-sigma white noise per beam")
+    # <= 1: beyond half the AUV's 2 m/s a ping says nothing about the velocity
+    bias_mps: float = setting(0.005, "bias", "m/s", 0.0, 0.5, hint="1-sigma turn-on bias per beam")
+    # <= 0.5 (100x Table 2)
+    bias_rw_mps_per_sqrt_s: float = setting(
+        5e-5, "bias walk", "m/s/sqrt(s)", 0.0, 5e-3, hint="beam bias random walk"
+    )  # <= 5e-3 (100x Table 2)
+    scale_factor_pct: float = setting(
+        0.7, "scale factor", "%", 0.0, 10.0, hint="1-sigma turn-on scale factor error"
     )
-    lever_arm_m: tuple[float, float, float] = (
-        0.6,
-        0.0,
-        0.15,
-    )  # DVL head from the IMU, body frame [m]; not in the
-    # paper; each axis within +-10 m: an AUV is a few metres long
-    beams: tuple[int, ...] = (1, 2, 3, 4)  # beams that return (others never do)
-    outages: tuple[Outage, ...] = ()  # scheduled losses of some beams, at most MAX_OUTAGES
-    dropout_probability: float = 0.0  # chance that a beam misses a ping, each beam independently,
-    # [0, 1] (a probability)
-    max_altitude_m: float = 100.0  # bottom lock up to this altitude (Yoo 2014 section 3.2),
-    # (0, 11000]: the deepest ocean
-    beyond_range: str = "lost"  # "lost" (no return) or "noisy" (Yoo 2014 eq. 30-32)
-    beyond_range_noise_mps: float = 5.0  # extra noise of a "noisy" beam beyond range [m/s] (Yoo:
-    # 5 m/s), [0, 100]
+    # <= 10: a sound speed off by 150 m/s, more than any water mass differs from 1500 m/s
+    scale_factor_rw_pct_per_sqrt_s: float = setting(
+        5e-3, "scale factor walk", "%/sqrt(s)", 0.0, 0.5, hint="scale factor random walk"
+    )  # <= 0.5 (100x Table 2)
+    lever_arm_m: tuple[float, float, float] = setting(
+        (0.6, 0.0, 0.15), "lever arm", "m", bound=10.0, hint="the DVL head from the IMU, body frame"
+    )  # not in the paper; each axis within +-10 m: an AUV is a few metres long
+    beams: tuple[int, ...] = setting((1, 2, 3, 4), "beams", hint="beams that return (others never do)")
+    # checked below: distinct numbers 1 to 4
+    outages: tuple[Outage, ...] = setting((), "outages", "s", hint="scheduled losses of some beams")
+    # checked below: at most MAX_OUTAGES windows
+    dropout_probability: float = setting(
+        0.0, "dropout", "", 0.0, 1.0, hint="chance that a beam misses a ping, each beam independently"
+    )  # [0, 1] (a probability)
+    max_altitude_m: float = setting(
+        100.0, "bottom range", "m", 0.0, 11000.0, low_open=True, hint="bottom lock up to this altitude"
+    )  # Yoo 2014 section 3.2; (0, 11000]: the deepest ocean
+    beyond_range: str = setting(
+        "lost", "beyond range", hint='"lost" (no return) or "noisy" (Yoo 2014 eq. 30-32)'
+    )
+    # checked below: one of BEYOND_RANGE
+    beyond_range_noise_mps: float = setting(
+        5.0, "beyond-range noise", "m/s", 0.0, 100.0, hint="extra noise of a noisy beam beyond range"
+    )  # Yoo: 5 m/s; [0, 100]
 
     def __post_init__(self) -> None:
-        require_range("dvl.rate_hz", self.rate_hz, 0.05, 25.0)
-        require_range("dvl.beam_pitch_deg", self.beam_pitch_deg, 10.0, 45.0)
-        for name, high in (
-            ("noise_mps", 1.0),
-            ("bias_mps", 0.5),
-            ("bias_rw_mps_per_sqrt_s", 5e-3),
-            ("scale_factor_pct", 10.0),
-            ("scale_factor_rw_pct_per_sqrt_s", 0.5),
-        ):
-            require_range(f"dvl.{name}", getattr(self, name), 0.0, high)
-        require_vector3("dvl.lever_arm_m", self.lever_arm_m, bound=10.0)
+        check_settings("dvl", self)  # the numbers and the lever arm
         _check_beams("dvl.beams", self.beams)
         if not isinstance(self.outages, (tuple, list)) or len(self.outages) > MAX_OUTAGES:
             raise ConfigError(
@@ -144,10 +146,7 @@ class DvlConfig:
         for outage in self.outages:
             if not isinstance(outage, Outage):
                 raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {show(outage)}")
-        require_range("dvl.dropout_probability", self.dropout_probability, 0.0, 1.0)
-        require_range("dvl.max_altitude_m", self.max_altitude_m, 0.0, 11000.0, low_open=True)
         require_choice("dvl.beyond_range", self.beyond_range, BEYOND_RANGE)
-        require_range("dvl.beyond_range_noise_mps", self.beyond_range_noise_mps, 0.0, 100.0)
 
     def ideal(self) -> DvlConfig:
         """The same DVL (geometry, lever arm, beams) with every error set to zero."""

@@ -5,22 +5,20 @@ A run's random numbers come from named streams (:class:`SensorStreams`). With
 after chunk, so a run's numbers do not depend on how the mission is cut into chunks. With
 :meth:`SensorStreams.single` every stream is one generator, and the whole mission as one chunk
 repeats the whole-mission ``simulate`` functions (and ``tauvcore.engine.simulation.simulate``) draw for
-draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise,
-then DVL (then the depth and the magnetometer, the echo sounder and the RPM: aiding sources drawn by
+draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise
+(then the DVL, the depth and the magnetometer, the echo sounder and the RPM: aiding sources drawn by
 tauvcore.engine.sources from their streams here).
 
-:class:`SensorStream` carries the sensors' state from chunk to chunk (the last value of each
-random walk, whether its turn-on value was drawn, the DVL's ping count) and is fed the truth
-chunks of :class:`tauvcore.truth.kinematic.TruthStream` in order::
+:class:`SensorStream` carries the IMU's state from chunk to chunk (the last value of each random
+walk, whether its turn-on value was drawn) and is fed the truth chunks of
+:class:`tauvcore.truth.kinematic.TruthStream` in order::
 
     truth = TruthStream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=1500)
-    sensors = SensorStream(imu_cfg, dvl_cfg, SensorStreams.spawned(rng), num_runs,
-                           truth.num_samples, truth.dt_s)
+    sensors = SensorStream(imu_cfg, SensorStreams.spawned(rng), num_runs, truth.num_samples, truth.dt_s)
     for k0, chunk in truth:
-        imu, dvl = sensors.next_chunk(k0, chunk)
+        imu = sensors.next_chunk(k0, chunk)
 
-Every output has the run axis after time, ``(K, R, ...)``; the aiding sensors' ``index`` are
-global IMU sample indices, those of ``timing.epoch_indices`` for the whole mission.
+Every output has the run axis after time, ``(K, R, 3)``.
 """
 
 from __future__ import annotations
@@ -31,10 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tauvcore.sensors import dvl, imu
-from tauvcore.sensors.timing import Rng, epoch_indices_between
+from tauvcore.sensors import imu
+from tauvcore.sensors.timing import Rng
 from tauvcore.truth.record import Truth
-from tauvcore.truth.seabed import Bathymetry
 
 
 @dataclass(frozen=True)
@@ -51,6 +48,7 @@ class SensorStreams:
     accel_noise: np.random.Generator  # IMU accelerometer white noise
     gyro_noise: np.random.Generator  # IMU gyro white noise
     dvl_bias: np.random.Generator  # DVL beam biases: turn-on values, then their walk
+    # (tauvcore.aiding.dvl_beams, as the three below)
     dvl_scale_factor: np.random.Generator  # DVL scale factor: turn-on value, then its walk
     dvl_noise: np.random.Generator  # DVL beam white noise
     dvl_dropout: np.random.Generator  # DVL random beam losses
@@ -86,25 +84,23 @@ class SensorStreams:
 
 
 class SensorStream:
-    """The IMU and the DVL of a mission, chunk by chunk, for ``num_runs`` runs (the other sensors
-    are aiding sources: tauvcore.engine.sources).
+    """The IMU of a mission, chunk by chunk, for ``num_runs`` runs (the other sensors are aiding
+    sources: tauvcore.engine.sources).
 
     ``streams``: one :class:`SensorStreams` for all runs (each draw has the run axis, as
     ``simulate(..., num_runs)`` does), or a list of ``num_runs`` of them, run r drawn from its own
     alone and the runs stacked along the run axis. ``num_samples`` and ``dt_s``: the whole
-    mission's (``TruthStream.num_samples``, ``.dt_s``). The configs are used as given (make them
-    ideal first if need be).
+    mission's (``TruthStream.num_samples``, ``.dt_s``). The config is used as given (make it ideal
+    first if need be).
     """
 
     def __init__(
         self,
         imu_config: imu.ImuConfig,
-        dvl_config: dvl.DvlConfig,
         streams: SensorStreams | Sequence[SensorStreams],
         num_runs: int,
         num_samples: int,
         dt_s: float,
-        seabed: Bathymetry | None = None,
     ) -> None:
         if isinstance(num_runs, bool) or not isinstance(num_runs, (int, np.integer)) or num_runs < 1:
             raise ValueError(f"num_runs must be a whole number >= 1, got {num_runs!r}")
@@ -130,26 +126,15 @@ class SensorStream:
             # it would draw as a batch of one), the runs' arithmetic is done together
             self._rngs = {name: [getattr(st, name) for st in streams] for name in names}
         self.imu_config = imu_config
-        self.dvl_config = dvl_config
-        self.seabed = seabed  # DVL beams traced to it (None: no range limit)
         self.num_runs = int(num_runs)
         self.num_samples = int(num_samples)
         self.dt_s = float(dt_s)
-        self._t_end_s = (self.num_samples - 1) * self.dt_s  # = generate(...).t_s[-1]
         self._imu_state = imu.ImuState()
-        self._dvl_state = dvl.DvlState()
         self.next_k0 = 0  # first sample of the next chunk expected
 
-    def epochs(self, rate_hz: float, k0: int, k1: int) -> np.ndarray:
-        """Global IMU sample indices of a sensor at ``rate_hz`` within ``[k0, k1)``."""
-        return epoch_indices_between(rate_hz, self._t_end_s, self.dt_s, self.num_samples, k0, k1)
-
-    def next_chunk(self, k0: int, truth: Truth) -> tuple[imu.ImuData, dvl.DvlData]:
-        """IMU and DVL over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K.
-
-        Chunks must come in order, each starting where the previous one ended. Returns IMU
-        arrays (K, R, 3) and the DVL's pings within the chunk (possibly none).
-        """
+    def next_chunk(self, k0: int, truth: Truth) -> imu.ImuData:
+        """The IMU over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K: arrays
+        (K, R, 3). Chunks must come in order, each starting where the previous one ended."""
         k = truth.num_samples
         if k0 != self.next_k0:
             raise ValueError(
@@ -159,9 +144,7 @@ class SensorStream:
             raise ValueError(
                 f"a chunk of {k} samples from {k0} does not fit the mission's {self.num_samples}"
             )
-        k1 = k0 + k
-        dvl_idx = self.epochs(self.dvl_config.rate_hz, k0, k1)
-        g, runs = self._rngs, self.num_runs
+        g = self._rngs
         imu_data, self._imu_state = imu.simulate_chunk(
             truth,
             k0,
@@ -171,22 +154,9 @@ class SensorStream:
             g["gyro_bias"],
             g["accel_noise"],
             g["gyro_noise"],
-            runs,
+            self.num_runs,
             self.dt_s,
             g["imu_axes"],
         )
-        dvl_data, self._dvl_state = dvl.simulate_chunk(
-            truth,
-            k0,
-            dvl_idx,
-            self.dvl_config,
-            self._dvl_state,
-            g["dvl_bias"],
-            g["dvl_scale_factor"],
-            g["dvl_noise"],
-            g["dvl_dropout"],
-            runs,
-            self.seabed,
-        )
-        self.next_k0 = k1
-        return imu_data, dvl_data
+        self.next_k0 = k0 + k
+        return imu_data

@@ -396,7 +396,8 @@ def _missing_table(c: Ctx) -> tuple[str, Expect]:
 @hostile("missing column", "structure", REFUSE, weight=2)
 def _missing_column(c: Ctx) -> tuple[str, Expect]:
     table = c.choice(c.tables())
-    column = c.choice([n for n in c.base.tables[table] if n != "valid"])
+    # (not an optional one: the DVL's valid flag, a simulated log's true errors)
+    column = c.choice([n for n in c.base.tables[table] if n != "valid" and not n.startswith("true_")])
     cols = c.columns(table)
     del cols[column]
     c.write(table, cols)

@@ -1,7 +1,8 @@
 """Truth and sensors chunk by chunk (issue 9, streaming): the chunks are the whole mission's numbers.
 
 - truth chunks of any size concatenate to ``generate`` (bit for bit in practice; 1e-12 asserted);
-- with spawned streams, sensors cut into chunks of any size are the same data, bit for bit;
+- with spawned streams, sensors cut into chunks of any size are the same data, bit for bit (the IMU
+  of SensorStream, the DVL of its source in tauvcore.engine.sources);
 - with a single generator and one whole-mission chunk, exactly ``tauvcore.engine.simulation.simulate``'s draws;
 - a list of per-run streams gives each run what it gets alone;
 - a chunk without aiding epochs yields empty records of the right shapes.
@@ -14,6 +15,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from tauvcore.aiding import dvl_beams
 from tauvcore.config import Config
 from tauvcore.engine.simulation import simulate
 from tauvcore.engine.sources import SourceStream
@@ -23,7 +25,7 @@ from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.sensors.timing import epoch_indices
 from tauvcore.truth import TRAJECTORIES, TrajectoryConfig, generate
-from tauvcore.truth.kinematic import TruthStream, bathymetry, generate_chunk
+from tauvcore.truth.kinematic import TruthStream, generate_chunk
 
 RATE_HZ = 150.0
 TRUTH_FIELDS = ("t_s", "pos_n", "vel_n", "vel_b", "C_nb", "euler", "omega_nb_b", "omega_ib_b", "f_b",
@@ -48,13 +50,16 @@ def _assert_same(got: dict, expected: object) -> None:
 
 def _stream_sensors(trajectory: TrajectoryConfig, streams: SensorStreams | list[SensorStreams], num_runs: int,
                     chunk_samples: int, sensors: tuple = SENSORS) -> list[dict[str, np.ndarray]]:
-    """Every sensor's output over the mission, generated chunk by chunk, joined along time."""
+    """The IMU's output (SensorStream) and the DVL's pings (the DVL source of SourceStream, from the
+    same streams) over the mission, generated chunk by chunk, joined along time."""
     truth = TruthStream(trajectory, Earth(), RATE_HZ, chunk_samples)
-    stream = SensorStream(*sensors, streams, num_runs, truth.num_samples, truth.dt_s)
+    stream = SensorStream(sensors[0], streams, num_runs, truth.num_samples, truth.dt_s)
+    config = Config(trajectory=trajectory, imu=sensors[0], dvl=sensors[1])
+    sources = SourceStream(config, np.random.default_rng(0), num_runs, truth.num_samples, truth.dt_s, streams)
     parts: list[list] = [[], []]
     for k0, chunk in truth:
-        for part, record in zip(parts, stream.next_chunk(k0, chunk), strict=True):
-            part.append(record)
+        parts[0].append(stream.next_chunk(k0, chunk))
+        parts[1].append(dvl_beams.pings(sources.next_chunk(k0, chunk)["dvl"], num_runs))
     return [_concat(p) for p in parts]
 
 
@@ -165,17 +170,15 @@ def test_single_stream_one_chunk_is_the_runner_simulation() -> None:
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
     rng_old, rng_new = np.random.default_rng(21), np.random.default_rng(21)
     sim = simulate(config, rng_old, 3, truth=truth)
-    stream = SensorStream(config.imu, config.dvl, SensorStreams.single(rng_new), 3, truth.num_samples, truth.dt_s,
-                          bathymetry(config.trajectory))
-    for record, expected in zip(stream.next_chunk(0, truth), (sim.imu, sim.dvl), strict=True):
-        _assert_same({f.name: getattr(record, f.name) for f in dataclasses.fields(record)}, expected)
-    # then the sources aboard: depth and magnetometer from the same generator, the echo sounder and
-    # the RPM from its first child
+    record = SensorStream(config.imu, SensorStreams.single(rng_new), 3, truth.num_samples, truth.dt_s).next_chunk(0, truth)
+    _assert_same({f.name: getattr(record, f.name) for f in dataclasses.fields(record)}, sim.imu)
+    # then the sources aboard: the DVL, the depth and the magnetometer from the same generator, the
+    # echo sounder and the RPM from its first child
     extra, plugins = rng_new.spawn(2)
     aboard = dataclasses.replace(SensorStreams.single(rng_new), echo_sounder=extra, rpm_scale_factor=extra,
                                  rpm_bias=extra, rpm_noise=extra)
     sources = SourceStream(config, plugins, 3, truth.num_samples, truth.dt_s, aboard).next_chunk(0, truth)
-    assert set(sources) == set(sim.sources) == {"depth", "mag", "echo", "rpm"}
+    assert set(sources) == set(sim.sources) == {"dvl", "depth", "mag", "echo", "rpm"}
     for name in sources:
         _assert_same({"t_s": sources[name].t_s, "index": sources[name].index}, sim.sources[name])
         for column, values in {**sources[name].values, **sources[name].truth}.items():
@@ -203,9 +206,10 @@ def test_per_run_single_streams_repeat_the_runner_run_by_run() -> None:
     """As a study draws today: run r's sensors from its own generator, one run at a time."""
     config = Config().replace("trajectory", name="figure8", duration_s=15.0)
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    stream = SensorStream(config.imu, config.dvl, [SensorStreams.single(np.random.default_rng(s)) for s in (1, 2)], 2,
-                          truth.num_samples, truth.dt_s, bathymetry(config.trajectory))
-    records = stream.next_chunk(0, truth)
+    streams = [SensorStreams.single(np.random.default_rng(s)) for s in (1, 2)]
+    imu_data = SensorStream(config.imu, streams, 2, truth.num_samples, truth.dt_s).next_chunk(0, truth)
+    sources = SourceStream(config, np.random.default_rng(0), 2, truth.num_samples, truth.dt_s, streams)
+    records = (imu_data, dvl_beams.pings(sources.next_chunk(0, truth)["dvl"], 2))
     for r, seed in enumerate((1, 2)):
         sim = simulate(config, np.random.default_rng(seed), 1, truth=truth)
         for record, expected in zip(records, (sim.imu, sim.dvl), strict=True):
@@ -219,10 +223,12 @@ def test_per_run_single_streams_repeat_the_runner_run_by_run() -> None:
 def test_a_chunk_without_aiding_epochs_yields_empty_records() -> None:
     trajectory = TrajectoryConfig(name="straight", duration_s=10.0)
     truth = TruthStream(trajectory, Earth(), RATE_HZ, 100)               # first ping at sample 150
-    stream = SensorStream(imu.ImuConfig(), dvl.DvlConfig(), SensorStreams.spawned(np.random.default_rng(0)), 2,
-                          truth.num_samples, truth.dt_s)
+    streams = SensorStreams.spawned(np.random.default_rng(0))
+    stream = SensorStream(imu.ImuConfig(), streams, 2, truth.num_samples, truth.dt_s)
+    sources = SourceStream(Config(trajectory=trajectory), np.random.default_rng(0), 2, truth.num_samples, truth.dt_s,
+                           streams)
     k0, chunk = next(iter(truth))
-    imu_data, dvl_data = stream.next_chunk(k0, chunk)
+    imu_data, dvl_data = stream.next_chunk(k0, chunk), dvl_beams.pings(sources.next_chunk(k0, chunk)["dvl"], 2)
     assert imu_data.dv_b.shape == (100, 2, 3) and np.all(imu_data.dv_b[0] == 0)
     assert dvl_data.index.shape == dvl_data.t_s.shape == (0,)
     assert dvl_data.y_beam_mps.shape == dvl_data.available.shape == dvl_data.bias_mps.shape == (0, 2, 4)

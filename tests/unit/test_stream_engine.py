@@ -58,10 +58,10 @@ def test_chunks_equal_the_bank_fed_the_whole_simulation_at_once() -> None:
     rng = np.random.default_rng(8)
     streams = SensorStreams.spawned(rng)
     truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
-    sensors = SensorStream(config.imu, config.dvl, streams, 2, truth.num_samples, truth.dt_s)
+    sensors = SensorStream(config.imu, streams, 2, truth.num_samples, truth.dt_s)
     sources = SourceStream(config, rng, 2, truth.num_samples, truth.dt_s, streams)
     bank = FilterBank(config, 2, truth.num_samples, truth.dt_s, streams.initial)
-    bank.feed(SimChunk(0, truth, *sensors.next_chunk(0, truth), sources=sources.next_chunk(0, truth)))
+    bank.feed(SimChunk(0, truth, sensors.next_chunk(0, truth), sources=sources.next_chunk(0, truth)))
     _assert_same(streamed, bank.results())
 
 

@@ -28,7 +28,7 @@ from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_writer import replace_files, write_log
 from tauvcore.logs import CONFIG_FILE, read_log
 
-SIMULATED_TABLES = logs.TABLES + tuple(s.table for s in SOURCES.values() if s.aboard)
+SIMULATED_TABLES = tuple(dict.fromkeys(logs.TABLES + tuple(s.table for s in SOURCES.values() if s.aboard)))
 """The tables of a simulation's log: the log's own and those of the sources aboard (depth, attitude)."""
 RUN = ["run", "--duration", "5", "--method", "ins"]
 MC = ["mc", "--duration", "10", "--method", "ins", "--runs", "2"]
