@@ -9,6 +9,7 @@ import numpy as np
 
 from tauvcore.aiding.sources import FUSED
 from tauvcore.config import Config
+from tauvcore.engine import yoo_sources
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
@@ -125,11 +126,11 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
     )
     notes = []
     if any(r.block_dims is not None for r in results.values()):
-        plugins = [s for s in sources if s in FUSED]
+        left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
         notes = [
             "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
             "NEES over 6, and they have no position state"
-            + (f"; they fuse the DVL only, not {', '.join(plugins)}" if plugins else "")
+            + (f"; they do not fuse {', '.join(left_out)} (no position state)" if left_out else "")
         ]
     return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
 

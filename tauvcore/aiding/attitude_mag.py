@@ -89,6 +89,7 @@ class MagSource(AidingSource):
     columns = tuple(Column(n, "rad", -1e4, 1e4, "no attitude angle", angle=True) for n in EULER)
     # as tauvcore.log_columns.MAX_ANGLE_RAD
     row_labels = ("roll", "pitch", "yaw")
+    observes = ("att",)  # H weighs the misalignment alone
 
     def rate_hz(self, section: MagnetometerConfig) -> float:
         return section.rate_hz

@@ -72,6 +72,7 @@ class DepthSource(AidingSource):
     columns = (Column("depth_m", "m", -100.0, 12_000.0, "deeper than the ocean, or high above it"),)
     # as tauvcore.log_columns.DEPTH_RANGE_M
     row_labels = ("depth",)
+    observes = ("pos",)
 
     def rate_hz(self, section: PressureConfig) -> float:
         return section.rate_hz

@@ -147,6 +147,9 @@ class AidingSource(ABC):
     streams: ClassVar[tuple[str, ...]]  # its random streams, each its own generator per run
     columns: ClassVar[tuple[Column, ...]]  # its log table's columns besides t_s
     row_labels: ClassVar[tuple[str, ...]] = ()  # its measurement's rows, e.g. ("north", "east", "down")
+    observes: ClassVar[tuple[str, ...]] = ()  # the blocks of the 20-state error (tauvcore.filter.layout.
+    # STATE.names: "pos", "att", "vel", "ba", "bg", ...) its H may weigh; zero elsewhere (tested). Yoo
+    # 2014's 12-state filter fuses a source whose blocks it has (tauvcore.engine.yoo_sources)
     fused: ClassVar[bool] = True  # False: data a method reads, no measurement of its own (no model,
     # not in run.aiding; the module docstring)
     methods_fuse: ClassVar[bool] = False  # True (with fused False): measurements the methods fuse

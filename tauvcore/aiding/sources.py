@@ -20,6 +20,7 @@ import dataclasses
 import importlib
 
 from tauvcore.aiding.source import AidingSource, settings
+from tauvcore.filter.layout import STATE
 
 MODULES: tuple[str, ...] = (
     "dvl_beams",  # tauvcore/aiding/dvl_beams.py: the Janus DVL's beams (the methods fuse them)
@@ -75,6 +76,11 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
             raise ValueError(
                 f"tauvcore.aiding.{module_name}: SOURCE.methods_fuse is for a source the engine does not "
                 "fuse (fused = False)"
+            )
+        if source.fused and not (source.observes and set(source.observes) <= set(STATE.names)):
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: a fused SOURCE.observes must name the error-state blocks its "
+                f"H weighs (of {', '.join(STATE.names)}), got {source.observes!r}"
             )
         if source.fused and (type(source).model is AidingSource.model or not source.row_labels):
             raise ValueError(

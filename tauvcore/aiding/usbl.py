@@ -205,6 +205,11 @@ class Usbl(AidingSource):
         for axis in AXES
     )
     row_labels = ("north", "east", "down")
+    observes = (
+        "pos",
+        "att",
+        "vel",
+    )  # the lever arm turns with the attitude; the latency term moves with the velocity
 
     def rate_hz(self, section: UsblConfig) -> float:
         return 1.0 / section.interval_s

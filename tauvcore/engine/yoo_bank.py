@@ -30,6 +30,11 @@ gated like the 20-state methods' (every row within ``filter.gate_sigma``), then 
 error reset (feedback). As white noise of their 1-sigma size they would leave both
 methods over-confident (velocity NEES/dim 1.8-4 and 2.7-7.7 over seeds on ``longrange``).
 
+Both methods also fuse the registry's sources that ``run.aiding`` turns on and whose measurement
+weighs only the misalignment and the IMU biases (tauvcore.engine.yoo_sources: the magnetometer),
+at their epochs, after the DVL's update (:meth:`YooBank._fuse_sources`), with the 20-state
+methods' gate and records (tauvcore.filter.yoo.correct_consider).
+
 The covariance is propagated at ``filter.covariance_rate_hz`` with ``Phi = I + F dt + (F dt)^2 / 2``
 and ``Qd = G Q G^T dt`` (accelerometer and gyro white noise on velocity and attitude, the bias
 walks on the biases). Records at the output epochs carry the same series as the 20-state
@@ -39,6 +44,7 @@ dimensions are the filter's own (:data:`BLOCK_DIMS`: 12 in all, 6 sensor states)
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator
 
 import numpy as np
@@ -46,13 +52,18 @@ import numpy as np
 from tauvcore import units
 from tauvcore.aiding.echo_altitude import ALTITUDE
 from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
-from tauvcore.engine import yoo_loop
+from tauvcore.engine import yoo_loop, yoo_sources
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
+from tauvcore.engine.recorder import Recorder
 from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult, UpdateRecord, method_result
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.sources import active
 from tauvcore.filter import statistics, yoo
+from tauvcore.filter.eskf import Nominal, make_outcome
+from tauvcore.filter.layout import NavState
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 
@@ -112,6 +123,15 @@ class YooBank(ChunkDriver):
         self.qc = np.r_[dvl.scale_factor_rw_per_sqrt_s**2, np.full(4, dvl.bias_rw_mps_per_sqrt_s**2)]
         self.L4 = np.linalg.pinv(np.asarray(self.A_b, dtype=float))  # the 4-beam least squares (3, 4)
         self.has_vkf = "vkf" in methods
+        # the sources of tauvcore.aiding.sources that run.aiding turns on and the 12 states can take
+        # (tauvcore.engine.yoo_sources): fused by both methods at their epochs
+        self.sources = [
+            (name, SOURCES[name].model(config.section(SOURCES[name].section_name), config))
+            for name in active(config)
+            if yoo_sources.takes(SOURCES[name])
+        ]
+        self.recorders = {name: Recorder(np.ones(len(methods), bool)) for name, _ in self.sources}
+        self._until_s: float | None = None
 
     # ------------------------------------------------------------------ set-up
     def start(
@@ -159,13 +179,20 @@ class YooBank(ChunkDriver):
     def _run_chunk(
         self, chunk: SimChunk, inputs: ChunkInputs, store: Store, poll_every: int
     ) -> Iterator[int]:
-        """The chunk's stops (covariance steps, DVL pings, output epochs) in compiled spans that
-        end at the output epochs where the driver polls."""
+        """The chunk's stops (covariance steps, DVL pings, output epochs, the sources' epochs) in
+        compiled spans that end at the output epochs where the driver polls and at the sources'
+        epochs, whose corrections are made here (:meth:`_fuse_sources`)."""
         k0, n = chunk.k0, chunk.truth.num_samples
         pings = store["up_k"]
         outs = store["out_k"]
         cov = np.arange(self.k_cov + self.cov_step, k0 + n, self.cov_step)
-        stops = np.unique(np.concatenate([pings, outs, cov]).astype(np.int64))
+        source_at = {}
+        for name, _ in self.sources:
+            if name in chunk.sources:
+                index = np.asarray(chunk.sources[name].index, dtype=np.int64)
+                source_at[name] = {int(k): j for j, k in enumerate(index) if k0 <= k < k0 + n}
+        source_k = np.array(sorted({k for at in source_at.values() for k in at}), dtype=np.int64)
+        stops = np.unique(np.concatenate([pings, outs, cov, source_k]).astype(np.int64))
         stops = stops[stops >= k0]
         ping_of_stop = np.full(stops.size, -1, np.int64)
         ping_of_stop[np.searchsorted(stops, pings)] = np.arange(pings.size)
@@ -174,17 +201,23 @@ class YooBank(ChunkDriver):
         out_stops = np.flatnonzero(row_of_stop >= 0)
         if poll_every:
             before = int(np.count_nonzero(self.out_idx < k0))  # output epochs of the earlier chunks
-            ends = out_stops[(before + np.arange(out_stops.size) + 1) % poll_every == 0] + 1
+            polls = out_stops[(before + np.arange(out_stops.size) + 1) % poll_every == 0] + 1
         else:
-            ends = np.zeros(0, np.int64)
-        ends = np.unique(np.r_[ends, stops.size]).astype(np.int64)
+            polls = np.zeros(0, np.int64)
+        polls = np.unique(np.r_[polls, stops.size]).astype(np.int64)
+        fixes = np.searchsorted(stops, source_k) + 1  # a span ends at each source epoch
         run = self._run_compiled if self.compiled else self._run_numpy
         s0 = 0
-        for s1 in ends:
+        for s1 in np.unique(np.r_[polls, fixes]).astype(np.int64):
             run(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, inputs, store)
             s0 = int(s1)
-            if s1 > 0 and row_of_stop[s1 - 1] >= 0 and poll_every:
-                yield int(stops[s1 - 1])
+            if s1 == 0:
+                continue
+            k = int(stops[s1 - 1])
+            if k in source_k:
+                self._fuse_sources(chunk, k, source_at, int(row_of_stop[s1 - 1]), store)
+            if s1 in polls and row_of_stop[s1 - 1] >= 0 and poll_every:
+                yield k
 
     def _store(self, outs: np.ndarray, chunk: SimChunk | None) -> Store:
         k0 = chunk.k0 if chunk is not None else 0
@@ -488,6 +521,52 @@ class YooBank(ChunkDriver):
         store["up_flags"][p, m] = np.stack([valid, use, valid & ~passed], axis=-1)
         store["up_nis"][p, m] = np.where(valid, nis, np.nan)
 
+    def _fuse_sources(
+        self, chunk: SimChunk, k: int, source_at: dict[str, dict[int, int]], row: int, store: Store
+    ) -> None:
+        """The sources' corrections at sample ``k`` (after the DVL's, which the span ending at ``k``
+        made), in registry order, for both methods and every run; then the output epoch at ``k``,
+        if there is one, is recorded again (``row``), after the corrections, as the 20-state bank
+        records it."""
+        i = k - chunk.k0
+        t = float(chunk.truth.t_s[i])
+        M, R = self.batch
+        nominal = Nominal(
+            NavState(self.pos, self.vel, self.C), self.ba, self.bg, np.zeros((M, R, 4)), np.zeros((M, R))
+        )
+        for name, model in self.sources:
+            if k not in source_at.get(name, {}):
+                continue
+            meas = model.measure(nominal, chunk.sources[name], source_at[name][k])
+            m_rows = meas.R.shape[-1]
+            active = np.ones((M, R, m_rows), bool) if meas.active is None else meas.active.astype(bool)
+            active = active & meas.valid[..., None]
+            P, dx, outcome = yoo.correct_consider(
+                self.P,
+                yoo_sources.yoo_H(meas.H, NA),
+                meas.R,
+                meas.innovation,
+                active,
+                meas.gate_rows,
+                self.gate,
+            )
+            self.P[...] = P
+            self.vel += dx[..., yoo.VEL]
+            self.C[...] = exp_so3(dx[..., yoo.ATT]) @ self.C
+            self.ba += dx[..., yoo.BA]
+            self.bg += dx[..., yoo.BG]
+            self.recorders[name].add(t, make_outcome(meas.z, meas.innovation, active, *outcome), meas.valid)
+        if row >= 0:
+            self._record(chunk, i, row, store)
+
+    def _sealed(self) -> None:
+        for rec in self.recorders.values():
+            rec.seal()
+
+    def _concatenate(self, chunks: list[Store], until_s: float | None) -> Store:
+        self._until_s = until_s  # the sources' records are cut there too (_results)
+        return super()._concatenate(chunks, until_s)
+
     def _record(self, chunk, i: int, row: int, store: dict[str, np.ndarray]) -> None:
         truth = chunk.truth
         v_t, C_t = truth.vel_n[i], truth.C_nb[i]
@@ -547,6 +626,7 @@ class YooBank(ChunkDriver):
                 "rpm_in_use": cat["tr_use"],
                 "altitude_m": cat["tr_alt"],
             }
+        first_update = {key: rec.taken for key, rec in self.recorders.items()} if taking and self.keep else {}
         out = {}
         for m, method in enumerate(self.methods):
             updates = {}
@@ -570,12 +650,18 @@ class YooBank(ChunkDriver):
                     nis_dof=np.where(valid, 3, 0),
                     unusable=np.zeros_like(valid),
                 )
+            for name, rec in self.recorders.items():
+                record = rec.build(m, first_update.get(name, 0)) if rec.count else None
+                if record is not None:
+                    updates[name] = record if self._until_s is None else _until(record, self._until_s)
             nonfinite = ~np.isfinite(cat["series"][NEES_ROW, m])
             first_bad = (
                 np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T])
                 if t_s.size
                 else np.full(R, np.nan)
             )
+            flags = [first_bad] + [rec.divergence_s(m) for rec in self.recorders.values() if rec.count]
+            first_bad = np.fmin.reduce(np.stack(flags), axis=0)
             out[method] = method_result(
                 method,
                 m,
@@ -588,7 +674,20 @@ class YooBank(ChunkDriver):
                 block_dims=BLOCK_DIMS,
                 vkf_trace=trace if method == "vkf" else None,
             )
+        if taking:
+            for rec in self.recorders.values():
+                if self.keep:
+                    rec.taken = len(rec.chunks)
+                else:
+                    rec.drain()
         return out
+
+
+def _until(record: UpdateRecord, until_s: float) -> UpdateRecord:
+    """The updates of ``record`` up to ``until_s`` (inclusive)."""
+    U = int(np.searchsorted(record.t_s, until_s, side="right"))
+    cut = {f.name: getattr(record, f.name) for f in dataclasses.fields(record)}
+    return UpdateRecord(**{k: v[:U] if isinstance(v, np.ndarray) else v for k, v in cut.items()})
 
 
 def _euler_batch(C: np.ndarray) -> np.ndarray:

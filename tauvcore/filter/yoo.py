@@ -147,3 +147,64 @@ def F_batch(
     F[:, ATT, ATT] = -skew_batch(w_ie + w_en)
     F[:, ATT, BG] = -C
     return F
+
+
+def correct_consider(
+    P: np.ndarray,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    gate_rows: bool,
+    gate_sigma: float,
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    """A gated Joseph-form update of the 12 states with consider states after them (Schmidt-Kalman:
+    the consider rows of K are zero), for a batch ``B``: ``P`` (B, N, N), ``H`` (B, m, N), ``Rm``
+    (B, m, m), ``nu`` (B, m), ``active`` (B, m) the rows measured (an inactive row is dropped
+    exactly). The gate is the 20-state correction's (tauvcore.filter.eskf.correct): a row must lie
+    within ``gate_sigma`` standard deviations of its prediction, a vector failing in any row is
+    refused whole (``gate_rows`` False) or loses its failing rows; an entry whose S over its rows is
+    not finite or not positive definite fuses nothing (unusable).
+
+    Returns the updated P, the correction ``dx`` (B, 12) to inject, and the outcome of
+    tauvcore.filter.eskf.make_outcome: S's diagonal (NaN off the active rows), the rows kept, the NIS
+    over the active rows before the gate, the test ratio and whether the entry was unusable."""
+    N = P.shape[-1]
+    eye_m = np.eye(nu.shape[-1], dtype=bool)
+
+    def innovation_covariance(rows: np.ndarray) -> tuple[np.ndarray, ...]:
+        Hr = np.where(rows[..., None], H, 0.0)
+        both = rows[..., :, None] & rows[..., None, :]
+        Rr = np.where(both, Rm, np.where(eye_m, 1.0, 0.0))  # an inactive row: uncorrelated, unit
+        PHt = P @ Hr.swapaxes(-1, -2)
+        S = Hr @ PHt + Rr
+        finite = np.asarray(np.isfinite(S).all(axis=(-2, -1)))
+        safe = np.where(finite[..., None, None], S, np.eye(S.shape[-1]))
+        usable = np.asarray(finite & (np.linalg.eigvalsh(0.5 * (safe + safe.swapaxes(-1, -2)))[..., 0] > 0.0))
+        S_inv = np.linalg.inv(np.where(usable[..., None, None], safe, np.eye(S.shape[-1])))
+        return Hr, Rr, PHt, S, S_inv, usable
+
+    _, _, _, S, S_inv, usable = innovation_covariance(active)
+    s_diag = np.where(active, np.einsum("...ii->...i", S), np.nan)
+    nu_a = np.where(active, nu, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio_rows = np.where(active, nu**2 / (gate_sigma**2 * s_diag), -np.inf)
+        ratio = np.where(active.any(axis=-1), ratio_rows.max(axis=-1), np.nan)
+        nis = np.where(
+            usable & active.any(axis=-1), np.einsum("...i,...ij,...j->...", nu_a, S_inv, nu_a), np.nan
+        )
+    passed = ~(ratio_rows > 1.0)  # NaN (an infinite S) fails nothing here; unusable covers it
+    keep = active & passed if gate_rows else active & passed.all(axis=-1, keepdims=True)
+    keep &= usable[..., None]
+    Hk, Rk, PHt, _, S_inv, usable_k = innovation_covariance(keep)
+    keep &= usable_k[..., None]
+    fuses = np.asarray(keep.any(axis=-1))  # (B,) an entry with a row kept
+    K = PHt @ S_inv
+    K[..., DIM:, :] = 0.0  # the consider states are never corrected
+    K = np.where(fuses[..., None, None], K, 0.0)
+    dx = np.einsum("...ij,...j->...i", K, np.where(keep, nu, 0.0))[..., :DIM]
+    I_KH = np.eye(N) - K @ Hk
+    P_new = I_KH @ P @ I_KH.swapaxes(-1, -2) + K @ Rk @ K.swapaxes(-1, -2)
+    P_new = np.where(fuses[..., None, None], 0.5 * (P_new + P_new.swapaxes(-1, -2)), P)
+    unusable = ~usable & active.any(axis=-1)
+    return P_new, dx, (s_diag, keep, nis, ratio, unusable)

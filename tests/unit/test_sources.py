@@ -100,6 +100,8 @@ def test_H_matches_central_differences_of_the_innovation(name: str, earth: str) 
     for block in STATE.names:
         sl = getattr(STATE, block)
         np.testing.assert_allclose(meas.H[..., sl], H_fd[..., sl], rtol=0, atol=atol, err_msg=f"{name}: H[{block}]")
+        if block not in source.observes:  # what it declares is all its H weighs (Yoo's bank relies on it)
+            assert not meas.H[..., sl].any() and np.abs(H_fd[..., sl]).max() <= atol, f"{name}: H[{block}]"
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -233,13 +235,18 @@ def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_ta
 
 
 @pytest.mark.parametrize("name", FUSED_NAMES)
-def test_the_run_table_says_that_yoos_methods_do_not_fuse_the_source(name: str) -> None:
+def test_yoos_methods_fuse_the_source_if_their_states_can_and_the_run_table_says_which_not(name: str) -> None:
+    """Yoo 2014's 12-state filter has no position state and its velocity error is in NED: it fuses
+    a source whose H weighs only its attitude and biases (the magnetometer), no other."""
     from app.tables import summary_table
+    from tauvcore.engine.yoo_sources import takes
 
     config = _config(name, duration_s=30.0).replace("run", methods=("lc", "vkf"))
     results = run_streaming(config, np.random.default_rng(0))
-    assert name in results["lc"].updates and name not in results["vkf"].updates
-    assert f"they fuse the DVL only, not {name}" in summary_table(results, config, 1.0)
+    assert name in results["lc"].updates
+    assert (name in results["vkf"].updates) == takes(SOURCES[name]) == (set(SOURCES[name].observes) <= {"att", "ba", "bg"})
+    table = summary_table(results, config, 1.0)
+    assert (f"they do not fuse {name} (no position state)" in table) == (not takes(SOURCES[name]))
 
 
 @pytest.mark.parametrize("name", sorted(n for n, s in SOURCES.items() if not s.fused and not s.methods_fuse))

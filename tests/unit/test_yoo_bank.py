@@ -161,7 +161,7 @@ def _assert_results_equal(fast: dict, slow: dict, rtol: float = 1e-9) -> None:
         same(fast[method], slow[method], method)
 
 
-@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8"])
+@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic"])
 def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """tauvcore.filter.yoo_kernels against YooBank(compiled=False), to 1e-9, every field: over the
     first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
@@ -173,6 +173,8 @@ def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: py
         config = _longrange(400.0).replace("run", methods=("vkf", "ins-dvl"))
         if case.startswith("noisy"):
             config = config.replace("dvl", beyond_range="noisy")
+        if case.startswith("mag"):  # the magnetometer's corrections between the compiled spans
+            config = config.replace("run", aiding=("dvl", "mag"))
     fast = run_streaming(config, np.random.default_rng(3), num_runs=3)
     _numpy_bank(monkeypatch)
     slow = run_streaming(config, np.random.default_rng(3), num_runs=3)
@@ -181,6 +183,8 @@ def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: py
     assert ups.fused.any() and (case == "flat-figure8" or fast["vkf"].vkf_trace["rpm_in_use"].any())
     if case.startswith("noisy"):
         assert fast["ins-dvl"].updates["dvl"].rejected.any()
+    if case.startswith("mag"):
+        assert fast["vkf"].updates["mag"].fused.mean() > 0.95
 
 
 def test_progress_and_stop_reach_the_yoo_methods() -> None:
@@ -190,7 +194,7 @@ def test_progress_and_stop_reach_the_yoo_methods() -> None:
     too, up to the same time, and a stop cuts both at the same epoch."""
     times = {}
     for methods in (("lc",), ("ins-dvl", "vkf"), ("lc", "vkf")):
-        config = _longrange(30.0).replace("run", methods=methods)
+        config = _longrange(30.0).replace("run", methods=methods, aiding=("dvl", "mag"))
         seen: list[tuple[float, dict]] = []
         run_streaming(config, np.random.default_rng(0), progress=lambda t, r: seen.append((t, r)))
         times[methods] = [t for t, _ in seen]
@@ -198,12 +202,14 @@ def test_progress_and_stop_reach_the_yoo_methods() -> None:
             assert set(partial) == set(methods)
             for r in partial.values():
                 assert r.t_s[-1] == pytest.approx(t), methods
+                assert r.updates["mag"].t_s[-1] <= t + 1e-9, methods
         calls = iter(range(1000))
         stopped = run_streaming(config, np.random.default_rng(0), should_stop=lambda: next(calls) >= 120)
         ends = {m: r.t_s[-1] for m, r in stopped.items()}
         assert len(set(ends.values())) == 1 and 10.0 < ends[methods[-1]] < 29.0, ends
         if "vkf" in methods:
             assert stopped["vkf"].updates["dvl"].t_s[-1] <= ends["vkf"]
+            assert stopped["vkf"].updates["mag"].t_s[-1] <= ends["vkf"]
             assert stopped["vkf"].vkf_trace["t_s"][-1] <= ends["vkf"]
     assert len(times[("lc",)]) >= 5
     assert times[("ins-dvl", "vkf")] == times[("lc",)] == times[("lc", "vkf")]
