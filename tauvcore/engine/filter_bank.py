@@ -54,7 +54,7 @@ from tauvcore.engine.dvl_fusion import (
     rpm_measurement,
 )
 from tauvcore.engine.monitor import sensor_prior_bound
-from tauvcore.engine.recorder import Recorder
+from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
@@ -603,11 +603,7 @@ class FilterBank(ChunkDriver):
                 updates={src: record for src, record in built.items() if record is not None},
             )
         if taking:
-            for rec in self.recorders.values():
-                if self.keep:
-                    rec.taken = len(rec.chunks)
-                else:
-                    rec.drain()
+            handed_out(self.recorders.values(), self.keep)
         return out
 
 

@@ -3,6 +3,8 @@ columns the divergence monitor reads for the whole mission."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -11,6 +13,16 @@ from tauvcore.engine.results import UpdateRecord
 from tauvcore.filter.eskf import (
     UpdateOutcome,
 )
+
+
+def handed_out(recorders: Iterable[Recorder], keep: bool) -> None:
+    """The sealed chunks of ``recorders`` handed out (a bank's ``take``): marked taken if the bank
+    keeps them, else dropped."""
+    for rec in recorders:
+        if keep:
+            rec.taken = len(rec.chunks)
+        else:
+            rec.drain()
 
 
 class Recorder:

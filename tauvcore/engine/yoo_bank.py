@@ -56,7 +56,7 @@ from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine import yoo_loop, yoo_sources
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
-from tauvcore.engine.recorder import Recorder
+from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult, UpdateRecord, method_result
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
@@ -675,11 +675,7 @@ class YooBank(ChunkDriver):
                 vkf_trace=trace if method == "vkf" else None,
             )
         if taking:
-            for rec in self.recorders.values():
-                if self.keep:
-                    rec.taken = len(rec.chunks)
-                else:
-                    rec.drain()
+            handed_out(self.recorders.values(), self.keep)
         return out
 
 
