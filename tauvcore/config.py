@@ -220,12 +220,17 @@ class Config:
 
     def __post_init__(self) -> None:
         imu_rate = self.imu.rate_hz
+        rates = []
+        for source in SOURCES.values():  # every source's rate (a plug-in's may derive from its fields)
+            section = self.section(source.section_name)
+            rate = source.rate_hz(section)
+            rates.append(
+                (f"{source.section_name}.rate_hz", rate)
+                if getattr(section, "rate_hz", None) == rate
+                else (f"{source.section_name} (its rate)", rate)
+            )
         for name, rate in (
-            ("dvl.rate_hz", self.dvl.rate_hz),
-            ("pressure.rate_hz", self.pressure.rate_hz),
-            ("magnetometer.rate_hz", self.magnetometer.rate_hz),
-            ("echo_sounder.rate_hz", self.echo_sounder.rate_hz),
-            ("rpm.rate_hz", self.rpm.rate_hz),
+            *rates,
             ("filter.output_rate_hz", self.filter.output_rate_hz),
             ("filter.covariance_rate_hz", self.filter.covariance_rate_hz),
         ):

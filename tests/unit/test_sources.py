@@ -324,3 +324,29 @@ def test_a_bad_cell_of_the_velocity_filter_s_tables_names_the_file_the_column_an
     assert main(["replay", str(tmp_path / "log"), "--method", "vkf"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{table}.csv" in err[0] and words in err[0], err
+
+
+def _rate_setting(name: str):
+    from tauvcore.validation import settings
+
+    return {key: s for key, _, s in settings(SOURCES[name].config_type)}.get("rate_hz")
+
+
+# the sources whose rate may exceed the slowest IMU's 50 Hz (the DVL's stops at 25 Hz, a USBL's at 2 Hz)
+CAN_OUTRUN_THE_IMU = [n for n in NAMES if (r := _rate_setting(n)) is not None and r.high is not None and r.high > 50.0]
+
+
+@pytest.mark.parametrize("name", CAN_OUTRUN_THE_IMU)
+def test_a_source_faster_than_the_imu_is_refused_naming_its_rate(name: str) -> None:
+    """Every epoch falls on an IMU sample: a source's rate above the IMU's is refused, whichever
+    source it is (the configuration reads every source's rate from the registry)."""
+    from tauvcore.config import from_dict
+    from tauvcore.validation import ConfigError
+
+    section, high = SOURCES[name].section_name, _rate_setting(name).high
+    with pytest.raises(ConfigError, match=rf"^{section}\.rate_hz must not exceed imu\.rate_hz \(50 Hz\)"):
+        from_dict({"imu": {"rate_hz": 50.0}, section: {"rate_hz": high}})
+
+
+def test_some_source_can_outrun_the_imu() -> None:
+    assert {"depth", "mag", "echo"} <= set(CAN_OUTRUN_THE_IMU)
