@@ -23,6 +23,7 @@ from __future__ import annotations
 import importlib
 
 from tauvcore.aiding.fusion_method import FusionMethod
+from tauvcore.aiding.sources import SOURCES
 
 MODULES = (
     "cv",  # tauvcore/aiding/cv.py: constant body velocity, the worked example of docs/adding_a_method.md
@@ -37,6 +38,12 @@ def _load(modules: tuple[str, ...]) -> dict[str, FusionMethod]:
         if not isinstance(method, FusionMethod):
             raise TypeError(
                 f"tauvcore.aiding.{module_name} must define METHOD = FusionMethod(...), got {method!r}"
+            )
+        taken = {name for name in SOURCES} | {s.table for s in SOURCES.values()}
+        if method.name in taken or method.source in taken:
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: method or source {method.name!r} / {method.source!r} is an "
+                "aiding source's name (tauvcore.aiding.sources)"
             )
         if method.name in out or method.source in {m.source for m in out.values()}:
             raise ValueError(

@@ -117,3 +117,27 @@ def test_cv_runs_end_to_end_beside_the_other_methods() -> None:
     for method in ("ins", "lc"):          # the same, to round-off (the bank's batch differs)
         np.testing.assert_allclose(with_cv[method].pos_err_m, without[method].pos_err_m, rtol=1e-9)
         np.testing.assert_allclose(with_cv[method].nees, without[method].nees, rtol=1e-9)
+
+
+@pytest.mark.parametrize("which", ["name", "source"])
+def test_a_method_may_not_take_an_aiding_source_s_name(which: str, monkeypatch) -> None:
+    """A registered method's records would mix with the source's (MethodResult.updates): every
+    registered aiding source's name and table are refused, the plug-ins' as the built-in ones'
+    (those FusionMethod itself refuses, RESERVED, aside)."""
+    import sys
+    import types
+
+    from tauvcore.aiding import registry
+    from tauvcore.aiding.fusion_method import RESERVED
+    from tauvcore.aiding.sources import SOURCES
+
+    taken = sorted({*SOURCES, *(s.table for s in SOURCES.values())} - set(RESERVED))
+    assert {"usbl", "echo", "attitude"} <= set(taken)
+    for name in taken:
+        good = {"name": "mine", "source": "mine_fix", "rate_hz": 1.0, "model": ConstantVelocity.from_config,
+                "summary": "x"}
+        module = types.ModuleType("tauvcore.aiding.mine")
+        module.METHOD = FusionMethod(**{**good, which: name})  # type: ignore[attr-defined]
+        monkeypatch.setitem(sys.modules, "tauvcore.aiding.mine", module)
+        with pytest.raises(ValueError, match="an aiding source's name"):
+            registry._load(("mine",))
