@@ -102,15 +102,29 @@ class Tab:
         return self.page.locator(f'xpath=//label[normalize-space()="{label}"]/../../following-sibling::*[1]'
                                  '//input[not(@type="hidden")]')
 
-    def open_folder(self, label: str) -> None:
+    def open_folder(self, label: str, reveals: str | None = None) -> None:
         """Expand the GUI folder titled ``label``. The title is scrolled into view and clicked
         without waiting for the panel to hold still: under software WebGL on a loaded machine the
         panel's layout can keep moving for longer than the click's actionability wait (a CI run
-        timed out after 30 s), and a folder title does not move on its own."""
-        title = self.page.get_by_text(label, exact=False).first
-        title.scroll_into_view_if_needed(timeout=15000)
-        title.click(force=True, timeout=15000)
-        self.page.wait_for_timeout(300)
+        timed out after 30 s), and a folder title does not move on its own. With ``reveals`` (the
+        label of a field inside), the folder is clicked again, twice at most, until that field
+        shows: a folder that appeared a moment before (its source just ticked) may still be
+        moving when the first click lands."""
+        from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
+
+        for attempt in range(3):
+            title = self.page.get_by_text(label, exact=False).first
+            title.scroll_into_view_if_needed(timeout=15000)
+            title.click(force=True, timeout=15000)
+            self.page.wait_for_timeout(300)
+            if reveals is None:
+                return
+            try:
+                self.field(reveals).wait_for(state="visible", timeout=5000)
+                return
+            except PlaywrightTimeoutError:
+                if attempt == 2:
+                    raise
 
     def type_into(self, label: str, text: str) -> None:
         """Clear the field and type ``text`` key by key, as a person does."""

@@ -26,7 +26,7 @@ def test_usbl_ticked_in_the_aiding_folder_runs_and_shows_its_innovations(new_tab
     tab.open_folder("Aiding")
     tab.checkbox("USBL").wait_for(state="visible", timeout=15000)
     tab.set_checkbox("USBL", True)
-    tab.open_folder("USBL settings")
+    tab.open_folder("USBL settings", reveals="USBL fix interval [s]")
     tab.type_into("USBL fix interval [s]", "2")
     tab.field("USBL latency [s]").scroll_into_view_if_needed(timeout=15000)
     tab.page.screenshot(path=SCREENSHOT)
