@@ -131,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_path,
         metavar="DIR",
         help="also write the simulated sensors and truth as a log "
-        "(tauv replay reads it; see the README's log format)",
+        "(tauv replay reads it; see docs/replay.md for the log format)",
     )
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
     rl = sub.add_parser(

@@ -89,7 +89,7 @@ METHOD_HINTS = {
 }
 METHOD_HINTS.update({m.name: m.summary for m in REGISTRY.values()})  # registered: their own summary
 """Hints of the method checkboxes that need one (Yoo 2014's, and the registered methods'; the first
-paper's are named in the README)."""
+paper's are named in the README's table of methods)."""
 FULL_BEAM_METHODS = ("lc", "ins-dvl")
 """Methods that fuse no DVL velocity with fewer than three beams (tauvcore.engine.yoo_bank for INS-DVL)."""
 SEED = "Seed"

@@ -1,6 +1,6 @@
 """Replay of a log: a simulated mission written as a log directory, read back and replayed.
 
-Shows the path your own data takes (the README's "Your own data: ``tauv replay``"): a log is a
+Shows the path your own data takes (docs/replay.md): a log is a
 directory of tables (``imu``, ``reference``, optional ``dvl``, ``depth``, ``attitude``; CSV or
 Parquet, one clock ``t_s``). Here the log is made as ``tauv run --save-log DIR`` makes it:
 :func:`~tauvcore.engine.mission.run_streaming` hands every chunk of the simulation to

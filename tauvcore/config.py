@@ -65,7 +65,7 @@ gives each a colour: app.figures.METHOD_COLORS)."""
 DEFAULT_METHODS = ("ins", "lc")
 AUTO = "auto"
 """A parameter derived from the rest of the configuration (``partial.nsv_epsilon_m2_per_s2``)."""
-"""Methods run when none are named: the standalone INS and loosely coupled DVL (README, --help)."""
+"""Methods run when none are named: the standalone INS and loosely coupled DVL (--help)."""
 
 MAX_CONFIG_BYTES = 1 << 20
 """Largest configuration file read [bytes]: the full configuration is ~2 kB; 1 MiB leaves room

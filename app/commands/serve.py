@@ -76,7 +76,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         if not logs:
             raise UsageError(
                 f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
-                f"imu.parquet; see the README){_raw_layouts_in(args.logs)}"
+                f"imu.parquet; see docs/replay.md){_raw_layouts_in(args.logs)}"
             )
     from app.dashboard import main as serve_main
     from app.hardening import exit_now  # viser only when serving

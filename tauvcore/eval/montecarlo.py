@@ -15,7 +15,7 @@ def monte_carlo(config: Config, num_runs: int, rng: np.random.Generator) -> dict
     """Run every method over ``num_runs`` runs with initial errors drawn as 1-sigma (Table 2).
 
     The whole simulation is made first, every draw from ``rng`` in one stream (the sampling of the
-    README's accuracy tables and of the statistical tests, reproducible since they were
+    accuracy tables (docs/accuracy.md) and of the statistical tests, reproducible since they were
     measured); it holds the mission's truth and sensors whole, so for long missions or many runs
     use :func:`tauvcore.engine.mission.run_streaming` (what ``tauv mc`` does), whose per-source
     streams give other draws of the same distributions."""

@@ -9,7 +9,7 @@ trajectory and method) and a rule:
 - a stated improvement against the INS (-33 % attitude): *same* within 10 percentage points;
 - an ordering ("NSV better than TC"): *same ordering* or *ordering differs*.
 
-``why`` says, where we know it, what makes a difference (README, "Two beams").
+``why`` says, where we know it, what makes a difference (docs/accuracy.md, "Two beams").
 """
 
 from __future__ import annotations

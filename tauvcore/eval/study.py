@@ -290,7 +290,7 @@ def iterate_chunks(
 ) -> Iterator[ChunkSeries]:
     """Compute the study's chunks and yield them in run order: in this process (``workers`` 1),
     on ``workers`` local processes (or the given ``pool``, :func:`local_pool`), or on the Dask
-    scheduler at ``dask_address`` (its workers need this package installed; see the README);
+    scheduler at ``dask_address`` (its workers need this package installed; see docs/studies.md);
     or the chunks :func:`submit_chunks` queued (``submitted``)."""
     if submitted is not None:
         for f in submitted:
@@ -340,7 +340,7 @@ PAPER_CHUNK_RUNS = 50
 """Runs per chunk of ``tauv reproduce``'s studies of several methods (fixed too), and four times
 as many for a study of one method (its LC reference): larger chunks pay the per-chunk work
 (truth, the Python between compiled calls) fewer times. 25 and 25: 48.8 CPU-s, 26.1 s wall;
-50 and 100 with every study queued at once (:func:`submit_chunks`): see the README."""
+50 and 100 with every study queued at once (:func:`submit_chunks`): see docs/studies.md."""
 
 
 def paper_chunk_runs(config: Config) -> int:

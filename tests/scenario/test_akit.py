@@ -48,9 +48,9 @@ METHODS = ("ins", "lc", "tc", "nsv", "elc")
 
 
 def _readme_table() -> dict[str, dict[str, float]]:
-    """The README's A-KIT table: segment -> method -> position error at the end [m]."""
+    """The A-KIT table of docs/replay.md: segment -> method -> position error at the end [m]."""
     rows = {}
-    for line in (ROOT / "README.md").read_text(encoding="utf-8").splitlines():
+    for line in (ROOT / "docs" / "replay.md").read_text(encoding="utf-8").splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if cells[0].startswith("Trajectory") and len(cells) == 3 + len(METHODS):
             rows[cells[0]] = dict(zip(METHODS, map(float, cells[3:]), strict=True))
@@ -66,15 +66,15 @@ def _replay_json(out: Path, json_path: Path, *argv: str) -> dict:
 
 
 def _convert(segment: Path, out: Path) -> None:
-    """The README's command: ``python scripts/akit_to_log.py SEGMENT OUT``."""
+    """docs/replay.md's command: ``python scripts/akit_to_log.py SEGMENT OUT``."""
     proc = subprocess.run([sys.executable, str(ROOT / "scripts" / "akit_to_log.py"), str(segment), str(out)],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
 
 
 def test_the_readme_commands_give_the_readme_figures_on_segment_1(tmp_path: Path) -> None:
-    """``akit_to_log.py`` then ``tauv replay OUT --method ins,lc``, as the README says, with no
-    further flag or file: the README's INS and LC on Trajectory1 to their 0.1 m (the log's own
+    """``akit_to_log.py`` then ``tauv replay OUT --method ins,lc``, as docs/replay.md says, with no
+    further flag or file: that page's INS and LC on Trajectory1 to their 0.1 m (the log's own
     log.toml applied, the filters starting on the reference), and the JSON says so."""
     out = tmp_path / "akit1"
     _convert(SEGMENT, out)
@@ -95,7 +95,7 @@ def test_the_readme_commands_give_the_readme_figures_on_segment_1(tmp_path: Path
 
 @pytest.mark.slow
 def test_the_readme_commands_give_the_readme_table(tmp_path: Path) -> None:
-    """Every segment of the README's table, by its own commands: the INS and LC with four beams,
+    """Every segment of that page's table, by its own commands: the INS and LC with four beams,
     TC, NSV and ELC with beams 1 and 2, to the table's 0.1 m."""
     table = _readme_table()
     assert len(table) == 13

@@ -1,0 +1,75 @@
+"""The documentation site (mkdocs.yml, docs/): built as `bash scripts/docs.sh` builds it, with
+every warning an error (a broken link or anchor, a page left out of the navigation, a docstring
+the API reference cannot read), into a temporary directory; nothing in it is fetched when a page
+is viewed; the README stays a front door whose links reach the site's pages."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.release
+
+REPO = Path(__file__).resolve().parents[2]
+README_MAX_LINES = 250
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str], float]:
+    out = tmp_path_factory.mktemp("site")
+    mkdocs = Path(sys.executable).with_name("mkdocs")
+    assert mkdocs.exists(), "mkdocs not installed: pip install -e '.[test]'"
+    started = time.perf_counter()
+    proc = subprocess.run(
+        [str(mkdocs), "build", "--strict", "--site-dir", str(out)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
+    return out, proc, time.perf_counter() - started
+
+
+def test_the_site_builds_with_warnings_as_errors_in_under_a_minute(site) -> None:
+    out, proc, elapsed_s = site
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    warnings = [line for line in (proc.stdout + proc.stderr).splitlines() if line.startswith(("WARNING", "ERROR"))]
+    assert warnings == []
+    assert elapsed_s < 60.0, f"the build took {elapsed_s:.1f} s"
+    assert (out / "index.html").is_file() and (out / "api" / "engine.html").is_file()
+
+
+def test_the_api_reference_holds_the_library_s_docstrings(site) -> None:
+    out, _, _ = site
+    engine = (out / "api" / "engine.html").read_text(encoding="utf-8")
+    for name in ("run_streaming", "SimChunk", "MethodResult"):
+        assert 'id="tauvcore.engine.' in engine and name in engine, name
+    aiding = (out / "api" / "aiding.html").read_text(encoding="utf-8")
+    assert "AidingSource" in aiding and "observes" in aiding
+
+
+def test_nothing_in_the_site_is_fetched_when_a_page_is_viewed(site) -> None:
+    out, _, _ = site
+    external = re.compile(r"""<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)=["'](?:https?:)?//""", re.I)
+    for page in out.rglob("*.html"):
+        found = external.findall(page.read_text(encoding="utf-8"))
+        assert not found, f"{page.relative_to(out)}: {found}"
+    for sheet in out.rglob("*.css"):
+        assert not re.search(r"@import\s+url\(\s*[\"']?https?:", sheet.read_text(encoding="utf-8")), sheet
+
+
+def test_the_readme_is_a_front_door_whose_links_reach_the_site() -> None:
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= README_MAX_LINES
+    links = re.findall(r"\]\((docs/[^)#]+)", text)
+    assert len(links) >= 10
+    for link in links:
+        assert (REPO / link).is_file(), link
+    assert not re.search(r"\b(issue|session) [0-9]", text, re.I)
