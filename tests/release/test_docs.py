@@ -73,3 +73,26 @@ def test_the_readme_is_a_front_door_whose_links_reach_the_site() -> None:
     for link in links:
         assert (REPO / link).is_file(), link
     assert not re.search(r"\b(issue|session) [0-9]", text, re.I)
+
+
+def test_the_cli_page_holds_every_subcommand_s_help_as_tauv_prints_it(site) -> None:
+    """docs/hooks/cli_reference.py writes the help from the parser at build time; here each is
+    compared with what the installed `tauv CMD --help` prints (COLUMNS=100), so the page cannot
+    drift from the command line."""
+    import html
+
+    from app.cli import build_parser
+
+    out, _, _ = site
+    page = html.unescape(re.sub(r"<[^>]+>", "", (out / "cli.html").read_text(encoding="utf-8")))
+    tauv = Path(sys.executable).with_name("tauv")
+    parser = build_parser()
+    commands = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction").choices
+    assert {"run", "mc", "replay", "reproduce", "serve", "config"} <= set(commands)
+    for argv in ([], *([name] for name in commands)):
+        printed = subprocess.run(
+            [str(tauv), *argv, "--help"], capture_output=True, text=True, timeout=60,
+            env={**os.environ, "COLUMNS": "100"},
+        ).stdout.rstrip()
+        assert printed.startswith("usage: tauv"), argv
+        assert printed in page, f"tauv {' '.join(argv)} --help is not on the page as printed"
