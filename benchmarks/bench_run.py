@@ -2,6 +2,8 @@
 
     python benchmarks/bench_run.py
 
+writes docs/results/bench_run.md (benchmarks/fragment.py), which docs/performance.md includes.
+
 Times one 250 s run of each method alone and together, and a 30-run Monte Carlo of ``lc`` on
 the figure eight (the NEES test's workload). Best of three, on this machine.
 """
@@ -10,6 +12,7 @@ from __future__ import annotations
 
 import time
 
+import fragment
 import numpy as np
 
 from tauvcore.config import Config
@@ -28,7 +31,7 @@ def best_of(fn, repeats: int = 3) -> float:
 
 
 def main() -> None:
-    print("| workload | wall [s] |\n|---|---|")
+    rows = ["| workload | wall [s] |", "|---|---|"]
     from tauvcore.config import METHODS
     for methods in (("lc",), ("ins", "lc"), METHODS):
         config = Config().replace("trajectory", name="figure8").replace("run", methods=methods)
@@ -37,10 +40,13 @@ def main() -> None:
             rng = np.random.default_rng(0)
             run(config, simulate(config, rng), rng)
         label = "all eight" if methods == METHODS else ",".join(methods)
-        print(f"| one 250 s run, figure8, methods {label} (simulation included) | {best_of(one):.2f} |")
+        rows.append(f"| one 250 s run, figure8, methods {label} (simulation included) | {best_of(one):.2f} |")
     config = Config().replace("trajectory", name="figure8").replace("run", methods=("lc",))
     mc = best_of(lambda: monte_carlo(config, 30, np.random.default_rng(0)))
-    print(f"| 30-run Monte Carlo, figure8, lc, 250 s | {mc:.2f} |")
+    rows.append(f"| 30-run Monte Carlo, figure8, lc, 250 s | {mc:.2f} |")
+    table = "\n".join(rows) + "\n\nBest of three, in one process, the compiled code warm."
+    print(table)
+    print(f"written to {fragment.write('bench_run', table)}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,9 @@
 """Yoo 2014's 24-minute mission with every method of both papers: how long it takes (a
-measurement, not a test; README "Beyond DVL range"; issue 12's target: under 3 s after import).
+measurement, not a test; its target: under 3 s after import).
 
     python benchmarks/longrange.py [--repeats 5] [--runs 1]
+
+writes docs/results/longrange.md (benchmarks/fragment.py), which docs/performance.md includes.
 
 The mission is ``tauv run --trajectory longrange`` (1,440 s at 10 knots over the trenches; IMU
 100 Hz, DVL 5 Hz: 144,000 IMU samples, 7,200 pings) streamed as the CLI streams it
@@ -15,6 +17,7 @@ from __future__ import annotations
 import argparse
 import time
 
+import fragment
 import numpy as np
 
 from tauvcore.config import (
@@ -44,8 +47,7 @@ def main() -> None:
     if args.repeats < 1 or args.runs < 1:
         parser.error(f"--repeats and --runs must be at least 1, got {args.repeats} and {args.runs}")
     run_streaming(_config(ALL_METHODS, 20.0), np.random.default_rng(0))           # compile / load the cache
-    print(f"longrange, 1,440 s, {args.runs} run(s), wall time over {args.repeats} repeats\n")
-    print("| methods | median [s] | min-max [s] |\n|---|---|---|")
+    rows = ["| methods | median [s] | min-max [s] |", "|---|---|---|"]
     for label, methods in (("INS only (the simulation)", ("ins",)), ("the first paper's 8", METHODS),
                            ("Yoo's 2 (ins-dvl, vkf)", YOO_METHODS), ("all 10", ALL_METHODS)):
         config = _config(methods)
@@ -56,7 +58,13 @@ def main() -> None:
             times.append(time.perf_counter() - t0)
         verdict = f" (target < {TARGET_S:g} s: {'met' if np.median(times) < TARGET_S else 'NOT met'})" \
             if methods == ALL_METHODS and args.runs == 1 else ""
-        print(f"| {label} | {np.median(times):.2f}{verdict} | {min(times):.2f}-{max(times):.2f} |")
+        rows.append(f"| {label} | {np.median(times):.2f}{verdict} | {min(times):.2f}-{max(times):.2f} |")
+    table = "\n".join(rows) + (
+        f"\n\nlongrange, 1,440 s, {args.runs} run(s) per batch, wall time over {args.repeats} repeats, the "
+        "compiled code warm."
+    )
+    print(table)
+    print(f"written to {fragment.write('longrange', table)}")
 
 
 if __name__ == "__main__":

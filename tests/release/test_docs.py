@@ -96,3 +96,19 @@ def test_the_cli_page_holds_every_subcommand_s_help_as_tauv_prints_it(site) -> N
         ).stdout.rstrip()
         assert printed.startswith("usage: tauv"), argv
         assert printed in page, f"tauv {' '.join(argv)} --help is not on the page as printed"
+
+
+def test_every_included_table_is_written_by_the_benchmark_it_names() -> None:
+    """A page's table comes from its benchmark (benchmarks/fragment.py): the fragment ends with the
+    command that wrote it, and that benchmark writes that fragment."""
+    includes = {
+        name
+        for page in (REPO / "docs").glob("*.md")
+        for name in re.findall(r'^--8<-- "docs/results/([\w-]+)\.md"', page.read_text(encoding="utf-8"), re.M)
+    }
+    assert {"longrange", "bench_run", "yoo_mag"} <= includes
+    for name in includes:
+        text = (REPO / "docs" / "results" / f"{name}.md").read_text(encoding="utf-8")
+        command = re.search(r"\*Written by `python (benchmarks/\w+\.py)[^`]*` on ", text.splitlines()[-1])
+        assert command, f"docs/results/{name}.md does not say which benchmark wrote it"
+        assert f"fragment.write('{name}'" in (REPO / command.group(1)).read_text(encoding="utf-8"), name
