@@ -91,3 +91,17 @@ def test_every_field_of_the_dvl_section_declares_its_setting() -> None:
         dvl.DvlConfig(lever_arm_m=(11.0, 0.0, 0.0))
     with pytest.raises(ConfigError, match="dvl.beyond_range must be one of lost, noisy"):
         dvl.DvlConfig(beyond_range="gone")
+
+
+def test_a_true_error_column_with_an_empty_cell_is_refused_naming_the_file_column_and_row(tmp_path) -> None:
+    """The true errors are optional as columns, but a log that has one has it at every ping."""
+    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs import read_log
+    from tauvcore.validation import LogError
+
+    config = Config().replace("trajectory", name="figure8", duration_s=20.0)
+    tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])
+    tables["dvl"][dvl_beams.TRUE_SCALE_FACTOR][4] = np.nan
+    write_log(tmp_path / "log", tables)
+    with pytest.raises(LogError, match=r"dvl\.csv.*'true_scale_factor'.*row 5"):
+        read_log(tmp_path / "log")
