@@ -1,8 +1,10 @@
-"""Issue 9's table: where the engine stands against its targets, measured in one process on this
+"""Where the engine stands against its targets, measured in one process on this
 machine (named in the first line). Every workload is a whole command in a child process; wall
 time by a monotonic clock, peak memory as the child's maximum resident set (getrusage).
 
     python benchmarks/engine_table.py [--skip-study] [--skip-long] [--repeats 3]
+
+writes docs/results/engine_table.md (benchmarks/fragment.py), which docs/performance.md includes.
 
 Rows: the CLI's import and ``tauv --help``; ``tauv run --trajectory figure8 --method all`` whole;
 one 250 s scenario of all eight methods after import; the paper's study (``tauv reproduce``,
@@ -21,6 +23,8 @@ import platform
 import subprocess
 import sys
 import tempfile
+
+import fragment
 
 PYTHON = sys.executable
 TAUV = [PYTHON, "-m", "app.cli"]
@@ -65,14 +69,19 @@ def main() -> None:
     parser.add_argument("--skip-long", action="store_true")
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    rows = ["| workload | now | target |", "|---|---|---|"]
+
+    def row(text: str) -> None:
+        rows.append(text)
+        print(text, flush=True)
+
     print(machine())
-    print("\n| workload | now | target |\n|---|---|---|")
     wall, _ = measure([PYTHON, "-c", "import app.cli"], args.repeats)
-    print(f"| import of the CLI | {wall:.2f} s | - |")
+    row(f"| import of the CLI | {wall:.2f} s | - |")
     wall, _ = measure(TAUV + ["--help"], args.repeats)
-    print(f"| `tauv --help` | {wall:.2f} s | < 0.3 s |", flush=True)
+    row(f"| `tauv --help` | {wall:.2f} s | < 0.3 s |")
     wall, _ = measure(TAUV + ["run", "--trajectory", "figure8", "--method", "all"], args.repeats)
-    print(f"| `tauv run --trajectory figure8 --method all`, whole process | {wall:.2f} s | < 1 s |", flush=True)
+    row(f"| `tauv run --trajectory figure8 --method all`, whole process | {wall:.2f} s | < 1 s |")
     scenario = ("import time, numpy as np; from tauvcore.config import Config, METHODS; "
                 "from tauvcore.engine.mission import run_streaming; "
                 "c = Config().replace('trajectory', name='figure8').replace('run', methods=METHODS); "
@@ -81,27 +90,31 @@ def main() -> None:
                 "print(time.perf_counter() - t)")
     runs = sorted(float(subprocess.run([PYTHON, "-c", scenario], check=True, capture_output=True, text=True).stdout)
                   for _ in range(args.repeats))
-    print(f"| one 250 s scenario, figure8, all 8 methods, after import and compiled-code load | "
-          f"{runs[len(runs) // 2]:.2f} s | < 0.3 s |", flush=True)
+    row(f"| one 250 s scenario, figure8, all 8 methods, after import and compiled-code load | "
+          f"{runs[len(runs) // 2]:.2f} s | < 0.3 s |")
     with tempfile.TemporaryDirectory() as tmp:
         if not args.skip_study:
             wall, peak = measure(TAUV + ["reproduce", "--out", os.path.join(tmp, "paper"), "--workers", "2"])
-            print(f"| 100 runs x 8 methods x 3 trajectories (`tauv reproduce --workers 2`) | {wall:.0f} s wall, "
-                  f"largest process {peak:.0f} MiB | < 20 s wall on 2 cores |", flush=True)
+            row(f"| 100 runs x 8 methods x 3 trajectories (`tauv reproduce --workers 2`) | {wall:.0f} s wall, "
+                  f"largest process {peak:.0f} MiB | < 20 s wall on 2 cores |")
         wall, peak = measure(TAUV + ["mc", "--method", "lc", "--runs", "100", "--out", os.path.join(tmp, "lc100")])
-        print(f"| peak memory, 100 runs, lc, 250 s (`tauv mc`, 1 process) | {peak:.0f} MiB ({wall:.0f} s) "
-              f"| < 300 MB |", flush=True)
+        row(f"| peak memory, 100 runs, lc, 250 s (`tauv mc`, 1 process) | {peak:.0f} MiB ({wall:.0f} s) "
+              f"| < 300 MB |")
     wall, peak = measure([PYTHON, "-c", _STREAM, "1", "1"])
-    print(f"| (floor: the engine imported, its compiled kernels loaded, a 1 s mission) | {peak:.0f} MiB | - |", flush=True)
+    row(f"| (floor: the engine imported, its compiled kernels loaded, a 1 s mission) | {peak:.0f} MiB | - |")
     durations = [(600, 1), (3600, 1), (3600, 10)] + ([] if args.skip_long else [(36000, 1)])
     for duration, runs in durations:
         wall, peak = measure([PYTHON, "-c", _STREAM, str(duration), str(runs)])
         target = "< 200 MB, flat in duration" if duration <= 3600 else "must run"
-        print(f"| peak memory, {duration:,} s, 8 methods, {runs} run{'s' if runs > 1 else ''}, results streamed "
-              f"(`run_streaming(keep=False)`) | {peak:.0f} MiB ({wall:.0f} s) | {target} |", flush=True)
+        row(f"| peak memory, {duration:,} s, 8 methods, {runs} run{'s' if runs > 1 else ''}, results streamed "
+              f"(`run_streaming(keep=False)`) | {peak:.0f} MiB ({wall:.0f} s) | {target} |")
     wall, peak = measure(TAUV + ["run", "--method", "all", "--duration", "3600"])
-    print(f"| peak memory, `tauv run --method all --duration 3600` (every 10 Hz series kept) | {peak:.0f} MiB "
-          f"({wall:.0f} s) | - |", flush=True)
+    row(f"| peak memory, `tauv run --method all --duration 3600` (every 10 Hz series kept) | {peak:.0f} MiB "
+          f"({wall:.0f} s) | - |")
+    scope = "the study left out (--skip-study)" if args.skip_study else "the paper's study included"
+    scope += "; the 10-hour mission left out (--skip-long)" if args.skip_long else ""
+    table = "\n".join(rows) + f"\n\nEvery row a whole command in a child process, {args.repeats} repeats where timed; {scope}."
+    print(f"written to {fragment.write('engine_table', table)}")
 
 
 _STREAM = ("import sys, numpy as np; from tauvcore.config import Config, METHODS; "
