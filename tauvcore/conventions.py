@@ -55,3 +55,7 @@ dimension): vectors are ``(..., 3)``, rotation matrices ``(..., 3, 3)``, covaria
 """
 
 NUM_DVL_BEAMS = 4
+MAX_SPEED_MPS = 30.0
+"""Largest velocity component [m/s] of a DVL beam, a DVL body velocity or the reference (58 kn:
+more than the fastest torpedo; a survey vehicle moves at 1-3 m/s); a larger one is in other
+units (mm/s, cm/s) or no measurement."""

@@ -4,7 +4,7 @@ times strictly increasing), each refusal one :class:`~tauvcore.validation.LogErr
 file, the column, the row and what the cell holds.
 
 The bounds are what physics allows a vehicle at sea (a latitude within 90 deg, a DVL velocity
-within :data:`MAX_SPEED_MPS`, ...): a value beyond one is in other units or no measurement.
+within :data:`~tauvcore.conventions.MAX_SPEED_MPS`, ...): a value beyond one is in other units or no measurement.
 """
 
 from __future__ import annotations
@@ -14,12 +14,14 @@ from pathlib import Path
 import numpy as np
 
 from tauvcore import units
+from tauvcore.aiding import dvl_beams
+from tauvcore.conventions import MAX_SPEED_MPS
 from tauvcore.log_tables import held
 from tauvcore.validation import LogError, show, show_path
 
 IMU_INCREMENTS = ("dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps")
 IMU_RATES = ("gyro_x_rps", "gyro_y_rps", "gyro_z_rps", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2")
-DVL_BEAMS = ("beam1_mps", "beam2_mps", "beam3_mps", "beam4_mps")
+DVL_BEAMS = dvl_beams.BEAMS
 DVL_BODY = ("vel_x_mps", "vel_y_mps", "vel_z_mps")
 REF_VEL = ("vel_north_mps", "vel_east_mps", "vel_down_mps")
 REF_LOCAL = ("north_m", "east_m", "down_m")
@@ -42,10 +44,6 @@ at sea feels about 1 g); a larger one is in mg or mm/s^2, or no measurement."""
 DEPTH_RANGE_M = (-100.0, 12_000.0)
 """Depths [m] a log may hold (positive down): the deepest ocean is 10,935 m (Challenger Deep);
 up to 100 m above the surface allows for a vehicle on deck, a crane, a pressure sensor's offset."""
-MAX_SPEED_MPS = 30.0
-"""Largest velocity component [m/s] of a DVL beam, a DVL body velocity or the reference (58 kn:
-more than the fastest torpedo; a survey vehicle moves at 1-3 m/s); a larger one is in other
-units (mm/s, cm/s) or no measurement."""
 MAX_LOCAL_M = 2.0e7
 """Largest north or east distance [m] of a local reference from the mission origin: half the
 earth's circumference, as far as any point of the earth is."""

@@ -35,7 +35,7 @@ Aiding epochs are taken at the IMU sample nearest in time; rows outside the IMU'
 left out. A CSV table is UTF-8 text, its header naming each column once; every cell is a number
 (empty only where a table allows it: a DVL beam that did not return, a body velocity marked
 invalid), within what the physics allows (a latitude within 90 deg, a DVL velocity within
-:data:`~tauvcore.log_columns.MAX_SPEED_MPS`, ...: the bounds of tauvcore.log_columns). Every
+:data:`~tauvcore.conventions.MAX_SPEED_MPS`, ...: the bounds of tauvcore.log_columns). Every
 problem is reported as one :class:`LogError` naming the file, the column and the row (data rows
 count from 1, the header not included) and the value.
 

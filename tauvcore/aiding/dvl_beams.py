@@ -20,6 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from tauvcore.aiding.source import AidingSource, Column, SourceData
+from tauvcore.conventions import MAX_SPEED_MPS
 from tauvcore.sensors import dvl
 from tauvcore.sensors.dvl import DvlConfig, DvlData, DvlState
 from tauvcore.sensors.timing import Rng, uniform
@@ -28,10 +29,9 @@ from tauvcore.truth.seabed import Bathymetry
 from tauvcore.truth.world import World
 
 BEAMS = ("beam1_mps", "beam2_mps", "beam3_mps", "beam4_mps")
-"""The beam velocity columns [m/s] (tauvcore.log_columns.DVL_BEAMS)."""
+"""The beam velocity columns [m/s] of the log's ``dvl`` table."""
 TRUE_BIASES = ("true_beam1_bias_mps", "true_beam2_bias_mps", "true_beam3_bias_mps", "true_beam4_bias_mps")
 TRUE_SCALE_FACTOR = "true_scale_factor"
-MAX_SPEED_MPS = 30.0  # tauvcore.log_columns.MAX_SPEED_MPS: faster than any AUV, in other units
 
 
 class DvlSource(AidingSource):
