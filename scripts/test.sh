@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
-# Install everything the tests need (Debian's Chromium for the browser tests, the Python packages
-# in .venv) and run the whole suite. Extra arguments go to pytest.
+# Install everything the tests need (Debian's packages below, the Python packages in .venv) and
+# run the whole suite. Extra arguments go to pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if ! command -v chromium >/dev/null 2>&1; then
+# Debian's Chromium for the browser tests; podman, runc and debootstrap for the container test
+# (tests/browser/test_container.py builds and runs the Dockerfile's image)
+NEED=""
+command -v chromium >/dev/null 2>&1 || NEED="$NEED chromium"
+for tool in podman runc debootstrap; do command -v "$tool" >/dev/null 2>&1 || NEED="$NEED $tool"; done
+if [ -n "$NEED" ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
+  # shellcheck disable=SC2086
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $NEED >/dev/null
 fi
 python3 -m venv .venv
 .venv/bin/pip install -q -e '.[test]'
