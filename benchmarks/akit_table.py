@@ -9,12 +9,15 @@ starting on the reference's first row), tuned with Table 2 (or, with ``--imu-err
 IMU degraded by that IMU's errors). Columns: the standalone INS; LC with four (synthetic) beams
 projected from the DVL's body velocity; TC, NSV and ELC with beams 3 and 4 dropped for the whole
 segment. Errors against the reference, itself an INS/DVL smoother (not independent of the DVL).
+
+Writes its tables to docs/results/akit_table.md (with ``--imu-errors P``, akit_table_P.md) (benchmarks/fragment.py).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import sys
 import tempfile
 from pathlib import Path
 
@@ -24,6 +27,9 @@ from tauvcore.config import from_dict
 from tauvcore.eval.replay import log_config, replay
 from tauvcore.logs import read_log
 from tauvcore.sensors.imu import IMU_PROFILES
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 ROOT = Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location("akit_to_log", ROOT / "scripts" / "akit_to_log.py")
@@ -58,19 +64,22 @@ def main() -> None:
     if not segments:
         raise SystemExit(f"no A-KIT segments under {data}")
     methods = ("ins", "lc", "tc", "nsv", "elc")
-    print(f"Position error [m] at the end of each segment (IMU errors added: {args.imu_errors or 'none'})\n")
-    print("| segment | length [s] | IMU / DVL clock [s] | INS | LC, 4 beams | TC, beams 1-2 | NSV, beams 1-2 "
-          "| ELC, beams 1-2 |")
-    print("|---|---|---|---|---|---|---|---|")
-    rows = []
-    for segment in segments:
-        row = segment_row(segment, args.imu_errors)
-        rows.append(row)
-        cells = " | ".join(f"{row[m]:.1f}" for m in methods)
-        print(f"| {segment.name} | {row['duration_s']:.0f} | {row['imu_shift_s']:+.2f} / {row['dvl_shift_s']:+.2f} "
-              f"| {cells} |", flush=True)
-    medians = " | ".join(f"{np.median([r[m] for r in rows]):.1f}" for m in methods)
-    print(f"| median | | | {medians} |")
+    with fragment.capture() as shown:
+        print(f"Position error [m] at the end of each segment (IMU errors added: {args.imu_errors or 'none'})\n")
+        print("| segment | length [s] | IMU / DVL clock [s] | INS | LC, 4 beams | TC, beams 1-2 | NSV, beams 1-2 "
+              "| ELC, beams 1-2 |")
+        print("|---|---|---|---|---|---|---|---|")
+        rows = []
+        for segment in segments:
+            row = segment_row(segment, args.imu_errors)
+            rows.append(row)
+            cells = " | ".join(f"{row[m]:.1f}" for m in methods)
+            print(f"| {segment.name} | {row['duration_s']:.0f} | {row['imu_shift_s']:+.2f} / {row['dvl_shift_s']:+.2f} "
+                  f"| {cells} |", flush=True)
+        medians = " | ".join(f"{np.median([r[m] for r in rows]):.1f}" for m in methods)
+        print(f"| median | | | {medians} |")
+    name = "akit_table" + (f"_{args.imu_errors}" if args.imu_errors else "")
+    print(f"written to {fragment.write(name, shown.getvalue())}")
 
 
 if __name__ == "__main__":

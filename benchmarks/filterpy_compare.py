@@ -1,4 +1,4 @@
-"""Our filter bank against the plain per-step filterpy ``KalmanFilter`` loop (issue 9), on the same inputs.
+"""Our filter bank against the plain per-step filterpy ``KalmanFilter`` loop, on the same inputs.
 
     python benchmarks/filterpy_compare.py
 
@@ -42,21 +42,19 @@ The final P is compared only as far as ``run()`` exposes it: ``MethodResult`` ke
 sigmas, not the matrix, so at the last epoch the traces of its position, velocity and attitude
 blocks are checked, its other terms only through the NEES (the loop's whole final P is in :attr:`LoopResult.P_final`).
 
-Measured (figure8, 250 s, on the 2-core machine): largest difference in the NEES, 3e-11 relative
-for 1 run and 5e-11 for 10 runs with random initial errors (under 1e-9 absolute too), 1e-11 or
-less for everything else, every gate decision equal; ours 13x faster for 1 run, 48x for 10. What
-is left is the round-off of two orders of the same sums (filterpy ``inv(S)`` and ``dot``, ours a
-solve and compiled loops), integrated by the INS.
+What differs is the round-off of two orders of the same sums (filterpy ``inv(S)`` and ``dot``,
+ours a solve and compiled loops), integrated by the INS. The measured differences and timings go
+to docs/results/filterpy_compare.md (benchmarks/fragment.py), which docs/performance.md includes.
 """
 
 from __future__ import annotations
 
 import copy
-import os
-import platform
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
@@ -73,6 +71,9 @@ from tauvcore.filter.layout import STATE, NavState
 from tauvcore.filter.statistics import nees
 from tauvcore.ins.error_model import F_matrix, G_matrix, discretise, noise_psd
 from tauvcore.ins.strapdown import Strapdown, body_increments
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 TOLERANCE = 1e-9
 """Largest difference allowed between ours and the filterpy loop, relative to each series' scale."""
@@ -291,39 +292,30 @@ def best_of(fn: Callable[[], object], repeats: int = 3) -> tuple[float, object]:
     return min(times), result
 
 
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    except OSError:
-        pass
-    return f"{platform.platform()}, {cpu}, os.cpu_count() = {os.cpu_count()}, Python {platform.python_version()}"
-
-
 def main() -> None:
-    print(f"Machine: {machine()}")
-    print("Ours: tauvcore.engine.mission.run (simulation excluded); filterpy loop: one filterpy KalmanFilter per run, "
-          "stepped per IMU sample in Python; the same simulation and initial errors. Best of 3, time.perf_counter.\n")
-    print("| workload | ours [s] | filterpy loop [s] | ratio | max abs. difference | max rel. difference "
-          "| gate decisions differing |")
-    print("|---|---|---|---|---|---|---|")
-    for duration_s, mode, num_runs in ((250.0, "fixed", 1), (250.0, "random", 10)):
-        config = lc_config("figure8", duration_s, mode)
-        ours, loop = prepare(config, num_runs)
-        t_ours, ours_res = best_of(ours)
-        t_loop, loop_res = best_of(loop)
-        diffs = check(ours_res, loop_res)
-        values = {name: d for name, d in diffs.items() if name != "gate"}
-        worst_abs = max(values.items(), key=lambda d: d[1][0])
-        worst_rel = max(values.items(), key=lambda d: d[1][1])
-        print(f"| {duration_s:g} s figure8, lc, {num_runs} run{'s' if num_runs > 1 else ''}, {mode} initial errors "
-              f"| {t_ours:.3f} | {t_loop:.2f} | {t_loop / t_ours:.0f}x | {worst_abs[1][0]:.1e} ({worst_abs[0]}) "
-              f"| {worst_rel[1][1]:.1e} ({worst_rel[0]}) | {diffs['gate'][0]:.0f} |")
-    print(f"\nEvery series at every output epoch and run equal to {TOLERANCE:g} (relative above 1 SI unit, "
-          "absolute below: position, velocity and attitude error norms, NEES, the 1-sigmas from P's diagonal, "
-          "the estimated position, the DVL innovations); the gate decided every ping alike; ours repaired no P.")
+    with fragment.capture() as shown:
+        print("Ours: tauvcore.engine.mission.run (simulation excluded); filterpy loop: one filterpy KalmanFilter per run, "
+              "stepped per IMU sample in Python; the same simulation and initial errors. Best of 3, time.perf_counter.\n")
+        print("| workload | ours [s] | filterpy loop [s] | ratio | max abs. difference | max rel. difference "
+              "| gate decisions differing |")
+        print("|---|---|---|---|---|---|---|")
+        for duration_s, mode, num_runs in ((250.0, "fixed", 1), (250.0, "random", 10)):
+            config = lc_config("figure8", duration_s, mode)
+            ours, loop = prepare(config, num_runs)
+            t_ours, ours_res = best_of(ours)
+            t_loop, loop_res = best_of(loop)
+            diffs = check(ours_res, loop_res)
+            values = {name: d for name, d in diffs.items() if name != "gate"}
+            worst_abs = max(values.items(), key=lambda d: d[1][0])
+            worst_rel = max(values.items(), key=lambda d: d[1][1])
+            print(f"| {duration_s:g} s figure8, lc, {num_runs} run{'s' if num_runs > 1 else ''}, {mode} initial errors "
+                  f"| {t_ours:.3f} | {t_loop:.2f} | {t_loop / t_ours:.0f}x | {worst_abs[1][0]:.1e} ({worst_abs[0]}) "
+                  f"| {worst_rel[1][1]:.1e} ({worst_rel[0]}) | {diffs['gate'][0]:.0f} |")
+        print(f"\nEvery series at every output epoch and run equal to {TOLERANCE:g} (relative above 1 SI unit, "
+              "absolute below: position, velocity and attitude error norms, NEES, the 1-sigmas from P's diagonal, "
+              "the estimated position, the DVL innovations); the gate decided every ping alike; ours repaired no P.")
 
+    print(f"written to {fragment.write('filterpy_compare', shown.getvalue())}")
 
 if __name__ == "__main__":
     main()

@@ -9,11 +9,14 @@ place, so an interrupted run leaves the previous fragment.
 
 from __future__ import annotations
 
+import contextlib
 import datetime
+import io
 import os
 import platform
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "results"
@@ -53,3 +56,28 @@ def write(name: str, markdown: str, argv: list[str] | None = None) -> Path:
         fh.write(text)
     os.replace(tmp, target)
     return target
+
+
+class _Tee(io.TextIOBase):
+    def __init__(self, out) -> None:
+        self.out = out
+        self.kept = io.StringIO()
+
+    def write(self, text: str) -> int:
+        self.kept.write(text)
+        return self.out.write(text)
+
+    def flush(self) -> None:
+        self.out.flush()
+
+
+@contextlib.contextmanager
+def capture() -> Iterator[io.StringIO]:
+    """Print as usual inside the block and keep what was printed (``.getvalue()`` afterwards), so
+    that the fragment is exactly what the terminal showed."""
+    tee = _Tee(sys.stdout)
+    sys.stdout = tee
+    try:
+        yield tee.kept
+    finally:
+        sys.stdout = tee.out

@@ -1,6 +1,6 @@
-"""Long straight run of ``lc``: heading drift with the DVL alone, bounded by the magnetometer (issue 7).
+"""Long straight run of ``lc``: heading drift with the DVL alone, bounded by the magnetometer.
 
-    python benchmarks/long_run.py                       # 10 hours, 150 Hz IMU (the issue's case)
+    python benchmarks/long_run.py                       # 10 hours, 150 Hz IMU
     python benchmarks/long_run.py --hours 1 --imu-rate-hz 50
 
 Runs ``lc`` on the straight track once with ``--aiding dvl`` and once with ``dvl,mag`` (same

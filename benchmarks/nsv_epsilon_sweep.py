@@ -10,12 +10,15 @@ bound ``U tan(beta_max)`` and the derived epsilon (tauvcore.aiding.elc_nsv.epsil
 Second: per trajectory and epsilon, NSV's velocity RMS over runs averaged after the first 30 s
 (the lawnmower's dive), its full-state and velocity NEES/dim (fraction of output epochs whose
 run-averaged NEES lies inside the two-sided 99 % band) and how many runs the monitor flagged.
+Writes both to docs/results/nsv_epsilon_sweep.md (benchmarks/fragment.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -24,6 +27,10 @@ from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
 from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
+
 from tauvcore.truth import generate
 
 SETTLE_S = 30.0
@@ -58,23 +65,25 @@ def main() -> None:
     args = parser.parse_args()
     values: list[float | str] = [AUTO if v.strip() == AUTO else float(v) for v in args.eps.split(",")]
     started = time.perf_counter()
-    print("The vehicle's sway (truth, 250 s)\n")
-    print("| trajectory | sway RMS [m/s] | sway max [m/s] | bound U tan(beta_max) [m/s] | epsilon auto [m^2/s^2] |")
-    print("|---|---|---|---|---|")
-    for name in TRAJECTORIES:
-        s = sway_row(name)
-        print(f"| {name} | {s['rms']:.3f} | {s['max']:.3f} | {s['bound']:.3f} | {s['auto']:.3g} |")
-    print(f"\nNSV, beams 1 and 2 only, DVL aiding only, 250 s, {args.runs} Monte Carlo runs, seed {args.seed}\n")
-    print("| trajectory | epsilon [m^2/s^2] | vel RMS after 30 s [m/s] | NEES/dim full (in band) "
-          "| NEES/dim velocity (in band) | runs flagged |")
-    print("|---|---|---|---|---|---|")
-    for name in TRAJECTORIES:
-        for eps in values:
-            r = sweep_row(name, eps, args.runs, args.seed)
-            label = f"auto ({r['value']:.3g})" if eps == AUTO else f"{eps:g}"
-            print(f"| {name} | {label} | {r['vel_rms']:.3f} | {r['full']:.3g} ({r['full_in']:.2f}) | "
-                  f"{r['vel']:.3g} ({r['vel_in']:.2f}) | {r['diverged']}/{args.runs} |", flush=True)
+    with fragment.capture() as shown:
+        print("The vehicle's sway (truth, 250 s)\n")
+        print("| trajectory | sway RMS [m/s] | sway max [m/s] | bound U tan(beta_max) [m/s] | epsilon auto [m^2/s^2] |")
+        print("|---|---|---|---|---|")
+        for name in TRAJECTORIES:
+            s = sway_row(name)
+            print(f"| {name} | {s['rms']:.3f} | {s['max']:.3f} | {s['bound']:.3f} | {s['auto']:.3g} |")
+        print(f"\nNSV, beams 1 and 2 only, DVL aiding only, 250 s, {args.runs} Monte Carlo runs, seed {args.seed}\n")
+        print("| trajectory | epsilon [m^2/s^2] | vel RMS after 30 s [m/s] | NEES/dim full (in band) "
+              "| NEES/dim velocity (in band) | runs flagged |")
+        print("|---|---|---|---|---|---|")
+        for name in TRAJECTORIES:
+            for eps in values:
+                r = sweep_row(name, eps, args.runs, args.seed)
+                label = f"auto ({r['value']:.3g})" if eps == AUTO else f"{eps:g}"
+                print(f"| {name} | {label} | {r['vel_rms']:.3f} | {r['full']:.3g} ({r['full_in']:.2f}) | "
+                      f"{r['vel']:.3g} ({r['vel_in']:.2f}) | {r['diverged']}/{args.runs} |", flush=True)
     print(f"\n({time.perf_counter() - started:.0f} s wall)")
+    print(f"written to {fragment.write('nsv_epsilon_sweep', shown.getvalue())}")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The numerical safeguards of issue 7 change nothing on a healthy run: compare with the code before.
+"""The numerical safeguards (docs/safeguards.md) change nothing on a healthy run: compare with the code before.
 
     python benchmarks/numerics_regression.py                 # against e1d9656, the commit before them
     python benchmarks/numerics_regression.py --base <commit>

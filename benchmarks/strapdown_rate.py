@@ -8,11 +8,15 @@ For each trajectory and IMU rate: the largest position error [m] and velocity er
 the run, with the second-order rotation term ``dtheta x (dtheta x dv) / 6`` of the velocity
 increment and without it (``tauvcore.ins.strapdown.SECOND_ORDER_ROTATION``). ``figure8-agile``
 is the figure eight with 30 deg of roll and 5 m turns, where the term matters most.
+
+Writes its tables to docs/results/strapdown_rate.md (benchmarks/fragment.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -20,6 +24,9 @@ from tauvcore.config import Config
 from tauvcore.engine.mission import run
 from tauvcore.engine.simulation import simulate
 from tauvcore.ins import strapdown
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 CASES = {
     "straight": {"name": "straight"},
@@ -46,15 +53,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--duration", type=float, default=300.0, help="mission length [s]")
     args = parser.parse_args()
-    print(f"Largest error over {args.duration:g} s, ideal sensors: position [m] / velocity [m/s]\n")
-    print("| trajectory | IMU rate [Hz] | with the second-order term | without |")
-    print("|---|---|---|---|")
-    for label, case in CASES.items():
-        for rate in RATES_HZ:
-            with_term = errors(case, rate, args.duration, True)
-            without = errors(case, rate, args.duration, False)
-            print(f"| {label} | {rate:g} | {with_term[0]:.2e} / {with_term[1]:.1e} | "
-                  f"{without[0]:.2e} / {without[1]:.1e} |", flush=True)
+    with fragment.capture() as shown:
+        print(f"Largest error over {args.duration:g} s, ideal sensors: position [m] / velocity [m/s]\n")
+        print("| trajectory | IMU rate [Hz] | with the second-order term | without |")
+        print("|---|---|---|---|")
+        for label, case in CASES.items():
+            for rate in RATES_HZ:
+                with_term = errors(case, rate, args.duration, True)
+                without = errors(case, rate, args.duration, False)
+                print(f"| {label} | {rate:g} | {with_term[0]:.2e} / {with_term[1]:.1e} | "
+                      f"{without[0]:.2e} / {without[1]:.1e} |", flush=True)
+    print(f"written to {fragment.write('strapdown_rate', shown.getvalue())}")
 
 
 if __name__ == "__main__":

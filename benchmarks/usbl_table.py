@@ -8,18 +8,25 @@ Each cell is the RMS over the runs (random initial errors, seeded) of the positi
 end [m]; in brackets the RMS over the last 10 minutes. The USBL is the default one
 (tauvcore.aiding.usbl: 0.1 m + 0.2 % of slant range per axis, 1 s latency, 5 % lost, 1 % outliers),
 its transceiver 2 m under the surface above the start, so the slant range grows to about 1 km.
+
+Writes its tables to docs/results/usbl_table.md (benchmarks/fragment.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from tauvcore.config import Config
 from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.metrics import rms
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 METHODS = ("ins", "lc", "nsv")
 
@@ -48,22 +55,24 @@ def main() -> None:
             base.replace("run", aiding=("dvl", "usbl")).replace("usbl", interval_s=10.0, compensate_latency=False),
         )
     )
-    print(
-        f"Position error at {args.duration:g} s [m], lawnmower, beams 1 and 2 only, RMS over {args.runs} runs "
-        f"(seed {args.seed}); in brackets the RMS over the last 600 s\n"
-    )
-    print("| aiding | " + " | ".join(m.upper() for m in METHODS) + " |")
-    print("|---" * (1 + len(METHODS)) + "|")
-    for label, config in rows:
-        rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(args.seed).spawn(args.runs)]
-        results = run_streaming(config, rngs, args.runs)
-        cells = []
-        for m in METHODS:
-            r = results[m]
-            last = r.t_s >= r.t_s[-1] - 600.0
-            cells.append(f"{float(rms(r.pos_err_m[-1])):.3g} ({float(rms(r.pos_err_m[last].ravel())):.3g})")
-        print(f"| {label} | " + " | ".join(cells) + " |", flush=True)
+    with fragment.capture() as shown:
+        print(
+            f"Position error at {args.duration:g} s [m], lawnmower, beams 1 and 2 only, RMS over {args.runs} runs "
+            f"(seed {args.seed}); in brackets the RMS over the last 600 s\n"
+        )
+        print("| aiding | " + " | ".join(m.upper() for m in METHODS) + " |")
+        print("|---" * (1 + len(METHODS)) + "|")
+        for label, config in rows:
+            rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(args.seed).spawn(args.runs)]
+            results = run_streaming(config, rngs, args.runs)
+            cells = []
+            for m in METHODS:
+                r = results[m]
+                last = r.t_s >= r.t_s[-1] - 600.0
+                cells.append(f"{float(rms(r.pos_err_m[-1])):.3g} ({float(rms(r.pos_err_m[last].ravel())):.3g})")
+            print(f"| {label} | " + " | ".join(cells) + " |", flush=True)
     print(f"\n({time.perf_counter() - started:.0f} s wall)")
+    print(f"written to {fragment.write('usbl_table', shown.getvalue())}")
 
 
 if __name__ == "__main__":

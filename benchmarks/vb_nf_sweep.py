@@ -8,13 +8,16 @@ Per trajectory and n_f: the velocity RMS over runs at the end and its time avera
 first 30 s (the lawnmower's dive), the run-averaged 20-state NEES divided by 20 (1.0 is
 consistent) averaged over the output epochs, the fraction of output epochs whose run-averaged
 NEES lies inside the two-sided 99 % chi-square band, the fraction of VB's pings the 3-sigma gate
-rejected, and how many runs the divergence monitor flagged.
+rejected, and how many runs the divergence monitor flagged. Writes docs/results/vb_nf_sweep.md
+(benchmarks/fragment.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +26,9 @@ from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.montecarlo import monte_carlo, rms_over_runs
 from tauvcore.truth import PAPER_TRAJECTORIES as TRAJECTORIES
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 SETTLE_S = 30.0     # the lawnmower's dive; the time-averaged RMS starts after it
 
@@ -49,17 +55,18 @@ def main() -> None:
     args = parser.parse_args()
     values = [float(v) for v in args.nf.split(",")]
     started = time.perf_counter()
-    print(f"VB, beams 1 and 2 only, DVL aiding only, 250 s, {args.runs} Monte Carlo runs, seed {args.seed}\n")
-    print("| trajectory | n_f | vel end [m/s] | vel RMS after 30 s [m/s] | NEES/dim | epochs in 99 % band "
-          "| pings rejected | runs flagged |")
-    print("|---|---|---|---|---|---|---|---|")
-    for name in TRAJECTORIES:
-        for nf in values:
-            r = sweep_row(name, nf, args.runs, args.seed)
-            print(f"| {name} | {nf:g} | {r['vel_end']:.3f} | {r['vel_rms']:.3f} | {r['nees_dim']:.3g} | "
-                  f"{r['inside']:.2f} | {r['rejected']:.2f} | {r['diverged']}/{args.runs} |", flush=True)
+    with fragment.capture() as shown:
+        print(f"VB, beams 1 and 2 only, DVL aiding only, 250 s, {args.runs} Monte Carlo runs, seed {args.seed}\n")
+        print("| trajectory | n_f | vel end [m/s] | vel RMS after 30 s [m/s] | NEES/dim | epochs in 99 % band "
+              "| pings rejected | runs flagged |")
+        print("|---|---|---|---|---|---|---|---|")
+        for name in TRAJECTORIES:
+            for nf in values:
+                r = sweep_row(name, nf, args.runs, args.seed)
+                print(f"| {name} | {nf:g} | {r['vel_end']:.3f} | {r['vel_rms']:.3f} | {r['nees_dim']:.3g} | "
+                      f"{r['inside']:.2f} | {r['rejected']:.2f} | {r['diverged']}/{args.runs} |", flush=True)
     print(f"\n({time.perf_counter() - started:.0f} s wall)")
-
+    print(f"written to {fragment.write('vb_nf_sweep', shown.getvalue())}")
 
 if __name__ == "__main__":
     main()

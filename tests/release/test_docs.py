@@ -100,15 +100,25 @@ def test_the_cli_page_holds_every_subcommand_s_help_as_tauv_prints_it(site) -> N
 
 def test_every_included_table_is_written_by_the_benchmark_it_names() -> None:
     """A page's table comes from its benchmark (benchmarks/fragment.py): the fragment ends with the
-    command that wrote it, and that benchmark writes that fragment."""
+    command that wrote it, and that benchmark writes fragments and names this one in its source."""
     includes = {
         name
         for page in (REPO / "docs").glob("*.md")
-        for name in re.findall(r'^--8<-- "docs/results/([\w-]+)\.md"', page.read_text(encoding="utf-8"), re.M)
+        for name in re.findall(r'^--8<-- "docs/results/([\w.-]+)\.md"', page.read_text(encoding="utf-8"), re.M)
     }
-    assert {"longrange", "bench_run", "yoo_mag"} <= includes
+    assert {"longrange", "bench_run", "yoo_mag", "paper_table", "partial_kinematic", "consistency_table",
+            "akit_table", "usbl_table", "container"} <= includes
     for name in includes:
         text = (REPO / "docs" / "results" / f"{name}.md").read_text(encoding="utf-8")
         command = re.search(r"\*Written by `python (benchmarks/\w+\.py)[^`]*` on ", text.splitlines()[-1])
         assert command, f"docs/results/{name}.md does not say which benchmark wrote it"
-        assert f"fragment.write('{name}'" in (REPO / command.group(1)).read_text(encoding="utf-8"), name
+        source = (REPO / command.group(1)).read_text(encoding="utf-8")
+        assert "fragment.write(" in source, command.group(1)
+        assert f"'{name}'" in source or f"{name}.md" in source, (name, command.group(1))
+
+
+def test_every_fragment_is_shown_on_a_page() -> None:
+    """No table is written for nobody: every fragment under docs/results/ is included by a page."""
+    pages = "".join(p.read_text(encoding="utf-8") for p in (REPO / "docs").glob("*.md"))
+    for fragment in (REPO / "docs" / "results").glob("*.md"):
+        assert f'--8<-- "docs/results/{fragment.name}"' in pages, fragment.name

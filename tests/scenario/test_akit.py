@@ -48,9 +48,11 @@ METHODS = ("ins", "lc", "tc", "nsv", "elc")
 
 
 def _readme_table() -> dict[str, dict[str, float]]:
-    """The A-KIT table of docs/replay.md: segment -> method -> position error at the end [m]."""
+    """The A-KIT table docs/replay.md shows (docs/results/akit_table.md, written by
+    benchmarks/akit_table.py): segment -> method -> position error at the end [m]."""
+    assert '--8<-- "docs/results/akit_table.md"' in (ROOT / "docs" / "replay.md").read_text(encoding="utf-8")
     rows = {}
-    for line in (ROOT / "docs" / "replay.md").read_text(encoding="utf-8").splitlines():
+    for line in (ROOT / "docs" / "results" / "akit_table.md").read_text(encoding="utf-8").splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if cells[0].startswith("Trajectory") and len(cells) == 3 + len(METHODS):
             rows[cells[0]] = dict(zip(METHODS, map(float, cells[3:]), strict=True))
