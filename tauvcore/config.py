@@ -63,9 +63,9 @@ RUN_METHODS = ALL_METHODS + REGISTERED_METHODS
 gives each a colour: app.figures.METHOD_COLORS)."""
 
 DEFAULT_METHODS = ("ins", "lc")
+"""Methods run when none are named: the standalone INS and loosely coupled DVL (--help)."""
 AUTO = "auto"
 """A parameter derived from the rest of the configuration (``partial.nsv_epsilon_m2_per_s2``)."""
-"""Methods run when none are named: the standalone INS and loosely coupled DVL (--help)."""
 
 MAX_CONFIG_BYTES = 1 << 20
 """Largest configuration file read [bytes]: the full configuration is ~2 kB; 1 MiB leaves room
@@ -103,12 +103,20 @@ class InitialErrorConfig:
         require_choice("initial_error.mode", self.mode, ("fixed", "random"))
 
     def ideal(self) -> InitialErrorConfig:
+        """The same section with every initial error zero (``run.ideal``).
+
+        Returns
+        -------
+        InitialErrorConfig
+            Position [m] (NED), body velocity [m/s] and attitude errors [deg] zero; ``mode`` kept.
+        """
         return InitialErrorConfig(
             pos_m=(0.0, 0.0, 0.0), vel_mps=(0.0, 0.0, 0.0), roll_pitch_deg=0.0, yaw_deg=0.0, mode=self.mode
         )
 
     @property
     def euler_rad(self) -> tuple[float, float, float]:
+        """The attitude errors roll, pitch, yaw [rad] (roll and pitch both ``roll_pitch_deg``)."""
         return (self.roll_pitch_deg * units.DEG, self.roll_pitch_deg * units.DEG, self.yaw_deg * units.DEG)
 
 
@@ -162,6 +170,8 @@ class PartialConfig:
 
 @dataclass(frozen=True)
 class RunConfig:
+    """What a run does: its methods, aiding sources, seed and the ideal switch."""
+
     methods: tuple[str, ...] = DEFAULT_METHODS  # fusion methods to run side by side, each at most once
     aiding: tuple[str, ...] = ("dvl",)  # aiding sources on (section 4: DVL alone), each at most once
     seed: int = 0  # seed of the numpy Generator, [0, MAX_SEED]
@@ -198,6 +208,9 @@ class ReplayConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """The full run configuration: one section per field, each a frozen dataclass (module
+    docstring); the cross-section checks (every rate within the IMU's, outages within the run)."""
+
     trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
     earth: Earth = field(default_factory=Earth)
     imu: ImuConfig = field(default_factory=ImuConfig)
@@ -245,7 +258,17 @@ class Config:
                 )
 
     def nsv_epsilon_value_m2_per_s2(self) -> float:
-        """NSV's epsilon: the configured number, or for "auto" the one derived from the vehicle."""
+        """NSV's epsilon: the configured number, or for "auto" the one derived from the vehicle.
+
+        "auto" derives it from the vehicle's sideslip in its tightest turn
+        (:func:`tauvcore.aiding.elc_nsv.epsilon_from_vehicle`: speed [m/s], turn sideslip [deg],
+        turn radius [m] of ``trajectory`` and the DVL's rate [Hz]).
+
+        Returns
+        -------
+        float
+            Epsilon of eq. 36, the variance of the "sway = 0" assumption [m^2/s^2].
+        """
         eps = self.partial.nsv_epsilon_m2_per_s2
         if not isinstance(eps, str):
             return float(eps)
@@ -255,9 +278,27 @@ class Config:
         )
 
     def section(self, name: str) -> Any:
-        """Section ``name`` (``"trajectory"``, ``"dvl"``, ..., or a plug-in source's): how a plug-in
-        (tauvcore.aiding.fusion_method.Sections) reads the configuration without importing this
-        module."""
+        """Section ``name``: how a plug-in reads the configuration without importing this module.
+
+        The plug-in sees the configuration as :class:`tauvcore.aiding.fusion_method.Sections`.
+
+        Parameters
+        ----------
+        name : str
+            A section's TOML name: ``"trajectory"``, ``"dvl"``, ... (:data:`SECTION_NAMES`), or a
+            plug-in source's section name (``"usbl"``).
+
+        Returns
+        -------
+        Any
+            The section's frozen dataclass (e.g. :class:`~tauvcore.sensors.dvl.DvlConfig`), its
+            fields in the units their names say.
+
+        Raises
+        ------
+        KeyError
+            No configuration section ``name``.
+        """
         plugins = dict(self.sources)
         if name in plugins:
             return plugins[name]
@@ -266,7 +307,29 @@ class Config:
         return getattr(self, name)
 
     def replace(self, section: str, **changes: Any) -> Config:
-        """A copy with ``changes`` applied to one section (validated)."""
+        """A copy with ``changes`` applied to one section (validated).
+
+        Parameters
+        ----------
+        section : str
+            The section's TOML name (built-in or a plug-in source's, as :meth:`section` takes).
+        **changes : Any
+            New field values by field name, in the units the names say (e.g. ``duration_s=600.0``
+            [s]).
+
+        Returns
+        -------
+        Config
+            The configuration with that section replaced, checked on its own and as a whole.
+
+        Raises
+        ------
+        KeyError
+            No configuration section ``section``.
+        ConfigError
+            A changed value out of its range, or a cross-section check failing (a rate above the
+            IMU's, an outage outside the run).
+        """
         new = dataclasses.replace(self.section(section), **changes)
         if section in SOURCE_SECTIONS:
             return dataclasses.replace(
@@ -275,7 +338,14 @@ class Config:
         return dataclasses.replace(self, **{section: new})
 
     def sections(self) -> dict[str, Any]:
-        """Every section by its TOML name, the plug-in sources' after the others."""
+        """Every section by its TOML name, the plug-in sources' after the others.
+
+        Returns
+        -------
+        dict[str, Any]
+            Section name -> its frozen dataclass: :data:`SECTION_NAMES` in order, then the
+            plug-in sources' sections (:attr:`sources`).
+        """
         return {**{name: getattr(self, name) for name in SECTION_NAMES}, **dict(self.sources)}
 
 
@@ -296,6 +366,18 @@ def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
     ``longrange`` (Yoo 2014 section 3): 24 minutes at 10 knots, at 50 m over a seabed at 110 m
     (60 m of altitude, 140 m over its trenches), the paper's IMU (Table 1, ``yoo-table1``, 100 Hz)
     and DVL rate (5 Hz). The other scenarios bring nothing.
+
+    Parameters
+    ----------
+    name : str
+        A trajectory scenario's name (``trajectory.name``, ``--trajectory``), e.g. ``"longrange"``.
+
+    Returns
+    -------
+    dict[str, dict[str, Any]]
+        Section -> key -> value, in the units the keys say (``duration_s`` [s], ``speed_mps`` [m/s],
+        ``depth_m`` [m] down, ``rate_hz`` [Hz]); lists for tuples; empty for a scenario that brings
+        nothing.
     """
     if name != "longrange":
         return {}
@@ -317,7 +399,20 @@ def trajectory_preset(name: str) -> dict[str, dict[str, Any]]:
 
 
 def to_dict(config: Config) -> dict[str, dict[str, Any]]:
-    """Plain nested dict (lists for tuples), as written to TOML and JSON."""
+    """Plain nested dict (lists for tuples), as written to TOML and JSON.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration.
+
+    Returns
+    -------
+    dict[str, dict[str, Any]]
+        Section TOML name -> field name -> plain value (bool, int, float, str, list, or a dict for
+        a nested dataclass such as a DVL outage), in the units the names say; every section, the
+        plug-in sources' after the others.
+    """
     return {
         name: {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
         for name, obj in config.sections().items()
@@ -355,6 +450,18 @@ def _outages(field_name: str, value: Any) -> tuple[Outage, ...]:
 
 
 def to_toml(config: Config) -> str:
+    """The configuration as TOML text: :func:`to_dict` written by ``tomli_w``.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration.
+
+    Returns
+    -------
+    str
+        TOML text, one ``[section]`` table per section, every key; :func:`load_toml` reads it back.
+    """
     return tomli_w.dumps(to_dict(config))
 
 
@@ -403,6 +510,27 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
 
     Every section is checked on its own first, then the whole (cross-section checks such as an
     outage inside the run), so the order of the sections in a file does not matter.
+
+    Parameters
+    ----------
+    data : dict[str, Any]
+        Section name -> key -> value, as read from TOML (:func:`read_toml`); any subset of sections
+        and keys, each value in the unit its key says (``duration_s`` [s], ``lever_arm_m`` [m] body
+        FRD, ``*_deg`` in degrees).
+    base : Config or None
+        The configuration the values are laid on; None: the defaults (``Config()``).
+
+    Returns
+    -------
+    Config
+        ``base`` with ``data``'s values, checked.
+
+    Raises
+    ------
+    ConfigError
+        ``data`` or one of its sections is not a table; an unknown section or key; a value of the
+        wrong type or a bad value (naming ``section.key`` and the value); a cross-section check
+        failing.
     """
     config = base or Config()
     if not isinstance(data, dict):
@@ -437,14 +565,27 @@ def from_dict(data: dict[str, Any], base: Config | None = None) -> Config:
 def merge(base: dict[str, Any], overlay: dict[str, Any]) -> dict[str, Any]:
     """Nested dict ``base`` with ``overlay``'s keys replacing its own (one level of sections).
 
-    A section of ``base`` that is not a table (``trajectory = true``) is kept as it is, so
-    :func:`from_dict` still reports it instead of the overlay hiding it.
+    A section that is not a table (``trajectory = true``) is never hidden: one of ``base`` is
+    kept as it is, one of ``overlay`` replaces ``base``'s table, so :func:`from_dict` reports it.
+
+    Parameters
+    ----------
+    base : dict[str, Any]
+        Section name -> key -> value (a raw configuration, :func:`read_toml`); left unchanged.
+    overlay : dict[str, Any]
+        Section name -> key -> value whose keys win, each value in the unit its key says.
+
+    Returns
+    -------
+    dict[str, Any]
+        A new nested dict: ``base``'s sections (copied) with ``overlay``'s keys laid over them, and
+        ``overlay``'s sections that ``base`` lacks.
     """
     out = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
     for sec, values in overlay.items():
         if isinstance(values, dict) and isinstance(out.get(sec), dict):
             out[sec].update(values)
-        elif sec not in out:
+        elif sec not in out or not isinstance(values, dict):
             out[sec] = values
     return out
 
@@ -457,6 +598,26 @@ def read_toml(path: str, label: str = "--config") -> dict[str, Any]:
     The file is opened non-blocking and checked again on the open descriptor (it could have been
     replaced in between). It must be UTF-8 TOML; every failure is one ``ConfigError`` naming the
     file.
+
+    Parameters
+    ----------
+    path : str
+        The file's path.
+    label : str
+        What the file is to the user, at the head of every error (``--config``, "the log's
+        configuration").
+
+    Returns
+    -------
+    dict[str, Any]
+        The file's tables as ``tomllib`` reads them: section name -> key -> value, unchecked.
+
+    Raises
+    ------
+    ConfigError
+        An empty name or one with a NUL character; a file not found, unreadable, a directory, not
+        a regular file (a device, FIFO or socket) or larger than :data:`MAX_CONFIG_BYTES`; not
+        UTF-8 text; malformed TOML (or arrays or tables nested too deeply).
     """
     name = show_path(path)
     if not path:
@@ -506,5 +667,22 @@ def _require_small_regular_file(path: str, st: os.stat_result, label: str) -> No
 
 
 def load_toml(path: str) -> Config:
-    """Read a (partial) TOML configuration file."""
+    """Read a (partial) TOML configuration file: :func:`read_toml` then :func:`from_dict`.
+
+    Parameters
+    ----------
+    path : str
+        The file's path.
+
+    Returns
+    -------
+    Config
+        The defaults with the file's values, checked.
+
+    Raises
+    ------
+    ConfigError
+        The file cannot be read as TOML (:func:`read_toml`) or its values are not a configuration
+        (:func:`from_dict`), naming the file (``--config``) or ``section.key`` and the value.
+    """
     return from_dict(read_toml(path))

@@ -34,8 +34,22 @@ class Log:
     # by source name: "t_s" (E,) [s] and each of its columns (E,) in SI (an angle in radians)
 
     def table(self, name: str, columns: Sequence[str]) -> tuple[np.ndarray, np.ndarray] | None:
-        """Source ``name``'s times (E,) [s] and its ``columns`` side by side (E, len(columns));
-        None if the log has no table for it."""
+        """An aiding source's table: its times and the columns asked for, side by side.
+
+        Parameters
+        ----------
+        name : str
+            The source's name (a key of :attr:`sources`, e.g. ``"depth"``).
+        columns : Sequence[str]
+            Names of the table's columns to return, in SI units (an angle in radians), e.g.
+            ``("depth_m",)``.
+
+        Returns
+        -------
+        tuple of numpy.ndarray or None
+            The source's times (E,) [s] and its ``columns`` side by side (E, len(columns)), each in
+            the unit and frame its name says; None if the log has no table for it.
+        """
         table = self.sources.get(name)
         if table is None:
             return None
@@ -48,4 +62,5 @@ class Log:
 
     @property
     def duration_s(self) -> float:
+        """The IMU record's span, last sample time less the first [s]."""
         return float(self.imu_t_s[-1] - self.imu_t_s[0])

@@ -24,8 +24,9 @@ def write_log(
     fmt: str = "csv",
     config_toml: str | None = None,
 ) -> None:
-    """Write ``tables`` (table -> column -> 1-D array) as a log in ``directory`` (created if need
-    be), CSV with every float written to its last digit (``repr``, so reading back is exact) or
+    """Write ``tables`` as a log in ``directory``, all or nothing.
+
+    CSV with every float written to its last digit (``repr``, so reading back is exact) or
     Parquet, and with ``config_toml`` the log's own configuration file :data:`CONFIG_FILE`. A
     file of the same name already there is replaced.
 
@@ -36,6 +37,24 @@ def write_log(
     temporary directory is removed, the files already moved are taken back (what they replaced
     restored) and the directories created here are removed, then the exception propagates:
     nothing partial and nothing that looks like a log is left.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The log's directory (created, with its missing parents, if need be).
+    tables : dict of str to dict of str to numpy.ndarray
+        Table name (``imu``, ``dvl``, ``reference`` or an aiding source's table) -> column name ->
+        column, a 1-D array (K,) per table (NaN: an empty cell), in the unit and frame the column's
+        name says (tauvcore.logs), e.g. ``t_s`` [s], ``dv_x_mps`` [m/s] in the body b-frame (FRD).
+    fmt : str
+        ``"csv"`` or ``"parquet"``.
+    config_toml : str or None
+        Text of the log's configuration file (TOML) to write as :data:`CONFIG_FILE`; None: none.
+
+    Raises
+    ------
+    ValueError
+        If ``fmt`` is not 'csv' or 'parquet', or a table is unknown.
     """
     if fmt not in ("csv", "parquet"):
         raise ValueError(f"fmt must be 'csv' or 'parquet', got {fmt!r}")
@@ -123,7 +142,13 @@ def _flush(fh: IO) -> None:
 
 def fsync_path(path: str | os.PathLike) -> None:
     """Flush the file or directory ``path`` to the disk (a directory: its entries, the renames
-    into it)."""
+    into it).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file or directory to flush.
+    """
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -141,6 +166,19 @@ def replace_files(
     what it replaced is put back, then the exception propagates. On success ``aside`` holds the
     replaced files, for the caller to remove. A target that is a directory is refused
     (IsADirectoryError) before anything moves.
+
+    Parameters
+    ----------
+    moves : Sequence of tuple of (str or os.PathLike, str or os.PathLike)
+        The ``(source, target)`` paths to rename, in order.
+    aside : str or os.PathLike
+        The directory to create for the replaced targets, on the targets' file system; it must not
+        exist yet.
+
+    Raises
+    ------
+    IsADirectoryError
+        If a target is a directory (not a link to one), before anything moves.
     """
     for _, target in moves:
         if os.path.isdir(target) and not os.path.islink(target):
@@ -167,10 +205,29 @@ def replace_files(
 
 
 def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, np.ndarray]]:
-    """The tables of a log holding one run of a simulation given as its chunks in order
-    (tauvcore.engine.simulation.SimChunk; ``[SimChunk.whole(sim)]`` for a whole one): the IMU as
-    increments, the DVL as beams (NaN where not returned), each aiding source's (the depth, the attitude, ...),
-    and the truth as the reference (at the IMU rate; geodetic in radians on WGS-84, else NED)."""
+    """The tables of a log holding one run of a simulation given as its chunks in order.
+
+    The IMU as increments, the DVL as beams (NaN where not returned), each aiding source's (the
+    depth, the attitude, ...), and the truth as the reference (at the IMU rate; geodetic in
+    radians on WGS-84, else NED).
+
+    Parameters
+    ----------
+    chunks : list
+        The simulation's chunks in order (tauvcore.engine.simulation.SimChunk;
+        ``[SimChunk.whole(sim)]`` for a whole one), arrays with the run axis after time, (K, R, ...).
+    run_index : int
+        The run to write, an index into the run axis R.
+
+    Returns
+    -------
+    dict of str to dict of str to numpy.ndarray
+        Table name -> column name -> column (K,) over all chunks (for :func:`write_log`): ``imu``
+        (``t_s`` [s], angle increments [rad] and velocity increments [m/s] in the body b-frame
+        (FRD)), ``reference`` (``lat_rad``, ``lon_rad``, ``depth_m`` on WGS-84, else north, east,
+        down [m]; roll, pitch, yaw [rad]; NED velocity [m/s]) and each aiding source's table, with
+        its true errors; a table with no column is left out.
+    """
     r = run_index
 
     def run_of(a: np.ndarray, time_axis_dims: int) -> np.ndarray:

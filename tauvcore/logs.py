@@ -24,12 +24,13 @@ dropped synthetically (``--beams``, ``--outage``) as on simulated data.
 
 ``reference`` (optional: its first row is the filters' starting point, and errors are computed
 against it; without it the filters start from the log's own sensors, see
-tauvcore.eval.replay, and no error can be computed): position as ``lat`` and ``lon`` (``_deg`` or ``_rad``) with ``depth_m``, or as
-``north_m``, ``east_m``, ``down_m`` from the sea-surface point above the mission origin
-(``[earth] latitude_deg, longitude_deg``); attitude ``roll``, ``pitch``, ``yaw`` (``_deg`` or
-``_rad``); NED velocity ``vel_north_mps``, ``vel_east_mps``, ``vel_down_mps``. It may be
-sampled at any rate: it is interpolated to the IMU's times (linearly; attitude along the
-shortest rotation). With a geodetic reference the mission origin is its first point.
+tauvcore.eval.replay, and no error can be computed): position as ``lat`` and ``lon`` (``_deg``
+or ``_rad``) with ``depth_m``, or as ``north_m``, ``east_m``, ``down_m`` from the sea-surface
+point above the mission origin (``[earth] latitude_deg, longitude_deg``); attitude ``roll``,
+``pitch``, ``yaw`` (``_deg`` or ``_rad``); NED velocity ``vel_north_mps``, ``vel_east_mps``,
+``vel_down_mps``. It may be sampled at any rate: it is interpolated to the IMU's times
+(linearly; attitude along the shortest rotation). With a geodetic reference the mission origin
+is its first point.
 
 Aiding epochs are taken at the IMU sample nearest in time; rows outside the IMU's time span are
 left out. A CSV table is UTF-8 text, its header naming each column once; every cell is a number
@@ -119,8 +120,28 @@ def _resample(
 
 
 def read_log(directory: str | os.PathLike) -> Log:
-    """Read and check the log in ``directory`` (module docstring), then its physical plausibility
-    (tauvcore.log_checks: its notes join :attr:`Log.notes`). LogError on any problem."""
+    """Read and check the log in ``directory`` (module docstring), then its physical plausibility.
+
+    The plausibility checks are tauvcore.log_checks'; their notes join :attr:`Log.notes`.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The log's directory, holding its tables (``imu.csv`` or ``imu.parquet``, ...).
+
+    Returns
+    -------
+    Log
+        The validated log in SI units and the frames of tauvcore.conventions: IMU times (K,) [s] on
+        a constant rate, angle increments (K, 3) [rad] and velocity increments (K, 3) [m/s] in the
+        body b-frame (FRD), the reference (N, ...) [rad, m, m/s; NED], the DVL (M, 4) or (M, 3)
+        [m/s] and the aiding sources' tables, when the log has them.
+
+    Raises
+    ------
+    LogError
+        On any problem, naming the file, the column, the row and the value.
+    """
     root = Path(directory)
     if not root.is_dir():
         raise LogError(f"{show_path(str(root))}: not a directory (a log is a directory of sensor tables)")
@@ -334,11 +355,29 @@ def _has_imu(directory: Path) -> bool:
 
 
 def find_logs(directory: str | os.PathLike) -> dict[str, str]:
-    """The logs in ``directory`` by name: the directory itself if it is one (it has an ``imu``
-    table), and each of its subdirectories that is; sorted by name. Only the ``imu`` entry's
-    presence is checked here: one that is a directory, a dangling link or a loop counts, so that
-    choosing the log gives :func:`read_log`'s message; a subdirectory that cannot be searched is
-    left out. OSError if ``directory`` itself cannot be listed."""
+    """The logs in ``directory`` by name.
+
+    The directory itself if it is one (it has an ``imu`` table), and each of its subdirectories
+    that is; sorted by name. Only the ``imu`` entry's presence is checked here: one that is a
+    directory, a dangling link or a loop counts, so that choosing the log gives :func:`read_log`'s
+    message; a subdirectory that cannot be searched, or whose name starts with a dot, is left out.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The directory to search (a log, or a directory of logs).
+
+    Returns
+    -------
+    dict of str to str
+        Each log's directory name -> its path, ``directory`` itself first if it is a log, then its
+        subdirectories in name order.
+
+    Raises
+    ------
+    OSError
+        If ``directory`` itself cannot be listed.
+    """
     root = Path(directory)
     subdirectories = []
     for entry in root.iterdir():
@@ -365,8 +404,20 @@ converter that writes them as a log)."""
 
 
 def raw_layout_hint(directory: str | os.PathLike) -> str:
-    """``"; it looks like ... convert it first: ..."`` when ``directory`` holds a vendor's raw
-    layout (:data:`RAW_LAYOUTS`), else ``""``: the end of a "no imu table" message."""
+    """The end of a "no imu table" message: how to convert a vendor's raw layout, if it is one.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The directory that has no ``imu`` table.
+
+    Returns
+    -------
+    str
+        ``"; it holds ..., <what>: convert it to a log first with `<converter>`, then replay OUT"``
+        when ``directory`` holds every file of a vendor's raw layout (:data:`RAW_LAYOUTS`), else
+        ``""``.
+    """
     root = Path(directory)
     for what, (files, converter) in RAW_LAYOUTS.items():
         try:

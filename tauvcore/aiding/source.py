@@ -88,6 +88,21 @@ class SourceData:
 
     @classmethod
     def empty(cls, columns: Sequence[Column], num_runs: int) -> SourceData:
+        """No epochs: the data of a source that measured nothing (a log without its table).
+
+        Parameters
+        ----------
+        columns : Sequence[Column]
+            The source's log columns (:attr:`AidingSource.columns`), one empty array each.
+        num_runs : int
+            Number of Monte Carlo runs R (the run axis of every value array).
+
+        Returns
+        -------
+        SourceData
+            Zero epochs: ``t_s`` (0,) [s], ``index`` (0,) int, each column's values (0, R) in the
+            column's unit, no truth columns.
+        """
         return cls(
             t_s=np.zeros(0),
             index=np.zeros(0, np.int64),
@@ -96,7 +111,20 @@ class SourceData:
 
     @classmethod
     def concatenate(cls, parts: Sequence[SourceData]) -> SourceData:
-        """The epochs of consecutive chunks as one."""
+        """The epochs of consecutive chunks as one.
+
+        Parameters
+        ----------
+        parts : Sequence[SourceData]
+            The chunks' data in mission order, at least one, each with the same columns and truth
+            columns and the same run count R.
+
+        Returns
+        -------
+        SourceData
+            Their epochs end to end: ``t_s`` (E,) [s], ``index`` (E,) int (the mission's IMU
+            samples), each column (E, R) in its unit, E the sum of the parts' epochs.
+        """
         return cls(
             t_s=np.concatenate([p.t_s for p in parts]),
             index=np.concatenate([p.index for p in parts]).astype(np.int64),
@@ -105,27 +133,85 @@ class SourceData:
         )
 
     def latest(self, name: str, k: int) -> np.ndarray:
-        """Column (or truth column) ``name`` at the last epoch at or before the mission's IMU sample
-        ``k``: (R,), NaN before the first epoch."""
+        """Column (or truth column) ``name`` at the last epoch at or before an IMU sample.
+
+        Parameters
+        ----------
+        name : str
+            A column of :attr:`values`, else a truth column of :attr:`truth` (e.g. ``"altitude_m"``).
+        k : int
+            The mission's IMU sample index (global, as :attr:`index`).
+
+        Returns
+        -------
+        numpy.ndarray
+            The value of the latest epoch at or before ``k``, shape (R,), in the column's unit (its
+            name says which, e.g. [m]); NaN before the first epoch.
+        """
         values = self.values[name] if name in self.values else self.truth[name]
         j = int(np.searchsorted(self.index, k, side="right")) - 1
         return np.asarray(values[j], dtype=float) if j >= 0 else np.full(values.shape[1:], np.nan)
 
     def stacked(self, names: Sequence[str]) -> np.ndarray:
-        """The columns ``names`` side by side: (E, R, len(names))."""
+        """The columns ``names`` side by side.
+
+        Parameters
+        ----------
+        names : Sequence[str]
+            Columns of :attr:`values`, in the order wanted (e.g. ``("north_m", "east_m", "down_m")``).
+
+        Returns
+        -------
+        numpy.ndarray
+            Every epoch of those columns, shape (E, R, len(names)), each in its column's unit.
+        """
         return np.stack([self.values[n] for n in names], axis=-1)
 
     def row(self, names: Sequence[str], j: int) -> np.ndarray:
-        """Epoch ``j`` of the columns ``names`` side by side: (R, len(names)), ``stacked(names)[j]``
-        without stacking the other epochs (a model reads one epoch at a time; a replay's chunk is
-        the whole log)."""
+        """Epoch ``j`` of the columns ``names`` side by side.
+
+        ``stacked(names)[j]`` without stacking the other epochs (a model reads one epoch at a
+        time; a replay's chunk is the whole log).
+
+        Parameters
+        ----------
+        names : Sequence[str]
+            Columns of :attr:`values`, in the order wanted.
+        j : int
+            The epoch within this data (0 <= j < E), not an IMU sample index.
+
+        Returns
+        -------
+        numpy.ndarray
+            Epoch ``j`` of those columns, shape (R, len(names)), each in its column's unit.
+        """
         return np.stack([self.values[n][j] for n in names], axis=-1)
 
 
 class SourceModel(Protocol):
     """What the bank calls at each epoch of the source, for the whole batch (methods x runs)."""
 
-    def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement: ...
+    def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement:
+        """The measurement of epoch ``j`` for the whole batch.
+
+        Parameters
+        ----------
+        nom : Nominal
+            The nominal state of the batch B (methods x runs, (M, R) in the 20-state bank): position
+            ``pos_n`` (B, 3) [m] NED (latitude, longitude [rad], depth [m] on WGS-84), velocity
+            ``vel_n`` (B, 3) [m/s] NED, attitude ``C_nb`` (B, 3, 3) body FRD to NED.
+        data : SourceData
+            The source's epochs within the chunk, each column (E, R).
+        j : int
+            The epoch within ``data`` (0 <= j < E).
+
+        Returns
+        -------
+        Measurement
+            ``z`` and ``innovation`` (B, m), ``H`` (B, m, 20), ``R`` (B, m, m) and ``valid`` (B,),
+            in the source's units (SI), m its measurement's rows (:attr:`AidingSource.row_labels`).
+        """
+        ...
 
 
 class AidingSource(ABC):
@@ -167,11 +253,37 @@ class AidingSource(ABC):
 
     @abstractmethod
     def rate_hz(self, section: Any) -> float:
-        """Its measurement rate [Hz]."""
+        """Its measurement rate.
+
+        Parameters
+        ----------
+        section : Any
+            Its configuration section (an instance of :attr:`config_type`).
+
+        Returns
+        -------
+        float
+            Epochs per second [Hz]; at most the IMU's rate (:class:`~tauvcore.config.Config` checks).
+        """
 
     def initial_state(self, section: Any, num_runs: int, world: World) -> Any:
-        """What :meth:`simulate_chunk` carries from one chunk to the next (None: nothing); ``world``:
-        what the vehicle flies through (the seabed)."""
+        """What :meth:`simulate_chunk` carries from one chunk to the next, before the first chunk.
+
+        Parameters
+        ----------
+        section : Any
+            Its configuration section (an instance of :attr:`config_type`; zero-noise when the run
+            is ideal: :meth:`ideal`).
+        num_runs : int
+            Number of Monte Carlo runs R.
+        world : World
+            What the vehicle flies through (the seabed, depths [m] NED).
+
+        Returns
+        -------
+        Any
+            The source's own state for the first chunk; None: nothing is carried.
+        """
         return None
 
     @abstractmethod
@@ -186,19 +298,75 @@ class AidingSource(ABC):
         num_runs: int,
         num_samples: int,
     ) -> tuple[SourceData, Any]:
-        """Its measurements fused within the chunk ``truth`` (the mission's samples ``k0`` on) and
-        the state for the next chunk. ``epochs``: the mission's samples at :meth:`rate_hz` within the
-        chunk; ``rngs``: a generator (or one per run) for each of :attr:`streams`; ``num_samples``:
-        the mission's length. ``section`` is as given (zero-noise when the run is ideal:
-        :meth:`ideal`)."""
+        """Its measurements fused within the chunk ``truth`` and the state for the next chunk.
+
+        Parameters
+        ----------
+        truth : Truth
+            The chunk's true motion, K samples at the IMU rate (positions (K, 3) [m] NED,
+            attitude ``C_nb`` (K, 3, 3) body FRD to NED, ...); its row k is the mission's sample
+            ``k0 + k``.
+        k0 : int
+            The mission's IMU sample index of the chunk's first row.
+        epochs : numpy.ndarray
+            The mission's IMU sample indices at :meth:`rate_hz` within the chunk, shape (E,) int,
+            sorted, each in ``[k0, k0 + K)``.
+        section : Any
+            Its configuration section as given (zero-noise when the run is ideal: :meth:`ideal`).
+        state : Any
+            What the previous chunk handed on (:meth:`initial_state` before the first chunk).
+        rngs : Mapping[str, Rng]
+            A generator (or one per run) for each of :attr:`streams`, by stream name.
+        num_runs : int
+            Number of Monte Carlo runs R.
+        num_samples : int
+            The mission's length [IMU samples].
+
+        Returns
+        -------
+        tuple[SourceData, Any]
+            The epochs fused within the chunk (``t_s`` (E',) [s], ``index`` (E',) the mission's IMU
+            samples, each column (E', R) in its unit) and the state for the next chunk.
+        """
 
     def ideal(self, section: Any) -> Any:
-        """The section with every error zeroed (``run.ideal``); as given unless overridden."""
+        """The section with every error zeroed (``run.ideal``); as given unless overridden.
+
+        Parameters
+        ----------
+        section : Any
+            Its configuration section (an instance of :attr:`config_type`).
+
+        Returns
+        -------
+        Any
+            The same section type with every error (noise, bias, dropout, ...) zero.
+        """
         return section
 
     def model(self, section: Any, config: Sections) -> SourceModel:
-        """Its measurement model, from its section and the rest of the configuration (a
-        :attr:`fused` source must define it)."""
+        """Its measurement model, from its section and the rest of the configuration.
+
+        A :attr:`fused` source must define it.
+
+        Parameters
+        ----------
+        section : Any
+            Its configuration section (an instance of :attr:`config_type`).
+        config : Sections
+            The run's configuration, read by section (e.g. ``config.section("earth")`` for the
+            origin's latitude and longitude [rad]).
+
+        Returns
+        -------
+        SourceModel
+            What the bank calls at each of the source's epochs (:meth:`SourceModel.measure`).
+
+        Raises
+        ------
+        TypeError
+            Unless overridden: the source is data for a method, not a measurement: it has no model.
+        """
         raise TypeError(f"source {self.name!r} is data for a method, not a measurement: it has no model")
 
 

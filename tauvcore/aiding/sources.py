@@ -28,7 +28,7 @@ MODULES: tuple[str, ...] = (
     "attitude_mag",  # tauvcore/aiding/attitude_mag.py: the magnetometer's attitude
     "echo_altitude",  # tauvcore/aiding/echo_altitude.py: the echo sounder's altitude (Yoo's switch)
     "propeller_rpm",  # tauvcore/aiding/propeller_rpm.py: the propeller's RPM (Yoo's velocity filter)
-    "usbl",  # tauvcore/aiding/usbl.py: a ship's USBL position fix, the worked example of docs/adding_a_sensor.md
+    "usbl",  # tauvcore/aiding/usbl.py: a ship's USBL position fix (docs/adding_a_sensor.md's example)
 )
 """The modules of tauvcore.aiding that define a plug-in source (each its ``SOURCE``), one line each."""
 
@@ -38,7 +38,32 @@ measurement without data) and the log's own tables."""
 
 
 def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
-    """Each module's ``SOURCE`` by name, checked."""
+    """Each module's ``SOURCE`` by name, checked.
+
+    Parameters
+    ----------
+    modules : tuple[str, ...]
+        Module names within ``tauvcore.aiding`` (e.g. ``"usbl"``), each defining ``SOURCE``, in
+        registry order (:data:`MODULES`).
+
+    Returns
+    -------
+    dict[str, AidingSource]
+        Every module's source by its :attr:`~tauvcore.aiding.source.AidingSource.name`, in the
+        order of ``modules``.
+
+    Raises
+    ------
+    TypeError
+        A module that does not define ``SOURCE = <AidingSource>()``.
+    ValueError
+        A source whose name is not a lower-case identifier or is taken (by another source or
+        :data:`BUILT_IN`); whose ``section_name`` or ``table`` is taken or no name; whose columns
+        are not distinct names other than ``t_s``; whose truth columns are not distinct names other
+        than ``t_s`` and the columns; with ``methods_fuse`` on a source the engine fuses; fused
+        without its ``observes`` naming error-state blocks, its ``model()`` or its ``row_labels``;
+        without a label; or with a field of its ``config_type`` that declares no ``Setting``.
+    """
     out: dict[str, AidingSource] = {}
     for module_name in modules:
         source = getattr(importlib.import_module(f"tauvcore.aiding.{module_name}"), "SOURCE", None)

@@ -112,16 +112,29 @@ class UsblConfig:
         require_range("usbl.transceiver_n_m[2]", self.transceiver_n_m[2], 0.0, 50.0)
 
     def sigma_m(self, slant_range_m: np.ndarray) -> np.ndarray:
-        """Per-axis 1-sigma of a fix at ``slant_range_m`` [m] (same shape)."""
+        """Per-axis 1-sigma of a fix: ``noise_fixed_m + noise_fraction * s``.
+
+        Parameters
+        ----------
+        slant_range_m : numpy.ndarray
+            Slant range ``s`` from the transceiver to the transponder [m], any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The 1-sigma of each NED axis of the fix [m], the shape of ``slant_range_m``.
+        """
         return self.noise_fixed_m + self.noise_fraction * np.asarray(slant_range_m, dtype=float)
 
 
 @dataclass(frozen=True)
 class UsblSetup:
+    """One epoch's fixes made ready for the batch (:meth:`UsblFix.prepare`)."""
+
     z: np.ndarray  # (B, 3) the fix, transponder NED from the origin [m] (zero where invalid)
     valid: np.ndarray  # (B,) a fix in this epoch
     R: np.ndarray  # (B, 3, 3) [m^2]
-    tau_s: float  # the latency the prediction goes back by
+    tau_s: float  # the latency the prediction goes back by [s]
 
 
 @dataclass(frozen=True)
@@ -135,7 +148,24 @@ class UsblFix:
     name = "usbl"
 
     def prepare(self, z_n_m: np.ndarray, batch: tuple[int, ...]) -> UsblSetup:
-        """From the fixes ``z_n_m`` (R, 3) of one epoch (NaN: lost), for the batch (M, R)."""
+        """The fixes of one epoch made ready for the batch, with their variance.
+
+        Parameters
+        ----------
+        z_n_m : numpy.ndarray
+            The epoch's fixes, the transponder's position in the origin's tangent frame, shape
+            (R, 3) [m] NED (any shape that broadcasts to ``batch + (3,)``); NaN: a lost fix.
+        batch : tuple[int, ...]
+            The batch shape B, (M, R): methods x runs.
+
+        Returns
+        -------
+        UsblSetup
+            ``z`` ``batch + (3,)`` [m] NED, zero where lost; ``valid`` ``batch`` bool; ``R``
+            ``batch + (3, 3)`` [m^2], ``diag(sigma_i^2)`` at the fix's measured slant range, each
+            sigma at least :data:`SIGMA_FLOOR_M`; ``tau_s`` the latency [s] (0 when
+            ``compensate_latency`` is off).
+        """
         z = np.broadcast_to(np.asarray(z_n_m, dtype=float), batch + (3,))
         valid = np.asarray(np.isfinite(z).all(axis=-1))
         z = np.where(valid[..., None], z, 0.0)
@@ -147,15 +177,58 @@ class UsblFix:
         return UsblSetup(z=np.ascontiguousarray(z), valid=valid, R=R, tau_s=tau)
 
     def offset_n_m(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
-        """What the prediction adds to the estimated position [m]: ``C l_b - tau v_n`` (B, 3)."""
+        """What the prediction adds to the estimated position: ``C l_b - tau v_n``.
+
+        Parameters
+        ----------
+        nom : Nominal
+            The nominal state of the batch B ((M, R) in the bank): ``pos_n`` (B, 3) [m] NED from
+            the origin, ``vel_n`` (B, 3) [m/s] NED, ``C_nb`` (B, 3, 3) body FRD to NED.
+        setup : UsblSetup
+            The epoch's fixes (:meth:`prepare`), for the same batch.
+
+        Returns
+        -------
+        numpy.ndarray
+            The lever arm in NED less the latency's travel, shape (B, 3) [m], NED.
+        """
         return mv(nom.nav.C_nb, np.asarray(self.config.lever_arm_b_m)) - setup.tau_s * nom.nav.vel_n
 
     def predict(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
-        """h(x) (B, 3) on the flat earth: the transponder at ping time, NED [m]."""
+        """h(x) on the flat earth: the transponder at ping time.
+
+        Parameters
+        ----------
+        nom : Nominal
+            The nominal state of the batch B ((M, R) in the bank): ``pos_n`` (B, 3) [m] NED from
+            the origin, ``vel_n`` (B, 3) [m/s] NED, ``C_nb`` (B, 3, 3) body FRD to NED.
+        setup : UsblSetup
+            The epoch's fixes (:meth:`prepare`), for the same batch.
+
+        Returns
+        -------
+        numpy.ndarray
+            The predicted fix ``p + C l_b - tau v_n``, shape (B, 3) [m], NED from the origin.
+        """
         return nom.nav.pos_n + self.offset_n_m(nom, setup)
 
     def jacobian(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
-        """H (B, 3, 20) (module docstring)."""
+        """H (module docstring): ``[I, -[(C l_b) x] + tau [v_n x], -tau C, 0 ...]``.
+
+        Parameters
+        ----------
+        nom : Nominal
+            The nominal state of the batch B ((M, R) in the bank): ``pos_n`` (B, 3) [m] NED from
+            the origin, ``vel_n`` (B, 3) [m/s] NED, ``C_nb`` (B, 3, 3) body FRD to NED.
+        setup : UsblSetup
+            The epoch's fixes (:meth:`prepare`), for the same batch.
+
+        Returns
+        -------
+        numpy.ndarray
+            The Jacobian of h by the 20-state error, shape (B, 3, 20): rows NED [m]; position
+            columns [-], attitude (n-frame rho) [m/rad], body velocity [s]; zero elsewhere.
+        """
         batch = nom.nav.pos_n.shape[:-1]
         H = np.zeros(batch + (3, STATE.dim))
         H[..., STATE.pos] = np.eye(3)
@@ -165,7 +238,26 @@ class UsblFix:
         return H
 
     def innovation(self, nom: Nominal, setup: UsblSetup) -> np.ndarray:
-        """``z (-) h(x)`` (B, 3) [m], in the estimate's NED frame (module docstring)."""
+        """``z (-) h(x)``, in the estimate's NED frame (module docstring).
+
+        On the flat earth ``z - h(x)``; on WGS-84 the fix is taken to geodetic coordinates and its
+        offset from the estimate is taken in the estimate's own NED frame
+        (:func:`tauvcore.geo.earth.ned_offset_m`), less :meth:`offset_n_m`.
+
+        Parameters
+        ----------
+        nom : Nominal
+            The nominal state of the batch B ((M, R) in the bank): ``pos_n`` (B, 3) [m] NED from
+            the origin (on WGS-84: latitude, longitude [rad], depth [m]), ``vel_n`` (B, 3) [m/s]
+            NED, ``C_nb`` (B, 3, 3) body FRD to NED.
+        setup : UsblSetup
+            The epoch's fixes (:meth:`prepare`), for the same batch.
+
+        Returns
+        -------
+        numpy.ndarray
+            The innovation, shape (B, 3) [m], NED at the estimate.
+        """
         if not self.geodetic:
             return setup.z - self.predict(nom, setup)
         lat, lon, h = geodetic_from_ned(setup.z, self.origin)
@@ -174,6 +266,27 @@ class UsblFix:
         return offset - self.offset_n_m(nom, setup)
 
     def measure(self, nom: Nominal, data: SourceData, j: int) -> Measurement:
+        """The fix of epoch ``j`` as a measurement of the whole batch (:meth:`prepare`,
+        :meth:`innovation`, :meth:`jacobian`).
+
+        Parameters
+        ----------
+        nom : Nominal
+            The nominal state of the batch B ((M, R) in the bank): ``pos_n`` (B, 3) [m] NED from
+            the origin (on WGS-84: latitude, longitude [rad], depth [m]), ``vel_n`` (B, 3) [m/s]
+            NED, ``C_nb`` (B, 3, 3) body FRD to NED.
+        data : SourceData
+            The USBL's epochs within the chunk: columns ``north_m``, ``east_m``, ``down_m``, each
+            (E, R) [m] in the origin's tangent frame (NED), NaN for a lost fix.
+        j : int
+            The epoch within ``data`` (0 <= j < E).
+
+        Returns
+        -------
+        Measurement
+            ``z`` (B, 3) [m] NED (zero where lost), ``innovation`` (B, 3) [m] NED (zero where
+            lost), ``H`` (B, 3, 20), ``R`` (B, 3, 3) [m^2] and ``valid`` (B,) bool.
+        """
         batch = nom.nav.pos_n.shape[:-1]
         setup = self.prepare(data.row(AXES, j), batch)
         nu = np.where(setup.valid[..., None], self.innovation(nom, setup), 0.0)
@@ -194,6 +307,9 @@ class _Pending:
 
 
 class Usbl(AidingSource):
+    """The USBL as a plug-in source: configuration, simulation, log table and model (module
+    docstring)."""
+
     name = "usbl"
     label = "USBL"
     summary = "a ship's USBL fixing the vehicle's position (slant-range noise, latency, dropouts, outliers)"
@@ -212,14 +328,55 @@ class Usbl(AidingSource):
     )  # the lever arm turns with the attitude; the latency term moves with the velocity
 
     def rate_hz(self, section: UsblConfig) -> float:
+        """The ping rate, one ping per ``interval_s``.
+
+        Parameters
+        ----------
+        section : UsblConfig
+            The ``[usbl]`` section.
+
+        Returns
+        -------
+        float
+            Pings per second, ``1 / interval_s`` [Hz].
+        """
         return 1.0 / section.interval_s
 
     def ideal(self, section: UsblConfig) -> UsblConfig:
+        """The same USBL with every error zeroed (``run.ideal``).
+
+        Parameters
+        ----------
+        section : UsblConfig
+            The ``[usbl]`` section.
+
+        Returns
+        -------
+        UsblConfig
+            Its noise (fixed [m] and fraction [-]), dropout and outlier probabilities zero; its
+            interval [s], latency [s], transceiver [m] NED and lever arm [m] body FRD kept.
+        """
         return dataclasses.replace(
             section, noise_fixed_m=0.0, noise_fraction=0.0, dropout_probability=0.0, outlier_probability=0.0
         )
 
     def initial_state(self, section: UsblConfig, num_runs: int, world: World) -> _Pending:
+        """No fix pending before the first chunk.
+
+        Parameters
+        ----------
+        section : UsblConfig
+            The ``[usbl]`` section.
+        num_runs : int
+            Number of Monte Carlo runs R.
+        world : World
+            What the vehicle flies through (unused: a fix does not depend on the seabed).
+
+        Returns
+        -------
+        _Pending
+            The fixes pinged but not yet arrived: none.
+        """
         return _Pending()
 
     def simulate_chunk(
@@ -234,7 +391,39 @@ class Usbl(AidingSource):
         num_samples: int,
     ) -> tuple[SourceData, _Pending]:
         """The fixes of the pings at ``epochs`` (transponder at ping time, with its errors), due
-        ``latency_s`` later; those due within this chunk are returned, the later ones carried."""
+        ``latency_s`` later; those due within this chunk are returned, the later ones carried.
+
+        The latency is rounded to whole IMU samples; a fix due after the mission's last sample is
+        dropped.
+
+        Parameters
+        ----------
+        truth : Truth
+            The chunk's true motion, K samples at the IMU rate (``pos_n`` (K, 3) [m] NED, ``C_nb``
+            (K, 3, 3) body FRD to NED); its row k is the mission's sample ``k0 + k``.
+        k0 : int
+            The mission's IMU sample index of the chunk's first row.
+        epochs : numpy.ndarray
+            The mission's IMU sample indices of the pings within the chunk, shape (E,) int.
+        section : UsblConfig
+            The ``[usbl]`` section (zero-noise when the run is ideal: :meth:`ideal`).
+        state : _Pending
+            The fixes pinged in earlier chunks and not yet arrived.
+        rngs : Mapping[str, Rng]
+            A generator (or one per run) for each of ``noise``, ``dropout``, ``outlier`` and
+            ``outlier_direction``.
+        num_runs : int
+            Number of Monte Carlo runs R.
+        num_samples : int
+            The mission's length [IMU samples].
+
+        Returns
+        -------
+        tuple[SourceData, _Pending]
+            The fixes arriving within the chunk (``t_s`` (E',) [s] the mission's time of the arrival
+            sample, ``index`` (E',) int, columns ``north_m``, ``east_m``, ``down_m`` (E', R) [m] in
+            the origin's tangent frame, NED, NaN where lost) and the fixes carried to later chunks.
+        """
         E, R = epochs.size, num_runs
         rows = epochs - k0
         lever_n = mv(truth.C_nb[rows], np.asarray(section.lever_arm_b_m))
@@ -272,6 +461,21 @@ class Usbl(AidingSource):
         return take, _Pending(later)
 
     def model(self, section: UsblConfig, config: Sections) -> UsblFix:
+        """The fix's measurement model.
+
+        Parameters
+        ----------
+        section : UsblConfig
+            The ``[usbl]`` section.
+        config : Sections
+            The run's configuration: its ``[earth]`` section says whether the nominal position is
+            geodetic (WGS-84) and gives the origin's latitude and longitude [rad].
+
+        Returns
+        -------
+        UsblFix
+            The model, with the origin (latitude, longitude [rad], height 0 m) of the tangent frame.
+        """
         earth: Any = config.section("earth")
         return UsblFix(
             config=section,

@@ -30,11 +30,34 @@ def run(
 ) -> dict[str, MethodResult]:
     """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
 
-    ``progress(t_s, partial_results)`` is called every ``progress_interval_s`` of simulated time
-    with the results so far (for live displays); ``should_stop()`` is polled at every output
-    epoch (10 Hz of simulated time, a few milliseconds of wall time) and ends the run early,
-    returning the results up to that epoch. :func:`run_streaming` does the same without holding
-    the whole simulation.
+    :func:`run_streaming` does the same without holding the whole simulation.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration: the methods (``config.run.methods``), the filters' tuning, the
+        initial errors and the aiding sources fused (``config.run.aiding``).
+    sim : Simulation
+        Truth and every sensor's output for ``sim.num_runs`` runs R (:func:`simulate`, or a log:
+        :func:`tauvcore.eval.replay.log_simulation`).
+    rng : numpy.random.Generator or Sequence[numpy.random.Generator]
+        What the filters' initial errors are drawn from: one generator for the batch of R runs,
+        or one per run (R of them).
+    progress : Callable[[float, dict[str, MethodResult]], None] or None
+        ``progress(t_s, partial_results)``, called every ``progress_interval_s`` of simulated time
+        with the simulated time [s] and the results so far (for live displays); None: not called.
+    progress_interval_s : float
+        Simulated time between two calls of ``progress`` [s].
+    should_stop : Callable[[], bool] or None
+        ``should_stop()``, polled at every output epoch (``config.filter.output_rate_hz``, 10 Hz
+        by default, of simulated time: a few milliseconds of wall time); True ends the run early,
+        returning the results up to that epoch. None: the run goes to the end.
+
+    Returns
+    -------
+    dict[str, MethodResult]
+        Method name -> its results over the T output epochs and R runs (series (T, R), in the
+        units their field names carry), in ``config.run.methods`` order.
     """
     banks = Banks(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
     banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
@@ -42,9 +65,28 @@ def run(
 
 
 class Banks:
-    """The 20-state FilterBank for the first paper's methods and the YooBank for Yoo 2014's
-    (tauvcore.engine.yoo_bank), fed the same chunks, their results in ``config.run.methods`` order.
-    The Yoo methods start from the same initial errors as the others (the same draws)."""
+    """The 20-state FilterBank for the first paper's methods and the YooBank for Yoo 2014's.
+
+    Both banks (tauvcore.engine.filter_bank, tauvcore.engine.yoo_bank) are fed the same chunks,
+    their results in ``config.run.methods`` order. The Yoo methods start from the same initial
+    errors as the others (the same draws).
+
+    Parameters
+    ----------
+    config : Config
+        The configuration; ``config.run.methods`` names the methods of both banks.
+    num_runs : int
+        Monte Carlo runs R of the batch.
+    num_samples : int
+        IMU samples K of the whole mission.
+    dt_s : float
+        IMU sample interval [s].
+    rng : numpy.random.Generator or Sequence[numpy.random.Generator]
+        What the initial errors are drawn from: one generator for the batch, or one per run (R).
+    keep : bool
+        Whether the banks keep every chunk's results (:meth:`results`); False: only what
+        :meth:`take` has not handed out yet, so that memory does not grow with the mission.
+    """
 
     def __init__(
         self,
@@ -76,9 +118,36 @@ class Banks:
         progress_interval_s: float = 5.0,
         should_stop: Callable[[], bool] | None = None,
     ) -> bool:
-        """Both banks over one chunk. The Yoo bank goes first (compiled, it takes a few percent of
-        the time), so the 20-state bank's progress can carry its results up to the same time; a
-        stop request, polled by the 20-state bank, ends both at its epoch (:attr:`until_s`)."""
+        """Run both banks over one chunk.
+
+        The Yoo bank goes first (compiled, it takes a few percent of the time), so the 20-state
+        bank's progress can carry its results up to the same time; a stop request, polled by the
+        20-state bank, ends both at its epoch (:attr:`until_s`).
+
+        Parameters
+        ----------
+        chunk : SimChunk
+            The next chunk of the mission (chunks in order, the first at sample 0), R runs.
+        progress : Callable or None
+            ``progress(t_s, results)`` with the simulated time [s] and both banks' results so far,
+            called every ``progress_interval_s`` of simulated time; None: not called.
+        progress_interval_s : float
+            Simulated time between two calls of ``progress`` [s].
+        should_stop : Callable[[], bool] or None
+            Polled at every output epoch; True ends the run at that epoch. None: never stops.
+
+        Returns
+        -------
+        bool
+            True while the run goes on; False once a stop request ended it (at this chunk or an
+            earlier one).
+
+        Raises
+        ------
+        ValueError
+            From the banks: the first chunk does not start at sample 0, or the chunks do not follow
+            each other.
+        """
         if self.stopped:
             return False
         bank, yoo = self.bank, self.yoo
@@ -123,12 +192,31 @@ class Banks:
         return {m: both[m] for m in self.order if m in both}
 
     def results(self) -> dict[str, MethodResult]:
+        """Both banks' results kept so far, up to where a stop request ended the run.
+
+        Returns
+        -------
+        dict[str, MethodResult]
+            Method name -> its results over the output epochs so far (series (T, R)), in
+            ``config.run.methods`` order; all of them unless ``keep`` is False.
+        """
         return self._merge(
             self.bank.results() if self.bank is not None else {},
             self.yoo.results(self.until_s) if self.yoo is not None else {},
         )
 
     def take(self) -> dict[str, MethodResult]:
+        """The output epochs and updates since the last :meth:`take`.
+
+        Without ``keep`` they are dropped from the banks, so that memory does not grow with the
+        mission.
+
+        Returns
+        -------
+        dict[str, MethodResult]
+            Method name -> its results over the output epochs since the last take (series
+            (T_chunk, R)), in ``config.run.methods`` order.
+        """
         return self._merge(
             self.bank.take() if self.bank is not None else {},
             self.yoo.take(self.until_s) if self.yoo is not None else {},
@@ -152,20 +240,58 @@ def run_streaming(
     should_stop: Callable[[], bool] | None = None,
     on_sim_chunk: Callable[[SimChunk], None] | None = None,
 ) -> dict[str, MethodResult]:
-    """Simulate and run chunk by chunk: truth (tauvcore.truth.truth_stream: kinematic or dynamic) and sensors
-    (tauvcore.sensors.stream.SensorStream) are generated ``chunk_s`` at a time and fed to the
-    :class:`FilterBank`, so memory does not depend on the mission's length.
+    """Simulate and run chunk by chunk, so that memory does not depend on the mission's length.
 
-    ``rng``: one generator for the batch of ``num_runs`` runs, or one per run (a study's runs,
-    tauvcore.eval.study). Each is split into independent named streams
+    Truth (tauvcore.truth.truth_stream: kinematic or dynamic), the IMU
+    (tauvcore.sensors.stream.SensorStream) and the aiding sources (:class:`SourceStream`) are
+    generated ``chunk_s`` at a time and fed to the banks (:class:`Banks`: the 20-state
+    :class:`FilterBank` and the YooBank).
+
+    Each generator is split into independent named streams
     (:meth:`~tauvcore.sensors.stream.SensorStreams.spawned`: the IMU's, the DVL's, ..., the
     initial errors'), so the numbers do not depend on ``chunk_s`` (tests/unit/test_stream_engine.py);
     they differ from :func:`simulate` + :func:`run`, which draw everything from one stream.
-    ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
-    verdict so far); with ``keep`` False they are not kept and the return value holds only the
-    last chunk's. ``progress`` and ``should_stop`` as in :func:`run`. ``on_sim_chunk(chunk)``
-    receives each chunk of the simulation itself (truth and sensors) before the bank runs it
-    (``tauv run --save-log`` writes them as a log: tauvcore.logs).
+
+    Parameters
+    ----------
+    config : Config
+        The configuration: trajectory, earth, sensors, filters and ``config.run.methods``.
+    rng : numpy.random.Generator or Sequence[numpy.random.Generator]
+        One generator for the batch of ``num_runs`` runs, or one per run (``num_runs`` of them: a
+        study's runs, tauvcore.eval.study).
+    num_runs : int
+        Monte Carlo runs R of the batch.
+    chunk_s : float
+        Mission time generated and filtered at a time [s] (at least one DVL ping interval plus
+        one IMU sample, so that the first chunk holds the first ping).
+    on_chunk : Callable[[dict[str, MethodResult]], None] or None
+        ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
+        verdict so far), method name -> :class:`MethodResult` (series (T_chunk, R)); None: not
+        called.
+    keep : bool
+        Whether the results of every chunk are kept; False: they are not kept and the return
+        value holds only the last chunk's.
+    progress : Callable[[float, dict[str, MethodResult]], None] or None
+        As in :func:`run`: ``progress(t_s, partial_results)`` with the simulated time [s].
+    progress_interval_s : float
+        Simulated time between two calls of ``progress`` [s].
+    should_stop : Callable[[], bool] or None
+        As in :func:`run`: polled at every output epoch, True ends the run at that epoch.
+    on_sim_chunk : Callable[[SimChunk], None] or None
+        ``on_sim_chunk(chunk)`` receives each chunk of the simulation itself (truth and sensors)
+        before the banks run it (``tauv run --save-log`` writes them as a log: tauvcore.logs).
+
+    Returns
+    -------
+    dict[str, MethodResult]
+        Method name -> its results (series (T, R) over the output epochs, in the units their
+        field names carry), in ``config.run.methods`` order: the whole mission's, or with
+        ``keep`` False the last chunk's only.
+
+    Raises
+    ------
+    ValueError
+        A sequence ``rng`` whose length is not ``num_runs``: "one generator per run expected".
     """
     per_run = not isinstance(rng, np.random.Generator)
     if per_run:

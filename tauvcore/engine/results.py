@@ -20,7 +20,22 @@ position NEES is NaN throughout)."""
 
 
 def block_dims(method: str) -> dict[str, int]:
-    """NEES dimensions of a method's results (by name: a study's chunks carry only series)."""
+    """NEES dimensions of a method's results, by the method's name.
+
+    By name, not from a :class:`MethodResult`: a study's chunks carry only series.
+
+    Parameters
+    ----------
+    method : str
+        The method's name (a key of ``config.run.methods``; Yoo 2014's are those of
+        ``tauvcore.config.YOO_METHODS``).
+
+    Returns
+    -------
+    dict[str, int]
+        Block name ("full" and each NEES block) -> its degrees of freedom: :data:`YOO_BLOCK_DIMS`
+        for a Yoo 2014 method, :data:`BLOCK_DIMS` for the others.
+    """
     from tauvcore.config import YOO_METHODS
 
     return YOO_BLOCK_DIMS if method in YOO_METHODS else BLOCK_DIMS
@@ -76,7 +91,7 @@ class MethodResult:
     est_vel_n: np.ndarray | None = None  # (T, R, 3) estimated NED velocity [m/s]
     est_euler_rad: np.ndarray | None = None  # (T, R, 3) estimated roll, pitch, yaw [rad]
     block_dims: dict[str, int] | None = None  # NEES dimensions when not the 20-state filter's (Yoo 2014's
-    # 12: tauvcore.engine.yoo_bank.BLOCK_DIMS); None: consistency.BLOCK_DIMS
+    # 12: tauvcore.engine.yoo_bank.BLOCK_DIMS); None: BLOCK_DIMS (the 20-state filter's)
     vkf_trace: dict[str, np.ndarray] | None = None  # the velocity Kalman filter at every ping (method vkf:
     # tauvcore.engine.yoo_bank.YooBank._vkf_series)
 
@@ -107,10 +122,35 @@ def method_result(
     diverged_at_s: np.ndarray,
     **fields,
 ) -> MethodResult:
-    """Method ``m``'s result from a bank's arrays over methods and runs: ``series`` (S, T, M, R) in
-    :data:`SERIES_FIELDS` order, ``epochs`` the other per-epoch arrays (T, M, R, ...) by name
-    (``nees_block``, ``est_pos_n``, ``est_vel_n``, ``est_euler``), ``diverged_at_s`` (R,) the
-    monitor's first flag (NaN: none); ``fields`` the rest of :class:`MethodResult` as they are."""
+    """Method ``m``'s result from a bank's arrays over methods and runs.
+
+    Parameters
+    ----------
+    method : str
+        The method's name.
+    m : int
+        The method's index along the bank's method axis M.
+    t_s : numpy.ndarray
+        Output epochs, shape (T,) [s].
+    series : numpy.ndarray
+        The per-epoch series, shape (S, T, M, R), rows in :data:`SERIES_FIELDS` order (each in the
+        unit its field's name carries: [m/s], [deg], [m]; NEES dimensionless).
+    epochs : dict[str, numpy.ndarray]
+        The other per-epoch arrays (T, M, R, ...) by name: ``nees_block`` (T, M, R, B),
+        ``est_pos_n`` (T, M, R, 3) [m] NED, ``est_vel_n`` (T, M, R, 3) [m/s] NED and
+        ``est_euler`` (T, M, R, 3) roll, pitch, yaw [rad].
+    diverged_at_s : numpy.ndarray
+        The monitor's first flag per run, shape (R,) [s] (NaN: none).
+    **fields
+        The rest of :class:`MethodResult` as they are (``p_floor_count``, ``updates``,
+        ``block_dims``, ``vkf_trace``).
+
+    Returns
+    -------
+    MethodResult
+        Method ``m``'s results: series (T, R), estimates (T, R, 3), ``diverged`` (R,) where
+        ``diverged_at_s`` is not NaN.
+    """
     return MethodResult(
         method=method,
         t_s=t_s,

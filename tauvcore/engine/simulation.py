@@ -41,7 +41,32 @@ class Simulation:
 def simulate(
     config: Config, rng: np.random.Generator, num_runs: int = 1, truth: Truth | None = None
 ) -> Simulation:
-    """Generate the truth (unless given) and the sensor outputs (errors zeroed if ``config.run.ideal``)."""
+    """Generate the truth (unless given) and the sensor outputs of a whole mission.
+
+    The sensors' errors are zeroed if ``config.run.ideal``. The DVL, the depth and the
+    magnetometer draw from ``rng`` after the IMU; the echo sounder and the RPM from a child of
+    ``rng``; the other sources from their children of a second child.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration: trajectory, earth, IMU (its ``rate_hz`` the truth's sample rate [Hz])
+        and the aiding sources.
+    rng : numpy.random.Generator
+        Every draw of the sensors' errors; what it draws next is the filters' initial errors
+        (:func:`~tauvcore.engine.mission.run` with the same generator).
+    num_runs : int
+        Monte Carlo runs R.
+    truth : Truth or None
+        The true motion at the IMU's samples (K samples, NED n-frame and body b-frame as its
+        fields say); None: generated from ``config.trajectory``.
+
+    Returns
+    -------
+    Simulation
+        Truth (K samples), the IMU's increments (K, R, 3) [rad], [m/s] in the body frame, and
+        every simulated source's epochs (values (E, R)), run axis after time.
+    """
     ideal = config.run.ideal
     if truth is None:
         truth = generate(config.trajectory, config.earth, config.imu.rate_hz)
@@ -83,4 +108,16 @@ class SimChunk:
 
     @classmethod
     def whole(cls, sim: Simulation) -> SimChunk:
+        """A whole simulation as one chunk, from sample 0.
+
+        Parameters
+        ----------
+        sim : Simulation
+            Truth and every sensor's output for R runs (K samples).
+
+        Returns
+        -------
+        SimChunk
+            Samples 0 .. K - 1 of ``sim``: its truth, IMU rows and sources' epochs.
+        """
         return cls(0, sim.truth, sim.imu, sim.sources)

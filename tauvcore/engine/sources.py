@@ -1,7 +1,9 @@
 """The aiding sources of a run (tauvcore.aiding.sources), simulated chunk by chunk.
 
-A source aboard every vehicle (the DVL, the depth, the magnetometer, the echo sounder, the RPM) draws from its streams of the run's
-tauvcore.sensors.stream.SensorStreams and is simulated whether or not ``run.aiding`` fuses it.
+A source aboard every vehicle (the DVL, the depth, the magnetometer, the echo sounder, the RPM)
+draws from its streams of the run's tauvcore.sensors.stream.SensorStreams and is simulated
+whether or not ``run.aiding`` fuses it.
+
 Every other registered source's streams are children of the run's generator, spawned after the
 sensors' in registry order whether the source is on or not: turning a source on changes no other
 source's numbers; it is simulated only when ``run.aiding`` turns it on. Either way the numbers do
@@ -24,13 +26,37 @@ from tauvcore.truth.world import World
 
 
 def active(config: Config) -> tuple[str, ...]:
-    """The sources the engine fuses that ``config.run.aiding`` turns on, in registry order (their
-    order of fusion at an epoch they share; the DVL's beams the methods fuse themselves)."""
+    """The sources the engine fuses that ``config.run.aiding`` turns on, in registry order.
+
+    Registry order is their order of fusion at an epoch they share; the DVL's beams the methods
+    fuse themselves.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration; ``config.run.aiding`` names the sources turned on.
+
+    Returns
+    -------
+    tuple[str, ...]
+        The names of the sources fused, in registry order (tauvcore.aiding.sources.FUSED).
+    """
     return tuple(name for name in FUSED if name in config.run.aiding)
 
 
 def simulated(config: Config) -> tuple[str, ...]:
-    """The sources a run simulates: those aboard, and those ``config.run.aiding`` turns on."""
+    """The sources a run simulates: those aboard, and those ``config.run.aiding`` turns on.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration; ``config.run.aiding`` names the sources turned on.
+
+    Returns
+    -------
+    tuple[str, ...]
+        The names of the sources simulated, in registry order (tauvcore.aiding.sources.SOURCES).
+    """
     return tuple(name for name, s in SOURCES.items() if s.aboard or name in config.run.aiding)
 
 
@@ -46,10 +72,26 @@ def _children(rng: np.random.Generator) -> dict[str, dict[str, np.random.Generat
 
 
 class SourceStream:
-    """The sources of ``config`` over a mission of ``num_samples`` IMU samples ``dt_s`` apart, for
-    ``num_runs`` runs: one generator for the batch, or one per run (each run's numbers then its own,
-    as a batch of one would draw them), and the run's sensor streams (the same one or per run) for
-    the sources aboard."""
+    """The sources of ``config`` over a mission, simulated chunk by chunk for a batch of runs.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration: each source's section, ``run.aiding`` and ``run.ideal`` (errors
+        zeroed), and the trajectory's world (its seabed).
+    rng : numpy.random.Generator or Sequence[numpy.random.Generator]
+        For the sources not aboard: one generator for the batch, or one per run (each run's
+        numbers then its own, as a batch of one would draw them).
+    num_runs : int
+        Monte Carlo runs R.
+    num_samples : int
+        IMU samples K of the whole mission.
+    dt_s : float
+        IMU sample interval [s].
+    streams : SensorStreams or Sequence[SensorStreams]
+        The run's sensor streams (the same one for the batch, or one per run) for the sources
+        aboard.
+    """
 
     def __init__(
         self,
@@ -90,8 +132,24 @@ class SourceStream:
             )
 
     def next_chunk(self, k0: int, truth: Truth) -> dict[str, SourceData]:
-        """Every simulated source's epochs within the chunk ``truth`` (the mission's samples ``k0`` on;
-        chunks in order)."""
+        """Every simulated source's epochs within the chunk ``truth``.
+
+        Chunks come in order; each source carries its state from one chunk to the next.
+
+        Parameters
+        ----------
+        k0 : int
+            The mission's IMU sample index of the chunk's first row.
+        truth : Truth
+            The true motion over the chunk's n samples, the mission's samples ``k0 .. k0 + n - 1``
+            (NED n-frame and body b-frame as its fields say).
+
+        Returns
+        -------
+        dict[str, SourceData]
+            Source name -> its epochs within the chunk: times (E,) [s], global IMU sample indices
+            (E,), and each column (E, R) in SI units (NaN: no measurement).
+        """
         k1 = k0 + truth.num_samples
         out = {}
         for entry in self.sources:

@@ -34,6 +34,8 @@ CONFIDENCE = 0.99
 
 @dataclass(frozen=True)
 class NeesSummary:
+    """The NEES consistency of one block of one method's results over its R runs."""
+
     block: str
     dim: int
     per_dim: float  # mean NEES / dim over epochs and runs (NaN if none finite)
@@ -43,6 +45,8 @@ class NeesSummary:
 
 @dataclass(frozen=True)
 class NisSummary:
+    """The NIS consistency of one aiding source's updates for one method."""
+
     source: str
     per_dof: float  # sum(NIS) / sum(dof) over the updates that produced a measurement
     in_band: float  # fraction of those whose NIS lies inside its two-sided 99 % band
@@ -50,22 +54,68 @@ class NisSummary:
 
 
 def nees_series(result: MethodResult, block: str) -> np.ndarray:
-    """The (T, R) NEES of ``block`` ("full" or a key of NEES_BLOCKS)."""
+    """The NEES series of one block of a method's results.
+
+    Parameters
+    ----------
+    result : MethodResult
+        One method's results over T output epochs and R runs.
+    block : str
+        "full" (the whole state) or a key of ``tauvcore.filter.layout.NEES_BLOCKS``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The NEES of ``block``, shape (T, R), dimensionless (NaN where unknown).
+    """
     if block == "full":
         return result.nees
     return result.nees_block[..., list(NEES_BLOCKS).index(block)]
 
 
 def nees_band(dim: int, num_runs: int) -> tuple[float, float]:
-    """Two-sided band of the run-averaged NEES of an n-dimensional block, divided by n."""
+    """Two-sided band of the run-averaged NEES of an n-dimensional block, divided by n.
+
+    At :data:`CONFIDENCE` (99 %), from :func:`~tauvcore.eval.metrics.average_nees_bounds`.
+
+    Parameters
+    ----------
+    dim : int
+        The block's dimension n (its degrees of freedom).
+    num_runs : int
+        Monte Carlo runs R averaged over (fewer than 1 counts as 1).
+
+    Returns
+    -------
+    tuple[float, float]
+        Lower and upper bound of the run-averaged NEES divided by n, dimensionless.
+    """
     lo, hi = average_nees_bounds(dim, max(int(num_runs), 1), CONFIDENCE)
     return lo / dim, hi / dim
 
 
 def summarise_nees(series: np.ndarray, dim: int, block: str = "") -> NeesSummary:
-    """Summary of a (T, R) NEES series. Epochs where a run's NEES is not finite (a diverged
-    filter) count as outside the band and are left out of the mean. A series with no finite value
-    at all is unknown, not outside (a replayed log knows no true sensor errors): NaN, NaN."""
+    """Summary of a (T, R) NEES series.
+
+    Epochs where a run's NEES is not finite (a diverged filter) count as outside the band and are
+    left out of the mean. A series with no finite value at all is unknown, not outside (a replayed
+    log knows no true sensor errors): NaN, NaN.
+
+    Parameters
+    ----------
+    series : numpy.ndarray
+        NEES over T output epochs and R runs, shape (T, R), dimensionless.
+    dim : int
+        The block's dimension n (the NEES's degrees of freedom).
+    block : str
+        The block's name, carried into the summary.
+
+    Returns
+    -------
+    NeesSummary
+        ``per_dim`` (mean NEES / n over the finite entries), ``in_band`` (fraction of the T
+        epochs inside the 99 % band) and the band divided by n; NaN, NaN for no finite value.
+    """
     series = np.asarray(series, dtype=float)
     band = nees_band(dim, series.shape[1])
     if series.size == 0 or not np.isfinite(series).any():
@@ -79,7 +129,23 @@ def summarise_nees(series: np.ndarray, dim: int, block: str = "") -> NeesSummary
 
 
 def summarise_nis(record: UpdateRecord, source: str = "") -> NisSummary:
-    """Summary of one aiding source's NIS over the updates that produced a measurement."""
+    """Summary of one aiding source's NIS over the updates that produced a measurement.
+
+    Parameters
+    ----------
+    record : UpdateRecord
+        Every update of the source for one method, U epochs x R runs (``nis`` and ``nis_dof``
+        (U, R), ``valid`` (U, R) bool).
+    source : str
+        The source's name, carried into the summary.
+
+    Returns
+    -------
+    NisSummary
+        ``per_dof`` (sum(NIS) / sum(dof)), ``in_band`` (fraction of the updates whose NIS lies
+        inside its two-sided 99 % band) and the number of (update, run) entries counted; NaN,
+        NaN and 0 when no update produced a measurement.
+    """
     used = record.valid & (record.nis_dof > 0) & np.isfinite(record.nis)
     if not used.any():
         return NisSummary(source, float("nan"), float("nan"), 0)
@@ -94,12 +160,26 @@ def summarise_nis(record: UpdateRecord, source: str = "") -> NisSummary:
 
 @dataclass(frozen=True)
 class MethodConsistency:
+    """NEES and NIS summaries of one method."""
+
     nees: dict[str, NeesSummary]  # "full" and every block of NEES_BLOCKS
     nis: dict[str, NisSummary]  # every aiding source the method used
 
 
 def method_consistency(result: MethodResult) -> MethodConsistency:
-    """NEES of the full state and every block, and NIS of every aiding source, of one method."""
+    """NEES of the full state and every block, and NIS of every aiding source, of one method.
+
+    Parameters
+    ----------
+    result : MethodResult
+        One method's results over T output epochs and R runs; its ``block_dims`` (or
+        ``BLOCK_DIMS``) give the blocks and their dimensions.
+
+    Returns
+    -------
+    MethodConsistency
+        Block name -> :class:`NeesSummary`, and source name -> :class:`NisSummary`.
+    """
     return MethodConsistency(
         nees={
             block: summarise_nees(nees_series(result, block), dim, block)

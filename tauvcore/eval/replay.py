@@ -45,9 +45,26 @@ def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
 
 
 def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None]:
-    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory): its raw
-    tables, checked on their own, and its path; ``({}, None)`` when the log has none. LogError
-    naming the file for a file that cannot be read or does not check."""
+    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory).
+
+    Its raw tables, checked on their own, and its path.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The log's directory.
+
+    Returns
+    -------
+    tuple[dict[str, Any], str or None]
+        The raw tables (section -> key -> value, in the file's units: degrees where the
+        configuration takes degrees) and the file's path; ``({}, None)`` when the log has none.
+
+    Raises
+    ------
+    LogError
+        Naming the file, for a file that cannot be read or does not check.
+    """
     path = os.path.join(os.fspath(directory), CONFIG_FILE)
     if not os.path.lexists(path):
         return {}, None
@@ -63,22 +80,57 @@ def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None
 
 
 def config_keys(raw: dict[str, Any]) -> str:
-    """The keys a raw configuration sets, ``section.key``, comma-separated (past six: how many
-    more), for the line that says what configured a replay."""
+    """The keys a raw configuration sets, ``section.key``, comma-separated.
+
+    Past six: how many more. For the line that says what configured a replay.
+
+    Parameters
+    ----------
+    raw : dict[str, Any]
+        A raw configuration: section -> key -> value (:func:`log_config`).
+
+    Returns
+    -------
+    str
+        ``section.key`` of each key set, comma-separated (the first six, then "and N more");
+        empty for none.
+    """
     names = [f"{sec}.{key}" for sec, values in raw.items() if isinstance(values, dict) for key in values]
     return ", ".join(names) if len(names) <= 6 else f"{', '.join(names[:6])} and {len(names) - 6} more"
 
 
 def replay_config(config: Config, log: Log) -> Config:
-    """``config`` with what the log fixes: the IMU rate, the mission's length and starting depth,
-    (a geodetic reference) the origin's latitude and longitude, and where the filters start.
+    """``config`` with what the log fixes.
+
+    The log fixes the IMU rate, the mission's length and starting depth, (a geodetic reference)
+    the origin's latitude and longitude, and where the filters start.
 
     With a reference the filters start on its first row (``run.ideal``: no offset added, the
     initial errors as P0's sigmas), or off it by the initial errors as a simulation adds them
     when ``replay.initial_errors`` (fixed, or drawn from the seed). Without one they start from the
-    sensors' own first values (:func:`_start_from_sensors`), as uncertain as those sensors. A
-    replay sets ``run.ideal`` itself: the log's sensors are what they are. LogError if the log's
-    values are outside what the configuration allows."""
+    sensors' own first values (:func:`_start_from_sensors`), as uncertain as those sensors: P0's
+    attitude and velocity sigmas at least their noise. A replay sets ``run.ideal`` itself: the
+    log's sensors are what they are.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration as given (the filters' tuning, the DVL's geometry, ``replay``).
+    log : Log
+        The recorded log, in SI units and the frames of tauvcore.conventions.
+
+    Returns
+    -------
+    Config
+        ``config`` with ``imu.rate_hz`` (1 / the log's IMU interval [Hz]),
+        ``trajectory.duration_s`` [s] and ``depth_m`` [m], (geodetic) ``earth.latitude_deg`` and
+        ``longitude_deg`` [deg], the initial errors and ``run.ideal`` as the log makes them.
+
+    Raises
+    ------
+    LogError
+        If the log's values are outside what the configuration allows.
+    """
     try:
         config = config.replace("imu", rate_hz=1.0 / log.dt_s)
         if log.ref_t_s is not None:
@@ -109,7 +161,22 @@ def replay_config(config: Config, log: Log) -> Config:
 
 
 def start_description(config: Config, log: Log) -> str:
-    """One line on where the filters of a replay (``config`` from :func:`replay_config`) start."""
+    """One line on where the filters of a replay start.
+
+    Parameters
+    ----------
+    config : Config
+        The replay's configuration (from :func:`replay_config`): its initial errors and seed.
+    log : Log
+        The recorded log.
+
+    Returns
+    -------
+    str
+        Where the filters start (the reference's state at its first IMU time [s], or the log's own
+        sensors) and with what: the initial errors drawn or fixed, or the initial sigmas
+        (position [m], velocity [m/s], roll/pitch and yaw [deg]).
+    """
     ie = config.initial_error
     sigmas = (
         f"position {'/'.join(f'{v:g}' for v in ie.pos_m)} m, velocity {'/'.join(f'{v:g}' for v in ie.vel_mps)} m/s, "
@@ -202,11 +269,41 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
 
 
 def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
-    """The log as a one-run :class:`~tauvcore.engine.simulation.Simulation` under ``config`` (from
-    :func:`replay_config`): the DVL's beams and outages of ``config.dvl`` applied to the log's
-    returns (and its dropout drawn from ``rng``), a body velocity projected onto the beams.
-    Without a reference the truth is known at the start only (:func:`_start_from_sensors`) and
-    NaN after it: the errors are then unknown, the estimates are not."""
+    """The log as a one-run :class:`~tauvcore.engine.simulation.Simulation` under ``config``.
+
+    The DVL's beams and outages of ``config.dvl`` are applied to the log's returns (and its
+    dropout drawn from ``rng``), a body velocity projected onto the beams. The reference,
+    interpolated to the IMU's times, is the truth. Without a reference the truth is known at the
+    start only (:func:`_start_from_sensors`) and NaN after it: the errors are then unknown, the
+    estimates are not.
+
+    Parameters
+    ----------
+    config : Config
+        The replay's configuration (from :func:`replay_config`).
+    log : Log
+        The recorded log: IMU increments (K, 3) [rad], [m/s] in the body frame, the reference
+        (position, Euler angles [rad], NED velocity [m/s]), the DVL and the aiding sources'
+        tables, in SI units.
+    rng : numpy.random.Generator
+        What the DVL's dropout is drawn from.
+
+    Returns
+    -------
+    Simulation
+        One run (R = 1): the truth at the K IMU samples (positions (K, 3) NED [m] from the
+        sea-surface point at the configured origin, a local reference's as they are; velocities
+        (K, 3) [m/s] NED and body; attitude; the instantaneous rates and specific force NaN), the
+        IMU increments (K, 1, 3) [rad], [m/s], and each source's epochs at the IMU sample nearest
+        each row (values (E, 1)).
+
+    Raises
+    ------
+    LogError
+        No reference and no attitude table (nothing says where the filters start); a local
+        reference (north_m, east_m, down_m) under a geodetic earth (``--earth flat``, or give it
+        as lat, lon and depth_m); a reference or DVL table without its columns.
+    """
     t = log.imu_t_s
     K = t.size
     if log.ref_t_s is None:
@@ -290,19 +387,50 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
 def with_imu_errors(
     sim: Simulation, imu_config: imu_sensor.ImuConfig, rng: np.random.Generator
 ) -> Simulation:
-    """The log's IMU with a simulated IMU's errors added on top (turn-on biases, their walks,
-    white noise, scale factors and misalignments of ``imu_config``, drawn from ``rng`` as
-    tauvcore.sensors.imu does for a simulation): a navigation-grade log made to behave like a
-    lesser IMU. The log's own increments play the truth's part."""
+    """The log's IMU with a simulated IMU's errors added on top.
+
+    The errors are the turn-on biases, their walks, white noise, scale factors and misalignments
+    of ``imu_config``, drawn from ``rng`` as tauvcore.sensors.imu does for a simulation: a
+    navigation-grade log made to behave like a lesser IMU. The log's own increments play the
+    truth's part.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The log as a one-run simulation (:func:`log_simulation`).
+    imu_config : ImuConfig
+        The IMU whose errors are added (its rate the log's).
+    rng : numpy.random.Generator
+        What the errors are drawn from.
+
+    Returns
+    -------
+    Simulation
+        ``sim`` with the IMU increments (K, 1, 3) [rad], [m/s] in the body frame replaced by the
+        log's plus the drawn errors.
+    """
     errors = imu_sensor.simulate(sim.truth, imu_config, rng, 1)
     imu = dataclasses.replace(sim.imu, dtheta_b=errors.dtheta_b, dv_b=errors.dv_b)
     return dataclasses.replace(sim, imu=imu)
 
 
 def rpm_readers(config: Config) -> list[tuple[str, tuple[str, ...]]]:
-    """What of ``config`` reads the propeller's RPM and the echo sounder's altitude (the velocity
-    Kalman filter of tauvcore.engine.rpm_aid), each with the sources it reads: the ``vkf`` method
-    (--method) and ``run.rpm_fallback`` (--rpm-fallback)."""
+    """What of ``config`` reads the propeller's RPM and the echo sounder's altitude.
+
+    Both are read by the velocity Kalman filter of tauvcore.engine.rpm_aid, which the ``vkf``
+    method (--method) and ``run.rpm_fallback`` (--rpm-fallback) run.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration: ``run.methods`` and ``run.rpm_fallback``.
+
+    Returns
+    -------
+    list[tuple[str, tuple[str, ...]]]
+        Each reader (the setting and its command-line option, for a message) with the names of the
+        sources it reads; empty if nothing reads them.
+    """
     needed = (RPM_SOURCE, ECHO_SOURCE)
     out = []
     if "vkf" in config.run.methods:
@@ -318,10 +446,36 @@ def prepare(
     rng: np.random.Generator,
     imu_errors: imu_sensor.ImuConfig | None = None,
 ) -> tuple[Config, Simulation]:
-    """The configuration as the log makes it (:func:`replay_config`) and the log as a one-run
-    simulation under it (:func:`log_simulation`; with ``imu_errors``, that IMU's errors added to
-    the log's, :func:`with_imu_errors`, and the filters tuned for that IMU). ``tauv replay`` and
-    the dashboard's replay both start here, so the same log and configuration give the same run."""
+    """The configuration as the log makes it and the log as a one-run simulation under it.
+
+    The configuration from :func:`replay_config`, the simulation from :func:`log_simulation`;
+    with ``imu_errors``, that IMU's errors added to the log's (:func:`with_imu_errors`), and the
+    filters tuned for that IMU. ``tauv replay`` and the dashboard's replay both start here, so
+    the same log and configuration give the same run.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration as given.
+    log : Log
+        The recorded log.
+    rng : numpy.random.Generator
+        What the DVL's dropout and the added IMU errors are drawn from.
+    imu_errors : ImuConfig or None
+        An IMU whose errors are added to the log's; None: the log's IMU as it is.
+
+    Returns
+    -------
+    tuple[Config, Simulation]
+        The replay's configuration and the log as a one-run simulation (R = 1).
+
+    Raises
+    ------
+    LogError
+        ``run.aiding`` (--aiding) names a source the log has no table of; the ``vkf`` method or
+        ``run.rpm_fallback`` reads a source the log has no table of; or as
+        :func:`replay_config` and :func:`log_simulation`.
+    """
     if imu_errors is not None:
         config = config.replace("imu", **dataclasses.asdict(imu_errors))
     config = replay_config(config, log)
@@ -352,10 +506,38 @@ def replay(
     should_stop: Callable[[], bool] | None = None,
     imu_errors: imu_sensor.ImuConfig | None = None,
 ) -> tuple[Config, dict[str, MethodResult]]:
-    """Every method of ``config.run.methods`` on the log; returns the configuration as the log
-    made it (:func:`replay_config`) and the results (one run), as :func:`~tauvcore.engine.mission.run`
-    gives them for a simulation. ``rng``: the random initial errors and DVL dropout, if any.
-    ``imu_errors``: an IMU whose errors are added to the log's (:func:`prepare`)."""
+    """Every method of ``config.run.methods`` on the log.
+
+    The results are as :func:`~tauvcore.engine.mission.run` gives them for a simulation, as far
+    as the log can judge them (:func:`judged`).
+
+    Parameters
+    ----------
+    config : Config
+        The configuration as given.
+    log : Log
+        The recorded log.
+    rng : numpy.random.Generator
+        The random initial errors, DVL dropout and added IMU errors, if any.
+    progress : Callable[[float, dict[str, MethodResult]], None] or None
+        As in :func:`~tauvcore.engine.mission.run`: ``progress(t_s, partial_results)`` with the
+        log's time since its start [s].
+    should_stop : Callable[[], bool] or None
+        As in :func:`~tauvcore.engine.mission.run`: polled at every output epoch.
+    imu_errors : ImuConfig or None
+        An IMU whose errors are added to the log's (:func:`prepare`); None: the log's IMU.
+
+    Returns
+    -------
+    tuple[Config, dict[str, MethodResult]]
+        The configuration as the log made it (:func:`replay_config`) and the results (one run:
+        series (T, 1)) by method name.
+
+    Raises
+    ------
+    LogError
+        As :func:`prepare`.
+    """
     config, sim = prepare(config, log, rng, imu_errors)
     return config, judged(log, run(config, sim, rng, progress=progress, should_stop=should_stop))
 
@@ -373,10 +555,25 @@ JUDGED_SERIES = (
 
 
 def judged(log: Log | None, results: dict[str, MethodResult]) -> dict[str, MethodResult]:
-    """``results`` as far as the log can judge them: a log without a reference has no truth, so
-    its errors and NEES are unknown at every epoch, the first included (the filters were put
-    there, so a zero error at t = 0 would be no measurement). A log with one (or None, a
-    simulation): unchanged."""
+    """``results`` as far as the log can judge them.
+
+    A log without a reference has no truth, so its errors and NEES are unknown at every epoch,
+    the first included (the filters were put there, so a zero error at t = 0 would be no
+    measurement). A log with one (or None, a simulation): unchanged.
+
+    Parameters
+    ----------
+    log : Log or None
+        The replayed log; None: a simulation.
+    results : dict[str, MethodResult]
+        Method name -> its results.
+
+    Returns
+    -------
+    dict[str, MethodResult]
+        ``results`` with every series of :data:`JUDGED_SERIES` NaN (same shapes: (T, R), and
+        (T, R, B) for ``nees_block``) for a log without a reference; else ``results`` unchanged.
+    """
     if log is None or log.ref_t_s is not None:
         return results
     return {

@@ -43,34 +43,101 @@ RUN_SERIES = ERROR_SERIES + SIGMA_SERIES + NEES_SERIES
 
 
 def run_rng(seed: int, index: int) -> np.random.Generator:
-    """The generator of run ``index`` of a study seeded ``seed`` (independent of every other run)."""
+    """The generator of run ``index`` of a study seeded ``seed`` (independent of every other run).
+
+    Parameters
+    ----------
+    seed : int
+        The study's seed.
+    index : int
+        The run's index in the study, 0 .. num_runs - 1.
+
+    Returns
+    -------
+    numpy.random.Generator
+        ``default_rng(SeedSequence(seed, spawn_key=(index,)))``: the ``index``-th child of the
+        study's seed sequence.
+    """
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index,)))
 
 
 def chunks(num_runs: int, chunk_runs: int) -> list[tuple[int, int]]:
-    """``(first, count)`` of consecutive chunks of at most ``chunk_runs`` runs covering ``num_runs``."""
+    """``(first, count)`` of consecutive chunks of at most ``chunk_runs`` runs covering ``num_runs``.
+
+    Parameters
+    ----------
+    num_runs : int
+        Runs of the study, at least 1.
+    chunk_runs : int
+        Most runs per chunk, at least 1.
+
+    Returns
+    -------
+    list[tuple[int, int]]
+        Each chunk's first run index and number of runs, in run order; only the last may hold
+        fewer than ``chunk_runs``.
+
+    Raises
+    ------
+    ValueError
+        ``num_runs`` or ``chunk_runs`` below 1: "num_runs and chunk_runs must be >= 1".
+    """
     if num_runs < 1 or chunk_runs < 1:
         raise ValueError(f"num_runs and chunk_runs must be >= 1, got {num_runs!r}, {chunk_runs!r}")
     return [(first, min(chunk_runs, num_runs - first)) for first in range(0, num_runs, chunk_runs)]
 
 
 def study_config(config: Config) -> Config:
-    """The configuration a study runs: initial errors drawn per run (Table 2 values as 1-sigma)."""
+    """The configuration a study runs: initial errors drawn per run (Table 2 values as 1-sigma).
+
+    Parameters
+    ----------
+    config : Config
+        The configuration as given.
+
+    Returns
+    -------
+    Config
+        ``config`` with ``initial_error.mode`` "random".
+    """
     return config.replace("initial_error", mode="random")
 
 
 def run_chunk(config: Config, seed: int, first: int, count: int) -> dict[str, MethodResult]:
-    """Runs ``first .. first + count - 1`` of the study, every method of ``config.run.methods``:
-    one batch of the filter bank, truth and sensors streamed (:func:`~tauvcore.engine.mission.run_streaming`),
-    each run drawing from its own generator (:func:`run_rng`)."""
+    """Runs ``first .. first + count - 1`` of the study, every method of ``config.run.methods``.
+
+    One batch of the filter bank, truth and sensors streamed
+    (:func:`~tauvcore.engine.mission.run_streaming`), each run drawing from its own generator
+    (:func:`run_rng`); the initial errors drawn per run (:func:`study_config`).
+
+    Parameters
+    ----------
+    config : Config
+        The study's configuration.
+    seed : int
+        The study's seed.
+    first : int
+        Index of the chunk's first run in the study.
+    count : int
+        Runs in the chunk.
+
+    Returns
+    -------
+    dict[str, MethodResult]
+        Method name -> its results over the T output epochs and the chunk's ``count`` runs (series
+        (T, count)), in ``config.run.methods`` order.
+    """
     rngs = [run_rng(seed, i) for i in range(first, first + count)]
     return run_streaming(study_config(config), rngs, num_runs=count)
 
 
 @dataclass(frozen=True)
 class ChunkSeries:
-    """What a worker sends back for one chunk: per method, the per-run series (T, count) and the
-    monitor's verdict (count,). Small and plain, so it pickles cheaply to a process or over Dask."""
+    """What a worker sends back for one chunk: per method, the per-run series and the verdicts.
+
+    The per-run series (T, count) are in the units their names carry (:data:`RUN_SERIES`: [m],
+    [m/s], [deg]; NEES dimensionless), the monitor's verdict (count,), the output epochs ``t_s``
+    (T,) [s]. Small and plain, so it pickles cheaply to a process or over Dask."""
 
     first: int
     count: int
@@ -80,6 +147,20 @@ class ChunkSeries:
 
 
 def series_of(result: MethodResult) -> dict[str, np.ndarray]:
+    """The per-run series a study keeps of one method's results.
+
+    Parameters
+    ----------
+    result : MethodResult
+        One method's results over T output epochs and R runs.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        :data:`RUN_SERIES` name -> its series (T, R): the errors and sigmas in the units their
+        names carry ([m], [m/s], [deg]), the NEES of the full state and of each block
+        (``nees_<block>``), dimensionless.
+    """
     out = {name: getattr(result, name) for name in ERROR_SERIES + SIGMA_SERIES}
     out["nees"] = result.nees
     for b, block in enumerate(NEES_BLOCKS):
@@ -88,7 +169,25 @@ def series_of(result: MethodResult) -> dict[str, np.ndarray]:
 
 
 def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> ChunkSeries:
-    """A worker's whole job (a local process or a Dask worker): plain inputs, plain outputs."""
+    """A worker's whole job (a local process or a Dask worker): plain inputs, plain outputs.
+
+    Parameters
+    ----------
+    config_dict : dict
+        The study's configuration as a plain dict (``tauvcore.config.to_dict``).
+    seed : int
+        The study's seed.
+    first : int
+        Index of the chunk's first run in the study.
+    count : int
+        Runs in the chunk.
+
+    Returns
+    -------
+    ChunkSeries
+        Per method, the per-run series (T, count) and the monitor's verdict (count,), with the
+        output epochs (T,) [s].
+    """
     results = run_chunk(from_dict(config_dict), seed, first, count)
     any_result = next(iter(results.values()))
     return ChunkSeries(
@@ -111,7 +210,13 @@ class _MethodSums:
 
 
 class StudyAccumulator:
-    """Per method and epoch, the sums a study's summary needs, fed chunk by chunk in any order."""
+    """Per method and epoch, the sums a study's summary needs, fed chunk by chunk in any order.
+
+    Parameters
+    ----------
+    methods : tuple[str, ...]
+        The study's methods (``config.run.methods``), every chunk carrying each of them.
+    """
 
     def __init__(self, methods: tuple[str, ...]) -> None:
         self.methods = methods
@@ -120,6 +225,15 @@ class StudyAccumulator:
         self._sums: dict[str, _MethodSums] = {}
 
     def add(self, chunk: ChunkSeries) -> None:
+        """Reduce one chunk into the sums: per epoch the finite entries' sum of squares of every
+        error and sigma series, the sum of every NEES series, their counts, the chunk's final
+        errors and its runs flagged by the monitor.
+
+        Parameters
+        ----------
+        chunk : ChunkSeries
+            One chunk's per-run series (T, count), every chunk on the same T output epochs.
+        """
         if self.t_s is None:
             self.t_s = chunk.t_s
             T = chunk.t_s.size
@@ -148,19 +262,65 @@ class StudyAccumulator:
             s.diverged += int(chunk.diverged[m].sum())
 
     def rms(self, method: str, name: str) -> np.ndarray:
-        """RMS over the runs per epoch (NaN where no run is finite)."""
+        """RMS over the runs per epoch (NaN where no run is finite).
+
+        Parameters
+        ----------
+        method : str
+            The method's name.
+        name : str
+            An error or sigma series (:data:`ERROR_SERIES`, :data:`SIGMA_SERIES`), e.g.
+            ``pos_err_m``.
+
+        Returns
+        -------
+        numpy.ndarray
+            RMS over the finite runs, shape (T,), in the unit the series' name carries ([m],
+            [m/s], [deg]).
+        """
         s = self._sums[method]
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.sqrt(s.sum_sq[name] / s.finite[name])
 
     def mean_nees(self, method: str, name: str) -> np.ndarray:
+        """Mean NEES over the runs per epoch (NaN where no run is finite).
+
+        Parameters
+        ----------
+        method : str
+            The method's name.
+        name : str
+            A NEES series (:data:`NEES_SERIES`): ``nees`` (the full state) or ``nees_<block>``.
+
+        Returns
+        -------
+        numpy.ndarray
+            Mean over the finite runs, shape (T,), dimensionless (not divided by the dimension).
+        """
         s = self._sums[method]
         with np.errstate(invalid="ignore", divide="ignore"):
             return s.nees_sum[name] / s.nees_finite[name]
 
     def consistency(self, method: str, block: str) -> dict[str, float | list[float]]:
-        """As :func:`tauvcore.eval.consistency.summarise_nees` over all runs: NEES/dim over epochs
-        and runs (finite entries) and the fraction of epochs whose run mean lies in the 99 % band."""
+        """NEES consistency of one block over all runs, as :func:`tauvcore.eval.consistency.summarise_nees`.
+
+        NEES/dim over epochs and runs (finite entries) and the fraction of epochs whose run mean
+        lies in the 99 % band (an epoch where a run's NEES is not finite counts as outside).
+
+        Parameters
+        ----------
+        method : str
+            The method's name (its NEES dimensions: :func:`~tauvcore.engine.results.block_dims`).
+        block : str
+            "full" or a key of ``tauvcore.filter.layout.NEES_BLOCKS``.
+
+        Returns
+        -------
+        dict[str, float | list[float]]
+            ``dim`` (the block's degrees of freedom), ``per_dim`` (NaN if no finite entry),
+            ``in_band`` (fraction of the T epochs) and ``band_per_dim`` ([lower, upper]),
+            dimensionless.
+        """
         s = self._sums[method]
         name = "nees" if block == "full" else f"nees_{block}"
         dim = block_dims(method)[block]
@@ -177,8 +337,25 @@ class StudyAccumulator:
         }
 
     def summary(self) -> dict:
-        """JSON-ready: per method, per-epoch RMS of every error series and mean NEES, final values
-        (RMS over runs at the last epoch, and each run's), the consistency per block, runs flagged."""
+        """The study's summary, JSON-ready.
+
+        Per method: the per-epoch RMS of every error series and mean NEES, final values (RMS over
+        runs at the last epoch, and each run's), the consistency per block, runs flagged.
+
+        Returns
+        -------
+        dict
+            ``t_s`` (T,) [s], ``num_runs`` and ``methods``: method name -> ``rms`` (series name ->
+            (T,), in the series' unit), ``mean_nees`` (NEES series -> (T,)), ``final_rms``
+            (error series -> float), ``final_per_run`` (error series -> (num_runs,) in run
+            order), ``consistency`` (block -> :meth:`consistency`) and
+            ``runs_flagged_by_monitor`` (int).
+
+        Raises
+        ------
+        ValueError
+            No chunk was added: "no chunk was added".
+        """
         if self.t_s is None:
             raise ValueError("no chunk was added")
         out: dict = {"t_s": self.t_s, "num_runs": self.num_runs, "methods": {}}
@@ -198,14 +375,32 @@ class StudyAccumulator:
 
 
 def compute_chunk_to_file(config_dict: dict, seed: int, first: int, count: int, directory: str) -> str:
-    """:func:`compute_chunk` in a local worker process, its result pickled to a new file in
-    ``directory``; returns the file's path.
+    """:func:`compute_chunk` in a local worker process, its result pickled to a new file in ``directory``.
 
     Why not return the result through the pool's pipe: a worker killed (the out-of-memory killer)
     while it writes a large result (tens of MB) to the pipe leaves half a message in it, and
     ``ProcessPoolExecutor``'s result thread then waits for the rest forever instead of reporting
     the dead worker (seen with the killed-worker test). A path is a message of a few hundred
-    bytes, written to the pipe in one piece."""
+    bytes, written to the pipe in one piece.
+
+    Parameters
+    ----------
+    config_dict : dict
+        The study's configuration as a plain dict (``tauvcore.config.to_dict``).
+    seed : int
+        The study's seed.
+    first : int
+        Index of the chunk's first run in the study.
+    count : int
+        Runs in the chunk.
+    directory : str
+        The directory the file is written to (the pool's ``chunk_dir``).
+
+    Returns
+    -------
+    str
+        The path of the file holding the pickled :class:`ChunkSeries`.
+    """
     chunk = compute_chunk(config_dict, seed, first, count)
     fd, path = tempfile.mkstemp(prefix=f"chunk-{first}-", suffix=".pickle", dir=directory)
     with os.fdopen(fd, "wb") as fh:
@@ -223,8 +418,17 @@ def _load_chunk_file(path: str) -> ChunkSeries:
 
 
 class ChunkPool(ProcessPoolExecutor):
-    """Local worker processes (spawned) that hand their chunks over as files in ``chunk_dir``
-    (:func:`compute_chunk_to_file`)."""
+    """Local worker processes (spawned) that hand their chunks over as files in ``chunk_dir``.
+
+    Each worker runs :func:`compute_chunk_to_file`.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes.
+    chunk_dir : str
+        The directory the workers write their chunk files to.
+    """
 
     def __init__(self, workers: int, chunk_dir: str) -> None:
         import multiprocessing as mp
@@ -235,9 +439,21 @@ class ChunkPool(ProcessPoolExecutor):
 
 @contextlib.contextmanager
 def local_pool(workers: int) -> Iterator[ChunkPool | None]:
-    """``workers`` local processes to share between several studies, so that each process starts
-    and loads the compiled kernels once; None for ``workers`` <= 1. Chunk files go to a temporary
-    directory, removed at the end."""
+    """``workers`` local processes to share between several studies.
+
+    Each process then starts and loads the compiled kernels once. Chunk files go to a temporary
+    directory, removed at the end; on an error or Ctrl-C the queued chunks never start.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes; 1 or fewer: no pool.
+
+    Yields
+    ------
+    ChunkPool or None
+        The pool (:class:`ChunkPool`), or None for ``workers`` <= 1.
+    """
     if workers <= 1:
         yield None
         return
@@ -267,10 +483,37 @@ def _result(future: Future) -> ChunkSeries:
 def submit_chunks(
     config: Config, num_runs: int, seed: int, pool: Executor, chunk_runs: int | None = None
 ) -> list[Future]:
-    """Queue every chunk of a study on ``pool`` now; :func:`run_study` (``submitted=``) consumes
-    them in run order. Several studies queued back to back keep the workers busy across their
-    boundaries (a study of one large chunk, or an odd number, leaves a worker idle otherwise);
-    with :func:`local_pool` the finished chunks wait as files, not in memory."""
+    """Queue every chunk of a study on ``pool`` at once, for :func:`run_study` to consume.
+
+    :func:`run_study` (``submitted=``) consumes them in run order. Several studies queued back to
+    back keep the workers busy across their boundaries (a study of one large chunk, or an odd
+    number, leaves a worker idle otherwise); with :func:`local_pool` the finished chunks wait as
+    files, not in memory.
+
+    Parameters
+    ----------
+    config : Config
+        The study's configuration.
+    num_runs : int
+        Runs of the study, at least 1.
+    seed : int
+        The study's seed.
+    pool : concurrent.futures.Executor
+        Where the chunks run (a :class:`ChunkPool` from :func:`local_pool`, or another executor).
+    chunk_runs : int or None
+        Most runs per chunk; None: :data:`CHUNK_RUNS`.
+
+    Returns
+    -------
+    list[concurrent.futures.Future]
+        One future per chunk, in run order: a :class:`ChunkSeries`, or on a :class:`ChunkPool`
+        the path of the file holding it.
+
+    Raises
+    ------
+    ValueError
+        ``num_runs`` or ``chunk_runs`` below 1 (:func:`chunks`).
+    """
     config_dict = to_dict(config)
     return [
         _submit(pool, config_dict, seed, first, count)
@@ -288,10 +531,48 @@ def iterate_chunks(
     pool: Executor | None = None,
     submitted: list[Future] | None = None,
 ) -> Iterator[ChunkSeries]:
-    """Compute the study's chunks and yield them in run order: in this process (``workers`` 1),
-    on ``workers`` local processes (or the given ``pool``, :func:`local_pool`), or on the Dask
-    scheduler at ``dask_address`` (its workers need this package installed; see docs/studies.md);
-    or the chunks :func:`submit_chunks` queued (``submitted``)."""
+    """Compute the study's chunks and yield them in run order.
+
+    In this process (``workers`` 1), on ``workers`` local processes (or the given ``pool``,
+    :func:`local_pool`), or on the Dask scheduler at ``dask_address`` (its workers need this
+    package installed; see docs/studies.md); or the chunks :func:`submit_chunks` queued
+    (``submitted``).
+
+    Parameters
+    ----------
+    config : Config
+        The study's configuration.
+    num_runs : int
+        Runs of the study, at least 1.
+    seed : int
+        The study's seed.
+    workers : int
+        Local worker processes; 1 or fewer: this process.
+    dask_address : str or None
+        Address of a Dask scheduler to compute the chunks on (waited for
+        :data:`DASK_CONNECT_TIMEOUT_S` [s]); None: no Dask.
+    chunk_runs : int or None
+        Most runs per chunk; None: :data:`CHUNK_RUNS`.
+    pool : concurrent.futures.Executor or None
+        An executor to run the chunks on instead of new local processes (ignored with
+        ``dask_address``).
+    submitted : list[concurrent.futures.Future] or None
+        The chunks :func:`submit_chunks` queued (same config, seed, chunking); given, the other
+        ways are not used.
+
+    Yields
+    ------
+    ChunkSeries
+        Each chunk's per-run series (T, count), in run order.
+
+    Raises
+    ------
+    ValueError
+        ``num_runs`` or ``chunk_runs`` below 1 (:func:`chunks`), when the first chunk is asked for.
+    OSError
+        No Dask scheduler answers at ``dask_address`` within :data:`DASK_CONNECT_TIMEOUT_S`
+        (``distributed.Client``; ``TimeoutError`` is one).
+    """
     if submitted is not None:
         for f in submitted:
             yield _result(f)
@@ -344,7 +625,18 @@ as many for a study of one method (its LC reference): larger chunks pay the per-
 
 
 def paper_chunk_runs(config: Config) -> int:
-    """Runs per chunk of a ``tauv reproduce`` study (:data:`PAPER_CHUNK_RUNS`)."""
+    """Runs per chunk of a ``tauv reproduce`` study (:data:`PAPER_CHUNK_RUNS`).
+
+    Parameters
+    ----------
+    config : Config
+        The study's configuration; ``config.run.methods`` says how many methods it runs.
+
+    Returns
+    -------
+    int
+        :data:`PAPER_CHUNK_RUNS` for several methods, four times as many for one.
+    """
     return PAPER_CHUNK_RUNS if len(config.run.methods) > 1 else 4 * PAPER_CHUNK_RUNS
 
 
@@ -360,9 +652,46 @@ def run_study(
     pool: Executor | None = None,
     submitted: list[Future] | None = None,
 ) -> StudyAccumulator:
-    """A whole study: every chunk reduced into the accumulator, handed to ``on_chunk`` (e.g. a
-    Parquet writer) in run order, and ``progress(runs_done, num_runs)`` called after each.
-    ``submitted``: its chunks as :func:`submit_chunks` queued them (same config, seed, chunking)."""
+    """A whole study: every chunk reduced into the accumulator, in run order.
+
+    Each chunk is handed to ``on_chunk`` (e.g. a Parquet writer) in run order, and
+    ``progress(runs_done, num_runs)`` is called after each.
+
+    Parameters
+    ----------
+    config : Config
+        The study's configuration; ``config.run.methods`` names its methods.
+    num_runs : int
+        Runs of the study, at least 1.
+    seed : int
+        The study's seed (run i draws from :func:`run_rng` ``(seed, i)``).
+    workers : int
+        Local worker processes; 1 or fewer: this process.
+    dask_address : str or None
+        Address of a Dask scheduler to compute the chunks on; None: no Dask.
+    on_chunk : Callable[[ChunkSeries], object] or None
+        ``on_chunk(chunk)`` receives each chunk's per-run series (T, count); what it returns is
+        not used. None: not called.
+    progress : Callable[[int, int], object] or None
+        ``progress(runs_done, num_runs)`` after each chunk; what it returns is not used. None: not
+        called.
+    chunk_runs : int or None
+        Most runs per chunk; None: :data:`CHUNK_RUNS`.
+    pool : concurrent.futures.Executor or None
+        An executor to run the chunks on (:func:`local_pool`); None: as ``workers`` says.
+    submitted : list[concurrent.futures.Future] or None
+        Its chunks as :func:`submit_chunks` queued them (same config, seed, chunking).
+
+    Returns
+    -------
+    StudyAccumulator
+        The sums of every chunk; its :meth:`StudyAccumulator.summary` is the study's summary.
+
+    Raises
+    ------
+    ValueError
+        ``num_runs`` or ``chunk_runs`` below 1 (:func:`chunks`).
+    """
     acc = StudyAccumulator(tuple(config.run.methods))
     for chunk in iterate_chunks(config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted):
         acc.add(chunk)

@@ -52,9 +52,24 @@ class Nominal:
 
     @property
     def vel_b(self) -> np.ndarray:
+        """Body-frame velocity (surge, sway, heave), shape (B, 3) [m/s], b-frame (FRD)."""
         return self.nav.vel_b
 
     def with_nav(self, nav: NavState) -> Nominal:
+        """The same sensor-error estimates with another navigation solution.
+
+        Parameters
+        ----------
+        nav : NavState
+            Navigation solution to carry, batch shape ``B``: position (B, 3) [m] and velocity
+            (B, 3) [m/s] in the NED n-frame, attitude ``C_nb`` (B, 3, 3) body to NED.
+
+        Returns
+        -------
+        Nominal
+            A new nominal state with ``nav`` and this one's accelerometer bias (B, 3) [m/s^2], gyro
+            bias (B, 3) [rad/s], DVL beam biases (B, 4) [m/s] and scale factor (B,) [-].
+        """
         return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf)
 
 
@@ -100,9 +115,27 @@ def inject(nom: Nominal, dx: np.ndarray, geodetic: bool = False) -> Nominal:
     Position and biases add; ``C_nb <- exp([rho x]) C_nb``; the body-frame velocity adds
     (the error is defined in b), and ``vel_n`` is rebuilt with the corrected attitude. The
     reset Jacobian ``I - [rho x]/2`` of the misalignment block is taken as I (rho < 1e-2 rad).
-    ``geodetic``: positions are latitude, longitude, depth (WGS-84) and the position error moves
-    them through the metric at the estimate. The formula is the kernel
-    :func:`tauvcore.filter.kernels.correction.inject_batch` the filter bank runs.
+    The formula is the kernel :func:`tauvcore.filter.kernels.correction.inject_batch` the filter
+    bank runs.
+
+    Parameters
+    ----------
+    nom : Nominal
+        Nominal state ``x_hat`` to correct, batch shape ``B``; not modified.
+    dx : numpy.ndarray
+        Error state ``x_true - x_hat``, shape (B, 20) (broadcast against ``nom``), in the layout
+        :data:`~tauvcore.filter.layout.STATE`: position error [m] and misalignment rho [rad] in the
+        NED n-frame, velocity error [m/s] in the body b-frame (FRD), accelerometer [m/s^2] and gyro
+        [rad/s] bias errors in b, DVL beam bias errors [m/s] and scale factor error [-].
+    geodetic : bool
+        Positions are latitude [rad], longitude [rad], depth [m] (WGS-84) and the position error
+        (north, east, down) [m] moves them through the metric at the estimate. False: positions are
+        NED [m] from the origin and the error adds.
+
+    Returns
+    -------
+    Nominal
+        The corrected nominal state, batch shape the broadcast of ``nom``'s and ``dx``'s (B,).
     """
     from tauvcore.filter.kernels.correction import inject_batch
 
@@ -114,10 +147,30 @@ def inject(nom: Nominal, dx: np.ndarray, geodetic: bool = False) -> Nominal:
 
 
 def difference(true: Nominal, est: Nominal, geodetic: bool = False) -> np.ndarray:
-    """``true (-) est``: the error state that :func:`inject` would need. -> (B, 20).
+    """``true (-) est``: the error state that :func:`inject` would need.
 
-    The navigation part is the kernel :func:`tauvcore.filter.kernels.correction.nav_difference_into` (the
-    filter bank's records use it); the sensor errors subtract."""
+    The navigation part is the kernel :func:`tauvcore.filter.kernels.correction.nav_difference_into`
+    (the filter bank's records use it); the sensor errors subtract.
+
+    Parameters
+    ----------
+    true : Nominal
+        True state, batch shape ``B`` (broadcast against ``est``).
+    est : Nominal
+        Estimated state ``x_hat``, batch shape ``B``.
+    geodetic : bool
+        Positions are latitude [rad], longitude [rad], depth [m] (WGS-84); the position error is then
+        in metres (north, east, down) through the metric at the estimate. False: positions are NED
+        [m] from the origin and subtract.
+
+    Returns
+    -------
+    numpy.ndarray
+        Error state ``dx``, shape (B, 20), in the layout :data:`~tauvcore.filter.layout.STATE`:
+        position error [m] and misalignment ``rho = log(C_true C_est^T)`` [rad] in the NED n-frame,
+        body-frame (FRD) velocity error [m/s], accelerometer [m/s^2] and gyro [rad/s] bias errors in
+        b, DVL beam bias errors [m/s] and scale factor error [-].
+    """
     from tauvcore.filter.kernels.common import NAV
     from tauvcore.filter.kernels.correction import difference_batch
 
@@ -174,9 +227,35 @@ class UpdateOutcome:
 
 
 def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
-    """``P <- Phi P Phi^T + Qd``, symmetric; Phi of the structure of
-    :func:`tauvcore.ins.error_model.discretise`'s (identity outside rows 0-8, zero beyond column 14
-    in them), the kernel :func:`tauvcore.filter.kernels.error_model.sandwich_into` the filter bank runs."""
+    """Covariance propagation ``P <- Phi P Phi^T + Qd``, symmetric.
+
+    ``Phi`` has the structure of :func:`tauvcore.ins.error_model.discretise`'s (identity outside
+    rows 0-8, zero beyond column 14 in them); the product is the kernel
+    :func:`tauvcore.filter.kernels.error_model.sandwich_into` the filter bank runs.
+
+    Parameters
+    ----------
+    P : numpy.ndarray
+        Error-state covariance, shape (B, 20, 20), in the SI units of the states
+        (:data:`~tauvcore.filter.layout.STATE`) squared (m^2, rad^2, (m/s)^2, ...); not modified.
+    Phi : numpy.ndarray
+        State transition matrix over the step, shape (B, 20, 20) (each entry in its row's state unit
+        over its column's).
+    Qd : numpy.ndarray
+        Discrete process noise covariance over the step, shape (B, 20, 20), in the states' SI units
+        squared.
+
+    Returns
+    -------
+    numpy.ndarray
+        Propagated covariance, shape (B, 20, 20) (the broadcast of the inputs' batch shapes), in the
+        states' SI units squared.
+
+    Raises
+    ------
+    ValueError
+        Phi must be the identity outside rows 0-8 and zero beyond column 14 in them.
+    """
     from tauvcore.filter.kernels.common import CORE, NAV
     from tauvcore.filter.kernels.error_model import propagate_batch
 
@@ -222,7 +301,7 @@ def _is_positive_definite(A: np.ndarray) -> np.ndarray:
 
 
 def condition_covariance(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Keep P symmetric positive definite; returns ``(P, repaired)`` with ``repaired`` (B,) bool.
+    """Keep P symmetric positive definite.
 
     A batch entry whose P is finite but fails its Cholesky factorisation (an eigenvalue at or
     below round-off, or negative) is rebuilt from its correlation matrix with the eigenvalues
@@ -230,6 +309,20 @@ def condition_covariance(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     :data:`P_VARIANCE_FLOOR`: ``P <- D V max(L, floor) V^T D``, ``D = sqrt(max(diag P, floor))``.
     A healthy P is returned unchanged (the same array); a non-finite P cannot be repaired and is
     left for the divergence monitor (tauvcore.eval.metrics).
+
+    Parameters
+    ----------
+    P : numpy.ndarray
+        Covariances, shape (B, n, n) (the error state's (B, 20, 20) in the filter bank), in the
+        states' SI units squared; not modified.
+
+    Returns
+    -------
+    P : numpy.ndarray
+        The covariances, shape (B, n, n), in the same units: ``P`` itself when every entry is
+        healthy, else a copy with the repaired entries rebuilt.
+    repaired : numpy.ndarray
+        Shape (B,) bool: the entries that were rebuilt.
     """
     ok = _is_positive_definite(P)
     if ok.all():
@@ -263,10 +356,50 @@ def fuse_in_place(
     gate_sigma: float,
     geodetic: bool = False,
 ) -> tuple[np.ndarray, ...]:
-    """The compiled gated Joseph correction and injection of n filters, in place (the filter
-    bank's layout): P (n, 20, 20), ``state`` the arrays of :func:`_state_arrays`, H (n, m, 20),
-    R (n, m, m), nu, active (n, m) (rows in use: active and valid), gate_rows (n,).
-    -> s_diag (n, m), keep (n, m), nis, test_ratio, unusable (n,): see :func:`correct`."""
+    """The compiled gated Joseph correction and injection of n filters, in place.
+
+    The filter bank's layout, one leading axis of n filters; the gate and the handling of inactive
+    rows and of an unusable ``S`` are :func:`correct`'s.
+
+    Parameters
+    ----------
+    P : numpy.ndarray
+        Error-state covariances, shape (n, 20, 20), in the states' SI units squared; updated in place.
+    state : StateArrays
+        The nominal states as the arrays of :func:`_state_arrays`: position (n, 3) [m, or latitude
+        and longitude in rad with depth in m] and velocity (n, 3) [m/s] in the NED n-frame, ``C_nb``
+        (n, 3, 3), accelerometer (n, 3) [m/s^2] and gyro (n, 3) [rad/s] biases in the body b-frame,
+        DVL beam biases (n, 4) [m/s], scale factor (n,) [-]; corrected in place.
+    H : numpy.ndarray
+        Measurement Jacobians, shape (n, m, 20) (any shape that reshapes to it, e.g. (M, R, m, 20)),
+        in the measurement's SI unit over each state's.
+    R : numpy.ndarray
+        Measurement noise covariances, shape (n, m, m), in the measurement's SI unit squared.
+    nu : numpy.ndarray
+        Innovations ``z (-) h(x_hat)``, shape (n, m), in the measurement's SI unit.
+    active : numpy.ndarray
+        Shape (n, m) bool: the rows in use (active and valid).
+    gate_rows : numpy.ndarray
+        Shape (n,) bool: gate each row on its own (True) or the whole vector at once (False).
+    gate_sigma : float
+        Gate width in standard deviations of the innovation [-].
+    geodetic : bool
+        Positions are latitude [rad], longitude [rad], depth [m] (WGS-84) rather than NED [m].
+
+    Returns
+    -------
+    s_diag : numpy.ndarray
+        Diagonal of ``S = H P H^T + R``, shape (n, m), in the measurement's SI unit squared (NaN for
+        rows not used).
+    keep : numpy.ndarray
+        Shape (n, m) bool: the rows fused.
+    nis : numpy.ndarray
+        Shape (n,): normalised innovation squared over the active rows, before the gate [-].
+    test_ratio : numpy.ndarray
+        Shape (n,): max over the active rows of ``nu_i^2 / (gate^2 S_ii)`` [-]; > 1: rejected.
+    unusable : numpy.ndarray
+        Shape (n,) bool: ``S`` not finite or not positive definite, nothing fused.
+    """
     from tauvcore.filter.kernels.correction import correct_batch, inject_batch
 
     n, m = P.shape[0], nu.shape[-1]
@@ -293,7 +426,36 @@ def make_outcome(
     test_ratio: np.ndarray,
     unusable: np.ndarray,
 ) -> UpdateOutcome:
-    """The record of one correction from the kernel's outcome (``active``: rows measured)."""
+    """The record of one correction from the kernel's outcome.
+
+    Parameters
+    ----------
+    z : numpy.ndarray
+        Observations, shape (B, m), in the source's SI unit (e.g. m/s for DVL beams, m for depth).
+    innovation : numpy.ndarray
+        Innovations ``z (-) h(x_hat)``, shape (B, m), in the source's SI unit.
+    active : numpy.ndarray
+        Shape (B, m) bool: the rows measured.
+    s_diag : numpy.ndarray
+        Diagonal of ``S = H P H^T + R``, shape (B, m), in the source's SI unit squared (NaN for
+        unused rows).
+    keep : numpy.ndarray
+        Shape (B, m) bool: the rows fused.
+    nis : numpy.ndarray
+        Shape (B,): normalised innovation squared ``nu^T S^-1 nu`` over the active rows, before the
+        gate [-] (NaN: no active row, or S unusable).
+    test_ratio : numpy.ndarray
+        Shape (B,): max over the active rows of ``nu_i^2 / (gate^2 S_ii)`` [-]; > 1: rejected.
+    unusable : numpy.ndarray
+        Shape (B,) bool: ``S`` not finite or not positive definite, nothing fused.
+
+    Returns
+    -------
+    UpdateOutcome
+        The per-entry record: the inputs, and the rows fused (``keep``) and rejected (``active`` but
+        not kept), with their any-row summaries ``fused`` and ``rejected`` (B,) and the NIS's degrees
+        of freedom ``nis_dof`` (B,), the number of active rows.
+    """
     return UpdateOutcome(
         z=z,
         innovation=innovation,
@@ -312,13 +474,13 @@ def make_outcome(
 def correct(
     P: np.ndarray, nom: Nominal, meas: Measurement, gate_sigma: float, apply: np.ndarray | None = None
 ) -> tuple[np.ndarray, Nominal, UpdateOutcome]:
-    """Gated Joseph-form update and injection (the kernel :func:`tauvcore.filter.kernels.correction.correct_into`).
+    """Gated Joseph-form update and injection.
 
-    The gate is the paper's (section 2.1.1): a row must lie within ``gate_sigma`` standard
-    deviations of its prediction, ``nu_i^2 <= gate^2 S_ii``. A vector measurement is rejected
-    whole if any row fails (``gate_rows`` False), a row-gated one loses only the failing rows;
-    every rejection is recorded. ``apply`` (B,) masks batch entries that do not use this source
-    (e.g. the standalone INS); they are left untouched. Joseph form
+    The update is the kernel :func:`tauvcore.filter.kernels.correction.correct_into`. The gate is
+    the paper's (section 2.1.1): a row must lie within ``gate_sigma`` standard deviations of its
+    prediction, ``nu_i^2 <= gate^2 S_ii``. A vector measurement is rejected whole if any row fails
+    (``gate_rows`` False), a row-gated one loses only the failing rows; every rejection is
+    recorded. Entries masked out by ``apply`` are left untouched. Joseph form
     ``P = (I - K H) P (I - K H)^T + K R K^T`` keeps P symmetric positive definite for any gain,
     including the zero gain of a rejected measurement. Inactive rows are dropped exactly.
 
@@ -326,7 +488,34 @@ def correct(
     Cholesky factorisation fails) fuses nothing and keeps its P and state (``unusable``; its rows
     count as rejected). The record also carries the entry's normalised innovation squared
     ``nu^T S^-1 nu`` over the active rows before the gate, for the divergence monitor.
-    Inputs are not modified.
+    Inputs are not modified. The injection treats positions as NED [m] (it runs the kernel with
+    ``geodetic`` False).
+
+    Parameters
+    ----------
+    P : numpy.ndarray
+        Error-state covariance, shape (B, 20, 20), in the states' SI units squared
+        (:data:`~tauvcore.filter.layout.STATE`).
+    nom : Nominal
+        Nominal state, batch shape ``B``: position (B, 3) [m] and velocity (B, 3) [m/s] in the NED
+        n-frame, attitude ``C_nb`` (B, 3, 3), sensor-error estimates in the body b-frame.
+    meas : Measurement
+        The aiding measurement: ``z`` and ``innovation`` (B, m) in the source's SI unit, ``H``
+        (B, m, 20), ``R`` (B, m, m), ``valid`` (B,), ``active`` (B, m) or None, ``gate_rows``.
+    gate_sigma : float
+        Gate width in standard deviations of the innovation [-].
+    apply : numpy.ndarray or None
+        Shape (B,) bool: the batch entries that use this source; an entry False (e.g. the standalone
+        INS) is left untouched. None: every entry.
+
+    Returns
+    -------
+    P : numpy.ndarray
+        Updated covariance, shape (B, 20, 20), in the states' SI units squared.
+    nom : Nominal
+        Corrected nominal state, batch shape ``B``.
+    outcome : UpdateOutcome
+        What the correction did per entry (:func:`make_outcome`).
     """
     valid = meas.valid if apply is None else meas.valid & apply
     batch = np.shape(P)[:-2]

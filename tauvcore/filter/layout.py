@@ -16,7 +16,8 @@ from tauvcore.geo.rotations import mv
 
 @dataclass(frozen=True)
 class NavState:
-    """Navigation solution: position, velocity, attitude (batch shape ``...``)."""
+    """Navigation solution: position and velocity in the NED n-frame, attitude body to NED
+    (batch shape ``...``)."""
 
     pos_n: np.ndarray  # (..., 3) [m]
     vel_n: np.ndarray  # (..., 3) [m/s]
@@ -24,7 +25,7 @@ class NavState:
 
     @property
     def vel_b(self) -> np.ndarray:
-        """Body-frame velocity (surge, sway, heave) [m/s]."""
+        """Body-frame velocity (surge, sway, heave), shape (..., 3) [m/s], b-frame (FRD)."""
         return mv(np.swapaxes(self.C_nb, -1, -2), self.vel_n)
 
 
@@ -42,6 +43,7 @@ class ErrorStateLayout:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The blocks' names in state order, each the attribute that holds its slice."""
         return ("pos", "att", "vel", "ba", "bg", "b_dvl", "sf_dvl")
 
 

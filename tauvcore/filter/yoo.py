@@ -23,8 +23,9 @@ the exact nonlinear error dynamics.
 Against the paper's printed F (eq. 13-15, :func:`F_paper`): the paper writes the velocity error
 as *estimate minus true* (eq. 17: ``z = v_INS - v_VKF``), its sensor errors ``delta f``,
 ``delta omega`` as the corrected measurement's error, i.e. our bias errors (true minus estimate),
-and uses one earth radius R. Under that change of sign of the velocity its blocks are ours: F11 (velocity-velocity, Titterton's full form, which the paper prints
-although its eq. 9 shows only the Coriolis part), F12 = [f_n x], F13 = C_nb, F22 = -[omega_in x],
+and uses one earth radius R. Under that change of sign of the velocity its blocks are ours: F11
+(velocity-velocity, Titterton's full form, which the paper prints although its eq. 9 shows only
+the Coriolis part), F12 = [f_n x], F13 = C_nb, F22 = -[omega_in x],
 F24 = -C_nb, except one entry: F21's (3, 2), d(rho_D')/d(dv_E), is printed ``tan L / R``; the
 derivative of ``omega_en,D = -v_E tan L / R`` is ``-tan L / R``, so the paper's sign is a typo (our
 finite-difference test fails with it). The paper also keeps F21 (its 1/R terms) although eq. 10
@@ -42,11 +43,42 @@ DIM = 12
 
 
 def skew(v: np.ndarray) -> np.ndarray:
+    """The skew-symmetric (cross-product) matrix ``[v x]`` of one vector.
+
+    Parameters
+    ----------
+    v : numpy.ndarray
+        Vector, shape (3,), in any unit and frame.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[v x]``, shape (3, 3), in ``v``'s unit and frame: ``skew(v) @ u = v x u``.
+    """
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def rates(lat_rad: float, h_m: float, vel_n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """omega_ie_n, omega_en_n [rad/s] and J_en = d omega_en / d v_n at (lat, h) and velocity."""
+    """The earth and transport rates and the transport rate's Jacobian at a position and velocity.
+
+    Parameters
+    ----------
+    lat_rad : float
+        Geodetic latitude [rad] (WGS-84).
+    h_m : float
+        Height above the WGS-84 ellipsoid [m] (minus the depth).
+    vel_n : numpy.ndarray
+        Velocity relative to the earth, shape (3,) [m/s], NED n-frame.
+
+    Returns
+    -------
+    omega_ie_n : numpy.ndarray
+        Earth rate, shape (3,) [rad/s], NED n-frame.
+    omega_en_n : numpy.ndarray
+        Transport rate, shape (3,) [rad/s], NED n-frame.
+    J_en : numpy.ndarray
+        ``d omega_en / d v_n``, shape (3, 3) [rad/m].
+    """
     R_N, R_E = radii_of_curvature_m(lat_rad)
     rn, re = R_N + h_m, R_E + h_m
     w_ie = OMEGA_IE_RPS * np.array([np.cos(lat_rad), 0.0, -np.sin(lat_rad)])
@@ -57,8 +89,28 @@ def rates(lat_rad: float, h_m: float, vel_n: np.ndarray) -> tuple[np.ndarray, np
 
 
 def F_matrix(lat_rad: float, h_m: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray) -> np.ndarray:
-    """(12, 12) error dynamics of the module docstring at the estimated state; ``f_n`` the
-    specific force in n [m/s^2]."""
+    """The error dynamics ``F`` of the module docstring at the estimated state.
+
+    Parameters
+    ----------
+    lat_rad : float
+        Geodetic latitude [rad] (WGS-84).
+    h_m : float
+        Height above the WGS-84 ellipsoid [m] (minus the depth).
+    vel_n : numpy.ndarray
+        Estimated velocity relative to the earth, shape (3,) [m/s], NED n-frame.
+    f_n : numpy.ndarray
+        Specific force, shape (3,) [m/s^2], NED n-frame.
+    C_nb : numpy.ndarray
+        Estimated attitude, shape (3, 3), body (FRD) to NED.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``F``, shape (12, 12), over ``dx = [dv_n, rho, d_ba, d_bg]`` (velocity error [m/s] and
+        misalignment [rad] in NED, bias errors [m/s^2], [rad/s] in the body frame); each entry in
+        its row's state unit per second over its column's.
+    """
     w_ie, w_en, J_en = rates(lat_rad, h_m, vel_n)
     F = np.zeros((DIM, DIM))
     F[VEL, VEL] = -skew(2.0 * w_ie + w_en) + skew(vel_n) @ J_en
@@ -74,7 +126,31 @@ def F_paper(
     lat_rad: float, vel_n: np.ndarray, f_n: np.ndarray, C_nb: np.ndarray, R_m: float, typo: bool = True
 ) -> np.ndarray:
     """The paper's F (eq. 13-15) as printed, in its convention (velocity and bias errors estimate
-    minus true) and with one radius ``R_m``; ``typo=False`` corrects F21's (3, 2) sign."""
+    minus true) and with one radius ``R_m``.
+
+    Parameters
+    ----------
+    lat_rad : float
+        Geodetic latitude [rad].
+    vel_n : numpy.ndarray
+        Velocity relative to the earth, shape (3,) [m/s], NED n-frame.
+    f_n : numpy.ndarray
+        Specific force, shape (3,) [m/s^2], NED n-frame.
+    C_nb : numpy.ndarray
+        Attitude, shape (3, 3), body (FRD) to NED.
+    R_m : float
+        The one earth radius the paper uses for both ``R_N`` and ``R_E`` [m].
+    typo : bool
+        True: F21's (3, 2) entry as printed, ``tan L / R``; False: its sign corrected, ``-tan L / R``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The paper's ``F``, shape (12, 12), over its error state: velocity error (estimate minus
+        true) in NED [m/s], attitude error [rad], sensor errors ``delta f`` [m/s^2] and ``delta
+        omega`` [rad/s] of the corrected measurements (tauvcore's bias errors, :func:`paper_convention`);
+        each entry in its row's state unit per second over its column's.
+    """
     vN, vE, vD = vel_n
     fN, fE, fD = f_n
     W, L = OMEGA_IE_RPS, lat_rad
@@ -102,12 +178,32 @@ def F_paper(
 
 
 def paper_convention() -> np.ndarray:
-    """(12, 12) diagonal sign change from tauvcore's error state to the paper's: the velocity error
-    flips (estimate minus true), attitude and bias errors do not. ``F_paper = S F S``."""
+    """The diagonal sign change ``S`` from tauvcore's error state to the paper's.
+
+    The velocity error flips (estimate minus true), attitude and bias errors do not.
+    ``F_paper = S F S``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``S``, shape (12, 12), diagonal, entries -1 (velocity) and +1 (attitude, biases) [-].
+    """
     return np.diag(np.r_[-np.ones(3), np.ones(9)])
 
 
 def skew_batch(v: np.ndarray) -> np.ndarray:
+    """The skew-symmetric (cross-product) matrices ``[v x]`` of a stack of vectors.
+
+    Parameters
+    ----------
+    v : numpy.ndarray
+        Vectors, shape (..., 3), in any unit and frame.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[v x]``, shape (..., 3, 3), in ``v``'s unit and frame.
+    """
     out = np.zeros(v.shape + (3,))
     out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
@@ -124,8 +220,33 @@ def F_batch(
     geodetic: bool,
     w_ie_flat: np.ndarray,
 ) -> np.ndarray:
-    """:func:`F_matrix` for a batch (B,) of states -> (B, 12, 12). On the flat
-    earth the transport rate is zero and the earth rate constant (``w_ie_flat``)."""
+    """:func:`F_matrix` for a batch (B,) of states.
+
+    On the flat earth the transport rate is zero and the earth rate constant (``w_ie_flat``).
+
+    Parameters
+    ----------
+    lat : numpy.ndarray
+        Geodetic latitudes, shape (B,) [rad] (WGS-84); used only if ``geodetic``.
+    h : numpy.ndarray
+        Heights above the WGS-84 ellipsoid, shape (B,) [m] (minus the depths); used only if
+        ``geodetic``.
+    vel_n : numpy.ndarray
+        Estimated velocities relative to the earth, shape (B, 3) [m/s], NED n-frame.
+    f_n : numpy.ndarray
+        Specific forces, shape (B, 3) [m/s^2], NED n-frame.
+    C : numpy.ndarray
+        Estimated attitudes ``C_nb``, shape (B, 3, 3), body (FRD) to NED.
+    geodetic : bool
+        WGS-84 (the rates of :func:`rates` at each state) rather than the flat earth.
+    w_ie_flat : numpy.ndarray
+        The flat earth's earth rate, shape (3,) [rad/s], NED n-frame; used only if not ``geodetic``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``F``, shape (B, 12, 12), in the units of :func:`F_matrix`'s.
+    """
     B = vel_n.shape[0]
     F = np.zeros((B, DIM, DIM))
     if geodetic:
@@ -158,17 +279,45 @@ def correct_consider(
     gate_rows: bool,
     gate_sigma: float,
 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-    """A gated Joseph-form update of the 12 states with consider states after them (Schmidt-Kalman:
-    the consider rows of K are zero), for a batch ``B``: ``P`` (B, N, N), ``H`` (B, m, N), ``Rm``
-    (B, m, m), ``nu`` (B, m), ``active`` (B, m) the rows measured (an inactive row is dropped
-    exactly). The gate is the 20-state correction's (tauvcore.filter.eskf.correct): a row must lie
-    within ``gate_sigma`` standard deviations of its prediction, a vector failing in any row is
-    refused whole (``gate_rows`` False) or loses its failing rows; an entry whose S over its rows is
-    not finite or not positive definite fuses nothing (unusable).
+    """A gated Joseph-form update of the 12 states with consider states after them.
 
-    Returns the updated P, the correction ``dx`` (B, 12) to inject, and the outcome of
-    tauvcore.filter.eskf.make_outcome: S's diagonal (NaN off the active rows), the rows kept, the NIS
-    over the active rows before the gate, the test ratio and whether the entry was unusable."""
+    Schmidt-Kalman: the consider rows of K are zero. An inactive row is dropped exactly. The gate
+    is the 20-state correction's (tauvcore.filter.eskf.correct): a row must lie within
+    ``gate_sigma`` standard deviations of its prediction, a vector failing in any row is refused
+    whole (``gate_rows`` False) or loses its failing rows; an entry whose S over its rows is not
+    finite or not positive definite fuses nothing (unusable).
+
+    Parameters
+    ----------
+    P : numpy.ndarray
+        Covariance, shape (B, N, N): the 12 states (velocity error [m/s] and misalignment [rad] in
+        NED, accelerometer [m/s^2] and gyro [rad/s] bias errors in the body frame) then the
+        consider states, in their SI units squared; not modified.
+    H : numpy.ndarray
+        Measurement Jacobians, shape (B, m, N), in the measurement's SI unit over each state's.
+    Rm : numpy.ndarray
+        Measurement noise covariances, shape (B, m, m), in the measurement's SI unit squared.
+    nu : numpy.ndarray
+        Innovations, shape (B, m), in the measurement's SI unit.
+    active : numpy.ndarray
+        Shape (B, m) bool: the rows measured.
+    gate_rows : bool
+        Gate each row on its own (True) or the whole vector at once (False).
+    gate_sigma : float
+        Gate width in standard deviations of the innovation [-].
+
+    Returns
+    -------
+    P : numpy.ndarray
+        Updated covariance, shape (B, N, N), in the states' SI units squared.
+    dx : numpy.ndarray
+        Correction to inject, shape (B, 12), in the 12 states' units (m/s, rad, m/s^2, rad/s).
+    outcome : tuple of numpy.ndarray
+        The arguments of tauvcore.filter.eskf.make_outcome after ``z``, ``innovation`` and
+        ``active``: S's diagonal (B, m) in the measurement's SI unit squared (NaN off the active
+        rows), the rows kept (B, m) bool, the NIS over the active rows before the gate (B,), the test
+        ratio (B,) and whether the entry was unusable (B,) bool.
+    """
     N = P.shape[-1]
     eye_m = np.eye(nu.shape[-1], dtype=bool)
 

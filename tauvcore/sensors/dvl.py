@@ -55,7 +55,21 @@ MAX_OUTAGES = 1000
 
 
 def beam_directions_b(beam_pitch_rad: float) -> np.ndarray:
-    """Unit beam directions in b, one row per beam (the matrix A of eq. 16). -> (4, 3)."""
+    """Unit beam directions in b, one row per beam (the matrix A of eq. 16).
+
+    Row k-1 is ``b_k = [cos(psi_k) sin(theta), sin(psi_k) sin(theta), cos(theta)]`` (eq. 13) with
+    beam yaw ``psi_k = 45 + (k-1) 90 deg`` (eq. 14).
+
+    Parameters
+    ----------
+    beam_pitch_rad : float
+        Beam pitch ``theta``, each beam's angle from the body z axis [rad].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``A``, shape (4, 3) [-]: unit vectors, body frame b (FRD), beams 1-4 in rows 0-3.
+    """
     yaw = np.deg2rad(45.0 + 90.0 * np.arange(NUM_DVL_BEAMS))
     s = np.sin(beam_pitch_rad)
     return np.stack(
@@ -149,7 +163,15 @@ class DvlConfig:
         require_choice("dvl.beyond_range", self.beyond_range, BEYOND_RANGE)
 
     def ideal(self) -> DvlConfig:
-        """The same DVL (geometry, lever arm, beams) with every error set to zero."""
+        """The same DVL (geometry, lever arm, beams) with every error set to zero.
+
+        Returns
+        -------
+        DvlConfig
+            This configuration's rate [Hz], beam pitch [deg], lever arm [m], beams, outages,
+            dropout probability and range settings, with zero noise, bias, bias walk, scale
+            factor and scale factor walk.
+        """
         return DvlConfig(
             rate_hz=self.rate_hz,
             beam_pitch_deg=self.beam_pitch_deg,
@@ -169,6 +191,7 @@ class DvlConfig:
 
     @property
     def beam_pitch_rad(self) -> float:
+        """Beam pitch from the body z axis (vertical of a level DVL) [rad]."""
         return self.beam_pitch_deg * units.DEG
 
     @property
@@ -183,14 +206,17 @@ class DvlConfig:
 
     @property
     def l_dvl_b(self) -> np.ndarray:
+        """Lever arm of the DVL head from the IMU, shape (3,) [m], body frame b (FRD)."""
         return np.asarray(self.lever_arm_m, dtype=float)
 
     @property
     def scale_factor(self) -> float:
+        """1-sigma turn-on scale factor error [-] (a fraction)."""
         return self.scale_factor_pct * units.PERCENT
 
     @property
     def scale_factor_rw_per_sqrt_s(self) -> float:
+        """Scale factor random walk density [1/sqrt(s)] (a fraction per sqrt(s))."""
         return self.scale_factor_rw_pct_per_sqrt_s * units.PERCENT
 
     @property
@@ -199,7 +225,19 @@ class DvlConfig:
         return np.isin(np.arange(1, NUM_DVL_BEAMS + 1), self.beams)
 
     def scheduled_availability(self, t_s: np.ndarray) -> np.ndarray:
-        """(M, 4) bool: beams enabled and not in an outage at the ping times ``t_s``."""
+        """Beams enabled and not in an outage at the ping times ``t_s``.
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            Ping times, shape (M,) [s], on the mission's clock.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (M, 4), bool: beam k-1 of ping m is in :attr:`beams` and in no outage window
+            ``start_s <= t < end_s`` naming it.
+        """
         available = np.broadcast_to(self.beam_mask, t_s.shape + (NUM_DVL_BEAMS,)).copy()
         for outage in self.outages:
             lost = (t_s >= outage.start_s) & (t_s < outage.end_s)
@@ -230,7 +268,30 @@ def beam_velocity(
     scale_factor: np.ndarray,
     bias: np.ndarray,
 ) -> np.ndarray:
-    """Eq. 15 without noise: ``(v_b (1 + SF) + omega_nb_b x l) . b_k + bias_k``. -> (..., 4)."""
+    """Eq. 15 without noise: ``(v_b (1 + SF) + omega_nb_b x l) . b_k + bias_k``.
+
+    The inputs broadcast against each other over their leading batch shape ``(...)`` (pings, runs).
+
+    Parameters
+    ----------
+    A_b : numpy.ndarray
+        Beam directions, shape (4, 3) [-], body frame b (FRD) (:func:`beam_directions_b`).
+    vel_b : numpy.ndarray
+        Velocity relative to the earth, shape (..., 3) [m/s], body frame b (FRD).
+    omega_nb_b : numpy.ndarray
+        Body rate relative to the n frame, shape (..., 3) [rad/s], body frame b (FRD).
+    l_dvl_b : numpy.ndarray
+        Lever arm of the DVL head from the IMU, shape (3,) [m], body frame b (FRD).
+    scale_factor : numpy.ndarray
+        Scale factor error ``SF``, shape (...) [-] (a fraction), common to the four beams.
+    bias : numpy.ndarray
+        Beam biases, shape (..., 4) [m/s], along each beam.
+
+    Returns
+    -------
+    numpy.ndarray
+        Beam velocities, shape (..., 4) [m/s], along beams 1-4 (beam frames s_k).
+    """
     v_head = vel_b * (1.0 + scale_factor[..., None]) + np.cross(omega_nb_b, l_dvl_b)
     # the projection summed term by term, not by matmul: BLAS may round a product differently for
     # another batch shape, and a run's pings must not depend on how many runs are drawn with it
@@ -239,8 +300,10 @@ def beam_velocity(
 
 @dataclass(frozen=True)
 class DvlState:
-    """What a DVL simulated chunk by chunk carries from one chunk to the next (the walks count
-    the pings emitted so far)."""
+    """What a DVL simulated chunk by chunk carries from one chunk to the next.
+
+    The walks count the pings emitted so far.
+    """
 
     bias: WalkState = field(default_factory=WalkState)  # beam bias walk, one step per ping
     scale_factor: WalkState = field(default_factory=WalkState)  # scale factor walk, one step per ping
@@ -253,16 +316,64 @@ def simulate(
     num_runs: int | None = None,
     seabed: Bathymetry | None = None,
 ) -> DvlData:
-    """Pings of the whole mission as one chunk, every draw from ``rng``."""
+    """Pings of the whole mission as one chunk, every draw from ``rng``.
+
+    The pings are at the IMU samples nearest to ``t = m / config.rate_hz``, m = 1, 2, ...
+    (:func:`~tauvcore.sensors.timing.epoch_indices`); see :func:`simulate_chunk` for the model.
+
+    Parameters
+    ----------
+    truth : Truth
+        The whole mission's true motion at the IMU samples (K samples).
+    config : DvlConfig
+        The DVL's rate [Hz], geometry, lever arm and error model (1-sigma values).
+    rng : numpy.random.Generator
+        Generator of every draw (bias, scale factor, noise, dropout).
+    num_runs : int or None, optional
+        Number of Monte Carlo runs R, drawn as an array axis after the pings; None: a single run
+        (no run axis).
+    seabed : Bathymetry or None, optional
+        The mission's seabed (tauvcore.truth.seabed) the beams are traced to; None: no range limit,
+        every beam in its schedule returns.
+
+    Returns
+    -------
+    DvlData
+        M pings: times ``t_s`` (M,) [s], IMU sample indices ``index`` (M,), beam velocities
+        ``y_beam_mps`` (M, [R,] 4) [m/s] (NaN where not returned), ``available`` (M, [R,] 4) bool,
+        true beam biases ``bias_mps`` (M, [R,] 4) [m/s], scale factor error ``scale_factor``
+        (M, [R]) [-] and, with a seabed, ``slant_range_m`` (M, 4) [m].
+    """
     index = epoch_indices(truth, config.rate_hz)
     data, _ = simulate_chunk(truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs, seabed)
     return data
 
 
 def slant_ranges_m(truth: Truth, rows: np.ndarray, config: DvlConfig, seabed: Bathymetry) -> np.ndarray:
-    """(M, 4) range [m] from the DVL head along each beam to ``seabed`` at the truth's ``rows``;
-    inf beyond ``config.max_range_m``. The head's horizontal position is the tangent-plane NED
-    one, its vertical the true depth (on WGS-84 the plane falls below the surface with distance)."""
+    """Range from the DVL head along each beam to ``seabed`` at the truth's ``rows``.
+
+    The head's horizontal position is the tangent-plane NED one, its vertical the true depth (on
+    WGS-84 the plane falls below the surface with distance); the head is the IMU's position plus
+    the lever arm ``C_nb l_dvl_b``, the beams ``C_nb b_k`` in the n frame.
+
+    Parameters
+    ----------
+    truth : Truth
+        True motion: ``pos_n`` (K, 3) [m] NED, depth ``depth_m`` (K,) [m] and attitude ``C_nb``
+        (K, 3, 3) [-], body to NED.
+    rows : numpy.ndarray
+        Rows of ``truth`` at the pings, shape (M,), integer indices.
+    config : DvlConfig
+        The DVL: lever arm [m], beam directions, ``max_range_m`` [m].
+    seabed : Bathymetry
+        The mission's seabed (tauvcore.truth.seabed), depths in the n frame [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        Slant ranges, shape (M, 4) [m], along beams 1-4; inf where a beam finds no bottom within
+        ``config.max_range_m``.
+    """
     C = truth.C_nb[rows]
     head = np.concatenate([truth.pos_n[rows, :2], truth.depth_m[rows, None]], axis=1)
     head = head + np.einsum("mij,j->mi", C, config.l_dvl_b)
@@ -283,17 +394,55 @@ def simulate_chunk(
     num_runs: int | None,
     seabed: Bathymetry | None = None,
 ) -> tuple[DvlData, DvlState]:
-    """Pings at the mission's IMU samples ``index`` (all within ``truth``, whose sample 0 is the
-    mission's sample ``k0``), by eq. 15 plus noise, NaN where a beam is out of its schedule or drops.
+    """Pings at the mission's IMU samples ``index``, by eq. 15 plus noise.
 
-    Bias (4 per run) and scale factor are random walks stepping once per ping (period
-    ``1 / rate_hz``) from a turn-on value. Draws, in order: bias (turn-on value at the first chunk,
-    then its walk), scale factor, noise, dropout (only if its probability is positive, so that a
-    single generator shared with the other sensors moves as before). With a ``seabed``, beams
-    beyond ``max_range_m`` are lost, or, ``beyond_range = "noisy"``, get the extra noise, drawn
-    for every beam of every ping after the noise (so a run's numbers do not depend on where a
-    chunk ends). Each generator may be one per run (tauvcore.sensors.timing.Rng). -> (data, next
-    state).
+    ``index`` lies within ``truth``, whose sample 0 is the mission's sample ``k0``; a beam out of
+    its schedule or that drops is NaN. Bias (4 per run) and scale factor are random walks
+    stepping once per ping (period ``1 / rate_hz``) from a turn-on value. Draws, in order: bias
+    (turn-on value at the first chunk, then its walk), scale factor, noise, dropout (only if its
+    probability is positive, so that a single generator shared with the other sensors draws the
+    same numbers as without dropout). With a ``seabed``, beams beyond ``max_range_m`` are lost,
+    or, ``beyond_range = "noisy"``, get the extra noise, drawn for every beam of every ping after
+    the noise (so a run's numbers do not depend on where a chunk ends). Each generator may be one
+    per run (tauvcore.sensors.timing.Rng).
+
+    Parameters
+    ----------
+    truth : Truth
+        True motion at the mission's samples ``k0 .. k0 + K - 1``: ``vel_b`` (K, 3) [m/s] and
+        ``omega_nb_b`` (K, 3) [rad/s], body frame b (FRD), and what :func:`slant_ranges_m` reads.
+    k0 : int
+        The mission's index of the chunk's first sample (0 for the first chunk).
+    index : numpy.ndarray
+        The mission's IMU sample indices of the chunk's pings, shape (M,), integers in
+        ``[k0, k0 + K)`` (:func:`~tauvcore.sensors.timing.epoch_indices_between`).
+    config : DvlConfig
+        The DVL's rate [Hz], geometry, lever arm and error model (1-sigma values).
+    state : DvlState
+        What the chunk before left (bias and scale factor walks); ``DvlState()`` for the first.
+    bias_rng : Rng
+        Generator(s) of the beam biases: turn-on values and walks.
+    scale_factor_rng : Rng
+        Generator(s) of the scale factor: turn-on value and walk.
+    noise_rng : Rng
+        Generator(s) of the white noise and of the extra beyond-range noise.
+    dropout_rng : Rng
+        Generator(s) of the dropouts (drawn only if ``config.dropout_probability > 0``).
+    num_runs : int or None
+        Number of Monte Carlo runs R, an array axis after the pings; None: a single run (no run
+        axis).
+    seabed : Bathymetry or None, optional
+        The mission's seabed (tauvcore.truth.seabed) the beams are traced to; None: no range limit.
+
+    Returns
+    -------
+    data : DvlData
+        The chunk's M pings: ``t_s`` (M,) [s], ``index`` (M,), beam velocities ``y_beam_mps``
+        (M, [R,] 4) [m/s] (NaN where not returned), ``available`` (M, [R,] 4) bool, true beam
+        biases ``bias_mps`` (M, [R,] 4) [m/s], scale factor error ``scale_factor`` (M, [R]) [-],
+        ``slant_range_m`` (M, 4) [m] with a seabed, else None.
+    state : DvlState
+        The state for the next chunk.
     """
     m = index.size
     runs = batch_shape(num_runs)

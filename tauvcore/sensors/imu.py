@@ -31,9 +31,9 @@ from tauvcore.validation import require_choice, require_range
 
 RATE_RANGE_HZ = (50.0, 2000.0)
 """IMU rate bounds [Hz]. Below 50 Hz the two-sample coning/sculling correction and the
-covariance steps no longer follow a manoeuvring AUV (and 0.001 Hz left no sample at all); no
-navigation IMU delivers increments above 2 kHz, and the run time grows with the rate (1e5 Hz made
-a 5 s mission take 31 s)."""
+covariance steps do not follow a manoeuvring AUV (and 0.001 Hz leaves no sample at all); no
+navigation IMU delivers increments above 2 kHz, and the run time grows with the rate (at 1e5 Hz a
+5 s mission takes 31 s)."""
 
 ERROR_LIMITS = {
     "accel_bias_mg": 100.0,  # 200x Table 2; an uncalibrated consumer MEMS is ~50 mg
@@ -75,50 +75,68 @@ class ImuConfig:
             require_range(f"imu.{name}", getattr(self, name), 0.0, high)
 
     def ideal(self) -> ImuConfig:
-        """The same IMU with every error set to zero."""
+        """The same IMU with every error set to zero.
+
+        Returns
+        -------
+        ImuConfig
+            This configuration's ``rate_hz`` [Hz] with every field of :data:`ERROR_LIMITS` (biases,
+            noise densities, bias walks, scale factors, misalignments) zero.
+        """
         return ImuConfig(rate_hz=self.rate_hz, **{name: 0.0 for name in ERROR_LIMITS})
 
     @property
     def has_axis_errors(self) -> bool:
-        """Whether any scale factor or misalignment is drawn (none: the draws of an IMU without
-        them, unchanged)."""
+        """Whether any scale factor or misalignment is drawn.
+
+        None: nothing is drawn for them, and the other draws are those of an IMU without axis errors.
+        """
         return any(getattr(self, name) > 0.0 for name in AXIS_ERROR_FIELDS)
 
     # SI views, used by the simulation and by the filter's Q
     @property
     def accel_bias_mps2(self) -> float:
+        """1-sigma accelerometer turn-on bias per axis [m/s^2]."""
         return self.accel_bias_mg * units.MG
 
     @property
     def gyro_bias_rps(self) -> float:
+        """1-sigma gyro turn-on bias per axis [rad/s]."""
         return self.gyro_bias_deg_per_h * units.DEG_PER_HOUR
 
     @property
     def accel_noise_mps_per_sqrt_s(self) -> float:
+        """Accelerometer white noise density (velocity random walk) [m/s/sqrt(s)]."""
         return self.accel_noise_mps_per_sqrt_h * units.MPS_PER_SQRT_HOUR
 
     @property
     def gyro_noise_rad_per_sqrt_s(self) -> float:
+        """Gyro white noise density (angle random walk) [rad/sqrt(s)]."""
         return self.gyro_noise_deg_per_sqrt_h * units.DEG_PER_SQRT_HOUR
 
     @property
     def gyro_bias_rw_rps_per_sqrt_s(self) -> float:
+        """Gyro bias random walk density [rad/s/sqrt(s)]."""
         return self.gyro_bias_rw_deg_per_s_per_sqrt_s * units.DEG
 
     @property
     def accel_scale_factor(self) -> float:
+        """1-sigma accelerometer scale factor error per axis [-] (a fraction)."""
         return self.accel_scale_factor_ppm * 1e-6
 
     @property
     def gyro_scale_factor(self) -> float:
+        """1-sigma gyro scale factor error per axis [-] (a fraction)."""
         return self.gyro_scale_factor_ppm * 1e-6
 
     @property
     def accel_misalignment_rad(self) -> float:
+        """1-sigma accelerometer misalignment per axis pair [rad]."""
         return self.accel_misalignment_mrad * 1e-3
 
     @property
     def gyro_misalignment_rad(self) -> float:
+        """1-sigma gyro misalignment per axis pair [rad]."""
         return self.gyro_misalignment_mrad * 1e-3
 
 
@@ -157,7 +175,23 @@ IMU_PROFILES: dict[str, ImuConfig] = {
 
 
 def imu_profile(name: str) -> ImuConfig:
-    """The IMU named ``name`` (:data:`IMU_PROFILES`); ConfigError naming the choices otherwise."""
+    """The IMU named ``name`` (:data:`IMU_PROFILES`).
+
+    Parameters
+    ----------
+    name : str
+        Profile name, a key of :data:`IMU_PROFILES` (``"table2"``, ``"yoo-table1"``).
+
+    Returns
+    -------
+    ImuConfig
+        The named IMU's error model (its fields in the units their names carry).
+
+    Raises
+    ------
+    ConfigError
+        Naming the choices, if ``name`` is not one of them.
+    """
     require_choice("imu profile", name, tuple(IMU_PROFILES))
     return IMU_PROFILES[name]
 
@@ -191,8 +225,37 @@ class ImuState:
 def simulate(
     truth: Truth, config: ImuConfig, rng: np.random.Generator, num_runs: int | None = None
 ) -> ImuData:
-    """IMU increments at every truth epoch (the truth must be generated at ``config.rate_hz``):
-    the whole mission as one chunk, every draw from ``rng``."""
+    """IMU increments at every truth epoch: the whole mission as one chunk, every draw from ``rng``.
+
+    The truth must be generated at ``config.rate_hz``; the mission's sample interval is
+    ``truth.dt_s``. See :func:`simulate_chunk` for the model and the order of the draws.
+
+    Parameters
+    ----------
+    truth : Truth
+        The whole mission's true motion, K samples at ``config.rate_hz``; its increments
+        ``dtheta_ib_b`` (K, 3) [rad] and ``dv_b`` (K, 3) [m/s], body frame b (FRD), are the
+        error-free IMU outputs.
+    config : ImuConfig
+        The IMU's rate [Hz] and error model (1-sigma values).
+    rng : numpy.random.Generator
+        Generator of every draw (biases, noise, axis errors).
+    num_runs : int or None, optional
+        Number of Monte Carlo runs R, drawn as an array axis after time; None: a single run
+        (no run axis).
+
+    Returns
+    -------
+    ImuData
+        Measured increments ``dtheta_b`` [rad] and ``dv_b`` [m/s] and the true biases
+        ``gyro_bias`` [rad/s] and ``accel_bias`` [m/s^2], each (K, [R,] 3) in the body frame b (FRD),
+        at the truth's times ``t_s`` (K,) [s]; row 0 is zero.
+
+    Raises
+    ------
+    ValueError
+        If the truth is not sampled at ``config.rate_hz``.
+    """
     data, _ = simulate_chunk(truth, 0, config, ImuState(), rng, rng, rng, rng, num_runs, truth.dt_s, rng)
     return data
 
@@ -200,10 +263,29 @@ def simulate(
 def axis_error_matrices(
     rng: Rng, shape: tuple[int, ...], scale_factor: float, misalignment_rad: float
 ) -> np.ndarray:
-    """``M`` of one triad for each run: ``diag(s) + off-diagonal m``, ``s ~ N(0, scale_factor^2)``
-    per axis and ``m_ij ~ N(0, misalignment_rad^2)`` for each sensing axis i leaning towards j.
-    ``shape``: the run axes (possibly empty). Draws 9 numbers per run: s_x, s_y, s_z, then
-    m_xy, m_xz, m_yx, m_yz, m_zx, m_zy. -> (*shape, 3, 3)."""
+    """``M`` of one triad for each run: ``diag(s) + off-diagonal m``.
+
+    ``s ~ N(0, scale_factor^2)`` per axis and ``m_ij ~ N(0, misalignment_rad^2)`` for each sensing
+    axis i leaning towards j (Groves 2013 eq. 4.16). Draws 9 numbers per run: s_x, s_y, s_z, then
+    m_xy, m_xz, m_yx, m_yz, m_zx, m_zy.
+
+    Parameters
+    ----------
+    rng : Rng
+        One generator for every run, or one per run (:data:`tauvcore.sensors.timing.Rng`; the run
+        axis is then the first of ``shape``).
+    shape : tuple of int
+        The run axes (possibly empty): ``()`` for a single run, ``(R,)`` for R runs.
+    scale_factor : float
+        1-sigma scale factor error per axis [-] (a fraction, not ppm).
+    misalignment_rad : float
+        1-sigma misalignment of a sensing axis towards each other axis [rad].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``M``, shape (*shape, 3, 3) [-], body frame b (FRD): row i the errors of sensing axis i.
+    """
     z = standard_normal(rng, shape + (9,))
     M = np.zeros(shape + (3, 3))
     for i in range(3):
@@ -235,8 +317,52 @@ def simulate_chunk(
     first chunk from ``axes_rng``, accelerometer then gyro, only if the IMU has any:
     :attr:`ImuConfig.has_axis_errors`). Draws, in order: accelerometer bias (turn-on value at the
     first chunk, then its walk), gyro bias, accelerometer noise, gyro noise, axes, each from its
-    generator. ``dt_s`` is the mission's sample interval. Each generator may be one per run
-    (tauvcore.sensors.timing.Rng). -> (data with arrays (K, [R,] 3), state for the next chunk).
+    generator. Each generator may be one per run (tauvcore.sensors.timing.Rng).
+
+    Parameters
+    ----------
+    truth : Truth
+        True motion at the mission's samples ``k0 .. k0 + K - 1``: increments ``dtheta_ib_b``
+        (K, 3) [rad] and ``dv_b`` (K, 3) [m/s], rate ``omega_ib_b`` (K, 3) [rad/s] and specific
+        force ``f_b`` (K, 3) [m/s^2], body frame b (FRD).
+    k0 : int
+        The mission's index of the chunk's first sample (0 for the first chunk).
+    config : ImuConfig
+        The IMU's rate [Hz] and error model (1-sigma values).
+    state : ImuState
+        What the chunk before left (bias walks, axis errors); ``ImuState()`` for the first chunk.
+    accel_bias_rng : Rng
+        Generator(s) of the accelerometer bias: turn-on value and walk.
+    gyro_bias_rng : Rng
+        Generator(s) of the gyro bias: turn-on value and walk.
+    accel_noise_rng : Rng
+        Generator(s) of the accelerometer white noise.
+    gyro_noise_rng : Rng
+        Generator(s) of the gyro white noise.
+    num_runs : int or None
+        Number of Monte Carlo runs R, an array axis after time; None: a single run (no run axis).
+    dt_s : float
+        The mission's sample interval [s]; ``1 / dt_s`` must equal ``config.rate_hz``.
+    axes_rng : Rng or None, optional
+        Generator(s) of the axis errors ``M_a`` and ``M_g``; needed only if the IMU has any and
+        they are not drawn yet (first chunk).
+
+    Returns
+    -------
+    data : ImuData
+        The chunk's measured increments ``dtheta_b`` [rad] and ``dv_b`` [m/s] and true biases
+        ``gyro_bias`` [rad/s] and ``accel_bias`` [m/s^2] (the turn-on bias and its walk plus
+        ``M f_b`` / ``M omega_ib_b``), each (K, [R,] 3), body frame b (FRD); ``t_s`` (K,) [s] the
+        truth's.
+    state : ImuState
+        The state for the next chunk.
+
+    Raises
+    ------
+    ValueError
+        If ``1 / dt_s`` is not ``config.rate_hz`` ("truth is sampled at ... Hz but imu.rate_hz
+        is ..."), or if the IMU has scale factor or misalignment errors and ``axes_rng`` is None
+        when they are drawn ("simulate_chunk needs axes_rng").
     """
     if abs(1.0 / dt_s - config.rate_hz) > 1e-6 * config.rate_hz:
         raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {config.rate_hz:g}")

@@ -41,6 +41,11 @@ class SensorStreams:
     The DVL has four streams, not one: bias, scale factor, noise and dropout draw different
     amounts per ping, so sharing one generator between them would interleave their draws
     differently for different chunkings.
+
+    Raises
+    ------
+    TypeError
+        If a field is not a ``numpy.random.Generator``.
     """
 
     accel_bias: np.random.Generator  # IMU accelerometer bias: turn-on value, then its walk
@@ -72,13 +77,36 @@ class SensorStreams:
 
     @classmethod
     def single(cls, rng: np.random.Generator) -> SensorStreams:
-        """Every stream the same generator: the draws of the whole-mission ``simulate`` functions."""
+        """Every stream the same generator: the draws of the whole-mission ``simulate`` functions.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's (or batch of runs') one generator.
+
+        Returns
+        -------
+        SensorStreams
+            Streams that are all ``rng``.
+        """
         return cls(**{f.name: rng for f in dataclasses.fields(cls)})
 
     @classmethod
     def spawned(cls, rng: np.random.Generator) -> SensorStreams:
-        """Independent children of ``rng`` (``rng.spawn``), one per stream in field order (a
-        stream added at the end leaves the others' numbers unchanged)."""
+        """Independent children of ``rng`` (``rng.spawn``), one per stream in field order.
+
+        A stream added at the end leaves the others' numbers unchanged.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The parent generator (its spawn counter advances by the number of streams).
+
+        Returns
+        -------
+        SensorStreams
+            One independent child generator per stream.
+        """
         names = [f.name for f in dataclasses.fields(cls)]
         return cls(**dict(zip(names, rng.spawn(len(names)), strict=True)))
 
@@ -92,6 +120,26 @@ class SensorStream:
     alone and the runs stacked along the run axis. ``num_samples`` and ``dt_s``: the whole
     mission's (``TruthStream.num_samples``, ``.dt_s``). The config is used as given (make it ideal
     first if need be).
+
+    Parameters
+    ----------
+    imu_config : ImuConfig
+        The IMU's rate [Hz] and error model (1-sigma values), used as given.
+    streams : SensorStreams or Sequence of SensorStreams
+        One for all runs, or ``num_runs`` of them, one per run.
+    num_runs : int
+        Number of runs R (>= 1), the output's run axis.
+    num_samples : int
+        The whole mission's number of samples (>= 1).
+    dt_s : float
+        The whole mission's sample interval [s] (> 0), ``1 / imu_config.rate_hz``.
+
+    Raises
+    ------
+    ValueError
+        If ``num_runs`` or ``num_samples`` is not a whole number >= 1, ``dt_s`` is not positive, the
+        truth's rate ``1 / dt_s`` is not ``imu.rate_hz``, or ``streams`` is neither one
+        SensorStreams nor a list of ``num_runs`` of them.
     """
 
     def __init__(
@@ -133,8 +181,32 @@ class SensorStream:
         self.next_k0 = 0  # first sample of the next chunk expected
 
     def next_chunk(self, k0: int, truth: Truth) -> imu.ImuData:
-        """The IMU over the mission's samples ``[k0, k0 + K)``, ``truth`` holding those K: arrays
-        (K, R, 3). Chunks must come in order, each starting where the previous one ended."""
+        """The IMU over the mission's samples ``[k0, k0 + K)``.
+
+        Chunks must come in order, each starting where the previous one ended.
+
+        Parameters
+        ----------
+        k0 : int
+            The mission's index of the chunk's first sample (0 for the first chunk).
+        truth : Truth
+            True motion at those K samples (the chunk of
+            :class:`tauvcore.truth.kinematic.TruthStream`): increments ``dtheta_ib_b`` (K, 3) [rad]
+            and ``dv_b`` (K, 3) [m/s], rate ``omega_ib_b`` (K, 3) [rad/s] and specific force ``f_b``
+            (K, 3) [m/s^2], body b-frame (FRD).
+
+        Returns
+        -------
+        ImuData
+            The simulated IMU: times (K,) [s], measured angle increments (K, R, 3) [rad] and velocity
+            increments (K, R, 3) [m/s], true accelerometer (K, R, 3) [m/s^2] and gyro (K, R, 3)
+            [rad/s] biases, body b-frame (FRD).
+
+        Raises
+        ------
+        ValueError
+            If chunks do not come in order, or the chunk does not fit the mission's samples.
+        """
         k = truth.num_samples
         if k0 != self.next_k0:
             raise ValueError(

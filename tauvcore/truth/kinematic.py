@@ -18,7 +18,8 @@ straight   north at ``speed_mps``, constant depth, level.
 figure8    heading ``psi = A sin(w t)`` with ``A = j_0,1 = 2.4048`` (first zero of the Bessel
            J0): at constant speed the north drift ``V J0(A) t`` vanishes, so the track closes
            into a figure eight (a 1:2 Lissajous). ``w`` makes the tightest turn radius equal to
-           ``turn_radius_m``. Constant-rate dive all along.
+           ``turn_radius_m``. Constant-rate dive until ``MIN_ALTITUDE_M`` above the seabed
+           (:func:`figure8_level_off_s`), then level.
 lawnmower  constant-rate dive for ``dive_duration_s``, then level; legs of ``leg_length_m``
            north and south joined by 180-degree turns of ``turn_radius_m``.
 longrange  Yoo 2014 section 3: north, level, at constant depth, cruising at ``speed_mps`` (its
@@ -172,6 +173,19 @@ class BlendedSchedule:
     On ``[t_i, t_i+1]``: ``y = y_i + (y_i+1 - y_i) s(tau)``, ``s = (1 - cos(pi tau)) / 2``;
     value and first derivative are continuous, and value, derivative and integral are closed
     form. Constant before the first and after the last knot.
+
+    Parameters
+    ----------
+    t_knots : list of float
+        Knot times, shape (N,) with N >= 2, strictly increasing [s].
+    y_knots : list of float
+        Values at the knots, shape (N,), in the scheduled quantity's unit (m/s for a speed, rad/s
+        for a yaw rate, rad for a pitch).
+
+    Raises
+    ------
+    ValueError
+        "BlendedSchedule needs strictly increasing knot times and one value each".
     """
 
     def __init__(self, t_knots: list[float], y_knots: list[float]) -> None:
@@ -191,17 +205,54 @@ class BlendedSchedule:
         return idx, h, tau
 
     def value(self, t: np.ndarray) -> np.ndarray:
+        """The schedule's value at times ``t``.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Times, any shape (e.g. (K,)) [s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Values, the shape of ``t``, in the knot values' unit.
+        """
         idx, _, tau = self._locate(t)
         return self.y[idx] + (self.y[idx + 1] - self.y[idx]) * 0.5 * (1.0 - np.cos(np.pi * tau))
 
     def derivative(self, t: np.ndarray) -> np.ndarray:
+        """The schedule's time derivative at times ``t``; zero outside the knots.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Times, any shape (e.g. (K,)) [s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Derivatives, the shape of ``t``, in the knot values' unit per second (e.g. rad/s^2 for
+            a yaw rate schedule).
+        """
         idx, h, tau = self._locate(t)
         inside = (t > self.t[0]) & (t < self.t[-1])
         d = (self.y[idx + 1] - self.y[idx]) * 0.5 * np.pi / h * np.sin(np.pi * tau)
         return np.where(inside, d, 0.0)
 
     def integral(self, t: np.ndarray) -> np.ndarray:
-        """Integral from ``t_0``; extends linearly (constant value) beyond the knots."""
+        """Integral from ``t_0``; extends linearly (constant value) beyond the knots.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Upper limits of integration, any shape (a 0-d array or a scalar too) [s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Integrals from the first knot time to ``t``, the shape of ``t``, in the knot values'
+            unit times seconds (e.g. m for a speed schedule, rad for a yaw rate schedule).
+        """
         t = np.asarray(t, dtype=float)
         idx, h, tau = self._locate(t)
         dy = self.y[idx + 1] - self.y[idx]
@@ -255,6 +306,20 @@ def _dive_pitch_rad(cfg: TrajectoryConfig, rate_mps: float) -> float:
 
 
 def straight_profile(cfg: TrajectoryConfig) -> Profile:
+    """The ``straight`` scenario: north at ``speed_mps``, constant depth, level, no turn.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario geometry; this profile reads ``speed_mps`` [m/s] (and the turn gains, zero here
+        as the yaw rate is zero).
+
+    Returns
+    -------
+    Profile
+        Euler angles [rad] zero, body velocity ``[speed_mps, 0, 0]`` [m/s] (surge, sway, heave),
+        their rates zero; each a function of times (K,) [s] returning (K, 3).
+    """
     zero = BlendedSchedule([0.0, 1.0], [0.0, 0.0])
     return _turn_profile(cfg, zero.integral, zero.value, zero.derivative, zero)
 
@@ -264,22 +329,66 @@ MIN_ALTITUDE_M = 10.0
 
 
 def seabed_floor_m(cfg: TrajectoryConfig) -> float:
-    """The shallowest the seabed is taken to be under a mission: its mean depth, less three times
-    the terrain's RMS relief when there is terrain [m]."""
+    """The shallowest the seabed is taken to be under a mission [m].
+
+    Its mean depth, less three times the terrain's RMS relief when there is terrain.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``seabed_depth_m`` [m], ``seabed``, ``terrain_relief_m`` [m].
+
+    Returns
+    -------
+    float
+        Depth of the seabed's floor, positive down (NED down coordinate) [m].
+    """
     return cfg.seabed_depth_m - (3.0 * cfg.terrain_relief_m if cfg.seabed == "terrain" else 0.0)
 
 
 def figure8_level_off_s(cfg: TrajectoryConfig) -> float:
-    """When the figure eight stops descending [s]: ``MIN_ALTITUDE_M`` above :func:`seabed_floor_m`
-    (the paper's 250 s at 0.1 m/s from 20 m end at 45 m, far above the 60 m seabed; a longer
-    mission would otherwise fly into the bottom, where no DVL beam returns). ``inf``: it never
-    gets there."""
+    """When the figure eight stops descending [s]: ``MIN_ALTITUDE_M`` above :func:`seabed_floor_m`.
+
+    The paper's 250 s at 0.1 m/s from 20 m end at 45 m, far above the 60 m seabed; a longer
+    mission would otherwise fly into the bottom, where no DVL beam returns.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``depth_m`` [m], ``dive_rate_mps`` [m/s] and the seabed (:func:`seabed_floor_m`).
+
+    Returns
+    -------
+    float
+        Time from the start at which the descent ends [s], at least 0; ``inf``: it never gets
+        there (no descent, ``dive_rate_mps <= 0``).
+    """
     if cfg.dive_rate_mps <= 0.0:
         return np.inf
     return max(0.0, (seabed_floor_m(cfg) - MIN_ALTITUDE_M - cfg.depth_m) / cfg.dive_rate_mps)
 
 
 def figure8_profile(cfg: TrajectoryConfig) -> Profile:
+    """The ``figure8`` scenario: heading ``psi = A sin(w t)``, ``A = j_0,1`` (module docstring).
+
+    ``w = speed_mps / (turn_radius_m A)`` makes the largest yaw rate ``A w = V / R``. Pitch is the
+    nose-down pitch of a ``dive_rate_mps`` descent with the velocity along the hull until
+    :func:`figure8_level_off_s`, then blends to level over ``blend_s``; roll and outward sway
+    follow the yaw rate (``turn_roll_deg``, ``turn_sideslip_deg`` at the tightest turn).
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``speed_mps`` [m/s], ``turn_radius_m`` [m], ``dive_rate_mps`` [m/s],
+        ``duration_s`` [s], ``blend_s`` [s], ``turn_roll_deg`` [deg], ``turn_sideslip_deg`` [deg],
+        depths and seabed [m].
+
+    Returns
+    -------
+    Profile
+        Euler angles [rad], their rates [rad/s], body velocity [m/s] (surge, sway, heave) and its
+        rate [m/s^2]; each a function of times (K,) [s] returning (K, 3).
+    """
     amp = BESSEL_J0_FIRST_ZERO
     w = cfg.speed_mps / (cfg.turn_radius_m * amp)  # max yaw rate amp*w = V/R
     theta = _dive_pitch_rad(cfg, cfg.dive_rate_mps)
@@ -300,6 +409,27 @@ def figure8_profile(cfg: TrajectoryConfig) -> Profile:
 
 
 def lawnmower_profile(cfg: TrajectoryConfig) -> Profile:
+    """The ``lawnmower`` scenario: legs north and south joined by 180-degree turns.
+
+    Legs of ``leg_length_m`` at ``speed_mps``; each turn ramps the yaw rate to ``V / R``
+    (``turn_radius_m``) by a half-cosine of ``min(blend_s, pi / (2 V / R))`` (a turn must reach
+    its full rate), holds it and ramps it out, turning 180 degrees, alternately to starboard and to
+    port. Pitch: the nose-down pitch of a ``lawnmower_dive_rate_mps`` descent for
+    ``dive_duration_s``, then blended to level over ``blend_s``.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``speed_mps`` [m/s], ``turn_radius_m`` [m], ``leg_length_m`` [m], ``duration_s``
+        [s], ``blend_s`` [s], ``lawnmower_dive_rate_mps`` [m/s], ``dive_duration_s`` [s],
+        ``turn_roll_deg`` [deg], ``turn_sideslip_deg`` [deg].
+
+    Returns
+    -------
+    Profile
+        Euler angles [rad], their rates [rad/s], body velocity [m/s] (surge, sway, heave) and its
+        rate [m/s^2]; each a function of times (K,) [s] returning (K, 3).
+    """
     rate = cfg.speed_mps / cfg.turn_radius_m
     blend = min(cfg.blend_s, 0.5 * np.pi / rate)  # a turn must reach its full rate
     hold = np.pi / rate - blend  # ramps in and out add rate*blend
@@ -327,13 +457,41 @@ blends between)."""
 
 
 def longrange_speed(cfg: TrajectoryConfig) -> BlendedSchedule:
-    """Surge [m/s] of the long-range mission against time (its north position is the integral)."""
+    """Surge [m/s] of the long-range mission against time (its north position is the integral).
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``speed_mps`` [m/s], the cruise speed the :data:`LONGRANGE_SPEED_KNOTS` fractions
+        scale.
+
+    Returns
+    -------
+    BlendedSchedule
+        Surge against time [s]: ``value`` [m/s], ``derivative`` [m/s^2], ``integral`` the distance
+        north from the start [m].
+    """
     return BlendedSchedule(
         [t for t, _ in LONGRANGE_SPEED_KNOTS], [f * cfg.speed_mps for _, f in LONGRANGE_SPEED_KNOTS]
     )
 
 
 def longrange_profile(cfg: TrajectoryConfig) -> Profile:
+    """The ``longrange`` scenario (Yoo 2014 section 3): north, level, at constant depth.
+
+    The surge follows :func:`longrange_speed`; sway and heave are zero.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``speed_mps`` [m/s], the cruise speed.
+
+    Returns
+    -------
+    Profile
+        Euler angles [rad] and their rates [rad/s] zero, body velocity ``[surge, 0, 0]`` [m/s] and
+        its rate [m/s^2]; each a function of times (K,) [s] returning (K, 3).
+    """
     speed = longrange_speed(cfg)
 
     def zeros(t: np.ndarray) -> np.ndarray:
@@ -357,10 +515,26 @@ PROFILES = {
 
 
 def bathymetry(cfg: TrajectoryConfig):
-    """The seabed of the mission ``cfg`` (tauvcore.truth.seabed.Bathymetry): ``seabed_depth_m``,
-    the seeded terrain if ``seabed = "terrain"``, and for ``longrange`` its two trenches, placed
-    where the mission is at LONGRANGE_OUT_OF_RANGE_S and deep enough that the altitude crosses
-    LONGRANGE_DVL_ALTITUDE_M at the middle of each wall (floor ``2 (depth_m + 100) - seabed_depth_m``)."""
+    """The seabed of the mission ``cfg`` (tauvcore.truth.seabed.Bathymetry).
+
+    ``seabed_depth_m``, the seeded terrain if ``seabed = "terrain"``, and for ``longrange`` its two
+    trenches, placed where the mission is at LONGRANGE_OUT_OF_RANGE_S and deep enough that the
+    altitude crosses LONGRANGE_DVL_ALTITUDE_M at the middle of each wall (floor
+    ``2 (depth_m + 100) - seabed_depth_m``, at least ``seabed_depth_m``), walls
+    ``LONGRANGE_WALL_M`` long.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: ``name``, ``depth_m`` [m], ``speed_mps`` [m/s], ``seabed``, ``seabed_depth_m`` [m],
+        ``terrain_seed``, ``terrain_relief_m`` [m], ``terrain_wavelength_m`` [m].
+
+    Returns
+    -------
+    tauvcore.truth.seabed.Bathymetry
+        The seabed, depths positive down in the n frame (NED) [m]; trench ends at north
+        positions [m] along the track.
+    """
     from tauvcore.truth.seabed import Bathymetry, Trench
 
     trenches = ()
@@ -430,7 +604,20 @@ def _motion_geodetic(m: dict[str, np.ndarray], lat: np.ndarray, depth: np.ndarra
 
 
 def num_samples(duration_s: float, rate_hz: float) -> int:
-    """Samples of a mission of ``duration_s`` at ``rate_hz``, both ends included."""
+    """Samples of a mission of ``duration_s`` at ``rate_hz``, both ends included.
+
+    Parameters
+    ----------
+    duration_s : float
+        Mission duration [s].
+    rate_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    int
+        ``round(duration_s * rate_hz) + 1`` samples.
+    """
     return round(duration_s * rate_hz) + 1
 
 
@@ -453,8 +640,8 @@ def _chunk_from_profile(
     WGS-84: the geodetic position integrated sample after sample from the origin (latitude and
     longitude of ``earth``, depth ``pos0_n[2]``; :func:`tauvcore.geo.path.integrate_geodetic`;
     carried: the position of sample ``k0 - 1``), ``pos_n`` its offset from the sea-surface point
-    above the origin in that point's tangent frame (so it starts at ``pos0_n``, as the flat one). Either way chunks of any size give the whole mission's numbers bit
-    for bit.
+    above the origin in that point's tangent frame (so it starts at ``pos0_n``, as the flat one).
+    Either way chunks of any size give the whole mission's numbers bit for bit.
     """
     dt = 1.0 / rate_hz
     t = np.arange(k0, k1) * dt
@@ -522,7 +709,35 @@ def _chunk_from_profile(
 def generate_from_profile(
     name: str, profile: Profile, earth: Earth, duration_s: float, rate_hz: float, pos0_n: np.ndarray
 ) -> Truth:
-    """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs."""
+    """Sample a profile at ``rate_hz`` for ``duration_s`` and derive the exact IMU outputs.
+
+    Motion at the samples ``t_k = k / rate_hz``; the IMU and position increments over each
+    ``(t_k-1, t_k]`` by 4-point Gauss-Legendre quadrature (module docstring), row 0 zero.
+
+    Parameters
+    ----------
+    name : str
+        Name recorded in the truth (``Truth.name``), e.g. the scenario's.
+    profile : Profile
+        Closed-form attitude [rad] and body velocity [m/s] against time [s], with their rates.
+    earth : Earth
+        Earth model (flat or WGS-84) and the origin's latitude and longitude [deg].
+    duration_s : float
+        Mission duration [s].
+    rate_hz : float
+        Sample rate, the IMU's [Hz].
+    pos0_n : numpy.ndarray
+        Start position, shape (3,) [m], NED from the sea-surface point above the origin; on WGS-84
+        only its depth ``pos0_n[2]`` is read (the horizontal start is the origin of ``earth``).
+
+    Returns
+    -------
+    Truth
+        K = ``num_samples(duration_s, rate_hz)`` samples: ``t_s`` (K,) [s], ``pos_n`` (K, 3) [m]
+        and ``vel_n`` (K, 3) [m/s] NED, ``vel_b`` (K, 3) [m/s], ``C_nb`` (K, 3, 3), ``euler``
+        (K, 3) [rad], ``omega_nb_b`` and ``omega_ib_b`` (K, 3) [rad/s], ``f_b`` (K, 3) [m/s^2],
+        increments ``dtheta_ib_b`` (K, 3) [rad] and ``dv_b`` (K, 3) [m/s], body frame b (FRD).
+    """
     truth, _ = _chunk_from_profile(
         name, profile, earth, rate_hz, 0, num_samples(duration_s, rate_hz), pos0_n, None
     )
@@ -534,7 +749,33 @@ def _start_n(cfg: TrajectoryConfig) -> np.ndarray:
 
 
 def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:
-    """Truth for a named scenario, sampled at the IMU rate ``rate_hz``."""
+    """Truth for a named scenario, sampled at the IMU rate ``rate_hz``.
+
+    The scenario's profile (:data:`PROFILES`) from the start ``[0, 0, depth_m]`` for
+    ``duration_s`` (:func:`generate_from_profile`).
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: its ``name`` and geometry (metres, seconds, m/s, degrees as the field names say).
+    earth : Earth
+        Earth model (flat or WGS-84) and the origin's latitude and longitude [deg].
+    rate_hz : float
+        Sample rate, the IMU's [Hz].
+
+    Returns
+    -------
+    Truth
+        The whole mission, K = ``num_samples(cfg.duration_s, rate_hz)`` samples: positions and
+        velocities NED [m, m/s], attitude, body rates [rad/s], specific force [m/s^2] and the
+        exact IMU increments [rad, m/s] in the body frame b (FRD), each (K, 3) (``C_nb``
+        (K, 3, 3)).
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not a finite number > 0 ("imu.rate_hz must be > 0").
+    """
     require_positive("imu.rate_hz", rate_hz)
     profile = PROFILES[cfg.name](cfg)
     return generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz, _start_n(cfg))
@@ -548,13 +789,50 @@ def generate_chunk(
     k1: int,
     travelled_n: np.ndarray | None = None,
 ) -> tuple[Truth, np.ndarray]:
-    """Samples ``k0 <= k < k1`` of :func:`generate`'s truth (the same numbers), with the mission's
-    times, and the sum of the position increments to pass on to the chunk starting at ``k1``.
+    """Samples ``k0 <= k < k1`` of :func:`generate`'s truth (the same numbers).
 
-    ``travelled_n`` (3,) [m]: that sum as the chunk ending at ``k0 - 1`` returned it (position
-    is the only quantity not closed-form in time: ``pos_n[k] = pos_n[0] + travelled_n[k]``);
-    omitted for ``k0 = 0``. Each call builds the scenario's profile; :class:`TruthStream` builds
-    it once.
+    With the mission's times, and the sum of the position increments to pass on to the chunk
+    starting at ``k1``. ``travelled_n`` (3,): that sum as the chunk ending at ``k0 - 1`` returned
+    it (position is the only quantity not closed-form in time: ``pos_n[k] = pos_n[0] +
+    travelled_n[k]`` in the flat model); omitted for ``k0 = 0``. Each call builds the scenario's
+    profile; :class:`TruthStream` builds it once.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: its ``name``, ``duration_s`` [s] and geometry.
+    earth : Earth
+        Earth model (flat or WGS-84) and the origin's latitude and longitude [deg].
+    rate_hz : float
+        Sample rate, the IMU's [Hz].
+    k0 : int
+        The mission's index of the chunk's first sample, ``0 <= k0 < k1``.
+    k1 : int
+        One past the mission's index of the chunk's last sample, ``k1 <= num_samples(duration_s,
+        rate_hz)``.
+    travelled_n : numpy.ndarray or None, optional
+        Shape (3,), what the chunk ending at ``k0 - 1`` returned: in the flat model the sum of the
+        position increments [m], NED; on WGS-84 the geodetic position of sample ``k0 - 1``
+        (latitude [rad], longitude [rad], depth [m]). None (only) for ``k0 = 0``.
+
+    Returns
+    -------
+    truth : Truth
+        The samples ``k0 <= k < k1`` (K = ``k1 - k0``), with the mission's times ``t_s`` (K,) [s]:
+        the fields of :func:`generate`'s truth, NED and body frame b (FRD).
+    travelled_n : numpy.ndarray
+        Shape (3,), to pass to the chunk starting at ``k1``: the sum of the position increments up
+        to sample ``k1 - 1`` [m], NED (flat model), or the geodetic position of sample ``k1 - 1``
+        (latitude [rad], longitude [rad], depth [m]; WGS-84).
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not a finite number > 0 ("imu.rate_hz must be > 0").
+    ValueError
+        If ``[k0, k1)`` does not lie within the mission's samples ("chunk samples ... must lie
+        within the mission's ..."), or ``travelled_n`` is None for ``k0 > 0`` ("a chunk starting
+        at sample ... > 0 needs the travelled_n of the chunk before").
     """
     require_positive("imu.rate_hz", rate_hz)
     return _chunk(cfg, PROFILES[cfg.name](cfg), earth, rate_hz, k0, k1, travelled_n)
@@ -587,11 +865,31 @@ def _chunk(
 
 
 class TruthStream:
-    """:func:`generate`'s truth chunk by chunk: ``for k0, chunk in TruthStream(...)`` yields the
-    samples ``k0 .. k0 + chunk_samples - 1`` (fewer in the last chunk) in order, each chunk a
-    :class:`Truth` with the mission's times and exact ``dt_s``; concatenated, the chunks are
-    :func:`generate`'s numbers bit for bit (tests/unit/test_stream.py). Memory: one chunk.
-    Iterating again starts again from sample 0."""
+    """:func:`generate`'s truth chunk by chunk.
+
+    ``for k0, chunk in TruthStream(...)`` yields the samples ``k0 .. k0 + chunk_samples - 1``
+    (fewer in the last chunk) in order, each chunk a :class:`Truth` with the mission's times and
+    exact ``dt_s``; concatenated, the chunks are :func:`generate`'s numbers bit for bit
+    (tests/unit/test_stream.py). Memory: one chunk. Iterating again starts again from sample 0.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: its ``name``, ``duration_s`` [s] and geometry.
+    earth : Earth
+        Earth model (flat or WGS-84) and the origin's latitude and longitude [deg].
+    rate_hz : float
+        Sample rate, the IMU's [Hz].
+    chunk_samples : int
+        Samples per chunk, >= 1.
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not a finite number > 0 ("imu.rate_hz must be > 0").
+    ValueError
+        If ``chunk_samples`` is not a whole number >= 1.
+    """
 
     def __init__(self, cfg: TrajectoryConfig, earth: Earth, rate_hz: float, chunk_samples: int) -> None:
         require_positive("imu.rate_hz", rate_hz)
@@ -614,6 +912,16 @@ class TruthStream:
         return (self.num_samples + self.chunk_samples - 1) // self.chunk_samples
 
     def __iter__(self) -> Iterator[tuple[int, Truth]]:
+        """The chunks in order, from sample 0.
+
+        Yields
+        ------
+        k0 : int
+            The mission's index of the chunk's first sample.
+        chunk : Truth
+            The samples ``k0 .. k0 + chunk_samples - 1`` (fewer in the last chunk), with the
+            mission's times [s], NED and body frame b (FRD) as :func:`generate`'s truth.
+        """
         travelled_n = None
         for k0 in range(0, self.num_samples, self.chunk_samples):
             k1 = min(k0 + self.chunk_samples, self.num_samples)

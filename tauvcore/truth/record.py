@@ -12,7 +12,13 @@ from tauvcore.geo.earth import Earth
 @dataclass(frozen=True)
 class VehicleRecord:
     """What only a simulated vehicle has, at the same samples as its :class:`Truth`
-    (tauvcore.truth.dynamic): actuators and the autopilot's view of its mission."""
+    (tauvcore.truth.dynamic): actuators and the autopilot's view of its mission.
+
+    Raises
+    ------
+    ValueError
+        If a field does not have K samples, shape (K,) (the fins (K, 4)).
+    """
 
     propeller_rpm: np.ndarray  # (K,) propeller speed [rev/min]
     fin_angles_rad: np.ndarray  # (K, 4) fin deflections, fins 1-4 of tauvcore.truth.vehicle [rad]
@@ -43,6 +49,11 @@ class Truth:
     Every field is resolved in the frame its name says (tauvcore.conventions); the IMU
     quantities ``f_b`` and ``omega_ib_b`` are the instantaneous values; ``dtheta_ib_b`` and ``dv_b``
     the increments an error-free strapdown IMU outputs over each sample interval.
+
+    Raises
+    ------
+    ValueError
+        If a field does not have K samples: (K, 3) vectors, ``C_nb`` (K, 3, 3), ``vehicle`` K samples.
     """
 
     name: str  # generator/scenario name, e.g. "figure8"
@@ -108,4 +119,5 @@ class Truth:
 
     @property
     def num_samples(self) -> int:
+        """Number of samples K."""
         return int(self.t_s.shape[0])

@@ -219,10 +219,13 @@ def test_huge_outage_list_is_refused():
         from_dict({"dvl": {"outages": [outage] * 1001}})
 
 
-def test_merge_keeps_a_section_that_is_not_a_table():
-    merged = merge({"trajectory": True}, {"trajectory": {"duration_s": 3.0}})
+@pytest.mark.parametrize("base, overlay", [
+    ({"trajectory": True}, {"trajectory": {"duration_s": 3.0}}),
+    ({"trajectory": {"duration_s": 3.0}}, {"trajectory": True}),   # a file's section under a preset's
+], ids=["base", "overlay"])
+def test_merge_keeps_a_section_that_is_not_a_table(base, overlay):
     with pytest.raises(ConfigError, match=r"\[trajectory\] must be a table, got True"):
-        from_dict(merged)
+        from_dict(merge(base, overlay))
 
 
 @pytest.mark.parametrize("value, expected", [
