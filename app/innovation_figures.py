@@ -69,9 +69,13 @@ def innovation_figure(
             panel = names.index(row_names[method][k])
             suffix = "" if panel == 0 else str(panel + 1)
             axes = {"xaxis": f"x{suffix}", "yaxis": f"y{suffix}"}
-            nu = np.where(valid, rec.innovation[:, run, k], np.nan)
+            # a row is drawn where it was measured: a beam that did not return has no variance
+            # (its innovation is a placeholder 0), so it is a gap, not a perfect innovation
+            var = rec.innovation_var[:, run, k]
+            row_ok = valid & np.isfinite(var)
+            nu = np.where(row_ok, rec.innovation[:, run, k], np.nan)
             with np.errstate(invalid="ignore"):
-                env = np.where(valid, 3.0 * np.sqrt(rec.innovation_var[:, run, k]), np.nan)
+                env = np.where(row_ok, 3.0 * np.sqrt(var), np.nan)
             e = env[keep]
             data.append(
                 {
@@ -103,7 +107,7 @@ def innovation_figure(
                     **axes,
                 }
             )
-            hit = rec.rejected_rows[:, run, k] & valid
+            hit = rec.rejected_rows[:, run, k] & row_ok
             if hit.any():
                 data.append(
                     {

@@ -16,6 +16,7 @@ from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
+from tauvcore.eval.study import final_statistics
 
 
 class DvlCounts(TypedDict):
@@ -225,9 +226,53 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
         for r in rows
     ]
     columns = CONSISTENCY_COLUMNS + (("P floors",) if floors else ())
-    return "\n".join(
-        _table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency)
+    lines = _table(ERROR_COLUMNS, errors) + ["", CONSISTENCY_HEADING, ""] + _table(columns, consistency)
+    spread = runs_markdown(results)
+    return "\n".join(lines + (["", spread] if spread else []))
+
+
+RUNS_COLUMNS = (
+    "method",
+    "vel final [m/s]: RMS / median / p95",
+    "pos final [m]: RMS / median / p95",
+    "runs flagged",
+    "without them: vel / pos RMS",
+)
+
+
+def runs_markdown(results: Mapping[str, MethodResult]) -> str:
+    """For a Monte Carlo (more than one run), the final errors over the runs: RMS, median and 95th
+    percentile (tauvcore.eval.study.final_statistics), how many runs the divergence monitor
+    flagged, and the RMS without them, so that one locked-out run cannot hide behind the RMS;
+    "" for a single run."""
+    if not results or all(r.diverged.size <= 1 for r in results.values()):
+        return ""
+    rows = []
+    for method, res in results.items():
+        flagged = np.asarray(res.diverged, dtype=bool)
+        vel = final_statistics(res.vel_err_mps[-1], flagged)
+        pos = final_statistics(res.pos_err_m[-1], flagged)
+
+        def triple(st: dict[str, float | int], decimals: int) -> str:
+            return " / ".join(_fixed(float(st[k]), decimals) for k in ("rms", "median", "p95"))
+
+        rows.append(
+            [
+                method.upper(),
+                triple(vel, 4),
+                triple(pos, 2),
+                f"{int(flagged.sum())} of {flagged.size}",
+                f"{_fixed(float(vel['rms_unflagged']), 4)} / {_fixed(float(pos['rms_unflagged']), 2)}"
+                if flagged.any()
+                else "-",
+            ]
+        )
+    runs = max(r.diverged.size for r in results.values())
+    heading = (
+        f"**Over the {runs} runs** (final errors; the divergence monitor's flagged runs, and the RMS "
+        "without them)"
     )
+    return "\n".join([heading, "", *_table(RUNS_COLUMNS, rows)])
 
 
 def rms_markdown(results: Mapping[str, MethodResult]) -> str:
@@ -277,20 +322,42 @@ def identical_methods(results: Mapping[str, MethodResult]) -> dict[str, str]:
     return same
 
 
+PARTIAL_BEAM_METHODS = frozenset({"VB", "NSV", "PLCF", "VHV", "ELC"})
+
+
+def _identical_reason(ref: str, names: list[str]) -> str:
+    """Why ``names`` give exactly ``ref``'s results, where the cause is known ("" otherwise)."""
+    if ref == "INS":
+        if names == ["LC"]:
+            return "LC coasts: fewer than three beams give it no velocity, so it fuses nothing"
+        return "nothing they fuse reached the filter: with fewer than three beams LC coasts"
+    if ref == "LC" and set(names) <= PARTIAL_BEAM_METHODS:
+        return "with 3-4 beams returning, the partial-beam methods fuse as LC"
+    if names == ["ELC"] and ref in PARTIAL_BEAM_METHODS:
+        return f"the ELC selector took {ref}'s axes on every ping"
+    return ""
+
+
 def identical_note(same: Mapping[str, str]) -> str:
-    """One sentence per group of identical methods (:func:`identical_methods`), "" if none."""
+    """One sentence per group of identical methods (:func:`identical_methods`), each with its
+    reason where it is known (:func:`_identical_reason`), "" if none."""
     groups: dict[str, list[str]] = {}
     for method, ref in same.items():
-        groups.setdefault(ref, []).append(method.upper())
-    parts = [
-        f"{' and '.join(names)} {'give' if len(names) > 1 else 'gives'} exactly the results of {ref.upper()}"
-        for ref, names in groups.items()
-    ]
+        groups.setdefault(ref.upper(), []).append(method.upper())
+    parts = []
+    for ref, names in groups.items():
+        reason = _identical_reason(ref, names)
+        parts.append(
+            f"{' and '.join(names)} {'give' if len(names) > 1 else 'gives'} exactly the results of {ref}"
+            + (f" ({reason})" if reason else "")
+        )
     if not parts:
         return ""
     return (
-        "**Identical methods:** " + "; ".join(parts) + " (with 3-4 beams returning, the partial-beam methods "
-        "fuse as LC). Their curves lie on one another: the one drawn last hides the others."
+        "**Identical methods:** "
+        + "; ".join(parts)
+        + ". Their curves lie on one another: the one drawn last "
+        "hides the others."
     )
 
 

@@ -128,17 +128,35 @@ def _cell(x: Any, fmt: str) -> str:
 
 
 def summary_table_html(summary: dict[str, Any]) -> str:
+    """Per method the final errors over the runs (RMS, median, 95th percentile), the consistency and
+    the runs the monitor flagged; a method with flagged runs gets a second row without them."""
+
+    def triple(stats: dict[str, Any], suffix: str, fmt: str) -> str:
+        return " / ".join(_cell(stats[f"{k}{suffix}"], fmt) for k in ("rms", "median", "p95"))
+
     rows = []
     for method, m in summary["methods"].items():
-        f, c = m["final_rms"], m["consistency"]
-        rows.append(
-            f"<tr><td>{html.escape(method.upper())}</td><td>{_cell(f['vel_err_mps'], '.3g')}</td>"
-            f"<td>{_cell(f['tilt_err_deg'], '.3f')}</td><td>{_cell(f['heading_err_deg'], '.3f')}</td>"
-            f"<td>{_cell(f['pos_err_m'], '.3g')}</td>"
-            f"<td>{_cell(c['full']['per_dim'], '.3g')} ({_cell(c['full']['in_band'], '.2f')})</td>"
-            f"<td>{_cell(c['vel']['per_dim'], '.3g')} ({_cell(c['vel']['in_band'], '.2f')})</td>"
-            f"<td>{m['runs_flagged_by_monitor']}</td></tr>"
-        )
+        st, c = m["final_stats"], m["consistency"]
+        for suffix, label in (("", method.upper()), ("_unflagged", f"{method.upper()} without flagged runs")):
+            if suffix and not m["runs_flagged_by_monitor"]:
+                continue
+            nees = (
+                f"<td>{_cell(c['full']['per_dim'], '.3g')} ({_cell(c['full']['in_band'], '.2f')})</td>"
+                f"<td>{_cell(c['vel']['per_dim'], '.3g')} ({_cell(c['vel']['in_band'], '.2f')})</td>"
+                if not suffix
+                else "<td>-</td><td>-</td>"
+            )
+            flagged = (
+                str(m["runs_flagged_by_monitor"])
+                if not suffix
+                else "left out: runs " + ", ".join(map(str, m["flagged_runs"]))
+            )
+            rows.append(
+                f"<tr><td>{html.escape(label)}</td><td>{triple(st['vel_err_mps'], suffix, '.3g')}</td>"
+                f"<td>{triple(st['tilt_err_deg'], suffix, '.3f')}</td>"
+                f"<td>{triple(st['heading_err_deg'], suffix, '.3f')}</td>"
+                f"<td>{triple(st['pos_err_m'], suffix, '.3g')}</td>{nees}<td>{html.escape(flagged)}</td></tr>"
+            )
     return (
         "<table><tr><th>method</th><th>vel [m/s]</th><th>tilt [deg]</th><th>heading [deg]</th><th>pos [m]</th>"
         "<th>NEES/dim full (in band)</th><th>NEES/dim vel (in band)</th><th>runs flagged</th></tr>"
@@ -147,20 +165,42 @@ def summary_table_html(summary: dict[str, Any]) -> str:
     )
 
 
-def report_html(title: str, description: str, summaries: dict[str, dict[str, Any]]) -> str:
-    """The whole page; ``summaries`` maps trajectory to its StudyAccumulator.summary()."""
+def markdown_table_html(markdown: str) -> str:
+    """A Markdown pipe table (header, rule, rows) as an HTML table, every cell escaped."""
+    rows = [
+        [c.strip() for c in line.strip().strip("|").split("|")]
+        for line in markdown.strip().splitlines()
+        if line.strip().startswith("|")
+    ]
+    if len(rows) < 2:
+        return ""
+    head, body = rows[0], rows[2:]
+    th = "".join(f"<th>{html.escape(c)}</th>" for c in head)
+    trs = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in body)
+    return f"<table class='comparison'><tr>{th}</tr>{trs}</table>"
+
+
+def report_html(
+    title: str, description: str, summaries: dict[str, dict[str, Any]], comparison_md: str | None = None
+) -> str:
+    """The whole page; ``summaries`` maps trajectory to its StudyAccumulator.summary(), and
+    ``comparison_md`` (``tauv reproduce``) is the paper comparison shown after the description."""
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
         (
             "<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}"
-            "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>"
+            "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}table.comparison td{text-align:left}</style></head><body>"
         ),
         f"<h1>{html.escape(title)}</h1><p>{html.escape(description)}</p>",
     ]
+    if comparison_md:
+        parts.append("<h2>Beside the paper</h2>" + markdown_table_html(comparison_md))
     first = True
     for trajectory, summary in summaries.items():
         parts.append(
-            f"<h2>{html.escape(trajectory)}</h2><p>Final values (RMS over the runs at the last epoch):</p>"
+            f"<h2>{html.escape(trajectory)}</h2><p>Final values over the runs at the last epoch: RMS / median / "
+            "95th percentile; a method whose runs the divergence monitor flagged has a second row without "
+            "them.</p>"
         )
         parts.append(summary_table_html(summary))
         parts.append(

@@ -136,20 +136,42 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
 
 
 def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
+    """The study's final errors per method: RMS, median and 95th percentile over the runs, the
+    consistency, the runs the monitor flagged; a method with flagged runs gets a second row, its
+    statistics without them (marked "w/o flagged")."""
     lines = [
-        f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); RMS over the runs at the end",
+        (
+            f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); errors at the end over the "
+            "runs: RMS / median / 95th percentile"
+        ),
         "",
         (
-            f"{'method':<7} {'vel [m/s]':>10} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>10} "
+            f"{'method':<16} {'vel [m/s]':>26} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>30} "
             f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"
         ),
     ]
+
+    def triple(stats: dict[str, Any], suffix: str) -> str:
+        return " / ".join(_g(stats[f"{k}{suffix}"]) for k in ("rms", "median", "p95"))
+
     for method, m in summary["methods"].items():
-        f, c = m["final_rms"], m["consistency"]
+        f, c, st = m["final_rms"], m["consistency"], m["final_stats"]
         lines.append(
-            f"{method.upper():<7} {f['vel_err_mps']:>10.4g} {f['tilt_err_deg']:>11.4f} "
-            f"{f['heading_err_deg']:>11.4f} {f['pos_err_m']:>10.4g} "
+            f"{method.upper():<16} {triple(st['vel_err_mps'], ''):>26} {f['tilt_err_deg']:>11.4f} "
+            f"{f['heading_err_deg']:>11.4f} {triple(st['pos_err_m'], ''):>30} "
             f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
             f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}"
         )
+        if m["runs_flagged_by_monitor"]:
+            tilt, head = st["tilt_err_deg"]["rms_unflagged"], st["heading_err_deg"]["rms_unflagged"]
+            lines.append(
+                f"{(method.upper() + ' w/o flagged'):<16} {triple(st['vel_err_mps'], '_unflagged'):>26} "
+                f"{_g(tilt, '.4f'):>11} {_g(head, '.4f'):>11} {triple(st['pos_err_m'], '_unflagged'):>30} "
+                f"{'-':>14} {'-':>14} {'runs ' + ','.join(map(str, m['flagged_runs'][:6])):>8}"
+                + (" ..." if len(m["flagged_runs"]) > 6 else "")
+            )
     return "\n".join(lines)
+
+
+def _g(x: Any, fmt: str = ".3g") -> str:
+    return "-" if x is None or not np.isfinite(x) else format(x, fmt)

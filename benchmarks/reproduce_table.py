@@ -5,7 +5,8 @@ the comparison with the paper it writes (``paper_comparison.md``) put on the doc
 
 Runs the command in a child process into a temporary directory: wall time by a monotonic clock,
 CPU time and the largest process's peak resident set from ``getrusage`` of the children, the size
-of each file it wrote, and how many filter runs the divergence monitor flagged (``summary.json``).
+of each file it wrote, how many filter runs the divergence monitor flagged, and LC's final velocity
+error with and without them (``summary.json``).
 Writes docs/results/reproduce_claims.md (the comparison table, as ``tauv reproduce`` wrote it) and
 docs/results/reproduce_cost.md (the cost) through benchmarks/fragment.py.
 """
@@ -61,6 +62,13 @@ def main() -> None:
     cost = (f"| `{command}` | measured |\n|---|---|\n| wall time | {wall_s:.1f} s |\n| CPU time | {cpu_s:.0f} s |\n"
             f"| largest process, peak resident | {peak_mib:.0f} MiB |\n| files written | {files} |\n"
             f"| filter runs the divergence monitor flagged | {hit} of {total} |")
+    for name, trajectory in summary["trajectories"].items():
+        lc = trajectory["methods"]["lc"]
+        st = lc["final_stats"]["vel_err_mps"]
+        runs = ", ".join(map(str, lc["flagged_runs"])) or "none"
+        cost += (f"\n| LC (four beams) on {name}: velocity error at the end, RMS / median / 95th percentile; "
+                 f"RMS without the flagged runs (runs {runs}) | {st['rms']:.3g} / {st['median']:.3g} / "
+                 f"{st['p95']:.3g} m/s; {st['rms_unflagged']:.3g} m/s |")
     claims = (f"As `{command}` wrote it ({args.runs} seeded runs per trajectory, seed 0):\n\n{table}")
     print(cost, "\n", claims, sep="\n")
     print(f"written to {fragment.write('reproduce_cost', cost)} and {fragment.write('reproduce_claims', claims)}")

@@ -227,7 +227,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
                 "trajectories": summaries,
                 "paper_comparison": table,
             },
-            report_html("tauv reproduce: Tal, Klein & Katz 2017", description, summaries),
+            report_html("tauv reproduce: Tal, Klein & Katz 2017", description, summaries, table),
             table,
         )
         written = writer.commit()

@@ -243,8 +243,10 @@ def judge(claim: Claim, finals: Finals) -> Verdict:
             claim, "holds" if value else "does not hold", "same ordering" if value else "ordering differs"
         )
     if claim.kind == "improvement":
-        same = abs(value - claim.target) <= 10.0
-        return Verdict(claim, f"{round(value) + 0:d} %", "same" if same else "differs")
+        # judged on the figure shown (one decimal), so two equal-looking figures get one verdict
+        shown = round(value, 1) + 0.0
+        same = abs(shown - claim.target) <= 10.0
+        return Verdict(claim, f"{shown:.1f} %", "same" if same else "differs")
     same = 0.5 <= value / claim.target <= 2.0
     text = f"x {value:.2f}" if claim.unit == "x" else f"{value:.3g} {claim.unit}"
     return Verdict(claim, text, "same magnitude" if same else "differs")

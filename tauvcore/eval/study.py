@@ -206,6 +206,7 @@ class _MethodSums:
     nees_sum: dict[str, np.ndarray]  # NEES_SERIES: sum over runs per epoch (finite only)
     nees_finite: dict[str, np.ndarray]
     final: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)  # chunk's first run -> final values
+    flagged: dict[int, np.ndarray] = field(default_factory=dict)  # chunk's first run -> (count,) bool
     diverged: int = 0
 
 
@@ -259,6 +260,7 @@ class StudyAccumulator:
                 s.nees_sum[n] += np.where(ok, x, 0.0).sum(axis=1)
                 s.nees_finite[n] += ok.sum(axis=1)
             s.final[chunk.first] = {n: series[n][-1].copy() for n in ERROR_SERIES}
+            s.flagged[chunk.first] = np.asarray(chunk.diverged[m], dtype=bool).copy()
             s.diverged += int(chunk.diverged[m].sum())
 
     def rms(self, method: str, name: str) -> np.ndarray:
@@ -349,7 +351,10 @@ class StudyAccumulator:
             (T,), in the series' unit), ``mean_nees`` (NEES series -> (T,)), ``final_rms``
             (error series -> float), ``final_per_run`` (error series -> (num_runs,) in run
             order), ``consistency`` (block -> :meth:`consistency`) and
-            ``runs_flagged_by_monitor`` (int).
+            ``runs_flagged_by_monitor`` (int), ``flagged_runs`` (the flagged runs' numbers in the
+            study) and ``final_stats`` (error series -> :func:`final_statistics`: RMS, median and
+            95th percentile over the runs at the last epoch, and the same over the runs the
+            monitor did not flag).
 
         Raises
         ------
@@ -361,17 +366,66 @@ class StudyAccumulator:
         out: dict = {"t_s": self.t_s, "num_runs": self.num_runs, "methods": {}}
         for m in self.methods:
             s = self._sums[m]
+            firsts = sorted(s.final)
+            per_run = {n: np.concatenate([s.final[k][n] for k in firsts]) for n in ERROR_SERIES}
+            flagged = np.concatenate([s.flagged[k] for k in firsts])
+            run_numbers = np.concatenate([k + np.arange(s.flagged[k].size) for k in firsts])
             out["methods"][m] = {
                 "rms": {n: self.rms(m, n) for n in ERROR_SERIES + SIGMA_SERIES},
                 "mean_nees": {n: self.mean_nees(m, n) for n in NEES_SERIES},
                 "final_rms": {n: float(self.rms(m, n)[-1]) for n in ERROR_SERIES},
-                "final_per_run": {
-                    n: np.concatenate([s.final[k][n] for k in sorted(s.final)]) for n in ERROR_SERIES
-                },
+                "final_per_run": per_run,
+                "final_stats": {n: final_statistics(per_run[n], flagged) for n in ERROR_SERIES},
                 "consistency": {b: self.consistency(m, b) for b in BLOCK_DIMS},
                 "runs_flagged_by_monitor": s.diverged,
+                "flagged_runs": [int(r) for r in run_numbers[flagged]],
             }
         return out
+
+
+FINAL_STATISTICS = ("rms", "median", "p95")
+"""The statistics of a study's final errors, each also over the runs the monitor did not flag
+(``<name>_unflagged``)."""
+
+
+def final_statistics(values: np.ndarray, flagged: np.ndarray) -> dict[str, float | int]:
+    """RMS, median and 95th percentile of one error at the last epoch over the runs, and the same
+    over the runs the divergence monitor did not flag, so that one locked-out run cannot hide
+    behind the RMS (nor the RMS behind the median).
+
+    Non-finite values (a run whose error is NaN) are left out of every statistic.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        One error per run, shape (R,), in the series' unit ([m], [m/s], [deg]).
+    flagged : numpy.ndarray
+        Whether the monitor flagged each run, shape (R,), bool.
+
+    Returns
+    -------
+    dict[str, float | int]
+        ``rms``, ``median``, ``p95`` and ``rms_unflagged``, ``median_unflagged``,
+        ``p95_unflagged`` in the series' unit (NaN where no run counts), ``runs`` and
+        ``runs_unflagged``: how many runs each set holds.
+
+    Raises
+    ------
+    ValueError
+        ``values`` and ``flagged`` do not hold one entry per run each.
+    """
+    values = np.asarray(values, dtype=float)
+    flagged = np.asarray(flagged, dtype=bool)
+    if values.shape != flagged.shape:
+        raise ValueError(f"values {values.shape} and flagged {flagged.shape} must have one entry per run")
+    out: dict[str, float | int] = {}
+    for suffix, keep in (("", np.ones_like(flagged)), ("_unflagged", ~flagged)):
+        x = values[keep & np.isfinite(values)]
+        out[f"rms{suffix}"] = float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+        out[f"median{suffix}"] = float(np.median(x)) if x.size else float("nan")
+        out[f"p95{suffix}"] = float(np.percentile(x, 95.0)) if x.size else float("nan")
+        out[f"runs{suffix}"] = int(x.size)
+    return out
 
 
 def compute_chunk_to_file(config_dict: dict, seed: int, first: int, count: int, directory: str) -> str:

@@ -33,6 +33,7 @@ from app.markdown_tables import (
     ERROR_COLUMNS,
     RMS_COLUMNS,
     RMS_HEADING,
+    RUNS_COLUMNS,
     summary_markdown,
     summary_rows,
 )
@@ -524,7 +525,9 @@ def _tables(markdown: str) -> tuple[list[str], list[str]]:
     lines = markdown.splitlines()
     cut = lines.index(CONSISTENCY_HEADING)
     assert lines[cut - 1] == lines[cut + 1] == ""
-    return lines[:cut - 1], lines[cut + 2:]
+    rest = lines[cut + 2:]
+    end = rest.index("") if "" in rest else len(rest)           # a Monte Carlo's runs table follows
+    return lines[:cut - 1], rest[:end]
 
 
 def _table_rows(markdown: str) -> tuple[list[str], list[list[str]]]:
@@ -576,6 +579,31 @@ def test_summary_markdown_table(request, fixture):
         else:
             assert _ratio_value(cells[10]) == pytest.approx(c["dvl_nis_per_dof"], rel=0.01, abs=0.005)
     assert body[0][10] == "-"                                        # INS: no DVL NIS
+
+
+def test_a_monte_carlo_shows_its_spread_and_its_flagged_runs(single, monte_carlo):
+    """Over the runs: RMS, median and 95th percentile of the final errors, the monitor's flagged
+    runs and the RMS without them; nothing of it for a single run."""
+    assert "Over the" not in summary_markdown(single)
+    res = monte_carlo["tc"]
+    flagged = np.zeros(res.diverged.size, dtype=bool)
+    flagged[0] = True
+    vel = res.vel_err_mps.copy()
+    vel[-1, 0] = 99.0                                                    # one run locked out
+    results = {"tc": dataclasses.replace(res, diverged=flagged, vel_err_mps=vel)}
+    markdown = summary_markdown(results)
+    lines = markdown.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(f"**Over the {flagged.size} runs**"))
+    assert _cells(lines[start + 2]) == list(RUNS_COLUMNS)
+    cells = _cells(lines[start + 4])
+    rms_, median, p95 = (float(x) for x in cells[1].split(" / "))
+    finals = vel[-1]
+    assert rms_ == pytest.approx(np.sqrt(np.mean(finals**2)), abs=0.5e-4)
+    assert median == pytest.approx(np.median(finals), abs=0.5e-4)
+    assert p95 == pytest.approx(np.percentile(finals, 95.0), abs=0.5e-4)
+    assert cells[3] == f"1 of {flagged.size}"
+    without = float(cells[4].split(" / ")[0])
+    assert without == pytest.approx(np.sqrt(np.mean(finals[1:] ** 2)), abs=0.5e-4) and without < 1.0
 
 
 def test_summary_markdown_shows_nan_as_a_dash(single):
@@ -1106,8 +1134,17 @@ def test_identical_methods_four_beams_partial_methods_are_lc(four_beams):
     same = identical_methods(results)
     assert same == {"elc": "lc", "nsv": "lc"}           # TC fuses beams, not the LC velocity: its own numbers
     note = identical_note(same)
-    assert "ELC and NSV" in note and "LC" in note
+    assert "ELC and NSV give exactly the results of LC (with 3-4 beams returning, the partial-beam" in note
     assert identical_note({}) == ""
+
+
+def test_the_identical_note_gives_each_group_its_own_reason():
+    """Two beams: LC equals the INS because it coasts, not because of the partial-beam methods;
+    ELC equals NSV because the selector took NSV's axes."""
+    note = identical_note({"lc": "ins", "elc": "nsv"})
+    assert "LC gives exactly the results of INS (LC coasts: fewer than three beams give it no velocity" in note
+    assert "ELC gives exactly the results of NSV (the ELC selector took NSV's axes on every ping)" in note
+    assert "partial-beam methods fuse as LC" not in note
 
 
 def test_identical_methods_two_beams_none(single):
@@ -1155,6 +1192,26 @@ def test_innovation_figure_envelopes_and_rejected_markers(four_beams):
     assert not any(d.name == "TC" + REJECTED_SUFFIX for d in fig.data)
     checked = innovation_figure(drawn, "dvl", validate=True)
     assert json.loads(checked.to_json()) == json.loads(innovation_figure(drawn, "dvl").to_json())
+
+
+def test_a_beam_that_did_not_return_is_a_gap_not_a_zero_innovation(single):
+    """Beams 3-4 lost for 5-15 s: TC's rows 3 and 4 have no variance there and an innovation of 0
+    as a placeholder; the figure leaves them empty (NaN), line and band, and draws them elsewhere."""
+    tc = single["tc"]
+    dvl = tc.updates["dvl"]
+    lost = ~dvl.beams_available[:, 0, 2] & dvl.valid[:, 0]         # a ping, but beams 3-4 silent
+    assert lost.any() and (dvl.beams_available[:, 0, 2] & dvl.valid[:, 0]).any()
+    assert np.array_equal(dvl.beams_available[:, 0, 2], dvl.beams_available[:, 0, 3])
+    assert np.all(dvl.innovation[lost, 0, 2:] == 0.0) and np.all(np.isnan(dvl.innovation_var[lost, 0, 2:]))
+    fig = innovation_figure({"tc": tc}, "dvl", max_points=None)
+    lines = [d for d in fig.data if d.name == "TC"]
+    bands = [d for d in fig.data if d.name == "TC" + BAND_SUFFIX]
+    for k in (2, 3):
+        returned = dvl.beams_available[:, 0, k] & dvl.valid[:, 0]
+        y = np.asarray(lines[k].y, dtype=float)
+        assert np.all(np.isnan(y[lost])) and np.all(np.isfinite(y[returned])), k
+        env = np.asarray(bands[k].y, dtype=float)[: dvl.t_s.size]
+        assert np.all(np.isnan(env[lost])) and np.all(np.isfinite(env[returned])), k
 
 
 def test_cursor_is_a_vertical_line_at_the_time(single):

@@ -1,9 +1,11 @@
-"""Monte Carlo studies (issue 9): seeded runs as independent units, any chunking, any workers.
+"""Monte Carlo studies: seeded runs as independent units, any chunking, any workers.
 
 - a run's numbers do not depend on which runs share its chunk (to 1e-9; the batched products
   may differ in the last bits), and with the study's fixed chunking they are bit-identical
   whatever the number of local workers;
-- the accumulator's RMS, mean NEES and consistency equal those computed from all runs at once;
+- the accumulator's RMS, mean NEES and consistency equal those computed from all runs at once,
+  and its final statistics (RMS, median, 95th percentile, with and without the runs the monitor
+  flagged) those of the per-run values;
 - a Dask LocalCluster with two workers gives the local numbers bit for bit (slow).
 """
 
@@ -17,9 +19,11 @@ from tauvcore.eval.consistency import nees_series, summarise_nees
 from tauvcore.eval.study import (
     ERROR_SERIES,
     RUN_SERIES,
+    ChunkSeries,
     StudyAccumulator,
     chunks,
     compute_chunk,
+    final_statistics,
     iterate_chunks,
     local_pool,
     run_chunk,
@@ -126,6 +130,43 @@ def test_the_accumulator_equals_the_whole_study_at_once():
             got = acc.consistency(m, block)
             assert got["per_dim"] == pytest.approx(direct.per_dim, rel=1e-9)
             assert got["in_band"] == pytest.approx(direct.in_band, abs=1e-12)
+
+
+def test_final_statistics_with_and_without_the_flagged_runs():
+    values = np.array([0.05, 0.04, 9.9, 0.06, np.nan, 0.03])
+    flagged = np.array([False, False, True, False, False, False])
+    got = final_statistics(values, flagged)
+    finite = values[np.isfinite(values)]
+    assert got["rms"] == pytest.approx(np.sqrt(np.mean(finite**2)), rel=1e-12)     # the locked-out run carries it
+    assert got["median"] == pytest.approx(0.05) and got["runs"] == 5
+    assert got["p95"] == pytest.approx(np.percentile(finite, 95.0), rel=1e-12)
+    kept = np.array([0.05, 0.04, 0.06, 0.03])
+    assert got["rms_unflagged"] == pytest.approx(np.sqrt(np.mean(kept**2)), rel=1e-12)
+    assert got["median_unflagged"] == pytest.approx(0.045) and got["runs_unflagged"] == 4
+    assert got["p95_unflagged"] == pytest.approx(np.percentile(kept, 95.0), rel=1e-12)
+    with pytest.raises(ValueError, match="one entry per run"):
+        final_statistics(values, flagged[:3])
+
+
+def test_the_summary_names_the_flagged_runs_and_leaves_them_out_on_request():
+    """Two chunks added out of order, run 3 flagged for LC: its number is reported, the RMS over
+    all runs equals final_rms, and the unflagged statistics are those of the other runs."""
+    t = np.array([0.0, 1.0])
+
+    def chunk(first, finals, flags):
+        series = {n: np.vstack([np.zeros_like(finals), finals]) for n in RUN_SERIES}
+        return ChunkSeries(first=first, count=len(finals), t_s=t, series={"lc": series},
+                           diverged={"lc": np.array(flags)})
+
+    acc = StudyAccumulator(("lc",))
+    acc.add(chunk(2, np.array([0.2, 7.0]), [False, True]))
+    acc.add(chunk(0, np.array([0.1, 0.3]), [False, False]))
+    m = acc.summary()["methods"]["lc"]
+    assert m["flagged_runs"] == [3] and m["runs_flagged_by_monitor"] == 1
+    stats = m["final_stats"]["vel_err_mps"]
+    assert stats["rms"] == pytest.approx(m["final_rms"]["vel_err_mps"], rel=1e-12)
+    assert stats["median_unflagged"] == pytest.approx(0.2) and stats["runs_unflagged"] == 3
+    assert stats["rms_unflagged"] == pytest.approx(np.sqrt((0.01 + 0.09 + 0.04) / 3), rel=1e-12)
 
 
 def test_run_study_reports_progress_and_hands_chunks_over_in_order():
