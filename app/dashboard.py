@@ -330,7 +330,7 @@ class Session:
             export.finished_run(config, results, self.run_log, stopped, self.run_source)
         )
         if results:
-            self.run_tabs.keep_run(config, results)  # the Runs tab keeps it for comparison
+            self.run_tabs.keep_run(config, results, self.run_log)  # the Runs tab keeps it for comparison
         if results:
             self.playback.span_slider(float(next(iter(results.values())).t_s[-1]))
 

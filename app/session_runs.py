@@ -21,7 +21,8 @@ KEPT_RUNS_MAX = 5  # finished runs kept for comparison (memory: each holds its f
 RUNS_NOTE = (
     f"Every finished run is kept here with its configuration until removed (at most {KEPT_RUNS_MAX}: the "
     "oldest goes when another finishes). Tick two or more to overlay them in the Plots tab (one line style per "
-    "run, the method colours kept) and to compare them below."
+    "run, the method colours kept) and to compare them below. Pressing Run clears the ticks, so the plots "
+    "show the new run."
 )
 
 
@@ -33,16 +34,35 @@ class KeptRun:
     config: Config  # what ran
     runs: int  # Monte Carlo runs
     results: dict[str, MethodResult]  # its final results
+    source: str | None = None  # the replayed log's name; None for a simulated mission
 
     @property
     def label(self) -> str:
         return f"run {self.number}"
 
     def description(self) -> str:
-        tr = self.config.trajectory
-        return f"{tr.name}, {tr.duration_s:g} s, {', '.join(m.upper() for m in self.config.run.methods)}" + (
-            f", {self.runs} runs" if self.runs > 1 else ""
-        )
+        """What tells this run from the others: the mission or log, its length, the beams, what
+        takes beams away (outages, dropout), the truth, the seed, the methods, the runs."""
+        return ", ".join(run_facts(self.config, self.runs, self.source))
+
+
+def run_facts(config: Config, runs: int, source: str | None = None) -> list[str]:
+    """The facts of one run in the order a user compares them (:meth:`KeptRun.description`); the
+    outages, the dropout and a dynamic truth only when they are set."""
+    tr, dvl = config.trajectory, config.dvl
+    facts = [f"log {source}" if source is not None else tr.name, f"{tr.duration_s:g} s"]
+    facts.append("beams " + ",".join(map(str, dvl.beams)))
+    for outage in dvl.outages:
+        facts.append(f"beams {','.join(map(str, outage.beams))} off {outage.start_s:g}-{outage.end_s:g} s")
+    if dvl.dropout_probability > 0.0:
+        facts.append(f"dropout {dvl.dropout_probability:g}")
+    if source is None and tr.truth != "kinematic":
+        facts.append(f"{tr.truth} truth")
+    facts.append(f"seed {config.run.seed}")
+    facts.append(" ".join(m.upper() for m in config.run.methods))
+    if runs > 1:
+        facts.append(f"{runs} runs")
+    return facts
 
 
 class RunTabs:
@@ -65,6 +85,7 @@ class RunTabs:
         self.kept_runs: list[KeptRun] = []
         self.kept_widgets: dict[int, Any] = {}  # run number -> its folder in the Runs tab
         self.run_number = 0
+        self._clearing = False  # clear_overlay is unticking the boxes: their callbacks wait
         gui = self.client.gui
         with workbench.add_tab("Results"):
             self.table = gui.add_markdown("No run yet.")
@@ -87,14 +108,19 @@ class RunTabs:
         for kind, button in self.download_buttons.items():
             button.on_click(lambda _, kind=kind: self.download(kind))
 
-    def keep_run(self, config: Config, results: dict[str, MethodResult]) -> None:
+    def keep_run(self, config: Config, results: dict[str, MethodResult], source: str | None = None) -> None:
         """Keep a finished run in the Runs tab (its description, an Overlay checkbox, a Remove
         button); beyond KEPT_RUNS_MAX the oldest goes, as the tab's note says (no notification:
-        the run's own closing notification is the one a user waits for)."""
+        the run's own closing notification is the one a user waits for). ``source``: the
+        replayed log's name (None: a simulated mission)."""
         with self.draw_lock:
             self.run_number += 1
             kept = KeptRun(
-                self.run_number, config, int(next(iter(results.values())).vel_err_mps.shape[1]), results
+                self.run_number,
+                config,
+                int(next(iter(results.values())).vel_err_mps.shape[1]),
+                results,
+                source,
             )
             self.kept_runs.append(kept)
             dropped, self.kept_runs = self.kept_runs[:-KEPT_RUNS_MAX], self.kept_runs[-KEPT_RUNS_MAX:]
@@ -128,7 +154,7 @@ class RunTabs:
                     )
                     button = gui.add_button(f"Remove run {kept.number}", color="red")
             self.kept_widgets[kept.number] = (folder, box)
-            box.on_update(lambda _: self.refresh_runs())
+            box.on_update(lambda _: None if self._clearing else self.refresh_runs())
             button.on_click(lambda _, n=kept.number: self.remove_run(n))
             added.append(kept)
         if added:
@@ -172,10 +198,26 @@ class RunTabs:
 
     def set_finished(self, run: export.FinishedRun | None) -> None:
         """Keep ``run``, whose final results arrived, for the Download buttons and enable them
-        (None: a new run started, they are disabled until it ends)."""
+        (None: a new run started, they are disabled until it ends, and the overlay is cleared so
+        that the plots show the new run, not the kept ones)."""
         self.finished_run = run
         for button in self.download_buttons.values():
             button.disabled = run is None
+        if run is None:
+            self.clear_overlay()
+
+    def clear_overlay(self) -> None:
+        """Untick every kept run's Overlay box (the plots then draw the current run alone)."""
+        with self.draw_lock:
+            ticked = [box for _, box in self.kept_widgets.values() if box.value]
+            self._clearing = True
+            try:
+                for box in ticked:
+                    box.value = False  # viser calls the box's callback here, synchronously
+            finally:
+                self._clearing = False
+            if ticked:
+                self.refresh_runs(redraw=False)  # the new run's own drawing follows
 
     def download(self, kind: str) -> None:
         """Send the finished run as ``kind`` (app.export.FORMATS) to this tab; a notification,

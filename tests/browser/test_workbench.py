@@ -1,4 +1,4 @@
-"""The workbench (issue 13): runs kept and overlaid, the shared time cursor, diagnostics per method."""
+"""The workbench: runs kept and overlaid, the shared time cursor, diagnostics per method."""
 
 from __future__ import annotations
 
@@ -70,6 +70,40 @@ def test_two_runs_overlaid_compared_cursor_and_diagnostics(new_tab) -> None:
     tab.page.get_by_role("tab", name="Innovations").click()
     innovations = [dict(f) for f in tab.plot_traces() if "TC" in dict(f) and "LC" in dict(f) and "LC (run 1)" not in dict(f)]
     assert any(f["LC"] >= 9 and f["TC"] >= 9 for f in innovations), innovations   # 10 s of 1 Hz DVL
+    assert tab.external_requests == []
+
+
+def test_a_new_run_clears_the_overlay_and_each_kept_run_says_what_tells_it_apart(new_tab) -> None:
+    """Given two kept 10 s runs, four beams and then beams 1-2, ticked for overlay, when Run is
+    pressed again, then the boxes are unticked and the plots show the new run, not the kept
+    pair; each entry names its beams and seed, so the two look different."""
+    tab = new_tab()
+    tab.type_into("Duration [s]", "10")
+    tab.set_methods({"LC", "TC"})
+    _run(tab, 1)
+    tab.page.get_by_role("tab", name="Mission").click()
+    tab.set_checkbox("Beam 3", False)
+    tab.set_checkbox("Beam 4", False)
+    _run(tab, 2)
+    entries = {n: tab.page.get_by_text(f"straight, 10 s, beams {b}, seed 0", exact=False)
+               for n, b in ((1, "1,2,3,4"), (2, "1,2"))}
+    for n, entry in entries.items():
+        entry.first.wait_for(timeout=20000)
+    for n in (1, 2):
+        tab.set_checkbox(f"Overlay run {n}", True)
+    tab.page.get_by_role("tab", name="Plots").click()
+    tab.page.wait_for_function("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                               ".some(p => (p.data || []).some(t => t.name === 'TC (run 2)'))", timeout=20000)
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").last.wait_for(timeout=120000)
+    tab.page.wait_for_function("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                               ".some(p => (p.data || []).some(t => t.name === 'TC'))", timeout=20000)
+    velocity = dict(tab.plot_traces()[0])
+    assert not any("(run " in name for name in velocity), velocity
+    assert {"LC", "TC"} <= set(velocity), velocity
+    tab.page.get_by_role("tab", name="Runs").click()
+    for n in (1, 2):
+        assert not tab.checkbox(f"Overlay run {n}").is_checked()
     assert tab.external_requests == []
 
 
