@@ -6,7 +6,8 @@ script, to write what the server needs (the address's query, the controls as the
 them) to the tab's localStorage, and reads it back with viser's ``local_storage.get_item``
 (app.links.read_address, app.dashboard.Session.confirm_page_state; one script,
 ``report_to_storage.js``, for both). The other scripts: ``time_cursor.js`` moves every plot's
-time cursor, ``plot_click.js`` (app.plot_click) turns a click on a plot into a playback time. A
+time cursor, ``plot_click.js`` (app.plot_click) turns a click on a plot into a playback time,
+``mark_fields.js`` marks the controls that cannot run (app.validation). A
 script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
 """
 
@@ -52,9 +53,16 @@ def report(ids: list[str], prefix: str, key: str) -> str:
     )
 
 
+def mark(bad: dict[str, str], scroll: bool = False) -> str:
+    """The script that marks the controls of ``bad`` (viser id -> message: a red outline,
+    ``aria-invalid``, the message as the tooltip), clears every other mark, and with ``scroll``
+    scrolls the first marked control into view."""
+    return source("mark_fields.js", bad=bad, scroll=scroll)
+
+
 def run(client: viser.ClientHandle, script: str) -> None:
     """Run ``script`` in ``client``'s page."""
     client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
 
-__all__ = ["VISER_STORAGE_PREFIX", "report", "run", "source"]
+__all__ = ["VISER_STORAGE_PREFIX", "mark", "report", "run", "source"]

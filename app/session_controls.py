@@ -8,6 +8,7 @@ confirmed by iterating it.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import threading
 import time
@@ -17,7 +18,7 @@ from typing import Any
 
 import viser
 
-from app import budget, control_table, inputs, links, page_scripts
+from app import budget, control_table, inputs, links, page_scripts, validation
 from app.controls import PLUGIN_FIELDS
 from app.inputs import Controls, InputError, config_from_controls
 from app.session_state import TabState
@@ -28,6 +29,7 @@ from tauvcore.validation import show
 METHODS = next(c for c in control_table.CONTROLS if c.field == "methods")
 CONFIRM_TIMEOUT_S = 10.0  # how long Run waits for the page to report its controls (software WebGL stalls)
 SNAPSHOT_KEY_PREFIX = "tauv-controls-"  # + a fresh id per Run press: tabs of one browser share localStorage
+CHECK_PAUSE_S = 0.4  # the controls are checked this long after the last change (a pause in typing)
 
 
 def _can_hold(handle: Any, value: Any) -> bool:
@@ -71,6 +73,11 @@ class ControlPanel:
         self.stop_button = gui.add_button("Stop", color="red", disabled=True)
         self.progress = gui.add_progress_bar(0.0, animated=False)
         self.status = gui.add_markdown("Ready. Choose a mission and press **Run**.")
+        # every bad control named as you type (app.validation), the fields marked on the page
+        self.check_note = gui.add_markdown("")
+        self.check_lock = threading.Lock()
+        self.check_timer: threading.Timer | None = None
+        self.marked: dict[str, str] = {}  # viser id -> message of the controls marked on the page
 
         source = self.source
         if source is not None:
@@ -85,6 +92,7 @@ class ControlPanel:
         )
         for handle in self._confirmed_inputs().values():  # every control a run reads
             handle.on_update(lambda _: self.update_address())
+            handle.on_update(lambda _: self.schedule_check())
 
     def apply_trajectory_preset(self) -> None:
         """Fill in the controls the chosen scenario's preset sets (longrange: Duration 1440 s,
@@ -308,17 +316,60 @@ class ControlPanel:
         if not self.address_ready:
             return
         with self.address_lock:
-            query = links.address(self.controls(), self.viser_params)
+            # a bad value never enters the address: such a control is written at its default
+            safe = validation.without_problems(self.controls(), self.problems())
+            query = links.address(safe, self.viser_params)
             if query == self.address_shown:
                 return
             self.address_shown = query
             links.show_address(self.client, query)
 
+    # ------------------------------------------------------------------ checking as you type
+    def schedule_check(self) -> None:
+        """Check the controls CHECK_PAUSE_S after the last change (app.validation)."""
+        with self.check_lock:
+            if self.check_timer is not None:
+                self.check_timer.cancel()
+            self.check_timer = threading.Timer(CHECK_PAUSE_S, self._check_quietly)
+            self.check_timer.daemon = True
+            self.check_timer.start()
+
+    def _check_quietly(self) -> None:
+        # a tab closed meanwhile has nothing to mark: the check ends without a word
+        with contextlib.suppress(Exception):
+            self.check_now()
+
+    def problems(self) -> dict[str, str]:
+        """Every bad control (label -> message) of what the controls hold now."""
+        controls = self.controls()
+        try:
+            log_raw = self.log_config(controls.source) if controls.source in self.logs else None
+        except InputError as exc:  # the log's own configuration file does not check
+            return {inputs.SOURCE: str(exc)}
+        return validation.problems(controls, log_raw)
+
+    def check_now(self, scroll: bool = False) -> dict[str, str]:
+        """Check every control, mark the bad ones on the page (``scroll``: the first into view),
+        name them under the status line; returns them (label -> message)."""
+        found = self.problems()
+        ids_by_label: dict[str, list[str]] = {}
+        for uid, handle in self._confirmed_inputs().items():
+            ids_by_label.setdefault(handle.label, []).append(uid)
+        marked = validation.labels_to_ids(found, ids_by_label)
+        if marked != self.marked or scroll:
+            page_scripts.run(self.client, page_scripts.mark(marked, scroll))
+            self.marked = marked
+        self.check_note.content = validation.notification(found) if found else ""
+        return found
+
     def read_config(self) -> tuple[Config, int]:
-        """The configuration the controls describe and its run count; InputError names the bad
-        control and its value, also when the run would not fit the memory budget (app.budget)."""
+        """The configuration the controls describe and its run count; InputError names every bad
+        control and its value at once (app.validation; the first is scrolled into view), also
+        when the run would not fit the memory budget (app.budget)."""
         controls = self.controls()
         log_raw = self.log_config(controls.source) if controls.source in self.logs else None
+        if validation.problems(controls, log_raw):
+            raise InputError(validation.notification(self.check_now(scroll=True)))
         config, runs = config_from_controls(controls, log_raw)
         try:
             limit = budget.budget_bytes()

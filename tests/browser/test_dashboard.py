@@ -145,11 +145,47 @@ def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, set
         tab.open_folder("Sensors (Table 2)")
         tab.type_into("DVL noise [m/s]", "-0.1")
     page.get_by_role("button", name="Run", exact=True).click()
-    page.get_by_text(message, exact=False).wait_for(timeout=10000)
-    assert page.get_by_text("Cannot run", exact=True).is_visible()
+    page.get_by_text("Cannot run", exact=True).wait_for(timeout=10000)
+    notification = page.locator(".mantine-Notification-description", has_text=message)
+    notification.first.wait_for(timeout=10000)       # the note under the status says it too
     # the server still serves a fresh tab
     fresh = new_tab()
     assert fresh.checkbox("Beam 1").is_checked()
+
+
+def test_every_bad_field_is_named_as_you_type_marked_and_kept_out_of_the_address(new_tab) -> None:
+    """Given Duration -5, Seed 2.5, Dropout 1.5, NSV epsilon "foo" and VB n_f 1e9 typed together,
+    then, before Run, the note under the status names all five and each field is marked
+    (aria-invalid); Run gives one notification naming all five; the page's address carries none
+    of the bad values; fixing them clears the marks."""
+    tab = new_tab()
+    page = tab.page
+    bad = {"Duration [s]": "-5", "Seed": "2.5", "Dropout probability": "1.5",
+           "NSV epsilon [m^2/s^2]": "foo", "VB n_f": "1e9"}
+    for label, text in bad.items():
+        tab.type_into(label, text)
+    note = page.get_by_text("5 controls to fix:", exact=False).first
+    note.wait_for(timeout=10000)
+    text = note.inner_text()
+    for label, value in bad.items():
+        assert label in text and value in text, (label, text)
+    page.wait_for_function("document.querySelectorAll('input[aria-invalid=\"true\"]').length === 5",
+                           timeout=10000)
+    for label in bad:
+        assert tab.field(label).get_attribute("aria-invalid") == "true", label
+    assert not any(f"={v}" in page.url or f"={v.replace('-', '%2D')}" in page.url for v in bad.values()), page.url
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.get_by_text("Cannot run", exact=True).wait_for(timeout=10000)
+    said = page.locator("text=5 controls to fix").last.inner_text()
+    assert all(label in said for label in bad), said
+    tab.type_into("Duration [s]", "10")
+    tab.type_into("Seed", "3")
+    tab.type_into("Dropout probability", "0")
+    tab.type_into("NSV epsilon [m^2/s^2]", "auto")
+    tab.type_into("VB n_f", "20")
+    page.wait_for_function("document.querySelectorAll('input[aria-invalid=\"true\"]').length === 0",
+                           timeout=10000)
+    page.wait_for_function("location.search.includes('seed=3') || location.search.includes('s=3')", timeout=10000)
 
 
 def test_longrange_preset_flies_over_the_trench_and_shows_the_altitude(new_tab) -> None:
