@@ -61,7 +61,7 @@ from tauvcore.eval.metrics import rms
 from tauvcore.validation import ConfigError
 
 LEGEND_WIDTH_PX, LEGEND_HEIGHT_PX = 420, 118  # the floating legend over the 3-D view
-WORKBENCH_WIDTH_PX = 640  # the plot panel docked left of the 3-D view (the user can resize or minimise it)
+WORKBENCH_WIDTH_PX = 500  # the plot panel docked left of the 3-D view (the user can resize or minimise it)
 GUI_REFRESH_S = 1.5  # at most this often the plots are redrawn during a run (wall time)
 CHECKING_STATUS = "Checking the controls the page shows..."
 
@@ -365,7 +365,7 @@ def build_server(
     server.initial_camera.look_at = tuple(start)
     server.gui.configure_theme(
         control_layout="fixed",
-        control_width="large",
+        control_width="medium",
         show_share_button=False,
         show_logo=False,
         brand_color=(31, 119, 180),

@@ -94,6 +94,33 @@ def _panels(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
     ]
 
 
+PLACEHOLDER_TEXT = "No run yet: press Run"
+
+
+def placeholder_figure(title: str, text: str = PLACEHOLDER_TEXT) -> go.Figure:
+    """What a plot shows before its first run: its title and one line of text, no empty axes."""
+    return go.Figure(
+        layout={
+            "title": {"text": title, "font": {"size": 13}},
+            "xaxis": {"visible": False},
+            "yaxis": {"visible": False},
+            "annotations": [
+                {
+                    "text": text,
+                    "showarrow": False,
+                    "xref": "paper",
+                    "yref": "paper",
+                    "x": 0.5,
+                    "y": 0.5,
+                    "font": {"size": 13, "color": "#888"},
+                }
+            ],
+            "margin": {"l": 20, "r": 20, "t": 40, "b": 20},
+            "template": "plotly_white",
+        }
+    )
+
+
 def stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, Any]:
     """Layout of len(``names``) panels sharing the time axis, each y-axis titled by its name."""
     layout: dict[str, Any] = {

@@ -67,8 +67,8 @@ class ControlPanel:
         self.address_shown: str | None = None
         self.viser_params: tuple[str, ...] = ()
         gui = self.client.gui
-        for attr, handle in control_table.build(gui, self.logs).items():
-            setattr(self, attr, handle)
+        # Run, Stop, the progress and the status first: in view when the page opens, whatever
+        # the window's height; the controls follow
         self.run_button = gui.add_button("Run", color="green")
         self.stop_button = gui.add_button("Stop", color="red", disabled=True)
         self.progress = gui.add_progress_bar(0.0, animated=False)
@@ -78,6 +78,8 @@ class ControlPanel:
         self.check_lock = threading.Lock()
         self.check_timer: threading.Timer | None = None
         self.marked: dict[str, str] = {}  # viser id -> message of the controls marked on the page
+        for attr, handle in control_table.build(gui, self.logs).items():
+            setattr(self, attr, handle)
 
         source = self.source
         if source is not None:

@@ -24,6 +24,7 @@ import viser
 from app.error_figures import (
     AUTO,
     COMPONENTS,
+    QUANTITIES,
     compare_figure,
     components_figure,
     elc_choice_figure,
@@ -32,7 +33,7 @@ from app.error_figures import (
     nees_figure,
     overlay_figure,
 )
-from app.figures import with_cursor
+from app.figures import placeholder_figure, with_cursor
 from app.innovation_figures import innovation_figure, innovation_sources
 from app.markdown_tables import identical_methods, identical_note
 from app.session_runs import KeptRun
@@ -142,13 +143,20 @@ class PlotTabs:
             )
             self.plots_note = gui.add_markdown("")
             self.plots = {
-                q: gui.add_plotly(go.Figure(), aspect=PLOT_ASPECT, visible=q != "att")
+                q: gui.add_plotly(
+                    placeholder_figure(f"{QUANTITIES[q][2]} [{QUANTITIES[q][3]}]"),
+                    aspect=PLOT_ASPECT,
+                    visible=q != "att",
+                )
                 for q in PLOTTED_QUANTITIES
             }
             self.elc_plot = gui.add_plotly(go.Figure(), aspect=0.4, visible=False)
         with workbench.add_tab("Components"):
             self.components_note = gui.add_markdown(COMPONENTS_NOTE)
-            self.component_plots = {q: gui.add_plotly(go.Figure(), aspect=0.75) for q in COMPONENTS}
+            self.component_plots = {
+                q: gui.add_plotly(placeholder_figure(f"{COMPONENTS[q][1]} [{COMPONENTS[q][2]}]"), aspect=0.75)
+                for q in COMPONENTS
+            }
         with workbench.add_tab("Consistency"):
             self.nees_block = gui.add_dropdown(
                 "NEES block",
@@ -157,7 +165,9 @@ class PlotTabs:
                 hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
                 "no position); or one block of them",
             )
-            self.nees_plot = gui.add_plotly(go.Figure(), aspect=0.6)  # viser: height / width
+            self.nees_plot = gui.add_plotly(
+                placeholder_figure("NEES/dim"), aspect=0.6
+            )  # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
         with workbench.add_tab("Innovations"):
             self.innovation_source = gui.add_dropdown(
@@ -166,7 +176,7 @@ class PlotTabs:
             self.innovation_run = gui.add_number(
                 "Run", 1, min=1, max=1, step=1, hint="which Monte Carlo run's innovations", visible=False
             )
-            self.innovation_plot = gui.add_plotly(go.Figure(), aspect=0.85)
+            self.innovation_plot = gui.add_plotly(placeholder_figure("Innovations"), aspect=0.85)
             self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
         with tabs.add_tab("Vehicle"):
             self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])

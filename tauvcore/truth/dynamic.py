@@ -41,15 +41,8 @@ import numpy as np
 from tauvcore.geo.earth import Earth
 from tauvcore.truth import control as ctl
 from tauvcore.truth import vehicle as veh
-from tauvcore.truth.kinematic import (
-    PROFILES,
-    Profile,
-    TrajectoryConfig,
-    _chunk_from_profile,
-    _kinematics,
-    _start_n,
-    num_samples,
-)
+from tauvcore.truth.kinematic import PROFILES, TrajectoryConfig, _chunk_from_profile, _start_n
+from tauvcore.truth.profile import Profile, _kinematics, num_samples
 from tauvcore.truth.record import Truth, VehicleRecord
 from tauvcore.validation import require_positive
 

@@ -153,6 +153,34 @@ def test_bad_input_gets_a_notification_and_the_server_keeps_serving(new_tab, set
     assert fresh.checkbox("Beam 1").is_checked()
 
 
+@pytest.mark.parametrize("width, height", [(1600, 1000), (1280, 800)])
+def test_run_is_in_view_on_open_the_3d_view_has_room_and_empty_plots_say_so(browser, server_url, width, height) -> None:
+    """On a new page at 1600 x 1000 and 1280 x 800: the Run button lies inside the window without
+    scrolling, the 3-D view gets at least a third of the width, and before the first run each
+    plot shows its title and "No run yet" instead of empty axes."""
+    from tests.browser.conftest import THROTTLE_FRAMES
+
+    ctx = browser.new_context(viewport={"width": width, "height": height})
+    ctx.add_init_script(THROTTLE_FRAMES)
+    try:
+        page = ctx.new_page()
+        page.goto(server_url)
+        run = page.get_by_role("button", name="Run", exact=True)
+        run.wait_for(timeout=30000)
+        page.wait_for_timeout(1000)
+        box = run.bounding_box()
+        assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= height, box
+        canvas = page.locator("canvas").first.bounding_box()
+        assert canvas is not None and canvas["width"] >= width / 3, canvas
+        page.get_by_text("No run yet: press Run").first.wait_for(timeout=10000)
+        titles = page.evaluate("Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                               ".filter(p => p.offsetParent !== null)"
+                               ".map(p => p.layout && p.layout.title && p.layout.title.text)")
+        assert titles and all(titles), titles
+    finally:
+        ctx.close()
+
+
 def test_every_bad_field_is_named_as_you_type_marked_and_kept_out_of_the_address(new_tab) -> None:
     """Given Duration -5, Seed 2.5, Dropout 1.5, NSV epsilon "foo" and VB n_f 1e9 typed together,
     then, before Run, the note under the status names all five and each field is marked
