@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import viser
 
-from app import export, inputs, plot_click, worker
+from app import export, inputs, page_scripts, plot_click, worker
 from app.control_table import DEFAULT_METHODS
 from app.figures import TRUTH_COLOR, method_color
 from app.hardening import (
@@ -60,7 +60,8 @@ from tauvcore.engine.results import MethodResult
 from tauvcore.eval.metrics import rms
 from tauvcore.validation import ConfigError
 
-LEGEND_WIDTH_PX, LEGEND_HEIGHT_PX = 420, 118  # the floating legend over the 3-D view
+LEGEND_WIDTH_PX, LEGEND_HEIGHT_PX = 420, 118  # the floating legend over the 3-D view (up to six methods)
+LEGEND_LINE_PX = 21  # one more line of the legend (every further six methods)
 WORKBENCH_WIDTH_PX = 500  # the plot panel docked left of the 3-D view (the user can resize or minimise it)
 GUI_REFRESH_S = 1.5  # at most this often the plots are redrawn during a run (wall time)
 CHECKING_STATUS = "Checking the controls the page shows..."
@@ -131,7 +132,14 @@ class Session:
         for box in self.panel.beam_boxes:  # before a run the 3-D beams show the boxes at once
             box.on_update(lambda _: self.scene.beams_from_boxes())
         plot_click.install(self.client)  # a click on any plot moves the playback (app.plot_click)
+        page_scripts.run(self.client, page_scripts.label_inputs())  # each input named by its label
         threading.Thread(target=self.panel.read_link, daemon=True).start()
+
+    @staticmethod
+    def _legend_height_px(methods: tuple[str, ...]) -> int:
+        """The legend's height for ``methods``: a line more for every six methods beyond the first six
+        (with eight methods the last line was cut off)."""
+        return LEGEND_HEIGHT_PX + LEGEND_LINE_PX * max(0, -(-(len(methods) - 6) // 6))
 
     @staticmethod
     def _legend_html(methods: tuple[str, ...]) -> str:
@@ -210,6 +218,9 @@ class Session:
         self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
         self.run_tabs.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
+        self.legend_panel.float(
+            x=12, y=-12, width=LEGEND_WIDTH_PX, height=self._legend_height_px(config.run.methods)
+        )
         self.playback.new_run(config.trajectory.duration_s)
         self.scene.clear_trajectories()
         self.plot_tabs.draw_vkf_plot(None, config)

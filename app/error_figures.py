@@ -45,6 +45,9 @@ QUANTITIES = {
     "heading": ("heading_err_deg", "heading_sigma_deg", "Heading error", "deg"),
     "pos": ("pos_err_m", "pos_sigma_m", "Position error", "m"),
 }
+LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.3}
+"""The legend under the time axis's title, hanging from its top so that more rows (runs overlaid,
+eight methods) grow downward into the margin plotly makes for it instead of over "time [s]"."""
 AUTO = "auto"
 LOG_SPAN = 10.0
 """``log_y="auto"`` draws a log axis only when the drawn values span more than this factor: over a
@@ -140,7 +143,7 @@ def error_figure(
         "title": {"text": label, "font": {"size": 13}},
         "height": height_px,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
-        "legend": {"orientation": "h", "y": -0.2},
+        "legend": LEGEND_BELOW,
         "xaxis": {"title": {"text": "time [s]"}},
         "template": "plotly_white",
         "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
@@ -248,7 +251,7 @@ def nees_figure(
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
         "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
-        "legend": {"orientation": "h", "y": -0.2},
+        "legend": LEGEND_BELOW,
         "xaxis": {"title": {"text": "time [s]"}},
         "template": "plotly_white",
         "yaxis": {
@@ -466,7 +469,7 @@ def compare_figure(
         "title": {"text": f"{title} [{unit}]: {labels}", "font": {"size": 13}},
         "height": height_px,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
-        "legend": {"orientation": "h", "y": -0.2},
+        "legend": LEGEND_BELOW,
         "xaxis": {"title": {"text": "time [s]"}},
         "template": "plotly_white",
         "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},

@@ -7,7 +7,8 @@ them) to the tab's localStorage, and reads it back with viser's ``local_storage.
 (app.links.read_address, app.dashboard.Session.confirm_page_state; one script,
 ``report_to_storage.js``, for both). The other scripts: ``time_cursor.js`` moves every plot's
 time cursor, ``plot_click.js`` (app.plot_click) turns a click on a plot into a playback time,
-``mark_fields.js`` marks the controls that cannot run (app.validation). A
+``mark_fields.js`` marks the controls that cannot run (app.validation), ``label_inputs.js`` ties
+each label to its input. A
 script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
 """
 
@@ -60,9 +61,15 @@ def mark(bad: dict[str, str], scroll: bool = False) -> str:
     return source("mark_fields.js", bad=bad, scroll=scroll)
 
 
+def label_inputs() -> str:
+    """The script that gives every control's input its label's text as ``aria-label``, now and
+    for controls added later (viser labels the input's row, not the input)."""
+    return source("label_inputs.js")
+
+
 def run(client: viser.ClientHandle, script: str) -> None:
     """Run ``script`` in ``client``'s page."""
     client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
 
-__all__ = ["VISER_STORAGE_PREFIX", "mark", "report", "run", "source"]
+__all__ = ["VISER_STORAGE_PREFIX", "label_inputs", "mark", "report", "run", "source"]

@@ -3,8 +3,8 @@
     python scripts/make_engine_reference.py tests/fixtures/engine_reference.npz
 
 Generated with the numpy engine of commit 9235ddc (the last before the compiled filter bank,
-issue 9), with one line added to its ``body_increments`` when the strapdown gained the
-second-order rotation term (issue 10): ``dv_rot = dv_rot + np.cross(dtheta_b, np.cross(dtheta_b,
+the streaming engine), with one line added to its ``body_increments`` when the strapdown gained the
+second-order rotation term: ``dv_rot = dv_rot + np.cross(dtheta_b, np.cross(dtheta_b,
 dv_b)) / 6.0``. To regenerate: ``git worktree add /tmp/ref 9235ddc``, apply that line, copy this
 script there, and run it with ``PYTHONPATH=/tmp/ref`` (the numpy engine, not the installed one).
 ``tests/unit/test_engine_reference.py`` rebuilds the same simulations from the same
@@ -37,7 +37,7 @@ def reference_config(trajectory: str) -> Config:
     config = config.replace("dvl", outages=(Outage(beams=(3, 4), start_s=30.0, end_s=90.0),
                                             Outage(beams=(1,), start_s=100.0, end_s=110.0)))
     config = config.replace("initial_error", mode="random")
-    # the flat earth of the numpy engine of 9235ddc (the round one came with issue 10)
+    # the flat earth of the numpy engine of 9235ddc (the round earth is newer)
     config = config.replace("earth", model="flat")
     return config.replace("run", methods=METHODS, aiding=("dvl", "depth", "mag"), seed=11)
 

@@ -174,6 +174,11 @@ class Tab:
     def notification(self, title: str):
         return self.page.get_by_text(title, exact=True)
 
+    def refusal(self, message: str):
+        """The latest notification whose text holds ``message`` (a refused Run names every bad
+        control in one; the note under the status line says the same, and is not this)."""
+        return self.page.locator(".mantine-Notification-description", has_text=message).last
+
     def plot_traces(self) -> list[list[tuple[str, int]]]:
         """(name, number of points) of every trace of every plotly figure on the page."""
         return self.page.evaluate(

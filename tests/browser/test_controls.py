@@ -1,4 +1,4 @@
-"""The run uses exactly what the page shows (issue 7, item 5), in a real browser.
+"""The run uses exactly what the page shows, in a real browser.
 
 viser's page sends control changes through one sender throttled to a message per 50 ms that
 keeps only the latest, whatever control it is for: of three changes within 50 ms the middle one
@@ -74,7 +74,7 @@ def test_typed_scientific_notation_reaches_the_server_as_typed(new_tab) -> None:
 
 def test_typed_n_f_and_epsilon_reach_the_run(new_tab) -> None:
     """Given n_f 7 and epsilon 0.5 typed into the partial-beam fields, when NSV and VB run, then
-    the "Configuration run" table shows both as typed (issue 8)."""
+    the "Configuration run" table shows both as typed."""
     tab = new_tab()
     tab.set_methods({"NSV", "VB"})
     tab.set_checkbox("Beam 3", False)
@@ -105,7 +105,7 @@ def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, 
         tab.open_folder(folder)
     tab.type_into(label, typed)
     page.get_by_role("button", name="Run", exact=True).click()
-    note = page.get_by_text(message, exact=False)
+    note = tab.refusal(message)
     note.wait_for(timeout=15000)
     text = note.inner_text()
     assert "Error" not in text and "Singular" not in text          # a clean message, no exception names
@@ -116,9 +116,10 @@ def test_a_bad_typed_value_is_refused_by_name_and_nothing_runs(new_tab, folder, 
 
 def test_bad_seabed_and_rpm_values_are_refused_by_name_then_a_good_run_uses_them(new_tab) -> None:
     """Given Switch altitude -5 and RPM noise -1 typed, when Run is pressed, then a notification
-    names the switch altitude and its value and nothing runs; with it corrected, the RPM noise;
+    names the switch altitude and its value (and the RPM noise with it) and nothing runs; with it
+    corrected, the RPM noise;
     then DVL max altitude 0, then Seabed depth 12000 (deeper than the deepest ocean). Corrected,
-    the same tab runs and the run used the values as typed: the server kept serving (issue 12)."""
+    the same tab runs and the run used the values as typed: the server kept serving."""
     tab = new_tab()
     page = tab.page
     tab.set_methods({"INS", "TC"})
@@ -135,7 +136,7 @@ def test_bad_seabed_and_rpm_values_are_refused_by_name_then_a_good_run_uses_them
     )
     for message, typed in steps:
         page.get_by_role("button", name="Run", exact=True).click()
-        note = page.get_by_text(message, exact=False)
+        note = tab.refusal(message)
         note.wait_for(timeout=15000)
         assert "Error" not in note.inner_text() and "Traceback" not in note.inner_text()
         assert page.get_by_text("Ready. Choose a mission", exact=False).is_visible()   # no run started
@@ -151,7 +152,7 @@ def test_bad_seabed_and_rpm_values_are_refused_by_name_then_a_good_run_uses_them
 def test_truth_dynamic_reaches_the_run_and_shows_its_fins_and_propeller(new_tab) -> None:
     """Given Truth: dynamic on the figure eight, when a 10 s run completes, then the run used the
     dynamic truth and the Vehicle tab plots the four fins and the propeller; given Truth back to
-    kinematic, the next run's Vehicle tab has no figure and says why (issue 11)."""
+    kinematic, the next run's Vehicle tab has no figure and says why."""
     tab = new_tab()
     page = tab.page
     tab.choose_trajectory("figure8")

@@ -181,6 +181,17 @@ def test_run_is_in_view_on_open_the_3d_view_has_room_and_empty_plots_say_so(brow
         ctx.close()
 
 
+def test_every_input_is_named_by_its_label(new_tab) -> None:
+    """Screen readers and get_by_label find each text control by its label: viser labels the
+    row, the page script ties the label to the input."""
+    tab = new_tab()
+    duration = tab.page.get_by_label("Duration [s]", exact=True)
+    duration.wait_for(timeout=10000)
+    assert duration.input_value() == "250"
+    assert tab.page.get_by_label("Seed", exact=True).input_value() == "0"
+    assert tab.page.get_by_label("VB n_f", exact=True).input_value() == "20"
+
+
 def test_every_bad_field_is_named_as_you_type_marked_and_kept_out_of_the_address(new_tab) -> None:
     """Given Duration -5, Seed 2.5, Dropout 1.5, NSV epsilon "foo" and VB n_f 1e9 typed together,
     then, before Run, the note under the status names all five and each field is marked
@@ -221,7 +232,7 @@ def test_longrange_preset_flies_over_the_trench_and_shows_the_altitude(new_tab) 
     so; when the first 330 s of it run (its first trench from 300 s), then the run used the
     paper's rates and depth, at its end all four beams are lost beyond the DVL's range, and the
     Seabed tab's altitude figure shades the time above the VKF's switch. Back on the straight
-    line, the preset's controls return to their defaults (issue 12)."""
+    line, the preset's controls return to their defaults."""
     tab = new_tab()
     page = tab.page
     tab.choose_trajectory("longrange")
@@ -261,7 +272,7 @@ def test_yoo_s_methods_beside_lc_over_the_trench_show_the_vkf_figure(new_tab) ->
     INS-DVL and VKF checked and the RPM fallback on, when it runs, then the run used them, the
     Results tables hold all three (the 12-state filter with its own state count), the plots and the
     consistency figure draw them, and the Seabed tab shows the VKF's scale factor and bias with
-    the RPM's stretch shaded (issue 12)."""
+    the RPM's stretch shaded."""
     tab = new_tab()
     page = tab.page
     tab.choose_trajectory("longrange")

@@ -1,4 +1,4 @@
-"""Downloads and links in a real browser (issue 13, item 4).
+"""Downloads and links in a real browser.
 
 A short mission is run in the page, its three downloads (JSON, Parquet, HTML report) are saved
 by the browser and read back against what the command line writes for the same configuration and

@@ -1,4 +1,4 @@
-"""The 3-D scene and playback in a real browser (issue 13, items 5 and 6): beams drawn as the
+"""The 3-D scene and playback in a real browser: beams drawn as the
 boxes say before any run, the time slider kept where the user put it and spanning what was run
 after Stop, and the playback speed setting the pace of the time."""
 

@@ -1,6 +1,6 @@
 """Run one hostile ``tauv`` invocation in-process and check the contract every input must meet.
 
-The contract (issue 7): exit status 0 or 2; never a traceback; on 2 exactly one line on stderr
+The contract: exit status 0 or 2; never a traceback; on 2 exactly one line on stderr
 that names the field, flag or file and quotes the value shortened; no partial output file (the
 ``--json`` target is untouched on 2, valid strict JSON on 0, and no temporary file is left);
 bounded time (an alarm per case) and memory (a soft address-space limit during each case, and

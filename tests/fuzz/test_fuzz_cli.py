@@ -1,4 +1,4 @@
-"""Fuzz the command line, configuration files and output paths (issue 7).
+"""Fuzz the command line, configuration files and output paths.
 
 Seeded (``derandomize=True``: the same cases on every run, so CI is reproducible). Each case runs
 in-process through ``app.cli.main`` and is checked by :func:`tests.fuzz.harness.run_case`:

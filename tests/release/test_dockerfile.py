@@ -1,5 +1,5 @@
 """The Docker image's recipe, checked without an engine: hadolint finds nothing, the image is
-what issue 14 asks (slim Python 3.11, a wheel, a numeric non-root user, tini, EXPOSE, an HTTP
+what the image must be (slim Python 3.11, a wheel, a numeric non-root user, tini, EXPOSE, an HTTP
 HEALTHCHECK, the serve CMD), the build context holds what the COPYs need, and the lock pins
 every dependency of pyproject.toml within its specifiers."""
 

@@ -1,4 +1,4 @@
-"""Real data (issue 10): an A-KIT segment converted and replayed. Reads ../shared/data/akit when
+"""Real data: an A-KIT segment converted and replayed. Reads ../shared/data/akit when
 present and skips otherwise (the data is not part of the repository; its NOTES.md says why)."""
 
 from __future__ import annotations

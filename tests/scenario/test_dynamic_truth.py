@@ -1,5 +1,5 @@
 """Given the 6-DOF TAUV flying each mission (tauvcore.truth.dynamic), when an ideal INS runs on
-it, it follows; and the autopilot flies the missions it is given (issue 11).
+it, it follows; and the autopilot flies the missions it is given.
 
 The ideal-INS test is the proof that the dynamic truth's specific force and angular rate are
 those of its own positions and attitudes (a frame or sign slip in the truth, or a truth that

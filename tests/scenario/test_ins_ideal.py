@@ -39,7 +39,7 @@ def test_ideal_lc_with_every_aid_stays_on_truth() -> None:
     assert np.max(np.abs(result.updates["dvl"].innovation)) < 1e-3
 
 
-# ------------------------------------------------------------------ on the WGS-84 ellipsoid (issue 10)
+# ------------------------------------------------------------------ on the WGS-84 ellipsoid
 
 @pytest.mark.parametrize("trajectory", TRAJECTORIES)
 def test_ideal_geodetic_ins_follows_truth_for_250_s(trajectory: str) -> None:

@@ -1,4 +1,4 @@
-"""Every aided method knows its own error, with the defaults (issue 8).
+"""Every aided method knows its own error, with the defaults.
 
 20 seeded Monte Carlo runs per trajectory (initial errors drawn as Table 2's 1-sigma), 250 s, DVL
 aiding only; LC with four beams, TC and every extended loosely coupled method with beams 1 and 2
@@ -6,14 +6,14 @@ aiding only; LC with four beams, TC and every extended loosely coupled method wi
 require [0.5, 2] (the issue's bound) for the full 20-state NEES and for every block (position,
 velocity, tilt, heading, sensor errors), and that the velocity NEES averaged over runs lies inside
 its two-sided 99 % band at 70 % of the epochs at least (epochs are correlated, so with 20 runs
-the fraction itself varies by seed: 0.78-1.00 measured; the methods before issue 8 had 0.01-0.03).
+the fraction itself varies by seed: 0.78-1.00 measured; VB at n_f = 2 had 0.01-0.03).
 
 One documented exception (README, "Consistency"): PLCF on the straight line measures surge
 only; its sway and heave errors grow unaided to tens of m/s, where the error model's
 second-order terms exceed the thinnest directions of P, so its full-state NEES is about 10 while
 every block stays consistent. For it the blocks are checked, not the full state.
 
-With the code before issue 8 this failed: VB at n_f = 2 (velocity NEES/dim 11,416 on the straight
+With the paper's settings this fails: VB at n_f = 2 (velocity NEES/dim 11,416 on the straight
 line), NSV and ELC at epsilon = 1e-4 (37 on the figure eight), VHV without the n_f inflation of its
 predicted heave (7.7 on the straight line).
 """

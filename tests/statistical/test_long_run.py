@@ -1,4 +1,4 @@
-"""Long straight run: heading is unobservable with the DVL alone, the magnetometer bounds it (issue 7).
+"""Long straight run: heading is unobservable with the DVL alone, the magnetometer bounds it.
 
 On a straight, level, constant-speed track nothing the DVL measures (body-frame velocity)
 depends on heading, so the heading error is a random walk driven by the gyro (0.34 deg/sqrt(h),

@@ -1,4 +1,4 @@
-"""Yoo 2014's two methods know their own error on the 24-minute ``longrange`` mission (issue 12):
+"""Yoo 2014's two methods know their own error on the 24-minute ``longrange`` mission:
 over 20 seeded runs the velocity, tilt and heading NEES per dimension, averaged over the mission,
 lie within [0.6, 1.4], and so does LC's beside them (the 20-state filter on the same runs).
 Measured: INS-DVL 1.02 / 1.05 / 1.09, VKF 0.99 / 1.06 / 1.06, LC 1.18 / 1.06 / 0.86.

@@ -1,4 +1,4 @@
-"""The per-run memory estimate and budget of the dashboard (issue 7, item 4).
+"""The per-run memory estimate and budget of the dashboard.
 
 The slow test runs real missions through app.worker.run_worker in a fresh process each and
 compares the estimate with the measured peak resident memory above the process's baseline.

@@ -23,11 +23,11 @@ from tauvcore.sensors.dvl import Outage
 
 SPLIT_AND_NEES_KEYS = ("tilt_err_deg", "heading_err_deg", "tilt_sigma_deg", "heading_sigma_deg", "nees", "nees_pos",
                        "nees_vel", "nees_tilt", "nees_heading", "nees_sensor")
-"""Per-epoch series --json carries since issue 8 (attitude apart, NEES per block)."""
+"""Per-epoch series --json carries (attitude apart, NEES per block)."""
 ESTIMATE_KEYS = ("est_north_m", "est_east_m", "est_down_m", "est_lat_deg", "est_lon_deg", "est_depth_m",
                  "est_vel_north_mps", "est_vel_east_mps", "est_vel_down_mps", "est_roll_deg", "est_pitch_deg",
                  "est_yaw_deg")
-"""The estimate itself, since issue 10."""
+"""The estimate itself."""
 
 
 def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
@@ -202,7 +202,7 @@ def test_serve_refuses_a_busy_port_instead_of_moving(capsys) -> None:
     assert code == 2 and str(port) in err and "in use" in err
 
 
-# --- issue 7: hostile input. Each test below failed on the code before the fix. ---------------------
+# --- hostile input: one clear line and exit status 2, never a traceback. --------------------------------
 
 def _one_line_error(code: int, err: str, *needles: str) -> str:
     assert code == 2, err
@@ -451,7 +451,7 @@ def test_a_failed_or_interrupted_write_leaves_no_file(capsys, tmp_path, monkeypa
     assert "previous" not in _strict_json(old.read_text())
 
 
-# --- issue 8: the partial methods' assumptions as flags; tilt and heading apart; consistency ---------
+# --- the partial methods' assumptions as flags; tilt and heading apart; consistency ---------
 
 @pytest.mark.parametrize("flag, value, shown", [
     ("--vb-nf", "0", "0"), ("--vb-nf", "-3", "-3"), ("--vb-nf", "nan", "'nan'"), ("--vb-nf", "101", "101"),
@@ -617,7 +617,7 @@ def test_json_carries_the_estimate_in_ned_geodetic_velocity_and_attitude() -> No
 
 
 def test_truth_flag_flies_the_vehicle_and_reaches_the_json(capsys, tmp_path) -> None:
-    """``--truth dynamic`` (issue 11): the summary names the truth, the JSON's configuration
+    """``--truth dynamic``: the summary names the truth, the JSON's configuration
     carries it, and a file's current reads back."""
     cfg = tmp_path / "c.toml"
     cfg.write_text("[trajectory]\ncurrent_n_mps = [0.1, -0.2, 0.0]\ntruth = 'dynamic'\n")

@@ -1,4 +1,4 @@
-"""``tauv mc`` end to end on a short mission, and its bad input (issue 9).
+"""``tauv mc`` end to end on a short mission, and its bad input.
 
 The study writes summary.json, runs.parquet and report.html into --out only when it has
 finished: bad input, an unreachable Dask scheduler or an interrupt leave no result file and no

@@ -1,4 +1,4 @@
-"""``tauv serve`` start-up: the one address to open is the only one printed (issue 13: viser's
+"""``tauv serve`` start-up: the one address to open is the only one printed (viser's
 own box printed ``http://127.0.0.1:8080`` beside our ``http://localhost:8080``)."""
 
 import os

@@ -113,7 +113,7 @@ def test_to_dict_has_every_section_and_plain_types():
     assert isinstance(d["dvl"]["lever_arm_m"], list)
 
 
-# --- issue 7: every numeric field has a physical range; zero noise stays legal ----------------------
+# --- every numeric field has a physical range; zero noise stays legal ----------------------
 
 OUT_OF_RANGE = [
     # (section, key, refused value, accepted value at or near the bound)

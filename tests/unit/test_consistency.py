@@ -1,4 +1,4 @@
-"""Consistency records (issue 8): the block NEES, the tilt/heading split and the summaries.
+"""Consistency records: the block NEES, the tilt/heading split and the summaries.
 
 Known answers: the one-solve block NEES equals one NEES per block; a run's records equal the
 NEES computed by hand from its final state; summaries of synthetic chi-square series land on 1

@@ -1,7 +1,7 @@
-"""The compiled filter bank equals the numpy engine it replaced (issue 9), to 1e-9.
+"""The compiled filter bank equals the numpy engine it replaced, to 1e-9.
 
 The reference (``tests/fixtures/engine_reference.npz``) holds the results of the numpy engine of
-commit 9235ddc (plus the second-order rotation term of the velocity increment, issue 10), written
+commit 9235ddc (plus the second-order rotation term of the velocity increment), written
 by ``scripts/make_engine_reference.py`` from the same seeded
 simulations: three trajectories, all eight methods, DVL, depth and magnetometer aiding, random
 initial errors over two runs, and four, two and three DVL beams in turn.

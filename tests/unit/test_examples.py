@@ -1,4 +1,4 @@
-"""Every script of ``examples/`` (issue 14 item 5): discovered by name (``NN_*.py``, so a new
+"""Every script of ``examples/``: discovered by name (``NN_*.py``, so a new
 example is covered without touching this file), each checked to have a module docstring, a
 ``def main() -> None`` and the ``__main__`` guard, then run as a user would, in a subprocess from
 a temporary working directory with short missions (``TAUV_EXAMPLE_SHORT=1``) and its output

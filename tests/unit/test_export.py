@@ -1,4 +1,4 @@
-"""A dashboard run's downloads (app/export.py, issue 13 item 4), against the command line's files.
+"""A dashboard run's downloads (app/export.py), against the command line's files.
 
 The JSON must be what ``tauv run --json`` writes for the same configuration and seed, byte for
 byte; the Parquet what ``tauv mc``'s study writer makes of the same results, in the schema of a

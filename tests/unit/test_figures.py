@@ -1033,7 +1033,7 @@ def test_fast_figures_of_yoo_s_methods_equal_plotly_validated_construction(yoo):
         assert json.loads(fast.to_json()) == json.loads(checked.to_json())
 
 
-# ------------------------------------------------------------------------------------------ workbench (issue 13)
+# ------------------------------------------------------------------------------------------ workbench
 from app.error_figures import (  # noqa: E402
     RUN_DASHES,
     compare_figure,

@@ -1,4 +1,4 @@
-"""Our filter equals the plain per-step filterpy ``KalmanFilter`` loop (issue 9), to 1e-9.
+"""Our filter equals the plain per-step filterpy ``KalmanFilter`` loop, to 1e-9.
 
 The loop is ``benchmarks/filterpy_compare.py``'s: ``lc`` written the plain way, one filterpy
 filter per run stepped per IMU sample, on the same simulation and initial errors as

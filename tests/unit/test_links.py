@@ -1,4 +1,4 @@
-"""The dashboard's controls in the page's address (app/links.py, issue 13 item 4).
+"""The dashboard's controls in the page's address (app/links.py).
 
 Every control round-trips through the query; the query survives viser's own rewrite of it (the
 page's client decodes it and writes it back unescaped on connect); a bad key or value is refused

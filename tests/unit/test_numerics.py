@@ -1,4 +1,4 @@
-"""Numerics at the edges of the legal configurations (issue 7): zero noise handled exactly by
+"""Numerics at the edges of the legal configurations: zero noise handled exactly by
 documented floors, P kept symmetric positive definite, unusable updates skipped and recorded,
 and the divergence monitor flagging broken filters (and only those)."""
 
@@ -231,7 +231,7 @@ def test_condition_covariance_raises_a_negative_variance():
 
 def test_safeguards_are_inert_on_a_healthy_run(monkeypatch):
     """On the normal path the floors, the S check and the P conditioning change nothing: the
-    run equals, to 1e-9, the same run with every safeguard switched off (the code before issue 7;
+    run equals, to 1e-9, the same run with every safeguard switched off (the code without them;
     measured against that commit: bit-identical, see benchmarks/numerics_regression.py)."""
     config = (Config().replace("trajectory", name="figure8", duration_s=120.0)
               .replace("run", methods=("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc"),

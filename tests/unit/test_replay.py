@@ -1,4 +1,4 @@
-"""Log replay (issue 10): the format's reader, its errors, and replay against the simulation."""
+"""Log replay: the format's reader, its errors, and replay against the simulation."""
 
 from __future__ import annotations
 

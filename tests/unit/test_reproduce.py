@@ -1,4 +1,4 @@
-"""``tauv reproduce`` (issue 9): the paper's section 4.2 study, its claims and their verdicts."""
+"""``tauv reproduce``: the paper's section 4.2 study, its claims and their verdicts."""
 
 from __future__ import annotations
 

@@ -482,7 +482,7 @@ def test_beam_readout_names_the_lost_beams_beyond_range():
         "**0.0 s**. Beams: 1 returning, 2 returning, 3 returning, 4 returning")
 
 
-# ------------------------------------------------------------------------------------------ palettes (issue 13)
+# ------------------------------------------------------------------------------------------ palettes
 
 def _lab(rgb) -> np.ndarray:
     """sRGB (0-255) to CIE L*a*b* (D65), the textbook formulas."""

@@ -1,4 +1,4 @@
-"""The seabed and the DVL beams that reach it (issue 12): known answers for the slant-range
+"""The seabed and the DVL beams that reach it: known answers for the slant-range
 geometry, the seeded terrain, the long-range mission's trenches, bottom lock lost exactly at the
 range limit."""
 

@@ -1,4 +1,4 @@
-"""The dashboard's typed values: read strictly, never coerced (issue 7, item 5).
+"""The dashboard's typed values: read strictly, never coerced.
 
 Each case of the issue has a test: before, the browser's number field and the server's casts
 turned "1e3" into 13 s, Seed 1e30 into 130, "abc", "NaN" and an empty Duration into 250 s,
@@ -167,7 +167,7 @@ def test_the_configuration_run_is_shown_as_a_table() -> None:
     assert rows["Gyro noise [deg/sqrt(h)]"] == "0.5" and rows["Outages"] == "beam 3 2-4 s"
 
 
-# ---------------------------------------------------------------- partial-beam methods: n_f and epsilon (issue 8)
+# ---------------------------------------------------------------- partial-beam methods: n_f and epsilon
 @pytest.mark.parametrize("typed, value", [("20", 20.0), ("5", 5.0), (" 1e2 ", 100.0), ("1", 1.0), ("2.5", 2.5)])
 def test_vb_nf_reaches_the_configuration(typed: str, value: float) -> None:
     config, _ = read(vb_nf=typed)
@@ -380,7 +380,7 @@ def test_a_page_value_a_control_cannot_hold_is_refused(handles) -> None:
 
 
 
-# ---------------------------------------------------------------- a scenario's preset (issue 12)
+# ---------------------------------------------------------------- a scenario's preset
 PRESET_LABELS = {DURATION: "duration", SEABED_DEPTH: "seabed_depth", ACCEL_BIAS: "accel_bias", GYRO_BIAS: "gyro_bias",
                  ACCEL_NOISE: "accel_noise", GYRO_NOISE: "gyro_noise"}
 
@@ -431,14 +431,14 @@ def test_the_preset_note_names_every_setting_the_preset_brings() -> None:
     for key in ("trajectory.speed_mps 5.144", "trajectory.depth_m 50", f"{SEABED_DEPTH} 110",
                 "imu.rate_hz 100", "dvl.rate_hz 5", f"{DURATION} 1440"):
         assert key in note
-    assert "trajectory.seabed_depth_m" not in note          # it has a control now (issue 12)
+    assert "trajectory.seabed_depth_m" not in note          # it has a control now
     headline = preset_headline("longrange")
     assert headline == (f"{DURATION}, {SEABED_DEPTH}, {ACCEL_BIAS}, {GYRO_BIAS}, {ACCEL_NOISE}, {GYRO_NOISE} filled in; "
                         "10 settings without a control apply at Run (listed under the Run button).")
     assert preset_headline("straight") == ""
 
 
-# ---------------------------------------------------------------- Yoo 2014's methods and the RPM fallback (issue 12)
+# ---------------------------------------------------------------- Yoo 2014's methods and the RPM fallback
 def test_both_papers_methods_reach_the_configuration_in_their_order() -> None:
     """The INS-DVL and VKF checkboxes sit beside the first paper's methods: any mix of them runs,
     in tauvcore.config.ALL_METHODS order, and the "Configuration run" table names them."""
@@ -474,7 +474,7 @@ def test_ins_dvl_with_two_beams_is_refused_like_lc() -> None:
     assert refused(methods=("ins-dvl",), beams=(1, 2), rpm_fallback=True).startswith("INS-DVL needs")
 
 
-# ---------------------------------------------------------------- seabed, DVL range, VKF switch, RPM noise (issue 12)
+# ---------------------------------------------------------------- seabed, DVL range, VKF switch, RPM noise
 def test_an_untouched_tab_reads_back_as_the_default_configuration() -> None:
     """The four controls start at the configuration's defaults (the tab's initial texts, as
     app.dashboard writes them), so an untouched tab runs exactly Config() with its methods."""

@@ -1,4 +1,4 @@
-"""``scripts/start.sh`` installs only when the install's inputs changed (issue 13: it re-installed
+"""``scripts/start.sh`` installs only when the install's inputs changed (it would otherwise re-install
 on every start, 7 s). The script and its helper run as they are, in a copy of the repository's
 layout, with stubs on PATH: ``python3 -m venv`` makes a fake virtualenv whose ``pip``,
 ``python`` and ``tauv`` record their arguments (every other ``python3`` call is a real

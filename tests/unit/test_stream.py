@@ -1,4 +1,4 @@
-"""Truth and sensors chunk by chunk (issue 9, streaming): the chunks are the whole mission's numbers.
+"""Truth and sensors chunk by chunk (streaming): the chunks are the whole mission's numbers.
 
 - truth chunks of any size concatenate to ``generate`` (bit for bit in practice; 1e-12 asserted);
 - with spawned streams, sensors cut into chunks of any size are the same data, bit for bit (the IMU

@@ -1,5 +1,5 @@
 """The TAUV's 6-DOF model, autopilot and dynamic truth stream: known answers and physical sanity
-(issue 11)."""
+."""
 
 import math
 
