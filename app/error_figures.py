@@ -45,9 +45,12 @@ QUANTITIES = {
     "heading": ("heading_err_deg", "heading_sigma_deg", "Heading error", "deg"),
     "pos": ("pos_err_m", "pos_sigma_m", "Position error", "m"),
 }
-LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.3}
-"""The legend under the time axis's title, hanging from its top so that more rows (runs overlaid,
-eight methods) grow downward into the margin plotly makes for it instead of over "time [s]"."""
+LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.15}
+"""The legend under the time axis, hanging from its top so that more rows (runs overlaid, eight
+methods) grow downward into the margin plotly makes for it."""
+TIME_AXIS = {"ticksuffix": " s"}
+"""The time axis of a plot with its legend below: the unit on the ticks ("5 s"), no axis title for
+a second row of the legend to land on (a title sits where plotly's first legend row does)."""
 AUTO = "auto"
 LOG_SPAN = 10.0
 """``log_y="auto"`` draws a log axis only when the drawn values span more than this factor: over a
@@ -144,7 +147,7 @@ def error_figure(
         "height": height_px,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
         "legend": LEGEND_BELOW,
-        "xaxis": {"title": {"text": "time [s]"}},
+        "xaxis": TIME_AXIS,
         "template": "plotly_white",
         "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
     }
@@ -252,7 +255,7 @@ def nees_figure(
         "height": height_px,
         "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
         "legend": LEGEND_BELOW,
-        "xaxis": {"title": {"text": "time [s]"}},
+        "xaxis": TIME_AXIS,
         "template": "plotly_white",
         "yaxis": {
             "type": "log",
@@ -470,7 +473,7 @@ def compare_figure(
         "height": height_px,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
         "legend": LEGEND_BELOW,
-        "xaxis": {"title": {"text": "time [s]"}},
+        "xaxis": TIME_AXIS,
         "template": "plotly_white",
         "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
     }
