@@ -105,9 +105,11 @@ def _plugin_label(key: str) -> str:
 
 
 def notification(found: dict[str, str]) -> str:
-    """One line naming every bad control: "3 controls to fix: Seed: ...; Dropout: ...; ..."."""
-    count = len(found)
-    return f"{count} control{'s' if count > 1 else ''} to fix: " + "; ".join(found.values())
+    """One line naming every bad control: its message alone for one, "3 controls to fix: Seed:
+    ...; Dropout: ...; ..." for several."""
+    if len(found) == 1:
+        return next(iter(found.values()))
+    return f"{len(found)} controls to fix: " + "; ".join(found.values())
 
 
 def without_problems(c: Controls, found: dict[str, str]) -> Controls:
