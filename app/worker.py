@@ -255,8 +255,9 @@ def run_worker(
         last_sent = [0.0]
 
         def progress(t: float, res: dict[str, MethodResult]) -> None:
-            # at most one message per PROGRESS_MIN_WALL_S, thinned: a live view needs the shape
-            # of the curves, not every epoch of a long run (the final message has them all)
+            # at most one message per PROGRESS_MIN_WALL_S (the engine gathers the results no
+            # more often: progress_min_wall_s), thinned: a live view needs the shape of the
+            # curves, not every epoch of a long run (the final message has them all)
             now = time.monotonic()
             if now - last_sent[0] >= PROGRESS_MIN_WALL_S:
                 queue.put(("progress", t, thin(res, PROGRESS_MAX_EPOCHS)))
@@ -271,6 +272,7 @@ def run_worker(
                 progress=progress,
                 progress_interval_s=progress_interval_s,
                 should_stop=should_stop,
+                progress_min_wall_s=PROGRESS_MIN_WALL_S,
             )
         else:
             from tauvcore.eval.replay import judged
@@ -284,6 +286,7 @@ def run_worker(
                     progress=progress,
                     progress_interval_s=progress_interval_s,
                     should_stop=should_stop,
+                    progress_min_wall_s=PROGRESS_MIN_WALL_S,
                 ),
             )
         queue.put(("done", results, stop_event.is_set()))

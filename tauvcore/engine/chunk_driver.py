@@ -21,6 +21,7 @@ where the driver asked to be called back). The driver owns everything else, once
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -99,6 +100,7 @@ class ChunkDriver:
         self.started = False
         self.stopped = False
         self.stopped_at_s = np.nan  # the output epoch a stop request ended the results at
+        self.last_progress_wall_s = -np.inf  # time.monotonic() of the last progress call
         self.chunks: list[Store] = []  # each chunk's store, sealed (:meth:`_seal`)
         self.taken = 0  # chunks handed out by take()
         self.prev_raw: tuple[np.ndarray, np.ndarray] | None = (
@@ -144,11 +146,15 @@ class ChunkDriver:
         progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
         progress_interval_s: float = 5.0,
         should_stop: Callable[[], bool] | None = None,
+        progress_min_wall_s: float = 0.0,
     ) -> bool:
         """Run the bank over one chunk (chunks in order, the first at sample 0). Calls
-        ``progress(t_s, results so far)`` every ``progress_interval_s`` of simulated time and polls
+        ``progress(t_s, results so far)`` every ``progress_interval_s`` of simulated time, but
+        not sooner than ``progress_min_wall_s`` of wall time after the last call (gathering the
+        results so far is the cost of a call: a live display needs about one a second, not one
+        per 2 s of a mission that runs 100 times faster than real time), and polls
         ``should_stop()`` at every output epoch; returns False once it said so (the results then
-        end at that epoch)."""
+        end at that epoch). The results do not depend on when progress was called."""
         if self.stopped:
             return False
         if not self.started:
@@ -175,10 +181,16 @@ class ChunkDriver:
                 self._seal(store, k)
                 return False
             done = int(np.searchsorted(self.out_idx, k, side="right"))  # output epochs recorded
-            if progress is not None and done % every == 0 and done < self.out_idx.size:
+            if (
+                progress is not None
+                and done % every == 0
+                and done < self.out_idx.size
+                and time.monotonic() - self.last_progress_wall_s >= progress_min_wall_s
+            ):
                 self._seal(store, k)
                 progress(t, self.results())
                 self.chunks.pop()
+                self.last_progress_wall_s = time.monotonic()
         # the rest of the chunk: the nominal state goes on, the covariance step waits for its epoch
         if k0 + n - 1 > self.k_state:
             self._advance_to(inputs, k0, k0 + n - 1)

@@ -27,6 +27,7 @@ def run(
     progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
     progress_interval_s: float = 5.0,
     should_stop: Callable[[], bool] | None = None,
+    progress_min_wall_s: float = 0.0,
 ) -> dict[str, MethodResult]:
     """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
 
@@ -48,6 +49,9 @@ def run(
         with the simulated time [s] and the results so far (for live displays); None: not called.
     progress_interval_s : float
         Simulated time between two calls of ``progress`` [s].
+    progress_min_wall_s : float
+        Wall time [s] that must pass between two calls of ``progress`` (0: every interval);
+        gathering the results so far is what a call costs. The results do not depend on it.
     should_stop : Callable[[], bool] or None
         ``should_stop()``, polled at every output epoch (``config.filter.output_rate_hz``, 10 Hz
         by default, of simulated time: a few milliseconds of wall time); True ends the run early,
@@ -60,7 +64,7 @@ def run(
         units their field names carry), in ``config.run.methods`` order.
     """
     banks = Banks(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
-    banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop)
+    banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop, progress_min_wall_s)
     return banks.results()
 
 
@@ -117,6 +121,7 @@ class Banks:
         progress: Callable | None = None,
         progress_interval_s: float = 5.0,
         should_stop: Callable[[], bool] | None = None,
+        progress_min_wall_s: float = 0.0,
     ) -> bool:
         """Run both banks over one chunk.
 
@@ -135,6 +140,8 @@ class Banks:
             Simulated time between two calls of ``progress`` [s].
         should_stop : Callable[[], bool] or None
             Polled at every output epoch; True ends the run at that epoch. None: never stops.
+        progress_min_wall_s : float
+            Wall time [s] that must pass between two calls of ``progress`` (0: every interval).
 
         Returns
         -------
@@ -153,14 +160,14 @@ class Banks:
         bank, yoo = self.bank, self.yoo
         if yoo is None:
             assert bank is not None  # __init__ builds the 20-state bank whenever there is no Yoo method
-            going = bank.feed(chunk, progress, progress_interval_s, should_stop)
+            going = bank.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s)
         else:
             if not yoo.started:
                 if bank is not None and not bank.started:
                     bank.start(chunk)  # its draws first (_start_yoo)
                 self._start_yoo(chunk)
             if bank is None:
-                going = yoo.feed(chunk, progress, progress_interval_s, should_stop)
+                going = yoo.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s)
             else:
                 yoo.feed(chunk)
                 both = (
@@ -168,7 +175,7 @@ class Banks:
                     if progress is None
                     else (lambda t, first: progress(t, self._merge(first, yoo.results(until_s=t))))
                 )
-                going = bank.feed(chunk, both, progress_interval_s, should_stop)
+                going = bank.feed(chunk, both, progress_interval_s, should_stop, progress_min_wall_s)
                 if not going:
                     self.until_s = bank.stopped_at_s
         self.stopped = not going
@@ -239,6 +246,7 @@ def run_streaming(
     progress_interval_s: float = 5.0,
     should_stop: Callable[[], bool] | None = None,
     on_sim_chunk: Callable[[SimChunk], None] | None = None,
+    progress_min_wall_s: float = 0.0,
 ) -> dict[str, MethodResult]:
     """Simulate and run chunk by chunk, so that memory does not depend on the mission's length.
 
@@ -280,6 +288,8 @@ def run_streaming(
     on_sim_chunk : Callable[[SimChunk], None] or None
         ``on_sim_chunk(chunk)`` receives each chunk of the simulation itself (truth and sensors)
         before the banks run it (``tauv run --save-log`` writes them as a log: tauvcore.logs).
+    progress_min_wall_s : float
+        Wall time [s] that must pass between two calls of ``progress`` (0: every interval).
 
     Returns
     -------
@@ -320,7 +330,7 @@ def run_streaming(
         chunk = SimChunk(k0, truth, sensors.next_chunk(k0, truth), sources=sources.next_chunk(k0, truth))
         if on_sim_chunk is not None:
             on_sim_chunk(chunk)
-        going = bank.feed(chunk, progress, progress_interval_s, should_stop)
+        going = bank.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s)
         if on_chunk is not None or not keep:
             last = bank.take()
             if on_chunk is not None:

@@ -55,6 +55,30 @@ def test_polling_for_progress_and_stop_changes_no_number() -> None:
     np.testing.assert_allclose(seen, np.arange(1.9, 30.0, 2.0))
 
 
+def test_a_wall_time_floor_calls_progress_less_often_and_changes_no_number(monkeypatch) -> None:
+    """With progress_min_wall_s, progress is called only when that much wall time has passed
+    since the last call (a clock here that advances 1 s per reading: every other interval at
+    a 1.5 s floor), and every result equals the run without it."""
+    import tauvcore.engine.chunk_driver as driver
+
+    config = _config()
+    plain = run_streaming(config, np.random.default_rng(4), num_runs=2, chunk_s=3.7)
+    clock = {"t": 0.0}
+
+    def tick() -> float:
+        clock["t"] += 1.0
+        return clock["t"]
+
+    monkeypatch.setattr(driver.time, "monotonic", tick)
+    seen: list[float] = []
+    floored = run_streaming(config, np.random.default_rng(4), num_runs=2, chunk_s=3.7,
+                            progress=lambda t, r: seen.append(t), progress_interval_s=2.0,
+                            progress_min_wall_s=1.5)
+    _assert_equal(plain, floored)
+    every = np.arange(1.9, 30.0, 2.0)
+    assert 0 < len(seen) < len(every) and set(np.round(seen, 6)) <= set(np.round(every, 6))
+
+
 @pytest.mark.parametrize("keep", [True, False])
 def test_taken_chunks_add_up_to_the_whole_for_both_banks(keep: bool) -> None:
     config = _config()

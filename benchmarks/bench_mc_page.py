@@ -1,0 +1,113 @@
+"""A Monte Carlo in the dashboard against the same study on the command line: 10 runs of five
+methods on the figure eight, Run pressed to "Run complete" in headless Chromium, beside the
+whole ``tauv mc`` process.
+
+    python benchmarks/bench_mc_page.py [--repeats 5] [--runs 10]
+
+The page is opened at an address that sets the mission (app.links: ``traj``, ``m``, ``runs``), so
+every repeat presses Run on the same controls; the time to the first plot update is kept too.
+``tauv mc --trajectory figure8 --runs 10 --method ins,lc,tc,nsv,elc --workers 1 --out DIR`` is
+timed as a whole command (report and files included). Writes docs/results/mc_page.md
+(benchmarks/fragment.py), which docs/dashboard.md includes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+
+from playwright.sync_api import sync_playwright
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
+
+from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, chromium_path, free_port
+
+METHODS = ("ins", "lc", "tc", "nsv", "elc")
+
+
+def page_times(url: str, repeats: int) -> tuple[list[float], list[float]]:
+    """(Run -> first plot update, Run -> "Run complete") per repeat [s], a fresh tab each."""
+    first_plot, complete = [], []
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=chromium_path(), headless=True, args=CHROMIUM_ARGS)
+        try:
+            for _ in range(repeats):
+                context = browser.new_context(viewport={"width": 1600, "height": 1000})
+                context.add_init_script(THROTTLE_FRAMES)
+                page = context.new_page()
+                page.goto(url)
+                run = page.get_by_role("button", name="Run", exact=True)
+                run.wait_for(timeout=60000)
+                page.wait_for_function("location.search.includes('runs=')", timeout=30000)
+                page.wait_for_timeout(1500)                  # the address applied, the tab settled
+                t0 = time.perf_counter()
+                run.click()
+                page.wait_for_function(
+                    "() => Array.from(document.querySelectorAll('.js-plotly-plot'))"
+                    ".some(p => (p._fullData || []).some(t => t.name === 'LC'))",
+                    timeout=120000,
+                )
+                first_plot.append(time.perf_counter() - t0)
+                page.get_by_text("Run complete", exact=True).wait_for(timeout=180000)
+                complete.append(time.perf_counter() - t0)
+                context.close()
+        finally:
+            browser.close()
+    return first_plot, complete
+
+
+def cli_time(runs: int) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "app.cli", "mc", "--trajectory", "figure8", "--runs", str(runs),
+                        "--method", ",".join(METHODS), "--workers", "1", "--out", str(Path(tmp) / "mc")],
+                       check=True, stdout=subprocess.DEVNULL)
+        return time.perf_counter() - t0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--runs", type=int, default=10)
+    args = parser.parse_args()
+    port = free_port()
+    server = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        for _ in range(300):
+            try:
+                urllib.request.urlopen(base, timeout=1).read(100)
+                break
+            except OSError:
+                time.sleep(0.2)
+        url = f"{base}/?traj=figure8&m={','.join(METHODS)}&runs={args.runs}"
+        first_plot, complete = page_times(url, args.repeats)
+    finally:
+        server.terminate()
+        server.wait(10)
+    cli = [cli_time(args.runs) for _ in range(3)]
+    rows = [
+        f"| {args.runs}-run Monte Carlo, five methods, figure eight (median of {args.repeats}) | seconds | min-max |",
+        "|---|---|---|",
+        f"| dashboard: Run -> first plot update | {statistics.median(first_plot):.2f} "
+        f"| {min(first_plot):.2f}-{max(first_plot):.2f} |",
+        f"| dashboard: Run -> \"Run complete\" | {statistics.median(complete):.2f} "
+        f"| {min(complete):.2f}-{max(complete):.2f} |",
+        f"| `tauv mc --workers 1`, the whole command (median of 3) | {statistics.median(cli):.2f} "
+        f"| {min(cli):.2f}-{max(cli):.2f} |",
+    ]
+    table = "\n".join(rows) + "\n\nHeadless Chromium (Debian's package) with software WebGL, frames throttled as in the tests."
+    print(table)
+    print(f"written to {fragment.write('mc_page', table)}")
+
+
+if __name__ == "__main__":
+    main()
