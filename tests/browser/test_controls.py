@@ -134,8 +134,13 @@ def test_bad_seabed_and_rpm_values_are_refused_by_name_then_a_good_run_uses_them
                                                                            (SEABED_DEPTH, "12000"))),
         (f"{SEABED_DEPTH}: '12000' is out of range: trajectory.seabed_depth_m", ((SEABED_DEPTH, "80"),)),
     )
+    refusals = page.get_by_text("Cannot run", exact=True)
     for message, typed in steps:
+        before = refusals.count()
         page.get_by_role("button", name="Run", exact=True).click()
+        page.wait_for_function(                  # this press's own notification (they stay), not an earlier one
+            "n => Array.from(document.querySelectorAll('.mantine-Notification-title'))"
+            ".filter(e => e.textContent === 'Cannot run').length > n", arg=before, timeout=15000)
         note = tab.refusal(message)
         note.wait_for(timeout=15000)
         assert "Error" not in note.inner_text() and "Traceback" not in note.inner_text()
