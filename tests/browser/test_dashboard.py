@@ -78,6 +78,7 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     tab, other = new_tab(), new_tab()
     tab.set_methods({"INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"})
     tab.type_into("Duration [s]", "3000")
+    tab.type_into("Runs", "3")         # long enough to be running still after the round trips below
     other.set_methods({"LC"})
     for k in range(1, 5):
         other.set_checkbox(f"Beam {k}", False)
