@@ -24,7 +24,9 @@ import numpy as np
 import plotly.graph_objects as go
 
 from app.figures import (
+    LEGEND_BELOW,
     METHOD_COLORS,
+    TIME_AXIS,
     TRUTH_COLOR,
     decimate,
     hex_to_rgba,
@@ -45,12 +47,6 @@ QUANTITIES = {
     "heading": ("heading_err_deg", "heading_sigma_deg", "Heading error", "deg"),
     "pos": ("pos_err_m", "pos_sigma_m", "Position error", "m"),
 }
-LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.15}
-"""The legend under the time axis, hanging from its top so that more rows (runs overlaid, eight
-methods) grow downward into the margin plotly makes for it."""
-TIME_AXIS = {"ticksuffix": " s"}
-"""The time axis of a plot with its legend below: the unit on the ticks ("5 s"), no axis title for
-a second row of the legend to land on (a title sits where plotly's first legend row does)."""
 AUTO = "auto"
 LOG_SPAN = 10.0
 """``log_y="auto"`` draws a log axis only when the drawn values span more than this factor: over a

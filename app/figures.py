@@ -94,6 +94,13 @@ def _panels(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
     ]
 
 
+LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.15}
+"""The legend under the time axis, hanging from its top so that more rows (runs overlaid, eight
+methods) grow downward into the margin plotly makes for it."""
+TIME_AXIS = {"ticksuffix": " s"}
+"""The time axis of a plot with its legend below: the unit on the ticks ("5 s"), no axis title for
+a second row of the legend to land on (a title sits where plotly's first legend row does)."""
+
 PLACEHOLDER_TEXT = "No run yet: press Run"
 
 

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
-from app.figures import TRUTH_COLOR, decimate, hex_to_rgba, make_figure, method_color
+from app.figures import LEGEND_BELOW, TIME_AXIS, TRUTH_COLOR, decimate, hex_to_rgba, make_figure, method_color
 
 FIN_NAMES = ("fin 1 lower stbd", "fin 2 lower port", "fin 3 upper port", "fin 4 upper stbd")
 """Fins 1-4 of tauvcore.truth.vehicle (FIN_POSITION_ANGLES_RAD: 45, 135, 225, 315 deg from starboard
@@ -88,11 +88,11 @@ def actuator_figure(
         "title": {"text": "Dynamic truth: fins and propeller", "font": {"size": 13}},
         "height": height_px,
         "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
-        "legend": {"orientation": "h", "y": -0.15},
+        "legend": LEGEND_BELOW,
         "template": "plotly_white",
         "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
         "yaxis": {"domain": [0.4, 1.0], "title": {"text": "fin deflection [deg]", "font": {"size": 11}}},
-        "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
+        "xaxis2": {"anchor": "y2", **TIME_AXIS},
         "yaxis2": {"domain": [0.0, 0.3], "title": {"text": "propeller [rpm]", "font": {"size": 11}}},
     }
     return make_figure(data, layout, validate)
@@ -221,9 +221,9 @@ def altitude_figure(
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
         "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
-        "legend": {"orientation": "h", "y": -0.2},
+        "legend": LEGEND_BELOW,
         "template": "plotly_white",
-        "xaxis": {"title": {"text": "time [s]"}},
+        "xaxis": TIME_AXIS,
         "yaxis": {"range": [bottom, top], "title": {"text": "altitude [m]", "font": {"size": 11}}},
     }
     return make_figure(data, layout, validate)
@@ -370,7 +370,7 @@ def vkf_figure(
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
         "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
-        "legend": {"orientation": "h", "y": -0.2},
+        "legend": LEGEND_BELOW,
         "template": "plotly_white",
         "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
         "yaxis": {
@@ -378,7 +378,7 @@ def vkf_figure(
             "range": ranges[0],
             "title": {"text": "sf [mm/s per rpm]", "font": {"size": 11}},
         },
-        "xaxis2": {"anchor": "y2", "title": {"text": "time [s]"}},
+        "xaxis2": {"anchor": "y2", **TIME_AXIS},
         "yaxis2": {
             "domain": [0.0, 0.45],
             "range": ranges[1],

@@ -738,7 +738,7 @@ def test_actuator_figure_fins_in_degrees_and_propeller_against_time(dynamic_view
     # degrees, not radians: the figure eight's turns need more than a degree of fin
     assert np.max(np.abs(np.asarray(traces[FIN_NAMES[0]].y))) > 1.0
     layout = fig.layout
-    assert layout.xaxis2.title.text == "time [s]" and layout.xaxis.matches == "x2"
+    assert layout.xaxis2.ticksuffix == " s" and layout.xaxis.matches == "x2"   # the unit on the time ticks
     assert "[deg]" in layout.yaxis.title.text and "[rpm]" in layout.yaxis2.title.text
     # the two panels do not overlap
     assert layout.yaxis2.domain[1] < layout.yaxis.domain[0]
