@@ -78,7 +78,7 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     tab, other = new_tab(), new_tab()
     tab.set_methods({"INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"})
     tab.type_into("Duration [s]", "3000")
-    tab.type_into("Runs", "3")         # long enough to be running still after the round trips below
+    tab.type_into("Runs", "3")
     other.set_methods({"LC"})
     for k in range(1, 5):
         other.set_checkbox(f"Beam {k}", False)
@@ -105,7 +105,12 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     # bound: before runs were thinned and niced, every round trip here took 10-27 s. The server's
     # own headroom during a run is measured without a browser in tests/unit/test_worker.py.
     assert sorted(latencies)[2] < 5.0, latencies
-    assert tab.page.get_by_text(RUNNING).is_visible()      # still running
+    if not tab.page.get_by_text(RUNNING).is_visible():
+        # the run ended during the round trips (the engine outpaced the browser): Stop is tried
+        # on a second one, a second after it starts
+        tab.page.get_by_role("button", name="Run", exact=True).click()
+        tab.page.get_by_text(RUNNING).wait_for(timeout=10000)
+        tab.page.wait_for_timeout(1000)
     tab.page.get_by_role("button", name="Stop", exact=True).evaluate("b => b.click()")
     tab.notification("Run stopped").wait_for(timeout=20000)
     # a worker that answers Stop within 2 s reports where it stopped; one that does not (a niced
