@@ -16,7 +16,7 @@ from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.study import final_statistics
+from tauvcore.eval.study import FINAL_STATISTICS, final_statistics
 
 
 class DvlCounts(TypedDict):
@@ -254,7 +254,7 @@ def runs_markdown(results: Mapping[str, MethodResult]) -> str:
         pos = final_statistics(res.pos_err_m[-1], flagged)
 
         def triple(st: dict[str, float | int], decimals: int) -> str:
-            return " / ".join(_fixed(float(st[k]), decimals) for k in ("rms", "median", "p95"))
+            return " / ".join(_fixed(float(st[k]), decimals) for k in FINAL_STATISTICS)
 
         rows.append(
             [

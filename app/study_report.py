@@ -14,6 +14,7 @@ from plotly.subplots import make_subplots
 
 from app.figures import make_figure, method_color
 from tauvcore.eval.consistency import nees_band
+from tauvcore.eval.study import FINAL_STATISTICS
 
 PANELS = (
     ("vel_err_mps", "Velocity error RMS [m/s]", True),
@@ -132,7 +133,7 @@ def summary_table_html(summary: dict[str, Any]) -> str:
     the runs the monitor flagged; a method with flagged runs gets a second row without them."""
 
     def triple(stats: dict[str, Any], suffix: str, fmt: str) -> str:
-        return " / ".join(_cell(stats[f"{k}{suffix}"], fmt) for k in ("rms", "median", "p95"))
+        return " / ".join(_cell(stats[f"{k}{suffix}"], fmt) for k in FINAL_STATISTICS)
 
     rows = []
     for method, m in summary["methods"].items():

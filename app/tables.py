@@ -13,6 +13,7 @@ from tauvcore.engine import yoo_sources
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
+from tauvcore.eval.study import FINAL_STATISTICS
 
 if TYPE_CHECKING:
     from tauvcore.engine.results import MethodResult
@@ -152,7 +153,7 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
     ]
 
     def triple(stats: dict[str, Any], suffix: str) -> str:
-        return " / ".join(_g(stats[f"{k}{suffix}"]) for k in ("rms", "median", "p95"))
+        return " / ".join(_g(stats[f"{k}{suffix}"]) for k in FINAL_STATISTICS)
 
     for method, m in summary["methods"].items():
         f, c, st = m["final_rms"], m["consistency"], m["final_stats"]

@@ -19,7 +19,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 from pathlib import Path
 
 from playwright.sync_api import sync_playwright
@@ -27,7 +26,7 @@ from playwright.sync_api import sync_playwright
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
-from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, chromium_path, free_port
+from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, chromium_path, dashboard_server
 
 METHODS = ("ins", "lc", "tc", "nsv", "elc")
 
@@ -77,22 +76,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--runs", type=int, default=10)
     args = parser.parse_args()
-    port = free_port()
-    server = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        for _ in range(300):
-            try:
-                urllib.request.urlopen(base, timeout=1).read(100)
-                break
-            except OSError:
-                time.sleep(0.2)
+    with dashboard_server(timeout_s=120.0) as base:
         url = f"{base}/?traj=figure8&m={','.join(METHODS)}&runs={args.runs}"
         first_plot, complete = page_times(url, args.repeats)
-    finally:
-        server.terminate()
-        server.wait(10)
     cli = [cli_time(args.runs) for _ in range(3)]
     rows = [
         f"| {args.runs}-run Monte Carlo, five methods, figure eight (median of {args.repeats}) | seconds | min-max |",

@@ -12,17 +12,14 @@ Vehicle and Seabed. Look at them before committing.
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
-import time
-import urllib.request
 from pathlib import Path
 
 from playwright.sync_api import sync_playwright
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
-from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, Tab, chromium_path, free_port  # noqa: E402
+from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, Tab, chromium_path, dashboard_server  # noqa: E402
 
 WORKBENCH_TABS = ("Plots", "Components", "Consistency", "Innovations", "Results", "Runs")
 PANEL_TABS = ("Mission", "Vehicle", "Seabed")
@@ -34,17 +31,7 @@ def main() -> None:
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    port = free_port()
-    server = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        for _ in range(300):
-            try:
-                urllib.request.urlopen(base, timeout=1).read(100)
-                break
-            except OSError:
-                time.sleep(0.2)
+    with dashboard_server(timeout_s=120.0) as base:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=chromium_path(), headless=True, args=CHROMIUM_ARGS)
             context = browser.new_context(viewport={"width": 1600, "height": 1000})
@@ -74,9 +61,6 @@ def main() -> None:
                 page.screenshot(path=str(out / f"panel_{name.lower()}.png"))
                 print(f"wrote {out / ('panel_' + name.lower() + '.png')}")
             browser.close()
-    finally:
-        server.terminate()
-        server.wait(10)
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ networking is off, and every test page records any request that leaves this mach
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import socket
@@ -16,6 +17,7 @@ import time
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -51,27 +53,42 @@ def chromium_path() -> str:
     return path
 
 
-@pytest.fixture(scope="session")
-def server_url() -> Iterator[str]:
+@contextlib.contextmanager
+def dashboard_server(log: Any = subprocess.DEVNULL, timeout_s: float = 60.0) -> Iterator[str]:
+    """``tauv serve`` on a free port, its output to ``log``: yields its address once GET / answers
+    (RuntimeError if it exits or does not answer within ``timeout_s``), stops it afterwards."""
     port = free_port()
-    log = open(ARTIFACTS.mkdir(exist_ok=True) or ARTIFACTS / "server.log", "w")
     proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)],
                             stdout=log, stderr=subprocess.STDOUT, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 60
-    while True:
+    try:
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                urllib.request.urlopen(url, timeout=1).read(100)
+                break
+            except OSError:
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"tauv serve did not start (exit status {proc.poll()})") from None
+                time.sleep(0.2)
+        yield url
+    finally:
+        proc.terminate()
         try:
-            urllib.request.urlopen(url, timeout=1).read(100)
-            break
-        except OSError:
-            if proc.poll() is not None or time.monotonic() > deadline:
-                proc.kill()
-                pytest.fail(f"tauv serve did not start; see {ARTIFACTS / 'server.log'}")
-            time.sleep(0.2)
-    yield url
-    proc.terminate()
-    proc.wait(10)
-    log.close()
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+@pytest.fixture(scope="session")
+def server_url() -> Iterator[str]:
+    ARTIFACTS.mkdir(exist_ok=True)
+    with open(ARTIFACTS / "server.log", "w") as log, contextlib.ExitStack() as stack:
+        try:
+            url = stack.enter_context(dashboard_server(log))
+        except RuntimeError:
+            pytest.fail(f"tauv serve did not start; see {ARTIFACTS / 'server.log'}")
+        yield url
 
 
 @pytest.fixture(scope="session")

@@ -147,10 +147,12 @@ def make_base(engine: Engine, name: str, work_dir: Path) -> float:
     return time.monotonic() - t0
 
 
-def build(engine: Engine, tag: str, context: Path = REPO) -> float:
-    """``docker build -t TAG .`` as podman runs it here; seconds taken."""
+def build(engine: Engine, tag: str, cache: bool = True, context: Path = REPO) -> float:
+    """``docker build -t TAG .`` as podman runs it here (``cache`` False: no layer cache);
+    seconds taken."""
     t0 = time.monotonic()
-    engine.run(["build", "--format", "docker", "--pull=never", "-t", tag, "."], cwd=context, timeout_s=1800)
+    engine.run(["build", "--format", "docker", "--pull=never", *([] if cache else ["--no-cache"]), "-t", tag, "."],
+               cwd=context, timeout_s=1800)
     return time.monotonic() - t0
 
 
@@ -242,10 +244,7 @@ def sequence(engine: Engine, tag: str, container: str, port: int, use_dashboard:
             figures.base_made_s = make_base(engine, figures.base, scratch)
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
-    t0 = time.monotonic()
-    engine.run(["build", "--format", "docker", "--pull=never", *([] if cache else ["--no-cache"]),
-                "-t", tag, "."], cwd=REPO, timeout_s=1800)
-    figures.build_s = time.monotonic() - t0
+    figures.build_s = build(engine, tag, cache)
     engine.run(["rm", "--force", "--ignore", container], timeout_s=120)
     t0 = time.monotonic()
     engine.run(["run", "-d", "-p", f"127.0.0.1:{port}:8080", "--name", container, tag], timeout_s=120)
