@@ -11,7 +11,12 @@ arrays the engine allocates (8-byte floats; "d" is one double):
   measured), and the chunk's IMU record with its coning/sculling compensation and temporaries
   (``COMPENSATION_DOUBLES`` = 37 d per sample and run);
 - the results: per output epoch, method and run the eleven error/sigma/NEES series, the five
-  block NEES and the estimated position (``OUTPUT_DOUBLES`` = 19 d), held four times at the end
+  block NEES and the estimated position (``OUTPUT_DOUBLES`` = 19 d), held four times at the end,
+  and the sensor errors' estimate, sigma and truth (the worker asks for them,
+  tauvcore.engine.results.SENSOR_STATES: ``SENSOR_DOUBLES`` = 3 x 11 d), held three times (the
+  bank's chunks, their concatenation, the pickle: counted four times, the estimate of 12 runs
+  of 250 s was 1.5x the measured peak). A run that fits the budget only without them runs
+  without them (:func:`records_sensor_errors`); the budget refuses a run that does not fit even so.
   (the bank's chunks, their concatenation, the result handed to the queue and its pickle); the
   thinned live copy (at most ``app.worker.PROGRESS_MAX_EPOCHS`` epochs, copy and pickle); per
   update (DVL ping per DVL method, depth and magnetometer sample and a plug-in source's epoch,
@@ -47,6 +52,8 @@ DOUBLE = 8
 TRUTH_BUILD_DOUBLES = 169
 COMPENSATION_DOUBLES = 12 + 6 + 6 + 13
 OUTPUT_DOUBLES = 11 + 5 + 3
+SENSOR_DOUBLES = 3 * 11
+SENSOR_COPIES = 3
 OUTPUT_COPIES = 4
 COVARIANCE_DOUBLES = 8 * 20 * 20
 UPDATE_ROW_BYTES = 3000
@@ -80,8 +87,9 @@ class RunEstimate:
         return self.worker_peak_bytes + 2 * self.results_bytes
 
 
-def estimate_run(config: Config, num_runs: int) -> RunEstimate:
-    """Estimated memory of ``num_runs`` Monte Carlo runs of ``config`` (see the module docstring)."""
+def estimate_run(config: Config, num_runs: int, sensor_errors: bool = True) -> RunEstimate:
+    """Estimated memory of ``num_runs`` Monte Carlo runs of ``config`` (see the module docstring),
+    with the sensor errors recorded (``sensor_errors``) or not."""
     rate_hz = config.imu.rate_hz
     duration_s = config.trajectory.duration_s
     K = round(duration_s * rate_hz) + 1
@@ -103,12 +111,16 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     K_c = min(K, round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz) + 1)
     chunk = TRUTH_BUILD_DOUBLES * DOUBLE * K_c + COMPENSATION_DOUBLES * DOUBLE * K_c * R
     outputs = OUTPUT_DOUBLES * DOUBLE * T * M * R
-    live = 2 * OUTPUT_DOUBLES * DOUBLE * min(T, LIVE_EPOCHS) * M * R
+    sensor_doubles = SENSOR_DOUBLES if sensor_errors else 0
+    sensors = sensor_doubles * DOUBLE * T * M * R
+    live = 2 * (OUTPUT_DOUBLES + sensor_doubles) * DOUBLE * min(T, LIVE_EPOCHS) * M * R
     update_data = UPDATE_DOUBLES * DOUBLE * R * (dvl_rows + M * other_updates)
     chunk_fraction = min(1.0, K_c / K)
     update_objects = int(UPDATE_ROW_BYTES * (dvl_rows + other_rows) * chunk_fraction)
     covariance = COVARIANCE_DOUBLES * DOUBLE * M * R
-    end = OUTPUT_COPIES * (outputs + update_data) + live + update_objects + covariance
+    end = (
+        OUTPUT_COPIES * (outputs + update_data) + SENSOR_COPIES * sensors + live + update_objects + covariance
+    )
     fixed = FIXED_BYTES
     if config.trajectory.truth == "dynamic":
         fixed += DYNAMIC_FIXED_BYTES
@@ -116,9 +128,15 @@ def estimate_run(config: Config, num_runs: int) -> RunEstimate:
     return RunEstimate(
         chunk_bytes=chunk,
         end_bytes=end,
-        results_bytes=outputs + update_data,
+        results_bytes=outputs + sensors + update_data,
         worker_peak_bytes=int(SLACK * (chunk + end)) + fixed,
     )
+
+
+def records_sensor_errors(config: Config, num_runs: int, limit_bytes: int) -> bool:
+    """Whether a dashboard run of ``config`` records the sensor errors (the Sensors tab's lower
+    figure): only when, with them, it fits ``limit_bytes``."""
+    return estimate_run(config, num_runs, sensor_errors=True).total_bytes <= limit_bytes
 
 
 def budget_bytes() -> int:

@@ -202,7 +202,7 @@ class Session:
             source = panel.source.value if panel.source is not None else inputs.SIMULATION
             log_dir = panel.logs.get(source)
             state = self.state
-            state.config, state.results, state.truth_view = config, None, None
+            state.config, state.results, state.truth_view, state.sensor_view = config, None, None, None
             state.replaying = log_dir is not None
             self.run_log = source if log_dir is not None else None
             self.run_source = None  # the worker describes a replayed log with its configuration
@@ -224,6 +224,7 @@ class Session:
         self.playback.new_run(config.trajectory.duration_s)
         self.scene.clear_trajectories()
         self.plot_tabs.draw_vkf_plot(None, config)
+        self.plot_tabs.run_started()
         threading.Thread(target=self._pump, args=(handle, config), daemon=True).start()
 
     def stop_run(self) -> None:
@@ -240,8 +241,13 @@ class Session:
         notification like any failed run. The run's closing notification is sent only after the
         tab is ready for the next run (Run enabled, no run held): a Run pressed as soon as "Run
         complete" shows must start, not meet "Already running".
+
+        Live results are drawn at most every GUI_REFRESH_S, and not when the run's final results
+        are due sooner than that (:func:`seconds_left`): a short Monte Carlo draws its first
+        results and its last, not a third set the page would render while the final one arrives.
         """
-        last_draw = 0.0
+        draw_after = 0.0  # time.monotonic() before which live results are held
+        computing_since: float | None = None  # when the worker began (its truth arrived)
         pending: dict[str, MethodResult] | None = None
         finished = False
         running_status = self.status.content
@@ -274,9 +280,9 @@ class Session:
                             ]  # killed before its first progress
                         note = ("Run stopped", "The run ended before completion.", False)
                         break
-                    if pending is not None and time.monotonic() - last_draw > GUI_REFRESH_S:
-                        self._show_results(pending, config)
-                        pending, last_draw = None, time.monotonic()
+                    if pending is not None and time.monotonic() >= draw_after:
+                        self._show_results(pending, config, live=True)
+                        pending, draw_after = None, time.monotonic() + GUI_REFRESH_S
                     continue
                 kind = msg[0]
                 if kind == "config":  # a replayed log: its own length, rate, origin and start
@@ -286,17 +292,28 @@ class Session:
                     self.playback.time_slider.max = config.trajectory.duration_s
                     self.run_tabs.run_config.content = config_markdown(config, 1, self.run_source)
                 elif kind == "truth":
+                    computing_since = time.monotonic()
                     self.state.truth_view = msg[1]
                     self.scene.draw_truth()
                     self.plot_tabs.draw_vehicle_plot()
                     self.plot_tabs.draw_seabed_plot()
+                elif kind == "sensors":  # drawn with the next results
+                    self.state.sensor_view = msg[1]
                 elif kind == "progress":
                     latest: dict[str, MethodResult] = msg[2]
                     pending = latest
                     self.progress.value = 100.0 * msg[1] / config.trajectory.duration_s
-                    if time.monotonic() - last_draw > GUI_REFRESH_S:
-                        self._show_results(latest, config)
-                        pending, last_draw = None, time.monotonic()
+                    now = time.monotonic()
+                    left_s = seconds_left(
+                        msg[1],
+                        config.trajectory.duration_s,
+                        now - (now if computing_since is None else computing_since),
+                    )
+                    if now >= draw_after and left_s < GUI_REFRESH_S:
+                        draw_after = now + left_s + GUI_REFRESH_S  # the final results should come first
+                    elif now >= draw_after:
+                        self._show_results(latest, config, live=True)
+                        pending, draw_after = None, time.monotonic() + GUI_REFRESH_S
                 elif kind == "done":
                     results, stopped = msg[1], msg[2]
                     self._show_results(results, config)
@@ -325,9 +342,11 @@ class Session:
         if note is not None:
             self.notify(*note)
 
-    def _show_results(self, results: dict[str, MethodResult], config: Config) -> None:
+    def _show_results(self, results: dict[str, MethodResult], config: Config, live: bool = False) -> None:
+        """Draw ``results``: a run's final ones, or (``live``) those so far, whose diagnostics
+        (app.session_plots.PlotTabs.refresh_plots) are drawn less often."""
         self.state.results = results
-        self.plot_tabs.refresh_plots()
+        self.plot_tabs.refresh_plots(live=live)
         self.run_tabs.table.content = summary_markdown(results) + "\n\n" + rms_markdown(results)
         self.scene.draw_estimates(results)
         if "vkf" in results:  # the VKF's learned scale factor and bias, as far as the run got
@@ -348,6 +367,14 @@ class Session:
     def close(self) -> None:
         self.playback.playing = False
         self.stop_run()
+
+
+def seconds_left(t_s: float, duration_s: float, elapsed_s: float) -> float:
+    """Wall time [s] a run needs to finish at the pace it kept: ``elapsed_s`` of wall time for the
+    first ``t_s`` of its ``duration_s`` [s] of mission (inf before any progress)."""
+    if t_s <= 0.0 or elapsed_s <= 0.0:
+        return float("inf")
+    return elapsed_s * max(duration_s - t_s, 0.0) / t_s
 
 
 def summary_line(results: dict[str, MethodResult]) -> str:

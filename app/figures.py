@@ -85,7 +85,7 @@ def make_figure(data: list[dict[str, Any]], layout: dict[str, Any], validate: bo
     return go.Figure(data=data, layout=layout, _validate=False)
 
 
-def _panels(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
+def panel_domains(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
     """y domains of ``n`` stacked panels, the first on top."""
     h = (1.0 - gap * (n - 1)) / n
     return [
@@ -138,7 +138,7 @@ def stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, An
         "template": "plotly_white",
     }
     n = len(names)
-    for k, ((lo, hi), name) in enumerate(zip(_panels(n), names)):
+    for k, ((lo, hi), name) in enumerate(zip(panel_domains(n), names)):
         suffix = "" if k == 0 else str(k + 1)
         layout[f"xaxis{suffix}"] = (
             {"anchor": f"y{suffix}", "title": {"text": "time [s]"}}

@@ -377,7 +377,7 @@ class ControlPanel:
             limit = budget.budget_bytes()
         except ValueError as exc:
             raise InputError(str(exc)) from None
-        too_big = budget.over_budget_message(budget.estimate_run(config, runs), limit)
+        too_big = budget.over_budget_message(budget.estimate_run(config, runs, sensor_errors=False), limit)
         if too_big is not None:
             raise InputError(
                 f"{inputs.DURATION} {config.trajectory.duration_s:g} s, {inputs.RUNS} {runs}: {too_big}"

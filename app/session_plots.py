@@ -1,5 +1,6 @@
 """The plot tabs of a dashboard tab: the workbench's Plots (error norms, the ELC's choice),
-Components, Consistency (NEES) and Innovations, and the Mission tab group's Vehicle (fins and
+Components, Consistency (NEES), Innovations and Sensors (raw measurements, estimated sensor
+errors), and the Mission tab group's Vehicle (fins and
 propeller) and Seabed (altitude, the VKF's propeller model) tabs.
 
 :data:`PLOT_GROUPS` names each group of the workbench's plots, the tab it is in and what draws
@@ -36,6 +37,7 @@ from app.error_figures import (
 from app.figures import placeholder_figure, with_cursor
 from app.innovation_figures import innovation_figure, innovation_sources
 from app.markdown_tables import identical_methods, identical_note
+from app.sensor_figures import PANEL_HEIGHT_PX, raw_sensor_figure, sensor_error_figure, sensor_panels
 from app.session_runs import KeptRun
 from app.session_state import TabState, drawing
 from app.vehicle_figures import actuator_figure, altitude_figure, vkf_figure
@@ -96,6 +98,7 @@ VKF_NOTES = {
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
 QUIET_S = 1.0  # once the tab has had no action for this long
+LIVE_DIAGNOSTICS_S = 5.0  # during a run, the deferred plots are redrawn at most this often (wall time)
 COMPONENTS_NOTE = (
     "Signed errors, estimate minus truth: position north/east/down, body velocity surge/sway/heave, Euler "
     "angles roll/pitch/heading. The truth's velocity is the central difference of its positions at the output "
@@ -107,7 +110,19 @@ INNOVATION_NOTE = (
     "INS (and any method without this source) has none."
 )
 INNOVATION_PANEL_ASPECT = 0.25  # each panel of the innovations plot: a quarter of the panel's width high
+SENSORS_NOTE = (
+    "The run's raw measurements (the IMU at the output epochs, every source at its own epochs; a beam "
+    "that did not return is a gap, and its state is in the DVL beams panel), then what the chosen method "
+    "estimated of the sensors' errors with its 3-sigma against their truth (a simulation's; a log has none)."
+)
+SENSOR_ERRORS_NOT_RECORDED = (
+    "**Sensor errors not recorded**: with them this run would not fit the memory budget "
+    "(`TAUV_RUN_BUDGET_MB`, 1.5 GiB by default). Fewer runs or a shorter mission record them."
+)
+SENSOR_PLOT_WIDTH_PX = 480  # the workbench's plot width the Sensors tab's aspect is reckoned for
 INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
+INITIAL_SENSOR_METHODS: tuple[str, ...] = ("lc",)
+"""The Sensors tab's method choices before a run (a run's own replace them)."""
 """The Innovations tab's choices before a run: any source name (a run's own replace them), so
 ``str``, not the literal "dvl"."""
 
@@ -132,6 +147,7 @@ class PlotTabs:
         self.notify = notify
         self.diagnostics_due = False
         self.diagnostics_thread: threading.Thread | None = None
+        self.last_diagnostics_s = 0.0  # time.monotonic() of the latest diagnostics (or run start)
         gui = state.client.gui
         with workbench.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
@@ -178,6 +194,26 @@ class PlotTabs:
             )
             self.innovation_plot = gui.add_plotly(placeholder_figure("Innovations"), aspect=0.85)
             self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
+        with workbench.add_tab("Sensors"):
+            gui.add_markdown(SENSORS_NOTE)
+            self.raw_plot = gui.add_plotly(placeholder_figure("Raw sensors"), aspect=0.6)
+            self.sensor_method = gui.add_dropdown(
+                "Sensor errors of",
+                INITIAL_SENSOR_METHODS,
+                initial_value=INITIAL_SENSOR_METHODS[0],
+                hint="the method whose estimates are drawn",
+            )
+            self.sensor_run = gui.add_number(
+                "Estimates of run",
+                1,
+                min=1,
+                max=1,
+                step=1,
+                hint="which Monte Carlo run's estimates",
+                visible=False,
+            )
+            self.sensor_note = gui.add_markdown("")
+            self.sensor_plot = gui.add_plotly(placeholder_figure("Sensor errors"), aspect=0.6)
         with tabs.add_tab("Vehicle"):
             self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
             self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
@@ -193,12 +229,18 @@ class PlotTabs:
         self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
         self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
+        self.sensor_method.on_update(lambda _: self.refresh_plots(only="sensors"))
+        self.sensor_run.on_update(lambda _: self.refresh_plots(only="sensors"))
 
     @drawing
-    def refresh_plots(self, only: str | None = None) -> None:
+    def refresh_plots(self, only: str | None = None, live: bool = False) -> None:
         """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
         ticked for overlay), their components, NEES and innovations, each with the time cursor;
-        ``only`` one group of them ("errors", "nees", "innovations": what an option changes)."""
+        ``only`` one group of them ("errors", "nees", "innovations": what an option changes).
+
+        ``live``: a running run's results so far, whose deferred plots (innovations, components,
+        sensors: most of what the page renders) are drawn at most every LIVE_DIAGNOSTICS_S; a run
+        shorter than that draws them once, with its final results."""
         if only is not None:
             self.state.last_action_s = time.monotonic()
         results = self.state.results
@@ -207,8 +249,14 @@ class PlotTabs:
         for group in PLOT_GROUPS:  # a full redraw leaves the deferred ones to the diagnostics' thread
             if only == group.name or (only is None and not group.deferred):
                 group.draw(self, results)
-        if only is None:
+        now = time.monotonic()
+        if only is None and (not live or now - self.last_diagnostics_s >= LIVE_DIAGNOSTICS_S):
             self.schedule_diagnostics()
+            self.last_diagnostics_s = now
+
+    def run_started(self) -> None:
+        """A run starts: its first live diagnostics come LIVE_DIAGNOSTICS_S from now."""
+        self.last_diagnostics_s = time.monotonic()
 
     def _draw_nees(self, results: dict[str, MethodResult]) -> None:
         block, overlay = self.nees_block.value, self.overlay_runs()
@@ -324,6 +372,45 @@ class PlotTabs:
                 f" No {source.upper()} updates: {', '.join(without)}." if without else ""
             )
 
+    def _draw_sensors(self, results: dict[str, MethodResult]) -> None:
+        t = self.state.cursor_t
+        view = self.state.sensor_view
+        if view is not None and len(view["t_s"]):
+            figure = raw_sensor_figure(view)
+            self._fit(self.raw_plot, figure)
+            self.raw_plot.figure = with_cursor(figure, t)
+        methods = tuple(m for m, r in results.items() if r.sensor_est is not None and len(r.t_s))
+        note = "" if methods else SENSOR_ERRORS_NOT_RECORDED
+        if self.sensor_note.content != note:
+            self.sensor_note.content = note
+        if self.sensor_plot.visible != bool(methods):
+            self.sensor_plot.visible = bool(methods)
+        if not methods:
+            return
+        if tuple(self.sensor_method.options) != methods:
+            self.sensor_method.options = methods
+        method = self.sensor_method.value if self.sensor_method.value in methods else methods[0]
+        result = results[method]
+        assert result.sensor_est is not None
+        runs = result.sensor_est.shape[1]
+        if self.sensor_run.max != runs:
+            self.sensor_run.max = runs
+            self.sensor_run.visible = runs > 1
+        run = min(max(int(self.sensor_run.value), 1), runs) - 1
+        figure = sensor_error_figure(
+            result, run=run, height_px=PANEL_HEIGHT_PX * len(sensor_panels(method)) + 70
+        )
+        self._fit(self.sensor_plot, figure)
+        self.sensor_plot.figure = with_cursor(figure, t)
+
+    @staticmethod
+    def _fit(handle: viser.GuiPlotlyHandle, figure: go.Figure) -> None:
+        """Size ``handle`` for ``figure``'s panels: viser sets a plot's height as aspect x width."""
+        height_px: Any = figure.layout["height"]  # plotly's stubs type an item as a figure
+        aspect = round(float(height_px or 400) / SENSOR_PLOT_WIDTH_PX, 2)
+        if handle.aspect != aspect:
+            handle.aspect = aspect
+
     @drawing
     def draw_seabed_plot(self) -> None:
         """The Seabed tab: the altitude above the seabed of a simulated mission, otherwise a note."""
@@ -386,6 +473,7 @@ PLOT_GROUPS = (
     PlotGroup("nees", "Consistency", PlotTabs._draw_nees, deferred=False),
     PlotGroup("innovations", "Innovations", PlotTabs._draw_innovations, deferred=True),
     PlotGroup("components", "Components", PlotTabs._draw_components_and_elc, deferred=True),
+    PlotGroup("sensors", "Sensors", PlotTabs._draw_sensors, deferred=True),
 )
 """The workbench's plot groups, in the order a full redraw draws them (the ELC's choice, in the
 Plots tab, is drawn with the components)."""

@@ -92,6 +92,7 @@ class SceneView:
         scene = self.client.scene
         scene.set_up_direction("+z")
         scene.configure_environment_map(hdri=None)
+        scene.configure_default_lights(enabled=True, cast_shadow=False)
         # without an environment map only viser's default lights shine, from ahead: the chase view
         # from behind showed the hull and its fins as a black silhouette
         scene.add_light_hemisphere(

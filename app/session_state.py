@@ -18,6 +18,7 @@ from typing import Any
 import viser
 
 from app import worker
+from app.sensor_view import SensorView
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 
@@ -34,6 +35,7 @@ class TabState:
     config: Config | None = None  # what the current run runs (a replayed log: its own, once known)
     truth_view: worker.TruthView | None = None  # its truth, as the worker sends it
     results: dict[str, MethodResult] | None = None  # its latest results
+    sensor_view: SensorView | None = None  # one run's raw measurements, as the worker sends them
     replaying: bool = False  # the current run replays a log (tauv serve --logs)
     cursor_t: float | None = None  # the plots' time cursor [s] (None: none drawn)
     last_action_s: float = 0.0  # time.monotonic() of the user's latest action in this tab

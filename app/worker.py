@@ -8,6 +8,8 @@ over a background computation. Messages on a run's queue (:attr:`RunHandle.queue
 
 - ``("truth", dict)``: the truth at the output epochs (with the seabed under it) and the DVL
   pings, for the 3-D view and the Seabed tab;
+- ``("sensors", dict)``: one run's raw measurements so far (app.sensor_view.SensorView), before
+  each progress and the final message (a replayed log's once, whole, after its truth);
 - ``("progress", t_s, results)``: results so far, every ``progress_interval_s`` simulated seconds
   (the first paper's methods only: the engine's live callback does not carry Yoo 2014's);
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results, every method's;
@@ -40,9 +42,12 @@ from typing import Any, TypedDict
 
 import numpy as np
 
+from app import budget
+from app.sensor_view import SensorViewBuilder
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
-from tauvcore.engine.results import MethodResult
+from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
+from tauvcore.engine.simulation import SimChunk
 from tauvcore.sensors.dvl import slant_ranges_m
 from tauvcore.sensors.timing import epoch_indices_between
 from tauvcore.truth import truth_stream
@@ -111,6 +116,7 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
             nees_block=r.nees_block[keep],
             est_vel_n=None if r.est_vel_n is None else r.est_vel_n[keep],
             est_euler_rad=None if r.est_euler_rad is None else r.est_euler_rad[keep],
+            **{name: None if getattr(r, name) is None else getattr(r, name)[keep] for name in SENSOR_FIELDS},
         )
     return out
 
@@ -232,7 +238,9 @@ def run_worker(
     log_dir: str | None = None,
 ) -> None:
     """Simulate (or, with ``log_dir``, replay that log: tauvcore.eval.replay), run all methods,
-    stream results to ``queue`` (anything with ``put``); the run ends early once
+    with their sensor errors recorded where the run fits the memory budget with them
+    (app.budget.records_sensor_errors), and stream results to ``queue`` (anything with ``put``)
+    and one run's raw measurements (app.sensor_view); the run ends early once
     ``stop_event.is_set()`` (anything with ``is_set``). A replay first sends ``("config", dict,
     source)``: the configuration as the log made it (its length, rate, origin and start) and
     :func:`replay_source`'s description of the log."""
@@ -252,6 +260,15 @@ def run_worker(
                 truth_view(config, step) if sim is None else log_truth_view(sim.truth, config, sim.dvl, step),
             )
         )
+        sensors = SensorViewBuilder(step, config.dvl.beam_mask)
+        try:
+            limit_bytes = budget.budget_bytes()
+        except ValueError:  # refused by the server before the run started; not reached
+            limit_bytes = budget.DEFAULT_BUDGET_BYTES
+        sensor_errors = budget.records_sensor_errors(config, num_runs, limit_bytes)
+        if sim is not None:
+            sensors.add(SimChunk.whole(sim))
+            queue.put(("sensors", sensors.view()))
         last_sent = [0.0]
 
         def progress(t: float, res: dict[str, MethodResult]) -> None:
@@ -260,6 +277,8 @@ def run_worker(
             # curves, not every epoch of a long run (the final message has them all)
             now = time.monotonic()
             if now - last_sent[0] >= PROGRESS_MIN_WALL_S:
+                if sim is None:
+                    queue.put(("sensors", sensors.view()))
                 queue.put(("progress", t, thin(res, PROGRESS_MAX_EPOCHS)))
                 last_sent[0] = now
 
@@ -272,8 +291,11 @@ def run_worker(
                 progress=progress,
                 progress_interval_s=progress_interval_s,
                 should_stop=should_stop,
+                on_sim_chunk=sensors.add,
                 progress_min_wall_s=PROGRESS_MIN_WALL_S,
+                sensor_errors=sensor_errors,
             )
+            queue.put(("sensors", sensors.view()))
         else:
             from tauvcore.eval.replay import judged
 
@@ -287,6 +309,7 @@ def run_worker(
                     progress_interval_s=progress_interval_s,
                     should_stop=should_stop,
                     progress_min_wall_s=PROGRESS_MIN_WALL_S,
+                    sensor_errors=sensor_errors,
                 ),
             )
         queue.put(("done", results, stop_event.is_set()))

@@ -7,13 +7,17 @@ whole ``tauv mc`` process.
 The page is opened at an address that sets the mission (app.links: ``traj``, ``m``, ``runs``), so
 every repeat presses Run on the same controls; the time to the first plot update is kept too.
 ``tauv mc --trajectory figure8 --runs 10 --method ins,lc,tc,nsv,elc --workers 1 --out DIR`` is
-timed as a whole command (report and files included). Writes docs/results/mc_page.md
+timed as a whole command (report and files included), and the worker's own computation alone
+(app.worker.run_worker in this process, after a warm-up). The last repeat records a Chrome
+trace: the 3-D view's frames (WebGL in software, SwiftShader, on a machine without a GPU) and
+the time the page's main thread waited for them. Writes docs/results/mc_page.md
 (benchmarks/fragment.py), which docs/dashboard.md includes.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import subprocess
 import sys
@@ -31,8 +35,20 @@ from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, chromium_path
 METHODS = ("ins", "lc", "tc", "nsv", "elc")
 
 
-def page_times(url: str, repeats: int) -> tuple[list[float], list[float]]:
-    """(Run -> first plot update, Run -> "Run complete") per repeat [s], a fresh tab each."""
+def frames(trace_path: Path) -> tuple[list[float], float]:
+    """The WebGL frames of a Chrome trace (their durations in the GPU process [s], each over
+    20 ms) and the time the page's main thread waited to read them back [s]."""
+    events = json.loads(trace_path.read_text())
+    events = events["traceEvents"] if isinstance(events, dict) else events
+    done = [e for e in events if e.get("ph") == "X" and "dur" in e]
+    webgl = [e["dur"] / 1e6 for e in done if e["name"] == "WebGL" and e["dur"] > 20000]
+    waited = sum(e["dur"] for e in done if e["name"] == "GLES2::ReadPixels") / 1e6
+    return webgl, waited
+
+
+def page_times(url: str, repeats: int, trace_path: Path) -> tuple[list[float], list[float]]:
+    """(Run -> first plot update, Run -> "Run complete") per repeat [s], a fresh tab each; the
+    last repeat traced into ``trace_path``."""
     first_plot, complete = [], []
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=chromium_path(), headless=True, args=CHROMIUM_ARGS)
@@ -46,6 +62,9 @@ def page_times(url: str, repeats: int) -> tuple[list[float], list[float]]:
                 run.wait_for(timeout=60000)
                 page.wait_for_function("location.search.includes('runs=')", timeout=30000)
                 page.wait_for_timeout(1500)                  # the address applied, the tab settled
+                last = len(complete) == repeats - 1
+                if last:
+                    browser.start_tracing(page=page, path=str(trace_path), categories=["devtools.timeline", "gpu"])
                 t0 = time.perf_counter()
                 run.click()
                 page.wait_for_function(
@@ -56,6 +75,8 @@ def page_times(url: str, repeats: int) -> tuple[list[float], list[float]]:
                 first_plot.append(time.perf_counter() - t0)
                 page.get_by_text("Run complete", exact=True).wait_for(timeout=180000)
                 complete.append(time.perf_counter() - t0)
+                if last:
+                    browser.stop_tracing()
                 context.close()
         finally:
             browser.close()
@@ -71,15 +92,38 @@ def cli_time(runs: int) -> float:
         return time.perf_counter() - t0
 
 
+def worker_time(runs: int) -> float:
+    """The worker's own computation of the Monte Carlo, in this process [s]."""
+    from app.worker import run_worker
+    from tauvcore.config import Config, to_dict
+
+    config = to_dict(Config().replace("trajectory", name="figure8").replace("run", methods=METHODS))
+
+    class Sink:
+        def put(self, message: tuple) -> None:
+            pass
+
+    class Never:
+        def is_set(self) -> bool:
+            return False
+
+    t0 = time.perf_counter()
+    run_worker(config, runs, Sink(), Never())
+    return time.perf_counter() - t0
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--runs", type=int, default=10)
     args = parser.parse_args()
-    with dashboard_server(timeout_s=120.0) as base:
+    with dashboard_server(timeout_s=120.0) as base, tempfile.TemporaryDirectory() as tmp:
         url = f"{base}/?traj=figure8&m={','.join(METHODS)}&runs={args.runs}"
-        first_plot, complete = page_times(url, args.repeats)
+        first_plot, complete = page_times(url, args.repeats, Path(tmp) / "trace.json")
+        webgl, waited = frames(Path(tmp) / "trace.json")
     cli = [cli_time(args.runs) for _ in range(3)]
+    worker_time(args.runs)  # warm-up: imports, compiled kernels loaded
+    alone = [worker_time(args.runs) for _ in range(3)]
     rows = [
         f"| {args.runs}-run Monte Carlo, five methods, figure eight (median of {args.repeats}) | seconds | min-max |",
         "|---|---|---|",
@@ -89,6 +133,11 @@ def main() -> None:
         f"| {min(complete):.2f}-{max(complete):.2f} |",
         f"| `tauv mc --workers 1`, the whole command (median of 3) | {statistics.median(cli):.2f} "
         f"| {min(cli):.2f}-{max(cli):.2f} |",
+        f"| the worker's computation alone, in one process (median of 3) | {statistics.median(alone):.2f} "
+        f"| {min(alone):.2f}-{max(alone):.2f} |",
+        f"| last repeat: the page's main thread waiting for the 3-D view's {len(webgl)} frames "
+        f"(software WebGL; median {1e3 * statistics.median(webgl or [0.0]):.0f} ms, longest "
+        f"{1e3 * max(webgl or [0.0]):.0f} ms) | {waited:.2f} | |",
     ]
     table = "\n".join(rows) + "\n\nHeadless Chromium (Debian's package) with software WebGL, frames throttled as in the tests."
     print(table)

@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, Tab, chromium_path, dashboard_server  # noqa: E402
 
-WORKBENCH_TABS = ("Plots", "Components", "Consistency", "Innovations", "Results", "Runs")
+WORKBENCH_TABS = ("Plots", "Components", "Consistency", "Innovations", "Sensors", "Results", "Runs")
 PANEL_TABS = ("Mission", "Vehicle", "Seabed")
 
 
@@ -45,9 +45,9 @@ def main() -> None:
             tab.set_checkbox("Beam 4", False)
             tab.type_into("Runs", "3")
             page.get_by_role("button", name="Run", exact=True).click()        # run 2: two beams, 3 runs
-            page.wait_for_function(
-                "Array.from(document.querySelectorAll('.mantine-Notification-title'))"
-                ".filter(e => e.textContent === 'Run complete').length >= 2", timeout=180000)
+            # the first run's notification may have closed by now: the status line says when it ends
+            page.wait_for_function("document.body.innerText.includes('3 run(s)')", timeout=60000)
+            page.wait_for_function("document.body.innerText.includes('Run complete: figure8')", timeout=180000)
             page.wait_for_timeout(2000)
             for name in WORKBENCH_TABS:
                 page.get_by_role("tab", name=name, exact=True).first.click()

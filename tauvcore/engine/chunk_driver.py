@@ -16,7 +16,8 @@ where the driver asked to be called back). The driver owns everything else, once
   result so far;
 - the rest of a chunk after its last stop (the nominal state goes on, the covariance waits);
 - the store: each chunk's output epochs (and the bank's own per-update arrays) as one dict of
-  arrays, sealed when the chunk ends, and handed out by :meth:`take` and :meth:`results`.
+  arrays, sealed when the chunk ends, and handed out by :meth:`take` and :meth:`results`; the
+  sensor errors' arrays (``sensor_errors``) have a row per output epoch only when asked for.
 """
 
 from __future__ import annotations
@@ -28,14 +29,17 @@ from typing import Any
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.engine.results import MethodResult
+from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
-EPOCH_FIELDS = frozenset(("t_s", "out_k", "series", "nees_block", "est_pos_n", "est_vel_n", "est_euler"))
+EPOCH_FIELDS = frozenset(
+    ("t_s", "out_k", "series", "nees_block", "est_pos_n", "est_vel_n", "est_euler", *SENSOR_FIELDS)
+)
 """The store's fields with one row per output epoch (``series`` along its second axis, the others
-along their first); every other field has one row per update (``up_k``, ``up_t``)."""
+along their first; the sensor errors' rows only when the bank records them, none otherwise);
+every other field has one row per update (``up_k``, ``up_t``)."""
 
 Store = dict[str, np.ndarray]
 
@@ -75,8 +79,10 @@ class ChunkDriver:
         num_samples: int,
         dt_s: float,
         keep: bool,
+        sensor_errors: bool = False,
     ) -> None:
         self.config, self.methods, self.keep = config, methods, keep
+        self.sensor_errors = sensor_errors  # record the estimated sensor errors, their sigma and truth
         self.batch = (len(methods), num_runs)
         self.num_samples, self.dt = num_samples, dt_s
         earth = config.earth
@@ -132,6 +138,13 @@ class ChunkDriver:
         :meth:`take` (the bank hands out what it kept elsewhere since the last take, and lets go of
         it unless ``keep``)."""
         raise NotImplementedError
+
+    def _sensor_store(self, T: int, S: int, fill: float) -> Store:
+        """The sensor errors' arrays of a store of ``T`` output epochs: (T, M, R, S) filled with
+        ``fill`` when the bank records them (``sensor_errors``), else (0, M, R, S), which the
+        kernels leave alone."""
+        shape = (T if self.sensor_errors else 0,) + self.batch + (S,)
+        return {name: np.full(shape, fill) for name in SENSOR_FIELDS}
 
     def _sealed(self) -> None:
         """Called after each seal (a bank with its own per-chunk records closes them here)."""

@@ -55,7 +55,7 @@ from tauvcore.engine.dvl_fusion import (
 )
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
-from tauvcore.engine.results import MethodResult, method_result
+from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.sources import active
@@ -87,6 +87,11 @@ updates can lose definiteness to round-off, and at least this often in between (
 alone, e.g. the standalone INS or a DVL outage, only carries a positive definite P forward)."""
 
 
+SENSOR_INDEX = np.array([getattr(STATE, c.block).start + c.component for c in SENSOR_STATES], dtype=np.int64)
+"""The error state of each column of the sensor-error records (tauvcore.engine.results.SENSOR_STATES)."""
+_DVL_COLUMNS = np.array([c.block in ("b_dvl", "sf_dvl") for c in SENSOR_STATES])
+
+
 def _epoch_map(indices: np.ndarray) -> dict[int, int]:
     return {int(k): i for i, k in enumerate(indices)}
 
@@ -101,7 +106,9 @@ class FilterBank(ChunkDriver):
     next: the last raw IMU increments (coning/sculling and the ping's rate need their
     predecessor), the gyro increments since the last covariance step, and the true DVL errors of
     the latest ping (for the records). Results are kept (``keep``), or handed out chunk by chunk
-    (:meth:`take`) and dropped, so that memory does not grow with the mission.
+    (:meth:`take`) and dropped, so that memory does not grow with the mission. With
+    ``sensor_errors`` every output epoch also records the estimated sensor errors, their 1-sigma
+    and their truth (tauvcore.engine.results.SENSOR_STATES).
     """
 
     def __init__(
@@ -112,9 +119,10 @@ class FilterBank(ChunkDriver):
         dt_s: float,
         rng: np.random.Generator | Sequence[np.random.Generator],
         keep: bool = True,
+        sensor_errors: bool = False,
     ) -> None:
         methods = tuple(config.run.methods)
-        super().__init__(config, methods, num_runs, num_samples, dt_s, keep)
+        super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         self.rng = rng
         M, R = self.batch
         self.q_psd = noise_psd(config.imu, config.dvl)
@@ -177,6 +185,7 @@ class FilterBank(ChunkDriver):
             self.batch, np.nan
         )  # first aiding epoch with a sensor error outside its prior
         self.slot = 0  # output epochs recorded so far
+        self.dvl_truth_known = True  # the mission has DVL pings (set at start)
 
     # ------------------------------------------------------------------ set-up at the first chunk
     def start(self, chunk: SimChunk) -> None:
@@ -224,6 +233,7 @@ class FilterBank(ChunkDriver):
         dvl = chunk.dvl
         self.ping_bias = np.array(dvl.bias_mps[0] if len(dvl.index) else np.zeros((R, 4)), dtype=float)
         self.ping_sf = np.array(dvl.scale_factor[0] if len(dvl.index) else np.zeros(R), dtype=float)
+        self.dvl_truth_known = bool(len(dvl.index))  # without pings the records' zero stands for no truth
         self.k_checked = 0  # sample P was last checked (positive definite) at
         self.dtheta_sum = np.zeros((R, 3))  # gyro increments since k_cov
         self.started = True
@@ -423,16 +433,39 @@ class FilterBank(ChunkDriver):
         )
         return plain(state)
 
+    def _model(self) -> loop.Model:
+        """The constants of the compiled covariance step and records, in a plain tuple."""
+        constants = loop.Model(
+            self.origin,
+            self.w_ie,
+            self.q_psd,
+            self.block_of_state,
+            len(NEES_BLOCKS),
+            units.DEG,
+            SENSOR_INDEX,
+        )
+        return plain(constants)
+
+    @staticmethod
+    def _outputs(store: Store) -> loop.Outputs:
+        """The store's arrays the compiled records write, in a plain tuple."""
+        outputs = loop.Outputs(
+            store["series"],
+            store["nees_block"],
+            store["est_pos_n"],
+            store["t_s"],
+            store["est_vel_n"],
+            store["est_euler"],
+            store["sensor_est"],
+            store["sensor_sigma"],
+            store["sensor_true"],
+        )
+        return plain(outputs)
+
     def _record(self, out: Store, row: int, i: int) -> None:
         """Output epoch ``row`` of the store ``out``, at sample ``i`` of the current chunk."""
-        constants = loop.Model(
-            self.origin, self.w_ie, self.q_psd, self.block_of_state, len(NEES_BLOCKS), units.DEG
-        )
-        outputs = loop.Outputs(
-            out["series"], out["nees_block"], out["est_pos_n"], out["t_s"], out["est_vel_n"], out["est_euler"]
-        )
         loop.record_bank(
-            row, i, self._chunk_in, self._bank_state(), plain(constants), self.geodetic, plain(outputs)
+            row, i, self._chunk_in, self._bank_state(), self._model(), self.geodetic, self._outputs(out)
         )
         self.slot += 1
 
@@ -450,6 +483,7 @@ class FilterBank(ChunkDriver):
             "est_pos_n": np.zeros((T,) + self.batch + (3,)),
             "est_vel_n": np.zeros((T,) + self.batch + (3,)),
             "est_euler": np.zeros((T,) + self.batch + (3,)),
+            **self._sensor_store(T, SENSOR_INDEX.size, 0.0),
         }
 
     def _sealed(self) -> None:
@@ -513,19 +547,8 @@ class FilterBank(ChunkDriver):
         )
         is_event = events[stops - k0]
         stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
-        schedule = loop.Schedule(stops, is_event, stop_row, k0, self.check_step, poll_every)
-        constants = loop.Model(
-            self.origin, self.w_ie, self.q_psd, self.block_of_state, len(NEES_BLOCKS), units.DEG
-        )
-        outputs = loop.Outputs(
-            store["series"],
-            store["nees_block"],
-            store["est_pos_n"],
-            store["t_s"],
-            store["est_vel_n"],
-            store["est_euler"],
-        )
-        schedule, constants, outputs = plain(schedule), plain(constants), plain(outputs)
+        schedule = plain(loop.Schedule(stops, is_event, stop_row, k0, self.check_step, poll_every))
+        constants, outputs = self._model(), self._outputs(store)
         bank, sd = self._bank_state(), plain(self.sd_consts)  # the same arrays for the whole chunk
         counters = np.zeros(4, dtype=np.int64)
         s = 0
@@ -585,6 +608,8 @@ class FilterBank(ChunkDriver):
     # ------------------------------------------------------------------ results
     def _results(self, cat: Store, taking: bool) -> dict[str, MethodResult]:
         first_update = {key: rec.taken for key, rec in self.recorders.items()} if taking and self.keep else {}
+        if self.sensor_errors and not self.dvl_truth_known:  # no pings: the DVL's truth is unknown
+            cat = {**cat, "sensor_true": np.where(_DVL_COLUMNS, np.nan, cat["sensor_true"])}
         out = {}
         for m, method in enumerate(self.methods):
             recs = {src: rec for src, rec in self.recorders.items() if rec.members[m] and rec.count}
@@ -599,6 +624,7 @@ class FilterBank(ChunkDriver):
                 cat["series"],
                 cat,
                 np.fmin.reduce(np.stack(flagged), axis=0),
+                self.sensor_errors,
                 p_floor_count=self.p_floor_count[m].copy(),
                 updates={src: record for src, record in built.items() if record is not None},
             )

@@ -77,6 +77,8 @@ class Model(NamedTuple):
     block_of_state: np.ndarray  # (N,) each state's NEES block, -1 for none
     num_blocks: int
     deg: float  # degrees per radian of the attitude series
+    sensor_index: np.ndarray  # (S,) int64: the state of each sensor-error column
+    # (tauvcore.engine.results.SENSOR_STATES, by tauvcore.engine.filter_bank.SENSOR_INDEX)
 
 
 class Outputs(NamedTuple):
@@ -88,6 +90,9 @@ class Outputs(NamedTuple):
     out_t: np.ndarray
     est_vel: np.ndarray
     est_euler: np.ndarray
+    sensor_est: np.ndarray  # (T, M, R, S) the estimated sensor errors; no rows: not recorded
+    sensor_sigma: np.ndarray  # (T, M, R, S) their 1-sigma (sqrt of P's diagonal)
+    sensor_true: np.ndarray  # (T, M, R, S) their true values
 
 
 @jit
@@ -111,14 +116,21 @@ def record_bank(
     (ping_bias (R, 4), ping_sf (R,)). series (11, T, M, R) in :data:`SERIES_NAMES` order. On
     WGS-84 (``geodetic``) the estimated position is recorded in NED metres from ``origin``
     (latitude, longitude [rad] of the sea-surface point; tauvcore.geo.earth.ned_offset_components).
-    The estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3)."""
+    The estimated NED velocity and roll, pitch, yaw [rad] go to est_vel, est_euler (T, M, R, 3).
+
+    When the store has rows for them, the sensor errors too (sensor_est, sensor_sigma, sensor_true
+    (T, M, R, S), column j the state ``sensor_index[j]``): the estimate, ``sqrt(P_ii)`` and the
+    truth dx is formed of, so that ``sensor_true - sensor_est`` is dx's sensor part."""
     _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _ = chunk
     t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
     ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
     pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at = bank
-    origin, _, _, block_of_state, num_blocks, deg = constants
-    series, nees_block, est_pos, out_t, est_vel, est_euler = outputs
+    origin, _, _, block_of_state, num_blocks, deg, sensor_index = constants
+    series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs
     M, R = pos.shape[0], pos.shape[1]
+    with_sensors = sensor_est.shape[0] > 0
+    x_est = np.zeros(N)  # the sensor states' estimate and truth, by state
+    x_true = np.zeros(N)
     dx = np.empty(N)
     Ce = np.empty((3, 3))
     rho = np.empty(3)
@@ -171,6 +183,18 @@ def record_bank(
             est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
             est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
             est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
+            if with_sensors:
+                for i in range(3):
+                    x_est[BA + i], x_true[BA + i] = ba[m, r, i], ba_t[r, i]
+                    x_est[BG + i], x_true[BG + i] = bg[m, r, i], bg_t[r, i]
+                for i in range(4):
+                    x_est[BDVL + i], x_true[BDVL + i] = bdvl[m, r, i], bdvl_t[r, i]
+                x_est[SF], x_true[SF] = sf[m, r], sf_t[r]
+                for j in range(sensor_index.size):
+                    k = sensor_index[j]
+                    sensor_est[slot, m, r, j] = x_est[k]
+                    sensor_sigma[slot, m, r, j] = math.sqrt(Pm[k, k])
+                    sensor_true[slot, m, r, j] = x_true[k]
             if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
                 nonfinite_at[m, r] = t_s
     out_t[slot] = t_s
@@ -233,7 +257,7 @@ def run_stops(
     pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _ = bank
     phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all = chunk
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    _, w_ie, q, _, _, _ = constants
+    _, w_ie, q, _, _, _, _ = constants
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
     why = STOPS_DONE

@@ -28,6 +28,7 @@ def run(
     progress_interval_s: float = 5.0,
     should_stop: Callable[[], bool] | None = None,
     progress_min_wall_s: float = 0.0,
+    sensor_errors: bool = False,
 ) -> dict[str, MethodResult]:
     """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
 
@@ -56,6 +57,11 @@ def run(
         ``should_stop()``, polled at every output epoch (``config.filter.output_rate_hz``, 10 Hz
         by default, of simulated time: a few milliseconds of wall time); True ends the run early,
         returning the results up to that epoch. None: the run goes to the end.
+    sensor_errors : bool
+        Whether every output epoch also records each method's estimated sensor errors, their
+        1-sigma and their truth (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``,
+        (T, R, S) in the SI units of :func:`tauvcore.engine.results.sensor_states`); False: those
+        are None and cost nothing. Every other number is the same either way.
 
     Returns
     -------
@@ -63,7 +69,9 @@ def run(
         Method name -> its results over the T output epochs and R runs (series (T, R), in the
         units their field names carry), in ``config.run.methods`` order.
     """
-    banks = Banks(config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng)
+    banks = Banks(
+        config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng, sensor_errors=sensor_errors
+    )
     banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop, progress_min_wall_s)
     return banks.results()
 
@@ -90,6 +98,9 @@ class Banks:
     keep : bool
         Whether the banks keep every chunk's results (:meth:`results`); False: only what
         :meth:`take` has not handed out yet, so that memory does not grow with the mission.
+    sensor_errors : bool
+        Whether both banks record the estimated sensor errors, their 1-sigma and their truth at
+        every output epoch (:func:`run`).
     """
 
     def __init__(
@@ -100,6 +111,7 @@ class Banks:
         dt_s: float,
         rng: np.random.Generator | Sequence[np.random.Generator],
         keep: bool = True,
+        sensor_errors: bool = False,
     ) -> None:
 
         self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
@@ -107,11 +119,23 @@ class Banks:
         first = tuple(m for m in self.order if m not in YOO_METHODS)
         second = tuple(m for m in self.order if m in YOO_METHODS)
         self.bank = (
-            FilterBank(config.replace("run", methods=first), num_runs, num_samples, dt_s, rng, keep=keep)
+            FilterBank(
+                config.replace("run", methods=first),
+                num_runs,
+                num_samples,
+                dt_s,
+                rng,
+                keep=keep,
+                sensor_errors=sensor_errors,
+            )
             if first or not second
             else None
         )
-        self.yoo = YooBank(config, second, num_runs, num_samples, dt_s, keep=keep) if second else None
+        self.yoo = (
+            YooBank(config, second, num_runs, num_samples, dt_s, keep=keep, sensor_errors=sensor_errors)
+            if second
+            else None
+        )
         self.stopped = False
         self.until_s: float | None = None  # where the 20-state bank stopped the run (the Yoo bank goes on)
 
@@ -247,6 +271,7 @@ def run_streaming(
     should_stop: Callable[[], bool] | None = None,
     on_sim_chunk: Callable[[SimChunk], None] | None = None,
     progress_min_wall_s: float = 0.0,
+    sensor_errors: bool = False,
 ) -> dict[str, MethodResult]:
     """Simulate and run chunk by chunk, so that memory does not depend on the mission's length.
 
@@ -290,6 +315,9 @@ def run_streaming(
         before the banks run it (``tauv run --save-log`` writes them as a log: tauvcore.logs).
     progress_min_wall_s : float
         Wall time [s] that must pass between two calls of ``progress`` (0: every interval).
+    sensor_errors : bool
+        As in :func:`run`: record the estimated sensor errors, their 1-sigma and their truth
+        (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``, (T, R, S)); False: None.
 
     Returns
     -------
@@ -324,7 +352,9 @@ def run_streaming(
         config.imu.ideal() if ideal else config.imu, streams, num_runs, truths.num_samples, truths.dt_s
     )
     sources = SourceStream(config, plugin_rng, num_runs, truths.num_samples, truths.dt_s, streams)
-    bank = Banks(config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep)
+    bank = Banks(
+        config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep, sensor_errors=sensor_errors
+    )
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
         chunk = SimChunk(k0, truth, sensors.next_chunk(k0, truth), sources=sources.next_chunk(k0, truth))

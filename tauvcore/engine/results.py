@@ -1,5 +1,6 @@
 """What the engine hands out: each method's results over R runs, with a record of every update of
-every aiding source, and the degrees of freedom of the NEES they carry.
+every aiding source, the degrees of freedom of the NEES they carry and, on request, the columns of
+the estimated sensor errors (:data:`SENSOR_STATES`).
 
 Plain arrays and dataclasses (numpy only): judging results (tauvcore.eval) and drawing them (app)
 does not load the compiled engine."""
@@ -7,6 +8,7 @@ does not load the compiled engine."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,6 +41,72 @@ def block_dims(method: str) -> dict[str, int]:
     from tauvcore.config import YOO_METHODS
 
     return YOO_BLOCK_DIMS if method in YOO_METHODS else BLOCK_DIMS
+
+
+class SensorState(NamedTuple):
+    """One column of the sensor-error records (``MethodResult.sensor_est``, ``sensor_sigma``,
+    ``sensor_true``): a component of a sensor-error block of the error state."""
+
+    name: str  # the column's name, e.g. "ba_x", "bg_z", "b_dvl_1", "sf_dvl"
+    block: str  # its block of tauvcore.filter.layout.STATE: "ba", "bg", "b_dvl" or "sf_dvl"
+    component: int  # its place within the block (0 for the first)
+    unit: str  # its SI unit: "m/s^2", "rad/s", "m/s"; "-" for the dimensionless scale factor
+    label: str  # how a person reads it, e.g. "accelerometer bias x (body)"
+
+
+_SENSOR_BLOCKS: dict[str, tuple[str, str, tuple[str, ...]]] = {
+    "ba": ("m/s^2", "accelerometer bias {} (body)", ("x", "y", "z")),
+    "bg": ("rad/s", "gyro bias {} (body)", ("x", "y", "z")),
+    "b_dvl": ("m/s", "DVL beam {} bias", ("1", "2", "3", "4")),
+    "sf_dvl": ("-", "DVL scale factor error", ("",)),
+}
+"""Each sensor-error block of the 20-state filter, in state order: its unit, its label and the
+names of its components (as many as the block's slice in tauvcore.filter.layout.STATE has)."""
+
+
+def _sensor_columns(blocks: tuple[str, ...]) -> tuple[SensorState, ...]:
+    columns = []
+    for block in blocks:
+        unit, label, components = _SENSOR_BLOCKS[block]
+        size = len(range(*getattr(STATE, block).indices(STATE.dim)))
+        if size != len(components):
+            raise ValueError(f"STATE.{block} has {size} states, the sensor columns name {len(components)}")
+        for j, c in enumerate(components):
+            columns.append(SensorState(f"{block}_{c}" if c else block, block, j, unit, label.format(c)))
+    return tuple(columns)
+
+
+SENSOR_STATES: tuple[SensorState, ...] = _sensor_columns(("ba", "bg", "b_dvl", "sf_dvl"))
+"""The columns S = 11 of the 20-state filter's sensor-error records, in the order of the state
+(and of the NEES block "sensor", tauvcore.filter.layout.NEES_BLOCKS): accelerometer bias x, y, z
+[m/s^2] and gyro bias x, y, z [rad/s] in the body frame b, the four DVL beam biases [m/s] along
+their beams, the DVL scale factor error [-]."""
+YOO_SENSOR_STATES: tuple[SensorState, ...] = _sensor_columns(("ba", "bg"))
+"""The columns S = 6 of Yoo 2014's 12-state filter's sensor-error records: its accelerometer and
+gyro biases (tauvcore.filter.yoo.BA, BG), as :data:`SENSOR_STATES`' first six. The filter has no
+DVL error states (it carries the DVL's scale factor and beam biases as consider states, never
+estimated: tauvcore.engine.yoo_bank)."""
+
+
+def sensor_states(method: str) -> tuple[SensorState, ...]:
+    """The columns of a method's sensor-error records, by the method's name.
+
+    Parameters
+    ----------
+    method : str
+        The method's name (a key of ``config.run.methods``; Yoo 2014's are those of
+        ``tauvcore.config.YOO_METHODS``).
+
+    Returns
+    -------
+    tuple[SensorState, ...]
+        One entry per column S of ``MethodResult.sensor_est``, ``sensor_sigma`` and
+        ``sensor_true``: :data:`YOO_SENSOR_STATES` (S = 6) for a Yoo 2014 method,
+        :data:`SENSOR_STATES` (S = 11) for the others.
+    """
+    from tauvcore.config import YOO_METHODS
+
+    return YOO_SENSOR_STATES if method in YOO_METHODS else SENSOR_STATES
 
 
 @dataclass(frozen=True)
@@ -94,6 +162,13 @@ class MethodResult:
     # 12: tauvcore.engine.yoo_bank.BLOCK_DIMS); None: BLOCK_DIMS (the 20-state filter's)
     vkf_trace: dict[str, np.ndarray] | None = None  # the velocity Kalman filter at every ping (method vkf:
     # tauvcore.engine.yoo_bank.YooBank._vkf_series)
+    sensor_est: np.ndarray | None = None  # (T, R, S) the filter's estimate of each sensor error, column j
+    # in sensor_states(method)[j].unit (SI; biases in the body frame b, DVL beam biases along their beams);
+    # None unless the run asked for them (mission.run(..., sensor_errors=True))
+    sensor_sigma: np.ndarray | None = None  # (T, R, S) its 1-sigma, sqrt of P's diagonal, same units
+    sensor_true: np.ndarray | None = None  # (T, R, S) the simulation's true value, same units: the IMU's
+    # biases at the epoch's sample, the DVL's beam biases and scale factor of the latest ping (the first
+    # ping's before it); NaN where the truth is unknown (a log's IMU; the DVL's of a mission without pings)
 
 
 SERIES_FIELDS = {
@@ -111,6 +186,9 @@ SERIES_FIELDS = {
 }
 """The per-epoch series both banks record, in the order of their rows (tauvcore.engine.loop.
 SERIES_NAMES, tauvcore.engine.yoo_loop), and the MethodResult field each becomes."""
+SENSOR_FIELDS = ("sensor_est", "sensor_sigma", "sensor_true")
+"""The sensor-error records: the names of the banks' stores (T, M, R, S; no rows when not asked
+for) and of the MethodResult fields (T, R, S) they become."""
 
 
 def method_result(
@@ -120,6 +198,7 @@ def method_result(
     series: np.ndarray,
     epochs: dict[str, np.ndarray],
     diverged_at_s: np.ndarray,
+    sensor_errors: bool = False,
     **fields,
 ) -> MethodResult:
     """Method ``m``'s result from a bank's arrays over methods and runs.
@@ -138,9 +217,14 @@ def method_result(
     epochs : dict[str, numpy.ndarray]
         The other per-epoch arrays (T, M, R, ...) by name: ``nees_block`` (T, M, R, B),
         ``est_pos_n`` (T, M, R, 3) [m] NED, ``est_vel_n`` (T, M, R, 3) [m/s] NED and
-        ``est_euler`` (T, M, R, 3) roll, pitch, yaw [rad].
+        ``est_euler`` (T, M, R, 3) roll, pitch, yaw [rad]; with ``sensor_errors`` also
+        ``sensor_est``, ``sensor_sigma`` and ``sensor_true`` (T, M, R, S), in the units of
+        :func:`sensor_states`.
     diverged_at_s : numpy.ndarray
         The monitor's first flag per run, shape (R,) [s] (NaN: none).
+    sensor_errors : bool
+        Whether the bank recorded the sensor errors; False: the result's ``sensor_est``,
+        ``sensor_sigma`` and ``sensor_true`` are None.
     **fields
         The rest of :class:`MethodResult` as they are (``p_floor_count``, ``updates``,
         ``block_dims``, ``vkf_trace``).
@@ -148,9 +232,10 @@ def method_result(
     Returns
     -------
     MethodResult
-        Method ``m``'s results: series (T, R), estimates (T, R, 3), ``diverged`` (R,) where
-        ``diverged_at_s`` is not NaN.
+        Method ``m``'s results: series (T, R), estimates (T, R, 3), sensor errors (T, R, S) or
+        None, ``diverged`` (R,) where ``diverged_at_s`` is not NaN.
     """
+    sensor = {name: epochs[name][:, m] if sensor_errors else None for name in SENSOR_FIELDS}
     return MethodResult(
         method=method,
         t_s=t_s,
@@ -161,5 +246,6 @@ def method_result(
         est_euler_rad=epochs["est_euler"][:, m],
         diverged=~np.isnan(diverged_at_s),
         diverged_at_s=diverged_at_s,
+        **sensor,
         **fields,
     )

@@ -57,7 +57,14 @@ from tauvcore.config import Config
 from tauvcore.engine import yoo_loop, yoo_sources
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
 from tauvcore.engine.recorder import Recorder, handed_out
-from tauvcore.engine.results import SERIES_FIELDS, YOO_BLOCK_DIMS, MethodResult, UpdateRecord, method_result
+from tauvcore.engine.results import (
+    SERIES_FIELDS,
+    YOO_BLOCK_DIMS,
+    YOO_SENSOR_STATES,
+    MethodResult,
+    UpdateRecord,
+    method_result,
+)
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.sources import active
@@ -83,6 +90,9 @@ BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 velocity, tilt, heading, sensors)."""
 NUM_BLOCKS = 5
 METHOD_CODES = {"ins-dvl": yoo_loop.INS_DVL, "vkf": yoo_loop.VKF}
+_BLOCKS = {"ba": yoo.BA, "bg": yoo.BG}  # the sensor-error blocks of the 12 states (tauvcore.filter.yoo)
+SENSOR_INDEX = np.array([_BLOCKS[c.block].start + c.component for c in YOO_SENSOR_STATES], dtype=np.int64)
+"""The state of each column of the sensor-error records (tauvcore.engine.results.YOO_SENSOR_STATES)."""
 
 
 class YooBank(ChunkDriver):
@@ -92,7 +102,9 @@ class YooBank(ChunkDriver):
     ``compiled`` (the default) runs each chunk in tauvcore.engine.yoo_loop; ``compiled=False``
     runs the numpy methods below, the reference the compiled loop is held equal to
     (tests/unit/test_yoo_bank.py). Both write a chunk's output epochs, updates and VKF trace into
-    the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`."""
+    the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`; with
+    ``sensor_errors`` the output epochs carry the bias estimates, their 1-sigma and their truth
+    (tauvcore.engine.results.YOO_SENSOR_STATES)."""
 
     def __init__(
         self,
@@ -103,8 +115,9 @@ class YooBank(ChunkDriver):
         dt_s: float,
         compiled: bool = True,
         keep: bool = True,
+        sensor_errors: bool = False,
     ) -> None:
-        super().__init__(config, methods, num_runs, num_samples, dt_s, keep)
+        super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         self.compiled = compiled
         imu = config.imu
         self.q = np.r_[
@@ -244,6 +257,7 @@ class YooBank(ChunkDriver):
             "est_pos_n": np.full((T, M, R, 3), nan),
             "est_vel_n": np.full((T, M, R, 3), nan),
             "est_euler": np.full((T, M, R, 3), nan),
+            **self._sensor_store(T, SENSOR_INDEX.size, nan),
             "up_t": np.asarray(ping_t_s, dtype=float),
             "up_k": pings,
             "up_z": np.full((U, M, R, 3), nan),
@@ -336,6 +350,7 @@ class YooBank(ChunkDriver):
                 BLOCK_OF_STATE,
                 NUM_BLOCKS,
                 1.0 / units.DEG,
+                SENSOR_INDEX,
             ),
             yoo_loop.YooOutputs(
                 store["series"],
@@ -343,6 +358,9 @@ class YooBank(ChunkDriver):
                 store["est_pos_n"],
                 store["est_vel_n"],
                 store["est_euler"],
+                store["sensor_est"],
+                store["sensor_sigma"],
+                store["sensor_true"],
                 store["up_z"],
                 store["up_nu"],
                 store["up_S"],
@@ -609,6 +627,14 @@ class YooBank(ChunkDriver):
         store["est_pos_n"][row] = est_ned
         store["est_vel_n"][row] = self.vel
         store["est_euler"][row] = _euler_batch(self.C)
+        if self.sensor_errors:
+            x_est = np.zeros(self.batch + (yoo.DIM,))
+            x_est[..., yoo.BA], x_est[..., yoo.BG] = self.ba, self.bg
+            x_true = np.zeros(self.batch + (yoo.DIM,))
+            x_true[..., yoo.BA], x_true[..., yoo.BG] = ba_t, bg_t
+            store["sensor_est"][row] = x_est[..., SENSOR_INDEX]
+            store["sensor_sigma"][row] = np.sqrt(self.P[..., SENSOR_INDEX, SENSOR_INDEX])
+            store["sensor_true"][row] = x_true[..., SENSOR_INDEX]
 
     # ------------------------------------------------------------------ results
     def _results(self, cat: Store, taking: bool) -> dict[str, MethodResult]:
@@ -669,6 +695,7 @@ class YooBank(ChunkDriver):
                 cat["series"],
                 cat,
                 first_bad,
+                self.sensor_errors,
                 p_floor_count=np.zeros(R, int),
                 updates=updates,
                 block_dims=BLOCK_DIMS,

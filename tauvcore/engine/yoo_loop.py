@@ -73,10 +73,19 @@ def record(
     est_pos: np.ndarray,
     est_vel: np.ndarray,
     est_euler: np.ndarray,
+    sensor_index: np.ndarray,
+    sensor_est: np.ndarray,
+    sensor_sigma: np.ndarray,
+    sensor_true: np.ndarray,
 ) -> None:
     """One output epoch of every (method, run) (yoo_bank.YooBank._record): errors ``true - estimate``,
-    1-sigma, NEES of the 12 states and of each block (no position state: NaN), the estimates."""
+    1-sigma, NEES of the 12 states and of each block (no position state: NaN), the estimates; when
+    sensor_est (T, M, R, S) has rows, the sensor errors' estimate, ``sqrt(P_ii)`` and truth too
+    (column j the state ``sensor_index[j]``, sensor_sigma and sensor_true alike)."""
     M, R = pos.shape[0], pos.shape[1]
+    with_sensors = sensor_est.shape[0] > 0
+    x_est = np.zeros(DIM)  # the bias states' estimate and truth, by state
+    x_true = np.zeros(DIM)
     dx = np.empty(DIM)
     Ce = np.empty((3, 3))
     rho = np.empty(3)
@@ -132,6 +141,15 @@ def record(
             est_euler[row, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
             est_euler[row, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
             est_euler[row, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
+            if with_sensors:
+                for i in range(3):
+                    x_est[BA + i], x_true[BA + i] = ba[m, r, i], ba_t[r, i]
+                    x_est[BG + i], x_true[BG + i] = bg[m, r, i], bg_t[r, i]
+                for j in range(sensor_index.size):
+                    k = sensor_index[j]
+                    sensor_est[row, m, r, j] = x_est[k]
+                    sensor_sigma[row, m, r, j] = math.sqrt(Pm[k, k])
+                    sensor_true[row, m, r, j] = x_true[k]
 
 
 class YooSchedule(NamedTuple):
@@ -201,6 +219,7 @@ class YooModel(NamedTuple):
     block_of_state: np.ndarray
     num_blocks: int
     deg: float
+    sensor_index: np.ndarray  # (S,) int64: the state of each sensor-error column (yoo_bank.SENSOR_INDEX)
 
 
 class YooOutputs(NamedTuple):
@@ -211,6 +230,9 @@ class YooOutputs(NamedTuple):
     est_pos: np.ndarray
     est_vel: np.ndarray
     est_euler: np.ndarray
+    sensor_est: np.ndarray  # (T, M, R, S); no rows: the sensor errors are not recorded
+    sensor_sigma: np.ndarray
+    sensor_true: np.ndarray
     up_z: np.ndarray
     up_nu: np.ndarray
     up_S: np.ndarray
@@ -279,6 +301,7 @@ def run_stops(
         block_of_state,
         num_blocks,
         deg,
+        sensor_index,
     ) = model
     (
         series,
@@ -286,6 +309,9 @@ def run_stops(
         est_pos,
         est_vel,
         est_euler,
+        sensor_est,
+        sensor_sigma,
+        sensor_true,
         up_z,
         up_nu,
         up_S,
@@ -475,4 +501,8 @@ def run_stops(
                 est_pos,
                 est_vel,
                 est_euler,
+                sensor_index,
+                sensor_est,
+                sensor_sigma,
+                sensor_true,
             )

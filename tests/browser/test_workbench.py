@@ -156,3 +156,46 @@ def test_a_monte_carlo_run_s_innovations_are_chosen_by_its_number(new_tab) -> No
                                ".filter(p => ((p.layout.title && p.layout.title.text) || '').includes('innovations'))"
                                ".map(p => Object.keys(p.layout).filter(k => k.startsWith('yaxis')).length)")
     assert panels == [7], panels
+
+
+SENSOR_FIGURES_JS = (
+    "Array.from(document.querySelectorAll('.js-plotly-plot'))"
+    ".filter(p => /^(Raw sensors|[A-Z-]+: sensor errors)/.test((p.layout.title && p.layout.title.text) || ''))"
+    ".map(p => ({title: p.layout.title.text, traces: (p._fullData || []).map(t => ({name: t.name, y: Array.from(t.y || []),"
+    " x: Array.from(t.x || [])}))}))"
+)
+
+
+def test_the_sensors_tab_shows_the_raw_channels_and_each_method_s_sensor_errors(new_tab) -> None:
+    """Given a 20 s figure eight with beams 1 and 2 (LC and TC), the Sensors tab draws the gyro,
+    the accelerometer and the DVL's four beams, beams 3 and 4 as gaps (no value at any ping) and
+    switched off in the beam-state panel, depth and the magnetometer's attitude; below, LC's sensor
+    errors (estimate, 3-sigma and truth); choosing TC draws TC's."""
+    tab = new_tab("?traj=figure8")
+    tab.type_into("Duration [s]", "20")
+    tab.set_methods({"LC", "TC"})
+    tab.set_checkbox("Beam 3", False)
+    tab.set_checkbox("Beam 4", False)
+    tab.page.get_by_role("button", name="Run", exact=True).click()
+    tab.notification("Run complete").wait_for(timeout=120000)
+    tab.page.get_by_role("tab", name="Sensors").click()
+    tab.page.wait_for_function(f"{SENSOR_FIGURES_JS}.length === 2", timeout=30000)
+    raw, errors = sorted(tab.page.evaluate(SENSOR_FIGURES_JS), key=lambda f: f["title"] != "Raw sensors")
+    traces = {t["name"]: t for t in raw["traces"]}
+    for name in ("gyro x", "gyro z", "accelerometer z", "beam1", "beam2", "beam3", "beam4", "depth", "yaw"):
+        assert name in traces, sorted(traces)
+    assert len(traces["gyro x"]["y"]) >= 150                                  # 10 Hz over 20 s
+    assert all(v is None or v != v for v in traces["beam3"]["y"] + traces["beam4"]["y"])  # gaps, not zeros
+    assert sum(v is not None and v == v for v in traces["beam1"]["y"]) >= 15    # 1 Hz DVL
+    off = traces["switched off"]
+    assert set(off["y"]) == {3, 4} and len(off["x"]) == 2 * len(traces["beam1"]["x"])
+    assert errors["title"].startswith("LC: sensor errors"), errors["title"]
+    names = {t["name"] for t in errors["traces"]}
+    assert {"gyro bias z (body) estimate", "gyro bias z (body) +3 sigma", "gyro bias z (body) true",
+            "DVL scale factor error estimate"} <= names, sorted(names)
+    tab.page.get_by_label("Sensor errors of", exact=True).click()
+    tab.page.get_by_role("option", name="tc", exact=True).click()
+    tab.page.wait_for_function(f"{SENSOR_FIGURES_JS}.some(f => f.title.startsWith('TC: sensor errors'))",
+                               timeout=30000)
+    tab.page.screenshot(path=str(ARTIFACTS / "sensors_tab.png"))
+    assert tab.external_requests == []

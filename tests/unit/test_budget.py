@@ -120,3 +120,31 @@ def test_the_estimate_bounds_the_measured_peak_within_1_5x(duration_s, runs, met
     print(f"{duration_s:g} s x {runs} runs, {len(methods)} methods, {'+'.join(aiding)}, {truth}: "
           f"measured {measured / 2**20:.0f} MiB, estimate {estimate / 2**20:.0f} MiB ({estimate / measured:.2f}x)")
     assert measured <= estimate <= 1.5 * measured
+
+
+def test_a_run_records_its_sensor_errors_only_where_they_fit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sensor errors' records (3 x 11 doubles per epoch, method and run) are asked for only
+    when the run fits the budget with them; a run that fits only without them runs without them
+    (the worker's results carry none), and only a run that does not fit even so is refused."""
+    import threading
+
+    from app import worker
+    from tauvcore.config import to_dict
+    config = mission(30.0)
+    with_sensors, without = estimate_run(config, 4), estimate_run(config, 4, sensor_errors=False)
+    assert with_sensors.total_bytes > without.total_bytes
+    assert budget.records_sensor_errors(config, 4, with_sensors.total_bytes)
+    assert not budget.records_sensor_errors(config, 4, with_sensors.total_bytes - 1)
+
+    def results_under(limit_mb: float):
+        monkeypatch.setenv(budget.BUDGET_ENV, f"{limit_mb:.6f}")
+        seen = []
+        worker.run_worker(to_dict(config), 4, type("Q", (), {"put": lambda self, m: seen.append(m)})(),
+                          threading.Event())
+        assert seen[-1][0] == "done", seen[-1]
+        return seen[-1][1]
+
+    between = (with_sensors.total_bytes + without.total_bytes) / 2 / 2**20
+    assert all(r.sensor_est is None for r in results_under(between).values())
+    recorded = results_under(with_sensors.total_bytes / 2**20 + 1)
+    assert all(r.sensor_est is not None and r.sensor_est.shape[1] == 4 for r in recorded.values())

@@ -207,3 +207,41 @@ def test_beams_are_updated_in_place_not_re_added() -> None:
     assert [[n.visible for n in beam].index(True) for beam in session.beam_nodes] == [2, 1, 0, 0]
     assert session.beam_nodes[2][0].points[0, 1] == pytest.approx(
         Config().dvl.l_dvl_b + Config().dvl.A_b[2] * 45.0)       # body frame, to the range
+
+
+def test_seconds_left_is_the_run_s_own_pace() -> None:
+    from app.dashboard import seconds_left
+    assert seconds_left(50.0, 250.0, 2.0) == pytest.approx(8.0)     # a fifth in 2 s: four fifths in 8 s
+    assert seconds_left(250.0, 250.0, 3.0) == 0.0
+    assert seconds_left(0.0, 250.0, 1.0) == float("inf")           # no progress yet: no estimate
+
+
+@pytest.mark.parametrize("second_t_s, draws", [(95.0, ["live", "final"]), (10.0, ["live", "live", "final"])],
+                         ids=["ending-soon", "far-from-the-end"])
+def test_live_results_are_not_drawn_when_the_final_ones_are_due_first(second_t_s, draws) -> None:
+    """Given a clock that advances 2 s per reading, a run of 100 s whose first progress is at 1 s
+    is drawn; a second progress at 95 s (the final results due in well under GUI_REFRESH_S) is
+    held for the final results, one at 10 s (ninety seconds to go at that pace) is drawn."""
+    import queue
+
+    handle = types.SimpleNamespace(queue=queue.Queue(), finished=lambda: True, position=lambda: 0)
+    result = types.SimpleNamespace(t_s=np.array([0.0, 100.0]))
+    for msg in [("truth", {}), ("progress", 1.0, {"lc": result}), ("progress", second_t_s, {"lc": result}),
+                ("done", {"lc": result}, False)]:
+        handle.queue.put(msg)
+    shown = []
+    session = types.SimpleNamespace(
+        lock=threading.Lock(), handle=handle, status=types.SimpleNamespace(content=""),
+        progress=types.SimpleNamespace(value=0.0), pool=types.SimpleNamespace(workers=2),
+        run_button=types.SimpleNamespace(disabled=True), stop_button=types.SimpleNamespace(disabled=False),
+        state=types.SimpleNamespace(truth_view=None), run_log=None,
+        scene=types.SimpleNamespace(draw_truth=lambda: None),
+        plot_tabs=types.SimpleNamespace(draw_vehicle_plot=lambda: None, draw_seabed_plot=lambda: None),
+        _show_results=lambda results, config, live=False: shown.append("live" if live else "final"),
+        _keep_finished=lambda results, config, stopped: None, notify=lambda *args, **kwargs: None)
+    clock = iter(range(0, 2000, 2))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("app.dashboard.summary_line", lambda results: "")
+        mp.setattr("app.dashboard.time.monotonic", lambda: float(next(clock)))
+        Session._pump(session, handle, Config().replace("trajectory", duration_s=100.0))
+    assert shown == draws

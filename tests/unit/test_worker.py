@@ -43,6 +43,7 @@ def test_stop_ends_a_long_run_within_a_second(pool: RunPool) -> None:
     config = Config().replace("trajectory", duration_s=3000.0).replace("run", methods=METHODS)
     handle = pool.start(to_dict(config), 1)
     assert _next(handle)[0] == "truth"
+    assert _next(handle)[0] == "sensors"                # each progress comes after the raw data so far
     assert _next(handle)[0] == "progress"
     t0 = time.monotonic()
     handle.stop()
