@@ -15,8 +15,9 @@ arrays the engine allocates (8-byte floats; "d" is one double):
   and the sensor errors' estimate, sigma and truth (the worker asks for them,
   tauvcore.engine.results.SENSOR_STATES: ``SENSOR_DOUBLES`` = 3 x 11 d), held three times (the
   bank's chunks, their concatenation, the pickle: counted four times, the estimate of 12 runs
-  of 250 s was 1.5x the measured peak). A run that fits the budget only without them runs
-  without them (:func:`records_sensor_errors`); the budget refuses a run that does not fit even so.
+  of 250 s was 1.5x the measured peak). A run that fits the budget only without them, or whose
+  records would exceed ``SENSOR_RECORDS_MAX_BYTES``, runs without them
+  (:func:`records_sensor_errors`); the budget refuses a run that does not fit even so.
   (the bank's chunks, their concatenation, the result handed to the queue and its pickle); the
   thinned live copy (at most ``app.worker.PROGRESS_MAX_EPOCHS`` epochs, copy and pickle); per
   update (DVL ping per DVL method, depth and magnetometer sample and a plug-in source's epoch,
@@ -54,6 +55,9 @@ COMPENSATION_DOUBLES = 12 + 6 + 6 + 13
 OUTPUT_DOUBLES = 11 + 5 + 3
 SENSOR_DOUBLES = 3 * 11
 SENSOR_COPIES = 3
+SENSOR_RECORDS_MAX_BYTES = 64 * 2**20
+"""The sensor errors are recorded only for runs whose records are at most this large (20 runs of
+five methods over 250 s: 63 MiB; one run of them over 5,000 s)."""
 OUTPUT_COPIES = 4
 COVARIANCE_DOUBLES = 8 * 20 * 20
 UPDATE_ROW_BYTES = 3000
@@ -135,8 +139,19 @@ def estimate_run(config: Config, num_runs: int, sensor_errors: bool = True) -> R
 
 def records_sensor_errors(config: Config, num_runs: int, limit_bytes: int) -> bool:
     """Whether a dashboard run of ``config`` records the sensor errors (the Sensors tab's lower
-    figure): only when, with them, it fits ``limit_bytes``."""
+    figure): only when, with them, it fits ``limit_bytes`` and their records stay within
+    ``SENSOR_RECORDS_MAX_BYTES`` (they travel from the worker with every result)."""
+    T, M, R = _epochs(config), len(config.run.methods), int(num_runs)
+    if SENSOR_DOUBLES * DOUBLE * T * M * R > SENSOR_RECORDS_MAX_BYTES:
+        return False
     return estimate_run(config, num_runs, sensor_errors=True).total_bytes <= limit_bytes
+
+
+def _epochs(config: Config) -> int:
+    """Output epochs T of ``config``'s mission."""
+    rate_hz = config.imu.rate_hz
+    K = round(config.trajectory.duration_s * rate_hz) + 1
+    return math.ceil(K / max(1, round(rate_hz / config.filter.output_rate_hz)))
 
 
 def budget_bytes() -> int:

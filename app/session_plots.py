@@ -116,8 +116,9 @@ SENSORS_NOTE = (
     "estimated of the sensors' errors with its 3-sigma against their truth (a simulation's; a log has none)."
 )
 SENSOR_ERRORS_NOT_RECORDED = (
-    "**Sensor errors not recorded**: with them this run would not fit the memory budget "
-    "(`TAUV_RUN_BUDGET_MB`, 1.5 GiB by default). Fewer runs or a shorter mission record them."
+    "**Sensor errors not recorded**: their records would exceed 64 MiB (20 runs of five methods "
+    "over 250 s, one run over 5,000 s) or the memory budget (`TAUV_RUN_BUDGET_MB`). Fewer runs, "
+    "methods or a shorter mission record them."
 )
 SENSOR_PLOT_WIDTH_PX = 480  # the workbench's plot width the Sensors tab's aspect is reckoned for
 INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
