@@ -122,10 +122,10 @@ SENSOR_ERRORS_NOT_RECORDED = (
 )
 SENSOR_PLOT_WIDTH_PX = 480  # the workbench's plot width the Sensors tab's aspect is reckoned for
 INITIAL_INNOVATION_SOURCES: tuple[str, ...] = ("dvl",)
-INITIAL_SENSOR_METHODS: tuple[str, ...] = ("lc",)
-"""The Sensors tab's method choices before a run (a run's own replace them)."""
 """The Innovations tab's choices before a run: any source name (a run's own replace them), so
 ``str``, not the literal "dvl"."""
+INITIAL_SENSOR_METHODS: tuple[str, ...] = ("lc",)
+"""The Sensors tab's method choices before a run (a run's own replace them)."""
 
 
 class PlotTabs:
