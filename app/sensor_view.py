@@ -3,7 +3,7 @@ measurements, thinned for a browser, gathered chunk by chunk as the engine gener
 from a replayed log whole).
 
 The IMU is sampled at the output epochs (every ``step``-th IMU sample, as the truth the 3-D view
-draws): its angular rate ``dtheta / dt`` [rad/s] and specific force ``dv / dt`` [m/s^2] in the body
+draws; at most :data:`MAX_SOURCE_EPOCHS` of them): its angular rate ``dtheta / dt`` [rad/s] and specific force ``dv / dt`` [m/s^2] in the body
 frame (FRD), the sample's own increment, not an average (what the filter integrates, aliased as a
 10 Hz look at a 200 Hz sensor is). Every source of the registry (tauvcore.aiding.sources: the DVL,
 depth, the magnetometer, the echo sounder, the RPM, a plug-in's) gives its log columns at its own
@@ -23,7 +23,8 @@ from tauvcore.aiding.sources import SOURCES
 from tauvcore.engine.simulation import SimChunk
 
 MAX_SOURCE_EPOCHS = 4000
-"""A source's epochs kept for the tab (a 1 Hz DVL over an hour; faster or longer ones thinned)."""
+"""A source's epochs (and the IMU's output epochs) kept for the tab: a 1 Hz DVL over an hour, the
+IMU over 400 s at 10 Hz; longer ones evenly thinned, the last kept (the figure draws 800 points)."""
 BEAM_STATE_CODES = (BEAM_RETURNING, BEAM_OUTAGE, BEAM_SWITCHED_OFF)
 """The DVL beam states of :attr:`SourceView.beam_state`, by their code (index)."""
 
@@ -126,12 +127,14 @@ class SensorViewBuilder:
                 "truth": truth,
                 "beam_state": beam_state,
             }
+        t_s = np.concatenate(self._t) if self._t else np.zeros(0)
+        keep = _thinned(t_s.size, MAX_SOURCE_EPOCHS)  # a long mission's IMU too: each message carries it
         return {
             "run": min(self.run, self.runs - 1),
             "runs": self.runs,
-            "t_s": np.concatenate(self._t) if self._t else np.zeros(0),
-            "gyro_b_radps": np.concatenate(self._gyro) if self._gyro else empty3,
-            "accel_b_mps2": np.concatenate(self._accel) if self._accel else empty3,
+            "t_s": t_s[keep],
+            "gyro_b_radps": (np.concatenate(self._gyro) if self._gyro else empty3)[keep],
+            "accel_b_mps2": (np.concatenate(self._accel) if self._accel else empty3)[keep],
             "sources": sources,
         }
 

@@ -177,3 +177,16 @@ def test_the_sensor_error_figure_draws_estimate_three_sigma_and_truth_in_data_sh
     without = dataclasses.replace(lc, sensor_est=None)
     with pytest.raises(ValueError, match="no sensor errors"):
         sensor_error_figure(without)
+
+
+def test_a_long_mission_s_imu_is_thinned_keeping_its_last_epoch() -> None:
+    """Every progress message carries the view: a 10-hour mission's 360,000 output epochs would be
+    17 MB each time; at most MAX_SOURCE_EPOCHS of them travel, the last kept."""
+    config = _config().replace("trajectory", duration_s=40.0)
+    sim = simulate(config, np.random.default_rng(2))
+    view = sensor_view(SimChunk.whole(sim), 1, config.dvl.beam_mask)   # every IMU sample an epoch
+    rows = np.arange(1, sim.truth.num_samples)
+    assert rows.size > MAX_SOURCE_EPOCHS
+    assert view["t_s"].size <= MAX_SOURCE_EPOCHS + 1 and view["t_s"][-1] == sim.truth.t_s[-1]
+    kept = np.searchsorted(sim.truth.t_s, view["t_s"])
+    np.testing.assert_array_equal(view["gyro_b_radps"], sim.imu.dtheta_b[kept, 0] / sim.truth.dt_s)
