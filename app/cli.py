@@ -235,7 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _mission_flags(p: argparse.ArgumentParser) -> None:
     """The flags that describe a mission and its methods (``run`` and ``mc``)."""
     p.add_argument("--trajectory", help=f"one of {', '.join(TRAJECTORIES)} (default from config: straight)")
-    p.add_argument("--duration", help="run length [s], 1 to 36000 (default 250)")
+    p.add_argument("--duration", help="run length [s], 1 to 86400 (default 250)")
     p.add_argument(
         "--truth",
         metavar="SOURCE",

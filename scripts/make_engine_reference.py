@@ -3,10 +3,16 @@
     python scripts/make_engine_reference.py tests/fixtures/engine_reference.npz
 
 Generated with the numpy engine of commit 9235ddc (the last before the compiled filter bank,
-the streaming engine), with one line added to its ``body_increments`` when the strapdown gained the
-second-order rotation term: ``dv_rot = dv_rot + np.cross(dtheta_b, np.cross(dtheta_b,
-dv_b)) / 6.0``. To regenerate: ``git worktree add /tmp/ref 9235ddc``, apply that line, copy this
-script there, and run it with ``PYTHONPATH=/tmp/ref`` (the numpy engine, not the installed one).
+the streaming engine), with two changes the product made since applied to it:
+
+- the strapdown's second-order rotation term, one line added to its ``body_increments``:
+  ``dv_rot = dv_rot + np.cross(dtheta_b, np.cross(dtheta_b, dv_b)) / 6.0``;
+- the kinematic truth's heave that keeps the depth in turns: ``vel_b`` and ``vel_b_dot`` of its
+  ``_turn_profile`` as they are today in tauvcore/truth/kinematic.py (``w = -tan(phi) v``).
+
+To regenerate: ``git worktree add /tmp/ref 9235ddc``, apply those changes, copy there this
+script as it was at commit 0a00641 (it imports ``tauvcore.eval.runner``, that engine's entry),
+and run it with ``PYTHONPATH=/tmp/ref`` (the numpy engine, not the installed one).
 ``tests/unit/test_engine_reference.py`` rebuilds the same simulations from the same
 seeds and requires every series to match to 1e-9. Three trajectories, all eight methods, DVL,
 depth and magnetometer aiding, random initial errors (two runs), and a DVL schedule that goes

@@ -41,7 +41,14 @@ import numpy as np
 from tauvcore.geo.earth import Earth
 from tauvcore.truth import control as ctl
 from tauvcore.truth import vehicle as veh
-from tauvcore.truth.kinematic import PROFILES, TrajectoryConfig, _chunk_from_profile, _start_n
+from tauvcore.truth.kinematic import (
+    PROFILES,
+    TrajectoryConfig,
+    _chunk_from_profile,
+    _start_n,
+    bathymetry,
+    check_in_water,
+)
 from tauvcore.truth.profile import Profile, _kinematics, num_samples
 from tauvcore.truth.record import Truth, VehicleRecord
 from tauvcore.validation import require_positive
@@ -348,6 +355,7 @@ class DynamicTruthStream:
         whole = self._whole() if self.cache else None
         sim = None if self.cache else DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control)
         pos0_n = _start_n(self.cfg)
+        seabed = bathymetry(self.cfg)
         carried = None
         kept = None if sim is None else sim.knots(1)  # streamed: knots first .. first + len - 1
         first = 0
@@ -366,6 +374,7 @@ class DynamicTruthStream:
             truth, carried = _chunk_from_profile(
                 self.cfg.name, profile, self.earth, self.rate_hz, k0, k1, pos0_n, carried
             )
+            check_in_water(self.cfg, seabed, truth)
             rows = knots[k0 - first : k1 - first]
             yield k0, dataclasses.replace(truth, vehicle=_vehicle_record(rows))
             kept, first = knots[k1 - 1 - first :], k1 - 1

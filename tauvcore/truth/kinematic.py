@@ -31,7 +31,7 @@ longrange  Yoo 2014 section 3: north, level, at constant depth, cruising at ``sp
 
 In turns the vehicle rolls (``turn_roll_deg`` at the tightest turn, proportional to yaw rate)
 and slips outward (``turn_sideslip_deg``), so sway is non-zero while manoeuvring, as a real
-hull does. Rate changes are blended with half-cosines so attitude rates are continuous.
+hull does, with the small heave that keeps the rolled sway from changing the depth. Rate changes are blended with half-cosines so attitude rates are continuous.
 """
 
 from __future__ import annotations
@@ -57,6 +57,12 @@ from tauvcore.truth.profile import (  # the profile machinery, also reached from
     num_samples,
 )
 from tauvcore.truth.record import Truth
+from tauvcore.truth.water import (  # also reached from here
+    MIN_ALTITUDE_M,
+    check_in_water,
+    lawnmower_level_depth_m,
+    seabed_floor_m,
+)
 from tauvcore.validation import (
     ConfigError,
     require_choice,
@@ -82,8 +88,8 @@ TRUTH_SOURCES = ("kinematic", "dynamic")
 """How the truth is made: ``kinematic`` closed-form profiles (this module); ``dynamic`` the 6-DOF
 TAUV flown through the same scenario by its autopilot (tauvcore.truth.dynamic)."""
 BESSEL_J0_FIRST_ZERO = 2.404825557695773
-MAX_DURATION_S = 36000.0
-"""Longest run [s]: 10 h, a long AUV mission and the length of the heading-drift study."""
+MAX_DURATION_S = 86400.0
+"""Longest run [s]: 24 h, a survey AUV's longest missions (10 to 24 h)."""
 
 
 @dataclass(frozen=True)
@@ -91,8 +97,8 @@ class TrajectoryConfig:
     """Scenario geometry. Defaults follow Tal et al. 2017 section 4 / Table 2 where it gives them."""
 
     name: str = "straight"  # one of TRAJECTORIES
-    duration_s: float = 250.0  # Table 2: time duration 250 s; [1, 36000]: 10 h, a long AUV mission (the
-    # heading-drift study runs 10 h); memory grows with it (engine, dashboard)
+    duration_s: float = 250.0  # Table 2: time duration 250 s; [1, 86400]: 24 h, a survey AUV's longest
+    # missions
     speed_mps: float = 2.0  # Table 2: AUV velocity 2 m/s (surge); (0, 10]: no AUV cruises faster
     depth_m: float = 20.0  # initial depth [m]; [0, 11000]: the deepest ocean
     leg_length_m: float = 100.0  # lawnmower leg length [m]; [1, 10000]: beyond 10 km the flat tangent frame
@@ -102,7 +108,7 @@ class TrajectoryConfig:
     dive_rate_mps: float = 0.1  # figure8 constant descent rate [m/s]; [0, speed_mps)
     lawnmower_dive_rate_mps: float = 0.3  # lawnmower initial descent rate [m/s]; [0, speed_mps)
     dive_duration_s: float = (
-        30.0  # lawnmower dive phase; the paper's "first 30 s" [s]; [0, 36000] as duration_s
+        30.0  # lawnmower dive phase; the paper's "first 30 s" [s]; [0, 86400] as duration_s
     )
     turn_roll_deg: float = 5.0  # roll at the tightest turn [deg]; [-45, 45]: a hull does not bank further
     turn_sideslip_deg: float = 3.0  # outward sideslip at the tightest turn [deg]; [-30, 30]: beyond, it skids
@@ -171,12 +177,28 @@ class TrajectoryConfig:
                     f"trajectory.{field} must be below trajectory.speed_mps ({self.speed_mps}), "
                     f"got {show(getattr(self, field))}"
                 )
+        if self.name == "lawnmower":
+            level_m = lawnmower_level_depth_m(self)
+            if level_m > floor - MIN_ALTITUDE_M:
+                raise ConfigError(
+                    f"trajectory.dive_duration_s {show(self.dive_duration_s)} s at "
+                    f"trajectory.lawnmower_dive_rate_mps {show(self.lawnmower_dive_rate_mps)} m/s takes the "
+                    f"lawnmower from {show(self.depth_m)} m to {show(round(level_m, 3))} m, within "
+                    f"{show(MIN_ALTITUDE_M)} m of the seabed ({show(floor)} m): shorten the dive"
+                )
 
 
 def _turn_profile(
     cfg: TrajectoryConfig, yaw: Callable, yaw_rate: Callable, yaw_acc: Callable, pitch: BlendedSchedule
 ) -> Profile:
-    """Profile from a heading law: roll and outward sway proportional to the yaw rate."""
+    """Profile from a heading law: roll and outward sway proportional to the yaw rate.
+
+    Roll ``phi = k_r r`` and sway ``v = k_v r`` (``r`` the yaw rate). A rolled hull's sway has a
+    vertical part, ``cos(theta) sin(phi) v`` in the down velocity, whose sign never changes (roll
+    and sway both follow ``r``): over hours it would lift the vehicle out of the water (4.6 mm/s
+    on the figure eight). The heave ``w = -tan(phi) v`` cancels it, so the down velocity is
+    ``-sin(theta) u`` and the depth follows the pitch schedule alone; ``w`` is a few mm/s.
+    """
     yaw_rate_max_rps = cfg.speed_mps / cfg.turn_radius_m
     roll_gain_s = cfg.turn_roll_deg * units.DEG / yaw_rate_max_rps
     sway_gain_m = -cfg.speed_mps * np.tan(cfg.turn_sideslip_deg * units.DEG) / yaw_rate_max_rps
@@ -188,12 +210,16 @@ def _turn_profile(
         return np.stack([roll_gain_s * yaw_acc(t), pitch.derivative(t), yaw_rate(t)], axis=-1)
 
     def vel_b(t: np.ndarray) -> np.ndarray:
-        return np.stack(
-            [np.full_like(t, cfg.speed_mps), sway_gain_m * yaw_rate(t), np.zeros_like(t)], axis=-1
-        )
+        rate = yaw_rate(t)
+        sway = sway_gain_m * rate
+        heave = -np.tan(roll_gain_s * rate) * sway  # the rolled sway's vertical part cancelled
+        return np.stack([np.full_like(t, cfg.speed_mps), sway, heave], axis=-1)
 
     def vel_b_dot(t: np.ndarray) -> np.ndarray:
-        return np.stack([np.zeros_like(t), sway_gain_m * yaw_acc(t), np.zeros_like(t)], axis=-1)
+        rate, acc = yaw_rate(t), yaw_acc(t)
+        roll = roll_gain_s * rate
+        heave_dot = -sway_gain_m * (roll / np.cos(roll) ** 2 + np.tan(roll)) * acc
+        return np.stack([np.zeros_like(t), sway_gain_m * acc, heave_dot], axis=-1)
 
     return Profile(euler, euler_dot, vel_b, vel_b_dot)
 
@@ -220,28 +246,6 @@ def straight_profile(cfg: TrajectoryConfig) -> Profile:
     """
     zero = BlendedSchedule([0.0, 1.0], [0.0, 0.0])
     return _turn_profile(cfg, zero.integral, zero.value, zero.derivative, zero)
-
-
-MIN_ALTITUDE_M = 10.0
-"""The figure eight's descent ends this high above the seabed (:func:`figure8_level_off_s`)."""
-
-
-def seabed_floor_m(cfg: TrajectoryConfig) -> float:
-    """The shallowest the seabed is taken to be under a mission [m].
-
-    Its mean depth, less three times the terrain's RMS relief when there is terrain.
-
-    Parameters
-    ----------
-    cfg : TrajectoryConfig
-        Scenario: ``seabed_depth_m`` [m], ``seabed``, ``terrain_relief_m`` [m].
-
-    Returns
-    -------
-    float
-        Depth of the seabed's floor, positive down (NED down coordinate) [m].
-    """
-    return cfg.seabed_depth_m - (3.0 * cfg.terrain_relief_m if cfg.seabed == "terrain" else 0.0)
 
 
 def figure8_level_off_s(cfg: TrajectoryConfig) -> float:
@@ -610,7 +614,9 @@ def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:
     """
     require_positive("imu.rate_hz", rate_hz)
     profile = PROFILES[cfg.name](cfg)
-    return generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz, _start_n(cfg))
+    truth = generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz, _start_n(cfg))
+    check_in_water(cfg, bathymetry(cfg), truth)
+    return truth
 
 
 def generate_chunk(
@@ -667,7 +673,9 @@ def generate_chunk(
         at sample ... > 0 needs the travelled_n of the chunk before").
     """
     require_positive("imu.rate_hz", rate_hz)
-    return _chunk(cfg, PROFILES[cfg.name](cfg), earth, rate_hz, k0, k1, travelled_n)
+    chunk, travelled_n = _chunk(cfg, PROFILES[cfg.name](cfg), earth, rate_hz, k0, k1, travelled_n)
+    check_in_water(cfg, bathymetry(cfg), chunk)
+    return chunk, travelled_n
 
 
 def _chunk(
@@ -738,6 +746,7 @@ class TruthStream:
         self.num_samples = num_samples(cfg.duration_s, rate_hz)  # of the whole mission
         self.dt_s = 1.0 / rate_hz  # equal to generate(...).dt_s
         self._profile = PROFILES[cfg.name](cfg)
+        self._seabed = bathymetry(cfg)
 
     def __len__(self) -> int:
         """Number of chunks."""
@@ -760,4 +769,5 @@ class TruthStream:
             chunk, travelled_n = _chunk(
                 self.cfg, self._profile, self.earth, self.rate_hz, k0, k1, travelled_n
             )
+            check_in_water(self.cfg, self._seabed, chunk)
             yield k0, chunk

@@ -123,9 +123,9 @@ def test_runs_must_be_a_whole_number_within_its_bound(typed: str, problem: str) 
     assert message.startswith("Runs: ") and problem in message
 
 
-def test_duration_86400_s_is_refused_with_the_control_named() -> None:
-    message = refused(duration="86400")
-    assert message.startswith("Duration [s]: '86400' is out of range")
+def test_duration_86401_s_is_refused_with_the_control_named() -> None:
+    message = refused(duration="86401")
+    assert message.startswith("Duration [s]: '86401' is out of range")
 
 
 def test_a_long_typed_value_is_shortened_in_the_message() -> None:
