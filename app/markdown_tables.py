@@ -25,6 +25,7 @@ class DvlCounts(TypedDict):
     dvl_fused: int | None
     dvl_rejected: int | None
     dvl_coast: int | None
+    dvl_resets: int | None  # velocity resets to the DVL after a lock-out (tauvcore.engine.lockout)
 
 
 class SummaryRow(DvlCounts):
@@ -101,22 +102,25 @@ def dvl_counts(result: MethodResult) -> DvlCounts:
     with no measurement); None each for a method without DVL updates (INS)."""
     dvl = result.updates.get("dvl")
     if dvl is None:
-        return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None}
+        return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None, "dvl_resets": None}
     return {
         "dvl_fused": int(np.sum(dvl.fused)),
         "dvl_rejected": int(np.sum(dvl.rejected)),
         "dvl_coast": int(np.sum(~dvl.valid)),
+        "dvl_resets": 0 if dvl.reset is None else int(np.sum(dvl.reset)),
     }
 
 
 def _health_cell(row: SummaryRow) -> str:
-    """ "ok", or when the divergence monitor flagged runs, when (and how many of the runs)."""
+    """ "ok", or when the divergence monitor flagged runs, when (and how many of the runs); and how
+    often the velocity was reset to the DVL after a lock-out."""
+    resets = row["dvl_resets"] or 0
+    reset = f"{resets} velocity reset{'s' if resets > 1 else ''} after a lock-out" if resets else ""
     if not row["diverged_runs"]:
-        return "ok"
+        return f"ok, {reset}" if reset else "ok"
     at = f"diverged at {row['diverged_first_s']:.1f} s"
-    if row["runs"] == 1:
-        return at
-    return f"{row['diverged_runs']} of {row['runs']} runs, first {at}"
+    health = at if row["runs"] == 1 else f"{row['diverged_runs']} of {row['runs']} runs, first {at}"
+    return f"{health}; {reset}" if reset else health
 
 
 def _fixed(x: float, decimals: int) -> str:

@@ -130,7 +130,8 @@ def _cell(x: Any, fmt: str) -> str:
 
 def summary_table_html(summary: dict[str, Any]) -> str:
     """Per method the final errors over the runs (RMS, median, 95th percentile), the consistency and
-    the runs the monitor flagged; a method with flagged runs gets a second row without them."""
+    the runs the monitor flagged and those whose velocity was reset after a DVL lock-out; a method
+    with flagged runs gets a second row without them."""
 
     def triple(stats: dict[str, Any], suffix: str, fmt: str) -> str:
         return " / ".join(_cell(stats[f"{k}{suffix}"], fmt) for k in FINAL_STATISTICS)
@@ -152,6 +153,13 @@ def summary_table_html(summary: dict[str, Any]) -> str:
                 if not suffix
                 else "left out: runs " + ", ".join(map(str, m["flagged_runs"]))
             )
+            resets = m.get("lockout_resets", 0)
+            if resets and not suffix:
+                flagged += (
+                    f"; {resets} lock-out reset{'s' if resets > 1 else ''} (runs "
+                    + ", ".join(map(str, m["reset_runs"]))
+                    + ")"
+                )
             rows.append(
                 f"<tr><td>{html.escape(label)}</td><td>{triple(st['vel_err_mps'], suffix, '.3g')}</td>"
                 f"<td>{triple(st['tilt_err_deg'], suffix, '.3f')}</td>"

@@ -59,6 +59,9 @@ def summary_table(
         if bool(r.diverged[0]):
             at = float(r.diverged_at_s[0])
             marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
+        if dvl is not None and dvl.reset is not None and dvl.reset[:, 0].any():
+            when = ", ".join(f"{t:g}" for t in dvl.t_s[dvl.reset[:, 0]][:5])
+            marker += f"  velocity reset to the DVL after a lock-out at {when} s"
         lines.append(
             f"{name.upper():<7} {_fixed(r.vel_err_mps[-1, 0], 10, 4)} {_fixed(rms(r.vel_err_mps[:, 0]), 9, 4)} "
             f"{_fixed(r.att_err_deg[-1, 0], 10, 4)} {_fixed(rms(r.att_err_deg[:, 0]), 9, 4)} "
@@ -148,7 +151,7 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
         "",
         (
             f"{'method':<16} {'vel [m/s]':>26} {'tilt [deg]':>11} {'head [deg]':>11} {'pos [m]':>30} "
-            f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8}"
+            f"{'NEES/dim':>14} {'vel NEES/dim':>14} {'flagged':>8} {'resets':>7}"
         ),
     ]
 
@@ -161,7 +164,8 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
             f"{method.upper():<16} {triple(st['vel_err_mps'], ''):>26} {f['tilt_err_deg']:>11.4f} "
             f"{f['heading_err_deg']:>11.4f} {triple(st['pos_err_m'], ''):>30} "
             f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
-            f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8}"
+            f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14} {m['runs_flagged_by_monitor']:>8} "
+            f"{m['lockout_resets']:>7}"
         )
         if m["runs_flagged_by_monitor"]:
             tilt, head = st["tilt_err_deg"]["rms_unflagged"], st["heading_err_deg"]["rms_unflagged"]

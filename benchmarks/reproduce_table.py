@@ -36,6 +36,14 @@ def flagged(summary: dict) -> tuple[int, int]:
     return hit, total
 
 
+def where(summary: dict, key: str) -> str:
+    """Which trajectory, method and runs carry ``key`` (``flagged_runs`` or ``reset_runs``)."""
+    found = [f"{method.upper()} on {name} (runs {', '.join(map(str, m[key]))})"
+             for name, trajectory in summary["trajectories"].items()
+             for method, m in trajectory["methods"].items() if m.get(key)]
+    return "; ".join(found) or "none"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2)
@@ -61,7 +69,10 @@ def main() -> None:
                       for name, size in sizes.items())
     cost = (f"| `{command}` | measured |\n|---|---|\n| wall time | {wall_s:.1f} s |\n| CPU time | {cpu_s:.0f} s |\n"
             f"| largest process, peak resident | {peak_mib:.0f} MiB |\n| files written | {files} |\n"
-            f"| filter runs the divergence monitor flagged | {hit} of {total} |")
+            f"| filter runs the divergence monitor flagged | {hit} of {total}: {where(summary, 'flagged_runs')} |\n"
+            f"| velocity resets after a DVL lock-out | "
+            f"{sum(m.get('lockout_resets', 0) for t in summary['trajectories'].values() for m in t['methods'].values())}"
+            f": {where(summary, 'reset_runs')} |")
     for name, trajectory in summary["trajectories"].items():
         lc = trajectory["methods"]["lc"]
         st = lc["final_stats"]["vel_err_mps"]

@@ -132,9 +132,21 @@ class FilterConfig:
         10.0  # covariance propagation rate (the nominal state runs at the IMU rate) [Hz];
     )
     # [1, imu.rate_hz]: below 1 Hz Phi = I + F dt misses the turns
+    lockout_reset_updates: int = 10  # at this many consecutive DVL pings the gate rejected (10 s at
+    # 1 Hz) the filter resets its velocity to the last of them (tauvcore.engine.lockout); 0: never;
+    # [0, 1000]: the divergence monitor calls 10 a lock-out (1e-21 for a consistent filter)
 
     def __post_init__(self) -> None:
         require_range("filter.gate_sigma", self.gate_sigma, 1.0, 1000.0)
+        if (
+            isinstance(self.lockout_reset_updates, bool)
+            or not isinstance(self.lockout_reset_updates, int)
+            or not 0 <= self.lockout_reset_updates <= 1000
+        ):
+            raise ConfigError(
+                f"filter.lockout_reset_updates must be a whole number within [0, 1000], "
+                f"got {show(self.lockout_reset_updates)}"
+            )
         require_range("filter.output_rate_hz", self.output_rate_hz, 0.1, 2000.0)
         require_range("filter.covariance_rate_hz", self.covariance_rate_hz, 1.0, 2000.0)
 

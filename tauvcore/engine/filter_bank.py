@@ -53,6 +53,7 @@ from tauvcore.engine.dvl_fusion import (
     partial_tables,
     rpm_measurement,
 )
+from tauvcore.engine.lockout import dvl_velocity_reset
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
@@ -236,6 +237,8 @@ class FilterBank(ChunkDriver):
         self.dvl_truth_known = bool(len(dvl.index))  # without pings the records' zero stands for no truth
         self.k_checked = 0  # sample P was last checked (positive definite) at
         self.dtheta_sum = np.zeros((R, 3))  # gyro increments since k_cov
+        self.dvl_rejected = np.zeros(self.batch, dtype=np.int64)  # consecutive pings the gate rejected
+        self.dvl_reacquire = np.zeros(self.batch, bool)  # reset at the last ping: the next one ungated
         self.started = True
 
     def nominal(self, m: int | None = None) -> Nominal:
@@ -277,10 +280,17 @@ class FilterBank(ChunkDriver):
         )  # metrics.implausible_sensor_errors
 
     def _fuse(
-        self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, gate_rows: np.ndarray
+        self,
+        H: np.ndarray,
+        Rm: np.ndarray,
+        nu: np.ndarray,
+        active: np.ndarray,
+        gate_rows: np.ndarray,
+        gate: float | None = None,
     ) -> tuple[np.ndarray, ...]:
         """One compiled gated correction and injection of the whole bank in place (inactive rows
-        and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...)."""
+        and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...).
+        ``gate``: the gate's width [sigma], ``filter.gate_sigma`` if None."""
         fused = fuse_in_place(
             self.P.reshape(-1, STATE.dim, STATE.dim),
             self.flat,
@@ -289,7 +299,7 @@ class FilterBank(ChunkDriver):
             nu,
             active,
             gate_rows.reshape(-1),
-            self.gate,
+            self.gate if gate is None else gate,
             self.geodetic,
         )
         return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
@@ -357,17 +367,86 @@ class FilterBank(ChunkDriver):
         state = DvlState(self.C, self.vel, self.bg, self.bdvl, self.sf, self.P)
         dvl_measure_bank(plain(dvl), plain(self.partial_tables), plain(ping), plain(state), plain(rows))
         z, nu, H, Rm, active, valid, mode, measured_axes, choice = rows
-        fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
+        reacquire = self.dvl_reacquire & valid
+        if reacquire.any():  # the ping after a reset: fused whatever its innovation
+            fused = self._fuse_reacquiring(H, Rm, nu, active, reacquire)
+            self.dvl_reacquire[reacquire] = False
+        else:
+            fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
+        outcome = make_outcome(z, nu, active, *fused)
+        reset = self._lockout_reset(outcome.rejected | ~outcome.fused, valid, y, available, omega_meas)
         self.recorders["dvl"].add(
             t,
-            make_outcome(z, nu, active, *fused),
+            outcome,
             valid,
             shared={"beams_available": available},
             mode=mode,
             measured_axes=measured_axes,
             elc_choice=choice,
+            reset=reset,
         )
         return valid
+
+    def _fuse_reacquiring(
+        self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, reacquire: np.ndarray
+    ) -> tuple[np.ndarray, ...]:
+        """The DVL's correction with the gate open for the filters ``reacquire`` (M, R) and as usual
+        for the others: two compiled corrections over disjoint filters (tauvcore.engine.lockout).
+        The records keep the test ratio against the configured gate, so the ping shows as beyond it."""
+        gated = self._fuse(H, Rm, nu, active & ~reacquire[..., None], self.dvl_gate_rows)
+        opened = self._fuse(H, Rm, nu, active & reacquire[..., None], self.dvl_gate_rows, gate=np.inf)
+        s_diag, keep, nis, _, unusable = opened
+        gate = self.gate
+        with np.errstate(invalid="ignore", divide="ignore"):
+            each = np.where(active & reacquire[..., None], nu**2 / (gate**2 * s_diag), -np.inf)
+        ratio = np.where(reacquire, np.max(each, axis=-1), gated[3])
+        pick = reacquire[..., None]
+        return (
+            np.where(pick, s_diag, gated[0]),
+            np.where(pick, keep, gated[1]),
+            np.where(reacquire, nis, gated[2]),
+            ratio,
+            np.where(reacquire, unusable, gated[4]),
+        )
+
+    def _lockout_reset(
+        self,
+        refused: np.ndarray,
+        valid: np.ndarray,
+        y: np.ndarray,
+        available: np.ndarray,
+        omega_meas: np.ndarray,
+    ) -> np.ndarray:
+        """At the ``filter.lockout_reset_updates``-th consecutive ping the gate refused (whole, or a
+        beam of it for the tightly coupled methods), reset the velocity to it
+        (tauvcore.engine.lockout); -> (M, R) the filters reset at this ping."""
+        rejected = valid & refused
+        self.dvl_rejected = np.where(rejected, self.dvl_rejected + 1, 0)
+        limit = self.config.filter.lockout_reset_updates
+        due = rejected & (self.dvl_rejected >= limit) if limit > 0 else np.zeros(self.batch, bool)
+        if not due.any():
+            return due
+        beam_var = dvl_beam_sigma_mps(self.config.dvl.noise_mps) ** 2
+        for m, r in zip(*np.nonzero(due), strict=True):
+            C = self.C[m, r]
+            w_ie_b = C.T @ self.w_ie
+            self.vel[m, r], self.P[m, r] = dvl_velocity_reset(
+                self.vel[m, r],
+                self.P[m, r],
+                C,
+                float(self.sf[m, r]),
+                self.bdvl[m, r],
+                self.bg[m, r],
+                y[r],
+                available[r],
+                omega_meas[r] - w_ie_b,
+                self.A_b,
+                self.l_dvl_b,
+                beam_var,
+            )
+        self.dvl_rejected[due] = 0
+        self.dvl_reacquire[due] = True
+        return due
 
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
         """``run.rpm_fallback``: step the runs' velocity Kalman filters (learning from the DVL while

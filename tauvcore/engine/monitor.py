@@ -32,6 +32,18 @@ consistent filter rejects a three-axis DVL update at a 3-sigma gate with probabi
 a row with probability 1e-21."""
 
 
+def _explained_by_reset(refused: np.ndarray, reset: np.ndarray) -> np.ndarray:
+    """Updates (in order) that a reset explains: each reset and the streak of refused updates
+    (nothing fused, or a row rejected) ending in it."""
+    out = reset.copy()
+    for k in np.flatnonzero(reset)[::-1]:
+        j = k - 1
+        while j >= 0 and refused[j] and not out[j]:
+            out[j] = True
+            j -= 1
+    return out
+
+
 def innovation_divergence_s(
     t_s: np.ndarray,
     nis: np.ndarray,
@@ -41,6 +53,8 @@ def innovation_divergence_s(
     window: int = NIS_WINDOW_UPDATES,
     false_alarm: float = NIS_FALSE_ALARM,
     lockout: int = LOCKOUT_UPDATES,
+    reset: np.ndarray | None = None,
+    rejected: np.ndarray | None = None,
 ) -> np.ndarray:
     """Time of the first innovation inconsistency of one aiding source per run, NaN if none. -> (R,).
 
@@ -56,35 +70,74 @@ def innovation_divergence_s(
       to catch and cannot flag a window alone, while a filter that underrates its sensor's noise
       raises many NIS values and still does (a real DVL's heavier tails than the tuning's);
     - *locked out* at the ``lockout``-th consecutive update that fused nothing (every row rejected
-      by the gate, or S unusable): the filter no longer accepts its sensor.
+      by the gate, or S unusable): the filter no longer accepts its sensor;
+    - *locked out despite a reset*: at a reset (``reset``, tauvcore.engine.lockout) within
+      ``window`` updates of the one before.
 
-    t_s (U,) update times [s]; nis (U, R); nis_dof (U, R) int; fused, valid (U, R) bool.
+    A reset explains the rejected updates that led to it: they and the reset are left out of
+    both tests, and no window spans a reset (the test starts again after it).
+
+    t_s (U,) update times [s]; nis (U, R); nis_dof (U, R) int; fused, valid, reset, rejected (a row
+    failed the gate) (U, R) bool.
     """
     _, R = nis.shape
     out = np.full(R, np.nan)
     for r in range(R):
         used = np.flatnonzero(valid[:, r] & (nis_dof[:, r] > 0))
         first = np.inf
-        if used.size >= lockout:
-            run = np.convolve((~fused[used, r]).astype(np.int64), np.ones(lockout, dtype=np.int64), "valid")
-            hit = np.flatnonzero(run == lockout)
-            if hit.size:
-                first = min(first, float(t_s[used[hit[0] + lockout - 1]]))
-        ok = used[np.isfinite(nis[used, r])]
-        if ok.size >= window:
-            each, at = np.unique(nis_dof[ok, r], return_inverse=True)
-            capped = np.minimum(nis[ok, r], chi2_isf(NIS_CAP_FALSE_ALARM, each)[at])
-            s = np.concatenate(([0.0], np.cumsum(capped)))
-            d = np.concatenate(([0], np.cumsum(nis_dof[ok, r])))
-            total, dof = s[window:] - s[:-window], d[window:] - d[:-window]
-            dofs, inverse = np.unique(dof, return_inverse=True)
-            bound = chi2_isf(false_alarm, dofs)[inverse]
-            hit = np.flatnonzero(total > bound)
-            if hit.size:
-                first = min(first, float(t_s[ok[hit[0] + window - 1]]))
+        stretches = [used]
+        if reset is not None and reset[used, r].any():
+            at = np.flatnonzero(reset[used, r])
+            again = np.flatnonzero(np.diff(at) <= window)
+            if again.size:
+                first = float(t_s[used[at[again[0] + 1]]])
+            refused = ~fused[used, r] if rejected is None else ~fused[used, r] | rejected[used, r]
+            explained = _explained_by_reset(refused, reset[used, r])
+            stretch = np.cumsum(reset[used, r])  # the reset starts the next stretch
+            stretches = [used[(stretch == i) & ~explained] for i in range(at.size + 1)]
+        for part in stretches:
+            first = min(
+                first,
+                _stretch_divergence_s(
+                    t_s, nis[:, r], nis_dof[:, r], fused[:, r], part, window, false_alarm, lockout
+                ),
+            )
         if np.isfinite(first):
             out[r] = first
     return out
+
+
+def _stretch_divergence_s(
+    t_s: np.ndarray,
+    nis: np.ndarray,
+    nis_dof: np.ndarray,
+    fused: np.ndarray,
+    used: np.ndarray,
+    window: int,
+    false_alarm: float,
+    lockout: int,
+) -> float:
+    """The first lock-out or windowed-NIS flag of one run over its updates ``used`` (inf if none);
+    ``nis``, ``nis_dof``, ``fused`` (U,) the run's columns."""
+    first = np.inf
+    if used.size >= lockout:
+        run = np.convolve((~fused[used]).astype(np.int64), np.ones(lockout, dtype=np.int64), "valid")
+        hit = np.flatnonzero(run == lockout)
+        if hit.size:
+            first = float(t_s[used[hit[0] + lockout - 1]])
+    ok = used[np.isfinite(nis[used])]
+    if ok.size >= window:
+        each, at = np.unique(nis_dof[ok], return_inverse=True)
+        capped = np.minimum(nis[ok], chi2_isf(NIS_CAP_FALSE_ALARM, each)[at])
+        s = np.concatenate(([0.0], np.cumsum(capped)))
+        d = np.concatenate(([0], np.cumsum(nis_dof[ok])))
+        total, dof = s[window:] - s[:-window], d[window:] - d[:-window]
+        dofs, inverse = np.unique(dof, return_inverse=True)
+        bound = chi2_isf(false_alarm, dofs)[inverse]
+        hit = np.flatnonzero(total > bound)
+        if hit.size:
+            first = min(first, float(t_s[ok[hit[0] + window - 1]]))
+    return first
 
 
 SENSOR_PRIOR_FALSE_ALARM = 1e-6

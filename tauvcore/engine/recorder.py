@@ -41,6 +41,7 @@ class Recorder:
     (the beams that returned)."""
 
     MONITOR = ("nis", "nis_dof", "fused", "valid")
+    MONITOR_OPTIONAL = ("reset", "rejected")  # the DVL's records: its resets and the pings before them
     ROW_FIELDS = ("z", "innovation", "innovation_var", "fused_rows", "rejected_rows")
 
     def __init__(self, members: npt.ArrayLike, rows: np.ndarray | None = None) -> None:
@@ -102,14 +103,15 @@ class Recorder:
             self.monitor_t = np.empty(max(64, t.size))
             self.monitor = {
                 k: np.empty((self.monitor_t.size,) + fields[k].shape[1:], fields[k].dtype)
-                for k in self.MONITOR
+                for k in self.MONITOR + self.MONITOR_OPTIONAL
+                if k in fields
             }
         if done + t.size > self.monitor_t.size:
             size = max(2 * self.monitor_t.size, done + t.size)
             self.monitor_t = np.resize(self.monitor_t, size)
             self.monitor = {k: np.resize(v, (size,) + v.shape[1:]) for k, v in self.monitor.items()}
         self.monitor_t[done : done + t.size] = t
-        for k in self.MONITOR:
+        for k in self.monitor:
             self.monitor[k][done : done + t.size] = fields[k]
 
     def build(self, m: int, first: int = 0) -> UpdateRecord | None:
@@ -135,4 +137,12 @@ class Recorder:
         """First flag of method ``m``'s innovation test over the whole mission so far (R,)."""
         n = self.count - len(self.t)  # sealed updates
         c = {k: v[:n, m] for k, v in self.monitor.items()}
-        return innovation_divergence_s(self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"])
+        return innovation_divergence_s(
+            self.monitor_t[:n],
+            c["nis"],
+            c["nis_dof"],
+            c["fused"],
+            c["valid"],
+            reset=c.get("reset"),
+            rejected=c.get("rejected") if "reset" in c else None,
+        )

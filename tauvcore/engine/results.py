@@ -130,6 +130,8 @@ class UpdateRecord:
     mode: np.ndarray | None = None  # (U, R) DVL only: MODE_* code (coast, lc, partial, tc)
     measured_axes: np.ndarray | None = None  # (U, R, 3) DVL only: body axes the velocity carried
     elc_choice: np.ndarray | None = None  # (U, R, 3) ELC only: index into elc_select.CANDIDATES
+    reset: np.ndarray | None = None  # (U, R) bool DVL only: the velocity reset to this ping after a
+    #                                  lock-out (tauvcore.engine.lockout)
 
 
 @dataclass(frozen=True)

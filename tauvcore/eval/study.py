@@ -144,6 +144,8 @@ class ChunkSeries:
     t_s: np.ndarray
     series: dict[str, dict[str, np.ndarray]]  # method -> RUN_SERIES name -> (T, count)
     diverged: dict[str, np.ndarray]  # method -> (count,) bool
+    resets: dict[str, np.ndarray] = field(default_factory=dict)  # method -> (count,) int: lock-out
+    #                                                                 resets (tauvcore.engine.lockout)
 
 
 def series_of(result: MethodResult) -> dict[str, np.ndarray]:
@@ -196,7 +198,28 @@ def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> Chunk
         t_s=any_result.t_s,
         series={m: series_of(r) for m, r in results.items()},
         diverged={m: r.diverged.copy() for m, r in results.items()},
+        resets={m: lockout_resets(r) for m, r in results.items()},
     )
+
+
+def lockout_resets(result: MethodResult) -> np.ndarray:
+    """How many times each run's velocity was reset to the DVL after a lock-out.
+
+    Parameters
+    ----------
+    result : MethodResult
+        One method's results over R runs.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (R,), int: the resets of tauvcore.engine.lockout in the DVL's update records (zero
+        for a method that does not fuse the DVL).
+    """
+    dvl = result.updates.get("dvl")
+    if dvl is None or dvl.reset is None:
+        return np.zeros(result.pos_err_m.shape[1], dtype=int)
+    return dvl.reset.sum(axis=0).astype(int)
 
 
 @dataclass
@@ -207,6 +230,7 @@ class _MethodSums:
     nees_finite: dict[str, np.ndarray]
     final: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)  # chunk's first run -> final values
     flagged: dict[int, np.ndarray] = field(default_factory=dict)  # chunk's first run -> (count,) bool
+    resets: dict[int, np.ndarray] = field(default_factory=dict)  # chunk's first run -> (count,) int
     diverged: int = 0
 
 
@@ -261,6 +285,7 @@ class StudyAccumulator:
                 s.nees_finite[n] += ok.sum(axis=1)
             s.final[chunk.first] = {n: series[n][-1].copy() for n in ERROR_SERIES}
             s.flagged[chunk.first] = np.asarray(chunk.diverged[m], dtype=bool).copy()
+            s.resets[chunk.first] = np.asarray(chunk.resets.get(m, np.zeros(chunk.count)), dtype=int).copy()
             s.diverged += int(chunk.diverged[m].sum())
 
     def rms(self, method: str, name: str) -> np.ndarray:
@@ -352,7 +377,8 @@ class StudyAccumulator:
             (error series -> float), ``final_per_run`` (error series -> (num_runs,) in run
             order), ``consistency`` (block -> :meth:`consistency`) and
             ``runs_flagged_by_monitor`` (int), ``flagged_runs`` (the flagged runs' numbers in the
-            study) and ``final_stats`` (error series -> :func:`final_statistics`: RMS, median and
+            study), ``lockout_resets`` (int: the velocity resets to the DVL after a lock-out,
+            tauvcore.engine.lockout), ``reset_runs`` (the numbers of the runs reset) and ``final_stats`` (error series -> :func:`final_statistics`: RMS, median and
             95th percentile over the runs at the last epoch, and the same over the runs the
             monitor did not flag).
 
@@ -369,6 +395,7 @@ class StudyAccumulator:
             firsts = sorted(s.final)
             per_run = {n: np.concatenate([s.final[k][n] for k in firsts]) for n in ERROR_SERIES}
             flagged = np.concatenate([s.flagged[k] for k in firsts])
+            resets = np.concatenate([s.resets[k] for k in firsts])
             run_numbers = np.concatenate([k + np.arange(s.flagged[k].size) for k in firsts])
             out["methods"][m] = {
                 "rms": {n: self.rms(m, n) for n in ERROR_SERIES + SIGMA_SERIES},
@@ -379,6 +406,8 @@ class StudyAccumulator:
                 "consistency": {b: self.consistency(m, b) for b in BLOCK_DIMS},
                 "runs_flagged_by_monitor": s.diverged,
                 "flagged_runs": [int(r) for r in run_numbers[flagged]],
+                "lockout_resets": int(resets.sum()),
+                "reset_runs": [int(r) for r in run_numbers[resets > 0]],
             }
         return out
 

@@ -483,7 +483,7 @@ def test_summary_rows_final_and_rms(request, fixture):
         expected = _expected_row(results[method])
         assert set(row) == (set(expected) | set(CONSISTENCY_KEYS)
                             | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count",
-                               "dvl_fused", "dvl_rejected", "dvl_coast"})
+                               "dvl_fused", "dvl_rejected", "dvl_coast", "dvl_resets"})
         for key, value in expected.items():
             assert row[key] == pytest.approx(value, rel=1e-12), key
         # a healthy default run: nothing flagged, P never repaired

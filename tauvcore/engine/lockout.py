@@ -1,0 +1,147 @@
+"""Recovery from a lock-out: the velocity reset to the DVL's after the gate has rejected it for long.
+
+A filter whose error has left its own covariance (an initial misalignment drawn in the tail of its
+prior, a sensor fault) sees innovations beyond the gate; rejected, they correct nothing, the error
+keeps growing faster than the covariance, and every later ping is rejected too: the filter is
+locked out for good (the divergence monitor's lock-out, tauvcore.engine.monitor). PX4's EKF2
+resets the states a source observes to its measurement after a timeout and says so; this does the
+same for the DVL, whose measurement is the velocity.
+
+After ``filter.lockout_reset_updates`` consecutive pings that returned beams but fused nothing,
+the velocity is reset at the next such ping. The ping's beams ``A_k`` (k x 3, the unit vectors
+of the beams that returned) measure ``y_k = (1 + sf) A_k v_b + A_k (omega x l) + b_k + n``
+(tauvcore.sensors.dvl); with the estimated beam biases, scale factor and the lever arm's
+velocity taken out,
+
+    m = (y_k - b_k - A_k (omega x l)) / (1 + sf)  =  A_k v_b + noise,
+
+and the reset moves the body velocity by the least change that meets it:
+
+    v_b+ = v_b + A_k^+ (m - A_k v_b),     v_n+ = C_nb v_b+.
+
+With three or four beams ``A_k^+ A_k = I``: the velocity is the ping's, whatever it was. With two
+(or one) the component along ``N = I - A_k^+ A_k``, which the beams do not see, is kept.
+
+The velocity error state is the body frame's (tauvcore.filter.layout), so the error after the
+reset is a linear function of the error before, to first order:
+
+    dv+ = N dv - A_k^+ (E_k db + A_k v_b dsf + A_k [l x] dbg + n) / (1 + sf),
+
+``E_k`` the rows of the beams that returned. The covariance follows exactly: ``P+ = J P J^T``
+plus ``A_k^+ R_k A_k^+T / (1 + sf)^2`` on the velocity, ``J`` the identity with the velocity rows
+replaced by those of ``dv+``. The velocity's error is now the measurement's, correlated with the
+DVL's own error states as the measurement is.
+The reset is marked in the DVL's update records (``UpdateRecord.reset``); the monitor does not
+count the rejected pings before it as a lock-out, and starts its innovation window again after it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tauvcore.filter.layout import STATE
+from tauvcore.geo.rotations import skew
+
+
+def dvl_velocity_reset(
+    vel_n: np.ndarray,
+    P: np.ndarray,
+    C_nb: np.ndarray,
+    sf: float,
+    b_dvl_mps: np.ndarray,
+    gyro_bias_rps: np.ndarray,
+    y_beam_mps: np.ndarray,
+    available: np.ndarray,
+    omega_nb_b_rps: np.ndarray,
+    A_b: np.ndarray,
+    l_dvl_b_m: np.ndarray,
+    beam_var_m2ps2: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One filter's velocity and covariance reset to a DVL ping (module docstring).
+
+    Parameters
+    ----------
+    vel_n : numpy.ndarray
+        Shape (3,), the estimated velocity, NED [m/s].
+    P : numpy.ndarray
+        Shape (20, 20), the error-state covariance (tauvcore.filter.layout.STATE) in SI units.
+    C_nb : numpy.ndarray
+        Shape (3, 3), the estimated attitude, body to NED.
+    sf : float
+        The estimated DVL scale factor [-].
+    b_dvl_mps : numpy.ndarray
+        Shape (4,), the estimated beam biases [m/s].
+    gyro_bias_rps : numpy.ndarray
+        Shape (3,), the estimated gyro bias, body frame [rad/s].
+    y_beam_mps : numpy.ndarray
+        Shape (4,), the ping's beam velocities [m/s] (those not returned are ignored).
+    available : numpy.ndarray
+        Shape (4,) bool, the beams that returned (at least one).
+    omega_nb_b_rps : numpy.ndarray
+        Shape (3,), the body's rate relative to the n frame at the ping as the gyro measures it
+        (the earth's rate taken out), body frame [rad/s]; the estimated gyro bias is taken out here.
+    A_b : numpy.ndarray
+        Shape (4, 3), the beams' unit vectors in the body frame (tauvcore.sensors.dvl).
+    l_dvl_b_m : numpy.ndarray
+        Shape (3,), the DVL's lever arm from the IMU, body frame [m].
+    beam_var_m2ps2 : float
+        Variance of one beam's velocity noise [m^2/s^2].
+
+    Returns
+    -------
+    vel_n : numpy.ndarray
+        Shape (3,), the reset velocity, NED [m/s].
+    P : numpy.ndarray
+        Shape (20, 20), the reset covariance (a new array, symmetric).
+    """
+    beams = np.asarray(available, dtype=bool)
+    A = A_b[beams]
+    scale = 1.0 + sf
+    omega_b = omega_nb_b_rps - gyro_bias_rps
+    lever_mps = A @ np.cross(omega_b, l_dvl_b_m)
+    measured = (y_beam_mps[beams] - b_dvl_mps[beams] - lever_mps) / scale
+    v_b = C_nb.T @ vel_n
+    A_pinv = np.linalg.pinv(A)
+    v_b_new = v_b + A_pinv @ (measured - A @ v_b)
+    J = reset_jacobian(v_b, sf, beams, A_b, l_dvl_b_m)
+    out = J @ P @ J.T
+    out[STATE.vel, STATE.vel] += beam_var_m2ps2 * (A_pinv @ A_pinv.T) / scale**2
+    return C_nb @ v_b_new, 0.5 * (out + out.T)
+
+
+def reset_jacobian(
+    v_b_mps: np.ndarray, sf: float, available: np.ndarray, A_b: np.ndarray, l_dvl_b_m: np.ndarray
+) -> np.ndarray:
+    """The error state after a reset as a linear function of the error state before (module
+    docstring): the identity with the velocity rows replaced.
+
+    Parameters
+    ----------
+    v_b_mps : numpy.ndarray
+        Shape (3,), the estimated body velocity before the reset [m/s].
+    sf : float
+        The estimated DVL scale factor [-].
+    available : numpy.ndarray
+        Shape (4,) bool, the beams that returned.
+    A_b : numpy.ndarray
+        Shape (4, 3), the beams' unit vectors in the body frame.
+    l_dvl_b_m : numpy.ndarray
+        Shape (3,), the DVL's lever arm from the IMU, body frame [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (20, 20): ``dx+ = J dx`` (tauvcore.filter.layout.STATE), without the ping's noise.
+    """
+    beams = np.asarray(available, dtype=bool)
+    A = A_b[beams]
+    A_pinv = np.linalg.pinv(A)
+    scale = 1.0 + sf
+    J = np.eye(STATE.dim)
+    vel = STATE.vel
+    J[vel, vel] = np.eye(3) - A_pinv @ A
+    J[vel, STATE.b_dvl] = 0.0
+    J[vel, np.flatnonzero(beams) + STATE.b_dvl.start] = -A_pinv / scale
+    J[vel, STATE.sf_dvl] = -(A_pinv @ A @ v_b_mps)[:, None] / scale
+    J[vel, STATE.bg] = -A_pinv @ A @ skew(l_dvl_b_m) / scale
+    return J
