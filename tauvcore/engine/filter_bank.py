@@ -374,7 +374,7 @@ class FilterBank(ChunkDriver):
         else:
             fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
         outcome = make_outcome(z, nu, active, *fused)
-        reset = self._lockout_reset(outcome.rejected | ~outcome.fused, valid, y, available, omega_meas)
+        reset = self._lockout_reset(~outcome.fused, valid, y, available, omega_meas)
         self.recorders["dvl"].add(
             t,
             outcome,
@@ -417,9 +417,10 @@ class FilterBank(ChunkDriver):
         available: np.ndarray,
         omega_meas: np.ndarray,
     ) -> np.ndarray:
-        """At the ``filter.lockout_reset_updates``-th consecutive ping the gate refused (whole, or a
-        beam of it for the tightly coupled methods), reset the velocity to it
-        (tauvcore.engine.lockout); -> (M, R) the filters reset at this ping."""
+        """At the ``filter.lockout_reset_updates``-th consecutive ping of which the gate let
+        nothing through, reset the velocity to it (tauvcore.engine.lockout); -> (M, R) the
+        filters reset at this ping. A tightly coupled filter that refuses one beam and fuses the
+        others is not locked out: its gate is isolating that beam (a real DVL's faulty beam)."""
         rejected = valid & refused
         self.dvl_rejected = np.where(rejected, self.dvl_rejected + 1, 0)
         limit = self.config.filter.lockout_reset_updates

@@ -26,19 +26,23 @@ NIS_CAP_FALSE_ALARM = 1e-3
 degrees of freedom exceed with this probability (16.3 for 3, 10.8 for 1). A consistent filter's
 NIS is capped once in a thousand updates, by little; an outlier's, by orders of magnitude."""
 
+RESET_REPEAT_UPDATES = 100
+"""A filter locked out again within 100 updates of its last reset (tauvcore.engine.lockout) is not
+recovering (100 s of DVL pings at 1 Hz): the monitor flags it at the second reset."""
+
 LOCKOUT_UPDATES = 10
 """Locked out: the last 10 measurements of a source all rejected by the gate (or unusable). A
 consistent filter rejects a three-axis DVL update at a 3-sigma gate with probability 0.8 %, ten in
 a row with probability 1e-21."""
 
 
-def _explained_by_reset(refused: np.ndarray, reset: np.ndarray) -> np.ndarray:
-    """Updates (in order) that a reset explains: each reset and the streak of refused updates
-    (nothing fused, or a row rejected) ending in it."""
+def _explained_by_reset(fused: np.ndarray, reset: np.ndarray) -> np.ndarray:
+    """Updates (in order) that a reset explains: each reset and the streak of updates that fused
+    nothing ending in it."""
     out = reset.copy()
     for k in np.flatnonzero(reset)[::-1]:
         j = k - 1
-        while j >= 0 and refused[j] and not out[j]:
+        while j >= 0 and not fused[j] and not out[j]:
             out[j] = True
             j -= 1
     return out
@@ -54,7 +58,6 @@ def innovation_divergence_s(
     false_alarm: float = NIS_FALSE_ALARM,
     lockout: int = LOCKOUT_UPDATES,
     reset: np.ndarray | None = None,
-    rejected: np.ndarray | None = None,
 ) -> np.ndarray:
     """Time of the first innovation inconsistency of one aiding source per run, NaN if none. -> (R,).
 
@@ -72,13 +75,12 @@ def innovation_divergence_s(
     - *locked out* at the ``lockout``-th consecutive update that fused nothing (every row rejected
       by the gate, or S unusable): the filter no longer accepts its sensor;
     - *locked out despite a reset*: at a reset (``reset``, tauvcore.engine.lockout) within
-      ``window`` updates of the one before.
+      :data:`RESET_REPEAT_UPDATES` updates of the one before.
 
     A reset explains the rejected updates that led to it: they and the reset are left out of
     both tests, and no window spans a reset (the test starts again after it).
 
-    t_s (U,) update times [s]; nis (U, R); nis_dof (U, R) int; fused, valid, reset, rejected (a row
-    failed the gate) (U, R) bool.
+    t_s (U,) update times [s]; nis (U, R); nis_dof (U, R) int; fused, valid, reset (U, R) bool.
     """
     _, R = nis.shape
     out = np.full(R, np.nan)
@@ -88,11 +90,10 @@ def innovation_divergence_s(
         stretches = [used]
         if reset is not None and reset[used, r].any():
             at = np.flatnonzero(reset[used, r])
-            again = np.flatnonzero(np.diff(at) <= window)
+            again = np.flatnonzero(np.diff(at) <= RESET_REPEAT_UPDATES)
             if again.size:
                 first = float(t_s[used[at[again[0] + 1]]])
-            refused = ~fused[used, r] if rejected is None else ~fused[used, r] | rejected[used, r]
-            explained = _explained_by_reset(refused, reset[used, r])
+            explained = _explained_by_reset(fused[used, r], reset[used, r])
             stretch = np.cumsum(reset[used, r])  # the reset starts the next stretch
             stretches = [used[(stretch == i) & ~explained] for i in range(at.size + 1)]
         for part in stretches:

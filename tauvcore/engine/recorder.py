@@ -41,7 +41,7 @@ class Recorder:
     (the beams that returned)."""
 
     MONITOR = ("nis", "nis_dof", "fused", "valid")
-    MONITOR_OPTIONAL = ("reset", "rejected")  # the DVL's records: its resets and the pings before them
+    MONITOR_OPTIONAL = ("reset",)  # the DVL's records only
     ROW_FIELDS = ("z", "innovation", "innovation_var", "fused_rows", "rejected_rows")
 
     def __init__(self, members: npt.ArrayLike, rows: np.ndarray | None = None) -> None:
@@ -144,5 +144,4 @@ class Recorder:
             c["fused"],
             c["valid"],
             reset=c.get("reset"),
-            rejected=c.get("rejected") if "reset" in c else None,
         )

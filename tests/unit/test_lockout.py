@@ -7,7 +7,7 @@ import pytest
 
 from tauvcore.config import Config, FilterConfig
 from tauvcore.engine.lockout import dvl_velocity_reset, reset_jacobian
-from tauvcore.engine.monitor import LOCKOUT_UPDATES, NIS_WINDOW_UPDATES, innovation_divergence_s
+from tauvcore.engine.monitor import LOCKOUT_UPDATES, RESET_REPEAT_UPDATES, innovation_divergence_s
 from tauvcore.eval.study import ChunkSeries, StudyAccumulator, run_chunk
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import C_nb_from_euler
@@ -124,15 +124,15 @@ def test_a_reset_explains_the_rejections_before_it_and_the_window_starts_again()
 
 
 def test_a_reset_soon_after_another_is_a_lock_out_after_all():
-    fused = np.ones(200, bool)
+    fused = np.ones(250, bool)
     fused[50:60] = False
     fused[70:80] = False
-    reset = np.zeros(200, bool)
+    reset = np.zeros(250, bool)
     reset[[59, 79]] = True
-    assert 79 - 59 <= NIS_WINDOW_UPDATES
+    assert 79 - 59 <= RESET_REPEAT_UPDATES
     assert _monitor(fused, reset) == 80.0
     fused[70:80], reset[79] = True, False
-    fused[150:160], reset[159] = False, True  # 100 updates later: recovered in between
+    fused[170:180], reset[179] = False, True  # 120 updates later: recovered in between
     assert np.isnan(_monitor(fused, reset))
 
 
