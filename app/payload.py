@@ -59,44 +59,8 @@ def result_to_json(
     """
     i = run_index
     diverged_at = float(result.diverged_at_s[i])
-    estimate: dict[str, Any] = {}
-    pos = result.est_pos_n[:, i]
-    for k, axis in enumerate(("north", "east", "down")):
-        estimate[f"est_{axis}_m"] = _finite(pos[:, k])
-    if origin_rad is not None and len(pos):
-        from tauvcore.geo.earth import geodetic_from_ned
-
-        lat, lon, h = geodetic_from_ned(pos, (origin_rad[0], origin_rad[1], 0.0))
-        estimate.update(
-            est_lat_deg=_finite(np.degrees(lat)),
-            est_lon_deg=_finite(np.degrees(lon)),
-            est_depth_m=_finite(-h),
-        )
-    if result.est_vel_n is not None:
-        for k, axis in enumerate(("north", "east", "down")):
-            estimate[f"est_vel_{axis}_mps"] = _finite(result.est_vel_n[:, i, k])
-    if result.est_euler_rad is not None:
-        for k, angle in enumerate(("roll", "pitch", "yaw")):
-            estimate[f"est_{angle}_deg"] = _finite(np.degrees(result.est_euler_rad[:, i, k]))
     return {
-        "t": _finite(result.t_s),
-        **estimate,
-        "vel_err_mps": _finite(result.vel_err_mps[:, i]),
-        "att_err_deg": _finite(result.att_err_deg[:, i]),
-        "tilt_err_deg": _finite(result.tilt_err_deg[:, i]),
-        "heading_err_deg": _finite(result.heading_err_deg[:, i]),
-        "pos_err_m": _finite(result.pos_err_m[:, i]),
-        "vel_sigma_mps": _finite(result.vel_sigma_mps[:, i]),
-        "att_sigma_deg": _finite(result.att_sigma_deg[:, i]),
-        "tilt_sigma_deg": _finite(result.tilt_sigma_deg[:, i]),
-        "heading_sigma_deg": _finite(result.heading_sigma_deg[:, i]),
-        "pos_sigma_m": _finite(result.pos_sigma_m[:, i]),
-        "nees": _finite(result.nees[:, i]),
-        **{
-            f"nees_{block}": _finite(nees_series(result, block)[:, i])
-            for block in BLOCK_DIMS
-            if block != "full"
-        },
+        **{name: _finite(values) for name, values in result_series(result, i, origin_rad).items()},
         "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
         "consistency": consistency_to_json(method_consistency(result)),
         "diverged": bool(result.diverged[i]),
@@ -105,14 +69,57 @@ def result_to_json(
     }
 
 
-def _nis_to_json(record: UpdateRecord, run_index: int) -> dict[str, list]:
+def result_series(
+    result: MethodResult, run_index: int = 0, origin_rad: tuple[float, float] | None = None
+) -> dict[str, np.ndarray]:
+    """The per-epoch series of :func:`result_to_json`, in its order, as float arrays (T,) (the
+    JSON writes their non-finite values as null); of any stretch of output epochs, so that a
+    long run's document can be written chunk by chunk (app.json_stream)."""
+    i = run_index
+    estimate: dict[str, np.ndarray] = {}
+    pos = result.est_pos_n[:, i]
+    for k, axis in enumerate(("north", "east", "down")):
+        estimate[f"est_{axis}_m"] = pos[:, k]
+    if origin_rad is not None and len(pos):
+        from tauvcore.geo.earth import geodetic_from_ned
+
+        lat, lon, h = geodetic_from_ned(pos, (origin_rad[0], origin_rad[1], 0.0))
+        estimate.update(est_lat_deg=np.degrees(lat), est_lon_deg=np.degrees(lon), est_depth_m=-h)
+    if result.est_vel_n is not None:
+        for k, axis in enumerate(("north", "east", "down")):
+            estimate[f"est_vel_{axis}_mps"] = result.est_vel_n[:, i, k]
+    if result.est_euler_rad is not None:
+        for k, angle in enumerate(("roll", "pitch", "yaw")):
+            estimate[f"est_{angle}_deg"] = np.degrees(result.est_euler_rad[:, i, k])
+    return {
+        "t": result.t_s,
+        **estimate,
+        "vel_err_mps": result.vel_err_mps[:, i],
+        "att_err_deg": result.att_err_deg[:, i],
+        "tilt_err_deg": result.tilt_err_deg[:, i],
+        "heading_err_deg": result.heading_err_deg[:, i],
+        "pos_err_m": result.pos_err_m[:, i],
+        "vel_sigma_mps": result.vel_sigma_mps[:, i],
+        "att_sigma_deg": result.att_sigma_deg[:, i],
+        "tilt_sigma_deg": result.tilt_sigma_deg[:, i],
+        "heading_sigma_deg": result.heading_sigma_deg[:, i],
+        "pos_sigma_m": result.pos_sigma_m[:, i],
+        "nees": result.nees[:, i],
+        **{f"nees_{block}": nees_series(result, block)[:, i] for block in BLOCK_DIMS if block != "full"},
+    }
+
+
+def nis_series(record: UpdateRecord, run_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One source's update times [s], NIS (NaN where it did not measure) and dof of run
+    ``run_index``, as :func:`result_to_json`'s ``nis`` holds them."""
     nis, dof = record.nis[:, run_index], record.nis_dof[:, run_index]
     used = record.valid[:, run_index] & (dof > 0)
-    return {
-        "t": _finite(record.t_s),
-        "nis": _finite(np.where(used, nis, np.nan)),
-        "dof": [int(d) for d in dof],
-    }
+    return record.t_s, np.where(used, nis, np.nan), dof
+
+
+def _nis_to_json(record: UpdateRecord, run_index: int) -> dict[str, list]:
+    t, nis, dof = nis_series(record, run_index)
+    return {"t": _finite(t), "nis": _finite(nis), "dof": [int(d) for d in dof]}
 
 
 def consistency_to_json(c: MethodConsistency) -> dict[str, Any]:

@@ -2,33 +2,32 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from tauvcore.aiding.sources import FUSED
 from tauvcore.config import Config
 from tauvcore.engine import yoo_sources
-from tauvcore.engine.results import BLOCK_DIMS
-from tauvcore.eval.consistency import method_consistency
-from tauvcore.eval.metrics import rms
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult
+from tauvcore.eval.running import MethodSummary, summarise
 from tauvcore.eval.study import FINAL_STATISTICS
-
-if TYPE_CHECKING:
-    from tauvcore.engine.results import MethodResult
 
 
 def summary_table(
-    results: dict[str, MethodResult],
+    results: Mapping[str, MethodResult | MethodSummary],
     config: Config,
     elapsed_s: float,
     source: str | None = None,
     preamble: Sequence[str] = (),
 ) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
-    :func:`consistency_table`. ``source``: what was run, when not the configured trajectory (a
-    log); ``preamble``: lines after the first (a log: what configured it, where it started)."""
+    :func:`consistency_table`. ``results``: each method's whole results, or its summary reduced
+    chunk by chunk (tauvcore.eval.running); ``source``: what was run, when not the configured
+    trajectory (a log); ``preamble``: lines after the first (a log: what configured it, where it
+    started)."""
+    summaries = _summaries(results)
     tr = config.trajectory
     what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
     ideal = config.run.ideal and source is None  # a replay's sensors are the log's: it has no ideal mode
@@ -48,28 +47,30 @@ def summary_table(
             f"{'[m]':>9} {'[m/s]':>10}"
         ),
     ]
-    for name, r in results.items():
-        dvl = r.updates.get("dvl")
-        fused = (
-            f"{int(dvl.fused.sum())}/{int(dvl.rejected.sum())}/{int((~dvl.valid).sum())}"
-            if dvl is not None
-            else "-"
-        )
+    for name, s in summaries.items():
+        fused = "-" if s.dvl_counts is None else "/".join(str(n) for n in s.dvl_counts)
         marker = ""
-        if bool(r.diverged[0]):
-            at = float(r.diverged_at_s[0])
-            marker = "  diverged" + (f" at {at:g} s" if np.isfinite(at) else "")
-        if dvl is not None and dvl.reset is not None and dvl.reset[:, 0].any():
-            when = ", ".join(f"{t:g}" for t in dvl.t_s[dvl.reset[:, 0]][:5])
+        if s.diverged:
+            marker = "  diverged" + (f" at {s.diverged_at_s:g} s" if np.isfinite(s.diverged_at_s) else "")
+        if s.reset_times_s:
+            when = ", ".join(f"{t:g}" for t in s.reset_times_s[:5])
             marker += f"  velocity reset to the DVL after a lock-out at {when} s"
+        f, r = s.final, s.rms
         lines.append(
-            f"{name.upper():<7} {_fixed(r.vel_err_mps[-1, 0], 10, 4)} {_fixed(rms(r.vel_err_mps[:, 0]), 9, 4)} "
-            f"{_fixed(r.att_err_deg[-1, 0], 10, 4)} {_fixed(rms(r.att_err_deg[:, 0]), 9, 4)} "
-            f"{_fixed(rms(r.tilt_err_deg[:, 0]), 9, 4)} {_fixed(rms(r.heading_err_deg[:, 0]), 9, 4)} "
-            f"{_fixed(r.pos_err_m[-1, 0], 10, 3)} {_fixed(rms(r.pos_err_m[:, 0]), 9, 3)} "
-            f"{_fixed(r.vel_sigma_mps[-1, 0], 10, 4)} {fused:>20}" + marker
+            f"{name.upper():<7} {_fixed(f['vel_err_mps'], 10, 4)} {_fixed(r['vel_err_mps'], 9, 4)} "
+            f"{_fixed(f['att_err_deg'], 10, 4)} {_fixed(r['att_err_deg'], 9, 4)} "
+            f"{_fixed(r['tilt_err_deg'], 9, 4)} {_fixed(r['heading_err_deg'], 9, 4)} "
+            f"{_fixed(f['pos_err_m'], 10, 3)} {_fixed(r['pos_err_m'], 9, 3)} "
+            f"{_fixed(f['vel_sigma_mps'], 10, 4)} {fused:>20}" + marker
         )
-    return "\n".join(lines + ["", consistency_table(results, config.run.aiding)])
+    return "\n".join(lines + ["", consistency_table(summaries, config.run.aiding)])
+
+
+def _summaries(results: Mapping[str, MethodResult | MethodSummary]) -> dict[str, MethodSummary]:
+    """Each method's summary: as given, or of its whole results (tauvcore.eval.running.summarise)."""
+    whole = {m: r for m, r in results.items() if isinstance(r, MethodResult)}
+    done = summarise(whole) if whole else {}
+    return {m: done[m] if isinstance(r, MethodResult) else r for m, r in results.items()}
 
 
 def _fixed(value: float | np.ndarray, width: int, digits: int) -> str:
@@ -97,7 +98,7 @@ def _cell(ratio: float, in_band: float) -> str:
     return f"{_ratio(ratio)} ({f'{in_band:.2f}' if np.isfinite(in_band) else '-'})"
 
 
-def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) -> str:
+def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sources: Sequence[str]) -> str:
     """Per method: NEES/dim of the full state and each block, NIS/dof of each aiding source in
     ``sources``, each with the fraction of epochs (NIS: updates) inside its two-sided 99 %
     chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
@@ -106,8 +107,9 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
     head = ["method", *blocks, *sources]
     units = ["", *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
     rows = []
-    for name, r in results.items():
-        c = method_consistency(r)
+    summaries = _summaries(results)
+    for name, summary in summaries.items():
+        c = summary.consistency
         nis = [c.nis.get(s) for s in sources]
         rows.append(
             [
@@ -129,7 +131,7 @@ def consistency_table(results: dict[str, MethodResult], sources: Sequence[str]) 
         "inside the 99 % band)"
     )
     notes = []
-    if any(r.block_dims is not None for r in results.values()):
+    if any(r.block_dims is not None for r in summaries.values()):
         left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
         notes = [
             "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "

@@ -11,9 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from app.commands.outputs import json_target, log_table, refuse_holding_inputs, write_json_atomic
+from app.commands.outputs import json_target, log_table, refuse_holding_inputs
 from app.commands.values import UsageError, resolve_config
-from app.payload import run_payload
 from app.tables import summary_table
 from tauvcore.validation import show, show_path
 
@@ -21,19 +20,49 @@ from tauvcore.validation import show, show_path
 def cmd_run(args: argparse.Namespace) -> int:
     """``tauv run``: simulate, run the methods, print the summary; with ``--save-log`` the
     simulation as a log (all or nothing, the directory locked meanwhile), with ``--json`` the
-    results (atomically). Every output is checked before the run, and none may be an input."""
+    results (atomically). Every output is checked before the run, and none may be an input.
+
+    The results are reduced chunk by chunk as the engine hands them out (the summary's sums,
+    tauvcore.eval.running; the ``--json`` document spooled to disk, app.json_stream), so memory
+    does not grow with the mission's length."""
     config = resolve_config(args)
     log_dir = _save_log_target(args)
     inputs = [("the --config file", args.config), ("the --save-log directory", args.save_log)]
     json_path = json_target(args.json, inputs) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
+    from app.json_stream import RunJsonWriter
     from tauvcore.engine.mission import run_streaming
+    from tauvcore.eval.running import RunningSummary
+
+    running = RunningSummary()
+    writer = None
+    if json_path is not None:
+        try:
+            writer = RunJsonWriter(json_path, config)
+        except OSError as exc:
+            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
+
+    def on_chunk(results: dict) -> None:
+        running.add(results)
+        if writer is not None:
+            try:
+                writer.add(results)
+            except OSError as exc:
+                raise UsageError(
+                    f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}"
+                ) from None
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
     try:
         chunks: list = []
-        results = run_streaming(config, rng, on_sim_chunk=chunks.append if lock is not None else None)
+        run_streaming(
+            config,
+            rng,
+            keep=False,
+            on_chunk=on_chunk,
+            on_sim_chunk=chunks.append if lock is not None else None,
+        )
         elapsed = time.perf_counter() - started
         if log_dir is not None:
             from app.study_output import os_reason
@@ -48,16 +77,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     except BaseException:
         if lock is not None:
             lock.release(remove_created=True)
+        if writer is not None:
+            writer.discard()
         raise
     if lock is not None:
         lock.release()
-    if json_path is not None:
-        assert args.json is not None  # json_path is set only when --json was given
+    summaries = running.summaries()
+    if writer is not None:
+        assert args.json is not None  # the writer exists only when --json was given
         try:
-            write_json_atomic(json_path, run_payload(config, results))
+            writer.write(summaries)
         except OSError as exc:
             raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
-    print(summary_table(results, config, elapsed))
+    print(summary_table(summaries, config, elapsed))
     return 0
 
 

@@ -1,0 +1,171 @@
+"""``tauv run --json`` written as the run goes: the document of app.payload.run_payload, with
+memory flat in the mission's length.
+
+Each chunk's series (app.payload.result_series, run 0) and NIS records are appended to files of
+raw doubles in a temporary directory beside the output; at the end the document is written from
+them, a block of values at a time, into a temporary file that is renamed over the output (as
+app.commands.outputs.write_json_atomic does). It parses to the same document as writing the whole
+results at once (tests/unit/test_json_stream.py): every series the same numbers, the consistency
+(summed chunk by chunk, tauvcore.eval.running) to 1e-9. On any failure, or an interruption, the
+temporary files go and the output is untouched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import tempfile
+from typing import IO, Any
+
+import numpy as np
+
+from app.commands.outputs import _new_file_mode
+from app.payload import config_to_json, consistency_to_json, nis_series, result_series
+from tauvcore.config import Config
+from tauvcore.engine.results import MethodResult
+from tauvcore.eval.running import MethodSummary
+
+BLOCK_VALUES = 65536
+"""Values read back and formatted at a time (0.5 MB of doubles)."""
+
+
+class RunJsonWriter:
+    """The ``--json`` document of a run, fed chunk by chunk (module docstring).
+
+    Parameters
+    ----------
+    path : str
+        The output file (its directory must be writable; checked before the run).
+    config : Config
+        The run's configuration: the document's ``config``, and the origin of ``est_lat_deg`` etc.
+    """
+
+    def __init__(self, path: str, config: Config) -> None:
+        self.path = path
+        self.config = config
+        self.origin = (config.earth.latitude_rad, config.earth.longitude_rad)
+        self.spool = tempfile.mkdtemp(prefix=".tauv-", suffix=".json.parts", dir=os.path.dirname(path) or ".")
+        self.series: dict[str, list[str]] = {}  # method -> its series' names, in the document's order
+        self.sources: dict[str, list[str]] = {}  # method -> its NIS sources, in the order they came
+        self.last: dict[str, MethodResult] = {}  # each method's latest chunk: its verdict so far
+
+    def _file(self, method: str, name: str) -> str:
+        return os.path.join(self.spool, f"{method}.{name}.bin")
+
+    def add(self, results: dict[str, MethodResult]) -> None:
+        """Append one chunk's run-0 series and NIS records.
+
+        Parameters
+        ----------
+        results : dict[str, MethodResult]
+            Method name -> its results over the chunk.
+
+        Raises
+        ------
+        OSError
+            The spool could not be written (a full disk): the caller removes it (:meth:`discard`).
+        """
+        for method, r in results.items():
+            self.last[method] = r
+            if r.t_s.size:
+                series = result_series(r, 0, self.origin)
+                self.series.setdefault(method, list(series))
+                for name, values in series.items():
+                    _append(self._file(method, name), np.asarray(values, dtype=np.float64))
+            sources = self.sources.setdefault(method, [])
+            for source, record in r.updates.items():
+                if source not in sources:
+                    sources.append(source)
+                t, nis, dof = nis_series(record, 0)
+                _append(self._file(method, f"nis.{source}.t"), np.asarray(t, dtype=np.float64))
+                _append(self._file(method, f"nis.{source}.nis"), np.asarray(nis, dtype=np.float64))
+                _append(self._file(method, f"nis.{source}.dof"), np.asarray(dof, dtype=np.int64))
+
+    def write(self, summaries: dict[str, MethodSummary]) -> None:
+        """Write the document to ``path`` (atomically) and remove the spool.
+
+        Parameters
+        ----------
+        summaries : dict[str, MethodSummary]
+            The run's summaries (tauvcore.eval.running.RunningSummary): each method's consistency.
+
+        Raises
+        ------
+        OSError
+            The document could not be written: ``path`` is untouched, nothing is left behind.
+        """
+        directory = os.path.dirname(self.path) or "."
+        fd, tmp = tempfile.mkstemp(prefix=".tauv-", suffix=".json.tmp", dir=directory)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write('{"config": ')
+                json.dump(config_to_json(self.config), fh, allow_nan=False)
+                fh.write(', "results": {')
+                for k, method in enumerate(self.last):
+                    fh.write(("" if k == 0 else ", ") + json.dumps(method) + ": ")
+                    self._method(fh, method, summaries[method])
+                fh.write("}}")
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.chmod(tmp, _new_file_mode(self.path))
+            os.replace(tmp, self.path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        finally:
+            self.discard()
+
+    def _method(self, fh: IO[str], method: str, summary: MethodSummary) -> None:
+        fh.write("{")
+        for name in self.series.get(method, []):
+            fh.write(json.dumps(name) + ": ")
+            _write_list(fh, self._file(method, name), np.float64)
+            fh.write(", ")
+        fh.write('"nis": {')
+        for k, source in enumerate(self.sources.get(method, [])):
+            fh.write(("" if k == 0 else ", ") + json.dumps(source) + ': {"t": ')
+            _write_list(fh, self._file(method, f"nis.{source}.t"), np.float64)
+            fh.write(', "nis": ')
+            _write_list(fh, self._file(method, f"nis.{source}.nis"), np.float64)
+            fh.write(', "dof": ')
+            _write_list(fh, self._file(method, f"nis.{source}.dof"), np.int64)
+            fh.write("}")
+        last = self.last[method]
+        diverged_at = float(last.diverged_at_s[0])
+        tail: dict[str, Any] = {
+            "consistency": consistency_to_json(summary.consistency),
+            "diverged": bool(last.diverged[0]),
+            "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
+            "p_floor_count": int(last.p_floor_count[0]),
+        }
+        fh.write("}, " + json.dumps(tail, allow_nan=False)[1:])
+
+    def discard(self) -> None:
+        """Remove the spool (after :meth:`write`, or when the run failed)."""
+        shutil.rmtree(self.spool, ignore_errors=True)
+
+
+def _append(path: str, values: np.ndarray) -> None:
+    with open(path, "ab") as fh:
+        fh.write(np.ascontiguousarray(values).tobytes())
+
+
+def _write_list(fh: IO[str], path: str, dtype: type) -> None:
+    """A spooled array as a JSON list: floats as JSON writes them (their repr), null where not
+    finite; integers as integers."""
+    values = np.fromfile(path, dtype=dtype) if os.path.exists(path) else np.zeros(0, dtype)
+    fh.write("[")
+    for start in range(0, values.size, BLOCK_VALUES):
+        block = values[start : start + BLOCK_VALUES]
+        if dtype is np.int64:
+            text = ", ".join(str(v) for v in block.tolist())
+        else:
+            finite = np.isfinite(block)
+            text = ", ".join(
+                repr(v) if ok else "null" for v, ok in zip(block.tolist(), finite.tolist(), strict=True)
+            )
+        fh.write((", " if start else "") + text)
+    fh.write("]")
