@@ -37,11 +37,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     running = RunningSummary()
     writer = None
+    json_name = show_path(str(args.json))
     if json_path is not None:
         try:
             writer = RunJsonWriter(json_path, config)
         except OSError as exc:
-            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
+            raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
 
     def on_chunk(results: dict) -> None:
         running.add(results)
@@ -50,7 +51,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 writer.add(results)
             except OSError as exc:
                 raise UsageError(
-                    f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}"
+                    f"--json: cannot write {json_name}: {exc.strerror or exc}"
                 ) from None
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
@@ -84,11 +85,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         lock.release()
     summaries = running.summaries()
     if writer is not None:
-        assert args.json is not None  # the writer exists only when --json was given
         try:
             writer.write(summaries)
         except OSError as exc:
-            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
+            raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
     print(summary_table(summaries, config, elapsed))
     return 0
 
