@@ -74,7 +74,7 @@ def result_series(
 ) -> dict[str, np.ndarray]:
     """The per-epoch series of :func:`result_to_json`, in its order, as float arrays (T,) (the
     JSON writes their non-finite values as null); of any stretch of output epochs, so that a
-    long run's document can be written chunk by chunk (app.json_stream)."""
+    long run's document can be written chunk by chunk (app.commands.json_stream)."""
     i = run_index
     estimate: dict[str, np.ndarray] = {}
     pos = result.est_pos_n[:, i]

@@ -8,7 +8,7 @@ Each row is one whole command in its own process (``tauv run --trajectory straig
 (``ru_maxrss``, what ``/usr/bin/time -v`` reports), its wall time, and with ``--json`` the file's
 size and the time the document took to write after the run (the run's own wall time is in the
 command's first line). The command reduces the results chunk by chunk (tauvcore.eval.running) and
-spools the document to disk as it goes (app.json_stream), so its memory does not grow with the
+spools the document to disk as it goes (app.commands.json_stream), so its memory does not grow with the
 mission. Writes docs/results/run_memory.md.
 """
 

@@ -23,7 +23,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     results (atomically). Every output is checked before the run, and none may be an input.
 
     The results are reduced chunk by chunk as the engine hands them out (the summary's sums,
-    tauvcore.eval.running; the ``--json`` document spooled to disk, app.json_stream), so memory
+    tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream), so memory
     does not grow with the mission's length."""
     config = resolve_config(args)
     log_dir = _save_log_target(args)
@@ -31,7 +31,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     json_path = json_target(args.json, inputs) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
-    from app.json_stream import RunJsonWriter
+    from app.commands.json_stream import RunJsonWriter
     from tauvcore.engine.mission import run_streaming
     from tauvcore.eval.running import RunningSummary
 
@@ -50,9 +50,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             try:
                 writer.add(results)
             except OSError as exc:
-                raise UsageError(
-                    f"--json: cannot write {json_name}: {exc.strerror or exc}"
-                ) from None
+                raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
     try:

@@ -1,5 +1,5 @@
 """`tauv run` reduced chunk by chunk: the summary's sums (tauvcore.eval.running) and the --json
-document written as the run goes (app.json_stream) against the whole results held at once."""
+document written as the run goes (app.commands.json_stream) against the whole results held at once."""
 
 import json
 import math
@@ -8,8 +8,8 @@ import os
 import numpy as np
 import pytest
 
+from app.commands.json_stream import RunJsonWriter
 from app.commands.outputs import write_json_atomic
-from app.json_stream import RunJsonWriter
 from app.payload import run_payload
 from app.tables import summary_table
 from tauvcore.config import Config
