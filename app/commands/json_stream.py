@@ -3,8 +3,8 @@ memory flat in the mission's length.
 
 Each chunk's series (app.payload.result_series, run 0) and NIS records are appended to files of
 raw doubles in a temporary directory beside the output; at the end the document is written from
-them, a block of values at a time, into a temporary file that is renamed over the output (as
-app.commands.outputs.write_json_atomic does). It parses to the same document as writing the whole
+them, a block of values at a time, into a temporary file that is renamed over the output
+(app.commands.outputs.write_text_atomic). It parses to the same document as writing the whole
 results at once (tests/unit/test_json_stream.py): every series the same numbers, the consistency
 (summed chunk by chunk, tauvcore.eval.running) to 1e-9. On any failure, or an interruption, the
 temporary files go and the output is untouched.
@@ -12,7 +12,6 @@ temporary files go and the output is untouched.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import shutil
@@ -21,7 +20,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from app.commands.outputs import _new_file_mode
+from app.commands.outputs import write_text_atomic
 from app.payload import config_to_json, consistency_to_json, nis_series, result_series
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
@@ -96,25 +95,18 @@ class RunJsonWriter:
         OSError
             The document could not be written: ``path`` is untouched, nothing is left behind.
         """
-        directory = os.path.dirname(self.path) or "."
-        fd, tmp = tempfile.mkstemp(prefix=".tauv-", suffix=".json.tmp", dir=directory)
+
+        def document(fh: IO[str]) -> None:
+            fh.write('{"config": ')
+            json.dump(config_to_json(self.config), fh, allow_nan=False)
+            fh.write(', "results": {')
+            for k, method in enumerate(self.last):
+                fh.write(("" if k == 0 else ", ") + json.dumps(method) + ": ")
+                self._method(fh, method, summaries[method])
+            fh.write("}}")
+
         try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write('{"config": ')
-                json.dump(config_to_json(self.config), fh, allow_nan=False)
-                fh.write(', "results": {')
-                for k, method in enumerate(self.last):
-                    fh.write(("" if k == 0 else ", ") + json.dumps(method) + ": ")
-                    self._method(fh, method, summaries[method])
-                fh.write("}}")
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.chmod(tmp, _new_file_mode(self.path))
-            os.replace(tmp, self.path)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
+            write_text_atomic(self.path, document)
         finally:
             self.discard()
 

@@ -11,8 +11,8 @@ import json
 import os
 import stat
 import tempfile
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import IO, Any
 
 from app.commands.values import UsageError
 from tauvcore.validation import show, show_path
@@ -141,14 +141,19 @@ def log_table(directory: str) -> str | None:
 
 
 def write_json_atomic(path: str, payload: Any) -> None:
-    """Write ``payload`` as strict JSON to ``path``: a temporary file in the same directory,
-    flushed to disk, then renamed over ``path``. On any failure or interruption the temporary
-    file is removed and ``path`` is untouched, so no half-written file is ever left."""
+    """Write ``payload`` as strict JSON to ``path``, atomically (:func:`write_text_atomic`)."""
+    write_text_atomic(path, lambda fh: json.dump(payload, fh, allow_nan=False))
+
+
+def write_text_atomic(path: str, write: Callable[[IO[str]], object]) -> None:
+    """Write a text file with ``write(fh)``: into a temporary file in the same directory, flushed
+    to disk, then renamed over ``path``. On any failure or interruption the temporary file is
+    removed and ``path`` is untouched, so no half-written file is ever left."""
     directory = os.path.dirname(path) or "."
     fd, tmp = tempfile.mkstemp(prefix=".tauv-", suffix=".json.tmp", dir=directory)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(payload, fh, allow_nan=False)
+            write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, _new_file_mode(path))

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tauvcore.engine.results import BLOCK_DIMS, MethodResult
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult, UpdateRecord
 from tauvcore.eval.consistency import (
     CONFIDENCE,
     MethodConsistency,
@@ -205,7 +205,7 @@ def _nees_summary(sums: _NeesSums, dim: int, runs: int, block: str) -> NeesSumma
     return NeesSummary(block, dim, sums.total / sums.count / dim, sums.inside / sums.epochs, band)
 
 
-def _add_nis(sums: _NisSums, record) -> None:
+def _add_nis(sums: _NisSums, record: UpdateRecord) -> None:
     used = record.valid & (record.nis_dof > 0) & np.isfinite(record.nis)
     if not used.any():
         return
