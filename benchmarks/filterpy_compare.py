@@ -104,7 +104,7 @@ def lc_config(trajectory: str, duration_s: float, mode: str, seed: int = 0) -> C
     tests/unit/test_lockout.py holds that on its own)."""
     return (Config().replace("trajectory", name=trajectory, duration_s=duration_s).replace("earth", model="flat")
             .replace("initial_error", mode=mode).replace("run", methods=("lc",), aiding=("dvl",), seed=seed)
-            .replace("filter", lockout_reset_updates=0))
+            .replace("filter", lockout_reset_updates=0, scale_factor_velocity_tau_s=0.0))
 
 
 def filterpy_loop(config: Config, sim: Simulation, rng: np.random.Generator) -> LoopResult:

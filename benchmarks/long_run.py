@@ -9,7 +9,8 @@ seed, Table 2 sensors, fixed initial errors), each in its own process so that it
 heading dominates, roll and pitch are held by gravity) and the filter's 1-sigma at the end, NEES
 (20 states) at the end and averaged over the last hour, the divergence monitor's verdict, the P
 floor count, wall time and peak memory. A speed and behaviour record, not a test
-(tests/statistical/test_long_run.py is the bounded-cost test).
+(tests/statistical/test_long_run.py is the bounded-cost test). Writes docs/results/long_run.md
+(benchmarks/fragment.py).
 
 The run is streamed (tauvcore.engine.mission.run_streaming, ``keep=False``): truth, sensors and
 results pass 10 s at a time and only the figures above are kept, so the memory does not grow
@@ -26,6 +27,8 @@ import sys
 import time
 
 import numpy as np
+
+import fragment
 
 AIDINGS = ("dvl", "dvl,mag")
 
@@ -73,20 +76,24 @@ def main() -> None:
     if args.child:
         child(args.hours, args.imu_rate_hz, args.seed, args.child)
         return
-    print(f"lc, straight, {args.hours:g} h, IMU {args.imu_rate_hz:g} Hz, seed {args.seed}\n")
-    print("| aiding | att error end [deg] | att 1-sigma end [deg] | att error max [deg] | NEES end | "
-          "NEES mean last hour | pos error end [m] | diverged at [s] | P floors | wall [s] | peak memory [GB] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    lines = [
+        f"`lc`, straight line, {args.hours:g} h, IMU {args.imu_rate_hz:g} Hz, seed {args.seed}.",
+        "",
+        "| aiding | att error end [deg] | att 1-sigma end [deg] | att error max [deg] | NEES end | "
+        "NEES mean last hour | pos error end [m] | flagged at [s] | P floors | wall [s] | peak memory [GB] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for aiding in AIDINGS:
         out = subprocess.run([sys.executable, __file__, "--hours", str(args.hours), "--imu-rate-hz",
                               str(args.imu_rate_hz), "--seed", str(args.seed), "--child", aiding],
                              check=True, capture_output=True, text=True).stdout
         r = json.loads(out.strip().splitlines()[-1])
         div = "never" if r["diverged_at_s"] is None else f"{r['diverged_at_s']:.0f}"
-        print(f"| {aiding} | {r['att_err_deg']:.2f} | {r['att_sigma_deg']:.2f} | {r['att_err_max_deg']:.2f} | "
-              f"{r['nees_end']:.1f} | {r['nees_last_hour']:.1f} | {r['pos_err_m']:.1f} | {div} | "
-              f"{r['p_floor_count']} | "
-              f"{r['wall_s']:.0f} | {r['peak_rss_gb']:.2f} |", flush=True)
+        lines.append(f"| {aiding} | {r['att_err_deg']:.2f} | {r['att_sigma_deg']:.2f} | {r['att_err_max_deg']:.2f} | "
+                     f"{r['nees_end']:.1f} | {r['nees_last_hour']:.1f} | {r['pos_err_m']:,.0f} | {div} | "
+                     f"{r['p_floor_count']} | {r['wall_s']:.0f} | {r['peak_rss_gb']:.2f} |")
+        print(lines[-1], flush=True)
+    print(f"written to {fragment.write('long_run', chr(10).join(lines))}")
 
 
 if __name__ == "__main__":

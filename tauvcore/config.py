@@ -135,9 +135,14 @@ class FilterConfig:
     lockout_reset_updates: int = 10  # at this many consecutive DVL pings the gate rejected (10 s at
     # 1 Hz) the filter resets its velocity to the last of them (tauvcore.engine.lockout); 0: never;
     # [0, 1000]: the divergence monitor calls 10 a lock-out (1e-21 for a consistent filter)
+    scale_factor_velocity_tau_s: float = 300.0  # the DVL scale factor's column of H is evaluated at
+    # the filter's body velocity averaged with this time constant [s] (tauvcore.engine.scale_factor);
+    # 0: at the current estimate (the plain EKF, whose scale factor drifts on long straight legs);
+    # [0, 86400]
 
     def __post_init__(self) -> None:
         require_range("filter.gate_sigma", self.gate_sigma, 1.0, 1000.0)
+        require_range("filter.scale_factor_velocity_tau_s", self.scale_factor_velocity_tau_s, 0.0, 86400.0)
         if (
             isinstance(self.lockout_reset_updates, bool)
             or not isinstance(self.lockout_reset_updates, int)

@@ -58,6 +58,7 @@ from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
+from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.sources import active
 from tauvcore.engine.start import initial_covariance, initial_nominal
@@ -239,6 +240,9 @@ class FilterBank(ChunkDriver):
         self.dtheta_sum = np.zeros((R, 3))  # gyro increments since k_cov
         self.dvl_rejected = np.zeros(self.batch, dtype=np.int64)  # consecutive pings the gate rejected
         self.dvl_reacquire = np.zeros(self.batch, bool)  # reset at the last ping: the next one ungated
+        tau_s = config.filter.scale_factor_velocity_tau_s
+        # the velocity the DVL scale factor's column of H is taken at (tauvcore.engine.scale_factor)
+        self.sf_velocity = VelocityAverage(tau_s) if tau_s > 0 else None
         self.started = True
 
     def nominal(self, m: int | None = None) -> Nominal:
@@ -367,6 +371,9 @@ class FilterBank(ChunkDriver):
         state = DvlState(self.C, self.vel, self.bg, self.bdvl, self.sf, self.P)
         dvl_measure_bank(plain(dvl), plain(self.partial_tables), plain(ping), plain(state), plain(rows))
         z, nu, H, Rm, active, valid, mode, measured_axes, choice = rows
+        if self.sf_velocity is not None:
+            v_ref = self.sf_velocity.reference(body_velocity(self.C, self.vel))
+            scale_factor_rows(H, mode, self.sf, v_ref)
         reacquire = self.dvl_reacquire & valid
         if reacquire.any():  # the ping after a reset: fused whatever its innovation
             fused = self._fuse_reacquiring(H, Rm, nu, active, reacquire)
@@ -375,6 +382,8 @@ class FilterBank(ChunkDriver):
             fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
         outcome = make_outcome(z, nu, active, *fused)
         reset = self._lockout_reset(~outcome.fused, valid, y, available, omega_meas)
+        if self.sf_velocity is not None:
+            self.sf_velocity.update(body_velocity(self.C, self.vel), t, reset)
         self.recorders["dvl"].add(
             t,
             outcome,
