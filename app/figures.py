@@ -34,6 +34,7 @@ METHOD_COLORS = {
     "plcf": "#9467bd",
     "vhv": "#8c564b",
     "elc": "#e377c2",
+    "iekf": "#e7ba52",
     "ins-dvl": "#bcbd22",
     "vkf": "#17becf",  # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
 }

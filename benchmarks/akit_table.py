@@ -51,6 +51,10 @@ def segment_row(segment: Path, imu_errors: str | None, seed: int = 0) -> dict[st
             _, results = replay(config, log, np.random.default_rng(seed), imu_errors=errors)
             for method, r in results.items():
                 out[method] = float(r.pos_err_m[-1, 0])
+                if method == "lc":   # the divergence monitor's verdict and the lock-out resets
+                    out["lc_flag_s"] = float(r.diverged_at_s[0])
+                    reset = r.updates["dvl"].reset
+                    out["lc_resets"] = int(reset[:, 0].sum()) if reset is not None else 0
         return out
 
 
@@ -78,6 +82,13 @@ def main() -> None:
                   f"| {cells} |", flush=True)
         medians = " | ".join(f"{np.median([r[m] for r in rows]):.1f}" for m in methods)
         print(f"| median | | | {medians} |")
+        print("\nLC with four beams: the divergence monitor's first flag (from the DVL's innovations, as a real "
+              "filter could judge itself) and the velocity resets after a lock-out\n")
+        print("| segment | flagged at [s] | resets |")
+        print("|---|---|---|")
+        for segment, row in zip(segments, rows, strict=True):
+            flag = "never" if np.isnan(row["lc_flag_s"]) else f"{row['lc_flag_s']:.0f}"
+            print(f"| {segment.name} | {flag} | {row['lc_resets']} |")
     name = "akit_table" + (f"_{args.imu_errors}" if args.imu_errors else "")
     print(f"written to {fragment.write(name, shown.getvalue())}")
 

@@ -36,9 +36,8 @@ import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 
-import numpy as np
-
 import fragment
+import numpy as np
 
 SEED = 2026
 ROWS = {

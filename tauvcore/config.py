@@ -43,11 +43,13 @@ from tauvcore.validation import (
     show_path,
 )
 
-METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc")
+METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc", "iekf")
 """Fusion methods: ``ins`` standalone INS (no aiding at all), ``lc`` loosely coupled DVL (3-4
 beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled methods of section
 3 (LC with 3-4 beams, their partial construction with 2): ``vb`` virtual beam, ``nsv``
-nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector."""
+nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector; and
+``iekf``, the right-invariant EKF (Potokar et al. 2021; tauvcore.filter.invariant) fusing the beams
+as ``tc`` does."""
 
 YOO_METHODS = ("ins-dvl", "vkf")
 """Yoo 2014's 12-state filter (tauvcore.engine.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,

@@ -22,9 +22,14 @@ from tauvcore.filter.kernels.dvl import TwoBeamTables
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE
 
-DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}}
+DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}, "iekf": "tc"}
 """How each method fuses the DVL (None: not at all; a registered method, tauvcore.aiding.registry,
-is not in it and takes no DVL)."""
+is not in it and takes no DVL). The invariant EKF fuses the returned beams one row each, as the
+tightly coupled filter: four beams are the body velocity of Potokar et al., two or three what they
+see of it."""
+INVARIANT_METHODS = frozenset({"iekf"})
+"""The methods that are the right-invariant EKF (tauvcore.filter.invariant): the filter bank corrects
+them on SE_2(3) and carries their covariance in the invariant error's coordinates."""
 
 
 DVL_ROWS = 4

@@ -50,6 +50,7 @@ from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
     DVL_MODE_CODES,
     DVL_ROWS,
+    INVARIANT_METHODS,
     partial_tables,
     rpm_measurement,
 )
@@ -146,6 +147,9 @@ class FilterBank(ChunkDriver):
         self.gyro_rate_noise = gyro_rate_noise
         # tightly coupled beams are gated row by row, the velocities whole (eskf.correct)
         self.dvl_gate_rows = np.zeros(self.batch, bool)
+        # the right-invariant EKF's filters (tauvcore.filter.invariant): corrected on SE_2(3)
+        invariant = np.array([m in INVARIANT_METHODS for m in methods])[:, None] & np.ones(self.batch, bool)
+        self.invariant = invariant.reshape(-1) if invariant.any() else None
         for m, method in self.dvl_methods:
             self.dvl_gate_rows[m] = DVL_FUSION[method] == "tc"
         dvl_members = np.isin(np.arange(M), self.dvl_index)
@@ -305,6 +309,7 @@ class FilterBank(ChunkDriver):
             gate_rows.reshape(-1),
             self.gate if gate is None else gate,
             self.geodetic,
+            self.invariant,
         )
         return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
 
@@ -397,7 +402,12 @@ class FilterBank(ChunkDriver):
         return valid
 
     def _fuse_reacquiring(
-        self, H: np.ndarray, Rm: np.ndarray, nu: np.ndarray, active: np.ndarray, reacquire: np.ndarray
+        self,
+        H: np.ndarray,
+        Rm: np.ndarray,
+        nu: np.ndarray,
+        active: np.ndarray,
+        reacquire: np.ndarray,
     ) -> tuple[np.ndarray, ...]:
         """The DVL's correction with the gate open for the filters ``reacquire`` (M, R) and as usual
         for the others: two compiled corrections over disjoint filters (tauvcore.engine.lockout).

@@ -6,8 +6,8 @@ numba compiles a kernel at its first call and caches the machine code (``cache=T
 first run after an install pays about 20 s of compilation. The README's two commands run this
 module right after installing, so that neither the first dashboard run (whose worker processes
 would otherwise compile side by side while the server answers its clients) nor the first test
-pays it. It runs a 12 s mission that takes every path of the engine: all ten methods (the
-20-state bank's eight, Yoo 2014's two in their own compiled loop), DVL, depth and magnetometer
+pays it. It runs a 12 s mission that takes every path of the engine: all eleven methods (the
+20-state bank's nine, Yoo 2014's two in their own compiled loop), DVL, depth and magnetometer
 aiding, four, two and three beams, two runs with random initial errors, streamed in two
 chunks; then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations of motion and
 autopilot).

@@ -355,6 +355,7 @@ def fuse_in_place(
     gate_rows: np.ndarray,
     gate_sigma: float,
     geodetic: bool = False,
+    invariant: np.ndarray | None = None,
 ) -> tuple[np.ndarray, ...]:
     """The compiled gated Joseph correction and injection of n filters, in place.
 
@@ -385,6 +386,10 @@ def fuse_in_place(
         Gate width in standard deviations of the innovation [-].
     geodetic : bool
         Positions are latitude [rad], longitude [rad], depth [m] (WGS-84) rather than NED [m].
+    invariant : numpy.ndarray or None
+        Shape (n,) bool: the filters that are the right-invariant EKF (tauvcore.filter.invariant):
+        their correction moves the estimate on SE_2(3) and carries P in the invariant error's
+        coordinates. None: none.
 
     Returns
     -------
@@ -401,6 +406,7 @@ def fuse_in_place(
         Shape (n,) bool: ``S`` not finite or not positive definite, nothing fused.
     """
     from tauvcore.filter.kernels.correction import correct_batch, inject_batch
+    from tauvcore.filter.kernels.invariant import retract_batch
 
     n, m = P.shape[0], nu.shape[-1]
     dx, s_diag, keep, nis, ratio, unusable = correct_batch(
@@ -412,7 +418,11 @@ def fuse_in_place(
         np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
         float(gate_sigma),
     )
-    inject_batch(*state, dx, geodetic)
+    if invariant is None or not invariant.any():
+        inject_batch(*state, dx, geodetic)
+    else:
+        inject_batch(*state, np.where(invariant[:, None], 0.0, dx), geodetic)
+        retract_batch(*state, P, dx, np.ascontiguousarray(invariant, dtype=bool), geodetic)
     return s_diag, keep, nis, ratio, unusable
 
 

@@ -176,7 +176,7 @@ def _expected(method: str, available: np.ndarray) -> tuple[int, np.ndarray]:
     n = int(available.sum())
     pattern = tuple(bool(b) for b in available)
     none = np.zeros(3, dtype=bool)
-    if method == "tc":
+    if method in ("tc", "iekf"):                 # the invariant EKF fuses the beams as TC does
         return (MODE_TC if n >= 1 else MODE_COAST), none
     if n >= 3:
         return MODE_LC, np.ones(3, dtype=bool)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from tauvcore.engine import loop, warmup, yoo_loop
-from tauvcore.filter.kernels import correction, dvl, strapdown
+from tauvcore.filter.kernels import correction, dvl, invariant, strapdown
 from tauvcore.truth import dynamic
 
 # the engine's entry points from Python (propagate_bank runs inside run_stops), by their modules
@@ -13,6 +13,7 @@ ENGINE_KERNELS = (
     (strapdown, ("advance",)),
     (correction, ("correct_batch", "inject_batch")),
     (dvl, ("dvl_measure_bank",)),
+    (invariant, ("retract_batch",)),
 )
 
 
