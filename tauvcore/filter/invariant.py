@@ -38,7 +38,7 @@ Roumeliotis's mechanism); the carry matrix above is that difference. On the WGS-
 positions are latitude, longitude and depth and the ``dp`` of the retraction is in metres at the
 estimate, as the ESKF's; the group structure is then that of the local-level frame at each step
 (earth rate and transport rate make the system not exactly group-affine; documented in
-docs/long_missions.md).
+docs/methods.md).
 
 The compiled twin is tauvcore.filter.kernels.invariant (the filter bank runs it); this module is
 its reference, held equal to it and to the SE_2(3) group operations by tests/unit/test_invariant.py.
