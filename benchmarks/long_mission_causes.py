@@ -68,7 +68,7 @@ def _install_oracle() -> None:
         return update(self, y, available, omega_meas, t)
 
     filter_bank.FilterBank._update_dvl = truthful_update
-    filter_bank.scale_factor_rows = lambda H, mode, sf, v_ref_b: plain_rows(H, mode, sf, truth_v_b["now"])
+    filter_bank.scale_factor_rows = lambda H, mode, A_b, v_ref_b: plain_rows(H, mode, A_b, truth_v_b["now"])
 
 
 def child(hours: float, runs: int, imu_rate_hz: float, row: str) -> None:

@@ -172,9 +172,17 @@ class PartialConfig:
     # tightest turn (tauvcore.aiding.elc_nsv.epsilon_from_vehicle; 0.26
     # for the defaults, benchmarks/nsv_epsilon_sweep.py); or a number in
     # (0, 100]: a variance; beyond 10 m/s of sway it says nothing
+    sensor_columns: bool = True  # the two-beam velocity's rows carry the columns of the beam biases
+    # and scale factor its compensated beams were corrected with (tauvcore.filter.kernels.dvl); false:
+    # the paper's H = [0 0 I 0 0 0 0] (eq. 24), which takes those slowly varying errors for white
+    # noise and is over-confident in position within the hour
 
     def __post_init__(self) -> None:
         require_range("partial.vb_nf", self.vb_nf, 1.0, 100.0)
+        if not isinstance(self.sensor_columns, bool):
+            raise ConfigError(
+                f"partial.sensor_columns must be true or false, got {show(self.sensor_columns)}"
+            )
         if isinstance(self.nsv_epsilon_m2_per_s2, str):
             if self.nsv_epsilon_m2_per_s2 != AUTO:
                 raise ConfigError(

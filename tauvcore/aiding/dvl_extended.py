@@ -44,6 +44,7 @@ class DvlExtended:
     gyro_rate_noise_rps: float
     vb_nf: float  # n_f of eq. 28 (VB), also VHV's (tauvcore.aiding.elc_vhv)
     nsv_epsilon_m2_per_s2: float  # epsilon of eq. 36
+    sensor_columns: bool = True  # the two-beam rows carry the DVL errors (partial.sensor_columns)
 
     name = "dvl"
 
@@ -79,6 +80,7 @@ class DvlExtended:
         R = np.broadcast_to(np.eye(3), batch + (3, 3)).copy()
         measured = np.zeros(batch + (3,), dtype=bool)
         choice = np.full(batch + (3,), -1)
+        C_rows = np.zeros(batch + (3, 4))  # each measured row's weights on the compensated beams
         if two.any():
             C_bn = np.swapaxes(nom.nav.C_nb, -1, -2)
             omega_comp = omega_meas_b - nom.gyro_bias - mv(C_bn, self.earth.omega_ie_n)
@@ -98,6 +100,7 @@ class DvlExtended:
                     )
                     v, Rm, meas, ch = elc_select.select(sols, y_c[idx], S_y[idx], v_hat[idx], P_vel[idx])
                     choice[idx] = ch
+                    C_rows[idx] = [[sols[max(c, 0)].C[k] for k, c in enumerate(row)] for row in ch]
                 else:
                     sol = self._solution(key)
                     if not sol.ok:
@@ -113,10 +116,15 @@ class DvlExtended:
                         P_vel[idx],
                     )
                     meas = np.broadcast_to(sol.measured, v.shape)
+                    C_rows[idx] = sol.C
                 v_meas[idx], R[idx], measured[idx] = v, Rm, meas
         partial_ok = two & measured.any(axis=-1)
         H_partial = np.zeros(batch + (3, STATE.dim))
         H_partial[..., STATE.vel] = np.eye(3)
+        if self.sensor_columns:  # tauvcore.filter.kernels.dvl.partial_sensor_row_into
+            scale = 1.0 / (1.0 + nom.dvl_sf)[..., None, None]
+            H_partial[..., STATE.b_dvl] = C_rows * scale
+            H_partial[..., STATE.sf_dvl] = (C_rows @ mv(self.dvl.A_b, nom.vel_b)[..., None]) * scale
         use_lc = lc.valid
         z = np.where(use_lc[..., None], lc.z, v_meas)
         innovation = np.where(use_lc[..., None], lc.innovation, v_meas - nom.vel_b)

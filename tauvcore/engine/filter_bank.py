@@ -369,6 +369,7 @@ class FilterBank(ChunkDriver):
             self.gyro_rate_noise**2,
             self.w_ie,
             DVL_MODE_CODES,
+            self.config.partial.sensor_columns,
         )
         ping = Ping(
             np.ascontiguousarray(y), np.ascontiguousarray(available), np.ascontiguousarray(omega_meas)
@@ -378,7 +379,7 @@ class FilterBank(ChunkDriver):
         z, nu, H, Rm, active, valid, mode, measured_axes, choice = rows
         if self.sf_velocity is not None:
             v_ref = self.sf_velocity.reference(body_velocity(self.C, self.vel))
-            scale_factor_rows(H, mode, self.sf, v_ref)
+            scale_factor_rows(H, mode, self.A_b, v_ref)
         reacquire = self.dvl_reacquire & valid
         if reacquire.any():  # the ping after a reset: fused whatever its innovation
             fused = self._fuse_reacquiring(H, Rm, nu, active, reacquire)

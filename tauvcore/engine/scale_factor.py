@@ -32,11 +32,13 @@ change's fraction (a few millimetres per second, below the DVL's noise). After a
 (tauvcore.engine.lockout) the average restarts at the reset velocity. ``0`` evaluates the column
 at the current estimate, as the plain EKF does.
 
-Rows that carry the scale factor are those of the loosely coupled velocity (``(1 + SF_hat) I`` on
-the velocity, ``v_hat`` on the scale factor) and of the tightly coupled beams (``(1 + SF_hat)
-b_k^T`` and ``b_k . v_hat``): for both the column is ``a . v_ref`` with ``a`` the row's velocity
-part over ``1 + SF_hat``. The two-beam constructions of the extended methods fuse a velocity whose
-beams were divided by ``1 + SF_hat`` and carry no scale factor column.
+Every DVL row carries the scale factor the way it carries the beam biases: a beam measures
+``(1 + SF) a_k . v_b + b_k``, so a row whose beam-bias columns are ``h_b`` (4,) has the scale
+factor's column ``h_b . A v_b``, ``A`` the beams' unit vectors. The loosely coupled velocity
+(``h_b`` the rows of A+, and ``A+ A = I``: the column is ``v_b``), the tightly coupled beams
+(``h_b = e_k``: ``a_k . v_b``) and the two-beam constructions of the extended methods (``h_b = c /
+(1 + SF_hat)``, ``c`` the row's weights on the compensated beams; tauvcore.filter.kernels.dvl)
+all take it at ``v_ref``.
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ import math
 
 import numpy as np
 
-from tauvcore.aiding.dvl_extended import MODE_LC, MODE_TC
+from tauvcore.aiding.dvl_extended import MODE_LC, MODE_PARTIAL, MODE_TC
 from tauvcore.filter.layout import STATE
 
 
@@ -54,28 +56,29 @@ def body_velocity(C_nb: np.ndarray, vel_n: np.ndarray) -> np.ndarray:
     return np.einsum("...ji,...j->...i", C_nb, vel_n)
 
 
-def scale_factor_rows(H: np.ndarray, mode: np.ndarray, sf: np.ndarray, v_ref_b: np.ndarray) -> None:
-    """The scale factor's column of the DVL rows at ``v_ref_b``, in place.
+def scale_factor_rows(H: np.ndarray, mode: np.ndarray, A_b: np.ndarray, v_ref_b: np.ndarray) -> None:
+    """The scale factor's column of the DVL rows at ``v_ref_b``, in place: ``h_b . A v_ref`` for
+    each row with beam-bias columns ``h_b``.
 
     Parameters
     ----------
     H : numpy.ndarray
         The DVL rows of every method and run, shape (M, R, m, 20), as the measurement kernel built
         them at the current estimate (tauvcore.filter.kernels.dvl.dvl_measure_bank); the scale
-        factor's column of the loosely and tightly coupled rows is replaced.
+        factor's column of the loosely and tightly coupled rows and the two-beam rows is replaced.
     mode : numpy.ndarray
         Shape (M, R) int: each filter's construction at this ping (MODE_* of
-        tauvcore.aiding.dvl_extended); only MODE_LC and MODE_TC rows carry the scale factor.
-    sf : numpy.ndarray
-        The estimated scale factor error ``SF_hat``, shape (M, R) [-].
+        tauvcore.aiding.dvl_extended); a coasting filter's rows are left as they are.
+    A_b : numpy.ndarray
+        The beams' unit vectors, shape (4, 3), b-frame (FRD).
     v_ref_b : numpy.ndarray
         The body velocity to evaluate the column at, shape (M, R, 3) [m/s], b-frame (FRD).
     """
-    carried = (mode == MODE_LC) | (mode == MODE_TC)
+    carried = (mode == MODE_LC) | (mode == MODE_TC) | (mode == MODE_PARTIAL)
     if not carried.any():
         return
-    a = H[..., STATE.vel] / (1.0 + sf)[..., None, None]
-    column = np.einsum("mrki,mri->mrk", a, v_ref_b)
+    beams = np.einsum("kj,mrj->mrk", A_b, v_ref_b)  # A v_ref: the beams' share of the velocity
+    column = np.einsum("mrik,mrk->mri", H[..., STATE.b_dvl], beams)
     sf_col = STATE.sf_dvl.start
     H[..., sf_col] = np.where(carried[..., None], column, H[..., sf_col])
 

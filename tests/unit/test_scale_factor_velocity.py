@@ -12,7 +12,7 @@ from tauvcore.engine.mission import run
 from tauvcore.engine.results import SENSOR_STATES
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import simulate
-from tauvcore.filter.kernels.dvl import lc_jacobian_batch, tc_jacobian_batch
+from tauvcore.filter.kernels.dvl import lc_jacobian_batch, partial_sensor_row_into, tc_jacobian_batch
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.validation import ConfigError
@@ -35,8 +35,14 @@ def bank():
     H[:, :3] = lc_jacobian_batch(C, vel_n, sf, A_pinv, W_IE, L_B)
     H_tc = tc_jacobian_batch(A_B, C, vel_n, sf, W_IE, L_B)
     H[3:] = H_tc[3:]                      # filters 3-5 tightly coupled: four beam rows
+    # filter 2 a two-beam construction: velocity rows with the compensated beams' weights c
+    c = rng.normal(0.0, 0.5, (3, 4))
+    H[2] = 0.0
+    for k in range(3):
+        partial_sensor_row_into(c[k], A_B, C[2].T @ vel_n[2], sf[2], H[2, k])
+        H[2, k, STATE.vel.start + k] = 1.0
     return {"C": C.reshape(2, 3, 3, 3), "vel_n": vel_n.reshape(2, 3, 3), "sf": sf.reshape(2, 3),
-            "H": H.reshape(2, 3, 4, STATE.dim)}
+            "H": H.reshape(2, 3, 4, STATE.dim), "c": c}
 
 
 MODES = np.array([[MODE_LC, MODE_LC, MODE_PARTIAL], [MODE_TC, MODE_COAST, MODE_TC]])
@@ -44,21 +50,22 @@ MODES = np.array([[MODE_LC, MODE_LC, MODE_PARTIAL], [MODE_TC, MODE_COAST, MODE_T
 
 def test_at_the_current_estimate_the_rows_are_the_kernels(bank):
     H = bank["H"].copy()
-    scale_factor_rows(H, MODES, bank["sf"], body_velocity(bank["C"], bank["vel_n"]))
-    np.testing.assert_allclose(H, bank["H"], rtol=0.0, atol=1e-15)
+    scale_factor_rows(H, MODES, A_B, body_velocity(bank["C"], bank["vel_n"]))
+    np.testing.assert_allclose(H, bank["H"], rtol=0.0, atol=1e-14)
 
 
 def test_the_column_is_the_reference_velocity_seen_by_each_row(bank):
     H = bank["H"].copy()
     v_ref = np.random.default_rng(4).normal(0.0, 2.0, (2, 3, 3))
-    scale_factor_rows(H, MODES, bank["sf"], v_ref)
-    # loosely coupled: the velocity itself; tightly coupled: its projection on each beam
-    np.testing.assert_allclose(H[0, 0, :3, SF], v_ref[0, 0], rtol=1e-14)
-    np.testing.assert_allclose(H[0, 1, :3, SF], v_ref[0, 1], rtol=1e-14)
+    scale_factor_rows(H, MODES, A_B, v_ref)
+    # loosely coupled: the velocity itself; tightly coupled: its projection on each beam;
+    # two beams: the construction's weights on the beams' share, over 1 + SF_hat
+    np.testing.assert_allclose(H[0, 0, :3, SF], v_ref[0, 0], rtol=1e-13)
+    np.testing.assert_allclose(H[0, 1, :3, SF], v_ref[0, 1], rtol=1e-13)
     np.testing.assert_allclose(H[1, 0, :, SF], A_B @ v_ref[1, 0], rtol=1e-14)
     np.testing.assert_allclose(H[1, 2, :, SF], A_B @ v_ref[1, 2], rtol=1e-14)
-    # a two-beam construction and a coasting filter are left as they were, and so is every other column
-    np.testing.assert_array_equal(H[0, 2], bank["H"][0, 2])
+    np.testing.assert_allclose(H[0, 2, :3, SF], bank["c"] @ A_B @ v_ref[0, 2] / (1.0 + bank["sf"][0, 2]), rtol=1e-13)
+    # a coasting filter is left as it was, and so is every other column
     np.testing.assert_array_equal(H[1, 1], bank["H"][1, 1])
     other = np.arange(STATE.dim) != SF
     np.testing.assert_array_equal(H[..., other], bank["H"][..., other])

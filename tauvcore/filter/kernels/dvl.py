@@ -197,6 +197,20 @@ def lc_jacobian_into(
 
 
 @jit
+def partial_sensor_row_into(
+    c: np.ndarray, A: np.ndarray, v_b: np.ndarray, sf: float, row: np.ndarray
+) -> None:
+    """The DVL errors' columns of one two-beam row ``c . y_c`` (``c`` (4,) its weights on the compensated
+    beams ``y_c = (y - b_hat - lever) / (1 + SF_hat)``, ``y = (1 + SF) A v_b + b + lever + noise``):
+    ``c / (1 + SF_hat)`` on the beam biases, ``c . A v_b / (1 + SF_hat)`` on the scale factor."""
+    s = 0.0
+    for k in range(4):
+        row[BDVL + k] = c[k] / (1.0 + sf)
+        s += c[k] * (A[k, 0] * v_b[0] + A[k, 1] * v_b[1] + A[k, 2] * v_b[2])
+    row[SF] = s / (1.0 + sf)
+
+
+@jit
 def beam_noise_into(
     A: np.ndarray, sigma2: float, gyro_var: float, l: np.ndarray, sf: float, S: np.ndarray
 ) -> None:
@@ -413,6 +427,7 @@ class DvlMethods(NamedTuple):
     gyro_var: float  # the gyro rate's noise variance [rad^2/s^2] (through the lever arm)
     w_ie: np.ndarray  # (3,) the earth rate in n [rad/s]
     mode_codes: np.ndarray  # (4,) int64: the record's mode codes of coast, lc, partial, tc
+    partial_sensor_columns: bool  # the two-beam rows carry the beam biases' and scale factor's columns
 
 
 class TwoBeamTables(NamedTuple):
@@ -473,8 +488,11 @@ def dvl_measure_bank(
     An extended method (``DVL_ELC``) with three or four beams is loosely coupled; with exactly two
     it builds its velocity from the tables ``n_cand[i]``, ``ok``, ``Cc``, ``Dc``, ``gc``, ``ac``,
     ``mc`` [i, pattern, candidate] (pattern = sum of 2^k over the returned beams k), fused on its
-    measured axes with ``H = [0 0 I 0 0 0 0]`` (tauvcore.aiding.dvl_partial)."""
-    methods, codes, A, l, sigma2, gyro_var, w_ie, mode_codes = dvl
+    measured axes with ``H = [0 0 I 0 0 0 0]`` (tauvcore.aiding.dvl_partial), and with
+    ``partial_sensor_columns`` the columns of the DVL errors its compensated beams carry:
+    ``C / (1 + SF_hat)`` on the beam biases and ``C A v_hat / (1 + SF_hat)`` on the scale factor,
+    ``C`` the construction's (the selector's chosen) rows."""
+    methods, codes, A, l, sigma2, gyro_var, w_ie, mode_codes, sensor_columns = dvl
     n_cand, ok, Cc, Dc, gc, ac, mc = tables
     y, available, omega_meas = ping
     C, vel_n, gyro_bias, dvl_bias, sf, P = state
@@ -533,6 +551,10 @@ def dvl_measure_bank(
                 for k in range(3):
                     nu[m, r, k] = z[m, r, k] - v_hat[k]
                     H[m, r, k, VEL + k] = 1.0
+                    if sensor_columns and meas[k]:
+                        partial_sensor_row_into(
+                            Cc[i, pattern, pick[k] if n_cand[i] > 1 else 0, k], A, v_hat, sf[m, r], H[m, r, k]
+                        )
                     active[m, r, k] = meas[k]
                     any_axis = any_axis or meas[k]
                     if n_cand[i] > 1:
