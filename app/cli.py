@@ -315,7 +315,8 @@ def _imu_flag(p: argparse.ArgumentParser) -> None:
         metavar="PROFILE",
         help=f"IMU error model by name: {', '.join(IMU_PROFILES)} "
         "(default table2: Tal et al. 2017 Table 2; yoo-table1: "
-        "Yoo 2014 Table 1, a 1 deg/h IMU at 100 Hz). Replaces the "
+        "Yoo 2014 Table 1, a 1 deg/h IMU at 100 Hz; phins: a navigation-grade "
+        "fibre-optic IMU of the PHINS class, for real data of that class). Replaces the "
         "file's [imu] section",
     )
 

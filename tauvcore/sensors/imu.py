@@ -170,8 +170,24 @@ IMU_PROFILES: dict[str, ImuConfig] = {
         accel_misalignment_mrad=0.5,
         gyro_misalignment_mrad=0.5,
     ),
+    # A navigation-grade fibre-optic IMU of the iXblue PHINS class (the A-KIT data's IMU, whose output
+    # is already compensated by the unit's own calibration: no scale factor or misalignment is
+    # modelled). Gyro: 0.01 deg/h turn-on bias and bias stability (read as above), the figure of the
+    # class's published free-inertial drift (0.6 NM/h is R * 0.01 deg/h); angle random walk
+    # 0.0025 deg/sqrt(h). Accelerometer: 50 ug turn-on bias and stability, velocity random walk
+    # 50 ug/sqrt(Hz) (0.029 m/s/sqrt(h)). Verify against a unit's own datasheet before relying on it.
+    "phins": ImuConfig(
+        rate_hz=100.0,
+        accel_bias_mg=0.05,
+        gyro_bias_deg_per_h=0.01,
+        accel_noise_mps_per_sqrt_h=0.05 * units.MG * units.SQRT_HOUR,
+        gyro_noise_deg_per_sqrt_h=0.0025,
+        accel_bias_rw_mps2_per_sqrt_s=0.05 * units.MG / np.sqrt(_BIAS_STABILITY_WINDOW_S),
+        gyro_bias_rw_deg_per_s_per_sqrt_s=0.01 / units.HOUR / np.sqrt(_BIAS_STABILITY_WINDOW_S),
+    ),
 }
-"""Named IMUs (``--imu NAME``): Tal et al. 2017 Table 2 (the default) and Yoo 2014 Table 1."""
+"""Named IMUs (``--imu NAME``): Tal et al. 2017 Table 2 (the default), Yoo 2014 Table 1, and a
+navigation-grade fibre-optic IMU of the PHINS class (``phins``, for real data of that class)."""
 
 
 def imu_profile(name: str) -> ImuConfig:

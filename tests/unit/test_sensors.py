@@ -145,6 +145,16 @@ def test_imu_profiles_and_their_units():
     assert yoo.accel_bias_rw_mps2_per_sqrt_s * np.sqrt(3600.0) == pytest.approx(1e-3 * 9.80665)
     assert (yoo.accel_scale_factor, yoo.gyro_scale_factor) == pytest.approx((300e-6, 150e-6))
     assert (yoo.accel_misalignment_rad, yoo.gyro_misalignment_rad) == pytest.approx((0.5e-3, 0.5e-3))
+    # the PHINS class: 0.01 deg/h is the gyro whose Schuler-bounded drift R * eps is the class's
+    # published 0.6 NM/h free-inertial drift; 50 ug of accelerometer bias and noise density
+    phins = imu.imu_profile("phins")
+    assert phins.gyro_bias_rps * 6.371e6 * 3600.0 / 1852.0 == pytest.approx(0.6, rel=0.05)
+    assert phins.gyro_bias_rw_rps_per_sqrt_s * np.sqrt(3600.0) == pytest.approx(0.01 * units.DEG_PER_HOUR)
+    assert phins.gyro_noise_rad_per_sqrt_s == pytest.approx(0.0025 * np.pi / 180 / 60)
+    assert phins.accel_bias_mps2 == pytest.approx(50e-6 * 9.80665)
+    assert phins.accel_noise_mps_per_sqrt_s == pytest.approx(50e-6 * 9.80665, rel=1e-12)
+    assert phins.accel_bias_rw_mps2_per_sqrt_s * np.sqrt(3600.0) == pytest.approx(50e-6 * 9.80665)
+    assert not phins.has_axis_errors
     with pytest.raises(ConfigError, match="imu profile.*'nope'"):
         imu.imu_profile("nope")
     with pytest.raises(ConfigError, match="imu.gyro_misalignment_mrad"):
