@@ -1,5 +1,7 @@
 """Writing a log in the format tauvcore.logs reads: a simulation's tables, written all or
-nothing (every file complete in a hidden temporary directory, then moved into place)."""
+nothing (every file complete in a hidden temporary directory, then moved into place), whole
+(:func:`write_log`) or appended chunk by chunk as a simulation goes (:class:`LogWriter`: memory
+flat in the mission's length, the same files)."""
 
 from __future__ import annotations
 
@@ -7,9 +9,9 @@ import contextlib
 import os
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import numpy as np
 
@@ -56,13 +58,9 @@ def write_log(
     ValueError
         If ``fmt`` is not 'csv' or 'parquet', or a table is unknown.
     """
-    if fmt not in ("csv", "parquet"):
-        raise ValueError(f"fmt must be 'csv' or 'parquet', got {fmt!r}")
+    _check_format(fmt)
     for table in tables:
-        if table not in TABLES + tuple(SOURCE_TABLES.values()):
-            raise ValueError(
-                f"unknown table {table!r} (tables: {', '.join(TABLES + tuple(SOURCE_TABLES.values()))})"
-            )
+        _check_table(table)
     root = Path(directory)
     made = _make_dirs(root)
     tmp: Path | None = None
@@ -89,6 +87,208 @@ def write_log(
                 made_dir.rmdir()  # only if empty: never anything of the user's
         raise
     shutil.rmtree(tmp, ignore_errors=True)  # what the tables replaced
+
+
+def _check_format(fmt: str) -> None:
+    if fmt not in ("csv", "parquet"):
+        raise ValueError(f"fmt must be 'csv' or 'parquet', got {fmt!r}")
+
+
+def _check_table(table: str) -> None:
+    if table not in TABLES + tuple(SOURCE_TABLES.values()):
+        raise ValueError(
+            f"unknown table {table!r} (tables: {', '.join(TABLES + tuple(SOURCE_TABLES.values()))})"
+        )
+
+
+class LogWriter:
+    """A log written as a simulation goes: each chunk's tables appended to their files, so that
+    memory does not grow with the mission's length; :meth:`finish` puts the log in place all or
+    nothing, as :func:`write_log` does.
+
+    The files are those :func:`write_log` writes from the chunks' tables concatenated: CSV byte
+    for byte, Parquet value for value (its row groups of :data:`ROW_GROUP_ROWS` rows, chunks
+    gathered; tests/unit/test_log_writer_stream.py). Each table's file is written, from the first chunk
+    that has the table, into a hidden temporary directory inside ``directory`` under a name no
+    reader takes for a table; :meth:`finish` flushes them to disk and moves them into place, the
+    ``imu`` table last. Until then nothing in ``directory`` looks like a log; on a failure the
+    caller calls :meth:`discard` (:meth:`finish` does it itself), which removes the temporary
+    directory and the directories created here.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The log's directory (created, with its missing parents, if need be).
+    fmt : str
+        ``"csv"`` or ``"parquet"``.
+    config_toml : str or None
+        Text of the log's configuration file (TOML) to write as :data:`CONFIG_FILE`; None: none.
+
+    Raises
+    ------
+    ValueError
+        If ``fmt`` is not 'csv' or 'parquet'.
+    OSError
+        If the directory or the temporary one cannot be made (nothing is left behind).
+    """
+
+    def __init__(
+        self, directory: str | os.PathLike, fmt: str = "csv", config_toml: str | None = None
+    ) -> None:
+        _check_format(fmt)
+        self.root, self.fmt = Path(directory), fmt
+        self.tables: dict[str, _TableFile] = {}  # table name -> its file, in the order the tables came
+        self.made = _make_dirs(self.root)
+        self.tmp: Path | None = None
+        try:
+            self.tmp = Path(tempfile.mkdtemp(prefix=".tauv-log-", dir=self.root))
+            self.config_part: Path | None = None
+            if config_toml is not None:
+                self.config_part = self.tmp / f"{CONFIG_FILE}.partial"
+                with open(self.config_part, "w", encoding="utf-8") as fh:
+                    fh.write(config_toml)
+                    _flush(fh)
+        except BaseException:
+            self.discard()
+            raise
+
+    def add(self, tables: dict[str, dict[str, np.ndarray]]) -> None:
+        """Append one chunk's tables.
+
+        Parameters
+        ----------
+        tables : dict of str to dict of str to numpy.ndarray
+            Table name -> column name -> the chunk's rows of that column (K_chunk,), as
+            :func:`write_log` takes them (:func:`chunk_tables`); a table's columns the same in
+            every chunk.
+
+        Raises
+        ------
+        ValueError
+            If a table is unknown, or its columns are not those of its first chunk.
+        OSError
+            If a file cannot be written (a full disk, a file-size limit).
+        """
+        assert self.tmp is not None  # set by __init__, None only after discard()
+        for table, columns in tables.items():
+            out = self.tables.get(table)
+            if out is None:
+                _check_table(table)
+                out = self.tables[table] = _TableFile(
+                    self.tmp / f"{table}.{self.fmt}.partial", self.fmt, columns
+                )
+            out.append(columns)
+
+    def finish(self) -> None:
+        """Close every table, flushed to disk, and move them into place (the ``imu`` table last;
+        a file of the same name already there is replaced); on any failure or interrupt, nothing
+        is left (:meth:`discard`, the moves undone: :func:`replace_files`) and the exception
+        propagates."""
+        assert self.tmp is not None  # set by __init__, None only after discard()
+        try:
+            moves = []
+            if self.config_part is not None:
+                moves.append((self.config_part, self.root / CONFIG_FILE))
+            for table in sorted(self.tables, key=lambda t: t == "imu"):  # the imu table last
+                out = self.tables[table]
+                out.close()
+                moves.append((out.path, self.root / f"{table}.{self.fmt}"))
+            replace_files(moves, self.tmp / "replaced")
+            fsync_path(self.root)
+        except BaseException:
+            self.discard()
+            raise
+        shutil.rmtree(self.tmp, ignore_errors=True)  # what the tables replaced
+        self.tmp = None
+
+    def discard(self) -> None:
+        """Remove the temporary directory and the directories created here (after a failure)."""
+        for out in self.tables.values():
+            out.abandon()
+        if self.tmp is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            self.tmp = None
+        for made_dir in reversed(self.made):
+            with contextlib.suppress(OSError):
+                made_dir.rmdir()  # only if empty: never anything of the user's
+        self.made = []
+
+
+ROW_GROUP_ROWS = 65536
+"""Rows a Parquet table's row group holds at least (the last may hold fewer): :class:`LogWriter`
+gathers a table's chunks until then, about 7 minutes of 150 Hz IMU (4 MB of its columns). A row
+group per 10 s chunk (1,500 rows) would make the file about a fifth larger and twice as slow to
+read, and the writer holds every row group's description until it writes the footer (about 16 MB
+per hour of mission). The columns are written as plain values, without a dictionary: one of
+65,536 mostly distinct doubles is larger than they are and slower to read (:func:`write_log`'s
+row groups of a million rows give theirs up after 1 MB); a 10 h log is then the size
+:func:`write_log` makes of it."""
+
+
+class _TableFile:
+    """One table's file of a :class:`LogWriter`: CSV rows appended chunk by chunk, or Parquet row
+    groups of at least :data:`ROW_GROUP_ROWS` rows (``pyarrow.parquet.ParquetWriter``, its
+    schema the first chunk's)."""
+
+    def __init__(self, path: Path, fmt: str, first: dict[str, np.ndarray]) -> None:
+        self.path, self.names = path, list(first)
+        self.parquet: Any = None  # pyarrow.parquet.ParquetWriter, open until close() or abandon()
+        self.pending: list[dict[str, np.ndarray]] = []  # chunks not yet in a row group
+        self.pending_rows = 0
+        if fmt == "parquet":
+            import pyarrow.parquet as pq
+
+            self.parquet = pq.ParquetWriter(str(path), self._arrow([first]).schema, use_dictionary=False)
+        else:
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(",".join(self.names) + "\n")
+
+    def _arrow(self, chunks: list[dict[str, np.ndarray]]) -> Any:
+        import pyarrow as pa
+
+        return pa.table(
+            {n: np.concatenate([np.asarray(c[n], dtype=float) for c in chunks]) for n in self.names}
+        )
+
+    def append(self, columns: dict[str, np.ndarray]) -> None:
+        """Append one chunk's rows (ValueError if its columns are not the first chunk's)."""
+        if list(columns) != self.names:
+            raise ValueError(
+                f"{self.path.name.split('.')[0]}: a chunk's columns {list(columns)} are not the first "
+                f"chunk's {self.names}"
+            )
+        rows = len(columns[self.names[0]]) if self.names else 0
+        if rows == 0:
+            return  # no rows (a source without an epoch in the chunk)
+        if self.parquet is not None:
+            self.pending.append({n: np.array(columns[n], dtype=float) for n in self.names})
+            self.pending_rows += rows
+            if self.pending_rows >= ROW_GROUP_ROWS:
+                self._write_row_group()
+        else:
+            with open(self.path, "a", encoding="utf-8") as fh:
+                fh.write("".join(_csv_rows(columns, self.names)))
+
+    def _write_row_group(self) -> None:
+        self.parquet.write_table(self._arrow(self.pending), row_group_size=self.pending_rows)
+        self.pending, self.pending_rows = [], 0
+
+    def close(self) -> None:
+        """Finish the file (the last row group, Parquet's footer) and flush it to disk."""
+        if self.parquet is not None:
+            if self.pending:
+                self._write_row_group()
+            self.parquet.close()
+            self.parquet = None
+        fsync_path(self.path)
+
+    def abandon(self) -> None:
+        """Let go of the file without finishing it (its directory is about to be removed)."""
+        self.pending = []
+        if self.parquet is not None:
+            with contextlib.suppress(Exception):  # pyarrow's errors are not all OSErrors
+                self.parquet.close()
+            self.parquet = None
 
 
 def _make_dirs(root: Path) -> list[Path]:
@@ -127,11 +327,17 @@ def _write_table(path: Path, columns: dict[str, np.ndarray], fmt: str) -> None:
             pq.write_table(pa.table({n: np.asarray(columns[n], dtype=float) for n in names}), fh)
             _flush(fh)
         return
-    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(",".join(names) + "\n")
-        fh.writelines(",".join("" if np.isnan(v) else repr(float(v)) for v in row) + "\n" for row in data)
+        fh.writelines(_csv_rows(columns, names))
         _flush(fh)
+
+
+def _csv_rows(columns: dict[str, np.ndarray], names: Sequence[str]) -> Iterator[str]:
+    """The CSV rows of ``columns`` (in the order ``names``), each float to its last digit (its
+    ``repr``: reading back is exact), an empty cell for NaN."""
+    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
+    return (",".join("" if np.isnan(v) else repr(float(v)) for v in row) + "\n" for row in data)
 
 
 def _flush(fh: IO) -> None:
@@ -207,9 +413,7 @@ def replace_files(
 def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, np.ndarray]]:
     """The tables of a log holding one run of a simulation given as its chunks in order.
 
-    The IMU as increments, the DVL as beams (NaN where not returned), each aiding source's (the
-    depth, the attitude, ...), and the truth as the reference (at the IMU rate; geodetic in
-    radians on WGS-84, else NED).
+    :func:`chunk_tables` of each chunk, end to end.
 
     Parameters
     ----------
@@ -222,43 +426,74 @@ def simulation_tables(chunks: list, run_index: int = 0) -> dict[str, dict[str, n
     Returns
     -------
     dict of str to dict of str to numpy.ndarray
-        Table name -> column name -> column (K,) over all chunks (for :func:`write_log`): ``imu``
-        (``t_s`` [s], angle increments [rad] and velocity increments [m/s] in the body b-frame
-        (FRD)), ``reference`` (``lat_rad``, ``lon_rad``, ``depth_m`` on WGS-84, else north, east,
-        down [m]; roll, pitch, yaw [rad]; NED velocity [m/s]) and each aiding source's table, with
-        its true errors; a table with no column is left out.
+        Table name -> column name -> column (K,) over all chunks (for :func:`write_log`), as
+        :func:`chunk_tables` describes them.
+    """
+    parts: dict[str, dict[str, list[np.ndarray]]] = {}
+    for chunk in chunks:
+        for table, columns in chunk_tables(chunk, run_index).items():
+            for column, values in columns.items():
+                parts.setdefault(table, {}).setdefault(column, []).append(values)
+    order = TABLES + tuple(SOURCE_TABLES.values())
+    return {t: {c: np.concatenate(v) for c, v in parts[t].items()} for t in sorted(parts, key=order.index)}
+
+
+def chunk_tables(chunk: Any, run_index: int = 0) -> dict[str, dict[str, np.ndarray]]:
+    """The rows one chunk of a simulation adds to each table of its log (for :class:`LogWriter`).
+
+    The IMU as increments, the DVL as beams (NaN where not returned), each aiding source's (the
+    depth, the attitude, ...), and the truth as the reference (at the IMU rate; geodetic in
+    radians on WGS-84, else NED).
+
+    Parameters
+    ----------
+    chunk : SimChunk
+        A chunk of the simulation (tauvcore.engine.simulation.SimChunk), arrays with the run axis
+        after time, (K_chunk, R, ...).
+    run_index : int
+        The run to write, an index into the run axis R.
+
+    Returns
+    -------
+    dict of str to dict of str to numpy.ndarray
+        Table name -> column name -> the chunk's rows (K_chunk,), in the order the log's tables
+        come (tauvcore.logs.TABLES, then the sources'): ``imu`` (``t_s`` [s], angle increments
+        [rad] and velocity increments [m/s] in the body b-frame (FRD)), ``reference``
+        (``lat_rad``, ``lon_rad``, ``depth_m`` on WGS-84, else north, east, down [m]; roll, pitch,
+        yaw [rad]; NED velocity [m/s]) and each aiding source's table, with its true errors (a
+        source without an epoch in the chunk: its columns empty); a table with no column is left
+        out.
     """
     r = run_index
 
     def run_of(a: np.ndarray, time_axis_dims: int) -> np.ndarray:
         return a[:, r] if a.ndim > time_axis_dims else a
 
-    parts: dict[str, dict[str, list[np.ndarray]]] = {t: {} for t in TABLES + tuple(SOURCE_TABLES.values())}
+    parts: dict[str, dict[str, np.ndarray]] = {t: {} for t in TABLES + tuple(SOURCE_TABLES.values())}
 
     def add(table: str, column: str, values: np.ndarray) -> None:
-        parts[table].setdefault(column, []).append(np.asarray(values, dtype=float))
+        parts[table][column] = np.asarray(values, dtype=float)
 
-    for chunk in chunks:
-        truth, imu = chunk.truth, chunk.imu
-        add("imu", "t_s", truth.t_s)
-        dth, dv = run_of(imu.dtheta_b, 2), run_of(imu.dv_b, 2)
-        for i in range(3):
-            add("imu", IMU_INCREMENTS[i], dth[:, i])
-            add("imu", IMU_INCREMENTS[3 + i], dv[:, i])
-        add("reference", "t_s", truth.t_s)
-        if truth.earth.geodetic:
-            for i, n in enumerate(("lat_rad", "lon_rad", "depth_m")):
-                add("reference", n, truth.pos_nav[:, i])
-        else:
-            for i, n in enumerate(REF_LOCAL):
-                add("reference", n, truth.pos_n[:, i])
-        for i, n in enumerate(("roll_rad", "pitch_rad", "yaw_rad")):
-            add("reference", n, truth.euler[:, i])
-        for i, n in enumerate(REF_VEL):
-            add("reference", n, truth.vel_n[:, i])
-        for name, data in chunk.sources.items():
-            table = SOURCES[name].table
-            add(table, "t_s", data.t_s)
-            for column, values in {**data.values, **data.truth}.items():
-                add(table, column, run_of(values, 1))
-    return {t: {c: np.concatenate(v) for c, v in cols.items()} for t, cols in parts.items() if cols}
+    truth, imu = chunk.truth, chunk.imu
+    add("imu", "t_s", truth.t_s)
+    dth, dv = run_of(imu.dtheta_b, 2), run_of(imu.dv_b, 2)
+    for i in range(3):
+        add("imu", IMU_INCREMENTS[i], dth[:, i])
+        add("imu", IMU_INCREMENTS[3 + i], dv[:, i])
+    add("reference", "t_s", truth.t_s)
+    if truth.earth.geodetic:
+        for i, n in enumerate(("lat_rad", "lon_rad", "depth_m")):
+            add("reference", n, truth.pos_nav[:, i])
+    else:
+        for i, n in enumerate(REF_LOCAL):
+            add("reference", n, truth.pos_n[:, i])
+    for i, n in enumerate(("roll_rad", "pitch_rad", "yaw_rad")):
+        add("reference", n, truth.euler[:, i])
+    for i, n in enumerate(REF_VEL):
+        add("reference", n, truth.vel_n[:, i])
+    for name, data in chunk.sources.items():
+        table = SOURCES[name].table
+        add(table, "t_s", data.t_s)
+        for column, values in {**data.values, **data.truth}.items():
+            add(table, column, run_of(values, 1))
+    return {t: cols for t, cols in parts.items() if cols}

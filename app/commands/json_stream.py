@@ -1,5 +1,5 @@
-"""``tauv run --json`` written as the run goes: the document of app.payload.run_payload, with
-memory flat in the mission's length.
+"""``tauv run --json`` and ``tauv replay --json`` written as the run goes: the document of
+app.payload.run_payload, with memory flat in the mission's length.
 
 Each chunk's series (app.payload.result_series, run 0) and NIS records are appended to files of
 raw doubles in a temporary directory beside the output; at the end the document is written from
@@ -39,11 +39,15 @@ class RunJsonWriter:
         The output file (its directory must be writable; checked before the run).
     config : Config
         The run's configuration: the document's ``config``, and the origin of ``est_lat_deg`` etc.
+    log : dict[str, Any] or None
+        A replay's ``log`` section (app.payload.run_payload: its directory, configuration, start
+        and notes), written between ``config`` and ``results``; None: a run's document, without.
     """
 
-    def __init__(self, path: str, config: Config) -> None:
+    def __init__(self, path: str, config: Config, log: dict[str, Any] | None = None) -> None:
         self.path = path
         self.config = config
+        self.log = log
         self.origin = (config.earth.latitude_rad, config.earth.longitude_rad)
         self.spool = tempfile.mkdtemp(prefix=".tauv-", suffix=".json.parts", dir=os.path.dirname(path) or ".")
         self.series: dict[str, list[str]] = {}  # method -> its series' names, in the document's order
@@ -99,6 +103,9 @@ class RunJsonWriter:
         def document(fh: IO[str]) -> None:
             fh.write('{"config": ')
             json.dump(config_to_json(self.config), fh, allow_nan=False)
+            if self.log is not None:
+                fh.write(', "log": ')
+                json.dump(self.log, fh, allow_nan=False)
             fh.write(', "results": {')
             for k, method in enumerate(self.last):
                 fh.write(("" if k == 0 else ", ") + json.dumps(method) + ": ")

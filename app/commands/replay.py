@@ -11,9 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from app.commands.outputs import json_target, write_json_atomic
+from app.commands.outputs import json_target
 from app.commands.values import UsageError, resolve_config
-from app.payload import run_payload
 from app.tables import summary_table
 from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.validation import one_line, show, show_path
@@ -21,9 +20,16 @@ from tauvcore.validation import one_line, show, show_path
 
 def cmd_replay(args: argparse.Namespace) -> int:
     """``tauv replay DIR``: the methods on a recorded log (tauvcore.logs, tauvcore.eval.replay),
-    configured by the defaults, the log's own configuration file, ``--config``, then the flags."""
-    from tauvcore.engine.mission import run
-    from tauvcore.eval.replay import judged, log_config, prepare, start_description
+    configured by the defaults, the log's own configuration file, ``--config``, then the flags.
+
+    The log is read whole; its truth and IMU rows are made chunk by chunk as the engine asks for
+    them (tauvcore.eval.replay.LogRows; with ``--imu-errors`` at once), and the results reduced
+    chunk by chunk as the engine hands them out (tauvcore.eval.replay.replay_chunked: the
+    summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
+    app.commands.json_stream), so that only the log takes memory that grows with its length."""
+    from app.commands.json_stream import RunJsonWriter
+    from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
+    from tauvcore.eval.running import RunningSummary
     from tauvcore.logs import LogError, read_log
 
     try:
@@ -44,34 +50,55 @@ def cmd_replay(args: argparse.Namespace) -> int:
         if args.json is not None
         else None
     )
+    json_name = show_path(str(args.json))
     started = time.perf_counter()
+    running = RunningSummary()
+    writer = None
     try:
         log = read_log(args.log)
         rng = np.random.default_rng(config.run.seed)
-        config, sim = prepare(config, log, rng, imu_errors)
-        results = judged(log, run(config, sim, rng))
-    except LogError as exc:
-        raise UsageError(str(exc)) from None
+        config, sim = prepare_rows(config, log, rng, imu_errors)
+        source = {
+            "directory": str(args.log),
+            "config_file": log_config_path,
+            "configuration": replay_layers(args, log_raw, log_config_path),
+            "start": start_description(config, log),
+            "notes": list(log.notes),
+        }
+        if json_path is not None:
+            try:
+                writer = RunJsonWriter(json_path, config, log=source)
+            except OSError as exc:
+                raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
+
+        def on_chunk(results: dict) -> None:
+            running.add(results)
+            if writer is not None:
+                try:
+                    writer.add(results)
+                except OSError as exc:
+                    raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
+
+        replay_chunked(config, sim, log, rng, on_chunk)
+    except BaseException as exc:
+        if writer is not None:
+            writer.discard()
+        if isinstance(exc, LogError):
+            raise UsageError(str(exc)) from None
+        raise
     for note in log.notes:  # after the run: a log refused is one line, its error
         print(f"tauv: note: {one_line(note)}", file=sys.stderr)
     elapsed = time.perf_counter() - started
-    source = {
-        "directory": str(args.log),
-        "config_file": log_config_path,
-        "configuration": replay_layers(args, log_raw, log_config_path),
-        "start": start_description(config, log),
-        "notes": list(log.notes),
-    }
-    if json_path is not None:
-        assert args.json is not None  # json_path is set only when --json was given
+    summaries = running.summaries()
+    if writer is not None:
         try:
-            write_json_atomic(json_path, run_payload(config, results, log=source))
+            writer.write(summaries)
         except OSError as exc:
-            raise UsageError(f"--json: cannot write {show_path(args.json)}: {exc.strerror or exc}") from None
+            raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
     preamble = ["configuration: " + " < ".join(source["configuration"]), start]
     print(
-        summary_table(results, config, elapsed, source=f"log {show_path(str(args.log))}", preamble=preamble)
+        summary_table(summaries, config, elapsed, source=f"log {show_path(str(args.log))}", preamble=preamble)
     )
     return 0
 

@@ -5,8 +5,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -23,8 +25,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     results (atomically). Every output is checked before the run, and none may be an input.
 
     The results are reduced chunk by chunk as the engine hands them out (the summary's sums,
-    tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream), so memory
-    does not grow with the mission's length."""
+    tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream), and
+    the log appended chunk by chunk to its files (tauvcore.log_writer.LogWriter), so memory does
+    not grow with the mission's length."""
     config = resolve_config(args)
     log_dir = _save_log_target(args)
     inputs = [("the --config file", args.config), ("the --save-log directory", args.save_log)]
@@ -53,27 +56,23 @@ def cmd_run(args: argparse.Namespace) -> int:
                 raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
+    log_writer = None
     try:
-        chunks: list = []
+        log_writer = _log_writer(args, log_dir) if log_dir is not None else None
         run_streaming(
             config,
             rng,
             keep=False,
             on_chunk=on_chunk,
-            on_sim_chunk=chunks.append if lock is not None else None,
+            on_sim_chunk=None if log_writer is None else lambda chunk: _save_chunk(args, log_writer, chunk),
         )
         elapsed = time.perf_counter() - started
-        if log_dir is not None:
-            from app.study_output import os_reason
-            from tauvcore.log_writer import simulation_tables, write_log
-
-            try:
-                write_log(log_dir, simulation_tables(chunks), args.log_format)
-            except OSError as exc:
-                raise UsageError(
-                    f"--save-log: cannot write {show_path(args.save_log)}: {os_reason(exc)}"
-                ) from None
+        if log_writer is not None:
+            with _saving_log(args):
+                log_writer.finish()
     except BaseException:
+        if log_writer is not None:
+            log_writer.discard()
         if lock is not None:
             lock.release(remove_created=True)
         if writer is not None:
@@ -89,6 +88,34 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
     print(summary_table(summaries, config, elapsed))
     return 0
+
+
+def _log_writer(args: argparse.Namespace, target: str) -> Any:
+    """The --save-log directory's :class:`~tauvcore.log_writer.LogWriter` (its temporary
+    directory inside the locked target), or one line if it cannot be made."""
+    from tauvcore.log_writer import LogWriter
+
+    with _saving_log(args):
+        return LogWriter(target, args.log_format)
+
+
+def _save_chunk(args: argparse.Namespace, log_writer: Any, chunk: Any) -> None:
+    """One simulation chunk appended to the --save-log directory's tables."""
+    from tauvcore.log_writer import chunk_tables
+
+    with _saving_log(args):
+        log_writer.add(chunk_tables(chunk))
+
+
+@contextlib.contextmanager
+def _saving_log(args: argparse.Namespace) -> Iterator[None]:
+    """An OSError while writing the --save-log directory as one line naming it and the reason."""
+    from app.study_output import os_reason
+
+    try:
+        yield
+    except OSError as exc:
+        raise UsageError(f"--save-log: cannot write {show_path(args.save_log)}: {os_reason(exc)}") from None
 
 
 def _save_log_target(args: argparse.Namespace) -> str | None:

@@ -1,6 +1,7 @@
 """Run a mission: the 20-state bank and Yoo 2014's bank side by side over the same chunks, on a
-whole simulation (:func:`run`) or generated chunk by chunk so that memory does not grow with the
-mission's length (:func:`run_streaming`)."""
+whole simulation (:func:`run`; its results handed out chunk by chunk: :func:`run_chunked`) or
+generated chunk by chunk so that memory does not grow with the mission's length
+(:func:`run_streaming`)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from tauvcore.config import YOO_METHODS, Config
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.results import MethodResult
-from tauvcore.engine.simulation import SimChunk, Simulation
+from tauvcore.engine.simulation import ChunkSource, SimChunk, Simulation, chunks_of
 from tauvcore.engine.sources import SourceStream
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.engine.yoo_bank import YooBank
@@ -74,6 +75,45 @@ def run(
     )
     banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop, progress_min_wall_s)
     return banks.results()
+
+
+def run_chunked(
+    config: Config,
+    sim: ChunkSource,
+    rng: np.random.Generator | Sequence[np.random.Generator],
+    on_chunk: Callable[[dict[str, MethodResult]], None],
+    chunk_s: float | None = None,
+) -> None:
+    """Run every method of ``config.run.methods`` on a whole simulation or a log, handing the
+    results out chunk by chunk instead of keeping them, so that they do not grow with the
+    mission's length.
+
+    The banks are fed the simulation's chunks (:func:`~tauvcore.engine.simulation.chunks_of`) and
+    keep nothing; the numbers are those of :func:`run` on the same simulation, its results cut at
+    the chunks' ends (tests/unit/test_replay_stream.py).
+
+    Parameters
+    ----------
+    config : Config
+        As in :func:`run`.
+    sim : ChunkSource
+        Truth and every sensor's output for ``sim.num_runs`` runs R: a whole simulation as in
+        :func:`run`, or a log whose rows are made chunk by chunk (tauvcore.eval.replay.LogRows).
+    rng : numpy.random.Generator or Sequence[numpy.random.Generator]
+        As in :func:`run`: what the filters' initial errors are drawn from.
+    on_chunk : Callable[[dict[str, MethodResult]], None]
+        ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
+        verdict so far), method name -> :class:`MethodResult` (series (T_chunk, R)), in
+        ``config.run.methods`` order.
+    chunk_s : float or None
+        Mission time per chunk [s]; None: :data:`STREAM_CHUNK_S`.
+    """
+    dt_s = sim.dt_s
+    banks = Banks(config, sim.num_runs, sim.num_samples, dt_s, rng, keep=False)
+    chunk_samples = max(1, round((STREAM_CHUNK_S if chunk_s is None else chunk_s) / dt_s))
+    for chunk in chunks_of(sim, chunk_samples):
+        banks.feed(chunk)
+        on_chunk(banks.take())
 
 
 class Banks:

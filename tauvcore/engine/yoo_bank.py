@@ -145,6 +145,9 @@ class YooBank(ChunkDriver):
         ]
         self.recorders = {name: Recorder(np.ones(len(methods), bool)) for name, _ in self.sources}
         self._until_s: float | None = None
+        # the first output epoch with a non-finite NEES per method and run [s] (NaN: none) among
+        # the results handed out by take(), so that a verdict so far spans the chunks taken before
+        self.nonfinite_at_s = np.full(self.batch, np.nan)
 
     # ------------------------------------------------------------------ set-up
     def start(
@@ -680,12 +683,15 @@ class YooBank(ChunkDriver):
                 record = rec.build(m, first_update.get(name, 0)) if rec.count else None
                 if record is not None:
                     updates[name] = record if self._until_s is None else _until(record, self._until_s)
-            nonfinite = ~np.isfinite(cat["series"][NEES_ROW, m])
+            nonfinite = ~np.isfinite(cat["series"][NEES_ROW, :, m])  # (T, R)
             first_bad = (
                 np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T])
                 if t_s.size
                 else np.full(R, np.nan)
             )
+            first_bad = np.fmin(first_bad, self.nonfinite_at_s[m])
+            if taking:
+                self.nonfinite_at_s[m] = first_bad
             flags = [first_bad] + [rec.divergence_s(m) for rec in self.recorders.values() if rec.count]
             first_bad = np.fmin.reduce(np.stack(flags), axis=0)
             out[method] = method_result(

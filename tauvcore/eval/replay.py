@@ -23,10 +23,10 @@ from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config, from_dict, read_toml
-from tauvcore.engine.mission import run
+from tauvcore.engine.mission import run, run_chunked
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
-from tauvcore.engine.simulation import Simulation
+from tauvcore.engine.simulation import ChunkSource, Simulation
 from tauvcore.engine.sources import active
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
@@ -201,17 +201,21 @@ def _reference_at(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     ref_position = _column(log, log.ref_position, "reference position")
     ref_vel_n = _column(log, log.ref_vel_n, "reference velocity")
     ref_euler = _column(log, log.ref_euler, "reference attitude")
+    if rt.size > 2 and t.size:  # the rows around t only (t may be a chunk: LogRows): the same numbers
+        lo = min(max(int(np.searchsorted(rt, t[0], side="right")) - 1, 0), rt.size - 2)
+        hi = max(min(int(np.searchsorted(rt, t[-1], side="right")) + 1, rt.size), lo + 2)
+        rt, ref_position, ref_vel_n, ref_euler = (a[lo:hi] for a in (rt, ref_position, ref_vel_n, ref_euler))
     pos = np.column_stack([np.interp(t, rt, ref_position[:, i]) for i in range(3)])
     vel = np.column_stack([np.interp(t, rt, ref_vel_n[:, i]) for i in range(3)])
-    C_ref = C_nb_from_euler(ref_euler)
     if rt.size == 1:
         return pos, np.broadcast_to(ref_euler[0], (t.size, 3)).copy(), vel
     j = np.clip(np.searchsorted(rt, t, side="right") - 1, 0, rt.size - 2)
     frac = np.clip((t - rt[j]) / (rt[j + 1] - rt[j]), 0.0, 1.0)
-    step = log_so3(np.swapaxes(C_ref[j], -1, -2) @ C_ref[j + 1])
-    C = C_ref[j] @ exp_so3(frac[:, None] * step)
+    C_j = C_nb_from_euler(ref_euler[j])  # the attitudes either side (only those: t may be a chunk)
+    step = log_so3(np.swapaxes(C_j, -1, -2) @ C_nb_from_euler(ref_euler[j + 1]))
+    C = C_j @ exp_so3(frac[:, None] * step)
     at_node = frac == 0.0
-    C[at_node] = C_ref[j[at_node]]
+    C[at_node] = C_j[at_node]
     euler = _euler_of(C)
     euler[at_node] = ref_euler[j[at_node]]
     return pos, euler, vel
@@ -275,7 +279,7 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     dropout drawn from ``rng``), a body velocity projected onto the beams. The reference,
     interpolated to the IMU's times, is the truth. Without a reference the truth is known at the
     start only (:func:`_start_from_sensors`) and NaN after it: the errors are then unknown, the
-    estimates are not.
+    estimates are not. :class:`LogRows` makes the same rows chunk by chunk.
 
     Parameters
     ----------
@@ -300,68 +304,154 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
     Raises
     ------
     LogError
+        As :class:`LogRows`.
+    """
+    rows = LogRows(config, log, rng)
+    truth, imu = rows.rows(0, rows.num_samples)
+    return Simulation(truth=truth, imu=imu, num_runs=1, sources=rows.sources)
+
+
+class LogRows:
+    """The log as a one-run simulation whose truth and IMU rows are made as they are asked for
+    (:meth:`rows`), so that a replay fed chunk by chunk
+    (tauvcore.engine.simulation.chunks_of) holds the log and one chunk, not a second copy of the
+    log as truth (:func:`log_simulation`: the same rows at once).
+
+    The sources' epochs (a few per second) are made whole here, the DVL's dropout drawn from
+    ``rng`` as :func:`log_simulation` draws it. The rows are those of :func:`log_simulation` bit
+    for bit with a reference at the IMU's rate; between the rows of a slower reference the
+    interpolated attitude may differ in its last bit (tauvcore.geo.rotations.exp_so3 takes its
+    series or its sines by the largest angle it is given: a chunk's, not the whole log's).
+
+    Parameters
+    ----------
+    config : Config
+        The replay's configuration (from :func:`replay_config`).
+    log : Log
+        The recorded log, in SI units and the frames of tauvcore.conventions.
+    rng : numpy.random.Generator
+        What the DVL's dropout is drawn from.
+
+    Raises
+    ------
+    LogError
         No reference and no attitude table (nothing says where the filters start); a local
         reference (north_m, east_m, down_m) under a geodetic earth (``--earth flat``, or give it
         as lat, lon and depth_m); a reference or DVL table without its columns.
     """
-    t = log.imu_t_s
-    K = t.size
-    if log.ref_t_s is None:
-        start_pos, start_euler, start_vel = _start_from_sensors(config, log)
-        log = dataclasses.replace(
-            log,
-            ref_t_s=t[:1],
-            ref_position=start_pos,
-            ref_euler=start_euler,
-            ref_vel_n=start_vel,
-            ref_geodetic=config.earth.geodetic,
-        )
-        pos, euler, vel_n = (np.full((K, 3), np.nan) for _ in range(3))
-        pos[0], euler[0], vel_n[0] = start_pos[0], start_euler[0], start_vel[0]
-    else:
-        pos, euler, vel_n = _reference_at(log, t)
-    C = C_nb_from_euler(euler)
-    vel_b = np.einsum("kji,kj->ki", C, vel_n)
-    if log.ref_geodetic:
-        if config.earth.geodetic:
-            pos_nav = pos
-        else:
-            pos_nav = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], (pos[0, 0], pos[0, 1], 0.0))
-        pos_n = ned_from_geodetic(
-            pos[:, 0], pos[:, 1], -pos[:, 2], (config.earth.latitude_rad, config.earth.longitude_rad, 0.0)
-        )
-    else:
-        if config.earth.geodetic:
+
+    num_runs = 1
+
+    def __init__(self, config: Config, log: Log, rng: np.random.Generator) -> None:
+        t = log.imu_t_s
+        self.config = config
+        self.known = log.ref_t_s is not None  # whether the log has a reference: else the truth is
+        # known at the start only (first_row: position, Euler angles, NED velocity)
+        self.first_row: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        if not self.known:
+            start_pos, start_euler, start_vel = _start_from_sensors(config, log)
+            self.first_row = start_pos[0], start_euler[0], start_vel[0]
+            log = dataclasses.replace(
+                log,
+                ref_t_s=t[:1],
+                ref_position=start_pos,
+                ref_euler=start_euler,
+                ref_vel_n=start_vel,
+                ref_geodetic=config.earth.geodetic,
+            )
+        if not log.ref_geodetic and config.earth.geodetic:
             raise LogError(
                 f"{show_path(log.source)}: the reference is local (north_m, east_m, down_m); replay it with "
                 "--earth flat, or give it as lat, lon and depth_m"
             )
-        pos_n = pos_nav = pos
-    nan3 = np.full((K, 3), np.nan)
-    truth = Truth(
-        name="log",
-        earth=config.earth,
-        t_s=t - t[0],
-        pos_n=pos_n,
-        vel_n=vel_n,
-        vel_b=vel_b,
-        C_nb=C,
-        euler=euler,
-        omega_nb_b=nan3,
-        omega_ib_b=nan3,
-        f_b=nan3,
-        dtheta_ib_b=log.dtheta_b,
-        dv_b=log.dv_b,
-        step_s=log.dt_s,
-        pos_nav=pos_nav,
-    )
-    imu = imu_sensor.ImuData(
-        t_s=truth.t_s,
-        dtheta_b=log.dtheta_b[:, None],
-        dv_b=log.dv_b[:, None],
-        accel_bias=np.full((K, 1, 3), np.nan),
-        gyro_bias=np.full((K, 1, 3), np.nan),
-    )
+        self.log = log
+        self.t_s = t - t[0]  # (K,) the mission's times [s] from the log's first IMU sample
+        self.step_s = log.dt_s  # the IMU's sample interval [s] (a median over the log: once)
+        self.start_pos = _reference_at(log, t[:1])[0][0]  # the reference position at the first sample
+        self.sources = _log_sources(config, log, self.t_s, rng)
+
+    @property
+    def num_samples(self) -> int:
+        """IMU samples K of the log."""
+        return int(self.t_s.size)
+
+    @property
+    def dt_s(self) -> float:
+        """The log's IMU sample interval [s]."""
+        return self.step_s
+
+    def rows(self, k0: int, k1: int) -> tuple[Truth, imu_sensor.ImuData]:
+        """The truth and the IMU at samples ``k0 .. k1 - 1``.
+
+        Parameters
+        ----------
+        k0 : int
+            The first sample, 0 <= k0 < K.
+        k1 : int
+            One past the last sample, k0 < k1 <= K.
+
+        Returns
+        -------
+        tuple[Truth, ImuData]
+            The truth at those samples (the reference interpolated to them; positions NED [m]
+            from the sea-surface point at the configured origin, a local reference's as they are;
+            velocities [m/s] NED and body; attitude; the instantaneous rates and specific force
+            NaN), and the log's IMU increments (n, 1, 3) [rad], [m/s] with unknown (NaN) biases.
+        """
+        config, log = self.config, self.log
+        n = k1 - k0
+        if self.known:
+            pos, euler, vel_n = _reference_at(log, log.imu_t_s[k0:k1])
+        else:
+            pos, euler, vel_n = (np.full((n, 3), np.nan) for _ in range(3))
+            if k0 == 0 and self.first_row is not None:
+                pos[0], euler[0], vel_n[0] = self.first_row
+        C = C_nb_from_euler(euler)
+        vel_b = np.einsum("kji,kj->ki", C, vel_n)
+        if log.ref_geodetic:
+            if config.earth.geodetic:
+                pos_nav = pos
+            else:
+                start = (self.start_pos[0], self.start_pos[1], 0.0)
+                pos_nav = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], start)
+            origin = (config.earth.latitude_rad, config.earth.longitude_rad, 0.0)
+            pos_n = ned_from_geodetic(pos[:, 0], pos[:, 1], -pos[:, 2], origin)
+        else:
+            pos_n = pos_nav = pos
+        nan3 = np.full((n, 3), np.nan)
+        truth = Truth(
+            name="log",
+            earth=config.earth,
+            t_s=self.t_s[k0:k1],
+            pos_n=pos_n,
+            vel_n=vel_n,
+            vel_b=vel_b,
+            C_nb=C,
+            euler=euler,
+            omega_nb_b=nan3,
+            omega_ib_b=nan3,
+            f_b=nan3,
+            dtheta_ib_b=log.dtheta_b[k0:k1],
+            dv_b=log.dv_b[k0:k1],
+            step_s=self.step_s,
+            pos_nav=pos_nav,
+        )
+        imu = imu_sensor.ImuData(
+            t_s=truth.t_s,
+            dtheta_b=log.dtheta_b[k0:k1, None],
+            dv_b=log.dv_b[k0:k1, None],
+            accel_bias=np.full((n, 1, 3), np.nan),
+            gyro_bias=np.full((n, 1, 3), np.nan),
+        )
+        return truth, imu
+
+
+def _log_sources(
+    config: Config, log: Log, t_s: np.ndarray, rng: np.random.Generator
+) -> dict[str, SourceData]:
+    """Each source's epochs at the IMU sample nearest each of its rows (``t_s``: the IMU samples'
+    times from the first [s]); the DVL's beams and outages of ``config.dvl`` applied, its dropout
+    drawn from ``rng``."""
     sources = {}
     if log.dvl_t_s is not None:
         k, keep = _epochs(log, log.dvl_t_s)
@@ -371,17 +461,17 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
         else:
             y = _column(log, log.dvl_body_mps, "DVL velocity")[keep] @ config.dvl.A_b.T
         truths = {name: values[keep] for name, values in log.dvl_truth.items()}
-        sources["dvl"] = dvl_beams.from_log(truth.t_s[k], k, y, truths, config.dvl, rng)
+        sources["dvl"] = dvl_beams.from_log(t_s[k], k, y, truths, config.dvl, rng)
     for name, table in log.sources.items():
         k, keep = _epochs(log, table["t_s"])
         source = SOURCES[name]
         sources[name] = SourceData(
-            t_s=truth.t_s[k[keep]],
+            t_s=t_s[k[keep]],
             index=k[keep],
             values={c.name: table[c.name][keep][:, None] for c in source.columns},
             truth={c.name: table[c.name][keep][:, None] for c in source.truth_columns},
         )
-    return Simulation(truth=truth, imu=imu, num_runs=1, sources=sources)
+    return sources
 
 
 def with_imu_errors(
@@ -478,6 +568,16 @@ def prepare(
     """
     if imu_errors is not None:
         config = config.replace("imu", **dataclasses.asdict(imu_errors))
+    config = _checked_replay_config(config, log)
+    sim = log_simulation(config, log, rng)
+    if imu_errors is not None:
+        sim = with_imu_errors(sim, config.imu, rng)
+    return config, sim
+
+
+def _checked_replay_config(config: Config, log: Log) -> Config:
+    """:func:`replay_config`, and LogError if a source that ``config`` fuses or reads has no table
+    in the log (:func:`prepare`)."""
     config = replay_config(config, log)
     for name in active(config):
         if name not in log.sources:
@@ -492,10 +592,49 @@ def prepare(
                     f"{show_path(log.source)}: {what} reads the {SOURCES[name].label.lower()}, but the log has "
                     f"no {SOURCES[name].table}.csv or {SOURCES[name].table}.parquet"
                 )
-    sim = log_simulation(config, log, rng)
+    return config
+
+
+def prepare_rows(
+    config: Config,
+    log: Log,
+    rng: np.random.Generator,
+    imu_errors: imu_sensor.ImuConfig | None = None,
+) -> tuple[Config, ChunkSource]:
+    """:func:`prepare` for a replay fed chunk by chunk (:func:`replay_chunked`): the log's rows
+    made as the chunks ask for them (:class:`LogRows`: the same numbers, to the last bit of an
+    interpolated attitude).
+
+    With ``imu_errors`` the whole simulation of :func:`prepare`: the added errors are drawn over
+    the whole log at once (:func:`with_imu_errors`).
+
+    Parameters
+    ----------
+    config : Config
+        The configuration as given.
+    log : Log
+        The recorded log.
+    rng : numpy.random.Generator
+        What the DVL's dropout and the added IMU errors are drawn from.
+    imu_errors : ImuConfig or None
+        An IMU whose errors are added to the log's; None: the log's IMU as it is.
+
+    Returns
+    -------
+    tuple[Config, ChunkSource]
+        The replay's configuration and the log as a one-run simulation (R = 1): its rows
+        (:class:`LogRows`), or with ``imu_errors`` the whole
+        :class:`~tauvcore.engine.simulation.Simulation`.
+
+    Raises
+    ------
+    LogError
+        As :func:`prepare`.
+    """
     if imu_errors is not None:
-        sim = with_imu_errors(sim, config.imu, rng)
-    return config, sim
+        return prepare(config, log, rng, imu_errors)
+    config = _checked_replay_config(config, log)
+    return config, LogRows(config, log, rng)
 
 
 def replay(
@@ -540,6 +679,41 @@ def replay(
     """
     config, sim = prepare(config, log, rng, imu_errors)
     return config, judged(log, run(config, sim, rng, progress=progress, should_stop=should_stop))
+
+
+def replay_chunked(
+    config: Config,
+    sim: ChunkSource,
+    log: Log,
+    rng: np.random.Generator,
+    on_chunk: Callable[[dict[str, MethodResult]], None],
+    chunk_s: float | None = None,
+) -> None:
+    """Every method of ``config.run.methods`` on the log, its results handed out chunk by chunk
+    instead of kept (``tauv replay``: memory for the results flat in the log's length).
+
+    The chunks' results put end to end are :func:`replay`'s (the same numbers: the banks fed the
+    log as chunks, tauvcore.engine.mission.run_chunked), each chunk judged as far as the log can
+    judge it (:func:`judged`).
+
+    Parameters
+    ----------
+    config : Config
+        The replay's configuration, from :func:`prepare_rows`.
+    sim : ChunkSource
+        The log as a one-run simulation, from :func:`prepare_rows` (or :func:`prepare`) with the
+        same ``rng``.
+    log : Log
+        The recorded log (whether it has a reference: :func:`judged`).
+    rng : numpy.random.Generator
+        The generator :func:`prepare` drew from: the filters' random initial errors come next.
+    on_chunk : Callable[[dict[str, MethodResult]], None]
+        ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
+        verdict so far), method name -> :class:`MethodResult` (series (T_chunk, 1)), judged.
+    chunk_s : float or None
+        The log's time per chunk [s]; None: tauvcore.engine.mission.STREAM_CHUNK_S.
+    """
+    run_chunked(config, sim, rng, lambda results: on_chunk(judged(log, results)), chunk_s)
 
 
 JUDGED_SERIES = (

@@ -108,3 +108,20 @@ def test_a_failed_write_leaves_neither_the_spool_nor_a_partial_file(config, whol
     with pytest.raises(KeyError):
         writer.write({})  # no summaries: fails half-way through the document
     assert os.listdir(tmp_path) == []
+
+
+def test_a_last_chunk_of_one_output_epoch_is_reduced_like_the_others() -> None:
+    """A 40 s mission in 10 s chunks ends with a chunk of one sample (one output epoch, fewer than
+    Yoo's bank has methods): it is handed out and reduced as the others."""
+    config = Config().replace("trajectory", duration_s=40.0).replace("run", methods=("lc", "ins-dvl", "vkf"))
+    whole = run_streaming(config, np.random.default_rng(0))
+    parts: list = []
+    run_streaming(config, np.random.default_rng(0), keep=False, on_chunk=parts.append)
+    assert parts[-1]["vkf"].t_s.size == 1
+    running = RunningSummary()
+    for p in parts:
+        running.add(p)
+    assert summary_table(running.summaries(), config, 1.0) == summary_table(whole, config, 1.0)
+    for m in ("lc", "ins-dvl", "vkf"):
+        np.testing.assert_array_equal(np.concatenate([p[m].pos_err_m for p in parts]), whole[m].pos_err_m)
+        np.testing.assert_array_equal(parts[-1][m].diverged_at_s, whole[m].diverged_at_s)

@@ -194,15 +194,15 @@ def test_save_log_on_a_full_disk_leaves_nothing_and_a_retry_works(capsys, tmp_pa
 @pytest.mark.parametrize("failure", [OSError(errno.ENOSPC, "No space left on device"), KeyboardInterrupt()])
 @pytest.mark.parametrize("failing", ["depth", "imu"])
 def test_save_log_failing_mid_way_leaves_nothing(capsys, tmp_path, monkeypatch, failure, failing) -> None:
-    real = log_writer._write_table
+    real = log_writer._TableFile.append
 
-    def fail_at_one(path, columns, fmt):
-        if path.name.startswith(f"{failing}."):
-            path.write_text("t_s\n0.0\n")           # a partial file exists at this point
+    def fail_at_one(self, columns):
+        if self.path.name.startswith(f"{failing}."):
+            self.path.write_text("t_s\n0.0\n")      # a partial file exists at this point
             raise failure
-        real(path, columns, fmt)
+        real(self, columns)
 
-    monkeypatch.setattr(log_writer, "_write_table", fail_at_one)
+    monkeypatch.setattr(log_writer._TableFile, "append", fail_at_one)
     monkeypatch.chdir(tmp_path)
     code, out, err = _run(capsys, *RUN, "--save-log", "log")
     if isinstance(failure, KeyboardInterrupt):
@@ -210,7 +210,7 @@ def test_save_log_failing_mid_way_leaves_nothing(capsys, tmp_path, monkeypatch, 
     else:
         _one_line(code, err, "--save-log: cannot write 'log': No space left on device")
     assert out == "" and os.listdir(tmp_path) == []
-    monkeypatch.setattr(log_writer, "_write_table", real)
+    monkeypatch.setattr(log_writer._TableFile, "append", real)
     assert _run(capsys, *RUN, "--save-log", "log")[0] == 0
     assert read_log("log").duration_s == pytest.approx(5.0)
 
