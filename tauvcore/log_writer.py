@@ -117,12 +117,8 @@ class LogWriter:
 
     Parameters
     ----------
-    directory : str or os.PathLike
-        The log's directory (created, with its missing parents, if need be).
-    fmt : str
-        ``"csv"`` or ``"parquet"``.
-    config_toml : str or None
-        Text of the log's configuration file (TOML) to write as :data:`CONFIG_FILE`; None: none.
+    directory, fmt, config_toml
+        As :func:`write_log`.
 
     Raises
     ------

@@ -21,10 +21,12 @@ from typing import IO, Any
 import numpy as np
 
 from app.commands.outputs import write_text_atomic
+from app.commands.values import UsageError
 from app.payload import config_to_json, consistency_to_json, nis_series, result_series
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
-from tauvcore.eval.running import MethodSummary
+from tauvcore.eval.running import MethodSummary, RunningSummary
+from tauvcore.validation import show_path
 
 BLOCK_VALUES = 65536
 """Values read back and formatted at a time (0.5 MB of doubles)."""
@@ -145,6 +147,67 @@ class RunJsonWriter:
     def discard(self) -> None:
         """Remove the spool (after :meth:`write`, or when the run failed)."""
         shutil.rmtree(self.spool, ignore_errors=True)
+
+
+class RunReduction:
+    """What ``tauv run`` and ``tauv replay`` make of the results as the engine hands them out: the
+    summary's running sums (tauvcore.eval.running) and, with ``--json``, the document spooled as it
+    goes (:class:`RunJsonWriter`). A failure to write the document is one line naming ``--json``,
+    its file and the reason.
+
+    Parameters
+    ----------
+    config : Config
+        The run's configuration.
+    json_path : str or None
+        The ``--json`` output, checked (app.commands.outputs.json_target); None: no document.
+    json_arg : str or None
+        ``--json`` as given, for the message.
+    log : dict[str, Any] or None
+        A replay's ``log`` section (:class:`RunJsonWriter`).
+
+    Raises
+    ------
+    UsageError
+        The document's spool cannot be made.
+    """
+
+    def __init__(
+        self, config: Config, json_path: str | None, json_arg: str | None, log: dict[str, Any] | None = None
+    ) -> None:
+        self.running = RunningSummary()
+        self.json_name = show_path(str(json_arg))
+        self.writer = None if json_path is None else self._writing(RunJsonWriter, json_path, config, log=log)
+
+    def _writing(self, write: Any, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return write(*args, **kwargs)
+        except OSError as exc:
+            raise UsageError(f"--json: cannot write {self.json_name}: {exc.strerror or exc}") from None
+
+    def add(self, results: dict[str, MethodResult]) -> None:
+        """One chunk of results: into the sums and the document (the engine's ``on_chunk``)."""
+        self.running.add(results)
+        if self.writer is not None:
+            self._writing(self.writer.add, results)
+
+    def discard(self) -> None:
+        """The run failed or was interrupted: the document's spool goes, the output untouched."""
+        if self.writer is not None:
+            self.writer.discard()
+
+    def finish(self) -> dict[str, MethodSummary]:
+        """The run's summaries; with ``--json`` the document written (atomically) from them.
+
+        Returns
+        -------
+        dict[str, MethodSummary]
+            Method name -> its summary (tauvcore.eval.running.RunningSummary.summaries).
+        """
+        summaries = self.running.summaries()
+        if self.writer is not None:
+            self._writing(self.writer.write, summaries)
+        return summaries
 
 
 def _append(path: str, values: np.ndarray) -> None:

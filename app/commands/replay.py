@@ -27,9 +27,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     chunk by chunk as the engine hands them out (tauvcore.eval.replay.replay_chunked: the
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length."""
-    from app.commands.json_stream import RunJsonWriter
+    from app.commands.json_stream import RunReduction
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
-    from tauvcore.eval.running import RunningSummary
     from tauvcore.logs import LogError, read_log
 
     try:
@@ -50,10 +49,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         if args.json is not None
         else None
     )
-    json_name = show_path(str(args.json))
     started = time.perf_counter()
-    running = RunningSummary()
-    writer = None
+    reduction = None
     try:
         log = read_log(args.log)
         rng = np.random.default_rng(config.run.seed)
@@ -65,36 +62,18 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "start": start_description(config, log),
             "notes": list(log.notes),
         }
-        if json_path is not None:
-            try:
-                writer = RunJsonWriter(json_path, config, log=source)
-            except OSError as exc:
-                raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
-
-        def on_chunk(results: dict) -> None:
-            running.add(results)
-            if writer is not None:
-                try:
-                    writer.add(results)
-                except OSError as exc:
-                    raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
-
-        replay_chunked(config, sim, log, rng, on_chunk)
+        reduction = RunReduction(config, json_path, args.json, log=source)
+        replay_chunked(config, sim, log, rng, reduction.add)
     except BaseException as exc:
-        if writer is not None:
-            writer.discard()
+        if reduction is not None:
+            reduction.discard()
         if isinstance(exc, LogError):
             raise UsageError(str(exc)) from None
         raise
     for note in log.notes:  # after the run: a log refused is one line, its error
         print(f"tauv: note: {one_line(note)}", file=sys.stderr)
     elapsed = time.perf_counter() - started
-    summaries = running.summaries()
-    if writer is not None:
-        try:
-            writer.write(summaries)
-        except OSError as exc:
-            raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
+    summaries = reduction.finish()
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
     preamble = ["configuration: " + " < ".join(source["configuration"]), start]
     print(
@@ -103,7 +82,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return 0
 
 
-REPLAY_NOT_CONFIG = frozenset({"command", "log", "json", "config", "no_log_config"})
+REPLAY_NOT_CONFIG = frozenset({"command", "func", "log", "json", "config", "no_log_config"})
 """``tauv replay``'s arguments that are not configuration (what to read, where to write)."""
 
 

@@ -34,26 +34,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     json_path = json_target(args.json, inputs) if args.json is not None else None
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
-    from app.commands.json_stream import RunJsonWriter
+    from app.commands.json_stream import RunReduction
     from tauvcore.engine.mission import run_streaming
-    from tauvcore.eval.running import RunningSummary
 
-    running = RunningSummary()
-    writer = None
-    json_name = show_path(str(args.json))
-    if json_path is not None:
-        try:
-            writer = RunJsonWriter(json_path, config)
-        except OSError as exc:
-            raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
-
-    def on_chunk(results: dict) -> None:
-        running.add(results)
-        if writer is not None:
-            try:
-                writer.add(results)
-            except OSError as exc:
-                raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
+    reduction = RunReduction(config, json_path, args.json)
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
     log_writer = None
@@ -63,7 +47,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             config,
             rng,
             keep=False,
-            on_chunk=on_chunk,
+            on_chunk=reduction.add,
             on_sim_chunk=None if log_writer is None else lambda chunk: _save_chunk(args, log_writer, chunk),
         )
         elapsed = time.perf_counter() - started
@@ -75,18 +59,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             log_writer.discard()
         if lock is not None:
             lock.release(remove_created=True)
-        if writer is not None:
-            writer.discard()
+        reduction.discard()
         raise
     if lock is not None:
         lock.release()
-    summaries = running.summaries()
-    if writer is not None:
-        try:
-            writer.write(summaries)
-        except OSError as exc:
-            raise UsageError(f"--json: cannot write {json_name}: {exc.strerror or exc}") from None
-    print(summary_table(summaries, config, elapsed))
+    print(summary_table(reduction.finish(), config, elapsed))
     return 0
 
 

@@ -50,20 +50,20 @@ class Simulation:
         return self.truth.dt_s
 
     def rows(self, k0: int, k1: int) -> tuple[Truth, imu_sensor.ImuData]:
-        """Samples ``k0 .. k1 - 1`` of the truth and the IMU, as :class:`ChunkSource` asks.
+        """Samples ``k0 .. k1 - 1`` of the truth and the IMU (:meth:`ChunkSource.rows`).
 
         Parameters
         ----------
         k0 : int
-            The first sample, 0 <= k0 < K.
+            First sample of the chunk.
         k1 : int
-            One past the last sample, k0 < k1 <= K.
+            One past the chunk's last sample (at most K).
 
         Returns
         -------
         tuple[Truth, ImuData]
-            Views of those rows: the truth (its ``t_s`` the mission's times [s], ``step_s`` the
-            sample interval) and the IMU's increments and true biases, run axis after time.
+            Views of the whole mission's arrays: the truth, and the IMU's increments and true
+            biases, run axis after time.
         """
         imu = self.imu
         return _truth_rows(self.truth, k0, k1), dataclasses.replace(
@@ -102,9 +102,9 @@ class ChunkSource(Protocol):
         Parameters
         ----------
         k0 : int
-            The first sample, 0 <= k0 < K.
+            Index of the first sample asked for, 0 <= k0 < K.
         k1 : int
-            One past the last sample, k0 < k1 <= K.
+            Index one past the last, k0 < k1 <= K.
 
         Returns
         -------

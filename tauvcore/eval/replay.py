@@ -381,7 +381,8 @@ class LogRows:
         return self.step_s
 
     def rows(self, k0: int, k1: int) -> tuple[Truth, imu_sensor.ImuData]:
-        """The truth and the IMU at samples ``k0 .. k1 - 1``.
+        """The truth and the IMU at samples ``k0 .. k1 - 1``
+        (:meth:`~tauvcore.engine.simulation.ChunkSource.rows`).
 
         Parameters
         ----------
@@ -611,13 +612,13 @@ def prepare_rows(
     Parameters
     ----------
     config : Config
-        The configuration as given.
+        As given (:func:`prepare`).
     log : Log
-        The recorded log.
+        The log read whole.
     rng : numpy.random.Generator
-        What the DVL's dropout and the added IMU errors are drawn from.
+        The DVL's dropout and any added IMU errors.
     imu_errors : ImuConfig or None
-        An IMU whose errors are added to the log's; None: the log's IMU as it is.
+        Errors to add (:func:`prepare`), or None.
 
     Returns
     -------

@@ -241,3 +241,12 @@ def test_tauv_replay_prints_and_writes_what_it_did_holding_the_whole_results(cap
         b["results"][method]["nis"] = dict(sorted(b["results"][method]["nis"].items()))
     _assert_same(a, b, exact=case != "slow reference")
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".tauv-")) == []  # no spool left
+
+
+def test_replay_layers_name_only_configuration_flags() -> None:
+    """The configuration line names the flags that configure, not the command's own arguments."""
+    args = cli.build_parser().parse_args(
+        cli.attach_dash_values(["replay", "some-log", "--method", "lc", "--json", "out.json"]))
+    assert replay_layers(args, {}, None) == ["defaults", "flags --method"]
+    bare = cli.build_parser().parse_args(cli.attach_dash_values(["replay", "some-log"]))
+    assert replay_layers(bare, {}, None) == ["defaults"]
