@@ -13,6 +13,11 @@ overlaid, each in its own line style (:func:`compare_figure`, :func:`overlay_fig
 Yoo 2014's methods (``ins-dvl``, ``vkf``) run a 12-state filter with no position state: their
 position 1-sigma and NEES are NaN (no band, no curve) and their NEES is divided by their own
 block dimensions (``MethodResult.block_dims``), not the 20-state filter's.
+
+A long run reduced to time bins (tauvcore.eval.envelope.DecimatedResult) is drawn as each curve's
+value at every bin's last epoch over a shaded band from its minimum to its maximum within the bin
+(:func:`app.figures.envelope_traces`), the bins merged further where a trace would hold more than
+``max_points``; the title names the bin width.
 """
 
 from __future__ import annotations
@@ -28,15 +33,20 @@ from app.figures import (
     METHOD_COLORS,
     TIME_AXIS,
     TRUTH_COLOR,
+    bin_label,
     decimate,
+    envelope_traces,
     hex_to_rgba,
     make_figure,
+    merge_bins,
+    merged_envelope,
     method_color,
     stacked_layout,
 )
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.consistency import CONFIDENCE, nees_band, nees_series
+from tauvcore.eval.envelope import curve_key, is_decimated
 from tauvcore.eval.metrics import rms
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
 
@@ -61,6 +71,20 @@ NEES_BLOCK_NAMES = {
 }
 """Consistency blocks (tauvcore.engine.results.BLOCK_DIMS) as the figure names them."""
 BAND_COLOR = "rgba(120,120,120,0.18)"
+
+
+def _points(res: MethodResult, max_points: int | None) -> tuple[slice, np.ndarray | None]:
+    """The epochs drawn of ``res`` (a stride) and, for a run reduced to bins, where the merged
+    groups of bins start (app.figures.merge_bins)."""
+    if is_decimated(res):
+        return merge_bins(len(res.t_s), max_points)
+    return decimate(len(res.t_s), max_points), None
+
+
+def _envelope_note(results: Mapping[str, MethodResult]) -> str:
+    """ ", shaded: min-max per 9.1 s bin" when a run of ``results`` is reduced to bins, else ""."""
+    widths = sorted({float(r.bin_s) for r in results.values() if is_decimated(r)})
+    return f", shaded: {bin_label(widths[-1])}" if widths else ""
 
 
 def _spans_decades(curves: list[np.ndarray]) -> bool:
@@ -98,7 +122,7 @@ def error_figure(
     drawn: list[np.ndarray] = []
     runs = 1
     for method, res in results.items():
-        keep = decimate(len(res.t_s), max_points)
+        keep, starts = _points(res, max_points)
         err = getattr(res, err_field)[keep]
         t = res.t_s[keep]
         runs = err.shape[1]
@@ -124,6 +148,10 @@ def error_figure(
                         "legendgroup": method,
                     }
                 )
+        if is_decimated(res):
+            lo, hi = merged_envelope(res.low[err_field], res.high[err_field], starts)
+            drawn += [lo, hi]
+            data += envelope_traces(t, lo, hi, method.upper(), color, res.bin_s, method)
         drawn.append(curve)
         data.append(
             {
@@ -137,7 +165,7 @@ def error_figure(
             }
         )
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
-    label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "")
+    label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "") + _envelope_note(results)
     layout = {
         "title": {"text": label, "font": {"size": 13}},
         "height": height_px,
@@ -187,7 +215,7 @@ def nees_figure(
             continue
         dim = block_dims(res)[block]
         by_dim.setdefault(dim, []).append(method.upper())
-        keep = decimate(len(res.t_s), max_points)
+        keep, starts = _points(res, max_points)
         series = nees_series(res, block)[keep]
         runs = series.shape[1]
         with np.errstate(invalid="ignore", over="ignore"):
@@ -195,6 +223,12 @@ def nees_figure(
         curve = np.where(np.isfinite(curve), curve, np.nan)
         t = res.t_s[keep]
         t_first, t_last = min(t_first, float(t[0])), max(t_last, float(t[-1]))
+        if is_decimated(res):
+            key = curve_key(block)
+            lo, hi = merged_envelope(res.low[key], res.high[key], starts)
+            data += envelope_traces(
+                t, lo / dim, hi / dim, method.upper(), method_color(method), res.bin_s, method
+            )
         data.append(
             {
                 "type": "scatter",
@@ -245,7 +279,7 @@ def nees_figure(
         f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}" for k, (dim, names) in enumerate(groups)
     )
     runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
-    title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} ({dims_text}){runs_text}"
+    title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} ({dims_text}){runs_text}{_envelope_note(results)}"
     layout = {
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
@@ -443,9 +477,21 @@ def compare_figure(
         for method, res in results.items():
             if len(res.t_s) == 0:
                 continue
-            keep = decimate(len(res.t_s), max_points)
+            keep, starts = _points(res, max_points)
             err = getattr(res, err_field)[keep]
             curve = err[:, 0] if err.shape[1] == 1 else rms(err, axis=1)
+            if is_decimated(res):
+                lo, hi = merged_envelope(res.low[err_field], res.high[err_field], starts)
+                drawn += [lo, hi]
+                data += envelope_traces(
+                    res.t_s[keep],
+                    lo,
+                    hi,
+                    f"{method.upper()} ({label})",
+                    method_color(method),
+                    res.bin_s,
+                    f"{label}/{method}",
+                )
             drawn.append(curve)
             data.append(
                 {
@@ -465,7 +511,10 @@ def compare_figure(
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     labels = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
     layout = {
-        "title": {"text": f"{title} [{unit}]: {labels}", "font": {"size": 13}},
+        "title": {
+            "text": f"{title} [{unit}]: {labels}{_envelope_note({str(n): r for n, (_, rs) in enumerate(runs) for r in rs.values()})}",
+            "font": {"size": 13},
+        },
         "height": height_px,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
         "legend": LEGEND_BELOW,

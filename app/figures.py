@@ -65,6 +65,66 @@ def decimate(n: int, max_points: int | None) -> slice:
     return slice((n - 1) % step, None, step)
 
 
+def merge_bins(n: int, max_points: int | None) -> tuple[slice, np.ndarray | None]:
+    """How a reduced run's ``n`` bins (tauvcore.eval.envelope) are drawn with at most about
+    ``max_points`` points: the stride of :func:`decimate` picks each group's last bin (its
+    representative and time), and the groups start at the returned indices (None: one bin per
+    point) for ``np.fmin.reduceat`` / ``np.fmax.reduceat`` of the bins' minima and maxima."""
+    keep = decimate(n, max_points)
+    if keep == slice(None):
+        return keep, None
+    picked = np.arange(n)[keep]
+    return keep, np.r_[0, picked[:-1] + 1]
+
+
+def merged_envelope(
+    low: np.ndarray, high: np.ndarray, starts: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The minima and maxima ``low``, ``high`` (bins first) of the groups of bins starting at
+    ``starts`` (:func:`merge_bins`; None: as they are); NaN only where a group has no value."""
+    low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+    if starts is None:
+        return low, high
+    return np.fmin.reduceat(low, starts, axis=0), np.fmax.reduceat(high, starts, axis=0)
+
+
+ENVELOPE_ALPHA = 0.25
+
+
+def bin_label(bin_s: float) -> str:
+    """How a plot names a reduced run's envelope: "min-max per 9.1 s bin"."""
+    return f"min–max per {bin_s:.3g} s bin"
+
+
+def envelope_traces(
+    t: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    name: str,
+    color: str,
+    bin_s: float,
+    group: str,
+    **axes: str,
+) -> list[dict[str, Any]]:
+    """A reduced run's envelope as a band: the minimum per bin (an invisible line) and the maximum
+    filled down to it (``fill="tonexty"``), in ``color`` pale, grouped with the curve ``group``;
+    hover reads "<name> min per 9.1 s bin" and "... max ...". Drawn before the representative
+    line, so the line lies on top of its band."""
+    label = f"{name} {{}} per {bin_s:.3g} s bin"
+    common = {"type": "scatter", "x": t, "mode": "lines", "legendgroup": group, "showlegend": False, **axes}
+    return [
+        {**common, "y": low, "name": label.format("min"), "line": {"width": 0, "color": color}},
+        {
+            **common,
+            "y": high,
+            "name": label.format("max"),
+            "line": {"width": 0, "color": color},
+            "fill": "tonexty",
+            "fillcolor": hex_to_rgba(color, ENVELOPE_ALPHA),
+        },
+    ]
+
+
 @functools.cache
 def _template(name: str) -> dict[str, Any]:
     """A named plotly template as the dict plotly.js reads (validation would resolve the name)."""

@@ -15,6 +15,7 @@ import numpy as np
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
+from tauvcore.eval.envelope import is_decimated
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.study import FINAL_STATISTICS, final_statistics
 
@@ -58,7 +59,12 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
     NEES/dim and the fraction of epochs inside its 99 % band, velocity
     NEES/dim, DVL NIS per degree of freedom (NaN without DVL updates); and the filter's health:
     how many runs the divergence monitor flagged, the earliest flag [s] (NaN if none) and the P
-    eigenvalue-floor repairs summed over runs."""
+    eigenvalue-floor repairs summed over runs.
+
+    A long run reduced to time bins (tauvcore.eval.envelope.DecimatedResult) takes its RMS figures,
+    consistency and DVL counts from the summary reduced over every epoch and update as the run
+    streamed (``DecimatedResult.summary``: tauvcore.eval.running), not from the bins; its final
+    errors are its last bin's, the mission's last epoch."""
     rows: list[SummaryRow] = []
     for method, res in results.items():
 
@@ -66,19 +72,31 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
             return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
 
         vel, att, pos = curve(res.vel_err_mps), curve(res.att_err_deg), curve(res.pos_err_m)
-        consistency = method_consistency(res)
+        summary = res.summary if is_decimated(res) else None
+        if summary is not None:
+            consistency = summary.consistency
+            whole = dict(summary.rms_all_runs)
+        else:
+            consistency = method_consistency(res)
+            whole = {
+                "vel_err_mps": float(rms(vel)),
+                "att_err_deg": float(rms(att)),
+                "tilt_err_deg": float(rms(curve(res.tilt_err_deg))),
+                "heading_err_deg": float(rms(curve(res.heading_err_deg))),
+                "pos_err_m": float(rms(pos)),
+            }
         dvl_nis = consistency.nis.get("dvl")
         rows.append(
             {
                 "method": method.upper(),
                 "vel_final_mps": float(vel[-1]),
-                "vel_rms_mps": float(rms(vel)),
+                "vel_rms_mps": whole["vel_err_mps"],
                 "att_final_deg": float(att[-1]),
-                "att_rms_deg": float(rms(att)),
-                "tilt_rms_deg": float(rms(curve(res.tilt_err_deg))),
-                "heading_rms_deg": float(rms(curve(res.heading_err_deg))),
+                "att_rms_deg": whole["att_err_deg"],
+                "tilt_rms_deg": whole["tilt_err_deg"],
+                "heading_rms_deg": whole["heading_err_deg"],
                 "pos_final_m": float(pos[-1]),
-                "pos_rms_m": float(rms(pos)),
+                "pos_rms_m": whole["pos_err_m"],
                 "nees_dim": consistency.nees["full"].dim,
                 "nees_per_dim": consistency.nees["full"].per_dim,
                 "nees_in_band": consistency.nees["full"].in_band,
@@ -99,7 +117,19 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
 def dvl_counts(result: MethodResult) -> DvlCounts:
     """The DVL updates of ``result`` summed over its runs, as the CLI counts them
     (app.tables.summary_table): ``dvl_fused``, ``dvl_rejected`` (failed the gate) and ``dvl_coast`` (pings
-    with no measurement); None each for a method without DVL updates (INS)."""
+    with no measurement); None each for a method without DVL updates (INS). A run reduced to time
+    bins counts every update (its summary, tauvcore.eval.running), not the bins'."""
+    summary = result.summary if is_decimated(result) else None
+    if summary is not None:
+        if summary.dvl_counts is None:
+            return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None, "dvl_resets": None}
+        fused, rejected, coast = summary.dvl_counts
+        return {
+            "dvl_fused": fused,
+            "dvl_rejected": rejected,
+            "dvl_coast": coast,
+            "dvl_resets": summary.dvl_resets,
+        }
     dvl = result.updates.get("dvl")
     if dvl is None:
         return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None, "dvl_resets": None}

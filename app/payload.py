@@ -12,6 +12,7 @@ import numpy as np
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import MethodConsistency, method_consistency, nees_series
+from tauvcore.eval.envelope import is_decimated
 
 if TYPE_CHECKING:
     from tauvcore.engine.results import MethodResult, UpdateRecord
@@ -56,16 +57,28 @@ def result_to_json(
     ``result`` (the CLI runs one): ``{"nees": {block: {"dim", "per_dim", "in_band",
     "band_per_dim"}}, "nis": {source: {"per_dof", "in_band", "count"}}}``; NEES/dim and NIS/dof
     are 1 for a consistent filter, ``in_band`` is the fraction inside the two-sided 99 % band.
+
+    A run reduced to time bins (tauvcore.eval.envelope.DecimatedResult: the dashboard's long
+    missions) gives its series and NIS at each bin's last epoch and update, its consistency from
+    every epoch (its summary), and adds ``"bin_s"`` and ``"epochs_per_bin"``.
     """
     i = run_index
+    binned = result if is_decimated(result) else None
+    summary = binned.summary if binned is not None else None
+    consistency = summary.consistency if summary is not None else method_consistency(result)
     diverged_at = float(result.diverged_at_s[i])
     return {
         **{name: _finite(values) for name, values in result_series(result, i, origin_rad).items()},
         "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
-        "consistency": consistency_to_json(method_consistency(result)),
+        "consistency": consistency_to_json(consistency),
         "diverged": bool(result.diverged[i]),
         "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
         "p_floor_count": int(result.p_floor_count[i]),
+        **(
+            {"bin_s": float(binned.bin_s), "epochs_per_bin": int(binned.epochs_per_bin)}
+            if binned is not None
+            else {}
+        ),
     }
 
 

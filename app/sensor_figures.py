@@ -16,10 +16,21 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
-from app.figures import TIME_AXIS, decimate, hex_to_rgba, make_figure, panel_domains
+from app.figures import (
+    TIME_AXIS,
+    bin_label,
+    decimate,
+    envelope_traces,
+    hex_to_rgba,
+    make_figure,
+    merge_bins,
+    merged_envelope,
+    panel_domains,
+)
 from app.scene import BEAM_COLORS
 from app.sensor_view import BEAM_STATE_CODES, SensorView
 from tauvcore.engine.results import MethodResult, sensor_states
+from tauvcore.eval.envelope import is_decimated
 from tauvcore.units import DEG_PER_HOUR, MG
 
 AXIS_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
@@ -226,12 +237,17 @@ def sensor_error_figure(
 
     A consistent filter keeps the truth inside its 3-sigma about 99.7 % of the time; a sigma that
     shrinks while the estimate wanders off the truth is a filter claiming what it cannot observe.
+
+    A long run reduced to time bins (tauvcore.eval.envelope.DecimatedResult) draws each estimate
+    at every bin's last epoch with its 3-sigma there, over a darker band from the estimate's
+    minimum to its maximum within the bin.
     """
     if result.sensor_est is None or result.sensor_sigma is None or result.sensor_true is None:
         raise ValueError(f"{result.method}'s results carry no sensor errors (run with sensor_errors=True)")
     states = sensor_states(result.method)
     t = np.asarray(result.t_s, float)
-    keep = decimate(t.size, MAX_POINTS)
+    binned = is_decimated(result)
+    keep, starts = merge_bins(t.size, MAX_POINTS) if binned else (decimate(t.size, MAX_POINTS), None)
     t = t[keep]
     run = min(max(int(run), 0), result.sensor_est.shape[1] - 1)
     est = result.sensor_est[keep, run]
@@ -257,11 +273,31 @@ def sensor_error_figure(
                 {**_line(t, e - s, f"{labels[j]} -3 sigma", color, k), **band}
                 | {"fill": "tonexty", "fillcolor": hex_to_rgba(color, 0.12)}
             )
+            if binned:
+                lo, hi = merged_envelope(
+                    result.low["sensor_est"][:, run, i],
+                    result.high["sensor_est"][:, run, i],
+                    starts,
+                )
+                suffix = "" if k == 0 else str(k + 1)
+                data += envelope_traces(
+                    t,
+                    lo * factor,
+                    hi * factor,
+                    f"{labels[j]} estimate",
+                    color,
+                    result.bin_s,
+                    labels[j],
+                    xaxis=f"x{suffix}",
+                    yaxis=f"y{suffix}",
+                )
             data.append(_line(t, e, f"{labels[j]} estimate", color, k))
             if truth_known:
                 data.append(_line(t, true[:, i] * factor, f"{labels[j]} true", color, k, TRUTH_DASH))
     runs = result.sensor_est.shape[1]
     run_note = f", run {run + 1} of {runs}" if runs > 1 else ""
     key = "line: estimate, band: &plusmn;3&sigma;" + (", dashed: true" if any_truth else "")
+    if binned:
+        key += ", dark band: " + bin_label(result.bin_s)
     title = f"{result.method.upper()}: sensor errors{run_note} <span style='font-size:11px'>({key})</span>"
     return make_figure(data, _stack(title, panels, height_px), validate)

@@ -65,10 +65,14 @@ class SensorViewBuilder:
     step : output epochs every ``step`` IMU samples (the IMU rows kept).
     beam_mask : (4,) bool, the DVL beams switched on (``config.dvl.beam_mask``).
     run : the run shown (0-based).
+    compact : thin what is kept as it comes, whenever a source holds more than twice
+        MAX_SOURCE_EPOCHS epochs, so that memory does not grow with a long mission (the view is
+        then thinned twice: still about evenly, the last epoch kept); False: thinned once, in
+        :meth:`view`.
     """
 
-    def __init__(self, step: int, beam_mask: np.ndarray, run: int = 0) -> None:
-        self.step, self.run = max(1, int(step)), int(run)
+    def __init__(self, step: int, beam_mask: np.ndarray, run: int = 0, compact: bool = False) -> None:
+        self.step, self.run, self.compact = max(1, int(step)), int(run), compact
         self.beam_mask = np.asarray(beam_mask, dtype=bool)
         self.runs = 1
         self._t: list[np.ndarray] = []
@@ -102,6 +106,13 @@ class SensorViewBuilder:
             for column in source.truth_columns:
                 if column.name in data.truth:
                     kept["truth"].setdefault(column.name, []).append(_run_of(data.truth[column.name], run))
+            if self.compact:
+                _compact(kept)
+        if self.compact and sum(len(t) for t in self._t) > 2 * MAX_SOURCE_EPOCHS:
+            keep = _thinned(sum(len(t) for t in self._t), MAX_SOURCE_EPOCHS)
+            self._t, self._gyro, self._accel = (
+                [np.concatenate(parts)[keep]] for parts in (self._t, self._gyro, self._accel)
+            )
 
     def view(self) -> SensorView:
         """What was gathered so far."""
@@ -137,6 +148,17 @@ class SensorViewBuilder:
             "accel_b_mps2": (np.concatenate(self._accel) if self._accel else empty3)[keep],
             "sources": sources,
         }
+
+
+def _compact(kept: dict[str, Any]) -> None:
+    """One source's kept epochs thinned to MAX_SOURCE_EPOCHS once they exceed twice that."""
+    n = sum(len(t) for t in kept["t_s"])
+    if n <= 2 * MAX_SOURCE_EPOCHS:
+        return
+    keep = _thinned(n, MAX_SOURCE_EPOCHS)
+    kept["t_s"] = [np.concatenate(kept["t_s"])[keep]]
+    for group in ("columns", "truth"):
+        kept[group] = {c: [np.concatenate(parts)[keep]] for c, parts in kept[group].items()}
 
 
 def beam_state_codes(beam_mask: np.ndarray, returned: np.ndarray) -> np.ndarray:

@@ -117,7 +117,7 @@ SENSORS_NOTE = (
 )
 SENSOR_ERRORS_NOT_RECORDED = (
     "**Sensor errors not recorded**: their records would exceed 64 MiB (20 runs of five methods "
-    "over 250 s, one run over 5,000 s) or the memory budget (`TAUV_RUN_BUDGET_MB`). Fewer runs, "
+    "over 250 s, 10 runs over 1 h) or the memory budget (`TAUV_RUN_BUDGET_MB`). Fewer runs, "
     "methods or a shorter mission record them."
 )
 SENSOR_PLOT_WIDTH_PX = 480  # the workbench's plot width the Sensors tab's aspect is reckoned for
@@ -337,7 +337,7 @@ class PlotTabs:
         tv = self.state.truth_view
         if tv is not None:
             components = {
-                m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"])
+                m: error_components(r, tv["t_s"], tv["pos_n"], tv["C_nb"], tv.get("vel_n"))
                 for m, r in results.items()
                 if len(r.t_s)
             }

@@ -46,7 +46,8 @@ from app.scene import (
 from app.session_state import TabState, drawing
 from app.vehicle_figures import FIN_COLORS
 from tauvcore.config import Config
-from tauvcore.engine.results import MethodResult
+from tauvcore.engine.results import MethodResult, UpdateRecord
+from tauvcore.eval.envelope import DecimatedUpdates
 from tauvcore.truth.kinematic import bathymetry
 
 FOLLOW_DISTANCE_M = 22.0  # chase-camera distance: the 3 m hull and its beams fill the view
@@ -417,16 +418,30 @@ class SceneView:
         rejected = np.zeros(4, dtype=bool)
         results = self.state.results or {}
         for record in (r.updates.get("dvl") for r in results.values()):
-            if record is not None and p < len(record.t_s) and record.beams_available is not None:
-                returned = record.beams_available[p, 0]
+            q = _record_row(record, p, t_s)
+            if record is not None and q is not None and record.beams_available is not None:
+                returned = record.beams_available[q, 0]
                 break
         returned = returned & in_range
         for method in REJECT_REFERENCE:
             dvl = results[method].updates.get("dvl") if method in results else None
-            if dvl is not None and p < len(dvl.t_s):
+            q = _record_row(dvl, p, t_s)
+            if dvl is not None and q is not None:
                 if method == "tc":
-                    rejected = dvl.rejected_rows[p, 0] & returned
-                elif dvl.rejected[p, 0]:
+                    rejected = dvl.rejected_rows[q, 0] & returned
+                elif dvl.rejected[q, 0]:
                     rejected = returned.copy()
                 break
         return beam_states(enabled, returned, rejected)
+
+
+def _record_row(record: UpdateRecord | None, ping: int, t_s: float) -> int | None:
+    """The row of a DVL ``record`` that holds ping ``ping`` (the ping at or before ``t_s``), None if
+    it has none yet; a long run's record reduced to time bins (tauvcore.eval.envelope) holds the
+    last ping of each bin: its row is the latest at or before ``t_s``."""
+    if record is None:
+        return None
+    if isinstance(record, DecimatedUpdates):
+        q = int(np.searchsorted(record.t_s, t_s, side="right") - 1)
+        return q if q >= 0 else None
+    return ping if ping < len(record.t_s) else None

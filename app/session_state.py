@@ -17,8 +17,8 @@ from typing import Any
 
 import viser
 
-from app import worker
 from app.sensor_view import SensorView
+from app.truth_view import TruthView
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 
@@ -33,7 +33,7 @@ class TabState:
     # raised "Cannot assign to 'visible' on a removed LineSegmentsHandle")
     draw_lock: threading.RLock = dataclasses.field(default_factory=threading.RLock)
     config: Config | None = None  # what the current run runs (a replayed log: its own, once known)
-    truth_view: worker.TruthView | None = None  # its truth, as the worker sends it
+    truth_view: TruthView | None = None  # its truth, as the worker sends it
     results: dict[str, MethodResult] | None = None  # its latest results
     sensor_view: SensorView | None = None  # one run's raw measurements, as the worker sends them
     replaying: bool = False  # the current run replays a log (tauv serve --logs)

@@ -11,6 +11,7 @@ from tauvcore.aiding.sources import FUSED
 from tauvcore.config import Config
 from tauvcore.engine import yoo_sources
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
+from tauvcore.eval.envelope import DecimatedResult
 from tauvcore.eval.running import MethodSummary, summarise
 from tauvcore.eval.study import FINAL_STATISTICS
 
@@ -67,7 +68,13 @@ def summary_table(
 
 
 def _summaries(results: Mapping[str, MethodResult | MethodSummary]) -> dict[str, MethodSummary]:
-    """Each method's summary: as given, or of its whole results (tauvcore.eval.running.summarise)."""
+    """Each method's summary: as given, the one a run reduced to time bins carries
+    (tauvcore.eval.envelope.DecimatedResult.summary), or of its whole results
+    (tauvcore.eval.running.summarise)."""
+    results = {
+        m: r.summary if isinstance(r, DecimatedResult) and r.summary is not None else r
+        for m, r in results.items()
+    }
     whole = {m: r for m, r in results.items() if isinstance(r, MethodResult)}
     done = summarise(whole) if whole else {}
     return {m: done[m] if isinstance(r, MethodResult) else r for m, r in results.items()}

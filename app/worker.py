@@ -11,9 +11,18 @@ over a background computation. Messages on a run's queue (:attr:`RunHandle.queue
 - ``("sensors", dict)``: one run's raw measurements so far (app.sensor_view.SensorView), before
   each progress and the final message (a replayed log's once, whole, after its truth);
 - ``("progress", t_s, results)``: results so far, every ``progress_interval_s`` simulated seconds
-  (the first paper's methods only: the engine's live callback does not carry Yoo 2014's);
+  (the first paper's methods only: the engine's live callback does not carry Yoo 2014's); a
+  long mission's (below), every chunk of mission (``STREAM_CHUNK_S``), all its methods;
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results, every method's;
 - ``("error", message)``: one line, for a notification (also when the worker process died).
+
+A simulated mission whose output epochs exceed ``tauvcore.eval.envelope.SCREEN_BINS`` is reduced
+as it streams to at most that many time bins (:func:`decimation`): its results are
+:class:`~tauvcore.eval.envelope.DecimatedResult` (each series at every bin's last epoch, the
+minimum and maximum of every plotted curve per bin, the summary from every epoch), its truth view
+holds the truth at the bins' last epochs, so that neither the worker's memory nor the messages
+grow with the mission's length. A shorter mission, and a replayed log, is sent at every output
+epoch, as it was computed.
 
 The pool is this module's own, not ``concurrent.futures.ProcessPoolExecutor``: one dead
 worker (the out-of-memory killer's SIGKILL) breaks a ``ProcessPoolExecutor`` for good and kills
@@ -38,20 +47,18 @@ import signal
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, TypedDict
+from typing import Any
 
 import numpy as np
 
 from app import budget
 from app.sensor_view import SensorViewBuilder
+from app.truth_view import decimation, log_truth_view, truth_view
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.sensors.dvl import slant_ranges_m
-from tauvcore.sensors.timing import epoch_indices_between
-from tauvcore.truth import truth_stream
-from tauvcore.truth.kinematic import bathymetry
+from tauvcore.eval.envelope import EnvelopeReducer
 from tauvcore.validation import ConfigError
 
 # Preloaded with the worker: tauvcore imports scipy.special at a run's first chi-square quantile
@@ -121,85 +128,6 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
     return out
 
 
-class TruthView(TypedDict):
-    """The ``("truth", ...)`` message's dict: :func:`truth_view` or :func:`log_truth_view`."""
-
-    t_s: np.ndarray  # (T,) the output epochs [s]
-    pos_n: np.ndarray  # (T, 3)
-    C_nb: np.ndarray  # (T, 3, 3)
-    ping_t_s: np.ndarray  # the DVL pings [s]
-    ping_available: np.ndarray  # (pings, 4) the beams the schedule lets return
-    altitude_m: np.ndarray | None  # (T,); None for a replayed log
-    slant_range_m: np.ndarray | None  # (T, 4); None for a replayed log
-    propeller_rpm: np.ndarray | None  # (T,); None but for the dynamic truth
-    fin_angles_rad: np.ndarray | None  # (T, 4); None but for the dynamic truth
-
-
-def truth_view(config: Config, step: int) -> TruthView:
-    """What the 3-D view needs before the run: the truth at the output epochs (every ``step``-th
-    IMU sample, generated a chunk at a time and thinned) and the DVL ping times with the beams
-    the schedule lets return (random drop-outs show once the results carry them).
-
-    The seabed at the same rows (the mission's bathymetry, tauvcore.truth.kinematic):
-    ``altitude_m`` (T,) the true height above the seabed straight below, what an ideal echo
-    sounder measures [m]; ``slant_range_m`` (T, 4) each beam's range from the DVL head to the
-    seabed, inf beyond the DVL's range, by the DVL simulation's own tracer
-    (tauvcore.sensors.dvl.slant_ranges_m) [m].
-
-    With the dynamic truth (its chunks carry a :class:`~tauvcore.truth.VehicleRecord`) also the
-    vehicle's actuators at the same rows: ``propeller_rpm`` (T,) [rev/min] and ``fin_angles_rad``
-    (T, 4), fins 1-4 of tauvcore.truth.vehicle [rad]; both None for the kinematic truth."""
-    stream = truth_stream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
-    seabed = bathymetry(config.trajectory)
-    t, pos, C, altitude, ranges, rpm, fins = [], [], [], [], [], [], []
-    for k0, chunk in stream:
-        rows = np.arange((-k0) % step, chunk.num_samples, step)
-        t.append(chunk.t_s[rows])
-        pos.append(chunk.pos_n[rows])
-        C.append(chunk.C_nb[rows])
-        altitude.append(seabed.depth_m(chunk.pos_n[rows, 0], chunk.pos_n[rows, 1]) - chunk.depth_m[rows])
-        ranges.append(slant_ranges_m(chunk, rows, config.dvl, seabed))
-        if chunk.vehicle is not None:
-            rpm.append(chunk.vehicle.propeller_rpm[rows])
-            fins.append(chunk.vehicle.fin_angles_rad[rows])
-    t_end = (stream.num_samples - 1) * stream.dt_s
-    pings = (
-        epoch_indices_between(
-            config.dvl.rate_hz, t_end, stream.dt_s, stream.num_samples, 0, stream.num_samples
-        )
-        * stream.dt_s
-    )
-    return {
-        "t_s": np.concatenate(t),
-        "pos_n": np.concatenate(pos),
-        "C_nb": np.concatenate(C),
-        "ping_t_s": pings,
-        "ping_available": config.dvl.scheduled_availability(pings),
-        "altitude_m": np.concatenate(altitude),
-        "slant_range_m": np.concatenate(ranges),
-        "propeller_rpm": np.concatenate(rpm) if rpm else None,
-        "fin_angles_rad": np.concatenate(fins) if fins else None,
-    }
-
-
-def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> TruthView:
-    """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings
-    (a log records no seabed and no actuators: ``altitude_m``, ``slant_range_m``,
-    ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
-    rows = np.arange(0, truth.num_samples, step)
-    return {
-        "t_s": truth.t_s[rows],
-        "pos_n": truth.pos_n[rows],
-        "C_nb": truth.C_nb[rows],
-        "ping_t_s": dvl.t_s,
-        "ping_available": config.dvl.scheduled_availability(dvl.t_s),
-        "altitude_m": None,
-        "slant_range_m": None,
-        "propeller_rpm": None,
-        "fin_angles_rad": None,
-    }
-
-
 def replay_source(
     config: Config, log_dir: str, rng: np.random.Generator
 ) -> tuple[Config, Any, dict[str, Any], Any]:
@@ -243,7 +171,9 @@ def run_worker(
     and one run's raw measurements (app.sensor_view); the run ends early once
     ``stop_event.is_set()`` (anything with ``is_set``). A replay first sends ``("config", dict,
     source)``: the configuration as the log made it (its length, rate, origin and start) and
-    :func:`replay_source`'s description of the log."""
+    :func:`replay_source`'s description of the log. A simulated mission of more output epochs
+    than tauvcore.eval.envelope.SCREEN_BINS streams its results into bins (:func:`decimation`,
+    tauvcore.eval.envelope.EnvelopeReducer) and sends those."""
     try:
         config = from_dict(config_dict)
         if num_runs > 1:
@@ -254,13 +184,19 @@ def run_worker(
             config, sim, source, log = replay_source(config, log_dir, rng)
             queue.put(("config", to_dict(config), source))
         step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
+        num_epochs, per_bin, dt_out_s = decimation(config)
+        if sim is not None:
+            per_bin = 1  # a replayed log is held whole: its results at every output epoch
         queue.put(
             (
                 "truth",
-                truth_view(config, step) if sim is None else log_truth_view(sim.truth, config, sim.dvl, step),
+                truth_view(config, step, per_bin)
+                if sim is None
+                else log_truth_view(sim.truth, config, sim.dvl, step),
             )
         )
-        sensors = SensorViewBuilder(step, config.dvl.beam_mask)
+        # the IMU rows of the Sensors tab: a long mission's thinned as they come, not at the end
+        sensors = SensorViewBuilder(step * per_bin, config.dvl.beam_mask, compact=per_bin > 1)
         try:
             limit_bytes = budget.budget_bytes()
         except ValueError:  # refused by the server before the run started; not reached
@@ -283,7 +219,33 @@ def run_worker(
                 last_sent[0] = now
 
         should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
-        if sim is None:
+        results: dict[str, MethodResult]
+        if sim is None and per_bin > 1:
+            reducer = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
+
+            def reduce(chunk: dict[str, MethodResult]) -> None:
+                # every chunk is folded into the bins; the live view is the bins so far
+                reducer.add(chunk)
+                now = time.monotonic()
+                if now - last_sent[0] >= PROGRESS_MIN_WALL_S:
+                    t_s = max((float(r.t_s[-1]) for r in chunk.values() if len(r.t_s)), default=0.0)
+                    queue.put(("sensors", sensors.view()))
+                    queue.put(("progress", t_s, reducer.results()))
+                    last_sent[0] = now
+
+            run_streaming(
+                config,
+                rng,
+                num_runs,
+                on_chunk=reduce,
+                keep=False,
+                should_stop=should_stop,
+                on_sim_chunk=sensors.add,
+                sensor_errors=sensor_errors,
+            )
+            results = dict(reducer.results())
+            queue.put(("sensors", sensors.view()))
+        elif sim is None:
             results = run_streaming(
                 config,
                 rng,

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Install everything the tests need (Debian's packages below, the Python packages in .venv) and
-# run the whole suite. Extra arguments go to pytest.
+# run the whole suite (two passes, below). Extra arguments go to one pytest run instead.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Debian's Chromium for the browser tests; podman, runc and debootstrap for the container test
@@ -17,4 +17,13 @@ fi
 python3 -m venv .venv
 .venv/bin/pip install -q -e '.[test]'
 .venv/bin/python -m tauvcore.engine.warmup   # compile the filter bank once, not inside a test
-exec .venv/bin/python -m pytest "$@"
+if [ "$#" -gt 0 ]; then
+  exec .venv/bin/python -m pytest "$@"
+fi
+# The whole suite: everything but the browser and container tests on both cores (pytest-xdist; a
+# module's tests stay on one worker, so a module's fixture is computed once), then those, which
+# time a page against a real clock, alone on a quiet machine.
+status=0
+.venv/bin/python -m pytest -n 2 --dist loadscope -m "not browser and not container" || status=$?
+.venv/bin/python -m pytest -m "browser or container" || status=$?
+exit "$status"

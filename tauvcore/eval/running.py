@@ -8,6 +8,8 @@ summary is made of, per method:
   sums of squares and counts of the velocity, attitude, tilt, heading and position errors (their
   RMS over the mission), the DVL's fused, rejected and coasted pings and the times of its
   velocity resets (tauvcore.engine.lockout), the monitor's verdict;
+- of every run, the same sums of squares over all runs (the RMS over runs and epochs the
+  dashboard's Results tab shows) and the number of velocity resets;
 - of every run, the consistency (tauvcore.eval.consistency.method_consistency): per NEES block
   the sum and count of the finite NEES and the epochs whose run-average lies in the 99 % band, per
   aiding source the sums of NIS and dof over the updates that measured and how many lay in their
@@ -49,8 +51,11 @@ class MethodSummary:
     method: str
     final: dict[str, float]  # FINAL_SERIES -> run 0's value at the last epoch, in the series' unit
     rms: dict[str, float]  # RMS_SERIES -> run 0's RMS over the epochs (NaN: no epoch), the series' unit
+    rms_all_runs: dict[str, float]  # RMS_SERIES -> RMS over every run and epoch, the series' unit (with one
+    # run, ``rms``; with R runs the RMS over time of the RMS-over-runs curve)
     dvl_counts: tuple[int, int, int] | None  # (fused, rejected, coast) over the runs; None: no DVL updates
     reset_times_s: tuple[float, ...]  # run 0's velocity resets after a DVL lock-out [s]
+    dvl_resets: int  # velocity resets after a DVL lock-out over every run
     diverged: bool  # run 0 flagged by the divergence monitor
     diverged_at_s: float  # when [s], NaN if never
     consistency: MethodConsistency
@@ -80,12 +85,14 @@ class _MethodSums:
     block_dims: dict[str, int] | None
     runs: int
     sum_sq: dict[str, float] = field(default_factory=lambda: dict.fromkeys(RMS_SERIES, 0.0))
+    sum_sq_all: dict[str, float] = field(default_factory=lambda: dict.fromkeys(RMS_SERIES, 0.0))
     epochs: int = 0
     final: dict[str, float] = field(default_factory=lambda: dict.fromkeys(FINAL_SERIES, float("nan")))
     nees: dict[str, _NeesSums] = field(default_factory=dict)
     nis: dict[str, _NisSums] = field(default_factory=dict)
     dvl: list[int] | None = None
     resets: list[float] = field(default_factory=list)
+    resets_all: int = 0
     diverged: bool = False
     diverged_at_s: float = float("nan")
 
@@ -112,7 +119,9 @@ class RunningSummary:
                 s = self._sums[name] = _MethodSums(name, r.block_dims, r.vel_err_mps.shape[1])
             if r.t_s.size:
                 for n in RMS_SERIES:
-                    s.sum_sq[n] += float(np.sum(np.square(getattr(r, n)[:, 0])))
+                    squares = np.square(getattr(r, n))
+                    s.sum_sq[n] += float(np.sum(squares[:, 0]))
+                    s.sum_sq_all[n] += float(np.sum(squares))
                 s.epochs += int(r.t_s.size)
                 for n in FINAL_SERIES:
                     s.final[n] = float(getattr(r, n)[-1, 0])
@@ -126,6 +135,7 @@ class RunningSummary:
                 s.dvl = counts if s.dvl is None else [a + b for a, b in zip(s.dvl, counts, strict=True)]
                 if dvl.reset is not None:
                     s.resets.extend(float(t) for t in dvl.t_s[dvl.reset[:, 0]])
+                    s.resets_all += int(np.sum(dvl.reset))
             s.diverged = bool(r.diverged[0])
             s.diverged_at_s = float(r.diverged_at_s[0])
 
@@ -144,6 +154,10 @@ class RunningSummary:
                     n: float(np.sqrt(s.sum_sq[n] / s.epochs)) if s.epochs else float("nan")
                     for n in RMS_SERIES
                 }
+                rms_all = {
+                    n: float(np.sqrt(s.sum_sq_all[n] / (s.epochs * s.runs))) if s.epochs else float("nan")
+                    for n in RMS_SERIES
+                }
             nees = {
                 block: _nees_summary(sums, dim, s.runs, block)
                 for block, dim in (s.block_dims or BLOCK_DIMS).items()
@@ -154,8 +168,10 @@ class RunningSummary:
                 method=name,
                 final=dict(s.final),
                 rms=rms,
+                rms_all_runs=rms_all,
                 dvl_counts=None if s.dvl is None else (s.dvl[0], s.dvl[1], s.dvl[2]),
                 reset_times_s=tuple(s.resets),
+                dvl_resets=s.resets_all,
                 diverged=s.diverged,
                 diverged_at_s=s.diverged_at_s,
                 consistency=MethodConsistency(nees=nees, nis=nis),

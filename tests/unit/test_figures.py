@@ -715,7 +715,7 @@ def test_the_study_report_figure_is_plotly_s_validated_figure() -> None:
 @pytest.fixture(scope="module")
 def dynamic_view() -> dict[str, np.ndarray]:
     """The worker's truth view of a short dynamic figure eight (fins and propeller at 10 Hz)."""
-    from app.worker import truth_view
+    from app.truth_view import truth_view
     config = Config().replace("trajectory", name="figure8", duration_s=5.0, truth="dynamic")
     return truth_view(config, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
 
@@ -781,7 +781,7 @@ def test_fast_actuator_figure_equals_plotly_validated_construction(dynamic_view)
 @pytest.fixture(scope="module")
 def longrange_view() -> dict[str, np.ndarray]:
     """The worker's truth view of the paper's long-range mission (24 min, 10 Hz)."""
-    from app.worker import truth_view
+    from app.truth_view import truth_view
     from tauvcore.config import from_dict, merge, trajectory_preset
     config = from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange"}}))
     return truth_view(config, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))

@@ -308,7 +308,7 @@ def test_the_truth_view_of_a_dynamic_truth_carries_fins_and_propeller(duration_s
     rows of pos_n and C_nb: the whole mission's vehicle record at every output epoch."""
     import numpy as np
 
-    from app.worker import truth_view
+    from app.truth_view import truth_view
     from tauvcore.truth import generate
     config = Config().replace("trajectory", name="figure8", duration_s=duration_s, truth="dynamic")
     step = _output_step(config)
@@ -327,7 +327,7 @@ def test_the_truth_view_of_a_dynamic_truth_carries_fins_and_propeller(duration_s
 
 
 def test_the_truth_view_of_the_kinematic_truth_has_no_actuators() -> None:
-    from app.worker import truth_view
+    from app.truth_view import truth_view
     config = Config().replace("trajectory", name="figure8", duration_s=5.0)
     view = truth_view(config, _output_step(config))
     assert view["propeller_rpm"] is None and view["fin_angles_rad"] is None
@@ -341,7 +341,7 @@ def test_the_truth_view_carries_the_seabed_under_the_longrange_mission() -> None
     all four within range at the start's 60 m, all four beyond it (inf) over the trench's floor."""
     import numpy as np
 
-    from app.worker import truth_view
+    from app.truth_view import truth_view
     from tauvcore.config import from_dict, merge, trajectory_preset
     from tauvcore.sensors.dvl import slant_ranges_m
     from tauvcore.truth import generate
@@ -374,7 +374,7 @@ def test_a_replayed_log_s_truth_view_has_no_seabed() -> None:
 
     import numpy as np
 
-    from app.worker import log_truth_view
+    from app.truth_view import log_truth_view
     truth = types.SimpleNamespace(num_samples=5, t_s=np.arange(5.0), pos_n=np.zeros((5, 3)),
                                   C_nb=np.broadcast_to(np.eye(3), (5, 3, 3)))
     dvl = types.SimpleNamespace(t_s=np.arange(5.0))
