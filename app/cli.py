@@ -27,6 +27,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
+from app.commands.log import cmd_log_convert, cmd_log_info
 from app.commands.replay import cmd_replay
 from app.commands.run import cmd_run
 from app.commands.serve import cmd_serve
@@ -70,6 +71,9 @@ def option_actions(parser: argparse.ArgumentParser) -> dict[str, list[argparse.A
         if isinstance(action, argparse._SubParsersAction):
             for name, sub in action.choices.items():
                 found[name] = [a for a in sub._actions if a.option_strings]
+                for inner, actions in option_actions(sub).items():  # a subcommand's own (tauv log info)
+                    if inner:
+                        found[f"{name} {inner}"] = actions
         elif action.option_strings:
             found[""].append(action)
     return found
@@ -135,14 +139,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
     rl = sub.add_parser(
-        "replay", help="run the fusion methods on a recorded log (a directory of sensor tables)"
+        "replay",
+        help="run the fusion methods on a recorded log (a directory of sensor tables, a ROS bag or an MCAP file)",
     )
     rl.add_argument(
         "log",
         type=_path,
-        metavar="DIR",
-        help=f"the log directory (imu, reference, and {', '.join(('dvl', *SOURCE_TABLES.values()))} tables)",
+        metavar="PATH",
+        help=f"the log directory (imu, reference, and {', '.join(('dvl', *SOURCE_TABLES.values()))} tables), "
+        "a ROS 1 .bag, a ROS 2 bag directory (metadata.yaml) or an .mcap file",
     )
+    _bag_mapping_flag(rl)
     _method_flags(rl)
     rl.add_argument(
         "--imu-errors",
@@ -216,6 +223,25 @@ def build_parser() -> argparse.ArgumentParser:
         help="offer the recorded logs in DIR (it, or its subdirectories) as "
         "sources to replay in the dashboard",
     )
+    lg = sub.add_parser("log", help="what a ROS bag holds, and a bag written as a log")
+    lg_sub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
+    li = lg_sub.add_parser(
+        "info", help="a bag's topics, types, message counts, rates, time spans and the table each feeds"
+    )
+    li.add_argument(
+        "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
+    )
+    _bag_mapping_flag(li)
+    lc = lg_sub.add_parser(
+        "convert",
+        help="write a bag as a log (the tables tauv replay reads), all or nothing, into a new directory",
+    )
+    lc.add_argument(
+        "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
+    )
+    lc.add_argument("out_dir", type=_path, metavar="OUT_DIR", help="the log's directory (new, or empty)")
+    _bag_mapping_flag(lc)
+    lc.add_argument("--log-format", default="csv", help="csv (default) or parquet")
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", type=_path, help="TOML file to merge over the defaults before printing")
     _imu_flag(c)
@@ -226,6 +252,8 @@ def build_parser() -> argparse.ArgumentParser:
         (mc, cmd_mc),
         (rp, cmd_reproduce),
         (sv, cmd_serve),
+        (li, cmd_log_info),
+        (lc, cmd_log_convert),
         (c, cmd_config),
     ):
         subparser.set_defaults(func=command)
@@ -297,6 +325,16 @@ def _method_flags(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _bag_mapping_flag(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--bag-mapping",
+        type=_path,
+        metavar="FILE",
+        help="TOML file: which topic feeds which table, frames, time, offsets, extra .msg "
+        "definitions (see docs/bags.md); default: each table's topic found by message type",
+    )
+
+
 def _earth_flag(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--earth",
@@ -331,7 +369,9 @@ def _require_file_names(args: argparse.Namespace) -> None:
             try:
                 os.fsencode(value)
             except UnicodeError:
-                flag = "DIR" if attr == "log" else f"--{attr.replace('_', '-')}"
+                flag = {"log": "PATH", "bag": "PATH", "out_dir": "OUT_DIR"}.get(
+                    attr, f"--{attr.replace('_', '-')}"
+                )
                 raise UsageError(f"{flag}: the file name is not valid text, got {show(value)}") from None
 
 
@@ -375,7 +415,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _require_text_values(args: argparse.Namespace) -> None:
     """argparse drops a value of exactly ``--`` (``--method=--``) and leaves an empty list (in
     the list of a repeatable flag, ``--outage=--``)."""
-    for action in OPTIONS[""] + OPTIONS.get(args.command, []):
+    command = " ".join(c for c in (args.command, getattr(args, "log_command", None)) if c)
+    for action in OPTIONS[""] + OPTIONS.get(command, []):
         value = getattr(args, action.dest, None)
         if action.nargs == 0 or value is None:
             continue
@@ -402,14 +443,21 @@ OTHER_FLAGS = frozenset(
     s for actions in OPTIONS.values() for a in actions if a.nargs == 0 for s in a.option_strings
 )
 """Flags that take none (``--ideal``, ``--help``, ...), in any subcommand (from the parser)."""
-PATH_FLAGS = frozenset(
-    a.dest
-    for action in build_parser()._actions
-    if isinstance(action, argparse._SubParsersAction)
-    for sub in action.choices.values()
-    for a in sub._actions
-    if a.type is _path
-)
+
+
+def _path_dests(parser: argparse.ArgumentParser) -> set[str]:
+    """The ``args`` attributes of every argument typed :func:`_path`, in every (sub)command."""
+    found = set()
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                found |= _path_dests(sub)
+        elif action.type is _path:
+            found.add(action.dest)
+    return found
+
+
+PATH_FLAGS = frozenset(_path_dests(build_parser()))
 """The arguments that name files or directories (``args`` attributes: the flags and the log
 directory typed :func:`_path`, from the parser)."""
 

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -153,8 +154,70 @@ def read_log(directory: str | os.PathLike) -> Log:
             f"{show_path(str(root))}: no reference.csv or attitude.csv (or .parquet): the filters need a "
             "starting attitude, from a reference or from an attitude sensor"
         )
+    return _assemble(str(root), paths, read_table)
+
+
+Load = Callable[[Path], dict[str, np.ndarray]]
+"""How a table's columns are had from its path: read from the file (:func:`read_log`), or looked
+up among tables already in memory (:func:`log_from_tables`)."""
+
+
+def log_from_tables(
+    tables: Mapping[str, Mapping[str, np.ndarray]], source: str, names: Mapping[str, str]
+) -> Log:
+    """A log from tables already in memory (a ROS bag's topics, tauvcore.bags), read and checked
+    exactly as :func:`read_log` reads and checks a log's files.
+
+    Parameters
+    ----------
+    tables : Mapping of str to Mapping of str to numpy.ndarray
+        Table name (``imu``, ``dvl``, ``reference`` or an aiding source's table) -> column name ->
+        column (K,), as a log's file holds them (the module docstring): data row k is element k.
+    source : str
+        What the tables were read from (a bag's path), for :attr:`Log.source` and the messages.
+    names : Mapping of str to str
+        Each table's name in messages, in place of a file's path (``'mission.bag:/imu/data'``);
+        a table without one is named ``<source>:<table>``.
+
+    Returns
+    -------
+    Log
+        As :func:`read_log` returns it.
+
+    Raises
+    ------
+    LogError
+        On any problem, naming the table (``names``), the column, the row and the value.
+    """
+    known = TABLES + tuple(SOURCE_TABLES.values())
+    unknown = [t for t in tables if t not in known]
+    if unknown:
+        raise LogError(f"{show_path(source)}: unknown table {show(unknown[0])} (tables: {', '.join(known)})")
+    paths: dict[str, Path | None] = {
+        t: Path(names.get(t, f"{source}:{t}")) if t in tables else None for t in known
+    }
+    if paths["imu"] is None:
+        raise LogError(f"{show_path(source)}: no imu table")
+    if paths["reference"] is None and paths["attitude"] is None:
+        raise LogError(
+            f"{show_path(source)}: no reference or attitude table: the filters need a starting attitude, "
+            "from a reference or from an attitude sensor"
+        )
+    by_path = {paths[t]: tables[t] for t in tables}
+
+    def load(path: Path) -> dict[str, np.ndarray]:
+        return {n: np.asarray(v, dtype=float) for n, v in by_path[path].items()}
+
+    return _assemble(source, paths, load)
+
+
+def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
+    """The log of the tables at ``paths`` (None: the log has no such table; ``imu`` present),
+    each had by ``load``: the IMU's increments (resampled where its clock is irregular), the
+    reference, the DVL and the sources' tables, then the physical checks (tauvcore.log_checks)."""
     imu_path = paths["imu"]
-    imu = read_table(imu_path)
+    assert imu_path is not None  # both callers refuse a log without one first
+    imu = load(imu_path)
     t = time_column(imu_path, imu)
     if t.size < 3:
         raise LogError(f"{show_path(str(imu_path))}: {t.size} rows; an IMU log needs at least 3")
@@ -215,12 +278,12 @@ def read_log(directory: str | os.PathLike) -> Log:
             "the columns must be SI, m/s^2 or m/s)"
         )
 
-    out: dict = {"source": str(root), "imu_t_s": t, "dtheta_b": dtheta, "dv_b": dv, "notes": tuple(notes)}
+    out: dict = {"source": source, "imu_t_s": t, "dtheta_b": dtheta, "dv_b": dv, "notes": tuple(notes)}
     if paths["reference"] is not None:
-        out.update(_read_reference(paths["reference"], t, median))
-    _read_dvl(paths, out)
+        out.update(_read_reference(paths["reference"], t, median, load))
+    _read_dvl(paths, out, load)
     out["sources"] = {
-        name: _read_source(path, SOURCES[name])
+        name: _read_source(path, SOURCES[name], load)
         for name, table in SOURCE_TABLES.items()
         if (path := paths[table]) is not None
     }
@@ -234,8 +297,8 @@ def read_log(directory: str | os.PathLike) -> Log:
     )
 
 
-def _read_reference(ref_path: Path, t: np.ndarray, median: float) -> dict:
-    ref = read_table(ref_path)
+def _read_reference(ref_path: Path, t: np.ndarray, median: float, load: Load) -> dict:
+    ref = load(ref_path)
     ref_t = time_column(ref_path, ref)
     if any(f"lat_{u}" in ref for u in ("deg", "rad")):
         lat_lon, _ = angle_columns(ref_path, ref, ("lat", "lon"), "geodetic position")
@@ -271,11 +334,11 @@ def _read_reference(ref_path: Path, t: np.ndarray, median: float) -> dict:
     }
 
 
-def _read_dvl(paths: dict[str, Path | None], out: dict) -> None:
+def _read_dvl(paths: dict[str, Path | None], out: dict, load: Load) -> None:
     """The optional DVL table into ``out``."""
     if paths["dvl"] is not None:
         p = paths["dvl"]
-        cols = read_table(p)
+        cols = load(p)
         out["dvl_t_s"] = time_column(p, cols)
         beams = [n in cols for n in DVL_BEAMS]
         if all(beams) or (any(beams) and not all(n in cols for n in DVL_BODY)):  # the missing one named
@@ -323,13 +386,13 @@ def _column_of(path: Path, cols: dict[str, np.ndarray], column: Column) -> np.nd
     return cols[column.name]
 
 
-def _read_source(path: Path, source: AidingSource) -> dict[str, np.ndarray]:
+def _read_source(path: Path, source: AidingSource, load: Load) -> dict[str, np.ndarray]:
     """A source's table (``t_s`` and :attr:`~tauvcore.aiding.source.AidingSource.columns`), each
     column finite (or empty where the source allows it) and within its bounds; an angle column as
     ``<stem>_rad`` or ``<stem>_deg`` (in radians here). Its truth columns
     (:attr:`~tauvcore.aiding.source.AidingSource.truth_columns`, a simulated log's) are checked the
     same way where the table has them, NaN where it does not."""
-    cols = read_table(path)
+    cols = load(path)
     out = {"t_s": time_column(path, cols)}
     angles = tuple(c for c in source.columns if c.angle)
     if angles:
@@ -437,6 +500,7 @@ __all__ = [
     "Log",
     "LogError",
     "find_logs",
+    "log_from_tables",
     "raw_layout_hint",
     "read_log",
 ]

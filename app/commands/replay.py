@@ -1,4 +1,4 @@
-"""``tauv replay DIR``: the fusion methods on a recorded log, configured by the defaults, the log's
+"""``tauv replay PATH``: the fusion methods on a recorded log or a ROS bag, configured by the defaults, the log's
 own configuration file, ``--config`` and the flags, each layer named in the output.
 """
 
@@ -28,11 +28,22 @@ def cmd_replay(args: argparse.Namespace) -> int:
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length."""
     from app.commands.json_stream import RunReduction
+    from tauvcore.bags import BagMapping, bag_config, is_bag, read_bag, read_mapping
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
 
+    bag = is_bag(args.log)
+    if args.bag_mapping is not None and not bag:
+        raise UsageError(
+            f"--bag-mapping {show_path(args.bag_mapping)}: {show_path(args.log)} is not a ROS bag (a .bag or .mcap file, or a ROS 2 bag "
+            "directory with metadata.yaml); a log directory needs none"
+        )
     try:
-        log_raw, log_config_path = ({}, None) if args.no_log_config else log_config(args.log)
+        mapping = read_mapping(args.bag_mapping, label="--bag-mapping") if bag else BagMapping()
+        if args.no_log_config:
+            log_raw, log_config_path = {}, None
+        else:  # a bag's own configuration is its mapping's [config]
+            log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
     except LogError as exc:
         raise UsageError(str(exc)) from None
     config = resolve_config(args, under=log_raw)
@@ -52,7 +63,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     reduction = None
     try:
-        log = read_log(args.log)
+        log = read_bag(args.log, mapping, config.dvl.A_b) if bag else read_log(args.log)
         rng = np.random.default_rng(config.run.seed)
         config, sim = prepare_rows(config, log, rng, imu_errors)
         source = {
@@ -82,7 +93,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return 0
 
 
-REPLAY_NOT_CONFIG = frozenset({"command", "func", "log", "json", "config", "no_log_config"})
+REPLAY_NOT_CONFIG = frozenset({"command", "func", "log", "json", "config", "no_log_config", "bag_mapping"})
 """``tauv replay``'s arguments that are not configuration (what to read, where to write)."""
 
 
@@ -92,11 +103,13 @@ def replay_layers(
     """What configured a replay, lowest first: the defaults, the log's own file and the keys it
     sets, ``--config`` and its keys, the flags given."""
 
+    from tauvcore.bags import is_bag
     from tauvcore.eval.replay import config_keys
 
     layers = ["defaults"]
     if log_config_path is not None:
-        layers.append(f"the log's {show_path(log_config_path)} ({config_keys(log_raw) or 'empty'})")
+        kind = "the bag mapping's [config] in" if is_bag(args.log) else "the log's"
+        layers.append(f"{kind} {show_path(log_config_path)} ({config_keys(log_raw) or 'empty'})")
     elif args.no_log_config:
         layers.append("the log's own configuration ignored (--no-log-config)")
     if args.config:

@@ -23,6 +23,10 @@ def reference() -> str:
     parts = ["## Reference", "", "`tauv --help`:", "", "```text", parser.format_help().rstrip(), "```"]
     for name, command in sub.choices.items():
         parts += ["", f"### `tauv {name}`", "", "```text", command.format_help().rstrip(), "```"]
+        for inner in (a for a in command._actions if isinstance(a, argparse._SubParsersAction)):
+            for inner_name, inner_command in inner.choices.items():  # tauv log info, tauv log convert
+                help_text = inner_command.format_help().rstrip()
+                parts += ["", f"### `tauv {name} {inner_name}`", "", "```text", help_text, "```"]
     return "\n".join(parts) + "\n"
 
 

@@ -431,7 +431,8 @@ def _no_address(*args, **kwargs):
     raise OSError(errno.EADDRNOTAVAIL, "Cannot assign requested address")
 
 
-REQUIRED = {"replay": ["no-such-log"], "mc": ["--runs", "2", "--out", "study"], "reproduce": ["--out", "study"]}
+REQUIRED = {"replay": ["no-such-log"], "mc": ["--runs", "2", "--out", "study"], "reproduce": ["--out", "study"],
+            "log info": ["no-such.bag"], "log convert": ["no-such.bag", "out"]}
 """What each command needs besides the flag under test."""
 OUTPUTS = ("--json", "--save-log", "--out")
 """Flags for which '-x' would be a good new output: given an existing log directory '-x', each refuses it."""
@@ -451,7 +452,7 @@ def test_every_value_flag_names_a_value_beginning_with_a_dash(capsys, tmp_path, 
     if flag in base:
         k = base.index(flag)
         base = base[:k] + base[k + 2:]
-    code, out, err = _run(capsys, command, *base, flag, "-x")
+    code, out, err = _run(capsys, *command.split(), *base, flag, "-x")
     line = _one_line(code, err, flag, "-x")
     assert "expected one argument" not in line and out == ""
 

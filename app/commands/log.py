@@ -1,0 +1,107 @@
+"""``tauv log info PATH`` and ``tauv log convert PATH OUT_DIR``: what a ROS bag holds, and the bag
+written as a log (tauvcore.logs' format), so that it can be inspected, edited, or replayed many
+times fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import typing
+from pathlib import Path
+
+from app.commands.values import UsageError
+from tauvcore.validation import LogError, show, show_path
+
+if typing.TYPE_CHECKING:
+    from tauvcore.bags.mapping import BagMapping
+
+
+def _mapping(args: argparse.Namespace) -> BagMapping:
+    """The bag mapping of ``--bag-mapping`` (none: every table by type), once PATH is a bag."""
+    from tauvcore.bags import is_bag, read_mapping
+
+    if not is_bag(args.bag):
+        raise UsageError(
+            f"{show_path(args.bag)}: not a ROS bag (a .bag or .mcap file, or a ROS 2 bag directory with "
+            "metadata.yaml)"
+        )
+    try:
+        return read_mapping(args.bag_mapping, label="--bag-mapping")
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def cmd_log_info(args: argparse.Namespace) -> int:
+    """``tauv log info PATH``: the bag's topics, their types, message counts, rates and time spans,
+    and the table each feeds under the mapping (or why the mapping does not apply)."""
+    from tauvcore.bags.info import bag_info
+
+    mapping = _mapping(args)
+    try:
+        rows, problem = bag_info(args.bag, mapping)
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
+    header = ("topic", "type", "messages", "rate [Hz]", "from [s]", "to [s]", "feeds")
+    table = [
+        (
+            r.topic,
+            r.msgtype,
+            str(r.count),
+            "-" if math.isnan(r.rate_hz) else f"{r.rate_hz:.4g}",
+            f"{r.start_s:.3f}",
+            f"{r.end_s:.3f}",
+            r.table or "-",
+        )
+        for r in rows
+    ]
+    widths = [max(len(h), *(len(row[i]) for row in table)) for i, h in enumerate(header)]
+    print(
+        f"bag {show_path(args.bag)}, mapping: {show_path(mapping.path) if mapping.path else 'none (by type)'}"
+    )
+    for row in (header, *table):
+        print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    if problem is not None:
+        print(f"the mapping does not apply: {problem}")
+    return 0
+
+
+def cmd_log_convert(args: argparse.Namespace) -> int:
+    """``tauv log convert PATH OUT_DIR``: the bag's tables, checked as the log reader checks a log,
+    written as a log with tauvcore.log_writer (all or nothing), with the mapping's ``[config]`` as
+    the log's own ``log.toml``; OUT_DIR must be new or empty, so nothing is ever overwritten."""
+    import tomli_w
+
+    from tauvcore.bags import bag_config, bag_tables
+    from tauvcore.config import from_dict
+    from tauvcore.log_writer import write_log
+    from tauvcore.logs import log_from_tables
+
+    if args.log_format not in ("csv", "parquet"):
+        raise UsageError(f"--log-format must be csv or parquet, got {show(args.log_format)}")
+    mapping = _mapping(args)
+    out = Path(args.out_dir)
+    bag = Path(args.bag)
+    if (out.exists() or out.is_symlink()) and (not out.is_dir() or any(out.iterdir())):
+        raise UsageError(
+            f"OUT_DIR: {show_path(args.out_dir)} exists and is not an empty directory (nothing is overwritten)"
+        )
+    if os.path.abspath(out) == os.path.abspath(bag):
+        raise UsageError(f"OUT_DIR: {show_path(args.out_dir)} is the bag itself")
+    try:
+        raw, _ = bag_config(mapping)
+        config = from_dict(raw)
+        read = bag_tables(bag, mapping, config.dvl.A_b)
+        log = log_from_tables(read.tables, read.source, read.names)  # every check, before anything is written
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
+    try:
+        write_log(out, read.tables, args.log_format, config_toml=tomli_w.dumps(raw) if raw else None)
+    except OSError as exc:
+        raise UsageError(
+            f"OUT_DIR: {show_path(args.out_dir)}: cannot be written: {exc.strerror or exc}"
+        ) from None
+    rows = ", ".join(f"{t} {len(c['t_s'])} rows ({read.rules[t].topic})" for t, c in read.tables.items())
+    print(f"written {show_path(args.out_dir)} ({args.log_format}): {rows}; {log.duration_s:.3f} s of IMU")
+    return 0

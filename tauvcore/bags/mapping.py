@@ -1,0 +1,321 @@
+"""The bag mapping: which topic feeds which table of the log, in which frames, on which clock.
+
+A mapping is a TOML file (docs/bags.md has a worked example)::
+
+    frame = "flu_enu"          # every topic's frame convention unless its table says otherwise
+    time = "header"            # header stamps, or "receive": the bag's receive times
+    msg_paths = ["msgs/my_msgs/msg/MyDvl.msg"]   # more .msg definitions (<package>/msg/<Type>.msg)
+
+    [imu]
+    topic = "/imu/data"
+    offset_s = 0.0             # added to the topic's times [s] (its clock's offset)
+
+    [dvl]
+    topic = "/dvl"
+    frame = "frd_ned"
+    mounting_rpy_deg = [0.0, 0.0, 0.0]   # the DVL's frame in the body, v_b = C_b_dvl v_dvl (ZYX)
+
+    [config.dvl]               # a partial tauv configuration, as a log's own log.toml
+    lever_arm_m = [0.6, 0.0, 0.15]
+
+Sections ``imu``, ``dvl``, ``depth``, ``attitude`` and ``reference`` name the log's tables
+(tauvcore.logs). A table the mapping does not name is found by message type as without a mapping
+(:data:`DEFAULT_TYPES`: exactly one topic of those types, none: the log has no such table);
+``topic = ""`` leaves a table out. Each table's keys are :data:`TABLE_KEYS`; every bad key or
+value is one :class:`~tauvcore.validation.LogError` naming the file, the key and the value.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tauvcore.bags.frames import FRAMES
+from tauvcore.config import read_toml
+from tauvcore.validation import ConfigError, LogError, show, show_path
+
+TIMES = ("header", "receive")
+"""Where a topic's times come from: its messages' header stamps, or the bag's receive times."""
+DVL_PER_BEAM = (
+    "marine_acoustic_msgs/msg/Dvl",
+    "ds_sensor_msgs/msg/Dvl",
+    "cola2_msgs/msg/DVL",
+    "uuv_sensor_ros_plugins_msgs/msg/DVL",
+    "waterlinked_a50_ros_driver/msg/DVL",
+)
+"""The DVL messages with per-beam data (the definitions ship in tauvcore/bags/msgs)."""
+TWISTS = ("geometry_msgs/msg/TwistWithCovarianceStamped", "geometry_msgs/msg/TwistStamped")
+"""Body velocity only: projected onto the configured beams, as a log's ``vel_x_mps`` columns are."""
+POSES = (
+    "nav_msgs/msg/Odometry",
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "geometry_msgs/msg/PoseStamped",
+)
+ACCEPTED: dict[str, tuple[str, ...]] = {
+    "imu": ("sensor_msgs/msg/Imu",),
+    "dvl": DVL_PER_BEAM + TWISTS,
+    "depth": ("sensor_msgs/msg/FluidPressure", "std_msgs/msg/Float64", "std_msgs/msg/Float32"),
+    "attitude": ("geometry_msgs/msg/QuaternionStamped", "sensor_msgs/msg/Imu", *POSES),
+    "reference": (*POSES, "sensor_msgs/msg/NavSatFix"),
+}
+"""The message types that can feed each table."""
+DEFAULT_TYPES: dict[str, tuple[str, ...]] = {
+    "imu": ("sensor_msgs/msg/Imu",),
+    "dvl": DVL_PER_BEAM + TWISTS,
+    "depth": ("sensor_msgs/msg/FluidPressure",),
+    "attitude": ("geometry_msgs/msg/QuaternionStamped",),
+    "reference": POSES,
+}
+"""The types a table is found by when the mapping does not name its topic (exactly one topic of
+them, or none)."""
+COMMON_KEYS = ("topic", "frame", "time", "offset_s")
+TABLE_KEYS: dict[str, tuple[str, ...]] = {
+    "imu": COMMON_KEYS,
+    "dvl": COMMON_KEYS + ("mounting_rpy_deg", "form", "beam_ids", "beam_velocity_sign", "beam_tolerance_deg"),
+    "depth": COMMON_KEYS + ("water_density_kgpm3", "gravity_mps2", "atmospheric_pa"),
+    "attitude": COMMON_KEYS,
+    "reference": COMMON_KEYS + ("orientation_topic", "depth_topic"),
+}
+"""Each table's keys (docs/bags.md): ``topic``, ``frame`` (:data:`~tauvcore.bags.frames.FRAMES`),
+``time`` (:data:`TIMES`), ``offset_s`` [s]; the DVL's mounting, form and beams; the depth's water
+and air; a geodetic reference's orientation and depth topics."""
+TOP_KEYS = ("frame", "time", "msg_paths", "config", *TABLE_KEYS)
+DVL_FORMS = ("auto", "beams", "body")
+"""``auto``: per-beam velocities where the message has them (and its beams are the configured
+ones), else the body velocity; ``beams``: per-beam or refuse; ``body``: the body velocity."""
+WATER_DENSITY_KGPM3 = 1025.0
+"""Sea water's density [kg/m^3] (surface water at 35 PSU, 15 C) for depth from pressure."""
+GRAVITY_MPS2 = 9.80665
+"""Gravity [m/s^2] for depth from pressure (standard gravity)."""
+ATMOSPHERIC_PA = 101_325.0
+"""The air's pressure at the surface [Pa] (the standard atmosphere), subtracted from an absolute
+pressure before it becomes depth: ``depth = (p - p_atm) / (rho g)``."""
+DVL_BEAM_TOLERANCE_DEG = 3.0
+"""Largest angle [deg] between a message's beam direction and the configured beam it is taken for."""
+_RANGES: dict[str, tuple[float, float]] = {
+    "offset_s": (-1e6, 1e6),
+    "water_density_kgpm3": (950.0, 1100.0),
+    "gravity_mps2": (9.7, 9.9),
+    "atmospheric_pa": (0.0, 2e5),
+    "beam_tolerance_deg": (0.1, 30.0),
+}
+
+
+@dataclass(frozen=True)
+class TopicRule:
+    """Which topic feeds one table, and how its messages are read."""
+
+    table: str  # the log's table: imu, dvl, depth, attitude, reference
+    topic: str  # the bag's topic
+    msgtype: str = ""  # its message type (sensor_msgs/msg/Imu)
+    frame: str = "flu_enu"  # frame convention (tauvcore.bags.frames)
+    time: str = "header"  # "header" stamps or "receive" times
+    offset_s: float = 0.0  # [s] added to the topic's times
+    options: Mapping[str, Any] = field(default_factory=dict)  # the table's own keys (TABLE_KEYS)
+
+    def option(self, key: str, default: Any) -> Any:
+        """The table's own key ``key``, or ``default`` where the mapping does not set it."""
+        return self.options.get(key, default)
+
+
+@dataclass(frozen=True)
+class BagMapping:
+    """A bag mapping as read (module docstring); the tables it names, the defaults for others."""
+
+    path: str | None = None  # the mapping file; None: no mapping (every table by type)
+    frame: str = "flu_enu"
+    time: str = "header"
+    tables: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # table -> its keys
+    msg_paths: tuple[Path, ...] = ()  # extra .msg definitions
+    config: Mapping[str, Any] = field(default_factory=dict)  # a partial tauv configuration
+
+
+def _where(path: str, key: str) -> str:
+    return f"the bag mapping {show_path(path)}: {key}"
+
+
+def read_mapping(path: str | os.PathLike | None, label: str = "the bag mapping") -> BagMapping:
+    """The mapping file at ``path`` read and checked key by key (None: the empty mapping).
+
+    Parameters
+    ----------
+    path : str or os.PathLike or None
+        A TOML file (module docstring).
+    label : str
+        What a message calls the file when it cannot be read (the flag that named it).
+
+    Returns
+    -------
+    BagMapping
+        Its defaults, the tables it names with their keys checked, the extra ``.msg`` paths
+        (relative to the file's directory) and its ``[config]`` table, raw.
+
+    Raises
+    ------
+    LogError
+        For a file that cannot be read or is not TOML, an unknown key, a value of the wrong kind
+        or out of range, naming the file, the key and the value.
+    """
+    if path is None:
+        return BagMapping()
+    name = os.fspath(path)
+    try:
+        raw = read_toml(name, label=label)  # a small regular UTF-8 file, never a FIFO
+    except ConfigError as exc:
+        raise LogError(str(exc)) from None
+    for key in raw:
+        if key not in TOP_KEYS:
+            raise LogError(f"{_where(name, show(key))}: unknown key (keys: {', '.join(TOP_KEYS)})")
+    frame = _choice(name, "frame", raw.get("frame", "flu_enu"), FRAMES)
+    time = _choice(name, "time", raw.get("time", "header"), TIMES)
+    paths = raw.get("msg_paths", [])
+    if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
+        raise LogError(f"{_where(name, 'msg_paths')}: a list of .msg file paths is needed, got {show(paths)}")
+    base = Path(name).parent
+    msg_paths = tuple(base / p for p in paths)
+    config = raw.get("config", {})
+    if not isinstance(config, dict):
+        raise LogError(
+            f"{_where(name, 'config')}: a table (a partial configuration) is needed, got {show(config)}"
+        )
+    tables = {}
+    for table, keys in TABLE_KEYS.items():
+        if table not in raw:
+            continue
+        section = raw[table]
+        if not isinstance(section, dict):
+            raise LogError(f"{_where(name, table)}: a table ([{table}]) is needed, got {show(section)}")
+        for key in section:
+            if key not in keys:
+                raise LogError(
+                    f"{_where(name, f'{table}.{show(key)}')}: unknown key (keys: {', '.join(keys)})"
+                )
+        tables[table] = {key: _value(name, f"{table}.{key}", key, value) for key, value in section.items()}
+    return BagMapping(name, frame, time, tables, msg_paths, config)
+
+
+def _choice(path: str, key: str, value: Any, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise LogError(f"{_where(path, key)}: {show(value)} is not one of {', '.join(choices)}")
+    return value
+
+
+def _number(path: str, key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise LogError(f"{_where(path, key)}: a finite number is needed, got {show(value)}")
+    return float(value)
+
+
+def _value(path: str, key: str, name: str, value: Any) -> Any:
+    """One table key's value, checked (:data:`TABLE_KEYS`)."""
+    if name in ("topic", "orientation_topic", "depth_topic"):
+        if not isinstance(value, str):
+            raise LogError(f"{_where(path, key)}: a topic name (text) is needed, got {show(value)}")
+        return value
+    if name == "frame":
+        return _choice(path, key, value, FRAMES)
+    if name == "time":
+        return _choice(path, key, value, TIMES)
+    if name == "form":
+        return _choice(path, key, value, DVL_FORMS)
+    if name == "mounting_rpy_deg":
+        if not isinstance(value, list) or len(value) != 3:
+            raise LogError(f"{_where(path, key)}: three angles [deg] are needed, got {show(value)}")
+        angles = tuple(_number(path, key, v) for v in value)
+        if any(abs(a) > 360.0 for a in angles):
+            raise LogError(f"{_where(path, key)}: {show(value)} is beyond +-360 deg")
+        return angles
+    if name == "beam_ids":
+        if (
+            not isinstance(value, list)
+            or len(value) != 4
+            or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+            or len(set(value)) != 4
+        ):
+            raise LogError(
+                f"{_where(path, key)}: four distinct beam ids (the message's, for the configured beams "
+                f"1 to 4) are needed, got {show(value)}"
+            )
+        return tuple(value)
+    if name == "beam_velocity_sign":
+        if value not in (1, -1) or isinstance(value, bool):
+            raise LogError(f"{_where(path, key)}: 1 or -1 is needed, got {show(value)}")
+        return float(value)
+    number = _number(path, key, value)
+    low, high = _RANGES[name]
+    if not low <= number <= high:
+        raise LogError(f"{_where(path, key)}: {show(value)} is outside [{low:g}, {high:g}]")
+    return number
+
+
+def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[str, TopicRule]:
+    """The topic rule of each table the bag feeds: the mapping's, else found by type.
+
+    Parameters
+    ----------
+    mapping : BagMapping
+        The mapping as read.
+    topics : Mapping of str to str
+        The bag's topics -> their message types (``sensor_msgs/msg/Imu``).
+    bag : str
+        The bag's path, for the messages.
+
+    Returns
+    -------
+    dict of str to TopicRule
+        Table -> its rule, for each table that has a topic.
+
+    Raises
+    ------
+    LogError
+        A topic the bag does not have, a type that cannot feed the table, or two topics of a
+        table's default types with no mapping to choose: naming the topics.
+    """
+    rules = {}
+    where = f"the bag mapping {show_path(mapping.path)}" if mapping.path else "no bag mapping"
+    for table in TABLE_KEYS:
+        keys = mapping.tables.get(table, {})
+        topic = keys.get("topic")
+        if topic is None:
+            found = sorted(t for t, kind in topics.items() if kind in DEFAULT_TYPES[table])
+            if len(found) > 1:
+                raise LogError(
+                    f"{show_path(bag)}: topics {', '.join(show(t) for t in found)} could each feed the "
+                    f"{table} table ({where} names one): name it in a mapping, [{table}] topic = "
+                    f"{show(found[0])} (--bag-mapping FILE; docs/bags.md)"
+                )
+            if not found:
+                continue
+            topic = found[0]
+        elif topic == "":
+            continue
+        elif topic not in topics:
+            raise LogError(
+                f"{where}: {table}.topic: {show(topic)} is not a topic of {show_path(bag)} "
+                f"(its topics: {', '.join(show(t) for t in sorted(topics)) or 'none'})"
+            )
+        kind = topics[topic]
+        if kind not in ACCEPTED[table]:
+            raise LogError(
+                f"{where}: {table}.topic: {show(topic)} of {show_path(bag)} holds {kind}, which cannot feed "
+                f"the {table} table (it takes {', '.join(ACCEPTED[table])})"
+            )
+        for extra in ("orientation_topic", "depth_topic"):
+            other = keys.get(extra)
+            if other is not None and other not in topics:
+                raise LogError(f"{where}: {table}.{extra}: {show(other)} is not a topic of {show_path(bag)}")
+        options = {k: v for k, v in keys.items() if k not in COMMON_KEYS}
+        rules[table] = TopicRule(
+            table=table,
+            topic=topic,
+            msgtype=kind,
+            frame=keys.get("frame", mapping.frame),
+            time=keys.get("time", mapping.time),
+            offset_s=keys.get("offset_s", 0.0),
+            options=options,
+        )
+    return rules

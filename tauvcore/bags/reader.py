@@ -1,0 +1,496 @@
+"""Reading a ROS bag into the log's tables: the topics the mapping names (tauvcore.bags.mapping),
+their messages' numbers (tauvcore.bags.messages) in tauvcore's frames (tauvcore.bags.frames),
+units and clock, one table per sensor as a log's files hold them (tauvcore.logs).
+
+Time: a topic's times are its header stamps (or the bag's receive times, ``time = "receive"``)
+less the origin, the IMU topic's first time, plus the topic's ``offset_s``:
+``t_s = (stamp_ns - origin_ns) 1e-9 + offset_s``, in the bag's order; so a stamp that goes back
+is refused by the log's reader at that message (``row N`` is the topic's N-th message).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tauvcore.bags.frames import C_nb_from_quaternion, body_vectors, mounting_matrix, world_vectors
+from tauvcore.bags.mapping import (
+    ATMOSPHERIC_PA,
+    DVL_BEAM_TOLERANCE_DEG,
+    GRAVITY_MPS2,
+    WATER_DENSITY_KGPM3,
+    BagMapping,
+    TopicRule,
+    resolve,
+)
+from tauvcore.bags.messages import EXTRACT, LAYOUTS
+from tauvcore.geo.earth import ned_from_geodetic
+from tauvcore.geo.rotations import euler_from_C_nb
+from tauvcore.units import DEG
+from tauvcore.validation import LogError, one_line, show, show_path
+
+BAG_SUFFIXES = (".bag", ".mcap", ".db3")
+"""A ROS 1 bag, an MCAP file (ROS 2), a ROS 2 sqlite3 file; a ROS 2 bag is also a directory with
+``metadata.yaml``."""
+MSGS = Path(__file__).with_name("msgs")
+"""The shipped ``.msg`` definitions, ``<package>/msg/<Type>.msg`` (tauvcore/bags/msgs/README.md)."""
+
+
+def bag_errors() -> tuple[type[BaseException], ...]:
+    """What reading a bad bag or definition raises: rosbags' own errors, and what its storage
+    layers raise on a truncated or corrupt file (sqlite3, struct, the decompressors, bad text)."""
+    import sqlite3
+    import struct
+
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as ReaderError1
+    from rosbags.rosbag2 import ReaderError as ReaderError2
+    from rosbags.serde import SerdeError
+    from rosbags.typesys import TypesysError
+
+    return (
+        AnyReaderError,
+        ReaderError1,
+        ReaderError2,
+        SerdeError,
+        TypesysError,
+        sqlite3.Error,
+        struct.error,
+        OSError,
+        ValueError,  # UnicodeDecodeError among them
+        KeyError,
+        IndexError,
+        RuntimeError,  # lz4's
+        EOFError,
+        AssertionError,  # rosbags asserts on a file's layout
+    )
+
+
+def is_bag(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a ROS bag by its name: a ``.bag``, ``.mcap`` or ``.db3`` file, or a
+    directory holding ``metadata.yaml`` (a ROS 2 bag).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A file or directory.
+
+    Returns
+    -------
+    bool
+        True for a bag (it may still fail to read).
+    """
+    p = Path(path)
+    try:
+        if p.is_dir():
+            return (p / "metadata.yaml").is_file()
+    except OSError:
+        return False
+    return p.suffix.lower() in BAG_SUFFIXES
+
+
+def _msg_type(path: Path) -> str:
+    """The type name of a ``.msg`` file laid out as ``<package>/msg/<Type>.msg``."""
+    if path.suffix != ".msg" or path.parent.name != "msg" or not path.parent.parent.name:
+        raise LogError(
+            f"msg_paths: {show_path(str(path))} is not laid out as <package>/msg/<Type>.msg "
+            "(the type's name is read from its path)"
+        )
+    return f"{path.parent.parent.name}/msg/{path.stem}"
+
+
+def typestore(msg_paths: tuple[Path, ...] = ()) -> Any:
+    """The message types a bag without its own definitions is read with: ROS 2's standard ones,
+    the shipped DVL messages and those of ``msg_paths`` (rosbags.typesys).
+
+    Parameters
+    ----------
+    msg_paths : tuple of pathlib.Path
+        Extra ``.msg`` files, each ``<package>/msg/<Type>.msg``.
+
+    Returns
+    -------
+    rosbags.typesys.store.Typestore
+        The types registered.
+
+    Raises
+    ------
+    LogError
+        A ``.msg`` file that cannot be read or parsed, naming it.
+    """
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    types: dict = {}
+    for path in [*sorted(MSGS.glob("*/msg/*.msg")), *msg_paths]:
+        name = _msg_type(path)
+        try:
+            types.update(get_types_from_msg(path.read_text(encoding="utf-8"), name))
+        except OSError as exc:
+            raise LogError(
+                f"msg_paths: {show_path(str(path))}: cannot be read: {exc.strerror or exc}"
+            ) from None
+        except bag_errors() as exc:  # rosbags' parser raises its own kinds: one line naming the file
+            raise LogError(
+                one_line(f"msg_paths: {show_path(str(path))}: not a .msg definition: {exc}")
+            ) from None
+    try:
+        store.register(types)
+    except bag_errors() as exc:
+        raise LogError(one_line(f"msg_paths: the definitions do not register: {exc}")) from None
+    return store
+
+
+@dataclass(frozen=True)
+class BagTables:
+    """A bag read into the log's tables."""
+
+    source: str  # the bag's path
+    tables: dict[str, dict[str, np.ndarray]]  # table -> column -> (K,), as a log's files hold them
+    names: dict[str, str]  # table -> its name in messages: '<bag>:<topic>'
+    rules: dict[str, TopicRule]  # table -> the topic that fed it
+    notes: tuple[str, ...] = ()  # what the conversion did that the user should know
+
+
+class _Topic:
+    """One topic's messages as read: header stamps and receive times [ns], rows of numbers."""
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind  # the message type
+        self.stamps: list[int] = []
+        self.received: list[int] = []
+        self.rows: list[tuple[float, ...]] = []
+
+    def times_ns(self, rule: TopicRule) -> np.ndarray:
+        return np.asarray(self.stamps if rule.time == "header" else self.received, dtype=np.int64)
+
+
+def open_bag(path: str | os.PathLike, store: Any) -> Any:
+    """An open rosbags ``AnyReader`` of the bag at ``path`` (a LogError naming it if it cannot be
+    opened: missing, truncated, not a bag)."""
+    from rosbags.highlevel import AnyReader
+
+    bag = os.fspath(path)
+    if not os.path.exists(bag):
+        raise LogError(f"{show_path(bag)}: does not exist")
+    try:
+        reader = AnyReader([Path(bag)], default_typestore=store)
+        reader.open()
+    except bag_errors() as exc:  # rosbags, sqlite3, struct, lz4, zstd each raise their own
+        raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+    return reader
+
+
+def read_topics(
+    path: str | os.PathLike, mapping: BagMapping
+) -> tuple[dict[str, TopicRule], dict[str, _Topic]]:
+    """The mapping's rules for the bag at ``path`` and the messages of every topic they need (by
+    topic; each with its type as ``kind``)."""
+    bag = os.fspath(path)
+    reader = open_bag(bag, typestore(mapping.msg_paths))
+    try:
+        topics: dict[str, str] = {}
+        for c in reader.connections:
+            if topics.setdefault(c.topic, c.msgtype) != c.msgtype:
+                raise LogError(
+                    f"{show_path(bag)}: topic {show(c.topic)} holds both {topics[c.topic]} and {c.msgtype}"
+                )
+        rules = resolve(mapping, topics, bag)
+        needed = {r.topic for r in rules.values()} | {
+            r.options[k]
+            for r in rules.values()
+            for k in ("orientation_topic", "depth_topic")
+            if k in r.options
+        }
+        for topic in sorted(needed):
+            kind = topics[topic]
+            if kind not in EXTRACT:
+                raise LogError(f"{show_path(bag)}: topic {show(topic)}: {kind} is not a message tauv reads")
+            if kind not in reader.typestore.fielddefs:
+                raise LogError(
+                    f"{show_path(bag)}: topic {show(topic)}: the bag has no definition of {kind} (add its .msg "
+                    "with msg_paths in the bag mapping)"
+                )
+        read = {t: _Topic(topics[t]) for t in needed}
+        connections = [c for c in reader.connections if c.topic in needed]
+        index = dict.fromkeys(needed, 0)
+        try:
+            for connection, received, raw in reader.messages(connections=connections):
+                topic = connection.topic
+                index[topic] += 1
+                try:
+                    msg: Any = reader.deserialize(raw, connection.msgtype)
+                    row = EXTRACT[connection.msgtype](msg)
+                    header = getattr(msg, "header", None)  # std_msgs' numbers have none
+                    stamp = header.stamp if header is not None else None
+                except LogError:
+                    raise
+                except AttributeError as exc:
+                    raise LogError(
+                        one_line(
+                            f"{show_path(bag)}: topic {show(topic)}, message {index[topic]}: "
+                            f"{connection.msgtype} has no field {show(exc.name)} here (its definition differs)"
+                        )
+                    ) from None
+                except bag_errors() as exc:
+                    raise LogError(
+                        one_line(
+                            f"{show_path(bag)}: topic {show(topic)}, message {index[topic]}: cannot be read: {exc}"
+                        )
+                    ) from None
+                entry = read[topic]
+                entry.received.append(int(received))
+                entry.stamps.append(
+                    int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+                    if stamp is not None
+                    else int(received)
+                )
+                entry.rows.append(row)
+        except LogError:
+            raise
+        except bag_errors() as exc:  # a truncated or corrupt chunk part-way through
+            raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+    finally:
+        reader.close()
+    return rules, read
+
+
+def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np.ndarray) -> BagTables:
+    """The log's tables of the bag at ``path`` under ``mapping`` (module docstring).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ROS 1 bag, a ROS 2 bag directory or an MCAP file.
+    mapping : BagMapping
+        The mapping (tauvcore.bags.mapping.read_mapping).
+    beam_directions_b : numpy.ndarray
+        The configured Janus beams' unit vectors (4, 3) in the body frame (FRD), which per-beam
+        velocities are matched to (``config.dvl.A_b``).
+
+    Returns
+    -------
+    BagTables
+        The tables (``imu`` as rates, ``dvl`` as beams or a body velocity, ``depth``,
+        ``attitude``, ``reference``), each with ``t_s`` on the IMU's clock.
+
+    Raises
+    ------
+    LogError
+        For any bad input, naming the bag, the topic, the mapping key or the message.
+    """
+    bag = os.fspath(path)
+    rules, read = read_topics(bag, mapping)
+    if "imu" not in rules:
+        raise LogError(
+            f"{show_path(bag)}: no sensor_msgs/msg/Imu topic{' named in the mapping' if mapping.path else ''}: "
+            "a replay needs an IMU"
+        )
+    if "reference" not in rules and "attitude" not in rules:
+        raise LogError(
+            f"{show_path(bag)}: no reference (nav_msgs/Odometry, geometry_msgs/PoseStamped, ...) nor attitude "
+            "topic: the filters need a starting attitude; name one in the bag mapping ([reference] or [attitude])"
+        )
+    origin = int(read[rules["imu"].topic].times_ns(rules["imu"])[0]) if read[rules["imu"].topic].rows else 0
+    notes: list[str] = []
+    tables: dict[str, dict[str, np.ndarray]] = {}
+    for table, rule in rules.items():
+        entry = read[rule.topic]
+        if not entry.rows:
+            raise LogError(f"{show_path(bag)}: topic {show(rule.topic)} ({table}) has no messages")
+        kind = rule.msgtype
+        data = np.asarray(entry.rows, dtype=float)
+        t = (entry.times_ns(rule) - origin) * 1e-9 + rule.offset_s
+        part = _parts(kind, data)
+        if table == "imu":
+            columns = _imu(part, rule)
+        elif table == "dvl":
+            columns = _dvl(bag, kind, part, rule, beam_directions_b, notes)
+        elif table == "depth":
+            columns = {"depth_m": _depth(kind, part, rule)}
+        elif table == "attitude":
+            euler = euler_from_C_nb(C_nb_from_quaternion(part["quaternion"], rule.frame))
+            columns = {f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}
+        else:
+            columns = _reference(bag, kind, part, rule, t, read, rules, origin, notes)
+        tables[table] = {"t_s": t, **columns}
+    names = {table: f"{bag}:{rule.topic}" for table, rule in rules.items()}
+    return BagTables(bag, tables, names, rules, tuple(notes))
+
+
+def _parts(kind: str, data: np.ndarray) -> dict[str, np.ndarray]:
+    return {name: data[:, cols] for name, cols in LAYOUTS[kind].items()}
+
+
+def _imu(part: Mapping[str, np.ndarray], rule: TopicRule) -> dict[str, np.ndarray]:
+    gyro, accel = body_vectors(part["gyro"], rule.frame), body_vectors(part["accel"], rule.frame)
+    out = {f"gyro_{a}_rps": gyro[:, i] for i, a in enumerate("xyz")}
+    out.update({f"accel_{a}_mps2": accel[:, i] for i, a in enumerate("xyz")})
+    return out
+
+
+def _depth(kind: str, part: Mapping[str, np.ndarray], rule: TopicRule) -> np.ndarray:
+    """Depth [m] of a pressure (``(p - p_atm) / (rho g)``) or a depth topic's value."""
+    if kind == "sensor_msgs/msg/FluidPressure":
+        rho = rule.option("water_density_kgpm3", WATER_DENSITY_KGPM3)
+        g = rule.option("gravity_mps2", GRAVITY_MPS2)
+        return (part["pressure"][:, 0] - rule.option("atmospheric_pa", ATMOSPHERIC_PA)) / (rho * g)
+    return part["value"][:, 0].copy()
+
+
+def _dvl(
+    bag: str,
+    kind: str,
+    part: Mapping[str, np.ndarray],
+    rule: TopicRule,
+    A_b: np.ndarray,
+    notes: list[str],
+) -> dict[str, np.ndarray]:
+    """The DVL's table: per-beam velocities along the configured beams where the message has them
+    and they match, else the body velocity (rotated by the mounting, in FRD)."""
+    C_b_dvl = mounting_matrix(rule.option("mounting_rpy_deg", (0.0, 0.0, 0.0)))
+    form = rule.option("form", "auto")
+    where = f"{show_path(bag)}: topic {show(rule.topic)} (dvl)"
+    if "beams" in part and form != "body":
+        beams = _beams(where, part, rule, A_b, C_b_dvl)
+        if beams is not None:
+            return {f"beam{k + 1}_mps": beams[:, k] for k in range(4)}
+        if form == "beams":
+            raise LogError(
+                f"{where}: form = 'beams', but its messages have no beam velocities with beam directions "
+                "(or, for a message without directions, no beam_ids in the mapping)"
+            )
+        notes.append(f"{where}: no per-beam data; its body velocity is projected onto the configured beams")
+    body = body_vectors(part["body"], rule.frame) @ C_b_dvl.T
+    return {
+        "vel_x_mps": body[:, 0],
+        "vel_y_mps": body[:, 1],
+        "vel_z_mps": body[:, 2],
+        "valid": part["body_valid"][:, 0],
+    }
+
+
+def _beams(
+    where: str, part: Mapping[str, np.ndarray], rule: TopicRule, A_b: np.ndarray, C_b_dvl: np.ndarray
+) -> np.ndarray | None:
+    """The messages' beam velocities along the configured beams (M, 4), NaN where not valid; None
+    where the messages have no beams that can be placed."""
+    sign = rule.option("beam_velocity_sign", 1.0)
+    velocity = np.where(part["beam_valid"] > 0.5, part["beams"] * sign, np.nan)
+    m = velocity.shape[0]
+    dirs = part["dirs"].reshape(m, 4, 3)
+    have: np.ndarray = np.asarray(np.isfinite(dirs).all(axis=(1, 2)))  # the messages with directions
+    out = np.full((m, 4), np.nan)
+    if have.any():
+        u = body_vectors(dirs.reshape(-1, 3), rule.frame).reshape(m, 4, 3) @ C_b_dvl.T
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+        first = int(np.argmax(have))
+        cos = u[first] @ A_b.T  # (message beam, configured beam)
+        order = np.argmax(cos, axis=1)
+        tolerance = rule.option("beam_tolerance_deg", DVL_BEAM_TOLERANCE_DEG)
+        limit = np.cos(tolerance * DEG)
+        cos_all = np.einsum("mij,ij->mi", u, A_b[order])  # each message beam against its configured beam
+        off = have[:, None] & ~(cos_all >= limit)
+        if len(set(order.tolist())) != 4 or off.any():
+            row, beam = (int(v) for v in np.argwhere(off)[0]) if off.any() else (first, 0)
+            angle = float(np.degrees(np.arccos(np.clip(cos_all[row, beam], -1.0, 1.0))))
+            raise LogError(
+                f"{where}, message {row + 1}: its beam {beam + 1} points {angle:.3g} deg from the nearest "
+                f"configured beam (beam {int(order[beam]) + 1}; at most {tolerance:g} deg; the configured beams "
+                "are a Janus at [dvl] beam_pitch_deg, yaw 45 + 90 (k - 1) deg): set the DVL's frame, "
+                "mounting_rpy_deg or beam_pitch_deg, or form = 'body' to use its body velocity"
+            )
+        out[:, order] = np.where(have[:, None], velocity, np.nan)
+        return out
+    ids = rule.option("beam_ids", None)
+    if ids is None or not np.isfinite(part["ids"]).any():
+        return None
+    for k, beam_id in enumerate(ids):
+        match = part["ids"] == beam_id
+        out[:, k] = np.where(match.any(axis=1), np.nansum(np.where(match, velocity, 0.0), axis=1), np.nan)
+        out[match.any(axis=1) & np.isnan(np.where(match, velocity, 0.0)).any(axis=1), k] = np.nan
+    return out
+
+
+def _reference(
+    bag: str,
+    kind: str,
+    part: Mapping[str, np.ndarray],
+    rule: TopicRule,
+    t: np.ndarray,
+    read: Mapping[str, _Topic],
+    rules: Mapping[str, TopicRule],
+    origin: int,
+    notes: list[str],
+) -> dict[str, np.ndarray]:
+    """The reference table: position (local NED, or geodetic for a NavSatFix), attitude and NED
+    velocity (an Odometry's twist rotated into n; else the positions' central differences)."""
+    where = f"{show_path(bag)}: topic {show(rule.topic)} (reference)"
+    out: dict[str, np.ndarray] = {}
+    if kind == "sensor_msgs/msg/NavSatFix":
+        lat, lon = part["lat_lon_deg"][:, 0] * DEG, part["lat_lon_deg"][:, 1] * DEG
+        depth = -part["altitude"][:, 0]
+        depth_topic = rule.options.get("depth_topic")
+        if depth_topic is not None:
+            depth = _other(bag, depth_topic, read, rules, origin, t, "depth")
+        orientation = rule.options.get("orientation_topic")
+        if orientation is None:
+            raise LogError(
+                f"{where}: a sensor_msgs/NavSatFix reference needs an attitude: set reference.orientation_topic "
+                "in the bag mapping (a topic with an orientation)"
+            )
+        C_nb = _other(bag, orientation, read, rules, origin, t, "orientation")
+        out.update({"lat_rad": lat, "lon_rad": lon, "depth_m": depth})
+        position = ned_from_geodetic(lat, lon, -depth, (float(lat[0]), float(lon[0]), float(-depth[0])))
+    else:
+        position = world_vectors(part["position"], rule.frame)
+        C_nb = C_nb_from_quaternion(part["quaternion"], rule.frame)
+        out.update({"north_m": position[:, 0], "east_m": position[:, 1], "down_m": position[:, 2]})
+    euler = euler_from_C_nb(C_nb)
+    out.update({f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))})
+    if kind == "nav_msgs/msg/Odometry":
+        vel_n = np.einsum("kij,kj->ki", C_nb, body_vectors(part["velocity_b"], rule.frame))
+    else:
+        vel_n = np.gradient(position, t, axis=0) if t.size > 1 else np.zeros_like(position)
+        notes.append(f"{where}: {kind} has no velocity; the reference velocity is the positions' differences")
+    out.update({f"vel_{a}_mps": vel_n[:, i] for i, a in enumerate(("north", "east", "down"))})
+    return out
+
+
+def _other(
+    bag: str,
+    topic: str,
+    read: Mapping[str, _Topic],
+    rules: Mapping[str, TopicRule],
+    origin: int,
+    t: np.ndarray,
+    what: str,
+) -> np.ndarray:
+    """A geodetic reference's depth (K,) [m] or ``C_nb`` (K, 3, 3) from another topic, at the
+    reference's times ``t``: linearly (an orientation: its nearest message, as it is sampled
+    faster than the fixes)."""
+    entry = read[topic]
+    kind = entry.kind
+    rule = TopicRule(
+        table=what, topic=topic, msgtype=kind, frame=rules["reference"].frame, time=rules["reference"].time
+    )
+    data = np.asarray(entry.rows, dtype=float)
+    ts = (entry.times_ns(rule) - origin) * 1e-9
+    part = _parts(kind, data)
+    if what == "depth":
+        depth_rule = rules["depth"] if "depth" in rules and rules["depth"].topic == topic else rule
+        return np.interp(t, ts, _depth(kind, part, depth_rule))
+    if "quaternion" not in part:
+        raise LogError(
+            f"{show_path(bag)}: reference.orientation_topic: {show(topic)} ({kind}) has no orientation"
+        )
+    nearest = np.clip(np.searchsorted(ts, t), 0, ts.size - 1)
+    earlier = np.clip(nearest - 1, 0, ts.size - 1)
+    nearest = np.where(np.abs(ts[earlier] - t) < np.abs(ts[nearest] - t), earlier, nearest)
+    return C_nb_from_quaternion(part["quaternion"][nearest], rule.frame)

@@ -1,0 +1,293 @@
+"""Writing a simulated mission as ROS bags with rosbags' own writers (ROS 1, ROS 2 sqlite3, MCAP),
+for the tests of tauvcore.bags and the worked example of docs/bags.md.
+
+``mission_tables`` makes the tables of a short simulated mission in the form a bag can carry
+exactly (IMU rates, times on whole nanoseconds, the DVL's beams rounded to float32 where a message
+holds float32), ``write_bag`` writes the same numbers as messages, in FRD/NED or converted to
+FLU/ENU (ROS REP-103), with the DVL as any of the supported messages.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tauvcore.bags.frames import D_FLU, T_ENU
+from tauvcore.bags.reader import MSGS
+from tauvcore.config import Config
+from tauvcore.engine.simulation import SimChunk, simulate
+from tauvcore.geo.rotations import C_nb_from_euler
+from tauvcore.log_writer import simulation_tables
+
+ORIGIN_NS = 1_700_000_000_000_000_000
+"""The bag's first IMU stamp [ns] (2023-11-14): a clock like a vehicle's."""
+DVL_TYPES = (
+    "marine_acoustic_msgs/msg/Dvl",
+    "ds_sensor_msgs/msg/Dvl",
+    "cola2_msgs/msg/DVL",
+    "uuv_sensor_ros_plugins_msgs/msg/DVL",
+    "waterlinked_a50_ros_driver/msg/DVL",
+    "geometry_msgs/msg/TwistWithCovarianceStamped",
+    "geometry_msgs/msg/TwistStamped",
+)
+FLOAT32_BEAMS = ("marine_acoustic_msgs/msg/Dvl", "ds_sensor_msgs/msg/Dvl")
+TOPICS = {"imu": "/imu/data", "dvl": "/dvl", "depth": "/pressure", "attitude": "/ahrs", "reference": "/odom"}
+BEAM_ORDER = (2, 0, 3, 1)
+"""The configured beam (0-3) each message beam is: a message lists its beams in its own order."""
+
+
+def mission_config(duration_s: float = 20.0) -> Config:
+    return (
+        Config()
+        .replace("trajectory", name="figure8", duration_s=duration_s)
+        .replace("earth", model="flat")
+        .replace("imu", rate_hz=50.0)
+        .replace("run", methods=("ins", "lc", "tc"), aiding=("dvl", "depth", "mag"))
+    )
+
+
+def mission_tables(config: Config, seed: int = 3) -> tuple[dict, dict]:
+    """The mission's tables with the DVL as beams and, second, the same with the DVL as the body
+    velocity (the truth's, at the pings), each as a bag carries them exactly."""
+    sim = simulate(config, np.random.default_rng(seed))
+    tables = simulation_tables([SimChunk.whole(sim)])
+    t = tables["imu"]["t_s"]
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0]))
+    imu = {"t_s": _on_ns(t)}
+    for i, a in enumerate("xyz"):
+        imu[f"gyro_{a}_rps"] = tables["imu"][f"dtheta_{a}_rad"] / dt
+        imu[f"accel_{a}_mps2"] = tables["imu"][f"dv_{a}_mps"] / dt
+    for i in range(3):  # row 0's increments are zero: its rates as row 1's
+        imu[f"gyro_{'xyz'[i]}_rps"][0] = imu[f"gyro_{'xyz'[i]}_rps"][1]
+        imu[f"accel_{'xyz'[i]}_mps2"][0] = imu[f"accel_{'xyz'[i]}_mps2"][1]
+    dvl = tables["dvl"]
+    beams = {"t_s": _on_ns(dvl["t_s"])}
+    beams.update({f"beam{k}_mps": dvl[f"beam{k}_mps"].astype(np.float32).astype(float) for k in range(1, 5)})
+    ref = tables["reference"]
+    euler = np.stack([ref["roll_rad"], ref["pitch_rad"], ref["yaw_rad"]], axis=-1)
+    C = C_nb_from_euler(euler)
+    from tauvcore.geo.rotations import euler_from_C_nb
+
+    euler = euler_from_C_nb(C)  # yaw wrapped, as from a quaternion
+    reference = {"t_s": _on_ns(ref["t_s"])}
+    reference.update({n: ref[n] for n in ("north_m", "east_m", "down_m")})
+    reference.update({f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))})
+    reference.update({n: ref[n] for n in ("vel_north_mps", "vel_east_mps", "vel_down_mps")})
+    att = tables["attitude"]
+    att_euler = euler_from_C_nb(C_nb_from_euler(np.stack([att[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1)))
+    attitude = {"t_s": _on_ns(att["t_s"])}
+    attitude.update({f"{n}_rad": att_euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))})
+    depth = {"t_s": _on_ns(tables["depth"]["t_s"]), "depth_m": tables["depth"]["depth_m"].copy()}
+    per_beam = {"imu": imu, "dvl": beams, "depth": depth, "attitude": attitude, "reference": reference}
+    k = np.searchsorted(ref["t_s"], dvl["t_s"])
+    vel_b = np.einsum("kji,kj->ki", C[k], np.stack([ref[n] for n in ("vel_north_mps", "vel_east_mps",
+                                                                  "vel_down_mps")], -1)[k])
+    body = {"t_s": beams["t_s"], "vel_x_mps": vel_b[:, 0], "vel_y_mps": vel_b[:, 1], "vel_z_mps": vel_b[:, 2]}
+    return per_beam, {**per_beam, "dvl": body}
+
+
+def _on_ns(t: np.ndarray) -> np.ndarray:
+    """Times [s] as a bag's stamps give them back: whole nanoseconds after ORIGIN_NS."""
+    return np.round(t * 1e9).astype(np.int64) * 1e-9
+
+
+def store_for(storage: str) -> Any:
+    """rosbags' typestore of ROS 1 (Noetic) or ROS 2 with the shipped DVL messages registered."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if storage == "ros1" else Stores.LATEST)
+    types: dict = {}
+    for path in sorted(MSGS.glob("*/msg/*.msg")):
+        types.update(get_types_from_msg(path.read_text(), f"{path.parent.parent.name}/msg/{path.stem}"))
+    store.register(types)
+    return store
+
+
+def make(store: Any, name: str, **values: Any) -> Any:
+    """A message of type ``name`` with every field zero (empty, false) but ``values``."""
+    _, fields = store.fielddefs[name]
+    out = {}
+    for field, desc in fields:
+        out[field] = values[field] if field in values else _default(store, desc)
+    return store.types[name](**out)
+
+
+_NUMPY = {"float64": np.float64, "float32": np.float32, "uint8": np.uint8, "int8": np.int8, "uint16": np.uint16,
+          "int16": np.int16, "uint32": np.uint32, "int32": np.int32, "uint64": np.uint64, "int64": np.int64,
+          "bool": np.bool_}  # fmt: skip
+
+
+def _default(store: Any, desc: Any) -> Any:
+    kind, arg = desc
+    kind = int(kind)
+    if kind == 1:  # base
+        base = arg[0]
+        return "" if base == "string" else False if base == "bool" else 0.0 if base.startswith("float") else 0
+    if kind == 2:  # a message
+        return make(store, arg)
+    sub, length = arg
+    if int(sub[0]) == 1 and sub[1][0] in _NUMPY:
+        return np.zeros(length if kind == 3 else 0, dtype=_NUMPY[sub[1][0]])
+    return [_default(store, sub) for _ in range(length if kind == 3 else 0)]
+
+
+def _quaternion(C: np.ndarray) -> np.ndarray:
+    """The unit quaternion (x, y, z, w) of rotation matrices (K, 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(C).as_quat()
+
+
+def _axis_quaternion(u: np.ndarray) -> np.ndarray:
+    """A quaternion (x, y, z, w) whose rotation takes the x axis to the unit vector ``u``."""
+    x = np.array([1.0, 0.0, 0.0])
+    axis = np.cross(x, u)
+    s = np.linalg.norm(axis)
+    angle = np.arctan2(s, x @ u)
+    axis = axis / s if s > 0 else np.array([0.0, 0.0, 1.0])
+    return np.concatenate([axis * np.sin(angle / 2), [np.cos(angle / 2)]])
+
+
+def write_bag(
+    path: Path,
+    storage: str,
+    tables: dict,
+    dvl_type: str,
+    A_b: np.ndarray,
+    frame: str = "frd_ned",
+    depth_as: str = "pressure",
+    imu_topics: tuple[str, ...] = (TOPICS["imu"],),
+) -> Path:
+    """Write ``tables`` as a bag: ``storage`` ros1 (``path`` a .bag), sqlite3 (a directory) or mcap
+    (a .mcap file: the ROS 2 writer's single storage file). The IMU (sensor_msgs/Imu), the DVL
+    (``dvl_type``), the depth (FluidPressure: ``p = p_atm + rho g depth``), the attitude
+    (QuaternionStamped) and the reference (nav_msgs/Odometry, its twist in the body) in ``frame``."""
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Writer2
+
+    store = store_for(storage)
+    flu = frame == "flu_enu"
+    vec_b = (lambda v: v @ D_FLU.T) if flu else (lambda v: v)
+    vec_n = (lambda v: v @ T_ENU.T) if flu else (lambda v: v)
+    rot = (lambda C: T_ENU @ C @ D_FLU) if flu else (lambda C: C)
+    messages: list[tuple[int, str, str, Any]] = []  # (receive ns, topic, type, message)
+    seq = [0]
+
+    def header(t_s: float, frame_id: str) -> Any:
+        ns = ORIGIN_NS + int(round(t_s * 1e9))
+        stamp = store.types["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        seq[0] += 1
+        extra = {"seq": seq[0]} if storage == "ros1" else {}
+        return make(store, "std_msgs/msg/Header", stamp=stamp, frame_id=frame_id, **extra), ns
+
+    def vector3(v: np.ndarray) -> Any:
+        return make(store, "geometry_msgs/msg/Vector3", x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+    def quat(q: np.ndarray) -> Any:
+        return make(store, "geometry_msgs/msg/Quaternion", x=q[0], y=q[1], z=q[2], w=q[3])
+
+    imu = tables["imu"]
+    gyro = vec_b(np.stack([imu[f"gyro_{a}_rps"] for a in "xyz"], -1))
+    accel = vec_b(np.stack([imu[f"accel_{a}_mps2"] for a in "xyz"], -1))
+    for k, t in enumerate(imu["t_s"]):
+        h, ns = header(t, "imu")
+        msg = make(store, "sensor_msgs/msg/Imu", header=h, angular_velocity=vector3(gyro[k]),
+                   linear_acceleration=vector3(accel[k]), orientation=quat(np.array([0.0, 0.0, 0.0, 1.0])))
+        messages.extend((ns, topic, "sensor_msgs/msg/Imu", msg) for topic in imu_topics)
+    _dvl_messages(store, tables["dvl"], dvl_type, A_b, vec_b, header, vector3, quat, messages)
+    depth = tables["depth"]
+    for t, d in zip(depth["t_s"], depth["depth_m"], strict=True):
+        h, ns = header(t, "pressure")
+        if depth_as == "pressure":
+            msg = make(store, "sensor_msgs/msg/FluidPressure", header=h, fluid_pressure=101325.0 + 1025.0 * 9.80665 * d)
+            messages.append((ns, TOPICS["depth"], "sensor_msgs/msg/FluidPressure", msg))
+        else:
+            messages.append((ns, "/depth", "std_msgs/msg/Float64", make(store, "std_msgs/msg/Float64", data=d)))
+    att = tables["attitude"]
+    q_att = _quaternion(rot(C_nb_from_euler(np.stack([att[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1))))
+    for k, t in enumerate(att["t_s"]):
+        h, ns = header(t, "ahrs")
+        msg = make(store, "geometry_msgs/msg/QuaternionStamped", header=h, quaternion=quat(q_att[k]))
+        messages.append((ns, TOPICS["attitude"], "geometry_msgs/msg/QuaternionStamped", msg))
+    ref = tables["reference"]
+    C = C_nb_from_euler(np.stack([ref[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1))
+    q_ref = _quaternion(rot(C))
+    pos = vec_n(np.stack([ref[n] for n in ("north_m", "east_m", "down_m")], -1))
+    vel_b = vec_b(np.einsum("kji,kj->ki", C, np.stack([ref[f"vel_{a}_mps"] for a in ("north", "east", "down")], -1)))
+    for k, t in enumerate(ref["t_s"]):
+        h, ns = header(t, "odom")
+        pose = make(store, "geometry_msgs/msg/PoseWithCovariance", pose=make(
+            store, "geometry_msgs/msg/Pose", position=make(store, "geometry_msgs/msg/Point", x=pos[k, 0], y=pos[k, 1],
+                                                            z=pos[k, 2]), orientation=quat(q_ref[k])))
+        twist = make(store, "geometry_msgs/msg/TwistWithCovariance", twist=make(
+            store, "geometry_msgs/msg/Twist", linear=vector3(vel_b[k])))
+        msg = make(store, "nav_msgs/msg/Odometry", header=h, child_frame_id="base_link", pose=pose, twist=twist)
+        messages.append((ns, TOPICS["reference"], "nav_msgs/msg/Odometry", msg))
+    messages.sort(key=lambda m: m[0])
+    if storage == "ros1":
+        writer: Any = Writer1(path)
+    else:
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        writer = Writer2(path if storage == "sqlite3" else path.with_suffix(""), version=9, storage_plugin=plugin)
+    with writer:
+        connections = {}
+        for _, topic, kind, _ in messages:
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, kind, typestore=store)
+        serialize = store.serialize_ros1 if storage == "ros1" else store.serialize_cdr
+        for ns, topic, kind, msg in messages:
+            writer.write(connections[topic], ns, serialize(msg, kind))
+    if storage == "mcap":  # the single storage file, as a recorder's .mcap
+        directory = path.with_suffix("")
+        mcap = next(directory.glob("*.mcap"))
+        mcap.rename(path)
+        for leftover in directory.iterdir():
+            leftover.unlink()
+        directory.rmdir()
+    return path
+
+
+def _dvl_messages(store: Any, dvl: dict, kind: str, A_b: np.ndarray, vec_b: Any, header: Any, vector3: Any,
+                  quat: Any, messages: list) -> None:
+    """The DVL table as messages of ``kind``: its beams in :data:`BEAM_ORDER` with their directions
+    (or ids), or its body velocity."""
+    order = list(BEAM_ORDER)
+    dirs = vec_b(A_b[order])  # each message beam's direction in the message's frame
+    for k, t in enumerate(dvl["t_s"]):
+        h, ns = header(t, "dvl")
+        if "beam1_mps" in dvl:
+            beams = np.array([dvl[f"beam{j + 1}_mps"][k] for j in order])
+            valid = np.isfinite(beams)
+            beams = np.where(valid, beams, 0.0)
+            body = np.zeros(3)
+        else:
+            beams, valid = np.zeros(4), np.zeros(4, bool)
+            body = vec_b(np.array([dvl[f"vel_{a}_mps"][k] for a in "xyz"]))
+        if kind.startswith("geometry_msgs/msg/Twist"):
+            twist = make(store, "geometry_msgs/msg/Twist", linear=vector3(body))
+            if kind.endswith("CovarianceStamped"):
+                twist = make(store, "geometry_msgs/msg/TwistWithCovariance", twist=twist)
+            msg = make(store, kind, header=h, twist=twist)
+        elif kind == "marine_acoustic_msgs/msg/Dvl":
+            msg = make(store, kind, header=h, velocity=vector3(body), num_good_beams=int(valid.sum()),
+                       beam_velocities_valid=bool(valid.all()), beam_unit_vec=[vector3(d) for d in dirs],
+                       beam_velocity=beams.astype(np.float32))
+        elif kind == "ds_sensor_msgs/msg/Dvl":
+            raw = np.where(valid, beams, np.nan).astype(np.float32)
+            msg = make(store, kind, header=h, velocity=vector3(body), num_good_beams=int(valid.sum()),
+                       beam_unit_vec=[vector3(d) for d in dirs], raw_velocity=raw, coordinate_mode=0)
+        elif kind in ("cola2_msgs/msg/DVL", "uuv_sensor_ros_plugins_msgs/msg/DVL"):
+            package = kind.split("/")[0]
+            items = [make(store, f"{package}/msg/DVLBeam", range=10.0 if valid[i] else -1.0, velocity=float(beams[i]),
+                          pose=make(store, "geometry_msgs/msg/PoseStamped", pose=make(
+                              store, "geometry_msgs/msg/Pose", orientation=quat(_axis_quaternion(dirs[i])))))
+                     for i in range(4)]
+            msg = make(store, kind, header=h, velocity=vector3(body), beams=items)
+        else:  # Water Linked: ids, no directions
+            items = [make(store, "waterlinked_a50_ros_driver/msg/DVLBeam", id=order[i], velocity=float(beams[i]),
+                          valid=bool(valid[i])) for i in range(4)]
+            msg = make(store, kind, header=h, velocity=vector3(body), velocity_valid=bool(valid.all()), beams=items)
+        messages.append((ns, TOPICS["dvl"], kind, msg))
