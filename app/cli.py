@@ -220,8 +220,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--logs",
         type=_path,
         metavar="DIR",
-        help="offer the recorded logs in DIR (it, or its subdirectories) as "
-        "sources to replay in the dashboard",
+        help="offer the recorded logs and ROS bags (.bag, .mcap, ROS 2 bag directories, each with "
+        "its own mapping beside it: mission.bag -> mission.toml) in DIR (it, or its subdirectories) "
+        "as sources to replay in the dashboard",
     )
     lg = sub.add_parser("log", help="what a ROS bag holds, and a bag written as a log")
     lg_sub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
@@ -331,7 +332,8 @@ def _bag_mapping_flag(p: argparse.ArgumentParser) -> None:
         type=_path,
         metavar="FILE",
         help="TOML file: which topic feeds which table, frames, time, offsets, extra .msg "
-        "definitions (see docs/bags.md); default: each table's topic found by message type",
+        "definitions (see docs/bags.md); default: the TOML file beside the bag with its stem "
+        "(mission.bag: mission.toml), else each table's topic found by message type",
     )
 
 

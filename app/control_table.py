@@ -235,8 +235,8 @@ CONTROLS = (
 )
 """Every field of app.inputs.Controls, in the page's order."""
 SOURCE_HINT = (
-    "simulation, or a recorded log (tauv serve --logs): replayed with these methods, beams, outages "
-    "and tuning; its own length"
+    "simulation, or a recorded log or ROS bag (tauv serve --logs): replayed with these methods, beams, "
+    "outages and tuning; its own length"
 )
 
 

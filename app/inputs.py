@@ -473,6 +473,11 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
             ("Source", f"log {source.get('name') or source['directory']}"),
             ("Log directory", str(source["directory"])),
             ("Log configuration", str(source.get("config_file") or "none")),
+            *(
+                [("Bag mapping", str(source["bag_mapping"] or "none: topics found by type"))]
+                if "bag_mapping" in source
+                else []
+            ),
             ("Configured by", " < ".join(source.get("configuration", ()))),
             ("Start", str(source.get("start", ""))),
             *(("Log note", str(note)) for note in source.get("notes", ())),

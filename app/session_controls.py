@@ -22,6 +22,7 @@ from app import budget, control_table, inputs, links, page_scripts, validation
 from app.controls import PLUGIN_FIELDS
 from app.inputs import Controls, InputError, config_from_controls
 from app.session_state import TabState
+from tauvcore.bags import MAPPING_SUFFIX, is_bag, mapping_beside
 from tauvcore.config import Config, from_dict
 from tauvcore.logs import CONFIG_FILE, LogError
 from tauvcore.validation import show
@@ -40,6 +41,17 @@ def _can_hold(handle: Any, value: Any) -> bool:
     if isinstance(handle, viser.GuiDropdownHandle):
         return value in handle.options
     return isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
+
+
+def bag_note(path: str) -> str:
+    """What a notification says of the bag at ``path`` whose own mapping sets no configuration."""
+    mapping = mapping_beside(path)
+    if mapping is None:
+        return (
+            f"No mapping beside it (its name with {MAPPING_SUFFIX}): topics found by type; "
+            "the controls apply as they are."
+        )
+    return f"Its mapping {mapping} has no [config]: the controls apply as they are."
 
 
 class ControlPanel:
@@ -143,8 +155,14 @@ class ControlPanel:
         except InputError as exc:
             self.notify("Log configuration not applied", str(exc), error=True)
             return
+        bag = is_bag(self.logs[source])
         if not raw:
-            self.notify(f"Log {source}", "No configuration file of its own: the controls apply as they are.")
+            self.notify(
+                f"{'Bag' if bag else 'Log'} {source}",
+                bag_note(self.logs[source])
+                if bag
+                else "No configuration file of its own: the controls apply as they are.",
+            )
             return
         config = from_dict(raw)
         fields = {
@@ -173,11 +191,15 @@ class ControlPanel:
         parts = ([f"{', '.join(filled)} filled in"] if filled else []) + (
             [f"{', '.join(hidden)} apply at Run"] if hidden else []
         )
-        self.notify(f"Log {source}: its {CONFIG_FILE} applied", "; ".join(parts) + ".")
+        what = (
+            f"its mapping's [config] ({mapping_beside(self.logs[source])})" if bag else f"its {CONFIG_FILE}"
+        )
+        self.notify(f"{'Bag' if bag else 'Log'} {source}: {what} applied", "; ".join(parts) + ".")
 
     def log_config(self, source: str) -> dict[str, Any]:
-        """The raw tables of log ``source``'s own configuration file ({} without one);
-        InputError naming the file when it cannot be read or does not check."""
+        """The raw tables of log ``source``'s own configuration file, or a bag's own mapping's
+        ``[config]`` ({} without one); InputError naming the file (its key and value) when it
+        cannot be read or does not check."""
         from tauvcore.eval.replay import log_config
 
         try:

@@ -131,20 +131,25 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
 def replay_source(
     config: Config, log_dir: str, rng: np.random.Generator
 ) -> tuple[Config, Any, dict[str, Any], Any]:
-    """The dashboard's replay of ``log_dir`` under ``config`` (the controls over the log's own
-    configuration file, app.inputs.config_from_controls): the configuration and simulation
-    tauvcore.eval.replay.prepare makes of them, as ``tauv replay`` does, and the log described as
-    ``tauv replay --json``'s ``"log"`` (its directory, its configuration file, what configured
-    the run, where the filters started, the reader's notes), and the log itself."""
+    """The dashboard's replay of ``log_dir`` (a log's directory or a ROS bag) under ``config``
+    (the controls over the log's own configuration file, or the bag's own mapping's ``[config]``,
+    app.inputs.config_from_controls): the configuration and simulation
+    tauvcore.eval.replay.prepare makes of them, as ``tauv replay`` does (a bag read under its own
+    mapping, tauvcore.bags.read_recording, as ``tauv replay BAG --bag-mapping`` that file), and
+    the log described as ``tauv replay --json``'s ``"log"`` (its directory, its configuration
+    file, what configured the run, where the filters started, the reader's notes; a bag's mapping
+    too), and the log itself."""
+    from tauvcore.bags import is_bag, mapping_beside, read_recording
     from tauvcore.eval.replay import config_keys, log_config, prepare, start_description
-    from tauvcore.logs import read_log
 
     raw, config_file = log_config(log_dir)
-    log = read_log(log_dir)
+    log = read_recording(log_dir, config.dvl.A_b)
     config, sim = prepare(config, log, rng)
+    bag = is_bag(log_dir)
     layers = ["defaults"]
     if config_file is not None:
-        layers.append(f"the log's {config_file} ({config_keys(raw) or 'empty'})")
+        kind = "the bag mapping's [config] in" if bag else "the log's"
+        layers.append(f"{kind} {config_file} ({config_keys(raw) or 'empty'})")
     layers.append("the dashboard's controls")
     source = {
         "name": os.path.basename(os.path.normpath(log_dir)),
@@ -154,6 +159,8 @@ def replay_source(
         "start": start_description(config, log),
         "notes": list(log.notes),
     }
+    if bag:
+        source["bag_mapping"] = mapping_beside(log_dir)
     return config, sim, source, log
 
 

@@ -19,8 +19,9 @@ if typing.TYPE_CHECKING:
 
 
 def _mapping(args: argparse.Namespace) -> BagMapping:
-    """The bag mapping of ``--bag-mapping`` (none: every table by type), once PATH is a bag."""
-    from tauvcore.bags import is_bag, read_mapping
+    """The bag mapping of ``--bag-mapping``, else the one beside the bag (tauvcore.bags.own_mapping;
+    none: every table by type), once PATH is a bag."""
+    from tauvcore.bags import is_bag, own_mapping, read_mapping
 
     if not is_bag(args.bag):
         raise UsageError(
@@ -28,6 +29,8 @@ def _mapping(args: argparse.Namespace) -> BagMapping:
             "metadata.yaml)"
         )
     try:
+        if args.bag_mapping is None:
+            return own_mapping(args.bag)
         return read_mapping(args.bag_mapping, label="--bag-mapping")
     except LogError as exc:
         raise UsageError(str(exc)) from None

@@ -28,7 +28,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length."""
     from app.commands.json_stream import RunReduction
-    from tauvcore.bags import BagMapping, bag_config, is_bag, read_bag, read_mapping
+    from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag, read_mapping
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
 
@@ -39,7 +39,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "directory with metadata.yaml); a log directory needs none"
         )
     try:
-        mapping = read_mapping(args.bag_mapping, label="--bag-mapping") if bag else BagMapping()
+        if not bag:
+            mapping = BagMapping()
+        elif args.bag_mapping is not None:
+            mapping = read_mapping(args.bag_mapping, label="--bag-mapping")
+        else:  # the mapping beside the bag (its stem, .toml), as the dashboard reads it; or by type
+            mapping = own_mapping(args.log)
         if args.no_log_config:
             log_raw, log_config_path = {}, None
         else:  # a bag's own configuration is its mapping's [config]

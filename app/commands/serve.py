@@ -1,5 +1,6 @@
 """``tauv serve``: the browser dashboard (app.dashboard, imported only here: viser loads only when
-serving), its address, port, worker processes and the directory of logs it offers checked first.
+serving), its address, port, worker processes and the directory of logs and ROS bags it offers
+checked first.
 """
 
 from __future__ import annotations
@@ -65,18 +66,19 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     logs = None
     if args.logs is not None:
-        from tauvcore.logs import find_logs
+        from tauvcore.bags import find_recordings
 
         if not os.path.isdir(args.logs):
             raise UsageError(f"--logs: {show_path(args.logs)} is not a directory")
         try:
-            logs = find_logs(args.logs)
+            logs = find_recordings(args.logs)  # its logs and its ROS bags
         except OSError as exc:
             raise UsageError(f"--logs: cannot list {show_path(args.logs)}: {exc.strerror or exc}") from None
         if not logs:
             raise UsageError(
-                f"--logs: no log in {show_path(args.logs)} (a log is a directory with imu.csv or "
-                f"imu.parquet; see docs/replay.md){_raw_layouts_in(args.logs)}"
+                f"--logs: no log or ROS bag in {show_path(args.logs)} (a log is a directory with imu.csv or "
+                "imu.parquet, docs/replay.md; a bag a .bag or .mcap file or a ROS 2 bag directory, "
+                f"docs/bags.md){_raw_layouts_in(args.logs)}"
             )
     from app.dashboard import main as serve_main
     from app.hardening import exit_now  # viser only when serving

@@ -33,12 +33,19 @@ stamps, or receive times, less the IMU topic's first, plus each topic's ``offset
 The definitions of the DVL messages ship in ``tauvcore/bags/msgs`` (``<package>/msg/<Type>.msg``)
 and are registered with rosbags.typesys where a bag carries none; the mapping's ``msg_paths`` adds
 more.
+
+A bag's own mapping (:func:`own_mapping`) is the TOML file beside it with its stem:
+``mission.bag`` and ``mission.mcap`` -> ``mission.toml``, a ROS 2 bag directory ``run_01`` ->
+``run_01.toml`` beside the directory; without one, every table is found by type. The dashboard
+(``tauv serve --logs DIR``) lists the bags of ``DIR`` beside its logs (:func:`find_recordings`) and
+replays each under its own mapping, as ``tauv replay PATH --bag-mapping`` that file does.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,7 +54,7 @@ from tauvcore.bags.mapping import BagMapping, TopicRule, read_mapping
 from tauvcore.bags.reader import BagTables, bag_tables, is_bag, open_bag, typestore
 from tauvcore.config import from_dict
 from tauvcore.log_record import Log
-from tauvcore.logs import log_from_tables
+from tauvcore.logs import find_logs, log_from_tables, read_log
 from tauvcore.validation import ConfigError, LogError, show_path
 
 
@@ -109,15 +116,195 @@ def bag_config(mapping: BagMapping) -> tuple[dict[str, Any], str | None]:
     return raw, mapping.path
 
 
+MAPPING_SUFFIX = ".toml"
+"""A bag's own mapping is the file beside it named as the bag with this suffix (:func:`mapping_beside`)."""
+
+
+def mapping_beside(path: str | os.PathLike) -> str | None:
+    """Where the bag at ``path`` keeps its own mapping, if it has one.
+
+    The file beside it with its stem and ``.toml``: ``mission.bag`` or ``mission.mcap`` ->
+    ``mission.toml``; a ROS 2 bag directory ``run_01`` -> ``run_01.toml`` beside that directory.
+    Any entry of that name counts (a directory, a dangling link), so that reading it names it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ROS bag (:func:`~tauvcore.bags.reader.is_bag`).
+
+    Returns
+    -------
+    str or None
+        The mapping file's path, or None when there is none (topics found by type).
+    """
+    bag = Path(os.path.normpath(os.fspath(path)))
+    stem = bag.name if bag.is_dir() else bag.stem
+    candidate = bag.parent / f"{stem}{MAPPING_SUFFIX}"
+    return str(candidate) if os.path.lexists(candidate) else None
+
+
+def own_mapping(path: str | os.PathLike) -> BagMapping:
+    """The bag's own mapping (:func:`mapping_beside`) read and checked; ``BagMapping()`` (by type)
+    without one.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ROS bag.
+
+    Returns
+    -------
+    BagMapping
+        As :func:`~tauvcore.bags.mapping.read_mapping` reads it.
+
+    Raises
+    ------
+    LogError
+        Naming the mapping file, its key and the value, as ``--bag-mapping`` does.
+    """
+    return read_mapping(mapping_beside(path), label="the bag's mapping")
+
+
+def bag_kind(path: str | os.PathLike) -> str:
+    """What kind of bag ``path`` is, for a person: ``"ROS 1"``, ``"ROS 2, mcap"``, ``"ROS 2, sqlite3"``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ROS bag: a ``.bag``, ``.mcap`` or ``.db3`` file, or a ROS 2 bag directory (its storage
+        told by the files it holds; ``"ROS 2"`` when they do not tell).
+
+    Returns
+    -------
+    str
+        The bag's format and, for ROS 2, its storage.
+    """
+    p = Path(path)
+    kinds = {".bag": "ROS 1", ".mcap": "ROS 2, mcap", ".db3": "ROS 2, sqlite3"}
+    try:
+        if p.is_dir():
+            storages = sorted(
+                {kinds[f.suffix.lower()] for f in p.iterdir() if f.suffix.lower() in (".mcap", ".db3")}
+            )
+            return storages[0] if len(storages) == 1 else "ROS 2"
+    except OSError:
+        return "ROS 2"
+    return kinds.get(p.suffix.lower(), "ROS bag")
+
+
+def _entries(directory: Path) -> list[Path]:
+    """``directory``'s entries by name, but those whose name starts with a dot (a writer's temporary)."""
+    return sorted(e for e in directory.iterdir() if not e.name.startswith("."))
+
+
+def find_bags(directory: str | os.PathLike) -> dict[str, str]:
+    """The ROS bags in ``directory`` by name.
+
+    ``directory`` itself if it is a ROS 2 bag; else each bag among its entries (``.bag``, ``.mcap``
+    and ``.db3`` files, ROS 2 bag directories) and among its subdirectories' entries, in name
+    order (a bag directory's own files are not listed again). A name is the bag's path below
+    ``directory`` and its kind (:func:`bag_kind`): ``"mission.bag (ROS 1)"``, ``"day2/run_01 (ROS 2,
+    mcap)"``. A subdirectory that cannot be searched, or whose name starts with a dot, is left out.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The directory to search.
+
+    Returns
+    -------
+    dict of str to str
+        Each bag's name -> its path.
+
+    Raises
+    ------
+    OSError
+        If ``directory`` itself cannot be listed.
+    """
+    root = Path(directory)
+    if is_bag(root):
+        return {f"{root.name or root} ({bag_kind(root)})": str(root)}
+    found = {}
+    for entry in _entries(root):
+        try:
+            if is_bag(entry):
+                found[f"{entry.name} ({bag_kind(entry)})"] = str(entry)
+            elif entry.is_dir():
+                for inner in _entries(entry):
+                    if is_bag(inner):
+                        found[f"{entry.name}/{inner.name} ({bag_kind(inner)})"] = str(inner)
+        except OSError:  # a subdirectory that cannot be searched holds no bag to offer
+            continue
+    return found
+
+
+def find_recordings(directory: str | os.PathLike) -> dict[str, str]:
+    """The logs (:func:`tauvcore.logs.find_logs`) and the ROS bags (:func:`find_bags`) in
+    ``directory`` by name, ``directory`` itself first, then by path.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The directory to search (``tauv serve --logs DIR``).
+
+    Returns
+    -------
+    dict of str to str
+        Each recording's name -> its path (a log's directory or a bag).
+
+    Raises
+    ------
+    OSError
+        If ``directory`` itself cannot be listed.
+    """
+    root = str(Path(directory))
+    found = {**find_logs(directory), **find_bags(directory)}
+    return dict(sorted(found.items(), key=lambda item: (item[1] != root, item[1])))
+
+
+def read_recording(path: str | os.PathLike, beam_directions_b: np.ndarray) -> Log:
+    """The recording at ``path`` read and checked: a log's directory as
+    :func:`tauvcore.logs.read_log` reads it, a ROS bag as :func:`read_bag` under its own mapping
+    (:func:`own_mapping`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A log's directory or a ROS bag.
+    beam_directions_b : numpy.ndarray
+        The configured Janus beams' unit vectors (4, 3) in the body frame (``config.dvl.A_b``).
+
+    Returns
+    -------
+    Log
+        The validated log.
+
+    Raises
+    ------
+    LogError
+        For any bad input (the bag's mapping included), naming the file, topic, key and value.
+    """
+    if is_bag(path):
+        return read_bag(path, own_mapping(path), beam_directions_b)
+    return read_log(path)
+
+
 __all__ = [
+    "MAPPING_SUFFIX",
     "BagMapping",
     "BagTables",
     "TopicRule",
     "bag_config",
+    "bag_kind",
     "bag_tables",
+    "find_bags",
+    "find_recordings",
     "is_bag",
+    "mapping_beside",
     "open_bag",
+    "own_mapping",
     "read_bag",
     "read_mapping",
+    "read_recording",
     "typestore",
 ]

@@ -45,14 +45,15 @@ def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
 
 
 def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None]:
-    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory).
+    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory); a ROS
+    bag's, its own mapping's ``[config]`` (tauvcore.bags.own_mapping, bag_config).
 
     Its raw tables, checked on their own, and its path.
 
     Parameters
     ----------
     directory : str or os.PathLike
-        The log's directory.
+        The log's directory, or a ROS bag.
 
     Returns
     -------
@@ -65,6 +66,10 @@ def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None
     LogError
         Naming the file, for a file that cannot be read or does not check.
     """
+    from tauvcore.bags import bag_config, is_bag, own_mapping
+
+    if is_bag(directory):  # a bag's own configuration: its own mapping's [config]
+        return bag_config(own_mapping(directory))
     path = os.path.join(os.fspath(directory), CONFIG_FILE)
     if not os.path.lexists(path):
         return {}, None
@@ -132,7 +137,7 @@ def replay_config(config: Config, log: Log) -> Config:
         If the log's values are outside what the configuration allows.
     """
     try:
-        config = config.replace("imu", rate_hz=1.0 / log.dt_s)
+        config = config.replace("imu", rate_hz=_clock_rate_hz(log.dt_s))
         if log.ref_t_s is not None:
             depth = float(_reference_at(log, log.imu_t_s[:1])[0][0, 2])
         elif (depth_table := log.table("depth", ("depth_m",))) is not None and depth_table[0].size:
@@ -158,6 +163,16 @@ def replay_config(config: Config, log: Log) -> Config:
     except ConfigError as exc:
         raise LogError(f"{show_path(log.source)}: the log does not fit the configuration: {exc}") from None
     return config
+
+
+def _clock_rate_hz(dt_s: float) -> float:
+    """The IMU's rate [Hz] of its median sample interval ``dt_s`` [s]: ``1 / dt_s``, or the whole
+    number of hertz it is within 1e-9 of (time stamps in seconds carry the rounding of their
+    float; a 50 Hz clock 1000 s into a log reads 49.99999999999996 Hz, below ``imu.rate_hz``'s
+    lowest 50)."""
+    rate_hz = 1.0 / dt_s
+    whole = float(round(rate_hz))
+    return whole if whole > 0.0 and abs(rate_hz - whole) <= 1e-9 * rate_hz else rate_hz
 
 
 def start_description(config: Config, log: Log) -> str:

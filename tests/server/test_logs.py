@@ -1,5 +1,6 @@
-"""``tauv serve --logs DIR``: a tab picks a recorded log as its source and replays it; a bad log
-is a notification and the server goes on serving (no browser: viser's protocol)."""
+"""``tauv serve --logs DIR``: a tab picks a recorded log or a ROS bag as its source and replays it;
+a bad log, bag or bag mapping is a notification and the server goes on serving (no browser:
+viser's protocol)."""
 
 from __future__ import annotations
 
@@ -79,6 +80,62 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
         client.set_value("Source", "simulation")
         client.wait_for(lambda m: m.get("type") == "GuiUpdateMessage" and m.get("uuid") == truth
                         and m["updates"].get("disabled") is False, 10.0, "Truth enabled again", since=mark)
+        assert "Traceback" not in server.text()
+        client.close()
+    finally:
+        server.kill()
+
+
+def test_a_tab_replays_a_bag_under_its_own_mapping_and_a_bad_one_is_a_notification(tmp_path: Path) -> None:
+    """An MCAP file in FRD/NED with its mapping beside it (frd.toml, a [config] key), a bag whose
+    mapping has a bad value, a bag whose mapping names a topic it lacks."""
+    from tests.unit.bag_fixtures import mission_config, mission_tables, write_bag
+
+    config = mission_config()
+    beams, _ = mission_tables(config)
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_bag(logs / "frd.mcap", "mcap", beams, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b, frame="frd_ned")
+    (logs / "frd.toml").write_text('frame = "frd_ned"\n[config.dvl]\nnoise_mps = 0.03\n[config.earth]\nmodel = "flat"\n')
+    (logs / "nwu.bag").write_bytes(b"")  # never opened: its mapping is refused first
+    (logs / "nwu.toml").write_text('frame = "nwu"\n')
+    (logs / "lost.toml").write_text('[dvl]\ntopic = "/no/such"\n')
+    write_bag(logs / "lost.bag", "ros1", beams, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b, frame="flu_enu")
+    server = Server(tmp_path / "server.log", extra=["--logs", str(logs)])
+    try:
+        client = ViserClient(server.url)
+        client.wait_for(lambda m: "replaceState" in str(m.get("source", "")), 60.0, "the page's address")
+        mark = client.mark()
+        client.set_value("Source", "frd.mcap (ROS 2, mcap)")
+        props = _notification(client, mark)
+        assert props["title"].startswith("Bag frd.mcap (ROS 2, mcap): its mapping's [config]"), props
+        assert "frd.toml" in props["title"] and "DVL noise" in props["body"], props
+        mark = client.mark()
+        client.click("Run")
+        props = _notification(client, mark)
+        assert props["title"] == "Run complete", props
+        table = client.value(client.markdown_containing("Configuration run"))
+        assert re.search(r"\|\s*Source\s*\|\s*log frd.mcap\s*\|", table), table
+        assert re.search(r"\|\s*Bag mapping\s*\|\s*\S*frd.toml\s*\|", table), table
+        assert re.search(r"\|\s*DVL noise[^|]*\|\s*0.03\s*\|", table), table
+        assert re.search(r"\|\s*Duration \[s\]\s*\|\s*20\s*\|", table), table
+        mark = client.mark()
+        client.set_value("Source", "nwu.bag (ROS 1)")
+        props = _notification(client, mark)
+        assert props["title"] == "Log configuration not applied" and "nwu.toml" in props["body"], props
+        mark = client.mark()
+        client.click("Run")
+        props = _notification(client, mark)
+        assert props["title"] == "Cannot run" and "frame" in props["body"] and "'nwu'" in props["body"], props
+        mark = client.mark()
+        client.set_value("Source", "lost.bag (ROS 1)")
+        props = _notification(client, mark)
+        assert props["title"] == "Bag lost.bag (ROS 1)" and "lost.toml has no [config]" in props["body"], props
+        mark = client.mark()
+        client.click("Run")
+        props = _notification(client, mark)
+        assert props["title"] == "Run failed", props
+        assert "lost.toml" in props["body"] and "dvl.topic" in props["body"] and "'/no/such'" in props["body"], props
         assert "Traceback" not in server.text()
         client.close()
     finally:

@@ -105,3 +105,21 @@ def test_a_true_error_column_with_an_empty_cell_is_refused_naming_the_file_colum
     write_log(tmp_path / "log", tables)
     with pytest.raises(LogError, match=r"dvl\.csv.*'true_scale_factor'.*row 5"):
         read_log(tmp_path / "log")
+
+
+def test_a_50_hz_log_whose_stamps_round_is_read_at_50_hz(tmp_path) -> None:
+    """Time stamps 1000 s into a clock carry their float's rounding: the median interval is not
+    exactly 0.02 s, and the replay takes the IMU at 50 Hz (the lowest rate allowed), not at
+    49.99999999999996 Hz (refused)."""
+    from tauvcore.eval.replay import replay_config
+    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs import read_log
+
+    config = Config().replace("trajectory", name="straight", duration_s=20.0).replace("imu", rate_hz=50.0)
+    tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(1)))])
+    for table in tables.values():
+        table["t_s"] = table["t_s"] + 1000.3
+    write_log(tmp_path / "log", tables)
+    log = read_log(tmp_path / "log")
+    assert 1.0 / log.dt_s != 50.0   # the stamps' rounding
+    assert replay_config(config, log).imu.rate_hz == 50.0
