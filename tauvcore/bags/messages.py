@@ -13,12 +13,22 @@ validities, four beam directions and four beam ids (NaN where the message has no
   velocity invalid where ``velocity_covariance[0]`` is negative (their -1);
 - ``waterlinked_a50_ros_driver/DVL``: four ``beams`` with their ``id`` and ``valid`` (no
   directions: the mapping's ``beam_ids`` says which is which); ``velocity_valid``.
+
+The other types' rows are plain numeric fields (:data:`FIELDS`), which :class:`RawDecoder` reads
+straight from many messages' serialised bytes at once (a topic of a 200 Hz IMU or reference holds
+hundreds of thousands), without building a Python object per message: the fields' byte offsets are
+found once per layout (the values of the length prefixes of the strings and sequences before
+them) by walking the type's definition, checked against rosbags' own deserialisation of that
+message, and read for every message of that layout as one numpy column.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import operator
+from collections.abc import Callable, Sequence
 from typing import Any
+
+import numpy as np
 
 NAN = float("nan")
 _NO_BEAMS = (NAN,) * 4 + (0.0,) * 4 + (NAN,) * 12 + (NAN,) * 4
@@ -30,14 +40,6 @@ def _vec(v: Any) -> tuple[float, float, float]:
 
 def _quat(q: Any) -> tuple[float, float, float, float]:
     return (q.x, q.y, q.z, q.w)
-
-
-def _imu(m: Any) -> tuple[float, ...]:
-    return (*_vec(m.angular_velocity), *_vec(m.linear_acceleration), *_quat(m.orientation))
-
-
-def _odometry(m: Any) -> tuple[float, ...]:
-    return (*_vec(m.pose.pose.position), *_quat(m.pose.pose.orientation), *_vec(m.twist.twist.linear))
 
 
 def _beam_axis(q: Any) -> tuple[float, float, float]:
@@ -98,19 +100,51 @@ _DVL = {"body": slice(0, 3), "body_valid": slice(3, 4), "beams": slice(4, 8), "b
         "dirs": slice(12, 24), "ids": slice(24, 28)}  # fmt: skip
 _POSE = {"position": slice(0, 3), "quaternion": slice(3, 7)}
 
-EXTRACT: dict[str, Callable[[Any], tuple[float, ...]]] = {
-    "sensor_msgs/msg/Imu": _imu,
-    "geometry_msgs/msg/QuaternionStamped": lambda m: _quat(m.quaternion),
-    "geometry_msgs/msg/PoseStamped": lambda m: (*_vec(m.pose.position), *_quat(m.pose.orientation)),
-    "geometry_msgs/msg/PoseWithCovarianceStamped": lambda m: (
-        *_vec(m.pose.pose.position),
-        *_quat(m.pose.pose.orientation),
+
+def _xyz(name: str) -> tuple[str, ...]:
+    return tuple(f"{name}.{a}" for a in "xyz")
+
+
+def _xyzw(name: str) -> tuple[str, ...]:
+    return tuple(f"{name}.{a}" for a in "xyzw")
+
+
+FIELDS: dict[str, tuple[str, ...]] = {
+    "sensor_msgs/msg/Imu": (
+        *_xyz("angular_velocity"),
+        *_xyz("linear_acceleration"),
+        *_xyzw("orientation"),
     ),
-    "nav_msgs/msg/Odometry": _odometry,
-    "sensor_msgs/msg/NavSatFix": lambda m: (m.latitude, m.longitude, m.altitude),
-    "sensor_msgs/msg/FluidPressure": lambda m: (m.fluid_pressure,),
-    "std_msgs/msg/Float64": lambda m: (m.data,),
-    "std_msgs/msg/Float32": lambda m: (float(m.data),),
+    "geometry_msgs/msg/QuaternionStamped": _xyzw("quaternion"),
+    "geometry_msgs/msg/PoseStamped": (*_xyz("pose.position"), *_xyzw("pose.orientation")),
+    "geometry_msgs/msg/PoseWithCovarianceStamped": (
+        *_xyz("pose.pose.position"),
+        *_xyzw("pose.pose.orientation"),
+    ),
+    "nav_msgs/msg/Odometry": (
+        *_xyz("pose.pose.position"),
+        *_xyzw("pose.pose.orientation"),
+        *_xyz("twist.twist.linear"),
+    ),
+    "sensor_msgs/msg/NavSatFix": ("latitude", "longitude", "altitude"),
+    "sensor_msgs/msg/FluidPressure": ("fluid_pressure",),
+    "std_msgs/msg/Float64": ("data",),
+    "std_msgs/msg/Float32": ("data",),
+}
+"""The types whose row is numeric fields, as dotted paths in the message, in the row's order
+(read per message by :data:`EXTRACT`, or many at once from their bytes by :class:`RawDecoder`)."""
+
+
+def _fields(paths: tuple[str, ...]) -> Callable[[Any], tuple[float, ...]]:
+    """A message's fields ``paths`` as floats (attrgetter: one Python call for them all)."""
+    get: Any = operator.attrgetter(*paths)
+    if len(paths) == 1:
+        return lambda m: (float(get(m)),)
+    return lambda m: tuple(map(float, get(m)))
+
+
+EXTRACT: dict[str, Callable[[Any], tuple[float, ...]]] = {
+    **{kind: _fields(paths) for kind, paths in FIELDS.items()},
     "geometry_msgs/msg/TwistStamped": lambda m: (*_vec(m.twist.linear), 1.0),
     "geometry_msgs/msg/TwistWithCovarianceStamped": lambda m: (*_vec(m.twist.twist.linear), 1.0),
     "marine_acoustic_msgs/msg/Dvl": _marine_acoustic,
@@ -144,3 +178,211 @@ LAYOUTS: dict[str, dict[str, slice]] = {
     ),
 }
 """Each supported type's parts of its row: name -> columns."""
+
+_SIZES = {"bool": 1, "byte": 1, "char": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2, "int32": 4,
+          "uint32": 4, "float32": 4, "int64": 8, "uint64": 8, "float64": 8}  # fmt: skip
+_KINDS = {"f": "f", "i": "i", "u": "u", "b": "u", "c": "u"}  # float, int, uint, bool/byte, char
+_STAMP = ("header.stamp.sec", "header.stamp.nanosec")
+
+
+class _Unreadable(Exception):
+    """A message whose bytes the decoder does not lay out (the per-message path reads it)."""
+
+
+class _Layout:
+    """Where the numbers sit in the bytes of the messages of one layout: the length prefixes that
+    fix it (offset, value), and each wanted field's (offset, little-endian numpy dtype)."""
+
+    def __init__(self, checks: list[tuple[int, int]], columns: list[tuple[int, str]]) -> None:
+        self.checks = checks
+        self.columns = columns
+
+
+def _walk(
+    fielddefs: Any, kind: str, raw: bytes, cdr: bool, wanted: Sequence[str]
+) -> tuple[list[tuple[int, int]], dict[str, tuple[int, str]]]:
+    """The length prefixes (offset, value) of one serialised message ``raw`` of type ``kind`` and
+    the offset and type of each ``wanted`` scalar field, following its definition: CDR (ROS 2,
+    little-endian, each primitive aligned to its size after the 4-byte encapsulation header) or
+    ROS 1 (packed). Raises _Unreadable for anything else."""
+    base = 4 if cdr else 0
+    pos = base
+    checks: list[tuple[int, int]] = []
+    found: dict[str, tuple[int, str]] = {}
+    prefixes = {w.rsplit(".", i)[0] for w in wanted for i in range(w.count(".") + 1)}
+
+    def align(size: int) -> None:
+        nonlocal pos
+        if cdr and size > 1:
+            pos = base + -(-(pos - base) // size) * size
+
+    def count() -> int:
+        nonlocal pos
+        align(4)
+        if pos + 4 > len(raw):
+            raise _Unreadable
+        value = int.from_bytes(raw[pos : pos + 4], "little")
+        checks.append((pos, value))
+        pos += 4
+        return value
+
+    def skip(desc: Any, n: int) -> None:  # n elements of desc, not wanted
+        nonlocal pos
+        node, arg = int(desc[0]), desc[1]
+        if node == 1 and arg[0] in _SIZES:
+            if n:
+                align(_SIZES[arg[0]])
+                pos += n * _SIZES[arg[0]]
+            return
+        for _ in range(n):
+            field(desc, None)
+
+    def field(desc: Any, path: str | None) -> None:  # path: the field's, None where nothing is wanted
+        nonlocal pos
+        node, arg = int(desc[0]), desc[1]
+        if node == 1:
+            name = arg[0]
+            if name == "string":
+                length = count()  # CDR's counts the closing NUL
+                pos += length
+            elif name in _SIZES:
+                align(_SIZES[name])
+                if path is not None and path in wanted:
+                    found[path] = (pos, f"<{_KINDS[name[0]]}{_SIZES[name]}")
+                pos += _SIZES[name]
+            else:
+                raise _Unreadable  # wstring and the like
+        elif node == 2:
+            if arg not in fielddefs:
+                raise _Unreadable
+            for name, sub in fielddefs[arg][1]:
+                full = name if path == "" else f"{path}.{name}"
+                field(sub, full if path is not None and full in prefixes else None)
+        else:
+            sub, length = arg
+            skip(sub, length if node == 3 else count())
+        if pos > len(raw):
+            raise _Unreadable
+
+    field((2, kind), "")
+    if pos > len(raw) or any(w not in found for w in wanted):
+        raise _Unreadable
+    return checks, found
+
+
+class RawDecoder:
+    """Reads the rows (:data:`FIELDS`) and header stamps of many messages of one type at once
+    from their serialised bytes, without deserialising each (module docstring).
+
+    Parameters
+    ----------
+    fielddefs : Mapping
+        The typestore's definitions (``typestore.fielddefs``: type -> (constants, fields)).
+    kind : str
+        The messages' type, one of :data:`FIELDS`.
+    cdr : bool
+        True for ROS 2's CDR (sqlite3 and MCAP bags), False for ROS 1's serialisation.
+    deserialize : Callable
+        rosbags' deserialisation of one message's bytes, which each new layout is checked against.
+    """
+
+    def __init__(self, fielddefs: Any, kind: str, cdr: bool, deserialize: Callable[[bytes], Any]) -> None:
+        self.fielddefs = fielddefs
+        self.kind = kind
+        self.cdr = cdr
+        self.deserialize = deserialize
+        self.stamped = "header" in {name for name, _ in fielddefs[kind][1]}
+        self.wanted = FIELDS[kind] + (_STAMP if self.stamped else ())
+        self.layouts: dict[tuple[int, tuple[tuple[int, int], ...]], _Layout] = {}
+
+    def decode(self, raws: Sequence[bytes]) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """The rows (N, C) and header stamps [ns] (N,) of messages ``raws`` (None for a type
+        without a header); None when any of them is not laid out as expected (a definition that
+        differs, a truncated or big-endian message): the caller then reads each on its own.
+
+        Parameters
+        ----------
+        raws : Sequence of bytes
+            The messages' serialised bytes, in the topic's order.
+
+        Returns
+        -------
+        tuple of numpy.ndarray and numpy.ndarray or None, or None
+            The rows as :data:`EXTRACT` gives them (float64) and the stamps (int64).
+        """
+        n = len(raws)
+        rows = np.empty((n, len(FIELDS[self.kind])))
+        stamps = np.empty(n, dtype=np.int64) if self.stamped else None
+        lengths = np.fromiter(map(len, raws), dtype=np.int64, count=n)
+        groups = (
+            [np.arange(n)]
+            if n and (lengths == lengths[0]).all()
+            else [np.flatnonzero(lengths == size) for size in np.unique(lengths)]
+        )
+        try:
+            for index in groups:
+                self._group(raws, index, rows, stamps)
+        except _Unreadable:
+            return None
+        return rows, stamps
+
+    def _group(
+        self, raws: Sequence[bytes], index: np.ndarray, rows: np.ndarray, stamps: np.ndarray | None
+    ) -> None:
+        """Messages ``index`` (all of one length) into ``rows`` and ``stamps``, layout by layout."""
+        while index.size:
+            group = [raws[i] for i in index] if index.size < len(raws) else raws
+            data = np.frombuffer(b"".join(group), dtype=np.uint8).reshape(index.size, -1)
+            layout = self._layout(raws[int(index[0])])
+            same = np.ones(index.size, dtype=bool)
+            for offset, value in layout.checks:
+                same &= _column(data, offset, "<u4") == value
+            if self.cdr:  # little-endian CDR: the encapsulation header's second byte
+                same &= data[:, 1] == 1
+            if not same[0]:  # not even the message the layout was found from
+                raise _Unreadable
+            every = bool(same.all())
+            take = index if every else index[same]
+            rows_of = data if every else data[same]
+            values = [_column(rows_of, offset, dtype) for offset, dtype in layout.columns]
+            ncols = rows.shape[1]
+            for c in range(ncols):
+                rows[take, c] = values[c]
+            if stamps is not None:
+                stamps[take] = values[ncols].astype(np.int64) * 1_000_000_000 + values[ncols + 1].astype(
+                    np.int64
+                )
+            index = index[~same]
+
+    def _layout(self, raw: bytes) -> _Layout:
+        """The layout of messages laid out as ``raw``, found once and checked against rosbags'
+        deserialisation of ``raw`` (the same row, the same stamp)."""
+        if self.cdr and raw[:2] != b"\x00\x01":
+            raise _Unreadable
+        checks, found = _walk(self.fielddefs, self.kind, raw, self.cdr, self.wanted)
+        key = (len(raw), tuple(checks))
+        if key in self.layouts:
+            return self.layouts[key]
+        layout = _Layout(checks, [found[w] for w in self.wanted])
+        try:
+            msg = self.deserialize(raw)
+            want = EXTRACT[self.kind](msg)
+            stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if self.stamped else ()
+        except Exception:  # noqa: BLE001  (the per-message path names what is wrong)
+            raise _Unreadable from None
+        data = np.frombuffer(raw, dtype=np.uint8).reshape(1, -1)
+        got = [_column(data, offset, dtype)[0] for offset, dtype in layout.columns]
+        if not np.array_equal(
+            np.array(got[: len(want)], dtype=float), np.array(want, dtype=float), equal_nan=True
+        ):
+            raise _Unreadable
+        if [int(v) for v in got[len(want) :]] != [int(v) for v in stamp]:
+            raise _Unreadable
+        self.layouts[key] = layout
+        return layout
+
+
+def _column(data: np.ndarray, offset: int, dtype: str) -> np.ndarray:
+    """Field at byte ``offset`` of each row of ``data`` (N, L) uint8, as ``dtype`` (N,)."""
+    size = np.dtype(dtype).itemsize
+    return np.ascontiguousarray(data[:, offset : offset + size]).view(dtype)[:, 0]

@@ -10,6 +10,7 @@ is refused by the log's reader at that message (``row N`` is the topic's N-th me
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ from tauvcore.bags.mapping import (
     TopicRule,
     resolve,
 )
-from tauvcore.bags.messages import EXTRACT, LAYOUTS
+from tauvcore.bags.messages import EXTRACT, FIELDS, LAYOUTS, RawDecoder
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import euler_from_C_nb
 from tauvcore.units import DEG
@@ -158,16 +159,56 @@ class BagTables:
 
 
 class _Topic:
-    """One topic's messages as read: header stamps and receive times [ns], rows of numbers."""
+    """One topic's messages as read: header stamps and receive times [ns] (K,), rows of numbers
+    (K, C), filled batch by batch (:meth:`add`) into arrays of the size the bag's index gives
+    (``expected``; grown if it has more), so no second copy of a topic is ever made."""
 
-    def __init__(self, kind: str) -> None:
+    def __init__(self, kind: str, expected: int = 0) -> None:
         self.kind = kind  # the message type
-        self.stamps: list[int] = []
-        self.received: list[int] = []
-        self.rows: list[tuple[float, ...]] = []
+        self.count = 0  # messages read so far
+        self.expected = expected
+        self.stamps = np.empty(0, dtype=np.int64)
+        self.received = np.empty(0, dtype=np.int64)
+        self.rows: np.ndarray = np.empty((0, 0))
+
+    def add(self, stamps: np.ndarray, received: np.ndarray, rows: np.ndarray) -> None:
+        n, end = len(received), self.count + len(received)
+        if end > len(self.received) or rows.shape[1] != self.rows.shape[1]:
+            size = max(self.expected, end, 2 * len(self.received))
+            grown = (
+                np.empty(size, dtype=np.int64),
+                np.empty(size, dtype=np.int64),
+                np.empty((size, rows.shape[1])),
+            )
+            if self.count:  # more messages than the index said, or none before
+                for new, old in zip(grown, (self.stamps, self.received, self.rows), strict=True):
+                    new[: self.count] = old[: self.count]
+            self.stamps, self.received, self.rows = grown
+        self.stamps[self.count : end] = stamps
+        self.received[self.count : end] = received
+        self.rows[self.count : end] = rows
+        self.count += n
+
+    def finish(self) -> None:
+        self.stamps, self.received, self.rows = (
+            a[: self.count] for a in (self.stamps, self.received, self.rows)
+        )
+
+    def release(self) -> None:
+        """Drop the messages (a table made of them holds what it needs)."""
+        self.stamps, self.received, self.rows = (
+            np.empty(0, dtype=np.int64),
+            np.empty(0, dtype=np.int64),
+            np.empty(0),
+        )
 
     def times_ns(self, rule: TopicRule) -> np.ndarray:
-        return np.asarray(self.stamps if rule.time == "header" else self.received, dtype=np.int64)
+        return self.stamps if rule.time == "header" else self.received
+
+
+BATCH = 16_384
+"""Messages of a topic read into its arrays at a time: the raw bytes held are at most this many
+messages a topic (about 12 MB of a nav_msgs/Odometry topic)."""
 
 
 def open_bag(path: str | os.PathLike, store: Any) -> Any:
@@ -184,6 +225,74 @@ def open_bag(path: str | os.PathLike, store: Any) -> Any:
     except bag_errors() as exc:  # rosbags, sqlite3, struct, lz4, zstd each raise their own
         raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
     return reader
+
+
+def _deserialize(reader: Any, kind: str, raw: bytes) -> Any:
+    return reader.deserialize(raw, kind)
+
+
+class _Batch:
+    """A topic's messages not yet read into its arrays: their bytes and receive times, read in
+    one go (:class:`~tauvcore.bags.messages.RawDecoder`) where the type's numbers are plain fields,
+    else message by message with rosbags."""
+
+    def __init__(self, bag: str, topic: str, reader: Any, entry: _Topic) -> None:
+        self.bag, self.topic, self.reader, self.entry = bag, topic, reader, entry
+        self.raws: list[bytes] = []
+        self.received: list[int] = []
+        kind = entry.kind
+        deserialize = functools.partial(_deserialize, reader, kind)
+        self.decoder = (
+            RawDecoder(reader.typestore.fielddefs, kind, bool(reader.is2), deserialize)
+            if kind in FIELDS
+            else None
+        )
+
+    def flush(self) -> None:
+        """Read the messages held into the topic's arrays."""
+        if not self.raws:
+            return
+        received = np.array(self.received, dtype=np.int64)
+        decoded = self.decoder.decode(self.raws) if self.decoder is not None else None
+        if decoded is None:
+            stamps, rows = self._one_by_one()
+        else:
+            rows, stamps = decoded
+        self.entry.add(received if stamps is None else stamps, received, rows)
+        self.raws, self.received = [], []
+
+    def _one_by_one(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each message deserialised by rosbags: its stamps (None without a header) and rows;
+        a message that cannot be read is one LogError naming its index in the topic."""
+        kind, topic, reader = self.entry.kind, self.topic, self.reader
+        stamps: list[int] = []
+        rows: list[tuple[float, ...]] = []
+        for i, (raw, received) in enumerate(zip(self.raws, self.received, strict=True)):
+            index = self.entry.count + i + 1
+            try:
+                msg: Any = reader.deserialize(raw, kind)
+                rows.append(EXTRACT[kind](msg))
+                header = getattr(msg, "header", None)  # std_msgs' numbers have none
+                stamp = header.stamp if header is not None else None
+            except LogError:
+                raise
+            except AttributeError as exc:
+                raise LogError(
+                    one_line(
+                        f"{show_path(self.bag)}: topic {show(topic)}, message {index}: "
+                        f"{kind} has no field {show(exc.name)} here (its definition differs)"
+                    )
+                ) from None
+            except bag_errors() as exc:
+                raise LogError(
+                    one_line(
+                        f"{show_path(self.bag)}: topic {show(topic)}, message {index}: cannot be read: {exc}"
+                    )
+                ) from None
+            stamps.append(
+                int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) if stamp is not None else int(received)
+            )
+        return np.array(stamps, dtype=np.int64), np.array(rows, dtype=float).reshape(len(rows), -1)
 
 
 def read_topics(
@@ -216,45 +325,33 @@ def read_topics(
                     f"{show_path(bag)}: topic {show(topic)}: the bag has no definition of {kind} (add its .msg "
                     "with msg_paths in the bag mapping)"
                 )
-        read = {t: _Topic(topics[t]) for t in needed}
+        counts = dict.fromkeys(needed, 0)
+        for c in reader.connections:
+            if c.topic in needed:
+                counts[c.topic] += c.msgcount
+        read = {t: _Topic(topics[t], counts[t]) for t in needed}
+        batches = {t: _Batch(bag, t, reader, read[t]) for t in needed}
         connections = [c for c in reader.connections if c.topic in needed]
-        index = dict.fromkeys(needed, 0)
+        messages = (
+            reader.readers[0].messages(connections=connections)
+            if len(reader.readers) == 1  # one bag: its messages in order, without the merge of several
+            else reader.messages(connections=connections)
+        )
         try:
-            for connection, received, raw in reader.messages(connections=connections):
-                topic = connection.topic
-                index[topic] += 1
-                try:
-                    msg: Any = reader.deserialize(raw, connection.msgtype)
-                    row = EXTRACT[connection.msgtype](msg)
-                    header = getattr(msg, "header", None)  # std_msgs' numbers have none
-                    stamp = header.stamp if header is not None else None
-                except LogError:
-                    raise
-                except AttributeError as exc:
-                    raise LogError(
-                        one_line(
-                            f"{show_path(bag)}: topic {show(topic)}, message {index[topic]}: "
-                            f"{connection.msgtype} has no field {show(exc.name)} here (its definition differs)"
-                        )
-                    ) from None
-                except bag_errors() as exc:
-                    raise LogError(
-                        one_line(
-                            f"{show_path(bag)}: topic {show(topic)}, message {index[topic]}: cannot be read: {exc}"
-                        )
-                    ) from None
-                entry = read[topic]
-                entry.received.append(int(received))
-                entry.stamps.append(
-                    int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-                    if stamp is not None
-                    else int(received)
-                )
-                entry.rows.append(row)
+            for connection, received, raw in messages:
+                batch = batches[connection.topic]
+                batch.raws.append(raw)
+                batch.received.append(received)
+                if len(batch.raws) == BATCH:
+                    batch.flush()
+            for batch in batches.values():
+                batch.flush()
         except LogError:
             raise
         except bag_errors() as exc:  # a truncated or corrupt chunk part-way through
             raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+        for entry in read.values():
+            entry.finish()
     finally:
         reader.close()
     return rules, read
@@ -296,15 +393,21 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             f"{show_path(bag)}: no reference (nav_msgs/Odometry, geometry_msgs/PoseStamped, ...) nor attitude "
             "topic: the filters need a starting attitude; name one in the bag mapping ([reference] or [attitude])"
         )
-    origin = int(read[rules["imu"].topic].times_ns(rules["imu"])[0]) if read[rules["imu"].topic].rows else 0
+    imu_entry = read[rules["imu"].topic]
+    origin = int(imu_entry.times_ns(rules["imu"])[0]) if imu_entry.count else 0
     notes: list[str] = []
     tables: dict[str, dict[str, np.ndarray]] = {}
+    later = [rule.topic for rule in rules.values()]  # each topic once for each table it feeds
+    later += [
+        r.options[k] for r in rules.values() for k in ("orientation_topic", "depth_topic") if k in r.options
+    ]
     for table, rule in rules.items():
+        later.remove(rule.topic)
         entry = read[rule.topic]
-        if not entry.rows:
+        if not entry.count:
             raise LogError(f"{show_path(bag)}: topic {show(rule.topic)} ({table}) has no messages")
         kind = rule.msgtype
-        data = np.asarray(entry.rows, dtype=float)
+        data = entry.rows
         t = (entry.times_ns(rule) - origin) * 1e-9 + rule.offset_s
         part = _parts(kind, data)
         if table == "imu":
@@ -314,11 +417,14 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
         elif table == "depth":
             columns = {"depth_m": _depth(kind, part, rule)}
         elif table == "attitude":
-            euler = euler_from_C_nb(C_nb_from_quaternion(part["quaternion"], rule.frame))
+            euler, _ = _attitude(part["quaternion"], rule.frame)
             columns = {f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}
         else:
             columns = _reference(bag, kind, part, rule, t, read, rules, origin, notes)
         tables[table] = {"t_s": t, **columns}
+        del part, data
+        if rule.topic not in later:  # what the table needs is in its columns now
+            entry.release()
     names = {table: f"{bag}:{rule.topic}" for table, rule in rules.items()}
     return BagTables(bag, tables, names, rules, tuple(notes))
 
@@ -445,18 +551,17 @@ def _reference(
                 f"{where}: a sensor_msgs/NavSatFix reference needs an attitude: set reference.orientation_topic "
                 "in the bag mapping (a topic with an orientation)"
             )
-        C_nb = _other(bag, orientation, read, rules, origin, t, "orientation")
+        quaternion = _other(bag, orientation, read, rules, origin, t, "orientation")
         out.update({"lat_rad": lat, "lon_rad": lon, "depth_m": depth})
         position = ned_from_geodetic(lat, lon, -depth, (float(lat[0]), float(lon[0]), float(-depth[0])))
     else:
         position = world_vectors(part["position"], rule.frame)
-        C_nb = C_nb_from_quaternion(part["quaternion"], rule.frame)
+        quaternion = part["quaternion"]
         out.update({"north_m": position[:, 0], "east_m": position[:, 1], "down_m": position[:, 2]})
-    euler = euler_from_C_nb(C_nb)
+    odometry = kind == "nav_msgs/msg/Odometry"
+    euler, vel_n = _attitude(quaternion, rule.frame, part["velocity_b"] if odometry else None)
     out.update({f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))})
-    if kind == "nav_msgs/msg/Odometry":
-        vel_n = np.einsum("kij,kj->ki", C_nb, body_vectors(part["velocity_b"], rule.frame))
-    else:
+    if vel_n is None:
         vel_n = np.gradient(position, t, axis=0) if t.size > 1 else np.zeros_like(position)
         notes.append(f"{where}: {kind} has no velocity; the reference velocity is the positions' differences")
     out.update({f"vel_{a}_mps": vel_n[:, i] for i, a in enumerate(("north", "east", "down"))})
@@ -472,15 +577,15 @@ def _other(
     t: np.ndarray,
     what: str,
 ) -> np.ndarray:
-    """A geodetic reference's depth (K,) [m] or ``C_nb`` (K, 3, 3) from another topic, at the
-    reference's times ``t``: linearly (an orientation: its nearest message, as it is sampled
+    """A geodetic reference's depth (K,) [m] or orientation quaternions (K, 4) from another topic,
+    at the reference's times ``t``: linearly (an orientation: its nearest message, as it is sampled
     faster than the fixes)."""
     entry = read[topic]
     kind = entry.kind
     rule = TopicRule(
         table=what, topic=topic, msgtype=kind, frame=rules["reference"].frame, time=rules["reference"].time
     )
-    data = np.asarray(entry.rows, dtype=float)
+    data = entry.rows
     ts = (entry.times_ns(rule) - origin) * 1e-9
     part = _parts(kind, data)
     if what == "depth":
@@ -493,4 +598,27 @@ def _other(
     nearest = np.clip(np.searchsorted(ts, t), 0, ts.size - 1)
     earlier = np.clip(nearest - 1, 0, ts.size - 1)
     nearest = np.where(np.abs(ts[earlier] - t) < np.abs(ts[nearest] - t), earlier, nearest)
-    return C_nb_from_quaternion(part["quaternion"][nearest], rule.frame)
+    return part["quaternion"][nearest]
+
+
+BLOCK = 65_536
+"""Rows converted at a time from quaternions, so a 200 Hz topic's (K, 3, 3) rotation matrices are
+never all held at once (each row's numbers are the same whatever the block)."""
+
+
+def _attitude(
+    quaternion: np.ndarray, frame: str, velocity_b: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Roll, pitch, yaw (K, 3) of orientation quaternions (K, 4) in ``frame`` (``C_nb`` of
+    tauvcore.bags.frames, its ZYX angles) and, given body velocities (K, 3), the NED velocities
+    ``C_nb v_b`` (K, 3); block by block (:data:`BLOCK`)."""
+    k = quaternion.shape[0]
+    euler = np.empty((k, 3))
+    vel_n = None if velocity_b is None else np.empty((k, 3))
+    for start in range(0, k, BLOCK):
+        rows = slice(start, min(start + BLOCK, k))
+        C_nb = C_nb_from_quaternion(quaternion[rows], frame)
+        euler[rows] = euler_from_C_nb(C_nb)
+        if vel_n is not None and velocity_b is not None:
+            vel_n[rows] = np.einsum("kij,kj->ki", C_nb, body_vectors(velocity_b[rows], frame))
+    return euler, vel_n

@@ -1,14 +1,18 @@
 """Writing a simulated mission as ROS bags with rosbags' own writers (ROS 1, ROS 2 sqlite3, MCAP),
 for the tests of tauvcore.bags and the worked example of docs/bags.md.
 
-``mission_tables`` makes the tables of a short simulated mission in the form a bag can carry
-exactly (IMU rates, times on whole nanoseconds, the DVL's beams rounded to float32 where a message
-holds float32), ``write_bag`` writes the same numbers as messages, in FRD/NED or converted to
-FLU/ENU (ROS REP-103), with the DVL as any of the supported messages.
+``mission_tables`` makes the tables of a simulated mission in the form a bag can carry exactly
+(IMU rates, times on whole nanoseconds, the DVL's beams rounded to float32 where a message holds
+float32), ``write_bag`` writes the same numbers as messages, in FRD/NED or converted to FLU/ENU
+(ROS REP-103), with the DVL as any of the supported messages. The writer streams: each topic's
+messages are made as they are written, merged by time, so an hour at 200 Hz (1.4 million
+messages) is written in constant memory (benchmarks/bag_replay.py imports this module).
 """
 
 from __future__ import annotations
 
+import heapq
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -34,16 +38,18 @@ DVL_TYPES = (
 )
 FLOAT32_BEAMS = ("marine_acoustic_msgs/msg/Dvl", "ds_sensor_msgs/msg/Dvl")
 TOPICS = {"imu": "/imu/data", "dvl": "/dvl", "depth": "/pressure", "attitude": "/ahrs", "reference": "/odom"}
+FIX_TOPICS = {"topic": "/fix", "orientation_topic": "/fix/orientation", "depth_topic": "/fix/depth"}
+"""A NavSatFix reference's topics (:func:`geodetic_tables`): the fix, its attitude, its depth."""
 BEAM_ORDER = (2, 0, 3, 1)
 """The configured beam (0-3) each message beam is: a message lists its beams in its own order."""
 
 
-def mission_config(duration_s: float = 20.0) -> Config:
+def mission_config(duration_s: float = 20.0, imu_rate_hz: float = 50.0) -> Config:
     return (
         Config()
         .replace("trajectory", name="figure8", duration_s=duration_s)
         .replace("earth", model="flat")
-        .replace("imu", rate_hz=50.0)
+        .replace("imu", rate_hz=imu_rate_hz)
         .replace("run", methods=("ins", "lc", "tc"), aiding=("dvl", "depth", "mag"))
     )
 
@@ -88,6 +94,26 @@ def mission_tables(config: Config, seed: int = 3) -> tuple[dict, dict]:
     return per_beam, {**per_beam, "dvl": body}
 
 
+def geodetic_tables(tables: dict, config: Config) -> dict:
+    """``tables`` with the reference as a sensor_msgs/NavSatFix carries it: latitude and longitude
+    [deg] of the local positions about the configured origin, the depth, the attitude as it was,
+    and the NED velocity as the bag reader makes a fix's (docs/bags.md: the positions' central
+    differences, tauvcore.bags.reader), so the log and the bag hold the same numbers."""
+    from tauvcore.geo.earth import geodetic_from_ned, ned_from_geodetic
+    from tauvcore.units import DEG
+
+    ref = tables["reference"]
+    origin = (config.earth.latitude_deg * DEG, config.earth.longitude_deg * DEG, 0.0)
+    lat, lon, height = geodetic_from_ned(np.stack([ref[n] for n in ("north_m", "east_m", "down_m")], -1), origin)
+    fix = {"t_s": ref["t_s"], "lat_deg": lat / DEG, "lon_deg": lon / DEG, "depth_m": -height}
+    fix.update({f"{n}_rad": ref[f"{n}_rad"] for n in ("roll", "pitch", "yaw")})
+    lat, lon = fix["lat_deg"] * DEG, fix["lon_deg"] * DEG  # as the reader has them from the degrees
+    position = ned_from_geodetic(lat, lon, height, (float(lat[0]), float(lon[0]), float(height[0])))
+    vel_n = np.gradient(position, ref["t_s"], axis=0)
+    fix.update({f"vel_{a}_mps": vel_n[:, i] for i, a in enumerate(("north", "east", "down"))})
+    return {**tables, "reference": fix}
+
+
 def _on_ns(t: np.ndarray) -> np.ndarray:
     """Times [s] as a bag's stamps give them back: whole nanoseconds after ORIGIN_NS."""
     return np.round(t * 1e9).astype(np.int64) * 1e-9
@@ -105,13 +131,18 @@ def store_for(storage: str) -> Any:
     return store
 
 
+_DEFAULTS: dict[tuple[int, str], tuple[Any, dict[str, Any]]] = {}
+"""(id of a typestore, type) -> (the typestore, its fields' zero values): found once a type, as a
+writer makes a message a sample (the zero values are shared, never changed: messages are only
+serialised)."""
+
+
 def make(store: Any, name: str, **values: Any) -> Any:
     """A message of type ``name`` with every field zero (empty, false) but ``values``."""
-    _, fields = store.fielddefs[name]
-    out = {}
-    for field, desc in fields:
-        out[field] = values[field] if field in values else _default(store, desc)
-    return store.types[name](**out)
+    key = (id(store), name)
+    if key not in _DEFAULTS:
+        _DEFAULTS[key] = (store, {field: _default(store, desc) for field, desc in store.fielddefs[name][1]})
+    return store.types[name](**{**_DEFAULTS[key][1], **values})
 
 
 _NUMPY = {"float64": np.float64, "float32": np.float32, "uint8": np.uint8, "int8": np.int8, "uint16": np.uint16,
@@ -173,7 +204,6 @@ def write_bag(
     vec_b = (lambda v: v @ D_FLU.T) if flu else (lambda v: v)
     vec_n = (lambda v: v @ T_ENU.T) if flu else (lambda v: v)
     rot = (lambda C: T_ENU @ C @ D_FLU) if flu else (lambda C: C)
-    messages: list[tuple[int, str, str, Any]] = []  # (receive ns, topic, type, message)
     seq = [0]
 
     def header(t_s: float, frame_id: str) -> Any:
@@ -189,44 +219,72 @@ def write_bag(
     def quat(q: np.ndarray) -> Any:
         return make(store, "geometry_msgs/msg/Quaternion", x=q[0], y=q[1], z=q[2], w=q[3])
 
-    imu = tables["imu"]
-    gyro = vec_b(np.stack([imu[f"gyro_{a}_rps"] for a in "xyz"], -1))
-    accel = vec_b(np.stack([imu[f"accel_{a}_mps2"] for a in "xyz"], -1))
-    for k, t in enumerate(imu["t_s"]):
-        h, ns = header(t, "imu")
-        msg = make(store, "sensor_msgs/msg/Imu", header=h, angular_velocity=vector3(gyro[k]),
-                   linear_acceleration=vector3(accel[k]), orientation=quat(np.array([0.0, 0.0, 0.0, 1.0])))
-        messages.extend((ns, topic, "sensor_msgs/msg/Imu", msg) for topic in imu_topics)
-    _dvl_messages(store, tables["dvl"], dvl_type, A_b, vec_b, header, vector3, quat, messages)
-    depth = tables["depth"]
-    for t, d in zip(depth["t_s"], depth["depth_m"], strict=True):
-        h, ns = header(t, "pressure")
-        if depth_as == "pressure":
-            msg = make(store, "sensor_msgs/msg/FluidPressure", header=h, fluid_pressure=101325.0 + 1025.0 * 9.80665 * d)
-            messages.append((ns, TOPICS["depth"], "sensor_msgs/msg/FluidPressure", msg))
-        else:
-            messages.append((ns, "/depth", "std_msgs/msg/Float64", make(store, "std_msgs/msg/Float64", data=d)))
-    att = tables["attitude"]
-    q_att = _quaternion(rot(C_nb_from_euler(np.stack([att[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1))))
-    for k, t in enumerate(att["t_s"]):
-        h, ns = header(t, "ahrs")
-        msg = make(store, "geometry_msgs/msg/QuaternionStamped", header=h, quaternion=quat(q_att[k]))
-        messages.append((ns, TOPICS["attitude"], "geometry_msgs/msg/QuaternionStamped", msg))
-    ref = tables["reference"]
-    C = C_nb_from_euler(np.stack([ref[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1))
-    q_ref = _quaternion(rot(C))
-    pos = vec_n(np.stack([ref[n] for n in ("north_m", "east_m", "down_m")], -1))
-    vel_b = vec_b(np.einsum("kji,kj->ki", C, np.stack([ref[f"vel_{a}_mps"] for a in ("north", "east", "down")], -1)))
-    for k, t in enumerate(ref["t_s"]):
-        h, ns = header(t, "odom")
-        pose = make(store, "geometry_msgs/msg/PoseWithCovariance", pose=make(
-            store, "geometry_msgs/msg/Pose", position=make(store, "geometry_msgs/msg/Point", x=pos[k, 0], y=pos[k, 1],
-                                                            z=pos[k, 2]), orientation=quat(q_ref[k])))
-        twist = make(store, "geometry_msgs/msg/TwistWithCovariance", twist=make(
-            store, "geometry_msgs/msg/Twist", linear=vector3(vel_b[k])))
-        msg = make(store, "nav_msgs/msg/Odometry", header=h, child_frame_id="base_link", pose=pose, twist=twist)
-        messages.append((ns, TOPICS["reference"], "nav_msgs/msg/Odometry", msg))
-    messages.sort(key=lambda m: m[0])
+    def imu_messages() -> Iterator[tuple[int, str, str, Any]]:
+        imu = tables["imu"]
+        gyro = vec_b(np.stack([imu[f"gyro_{a}_rps"] for a in "xyz"], -1))
+        accel = vec_b(np.stack([imu[f"accel_{a}_mps2"] for a in "xyz"], -1))
+        level = quat(np.array([0.0, 0.0, 0.0, 1.0]))
+        for k, t in enumerate(imu["t_s"]):
+            h, ns = header(t, "imu")
+            msg = make(store, "sensor_msgs/msg/Imu", header=h, angular_velocity=vector3(gyro[k]),
+                       linear_acceleration=vector3(accel[k]), orientation=level)
+            for topic in imu_topics:
+                yield ns, topic, "sensor_msgs/msg/Imu", msg
+
+    def depth_messages() -> Iterator[tuple[int, str, str, Any]]:
+        depth = tables["depth"]
+        for t, d in zip(depth["t_s"], depth["depth_m"], strict=True):
+            h, ns = header(t, "pressure")
+            if depth_as == "pressure":
+                msg = make(store, "sensor_msgs/msg/FluidPressure", header=h,
+                           fluid_pressure=101325.0 + 1025.0 * 9.80665 * d)
+                yield ns, TOPICS["depth"], "sensor_msgs/msg/FluidPressure", msg
+            else:
+                yield ns, "/depth", "std_msgs/msg/Float64", make(store, "std_msgs/msg/Float64", data=d)
+
+    def attitude_messages() -> Iterator[tuple[int, str, str, Any]]:
+        att = tables["attitude"]
+        q_att = _quaternion(rot(C_nb_from_euler(np.stack([att[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1))))
+        for k, t in enumerate(att["t_s"]):
+            h, ns = header(t, "ahrs")
+            msg = make(store, "geometry_msgs/msg/QuaternionStamped", header=h, quaternion=quat(q_att[k]))
+            yield ns, TOPICS["attitude"], "geometry_msgs/msg/QuaternionStamped", msg
+
+    def reference_messages() -> Iterator[tuple[int, str, str, Any]]:
+        ref = tables["reference"]
+        C = C_nb_from_euler(np.stack([ref[f"{n}_rad"] for n in ("roll", "pitch", "yaw")], -1))
+        q_ref = _quaternion(rot(C))
+        if "lat_deg" in ref:  # a fix, its orientation and its depth on topics of their own
+            for k, t in enumerate(ref["t_s"]):
+                h, ns = header(t, "gps")
+                yield ns, FIX_TOPICS["topic"], "sensor_msgs/msg/NavSatFix", make(
+                    store, "sensor_msgs/msg/NavSatFix", header=h, latitude=ref["lat_deg"][k],
+                    longitude=ref["lon_deg"][k], altitude=-ref["depth_m"][k])
+                h, ns = header(t, "orientation")
+                yield ns, FIX_TOPICS["orientation_topic"], "geometry_msgs/msg/QuaternionStamped", make(
+                    store, "geometry_msgs/msg/QuaternionStamped", header=h, quaternion=quat(q_ref[k]))
+                yield ns, FIX_TOPICS["depth_topic"], "std_msgs/msg/Float64", make(
+                    store, "std_msgs/msg/Float64", data=ref["depth_m"][k])
+            return
+        pos = vec_n(np.stack([ref[n] for n in ("north_m", "east_m", "down_m")], -1))
+        vel_b = vec_b(np.einsum("kji,kj->ki", C, np.stack([ref[f"vel_{a}_mps"] for a in ("north", "east", "down")],
+                                                         -1)))
+        del C
+        for k, t in enumerate(ref["t_s"]):
+            h, ns = header(t, "odom")
+            pose = make(store, "geometry_msgs/msg/PoseWithCovariance", pose=make(
+                store, "geometry_msgs/msg/Pose", position=make(store, "geometry_msgs/msg/Point", x=pos[k, 0],
+                                                                y=pos[k, 1], z=pos[k, 2]), orientation=quat(q_ref[k])))
+            twist = make(store, "geometry_msgs/msg/TwistWithCovariance", twist=make(
+                store, "geometry_msgs/msg/Twist", linear=vector3(vel_b[k])))
+            msg = make(store, "nav_msgs/msg/Odometry", header=h, child_frame_id="base_link", pose=pose, twist=twist)
+            yield ns, TOPICS["reference"], "nav_msgs/msg/Odometry", msg
+
+    dvl: list[tuple[int, str, str, Any]] = []
+    _dvl_messages(store, tables["dvl"], dvl_type, A_b, vec_b, header, vector3, quat, dvl)
+    # by receive time; at one time in this order (the order of a sort of them all: merge is stable)
+    messages = heapq.merge(imu_messages(), dvl, depth_messages(), attitude_messages(), reference_messages(),
+                           key=lambda m: m[0])
     if storage == "ros1":
         writer: Any = Writer1(path)
     else:
@@ -234,11 +292,10 @@ def write_bag(
         writer = Writer2(path if storage == "sqlite3" else path.with_suffix(""), version=9, storage_plugin=plugin)
     with writer:
         connections = {}
-        for _, topic, kind, _ in messages:
-            if topic not in connections:
-                connections[topic] = writer.add_connection(topic, kind, typestore=store)
         serialize = store.serialize_ros1 if storage == "ros1" else store.serialize_cdr
         for ns, topic, kind, msg in messages:
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, kind, typestore=store)
             writer.write(connections[topic], ns, serialize(msg, kind))
     if storage == "mcap":  # the single storage file, as a recorder's .mcap
         directory = path.with_suffix("")

@@ -10,7 +10,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_fixtures import DVL_TYPES, TOPICS, mission_config, mission_tables, write_bag
+from bag_fixtures import (
+    DVL_TYPES,
+    FIX_TOPICS,
+    TOPICS,
+    geodetic_tables,
+    mission_config,
+    mission_tables,
+    write_bag,
+)
 
 from app.cli import main
 from tauvcore.bags import BagMapping, read_bag, read_mapping
@@ -84,6 +92,28 @@ def test_depth_as_a_float64_topic_and_receive_times(mission: dict, tmp_path: Pat
     mapping = _mapping(tmp_path / "map.toml", 'time = "receive"\n[depth]\ntopic = "/depth"\n')
     log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
     _same(replay(config, log, np.random.default_rng(0))[1], mission["replay_beams"])
+
+
+@pytest.mark.parametrize(("storage", "frame"), [("mcap", "flu_enu"), ("ros1", "frd_ned")])
+def test_a_navsatfix_reference_replays_as_the_geodetic_csv_log(mission: dict, tmp_path: Path, storage: str,
+                                                               frame: str) -> None:
+    """A sensor_msgs/NavSatFix reference (latitude, longitude in degrees) with its attitude from
+    reference.orientation_topic (a QuaternionStamped) and its depth from reference.depth_topic (a
+    std_msgs/Float64) replays as the CSV log whose reference is geodetic (lat_deg, lon_deg,
+    depth_m) with the same numbers, to 1e-9; its velocity is the fixes' differences in both."""
+    config = mission["config"]
+    tables = geodetic_tables(mission["beams"], config)
+    write_log(tmp_path / "log", tables, "csv")
+    expected = replay(config, read_log(tmp_path / "log"), np.random.default_rng(0))[1]
+    bag = write_bag(tmp_path / STORAGES[storage], storage, tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame=frame)
+    options = "".join(f'{key} = "{topic}"\n' for key, topic in FIX_TOPICS.items())
+    mapping = _mapping(tmp_path / "map.toml", f'frame = "{frame}"\n[attitude]\ntopic = "{TOPICS["attitude"]}"\n'
+                                              f"[reference]\n{options}")
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    assert log.ref_geodetic
+    np.testing.assert_array_equal(log.ref_position[:, 2], tables["reference"]["depth_m"])  # the depth topic's
+    _same(replay(config, log, np.random.default_rng(0))[1], expected)
 
 
 def test_log_info_and_convert(mission: dict, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
