@@ -98,23 +98,7 @@ def innovation_figure(
             nu = np.where(row_ok, rec.innovation[:, run, k], np.nan)
             with np.errstate(invalid="ignore"):
                 env = np.where(row_ok, 3.0 * np.sqrt(var), np.nan)
-            e = env[keep]
-            data.append(
-                {
-                    "type": "scatter",
-                    "x": np.r_[t, t[::-1]],
-                    "y": np.r_[e, -e[::-1]],
-                    "name": method.upper() + BAND_SUFFIX,
-                    "mode": "lines",
-                    "fill": "toself",
-                    "fillcolor": hex_to_rgba(color, 0.12),
-                    "line": {"width": 0},
-                    "hoverinfo": "skip",
-                    "legendgroup": method,
-                    "showlegend": False,
-                    **axes,
-                }
-            )
+            data.append(_sigma3_band(t, env[keep], method, color, axes))
             data.append(
                 {
                     "type": "scatter",
@@ -174,22 +158,7 @@ def _binned_traces(
         _, env = merged_envelope(rec.sigma3_high[:, run, k], rec.sigma3_high[:, run, k], starts)
         measured = rec.valid[:, run] & np.isfinite(rec.innovation_var[:, run, k])
         nu = np.where(measured, rec.innovation[:, run, k], np.nan)[keep]
-        data.append(
-            {
-                "type": "scatter",
-                "x": np.r_[t, t[::-1]],
-                "y": np.r_[env, -env[::-1]],
-                "name": method.upper() + BAND_SUFFIX,
-                "mode": "lines",
-                "fill": "toself",
-                "fillcolor": hex_to_rgba(color, 0.12),
-                "line": {"width": 0},
-                "hoverinfo": "skip",
-                "legendgroup": method,
-                "showlegend": False,
-                **axes,
-            }
-        )
+        data.append(_sigma3_band(t, env, method, color, axes))
         data += envelope_traces(t, lo, hi, method.upper(), color, bin_s, method, **axes)
         data.append(
             {
@@ -221,3 +190,24 @@ def _binned_traces(
                 }
             )
     return data
+
+
+def _sigma3_band(
+    t: np.ndarray, sigma3: np.ndarray, method: str, color: str, axes: dict[str, str]
+) -> dict[str, Any]:
+    """The filled +-3 sqrt(S_ii) band of one method's innovations of one row: ``sigma3`` (n,) at
+    times ``t`` (n,) [s], on the panel's ``axes``."""
+    return {
+        "type": "scatter",
+        "x": np.r_[t, t[::-1]],
+        "y": np.r_[sigma3, -sigma3[::-1]],
+        "name": method.upper() + BAND_SUFFIX,
+        "mode": "lines",
+        "fill": "toself",
+        "fillcolor": hex_to_rgba(color, 0.12),
+        "line": {"width": 0},
+        "hoverinfo": "skip",
+        "legendgroup": method,
+        "showlegend": False,
+        **axes,
+    }
