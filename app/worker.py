@@ -149,6 +149,8 @@ def replay_source(
     layers = ["defaults"]
     if config_file is not None:
         kind = "the bag mapping's [config] in" if bag else "the log's"
+        if config_file.endswith(":/tf_static"):  # the DVL's lever arm from the bag (bag_config)
+            kind = "the bag's"
         layers.append(f"{kind} {config_file} ({config_keys(raw) or 'empty'})")
     layers.append("the dashboard's controls")
     source = {

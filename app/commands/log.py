@@ -43,7 +43,7 @@ def cmd_log_info(args: argparse.Namespace) -> int:
 
     mapping = _mapping(args)
     try:
-        rows, problem = bag_info(args.bag, mapping)
+        rows, problem, mounting = bag_info(args.bag, mapping)
     except LogError as exc:
         raise UsageError(str(exc)) from None
     header = ("topic", "type", "messages", "rate [Hz]", "from [s]", "to [s]", "feeds")
@@ -65,6 +65,8 @@ def cmd_log_info(args: argparse.Namespace) -> int:
     )
     for row in (header, *table):
         print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    if mounting is not None:
+        print(f"dvl mounting: {mounting}")
     if problem is not None:
         print(f"the mapping does not apply: {problem}")
     return 0
@@ -93,7 +95,7 @@ def cmd_log_convert(args: argparse.Namespace) -> int:
     if os.path.abspath(out) == os.path.abspath(bag):
         raise UsageError(f"OUT_DIR: {show_path(args.out_dir)} is the bag itself")
     try:
-        raw, _ = bag_config(mapping)
+        raw, _ = bag_config(mapping, bag)
         config = from_dict(raw)
         read = bag_tables(bag, mapping, config.dvl.A_b)
         log = log_from_tables(read.tables, read.source, read.names)  # every check, before anything is written

@@ -48,7 +48,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         if args.no_log_config:
             log_raw, log_config_path = {}, None
         else:  # a bag's own configuration is its mapping's [config]
-            log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
+            log_raw, log_config_path = bag_config(mapping, args.log) if bag else log_config(args.log)
     except LogError as exc:
         raise UsageError(str(exc)) from None
     config = resolve_config(args, under=log_raw)
@@ -114,6 +114,8 @@ def replay_layers(
     layers = ["defaults"]
     if log_config_path is not None:
         kind = "the bag mapping's [config] in" if is_bag(args.log) else "the log's"
+        if log_config_path.endswith(":/tf_static"):  # the DVL's lever arm from the bag (bag_config)
+            kind = "the bag's"
         layers.append(f"{kind} {show_path(log_config_path)} ({config_keys(log_raw) or 'empty'})")
     elif args.no_log_config:
         layers.append("the log's own configuration ignored (--no-log-config)")

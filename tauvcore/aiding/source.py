@@ -16,6 +16,9 @@ A source (a subclass of :class:`AidingSource`, registered in one line of
 - its measurement model (:meth:`AidingSource.model`): ``measure(nom, data, j)`` returns the
   :class:`~tauvcore.filter.eskf.Measurement` (z, innovation, H, R, valid) of epoch ``j`` for the whole
   batch, with ``predict`` and ``jacobian`` for the finite-difference test;
+- how a ROS bag carries its table (:attr:`AidingSource.bag_messages`): the message types a bag
+  mapping's topic for it may hold and which field fills which columns (:class:`BagMessage`), read
+  by tauvcore.bags (which imports this layer, never the other way);
 - what the user sees of it: a short label (the dashboard's checkbox), a summary and the names of
   its measurement's rows.
 
@@ -188,6 +191,42 @@ class SourceData:
         return np.stack([self.values[n][j] for n in names], axis=-1)
 
 
+BAG_FIELD_KINDS = ("world_vector", "world_sigma", "scalar")
+"""What a message field is to a source's table (:class:`BagField`)."""
+
+
+@dataclass(frozen=True)
+class BagField:
+    """Columns of a source's log table read from one field of a ROS message.
+
+    ``world_vector``: a vector (``x``, ``y``, ``z``) in the topic's world frame, three columns in
+    NED (ENU converted for a ``flu_enu`` topic); ``world_sigma``: a 6 x 6 covariance (row-major, as
+    ``PoseWithCovariance.covariance``) whose position diagonal's square roots fill three 1-sigma
+    columns in NED; ``scalar``: a number taken as it is, one column.
+    """
+
+    columns: tuple[str, ...]  # the table's columns it fills, in order (three, or one for a scalar)
+    path: str  # the field's dotted path in the message ("point", "pose.pose.position")
+    kind: str = "world_vector"  # one of BAG_FIELD_KINDS
+
+    def __post_init__(self) -> None:
+        if self.kind not in BAG_FIELD_KINDS:
+            raise ValueError(f"BagField.kind: {self.kind!r} is not one of {', '.join(BAG_FIELD_KINDS)}")
+        if len(self.columns) != (1 if self.kind == "scalar" else 3):
+            raise ValueError(
+                f"BagField.columns: {self.kind} fills {1 if self.kind == 'scalar' else 3}, got {self.columns}"
+            )
+
+
+@dataclass(frozen=True)
+class BagMessage:
+    """A ROS message type a source's table may be read from in a bag, and what fills its columns
+    (columns no field fills are NaN: a table's optional columns)."""
+
+    msgtype: str  # e.g. "geometry_msgs/msg/PointStamped"
+    fields: tuple[BagField, ...]
+
+
 class SourceModel(Protocol):
     """What the bank calls at each epoch of the source, for the whole batch (methods x runs)."""
 
@@ -243,6 +282,8 @@ class AidingSource(ABC):
     # those methods' updates on
     truth_columns: ClassVar[tuple[Column, ...]] = ()  # what a simulation knows of it besides its
     # columns: in SourceData.truth, written to a simulated log, optional in a log's table
+    bag_messages: ClassVar[tuple[BagMessage, ...]] = ()  # the message types a bag mapping's topic
+    # for its table may hold ([<table>] topic = ...; tauvcore.bags), never found by type alone
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -373,6 +414,8 @@ class AidingSource(ABC):
 __all__ = [
     "SETTING",
     "AidingSource",
+    "BagField",
+    "BagMessage",
     "Column",
     "Setting",
     "SourceData",

@@ -62,7 +62,7 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
         are not distinct names other than ``t_s``; whose truth columns are not distinct names other
         than ``t_s`` and the columns; with ``methods_fuse`` on a source the engine fuses; fused
         without its ``observes`` naming error-state blocks, its ``model()`` or its ``row_labels``;
-        without a label; or with a field of its ``config_type`` that declares no ``Setting``.
+        without a label; whose ``bag_messages`` fill columns not its own; or with a field of its ``config_type`` that declares no ``Setting``.
     """
     out: dict[str, AidingSource] = {}
     for module_name in modules:
@@ -96,6 +96,12 @@ def load(modules: tuple[str, ...]) -> dict[str, AidingSource]:
             raise ValueError(
                 f"tauvcore.aiding.{module_name}: SOURCE.truth_columns must be distinct names other than t_s "
                 f"and the columns, got {truth}"
+            )
+        filled = [c for m in source.bag_messages for f in m.fields for c in f.columns]
+        if not set(filled) <= set(columns):
+            raise ValueError(
+                f"tauvcore.aiding.{module_name}: SOURCE.bag_messages fill columns that are not its own: "
+                f"{sorted(set(filled) - set(columns))}"
             )
         if source.methods_fuse and source.fused:
             raise ValueError(

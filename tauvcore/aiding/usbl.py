@@ -36,7 +36,10 @@ coordinates and the innovation is its offset from the estimate in the estimate's
 (tauvcore.geo.earth.ned_offset_m), so a fix far from the origin is not bent by the tangent plane.
 
 Its log table ``usbl.csv``: ``t_s`` the fix's arrival, ``north_m``, ``east_m``, ``down_m`` the
-transponder's position in the origin's tangent frame; an empty row is a lost fix.
+transponder's position in the origin's tangent frame; an empty row is a lost fix. In a ROS bag
+(tauvcore.bags, ``[usbl] topic = "/usbl/fix"`` in the bag mapping) the fix is a
+``geometry_msgs/PointStamped`` (``point``) or ``PoseWithCovarianceStamped`` (``pose.pose.position``)
+in the topic's world frame.
 """
 
 from __future__ import annotations
@@ -49,7 +52,15 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.fusion_method import Sections
-from tauvcore.aiding.source import AidingSource, Column, SourceData, check_settings, setting
+from tauvcore.aiding.source import (
+    AidingSource,
+    BagField,
+    BagMessage,
+    Column,
+    SourceData,
+    check_settings,
+    setting,
+)
 from tauvcore.filter.eskf import Measurement, Nominal
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import geodetic_from_ned, ned_offset_m
@@ -326,6 +337,10 @@ class Usbl(AidingSource):
         "att",
         "vel",
     )  # the lever arm turns with the attitude; the latency term moves with the velocity
+    bag_messages = (
+        BagMessage("geometry_msgs/msg/PointStamped", (BagField(AXES, "point"),)),
+        BagMessage("geometry_msgs/msg/PoseWithCovarianceStamped", (BagField(AXES, "pose.pose.position"),)),
+    )  # the fix's position (the table has no sigma columns: R is the configured noise law's)
 
     def rate_hz(self, section: UsblConfig) -> float:
         """The ping rate, one ping per ``interval_s``.

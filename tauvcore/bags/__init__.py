@@ -20,6 +20,9 @@ table         message types                                                     
               ``PoseStamped``; by mapping ``sensor_msgs/NavSatFix``                         attitude, NED velocity
 ============  ==========================================================================  ============================
 
+A plug-in source's table (``usbl``) is read only from the topic the mapping names, of a type the
+source declares (:attr:`tauvcore.aiding.source.AidingSource.bag_messages`).
+
 Frames (tauvcore.bags.frames): ``flu_enu`` (the default, ROS REP-103: body forward-left-up, world
 east-north-up) is converted to tauvcore's FRD/NED, ``v_b = diag(1, -1, -1) v_flu``,
 ``v_n = (v_enu_y, v_enu_x, -v_enu_z)``, ``C_nb = T R(q) D``; ``frd_ned`` is taken as it is. A
@@ -28,7 +31,10 @@ conversion and the mounting rotation, are the configured Janus beams (each to th
 :data:`~tauvcore.bags.mapping.DVL_BEAM_TOLERANCE_DEG`), else its body velocity, which the replay
 projects onto the configured beams. Depth from pressure: ``(p - p_atm) / (rho g)``
 (:data:`~tauvcore.bags.mapping.WATER_DENSITY_KGPM3`, ...). Time (tauvcore.bags.reader): header
-stamps, or receive times, less the IMU topic's first, plus each topic's ``offset_s``.
+stamps, or receive times, less the IMU topic's first, plus each topic's ``offset_s``. The DVL's
+mounting is the mapping's ``mounting_rpy_deg``, else the bag's ``/tf_static`` transform from
+``base_frame`` to the DVL's frame (tauvcore.bags.tf), whose translation is also its lever arm
+(:func:`bag_config`).
 
 The definitions of the DVL messages ship in ``tauvcore/bags/msgs`` (``<package>/msg/<Type>.msg``)
 and are registered with rosbags.typesys where a bag carries none; the mapping's ``msg_paths`` adds
@@ -50,12 +56,13 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.bags.mapping import BagMapping, TopicRule, read_mapping
-from tauvcore.bags.reader import BagTables, bag_tables, is_bag, open_bag, typestore
+from tauvcore.bags.mapping import BagMapping, TopicRule, read_mapping, resolve
+from tauvcore.bags.reader import BagTables, bag_errors, bag_tables, is_bag, open_bag, typestore
+from tauvcore.bags.tf import TF_STATIC, dvl_mounting
 from tauvcore.config import from_dict
 from tauvcore.log_record import Log
 from tauvcore.logs import find_logs, log_from_tables, read_log
-from tauvcore.validation import ConfigError, LogError, show_path
+from tauvcore.validation import ConfigError, LogError, one_line, show_path
 
 
 def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np.ndarray) -> Log:
@@ -86,34 +93,72 @@ def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np
     return dataclasses.replace(log, notes=read.notes + log.notes)
 
 
-def bag_config(mapping: BagMapping) -> tuple[dict[str, Any], str | None]:
+def bag_config(
+    mapping: BagMapping, path: str | os.PathLike | None = None
+) -> tuple[dict[str, Any], str | None]:
     """The mapping's ``[config]`` (a partial configuration, laid under ``--config`` as a log's own
-    ``log.toml`` is), checked on its own, and where it comes from.
+    ``log.toml`` is), checked on its own, and where it comes from; given the bag, the DVL's lever
+    arm from its ``/tf_static`` (tauvcore.bags.tf) where ``[config.dvl]`` sets none.
 
     Parameters
     ----------
     mapping : BagMapping
         The bag mapping.
+    path : str or os.PathLike or None
+        The bag, whose ``/tf_static`` may give ``dvl.lever_arm_m`` [m] (body FRD); None: not read.
 
     Returns
     -------
     tuple of dict and str or None
-        The raw tables (section -> key -> value) and the mapping's path; ``({}, None)`` when it has
-        no ``[config]``.
+        The raw tables (section -> key -> value) and where they come from (the mapping's path,
+        else ``'<bag>:/tf_static'``); ``({}, None)`` when there is nothing.
 
     Raises
     ------
     LogError
-        Naming the mapping, for a configuration that does not check.
+        Naming the mapping, for a configuration that does not check; a bag that cannot be read.
     """
-    if not mapping.config or mapping.path is None:
+    raw = (
+        {k: dict(v) if isinstance(v, dict) else v for k, v in mapping.config.items()} if mapping.path else {}
+    )
+    source = mapping.path if raw else None
+    dvl = raw.get("dvl", {})
+    if path is not None and isinstance(dvl, dict) and "lever_arm_m" not in dvl:
+        lever = _tf_lever_arm(os.fspath(path), mapping)
+        if lever is not None:
+            raw["dvl"] = {**dvl, "lever_arm_m": lever}
+            source = source or f"{os.fspath(path)}:{TF_STATIC}"
+    if not raw:
         return {}, None
-    raw = {k: dict(v) if isinstance(v, dict) else v for k, v in mapping.config.items()}
     try:
         from_dict(raw)
     except ConfigError as exc:
-        raise LogError(f"the bag mapping {show_path(mapping.path)}: [config]: {exc}") from None
-    return raw, mapping.path
+        where = f"the bag mapping {show_path(mapping.path)}" if mapping.path else show_path(source or "")
+        raise LogError(f"{where}: [config]: {exc}") from None
+    return raw, source
+
+
+def _tf_lever_arm(bag: str, mapping: BagMapping) -> list[float] | None:
+    """The DVL's origin in the body (FRD) [m] from the bag's ``/tf_static``, or None."""
+    reader = open_bag(bag, typestore(mapping.msg_paths))
+    try:
+        topics = {c.topic: c.msgtype for c in reader.connections}
+        if TF_STATIC not in topics:
+            return None
+        rules = resolve(mapping, topics, bag)
+        if "dvl" not in rules:
+            return None
+        try:
+            # the translation, whatever rotation the mapping gives
+            rules = {"dvl": dataclasses.replace(rules["dvl"], options={})}
+            found = dvl_mounting(reader, bag, mapping, rules)
+        except bag_errors() as exc:
+            raise LogError(
+                one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}")
+            ) from None
+    finally:
+        reader.close()
+    return None if found.r_b_m is None else [float(v) for v in found.r_b_m]
 
 
 MAPPING_SUFFIX = ".toml"

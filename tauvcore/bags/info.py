@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 from tauvcore.bags.mapping import BagMapping, resolve
 from tauvcore.bags.reader import bag_errors, open_bag, typestore
+from tauvcore.bags.tf import dvl_mounting
 from tauvcore.validation import LogError, one_line, show_path
 
 
@@ -29,7 +30,7 @@ class TopicInfo:
         return (self.count - 1) / span if self.count > 1 and span > 0 else float("nan")
 
 
-def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicInfo], str | None]:
+def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicInfo], str | None, str | None]:
     """The topics of the bag at ``path`` and the table each feeds under ``mapping``.
 
     Parameters
@@ -41,10 +42,12 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
 
     Returns
     -------
-    tuple of list of TopicInfo and str or None
-        The topics in name order, and why the mapping does not apply to this bag (a topic it names
-        missing, two topics of a table's type with no mapping, ...) or None. The topics are listed
-        either way.
+    tuple of list of TopicInfo, str or None and str or None
+        The topics in name order; why the mapping does not apply to this bag (a topic it names
+        missing, two topics of a table's type with no mapping, ...) or None; where the DVL's
+        mounting comes from (the mapping's ``mounting_rpy_deg``, ``/tf_static``, or "none";
+        tauvcore.bags.tf), None without a DVL topic or when the mapping does not apply. The
+        topics are listed either way.
 
     Raises
     ------
@@ -65,15 +68,26 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
                 count[connection.topic] += 1
         except bag_errors() as exc:  # a corrupt chunk part-way through
             raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+        problem = mounting = None
+        feeds: dict[str, list[str]] = {}
+        try:
+            rules = resolve(mapping, topics, bag)
+            for table, rule in rules.items():
+                feeds.setdefault(rule.topic, []).append(table)
+            if "dvl" in rules:
+                found = dvl_mounting(reader, bag, mapping, rules)
+                t = found.r_b_m
+                mounting = found.source + (
+                    "" if t is None else f" (translation {[round(float(v), 4) for v in t]} m FRD)"
+                )
+        except LogError as exc:
+            problem = str(exc)
+        except bag_errors() as exc:
+            problem = one_line(
+                f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}"
+            )
     finally:
         reader.close()
-    problem = None
-    feeds: dict[str, list[str]] = {}
-    try:
-        for table, rule in resolve(mapping, topics, bag).items():
-            feeds.setdefault(rule.topic, []).append(table)
-    except LogError as exc:
-        problem = str(exc)
     origin = min(first.values(), default=0)
     rows = [
         TopicInfo(
@@ -86,4 +100,4 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
         )
         for topic, kind in sorted(topics.items())
     ]
-    return rows, problem
+    return rows, problem, mounting

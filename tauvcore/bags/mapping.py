@@ -4,6 +4,7 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
 
     frame = "flu_enu"          # every topic's frame convention unless its table says otherwise
     time = "header"            # header stamps, or "receive": the bag's receive times
+    base_frame = "base_link"   # the body's frame in /tf_static (the DVL's mounting: tauvcore.bags.tf)
     msg_paths = ["msgs/my_msgs/msg/MyDvl.msg"]   # more .msg definitions (<package>/msg/<Type>.msg)
 
     [imu]
@@ -13,13 +14,19 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
     [dvl]
     topic = "/dvl"
     frame = "frd_ned"
-    mounting_rpy_deg = [0.0, 0.0, 0.0]   # the DVL's frame in the body, v_b = C_b_dvl v_dvl (ZYX)
+    mounting_rpy_deg = [0.0, 0.0, 0.0]   # the DVL's frame in the body, v_b = C_b_dvl v_dvl (ZYX);
+                                         # without it, /tf_static's (tauvcore.bags.tf)
+
+    [usbl]                     # a plug-in source's table: only by name, of a type it declares
+    topic = "/usbl/fix"
 
     [config.dvl]               # a partial tauv configuration, as a log's own log.toml
     lever_arm_m = [0.6, 0.0, 0.15]
 
 Sections ``imu``, ``dvl``, ``depth``, ``attitude`` and ``reference`` name the log's tables
-(tauvcore.logs). A table the mapping does not name is found by message type as without a mapping
+(tauvcore.logs); a plug-in source's table (``[usbl]``) may be named too, its topic of a type the
+source declares (:attr:`tauvcore.aiding.source.AidingSource.bag_messages`, :data:`PLUGIN_MESSAGES`),
+and is never found by type. A table the mapping does not name is found by message type as without a mapping
 (:data:`DEFAULT_TYPES`: exactly one topic of those types, none: the log has no such table);
 ``topic = ""`` leaves a table out. Each table's keys are :data:`TABLE_KEYS`; every bad key or
 value is one :class:`~tauvcore.validation.LogError` naming the file, the key and the value.
@@ -34,6 +41,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from tauvcore.aiding.source import BagMessage
+from tauvcore.aiding.sources import SOURCES
 from tauvcore.bags.frames import FRAMES
 from tauvcore.config import read_toml
 from tauvcore.validation import ConfigError, LogError, show, show_path
@@ -73,17 +82,38 @@ DEFAULT_TYPES: dict[str, tuple[str, ...]] = {
 """The types a table is found by when the mapping does not name its topic (exactly one topic of
 them, or none)."""
 COMMON_KEYS = ("topic", "frame", "time", "offset_s")
-TABLE_KEYS: dict[str, tuple[str, ...]] = {
+BUILT_IN_KEYS: dict[str, tuple[str, ...]] = {
     "imu": COMMON_KEYS,
     "dvl": COMMON_KEYS + ("mounting_rpy_deg", "form", "beam_ids", "beam_velocity_sign", "beam_tolerance_deg"),
     "depth": COMMON_KEYS + ("water_density_kgpm3", "gravity_mps2", "atmospheric_pa"),
     "attitude": COMMON_KEYS,
     "reference": COMMON_KEYS + ("orientation_topic", "depth_topic"),
 }
+PLUGIN_MESSAGES: dict[str, dict[str, BagMessage]] = {
+    source.table: {m.msgtype: m for m in source.bag_messages}
+    for source in SOURCES.values()
+    if source.bag_messages and source.table not in BUILT_IN_KEYS
+}
+"""A plug-in source's table -> the message types it may be read from -> what each field fills
+(each source's own :attr:`~tauvcore.aiding.source.AidingSource.bag_messages`)."""
+PLUGIN_COLUMNS: dict[str, tuple[str, ...]] = {
+    source.table: tuple(c.name for c in source.columns)
+    for source in SOURCES.values()
+    if source.table in PLUGIN_MESSAGES
+}
+"""A plug-in source's table -> its columns besides ``t_s`` (those no message field fills are NaN)."""
+ACCEPTED.update({table: tuple(messages) for table, messages in PLUGIN_MESSAGES.items()})
+TABLE_KEYS: dict[str, tuple[str, ...]] = {
+    **BUILT_IN_KEYS,
+    **dict.fromkeys(PLUGIN_MESSAGES, COMMON_KEYS),
+}
 """Each table's keys (docs/bags.md): ``topic``, ``frame`` (:data:`~tauvcore.bags.frames.FRAMES`),
 ``time`` (:data:`TIMES`), ``offset_s`` [s]; the DVL's mounting, form and beams; the depth's water
-and air; a geodetic reference's orientation and depth topics."""
-TOP_KEYS = ("frame", "time", "msg_paths", "config", *TABLE_KEYS)
+and air; a geodetic reference's orientation and depth topics; a plug-in source's table
+(:data:`PLUGIN_MESSAGES`) the common keys."""
+BASE_FRAME = "base_link"
+"""The body's frame in the bag's ``/tf_static`` unless the mapping's ``base_frame`` says otherwise."""
+TOP_KEYS = ("frame", "time", "base_frame", "msg_paths", "config", *TABLE_KEYS)
 DVL_FORMS = ("auto", "beams", "body")
 """``auto``: per-beam velocities where the message has them (and its beams are the configured
 ones), else the body velocity; ``beams``: per-beam or refuse; ``body``: the body velocity."""
@@ -129,6 +159,7 @@ class BagMapping:
     path: str | None = None  # the mapping file; None: no mapping (every table by type)
     frame: str = "flu_enu"
     time: str = "header"
+    base_frame: str = BASE_FRAME  # the body's frame id in /tf_static (tauvcore.bags.tf)
     tables: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # table -> its keys
     msg_paths: tuple[Path, ...] = ()  # extra .msg definitions
     config: Mapping[str, Any] = field(default_factory=dict)  # a partial tauv configuration
@@ -172,6 +203,9 @@ def read_mapping(path: str | os.PathLike | None, label: str = "the bag mapping")
             raise LogError(f"{_where(name, show(key))}: unknown key (keys: {', '.join(TOP_KEYS)})")
     frame = _choice(name, "frame", raw.get("frame", "flu_enu"), FRAMES)
     time = _choice(name, "time", raw.get("time", "header"), TIMES)
+    base_frame = raw.get("base_frame", BASE_FRAME)
+    if not isinstance(base_frame, str) or not base_frame:
+        raise LogError(f"{_where(name, 'base_frame')}: a frame id (text) is needed, got {show(base_frame)}")
     paths = raw.get("msg_paths", [])
     if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
         raise LogError(f"{_where(name, 'msg_paths')}: a list of .msg file paths is needed, got {show(paths)}")
@@ -195,7 +229,7 @@ def read_mapping(path: str | os.PathLike | None, label: str = "the bag mapping")
                     f"{_where(name, f'{table}.{show(key)}')}: unknown key (keys: {', '.join(keys)})"
                 )
         tables[table] = {key: _value(name, f"{table}.{key}", key, value) for key, value in section.items()}
-    return BagMapping(name, frame, time, tables, msg_paths, config)
+    return BagMapping(name, frame, time, base_frame, tables, msg_paths, config)
 
 
 def _choice(path: str, key: str, value: Any, choices: tuple[str, ...]) -> str:
@@ -253,7 +287,8 @@ def _value(path: str, key: str, name: str, value: Any) -> Any:
 
 
 def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[str, TopicRule]:
-    """The topic rule of each table the bag feeds: the mapping's, else found by type.
+    """The topic rule of each table the bag feeds: the mapping's, else found by type (among the
+    topics the mapping does not name for a table; a plug-in source's table never by type).
 
     Parameters
     ----------
@@ -277,11 +312,13 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
     """
     rules = {}
     where = f"the bag mapping {show_path(mapping.path)}" if mapping.path else "no bag mapping"
+    named = {keys["topic"] for keys in mapping.tables.values() if keys.get("topic")}  # never found by type
     for table in TABLE_KEYS:
         keys = mapping.tables.get(table, {})
         topic = keys.get("topic")
         if topic is None:
-            found = sorted(t for t, kind in topics.items() if kind in DEFAULT_TYPES[table])
+            default = DEFAULT_TYPES.get(table, ())  # a plug-in's table: only by name
+            found = sorted(t for t, kind in topics.items() if kind in default and t not in named)
             if len(found) > 1:
                 raise LogError(
                     f"{show_path(bag)}: topics {', '.join(show(t) for t in found)} could each feed the "

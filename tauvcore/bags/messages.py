@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from tauvcore.aiding.source import BagMessage
+
 NAN = float("nan")
 _NO_BEAMS = (NAN,) * 4 + (0.0,) * 4 + (NAN,) * 12 + (NAN,) * 4
 
@@ -386,3 +388,31 @@ def _column(data: np.ndarray, offset: int, dtype: str) -> np.ndarray:
     """Field at byte ``offset`` of each row of ``data`` (N, L) uint8, as ``dtype`` (N,)."""
     size = np.dtype(dtype).itemsize
     return np.ascontiguousarray(data[:, offset : offset + size]).view(dtype)[:, 0]
+
+
+def _field(message: Any, path: str) -> Any:
+    """The field at dotted ``path`` of ``message``."""
+    for name in path.split("."):
+        message = getattr(message, name)
+    return message
+
+
+def plugin_row(spec: BagMessage) -> Callable[[Any], tuple[float, ...]]:
+    """A plug-in source's row of a message (its :class:`~tauvcore.aiding.source.BagMessage`): per
+    field, a ``world_vector``'s x, y, z, a ``world_sigma``'s position variances (the covariance's
+    diagonal entries 0, 7, 14), a ``scalar``'s value; the reader converts them
+    (tauvcore.bags.reader)."""
+
+    def row(m: Any) -> tuple[float, ...]:
+        out: list[float] = []
+        for f in spec.fields:
+            value = _field(m, f.path)
+            if f.kind == "world_vector":
+                out.extend(float(c) for c in _vec(value))
+            elif f.kind == "world_sigma":
+                out.extend(float(value[i]) for i in (0, 7, 14))
+            else:
+                out.append(float(value))
+        return tuple(out)
+
+    return row

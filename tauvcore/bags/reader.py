@@ -19,17 +19,21 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.bags.frames import C_nb_from_quaternion, body_vectors, mounting_matrix, world_vectors
+from tauvcore.aiding.source import BagMessage
+from tauvcore.bags.frames import C_nb_from_quaternion, body_vectors, world_vectors
 from tauvcore.bags.mapping import (
     ATMOSPHERIC_PA,
     DVL_BEAM_TOLERANCE_DEG,
     GRAVITY_MPS2,
+    PLUGIN_COLUMNS,
+    PLUGIN_MESSAGES,
     WATER_DENSITY_KGPM3,
     BagMapping,
     TopicRule,
     resolve,
 )
-from tauvcore.bags.messages import EXTRACT, FIELDS, LAYOUTS, RawDecoder
+from tauvcore.bags.messages import EXTRACT, FIELDS, LAYOUTS, RawDecoder, plugin_row
+from tauvcore.bags.tf import Mounting, dvl_mounting
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import euler_from_C_nb
 from tauvcore.units import DEG
@@ -156,6 +160,7 @@ class BagTables:
     names: dict[str, str]  # table -> its name in messages: '<bag>:<topic>'
     rules: dict[str, TopicRule]  # table -> the topic that fed it
     notes: tuple[str, ...] = ()  # what the conversion did that the user should know
+    mounting: Mounting | None = None  # the DVL's mounting as taken (tauvcore.bags.tf); None: no DVL
 
 
 class _Topic:
@@ -163,8 +168,10 @@ class _Topic:
     (K, C), filled batch by batch (:meth:`add`) into arrays of the size the bag's index gives
     (``expected``; grown if it has more), so no second copy of a topic is ever made."""
 
-    def __init__(self, kind: str, expected: int = 0) -> None:
+    def __init__(self, kind: str, expected: int = 0, extract: Any = None) -> None:
         self.kind = kind  # the message type
+        self.extract = extract if extract is not None else EXTRACT[kind]  # a message -> its row
+        self.plugin = extract is not None  # read by a plug-in source's own fields (messages.plugin_row)
         self.count = 0  # messages read so far
         self.expected = expected
         self.stamps = np.empty(0, dtype=np.int64)
@@ -244,7 +251,7 @@ class _Batch:
         deserialize = functools.partial(_deserialize, reader, kind)
         self.decoder = (
             RawDecoder(reader.typestore.fielddefs, kind, bool(reader.is2), deserialize)
-            if kind in FIELDS
+            if kind in FIELDS and not entry.plugin
             else None
         )
 
@@ -271,7 +278,7 @@ class _Batch:
             index = self.entry.count + i + 1
             try:
                 msg: Any = reader.deserialize(raw, kind)
-                rows.append(EXTRACT[kind](msg))
+                rows.append(self.entry.extract(msg))
                 header = getattr(msg, "header", None)  # std_msgs' numbers have none
                 stamp = header.stamp if header is not None else None
             except LogError:
@@ -297,9 +304,10 @@ class _Batch:
 
 def read_topics(
     path: str | os.PathLike, mapping: BagMapping
-) -> tuple[dict[str, TopicRule], dict[str, _Topic]]:
-    """The mapping's rules for the bag at ``path`` and the messages of every topic they need (by
-    topic; each with its type as ``kind``)."""
+) -> tuple[dict[str, TopicRule], dict[str, _Topic], Mounting | None]:
+    """The mapping's rules for the bag at ``path``, the messages of every topic they need (by
+    topic; each with its type as ``kind``) and the DVL's mounting (tauvcore.bags.tf; None without
+    a DVL topic)."""
     bag = os.fspath(path)
     reader = open_bag(bag, typestore(mapping.msg_paths))
     try:
@@ -316,9 +324,22 @@ def read_topics(
             for k in ("orientation_topic", "depth_topic")
             if k in r.options
         }
+        plugin = {r.topic: r for t, r in rules.items() if t in PLUGIN_MESSAGES}
+        for topic, rule in plugin.items():
+            others = [t for t, r in rules.items() if r.topic == topic and t != rule.table] + [
+                f"reference ({k})"
+                for r in rules.values()
+                for k in ("orientation_topic", "depth_topic")
+                if r.options.get(k) == topic
+            ]
+            if others:
+                raise LogError(
+                    f"{show_path(bag)}: topic {show(topic)} would feed both the {rule.table} table and the "
+                    f"{others[0]} table: give each its own topic in the bag mapping"
+                )
         for topic in sorted(needed):
             kind = topics[topic]
-            if kind not in EXTRACT:
+            if kind not in EXTRACT and topic not in plugin:
                 raise LogError(f"{show_path(bag)}: topic {show(topic)}: {kind} is not a message tauv reads")
             if kind not in reader.typestore.fielddefs:
                 raise LogError(
@@ -329,7 +350,14 @@ def read_topics(
         for c in reader.connections:
             if c.topic in needed:
                 counts[c.topic] += c.msgcount
-        read = {t: _Topic(topics[t], counts[t]) for t in needed}
+        read = {
+            t: _Topic(
+                topics[t],
+                counts[t],
+                plugin_row(PLUGIN_MESSAGES[plugin[t].table][topics[t]]) if t in plugin else None,
+            )
+            for t in needed
+        }
         batches = {t: _Batch(bag, t, reader, read[t]) for t in needed}
         connections = [c for c in reader.connections if c.topic in needed]
         messages = (
@@ -352,9 +380,15 @@ def read_topics(
             raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
         for entry in read.values():
             entry.finish()
+        try:
+            mounting = dvl_mounting(reader, bag, mapping, rules) if "dvl" in rules else None
+        except bag_errors() as exc:
+            raise LogError(
+                one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}")
+            ) from None
     finally:
         reader.close()
-    return rules, read
+    return rules, read, mounting
 
 
 def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np.ndarray) -> BagTables:
@@ -382,7 +416,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
         For any bad input, naming the bag, the topic, the mapping key or the message.
     """
     bag = os.fspath(path)
-    rules, read = read_topics(bag, mapping)
+    rules, read, mounting = read_topics(bag, mapping)
     if "imu" not in rules:
         raise LogError(
             f"{show_path(bag)}: no sensor_msgs/msg/Imu topic{' named in the mapping' if mapping.path else ''}: "
@@ -409,11 +443,18 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
         kind = rule.msgtype
         data = entry.rows
         t = (entry.times_ns(rule) - origin) * 1e-9 + rule.offset_s
+        if table in PLUGIN_MESSAGES:
+            columns = PLUGIN_COLUMNS[table]
+            tables[table] = {"t_s": t, **_plugin(PLUGIN_MESSAGES[table][kind], data, rule, columns)}
+            if rule.topic not in later:
+                entry.release()
+            continue
         part = _parts(kind, data)
         if table == "imu":
             columns = _imu(part, rule)
         elif table == "dvl":
-            columns = _dvl(bag, kind, part, rule, beam_directions_b, notes)
+            assert mounting is not None  # read_topics finds it wherever there is a DVL
+            columns = _dvl(bag, kind, part, rule, beam_directions_b, mounting.C_b_dvl, notes)
         elif table == "depth":
             columns = {"depth_m": _depth(kind, part, rule)}
         elif table == "attitude":
@@ -425,8 +466,10 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
         del part, data
         if rule.topic not in later:  # what the table needs is in its columns now
             entry.release()
+    if mounting is not None and mounting.source.startswith("/tf_static"):
+        notes.append(f"{show_path(bag)}: the DVL's mounting rotation is {mounting.source}")
     names = {table: f"{bag}:{rule.topic}" for table, rule in rules.items()}
-    return BagTables(bag, tables, names, rules, tuple(notes))
+    return BagTables(bag, tables, names, rules, tuple(notes), mounting)
 
 
 def _parts(kind: str, data: np.ndarray) -> dict[str, np.ndarray]:
@@ -449,17 +492,42 @@ def _depth(kind: str, part: Mapping[str, np.ndarray], rule: TopicRule) -> np.nda
     return part["value"][:, 0].copy()
 
 
+def _plugin(
+    spec: BagMessage, data: np.ndarray, rule: TopicRule, columns: tuple[str, ...]
+) -> dict[str, np.ndarray]:
+    """A plug-in source's ``columns`` of its rows (:func:`~tauvcore.bags.messages.plugin_row`):
+    world vectors in NED, a covariance's position variances as 1-sigma in NED (NaN where negative,
+    ROS's "unknown"), scalars as they are; a column no field fills is NaN."""
+    out: dict[str, np.ndarray] = {}
+    col = 0
+    for f in spec.fields:
+        if f.kind == "scalar":
+            out[f.columns[0]] = data[:, col].copy()
+            col += 1
+            continue
+        values = data[:, col : col + 3]
+        col += 3
+        if f.kind == "world_vector":
+            values = world_vectors(values, rule.frame)
+        else:  # variances: the axes swap as a vector's do (north = ENU's y), a sign flip is no change
+            values = values[:, [1, 0, 2]] if rule.frame == "flu_enu" else values
+            with np.errstate(invalid="ignore"):
+                values = np.sqrt(values)
+        out.update({name: values[:, i].copy() for i, name in enumerate(f.columns)})
+    return {c: out.get(c, np.full(data.shape[0], np.nan)) for c in columns}
+
+
 def _dvl(
     bag: str,
     kind: str,
     part: Mapping[str, np.ndarray],
     rule: TopicRule,
     A_b: np.ndarray,
+    C_b_dvl: np.ndarray,
     notes: list[str],
 ) -> dict[str, np.ndarray]:
     """The DVL's table: per-beam velocities along the configured beams where the message has them
-    and they match, else the body velocity (rotated by the mounting, in FRD)."""
-    C_b_dvl = mounting_matrix(rule.option("mounting_rpy_deg", (0.0, 0.0, 0.0)))
+    and they match, else the body velocity (rotated by the mounting ``C_b_dvl`` (3, 3), in FRD)."""
     form = rule.option("form", "auto")
     where = f"{show_path(bag)}: topic {show(rule.topic)} (dvl)"
     if "beams" in part and form != "body":

@@ -46,7 +46,8 @@ def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
 
 def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None]:
     """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory); a ROS
-    bag's, its own mapping's ``[config]`` (tauvcore.bags.own_mapping, bag_config).
+    bag's, its own mapping's ``[config]`` and the DVL's lever arm from its ``/tf_static``
+    (tauvcore.bags.own_mapping, bag_config).
 
     Its raw tables, checked on their own, and its path.
 
@@ -69,7 +70,7 @@ def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None
     from tauvcore.bags import bag_config, is_bag, own_mapping
 
     if is_bag(directory):  # a bag's own configuration: its own mapping's [config]
-        return bag_config(own_mapping(directory))
+        return bag_config(own_mapping(directory), directory)
     path = os.path.join(os.fspath(directory), CONFIG_FILE)
     if not os.path.lexists(path):
         return {}, None

@@ -40,6 +40,10 @@ FLOAT32_BEAMS = ("marine_acoustic_msgs/msg/Dvl", "ds_sensor_msgs/msg/Dvl")
 TOPICS = {"imu": "/imu/data", "dvl": "/dvl", "depth": "/pressure", "attitude": "/ahrs", "reference": "/odom"}
 FIX_TOPICS = {"topic": "/fix", "orientation_topic": "/fix/orientation", "depth_topic": "/fix/depth"}
 """A NavSatFix reference's topics (:func:`geodetic_tables`): the fix, its attitude, its depth."""
+USBL_TOPIC = "/usbl/fix"
+"""Where write_bag puts a ``usbl`` table."""
+LEVER_ARM_B_M = (0.6, 0.1, 0.15)
+"""The DVL's origin in the body (FRD) [m] that write_bag's ``/tf_static`` gives."""
 BEAM_ORDER = (2, 0, 3, 1)
 """The configured beam (0-3) each message beam is: a message lists its beams in its own order."""
 
@@ -87,6 +91,8 @@ def mission_tables(config: Config, seed: int = 3) -> tuple[dict, dict]:
     attitude.update({f"{n}_rad": att_euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))})
     depth = {"t_s": _on_ns(tables["depth"]["t_s"]), "depth_m": tables["depth"]["depth_m"].copy()}
     per_beam = {"imu": imu, "dvl": beams, "depth": depth, "attitude": attitude, "reference": reference}
+    if "usbl" in tables:  # a plug-in source's table (--aiding ...,usbl), as a bag's USBL topic carries it
+        per_beam["usbl"] = {**tables["usbl"], "t_s": _on_ns(tables["usbl"]["t_s"])}
     k = np.searchsorted(ref["t_s"], dvl["t_s"])
     vel_b = np.einsum("kji,kj->ki", C[k], np.stack([ref[n] for n in ("vel_north_mps", "vel_east_mps",
                                                                   "vel_down_mps")], -1)[k])
@@ -190,11 +196,18 @@ def write_bag(
     frame: str = "frd_ned",
     depth_as: str = "pressure",
     imu_topics: tuple[str, ...] = (TOPICS["imu"],),
+    usbl_as: str = "geometry_msgs/msg/PointStamped",
+    C_b_dvl: np.ndarray | None = None,
+    tf_static: bool = False,
 ) -> Path:
     """Write ``tables`` as a bag: ``storage`` ros1 (``path`` a .bag), sqlite3 (a directory) or mcap
     (a .mcap file: the ROS 2 writer's single storage file). The IMU (sensor_msgs/Imu), the DVL
     (``dvl_type``), the depth (FluidPressure: ``p = p_atm + rho g depth``), the attitude
-    (QuaternionStamped) and the reference (nav_msgs/Odometry, its twist in the body) in ``frame``."""
+    (QuaternionStamped) and the reference (nav_msgs/Odometry, its twist in the body) in ``frame``;
+    a ``usbl`` table as ``usbl_as`` (PointStamped or PoseWithCovarianceStamped) on
+    :data:`USBL_TOPIC`. ``C_b_dvl`` (3, 3) mounts the DVL rotated (its beam directions in its own
+    frame, ``C_b_dvl.T`` of the body's); ``tf_static`` writes that mounting and :data:`LEVER_ARM_B_M`
+    as the ``/tf_static`` transform base_link -> dvl."""
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
@@ -280,11 +293,41 @@ def write_bag(
             msg = make(store, "nav_msgs/msg/Odometry", header=h, child_frame_id="base_link", pose=pose, twist=twist)
             yield ns, TOPICS["reference"], "nav_msgs/msg/Odometry", msg
 
+    def usbl_messages() -> Iterator[tuple[int, str, str, Any]]:
+        usbl = tables.get("usbl")
+        if usbl is None:
+            return
+        pos = vec_n(np.stack([usbl[n] for n in ("north_m", "east_m", "down_m")], -1))
+        for k, t in enumerate(usbl["t_s"]):
+            h, ns = header(t, "usbl")
+            point = make(store, "geometry_msgs/msg/Point", x=pos[k, 0], y=pos[k, 1], z=pos[k, 2])
+            if usbl_as == "geometry_msgs/msg/PointStamped":
+                msg = make(store, usbl_as, header=h, point=point)
+            else:
+                covariance = np.zeros(36)
+                covariance[[0, 7, 14]] = 0.25
+                msg = make(store, usbl_as, header=h, pose=make(
+                    store, "geometry_msgs/msg/PoseWithCovariance", covariance=covariance, pose=make(
+                        store, "geometry_msgs/msg/Pose", position=point, orientation=quat(np.array([0, 0, 0, 1.0])))))
+            yield ns, USBL_TOPIC, usbl_as, msg
+
+    def tf_messages() -> Iterator[tuple[int, str, str, Any]]:
+        if not tf_static:
+            return
+        h, ns = header(0.0, "base_link")
+        rotation = _quaternion(rot_b(C_b_dvl if C_b_dvl is not None else np.eye(3))[None])[0]
+        tf = make(store, "geometry_msgs/msg/TransformStamped", header=h, child_frame_id="dvl", transform=make(
+            store, "geometry_msgs/msg/Transform", translation=vector3(vec_b(np.asarray(LEVER_ARM_B_M))),
+            rotation=quat(rotation)))
+        yield ns, "/tf_static", "tf2_msgs/msg/TFMessage", make(store, "tf2_msgs/msg/TFMessage", transforms=[tf])
+
+    rot_b = (lambda C: D_FLU @ C @ D_FLU) if flu else (lambda C: C)
     dvl: list[tuple[int, str, str, Any]] = []
-    _dvl_messages(store, tables["dvl"], dvl_type, A_b, vec_b, header, vector3, quat, dvl)
+    dvl_A = A_b if C_b_dvl is None else A_b @ C_b_dvl  # each beam in the DVL's own frame (rows: C^T a)
+    _dvl_messages(store, tables["dvl"], dvl_type, dvl_A, vec_b, header, vector3, quat, dvl)
     # by receive time; at one time in this order (the order of a sort of them all: merge is stable)
-    messages = heapq.merge(imu_messages(), dvl, depth_messages(), attitude_messages(), reference_messages(),
-                           key=lambda m: m[0])
+    messages = heapq.merge(tf_messages(), imu_messages(), dvl, depth_messages(), attitude_messages(),
+                           reference_messages(), usbl_messages(), key=lambda m: m[0])
     if storage == "ros1":
         writer: Any = Writer1(path)
     else:

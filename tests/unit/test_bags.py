@@ -13,7 +13,9 @@ import pytest
 from bag_fixtures import (
     DVL_TYPES,
     FIX_TOPICS,
+    LEVER_ARM_B_M,
     TOPICS,
+    USBL_TOPIC,
     geodetic_tables,
     mission_config,
     mission_tables,
@@ -21,7 +23,8 @@ from bag_fixtures import (
 )
 
 from app.cli import main
-from tauvcore.bags import BagMapping, read_bag, read_mapping
+from tauvcore.bags import BagMapping, bag_config, read_bag, read_mapping
+from tauvcore.bags.frames import mounting_matrix
 from tauvcore.eval.replay import replay
 from tauvcore.log_writer import write_log
 from tauvcore.logs import LogError, read_log
@@ -176,3 +179,106 @@ def test_a_bag_mapping_for_a_log_directory_is_refused(mission: dict, capsys: pyt
     mapping = _mapping(root / "m.toml", "")
     _fails(capsys, ["replay", str(root / "log_beams"), "--bag-mapping", str(mapping)], "--bag-mapping", "not a ROS bag")
     shutil.rmtree(root / "nothing", ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def usbl_mission(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A mission with ``--aiding dvl,depth,mag,usbl`` (a fix every 2 s), its CSV log and its replay."""
+    config = mission_config().replace("run", aiding=("dvl", "depth", "mag", "usbl")).replace("usbl", interval_s=2.0)
+    beams, _ = mission_tables(config)
+    root = tmp_path_factory.mktemp("usbl")
+    write_log(root / "log", beams, "csv")
+    expected = replay(config, read_log(root / "log"), np.random.default_rng(0))[1]
+    assert expected["lc"].updates["usbl"].fused.any()
+    return {"config": config, "beams": beams, "replay": expected}
+
+
+@pytest.mark.parametrize(("storage", "frame", "usbl_as"), [
+    ("mcap", "flu_enu", "geometry_msgs/msg/PointStamped"),
+    ("ros1", "frd_ned", "geometry_msgs/msg/PoseWithCovarianceStamped"),
+    ("sqlite3", "flu_enu", "geometry_msgs/msg/PoseWithCovarianceStamped"),
+])
+def test_a_plugin_source_from_its_own_topic_replays_as_the_csv_log(usbl_mission: dict, tmp_path: Path, storage: str,
+                                                                   frame: str, usbl_as: str) -> None:
+    """The USBL's table from the topic the mapping names ([usbl] topic), of a type the plug-in declares
+    (PointStamped, PoseWithCovarianceStamped; world vectors to NED): the same numbers as the CSV log to
+    1e-9. Not named, it is never found by type (a PoseWithCovarianceStamped is not taken for the reference)."""
+    config = usbl_mission["config"]
+    bag = write_bag(tmp_path / STORAGES[storage], storage, usbl_mission["beams"], "marine_acoustic_msgs/msg/Dvl",
+                    config.dvl.A_b, frame=frame, usbl_as=usbl_as)
+    mapping = _mapping(tmp_path / "map.toml", f'frame = "{frame}"\n[usbl]\ntopic = "{USBL_TOPIC}"\n')
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    for axis in ("north_m", "east_m", "down_m"):
+        np.testing.assert_array_equal(log.sources["usbl"][axis], usbl_mission["beams"]["usbl"][axis])
+    _same(replay(config, log, np.random.default_rng(0))[1], usbl_mission["replay"])
+    if usbl_as.endswith("PointStamped"):
+        unnamed = _mapping(tmp_path / "unnamed.toml", f'frame = "{frame}"\n')
+        assert "usbl" not in read_bag(bag, read_mapping(unnamed), config.dvl.A_b).sources
+
+
+def test_a_plugin_topic_of_a_wrong_type_is_one_line_naming_what_it_takes(usbl_mission: dict, tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture) -> None:
+    config = usbl_mission["config"]
+    bag = write_bag(tmp_path / "m.mcap", "mcap", usbl_mission["beams"], "marine_acoustic_msgs/msg/Dvl",
+                    config.dvl.A_b, frame="flu_enu")
+    wrong = _mapping(tmp_path / "wrong.toml", f'[usbl]\ntopic = "{TOPICS["imu"]}"\n')
+    words = ("usbl.topic", f"'{TOPICS['imu']}'", "sensor_msgs/msg/Imu", "geometry_msgs/msg/PointStamped",
+             "geometry_msgs/msg/PoseWithCovarianceStamped")
+    with pytest.raises(LogError) as caught:
+        read_bag(bag, read_mapping(wrong), config.dvl.A_b)
+    assert all(w in str(caught.value) for w in words), caught.value
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(wrong), "--aiding", "dvl,usbl"], *words)
+
+
+def test_the_dvl_mounting_from_tf_static_equals_the_mapping_s(mission: dict, tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture) -> None:
+    """DVL beams rotated by a mounting yaw of 45 deg: with the transform base_link -> dvl in /tf_static
+    (FLU frames, C_frd = D R D) the bag replays as with mounting_rpy_deg in the mapping, and as the
+    CSV log; its translation is the DVL's lever arm (FRD); the mapping's mounting wins over /tf_static."""
+    config = mission["config"]
+    C = mounting_matrix((0.0, 0.0, 45.0))
+    tf = write_bag(tmp_path / "tf.mcap", "mcap", mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                   frame="flu_enu", C_b_dvl=C, tf_static=True)
+    plain = write_bag(tmp_path / "plain.mcap", "mcap", mission["beams"], "marine_acoustic_msgs/msg/Dvl",
+                      config.dvl.A_b, frame="flu_enu", C_b_dvl=C)
+    mapped = read_mapping(_mapping(tmp_path / "map.toml", "[dvl]\nmounting_rpy_deg = [0.0, 0.0, 45.0]\n"))
+    from_tf = read_bag(tf, BagMapping(), config.dvl.A_b)
+    assert any("/tf_static base_link -> dvl" in note for note in from_tf.notes)
+    results = replay(config, from_tf, np.random.default_rng(0))[1]
+    _same(results, replay(config, read_bag(plain, mapped, config.dvl.A_b), np.random.default_rng(0))[1])
+    _same(results, mission["replay_beams"])
+    raw, source = bag_config(BagMapping(), tf)
+    np.testing.assert_allclose(raw["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-12)
+    assert source is not None and "/tf_static" in source
+    assert bag_config(BagMapping(), plain) == ({}, None)
+    with pytest.raises(LogError, match="configured beam"):  # the mapping's (no rotation) wins
+        read_bag(tf, read_mapping(_mapping(tmp_path / "zero.toml", "[dvl]\nmounting_rpy_deg = [0.0, 0.0, 0.0]\n")),
+                 config.dvl.A_b)
+    assert main(["log", "info", str(tf)]) == 0
+    assert "dvl mounting: /tf_static base_link -> dvl" in capsys.readouterr().out
+    assert main(["log", "info", str(tf), "--bag-mapping", str(tmp_path / "map.toml")]) == 0
+    assert "dvl mounting: the mapping's mounting_rpy_deg" in capsys.readouterr().out
+
+
+def test_a_plugin_s_covariance_diagonal_fills_its_sigma_columns_in_ned() -> None:
+    """A source declaring a world vector and a covariance's sigma columns (the USBL has none): from a
+    FLU/ENU message, north = ENU y, east = x, down = -z; sigma north = sqrt(cov[7]), east = sqrt(cov[0]),
+    down = sqrt(cov[14]), NaN for ROS's -1 (unknown); a column no field fills is NaN."""
+    from types import SimpleNamespace
+
+    from tauvcore.aiding.source import BagField, BagMessage
+    from tauvcore.bags.mapping import TopicRule
+    from tauvcore.bags.messages import plugin_row
+    from tauvcore.bags.reader import _plugin
+
+    spec = BagMessage("geometry_msgs/msg/PoseWithCovarianceStamped", (
+        BagField(("north_m", "east_m", "down_m"), "pose.pose.position"),
+        BagField(("sigma_north_m", "sigma_east_m", "sigma_down_m"), "pose.covariance", "world_sigma")))
+    covariance = [0.0] * 36
+    covariance[0], covariance[7], covariance[14] = 4.0, 9.0, -1.0
+    position = SimpleNamespace(x=1.0, y=2.0, z=3.0)
+    msg = SimpleNamespace(pose=SimpleNamespace(pose=SimpleNamespace(position=position), covariance=covariance))
+    columns = ("north_m", "east_m", "down_m", "sigma_north_m", "sigma_east_m", "sigma_down_m", "quality")
+    out = _plugin(spec, np.array([plugin_row(spec)(msg)]), TopicRule("x", "/fix", frame="flu_enu"), columns)
+    assert [float(out[c][0]) for c in columns[:5]] == [2.0, 1.0, -3.0, 3.0, 2.0]
+    assert np.isnan(out["sigma_down_m"][0]) and np.isnan(out["quality"][0])

@@ -1,0 +1,118 @@
+"""A DVL's mounting from the bag's ``/tf_static`` (``tf2_msgs/msg/TFMessage``).
+
+A static transform whose parent (``header.frame_id``) is the body's frame (the mapping's
+``base_frame``, ``base_link`` by default) and whose child (``child_frame_id``) is the DVL
+message's ``header.frame_id`` is the DVL's pose in the body: ``p_body = R(q) p_dvl + t``
+(tf's convention), so ``R(q)`` rotates the DVL's frame into the body's and ``t`` is the DVL's
+origin in the body. The transform the other way round (the DVL the parent) is inverted. Between
+two FLU frames (ROS REP-103, a ``flu_enu`` topic) it is converted to FRD,
+``C_b_dvl = D R D``, ``r_b = D t`` (``D = diag(1, -1, -1)``, tauvcore.bags.frames); a ``frd_ned``
+topic's frames are FRD already. Only a direct transform counts (no chain through other frames).
+
+The mapping's ``[dvl] mounting_rpy_deg`` wins over ``/tf_static`` (:func:`dvl_mounting`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from tauvcore.bags.frames import D_FLU, matrix_from_quaternion, mounting_matrix
+from tauvcore.bags.mapping import BagMapping, TopicRule
+from tauvcore.validation import LogError, show, show_path
+
+TF_STATIC = "/tf_static"
+"""The topic of the static transforms."""
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+"""Its message type."""
+
+
+@dataclass(frozen=True)
+class Mounting:
+    """A DVL's mounting as the replay takes it, and where it comes from."""
+
+    C_b_dvl: np.ndarray  # (3, 3) the DVL's frame to the body (FRD): v_b = C_b_dvl v_dvl
+    r_b_m: np.ndarray | None  # (3,) the DVL's origin in the body (FRD) [m]; None: not in the bag
+    source: str  # where it comes from, for a person ("the mapping's mounting_rpy_deg", ...)
+
+
+def _first_frame_id(reader: Any, topic: str) -> str:
+    """The ``header.frame_id`` of the topic's first message ('' when it has none)."""
+    connections = [c for c in reader.connections if c.topic == topic]
+    for connection, _, raw in reader.messages(connections=connections):
+        header = getattr(reader.deserialize(raw, connection.msgtype), "header", None)
+        return str(header.frame_id) if header is not None else ""
+    return ""
+
+
+def static_transforms(reader: Any) -> dict[tuple[str, str], tuple[np.ndarray, np.ndarray]]:
+    """Every transform of ``/tf_static``: (parent, child) -> (translation (3,), quaternion (4,)
+    x, y, z, w); the last of one pair counts."""
+    connections = [c for c in reader.connections if c.topic == TF_STATIC and c.msgtype == TF_TYPE]
+    out: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+    for connection, _, raw in reader.messages(connections=connections):
+        for tf in reader.deserialize(raw, connection.msgtype).transforms:
+            t, q = tf.transform.translation, tf.transform.rotation
+            out[(str(tf.header.frame_id), str(tf.child_frame_id))] = (
+                np.array([t.x, t.y, t.z], dtype=float),
+                np.array([q.x, q.y, q.z, q.w], dtype=float),
+            )
+    return out
+
+
+def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str, TopicRule]) -> Mounting:
+    """The DVL's mounting: the mapping's ``mounting_rpy_deg`` where it gives one, else the
+    ``/tf_static`` transform between ``mapping.base_frame`` and the DVL message's frame (module
+    docstring), else none (the identity).
+
+    Parameters
+    ----------
+    reader : rosbags.highlevel.AnyReader
+        The open bag.
+    bag : str
+        The bag's path, for the messages.
+    mapping : BagMapping
+        The bag mapping.
+    rules : Mapping of str to TopicRule
+        The tables' rules (:func:`~tauvcore.bags.mapping.resolve`); without ``dvl``, none.
+
+    Returns
+    -------
+    Mounting
+        The rotation, the lever arm where ``/tf_static`` gives one, and where they come from.
+
+    Raises
+    ------
+    LogError
+        A transform with a zero rotation, naming the bag. (A message that cannot be read raises
+        rosbags' own error, :func:`tauvcore.bags.reader.bag_errors`, for the caller to name.)
+    """
+    rule = rules.get("dvl")
+    if rule is not None and "mounting_rpy_deg" in rule.options:
+        rpy = rule.options["mounting_rpy_deg"]
+        return Mounting(mounting_matrix(rpy), None, f"the mapping's mounting_rpy_deg {list(rpy)}")
+    none = Mounting(np.eye(3), None, "none")
+    if rule is None or not any(c.topic == TF_STATIC and c.msgtype == TF_TYPE for c in reader.connections):
+        return none
+    transforms = static_transforms(reader)
+    child = _first_frame_id(reader, rule.topic)
+    base = mapping.base_frame
+    if (base, child) in transforms:
+        t, q = transforms[(base, child)]
+        R = matrix_from_quaternion(q[None])[0]
+    elif (child, base) in transforms:
+        t, q = transforms[(child, base)]
+        R = matrix_from_quaternion(q[None])[0].T
+        t = -R @ t
+    else:
+        return none
+    if not np.isfinite(R).all():
+        raise LogError(
+            f"{show_path(bag)}: topic {show(TF_STATIC)}: the transform {show(base)} -> {show(child)} has a zero rotation"
+        )
+    if rule.frame == "flu_enu":
+        R, t = D_FLU @ R @ D_FLU, D_FLU @ t
+    return Mounting(R, t, f"{TF_STATIC} {base} -> {child}")
