@@ -57,12 +57,12 @@ from typing import Any
 import numpy as np
 
 from tauvcore.bags.mapping import BagMapping, TopicRule, read_mapping, resolve
-from tauvcore.bags.reader import BagTables, bag_errors, bag_tables, is_bag, open_bag, typestore
-from tauvcore.bags.tf import TF_STATIC, dvl_mounting
+from tauvcore.bags.reader import BagTables, bag_tables, is_bag, open_bag, read_mounting, typestore
+from tauvcore.bags.tf import TF_STATIC
 from tauvcore.config import from_dict
 from tauvcore.log_record import Log
 from tauvcore.logs import find_logs, log_from_tables, read_log
-from tauvcore.validation import ConfigError, LogError, one_line, show_path
+from tauvcore.validation import ConfigError, LogError, show_path
 
 
 def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np.ndarray) -> Log:
@@ -148,14 +148,9 @@ def _tf_lever_arm(bag: str, mapping: BagMapping) -> list[float] | None:
         rules = resolve(mapping, topics, bag)
         if "dvl" not in rules:
             return None
-        try:
-            # the translation, whatever rotation the mapping gives
-            rules = {"dvl": dataclasses.replace(rules["dvl"], options={})}
-            found = dvl_mounting(reader, bag, mapping, rules)
-        except bag_errors() as exc:
-            raise LogError(
-                one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}")
-            ) from None
+        # the translation, whatever rotation the mapping gives
+        rules = {"dvl": dataclasses.replace(rules["dvl"], options={})}
+        found = read_mounting(reader, bag, mapping, rules)
     finally:
         reader.close()
     return None if found.r_b_m is None else [float(v) for v in found.r_b_m]

@@ -46,6 +46,39 @@ MSGS = Path(__file__).with_name("msgs")
 """The shipped ``.msg`` definitions, ``<package>/msg/<Type>.msg`` (tauvcore/bags/msgs/README.md)."""
 
 
+def read_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str, TopicRule]) -> Mounting:
+    """:func:`~tauvcore.bags.tf.dvl_mounting` of the open ``reader``, a bag that cannot be read
+    there one :class:`LogError` naming it.
+
+    Parameters
+    ----------
+    reader : rosbags.highlevel.AnyReader
+        The bag, open.
+    bag : str
+        Its path, for the message.
+    mapping : BagMapping
+        The bag mapping.
+    rules : Mapping of str to TopicRule
+        The tables' topics as resolved, ``dvl`` among them.
+
+    Returns
+    -------
+    Mounting
+        As :func:`~tauvcore.bags.tf.dvl_mounting` gives it.
+
+    Raises
+    ------
+    LogError
+        ``/tf_static`` or the DVL's first message cannot be read, or as ``dvl_mounting``.
+    """
+    try:
+        return dvl_mounting(reader, bag, mapping, rules)
+    except bag_errors() as exc:
+        raise LogError(
+            one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}")
+        ) from None
+
+
 def bag_errors() -> tuple[type[BaseException], ...]:
     """What reading a bad bag or definition raises: rosbags' own errors, and what its storage
     layers raise on a truncated or corrupt file (sqlite3, struct, the decompressors, bad text)."""
@@ -380,12 +413,7 @@ def read_topics(
             raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
         for entry in read.values():
             entry.finish()
-        try:
-            mounting = dvl_mounting(reader, bag, mapping, rules) if "dvl" in rules else None
-        except bag_errors() as exc:
-            raise LogError(
-                one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}")
-            ) from None
+        mounting = read_mounting(reader, bag, mapping, rules) if "dvl" in rules else None
     finally:
         reader.close()
     return rules, read, mounting
