@@ -61,6 +61,7 @@ from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.smoothing import OUTPUT_TAPE, Tape, TapeWriter, smooth_tape, tape_rows
 from tauvcore.engine.sources import active
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import (
@@ -70,7 +71,7 @@ from tauvcore.filter.eskf import (
     fuse_in_place,
     make_outcome,
 )
-from tauvcore.filter.kernels.common import plain
+from tauvcore.filter.kernels.common import CORE, NAV, plain
 from tauvcore.filter.kernels.dvl import (
     DVL_ELC,
     DVL_LC,
@@ -123,10 +124,15 @@ class FilterBank(ChunkDriver):
         rng: np.random.Generator | Sequence[np.random.Generator],
         keep: bool = True,
         sensor_errors: bool = False,
+        tape: Tape | None = None,
     ) -> None:
         methods = tuple(config.run.methods)
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         self.rng = rng
+        # the smoother's tape of the marks (tauvcore.engine.smoothing); None: no smoother
+        self.taping = TapeWriter(tape, self.batch, self.geodetic) if tape is not None else None
+        self._no_tape = tape_rows(0, self.batch)
+        M, R = self.batch
         M, R = self.batch
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
@@ -244,6 +250,8 @@ class FilterBank(ChunkDriver):
         self.dtheta_sum = np.zeros((R, 3))  # gyro increments since k_cov
         self.dvl_rejected = np.zeros(self.batch, dtype=np.int64)  # consecutive pings the gate rejected
         self.dvl_reacquire = np.zeros(self.batch, bool)  # reset at the last ping: the next one ungated
+        # the smoother's transition since its last mark (no rows: no smoother)
+        self.phi_acc = np.zeros(((self.batch[0] if self.taping is not None else 0), R, NAV, CORE))
         tau_s = config.filter.scale_factor_velocity_tau_s
         # the velocity the DVL scale factor's column of H is taken at (tauvcore.engine.scale_factor)
         self.sf_velocity = VelocityAverage(tau_s) if tau_s > 0 else None
@@ -530,6 +538,7 @@ class FilterBank(ChunkDriver):
             self.ping_bias,
             self.ping_sf,
             self.nonfinite_at_s,
+            self.phi_acc,
         )
         return plain(state)
 
@@ -546,9 +555,10 @@ class FilterBank(ChunkDriver):
         )
         return plain(constants)
 
-    @staticmethod
-    def _outputs(store: Store) -> loop.Outputs:
-        """The store's arrays the compiled records write, in a plain tuple."""
+    def _outputs(self, store: Store) -> loop.Outputs:
+        """The store's arrays the compiled records write, and the smoother's tape of the current
+        chunk (no rows without a smoother), in a plain tuple."""
+        tape = self.taping.out if self.taping is not None and self.taping.out is not None else self._no_tape
         outputs = loop.Outputs(
             store["series"],
             store["nees_block"],
@@ -559,6 +569,7 @@ class FilterBank(ChunkDriver):
             store["sensor_est"],
             store["sensor_sigma"],
             store["sensor_true"],
+            *(tape[name] for name in OUTPUT_TAPE),
         )
         return plain(outputs)
 
@@ -635,6 +646,8 @@ class FilterBank(ChunkDriver):
             np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
         )
         self._chunk_in = chunk_in = plain(chunk_in)
+        if self.taping is not None:
+            self.taping.open(store, self.slot)
         if k0 == 0 and 0 in out_row:
             self._record(store, 0, 0)
         events = np.zeros(n, dtype=bool)  # aiding epochs
@@ -671,6 +684,8 @@ class FilterBank(ChunkDriver):
             k = int(stops[s])
             i = k - k0
             t = float(truth.t_s[i])
+            taping = self.taping if why != loop.STOPS_YIELD else None
+            mark = taping.before(self.phi_acc, self.P, self.flat) if taping is not None else None
             if why == loop.STOPS_REPAIR:
                 self._repair()
             if why in (loop.STOPS_EVENT, loop.STOPS_REPAIR):
@@ -695,6 +710,8 @@ class FilterBank(ChunkDriver):
                     self._condition()
                     self.k_checked = k
                     self._check_sensor_errors(t)
+                if taping is not None and mark is not None:
+                    taping.after(mark, self.P, self.flat, self.slot)
                 if k in out_row:
                     latest = np.searchsorted(ping_rows, k, side="right") - 1
                     if latest >= 0:
@@ -704,6 +721,8 @@ class FilterBank(ChunkDriver):
             if k in out_row and poll_every and self.slot % poll_every == 0:
                 yield k
             s += 1
+        if self.taping is not None:
+            self.taping.close(self.slot)
 
     # ------------------------------------------------------------------ results
     def _results(self, cat: Store, taking: bool) -> dict[str, MethodResult]:
@@ -714,16 +733,13 @@ class FilterBank(ChunkDriver):
         for m, method in enumerate(self.methods):
             recs = {src: rec for src, rec in self.recorders.items() if rec.members[m] and rec.count}
             built = {src: rec.build(m, first_update.get(src, 0)) for src, rec in recs.items()}
-            flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [
-                rec.divergence_s(m) for rec in recs.values()
-            ]
             out[method] = method_result(
                 method,
                 m,
                 cat["t_s"],
                 cat["series"],
                 cat,
-                np.fmin.reduce(np.stack(flagged), axis=0),
+                self._flagged_at(m),
                 self.sensor_errors,
                 p_floor_count=self.p_floor_count[m].copy(),
                 updates={src: record for src, record in built.items() if record is not None},
@@ -731,6 +747,41 @@ class FilterBank(ChunkDriver):
         if taking:
             handed_out(self.recorders.values(), self.keep)
         return out
+
+    def _flagged_at(self, m: int) -> np.ndarray:
+        """(R,) the monitor's first flag of method m's runs [s], NaN: none (module docstring)."""
+        recs = [rec for rec in self.recorders.values() if rec.members[m] and rec.count]
+        flagged = [self.nonfinite_at_s[m], self.implausible_at_s[m]] + [rec.divergence_s(m) for rec in recs]
+        return np.fmin.reduce(np.stack(flagged), axis=0)
+
+    # ------------------------------------------------------------------ the smoother
+    def smooth(self, out: Tape) -> np.ndarray:
+        """The smoother's backward pass over the tape of the run so far (up to a stop), its
+        smoothed stores into ``out`` (tauvcore.engine.smoothing.smooth_tape); the tape is
+        emptied. -> (M, R) the steps where the pass started afresh."""
+        assert self.taping is not None  # a bank made with a tape
+        self.taping.close(self.slot)
+        return smooth_tape(self.taping.tape, self.batch, self.block_of_state, SENSOR_INDEX, units.DEG, out)
+
+    def smoothed_results(self, store: Store, cuts: np.ndarray) -> dict[str, MethodResult]:
+        """Each method's smoothed results from smoothed stores (:meth:`smooth`) concatenated:
+        the monitor's verdict is the forward pass's, there are no updates."""
+        if self.sensor_errors and not self.dvl_truth_known:
+            store = {**store, "sensor_true": np.where(_DVL_COLUMNS, np.nan, store["sensor_true"])}
+        return {
+            method: method_result(
+                method,
+                m,
+                store["t_s"],
+                store["series"],
+                store,
+                self._flagged_at(m),
+                self.sensor_errors,
+                p_floor_count=self.p_floor_count[m].copy(),
+                smoother_cuts=cuts[m].copy(),
+            )
+            for m, method in enumerate(self.methods)
+        }
 
 
 def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:

@@ -48,6 +48,8 @@ class BankState(NamedTuple):
     ping_bias: np.ndarray  # (R, 4) the true DVL beam biases of the latest ping (for the records)
     ping_sf: np.ndarray  # (R,) and its true scale factor
     nonfinite_at: np.ndarray  # (M, R) first output epoch [s] with a state or P not finite (NaN: none)
+    phi_acc: np.ndarray  # (M, R, 9, 15) the smoother's transition since its last mark, Phi - I on its
+    #                      non-zero block (tauvcore.filter.kernels.smoother); no rows: smoother off
 
 
 class ChunkTruth(NamedTuple):
@@ -93,6 +95,48 @@ class Outputs(NamedTuple):
     sensor_est: np.ndarray  # (T, M, R, S) the estimated sensor errors; no rows: not recorded
     sensor_sigma: np.ndarray  # (T, M, R, S) their 1-sigma (sqrt of P's diagonal)
     sensor_true: np.ndarray  # (T, M, R, S) their true values
+    tape_X: np.ndarray  # (T, M, R, 9, 15) the smoother's tape: the transition since its last mark,
+    tape_P: np.ndarray  # (T, M, R, 20, 20) P, and
+    tape_dx: np.ndarray  # (T, M, R, 20) the error against truth; no rows: the smoother is off
+
+
+@jit
+def error_series_into(
+    dx: np.ndarray,
+    P: np.ndarray,
+    deg: float,
+    members: np.ndarray,
+    sizes: np.ndarray,
+    lead: int,
+    order: np.ndarray,
+    L: np.ndarray,
+    y: np.ndarray,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+) -> None:
+    """One filter's :data:`SERIES_NAMES` (11,) and block NEES (B,) at an epoch from its error
+    against truth ``dx`` (20,) and covariance ``P`` (20, 20): the error norms, 1-sigma, NEES,
+    tilt and heading (attitude in ``1 / deg``). The NEES plan (members, sizes, lead, order:
+    tauvcore.filter.kernels.nees.nees_plan) and L (20, 20), y (20,) scratch."""
+    ev = ea = ep = sv = sa = sp = 0.0
+    for i in range(3):
+        ev += dx[VEL + i] ** 2
+        ea += dx[ATT + i] ** 2
+        ep += dx[POS + i] ** 2
+        sv += P[VEL + i, VEL + i]
+        sa += P[ATT + i, ATT + i]
+        sp += P[POS + i, POS + i]
+    series[0] = math.sqrt(ev)
+    series[1] = math.sqrt(ea) / deg
+    series[2] = math.sqrt(ep)
+    series[3] = math.sqrt(sv)
+    series[4] = math.sqrt(sa) / deg
+    series[5] = math.sqrt(sp)
+    series[6] = nees_blocks_into(P, dx, members, sizes, lead, order, L, y, nees_block)
+    series[7] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
+    series[8] = abs(dx[ATT + 2]) / deg
+    series[9] = math.sqrt(P[ATT, ATT] + P[ATT + 1, ATT + 1]) / deg
+    series[10] = math.sqrt(P[ATT + 2, ATT + 2]) / deg
 
 
 @jit
@@ -120,15 +164,23 @@ def record_bank(
 
     When the store has rows for them, the sensor errors too (sensor_est, sensor_sigma, sensor_true
     (T, M, R, S), column j the state ``sensor_index[j]``): the estimate, ``sqrt(P_ii)`` and the
-    truth dx is formed of, so that ``sensor_true - sensor_est`` is dx's sensor part."""
+    truth dx is formed of, so that ``sensor_true - sensor_est`` is dx's sensor part.
+
+    When the store has rows for the smoother's tape (tape_X, tape_P, tape_dx), the epoch is one
+    of its marks: the transition since the last mark (``phi_acc``, then reset to the identity), P
+    and dx (tauvcore.engine.smoothing)."""
     _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _ = chunk
     t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
     ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
-    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at = bank
+    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at, phi_acc = bank
     origin, _, _, block_of_state, num_blocks, deg, sensor_index = constants
-    series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs
+    series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs[
+        :9
+    ]
+    tape_X, tape_P, tape_dx = outputs[9:]
     M, R = pos.shape[0], pos.shape[1]
     with_sensors = sensor_est.shape[0] > 0
+    taping = tape_P.shape[0] > 0
     x_est = np.zeros(N)  # the sensor states' estimate and truth, by state
     x_true = np.zeros(N)
     dx = np.empty(N)
@@ -147,27 +199,14 @@ def record_bank(
                 dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
             dx[SF] = sf_t[r] - sf[m, r]
             Pm = P[m, r]
-            ev = ea = ep = sv = sa = sp = 0.0
-            for i in range(3):
-                ev += dx[VEL + i] ** 2
-                ea += dx[ATT + i] ** 2
-                ep += dx[POS + i] ** 2
-                sv += Pm[VEL + i, VEL + i]
-                sa += Pm[ATT + i, ATT + i]
-                sp += Pm[POS + i, POS + i]
-            series[0, slot, m, r] = math.sqrt(ev)
-            series[1, slot, m, r] = math.sqrt(ea) / deg
-            series[2, slot, m, r] = math.sqrt(ep)
-            series[3, slot, m, r] = math.sqrt(sv)
-            series[4, slot, m, r] = math.sqrt(sa) / deg
-            series[5, slot, m, r] = math.sqrt(sp)
-            series[6, slot, m, r] = nees_blocks_into(
-                Pm, dx, members, sizes, lead, order, L, y, nees_block[slot, m, r]
+            error_series_into(
+                dx, Pm, deg, members, sizes, lead, order, L, y, series[:, slot, m, r], nees_block[slot, m, r]
             )
-            series[7, slot, m, r] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
-            series[8, slot, m, r] = abs(dx[ATT + 2]) / deg
-            series[9, slot, m, r] = math.sqrt(Pm[ATT, ATT] + Pm[ATT + 1, ATT + 1]) / deg
-            series[10, slot, m, r] = math.sqrt(Pm[ATT + 2, ATT + 2]) / deg
+            if taping:
+                tape_P[slot, m, r] = Pm
+                tape_dx[slot, m, r] = dx
+                tape_X[slot, m, r] = phi_acc[m, r]
+                phi_acc[m, r] = 0.0
             total = 0.0
             for i in range(N):
                 total += Pm[i, i]
@@ -254,7 +293,7 @@ def run_stops(
     last check's, and the output epochs recorded. The same kernels the caller would call one by
     one, in the same order, so the numbers are those of the step-by-step loop."""
     stops, is_event, out_row, k0, check_step, yield_every = schedule
-    pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _ = bank
+    pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _, phi_acc = bank
     phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all = chunk
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
     _, w_ie, q, _, _, _, _ = constants
@@ -285,7 +324,7 @@ def run_stops(
             geodetic,
         )
         k_state = k
-        propagate_bank(P, pos, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q, geodetic)
+        propagate_bank(P, pos, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q, geodetic, phi_acc)
         for r in range(R):
             for j in range(3):
                 dtheta_sum[r, j] = 0.0

@@ -5,7 +5,8 @@ generated chunk by chunk so that memory does not grow with the mission's length
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -13,6 +14,7 @@ from tauvcore.config import YOO_METHODS, Config
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import ChunkSource, SimChunk, Simulation, chunks_of
+from tauvcore.engine.smoothing import SmoothOptions, forward
 from tauvcore.engine.sources import SourceStream
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.engine.yoo_bank import YooBank
@@ -30,6 +32,7 @@ def run(
     should_stop: Callable[[], bool] | None = None,
     progress_min_wall_s: float = 0.0,
     sensor_errors: bool = False,
+    smooth: SmoothOptions | None = None,
 ) -> dict[str, MethodResult]:
     """Run every method of ``config.run.methods`` on a whole simulation; results keyed by method.
 
@@ -63,6 +66,11 @@ def run(
         1-sigma and their truth (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``,
         (T, R, S) in the SI units of :func:`tauvcore.engine.results.sensor_states`); False: those
         are None and cost nothing. Every other number is the same either way.
+    smooth : SmoothOptions or None
+        Also run the fixed-interval smoother after the forward pass (tauvcore.engine.smoothing)
+        and give each 20-state method's smoothed results as ``MethodResult.smoothed`` (Yoo 2014's
+        methods: None); the simulation is then fed in chunks of :data:`STREAM_CHUNK_S` (the same
+        numbers), so that the smoother's tape is stored chunk by chunk. None: no smoother.
 
     Returns
     -------
@@ -71,10 +79,22 @@ def run(
         units their field names carry), in ``config.run.methods`` order.
     """
     banks = Banks(
-        config, sim.num_runs, sim.truth.num_samples, sim.truth.dt_s, rng, sensor_errors=sensor_errors
+        config,
+        sim.num_runs,
+        sim.truth.num_samples,
+        sim.truth.dt_s,
+        rng,
+        sensor_errors=sensor_errors,
+        smooth=smooth,
     )
-    banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop, progress_min_wall_s)
-    return banks.results()
+    if smooth is None:
+        banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop, progress_min_wall_s)
+        return banks.results()
+    chunk_samples = max(1, round(STREAM_CHUNK_S / sim.truth.dt_s))
+    for chunk in chunks_of(sim, chunk_samples):
+        if not banks.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s):
+            break
+    return banks.with_smoothed(banks.results())
 
 
 def run_chunked(
@@ -141,6 +161,8 @@ class Banks:
     sensor_errors : bool
         Whether both banks record the estimated sensor errors, their 1-sigma and their truth at
         every output epoch (:func:`run`).
+    smooth : SmoothOptions or None
+        The 20-state bank keeps the smoother's tape (:meth:`smoothed`); None: no smoother.
     """
 
     def __init__(
@@ -152,9 +174,11 @@ class Banks:
         rng: np.random.Generator | Sequence[np.random.Generator],
         keep: bool = True,
         sensor_errors: bool = False,
+        smooth: SmoothOptions | None = None,
     ) -> None:
 
         self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
+        self.smooth = smooth
         self.order = config.run.methods
         first = tuple(m for m in self.order if m not in YOO_METHODS)
         second = tuple(m for m in self.order if m in YOO_METHODS)
@@ -167,6 +191,7 @@ class Banks:
                 rng,
                 keep=keep,
                 sensor_errors=sensor_errors,
+                tape=smooth.tape() if smooth is not None else None,
             )
             if first or not second
             else None
@@ -292,6 +317,68 @@ class Banks:
             self.bank.take() if self.bank is not None else {},
             self.yoo.take(self.until_s) if self.yoo is not None else {},
         )
+
+    def smoothed(self) -> tuple[Iterator[dict[str, MethodResult]], Callable[[], None]]:
+        """The smoother's backward pass over the run so far, then its results chunk by chunk.
+
+        Returns
+        -------
+        tuple
+            An iterator of the smoothed results of each chunk in the mission's order (method name
+            -> :class:`MethodResult` of the 20-state methods, series (T_chunk, R), with
+            ``smoother_cuts``), and a function that removes what the smoother still holds (its
+            temporary directory), to be called once done with the iterator.
+
+        Raises
+        ------
+        SmoothingError
+            The smoother cannot write its temporary directory.
+        """
+        bank, options = self.bank, self.smooth
+        assert options is not None  # Banks made with smooth
+        out = options.tape()
+        if bank is None:
+            return iter(()), out.close
+        cuts = bank.smooth(out)
+
+        def chunks() -> Iterator[dict[str, MethodResult]]:
+            for store in forward(out):
+                yield bank.smoothed_results(store, cuts)
+
+        return chunks(), out.close
+
+    def with_smoothed(self, results: dict[str, MethodResult]) -> dict[str, MethodResult]:
+        """``results`` of the whole run with each 20-state method's smoothed results attached
+        (``MethodResult.smoothed``; the smoother's backward pass runs here).
+
+        Parameters
+        ----------
+        results : dict[str, MethodResult]
+            The run's results (:meth:`results`).
+
+        Returns
+        -------
+        dict[str, MethodResult]
+            The same, each 20-state method's with ``smoothed``.
+        """
+        bank, options = self.bank, self.smooth
+        if bank is None or options is None:
+            return results
+        out = options.tape()
+        try:
+            cuts = bank.smooth(out)
+            stores = list(forward(out))
+            cat = {
+                name: np.concatenate([st[name] for st in stores], axis=1 if name == "series" else 0)
+                for name in stores[0]
+            }
+        finally:
+            out.close()
+        smoothed = bank.smoothed_results(cat, cuts)
+        return {
+            name: replace(result, smoothed=smoothed[name]) if name in smoothed else result
+            for name, result in results.items()
+        }
 
 
 STREAM_CHUNK_S = 10.0

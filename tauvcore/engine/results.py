@@ -171,6 +171,10 @@ class MethodResult:
     sensor_true: np.ndarray | None = None  # (T, R, S) the simulation's true value, same units: the IMU's
     # biases at the epoch's sample, the DVL's beam biases and scale factor of the latest ping (the first
     # ping's before it); NaN where the truth is unknown (a log's IMU; the DVL's of a mission without pings)
+    smoothed: MethodResult | None = None  # the fixed-interval smoother's results over the same epochs (no
+    # updates: the filter's), None unless the run asked for them (mission.run(..., smooth=...))
+    smoother_cuts: np.ndarray | None = None  # (R,) with ``smoothed``: steps where the backward pass
+    # started afresh (a prior not positive definite; tauvcore.filter.kernels.smoother)
 
 
 SERIES_FIELDS = {

@@ -9,7 +9,7 @@ would otherwise compile side by side while the server answers its clients) nor t
 pays it. It runs a 12 s mission that takes every path of the engine: all eleven methods (the
 20-state bank's nine, Yoo 2014's two in their own compiled loop), DVL, depth and magnetometer
 aiding, four, two and three beams, two runs with random initial errors, streamed in two
-chunks; then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations of motion and
+chunks, and the smoother's backward pass over the same mission (one method); then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations of motion and
 autopilot).
 """
 
@@ -42,6 +42,17 @@ def warm_up() -> float:
     )
     t0 = time.perf_counter()
     run_streaming(config, np.random.default_rng(0), num_runs=2, chunk_s=6.0)
+    from tauvcore.engine.mission import run
+    from tauvcore.engine.simulation import simulate
+    from tauvcore.engine.smoothing import SmoothOptions
+
+    smoothed = config.replace("run", methods=("lc",))
+    run(
+        smoothed,
+        simulate(smoothed, np.random.default_rng(1)),
+        np.random.default_rng(2),
+        smooth=SmoothOptions(),
+    )
     from tauvcore.truth import generate
 
     generate(

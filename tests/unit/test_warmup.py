@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from tauvcore.engine import loop, warmup, yoo_loop
-from tauvcore.filter.kernels import correction, dvl, invariant, strapdown
+from tauvcore.engine import loop, smoothing, warmup, yoo_loop
+from tauvcore.filter.kernels import correction, dvl, invariant, smoother, strapdown
 from tauvcore.truth import dynamic
 
 # the engine's entry points from Python (propagate_bank runs inside run_stops), by their modules
@@ -14,6 +14,8 @@ ENGINE_KERNELS = (
     (correction, ("correct_batch", "inject_batch")),
     (dvl, ("dvl_measure_bank",)),
     (invariant, ("retract_batch",)),
+    (smoother, ("smooth_backward",)),
+    (smoothing, ("smoothed_series_into",)),
 )
 
 

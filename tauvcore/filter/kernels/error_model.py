@@ -378,6 +378,22 @@ def _add_half_noise(P: np.ndarray, Q6: np.ndarray, q: np.ndarray, dt: float) -> 
 
 
 @jit
+def _compose_transition(X: np.ndarray, Z: np.ndarray, Y: np.ndarray) -> None:
+    """``Z <- X + Z + X[:, :9] Z`` in place (Y (9, 15) scratch): ``(I + X)(I + Z) - I`` for two
+    transitions of the form :func:`transition_core_into` describes (only rows 0-8 of Z are not
+    zero, so ``X Z`` needs X's first nine columns)."""
+    for i in range(NAV):
+        for j in range(CORE):
+            s = X[i, j] + Z[i, j]
+            for k in range(NAV):
+                s += X[i, k] * Z[k, j]
+            Y[i, j] = s
+    for i in range(NAV):
+        for j in range(CORE):
+            Z[i, j] = Y[i, j]
+
+
+@jit
 def propagate_bank(
     P: np.ndarray,
     pos: np.ndarray,
@@ -390,6 +406,7 @@ def propagate_bank(
     w_ie: np.ndarray,
     q: np.ndarray,
     geodetic: bool,
+    phi_acc: np.ndarray,
 ) -> None:
     """Covariance step of every (method, run) over ``dt_c``: F at the nominal attitude and body
     velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``; its earth terms the
@@ -398,7 +415,11 @@ def propagate_bank(
 
     ``P <- Phi P Phi^T + Qd`` with the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2``
     (tauvcore.ins.error_model.discretise) folded into one sandwich:
-    ``P <- Phi (P + GQG/2) Phi^T + GQG/2``, every product over the non-zero blocks only."""
+    ``P <- Phi (P + GQG/2) Phi^T + GQG/2``, every product over the non-zero blocks only.
+
+    ``phi_acc`` (M, R, 9, 15): the product of the steps' transitions since the smoother's last
+    mark, ``Phi_acc - I`` on its non-zero block (tauvcore.filter.kernels.smoother), updated to
+    ``Phi Phi_acc``; with no rows (the smoother off) it is left alone."""
     A = np.empty((NAV, CORE))
     X = np.empty((NAV, CORE))
     Y = np.empty((NAV, CORE))
@@ -430,6 +451,8 @@ def propagate_bank(
             _add_half_noise(Pmr, Q6, q, dt_c)
             sandwich_core_into(Pmr, X, W)
             _add_half_noise(Pmr, Q6, q, dt_c)
+            if phi_acc.shape[0]:
+                _compose_transition(X, phi_acc[m, r], Y)
 
 
 # ---------------------------------------------------------------- batched entry points for numpy callers

@@ -1,0 +1,533 @@
+"""The fixed-interval smoother of the 20-state filter bank: its tape and its backward pass.
+
+During the forward pass the bank (tauvcore.engine.filter_bank.FilterBank with a :class:`Tape`)
+leaves a mark at every output epoch and at every epoch where it corrected (an aiding epoch, a
+velocity reset, a repair of P): the transition since the mark before, P (before and after the
+corrections at an aiding mark, and the correction the nominal state took there), and at an output
+mark the error against truth and the filtered estimates. A chunk's marks are one segment of the
+tape, kept in memory up to the tape's budget and written to a temporary directory beyond it.
+
+After the forward pass, :func:`smooth_tape` runs the Rauch-Tung-Striebel backward pass
+(tauvcore.filter.kernels.smoother: its equations) over the segments, latest first, and makes of
+each a store of smoothed output epochs with the fields of the filtered one (error norms, 1-sigma,
+NEES of the full state and of each block, estimated position, velocity, attitude and sensor
+errors): the smoothed error against truth is ``dx - s``, the smoothed estimate ``x+ (+) s``
+(position and the sensor errors add, the attitude turns by ``exp([s_rho x])``, the body velocity
+adds), both to first order in ``s`` as the filter's own correction is. The gate's decisions,
+velocity resets and repairs of the forward pass are kept as they were.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from tauvcore.engine import loop
+from tauvcore.filter.eskf import Nominal, difference
+from tauvcore.filter.kernels.common import CORE, NAV, N, jit
+from tauvcore.filter.kernels.nees import nees_plan
+from tauvcore.filter.kernels.smoother import smooth_backward
+from tauvcore.filter.layout import STATE, NavState
+from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, mv
+
+OUTPUT_TAPE = ("tape_X", "tape_P", "tape_dx")
+"""The output marks' fields of a segment the compiled records fill (tauvcore.engine.loop.Outputs)."""
+
+ESTIMATES = (
+    "t_s",
+    "out_k",
+    "est_pos_n",
+    "est_vel_n",
+    "est_euler",
+    "sensor_est",
+    "sensor_sigma",
+    "sensor_true",
+)
+"""The filtered store's fields a segment keeps, for the smoothed estimates and their records."""
+
+
+DEFAULT_BUDGET_MB = 256.0
+"""Megabytes of tape the smoother holds in memory by default; the rest goes to a temporary file."""
+
+
+@dataclass(frozen=True)
+class SmoothOptions:
+    """Ask a run for the smoother (tauvcore.engine.mission.run and its siblings)."""
+
+    budget_mb: float = DEFAULT_BUDGET_MB  # tape held in memory [MB]; beyond it, a temporary directory
+    directory: str | None = None  # where that directory is made; None: the system's (TMPDIR)
+
+    def tape(self) -> Tape:
+        """An empty tape with these options.
+
+        Returns
+        -------
+        Tape
+            The tape.
+        """
+        return Tape(int(self.budget_mb * 1e6), self.directory)
+
+
+class SmoothingError(ValueError):
+    """The smoother cannot do what it was asked (its budget, its temporary directory): one line."""
+
+
+def tape_bytes_per_epoch(batch: tuple[int, int]) -> int:
+    """Bytes of tape an output epoch of ``batch`` (methods, runs) filters takes."""
+    return int(np.prod(batch)) * 8 * (NAV * CORE + N * N + N)
+
+
+def tape_rows(T: int, batch: tuple[int, int]) -> dict[str, np.ndarray]:
+    """The output marks' rows of a segment of ``T`` output epochs (:data:`OUTPUT_TAPE`, zeros):
+    with ``T`` 0, what the compiled records take when there is no smoother.
+
+    Parameters
+    ----------
+    T : int
+        Output epochs.
+    batch : tuple of int
+        (M, R): methods and runs.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        ``tape_X`` (T, M, R, 9, 15), ``tape_P`` (T, M, R, 20, 20), ``tape_dx`` (T, M, R, 20).
+    """
+    return {
+        "tape_X": np.zeros((T,) + batch + (NAV, CORE)),
+        "tape_P": np.zeros((T,) + batch + (N, N)),
+        "tape_dx": np.zeros((T,) + batch + (N,)),
+    }
+
+
+class Tape:
+    """The forward pass's marks, segment by segment (module docstring).
+
+    Parameters
+    ----------
+    budget_bytes : int
+        Bytes of segments held in memory; the segments beyond go to files in a temporary
+        directory (removed by :meth:`close`).
+    directory : str or None
+        Where the temporary directory is made; None: the system's (``TMPDIR``).
+    """
+
+    def __init__(self, budget_bytes: int, directory: str | None = None) -> None:
+        self.budget_bytes = budget_bytes
+        self.directory = directory
+        self.held_bytes = 0
+        self.spilled_bytes = 0
+        self.segments: list[dict[str, np.ndarray] | str] = []
+        self.tmp: str | None = None
+
+    def add(self, segment: dict[str, np.ndarray]) -> None:
+        """Keep one segment (its arrays are not copied), in memory while the budget allows.
+
+        Parameters
+        ----------
+        segment : dict[str, numpy.ndarray]
+            The segment's arrays by name.
+
+        Raises
+        ------
+        SmoothingError
+            The temporary directory cannot be made or written (naming it and why).
+        """
+        size = sum(a.nbytes for a in segment.values())
+        if self.held_bytes + size <= self.budget_bytes:
+            self.segments.append(segment)
+            self.held_bytes += size
+            return
+        path = os.path.join(self._tmp(), f"{len(self.segments):06d}")
+        try:
+            os.mkdir(path)
+            for name, a in segment.items():
+                np.save(os.path.join(path, name + ".npy"), a)
+        except OSError as exc:
+            self.close()
+            raise SmoothingError(
+                f"the smoother's tape cannot be written to {path}: {exc.strerror or exc} "
+                "(free disk space there, or give another directory with --smooth-dir)"
+            ) from None
+        self.segments.append(path)
+        self.spilled_bytes += size
+
+    def _tmp(self) -> str:
+        if self.tmp is None:
+            try:
+                self.tmp = tempfile.mkdtemp(prefix="tauv-smoother-", dir=self.directory)
+            except OSError as exc:
+                raise SmoothingError(
+                    f"the smoother cannot make its temporary directory in {self.directory or tempfile.gettempdir()}: "
+                    f"{exc.strerror or exc}"
+                ) from None
+        return self.tmp
+
+    def segment(self, i: int) -> dict[str, np.ndarray]:
+        """Segment ``i`` (from a file: its arrays mapped, read as they are used).
+
+        Parameters
+        ----------
+        i : int
+            The segment's index, in the order they were added.
+
+        Returns
+        -------
+        dict[str, numpy.ndarray]
+            Its arrays by name.
+        """
+        held = self.segments[i]
+        if isinstance(held, dict):
+            return held
+        return {
+            name[:-4]: np.load(os.path.join(held, name), mmap_mode="r") for name in sorted(os.listdir(held))
+        }
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    def close(self) -> None:
+        """Drop every segment and remove the temporary directory."""
+        self.segments = []
+        self.held_bytes = self.spilled_bytes = 0
+        if self.tmp is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            self.tmp = None
+
+
+class TapeWriter:
+    """What the filter bank leaves on its :class:`Tape`: a chunk's marks, as one segment.
+
+    The output marks' rows are filled by the compiled records (:data:`OUTPUT_TAPE`, through
+    :attr:`out`); an aiding mark is taken around the epoch's corrections (:meth:`before`,
+    :meth:`after`); :meth:`close` puts the segment on the tape with the filtered estimates of its
+    output epochs.
+
+    Parameters
+    ----------
+    tape : Tape
+        Where the segments go.
+    batch : tuple of int
+        (M, R): methods and runs.
+    geodetic : bool
+        The nominal positions are latitude, longitude, depth (the corrections' difference then
+        goes through the metric at the estimate, tauvcore.filter.eskf.difference).
+    """
+
+    def __init__(self, tape: Tape, batch: tuple[int, int], geodetic: bool) -> None:
+        self.tape, self.batch, self.geodetic = tape, batch, geodetic
+        self.out: dict[str, np.ndarray] | None = None  # the output marks' rows of the current chunk
+        self.store: dict[str, np.ndarray] = {}
+        self.slot0 = 0
+        self.events: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
+
+    def open(self, store: dict[str, np.ndarray], slot: int) -> None:
+        """A chunk begins: its store (output epochs ``store["out_k"]``), the bank's output epochs
+        recorded before it (``slot``).
+
+        Parameters
+        ----------
+        store : dict[str, numpy.ndarray]
+            The chunk's store of filtered output epochs (tauvcore.engine.chunk_driver).
+        slot : int
+            Output epochs recorded before the chunk.
+        """
+        self.out = tape_rows(store["out_k"].size, self.batch)
+        self.store, self.slot0, self.events = store, slot, []
+
+    def before(
+        self, phi_acc: np.ndarray, P: np.ndarray, flat: tuple[np.ndarray, ...]
+    ) -> tuple[np.ndarray, ...]:
+        """An aiding mark, before the epoch's corrections: its transition (``phi_acc``, then
+        reset), prior P and nominal state.
+
+        Parameters
+        ----------
+        phi_acc : numpy.ndarray
+            (M, R, 9, 15) the transition since the last mark (tauvcore.engine.loop.BankState).
+        P : numpy.ndarray
+            (M, R, 20, 20) the covariances.
+        flat : tuple of numpy.ndarray
+            The nominal states (pos, vel, C, ba, bg, bdvl, sf) with the batch flattened.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Copies of them, for :meth:`after`.
+        """
+        before = (phi_acc.copy(), P.copy(), *(a.copy() for a in flat))
+        phi_acc[...] = 0.0
+        return before
+
+    def after(
+        self, before: tuple[np.ndarray, ...], P: np.ndarray, flat: tuple[np.ndarray, ...], slot: int
+    ) -> None:
+        """The aiding mark after the epoch's corrections: its posterior P and the correction the
+        nominal state took (all the epoch's updates, a velocity reset and a repair of P as they were).
+
+        Parameters
+        ----------
+        before : tuple of numpy.ndarray
+            What :meth:`before` returned.
+        P : numpy.ndarray
+            (M, R, 20, 20) the covariances now.
+        flat : tuple of numpy.ndarray
+            The nominal states now, as :meth:`before` took them.
+        slot : int
+            Output epochs the bank recorded so far.
+        """
+        X, Pm, *nominal = before
+
+        def state(arrays: list[np.ndarray] | tuple[np.ndarray, ...]) -> Nominal:
+            pos, vel, C, ba, bg, bdvl, sf = (a.reshape(self.batch + a.shape[1:]) for a in arrays)
+            return Nominal(NavState(pos, vel, C), ba, bg, bdvl, sf)
+
+        d = difference(state(flat), state(nominal), self.geodetic)
+        # a filter whose P the epoch left as it was fused nothing (a Kalman update with a gain
+        # changes P): what moved its nominal state is the round-off of rebuilding the velocity
+        # from the attitude (tauvcore.filter.kernels.correction.inject_batch), not a correction
+        d[(P == Pm).all(axis=(-2, -1))] = 0.0
+        self.events.append((X, Pm, P.copy(), d, slot - self.slot0))
+
+    def close(self, slot: int) -> None:
+        """The chunk's marks onto the tape, up to the output epochs recorded (all the chunk's,
+        or up to a stop); nothing if no chunk is open.
+
+        Parameters
+        ----------
+        slot : int
+            Output epochs the bank recorded so far.
+        """
+        if self.out is None:
+            return
+        T = slot - self.slot0
+        batch, events = self.batch, self.events
+        parts = {name: a[:T] for name, a in self.out.items()}
+        parts["ev_X"] = np.array([e[0] for e in events]).reshape((-1,) + batch + (NAV, CORE))
+        parts["ev_Pm"] = np.array([e[1] for e in events]).reshape((-1,) + batch + (N, N))
+        parts["ev_Pp"] = np.array([e[2] for e in events]).reshape((-1,) + batch + (N, N))
+        parts["ev_d"] = np.array([e[3] for e in events]).reshape((-1,) + batch + (N,))
+        parts["ev_pos"] = np.array([e[4] for e in events], dtype=np.int64)
+        for name in ESTIMATES:
+            parts[name] = np.array(self.store[name][:T])
+        self.out, self.store, self.events = None, {}, []
+        self.tape.add(parts)
+
+
+@jit
+def smoothed_series_into(
+    dx: np.ndarray,
+    s: np.ndarray,
+    Ps: np.ndarray,
+    deg: float,
+    block_of_state: np.ndarray,
+    num_blocks: int,
+    series: np.ndarray,
+    nees_block: np.ndarray,
+) -> None:
+    """The records (tauvcore.engine.loop.error_series_into) of T epochs of B filters smoothed:
+    the error ``dx - s`` (T, B, 20) and covariance ``Ps`` (T, B, 20, 20) into ``series``
+    (11, T, B) and ``nees_block`` (T, B, num_blocks)."""
+    members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
+    e = np.empty(N)
+    L = np.empty((N, N))
+    y = np.empty(N)
+    for t in range(dx.shape[0]):
+        for f in range(dx.shape[1]):
+            for i in range(N):
+                e[i] = dx[t, f, i] - s[t, f, i]
+            loop.error_series_into(
+                e, Ps[t, f], deg, members, sizes, lead, order, L, y, series[:, t, f], nees_block[t, f]
+            )
+
+
+class Carry:
+    """The backward pass between two segments: the later segment's first mark, per filter
+    (tauvcore.filter.kernels.smoother.smooth_backward)."""
+
+    def __init__(self, B: int) -> None:
+        self.has = np.zeros(B, bool)
+        self.X = np.zeros((B, NAV, CORE))
+        self.Pm = np.zeros((B, N, N))
+        self.s = np.zeros((B, N))
+        self.Ps = np.zeros((B, N, N))
+        self.cuts = np.zeros(B, np.int64)
+
+
+def smooth_segment(
+    segment: dict[str, np.ndarray],
+    carry: Carry,
+    batch: tuple[int, int],
+    block_of_state: np.ndarray,
+    sensor_index: np.ndarray,
+    deg: float,
+) -> dict[str, np.ndarray]:
+    """The backward pass over one segment (the carry holds the segment after it, and then this
+    one's first mark) and its smoothed store (module docstring).
+
+    Parameters
+    ----------
+    segment : dict[str, numpy.ndarray]
+        The segment (:class:`Tape`): the output marks' ``tape_X``, ``tape_P``, ``tape_dx``
+        (T, M, R, ...), the aiding marks' ``ev_X``, ``ev_Pm``, ``ev_Pp``, ``ev_d`` (V, M, R, ...)
+        and ``ev_pos`` (V,), and the filtered :data:`ESTIMATES`.
+    carry : Carry
+        The pass so far, updated in place.
+    batch : tuple of int
+        (M, R): methods and runs.
+    block_of_state : numpy.ndarray
+        Each state's NEES block (tauvcore.filter.layout.NEES_BLOCKS), -1 for none.
+    sensor_index : numpy.ndarray
+        The state of each sensor-error column of the records.
+    deg : float
+        Degrees per radian of the attitude series.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        The smoothed store: ``t_s``, ``out_k``, ``series``, ``nees_block``, ``est_pos_n``,
+        ``est_vel_n``, ``est_euler`` and, where the segment has them, the sensor errors'.
+    """
+    B = int(np.prod(batch))
+    T = segment["tape_P"].shape[0]
+
+    def flat(name: str, tail: tuple[int, ...]) -> np.ndarray:
+        return np.ascontiguousarray(segment[name], dtype=float).reshape((-1, B) + tail)
+
+    s = np.empty((T, B, N))
+    Ps = np.empty((T, B, N, N))
+    smooth_backward(
+        flat("tape_X", (NAV, CORE)),
+        flat("tape_P", (N, N)),
+        flat("ev_X", (NAV, CORE)),
+        flat("ev_Pm", (N, N)),
+        flat("ev_Pp", (N, N)),
+        flat("ev_d", (N,)),
+        np.ascontiguousarray(segment["ev_pos"], dtype=np.int64),
+        carry.has,
+        carry.X,
+        carry.Pm,
+        carry.s,
+        carry.Ps,
+        s,
+        Ps,
+        carry.cuts,
+    )
+    num_blocks = int(block_of_state.max()) + 1
+    series = np.empty((len(loop.SERIES_NAMES), T, B))
+    nees_block = np.empty((T, B, num_blocks))
+    smoothed_series_into(flat("tape_dx", (N,)), s, Ps, deg, block_of_state, num_blocks, series, nees_block)
+    shape = (T,) + batch
+    s = s.reshape(shape + (N,))
+    moved = np.any(s[..., STATE.att] != 0.0, axis=-1, keepdims=True) | np.any(
+        s[..., STATE.vel] != 0.0, axis=-1, keepdims=True
+    )  # elsewhere the filter's own numbers, not their round trip through C
+    C = exp_so3(s[..., STATE.att]) @ C_nb_from_euler(np.asarray(segment["est_euler"]))
+    v_b = mv(np.swapaxes(C_nb_from_euler(np.asarray(segment["est_euler"])), -1, -2), segment["est_vel_n"])
+    store = {
+        "t_s": np.array(segment["t_s"]),
+        "out_k": np.array(segment["out_k"]),
+        "series": series.reshape((len(loop.SERIES_NAMES),) + shape),
+        "nees_block": nees_block.reshape(shape + (num_blocks,)),
+        "est_pos_n": segment["est_pos_n"] + s[..., STATE.pos],
+        "est_vel_n": np.where(moved, mv(C, v_b + s[..., STATE.vel]), segment["est_vel_n"]),
+        "est_euler": np.where(moved, euler_from_C_nb(C), segment["est_euler"]),
+    }
+    if "sensor_est" in segment and segment["sensor_est"].shape[0]:
+        sigma = np.sqrt(np.einsum("tfii->tfi", Ps)).reshape(shape + (N,))
+        store["sensor_est"] = segment["sensor_est"] + s[..., sensor_index]
+        store["sensor_sigma"] = sigma[..., sensor_index]
+        store["sensor_true"] = np.array(segment["sensor_true"])
+    else:
+        S = sensor_index.size
+        for name in ("sensor_est", "sensor_sigma", "sensor_true"):
+            store[name] = np.zeros((0,) + batch + (S,))
+    return store
+
+
+def smooth_tape(
+    tape: Tape,
+    batch: tuple[int, int],
+    block_of_state: np.ndarray,
+    sensor_index: np.ndarray,
+    deg: float,
+    out: Tape,
+) -> np.ndarray:
+    """The backward pass over the whole tape, latest segment first; each segment's smoothed store
+    into ``out`` (in the tape's order once done: :func:`forward`). The tape is closed after.
+
+    Parameters
+    ----------
+    tape : Tape
+        The forward pass's marks.
+    batch : tuple of int
+        (M, R): methods and runs.
+    block_of_state : numpy.ndarray
+        Each state's NEES block, -1 for none.
+    sensor_index : numpy.ndarray
+        The state of each sensor-error column of the records.
+    deg : float
+        Degrees per radian of the attitude series.
+    out : Tape
+        Receives the smoothed stores, latest first.
+
+    Returns
+    -------
+    numpy.ndarray
+        (M, R) int: the steps at which a prior was not positive definite (the pass started afresh).
+    """
+    carry = Carry(int(np.prod(batch)))
+    try:
+        for i in range(len(tape) - 1, -1, -1):
+            out.add(smooth_segment(tape.segment(i), carry, batch, block_of_state, sensor_index, deg))
+            held = tape.segments[i]
+            tape.segments[i] = {}  # drop what was read
+            if isinstance(held, str):
+                shutil.rmtree(held, ignore_errors=True)
+    finally:
+        tape.close()
+    return carry.cuts.reshape(batch)
+
+
+def forward(out: Tape) -> Iterator[dict[str, np.ndarray]]:
+    """The smoothed stores :func:`smooth_tape` put into ``out``, earliest first.
+
+    Parameters
+    ----------
+    out : Tape
+        The smoothed stores, latest first.
+
+    Yields
+    ------
+    dict[str, numpy.ndarray]
+        Each segment's smoothed store, in the mission's order.
+    """
+    for i in range(len(out) - 1, -1, -1):
+        yield out.segment(i)
+
+
+def spill_floor_bytes(batch: tuple[int, int], rate_hz: float, chunk_s: float) -> int:
+    """Bytes the smoother holds at least whatever its budget: one chunk's segment being written
+    and one being read back, of ``batch`` filters at ``rate_hz`` output epochs over ``chunk_s``.
+
+    Parameters
+    ----------
+    batch : tuple of int
+        (M, R): methods and runs.
+    rate_hz : float
+        Output epochs per second (marks of the tape).
+    chunk_s : float
+        Seconds of mission per chunk.
+
+    Returns
+    -------
+    int
+        The bytes.
+    """
+    return 2 * tape_bytes_per_epoch(batch) * max(1, math.ceil(rate_hz * chunk_s))
