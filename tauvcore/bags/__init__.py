@@ -10,7 +10,8 @@ its frame convention, its clock and offset. Without one, each table is found by 
 ============  ==========================================================================  ============================
 table         message types                                                               columns
 ============  ==========================================================================  ============================
-``imu``       ``sensor_msgs/Imu`` (angular_velocity, linear_acceleration)                  ``gyro_*_rps``, ``accel_*_mps2``
+``imu``       ``sensor_msgs/Imu`` (angular_velocity, linear_acceleration); by mapping     ``gyro_*_rps``, ``accel_*_mps2``
+              increments: ``QuaternionStamped`` and ``Vector3Stamped`` (bags.increments)    or ``dtheta_*_rad``, ``dv_*_mps``
 ``dvl``       ``marine_acoustic_msgs/Dvl``, ``ds_sensor_msgs/Dvl``, ``cola2_msgs/DVL``,      ``beam1_mps`` .. ``beam4_mps``
               ``uuv_sensor_ros_plugins_msgs/DVL``, ``waterlinked_a50_ros_driver/DVL``;      or ``vel_*_mps``, ``valid``
               ``geometry_msgs/TwistWithCovarianceStamped``, ``TwistStamped`` (body only)

@@ -13,10 +13,12 @@ import pytest
 from bag_fixtures import (
     DVL_TYPES,
     FIX_TOPICS,
+    INCREMENT_TOPICS,
     LEVER_ARM_B_M,
     TOPICS,
     USBL_TOPIC,
     geodetic_tables,
+    increment_tables,
     mission_config,
     mission_tables,
     write_bag,
@@ -282,3 +284,76 @@ def test_a_plugin_s_covariance_diagonal_fills_its_sigma_columns_in_ned() -> None
     out = _plugin(spec, np.array([plugin_row(spec)(msg)]), TopicRule("x", "/fix", frame="flu_enu"), columns)
     assert [float(out[c][0]) for c in columns[:5]] == [2.0, 1.0, -3.0, 3.0, 2.0]
     assert np.isnan(out["sigma_down_m"][0]) and np.isnan(out["quality"][0])
+
+
+@pytest.fixture(scope="module")
+def increments(mission: dict) -> dict:
+    """The mission with its IMU as increments, its CSV log (increment columns) and that log's replay."""
+    config, root = mission["config"], mission["root"]
+    tables = increment_tables(mission["beams"])
+    write_log(root / "log_increments", tables, "csv")
+    return {"tables": tables, "replay": replay(config, read_log(root / "log_increments"), np.random.default_rng(0))[1]}
+
+
+INCREMENTS_MAPPING = (f'[imu]\nform = "increments"\ntopic = "{INCREMENT_TOPICS["topic"]}"\n'
+                      f'velocity_topic = "{INCREMENT_TOPICS["velocity_topic"]}"\n')
+
+
+@pytest.mark.parametrize(("storage", "frame"), [("ros1", "flu_enu"), ("sqlite3", "frd_ned"), ("mcap", "flu_enu")])
+def test_an_imu_of_increments_replays_as_the_csv_log_of_increments(mission: dict, increments: dict, tmp_path: Path,
+                                                                  storage: str, frame: str) -> None:
+    """Angle increments as QuaternionStamped (the Xsens driver's /imu/dq) and velocity increments as
+    Vector3Stamped (/imu/dv), FLU converted to FRD: the log's dtheta and dv columns to 1e-15, and the
+    replay the CSV log's (increment columns) to 1e-9."""
+    config = mission["config"]
+    tables = increments["tables"]
+    bag = write_bag(tmp_path / STORAGES[storage], storage, tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame=frame)
+    mapping = _mapping(tmp_path / "map.toml", f'frame = "{frame}"\n' + INCREMENTS_MAPPING)
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    for i, a in enumerate("xyz"):
+        np.testing.assert_allclose(log.dtheta_b[1:, i], tables["imu"][f"dtheta_{a}_rad"][1:], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(log.dv_b[1:, i], tables["imu"][f"dv_{a}_mps"][1:], rtol=0, atol=1e-15)
+    _same(replay(config, log, np.random.default_rng(0))[1], increments["replay"])
+
+
+def test_imu_increments_that_do_not_pair_are_one_line(mission: dict, increments: dict, tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    """A velocity message left out (the counts and, from there, the stamps differ), a velocity topic the
+    bag lacks, increments without their velocity topic: one line naming the bag, topic, message; exit 2."""
+    config = mission["config"]
+    tables = increments["tables"]
+    bag = write_bag(tmp_path / "skip.mcap", "mcap", tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame="flu_enu", velocity_skip=5)
+    mapping = _mapping(tmp_path / "map.toml", INCREMENTS_MAPPING)
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(mapping)], "skip.mcap", "topic '/imu/dv' (imu)",
+           "message 6", "'/imu/dq'", "pair one to one")
+    last = write_bag(tmp_path / "last.bag", "ros1", tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                     frame="flu_enu", velocity_skip=len(tables["imu"]["t_s"]) - 1)
+    count = len(tables["imu"]["t_s"])
+    _fails(capsys, ["replay", str(last), "--bag-mapping", str(mapping)], "last.bag", "topic '/imu/dq' (imu)",
+           f"message {count}", "is missing", f"{count - 1}")
+    missing = _mapping(tmp_path / "missing.toml", INCREMENTS_MAPPING.replace("/imu/dv", "/imu/none"))
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(missing)], "missing.toml", "imu.velocity_topic",
+           "'/imu/none'", "skip.mcap")
+    alone = _mapping(tmp_path / "alone.toml", INCREMENTS_MAPPING.split("velocity_topic")[0])
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(alone)], "alone.toml", "imu.velocity_topic",
+           "increments")
+    rates = _mapping(tmp_path / "rates.toml", '[imu]\nform = "rates"\ntopic = "/imu/dq"\n')
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(rates)], "imu.topic", "'/imu/dq'",
+           "geometry_msgs/msg/QuaternionStamped", "sensor_msgs/msg/Imu")
+
+
+def test_a_quaternion_s_rotation_vector() -> None:
+    """The rotation vector of a quaternion: the same rotation whatever the quaternion's sign or norm,
+    a small angle to 1e-18, a zero quaternion NaN."""
+    from tauvcore.bags.increments import rotation_vectors
+
+    theta = np.array([[0.3, -0.2, 0.1], [1e-9, 2e-9, -3e-9], [0.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
+    angle = np.linalg.norm(theta, axis=-1)
+    axis = theta / np.where(angle > 0, angle, 1.0)[:, None]
+    q = np.concatenate([axis * np.sin(angle / 2)[:, None], np.cos(angle / 2)[:, None]], axis=-1)
+    np.testing.assert_allclose(rotation_vectors(q), theta, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(rotation_vectors(-2.0 * q), theta, rtol=1e-12, atol=1e-18)
+    assert np.isnan(rotation_vectors(np.zeros((1, 4)))).all()
+
