@@ -34,7 +34,7 @@ projects onto the configured beams. Depth from pressure: ``(p - p_atm) / (rho g)
 (:data:`~tauvcore.bags.mapping.WATER_DENSITY_KGPM3`, ...). Time (tauvcore.bags.reader): header
 stamps, or receive times, less the IMU topic's first, plus each topic's ``offset_s``. The DVL's
 mounting is the mapping's ``mounting_rpy_deg``, else the bag's ``/tf_static`` transform from
-``base_frame`` to the DVL's frame (tauvcore.bags.tf), whose translation is also its lever arm
+``base_frame`` to the DVL's frame, directly or through a chain of frames (tauvcore.bags.tf), whose translation is also its lever arm
 (:func:`bag_config`).
 
 The definitions of the DVL messages ship in ``tauvcore/bags/msgs`` (``<package>/msg/<Type>.msg``)

@@ -357,3 +357,34 @@ def test_a_quaternion_s_rotation_vector() -> None:
     np.testing.assert_allclose(rotation_vectors(-2.0 * q), theta, rtol=1e-12, atol=1e-18)
     assert np.isnan(rotation_vectors(np.zeros((1, 4)))).all()
 
+
+def test_a_tf_static_chain_gives_the_direct_transform_s_mounting(mission: dict, tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture) -> None:
+    """base_link -> sensor_mount, then dvl -> sensor_mount (the second edge written the other way round):
+    the composed rotation and lever arm equal those of the direct base_link -> dvl to 1e-9; a chain
+    broken between base_link and the DVL's frame is one line naming the frames."""
+    from tauvcore.bags import bag_tables
+
+    config = mission["config"]
+    C = mounting_matrix((0.0, 0.0, 45.0))
+    t = np.asarray(LEVER_ARM_B_M)
+    C1, t1 = mounting_matrix((5.0, -20.0, 30.0)), np.array([0.2, -0.1, 0.3])
+    C2, t2 = C1.T @ C, C1.T @ (t - t1)                      # sensor_mount -> dvl
+    edges = (("base_link", "sensor_mount", C1, t1), ("dvl", "sensor_mount", C2.T, -C2.T @ t2))
+    args = (mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b)
+    direct = write_bag(tmp_path / "direct.mcap", "mcap", *args, frame="flu_enu", C_b_dvl=C, tf_static=True)
+    chained = write_bag(tmp_path / "chain.bag", "ros1", *args, frame="flu_enu", C_b_dvl=C, tf_chain=edges)
+    want = bag_tables(direct, BagMapping(), config.dvl.A_b).mounting
+    got = bag_tables(chained, BagMapping(), config.dvl.A_b).mounting
+    assert want is not None and got is not None and want.r_b_m is not None and got.r_b_m is not None
+    assert got.source == "/tf_static base_link -> sensor_mount -> dvl" and want.source == "/tf_static base_link -> dvl"
+    np.testing.assert_allclose(got.C_b_dvl, want.C_b_dvl, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got.C_b_dvl, C, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got.r_b_m, want.r_b_m, rtol=0, atol=1e-9)
+    raw, _ = bag_config(BagMapping(), chained)
+    np.testing.assert_allclose(raw["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-9)
+    broken = write_bag(tmp_path / "broken.mcap", "mcap", *args, frame="flu_enu", C_b_dvl=C,
+                       tf_chain=(edges[0], ("dvl", "other_mount", C2.T, -C2.T @ t2)))
+    with pytest.raises(LogError, match="no chain"):
+        read_bag(broken, BagMapping(), config.dvl.A_b)
+    _fails(capsys, ["replay", str(broken)], "broken.mcap", "/tf_static", "'base_link'", "'dvl'", "'other_mount'")
