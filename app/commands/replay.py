@@ -28,7 +28,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length."""
     from app.commands.json_stream import RunReduction
-    from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag, read_mapping
+    from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag_configured, read_mapping
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
 
@@ -47,8 +47,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
             mapping = own_mapping(args.log)
         if args.no_log_config:
             log_raw, log_config_path = {}, None
-        else:  # a bag's own configuration is its mapping's [config]
-            log_raw, log_config_path = bag_config(mapping, args.log) if bag else log_config(args.log)
+        else:  # a bag's own configuration is its mapping's [config] (the /tf_static lever arm: from the read)
+            log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
     except LogError as exc:
         raise UsageError(str(exc)) from None
     config = resolve_config(args, under=log_raw)
@@ -68,7 +68,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     reduction = None
     try:
-        log = read_bag(args.log, mapping, config.dvl.A_b) if bag else read_log(args.log)
+        if bag:  # one open of the bag: its tables and the DVL's lever arm from its /tf_static
+            log, with_lever, with_path = read_bag_configured(
+                args.log, mapping, config.dvl.A_b, log_raw, log_config_path
+            )
+            if with_lever != log_raw and not args.no_log_config:
+                log_raw, log_config_path = with_lever, with_path
+                config = resolve_config(args, under=log_raw)
+        else:
+            log = read_log(args.log)
         rng = np.random.default_rng(config.run.seed)
         config, sim = prepare_rows(config, log, rng, imu_errors)
         source = {

@@ -17,7 +17,8 @@ frame absent from ``/tf_static``, the bag gives no mounting; present but joined 
 chain, it is one :class:`~tauvcore.validation.LogError` naming both frames. A DVL whose frame is
 the body's has no mounting from the bag.
 
-The mapping's ``[dvl] mounting_rpy_deg`` wins over ``/tf_static`` (:func:`dvl_mounting`).
+The mapping's ``[dvl] mounting_rpy_deg`` wins over ``/tf_static``'s rotation, which leaves its
+translation the lever arm (:func:`dvl_mounting`).
 """
 
 from __future__ import annotations
@@ -73,9 +74,9 @@ def static_transforms(reader: Any) -> dict[tuple[str, str], tuple[np.ndarray, np
 
 
 def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str, TopicRule]) -> Mounting:
-    """The DVL's mounting: the mapping's ``mounting_rpy_deg`` where it gives one, else the
-    ``/tf_static`` transform between ``mapping.base_frame`` and the DVL message's frame (module
-    docstring), else none (the identity).
+    """The DVL's mounting: the rotation the mapping's ``mounting_rpy_deg`` gives, else the
+    ``/tf_static`` transform's between ``mapping.base_frame`` and the DVL message's frame (module
+    docstring), else none (the identity); the lever arm that transform's translation.
 
     Parameters
     ----------
@@ -100,9 +101,21 @@ def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str,
         rosbags' own error, :func:`tauvcore.bags.reader.bag_errors`, for the caller to name.)
     """
     rule = rules.get("dvl")
-    if rule is not None and "mounting_rpy_deg" in rule.options:
+    mapped = rule is not None and "mounting_rpy_deg" in rule.options
+    try:
+        found = _from_tf(reader, bag, mapping, rule)
+    except LogError:
+        if not mapped:
+            raise
+        found = Mounting(np.eye(3), None, "none")  # no translation from a /tf_static that does not join
+    if rule is not None and mapped:  # the rotation; /tf_static's translation
         rpy = rule.options["mounting_rpy_deg"]
-        return Mounting(mounting_matrix(rpy), None, f"the mapping's mounting_rpy_deg {list(rpy)}")
+        return Mounting(mounting_matrix(rpy), found.r_b_m, f"the mapping's mounting_rpy_deg {list(rpy)}")
+    return found
+
+
+def _from_tf(reader: Any, bag: str, mapping: BagMapping, rule: TopicRule | None) -> Mounting:
+    """The mounting ``/tf_static`` gives (module docstring), or none (the identity)."""
     none = Mounting(np.eye(3), None, "none")
     if rule is None or not any(c.topic == TF_STATIC and c.msgtype == TF_TYPE for c in reader.connections):
         return none

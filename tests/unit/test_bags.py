@@ -388,3 +388,35 @@ def test_a_tf_static_chain_gives_the_direct_transform_s_mounting(mission: dict, 
     with pytest.raises(LogError, match="no chain"):
         read_bag(broken, BagMapping(), config.dvl.A_b)
     _fails(capsys, ["replay", str(broken)], "broken.mcap", "/tf_static", "'base_link'", "'dvl'", "'other_mount'")
+
+
+def test_replay_and_convert_open_a_bag_once(mission: dict, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``tauv replay`` and ``tauv log convert`` take the DVL's lever arm from /tf_static in the read of
+    the bag's messages (one open of the bag), laid under --config as the bag's own configuration."""
+    import json
+
+    from rosbags.highlevel import AnyReader
+
+    config = mission["config"]
+    bag = write_bag(tmp_path / "tf.bag", "ros1", mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame="flu_enu", C_b_dvl=mounting_matrix((0.0, 0.0, 45.0)), tf_static=True)
+    opened: list[int] = []
+    real_open = AnyReader.open
+
+    def counted(self: AnyReader) -> None:
+        opened.append(1)
+        real_open(self)
+
+    monkeypatch.setattr(AnyReader, "open", counted)
+    out = tmp_path / "run.json"
+    flags = ["--method", "ins,lc", "--aiding", "dvl,depth,mag", "--earth", "flat"]
+    assert main(["replay", str(bag), *flags, "--json", str(out)]) == 0
+    assert len(opened) == 1
+    document = json.loads(out.read_text())
+    np.testing.assert_allclose(document["config"]["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-12)
+    assert document["log"]["config_file"] == f"{bag}:/tf_static"
+    assert any(layer.startswith("the bag's") and "dvl.lever_arm_m" in layer for layer in document["log"]["configuration"])
+    opened.clear()
+    assert main(["log", "convert", str(bag), str(tmp_path / "log")]) == 0
+    assert len(opened) == 1
+    assert "lever_arm_m" in (tmp_path / "log" / "log.toml").read_text()
