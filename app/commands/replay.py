@@ -5,6 +5,7 @@ own configuration file, ``--config`` and the flags, each layer named in the outp
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from typing import Any
@@ -45,8 +46,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             mapping = read_mapping(args.bag_mapping, label="--bag-mapping")
         else:  # the mapping beside the bag (its stem, .toml), as the dashboard reads it; or by type
             mapping = own_mapping(args.log)
-        if args.no_log_config:
+        if args.no_log_config:  # a bag's too: its mapping's [config] and the DVL's mounting from /tf_static
             log_raw, log_config_path = {}, None
+            mapping = dataclasses.replace(mapping, tf_static=False)
         else:  # a bag's own configuration is its mapping's [config] (the /tf_static lever arm: from the read)
             log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
     except LogError as exc:
@@ -72,7 +74,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             log, with_lever, with_path = read_bag_configured(
                 args.log, mapping, config.dvl.A_b, log_raw, log_config_path
             )
-            if with_lever != log_raw and not args.no_log_config:
+            if with_lever != log_raw:
                 log_raw, log_config_path = with_lever, with_path
                 config = resolve_config(args, under=log_raw)
         else:
@@ -126,7 +128,13 @@ def replay_layers(
             kind = "the bag's"
         layers.append(f"{kind} {show_path(log_config_path)} ({config_keys(log_raw) or 'empty'})")
     elif args.no_log_config:
-        layers.append("the log's own configuration ignored (--no-log-config)")
+        ignored = (
+            "the bag's own configuration ignored (--no-log-config: its mapping's [config], the DVL's "
+            "mounting rotation and lever arm from /tf_static)"
+            if is_bag(args.log)
+            else "the log's own configuration ignored (--no-log-config)"
+        )
+        layers.append(ignored)
     if args.config:
         layers.append(f"--config {show_path(args.config)}")
     flags = [

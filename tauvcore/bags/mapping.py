@@ -178,6 +178,7 @@ class BagMapping:
     tables: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # table -> its keys
     msg_paths: tuple[Path, ...] = ()  # extra .msg definitions
     config: Mapping[str, Any] = field(default_factory=dict)  # a partial tauv configuration
+    tf_static: bool = True  # the DVL's mounting may come from /tf_static (False: --no-log-config)
 
 
 def _where(path: str, key: str) -> str:

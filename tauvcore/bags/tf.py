@@ -18,7 +18,8 @@ chain, it is one :class:`~tauvcore.validation.LogError` naming both frames. A DV
 the body's has no mounting from the bag.
 
 The mapping's ``[dvl] mounting_rpy_deg`` wins over ``/tf_static``'s rotation, which leaves its
-translation the lever arm (:func:`dvl_mounting`).
+translation the lever arm (:func:`dvl_mounting`). A mapping whose ``tf_static`` is False
+(``tauv replay --no-log-config``: the recording's own configuration ignored) takes neither.
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ def static_transforms(reader: Any) -> dict[tuple[str, str], tuple[np.ndarray, np
 def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str, TopicRule]) -> Mounting:
     """The DVL's mounting: the rotation the mapping's ``mounting_rpy_deg`` gives, else the
     ``/tf_static`` transform's between ``mapping.base_frame`` and the DVL message's frame (module
-    docstring), else none (the identity); the lever arm that transform's translation.
+    docstring), else none (the identity); the lever arm that transform's translation (none where
+    ``mapping.tf_static`` is False).
 
     Parameters
     ----------
@@ -117,7 +119,11 @@ def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str,
 def _from_tf(reader: Any, bag: str, mapping: BagMapping, rule: TopicRule | None) -> Mounting:
     """The mounting ``/tf_static`` gives (module docstring), or none (the identity)."""
     none = Mounting(np.eye(3), None, "none")
-    if rule is None or not any(c.topic == TF_STATIC and c.msgtype == TF_TYPE for c in reader.connections):
+    if (
+        rule is None
+        or not mapping.tf_static
+        or not any(c.topic == TF_STATIC and c.msgtype == TF_TYPE for c in reader.connections)
+    ):
         return none
     transforms = static_transforms(reader)
     child = _first_frame_id(reader, rule.topic)

@@ -420,3 +420,31 @@ def test_replay_and_convert_open_a_bag_once(mission: dict, tmp_path: Path, monke
     assert main(["log", "convert", str(bag), str(tmp_path / "log")]) == 0
     assert len(opened) == 1
     assert "lever_arm_m" in (tmp_path / "log" / "log.toml").read_text()
+
+
+def test_no_log_config_drops_both_the_tf_static_rotation_and_lever_arm(mission: dict, tmp_path: Path,
+                                                                       capsys: pytest.CaptureFixture) -> None:
+    """``--no-log-config`` with a bag whose DVL is mounted 45 deg by /tf_static: the rotation goes (its beams
+    are then not the configured ones: one line, exit 2) and so does the lever arm (with the mapping's
+    mounting_rpy_deg the run takes the configuration's default lever arm, and no /tf_static note)."""
+    import json
+
+    from tauvcore.config import Config
+
+    config = mission["config"]
+    bag = write_bag(tmp_path / "tf.mcap", "mcap", mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame="flu_enu", C_b_dvl=mounting_matrix((0.0, 0.0, 45.0)), tf_static=True)
+    flags = ["--method", "ins,lc", "--aiding", "dvl,depth,mag", "--earth", "flat"]
+    _fails(capsys, ["replay", str(bag), *flags, "--no-log-config"], "topic '/dvl'", "configured beam")
+    mapping = _mapping(tmp_path / "rpy.toml", "[dvl]\nmounting_rpy_deg = [0.0, 0.0, 45.0]\n")
+    runs = {}
+    for name, extra in (("kept", []), ("ignored", ["--no-log-config"])):
+        out = tmp_path / f"{name}.json"
+        assert main(["replay", str(bag), "--bag-mapping", str(mapping), *flags, *extra, "--json", str(out)]) == 0
+        runs[name] = json.loads(out.read_text())
+    capsys.readouterr()
+    np.testing.assert_allclose(runs["kept"]["config"]["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-12)
+    assert runs["ignored"]["config"]["dvl"]["lever_arm_m"] == list(Config().dvl.lever_arm_m)
+    assert runs["ignored"]["log"]["config_file"] is None
+    assert any("--no-log-config" in layer and "/tf_static" in layer for layer in runs["ignored"]["log"]["configuration"])
+    assert not any("/tf_static" in note for note in runs["ignored"]["log"]["notes"])
