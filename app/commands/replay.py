@@ -88,6 +88,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "start": start_description(config, log),
             "notes": list(log.notes),
         }
+        if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
+            source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source)
         replay_chunked(config, sim, log, rng, reduction.add)
     except BaseException as exc:
