@@ -167,7 +167,9 @@ def build_parser() -> argparse.ArgumentParser:
     rl.add_argument(
         "--no-log-config",
         action="store_true",
-        help="ignore the log's own configuration file (DIR/log.toml)",
+        help="ignore the configuration the recording carries: a log's DIR/log.toml; a bag's mapping's "
+        "[config] and the DVL's mounting (rotation and lever arm) from its /tf_static (the mapping's "
+        "topics, frames and mounting_rpy_deg still apply)",
     )
     rl.add_argument(
         "--initial-errors",

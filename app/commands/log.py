@@ -78,7 +78,7 @@ def cmd_log_convert(args: argparse.Namespace) -> int:
     the log's own ``log.toml``; OUT_DIR must be new or empty, so nothing is ever overwritten."""
     import tomli_w
 
-    from tauvcore.bags import bag_config, bag_tables
+    from tauvcore.bags import bag_config, bag_tables, with_tf_lever_arm
     from tauvcore.config import from_dict
     from tauvcore.log_writer import write_log
     from tauvcore.logs import log_from_tables
@@ -95,9 +95,11 @@ def cmd_log_convert(args: argparse.Namespace) -> int:
     if os.path.abspath(out) == os.path.abspath(bag):
         raise UsageError(f"OUT_DIR: {show_path(args.out_dir)} is the bag itself")
     try:
-        raw, _ = bag_config(mapping, bag)
+        raw, source = bag_config(mapping)  # the lever arm from /tf_static: from the read, one open
         config = from_dict(raw)
         read = bag_tables(bag, mapping, config.dvl.A_b)
+        lever = None if read.mounting is None else read.mounting.r_b_m
+        raw, _ = with_tf_lever_arm(mapping, raw, source, bag, lever)
         log = log_from_tables(read.tables, read.source, read.names)  # every check, before anything is written
     except LogError as exc:
         raise UsageError(str(exc)) from None

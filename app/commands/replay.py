@@ -5,6 +5,7 @@ own configuration file, ``--config`` and the flags, each layer named in the outp
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from typing import Any
@@ -28,7 +29,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length."""
     from app.commands.json_stream import RunReduction
-    from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag, read_mapping
+    from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag_configured, read_mapping
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
 
@@ -45,10 +46,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
             mapping = read_mapping(args.bag_mapping, label="--bag-mapping")
         else:  # the mapping beside the bag (its stem, .toml), as the dashboard reads it; or by type
             mapping = own_mapping(args.log)
-        if args.no_log_config:
+        if args.no_log_config:  # a bag's too: its mapping's [config] and the DVL's mounting from /tf_static
             log_raw, log_config_path = {}, None
-        else:  # a bag's own configuration is its mapping's [config]
-            log_raw, log_config_path = bag_config(mapping, args.log) if bag else log_config(args.log)
+            mapping = dataclasses.replace(mapping, tf_static=False)
+        else:  # a bag's own configuration is its mapping's [config] (the /tf_static lever arm: from the read)
+            log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
     except LogError as exc:
         raise UsageError(str(exc)) from None
     config = resolve_config(args, under=log_raw)
@@ -68,7 +70,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     reduction = None
     try:
-        log = read_bag(args.log, mapping, config.dvl.A_b) if bag else read_log(args.log)
+        if bag:  # one open of the bag: its tables and the DVL's lever arm from its /tf_static
+            log, with_lever, with_path = read_bag_configured(
+                args.log, mapping, config.dvl.A_b, log_raw, log_config_path
+            )
+            if with_lever != log_raw:
+                log_raw, log_config_path = with_lever, with_path
+                config = resolve_config(args, under=log_raw)
+        else:
+            log = read_log(args.log)
         rng = np.random.default_rng(config.run.seed)
         config, sim = prepare_rows(config, log, rng, imu_errors)
         source = {
@@ -78,6 +88,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "start": start_description(config, log),
             "notes": list(log.notes),
         }
+        if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
+            source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source)
         replay_chunked(config, sim, log, rng, reduction.add)
     except BaseException as exc:
@@ -118,7 +130,13 @@ def replay_layers(
             kind = "the bag's"
         layers.append(f"{kind} {show_path(log_config_path)} ({config_keys(log_raw) or 'empty'})")
     elif args.no_log_config:
-        layers.append("the log's own configuration ignored (--no-log-config)")
+        ignored = (
+            "the bag's own configuration ignored (--no-log-config: its mapping's [config], the DVL's "
+            "mounting rotation and lever arm from /tf_static)"
+            if is_bag(args.log)
+            else "the log's own configuration ignored (--no-log-config)"
+        )
+        layers.append(ignored)
     if args.config:
         layers.append(f"--config {show_path(args.config)}")
     flags = [

@@ -10,7 +10,8 @@ its frame convention, its clock and offset. Without one, each table is found by 
 ============  ==========================================================================  ============================
 table         message types                                                               columns
 ============  ==========================================================================  ============================
-``imu``       ``sensor_msgs/Imu`` (angular_velocity, linear_acceleration)                  ``gyro_*_rps``, ``accel_*_mps2``
+``imu``       ``sensor_msgs/Imu`` (angular_velocity, linear_acceleration); by mapping     ``gyro_*_rps``, ``accel_*_mps2``
+              increments: ``QuaternionStamped`` and ``Vector3Stamped`` (bags.increments)    or ``dtheta_*_rad``, ``dv_*_mps``
 ``dvl``       ``marine_acoustic_msgs/Dvl``, ``ds_sensor_msgs/Dvl``, ``cola2_msgs/DVL``,      ``beam1_mps`` .. ``beam4_mps``
               ``uuv_sensor_ros_plugins_msgs/DVL``, ``waterlinked_a50_ros_driver/DVL``;      or ``vel_*_mps``, ``valid``
               ``geometry_msgs/TwistWithCovarianceStamped``, ``TwistStamped`` (body only)
@@ -33,7 +34,7 @@ projects onto the configured beams. Depth from pressure: ``(p - p_atm) / (rho g)
 (:data:`~tauvcore.bags.mapping.WATER_DENSITY_KGPM3`, ...). Time (tauvcore.bags.reader): header
 stamps, or receive times, less the IMU topic's first, plus each topic's ``offset_s``. The DVL's
 mounting is the mapping's ``mounting_rpy_deg``, else the bag's ``/tf_static`` transform from
-``base_frame`` to the DVL's frame (tauvcore.bags.tf), whose translation is also its lever arm
+``base_frame`` to the DVL's frame, directly or through a chain of frames (tauvcore.bags.tf), whose translation is also its lever arm
 (:func:`bag_config`).
 
 The definitions of the DVL messages ship in ``tauvcore/bags/msgs`` (``<package>/msg/<Type>.msg``)
@@ -93,12 +94,57 @@ def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np
     return dataclasses.replace(log, notes=read.notes + log.notes)
 
 
+def read_bag_configured(
+    path: str | os.PathLike,
+    mapping: BagMapping,
+    beam_directions_b: np.ndarray,
+    raw: dict[str, Any],
+    source: str | None,
+) -> tuple[Log, dict[str, Any], str | None]:
+    """:func:`read_bag` and, from the same read, the bag's configuration with the DVL's lever arm
+    from ``/tf_static`` (:func:`with_tf_lever_arm`): the bag opened once.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ROS 1 bag, a ROS 2 bag directory or an MCAP file.
+    mapping : BagMapping
+        The bag mapping (``tf_static`` False: no mounting from ``/tf_static``, so no lever arm).
+    beam_directions_b : numpy.ndarray
+        The configured Janus beams' unit vectors (4, 3) in the body frame (``config.dvl.A_b``; the
+        lever arm does not change them).
+    raw : dict
+        The mapping's ``[config]`` as ``bag_config(mapping)`` gives it (without the bag).
+    source : str or None
+        Where ``raw`` comes from.
+
+    Returns
+    -------
+    tuple of Log, dict and str or None
+        The validated log; the configuration and its source, as ``bag_config(mapping, path)``
+        gives them.
+
+    Raises
+    ------
+    LogError
+        As :func:`read_bag` and :func:`bag_config`.
+    """
+    read = bag_tables(path, mapping, beam_directions_b)
+    log = log_from_tables(read.tables, read.source, read.names)
+    lever = None if read.mounting is None else read.mounting.r_b_m
+    raw, source = with_tf_lever_arm(mapping, raw, source, path, lever)
+    return dataclasses.replace(log, notes=read.notes + log.notes), raw, source
+
+
 def bag_config(
     mapping: BagMapping, path: str | os.PathLike | None = None
 ) -> tuple[dict[str, Any], str | None]:
     """The mapping's ``[config]`` (a partial configuration, laid under ``--config`` as a log's own
     ``log.toml`` is), checked on its own, and where it comes from; given the bag, the DVL's lever
     arm from its ``/tf_static`` (tauvcore.bags.tf) where ``[config.dvl]`` sets none.
+
+    This opens the bag once for ``/tf_static``; a caller that reads the bag anyway takes the lever
+    arm from that read instead (:func:`with_tf_lever_arm` of :attr:`BagTables.mounting`).
 
     Parameters
     ----------
@@ -124,10 +170,54 @@ def bag_config(
     source = mapping.path if raw else None
     dvl = raw.get("dvl", {})
     if path is not None and isinstance(dvl, dict) and "lever_arm_m" not in dvl:
-        lever = _tf_lever_arm(os.fspath(path), mapping)
-        if lever is not None:
-            raw["dvl"] = {**dvl, "lever_arm_m": lever}
-            source = source or f"{os.fspath(path)}:{TF_STATIC}"
+        return with_tf_lever_arm(mapping, raw, source, path, _tf_lever_arm(os.fspath(path), mapping))
+    return _checked(mapping, raw, source)
+
+
+def with_tf_lever_arm(
+    mapping: BagMapping,
+    raw: dict[str, Any],
+    source: str | None,
+    path: str | os.PathLike,
+    lever_arm_b_m: Any,
+) -> tuple[dict[str, Any], str | None]:
+    """The bag's configuration ``raw`` (:func:`bag_config` without the bag) with the DVL's lever
+    arm from ``/tf_static`` laid in where ``[config.dvl]`` sets none, checked.
+
+    Parameters
+    ----------
+    mapping : BagMapping
+        The bag mapping, for the messages.
+    raw : dict
+        The mapping's ``[config]`` as :func:`bag_config` gives it (section -> key -> value).
+    source : str or None
+        Where ``raw`` comes from (the mapping's path), or None.
+    path : str or os.PathLike
+        The bag.
+    lever_arm_b_m : array_like or None
+        The DVL's origin in the body (FRD) [m] (3,) from ``/tf_static``
+        (:attr:`~tauvcore.bags.tf.Mounting.r_b_m`); None: the bag gives none.
+
+    Returns
+    -------
+    tuple of dict and str or None
+        As :func:`bag_config` gives them given the bag.
+
+    Raises
+    ------
+    LogError
+        Naming the mapping or the bag, for a configuration that does not check.
+    """
+    dvl = raw.get("dvl", {})
+    if lever_arm_b_m is not None and isinstance(dvl, dict) and "lever_arm_m" not in dvl:
+        raw = {**raw, "dvl": {**dvl, "lever_arm_m": [float(v) for v in lever_arm_b_m]}}
+        source = source or f"{os.fspath(path)}:{TF_STATIC}"
+    return _checked(mapping, raw, source)
+
+
+def _checked(
+    mapping: BagMapping, raw: dict[str, Any], source: str | None
+) -> tuple[dict[str, Any], str | None]:
     if not raw:
         return {}, None
     try:
@@ -148,8 +238,6 @@ def _tf_lever_arm(bag: str, mapping: BagMapping) -> list[float] | None:
         rules = resolve(mapping, topics, bag)
         if "dvl" not in rules:
             return None
-        # the translation, whatever rotation the mapping gives
-        rules = {"dvl": dataclasses.replace(rules["dvl"], options={})}
         found = read_mounting(reader, bag, mapping, rules)
     finally:
         reader.close()
@@ -344,7 +432,9 @@ __all__ = [
     "open_bag",
     "own_mapping",
     "read_bag",
+    "read_bag_configured",
     "read_mapping",
     "read_recording",
     "typestore",
+    "with_tf_lever_arm",
 ]

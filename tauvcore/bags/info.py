@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from tauvcore.bags.mapping import BagMapping, resolve
+from tauvcore.bags.mapping import EXTRA_TOPICS, BagMapping, resolve
 from tauvcore.bags.reader import bag_errors, open_bag, typestore
 from tauvcore.bags.tf import dvl_mounting
 from tauvcore.validation import LogError, one_line, show_path
@@ -74,6 +74,9 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
             rules = resolve(mapping, topics, bag)
             for table, rule in rules.items():
                 feeds.setdefault(rule.topic, []).append(table)
+                for key in EXTRA_TOPICS:
+                    if key in rule.options:
+                        feeds.setdefault(rule.options[key], []).append(f"{table} ({key})")
             if "dvl" in rules:
                 found = dvl_mounting(reader, bag, mapping, rules)
                 t = found.r_b_m

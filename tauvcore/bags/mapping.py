@@ -10,6 +10,8 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
     [imu]
     topic = "/imu/data"
     offset_s = 0.0             # added to the topic's times [s] (its clock's offset)
+    # form = "increments"      # the IMU as increments: topic = "/imu/dq" (its angle increments),
+    # velocity_topic = "/imu/dv"   # and its velocity increments (:data:`IMU_FORMS`)
 
     [dvl]
     topic = "/dvl"
@@ -64,8 +66,13 @@ POSES = (
     "geometry_msgs/msg/PoseWithCovarianceStamped",
     "geometry_msgs/msg/PoseStamped",
 )
+INCREMENT_ANGLES = ("geometry_msgs/msg/QuaternionStamped", "geometry_msgs/msg/Vector3Stamped")
+"""An IMU's angle increments over each sample: the rotation as a quaternion (the Xsens MTi driver's
+``/imu/dq``) or as a rotation vector [rad]."""
+INCREMENT_VELOCITIES = ("geometry_msgs/msg/Vector3Stamped",)
+"""An IMU's velocity increments over each sample [m/s] (the Xsens MTi driver's ``/imu/dv``)."""
 ACCEPTED: dict[str, tuple[str, ...]] = {
-    "imu": ("sensor_msgs/msg/Imu",),
+    "imu": ("sensor_msgs/msg/Imu", *INCREMENT_ANGLES),
     "dvl": DVL_PER_BEAM + TWISTS,
     "depth": ("sensor_msgs/msg/FluidPressure", "std_msgs/msg/Float64", "std_msgs/msg/Float32"),
     "attitude": ("geometry_msgs/msg/QuaternionStamped", "sensor_msgs/msg/Imu", *POSES),
@@ -83,7 +90,7 @@ DEFAULT_TYPES: dict[str, tuple[str, ...]] = {
 them, or none)."""
 COMMON_KEYS = ("topic", "frame", "time", "offset_s")
 BUILT_IN_KEYS: dict[str, tuple[str, ...]] = {
-    "imu": COMMON_KEYS,
+    "imu": COMMON_KEYS + ("form", "velocity_topic"),
     "dvl": COMMON_KEYS + ("mounting_rpy_deg", "form", "beam_ids", "beam_velocity_sign", "beam_tolerance_deg"),
     "depth": COMMON_KEYS + ("water_density_kgpm3", "gravity_mps2", "atmospheric_pa"),
     "attitude": COMMON_KEYS,
@@ -114,6 +121,14 @@ and air; a geodetic reference's orientation and depth topics; a plug-in source's
 BASE_FRAME = "base_link"
 """The body's frame in the bag's ``/tf_static`` unless the mapping's ``base_frame`` says otherwise."""
 TOP_KEYS = ("frame", "time", "base_frame", "msg_paths", "config", *TABLE_KEYS)
+EXTRA_TOPICS = ("orientation_topic", "depth_topic", "velocity_topic")
+"""A table's keys that name a topic besides its ``topic``: a geodetic reference's orientation and
+depth, an IMU's velocity increments."""
+IMU_FORMS = ("rates", "increments")
+"""``rates``: a ``sensor_msgs/Imu`` topic (angular velocity, linear acceleration); ``increments``:
+angle increments on ``topic`` (:data:`INCREMENT_ANGLES`) and velocity increments on
+``velocity_topic`` (:data:`INCREMENT_VELOCITIES`), a message of each per sample, on the same
+stamps (tauvcore.bags.increments)."""
 DVL_FORMS = ("auto", "beams", "body")
 """``auto``: per-beam velocities where the message has them (and its beams are the configured
 ones), else the body velocity; ``beams``: per-beam or refuse; ``body``: the body velocity."""
@@ -163,6 +178,7 @@ class BagMapping:
     tables: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # table -> its keys
     msg_paths: tuple[Path, ...] = ()  # extra .msg definitions
     config: Mapping[str, Any] = field(default_factory=dict)  # a partial tauv configuration
+    tf_static: bool = True  # the DVL's mounting may come from /tf_static (False: --no-log-config)
 
 
 def _where(path: str, key: str) -> str:
@@ -246,7 +262,7 @@ def _number(path: str, key: str, value: Any) -> float:
 
 def _value(path: str, key: str, name: str, value: Any) -> Any:
     """One table key's value, checked (:data:`TABLE_KEYS`)."""
-    if name in ("topic", "orientation_topic", "depth_topic"):
+    if name == "topic" or name in EXTRA_TOPICS:
         if not isinstance(value, str):
             raise LogError(f"{_where(path, key)}: a topic name (text) is needed, got {show(value)}")
         return value
@@ -255,7 +271,7 @@ def _value(path: str, key: str, name: str, value: Any) -> Any:
     if name == "time":
         return _choice(path, key, value, TIMES)
     if name == "form":
-        return _choice(path, key, value, DVL_FORMS)
+        return _choice(path, key, value, IMU_FORMS if key.startswith("imu.") else DVL_FORMS)
     if name == "mounting_rpy_deg":
         if not isinstance(value, list) or len(value) != 3:
             raise LogError(f"{_where(path, key)}: three angles [deg] are needed, got {show(value)}")
@@ -316,6 +332,11 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
     for table in TABLE_KEYS:
         keys = mapping.tables.get(table, {})
         topic = keys.get("topic")
+        if topic is None and table == "imu" and keys.get("form") == "increments":
+            raise LogError(
+                f"{where}: imu.topic: form = 'increments' needs the angle increments' topic "
+                f"(a {', '.join(INCREMENT_ANGLES)} topic of {show_path(bag)})"
+            )
         if topic is None:
             default = DEFAULT_TYPES.get(table, ())  # a plug-in's table: only by name
             found = sorted(t for t, kind in topics.items() if kind in default and t not in named)
@@ -336,15 +357,18 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
                 f"(its topics: {', '.join(show(t) for t in sorted(topics)) or 'none'})"
             )
         kind = topics[topic]
-        if kind not in ACCEPTED[table]:
+        accepted = _accepted(table, keys)
+        if kind not in accepted:
             raise LogError(
                 f"{where}: {table}.topic: {show(topic)} of {show_path(bag)} holds {kind}, which cannot feed "
-                f"the {table} table (it takes {', '.join(ACCEPTED[table])})"
+                f"the {table} table{_form(table, keys)} (it takes {', '.join(accepted)})"
             )
-        for extra in ("orientation_topic", "depth_topic"):
+        for extra in EXTRA_TOPICS:
             other = keys.get(extra)
             if other is not None and other not in topics:
                 raise LogError(f"{where}: {table}.{extra}: {show(other)} is not a topic of {show_path(bag)}")
+        if table == "imu":
+            _check_increments(where, keys, topics, bag)
         options = {k: v for k, v in keys.items() if k not in COMMON_KEYS}
         rules[table] = TopicRule(
             table=table,
@@ -356,3 +380,36 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
             options=options,
         )
     return rules
+
+
+def _accepted(table: str, keys: Mapping[str, Any]) -> tuple[str, ...]:
+    """The types the table's ``topic`` may hold under its keys (an IMU's by its ``form``)."""
+    if table == "imu":
+        return INCREMENT_ANGLES if keys.get("form") == "increments" else ("sensor_msgs/msg/Imu",)
+    return ACCEPTED[table]
+
+
+def _form(table: str, keys: Mapping[str, Any]) -> str:
+    return f" as {keys['form']}" if table == "imu" and "form" in keys else ""
+
+
+def _check_increments(where: str, keys: Mapping[str, Any], topics: Mapping[str, str], bag: str) -> None:
+    """An IMU as increments names both its topics; an IMU as rates has no ``velocity_topic``."""
+    velocity = keys.get("velocity_topic")
+    if keys.get("form") != "increments":
+        if velocity is not None:
+            raise LogError(
+                f"{where}: imu.velocity_topic: {show(velocity)} is for form = 'increments' "
+                f"(form is {show(keys.get('form', 'rates'))})"
+            )
+        return
+    if velocity is None:
+        raise LogError(
+            f"{where}: imu.velocity_topic: form = 'increments' needs the velocity increments' topic "
+            f"(a {', '.join(INCREMENT_VELOCITIES)} topic of {show_path(bag)})"
+        )
+    if topics[velocity] not in INCREMENT_VELOCITIES:
+        raise LogError(
+            f"{where}: imu.velocity_topic: {show(velocity)} of {show_path(bag)} holds {topics[velocity]}, "
+            f"not velocity increments (it takes {', '.join(INCREMENT_VELOCITIES)})"
+        )

@@ -118,6 +118,7 @@ FIELDS: dict[str, tuple[str, ...]] = {
         *_xyzw("orientation"),
     ),
     "geometry_msgs/msg/QuaternionStamped": _xyzw("quaternion"),
+    "geometry_msgs/msg/Vector3Stamped": _xyz("vector"),
     "geometry_msgs/msg/PoseStamped": (*_xyz("pose.position"), *_xyzw("pose.orientation")),
     "geometry_msgs/msg/PoseWithCovarianceStamped": (
         *_xyz("pose.pose.position"),
@@ -159,6 +160,7 @@ EXTRACT: dict[str, Callable[[Any], tuple[float, ...]]] = {
 LAYOUTS: dict[str, dict[str, slice]] = {
     "sensor_msgs/msg/Imu": {"gyro": slice(0, 3), "accel": slice(3, 6), "quaternion": slice(6, 10)},
     "geometry_msgs/msg/QuaternionStamped": {"quaternion": slice(0, 4)},
+    "geometry_msgs/msg/Vector3Stamped": {"vector": slice(0, 3)},
     "geometry_msgs/msg/PoseStamped": _POSE,
     "geometry_msgs/msg/PoseWithCovarianceStamped": _POSE,
     "nav_msgs/msg/Odometry": {**_POSE, "velocity_b": slice(7, 10)},

@@ -21,9 +21,11 @@ import numpy as np
 
 from tauvcore.aiding.source import BagMessage
 from tauvcore.bags.frames import C_nb_from_quaternion, body_vectors, world_vectors
+from tauvcore.bags.increments import increment_columns
 from tauvcore.bags.mapping import (
     ATMOSPHERIC_PA,
     DVL_BEAM_TOLERANCE_DEG,
+    EXTRA_TOPICS,
     GRAVITY_MPS2,
     PLUGIN_COLUMNS,
     PLUGIN_MESSAGES,
@@ -352,18 +354,12 @@ def read_topics(
                 )
         rules = resolve(mapping, topics, bag)
         needed = {r.topic for r in rules.values()} | {
-            r.options[k]
-            for r in rules.values()
-            for k in ("orientation_topic", "depth_topic")
-            if k in r.options
+            r.options[k] for r in rules.values() for k in EXTRA_TOPICS if k in r.options
         }
         plugin = {r.topic: r for t, r in rules.items() if t in PLUGIN_MESSAGES}
         for topic, rule in plugin.items():
             others = [t for t, r in rules.items() if r.topic == topic and t != rule.table] + [
-                f"reference ({k})"
-                for r in rules.values()
-                for k in ("orientation_topic", "depth_topic")
-                if r.options.get(k) == topic
+                f"reference ({k})" for r in rules.values() for k in EXTRA_TOPICS if r.options.get(k) == topic
             ]
             if others:
                 raise LogError(
@@ -435,7 +431,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
     Returns
     -------
     BagTables
-        The tables (``imu`` as rates, ``dvl`` as beams or a body velocity, ``depth``,
+        The tables (``imu`` as rates, or increments where the mapping's ``form`` says, ``dvl`` as beams or a body velocity, ``depth``,
         ``attitude``, ``reference``), each with ``t_s`` on the IMU's clock.
 
     Raises
@@ -460,9 +456,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
     notes: list[str] = []
     tables: dict[str, dict[str, np.ndarray]] = {}
     later = [rule.topic for rule in rules.values()]  # each topic once for each table it feeds
-    later += [
-        r.options[k] for r in rules.values() for k in ("orientation_topic", "depth_topic") if k in r.options
-    ]
+    later += [r.options[k] for r in rules.values() for k in EXTRA_TOPICS if k in r.options]
     for table, rule in rules.items():
         later.remove(rule.topic)
         entry = read[rule.topic]
@@ -478,7 +472,14 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
                 entry.release()
             continue
         part = _parts(kind, data)
-        if table == "imu":
+        if table == "imu" and rule.option("form", "rates") == "increments":
+            velocity = rule.options["velocity_topic"]
+            later.remove(velocity)
+            other = read[velocity]
+            columns = increment_columns(bag, rule, kind, data, entry.stamps, other.rows, other.stamps)
+            if velocity not in later:
+                other.release()
+        elif table == "imu":
             columns = _imu(part, rule)
         elif table == "dvl":
             assert mounting is not None  # read_topics finds it wherever there is a DVL

@@ -40,6 +40,9 @@ FLOAT32_BEAMS = ("marine_acoustic_msgs/msg/Dvl", "ds_sensor_msgs/msg/Dvl")
 TOPICS = {"imu": "/imu/data", "dvl": "/dvl", "depth": "/pressure", "attitude": "/ahrs", "reference": "/odom"}
 FIX_TOPICS = {"topic": "/fix", "orientation_topic": "/fix/orientation", "depth_topic": "/fix/depth"}
 """A NavSatFix reference's topics (:func:`geodetic_tables`): the fix, its attitude, its depth."""
+INCREMENT_TOPICS = {"topic": "/imu/dq", "velocity_topic": "/imu/dv"}
+"""Where write_bag puts an IMU table of increments (the Xsens MTi driver's topics): the angle
+increments as geometry_msgs/QuaternionStamped, the velocity increments as Vector3Stamped."""
 USBL_TOPIC = "/usbl/fix"
 """Where write_bag puts a ``usbl`` table."""
 LEVER_ARM_B_M = (0.6, 0.1, 0.15)
@@ -100,6 +103,18 @@ def mission_tables(config: Config, seed: int = 3) -> tuple[dict, dict]:
     return per_beam, {**per_beam, "dvl": body}
 
 
+def increment_tables(tables: dict) -> dict:
+    """``tables`` with the IMU as increments over each sample (``dtheta_*_rad``, ``dv_*_mps``): its
+    rates times the interval ending at the row (the first row's, the second's interval)."""
+    imu = tables["imu"]
+    t = imu["t_s"]
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0]))
+    out = {"t_s": t}
+    out.update({f"dtheta_{a}_rad": imu[f"gyro_{a}_rps"] * dt for a in "xyz"})
+    out.update({f"dv_{a}_mps": imu[f"accel_{a}_mps2"] * dt for a in "xyz"})
+    return {**tables, "imu": out}
+
+
 def geodetic_tables(tables: dict, config: Config) -> dict:
     """``tables`` with the reference as a sensor_msgs/NavSatFix carries it: latitude and longitude
     [deg] of the local positions about the configured origin, the depth, the attitude as it was,
@@ -133,6 +148,8 @@ def store_for(storage: str) -> Any:
     types: dict = {}
     for path in sorted(MSGS.glob("*/msg/*.msg")):
         types.update(get_types_from_msg(path.read_text(), f"{path.parent.parent.name}/msg/{path.stem}"))
+    if "tf2_msgs/msg/TFMessage" not in store.fielddefs:  # ROS 1's store lacks it: its one-line definition
+        types.update(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
     store.register(types)
     return store
 
@@ -199,6 +216,8 @@ def write_bag(
     usbl_as: str = "geometry_msgs/msg/PointStamped",
     C_b_dvl: np.ndarray | None = None,
     tf_static: bool = False,
+    tf_chain: tuple[tuple[str, str, np.ndarray, np.ndarray], ...] = (),
+    velocity_skip: int | None = None,
 ) -> Path:
     """Write ``tables`` as a bag: ``storage`` ros1 (``path`` a .bag), sqlite3 (a directory) or mcap
     (a .mcap file: the ROS 2 writer's single storage file). The IMU (sensor_msgs/Imu), the DVL
@@ -207,7 +226,10 @@ def write_bag(
     a ``usbl`` table as ``usbl_as`` (PointStamped or PoseWithCovarianceStamped) on
     :data:`USBL_TOPIC`. ``C_b_dvl`` (3, 3) mounts the DVL rotated (its beam directions in its own
     frame, ``C_b_dvl.T`` of the body's); ``tf_static`` writes that mounting and :data:`LEVER_ARM_B_M`
-    as the ``/tf_static`` transform base_link -> dvl."""
+    as the ``/tf_static`` transform base_link -> dvl; ``tf_chain`` (parent, child, C (3, 3), t (3,)
+    in FRD: ``p_parent = C p_child + t``) writes those transforms instead. An IMU table of
+    increments (:func:`increment_tables`) is written on :data:`INCREMENT_TOPICS`, the angle
+    increments as quaternions, leaving out the velocity topic's message ``velocity_skip`` (0-based)."""
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
@@ -234,6 +256,9 @@ def write_bag(
 
     def imu_messages() -> Iterator[tuple[int, str, str, Any]]:
         imu = tables["imu"]
+        if "dtheta_x_rad" in imu:
+            yield from increment_messages(imu)
+            return
         gyro = vec_b(np.stack([imu[f"gyro_{a}_rps"] for a in "xyz"], -1))
         accel = vec_b(np.stack([imu[f"accel_{a}_mps2"] for a in "xyz"], -1))
         level = quat(np.array([0.0, 0.0, 0.0, 1.0]))
@@ -243,6 +268,20 @@ def write_bag(
                        linear_acceleration=vector3(accel[k]), orientation=level)
             for topic in imu_topics:
                 yield ns, topic, "sensor_msgs/msg/Imu", msg
+
+    def increment_messages(imu: dict) -> Iterator[tuple[int, str, str, Any]]:
+        dtheta = vec_b(np.stack([imu[f"dtheta_{a}_rad"] for a in "xyz"], -1))
+        dv = vec_b(np.stack([imu[f"dv_{a}_mps"] for a in "xyz"], -1))
+        angle = np.linalg.norm(dtheta, axis=-1)
+        axis = dtheta / np.where(angle > 0, angle, 1.0)[:, None]
+        dq = np.concatenate([axis * np.sin(angle / 2)[:, None], np.cos(angle / 2)[:, None]], axis=-1)
+        for k, t in enumerate(imu["t_s"]):
+            h, ns = header(t, "imu_link")
+            yield ns, INCREMENT_TOPICS["topic"], "geometry_msgs/msg/QuaternionStamped", make(
+                store, "geometry_msgs/msg/QuaternionStamped", header=h, quaternion=quat(dq[k]))
+            if k != velocity_skip:
+                yield ns, INCREMENT_TOPICS["velocity_topic"], "geometry_msgs/msg/Vector3Stamped", make(
+                    store, "geometry_msgs/msg/Vector3Stamped", header=h, vector=vector3(dv[k]))
 
     def depth_messages() -> Iterator[tuple[int, str, str, Any]]:
         depth = tables["depth"]
@@ -312,14 +351,19 @@ def write_bag(
             yield ns, USBL_TOPIC, usbl_as, msg
 
     def tf_messages() -> Iterator[tuple[int, str, str, Any]]:
-        if not tf_static:
+        if not tf_static and not tf_chain:
             return
+        edges = tf_chain or (("base_link", "dvl", C_b_dvl if C_b_dvl is not None else np.eye(3),
+                              np.asarray(LEVER_ARM_B_M)),)
+        transforms = []
+        for parent, child, C, t in edges:
+            h, ns = header(0.0, parent)
+            rotation = _quaternion(rot_b(np.asarray(C))[None])[0]
+            transforms.append(make(store, "geometry_msgs/msg/TransformStamped", header=h, child_frame_id=child,
+                                   transform=make(store, "geometry_msgs/msg/Transform",
+                                                  translation=vector3(vec_b(np.asarray(t))), rotation=quat(rotation))))
         h, ns = header(0.0, "base_link")
-        rotation = _quaternion(rot_b(C_b_dvl if C_b_dvl is not None else np.eye(3))[None])[0]
-        tf = make(store, "geometry_msgs/msg/TransformStamped", header=h, child_frame_id="dvl", transform=make(
-            store, "geometry_msgs/msg/Transform", translation=vector3(vec_b(np.asarray(LEVER_ARM_B_M))),
-            rotation=quat(rotation)))
-        yield ns, "/tf_static", "tf2_msgs/msg/TFMessage", make(store, "tf2_msgs/msg/TFMessage", transforms=[tf])
+        yield ns, "/tf_static", "tf2_msgs/msg/TFMessage", make(store, "tf2_msgs/msg/TFMessage", transforms=transforms)
 
     rot_b = (lambda C: D_FLU @ C @ D_FLU) if flu else (lambda C: C)
     dvl: list[tuple[int, str, str, Any]] = []

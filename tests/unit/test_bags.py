@@ -13,10 +13,12 @@ import pytest
 from bag_fixtures import (
     DVL_TYPES,
     FIX_TOPICS,
+    INCREMENT_TOPICS,
     LEVER_ARM_B_M,
     TOPICS,
     USBL_TOPIC,
     geodetic_tables,
+    increment_tables,
     mission_config,
     mission_tables,
     write_bag,
@@ -282,3 +284,167 @@ def test_a_plugin_s_covariance_diagonal_fills_its_sigma_columns_in_ned() -> None
     out = _plugin(spec, np.array([plugin_row(spec)(msg)]), TopicRule("x", "/fix", frame="flu_enu"), columns)
     assert [float(out[c][0]) for c in columns[:5]] == [2.0, 1.0, -3.0, 3.0, 2.0]
     assert np.isnan(out["sigma_down_m"][0]) and np.isnan(out["quality"][0])
+
+
+@pytest.fixture(scope="module")
+def increments(mission: dict) -> dict:
+    """The mission with its IMU as increments, its CSV log (increment columns) and that log's replay."""
+    config, root = mission["config"], mission["root"]
+    tables = increment_tables(mission["beams"])
+    write_log(root / "log_increments", tables, "csv")
+    return {"tables": tables, "replay": replay(config, read_log(root / "log_increments"), np.random.default_rng(0))[1]}
+
+
+INCREMENTS_MAPPING = (f'[imu]\nform = "increments"\ntopic = "{INCREMENT_TOPICS["topic"]}"\n'
+                      f'velocity_topic = "{INCREMENT_TOPICS["velocity_topic"]}"\n')
+
+
+@pytest.mark.parametrize(("storage", "frame"), [("ros1", "flu_enu"), ("sqlite3", "frd_ned"), ("mcap", "flu_enu")])
+def test_an_imu_of_increments_replays_as_the_csv_log_of_increments(mission: dict, increments: dict, tmp_path: Path,
+                                                                  storage: str, frame: str) -> None:
+    """Angle increments as QuaternionStamped (the Xsens driver's /imu/dq) and velocity increments as
+    Vector3Stamped (/imu/dv), FLU converted to FRD: the log's dtheta and dv columns to 1e-15, and the
+    replay the CSV log's (increment columns) to 1e-9."""
+    config = mission["config"]
+    tables = increments["tables"]
+    bag = write_bag(tmp_path / STORAGES[storage], storage, tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame=frame)
+    mapping = _mapping(tmp_path / "map.toml", f'frame = "{frame}"\n' + INCREMENTS_MAPPING)
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    for i, a in enumerate("xyz"):
+        np.testing.assert_allclose(log.dtheta_b[1:, i], tables["imu"][f"dtheta_{a}_rad"][1:], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(log.dv_b[1:, i], tables["imu"][f"dv_{a}_mps"][1:], rtol=0, atol=1e-15)
+    _same(replay(config, log, np.random.default_rng(0))[1], increments["replay"])
+
+
+def test_imu_increments_that_do_not_pair_are_one_line(mission: dict, increments: dict, tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    """A velocity message left out (the counts and, from there, the stamps differ), a velocity topic the
+    bag lacks, increments without their velocity topic: one line naming the bag, topic, message; exit 2."""
+    config = mission["config"]
+    tables = increments["tables"]
+    bag = write_bag(tmp_path / "skip.mcap", "mcap", tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame="flu_enu", velocity_skip=5)
+    mapping = _mapping(tmp_path / "map.toml", INCREMENTS_MAPPING)
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(mapping)], "skip.mcap", "topic '/imu/dv' (imu)",
+           "message 6", "'/imu/dq'", "pair one to one")
+    last = write_bag(tmp_path / "last.bag", "ros1", tables, "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                     frame="flu_enu", velocity_skip=len(tables["imu"]["t_s"]) - 1)
+    count = len(tables["imu"]["t_s"])
+    _fails(capsys, ["replay", str(last), "--bag-mapping", str(mapping)], "last.bag", "topic '/imu/dq' (imu)",
+           f"message {count}", "is missing", f"{count - 1}")
+    missing = _mapping(tmp_path / "missing.toml", INCREMENTS_MAPPING.replace("/imu/dv", "/imu/none"))
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(missing)], "missing.toml", "imu.velocity_topic",
+           "'/imu/none'", "skip.mcap")
+    alone = _mapping(tmp_path / "alone.toml", INCREMENTS_MAPPING.split("velocity_topic")[0])
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(alone)], "alone.toml", "imu.velocity_topic",
+           "increments")
+    rates = _mapping(tmp_path / "rates.toml", '[imu]\nform = "rates"\ntopic = "/imu/dq"\n')
+    _fails(capsys, ["replay", str(bag), "--bag-mapping", str(rates)], "imu.topic", "'/imu/dq'",
+           "geometry_msgs/msg/QuaternionStamped", "sensor_msgs/msg/Imu")
+
+
+def test_a_quaternion_s_rotation_vector() -> None:
+    """The rotation vector of a quaternion: the same rotation whatever the quaternion's sign or norm,
+    a small angle to 1e-18, a zero quaternion NaN."""
+    from tauvcore.bags.increments import rotation_vectors
+
+    theta = np.array([[0.3, -0.2, 0.1], [1e-9, 2e-9, -3e-9], [0.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
+    angle = np.linalg.norm(theta, axis=-1)
+    axis = theta / np.where(angle > 0, angle, 1.0)[:, None]
+    q = np.concatenate([axis * np.sin(angle / 2)[:, None], np.cos(angle / 2)[:, None]], axis=-1)
+    np.testing.assert_allclose(rotation_vectors(q), theta, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(rotation_vectors(-2.0 * q), theta, rtol=1e-12, atol=1e-18)
+    assert np.isnan(rotation_vectors(np.zeros((1, 4)))).all()
+
+
+def test_a_tf_static_chain_gives_the_direct_transform_s_mounting(mission: dict, tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture) -> None:
+    """base_link -> sensor_mount, then dvl -> sensor_mount (the second edge written the other way round):
+    the composed rotation and lever arm equal those of the direct base_link -> dvl to 1e-9; a chain
+    broken between base_link and the DVL's frame is one line naming the frames."""
+    from tauvcore.bags import bag_tables
+
+    config = mission["config"]
+    C = mounting_matrix((0.0, 0.0, 45.0))
+    t = np.asarray(LEVER_ARM_B_M)
+    C1, t1 = mounting_matrix((5.0, -20.0, 30.0)), np.array([0.2, -0.1, 0.3])
+    C2, t2 = C1.T @ C, C1.T @ (t - t1)                      # sensor_mount -> dvl
+    edges = (("base_link", "sensor_mount", C1, t1), ("dvl", "sensor_mount", C2.T, -C2.T @ t2))
+    args = (mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b)
+    direct = write_bag(tmp_path / "direct.mcap", "mcap", *args, frame="flu_enu", C_b_dvl=C, tf_static=True)
+    chained = write_bag(tmp_path / "chain.bag", "ros1", *args, frame="flu_enu", C_b_dvl=C, tf_chain=edges)
+    want = bag_tables(direct, BagMapping(), config.dvl.A_b).mounting
+    got = bag_tables(chained, BagMapping(), config.dvl.A_b).mounting
+    assert want is not None and got is not None and want.r_b_m is not None and got.r_b_m is not None
+    assert got.source == "/tf_static base_link -> sensor_mount -> dvl" and want.source == "/tf_static base_link -> dvl"
+    np.testing.assert_allclose(got.C_b_dvl, want.C_b_dvl, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got.C_b_dvl, C, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got.r_b_m, want.r_b_m, rtol=0, atol=1e-9)
+    raw, _ = bag_config(BagMapping(), chained)
+    np.testing.assert_allclose(raw["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-9)
+    broken = write_bag(tmp_path / "broken.mcap", "mcap", *args, frame="flu_enu", C_b_dvl=C,
+                       tf_chain=(edges[0], ("dvl", "other_mount", C2.T, -C2.T @ t2)))
+    with pytest.raises(LogError, match="no chain"):
+        read_bag(broken, BagMapping(), config.dvl.A_b)
+    _fails(capsys, ["replay", str(broken)], "broken.mcap", "/tf_static", "'base_link'", "'dvl'", "'other_mount'")
+
+
+def test_replay_and_convert_open_a_bag_once(mission: dict, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``tauv replay`` and ``tauv log convert`` take the DVL's lever arm from /tf_static in the read of
+    the bag's messages (one open of the bag), laid under --config as the bag's own configuration."""
+    import json
+
+    from rosbags.highlevel import AnyReader
+
+    config = mission["config"]
+    bag = write_bag(tmp_path / "tf.bag", "ros1", mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame="flu_enu", C_b_dvl=mounting_matrix((0.0, 0.0, 45.0)), tf_static=True)
+    opened: list[int] = []
+    real_open = AnyReader.open
+
+    def counted(self: AnyReader) -> None:
+        opened.append(1)
+        real_open(self)
+
+    monkeypatch.setattr(AnyReader, "open", counted)
+    out = tmp_path / "run.json"
+    flags = ["--method", "ins,lc", "--aiding", "dvl,depth,mag", "--earth", "flat"]
+    assert main(["replay", str(bag), *flags, "--json", str(out)]) == 0
+    assert len(opened) == 1
+    document = json.loads(out.read_text())
+    np.testing.assert_allclose(document["config"]["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-12)
+    assert document["log"]["config_file"] == f"{bag}:/tf_static"
+    assert any(layer.startswith("the bag's") and "dvl.lever_arm_m" in layer for layer in document["log"]["configuration"])
+    opened.clear()
+    assert main(["log", "convert", str(bag), str(tmp_path / "log")]) == 0
+    assert len(opened) == 1
+    assert "lever_arm_m" in (tmp_path / "log" / "log.toml").read_text()
+
+
+def test_no_log_config_drops_both_the_tf_static_rotation_and_lever_arm(mission: dict, tmp_path: Path,
+                                                                       capsys: pytest.CaptureFixture) -> None:
+    """``--no-log-config`` with a bag whose DVL is mounted 45 deg by /tf_static: the rotation goes (its beams
+    are then not the configured ones: one line, exit 2) and so does the lever arm (with the mapping's
+    mounting_rpy_deg the run takes the configuration's default lever arm, and no /tf_static note)."""
+    import json
+
+    from tauvcore.config import Config
+
+    config = mission["config"]
+    bag = write_bag(tmp_path / "tf.mcap", "mcap", mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,
+                    frame="flu_enu", C_b_dvl=mounting_matrix((0.0, 0.0, 45.0)), tf_static=True)
+    flags = ["--method", "ins,lc", "--aiding", "dvl,depth,mag", "--earth", "flat"]
+    _fails(capsys, ["replay", str(bag), *flags, "--no-log-config"], "topic '/dvl'", "configured beam")
+    mapping = _mapping(tmp_path / "rpy.toml", "[dvl]\nmounting_rpy_deg = [0.0, 0.0, 45.0]\n")
+    runs = {}
+    for name, extra in (("kept", []), ("ignored", ["--no-log-config"])):
+        out = tmp_path / f"{name}.json"
+        assert main(["replay", str(bag), "--bag-mapping", str(mapping), *flags, *extra, "--json", str(out)]) == 0
+        runs[name] = json.loads(out.read_text())
+    capsys.readouterr()
+    np.testing.assert_allclose(runs["kept"]["config"]["dvl"]["lever_arm_m"], LEVER_ARM_B_M, rtol=0, atol=1e-12)
+    assert runs["ignored"]["config"]["dvl"]["lever_arm_m"] == list(Config().dvl.lever_arm_m)
+    assert runs["ignored"]["log"]["config_file"] is None
+    assert any("--no-log-config" in layer and "/tf_static" in layer for layer in runs["ignored"]["log"]["configuration"])
+    assert not any("/tf_static" in note for note in runs["ignored"]["log"]["notes"])

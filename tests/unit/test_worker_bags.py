@@ -97,6 +97,10 @@ def test_the_worker_replays_a_bag_as_tauv_replay_does_to_1e_9(logs: dict, tmp_pa
     replayed, source = from_dict(messages[0][1]), messages[0][2]
     assert replayed.dvl.noise_mps == 0.03 and cli["config"]["dvl"]["noise_mps"] == 0.03
     assert source["bag_mapping"] == source["config_file"] == str(root / "frd.toml")
+    # the JSON's "log" section: the dashboard's (its source, and the bag's name) and tauv replay --json's alike
+    for document in (cli, json.loads(beside.read_text())):
+        assert set(source) - {"name"} == set(document["log"]), document["log"]
+        assert document["log"]["bag_mapping"] == source["bag_mapping"]
     assert source["configuration"][1].startswith("the bag mapping's [config] in") and "dvl.noise_mps" in source[
         "configuration"][1]
     results = messages[-1][1]
@@ -116,6 +120,8 @@ def test_the_worker_replays_a_bag_as_tauv_replay_does_to_1e_9(logs: dict, tmp_pa
     plain = str(root / "mission.bag")
     messages = _worker_replay(to_dict(config.replace("dvl", noise_mps=0.042)), plain)
     assert messages[-1][0] == "done" and messages[0][2]["bag_mapping"] is None and messages[0][2]["config_file"] is None
+    assert main(["replay", plain, *flags, "--json", str(tmp_path / "plain.json")]) == 0
+    assert json.loads((tmp_path / "plain.json").read_text())["log"]["bag_mapping"] is None
     want = replay(config.replace("dvl", noise_mps=0.042), read_bag(plain, read_mapping(None), config.dvl.A_b),
                   np.random.default_rng(config.run.seed))[1]
     for method, r in messages[-1][1].items():
