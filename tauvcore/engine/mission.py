@@ -103,6 +103,8 @@ def run_chunked(
     rng: np.random.Generator | Sequence[np.random.Generator],
     on_chunk: Callable[[dict[str, MethodResult]], None],
     chunk_s: float | None = None,
+    smooth: SmoothOptions | None = None,
+    on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
 ) -> None:
     """Run every method of ``config.run.methods`` on a whole simulation or a log, handing the
     results out chunk by chunk instead of keeping them, so that they do not grow with the
@@ -127,13 +129,26 @@ def run_chunked(
         ``config.run.methods`` order.
     chunk_s : float or None
         Mission time per chunk [s]; None: :data:`STREAM_CHUNK_S`.
+    smooth : SmoothOptions or None
+        Also run the fixed-interval smoother once the forward pass is done
+        (tauvcore.engine.smoothing); None: no smoother.
+    on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
+        With ``smooth``: ``on_smoothed_chunk(results)`` then receives the smoothed results chunk by
+        chunk in the mission's order (the 20-state methods', series (T_chunk, R), with
+        ``smoother_cuts``), after every ``on_chunk``.
+
+    Raises
+    ------
+    SmoothingError
+        The smoother cannot write its temporary directory.
     """
     dt_s = sim.dt_s
-    banks = Banks(config, sim.num_runs, sim.num_samples, dt_s, rng, keep=False)
+    banks = Banks(config, sim.num_runs, sim.num_samples, dt_s, rng, keep=False, smooth=smooth)
     chunk_samples = max(1, round((STREAM_CHUNK_S if chunk_s is None else chunk_s) / dt_s))
     for chunk in chunks_of(sim, chunk_samples):
         banks.feed(chunk)
         on_chunk(banks.take())
+    banks.hand_out_smoothed(on_smoothed_chunk)
 
 
 class Banks:
@@ -347,6 +362,24 @@ class Banks:
 
         return chunks(), out.close
 
+    def hand_out_smoothed(self, on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None) -> None:
+        """The smoother's backward pass (if the banks keep a tape), its results handed to
+        ``on_smoothed_chunk`` chunk by chunk in the mission's order, then let go.
+
+        Parameters
+        ----------
+        on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
+            Receives each chunk's smoothed results; None: the pass is not run.
+        """
+        if self.smooth is None or on_smoothed_chunk is None:
+            return
+        chunks, close = self.smoothed()
+        try:
+            for results in chunks:
+                on_smoothed_chunk(results)
+        finally:
+            close()
+
     def with_smoothed(self, results: dict[str, MethodResult]) -> dict[str, MethodResult]:
         """``results`` of the whole run with each 20-state method's smoothed results attached
         (``MethodResult.smoothed``; the smoother's backward pass runs here).
@@ -399,6 +432,8 @@ def run_streaming(
     on_sim_chunk: Callable[[SimChunk], None] | None = None,
     progress_min_wall_s: float = 0.0,
     sensor_errors: bool = False,
+    smooth: SmoothOptions | None = None,
+    on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
 ) -> dict[str, MethodResult]:
     """Simulate and run chunk by chunk, so that memory does not depend on the mission's length.
 
@@ -445,6 +480,16 @@ def run_streaming(
     sensor_errors : bool
         As in :func:`run`: record the estimated sensor errors, their 1-sigma and their truth
         (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``, (T, R, S)); False: None.
+    smooth : SmoothOptions or None
+        Also run the fixed-interval smoother once the forward pass is done (or stopped)
+        (tauvcore.engine.smoothing): with ``keep``, each 20-state method's result carries its
+        ``smoothed`` results; with ``on_smoothed_chunk``, that receives them chunk by chunk. None:
+        no smoother.
+    on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
+        With ``smooth``: ``on_smoothed_chunk(results)`` receives the smoothed results chunk by
+        chunk in the mission's order (the 20-state methods', series (T_chunk, R)), after the last
+        ``on_chunk``; memory then does not grow with the mission (the smoother's tape beyond its
+        budget is in a temporary directory).
 
     Returns
     -------
@@ -457,6 +502,8 @@ def run_streaming(
     ------
     ValueError
         A sequence ``rng`` whose length is not ``num_runs``: "one generator per run expected".
+    SmoothingError
+        The smoother cannot write its temporary directory.
     """
     per_run = not isinstance(rng, np.random.Generator)
     if per_run:
@@ -480,7 +527,14 @@ def run_streaming(
     )
     sources = SourceStream(config, plugin_rng, num_runs, truths.num_samples, truths.dt_s, streams)
     bank = Banks(
-        config, num_runs, truths.num_samples, truths.dt_s, initial, keep=keep, sensor_errors=sensor_errors
+        config,
+        num_runs,
+        truths.num_samples,
+        truths.dt_s,
+        initial,
+        keep=keep,
+        sensor_errors=sensor_errors,
+        smooth=smooth,
     )
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
@@ -494,4 +548,9 @@ def run_streaming(
                 on_chunk(last)
         if not going:
             break
-    return bank.results() if keep else last
+    if smooth is None:
+        return bank.results() if keep else last
+    if on_smoothed_chunk is not None or not keep:
+        bank.hand_out_smoothed(on_smoothed_chunk)
+        return bank.results() if keep else last
+    return bank.with_smoothed(bank.results())

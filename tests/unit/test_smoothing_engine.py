@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.engine.mission import Banks, run
+from tauvcore.engine.mission import Banks, run, run_streaming
 from tauvcore.engine.simulation import chunks_of, simulate
 from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
 from tauvcore.sensors.dvl import Outage
@@ -168,3 +168,26 @@ def test_smoothed_nees_over_30_runs(trajectory):
         # own sigma sees no gain there, and its error matches the filter's within the runs' spread
         assert np.all(s.pos_sigma_m <= f.pos_sigma_m + 1e-9)
         assert np.mean(s.pos_err_m**2) <= 1.05 * np.mean(f.pos_err_m**2), (trajectory, method)
+
+
+def test_streamed_smoothed_chunks_add_up_to_the_kept_results():
+    """run_streaming hands the smoothed results out chunk by chunk, in the mission's order, after
+    the filtered ones: together they are the smoothed results it keeps, bit for bit."""
+    config = _config(45.0, methods=("lc", "ins"))
+    kept = run_streaming(config, np.random.default_rng(3), num_runs=2, smooth=SmoothOptions())
+    order, parts = [], []
+
+    def filtered(results):
+        order.append("filtered")
+
+    def smoothed(results):
+        order.append("smoothed")
+        parts.append(results)
+
+    run_streaming(config, np.random.default_rng(3), num_runs=2, keep=False, on_chunk=filtered,
+                  smooth=SmoothOptions(budget_mb=0.0), on_smoothed_chunk=smoothed)
+    assert order == ["filtered"] * len(parts) + ["smoothed"] * len(parts) and len(parts) > 2
+    for method in kept:
+        for name in FIELDS:
+            np.testing.assert_array_equal(np.concatenate([getattr(p[method], name) for p in parts]),
+                                          getattr(kept[method].smoothed, name), err_msg=name)
