@@ -52,7 +52,7 @@ ESTIMATES = (
 """The filtered store's fields a segment keeps, for the smoothed estimates and their records."""
 
 
-DEFAULT_BUDGET_MB = 256.0
+DEFAULT_BUDGET_MB = 64.0
 """Megabytes of tape the smoother holds in memory by default; the rest goes to a temporary file."""
 
 
