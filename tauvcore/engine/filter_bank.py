@@ -44,7 +44,7 @@ from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
-from tauvcore.engine import loop
+from tauvcore.engine import loop, smoothing
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
@@ -61,7 +61,7 @@ from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.engine.smoothing import OUTPUT_TAPE, Tape, TapeWriter, smooth_tape, tape_rows
+from tauvcore.engine.smoothing import Tape
 from tauvcore.engine.sources import active
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import (
@@ -130,9 +130,8 @@ class FilterBank(ChunkDriver):
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         self.rng = rng
         # the smoother's tape of the marks (tauvcore.engine.smoothing); None: no smoother
-        self.taping = TapeWriter(tape, self.batch, self.geodetic) if tape is not None else None
-        self._no_tape = tape_rows(0, self.batch)
-        M, R = self.batch
+        self.taping = smoothing.TapeWriter(tape, self.batch, self.geodetic) if tape is not None else None
+        self._no_tape = smoothing.tape_rows(0, self.batch)
         M, R = self.batch
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
@@ -569,7 +568,7 @@ class FilterBank(ChunkDriver):
             store["sensor_est"],
             store["sensor_sigma"],
             store["sensor_true"],
-            *(tape[name] for name in OUTPUT_TAPE),
+            *(tape[name] for name in smoothing.OUTPUT_TAPE),
         )
         return plain(outputs)
 
@@ -761,7 +760,10 @@ class FilterBank(ChunkDriver):
         emptied. -> (M, R) the steps where the pass started afresh."""
         assert self.taping is not None  # a bank made with a tape
         self.taping.close(self.slot)
-        return smooth_tape(self.taping.tape, self.batch, self.block_of_state, SENSOR_INDEX, units.DEG, out)
+        carry = smoothing.Carry(int(np.prod(self.batch)))
+        args = (carry, self.batch, self.block_of_state, SENSOR_INDEX, units.DEG)
+        smoothing.smooth_tape(self.taping.tape, out, lambda segment: smoothing.smooth_segment(segment, *args))
+        return carry.cuts.reshape(self.batch)
 
     def smoothed_results(self, store: Store, cuts: np.ndarray) -> dict[str, MethodResult]:
         """Each method's smoothed results from smoothed stores (:meth:`smooth`) concatenated:

@@ -212,7 +212,16 @@ class Banks:
             else None
         )
         self.yoo = (
-            YooBank(config, second, num_runs, num_samples, dt_s, keep=keep, sensor_errors=sensor_errors)
+            YooBank(
+                config,
+                second,
+                num_runs,
+                num_samples,
+                dt_s,
+                keep=keep,
+                sensor_errors=sensor_errors,
+                tape=smooth.tape() if smooth is not None else None,
+            )
             if second
             else None
         )
@@ -340,27 +349,42 @@ class Banks:
         -------
         tuple
             An iterator of the smoothed results of each chunk in the mission's order (method name
-            -> :class:`MethodResult` of the 20-state methods, series (T_chunk, R), with
-            ``smoother_cuts``), and a function that removes what the smoother still holds (its
-            temporary directory), to be called once done with the iterator.
+            -> :class:`MethodResult`, series (T_chunk, R), with ``smoother_cuts``), and a function
+            that removes what the smoother still holds (its temporary directories), to be called
+            once done with the iterator.
 
         Raises
         ------
         SmoothingError
             The smoother cannot write its temporary directory.
         """
-        bank, options = self.bank, self.smooth
+        options = self.smooth
         assert options is not None  # Banks made with smooth
-        out = options.tape()
-        if bank is None:
-            return iter(()), out.close
-        cuts = bank.smooth(out)
+        passes = []
+        try:
+            for bank in (b for b in (self.bank, self.yoo) if b is not None):
+                out = options.tape()
+                passes.append((bank, out))
+                cuts = bank.smooth(out)
+                passes[-1] = (bank, out, cuts)
+        except BaseException:
+            for done in passes:
+                done[1].close()
+            raise
 
         def chunks() -> Iterator[dict[str, MethodResult]]:
-            for store in forward(out):
-                yield bank.smoothed_results(store, cuts)
+            for stores in zip(*(forward(out) for _, out, _ in passes), strict=True):
+                parts = [
+                    bank.smoothed_results(store, cuts)
+                    for (bank, _, cuts), store in zip(passes, stores, strict=True)
+                ]
+                yield self._merge(*parts) if len(parts) == 2 else parts[0]
 
-        return chunks(), out.close
+        def close() -> None:
+            for _, out, _ in passes:
+                out.close()
+
+        return chunks(), close
 
     def hand_out_smoothed(self, on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None) -> None:
         """The smoother's backward pass (if the banks keep a tape), its results handed to
@@ -381,7 +405,7 @@ class Banks:
             close()
 
     def with_smoothed(self, results: dict[str, MethodResult]) -> dict[str, MethodResult]:
-        """``results`` of the whole run with each 20-state method's smoothed results attached
+        """``results`` of the whole run with each method's smoothed results attached
         (``MethodResult.smoothed``; the smoother's backward pass runs here).
 
         Parameters
@@ -392,22 +416,23 @@ class Banks:
         Returns
         -------
         dict[str, MethodResult]
-            The same, each 20-state method's with ``smoothed``.
+            The same, each with ``smoothed``.
         """
-        bank, options = self.bank, self.smooth
-        if bank is None or options is None:
+        if self.smooth is None:
             return results
-        out = options.tape()
-        try:
-            cuts = bank.smooth(out)
-            stores = list(forward(out))
-            cat = {
-                name: np.concatenate([st[name] for st in stores], axis=1 if name == "series" else 0)
-                for name in stores[0]
-            }
-        finally:
-            out.close()
-        smoothed = bank.smoothed_results(cat, cuts)
+        smoothed: dict[str, MethodResult] = {}
+        for bank in (b for b in (self.bank, self.yoo) if b is not None):
+            out = self.smooth.tape()
+            try:
+                cuts = bank.smooth(out)
+                stores = list(forward(out))
+                cat = {
+                    name: np.concatenate([st[name] for st in stores], axis=1 if name == "series" else 0)
+                    for name in stores[0]
+                }
+            finally:
+                out.close()
+            smoothed.update(bank.smoothed_results(cat, cuts))
         return {
             name: replace(result, smoothed=smoothed[name]) if name in smoothed else result
             for name, result in results.items()

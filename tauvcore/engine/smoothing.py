@@ -23,7 +23,7 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -349,15 +349,73 @@ def smoothed_series_into(
 
 class Carry:
     """The backward pass between two segments: the later segment's first mark, per filter
-    (tauvcore.filter.kernels.smoother.smooth_backward)."""
+    (tauvcore.filter.kernels.smoother.smooth_backward), for B filters of n states whose
+    transitions differ from I in their first a rows and b columns.
 
-    def __init__(self, B: int) -> None:
+    Parameters
+    ----------
+    B : int
+        Filters.
+    a : int
+        Rows of a transition's block (9 for the 20-state filter).
+    b : int
+        Its columns (15).
+    n : int
+        States (20).
+    """
+
+    def __init__(self, B: int, a: int = NAV, b: int = CORE, n: int = N) -> None:
         self.has = np.zeros(B, bool)
-        self.X = np.zeros((B, NAV, CORE))
-        self.Pm = np.zeros((B, N, N))
-        self.s = np.zeros((B, N))
-        self.Ps = np.zeros((B, N, N))
+        self.X = np.zeros((B, a, b))
+        self.Pm = np.zeros((B, n, n))
+        self.s = np.zeros((B, n))
+        self.Ps = np.zeros((B, n, n))
         self.cuts = np.zeros(B, np.int64)
+
+    def backward(self, segment: dict[str, np.ndarray], B: int) -> tuple[np.ndarray, np.ndarray]:
+        """The backward pass over one segment's marks (the carry holds the segment after it, and
+        then this one's first mark).
+
+        Parameters
+        ----------
+        segment : dict[str, numpy.ndarray]
+            The segment: its output marks' ``tape_X`` (T, ..., a, b) and ``tape_P`` (T, ..., n,
+            n), its aiding marks' ``ev_X``, ``ev_Pm``, ``ev_Pp``, ``ev_d`` (V, ...) and ``ev_pos``
+            (V,), the batch axes flattened to B filters.
+        B : int
+            Filters.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            The smoothed errors (T, B, n) and their covariances (T, B, n, n) at the output marks.
+        """
+        a, b, n = self.X.shape[1], self.X.shape[2], self.s.shape[1]
+
+        def flat(name: str, tail: tuple[int, ...]) -> np.ndarray:
+            return np.ascontiguousarray(segment[name], dtype=float).reshape((-1, B) + tail)
+
+        T = segment["tape_P"].shape[0]
+        s = np.empty((T, B, n))
+        Ps = np.empty((T, B, n, n))
+        smooth_backward(
+            flat("tape_X", (a, b)),
+            flat("tape_P", (n, n)),
+            flat("ev_X", (a, b)),
+            flat("ev_Pm", (n, n)),
+            flat("ev_Pp", (n, n)),
+            flat("ev_d", (n,)),
+            np.ascontiguousarray(segment["ev_pos"], dtype=np.int64),
+            self.has,
+            self.X,
+            self.Pm,
+            self.s,
+            self.Ps,
+            s,
+            Ps,
+            self.cuts,
+        )
+        return s, Ps
 
 
 def smooth_segment(
@@ -396,33 +454,12 @@ def smooth_segment(
     """
     B = int(np.prod(batch))
     T = segment["tape_P"].shape[0]
-
-    def flat(name: str, tail: tuple[int, ...]) -> np.ndarray:
-        return np.ascontiguousarray(segment[name], dtype=float).reshape((-1, B) + tail)
-
-    s = np.empty((T, B, N))
-    Ps = np.empty((T, B, N, N))
-    smooth_backward(
-        flat("tape_X", (NAV, CORE)),
-        flat("tape_P", (N, N)),
-        flat("ev_X", (NAV, CORE)),
-        flat("ev_Pm", (N, N)),
-        flat("ev_Pp", (N, N)),
-        flat("ev_d", (N,)),
-        np.ascontiguousarray(segment["ev_pos"], dtype=np.int64),
-        carry.has,
-        carry.X,
-        carry.Pm,
-        carry.s,
-        carry.Ps,
-        s,
-        Ps,
-        carry.cuts,
-    )
+    s, Ps = carry.backward(segment, B)
+    dx = np.ascontiguousarray(segment["tape_dx"], dtype=float).reshape(T, B, N)
     num_blocks = int(block_of_state.max()) + 1
     series = np.empty((len(loop.SERIES_NAMES), T, B))
     nees_block = np.empty((T, B, num_blocks))
-    smoothed_series_into(flat("tape_dx", (N,)), s, Ps, deg, block_of_state, num_blocks, series, nees_block)
+    smoothed_series_into(dx, s, Ps, deg, block_of_state, num_blocks, series, nees_block)
     shape = (T,) + batch
     s = s.reshape(shape + (N,))
     moved = np.any(s[..., STATE.att] != 0.0, axis=-1, keepdims=True) | np.any(
@@ -452,47 +489,31 @@ def smooth_segment(
 
 
 def smooth_tape(
-    tape: Tape,
-    batch: tuple[int, int],
-    block_of_state: np.ndarray,
-    sensor_index: np.ndarray,
-    deg: float,
-    out: Tape,
-) -> np.ndarray:
-    """The backward pass over the whole tape, latest segment first; each segment's smoothed store
-    into ``out`` (in the tape's order once done: :func:`forward`). The tape is closed after.
+    tape: Tape, out: Tape, smooth_one: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]]
+) -> None:
+    """The backward pass over the whole tape, latest segment first: each segment's smoothed store
+    (``smooth_one``, which carries the pass from one segment to the one before) into ``out`` (in
+    the tape's order once done: :func:`forward`). The tape is closed after, and each segment
+    dropped (its files removed) once read.
 
     Parameters
     ----------
     tape : Tape
         The forward pass's marks.
-    batch : tuple of int
-        (M, R): methods and runs.
-    block_of_state : numpy.ndarray
-        Each state's NEES block, -1 for none.
-    sensor_index : numpy.ndarray
-        The state of each sensor-error column of the records.
-    deg : float
-        Degrees per radian of the attitude series.
     out : Tape
         Receives the smoothed stores, latest first.
-
-    Returns
-    -------
-    numpy.ndarray
-        (M, R) int: the steps at which a prior was not positive definite (the pass started afresh).
+    smooth_one : Callable
+        A segment -> its smoothed store (:func:`smooth_segment` with its carry).
     """
-    carry = Carry(int(np.prod(batch)))
     try:
         for i in range(len(tape) - 1, -1, -1):
-            out.add(smooth_segment(tape.segment(i), carry, batch, block_of_state, sensor_index, deg))
+            out.add(smooth_one(tape.segment(i)))
             held = tape.segments[i]
-            tape.segments[i] = {}  # drop what was read
+            tape.segments[i] = {}
             if isinstance(held, str):
                 shutil.rmtree(held, ignore_errors=True)
     finally:
         tape.close()
-    return carry.cuts.reshape(batch)
 
 
 def forward(out: Tape) -> Iterator[dict[str, np.ndarray]]:

@@ -55,7 +55,7 @@ from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine import yoo_loop, yoo_sources
-from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
+from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store, cut
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import (
     SERIES_FIELDS,
@@ -67,7 +67,9 @@ from tauvcore.engine.results import (
 )
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
 from tauvcore.engine.sources import active
+from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
 from tauvcore.filter import statistics, yoo
 from tauvcore.filter.eskf import Nominal, make_outcome
 from tauvcore.filter.layout import NavState
@@ -116,9 +118,12 @@ class YooBank(ChunkDriver):
         compiled: bool = True,
         keep: bool = True,
         sensor_errors: bool = False,
+        tape: Tape | None = None,
     ) -> None:
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
-        self.compiled = compiled
+        # the smoother's marks (tauvcore.engine.yoo_smoothing) are taken by the numpy methods
+        self.taping = YooTapeWriter(tape, self.batch, NA) if tape is not None else None
+        self.compiled = compiled and tape is None
         imu = config.imu
         self.q = np.r_[
             np.full(3, imu.accel_noise_mps_per_sqrt_s**2),
@@ -223,6 +228,8 @@ class YooBank(ChunkDriver):
         polls = np.unique(np.r_[polls, stops.size]).astype(np.int64)
         fixes = np.searchsorted(stops, source_k) + 1  # a span ends at each source epoch
         run = self._run_compiled if self.compiled else self._run_numpy
+        if self.taping is not None:
+            self.taping.open(store)
         s0 = 0
         for s1 in np.unique(np.r_[polls, fixes]).astype(np.int64):
             run(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, inputs, store)
@@ -234,6 +241,8 @@ class YooBank(ChunkDriver):
                 self._fuse_sources(chunk, k, source_at, int(row_of_stop[s1 - 1]), store)
             if s1 in polls and row_of_stop[s1 - 1] >= 0 and poll_every:
                 yield k
+        if self.taping is not None:
+            self.taping.close()
 
     def _store(self, outs: np.ndarray, chunk: SimChunk | None) -> Store:
         k0 = chunk.k0 if chunk is not None else 0
@@ -402,7 +411,10 @@ class YooBank(ChunkDriver):
             if k > self.k_cov:
                 self._propagate(i, k)
             if ping_of_stop[s] >= 0:
+                mark = self.taping.before(self.P, self._nominal()) if self.taping is not None else None
                 self._update(chunk, int(ping_of_stop[s]), i, store)
+                if self.taping is not None:
+                    self.taping.after(mark, self.P, self._nominal())
             if row_of_stop[s] >= 0:
                 self._record(chunk, i, int(row_of_stop[s]), store)
 
@@ -422,6 +434,8 @@ class YooBank(ChunkDriver):
         lat, h = self._lat_h()
         F = yoo.F_batch(lat, h, self.vel.reshape(-1, 3), f_n, C, self.geodetic, self.w_ie) * dt_c
         Phi = np.eye(yoo.DIM) + F + 0.5 * F @ F
+        if self.taping is not None:
+            self.taping.propagated(Phi)
         P = self.P.reshape(-1, NA, NA).copy()
         X = slice(0, yoo.DIM)
         P[:, X, X] = (
@@ -555,6 +569,7 @@ class YooBank(ChunkDriver):
         nominal = Nominal(
             NavState(self.pos, self.vel, self.C), self.ba, self.bg, np.zeros((M, R, 4)), np.zeros((M, R))
         )
+        mark = self.taping.before(self.P, self._nominal(), row) if self.taping is not None else None
         for name, model in self.sources:
             if k not in source_at.get(name, {}):
                 continue
@@ -577,8 +592,14 @@ class YooBank(ChunkDriver):
             self.ba += dx[..., yoo.BA]
             self.bg += dx[..., yoo.BG]
             self.recorders[name].add(t, make_outcome(meas.z, meas.innovation, active, *outcome), meas.valid)
+        if self.taping is not None:
+            self.taping.after(mark, self.P, self._nominal())
         if row >= 0:
             self._record(chunk, i, row, store)
+
+    def _nominal(self) -> tuple[np.ndarray, ...]:
+        """The nominal states the smoother's marks take (velocity, attitude, biases)."""
+        return self.vel, self.C, self.ba, self.bg
 
     def _sealed(self) -> None:
         for rec in self.recorders.values():
@@ -630,6 +651,8 @@ class YooBank(ChunkDriver):
         store["est_pos_n"][row] = est_ned
         store["est_vel_n"][row] = self.vel
         store["est_euler"][row] = _euler_batch(self.C)
+        if self.taping is not None:
+            self.taping.record(row, self.P, dx, np.einsum("ji,j->i", C_t, v_t))
         if self.sensor_errors:
             x_est = np.zeros(self.batch + (yoo.DIM,))
             x_est[..., yoo.BA], x_est[..., yoo.BG] = self.ba, self.bg
@@ -709,6 +732,42 @@ class YooBank(ChunkDriver):
             )
         if taking:
             handed_out(self.recorders.values(), self.keep)
+        return out
+
+    # ------------------------------------------------------------------ the smoother
+    def smooth(self, out: Tape) -> np.ndarray:
+        """The smoother's backward pass over the tape (tauvcore.engine.yoo_smoothing), its
+        smoothed stores into ``out``; the tape is emptied. -> (M, R) the steps where the pass
+        started afresh."""
+        assert self.taping is not None  # a bank made with a tape
+        self.taping.close()
+        carry = Carry(int(np.prod(self.batch)), yoo.DIM, yoo.DIM, NA)
+        args = (carry, self.batch, BLOCK_OF_STATE, NUM_BLOCKS, SENSOR_INDEX, 1.0 / units.DEG)
+        smooth_tape(self.taping.tape, out, lambda segment: smooth_yoo_segment(segment, *args))
+        return carry.cuts.reshape(self.batch)
+
+    def smoothed_results(self, store: Store, cuts: np.ndarray) -> dict[str, MethodResult]:
+        """Each method's smoothed results from smoothed stores (:meth:`smooth`) concatenated, cut
+        where a stop ended the run (the monitor's verdict the forward pass's, no updates)."""
+        if self._until_s is not None:
+            store = cut(store, self._until_s, "t_s", "up_t")
+        out = {}
+        for m, method in enumerate(self.methods):
+            flags = [self.nonfinite_at_s[m]] + [
+                rec.divergence_s(m) for rec in self.recorders.values() if rec.count
+            ]
+            out[method] = method_result(
+                method,
+                m,
+                store["t_s"],
+                store["series"],
+                store,
+                np.fmin.reduce(np.stack(flags), axis=0),
+                self.sensor_errors,
+                p_floor_count=np.zeros(self.batch[1], int),
+                block_dims=BLOCK_DIMS,
+                smoother_cuts=cuts[m].copy(),
+            )
         return out
 
 

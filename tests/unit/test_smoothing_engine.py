@@ -191,3 +191,28 @@ def test_streamed_smoothed_chunks_add_up_to_the_kept_results():
         for name in FIELDS:
             np.testing.assert_array_equal(np.concatenate([getattr(p[method], name) for p in parts]),
                                           getattr(kept[method].smoothed, name), err_msg=name)
+
+
+def test_yoo_methods_are_smoothed():
+    """Yoo 2014's filters (ins-dvl, vkf; their 12 states and the DVL's consider states): with
+    the smoother their filtered numbers are those without it (the bank's numpy methods, equal to
+    its compiled loop to 1e-9), the last epoch is the filter's, the velocity, tilt and heading
+    improve, and the smoothed NEES/dim of each block is in [0.5, 2] over 12 runs."""
+    config = _config(120.0, methods=("ins-dvl", "vkf"))
+    sim = simulate(config, np.random.default_rng(1), 12)
+    plain = run(config, sim, np.random.default_rng(2))
+    results = run(config, sim, np.random.default_rng(2), smooth=SmoothOptions(budget_mb=0.0))
+    dims = np.array([3, 2, 1, 6])  # velocity, tilt, heading, sensors (no position state)
+    for method, f in results.items():
+        for name in FIELDS:
+            np.testing.assert_allclose(getattr(f, name), getattr(plain[method], name), rtol=0, atol=1e-9,
+                                       err_msg=name)
+        s = f.smoothed
+        for name in FIELDS:
+            np.testing.assert_array_equal(getattr(s, name)[-1], getattr(f, name)[-1], err_msg=name)
+        np.testing.assert_array_equal(s.pos_err_m, f.pos_err_m)  # no position state: the strapdown's
+        for name in ("vel_err_mps", "tilt_err_deg", "heading_err_deg"):
+            assert np.mean(getattr(s, name) ** 2) < 0.8 * np.mean(getattr(f, name) ** 2), (method, name)
+        per_dim = np.nanmean(s.nees_block[..., 1:], axis=(0, 1)) / dims
+        assert np.all((per_dim > 0.5) & (per_dim < 2.0)), (method, per_dim)
+        assert not s.smoother_cuts.any()
