@@ -510,17 +510,3 @@ def read_chunked(
             mine = np.flatnonzero((slot == k) & inside)
             if mine.size:
                 take[topic](chunk, time_ns[mine], offset[mine], length[mine])
-
-
-def warm_up() -> None:
-    """Compile (or load from numba's cache) the record walks on a chunk of each kind."""
-    empty = np.empty(1, dtype=np.int64)
-    slot_of = np.zeros(1, dtype=np.int64)
-    ros1 = np.frombuffer(
-        struct.pack("<I", 8) + struct.pack("<I", 4) + b"op=\x07" + struct.pack("<I", 0), dtype=np.uint8
-    )
-    ros1_records(ros1, slot_of, empty, empty, empty, empty)
-    mcap = np.frombuffer(bytes([MCAP_MESSAGE]) + struct.pack("<Q", 22) + bytes(22), dtype=np.uint8)
-    mcap_records(mcap, slot_of, empty, empty, empty, empty)
-    rows = np.zeros((1, 1))
-    fixed_rows(mcap, empty, empty, 0, empty, empty, True, empty, empty, rows, empty, 0)
