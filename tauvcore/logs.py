@@ -163,7 +163,10 @@ up among tables already in memory (:func:`log_from_tables`)."""
 
 
 def log_from_tables(
-    tables: Mapping[str, Mapping[str, np.ndarray]], source: str, names: Mapping[str, str]
+    tables: Mapping[str, Mapping[str, np.ndarray]],
+    source: str,
+    names: Mapping[str, str],
+    release: bool = False,
 ) -> Log:
     """A log from tables already in memory (a ROS bag's topics, tauvcore.bags), read and checked
     exactly as :func:`read_log` reads and checks a log's files.
@@ -178,6 +181,9 @@ def log_from_tables(
     names : Mapping of str to str
         Each table's name in messages, in place of a file's path (``'mission.bag:/imu/data'``);
         a table without one is named ``<source>:<table>``.
+    release : bool
+        Take each table out of ``tables`` (a dict) as it is read, so that its arrays are freed
+        once the log holds what it needs of them (as a log's files are read one at a time).
 
     Returns
     -------
@@ -203,10 +209,12 @@ def log_from_tables(
             f"{show_path(source)}: no reference or attitude table: the filters need a starting attitude, "
             "from a reference or from an attitude sensor"
         )
-    by_path = {paths[t]: tables[t] for t in tables}
+    by_path = {paths[t]: t for t in tables}
 
     def load(path: Path) -> dict[str, np.ndarray]:
-        return {n: np.asarray(v, dtype=float) for n, v in by_path[path].items()}
+        table = by_path[path]
+        columns = tables.pop(table) if release and isinstance(tables, dict) else tables[table]  # pyright: ignore[reportAttributeAccessIssue]
+        return {n: np.asarray(v, dtype=float) for n, v in columns.items()}
 
     return _assemble(source, paths, load)
 
@@ -243,12 +251,8 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
     elif all(n in imu for n in IMU_RATES):
         check_finite(imu_path, imu, IMU_RATES)
         check_within(imu_path, imu, IMU_RATES)
-        gyro = need_columns(imu_path, imu, IMU_RATES[:3], "rates")
-        dtheta = np.concatenate([np.zeros((1, 3)), 0.5 * (gyro[1:] + gyro[:-1]) * dt[:, None]])
-        del gyro
-        accel = need_columns(imu_path, imu, IMU_RATES[3:], "rates")
-        dv = np.concatenate([np.zeros((1, 3)), 0.5 * (accel[1:] + accel[:-1]) * dt[:, None]])
-        del accel
+        dtheta = _trapezoid([imu[n] for n in IMU_RATES[:3]], dt)
+        dv = _trapezoid([imu[n] for n in IMU_RATES[3:]], dt)
         accel_columns = IMU_RATES[3:]
     else:
         missing = next(n for n in IMU_INCREMENTS if n not in imu)
@@ -295,6 +299,20 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
         notes=log.notes
         + tuple(log_checks.check_plausible(log, {t: p for t, p in paths.items() if p is not None})),
     )
+
+
+def _trapezoid(rates: list[np.ndarray], dt: np.ndarray) -> np.ndarray:
+    """Each interval's increment of three rate columns (K,) by the trapezoid rule,
+    ``0.5 (w_k-1 + w_k) dt_k`` with ``dt`` (K - 1,), after a first row of zeros: (K, 3), made
+    column by column so that no other (K, 3) array is."""
+    out = np.empty((dt.size + 1, 3))
+    out[0] = 0.0
+    for j, rate in enumerate(rates):
+        step = rate[1:] + rate[:-1]
+        step *= 0.5
+        step *= dt
+        out[1:, j] = step
+    return out
 
 
 def _read_reference(ref_path: Path, t: np.ndarray, median: float, load: Load) -> dict:

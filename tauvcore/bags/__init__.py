@@ -90,7 +90,7 @@ def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np
         For any bad input, naming the bag, the topic, the mapping's key, the message and the value.
     """
     read = bag_tables(path, mapping, beam_directions_b)
-    log = log_from_tables(read.tables, read.source, read.names)
+    log = log_from_tables(read.tables, read.source, read.names, release=True)  # each freed once read
     return dataclasses.replace(log, notes=read.notes + log.notes)
 
 

@@ -43,6 +43,23 @@ def world_vectors(v: np.ndarray, frame: str) -> np.ndarray:
     return np.stack([v[:, 1], v[:, 0], -v[:, 2]], axis=-1) if frame == "flu_enu" else v
 
 
+def body_vectors_in_place(v: np.ndarray, frame: str) -> np.ndarray:
+    """:func:`body_vectors` of ``v`` (K, 3) written over it (a view of a topic's rows); returns ``v``."""
+    if frame == "flu_enu":
+        v[:, 1:] *= -1.0
+    return v
+
+
+def world_vectors_in_place(v: np.ndarray, frame: str) -> np.ndarray:
+    """:func:`world_vectors` of ``v`` (K, 3) written over it (a view of a topic's rows); returns ``v``."""
+    if frame == "flu_enu":
+        east = v[:, 0].copy()
+        v[:, 0] = v[:, 1]
+        v[:, 1] = east
+        v[:, 2] *= -1.0
+    return v
+
+
 def matrix_from_quaternion(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (K, 3, 3) of quaternions (K, 4) in ROS order (x, y, z, w), normalised
     (module docstring); a zero quaternion gives NaN."""

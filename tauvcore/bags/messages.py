@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.source import BagMessage
+from tauvcore.bags.scan import KINDS, fixed_rows
 
 NAN = float("nan")
 _NO_BEAMS = (NAN,) * 4 + (0.0,) * 4 + (NAN,) * 12 + (NAN,) * 4
@@ -136,6 +137,9 @@ FIELDS: dict[str, tuple[str, ...]] = {
 }
 """The types whose row is numeric fields, as dotted paths in the message, in the row's order
 (read per message by :data:`EXTRACT`, or many at once from their bytes by :class:`RawDecoder`)."""
+IMU_RATES = FIELDS["sensor_msgs/msg/Imu"][:6]
+"""An IMU's rates alone: the fields of a topic that feeds the ``imu`` table and nothing else (its
+orientation is not read)."""
 
 
 def _fields(paths: tuple[str, ...]) -> Callable[[Any], tuple[float, ...]]:
@@ -197,9 +201,15 @@ class _Layout:
     """Where the numbers sit in the bytes of the messages of one layout: the length prefixes that
     fix it (offset, value), and each wanted field's (offset, little-endian numpy dtype)."""
 
-    def __init__(self, checks: list[tuple[int, int]], columns: list[tuple[int, str]]) -> None:
+    def __init__(self, size: int, checks: list[tuple[int, int]], columns: list[tuple[int, str]]) -> None:
+        self.size = size  # the messages' length [bytes]
         self.checks = checks
         self.columns = columns
+        # the same as arrays, as tauvcore.bags.scan.fixed_rows takes them
+        self.check_at = np.array([at for at, _ in checks], dtype=np.int64)
+        self.check_value = np.array([value for _, value in checks], dtype=np.int64)
+        self.column_at = np.array([at for at, _ in columns], dtype=np.int64)
+        self.column_kind = np.array([KINDS[dtype] for _, dtype in columns], dtype=np.int64)
 
 
 def _walk(
@@ -288,16 +298,28 @@ class RawDecoder:
         True for ROS 2's CDR (sqlite3 and MCAP bags), False for ROS 1's serialisation.
     deserialize : Callable
         rosbags' deserialisation of one message's bytes, which each new layout is checked against.
+    fields : tuple of str or None
+        The row's fields, the first of ``FIELDS[kind]`` (:data:`IMU_RATES`); None: all of them.
     """
 
-    def __init__(self, fielddefs: Any, kind: str, cdr: bool, deserialize: Callable[[bytes], Any]) -> None:
+    def __init__(
+        self,
+        fielddefs: Any,
+        kind: str,
+        cdr: bool,
+        deserialize: Callable[[bytes], Any],
+        fields: tuple[str, ...] | None = None,
+    ) -> None:
         self.fielddefs = fielddefs
         self.kind = kind
         self.cdr = cdr
         self.deserialize = deserialize
+        self.fields = FIELDS[kind] if fields is None else fields
+        self.extract = EXTRACT[kind] if fields is None else _fields(fields)  # a message -> its row
         self.stamped = "header" in {name for name, _ in fielddefs[kind][1]}
-        self.wanted = FIELDS[kind] + (_STAMP if self.stamped else ())
+        self.wanted = self.fields + (_STAMP if self.stamped else ())
         self.layouts: dict[tuple[int, tuple[tuple[int, int], ...]], _Layout] = {}
+        self.last: _Layout | None = None  # the layout of the messages read last
 
     def decode(self, raws: Sequence[bytes]) -> tuple[np.ndarray, np.ndarray | None] | None:
         """The rows (N, C) and header stamps [ns] (N,) of messages ``raws`` (None for a type
@@ -315,7 +337,7 @@ class RawDecoder:
             The rows as :data:`EXTRACT` gives them (float64) and the stamps (int64).
         """
         n = len(raws)
-        rows = np.empty((n, len(FIELDS[self.kind])))
+        rows = np.empty((n, len(self.fields)))
         stamps = np.empty(n, dtype=np.int64) if self.stamped else None
         lengths = np.fromiter(map(len, raws), dtype=np.int64, count=n)
         groups = (
@@ -330,21 +352,81 @@ class RawDecoder:
             return None
         return rows, stamps
 
+    def decode_chunk(
+        self,
+        chunk: np.ndarray,
+        offset: np.ndarray,
+        length: np.ndarray,
+        rows: np.ndarray,
+        stamps: np.ndarray,
+        at: int,
+    ) -> int:
+        """Read messages in a chunk's bytes into ``rows`` and ``stamps`` from row ``at`` on
+        (:func:`~tauvcore.bags.scan.fixed_rows`), layout by layout, up to the first message that
+        is not laid out as expected (which the caller reads on its own, with the rest).
+
+        Parameters
+        ----------
+        chunk : numpy.ndarray
+            The chunk's bytes (B,) uint8.
+        offset : numpy.ndarray
+            The messages' byte offsets in ``chunk`` (M,) int64, in the topic's order.
+        length : numpy.ndarray
+            Their lengths [bytes] (M,) int64.
+        rows : numpy.ndarray
+            Out: the rows (K, C) float64 as :data:`EXTRACT` gives them.
+        stamps : numpy.ndarray
+            Out: the header stamps [ns] (K,) int64; empty for a type without a header.
+        at : int
+            The row the first message goes to.
+
+        Returns
+        -------
+        int
+            How many messages, from the first, were read.
+        """
+        done, n = 0, offset.size
+        while done < n:
+            layout = self.last
+            if layout is not None:
+                done += fixed_rows(chunk, offset[done:], length[done:], layout.size, layout.check_at,
+                                   layout.check_value, self.cdr, layout.column_at, layout.column_kind, rows,
+                                   stamps, at + done)  # fmt: skip
+                if done == n:
+                    break
+            start = int(offset[done])
+            raw = chunk[start : start + int(length[done])]
+            found = [
+                lay for lay in self.layouts.values() if lay.size == raw.size and self._same(raw[None], lay)[0]
+            ]
+            try:
+                self.last = found[0] if found else self._layout(raw.tobytes())
+            except _Unreadable:
+                break
+            if not self._same(raw[None], self.last)[0]:
+                break
+        return done
+
     def _group(
         self, raws: Sequence[bytes], index: np.ndarray, rows: np.ndarray, stamps: np.ndarray | None
     ) -> None:
         """Messages ``index`` (all of one length) into ``rows`` and ``stamps``, layout by layout."""
+        group = [raws[i] for i in index] if index.size < len(raws) else raws
+        data = np.frombuffer(b"".join(group), dtype=np.uint8).reshape(index.size, -1)
+        self._fill(data, index, rows, stamps)
+
+    def _fill(self, data: np.ndarray, index: np.ndarray, rows: np.ndarray, stamps: np.ndarray | None) -> None:
+        """Messages ``data`` (N, L) uint8 into ``rows`` and ``stamps`` at ``index`` (N,), layout
+        by layout: the layout of the last block tried first, so a topic read block by block walks
+        its definition once."""
         while index.size:
-            group = [raws[i] for i in index] if index.size < len(raws) else raws
-            data = np.frombuffer(b"".join(group), dtype=np.uint8).reshape(index.size, -1)
-            layout = self._layout(raws[int(index[0])])
-            same = np.ones(index.size, dtype=bool)
-            for offset, value in layout.checks:
-                same &= _column(data, offset, "<u4") == value
-            if self.cdr:  # little-endian CDR: the encapsulation header's second byte
-                same &= data[:, 1] == 1
+            layout = self.last if self.last is not None and self.last.size == data.shape[1] else None
+            if layout is None or not self._same(data[:1], layout)[0]:
+                layout = self._layout(data[0].tobytes())
+            same = self._same(data, layout)
             if not same[0]:  # not even the message the layout was found from
                 raise _Unreadable
+            self.last = layout
             every = bool(same.all())
             take = index if every else index[same]
             rows_of = data if every else data[same]
@@ -356,7 +438,19 @@ class RawDecoder:
                 stamps[take] = values[ncols].astype(np.int64) * 1_000_000_000 + values[ncols + 1].astype(
                     np.int64
                 )
-            index = index[~same]
+            if every:
+                return
+            index, data = index[~same], data[~same]
+
+    def _same(self, data: np.ndarray, layout: _Layout) -> np.ndarray:
+        """Which messages of ``data`` (N, L) uint8 are laid out as ``layout`` (N,) bool: the
+        same length prefixes (and, in CDR, little-endian)."""
+        same = np.ones(data.shape[0], dtype=bool)
+        for offset, value in layout.checks:
+            same &= _column(data, offset, "<u4") == value
+        if self.cdr:  # little-endian CDR: the encapsulation header's second byte
+            same &= data[:, 1] == 1
+        return same
 
     def _layout(self, raw: bytes) -> _Layout:
         """The layout of messages laid out as ``raw``, found once and checked against rosbags'
@@ -367,10 +461,10 @@ class RawDecoder:
         key = (len(raw), tuple(checks))
         if key in self.layouts:
             return self.layouts[key]
-        layout = _Layout(checks, [found[w] for w in self.wanted])
+        layout = _Layout(len(raw), checks, [found[w] for w in self.wanted])
         try:
             msg = self.deserialize(raw)
-            want = EXTRACT[self.kind](msg)
+            want = self.extract(msg)
             stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if self.stamped else ()
         except Exception:  # noqa: BLE001  (the per-message path names what is wrong)
             raise _Unreadable from None

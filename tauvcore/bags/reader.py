@@ -20,7 +20,13 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.source import BagMessage
-from tauvcore.bags.frames import C_nb_from_quaternion, body_vectors, world_vectors
+from tauvcore.bags.frames import (
+    C_nb_from_quaternion,
+    body_vectors,
+    body_vectors_in_place,
+    world_vectors,
+    world_vectors_in_place,
+)
 from tauvcore.bags.increments import increment_columns
 from tauvcore.bags.mapping import (
     ATMOSPHERIC_PA,
@@ -34,7 +40,8 @@ from tauvcore.bags.mapping import (
     TopicRule,
     resolve,
 )
-from tauvcore.bags.messages import EXTRACT, FIELDS, LAYOUTS, RawDecoder, plugin_row
+from tauvcore.bags.messages import EXTRACT, FIELDS, IMU_RATES, LAYOUTS, RawDecoder, plugin_row
+from tauvcore.bags.scan import NotScannedError, Ros1Reader, read_chunked
 from tauvcore.bags.tf import Mounting, dvl_mounting
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import euler_from_C_nb
@@ -203,8 +210,11 @@ class _Topic:
     (K, C), filled batch by batch (:meth:`add`) into arrays of the size the bag's index gives
     (``expected``; grown if it has more), so no second copy of a topic is ever made."""
 
-    def __init__(self, kind: str, expected: int = 0, extract: Any = None) -> None:
+    def __init__(
+        self, kind: str, expected: int = 0, extract: Any = None, fields: tuple[str, ...] | None = None
+    ) -> None:
         self.kind = kind  # the message type
+        self.fields = fields  # the row's fields where not all of FIELDS[kind] (messages.IMU_RATES)
         self.extract = extract if extract is not None else EXTRACT[kind]  # a message -> its row
         self.plugin = extract is not None  # read by a plug-in source's own fields (messages.plugin_row)
         self.count = 0  # messages read so far
@@ -213,28 +223,36 @@ class _Topic:
         self.received = np.empty(0, dtype=np.int64)
         self.rows: np.ndarray = np.empty((0, 0))
 
-    def add(self, stamps: np.ndarray, received: np.ndarray, rows: np.ndarray) -> None:
-        n, end = len(received), self.count + len(received)
-        if end > len(self.received) or rows.shape[1] != self.rows.shape[1]:
+    def room(self, end: int, columns: int) -> None:
+        """Arrays of at least ``end`` messages of ``columns`` numbers, those read kept."""
+        if end > len(self.received) or columns != self.rows.shape[1]:
             size = max(self.expected, end, 2 * len(self.received))
             grown = (
                 np.empty(size, dtype=np.int64),
                 np.empty(size, dtype=np.int64),
-                np.empty((size, rows.shape[1])),
+                np.empty((size, columns)),
             )
             if self.count:  # more messages than the index said, or none before
                 for new, old in zip(grown, (self.stamps, self.received, self.rows), strict=True):
                     new[: self.count] = old[: self.count]
             self.stamps, self.received, self.rows = grown
+
+    def add(self, stamps: np.ndarray, received: np.ndarray, rows: np.ndarray) -> None:
+        n, end = len(received), self.count + len(received)
+        self.room(end, rows.shape[1])
         self.stamps[self.count : end] = stamps
         self.received[self.count : end] = received
         self.rows[self.count : end] = rows
         self.count += n
 
     def finish(self) -> None:
+        """Trim the arrays to the messages read, in rosbags' order: by receive time, ties as read."""
         self.stamps, self.received, self.rows = (
             a[: self.count] for a in (self.stamps, self.received, self.rows)
         )
+        if self.count > 1 and bool((self.received[1:] < self.received[:-1]).any()):
+            order = np.argsort(self.received, kind="stable")
+            self.stamps, self.received, self.rows = self.stamps[order], self.received[order], self.rows[order]
 
     def release(self) -> None:
         """Drop the messages (a table made of them holds what it needs)."""
@@ -248,6 +266,8 @@ class _Topic:
         return self.stamps if rule.time == "header" else self.received
 
 
+_NONE = np.empty(0, dtype=np.int64)
+"""No stamps (tauvcore.bags.scan.fixed_rows of a type without a header)."""
 BATCH = 16_384
 """Messages of a topic read into its arrays at a time: the raw bytes held are at most this many
 messages a topic (about 12 MB of a nav_msgs/Odometry topic)."""
@@ -263,6 +283,8 @@ def open_bag(path: str | os.PathLike, store: Any) -> Any:
         raise LogError(f"{show_path(bag)}: does not exist")
     try:
         reader = AnyReader([Path(bag)], default_typestore=store)
+        if not reader.is2:  # a ROS 1 bag: its message indexes read only where asked for
+            reader.readers = [Ros1Reader(p) for p in reader.paths]
         reader.open()
     except bag_errors() as exc:  # rosbags, sqlite3, struct, lz4, zstd each raise their own
         raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
@@ -285,10 +307,12 @@ class _Batch:
         kind = entry.kind
         deserialize = functools.partial(_deserialize, reader, kind)
         self.decoder = (
-            RawDecoder(reader.typestore.fielddefs, kind, bool(reader.is2), deserialize)
+            RawDecoder(reader.typestore.fielddefs, kind, bool(reader.is2), deserialize, entry.fields)
             if kind in FIELDS and not entry.plugin
             else None
         )
+        if self.decoder is not None:
+            entry.extract = self.decoder.extract
 
     def flush(self) -> None:
         """Read the messages held into the topic's arrays."""
@@ -302,6 +326,30 @@ class _Batch:
             rows, stamps = decoded
         self.entry.add(received if stamps is None else stamps, received, rows)
         self.raws, self.received = [], []
+
+    def take(self, chunk: np.ndarray, received: np.ndarray, offset: np.ndarray, length: np.ndarray) -> None:
+        """The topic's messages in one chunk (tauvcore.bags.scan.read_chunked): bytes ``chunk``
+        (B,) uint8, receive times [ns], offsets and lengths [bytes] (M,); read straight into the
+        topic's arrays where the decoder lays them out, else held for :meth:`flush`."""
+        done = 0
+        if self.decoder is not None and not self.raws:
+            entry, n = self.entry, received.size
+            entry.room(entry.count + n, len(self.decoder.fields))
+            stamped = self.decoder.stamped
+            done = self.decoder.decode_chunk(
+                chunk, offset, length, entry.rows, entry.stamps if stamped else _NONE, entry.count
+            )
+            entry.received[entry.count : entry.count + done] = received[:done]
+            if not stamped:
+                entry.stamps[entry.count : entry.count + done] = received[:done]
+            entry.count += done
+        for start, n, time_ns in zip(
+            offset[done:].tolist(), length[done:].tolist(), received[done:].tolist(), strict=True
+        ):
+            self.raws.append(chunk[start : start + n].tobytes())
+            self.received.append(time_ns)
+            if len(self.raws) == BATCH:
+                self.flush()
 
     def _one_by_one(self) -> tuple[np.ndarray, np.ndarray]:
         """Each message deserialised by rosbags: its stamps (None without a header) and rows;
@@ -337,6 +385,21 @@ class _Batch:
         return np.array(stamps, dtype=np.int64), np.array(rows, dtype=float).reshape(len(rows), -1)
 
 
+def _read_messages(reader: Any, connections: list[Any], batches: Mapping[str, _Batch]) -> None:
+    """Every message of ``connections`` into its topic's batch as rosbags gives them."""
+    messages = (
+        reader.readers[0].messages(connections=connections)
+        if len(reader.readers) == 1  # one bag: its messages in order, without the merge of several
+        else reader.messages(connections=connections)
+    )
+    for connection, received, raw in messages:
+        batch = batches[connection.topic]
+        batch.raws.append(raw)
+        batch.received.append(received)
+        if len(batch.raws) == BATCH:
+            batch.flush()
+
+
 def read_topics(
     path: str | os.PathLike, mapping: BagMapping
 ) -> tuple[dict[str, TopicRule], dict[str, _Topic], Mounting | None]:
@@ -353,9 +416,10 @@ def read_topics(
                     f"{show_path(bag)}: topic {show(c.topic)} holds both {topics[c.topic]} and {c.msgtype}"
                 )
         rules = resolve(mapping, topics, bag)
-        needed = {r.topic for r in rules.values()} | {
+        uses = [r.topic for r in rules.values()] + [  # each topic once for each table it feeds
             r.options[k] for r in rules.values() for k in EXTRA_TOPICS if k in r.options
-        }
+        ]
+        needed = set(uses)
         plugin = {r.topic: r for t, r in rules.items() if t in PLUGIN_MESSAGES}
         for topic, rule in plugin.items():
             others = [t for t, r in rules.items() if r.topic == topic and t != rule.table] + [
@@ -379,28 +443,23 @@ def read_topics(
         for c in reader.connections:
             if c.topic in needed:
                 counts[c.topic] += c.msgcount
+        rates = rules["imu"].topic if "imu" in rules and uses.count(rules["imu"].topic) == 1 else None
         read = {
             t: _Topic(
                 topics[t],
                 counts[t],
                 plugin_row(PLUGIN_MESSAGES[plugin[t].table][topics[t]]) if t in plugin else None,
+                IMU_RATES if t == rates and topics[t] == "sensor_msgs/msg/Imu" else None,
             )
             for t in needed
         }
         batches = {t: _Batch(bag, t, reader, read[t]) for t in needed}
         connections = [c for c in reader.connections if c.topic in needed]
-        messages = (
-            reader.readers[0].messages(connections=connections)
-            if len(reader.readers) == 1  # one bag: its messages in order, without the merge of several
-            else reader.messages(connections=connections)
-        )
         try:
-            for connection, received, raw in messages:
-                batch = batches[connection.topic]
-                batch.raws.append(raw)
-                batch.received.append(received)
-                if len(batch.raws) == BATCH:
-                    batch.flush()
+            try:
+                read_chunked(reader, connections, {t: b.take for t, b in batches.items()})
+            except NotScannedError:  # rosbags' own walk, message by message
+                _read_messages(reader, connections, batches)
             for batch in batches.values():
                 batch.flush()
         except LogError:
@@ -472,6 +531,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
                 entry.release()
             continue
         part = _parts(kind, data)
+        own = rule.topic not in later  # its rows are the table's alone: converted where they are
         if table == "imu" and rule.option("form", "rates") == "increments":
             velocity = rule.options["velocity_topic"]
             later.remove(velocity)
@@ -480,7 +540,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             if velocity not in later:
                 other.release()
         elif table == "imu":
-            columns = _imu(part, rule)
+            columns = _imu(part, rule, own)
         elif table == "dvl":
             assert mounting is not None  # read_topics finds it wherever there is a DVL
             columns = _dvl(bag, kind, part, rule, beam_directions_b, mounting.C_b_dvl, notes)
@@ -490,7 +550,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             euler, _ = _attitude(part["quaternion"], rule.frame)
             columns = {f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))}
         else:
-            columns = _reference(bag, kind, part, rule, t, read, rules, origin, notes)
+            columns = _reference(bag, kind, part, rule, t, read, rules, origin, notes, own)
         tables[table] = {"t_s": t, **columns}
         del part, data
         if rule.topic not in later:  # what the table needs is in its columns now
@@ -505,8 +565,15 @@ def _parts(kind: str, data: np.ndarray) -> dict[str, np.ndarray]:
     return {name: data[:, cols] for name, cols in LAYOUTS[kind].items()}
 
 
-def _imu(part: Mapping[str, np.ndarray], rule: TopicRule) -> dict[str, np.ndarray]:
-    gyro, accel = body_vectors(part["gyro"], rule.frame), body_vectors(part["accel"], rule.frame)
+def _imu(part: Mapping[str, np.ndarray], rule: TopicRule, own: bool = False) -> dict[str, np.ndarray]:
+    """The IMU's rates in FRD; ``own``: converted in the topic's rows, the columns views of them."""
+    if own:
+        gyro, accel = (
+            body_vectors_in_place(part["gyro"], rule.frame),
+            body_vectors_in_place(part["accel"], rule.frame),
+        )
+    else:
+        gyro, accel = body_vectors(part["gyro"], rule.frame), body_vectors(part["accel"], rule.frame)
     out = {f"gyro_{a}_rps": gyro[:, i] for i, a in enumerate("xyz")}
     out.update({f"accel_{a}_mps2": accel[:, i] for i, a in enumerate("xyz")})
     return out
@@ -631,9 +698,12 @@ def _reference(
     rules: Mapping[str, TopicRule],
     origin: int,
     notes: list[str],
+    own: bool = False,
 ) -> dict[str, np.ndarray]:
     """The reference table: position (local NED, or geodetic for a NavSatFix), attitude and NED
-    velocity (an Odometry's twist rotated into n; else the positions' central differences)."""
+    velocity (an Odometry's twist rotated into n; else the positions' central differences);
+    ``own``: a local position, the attitude and the velocity written over the topic's rows (the
+    columns views of them)."""
     where = f"{show_path(bag)}: topic {show(rule.topic)} (reference)"
     out: dict[str, np.ndarray] = {}
     if kind == "sensor_msgs/msg/NavSatFix":
@@ -652,11 +722,14 @@ def _reference(
         out.update({"lat_rad": lat, "lon_rad": lon, "depth_m": depth})
         position = ned_from_geodetic(lat, lon, -depth, (float(lat[0]), float(lon[0]), float(-depth[0])))
     else:
-        position = world_vectors(part["position"], rule.frame)
+        position = (world_vectors_in_place if own else world_vectors)(part["position"], rule.frame)
         quaternion = part["quaternion"]
         out.update({"north_m": position[:, 0], "east_m": position[:, 1], "down_m": position[:, 2]})
     odometry = kind == "nav_msgs/msg/Odometry"
-    euler, vel_n = _attitude(quaternion, rule.frame, part["velocity_b"] if odometry else None)
+    in_place = own and kind != "sensor_msgs/msg/NavSatFix"
+    euler, vel_n = _attitude(
+        quaternion, rule.frame, part["velocity_b"] if odometry else None, in_place=in_place
+    )
     out.update({f"{n}_rad": euler[:, i] for i, n in enumerate(("roll", "pitch", "yaw"))})
     if vel_n is None:
         vel_n = np.gradient(position, t, axis=0) if t.size > 1 else np.zeros_like(position)
@@ -704,14 +777,16 @@ never all held at once (each row's numbers are the same whatever the block)."""
 
 
 def _attitude(
-    quaternion: np.ndarray, frame: str, velocity_b: np.ndarray | None = None
+    quaternion: np.ndarray, frame: str, velocity_b: np.ndarray | None = None, in_place: bool = False
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Roll, pitch, yaw (K, 3) of orientation quaternions (K, 4) in ``frame`` (``C_nb`` of
     tauvcore.bags.frames, its ZYX angles) and, given body velocities (K, 3), the NED velocities
-    ``C_nb v_b`` (K, 3); block by block (:data:`BLOCK`)."""
+    ``C_nb v_b`` (K, 3); block by block (:data:`BLOCK`). ``in_place``: the angles written over the
+    quaternions' first three columns and the velocities over the body velocities (each block's
+    read before it is written)."""
     k = quaternion.shape[0]
-    euler = np.empty((k, 3))
-    vel_n = None if velocity_b is None else np.empty((k, 3))
+    euler = quaternion[:, :3] if in_place else np.empty((k, 3))
+    vel_n = None if velocity_b is None else velocity_b if in_place else np.empty((k, 3))
     for start in range(0, k, BLOCK):
         rows = slice(start, min(start + BLOCK, k))
         C_nb = C_nb_from_quaternion(quaternion[rows], frame)
