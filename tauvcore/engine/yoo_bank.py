@@ -413,7 +413,7 @@ class YooBank(ChunkDriver):
             if ping_of_stop[s] >= 0:
                 mark = self.taping.before(self.P, self._nominal()) if self.taping is not None else None
                 self._update(chunk, int(ping_of_stop[s]), i, store)
-                if self.taping is not None:
+                if self.taping is not None and mark is not None:
                     self.taping.after(mark, self.P, self._nominal())
             if row_of_stop[s] >= 0:
                 self._record(chunk, i, int(row_of_stop[s]), store)
@@ -592,7 +592,7 @@ class YooBank(ChunkDriver):
             self.ba += dx[..., yoo.BA]
             self.bg += dx[..., yoo.BG]
             self.recorders[name].add(t, make_outcome(meas.z, meas.innovation, active, *outcome), meas.valid)
-        if self.taping is not None:
+        if self.taping is not None and mark is not None:
             self.taping.after(mark, self.P, self._nominal())
         if row >= 0:
             self._record(chunk, i, row, store)
