@@ -79,8 +79,29 @@ class SmoothingError(ValueError):
 
 
 def tape_bytes_per_epoch(batch: tuple[int, int]) -> int:
-    """Bytes of tape an output epoch of ``batch`` (methods, runs) filters takes."""
-    return int(np.prod(batch)) * 8 * (NAV * CORE + N * N + N)
+    """Bytes of tape an output epoch of ``batch`` (methods, runs) filters takes (P as its upper
+    triangle)."""
+    return int(np.prod(batch)) * 8 * (NAV * CORE + N * (N + 1) // 2 + N)
+
+
+SYMMETRIC = ("tape_P", "ev_Pm", "ev_Pp")
+"""A segment's covariances, which the tape keeps as their upper triangles (:func:`_packed`)."""
+
+
+def _packed(a: np.ndarray) -> np.ndarray:
+    """Symmetric matrices (..., n, n) as their upper triangles, row by row (..., n (n + 1) / 2)."""
+    upper = np.triu_indices(a.shape[-1])
+    return np.ascontiguousarray(a[..., upper[0], upper[1]])
+
+
+def _unpacked(a: np.ndarray) -> np.ndarray:
+    """The symmetric matrices (..., n, n) of their upper triangles (:func:`_packed`)."""
+    n = int(round((np.sqrt(8 * a.shape[-1] + 1) - 1) / 2))
+    upper = np.triu_indices(n)
+    out = np.empty(a.shape[:-1] + (n, n))
+    out[..., upper[0], upper[1]] = a
+    out[..., upper[1], upper[0]] = a
+    return out
 
 
 def tape_rows(T: int, batch: tuple[int, int]) -> dict[str, np.ndarray]:
@@ -139,6 +160,7 @@ class Tape:
         SmoothingError
             The temporary directory cannot be made or written (naming it and why).
         """
+        segment = {name: _packed(a) if name in SYMMETRIC else a for name, a in segment.items()}
         size = sum(a.nbytes for a in segment.values())
         if self.held_bytes + size <= self.budget_bytes:
             self.segments.append(segment)
@@ -183,11 +205,12 @@ class Tape:
             Its arrays by name.
         """
         held = self.segments[i]
-        if isinstance(held, dict):
-            return held
-        return {
-            name[:-4]: np.load(os.path.join(held, name), mmap_mode="r") for name in sorted(os.listdir(held))
-        }
+        if isinstance(held, str):
+            held = {
+                name[:-4]: np.load(os.path.join(held, name), mmap_mode="r")
+                for name in sorted(os.listdir(held))
+            }
+        return {name: _unpacked(a) if name in SYMMETRIC else a for name, a in held.items()}
 
     def __len__(self) -> int:
         return len(self.segments)

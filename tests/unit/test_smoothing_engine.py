@@ -216,3 +216,23 @@ def test_yoo_methods_are_smoothed():
         per_dim = np.nanmean(s.nees_block[..., 1:], axis=(0, 1)) / dims
         assert np.all((per_dim > 0.5) & (per_dim < 2.0)), (method, per_dim)
         assert not s.smoother_cuts.any()
+
+
+def test_the_tape_keeps_covariances_as_their_upper_triangles(tmp_path):
+    """A segment's covariances go on the tape as their upper triangles (in memory and on disk)
+    and come back as the symmetric matrices they were, bit for bit; the other arrays as they are."""
+    from tauvcore.engine.smoothing import Tape
+
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(3, 2, 1, 20, 20))
+    P = A @ np.swapaxes(A, -1, -2)
+    segment = {"tape_P": P, "ev_Pm": P[:2], "tape_X": rng.normal(size=(3, 2, 1, 9, 15))}
+    for budget in (10**9, 0):
+        tape = Tape(budget, str(tmp_path))
+        tape.add(segment)
+        assert tape.held_bytes + tape.spilled_bytes < sum(a.nbytes for a in segment.values())
+        back = tape.segment(0)
+        for name, a in segment.items():
+            np.testing.assert_array_equal(back[name], a)
+        tape.close()
+    assert list(tmp_path.iterdir()) == []
