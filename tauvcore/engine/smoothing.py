@@ -96,7 +96,7 @@ def _packed(a: np.ndarray) -> np.ndarray:
 
 def _unpacked(a: np.ndarray) -> np.ndarray:
     """The symmetric matrices (..., n, n) of their upper triangles (:func:`_packed`)."""
-    n = int(round((np.sqrt(8 * a.shape[-1] + 1) - 1) / 2))
+    n = (math.isqrt(8 * a.shape[-1] + 1) - 1) // 2
     upper = np.triu_indices(n)
     out = np.empty(a.shape[:-1] + (n, n))
     out[..., upper[0], upper[1]] = a
