@@ -48,7 +48,9 @@ since the last mark, P and the error against truth and the filtered estimates
 before and after and the correction (``TAPE_AIDING_DOUBLES``), held in memory up to ``smooth_mb``
 (the rest in a temporary file); the smoothed stores of its backward pass (``OUTPUT_DOUBLES`` and
 the estimates per epoch, again up to ``smooth_mb``); and the smoothed results, the size of the
-filtered series (``OUTPUT_DOUBLES``; in bins the same bins), as many times as those.
+filtered series (``OUTPUT_DOUBLES``; in bins the same bins), as many times as those. A run kept at
+every epoch lets its tape go before it gathers the smoothed results, so it counts the larger of
+the two; a run in bins holds its bins, the tape and the stores at once.
 
 The sensor errors are recorded only where their records (per kept epoch) stay within
 ``SENSOR_RECORDS_MAX_BYTES`` and the run fits the budget with them
@@ -237,13 +239,15 @@ def estimate_run(
         stores = DOUBLE * M_s * R * T * (SMOOTHED_STORE_DOUBLES + sensor_doubles)
         if k == 1:
             smoothed = outputs * M_s // max(M, 1) + sensors * M_s // max(M, 1)
-            end += min(tape, held) + min(stores, held) + OUTPUT_COPIES * smoothed
+            # the tape is let go before the smoothed results are gathered: whichever is larger
+            end += max(min(tape, held) + min(stores, held), OUTPUT_COPIES * smoothed)
         else:
             smoothed = outputs * M_s // max(M, 1)
             T_c = math.ceil(K_c / step)
             segment = DOUBLE * M_s * R * T_c * (TAPE_OUTPUT_DOUBLES + 2 * 20 * 20)  # one segment and
             # its smoothing's scratch (the pass's covariances)
-            end += min(tape, held) + min(stores, held) + segment + OUTPUT_COPIES * smoothed
+            # the smoothed bins and their pickle (no live copy: they come with the final message)
+            end += min(tape, held) + min(stores, held) + segment + 2 * smoothed
     fixed = FIXED_BYTES
     if config.trajectory.truth == "dynamic":
         fixed += DYNAMIC_FIXED_BYTES

@@ -193,7 +193,7 @@ class Session:
             try:
                 panel.confirm_page_state()
                 config, runs = panel.read_config()
-                smooth_mb = panel.smoother_mb()
+                smooth_mb = panel.smoother_budget_mb()
             except (InputError, ConfigError) as exc:
                 self.status.content = previous
                 self.notify("Cannot run", str(exc), error=True)

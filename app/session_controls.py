@@ -390,7 +390,7 @@ class ControlPanel:
         """The configuration the controls describe and its run count; InputError names every bad
         control and its value at once (app.validation; the first is scrolled into view), also
         when the run would not fit the memory budget (app.budget, with the smoother if asked:
-        :meth:`smoother_mb`)."""
+        :meth:`smoother_budget_mb`)."""
         controls = self.controls()
         log_raw = self.log_config(controls.source) if controls.source in self.logs else None
         if validation.problems(controls, log_raw):
@@ -410,7 +410,7 @@ class ControlPanel:
             )
         return config, runs
 
-    def smoother_mb(self) -> float | None:
+    def smoother_budget_mb(self) -> float | None:
         """The smoother the controls ask for: its tape's memory [MB], None without it
         (app.inputs.smoother_mb_from_controls; InputError naming the control when it is bad)."""
         return inputs.smoother_mb_from_controls(self.controls())
