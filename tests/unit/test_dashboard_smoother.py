@@ -214,3 +214,12 @@ def test_the_budget_counts_the_smoother() -> None:
     assert small.worker_peak_bytes < large.worker_peak_bytes  # the tape beyond its memory is on disk
     yoo = config.replace("run", methods=("vkf",))
     assert budget.estimate_run(yoo, 1, smooth_mb=256.0) == budget.estimate_run(yoo, 1)
+
+
+def test_the_html_report_carries_the_smoothed_table_and_curves(short) -> None:
+    from app.export import report_html
+
+    config, results = short
+    page = report_html(FinishedRun(config, results), max_points=200)
+    assert "Smoothed</strong>" in page or "<b>Smoothed</b>" in page
+    assert "LC smoothed" in page
