@@ -41,6 +41,17 @@ Results reduced to B bins (T beyond SCREEN_BINS, B <= SCREEN_BINS):
   ``SOURCE_VIEW_DOUBLES`` per DVL ping and fused source's epoch, a bound: it is thinned as it
   comes to at most twice ``app.sensor_view.MAX_SOURCE_EPOCHS`` epochs per source.
 
+The smoother (``smooth_mb``: tauvcore.engine.smoothing) adds, for the M_s 20-state methods (Yoo
+2014's have none), its tape of the forward pass: per output epoch, method and run the transition
+since the last mark, P and the error against truth and the filtered estimates
+(``TAPE_OUTPUT_DOUBLES``), per aiding epoch (a DVL ping, a fused source's epoch) the transition, P
+before and after and the correction (``TAPE_AIDING_DOUBLES``), held in memory up to ``smooth_mb``
+(the rest in a temporary file); the smoothed stores of its backward pass (``OUTPUT_DOUBLES`` and
+the estimates per epoch, again up to ``smooth_mb``); and the smoothed results, the size of the
+filtered series (``OUTPUT_DOUBLES``; in bins the same bins), as many times as those. A run kept at
+every epoch lets its tape go before it gathers the smoothed results, so it counts the larger of
+the two; a run in bins holds its bins, the tape and the stores at once.
+
 The sensor errors are recorded only where their records (per kept epoch) stay within
 ``SENSOR_RECORDS_MAX_BYTES`` and the run fits the budget with them
 (:func:`records_sensor_errors`); the budget refuses a run that does not fit even without them.
@@ -99,6 +110,14 @@ MONITOR_BYTES = 2 * (3 * 8 + 3)  # per update and run the divergence monitor kee
 # mission (time, NIS, dof; fused, valid, reset), its arrays grown by doubling
 SOURCE_VIEW_DOUBLES = 16  # per aiding-source epoch the Sensors tab's view keeps (columns, truth)
 
+TAPE_OUTPUT_DOUBLES = 9 * 15 + 20 * 20 + 20 + 9  # the smoother's output mark: transition (9 x 15),
+# P, the error against truth, the filtered estimates (tauvcore.engine.smoothing.OUTPUT_TAPE, ESTIMATES)
+TAPE_AIDING_DOUBLES = 9 * 15 + 2 * 20 * 20 + 20  # an aiding mark: transition, P before and after,
+# the correction
+SMOOTHED_STORE_DOUBLES = OUTPUT_DOUBLES + 6  # a smoothed store's epoch: the series, velocity and
+# attitude estimates
+YOO_METHODS = ("ins-dvl", "vkf")  # tauvcore.config.YOO_METHODS: no smoother
+
 DEFAULT_BUDGET_BYTES = int(1.5 * 2**30)
 """Default memory a single dashboard run may take (1.5 GiB): two runs at once and the server fit
 in 4 GiB. Set ``TAUV_RUN_BUDGET_MB`` to change it."""
@@ -120,9 +139,28 @@ class RunEstimate:
         return self.worker_peak_bytes + 2 * self.results_bytes
 
 
-def estimate_run(config: Config, num_runs: int, sensor_errors: bool = True) -> RunEstimate:
-    """Estimated memory of ``num_runs`` Monte Carlo runs of ``config`` (see the module docstring),
-    with the sensor errors recorded (``sensor_errors``) or not."""
+def estimate_run(
+    config: Config, num_runs: int, sensor_errors: bool = True, smooth_mb: float | None = None
+) -> RunEstimate:
+    """Estimated memory of ``num_runs`` Monte Carlo runs of ``config`` (see the module docstring).
+
+    Parameters
+    ----------
+    config : Config
+        The run's configuration.
+    num_runs : int
+        Monte Carlo runs R.
+    sensor_errors : bool
+        Whether the sensor errors are recorded.
+    smooth_mb : float or None
+        The smoother's tape held in memory [MB] (tauvcore.engine.smoothing.SmoothOptions.budget_mb);
+        None: no smoother.
+
+    Returns
+    -------
+    RunEstimate
+        The estimate [bytes].
+    """
     rate_hz = config.imu.rate_hz
     duration_s = config.trajectory.duration_s
     K = round(duration_s * rate_hz) + 1
@@ -187,6 +225,29 @@ def estimate_run(config: Config, num_runs: int, sensor_errors: bool = True) -> R
             + monitor
             + sensor_view
         )
+    smoothed = 0
+    M_s = sum(1 for m in config.run.methods if m not in YOO_METHODS)
+    if smooth_mb is not None and M_s:
+        held = int(smooth_mb * 1e6)
+        extra = SENSOR_DOUBLES if sensor_errors else 0  # the tape keeps the sensor errors' rows
+        tape = (
+            DOUBLE
+            * M_s
+            * R
+            * (T * (TAPE_OUTPUT_DOUBLES + extra) + (pings + other_updates) * TAPE_AIDING_DOUBLES)
+        )
+        stores = DOUBLE * M_s * R * T * (SMOOTHED_STORE_DOUBLES + sensor_doubles)
+        if k == 1:
+            smoothed = outputs * M_s // max(M, 1) + sensors * M_s // max(M, 1)
+            # the tape is let go before the smoothed results are gathered: whichever is larger
+            end += max(min(tape, held) + min(stores, held), OUTPUT_COPIES * smoothed)
+        else:
+            smoothed = outputs * M_s // max(M, 1)
+            T_c = math.ceil(K_c / step)
+            segment = DOUBLE * M_s * R * T_c * (TAPE_OUTPUT_DOUBLES + 2 * 20 * 20)  # one segment and
+            # its smoothing's scratch (the pass's covariances)
+            # the smoothed bins and their pickle (no live copy: they come with the final message)
+            end += min(tape, held) + min(stores, held) + segment + 2 * smoothed
     fixed = FIXED_BYTES
     if config.trajectory.truth == "dynamic":
         fixed += DYNAMIC_FIXED_BYTES
@@ -194,19 +255,38 @@ def estimate_run(config: Config, num_runs: int, sensor_errors: bool = True) -> R
     return RunEstimate(
         chunk_bytes=chunk,
         end_bytes=end,
-        results_bytes=outputs + sensors + update_data,
+        results_bytes=outputs + sensors + update_data + smoothed,
         worker_peak_bytes=int(SLACK * (chunk + end)) + fixed,
     )
 
 
-def records_sensor_errors(config: Config, num_runs: int, limit_bytes: int) -> bool:
+def records_sensor_errors(
+    config: Config, num_runs: int, limit_bytes: int, smooth_mb: float | None = None
+) -> bool:
     """Whether a dashboard run of ``config`` records the sensor errors (the Sensors tab's lower
     figure): only when, with them, it fits ``limit_bytes`` and their records stay within
-    ``SENSOR_RECORDS_MAX_BYTES`` (they travel from the worker with every result)."""
+    ``SENSOR_RECORDS_MAX_BYTES`` (they travel from the worker with every result).
+
+    Parameters
+    ----------
+    config : Config
+        The run's configuration.
+    num_runs : int
+        Monte Carlo runs R.
+    limit_bytes : int
+        The run's memory budget [bytes].
+    smooth_mb : float or None
+        The smoother's tape held in memory [MB] (:func:`estimate_run`); None: no smoother.
+
+    Returns
+    -------
+    bool
+        Whether the run records them.
+    """
     T, M, R = kept_epochs(config), len(config.run.methods), int(num_runs)
     if SENSOR_DOUBLES * DOUBLE * T * M * R > SENSOR_RECORDS_MAX_BYTES:
         return False
-    return estimate_run(config, num_runs, sensor_errors=True).total_bytes <= limit_bytes
+    return estimate_run(config, num_runs, sensor_errors=True, smooth_mb=smooth_mb).total_bytes <= limit_bytes
 
 
 def output_epochs(config: Config) -> int:

@@ -232,6 +232,27 @@ CONTROLS = (
         initial=lambda d: "1",
         hint=f"Monte Carlo runs (1 to {inputs.RUNS_MAX}); > 1 plots RMS curves",
     ),
+    # the fixed-interval smoother after the forward pass, and its record's memory
+    Control(
+        "smoother",
+        "smoother",
+        inputs.SMOOTHER,
+        "checkbox",
+        "sm",
+        "flag",
+        initial=lambda d: False,
+        hint=inputs.SMOOTHER_HINT,
+    ),
+    Control(
+        "smoother_mb",
+        "smoother_mb",
+        inputs.SMOOTHER_MB,
+        "text",
+        "smmb",
+        "number",
+        initial=lambda d: _text(inputs.SMOOTHER_MB_DEFAULT),
+        hint=inputs.SMOOTHER_MB_HINT,
+    ),
 )
 """Every field of app.inputs.Controls, in the page's order."""
 SOURCE_HINT = (

@@ -39,7 +39,7 @@ from app.hardening import (
     shutdown,
 )
 from app.inputs import Controls, InputError, config_markdown
-from app.markdown_tables import rms_markdown, summary_markdown
+from app.markdown_tables import rms_markdown, smoothed_markdown, summary_markdown
 from app.scene import (
     BEAM_COLOR_NAMES,
     BEAM_COLORS,
@@ -193,6 +193,7 @@ class Session:
             try:
                 panel.confirm_page_state()
                 config, runs = panel.read_config()
+                smooth_mb = panel.smoother_budget_mb()
             except (InputError, ConfigError) as exc:
                 self.status.content = previous
                 self.notify("Cannot run", str(exc), error=True)
@@ -206,7 +207,9 @@ class Session:
             state.replaying = log_dir is not None
             self.run_log = source if log_dir is not None else None
             self.run_source = None  # the worker describes a replayed log with its configuration
-            self.handle = handle = self.pool.start(to_dict(config), runs, log_dir=log_dir)
+            self.handle = handle = self.pool.start(
+                to_dict(config), runs, log_dir=log_dir, smooth_mb=smooth_mb
+            )
         self.run_button.disabled, self.stop_button.disabled = True, False
         self.run_tabs.set_finished(None)
         self.progress.value = 0.0
@@ -347,7 +350,13 @@ class Session:
         (app.session_plots.PlotTabs.refresh_plots) are drawn less often."""
         self.state.results = results
         self.plot_tabs.refresh_plots(live=live)
-        self.run_tabs.table.content = summary_markdown(results) + "\n\n" + rms_markdown(results)
+        smoothed = smoothed_markdown(results)
+        self.run_tabs.table.content = (
+            summary_markdown(results)
+            + "\n\n"
+            + rms_markdown(results)
+            + (f"\n\n{smoothed}" if smoothed else "")
+        )
         self.scene.draw_estimates(results)
         if "vkf" in results:  # the VKF's learned scale factor and bias, as far as the run got
             self.plot_tabs.draw_vkf_plot(results["vkf"], config)

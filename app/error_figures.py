@@ -14,6 +14,11 @@ Yoo 2014's methods (``ins-dvl``, ``vkf``) run a 12-state filter with no position
 position 1-sigma and NEES are NaN (no band, no curve) and their NEES is divided by their own
 block dimensions (``MethodResult.block_dims``), not the 20-state filter's.
 
+With ``smoothed`` the fixed-interval smoother's results of each method that has them
+(``MethodResult.smoothed``: the 20-state methods of a run that asked for the smoother) are drawn
+beside the filter's: a dashed line of the method's colour named "<METHOD> smoothed", and with the
+1-sigma its smoothed 1-sigma as a dotted line (:func:`smoothed_traces`).
+
 A long run reduced to time bins (tauvcore.eval.envelope.DecimatedResult) is drawn as each curve's
 value at every bin's last epoch over a shaded band from its minimum to its maximum within the bin
 (:func:`app.figures.envelope_traces`), the bins merged further where a trace would hold more than
@@ -46,7 +51,7 @@ from app.figures import (
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.consistency import CONFIDENCE, nees_band, nees_series
-from tauvcore.eval.envelope import curve_key, is_decimated
+from tauvcore.eval.envelope import curve_key, is_decimated, nees_curve
 from tauvcore.eval.metrics import rms
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
 
@@ -87,6 +92,105 @@ def _envelope_note(results: Mapping[str, MethodResult]) -> str:
     return f", shaded: {bin_label(widths[-1])}" if widths else ""
 
 
+SMOOTHED_DASH = "dash"
+"""The line style of a method's smoothed curves (the filter's are solid)."""
+
+
+def smoothed_name(method: str) -> str:
+    """The legend's name of ``method``'s smoothed curve: "LC smoothed".
+
+    Parameters
+    ----------
+    method : str
+        The method's name.
+
+    Returns
+    -------
+    str
+        Its smoothed curve's name.
+    """
+    return f"{method.upper()} smoothed"
+
+
+def smoothed_traces(
+    method: str,
+    res: MethodResult,
+    fields: tuple[str, str | None],
+    max_points: int | None,
+    scale: float = 1.0,
+    curve_of: Any = None,
+) -> list[dict[str, Any]]:
+    """The traces of ``res``'s smoothed results (none when it has none, or no epoch): the curve
+    (the single run's value, the RMS over runs; or ``curve_of(smoothed)`` (T,)) as a dashed line
+    of the method's colour named :func:`smoothed_name`, over its min-max band when the run is in
+    bins, and with ``fields[1]`` its 1-sigma as a dotted line.
+
+    Parameters
+    ----------
+    method : str
+        The method's name.
+    res : MethodResult
+        Its results; ``res.smoothed`` is drawn.
+    fields : tuple of (str, str or None)
+        The error series' field and the 1-sigma's (None: no 1-sigma), or the ``low``/``high`` key
+        of a reduced run's band when ``curve_of`` is given.
+    max_points : int or None
+        At most about this many points per trace (the filter's curves' stride).
+    scale : float
+        Every value drawn is multiplied by it (NEES: 1 / the block's dimension).
+    curve_of : Callable[[MethodResult], numpy.ndarray] or None
+        The curve of the smoothed results; None: the run curve of ``fields[0]``.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        Plain trace dicts, the band's before the line.
+    """
+    sm = res.smoothed
+    if sm is None or len(sm.t_s) == 0:
+        return []
+    keep, starts = _points(sm, max_points)
+    t = sm.t_s[keep]
+    color = method_color(method)
+    name = smoothed_name(method)
+
+    def run_curve(x: np.ndarray) -> np.ndarray:
+        return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
+
+    curve = (run_curve(getattr(sm, fields[0])) if curve_of is None else curve_of(sm))[keep] * scale
+    data: list[dict[str, Any]] = []
+    if is_decimated(sm):
+        lo, hi = merged_envelope(sm.low[fields[0]], sm.high[fields[0]], starts)
+        data += envelope_traces(t, lo * scale, hi * scale, name, color, sm.bin_s, method)
+    data.append(
+        {
+            "type": "scatter",
+            "x": t,
+            "y": curve,
+            "name": name,
+            "mode": "lines",
+            "line": {"color": color, "width": 2, "dash": SMOOTHED_DASH},
+            "legendgroup": method,
+        }
+    )
+    if fields[1] is not None:
+        band = run_curve(getattr(sm, fields[1])[keep])
+        if np.isfinite(band).any():
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": t,
+                    "y": band,
+                    "name": f"{name} 1-sigma",
+                    "mode": "lines",
+                    "line": {"color": color, "width": 1, "dash": "dot"},
+                    "showlegend": False,
+                    "legendgroup": method,
+                }
+            )
+    return data
+
+
 def _spans_decades(curves: list[np.ndarray]) -> bool:
     """True if the positive finite values of ``curves`` span more than LOG_SPAN."""
     values = np.concatenate([np.ravel(c) for c in curves]) if curves else np.empty(0)
@@ -102,6 +206,7 @@ def error_figure(
     height_px: int = 300,
     max_points: int | None = 600,
     validate: bool = False,
+    smoothed: bool = False,
 ) -> go.Figure:
     """Error norm against time for every method; one trace per method named by its short name.
 
@@ -111,7 +216,8 @@ def error_figure(
     ``log_y``: True, False, or "auto" (log only where the drawn values span more than LOG_SPAN).
     At most about ``max_points`` points are drawn per trace (evenly strided, the last epoch
     always included): a plot panel is a few hundred pixels wide, and every point drawn is data
-    sent to the browser on each live update.
+    sent to the browser on each live update. ``smoothed``: each method's smoothed error beside
+    its filtered one, and with ``show_sigma`` its smoothed 1-sigma (:func:`smoothed_traces`).
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
@@ -164,6 +270,12 @@ def error_figure(
                 "legendgroup": method,
             }
         )
+        if smoothed:
+            traces = smoothed_traces(
+                method, res, (err_field, sigma_field if show_sigma else None), max_points
+            )
+            drawn += [np.asarray(trace["y"], dtype=float) for trace in traces]
+            data += traces
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "") + _envelope_note(results)
     layout = {
@@ -190,6 +302,7 @@ def nees_figure(
     height_px: int = 300,
     max_points: int | None = 600,
     validate: bool = False,
+    smoothed: bool = False,
 ) -> go.Figure:
     """Does each method know its own error? Its NEES of ``block`` divided by the block's
     dimension n, averaged over the Monte Carlo runs, against time; one trace per method.
@@ -203,7 +316,8 @@ def nees_figure(
     different n, one band per n, "99 % band (dim n)", the first dashed, the others dotted); above
     it the filter is over-confident, below it cautious. NEES spans decades (VB at a small n_f
     reached thousands), so the y-axis is logarithmic. Epochs where a run's NEES is not finite (a
-    diverged filter) are gaps.
+    diverged filter) are gaps. ``smoothed``: each method's smoothed NEES of the block, against the
+    same truth and band, as a dashed line beside its filtered one (:func:`smoothed_traces`).
     """
     if block not in BLOCK_DIMS:
         raise ValueError(f"block must be one of {', '.join(BLOCK_DIMS)}, got {block!r}")
@@ -240,6 +354,10 @@ def nees_figure(
                 "legendgroup": method,
             }
         )
+        if smoothed:
+            data += smoothed_traces(
+                method, res, (curve_key(block), None), max_points, 1.0 / dim, lambda sm: nees_curve(sm, block)
+            )
     band_name = f"{CONFIDENCE:.0%} band".replace("%", " %")
     if data:
         reference = []

@@ -3,14 +3,15 @@ that opens offline.
 
 - ``json``: the document ``tauv run --json`` writes for the same configuration and seed
   (app.payload.run_payload), byte for byte: the configuration, and per method the per-epoch series,
-  NIS and consistency of run 0. A Monte Carlo run (Runs > 1) adds ``"num_runs"``; every run's
+  NIS and consistency of run 0 (with the smoother's results, per method its ``"smoothed"``). A Monte Carlo run (Runs > 1) adds ``"num_runs"``; every run's
   series are in the Parquet file (the CLI's JSON holds one run).
 - ``parquet``: the long form of ``tauv mc``'s runs.parquet (app.study_output.runs_table): one row
   per method, run and epoch, the errors and NEES as 32-bit floats; ``trajectory`` is the
   trajectory's name, or the replayed log's.
 - ``html``: one self-contained page (plotly.js embedded inline, nothing fetched when it opens):
   the configuration, the Results tab's tables (app.markdown_tables.summary_markdown), the error and
-  NEES/dim figures, and the full configuration as JSON.
+  NEES/dim figures (with the smoother's results, its table and curves too), and the full
+  configuration as JSON.
 
 Everything here is a pure function of the finished run, tested without a browser
 (tests/unit/test_export.py); the dashboard's buttons call :func:`send`.
@@ -30,7 +31,7 @@ import viser
 
 from app.error_figures import AUTO, error_figure, nees_figure
 from app.inputs import config_rows
-from app.markdown_tables import summary_markdown
+from app.markdown_tables import smoothed_markdown, summary_markdown
 from app.payload import config_to_json, run_payload
 from app.study_output import PARQUET_WRITE_OPTIONS, runs_table
 from tauvcore.config import Config
@@ -213,8 +214,10 @@ REPORT_STYLE = (
 def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) -> str:
     """The run as one HTML page that needs no network: a heading naming the mission, the
     configuration table (the Results tab's, app.inputs.config_rows), the results tables
-    (app.markdown_tables.summary_markdown), the error figures REPORT_FIGURES and NEES/dim of the full
-    state (at most ``max_points`` points per trace), and the full configuration as JSON.
+    (app.markdown_tables.summary_markdown; with the smoother's results its smoothed_markdown), the
+    error figures REPORT_FIGURES and NEES/dim of the full state (at most ``max_points`` points per
+    trace; the smoothed curves beside the filtered where the run has them), and the full
+    configuration as JSON.
     plotly.js is embedded once, inline; no element loads anything (no ``src`` or ``href`` to
     a network address)."""
     run = _check(run)
@@ -231,10 +234,14 @@ def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) ->
         f"Methods {', '.join(m.upper() for m in results)}; {run.runs} run(s); {ended}. "
         "Exported from the tauv dashboard; the JSON and Parquet downloads hold every epoch."
     )
+    smoothed = smoothed_markdown(results)  # "" unless the run has the smoother's results
     figures = [
-        error_figure(results, q, log_y=AUTO, height_px=340, max_points=max_points) for q in REPORT_FIGURES
+        error_figure(results, q, log_y=AUTO, height_px=340, max_points=max_points, smoothed=bool(smoothed))
+        for q in REPORT_FIGURES
     ]
-    figures.append(nees_figure(results, "full", height_px=340, max_points=max_points))
+    figures.append(
+        nees_figure(results, "full", height_px=340, max_points=max_points, smoothed=bool(smoothed))
+    )
     plots = [
         f.to_html(
             full_html=False, include_plotlyjs=k == 0, include_mathjax=False, config={"displaylogo": False}
@@ -253,7 +260,7 @@ def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) ->
         "<h2>Configuration</h2>",
         _table(settings),
         "<h2>Results</h2>",
-        markdown_html(summary_markdown(results)),
+        markdown_html(summary_markdown(results) + (f"\n\n{smoothed}" if smoothed else "")),
         "<h2>Figures</h2><div class='figures'>",
         *(f"<div>{p}</div>" for p in plots),
         "</div>",

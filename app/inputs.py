@@ -23,7 +23,7 @@ from typing import Any
 from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import FUSED
-from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
+from tauvcore.config import AUTO, RUN_METHODS, YOO_METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, show
@@ -94,6 +94,21 @@ FULL_BEAM_METHODS = ("lc", "ins-dvl")
 """Methods that fuse no DVL velocity with fewer than three beams (tauvcore.engine.yoo_bank for INS-DVL)."""
 SEED = "Seed"
 RUNS = "Runs"
+SMOOTHER = "Smoother"
+SMOOTHER_HINT = (
+    "after the run, the fixed-interval smoother (Rauch-Tung-Striebel) of the 20-state methods over "
+    "the whole run: the Plots and Consistency tabs' Smoothed box draws it beside the filter "
+    "(Yoo 2014's methods have none)"
+)
+SMOOTHER_MB = "Smoother memory [MB]"
+SMOOTHER_MB_HINT = (
+    "the smoother's record of the run held in memory, (0, 4096] MB; beyond it, a temporary file"
+)
+SMOOTHER_MB_DEFAULT = 256.0
+"""What Smoother memory [MB] holds on a new page: tauvcore.engine.smoothing.DEFAULT_BUDGET_MB (not
+imported: it loads the compiled engine)."""
+SMOOTHER_MB_MAX = 4096.0
+"""Most megabytes of the smoother's record a run may hold in memory (the run's budget bounds it too)."""
 RUNS_MAX = 1000
 """Most Monte Carlo runs a tab may ask for (the memory budget of app.budget bounds it further)."""
 TEXT_MAX_CHARS = 40
@@ -211,6 +226,8 @@ class Controls:
     aid_sources: tuple[str, ...] = ()  # the plug-in sources ticked (app.controls), by name
     source_fields: tuple[tuple[str, str | bool], ...] = DEFAULT_SOURCE_FIELDS  # "<source>.<field>" ->
     # as typed (a checkbox: on or off), every plug-in field in the registry's order
+    smoother: bool = False  # run the fixed-interval smoother after the forward pass
+    smoother_mb: str = f"{SMOOTHER_MB_DEFAULT:g}"  # its tape held in memory [MB], as typed
 
 
 def field_text(value: object) -> str:
@@ -271,6 +288,43 @@ def _label_for(exc: ConfigError) -> str | None:
     return None
 
 
+def smoother_mb_from_controls(c: Controls) -> float | None:
+    """The smoother a run of the controls asks for, as the megabytes of its tape held in memory
+    (tauvcore.engine.smoothing.SmoothOptions.budget_mb): None when the Smoother box is off.
+
+    Parameters
+    ----------
+    c : Controls
+        What the page's controls hold.
+
+    Returns
+    -------
+    float or None
+        Smoother memory [MB] as a number, or None (no smoother).
+
+    Raises
+    ------
+    InputError
+        Smoother memory [MB] is not a number in (0, SMOOTHER_MB_MAX] (with the box on or off: a
+        bad value is named before the box is ticked), or the box is on and no method ticked has
+        a smoother (Yoo 2014's have none); one line naming the control and the value as typed.
+    """
+    mb = parse_float(SMOOTHER_MB, c.smoother_mb)
+    if not 0.0 < mb <= SMOOTHER_MB_MAX:
+        raise InputError(
+            f"{SMOOTHER_MB}: {show(c.smoother_mb)} is out of range; the smoother's memory is "
+            f"(0, {SMOOTHER_MB_MAX:g}] MB"
+        )
+    if not c.smoother:
+        return None
+    if c.methods and all(m in YOO_METHODS for m in c.methods):
+        raise InputError(
+            f"{SMOOTHER}: {', '.join(m.upper() for m in c.methods)} have no smoother (Yoo 2014's "
+            "12-state filter); tick a 20-state method (LC, TC, ...) or untick Smoother"
+        )
+    return mb
+
+
 def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) -> tuple[Config, int]:
     """The configuration and Monte Carlo run count the controls describe, over the chosen
     scenario's preset (tauvcore.config.trajectory_preset) where it sets what no control does;
@@ -290,6 +344,7 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
             f"{RUNS}: {show(c.runs)} runs of the log {show(c.source)}; a recorded log is replayed "
             "once (set Runs to 1)"
         )
+    smoother_mb_from_controls(c)  # the smoother's controls checked with the others
     seed = parse_int(SEED, c.seed)
     if seed < 0:
         raise InputError(f"{SEED}: {show(c.seed)} is negative; a seed is a whole number >= 0")

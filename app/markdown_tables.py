@@ -334,6 +334,58 @@ def rms_markdown(results: Mapping[str, MethodResult]) -> str:
     return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows))
 
 
+SMOOTHED_COLUMNS = (
+    "method",
+    "vel RMS [m/s]",
+    "tilt RMS [deg]",
+    "heading RMS [deg]",
+    "pos RMS [m]",
+    "NEES/dim (in 99 % band)",
+    "vel NEES/dim",
+)
+SMOOTHED_HEADING = (
+    "**Smoothed** (the fixed-interval smoother over the whole run; each cell: filtered / smoothed, "
+    "the NEES against the same truth)"
+)
+
+
+def smoothed_markdown(results: Mapping[str, MethodResult]) -> str:
+    """The smoother's RMS errors and consistency beside the filter's, below SMOOTHED_HEADING: per
+    method with smoothed results (``MethodResult.smoothed``), each cell "filtered / smoothed"
+    (:func:`summary_rows` of both; a run in bins from its summaries of every epoch); "" when no
+    method has them.
+
+    Parameters
+    ----------
+    results : Mapping[str, MethodResult]
+        Method name -> its results.
+
+    Returns
+    -------
+    str
+        The Markdown table, or "".
+    """
+    pairs = {m: (r, r.smoothed) for m, r in results.items() if r.smoothed is not None and len(r.smoothed.t_s)}
+    if not pairs:
+        return ""
+    filtered = summary_rows({m: r for m, (r, _) in pairs.items()})
+    smoothed = summary_rows({m: sm for m, (_, sm) in pairs.items()})
+    rows = []
+    for f, sm in zip(filtered, smoothed):
+        rows.append(
+            [
+                str(f["method"]),
+                f"{_fixed(f['vel_rms_mps'], 4)} / {_fixed(sm['vel_rms_mps'], 4)}",
+                f"{_fixed(f['tilt_rms_deg'], 3)} / {_fixed(sm['tilt_rms_deg'], 3)}",
+                f"{_fixed(f['heading_rms_deg'], 3)} / {_fixed(sm['heading_rms_deg'], 3)}",
+                f"{_fixed(f['pos_rms_m'], 2)} / {_fixed(sm['pos_rms_m'], 2)}",
+                " / ".join(_in_band_cell(r["nees_per_dim"], r["nees_in_band"]) for r in (f, sm)),
+                f"{_ratio(f['vel_nees_per_dim'])} / {_ratio(sm['vel_nees_per_dim'])}",
+            ]
+        )
+    return "\n".join([SMOOTHED_HEADING, ""] + _table(SMOOTHED_COLUMNS, rows))
+
+
 def identical_methods(results: Mapping[str, MethodResult]) -> dict[str, str]:
     """Methods whose results equal an earlier method's, each mapped to that method (the first
     in ``results``' order): every error series, its sigma and NEES equal element for element (NaN

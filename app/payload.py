@@ -61,12 +61,17 @@ def result_to_json(
     A run reduced to time bins (tauvcore.eval.envelope.DecimatedResult: the dashboard's long
     missions) gives its series and NIS at each bin's last epoch and update, its consistency from
     every epoch (its summary), and adds ``"bin_s"`` and ``"epochs_per_bin"``.
+
+    A result with the smoother's (``MethodResult.smoothed``) adds ``"smoothed"``: the same series
+    of the smoothed estimate at the same epochs (``t`` again), and its ``consistency`` (NEES
+    against the same truth; no NIS: the smoother makes no update).
     """
     i = run_index
     binned = result if is_decimated(result) else None
     summary = binned.summary if binned is not None else None
     consistency = summary.consistency if summary is not None else method_consistency(result)
     diverged_at = float(result.diverged_at_s[i])
+    smoothed = result.smoothed
     return {
         **{name: _finite(values) for name, values in result_series(result, i, origin_rad).items()},
         "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
@@ -79,6 +84,38 @@ def result_to_json(
             if binned is not None
             else {}
         ),
+        **({"smoothed": smoothed_to_json(smoothed, i, origin_rad)} if smoothed is not None else {}),
+    }
+
+
+def smoothed_to_json(
+    smoothed: MethodResult, run_index: int = 0, origin_rad: tuple[float, float] | None = None
+) -> dict[str, Any]:
+    """A method's smoothed results as :func:`result_to_json`'s ``"smoothed"``: the series of
+    :func:`result_series` and the consistency of the smoothed estimate (its NEES blocks; its
+    summary of every epoch for a run in bins).
+
+    Parameters
+    ----------
+    smoothed : MethodResult
+        The smoothed results (``MethodResult.smoothed``).
+    run_index : int
+        Which run's series.
+    origin_rad : tuple of float or None
+        Latitude and longitude of the estimate's origin [rad] (the geodetic series), or None.
+
+    Returns
+    -------
+    dict[str, Any]
+        Strict-JSON data: series name -> list (null where not finite), and ``"consistency"``.
+    """
+    binned = smoothed if is_decimated(smoothed) else None
+    summary = binned.summary if binned is not None else None
+    consistency = summary.consistency if summary is not None else method_consistency(smoothed)
+    series = result_series(smoothed, run_index, origin_rad)
+    return {
+        **{name: _finite(values) for name, values in series.items()},
+        "consistency": {"nees": consistency_to_json(consistency)["nees"]},
     }
 
 

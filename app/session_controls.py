@@ -389,7 +389,8 @@ class ControlPanel:
     def read_config(self) -> tuple[Config, int]:
         """The configuration the controls describe and its run count; InputError names every bad
         control and its value at once (app.validation; the first is scrolled into view), also
-        when the run would not fit the memory budget (app.budget)."""
+        when the run would not fit the memory budget (app.budget, with the smoother if asked:
+        :meth:`smoother_budget_mb`)."""
         controls = self.controls()
         log_raw = self.log_config(controls.source) if controls.source in self.logs else None
         if validation.problems(controls, log_raw):
@@ -399,9 +400,17 @@ class ControlPanel:
             limit = budget.budget_bytes()
         except ValueError as exc:
             raise InputError(str(exc)) from None
-        too_big = budget.over_budget_message(budget.estimate_run(config, runs, sensor_errors=False), limit)
+        smooth_mb = inputs.smoother_mb_from_controls(controls)
+        too_big = budget.over_budget_message(
+            budget.estimate_run(config, runs, sensor_errors=False, smooth_mb=smooth_mb), limit
+        )
         if too_big is not None:
             raise InputError(
                 f"{inputs.DURATION} {config.trajectory.duration_s:g} s, {inputs.RUNS} {runs}: {too_big}"
             )
         return config, runs
+
+    def smoother_budget_mb(self) -> float | None:
+        """The smoother the controls ask for: its tape's memory [MB], None without it
+        (app.inputs.smoother_mb_from_controls; InputError naming the control when it is bad)."""
+        return inputs.smoother_mb_from_controls(self.controls())

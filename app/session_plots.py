@@ -95,6 +95,10 @@ VKF_NOTES = {
     ),
 }
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
+SMOOTHED_HINT = (
+    "the fixed-interval smoother's errors (dashed; dotted: its 1-sigma) beside the filter's, for the "
+    "20-state methods of a run with the Smoother (Mission tab); usable once such a run ends"
+)
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
 QUIET_S = 1.0  # once the tab has had no action for this long
@@ -158,6 +162,7 @@ class PlotTabs:
             self.show_att_norm = gui.add_checkbox(
                 "Attitude norm", False, hint="also plot |attitude error| (tilt and heading together)"
             )
+            self.show_smoothed = gui.add_checkbox("Smoothed", False, disabled=True, hint=SMOOTHED_HINT)
             self.plots_note = gui.add_markdown("")
             self.plots = {
                 q: gui.add_plotly(
@@ -181,6 +186,9 @@ class PlotTabs:
                 initial_value="full",
                 hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
                 "no position); or one block of them",
+            )
+            self.show_smoothed_nees = gui.add_checkbox(
+                "Smoothed NEES", False, disabled=True, hint=SMOOTHED_HINT
             )
             self.nees_plot = gui.add_plotly(
                 placeholder_figure("NEES/dim"), aspect=0.6
@@ -227,6 +235,8 @@ class PlotTabs:
         self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
         self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
         self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_smoothed.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_smoothed_nees.on_update(lambda _: self.refresh_plots(only="nees"))
         self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
         self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
@@ -247,6 +257,11 @@ class PlotTabs:
         results = self.state.results
         if not results:
             return
+        if only is None:  # the Smoothed boxes: usable once a run's smoothed results are here
+            off = not has_smoothed(results)
+            for box in (self.show_smoothed, self.show_smoothed_nees):
+                if box.disabled != off:
+                    box.disabled = off
         for group in PLOT_GROUPS:  # a full redraw leaves the deferred ones to the diagnostics' thread
             if only == group.name or (only is None and not group.deferred):
                 group.draw(self, results)
@@ -264,7 +279,7 @@ class PlotTabs:
         figure = (
             overlay_figure([(r.label, nees_figure(r.results, block)) for r in overlay])
             if len(overlay) >= 2
-            else nees_figure(results, block)
+            else nees_figure(results, block, smoothed=self.show_smoothed_nees.value)
         )
         self.nees_plot.figure = with_cursor(figure, self.state.cursor_t)
 
@@ -328,7 +343,13 @@ class PlotTabs:
                 figure = (
                     compare_figure([(r.label, r.results) for r in overlay], q, log_y=log_y)
                     if len(overlay) >= 2
-                    else error_figure(results, q, show_sigma=self.show_sigma.value, log_y=log_y)
+                    else error_figure(
+                        results,
+                        q,
+                        show_sigma=self.show_sigma.value,
+                        log_y=log_y,
+                        smoothed=self.show_smoothed.value,
+                    )
                 )
                 handle.figure = with_cursor(figure, t)
 
@@ -456,6 +477,22 @@ class PlotTabs:
             return
         self.vehicle_plot.visible = False
         self.vehicle_note.content = VEHICLE_NOTES["log" if self.state.replaying else config.trajectory.truth]
+
+
+def has_smoothed(results: dict[str, MethodResult]) -> bool:
+    """Whether some method of ``results`` carries smoothed results (``MethodResult.smoothed``).
+
+    Parameters
+    ----------
+    results : dict[str, MethodResult]
+        Method name -> its results.
+
+    Returns
+    -------
+    bool
+        True when the Smoothed boxes have something to draw.
+    """
+    return any(r.smoothed is not None and len(r.smoothed.t_s) for r in results.values())
 
 
 @dataclasses.dataclass(frozen=True)

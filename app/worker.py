@@ -14,6 +14,8 @@ over a background computation. Messages on a run's queue (:attr:`RunHandle.queue
   (the first paper's methods only: the engine's live callback does not carry Yoo 2014's); a
   long mission's (below), every chunk of mission (``STREAM_CHUNK_S``), all its methods;
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results, every method's;
+  with the smoother each 20-state method's carries its smoothed results
+  (``MethodResult.smoothed``; reduced to bins as its filtered ones are);
 - ``("error", message)``: one line, for a notification (also when the worker process died).
 
 A simulated mission whose output epochs exceed ``tauvcore.eval.envelope.SCREEN_BINS`` is reduced
@@ -58,6 +60,7 @@ from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
 from tauvcore.eval.envelope import EnvelopeReducer
 from tauvcore.validation import ConfigError
 
@@ -173,6 +176,7 @@ def run_worker(
     stop_event: Any,
     progress_interval_s: float = 2.0,
     log_dir: str | None = None,
+    smooth_mb: float | None = None,
 ) -> None:
     """Simulate (or, with ``log_dir``, replay that log: tauvcore.eval.replay), run all methods,
     with their sensor errors recorded where the run fits the memory budget with them
@@ -182,7 +186,10 @@ def run_worker(
     source)``: the configuration as the log made it (its length, rate, origin and start) and
     :func:`replay_source`'s description of the log. A simulated mission of more output epochs
     than tauvcore.eval.envelope.SCREEN_BINS streams its results into bins (:func:`decimation`,
-    tauvcore.eval.envelope.EnvelopeReducer) and sends those."""
+    tauvcore.eval.envelope.EnvelopeReducer) and sends those. With ``smooth_mb`` (megabytes of
+    the smoother's tape held in memory: tauvcore.engine.smoothing.SmoothOptions) the smoother runs
+    after the forward pass and the final results carry the smoothed ones
+    (``MethodResult.smoothed``), a run in bins its smoothed bins (:func:`with_smoothed_bins`)."""
     try:
         config = from_dict(config_dict)
         if num_runs > 1:
@@ -210,7 +217,7 @@ def run_worker(
             limit_bytes = budget.budget_bytes()
         except ValueError:  # refused by the server before the run started; not reached
             limit_bytes = budget.DEFAULT_BUDGET_BYTES
-        sensor_errors = budget.records_sensor_errors(config, num_runs, limit_bytes)
+        sensor_errors = budget.records_sensor_errors(config, num_runs, limit_bytes, smooth_mb)
         if sim is not None:
             sensors.add(SimChunk.whole(sim))
             queue.put(("sensors", sensors.view()))
@@ -228,9 +235,11 @@ def run_worker(
                 last_sent[0] = now
 
         should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
+        smooth = None if smooth_mb is None else SmoothOptions(budget_mb=float(smooth_mb))
         results: dict[str, MethodResult]
         if sim is None and per_bin > 1:
             reducer = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
+            smoothed = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
 
             def reduce(chunk: dict[str, MethodResult]) -> None:
                 # every chunk is folded into the bins; the live view is the bins so far
@@ -251,8 +260,12 @@ def run_worker(
                 should_stop=should_stop,
                 on_sim_chunk=sensors.add,
                 sensor_errors=sensor_errors,
+                smooth=smooth,
+                on_smoothed_chunk=smoothed.add if smooth is not None else None,
             )
             results = dict(reducer.results())
+            if smooth is not None:
+                results = with_smoothed_bins(results, smoothed)
             queue.put(("sensors", sensors.view()))
         elif sim is None:
             results = run_streaming(
@@ -265,6 +278,7 @@ def run_worker(
                 on_sim_chunk=sensors.add,
                 progress_min_wall_s=PROGRESS_MIN_WALL_S,
                 sensor_errors=sensor_errors,
+                smooth=smooth,  # kept: each 20-state method's results carry their smoothed ones
             )
             queue.put(("sensors", sensors.view()))
         else:
@@ -281,11 +295,40 @@ def run_worker(
                     should_stop=should_stop,
                     progress_min_wall_s=PROGRESS_MIN_WALL_S,
                     sensor_errors=sensor_errors,
+                    smooth=smooth,
                 ),
             )
+            results = {  # a log without a reference judges its smoothed errors unknown too
+                m: r
+                if r.smoothed is None
+                else dataclasses.replace(r, smoothed=judged(log, {m: r.smoothed})[m])
+                for m, r in results.items()
+            }
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # noqa: BLE001 - any failure is the run's: the dashboard shows it, the server keeps serving
         queue.put(("error", failure_message(exc)))
+
+
+def with_smoothed_bins(
+    results: dict[str, MethodResult], smoothed: EnvelopeReducer
+) -> dict[str, MethodResult]:
+    """``results`` in bins with each method's smoothed results, reduced to the same bins by
+    ``smoothed`` (fed the smoother's chunks), attached (``MethodResult.smoothed``).
+
+    Parameters
+    ----------
+    results : dict[str, MethodResult]
+        Method name -> its results in bins (tauvcore.eval.envelope.DecimatedResult).
+    smoothed : EnvelopeReducer
+        The smoothed results' reducer.
+
+    Returns
+    -------
+    dict[str, MethodResult]
+        ``results``, each method the smoother ran for with its smoothed bins.
+    """
+    bins = smoothed.results()
+    return {m: dataclasses.replace(r, smoothed=bins[m]) if m in bins else r for m, r in results.items()}
 
 
 def failure_message(exc: BaseException) -> str:
@@ -296,6 +339,8 @@ def failure_message(exc: BaseException) -> str:
     from tauvcore.logs import LogError
 
     if isinstance(exc, LogError):  # a bad log: its file, column, row and value
+        return str(exc)
+    if isinstance(exc, SmoothingError):  # its temporary directory: one line naming it
         return str(exc)
     if isinstance(exc, MemoryError):
         return "the run ran out of memory; shorten the duration or use fewer runs"
@@ -355,9 +400,15 @@ def _worker_main(conn: mp_connection.Connection) -> None:
         while True:
             message = conn.recv()
             if message[0] == "run":
-                _, config_dict, num_runs, progress_interval_s, log_dir = message
+                _, config_dict, num_runs, progress_interval_s, log_dir, smooth_mb = message
                 run_worker(
-                    config_dict, num_runs, _PipeQueue(conn), _PipeStop(conn), progress_interval_s, log_dir
+                    config_dict,
+                    num_runs,
+                    _PipeQueue(conn),
+                    _PipeStop(conn),
+                    progress_interval_s,
+                    log_dir,
+                    smooth_mb,
                 )
                 conn.send(("end",))
             # ("stop",) after its run had ended: nothing to stop
@@ -465,9 +516,11 @@ class RunPool:
         num_runs: int,
         progress_interval_s: float = 2.0,
         log_dir: str | None = None,
+        smooth_mb: float | None = None,
     ) -> RunHandle:
-        """Queue a run (a replay of ``log_dir`` if given); it computes as soon as a worker is free."""
-        handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s, log_dir))
+        """Queue a run (a replay of ``log_dir`` if given; with ``smooth_mb``, the smoother after it,
+        its tape's memory in MB); it computes as soon as a worker is free."""
+        handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s, log_dir, smooth_mb))
         with self._lock:
             if self._closed or self._broken is not None:
                 handle.queue.put(("error", self._broken or "the server is shutting down"))

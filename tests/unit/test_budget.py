@@ -104,32 +104,36 @@ MEASURE = textwrap.dedent("""
                 raise SystemExit(message[1])
             pickle.dumps(message)
 
-    duration_s, runs, methods, aiding, name, truth, rate_hz = json.loads(sys.argv[1])
+    duration_s, runs, methods, aiding, name, truth, rate_hz, *smooth = json.loads(sys.argv[1])
+    smooth_mb = smooth[0] if smooth else None
     config = (Config().replace("trajectory", name=name, duration_s=duration_s, truth=truth)
               .replace("run", methods=tuple(methods), aiding=tuple(aiding)).replace("imu", rate_hz=rate_hz))
     base = rss_bytes()
-    worker.run_worker(to_dict(config), runs, PicklingQueue(), threading.Event())
+    worker.run_worker(to_dict(config), runs, PicklingQueue(), threading.Event(), smooth_mb=smooth_mb)
     # VmHWM, not ru_maxrss: ru_maxrss survives exec, so a child of a large pytest process would
     # report its parent's peak (658 MiB for every case in the full suite)
     peak = status_bytes("VmHWM")
-    print(json.dumps({"measured": peak - base, "estimate": budget.estimate_run(config, runs).worker_peak_bytes}))
+    print(json.dumps({"measured": peak - base, "estimate": budget.estimate_run(config, runs, smooth_mb=smooth_mb).worker_peak_bytes}))
 """)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("duration_s, runs, methods, aiding, name, truth, rate_hz", [
-    (250.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 150.0),  # the default
-    (600.0, 1, ("ins",), ("dvl",), "straight", "kinematic", 150.0),           # truth generation dominates
-    (250.0, 12, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 150.0),  # IMU, compensation
+@pytest.mark.parametrize("duration_s, runs, methods, aiding, name, truth, rate_hz, smooth_mb", [
+    (250.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 150.0, None),  # the default
+    (600.0, 1, ("ins",), ("dvl",), "straight", "kinematic", 150.0, None),           # truth generation dominates
+    (250.0, 12, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 150.0, None),  # IMU, compensation
     (300.0, 6, ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc"), ("dvl", "depth", "mag"), "lawnmower",
-     "kinematic", 150.0),
-    (600.0, 1, ("ins",), ("dvl",), "figure8", "dynamic", 150.0),              # the vehicle's kept knots
-    (1200.0, 1, ("ins",), ("dvl",), "lawnmower", "dynamic", 150.0),           # too long to keep: streamed
-    (10800.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 50.0),  # 3 h in bins
+     "kinematic", 150.0, None),
+    (600.0, 1, ("ins",), ("dvl",), "figure8", "dynamic", 150.0, None),              # the vehicle's kept knots
+    (1200.0, 1, ("ins",), ("dvl",), "lawnmower", "dynamic", 150.0, None),           # too long to keep: streamed
+    (10800.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 50.0, None),  # 3 h in bins
+    # with the smoother: its tape beyond 256 MB on disk; 3 h in bins holds the tape and its stores
+    (250.0, 12, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 150.0, 256.0),
+    (10800.0, 1, ("ins", "lc", "tc", "nsv", "elc"), ("dvl",), "figure8", "kinematic", 50.0, 256.0),
 ])
 def test_the_estimate_bounds_the_measured_peak_within_1_5x(duration_s, runs, methods, aiding, name, truth,
-                                                           rate_hz) -> None:
-    arg = json.dumps([duration_s, runs, methods, aiding, name, truth, rate_hz])
+                                                           rate_hz, smooth_mb) -> None:
+    arg = json.dumps([duration_s, runs, methods, aiding, name, truth, rate_hz, smooth_mb])
     out = subprocess.run([sys.executable, "-c", MEASURE, arg], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     figures = json.loads(out.stdout.strip().splitlines()[-1])

@@ -277,6 +277,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
         dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seabed_depth=spy("60"),
         dvl_max_altitude=spy("100"), switch_altitude=spy("100"), rpm_noise=spy("2"), seed=spy("0"), runs=spy("1"),
+        smoother=spy(False), smoother_mb=spy("256"),
         source=spy(source),     # the Source control of tauv serve --logs
         source_boxes={p.name: spy(False) for p in PLUGIN_SOURCES},
         source_fields={key: spy(value) for key, value in DEFAULT_SOURCE_FIELDS})
@@ -574,8 +575,8 @@ def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_
             control_table.write(panel, c, getattr(changed, c.field))
         assert controls() == changed
         confirmed = [h for c in control_table.CONTROLS for h in control_table.handles(panel, c)]
-        # 20 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
-        assert len({id(h) for h in confirmed}) == len(confirmed) == 20 + len(RUN_METHODS) + 4 + 8 + len(
+        # 22 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
+        assert len({id(h) for h in confirmed}) == len(confirmed) == 22 + len(RUN_METHODS) + 4 + 8 + len(
             PLUGIN_SOURCES) + len(DEFAULT_SOURCE_FIELDS)
     finally:
         server.stop()
