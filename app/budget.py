@@ -41,8 +41,8 @@ Results reduced to B bins (T beyond SCREEN_BINS, B <= SCREEN_BINS):
   ``SOURCE_VIEW_DOUBLES`` per DVL ping and fused source's epoch, a bound: it is thinned as it
   comes to at most twice ``app.sensor_view.MAX_SOURCE_EPOCHS`` epochs per source.
 
-The smoother (``smooth_mb``: tauvcore.engine.smoothing) adds, for the M_s 20-state methods (Yoo
-2014's have none), its tape of the forward pass: per output epoch, method and run the transition
+The smoother (``smooth_mb``: tauvcore.engine.smoothing) adds, for the M methods (Yoo 2014's
+12-state filters counted as the 20-state filter's, a bound), its tape of the forward pass: per output epoch, method and run the transition
 since the last mark, P and the error against truth and the filtered estimates
 (``TAPE_OUTPUT_DOUBLES``), per aiding epoch (a DVL ping, a fused source's epoch) the transition, P
 before and after and the correction (``TAPE_AIDING_DOUBLES``), held in memory up to ``smooth_mb``
@@ -116,7 +116,6 @@ TAPE_AIDING_DOUBLES = 9 * 15 + 2 * 20 * 20 + 20  # an aiding mark: transition, P
 # the correction
 SMOOTHED_STORE_DOUBLES = OUTPUT_DOUBLES + 6  # a smoothed store's epoch: the series, velocity and
 # attitude estimates
-YOO_METHODS = ("ins-dvl", "vkf")  # tauvcore.config.YOO_METHODS: no smoother
 
 DEFAULT_BUDGET_BYTES = int(1.5 * 2**30)
 """Default memory a single dashboard run may take (1.5 GiB): two runs at once and the server fit
@@ -226,7 +225,7 @@ def estimate_run(
             + sensor_view
         )
     smoothed = 0
-    M_s = sum(1 for m in config.run.methods if m not in YOO_METHODS)
+    M_s = len(config.run.methods)
     if smooth_mb is not None and M_s:
         held = int(smooth_mb * 1e6)
         extra = SENSOR_DOUBLES if sensor_errors else 0  # the tape keeps the sensor errors' rows

@@ -15,7 +15,7 @@ position 1-sigma and NEES are NaN (no band, no curve) and their NEES is divided 
 block dimensions (``MethodResult.block_dims``), not the 20-state filter's.
 
 With ``smoothed`` the fixed-interval smoother's results of each method that has them
-(``MethodResult.smoothed``: the 20-state methods of a run that asked for the smoother) are drawn
+(``MethodResult.smoothed``: every method of a run that asked for the smoother) are drawn
 beside the filter's: a dashed line of the method's colour named "<METHOD> smoothed", and with the
 1-sigma its smoothed 1-sigma as a dotted line (:func:`smoothed_traces`).
 

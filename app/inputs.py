@@ -23,7 +23,7 @@ from typing import Any
 from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import FUSED
-from tauvcore.config import AUTO, RUN_METHODS, YOO_METHODS, Config, from_dict, trajectory_preset
+from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, show
@@ -96,9 +96,8 @@ SEED = "Seed"
 RUNS = "Runs"
 SMOOTHER = "Smoother"
 SMOOTHER_HINT = (
-    "after the run, the fixed-interval smoother (Rauch-Tung-Striebel) of the 20-state methods over "
-    "the whole run: the Plots and Consistency tabs' Smoothed box draws it beside the filter "
-    "(Yoo 2014's methods have none)"
+    "after the run, the fixed-interval smoother (Rauch-Tung-Striebel) of every method over the "
+    "whole run: the Plots and Consistency tabs' Smoothed box draws it beside the filter"
 )
 SMOOTHER_MB = "Smoother memory [MB]"
 SMOOTHER_MB_HINT = (
@@ -306,8 +305,8 @@ def smoother_mb_from_controls(c: Controls) -> float | None:
     ------
     InputError
         Smoother memory [MB] is not a number in (0, SMOOTHER_MB_MAX] (with the box on or off: a
-        bad value is named before the box is ticked), or the box is on and no method ticked has
-        a smoother (Yoo 2014's have none); one line naming the control and the value as typed.
+        bad value is named before the box is ticked); one line naming the control and the value
+        as typed.
     """
     mb = parse_float(SMOOTHER_MB, c.smoother_mb)
     if not 0.0 < mb <= SMOOTHER_MB_MAX:
@@ -317,11 +316,6 @@ def smoother_mb_from_controls(c: Controls) -> float | None:
         )
     if not c.smoother:
         return None
-    if c.methods and all(m in YOO_METHODS for m in c.methods):
-        raise InputError(
-            f"{SMOOTHER}: {', '.join(m.upper() for m in c.methods)} have no smoother (Yoo 2014's "
-            "12-state filter); tick a 20-state method (LC, TC, ...) or untick Smoother"
-        )
     return mb
 
 

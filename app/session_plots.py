@@ -97,7 +97,7 @@ VKF_NOTES = {
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
 SMOOTHED_HINT = (
     "the fixed-interval smoother's errors (dashed; dotted: its 1-sigma) beside the filter's, for the "
-    "20-state methods of a run with the Smoother (Mission tab); usable once such a run ends"
+    "methods of a run with the Smoother (Mission tab); usable once such a run ends"
 )
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,

@@ -14,7 +14,7 @@ over a background computation. Messages on a run's queue (:attr:`RunHandle.queue
   (the first paper's methods only: the engine's live callback does not carry Yoo 2014's); a
   long mission's (below), every chunk of mission (``STREAM_CHUNK_S``), all its methods;
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results, every method's;
-  with the smoother each 20-state method's carries its smoothed results
+  with the smoother each method's carries its smoothed results
   (``MethodResult.smoothed``; reduced to bins as its filtered ones are);
 - ``("error", message)``: one line, for a notification (also when the worker process died).
 
@@ -278,7 +278,7 @@ def run_worker(
                 on_sim_chunk=sensors.add,
                 progress_min_wall_s=PROGRESS_MIN_WALL_S,
                 sensor_errors=sensor_errors,
-                smooth=smooth,  # kept: each 20-state method's results carry their smoothed ones
+                smooth=smooth,  # kept: each method's results carry their smoothed ones
             )
             queue.put(("sensors", sensors.view()))
         else:
