@@ -13,7 +13,7 @@ from tauvcore.engine import yoo_sources
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.envelope import DecimatedResult
 from tauvcore.eval.running import MethodSummary, summarise
-from tauvcore.eval.study import FINAL_STATISTICS
+from tauvcore.eval.study_statistics import FINAL_STATISTICS
 
 
 def summary_table(
@@ -22,12 +22,14 @@ def summary_table(
     elapsed_s: float,
     source: str | None = None,
     preamble: Sequence[str] = (),
+    smoothed: Mapping[str, MethodSummary] | None = None,
 ) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
     :func:`consistency_table`. ``results``: each method's whole results, or its summary reduced
     chunk by chunk (tauvcore.eval.running); ``source``: what was run, when not the configured
     trajectory (a log); ``preamble``: lines after the first (a log: what configured it, where it
-    started)."""
+    started); ``smoothed``: the smoothed methods' summaries of a run that smoothed, then
+    :func:`smoothing_table` last."""
     summaries = _summaries(results)
     tr = config.trajectory
     what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
@@ -64,7 +66,66 @@ def summary_table(
             f"{_fixed(f['pos_err_m'], 10, 3)} {_fixed(r['pos_err_m'], 9, 3)} "
             f"{_fixed(f['vel_sigma_mps'], 10, 4)} {fused:>20}" + marker
         )
-    return "\n".join(lines + ["", consistency_table(summaries, config.run.aiding)])
+    tables = [consistency_table(summaries, config.run.aiding)]
+    if smoothed is not None:
+        tables.append(smoothing_table(summaries, smoothed))
+    return "\n".join(lines + ["", "\n\n".join(tables)])
+
+
+SMOOTHED_RMS = (("vel_err_mps", "vel RMS", "[m/s]", 4), ("tilt_err_deg", "tilt RMS", "[deg]", 4))
+SMOOTHED_RMS += (("heading_err_deg", "head RMS", "[deg]", 4), ("pos_err_m", "pos RMS", "[m]", 3))
+"""The RMS of run 0 :func:`smoothing_table` gives filtered and smoothed: series, heading, unit, decimals."""
+
+
+def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str, MethodSummary]) -> str:
+    """Per method two rows, filtered then smoothed: the RMS of run 0 (velocity, tilt, heading,
+    position) and NEES/dim of the full state and each block against truth, with the fraction of
+    epochs inside the 99 % band; a method the smoother does not run (Yoo 2014's) one row saying so.
+
+    Parameters
+    ----------
+    filtered : Mapping[str, MethodSummary]
+        Every method's summary (tauvcore.eval.running).
+    smoothed : Mapping[str, MethodSummary]
+        The smoothed methods' summaries over the same epochs.
+
+    Returns
+    -------
+    str
+        The table, its title first.
+    """
+    blocks = list(BLOCK_DIMS)
+    head = ["method", *(h for _, h, _, _ in SMOOTHED_RMS), *blocks]
+    units = ["", *(u for _, _, u, _ in SMOOTHED_RMS), *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks)]
+    rows = []
+    for name, summary in filtered.items():
+        if name not in smoothed:
+            rows.append([f"{name.upper()} not smoothed (Yoo 2014's 12-state filter: no smoother)"])
+            continue
+        for label, s in (("filtered", summary), ("smoothed", smoothed[name])):
+            c = s.consistency.nees
+            rows.append(
+                [
+                    f"{name.upper()} {label}",
+                    *(_fixed(s.rms[n], 0, d).strip() for n, _, _, d in SMOOTHED_RMS),
+                    *(_cell(c[b].per_dim, c[b].in_band) if b in c else "-" for b in blocks),
+                ]
+            )
+    full = [r for r in rows if len(r) > 1]
+    widths = [max(len(row[k]) for row in [head, units, *full]) for k in range(len(head))]
+
+    def line(cells: list[str]) -> str:
+        if len(cells) == 1:
+            return cells[0]
+        return " ".join(
+            [cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]
+        ).rstrip()
+
+    title = (
+        "Smoothed beside filtered (fixed-interval smoother over the whole run): RMS of run 0, NEES/dim "
+        "against truth (in brackets the fraction inside the 99 % band)"
+    )
+    return "\n".join([title, line(head), line(units), *(line(row) for row in rows)])
 
 
 def _summaries(results: Mapping[str, MethodResult | MethodSummary]) -> dict[str, MethodSummary]:
@@ -151,7 +212,9 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
 def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
     """The study's final errors per method: RMS, median and 95th percentile over the runs, the
     consistency, the runs the monitor flagged; a method with flagged runs gets a second row, its
-    statistics without them (marked "w/o flagged")."""
+    statistics without them (marked "w/o flagged"); a study with the smoother a row of each
+    method's smoothed statistics (marked "smoothed"; "not smoothed" for Yoo 2014's), and below
+    the table NEES/dim per block filtered and smoothed (:func:`smoothed_nees_lines`)."""
     lines = [
         (
             f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); errors at the end over the "
@@ -184,7 +247,51 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
                 f"{'-':>14} {'-':>14} {'runs ' + ','.join(map(str, m['flagged_runs'][:6])):>8}"
                 + (" ..." if len(m["flagged_runs"]) > 6 else "")
             )
+        if "smoothed" in m:
+            sm = m["smoothed"]
+            label = f"{method.upper()} smoothed"
+            if sm is None:
+                lines.append(f"{label:<16} not smoothed (Yoo 2014's 12-state filter: no smoother)")
+                continue
+            f, c, st = sm["final_rms"], sm["consistency"], sm["final_stats"]
+            lines.append(
+                f"{label:<16} {triple(st['vel_err_mps'], ''):>26} {f['tilt_err_deg']:>11.4f} "
+                f"{f['heading_err_deg']:>11.4f} {triple(st['pos_err_m'], ''):>30} "
+                f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
+                f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14}"
+            )
+    if any("smoothed" in m for m in summary["methods"].values()):
+        lines += ["", *smoothed_nees_lines(summary)]
     return "\n".join(lines)
+
+
+def smoothed_nees_lines(summary: dict[str, Any]) -> list[str]:
+    """NEES/dim per block over every run and epoch, filtered and smoothed, of a study with the
+    smoother (in brackets the fraction of epochs inside the 99 % band).
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        A study's summary (tauvcore.eval.study.StudyAccumulator.summary) with ``smoothed``.
+
+    Returns
+    -------
+    list[str]
+        The lines: a title, a head, then per smoothed method a row filtered and a row smoothed.
+    """
+    blocks = list(BLOCK_DIMS)
+    lines = [
+        "NEES/dim per block against truth, filtered and smoothed (in brackets the fraction inside the 99 % band)",
+        f"{'method':<16} " + " ".join(f"{b:>13}" for b in blocks),
+    ]
+    for method, m in summary["methods"].items():
+        if m.get("smoothed") is None:
+            continue
+        for label, part in (("filtered", m), ("smoothed", m["smoothed"])):
+            c = part["consistency"]
+            cells = " ".join(f"{_cell(c[b]['per_dim'], c[b]['in_band']):>13}" for b in blocks)
+            lines.append(f"{(method.upper() + ' ' + label):<16} {cells}")
+    return lines
 
 
 def _g(x: Any, fmt: str = ".3g") -> str:
