@@ -13,6 +13,7 @@ import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
 from app.figures import make_figure, method_color
+from app.tables import mission_rms
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import nees_band
 from tauvcore.eval.study_statistics import FINAL_STATISTICS
@@ -176,9 +177,10 @@ def summary_table_html(summary: dict[str, Any]) -> str:
 
 
 def smoothed_table_html(summary: dict[str, Any]) -> str:
-    """Of a study with the smoother: per method filtered and smoothed, the final errors' RMS over the
-    runs and NEES/dim of every block (in brackets the fraction of epochs inside the 99 % band); a
-    method the smoother does not run one row saying so. Empty for a study without the smoother."""
+    """Of a study with the smoother: per method filtered and smoothed, the RMS over the runs and the
+    whole mission (app.tables.mission_rms) and NEES/dim of every block (in brackets the fraction of
+    epochs inside the 99 % band); a method the smoother does not run one row saying so. Empty for a
+    study without the smoother."""
     methods = summary["methods"]
     if not any("smoothed" in m for m in methods.values()):
         return ""
@@ -192,9 +194,9 @@ def smoothed_table_html(summary: dict[str, Any]) -> str:
             )
             continue
         for label, part in (("filtered", m), ("smoothed", m["smoothed"])):
-            f, c = part["final_rms"], part["consistency"]
+            r, c = part["rms"], part["consistency"]
             errors = "".join(
-                f"<td>{_cell(f[n], fmt)}</td>"
+                f"<td>{_cell(mission_rms(r[n]), fmt)}</td>"
                 for n, fmt in (
                     ("vel_err_mps", ".3g"),
                     ("tilt_err_deg", ".3f"),
@@ -208,8 +210,8 @@ def smoothed_table_html(summary: dict[str, Any]) -> str:
             rows.append(f"<tr><td>{html.escape(method.upper())}</td><td>{label}</td>{errors}{nees}</tr>")
     head = "".join(f"<th>NEES/dim {html.escape(b)}</th>" for b in blocks)
     return (
-        "<p>Fixed-interval smoother: final RMS over the runs and NEES/dim against truth per block, "
-        "filtered and smoothed.</p><table><tr><th>method</th><th></th><th>vel [m/s]</th><th>tilt [deg]</th>"
+        "<p>Fixed-interval smoother: RMS over the runs and the whole mission and NEES/dim against truth "
+        "per block, filtered and smoothed.</p><table><tr><th>method</th><th></th><th>vel [m/s]</th><th>tilt [deg]</th>"
         f"<th>heading [deg]</th><th>pos [m]</th>{head}</tr>" + "".join(rows) + "</table>"
     )
 

@@ -212,9 +212,8 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
 def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
     """The study's final errors per method: RMS, median and 95th percentile over the runs, the
     consistency, the runs the monitor flagged; a method with flagged runs gets a second row, its
-    statistics without them (marked "w/o flagged"); a study with the smoother a row of each
-    method's smoothed statistics (marked "smoothed"; "not smoothed" for Yoo 2014's), and below
-    the table NEES/dim per block filtered and smoothed (:func:`smoothed_nees_lines`)."""
+    statistics without them (marked "w/o flagged"); a study with the smoother then
+    :func:`smoothed_study_lines`."""
     lines = [
         (
             f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); errors at the end over the "
@@ -247,27 +246,36 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
                 f"{'-':>14} {'-':>14} {'runs ' + ','.join(map(str, m['flagged_runs'][:6])):>8}"
                 + (" ..." if len(m["flagged_runs"]) > 6 else "")
             )
-        if "smoothed" in m:
-            sm = m["smoothed"]
-            label = f"{method.upper()} smoothed"
-            if sm is None:
-                lines.append(f"{label:<16} not smoothed (Yoo 2014's 12-state filter: no smoother)")
-                continue
-            f, c, st = sm["final_rms"], sm["consistency"], sm["final_stats"]
-            lines.append(
-                f"{label:<16} {triple(st['vel_err_mps'], ''):>26} {f['tilt_err_deg']:>11.4f} "
-                f"{f['heading_err_deg']:>11.4f} {triple(st['pos_err_m'], ''):>30} "
-                f"{_cell(c['full']['per_dim'], c['full']['in_band']):>14} "
-                f"{_cell(c['vel']['per_dim'], c['vel']['in_band']):>14}"
-            )
     if any("smoothed" in m for m in summary["methods"].values()):
-        lines += ["", *smoothed_nees_lines(summary)]
+        lines += ["", *smoothed_study_lines(summary)]
     return "\n".join(lines)
 
 
-def smoothed_nees_lines(summary: dict[str, Any]) -> list[str]:
-    """NEES/dim per block over every run and epoch, filtered and smoothed, of a study with the
-    smoother (in brackets the fraction of epochs inside the 99 % band).
+def mission_rms(rms_s: Any) -> float:
+    """The RMS over the whole mission of a per-epoch RMS over the runs (the RMS over every run and
+    epoch): ``sqrt(mean_t(rms_t^2))`` over the epochs where it is known; NaN if none.
+
+    Parameters
+    ----------
+    rms_s : array_like
+        (T,) the RMS over the runs at each epoch (a study summary's ``rms``), None or NaN unknown.
+
+    Returns
+    -------
+    float
+        In the series' unit.
+    """
+    x = np.array([np.nan if v is None else v for v in rms_s], dtype=float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+
+def smoothed_study_lines(summary: dict[str, Any]) -> list[str]:
+    """A study with the smoother: per method a row filtered and a row smoothed, the RMS over the
+    runs and the whole mission (:func:`mission_rms`; not at the last epoch, where the smoothed
+    estimate is the filtered) of velocity, tilt, heading and position, and NEES/dim of the full
+    state and each block over every run and epoch (in brackets the fraction of epochs inside the
+    99 % band); a method the smoother does not run (Yoo 2014's) one row saying so.
 
     Parameters
     ----------
@@ -277,20 +285,36 @@ def smoothed_nees_lines(summary: dict[str, Any]) -> list[str]:
     Returns
     -------
     list[str]
-        The lines: a title, a head, then per smoothed method a row filtered and a row smoothed.
+        The lines: a title, a head, then the rows.
     """
     blocks = list(BLOCK_DIMS)
     lines = [
-        "NEES/dim per block against truth, filtered and smoothed (in brackets the fraction inside the 99 % band)",
-        f"{'method':<16} " + " ".join(f"{b:>13}" for b in blocks),
+        (
+            "Filtered and smoothed: RMS over the runs and the whole mission, NEES/dim per block against truth "
+            "(in brackets the fraction inside the 99 % band)"
+        ),
+        f"{'method':<16} "
+        + " ".join(f"{h:>10}" for h in ("vel [m/s]", "tilt [deg]", "head [deg]", "pos [m]"))
+        + " "
+        + " ".join(f"{b:>11}" for b in blocks),
     ]
     for method, m in summary["methods"].items():
         if m.get("smoothed") is None:
+            lines.append(f"{method.upper():<16} not smoothed (Yoo 2014's 12-state filter: no smoother)")
             continue
         for label, part in (("filtered", m), ("smoothed", m["smoothed"])):
-            c = part["consistency"]
-            cells = " ".join(f"{_cell(c[b]['per_dim'], c[b]['in_band']):>13}" for b in blocks)
-            lines.append(f"{(method.upper() + ' ' + label):<16} {cells}")
+            r, c = part["rms"], part["consistency"]
+            errors = " ".join(
+                f"{_g(mission_rms(r[n]), fmt):>10}"
+                for n, fmt in (
+                    ("vel_err_mps", ".4f"),
+                    ("tilt_err_deg", ".4f"),
+                    ("heading_err_deg", ".4f"),
+                    ("pos_err_m", ".3f"),
+                )
+            )
+            cells = " ".join(f"{_cell(c[b]['per_dim'], c[b]['in_band']):>11}" for b in blocks)
+            lines.append(f"{(method.upper() + ' ' + label):<16} {errors} {cells}")
     return lines
 
 

@@ -57,7 +57,7 @@ def smooth_options(args: argparse.Namespace, config: Config, runs: int = 1) -> S
     if not getattr(args, "smooth", False):
         for flag, value in (("--smooth-memory-mb", memory), ("--smooth-dir", directory)):
             if value is not None:
-                raise UsageError(f"{flag}: only with --smooth (the smoother is off without it)")
+                raise UsageError(f"{flag} {show(value)}: only with --smooth (the smoother is off without it)")
         return None
     budget_mb = DEFAULT_BUDGET_MB
     if memory is not None:

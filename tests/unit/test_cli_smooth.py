@@ -146,8 +146,15 @@ def test_mc_smooth_summary_parquet_and_report(capsys, tmp_path) -> None:
     assert np.isfinite(lc_rows).all()
     np.testing.assert_allclose(np.sqrt(np.mean(np.square(lc_rows.astype(float)), axis=0)), smoothed_rms,
                                rtol=1e-6, atol=1e-7)
-    assert "LC smoothed" in printed and "VKF smoothed     not smoothed" in printed
-    assert "NEES/dim per block against truth, filtered and smoothed" in printed
+    rows = {" ".join(line.split()[:2]): line.split()[2:] for line in
+            printed[printed.index("Filtered and smoothed: RMS over the runs and the whole mission"):].splitlines()[2:]}
+    assert rows["VKF not"][0] == "smoothed"
+    for label, part in (("LC filtered", lc), ("LC smoothed", smoothed)):
+        vel = np.array(part["rms"]["vel_err_mps"], dtype=float)
+        assert float(rows[label][0]) == pytest.approx(np.sqrt(np.mean(vel**2)), abs=1e-4)
+        c = part["consistency"]["vel"]
+        assert rows[label][4 + 2 * 2] == f"{c['per_dim']:.2f}"        # NEES/dim of the velocity block
+    assert float(rows["LC smoothed"][0]) < float(rows["LC filtered"][0])
     assert "filtered and smoothed" in (out / "report.html").read_text()
 
 
@@ -158,8 +165,8 @@ def test_mc_smooth_summary_parquet_and_report(capsys, tmp_path) -> None:
     (["run", "--smooth", "--smooth-memory-mb", "nan"], "--smooth-memory-mb: expected a positive number of megabytes, got 'nan'"),
     (["run", "--smooth", "--smooth-memory-mb", "0.5"], "--smooth-memory-mb: '0.5' MB is below what the smoother holds of one chunk: at least 1.8 MB for 2 smoothed methods"),
     (["mc", "--runs", "20", "--out", "OUT", "--smooth", "--smooth-memory-mb", "5"], "at least 17.8 MB for 2 smoothed methods and 10 runs per chunk"),
-    (["run", "--smooth-memory-mb", "64"], "--smooth-memory-mb: only with --smooth"),
-    (["replay", "LOG", "--smooth-dir", "/tmp"], "--smooth-dir: only with --smooth"),
+    (["run", "--smooth-memory-mb", "64"], "--smooth-memory-mb '64': only with --smooth"),
+    (["replay", "LOG", "--smooth-dir", "/tmp"], "--smooth-dir '/tmp': only with --smooth"),
     (["run", "--smooth", "--smooth-dir", "/no/such/dir"], "--smooth-dir: '/no/such/dir' is not a directory"),
     (["mc", "--runs", "2", "--out", "OUT", "--smooth", "--smooth-dir", "/no/such/dir"], "--smooth-dir: '/no/such/dir' is not a directory"),
 ])
