@@ -2,10 +2,11 @@
 the smoothed series summed beside the filtered."""
 
 import numpy as np
+import pytest
 
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.smoothing import SmoothOptions
-from tauvcore.eval.study import compute_chunk, run_chunk, run_study, study_config
+from tauvcore.eval.study import compute_chunk, iterate_chunks, run_chunk, run_study, study_config
 
 CONFIG = Config().replace("trajectory", name="figure8", duration_s=20.0).replace("run", methods=("lc", "vkf"))
 
@@ -30,3 +31,20 @@ def test_a_smoothed_study_is_the_same_on_worker_processes_and_leaves_no_tape(tmp
     filtered = np.asarray(here["methods"]["lc"]["rms"]["vel_err_mps"])
     smoothed = np.asarray(here["methods"]["lc"]["smoothed"]["rms"]["vel_err_mps"])
     assert np.sqrt(np.mean(smoothed**2)) < np.sqrt(np.mean(filtered**2))
+
+
+@pytest.mark.slow
+def test_a_dask_cluster_smooths_to_the_local_numbers(tmp_path) -> None:
+    """The smoother's options travel with the chunks to Dask workers: their smoothed series are
+    the local ones bit for bit, and the tapes spilled on the workers are removed."""
+    distributed = pytest.importorskip("distributed")
+    spill = SmoothOptions(budget_mb=0.0, directory=str(tmp_path))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  host="127.0.0.1") as cluster:
+        remote = list(iterate_chunks(CONFIG, 4, 3, dask_address=cluster.scheduler_address, chunk_runs=2, smooth=spill))
+    local = list(iterate_chunks(CONFIG, 4, 3, workers=1, chunk_runs=2, smooth=SmoothOptions()))
+    assert list(tmp_path.iterdir()) == []
+    for a, b in zip(local, remote, strict=True):
+        assert set(a.smoothed) == set(b.smoothed) == {"lc"}
+        for name, values in a.smoothed["lc"].items():
+            np.testing.assert_array_equal(b.smoothed["lc"][name], values, err_msg=name)
