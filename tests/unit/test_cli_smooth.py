@@ -198,3 +198,23 @@ def test_an_interrupted_smoothing_writes_nothing_and_leaves_no_tape(capsys, tmp_
     assert spills and not any(os.path.exists(p) for p in spills)
     assert list(scratch.iterdir()) == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scratch"]
+
+
+def test_a_full_disk_under_the_tape_is_one_line_and_nothing_is_written(capsys, tmp_path, monkeypatch, spills) -> None:
+    """The tape cannot be written (no space left): one line naming --smooth-dir and the reason,
+    exit 2; neither --json nor --save-log is left, nor the smoother's directory."""
+    import errno
+
+    def no_space(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(smoothing.np, "save", no_space)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    code, out, err = _run(capsys, "run", *RUN, "--smooth", "--smooth-memory-mb", "2.7", "--smooth-dir", str(scratch),
+                          "--json", str(tmp_path / "out.json"), "--save-log", str(tmp_path / "log"))
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("tauv: error: --smooth-dir: the smoother's tape cannot be written")
+    assert "No space left on device" in err
+    assert spills and list(scratch.iterdir()) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scratch"]
