@@ -138,6 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(tauv replay reads it; see docs/replay.md for the log format)",
     )
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
+    _smooth_flags(r)
     rl = sub.add_parser(
         "replay",
         help="run the fusion methods on a recorded log (a directory of sensor tables, a ROS bag or an MCAP file)",
@@ -181,6 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     rl.add_argument(
         "--json", type=_path, help="write the configuration and per-epoch results to this JSON file"
     )
+    _smooth_flags(rl)
     mc = sub.add_parser(
         "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
     )
@@ -199,6 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="send the chunks to this Dask scheduler instead, e.g. "
         "tcp://10.0.0.5:8786 (its workers need tauv installed)",
     )
+    _smooth_flags(mc)
     rp = sub.add_parser(
         "reproduce",
         help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
@@ -325,6 +328,32 @@ def _method_flags(p: argparse.ArgumentParser) -> None:
         help="the DVL methods fuse the propeller RPM's velocity "
         "(Yoo 2014's velocity Kalman filter, learnt from the "
         "DVL) whenever they have no DVL velocity",
+    )
+
+
+def _smooth_flags(p: argparse.ArgumentParser) -> None:
+    """The fixed-interval smoother's flags (``run``, ``replay`` and ``mc``)."""
+    from tauvcore.engine.smoothing import DEFAULT_BUDGET_MB
+
+    p.add_argument(
+        "--smooth",
+        action="store_true",
+        help="also run the fixed-interval (Rauch-Tung-Striebel) smoother over the whole run after the "
+        "filter: smoothed RMS and NEES beside the filtered in the tables, the smoothed series beside the "
+        "filtered in the outputs (the 20-state methods; Yoo 2014's ins-dvl and vkf are not smoothed)",
+    )
+    p.add_argument(
+        "--smooth-memory-mb",
+        metavar="MB",
+        help=f"megabytes of the smoother's tape held in memory, the rest in a temporary directory "
+        f"(default {DEFAULT_BUDGET_MB:g}; at least what one chunk needs)",
+    )
+    p.add_argument(
+        "--smooth-dir",
+        type=_path,
+        metavar="DIR",
+        help="an existing directory for the smoother's temporary files (default: the system's, TMPDIR); "
+        "they are removed when the command ends",
     )
 
 

@@ -17,7 +17,7 @@ from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.envelope import is_decimated
 from tauvcore.eval.metrics import rms
-from tauvcore.eval.study import FINAL_STATISTICS, final_statistics
+from tauvcore.eval.study_statistics import FINAL_STATISTICS, final_statistics
 
 
 class DvlCounts(TypedDict):
@@ -276,7 +276,7 @@ RUNS_COLUMNS = (
 
 def runs_markdown(results: Mapping[str, MethodResult]) -> str:
     """For a Monte Carlo (more than one run), the final errors over the runs: RMS, median and 95th
-    percentile (tauvcore.eval.study.final_statistics), how many runs the divergence monitor
+    percentile (tauvcore.eval.study_statistics.final_statistics), how many runs the divergence monitor
     flagged, and the RMS without them, so that one locked-out run cannot hide behind the RMS;
     "" for a single run."""
     if not results or all(r.diverged.size <= 1 for r in results.values()):

@@ -33,7 +33,10 @@ def _number(value: float) -> float | None:
 
 
 def result_to_json(
-    result: MethodResult, run_index: int = 0, origin_rad: tuple[float, float] | None = None
+    result: MethodResult,
+    run_index: int = 0,
+    origin_rad: tuple[float, float] | None = None,
+    smoothed: bool = False,
 ) -> dict[str, Any]:
     """Per-epoch series of one run, its divergence verdict and the method's consistency, as in the
     CLI contract (strict JSON: non-finite numbers are null).
@@ -62,19 +65,27 @@ def result_to_json(
     missions) gives its series and NIS at each bin's last epoch and update, its consistency from
     every epoch (its summary), and adds ``"bin_s"`` and ``"epochs_per_bin"``.
 
-    A result with the smoother's (``MethodResult.smoothed``) adds ``"smoothed"``: the same series
-    of the smoothed estimate at the same epochs (``t`` again), and its ``consistency`` (NEES
-    against the same truth; no NIS: the smoother makes no update).
+    ``smoothed`` (after ``nis``): the fixed-interval smoother's results (``result.smoothed``), by
+    :func:`smoothed_to_json`; present whenever ``result`` has them, and null for a method without
+    them when ``smoothed`` is True (a run that smoothed).
     """
     i = run_index
     binned = result if is_decimated(result) else None
     summary = binned.summary if binned is not None else None
     consistency = summary.consistency if summary is not None else method_consistency(result)
     diverged_at = float(result.diverged_at_s[i])
-    smoothed = result.smoothed
+    by_smoother = getattr(result, "smoothed", None)
+    smoothed_item: dict[str, Any] = (
+        {"smoothed": smoothed_to_json(by_smoother, i, origin_rad)}
+        if by_smoother is not None
+        else {"smoothed": None}
+        if smoothed
+        else {}
+    )
     return {
         **{name: _finite(values) for name, values in result_series(result, i, origin_rad).items()},
         "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
+        **smoothed_item,
         "consistency": consistency_to_json(consistency),
         "diverged": bool(result.diverged[i]),
         "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
@@ -84,38 +95,40 @@ def result_to_json(
             if binned is not None
             else {}
         ),
-        **({"smoothed": smoothed_to_json(smoothed, i, origin_rad)} if smoothed is not None else {}),
     }
 
 
 def smoothed_to_json(
     smoothed: MethodResult, run_index: int = 0, origin_rad: tuple[float, float] | None = None
 ) -> dict[str, Any]:
-    """A method's smoothed results as :func:`result_to_json`'s ``"smoothed"``: the series of
-    :func:`result_series` and the consistency of the smoothed estimate (its NEES blocks; its
-    summary of every epoch for a run in bins).
+    """A method's smoothed results (``MethodResult.smoothed``) as :func:`result_to_json`'s
+    ``smoothed``: the same series over the smoothed estimate (:func:`result_series`), its NEES
+    consistency against truth (no NIS: the smoother makes no updates; a run in bins: the
+    summary of every epoch) and ``smoother_cuts``.
 
     Parameters
     ----------
     smoothed : MethodResult
-        The smoothed results (``MethodResult.smoothed``).
+        The smoothed results (tauvcore.engine.mission.run with ``smooth``).
     run_index : int
-        Which run's series.
+        The run written.
     origin_rad : tuple of float or None
-        Latitude and longitude of the estimate's origin [rad] (the geodetic series), or None.
+        Latitude and longitude [rad] of the estimate's origin, for ``est_lat_deg`` etc.
 
     Returns
     -------
     dict[str, Any]
-        Strict-JSON data: series name -> list (null where not finite), and ``"consistency"``.
+        Strict-JSON data: the series, ``consistency`` and ``smoother_cuts`` (steps where the
+        backward pass started afresh).
     """
-    binned = smoothed if is_decimated(smoothed) else None
-    summary = binned.summary if binned is not None else None
-    consistency = summary.consistency if summary is not None else method_consistency(smoothed)
-    series = result_series(smoothed, run_index, origin_rad)
+    i = run_index
+    binned = smoothed if is_decimated(smoothed) else None  # a run in bins: its summary of every epoch
+    consistency = binned.summary.consistency if binned is not None else method_consistency(smoothed)
+    cuts = getattr(smoothed, "smoother_cuts", None)
     return {
-        **{name: _finite(values) for name, values in series.items()},
-        "consistency": {"nees": consistency_to_json(consistency)["nees"]},
+        **{name: _finite(values) for name, values in result_series(smoothed, i, origin_rad).items()},
+        "consistency": consistency_to_json(consistency),
+        "smoother_cuts": int(cuts[i]) if cuts is not None else 0,
     }
 
 
@@ -207,10 +220,14 @@ def run_payload(
     "results": {method: ...}}``: the configuration by :func:`config_to_json` and each method's run
     0 by :func:`result_to_json`, the estimate's origin the configured latitude and longitude. A
     replay's ``log`` holds its directory, its own configuration file, what configured the run,
-    where the filters started and the reader's notes."""
+    where the filters started and the reader's notes. Results that carry the smoother's
+    (``MethodResult.smoothed``) get ``smoothed`` per method (null for a method without)."""
     origin = (config.earth.latitude_rad, config.earth.longitude_rad)
     payload: dict[str, Any] = {"config": config_to_json(config)}
     if log is not None:
         payload["log"] = log
-    payload["results"] = {m: result_to_json(r, origin_rad=origin) for m, r in results.items()}
+    smoothed = any(getattr(r, "smoothed", None) is not None for r in results.values())
+    payload["results"] = {
+        m: result_to_json(r, origin_rad=origin, smoothed=smoothed) for m, r in results.items()
+    }
     return payload

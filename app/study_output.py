@@ -6,7 +6,8 @@
   monitor flagged (strict JSON: non-finite numbers are null);
 - ``runs.parquet``: every run's per-epoch series in long form, one row per (trajectory, method,
   run, epoch), columns :data:`PARQUET_SERIES` (written chunk by chunk, so memory does not grow
-  with the number of runs);
+  with the number of runs); a study with the smoother (``tauv mc --smooth``) adds beside them the
+  smoothed ones, ``smoothed_<series>`` (null for a method not smoothed: Yoo 2014's);
 - ``paper_comparison.md`` (``tauv reproduce`` only): every figure the paper states beside ours,
   with a verdict (tauvcore.eval.paper);
 - ``report.html``: plotly figures in the layout of the paper's Figures 9-14 (velocity and
@@ -93,7 +94,8 @@ def runs_table(trajectory: str, chunk: ChunkSeries) -> Any:
     """One chunk's runs as rows of runs.parquet: a ``pyarrow.Table`` with one row per (method,
     run, epoch), method-major then run-major, columns ``trajectory``, ``method`` (dictionary, int8
     codes), ``run`` (int32, the study's run index), ``t_s`` (float64) and :data:`PARQUET_SERIES`
-    (float32). A dashboard run's download is the same table (app.export)."""
+    (float32), and for a chunk with smoothed series (``chunk.smoothed``) ``smoothed_<name>`` of each
+    (NaN for a method without). A dashboard run's download is the same table (app.export)."""
     import pyarrow as pa
 
     T = chunk.t_s.size
@@ -117,6 +119,17 @@ def runs_table(trajectory: str, chunk: ChunkSeries) -> Any:
         columns[name] = np.concatenate(
             [np.asarray(chunk.series[m][name], dtype=np.float32).T.reshape(-1) for m in methods]
         )  # run-major
+    if chunk.smoothed:
+        nan = np.full(rows, np.nan, np.float32)
+        for name in PARQUET_SERIES:
+            columns["smoothed_" + name] = np.concatenate(
+                [
+                    np.asarray(chunk.smoothed[m][name], dtype=np.float32).T.reshape(-1)
+                    if m in chunk.smoothed
+                    else nan
+                    for m in methods
+                ]
+            )
     return pa.table(columns)
 
 

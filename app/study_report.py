@@ -13,8 +13,10 @@ import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
 from app.figures import make_figure, method_color
+from app.tables import mission_rms
+from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import nees_band
-from tauvcore.eval.study import FINAL_STATISTICS
+from tauvcore.eval.study_statistics import FINAL_STATISTICS
 
 PANELS = (
     ("vel_err_mps", "Velocity error RMS [m/s]", True),
@@ -174,6 +176,46 @@ def summary_table_html(summary: dict[str, Any]) -> str:
     )
 
 
+def smoothed_table_html(summary: dict[str, Any]) -> str:
+    """Of a study with the smoother: per method filtered and smoothed, the RMS over the runs and the
+    whole mission (app.tables.mission_rms) and NEES/dim of every block (in brackets the fraction of
+    epochs inside the 99 % band); a method the smoother does not run one row saying so. Empty for a
+    study without the smoother."""
+    methods = summary["methods"]
+    if not any("smoothed" in m for m in methods.values()):
+        return ""
+    blocks = list(BLOCK_DIMS)
+    rows = []
+    for method, m in methods.items():
+        if m.get("smoothed") is None:
+            rows.append(
+                f"<tr><td>{html.escape(method.upper())}</td><td colspan='{5 + len(blocks)}'>"
+                "not smoothed (Yoo 2014's 12-state filter: no smoother)</td></tr>"
+            )
+            continue
+        for label, part in (("filtered", m), ("smoothed", m["smoothed"])):
+            r, c = part["rms"], part["consistency"]
+            errors = "".join(
+                f"<td>{_cell(mission_rms(r[n]), fmt)}</td>"
+                for n, fmt in (
+                    ("vel_err_mps", ".3g"),
+                    ("tilt_err_deg", ".3f"),
+                    ("heading_err_deg", ".3f"),
+                    ("pos_err_m", ".3g"),
+                )
+            )
+            nees = "".join(
+                f"<td>{_cell(c[b]['per_dim'], '.3g')} ({_cell(c[b]['in_band'], '.2f')})</td>" for b in blocks
+            )
+            rows.append(f"<tr><td>{html.escape(method.upper())}</td><td>{label}</td>{errors}{nees}</tr>")
+    head = "".join(f"<th>NEES/dim {html.escape(b)}</th>" for b in blocks)
+    return (
+        "<p>Fixed-interval smoother: RMS over the runs and the whole mission and NEES/dim against truth "
+        "per block, filtered and smoothed.</p><table><tr><th>method</th><th></th><th>vel [m/s]</th><th>tilt [deg]</th>"
+        f"<th>heading [deg]</th><th>pos [m]</th>{head}</tr>" + "".join(rows) + "</table>"
+    )
+
+
 def markdown_table_html(markdown: str) -> str:
     """A Markdown pipe table (header, rule, rows) as an HTML table, every cell escaped."""
     rows = [
@@ -212,6 +254,7 @@ def report_html(
             "them.</p>"
         )
         parts.append(summary_table_html(summary))
+        parts.append(smoothed_table_html(summary))
         parts.append(
             trajectory_figure(trajectory, summary).to_html(
                 full_html=False, include_plotlyjs=first, include_mathjax=False

@@ -13,7 +13,7 @@ from tauvcore.engine import yoo_sources
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.envelope import DecimatedResult
 from tauvcore.eval.running import MethodSummary, summarise
-from tauvcore.eval.study import FINAL_STATISTICS
+from tauvcore.eval.study_statistics import FINAL_STATISTICS
 
 
 def summary_table(
@@ -22,12 +22,14 @@ def summary_table(
     elapsed_s: float,
     source: str | None = None,
     preamble: Sequence[str] = (),
+    smoothed: Mapping[str, MethodSummary] | None = None,
 ) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
     :func:`consistency_table`. ``results``: each method's whole results, or its summary reduced
     chunk by chunk (tauvcore.eval.running); ``source``: what was run, when not the configured
     trajectory (a log); ``preamble``: lines after the first (a log: what configured it, where it
-    started)."""
+    started); ``smoothed``: the smoothed methods' summaries of a run that smoothed, then
+    :func:`smoothing_table` last."""
     summaries = _summaries(results)
     tr = config.trajectory
     what = source if source is not None else f"trajectory {tr.name} ({tr.truth} truth)"
@@ -64,7 +66,66 @@ def summary_table(
             f"{_fixed(f['pos_err_m'], 10, 3)} {_fixed(r['pos_err_m'], 9, 3)} "
             f"{_fixed(f['vel_sigma_mps'], 10, 4)} {fused:>20}" + marker
         )
-    return "\n".join(lines + ["", consistency_table(summaries, config.run.aiding)])
+    tables = [consistency_table(summaries, config.run.aiding)]
+    if smoothed is not None:
+        tables.append(smoothing_table(summaries, smoothed))
+    return "\n".join(lines + ["", "\n\n".join(tables)])
+
+
+SMOOTHED_RMS = (("vel_err_mps", "vel RMS", "[m/s]", 4), ("tilt_err_deg", "tilt RMS", "[deg]", 4))
+SMOOTHED_RMS += (("heading_err_deg", "head RMS", "[deg]", 4), ("pos_err_m", "pos RMS", "[m]", 3))
+"""The RMS of run 0 :func:`smoothing_table` gives filtered and smoothed: series, heading, unit, decimals."""
+
+
+def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str, MethodSummary]) -> str:
+    """Per method two rows, filtered then smoothed: the RMS of run 0 (velocity, tilt, heading,
+    position) and NEES/dim of the full state and each block against truth, with the fraction of
+    epochs inside the 99 % band; a method the smoother does not run (Yoo 2014's) one row saying so.
+
+    Parameters
+    ----------
+    filtered : Mapping[str, MethodSummary]
+        Every method's summary (tauvcore.eval.running).
+    smoothed : Mapping[str, MethodSummary]
+        The smoothed methods' summaries over the same epochs.
+
+    Returns
+    -------
+    str
+        The table, its title first.
+    """
+    blocks = list(BLOCK_DIMS)
+    head = ["method", *(h for _, h, _, _ in SMOOTHED_RMS), *blocks]
+    units = ["", *(u for _, _, u, _ in SMOOTHED_RMS), *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks)]
+    rows = []
+    for name, summary in filtered.items():
+        if name not in smoothed:
+            rows.append([f"{name.upper()} not smoothed (Yoo 2014's 12-state filter: no smoother)"])
+            continue
+        for label, s in (("filtered", summary), ("smoothed", smoothed[name])):
+            c = s.consistency.nees
+            rows.append(
+                [
+                    f"{name.upper()} {label}",
+                    *(_fixed(s.rms[n], 0, d).strip() for n, _, _, d in SMOOTHED_RMS),
+                    *(_cell(c[b].per_dim, c[b].in_band) if b in c else "-" for b in blocks),
+                ]
+            )
+    full = [r for r in rows if len(r) > 1]
+    widths = [max(len(row[k]) for row in [head, units, *full]) for k in range(len(head))]
+
+    def line(cells: list[str]) -> str:
+        if len(cells) == 1:
+            return cells[0]
+        return " ".join(
+            [cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])]
+        ).rstrip()
+
+    title = (
+        "Smoothed beside filtered (fixed-interval smoother over the whole run): RMS of run 0, NEES/dim "
+        "against truth (in brackets the fraction inside the 99 % band)"
+    )
+    return "\n".join([title, line(head), line(units), *(line(row) for row in rows)])
 
 
 def _summaries(results: Mapping[str, MethodResult | MethodSummary]) -> dict[str, MethodSummary]:
@@ -151,7 +212,8 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
 def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
     """The study's final errors per method: RMS, median and 95th percentile over the runs, the
     consistency, the runs the monitor flagged; a method with flagged runs gets a second row, its
-    statistics without them (marked "w/o flagged")."""
+    statistics without them (marked "w/o flagged"); a study with the smoother then
+    :func:`smoothed_study_lines`."""
     lines = [
         (
             f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); errors at the end over the "
@@ -184,7 +246,76 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
                 f"{'-':>14} {'-':>14} {'runs ' + ','.join(map(str, m['flagged_runs'][:6])):>8}"
                 + (" ..." if len(m["flagged_runs"]) > 6 else "")
             )
+    if any("smoothed" in m for m in summary["methods"].values()):
+        lines += ["", *smoothed_study_lines(summary)]
     return "\n".join(lines)
+
+
+def mission_rms(rms_s: Any) -> float:
+    """The RMS over the whole mission of a per-epoch RMS over the runs (the RMS over every run and
+    epoch): ``sqrt(mean_t(rms_t^2))`` over the epochs where it is known; NaN if none.
+
+    Parameters
+    ----------
+    rms_s : array_like
+        (T,) the RMS over the runs at each epoch (a study summary's ``rms``), None or NaN unknown.
+
+    Returns
+    -------
+    float
+        In the series' unit.
+    """
+    x = np.array([np.nan if v is None else v for v in rms_s], dtype=float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+
+def smoothed_study_lines(summary: dict[str, Any]) -> list[str]:
+    """A study with the smoother: per method a row filtered and a row smoothed, the RMS over the
+    runs and the whole mission (:func:`mission_rms`; not at the last epoch, where the smoothed
+    estimate is the filtered) of velocity, tilt, heading and position, and NEES/dim of the full
+    state and each block over every run and epoch (in brackets the fraction of epochs inside the
+    99 % band); a method the smoother does not run (Yoo 2014's) one row saying so.
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        A study's summary (tauvcore.eval.study.StudyAccumulator.summary) with ``smoothed``.
+
+    Returns
+    -------
+    list[str]
+        The lines: a title, a head, then the rows.
+    """
+    blocks = list(BLOCK_DIMS)
+    lines = [
+        (
+            "Filtered and smoothed: RMS over the runs and the whole mission, NEES/dim per block against truth "
+            "(in brackets the fraction inside the 99 % band)"
+        ),
+        f"{'method':<16} "
+        + " ".join(f"{h:>10}" for h in ("vel [m/s]", "tilt [deg]", "head [deg]", "pos [m]"))
+        + " "
+        + " ".join(f"{b:>11}" for b in blocks),
+    ]
+    for method, m in summary["methods"].items():
+        if m.get("smoothed") is None:
+            lines.append(f"{method.upper():<16} not smoothed (Yoo 2014's 12-state filter: no smoother)")
+            continue
+        for label, part in (("filtered", m), ("smoothed", m["smoothed"])):
+            r, c = part["rms"], part["consistency"]
+            errors = " ".join(
+                f"{_g(mission_rms(r[n]), fmt):>10}"
+                for n, fmt in (
+                    ("vel_err_mps", ".4f"),
+                    ("tilt_err_deg", ".4f"),
+                    ("heading_err_deg", ".4f"),
+                    ("pos_err_m", ".3f"),
+                )
+            )
+            cells = " ".join(f"{_cell(c[b]['per_dim'], c[b]['in_band']):>11}" for b in blocks)
+            lines.append(f"{(method.upper() + ' ' + label):<16} {errors} {cells}")
+    return lines
 
 
 def _g(x: Any, fmt: str = ".3g") -> str:

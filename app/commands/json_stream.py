@@ -8,6 +8,12 @@ them, a block of values at a time, into a temporary file that is renamed over th
 results at once (tests/unit/test_json_stream.py): every series the same numbers, the consistency
 (summed chunk by chunk, tauvcore.eval.running) to 1e-9. On any failure, or an interruption, the
 temporary files go and the output is untouched.
+
+With the smoother (``tauv run --smooth``), the smoothed chunks the engine hands out after the
+filtered ones (tauvcore.engine.mission.run_streaming's ``on_smoothed_chunk``) are spooled the same
+way, and each method's object gets ``"smoothed"``: the same series keys over the smoothed
+estimate (no ``nis``), its NEES consistency against truth in the same blocks and
+``smoother_cuts``; null for a method the smoother does not run (Yoo 2014's).
 """
 
 from __future__ import annotations
@@ -44,10 +50,17 @@ class RunJsonWriter:
     log : dict[str, Any] or None
         A replay's ``log`` section (app.payload.run_payload: its directory, configuration, start
         and notes), written between ``config`` and ``results``; None: a run's document, without.
+    smoothed : bool
+        Whether the run smooths (:meth:`add_smoothed`): each method then gets ``"smoothed"``.
     """
 
-    def __init__(self, path: str, config: Config, log: dict[str, Any] | None = None) -> None:
+    def __init__(
+        self, path: str, config: Config, log: dict[str, Any] | None = None, smoothed: bool = False
+    ) -> None:
         self.path = path
+        self.smoothed = smoothed
+        self.smoothed_series: dict[str, list[str]] = {}  # method -> its smoothed series' names
+        self.smoothed_last: dict[str, MethodResult] = {}  # each smoothed method's latest chunk
         self.config = config
         self.log = log
         self.origin = (config.earth.latitude_rad, config.earth.longitude_rad)
@@ -88,13 +101,38 @@ class RunJsonWriter:
                 _append(self._file(method, f"nis.{source}.nis"), np.asarray(nis, dtype=np.float64))
                 _append(self._file(method, f"nis.{source}.dof"), np.asarray(dof, dtype=np.int64))
 
-    def write(self, summaries: dict[str, MethodSummary]) -> None:
+    def add_smoothed(self, results: dict[str, MethodResult]) -> None:
+        """Append one chunk's run-0 smoothed series (the engine's ``on_smoothed_chunk``).
+
+        Parameters
+        ----------
+        results : dict[str, MethodResult]
+            Method name -> its smoothed results over the chunk (the 20-state methods).
+
+        Raises
+        ------
+        OSError
+            The spool could not be written: the caller removes it (:meth:`discard`).
+        """
+        for method, r in results.items():
+            self.smoothed_last[method] = r
+            if r.t_s.size:
+                series = result_series(r, 0, self.origin)
+                self.smoothed_series.setdefault(method, list(series))
+                for name, values in series.items():
+                    _append(self._file(method, "smoothed." + name), np.asarray(values, dtype=np.float64))
+
+    def write(
+        self, summaries: dict[str, MethodSummary], smoothed: dict[str, MethodSummary] | None = None
+    ) -> None:
         """Write the document to ``path`` (atomically) and remove the spool.
 
         Parameters
         ----------
         summaries : dict[str, MethodSummary]
             The run's summaries (tauvcore.eval.running.RunningSummary): each method's consistency.
+        smoothed : dict[str, MethodSummary] or None
+            The smoothed methods' summaries (their consistency); None: none.
 
         Raises
         ------
@@ -111,7 +149,7 @@ class RunJsonWriter:
             fh.write(', "results": {')
             for k, method in enumerate(self.last):
                 fh.write(("" if k == 0 else ", ") + json.dumps(method) + ": ")
-                self._method(fh, method, summaries[method])
+                self._method(fh, method, summaries[method], (smoothed or {}).get(method))
             fh.write("}}")
 
         try:
@@ -119,7 +157,9 @@ class RunJsonWriter:
         finally:
             self.discard()
 
-    def _method(self, fh: IO[str], method: str, summary: MethodSummary) -> None:
+    def _method(
+        self, fh: IO[str], method: str, summary: MethodSummary, smoothed: MethodSummary | None
+    ) -> None:
         fh.write("{")
         for name in self.series.get(method, []):
             fh.write(json.dumps(name) + ": ")
@@ -142,7 +182,29 @@ class RunJsonWriter:
             "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
             "p_floor_count": int(last.p_floor_count[0]),
         }
-        fh.write("}, " + json.dumps(tail, allow_nan=False)[1:])
+        fh.write("}")
+        if self.smoothed:
+            fh.write(', "smoothed": ')
+            self._smoothed(fh, method, smoothed)
+        fh.write(", " + json.dumps(tail, allow_nan=False)[1:])
+
+    def _smoothed(self, fh: IO[str], method: str, summary: MethodSummary | None) -> None:
+        """A method's ``"smoothed"`` object: its series, consistency and cuts; null if not smoothed."""
+        last = self.smoothed_last.get(method)
+        if last is None or summary is None:
+            fh.write("null")
+            return
+        fh.write("{")
+        for name in self.smoothed_series.get(method, []):
+            fh.write(json.dumps(name) + ": ")
+            _write_list(fh, self._file(method, "smoothed." + name), np.float64)
+            fh.write(", ")
+        cuts = last.smoother_cuts
+        tail = {
+            "consistency": consistency_to_json(summary.consistency),
+            "smoother_cuts": int(cuts[0]) if cuts is not None else 0,
+        }
+        fh.write(json.dumps(tail, allow_nan=False)[1:])
 
     def discard(self) -> None:
         """Remove the spool (after :meth:`write`, or when the run failed)."""
@@ -165,6 +227,9 @@ class RunReduction:
         ``--json`` as given, for the message.
     log : dict[str, Any] or None
         A replay's ``log`` section (:class:`RunJsonWriter`).
+    smoothed : bool
+        Whether the run smooths: the smoothed chunks (:meth:`add_smoothed`) get their own sums
+        (:attr:`smoothed_summaries`) and their series in the document.
 
     Raises
     ------
@@ -173,11 +238,22 @@ class RunReduction:
     """
 
     def __init__(
-        self, config: Config, json_path: str | None, json_arg: str | None, log: dict[str, Any] | None = None
+        self,
+        config: Config,
+        json_path: str | None,
+        json_arg: str | None,
+        log: dict[str, Any] | None = None,
+        smoothed: bool = False,
     ) -> None:
         self.running = RunningSummary()
+        self.smoothed = RunningSummary() if smoothed else None
+        self.smoothed_summaries: dict[str, MethodSummary] | None = None  # after finish, with smoothed
         self.json_name = show_path(str(json_arg))
-        self.writer = None if json_path is None else self._writing(RunJsonWriter, json_path, config, log=log)
+        self.writer = (
+            None
+            if json_path is None
+            else self._writing(RunJsonWriter, json_path, config, log=log, smoothed=smoothed)
+        )
 
     def _writing(self, write: Any, *args: Any, **kwargs: Any) -> Any:
         try:
@@ -191,6 +267,14 @@ class RunReduction:
         if self.writer is not None:
             self._writing(self.writer.add, results)
 
+    def add_smoothed(self, results: dict[str, MethodResult]) -> None:
+        """One chunk of smoothed results: into their sums and the document (the engine's
+        ``on_smoothed_chunk``)."""
+        if self.smoothed is not None:
+            self.smoothed.add(results)
+        if self.writer is not None:
+            self._writing(self.writer.add_smoothed, results)
+
     def discard(self) -> None:
         """The run failed or was interrupted: the document's spool goes, the output untouched."""
         if self.writer is not None:
@@ -202,11 +286,14 @@ class RunReduction:
         Returns
         -------
         dict[str, MethodSummary]
-            Method name -> its summary (tauvcore.eval.running.RunningSummary.summaries).
+            Method name -> its summary (tauvcore.eval.running.RunningSummary.summaries); the
+            smoothed methods' are then :attr:`smoothed_summaries`.
         """
         summaries = self.running.summaries()
+        if self.smoothed is not None:
+            self.smoothed_summaries = self.smoothed.summaries()
         if self.writer is not None:
-            self._writing(self.writer.write, summaries)
+            self._writing(self.writer.write, summaries, self.smoothed_summaries)
         return summaries
 
 

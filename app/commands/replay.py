@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from app.commands.outputs import json_target
+from app.commands.smoothing import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
 from app.tables import summary_table
 from tauvcore.sensors.imu import IMU_PROFILES
@@ -27,7 +28,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
     them (tauvcore.eval.replay.LogRows; with ``--imu-errors`` at once), and the results reduced
     chunk by chunk as the engine hands them out (tauvcore.eval.replay.replay_chunked: the
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
-    app.commands.json_stream), so that only the log takes memory that grows with its length."""
+    app.commands.json_stream), so that only the log takes memory that grows with its length.
+    ``--smooth``: as ``tauv run``'s (app.commands.run.cmd_run), the smoothed results judged as the
+    filtered."""
     from app.commands.json_stream import RunReduction
     from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag_configured, read_mapping
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
@@ -54,6 +57,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     except LogError as exc:
         raise UsageError(str(exc)) from None
     config = resolve_config(args, under=log_raw)
+    smooth = smooth_options(args, config)
     imu_errors = None
     if args.imu_errors is not None:
         if args.imu_errors not in IMU_PROFILES:
@@ -90,8 +94,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
         }
         if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
             source["bag_mapping"] = mapping.path
-        reduction = RunReduction(config, json_path, args.json, log=source)
-        replay_chunked(config, sim, log, rng, reduction.add)
+        reduction = RunReduction(config, json_path, args.json, log=source, smoothed=smooth is not None)
+        with smoothing(smooth) as options:
+            replay_chunked(
+                config, sim, log, rng, reduction.add, smooth=options, on_smoothed_chunk=reduction.add_smoothed
+            )
     except BaseException as exc:
         if reduction is not None:
             reduction.discard()
@@ -105,13 +112,23 @@ def cmd_replay(args: argparse.Namespace) -> int:
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
     preamble = ["configuration: " + " < ".join(source["configuration"]), start]
     print(
-        summary_table(summaries, config, elapsed, source=f"log {show_path(str(args.log))}", preamble=preamble)
+        summary_table(
+            summaries,
+            config,
+            elapsed,
+            source=f"log {show_path(str(args.log))}",
+            preamble=preamble,
+            smoothed=reduction.smoothed_summaries,
+        )
     )
     return 0
 
 
-REPLAY_NOT_CONFIG = frozenset({"command", "func", "log", "json", "config", "no_log_config", "bag_mapping"})
-"""``tauv replay``'s arguments that are not configuration (what to read, where to write)."""
+REPLAY_NOT_CONFIG = frozenset(
+    {"command", "func", "log", "json", "config", "no_log_config", "bag_mapping"}
+    | {"smooth", "smooth_memory_mb", "smooth_dir"}
+)
+"""``tauv replay``'s arguments that are not configuration (what to read, where to write, the smoother)."""
 
 
 def replay_layers(

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from app.commands.outputs import json_target, log_table, refuse_holding_inputs
+from app.commands.smoothing import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
 from app.tables import summary_table
 from tauvcore.validation import show, show_path
@@ -27,8 +28,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     The results are reduced chunk by chunk as the engine hands them out (the summary's sums,
     tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream), and
     the log appended chunk by chunk to its files (tauvcore.log_writer.LogWriter), so memory does
-    not grow with the mission's length."""
+    not grow with the mission's length.
+
+    With ``--smooth`` the fixed-interval smoother runs after the forward pass: its results come
+    chunk by chunk after the filtered ones and are reduced the same way (their summary printed
+    beside the filtered, their series in ``--json``); its tape beyond ``--smooth-memory-mb`` goes to
+    a temporary directory (in ``--smooth-dir``) removed when the command ends, whatever happens
+    (app.commands.smoothing). An interruption (Ctrl-C) writes nothing."""
     config = resolve_config(args)
+    smooth = smooth_options(args, config)
     log_dir = _save_log_target(args)
     inputs = [("the --config file", args.config), ("the --save-log directory", args.save_log)]
     json_path = json_target(args.json, inputs) if args.json is not None else None
@@ -37,19 +45,24 @@ def cmd_run(args: argparse.Namespace) -> int:
     from app.commands.json_stream import RunReduction
     from tauvcore.engine.mission import run_streaming
 
-    reduction = RunReduction(config, json_path, args.json)
+    reduction = RunReduction(config, json_path, args.json, smoothed=smooth is not None)
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
     log_writer = None
     try:
         log_writer = _log_writer(args, log_dir) if log_dir is not None else None
-        run_streaming(
-            config,
-            rng,
-            keep=False,
-            on_chunk=reduction.add,
-            on_sim_chunk=None if log_writer is None else lambda chunk: _save_chunk(args, log_writer, chunk),
-        )
+        with smoothing(smooth) as options:
+            run_streaming(
+                config,
+                rng,
+                keep=False,
+                on_chunk=reduction.add,
+                on_sim_chunk=None
+                if log_writer is None
+                else lambda chunk: _save_chunk(args, log_writer, chunk),
+                smooth=options,
+                on_smoothed_chunk=reduction.add_smoothed,
+            )
         elapsed = time.perf_counter() - started
         if log_writer is not None:
             with _saving_log(args):
@@ -63,7 +76,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise
     if lock is not None:
         lock.release()
-    print(summary_table(reduction.finish(), config, elapsed))
+    summaries = reduction.finish()
+    print(summary_table(summaries, config, elapsed, smoothed=reduction.smoothed_summaries))
     return 0
 
 

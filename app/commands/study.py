@@ -13,6 +13,7 @@ import time
 from typing import Any
 
 from app.commands.outputs import log_table, refuse_holding_inputs
+from app.commands.smoothing import smooth_options
 from app.commands.values import UsageError, parse_flag, replace_for_flag, resolve_config
 from app.payload import config_to_json
 from app.tables import study_table
@@ -84,13 +85,18 @@ def _refuse_log_dir(given: str, out_dir: str) -> None:
 
 
 def cmd_mc(args: argparse.Namespace) -> int:
-    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output)."""
+    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output); with
+    ``--smooth`` every run also smoothed inside its chunk, where the chunk is computed (a worker
+    process, a Dask worker), and the smoothed series summed beside the filtered."""
     from app.study_output import OutputDirError
     from app.study_report import report_html
-    from tauvcore.eval.study import run_study
+    from tauvcore.engine.smoothing import SmoothingError
+    from tauvcore.eval.study import CHUNK_RUNS, run_study
 
     config = resolve_config(args)
     trajectory = config.trajectory.name
+    runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, 1)
+    smooth = smooth_options(args, config, runs=min(CHUNK_RUNS, runs))
     num_runs, workers, dask, writer = _study_setup(args, 1)
     started = time.perf_counter()
     try:
@@ -103,12 +109,15 @@ def cmd_mc(args: argparse.Namespace) -> int:
                 dask_address=dask,
                 on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
                 progress=lambda done, total: bar.update(done - bar.n),
+                smooth=smooth,
             )
         summary = acc.summary()
         description = (
             f"{num_runs} seeded Monte Carlo runs (seed {config.run.seed}), {config.trajectory.duration_s:g} s, "
             f"methods {', '.join(config.run.methods)}, beams {','.join(map(str, config.dvl.beams))}, "
-            f"aiding {','.join(config.run.aiding) or 'none'}; tauv mc"
+            f"aiding {','.join(config.run.aiding) or 'none'}"
+            + ("; smoothed (fixed-interval smoother)" if smooth is not None else "")
+            + "; tauv mc"
         )
         writer.finish(
             {
@@ -123,6 +132,9 @@ def cmd_mc(args: argparse.Namespace) -> int:
     except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
         writer.abort()
         raise UsageError(f"--out: {exc}") from None
+    except SmoothingError as exc:  # from a worker: the smoother's directory there
+        writer.abort()
+        raise UsageError(f"--smooth-dir: {exc}") from None
     except BaseException:
         writer.abort()
         raise

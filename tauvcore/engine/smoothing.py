@@ -19,12 +19,13 @@ velocity resets and repairs of the forward pass are kept as they were.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -76,6 +77,43 @@ class SmoothOptions:
 
 class SmoothingError(ValueError):
     """The smoother cannot do what it was asked (its budget, its temporary directory): one line."""
+
+
+@contextlib.contextmanager
+def scratch(options: SmoothOptions | None) -> Iterator[SmoothOptions | None]:
+    """``options`` with a temporary directory of their own, made in ``options.directory`` (None:
+    the system's) and removed with everything in it on leaving, also on an error or an
+    interruption: what the smoother's tapes spill to while a run goes on.
+
+    Parameters
+    ----------
+    options : SmoothOptions or None
+        The smoother's options; None: no smoother (nothing made, None given back).
+
+    Yields
+    ------
+    SmoothOptions or None
+        ``options`` with ``directory`` the new temporary directory; None for None.
+
+    Raises
+    ------
+    SmoothingError
+        The directory cannot be made (naming where and why).
+    """
+    if options is None:
+        yield None
+        return
+    where = options.directory or tempfile.gettempdir()
+    try:
+        own = tempfile.mkdtemp(prefix="tauv-smoother-", dir=options.directory)
+    except OSError as exc:
+        raise SmoothingError(
+            f"the smoother cannot make its temporary directory in {where}: {exc.strerror or exc}"
+        ) from None
+    try:
+        yield replace(options, directory=own)
+    finally:
+        shutil.rmtree(own, ignore_errors=True)
 
 
 def tape_bytes_per_epoch(batch: tuple[int, int]) -> int:

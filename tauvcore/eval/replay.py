@@ -27,6 +27,7 @@ from tauvcore.engine.mission import run, run_chunked
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
 from tauvcore.engine.simulation import ChunkSource, Simulation
+from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.engine.sources import active
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
@@ -705,6 +706,8 @@ def replay_chunked(
     rng: np.random.Generator,
     on_chunk: Callable[[dict[str, MethodResult]], None],
     chunk_s: float | None = None,
+    smooth: SmoothOptions | None = None,
+    on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
 ) -> None:
     """Every method of ``config.run.methods`` on the log, its results handed out chunk by chunk
     instead of kept (``tauv replay``: memory for the results flat in the log's length).
@@ -729,8 +732,23 @@ def replay_chunked(
         verdict so far), method name -> :class:`MethodResult` (series (T_chunk, 1)), judged.
     chunk_s : float or None
         The log's time per chunk [s]; None: tauvcore.engine.mission.STREAM_CHUNK_S.
+    smooth : SmoothOptions or None
+        Also run the fixed-interval smoother after the forward pass; None: no smoother.
+    on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
+        With ``smooth``: receives the smoothed results of the 20-state methods chunk by chunk in
+        the log's order, judged as ``on_chunk``'s, after the last ``on_chunk``.
     """
-    run_chunked(config, sim, rng, lambda results: on_chunk(judged(log, results)), chunk_s)
+    run_chunked(
+        config,
+        sim,
+        rng,
+        lambda results: on_chunk(judged(log, results)),
+        chunk_s,
+        smooth=smooth,
+        on_smoothed_chunk=None
+        if on_smoothed_chunk is None
+        else (lambda results: on_smoothed_chunk(judged(log, results))),
+    )
 
 
 JUDGED_SERIES = (

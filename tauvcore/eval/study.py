@@ -13,12 +13,15 @@ workers compute them, or where (local processes, Dask): tests/unit/test_study.py
 A finished chunk is reduced at once (:class:`StudyAccumulator`): per method and output epoch the
 sums that the RMS over runs, the mean NEES and the consistency summary need, so the study's memory
 does not grow with its number of runs; the per-run series go to the caller (a Parquet writer) chunk
-by chunk.
+by chunk. With the smoother (``smooth``: tauvcore.engine.smoothing), each chunk also carries the
+20-state methods' smoothed series, run inside the chunk's batch, and the summary their RMS and
+consistency beside the filtered (``"smoothed"`` of each method).
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import pickle
 import tempfile
@@ -28,10 +31,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tauvcore.config import Config, from_dict, to_dict
+from tauvcore.config import YOO_METHODS, Config, from_dict, to_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult, block_dims
+from tauvcore.engine.smoothing import SmoothOptions, scratch
 from tauvcore.eval.consistency import nees_band
+from tauvcore.eval.study_statistics import final_statistics
 from tauvcore.filter.layout import NEES_BLOCKS
 
 ERROR_SERIES = ("pos_err_m", "vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg")
@@ -103,7 +108,9 @@ def study_config(config: Config) -> Config:
     return config.replace("initial_error", mode="random")
 
 
-def run_chunk(config: Config, seed: int, first: int, count: int) -> dict[str, MethodResult]:
+def run_chunk(
+    config: Config, seed: int, first: int, count: int, smooth: SmoothOptions | None = None
+) -> dict[str, MethodResult]:
     """Runs ``first .. first + count - 1`` of the study, every method of ``config.run.methods``.
 
     One batch of the filter bank, truth and sensors streamed
@@ -120,6 +127,10 @@ def run_chunk(config: Config, seed: int, first: int, count: int) -> dict[str, Me
         Index of the chunk's first run in the study.
     count : int
         Runs in the chunk.
+    smooth : SmoothOptions or None
+        Also run the smoother (its tape spilling to a directory of its own, removed after:
+        tauvcore.engine.smoothing.scratch); the 20-state methods' results then carry
+        ``smoothed``. None: no smoother.
 
     Returns
     -------
@@ -128,7 +139,8 @@ def run_chunk(config: Config, seed: int, first: int, count: int) -> dict[str, Me
         (T, count)), in ``config.run.methods`` order.
     """
     rngs = [run_rng(seed, i) for i in range(first, first + count)]
-    return run_streaming(study_config(config), rngs, num_runs=count)
+    with scratch(smooth) as options:
+        return run_streaming(study_config(config), rngs, num_runs=count, smooth=options)
 
 
 @dataclass(frozen=True)
@@ -146,6 +158,8 @@ class ChunkSeries:
     diverged: dict[str, np.ndarray]  # method -> (count,) bool
     resets: dict[str, np.ndarray] = field(default_factory=dict)  # method -> (count,) int: lock-out
     #                                                                 resets (tauvcore.engine.lockout)
+    smoothed: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  # the smoothed methods'
+    # series as ``series`` (a study with the smoother; the 20-state methods only), else empty
 
 
 def series_of(result: MethodResult) -> dict[str, np.ndarray]:
@@ -170,7 +184,9 @@ def series_of(result: MethodResult) -> dict[str, np.ndarray]:
     return out
 
 
-def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> ChunkSeries:
+def compute_chunk(
+    config_dict: dict, seed: int, first: int, count: int, smooth: SmoothOptions | None = None
+) -> ChunkSeries:
     """A worker's whole job (a local process or a Dask worker): plain inputs, plain outputs.
 
     Parameters
@@ -183,14 +199,16 @@ def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> Chunk
         Index of the chunk's first run in the study.
     count : int
         Runs in the chunk.
+    smooth : SmoothOptions or None
+        Also the smoother's series (:func:`run_chunk`); None: no smoother.
 
     Returns
     -------
     ChunkSeries
         Per method, the per-run series (T, count) and the monitor's verdict (count,), with the
-        output epochs (T,) [s].
+        output epochs (T,) [s]; with ``smooth`` the smoothed series of the 20-state methods.
     """
-    results = run_chunk(from_dict(config_dict), seed, first, count)
+    results = run_chunk(from_dict(config_dict), seed, first, count, smooth)
     any_result = next(iter(results.values()))
     return ChunkSeries(
         first=first,
@@ -199,6 +217,7 @@ def compute_chunk(config_dict: dict, seed: int, first: int, count: int) -> Chunk
         series={m: series_of(r) for m, r in results.items()},
         diverged={m: r.diverged.copy() for m, r in results.items()},
         resets={m: lockout_resets(r) for m, r in results.items()},
+        smoothed={m: series_of(r.smoothed) for m, r in results.items() if r.smoothed is not None},
     )
 
 
@@ -241,13 +260,17 @@ class StudyAccumulator:
     ----------
     methods : tuple[str, ...]
         The study's methods (``config.run.methods``), every chunk carrying each of them.
+    smoothed : tuple[str, ...]
+        The methods whose smoothed series every chunk carries (``ChunkSeries.smoothed``), summed
+        apart in the same way; empty: a study without the smoother.
     """
 
-    def __init__(self, methods: tuple[str, ...]) -> None:
+    def __init__(self, methods: tuple[str, ...], smoothed: tuple[str, ...] = ()) -> None:
         self.methods = methods
         self.t_s: np.ndarray | None = None
         self.num_runs = 0
         self._sums: dict[str, _MethodSums] = {}
+        self.smoothed = StudyAccumulator(smoothed) if smoothed else None
 
     def add(self, chunk: ChunkSeries) -> None:
         """Reduce one chunk into the sums: per epoch the finite entries' sum of squares of every
@@ -287,6 +310,8 @@ class StudyAccumulator:
             s.flagged[chunk.first] = np.asarray(chunk.diverged[m], dtype=bool).copy()
             s.resets[chunk.first] = np.asarray(chunk.resets.get(m, np.zeros(chunk.count)), dtype=int).copy()
             s.diverged += int(chunk.diverged[m].sum())
+        if self.smoothed is not None:
+            self.smoothed.add(dataclasses.replace(chunk, series=chunk.smoothed, smoothed={}))
 
     def rms(self, method: str, name: str) -> np.ndarray:
         """RMS over the runs per epoch (NaN where no run is finite).
@@ -380,7 +405,9 @@ class StudyAccumulator:
             study), ``lockout_resets`` (int: the velocity resets to the DVL after a lock-out,
             tauvcore.engine.lockout), ``reset_runs`` (the numbers of the runs reset) and ``final_stats`` (error series -> :func:`final_statistics`: RMS, median and
             95th percentile over the runs at the last epoch, and the same over the runs the
-            monitor did not flag).
+            monitor did not flag). A study with the smoother adds ``smoothed`` to each method:
+            the same keys over its smoothed series (its flags the forward pass's), or None for a
+            method not smoothed (Yoo 2014's).
 
         Raises
         ------
@@ -409,55 +436,16 @@ class StudyAccumulator:
                 "lockout_resets": int(resets.sum()),
                 "reset_runs": [int(r) for r in run_numbers[resets > 0]],
             }
+        if self.smoothed is not None:
+            smoothed = self.smoothed.summary()["methods"]
+            for m in self.methods:
+                out["methods"][m]["smoothed"] = smoothed.get(m)
         return out
 
 
-FINAL_STATISTICS = ("rms", "median", "p95")
-"""The statistics of a study's final errors, each also over the runs the monitor did not flag
-(``<name>_unflagged``)."""
-
-
-def final_statistics(values: np.ndarray, flagged: np.ndarray) -> dict[str, float | int]:
-    """RMS, median and 95th percentile of one error at the last epoch over the runs, and the same
-    over the runs the divergence monitor did not flag, so that one locked-out run cannot hide
-    behind the RMS (nor the RMS behind the median).
-
-    Non-finite values (a run whose error is NaN) are left out of every statistic.
-
-    Parameters
-    ----------
-    values : numpy.ndarray
-        One error per run, shape (R,), in the series' unit ([m], [m/s], [deg]).
-    flagged : numpy.ndarray
-        Whether the monitor flagged each run, shape (R,), bool.
-
-    Returns
-    -------
-    dict[str, float | int]
-        ``rms``, ``median``, ``p95`` and ``rms_unflagged``, ``median_unflagged``,
-        ``p95_unflagged`` in the series' unit (NaN where no run counts), ``runs`` and
-        ``runs_unflagged``: how many runs each set holds.
-
-    Raises
-    ------
-    ValueError
-        ``values`` and ``flagged`` do not hold one entry per run each.
-    """
-    values = np.asarray(values, dtype=float)
-    flagged = np.asarray(flagged, dtype=bool)
-    if values.shape != flagged.shape:
-        raise ValueError(f"values {values.shape} and flagged {flagged.shape} must have one entry per run")
-    out: dict[str, float | int] = {}
-    for suffix, keep in (("", np.ones_like(flagged)), ("_unflagged", ~flagged)):
-        x = values[keep & np.isfinite(values)]
-        out[f"rms{suffix}"] = float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
-        out[f"median{suffix}"] = float(np.median(x)) if x.size else float("nan")
-        out[f"p95{suffix}"] = float(np.percentile(x, 95.0)) if x.size else float("nan")
-        out[f"runs{suffix}"] = int(x.size)
-    return out
-
-
-def compute_chunk_to_file(config_dict: dict, seed: int, first: int, count: int, directory: str) -> str:
+def compute_chunk_to_file(
+    config_dict: dict, seed: int, first: int, count: int, directory: str, smooth: SmoothOptions | None = None
+) -> str:
     """:func:`compute_chunk` in a local worker process, its result pickled to a new file in ``directory``.
 
     Why not return the result through the pool's pipe: a worker killed (the out-of-memory killer)
@@ -478,13 +466,15 @@ def compute_chunk_to_file(config_dict: dict, seed: int, first: int, count: int, 
         Runs in the chunk.
     directory : str
         The directory the file is written to (the pool's ``chunk_dir``).
+    smooth : SmoothOptions or None
+        Also the smoother's series (:func:`compute_chunk`); None: no smoother.
 
     Returns
     -------
     str
         The path of the file holding the pickled :class:`ChunkSeries`.
     """
-    chunk = compute_chunk(config_dict, seed, first, count)
+    chunk = compute_chunk(config_dict, seed, first, count, smooth)
     fd, path = tempfile.mkstemp(prefix=f"chunk-{first}-", suffix=".pickle", dir=directory)
     with os.fdopen(fd, "wb") as fh:
         pickle.dump(chunk, fh, protocol=pickle.HIGHEST_PROTOCOL)
@@ -552,10 +542,12 @@ def local_pool(workers: int) -> Iterator[ChunkPool | None]:
         pool.shutdown(wait=True)
 
 
-def _submit(pool: Executor, config_dict: dict, seed: int, first: int, count: int) -> Future:
+def _submit(
+    pool: Executor, config_dict: dict, seed: int, first: int, count: int, smooth: SmoothOptions | None
+) -> Future:
     if isinstance(pool, ChunkPool):
-        return pool.submit(compute_chunk_to_file, config_dict, seed, first, count, pool.chunk_dir)
-    return pool.submit(compute_chunk, config_dict, seed, first, count)
+        return pool.submit(compute_chunk_to_file, config_dict, seed, first, count, pool.chunk_dir, smooth)
+    return pool.submit(compute_chunk, config_dict, seed, first, count, smooth)
 
 
 def _result(future: Future) -> ChunkSeries:
@@ -564,7 +556,12 @@ def _result(future: Future) -> ChunkSeries:
 
 
 def submit_chunks(
-    config: Config, num_runs: int, seed: int, pool: Executor, chunk_runs: int | None = None
+    config: Config,
+    num_runs: int,
+    seed: int,
+    pool: Executor,
+    chunk_runs: int | None = None,
+    smooth: SmoothOptions | None = None,
 ) -> list[Future]:
     """Queue every chunk of a study on ``pool`` at once, for :func:`run_study` to consume.
 
@@ -585,6 +582,8 @@ def submit_chunks(
         Where the chunks run (a :class:`ChunkPool` from :func:`local_pool`, or another executor).
     chunk_runs : int or None
         Most runs per chunk; None: :data:`CHUNK_RUNS`.
+    smooth : SmoothOptions or None
+        Also the smoother's series in each chunk (:func:`run_chunk`); None: no smoother.
 
     Returns
     -------
@@ -599,7 +598,7 @@ def submit_chunks(
     """
     config_dict = to_dict(config)
     return [
-        _submit(pool, config_dict, seed, first, count)
+        _submit(pool, config_dict, seed, first, count, smooth)
         for first, count in chunks(num_runs, chunk_runs or CHUNK_RUNS)
     ]
 
@@ -613,6 +612,7 @@ def iterate_chunks(
     chunk_runs: int | None = None,
     pool: Executor | None = None,
     submitted: list[Future] | None = None,
+    smooth: SmoothOptions | None = None,
 ) -> Iterator[ChunkSeries]:
     """Compute the study's chunks and yield them in run order.
 
@@ -642,6 +642,9 @@ def iterate_chunks(
     submitted : list[concurrent.futures.Future] or None
         The chunks :func:`submit_chunks` queued (same config, seed, chunking); given, the other
         ways are not used.
+    smooth : SmoothOptions or None
+        Also the smoother's series in each chunk, run where the chunk is (:func:`run_chunk`);
+        None: no smoother.
 
     Yields
     ------
@@ -664,7 +667,7 @@ def iterate_chunks(
     parts = chunks(num_runs, size)
     config_dict = to_dict(config)
     if pool is not None and dask_address is None:
-        futures = [_submit(pool, config_dict, seed, first, count) for first, count in parts]
+        futures = [_submit(pool, config_dict, seed, first, count, smooth) for first, count in parts]
         for f in futures:
             yield _result(f)
         return
@@ -673,7 +676,7 @@ def iterate_chunks(
 
         with Client(dask_address, timeout=DASK_CONNECT_TIMEOUT_S) as client:
             futures = [
-                client.submit(compute_chunk, config_dict, seed, first, count, pure=False)
+                client.submit(compute_chunk, config_dict, seed, first, count, smooth, pure=False)
                 for first, count in parts
             ]
             for f in futures:
@@ -681,11 +684,11 @@ def iterate_chunks(
         return
     if workers <= 1:
         for first, count in parts:
-            yield compute_chunk(config_dict, seed, first, count)
+            yield compute_chunk(config_dict, seed, first, count, smooth)
         return
     with local_pool(workers) as own:
         assert own is not None  # workers > 1 here: local_pool gives its processes
-        futures = [_submit(own, config_dict, seed, first, count) for first, count in parts]
+        futures = [_submit(own, config_dict, seed, first, count, smooth) for first, count in parts]
         for f in futures:
             yield _result(f)
 
@@ -734,6 +737,7 @@ def run_study(
     chunk_runs: int | None = None,
     pool: Executor | None = None,
     submitted: list[Future] | None = None,
+    smooth: SmoothOptions | None = None,
 ) -> StudyAccumulator:
     """A whole study: every chunk reduced into the accumulator, in run order.
 
@@ -763,7 +767,10 @@ def run_study(
     pool : concurrent.futures.Executor or None
         An executor to run the chunks on (:func:`local_pool`); None: as ``workers`` says.
     submitted : list[concurrent.futures.Future] or None
-        Its chunks as :func:`submit_chunks` queued them (same config, seed, chunking).
+        Its chunks as :func:`submit_chunks` queued them (same config, seed, chunking, smoother).
+    smooth : SmoothOptions or None
+        Also smooth every run inside its chunk (:func:`run_chunk`) and sum the 20-state methods'
+        smoothed series apart (the summary's ``smoothed``); None: no smoother.
 
     Returns
     -------
@@ -775,8 +782,13 @@ def run_study(
     ValueError
         ``num_runs`` or ``chunk_runs`` below 1 (:func:`chunks`).
     """
-    acc = StudyAccumulator(tuple(config.run.methods))
-    for chunk in iterate_chunks(config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted):
+    methods = tuple(config.run.methods)
+    smoothed = tuple(m for m in methods if m not in YOO_METHODS) if smooth is not None else ()
+    acc = StudyAccumulator(methods, smoothed)
+    chunks_of = iterate_chunks(
+        config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted, smooth
+    )
+    for chunk in chunks_of:
         acc.add(chunk)
         if on_chunk is not None:
             on_chunk(chunk)

@@ -125,3 +125,32 @@ def test_a_last_chunk_of_one_output_epoch_is_reduced_like_the_others() -> None:
     for m in ("lc", "ins-dvl", "vkf"):
         np.testing.assert_array_equal(np.concatenate([p[m].pos_err_m for p in parts]), whole[m].pos_err_m)
         np.testing.assert_array_equal(parts[-1][m].diverged_at_s, whole[m].diverged_at_s)
+
+
+def test_the_streamed_smoothed_json_is_the_whole_run_s_document(config, tmp_path):
+    """``--smooth``: the smoothed chunks spooled after the filtered ones (their tape spilled to
+    files) write the document of the whole smoothed results (app.payload.run_payload): each
+    method's "smoothed" the same series and consistency, null for Yoo 2014's; the spool and the
+    tape's files gone."""
+    from app.commands.json_stream import RunReduction
+    from tauvcore.engine.smoothing import SmoothOptions
+
+    short = config.replace("trajectory", duration_s=100.0)
+    whole = run_streaming(short, np.random.default_rng(3), chunk_s=7.0, smooth=SmoothOptions())
+    write_json_atomic(str(tmp_path / "whole.json"), run_payload(short, whole))
+    reduction = RunReduction(short, str(tmp_path / "streamed.json"), "streamed.json", smoothed=True)
+    tape = tmp_path / "tape"
+    tape.mkdir()
+    run_streaming(short, np.random.default_rng(3), keep=False, chunk_s=7.0, on_chunk=reduction.add,
+                  smooth=SmoothOptions(budget_mb=0.0, directory=str(tape)), on_smoothed_chunk=reduction.add_smoothed)
+    reduction.finish()
+    a = json.loads((tmp_path / "whole.json").read_text())
+    b = json.loads((tmp_path / "streamed.json").read_text())
+    assert a["results"]["vkf"]["smoothed"] is None and len(a["results"]["lc"]["smoothed"]["t"]) == 1001
+    assert a["results"]["lc"]["smoothed"]["vel_err_mps"] != a["results"]["lc"]["vel_err_mps"]
+    for method in a["results"]:
+        a["results"][method]["nis"] = dict(sorted(a["results"][method]["nis"].items()))
+        b["results"][method]["nis"] = dict(sorted(b["results"][method]["nis"].items()))
+    _assert_same(a, b)
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".tauv-")] == []
+    assert [p for p in tape.iterdir() if any(p.iterdir())] == []     # every spilled segment removed

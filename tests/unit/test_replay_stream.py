@@ -215,11 +215,11 @@ def test_tauv_replay_prints_and_writes_what_it_did_holding_the_whole_results(cap
     chunked: list = []
     real = replay_module.replay_chunked
 
-    def counting(config, sim, log, rng, on_chunk, *args):
+    def counting(config, sim, log, rng, on_chunk, *args, **kwargs):
         def each(results):
             chunked.append(len(results))
             on_chunk(results)
-        real(config, sim, log, rng, each, *args)
+        real(config, sim, log, rng, each, *args, **kwargs)
 
     monkeypatch.setattr(replay_module, "replay_chunked", counting)
     assert cli.main(["replay", str(log_dir), *argv, "--json", str(tmp_path / "streamed.json")]) == 0
