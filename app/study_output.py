@@ -7,7 +7,7 @@
 - ``runs.parquet``: every run's per-epoch series in long form, one row per (trajectory, method,
   run, epoch), columns :data:`PARQUET_SERIES` (written chunk by chunk, so memory does not grow
   with the number of runs); a study with the smoother (``tauv mc --smooth``) adds beside them the
-  smoothed ones, ``smoothed_<series>`` (null for a method not smoothed: Yoo 2014's);
+  smoothed ones, ``smoothed_<series>`` (null for a method not smoothed);
 - ``paper_comparison.md`` (``tauv reproduce`` only): every figure the paper states beside ours,
   with a verdict (tauvcore.eval.paper);
 - ``report.html``: plotly figures in the layout of the paper's Figures 9-14 (velocity and

@@ -190,7 +190,7 @@ def smoothed_table_html(summary: dict[str, Any]) -> str:
         if m.get("smoothed") is None:
             rows.append(
                 f"<tr><td>{html.escape(method.upper())}</td><td colspan='{5 + len(blocks)}'>"
-                "not smoothed (Yoo 2014's 12-state filter: no smoother)</td></tr>"
+                "not smoothed</td></tr>"
             )
             continue
         for label, part in (("filtered", m), ("smoothed", m["smoothed"])):

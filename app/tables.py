@@ -100,7 +100,7 @@ def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str
     rows = []
     for name, summary in filtered.items():
         if name not in smoothed:
-            rows.append([f"{name.upper()} not smoothed (Yoo 2014's 12-state filter: no smoother)"])
+            rows.append([f"{name.upper()} not smoothed"])
             continue
         for label, s in (("filtered", summary), ("smoothed", smoothed[name])):
             c = s.consistency.nees
@@ -300,7 +300,7 @@ def smoothed_study_lines(summary: dict[str, Any]) -> list[str]:
     ]
     for method, m in summary["methods"].items():
         if m.get("smoothed") is None:
-            lines.append(f"{method.upper():<16} not smoothed (Yoo 2014's 12-state filter: no smoother)")
+            lines.append(f"{method.upper():<16} not smoothed")
             continue
         for label, part in (("filtered", m), ("smoothed", m["smoothed"])):
             r, c = part["rms"], part["consistency"]

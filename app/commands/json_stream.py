@@ -13,7 +13,7 @@ With the smoother (``tauv run --smooth``), the smoothed chunks the engine hands 
 filtered ones (tauvcore.engine.mission.run_streaming's ``on_smoothed_chunk``) are spooled the same
 way, and each method's object gets ``"smoothed"``: the same series keys over the smoothed
 estimate (no ``nis``), its NEES consistency against truth in the same blocks and
-``smoother_cuts``; null for a method the smoother does not run (Yoo 2014's).
+``smoother_cuts``; null for a method the smoother did not run.
 """
 
 from __future__ import annotations

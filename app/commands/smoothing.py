@@ -19,7 +19,7 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 from app.commands.values import UsageError, parse_flag
-from tauvcore.config import YOO_METHODS, Config
+from tauvcore.config import Config
 from tauvcore.validation import show, show_path
 
 if TYPE_CHECKING:
@@ -66,7 +66,7 @@ def smooth_options(args: argparse.Namespace, config: Config, runs: int = 1) -> S
             raise UsageError(
                 f"--smooth-memory-mb: expected a positive number of megabytes, got {show(memory)}"
             )
-    smoothed = max(1, sum(m not in YOO_METHODS for m in config.run.methods))
+    smoothed = max(1, len(config.run.methods))
     floor = spill_floor_bytes((smoothed, runs), config.filter.output_rate_hz, STREAM_CHUNK_S)
     if budget_mb * 1e6 < floor:
         least = math.ceil(floor / 1e5) / 10

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tauvcore.config import YOO_METHODS, Config, from_dict, to_dict
+from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult, block_dims
 from tauvcore.engine.smoothing import SmoothOptions, scratch
@@ -407,7 +407,7 @@ class StudyAccumulator:
             95th percentile over the runs at the last epoch, and the same over the runs the
             monitor did not flag). A study with the smoother adds ``smoothed`` to each method:
             the same keys over its smoothed series (its flags the forward pass's), or None for a
-            method not smoothed (Yoo 2014's).
+            method not smoothed.
 
         Raises
         ------
@@ -783,7 +783,7 @@ def run_study(
         ``num_runs`` or ``chunk_runs`` below 1 (:func:`chunks`).
     """
     methods = tuple(config.run.methods)
-    smoothed = tuple(m for m in methods if m not in YOO_METHODS) if smooth is not None else ()
+    smoothed = methods if smooth is not None else ()
     acc = StudyAccumulator(methods, smoothed)
     chunks_of = iterate_chunks(
         config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted, smooth
