@@ -122,8 +122,8 @@ def smoothed_to_json(
         backward pass started afresh).
     """
     i = run_index
-    binned = smoothed if is_decimated(smoothed) else None  # a run in bins: its summary of every epoch
-    consistency = binned.summary.consistency if binned is not None else method_consistency(smoothed)
+    summary = smoothed.summary if is_decimated(smoothed) else None  # a run in bins: of every epoch
+    consistency = summary.consistency if summary is not None else method_consistency(smoothed)
     cuts = getattr(smoothed, "smoother_cuts", None)
     return {
         **{name: _finite(values) for name, values in result_series(smoothed, i, origin_rad).items()},
