@@ -45,9 +45,9 @@ The smoother (``smooth_mb``: tauvcore.engine.smoothing) adds, for the M methods 
 12-state filters counted as the 20-state filter's, a bound), its tape of the forward pass: per output epoch, method and run the transition
 since the last mark, P and the error against truth and the filtered estimates
 (``TAPE_OUTPUT_DOUBLES``), per aiding epoch (a DVL ping, a fused source's epoch) the transition, P
-before and after and the correction (``TAPE_AIDING_DOUBLES``), held in memory up to ``smooth_mb``
-(the rest in a temporary file); the smoothed stores of its backward pass (``OUTPUT_DOUBLES`` and
-the estimates per epoch, again up to ``smooth_mb``); and the smoothed results, the size of the
+before and after and the correction (``TAPE_AIDING_DOUBLES``), held in memory up to half of
+``smooth_mb`` (the rest in a temporary file); the smoothed stores of its backward pass
+(``OUTPUT_DOUBLES`` and the estimates per epoch, up to the other half); and the smoothed results, the size of the
 filtered series (``OUTPUT_DOUBLES``; in bins the same bins), as many times as those. A run kept at
 every epoch lets its tape go before it gathers the smoothed results, so it counts the larger of
 the two; a run in bins holds its bins, the tape and the stores at once.
@@ -227,7 +227,7 @@ def estimate_run(
     smoothed = 0
     M_s = len(config.run.methods)
     if smooth_mb is not None and M_s:
-        held = int(smooth_mb * 1e6)
+        held = int(smooth_mb * 1e6) // 2  # each of the tapes (marks, smoothed stores) holds half of it
         extra = SENSOR_DOUBLES if sensor_errors else 0  # the tape keeps the sensor errors' rows
         tape = (
             DOUBLE

@@ -197,6 +197,8 @@ class Banks:
         self.order = config.run.methods
         first = tuple(m for m in self.order if m not in YOO_METHODS)
         second = tuple(m for m in self.order if m in YOO_METHODS)
+        # the smoother's budget, shared by each bank's two tapes (its marks, its smoothed stores)
+        self.share = share = 0.5 / ((first != () or not second) + (second != ()))
         self.bank = (
             FilterBank(
                 config.replace("run", methods=first),
@@ -206,7 +208,7 @@ class Banks:
                 rng,
                 keep=keep,
                 sensor_errors=sensor_errors,
-                tape=smooth.tape() if smooth is not None else None,
+                tape=smooth.tape(share) if smooth is not None else None,
             )
             if first or not second
             else None
@@ -220,7 +222,7 @@ class Banks:
                 dt_s,
                 keep=keep,
                 sensor_errors=sensor_errors,
-                tape=smooth.tape() if smooth is not None else None,
+                tape=smooth.tape(share) if smooth is not None else None,
             )
             if second
             else None
@@ -363,7 +365,7 @@ class Banks:
         passes = []
         try:
             for bank in (b for b in (self.bank, self.yoo) if b is not None):
-                out = options.tape()
+                out = options.tape(self.share)
                 passes.append((bank, out))
                 cuts = bank.smooth(out)
                 passes[-1] = (bank, out, cuts)
@@ -422,7 +424,7 @@ class Banks:
             return results
         smoothed: dict[str, MethodResult] = {}
         for bank in (b for b in (self.bank, self.yoo) if b is not None):
-            out = self.smooth.tape()
+            out = self.smooth.tape(self.share)
             try:
                 cuts = bank.smooth(out)
                 stores = list(forward(out))

@@ -61,18 +61,24 @@ DEFAULT_BUDGET_MB = 64.0
 class SmoothOptions:
     """Ask a run for the smoother (tauvcore.engine.mission.run and its siblings)."""
 
-    budget_mb: float = DEFAULT_BUDGET_MB  # tape held in memory [MB]; beyond it, a temporary directory
+    budget_mb: float = DEFAULT_BUDGET_MB  # what the smoother holds in memory [MB], all its tapes
+    # together (the forward pass's and the smoothed stores', each bank's); beyond, a temporary directory
     directory: str | None = None  # where that directory is made; None: the system's (TMPDIR)
 
-    def tape(self) -> Tape:
-        """An empty tape with these options.
+    def tape(self, share: float = 1.0) -> Tape:
+        """An empty tape with these options, holding ``share`` of the budget in memory.
+
+        Parameters
+        ----------
+        share : float
+            The fraction of ``budget_mb`` this tape holds (the smoother's tapes share it).
 
         Returns
         -------
         Tape
             The tape.
         """
-        return Tape(int(self.budget_mb * 1e6), self.directory)
+        return Tape(int(self.budget_mb * share * 1e6), self.directory)
 
 
 class SmoothingError(ValueError):
