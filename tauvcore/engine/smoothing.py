@@ -268,6 +268,41 @@ class Tape:
             self.tmp = None
 
 
+def event_arrays(
+    events: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]],
+    batch: tuple[int, int],
+    block: tuple[int, int],
+    n: int,
+) -> dict[str, np.ndarray]:
+    """A segment's aiding marks as its arrays.
+
+    Parameters
+    ----------
+    events : list of tuple
+        Each mark's transition block, prior and posterior P, correction and place among the
+        output marks (the output marks before it), in the order they follow one another.
+    batch : tuple of int
+        (M, R): methods and runs.
+    block : tuple of int
+        The transition block's shape (a, b).
+    n : int
+        States of P.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        ``ev_X`` (V, M, R, a, b), ``ev_Pm``, ``ev_Pp`` (V, M, R, n, n), ``ev_d`` (V, M, R, n) and
+        ``ev_pos`` (V,).
+    """
+    shapes = (block, (n, n), (n, n), (n,))
+    out = {
+        name: np.array([e[j] for e in events]).reshape((-1,) + batch + shape)
+        for j, (name, shape) in enumerate(zip(("ev_X", "ev_Pm", "ev_Pp", "ev_d"), shapes, strict=True))
+    }
+    out["ev_pos"] = np.array([e[4] for e in events], dtype=np.int64)
+    return out
+
+
 class TapeWriter:
     """What the filter bank leaves on its :class:`Tape`: a chunk's marks, as one segment.
 
@@ -376,11 +411,7 @@ class TapeWriter:
         T = slot - self.slot0
         batch, events = self.batch, self.events
         parts = {name: a[:T] for name, a in self.out.items()}
-        parts["ev_X"] = np.array([e[0] for e in events]).reshape((-1,) + batch + (NAV, CORE))
-        parts["ev_Pm"] = np.array([e[1] for e in events]).reshape((-1,) + batch + (N, N))
-        parts["ev_Pp"] = np.array([e[2] for e in events]).reshape((-1,) + batch + (N, N))
-        parts["ev_d"] = np.array([e[3] for e in events]).reshape((-1,) + batch + (N,))
-        parts["ev_pos"] = np.array([e[4] for e in events], dtype=np.int64)
+        parts.update(event_arrays(events, batch, (NAV, CORE), N))
         for name in ESTIMATES:
             parts[name] = np.array(self.store[name][:T])
         self.out, self.store, self.events = None, {}, []

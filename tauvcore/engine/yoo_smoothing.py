@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tauvcore.engine.smoothing import ESTIMATES, Carry, Tape
+from tauvcore.engine.smoothing import ESTIMATES, Carry, Tape, event_arrays
 from tauvcore.filter import statistics, yoo
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, log_so3, mv
 
@@ -161,11 +161,7 @@ class YooTapeWriter:
         T, batch, na, events = self.rows, self.batch, self.na, self.events
         order = sorted(range(len(events)), key=lambda j: (events[j][4], j))  # by place, then time
         parts = {name: a[:T] for name, a in self.out.items()}
-        parts["ev_X"] = np.array([events[j][0] for j in order]).reshape((-1,) + batch + (DIM, DIM))
-        parts["ev_Pm"] = np.array([events[j][1] for j in order]).reshape((-1,) + batch + (na, na))
-        parts["ev_Pp"] = np.array([events[j][2] for j in order]).reshape((-1,) + batch + (na, na))
-        parts["ev_d"] = np.array([events[j][3] for j in order]).reshape((-1,) + batch + (na,))
-        parts["ev_pos"] = np.array([events[j][4] for j in order], dtype=np.int64)
+        parts.update(event_arrays([events[j] for j in order], batch, (DIM, DIM), na))
         for name in ESTIMATES:
             parts[name] = np.array(self.store[name][:T])
         parts["pos_err"] = np.array(self.store["series"][2, :T])
