@@ -317,6 +317,8 @@ class Session:
                     elif now >= draw_after:
                         self._show_results(latest, config, live=True)
                         pending, draw_after = None, time.monotonic() + GUI_REFRESH_S
+                elif kind == "smoothing":
+                    self.status.content = "Smoothing: the fixed-interval smoother over the run so far."
                 elif kind == "done":
                     results, stopped = msg[1], msg[2]
                     self._show_results(results, config)

@@ -16,6 +16,8 @@ over a background computation. Messages on a run's queue (:attr:`RunHandle.queue
 - ``("done", results, stopped)``: the final (or, after Stop, partial) results, every method's;
   with the smoother each method's carries its smoothed results
   (``MethodResult.smoothed``; reduced to bins as its filtered ones are);
+- ``("smoothing",)``: the forward pass is done (or stopped) and the smoother's backward pass
+  begins; after Stop the worker is then let finish it (a second Stop kills it).
 - ``("error", message)``: one line, for a notification (also when the worker process died).
 
 A simulated mission whose output epochs exceed ``tauvcore.eval.envelope.SCREEN_BINS`` is reduced
@@ -235,7 +237,11 @@ def run_worker(
                 last_sent[0] = now
 
         should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
-        smooth = None if smooth_mb is None else SmoothOptions(budget_mb=float(smooth_mb))
+        smooth = (
+            None
+            if smooth_mb is None
+            else SmoothOptions(budget_mb=float(smooth_mb), on_start=lambda: queue.put(("smoothing",)))
+        )
         results: dict[str, MethodResult]
         if sim is None and per_bin > 1:
             reducer = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
@@ -692,6 +698,9 @@ class RunPool:
                 handle, w.handle, w.stop_sent = w.handle, None, False
                 if handle is not None:
                     handle._done.set()
+            elif kind == "smoothing" and w.handle is not None:  # the run heeded Stop: it smooths
+                w.stop_sent = False  # what ran, and is not killed for it (a second Stop is)
+                w.handle.queue.put(message)
             elif w.handle is not None:
                 w.handle.queue.put(message)
 

@@ -362,6 +362,8 @@ class Banks:
         """
         options = self.smooth
         assert options is not None  # Banks made with smooth
+        if options.on_start is not None:
+            options.on_start()
         passes = []
         try:
             for bank in (b for b in (self.bank, self.yoo) if b is not None):
@@ -422,6 +424,8 @@ class Banks:
         """
         if self.smooth is None:
             return results
+        if self.smooth.on_start is not None:
+            self.smooth.on_start()
         smoothed: dict[str, MethodResult] = {}
         for bank in (b for b in (self.bank, self.yoo) if b is not None):
             out = self.smooth.tape(self.share)

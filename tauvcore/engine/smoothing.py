@@ -25,7 +25,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -64,6 +64,8 @@ class SmoothOptions:
     budget_mb: float = DEFAULT_BUDGET_MB  # what the smoother holds in memory [MB], all its tapes
     # together (the forward pass's and the smoothed stores', each bank's); beyond, a temporary directory
     directory: str | None = None  # where that directory is made; None: the system's (TMPDIR)
+    on_start: Callable[[], None] | None = field(default=None, compare=False, repr=False)  # called as
+    # the backward pass begins, the forward pass done or stopped (a live display says so)
 
     def tape(self, share: float = 1.0) -> Tape:
         """An empty tape with these options, holding ``share`` of the budget in memory.

@@ -380,3 +380,35 @@ def test_a_replayed_log_s_truth_view_has_no_seabed() -> None:
     dvl = types.SimpleNamespace(t_s=np.arange(5.0))
     view = log_truth_view(truth, Config(), dvl, 1)
     assert view["altitude_m"] is None and view["slant_range_m"] is None
+
+
+def test_stop_with_the_smoother_smooths_what_ran_however_long_it_takes(monkeypatch) -> None:
+    """Stop during a smoothed run: the forward pass ends, the worker says it is smoothing and is let
+    finish (not killed after the Stop grace, here shortened below the smoothing's time), and the
+    stopped results carry the smoothed results of what ran."""
+    import app.worker as worker_module
+
+    monkeypatch.setattr(worker_module, "STOP_GRACE_S", 0.5)
+    p = RunPool(workers=1)
+    try:
+        config = (Config().replace("trajectory", duration_s=3000.0)
+                  .replace("run", methods=("ins", "lc", "tc", "nsv"), aiding=("dvl", "depth", "mag")))
+        handle = p.start(to_dict(config), 12, smooth_mb=4.0)
+        while _next(handle, timeout=120.0)[0] != "progress":
+            pass
+        time.sleep(3.0)  # long enough a forward pass that its smoothing outlasts the grace
+        handle.stop()
+        kinds = []
+        while True:
+            msg = _next(handle, timeout=120.0)
+            kinds.append(msg[0])
+            if msg[0] in ("done", "error"):
+                break
+        assert msg[0] == "done" and "smoothing" in kinds, kinds
+        results, stopped = msg[1], msg[2]
+        lc = results["lc"]
+        assert stopped and lc.t_s[-1] < 3000.0 and lc.smoothed is not None
+        assert lc.smoothed.t_s.shape == lc.t_s.shape
+        assert not (lc.smoothed.vel_err_mps == lc.vel_err_mps).all()
+    finally:
+        p.shutdown()
