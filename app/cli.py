@@ -340,7 +340,7 @@ def _smooth_flags(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="also run the fixed-interval (Rauch-Tung-Striebel) smoother over the whole run after the "
         "filter: smoothed RMS and NEES beside the filtered in the tables, the smoothed series beside the "
-        "filtered in the outputs (the 20-state methods; Yoo 2014's ins-dvl and vkf are not smoothed)",
+        "filtered in the outputs (every method)",
     )
     p.add_argument(
         "--smooth-memory-mb",

@@ -107,7 +107,7 @@ class RunJsonWriter:
         Parameters
         ----------
         results : dict[str, MethodResult]
-            Method name -> its smoothed results over the chunk (the 20-state methods).
+            Method name -> its smoothed results over the chunk.
 
         Raises
         ------

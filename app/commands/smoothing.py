@@ -34,7 +34,7 @@ def smooth_options(args: argparse.Namespace, config: Config, runs: int = 1) -> S
     args : argparse.Namespace
         The parsed command line (``smooth``, ``smooth_memory_mb``, ``smooth_dir``).
     config : Config
-        The run's configuration: its methods (the 20-state ones are smoothed) and output rate.
+        The run's configuration: its methods (each is smoothed) and output rate.
     runs : int
         Runs the engine filters in one batch (``tauv mc``: runs per chunk), for the budget's floor.
 

@@ -89,9 +89,16 @@ def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np
     LogError
         For any bad input, naming the bag, the topic, the mapping's key, the message and the value.
     """
+    return _read(path, mapping, beam_directions_b)[0]
+
+
+def _read(
+    path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np.ndarray
+) -> tuple[Log, BagTables]:
+    """The bag's checked log (:func:`read_bag`) and its tables as read (their mounting)."""
     read = bag_tables(path, mapping, beam_directions_b)
     log = log_from_tables(read.tables, read.source, read.names, release=True)  # each freed once read
-    return dataclasses.replace(log, notes=read.notes + log.notes)
+    return dataclasses.replace(log, notes=read.notes + log.notes), read
 
 
 def read_bag_configured(
@@ -129,11 +136,10 @@ def read_bag_configured(
     LogError
         As :func:`read_bag` and :func:`bag_config`.
     """
-    read = bag_tables(path, mapping, beam_directions_b)
-    log = log_from_tables(read.tables, read.source, read.names)
+    log, read = _read(path, mapping, beam_directions_b)
     lever = None if read.mounting is None else read.mounting.r_b_m
     raw, source = with_tf_lever_arm(mapping, raw, source, path, lever)
-    return dataclasses.replace(log, notes=read.notes + log.notes), raw, source
+    return log, raw, source
 
 
 def bag_config(

@@ -68,8 +68,8 @@ def run(
         are None and cost nothing. Every other number is the same either way.
     smooth : SmoothOptions or None
         Also run the fixed-interval smoother after the forward pass (tauvcore.engine.smoothing)
-        and give each 20-state method's smoothed results as ``MethodResult.smoothed`` (Yoo 2014's
-        methods: None); the simulation is then fed in chunks of :data:`STREAM_CHUNK_S` (the same
+        and give each method's smoothed results as ``MethodResult.smoothed``; the simulation is
+        then fed in chunks of :data:`STREAM_CHUNK_S` (the same
         numbers), so that the smoother's tape is stored chunk by chunk. None: no smoother.
 
     Returns
@@ -177,7 +177,7 @@ class Banks:
         Whether both banks record the estimated sensor errors, their 1-sigma and their truth at
         every output epoch (:func:`run`).
     smooth : SmoothOptions or None
-        The 20-state bank keeps the smoother's tape (:meth:`smoothed`); None: no smoother.
+        Both banks keep the smoother's tape (:meth:`smoothed`); None: no smoother.
     """
 
     def __init__(
@@ -513,7 +513,7 @@ def run_streaming(
         (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``, (T, R, S)); False: None.
     smooth : SmoothOptions or None
         Also run the fixed-interval smoother once the forward pass is done (or stopped)
-        (tauvcore.engine.smoothing): with ``keep``, each 20-state method's result carries its
+        (tauvcore.engine.smoothing): with ``keep``, each method's result carries its
         ``smoothed`` results; with ``on_smoothed_chunk``, that receives them chunk by chunk. None:
         no smoother.
     on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None

@@ -1,4 +1,5 @@
-"""The fixed-interval smoother of the 20-state filter bank: its tape and its backward pass.
+"""The fixed-interval smoother of the 20-state filter bank: its tape and its backward pass (Yoo
+2014's bank takes the same tape and pass: tauvcore.engine.yoo_smoothing).
 
 During the forward pass the bank (tauvcore.engine.filter_bank.FilterBank with a :class:`Tape`)
 leaves a mark at every output epoch and at every epoch where it corrected (an aiding epoch, a

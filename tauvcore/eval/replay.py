@@ -735,7 +735,7 @@ def replay_chunked(
     smooth : SmoothOptions or None
         Also run the fixed-interval smoother after the forward pass; None: no smoother.
     on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
-        With ``smooth``: receives the smoothed results of the 20-state methods chunk by chunk in
+        With ``smooth``: receives the smoothed results of every method chunk by chunk in
         the log's order, judged as ``on_chunk``'s, after the last ``on_chunk``.
     """
     run_chunked(

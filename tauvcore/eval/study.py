@@ -14,7 +14,7 @@ A finished chunk is reduced at once (:class:`StudyAccumulator`): per method and 
 sums that the RMS over runs, the mean NEES and the consistency summary need, so the study's memory
 does not grow with its number of runs; the per-run series go to the caller (a Parquet writer) chunk
 by chunk. With the smoother (``smooth``: tauvcore.engine.smoothing), each chunk also carries the
-20-state methods' smoothed series, run inside the chunk's batch, and the summary their RMS and
+methods' smoothed series, run inside the chunk's batch, and the summary their RMS and
 consistency beside the filtered (``"smoothed"`` of each method).
 """
 
@@ -129,7 +129,7 @@ def run_chunk(
         Runs in the chunk.
     smooth : SmoothOptions or None
         Also run the smoother (its tape spilling to a directory of its own, removed after:
-        tauvcore.engine.smoothing.scratch); the 20-state methods' results then carry
+        tauvcore.engine.smoothing.scratch); every method's results then carry
         ``smoothed``. None: no smoother.
 
     Returns
@@ -159,7 +159,7 @@ class ChunkSeries:
     resets: dict[str, np.ndarray] = field(default_factory=dict)  # method -> (count,) int: lock-out
     #                                                                 resets (tauvcore.engine.lockout)
     smoothed: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  # the smoothed methods'
-    # series as ``series`` (a study with the smoother; the 20-state methods only), else empty
+    # series as ``series`` (a study with the smoother), else empty
 
 
 def series_of(result: MethodResult) -> dict[str, np.ndarray]:
@@ -206,7 +206,7 @@ def compute_chunk(
     -------
     ChunkSeries
         Per method, the per-run series (T, count) and the monitor's verdict (count,), with the
-        output epochs (T,) [s]; with ``smooth`` the smoothed series of the 20-state methods.
+        output epochs (T,) [s]; with ``smooth`` the smoothed series of every method.
     """
     results = run_chunk(from_dict(config_dict), seed, first, count, smooth)
     any_result = next(iter(results.values()))
@@ -769,7 +769,7 @@ def run_study(
     submitted : list[concurrent.futures.Future] or None
         Its chunks as :func:`submit_chunks` queued them (same config, seed, chunking, smoother).
     smooth : SmoothOptions or None
-        Also smooth every run inside its chunk (:func:`run_chunk`) and sum the 20-state methods'
+        Also smooth every run inside its chunk (:func:`run_chunk`) and sum the methods'
         smoothed series apart (the summary's ``smoothed``); None: no smoother.
 
     Returns
