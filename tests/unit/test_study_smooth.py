@@ -45,6 +45,7 @@ def test_a_dask_cluster_smooths_to_the_local_numbers(tmp_path) -> None:
     local = list(iterate_chunks(CONFIG, 4, 3, workers=1, chunk_runs=2, smooth=SmoothOptions()))
     assert list(tmp_path.iterdir()) == []
     for a, b in zip(local, remote, strict=True):
-        assert set(a.smoothed) == set(b.smoothed) == {"lc"}
-        for name, values in a.smoothed["lc"].items():
-            np.testing.assert_array_equal(b.smoothed["lc"][name], values, err_msg=name)
+        assert set(a.smoothed) == set(b.smoothed) == {"lc", "vkf"}
+        for method in ("lc", "vkf"):
+            for name, values in a.smoothed[method].items():
+                np.testing.assert_array_equal(b.smoothed[method][name], values, err_msg=f"{method} {name}")
