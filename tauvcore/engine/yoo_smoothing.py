@@ -66,7 +66,7 @@ class YooTapeWriter:
             "tape_X": np.zeros((T,) + shape + (DIM, DIM)),
             "tape_P": np.zeros((T,) + shape + (self.na, self.na)),
             "tape_dx": np.zeros((T,) + shape + (DIM,)),
-            "tape_vb": np.zeros((T,) + shape + (3,)),
+            "tape_vel_b_mps": np.zeros((T,) + shape + (3,)),
         }
         self.store, self.rows, self.events = store, 0, []
 
@@ -130,7 +130,7 @@ class YooTapeWriter:
         d[(P == Pm).all(axis=(-2, -1))] = 0.0  # nothing fused: round-off, not a correction
         self.events.append((X, Pm, P.copy(), d, pos))
 
-    def record(self, row: int, P: np.ndarray, dx: np.ndarray, vb_true: np.ndarray) -> None:
+    def record(self, row: int, P: np.ndarray, dx: np.ndarray, vel_b_true_mps: np.ndarray) -> None:
         """An output epoch's mark (again, after a source's correction at it).
 
         Parameters
@@ -141,7 +141,7 @@ class YooTapeWriter:
             (M, R, na, na) the covariances.
         dx : numpy.ndarray
             (M, R, 12) the error against truth.
-        vb_true : numpy.ndarray
+        vel_b_true_mps : numpy.ndarray
             (3,) or (R, 3) the true body velocity [m/s] (FRD).
         """
         assert self.out is not None  # opened at the chunk's start
@@ -150,7 +150,7 @@ class YooTapeWriter:
         self.phi_acc[...] = 0.0
         out["tape_P"][row] = P
         out["tape_dx"][row] = dx
-        out["tape_vb"][row] = vb_true
+        out["tape_vel_b_mps"][row] = vel_b_true_mps
         self.rows = max(self.rows, row + 1)
 
     def close(self) -> None:
@@ -217,7 +217,7 @@ def smooth_yoo_segment(
     vel = segment["est_vel_n"] + s[..., yoo.VEL]
     vel_err = np.where(  # where s is zero, the filter's own number, not its round trip through C
         moved[..., 0] | np.any(s[..., yoo.VEL] != 0.0, axis=-1),
-        np.linalg.norm(segment["tape_vb"] - mv(np.swapaxes(C, -1, -2), vel), axis=-1),
+        np.linalg.norm(segment["tape_vel_b_mps"] - mv(np.swapaxes(C, -1, -2), vel), axis=-1),
         segment["vel_err"],
     )
     att = dx[..., yoo.ATT]
