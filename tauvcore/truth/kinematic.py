@@ -36,6 +36,7 @@ hull does, with the small heave that keeps the rolled sway from changing the dep
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -56,6 +57,7 @@ from tauvcore.truth.profile import (  # the profile machinery, also reached from
     _motion_geodetic,
     num_samples,
 )
+from tauvcore.truth.current import CurrentField, check_crab, crab_profile, current_field
 from tauvcore.truth.record import Truth
 from tauvcore.truth.water import (  # also reached from here
     MIN_ALTITUDE_M,
@@ -122,9 +124,16 @@ class TrajectoryConfig:
     terrain_relief_m: float = 10.0  # RMS of the terrain about seabed_depth_m [m]; [0, 1000]
     terrain_wavelength_m: float = 400.0  # typical distance between ridges [m]; [10, 100000]
     truth: str = "kinematic"  # one of TRUTH_SOURCES: closed-form profile or the 6-DOF vehicle flying it
-    current_n_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # constant ocean current, NED [m/s] (dynamic
-    # truth only: the kinematic truth is motion over ground); each within
-    # +-3 m/s, beyond the strongest tidal streams an AUV works in
+    current_n_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # constant ocean current at depth_m, NED
+    # [m/s] (tauvcore.truth.current); each within +-3 m/s, beyond the strongest tidal streams an AUV
+    # works in; its down part with the dynamic truth only
+    current_shear_ne_per_s: tuple[float, float] = (0.0, 0.0)  # change of the north and east current per
+    # metre of depth below depth_m [1/s]; each within +-0.1: oceanic shears are 1e-3 to 1e-2
+    current_variation_mps: float = 0.0  # RMS of the slowly varying current on each horizontal axis [m/s];
+    # [0, 3] as the constant
+    current_variation_period_s: float = 600.0  # shortest period of the variation (1, 2, 4, 8 times it)
+    # [s]; [60, 86400]: slower than the vehicle's manoeuvres, at most a day
+    current_seed: int = 0  # seed of the varying current (the world: the same for every run), [0, 2**63 - 1]
 
     def __post_init__(self) -> None:
         require_choice("trajectory.name", self.name, TRAJECTORIES)
@@ -165,12 +174,7 @@ class TrajectoryConfig:
                 f"({show(self.depth_m)} m), got {show(self.seabed_depth_m)} m{relief}: the vehicle "
                 f"would start in the seabed"
             )
-        require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
-        if self.truth == "kinematic" and any(c != 0.0 for c in self.current_n_mps):
-            raise ConfigError(
-                f'trajectory.current_n_mps needs trajectory.truth = "dynamic" (the kinematic truth is '
-                f"motion over ground), got {show(list(self.current_n_mps))}"
-            )
+        self._check_current()
         for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
             if getattr(self, field) >= self.speed_mps:
                 raise ConfigError(
@@ -186,6 +190,51 @@ class TrajectoryConfig:
                     f"lawnmower from {show(self.depth_m)} m to {show(round(level_m, 3))} m, within "
                     f"{show(MIN_ALTITUDE_M)} m of the seabed ({show(floor)} m): shorten the dive"
                 )
+
+
+    def _check_current(self) -> None:
+        """The current's fields in range, below the vehicle's speed, and one the truth can honour."""
+        require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
+        shear = self.current_shear_ne_per_s
+        if not isinstance(shear, (tuple, list)) or len(shear) != 2:
+            raise ConfigError(f"trajectory.current_shear_ne_per_s must be a list of 2 numbers, got {show(shear)}")
+        for i, v in enumerate(shear):
+            require_range(f"trajectory.current_shear_ne_per_s[{i}]", v, -0.1, 0.1)
+        require_range("trajectory.current_variation_mps", self.current_variation_mps, 0.0, 3.0)
+        require_range("trajectory.current_variation_period_s", self.current_variation_period_s, 60.0, MAX_DURATION_S)
+        seed = self.current_seed
+        if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
+            raise ConfigError(f"trajectory.current_seed must be an integer within [0, 2**63 - 1], got {show(seed)}")
+        field = current_field(self)
+        if field is None:
+            return
+        if self.truth == "kinematic" and self.current_n_mps[2] != 0.0:
+            raise ConfigError(
+                f"trajectory.current_n_mps {show(list(self.current_n_mps))}: a vertical current needs "
+                f'trajectory.truth = "dynamic" (the kinematic truth holds its depth schedule)'
+            )
+        peak = field.peak_horizontal_mps(deepest_m(self) - self.depth_m)
+        if peak >= self.speed_mps:
+            parts = [f"trajectory.current_n_mps {show(list(self.current_n_mps))}"]
+            if any(shear):
+                parts.append(f"current_shear_ne_per_s {show(list(shear))}")
+            if self.current_variation_mps:
+                parts.append(f"current_variation_mps {show(self.current_variation_mps)}")
+            raise ConfigError(
+                f"{', '.join(parts)}: the current reaches {peak:.3g} m/s, not below the vehicle's speed "
+                f"trajectory.speed_mps {show(self.speed_mps)} m/s (it could not make way against it)"
+            )
+        if self.truth == "kinematic":
+            check_crab(PROFILES[self.name](self), field, self.duration_s, self.depth_m)
+
+
+def deepest_m(cfg: TrajectoryConfig) -> float:
+    """The deepest the mission's depth schedule goes [m], positive down."""
+    if cfg.name == "figure8" and cfg.dive_rate_mps > 0.0:
+        return min(cfg.depth_m + cfg.dive_rate_mps * cfg.duration_s, seabed_floor_m(cfg) - MIN_ALTITUDE_M)
+    if cfg.name == "lawnmower":
+        return max(cfg.depth_m, lawnmower_level_depth_m(cfg))
+    return cfg.depth_m
 
 
 def _turn_profile(
@@ -416,6 +465,45 @@ PROFILES = {
 }
 
 
+def mission_profile(cfg: TrajectoryConfig) -> Profile:
+    """The profile the kinematic truth flies: the scenario's (:data:`PROFILES`), crabbing into the
+    mission's current if it has one (tauvcore.truth.current.crab_profile).
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        Scenario: its ``name``, geometry and current.
+
+    Returns
+    -------
+    Profile
+        Euler angles [rad], their rates [rad/s], body velocity [m/s] and its rate [m/s^2].
+    """
+    profile = PROFILES[cfg.name](cfg)
+    field = current_field(cfg)
+    return profile if field is None else crab_profile(profile, field, cfg.depth_m)
+
+
+def with_current(truth: Truth, field: CurrentField | None) -> Truth:
+    """``truth`` with the current at the vehicle (``Truth.current_n_mps``); itself in still water.
+
+    Parameters
+    ----------
+    truth : Truth
+        Samples of the mission: times [s], depths [m].
+    field : CurrentField or None
+        The mission's current (tauvcore.truth.current.current_field); None: still water.
+
+    Returns
+    -------
+    Truth
+        The same samples, with ``current_n_mps`` (K, 3) NED [m/s] at each sample's time and depth.
+    """
+    if field is None:
+        return truth
+    return dataclasses.replace(truth, current_n_mps=field.velocity_n_mps(truth.t_s, truth.depth_m))
+
+
 def bathymetry(cfg: TrajectoryConfig):
     """The seabed of the mission ``cfg`` (tauvcore.truth.seabed.Bathymetry).
 
@@ -613,10 +701,10 @@ def generate(cfg: TrajectoryConfig, earth: Earth, rate_hz: float) -> Truth:
         If ``rate_hz`` is not a finite number > 0 ("imu.rate_hz must be > 0").
     """
     require_positive("imu.rate_hz", rate_hz)
-    profile = PROFILES[cfg.name](cfg)
+    profile = mission_profile(cfg)
     truth = generate_from_profile(cfg.name, profile, earth, cfg.duration_s, rate_hz, _start_n(cfg))
     check_in_water(cfg, bathymetry(cfg), truth)
-    return truth
+    return with_current(truth, current_field(cfg))
 
 
 def generate_chunk(
@@ -673,7 +761,7 @@ def generate_chunk(
         at sample ... > 0 needs the travelled_n of the chunk before").
     """
     require_positive("imu.rate_hz", rate_hz)
-    chunk, travelled_n = _chunk(cfg, PROFILES[cfg.name](cfg), earth, rate_hz, k0, k1, travelled_n)
+    chunk, travelled_n = _chunk(cfg, mission_profile(cfg), earth, rate_hz, k0, k1, travelled_n)
     check_in_water(cfg, bathymetry(cfg), chunk)
     return chunk, travelled_n
 
@@ -692,7 +780,7 @@ def _chunk(
         raise ValueError(f"chunk samples [{k0}, {k1}) must lie within the mission's [0, {total})")
     if travelled_n is None and k0 > 0:
         raise ValueError(f"a chunk starting at sample {k0} > 0 needs the travelled_n of the chunk before")
-    return _chunk_from_profile(
+    chunk, carried = _chunk_from_profile(
         cfg.name,
         profile,
         earth,
@@ -702,6 +790,7 @@ def _chunk(
         _start_n(cfg),
         None if travelled_n is None else np.asarray(travelled_n, dtype=float),
     )
+    return with_current(chunk, current_field(cfg)), carried
 
 
 class TruthStream:
@@ -745,7 +834,7 @@ class TruthStream:
         self.chunk_samples = int(chunk_samples)
         self.num_samples = num_samples(cfg.duration_s, rate_hz)  # of the whole mission
         self.dt_s = 1.0 / rate_hz  # equal to generate(...).dt_s
-        self._profile = PROFILES[cfg.name](cfg)
+        self._profile = mission_profile(cfg)
         self._seabed = bathymetry(cfg)
 
     def __len__(self) -> int:

@@ -79,6 +79,16 @@ class Truth:
     )
     # [rad], longitude [rad], depth [m] on WGS-84 (earth.model); None: pos_n
     vehicle: VehicleRecord | None = None  # actuators and guidance of the dynamic truth; None: kinematic
+    current_n_mps: np.ndarray | None = None  # (K, 3) the ocean current at the vehicle, NED [m/s]
+    # (tauvcore.truth.current); None: still water
+
+    @property
+    def vel_water_b(self) -> np.ndarray:
+        """(K, 3) velocity relative to the water in the body frame [m/s]: ``vel_b - C_nb^T c_n``
+        (``vel_b`` in still water)."""
+        if self.current_n_mps is None:
+            return self.vel_b
+        return self.vel_b - np.einsum("kji,kj->ki", self.C_nb, self.current_n_mps)
 
     def __post_init__(self) -> None:
         k = self.t_s.shape[0]
@@ -101,6 +111,8 @@ class Truth:
             object.__setattr__(self, "pos_nav", self.pos_n)
         elif self.pos_nav.shape != (k, 3):
             raise ValueError(f"Truth.pos_nav must have shape ({k}, 3), got {self.pos_nav.shape}")
+        if self.current_n_mps is not None and self.current_n_mps.shape != (k, 3):
+            raise ValueError(f"Truth.current_n_mps must have shape ({k}, 3), got {self.current_n_mps.shape}")
         if self.vehicle is not None and self.vehicle.propeller_rpm.shape != (k,):
             raise ValueError(
                 f"Truth.vehicle must have {k} samples, got {self.vehicle.propeller_rpm.shape[0]}"

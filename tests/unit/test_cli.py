@@ -72,7 +72,10 @@ def test_bad_flags_give_one_line_and_exit_2(capsys, argv, field) -> None:
     ("[dvl]\nbeams = [1, 7]\n", "dvl.beams", "7"),
     ("[run]\nmethods = ['lc', 'magic']\n", "run.methods", "'magic'"),
     ("[trajectory]\ntruth = 'cfd'\n", "trajectory.truth", "'cfd'"),
-    ("[trajectory]\ncurrent_n_mps = [0.0, 0.5, 0.0]\n", "trajectory.current_n_mps", "0.5"),
+    ("[trajectory]\ncurrent_n_mps = [0.0, 0.0, 0.2]\n", "trajectory.current_n_mps", "0.2"),
+    ("[trajectory]\ncurrent_n_mps = [0.0, 2.5, 0.0]\n", "trajectory.current_n_mps", "2.5"),
+    ("[trajectory]\ncurrent_n_mps = [1.0, 1.2, 0.0]\n", "trajectory.current_n_mps", "crab 50 deg"),
+    ("[trajectory]\ncurrent_shear_ne_per_s = [0.5, 0.0]\n", "trajectory.current_shear_ne_per_s[0]", "0.5"),
     ("[trajectory]\ntruth = 'dynamic'\ncurrent_n_mps = [0.0, 9.0, 0.0]\n", "trajectory.current_n_mps[1]", "9.0"),
 ])
 def test_bad_config_files_give_one_line_and_exit_2(capsys, tmp_path, toml, field, value) -> None:
@@ -622,13 +625,13 @@ def test_truth_flag_flies_the_vehicle_and_reaches_the_json(capsys, tmp_path) -> 
     """``--truth dynamic``: the summary names the truth, the JSON's configuration
     carries it, and a file's current reads back."""
     cfg = tmp_path / "c.toml"
-    cfg.write_text("[trajectory]\ncurrent_n_mps = [0.1, -0.2, 0.0]\ntruth = 'dynamic'\n")
+    cfg.write_text("[trajectory]\ncurrent_n_mps = [0.1, -0.2, 0.05]\ntruth = 'dynamic'\n")
     out_json = tmp_path / "r.json"
     code, out, _ = _run(capsys, "run", "--config", str(cfg), "--truth", "dynamic", "--duration", "10",
                         "--json", str(out_json))
     assert code == 0 and "(dynamic truth)" in out
     data = json.loads(out_json.read_text())
     assert data["config"]["trajectory"]["truth"] == "dynamic"
-    assert data["config"]["trajectory"]["current_n_mps"] == [0.1, -0.2, 0.0]
+    assert data["config"]["trajectory"]["current_n_mps"] == [0.1, -0.2, 0.05]
     code, _, err = _run(capsys, "run", "--config", str(cfg), "--truth", "kinematic")
     assert code == 2 and "--truth" in err and "current_n_mps" in err

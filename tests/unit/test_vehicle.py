@@ -271,11 +271,19 @@ def test_truth_passes_through_the_integrated_knots() -> None:
     assert np.max(np.abs(truth.vel_b - truth.vel_b[:, :1] * [1, 0, 0])) > 0.05
 
 
-def test_current_needs_the_dynamic_truth() -> None:
+def test_a_current_the_truth_cannot_honour_is_refused() -> None:
     from tauvcore.validation import ConfigError
 
-    with pytest.raises(ConfigError, match=r"trajectory.current_n_mps needs trajectory.truth"):
-        TrajectoryConfig(current_n_mps=(0.1, 0.0, 0.0))
+    TrajectoryConfig(current_n_mps=(0.1, 0.3, 0.0))  # the kinematic truth crabs into it
+    with pytest.raises(ConfigError, match=r"trajectory.current_n_mps \[0.1, 0.0, 0.05\]: a vertical current"):
+        TrajectoryConfig(current_n_mps=(0.1, 0.0, 0.05))
+    TrajectoryConfig(truth="dynamic", current_n_mps=(0.1, 0.0, 0.05))
+    with pytest.raises(ConfigError, match=r"reaches 2.1 m/s, not below the vehicle's speed trajectory.speed_mps 2.0"):
+        TrajectoryConfig(truth="dynamic", current_n_mps=(0.0, 2.1, 0.0))
+    with pytest.raises(ConfigError, match=r"current_variation_mps 0.5: the current reaches"):
+        TrajectoryConfig(current_n_mps=(0.0, 1.0, 0.0), current_variation_mps=0.5)
+    with pytest.raises(ConfigError, match=r"would crab 50 deg at t = 0 s"):
+        TrajectoryConfig(current_n_mps=(1.0, 1.2, 0.0))
     with pytest.raises(ConfigError, match=r"trajectory.current_n_mps\[1\]"):
         TrajectoryConfig(truth="dynamic", current_n_mps=(0.0, 5.0, 0.0))
     with pytest.raises(ConfigError, match=r"trajectory.truth"):
