@@ -182,7 +182,9 @@ def current_field(cfg: CurrentSettings) -> CurrentField | None:
     if still:
         return None
     m = VARIATION_COMPONENTS if cfg.current_variation_mps > 0.0 else 0
-    omega = np.array([2.0 * np.pi / (r * cfg.current_variation_period_s) for r in VARIATION_PERIOD_RATIOS[:m]])
+    omega = np.array(
+        [2.0 * np.pi / (r * cfg.current_variation_period_s) for r in VARIATION_PERIOD_RATIOS[:m]]
+    )
     amp = np.zeros((2, m))
     phase = np.zeros((2, m))
     if m:

@@ -47,6 +47,7 @@ from tauvcore.geo.earth import (
     Earth,
     ned_from_geodetic,
 )
+from tauvcore.truth.current import CurrentField, check_crab, crab_profile, current_field
 from tauvcore.truth.profile import (  # the profile machinery, also reached from here
     _GL_NODES,
     _GL_WEIGHTS,
@@ -57,7 +58,6 @@ from tauvcore.truth.profile import (  # the profile machinery, also reached from
     _motion_geodetic,
     num_samples,
 )
-from tauvcore.truth.current import CurrentField, check_crab, crab_profile, current_field
 from tauvcore.truth.record import Truth
 from tauvcore.truth.water import (  # also reached from here
     MIN_ALTITUDE_M,
@@ -191,20 +191,25 @@ class TrajectoryConfig:
                     f"{show(MIN_ALTITUDE_M)} m of the seabed ({show(floor)} m): shorten the dive"
                 )
 
-
     def _check_current(self) -> None:
         """The current's fields in range, below the vehicle's speed, and one the truth can honour."""
         require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
         shear = self.current_shear_ne_per_s
         if not isinstance(shear, (tuple, list)) or len(shear) != 2:
-            raise ConfigError(f"trajectory.current_shear_ne_per_s must be a list of 2 numbers, got {show(shear)}")
+            raise ConfigError(
+                f"trajectory.current_shear_ne_per_s must be a list of 2 numbers, got {show(shear)}"
+            )
         for i, v in enumerate(shear):
             require_range(f"trajectory.current_shear_ne_per_s[{i}]", v, -0.1, 0.1)
         require_range("trajectory.current_variation_mps", self.current_variation_mps, 0.0, 3.0)
-        require_range("trajectory.current_variation_period_s", self.current_variation_period_s, 60.0, MAX_DURATION_S)
+        require_range(
+            "trajectory.current_variation_period_s", self.current_variation_period_s, 60.0, MAX_DURATION_S
+        )
         seed = self.current_seed
         if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
-            raise ConfigError(f"trajectory.current_seed must be an integer within [0, 2**63 - 1], got {show(seed)}")
+            raise ConfigError(
+                f"trajectory.current_seed must be an integer within [0, 2**63 - 1], got {show(seed)}"
+            )
         field = current_field(self)
         if field is None:
             return
