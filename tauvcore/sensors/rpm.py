@@ -3,13 +3,17 @@
 What the propeller turns at:
 
 - dynamic truth (tauvcore.truth.dynamic): the simulated thruster's RPM (``Truth.vehicle``), which
-  the 6-DOF model relates to speed through its thrust and drag (steady speed proportional to
-  RPM, transients and currents on top);
-- kinematic truth: a speed model inverting eq. 20, ``rpm = (u + b) / sf`` with ``u`` the surge
-  through the water (the kinematic truth has no current, so the surge), where the scale factor
-  ``sf`` [m/s per rpm] and bias ``b`` [m/s] are slow random walks from their nominal values (a
-  hull fouling, a propeller nicked, a current the vehicle does not know): what the velocity
-  filter must learn, and recorded as its truth.
+  the 6-DOF model relates to its speed through the water by its thrust and drag (steady speed
+  proportional to RPM, transients on top);
+- kinematic truth: a speed model inverting eq. 20, ``rpm = (u_w + b) / sf`` with ``u_w`` the surge
+  through the water (``Truth.vel_water_b``: the surge over ground less the current's body-x part;
+  the surge itself in still water), where the scale factor ``sf`` [m/s per rpm] and bias ``b``
+  [m/s] are slow random walks from their nominal values (a hull fouling, a propeller nicked):
+  what the velocity filter must learn, and recorded as its truth.
+
+Either way a propeller measures speed through the water: in a current the speed over ground
+differs by the current's along-hull part, which a filter that learns eq. 20 from bottom-track
+takes for a bias (tauvcore.filter.vkf).
 
 The sensor adds white noise ``noise_rpm`` (a shaft encoder's quantisation and jitter).
 """
@@ -51,7 +55,7 @@ class RpmConfig:
     )  # the TAUV's steady speed per rpm (tauvcore.truth.vehicle, 2 m/s at 850 rpm); (0, 1]
     bias_mps: float = setting(
         0.05, "bias", "m/s", -5.0, 5.0, hint="nominal speed at zero rpm (the kinematic truth's speed model)"
-    )  # [-5, 5]: a current along the track at most
+    )  # [-5, 5]: beyond any propeller's slip
     scale_factor_rw_per_sqrt_s: float = setting(
         2e-7,
         "scale factor walk",
@@ -139,7 +143,7 @@ def simulate_chunk(
             bias_rng, state.bias, runs, 0.0, config.bias_rw_mps_per_sqrt_s, period, index.size
         )
         sf, b = config.mps_per_rpm + d_sf, config.bias_mps + d_b
-        true_rpm = (truth.vel_b[rows, 0][expand] + b) / sf
+        true_rpm = (truth.vel_water_b[rows, 0][expand] + b) / sf
         new_state = RpmState(scale_factor=sf_state, bias=b_state)
     rpm = true_rpm + standard_normal(noise_rng, shape, 1) * config.noise_rpm
     return (
