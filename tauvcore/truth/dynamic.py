@@ -8,6 +8,33 @@ vehicle starts where and as the kinematic one does and tracks them at the scenar
 NED position, Euler angles, fins, propeller) are integrated by classical Runge-Kutta 4 with the
 IMU's step, the autopilot's commands held over each step (it runs at the IMU rate).
 
+The ocean current (tauvcore.truth.current): the vehicle flies the whole field ``c_n(t, z)``
+(constant, sheared with depth, slowly varying), evaluated by the compiled :func:`current_into`
+from :meth:`~tauvcore.truth.current.CurrentField.params` at each Runge-Kutta stage's time (the
+mission's, ``k dt`` at knot k, whatever the chunk) and its state's depth ``x[8]``. The
+hydrodynamics see the velocity relative to the water ``nu_r`` (the state), and its kinetics
+``M nu_r' = tau(nu_r, ...)`` are Fossen's relative-velocity form (tauvcore.truth.vehicle), exact
+for an irrotational current constant in n. With a slowly varying current the terms in the
+water's acceleration as the vehicle meets it, ``dc/dt + dc/dz zdot``, are neglected: the force
+it takes to carry the rigid body along with that acceleration (``m C_nb^T dc/dt``) and, where the
+water itself accelerates, the pressure gradient that drives it (``rho V C_nb^T dc/dt``, which in
+an ideal fluid nearly cancels the first for this nearly neutral hull; a steady shear has no such
+gradient). Each is of order mass x dc/dt: per unit mass about 1e-3 m/s^2 for the documented
+variations (0.1 m/s RMS at the default 600 s period; a 0.3 m/s dive through a 0.005 1/s shear),
+against 0.16 m/s^2 of drag and thrust balancing at 2 m/s. The flow's variation along the hull is
+neglected too (in a 0.01 1/s shear, 3 mm/s across its 0.3 m diameter).
+
+What the truth records is the motion over ground: at each knot ``nu = nu_r + C_nb^T c_n(t, z)``
+with its exact derivative ``nu_r' - omega_nb_b x (C_nb^T c_n) + C_nb^T (dc/dt + dc/dz zdot)``
+(``zdot`` the position derivative's down part), so the interpolant below is the integrated
+motion in any current. (An ideal INS would not notice a wrong knot derivative, since it follows
+whatever interpolant the knots make; the truth's specific force at the knots would be off by the
+water's acceleration: tests/unit/test_vehicle.py compares the knots' derivatives with their
+differences.) ``Truth.current_n_mps`` is the field at the truth's times and depths
+(tauvcore.truth.kinematic.with_current), the current the integrator used to round-off. Still
+water is the all-zero field (:data:`STILL_WATER`): the integrator adds exact zeros, and its
+numbers are those it gave before it knew of currents, bit for bit, as are a constant current's.
+
 From the integration to the truth record: at every IMU sample (a knot) the integrator gives the
 Euler angles and body velocity over ground and, from the equations of motion, their exact time
 derivatives (fins and propeller are states, so the forces and hence these derivatives are
@@ -41,6 +68,7 @@ import numpy as np
 from tauvcore.geo.earth import Earth
 from tauvcore.truth import control as ctl
 from tauvcore.truth import vehicle as veh
+from tauvcore.truth.current import current_field
 from tauvcore.truth.kinematic import (
     PROFILES,
     TrajectoryConfig,
@@ -48,6 +76,7 @@ from tauvcore.truth.kinematic import (
     _start_n,
     bathymetry,
     check_in_water,
+    with_current,
 )
 from tauvcore.truth.profile import Profile, _kinematics, num_samples
 from tauvcore.truth.record import Truth, VehicleRecord
@@ -85,6 +114,102 @@ K_FINS, K_RPM, K_HEADING_CMD, K_PITCH_CMD, K_TRACK, K_DEPTH_REF, K_POS = (
 KNOT_COLUMNS = 24
 
 
+CURRENT_HEAD = 7
+"""Length of :meth:`~tauvcore.truth.current.CurrentField.params`'s head: ``c0_n`` (3), ``z0``,
+``S_ne`` (2), ``M``; then 5 numbers per cosine (``omega``, ``a_n``, ``a_e``, ``phi_n``, ``phi_e``)."""
+STILL_WATER = np.zeros(CURRENT_HEAD)
+"""The packed field of still water (no current, no shear, no cosines)."""
+
+
+def current_params(cfg: TrajectoryConfig) -> np.ndarray:
+    """The mission's current packed for the compiled integrator.
+
+    Parameters
+    ----------
+    cfg : TrajectoryConfig
+        The mission: its current fields (tauvcore.truth.current.current_field).
+
+    Returns
+    -------
+    numpy.ndarray
+        :meth:`~tauvcore.truth.current.CurrentField.params` of its field, shape (7 + 5 M,);
+        :data:`STILL_WATER` (all zero, M = 0) in still water.
+    """
+    field = current_field(cfg)
+    return STILL_WATER.copy() if field is None else np.ascontiguousarray(field.params())
+
+
+@_jit
+def current_into(params: np.ndarray, t: float, z: float, c_n: np.ndarray) -> None:
+    """The current at time ``t`` and depth ``z``, written into ``c_n``.
+
+    ``c_n = c0_n + [S_ne (z - z0); 0] + [sum_m a_m cos(omega_m t + phi_m); 0]``, the same sums in
+    the same order as :meth:`~tauvcore.truth.current.CurrentField.velocity_n_mps`.
+
+    Parameters
+    ----------
+    params : numpy.ndarray
+        The packed field, shape (7 + 5 M,) (:meth:`~tauvcore.truth.current.CurrentField.params`,
+        :func:`current_params`).
+    t : float
+        The mission's time [s].
+    z : float
+        Depth, positive down [m].
+    c_n : numpy.ndarray
+        Shape (3,), overwritten.
+
+    Returns
+    -------
+    None
+        The current is in ``c_n``, NED [m/s].
+    """
+    dz = z - params[3]
+    vn = 0.0
+    ve = 0.0
+    for m in range(int(params[6])):
+        k = CURRENT_HEAD + 5 * m
+        vn += params[k + 1] * math.cos(t * params[k] + params[k + 3])
+        ve += params[k + 2] * math.cos(t * params[k] + params[k + 4])
+    c_n[0] = params[0] + dz * params[4] + vn
+    c_n[1] = params[1] + dz * params[5] + ve
+    c_n[2] = params[2]
+
+
+@_jit
+def current_rate_into(params: np.ndarray, t: float, z_rate: float, c_rate_n: np.ndarray) -> None:
+    """The rate of the current met by a vehicle going down at ``z_rate``, written into ``c_rate_n``.
+
+    ``dc/dt + dc/dz z_rate``, as :meth:`~tauvcore.truth.current.CurrentField.rate_n_mps2`.
+
+    Parameters
+    ----------
+    params : numpy.ndarray
+        The packed field, shape (7 + 5 M,) (:func:`current_params`).
+    t : float
+        The mission's time [s].
+    z_rate : float
+        The vehicle's down velocity [m/s].
+    c_rate_n : numpy.ndarray
+        Shape (3,), overwritten.
+
+    Returns
+    -------
+    None
+        The rate is in ``c_rate_n``, NED [m/s^2] (its down part zero: the field has no vertical
+        shear of the vertical current, nor a varying one).
+    """
+    vn = 0.0
+    ve = 0.0
+    for m in range(int(params[6])):
+        k = CURRENT_HEAD + 5 * m
+        w = params[k]
+        vn -= params[k + 1] * w * math.sin(t * w + params[k + 3])
+        ve -= params[k + 2] * w * math.sin(t * w + params[k + 4])
+    c_rate_n[0] = z_rate * params[4] + vn
+    c_rate_n[1] = z_rate * params[5] + ve
+    c_rate_n[2] = 0.0
+
+
 @_jit
 def _rk4_step(
     p: veh.VehicleParams,
@@ -92,22 +217,28 @@ def _rk4_step(
     d1: np.ndarray,
     fins: np.ndarray,
     rps: float,
-    current_n: np.ndarray,
+    current: np.ndarray,
+    t: float,
     dt: float,
     work: np.ndarray,
 ) -> None:
-    """x += one classical Runge-Kutta step, d1 = f(x) given; ``work`` (5, 17) scratch."""
+    """x += one classical Runge-Kutta step from time ``t``, d1 = f(x, t) given; each stage's
+    current at its time and its state's depth (``current``: the packed field); ``work`` (6, 17)
+    scratch."""
     n = x.shape[0]
-    xs, d2, d3, d4, tau = work[0], work[1], work[2], work[3], work[4, :6]
+    xs, d2, d3, d4, tau, c_n = work[0], work[1], work[2], work[3], work[4, :6], work[5, :3]
     for i in range(n):
         xs[i] = x[i] + 0.5 * dt * d1[i]
-    veh.derivative_into(p, xs, fins, rps, current_n, tau, d2)
+    current_into(current, t + 0.5 * dt, xs[8], c_n)
+    veh.derivative_into(p, xs, fins, rps, c_n, tau, d2)
     for i in range(n):
         xs[i] = x[i] + 0.5 * dt * d2[i]
-    veh.derivative_into(p, xs, fins, rps, current_n, tau, d3)
+    current_into(current, t + 0.5 * dt, xs[8], c_n)
+    veh.derivative_into(p, xs, fins, rps, c_n, tau, d3)
     for i in range(n):
         xs[i] = x[i] + dt * d3[i]
-    veh.derivative_into(p, xs, fins, rps, current_n, tau, d4)
+    current_into(current, t + dt, xs[8], c_n)
+    veh.derivative_into(p, xs, fins, rps, c_n, tau, d4)
     for i in range(n):
         x[i] += dt / 6.0 * (d1[i] + 2.0 * d2[i] + 2.0 * d3[i] + d4[i])
 
@@ -118,7 +249,8 @@ def simulate_knots(
     c: ctl.ControlParams,
     x: np.ndarray,
     cs: np.ndarray,
-    current_n: np.ndarray,
+    current: np.ndarray,
+    first_knot: int,
     path_ne: np.ndarray,
     s_m: np.ndarray,
     depth_ref_m: np.ndarray,
@@ -127,33 +259,79 @@ def simulate_knots(
     dt: float,
     out: np.ndarray,
 ) -> None:
-    """Record ``out.shape[0]`` knots (rows: the K_* columns) from the vehicle state ``x`` and
-    controller state ``cs``, stepping both forward one IMU interval per knot (in place)."""
+    """Record ``out.shape[0]`` knots from the vehicle and controller states, stepping both forward
+    one IMU interval per knot (in place).
+
+    Parameters
+    ----------
+    p : tauvcore.truth.vehicle.VehicleParams
+        The vehicle.
+    c : tauvcore.truth.control.ControlParams
+        The autopilot.
+    x : numpy.ndarray
+        The vehicle's state at knot ``first_knot``, shape (17,) (tauvcore.truth.vehicle layout);
+        advanced to knot ``first_knot + out.shape[0]``.
+    cs : numpy.ndarray
+        The controller's state, advanced with it.
+    current : numpy.ndarray
+        The packed current field (:func:`current_params`).
+    first_knot : int
+        The mission's index of the first knot: its time is ``first_knot dt`` [s].
+    path_ne : numpy.ndarray
+        The mission's path, shape (P, 2), north and east [m].
+    s_m : numpy.ndarray
+        Arc length along it, shape (P,) [m].
+    depth_ref_m : numpy.ndarray
+        The depth schedule at each knot, shape (N,) [m].
+    depth_rate_ref_mps : numpy.ndarray
+        Its rate, shape (N,) [m/s].
+    speed_ref_mps : numpy.ndarray
+        The speed schedule, shape (N,) [m/s].
+    dt : float
+        The IMU interval [s].
+    out : numpy.ndarray
+        Shape (N, KNOT_COLUMNS), overwritten.
+
+    Returns
+    -------
+    None
+        The knots are in ``out``, one row per knot (the K_* columns): Euler angles [rad] and
+        rates [rad/s], body velocity over ground [m/s] and its derivative [m/s^2], fins [rad],
+        propeller [rev/min], guidance, the depth schedule and the NED position [m].
+    """
     guidance = np.zeros(3)
-    work = np.zeros((5, x.shape[0]))
+    work = np.zeros((6, x.shape[0]))
     d1 = np.empty(x.shape[0])
+    current_n = np.empty(3)
+    rate_n = np.empty(3)
     current_b = np.empty(3)
+    rate_b = np.empty(3)
     for i in range(out.shape[0]):
+        t = (first_knot + i) * dt  # the mission's time of the knot, whatever the chunk
         fins, rps = ctl.autopilot(
             c, x, cs, path_ne, s_m, depth_ref_m[i], depth_rate_ref_mps[i], speed_ref_mps[i], dt, guidance
         )
+        current_into(current, t, x[8], current_n)
         veh.derivative_into(p, x, fins, rps, current_n, work[4, :6], d1)
+        current_rate_into(current, t, d1[8], rate_n)
         C_nb = veh.C_nb_of(x[9], x[10], x[11])
         for j in range(3):
             current_b[j] = C_nb[0, j] * current_n[0] + C_nb[1, j] * current_n[1] + C_nb[2, j] * current_n[2]
+            rate_b[j] = C_nb[0, j] * rate_n[0] + C_nb[1, j] * rate_n[1] + C_nb[2, j] * rate_n[2]
         w_x_current = veh._cross(x[3:6], current_b)
         for j in range(3):
             out[i, j] = x[9 + j]
             out[i, 3 + j] = d1[9 + j]
             out[i, 6 + j] = x[j] + current_b[j]
-            out[i, 9 + j] = d1[j] - w_x_current[j]  # d/dt (C_nb.T v_c) = -omega_nb_b x (C_nb.T v_c)
+            # d/dt (C_nb.T c_n) = -omega_nb_b x (C_nb.T c_n) + C_nb.T (dc/dt + dc/dz zdot)
+            out[i, 9 + j] = d1[j] - w_x_current[j] + rate_b[j]
             out[i, 21 + j] = x[6 + j]
         for j in range(4):
             out[i, 12 + j] = x[12 + j]
         out[i, 16] = 60.0 * x[16]
         out[i, 17], out[i, 18], out[i, 19] = guidance[0], guidance[1], guidance[2]
         out[i, 20] = depth_ref_m[i]
-        _rk4_step(p, x, d1, fins, rps, current_n, dt, work)
+        _rk4_step(p, x, d1, fins, rps, current, t, dt, work)
 
 
 class HermiteProfile:
@@ -252,7 +430,7 @@ class DynamicSimulation:
         rps_per_mps = 1.0 / veh.steady_speed_per_rps(self.params)
         self.control = ctl.control_params(control, self.params.fin_max_rad, self.params.rps_max, rps_per_mps)
         self.mission = mission(cfg)
-        self.current_n = np.asarray(cfg.current_n_mps, dtype=float)
+        self.current = current_params(cfg)
         x = np.zeros(veh.NUM_STATES)
         x[veh.EULER] = self.mission.euler0
         # level (the autopilot holds the roll at zero), heading at the guidance's first target and
@@ -262,8 +440,10 @@ class DynamicSimulation:
         x[11] = math.atan2(target[1] - self.mission.path_ne[0, 1], target[0] - self.mission.path_ne[0, 0])
         x[5] = self.mission.yaw_rate0_rps / math.cos(x[10])
         C_nb = veh.C_nb_of.py_func(x[9], x[10], x[11])
-        x[0:3] = np.array([self.mission.speed_mps[0], 0.0, 0.0]) - C_nb.T @ self.current_n
         x[veh.POS] = _start_n(cfg)
+        current0_n = np.empty(3)
+        current_into(self.current, 0.0, x[8], current0_n)
+        x[0:3] = np.array([self.mission.speed_mps[0], 0.0, 0.0]) - C_nb.T @ current0_n
         x[veh.RPS] = rps_per_mps * self.mission.speed_mps[0]
         self.x = x
         self.cs = np.zeros(ctl.NUM_CONTROL_STATES)
@@ -282,7 +462,8 @@ class DynamicSimulation:
             self.control,
             self.x,
             self.cs,
-            self.current_n,
+            self.current,
+            self.next_knot,
             m.path_ne,
             m.s_m,
             depth_ref,
@@ -356,6 +537,7 @@ class DynamicTruthStream:
         sim = None if self.cache else DynamicSimulation(self.cfg, self.rate_hz, self.vehicle, self.control)
         pos0_n = _start_n(self.cfg)
         seabed = bathymetry(self.cfg)
+        field = current_field(self.cfg)
         carried = None
         kept = None if sim is None else sim.knots(1)  # streamed: knots first .. first + len - 1
         first = 0
@@ -376,7 +558,7 @@ class DynamicTruthStream:
             )
             check_in_water(self.cfg, seabed, truth)
             rows = knots[k0 - first : k1 - first]
-            yield k0, dataclasses.replace(truth, vehicle=_vehicle_record(rows))
+            yield k0, dataclasses.replace(with_current(truth, field), vehicle=_vehicle_record(rows))
             kept, first = knots[k1 - 1 - first :], k1 - 1
 
 

@@ -31,6 +31,25 @@ def test_ideal_ins_follows_the_dynamic_truth_for_250_s(trajectory: str, earth: s
     assert np.max(result.att_err_deg) < 1e-4
 
 
+@pytest.mark.parametrize("earth", ["flat", "wgs84"])
+@pytest.mark.parametrize("trajectory", TRAJECTORIES)
+def test_ideal_ins_follows_the_dynamic_truth_in_a_sheared_varying_current(trajectory: str, earth: str) -> None:
+    """The vehicle flies the whole current field (constant, shear with depth, varying over 1-8 min):
+    its specific force and angular rate are still those of its own positions and attitudes."""
+    config = (Config().replace("trajectory", name=trajectory, duration_s=250.0, truth="dynamic",
+                               current_n_mps=(0.2, -0.3, 0.0), current_shear_ne_per_s=(0.005, 0.0),
+                               current_variation_mps=0.1, current_variation_period_s=60.0)
+              .replace("earth", model=earth).replace("run", ideal=True, methods=("ins",)))
+    rng = np.random.default_rng(0)
+    sim = simulate(config, rng)
+    assert np.all(np.ptp(sim.truth.current_n_mps[:, :2], axis=0) > 0.2)   # the current the vehicle met varied
+    result = run(config, sim, rng)["ins"]
+    assert result.t_s[-1] == pytest.approx(250.0)
+    assert np.max(result.vel_err_mps) < 1e-3
+    assert np.max(result.pos_err_m) < 0.05
+    assert np.max(result.att_err_deg) < 1e-4
+
+
 def test_the_dynamic_truth_is_not_the_kinematic_one() -> None:
     """The same scenario flown by the vehicle: close to the kinematic path, but with its own motion
     (control activity, sway of its own, fins and propeller working)."""
