@@ -53,11 +53,12 @@ def cases() -> dict[str, dvl.DvlData]:
     return out
 
 
-def arrays() -> dict[str, np.ndarray]:
-    """Every case's fields as ``<case>/<field>`` (fields that are None left out)."""
+def arrays(pings: dict[str, dvl.DvlData] | None = None) -> dict[str, np.ndarray]:
+    """Every case's fields as ``<case>/<field>`` (fields that are None left out), of ``pings``
+    (:func:`cases`' by default)."""
     return {
         f"{name}/{f}": np.asarray(getattr(data, f))
-        for name, data in cases().items()
+        for name, data in (cases() if pings is None else pings).items()
         for f in FIELDS
         if getattr(data, f) is not None
     }
