@@ -11,8 +11,9 @@ The fins are children of the vehicle's node: their placement (:func:`fin_wxyz_bo
 rotation in the body frame, which the parent's ``M C_nb`` carries into the view.
 
 The ocean current is an arrow over the vehicle, in the view's frame, not the hull's (it does not
-turn with the vehicle): pointing where the water flows, CURRENT_ARROW_M_PER_MPS metres per m/s
-(:func:`current_arrow_view`), labelled with its speed and direction (:func:`current_label`).
+turn with the vehicle): a velocity vector from above the vehicle to where the water flows,
+CURRENT_ARROW_M_PER_MPS metres per m/s (:func:`current_arrow_view`), labelled at its tip with its
+speed and direction (:func:`current_label`).
 """
 
 from __future__ import annotations
@@ -331,13 +332,15 @@ def interpolate_pose(
 # ---------------------------------------------------------------------------------- the current
 CURRENT_ARROW_M_PER_MPS = 8.0  # the current's arrow is this long per m/s of current [m]: 0.5 m/s, 4 m
 CURRENT_ARROW_ABOVE_M = 3.0  # ... and stands this far above the vehicle, clear of hull and fins [m]
-CURRENT_ARROW_SHAFT_M = 0.06  # its shaft's radius [m]
+CURRENT_ARROW_SHAFT_M = 0.08  # its shaft's radius [m]
 CURRENT_ARROW_HEAD_M = 0.6  # its head's longest length [m] (at most a third of a short arrow)
+CURRENT_LABEL_ABOVE_M = 0.5  # its label stands this far above its tip [m]
 CURRENT_COLOR = (25, 25, 25)  # near black, as the compass's arrows it is read against
 
 
 def current_arrow_view(current_n_mps: np.ndarray, m_per_mps: float = CURRENT_ARROW_M_PER_MPS) -> np.ndarray:
-    """The current's arrow in the view, centred on the origin (its node stands over the vehicle).
+    """The current's arrow in the view, a velocity vector from the origin (its node stands over the
+    vehicle: the water at the vehicle flows from there, and the hull stays in view from above).
 
     Parameters
     ----------
@@ -349,11 +352,11 @@ def current_arrow_view(current_n_mps: np.ndarray, m_per_mps: float = CURRENT_ARR
     Returns
     -------
     numpy.ndarray
-        Start and end, shape (1, 2, 3), view frame [m]: pointing where the water flows, ``m_per_mps
-        |c|`` long, its middle at the origin.
+        Start and end, shape (1, 2, 3), view frame [m]: from the origin, pointing where the water
+        flows, ``m_per_mps |c|`` long.
     """
-    half = 0.5 * m_per_mps * ned_to_view(np.asarray(current_n_mps, float))
-    return np.stack([-half, half])[None]
+    tip = m_per_mps * ned_to_view(np.asarray(current_n_mps, float))
+    return np.stack([np.zeros(3), tip])[None]
 
 
 def current_head_m(current_n_mps: np.ndarray, m_per_mps: float = CURRENT_ARROW_M_PER_MPS) -> float:

@@ -28,6 +28,7 @@ from app.scene import (
     CURRENT_ARROW_HEAD_M,
     CURRENT_ARROW_SHAFT_M,
     CURRENT_COLOR,
+    CURRENT_LABEL_ABOVE_M,
     SEABED_COLOR,
     MissionFrame,
     auv_parts_body,
@@ -144,7 +145,7 @@ class SceneView:
             head_length=CURRENT_ARROW_HEAD_M,
         )
         self.current_text = scene.add_label(
-            "/current/label", "", position=(0.0, 0.0, 0.6), font_screen_scale=0.8, anchor="bottom-center"
+            "/current/label", "", font_screen_scale=0.8, anchor="bottom-center"
         )
         self.current_shown: np.ndarray | None = None  # the current the arrow shows [m/s] (None: hidden)
         self.beam_nodes: list[list[Any]] | None = None  # [beam][state] under /auv (show_beams_static)
@@ -442,9 +443,11 @@ class SceneView:
         if shown is not None and np.max(np.abs(current_n_mps - shown)) < 1e-3:
             return
         moving = bool(np.linalg.norm(current_n_mps) >= 1e-3)
+        arrow = current_arrow_view(current_n_mps)
         if moving:  # a still current has no direction: its label alone
-            self.current_arrow.points = current_arrow_view(current_n_mps)
+            self.current_arrow.points = arrow
             self.current_arrow.head_length = current_head_m(current_n_mps)
+        self.current_text.position = tuple(arrow[0, 1] + [0.0, 0.0, CURRENT_LABEL_ABOVE_M])
         if shown is None or self.current_arrow.visible != moving:
             self.current_arrow.visible = moving
         self.current_text.text = current_label(current_n_mps)

@@ -494,7 +494,7 @@ def current_figure(
     mean_n, mean_e = (float(np.mean(c[:, k])) if t_s.size else 0.0 for k in (0, 1))
     speed = float(np.hypot(mean_n, mean_e))
     toward = float(np.degrees(np.arctan2(mean_e, mean_n)) % 360.0)
-    title = f"Current at the vehicle: mean {speed:.2f} m/s toward {toward:.0f} deg"
+    title = f"Current: mean {speed:.2f} m/s toward {toward:.0f} deg"
     layout = {
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
