@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -49,6 +50,7 @@ FOLDERS = {
     "Partial-beam methods": True,
     "DVL beams": True,
     inputs.SEABED_FOLDER: False,
+    inputs.CURRENT_FOLDER: False,
     "Outages [s] (start = end: none)": False,
     "Aiding": False,
     "Sensors (Table 2)": False,
@@ -74,6 +76,24 @@ class Control:
 
 def _text(value: float) -> str:
     return f"{value:g}"
+
+
+def _current_speed(d: Config) -> str:
+    """The horizontal speed of ``d``'s current at the start depth [m/s], as the control shows it."""
+    return _text(math.hypot(*d.trajectory.current_n_mps[:2]))
+
+
+def _current_toward(d: Config) -> str:
+    """Where ``d``'s current (else its shear) flows toward, clockwise from north [deg]."""
+    north, east = d.trajectory.current_n_mps[:2]
+    if not (north or east):
+        north, east = d.trajectory.current_shear_ne_per_s
+    return _text(math.degrees(math.atan2(east, north)) % 360.0)
+
+
+def _current_shear(d: Config) -> str:
+    """The magnitude of ``d``'s shear [1/s] (the controls' shear is along the current)."""
+    return _text(math.hypot(*d.trajectory.current_shear_ne_per_s))
 
 
 CONTROLS = (
@@ -203,6 +223,23 @@ CONTROLS = (
         inputs.SEABED_FOLDER,
         lambda d: _text(d.rpm.noise_rpm),
         inputs.RPM_NOISE_HINT,
+    ),
+    # the ocean current the truth flies in (tauvcore.truth.current), as an engineer states it: speed,
+    # the direction it flows toward, its shear along that direction and a slowly varying part
+    *(
+        Control(field, field, label, "text", key, "number", inputs.CURRENT_FOLDER, initial, hint)
+        for field, label, key, initial, hint in (
+            ("current_speed", inputs.CURRENT_SPEED, "cur", _current_speed, inputs.CURRENT_SPEED_HINT),
+            ("current_toward", inputs.CURRENT_TOWARD, "cto", _current_toward, inputs.CURRENT_TOWARD_HINT),
+            ("current_shear", inputs.CURRENT_SHEAR, "csh", _current_shear, inputs.CURRENT_SHEAR_HINT),
+            (
+                "current_variation",
+                inputs.CURRENT_VARIATION,
+                "cvar",
+                lambda d: _text(d.trajectory.current_variation_mps),
+                inputs.CURRENT_VARIATION_HINT,
+            ),
+        )
     ),
     Control("outages", "outage", "Outages", "outages", "o", "outage", "Outages [s] (start = end: none)"),
     # the aiding sources (tauvcore.aiding.sources: depth, magnetometer, USBL), each with its section's

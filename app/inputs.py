@@ -8,7 +8,11 @@ not rounded). Anything else, empty, ``NaN``, ``inf``, hexadecimal or ``1_000``, 
 one message naming the control and the value as typed. Ranges are the configuration's own
 (tauvcore.config): a value out of range is refused with the control's label in front of the
 configuration's message. NSV's epsilon also takes the word ``auto`` (derived from the vehicle,
-tauvcore.config.PartialConfig). A plug-in aiding source's controls (app.controls) are read the same
+tauvcore.config.PartialConfig). The ocean current is typed as an engineer states it, speed and
+the direction it flows toward in degrees, with a shear along that direction and a varying part
+(:func:`current_fields` turns them into the NED fields of tauvcore.truth.current); a current the
+configuration refuses (reaching the vehicle's speed, a crab beyond 45 deg) is named by its control
+with the configuration's own line. A plug-in aiding source's controls (app.controls) are read the same
 way into its section (``Config.sources``), a 3-vector as three numbers separated by commas; a
 ticked source joins ``run.aiding``.
 """
@@ -79,6 +83,35 @@ SWITCH_ALTITUDE_HINT = (
     "propeller RPM instead of the DVL"
 )
 RPM_NOISE_HINT = "white noise of the propeller's shaft speed (VKF, RPM fallback), [0, 1000] rpm; 0: ideal"
+CURRENT_FOLDER = "Ocean current"
+"""The folder of the current the truth flies in (tauvcore.truth.current): still water on a new page."""
+CURRENT_SPEED = "Current [m/s]"
+CURRENT_TOWARD = "Current toward [deg]"
+CURRENT_SHEAR = "Current shear [1/s]"
+CURRENT_VARIATION = "Current variation [m/s]"
+CURRENT_SPEED_MAX_MPS = 3.0
+"""Fastest current the controls take [m/s]: the configuration's bound on each component
+(trajectory.current_n_mps), beyond the strongest tidal streams an AUV works in."""
+CURRENT_SHEAR_MAX_PER_S = 0.1
+"""Strongest shear the controls take [1/s]: the configuration's bound on each component."""
+CURRENT_SPEED_HINT = (
+    f"horizontal speed of the water at the start depth, [0, {CURRENT_SPEED_MAX_MPS:g}] m/s; refused "
+    "unless below the vehicle's speed (2 m/s; longrange 5.1) and, with the kinematic truth, needing "
+    "a crab of at most 45 deg"
+)
+CURRENT_TOWARD_HINT = (
+    "the direction the water flows toward, clockwise from north, [0, 360] deg: 90 flows east "
+    "(the oceanographer's convention; a wind is named where it comes from)"
+)
+CURRENT_SHEAR_HINT = (
+    "change of the current along Current toward per metre of depth below the start depth, "
+    f"[-{CURRENT_SHEAR_MAX_PER_S:g}, {CURRENT_SHEAR_MAX_PER_S:g}] 1/s (ocean: 0.001 to 0.01); "
+    "positive: faster deeper"
+)
+CURRENT_VARIATION_HINT = (
+    "RMS of a slowly varying part on the north and east axes, [0, 3] m/s: periods of 600 s to "
+    "80 min, seeded (the same for every run)"
+)
 METHOD_HINTS = {
     "ins-dvl": "Yoo 2014's 12-state INS aided by the DVL's velocity (at least three beams); no position state",
     "vkf": (
@@ -227,6 +260,10 @@ class Controls:
     # as typed (a checkbox: on or off), every plug-in field in the registry's order
     smoother: bool = False  # run the fixed-interval smoother after the forward pass
     smoother_mb: str = f"{SMOOTHER_MB_DEFAULT:g}"  # its tape held in memory [MB], as typed
+    current_speed: str = "0"  # horizontal speed of the current [m/s], as typed
+    current_toward: str = "0"  # the direction it flows toward, clockwise from north [deg], as typed
+    current_shear: str = "0"  # its change along that direction per metre of depth [1/s], as typed
+    current_variation: str = "0"  # trajectory.current_variation_mps, as typed [m/s]
 
 
 def field_text(value: object) -> str:
@@ -277,6 +314,125 @@ def preset_headline(name: str) -> str:
         f"{', '.join(shown)} filled in; {hidden} settings without a control apply at Run "
         "(listed under the Run button)."
     )
+
+
+def _polar_ne(magnitude: float, toward_deg: float) -> tuple[float, float]:
+    """North and east parts of ``magnitude`` toward ``toward_deg`` (clockwise from north), each to
+    twelve significant digits and a part below 1e-12 of the magnitude zero (cos 90 deg is 6e-17)."""
+    angle = math.radians(toward_deg)
+    north, east = (
+        0.0 if abs(v) <= 1e-12 * abs(magnitude) else float(f"{v:.12g}")
+        for v in (magnitude * math.cos(angle), magnitude * math.sin(angle))
+    )
+    return north, east
+
+
+def current_fields(c: Controls) -> dict[str, Any]:
+    """The trajectory fields of the current the controls describe: speed and direction become
+    ``current_n_mps = (s cos d, s sin d, 0)``, the shear along the same direction
+    ``current_shear_ne_per_s = (g cos d, g sin d)`` (tauvcore.truth.current).
+
+    Parameters
+    ----------
+    c : Controls
+        What the page's controls hold (``current_speed`` [m/s], ``current_toward`` [deg],
+        ``current_shear`` [1/s], ``current_variation`` [m/s], as typed).
+
+    Returns
+    -------
+    dict[str, Any]
+        ``current_n_mps`` (3,) NED [m/s], ``current_shear_ne_per_s`` (2,) [1/s] and
+        ``current_variation_mps`` [m/s], for ``Config.replace("trajectory", ...)``.
+
+    Raises
+    ------
+    InputError
+        A control is not a number, or the speed, direction or shear out of range: one line naming
+        the control and the value as typed (the variation's range is the configuration's).
+    """
+    speed = parse_float(CURRENT_SPEED, c.current_speed)
+    toward = parse_float(CURRENT_TOWARD, c.current_toward)
+    shear = parse_float(CURRENT_SHEAR, c.current_shear)
+    variation = parse_float(CURRENT_VARIATION, c.current_variation)
+    if not 0.0 <= speed <= CURRENT_SPEED_MAX_MPS:
+        raise InputError(
+            f"{CURRENT_SPEED}: {show(c.current_speed)} is out of range; a current's speed is "
+            f"[0, {CURRENT_SPEED_MAX_MPS:g}] m/s ({CURRENT_TOWARD} turns it)"
+        )
+    if not 0.0 <= toward <= 360.0:
+        raise InputError(
+            f"{CURRENT_TOWARD}: {show(c.current_toward)} is out of range; the direction the water "
+            "flows toward is [0, 360] deg clockwise from north"
+        )
+    if not abs(shear) <= CURRENT_SHEAR_MAX_PER_S:
+        raise InputError(
+            f"{CURRENT_SHEAR}: {show(c.current_shear)} is out of range; a shear is "
+            f"[-{CURRENT_SHEAR_MAX_PER_S:g}, {CURRENT_SHEAR_MAX_PER_S:g}] 1/s"
+        )
+    return {
+        "current_n_mps": (*_polar_ne(speed, toward), 0.0),
+        "current_shear_ne_per_s": _polar_ne(shear, toward),
+        "current_variation_mps": variation,
+    }
+
+
+def _current_label(message: str, current: dict[str, Any]) -> str | None:
+    """The current's control a configuration ``message`` is about; None for another field's. The
+    configuration refuses the current as a whole by ``trajectory.current_n_mps`` (reaching the
+    vehicle's speed, a crab beyond 45 deg): named by the first of its controls set, speed first."""
+    if message.startswith("trajectory.current_variation_mps"):
+        return CURRENT_VARIATION
+    if message.startswith("trajectory.current_shear_ne_per_s"):
+        return CURRENT_SHEAR
+    if not message.startswith("trajectory.current_n_mps"):
+        return None
+    if any(current["current_n_mps"]) or not (
+        current["current_variation_mps"] or any(current["current_shear_ne_per_s"])
+    ):
+        return CURRENT_SPEED
+    return CURRENT_VARIATION if current["current_variation_mps"] else CURRENT_SHEAR
+
+
+def current_text(trajectory: TrajectoryConfig) -> str:
+    """The mission's current in one line, as the controls name it: "still water", or its speed and
+    direction at the start depth, a vertical part, its shear and its varying part where set.
+
+    Parameters
+    ----------
+    trajectory : TrajectoryConfig
+        The mission (``current_n_mps`` [m/s], ``current_shear_ne_per_s`` [1/s],
+        ``current_variation_mps`` [m/s], ``current_variation_period_s`` [s], ``current_seed``).
+
+    Returns
+    -------
+    str
+        E.g. ``"0.5 m/s toward 90 deg, shear 0.01 1/s, variation 0.1 m/s RMS (600 s, seed 0)"``.
+    """
+    north, east, down = trajectory.current_n_mps
+    shear_n, shear_e = trajectory.current_shear_ne_per_s
+    variation = trajectory.current_variation_mps
+    if not (any(trajectory.current_n_mps) or shear_n or shear_e or variation):
+        return "still water"
+    speed, shear = math.hypot(north, east), math.hypot(shear_n, shear_e)
+    parts = [f"{speed:.3g} m/s toward {_bearing_deg(north, east):.3g} deg" if speed else "0 m/s"]
+    if down:
+        parts.append(f"down {down:.3g} m/s")
+    along = (shear_n * north + shear_e * east) / speed if speed else 0.0
+    if shear and speed and math.isclose(abs(along), shear, rel_tol=1e-9):  # along the current
+        parts.append(f"shear {along:.3g} 1/s")
+    elif shear:
+        parts.append(f"shear {shear:.3g} 1/s toward {_bearing_deg(shear_n, shear_e):.3g} deg")
+    if variation:
+        parts.append(
+            f"variation {variation:.3g} m/s RMS ({trajectory.current_variation_period_s:g} s, "
+            f"seed {trajectory.current_seed})"
+        )
+    return ", ".join(parts)
+
+
+def _bearing_deg(north: float, east: float) -> float:
+    """The direction of (north, east), clockwise from north, in [0, 360) [deg]."""
+    return math.degrees(math.atan2(east, north)) % 360.0
 
 
 def _label_for(exc: ConfigError) -> str | None:
@@ -377,6 +533,7 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         )
     }
     epsilon = parse_float_or_auto(NSV_EPSILON, c.nsv_epsilon)
+    current = current_fields(c)
     typed = {
         DURATION: c.duration,
         DROPOUT: c.dropout,
@@ -394,6 +551,9 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         DVL_MAX_ALTITUDE: c.dvl_max_altitude,
         SWITCH_ALTITUDE: c.switch_altitude,
         RPM_NOISE: c.rpm_noise,
+        CURRENT_SPEED: c.current_speed,
+        CURRENT_SHEAR: c.current_shear,
+        CURRENT_VARIATION: c.current_variation,
     }
     held = dict(c.source_fields)
     plugin_sections: dict[str, dict[str, Any]] = {}
@@ -418,6 +578,8 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
     aiding = ("dvl",) + tuple(name for name in FUSED if name in c.aid_sources)
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
     truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
+    # ... nor does the current the truth flies in: the log's own configuration's stands
+    water = current if c.source == SIMULATION else {}
     try:
         # the scenario's own settings (longrange: the paper's speed, depth, IMU and DVL rate;
         # its seabed and IMU errors fill in controls) under the controls', as `tauv run
@@ -431,6 +593,7 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
                 duration_s=numbers[DURATION],
                 truth=truth,
                 seabed_depth_m=numbers[SEABED_DEPTH],
+                **water,
             )
             .replace(
                 "imu",
@@ -457,7 +620,7 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         for name, changes in plugin_sections.items():
             config = config.replace(name, **changes)
     except ConfigError as exc:
-        label = _label_for(exc)
+        label = _current_label(str(exc), current) or _label_for(exc)
         if label is None:
             raise InputError(str(exc)) from None
         value = f" {show(typed[label])} is out of range:" if label in typed else ""
@@ -489,6 +652,7 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
         (DURATION, f"{config.trajectory.duration_s:g}"),
         ("Speed, depth", f"{config.trajectory.speed_mps:.3g} m/s at {config.trajectory.depth_m:g} m"),
         ("Seabed", f"{config.trajectory.seabed}, {config.trajectory.seabed_depth_m:g} m"),
+        ("Current", current_text(config.trajectory)),
         ("Rates", f"IMU {imu.rate_hz:g} Hz, DVL {d.rate_hz:g} Hz"),
         (DVL_MAX_ALTITUDE, f"{d.max_altitude_m:g}"),
         (SWITCH_ALTITUDE, f"{config.vkf.switch_altitude_m:g}"),
@@ -517,7 +681,7 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
         (RUNS, str(runs)),
     ]
     if source is not None:
-        simulation_only = {"Trajectory", TRUTH, "Seabed", DVL_MAX_ALTITUDE, SWITCH_ALTITUDE}
+        simulation_only = {"Trajectory", TRUTH, "Seabed", "Current", DVL_MAX_ALTITUDE, SWITCH_ALTITUDE}
         rows = [
             ("Source", f"log {source.get('name') or source['directory']}"),
             ("Log directory", str(source["directory"])),

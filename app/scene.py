@@ -9,6 +9,11 @@ and each DVL beam ends where it meets it, or at the DVL's range where it does no
 
 The fins are children of the vehicle's node: their placement (:func:`fin_wxyz_body`) is a
 rotation in the body frame, which the parent's ``M C_nb`` carries into the view.
+
+The ocean current is an arrow over the vehicle, in the view's frame, not the hull's (it does not
+turn with the vehicle): a velocity vector from above the vehicle to where the water flows,
+CURRENT_ARROW_M_PER_MPS metres per m/s (:func:`current_arrow_view`), labelled at its tip with its
+speed and direction (:func:`current_label`).
 """
 
 from __future__ import annotations
@@ -322,6 +327,78 @@ def interpolate_pose(
     pos = pos_n[i] + a * (pos_n[i + 1] - pos_n[i])
     step = vtf.SO3.from_matrix(C_nb[i].T @ C_nb[i + 1]).log()
     return i, pos, C_nb[i] @ vtf.SO3.exp(a * step).as_matrix()
+
+
+# ---------------------------------------------------------------------------------- the current
+CURRENT_ARROW_M_PER_MPS = 8.0  # the current's arrow is this long per m/s of current [m]: 0.5 m/s, 4 m
+CURRENT_ARROW_ABOVE_M = 3.0  # ... and stands this far above the vehicle, clear of hull and fins [m]
+CURRENT_ARROW_SHAFT_M = 0.08  # its shaft's radius [m]
+CURRENT_ARROW_HEAD_M = 0.6  # its head's longest length [m] (at most a third of a short arrow)
+CURRENT_LABEL_ABOVE_M = 0.5  # its label stands this far above its tip [m]
+CURRENT_COLOR = (25, 25, 25)  # near black, as the compass's arrows it is read against
+
+
+def current_arrow_view(current_n_mps: np.ndarray, m_per_mps: float = CURRENT_ARROW_M_PER_MPS) -> np.ndarray:
+    """The current's arrow in the view, a velocity vector from the origin (its node stands over the
+    vehicle: the water at the vehicle flows from there, and the hull stays in view from above).
+
+    Parameters
+    ----------
+    current_n_mps : numpy.ndarray
+        The current at the vehicle, NED, shape (3,) [m/s].
+    m_per_mps : float
+        Length of the arrow per m/s of current [m/(m/s) = s].
+
+    Returns
+    -------
+    numpy.ndarray
+        Start and end, shape (1, 2, 3), view frame [m]: from the origin, pointing where the water
+        flows, ``m_per_mps |c|`` long.
+    """
+    tip = m_per_mps * ned_to_view(np.asarray(current_n_mps, float))
+    return np.stack([np.zeros(3), tip])[None]
+
+
+def current_head_m(current_n_mps: np.ndarray, m_per_mps: float = CURRENT_ARROW_M_PER_MPS) -> float:
+    """Length of the current arrow's head [m]: CURRENT_ARROW_HEAD_M, or a third of a shorter
+    arrow's length (a 0.1 m/s current's arrow stays an arrow, not a cone).
+
+    Parameters
+    ----------
+    current_n_mps : numpy.ndarray
+        The current, NED, shape (3,) [m/s].
+    m_per_mps : float
+        Length of the arrow per m/s of current [s].
+
+    Returns
+    -------
+    float
+        The head's length [m].
+    """
+    length_m = m_per_mps * float(np.linalg.norm(current_n_mps))
+    return min(CURRENT_ARROW_HEAD_M, length_m / 3.0)
+
+
+def current_label(current_n_mps: np.ndarray) -> str:
+    """The current's label in the view: its horizontal speed and the direction it flows toward,
+    clockwise from north, and a vertical part if it has one.
+
+    Parameters
+    ----------
+    current_n_mps : numpy.ndarray
+        The current at the vehicle, NED, shape (3,) [m/s].
+
+    Returns
+    -------
+    str
+        E.g. ``"current 0.50 m/s toward 90 deg"``, ``"..., down 0.10 m/s"``.
+    """
+    north, east, down = (float(v) for v in current_n_mps)
+    toward_deg = np.degrees(np.arctan2(east, north)) % 360.0
+    text = f"current {np.hypot(north, east):.2f} m/s toward {toward_deg:.0f} deg"
+    if abs(down) >= 0.005:
+        text += f", {'down' if down > 0 else 'up'} {abs(down):.2f} m/s"
+    return text
 
 
 # ---------------------------------------------------------------------------------- the mission's extent

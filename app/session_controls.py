@@ -95,8 +95,8 @@ class ControlPanel:
 
         source = self.source
         if source is not None:
-            # a log replays its own reference: the truth's generator does not apply to it
-            source.on_update(lambda _: setattr(self.truth, "disabled", source.value != inputs.SIMULATION))
+            # a log replays its own reference: the truth's generator and its current do not apply to it
+            source.on_update(lambda _: self._simulation_only(source.value == inputs.SIMULATION))
             source.on_update(lambda event: self.apply_log_config() if event.client is not None else None)
         # a scenario's preset fills in the controls when the user picks it (not when the server
         # itself sets the dropdown to what the page shows, at Run: the page's values stand then)
@@ -107,6 +107,11 @@ class ControlPanel:
         for handle in self._confirmed_inputs().values():  # every control a run reads
             handle.on_update(lambda _: self.update_address())
             handle.on_update(lambda _: self.schedule_check())
+
+    def _simulation_only(self, simulated: bool) -> None:
+        """Enable the controls of the simulated truth (Truth, the current) for a simulation only."""
+        for attr in ("truth", *validation.CURRENT_FIELDS):
+            getattr(self, attr).disabled = not simulated
 
     def apply_trajectory_preset(self) -> None:
         """Fill in the controls the chosen scenario's preset sets (longrange: Duration 1440 s,

@@ -1,7 +1,7 @@
 """The plot tabs of a dashboard tab: the workbench's Plots (error norms, the ELC's choice),
 Components, Consistency (NEES), Innovations and Sensors (raw measurements, estimated sensor
 errors), and the Mission tab group's Vehicle (fins and
-propeller) and Seabed (altitude, the VKF's propeller model) tabs.
+propeller, the current at the vehicle) and Seabed (altitude, the VKF's propeller model) tabs.
 
 :data:`PLOT_GROUPS` names each group of the workbench's plots, the tab it is in and what draws
 it: :meth:`PlotTabs.refresh_plots` draws the groups a change asks for, and a full redraw draws
@@ -40,7 +40,13 @@ from app.markdown_tables import identical_methods, identical_note
 from app.sensor_figures import PANEL_HEIGHT_PX, raw_sensor_figure, sensor_error_figure, sensor_panels
 from app.session_runs import KeptRun
 from app.session_state import TabState, drawing
-from app.vehicle_figures import actuator_figure, altitude_figure, vkf_figure
+from app.vehicle_figures import (
+    actuator_figure,
+    altitude_figure,
+    current_figure,
+    vkf_figure,
+    water_and_ground_speed_mps,
+)
 from tauvcore.config import Config
 from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
 
@@ -67,9 +73,19 @@ VEHICLE_NOTES = {
         "Choose **Truth: dynamic** and press **Run** to see the 6-DOF vehicle's fins and propeller."
     ),
     "log": "No fins or propeller: a recorded log has no actuator record.",
-    "none": "Fins and propeller of the dynamic truth show here after a run with **Truth: dynamic**.",
+    "none": (
+        "Fins and propeller of the dynamic truth show here after a run with **Truth: dynamic**; "
+        "the current at the vehicle after a run in a current (either truth)."
+    ),
+    "current": (
+        "The current at the vehicle, north and east as the truth met it (the 3-D view's arrow shows it at "
+        "the slider's time), and the vehicle's speed **through the water** against its speed **over "
+        "ground**. The DVL's bottom lock measures the ground, the propeller's RPM the water: the current "
+        "is their difference, a velocity the RPM aiding (VKF, RPM fallback) does not see."
+    ),
 }
-"""The Vehicle tab's note for each kind of truth (its figure shows for the dynamic truth only)."""
+"""The Vehicle tab's notes: for each kind of truth (the actuator figure shows for the dynamic truth
+only), and above the current figure (a mission in a current, either truth; none in still water)."""
 SEABED_NOTES = {
     "simulation": (
         "Height above the seabed straight below (an ideal echo sounder). Above the DVL's range its "
@@ -226,6 +242,8 @@ class PlotTabs:
         with tabs.add_tab("Vehicle"):
             self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
             self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
+            self.current_note = gui.add_markdown(VEHICLE_NOTES["current"], visible=False)
+            self.current_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
         with tabs.add_tab("Seabed"):
             self.seabed_note = gui.add_markdown(SEABED_NOTES["none"])
             self.seabed_plot = gui.add_plotly(go.Figure(), aspect=0.8, visible=False)
@@ -465,10 +483,17 @@ class PlotTabs:
 
     @drawing
     def draw_vehicle_plot(self) -> None:
-        """The Vehicle tab: fins and propeller of a dynamic truth, otherwise a note saying why none."""
+        """The Vehicle tab: fins and propeller of a dynamic truth, otherwise a note saying why none;
+        below, in a current (either truth), the current at the vehicle and its speed through the
+        water against over ground (app.vehicle_figures.current_figure)."""
         tv, config = self.state.truth_view, self.state.config
         if tv is None or config is None:
             return
+        current_n_mps, vel_water_b = tv.get("current_n_mps"), tv.get("vel_water_b")
+        if current_n_mps is not None and vel_water_b is not None:
+            water, ground = water_and_ground_speed_mps(tv["C_nb"], vel_water_b, current_n_mps)
+            self.current_plot.figure = current_figure(tv["t_s"], current_n_mps, water, ground)
+        self.current_plot.visible = self.current_note.visible = current_n_mps is not None
         fin_angles_rad, propeller_rpm = tv.get("fin_angles_rad"), tv.get("propeller_rpm")
         if fin_angles_rad is not None and propeller_rpm is not None:
             self.vehicle_plot.figure = actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm)

@@ -1,6 +1,7 @@
-"""The 3-D scene of a dashboard tab: the AUV (hull, fins, the DVL's four beams), the truth's and
-each method's trajectory, the seabed and its furniture (grid or terrain, sea surface, compass,
-scale bar), and the camera (a chase view or free; "Fit mission" frames the whole track).
+"""The 3-D scene of a dashboard tab: the AUV (hull, fins, the DVL's four beams), the current's
+arrow over it, the truth's and each method's trajectory, the seabed and its furniture (grid or
+terrain, sea surface, compass, scale bar), and the camera (a chase view or free; "Fit mission"
+frames the whole track).
 
 :meth:`SceneView.show_time` draws the vehicle as it was at a time of the run (app.session_playback
 decides the time); the run's truth and results arrive through the tab's
@@ -23,6 +24,11 @@ from app.scene import (
     BEAM_SWITCHED_OFF,
     BEAM_THICKNESS_PX,
     CAMERA_FREE,
+    CURRENT_ARROW_ABOVE_M,
+    CURRENT_ARROW_HEAD_M,
+    CURRENT_ARROW_SHAFT_M,
+    CURRENT_COLOR,
+    CURRENT_LABEL_ABOVE_M,
     SEABED_COLOR,
     MissionFrame,
     auv_parts_body,
@@ -33,6 +39,9 @@ from app.scene import (
     beam_stub,
     chase_camera_view,
     compass_view,
+    current_arrow_view,
+    current_head_m,
+    current_label,
     fin_wxyz_body,
     fit_camera_view,
     interpolate_pose,
@@ -124,6 +133,21 @@ class SceneView:
             )
             for k, (fin, color) in enumerate(zip(fins, FIN_COLORS))
         ]
+        # the current: an arrow and its label over the vehicle, in the view's axes (not the hull's),
+        # shown for a mission in a current (show_time)
+        self.current_node = scene.add_frame("/current", show_axes=False, visible=False)
+        self.current_arrow = scene.add_arrows(
+            "/current/arrow",
+            current_arrow_view(np.array([0.1, 0.0, 0.0])),
+            CURRENT_COLOR,
+            shaft_radius=CURRENT_ARROW_SHAFT_M,
+            head_radius=2.5 * CURRENT_ARROW_SHAFT_M,
+            head_length=CURRENT_ARROW_HEAD_M,
+        )
+        self.current_text = scene.add_label(
+            "/current/label", "", font_screen_scale=0.8, anchor="bottom-center"
+        )
+        self.current_shown: np.ndarray | None = None  # the current the arrow shows [m/s] (None: hidden)
         self.beam_nodes: list[list[Any]] | None = None  # [beam][state] under /auv (show_beams_static)
         self.beam_shown: list[str] = []
         self.terrain: Any = None  # the seabed's mesh when it is not flat (_draw_seabed)
@@ -396,11 +420,40 @@ class SceneView:
             for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
                 fin.wxyz = tuple(wxyz)
             self.show_beams_static(config, pos_n, C_nb, states, range_m)
+            current = tv.get("current_n_mps")
+            self._show_current(pos_n, current[i] if current is not None else None)
         altitude = tv.get("altitude_m")
         in_range = np.isfinite(range_m) if range_m is not None else np.ones(4, dtype=bool)
         text = beam_readout(t_s, states, in_range, float(altitude[i]) if altitude is not None else None)
         if text != self.readout.content:
             self.readout.content = text
+
+    def _show_current(self, pos_n: np.ndarray, current_n_mps: np.ndarray | None) -> None:
+        """The current's arrow over the vehicle at ``pos_n`` (3,) NED [m], pointing where the water
+        ``current_n_mps`` (3,) NED [m/s] flows (None: still water, hidden). Arrow and label are sent
+        again only when the current has changed by a millimetre per second (a constant current
+        moves, it does not redraw)."""
+        shown = self.current_shown
+        if current_n_mps is None:
+            if shown is not None:
+                self.current_node.visible = False
+                self.current_shown = None
+            return
+        self.current_node.position = tuple(ned_to_view(pos_n) + [0.0, 0.0, CURRENT_ARROW_ABOVE_M])
+        if shown is not None and np.max(np.abs(current_n_mps - shown)) < 1e-3:
+            return
+        moving = bool(np.linalg.norm(current_n_mps) >= 1e-3)
+        arrow = current_arrow_view(current_n_mps)
+        if moving:  # a still current has no direction: its label alone
+            self.current_arrow.points = arrow
+            self.current_arrow.head_length = current_head_m(current_n_mps)
+        self.current_text.position = tuple(arrow[0, 1] + [0.0, 0.0, CURRENT_LABEL_ABOVE_M])
+        if shown is None or self.current_arrow.visible != moving:
+            self.current_arrow.visible = moving
+        self.current_text.text = current_label(current_n_mps)
+        if shown is None:
+            self.current_node.visible = True
+        self.current_shown = np.array(current_n_mps, float)
 
     def beam_states_at(self, t_s: float, range_m: np.ndarray | None = None) -> list[str]:
         """Each beam's state at ``t_s``: the schedule's (or, once results arrive, the run's record

@@ -1,8 +1,8 @@
-"""What the dashboard's 3-D view, Seabed and Components tabs read of the truth, sent before a run
-(the worker's ``("truth", dict)`` message, app.worker): the truth at the output epochs with the
-seabed under it and the DVL's scheduled pings, of a simulated mission (:func:`truth_view`,
-generated a chunk at a time) or a replayed log (:func:`log_truth_view`), and how a long mission is
-reduced to time bins (:func:`decimation`).
+"""What the dashboard's 3-D view, Vehicle, Seabed and Components tabs read of the truth, sent
+before a run (the worker's ``("truth", dict)`` message, app.worker): the truth at the output epochs
+with the seabed under it, the current around it and the DVL's scheduled pings, of a simulated
+mission (:func:`truth_view`, generated a chunk at a time) or a replayed log
+(:func:`log_truth_view`), and how a long mission is reduced to time bins (:func:`decimation`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ from tauvcore.config import Config
 from tauvcore.eval.envelope import epochs_per_bin
 from tauvcore.sensors.dvl import slant_ranges_m
 from tauvcore.sensors.timing import epoch_indices_between
-from tauvcore.truth import truth_stream
+from tauvcore.truth import TrajectoryConfig, Truth, truth_stream
+from tauvcore.truth.current import current_field
 from tauvcore.truth.kinematic import bathymetry
 
 
@@ -34,6 +35,10 @@ class TruthView(TypedDict):
     fin_angles_rad: np.ndarray | None  # (T, 4); None but for the dynamic truth
     vel_n: np.ndarray | None  # (T, 3) true NED velocity [m/s] of a long mission's rows, too far apart
     # for their positions' central difference (app.error_figures.error_components); None otherwise
+    current_n_mps: np.ndarray | None  # (T, 3) the ocean current at the vehicle, NED [m/s]; None in
+    # still water and for a replayed log
+    vel_water_b: np.ndarray | None  # (T, 3) the vehicle's velocity through the water, body [m/s]; None
+    # when current_n_mps is
 
 
 def decimation(config: Config) -> tuple[int, int, float]:
@@ -63,10 +68,15 @@ def truth_view(config: Config, step: int, epochs_per_bin: int = 1) -> TruthView:
     (T, 4), fins 1-4 of tauvcore.truth.vehicle [rad]; both None for the kinematic truth.
 
     With ``epochs_per_bin`` > 1 also ``vel_n`` (T, 3), the true NED velocity [m/s]: the rows are
-    seconds apart, too far for the central difference of their positions; None otherwise."""
+    seconds apart, too far for the central difference of their positions; None otherwise.
+
+    In a current (tauvcore.truth.current) also ``current_n_mps`` (T, 3), the current at the vehicle,
+    NED [m/s] (:func:`current_at`), and ``vel_water_b`` (T, 3), the velocity through the water
+    ``vel_b - C_nb^T c_n``, body [m/s]; both None in still water."""
     stream = truth_stream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
     seabed = bathymetry(config.trajectory)
-    t, pos, C, altitude, ranges, rpm, fins, vel = [], [], [], [], [], [], [], []
+    still = current_field(config.trajectory) is None
+    t, pos, C, altitude, ranges, rpm, fins, vel, current, water = [], [], [], [], [], [], [], [], [], []
     last_epoch = (stream.num_samples - 1) // step
     for k0, chunk in stream:
         rows = np.arange((-k0) % step, chunk.num_samples, step)
@@ -82,6 +92,10 @@ def truth_view(config: Config, step: int, epochs_per_bin: int = 1) -> TruthView:
         if chunk.vehicle is not None:
             rpm.append(chunk.vehicle.propeller_rpm[rows])
             fins.append(chunk.vehicle.fin_angles_rad[rows])
+        if not still:
+            c_n = current_at(chunk, rows, config.trajectory)
+            current.append(c_n)
+            water.append(chunk.vel_b[rows] - np.einsum("kji,kj->ki", chunk.C_nb[rows], c_n))
     t_end = (stream.num_samples - 1) * stream.dt_s
     pings = (
         epoch_indices_between(
@@ -100,13 +114,39 @@ def truth_view(config: Config, step: int, epochs_per_bin: int = 1) -> TruthView:
         "propeller_rpm": np.concatenate(rpm) if rpm else None,
         "fin_angles_rad": np.concatenate(fins) if fins else None,
         "vel_n": np.concatenate(vel) if epochs_per_bin > 1 else None,
+        "current_n_mps": None if still else np.concatenate(current),
+        "vel_water_b": None if still else np.concatenate(water),
     }
+
+
+def current_at(chunk: Truth, rows: np.ndarray, trajectory: TrajectoryConfig) -> np.ndarray:
+    """The current at the vehicle at ``rows`` of a truth ``chunk`` in a current.
+
+    Parameters
+    ----------
+    chunk : Truth
+        A chunk of the mission's truth (tauvcore.truth.truth_stream).
+    rows : numpy.ndarray
+        Its samples wanted, shape (T,).
+    trajectory : TrajectoryConfig
+        The mission, whose current is not still water.
+
+    Returns
+    -------
+    numpy.ndarray
+        The current, shape (T, 3), NED [m/s]: the chunk's own record (``Truth.current_n_mps``), or
+        for a truth that records none (the dynamic truth's chunks, which fly in the constant
+        ``trajectory.current_n_mps``: tauvcore.truth.dynamic.DynamicSimulation) that constant.
+    """
+    if chunk.current_n_mps is not None:
+        return chunk.current_n_mps[rows]
+    return np.broadcast_to(np.asarray(trajectory.current_n_mps, float), (len(rows), 3)).copy()
 
 
 def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> TruthView:
     """:func:`truth_view` of a replayed log: its reference at the output epochs, its DVL pings
-    (a log records no seabed and no actuators: ``altitude_m``, ``slant_range_m``,
-    ``propeller_rpm`` and ``fin_angles_rad`` are None)."""
+    (a log records no seabed, no actuators and no current: ``altitude_m``, ``slant_range_m``,
+    ``propeller_rpm``, ``fin_angles_rad``, ``current_n_mps`` and ``vel_water_b`` are None)."""
     rows = np.arange(0, truth.num_samples, step)
     return {
         "t_s": truth.t_s[rows],
@@ -119,4 +159,6 @@ def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> TruthView
         "propeller_rpm": None,
         "fin_angles_rad": None,
         "vel_n": None,
+        "current_n_mps": None,
+        "vel_water_b": None,
     }

@@ -6,8 +6,9 @@ on a new page (app.control_table's ``initial``), through the same
 :func:`app.inputs.config_from_controls` a run uses, so a field is named for its own fault and
 never for another's. A fault that needs two controls together (an outage ending before it
 starts is one control; LC with two beams, or Runs of a log, are the choices) is found by the
-whole set, checked last. The dashboard checks as you type (after a pause), marks the fields and
-names them all in one notification when Run is pressed.
+whole set, checked last. The current's four controls are one vector of the configuration and
+are checked together (:data:`CURRENT_FIELDS`). The dashboard checks as you type (after a pause),
+marks the fields and names them all in one notification when Run is pressed.
 """
 
 from __future__ import annotations
@@ -17,10 +18,13 @@ from typing import Any
 
 from app import control_table
 from app.controls import PLUGIN_FIELDS
-from app.inputs import Controls, InputError, config_from_controls, outage_labels
+from app.inputs import Controls, InputError, config_from_controls, outage_labels, parse_float
 from tauvcore.config import Config
 
 TYPED_WIDGETS = ("text",)
+CURRENT_FIELDS = ("current_speed", "current_toward", "current_shear", "current_variation")
+"""The current's controls (app.inputs.current_fields), checked together: one vector of the
+configuration."""
 
 
 def initial_controls() -> dict[str, Any]:
@@ -81,7 +85,10 @@ def problems(c: Controls, log_config: dict[str, Any] | None = None) -> dict[str,
             found[label] = message
 
     for entry in control_table.CONTROLS:
-        if entry.widget in TYPED_WIDGETS and getattr(c, entry.field) != getattr(base, entry.field):
+        if entry.field in CURRENT_FIELDS:
+            if entry.field == CURRENT_FIELDS[0]:
+                _check_current(c, base, log_config, shared, found)
+        elif entry.widget in TYPED_WIDGETS and getattr(c, entry.field) != getattr(base, entry.field):
             trial(entry.label, dataclasses.replace(base, **{entry.field: getattr(c, entry.field)}))
     for k, pair in enumerate(c.outages, start=1):
         if pair != base.outages[k - 1]:
@@ -97,6 +104,29 @@ def problems(c: Controls, log_config: dict[str, Any] | None = None) -> dict[str,
         if message is not None:
             found[message.split(":", 1)[0]] = message
     return found
+
+
+def _check_current(
+    c: Controls, base: Controls, log_config: dict[str, Any] | None, shared: str | None, found: dict[str, str]
+) -> None:
+    """The current's controls: each one that is not a number on its own, then (all numbers) the
+    four together, since speed and direction make one vector the configuration judges whole (a
+    speed checked at another control's default direction could be refused for a crab it does not
+    need). A fault of the four is keyed by the control its message names."""
+    changed = {f: getattr(c, f) for f in CURRENT_FIELDS if getattr(c, f) != getattr(base, f)}
+    if not changed:
+        return
+    labels = {e.field: e.label for e in control_table.CONTROLS if e.field in CURRENT_FIELDS}
+    for field, text in changed.items():
+        try:
+            parse_float(labels[field], text)
+        except InputError as exc:
+            found[labels[field]] = str(exc)
+    if any(labels[f] in found for f in changed):
+        return
+    message = _error(dataclasses.replace(base, **changed), log_config)
+    if message is not None and message != shared:
+        found[message.split(":", 1)[0]] = message
 
 
 def _plugin_label(key: str) -> str:

@@ -1,11 +1,12 @@
-"""Plotly figures of the vehicle: what the dynamic truth's vehicle did, how high it flew, and what
-Yoo 2014's velocity filter learned of its propeller.
+"""Plotly figures of the vehicle: what the dynamic truth's vehicle did, the ocean current it flew
+in, how high it flew, and what Yoo 2014's velocity filter learned of its propeller.
 
 The actuator figure shows the four fins and the propeller of the dynamic truth (tauvcore.truth.vehicle);
 the altitude figure how high the vehicle flew above the seabed, against the DVL's range and the
 velocity filter's switch to RPM; the VKF figure what that velocity filter learned of the propeller
-(Yoo 2014's ``vkf`` method). They draw arrays, not a MethodResult: the truth's series and the VKF's
-trace.
+(Yoo 2014's ``vkf`` method); the current figure the current at the vehicle (tauvcore.truth.current)
+and its speed through the water against over ground. They draw arrays, not a MethodResult: the
+truth's series and the VKF's trace.
 """
 
 from __future__ import annotations
@@ -384,5 +385,125 @@ def vkf_figure(
             "range": ranges[1],
             "title": {"text": "b [m/s]", "font": {"size": 11}},
         },
+    }
+    return make_figure(data, layout, validate)
+
+
+CURRENT_NORTH_NAME = "current north"
+CURRENT_EAST_NAME = "current east"
+WATER_SPEED_NAME = "through the water"
+GROUND_SPEED_NAME = "over ground"
+"""The current figure's traces (:func:`current_figure`)."""
+CURRENT_NORTH_COLOR = "#2166ac"
+CURRENT_EAST_COLOR = "#b2182b"
+WATER_SPEED_COLOR = "#1a9850"
+GROUND_SPEED_COLOR = TRUTH_COLOR
+
+
+def water_and_ground_speed_mps(
+    C_nb: np.ndarray, vel_water_b: np.ndarray, current_n_mps: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The vehicle's speed through the water and over ground.
+
+    Parameters
+    ----------
+    C_nb : numpy.ndarray
+        Attitude, body to NED, shape (T, 3, 3).
+    vel_water_b : numpy.ndarray
+        Velocity through the water, body frame, shape (T, 3) [m/s].
+    current_n_mps : numpy.ndarray
+        The current at the vehicle, NED, shape (T, 3) [m/s].
+
+    Returns
+    -------
+    speed_water_mps : numpy.ndarray
+        ``|vel_water_b|``, shape (T,) [m/s].
+    speed_ground_mps : numpy.ndarray
+        ``|C_nb vel_water_b + c_n|``, shape (T,) [m/s].
+    """
+    C, w, c = (np.asarray(a, float) for a in (C_nb, vel_water_b, current_n_mps))
+    ground_n = np.einsum("kij,kj->ki", C, w) + c
+    return np.linalg.norm(w, axis=1), np.linalg.norm(ground_n, axis=1)
+
+
+def current_figure(
+    t_s: np.ndarray,
+    current_n_mps: np.ndarray,
+    speed_water_mps: np.ndarray,
+    speed_ground_mps: np.ndarray,
+    height_px: int = 380,
+    max_points: int | None = 600,
+    validate: bool = False,
+) -> go.Figure:
+    """The ocean current at the vehicle and what it does to the vehicle's speed, against time: the
+    current's north and east parts [m/s] (top panel, traces CURRENT_NORTH_NAME and
+    CURRENT_EAST_NAME) and the speed through the water against the speed over ground [m/s]
+    (bottom panel, WATER_SPEED_NAME and GROUND_SPEED_NAME), on one shared time axis. The title
+    gives the current's mean speed and the direction it flows toward (clockwise from north).
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        Time, shape (T,) [s].
+    current_n_mps : numpy.ndarray
+        The current at the vehicle, NED, shape (T, 3) [m/s] (its down part is not drawn).
+    speed_water_mps : numpy.ndarray
+        Speed through the water, shape (T,) [m/s] (what the propeller's RPM measures).
+    speed_ground_mps : numpy.ndarray
+        Speed over ground, shape (T,) [m/s] (what the DVL's bottom lock measures).
+    height_px : int
+        The figure's height [px].
+    max_points : int or None
+        At most about this many points per trace (:func:`app.figures.decimate`, the last kept).
+    validate : bool
+        Let plotly check the figure's properties.
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+        The two-panel figure.
+    """
+    t_s, c = np.asarray(t_s, float), np.asarray(current_n_mps, float)
+    water, ground = np.asarray(speed_water_mps, float), np.asarray(speed_ground_mps, float)
+    if t_s.ndim != 1 or c.shape != (t_s.size, 3) or water.shape != t_s.shape or ground.shape != t_s.shape:
+        raise ValueError(
+            f"current_figure needs t_s (T,), current_n_mps (T, 3), speed_water_mps and speed_ground_mps "
+            f"(T,), got {t_s.shape}, {c.shape}, {water.shape} and {ground.shape}"
+        )
+    keep = decimate(t_s.size, max_points)
+    t = t_s[keep]
+    panels = (
+        (CURRENT_NORTH_NAME, c[keep, 0], CURRENT_NORTH_COLOR, "x", "y"),
+        (CURRENT_EAST_NAME, c[keep, 1], CURRENT_EAST_COLOR, "x", "y"),
+        (WATER_SPEED_NAME, water[keep], WATER_SPEED_COLOR, "x2", "y2"),
+        (GROUND_SPEED_NAME, ground[keep], GROUND_SPEED_COLOR, "x2", "y2"),
+    )
+    data: list[dict[str, Any]] = [
+        {
+            "type": "scatter",
+            "x": t,
+            "y": y,
+            "name": name,
+            "mode": "lines",
+            "line": {"color": color, "width": 1.8 if name != GROUND_SPEED_NAME else 1.5},
+            "xaxis": xaxis,
+            "yaxis": yaxis,
+        }
+        for name, y, color, xaxis, yaxis in panels
+    ]
+    mean_n, mean_e = (float(np.mean(c[:, k])) if t_s.size else 0.0 for k in (0, 1))
+    speed = float(np.hypot(mean_n, mean_e))
+    toward = float(np.degrees(np.arctan2(mean_e, mean_n)) % 360.0)
+    title = f"Current: mean {speed:.2f} m/s toward {toward:.0f} deg"
+    layout = {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
+        "legend": LEGEND_BELOW,
+        "template": "plotly_white",
+        "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
+        "yaxis": {"domain": [0.55, 1.0], "title": {"text": "current [m/s]", "font": {"size": 11}}},
+        "xaxis2": {"anchor": "y2", **TIME_AXIS},
+        "yaxis2": {"domain": [0.0, 0.45], "title": {"text": "speed [m/s]", "font": {"size": 11}}},
     }
     return make_figure(data, layout, validate)

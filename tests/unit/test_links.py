@@ -175,7 +175,8 @@ class _Tab:
         for name in ("trajectory", "truth", "duration", "vb_nf", "nsv_epsilon", "dropout", "rpm_fallback",
                      "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise",
                      "dvl_bias", "dvl_sf", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise", "seed",
-                     "runs", "smoother", "smoother_mb"):
+                     "runs", "smoother", "smoother_mb", "current_speed", "current_toward", "current_shear",
+                     "current_variation"):
             setattr(self, name, handle(getattr(DEFAULTS, name)))
         self.method_boxes = {m: handle(m in DEFAULTS.methods) for m in RUN_METHODS}
         self.beam_boxes = [handle(True) for _ in range(4)]

@@ -278,6 +278,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seabed_depth=spy("60"),
         dvl_max_altitude=spy("100"), switch_altitude=spy("100"), rpm_noise=spy("2"), seed=spy("0"), runs=spy("1"),
         smoother=spy(False), smoother_mb=spy("256"),
+        current_speed=spy("0"), current_toward=spy("0"), current_shear=spy("0"), current_variation=spy("0"),
         source=spy(source),     # the Source control of tauv serve --logs
         source_boxes={p.name: spy(False) for p in PLUGIN_SOURCES},
         source_fields={key: spy(value) for key, value in DEFAULT_SOURCE_FIELDS})
@@ -570,13 +571,14 @@ def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_
         changed = dataclasses.replace(
             DEFAULTS, trajectory="figure8", truth="dynamic", duration="1e3", methods=("lc", "vkf"), beams=(1, 3),
             outages=(("0", "0"), ("10", "20"), ("0", "0"), ("0", "0")), rpm_fallback=True,
-            seed="7", runs="2", aid_sources=tuple(p.name for p in PLUGIN_SOURCES))
+            seed="7", runs="2", aid_sources=tuple(p.name for p in PLUGIN_SOURCES), current_speed="0.5",
+            current_toward="90", current_shear="0.01", current_variation="0.1")
         for c in control_table.CONTROLS:
             control_table.write(panel, c, getattr(changed, c.field))
         assert controls() == changed
         confirmed = [h for c in control_table.CONTROLS for h in control_table.handles(panel, c)]
-        # 22 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
-        assert len({id(h) for h in confirmed}) == len(confirmed) == 22 + len(RUN_METHODS) + 4 + 8 + len(
+        # 26 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
+        assert len({id(h) for h in confirmed}) == len(confirmed) == 26 + len(RUN_METHODS) + 4 + 8 + len(
             PLUGIN_SOURCES) + len(DEFAULT_SOURCE_FIELDS)
     finally:
         server.stop()

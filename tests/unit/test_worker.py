@@ -380,6 +380,7 @@ def test_a_replayed_log_s_truth_view_has_no_seabed() -> None:
     dvl = types.SimpleNamespace(t_s=np.arange(5.0))
     view = log_truth_view(truth, Config(), dvl, 1)
     assert view["altitude_m"] is None and view["slant_range_m"] is None
+    assert view["current_n_mps"] is None and view["vel_water_b"] is None      # nor a current
 
 
 def test_stop_with_the_smoother_smooths_what_ran_however_long_it_takes(monkeypatch) -> None:
