@@ -16,7 +16,7 @@ from tauvcore.config import Config
 from tauvcore.eval.envelope import epochs_per_bin
 from tauvcore.sensors.dvl import slant_ranges_m
 from tauvcore.sensors.timing import epoch_indices_between
-from tauvcore.truth import TrajectoryConfig, Truth, truth_stream
+from tauvcore.truth import truth_stream
 from tauvcore.truth.current import current_field
 from tauvcore.truth.kinematic import bathymetry
 
@@ -71,7 +71,7 @@ def truth_view(config: Config, step: int, epochs_per_bin: int = 1) -> TruthView:
     seconds apart, too far for the central difference of their positions; None otherwise.
 
     In a current (tauvcore.truth.current) also ``current_n_mps`` (T, 3), the current at the vehicle,
-    NED [m/s] (:func:`current_at`), and ``vel_water_b`` (T, 3), the velocity through the water
+    NED [m/s] (``Truth.current_n_mps``), and ``vel_water_b`` (T, 3), the velocity through the water
     ``vel_b - C_nb^T c_n``, body [m/s]; both None in still water."""
     stream = truth_stream(config.trajectory, config.earth, config.imu.rate_hz, chunk_samples=step * 1000)
     seabed = bathymetry(config.trajectory)
@@ -93,9 +93,9 @@ def truth_view(config: Config, step: int, epochs_per_bin: int = 1) -> TruthView:
             rpm.append(chunk.vehicle.propeller_rpm[rows])
             fins.append(chunk.vehicle.fin_angles_rad[rows])
         if not still:
-            c_n = current_at(chunk, rows, config.trajectory)
-            current.append(c_n)
-            water.append(chunk.vel_b[rows] - np.einsum("kji,kj->ki", chunk.C_nb[rows], c_n))
+            assert chunk.current_n_mps is not None  # every truth records the current it flies in
+            current.append(chunk.current_n_mps[rows])
+            water.append(chunk.vel_water_b[rows])
     t_end = (stream.num_samples - 1) * stream.dt_s
     pings = (
         epoch_indices_between(
@@ -117,30 +117,6 @@ def truth_view(config: Config, step: int, epochs_per_bin: int = 1) -> TruthView:
         "current_n_mps": None if still else np.concatenate(current),
         "vel_water_b": None if still else np.concatenate(water),
     }
-
-
-def current_at(chunk: Truth, rows: np.ndarray, trajectory: TrajectoryConfig) -> np.ndarray:
-    """The current at the vehicle at ``rows`` of a truth ``chunk`` in a current.
-
-    Parameters
-    ----------
-    chunk : Truth
-        A chunk of the mission's truth (tauvcore.truth.truth_stream).
-    rows : numpy.ndarray
-        Its samples wanted, shape (T,).
-    trajectory : TrajectoryConfig
-        The mission, whose current is not still water.
-
-    Returns
-    -------
-    numpy.ndarray
-        The current, shape (T, 3), NED [m/s]: the chunk's own record (``Truth.current_n_mps``), or
-        for a truth that records none (the dynamic truth's chunks, which fly in the constant
-        ``trajectory.current_n_mps``: tauvcore.truth.dynamic.DynamicSimulation) that constant.
-    """
-    if chunk.current_n_mps is not None:
-        return chunk.current_n_mps[rows]
-    return np.broadcast_to(np.asarray(trajectory.current_n_mps, float), (len(rows), 3)).copy()
 
 
 def log_truth_view(truth: Any, config: Config, dvl: Any, step: int) -> TruthView:

@@ -341,7 +341,7 @@ def check_crab(profile: Profile, field: CurrentField, duration_s: float, referen
     if bad.size:
         k = int(bad[0])
         raise ConfigError(
-            f"trajectory.current_n_mps {show(list(field.constant_n_mps))}: the kinematic vehicle would "
+            f"trajectory.current_n_mps {show([float(c) for c in field.constant_n_mps])}: the kinematic vehicle would "
             f"crab {np.rad2deg(abs(chi[k])):.0f} deg at t = {t[k]:g} s (beyond {MAX_CRAB_DEG:g} deg it "
             f'flies sideways to hold its track); use trajectory.truth = "dynamic" or a weaker current'
         )
