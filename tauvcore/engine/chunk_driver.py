@@ -271,3 +271,17 @@ def cut(store: Store, last: Any, epoch_key: str, update_key: str) -> Store:
         name: (a[:, :T] if name == "series" else a[:T] if name in EPOCH_FIELDS else a[:U])
         for name, a in store.items()
     }
+
+
+def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
+    """Samples in ``(k_cov, k_end)`` at which the covariance is propagated (and the nominal state
+    stops), the covariance having been propagated last at ``k_cov``: every event (aiding or output
+    epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
+    stops: list[int] = []
+    prev = k_cov
+    for e in [int(e) for e in event_idx if e > k_cov] + [k_end]:
+        stops.extend(range(prev + cov_step, e, cov_step))
+        if e < k_end:
+            stops.append(e)
+        prev = e
+    return stops

@@ -45,7 +45,7 @@ from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine import loop, smoothing
-from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
+from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store, covariance_stops
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
     DVL_MODE_CODES,
@@ -62,7 +62,7 @@ from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Tape
-from tauvcore.engine.sources import active
+from tauvcore.engine.sources import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import (
     Measurement,
@@ -70,6 +70,7 @@ from tauvcore.filter.eskf import (
     condition_covariance,
     fuse_in_place,
     make_outcome,
+    widen,
 )
 from tauvcore.filter.kernels.common import CORE, NAV, plain
 from tauvcore.filter.kernels.dvl import (
@@ -82,8 +83,9 @@ from tauvcore.filter.kernels.dvl import (
     Ping,
     dvl_measure_bank,
 )
-from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
+from tauvcore.filter.layout import NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
+from tauvcore.validation import ConfigError
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -187,14 +189,20 @@ class FilterBank(ChunkDriver):
             self.rpm_aid = RpmAid(config.vkf, R)
             self.rpm_A_pinv = np.linalg.pinv(np.asarray(config.dvl.A_b, dtype=float))  # (3, 4): LC's A+
         self.check_step = max(1, round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ))
-        self.block_of_state = np.full(STATE.dim, -1)
-        for b, ix in enumerate(NEES_BLOCKS.values()):
+        # the error state: the layout's 20 and the states the sources add (tauvcore.filter.layout.Layout)
+        self.layout = layout_of(config)
+        if tape is not None and self.layout.num_extra:
+            blocks = ", ".join(b.name for b in self.layout.blocks)
+            raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
+        self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
+        self.block_of_state = np.full(self.layout.dim, -1)
+        for b, ix in enumerate(self.layout.nees_blocks.values()):
             self.block_of_state[list(ix)] = b
         self.p_floor_count = np.zeros(self.batch, dtype=int)
         self.nonfinite_at_s = np.full(self.batch, np.nan)  # first output epoch with a non-finite state or P
-        self.implausible_at_s = np.full(
-            self.batch, np.nan
-        )  # first aiding epoch with a sensor error outside its prior
+        # first aiding epoch with a sensor error outside its prior
+        self.implausible_at_s = np.full(self.batch, np.nan)
+        self._no_extra = np.zeros((0, 0))
         self.slot = 0  # output epochs recorded so far
         self.dvl_truth_known = True  # the mission has DVL pings (set at start)
 
@@ -203,7 +211,7 @@ class FilterBank(ChunkDriver):
         """Initial states from the first chunk (its truth and the initial-error draws); done by
         :meth:`feed` unless called first."""
         config, truth = self.config, chunk.truth
-        self.P0 = P0 = initial_covariance(config, truth.euler[0])
+        self.P0 = P0 = initial_covariance(config, truth.euler[0], self.layout)
         self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
         nom = initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
         arrays = [
@@ -219,11 +227,8 @@ class FilterBank(ChunkDriver):
             )
         ]
         self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf = arrays
-        self.initial_nav = (
-            self.pos[0].copy(),
-            self.vel[0].copy(),
-            self.C[0].copy(),
-        )  # per run (methods share it)
+        self.extra = np.zeros(self.batch + (self.layout.num_extra,))  # the sources' states start at zero
+        self.initial_nav = (self.pos[0].copy(), self.vel[0].copy(), self.C[0].copy())  # per run
         self.flat = (
             self.pos.reshape(-1, 3),
             self.vel.reshape(-1, 3),
@@ -232,6 +237,7 @@ class FilterBank(ChunkDriver):
             self.bg.reshape(-1, 3),
             self.bdvl.reshape(-1, 4),
             self.sf.reshape(-1),
+            self.extra.reshape(self.batch[0] * self.batch[1], self.layout.num_extra),
         )
         sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
         self.prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
@@ -265,6 +271,7 @@ class FilterBank(ChunkDriver):
             self.bg[sel],
             self.bdvl[sel],
             self.sf[sel],
+            self.extra[sel] if self.layout.num_extra else None,
         )
 
     # ------------------------------------------------------------------ the pieces of an epoch
@@ -306,10 +313,11 @@ class FilterBank(ChunkDriver):
         """One compiled gated correction and injection of the whole bank in place (inactive rows
         and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...).
         ``gate``: the gate's width [sigma], ``filter.gate_sigma`` if None."""
+        d = self.layout.dim
         fused = fuse_in_place(
-            self.P.reshape(-1, STATE.dim, STATE.dim),
+            self.P.reshape(-1, d, d),
             self.flat,
-            H,
+            widen(H, d),
             Rm,
             nu,
             active,
@@ -538,6 +546,7 @@ class FilterBank(ChunkDriver):
             self.ping_sf,
             self.nonfinite_at_s,
             self.phi_acc,
+            self.extra,
         )
         return plain(state)
 
@@ -548,9 +557,11 @@ class FilterBank(ChunkDriver):
             self.w_ie,
             self.q_psd,
             self.block_of_state,
-            len(NEES_BLOCKS),
+            len(self.layout.nees_blocks),
             units.DEG,
             SENSOR_INDEX,
+            self.extra_rate,
+            self.extra_q,
         )
         return plain(constants)
 
@@ -589,7 +600,7 @@ class FilterBank(ChunkDriver):
             "t_s": np.zeros(T),
             "out_k": outs,
             "series": np.zeros((len(loop.SERIES_NAMES), T) + self.batch),
-            "nees_block": np.zeros((T,) + self.batch + (len(NEES_BLOCKS),)),
+            "nees_block": np.zeros((T,) + self.batch + (len(self.layout.nees_blocks),)),
             "est_pos_n": np.zeros((T,) + self.batch + (3,)),
             "est_vel_n": np.zeros((T,) + self.batch + (3,)),
             "est_euler": np.zeros((T,) + self.batch + (3,)),
@@ -643,6 +654,7 @@ class FilterBank(ChunkDriver):
             ping_rows,
             np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
             np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
+            states_truth(self.config, truth) if self.layout.num_extra else self._no_extra,
         )
         self._chunk_in = chunk_in = plain(chunk_in)
         if self.taping is not None:
@@ -784,17 +796,3 @@ class FilterBank(ChunkDriver):
             )
             for m, method in enumerate(self.methods)
         }
-
-
-def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
-    """Samples in ``(k_cov, k_end)`` at which the covariance is propagated (and the nominal state
-    stops), the covariance having been propagated last at ``k_cov``: every event (aiding or output
-    epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
-    stops: list[int] = []
-    prev = k_cov
-    for e in [int(e) for e in event_idx if e > k_cov] + [k_end]:
-        stops.extend(range(prev + cov_step, e, cov_step))
-        if e < k_end:
-            stops.append(e)
-        prev = e
-    return stops
