@@ -23,6 +23,9 @@ IMU_INCREMENTS = ("dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "d
 IMU_RATES = ("gyro_x_rps", "gyro_y_rps", "gyro_z_rps", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2")
 DVL_BEAMS = dvl_beams.BEAMS
 DVL_BODY = ("vel_x_mps", "vel_y_mps", "vel_z_mps")
+DVL_WATER_TRACK = dvl_beams.WATER_TRACK
+DVL_BODY_WATER_TRACK = "water_track"
+"""A body velocity's mode column: 1 water-track, 0 bottom-track."""
 REF_VEL = ("vel_north_mps", "vel_east_mps", "vel_down_mps")
 REF_LOCAL = ("north_m", "east_m", "down_m")
 MAX_TIME_S = 1e20

@@ -462,6 +462,10 @@ def check_dvl(log: Log, files: Mapping[str, Path], notes: list[str]) -> None:
         columns, axes = [f"vel_{a}_mps" for a in _AXES], list(_AXES)
     else:
         return
+    if log.dvl_water_track is not None:
+        # a water-track velocity differs from the reference's over ground by the current: left out
+        water = log.dvl_water_track[rows]
+        meas = np.where(water if log.dvl_beams_mps is not None else water[:, :1], np.nan, meas)
     fit = Fit.of(pred, meas)
     factors = (-1.0, KNOTS, KM_PER_H, CM_PER_S, MM_PER_S)
     findings = judge(fit, MIN_SPEED_MPS, VELOCITY_SLOPE_FACTOR, factors)

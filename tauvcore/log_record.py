@@ -26,6 +26,9 @@ class Log:
     dvl_t_s: np.ndarray | None = None  # (M,) ping times [s]
     dvl_beams_mps: np.ndarray | None = None  # (M, 4) beam velocities, NaN where not returned
     dvl_body_mps: np.ndarray | None = None  # (M, 3) body velocity (NaN rows: invalid), if the log has that
+    dvl_water_track: np.ndarray | None = None  # (M, 4) bool: the beam's velocity (of a body velocity:
+    # the row's, each beam's projection) is water-track, relative to the water layer; None: every
+    # velocity bottom-track (a table without the mode columns)
     dvl_truth: Mapping[str, np.ndarray] = field(default_factory=dict)  # (M,) each: the DVL's true errors
     # a simulated log carries (tauvcore.aiding.dvl_beams: true_beam1_bias_mps, ..., true_scale_factor)
     notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user

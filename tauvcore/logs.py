@@ -17,7 +17,10 @@ column names, as everywhere in tauvcore (b: body forward-right-down; NED: north-
 configured Janus beams (empty or NaN: the beam did not return), or a body-frame velocity
 ``vel_x_mps``, ``vel_y_mps``, ``vel_z_mps`` with an optional ``valid`` (1/0, or true/false),
 which is projected onto the configured beams (``[dvl]`` of the configuration), so beams can be
-dropped synthetically (``--beams``, ``--outage``) as on simulated data.
+dropped synthetically (``--beams``, ``--outage``) as on simulated data. Each velocity is
+bottom-track (over ground) unless the table says it is water-track (relative to a layer of water
+below the DVL): beams by ``beam1_water_track`` .. ``beam4_water_track`` (all four, each 1 or 0,
+empty: 0), a body velocity by ``water_track`` (1 or 0). The filters fuse only bottom-track.
 
 ``depth`` (optional): ``depth_m``. ``attitude`` (optional, a magnetometer/AHRS attitude):
 ``roll``, ``pitch``, ``yaw`` each as ``_deg`` or ``_rad``.
@@ -60,6 +63,8 @@ from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_columns import (
     DVL_BEAMS,
     DVL_BODY,
+    DVL_BODY_WATER_TRACK,
+    DVL_WATER_TRACK,
     IMU_INCREMENTS,
     IMU_RATES,
     REF_LOCAL,
@@ -363,20 +368,19 @@ def _read_dvl(paths: dict[str, Path | None], out: dict, load: Load) -> None:
             check_finite(p, cols, DVL_BEAMS, allow_nan=True)
             check_within(p, cols, DVL_BEAMS)
             out["dvl_beams_mps"] = need_columns(p, cols, DVL_BEAMS, "beam velocities")
+            if any(n in cols for n in DVL_WATER_TRACK):
+                need_columns(p, cols, DVL_WATER_TRACK, "the beams' modes, 1 water-track or 0 bottom-track")
+                out["dvl_water_track"] = np.stack([_zero_one(p, cols, n) for n in DVL_WATER_TRACK], axis=-1)
         else:
             body = need_columns(p, cols, DVL_BODY, "a body velocity (or beam1_mps .. beam4_mps)")
             check_finite(p, cols, DVL_BODY, allow_nan=True)
             check_within(p, cols, DVL_BODY)
-            valid = cols.get("valid", np.ones(body.shape[0]))
-            check_finite(p, cols, ("valid",))
-            bad = ~np.isin(valid, (0.0, 1.0))
-            if bad.any():
-                row = int(np.argmax(bad))
-                raise LogError(
-                    f"{show_path(str(p))}: column 'valid', row {row + 1}: {show(float(valid[row]))} is not 0 or 1"
-                )
+            valid = _zero_one(p, cols, "valid") if "valid" in cols else np.ones(body.shape[0], dtype=bool)
+            if DVL_BODY_WATER_TRACK in cols:
+                water = _zero_one(p, cols, DVL_BODY_WATER_TRACK)
+                out["dvl_water_track"] = np.repeat(water[:, None], len(DVL_BEAMS), axis=1)
             body = body.copy()
-            body[valid == 0.0] = np.nan
+            body[~valid] = np.nan
             partial = np.isnan(body).any(axis=1) & ~np.isnan(body).all(axis=1)
             if partial.any():
                 row = int(np.argmax(partial))
@@ -392,6 +396,21 @@ def _read_dvl(paths: dict[str, Path | None], out: dict, load: Load) -> None:
             c.name: _column_of(p, cols, c) if c.name in cols else np.full(out["dvl_t_s"].shape, np.nan)
             for c in SOURCES["dvl"].truth_columns
         }
+
+
+def _zero_one(path: Path, cols: dict[str, np.ndarray], name: str) -> np.ndarray:
+    """Column ``name`` of the table ``cols`` (of ``path``) as a flag, each cell 1 or 0 (a mode
+    column's may be empty: 0); LogError at the first other value."""
+    mode = name != "valid"
+    check_finite(path, cols, (name,), allow_nan=mode)
+    v = cols[name]
+    bad = ~np.isin(v, (0.0, 1.0)) & ~(mode & np.isnan(v))
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise LogError(
+            f"{show_path(str(path))}: column {show(name)}, row {row + 1}: {show(float(v[row]))} is not 0 or 1"
+        )
+    return v == 1.0
 
 
 def _column_of(path: Path, cols: dict[str, np.ndarray], column: Column) -> np.ndarray:

@@ -6,11 +6,16 @@ It is fused by the methods themselves, not by the engine's update of a source
 their selector (tauvcore.aiding.dvl_loose, dvl_tight, dvl_partial) and Yoo 2014's filters read its
 beams through the compiled kernels (tauvcore.filter.kernels.dvl), and ``"dvl"`` in ``run.aiding``
 turns them on (:attr:`~tauvcore.aiding.source.AidingSource.methods_fuse`). ``[dvl]`` configures it
-(tauvcore.sensors.dvl.DvlConfig: error model, geometry, lever arm, beams, outages, dropout and
-bottom range). Its log table ``dvl`` holds ``t_s`` and ``beam1_mps`` .. ``beam4_mps`` (empty where
-a beam did not return); a simulated log adds each beam's true bias and the true scale factor. A
-recorded log may give a body velocity instead (tauvcore.logs reads both forms); on logged beams
-the configured beams, outages and dropout are applied as on simulated ones (:func:`from_log`).
+(tauvcore.sensors.dvl.DvlConfig: error model, geometry, lever arm, beams, outages, dropout,
+bottom range and water-track). Its log table ``dvl`` holds ``t_s`` and ``beam1_mps`` ..
+``beam4_mps`` (empty where a beam did not return), and, from a DVL that water-tracks,
+``beam1_water_track`` .. ``beam4_water_track``: 1 where the beam's velocity is water-track
+(relative to the water layer), 0 where it is bottom-track (a table without them is bottom-track
+throughout); a simulated log adds each beam's true bias and the true scale factor. A recorded log
+may give a body velocity instead (tauvcore.logs reads both forms); on logged beams the configured
+beams, outages and dropout are applied as on simulated ones (:func:`from_log`). The source's
+epochs (:class:`~tauvcore.aiding.source.SourceData`) hold the table's columns as the log does;
+:func:`pings` parts them into the bottom-track beams the methods fuse and the water-track beams.
 """
 
 from __future__ import annotations
@@ -24,12 +29,16 @@ from tauvcore.conventions import MAX_SPEED_MPS
 from tauvcore.sensors import dvl
 from tauvcore.sensors.dvl import DvlConfig, DvlData, DvlState
 from tauvcore.sensors.timing import Rng, uniform
+from tauvcore.truth.current import CurrentField
 from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
 from tauvcore.truth.world import World
 
 BEAMS = ("beam1_mps", "beam2_mps", "beam3_mps", "beam4_mps")
 """The beam velocity columns [m/s] of the log's ``dvl`` table."""
+WATER_TRACK = ("beam1_water_track", "beam2_water_track", "beam3_water_track", "beam4_water_track")
+"""The beams' mode columns of the log's ``dvl`` table: 1 water-track, 0 bottom-track (or none, where
+the beam's velocity is empty); present only for a DVL that water-tracks."""
 TRUE_BIASES = ("true_beam1_bias_mps", "true_beam2_bias_mps", "true_beam3_bias_mps", "true_beam4_bias_mps")
 TRUE_SCALE_FACTOR = "true_scale_factor"
 
@@ -85,8 +94,11 @@ class DvlSource(AidingSource):
         """
         return section.ideal()
 
-    def initial_state(self, section: DvlConfig, num_runs: int, world: World) -> tuple[DvlState, Bathymetry]:
-        """The random walks' state before the first ping and the seabed the beams are traced to.
+    def initial_state(
+        self, section: DvlConfig, num_runs: int, world: World
+    ) -> tuple[DvlState, Bathymetry, CurrentField | None]:
+        """The random walks' state before the first ping, the seabed the beams are traced to and
+        the current the water-track layer moves with.
 
         Parameters
         ----------
@@ -95,14 +107,15 @@ class DvlSource(AidingSource):
         num_runs : int
             Number of Monte Carlo runs R (the walks draw their turn-on values at the first chunk).
         world : World
-            What the vehicle flies through: its seabed (depths [m], NED).
+            What the vehicle flies through: its seabed (depths [m], NED) and its current [m/s].
 
         Returns
         -------
-        tuple[DvlState, Bathymetry]
-            Fresh bias and scale-factor walks (no ping yet), and ``world.seabed``.
+        tuple[DvlState, Bathymetry, CurrentField or None]
+            Fresh bias and scale-factor walks (no ping yet), ``world.seabed`` and
+            ``world.current`` (None: still water).
         """
-        return DvlState(), world.seabed  # the walks' state, and the seabed the beams are traced to
+        return DvlState(), world.seabed, world.current
 
     def simulate_chunk(
         self,
@@ -110,11 +123,11 @@ class DvlSource(AidingSource):
         k0: int,
         epochs: np.ndarray,
         section: DvlConfig,
-        state: tuple[DvlState, Bathymetry],
+        state: tuple[DvlState, Bathymetry, CurrentField | None],
         rngs: Mapping[str, Rng],
         num_runs: int,
         num_samples: int,
-    ) -> tuple[SourceData, tuple[DvlState, Bathymetry]]:
+    ) -> tuple[SourceData, tuple[DvlState, Bathymetry, CurrentField | None]]:
         """The pings within the chunk by eq. 15 plus errors (:func:`tauvcore.sensors.dvl.simulate_chunk`).
 
         Parameters
@@ -129,8 +142,9 @@ class DvlSource(AidingSource):
             The mission's IMU sample indices of the pings within the chunk, shape (E,) int.
         section : DvlConfig
             The ``[dvl]`` section (zero-noise when the run is ideal: :meth:`ideal`).
-        state : tuple[DvlState, Bathymetry]
-            The bias and scale-factor walks from the previous chunk, and the seabed.
+        state : tuple[DvlState, Bathymetry, CurrentField or None]
+            The bias and scale-factor walks (and the water-track noise's generator) from the
+            previous chunk, the seabed and the current.
         rngs : Mapping[str, Rng]
             A generator (or one per run) for each of ``dvl_bias``, ``dvl_scale_factor``,
             ``dvl_noise`` and ``dvl_dropout``.
@@ -141,12 +155,12 @@ class DvlSource(AidingSource):
 
         Returns
         -------
-        tuple[SourceData, tuple[DvlState, Bathymetry]]
+        tuple[SourceData, tuple[DvlState, Bathymetry, CurrentField or None]]
             The pings (:func:`source_data`: beams (E, R) each [m/s] along its axis, NaN where not
-            returned; true biases (E, R) [m/s] and scale factor (E, R) [-]) and the state for the
-            next chunk.
+            returned, with water-track their modes (E, R); true biases (E, R) [m/s] and scale
+            factor (E, R) [-]) and the state for the next chunk.
         """
-        walks, seabed = state
+        walks, seabed, current = state
         data, walks = dvl.simulate_chunk(
             truth,
             k0,
@@ -159,34 +173,44 @@ class DvlSource(AidingSource):
             rngs["dvl_dropout"],
             num_runs,
             seabed,
+            current,
         )
-        return source_data(data), (walks, seabed)
+        return source_data(data), (walks, seabed, current)
 
 
 def source_data(data: DvlData) -> SourceData:
-    """A DVL's pings as the source's epochs: its beams NaN where not returned, the true errors as
-    truth columns.
+    """A DVL's pings as the source's epochs, as its log table holds them: each beam's velocity,
+    bottom- or water-track, NaN where not returned (and with water-track each beam's mode); the
+    true errors as truth columns.
 
     Parameters
     ----------
     data : DvlData
-        M pings with the run axis present: ``y_beam_mps`` and ``available`` (M, R, 4), beam
-        velocities [m/s] along each beam's axis s_k; ``bias_mps`` (M, R, 4) [m/s];
-        ``scale_factor`` (M, R) [-].
+        M pings with the run axis present: ``y_beam_mps`` and ``available`` (M, R, 4), bottom-track
+        beam velocities [m/s] along each beam's axis s_k; ``y_water_mps`` and ``water_available``
+        (M, R, 4) or None, water-track ones [m/s]; ``bias_mps`` (M, R, 4) [m/s]; ``scale_factor``
+        (M, R) [-].
 
     Returns
     -------
     SourceData
-        ``t_s`` (M,) [s], ``index`` (M,) int; columns ``beam1_mps`` .. ``beam4_mps`` (M, R) [m/s];
-        truth columns ``true_beam1_bias_mps`` .. ``true_beam4_bias_mps`` (M, R) [m/s] and
-        ``true_scale_factor`` (M, R) [-].
+        ``t_s`` (M,) [s], ``index`` (M,) int; columns ``beam1_mps`` .. ``beam4_mps`` (M, R) [m/s],
+        and where ``data`` has water-track ``beam1_water_track`` .. ``beam4_water_track`` (M, R)
+        (1.0 water-track, 0.0 bottom-track or none); truth columns ``true_beam1_bias_mps`` ..
+        ``true_beam4_bias_mps`` (M, R) [m/s] and ``true_scale_factor`` (M, R) [-].
     """
+    values = {
+        n: np.where(data.available[..., i], data.y_beam_mps[..., i], np.nan) for i, n in enumerate(BEAMS)
+    }
+    if data.y_water_mps is not None and data.water_available is not None:
+        water = data.water_available
+        for i, n in enumerate(BEAMS):
+            values[n] = np.where(water[..., i], data.y_water_mps[..., i], values[n])
+        values.update({n: water[..., i].astype(float) for i, n in enumerate(WATER_TRACK)})
     return SourceData(
         t_s=data.t_s,
         index=np.asarray(data.index, dtype=np.int64),
-        values={
-            n: np.where(data.available[..., i], data.y_beam_mps[..., i], np.nan) for i, n in enumerate(BEAMS)
-        },
+        values=values,
         truth={
             **{n: data.bias_mps[..., i] for i, n in enumerate(TRUE_BIASES)},
             TRUE_SCALE_FACTOR: data.scale_factor,
@@ -200,23 +224,30 @@ def pings(data: SourceData | None, num_runs: int) -> DvlData:
     Parameters
     ----------
     data : SourceData or None
-        The DVL's epochs (:func:`source_data`, :func:`from_log`), each beam column (M, R) [m/s];
-        None: a log without a DVL.
+        The DVL's epochs (:func:`source_data`, :func:`from_log`), each beam column (M, R) [m/s],
+        with the mode columns where the DVL water-tracks; None: a log without a DVL.
     num_runs : int
         Number of Monte Carlo runs R (used only for None).
 
     Returns
     -------
     DvlData
-        ``t_s`` (M,) [s], ``index`` (M,) int, beams ``y_beam_mps`` (M, R, 4) [m/s] along each
-        beam's axis, ``available`` (M, R, 4) bool where finite, true ``bias_mps`` (M, R, 4) [m/s]
-        and ``scale_factor`` (M, R) [-], NaN where unknown; no pings (M = 0) for None.
+        ``t_s`` (M,) [s], ``index`` (M,) int, bottom-track beams ``y_beam_mps`` (M, R, 4) [m/s]
+        along each beam's axis, ``available`` (M, R, 4) bool where finite, true ``bias_mps``
+        (M, R, 4) [m/s] and ``scale_factor`` (M, R) [-], NaN where unknown; with the mode columns
+        the water-track beams ``y_water_mps`` (M, R, 4) [m/s] and ``water_available`` (M, R, 4),
+        else None; no pings (M = 0) for None.
     """
     if data is None:
         data = SourceData.empty(DvlSource.columns, num_runs)
     y = data.stacked(BEAMS)
     m, runs = y.shape[:2]
     truth = data.truth
+    y_water = water = None
+    if WATER_TRACK[0] in data.values:
+        water = (data.stacked(WATER_TRACK) > 0.5) & ~np.isnan(y)
+        y_water = np.where(water, y, np.nan)
+        y = np.where(water, np.nan, y)
     return DvlData(
         t_s=data.t_s,
         index=data.index,
@@ -226,6 +257,8 @@ def pings(data: SourceData | None, num_runs: int) -> DvlData:
         if TRUE_BIASES[0] in truth
         else np.full((m, runs, 4), np.nan),
         scale_factor=truth[TRUE_SCALE_FACTOR] if TRUE_SCALE_FACTOR in truth else np.full((m, runs), np.nan),
+        y_water_mps=y_water,
+        water_available=water,
     )
 
 
@@ -236,6 +269,7 @@ def from_log(
     truth: Mapping[str, np.ndarray],
     config: DvlConfig,
     rng: np.random.Generator,
+    water_track: np.ndarray | None = None,
 ) -> SourceData:
     """A log's pings under the configured beams, outages and dropout, as a simulation's would be
     (one run).
@@ -256,21 +290,30 @@ def from_log(
         The ``[dvl]`` section: its enabled beams, outages [s] and ``dropout_probability``.
     rng : numpy.random.Generator
         Draws the dropouts (M, 4), only when ``dropout_probability`` is positive.
+    water_track : numpy.ndarray or None, optional
+        Shape (M, 4) bool: the beam's velocity is water-track (the log's mode columns); None: the
+        log has none, every beam bottom-track.
 
     Returns
     -------
     SourceData
         ``t_s`` (M,) [s], ``index`` (M,) int, columns ``beam1_mps`` .. ``beam4_mps`` (M, 1)
-        [m/s], NaN where not returned, out of schedule or dropped; the truth columns given, (M, 1).
+        [m/s], NaN where not returned, out of schedule or dropped, and with ``water_track``
+        ``beam1_water_track`` .. ``beam4_water_track`` (M, 1) (1.0 water-track, else 0.0); the
+        truth columns given, (M, 1).
     """
     available = ~np.isnan(beams_mps) & config.scheduled_availability(t_s)
     if config.dropout_probability > 0:
         available &= uniform(rng, beams_mps.shape) >= config.dropout_probability
     y = np.where(available, beams_mps, np.nan)
+    values = {n: y[:, i, None] for i, n in enumerate(BEAMS)}
+    if water_track is not None:
+        water = np.asarray(water_track, dtype=bool) & available
+        values.update({n: water[:, i, None].astype(float) for i, n in enumerate(WATER_TRACK)})
     return SourceData(
         t_s=t_s,
         index=np.asarray(index, dtype=np.int64),
-        values={n: y[:, i, None] for i, n in enumerate(BEAMS)},
+        values=values,
         truth={c.name: truth[c.name][:, None] for c in DvlSource.truth_columns if c.name in truth},
     )
 

@@ -18,6 +18,8 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
     frame = "frd_ned"
     mounting_rpy_deg = [0.0, 0.0, 0.0]   # the DVL's frame in the body, v_b = C_b_dvl v_dvl (ZYX);
                                          # without it, /tf_static's (tauvcore.bags.tf)
+    # water_track = true       # every velocity of the topic is water-track (false: bottom-track);
+                               # without it, each message's velocity_mode where it has one
 
     [usbl]                     # a plug-in source's table: only by name, of a type it declares
     topic = "/usbl/fix"
@@ -91,7 +93,8 @@ them, or none)."""
 COMMON_KEYS = ("topic", "frame", "time", "offset_s")
 BUILT_IN_KEYS: dict[str, tuple[str, ...]] = {
     "imu": COMMON_KEYS + ("form", "velocity_topic"),
-    "dvl": COMMON_KEYS + ("mounting_rpy_deg", "form", "beam_ids", "beam_velocity_sign", "beam_tolerance_deg"),
+    "dvl": COMMON_KEYS
+    + ("mounting_rpy_deg", "form", "beam_ids", "beam_velocity_sign", "beam_tolerance_deg", "water_track"),
     "depth": COMMON_KEYS + ("water_density_kgpm3", "gravity_mps2", "atmospheric_pa"),
     "attitude": COMMON_KEYS,
     "reference": COMMON_KEYS + ("orientation_topic", "depth_topic"),
@@ -115,7 +118,7 @@ TABLE_KEYS: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(PLUGIN_MESSAGES, COMMON_KEYS),
 }
 """Each table's keys (docs/bags.md): ``topic``, ``frame`` (:data:`~tauvcore.bags.frames.FRAMES`),
-``time`` (:data:`TIMES`), ``offset_s`` [s]; the DVL's mounting, form and beams; the depth's water
+``time`` (:data:`TIMES`), ``offset_s`` [s]; the DVL's mounting, form, beams and mode; the depth's water
 and air; a geodetic reference's orientation and depth topics; a plug-in source's table
 (:data:`PLUGIN_MESSAGES`) the common keys."""
 BASE_FRAME = "base_link"
@@ -291,6 +294,13 @@ def _value(path: str, key: str, name: str, value: Any) -> Any:
                 f"1 to 4) are needed, got {show(value)}"
             )
         return tuple(value)
+    if name == "water_track":
+        if not isinstance(value, bool):
+            raise LogError(
+                f"{_where(path, key)}: true (the topic's velocities are water-track) or false "
+                f"(bottom-track) is needed, got {show(value)}"
+            )
+        return value
     if name == "beam_velocity_sign":
         if value not in (1, -1) or isinstance(value, bool):
             raise LogError(f"{_where(path, key)}: 1 or -1 is needed, got {show(value)}")

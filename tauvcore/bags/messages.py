@@ -2,17 +2,21 @@
 (:data:`LAYOUTS`), as the bag's own frames and units have them (tauvcore.bags.reader converts).
 
 A DVL message with per-beam data gives its body velocity and validity, four beam velocities and
-validities, four beam directions and four beam ids (NaN where the message has none):
+validities, four beam directions, four beam ids and whether it is water-track (NaN where the
+message has none):
 
 - ``marine_acoustic_msgs/Dvl``: ``beam_velocity`` along ``beam_unit_vec``, valid where
   ``beam_velocities_valid``; the body velocity valid with at least 3 ``num_good_beams``;
+  water-track where ``velocity_mode`` is ``DVL_MODE_WATER`` (2), else bottom-track;
 - ``ds_sensor_msgs/Dvl``: ``raw_velocity`` along ``beam_unit_vec`` when ``coordinate_mode`` is
-  beam coordinates (0), else no beams; the body velocity as marine_acoustic_msgs';
+  beam coordinates (0), else no beams; the body velocity and the mode as marine_acoustic_msgs';
 - ``cola2_msgs/DVL`` and ``uuv_sensor_ros_plugins_msgs/DVL``: four ``beams`` (else none), each
   valid where its ``range`` is not negative, its direction the x axis of its ``pose``; the body
   velocity invalid where ``velocity_covariance[0]`` is negative (their -1);
 - ``waterlinked_a50_ros_driver/DVL``: four ``beams`` with their ``id`` and ``valid`` (no
   directions: the mapping's ``beam_ids`` says which is which); ``velocity_valid``.
+
+The last three say nothing of the mode (the bag mapping's ``water_track`` may).
 
 The other types' rows are plain numeric fields (:data:`FIELDS`), which :class:`RawDecoder` reads
 straight from many messages' serialised bytes at once (a topic of a 200 Hz IMU or reference holds
@@ -35,6 +39,12 @@ from tauvcore.bags.scan import KINDS, fixed_rows
 
 NAN = float("nan")
 _NO_BEAMS = (NAN,) * 4 + (0.0,) * 4 + (NAN,) * 12 + (NAN,) * 4
+DVL_MODE_WATER = 2
+"""``velocity_mode`` of a water-track ping (marine_acoustic_msgs' and ds_sensor_msgs' ``DVL_MODE_WATER``)."""
+
+
+def _water(m: Any) -> float:
+    return 1.0 if m.velocity_mode == DVL_MODE_WATER else 0.0
 
 
 def _vec(v: Any) -> tuple[float, float, float]:
@@ -62,27 +72,29 @@ def _marine_acoustic(m: Any) -> tuple[float, ...]:
         *(valid,) * 4,
         *dirs,
         *(NAN,) * 4,
+        _water(m),
     )
 
 
 def _ds(m: Any) -> tuple[float, ...]:
     body = (*_vec(m.velocity), 1.0 if m.num_good_beams >= 3 else 0.0)
     if m.coordinate_mode != 0:  # x, y, z, error: no beams
-        return body + _NO_BEAMS
+        return body + _NO_BEAMS + (_water(m),)
     dirs = [c for v in m.beam_unit_vec for c in _vec(v)]
-    return body + (*(float(v) for v in m.raw_velocity), *(1.0,) * 4, *dirs, *(NAN,) * 4)
+    return body + (*(float(v) for v in m.raw_velocity), *(1.0,) * 4, *dirs, *(NAN,) * 4, _water(m))
 
 
 def _uuv(m: Any) -> tuple[float, ...]:
     body = (*_vec(m.velocity), 0.0 if m.velocity_covariance[0] < 0 else 1.0)
     beams = m.beams
     if len(beams) != 4:
-        return body + _NO_BEAMS
+        return body + _NO_BEAMS + (NAN,)
     return body + (
         *(b.velocity for b in beams),
         *(1.0 if b.range >= 0 else 0.0 for b in beams),
         *(c for b in beams for c in _beam_axis(b.pose.pose.orientation)),
         *(NAN,) * 4,
+        NAN,
     )
 
 
@@ -90,17 +102,18 @@ def _waterlinked(m: Any) -> tuple[float, ...]:
     body = (*_vec(m.velocity), 1.0 if m.velocity_valid else 0.0)
     beams = m.beams
     if len(beams) != 4:
-        return body + _NO_BEAMS
+        return body + _NO_BEAMS + (NAN,)
     return body + (
         *(b.velocity for b in beams),
         *(1.0 if b.valid else 0.0 for b in beams),
         *(NAN,) * 12,
         *(float(b.id) for b in beams),
+        NAN,
     )
 
 
 _DVL = {"body": slice(0, 3), "body_valid": slice(3, 4), "beams": slice(4, 8), "beam_valid": slice(8, 12),
-        "dirs": slice(12, 24), "ids": slice(24, 28)}  # fmt: skip
+        "dirs": slice(12, 24), "ids": slice(24, 28), "water": slice(28, 29)}  # fmt: skip
 _POSE = {"position": slice(0, 3), "quaternion": slice(3, 7)}
 
 

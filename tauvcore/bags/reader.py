@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.source import BagMessage
+from tauvcore.bags.dvl_table import dvl_columns
 from tauvcore.bags.frames import (
     C_nb_from_quaternion,
     body_vectors,
@@ -30,7 +31,6 @@ from tauvcore.bags.frames import (
 from tauvcore.bags.increments import increment_columns
 from tauvcore.bags.mapping import (
     ATMOSPHERIC_PA,
-    DVL_BEAM_TOLERANCE_DEG,
     EXTRA_TOPICS,
     GRAVITY_MPS2,
     PLUGIN_COLUMNS,
@@ -543,7 +543,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             columns = _imu(part, rule, own)
         elif table == "dvl":
             assert mounting is not None  # read_topics finds it wherever there is a DVL
-            columns = _dvl(bag, kind, part, rule, beam_directions_b, mounting.C_b_dvl, notes)
+            columns = dvl_columns(bag, part, rule, beam_directions_b, mounting.C_b_dvl, notes)
         elif table == "depth":
             columns = {"depth_m": _depth(kind, part, rule)}
         elif table == "attitude":
@@ -611,81 +611,6 @@ def _plugin(
                 values = np.sqrt(values)
         out.update({name: values[:, i].copy() for i, name in enumerate(f.columns)})
     return {c: out.get(c, np.full(data.shape[0], np.nan)) for c in columns}
-
-
-def _dvl(
-    bag: str,
-    kind: str,
-    part: Mapping[str, np.ndarray],
-    rule: TopicRule,
-    A_b: np.ndarray,
-    C_b_dvl: np.ndarray,
-    notes: list[str],
-) -> dict[str, np.ndarray]:
-    """The DVL's table: per-beam velocities along the configured beams where the message has them
-    and they match, else the body velocity (rotated by the mounting ``C_b_dvl`` (3, 3), in FRD)."""
-    form = rule.option("form", "auto")
-    where = f"{show_path(bag)}: topic {show(rule.topic)} (dvl)"
-    if "beams" in part and form != "body":
-        beams = _beams(where, part, rule, A_b, C_b_dvl)
-        if beams is not None:
-            return {f"beam{k + 1}_mps": beams[:, k] for k in range(4)}
-        if form == "beams":
-            raise LogError(
-                f"{where}: form = 'beams', but its messages have no beam velocities with beam directions "
-                "(or, for a message without directions, no beam_ids in the mapping)"
-            )
-        notes.append(f"{where}: no per-beam data; its body velocity is projected onto the configured beams")
-    body = body_vectors(part["body"], rule.frame) @ C_b_dvl.T
-    return {
-        "vel_x_mps": body[:, 0],
-        "vel_y_mps": body[:, 1],
-        "vel_z_mps": body[:, 2],
-        "valid": part["body_valid"][:, 0],
-    }
-
-
-def _beams(
-    where: str, part: Mapping[str, np.ndarray], rule: TopicRule, A_b: np.ndarray, C_b_dvl: np.ndarray
-) -> np.ndarray | None:
-    """The messages' beam velocities along the configured beams (M, 4), NaN where not valid; None
-    where the messages have no beams that can be placed."""
-    sign = rule.option("beam_velocity_sign", 1.0)
-    velocity = np.where(part["beam_valid"] > 0.5, part["beams"] * sign, np.nan)
-    m = velocity.shape[0]
-    dirs = part["dirs"].reshape(m, 4, 3)
-    have: np.ndarray = np.asarray(np.isfinite(dirs).all(axis=(1, 2)))  # the messages with directions
-    out = np.full((m, 4), np.nan)
-    if have.any():
-        u = body_vectors(dirs.reshape(-1, 3), rule.frame).reshape(m, 4, 3) @ C_b_dvl.T
-        with np.errstate(invalid="ignore", divide="ignore"):
-            u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-        first = int(np.argmax(have))
-        cos = u[first] @ A_b.T  # (message beam, configured beam)
-        order = np.argmax(cos, axis=1)
-        tolerance = rule.option("beam_tolerance_deg", DVL_BEAM_TOLERANCE_DEG)
-        limit = np.cos(tolerance * DEG)
-        cos_all = np.einsum("mij,ij->mi", u, A_b[order])  # each message beam against its configured beam
-        off = have[:, None] & ~(cos_all >= limit)
-        if len(set(order.tolist())) != 4 or off.any():
-            row, beam = (int(v) for v in np.argwhere(off)[0]) if off.any() else (first, 0)
-            angle = float(np.degrees(np.arccos(np.clip(cos_all[row, beam], -1.0, 1.0))))
-            raise LogError(
-                f"{where}, message {row + 1}: its beam {beam + 1} points {angle:.3g} deg from the nearest "
-                f"configured beam (beam {int(order[beam]) + 1}; at most {tolerance:g} deg; the configured beams "
-                "are a Janus at [dvl] beam_pitch_deg, yaw 45 + 90 (k - 1) deg): set the DVL's frame, "
-                "mounting_rpy_deg or beam_pitch_deg, or form = 'body' to use its body velocity"
-            )
-        out[:, order] = np.where(have[:, None], velocity, np.nan)
-        return out
-    ids = rule.option("beam_ids", None)
-    if ids is None or not np.isfinite(part["ids"]).any():
-        return None
-    for k, beam_id in enumerate(ids):
-        match = part["ids"] == beam_id
-        out[:, k] = np.where(match.any(axis=1), np.nansum(np.where(match, velocity, 0.0), axis=1), np.nan)
-        out[match.any(axis=1) & np.isnan(np.where(match, velocity, 0.0)).any(axis=1), k] = np.nan
-    return out
 
 
 def _reference(

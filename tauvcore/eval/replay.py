@@ -258,8 +258,8 @@ def _epochs(log: Log, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Without a reference, where the filters start: the attitude sensor's first row, the first
-    valid DVL velocity (a body velocity, or the least squares of three or more beams; none: at
-    rest) turned to NED with that attitude, at the configured origin and the starting depth
+    valid bottom-track DVL velocity (a body velocity, or the least squares of three or more beams;
+    none: at rest) turned to NED with that attitude, at the configured origin and the starting depth
     (the depth sensor's first row). Returned as one-row reference arrays (position, Euler, NED
     velocity; the position geodetic on WGS-84, NED from the surface point on the flat earth)."""
     attitude = log.table("mag", EULER)
@@ -273,12 +273,17 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
     vel_b = np.zeros(3)
     if log.dvl_body_mps is not None:
         ok = np.isfinite(log.dvl_body_mps).all(axis=1)
+        if log.dvl_water_track is not None:
+            ok &= ~log.dvl_water_track[:, 0]
         if ok.any():
             vel_b = log.dvl_body_mps[np.argmax(ok)]
     elif log.dvl_beams_mps is not None:
-        ok = np.isfinite(log.dvl_beams_mps).sum(axis=1) >= 3
+        beams = log.dvl_beams_mps
+        if log.dvl_water_track is not None:  # over ground: bottom-track beams only
+            beams = np.where(log.dvl_water_track, np.nan, beams)
+        ok = np.isfinite(beams).sum(axis=1) >= 3
         if ok.any():
-            y = log.dvl_beams_mps[np.argmax(ok)]
+            y = beams[np.argmax(ok)]
             use = np.isfinite(y)
             vel_b = np.linalg.lstsq(config.dvl.A_b[use], y[use], rcond=None)[0]
     depth = config.trajectory.depth_m
@@ -479,7 +484,8 @@ def _log_sources(
         else:
             y = _column(log, log.dvl_body_mps, "DVL velocity")[keep] @ config.dvl.A_b.T
         truths = {name: values[keep] for name, values in log.dvl_truth.items()}
-        sources["dvl"] = dvl_beams.from_log(t_s[k], k, y, truths, config.dvl, rng)
+        water = None if log.dvl_water_track is None else log.dvl_water_track[keep]
+        sources["dvl"] = dvl_beams.from_log(t_s[k], k, y, truths, config.dvl, rng, water)
     for name, table in log.sources.items():
         k, keep = _epochs(log, table["t_s"])
         source = SOURCES[name]

@@ -17,6 +17,11 @@ bottom lock. ``beyond_range = "lost"``: it returns nothing, and the availability
 partial-beam methods read says so; ``"noisy"``: Yoo 2014's own model (section 3.2, eq. 30-32),
 it returns with ``beyond_range_noise_mps`` (5 m/s) of extra white noise and is marked available,
 so only a gate or an echo sounder can tell.
+
+Water-track (``water_track``): beyond bottom-track range a DVL still measures its velocity
+relative to a layer of water ``water_layer_m`` below the head (:func:`simulate_chunk`). Its pings
+(:class:`DvlData` ``y_water_mps``) are apart from the bottom-track ones the filters fuse
+(``y_beam_mps``): fusing them needs the current as a state.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from tauvcore.sensors.timing import (
     standard_normal,
     uniform,
 )
+from tauvcore.truth.current import CurrentField
 from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
 from tauvcore.validation import (
@@ -49,6 +55,11 @@ from tauvcore.validation import (
 )
 
 BEYOND_RANGE = ("lost", "noisy")
+WATER_TRACK = ("off", "beyond_range", "always")
+"""``off``: bottom-track only; ``beyond_range``: a beam without bottom lock water-tracks instead;
+``always``: every beam water-tracks (bottom-track off by configuration)."""
+MODE_NONE, MODE_BOTTOM, MODE_WATER = 0, 1, 2
+"""A beam's mode at a ping (:attr:`DvlData.mode`): no return, bottom-track, water-track."""
 MAX_OUTAGES = 1000
 """Scheduled outage windows per run: a schedule, not a per-ping mask (random losses are
 ``dropout_probability``); each window is applied to every ping."""
@@ -149,6 +160,23 @@ class DvlConfig:
     beyond_range_noise_mps: float = setting(
         5.0, "beyond-range noise", "m/s", 0.0, 100.0, hint="extra noise of a noisy beam beyond range"
     )  # Yoo: 5 m/s; [0, 100]
+    water_track: str = setting(
+        "off", "water-track", hint='"off", "beyond_range" (beams without bottom lock) or "always"'
+    )
+    # checked below: one of WATER_TRACK; "beyond_range" only with beyond_range = "lost" (a "noisy"
+    # beam beyond range returns a bottom-track velocity, so it never lacks one to replace)
+    water_layer_m: float = setting(
+        10.0, "water layer", "m", 0.5, 11000.0, hint="from the head down to the tracked layer's centre"
+    )
+    # >= 0.5: nearer, the transducer still rings (a DVL's blanking distance) and the hull drags the
+    # water along; below max_altitude_m (checked below): the layer's echo is weaker than the seabed's
+    water_track_noise_mps: float = setting(
+        0.1, "water-track noise", "m/s", 0.0, 1.0, hint="1-sigma white noise per water-tracking beam"
+    )
+    # 0.1, 2.4 times bottom-track's 0.042: the echo of a layer of water is scattered back by weak
+    # scatterers (plankton, particles) spread through the layer, not by one strong seabed, and they
+    # move with the water's turbulence within it, so a single ping's Doppler estimate is several
+    # times noisier; <= 1 as noise_mps
 
     def __post_init__(self) -> None:
         check_settings("dvl", self)  # the numbers and the lever arm
@@ -161,6 +189,17 @@ class DvlConfig:
             if not isinstance(outage, Outage):
                 raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {show(outage)}")
         require_choice("dvl.beyond_range", self.beyond_range, BEYOND_RANGE)
+        require_choice("dvl.water_track", self.water_track, WATER_TRACK)
+        if self.water_track == "beyond_range" and self.beyond_range == "noisy":
+            raise ConfigError(
+                'dvl.water_track "beyond_range" needs dvl.beyond_range "lost", got "noisy" (a noisy beam '
+                "beyond range keeps returning its bottom-track velocity)"
+            )
+        if self.water_track != "off" and self.water_layer_m >= self.max_altitude_m:
+            raise ConfigError(
+                f"dvl.water_layer_m {self.water_layer_m:g} m lies beyond the DVL's range "
+                f"dvl.max_altitude_m {self.max_altitude_m:g} m"
+            )
 
     def ideal(self) -> DvlConfig:
         """The same DVL (geometry, lever arm, beams) with every error set to zero.
@@ -169,8 +208,8 @@ class DvlConfig:
         -------
         DvlConfig
             This configuration's rate [Hz], beam pitch [deg], lever arm [m], beams, outages,
-            dropout probability and range settings, with zero noise, bias, bias walk, scale
-            factor and scale factor walk.
+            dropout probability, range and water-track settings, with zero noise, bias, bias
+            walk, scale factor, scale factor walk and water-track noise.
         """
         return DvlConfig(
             rate_hz=self.rate_hz,
@@ -187,6 +226,9 @@ class DvlConfig:
             max_altitude_m=self.max_altitude_m,
             beyond_range=self.beyond_range,
             beyond_range_noise_mps=self.beyond_range_noise_mps,
+            water_track=self.water_track,
+            water_layer_m=self.water_layer_m,
+            water_track_noise_mps=0.0,
         )
 
     @property
@@ -248,16 +290,35 @@ class DvlConfig:
 
 @dataclass(frozen=True)
 class DvlData:
-    """DVL pings with the true error states; M pings, run axis R optional."""
+    """DVL pings with the true error states; M pings, run axis R optional.
+
+    A beam at a ping is in one mode (:attr:`mode`): no return, bottom-track (``available``: its
+    velocity over ground in ``y_beam_mps``, what the filters fuse) or water-track
+    (``water_available``: its velocity relative to the water layer in ``y_water_mps``), never both.
+    """
 
     t_s: np.ndarray  # (M,) ping times [s]
     index: np.ndarray  # (M,) IMU sample index of each ping
-    y_beam_mps: np.ndarray  # (M, [R,] 4) beam velocities (NaN where not returned) [m/s]
-    available: np.ndarray  # (M, [R,] 4) bool, beam returned
+    y_beam_mps: np.ndarray  # (M, [R,] 4) bottom-track beam velocities (NaN where not returned) [m/s]
+    available: np.ndarray  # (M, [R,] 4) bool, beam returned bottom-track
     bias_mps: np.ndarray  # (M, [R,] 4) true beam biases [m/s]
     scale_factor: np.ndarray  # (M, [R]) true scale factor error [-]
     slant_range_m: np.ndarray | None = None  # (M, 4) range from the head to the seabed along each beam, inf
     # beyond max_range_m [m]; None: no seabed given (a log, a test)
+    y_water_mps: np.ndarray | None = None  # (M, [R,] 4) water-track beam velocities, relative to the
+    # layer (NaN where the beam did not water-track) [m/s]; None: a DVL that does not water-track
+    # (water_track "off", a log without the mode)
+    water_available: np.ndarray | None = None  # (M, [R,] 4) bool, beam returned water-track; None
+    # with y_water_mps
+
+    @property
+    def mode(self) -> np.ndarray:
+        """(M, [R,] 4) int8: each beam's mode at each ping, :data:`MODE_NONE` (0),
+        :data:`MODE_BOTTOM` (1) or :data:`MODE_WATER` (2)."""
+        mode = np.where(self.available, MODE_BOTTOM, MODE_NONE).astype(np.int8)
+        if self.water_available is not None:
+            mode[self.water_available] = MODE_WATER
+        return mode
 
 
 def beam_velocity(
@@ -307,6 +368,8 @@ class DvlState:
 
     bias: WalkState = field(default_factory=WalkState)  # beam bias walk, one step per ping
     scale_factor: WalkState = field(default_factory=WalkState)  # scale factor walk, one step per ping
+    water_noise: Rng | None = None  # the water-track noise's generator(s): a child of the noise
+    # stream's (one per run with per-run streams), spawned at the first chunk; None until then
 
 
 def simulate(
@@ -315,6 +378,7 @@ def simulate(
     rng: np.random.Generator,
     num_runs: int | None = None,
     seabed: Bathymetry | None = None,
+    current: CurrentField | None = None,
 ) -> DvlData:
     """Pings of the whole mission as one chunk, every draw from ``rng``.
 
@@ -328,24 +392,31 @@ def simulate(
     config : DvlConfig
         The DVL's rate [Hz], geometry, lever arm and error model (1-sigma values).
     rng : numpy.random.Generator
-        Generator of every draw (bias, scale factor, noise, dropout).
+        Generator of every draw (bias, scale factor, noise, dropout; the water-track noise from a
+        child of it).
     num_runs : int or None, optional
         Number of Monte Carlo runs R, drawn as an array axis after the pings; None: a single run
         (no run axis).
     seabed : Bathymetry or None, optional
         The mission's seabed (tauvcore.truth.seabed) the beams are traced to; None: no range limit,
         every beam in its schedule returns.
+    current : CurrentField or None, optional
+        The water's current (tauvcore.truth.current) the water-track layer moves with; None: still
+        water.
 
     Returns
     -------
     DvlData
-        M pings: times ``t_s`` (M,) [s], IMU sample indices ``index`` (M,), beam velocities
-        ``y_beam_mps`` (M, [R,] 4) [m/s] (NaN where not returned), ``available`` (M, [R,] 4) bool,
-        true beam biases ``bias_mps`` (M, [R,] 4) [m/s], scale factor error ``scale_factor``
-        (M, [R]) [-] and, with a seabed, ``slant_range_m`` (M, 4) [m].
+        M pings: times ``t_s`` (M,) [s], IMU sample indices ``index`` (M,), bottom-track beam
+        velocities ``y_beam_mps`` (M, [R,] 4) [m/s] (NaN where not returned), ``available``
+        (M, [R,] 4) bool, true beam biases ``bias_mps`` (M, [R,] 4) [m/s], scale factor error
+        ``scale_factor`` (M, [R]) [-], with a seabed ``slant_range_m`` (M, 4) [m], and when the
+        DVL water-tracks ``y_water_mps`` (M, [R,] 4) [m/s] and ``water_available`` (M, [R,] 4).
     """
     index = epoch_indices(truth, config.rate_hz)
-    data, _ = simulate_chunk(truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs, seabed)
+    data, _ = simulate_chunk(
+        truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs, seabed, current
+    )
     return data
 
 
@@ -381,6 +452,47 @@ def slant_ranges_m(truth: Truth, rows: np.ndarray, config: DvlConfig, seabed: Ba
     return seabed.slant_range_m(head[:, None, :], beams_n, config.max_range_m)
 
 
+def water_layer(
+    truth: Truth, rows: np.ndarray, config: DvlConfig, slant_range_m: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The water-track layer's depth and the beams that reach it at the truth's ``rows``.
+
+    The layer's centre lies ``water_layer_m`` below the head (the IMU's depth plus the lever arm's
+    down part, ``(C_nb l_dvl_b)_z``). Beam k, at ``cos_k = (C_nb b_k)_z`` from the vertical, meets
+    it after ``water_layer_m / cos_k``; it water-tracks if it points down, that slant distance is
+    within ``max_range_m`` and the seabed along the beam lies beyond it (else the beam sees the
+    bottom before the layer).
+
+    Parameters
+    ----------
+    truth : Truth
+        True motion: depth ``depth_m`` (K,) [m] and attitude ``C_nb`` (K, 3, 3) [-], body to NED.
+    rows : numpy.ndarray
+        Rows of ``truth`` at the pings, shape (M,), integer indices.
+    config : DvlConfig
+        The DVL: lever arm [m], beam directions, ``water_layer_m`` [m], ``max_range_m`` [m].
+    slant_range_m : numpy.ndarray or None
+        Range to the seabed along each beam (:func:`slant_ranges_m`), shape (M, 4) [m], inf beyond
+        ``max_range_m``; None: no seabed (every beam that points down far enough reaches it).
+
+    Returns
+    -------
+    depth_m : numpy.ndarray
+        The layer's depth, shape (M,) [m], positive down.
+    reaches : numpy.ndarray
+        Shape (M, 4) bool: beam k-1 reaches the layer.
+    """
+    C = truth.C_nb[rows]
+    depth = truth.depth_m[rows] + np.einsum("mj,j->m", C[:, 2, :], config.l_dvl_b) + config.water_layer_m
+    cos_down = np.einsum("mj,kj->mk", C[:, 2, :], config.A_b)
+    down = cos_down > 0.0  # a beam level or pointing up never meets the layer
+    distance = np.where(down, config.water_layer_m / np.where(down, cos_down, 1.0), np.inf)
+    reaches = distance <= config.max_range_m
+    if slant_range_m is not None:
+        reaches &= slant_range_m > distance
+    return depth, reaches
+
+
 def simulate_chunk(
     truth: Truth,
     k0: int,
@@ -393,6 +505,7 @@ def simulate_chunk(
     dropout_rng: Rng,
     num_runs: int | None,
     seabed: Bathymetry | None = None,
+    current: CurrentField | None = None,
 ) -> tuple[DvlData, DvlState]:
     """Pings at the mission's IMU samples ``index``, by eq. 15 plus noise.
 
@@ -403,8 +516,23 @@ def simulate_chunk(
     probability is positive, so that a single generator shared with the other sensors draws the
     same numbers as without dropout). With a ``seabed``, beams beyond ``max_range_m`` are lost,
     or, ``beyond_range = "noisy"``, get the extra noise, drawn for every beam of every ping after
-    the noise (so a run's numbers do not depend on where a chunk ends). Each generator may be one
-    per run (tauvcore.sensors.timing.Rng).
+    the noise. Each generator may be one per run (tauvcore.sensors.timing.Rng).
+
+    Water-track (``water_track`` not "off"): a beam water-tracks where it has no bottom lock
+    (``"beyond_range"``) or always (``"always"``, no beam bottom-tracks), if it reaches the layer
+    (:func:`water_layer`; one that does not sees the bottom first and returns nothing). It
+    measures its velocity relative to the layer's water::
+
+        y_k = [(v_b - C_nb^T c_n(t, z_layer)) (1 + SF) + omega_nb_b x l_dvl_b] . b_k + b_dvl_k + w_k
+
+    with ``c_n`` the ``current`` at the layer's depth (None: still water, and ``y_k`` less its
+    noise is bottom-track's), the same scale factor and beam biases as bottom-track (the same
+    transducers and the same sound speed), and white noise ``w_k`` of ``water_track_noise_mps``
+    in place of ``noise_mps``. Its schedule (beams, outages) and dropout are bottom-track's. The
+    water-track noise is drawn for every beam of every ping from a child of ``noise_rng``
+    (spawned at the first chunk, ``Generator.spawn``, which draws nothing from its parent), so
+    every other draw is the same as with water-track off, and a run's numbers do not depend on
+    where a chunk ends.
 
     Parameters
     ----------
@@ -419,13 +547,15 @@ def simulate_chunk(
     config : DvlConfig
         The DVL's rate [Hz], geometry, lever arm and error model (1-sigma values).
     state : DvlState
-        What the chunk before left (bias and scale factor walks); ``DvlState()`` for the first.
+        What the chunk before left (bias and scale factor walks, the water-track noise's
+        generator); ``DvlState()`` for the first.
     bias_rng : Rng
         Generator(s) of the beam biases: turn-on values and walks.
     scale_factor_rng : Rng
         Generator(s) of the scale factor: turn-on value and walk.
     noise_rng : Rng
-        Generator(s) of the white noise and of the extra beyond-range noise.
+        Generator(s) of the white noise and of the extra beyond-range noise; the water-track
+        noise's generator(s) are spawned from it.
     dropout_rng : Rng
         Generator(s) of the dropouts (drawn only if ``config.dropout_probability > 0``).
     num_runs : int or None
@@ -433,14 +563,18 @@ def simulate_chunk(
         axis).
     seabed : Bathymetry or None, optional
         The mission's seabed (tauvcore.truth.seabed) the beams are traced to; None: no range limit.
+    current : CurrentField or None, optional
+        The water's current (tauvcore.truth.current); None: still water.
 
     Returns
     -------
     data : DvlData
-        The chunk's M pings: ``t_s`` (M,) [s], ``index`` (M,), beam velocities ``y_beam_mps``
-        (M, [R,] 4) [m/s] (NaN where not returned), ``available`` (M, [R,] 4) bool, true beam
-        biases ``bias_mps`` (M, [R,] 4) [m/s], scale factor error ``scale_factor`` (M, [R]) [-],
-        ``slant_range_m`` (M, 4) [m] with a seabed, else None.
+        The chunk's M pings: ``t_s`` (M,) [s], ``index`` (M,), bottom-track beam velocities
+        ``y_beam_mps`` (M, [R,] 4) [m/s] (NaN where not returned), ``available`` (M, [R,] 4) bool,
+        true beam biases ``bias_mps`` (M, [R,] 4) [m/s], scale factor error ``scale_factor``
+        (M, [R]) [-], ``slant_range_m`` (M, 4) [m] with a seabed, else None; water-track beam
+        velocities ``y_water_mps`` (M, [R,] 4) [m/s] and ``water_available`` (M, [R,] 4) bool,
+        None with water-track off.
     state : DvlState
         The state for the next chunk.
     """
@@ -462,12 +596,13 @@ def simulate_chunk(
     rows = index - k0
     t_s = truth.t_s[rows]
     expand = (slice(None),) + (None,) * len(runs)
-    y = beam_velocity(
-        config.A_b, truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand], config.l_dvl_b, sf, bias
-    )
+    vel_b, omega_nb_b = truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand]
+    y = beam_velocity(config.A_b, vel_b, omega_nb_b, config.l_dvl_b, sf, bias)
     y = y + standard_normal(noise_rng, y.shape, 1) * config.noise_mps
-    available = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape).copy()
+    scheduled = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape)
+    available = scheduled.copy()
     ranges = None
+    lock = np.ones(y.shape, dtype=bool)  # bottom lock
     if seabed is not None:
         ranges = slant_ranges_m(truth, rows, config, seabed)
         beyond = np.broadcast_to(np.isinf(ranges)[expand], y.shape)
@@ -475,9 +610,31 @@ def simulate_chunk(
             extra = standard_normal(noise_rng, y.shape, 1) * config.beyond_range_noise_mps
             y = np.where(beyond, y + extra, y)
         else:
-            available &= ~beyond
+            lock = ~beyond
+            available &= lock
     if config.dropout_probability > 0:
-        available &= uniform(dropout_rng, y.shape, 1) >= config.dropout_probability
+        kept = uniform(dropout_rng, y.shape, 1) >= config.dropout_probability
+        available &= kept
+    else:
+        kept = np.ones(y.shape, dtype=bool)
+    y_water = water = None
+    water_state = state.water_noise
+    if config.water_track != "off":
+        if water_state is None:
+            water_state = _spawned(noise_rng)
+        noise = standard_normal(water_state, y.shape, 1) * config.water_track_noise_mps
+        depth, reaches = water_layer(truth, rows, config, ranges)
+        water = np.broadcast_to(reaches[expand], y.shape) & scheduled & kept
+        if config.water_track == "always":
+            available[...] = False
+        else:
+            water &= ~lock
+        vel_water_b = vel_b
+        if current is not None:
+            c_n = current.velocity_n_mps(t_s, depth)
+            vel_water_b = vel_b - np.einsum("mji,mj->mi", truth.C_nb[rows], c_n)[expand]
+        y_water = beam_velocity(config.A_b, vel_water_b, omega_nb_b, config.l_dvl_b, sf, bias) + noise
+        y_water = np.where(water, y_water, np.nan)
     y = np.where(available, y, np.nan)
     return (
         DvlData(
@@ -488,6 +645,16 @@ def simulate_chunk(
             bias_mps=bias,
             scale_factor=sf,
             slant_range_m=ranges,
+            y_water_mps=y_water,
+            water_available=water,
         ),
-        DvlState(bias=bias_state, scale_factor=sf_state),
+        DvlState(bias=bias_state, scale_factor=sf_state, water_noise=water_state),
     )
+
+
+def _spawned(rng: Rng) -> Rng:
+    """A child of ``rng`` (of each generator of a per-run list): drawing from it leaves ``rng``'s
+    numbers as they were."""
+    if isinstance(rng, np.random.Generator):
+        return rng.spawn(1)[0]
+    return [g.spawn(1)[0] for g in rng]

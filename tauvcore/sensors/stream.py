@@ -55,7 +55,7 @@ class SensorStreams:
     dvl_bias: np.random.Generator  # DVL beam biases: turn-on values, then their walk
     # (tauvcore.aiding.dvl_beams, as the three below)
     dvl_scale_factor: np.random.Generator  # DVL scale factor: turn-on value, then its walk
-    dvl_noise: np.random.Generator  # DVL beam white noise
+    dvl_noise: np.random.Generator  # DVL beam white noise (the water-track noise from a child of it)
     dvl_dropout: np.random.Generator  # DVL random beam losses
     pressure: np.random.Generator  # depth white noise (tauvcore.aiding.depth)
     magnetometer: np.random.Generator  # attitude white noise (tauvcore.aiding.attitude_mag)

@@ -32,6 +32,8 @@ sideways to hold its track; the dynamic truth's autopilot crabs by itself.
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -39,7 +41,9 @@ import numpy as np
 
 from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b
 from tauvcore.truth.profile import Profile
-from tauvcore.validation import ConfigError, show
+from tauvcore.truth.record import Truth
+from tauvcore.truth.water import MIN_ALTITUDE_M, Mission, lawnmower_level_depth_m, seabed_floor_m
+from tauvcore.validation import ConfigError, require_range, require_vector3, show
 
 VARIATION_COMPONENTS = 4
 """Cosines per horizontal axis in the slowly varying current."""
@@ -47,15 +51,21 @@ VARIATION_PERIOD_RATIOS = (1.0, 2.0, 4.0, 8.0)
 """Their periods, in multiples of ``trajectory.current_variation_period_s``."""
 MAX_CRAB_DEG = 45.0
 """Largest crab angle the kinematic truth flies [deg]; beyond, it would fly sideways."""
+MAX_DURATION_S = 86400.0
+"""Longest period of the variation [s]: a day (tauvcore.truth.kinematic.MAX_DURATION_S)."""
 CRAB_CHECK_STEP_S = 1.0
 """Spacing of the times :func:`check_crab` checks the crab at [s]."""
 
 
-class CurrentSettings(Protocol):
+class CurrentSettings(Mission, Protocol):
     """The fields of a mission the current reads (tauvcore.truth.kinematic.TrajectoryConfig's)."""
 
     @property
-    def depth_m(self) -> float: ...
+    def name(self) -> str: ...
+    @property
+    def duration_s(self) -> float: ...
+    @property
+    def dive_rate_mps(self) -> float: ...
     @property
     def current_n_mps(self) -> tuple[float, float, float]: ...
     @property
@@ -103,14 +113,14 @@ class CurrentField:
         out[..., :2] += self._variation(t, 0)
         return out
 
-    def rate_n_mps2(self, t_s: np.ndarray, depth_rate_mps: np.ndarray) -> np.ndarray:
+    def rate_n_mps2(self, t_s: np.ndarray, depth_rate_mps: np.ndarray | float) -> np.ndarray:
         """The rate of the current met by a vehicle moving down at ``depth_rate_mps``.
 
         Parameters
         ----------
         t_s : numpy.ndarray
             Times, shape (K,) [s].
-        depth_rate_mps : numpy.ndarray
+        depth_rate_mps : numpy.ndarray or float
             The vehicle's down velocity, shape (K,) (or a scalar) [m/s].
 
         Returns
@@ -335,3 +345,101 @@ def check_crab(profile: Profile, field: CurrentField, duration_s: float, referen
             f"crab {np.rad2deg(abs(chi[k])):.0f} deg at t = {t[k]:g} s (beyond {MAX_CRAB_DEG:g} deg it "
             f'flies sideways to hold its track); use trajectory.truth = "dynamic" or a weaker current'
         )
+
+
+def check_current(cfg: CurrentSettings, profile_of: Callable[[], Profile]) -> None:
+    """The current's fields in range, below the vehicle's speed, and one the truth can honour.
+
+    Parameters
+    ----------
+    cfg : CurrentSettings
+        The mission (tauvcore.truth.kinematic.TrajectoryConfig): its current, speed [m/s], depths
+        [m], duration [s] and truth.
+    profile_of : Callable
+        Makes the mission's profile in still water (tauvcore.truth.kinematic.PROFILES), called only
+        when the crab must be checked.
+
+    Raises
+    ------
+    ConfigError
+        A field out of range, a current reaching ``speed_mps``, a vertical current with the
+        kinematic truth, or a crab beyond :data:`MAX_CRAB_DEG` (:func:`check_crab`), naming the
+        field and the value.
+    """
+    require_vector3("trajectory.current_n_mps", cfg.current_n_mps, bound=3.0)
+    shear = cfg.current_shear_ne_per_s
+    if not isinstance(shear, (tuple, list)) or len(shear) != 2:
+        raise ConfigError(f"trajectory.current_shear_ne_per_s must be a list of 2 numbers, got {show(shear)}")
+    for i, v in enumerate(shear):
+        require_range(f"trajectory.current_shear_ne_per_s[{i}]", v, -0.1, 0.1)
+    require_range("trajectory.current_variation_mps", cfg.current_variation_mps, 0.0, 3.0)
+    require_range(
+        "trajectory.current_variation_period_s", cfg.current_variation_period_s, 60.0, MAX_DURATION_S
+    )
+    seed = cfg.current_seed
+    if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
+        raise ConfigError(
+            f"trajectory.current_seed must be an integer within [0, 2**63 - 1], got {show(seed)}"
+        )
+    field = current_field(cfg)
+    if field is None:
+        return
+    if cfg.truth == "kinematic" and cfg.current_n_mps[2] != 0.0:
+        raise ConfigError(
+            f"trajectory.current_n_mps {show(list(cfg.current_n_mps))}: a vertical current needs "
+            f'trajectory.truth = "dynamic" (the kinematic truth holds its depth schedule)'
+        )
+    peak = field.peak_horizontal_mps(deepest_m(cfg) - cfg.depth_m)
+    if peak >= cfg.speed_mps:
+        parts = [f"trajectory.current_n_mps {show(list(cfg.current_n_mps))}"]
+        if any(shear):
+            parts.append(f"current_shear_ne_per_s {show(list(shear))}")
+        if cfg.current_variation_mps:
+            parts.append(f"current_variation_mps {show(cfg.current_variation_mps)}")
+        raise ConfigError(
+            f"{', '.join(parts)}: the current reaches {peak:.3g} m/s, not below the vehicle's speed "
+            f"trajectory.speed_mps {show(cfg.speed_mps)} m/s (it could not make way against it)"
+        )
+    if cfg.truth == "kinematic":
+        check_crab(profile_of(), field, cfg.duration_s, cfg.depth_m)
+
+
+def deepest_m(cfg: CurrentSettings) -> float:
+    """The deepest the mission's depth schedule goes.
+
+    Parameters
+    ----------
+    cfg : CurrentSettings
+        The mission: its name, start depth [m], dive rates [m/s] and seabed.
+
+    Returns
+    -------
+    float
+        Depth [m], positive down: the figure eight's level-off, the lawnmower's level depth, else
+        the start depth.
+    """
+    if cfg.name == "figure8" and cfg.dive_rate_mps > 0.0:
+        return min(cfg.depth_m + cfg.dive_rate_mps * cfg.duration_s, seabed_floor_m(cfg) - MIN_ALTITUDE_M)
+    if cfg.name == "lawnmower":
+        return max(cfg.depth_m, lawnmower_level_depth_m(cfg))
+    return cfg.depth_m
+
+
+def with_current(truth: Truth, field: CurrentField | None) -> Truth:
+    """``truth`` with the current at the vehicle (``Truth.current_n_mps``); itself in still water.
+
+    Parameters
+    ----------
+    truth : Truth
+        Samples of the mission: times [s], depths [m].
+    field : CurrentField or None
+        The mission's current (:func:`current_field`); None: still water.
+
+    Returns
+    -------
+    Truth
+        The same samples, with ``current_n_mps`` (K, 3) NED [m/s] at each sample's time and depth.
+    """
+    if field is None:
+        return truth
+    return dataclasses.replace(truth, current_n_mps=field.velocity_n_mps(truth.t_s, truth.depth_m))

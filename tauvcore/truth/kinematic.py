@@ -36,7 +36,6 @@ hull does, with the small heave that keeps the rolled sway from changing the dep
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -47,7 +46,7 @@ from tauvcore.geo.earth import (
     Earth,
     ned_from_geodetic,
 )
-from tauvcore.truth.current import CurrentField, check_crab, crab_profile, current_field
+from tauvcore.truth.current import check_current, crab_profile, current_field, with_current
 from tauvcore.truth.profile import (  # the profile machinery, also reached from here
     _GL_NODES,
     _GL_WEIGHTS,
@@ -71,7 +70,6 @@ from tauvcore.validation import (
     require_nonnegative,
     require_positive,
     require_range,
-    require_vector3,
     show,
 )
 
@@ -174,7 +172,7 @@ class TrajectoryConfig:
                 f"({show(self.depth_m)} m), got {show(self.seabed_depth_m)} m{relief}: the vehicle "
                 f"would start in the seabed"
             )
-        self._check_current()
+        check_current(self, lambda: PROFILES[self.name](self))
         for field in ("dive_rate_mps", "lawnmower_dive_rate_mps"):
             if getattr(self, field) >= self.speed_mps:
                 raise ConfigError(
@@ -190,56 +188,6 @@ class TrajectoryConfig:
                     f"lawnmower from {show(self.depth_m)} m to {show(round(level_m, 3))} m, within "
                     f"{show(MIN_ALTITUDE_M)} m of the seabed ({show(floor)} m): shorten the dive"
                 )
-
-    def _check_current(self) -> None:
-        """The current's fields in range, below the vehicle's speed, and one the truth can honour."""
-        require_vector3("trajectory.current_n_mps", self.current_n_mps, bound=3.0)
-        shear = self.current_shear_ne_per_s
-        if not isinstance(shear, (tuple, list)) or len(shear) != 2:
-            raise ConfigError(
-                f"trajectory.current_shear_ne_per_s must be a list of 2 numbers, got {show(shear)}"
-            )
-        for i, v in enumerate(shear):
-            require_range(f"trajectory.current_shear_ne_per_s[{i}]", v, -0.1, 0.1)
-        require_range("trajectory.current_variation_mps", self.current_variation_mps, 0.0, 3.0)
-        require_range(
-            "trajectory.current_variation_period_s", self.current_variation_period_s, 60.0, MAX_DURATION_S
-        )
-        seed = self.current_seed
-        if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1:
-            raise ConfigError(
-                f"trajectory.current_seed must be an integer within [0, 2**63 - 1], got {show(seed)}"
-            )
-        field = current_field(self)
-        if field is None:
-            return
-        if self.truth == "kinematic" and self.current_n_mps[2] != 0.0:
-            raise ConfigError(
-                f"trajectory.current_n_mps {show(list(self.current_n_mps))}: a vertical current needs "
-                f'trajectory.truth = "dynamic" (the kinematic truth holds its depth schedule)'
-            )
-        peak = field.peak_horizontal_mps(deepest_m(self) - self.depth_m)
-        if peak >= self.speed_mps:
-            parts = [f"trajectory.current_n_mps {show(list(self.current_n_mps))}"]
-            if any(shear):
-                parts.append(f"current_shear_ne_per_s {show(list(shear))}")
-            if self.current_variation_mps:
-                parts.append(f"current_variation_mps {show(self.current_variation_mps)}")
-            raise ConfigError(
-                f"{', '.join(parts)}: the current reaches {peak:.3g} m/s, not below the vehicle's speed "
-                f"trajectory.speed_mps {show(self.speed_mps)} m/s (it could not make way against it)"
-            )
-        if self.truth == "kinematic":
-            check_crab(PROFILES[self.name](self), field, self.duration_s, self.depth_m)
-
-
-def deepest_m(cfg: TrajectoryConfig) -> float:
-    """The deepest the mission's depth schedule goes [m], positive down."""
-    if cfg.name == "figure8" and cfg.dive_rate_mps > 0.0:
-        return min(cfg.depth_m + cfg.dive_rate_mps * cfg.duration_s, seabed_floor_m(cfg) - MIN_ALTITUDE_M)
-    if cfg.name == "lawnmower":
-        return max(cfg.depth_m, lawnmower_level_depth_m(cfg))
-    return cfg.depth_m
 
 
 def _turn_profile(
@@ -487,26 +435,6 @@ def mission_profile(cfg: TrajectoryConfig) -> Profile:
     profile = PROFILES[cfg.name](cfg)
     field = current_field(cfg)
     return profile if field is None else crab_profile(profile, field, cfg.depth_m)
-
-
-def with_current(truth: Truth, field: CurrentField | None) -> Truth:
-    """``truth`` with the current at the vehicle (``Truth.current_n_mps``); itself in still water.
-
-    Parameters
-    ----------
-    truth : Truth
-        Samples of the mission: times [s], depths [m].
-    field : CurrentField or None
-        The mission's current (tauvcore.truth.current.current_field); None: still water.
-
-    Returns
-    -------
-    Truth
-        The same samples, with ``current_n_mps`` (K, 3) NED [m/s] at each sample's time and depth.
-    """
-    if field is None:
-        return truth
-    return dataclasses.replace(truth, current_n_mps=field.velocity_n_mps(truth.t_s, truth.depth_m))
 
 
 def bathymetry(cfg: TrajectoryConfig):

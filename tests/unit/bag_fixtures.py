@@ -397,11 +397,13 @@ def write_bag(
 def _dvl_messages(store: Any, dvl: dict, kind: str, A_b: np.ndarray, vec_b: Any, header: Any, vector3: Any,
                   quat: Any, messages: list) -> None:
     """The DVL table as messages of ``kind``: its beams in :data:`BEAM_ORDER` with their directions
-    (or ids), or its body velocity."""
+    (or ids), or its body velocity; a row whose ``beam1_water_track`` is 1 as a water-track ping
+    (``velocity_mode`` 2, in the types that have it)."""
     order = list(BEAM_ORDER)
     dirs = vec_b(A_b[order])  # each message beam's direction in the message's frame
     for k, t in enumerate(dvl["t_s"]):
         h, ns = header(t, "dvl")
+        mode = {"velocity_mode": 2} if "beam1_water_track" in dvl and dvl["beam1_water_track"][k] == 1.0 else {}
         if "beam1_mps" in dvl:
             beams = np.array([dvl[f"beam{j + 1}_mps"][k] for j in order])
             valid = np.isfinite(beams)
@@ -418,11 +420,11 @@ def _dvl_messages(store: Any, dvl: dict, kind: str, A_b: np.ndarray, vec_b: Any,
         elif kind == "marine_acoustic_msgs/msg/Dvl":
             msg = make(store, kind, header=h, velocity=vector3(body), num_good_beams=int(valid.sum()),
                        beam_velocities_valid=bool(valid.all()), beam_unit_vec=[vector3(d) for d in dirs],
-                       beam_velocity=beams.astype(np.float32))
+                       beam_velocity=beams.astype(np.float32), **mode)
         elif kind == "ds_sensor_msgs/msg/Dvl":
             raw = np.where(valid, beams, np.nan).astype(np.float32)
             msg = make(store, kind, header=h, velocity=vector3(body), num_good_beams=int(valid.sum()),
-                       beam_unit_vec=[vector3(d) for d in dirs], raw_velocity=raw, coordinate_mode=0)
+                       beam_unit_vec=[vector3(d) for d in dirs], raw_velocity=raw, coordinate_mode=0, **mode)
         elif kind in ("cola2_msgs/msg/DVL", "uuv_sensor_ros_plugins_msgs/msg/DVL"):
             package = kind.split("/")[0]
             items = [make(store, f"{package}/msg/DVLBeam", range=10.0 if valid[i] else -1.0, velocity=float(beams[i]),

@@ -77,6 +77,11 @@ def test_bad_flags_give_one_line_and_exit_2(capsys, argv, field) -> None:
     ("[trajectory]\ncurrent_n_mps = [1.0, 1.2, 0.0]\n", "trajectory.current_n_mps", "crab 50 deg"),
     ("[trajectory]\ncurrent_shear_ne_per_s = [0.5, 0.0]\n", "trajectory.current_shear_ne_per_s[0]", "0.5"),
     ("[trajectory]\ntruth = 'dynamic'\ncurrent_n_mps = [0.0, 9.0, 0.0]\n", "trajectory.current_n_mps[1]", "9.0"),
+    ("[dvl]\nwater_track = 'sometimes'\n", "dvl.water_track", "'sometimes'"),
+    ("[dvl]\nwater_track = 'always'\nwater_layer_m = 150.0\n", "dvl.water_layer_m 150 m", "dvl.max_altitude_m 100 m"),
+    ("[dvl]\nwater_track = 'beyond_range'\nbeyond_range = 'noisy'\n", "dvl.water_track \"beyond_range\"",
+     'dvl.beyond_range "lost", got "noisy"'),
+    ("[dvl]\nwater_layer_m = 0.1\n", "dvl.water_layer_m", "0.1"),
 ])
 def test_bad_config_files_give_one_line_and_exit_2(capsys, tmp_path, toml, field, value) -> None:
     path = tmp_path / "bad.toml"

@@ -1,0 +1,144 @@
+"""The DVL's table of a bag (tauvcore.bags.reader): the messages' per-beam velocities along the
+configured Janus beams where they have them and those match (by direction, else by the mapping's
+``beam_ids``), else their body velocity rotated into the body by the DVL's mounting; and each
+velocity's mode, bottom- or water-track, from the mapping's ``water_track`` or the messages' own
+``velocity_mode`` (tauvcore.bags.messages)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from tauvcore.bags.frames import body_vectors
+from tauvcore.bags.mapping import DVL_BEAM_TOLERANCE_DEG, TopicRule
+from tauvcore.units import DEG
+from tauvcore.validation import LogError, show, show_path
+
+
+def dvl_columns(
+    bag: str,
+    part: Mapping[str, np.ndarray],
+    rule: TopicRule,
+    A_b: np.ndarray,
+    C_b_dvl: np.ndarray,
+    notes: list[str],
+) -> dict[str, np.ndarray]:
+    """The DVL's table of the messages of its topic (module docstring).
+
+    Parameters
+    ----------
+    bag : str
+        The bag's path, for the messages.
+    part : Mapping of str to numpy.ndarray
+        The messages' rows by part (tauvcore.bags.messages.LAYOUTS): ``body`` (M, 3) [m/s] and
+        ``body_valid`` (M, 1) in the topic's frame; a per-beam message's ``beams`` (M, 4) [m/s],
+        ``beam_valid`` (M, 4), ``dirs`` (M, 12), ``ids`` (M, 4) and ``water`` (M, 1).
+    rule : TopicRule
+        The topic's rule: its frame and the mapping's ``[dvl]`` keys (``form``, ``beam_ids``,
+        ``beam_velocity_sign``, ``beam_tolerance_deg``, ``water_track``).
+    A_b : numpy.ndarray
+        The configured Janus beams' unit vectors (4, 3) in the body frame (FRD).
+    C_b_dvl : numpy.ndarray
+        The DVL's mounting (3, 3), ``v_b = C_b_dvl v_dvl``.
+    notes : list of str
+        Where a note is added when the messages' body velocity is taken for want of beams.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The table's columns (M,) besides ``t_s``: ``beam1_mps`` .. ``beam4_mps`` [m/s] along the
+        configured beams, or ``vel_x_mps``, ``vel_y_mps``, ``vel_z_mps`` [m/s] (body FRD) and
+        ``valid``; with the modes (:func:`_water_track`) ``beam1_water_track`` ..
+        ``beam4_water_track`` or ``water_track`` (1.0 water-track, 0.0 bottom-track).
+
+    Raises
+    ------
+    LogError
+        ``form = 'beams'`` without beams, or beams that are not the configured ones, naming the
+        topic and the message.
+    """
+    form = rule.option("form", "auto")
+    where = f"{show_path(bag)}: topic {show(rule.topic)} (dvl)"
+    water = _water_track(part, rule)
+    if "beams" in part and form != "body":
+        beams = _beams(where, part, rule, A_b, C_b_dvl)
+        if beams is not None:
+            columns = {f"beam{k + 1}_mps": beams[:, k] for k in range(4)}
+            if water is not None:
+                columns.update({f"beam{k + 1}_water_track": water.copy() for k in range(4)})
+            return columns
+        if form == "beams":
+            raise LogError(
+                f"{where}: form = 'beams', but its messages have no beam velocities with beam directions "
+                "(or, for a message without directions, no beam_ids in the mapping)"
+            )
+        notes.append(f"{where}: no per-beam data; its body velocity is projected onto the configured beams")
+    body = body_vectors(part["body"], rule.frame) @ C_b_dvl.T
+    columns = {
+        "vel_x_mps": body[:, 0],
+        "vel_y_mps": body[:, 1],
+        "vel_z_mps": body[:, 2],
+        "valid": part["body_valid"][:, 0],
+    }
+    if water is not None:
+        columns["water_track"] = water
+    return columns
+
+
+def _water_track(part: Mapping[str, np.ndarray], rule: TopicRule) -> np.ndarray | None:
+    """Each message's mode, 1.0 water-track or 0.0 bottom-track (M,): the mapping's
+    ``water_track`` for every message where it sets one, else the message's own (its
+    ``velocity_mode``; bottom-track where it has none); None where every message is bottom-track
+    and the mapping says nothing (the table then has no mode columns, as before water-track)."""
+    m = part["body"].shape[0]
+    declared = rule.option("water_track", None)
+    if declared is not None:
+        return np.full(m, 1.0 if declared else 0.0)
+    if "water" not in part:
+        return None
+    water = np.where(part["water"][:, 0] == 1.0, 1.0, 0.0)
+    return water if water.any() else None
+
+
+def _beams(
+    where: str, part: Mapping[str, np.ndarray], rule: TopicRule, A_b: np.ndarray, C_b_dvl: np.ndarray
+) -> np.ndarray | None:
+    """The messages' beam velocities along the configured beams (M, 4), NaN where not valid; None
+    where the messages have no beams that can be placed."""
+    sign = rule.option("beam_velocity_sign", 1.0)
+    velocity = np.where(part["beam_valid"] > 0.5, part["beams"] * sign, np.nan)
+    m = velocity.shape[0]
+    dirs = part["dirs"].reshape(m, 4, 3)
+    have: np.ndarray = np.asarray(np.isfinite(dirs).all(axis=(1, 2)))  # the messages with directions
+    out = np.full((m, 4), np.nan)
+    if have.any():
+        u = body_vectors(dirs.reshape(-1, 3), rule.frame).reshape(m, 4, 3) @ C_b_dvl.T
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+        first = int(np.argmax(have))
+        cos = u[first] @ A_b.T  # (message beam, configured beam)
+        order = np.argmax(cos, axis=1)
+        tolerance = rule.option("beam_tolerance_deg", DVL_BEAM_TOLERANCE_DEG)
+        limit = np.cos(tolerance * DEG)
+        cos_all = np.einsum("mij,ij->mi", u, A_b[order])  # each message beam against its configured beam
+        off = have[:, None] & ~(cos_all >= limit)
+        if len(set(order.tolist())) != 4 or off.any():
+            row, beam = (int(v) for v in np.argwhere(off)[0]) if off.any() else (first, 0)
+            angle = float(np.degrees(np.arccos(np.clip(cos_all[row, beam], -1.0, 1.0))))
+            raise LogError(
+                f"{where}, message {row + 1}: its beam {beam + 1} points {angle:.3g} deg from the nearest "
+                f"configured beam (beam {int(order[beam]) + 1}; at most {tolerance:g} deg; the configured beams "
+                "are a Janus at [dvl] beam_pitch_deg, yaw 45 + 90 (k - 1) deg): set the DVL's frame, "
+                "mounting_rpy_deg or beam_pitch_deg, or form = 'body' to use its body velocity"
+            )
+        out[:, order] = np.where(have[:, None], velocity, np.nan)
+        return out
+    ids = rule.option("beam_ids", None)
+    if ids is None or not np.isfinite(part["ids"]).any():
+        return None
+    for k, beam_id in enumerate(ids):
+        match = part["ids"] == beam_id
+        out[:, k] = np.where(match.any(axis=1), np.nansum(np.where(match, velocity, 0.0), axis=1), np.nan)
+        out[match.any(axis=1) & np.isnan(np.where(match, velocity, 0.0)).any(axis=1), k] = np.nan
+    return out
