@@ -51,14 +51,16 @@ from tauvcore.engine.dvl_fusion import (
     DVL_MODE_CODES,
     DVL_ROWS,
     INVARIANT_METHODS,
+    fuse_water_track,
     partial_tables,
-    rpm_measurement,
+    rpm_fallback,
+    water_model,
 )
 from tauvcore.engine.lockout import dvl_velocity_reset
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
-from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
+from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Tape
@@ -195,6 +197,15 @@ class FilterBank(ChunkDriver):
             blocks = ", ".join(b.name for b in self.layout.blocks)
             raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
         self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
+        blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
+        self.block_dims = (
+            {"full": self.layout.dim, **{k: len(v) for k, v in blocks.items()}}
+            if self.layout.num_extra
+            else None
+        )
+        self.water = water_model(config, self.layout)  # the water-track beams, with current states
+        if self.water is not None:
+            self.recorders["water"] = Recorder(dvl_members, np.full(M, DVL_ROWS, dtype=np.int64))
         self.block_of_state = np.full(self.layout.dim, -1)
         for b, ix in enumerate(self.layout.nees_blocks.values()):
             self.block_of_state[list(ix)] = b
@@ -485,48 +496,8 @@ class FilterBank(ChunkDriver):
         return due
 
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
-        """``run.rpm_fallback``: step the runs' velocity Kalman filters (learning from the DVL while
-        it is in range), and where a DVL method had no velocity from this ping, fuse the RPM's body
-        velocity ``[V_rpm, 0, 0]`` (R from the VKF and RPM_LATERAL_SIGMA_MPS; source "rpm" in the
-        records).
-
-        The VKF learns the speed the DVL measures, ``(1 + SF) v_b + A+ b`` (the LC measurement,
-        tauvcore.filter.kernels.dvl.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
-        0.7 % off. So the surge row is predicted and linearised as that measurement is, with the
-        DVL scale factor and beam bias columns (H = [(1 + SF) e1, A+ row 1, v_b1] on the velocity,
-        beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
-        errors; the sway and heave rows are the zero lateral velocity on the velocity block. (With
-        H on the velocity alone the methods were over-confident, velocity NEES/dim about 2.)"""
-        dvl = self.config.dvl
-        R = self.batch[1]
-        lat = self.pos[0, :, 0] if self.geodetic else np.full(R, self.config.earth.latitude_rad)
-        v_b, _, ok = dvl_body_velocity(
-            chunk.dvl.y_beam_mps[p],
-            chunk.dvl.available[p],
-            chunk.imu.dtheta_b[i],
-            self.dt,
-            self.C[0],
-            lat,
-            self.A_b,
-            self.l_dvl_b,
-            dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
-        )
-        assert self.rpm_aid is not None  # called only with run.rpm_fallback's filters (see the caller)
-        _, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
-        coast = np.zeros(self.batch, bool)
-        coast[self.dvl_index] = ~dvl_valid[self.dvl_index] & have_rpm
-        if not coast.any():  # every method had its DVL velocity: the bank is left as it was
-            return
-        z = np.broadcast_to(self.rpm_aid.velocity_b(), self.batch + (3,))
-        v_b = np.einsum("mrji,mrj->mri", self.C, self.vel)
-        h, H = rpm_measurement(
-            v_b, self.sf.reshape(self.batch), self.bdvl.reshape(self.batch + (4,)), self.rpm_A_pinv
-        )
-        nu = z - h
-        Rm = np.ascontiguousarray(np.broadcast_to(self.rpm_aid.covariance_b(), self.batch + (3, 3)))
-        active = np.repeat(coast[..., None], 3, axis=-1)
-        fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))
-        self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
+        """``run.rpm_fallback`` at ping ``p`` (tauvcore.engine.dvl_fusion.rpm_fallback)."""
+        rpm_fallback(self, chunk, p, i, t, dvl_valid)
 
     def _bank_state(self) -> loop.BankState:
         """The bank's states as the compiled kernels take them: the arrays themselves, not copies,
@@ -707,6 +678,8 @@ class FilterBank(ChunkDriver):
                     dvl_valid = self._update_dvl(
                         chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t
                     )
+                    if self.water is not None and chunk.dvl.y_water_mps is not None:
+                        fuse_water_track(self, chunk, p, omega_meas, t)
                     if self.rpm_aid is not None:
                         self._rpm_fallback(chunk, p, i, t, dvl_valid)
                 for name, model in self.plugins:
@@ -754,6 +727,7 @@ class FilterBank(ChunkDriver):
                 self.sensor_errors,
                 p_floor_count=self.p_floor_count[m].copy(),
                 updates={src: record for src, record in built.items() if record is not None},
+                block_dims=self.block_dims,
             )
         if taking:
             handed_out(self.recorders.values(), self.keep)

@@ -45,6 +45,15 @@ def active(config: Config) -> tuple[str, ...]:
     return tuple(name for name in FUSED if name in config.run.aiding)
 
 
+def _on(config: Config) -> tuple[str, ...]:
+    """Every source ``run.aiding`` turns on, those the methods fuse (the DVL) too, in registry order."""
+    return tuple(name for name in SOURCES if name in config.run.aiding)
+
+
+def _section(config: Config, name: str):
+    return config.section(SOURCES[name].section_name)
+
+
 def layout_of(config: Config) -> Layout:
     """The error state of a run: the layout's 20, then the states its fused sources add.
 
@@ -56,15 +65,10 @@ def layout_of(config: Config) -> Layout:
     Returns
     -------
     Layout
-        The blocks of :meth:`AidingSource.states` of the sources :func:`active` names, in order.
+        The blocks of :meth:`AidingSource.states` of the sources ``run.aiding`` turns on, in
+        registry order.
     """
-    return Layout(
-        tuple(
-            b
-            for name in active(config)
-            for b in SOURCES[name].states(config.section(SOURCES[name].section_name))
-        )
-    )
+    return Layout(tuple(b for name in _on(config) for b in SOURCES[name].states(_section(config, name))))
 
 
 def states_truth(config: Config, truth: Truth) -> np.ndarray:
@@ -84,9 +88,9 @@ def states_truth(config: Config, truth: Truth) -> np.ndarray:
         units.
     """
     parts = [
-        SOURCES[name].states_truth(config.section(SOURCES[name].section_name), truth)
-        for name in active(config)
-        if SOURCES[name].states(config.section(SOURCES[name].section_name))
+        SOURCES[name].states_truth(_section(config, name), truth)
+        for name in _on(config)
+        if SOURCES[name].states(_section(config, name))
     ]
     return np.ascontiguousarray(np.concatenate(parts, axis=1) if parts else np.zeros((truth.num_samples, 0)))
 
