@@ -95,9 +95,11 @@ def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> StateArrays:
     leading axis (the compiled kernels' layout): pos, vel (n, 3), C (n, 3, 3), accel and gyro bias
     (n, 3), DVL bias (n, 4), scale factor (n,), the sources' states (n, E) (E = 0 without them)."""
 
+    n = int(np.prod(batch, dtype=np.int64))
+
     def flat(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
         return np.array(np.broadcast_to(np.asarray(a, dtype=float), batch + tail), order="C").reshape(
-            (-1,) + tail
+            (n,) + tail
         )
 
     return (
