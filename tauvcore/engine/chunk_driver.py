@@ -29,16 +29,27 @@ from typing import Any
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
+from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
 EPOCH_FIELDS = frozenset(
-    ("t_s", "out_k", "series", "nees_block", "est_pos_n", "est_vel_n", "est_euler", *SENSOR_FIELDS)
+    (
+        "t_s",
+        "out_k",
+        "series",
+        "nees_block",
+        "est_pos_n",
+        "est_vel_n",
+        "est_euler",
+        *SENSOR_FIELDS,
+        *STATE_FIELDS,
+    )
 )
 """The store's fields with one row per output epoch (``series`` along its second axis, the others
-along their first; the sensor errors' rows only when the bank records them, none otherwise);
+along their first; the sensor errors' rows only when the bank records them, none otherwise; the
+sources' states' (tauvcore.engine.results.STATE_FIELDS) with no columns when there are none);
 every other field has one row per update (``up_k``, ``up_t``)."""
 
 Store = dict[str, np.ndarray]

@@ -59,7 +59,7 @@ from tauvcore.engine.dvl_fusion import (
 from tauvcore.engine.lockout import dvl_velocity_reset
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
-from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
+from tauvcore.engine.results import SENSOR_STATES, STATE_FIELDS, MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
@@ -197,6 +197,7 @@ class FilterBank(ChunkDriver):
             blocks = ", ".join(b.name for b in self.layout.blocks)
             raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
         self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
+        self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
         blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
         self.block_dims = (
             {"full": self.layout.dim, **{k: len(v) for k, v in blocks.items()}}
@@ -551,6 +552,7 @@ class FilterBank(ChunkDriver):
             store["sensor_sigma"],
             store["sensor_true"],
             *(tape[name] for name in smoothing.OUTPUT_TAPE),
+            *(store[name] for name in STATE_FIELDS),
         )
         return plain(outputs)
 
@@ -576,6 +578,7 @@ class FilterBank(ChunkDriver):
             "est_vel_n": np.zeros((T,) + self.batch + (3,)),
             "est_euler": np.zeros((T,) + self.batch + (3,)),
             **self._sensor_store(T, SENSOR_INDEX.size, 0.0),
+            **{name: np.zeros((T,) + self.batch + (self.layout.num_extra,)) for name in STATE_FIELDS},
         }
 
     def _sealed(self) -> None:
@@ -728,6 +731,7 @@ class FilterBank(ChunkDriver):
                 p_floor_count=self.p_floor_count[m].copy(),
                 updates={src: record for src, record in built.items() if record is not None},
                 block_dims=self.block_dims,
+                state_labels=self.state_labels,
             )
         if taking:
             handed_out(self.recorders.values(), self.keep)

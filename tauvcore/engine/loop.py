@@ -102,6 +102,9 @@ class Outputs(NamedTuple):
     tape_X: np.ndarray  # (T, M, R, 9, 15) the smoother's tape: the transition since its last mark,
     tape_P: np.ndarray  # (T, M, R, d, d) P, and
     tape_dx: np.ndarray  # (T, M, R, d) the error against truth; no rows: the smoother is off
+    state_est: np.ndarray  # (T, M, R, E) the estimates of the sources' states (E = 0: none)
+    state_sigma: np.ndarray  # (T, M, R, E) their 1-sigma
+    state_true: np.ndarray  # (T, M, R, E) their true values
 
 
 @jit
@@ -181,7 +184,7 @@ def record_bank(
     series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs[
         :9
     ]
-    tape_X, tape_P, tape_dx = outputs[9:]
+    tape_X, tape_P, tape_dx, state_est, state_sigma, state_true = outputs[9:]
     M, R = pos.shape[0], pos.shape[1]
     with_sensors = sensor_est.shape[0] > 0
     taping = tape_P.shape[0] > 0
@@ -203,9 +206,12 @@ def record_bank(
             for i in range(4):
                 dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
             dx[SF] = sf_t[r] - sf[m, r]
+            Pm = P[m, r]
             for e in range(d - N):
                 dx[N + e] = extra_all[i_chunk, e] - extra[m, r, e]
-            Pm = P[m, r]
+                state_est[slot, m, r, e] = extra[m, r, e]
+                state_sigma[slot, m, r, e] = math.sqrt(Pm[N + e, N + e])
+                state_true[slot, m, r, e] = extra_all[i_chunk, e]
             error_series_into(
                 dx, Pm, deg, members, sizes, lead, order, L, y, series[:, slot, m, r], nees_block[slot, m, r]
             )
