@@ -147,7 +147,7 @@ class WaterTrack:
             innovation=innovation,
             H=self.jacobian(nom, setup),
             R=setup.R,
-            valid=setup.active.any(axis=-1),
+            valid=np.asarray(setup.active.any(axis=-1)),
             active=setup.active,
             gate_rows=True,
         )

@@ -146,7 +146,17 @@ class Layout:
         return out
 
     def extra_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The blocks' states as the kernels take them: (-1/tau, PSD, initial 1-sigma), each (E,)."""
+        """The blocks' states as the kernels take them.
+
+        Returns
+        -------
+        rate : numpy.ndarray
+            Shape (E,): each state's -1/tau [1/s] (0 for a random walk).
+        q : numpy.ndarray
+            Shape (E,): the PSD of its driving noise [unit^2/s].
+        sigma0 : numpy.ndarray
+            Shape (E,): its initial 1-sigma [unit].
+        """
         rate = np.array([r for b in self.blocks for r in b.rate_per_s], dtype=float)
         q = np.array([v for b in self.blocks for v in b.q_psd], dtype=float)
         sigma = np.array([v for b in self.blocks for v in b.sigma0], dtype=float)
