@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.sources import FUSED
-from tauvcore.config import Config
+from tauvcore.config import YOO_METHODS, Config
 from tauvcore.engine import yoo_sources
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.envelope import DecimatedResult
@@ -66,7 +66,9 @@ def summary_table(
             f"{_fixed(f['pos_err_m'], 10, 3)} {_fixed(r['pos_err_m'], 9, 3)} "
             f"{_fixed(f['vel_sigma_mps'], 10, 4)} {fused:>20}" + marker
         )
-    tables = [consistency_table(summaries, config.run.aiding)]
+    recorded = {src for s in summaries.values() for src in s.consistency.nis}
+    extra = [s for s in ("water",) if s in recorded]  # the DVL's water-track, beside its bottom-track
+    tables = [consistency_table(summaries, (*config.run.aiding, *extra))]
     if smoothed is not None:
         tables.append(smoothing_table(summaries, smoothed))
     return "\n".join(lines + ["", "\n\n".join(tables)])
@@ -171,18 +173,23 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
     ``sources``, each with the fraction of epochs (NIS: updates) inside its two-sided 99 %
     chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
     single-run band)."""
-    blocks = list(BLOCK_DIMS)
-    head = ["method", *blocks, *sources]
-    units = ["", *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
-    rows = []
     summaries = _summaries(results)
+    # the 20-state filter's blocks, and those its sources add (tauvcore.filter.layout.Layout)
+    dims = dict(BLOCK_DIMS)
+    for summary in summaries.values():
+        if summary.block_dims is not None and summary.block_dims.get("full", 0) > BLOCK_DIMS["full"]:
+            dims = dict(summary.block_dims)
+    blocks = list(dims)
+    head = ["method", *blocks, *sources]
+    units = ["", *(f"NEES/{dims[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
+    rows = []
     for name, summary in summaries.items():
         c = summary.consistency
         nis = [c.nis.get(s) for s in sources]
         rows.append(
             [
                 name.upper(),
-                *(_cell(c.nees[b].per_dim, c.nees[b].in_band) for b in blocks),
+                *(_cell(c.nees[b].per_dim, c.nees[b].in_band) if b in c.nees else "-" for b in blocks),
                 *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis),
             ]
         )
@@ -199,7 +206,7 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
         "inside the 99 % band)"
     )
     notes = []
-    if any(r.block_dims is not None for r in summaries.values()):
+    if any(name in YOO_METHODS for name in summaries):
         left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
         notes = [
             "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "

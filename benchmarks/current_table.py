@@ -13,7 +13,10 @@ velocity error inside the trenches, and the velocity NEES per dimension inside t
 up the current's along-hull part.
 
 Methods: INS, INS-DVL and VKF (Yoo 2014's 12-state filter), LC with ``run.rpm_fallback`` (the VKF's
-RPM velocity where the DVL gives none).
+RPM velocity where the DVL gives none); and in the cross current, LC, TC, NSV and IEKF with the
+DVL water-tracking beyond bottom range (``dvl.water_track = "beyond_range"``) and the current as
+two error states (``dvl.current_states = "random-walk"``): the current's error at the end (the
+norm of its north and east parts, RMS over the runs) and its NEES per dimension over the run.
 
 Writes docs/results/current_table.md (benchmarks/fragment.py).
 """
@@ -36,10 +39,14 @@ import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 TRENCHES_S = ((300.0, 480.0), (900.0, 960.0))
 METHODS = ("ins", "ins-dvl", "vkf", "lc")
+STATES = {"water_track": "beyond_range", "current_states": "random-walk", "current_walk_mps_per_sqrt_s": 1e-4}
+"""The DVL water-tracking beyond bottom range, the filters estimating the current."""
 CASES = (
-    ("still water", (0.0, 0.0, 0.0)),
-    ("0.3 m/s across the track (toward east)", (0.0, 0.3, 0.0)),
-    ("0.3 m/s along the track (toward south, against the vehicle)", (-0.3, 0.0, 0.0)),
+    ("still water", (0.0, 0.0, 0.0), {}, METHODS),
+    ("0.3 m/s across the track (toward east)", (0.0, 0.3, 0.0), {}, METHODS),
+    ("0.3 m/s across the track, water-track beyond range and current states", (0.0, 0.3, 0.0), STATES,
+     ("lc", "tc", "nsv", "iekf")),
+    ("0.3 m/s along the track (toward south, against the vehicle)", (-0.3, 0.0, 0.0), {}, METHODS),
 )
 
 
@@ -47,12 +54,14 @@ def rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.nanmean(np.asarray(a) ** 2)))
 
 
-def case_rows(current_n_mps: tuple[float, float, float], runs: int, seed: int) -> list[str]:
+def case_rows(current_n_mps: tuple[float, float, float], dvl: dict, methods: tuple[str, ...], runs: int,
+              seed: int) -> list[str]:
     config = (
         from_dict(trajectory_preset("longrange"), Config().replace("trajectory", name="longrange"))
         .replace("trajectory", current_n_mps=current_n_mps)
+        .replace("dvl", **dvl)
         .replace("initial_error", mode="random")
-        .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag"), seed=seed, rpm_fallback=True)
+        .replace("run", methods=methods, aiding=("dvl", "depth", "mag"), seed=seed, rpm_fallback=not dvl)
     )
     rng = np.random.default_rng(seed)
     results = run(config, simulate(config, rng, runs), rng)
@@ -67,10 +76,16 @@ def case_rows(current_n_mps: tuple[float, float, float], runs: int, seed: int) -
         if method == "vkf" and r.vkf_trace is not None:
             tr = r.vkf_trace
             bias = f"{rms(np.asarray(tr['x'])[-1, ..., 2] - np.asarray(tr['b_true'])[-1]):.3f}"
-        label = f"{method.upper()}{' (--rpm-fallback)' if method == 'lc' else ''}"
+        current = nees_current = "-"
+        if r.state_est is not None and r.state_true is not None and r.block_dims is not None:
+            err = np.linalg.norm(np.asarray(r.state_est)[-1] - np.asarray(r.state_true)[-1], axis=-1)
+            current = f"{rms(err):.3f}"
+            block = [b for b in r.block_dims if b != "full"].index("current")
+            nees_current = f"{np.nanmean(np.asarray(r.nees_block)[..., block]) / 2.0:.2f}"
+        label = method.upper() + (" (--rpm-fallback)" if method == "lc" and not dvl else "")
         rows.append(
             f"| {label} | {rms(np.asarray(r.pos_err_m)[-1]):.1f} | {rms(np.asarray(r.vel_err_mps)[trench]):.3f} "
-            f"| {np.nanmean(nees_vel[trench]):.2f} | {bias} |"
+            f"| {np.nanmean(nees_vel[trench]):.2f} | {bias} | {current} | {nees_current} |"
         )
     return rows
 
@@ -84,12 +99,12 @@ def main() -> None:
     with fragment.capture() as shown:
         print(f"Long-range mission, {args.runs} Monte Carlo runs (seed {args.seed}), DVL, depth and magnetometer "
               "aiding, random initial errors; RMS over the runs. Trench: 5-8 and 15-16 minutes, no bottom lock.\n")
-        for title, current in CASES:
+        for title, current, dvl, methods in CASES:
             print(f"**{title}**\n")
             print("| method | end position [m] | trench velocity RMS [m/s] | trench velocity NEES/3 "
-                  "| VKF bias less true, end [m/s] |")
-            print("|---|---|---|---|---|")
-            for line in case_rows(current, args.runs, args.seed):
+                  "| VKF bias less true, end [m/s] | current error, end [m/s] | current NEES/2 |")
+            print("|---|---|---|---|---|---|---|")
+            for line in case_rows(current, dvl, methods, args.runs, args.seed):
                 print(line, flush=True)
             print()
         print(f"*{time.perf_counter() - started:.0f} s in all.*")

@@ -24,8 +24,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from tauvcore.aiding.dvl_water import CURRENT_BLOCK
 from tauvcore.aiding.source import AidingSource, Column, SourceData
 from tauvcore.conventions import MAX_SPEED_MPS
+from tauvcore.filter.layout import StateBlock
 from tauvcore.sensors import dvl
 from tauvcore.sensors.dvl import DvlConfig, DvlData, DvlState
 from tauvcore.sensors.timing import Rng, uniform
@@ -93,6 +95,59 @@ class DvlSource(AidingSource):
             [m/s], bias [m/s], bias walk, scale factor and its walk zero.
         """
         return section.ideal()
+
+    def states(self, section: DvlConfig) -> tuple[StateBlock, ...]:
+        """The current (north, east) the water-track beams observe, with ``current_states`` on.
+
+        Parameters
+        ----------
+        section : DvlConfig
+            The ``[dvl]`` section: ``current_states``, ``current_sigma_mps`` [m/s],
+            ``current_tau_s`` [s], ``current_walk_mps_per_sqrt_s`` [m/s/sqrt(s)].
+
+        Returns
+        -------
+        tuple[StateBlock, ...]
+            One block ``current`` of two states [m/s] (tauvcore.aiding.dvl_water), or none.
+        """
+        if section.current_states == "off":
+            return ()
+        sigma = section.current_sigma_mps
+        if section.current_states == "gauss-markov":
+            rate, q = -1.0 / section.current_tau_s, 2.0 * sigma**2 / section.current_tau_s
+        else:
+            rate, q = 0.0, section.current_walk_mps_per_sqrt_s**2
+        return (
+            StateBlock(
+                name=CURRENT_BLOCK,
+                labels=("current_north_mps", "current_east_mps"),
+                sigma0=(sigma, sigma),
+                rate_per_s=(rate, rate),
+                q_psd=(q, q),
+            ),
+        )
+
+    def states_truth(self, section: DvlConfig, truth: Truth) -> np.ndarray:
+        """The current at the vehicle, north and east.
+
+        Parameters
+        ----------
+        section : DvlConfig
+            The ``[dvl]`` section.
+        truth : Truth
+            A chunk of the mission's truth (K samples).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (K, 2) [m/s] (``Truth.current_n_mps``; zero in still water), or (K, 0) without
+            current states.
+        """
+        if section.current_states == "off":
+            return np.zeros((truth.num_samples, 0))
+        if truth.current_n_mps is None:
+            return np.zeros((truth.num_samples, 2))
+        return np.ascontiguousarray(truth.current_n_mps[:, :2])
 
     def initial_state(
         self, section: DvlConfig, num_runs: int, world: World

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
+from tauvcore.filter.layout import StateBlock
 from tauvcore.validation import SETTING, Setting, check_settings, setting, settings
 
 if TYPE_CHECKING:
@@ -409,6 +410,45 @@ class AidingSource(ABC):
             Unless overridden: the source is data for a method, not a measurement: it has no model.
         """
         raise TypeError(f"source {self.name!r} is data for a method, not a measurement: it has no model")
+
+    def states(self, section: Any) -> tuple[StateBlock, ...]:
+        """The states it adds to the 20 of the filters' error state (none unless overridden).
+
+        Each block follows the layout's 20 in the order of the sources (tauvcore.filter.layout.
+        Layout); every filter of the bank carries it, every table and NEES block shows it, and the
+        source's model (and any other) may see it through ``Nominal.extra`` and the columns of H
+        after the 20.
+
+        Parameters
+        ----------
+        section : Any
+            Its configuration section (an instance of :attr:`config_type`).
+
+        Returns
+        -------
+        tuple[StateBlock, ...]
+            The blocks, each with its states' names, initial 1-sigma and process (Gauss-Markov or
+            random walk) in its unit.
+        """
+        return ()
+
+    def states_truth(self, section: Any, truth: Truth) -> np.ndarray:
+        """The true values of the states of :meth:`states` at the truth's samples.
+
+        Parameters
+        ----------
+        section : Any
+            Its configuration section (an instance of :attr:`config_type`).
+        truth : Truth
+            A chunk of the mission's truth (K samples).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (K, E) in the states' units (E the states of :meth:`states`); NaN where unknown
+            (a log).
+        """
+        return np.zeros((truth.num_samples, sum(b.dim for b in self.states(section))))
 
 
 __all__ = [

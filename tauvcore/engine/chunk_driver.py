@@ -29,16 +29,27 @@ from typing import Any
 import numpy as np
 
 from tauvcore.config import Config
-from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
+from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
 EPOCH_FIELDS = frozenset(
-    ("t_s", "out_k", "series", "nees_block", "est_pos_n", "est_vel_n", "est_euler", *SENSOR_FIELDS)
+    (
+        "t_s",
+        "out_k",
+        "series",
+        "nees_block",
+        "est_pos_n",
+        "est_vel_n",
+        "est_euler",
+        *SENSOR_FIELDS,
+        *STATE_FIELDS,
+    )
 )
 """The store's fields with one row per output epoch (``series`` along its second axis, the others
-along their first; the sensor errors' rows only when the bank records them, none otherwise);
+along their first; the sensor errors' rows only when the bank records them, none otherwise; the
+sources' states' (tauvcore.engine.results.STATE_FIELDS) with no columns when there are none);
 every other field has one row per update (``up_k``, ``up_t``)."""
 
 Store = dict[str, np.ndarray]
@@ -271,3 +282,17 @@ def cut(store: Store, last: Any, epoch_key: str, update_key: str) -> Store:
         name: (a[:, :T] if name == "series" else a[:T] if name in EPOCH_FIELDS else a[:U])
         for name, a in store.items()
     }
+
+
+def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
+    """Samples in ``(k_cov, k_end)`` at which the covariance is propagated (and the nominal state
+    stops), the covariance having been propagated last at ``k_cov``: every event (aiding or output
+    epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
+    stops: list[int] = []
+    prev = k_cov
+    for e in [int(e) for e in event_idx if e > k_cov] + [k_end]:
+        stops.extend(range(prev + cov_step, e, cov_step))
+        if e < k_end:
+            stops.append(e)
+        prev = e
+    return stops

@@ -5,6 +5,7 @@ kernel's tables of two-beam constructions, and the RPM velocity that stands in f
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -17,10 +18,14 @@ from tauvcore.aiding.dvl_extended import (
     MODE_TC,
     DvlExtended,
 )
+from tauvcore.aiding.dvl_water import CURRENT_BLOCK, WaterTrack
+from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.config import Config
+from tauvcore.engine.rpm_aid import dvl_body_velocity
+from tauvcore.filter.eskf import make_outcome
 from tauvcore.filter.kernels.dvl import TwoBeamTables
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
-from tauvcore.filter.layout import STATE
+from tauvcore.filter.layout import STATE, Layout
 
 DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}, "iekf": "tc"}
 """How each method fuses the DVL (None: not at all; a registered method, tauvcore.aiding.registry,
@@ -91,3 +96,102 @@ def rpm_measurement(
     H[..., 0, STATE.b_dvl] = A_pinv[0]
     H[..., 0, STATE.sf_dvl.start] = v_b[..., 0]
     return h, H
+
+
+def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
+    """``run.rpm_fallback`` of the filter bank ``bank`` (tauvcore.engine.filter_bank.FilterBank) at
+    ping ``p`` of ``chunk``, sample ``i``, time ``t`` [s]: step the runs' velocity Kalman filters (learning from the DVL while
+    it is in range), and where a DVL method had no velocity from this ping, fuse the RPM's body
+    velocity ``[V_rpm, 0, 0]`` (R from the VKF and RPM_LATERAL_SIGMA_MPS; source "rpm" in the
+    records).
+
+    The VKF learns the speed the DVL measures, ``(1 + SF) v_b + A+ b`` (the LC measurement,
+    tauvcore.filter.kernels.dvl.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
+    0.7 % off. So the surge row is predicted and linearised as that measurement is, with the
+    DVL scale factor and beam bias columns (H = [(1 + SF) e1, A+ row 1, v_b1] on the velocity,
+    beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
+    errors; the sway and heave rows are the zero lateral velocity on the velocity block. (With
+    H on the velocity alone the methods were over-confident, velocity NEES/dim about 2.)"""
+    dvl = bank.config.dvl
+    R = bank.batch[1]
+    lat = bank.pos[0, :, 0] if bank.geodetic else np.full(R, bank.config.earth.latitude_rad)
+    v_b, _, ok = dvl_body_velocity(
+        chunk.dvl.y_beam_mps[p],
+        chunk.dvl.available[p],
+        chunk.imu.dtheta_b[i],
+        bank.dt,
+        bank.C[0],
+        lat,
+        bank.A_b,
+        bank.l_dvl_b,
+        dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
+    )
+    assert bank.rpm_aid is not None  # called only with run.rpm_fallback's filters (see the caller)
+    _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok)
+    coast = np.zeros(bank.batch, bool)
+    coast[bank.dvl_index] = ~dvl_valid[bank.dvl_index] & have_rpm
+    if not coast.any():  # every method had its DVL velocity: the bank is left as it was
+        return
+    z = np.broadcast_to(bank.rpm_aid.velocity_b(), bank.batch + (3,))
+    v_b = np.einsum("mrji,mrj->mri", bank.C, bank.vel)
+    h, H = rpm_measurement(
+        v_b, bank.sf.reshape(bank.batch), bank.bdvl.reshape(bank.batch + (4,)), bank.rpm_A_pinv
+    )
+    nu = z - h
+    Rm = np.ascontiguousarray(np.broadcast_to(bank.rpm_aid.covariance_b(), bank.batch + (3, 3)))
+    active = np.repeat(coast[..., None], 3, axis=-1)
+    fused = bank._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(bank.batch, bool))
+    bank.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
+
+
+def water_model(config: Config, layout: Layout) -> WaterTrack | None:
+    """The water-track beams' model of a run with current states (tauvcore.aiding.dvl_water), else None.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration: its ``[dvl]`` section.
+    layout : Layout
+        The run's error state (tauvcore.engine.sources.layout_of).
+
+    Returns
+    -------
+    WaterTrack or None
+        The model, the current's slice of the error state in it; None without a ``current`` block
+        or with a DVL that does not water-track.
+    """
+    if CURRENT_BLOCK not in {b.name for b in layout.blocks} or config.dvl.water_track == "off":
+        return None
+    return WaterTrack(config.dvl, layout.slice_of(CURRENT_BLOCK), layout.dim)
+
+
+def fuse_water_track(bank: Any, chunk: Any, p: int, omega_meas: np.ndarray, t: float) -> None:
+    """The water-track beams of ping ``p`` fused by every DVL method of the filter bank ``bank``
+    (tauvcore.engine.filter_bank.FilterBank), row by row, and recorded as the source ``water``.
+
+    Parameters
+    ----------
+    bank : FilterBank
+        The bank: its estimates, covariances and recorders, written in place.
+    chunk : SimChunk
+        The chunk of the ping: its DVL data's ``y_water_mps`` and ``water_available`` (M, R, 4).
+    p : int
+        The ping within the chunk.
+    omega_meas : numpy.ndarray
+        The gyros' rate at the ping, shape (R, 3) [rad/s].
+    t : float
+        The ping's time [s].
+    """
+    y, available = chunk.dvl.y_water_mps[p], chunk.dvl.water_available[p]
+    if not np.any(available):
+        return
+    w_ie_b = np.einsum("mrji,j->mri", bank.C, bank.w_ie)
+    meas = bank.water.measure(bank.nominal(), y, available, omega_meas - w_ie_b)
+    members = np.zeros(bank.batch, bool)
+    members[bank.dvl_index] = True
+    valid = meas.valid & members
+    active = np.asarray(meas.active) & valid[..., None]
+    fused = bank._fuse(
+        meas.H, meas.R, np.ascontiguousarray(meas.innovation), active, np.ones(bank.batch, bool)
+    )
+    bank.recorders["water"].add(t, make_outcome(meas.z, meas.innovation, active, *fused), valid)

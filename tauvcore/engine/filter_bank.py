@@ -45,24 +45,26 @@ from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine import loop, smoothing
-from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store
+from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store, covariance_stops
 from tauvcore.engine.dvl_fusion import (
     DVL_FUSION,
     DVL_MODE_CODES,
     DVL_ROWS,
     INVARIANT_METHODS,
+    fuse_water_track,
     partial_tables,
-    rpm_measurement,
+    rpm_fallback,
+    water_model,
 )
 from tauvcore.engine.lockout import dvl_velocity_reset
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
-from tauvcore.engine.results import SENSOR_STATES, MethodResult, method_result
-from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
+from tauvcore.engine.results import SENSOR_STATES, STATE_FIELDS, MethodResult, method_result
+from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Tape
-from tauvcore.engine.sources import active
+from tauvcore.engine.sources import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import (
     Measurement,
@@ -70,6 +72,7 @@ from tauvcore.filter.eskf import (
     condition_covariance,
     fuse_in_place,
     make_outcome,
+    widen,
 )
 from tauvcore.filter.kernels.common import CORE, NAV, plain
 from tauvcore.filter.kernels.dvl import (
@@ -82,8 +85,9 @@ from tauvcore.filter.kernels.dvl import (
     Ping,
     dvl_measure_bank,
 )
-from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE, NavState
+from tauvcore.filter.layout import NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
+from tauvcore.validation import ConfigError
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -187,14 +191,30 @@ class FilterBank(ChunkDriver):
             self.rpm_aid = RpmAid(config.vkf, R)
             self.rpm_A_pinv = np.linalg.pinv(np.asarray(config.dvl.A_b, dtype=float))  # (3, 4): LC's A+
         self.check_step = max(1, round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ))
-        self.block_of_state = np.full(STATE.dim, -1)
-        for b, ix in enumerate(NEES_BLOCKS.values()):
+        # the error state: the layout's 20 and the states the sources add (tauvcore.filter.layout.Layout)
+        self.layout = layout_of(config)
+        if tape is not None and self.layout.num_extra:
+            blocks = ", ".join(b.name for b in self.layout.blocks)
+            raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
+        self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
+        self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
+        blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
+        self.block_dims = (
+            {"full": self.layout.dim, **{k: len(v) for k, v in blocks.items()}}
+            if self.layout.num_extra
+            else None
+        )
+        self.water = water_model(config, self.layout)  # the water-track beams, with current states
+        if self.water is not None:
+            self.recorders["water"] = Recorder(dvl_members, np.full(M, DVL_ROWS, dtype=np.int64))
+        self.block_of_state = np.full(self.layout.dim, -1)
+        for b, ix in enumerate(self.layout.nees_blocks.values()):
             self.block_of_state[list(ix)] = b
         self.p_floor_count = np.zeros(self.batch, dtype=int)
         self.nonfinite_at_s = np.full(self.batch, np.nan)  # first output epoch with a non-finite state or P
-        self.implausible_at_s = np.full(
-            self.batch, np.nan
-        )  # first aiding epoch with a sensor error outside its prior
+        # first aiding epoch with a sensor error outside its prior
+        self.implausible_at_s = np.full(self.batch, np.nan)
+        self._no_extra = np.zeros((0, 0))
         self.slot = 0  # output epochs recorded so far
         self.dvl_truth_known = True  # the mission has DVL pings (set at start)
 
@@ -203,7 +223,7 @@ class FilterBank(ChunkDriver):
         """Initial states from the first chunk (its truth and the initial-error draws); done by
         :meth:`feed` unless called first."""
         config, truth = self.config, chunk.truth
-        self.P0 = P0 = initial_covariance(config, truth.euler[0])
+        self.P0 = P0 = initial_covariance(config, truth.euler[0], self.layout)
         self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
         nom = initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
         arrays = [
@@ -219,11 +239,8 @@ class FilterBank(ChunkDriver):
             )
         ]
         self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf = arrays
-        self.initial_nav = (
-            self.pos[0].copy(),
-            self.vel[0].copy(),
-            self.C[0].copy(),
-        )  # per run (methods share it)
+        self.extra = np.zeros(self.batch + (self.layout.num_extra,))  # the sources' states start at zero
+        self.initial_nav = (self.pos[0].copy(), self.vel[0].copy(), self.C[0].copy())  # per run
         self.flat = (
             self.pos.reshape(-1, 3),
             self.vel.reshape(-1, 3),
@@ -232,6 +249,7 @@ class FilterBank(ChunkDriver):
             self.bg.reshape(-1, 3),
             self.bdvl.reshape(-1, 4),
             self.sf.reshape(-1),
+            self.extra.reshape(self.batch[0] * self.batch[1], self.layout.num_extra),
         )
         sensor_states = (STATE.ba, STATE.bg, STATE.b_dvl, STATE.sf_dvl)
         self.prior_var0 = np.concatenate([np.diag(P0)[s] for s in sensor_states])
@@ -265,6 +283,7 @@ class FilterBank(ChunkDriver):
             self.bg[sel],
             self.bdvl[sel],
             self.sf[sel],
+            self.extra[sel] if self.layout.num_extra else None,
         )
 
     # ------------------------------------------------------------------ the pieces of an epoch
@@ -306,10 +325,11 @@ class FilterBank(ChunkDriver):
         """One compiled gated correction and injection of the whole bank in place (inactive rows
         and entries untouched). Arrays (M, R, m, ...); returns the per-entry outcome (M, R, ...).
         ``gate``: the gate's width [sigma], ``filter.gate_sigma`` if None."""
+        d = self.layout.dim
         fused = fuse_in_place(
-            self.P.reshape(-1, STATE.dim, STATE.dim),
+            self.P.reshape(-1, d, d),
             self.flat,
-            H,
+            widen(H, d),
             Rm,
             nu,
             active,
@@ -477,48 +497,8 @@ class FilterBank(ChunkDriver):
         return due
 
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
-        """``run.rpm_fallback``: step the runs' velocity Kalman filters (learning from the DVL while
-        it is in range), and where a DVL method had no velocity from this ping, fuse the RPM's body
-        velocity ``[V_rpm, 0, 0]`` (R from the VKF and RPM_LATERAL_SIGMA_MPS; source "rpm" in the
-        records).
-
-        The VKF learns the speed the DVL measures, ``(1 + SF) v_b + A+ b`` (the LC measurement,
-        tauvcore.filter.kernels.dvl.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
-        0.7 % off. So the surge row is predicted and linearised as that measurement is, with the
-        DVL scale factor and beam bias columns (H = [(1 + SF) e1, A+ row 1, v_b1] on the velocity,
-        beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
-        errors; the sway and heave rows are the zero lateral velocity on the velocity block. (With
-        H on the velocity alone the methods were over-confident, velocity NEES/dim about 2.)"""
-        dvl = self.config.dvl
-        R = self.batch[1]
-        lat = self.pos[0, :, 0] if self.geodetic else np.full(R, self.config.earth.latitude_rad)
-        v_b, _, ok = dvl_body_velocity(
-            chunk.dvl.y_beam_mps[p],
-            chunk.dvl.available[p],
-            chunk.imu.dtheta_b[i],
-            self.dt,
-            self.C[0],
-            lat,
-            self.A_b,
-            self.l_dvl_b,
-            dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
-        )
-        assert self.rpm_aid is not None  # called only with run.rpm_fallback's filters (see the caller)
-        _, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
-        coast = np.zeros(self.batch, bool)
-        coast[self.dvl_index] = ~dvl_valid[self.dvl_index] & have_rpm
-        if not coast.any():  # every method had its DVL velocity: the bank is left as it was
-            return
-        z = np.broadcast_to(self.rpm_aid.velocity_b(), self.batch + (3,))
-        v_b = np.einsum("mrji,mrj->mri", self.C, self.vel)
-        h, H = rpm_measurement(
-            v_b, self.sf.reshape(self.batch), self.bdvl.reshape(self.batch + (4,)), self.rpm_A_pinv
-        )
-        nu = z - h
-        Rm = np.ascontiguousarray(np.broadcast_to(self.rpm_aid.covariance_b(), self.batch + (3, 3)))
-        active = np.repeat(coast[..., None], 3, axis=-1)
-        fused = self._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(self.batch, bool))
-        self.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
+        """``run.rpm_fallback`` at ping ``p`` (tauvcore.engine.dvl_fusion.rpm_fallback)."""
+        rpm_fallback(self, chunk, p, i, t, dvl_valid)
 
     def _bank_state(self) -> loop.BankState:
         """The bank's states as the compiled kernels take them: the arrays themselves, not copies,
@@ -538,6 +518,7 @@ class FilterBank(ChunkDriver):
             self.ping_sf,
             self.nonfinite_at_s,
             self.phi_acc,
+            self.extra,
         )
         return plain(state)
 
@@ -548,9 +529,11 @@ class FilterBank(ChunkDriver):
             self.w_ie,
             self.q_psd,
             self.block_of_state,
-            len(NEES_BLOCKS),
+            len(self.layout.nees_blocks),
             units.DEG,
             SENSOR_INDEX,
+            self.extra_rate,
+            self.extra_q,
         )
         return plain(constants)
 
@@ -569,6 +552,7 @@ class FilterBank(ChunkDriver):
             store["sensor_sigma"],
             store["sensor_true"],
             *(tape[name] for name in smoothing.OUTPUT_TAPE),
+            *(store[name] for name in STATE_FIELDS),
         )
         return plain(outputs)
 
@@ -589,11 +573,12 @@ class FilterBank(ChunkDriver):
             "t_s": np.zeros(T),
             "out_k": outs,
             "series": np.zeros((len(loop.SERIES_NAMES), T) + self.batch),
-            "nees_block": np.zeros((T,) + self.batch + (len(NEES_BLOCKS),)),
+            "nees_block": np.zeros((T,) + self.batch + (len(self.layout.nees_blocks),)),
             "est_pos_n": np.zeros((T,) + self.batch + (3,)),
             "est_vel_n": np.zeros((T,) + self.batch + (3,)),
             "est_euler": np.zeros((T,) + self.batch + (3,)),
             **self._sensor_store(T, SENSOR_INDEX.size, 0.0),
+            **{name: np.zeros((T,) + self.batch + (self.layout.num_extra,)) for name in STATE_FIELDS},
         }
 
     def _sealed(self) -> None:
@@ -643,6 +628,7 @@ class FilterBank(ChunkDriver):
             ping_rows,
             np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
             np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
+            states_truth(self.config, truth) if self.layout.num_extra else self._no_extra,
         )
         self._chunk_in = chunk_in = plain(chunk_in)
         if self.taping is not None:
@@ -695,6 +681,8 @@ class FilterBank(ChunkDriver):
                     dvl_valid = self._update_dvl(
                         chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t
                     )
+                    if self.water is not None and chunk.dvl.y_water_mps is not None:
+                        fuse_water_track(self, chunk, p, omega_meas, t)
                     if self.rpm_aid is not None:
                         self._rpm_fallback(chunk, p, i, t, dvl_valid)
                 for name, model in self.plugins:
@@ -742,6 +730,8 @@ class FilterBank(ChunkDriver):
                 self.sensor_errors,
                 p_floor_count=self.p_floor_count[m].copy(),
                 updates={src: record for src, record in built.items() if record is not None},
+                block_dims=self.block_dims,
+                state_labels=self.state_labels,
             )
         if taking:
             handed_out(self.recorders.values(), self.keep)
@@ -784,17 +774,3 @@ class FilterBank(ChunkDriver):
             )
             for m, method in enumerate(self.methods)
         }
-
-
-def covariance_stops(event_idx: np.ndarray, k_cov: int, k_end: int, cov_step: int) -> list[int]:
-    """Samples in ``(k_cov, k_end)`` at which the covariance is propagated (and the nominal state
-    stops), the covariance having been propagated last at ``k_cov``: every event (aiding or output
-    epoch, ``event_idx`` sorted) and every ``cov_step`` samples in between."""
-    stops: list[int] = []
-    prev = k_cov
-    for e in [int(e) for e in event_idx if e > k_cov] + [k_end]:
-        stops.extend(range(prev + cov_step, e, cov_step))
-        if e < k_end:
-            stops.append(e)
-        prev = e
-    return stops

@@ -103,7 +103,8 @@ def dvl_velocity_reset(
     v_b = C_nb.T @ vel_n
     A_pinv = np.linalg.pinv(A)
     v_b_new = v_b + A_pinv @ (measured - A @ v_b)
-    J = reset_jacobian(v_b, sf, beams, A_b, l_dvl_b_m)
+    J = np.eye(P.shape[-1])  # the sources' own states (after the 20) as they are
+    J[: STATE.dim, : STATE.dim] = reset_jacobian(v_b, sf, beams, A_b, l_dvl_b_m)
     out = J @ P @ J.T
     out[STATE.vel, STATE.vel] += beam_var_m2ps2 * (A_pinv @ A_pinv.T) / scale**2
     return C_nb @ v_b_new, 0.5 * (out + out.T)

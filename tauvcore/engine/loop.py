@@ -50,6 +50,7 @@ class BankState(NamedTuple):
     nonfinite_at: np.ndarray  # (M, R) first output epoch [s] with a state or P not finite (NaN: none)
     phi_acc: np.ndarray  # (M, R, 9, 15) the smoother's transition since its last mark, Phi - I on its
     #                      non-zero block (tauvcore.filter.kernels.smoother); no rows: smoother off
+    extra: np.ndarray  # (M, R, E) the estimates of the sources' own states (tauvcore.filter.layout.Layout)
 
 
 class ChunkTruth(NamedTuple):
@@ -68,6 +69,7 @@ class ChunkTruth(NamedTuple):
     ping_rows: np.ndarray
     ping_bias_all: np.ndarray
     ping_sf_all: np.ndarray
+    extra_t: np.ndarray  # (K, E) the true values of the sources' own states at the chunk's samples
 
 
 class Model(NamedTuple):
@@ -81,6 +83,8 @@ class Model(NamedTuple):
     deg: float  # degrees per radian of the attitude series
     sensor_index: np.ndarray  # (S,) int64: the state of each sensor-error column
     # (tauvcore.engine.results.SENSOR_STATES, by tauvcore.engine.filter_bank.SENSOR_INDEX)
+    extra_rate: np.ndarray  # (E,) each source state's -1/tau [1/s] (0: a random walk)
+    extra_q: np.ndarray  # (E,) its driving noise's PSD [unit^2/s]
 
 
 class Outputs(NamedTuple):
@@ -96,8 +100,11 @@ class Outputs(NamedTuple):
     sensor_sigma: np.ndarray  # (T, M, R, S) their 1-sigma (sqrt of P's diagonal)
     sensor_true: np.ndarray  # (T, M, R, S) their true values
     tape_X: np.ndarray  # (T, M, R, 9, 15) the smoother's tape: the transition since its last mark,
-    tape_P: np.ndarray  # (T, M, R, 20, 20) P, and
-    tape_dx: np.ndarray  # (T, M, R, 20) the error against truth; no rows: the smoother is off
+    tape_P: np.ndarray  # (T, M, R, d, d) P, and
+    tape_dx: np.ndarray  # (T, M, R, d) the error against truth; no rows: the smoother is off
+    state_est: np.ndarray  # (T, M, R, E) the estimates of the sources' states (E = 0: none)
+    state_sigma: np.ndarray  # (T, M, R, E) their 1-sigma
+    state_true: np.ndarray  # (T, M, R, E) their true values
 
 
 @jit
@@ -115,9 +122,9 @@ def error_series_into(
     nees_block: np.ndarray,
 ) -> None:
     """One filter's :data:`SERIES_NAMES` (11,) and block NEES (B,) at an epoch from its error
-    against truth ``dx`` (20,) and covariance ``P`` (20, 20): the error norms, 1-sigma, NEES,
+    against truth ``dx`` (d,) and covariance ``P`` (d, d): the error norms, 1-sigma, NEES,
     tilt and heading (attitude in ``1 / deg``). The NEES plan (members, sizes, lead, order:
-    tauvcore.filter.kernels.nees.nees_plan) and L (20, 20), y (20,) scratch."""
+    tauvcore.filter.kernels.nees.nees_plan) and L (d, d), y (d,) scratch."""
     ev = ea = ep = sv = sa = sp = 0.0
     for i in range(3):
         ev += dx[VEL + i] ** 2
@@ -169,25 +176,26 @@ def record_bank(
     When the store has rows for the smoother's tape (tape_X, tape_P, tape_dx), the epoch is one
     of its marks: the transition since the last mark (``phi_acc``, then reset to the identity), P
     and dx (tauvcore.engine.smoothing)."""
-    _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _ = chunk
+    _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _, extra_all = chunk
     t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
     ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
-    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at, phi_acc = bank
-    origin, _, _, block_of_state, num_blocks, deg, sensor_index = constants
+    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at, phi_acc, extra = bank
+    origin, _, _, block_of_state, num_blocks, deg, sensor_index, _, _ = constants
     series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs[
         :9
     ]
-    tape_X, tape_P, tape_dx = outputs[9:]
+    tape_X, tape_P, tape_dx, state_est, state_sigma, state_true = outputs[9:]
     M, R = pos.shape[0], pos.shape[1]
     with_sensors = sensor_est.shape[0] > 0
     taping = tape_P.shape[0] > 0
-    x_est = np.zeros(N)  # the sensor states' estimate and truth, by state
-    x_true = np.zeros(N)
-    dx = np.empty(N)
+    d = P.shape[-1]  # the layout's 20 states and the sources' own
+    x_est = np.zeros(d)  # the sensor states' estimate and truth, by state
+    x_true = np.zeros(d)
+    dx = np.empty(d)
     Ce = np.empty((3, 3))
     rho = np.empty(3)
-    L = np.empty((N, N))
-    y = np.empty(N)
+    L = np.empty((d, d))
+    y = np.empty(d)
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
     for m in range(M):
         for r in range(R):
@@ -199,6 +207,11 @@ def record_bank(
                 dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
             dx[SF] = sf_t[r] - sf[m, r]
             Pm = P[m, r]
+            for e in range(d - N):
+                dx[N + e] = extra_all[i_chunk, e] - extra[m, r, e]
+                state_est[slot, m, r, e] = extra[m, r, e]
+                state_sigma[slot, m, r, e] = math.sqrt(Pm[N + e, N + e])
+                state_true[slot, m, r, e] = extra_all[i_chunk, e]
             error_series_into(
                 dx, Pm, deg, members, sizes, lead, order, L, y, series[:, slot, m, r], nees_block[slot, m, r]
             )
@@ -208,7 +221,7 @@ def record_bank(
                 tape_X[slot, m, r] = phi_acc[m, r]
                 phi_acc[m, r] = 0.0
             total = 0.0
-            for i in range(N):
+            for i in range(d):
                 total += Pm[i, i]
             if geodetic:
                 n0, n1, n2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
@@ -229,6 +242,8 @@ def record_bank(
                 for i in range(4):
                     x_est[BDVL + i], x_true[BDVL + i] = bdvl[m, r, i], bdvl_t[r, i]
                 x_est[SF], x_true[SF] = sf[m, r], sf_t[r]
+                for e in range(d - N):
+                    x_est[N + e], x_true[N + e] = extra[m, r, e], extra_all[i_chunk, e]
                 for j in range(sensor_index.size):
                     k = sensor_index[j]
                     sensor_est[slot, m, r, j] = x_est[k]
@@ -241,13 +256,14 @@ def record_bank(
 
 @jit
 def positive_definite_bank(P: np.ndarray) -> np.ndarray:
-    """(M, R) bool: each P (M, R, 20, 20) is finite and its Cholesky factorisation succeeds."""
+    """(M, R) bool: each P (M, R, d, d) is finite and its Cholesky factorisation succeeds."""
+    d = P.shape[-1]
     out = np.empty(P.shape[:2], dtype=np.bool_)
-    L = np.empty((N, N))
-    idx = np.arange(N)
+    L = np.empty((d, d))
+    idx = np.arange(d)
     for m in range(P.shape[0]):
         for r in range(P.shape[1]):
-            out[m, r] = cholesky_into(P[m, r], idx, N, L)
+            out[m, r] = cholesky_into(P[m, r], idx, d, L)
     return out
 
 
@@ -293,10 +309,10 @@ def run_stops(
     last check's, and the output epochs recorded. The same kernels the caller would call one by
     one, in the same order, so the numbers are those of the step-by-step loop."""
     stops, is_event, out_row, k0, check_step, yield_every = schedule
-    pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _, phi_acc = bank
-    phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all = chunk
+    pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _, phi_acc, _ = bank
+    phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all, _ = chunk
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    _, w_ie, q, _, _, _, _ = constants
+    _, w_ie, q, _, _, _, _, extra_rate, extra_q = constants
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
     why = STOPS_DONE
@@ -324,7 +340,22 @@ def run_stops(
             geodetic,
         )
         k_state = k
-        propagate_bank(P, pos, C, vel, bg, dtheta_sum, (k - k_cov) * dt, g_n, w_ie, q, geodetic, phi_acc)
+        propagate_bank(
+            P,
+            pos,
+            C,
+            vel,
+            bg,
+            dtheta_sum,
+            (k - k_cov) * dt,
+            g_n,
+            w_ie,
+            q,
+            geodetic,
+            phi_acc,
+            extra_rate,
+            extra_q,
+        )
         for r in range(R):
             for j in range(3):
                 dtheta_sum[r, j] = 0.0

@@ -171,6 +171,11 @@ class MethodResult:
     sensor_true: np.ndarray | None = None  # (T, R, S) the simulation's true value, same units: the IMU's
     # biases at the epoch's sample, the DVL's beam biases and scale factor of the latest ping (the first
     # ping's before it); NaN where the truth is unknown (a log's IMU; the DVL's of a mission without pings)
+    state_labels: tuple[str, ...] | None = None  # the states the sources add (tauvcore.filter.layout.Layout),
+    # each named with its unit ("current_north_mps"); None: none
+    state_est: np.ndarray | None = None  # (T, R, E) their estimates, in the labels' units
+    state_sigma: np.ndarray | None = None  # (T, R, E) their 1-sigma
+    state_true: np.ndarray | None = None  # (T, R, E) their true values (NaN where unknown)
     smoothed: MethodResult | None = None  # the fixed-interval smoother's results over the same epochs (no
     # updates: the filter's), None unless the run asked for them (mission.run(..., smooth=...))
     smoother_cuts: np.ndarray | None = None  # (R,) with ``smoothed``: steps where the backward pass
@@ -192,6 +197,9 @@ SERIES_FIELDS = {
 }
 """The per-epoch series both banks record, in the order of their rows (tauvcore.engine.loop.
 SERIES_NAMES, tauvcore.engine.yoo_loop), and the MethodResult field each becomes."""
+STATE_FIELDS = ("state_est", "state_sigma", "state_true")
+"""The records of the states the sources add: the names of the 20-state bank's stores (T, M, R, E)
+and of the MethodResult fields (T, R, E) they become (None without such states)."""
 SENSOR_FIELDS = ("sensor_est", "sensor_sigma", "sensor_true")
 """The sensor-error records: the names of the banks' stores (T, M, R, S; no rows when not asked
 for) and of the MethodResult fields (T, R, S) they become."""
@@ -242,6 +250,8 @@ def method_result(
         None, ``diverged`` (R,) where ``diverged_at_s`` is not NaN.
     """
     sensor = {name: epochs[name][:, m] if sensor_errors else None for name in SENSOR_FIELDS}
+    if fields.get("state_labels"):
+        sensor.update({name: epochs[name][:, m] for name in STATE_FIELDS})
     return MethodResult(
         method=method,
         t_s=t_s,

@@ -390,7 +390,8 @@ class TapeWriter:
         X, Pm, *nominal = before
 
         def state(arrays: list[np.ndarray] | tuple[np.ndarray, ...]) -> Nominal:
-            pos, vel, C, ba, bg, bdvl, sf = (a.reshape(self.batch + a.shape[1:]) for a in arrays)
+            # the sources' states, the last array, are none: the smoother does not take them
+            pos, vel, C, ba, bg, bdvl, sf, _ = (a.reshape(self.batch + a.shape[1:]) for a in arrays)
             return Nominal(NavState(pos, vel, C), ba, bg, bdvl, sf)
 
         d = difference(state(flat), state(nominal), self.geodetic)

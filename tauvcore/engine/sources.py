@@ -19,6 +19,7 @@ import numpy as np
 from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import FUSED, SOURCES
 from tauvcore.config import Config
+from tauvcore.filter.layout import Layout
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.sensors.timing import Rng, epoch_indices_between
 from tauvcore.truth.record import Truth
@@ -42,6 +43,56 @@ def active(config: Config) -> tuple[str, ...]:
         The names of the sources fused, in registry order (tauvcore.aiding.sources.FUSED).
     """
     return tuple(name for name in FUSED if name in config.run.aiding)
+
+
+def _on(config: Config) -> tuple[str, ...]:
+    """Every source ``run.aiding`` turns on, those the methods fuse (the DVL) too, in registry order."""
+    return tuple(name for name in SOURCES if name in config.run.aiding)
+
+
+def _section(config: Config, name: str):
+    return config.section(SOURCES[name].section_name)
+
+
+def layout_of(config: Config) -> Layout:
+    """The error state of a run: the layout's 20, then the states its fused sources add.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration; ``config.run.aiding`` names the sources turned on.
+
+    Returns
+    -------
+    Layout
+        The blocks of :meth:`AidingSource.states` of the sources ``run.aiding`` turns on, in
+        registry order.
+    """
+    return Layout(tuple(b for name in _on(config) for b in SOURCES[name].states(_section(config, name))))
+
+
+def states_truth(config: Config, truth: Truth) -> np.ndarray:
+    """The true values of the states :func:`layout_of` adds, at a truth chunk's samples.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration.
+    truth : Truth
+        A chunk of the mission's truth (K samples).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (K, E), the sources' :meth:`AidingSource.states_truth` side by side, in the states'
+        units.
+    """
+    parts = [
+        SOURCES[name].states_truth(_section(config, name), truth)
+        for name in _on(config)
+        if SOURCES[name].states(_section(config, name))
+    ]
+    return np.ascontiguousarray(np.concatenate(parts, axis=1) if parts else np.zeros((truth.num_samples, 0)))
 
 
 def simulated(config: Config) -> tuple[str, ...]:

@@ -12,7 +12,7 @@ from tauvcore.filter.eskf import (
     Nominal,
 )
 from tauvcore.filter.kernels.correction import add_position_batch
-from tauvcore.filter.layout import STATE, NavState
+from tauvcore.filter.layout import STATE, Layout, NavState
 from tauvcore.geo.rotations import (
     C_nb_from_euler,
     euler_from_misalignment_jacobian,
@@ -80,8 +80,10 @@ def initial_nominal(
     )
 
 
-def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
-    """P0 (20, 20) from the initial-error and sensor sections (Table 2 values as 1-sigma).
+def initial_covariance(config: Config, euler0: np.ndarray, layout: Layout | None = None) -> np.ndarray:
+    """P0 (d, d) from the initial-error and sensor sections (Table 2 values as 1-sigma), and the
+    sources' states of ``layout`` after the 20 (each its block's initial 1-sigma, uncorrelated;
+    ``d = 20`` without them).
 
     The attitude block maps the Euler-angle sigmas into the n-frame misalignment:
     ``P_rho = J^-1 diag(sigma_euler^2) J^-T``, ``J = d euler / d rho`` at the initial attitude.
@@ -108,4 +110,11 @@ def initial_covariance(config: Config, euler0: np.ndarray) -> np.ndarray:
     P0[STATE.b_dvl, STATE.b_dvl] = np.eye(4) * dvl.bias_mps**2
     P0[STATE.sf_dvl, STATE.sf_dvl] = dvl.scale_factor**2
     # a zero tuning value would make P0 singular; keep a floor far below any real error
-    return P0 + np.eye(STATE.dim) * 1e-16
+    P0 = P0 + np.eye(STATE.dim) * 1e-16
+    if layout is None or not layout.num_extra:
+        return P0
+    out = np.zeros((layout.dim, layout.dim))
+    out[: STATE.dim, : STATE.dim] = P0
+    _, _, sigma0 = layout.extra_arrays()
+    out[STATE.dim :, STATE.dim :] = np.diag(sigma0**2 + 1e-16)
+    return out

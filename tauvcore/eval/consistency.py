@@ -25,7 +25,6 @@ import numpy as np
 
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult, UpdateRecord
 from tauvcore.eval.metrics import average_nees_bounds
-from tauvcore.filter.layout import NEES_BLOCKS
 from tauvcore.filter.statistics import chi2_ppf
 
 CONFIDENCE = 0.99
@@ -61,7 +60,8 @@ def nees_series(result: MethodResult, block: str) -> np.ndarray:
     result : MethodResult
         One method's results over T output epochs and R runs.
     block : str
-        "full" (the whole state) or a key of ``tauvcore.filter.layout.NEES_BLOCKS``.
+        "full" (the whole state) or a block of the result's ``block_dims`` (the 20-state filter's:
+        ``tauvcore.filter.layout.NEES_BLOCKS``; a source's states add theirs after them).
 
     Returns
     -------
@@ -70,7 +70,8 @@ def nees_series(result: MethodResult, block: str) -> np.ndarray:
     """
     if block == "full":
         return result.nees
-    return result.nees_block[..., list(NEES_BLOCKS).index(block)]
+    order = [b for b in (result.block_dims or BLOCK_DIMS) if b != "full"]  # the records' block order
+    return result.nees_block[..., order.index(block)]
 
 
 def nees_band(dim: int, num_runs: int) -> tuple[float, float]:

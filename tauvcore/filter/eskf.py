@@ -49,6 +49,10 @@ class Nominal:
     gyro_bias: np.ndarray  # (B, 3) [rad/s]
     dvl_bias: np.ndarray  # (B, 4) [m/s]
     dvl_sf: np.ndarray  # (B,) [-]
+    extra: np.ndarray | None = (
+        None  # (B, E) the states the aiding sources add (tauvcore.filter.layout.Layout,
+    )
+    # in its units: the current [m/s] north and east); None: none
 
     @property
     def vel_b(self) -> np.ndarray:
@@ -68,23 +72,34 @@ class Nominal:
         -------
         Nominal
             A new nominal state with ``nav`` and this one's accelerometer bias (B, 3) [m/s^2], gyro
-            bias (B, 3) [rad/s], DVL beam biases (B, 4) [m/s] and scale factor (B,) [-].
+            bias (B, 3) [rad/s], DVL beam biases (B, 4) [m/s], scale factor (B,) [-] and the
+            sources' states (B, E).
         """
-        return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf)
+        return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf, self.extra)
+
+    @property
+    def num_extra(self) -> int:
+        """E: the number of the sources' own states (0 without them)."""
+        return 0 if self.extra is None else int(np.shape(self.extra)[-1])
 
 
-StateArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""pos, vel, C, accel bias, gyro bias, DVL bias, scale factor: the kernels' state (:func:`_state_arrays`)."""
+StateArrays = tuple[
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray
+]
+"""pos, vel, C, accel bias, gyro bias, DVL bias, scale factor, the sources' states (n, E): the
+kernels' state (:func:`_state_arrays`)."""
 
 
 def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> StateArrays:
     """Fresh C-contiguous copies of the nominal state broadcast to ``batch``, flattened to one
     leading axis (the compiled kernels' layout): pos, vel (n, 3), C (n, 3, 3), accel and gyro bias
-    (n, 3), DVL bias (n, 4), scale factor (n,)."""
+    (n, 3), DVL bias (n, 4), scale factor (n,), the sources' states (n, E) (E = 0 without them)."""
+
+    n = int(np.prod(batch, dtype=np.int64))
 
     def flat(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
         return np.array(np.broadcast_to(np.asarray(a, dtype=float), batch + tail), order="C").reshape(
-            (-1,) + tail
+            (n,) + tail
         )
 
     return (
@@ -95,17 +110,19 @@ def _state_arrays(nom: Nominal, batch: tuple[int, ...]) -> StateArrays:
         flat(nom.gyro_bias, (3,)),
         flat(nom.dvl_bias, (4,)),
         flat(nom.dvl_sf, ()),
+        flat(np.zeros(0) if nom.extra is None else nom.extra, (nom.num_extra,)),
     )
 
 
 def _nominal_of(arrays: StateArrays, batch: tuple[int, ...]) -> Nominal:
-    pos, vel, C, ba, bg, bdvl, sf = arrays
+    pos, vel, C, ba, bg, bdvl, sf, extra = arrays
     return Nominal(
         NavState(pos.reshape(batch + (3,)), vel.reshape(batch + (3,)), C.reshape(batch + (3, 3))),
         ba.reshape(batch + (3,)),
         bg.reshape(batch + (3,)),
         bdvl.reshape(batch + (4,)),
         sf.reshape(batch),
+        extra.reshape(batch + extra.shape[1:]) if extra.shape[1] else None,
     )
 
 
@@ -141,8 +158,9 @@ def inject(nom: Nominal, dx: np.ndarray, geodetic: bool = False) -> Nominal:
 
     batch = np.broadcast_shapes(nom.dvl_sf.shape, np.shape(dx)[:-1])
     arrays = _state_arrays(nom, batch)
-    dx_flat = np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (STATE.dim,)))
-    inject_batch(*arrays, dx_flat.reshape(-1, STATE.dim), geodetic)
+    d = STATE.dim + nom.num_extra
+    dx_flat = np.ascontiguousarray(np.broadcast_to(np.asarray(dx, dtype=float), batch + (d,)))
+    inject_batch(*arrays, dx_flat.reshape(-1, d), geodetic)
     return _nominal_of(arrays, batch)
 
 
@@ -178,12 +196,14 @@ def difference(true: Nominal, est: Nominal, geodetic: bool = False) -> np.ndarra
         true.dvl_sf.shape, est.dvl_sf.shape, np.shape(true.nav.pos_n)[:-1], np.shape(est.nav.pos_n)[:-1]
     )
     t, e = _state_arrays(true, batch), _state_arrays(est, batch)
-    dx = np.zeros(batch + (STATE.dim,))
+    dx = np.zeros(batch + (STATE.dim + est.num_extra,))
     dx[..., :NAV] = difference_batch(t[0], t[1], t[2], e[0], e[1], e[2], geodetic).reshape(batch + (NAV,))
     dx[..., STATE.ba] = true.accel_bias - est.accel_bias
     dx[..., STATE.bg] = true.gyro_bias - est.gyro_bias
     dx[..., STATE.b_dvl] = true.dvl_bias - est.dvl_bias
     dx[..., STATE.sf_dvl] = (true.dvl_sf - est.dvl_sf)[..., None]
+    if est.extra is not None:
+        dx[..., STATE.dim :] = (0.0 if true.extra is None else true.extra) - est.extra
     return dx
 
 
@@ -411,7 +431,7 @@ def fuse_in_place(
     n, m = P.shape[0], nu.shape[-1]
     dx, s_diag, keep, nis, ratio, unusable = correct_batch(
         P,
-        np.ascontiguousarray(H, dtype=float).reshape(n, m, STATE.dim),
+        np.ascontiguousarray(H, dtype=float).reshape(n, m, P.shape[-1]),
         np.ascontiguousarray(R, dtype=float).reshape(n, m, m),
         np.ascontiguousarray(nu, dtype=float).reshape(n, m),
         np.ascontiguousarray(active, dtype=bool).reshape(n, m),
@@ -424,6 +444,31 @@ def fuse_in_place(
         inject_batch(*state, np.where(invariant[:, None], 0.0, dx), geodetic)
         retract_batch(*state, P, dx, np.ascontiguousarray(invariant, dtype=bool), geodetic)
     return s_diag, keep, nis, ratio, unusable
+
+
+def widen(H: np.ndarray, d: int) -> np.ndarray:
+    """``H`` over the 20 states of the layout, or over them and the sources' own, as ``d`` columns:
+    zero columns for states a measurement does not see.
+
+    Parameters
+    ----------
+    H : numpy.ndarray
+        Measurement Jacobians, shape (..., m, d0), d0 <= d, in the measurement's SI unit over each
+        state's.
+    d : int
+        The states of the filter, 20 plus the sources' own.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``H`` itself when ``d0 = d``, else shape (..., m, d) with zero columns ``d0 .. d - 1``.
+    """
+    H = np.asarray(H, dtype=float)
+    if H.shape[-1] == d:
+        return H
+    out = np.zeros(H.shape[:-1] + (d,))
+    out[..., : H.shape[-1]] = H
+    return out
 
 
 def make_outcome(
@@ -532,9 +577,10 @@ def correct(
     m = meas.R.shape[-1]
     active = np.ones(batch + (m,), dtype=bool) if meas.active is None else meas.active.astype(bool)
     active = np.broadcast_to(active & valid[..., None], batch + (m,))
-    P_new = np.array(np.broadcast_to(P, batch + (STATE.dim, STATE.dim)), dtype=float, order="C")
+    d = np.shape(P)[-1]
+    P_new = np.array(np.broadcast_to(P, batch + (d, d)), dtype=float, order="C")
     state = _state_arrays(nom, batch)
-    flat = P_new.reshape(-1, STATE.dim, STATE.dim)
+    flat = P_new.reshape(-1, d, d)
 
     def rows(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
         return np.broadcast_to(a, batch + tail).reshape((-1,) + tail)
@@ -542,7 +588,7 @@ def correct(
     fused = fuse_in_place(
         flat,
         state,
-        rows(meas.H, (m, STATE.dim)),
+        rows(widen(meas.H, d), (m, d)),
         rows(meas.R, (m, m)),
         rows(meas.innovation, (m,)),
         rows(active, (m,)),

@@ -80,3 +80,88 @@ The misalignment ``rho`` is in the n (NED) frame, so its horizontal components a
 (levelling error: what the accelerometers and gravity observe) and its down component is the
 heading (azimuth) error, which DVL aiding alone leaves unobservable on a straight line. The
 sensor block holds the IMU biases and the DVL beam biases and scale factor."""
+
+
+@dataclass(frozen=True)
+class StateBlock:
+    """States an aiding source adds after the layout's 20 (``AidingSource.states``): each a
+    first-order Gauss-Markov process (``rate_per_s`` = -1/tau) or a random walk (0) driven by
+    white noise of PSD ``q_psd``, uncoupled in F from the rest (what couples them is the
+    source's measurement), starting at zero with 1-sigma ``sigma0``."""
+
+    name: str  # the block's name: its NEES block and its column in every table ("current")
+    labels: tuple[str, ...]  # each state's name, its unit in it ("current_north_mps", ...)
+    sigma0: tuple[float, ...]  # initial 1-sigma of each state, in its unit
+    rate_per_s: tuple[float, ...]  # -1/tau [1/s] of each state; 0: a random walk
+    q_psd: tuple[float, ...]  # PSD of each state's driving noise [unit^2/s]
+
+    @property
+    def dim(self) -> int:
+        """Number of states."""
+        return len(self.labels)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The error state of a run: the 20 of :data:`STATE`, then the blocks its sources add, in order."""
+
+    blocks: tuple[StateBlock, ...] = ()
+
+    @property
+    def dim(self) -> int:
+        """Number of error states, 20 and the blocks'."""
+        return STATE.dim + self.num_extra
+
+    @property
+    def num_extra(self) -> int:
+        """E: number of the sources' states."""
+        return sum(b.dim for b in self.blocks)
+
+    def slice_of(self, name: str) -> slice:
+        """The states of block ``name``: a slice of the error state.
+
+        Parameters
+        ----------
+        name : str
+            A block of :attr:`blocks` (e.g. ``"current"``).
+
+        Returns
+        -------
+        slice
+            Its indices in the error state (after the 20 of :data:`STATE`).
+        """
+        start = STATE.dim
+        for b in self.blocks:
+            if b.name == name:
+                return slice(start, start + b.dim)
+            start += b.dim
+        raise KeyError(name)
+
+    @property
+    def nees_blocks(self) -> dict[str, tuple[int, ...]]:
+        """:data:`NEES_BLOCKS`, then one NEES block per source block, by name."""
+        out = dict(NEES_BLOCKS)
+        for b in self.blocks:
+            out[b.name] = _indices(self.slice_of(b.name))
+        return out
+
+    def extra_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The blocks' states as the kernels take them.
+
+        Returns
+        -------
+        rate : numpy.ndarray
+            Shape (E,): each state's -1/tau [1/s] (0 for a random walk).
+        q : numpy.ndarray
+            Shape (E,): the PSD of its driving noise [unit^2/s].
+        sigma0 : numpy.ndarray
+            Shape (E,): its initial 1-sigma [unit].
+        """
+        rate = np.array([r for b in self.blocks for r in b.rate_per_s], dtype=float)
+        q = np.array([v for b in self.blocks for v in b.q_psd], dtype=float)
+        sigma = np.array([v for b in self.blocks for v in b.sigma0], dtype=float)
+        return rate, q, sigma
+
+
+BASE_LAYOUT = Layout()
+"""The error state without any source's states: the 20 of :data:`STATE`."""

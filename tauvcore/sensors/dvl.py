@@ -60,6 +60,10 @@ WATER_TRACK = ("off", "beyond_range", "always")
 ``always``: every beam water-tracks (bottom-track off by configuration)."""
 MODE_NONE, MODE_BOTTOM, MODE_WATER = 0, 1, 2
 """A beam's mode at a ping (:attr:`DvlData.mode`): no return, bottom-track, water-track."""
+CURRENT_STATES = ("off", "gauss-markov", "random-walk")
+"""How the filters model the current they estimate (tauvcore.aiding.dvl_water): not at all, a
+first-order Gauss-Markov process (``current_sigma_mps``, ``current_tau_s``) or a random walk
+(``current_walk_mps_per_sqrt_s``)."""
 MAX_OUTAGES = 1000
 """Scheduled outage windows per run: a schedule, not a per-ping mask (random losses are
 ``dropout_probability``); each window is applied to every ping."""
@@ -177,6 +181,25 @@ class DvlConfig:
     # scatterers (plankton, particles) spread through the layer, not by one strong seabed, and they
     # move with the water's turbulence within it, so a single ping's Doppler estimate is several
     # times noisier; <= 1 as noise_mps
+    current_states: str = setting(
+        "off",
+        "current states",
+        hint='"off", "gauss-markov" or "random-walk": the filters estimate the current',
+    )
+    # checked below: one of CURRENT_STATES; the current (north, east) as two error states the
+    # water-track beams observe (tauvcore.aiding.dvl_water)
+    current_sigma_mps: float = setting(
+        0.5, "current sigma", "m/s", 0.0, 3.0, low_open=True, hint="1-sigma of the current, at the start"
+    )
+    # the Gauss-Markov process's steady 1-sigma too; (0, 3] as trajectory.current_n_mps
+    current_tau_s: float = setting(
+        3600.0, "current time constant", "s", 1.0, 864000.0, hint="Gauss-Markov correlation time"
+    )
+    # an hour: tides turn in six; [1, 864000]: a second to ten days
+    current_walk_mps_per_sqrt_s: float = setting(
+        1e-3, "current walk", "m/s/sqrt(s)", 0.0, 1.0, hint="random walk of the current"
+    )
+    # 6 cm/s in an hour; [0, 1]
 
     def __post_init__(self) -> None:
         check_settings("dvl", self)  # the numbers and the lever arm
@@ -190,6 +213,7 @@ class DvlConfig:
                 raise ConfigError(f"dvl.outages must hold beams/start_s/end_s tables, got {show(outage)}")
         require_choice("dvl.beyond_range", self.beyond_range, BEYOND_RANGE)
         require_choice("dvl.water_track", self.water_track, WATER_TRACK)
+        require_choice("dvl.current_states", self.current_states, CURRENT_STATES)
         if self.water_track == "beyond_range" and self.beyond_range == "noisy":
             raise ConfigError(
                 'dvl.water_track "beyond_range" needs dvl.beyond_range "lost", got "noisy" (a noisy beam '
@@ -229,6 +253,10 @@ class DvlConfig:
             water_track=self.water_track,
             water_layer_m=self.water_layer_m,
             water_track_noise_mps=0.0,
+            current_states=self.current_states,
+            current_sigma_mps=self.current_sigma_mps,
+            current_tau_s=self.current_tau_s,
+            current_walk_mps_per_sqrt_s=self.current_walk_mps_per_sqrt_s,
         )
 
     @property

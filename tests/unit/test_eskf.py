@@ -209,7 +209,8 @@ def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
     bank = P.copy()
     no_tape = np.zeros((0, R, 9, 15))
     propagate_bank(bank, np.zeros(vel_n.shape), np.ascontiguousarray(C), vel_n, bg, dtheta_sum, dt,
-                   np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False, no_tape)
+                   np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False, no_tape,
+                   np.zeros(0), np.zeros(0))
     np.testing.assert_allclose(bank, 0.5 * (dense + np.swapaxes(dense, -1, -2)), rtol=1e-12, atol=1e-13)
     np.testing.assert_array_equal(bank, np.swapaxes(bank, -1, -2))
     # the smoother's tape: the transitions of two steps composed, Phi2 Phi1 - I, on its block
@@ -218,7 +219,8 @@ def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
     C2 = exp_so3(rng.normal(0.0, 1.0, (M, R, 3)))
     for Cs in (C, C2):
         propagate_bank(twice, np.zeros(vel_n.shape), np.ascontiguousarray(Cs), vel_n, bg, dtheta_sum, dt,
-                       np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False, acc)
+                       np.ascontiguousarray(earth.g_n), np.ascontiguousarray(earth.omega_ie_n), q, False, acc,
+                       np.zeros(0), np.zeros(0))
     Phi2, _ = discretise(F_matrix(C2, np.einsum("mrji,mrj->mri", C2, vel_n), omega, earth), G_matrix(C2, vel_b), q, dt)
     composed = Phi2 @ Phi - np.eye(STATE.dim)
     np.testing.assert_allclose(acc, composed[..., :9, :15], rtol=0, atol=1e-12)

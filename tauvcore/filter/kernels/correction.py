@@ -46,10 +46,11 @@ def correct_into(
 
     Rows with ``active`` False are dropped exactly. ``S`` over the active rows must factorise
     (else: unusable, nothing fused). The paper's gate keeps a row if ``nu_i^2 <= gate^2 S_ii``
-    (all rows or none unless ``gate_rows``). Fills ``dx`` (20,), ``s_diag`` (m,; NaN where not
+    (all rows or none unless ``gate_rows``). Fills ``dx`` (n,) for P (n, n), ``s_diag`` (m,; NaN where not
     used), ``keep`` (m,); returns ``(nis, test_ratio, unusable)`` (NaN when no row was used).
     """
     m = nu.shape[0]
+    N = P.shape[0]  # the error states: the 20 of the layout and a source's own after them
     rows = np.empty(m, dtype=np.int64)
     n_a = 0
     for i in range(m):
@@ -179,11 +180,11 @@ def correct_batch(
     gate_rows: np.ndarray,
     gate_sigma: float,
 ) -> tuple:
-    """:func:`correct_into` for n filters: P (n, 20, 20) in place, H (n, m, 20), Rm (n, m, m), nu,
-    active (n, m), gate_rows (n,). -> dx (n, 20), s_diag (n, m), keep (n, m), nis, test_ratio,
+    """:func:`correct_into` for n filters: P (n, d, d) in place, H (n, m, d), Rm (n, m, m), nu,
+    active (n, m), gate_rows (n,). -> dx (n, d), s_diag (n, m), keep (n, m), nis, test_ratio,
     unusable (n,)."""
     n, m = nu.shape
-    dx = np.empty((n, N))
+    dx = np.empty((n, P.shape[-1]))
     s_diag = np.empty((n, m))
     keep = np.empty((n, m), dtype=np.bool_)
     nis = np.empty(n)
@@ -231,13 +232,14 @@ def inject_batch(
     gyro_bias: np.ndarray,
     dvl_bias: np.ndarray,
     dvl_sf: np.ndarray,
+    extra: np.ndarray,
     dx: np.ndarray,
     geodetic: bool,
 ) -> None:
     """Closed-loop injection ``x_hat <- x_hat (+) dx`` (tauvcore.filter.eskf.inject) for n filters in
     place: position and biases add, ``C <- exp([rho x]) C``, the body velocity adds and ``vel_n`` is
     rebuilt with the corrected attitude. pos, vel (n, 3), C (n, 3, 3), biases (n, 3), (n, 3), (n, 4),
-    dvl_sf (n,), dx (n, 20). On WGS-84 (``geodetic``) the position error in metres moves latitude,
+    dvl_sf (n,), the sources' own states ``extra`` (n, E) (they add), dx (n, 20 + E). On WGS-84 (``geodetic``) the position error in metres moves latitude,
     longitude and depth by the metric at the estimate (:func:`add_position_into`)."""
     E = np.empty((3, 3))
     C1 = np.empty((3, 3))
@@ -259,6 +261,8 @@ def inject_batch(
         for b in range(4):
             dvl_bias[i, b] += dx[i, BDVL + b]
         dvl_sf[i] += dx[i, SF]
+        for e in range(extra.shape[1]):
+            extra[i, e] += dx[i, N + e]
 
 
 @jit

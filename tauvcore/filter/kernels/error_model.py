@@ -299,9 +299,12 @@ def transition_into(F: np.ndarray, dt: float, Phi: np.ndarray) -> None:
 def sandwich_core_into(P: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
     """``P <- Phi P Phi^T`` in place for a symmetric P and ``Phi = I + X`` with X (9, 15) on rows
     0-8 and columns 0-14 (:func:`transition_core_into`). Only rows and columns 0-8 change:
-    ``W = (Phi P)[0:9]`` (9, 20 scratch), ``(Phi P Phi^T)[0:9, 0:9] = W[:, :9] + W[:, :15] X^T``
+    ``W = (Phi P)[0:9]`` (9, d scratch), ``(Phi P Phi^T)[0:9, 0:9] = W[:, :9] + W[:, :15] X^T``
     (upper triangle, mirrored: exactly symmetric), ``(Phi P Phi^T)[0:9, 9:] = W[:, 9:]``.
-    Sums run five (W) or three (the 9 x 9 block) at a time in registers."""
+    P is (d, d): the 20 states of the layout and the sources' own after them (columns 20 on,
+    which the transition leaves as they are). Sums run five (W) or three (the 9 x 9 block) at a
+    time in registers."""
+    d = P.shape[0]
     for i in range(NAV):
         for j in range(0, N, 5):
             s0, s1, s2, s3, s4 = P[i, j], P[i, j + 1], P[i, j + 2], P[i, j + 3], P[i, j + 4]
@@ -313,6 +316,11 @@ def sandwich_core_into(P: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
                 s3 += a * P[k, j + 3]
                 s4 += a * P[k, j + 4]
             W[i, j], W[i, j + 1], W[i, j + 2], W[i, j + 3], W[i, j + 4] = s0, s1, s2, s3, s4
+        for j in range(N, d):
+            s0 = P[i, j]
+            for k in range(CORE):
+                s0 += X[i, k] * P[k, j]
+            W[i, j] = s0
     for i in range(NAV):
         for j in range(3 * (i // 3), NAV, 3):
             s0, s1, s2 = W[i, j], W[i, j + 1], W[i, j + 2]
@@ -326,9 +334,30 @@ def sandwich_core_into(P: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
             if j + 1 >= i:
                 P[i, j + 1] = P[j + 1, i] = s1
             P[i, j + 2] = P[j + 2, i] = s2
-        for j in range(NAV, N):
+        for j in range(NAV, d):
             P[i, j] = W[i, j]
             P[j, i] = W[i, j]
+
+
+@jit
+def extra_step_into(P: np.ndarray, rate: np.ndarray, q: np.ndarray, dt: float) -> None:
+    """The sources' own states over ``dt``, each a first-order Gauss-Markov process (``rate`` =
+    -1/tau < 0) or a random walk (``rate`` = 0) driven by white noise of PSD ``q``, uncoupled from
+    the rest in F: their rows and columns of P scale by ``phi = exp(rate dt)`` and each variance
+    gains the exact discrete noise ``q (1 - phi^2) / (-2 rate)`` (``q dt`` for a walk). P (d, d),
+    rate and q (E,), states 20 .. 20 + E - 1."""
+    d = P.shape[0]
+    for e in range(rate.shape[0]):
+        a = N + e
+        if rate[e] != 0.0:
+            phi = math.exp(rate[e] * dt)
+            for j in range(d):
+                P[a, j] *= phi
+            for j in range(d):
+                P[j, a] *= phi
+            P[a, a] += q[e] * (1.0 - phi * phi) / (-2.0 * rate[e])
+        else:
+            P[a, a] += q[e] * dt
 
 
 @jit
@@ -407,11 +436,14 @@ def propagate_bank(
     q: np.ndarray,
     geodetic: bool,
     phi_acc: np.ndarray,
+    extra_rate: np.ndarray,
+    extra_q: np.ndarray,
 ) -> None:
     """Covariance step of every (method, run) over ``dt_c``: F at the nominal attitude and body
     velocity and the mean bias-corrected rate ``dtheta_sum[r] / dt_c - b_g``; its earth terms the
     flat model's (``g_n``, ``w_ie``) or, ``geodetic``, those at each nominal position (latitude,
-    longitude, depth) and velocity. P (M, R, 20, 20).
+    longitude, depth) and velocity. P (M, R, d, d): the 20 states of the layout, then the sources'
+    own (``d = 20 + E``; :func:`extra_step_into` with ``extra_rate``, ``extra_q`` (E,)).
 
     ``P <- Phi P Phi^T + Qd`` with the trapezoid ``Qd = (Phi GQG Phi^T + GQG) / 2``
     (tauvcore.ins.error_model.discretise) folded into one sandwich:
@@ -423,7 +455,7 @@ def propagate_bank(
     A = np.empty((NAV, CORE))
     X = np.empty((NAV, CORE))
     Y = np.empty((NAV, CORE))
-    W = np.empty((NAV, N))
+    W = np.empty((NAV, P.shape[-1]))
     Gm = np.empty((6, 6))
     Q6 = np.empty((6, 6))
     v = np.empty(3)
@@ -451,6 +483,8 @@ def propagate_bank(
             _add_half_noise(Pmr, Q6, q, dt_c)
             sandwich_core_into(Pmr, X, W)
             _add_half_noise(Pmr, Q6, q, dt_c)
+            if extra_rate.shape[0]:
+                extra_step_into(Pmr, extra_rate, extra_q, dt_c)
             if phi_acc.shape[0]:
                 _compose_transition(X, phi_acc[m, r], Y)
 

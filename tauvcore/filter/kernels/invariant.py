@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, N, jit
+from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, jit
 from tauvcore.filter.kernels.correction import add_position_into
 from tauvcore.filter.kernels.rotations import exp_so3_into
 
@@ -44,12 +44,15 @@ def retract_into(
     gyro_bias: np.ndarray,
     dvl_bias: np.ndarray,
     sf: np.ndarray,
+    extra: np.ndarray,
     P: np.ndarray,
     dx: np.ndarray,
     i: int,
     geodetic: bool,
 ) -> None:
-    """Filter ``i``: ``X_hat <- exp(T dx) X_hat``, sensor errors added, then ``P <- M P M^T``."""
+    """Filter ``i``: ``X_hat <- exp(T dx) X_hat``, sensor errors and the sources' states added, then
+    ``P <- M P M^T`` (M the identity on the sources' states)."""
+    N = P.shape[-1]
     E = np.empty((3, 3))
     J = np.empty((3, 3))
     C0 = np.empty((3, 3))
@@ -78,6 +81,8 @@ def retract_into(
     for b in range(4):
         dvl_bias[i, b] += dx[i, BDVL + b]
     sf[i] += dx[i, SF]
+    for e in range(extra.shape[1]):
+        extra[i, e] += dx[i, SF + 1 + e]
     # M = I but M[pos, att] = -[move x], M[vel, vel] = C_new^T C_old (= C_old^T E^T C_old)
     Rv = np.empty((3, 3))
     for r in range(3):
@@ -120,6 +125,7 @@ def retract_batch(
     gyro_bias: np.ndarray,
     dvl_bias: np.ndarray,
     sf: np.ndarray,
+    extra: np.ndarray,
     P: np.ndarray,
     dx: np.ndarray,
     invariant: np.ndarray,
@@ -128,4 +134,4 @@ def retract_batch(
     """:func:`retract_into` for the filters ``invariant`` (n,) of n, in place; the others untouched."""
     for i in range(pos.shape[0]):
         if invariant[i]:
-            retract_into(pos, vel, C, accel_bias, gyro_bias, dvl_bias, sf, P, dx, i, geodetic)
+            retract_into(pos, vel, C, accel_bias, gyro_bias, dvl_bias, sf, extra, P, dx, i, geodetic)
