@@ -13,7 +13,8 @@ velocity error inside the trenches, and the velocity NEES per dimension inside t
 up the current's along-hull part.
 
 Methods: INS, INS-DVL and VKF (Yoo 2014's 12-state filter), LC with ``run.rpm_fallback`` (the VKF's
-RPM velocity where the DVL gives none); and in the cross current, LC, TC, NSV and IEKF with the
+RPM velocity where the DVL gives none); in the cross current also LC and TC with the RPM
+fallback and the current as states (the RPM's velocity through the water); and LC, TC, NSV and IEKF with the
 DVL water-tracking beyond bottom range (``dvl.water_track = "beyond_range"``) and the current as
 two error states (``dvl.current_states = "random-walk"``): the current's error at the end (the
 norm of its north and east parts, RMS over the runs) and its NEES per dimension over the run.
@@ -39,11 +40,14 @@ import fragment  # noqa: E402  (benchmarks/, this script's own directory)
 
 TRENCHES_S = ((300.0, 480.0), (900.0, 960.0))
 METHODS = ("ins", "ins-dvl", "vkf", "lc")
-STATES = {"water_track": "beyond_range", "current_states": "random-walk", "current_walk_mps_per_sqrt_s": 1e-4}
+CURRENT = {"current_states": "random-walk", "current_walk_mps_per_sqrt_s": 1e-4}
+"""The filters estimating the current as two states."""
+STATES = {"water_track": "beyond_range", **CURRENT}
 """The DVL water-tracking beyond bottom range, the filters estimating the current."""
 CASES = (
     ("still water", (0.0, 0.0, 0.0), {}, METHODS),
     ("0.3 m/s across the track (toward east)", (0.0, 0.3, 0.0), {}, METHODS),
+    ("0.3 m/s across the track, current states, --rpm-fallback", (0.0, 0.3, 0.0), CURRENT, ("lc", "tc")),
     ("0.3 m/s across the track, water-track beyond range and current states", (0.0, 0.3, 0.0), STATES,
      ("lc", "tc", "nsv", "iekf")),
     ("0.3 m/s along the track (toward south, against the vehicle)", (-0.3, 0.0, 0.0), {}, METHODS),
@@ -61,7 +65,8 @@ def case_rows(current_n_mps: tuple[float, float, float], dvl: dict, methods: tup
         .replace("trajectory", current_n_mps=current_n_mps)
         .replace("dvl", **dvl)
         .replace("initial_error", mode="random")
-        .replace("run", methods=methods, aiding=("dvl", "depth", "mag"), seed=seed, rpm_fallback=not dvl)
+        .replace("run", methods=methods, aiding=("dvl", "depth", "mag"), seed=seed,
+                 rpm_fallback="water_track" not in dvl)
     )
     rng = np.random.default_rng(seed)
     results = run(config, simulate(config, rng, runs), rng)
@@ -82,7 +87,7 @@ def case_rows(current_n_mps: tuple[float, float, float], dvl: dict, methods: tup
             current = f"{rms(err):.3f}"
             block = [b for b in r.block_dims if b != "full"].index("current")
             nees_current = f"{np.nanmean(np.asarray(r.nees_block)[..., block]) / 2.0:.2f}"
-        label = method.upper() + (" (--rpm-fallback)" if method == "lc" and not dvl else "")
+        label = method.upper() + (" (--rpm-fallback)" if method in ("lc", "tc") and "water_track" not in dvl else "")
         rows.append(
             f"| {label} | {rms(np.asarray(r.pos_err_m)[-1]):.1f} | {rms(np.asarray(r.vel_err_mps)[trench]):.3f} "
             f"| {np.nanmean(nees_vel[trench]):.2f} | {bias} | {current} | {nees_current} |"

@@ -26,6 +26,7 @@ from tauvcore.filter.eskf import make_outcome
 from tauvcore.filter.kernels.dvl import TwoBeamTables
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE, Layout
+from tauvcore.geo.rotations import skew
 
 DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}, "iekf": "tc"}
 """How each method fuses the DVL (None: not at all; a registered method, tauvcore.aiding.registry,
@@ -81,20 +82,55 @@ def partial_tables(methods: Sequence[str], config: Config) -> TwoBeamTables:
 
 
 def rpm_measurement(
-    v_b: np.ndarray, sf: np.ndarray, b_dvl: np.ndarray, A_pinv: np.ndarray
+    v_b: np.ndarray,
+    sf: np.ndarray,
+    b_dvl: np.ndarray,
+    A_pinv: np.ndarray,
+    current: tuple[np.ndarray, np.ndarray, slice, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The RPM velocity's prediction ``h`` (..., 3) and Jacobian ``H`` (..., 3, 20) at a state of
-    body velocity ``v_b`` (..., 3) [m/s], DVL scale factor ``sf`` (...) and beam biases ``b_dvl``
-    (..., 4) [m/s] (``--rpm-fallback``, FilterBank._rpm_fallback). Surge is the speed the VKF
-    learned from the DVL, ``(1 + SF) v_b1 + A+_1 . b`` (the first row of the LC measurement, with
-    ``A_pinv`` (3, 4) the DVL's A+); sway and heave are the body velocity (taken as zero)."""
+    """The RPM velocity's prediction and Jacobian (``--rpm-fallback``, :func:`rpm_fallback`).
+
+    Surge is the speed the VKF learned from the DVL, ``(1 + SF) v_b1 + A+_1 . b`` (the first row
+    of the LC measurement); sway and heave are the body velocity (taken as zero). With the current
+    as states, the propeller's velocity is through the water: the current's body part
+    ``C^T c_n`` comes off every row (the VKF learned its surge less the estimated current,
+    :class:`~tauvcore.engine.rpm_aid.RpmAid`), and H gains ``-C^T [c x]`` on the misalignment
+    and ``-C^T [e_N e_E]`` on the current.
+
+    Parameters
+    ----------
+    v_b : numpy.ndarray
+        Body velocity over ground, shape (..., 3) [m/s].
+    sf : numpy.ndarray
+        DVL scale factor, shape (...) [-].
+    b_dvl : numpy.ndarray
+        DVL beam biases, shape (..., 4) [m/s].
+    A_pinv : numpy.ndarray
+        The DVL's A+, shape (3, 4) [-].
+    current : tuple or None
+        With current states: the attitude ``C_nb`` (..., 3, 3), the estimated current ``c_n``
+        (..., 3) NED [m/s], its slice of the error state and the error state's size; None: none.
+
+    Returns
+    -------
+    h : numpy.ndarray
+        The prediction, shape (..., 3) [m/s].
+    H : numpy.ndarray
+        Its Jacobian over the error state, shape (..., 3, 20) (or the size ``current`` gives).
+    """
     h = np.array(v_b, dtype=float, copy=True)
     h[..., 0] = (1.0 + sf) * v_b[..., 0] + b_dvl @ A_pinv[0]
-    H = np.zeros(np.shape(v_b)[:-1] + (3, STATE.dim))
+    H = np.zeros(np.shape(v_b)[:-1] + (3, STATE.dim if current is None else current[3]))
     H[..., STATE.vel] = np.eye(3)
     H[..., 0, STATE.vel.start] = 1.0 + sf
     H[..., 0, STATE.b_dvl] = A_pinv[0]
     H[..., 0, STATE.sf_dvl.start] = v_b[..., 0]
+    if current is not None:
+        C, c_n, cols, _ = current
+        CT = np.swapaxes(C, -1, -2)
+        h -= np.einsum("...ij,...j->...i", CT, c_n)
+        H[..., STATE.att] = -(CT @ skew(c_n))
+        H[..., cols] = -CT[..., :, :2]
     return h, H
 
 
@@ -127,6 +163,16 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
         dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
     )
     assert bank.rpm_aid is not None  # called only with run.rpm_fallback's filters (see the caller)
+    current = None
+    if CURRENT_BLOCK in {b.name for b in bank.layout.blocks}:
+        cols = bank.layout.slice_of(CURRENT_BLOCK)
+        c_n = np.zeros(bank.batch + (3,))
+        c_n[..., :2] = bank.extra[..., cols.start - STATE.dim : cols.stop - STATE.dim]
+        current = (bank.C, c_n, cols, bank.layout.dim)
+        # the runs' one VKF learns the surge through the water by the first DVL method's current
+        m0 = bank.dvl_index[0]
+        surge_current = np.einsum("rj,rj->r", bank.C[m0, :, :, 0], c_n[m0])
+        v_b = v_b - surge_current[:, None] * np.array([1.0, 0.0, 0.0])
     _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok)
     coast = np.zeros(bank.batch, bool)
     coast[bank.dvl_index] = ~dvl_valid[bank.dvl_index] & have_rpm
@@ -135,7 +181,7 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
     z = np.broadcast_to(bank.rpm_aid.velocity_b(), bank.batch + (3,))
     v_b = np.einsum("mrji,mrj->mri", bank.C, bank.vel)
     h, H = rpm_measurement(
-        v_b, bank.sf.reshape(bank.batch), bank.bdvl.reshape(bank.batch + (4,)), bank.rpm_A_pinv
+        v_b, bank.sf.reshape(bank.batch), bank.bdvl.reshape(bank.batch + (4,)), bank.rpm_A_pinv, current
     )
     nu = z - h
     Rm = np.ascontiguousarray(np.broadcast_to(bank.rpm_aid.covariance_b(), bank.batch + (3, 3)))
