@@ -48,8 +48,12 @@ CASES = (
     ("still water", (0.0, 0.0, 0.0), {}, METHODS),
     ("0.3 m/s across the track (toward east)", (0.0, 0.3, 0.0), {}, METHODS),
     ("0.3 m/s across the track, current states, --rpm-fallback", (0.0, 0.3, 0.0), CURRENT, ("lc", "tc")),
-    ("0.3 m/s across the track, water-track beyond range and current states", (0.0, 0.3, 0.0), STATES,
-     ("lc", "tc", "nsv", "iekf")),
+    (
+        "0.3 m/s across the track, water-track beyond range and current states",
+        (0.0, 0.3, 0.0),
+        STATES,
+        ("lc", "tc", "nsv", "iekf"),
+    ),
     ("0.3 m/s along the track (toward south, against the vehicle)", (-0.3, 0.0, 0.0), {}, METHODS),
 )
 
@@ -58,15 +62,21 @@ def rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.nanmean(np.asarray(a) ** 2)))
 
 
-def case_rows(current_n_mps: tuple[float, float, float], dvl: dict, methods: tuple[str, ...], runs: int,
-              seed: int) -> list[str]:
+def case_rows(
+    current_n_mps: tuple[float, float, float], dvl: dict, methods: tuple[str, ...], runs: int, seed: int
+) -> list[str]:
     config = (
         from_dict(trajectory_preset("longrange"), Config().replace("trajectory", name="longrange"))
         .replace("trajectory", current_n_mps=current_n_mps)
         .replace("dvl", **dvl)
         .replace("initial_error", mode="random")
-        .replace("run", methods=methods, aiding=("dvl", "depth", "mag"), seed=seed,
-                 rpm_fallback="water_track" not in dvl)
+        .replace(
+            "run",
+            methods=methods,
+            aiding=("dvl", "depth", "mag"),
+            seed=seed,
+            rpm_fallback="water_track" not in dvl,
+        )
     )
     rng = np.random.default_rng(seed)
     results = run(config, simulate(config, rng, runs), rng)
@@ -87,7 +97,9 @@ def case_rows(current_n_mps: tuple[float, float, float], dvl: dict, methods: tup
             current = f"{rms(err):.3f}"
             block = [b for b in r.block_dims if b != "full"].index("current")
             nees_current = f"{np.nanmean(np.asarray(r.nees_block)[..., block]) / 2.0:.2f}"
-        label = method.upper() + (" (--rpm-fallback)" if method in ("lc", "tc") and "water_track" not in dvl else "")
+        label = method.upper() + (
+            " (--rpm-fallback)" if method in ("lc", "tc") and "water_track" not in dvl else ""
+        )
         rows.append(
             f"| {label} | {rms(np.asarray(r.pos_err_m)[-1]):.1f} | {rms(np.asarray(r.vel_err_mps)[trench]):.3f} "
             f"| {np.nanmean(nees_vel[trench]):.2f} | {bias} | {current} | {nees_current} |"
@@ -102,12 +114,16 @@ def main() -> None:
     args = parser.parse_args()
     started = time.perf_counter()
     with fragment.capture() as shown:
-        print(f"Long-range mission, {args.runs} Monte Carlo runs (seed {args.seed}), DVL, depth and magnetometer "
-              "aiding, random initial errors; RMS over the runs. Trench: 5-8 and 15-16 minutes, no bottom lock.\n")
+        print(
+            f"Long-range mission, {args.runs} Monte Carlo runs (seed {args.seed}), DVL, depth and magnetometer "
+            "aiding, random initial errors; RMS over the runs. Trench: 5-8 and 15-16 minutes, no bottom lock.\n"
+        )
         for title, current, dvl, methods in CASES:
             print(f"**{title}**\n")
-            print("| method | end position [m] | trench velocity RMS [m/s] | trench velocity NEES/3 "
-                  "| VKF bias less true, end [m/s] | current error, end [m/s] | current NEES/2 |")
+            print(
+                "| method | end position [m] | trench velocity RMS [m/s] | trench velocity NEES/3 "
+                "| VKF bias less true, end [m/s] | current error, end [m/s] | current NEES/2 |"
+            )
             print("|---|---|---|---|---|---|---|")
             for line in case_rows(current, dvl, methods, args.runs, args.seed):
                 print(line, flush=True)

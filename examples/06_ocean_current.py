@@ -30,8 +30,9 @@ def main() -> None:
         "run": {"methods": ["lc", "tc"], "aiding": ["dvl", "depth", "mag"], "seed": 0, "rpm_fallback": True},
     }
     blind = from_dict(merge(trajectory_preset("longrange"), ours))
-    aware = blind.replace("dvl", water_track="beyond_range", current_states="random-walk",
-                          current_walk_mps_per_sqrt_s=1e-4)
+    aware = blind.replace(
+        "dvl", water_track="beyond_range", current_states="random-walk", current_walk_mps_per_sqrt_s=1e-4
+    )
     print(f"longrange, {args.duration:g} s, in a current of 0.3 m/s toward east\n")
     print("the current ignored (LC and TC with --rpm-fallback):")
     ignored = run_streaming(blind, np.random.default_rng(0))
@@ -45,8 +46,10 @@ def main() -> None:
     if r.state_est is None or r.state_sigma is None or r.state_true is None:
         raise SystemExit("LC recorded no current states")
     est, sigma, true = r.state_est[-1, 0], r.state_sigma[-1, 0], r.state_true[-1, 0]
-    print(f"\nLC's current at {r.t_s[-1]:g} s: north {est[0]:+.3f} +- {sigma[0]:.3f} m/s (true {true[0]:+.3f}), "
-          f"east {est[1]:+.3f} +- {sigma[1]:.3f} m/s (true {true[1]:+.3f})")
+    print(
+        f"\nLC's current at {r.t_s[-1]:g} s: north {est[0]:+.3f} +- {sigma[0]:.3f} m/s (true {true[0]:+.3f}), "
+        f"east {est[1]:+.3f} +- {sigma[1]:.3f} m/s (true {true[1]:+.3f})"
+    )
     if not (finite(ignored) and finite(estimated) and np.isfinite(est).all()):
         raise SystemExit("a method's errors or the current's estimate are not finite")
 
