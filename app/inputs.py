@@ -647,7 +647,6 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
                 f"{DVL_MAX_ALTITUDE}: {show(c.dvl_max_altitude)} is out of range with {DVL_WATER_TRACK} "
                 f"{show(c.water_track)}: {exc}"
             ) from None
-        label = _label_for(exc)
         if label is None:
             raise InputError(str(exc)) from None
         value = f" {show(typed[label])} is out of range:" if label in typed else ""
