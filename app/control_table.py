@@ -26,6 +26,7 @@ import viser
 from app import inputs
 from app.controls import add_source_controls
 from tauvcore.config import RUN_METHODS, Config
+from tauvcore.sensors.dvl import CURRENT_STATES, WATER_TRACK
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 
 DEFAULT_METHODS = ("ins", "lc", "tc", "nsv", "elc")
@@ -201,6 +202,32 @@ CONTROLS = (
         inputs.SEABED_FOLDER,
         lambda d: _text(d.dvl.max_altitude_m),
         inputs.DVL_MAX_ALTITUDE_HINT,
+    ),
+    # what the DVL measures where it has no bottom lock (or always), and whether the filters carry
+    # the current its water-track beams measure against as states (tauvcore.aiding.dvl_water)
+    Control(
+        "water_track",
+        "water_track",
+        inputs.DVL_WATER_TRACK,
+        "dropdown",
+        "wt",
+        "choice",
+        inputs.SEABED_FOLDER,
+        lambda d: d.dvl.water_track,
+        inputs.DVL_WATER_TRACK_HINT,
+        WATER_TRACK,
+    ),
+    Control(
+        "current_states",
+        "current_states",
+        inputs.DVL_CURRENT_STATES,
+        "dropdown",
+        "cst",
+        "choice",
+        inputs.SEABED_FOLDER,
+        lambda d: d.dvl.current_states,
+        inputs.DVL_CURRENT_STATES_HINT,
+        CURRENT_STATES,
     ),
     Control(
         "switch_altitude",
@@ -419,3 +446,7 @@ TEXT_LABELS = tuple(
 )
 """The text controls a preset or a log's configuration may fill in (those of a configuration
 field: all but Runs), by label."""
+FILLED_LABELS = TEXT_LABELS + (inputs.DVL_WATER_TRACK, inputs.DVL_CURRENT_STATES)
+"""The controls a preset or a log's configuration may fill in: the text controls, and the DVL's
+choices (a log's water-track and current states are its configuration's until the page changes
+them, as its noise is)."""

@@ -73,8 +73,10 @@ NEES_BLOCK_NAMES = {
     "tilt": "tilt",
     "heading": "heading",
     "sensor": "sensor errors",
+    "current": "current (north, east)",
 }
-"""Consistency blocks (tauvcore.engine.results.BLOCK_DIMS) as the figure names them."""
+"""Consistency blocks (tauvcore.engine.results.BLOCK_DIMS, and the states the aiding sources add:
+the DVL's current, tauvcore.aiding.dvl_water) as the figure names them; another block by its name."""
 BAND_COLOR = "rgba(120,120,120,0.18)"
 
 
@@ -292,8 +294,26 @@ def error_figure(
 
 def block_dims(result: MethodResult) -> dict[str, int]:
     """NEES dimension of each block of ``result``: the 20-state filter's (BLOCK_DIMS), or the
-    method's own (Yoo 2014's 12-state filter: ``MethodResult.block_dims``)."""
+    method's own (``MethodResult.block_dims``: Yoo 2014's 12-state filter, or the 20-state filter
+    with the states its sources add, e.g. ``current``)."""
     return result.block_dims or BLOCK_DIMS
+
+
+def nees_blocks(results: Mapping[str, MethodResult]) -> tuple[str, ...]:
+    """The NEES blocks a consistency plot of ``results`` can draw.
+
+    Parameters
+    ----------
+    results : Mapping[str, MethodResult]
+        Method name -> its results.
+
+    Returns
+    -------
+    tuple[str, ...]
+        The 20-state filter's blocks (tauvcore.engine.results.BLOCK_DIMS, "full" first), then
+        those a method's own ``block_dims`` adds (the DVL's ``current``), in order of appearance.
+    """
+    return tuple(dict.fromkeys([*BLOCK_DIMS, *(b for r in results.values() for b in block_dims(r))]))
 
 
 def nees_figure(
@@ -308,23 +328,31 @@ def nees_figure(
     dimension n, averaged over the Monte Carlo runs, against time; one trace per method.
 
     ``block``: "full" (all error states) or "pos", "vel", "tilt", "heading", "sensor"
-    (tauvcore.engine.results.BLOCK_DIMS). n is each method's own (:func:`block_dims`: the full
-    state is 20 for the first paper's methods, 12 for Yoo 2014's, whose position NEES is NaN: no
-    curve). A consistent filter's curve lies near 1 (a dotted line, trace "1 = consistent") and
-    inside the two-sided 99 % band of the run-averaged NEES (:func:`tauvcore.eval.consistency.nees_band`;
-    a grey shaded trace "99 % band", which narrows as runs are added; when the methods drawn have
-    different n, one band per n, "99 % band (dim n)", the first dashed, the others dotted); above
-    it the filter is over-confident, below it cautious. NEES spans decades (VB at a small n_f
-    reached thousands), so the y-axis is logarithmic. Epochs where a run's NEES is not finite (a
-    diverged filter) are gaps. ``smoothed``: each method's smoothed NEES of the block, against the
-    same truth and band, as a dashed line beside its filtered one (:func:`smoothed_traces`).
+    (tauvcore.engine.results.BLOCK_DIMS), or a block the sources add ("current": the DVL's current
+    states; :func:`nees_blocks`). A method whose ``block_dims`` lacks ``block`` is not drawn, and
+    the title names it ("no current: VKF"). n is each method's own (:func:`block_dims`: the full
+    state is 20 for the first paper's methods, 22 with the current states, 12 for Yoo 2014's, whose
+    position NEES is NaN: no curve). A consistent filter's curve lies near 1 (a dotted line, trace
+    "1 = consistent") and inside the two-sided 99 % band of the run-averaged NEES
+    (:func:`tauvcore.eval.consistency.nees_band`; a grey shaded trace "99 % band", which narrows as
+    runs are added; when the methods drawn have different n, one band per n, "99 % band (dim n)",
+    the first dashed, the others dotted); above it the filter is over-confident, below it cautious.
+    NEES spans decades (VB at a small n_f reached thousands), so the y-axis is logarithmic. Epochs
+    where a run's NEES is not finite (a diverged filter) are gaps. ``smoothed``: each method's
+    smoothed NEES of the block, against the same truth and band, as a dashed line beside its
+    filtered one (:func:`smoothed_traces`).
     """
-    if block not in BLOCK_DIMS:
-        raise ValueError(f"block must be one of {', '.join(BLOCK_DIMS)}, got {block!r}")
+    known = dict.fromkeys([*nees_blocks(results), *NEES_BLOCK_NAMES])
+    if block not in known:
+        raise ValueError(f"block must be one of {', '.join(known)}, got {block!r}")
     data: list[dict[str, Any]] = []
     by_dim: dict[int, list[str]] = {}  # block dimension -> the methods drawn with it, in order
+    without: list[str] = []  # the methods whose filter has no such block
     runs, t_first, t_last = 1, np.inf, -np.inf
     for method, res in results.items():
+        if block not in block_dims(res):
+            without.append(method.upper())
+            continue
         if len(res.t_s) == 0:
             continue
         dim = block_dims(res)[block]
@@ -392,12 +420,19 @@ def nees_figure(
             }
         )
         data = reference + data
-    groups = list(by_dim.items()) or [(BLOCK_DIMS[block], [])]
+    groups = list(by_dim.items()) or ([(BLOCK_DIMS[block], [])] if block in BLOCK_DIMS else [])
     dims_text = "; ".join(
         f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}" for k, (dim, names) in enumerate(groups)
     )
     runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
-    title = f"NEES/dim, {NEES_BLOCK_NAMES[block]} ({dims_text}){runs_text}{_envelope_note(results)}"
+    name = NEES_BLOCK_NAMES.get(block, block)
+    missing = f"; no {block}: {', '.join(without)}" if without else ""
+    if groups:
+        title = f"NEES/dim, {name} ({dims_text}{missing}){runs_text}{_envelope_note(results)}"
+    else:  # a run without such states (one of the kept runs overlaid, say)
+        title = f"NEES/dim, {name}: no method of this run has it" + (
+            f" ({', '.join(without)})" if without else ""
+        )
     layout = {
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,

@@ -35,7 +35,11 @@ from tauvcore.aiding.sources import FUSED
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.envelope import DecimatedUpdates, is_decimated
 
-INNOVATION_ROWS = {"dvl": {3: ("surge", "sway", "heave"), 4: ("beam 1", "beam 2", "beam 3", "beam 4")}}
+INNOVATION_ROWS = {
+    "dvl": {3: ("surge", "sway", "heave"), 4: ("beam 1", "beam 2", "beam 3", "beam 4")},
+    # the DVL's water-track beams, fused against the current states (tauvcore.engine.dvl_fusion)
+    "water": {4: ("beam 1", "beam 2", "beam 3", "beam 4")},
+}
 INNOVATION_ROWS.update({name: {len(s.row_labels): s.row_labels} for name, s in FUSED.items()})
 """What a source's innovation rows are, by their number (DVL: body axes, TC: beams; a plug-in: its own)."""
 BAND_SUFFIX = " 3-sigma"

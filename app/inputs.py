@@ -12,9 +12,12 @@ tauvcore.config.PartialConfig). The ocean current is typed as an engineer states
 the direction it flows toward in degrees, with a shear along that direction and a varying part
 (:func:`current_fields` turns them into the NED fields of tauvcore.truth.current); a current the
 configuration refuses (reaching the vehicle's speed, a crab beyond 45 deg) is named by its control
-with the configuration's own line. A plug-in aiding source's controls (app.controls) are read the same
-way into its section (``Config.sources``), a 3-vector as three numbers separated by commas; a
-ticked source joins ``run.aiding``.
+with the configuration's own line. The DVL's water-track and the filters' current states are choices
+of tauvcore.sensors.dvl (WATER_TRACK, CURRENT_STATES); a combination the configuration refuses (a
+water-track layer beyond the DVL's range, water-track beyond range with a log's noisy beams, the
+current states with the smoother) is named by its control. A plug-in aiding source's controls
+(app.controls) are read the same way into its section (``Config.sources``), a 3-vector as three
+numbers separated by commas; a ticked source joins ``run.aiding``.
 """
 
 from __future__ import annotations
@@ -27,10 +30,10 @@ from typing import Any
 from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import FUSED
-from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
-from tauvcore.sensors.dvl import Outage
+from tauvcore.config import AUTO, RUN_METHODS, YOO_METHODS, Config, from_dict, trajectory_preset
+from tauvcore.sensors.dvl import DvlConfig, Outage
 from tauvcore.truth import TrajectoryConfig
-from tauvcore.validation import ConfigError, show
+from tauvcore.validation import ConfigError, settings, show
 
 TRAJECTORY = "Trajectory"
 TRUTH = "Truth"
@@ -112,6 +115,17 @@ CURRENT_VARIATION_HINT = (
     "RMS of a slowly varying part on the north and east axes, [0, 3] m/s: periods of 600 s to "
     "80 min, seeded (the same for every run)"
 )
+DVL_WATER_TRACK = "Water-track"
+DVL_CURRENT_STATES = "Current states"
+_DVL_HINTS = {name: s.hint for name, _, s in settings(DvlConfig)}
+DVL_WATER_TRACK_HINT = (
+    f"{_DVL_HINTS['water_track']}: a water-tracking beam measures the DVL's velocity through a layer of "
+    f"water below its head, not over ground; the filters fuse it only with {DVL_CURRENT_STATES} on"
+)
+DVL_CURRENT_STATES_HINT = (
+    f"{_DVL_HINTS['current_states']} (north, east) as two more error states, observed by the water-track "
+    "beams; its estimate in the Sensors tab, its NEES in the Consistency tab (block current)"
+)
 METHOD_HINTS = {
     "ins-dvl": "Yoo 2014's 12-state INS aided by the DVL's velocity (at least three beams); no position state",
     "vkf": (
@@ -164,6 +178,8 @@ FIELD_LABELS = {
     "dvl.dropout_probability": DROPOUT,
     "dvl.outages": "Outages",
     "dvl.max_altitude_m": DVL_MAX_ALTITUDE,
+    "dvl.water_track": DVL_WATER_TRACK,
+    "dvl.current_states": DVL_CURRENT_STATES,
     "trajectory.seabed_depth_m": SEABED_DEPTH,
     "vkf.switch_altitude_m": SWITCH_ALTITUDE,
     "rpm.noise_rpm": RPM_NOISE,
@@ -264,6 +280,8 @@ class Controls:
     current_toward: str = "0"  # the direction it flows toward, clockwise from north [deg], as typed
     current_shear: str = "0"  # its change along that direction per metre of depth [1/s], as typed
     current_variation: str = "0"  # trajectory.current_variation_mps, as typed [m/s]
+    water_track: str = DvlConfig.water_track  # dvl.water_track, one of tauvcore.sensors.dvl.WATER_TRACK
+    current_states: str = DvlConfig.current_states  # dvl.current_states, one of CURRENT_STATES
 
 
 def field_text(value: object) -> str:
@@ -610,6 +628,8 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
                 beams=beams,
                 dropout_probability=numbers[DROPOUT],
                 max_altitude_m=numbers[DVL_MAX_ALTITUDE],
+                water_track=c.water_track,
+                current_states=c.current_states,
             )
             .replace("vkf", switch_altitude_m=numbers[SWITCH_ALTITUDE])
             .replace("rpm", noise_rpm=numbers[RPM_NOISE])
@@ -621,10 +641,22 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
             config = config.replace(name, **changes)
     except ConfigError as exc:
         label = _current_label(str(exc), current) or _label_for(exc)
+        if str(exc).startswith("dvl.water_layer_m"):
+            # the layer has no control of its own: the DVL's range and the water-track refuse it together
+            raise InputError(
+                f"{DVL_MAX_ALTITUDE}: {show(c.dvl_max_altitude)} is out of range with {DVL_WATER_TRACK} "
+                f"{show(c.water_track)}: {exc}"
+            ) from None
         if label is None:
             raise InputError(str(exc)) from None
         value = f" {show(typed[label])} is out of range:" if label in typed else ""
         raise InputError(f"{label}:{value} {exc}") from None
+    if c.smoother and config.dvl.current_states != "off" and set(methods) - set(YOO_METHODS):
+        # the 20-state bank's smoother refuses the sources' states (tauv run --smooth too)
+        raise InputError(
+            f"{DVL_CURRENT_STATES}: {show(config.dvl.current_states)} with the {SMOOTHER}: the smoother does "
+            f"not take the current states; set {DVL_CURRENT_STATES} off or untick {SMOOTHER}"
+        )
     return config, runs
 
 
@@ -655,6 +687,8 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
         ("Current", current_text(config.trajectory)),
         ("Rates", f"IMU {imu.rate_hz:g} Hz, DVL {d.rate_hz:g} Hz"),
         (DVL_MAX_ALTITUDE, f"{d.max_altitude_m:g}"),
+        (DVL_WATER_TRACK, _water_track_row(d)),
+        (DVL_CURRENT_STATES, _current_states_row(d)),
         (SWITCH_ALTITUDE, f"{config.vkf.switch_altitude_m:g}"),
         (RPM_NOISE, f"{config.rpm.noise_rpm:g}"),
         ("Methods", ", ".join(m.upper() for m in run.methods)),
@@ -702,6 +736,25 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
             if name not in simulation_only
         ]
     return rows
+
+
+def _water_track_row(d: DvlConfig) -> str:
+    """dvl.water_track in one line: "off", or "always, layer 10 m below the head, noise 0.1 m/s"."""
+    if d.water_track == "off":
+        return "off"
+    return (
+        f"{d.water_track}, layer {d.water_layer_m:g} m below the head, noise {d.water_track_noise_mps:g} m/s"
+    )
+
+
+def _current_states_row(d: DvlConfig) -> str:
+    """dvl.current_states in one line: "off", or the process model with its numbers."""
+    if d.current_states == "off":
+        return "off"
+    if d.current_states == "gauss-markov":
+        return f"gauss-markov, 1-sigma {d.current_sigma_mps:g} m/s, time constant {d.current_tau_s:g} s"
+    walk = f"walk {d.current_walk_mps_per_sqrt_s:g} m/s/sqrt(s)"
+    return f"{d.current_states}, 1-sigma {d.current_sigma_mps:g} m/s at the start, {walk}"
 
 
 def _field_row(kind: str, value: Any) -> str:

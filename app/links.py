@@ -10,13 +10,14 @@ holds (a new page: the defaults), and a trajectory whose preset the link does no
 gets its preset first, as if picked in the dropdown (app.inputs.preset_controls).
 
 Values, as the controls hold them: a choice by its name (``traj=longrange``, ``truth=dynamic``,
-``src=<log>``), checkboxes as ``1`` or ``0``, methods and beams as comma lists (``m=ins,lc``,
-``b=1,2``; empty: none ticked), a beam's outage as ``start:end`` in seconds (``o3=50:200``), the
-numeric fields as typed. A plug-in aiding source (app.controls, from the registry) is keyed by its
-name (``usbl=1``) and each field of its section by ``<source>.<field>`` (``usbl.interval_s=5``,
-a 3-vector as a comma list: ``usbl.lever_arm_b_m=0,0,-0.3``). Parsing is as strict as the controls' (app.inputs.parse_float,
-parse_int, parse_float_or_auto; ranges are checked at Run, as for a typed value): an unknown
-key, a repeated key or a bad value is refused with one line naming the key and the value
+``wt=always``, ``cst=random-walk``, ``src=<log>``), checkboxes as ``1`` or ``0``, methods and beams
+as comma lists (``m=ins,lc``, ``b=1,2``; empty: none ticked), a beam's outage as ``start:end`` in
+seconds (``o3=50:200``), the numeric fields as typed. A plug-in aiding source (app.controls, from
+the registry) is keyed by its name (``usbl=1``) and each field of its section by
+``<source>.<field>`` (``usbl.interval_s=5``, a 3-vector as a comma list:
+``usbl.lever_arm_b_m=0,0,-0.3``). Parsing is as strict as the controls' (app.inputs.parse_float,
+parse_int, parse_float_or_auto; ranges are checked at Run, as for a typed value): an unknown key, a
+repeated key or a bad value is refused with one line naming the key and the value
 (:attr:`Link.problems`), and the rest still applies.
 
 What viser 1.1 allows. The server learns nothing of the page's address from viser: the page
@@ -54,7 +55,6 @@ from app.control_table import CONTROLS, Control
 from app.controls import PLUGIN_FIELDS, PLUGIN_SOURCES
 from app.inputs import Controls, InputError
 from tauvcore.config import RUN_METHODS
-from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
 from tauvcore.validation import show
 
 
@@ -93,6 +93,9 @@ KEYS = tuple(key for c in CONTROLS for key in _keys(c))
 outages one key per beam, each plug-in source and each field of its section one key:
 app.controls)."""
 BY_KEY = {k.key: k for k in KEYS}
+CHOICES = {c.field: c.options for c in CONTROLS if c.widget == "dropdown"}
+"""A dropdown's choices by its Controls field (trajectory, truth, the DVL's water-track and current
+states); the Source's are the server's logs."""
 ALIASES = {"dep": "depth"}
 """Other keys read as a control's own: ``dep``, a short key of the depth's checkbox that saved
 addresses hold (the page writes ``depth``, its source's name)."""
@@ -223,7 +226,7 @@ def _number_text(key: Key, text: str) -> str:
 def _parse_value(key: Key, text: str, sources: Sequence[str]) -> Any:
     """The Controls value ``text`` spells for ``key``, or InputError saying why not."""
     if key.kind == "choice":
-        options = {"source": tuple(sources), "trajectory": TRAJECTORIES, "truth": TRUTH_SOURCES}[key.field]
+        options = tuple(sources) if key.field == "source" else CHOICES[key.field]
         if text not in options:
             raise InputError(f"{key.label}: choose from {', '.join(options)}")
         return text

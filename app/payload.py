@@ -48,7 +48,9 @@ def result_to_json(
 
     Series (length of ``t``, run ``run_index``): errors and the filter's own 1-sigma of velocity,
     attitude (the norm, and apart: ``tilt`` = roll/pitch levelling, ``heading``) and position;
-    ``nees`` (full 20-state) and ``nees_<block>`` for the blocks pos, vel, tilt, heading, sensor.
+    ``nees`` (the full state: 20 states, 12 for Yoo 2014's methods) and ``nees_<block>`` for the
+    blocks pos, vel, tilt, heading, sensor, and those the sources' states add (``nees_current``
+    with the DVL's current states: ``MethodResult.block_dims``).
 
     ``nis``: per aiding source the method used, ``{"t", "nis", "dof"}`` at every update time of
     that source (the length of its own ``t``, not of the output epochs). ``nis`` is null where the
@@ -168,7 +170,11 @@ def result_series(
         "heading_sigma_deg": result.heading_sigma_deg[:, i],
         "pos_sigma_m": result.pos_sigma_m[:, i],
         "nees": result.nees[:, i],
-        **{f"nees_{block}": nees_series(result, block)[:, i] for block in BLOCK_DIMS if block != "full"},
+        **{
+            f"nees_{block}": nees_series(result, block)[:, i]
+            for block in (result.block_dims or BLOCK_DIMS)
+            if block != "full"
+        },
     }
 
 

@@ -1,6 +1,8 @@
 """Plotly figures of the Sensors tab: a run's raw measurements (the IMU's rates and specific force,
-every aiding source's columns, the DVL beams' states), and what a method estimated of the sensors'
-errors (IMU biases, DVL beam biases and scale factor) with its 3-sigma against their truth.
+every aiding source's columns, the DVL beams' states), what every method estimated of the states
+its aiding sources add (the DVL's current, north and east) with its 1-sigma against their truth,
+and what a method estimated of the sensors' errors (IMU biases, DVL beam biases and scale factor)
+with its 3-sigma against their truth.
 
 Both are stacked panels on one time axis, each panel named in its top-left corner with its unit
 and its curves' colours (no legend: a shared one would list the same x, y, z in every panel).
@@ -10,7 +12,7 @@ the units a data sheet gives them in.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -18,6 +20,7 @@ import plotly.graph_objects as go
 
 from app.figures import (
     TIME_AXIS,
+    TRUTH_COLOR,
     bin_label,
     decimate,
     envelope_traces,
@@ -25,6 +28,7 @@ from app.figures import (
     make_figure,
     merge_bins,
     merged_envelope,
+    method_color,
     panel_domains,
 )
 from app.scene import BEAM_COLORS
@@ -51,6 +55,9 @@ SENSOR_DISPLAY: dict[str, tuple[float, str, str]] = {
 }
 """A sensor-error block -> (factor from SI, unit shown, title); a block not named here is drawn
 in its SI unit under its own name."""
+STATE_UNITS = {"mps": "m/s", "mps2": "m/s^2", "m": "m", "rad": "rad", "radps": "rad/s"}
+"""The unit suffix of a source state's label (``MethodResult.state_labels``: "current_north_mps")
+-> the unit shown."""
 
 
 def _pretty(column: str) -> str:
@@ -296,8 +303,123 @@ def sensor_error_figure(
                 data.append(_line(t, true[:, i] * factor, f"{labels[j]} true", color, k, TRUTH_DASH))
     runs = result.sensor_est.shape[1]
     run_note = f", run {run + 1} of {runs}" if runs > 1 else ""
-    key = "line: estimate, band: &plusmn;3&sigma;" + (", dashed: true" if any_truth else "")
+    key = "line: estimate, band: &plusmn;3 sigma" + (", dashed: true" if any_truth else "")
     if binned:
         key += ", dark band: " + bin_label(result.bin_s)
     title = f"{result.method.upper()}: sensor errors{run_note} <span style='font-size:11px'>({key})</span>"
     return make_figure(data, _stack(title, panels, height_px), validate)
+
+
+def state_name_unit(label: str) -> tuple[str, str]:
+    """A source state's label as a panel names it: its words and its unit.
+
+    Parameters
+    ----------
+    label : str
+        One of ``MethodResult.state_labels``, its unit last (``"current_north_mps"``).
+
+    Returns
+    -------
+    tuple[str, str]
+        ``("Current north", "m/s")``; a label without a known unit suffix (:data:`STATE_UNITS`)
+        whole, with no unit.
+    """
+    name, _, suffix = label.rpartition("_")
+    if not name or suffix not in STATE_UNITS:
+        return label, ""
+    return name.replace("_", " ").capitalize(), STATE_UNITS[suffix]
+
+
+def state_methods(results: Mapping[str, MethodResult]) -> tuple[str, ...]:
+    """The methods of ``results`` whose estimate of the sources' states :func:`source_states_figure`
+    draws: those that carry the states (``MethodResult.state_est``) and fuse an aiding source.
+
+    Parameters
+    ----------
+    results : Mapping[str, MethodResult]
+        Method name -> its results.
+
+    Returns
+    -------
+    tuple[str, ...]
+        The methods, in the order of ``results``. INS carries the states of a run with current
+        states but fuses nothing: its estimate stays at the prior (0, the prior's 1-sigma), and
+        is left out; Yoo 2014's methods and a run reduced to bins carry none.
+    """
+    return tuple(m for m, r in results.items() if r.state_est is not None and r.updates and len(r.t_s))
+
+
+def source_states_figure(
+    results: Mapping[str, MethodResult],
+    run: int = 0,
+    height_px: int | None = None,
+    validate: bool = False,
+) -> go.Figure:
+    """What every method estimated of the states its aiding sources add, in run ``run`` (0-based):
+    one panel per state (``MethodResult.state_labels``; with the DVL's current states, the current
+    north and east [m/s] at the vehicle), each method's estimate a line of its colour over its
+    +-1-sigma band (the filter's own covariance), the truth a dashed black line (where known: a
+    simulation's current at the vehicle; a log knows none).
+
+    A consistent filter keeps the truth inside its 1-sigma band about 68 % of the time; the band
+    narrows where the water-track beams observe the current (turns make both axes observable).
+
+    Parameters
+    ----------
+    results : Mapping[str, MethodResult]
+        Method name -> its results; the methods of :func:`state_methods` are drawn.
+    run : int
+        The Monte Carlo run drawn, clipped to the runs there are.
+    height_px : int or None
+        The figure's height (None: :data:`PANEL_HEIGHT_PX` and a half per panel).
+    validate : bool
+        Let plotly check the figure (slow; for tests).
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+        Stacked panels on one time axis, each named with its unit and the methods' colours.
+    """
+    methods = state_methods(results)
+    labels = list(dict.fromkeys(label for m in methods for label in (results[m].state_labels or ())))
+    colors = [method_color(m) for m in methods]
+    data: list[dict[str, Any]] = []
+    truths: list[dict[str, Any]] = []  # drawn last, over the bands
+    panels: list[dict[str, Any]] = []
+    estimates = [results[m].state_est for m in methods]
+    runs = max((e.shape[1] for e in estimates if e is not None), default=1)
+    i = min(max(int(run), 0), runs - 1)
+    for k, label in enumerate(labels):
+        name, unit = state_name_unit(label)
+        truth_drawn = False
+        for method, color in zip(methods, colors):
+            r = results[method]
+            if label not in (r.state_labels or ()):
+                continue
+            assert r.state_est is not None and r.state_sigma is not None and r.state_true is not None
+            j = (r.state_labels or ()).index(label)
+            keep = decimate(len(r.t_s), MAX_POINTS)
+            t, est, sigma = r.t_s[keep], r.state_est[keep, i, j], r.state_sigma[keep, i, j]
+            band = {"hoverinfo": "skip", "line": {"width": 0, "color": color}}
+            data.append({**_line(t, est + sigma, f"{method.upper()} +1 sigma", color, k), **band})
+            data.append(
+                {**_line(t, est - sigma, f"{method.upper()} -1 sigma", color, k), **band}
+                | {"fill": "tonexty", "fillcolor": hex_to_rgba(color, 0.15)}
+            )
+            data.append(_line(t, est, f"{method.upper()} {name.lower()}", color, k))
+            true = r.state_true[keep, i, j]
+            if not truth_drawn and np.isfinite(true).any():  # the same truth for every method
+                truths.append(_line(t, true, f"true {name.lower()}", TRUTH_COLOR, k, TRUTH_DASH))
+                truth_drawn = True
+        truth_key = f', <span style="color:{TRUTH_COLOR}">dashed: true</span>' if truth_drawn else ""
+        key = _key([m.upper() for m in methods], colors)
+        panels.append({"label": f"<b>{name}</b> {key}{truth_key}", "unit": unit})
+    what = (
+        "Current at the vehicle"
+        if labels and all(x.startswith("current_") for x in labels)
+        else "Sources' states"
+    )
+    run_note = f", run {i + 1} of {runs}" if runs > 1 else ""
+    title = f"{what}{run_note} <span style='font-size:11px'>(line: estimate, band: &plusmn;1 sigma)</span>"
+    height = height_px or int(1.5 * PANEL_HEIGHT_PX) * max(1, len(panels)) + 70
+    return make_figure(data + truths, _stack(title, panels, height), validate)

@@ -144,9 +144,10 @@ class ControlPanel:
         self.notify(title, headline)
 
     def _text_fields(self) -> dict[str, Any]:
-        """The text controls a preset or a log's configuration may fill in, by label."""
+        """The controls a preset or a log's configuration may fill in (the text fields, the DVL's
+        water-track and current states: control_table.FILLED_LABELS), by label."""
         by_label = {c.label: c for c in control_table.CONTROLS}
-        return {label: getattr(self, by_label[label].attr) for label in control_table.TEXT_LABELS}
+        return {label: getattr(self, by_label[label].attr) for label in control_table.FILLED_LABELS}
 
     def apply_log_config(self) -> None:
         """The chosen log's own configuration file (tauvcore.logs.CONFIG_FILE) fills in the

@@ -1,6 +1,6 @@
 """The plot tabs of a dashboard tab: the workbench's Plots (error norms, the ELC's choice),
-Components, Consistency (NEES), Innovations and Sensors (raw measurements, estimated sensor
-errors), and the Mission tab group's Vehicle (fins and
+Components, Consistency (NEES), Innovations and Sensors (raw measurements, the estimated current of
+a run with current states, estimated sensor errors), and the Mission tab group's Vehicle (fins and
 propeller, the current at the vehicle) and Seabed (altitude, the VKF's propeller model) tabs.
 
 :data:`PLOT_GROUPS` names each group of the workbench's plots, the tab it is in and what draws
@@ -31,13 +31,21 @@ from app.error_figures import (
     elc_choice_figure,
     error_components,
     error_figure,
+    nees_blocks,
     nees_figure,
     overlay_figure,
 )
 from app.figures import placeholder_figure, with_cursor
 from app.innovation_figures import innovation_figure, innovation_sources
 from app.markdown_tables import identical_methods, identical_note
-from app.sensor_figures import PANEL_HEIGHT_PX, raw_sensor_figure, sensor_error_figure, sensor_panels
+from app.sensor_figures import (
+    PANEL_HEIGHT_PX,
+    raw_sensor_figure,
+    sensor_error_figure,
+    sensor_panels,
+    source_states_figure,
+    state_methods,
+)
 from app.session_runs import KeptRun
 from app.session_state import TabState, drawing
 from app.vehicle_figures import (
@@ -49,6 +57,7 @@ from app.vehicle_figures import (
 )
 from tauvcore.config import Config
 from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+from tauvcore.eval.envelope import is_decimated
 
 PLOTTED_QUANTITIES = (
     "vel",
@@ -127,14 +136,24 @@ COMPONENTS_NOTE = (
 INNOVATION_NOTE = (
     "Each method's innovations (measurement minus prediction) with its filter's 3-sigma envelope "
     "(+-3 sqrt(S)); crosses mark what the gate rejected. A consistent filter keeps about 99.7 % inside. "
-    "INS (and any method without this source) has none."
+    "INS (and any method without this source) has none. Source **water**: the DVL's water-track beams, "
+    "fused against the current states (Mission tab: Current states)."
 )
 INNOVATION_PANEL_ASPECT = 0.25  # each panel of the innovations plot: a quarter of the panel's width high
 SENSORS_NOTE = (
     "The run's raw measurements (the IMU at the output epochs, every source at its own epochs; a beam "
-    "that did not return is a gap, and its state is in the DVL beams panel), then what the chosen method "
-    "estimated of the sensors' errors with its 3-sigma against their truth (a simulation's; a log has none)."
+    "that did not return is a gap, and its state is in the DVL beams panel), then, with **Current states** "
+    "on (Mission tab), every method's estimate of the current, then what the chosen method estimated of "
+    "the sensors' errors with its 3-sigma against their truth (a simulation's; a log has none)."
 )
+STATES_NOTE = (
+    "The current at the vehicle as each method's filter estimates it from the DVL's water-track beams "
+    "(line, with its 1-sigma band) against the truth (dashed): north and east. Water-track measures the "
+    "velocity through the water, so a method sees the current as the difference between it and its own "
+    "velocity over ground; turns make both axes observable. Its NEES: Consistency tab, block current."
+)
+"""The note above the Sensors tab's figure of the sources' states
+(app.sensor_figures.source_states_figure)."""
 SENSOR_ERRORS_NOT_RECORDED = (
     "**Sensor errors not recorded**: their records would exceed 64 MiB (20 runs of five methods "
     "over 250 s, 10 runs over 1 h) or the memory budget (`TAUV_RUN_BUDGET_MB`). Fewer runs, "
@@ -201,7 +220,8 @@ class PlotTabs:
                 tuple(BLOCK_DIMS),
                 initial_value="full",
                 hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
-                "no position); or one block of them",
+                "no position); or one block of them; current: the DVL's current states (a run with "
+                "Current states on)",
             )
             self.show_smoothed_nees = gui.add_checkbox(
                 "Smoothed NEES", False, disabled=True, hint=SMOOTHED_HINT
@@ -222,20 +242,23 @@ class PlotTabs:
         with workbench.add_tab("Sensors"):
             gui.add_markdown(SENSORS_NOTE)
             self.raw_plot = gui.add_plotly(placeholder_figure("Raw sensors"), aspect=0.6)
-            self.sensor_method = gui.add_dropdown(
-                "Sensor errors of",
-                INITIAL_SENSOR_METHODS,
-                initial_value=INITIAL_SENSOR_METHODS[0],
-                hint="the method whose estimates are drawn",
-            )
             self.sensor_run = gui.add_number(
                 "Estimates of run",
                 1,
                 min=1,
                 max=1,
                 step=1,
-                hint="which Monte Carlo run's estimates",
+                hint="which Monte Carlo run's estimates (the current's and the sensor errors')",
                 visible=False,
+            )
+            # the states the sources add (the DVL's current), every method's: a run with them only
+            self.state_note = gui.add_markdown("")
+            self.state_plot = gui.add_plotly(go.Figure(), aspect=0.6, visible=False)
+            self.sensor_method = gui.add_dropdown(
+                "Sensor errors of",
+                INITIAL_SENSOR_METHODS,
+                initial_value=INITIAL_SENSOR_METHODS[0],
+                hint="the method whose estimates are drawn",
             )
             self.sensor_note = gui.add_markdown("")
             self.sensor_plot = gui.add_plotly(placeholder_figure("Sensor errors"), aspect=0.6)
@@ -293,7 +316,11 @@ class PlotTabs:
         self.last_diagnostics_s = time.monotonic()
 
     def _draw_nees(self, results: dict[str, MethodResult]) -> None:
-        block, overlay = self.nees_block.value, self.overlay_runs()
+        blocks = nees_blocks(results)  # the 20-state filter's, and the current's with current states
+        if tuple(self.nees_block.options) != blocks:
+            self.nees_block.options = blocks
+        block = self.nees_block.value if self.nees_block.value in blocks else "full"
+        overlay = self.overlay_runs()
         figure = (
             overlay_figure([(r.label, nees_figure(r.results, block)) for r in overlay])
             if len(overlay) >= 2
@@ -419,6 +446,13 @@ class PlotTabs:
             figure = raw_sensor_figure(view)
             self._fit(self.raw_plot, figure)
             self.raw_plot.figure = with_cursor(figure, t)
+        estimates = [a for r in results.values() for a in (r.sensor_est, r.state_est) if a is not None]
+        runs = max((a.shape[1] for a in estimates), default=1)
+        if self.sensor_run.max != runs:  # a Monte Carlo run's estimates, one run at a time
+            self.sensor_run.max = runs
+            self.sensor_run.visible = runs > 1
+        run = min(max(int(self.sensor_run.value), 1), runs) - 1
+        self._draw_states(results, run)
         methods = tuple(m for m, r in results.items() if r.sensor_est is not None and len(r.t_s))
         note = "" if methods else SENSOR_ERRORS_NOT_RECORDED
         if self.sensor_note.content != note:
@@ -432,16 +466,39 @@ class PlotTabs:
         method = self.sensor_method.value if self.sensor_method.value in methods else methods[0]
         result = results[method]
         assert result.sensor_est is not None
-        runs = result.sensor_est.shape[1]
-        if self.sensor_run.max != runs:
-            self.sensor_run.max = runs
-            self.sensor_run.visible = runs > 1
-        run = min(max(int(self.sensor_run.value), 1), runs) - 1
+        run = min(run, result.sensor_est.shape[1] - 1)
         figure = sensor_error_figure(
             result, run=run, height_px=PANEL_HEIGHT_PX * len(sensor_panels(method)) + 70
         )
         self._fit(self.sensor_plot, figure)
         self.sensor_plot.figure = with_cursor(figure, t)
+
+    def _draw_states(self, results: dict[str, MethodResult], run: int) -> None:
+        """The Sensors tab's figure of the states the sources add (the DVL's current), for run
+        ``run`` (0-based) of every method that estimates them, under a note naming those that do
+        not; hidden, with no note, for a run without such states."""
+        methods = state_methods(results)
+        carried = [m for m, r in results.items() if set(r.block_dims or BLOCK_DIMS) - set(BLOCK_DIMS)]
+        if methods:
+            others = [m.upper() for m in results if m not in methods]
+            note = STATES_NOTE + (
+                f" Not drawn: {', '.join(others)} (no aiding, or no current states)." if others else ""
+            )
+        elif carried and any(is_decimated(r) for r in results.values()):
+            note = (
+                "**Current not drawn**: a run this long is reduced to time bins, which keep no estimate "
+                "of the current; its NEES is in the Consistency tab (block current)."
+            )
+        else:
+            note = ""
+        if self.state_note.content != note:
+            self.state_note.content = note
+        if self.state_plot.visible != bool(methods):
+            self.state_plot.visible = bool(methods)
+        if methods:
+            figure = source_states_figure(results, run=run)
+            self._fit(self.state_plot, figure)
+            self.state_plot.figure = with_cursor(figure, self.state.cursor_t)
 
     @staticmethod
     def _fit(handle: viser.GuiPlotlyHandle, figure: go.Figure) -> None:

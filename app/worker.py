@@ -60,7 +60,7 @@ from app.sensor_view import SensorViewBuilder
 from app.truth_view import decimation, log_truth_view, truth_view
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
-from tauvcore.engine.results import SENSOR_FIELDS, MethodResult
+from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
 from tauvcore.eval.envelope import EnvelopeReducer
@@ -126,9 +126,8 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
             tilt_sigma_deg=r.tilt_sigma_deg[keep],
             heading_sigma_deg=r.heading_sigma_deg[keep],
             nees_block=r.nees_block[keep],
-            est_vel_n=None if r.est_vel_n is None else r.est_vel_n[keep],
-            est_euler_rad=None if r.est_euler_rad is None else r.est_euler_rad[keep],
-            **{name: None if getattr(r, name) is None else getattr(r, name)[keep] for name in SENSOR_FIELDS},
+            **{n: None if (a := getattr(r, n)) is None else a[keep] for n in ("est_vel_n", "est_euler_rad")},
+            **{n: None if (a := getattr(r, n)) is None else a[keep] for n in (*SENSOR_FIELDS, *STATE_FIELDS)},
         )
     return out
 

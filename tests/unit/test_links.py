@@ -31,7 +31,7 @@ CHANGED = Controls(trajectory="figure8", duration="1e3", methods=("lc", "vb", "i
                    accel_bias="0.25", gyro_bias="1.5", accel_noise="0.1", gyro_noise="0.5", dvl_noise="0.08",
                    dvl_bias="0.01", dvl_sf="1", seabed_depth="110", dvl_max_altitude="90", switch_altitude="80",
                    rpm_noise="0", seed="42", runs="3", source="pool-log_2", truth="dynamic", rpm_fallback=True,
-                   aid_sources=("depth", "mag"))
+                   aid_sources=("depth", "mag"), water_track="beyond_range", current_states="gauss-markov")
 """Every control away from its default."""
 SOURCES = (SIMULATION, "pool-log_2")
 
@@ -176,7 +176,7 @@ class _Tab:
                      "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise",
                      "dvl_bias", "dvl_sf", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise", "seed",
                      "runs", "smoother", "smoother_mb", "current_speed", "current_toward", "current_shear",
-                     "current_variation"):
+                     "current_variation", "water_track", "current_states"):
             setattr(self, name, handle(getattr(DEFAULTS, name)))
         self.method_boxes = {m: handle(m in DEFAULTS.methods) for m in RUN_METHODS}
         self.beam_boxes = [handle(True) for _ in range(4)]

@@ -277,7 +277,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
         accel_bias=spy("0.5"), gyro_bias=spy("3"), accel_noise=spy("0.072"), gyro_noise=spy("0.34"),
         dvl_noise=spy("0.042"), dvl_bias=spy("0.005"), dvl_sf=spy("0.7"), seabed_depth=spy("60"),
         dvl_max_altitude=spy("100"), switch_altitude=spy("100"), rpm_noise=spy("2"), seed=spy("0"), runs=spy("1"),
-        smoother=spy(False), smoother_mb=spy("256"),
+        smoother=spy(False), smoother_mb=spy("256"), water_track=spy("off"), current_states=spy("off"),
         current_speed=spy("0"), current_toward=spy("0"), current_shear=spy("0"), current_variation=spy("0"),
         source=spy(source),     # the Source control of tauv serve --logs
         source_boxes={p.name: spy(False) for p in PLUGIN_SOURCES},
@@ -529,7 +529,7 @@ def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_defau
     from app.session_controls import ControlPanel
     names = ("duration", "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise", "dvl_bias", "dvl_sf",
              "dropout", "vb_nf", "nsv_epsilon", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise",
-             "seed")
+             "seed", "water_track", "current_states")
     notes: list[str] = []
     tab = SimpleNamespace(trajectory=SimpleNamespace(value="longrange"), preset=None, status=SimpleNamespace(content=""),
                           notify=lambda title, body, error=False: notes.append(title),
@@ -572,13 +572,14 @@ def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_
             DEFAULTS, trajectory="figure8", truth="dynamic", duration="1e3", methods=("lc", "vkf"), beams=(1, 3),
             outages=(("0", "0"), ("10", "20"), ("0", "0"), ("0", "0")), rpm_fallback=True,
             seed="7", runs="2", aid_sources=tuple(p.name for p in PLUGIN_SOURCES), current_speed="0.5",
-            current_toward="90", current_shear="0.01", current_variation="0.1")
+            current_toward="90", current_shear="0.01", current_variation="0.1", water_track="always",
+            current_states="random-walk")
         for c in control_table.CONTROLS:
             control_table.write(panel, c, getattr(changed, c.field))
         assert controls() == changed
         confirmed = [h for c in control_table.CONTROLS for h in control_table.handles(panel, c)]
-        # 26 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
-        assert len({id(h) for h in confirmed}) == len(confirmed) == 26 + len(RUN_METHODS) + 4 + 8 + len(
+        # 28 single controls, a box per method, 4 beams, 4 outages of two texts, the sources and their fields
+        assert len({id(h) for h in confirmed}) == len(confirmed) == 28 + len(RUN_METHODS) + 4 + 8 + len(
             PLUGIN_SOURCES) + len(DEFAULT_SOURCE_FIELDS)
     finally:
         server.stop()
