@@ -249,6 +249,16 @@ def crab_angle_rad(
     return chi, rate_w - rate_v
 
 
+def _over_ground(profile: Profile, t: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The profile's Euler angles and rates, and its velocity and acceleration over ground (NED)."""
+    euler, euler_dot, vel_b = profile.euler(t), profile.euler_dot(t), profile.vel_b(t)
+    C = C_nb_from_euler(euler)
+    omega = euler_rates_to_omega_nb_b(euler, euler_dot)
+    vel_n = np.einsum("kij,kj->ki", C, vel_b)
+    acc_n = np.einsum("kij,kj->ki", C, profile.vel_b_dot(t) + np.cross(omega, vel_b))
+    return euler, euler_dot, vel_n, acc_n
+
+
 def crab_profile(profile: Profile, field: CurrentField, reference_depth_m: float) -> Profile:
     """``profile`` flown over the same ground track in the current ``field``: heading turned by the
     crab angle, body velocity the same ground velocity seen from the turned hull.
@@ -277,13 +287,7 @@ def crab_profile(profile: Profile, field: CurrentField, reference_depth_m: float
     def at(t: np.ndarray) -> dict[str, np.ndarray]:
         if cache.get("t") is t:
             return cache["m"]  # type: ignore[return-value]
-        euler = profile.euler(t)
-        euler_dot = profile.euler_dot(t)
-        vel_b = profile.vel_b(t)
-        C = C_nb_from_euler(euler)
-        omega = euler_rates_to_omega_nb_b(euler, euler_dot)
-        vel_n = np.einsum("kij,kj->ki", C, vel_b)
-        acc_n = np.einsum("kij,kj->ki", C, profile.vel_b_dot(t) + np.cross(omega, vel_b))
+        euler, euler_dot, vel_n, acc_n = _over_ground(profile, t)
         chi, chi_dot = crab_angle_rad(field, t, vel_n, acc_n, reference_depth_m)
         euler2 = euler.copy()
         euler2[:, 2] += chi
@@ -328,12 +332,7 @@ def check_crab(profile: Profile, field: CurrentField, duration_s: float, referen
         angle.
     """
     t = np.arange(0.0, duration_s + CRAB_CHECK_STEP_S, CRAB_CHECK_STEP_S)
-    euler = profile.euler(t)
-    vel_b = profile.vel_b(t)
-    C = C_nb_from_euler(euler)
-    omega = euler_rates_to_omega_nb_b(euler, profile.euler_dot(t))
-    vel_n = np.einsum("kij,kj->ki", C, vel_b)
-    acc_n = np.einsum("kij,kj->ki", C, profile.vel_b_dot(t) + np.cross(omega, vel_b))
+    _, _, vel_n, acc_n = _over_ground(profile, t)
     c = field.velocity_n_mps(t, np.full(t.shape, reference_depth_m))
     w = vel_n[:, :2] - c[:, :2]
     chi, _ = crab_angle_rad(field, t, vel_n, acc_n, reference_depth_m)

@@ -73,3 +73,24 @@ def test_ideal_geodetic_ins_over_an_hour_and_kilometres(latitude_deg: float) -> 
     assert np.ptp(sim.truth.depth_m) > 100.0
     flat = run(config.replace("earth", model="flat"), sim, rng)["ins"]
     assert np.linalg.norm(flat.est_pos_n[-1, 0] - sim.truth.pos_n[-1]) > 1000.0
+
+
+@pytest.mark.parametrize("trajectory", ["figure8", "lawnmower", "longrange"])
+def test_ideal_ins_follows_the_kinematic_truth_crabbing_into_a_current(trajectory: str) -> None:
+    """In a sheared, varying current the kinematic truth keeps its track over ground and crabs
+    (tauvcore.truth.current.crab_profile): its attitude, rates and specific force stay consistent,
+    so an ideal INS follows it as in still water, and its positions are still water's exactly."""
+    current = dict(current_n_mps=(0.3, -0.4, 0.0), current_shear_ne_per_s=(0.01, 0.0), current_variation_mps=0.1,
+                   current_variation_period_s=60.0)
+    config = (Config().replace("trajectory", name=trajectory, duration_s=250.0, **current)
+              .replace("run", ideal=True, methods=("ins",)))
+    rng = np.random.default_rng(0)
+    sim = simulate(config, rng)
+    result = run(config, sim, rng)["ins"]
+    assert np.max(result.vel_err_mps) < 1e-3
+    assert np.max(result.pos_err_m) < 0.05
+    assert np.max(result.att_err_deg) < 1e-4
+    still = simulate(config.replace("trajectory", current_n_mps=(0.0, 0.0, 0.0), current_shear_ne_per_s=(0.0, 0.0),
+                                    current_variation_mps=0.0), np.random.default_rng(0))
+    np.testing.assert_array_equal(sim.truth.pos_n, still.truth.pos_n)
+    assert np.ptp(np.degrees(sim.truth.euler[:, 2] - still.truth.euler[:, 2])) > 1.0   # it crabs
