@@ -26,6 +26,8 @@ DVL_BODY = ("vel_x_mps", "vel_y_mps", "vel_z_mps")
 DVL_WATER_TRACK = dvl_beams.WATER_TRACK
 DVL_BODY_WATER_TRACK = "water_track"
 """A body velocity's mode column: 1 water-track, 0 bottom-track."""
+DVL_WATER_BEAMS = dvl_beams.WATER_BEAMS
+"""Water-track beam velocities beside bottom-track ones (a DVL that outputs both from one ping)."""
 REF_VEL = ("vel_north_mps", "vel_east_mps", "vel_down_mps")
 REF_LOCAL = ("north_m", "east_m", "down_m")
 MAX_TIME_S = 1e20
@@ -71,7 +73,7 @@ def _bounds() -> dict[str, tuple[float, float, str, str]]:
         (IMU_INCREMENTS[3:], MAX_DV_MPS, "m/s", "more than an IMU's velocity changes in one sample"),
         (IMU_RATES[:3], MAX_GYRO_RPS, "rad/s", "faster than a vehicle at sea turns"),
         (IMU_RATES[3:], MAX_ACCEL_MPS2, "m/s^2", "more than a vehicle at sea feels"),
-        (DVL_BEAMS + DVL_BODY + REF_VEL, MAX_SPEED_MPS, "m/s", speed),
+        (DVL_BEAMS + DVL_WATER_BEAMS + DVL_BODY + REF_VEL, MAX_SPEED_MPS, "m/s", speed),
         (REF_LOCAL[:2], MAX_LOCAL_M, "m", "farther than any point of the earth is"),
     ):
         table.update(dict.fromkeys(names, (-bound, bound, unit, what)))

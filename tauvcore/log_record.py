@@ -29,6 +29,9 @@ class Log:
     dvl_water_track: np.ndarray | None = None  # (M, 4) bool: the beam's velocity (of a body velocity:
     # the row's, each beam's projection) is water-track, relative to the water layer; None: every
     # velocity bottom-track (a table without the mode columns)
+    dvl_water_mps: np.ndarray | None = None  # (M, 4) water-track beam velocities beside the bottom-track
+    # ones (dvl_beams_mps or dvl_body_mps then bottom-track only), NaN where a beam did not water-track
+    # [m/s]; None: a table without beam1_water_mps .. beam4_water_mps (a DVL that does not output both)
     dvl_truth: Mapping[str, np.ndarray] = field(default_factory=dict)  # (M,) each: the DVL's true errors
     # a simulated log carries (tauvcore.aiding.dvl_beams: true_beam1_bias_mps, ..., true_scale_factor)
     notes: tuple[str, ...] = ()  # what the reader changed (a resampled IMU), for the user

@@ -20,7 +20,10 @@ which is projected onto the configured beams (``[dvl]`` of the configuration), s
 dropped synthetically (``--beams``, ``--outage``) as on simulated data. Each velocity is
 bottom-track (over ground) unless the table says it is water-track (relative to a layer of water
 below the DVL): beams by ``beam1_water_track`` .. ``beam4_water_track`` (all four, each 1 or 0,
-empty: 0), a body velocity by ``water_track`` (1 or 0). The filters fuse only bottom-track.
+empty: 0), a body velocity by ``water_track`` (1 or 0). A DVL that outputs both from one ping
+gives instead ``beam1_water_mps`` .. ``beam4_water_mps`` (all four; empty: no water-track),
+each beam's water-track velocity beside the bottom-track one, and no mode column. The filters
+fuse water-track only against the current states (tauvcore.aiding.dvl_water).
 
 ``depth`` (optional): ``depth_m``. ``attitude`` (optional, a magnetometer/AHRS attitude):
 ``roll``, ``pitch``, ``yaw`` each as ``_deg`` or ``_rad``.
@@ -64,6 +67,7 @@ from tauvcore.log_columns import (
     DVL_BEAMS,
     DVL_BODY,
     DVL_BODY_WATER_TRACK,
+    DVL_WATER_BEAMS,
     DVL_WATER_TRACK,
     IMU_INCREMENTS,
     IMU_RATES,
@@ -392,10 +396,27 @@ def _read_dvl(paths: dict[str, Path | None], out: dict, load: Load) -> None:
                     "empty, or set valid = 0)"
                 )
             out["dvl_body_mps"] = body
+        if any(n in cols for n in DVL_WATER_BEAMS):
+            out["dvl_water_mps"] = _water_beams(p, cols)
         out["dvl_truth"] = {  # a simulated log's true errors; NaN in a recorded one
             c.name: _column_of(p, cols, c) if c.name in cols else np.full(out["dvl_t_s"].shape, np.nan)
             for c in SOURCES["dvl"].truth_columns
         }
+
+
+def _water_beams(path: Path, cols: dict[str, np.ndarray]) -> np.ndarray:
+    """The water-track velocities beside the bottom-track ones (M, 4) [m/s], NaN where empty: all
+    four columns, never beside a mode column (which says what ``beam1_mps`` .. hold instead)."""
+    flags = [n for n in (*DVL_WATER_TRACK, DVL_BODY_WATER_TRACK) if n in cols]
+    if flags:
+        raise LogError(
+            f"{show_path(str(path))}: column {show(flags[0])} beside {show(DVL_WATER_BEAMS[0])}: a table gives "
+            f"water-track either by the mode columns or in {DVL_WATER_BEAMS[0]} .. {DVL_WATER_BEAMS[-1]} "
+            "(beside bottom-track), not both"
+        )
+    check_finite(path, cols, DVL_WATER_BEAMS, allow_nan=True)
+    check_within(path, cols, DVL_WATER_BEAMS)
+    return need_columns(path, cols, DVL_WATER_BEAMS, "the water-track beam velocities")
 
 
 def _zero_one(path: Path, cols: dict[str, np.ndarray], name: str) -> np.ndarray:

@@ -11,7 +11,10 @@ bottom range and water-track). Its log table ``dvl`` holds ``t_s`` and ``beam1_m
 ``beam4_mps`` (empty where a beam did not return), and, from a DVL that water-tracks,
 ``beam1_water_track`` .. ``beam4_water_track``: 1 where the beam's velocity is water-track
 (relative to the water layer), 0 where it is bottom-track (a table without them is bottom-track
-throughout); a simulated log adds each beam's true bias and the true scale factor. A recorded log
+throughout). A DVL that outputs both from one ping (``water_track = "both"``) writes instead
+``beam1_water_mps`` .. ``beam4_water_mps``: each beam's water-track velocity (empty where none)
+beside its bottom-track one in ``beam1_mps`` .. (then bottom-track only), without the mode
+columns. A simulated log adds each beam's true bias and the true scale factor. A recorded log
 may give a body velocity instead (tauvcore.logs reads both forms); on logged beams the configured
 beams, outages and dropout are applied as on simulated ones (:func:`from_log`). The source's
 epochs (:class:`~tauvcore.aiding.source.SourceData`) hold the table's columns as the log does;
@@ -41,6 +44,10 @@ BEAMS = ("beam1_mps", "beam2_mps", "beam3_mps", "beam4_mps")
 WATER_TRACK = ("beam1_water_track", "beam2_water_track", "beam3_water_track", "beam4_water_track")
 """The beams' mode columns of the log's ``dvl`` table: 1 water-track, 0 bottom-track (or none, where
 the beam's velocity is empty); present only for a DVL that water-tracks."""
+WATER_BEAMS = ("beam1_water_mps", "beam2_water_mps", "beam3_water_mps", "beam4_water_mps")
+"""The water-track velocity columns [m/s] of the log's ``dvl`` table of a DVL that outputs both
+from one ping (``water_track = "both"``), empty where a beam did not water-track; ``beam1_mps`` ..
+then hold bottom-track only, and the table has no mode columns."""
 TRUE_BIASES = ("true_beam1_bias_mps", "true_beam2_bias_mps", "true_beam3_bias_mps", "true_beam4_bias_mps")
 TRUE_SCALE_FACTOR = "true_scale_factor"
 
@@ -230,12 +237,13 @@ class DvlSource(AidingSource):
             seabed,
             current,
         )
-        return source_data(data), (walks, seabed, current)
+        return source_data(data, section.water_track == "both"), (walks, seabed, current)
 
 
-def source_data(data: DvlData) -> SourceData:
+def source_data(data: DvlData, both: bool = False) -> SourceData:
     """A DVL's pings as the source's epochs, as its log table holds them: each beam's velocity,
-    bottom- or water-track, NaN where not returned (and with water-track each beam's mode); the
+    bottom- or water-track, NaN where not returned (and with water-track each beam's mode), or
+    with ``both`` each beam's bottom-track and water-track velocities in columns of their own; the
     true errors as truth columns.
 
     Parameters
@@ -245,23 +253,44 @@ def source_data(data: DvlData) -> SourceData:
         beam velocities [m/s] along each beam's axis s_k; ``y_water_mps`` and ``water_available``
         (M, R, 4) or None, water-track ones [m/s]; ``bias_mps`` (M, R, 4) [m/s]; ``scale_factor``
         (M, R) [-].
+    both : bool, optional
+        The DVL outputs both from one ping (``water_track = "both"``): a beam may have both, so
+        water-track goes to columns of its own. Set by the configuration, not by ``data``, so
+        that every chunk of a run has the same columns.
 
     Returns
     -------
     SourceData
-        ``t_s`` (M,) [s], ``index`` (M,) int; columns ``beam1_mps`` .. ``beam4_mps`` (M, R) [m/s],
-        and where ``data`` has water-track ``beam1_water_track`` .. ``beam4_water_track`` (M, R)
-        (1.0 water-track, 0.0 bottom-track or none); truth columns ``true_beam1_bias_mps`` ..
+        ``t_s`` (M,) [s], ``index`` (M,) int; columns ``beam1_mps`` .. ``beam4_mps`` (M, R) [m/s]
+        (with ``both`` bottom-track only), and where ``data`` has water-track either (``both``)
+        ``beam1_water_mps`` .. ``beam4_water_mps`` (M, R) [m/s], NaN where a beam did not
+        water-track, or ``beam1_water_track`` .. ``beam4_water_track`` (M, R) (1.0 water-track,
+        0.0 bottom-track or none); truth columns ``true_beam1_bias_mps`` ..
         ``true_beam4_bias_mps`` (M, R) [m/s] and ``true_scale_factor`` (M, R) [-].
+
+    Raises
+    ------
+    ValueError
+        Without ``both``, for pings where a beam has both (one column cannot hold two velocities).
     """
     values = {
         n: np.where(data.available[..., i], data.y_beam_mps[..., i], np.nan) for i, n in enumerate(BEAMS)
     }
     if data.y_water_mps is not None and data.water_available is not None:
         water = data.water_available
-        for i, n in enumerate(BEAMS):
-            values[n] = np.where(water[..., i], data.y_water_mps[..., i], values[n])
-        values.update({n: water[..., i].astype(float) for i, n in enumerate(WATER_TRACK)})
+        if both:
+            values.update(
+                {
+                    n: np.where(water[..., i], data.y_water_mps[..., i], np.nan)
+                    for i, n in enumerate(WATER_BEAMS)
+                }
+            )
+        else:
+            if (water & data.available).any():
+                raise ValueError("a beam with both bottom-track and water-track needs both=True")
+            for i, n in enumerate(BEAMS):
+                values[n] = np.where(water[..., i], data.y_water_mps[..., i], values[n])
+            values.update({n: water[..., i].astype(float) for i, n in enumerate(WATER_TRACK)})
     return SourceData(
         t_s=data.t_s,
         index=np.asarray(data.index, dtype=np.int64),
@@ -280,7 +309,8 @@ def pings(data: SourceData | None, num_runs: int) -> DvlData:
     ----------
     data : SourceData or None
         The DVL's epochs (:func:`source_data`, :func:`from_log`), each beam column (M, R) [m/s],
-        with the mode columns where the DVL water-tracks; None: a log without a DVL.
+        with the mode columns or the water-track velocity columns where the DVL water-tracks;
+        None: a log without a DVL.
     num_runs : int
         Number of Monte Carlo runs R (used only for None).
 
@@ -290,8 +320,8 @@ def pings(data: SourceData | None, num_runs: int) -> DvlData:
         ``t_s`` (M,) [s], ``index`` (M,) int, bottom-track beams ``y_beam_mps`` (M, R, 4) [m/s]
         along each beam's axis, ``available`` (M, R, 4) bool where finite, true ``bias_mps``
         (M, R, 4) [m/s] and ``scale_factor`` (M, R) [-], NaN where unknown; with the mode columns
-        the water-track beams ``y_water_mps`` (M, R, 4) [m/s] and ``water_available`` (M, R, 4),
-        else None; no pings (M = 0) for None.
+        or the water-track velocity columns the water-track beams ``y_water_mps`` (M, R, 4) [m/s]
+        and ``water_available`` (M, R, 4) where finite, else None; no pings (M = 0) for None.
     """
     if data is None:
         data = SourceData.empty(DvlSource.columns, num_runs)
@@ -299,7 +329,10 @@ def pings(data: SourceData | None, num_runs: int) -> DvlData:
     m, runs = y.shape[:2]
     truth = data.truth
     y_water = water = None
-    if WATER_TRACK[0] in data.values:
+    if WATER_BEAMS[0] in data.values:
+        y_water = data.stacked(WATER_BEAMS)
+        water = ~np.isnan(y_water)
+    elif WATER_TRACK[0] in data.values:
         water = (data.stacked(WATER_TRACK) > 0.5) & ~np.isnan(y)
         y_water = np.where(water, y, np.nan)
         y = np.where(water, np.nan, y)
@@ -325,6 +358,7 @@ def from_log(
     config: DvlConfig,
     rng: np.random.Generator,
     water_track: np.ndarray | None = None,
+    water_mps: np.ndarray | None = None,
 ) -> SourceData:
     """A log's pings under the configured beams, outages and dropout, as a simulation's would be
     (one run).
@@ -348,20 +382,30 @@ def from_log(
     water_track : numpy.ndarray or None, optional
         Shape (M, 4) bool: the beam's velocity is water-track (the log's mode columns); None: the
         log has none, every beam bottom-track.
+    water_mps : numpy.ndarray or None, optional
+        The logged water-track beam velocities beside the bottom-track ones (the log's
+        ``beam1_water_mps`` .. ``beam4_water_mps``), shape (M, 4) [m/s], NaN where a beam did not
+        water-track; ``beams_mps`` is then bottom-track only. None: the log has none.
 
     Returns
     -------
     SourceData
         ``t_s`` (M,) [s], ``index`` (M,) int, columns ``beam1_mps`` .. ``beam4_mps`` (M, 1)
-        [m/s], NaN where not returned, out of schedule or dropped, and with ``water_track``
-        ``beam1_water_track`` .. ``beam4_water_track`` (M, 1) (1.0 water-track, else 0.0); the
-        truth columns given, (M, 1).
+        [m/s], NaN where not returned, out of schedule or dropped; with ``water_track``
+        ``beam1_water_track`` .. ``beam4_water_track`` (M, 1) (1.0 water-track, else 0.0); with
+        ``water_mps`` ``beam1_water_mps`` .. ``beam4_water_mps`` (M, 1) [m/s], NaN where not
+        returned, out of schedule or dropped (a beam's dropout drops both its velocities, as in a
+        simulation); the truth columns given, (M, 1).
     """
-    available = ~np.isnan(beams_mps) & config.scheduled_availability(t_s)
+    scheduled = config.scheduled_availability(t_s)
     if config.dropout_probability > 0:
-        available &= uniform(rng, beams_mps.shape) >= config.dropout_probability
+        scheduled &= uniform(rng, beams_mps.shape) >= config.dropout_probability
+    available = ~np.isnan(beams_mps) & scheduled
     y = np.where(available, beams_mps, np.nan)
     values = {n: y[:, i, None] for i, n in enumerate(BEAMS)}
+    if water_mps is not None:
+        y_water = np.where(scheduled, water_mps, np.nan)
+        values.update({n: y_water[:, i, None] for i, n in enumerate(WATER_BEAMS)})
     if water_track is not None:
         water = np.asarray(water_track, dtype=bool) & available
         values.update({n: water[:, i, None].astype(float) for i, n in enumerate(WATER_TRACK)})

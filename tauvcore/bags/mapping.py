@@ -20,6 +20,8 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
                                          # without it, /tf_static's (tauvcore.bags.tf)
     # water_track = true       # every velocity of the topic is water-track (false: bottom-track);
                                # without it, each message's velocity_mode where it has one
+    # water_track_topic = "/dvl/water"   # a second DVL topic, all water-track, merged ping by ping
+    # ping_tolerance_s = 0.005 # a water-track and a bottom-track message this close are one ping
 
     [usbl]                     # a plug-in source's table: only by name, of a type it declares
     topic = "/usbl/fix"
@@ -94,7 +96,16 @@ COMMON_KEYS = ("topic", "frame", "time", "offset_s")
 BUILT_IN_KEYS: dict[str, tuple[str, ...]] = {
     "imu": COMMON_KEYS + ("form", "velocity_topic"),
     "dvl": COMMON_KEYS
-    + ("mounting_rpy_deg", "form", "beam_ids", "beam_velocity_sign", "beam_tolerance_deg", "water_track"),
+    + (
+        "mounting_rpy_deg",
+        "form",
+        "beam_ids",
+        "beam_velocity_sign",
+        "beam_tolerance_deg",
+        "water_track",
+        "water_track_topic",
+        "ping_tolerance_s",
+    ),
     "depth": COMMON_KEYS + ("water_density_kgpm3", "gravity_mps2", "atmospheric_pa"),
     "attitude": COMMON_KEYS,
     "reference": COMMON_KEYS + ("orientation_topic", "depth_topic"),
@@ -124,9 +135,9 @@ and air; a geodetic reference's orientation and depth topics; a plug-in source's
 BASE_FRAME = "base_link"
 """The body's frame in the bag's ``/tf_static`` unless the mapping's ``base_frame`` says otherwise."""
 TOP_KEYS = ("frame", "time", "base_frame", "msg_paths", "config", *TABLE_KEYS)
-EXTRA_TOPICS = ("orientation_topic", "depth_topic", "velocity_topic")
+EXTRA_TOPICS = ("orientation_topic", "depth_topic", "velocity_topic", "water_track_topic")
 """A table's keys that name a topic besides its ``topic``: a geodetic reference's orientation and
-depth, an IMU's velocity increments."""
+depth, an IMU's velocity increments, a DVL's water-track velocities (tauvcore.bags.dvl_table)."""
 IMU_FORMS = ("rates", "increments")
 """``rates``: a ``sensor_msgs/Imu`` topic (angular velocity, linear acceleration); ``increments``:
 angle increments on ``topic`` (:data:`INCREMENT_ANGLES`) and velocity increments on
@@ -144,12 +155,18 @@ ATMOSPHERIC_PA = 101_325.0
 pressure before it becomes depth: ``depth = (p - p_atm) / (rho g)``."""
 DVL_BEAM_TOLERANCE_DEG = 3.0
 """Largest angle [deg] between a message's beam direction and the configured beam it is taken for."""
+DVL_PING_TOLERANCE_S = 0.005
+"""Largest difference [s] between the times of a water-track and a bottom-track DVL message taken
+for one ping (tauvcore.bags.dvl_table): a driver stamps both outputs of a ping alike (up to its
+rounding), and 5 ms is below the shortest interval between pings (40 ms at 25 Hz) and half an IMU
+sample at 100 Hz."""
 _RANGES: dict[str, tuple[float, float]] = {
     "offset_s": (-1e6, 1e6),
     "water_density_kgpm3": (950.0, 1100.0),
     "gravity_mps2": (9.7, 9.9),
     "atmospheric_pa": (0.0, 2e5),
     "beam_tolerance_deg": (0.1, 30.0),
+    "ping_tolerance_s": (0.0, 1.0),
 }
 
 
@@ -338,7 +355,9 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
     """
     rules = {}
     where = f"the bag mapping {show_path(mapping.path)}" if mapping.path else "no bag mapping"
-    named = {keys["topic"] for keys in mapping.tables.values() if keys.get("topic")}  # never found by type
+    named = {  # never found by type
+        keys[k] for keys in mapping.tables.values() for k in ("topic", "water_track_topic") if keys.get(k)
+    }
     for table in TABLE_KEYS:
         keys = mapping.tables.get(table, {})
         topic = keys.get("topic")
@@ -379,6 +398,8 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
                 raise LogError(f"{where}: {table}.{extra}: {show(other)} is not a topic of {show_path(bag)}")
         if table == "imu":
             _check_increments(where, keys, topics, bag)
+        if table == "dvl":
+            _check_water_topic(where, topic, keys, topics, bag)
         options = {k: v for k, v in keys.items() if k not in COMMON_KEYS}
         rules[table] = TopicRule(
             table=table,
@@ -401,6 +422,25 @@ def _accepted(table: str, keys: Mapping[str, Any]) -> tuple[str, ...]:
 
 def _form(table: str, keys: Mapping[str, Any]) -> str:
     return f" as {keys['form']}" if table == "imu" and "form" in keys else ""
+
+
+def _check_water_topic(
+    where: str, topic: str, keys: Mapping[str, Any], topics: Mapping[str, str], bag: str
+) -> None:
+    """A DVL's ``water_track_topic`` is another topic of a DVL type."""
+    water = keys.get("water_track_topic")
+    if water is None:
+        return
+    if water == topic:
+        raise LogError(
+            f"{where}: dvl.water_track_topic: {show(water)} is the DVL's topic itself (a topic of both "
+            "modes needs no second topic: each message's velocity_mode says which it is)"
+        )
+    if topics[water] not in ACCEPTED["dvl"]:
+        raise LogError(
+            f"{where}: dvl.water_track_topic: {show(water)} of {show_path(bag)} holds {topics[water]}, which "
+            f"cannot feed the dvl table (it takes {', '.join(ACCEPTED['dvl'])})"
+        )
 
 
 def _check_increments(where: str, keys: Mapping[str, Any], topics: Mapping[str, str], bag: str) -> None:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.source import BagMessage
-from tauvcore.bags.dvl_table import dvl_columns
+from tauvcore.bags.dvl_table import dvl_table
 from tauvcore.bags.frames import (
     C_nb_from_quaternion,
     body_vectors,
@@ -423,7 +423,7 @@ def read_topics(
         plugin = {r.topic: r for t, r in rules.items() if t in PLUGIN_MESSAGES}
         for topic, rule in plugin.items():
             others = [t for t, r in rules.items() if r.topic == topic and t != rule.table] + [
-                f"reference ({k})" for r in rules.values() for k in EXTRA_TOPICS if r.options.get(k) == topic
+                f"{r.table} ({k})" for r in rules.values() for k in EXTRA_TOPICS if r.options.get(k) == topic
             ]
             if others:
                 raise LogError(
@@ -543,7 +543,9 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             columns = _imu(part, rule, own)
         elif table == "dvl":
             assert mounting is not None  # read_topics finds it wherever there is a DVL
-            columns = dvl_columns(bag, part, rule, beam_directions_b, mounting.C_b_dvl, notes)
+            water = _water_topic(bag, rule, read, origin, later)
+            columns = dvl_table(bag, part, rule, t, water, beam_directions_b, mounting.C_b_dvl, notes)
+            t = columns.pop("t_s")  # a ping's two messages one row (tauvcore.bags.dvl_table)
         elif table == "depth":
             columns = {"depth_m": _depth(kind, part, rule)}
         elif table == "attitude":
@@ -559,6 +561,25 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
         notes.append(f"{show_path(bag)}: the DVL's mounting rotation is {mounting.source}")
     names = {table: f"{bag}:{rule.topic}" for table, rule in rules.items()}
     return BagTables(bag, tables, names, rules, tuple(notes), mounting)
+
+
+def _water_topic(
+    bag: str, rule: TopicRule, read: Mapping[str, _Topic], origin: int, later: list[str]
+) -> tuple[dict[str, np.ndarray], str, np.ndarray] | None:
+    """The DVL's ``water_track_topic``: its messages' rows by part, its type and their times [s] on
+    the log's clock (the DVL topic's ``time`` and ``offset_s``); None where the mapping names none."""
+    topic = rule.options.get("water_track_topic")
+    if topic is None:
+        return None
+    later.remove(topic)
+    entry = read[topic]
+    if not entry.count:
+        raise LogError(f"{show_path(bag)}: topic {show(topic)} (dvl water-track) has no messages")
+    t = (entry.times_ns(rule) - origin) * 1e-9 + rule.offset_s
+    part = _parts(entry.kind, entry.rows)
+    if topic not in later:
+        entry.release()
+    return part, entry.kind, t
 
 
 def _parts(kind: str, data: np.ndarray) -> dict[str, np.ndarray]:

@@ -485,7 +485,8 @@ def _log_sources(
             y = _column(log, log.dvl_body_mps, "DVL velocity")[keep] @ config.dvl.A_b.T
         truths = {name: values[keep] for name, values in log.dvl_truth.items()}
         water = None if log.dvl_water_track is None else log.dvl_water_track[keep]
-        sources["dvl"] = dvl_beams.from_log(t_s[k], k, y, truths, config.dvl, rng, water)
+        both = None if log.dvl_water_mps is None else log.dvl_water_mps[keep]  # beside bottom-track
+        sources["dvl"] = dvl_beams.from_log(t_s[k], k, y, truths, config.dvl, rng, water, both)
     for name, table in log.sources.items():
         k, keep = _epochs(log, table["t_s"])
         source = SOURCES[name]

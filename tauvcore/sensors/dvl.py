@@ -19,9 +19,11 @@ it returns with ``beyond_range_noise_mps`` (5 m/s) of extra white noise and is m
 so only a gate or an echo sounder can tell.
 
 Water-track (``water_track``): beyond bottom-track range a DVL still measures its velocity
-relative to a layer of water ``water_layer_m`` below the head (:func:`simulate_chunk`). Its pings
-(:class:`DvlData` ``y_water_mps``) are apart from the bottom-track ones the filters fuse
-(``y_beam_mps``): fusing them needs the current as a state.
+relative to a layer of water ``water_layer_m`` below the head (:func:`simulate_chunk`); in
+``"both"`` it measures it on every ping beside bottom-track, as DVLs that output both from one
+ping do (Nortek DVL1000, Teledyne Pathfinder). Its pings (:class:`DvlData` ``y_water_mps``) are
+apart from the bottom-track ones (``y_beam_mps``): fusing them needs the current as a state
+(tauvcore.aiding.dvl_water).
 """
 
 from __future__ import annotations
@@ -55,11 +57,17 @@ from tauvcore.validation import (
 )
 
 BEYOND_RANGE = ("lost", "noisy")
-WATER_TRACK = ("off", "beyond_range", "always")
+WATER_TRACK = ("off", "beyond_range", "always", "both")
 """``off``: bottom-track only; ``beyond_range``: a beam without bottom lock water-tracks instead;
-``always``: every beam water-tracks (bottom-track off by configuration)."""
+``always``: every beam water-tracks (bottom-track off by configuration); ``both``: every beam
+bottom-tracks where it has bottom lock, as with ``off``, and water-tracks where the layer lies
+above the seabed along it, as with ``always``, both from the same ping (with ``beyond_range =
+"lost"`` a beam beyond range water-tracks only, as with ``beyond_range``)."""
 MODE_NONE, MODE_BOTTOM, MODE_WATER = 0, 1, 2
 """A beam's mode at a ping (:attr:`DvlData.mode`): no return, bottom-track, water-track."""
+MODE_BOTH = MODE_BOTTOM | MODE_WATER
+"""A beam that returned both at one ping (``water_track = "both"``): the modes are bit flags, so
+``mode & MODE_BOTTOM`` is every beam that bottom-tracked."""
 CURRENT_STATES = ("off", "gauss-markov", "random-walk")
 """How the filters model the current they estimate (tauvcore.aiding.dvl_water): not at all, a
 first-order Gauss-Markov process (``current_sigma_mps``, ``current_tau_s``) or a random walk
@@ -165,10 +173,15 @@ class DvlConfig:
         5.0, "beyond-range noise", "m/s", 0.0, 100.0, hint="extra noise of a noisy beam beyond range"
     )  # Yoo: 5 m/s; [0, 100]
     water_track: str = setting(
-        "off", "water-track", hint='"off", "beyond_range" (beams without bottom lock) or "always"'
+        "off",
+        "water-track",
+        hint='"off", "beyond_range" (beams without bottom lock), "always" or "both" (beside bottom-track)',
     )
     # checked below: one of WATER_TRACK; "beyond_range" only with beyond_range = "lost" (a "noisy"
-    # beam beyond range returns a bottom-track velocity, so it never lacks one to replace)
+    # beam beyond range returns a bottom-track velocity, so it never lacks one to replace); "both"
+    # with either: its water-track does not replace bottom-track but runs beside it on every ping,
+    # whatever the bottom lock, and "noisy" is a model of the bottom-track channel alone (a beam
+    # beyond range then returns its noisy bottom-track velocity and its water-track one)
     water_layer_m: float = setting(
         10.0, "water layer", "m", 0.5, 11000.0, hint="from the head down to the tracked layer's centre"
     )
@@ -320,9 +333,10 @@ class DvlConfig:
 class DvlData:
     """DVL pings with the true error states; M pings, run axis R optional.
 
-    A beam at a ping is in one mode (:attr:`mode`): no return, bottom-track (``available``: its
-    velocity over ground in ``y_beam_mps``, what the filters fuse) or water-track
-    (``water_available``: its velocity relative to the water layer in ``y_water_mps``), never both.
+    A beam at a ping returns nothing, bottom-track (``available``: its velocity over ground in
+    ``y_beam_mps``), water-track (``water_available``: its velocity relative to the water layer in
+    ``y_water_mps``) or, with ``water_track = "both"``, both: the two arrays then hold a value for
+    the same beam and ping (:attr:`mode` :data:`MODE_BOTH`); in the other modes never both.
     """
 
     t_s: np.ndarray  # (M,) ping times [s]
@@ -336,16 +350,18 @@ class DvlData:
     y_water_mps: np.ndarray | None = None  # (M, [R,] 4) water-track beam velocities, relative to the
     # layer (NaN where the beam did not water-track) [m/s]; None: a DVL that does not water-track
     # (water_track "off", a log without the mode)
-    water_available: np.ndarray | None = None  # (M, [R,] 4) bool, beam returned water-track; None
-    # with y_water_mps
+    water_available: np.ndarray | None = None  # (M, [R,] 4) bool, beam returned water-track (with
+    # water_track "both" also where it returned bottom-track); None with y_water_mps
 
     @property
     def mode(self) -> np.ndarray:
         """(M, [R,] 4) int8: each beam's mode at each ping, :data:`MODE_NONE` (0),
-        :data:`MODE_BOTTOM` (1) or :data:`MODE_WATER` (2)."""
+        :data:`MODE_BOTTOM` (1), :data:`MODE_WATER` (2) or :data:`MODE_BOTH` (3, ``water_track =
+        "both"``: bottom-track and water-track from the same ping), bit flags: ``available`` is
+        ``mode & MODE_BOTTOM``, ``water_available`` ``mode & MODE_WATER``."""
         mode = np.where(self.available, MODE_BOTTOM, MODE_NONE).astype(np.int8)
         if self.water_available is not None:
-            mode[self.water_available] = MODE_WATER
+            mode |= np.where(self.water_available, MODE_WATER, MODE_NONE).astype(np.int8)
         return mode
 
 
@@ -547,9 +563,10 @@ def simulate_chunk(
     the noise. Each generator may be one per run (tauvcore.sensors.timing.Rng).
 
     Water-track (``water_track`` not "off"): a beam water-tracks where it has no bottom lock
-    (``"beyond_range"``) or always (``"always"``, no beam bottom-tracks), if it reaches the layer
-    (:func:`water_layer`; one that does not sees the bottom first and returns nothing). It
-    measures its velocity relative to the layer's water::
+    (``"beyond_range"``), always (``"always"``, no beam bottom-tracks) or always beside its
+    bottom-track (``"both"``: the bottom-track beams are those of ``"off"``), if it reaches the
+    layer (:func:`water_layer`; one that does not sees the bottom first and returns no
+    water-track). It measures its velocity relative to the layer's water::
 
         y_k = [(v_b - C_nb^T c_n(t, z_layer)) (1 + SF) + omega_nb_b x l_dvl_b] . b_k + b_dvl_k + w_k
 
@@ -655,7 +672,7 @@ def simulate_chunk(
         water = np.broadcast_to(reaches[expand], y.shape) & scheduled & kept
         if config.water_track == "always":
             available[...] = False
-        else:
+        elif config.water_track == "beyond_range":
             water &= ~lock
         vel_water_b = vel_b
         if current is not None:

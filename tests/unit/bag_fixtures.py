@@ -78,6 +78,8 @@ def mission_tables(config: Config, seed: int = 3) -> tuple[dict, dict]:
     dvl = tables["dvl"]
     beams = {"t_s": _on_ns(dvl["t_s"])}
     beams.update({f"beam{k}_mps": dvl[f"beam{k}_mps"].astype(np.float32).astype(float) for k in range(1, 5)})
+    beams.update({n: dvl[n].astype(np.float32).astype(float) for n in (f"beam{k}_water_mps" for k in range(1, 5))
+                  if n in dvl})  # water_track "both": water-track beside bottom-track
     ref = tables["reference"]
     euler = np.stack([ref["roll_rad"], ref["pitch_rad"], ref["yaw_rad"]], axis=-1)
     C = C_nb_from_euler(euler)
@@ -218,6 +220,7 @@ def write_bag(
     tf_static: bool = False,
     tf_chain: tuple[tuple[str, str, np.ndarray, np.ndarray], ...] = (),
     velocity_skip: int | None = None,
+    water_topic: str | None = None,
 ) -> Path:
     """Write ``tables`` as a bag: ``storage`` ros1 (``path`` a .bag), sqlite3 (a directory) or mcap
     (a .mcap file: the ROS 2 writer's single storage file). The IMU (sensor_msgs/Imu), the DVL
@@ -229,7 +232,12 @@ def write_bag(
     as the ``/tf_static`` transform base_link -> dvl; ``tf_chain`` (parent, child, C (3, 3), t (3,)
     in FRD: ``p_parent = C p_child + t``) writes those transforms instead. An IMU table of
     increments (:func:`increment_tables`) is written on :data:`INCREMENT_TOPICS`, the angle
-    increments as quaternions, leaving out the velocity topic's message ``velocity_skip`` (0-based)."""
+    increments as quaternions, leaving out the velocity topic's message ``velocity_skip`` (0-based).
+    A DVL table with ``beam1_water_mps`` .. (``water_track = "both"``) is written as a driver
+    that outputs both publishes it: each ping's bottom-track message (where it has a bottom-track
+    beam, or no water-track one) and its water-track message (``velocity_mode`` 2, where it has a
+    water-track beam) on the same stamp, the water-track one on ``water_topic`` (default: the
+    DVL's own topic, after the bottom-track one)."""
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
@@ -368,7 +376,7 @@ def write_bag(
     rot_b = (lambda C: D_FLU @ C @ D_FLU) if flu else (lambda C: C)
     dvl: list[tuple[int, str, str, Any]] = []
     dvl_A = A_b if C_b_dvl is None else A_b @ C_b_dvl  # each beam in the DVL's own frame (rows: C^T a)
-    _dvl_messages(store, tables["dvl"], dvl_type, dvl_A, vec_b, header, vector3, quat, dvl)
+    _dvl_messages(store, tables["dvl"], dvl_type, dvl_A, vec_b, header, vector3, quat, dvl, water_topic)
     # by receive time; at one time in this order (the order of a sort of them all: merge is stable)
     messages = heapq.merge(tf_messages(), imu_messages(), dvl, depth_messages(), attitude_messages(),
                            reference_messages(), usbl_messages(), key=lambda m: m[0])
@@ -395,10 +403,30 @@ def write_bag(
 
 
 def _dvl_messages(store: Any, dvl: dict, kind: str, A_b: np.ndarray, vec_b: Any, header: Any, vector3: Any,
-                  quat: Any, messages: list) -> None:
+                  quat: Any, messages: list, water_topic: str | None = None) -> None:
     """The DVL table as messages of ``kind``: its beams in :data:`BEAM_ORDER` with their directions
     (or ids), or its body velocity; a row whose ``beam1_water_track`` is 1 as a water-track ping
-    (``velocity_mode`` 2, in the types that have it)."""
+    (``velocity_mode`` 2, in the types that have it); a table with ``beam1_water_mps`` as
+    :func:`write_bag` says."""
+    if "beam1_water_mps" not in dvl:
+        _dvl_rows(store, dvl, kind, A_b, vec_b, header, vector3, quat, messages, TOPICS["dvl"])
+        return
+    bottom = np.stack([dvl[f"beam{j}_mps"] for j in range(1, 5)], -1)
+    water = np.stack([dvl[f"beam{j}_water_mps"] for j in range(1, 5)], -1)
+    has_water = np.isfinite(water).any(axis=1)
+    has_bottom = np.isfinite(bottom).any(axis=1) | ~has_water
+    both: list = []
+    _dvl_rows(store, {"t_s": dvl["t_s"][has_bottom], **{f"beam{j + 1}_mps": bottom[has_bottom, j] for j in range(4)}},
+              kind, A_b, vec_b, header, vector3, quat, both, TOPICS["dvl"])
+    flags = {f"beam{j + 1}_water_track": np.ones(int(has_water.sum())) for j in range(4)}
+    _dvl_rows(store, {"t_s": dvl["t_s"][has_water], **{f"beam{j + 1}_mps": water[has_water, j] for j in range(4)},
+                      **flags}, kind, A_b, vec_b, header, vector3, quat, both, water_topic or TOPICS["dvl"])
+    messages.extend(sorted(both, key=lambda m: m[0]))  # stable: a ping's bottom-track message first
+
+
+def _dvl_rows(store: Any, dvl: dict, kind: str, A_b: np.ndarray, vec_b: Any, header: Any, vector3: Any,
+              quat: Any, messages: list, topic: str) -> None:
+    """Each row of the DVL table ``dvl`` as a message of ``kind`` on ``topic`` (:func:`_dvl_messages`)."""
     order = list(BEAM_ORDER)
     dirs = vec_b(A_b[order])  # each message beam's direction in the message's frame
     for k, t in enumerate(dvl["t_s"]):
@@ -436,4 +464,4 @@ def _dvl_messages(store: Any, dvl: dict, kind: str, A_b: np.ndarray, vec_b: Any,
             items = [make(store, "waterlinked_a50_ros_driver/msg/DVLBeam", id=order[i], velocity=float(beams[i]),
                           valid=bool(valid[i])) for i in range(4)]
             msg = make(store, kind, header=h, velocity=vector3(body), velocity_valid=bool(valid.all()), beams=items)
-        messages.append((ns, TOPICS["dvl"], kind, msg))
+        messages.append((ns, topic, kind, msg))

@@ -82,6 +82,7 @@ def test_bad_flags_give_one_line_and_exit_2(capsys, argv, field) -> None:
     ("[dvl]\nwater_track = 'beyond_range'\nbeyond_range = 'noisy'\n", "dvl.water_track \"beyond_range\"",
      'dvl.beyond_range "lost", got "noisy"'),
     ("[dvl]\nwater_layer_m = 0.1\n", "dvl.water_layer_m", "0.1"),
+    ("[dvl]\nwater_track = 'both'\nwater_layer_m = 150.0\n", "dvl.water_layer_m 150 m", "dvl.max_altitude_m 100 m"),
 ])
 def test_bad_config_files_give_one_line_and_exit_2(capsys, tmp_path, toml, field, value) -> None:
     path = tmp_path / "bad.toml"

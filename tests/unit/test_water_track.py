@@ -8,6 +8,9 @@
 - beyond range in a sheared current: water mode exactly where bottom lock is lost, relative to the
   layer's current, not the vehicle's; in still water, bottom-track's noise-free value;
 - "always": no beam bottom-tracks; a layer below the seabed returns nothing;
+- "both": the bottom-track beams are "off"'s bit for bit, the water-track beams "always"'s (and so,
+  where bottom lock is lost, "beyond_range"'s); a log, ``tauv run --save-log`` and a bag (one topic
+  or two) keep both velocities of a beam;
 - bad settings are one line naming the field and the value (the CLI's exit 2: test_cli.py);
 - a log, ``tauv run --save-log`` and a bag keep each beam's mode; an old log reads as bottom-track;
 - chunked equals whole.
@@ -25,6 +28,7 @@ from scipy.stats import chi2
 
 from tauvcore.aiding import dvl_beams
 from tauvcore.bags import read_bag, read_mapping
+from tauvcore.bags.dvl_table import _pairs
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, chunks_of, simulate
 from tauvcore.engine.sources import SourceStream
@@ -34,7 +38,7 @@ from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
 from tauvcore.sensors import dvl
-from tauvcore.sensors.dvl import MODE_BOTTOM, MODE_NONE, MODE_WATER, DvlConfig, Outage
+from tauvcore.sensors.dvl import MODE_BOTH, MODE_BOTTOM, MODE_NONE, MODE_WATER, DvlConfig, Outage
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.truth import Truth, generate
 from tauvcore.truth.current import CurrentField, current_field
@@ -219,6 +223,76 @@ def test_schedule_and_dropout_apply_to_water_tracking_beams() -> None:
     assert 0.6 < data.water_available[:, :, 1].mean() < 0.8
 
 
+# ------------------------------------------------------------------------------------------ both
+
+@pytest.mark.parametrize("beyond_range", ["lost", "noisy"])
+def test_both_bottom_tracks_as_off_and_water_tracks_as_always(beyond_range: str) -> None:
+    """"both" on the reference's figure eight: the bottom-track beams, biases, scale factor and the
+    generator's next draws are the reference's of "off" bit for bit (both bottom-lock models); the
+    water-track beams, values and mask, are "always"'s; with "lost", where bottom lock is lost they are
+    "beyond_range"'s; a beam with bottom lock reports both (MODE_BOTH), the modes bit flags."""
+    truth = generate(ref.TRAJECTORY, Earth(), ref.RATE_HZ)
+    seabed = bathymetry(ref.TRAJECTORY)
+    modes = ("off", "both", "always") + (("beyond_range",) if beyond_range == "lost" else ())
+    rngs = {mode: np.random.default_rng(3) for mode in modes}
+    runs = {mode: dvl.simulate(truth, DvlConfig(**ref.DVL, beyond_range=beyond_range, water_track=mode), rngs[mode],
+                               2, seabed) for mode in modes}
+    both = runs["both"]
+    for name in ("t_s", "index", "y_beam_mps", "available", "bias_mps", "scale_factor", "slant_range_m"):
+        np.testing.assert_array_equal(getattr(both, name), REFERENCE[f"{beyond_range}/{name}"], err_msg=name)
+    np.testing.assert_array_equal(rngs["both"].standard_normal(5), rngs["off"].standard_normal(5))
+    assert both.y_water_mps is not None and both.water_available is not None
+    np.testing.assert_array_equal(both.y_water_mps, runs["always"].y_water_mps)
+    np.testing.assert_array_equal(both.water_available, runs["always"].water_available)
+    assert (both.available & both.water_available).mean() > 0.5
+    np.testing.assert_array_equal(both.mode == MODE_BOTH, both.available & both.water_available)
+    np.testing.assert_array_equal(both.mode & MODE_BOTTOM > 0, both.available)
+    np.testing.assert_array_equal(both.mode & MODE_WATER > 0, both.water_available)
+    if beyond_range == "lost":
+        beyond = runs["beyond_range"]
+        assert beyond.water_available is not None and beyond.y_water_mps is not None and beyond.water_available.any()
+        np.testing.assert_array_equal(both.water_available & ~both.available, beyond.water_available)
+        np.testing.assert_array_equal(both.y_water_mps[beyond.water_available],
+                                      beyond.y_water_mps[beyond.water_available])
+    else:  # a beam beyond range returns its noisy bottom-track velocity and its water-track one
+        out = np.broadcast_to(np.isinf(both.slant_range_m)[:, None], both.available.shape)
+        assert (out & both.available & both.water_available).any()
+
+
+@pytest.mark.parametrize("layer_m, returns", [(10.0, True), (45.0, False)])
+def test_both_water_tracks_where_the_layer_lies_above_the_seabed(layer_m: float, returns: bool) -> None:
+    """40 m above a flat seabed in a sheared current: bottom-track is "off"'s whatever the layer; a layer
+    10 m below the head is water-tracked by every beam of every ping, relative to its current; one 45 m
+    below lies in the seabed: no beam water-tracks."""
+    truth = generate(TRAJECTORY, Earth(), ref.RATE_HZ)
+    field, seabed = current_field(TRAJECTORY), bathymetry(TRAJECTORY)
+    assert field is not None
+    config = DvlConfig(rate_hz=5.0, water_track="both", water_layer_m=layer_m, **QUIET)
+    data = dvl.simulate(truth, config, np.random.default_rng(4), 2, seabed, field)
+    off = dvl.simulate(truth, dataclasses.replace(config, water_track="off"), np.random.default_rng(4), 2, seabed, field)
+    for name in ("y_beam_mps", "available", "bias_mps", "scale_factor"):
+        np.testing.assert_array_equal(getattr(data, name), getattr(off, name), err_msg=name)
+    assert data.available.all() and data.water_available is not None and data.y_water_mps is not None
+    assert data.water_available.all() == returns and data.water_available.any() == returns
+    np.testing.assert_array_equal(data.mode, MODE_BOTH if returns else MODE_BOTTOM)
+    if returns:
+        i = data.index
+        relative = (truth.vel_b[i] - _layer_current_b(truth, i, config, field))[:, None]
+        exact = dvl.beam_velocity(config.A_b, relative, truth.omega_nb_b[i][:, None], config.l_dvl_b,
+                                  data.scale_factor, data.bias_mps)
+        np.testing.assert_allclose(data.y_water_mps, exact, rtol=0.0, atol=1e-12)
+        assert np.abs(data.y_water_mps - data.y_beam_mps).max() > 0.1          # the current seen by water-track only
+
+
+def test_source_data_refuses_a_beam_with_both_without_the_both_columns() -> None:
+    truth = generate(TRAJECTORY, Earth(), ref.RATE_HZ)
+    data = dvl.simulate(truth, DvlConfig(rate_hz=5.0, water_track="both"), np.random.default_rng(4), 1)
+    with pytest.raises(ValueError, match="both"):
+        dvl_beams.source_data(data)
+    values = dvl_beams.source_data(data, both=True).values
+    assert set(dvl_beams.WATER_BEAMS) <= set(values) and not set(dvl_beams.WATER_TRACK) & set(values)
+
+
 # ------------------------------------------------------------------------------------ bad input
 
 @pytest.mark.parametrize("changes, words", [
@@ -231,6 +305,7 @@ def test_schedule_and_dropout_apply_to_water_tracking_beams() -> None:
     ({"water_layer_m": 0.2}, ("dvl.water_layer_m", "0.2")),
     ({"water_layer_m": float("nan")}, ("dvl.water_layer_m", "nan")),
     ({"water_track_noise_mps": -0.1}, ("dvl.water_track_noise_mps", "-0.1")),
+    ({"water_track": "both", "water_layer_m": 150.0}, ("dvl.water_layer_m 150 m", "dvl.max_altitude_m 100 m")),
 ])
 def test_bad_water_track_settings_are_one_line_naming_the_field(changes: dict, words: tuple[str, ...]) -> None:
     with pytest.raises(ConfigError) as raised:
@@ -241,6 +316,12 @@ def test_bad_water_track_settings_are_one_line_naming_the_field(changes: dict, w
 
 def test_water_layer_is_not_held_to_the_range_with_water_track_off() -> None:
     assert DvlConfig(max_altitude_m=5.0).water_layer_m == 10.0              # a shallow-water DVL as before
+
+
+def test_both_takes_either_bottom_lock_model() -> None:
+    """"both" runs water-track beside bottom-track, replacing nothing: "noisy" (a model of the
+    bottom-track channel beyond range) is allowed with it, as it is not with "beyond_range"."""
+    assert DvlConfig(water_track="both", beyond_range="noisy").beyond_range == "noisy"
 
 
 # ------------------------------------------------------------------------------ logs and bags
@@ -303,6 +384,77 @@ def test_bad_mode_columns_are_one_line(water_sim, tmp_path: pathlib.Path) -> Non
         read_log(tmp_path / "three")
 
 
+@pytest.fixture(scope="module")
+def both_sim():
+    config = _water_config().replace("dvl", water_track="both")
+    sim = simulate(config, np.random.default_rng(2), 1)
+    d = sim.dvl
+    assert d.water_available is not None and (d.available & d.water_available).any()
+    assert (d.water_available & ~d.available).any()                         # beams beyond range: water-track only
+    return config, sim
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_a_log_round_trip_keeps_both_velocities_of_a_beam(both_sim, tmp_path: pathlib.Path, fmt: str) -> None:
+    """"both" writes bottom-track in beam1_mps .. and water-track in beam1_water_mps .. (no mode
+    columns); the log reads back, and replays, the same pings bit for bit."""
+    config, sim = both_sim
+    tables = simulation_tables([SimChunk.whole(sim)])
+    columns = set(tables["dvl"])
+    assert set(dvl_beams.WATER_BEAMS) <= columns and not set(dvl_beams.WATER_TRACK) & columns
+    write_log(tmp_path / "log", tables, fmt)
+    log = read_log(tmp_path / "log")
+    assert log.dvl_water_track is None and log.dvl_water_mps is not None and log.dvl_beams_mps is not None
+    assert sim.dvl.y_water_mps is not None
+    np.testing.assert_array_equal(log.dvl_water_mps, sim.dvl.y_water_mps[:, 0])
+    np.testing.assert_array_equal(log.dvl_beams_mps, sim.dvl.y_beam_mps[:, 0])
+    _same_pings(log_simulation(config, log, np.random.default_rng(0)).dvl, sim.dvl)
+
+
+def test_a_both_log_s_schedule_and_dropout_drop_both_velocities(both_sim, tmp_path: pathlib.Path) -> None:
+    config, sim = both_sim
+    write_log(tmp_path / "log", simulation_tables([SimChunk.whole(sim)]))
+    log = read_log(tmp_path / "log")
+    replayed = config.replace("dvl", beams=(1, 2, 4), dropout_probability=0.3)
+    pings = log_simulation(replayed, log, np.random.default_rng(6)).dvl
+    assert pings.water_available is not None and sim.dvl.water_available is not None
+    assert not pings.available[:, :, 2].any() and not pings.water_available[:, :, 2].any()
+    dropped = sim.dvl.available & sim.dvl.water_available & ~pings.available
+    dropped[:, :, 2] = False
+    assert dropped.any() and not (pings.water_available & dropped).any()        # one draw drops a beam's both
+    kept = pings.water_available
+    np.testing.assert_array_equal(pings.y_water_mps[kept], sim.dvl.y_water_mps[kept])
+
+
+def test_bad_water_velocity_columns_are_one_line(both_sim, tmp_path: pathlib.Path) -> None:
+    _, sim = both_sim
+    tables = simulation_tables([SimChunk.whole(sim)])
+    flagged = dict(tables["dvl"], **{n: np.zeros(tables["dvl"]["t_s"].size) for n in dvl_beams.WATER_TRACK})
+    write_log(tmp_path / "flags", {**tables, "dvl": flagged})
+    with pytest.raises(LogError, match=r"dvl\.csv.*: column 'beam1_water_track' beside 'beam1_water_mps': .* not both"):
+        read_log(tmp_path / "flags")
+    short = {k: v for k, v in tables["dvl"].items() if k != "beam3_water_mps"}
+    write_log(tmp_path / "short", {**tables, "dvl": short})
+    with pytest.raises(LogError, match="missing column 'beam3_water_mps'") as raised:
+        read_log(tmp_path / "short")
+    assert "\n" not in str(raised.value)
+    fast = dict(tables["dvl"], beam2_water_mps=np.full(tables["dvl"]["t_s"].size, 99.0))
+    write_log(tmp_path / "fast", {**tables, "dvl": fast})
+    with pytest.raises(LogError, match=r"column 'beam2_water_mps', row 1: 99\.0 is beyond"):
+        read_log(tmp_path / "fast")
+
+
+def test_tauv_replay_refuses_mode_columns_beside_water_velocities(both_sim, tmp_path: pathlib.Path, capsys) -> None:
+    from app.cli import main
+
+    _, sim = both_sim
+    tables = simulation_tables([SimChunk.whole(sim)])
+    write_log(tmp_path / "log", {**tables, "dvl": dict(tables["dvl"], water_track=np.zeros(tables["dvl"]["t_s"].size))})
+    assert main(["replay", str(tmp_path / "log"), "--method", "ins"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "column 'water_track' beside 'beam1_water_mps'" in err, err
+
+
 def test_a_body_velocity_s_water_track_column_marks_every_beam(water_sim, tmp_path: pathlib.Path) -> None:
     _, sim = water_sim
     tables = simulation_tables([SimChunk.whole(sim)])
@@ -326,6 +478,21 @@ def test_tauv_run_save_log_writes_the_mode(tmp_path: pathlib.Path) -> None:
     assert code == 0
     log = read_log(tmp_path / "log")
     assert log.dvl_water_track is not None and log.dvl_water_track.any() and not log.dvl_water_track.all()
+
+
+def test_tauv_run_save_log_writes_both_velocities(tmp_path: pathlib.Path) -> None:
+    from app.cli import main
+
+    (tmp_path / "both.toml").write_text(
+        '[trajectory]\nname = "figure8"\ndepth_m = 20.0\nseabed_depth_m = 60.0\ncurrent_n_mps = [0.3, -0.2, 0.0]\n'
+        '[dvl]\nrate_hz = 5.0\nmax_altitude_m = 40.2\nwater_track = "both"\n')
+    code = main(["run", "--config", str(tmp_path / "both.toml"), "--duration", "20", "--method", "ins,lc",
+                 "--save-log", str(tmp_path / "log")])
+    assert code == 0
+    log = read_log(tmp_path / "log")
+    assert log.dvl_water_track is None and log.dvl_water_mps is not None and log.dvl_beams_mps is not None
+    both = np.isfinite(log.dvl_water_mps) & np.isfinite(log.dvl_beams_mps)
+    assert both.mean() > 0.5 and (np.isfinite(log.dvl_water_mps) & ~np.isfinite(log.dvl_beams_mps)).any()
 
 
 def _flagged_mission() -> tuple[Config, dict, dict, np.ndarray]:
@@ -369,6 +536,98 @@ def test_a_bag_mapping_declares_a_twist_topic_water_track(tmp_path: pathlib.Path
     assert "\n" not in str(raised.value)
 
 
+def _both_mission(max_altitude_m: float = 100.0) -> tuple[Config, dict]:
+    """The bag mission with a DVL of water_track "both" (each ping's bottom-track and water-track)."""
+    config = (mission_config().replace("trajectory", current_n_mps=(0.3, -0.2, 0.0))
+              .replace("dvl", water_track="both", max_altitude_m=max_altitude_m))
+    beams, _ = mission_tables(config)
+    assert set(dvl_beams.WATER_BEAMS) <= set(beams["dvl"])
+    return config, beams
+
+
+@pytest.mark.parametrize(("storage", "dvl_type", "water_topic", "max_altitude_m"), [
+    ("ros1", "marine_acoustic_msgs/msg/Dvl", "/dvl/water", 100.0),     # two topics, every beam both
+    ("mcap", "ds_sensor_msgs/msg/Dvl", None, 40.2),                     # one topic, beams beyond range
+    ("ros1", "ds_sensor_msgs/msg/Dvl", "/dvl/water", 40.2),
+])
+def test_a_bag_s_two_messages_of_a_ping_become_one_row_of_both(tmp_path: pathlib.Path, storage: str, dvl_type: str,
+                                                               water_topic: str | None, max_altitude_m: float) -> None:
+    """A driver that outputs both publishes each ping's bottom-track and water-track (velocity_mode 2)
+    messages on one stamp, on its topic or on a second one (the mapping's water_track_topic): the bag
+    reads as the CSV log of the same tables, one row per ping, water-track in beam1_water_mps .."""
+    config, beams = _both_mission(max_altitude_m)
+    bag = write_bag(tmp_path / ("m.bag" if storage == "ros1" else "m.mcap"), storage, beams, dvl_type,
+                    config.dvl.A_b, water_topic=water_topic)
+    mapping = tmp_path / "map.toml"
+    mapping.write_text('frame = "frd_ned"\n' + (f'[dvl]\ntopic = "/dvl"\nwater_track_topic = "{water_topic}"\n'
+                                                if water_topic else ""))
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    write_log(tmp_path / "log", beams)
+    expected = read_log(tmp_path / "log")
+    assert log.dvl_water_track is None and log.dvl_water_mps is not None and expected.dvl_water_mps is not None
+    np.testing.assert_array_equal(log.dvl_t_s, expected.dvl_t_s)
+    np.testing.assert_array_equal(log.dvl_beams_mps, expected.dvl_beams_mps)
+    np.testing.assert_array_equal(log.dvl_water_mps, expected.dvl_water_mps)
+    assert np.isfinite(log.dvl_water_mps).all()
+    assert np.isnan(log.dvl_beams_mps).any() == (max_altitude_m < 100.0)
+
+
+def test_a_water_track_topic_is_merged_by_ping_time(tmp_path: pathlib.Path) -> None:
+    """Water-track messages on their own topic 3 ms after their bottom-track ones share their rows
+    (within the 5 ms of ping_tolerance_s); with ping_tolerance_s = 0.001 each is a row of its own,
+    the other mode's columns empty."""
+    config, beams = _both_mission()
+    dvl, n = beams["dvl"], beams["dvl"]["t_s"].size
+    late_s = np.round((dvl["t_s"] + 0.003) * 1e9).astype(np.int64) * 1e-9                # on whole ns, as a bag's
+    rows = {"t_s": np.concatenate([dvl["t_s"], late_s]),
+            **{b: np.concatenate([dvl[b], np.full(n, np.nan)]) for b in dvl_beams.BEAMS},
+            **{w: np.concatenate([np.full(n, np.nan), dvl[w]]) for w in dvl_beams.WATER_BEAMS}}
+    order = np.argsort(rows["t_s"], kind="stable")
+    apart = {c: v[order] for c, v in rows.items()}
+    bag = write_bag(tmp_path / "two.bag", "ros1", {**beams, "dvl": apart}, "ds_sensor_msgs/msg/Dvl", config.dvl.A_b,
+                    water_topic="/dvl/water")
+    mapping = tmp_path / "map.toml"
+    mapping.write_text('frame = "frd_ned"\n[dvl]\ntopic = "/dvl"\nwater_track_topic = "/dvl/water"\n')
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    write_log(tmp_path / "log", beams)
+    expected = read_log(tmp_path / "log")
+    for name in ("dvl_t_s", "dvl_beams_mps", "dvl_water_mps"):
+        np.testing.assert_array_equal(getattr(log, name), getattr(expected, name), err_msg=name)
+    mapping.write_text(mapping.read_text() + "ping_tolerance_s = 0.001\n")
+    log = read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    write_log(tmp_path / "apart", {**beams, "dvl": apart})
+    expected = read_log(tmp_path / "apart")
+    assert log.dvl_t_s is not None and log.dvl_t_s.size == 2 * n
+    for name in ("dvl_t_s", "dvl_beams_mps", "dvl_water_mps"):
+        np.testing.assert_array_equal(getattr(log, name), getattr(expected, name), err_msg=name)
+
+
+def test_pings_pair_each_water_track_message_with_the_nearest_bottom_track_one_once() -> None:
+    t_bottom = np.array([0.0, 1.0, 2.0, 3.0])
+    t_water = np.array([0.001, 0.999, 1.002, 2.5, 3.0])
+    np.testing.assert_array_equal(_pairs(t_bottom, t_water, 0.005), [0, 1, -1, -1, 3])
+    np.testing.assert_array_equal(_pairs(t_bottom, t_water, 0.0), [-1, -1, -1, -1, 3])
+    np.testing.assert_array_equal(_pairs(t_bottom[:0], t_water, 0.005), [-1] * 5)
+
+
+@pytest.mark.parametrize("keys, words", [
+    ('topic = "/dvl"\nwater_track_topic = "/dvl"\n', ("dvl.water_track_topic: '/dvl' is the DVL's topic itself",)),
+    ('water_track_topic = "/imu/data"\n', ("dvl.water_track_topic: '/imu/data'", "sensor_msgs/msg/Imu",
+                                             "cannot feed the dvl table")),
+    ('water_track_topic = "/nowhere"\n', ("dvl.water_track_topic: '/nowhere' is not a topic of",)),
+    ('ping_tolerance_s = 2.0\n', ("dvl.ping_tolerance_s: 2.0 is outside [0, 1]",)),
+])
+def test_bad_water_track_topics_are_one_line(tmp_path: pathlib.Path, keys: str, words: tuple[str, ...]) -> None:
+    config, beams = _both_mission()
+    bag = write_bag(tmp_path / "m.bag", "ros1", beams, "ds_sensor_msgs/msg/Dvl", config.dvl.A_b)
+    mapping = tmp_path / "map.toml"
+    mapping.write_text('frame = "frd_ned"\n[dvl]\n' + keys)
+    with pytest.raises(LogError) as raised:
+        read_bag(bag, read_mapping(mapping), config.dvl.A_b)
+    message = str(raised.value)
+    assert "\n" not in message and all(w in message for w in words), message
+
+
 # ------------------------------------------------------------------------------ chunked = whole
 
 def _streamed(config: Config, streams: SensorStreams | list[SensorStreams], runs: int, chunk_samples: int) -> dict:
@@ -378,12 +637,13 @@ def _streamed(config: Config, streams: SensorStreams | list[SensorStreams], runs
     return {f: np.concatenate([getattr(p, f) for p in parts]) for f in FIELDS if getattr(parts[0], f) is not None}
 
 
-def test_chunked_equals_whole() -> None:
+@pytest.mark.parametrize("mode", ["beyond_range", "both"])
+def test_chunked_equals_whole(mode: str) -> None:
     """Spawned streams cut into chunks of 7, 150 and all samples give the same pings, bit for bit; a
     list of per-run streams gives each run its own alone; the engine's chunks of a simulation
     (chunks_of) hold its pings."""
     config = (_water_config(30.0).replace("trajectory", current_variation_mps=0.1, current_variation_period_s=60.0)
-              .replace("dvl", dropout_probability=0.2, outages=(Outage((3,), 5.0, 9.0),)))
+              .replace("dvl", dropout_probability=0.2, outages=(Outage((3,), 5.0, 9.0),), water_track=mode))
     whole = _streamed(config, SensorStreams.spawned(np.random.default_rng(5)), 2, 10**6)
     assert set(whole) == set(FIELDS) - {"slant_range_m"}
     assert whole["water_available"].any() and whole["available"].any()
