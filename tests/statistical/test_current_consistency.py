@@ -21,7 +21,12 @@ METHODS = ("lc", "tc", "nsv", "iekf")
 
 
 @pytest.mark.slow
-def test_the_current_s_nees_is_in_its_99_percent_band_over_30_runs() -> None:
+@pytest.mark.parametrize("water_track, inside_min", [("always", 0.9), ("both", 0.7)])
+def test_the_current_s_nees_is_in_its_99_percent_band_over_30_runs(water_track: str, inside_min: float) -> None:
+    """Water-track on every beam (measured: 1.0 of the epochs inside the band), or beside
+    bottom-track (``both``, the DVL's range 35 m so that the lawnmower's deeper legs lose bottom
+    lock: 0.82 and 0.76 of the epochs for LC and TC, dipping below the band in the middle of the
+    run, cautious, while bottom-track and water-track together pin the current)."""
     from tauvcore.engine.mission import run
     from tauvcore.engine.simulation import simulate
 
@@ -31,8 +36,8 @@ def test_the_current_s_nees_is_in_its_99_percent_band_over_30_runs() -> None:
         current = rng.normal(0.0, SIGMA_MPS, 2)
         config = (Config().replace("trajectory", name="lawnmower", duration_s=300.0,
                                    current_n_mps=(current[0], current[1], 0.0))
-                  .replace("dvl", water_track="always", current_states="random-walk",
-                           current_sigma_mps=SIGMA_MPS, current_walk_mps_per_sqrt_s=1e-4)
+                  .replace("dvl", water_track=water_track, current_states="random-walk",
+                           current_sigma_mps=SIGMA_MPS, current_walk_mps_per_sqrt_s=1e-4, max_altitude_m=35.0)
                   .replace("initial_error", mode="random").replace("earth", model="flat")
                   .replace("run", methods=METHODS, aiding=("dvl", "depth", "mag")))
         for method, r in run(config, simulate(config, rng), rng).items():
@@ -44,4 +49,4 @@ def test_the_current_s_nees_is_in_its_99_percent_band_over_30_runs() -> None:
         avg = np.mean(runs, axis=0)  # over the runs, at every output epoch
         assert lo <= avg.mean() <= hi, (method, lo, hi, avg.mean())
         inside = ((avg >= lo) & (avg <= hi)).mean()
-        assert inside >= 0.9, (method, inside)
+        assert inside >= inside_min, (method, inside)
