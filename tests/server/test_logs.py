@@ -17,7 +17,8 @@ from tests.server.viser_client import ViserClient
 
 
 def _notification(client: ViserClient, mark: int) -> dict:
-    _, message = client.wait_for(lambda m: m.get("type") == "NotificationShowMessage", 120.0, "a notification",
+    # a run's notification: seconds alone, minutes while the suite's other workers load the machine
+    _, message = client.wait_for(lambda m: m.get("type") == "NotificationShowMessage", 300.0, "a notification",
                                  since=mark)
     return message["props"]
 
