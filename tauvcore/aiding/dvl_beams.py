@@ -147,8 +147,9 @@ class DvlSource(AidingSource):
         Returns
         -------
         numpy.ndarray
-            Shape (K, 2) [m/s] (``Truth.current_n_mps``; zero in still water), or (K, 0) without
-            current states.
+            Shape (K, 2) [m/s] (``Truth.current_n_mps``), or (K, 0) without current states. Zero
+            where the truth records no current: still water, and a replayed log, whose reference
+            says nothing of the water (the current's NEES of a replay is then against still water).
         """
         if section.current_states == "off":
             return np.zeros((truth.num_samples, 0))
