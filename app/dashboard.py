@@ -47,6 +47,7 @@ from app.scene import (
     BEAM_REJECTED,
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
+    BEAM_WATER,
     ned_to_view,
 )
 from app.session_controls import ControlPanel
@@ -147,7 +148,7 @@ class Session:
         items += [f'<span style="color:{method_color(m)}">&#9632;</span> {m.upper()}' for m in methods]
         beams = [
             f'<span style="color:rgb{BEAM_COLORS[s]}">&#9646;</span> {s} ({BEAM_COLOR_NAMES[s]})'
-            for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
+            for s in (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_WATER)
         ]
         return (
             '<div id="tauv-legend" style="font-size:0.8em;line-height:1.6">Trajectories: '

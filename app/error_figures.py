@@ -331,8 +331,8 @@ def nees_figure(
     (tauvcore.engine.results.BLOCK_DIMS), or a block the sources add ("current": the DVL's current
     states; :func:`nees_blocks`). A method whose ``block_dims`` lacks ``block`` is not drawn, and
     the title names it ("no current: VKF"). n is each method's own (:func:`block_dims`: the full
-    state is 20 for the first paper's methods, 22 with the current states, 12 for Yoo 2014's, whose
-    position NEES is NaN: no curve). A consistent filter's curve lies near 1 (a dotted line, trace
+    state is 20 for the first paper's methods, 12 for Yoo 2014's, whose position NEES is NaN: no
+    curve, and 2 more with the current states). A consistent filter's curve lies near 1 (a dotted line, trace
     "1 = consistent") and inside the two-sided 99 % band of the run-averaged NEES
     (:func:`tauvcore.eval.consistency.nees_band`; a grey shaded trace "99 % band", which narrows as
     runs are added; when the methods drawn have different n, one band per n, "99 % band (dim n)",

@@ -5,7 +5,8 @@ viser's world is right-handed with z up; we show east as x, north as y, up as z:
 A body-frame vector goes to the view as ``M C_nb v_b``.
 
 The seabed is a triangle mesh of the mission's bathymetry under the track (:func:`seabed_mesh_n`),
-and each DVL beam ends where it meets it, or at the DVL's range where it does not (drawn "lost").
+and each DVL beam ends where it meets it, or at the DVL's range where it does not (drawn "lost");
+a beam that water-tracks (``dvl.water_track``, :func:`water_tracking`) ends at its water layer.
 
 The fins are children of the vehicle's node: their placement (:func:`fin_wxyz_body`) is a
 rotation in the body frame, which the parent's ``M C_nb`` carries into the view.
@@ -34,11 +35,12 @@ from tauvcore.truth.vehicle import FIN_POSITION_ANGLES_RAD
 ASSETS_DIR = Path(str(files("app") / "assets"))  # package data (pyproject.toml), so in the wheel too
 M_VIEW_FROM_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
-BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED = (
+BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_WATER = (
     "returning",
     "switched off",
     "lost",
     "rejected",
+    "water-track",
 )
 # The beams' palette is kept apart from the methods' (app.figures.METHOD_COLORS, matplotlib's tab10, which
 # covers the hue circle at middle lightness): saturated blue, magenta and aqua, and a navy near black,
@@ -48,12 +50,14 @@ BEAM_COLORS = {
     BEAM_SWITCHED_OFF: (0, 0, 102),  # navy, nearly black: a dead beam
     BEAM_OUTAGE: (0, 255, 204),  # aqua
     BEAM_REJECTED: (255, 0, 255),  # magenta
+    BEAM_WATER: (0, 255, 0),  # lime: the beam measures the water, not the seabed
 }
 BEAM_COLOR_NAMES = {
     BEAM_RETURNING: "blue",
     BEAM_SWITCHED_OFF: "navy stub",
     BEAM_OUTAGE: "aqua",
     BEAM_REJECTED: "magenta",
+    BEAM_WATER: "lime",
 }
 BEAM_MIN_DELTA_E = (
     40.0  # CIE76 distance every beam colour keeps from every method colour (a clear difference: > 10)
@@ -61,7 +65,13 @@ BEAM_MIN_DELTA_E = (
 # A switched-off beam is drawn thin and short, a stub of its first BEAM_OFF_FRACTION: blue and navy
 # lines read alike where the beams are thin or far away, a stub beside a full beam does not.
 BEAM_OFF_FRACTION = 0.25
-BEAM_THICKNESS_PX = {BEAM_RETURNING: 2.5, BEAM_SWITCHED_OFF: 1.5, BEAM_OUTAGE: 2.5, BEAM_REJECTED: 2.5}
+BEAM_THICKNESS_PX = {
+    BEAM_RETURNING: 2.5,
+    BEAM_SWITCHED_OFF: 1.5,
+    BEAM_OUTAGE: 2.5,
+    BEAM_REJECTED: 2.5,
+    BEAM_WATER: 2.5,
+}
 BEAM_LABEL_DISTANCE_M = 4.0  # each beam's number stands this far along it from the DVL head
 SEABED_MARGIN_M = 300.0  # the seabed (mesh or flat grid) reaches this far beyond the track on every side
 SEABED_MAX_TRIANGLES = 20000  # ... in at most this many triangles
@@ -254,13 +264,19 @@ def seabed_mesh_n(
     return verts, faces
 
 
-def beam_states(enabled: np.ndarray, returned: np.ndarray, rejected: np.ndarray) -> list[str]:
-    """State of each beam at one ping: switched off by the user, lost (outage or dropout),
-    rejected by the gate, or returning. All arguments (4,) bool."""
+def beam_states(
+    enabled: np.ndarray, returned: np.ndarray, rejected: np.ndarray, water: np.ndarray | None = None
+) -> list[str]:
+    """State of each beam at one ping: switched off by the user, water-tracking (``water``, where
+    it returns no bottom-track), lost (outage or dropout), rejected by the gate, or returning. All
+    arguments (4,) bool."""
     states = []
-    for on, ret, rej in zip(enabled, returned, rejected):
+    water = np.zeros(4, bool) if water is None else np.asarray(water, bool)
+    for on, ret, rej, wat in zip(enabled, returned, rejected, water):
         if not on:
             states.append(BEAM_SWITCHED_OFF)
+        elif not ret and wat:
+            states.append(BEAM_WATER)
         elif not ret:
             states.append(BEAM_OUTAGE)
         elif rej:
@@ -268,6 +284,58 @@ def beam_states(enabled: np.ndarray, returned: np.ndarray, rejected: np.ndarray)
         else:
             states.append(BEAM_RETURNING)
     return states
+
+
+def water_tracking(mode: str, scheduled: np.ndarray, in_range: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which beams bottom-track and which water-track at a ping, by ``dvl.water_track``.
+
+    Parameters
+    ----------
+    mode : str
+        ``dvl.water_track``: "off", "beyond_range", "always" or "both" (tauvcore.sensors.dvl).
+    scheduled : numpy.ndarray
+        Shape (4,) bool: the beams the schedule lets return (no outage).
+    in_range : numpy.ndarray
+        Shape (4,) bool: the seabed is within the DVL's range.
+
+    Returns
+    -------
+    bottom : numpy.ndarray
+        Shape (4,) bool: the beam returns bottom-track.
+    water : numpy.ndarray
+        Shape (4,) bool: it returns water-track and no bottom-track ("both" water-tracks where it
+        bottom-tracks too; such a beam is drawn returning).
+    """
+    scheduled, in_range = np.asarray(scheduled, bool), np.asarray(in_range, bool)
+    if mode == "always":
+        return np.zeros(4, bool), scheduled.copy()
+    bottom = scheduled & in_range
+    if mode == "off":
+        return bottom, np.zeros(4, bool)
+    return bottom, scheduled & ~in_range
+
+
+def water_ranges_m(C_nb: np.ndarray, A_b: np.ndarray, layer_m: float) -> np.ndarray:
+    """Each beam's slant distance to the water layer ``layer_m`` below the head, ``layer_m /
+    cos``, with ``cos`` the beam's downward direction cosine (tauvcore.sensors.dvl); inf for a beam
+    that does not point down.
+
+    Parameters
+    ----------
+    C_nb : numpy.ndarray
+        Attitude, shape (3, 3), body (FRD) to NED.
+    A_b : numpy.ndarray
+        Beam directions, shape (4, 3), body frame.
+    layer_m : float
+        The layer's distance below the head [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (4,) [m].
+    """
+    cos_down = (np.asarray(A_b, float) @ np.asarray(C_nb, float).T)[:, 2]
+    return np.where(cos_down > 1e-6, layer_m / np.where(cos_down > 1e-6, cos_down, 1.0), np.inf)
 
 
 def beam_readout(t_s: float, states: list[str], in_range: np.ndarray, altitude_m: float | None = None) -> str:

@@ -344,7 +344,7 @@ def state_methods(results: Mapping[str, MethodResult]) -> tuple[str, ...]:
     tuple[str, ...]
         The methods, in the order of ``results``. INS carries the states of a run with current
         states but fuses nothing: its estimate stays at the prior (0, the prior's 1-sigma), and
-        is left out; Yoo 2014's methods and a run reduced to bins carry none.
+        is left out.
     """
     return tuple(m for m, r in results.items() if r.state_est is not None and r.updates and len(r.t_s))
 

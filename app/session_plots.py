@@ -478,19 +478,14 @@ class PlotTabs:
         ``run`` (0-based) of every method that estimates them, under a note naming those that do
         not; hidden, with no note, for a run without such states."""
         methods = state_methods(results)
-        carried = [m for m, r in results.items() if set(r.block_dims or BLOCK_DIMS) - set(BLOCK_DIMS)]
+        note = ""
         if methods:
             others = [m.upper() for m in results if m not in methods]
             note = STATES_NOTE + (
                 f" Not drawn: {', '.join(others)} (no aiding, or no current states)." if others else ""
             )
-        elif carried and any(is_decimated(r) for r in results.values()):
-            note = (
-                "**Current not drawn**: a run this long is reduced to time bins, which keep no estimate "
-                "of the current; its NEES is in the Consistency tab (block current)."
-            )
-        else:
-            note = ""
+            if any(is_decimated(results[m]) for m in methods):
+                note += " A run this long is reduced to time bins: each bin's last estimate."
         if self.state_note.content != note:
             self.state_note.content = note
         if self.state_plot.visible != bool(methods):

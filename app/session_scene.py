@@ -23,6 +23,7 @@ from app.scene import (
     BEAM_RETURNING,
     BEAM_SWITCHED_OFF,
     BEAM_THICKNESS_PX,
+    BEAM_WATER,
     CAMERA_FREE,
     CURRENT_ARROW_ABOVE_M,
     CURRENT_ARROW_HEAD_M,
@@ -50,6 +51,8 @@ from app.scene import (
     scale_bar_view,
     seabed_mesh_n,
     seabed_ranges_m,
+    water_ranges_m,
+    water_tracking,
     wxyz_view,
 )
 from app.session_state import TabState, drawing
@@ -280,10 +283,14 @@ class SceneView:
                 pos_n, C_nb, dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m
             )
         if states is None:
-            states = beam_states(dvl.beam_mask, dvl.beam_mask & np.isfinite(range_m), np.zeros(4, bool))
+            bottom, water = water_tracking(dvl.water_track, dvl.beam_mask, np.isfinite(range_m))
+            states = beam_states(dvl.beam_mask, bottom, np.zeros(4, bool), water)
         full = beam_segments_b(dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m)
         segs = {s: beam_stub(full) if s == BEAM_SWITCHED_OFF else full for s in BEAM_THICKNESS_PX}
-        order = (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED)
+        if BEAM_WATER in states:  # a water-tracking beam ends at its layer
+            layer = water_ranges_m(C_nb, dvl.A_b, dvl.water_layer_m)
+            segs[BEAM_WATER] = beam_segments_b(dvl.l_dvl_b, dvl.A_b, layer, dvl.max_range_m)
+        order = (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_WATER)
         nodes = getattr(self, "beam_nodes", None)
         if nodes is None:  # the first drawing makes the nodes, each as it is to be shown
             self.beam_nodes = [
@@ -322,7 +329,8 @@ class SceneView:
         range_m = seabed_ranges_m(
             pos_n, np.eye(3), dvl.l_dvl_b, dvl.A_b, bathymetry(config.trajectory), dvl.max_range_m
         )
-        states = beam_states(enabled, enabled & np.isfinite(range_m), np.zeros(4, bool))
+        bottom, water = water_tracking(dvl.water_track, enabled, np.isfinite(range_m))
+        states = beam_states(enabled, bottom, np.zeros(4, bool), water)
         self.show_beams_static(config, pos_n, np.eye(3), states, range_m)
 
     @drawing
@@ -458,16 +466,19 @@ class SceneView:
     def beam_states_at(self, t_s: float, range_m: np.ndarray | None = None) -> list[str]:
         """Each beam's state at ``t_s``: the schedule's (or, once results arrive, the run's record
         of) returned beams, lost also where ``range_m`` (4,) says the seabed is beyond range (inf),
-        rejected by the gate of the first of REJECT_REFERENCE that ran."""
+        rejected by the gate of the first of REJECT_REFERENCE that ran; water-tracking where the
+        DVL water-tracks instead (app.scene.water_tracking)."""
         tv, config = self.state.truth_view, self.state.config
         assert tv is not None and config is not None
-        enabled = config.dvl.beam_mask
+        enabled, mode = config.dvl.beam_mask, config.dvl.water_track
         in_range = np.isfinite(range_m) if range_m is not None else np.ones(4, dtype=bool)
         pings = tv["ping_t_s"]
         if len(pings) == 0 or t_s < pings[0]:
-            return beam_states(enabled, enabled & in_range, np.zeros(4, bool))
+            bottom, water = water_tracking(mode, enabled, in_range)
+            return beam_states(enabled, bottom, np.zeros(4, bool), water)
         p = int(np.searchsorted(pings, t_s, side="right") - 1)
-        returned = tv["ping_available"][p]  # the schedule's; a run's own record also has random drop-outs
+        scheduled = tv["ping_available"][p]
+        returned, water = water_tracking(mode, scheduled, in_range)  # a run's own record also has drop-outs
         rejected = np.zeros(4, dtype=bool)
         results = self.state.results or {}
         for record in (r.updates.get("dvl") for r in results.values()):
@@ -475,7 +486,7 @@ class SceneView:
             if record is not None and q is not None and record.beams_available is not None:
                 returned = record.beams_available[q, 0]
                 break
-        returned = returned & in_range
+        returned = returned & in_range & (mode != "always")
         for method in REJECT_REFERENCE:
             dvl = results[method].updates.get("dvl") if method in results else None
             q = _record_row(dvl, p, t_s)
@@ -485,7 +496,7 @@ class SceneView:
                 elif dvl.rejected[q, 0]:
                     rejected = returned.copy()
                 break
-        return beam_states(enabled, returned, rejected)
+        return beam_states(enabled, returned, rejected, water)
 
 
 def _record_row(record: UpdateRecord | None, ping: int, t_s: float) -> int | None:

@@ -174,11 +174,14 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
     chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
     single-run band)."""
     summaries = _summaries(results)
-    # the 20-state filter's blocks, and those its sources add (tauvcore.filter.layout.Layout)
+    # the 20-state filter's blocks, and those its sources add (tauvcore.filter.layout.Layout); the
+    # full state's dimension is the 20-state methods' (Yoo 2014's are in the note)
     dims = dict(BLOCK_DIMS)
-    for summary in summaries.values():
-        if summary.block_dims is not None and summary.block_dims.get("full", 0) > BLOCK_DIMS["full"]:
-            dims = dict(summary.block_dims)
+    for name, summary in summaries.items():
+        for block, n in (summary.block_dims or {}).items():
+            dims.setdefault(block, n)
+            if block == "full" and name not in YOO_METHODS:
+                dims["full"] = max(dims["full"], n)
     blocks = list(dims)
     head = ["method", *blocks, *sources]
     units = ["", *(f"NEES/{dims[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
@@ -206,11 +209,12 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
         "inside the 99 % band)"
     )
     notes = []
-    if any(name in YOO_METHODS for name in summaries):
+    yoo_full = [(s.block_dims or {}).get("full", 12) for name, s in summaries.items() if name in YOO_METHODS]
+    if yoo_full:
         left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
         notes = [
-            "INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over 12 states, their sensor "
-            "NEES over 6, and they have no position state"
+            f"INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over {max(yoo_full)} states, "
+            "their sensor NEES over 6, and they have no position state"
             + (f"; they do not fuse {', '.join(left_out)} (no position state)" if left_out else "")
         ]
     return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])

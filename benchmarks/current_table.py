@@ -14,10 +14,11 @@ up the current's along-hull part.
 
 Methods: INS, INS-DVL and VKF (Yoo 2014's 12-state filter), LC with ``run.rpm_fallback`` (the VKF's
 RPM velocity where the DVL gives none); in the cross current also LC and TC with the RPM
-fallback and the current as states (the RPM's velocity through the water); and LC, TC, NSV and IEKF with the
-DVL water-tracking beyond bottom range (``dvl.water_track = "beyond_range"``) and the current as
-two error states (``dvl.current_states = "random-walk"``): the current's error at the end (the
-norm of its north and east parts, RMS over the runs) and its NEES per dimension over the run.
+fallback and VKF, each with the current as states (the RPM's velocity through the water); and
+LC, TC, NSV, IEKF, INS-DVL and VKF with the DVL water-tracking beyond bottom range
+(``dvl.water_track = "beyond_range"``) and the current as two error states
+(``dvl.current_states = "random-walk"``): the current's error at the end (the norm of its north
+and east parts, RMS over the runs) and its NEES per dimension over the run.
 
 Writes docs/results/current_table.md (benchmarks/fragment.py).
 """
@@ -47,12 +48,17 @@ STATES = {"water_track": "beyond_range", **CURRENT}
 CASES = (
     ("still water", (0.0, 0.0, 0.0), {}, METHODS),
     ("0.3 m/s across the track (toward east)", (0.0, 0.3, 0.0), {}, METHODS),
-    ("0.3 m/s across the track, current states, --rpm-fallback", (0.0, 0.3, 0.0), CURRENT, ("lc", "tc")),
+    (
+        "0.3 m/s across the track, current states, --rpm-fallback (VKF: its own RPM velocity)",
+        (0.0, 0.3, 0.0),
+        CURRENT,
+        ("lc", "tc", "vkf"),
+    ),
     (
         "0.3 m/s across the track, water-track beyond range and current states",
         (0.0, 0.3, 0.0),
         STATES,
-        ("lc", "tc", "nsv", "iekf"),
+        ("lc", "tc", "nsv", "iekf", "ins-dvl", "vkf"),
     ),
     ("0.3 m/s along the track (toward south, against the vehicle)", (-0.3, 0.0, 0.0), {}, METHODS),
 )
@@ -107,6 +113,33 @@ def case_rows(
     return rows
 
 
+def yoo_cost(seed: int) -> str:
+    """Wall time of one run of the whole mission with ``ins-dvl,vkf`` in the cross current with
+    water-track beyond range, with the current states (the numpy methods) and without (the
+    compiled loop); best of two, the simulation apart."""
+    times = {}
+    for label, dvl in (("with current states", STATES), ("without", {"water_track": "beyond_range"})):
+        config = (
+            from_dict(trajectory_preset("longrange"), Config().replace("trajectory", name="longrange"))
+            .replace("trajectory", current_n_mps=(0.0, 0.3, 0.0))
+            .replace("dvl", **dvl)
+            .replace("run", methods=("ins-dvl", "vkf"), aiding=("dvl", "depth", "mag"), seed=seed)
+        )
+        sim = simulate(config, np.random.default_rng(seed), 1)
+        best = np.inf
+        for _ in range(2):
+            started = time.perf_counter()
+            run(config, sim, np.random.default_rng(seed))
+            best = min(best, time.perf_counter() - started)
+        times[label] = best
+    with_s, without_s = times["with current states"], times["without"]
+    return (
+        f"Yoo's methods with current states: one run of the mission, `ins-dvl,vkf`, {with_s:.1f} s with the "
+        f"current states (the numpy methods) against {without_s:.1f} s without (the compiled loop), "
+        f"{with_s / without_s:.1f} times (best of two, the simulation apart)."
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=20)
@@ -128,6 +161,7 @@ def main() -> None:
             for line in case_rows(current, dvl, methods, args.runs, args.seed):
                 print(line, flush=True)
             print()
+        print(yoo_cost(args.seed) + "\n")
         print(f"*{time.perf_counter() - started:.0f} s in all.*")
     print(f"written to {fragment.write('current_table', shown.getvalue())}")
 

@@ -86,7 +86,7 @@ def rpm_measurement(
     sf: np.ndarray,
     b_dvl: np.ndarray,
     A_pinv: np.ndarray,
-    current: tuple[np.ndarray, np.ndarray, slice, int] | None = None,
+    current: tuple[np.ndarray, np.ndarray, slice, int, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The RPM velocity's prediction and Jacobian (``--rpm-fallback``, :func:`rpm_fallback`).
 
@@ -95,7 +95,10 @@ def rpm_measurement(
     as states, the propeller's velocity is through the water: the current's body part
     ``C^T c_n`` comes off every row (the VKF learned its surge less the estimated current,
     :class:`~tauvcore.engine.rpm_aid.RpmAid`), and H gains ``-C^T [c x]`` on the misalignment
-    and ``-C^T [e_N e_E]`` on the current.
+    and ``-C^T [e_N e_E]`` on the current. What the VKF learned carries the current estimate's
+    error along the axis ``a`` it learned on, ``(c - c_l) . a`` (``c_l`` the estimate it took), so
+    the surge gains that and its current columns ``a_NE``: on a straight track the surge says
+    nothing of the current along it (tauvcore.engine.yoo_velocity).
 
     Parameters
     ----------
@@ -109,7 +112,8 @@ def rpm_measurement(
         The DVL's A+, shape (3, 4) [-].
     current : tuple or None
         With current states: the attitude ``C_nb`` (..., 3, 3), the estimated current ``c_n``
-        (..., 3) NED [m/s], its slice of the error state and the error state's size; None: none.
+        (..., 3) NED [m/s], its slice of the error state, the error state's size, and the VKF's
+        learning axis ``a`` and current ``c_l`` (..., 3) NED [m/s]; None: none.
 
     Returns
     -------
@@ -126,11 +130,13 @@ def rpm_measurement(
     H[..., 0, STATE.b_dvl] = A_pinv[0]
     H[..., 0, STATE.sf_dvl.start] = v_b[..., 0]
     if current is not None:
-        C, c_n, cols, _ = current
+        C, c_n, cols, _, a_n, c_l = current
         CT = np.swapaxes(C, -1, -2)
         h -= np.einsum("...ij,...j->...i", CT, c_n)
+        h[..., 0] += np.einsum("...j,...j->...", c_n - c_l, a_n)
         H[..., STATE.att] = -(CT @ skew(c_n))
         H[..., cols] = -CT[..., :, :2]
+        H[..., 0, cols] += a_n[..., :2]
     return h, H
 
 
@@ -168,12 +174,15 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
         cols = bank.layout.slice_of(CURRENT_BLOCK)
         c_n = np.zeros(bank.batch + (3,))
         c_n[..., :2] = bank.extra[..., cols.start - STATE.dim : cols.stop - STATE.dim]
-        current = (bank.C, c_n, cols, bank.layout.dim)
         # the runs' one VKF learns the surge through the water by the first DVL method's current
         m0 = bank.dvl_index[0]
         surge_current = np.einsum("rj,rj->r", bank.C[m0, :, :, 0], c_n[m0])
         v_b = v_b - surge_current[:, None] * np.array([1.0, 0.0, 0.0])
-    _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok)
+        _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok, (bank.C[m0, :, :, 0], c_n[m0]))
+        aid = bank.rpm_aid
+        current = (bank.C, c_n, cols, bank.layout.dim, aid.learn_axis_n[None], aid.learn_current_n[None])
+    else:
+        _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok)
     coast = np.zeros(bank.batch, bool)
     coast[bank.dvl_index] = ~dvl_valid[bank.dvl_index] & have_rpm
     if not coast.any():  # every method had its DVL velocity: the bank is left as it was

@@ -58,7 +58,13 @@ class RpmAid:
     latest RPM, updated with the DVL's forward speed while the echo sounder's altitude is within
     ``switch_altitude_m`` and enough beams return; what it offers then is the body velocity
     ``[V_rpm, 0, 0]`` with the VKF's variance on surge and RPM_LATERAL_SIGMA_MPS on sway and heave.
-    Used by the ``vkf`` method (eq. 29) and by the first paper's methods with ``run.rpm_fallback``."""
+    Used by the ``vkf`` method (eq. 29) and by the first paper's methods with ``run.rpm_fallback``.
+
+    With current states the VKF learns the surge through the water, the DVL's less the current's
+    part along the body x axis by a filter's estimate; :attr:`learn_axis_n` and
+    :attr:`learn_current_n` keep, per run, the axis and the estimate of its last update. The speed it
+    gives is then ``x . (v - c) + (c - c_learn) . a``: the estimate's error at learning stays in
+    it, along the axis ``a`` it learned on (tauvcore.engine.yoo_velocity)."""
 
     def __init__(self, cfg, num_runs: int) -> None:
         self.cfg = cfg
@@ -66,10 +72,20 @@ class RpmAid:
         self.P = np.broadcast_to(cfg.P0, (num_runs, 3, 3)).copy()
         self.use_rpm = np.zeros(num_runs, bool)
         self.altitude = np.full(num_runs, np.nan)
+        self.learn_axis_n = np.zeros((num_runs, 3))  # body x axis in NED at the last update (zero: none)
+        self.learn_current_n = np.zeros((num_runs, 3))  # the current estimate it took then [m/s] NED
 
-    def step(self, chunk, i: int, v_b: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def step(
+        self,
+        chunk,
+        i: int,
+        v_b: np.ndarray,
+        ok: np.ndarray,
+        learned: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Predict with the RPM, learn from the DVL where eq. 29 picks it; -> (RPM chosen (R,),
-        an RPM was read (R,))."""
+        an RPM was read (R,)). ``learned``: with current states, the body x axis in NED (R, 3) and
+        the current estimate (R, 3) [m/s] that ``v_b`` was taken through the water with."""
         cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
         rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
         rpm_now = rpm.latest(RPM, k) if rpm is not None else np.full(R, np.nan)
@@ -82,6 +98,9 @@ class RpmAid:
         learn = ~use_rpm & ok & have_rpm
         z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
         self.x, self.P, _, _ = vkf.update(self.x, self.P, z_fwd, learn, cfg.R)
+        if learned is not None:
+            self.learn_axis_n = np.where(learn[:, None], learned[0], self.learn_axis_n)
+            self.learn_current_n = np.where(learn[:, None], learned[1], self.learn_current_n)
         self.use_rpm, self.altitude = use_rpm, np.asarray(altitude, dtype=float)
         return use_rpm, have_rpm
 

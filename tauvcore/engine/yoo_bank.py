@@ -4,7 +4,7 @@ Each is the paper's 12-state indirect feedback Kalman filter (section 2.1; error
 tauvcore.filter.yoo: NED velocity, attitude, accelerometer and gyro bias errors, no position)
 on the same strapdown as the 20-state methods (tauvcore.filter.kernels.strapdown.advance, geodetic on
 WGS-84), aided at every DVL ping by a NED velocity (eq. 16-18; with the attitude column the paper's H
-leaves out, :meth:`YooBank._fuse`):
+leaves out, :func:`tauvcore.engine.yoo_velocity.fuse_velocity`):
 
 - ``ins-dvl``, the paper's "conventional INS-DVL": the DVL's velocity, least squares over the
   beams that returned (at least three), rotated into n with the INS attitude; nothing when fewer
@@ -59,6 +59,7 @@ from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store, cut
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import (
     SERIES_FIELDS,
+    STATE_FIELDS,
     YOO_BLOCK_DIMS,
     YOO_SENSOR_STATES,
     MethodResult,
@@ -68,20 +69,29 @@ from tauvcore.engine.results import (
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
-from tauvcore.engine.sources import active
+from tauvcore.engine.sources import active, layout_of, states_truth
 from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
-from tauvcore.filter import statistics, yoo
+from tauvcore.engine.yoo_velocity import (
+    added_states,
+    fuse_velocity,
+    fuse_water,
+    propagate_added,
+    surge_current,
+)
+from tauvcore.filter import statistics, yoo, yoo_kernels
 from tauvcore.filter.eskf import Nominal, make_outcome
 from tauvcore.filter.layout import NavState
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
+from tauvcore.validation import ConfigError
 
 BLOCK_DIMS = YOO_BLOCK_DIMS
 """Degrees of freedom of this filter's NEES (tauvcore.engine.results.YOO_BLOCK_DIMS)."""
-NC = 5
+NC = yoo_kernels.NC
 """Consider states after the 12: the DVL's scale factor error and its 4 beam biases (never corrected)."""
-NA = yoo.DIM + NC
-"""The covariance's dimension: the 12 estimated states and the consider states."""
+NA = yoo_kernels.NA
+"""The covariance's dimension: the 12 estimated states and the consider states (then the states the
+sources add, tauvcore.engine.yoo_velocity)."""
 
 
 SERIES = tuple(SERIES_FIELDS)
@@ -123,7 +133,24 @@ class YooBank(ChunkDriver):
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         # the smoother's marks (tauvcore.engine.yoo_smoothing) are taken by the numpy methods
         self.taping = YooTapeWriter(tape, self.batch, NA) if tape is not None else None
-        self.compiled = compiled and tape is None
+        # the states the sources add (the DVL's current), after the consider states
+        self.added = added_states(config, layout_of(config))
+        if tape is not None and self.added.num:
+            blocks = ", ".join(b.name for b in self.added.layout.blocks)
+            raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
+        # the compiled loop carries the 12 + 5 states; with added states the numpy methods run
+        self.compiled = compiled and tape is None and not self.added.num
+        self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
+        self.block_of_state = np.r_[BLOCK_OF_STATE, np.zeros(self.added.num, np.int64)]
+        start = yoo.DIM
+        for b, block in enumerate(self.added.layout.blocks):
+            self.block_of_state[start : start + block.dim] = NUM_BLOCKS + b
+            start += block.dim
+        self.num_blocks = NUM_BLOCKS + len(self.added.layout.blocks)
+        self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
+        self.block_dims.update({b.name: b.dim for b in self.added.layout.blocks})
+        self.extra = np.zeros(self.batch + (self.added.num,))
+        self._extra_truth: tuple[int, np.ndarray] | None = None  # (chunk start, (K, E)) of the last chunk
         imu = config.imu
         self.q = np.r_[
             np.full(3, imu.accel_noise_mps_per_sqrt_s**2),
@@ -149,6 +176,8 @@ class YooBank(ChunkDriver):
             if yoo_sources.takes(SOURCES[name])
         ]
         self.recorders = {name: Recorder(np.ones(len(methods), bool)) for name, _ in self.sources}
+        if self.added.water_var is not None:
+            self.recorders["water"] = Recorder(np.ones(len(methods), bool))
         self._until_s: float | None = None
         # the first output epoch with a non-finite NEES per method and run [s] (NaN: none) among
         # the results handed out by take(), so that a verdict so far spans the chunks taken before
@@ -174,14 +203,17 @@ class YooBank(ChunkDriver):
         self.C = np.array(np.broadcast_to(C, (M, R, 3, 3)), dtype=float, order="C")
         self.ba = np.zeros((M, R, 3))
         self.bg = np.zeros((M, R, 3))
-        P0 = np.zeros((NA, NA))
+        na = self.added.dim
+        P0 = np.zeros((na, na))
         C0 = self.C[0, 0]
         P0[yoo.VEL, yoo.VEL] = C0 @ np.diag(np.square(ie.vel_mps)) @ C0.T
         P0[yoo.ATT, yoo.ATT] = P0_att
         P0[yoo.BA, yoo.BA] = P0_ba
         P0[yoo.BG, yoo.BG] = P0_bg
-        P0[yoo.DIM :, yoo.DIM :] = np.diag(self.c_var0)
-        self.P = np.broadcast_to(P0 + np.eye(NA) * 1e-16, (M, R, NA, NA)).copy()
+        P0[yoo.DIM : NA, yoo.DIM : NA] = np.diag(self.c_var0)
+        P0[NA:, NA:] = np.diag(self.added.sigma0**2)
+        self.P = np.broadcast_to(P0 + np.eye(na) * 1e-16, (M, R, na, na)).copy()
+        self.extra[...] = 0.0
         # the initial NED velocity is the body velocity rotated with the estimated attitude, so its
         # error carries the attitude's: dv = ... - [v x] rho (without this correlation the first
         # updates moved the heading by up to 1 deg at random)
@@ -265,7 +297,8 @@ class YooBank(ChunkDriver):
             "t_s": np.asarray(out_t_s, dtype=float),
             "out_k": outs,
             "series": np.full((len(SERIES), T, M, R), nan),
-            "nees_block": np.full((T, M, R, NUM_BLOCKS), nan),
+            "nees_block": np.full((T, M, R, self.num_blocks), nan),
+            **{name: np.full((T, M, R, self.added.num), nan) for name in STATE_FIELDS},
             "est_pos_n": np.full((T, M, R, 3), nan),
             "est_vel_n": np.full((T, M, R, 3), nan),
             "est_euler": np.full((T, M, R, 3), nan),
@@ -436,15 +469,17 @@ class YooBank(ChunkDriver):
         Phi = np.eye(yoo.DIM) + F + 0.5 * F @ F
         if self.taping is not None:
             self.taping.propagated(Phi)
-        P = self.P.reshape(-1, NA, NA).copy()
+        na = self.added.dim
+        P = self.P.reshape(-1, na, na).copy()
         X = slice(0, yoo.DIM)
         P[:, X, X] = (
             Phi @ P[:, X, X] @ Phi.swapaxes(-1, -2) + np.diag(self.q) * dt_c
         )  # isotropic: G Q G^T = Q
         P[:, X, yoo.DIM :] = Phi @ P[:, X, yoo.DIM :]  # consider states: constant plus walks
         P[:, yoo.DIM :, X] = P[:, X, yoo.DIM :].swapaxes(-1, -2)
-        P[:, yoo.DIM :, yoo.DIM :] += np.diag(self.qc) * dt_c
-        self.P = (0.5 * (P + P.swapaxes(-1, -2))).reshape(M, R, NA, NA)
+        P[:, yoo.DIM : NA, yoo.DIM : NA] += np.diag(self.qc) * dt_c
+        propagate_added(P, self.added, dt_c)
+        self.P = (0.5 * (P + P.swapaxes(-1, -2))).reshape(M, R, na, na)
         self.dtheta_sum[:] = 0.0
         self.k_cov = k
 
@@ -475,9 +510,12 @@ class YooBank(ChunkDriver):
             # beam bias goes through the least squares of the beams that returned
             v_est_b = np.einsum("rji,rj->ri", C, self.vel[m])
             Hc = C @ np.concatenate([v_est_b[:, :, None], gain], axis=-1)  # (R, 3, NC)
-            z, Rm, valid = v_dvl_n, R_dvl, ok.copy()
+            z, Rm, valid, water, learned = v_dvl_n, R_dvl, ok.copy(), None, None
             if method == "vkf":
                 z, Rm, valid = self._vkf_switch(chunk, i, m, v_b, v_dvl_n, R_dvl, ok)
+                if self.added.current is not None:
+                    water = self.rpm_aid.use_rpm
+                    learned = (C[:, :, 0], self.rpm_aid.learn_axis_n, self.rpm_aid.learn_current_n)
                 Hr = np.zeros((R, 3, NC))  # the RPM's surge was learnt from the DVL's (4 beams)
                 Hr[:, 0, 0] = self.rpm_aid.x[:, 0]
                 Hr[:, 0, 1:] = self.L4[0]
@@ -486,14 +524,23 @@ class YooBank(ChunkDriver):
                 store["tr_x"][p], store["tr_sigma"][p] = tr["x"], tr["sigma"]
                 store["tr_truth"][p] = np.stack([tr["sf_true"], tr["b_true"]], axis=-1)
                 store["tr_use"][p], store["tr_alt"][p] = tr["rpm_in_use"], tr["altitude_m"]
-            self._fuse(m, z, Rm, valid, Hc, p, store)
+            fuse_velocity(self, m, z, Rm, valid, Hc, p, store, water, learned)
+        if self.added.water_var is not None and chunk.dvl.y_water_mps is not None:
+            fuse_water(self, chunk, p, i)
 
     def _vkf_switch(
         self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray, ok: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Eq. 29: the DVL's NED velocity within the switch altitude (and with enough beams), else
-        the VKF's RPM velocity (eq. 27-28), the VKF stepped and, while the DVL is chosen, updated."""
-        use_rpm, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok)
+        the VKF's RPM velocity (eq. 27-28), the VKF stepped and, while the DVL is chosen, updated;
+        with current states it learns the surge through the water, the DVL's less the current's by
+        this method's estimate (tauvcore.engine.yoo_velocity)."""
+        learned = None
+        if self.added.current is not None:
+            c_n = self.added.current_in(self.extra[m])
+            v_b = v_b - surge_current(self.C[m], c_n)[:, None] * np.array([1.0, 0.0, 0.0])
+            learned = (self.C[m, :, :, 0], c_n)
+        use_rpm, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok, learned)
         C = self.C[m]
         v_rpm_n = np.einsum("rij,rj->ri", C, self.rpm_aid.velocity_b())
         R_rpm = np.einsum("rij,rjk,rlk->ril", C, self.rpm_aid.covariance_b(), C)
@@ -501,60 +548,6 @@ class YooBank(ChunkDriver):
         Rm = np.where(use_rpm[:, None, None], R_rpm, R_dvl)
         valid = np.where(use_rpm, have_rpm, ok)
         return z, Rm, valid
-
-    def _fuse(
-        self,
-        m: int,
-        z: np.ndarray,
-        Rm: np.ndarray,
-        valid: np.ndarray,
-        Hc: np.ndarray,
-        p: int,
-        store: dict[str, np.ndarray],
-    ) -> None:
-        """Fuse a NED velocity ``z`` (R, 3) rotated into n with the estimated attitude: its error is
-        ``dv + [v x] rho`` (``C_est = exp(-[rho x]) C_true``), so ``H = [I, [v x], 0, 0]`` (the
-        paper's H of eq. 18 leaves the attitude column out), ``v`` the estimated velocity (the
-        measured one would put the measurement's noise into H: a random lever on the heading that
-        the filter reads as information about it), and ``Hc`` (R, 3, NC) on the consider states,
-        whose rows of K are zero. The NIS is over S before the gate (NaN where S is not finite or
-        not invertible)."""
-        P = self.P[m]
-        R = P.shape[0]
-        nu = z - self.vel[m]  # dv = true - estimate
-        H = np.zeros((R, 3, NA))
-        H[:, :, yoo.VEL] = np.eye(3)
-        H[:, :, yoo.ATT] = yoo.skew_batch(self.vel[m])
-        H[:, :, yoo.DIM :] = np.where(np.isfinite(Hc), Hc, 0.0)
-        PHt = P @ H.swapaxes(-1, -2)  # (R, NA, 3)
-        S = H @ PHt + Rm
-        S_diag = np.einsum("rii->ri", S)
-        with np.errstate(invalid="ignore"):
-            passed = np.all(nu**2 <= self.gate**2 * S_diag, axis=-1)
-        invertible = np.isfinite(S).all(axis=(-2, -1)) & (
-            np.abs(np.linalg.det(np.where(np.isfinite(S), S, 0.0))) > 0.0
-        )
-        use = valid & passed & np.isfinite(nu).all(axis=-1) & invertible
-        S_inv = np.linalg.inv(np.where(invertible[:, None, None], S, np.eye(3)))
-        K = PHt @ np.where(use[:, None, None], S_inv, np.eye(3))  # (R, NA, 3)
-        K[:, yoo.DIM :, :] = 0.0  # consider states: never corrected
-        dx = np.einsum("rij,rj->ri", K, np.where(use[:, None], nu, 0.0))
-        I_KH = np.eye(NA) - K @ H
-        P_new = I_KH @ P @ I_KH.swapaxes(-1, -2) + K @ Rm @ K.swapaxes(-1, -2)
-        P_new = 0.5 * (P_new + P_new.swapaxes(-1, -2))
-        self.P[m] = np.where(use[:, None, None], P_new, P)
-        with np.errstate(invalid="ignore"):
-            nis = np.where(invertible, np.einsum("ri,rij,rj->r", nu, S_inv, nu), np.nan)
-        # inject and reset (feedback)
-        self.vel[m] += dx[:, yoo.VEL]
-        self.C[m] = exp_so3(dx[:, yoo.ATT]) @ self.C[m]
-        self.ba[m] += dx[:, yoo.BA]
-        self.bg[m] += dx[:, yoo.BG]
-        store["up_z"][p, m] = z
-        store["up_nu"][p, m] = np.where(valid[:, None], nu, np.nan)
-        store["up_S"][p, m] = np.where(valid[:, None], S_diag, np.nan)
-        store["up_flags"][p, m] = np.stack([valid, use, valid & ~passed], axis=-1)
-        store["up_nis"][p, m] = np.where(valid, nis, np.nan)
 
     def _fuse_sources(
         self, chunk: SimChunk, k: int, source_at: dict[str, dict[int, int]], row: int, store: Store
@@ -579,23 +572,30 @@ class YooBank(ChunkDriver):
             active = active & meas.valid[..., None]
             P, dx, outcome = yoo.correct_consider(
                 self.P,
-                yoo_sources.yoo_H(meas.H, NA),
+                yoo_sources.yoo_H(meas.H, self.added.dim),
                 meas.R,
                 meas.innovation,
                 active,
                 meas.gate_rows,
                 self.gate,
+                slice(yoo.DIM, NA),
             )
             self.P[...] = P
-            self.vel += dx[..., yoo.VEL]
-            self.C[...] = exp_so3(dx[..., yoo.ATT]) @ self.C
-            self.ba += dx[..., yoo.BA]
-            self.bg += dx[..., yoo.BG]
+            self.inject(dx)
             self.recorders[name].add(t, make_outcome(meas.z, meas.innovation, active, *outcome), meas.valid)
         if self.taping is not None and mark is not None:
             self.taping.after(mark, self.P, self._nominal())
         if row >= 0:
             self._record(chunk, i, row, store)
+
+    def inject(self, dx: np.ndarray) -> None:
+        """Inject a correction ``dx`` (M, R, N) over every state into every method and run (the
+        error is then reset: feedback); its consider entries are zero."""
+        self.vel += dx[..., yoo.VEL]
+        self.C[...] = exp_so3(dx[..., yoo.ATT]) @ self.C
+        self.ba += dx[..., yoo.BA]
+        self.bg += dx[..., yoo.BG]
+        self.extra += dx[..., NA:]
 
     def _nominal(self) -> tuple[np.ndarray, ...]:
         """The nominal states the smoother's marks take (velocity, attitude, biases)."""
@@ -621,14 +621,18 @@ class YooBank(ChunkDriver):
         else:
             est_ned = self.pos
         pos_err = np.linalg.norm(est_ned - truth.pos_n[i], axis=-1)
-        dx = np.zeros(self.batch + (yoo.DIM,))
+        E = self.added.num
+        dx = np.zeros(self.batch + (yoo.DIM + E,))  # the 12 states, then the added
         dx[..., yoo.VEL] = v_t - self.vel
         dx[..., yoo.ATT] = log_so3(C_t @ self.C.swapaxes(-1, -2))
         dx[..., yoo.BA] = ba_t - self.ba
         dx[..., yoo.BG] = bg_t - self.bg
+        extra_t = self._added_truth(chunk)[i] if E else np.zeros(0)
+        dx[..., yoo.DIM :] = extra_t - self.extra
         vel_b_err = np.einsum("ji,j->i", C_t, v_t) - np.einsum("mrji,mrj->mri", self.C, self.vel)
-        P = np.ascontiguousarray(self.P[..., : yoo.DIM, : yoo.DIM])  # the 12 estimated states
-        blocks = statistics.block_nees(dx, P, BLOCK_OF_STATE, NUM_BLOCKS)
+        est = self.added.estimated
+        P = np.ascontiguousarray(self.P[..., est[:, None], est])  # the estimated states
+        blocks = statistics.block_nees(dx, P, self.block_of_state, self.num_blocks)
         blocks[..., 0] = np.nan  # no position state
         att = dx[..., yoo.ATT]
         deg = 1.0 / units.DEG
@@ -651,6 +655,10 @@ class YooBank(ChunkDriver):
         store["est_pos_n"][row] = est_ned
         store["est_vel_n"][row] = self.vel
         store["est_euler"][row] = _euler_batch(self.C)
+        if E:
+            store["state_est"][row] = self.extra
+            store["state_sigma"][row] = np.sqrt(np.einsum("...ii->...i", self.P[..., NA:, NA:]))
+            store["state_true"][row] = extra_t
         if self.taping is not None:
             self.taping.record(row, self.P, dx, np.einsum("ji,j->i", C_t, v_t))
         if self.sensor_errors:
@@ -661,6 +669,12 @@ class YooBank(ChunkDriver):
             store["sensor_est"][row] = x_est[..., SENSOR_INDEX]
             store["sensor_sigma"][row] = np.sqrt(self.P[..., SENSOR_INDEX, SENSOR_INDEX])
             store["sensor_true"][row] = x_true[..., SENSOR_INDEX]
+
+    def _added_truth(self, chunk: SimChunk) -> np.ndarray:
+        """The added states' truth at the chunk's samples (K, E) (tauvcore.engine.sources.states_truth)."""
+        if self._extra_truth is None or self._extra_truth[0] != chunk.k0:
+            self._extra_truth = (chunk.k0, states_truth(self.config, chunk.truth))
+        return self._extra_truth[1]
 
     # ------------------------------------------------------------------ results
     def _results(self, cat: Store, taking: bool) -> dict[str, MethodResult]:
@@ -727,8 +741,9 @@ class YooBank(ChunkDriver):
                 self.sensor_errors,
                 p_floor_count=np.zeros(R, int),
                 updates=updates,
-                block_dims=BLOCK_DIMS,
+                block_dims=self.block_dims,
                 vkf_trace=trace if method == "vkf" else None,
+                state_labels=self.state_labels,
             )
         if taking:
             handed_out(self.recorders.values(), self.keep)

@@ -36,7 +36,14 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
-from tauvcore.engine.results import BLOCK_DIMS, SENSOR_FIELDS, SERIES_FIELDS, MethodResult, UpdateRecord
+from tauvcore.engine.results import (
+    BLOCK_DIMS,
+    SENSOR_FIELDS,
+    SERIES_FIELDS,
+    STATE_FIELDS,
+    MethodResult,
+    UpdateRecord,
+)
 from tauvcore.eval.consistency import nees_series
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.running import MethodSummary, RunningSummary
@@ -241,7 +248,7 @@ class EnvelopeReducer:
                 bins = np.minimum((first + np.arange(n)) // self.k, self.num_bins - 1)
                 last = {"t_s": np.asarray(r.t_s), "nees_block": r.nees_block, "est_pos_n": r.est_pos_n}
                 last.update({name: getattr(r, name) for name in SERIES})
-                for name in ("est_vel_n", "est_euler_rad", *SENSOR_FIELDS):
+                for name in ("est_vel_n", "est_euler_rad", *SENSOR_FIELDS, *STATE_FIELDS):
                     if getattr(r, name) is not None:
                         last[name] = getattr(r, name)
                 extremes = {name: run_curve(getattr(r, name)) for name in RUN_CURVES}
@@ -290,7 +297,9 @@ class EnvelopeReducer:
             if mb.vkf is not None:
                 rows = mb.vkf.filled
                 vkf = {name: a[rows] for name, a in mb.vkf.last.items()}
-            sensors: dict[str, Any] = {name: last.get(name) for name in SENSOR_FIELDS}
+            sensors: dict[str, Any] = {name: last.get(name) for name in (*SENSOR_FIELDS, *STATE_FIELDS)}
+            if r.state_labels and sensors["state_est"] is not None:  # the sources' states, each bin's last
+                sensors["state_labels"] = r.state_labels
             out[method] = DecimatedResult(
                 method=method,
                 t_s=last["t_s"],

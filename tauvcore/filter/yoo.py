@@ -278,8 +278,10 @@ def correct_consider(
     active: np.ndarray,
     gate_rows: bool,
     gate_sigma: float,
+    consider: slice = slice(DIM, None),
 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-    """A gated Joseph-form update of the 12 states with consider states after them.
+    """A gated Joseph-form update of the 12 states with consider states after them (and, after
+    those, the states the sources add, which are estimated).
 
     Schmidt-Kalman: the consider rows of K are zero. An inactive row is dropped exactly. The gate
     is the 20-state correction's (tauvcore.filter.eskf.correct): a row must lie within
@@ -305,13 +307,16 @@ def correct_consider(
         Gate each row on its own (True) or the whole vector at once (False).
     gate_sigma : float
         Gate width in standard deviations of the innovation [-].
+    consider : slice
+        The consider states: every state after the 12 (the default), or those of the slice.
 
     Returns
     -------
     P : numpy.ndarray
         Updated covariance, shape (B, N, N), in the states' SI units squared.
     dx : numpy.ndarray
-        Correction to inject, shape (B, 12), in the 12 states' units (m/s, rad, m/s^2, rad/s).
+        Correction to inject, shape (B, N), in the states' units (m/s, rad, m/s^2, rad/s, ...);
+        zero on the consider states.
     outcome : tuple of numpy.ndarray
         The arguments of tauvcore.filter.eskf.make_outcome after ``z``, ``innovation`` and
         ``active``: S's diagonal (B, m) in the measurement's SI unit squared (NaN off the active
@@ -349,9 +354,9 @@ def correct_consider(
     keep &= usable_k[..., None]
     fuses = np.asarray(keep.any(axis=-1))  # (B,) an entry with a row kept
     K = PHt @ S_inv
-    K[..., DIM:, :] = 0.0  # the consider states are never corrected
+    K[..., consider, :] = 0.0  # the consider states are never corrected
     K = np.where(fuses[..., None, None], K, 0.0)
-    dx = np.einsum("...ij,...j->...i", K, np.where(keep, nu, 0.0))[..., :DIM]
+    dx = np.einsum("...ij,...j->...i", K, np.where(keep, nu, 0.0))
     I_KH = np.eye(N) - K @ Hk
     P_new = I_KH @ P @ I_KH.swapaxes(-1, -2) + K @ Rk @ K.swapaxes(-1, -2)
     P_new = np.where(fuses[..., None, None], 0.5 * (P_new + P_new.swapaxes(-1, -2)), P)

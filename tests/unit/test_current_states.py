@@ -156,20 +156,26 @@ def test_the_smoother_refuses_the_sources_states() -> None:
 @pytest.mark.parametrize("seed", range(3))
 def test_the_rpm_velocity_through_the_water_H_matches_finite_differences(seed: int) -> None:
     """``--rpm-fallback`` with the current as states: the propeller's velocity is through the
-    water, ``h = [(1 + SF) v_b1 + A+_1 . b, v_b2, v_b3] - C^T c``; H against central differences
-    of h over every state, the current's columns included."""
+    water, ``h = [(1 + SF) v_b1 + A+_1 . b, v_b2, v_b3] - C^T c``, its surge plus ``(c - c_l) . a``
+    (what the VKF learned along its axis ``a`` with the estimate ``c_l``); H against central
+    differences of h over every state, the current's columns included."""
     from tauvcore.engine.dvl_fusion import rpm_measurement
     rng = np.random.default_rng(400 + seed)
     A_pinv = np.linalg.pinv(DvlConfig().A_b)
     cols = CURRENT.slice_of(CURRENT_BLOCK)
+    a_n = np.r_[np.cos(0.3 + seed), np.sin(0.3 + seed), 0.0]
+    c_l = np.r_[0.2 * rng.standard_normal(2), 0.0]
 
     def h_of(nom: Nominal) -> np.ndarray:
         c_n = np.concatenate([nom.extra, np.zeros((3, 1))], axis=-1)
-        return rpm_measurement(nom.vel_b, nom.dvl_sf, nom.dvl_bias, A_pinv, (nom.nav.C_nb, c_n, cols, CURRENT.dim))[0]
+        current = (nom.nav.C_nb, c_n, cols, CURRENT.dim, a_n, c_l)
+        return rpm_measurement(nom.vel_b, nom.dvl_sf, nom.dvl_bias, A_pinv, current)[0]
 
     nom = _nominal(rng)
     c_n = np.concatenate([nom.extra, np.zeros((3, 1))], axis=-1)
-    _, H = rpm_measurement(nom.vel_b, nom.dvl_sf, nom.dvl_bias, A_pinv, (nom.nav.C_nb, c_n, cols, CURRENT.dim))
+    current = (nom.nav.C_nb, c_n, cols, CURRENT.dim, a_n, c_l)
+    _, H = rpm_measurement(nom.vel_b, nom.dvl_sf, nom.dvl_bias, A_pinv, current)
+    assert np.abs(H[..., 0, cols] + nom.nav.C_nb[..., :2, 0] - a_n[:2]).max() < 1e-12
     fd = np.zeros_like(H)
     for j in range(CURRENT.dim):
         e = np.zeros(CURRENT.dim)
@@ -179,4 +185,6 @@ def test_the_rpm_velocity_through_the_water_H_matches_finite_differences(seed: i
         c = cols if name == CURRENT_BLOCK else getattr(STATE, name)
         np.testing.assert_allclose(H[..., c], fd[..., c], rtol=0, atol=1e-7, err_msg=f"H columns {name}")
     still = rpm_measurement(nom.vel_b, nom.dvl_sf, nom.dvl_bias, A_pinv)
-    np.testing.assert_allclose(h_of(nom) + np.einsum("kji,kj->ki", nom.nav.C_nb, c_n), still[0], atol=1e-12)
+    back = h_of(nom) + np.einsum("kji,kj->ki", nom.nav.C_nb, c_n)
+    back[:, 0] -= (c_n - c_l) @ a_n
+    np.testing.assert_allclose(back, still[0], atol=1e-12)

@@ -248,3 +248,21 @@ def test_the_budget_accepts_a_10_hour_mission_of_the_default_methods() -> None:
     assert budget.over_budget_message(estimate, budget.DEFAULT_BUDGET_BYTES) is None
     assert truth_view.decimation(config)[:2] == (360001, 91)
     assert budget.kept_epochs(config) == 3957
+
+
+def test_a_binned_run_keeps_each_bin_s_last_estimate_of_the_sources_states() -> None:
+    """With current states (the DVL's water-track on every beam), every method's bins carry the
+    current's estimate, 1-sigma and truth at each bin's last epoch, and its labels: the Sensors
+    tab draws them for a long mission too."""
+    config = (_config(methods=("lc", "vkf")).replace("trajectory", current_n_mps=(0.1, 0.2, 0.0))
+              .replace("dvl", water_track="always", current_states="random-walk"))
+    T = budget.output_epochs(config)
+    full = run_streaming(config, np.random.default_rng(3), 2)
+    reducer = EnvelopeReducer(T, 0.1, K)
+    run_streaming(config, np.random.default_rng(3), 2, keep=False, on_chunk=reducer.add)
+    last = np.array([b.stop - 1 for b in _bins(T)])
+    for method, f in full.items():
+        d = reducer.results()[method]
+        assert d.state_labels == f.state_labels == ("current_north_mps", "current_east_mps")
+        for name in ("state_est", "state_sigma", "state_true"):
+            np.testing.assert_array_equal(getattr(d, name), getattr(f, name)[last], err_msg=f"{method} {name}")

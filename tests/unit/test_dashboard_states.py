@@ -119,14 +119,15 @@ def test_a_water_layer_beyond_the_range_is_named_by_the_range_with_the_water_tra
 
 
 def test_current_states_with_the_smoother_are_refused_before_the_run() -> None:
-    """The 20-state smoother does not take the sources' states (tauv run --smooth refuses them):
-    the Run says so naming Current states instead of a failed run; Yoo 2014's methods alone run."""
+    """The smoother does not take the sources' states (tauv run --smooth refuses them): the Run
+    says so naming Current states instead of a failed run, for Yoo 2014's methods too, which
+    carry them; without the smoother they run."""
     message = refused(current_states="gauss-markov", smoother=True)
     assert message.startswith(f"{DVL_CURRENT_STATES}: 'gauss-markov' with the Smoother: the smoother does not take")
     assert validation.problems(dataclasses.replace(DEFAULTS, current_states="gauss-markov", smoother=True)) == {
         DVL_CURRENT_STATES: message}
-    config_from_controls(dataclasses.replace(DEFAULTS, current_states="gauss-markov", smoother=True,
-                                             methods=("ins-dvl", "vkf")))
+    assert refused(current_states="gauss-markov", smoother=True, methods=("ins-dvl", "vkf")) == message
+    config_from_controls(dataclasses.replace(DEFAULTS, current_states="gauss-markov", methods=("ins-dvl", "vkf")))
 
 
 def test_the_address_carries_both_and_refuses_a_choice_it_does_not_know() -> None:
@@ -157,19 +158,24 @@ def test_a_log_s_configuration_fills_in_the_two_choices() -> None:
 
 
 # ------------------------------------------------------------------------------------------ figures
-def test_the_nees_of_the_current_skips_the_methods_without_it(with_states: dict[str, MethodResult]) -> None:
-    """Given LC and INS with current states and VKF (Yoo 2014's 12 states, none), when the
-    Consistency tab draws block "current", then LC's and INS's curves are NEES/2, VKF is named in
-    the title as having none, and the band is that of dimension 2."""
+def test_the_nees_of_the_current_skips_the_methods_without_it(
+    with_states: dict[str, MethodResult], without_states: dict[str, MethodResult]
+) -> None:
+    """Given LC, INS and VKF (Yoo 2014's 12 states) with current states beside a VKF run without
+    them, when the Consistency tab draws block "current", then LC's, INS's and VKF's curves are
+    NEES/2, the run without is named in the title as having none, and the band is that of
+    dimension 2."""
+    both = {**with_states, "vkf-still": without_states["vkf"]}
     assert nees_blocks(with_states) == (*BLOCK_DIMS, "current")
-    figure = nees_figure(with_states, "current", max_points=None, validate=True)
+    figure = nees_figure(both, "current", max_points=None, validate=True)
     names = [trace.name for trace in figure.data]
-    assert "LC" in names and "INS" in names and "VKF" not in names and "99 % band" in names
+    assert {"LC", "INS", "VKF"} <= set(names) and "VKF-STILL" not in names and "99 % band" in names
     title = figure.layout.title.text
-    assert "current (north, east) (dim 2; no current: VKF)" in title
-    lc = next(trace for trace in figure.data if trace.name == "LC")
+    assert "current (north, east) (dim 2; no current: VKF-STILL)" in title
     from tauvcore.eval.consistency import nees_series
-    np.testing.assert_allclose(np.asarray(lc.y, float), nees_series(with_states["lc"], "current")[:, 0] / 2)
+    for name, method in (("LC", "lc"), ("VKF", "vkf")):
+        trace = next(trace for trace in figure.data if trace.name == name)
+        np.testing.assert_allclose(np.asarray(trace.y, float), nees_series(with_states[method], "current")[:, 0] / 2)
 
 
 def test_a_run_without_current_states_draws_no_current_but_says_why(without_states) -> None:
@@ -182,15 +188,15 @@ def test_a_run_without_current_states_draws_no_current_but_says_why(without_stat
 
 
 def test_the_current_s_estimate_is_drawn_against_its_truth(with_states: dict[str, MethodResult]) -> None:
-    """Per panel (north, east): LC's estimate over its 1-sigma band, the true current dashed; INS,
-    which fuses nothing, and VKF, which has no such states, are not drawn."""
+    """Per panel (north, east): LC's and VKF's estimates over their 1-sigma bands, the true current
+    dashed; INS, which fuses nothing, is not drawn."""
     assert state_name_unit("current_north_mps") == ("Current north", "m/s")
-    assert state_methods(with_states) == ("lc",)
+    assert state_methods(with_states) == ("lc", "vkf")
     figure = source_states_figure(with_states, validate=True)
     by_name = {trace.name: trace for trace in figure.data}
     assert {"LC current north", "LC current east", "true current north", "true current east",
             "LC +1 sigma", "LC -1 sigma"} <= set(by_name)
-    assert not any(name.startswith(("INS", "VKF")) for name in by_name)
+    assert "VKF current east" in by_name and not any(name.startswith("INS") for name in by_name)
     np.testing.assert_allclose(np.asarray(by_name["true current east"].y, float), CURRENT_E_MPS)
     lc = with_states["lc"]
     assert lc.state_est is not None and lc.state_sigma is not None
@@ -209,7 +215,7 @@ def test_the_sensors_tab_shows_the_current_and_hides_it_for_a_run_without(with_s
     tabs._fit = PlotTabs._fit
     PlotTabs._draw_states(tabs, with_states, 0)
     assert tabs.state_plot.visible and tabs.state_note.content.startswith(STATES_NOTE)
-    assert "Not drawn: INS, VKF" in tabs.state_note.content
+    assert "Not drawn: INS (" in tabs.state_note.content
     assert tabs.state_plot.figure.data
     PlotTabs._draw_states(tabs, without_states, 0)
     assert not tabs.state_plot.visible and tabs.state_note.content == ""
@@ -249,7 +255,8 @@ def test_the_live_view_thins_the_states_with_the_epochs(with_states: dict[str, M
 def test_the_json_exports_the_current_s_nees_and_keeps_a_plain_run_s_keys(with_states, without_states) -> None:
     assert list(result_series(without_states["lc"])) == PLAIN_SERIES
     assert list(result_series(with_states["lc"])) == [*PLAIN_SERIES, "nees_current"]
-    assert list(result_series(with_states["vkf"])) == PLAIN_SERIES           # Yoo 2014's: no current
+    assert list(result_series(with_states["vkf"])) == [*PLAIN_SERIES, "nees_current"]  # Yoo 2014's too
+    assert list(result_series(without_states["vkf"])) == PLAIN_SERIES
     document = result_to_json(with_states["lc"])
     assert len(document["nees_current"]) == len(document["t"])
     assert document["consistency"]["nees"]["current"]["dim"] == 2

@@ -465,12 +465,48 @@ def test_beam_states_per_beam():
 
 
 def test_every_beam_state_has_a_distinct_colour():
-    states = {BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING}
-    assert len(states) == 4
+    from app.scene import BEAM_WATER
+    states = {BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_WATER}
+    assert len(states) == 5
     assert set(BEAM_COLORS) == states
-    assert len(set(BEAM_COLORS.values())) == 4
+    assert len(set(BEAM_COLORS.values())) == 5
     for rgb in BEAM_COLORS.values():
         assert len(rgb) == 3 and all(0 <= c <= 255 for c in rgb)
+
+
+@pytest.mark.parametrize("mode, bottom, water", [
+    ("off", [1, 1, 0, 0], [0, 0, 0, 0]),
+    ("beyond_range", [1, 1, 0, 0], [0, 0, 1, 0]),
+    ("both", [1, 1, 0, 0], [0, 0, 1, 0]),
+    ("always", [0, 0, 0, 0], [1, 1, 1, 0]),
+])
+def test_a_water_tracking_beam_is_drawn_as_such_and_not_as_lost(mode: str, bottom: list, water: list) -> None:
+    """Beams 1, 2 in range, 3 beyond it, 4 in an outage: by ``dvl.water_track`` the beams beyond
+    range water-track (every scheduled beam with "always", which bottom-tracks none), and are
+    drawn "water-track", not "lost"; a beam in an outage stays lost."""
+    from app.scene import BEAM_WATER, water_tracking
+    scheduled = np.array([True, True, True, False])
+    in_range = np.array([True, True, False, True])
+    b, w = water_tracking(mode, scheduled, in_range)
+    np.testing.assert_array_equal(b, np.array(bottom, bool))
+    np.testing.assert_array_equal(w, np.array(water, bool))
+    states = beam_states(np.ones(4, bool), b, np.zeros(4, bool), w)
+    assert states[3] == BEAM_OUTAGE
+    assert [s == BEAM_WATER for s in states] == [bool(x) for x in water]
+
+
+def test_a_water_tracking_beam_ends_at_its_layer() -> None:
+    """Level, each beam (20 deg from the vertical in the default Janus) reaches the layer 10 m
+    below the head after 10 / cos(20 deg); rolled 90 deg, a beam pointing up never does."""
+    from app.scene import water_ranges_m
+    from tauvcore.geo.rotations import exp_so3
+    from tauvcore.sensors.dvl import DvlConfig
+    A = DvlConfig().A_b
+    level = water_ranges_m(np.eye(3), A, 10.0)
+    np.testing.assert_allclose(level, 10.0 / A[:, 2], rtol=1e-12)
+    rolled = water_ranges_m(exp_so3(np.array([np.pi / 2, 0.0, 0.0])), A, 10.0)
+    cos_down = (exp_so3(np.array([np.pi / 2, 0.0, 0.0])) @ A.T)[2]
+    assert np.all(np.isinf(rolled[cos_down <= 0])) and np.all(np.isfinite(rolled[cos_down > 0]))
 
 
 def test_beam_readout_names_the_lost_beams_beyond_range():
