@@ -18,14 +18,15 @@ from typing import Any, TypedDict
 
 import numpy as np
 
-from app.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF
+from app.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_WATER
+from tauvcore.aiding.dvl_beams import WATER_BEAMS, WATER_TRACK
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.engine.simulation import SimChunk
 
 MAX_SOURCE_EPOCHS = 4000
 """A source's epochs (and the IMU's output epochs) kept for the tab: a 1 Hz DVL over an hour, the
 IMU over 400 s at 10 Hz; longer ones evenly thinned, the last kept (the figure draws 800 points)."""
-BEAM_STATE_CODES = (BEAM_RETURNING, BEAM_OUTAGE, BEAM_SWITCHED_OFF)
+BEAM_STATE_CODES = (BEAM_RETURNING, BEAM_OUTAGE, BEAM_SWITCHED_OFF, BEAM_WATER)
 """The DVL beam states of :attr:`SourceView.beam_state`, by their code (index)."""
 
 
@@ -98,7 +99,7 @@ class SensorViewBuilder:
             source = SOURCES.get(name)
             if source is None or len(data.t_s) == 0:
                 continue
-            kept = self._sources.setdefault(name, {"t_s": [], "columns": {}, "truth": {}})
+            kept = self._sources.setdefault(name, {"t_s": [], "columns": {}, "truth": {}, "water": {}})
             kept["t_s"].append(np.asarray(data.t_s, float))
             for column in source.columns:
                 if column.name in data.values:
@@ -106,6 +107,9 @@ class SensorViewBuilder:
             for column in source.truth_columns:
                 if column.name in data.truth:
                     kept["truth"].setdefault(column.name, []).append(_run_of(data.truth[column.name], run))
+            for column in (*WATER_TRACK, *WATER_BEAMS) if name == "dvl" else ():  # the beams' mode
+                if column in data.values:
+                    kept["water"].setdefault(column, []).append(_run_of(data.values[column], run))
             if self.compact:
                 _compact(kept)
         if self.compact and sum(len(t) for t in self._t) > 2 * MAX_SOURCE_EPOCHS:
@@ -129,7 +133,14 @@ class SensorViewBuilder:
             beam_state = None
             if name == "dvl" and columns:
                 returned = np.stack([np.isfinite(v) for v in columns.values()], axis=1)
-                beam_state = beam_state_codes(self.beam_mask, returned)
+                modes = {c: np.concatenate(parts)[keep] for c, parts in kept["water"].items()}
+                water = np.zeros_like(returned)
+                if all(c in modes for c in WATER_TRACK):  # the beam's velocity is water-track
+                    water = np.stack([modes[c] == 1.0 for c in WATER_TRACK], axis=1)
+                    returned &= ~water
+                elif all(c in modes for c in WATER_BEAMS):  # a water-track of its own beside it
+                    water = np.stack([np.isfinite(modes[c]) for c in WATER_BEAMS], axis=1)
+                beam_state = beam_state_codes(self.beam_mask, returned, water)
             sources[name] = {
                 "label": source.label,
                 "t_s": t_s[keep],
@@ -157,16 +168,22 @@ def _compact(kept: dict[str, Any]) -> None:
         return
     keep = _thinned(n, MAX_SOURCE_EPOCHS)
     kept["t_s"] = [np.concatenate(kept["t_s"])[keep]]
-    for group in ("columns", "truth"):
+    for group in ("columns", "truth", "water"):
         kept[group] = {c: [np.concatenate(parts)[keep]] for c, parts in kept[group].items()}
 
 
-def beam_state_codes(beam_mask: np.ndarray, returned: np.ndarray) -> np.ndarray:
+def beam_state_codes(
+    beam_mask: np.ndarray, returned: np.ndarray, water: np.ndarray | None = None
+) -> np.ndarray:
     """(E, 4) int8 codes into :data:`BEAM_STATE_CODES` of each beam at each ping: switched off
     where ``beam_mask`` (4,) is False, else returning where ``returned`` (E, 4) is True (a
-    measurement in the row), else lost (an outage, a drop-out, beyond the DVL's range)."""
+    bottom-track measurement in the row), else water-tracking where ``water`` (E, 4) is True,
+    else lost (an outage, a drop-out, beyond the DVL's range)."""
     returned = np.asarray(returned, dtype=bool)
-    codes = np.where(returned, BEAM_STATE_CODES.index(BEAM_RETURNING), BEAM_STATE_CODES.index(BEAM_OUTAGE))
+    lost = BEAM_STATE_CODES.index(BEAM_OUTAGE)
+    if water is not None:
+        lost = np.where(np.asarray(water, dtype=bool), BEAM_STATE_CODES.index(BEAM_WATER), lost)
+    codes = np.where(returned, BEAM_STATE_CODES.index(BEAM_RETURNING), lost)
     codes = np.where(
         np.asarray(beam_mask, dtype=bool)[None, :], codes, BEAM_STATE_CODES.index(BEAM_SWITCHED_OFF)
     )

@@ -79,6 +79,19 @@ SMOOTHED_RMS += (("heading_err_deg", "head RMS", "[deg]", 4), ("pos_err_m", "pos
 """The RMS of run 0 :func:`smoothing_table` gives filtered and smoothed: series, heading, unit, decimals."""
 
 
+def _block_dims(summaries: Mapping[str, MethodSummary]) -> dict[str, int]:
+    """The NEES columns of a table of ``summaries``: the 20-state filter's blocks, and those its
+    sources add (tauvcore.filter.layout.Layout), each with its dimension; the full state's is the
+    20-state methods' (Yoo 2014's are in a note)."""
+    dims = dict(BLOCK_DIMS)
+    for name, summary in summaries.items():
+        for block, n in (summary.block_dims or {}).items():
+            dims.setdefault(block, n)
+            if block == "full" and name not in YOO_METHODS:
+                dims["full"] = max(dims["full"], n)
+    return dims
+
+
 def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str, MethodSummary]) -> str:
     """Per method two rows, filtered then smoothed: the RMS of run 0 (velocity, tilt, heading,
     position) and NEES/dim of the full state and each block against truth, with the fraction of
@@ -96,9 +109,10 @@ def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str
     str
         The table, its title first.
     """
-    blocks = list(BLOCK_DIMS)
+    dims = _block_dims(filtered)
+    blocks = list(dims)
     head = ["method", *(h for _, h, _, _ in SMOOTHED_RMS), *blocks]
-    units = ["", *(u for _, _, u, _ in SMOOTHED_RMS), *(f"NEES/{BLOCK_DIMS[b]}" for b in blocks)]
+    units = ["", *(u for _, _, u, _ in SMOOTHED_RMS), *(f"NEES/{dims[b]}" for b in blocks)]
     rows = []
     for name, summary in filtered.items():
         if name not in smoothed:
@@ -174,14 +188,7 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
     chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
     single-run band)."""
     summaries = _summaries(results)
-    # the 20-state filter's blocks, and those its sources add (tauvcore.filter.layout.Layout); the
-    # full state's dimension is the 20-state methods' (Yoo 2014's are in the note)
-    dims = dict(BLOCK_DIMS)
-    for name, summary in summaries.items():
-        for block, n in (summary.block_dims or {}).items():
-            dims.setdefault(block, n)
-            if block == "full" and name not in YOO_METHODS:
-                dims["full"] = max(dims["full"], n)
+    dims = _block_dims(summaries)
     blocks = list(dims)
     head = ["method", *blocks, *sources]
     units = ["", *(f"NEES/{dims[b]}" for b in blocks), *("NIS/dof" for _ in sources)]

@@ -87,7 +87,6 @@ from tauvcore.filter.kernels.dvl import (
 )
 from tauvcore.filter.layout import NOISE, STATE, NavState
 from tauvcore.ins.error_model import noise_psd
-from tauvcore.validation import ConfigError
 
 CONDITION_CHECK_RATE_HZ = 1.0
 """P is checked (and repaired if need be) after the corrections of every aiding epoch, where
@@ -134,7 +133,7 @@ class FilterBank(ChunkDriver):
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         self.rng = rng
         # the smoother's tape of the marks (tauvcore.engine.smoothing); None: no smoother
-        self.taping = smoothing.TapeWriter(tape, self.batch, self.geodetic) if tape is not None else None
+        self.taping: smoothing.TapeWriter | None = None  # made with the layout, below
         self._no_tape = smoothing.tape_rows(0, self.batch)
         M, R = self.batch
         self.q_psd = noise_psd(config.imu, config.dvl)
@@ -193,10 +192,9 @@ class FilterBank(ChunkDriver):
         self.check_step = max(1, round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ))
         # the error state: the layout's 20 and the states the sources add (tauvcore.filter.layout.Layout)
         self.layout = layout_of(config)
-        if tape is not None and self.layout.num_extra:
-            blocks = ", ".join(b.name for b in self.layout.blocks)
-            raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
         self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
+        if tape is not None:
+            self.taping = smoothing.TapeWriter(tape, self.batch, self.geodetic, self.extra_rate)
         self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
         blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
         self.block_dims = (
@@ -670,7 +668,7 @@ class FilterBank(ChunkDriver):
             i = k - k0
             t = float(truth.t_s[i])
             taping = self.taping if why != loop.STOPS_YIELD else None
-            mark = taping.before(self.phi_acc, self.P, self.flat) if taping is not None else None
+            mark = taping.before(self.phi_acc, self.P, self.flat, t) if taping is not None else None
             if why == loop.STOPS_REPAIR:
                 self._repair()
             if why in (loop.STOPS_EVENT, loop.STOPS_REPAIR):
@@ -750,7 +748,7 @@ class FilterBank(ChunkDriver):
         emptied. -> (M, R) the steps where the pass started afresh."""
         assert self.taping is not None  # a bank made with a tape
         self.taping.close(self.slot)
-        carry = smoothing.Carry(int(np.prod(self.batch)))
+        carry = smoothing.Carry(int(np.prod(self.batch)), n=self.layout.dim, e=self.layout.num_extra)
         args = (carry, self.batch, self.block_of_state, SENSOR_INDEX, units.DEG)
         smoothing.smooth_tape(self.taping.tape, out, lambda segment: smoothing.smooth_segment(segment, *args))
         return carry.cuts.reshape(self.batch)
@@ -771,6 +769,8 @@ class FilterBank(ChunkDriver):
                 self.sensor_errors,
                 p_floor_count=self.p_floor_count[m].copy(),
                 smoother_cuts=cuts[m].copy(),
+                block_dims=self.block_dims,
+                state_labels=self.state_labels,
             )
             for m, method in enumerate(self.methods)
         }

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from tauvcore.engine import loop
+from tauvcore.engine.results import STATE_FIELDS
 from tauvcore.filter.eskf import Nominal, difference
 from tauvcore.filter.kernels.common import CORE, NAV, N, jit
 from tauvcore.filter.kernels.nees import nees_plan
@@ -50,6 +51,7 @@ ESTIMATES = (
     "sensor_est",
     "sensor_sigma",
     "sensor_true",
+    *STATE_FIELDS,
 )
 """The filtered store's fields a segment keeps, for the smoothed estimates and their records."""
 
@@ -151,7 +153,7 @@ def _unpacked(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def tape_rows(T: int, batch: tuple[int, int]) -> dict[str, np.ndarray]:
+def tape_rows(T: int, batch: tuple[int, int], n: int = N) -> dict[str, np.ndarray]:
     """The output marks' rows of a segment of ``T`` output epochs (:data:`OUTPUT_TAPE`, zeros):
     with ``T`` 0, what the compiled records take when there is no smoother.
 
@@ -161,16 +163,18 @@ def tape_rows(T: int, batch: tuple[int, int]) -> dict[str, np.ndarray]:
         Output epochs.
     batch : tuple of int
         (M, R): methods and runs.
+    n : int
+        The error state's size: 20 and the sources' states.
 
     Returns
     -------
     dict[str, numpy.ndarray]
-        ``tape_X`` (T, M, R, 9, 15), ``tape_P`` (T, M, R, 20, 20), ``tape_dx`` (T, M, R, 20).
+        ``tape_X`` (T, M, R, 9, 15), ``tape_P`` (T, M, R, n, n), ``tape_dx`` (T, M, R, n).
     """
     return {
         "tape_X": np.zeros((T,) + batch + (NAV, CORE)),
-        "tape_P": np.zeros((T,) + batch + (N, N)),
-        "tape_dx": np.zeros((T,) + batch + (N,)),
+        "tape_P": np.zeros((T,) + batch + (n, n)),
+        "tape_dx": np.zeros((T,) + batch + (n,)),
     }
 
 
@@ -312,7 +316,10 @@ class TapeWriter:
     The output marks' rows are filled by the compiled records (:data:`OUTPUT_TAPE`, through
     :attr:`out`); an aiding mark is taken around the epoch's corrections (:meth:`before`,
     :meth:`after`); :meth:`close` puts the segment on the tape with the filtered estimates of its
-    output epochs.
+    output epochs, and the transition of the sources' own states from each mark to the next
+    (``tape_E``, ``ev_E``: ``exp(rate dt)`` over the time between the marks, the product of the
+    covariance steps' own, tauvcore.filter.kernels.error_model.extra_step_into, which the bank
+    takes at every mark).
 
     Parameters
     ----------
@@ -323,14 +330,21 @@ class TapeWriter:
     geodetic : bool
         The nominal positions are latitude, longitude, depth (the corrections' difference then
         goes through the metric at the estimate, tauvcore.filter.eskf.difference).
+    extra_rate : numpy.ndarray or None
+        Shape (E,): each of the sources' states' -1/tau [1/s] (0: a random walk); None: none.
     """
 
-    def __init__(self, tape: Tape, batch: tuple[int, int], geodetic: bool) -> None:
+    def __init__(
+        self, tape: Tape, batch: tuple[int, int], geodetic: bool, extra_rate: np.ndarray | None = None
+    ) -> None:
         self.tape, self.batch, self.geodetic = tape, batch, geodetic
+        self.extra_rate = np.zeros(0) if extra_rate is None else np.asarray(extra_rate, dtype=float)
         self.out: dict[str, np.ndarray] | None = None  # the output marks' rows of the current chunk
         self.store: dict[str, np.ndarray] = {}
         self.slot0 = 0
         self.events: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
+        self.event_t: list[float] = []  # the aiding marks' times [s]
+        self.last_t: float | None = None  # the time of the last mark put on the tape [s]
 
     def open(self, store: dict[str, np.ndarray], slot: int) -> None:
         """A chunk begins: its store (output epochs ``store["out_k"]``), the bank's output epochs
@@ -343,11 +357,11 @@ class TapeWriter:
         slot : int
             Output epochs recorded before the chunk.
         """
-        self.out = tape_rows(store["out_k"].size, self.batch)
-        self.store, self.slot0, self.events = store, slot, []
+        self.out = tape_rows(store["out_k"].size, self.batch, N + self.extra_rate.size)
+        self.store, self.slot0, self.events, self.event_t = store, slot, [], []
 
     def before(
-        self, phi_acc: np.ndarray, P: np.ndarray, flat: tuple[np.ndarray, ...]
+        self, phi_acc: np.ndarray, P: np.ndarray, flat: tuple[np.ndarray, ...], t_s: float = 0.0
     ) -> tuple[np.ndarray, ...]:
         """An aiding mark, before the epoch's corrections: its transition (``phi_acc``, then
         reset), prior P and nominal state.
@@ -357,9 +371,12 @@ class TapeWriter:
         phi_acc : numpy.ndarray
             (M, R, 9, 15) the transition since the last mark (tauvcore.engine.loop.BankState).
         P : numpy.ndarray
-            (M, R, 20, 20) the covariances.
+            (M, R, d, d) the covariances.
         flat : tuple of numpy.ndarray
-            The nominal states (pos, vel, C, ba, bg, bdvl, sf) with the batch flattened.
+            The nominal states (pos, vel, C, ba, bg, bdvl, sf, the sources' states) with the
+            batch flattened.
+        t_s : float
+            The mark's time [s].
 
         Returns
         -------
@@ -368,6 +385,7 @@ class TapeWriter:
         """
         before = (phi_acc.copy(), P.copy(), *(a.copy() for a in flat))
         phi_acc[...] = 0.0
+        self.event_t.append(float(t_s))
         return before
 
     def after(
@@ -381,7 +399,7 @@ class TapeWriter:
         before : tuple of numpy.ndarray
             What :meth:`before` returned.
         P : numpy.ndarray
-            (M, R, 20, 20) the covariances now.
+            (M, R, d, d) the covariances now.
         flat : tuple of numpy.ndarray
             The nominal states now, as :meth:`before` took them.
         slot : int
@@ -390,11 +408,12 @@ class TapeWriter:
         X, Pm, *nominal = before
 
         def state(arrays: list[np.ndarray] | tuple[np.ndarray, ...]) -> Nominal:
-            # the sources' states, the last array, are none: the smoother does not take them
             pos, vel, C, ba, bg, bdvl, sf, _ = (a.reshape(self.batch + a.shape[1:]) for a in arrays)
             return Nominal(NavState(pos, vel, C), ba, bg, bdvl, sf)
 
         d = difference(state(flat), state(nominal), self.geodetic)
+        if P.shape[-1] > N:  # the sources' states (the last array) add
+            d = np.concatenate([d, (flat[-1] - nominal[-1]).reshape(self.batch + (-1,))], axis=-1)
         # a filter whose P the epoch left as it was fused nothing (a Kalman update with a gain
         # changes P): what moved its nominal state is the round-off of rebuilding the velocity
         # from the attitude (tauvcore.filter.kernels.correction.inject_batch), not a correction
@@ -415,11 +434,28 @@ class TapeWriter:
         T = slot - self.slot0
         batch, events = self.batch, self.events
         parts = {name: a[:T] for name, a in self.out.items()}
-        parts.update(event_arrays(events, batch, (NAV, CORE), N))
+        parts.update(event_arrays(events, batch, (NAV, CORE), parts["tape_P"].shape[-1]))
         for name in ESTIMATES:
             parts[name] = np.array(self.store[name][:T])
-        self.out, self.store, self.events = None, {}, []
+        parts["tape_E"], parts["ev_E"] = self._extra_transitions(np.asarray(parts["t_s"]), parts["ev_pos"])
+        self.out, self.store, self.events, self.event_t = None, {}, [], []
         self.tape.add(parts)
+
+    def _extra_transitions(self, out_t: np.ndarray, ev_pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The sources' states' transition from the mark before to each output mark (T, M, R, E)
+        and aiding mark (V, M, R, E): ``exp(rate dt)``, the marks in their order (aiding mark j
+        after the first ``ev_pos[j]`` output marks); the mission's first mark 1."""
+        E, shape = self.extra_rate.size, self.batch
+        out_E, ev_E = np.ones((out_t.size,) + shape + (E,)), np.ones((ev_pos.size,) + shape + (E,))
+        if E == 0:
+            return out_E, ev_E
+        marks = sorted([(int(p), 0, j, t) for j, (p, t) in enumerate(zip(ev_pos, self.event_t))]
+                       + [(j, 1, j, float(t)) for j, t in enumerate(out_t)])  # fmt: skip
+        for _, is_output, j, t in marks:
+            dt = 0.0 if self.last_t is None else t - self.last_t
+            (out_E if is_output else ev_E)[j] = np.exp(self.extra_rate * dt)
+            self.last_t = t
+        return out_E, ev_E
 
 
 @jit
@@ -434,15 +470,16 @@ def smoothed_series_into(
     nees_block: np.ndarray,
 ) -> None:
     """The records (tauvcore.engine.loop.error_series_into) of T epochs of B filters smoothed:
-    the error ``dx - s`` (T, B, 20) and covariance ``Ps`` (T, B, 20, 20) into ``series``
+    the error ``dx - s`` (T, B, d) and covariance ``Ps`` (T, B, d, d) into ``series``
     (11, T, B) and ``nees_block`` (T, B, num_blocks)."""
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
-    e = np.empty(N)
-    L = np.empty((N, N))
-    y = np.empty(N)
+    d = dx.shape[-1]
+    e = np.empty(d)
+    L = np.empty((d, d))
+    y = np.empty(d)
     for t in range(dx.shape[0]):
         for f in range(dx.shape[1]):
-            for i in range(N):
+            for i in range(d):
                 e[i] = dx[t, f, i] - s[t, f, i]
             loop.error_series_into(
                 e, Ps[t, f], deg, members, sizes, lead, order, L, y, series[:, t, f], nees_block[t, f]
@@ -463,12 +500,16 @@ class Carry:
     b : int
         Its columns (15).
     n : int
-        States (20).
+        States (20, and the sources' own).
+    e : int
+        The last of them the sources add, whose transitions are their own diagonal (the tape's
+        ``tape_E``, ``ev_E``).
     """
 
-    def __init__(self, B: int, a: int = NAV, b: int = CORE, n: int = N) -> None:
+    def __init__(self, B: int, a: int = NAV, b: int = CORE, n: int = N, e: int = 0) -> None:
         self.has = np.zeros(B, bool)
         self.X = np.zeros((B, a, b))
+        self.E = np.zeros((B, e))
         self.Pm = np.zeros((B, n, n))
         self.s = np.zeros((B, n))
         self.Ps = np.zeros((B, n, n))
@@ -492,24 +533,34 @@ class Carry:
         tuple of numpy.ndarray
             The smoothed errors (T, B, n) and their covariances (T, B, n, n) at the output marks.
         """
-        a, b, n = self.X.shape[1], self.X.shape[2], self.s.shape[1]
+        a, b, n, e = self.X.shape[1], self.X.shape[2], self.s.shape[1], self.E.shape[1]
 
         def flat(name: str, tail: tuple[int, ...]) -> np.ndarray:
-            return np.ascontiguousarray(segment[name], dtype=float).reshape((-1, B) + tail)
+            a = np.ascontiguousarray(segment[name], dtype=float)
+            return a.reshape((a.shape[0], B) + tail)
 
         T = segment["tape_P"].shape[0]
+        if e == 0:  # a tape without the sources' states (Yoo's has no tape_E)
+            segment = {
+                **segment,
+                "tape_E": np.ones((T, B, 0)),
+                "ev_E": np.ones((segment["ev_Pm"].shape[0], B, 0)),
+            }
         s = np.empty((T, B, n))
         Ps = np.empty((T, B, n, n))
         smooth_backward(
             flat("tape_X", (a, b)),
+            flat("tape_E", (e,)),
             flat("tape_P", (n, n)),
             flat("ev_X", (a, b)),
+            flat("ev_E", (e,)),
             flat("ev_Pm", (n, n)),
             flat("ev_Pp", (n, n)),
             flat("ev_d", (n,)),
             np.ascontiguousarray(segment["ev_pos"], dtype=np.int64),
             self.has,
             self.X,
+            self.E,
             self.Pm,
             self.s,
             self.Ps,
@@ -555,15 +606,15 @@ def smooth_segment(
         ``est_vel_n``, ``est_euler`` and, where the segment has them, the sensor errors'.
     """
     B = int(np.prod(batch))
-    T = segment["tape_P"].shape[0]
+    T, d = segment["tape_P"].shape[0], segment["tape_P"].shape[-1]
     s, Ps = carry.backward(segment, B)
-    dx = np.ascontiguousarray(segment["tape_dx"], dtype=float).reshape(T, B, N)
+    dx = np.ascontiguousarray(segment["tape_dx"], dtype=float).reshape(T, B, d)
     num_blocks = int(block_of_state.max()) + 1
     series = np.empty((len(loop.SERIES_NAMES), T, B))
     nees_block = np.empty((T, B, num_blocks))
     smoothed_series_into(dx, s, Ps, deg, block_of_state, num_blocks, series, nees_block)
     shape = (T,) + batch
-    s = s.reshape(shape + (N,))
+    s = s.reshape(shape + (d,))
     moved = np.any(s[..., STATE.att] != 0.0, axis=-1, keepdims=True) | np.any(
         s[..., STATE.vel] != 0.0, axis=-1, keepdims=True
     )  # elsewhere the filter's own numbers, not their round trip through C
@@ -578,8 +629,13 @@ def smooth_segment(
         "est_vel_n": np.where(moved, mv(C, v_b + s[..., STATE.vel]), segment["est_vel_n"]),
         "est_euler": np.where(moved, euler_from_C_nb(C), segment["est_euler"]),
     }
+    sigma = np.sqrt(np.einsum("tfii->tfi", Ps)).reshape(shape + (d,))
+    store["state_est"] = (
+        np.asarray(segment.get("state_est", np.zeros(shape + (0,))))[..., : d - N] + s[..., N:]
+    )
+    store["state_sigma"] = sigma[..., N:]
+    store["state_true"] = np.array(segment.get("state_true", np.zeros(shape + (0,))))
     if "sensor_est" in segment and segment["sensor_est"].shape[0]:
-        sigma = np.sqrt(np.einsum("tfii->tfi", Ps)).reshape(shape + (N,))
         store["sensor_est"] = segment["sensor_est"] + s[..., sensor_index]
         store["sensor_sigma"] = sigma[..., sensor_index]
         store["sensor_true"] = np.array(segment["sensor_true"])

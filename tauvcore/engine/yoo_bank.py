@@ -137,16 +137,14 @@ class YooBank(ChunkDriver):
         self.added = added_states(config, layout_of(config))
         if tape is not None and self.added.num:
             blocks = ", ".join(b.name for b in self.added.layout.blocks)
-            raise ConfigError(f"--smooth does not take the states run.aiding's sources add ({blocks})")
+            raise ConfigError(
+                f"--smooth does not take the states run.aiding's sources add ({blocks}) in INS-DVL and VKF "
+                "(Yoo 2014); leave them out or set dvl.current_states off"
+            )
         # the compiled loop carries the 12 + 5 states; with added states the numpy methods run
         self.compiled = compiled and tape is None and not self.added.num
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
-        self.block_of_state = np.r_[BLOCK_OF_STATE, np.zeros(self.added.num, np.int64)]
-        start = yoo.DIM
-        for b, block in enumerate(self.added.layout.blocks):
-            self.block_of_state[start : start + block.dim] = NUM_BLOCKS + b
-            start += block.dim
-        self.num_blocks = NUM_BLOCKS + len(self.added.layout.blocks)
+        self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
         self.block_dims.update({b.name: b.dim for b in self.added.layout.blocks})
         self.extra = np.zeros(self.batch + (self.added.num,))

@@ -79,6 +79,30 @@ class Added:
         """The estimated states' indices in the covariance: the 12, then the added (12 + E,)."""
         return np.r_[np.arange(yoo.DIM), np.arange(NA, self.dim)].astype(np.int64)
 
+    def nees_blocks(self, base: np.ndarray, num_base: int) -> tuple[np.ndarray, int]:
+        """Each estimated state's NEES block: the 12 states' own, then one per added block.
+
+        Parameters
+        ----------
+        base : numpy.ndarray
+            Shape (12,) int: the 12 states' blocks (0 .. ``num_base`` - 1).
+        num_base : int
+            Their number of blocks.
+
+        Returns
+        -------
+        block_of_state : numpy.ndarray
+            Shape (12 + E,) int.
+        num_blocks : int
+            ``num_base`` and the added blocks.
+        """
+        out = np.r_[np.asarray(base, np.int64), np.zeros(self.num, np.int64)]
+        start = yoo.DIM
+        for b, block in enumerate(self.layout.blocks):
+            out[start : start + block.dim] = num_base + b
+            start += block.dim
+        return out, num_base + len(self.layout.blocks)
+
     def current_in(self, extra: np.ndarray) -> np.ndarray:
         """The estimated current.
 

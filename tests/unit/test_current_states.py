@@ -24,7 +24,6 @@ from tauvcore.filter.eskf import Nominal, inject
 from tauvcore.filter.layout import STATE, Layout, NavState, StateBlock
 from tauvcore.geo.rotations import exp_so3
 from tauvcore.sensors.dvl import DvlConfig
-from tauvcore.validation import ConfigError
 
 EPS = 1e-6
 CURRENT = Layout((StateBlock(CURRENT_BLOCK, ("current_north_mps", "current_east_mps"), (0.5, 0.5),
@@ -145,12 +144,46 @@ def test_water_track_estimates_the_current_in_chunks_as_in_one() -> None:
         np.testing.assert_allclose(chunked[method].nees_block, r.nees_block, rtol=1e-9, atol=1e-9)
 
 
-def test_the_smoother_refuses_the_sources_states() -> None:
+def test_the_smoother_leaves_unobserved_current_states_uncoupled() -> None:
+    """The smoother over 22 states, the current never observed: every smoothed number of the 20
+    equals the smoothed run without the states to 1e-9."""
     from tauvcore.engine.smoothing import SmoothOptions
-    config = _config(water_track="always", current_states="random-walk")
-    rng = np.random.default_rng(0)
-    with pytest.raises(ConfigError, match=r"--smooth does not take the states .* \(current\)"):
-        run(config, simulate(config, rng), rng, smooth=SmoothOptions())
+    base = _config()
+    with_states = base.replace("dvl", current_states="gauss-markov")
+    sim = simulate(base, np.random.default_rng(5), 2)
+    a = run(base, sim, np.random.default_rng(9), smooth=SmoothOptions())
+    b = run(with_states, sim, np.random.default_rng(9), smooth=SmoothOptions())
+    for method in ("lc", "tc", "iekf"):
+        sa, sb = a[method].smoothed, b[method].smoothed
+        assert sa is not None and sb is not None
+        for field in ("vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "pos_sigma_m", "est_pos_n"):
+            np.testing.assert_allclose(getattr(sb, field), getattr(sa, field), rtol=0, atol=1e-9,
+                                       err_msg=f"{method} {field}")
+        np.testing.assert_allclose(sb.nees_block[..., :5], sa.nees_block, rtol=1e-9, atol=1e-9)
+        assert sb.block_dims is not None and sb.block_dims["current"] == 2
+
+
+@pytest.mark.parametrize("model", ["gauss-markov", "random-walk"])
+def test_the_smoother_estimates_the_current_from_the_whole_mission(model: str) -> None:
+    """Water-track on every beam: the smoothed current is the filtered one at the last epoch
+    (exactly), its 1-sigma nowhere above the filter's, and at the start, where the filter had
+    only its prior (0.5 m/s), the smoothed error is within 3 sigma of a sigma under 0.15 m/s."""
+    from tauvcore.engine.smoothing import SmoothOptions
+    config = _config(water_track="always", current_states=model, current_sigma_mps=0.5)
+    sim = simulate(config, np.random.default_rng(6), 2)
+    results = run(config, sim, np.random.default_rng(7), smooth=SmoothOptions())
+    for method in ("lc", "tc", "iekf"):
+        f = results[method]
+        sm = f.smoothed
+        assert sm is not None and sm.state_est is not None and f.state_est is not None
+        assert sm.state_sigma is not None and f.state_sigma is not None and sm.state_true is not None
+        assert sm.state_labels == f.state_labels == ("current_north_mps", "current_east_mps")
+        np.testing.assert_array_equal(sm.state_est[-1], f.state_est[-1])
+        assert np.all(sm.state_sigma <= f.state_sigma * (1 + 1e-9))
+        np.testing.assert_array_equal(sm.state_true, f.state_true)
+        err0 = np.abs(sm.state_est[0] - sm.state_true[0])
+        assert np.all(sm.state_sigma[0] < 0.15) and np.all(err0 < 3 * sm.state_sigma[0]), (method, err0)
+        assert np.all(np.abs(f.state_est[0] - f.state_true[0]) > 0.15)  # the filter's: its prior
 
 
 @pytest.mark.parametrize("seed", range(3))

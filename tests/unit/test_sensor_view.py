@@ -112,6 +112,27 @@ def test_beam_state_codes_known_answers() -> None:
         [BEAM_RETURNING, BEAM_OUTAGE, BEAM_SWITCHED_OFF, BEAM_RETURNING],
         [BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE],
     ]
+    from app.scene import BEAM_WATER
+    water = np.array([[True, True, True, False], [True, False, False, False]])
+    names = [[BEAM_STATE_CODES[c] for c in row] for row in beam_state_codes(mask, returned, water)]
+    assert names == [
+        [BEAM_RETURNING, BEAM_WATER, BEAM_SWITCHED_OFF, BEAM_RETURNING],
+        [BEAM_WATER, BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE],
+    ]
+
+
+@pytest.mark.parametrize("mode", ["always", "both"])
+def test_a_water_tracking_beam_is_water_track_not_lost_or_returning(mode: str) -> None:
+    """Every beam water-tracks (``always``: its velocity column holds the water-track, the mode
+    columns say so; ``both``: bottom-track in range beside water-track columns of its own, with
+    the DVL's range cut to 30 m so that no beam finds the seabed at 40 m): the beam panel names
+    the pings' beams water-track."""
+    from app.scene import BEAM_WATER
+    config = _config(water_track=mode, max_altitude_m=30.0, water_layer_m=10.0)
+    view, _ = _streamed(config, chunk_s=5.0, runs=1, run=0)
+    states = np.asarray(BEAM_STATE_CODES)[view["sources"]["dvl"]["beam_state"]]
+    assert (states == BEAM_WATER).mean() > 0.9, np.unique(states, return_counts=True)
+    assert not (states == BEAM_RETURNING).any()
 
 
 def test_a_long_source_is_thinned_keeping_its_last_epoch() -> None:

@@ -122,13 +122,21 @@ def batch_least_squares(Phi, Q, P0, x0_hat, measurements, num_steps):
     return mean, blocks
 
 
-def run_backward(tape, stretches=((None, None),)):
+def run_backward(tape, stretches=((None, None),), num_extra: int = 0):
     """smooth_backward over the tape, in stretches of output marks (latest first): the smoothed
-    errors (T, n), covariances (T, n, n) and the cuts."""
+    errors (T, n), covariances (T, n, n) and the cuts. With ``num_extra`` E the dense
+    transitions' last E states (uncoupled from the rest) go to the kernel as their diagonal."""
     out_X, out_P, ev_X, ev_Pm, ev_Pp, ev_d, ev_pos = tape
     T, n = out_P.shape[0], out_P.shape[-1]
+    a = n - num_extra
+
+    def split(X):
+        return np.ascontiguousarray(X[..., :a, :a]), 1.0 + np.einsum("...ii->...i", X)[..., a:]
+
+    (out_X, out_E), (ev_X, ev_E) = split(out_X), split(ev_X)
     s, Ps = np.zeros((T, 1, n)), np.zeros((T, 1, n, n))
-    carry = (np.zeros(1, bool), np.zeros((1, n, n)), np.zeros((1, n, n)), np.zeros((1, n)), np.zeros((1, n, n)))
+    carry = (np.zeros(1, bool), np.zeros((1, a, a)), np.zeros((1, num_extra)), np.zeros((1, n, n)),
+             np.zeros((1, n)), np.zeros((1, n, n)))
     cuts = np.zeros(1, np.int64)
     for lo, hi in stretches:
         lo = 0 if lo is None else lo
@@ -136,8 +144,8 @@ def run_backward(tape, stretches=((None, None),)):
         # the aiding marks of this stretch: after output mark lo - 1 (for lo > 0) and before mark hi
         sel = (ev_pos > (lo if lo else -1)) & (ev_pos <= hi) if lo else ev_pos <= hi
         smooth_backward(
-            out_X[lo:hi], out_P[lo:hi], ev_X[sel], ev_Pm[sel], ev_Pp[sel], ev_d[sel], ev_pos[sel] - lo,
-            *carry, s[lo:hi], Ps[lo:hi], cuts,
+            out_X[lo:hi], out_E[lo:hi], out_P[lo:hi], ev_X[sel], ev_E[sel], ev_Pm[sel], ev_Pp[sel], ev_d[sel],
+            ev_pos[sel] - lo, *carry, s[lo:hi], Ps[lo:hi], cuts,
         )  # fmt: skip
     return s[:, 0], Ps[:, 0], int(cuts[0])
 
@@ -159,6 +167,58 @@ def test_smoother_is_batch_least_squares(output_every):
     # the last mark: smoothed = filtered, exactly
     assert np.all(s[-1] == 0.0)
     np.testing.assert_array_equal(Ps[-1], tape[1][-1, 0])
+
+
+def with_gauss_markov_bias(num_steps: int, rng: np.random.Generator, tau_s: float = 4.0):
+    """:func:`constant_velocity` with a first-order Gauss-Markov bias on the north position fixes
+    (a fifth state, uncoupled in Phi: ``phi = exp(-dt/tau)``), as a source's own state."""
+    Phi4, Q4, P04, x04, _, _ = constant_velocity(num_steps, rng)
+    n, phi = 5, np.exp(-DT_S / tau_s)
+    Phi, Q, P0 = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+    Phi[:4, :4], Q[:4, :4], P0[:4, :4] = Phi4, Q4, P04
+    Phi[4, 4], Q[4, 4], P0[4, 4] = phi, 0.3**2 * (1.0 - phi**2), 0.3**2
+    x0_hat = np.r_[x04, 0.0]
+    x = x0_hat + rng.multivariate_normal(np.zeros(n), P0)
+    truth = [x]
+    for _ in range(num_steps):
+        x = Phi @ x + rng.multivariate_normal(np.zeros(n), Q)
+        truth.append(x)
+    H_pos = np.eye(n)[:2] + np.outer([1.0, 0.0], np.eye(n)[4])
+    H_vel = np.eye(n)[2:4]
+    measurements = {}
+    for k in range(1, num_steps + 1):
+        fixes = []
+        if k % 3 == 0:
+            fixes.append((H_pos, np.diag([1.0, 2.0])))
+        if k in (7, 16):
+            fixes.append((H_vel, 0.01 * np.eye(2)))
+        if k == 11:
+            fixes.append((np.eye(n)[:1], np.array([[0.05]])))  # the position alone: the bias observed
+        measurements[k] = [(H, R, H @ truth[k] + rng.multivariate_normal(np.zeros(H.shape[0]), R)) for H, R in fixes]
+    return Phi, Q, P0, x0_hat, np.array(truth), measurements
+
+
+@pytest.mark.parametrize("output_every", [1, 3])
+def test_a_source_s_own_states_are_smoothed_with_their_own_transition(output_every: int) -> None:
+    """A Gauss-Markov state after the rest, its transition handed to the kernel as its diagonal
+    (the bank's tape keeps the 20 states' block and the sources' diagonal apart): mean and
+    covariance at every output mark equal batch least squares to 1e-9."""
+    num_steps = 24
+    Phi, Q, P0, x0_hat, _, measurements = with_gauss_markov_bias(num_steps, np.random.default_rng(8))
+    tape, x_filtered, out_k = feedback_filter(Phi, Q, P0, x0_hat, measurements, num_steps, output_every)
+    s, Ps, cuts = run_backward(tape, num_extra=1)
+    mean, cov = batch_least_squares(Phi, Q, P0, x0_hat, measurements, num_steps)
+    assert cuts == 0
+    np.testing.assert_allclose(x_filtered + s, mean[out_k], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(Ps, cov[out_k], rtol=0, atol=1e-9)
+    assert np.abs(s[:-1, 4]).max() > 0.02  # the bias was smoothed
+    # without its phi (a random walk's identity) the pass is wrong: the test sees the transition
+    out_X = tape[0].copy()
+    out_X[..., 4, 4] = 0.0
+    ev_X = tape[2].copy()
+    ev_X[..., 4, 4] = 0.0
+    wrong, _, _ = run_backward((out_X, tape[1], ev_X, *tape[3:]), num_extra=1)
+    assert np.abs(x_filtered + wrong - mean[out_k]).max() > 1e-3
 
 
 def test_stretches_carry_the_pass():

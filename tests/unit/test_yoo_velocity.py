@@ -133,5 +133,5 @@ def test_the_smoother_refuses_yoo_s_current_states() -> None:
     from tauvcore.engine.smoothing import SmoothOptions
     config = _longrange(30.0, current_states="random-walk")
     rng = np.random.default_rng(0)
-    with pytest.raises(ConfigError, match=r"--smooth does not take the states .* \(current\)"):
+    with pytest.raises(ConfigError, match=r"--smooth does not take the states .* \(current\) in INS-DVL and VKF"):
         run(config, simulate(config, rng), rng, smooth=SmoothOptions())

@@ -22,8 +22,10 @@ is the RTS smoother of that model, exactly (tests/unit/test_smoother.py holds it
 least squares).
 
 The transitions are those of tauvcore.filter.kernels.error_model: the identity but for rows
-``0..a-1`` and columns ``0..b-1``, given as ``X = (Phi - I)[:a, :b]``; ``a = b = n`` gives a dense
-Phi. ``A_e`` is never formed: ``Z = (P-_{e+1})^-1 Phi_{e+1} P+_e`` by Cholesky, ``A_e = Z^T``.
+``0..a-1`` and columns ``0..b-1``, given as ``X = (Phi - I)[:a, :b]``, and for the last E
+states, the ones the aiding sources add (tauvcore.filter.layout.StateBlock), each uncoupled and
+scaled by its own ``phi`` (``exp(-dt/tau)`` of a Gauss-Markov state, 1 for a random walk);
+``a = b = n`` and E = 0 give a dense Phi. ``A_e`` is never formed: ``Z = (P-_{e+1})^-1 Phi_{e+1} P+_e`` by Cholesky, ``A_e = Z^T``.
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ def _solve_spd_into(A: np.ndarray, B: np.ndarray, Z: np.ndarray, L: np.ndarray, 
 @jit
 def _step(
     X_n: np.ndarray,
+    E_n: np.ndarray,
     Pm_n: np.ndarray,
     s_n: np.ndarray,
     Ps_n: np.ndarray,
@@ -67,8 +70,8 @@ def _step(
     work: np.ndarray,
     idx: np.ndarray,
 ) -> bool:
-    """One backward step of a filter: from the next mark's transition ``I + X_n``, prior
-    ``Pm_n``, smoothed prior error ``s_n`` and smoothed covariance ``Ps_n``, this mark's posterior
+    """One backward step of a filter: from the next mark's transition ``I + X_n`` (and ``E_n``
+    on its last states' diagonal), prior ``Pm_n``, smoothed prior error ``s_n`` and smoothed covariance ``Ps_n``, this mark's posterior
     ``Pp`` -> its smoothed error ``s_out`` and covariance ``Ps_out`` (module docstring). False
     (and ``s_out = 0``, ``Ps_out = Pp``: the smoother starts afresh) where ``Pm_n`` is not
     positive definite. ``work`` (4, n, n) scratch."""
@@ -84,6 +87,9 @@ def _step(
             for k in range(b):
                 t += X_n[i, k] * Pp[k, j]
             B[i, j] += t
+    for e in range(E_n.shape[0]):  # the sources' states: uncoupled, each its own phi
+        for j in range(n):
+            B[n - E_n.shape[0] + e, j] *= E_n[e]
     if not _solve_spd_into(Pm_n, B, Z, L, idx):
         for i in range(n):
             s_out[i] = 0.0
@@ -114,14 +120,17 @@ def _step(
 @jit
 def smooth_backward(
     out_X: np.ndarray,
+    out_E: np.ndarray,
     out_P: np.ndarray,
     ev_X: np.ndarray,
+    ev_E: np.ndarray,
     ev_Pm: np.ndarray,
     ev_Pp: np.ndarray,
     ev_d: np.ndarray,
     ev_pos: np.ndarray,
     carry_has: np.ndarray,
     carry_X: np.ndarray,
+    carry_E: np.ndarray,
     carry_Pm: np.ndarray,
     carry_s: np.ndarray,
     carry_Ps: np.ndarray,
@@ -132,12 +141,12 @@ def smooth_backward(
     """The backward pass over one stretch of marks of B filters (module docstring), latest first.
 
     Output marks (T of them): ``out_X`` (T, B, a, b) the transition since the mark before,
-    ``out_P`` (T, B, n, n) the covariance (no correction there: prior and posterior are one).
-    Aiding marks (V): ``ev_X`` (V, B, a, b), ``ev_Pm``, ``ev_Pp`` (V, B, n, n), the correction
-    ``ev_d`` (V, B, n); aiding mark j comes after the first ``ev_pos[j]`` output marks (and
+    ``out_E`` (T, B, E) its last E states' diagonal, ``out_P`` (T, B, n, n) the covariance (no
+    correction there: prior and posterior are one). Aiding marks (V): ``ev_X`` (V, B, a, b),
+    ``ev_E`` (V, B, E), ``ev_Pm``, ``ev_Pp`` (V, B, n, n), the correction ``ev_d`` (V, B, n); aiding mark j comes after the first ``ev_pos[j]`` output marks (and
     before the rest; ``ev_pos`` non-decreasing). The stretch is followed by the mark the carry
     holds (``carry_has`` (B,) bool; False: the stretch ends the mission): its transition
-    ``carry_X`` (B, a, b), prior ``carry_Pm``, smoothed prior error ``carry_s`` (B, n) and
+    ``carry_X`` (B, a, b) and ``carry_E`` (B, E), prior ``carry_Pm``, smoothed prior error ``carry_s`` (B, n) and
     smoothed covariance ``carry_Ps`` (B, n, n); on return the carry holds the stretch's first mark,
     for the stretch before it.
 
@@ -158,11 +167,13 @@ def smooth_backward(
         while t >= 0 or j >= 0:
             event = j >= 0 and (t < 0 or ev_pos[j] > t)
             if event:
-                Pp, Pm, d, X = ev_Pp[j, f], ev_Pm[j, f], ev_d[j, f], ev_X[j, f]
+                Pp, Pm, d, X, E = ev_Pp[j, f], ev_Pm[j, f], ev_d[j, f], ev_X[j, f], ev_E[j, f]
             else:
-                Pp, Pm, d, X = out_P[t, f], out_P[t, f], zero_d, out_X[t, f]
+                Pp, Pm, d, X, E = out_P[t, f], out_P[t, f], zero_d, out_X[t, f], out_E[t, f]
             if carry_has[f]:
-                if not _step(carry_X[f], carry_Pm[f], carry_s[f], carry_Ps[f], Pp, s_plus, Ps, work, idx):
+                if not _step(
+                    carry_X[f], carry_E[f], carry_Pm[f], carry_s[f], carry_Ps[f], Pp, s_plus, Ps, work, idx
+                ):
                     cuts[f] += 1
             else:
                 s_plus[:] = 0.0
@@ -172,6 +183,7 @@ def smooth_backward(
                 Ps_out[t, f] = Ps
             carry_has[f] = True
             carry_X[f] = X
+            carry_E[f] = E
             carry_Pm[f] = Pm
             for i in range(n):
                 carry_s[f, i] = d[i] + s_plus[i]
