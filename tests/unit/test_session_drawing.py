@@ -197,13 +197,13 @@ def test_beams_are_updated_in_place_not_re_added() -> None:
                                     client=types.SimpleNamespace(scene=types.SimpleNamespace(add_line_segments=add)))
     states = [BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_RETURNING, BEAM_RETURNING]
     SceneView.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states)
-    assert len(added) == 16 and all(name.startswith("/auv/beams/") for name in added)
+    assert len(added) == 20 and all(name.startswith("/auv/beams/") for name in added)
     shown = [[n.visible for n in beam] for beam in session.beam_nodes]
     assert [row.index(True) for row in shown] == [0, 1, 0, 0] and all(sum(row) == 1 for row in shown)
     states2 = [BEAM_OUTAGE, BEAM_SWITCHED_OFF, BEAM_RETURNING, BEAM_RETURNING]
     ranges = np.array([np.inf, 50.0, 45.0, 40.0])
     SceneView.show_beams_static(session, Config(), np.array([0.0, 0.0, 20.0]), np.eye(3), states2, ranges)
-    assert len(added) == 16                                       # nothing re-added
+    assert len(added) == 20                                       # nothing re-added
     assert [[n.visible for n in beam].index(True) for beam in session.beam_nodes] == [2, 1, 0, 0]
     assert session.beam_nodes[2][0].points[0, 1] == pytest.approx(
         Config().dvl.l_dvl_b + Config().dvl.A_b[2] * 45.0)       # body frame, to the range
