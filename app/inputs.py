@@ -30,7 +30,7 @@ from typing import Any
 from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import FUSED
-from tauvcore.config import AUTO, RUN_METHODS, YOO_METHODS, Config, from_dict, trajectory_preset
+from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
 from tauvcore.sensors.dvl import DvlConfig, Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, settings, show
@@ -651,13 +651,6 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
             raise InputError(str(exc)) from None
         value = f" {show(typed[label])} is out of range:" if label in typed else ""
         raise InputError(f"{label}:{value} {exc}") from None
-    if c.smoother and config.dvl.current_states != "off" and set(methods) & set(YOO_METHODS):
-        # Yoo 2014's smoother refuses the sources' states (tauv run --smooth too)
-        raise InputError(
-            f"{DVL_CURRENT_STATES}: {show(config.dvl.current_states)} with the {SMOOTHER}: the smoother does "
-            f"not take INS-DVL's and VKF's current states; set {DVL_CURRENT_STATES} off, untick "
-            f"{SMOOTHER} or leave out INS-DVL and VKF"
-        )
     return config, runs
 
 

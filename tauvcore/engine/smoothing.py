@@ -437,25 +437,62 @@ class TapeWriter:
         parts.update(event_arrays(events, batch, (NAV, CORE), parts["tape_P"].shape[-1]))
         for name in ESTIMATES:
             parts[name] = np.array(self.store[name][:T])
-        parts["tape_E"], parts["ev_E"] = self._extra_transitions(np.asarray(parts["t_s"]), parts["ev_pos"])
+        parts["tape_E"], parts["ev_E"], self.last_t = extra_transitions(
+            self.extra_rate, batch, np.asarray(parts["t_s"]), parts["ev_pos"], self.event_t, self.last_t
+        )
         self.out, self.store, self.events, self.event_t = None, {}, [], []
         self.tape.add(parts)
 
-    def _extra_transitions(self, out_t: np.ndarray, ev_pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The sources' states' transition from the mark before to each output mark (T, M, R, E)
-        and aiding mark (V, M, R, E): ``exp(rate dt)``, the marks in their order (aiding mark j
-        after the first ``ev_pos[j]`` output marks); the mission's first mark 1."""
-        E, shape = self.extra_rate.size, self.batch
-        out_E, ev_E = np.ones((out_t.size,) + shape + (E,)), np.ones((ev_pos.size,) + shape + (E,))
-        if E == 0:
-            return out_E, ev_E
-        marks = sorted([(int(p), 0, j, t) for j, (p, t) in enumerate(zip(ev_pos, self.event_t))]
-                       + [(j, 1, j, float(t)) for j, t in enumerate(out_t)])  # fmt: skip
-        for _, is_output, j, t in marks:
-            dt = 0.0 if self.last_t is None else t - self.last_t
-            (out_E if is_output else ev_E)[j] = np.exp(self.extra_rate * dt)
-            self.last_t = t
-        return out_E, ev_E
+
+def extra_transitions(
+    rate: np.ndarray,
+    batch: tuple[int, int],
+    out_t: np.ndarray,
+    ev_pos: np.ndarray,
+    ev_t: list[float],
+    last_t: float | None,
+) -> tuple[np.ndarray, np.ndarray, float | None]:
+    """The sources' states' transition from the mark before to each mark of a segment.
+
+    Each is uncoupled, its transition ``exp(rate dt)`` over the time between the marks (the
+    banks propagate P at every mark, so it is the product of their covariance steps'); the marks
+    in their order, aiding mark j after the first ``ev_pos[j]`` output marks.
+
+    Parameters
+    ----------
+    rate : numpy.ndarray
+        Shape (E,): each state's -1/tau [1/s] (0: a random walk).
+    batch : tuple of int
+        (M, R): methods and runs.
+    out_t : numpy.ndarray
+        Shape (T,): the output marks' times [s].
+    ev_pos : numpy.ndarray
+        Shape (V,): each aiding mark's place among the output marks.
+    ev_t : list of float
+        The aiding marks' times [s], in the order of ``ev_pos``.
+    last_t : float or None
+        The time of the mark before the segment [s]; None: the mission's first (its transition 1).
+
+    Returns
+    -------
+    out_E : numpy.ndarray
+        Shape (T, M, R, E) [-].
+    ev_E : numpy.ndarray
+        Shape (V, M, R, E) [-].
+    last_t : float or None
+        The time of the segment's last mark [s].
+    """
+    E = rate.size
+    out_E, ev_E = np.ones((out_t.size,) + batch + (E,)), np.ones((ev_pos.size,) + batch + (E,))
+    if E == 0:
+        return out_E, ev_E, last_t
+    marks = sorted([(int(p), 0, j, float(t)) for j, (p, t) in enumerate(zip(ev_pos, ev_t))]
+                   + [(j, 1, j, float(t)) for j, t in enumerate(out_t)])  # fmt: skip
+    for _, is_output, j, t in marks:
+        dt = 0.0 if last_t is None else t - last_t
+        (out_E if is_output else ev_E)[j] = np.exp(rate * dt)
+        last_t = t
+    return out_E, ev_E, last_t
 
 
 @jit

@@ -83,7 +83,6 @@ from tauvcore.filter.eskf import Nominal, make_outcome
 from tauvcore.filter.layout import NavState
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
-from tauvcore.validation import ConfigError
 
 BLOCK_DIMS = YOO_BLOCK_DIMS
 """Degrees of freedom of this filter's NEES (tauvcore.engine.results.YOO_BLOCK_DIMS)."""
@@ -131,16 +130,12 @@ class YooBank(ChunkDriver):
         tape: Tape | None = None,
     ) -> None:
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
-        # the smoother's marks (tauvcore.engine.yoo_smoothing) are taken by the numpy methods
-        self.taping = YooTapeWriter(tape, self.batch, NA) if tape is not None else None
         # the states the sources add (the DVL's current), after the consider states
         self.added = added_states(config, layout_of(config))
-        if tape is not None and self.added.num:
-            blocks = ", ".join(b.name for b in self.added.layout.blocks)
-            raise ConfigError(
-                f"--smooth does not take the states run.aiding's sources add ({blocks}) in INS-DVL and VKF "
-                "(Yoo 2014); leave them out or set dvl.current_states off"
-            )
+        # the smoother's marks (tauvcore.engine.yoo_smoothing) are taken by the numpy methods
+        self.taping = None
+        if tape is not None:
+            self.taping = YooTapeWriter(tape, self.batch, self.added.dim, self.added.rate)
         # the compiled loop carries the 12 + 5 states; with added states the numpy methods run
         self.compiled = compiled and tape is None and not self.added.num
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
@@ -442,7 +437,8 @@ class YooBank(ChunkDriver):
             if k > self.k_cov:
                 self._propagate(i, k)
             if ping_of_stop[s] >= 0:
-                mark = self.taping.before(self.P, self._nominal()) if self.taping is not None else None
+                t = float(chunk.truth.t_s[i])
+                mark = self.taping.before(self.P, self._nominal(), t) if self.taping is not None else None
                 self._update(chunk, int(ping_of_stop[s]), i, store)
                 if self.taping is not None and mark is not None:
                     self.taping.after(mark, self.P, self._nominal())
@@ -560,7 +556,7 @@ class YooBank(ChunkDriver):
         nominal = Nominal(
             NavState(self.pos, self.vel, self.C), self.ba, self.bg, np.zeros((M, R, 4)), np.zeros((M, R))
         )
-        mark = self.taping.before(self.P, self._nominal(), row) if self.taping is not None else None
+        mark = self.taping.before(self.P, self._nominal(), t, row) if self.taping is not None else None
         for name, model in self.sources:
             if k not in source_at.get(name, {}):
                 continue
@@ -596,8 +592,8 @@ class YooBank(ChunkDriver):
         self.extra += dx[..., NA:]
 
     def _nominal(self) -> tuple[np.ndarray, ...]:
-        """The nominal states the smoother's marks take (velocity, attitude, biases)."""
-        return self.vel, self.C, self.ba, self.bg
+        """The nominal states the smoother's marks take (velocity, attitude, biases, added states)."""
+        return self.vel, self.C, self.ba, self.bg, self.extra
 
     def _sealed(self) -> None:
         for rec in self.recorders.values():
@@ -754,8 +750,8 @@ class YooBank(ChunkDriver):
         started afresh."""
         assert self.taping is not None  # a bank made with a tape
         self.taping.close()
-        carry = Carry(int(np.prod(self.batch)), yoo.DIM, yoo.DIM, NA)
-        args = (carry, self.batch, BLOCK_OF_STATE, NUM_BLOCKS, SENSOR_INDEX, 1.0 / units.DEG)
+        carry = Carry(int(np.prod(self.batch)), yoo.DIM, yoo.DIM, self.added.dim, self.added.num)
+        args = (carry, self.batch, self.block_of_state, self.num_blocks, SENSOR_INDEX, 1.0 / units.DEG)
         smooth_tape(self.taping.tape, out, lambda segment: smooth_yoo_segment(segment, *args))
         return carry.cuts.reshape(self.batch)
 
@@ -778,8 +774,9 @@ class YooBank(ChunkDriver):
                 np.fmin.reduce(np.stack(flags), axis=0),
                 self.sensor_errors,
                 p_floor_count=np.zeros(self.batch[1], int),
-                block_dims=BLOCK_DIMS,
+                block_dims=self.block_dims,
                 smoother_cuts=cuts[m].copy(),
+                state_labels=self.state_labels,
             )
         return out
 

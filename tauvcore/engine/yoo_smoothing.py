@@ -14,6 +14,11 @@ record, which is then recorded again (tauvcore.engine.yoo_bank.YooBank._fuse_sou
 is put before that output epoch, with the transition the first record took, so that the marks
 follow one another as the filter's covariances do.
 
+The states the sources add (the DVL's current, tauvcore.engine.yoo_velocity) follow the consider
+states: estimated, corrected, their transition their own diagonal over the time between the
+marks (tauvcore.engine.smoothing.extra_transitions), smoothed with the 12 into the records'
+``state_est``, ``state_sigma`` and their NEES block.
+
 The smoothed records are the filter's, for ``x+ (+) s``: the velocity ``v + s_v`` (NED), the
 attitude ``exp([s_rho x]) C``, the biases ``b + s_b``; the errors against truth ``dx - s`` (the
 velocity's norm in the body frame from the true body velocity, as the filter's record); the
@@ -25,8 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from tauvcore.engine.smoothing import ESTIMATES, Carry, Tape, event_arrays
+from tauvcore.engine.smoothing import ESTIMATES, Carry, Tape, event_arrays, extra_transitions
 from tauvcore.filter import statistics, yoo
+from tauvcore.filter.yoo_kernels import NA
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, log_so3, mv
 
 DIM = yoo.DIM
@@ -42,16 +48,23 @@ class YooTapeWriter:
     batch : tuple of int
         (M, R): methods and runs.
     na : int
-        The covariance's dimension (the 12 states and the consider states).
+        The covariance's dimension (the 12 states, the consider states and the added ones).
+    extra_rate : numpy.ndarray or None
+        Shape (E,): each added state's -1/tau [1/s] (0: a random walk); None: none.
     """
 
-    def __init__(self, tape: Tape, batch: tuple[int, int], na: int) -> None:
+    def __init__(
+        self, tape: Tape, batch: tuple[int, int], na: int, extra_rate: np.ndarray | None = None
+    ) -> None:
         self.tape, self.batch, self.na = tape, batch, na
+        self.extra_rate = np.zeros(0) if extra_rate is None else np.asarray(extra_rate, dtype=float)
         self.phi_acc = np.zeros(batch + (DIM, DIM))  # Phi - I since the last mark
         self.out: dict[str, np.ndarray] | None = None
         self.store: dict[str, np.ndarray] = {}
         self.rows = 0  # output epochs of the chunk recorded so far
         self.events: list[tuple] = []
+        self.event_t: list[float] = []  # the corrections' marks' times [s]
+        self.last_t: float | None = None  # the time of the last mark put on the tape [s]
 
     def open(self, store: dict[str, np.ndarray]) -> None:
         """A chunk begins, its filtered results going to ``store``.
@@ -65,10 +78,10 @@ class YooTapeWriter:
         self.out = {
             "tape_X": np.zeros((T,) + shape + (DIM, DIM)),
             "tape_P": np.zeros((T,) + shape + (self.na, self.na)),
-            "tape_dx": np.zeros((T,) + shape + (DIM,)),
+            "tape_dx": np.zeros((T,) + shape + (DIM + self.extra_rate.size,)),
             "tape_vel_b_mps": np.zeros((T,) + shape + (3,)),
         }
-        self.store, self.rows, self.events = store, 0, []
+        self.store, self.rows, self.events, self.event_t = store, 0, [], []
 
     def propagated(self, Phi: np.ndarray) -> None:
         """A covariance step's transition ``Phi`` (M * R, 12, 12) composed into the one since the
@@ -82,7 +95,7 @@ class YooTapeWriter:
         X = (Phi - np.eye(DIM)).reshape(self.phi_acc.shape)
         self.phi_acc = X + self.phi_acc + X @ self.phi_acc
 
-    def before(self, P: np.ndarray, nominal: tuple[np.ndarray, ...], row: int = -1) -> tuple:
+    def before(self, P: np.ndarray, nominal: tuple[np.ndarray, ...], t_s: float, row: int = -1) -> tuple:
         """A correction's mark before it: its transition, prior and nominal state.
 
         Parameters
@@ -90,7 +103,9 @@ class YooTapeWriter:
         P : numpy.ndarray
             (M, R, na, na) the covariances.
         nominal : tuple of numpy.ndarray
-            The nominal states (vel, C, ba, bg), each (M, R, ...).
+            The nominal states (vel, C, ba, bg, the added states), each (M, R, ...).
+        t_s : float
+            The mark's time [s].
         row : int
             The chunk's output epoch already recorded at this sample, which is recorded again after
             the correction (the mark goes before it and takes its transition); -1 for none.
@@ -106,6 +121,7 @@ class YooTapeWriter:
         else:
             X, pos = self.phi_acc.copy(), self.rows
             self.phi_acc[...] = 0.0
+        self.event_t.append(float(t_s))
         return X, P.copy(), tuple(a.copy() for a in nominal), pos
 
     def after(self, before: tuple, P: np.ndarray, nominal: tuple[np.ndarray, ...]) -> None:
@@ -118,15 +134,16 @@ class YooTapeWriter:
         P : numpy.ndarray
             (M, R, na, na) the covariances now.
         nominal : tuple of numpy.ndarray
-            The nominal states now (vel, C, ba, bg).
+            The nominal states now (vel, C, ba, bg, the added states).
         """
-        X, Pm, (vel0, C0, ba0, bg0), pos = before
-        vel, C, ba, bg = nominal
+        X, Pm, (vel0, C0, ba0, bg0, extra0), pos = before
+        vel, C, ba, bg, extra = nominal
         d = np.zeros(self.batch + (self.na,))
         d[..., yoo.VEL] = vel - vel0
         d[..., yoo.ATT] = log_so3(C @ np.swapaxes(C0, -1, -2))
         d[..., yoo.BA] = ba - ba0
         d[..., yoo.BG] = bg - bg0
+        d[..., NA:] = extra - extra0
         d[(P == Pm).all(axis=(-2, -1))] = 0.0  # nothing fused: round-off, not a correction
         self.events.append((X, Pm, P.copy(), d, pos))
 
@@ -140,7 +157,7 @@ class YooTapeWriter:
         P : numpy.ndarray
             (M, R, na, na) the covariances.
         dx : numpy.ndarray
-            (M, R, 12) the error against truth.
+            (M, R, 12 + E) the error against truth, the 12 states then the added.
         vel_b_true_mps : numpy.ndarray
             (3,) or (R, 3) the true body velocity [m/s] (FRD).
         """
@@ -166,7 +183,11 @@ class YooTapeWriter:
             parts[name] = np.array(self.store[name][:T])
         parts["pos_err"] = np.array(self.store["series"][2, :T])
         parts["vel_err"] = np.array(self.store["series"][0, :T])
-        self.out, self.store, self.events = None, {}, []
+        parts["tape_E"], parts["ev_E"], self.last_t = extra_transitions(
+            self.extra_rate, batch, np.asarray(parts["t_s"]), parts["ev_pos"],
+            [self.event_t[j] for j in order], self.last_t,
+        )  # fmt: skip
+        self.out, self.store, self.events, self.event_t = None, {}, [], []
         self.tape.add(parts)
 
 
@@ -191,7 +212,7 @@ def smooth_yoo_segment(
     batch : tuple of int
         (M, R): methods and runs.
     block_of_state : numpy.ndarray
-        Each of the 12 states' NEES block.
+        Each estimated state's NEES block (the 12, then the added).
     num_blocks : int
         NEES blocks (the first, position, NaN).
     sensor_index : numpy.ndarray
@@ -205,12 +226,14 @@ def smooth_yoo_segment(
         The smoothed store, the fields of the bank's.
     """
     B = int(np.prod(batch))
-    T = segment["tape_P"].shape[0]
-    s, Ps = carry.backward(segment, B)
+    T, n = segment["tape_P"].shape[0], segment["tape_P"].shape[-1]
+    s_all, Ps = carry.backward(segment, B)
     shape = (T,) + batch
-    s = s.reshape(shape + (-1,))[..., :DIM]
-    P = np.ascontiguousarray(Ps.reshape(shape + Ps.shape[-2:])[..., :DIM, :DIM])
-    dx = np.asarray(segment["tape_dx"]) - s
+    est = np.r_[np.arange(DIM), np.arange(NA, n)]  # the estimated states: the 12, then the added
+    s_all = s_all.reshape(shape + (n,))
+    s = s_all[..., :DIM]
+    P = np.ascontiguousarray(Ps.reshape(shape + Ps.shape[-2:])[..., est[:, None], est])
+    dx = np.asarray(segment["tape_dx"]) - s_all[..., est]
     euler = np.asarray(segment["est_euler"])
     moved = np.any(s[..., yoo.ATT] != 0.0, axis=-1, keepdims=True)
     C = exp_so3(s[..., yoo.ATT]) @ C_nb_from_euler(euler)
@@ -222,6 +245,7 @@ def smooth_yoo_segment(
     )
     att = dx[..., yoo.ATT]
     blocks = statistics.block_nees(dx, P, block_of_state, num_blocks)
+    P_est, P = P, P[..., :DIM, :DIM]  # the series are the 12 states'; the full NEES is over all
     blocks[..., 0] = np.nan  # no position state
     series = np.stack(
         [
@@ -231,7 +255,7 @@ def smooth_yoo_segment(
             np.sqrt(np.einsum("...ii->...", P[..., :3, :3])),
             np.sqrt(np.einsum("...ii->...", P[..., 3:6, 3:6])) * deg,
             np.full(shape, np.nan),
-            statistics.nees(dx, P),
+            statistics.nees(dx, P_est),
             np.linalg.norm(att[..., :2], axis=-1) * deg,
             np.abs(att[..., 2]) * deg,
             np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
@@ -246,6 +270,9 @@ def smooth_yoo_segment(
         "est_pos_n": np.array(segment["est_pos_n"]),
         "est_vel_n": vel,
         "est_euler": np.where(moved, euler_from_C_nb(C), euler),
+        "state_est": np.asarray(segment.get("state_est", np.zeros(shape + (0,)))) + s_all[..., NA:],
+        "state_sigma": np.sqrt(np.einsum("...ii->...i", P_est[..., DIM:, DIM:])),
+        "state_true": np.array(segment.get("state_true", np.zeros(shape + (0,)))),
     }
     if segment["sensor_est"].shape[0]:
         store["sensor_est"] = segment["sensor_est"] + s[..., sensor_index]

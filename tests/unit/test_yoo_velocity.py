@@ -5,7 +5,7 @@
 - Current states on but never observed leave every number of ``ins-dvl`` and ``vkf`` as it was
   (to 1e-9): the compiled 12-state loop against the numpy methods that carry the states.
 - Water-track beyond bottom range estimates the current, chunks of any size as one.
-- The smoother refuses the states.
+- The smoother estimates them from the whole mission, and leaves them uncoupled when unobserved.
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from tauvcore.engine.yoo_velocity import added_states, velocity_H
 from tauvcore.filter import yoo
 from tauvcore.filter.yoo_kernels import NA
 from tauvcore.geo.rotations import exp_so3
-from tauvcore.validation import ConfigError
 
 EPS = 1e-6
 
@@ -129,9 +128,37 @@ def test_water_track_beyond_range_estimates_the_current_in_chunks_as_in_one() ->
         np.testing.assert_allclose(chunked[method].nees_block, r.nees_block, rtol=1e-9, atol=1e-9)
 
 
-def test_the_smoother_refuses_yoo_s_current_states() -> None:
+def test_yoo_s_smoother_estimates_the_current_from_the_whole_mission() -> None:
+    """INS-DVL and VKF smoothed with the current as Gauss-Markov states, water-track beyond bottom
+    range (the first trench, 300-420 s): the smoothed current is the filtered one at the last
+    epoch, its sigma nowhere above the filter's; before the trench, where the filter had only its
+    prior, the smoother knows it from the trench (sigma below 0.1 m/s, the error within 3 sigma);
+    and with the states unobserved (no water-track) every smoothed number of the 12 states equals
+    the smoothed run without them to 1e-9."""
     from tauvcore.engine.smoothing import SmoothOptions
-    config = _longrange(30.0, current_states="random-walk")
-    rng = np.random.default_rng(0)
-    with pytest.raises(ConfigError, match=r"--smooth does not take the states .* \(current\) in INS-DVL and VKF"):
-        run(config, simulate(config, rng), rng, smooth=SmoothOptions())
+    config = _longrange(420.0, water_track="beyond_range", current_states="gauss-markov", current_sigma_mps=0.5,
+                        current_tau_s=3600.0)
+    sim = simulate(config, np.random.default_rng(6), 2)
+    results = run(config, sim, np.random.default_rng(7), smooth=SmoothOptions())
+    for method in ("ins-dvl", "vkf"):
+        f = results[method]
+        sm = f.smoothed
+        assert sm is not None and sm.state_est is not None and f.state_est is not None
+        assert sm.state_sigma is not None and f.state_sigma is not None and sm.state_true is not None
+        assert sm.block_dims is not None and sm.block_dims["current"] == 2
+        np.testing.assert_array_equal(sm.state_est[-1], f.state_est[-1])
+        assert np.all(sm.state_sigma <= f.state_sigma * (1 + 1e-9))
+        before = np.flatnonzero(sm.t_s < 290.0)[-1]
+        err = np.abs(sm.state_est[before] - sm.state_true[before])
+        assert np.all(sm.state_sigma[before] < 0.1) and np.all(err < 3 * sm.state_sigma[before]), (method, err)
+        assert np.all(f.state_sigma[before] > 0.4)  # the filter's: its prior
+    base = _longrange(200.0)
+    sim = simulate(base, np.random.default_rng(5), 2)
+    a = run(base, sim, np.random.default_rng(9), smooth=SmoothOptions())
+    b = run(base.replace("dvl", current_states="gauss-markov"), sim, np.random.default_rng(9), smooth=SmoothOptions())
+    for method in base.run.methods:
+        sa, sb = a[method].smoothed, b[method].smoothed
+        assert sa is not None and sb is not None
+        for field in ("vel_err_mps", "att_err_deg", "vel_sigma_mps", "att_sigma_deg", "est_vel_n"):
+            np.testing.assert_allclose(getattr(sb, field), getattr(sa, field), rtol=0, atol=1e-9, err_msg=field)
+        np.testing.assert_allclose(sb.nees_block[..., :5], sa.nees_block, rtol=1e-9, atol=1e-9)
