@@ -115,8 +115,8 @@ def case_rows(
 
 def yoo_cost(seed: int) -> str:
     """Wall time of one run of the whole mission with ``ins-dvl,vkf`` in the cross current with
-    water-track beyond range, with the current states (the numpy methods) and without (the
-    compiled loop); best of two, the simulation apart."""
+    water-track beyond range, with the current states and without (the compiled loop both); best
+    of two, the simulation apart."""
     times = {}
     for label, dvl in (("with current states", STATES), ("without", {"water_track": "beyond_range"})):
         config = (
@@ -134,9 +134,9 @@ def yoo_cost(seed: int) -> str:
         times[label] = best
     with_s, without_s = times["with current states"], times["without"]
     return (
-        f"Yoo's methods with current states: one run of the mission, `ins-dvl,vkf`, {with_s:.1f} s with the "
-        f"current states (the numpy methods) against {without_s:.1f} s without (the compiled loop), "
-        f"{with_s / without_s:.1f} times (best of two, the simulation apart)."
+        f"Yoo's methods with current states: one run of the mission, `ins-dvl,vkf`, {with_s:.2f} s with the "
+        f"current states against {without_s:.2f} s without, {with_s / without_s:.2f} times (best of two, "
+        "the simulation apart)."
     )
 
 

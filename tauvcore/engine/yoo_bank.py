@@ -50,8 +50,6 @@ from collections.abc import Iterator
 import numpy as np
 
 from tauvcore import units
-from tauvcore.aiding.echo_altitude import ALTITUDE
-from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
 from tauvcore.engine import yoo_loop, yoo_sources
@@ -66,7 +64,7 @@ from tauvcore.engine.results import (
     UpdateRecord,
     method_result,
 )
-from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE, RpmAid, dvl_body_velocity
+from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
 from tauvcore.engine.sources import active, layout_of, states_truth
@@ -136,8 +134,7 @@ class YooBank(ChunkDriver):
         self.taping = None
         if tape is not None:
             self.taping = YooTapeWriter(tape, self.batch, self.added.dim, self.added.rate)
-        # the compiled loop carries the 12 + 5 states; with added states the numpy methods run
-        self.compiled = compiled and tape is None and not self.added.num
+        self.compiled = compiled and tape is None
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
         self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
@@ -169,8 +166,6 @@ class YooBank(ChunkDriver):
             if yoo_sources.takes(SOURCES[name])
         ]
         self.recorders = {name: Recorder(np.ones(len(methods), bool)) for name, _ in self.sources}
-        if self.added.water_var is not None:
-            self.recorders["water"] = Recorder(np.ones(len(methods), bool))
         self._until_s: float | None = None
         # the first output epoch with a non-finite NEES per method and run [s] (NaN: none) among
         # the results handed out by take(), so that a verdict so far spans the chunks taken before
@@ -303,6 +298,16 @@ class YooBank(ChunkDriver):
             "up_S": np.full((U, M, R, 3), nan),
             "up_flags": np.zeros((U, M, R, 3), bool),
             "up_nis": np.full((U, M, R), nan),
+            **{  # the water-track's, with current states and a water-tracking DVL
+                f"wt_{name}": np.full((U if self.added.water_var is not None else 0, M, R) + tail, fill)
+                for name, tail, fill in (
+                    ("z", (3,), nan),
+                    ("nu", (3,), nan),
+                    ("S", (3,), nan),
+                    ("flags", (3,), False),
+                    ("nis", (), nan),
+                )
+            },
             "tr_x": np.full((U, R, 3), nan),
             "tr_sigma": np.full((U, R, 3), nan),
             "tr_truth": np.full((U, R, 2), nan),
@@ -321,98 +326,9 @@ class YooBank(ChunkDriver):
         inputs: ChunkInputs,
         store: Store,
     ) -> None:
-        phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
-        config, R = self.config, self.batch[1]
-        cfg = config.vkf
-        truth, imu = chunk.truth, chunk.imu
-        rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
-        empty_k, empty_v = np.zeros(0, np.int64), np.zeros((0, R))
-        aid = self.rpm_aid
-        aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
-        counters = np.array([self.k_state, self.k_cov], dtype=np.int64)
-        yoo_loop.run_stops(
-            s0,
-            s1,
-            yoo_loop.YooSchedule(stops, ping_of_stop, row_of_stop, chunk.k0),
-            counters,
-            yoo_loop.YooState(
-                self.pos,
-                self.vel,
-                self.C,
-                self.ba,
-                self.bg,
-                self.P,
-                self.dtheta_sum,
-                aid.x,
-                aid.P,
-                aid_use,
-                aid_alt,
-            ),
-            yoo_loop.YooChunk(
-                phi_raw,
-                dv_raw,
-                dtheta,
-                np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float),
-                np.ascontiguousarray(chunk.dvl.available, bool),
-                np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
-                np.ascontiguousarray(rpm.values[RPM], dtype=float) if rpm is not None else empty_v,
-                np.ascontiguousarray(rpm.truth[TRUE_SCALE_FACTOR], dtype=float)
-                if rpm is not None
-                else empty_v,
-                np.ascontiguousarray(rpm.truth[TRUE_BIAS], dtype=float) if rpm is not None else empty_v,
-                np.asarray(echo.index, np.int64) if echo is not None else empty_k,
-                np.ascontiguousarray(echo.values[ALTITUDE], dtype=float) if echo is not None else empty_v,
-                np.ascontiguousarray(truth.pos_n, dtype=float),
-                np.ascontiguousarray(truth.vel_n, dtype=float),
-                np.ascontiguousarray(truth.C_nb, dtype=float),
-                np.ascontiguousarray(imu.accel_bias, dtype=float),
-                np.ascontiguousarray(imu.gyro_bias, dtype=float),
-            ),
-            self.sd_consts,
-            yoo_loop.YooModel(
-                np.asarray(self.origin),
-                self.w_ie,
-                self.q,
-                np.array([METHOD_CODES[m] for m in self.methods], np.int64),
-                np.ascontiguousarray(self.A_b, dtype=float),
-                np.ascontiguousarray(self.l_dvl_b, dtype=float),
-                self.beam_var,
-                self.qc,
-                np.ascontiguousarray(self.L4),
-                float(self.gate),
-                np.ascontiguousarray(cfg.Q, dtype=float),
-                float(cfg.R),
-                float(cfg.switch_altitude_m),
-                cfg.forward_speed == "norm",
-                RPM_LATERAL_SIGMA_MPS**2,
-                BLOCK_OF_STATE,
-                NUM_BLOCKS,
-                1.0 / units.DEG,
-                SENSOR_INDEX,
-            ),
-            yoo_loop.YooOutputs(
-                store["series"],
-                store["nees_block"],
-                store["est_pos_n"],
-                store["est_vel_n"],
-                store["est_euler"],
-                store["sensor_est"],
-                store["sensor_sigma"],
-                store["sensor_true"],
-                store["up_z"],
-                store["up_nu"],
-                store["up_S"],
-                store["up_flags"],
-                store["up_nis"],
-                store["tr_x"],
-                store["tr_sigma"],
-                store["tr_truth"],
-                store["tr_use"],
-                store["tr_alt"],
-            ),
-        )
-        aid.use_rpm, aid.altitude = aid_use, aid_alt
-        self.k_state, self.k_cov = int(counters[0]), int(counters[1])
+        """Stops ``s0 .. s1 - 1`` of the chunk in the compiled loop (tauvcore.engine.yoo_loop.run_chunk)."""
+        args = (s0, s1, stops, ping_of_stop, row_of_stop, inputs, store, METHOD_CODES, SENSOR_INDEX)
+        yoo_loop.run_chunk(self, chunk, *args)
 
     # ------------------------------------------------------------------ the numpy reference
     def _run_numpy(
@@ -520,7 +436,7 @@ class YooBank(ChunkDriver):
                 store["tr_use"][p], store["tr_alt"][p] = tr["rpm_in_use"], tr["altitude_m"]
             fuse_velocity(self, m, z, Rm, valid, Hc, p, store, water, learned)
         if self.added.water_var is not None and chunk.dvl.y_water_mps is not None:
-            fuse_water(self, chunk, p, i)
+            fuse_water(self, chunk, p, i, store)
 
     def _vkf_switch(
         self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray, ok: np.ndarray
@@ -664,6 +580,28 @@ class YooBank(ChunkDriver):
             store["sensor_sigma"][row] = np.sqrt(self.P[..., SENSOR_INDEX, SENSOR_INDEX])
             store["sensor_true"][row] = x_true[..., SENSOR_INDEX]
 
+    def _ping_record(self, cat: Store, prefix: str, m: int) -> UpdateRecord:
+        """Method ``m``'s record of a velocity fused at the pings, from the store's ``prefix`` rows."""
+        nu, S = cat[f"{prefix}_nu"][:, m], cat[f"{prefix}_S"][:, m]
+        valid, fused, rejected = (cat[f"{prefix}_flags"][:, m, :, j] for j in range(3))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.max(nu**2 / (self.gate**2 * S), axis=-1)
+        return UpdateRecord(
+            t_s=cat["up_t"],
+            z=cat[f"{prefix}_z"][:, m],
+            innovation=nu,
+            innovation_var=S,
+            test_ratio=ratio,
+            fused=fused,
+            rejected=rejected,
+            valid=valid,
+            fused_rows=np.repeat(fused[..., None], 3, -1),
+            rejected_rows=np.repeat(rejected[..., None], 3, -1),
+            nis=cat[f"{prefix}_nis"][:, m],
+            nis_dof=np.where(valid, 3, 0),
+            unusable=np.zeros_like(valid),
+        )
+
     def _added_truth(self, chunk: SimChunk) -> np.ndarray:
         """The added states' truth at the chunk's samples (K, E) (tauvcore.engine.sources.states_truth)."""
         if self._extra_truth is None or self._extra_truth[0] != chunk.k0:
@@ -690,26 +628,10 @@ class YooBank(ChunkDriver):
         out = {}
         for m, method in enumerate(self.methods):
             updates = {}
-            if U:
-                nu, S = cat["up_nu"][:, m], cat["up_S"][:, m]
-                valid, fused, rejected = (cat["up_flags"][:, m, :, j] for j in range(3))
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    ratio = np.max(nu**2 / (self.gate**2 * S), axis=-1)
-                updates["dvl"] = UpdateRecord(  # the velocity aid, from the DVL or (vkf) the RPM
-                    t_s=cat["up_t"],
-                    z=cat["up_z"][:, m],
-                    innovation=nu,
-                    innovation_var=S,
-                    test_ratio=ratio,
-                    fused=fused,
-                    rejected=rejected,
-                    valid=valid,
-                    fused_rows=np.repeat(fused[..., None], 3, -1),
-                    rejected_rows=np.repeat(rejected[..., None], 3, -1),
-                    nis=cat["up_nis"][:, m],
-                    nis_dof=np.where(valid, 3, 0),
-                    unusable=np.zeros_like(valid),
-                )
+            if U:  # the velocity aid, from the DVL or (vkf) the RPM; and the water-track's
+                updates["dvl"] = self._ping_record(cat, "up", m)
+                if self.added.water_var is not None:
+                    updates["water"] = self._ping_record(cat, "wt", m)
             for name, rec in self.recorders.items():
                 record = rec.build(m, first_update.get(name, 0)) if rec.count else None
                 if record is not None:

@@ -9,15 +9,24 @@ epoch (the 24-minute ``longrange`` mission took 10 s); this loop and the formula
 The chunk's stops (covariance steps, DVL pings, output epochs) come from the caller in order, with
 the ping and output row of each (-1 for none); :func:`run_stops` processes stops ``s0 .. s1 - 1``,
 so the caller can come back between output epochs (progress, stop requests).
+
+With the states the sources add (the DVL's current, tauvcore.engine.yoo_velocity) the covariance
+is (N, N), N = 17 + E: the velocity aids through the water, the VKF learning through the water
+and the water-track beams are tauvcore.engine.yoo_velocity's, written out here.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from tauvcore import units
+from tauvcore.aiding.echo_altitude import ALTITUDE
+from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
+from tauvcore.engine.results import STATE_FIELDS
+from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE
 from tauvcore.filter.kernels.common import jit, ned_offset
 from tauvcore.filter.kernels.nees import nees_blocks_into, nees_plan, quadratic_into
 from tauvcore.filter.kernels.rotations import log_so3_into
@@ -35,6 +44,8 @@ from tauvcore.filter.yoo_kernels import (
     propagate,
     vkf_step,
 )
+
+_RPM, _WATER = 1, 2  # what a fused velocity is through the water: the VKF's RPM, water-track
 
 INS_DVL, VKF = 0, 1  # method codes (tauvcore.engine.yoo_bank.METHOD_CODES)
 # rows of the per-epoch series (tauvcore.engine.yoo_bank.SERIES)
@@ -77,21 +88,31 @@ def record(
     sensor_est: np.ndarray,
     sensor_sigma: np.ndarray,
     sensor_true: np.ndarray,
+    extra: np.ndarray,
+    extra_t: np.ndarray,
+    est: np.ndarray,
+    state_est: np.ndarray,
+    state_sigma: np.ndarray,
+    state_true: np.ndarray,
 ) -> None:
     """One output epoch of every (method, run) (yoo_bank.YooBank._record): errors ``true - estimate``,
-    1-sigma, NEES of the 12 states and of each block (no position state: NaN), the estimates; when
-    sensor_est (T, M, R, S) has rows, the sensor errors' estimate, ``sqrt(P_ii)`` and truth too
-    (column j the state ``sensor_index[j]``, sensor_sigma and sensor_true alike)."""
+    1-sigma, NEES of the estimated states (the 12 and the added, ``est`` their indices in P) and
+    of each block (no position state: NaN), the estimates; when sensor_est (T, M, R, S) has rows,
+    the sensor errors' estimate, ``sqrt(P_ii)`` and truth too (column j the state
+    ``sensor_index[j]``, sensor_sigma and sensor_true alike); the added states' estimate (``extra``
+    (M, R, E)), ``sqrt(P_ii)`` and truth (``extra_t`` (E,)) into state_est, state_sigma, state_true."""
     M, R = pos.shape[0], pos.shape[1]
     with_sensors = sensor_est.shape[0] > 0
+    n = est.shape[0]
     x_est = np.zeros(DIM)  # the bias states' estimate and truth, by state
     x_true = np.zeros(DIM)
-    dx = np.empty(DIM)
+    dx = np.empty(n)
     Ce = np.empty((3, 3))
     rho = np.empty(3)
-    L = np.empty((DIM, DIM))
-    yv = np.empty(DIM)
-    idx = np.arange(DIM)
+    L = np.empty((n, n))
+    yv = np.empty(n)
+    Pe = np.empty((n, n))
+    idx = np.arange(n)
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
     blocks = np.empty(num_blocks)
     for m in range(M):
@@ -106,6 +127,8 @@ def record(
                 dx[ATT + i] = rho[i]
                 dx[BA + i] = ba_t[r, i] - ba[m, r, i]
                 dx[BG + i] = bg_t[r, i] - bg[m, r, i]
+            for e in range(n - DIM):
+                dx[DIM + e] = extra_t[e] - extra[m, r, e]
             if geodetic:
                 e0, e1, e2 = ned_offset(
                     pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], origin[2]
@@ -124,18 +147,21 @@ def record(
                 ev += vb * vb
                 est_vel[row, m, r, i] = vel[m, r, i]
             Pm = P[m, r]
+            for a in range(n):
+                for b in range(n):
+                    Pe[a, b] = Pm[est[a], est[b]]
             series[0, row, m, r] = math.sqrt(ev)
             series[1, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2 + rho[2] ** 2) * deg
             series[2, row, m, r] = math.sqrt(ep)
             series[3, row, m, r] = math.sqrt(Pm[0, 0] + Pm[1, 1] + Pm[2, 2])
             series[4, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4] + Pm[5, 5]) * deg
             series[5, row, m, r] = np.nan
-            series[6, row, m, r] = quadratic_into(Pm, dx, idx, DIM, L, yv)
+            series[6, row, m, r] = quadratic_into(Pe, dx, idx, n, L, yv)
             series[7, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2) * deg
             series[8, row, m, r] = abs(rho[2]) * deg
             series[9, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4]) * deg
             series[10, row, m, r] = math.sqrt(Pm[5, 5]) * deg
-            nees_blocks_into(Pm, dx, members, sizes, lead, order, L, yv, blocks)
+            nees_blocks_into(Pe, dx, members, sizes, lead, order, L, yv, blocks)
             for b in range(num_blocks):
                 nees_block[row, m, r, b] = blocks[b] if sizes[b] > 0 else np.nan
             est_euler[row, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
@@ -150,6 +176,10 @@ def record(
                     sensor_est[row, m, r, j] = x_est[k]
                     sensor_sigma[row, m, r, j] = math.sqrt(Pm[k, k])
                     sensor_true[row, m, r, j] = x_true[k]
+            for e in range(n - DIM):
+                state_est[row, m, r, e] = extra[m, r, e]
+                state_sigma[row, m, r, e] = math.sqrt(Pm[NA + e, NA + e])
+                state_true[row, m, r, e] = extra_t[e]
 
 
 class YooSchedule(NamedTuple):
@@ -175,6 +205,9 @@ class YooState(NamedTuple):
     vkf_P: np.ndarray
     vkf_use: np.ndarray
     vkf_alt: np.ndarray
+    extra: np.ndarray  # (M, R, E) the added states
+    learn_axis: np.ndarray  # (R, 3) the body x axis of the VKF's last update, NED (rpm_aid.RpmAid)
+    learn_current: np.ndarray  # (R, 3) the current estimate it took then [m/s]
 
 
 class YooChunk(NamedTuple):
@@ -196,6 +229,9 @@ class YooChunk(NamedTuple):
     C_t: np.ndarray
     ba_t: np.ndarray
     bg_t: np.ndarray
+    y_water: np.ndarray  # (pings, R, 4) water-track beams (no pings: none)
+    water_available: np.ndarray  # (pings, R, 4) bool
+    extra_t: np.ndarray  # (K, E) the added states' truth at the chunk's samples
 
 
 class YooModel(NamedTuple):
@@ -220,6 +256,11 @@ class YooModel(NamedTuple):
     num_blocks: int
     deg: float
     sensor_index: np.ndarray  # (S,) int64: the state of each sensor-error column (yoo_bank.SENSOR_INDEX)
+    extra_rate: np.ndarray  # (E,) the added states' -1/tau [1/s] (0: a random walk)
+    extra_q: np.ndarray  # (E,) their driving noise PSD
+    current: int  # the current's first index in P (north, then east); -1: no current states
+    water_var: float  # a water-track beam's noise variance [m^2/s^2]; negative: water-track not fused
+    est: np.ndarray  # (12 + E,) int64 the estimated states' indices in P
 
 
 class YooOutputs(NamedTuple):
@@ -243,6 +284,52 @@ class YooOutputs(NamedTuple):
     tr_truth: np.ndarray
     tr_use: np.ndarray
     tr_alt: np.ndarray
+    state_est: np.ndarray  # (T, M, R, E)
+    state_sigma: np.ndarray
+    state_true: np.ndarray
+    wt_z: np.ndarray  # (pings, M, R, 3) the water-track's records, as up_* (no rows: not fused)
+    wt_nu: np.ndarray
+    wt_S: np.ndarray
+    wt_flags: np.ndarray
+    wt_nis: np.ndarray
+
+
+@jit
+def _aid(
+    kind: int,
+    Cm: np.ndarray,
+    vel: np.ndarray,
+    extra: np.ndarray,
+    current: int,
+    learn_axis: np.ndarray,
+    learn_current: np.ndarray,
+    h: np.ndarray,
+    w: np.ndarray,
+    Hx: np.ndarray,
+) -> None:
+    """A velocity aid's prediction ``h``, the vector ``w`` its attitude column rotates and its
+    columns ``Hx`` (3, E) on the added states (yoo_velocity.velocity_H): over ground (``kind`` 0)
+    ``v``; through the water (the current's at ``current`` in P, :data:`_WATER`) ``v - c``; the
+    VKF's RPM (:data:`_RPM`) also ``+ x (c - c_l) . a`` and ``x a_NE^T`` on the current."""
+    Hx[:, :] = 0.0
+    c = np.zeros(3)
+    if kind != 0 and current >= 0:
+        c[0], c[1] = extra[current - NA], extra[current - NA + 1]
+    for i in range(3):
+        h[i] = vel[i] - c[i]
+        w[i] = h[i]
+    if kind == 0 or current < 0:
+        return
+    for i in range(2):
+        Hx[i, current - NA + i] = -1.0
+    if kind == _RPM:
+        along = 0.0
+        for j in range(3):
+            along += (c[j] - learn_current[j]) * learn_axis[j]
+        for i in range(3):
+            h[i] += Cm[i, 0] * along
+            for j in range(2):
+                Hx[i, current - NA + j] += Cm[i, 0] * learn_axis[j]
 
 
 @jit
@@ -259,80 +346,35 @@ def run_stops(
 ) -> None:
     """Stops ``s0 .. s1 - 1`` of a chunk (yoo_bank.YooBank.feed's loop): advance the nominal states
     to the stop, step the covariance, fuse a DVL ping (its row of the chunk's pings in
-    ``ping_of_stop``), record an output epoch (its row in ``row_of_stop``). ``counters`` =
-    (k_state, k_cov), read and written."""
+    ``ping_of_stop``; then its water-track beams, with current states), record an output epoch
+    (its row in ``row_of_stop``). ``counters`` = (k_state, k_cov), read and written."""
     stops, ping_of_stop, row_of_stop, k0 = schedule
-    pos, vel, C, ba, bg, P, dtheta_sum, vkf_x, vkf_P, vkf_use, vkf_alt = state
-    (
-        phi_raw,
-        dv_raw,
-        dtheta,
-        y_beam,
-        available,
-        rpm_index,
-        rpm_value,
-        rpm_sf,
-        rpm_b,
-        echo_index,
-        echo_alt,
-        pos_t,
-        vel_t,
-        C_t,
-        ba_t,
-        bg_t,
-    ) = chunk
+    (pos, vel, C, ba, bg, P, dtheta_sum, vkf_x, vkf_P, vkf_use, vkf_alt, extra, learn_axis,
+     learn_current) = state  # fmt: skip
+    (phi_raw, dv_raw, dtheta, y_beam, available, rpm_index, rpm_value, rpm_sf, rpm_b, echo_index,
+     echo_alt, pos_t, vel_t, C_t, ba_t, bg_t, y_water, water_available, extra_t) = chunk  # fmt: skip
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    (
-        origin,
-        w_ie_flat,
-        q,
-        method_code,
-        A_b,
-        l_dvl_b,
-        beam_var,
-        qc,
-        L4,
-        gate,
-        vkf_Q,
-        vkf_R,
-        switch_altitude,
-        forward_norm,
-        lateral_var,
-        block_of_state,
-        num_blocks,
-        deg,
-        sensor_index,
-    ) = model
-    (
-        series,
-        nees_block,
-        est_pos,
-        est_vel,
-        est_euler,
-        sensor_est,
-        sensor_sigma,
-        sensor_true,
-        up_z,
-        up_nu,
-        up_S,
-        up_flags,
-        up_nis,
-        tr_x,
-        tr_sigma,
-        tr_truth,
-        tr_use,
-        tr_alt,
-    ) = outputs
+    (origin, w_ie_flat, q, method_code, A_b, l_dvl_b, beam_var, qc, L4, gate, vkf_Q, vkf_R,
+     switch_altitude, forward_norm, lateral_var, block_of_state, num_blocks, deg, sensor_index,
+     extra_rate, extra_q, current, water_var, est) = model  # fmt: skip
+    (series, nees_block, est_pos, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true, up_z,
+     up_nu, up_S, up_flags, up_nis, tr_x, tr_sigma, tr_truth, tr_use, tr_alt, state_est, state_sigma,
+     state_true, wt_z, wt_nu, wt_S, wt_flags, wt_nis) = outputs  # fmt: skip
     M, R = pos.shape[0], pos.shape[1]
+    N = P.shape[-1]
+    E = N - NA
     F = np.empty((DIM, DIM))
     Phi = np.empty((DIM, DIM))
     tmp = np.empty((DIM, DIM))
-    out = np.empty((NA, NA))
+    out = np.empty((N, N))
     v_b = np.empty((R, 3))
     cov_b = np.empty((R, 3, 3))
     gain = np.empty((R, 3, 4))
     Hb = np.empty((3, NC))
     Hc = np.empty((3, NC))
+    Hx = np.empty((3, E))
+    h = np.empty(3)
+    w = np.empty(3)
     ok = np.empty(R, dtype=np.bool_)
     have_rpm = np.empty(R, dtype=np.bool_)
     z = np.empty(3)
@@ -340,6 +382,8 @@ def run_stops(
     Cc = np.empty((3, 3))
     nu = np.empty(3)
     S_diag = np.empty(3)
+    vb = np.empty(3)
+    water = water_var >= 0.0 and y_water.shape[0] > 0
     for s in range(s0, s1):
         k = stops[s]
         if k < k0:
@@ -380,6 +424,8 @@ def run_stops(
                 w_ie_flat,
                 q,
                 qc,
+                extra_rate,
+                extra_q,
                 F,
                 Phi,
                 tmp,
@@ -420,13 +466,28 @@ def run_stops(
                         je = _latest(echo_index, k)
                         rpm_now = rpm_value[jr, r] if jr >= 0 else np.nan
                         altitude = echo_alt[je, r] if je >= 0 else np.nan
+                        for j in range(3):
+                            vb[j] = v_b[r, j]
+                        cx = 0.0  # the current's part along the body x axis (learning through the water)
+                        if current >= 0:
+                            cx = (
+                                Cm[0, 0] * extra[m, r, current - NA]
+                                + Cm[1, 0] * extra[m, r, current - NA + 1]
+                            )
+                        vb[0] -= cx
                         if forward_norm:
-                            z_fwd = math.sqrt(v_b[r, 0] ** 2 + v_b[r, 1] ** 2 + v_b[r, 2] ** 2)
+                            z_fwd = math.sqrt(vb[0] ** 2 + vb[1] ** 2 + vb[2] ** 2)
                         else:
-                            z_fwd = v_b[r, 0]
+                            z_fwd = vb[0]
                         use_rpm, got_rpm = vkf_step(
                             vkf_x[r], vkf_P[r], rpm_now, altitude, z_fwd, ok[r], vkf_Q, vkf_R, switch_altitude
                         )
+                        if current >= 0 and not use_rpm and ok[r] and got_rpm:  # learnt: its axis, current
+                            for j in range(3):
+                                learn_axis[r, j] = Cm[j, 0]
+                                learn_current[r, j] = 0.0
+                            learn_current[r, 0] = extra[m, r, current - NA]
+                            learn_current[r, 1] = extra[m, r, current - NA + 1]
                         have_rpm[r] = got_rpm
                         vkf_use[r], vkf_alt[r] = use_rpm, altitude
                         for j in range(3):
@@ -451,31 +512,44 @@ def run_stops(
                                 )
                     else:
                         valid = ok[r]
-                        for a in range(3):
-                            z[a] = Cm[a, 0] * v_b[r, 0] + Cm[a, 1] * v_b[r, 1] + Cm[a, 2] * v_b[r, 2]
-                            for b in range(3):
-                                Cc[a, b] = (
-                                    Cm[a, 0] * cov_b[r, 0, b]
-                                    + Cm[a, 1] * cov_b[r, 1, b]
-                                    + Cm[a, 2] * cov_b[r, 2, b]
-                                )
-                        for a in range(3):
-                            for b in range(3):
-                                Rm[a, b] = Cc[a, 0] * Cm[b, 0] + Cc[a, 1] * Cm[b, 1] + Cc[a, 2] * Cm[b, 2]
+                        _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
                     for a in range(3):
                         for c in range(NC):
                             Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
+                    _aid(_RPM if use_rpm else 0, Cm, vel[m, r], extra[m, r], current, learn_axis[r],
+                         learn_current[r], h, w, Hx)  # fmt: skip
                     fused, passed, nis = fuse(
-                        P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], z, Rm, Hc, valid, gate, S_diag, nu
-                    )
-                    for a in range(3):
-                        up_z[p, m, r, a] = z[a]
-                        up_nu[p, m, r, a] = nu[a] if valid else np.nan
-                        up_S[p, m, r, a] = S_diag[a] if valid else np.nan
-                    up_flags[p, m, r, U_VALID] = valid
-                    up_flags[p, m, r, U_FUSED] = fused
-                    up_flags[p, m, r, U_REJECTED] = valid and not passed
-                    up_nis[p, m, r] = nis if valid else np.nan
+                        P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r], z, h, w, Rm, Hc, Hx, valid,
+                        gate, S_diag, nu,
+                    )  # fmt: skip
+                    _write_update(p, m, r, z, nu, S_diag, valid, fused, passed, nis, up_z, up_nu, up_S,
+                                  up_flags, up_nis)  # fmt: skip
+            if water:  # the water-track beams, after the ping's bottom-track (yoo_velocity.fuse_water)
+                for r in range(R):
+                    lat = pos[0, r, 0] if geodetic else origin[0]
+                    ok[r] = dvl_body_velocity_into(
+                        y_water[p, r], water_available[p, r], dtheta[i, r], dt, C[0, r], lat, A_b, l_dvl_b,
+                        water_var, v_b[r], cov_b[r], gain[r],
+                    )  # fmt: skip
+                for m in range(M):
+                    for r in range(R):
+                        Cm = C[m, r]
+                        _aid(_WATER, Cm, vel[m, r], extra[m, r], current, learn_axis[r], learn_current[r],
+                             h, w, Hx)  # fmt: skip
+                        for a in range(3):  # the scale factor scales the estimated velocity through the water
+                            Hb[a, 0] = Cm[0, a] * h[0] + Cm[1, a] * h[1] + Cm[2, a] * h[2]
+                            for c in range(4):
+                                Hb[a, 1 + c] = gain[r, a, c]
+                        for a in range(3):
+                            for c in range(NC):
+                                Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
+                        _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
+                        fused, passed, nis = fuse(
+                            P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r], z, h, w, Rm, Hc, Hx,
+                            ok[r], gate, S_diag, nu,
+                        )  # fmt: skip
+                        _write_update(p, m, r, z, nu, S_diag, ok[r], fused, passed, nis, wt_z, wt_nu, wt_S,
+                                      wt_flags, wt_nis)  # fmt: skip
         row = row_of_stop[s]
         if row >= 0:
             record(
@@ -505,4 +579,200 @@ def run_stops(
                 sensor_est,
                 sensor_sigma,
                 sensor_true,
+                extra,
+                extra_t[i],
+                est,
+                state_est,
+                state_sigma,
+                state_true,
             )
+
+
+@jit
+def _rotated_into(
+    Cm: np.ndarray, v_b: np.ndarray, cov_b: np.ndarray, z: np.ndarray, Cc: np.ndarray, Rm: np.ndarray
+) -> None:
+    """A body velocity ``v_b`` (3,) and its covariance ``cov_b`` (3, 3) rotated into n with ``Cm``:
+    ``z`` and ``Rm`` written (``Cc`` work space)."""
+    for a in range(3):
+        z[a] = Cm[a, 0] * v_b[0] + Cm[a, 1] * v_b[1] + Cm[a, 2] * v_b[2]
+        for b in range(3):
+            Cc[a, b] = Cm[a, 0] * cov_b[0, b] + Cm[a, 1] * cov_b[1, b] + Cm[a, 2] * cov_b[2, b]
+    for a in range(3):
+        for b in range(3):
+            Rm[a, b] = Cc[a, 0] * Cm[b, 0] + Cc[a, 1] * Cm[b, 1] + Cc[a, 2] * Cm[b, 2]
+
+
+@jit
+def _write_update(
+    p: int,
+    m: int,
+    r: int,
+    z: np.ndarray,
+    nu: np.ndarray,
+    S_diag: np.ndarray,
+    valid: bool,
+    fused: bool,
+    passed: bool,
+    nis: float,
+    out_z: np.ndarray,
+    out_nu: np.ndarray,
+    out_S: np.ndarray,
+    out_flags: np.ndarray,
+    out_nis: np.ndarray,
+) -> None:
+    """One fused velocity's record at ping ``p`` of method ``m``, run ``r`` (NaN where not valid)."""
+    for a in range(3):
+        out_z[p, m, r, a] = z[a]
+        out_nu[p, m, r, a] = nu[a] if valid else np.nan
+        out_S[p, m, r, a] = S_diag[a] if valid else np.nan
+    out_flags[p, m, r, U_VALID] = valid
+    out_flags[p, m, r, U_FUSED] = fused
+    out_flags[p, m, r, U_REJECTED] = valid and not passed
+    out_nis[p, m, r] = nis if valid else np.nan
+
+
+def run_chunk(
+    bank: Any,
+    chunk: Any,
+    s0: int,
+    s1: int,
+    stops: np.ndarray,
+    ping_of_stop: np.ndarray,
+    row_of_stop: np.ndarray,
+    inputs: Any,
+    store: dict[str, np.ndarray],
+    method_codes: dict[str, int],
+    sensor_index: np.ndarray,
+) -> None:
+    """Stops ``s0 .. s1 - 1`` of a chunk of the Yoo bank ``bank`` (tauvcore.engine.yoo_bank.YooBank,
+    its numpy methods' ``_run_numpy``) in :func:`run_stops`: the bank's states, the chunk's inputs and
+    truth, the filters' constants and the chunk's store, as the compiled loop takes them.
+
+    Parameters
+    ----------
+    bank : YooBank
+        The bank: its states (written in place) and constants.
+    chunk : SimChunk
+        The chunk: its IMU, DVL, RPM and echo sounder data and its truth.
+    s0, s1 : int
+        The stops run.
+    stops, ping_of_stop, row_of_stop : numpy.ndarray
+        The chunk's stops and, at each, its ping's and output epoch's row (-1: none).
+    inputs : ChunkInputs
+        The chunk's IMU increments.
+    store : dict[str, numpy.ndarray]
+        The chunk's store, written.
+    method_codes : dict[str, int]
+        Each method's code (:data:`INS_DVL`, :data:`VKF`).
+    sensor_index : numpy.ndarray
+        The state of each sensor-error column.
+    """
+    phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
+    config, R = bank.config, bank.batch[1]
+    cfg = config.vkf
+    truth, imu = chunk.truth, chunk.imu
+    rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
+    empty_k, empty_v = np.zeros(0, np.int64), np.zeros((0, R))
+    aid = bank.rpm_aid
+    aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
+    dvl = chunk.dvl
+    if bank.added.water_var is not None and dvl.y_water_mps is not None:
+        water = (np.ascontiguousarray(dvl.y_water_mps, dtype=float),
+                 np.ascontiguousarray(dvl.water_available, dtype=bool))  # fmt: skip
+    else:
+        water = (np.zeros((0, R, 4)), np.zeros((0, R, 4), bool))
+    counters = np.array([bank.k_state, bank.k_cov], dtype=np.int64)
+    run_stops(
+        s0,
+        s1,
+        YooSchedule(stops, ping_of_stop, row_of_stop, chunk.k0),
+        counters,
+        YooState(
+            bank.pos,
+            bank.vel,
+            bank.C,
+            bank.ba,
+            bank.bg,
+            bank.P,
+            bank.dtheta_sum,
+            aid.x,
+            aid.P,
+            aid_use,
+            aid_alt,
+            bank.extra,
+            aid.learn_axis_n,
+            aid.learn_current_n,
+        ),
+        YooChunk(
+            phi_raw,
+            dv_raw,
+            dtheta,
+            np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float),
+            np.ascontiguousarray(chunk.dvl.available, bool),
+            np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
+            np.ascontiguousarray(rpm.values[RPM], dtype=float) if rpm is not None else empty_v,
+            np.ascontiguousarray(rpm.truth[TRUE_SCALE_FACTOR], dtype=float) if rpm is not None else empty_v,
+            np.ascontiguousarray(rpm.truth[TRUE_BIAS], dtype=float) if rpm is not None else empty_v,
+            np.asarray(echo.index, np.int64) if echo is not None else empty_k,
+            np.ascontiguousarray(echo.values[ALTITUDE], dtype=float) if echo is not None else empty_v,
+            np.ascontiguousarray(truth.pos_n, dtype=float),
+            np.ascontiguousarray(truth.vel_n, dtype=float),
+            np.ascontiguousarray(truth.C_nb, dtype=float),
+            np.ascontiguousarray(imu.accel_bias, dtype=float),
+            np.ascontiguousarray(imu.gyro_bias, dtype=float),
+            *water,
+            np.ascontiguousarray(bank._added_truth(chunk), dtype=float),
+        ),
+        bank.sd_consts,
+        YooModel(
+            np.asarray(bank.origin),
+            bank.w_ie,
+            bank.q,
+            np.array([method_codes[m] for m in bank.methods], np.int64),
+            np.ascontiguousarray(bank.A_b, dtype=float),
+            np.ascontiguousarray(bank.l_dvl_b, dtype=float),
+            bank.beam_var,
+            bank.qc,
+            np.ascontiguousarray(bank.L4),
+            float(bank.gate),
+            np.ascontiguousarray(cfg.Q, dtype=float),
+            float(cfg.R),
+            float(cfg.switch_altitude_m),
+            cfg.forward_speed == "norm",
+            RPM_LATERAL_SIGMA_MPS**2,
+            bank.block_of_state,
+            bank.num_blocks,
+            1.0 / units.DEG,
+            sensor_index,
+            np.ascontiguousarray(bank.added.rate, dtype=float),
+            np.ascontiguousarray(bank.added.q, dtype=float),
+            bank.added.current.start if bank.added.current is not None else -1,
+            bank.added.water_var if bank.added.water_var is not None else -1.0,
+            bank.added.estimated,
+        ),
+        YooOutputs(
+            store["series"],
+            store["nees_block"],
+            store["est_pos_n"],
+            store["est_vel_n"],
+            store["est_euler"],
+            store["sensor_est"],
+            store["sensor_sigma"],
+            store["sensor_true"],
+            store["up_z"],
+            store["up_nu"],
+            store["up_S"],
+            store["up_flags"],
+            store["up_nis"],
+            store["tr_x"],
+            store["tr_sigma"],
+            store["tr_truth"],
+            store["tr_use"],
+            store["tr_alt"],
+            *(store[name] for name in STATE_FIELDS),
+            *(store[f"wt_{name}"] for name in ("z", "nu", "S", "flags", "nis")),
+        ),
+    )
+    aid.use_rpm, aid.altitude = aid_use, aid_alt
+    bank.k_state, bank.k_cov = int(counters[0]), int(counters[1])

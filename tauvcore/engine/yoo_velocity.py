@@ -47,7 +47,6 @@ from tauvcore.aiding.dvl_water import CURRENT_BLOCK
 from tauvcore.config import Config
 from tauvcore.engine.rpm_aid import dvl_body_velocity
 from tauvcore.filter import yoo
-from tauvcore.filter.eskf import make_outcome
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.filter.yoo_kernels import NA
 from tauvcore.geo.rotations import exp_so3
@@ -243,27 +242,30 @@ def surge_current(C_nb: np.ndarray, c_n: np.ndarray) -> np.ndarray:
     return np.einsum("...j,...j->...", C_nb[..., :, 0], c_n)
 
 
-def fuse_water(bank: Any, chunk: Any, p: int, i: int) -> None:
+def fuse_water(bank: Any, chunk: Any, p: int, i: int, store: dict[str, np.ndarray]) -> None:
     """The water-track beams of ping ``p`` (sample ``i`` of ``chunk``) fused by every method of the
     Yoo bank ``bank`` (tauvcore.engine.yoo_bank.YooBank) with at least three of them, as a NED
-    velocity through the water (module docstring), gated as the bank's DVL update, recorded as
-    the source ``water``.
+    velocity through the water (module docstring), gated as the bank's DVL update
+    (:func:`fuse_velocity`), recorded in the store's ``wt_*`` rows of the ping (the source
+    ``water``).
 
     Parameters
     ----------
     bank : YooBank
-        The bank: its estimates, covariance and recorders, written in place.
+        The bank: its estimates and covariance, written in place.
     chunk : SimChunk
         The chunk of the ping: its DVL data's ``y_water_mps`` and ``water_available`` (pings, R, 4).
     p : int
         The ping within the chunk.
     i : int
         The ping's sample within the chunk.
+    store : dict[str, numpy.ndarray]
+        The chunk's store.
     """
     added: Added = bank.added
     assert added.water_var is not None  # called only when the bank fuses water-track
     lat, _ = bank._lat_h()
-    M, R = bank.batch
+    R = bank.batch[1]
     w_b, cov_b, ok, gain = dvl_body_velocity(
         chunk.dvl.y_water_mps[p],
         chunk.dvl.water_available[p],
@@ -276,25 +278,13 @@ def fuse_water(bank: Any, chunk: Any, p: int, i: int) -> None:
         added.water_var,
         with_gain=True,
     )
-    if not ok.any():
-        return
-    C = bank.C  # (M, R, 3, 3)
-    c_n = added.current_in(bank.extra)
-    z = np.einsum("mrij,rj->mri", C, w_b)
-    Rm = np.einsum("mrij,rjk,mrlk->mril", C, cov_b, C)
-    w_est_b = np.einsum("mrji,mrj->mri", C, bank.vel - c_n)
-    Hc = C @ np.concatenate([w_est_b[..., None], np.broadcast_to(gain, (M, R, 3, 4))], axis=-1)
-    h, H = velocity_H(bank.vel, c_n, Hc, np.ones((M, R), bool), added)
-    nu = np.where(ok[:, None], z - h, 0.0)
-    valid = np.broadcast_to(ok, (M, R))
-    active = np.repeat(valid[..., None], 3, axis=-1)
-    P, dx, outcome = yoo.correct_consider(
-        bank.P, H, Rm, nu, active, False, bank.gate, consider=slice(yoo.DIM, NA)
-    )
-    bank.P[...] = P
-    bank.inject(dx)
-    t = float(chunk.truth.t_s[i])
-    bank.recorders["water"].add(t, make_outcome(z, nu, active, *outcome), valid)
+    for m in range(bank.batch[0]):
+        C = bank.C[m]
+        z = np.einsum("rij,rj->ri", C, w_b)
+        Rm = np.einsum("rij,rjk,rlk->ril", C, cov_b, C)
+        w_est_b = np.einsum("rji,rj->ri", C, bank.vel[m] - added.current_in(bank.extra[m]))
+        Hc = C @ np.concatenate([w_est_b[..., None], gain], axis=-1)
+        fuse_velocity(bank, m, z, Rm, ok, Hc, p, store, np.ones(R, bool), prefix="wt")
 
 
 def fuse_velocity(
@@ -308,6 +298,7 @@ def fuse_velocity(
     store: dict[str, np.ndarray],
     water: np.ndarray | None = None,
     learned: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    prefix: str = "up",
 ) -> None:
     """One method of the Yoo bank fuses a NED velocity rotated into n with the estimated attitude.
 
@@ -341,6 +332,8 @@ def fuse_velocity(
         Shape (R,) bool: the velocity is through the water; None: over ground.
     learned : tuple of numpy.ndarray or None
         An RPM velocity's learning (:func:`velocity_H`); None: none.
+    prefix : str
+        The store's records written: ``up`` (the DVL's, or the RPM's) or ``wt`` (water-track).
     """
     P = bank.P[m]
     c_n = bank.added.current_in(bank.extra[m])
@@ -371,8 +364,8 @@ def fuse_velocity(
     bank.ba[m] += dx[:, yoo.BA]
     bank.bg[m] += dx[:, yoo.BG]
     bank.extra[m] += dx[:, NA:]
-    store["up_z"][p, m] = z
-    store["up_nu"][p, m] = np.where(valid[:, None], nu, np.nan)
-    store["up_S"][p, m] = np.where(valid[:, None], S_diag, np.nan)
-    store["up_flags"][p, m] = np.stack([valid, use, valid & ~passed], axis=-1)
-    store["up_nis"][p, m] = np.where(valid, nis, np.nan)
+    store[f"{prefix}_z"][p, m] = z
+    store[f"{prefix}_nu"][p, m] = np.where(valid[:, None], nu, np.nan)
+    store[f"{prefix}_S"][p, m] = np.where(valid[:, None], S_diag, np.nan)
+    store[f"{prefix}_flags"][p, m] = np.stack([valid, use, valid & ~passed], axis=-1)
+    store[f"{prefix}_nis"][p, m] = np.where(valid, nis, np.nan)

@@ -6,7 +6,9 @@ both equal to 1e-9). The chunk loop that drives them is tauvcore.engine.yoo_loop
 rotations and NEES are the 20-state bank's own kernels (tauvcore.filter.kernels), so those are
 bit for bit the same.
 
-Layout: the bank's states are (M, R, ...) arrays (methods, runs); the VKF's (R, ...).
+Layout: the bank's states are (M, R, ...) arrays (methods, runs); the VKF's (R, ...). The
+covariance is over the 12 states, the 5 consider states and the E states the sources add
+(tauvcore.engine.yoo_velocity), N = 17 + E.
 """
 
 from __future__ import annotations
@@ -95,16 +97,19 @@ def propagate(
     w_ie_flat: np.ndarray,
     q: np.ndarray,
     qc: np.ndarray,
+    extra_rate: np.ndarray,
+    extra_q: np.ndarray,
     F: np.ndarray,
     Phi: np.ndarray,
     tmp: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """One covariance step of every (method, run) over ``dt_c`` (yoo_bank.YooBank._propagate):
-    ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the consider
-    states' cross terms ``P_xc <- Phi P_xc`` and ``P_cc += diag(qc) dt_c``, symmetrised; F of
-    tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific force. P (M, R, NA,
-    NA); out (NA, NA), tmp (DIM, DIM) work space."""
+    ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the other
+    states' cross terms ``P_xc <- Phi P_xc``, ``P_cc += diag(qc) dt_c`` on the consider states,
+    and the added states' own step (``extra_rate``, ``extra_q`` (E,), yoo_velocity.propagate_added),
+    symmetrised; F of tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific
+    force. P (M, R, N, N); out (N, N), tmp (DIM, DIM) work space."""
     M, R = P.shape[0], P.shape[1]
     f_b = np.empty(3)
     f_n = np.empty(3)
@@ -159,19 +164,32 @@ def propagate(
                         s += F[i, k] * F[k, j]
                     Phi[i, j] = (1.0 if i == j else 0.0) + F[i, j] + 0.5 * s
             Pm = P[m, r]
+            N = Pm.shape[0]
             _sandwich_into(Phi, Pm[:DIM, :DIM], tmp, out[:DIM, :DIM])
             for i in range(DIM):
                 out[i, i] += q[i] * dt_c
-                for c in range(NC):
+                for c in range(N - DIM):
                     s = 0.0
                     for k in range(DIM):
                         s += Phi[i, k] * Pm[k, DIM + c]
                     out[i, DIM + c] = s
                     out[DIM + c, i] = s
-            for a in range(NC):
-                for c in range(NC):
+            for a in range(N - DIM):
+                for c in range(N - DIM):
                     out[DIM + a, DIM + c] = Pm[DIM + a, DIM + c]
+            for a in range(NC):
                 out[DIM + a, DIM + a] += qc[a] * dt_c
+            for e in range(extra_rate.shape[0]):
+                a = NA + e
+                if extra_rate[e] != 0.0:
+                    phi = math.exp(extra_rate[e] * dt_c)
+                    for j in range(N):
+                        out[a, j] *= phi
+                    for j in range(N):
+                        out[j, a] *= phi
+                    out[a, a] += extra_q[e] * (1.0 - phi * phi) / (-2.0 * extra_rate[e])
+                else:
+                    out[a, a] += extra_q[e] * dt_c
             _symmetrise_into(out, Pm)
 
 
@@ -282,41 +300,50 @@ def fuse(
     C: np.ndarray,
     ba: np.ndarray,
     bg: np.ndarray,
+    extra: np.ndarray,
     z: np.ndarray,
+    h: np.ndarray,
+    w: np.ndarray,
     Rm: np.ndarray,
     Hc: np.ndarray,
+    Hx: np.ndarray,
     valid: bool,
     gate: float,
     S_diag: np.ndarray,
     nu: np.ndarray,
 ) -> tuple:
-    """Fuse one NED velocity ``z`` into one filter (yoo_bank.YooBank._fuse): ``H = [I, [v x], 0, 0,
-    Hc]`` (v the estimated velocity, Hc (3, NC) on the consider states, whose gain is zero), every
-    row gated, Joseph form over the NA states, inject and reset. -> (fused, passed the gate, NIS
-    before the gate (NaN if S cannot be inverted)); ``S_diag`` and ``nu`` written."""
-    H = np.zeros((3, NA))
+    """Fuse one NED velocity ``z`` into one filter (yoo_velocity.fuse_velocity): its prediction
+    ``h`` (the estimated velocity, or through the water ``v - c``), ``H = [I, [w x], 0, 0, Hc,
+    Hx]`` (``w`` the vector the attitude rotated, Hc (3, NC) on the consider states, whose gain
+    is zero, Hx (3, E) on the added states), every row gated, Joseph form over the N states,
+    inject and reset. -> (fused, passed the gate, NIS before the gate (NaN if S cannot be
+    inverted)); ``S_diag`` and ``nu`` written."""
+    NN = P.shape[0]
+    H = np.zeros((3, NN))
     for i in range(3):
         H[i, VEL + i] = 1.0
-        nu[i] = z[i] - vel[i]
+        nu[i] = z[i] - h[i]
         for c in range(NC):
             H[i, DIM + c] = Hc[i, c] if math.isfinite(Hc[i, c]) else 0.0
+        for e in range(NN - NA):
+            H[i, NA + e] = Hx[i, e]
     Sk = np.empty((3, 3))
-    _skew_into(vel[0], vel[1], vel[2], Sk)
+    _skew_into(w[0], w[1], w[2], Sk)
     for i in range(3):
         for j in range(3):
             H[i, ATT + j] = Sk[i, j]
-    PHt = np.empty((NA, 3))
-    for i in range(NA):
+    PHt = np.empty((NN, 3))
+    for i in range(NN):
         for j in range(3):
             s = 0.0
-            for k in range(NA):
+            for k in range(NN):
                 s += P[i, k] * H[j, k]
             PHt[i, j] = s
     S = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
             s = 0.0
-            for k in range(NA):
+            for k in range(NN):
                 s += H[i, k] * PHt[k, j]
             S[i, j] = s + Rm[i, j]
     passed = True
@@ -338,34 +365,38 @@ def fuse(
     else:
         use = False
     if use:
-        K = np.zeros((NA, 3))  # the consider rows stay zero
-        for i in range(DIM):
+        K = np.zeros((NN, 3))  # the consider rows stay zero
+        for i in range(NN):
+            if DIM <= i < NA:
+                continue
             for j in range(3):
                 K[i, j] = PHt[i, 0] * Sinv[0, j] + PHt[i, 1] * Sinv[1, j] + PHt[i, 2] * Sinv[2, j]
-        dx = np.empty(DIM)
-        for i in range(DIM):
+        dx = np.zeros(NN)
+        for i in range(NN):
             dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
-        I_KH = np.empty((NA, NA))
-        for i in range(NA):
-            for j in range(NA):
+        I_KH = np.empty((NN, NN))
+        for i in range(NN):
+            for j in range(NN):
                 I_KH[i, j] = (1.0 if i == j else 0.0) - (
                     K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j]
                 )
-        tmp = np.empty((NA, NA))
-        out = np.empty((NA, NA))
+        tmp = np.empty((NN, NN))
+        out = np.empty((NN, NN))
         _sandwich_into(I_KH, P, tmp, out)
-        KR = np.empty((NA, 3))
-        for i in range(NA):
+        KR = np.empty((NN, 3))
+        for i in range(NN):
             for j in range(3):
                 KR[i, j] = K[i, 0] * Rm[0, j] + K[i, 1] * Rm[1, j] + K[i, 2] * Rm[2, j]
-        for i in range(NA):
-            for j in range(NA):
+        for i in range(NN):
+            for j in range(NN):
                 out[i, j] += KR[i, 0] * K[j, 0] + KR[i, 1] * K[j, 1] + KR[i, 2] * K[j, 2]
         _symmetrise_into(out, P)
         for i in range(3):
             vel[i] += dx[VEL + i]
             ba[i] += dx[BA + i]
             bg[i] += dx[BG + i]
+        for e in range(NN - NA):
+            extra[e] += dx[NA + e]
         E = np.empty((3, 3))
         exp_so3_into(dx[ATT], dx[ATT + 1], dx[ATT + 2], E)
         Cn = np.empty((3, 3))

@@ -131,6 +131,20 @@ def _numpy_bank(monkeypatch: pytest.MonkeyPatch) -> None:
             super().__init__(*args, compiled=False, **kwargs)
 
     monkeypatch.setattr(yoo_bank, "YooBank", NumpyBank)
+    monkeypatch.setattr("tauvcore.engine.mission.YooBank", NumpyBank)  # where the engine makes it
+    made = []
+    monkeypatch.setattr(NumpyBank, "_run_numpy", _counted(compiled._run_numpy, made))
+    monkeypatch.setattr(NumpyBank, "made", made, raising=False)
+
+
+def _counted(method, calls: list):
+    """``method`` that appends to ``calls`` when it runs (the reference did run)."""
+
+    def counted(self, *args, **kwargs):
+        calls.append(1)
+        return method(self, *args, **kwargs)
+
+    return counted
 
 
 def _assert_results_equal(fast: dict, slow: dict, rtol: float = 1e-9) -> None:
@@ -161,11 +175,14 @@ def _assert_results_equal(fast: dict, slow: dict, rtol: float = 1e-9) -> None:
         same(fast[method], slow[method], method)
 
 
-@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic"])
+@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic",
+                                  "current-water-geodetic", "current-rpm-geodetic"])
 def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """tauvcore.filter.yoo_kernels against YooBank(compiled=False), to 1e-9, every field: over the
     first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
-    Yoo's noisy beams (the gate refusing some), and on the flat earth in turns; 3 runs each."""
+    Yoo's noisy beams (the gate refusing some), on the flat earth in turns, and in a cross current
+    with the current as states, water-track beyond range (Gauss-Markov) or the VKF's RPM through
+    the water (random walk); 3 runs each."""
     if case == "flat-figure8":
         config = Config().replace("trajectory", name="figure8", duration_s=120.0).replace("earth", model="flat")
         config = config.replace("run", methods=("ins-dvl", "vkf"))
@@ -175,9 +192,17 @@ def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: py
             config = config.replace("dvl", beyond_range="noisy")
         if case.startswith("mag"):  # the magnetometer's corrections between the compiled spans
             config = config.replace("run", aiding=("dvl", "mag"))
+        if case.startswith("current"):
+            config = config.replace("trajectory", current_n_mps=(0.0, 0.3, 0.0)).replace(
+                "run", aiding=("dvl", "mag"))
+            config = config.replace("dvl", water_track="beyond_range", current_states="gauss-markov",
+                                    current_tau_s=600.0) if "water" in case else config.replace(
+                "dvl", current_states="random-walk")
     fast = run_streaming(config, np.random.default_rng(3), num_runs=3)
     _numpy_bank(monkeypatch)
     slow = run_streaming(config, np.random.default_rng(3), num_runs=3)
+    from tauvcore.engine import mission
+    assert mission.YooBank.made  # type: ignore[attr-defined]  # the numpy reference ran
     _assert_results_equal(fast, slow)
     ups = fast["vkf"].updates["dvl"]
     assert ups.fused.any() and (case == "flat-figure8" or fast["vkf"].vkf_trace["rpm_in_use"].any())
@@ -185,6 +210,11 @@ def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: py
         assert fast["ins-dvl"].updates["dvl"].rejected.any()
     if case.startswith("mag"):
         assert fast["vkf"].updates["mag"].fused.mean() > 0.95
+    if case.startswith("current"):
+        assert fast["vkf"].state_est is not None and np.ptp(fast["vkf"].state_est[:, :, 1]) > 0.05
+        assert ("water" in fast["ins-dvl"].updates) == ("water" in case)
+        if "water" in case:
+            assert fast["ins-dvl"].updates["water"].fused.any()
 
 
 def test_progress_and_stop_reach_the_yoo_methods() -> None:
