@@ -52,8 +52,8 @@ def refused_with(tab, message: str) -> None:
 def test_water_track_and_current_states_reach_the_run_the_nees_and_the_current_s_figure(new_tab) -> None:
     """Given LC on a 30 s figure eight with Water-track "always" and Current states "random-walk"
     chosen in the Seabed folder, when the DVL's range is typed below the water-track layer, then
-    Run names DVL max altitude and the water-track; with the Smoother ticked, Run names Current
-    states; put right, the run completes: the Results tab and the address carry both choices, the
+    Run names DVL max altitude and the water-track; put right, with the Smoother ticked, the run
+    completes: the Results tab and the address carry both choices, the
     Consistency tab offers the block "current" and draws LC's NEES of it, the Innovations offer
     the water-track source, and the Sensors tab draws LC's current north and east against the truth."""
     tab = new_tab("?traj=figure8&dur=30&m=lc")
@@ -64,9 +64,7 @@ def test_water_track_and_current_states_reach_the_run_the_nees_and_the_current_s
     tab.type_into(DVL_MAX_ALTITUDE, "5")
     refused_with(tab, f"{DVL_MAX_ALTITUDE}: '5' is out of range with {DVL_WATER_TRACK} 'always'")
     tab.type_into(DVL_MAX_ALTITUDE, "100")
-    tab.set_checkbox("Smoother", True)
-    refused_with(tab, f"{DVL_CURRENT_STATES}: 'random-walk' with the Smoother")
-    tab.set_checkbox("Smoother", False)
+    tab.set_checkbox("Smoother", True)  # the smoother takes the current states too
     page.get_by_role("button", name="Run", exact=True).click()
     tab.notification("Run complete").last.wait_for(timeout=120000)
 
