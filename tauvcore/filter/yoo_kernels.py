@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from tauvcore.filter.kernels.common import jit, radii_nav
+from tauvcore.filter.kernels.error_model import extra_step_into
 from tauvcore.filter.kernels.rotations import exp_so3_into
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
@@ -179,17 +180,7 @@ def propagate(
                     out[DIM + a, DIM + c] = Pm[DIM + a, DIM + c]
             for a in range(NC):
                 out[DIM + a, DIM + a] += qc[a] * dt_c
-            for e in range(extra_rate.shape[0]):
-                a = NA + e
-                if extra_rate[e] != 0.0:
-                    phi = math.exp(extra_rate[e] * dt_c)
-                    for j in range(N):
-                        out[a, j] *= phi
-                    for j in range(N):
-                        out[j, a] *= phi
-                    out[a, a] += extra_q[e] * (1.0 - phi * phi) / (-2.0 * extra_rate[e])
-                else:
-                    out[a, a] += extra_q[e] * dt_c
+            extra_step_into(out, extra_rate, extra_q, dt_c, NA)
             _symmetrise_into(out, Pm)
 
 

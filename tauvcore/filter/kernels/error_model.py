@@ -340,15 +340,15 @@ def sandwich_core_into(P: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
 
 
 @jit
-def extra_step_into(P: np.ndarray, rate: np.ndarray, q: np.ndarray, dt: float) -> None:
+def extra_step_into(P: np.ndarray, rate: np.ndarray, q: np.ndarray, dt: float, first: int = N) -> None:
     """The sources' own states over ``dt``, each a first-order Gauss-Markov process (``rate`` =
     -1/tau < 0) or a random walk (``rate`` = 0) driven by white noise of PSD ``q``, uncoupled from
     the rest in F: their rows and columns of P scale by ``phi = exp(rate dt)`` and each variance
     gains the exact discrete noise ``q (1 - phi^2) / (-2 rate)`` (``q dt`` for a walk). P (d, d),
-    rate and q (E,), states 20 .. 20 + E - 1."""
+    rate and q (E,), states ``first .. first + E - 1`` (20 .. 20 + E - 1 in the 20-state bank)."""
     d = P.shape[0]
     for e in range(rate.shape[0]):
-        a = N + e
+        a = first + e
         if rate[e] != 0.0:
             phi = math.exp(rate[e] * dt)
             for j in range(d):
