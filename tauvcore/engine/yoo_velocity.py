@@ -26,8 +26,8 @@ estimate it took (tauvcore.engine.rpm_aid.RpmAid). So the RPM velocity predicts
 ``v - c + x (c - c_l) . a`` and its current columns are ``-[e_N e_E] + x a_NE^T``: on a straight
 track (``x = a``) the RPM says nothing of the current along it, which the VKF's bias took, and
 only its zero sway and heave observe the current across it. (With ``-[e_N e_E]`` alone the filter
-reads the along-track current from the VKF that learned it from the filter, and its current NEES
-was 2.2 per dimension.)
+would read the along-track current from a VKF that learned it from the filter: on the long-range
+mission its current NEES per dimension is then about 2.2, over-confident.)
 
 The water-track beams of a ping (``dvl.water_track``) are the least squares' body velocity over
 the beams that water-tracked (at least three), fused by both methods after the bottom-track's
