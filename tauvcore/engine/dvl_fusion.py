@@ -180,7 +180,7 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
         v_b = v_b - surge_current[:, None] * np.array([1.0, 0.0, 0.0])
         _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok, (bank.C[m0, :, :, 0], c_n[m0]))
         aid = bank.rpm_aid
-        current = (bank.C, c_n, cols, bank.layout.dim, aid.learn_axis_n[None], aid.learn_current_n[None])
+        current = (bank.C, c_n, cols, bank.layout.dim, aid.learn_axis_n[None], aid.learn_current_n_mps[None])
     else:
         _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok)
     coast = np.zeros(bank.batch, bool)

@@ -62,7 +62,7 @@ class RpmAid:
 
     With current states the VKF learns the surge through the water, the DVL's less the current's
     part along the body x axis by a filter's estimate; :attr:`learn_axis_n` and
-    :attr:`learn_current_n` keep, per run, the axis and the estimate of its last update. The speed it
+    :attr:`learn_current_n_mps` keep, per run, the axis and the estimate of its last update. The speed it
     gives is then ``x . (v - c) + (c - c_learn) . a``: the estimate's error at learning stays in
     it, along the axis ``a`` it learned on (tauvcore.engine.yoo_velocity)."""
 
@@ -73,7 +73,7 @@ class RpmAid:
         self.use_rpm = np.zeros(num_runs, bool)
         self.altitude = np.full(num_runs, np.nan)
         self.learn_axis_n = np.zeros((num_runs, 3))  # body x axis in NED at the last update (zero: none)
-        self.learn_current_n = np.zeros((num_runs, 3))  # the current estimate it took then [m/s] NED
+        self.learn_current_n_mps = np.zeros((num_runs, 3))  # the current estimate it took then [m/s] NED
 
     def step(
         self,
@@ -100,7 +100,7 @@ class RpmAid:
         self.x, self.P, _, _ = vkf.update(self.x, self.P, z_fwd, learn, cfg.R)
         if learned is not None:
             self.learn_axis_n = np.where(learn[:, None], learned[0], self.learn_axis_n)
-            self.learn_current_n = np.where(learn[:, None], learned[1], self.learn_current_n)
+            self.learn_current_n_mps = np.where(learn[:, None], learned[1], self.learn_current_n_mps)
         self.use_rpm, self.altitude = use_rpm, np.asarray(altitude, dtype=float)
         return use_rpm, have_rpm
 

@@ -393,24 +393,23 @@ class YooBank(ChunkDriver):
         self.dtheta_sum[:] = 0.0
         self.k_cov = k
 
-    def _dvl_velocity(self, chunk, p: int, i: int) -> tuple[np.ndarray, ...]:
+    def _dvl_velocity(
+        self, chunk, i: int, y: np.ndarray, available: np.ndarray, beam_var: float
+    ) -> tuple[np.ndarray, ...]:
+        """The least squares' body velocity of beams ``y`` (R, 4) [m/s] returned where ``available``
+        at sample ``i`` of ``chunk``, its covariance from ``beam_var`` [m^2/s^2], whether enough beams
+        returned and the gain (tauvcore.engine.rpm_aid.dvl_body_velocity)."""
         lat, _ = self._lat_h()
         R = self.batch[1]
         return dvl_body_velocity(
-            chunk.dvl.y_beam_mps[p],
-            chunk.dvl.available[p],
-            chunk.imu.dtheta_b[i],
-            self.dt,
-            self.C[0],
-            lat[:R],
-            self.A_b,
-            self.l_dvl_b,
-            self.beam_var,
+            y, available, chunk.imu.dtheta_b[i], self.dt, self.C[0], lat[:R], self.A_b, self.l_dvl_b, beam_var,
             with_gain=True,
-        )
+        )  # fmt: skip
 
     def _update(self, chunk, p: int, i: int, store: dict[str, np.ndarray]) -> None:
-        v_b, cov_b, ok, gain = self._dvl_velocity(chunk, p, i)
+        v_b, cov_b, ok, gain = self._dvl_velocity(
+            chunk, i, chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], self.beam_var
+        )
         R = self.batch[1]
         for m, method in enumerate(self.methods):
             C = self.C[m]
@@ -425,7 +424,7 @@ class YooBank(ChunkDriver):
                 z, Rm, valid = self._vkf_switch(chunk, i, m, v_b, v_dvl_n, R_dvl, ok)
                 if self.added.current is not None:
                     water = self.rpm_aid.use_rpm
-                    learned = (C[:, :, 0], self.rpm_aid.learn_axis_n, self.rpm_aid.learn_current_n)
+                    learned = (C[:, :, 0], self.rpm_aid.learn_axis_n, self.rpm_aid.learn_current_n_mps)
                 Hr = np.zeros((R, 3, NC))  # the RPM's surge was learnt from the DVL's (4 beams)
                 Hr[:, 0, 0] = self.rpm_aid.x[:, 0]
                 Hr[:, 0, 1:] = self.L4[0]

@@ -645,9 +645,9 @@ def run_chunk(
     method_codes: dict[str, int],
     sensor_index: np.ndarray,
 ) -> None:
-    """Stops ``s0 .. s1 - 1`` of a chunk of the Yoo bank ``bank`` (tauvcore.engine.yoo_bank.YooBank,
-    its numpy methods' ``_run_numpy``) in :func:`run_stops`: the bank's states, the chunk's inputs and
-    truth, the filters' constants and the chunk's store, as the compiled loop takes them.
+    """Stops ``s0 .. s1 - 1`` of a chunk of the Yoo bank ``bank`` (tauvcore.engine.yoo_bank.YooBank)
+    in :func:`run_stops`, which is handed the bank's states, the chunk's inputs and truth, the
+    filters' constants and the chunk's store as the compiled loop takes them.
 
     Parameters
     ----------
@@ -702,7 +702,7 @@ def run_chunk(
             aid_alt,
             bank.extra,
             aid.learn_axis_n,
-            aid.learn_current_n,
+            aid.learn_current_n_mps,
         ),
         YooChunk(
             phi_raw,

@@ -45,7 +45,6 @@ import numpy as np
 
 from tauvcore.aiding.dvl_water import CURRENT_BLOCK
 from tauvcore.config import Config
-from tauvcore.engine.rpm_aid import dvl_body_velocity
 from tauvcore.filter import yoo
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.filter.yoo_kernels import NA
@@ -264,19 +263,10 @@ def fuse_water(bank: Any, chunk: Any, p: int, i: int, store: dict[str, np.ndarra
     """
     added: Added = bank.added
     assert added.water_var is not None  # called only when the bank fuses water-track
-    lat, _ = bank._lat_h()
     R = bank.batch[1]
-    w_b, cov_b, ok, gain = dvl_body_velocity(
-        chunk.dvl.y_water_mps[p],
-        chunk.dvl.water_available[p],
-        chunk.imu.dtheta_b[i],
-        bank.dt,
-        bank.C[0],
-        lat[:R],
-        bank.A_b,
-        bank.l_dvl_b,
-        added.water_var,
-        with_gain=True,
+    dvl = chunk.dvl
+    w_b, cov_b, ok, gain = bank._dvl_velocity(
+        chunk, i, dvl.y_water_mps[p], dvl.water_available[p], added.water_var
     )
     for m in range(bank.batch[0]):
         C = bank.C[m]
