@@ -413,8 +413,8 @@ def build_server(
     start = ned_to_view(np.array([0.0, 0.0, Config().trajectory.depth_m]))
     server.initial_camera.position = tuple(start + np.array([-0.6, -0.8, 0.6]) * FOLLOW_DISTANCE_M)
     server.initial_camera.look_at = tuple(start)
+    server.gui.main_panel.dock_right()  # the control panel docked at the right edge, beside the 3-D view
     server.gui.configure_theme(
-        control_layout="fixed",
         control_width="medium",
         show_share_button=False,
         show_logo=False,

@@ -31,7 +31,8 @@ print(digest.hexdigest())
 PY
 }
 
-# Create VENV (default .venv) with python3 and `pip install -e .` into it, unless VENV's python
+# Create VENV (default .venv) with python3 and `pip install -e .` into it (with requirements-test.lock
+# as pip's constraints where it exists: the versions the suite passed with, scripts/lock.sh), unless VENV's python
 # exists and its recorded stamp is the current one. Returns non-zero if the install failed (the
 # stamp is then absent, so the next call installs again).
 install_if_changed() {
@@ -45,6 +46,8 @@ install_if_changed() {
     echo "tauv: installing into $venv (first start, or pyproject.toml or Python changed)" >&2
     rm -f "$stamp_file"
     python3 -m venv "$venv" || return
-    "$venv/bin/pip" install -q -e . || return
+    local constraints=()
+    [ -f requirements-test.lock ] && constraints=(-c requirements-test.lock)
+    "$venv/bin/pip" install -q -e . "${constraints[@]}" || return
     printf '%s\n' "$stamp" > "$stamp_file.tmp" && mv "$stamp_file.tmp" "$stamp_file"
 }

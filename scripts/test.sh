@@ -15,7 +15,8 @@ if [ -n "$NEED" ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $NEED >/dev/null
 fi
 python3 -m venv .venv
-.venv/bin/pip install -q -e '.[test]'
+# the versions the suite last passed with (requirements-test.lock, refreshed by scripts/lock.sh)
+.venv/bin/pip install -q -e '.[test]' -c requirements-test.lock
 .venv/bin/python -m tauvcore.engine.warmup   # compile the filter bank once, not inside a test
 if [ "$#" -gt 0 ]; then
   exec .venv/bin/python -m pytest "$@"

@@ -145,3 +145,15 @@ def _other_python() -> str | None:
         if probe.returncode == 0 and probe.stdout.strip() != sys.version:
             return path
     return None
+
+
+def test_the_install_takes_the_test_lock_as_its_constraints(repo: Path) -> None:
+    """Given requirements-test.lock beside pyproject.toml, when the product is installed, then pip
+    takes it as its constraints (a fresh machine gets the versions the suite passed with), and a
+    change to it installs again."""
+    (repo / "requirements-test.lock").write_text("numpy==2.2.6\n")
+    assert _install_if_changed(repo).returncode == 0
+    assert _calls(repo) == ["venv .venv", f"{INSTALL} -c requirements-test.lock"]
+    (repo / "requirements-test.lock").write_text("numpy==2.3.0\n")
+    assert _install_if_changed(repo).returncode == 0
+    assert _calls(repo) == ["venv .venv", f"{INSTALL} -c requirements-test.lock"]
