@@ -164,7 +164,7 @@ def is_bag(path: str | os.PathLike, by_name: bool = False) -> bool:
     named = p.suffix.lower() in BAG_SUFFIXES
     try:
         if p.is_dir():
-            if (p / "metadata.yaml").is_file():
+            if (p / "metadata.yaml").is_file() or (by_name and os.path.lexists(p / "metadata.yaml")):
                 return True
             return by_name and named and not any(os.path.lexists(p / f"imu{s}") for s in (".csv", ".parquet"))
     except OSError:
