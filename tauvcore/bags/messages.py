@@ -220,10 +220,16 @@ def field_names(kind: str, part: str) -> tuple[str, ...]:
     return tuple(f"{part} {k}" for k in range(1, n + 1))
 
 
+LARGEST = 1e100
+"""The largest magnitude a message's number may have (no sensor's comes near; its square and a sum
+of squares stay finite, so no arithmetic on it overflows)."""
+
+
 def require_finite(
     where: str, kind: str, part: str, values: np.ndarray, rows: np.ndarray | None = None
 ) -> None:
-    """Refuse a message whose part ``part`` (M, C) of its row holds a NaN or an infinity, before
+    """Refuse a message whose part ``part`` (M, C) of its row holds a NaN, an infinity or a number
+    beyond :data:`LARGEST`, before
     any arithmetic on it: a LogError ``"<where>, message N: <field> is inf, not a finite number"``.
 
     Parameters
@@ -247,13 +253,15 @@ def require_finite(
     """
     names = field_names(kind, part)
     for c in range(values.shape[1]):
-        bad = ~np.isfinite(values[:, c])
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.abs(values[:, c]) <= LARGEST)
         if rows is not None:
             bad &= rows[:, c] if rows.ndim == 2 else rows
         if bad.any():
             m = int(np.argmax(bad))
             raise LogError(
-                f"{where}, message {m + 1}: {names[c]} is {float(values[m, c])!r}, not a finite number"
+                f"{where}, message {m + 1}: {names[c]} is {float(values[m, c])!r}, not a finite number "
+                f"(within +-{LARGEST:g})"
             )
 
 

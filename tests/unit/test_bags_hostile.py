@@ -67,7 +67,7 @@ def _limit_memory() -> None:
 def _run_subprocess(argv: list[str], cwd: Path, timeout: float = 60.0) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.run([sys.executable, "-m", "app.cli", *argv], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=timeout, preexec_fn=_limit_memory)
+                          text=True, timeout=timeout, preexec_fn=_limit_memory, check=False)
 
 
 # ------------------------------------------------------------------------- 1, 2: special files
