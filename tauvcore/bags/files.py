@@ -1,5 +1,6 @@
-"""What a bag's path is, checked before anything is opened, and the file object rosbags reads it
-through.
+"""What a bag's path is, checked before anything is opened; the file object rosbags reads it
+through; what reading a bad bag raises (:func:`bag_errors`), said for a person (:func:`why`); and
+the bounded read of a mapping's ``.msg`` files (:func:`msg_text`).
 
 A bag is a regular file (a ROS 1 ``.bag``, an ``.mcap``, a ROS 2 ``.db3``) or a ROS 2 bag
 directory holding ``metadata.yaml``; :func:`check_bag` says in one line what anything else is
@@ -323,3 +324,88 @@ class BoundedPath(type(Path())):  # type: ignore[misc]  # pathlib's concrete cla
         if mode == "rb":
             return BoundedReader(os.fspath(self))
         return super().open(mode, buffering, encoding, errors, newline)
+
+
+# ------------------------------------------------------------------------------------- errors
+def bag_errors() -> tuple[type[BaseException], ...]:
+    """What reading a bad bag or definition raises: rosbags' own errors, and what its storage
+    layers raise on a truncated or corrupt file (sqlite3, struct, the decompressors, bad text)."""
+    import sqlite3
+    import struct
+
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as ReaderError1
+    from rosbags.rosbag2 import ReaderError as ReaderError2
+    from rosbags.serde import SerdeError
+    from rosbags.typesys import TypesysError
+
+    return (
+        AnyReaderError,
+        ReaderError1,
+        ReaderError2,
+        SerdeError,
+        TypesysError,
+        sqlite3.Error,
+        struct.error,
+        OSError,
+        ValueError,  # UnicodeDecodeError among them
+        KeyError,
+        IndexError,
+        RuntimeError,  # lz4's
+        EOFError,
+        AssertionError,  # rosbags asserts on a file's layout
+        TypeError,  # ord() of the empty bytes at a file's end, and the like
+        OverflowError,  # a length beyond what a buffer can hold
+        MemoryError,  # a decompression bomb, or a length within bounds but beyond the memory
+        RecursionError,
+        BagCorruptError,
+        *_yaml_errors(),
+    )
+
+
+def _yaml_errors() -> tuple[type[BaseException], ...]:
+    """ruamel's errors (rosbags reads ``metadata.yaml`` with it) and zstandard's."""
+    from ruamel.yaml.error import YAMLError, YAMLStreamError
+    from zstandard import ZstdError
+
+    return (YAMLError, YAMLStreamError, ZstdError)
+
+
+def why(exc: BaseException) -> str:
+    """What is wrong with a bag that raised ``exc`` while read, for a person: the read that ran
+    past the end of its file where there was one (tauvcore.bags.files.short_read), else the error."""
+    short = short_read()
+    if short is not None:
+        return short
+    if isinstance(exc, MemoryError):
+        return "it asks for more memory than there is (a corrupt length or a decompression bomb)"
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+MAX_MSG_BYTES = 1 << 20
+"""The largest ``.msg`` definition read [bytes] (a DVL's is a few kB)."""
+
+
+def msg_text(path: Path, where: str) -> str:
+    """A ``.msg`` file's text: a regular UTF-8 file of at most :data:`MAX_MSG_BYTES` (never a FIFO
+    opened), else one LogError naming it."""
+    name = os.fspath(path)
+    problem = entry_problem(name)
+    if problem is not None:
+        raise LogError(f"{where}msg_paths: {show_path(name)}: {problem.replace(', not a bag file', '')}")
+    try:
+        with BoundedReader(name) as fh:
+            data = fh.read(MAX_MSG_BYTES + 1)
+    except OSError as exc:
+        raise LogError(
+            f"{where}msg_paths: {show_path(name)}: cannot be read: {exc.strerror or exc}"
+        ) from None
+    if len(data) > MAX_MSG_BYTES:
+        raise LogError(f"{where}msg_paths: {show_path(name)}: larger than {MAX_MSG_BYTES} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise LogError(
+            f"{where}msg_paths: {show_path(name)}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
+        ) from None

@@ -21,15 +21,7 @@ import numpy as np
 
 from tauvcore.aiding.source import BagMessage
 from tauvcore.bags.dvl_table import dvl_table
-from tauvcore.bags.files import (
-    BagCorruptError,
-    BoundedPath,
-    BoundedReader,
-    check_bag,
-    entry_problem,
-    reset_short_read,
-    short_read,
-)
+from tauvcore.bags.files import BoundedPath, bag_errors, check_bag, msg_text, reset_short_read, why
 from tauvcore.bags.frames import (
     C_nb_from_quaternion,
     body_vectors,
@@ -97,50 +89,6 @@ def read_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str
         ) from None
 
 
-def bag_errors() -> tuple[type[BaseException], ...]:
-    """What reading a bad bag or definition raises: rosbags' own errors, and what its storage
-    layers raise on a truncated or corrupt file (sqlite3, struct, the decompressors, bad text)."""
-    import sqlite3
-    import struct
-
-    from rosbags.highlevel import AnyReaderError
-    from rosbags.rosbag1 import ReaderError as ReaderError1
-    from rosbags.rosbag2 import ReaderError as ReaderError2
-    from rosbags.serde import SerdeError
-    from rosbags.typesys import TypesysError
-
-    return (
-        AnyReaderError,
-        ReaderError1,
-        ReaderError2,
-        SerdeError,
-        TypesysError,
-        sqlite3.Error,
-        struct.error,
-        OSError,
-        ValueError,  # UnicodeDecodeError among them
-        KeyError,
-        IndexError,
-        RuntimeError,  # lz4's
-        EOFError,
-        AssertionError,  # rosbags asserts on a file's layout
-        TypeError,  # ord() of the empty bytes at a file's end, and the like
-        OverflowError,  # a length beyond what a buffer can hold
-        MemoryError,  # a decompression bomb, or a length within bounds but beyond the memory
-        RecursionError,
-        BagCorruptError,
-        *_yaml_errors(),
-    )
-
-
-def _yaml_errors() -> tuple[type[BaseException], ...]:
-    """ruamel's errors (rosbags reads ``metadata.yaml`` with it) and zstandard's."""
-    from ruamel.yaml.error import YAMLError, YAMLStreamError
-    from zstandard import ZstdError
-
-    return (YAMLError, YAMLStreamError, ZstdError)
-
-
 def is_bag(path: str | os.PathLike, by_name: bool = False) -> bool:
     """Whether ``path`` is a ROS bag by its name: a ``.bag``, ``.mcap`` or ``.db3`` file (or
     anything so named but a directory: a FIFO, a link; opening it says what it is), or a directory
@@ -172,10 +120,6 @@ def is_bag(path: str | os.PathLike, by_name: bool = False) -> bool:
     return named
 
 
-MAX_MSG_BYTES = 1 << 20
-"""The largest ``.msg`` definition read [bytes] (a DVL's is a few kB)."""
-
-
 def _msg_type(path: Path, where: str) -> str:
     """The type name of a ``.msg`` file laid out as ``<package>/msg/<Type>.msg``."""
     if path.suffix != ".msg" or path.parent.name != "msg" or not path.parent.parent.name:
@@ -184,30 +128,6 @@ def _msg_type(path: Path, where: str) -> str:
             "(the type's name is read from its path)"
         )
     return f"{path.parent.parent.name}/msg/{path.stem}"
-
-
-def _msg_text(path: Path, where: str) -> str:
-    """A ``.msg`` file's text: a regular UTF-8 file of at most :data:`MAX_MSG_BYTES` (never a FIFO
-    opened), else one LogError naming it."""
-    name = os.fspath(path)
-    problem = entry_problem(name)
-    if problem is not None:
-        raise LogError(f"{where}msg_paths: {show_path(name)}: {problem.replace(', not a bag file', '')}")
-    try:
-        with BoundedReader(name) as fh:
-            data = fh.read(MAX_MSG_BYTES + 1)
-    except OSError as exc:
-        raise LogError(
-            f"{where}msg_paths: {show_path(name)}: cannot be read: {exc.strerror or exc}"
-        ) from None
-    if len(data) > MAX_MSG_BYTES:
-        raise LogError(f"{where}msg_paths: {show_path(name)}: larger than {MAX_MSG_BYTES} bytes")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise LogError(
-            f"{where}msg_paths: {show_path(name)}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
-        ) from None
 
 
 def typestore(msg_paths: tuple[Path, ...] = (), mapping_path: str | None = None) -> Any:
@@ -238,7 +158,7 @@ def typestore(msg_paths: tuple[Path, ...] = (), mapping_path: str | None = None)
     types: dict = {}
     for path in [*sorted(MSGS.glob("*/msg/*.msg")), *msg_paths]:
         name = _msg_type(path, where)
-        text = _msg_text(path, where)
+        text = msg_text(path, where)
         try:
             types.update(get_types_from_msg(text, name))
         except bag_errors() as exc:  # rosbags' parser raises its own kinds: one line naming the file
@@ -349,18 +269,6 @@ def open_bag(path: str | os.PathLike, store: Any) -> Any:
     except bag_errors() as exc:  # rosbags, sqlite3, struct, lz4, zstd each raise their own
         raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {why(exc)}")) from None
     return reader
-
-
-def why(exc: BaseException) -> str:
-    """What is wrong with a bag that raised ``exc`` while read, for a person: the read that ran
-    past the end of its file where there was one (tauvcore.bags.files.short_read), else the error."""
-    short = short_read()
-    if short is not None:
-        return short
-    if isinstance(exc, MemoryError):
-        return "it asks for more memory than there is (a corrupt length or a decompression bomb)"
-    text = " ".join(str(exc).split())
-    return text or type(exc).__name__
 
 
 def _deserialize(reader: Any, kind: str, raw: bytes) -> Any:
