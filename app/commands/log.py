@@ -23,7 +23,7 @@ def _mapping(args: argparse.Namespace) -> BagMapping:
     none: every table by type), once PATH is a bag."""
     from tauvcore.bags import is_bag, own_mapping, read_mapping
 
-    if not is_bag(args.bag):
+    if not is_bag(args.bag, by_name=True):
         raise UsageError(
             f"{show_path(args.bag)}: not a ROS bag (a .bag or .mcap file, or a ROS 2 bag directory with "
             "metadata.yaml)"

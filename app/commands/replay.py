@@ -36,7 +36,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
 
-    bag = is_bag(args.log)
+    bag = is_bag(args.log, by_name=True)
     if args.bag_mapping is not None and not bag:
         raise UsageError(
             f"--bag-mapping {show_path(args.bag_mapping)}: {show_path(args.log)} is not a ROS bag (a .bag or .mcap file, or a ROS 2 bag "

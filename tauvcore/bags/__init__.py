@@ -236,7 +236,7 @@ def _checked(
 
 def _tf_lever_arm(bag: str, mapping: BagMapping) -> list[float] | None:
     """The DVL's origin in the body (FRD) [m] from the bag's ``/tf_static``, or None."""
-    reader = open_bag(bag, typestore(mapping.msg_paths))
+    reader = open_bag(bag, typestore(mapping.msg_paths, mapping.path))
     try:
         topics = {c.topic: c.msgtype for c in reader.connections}
         if TF_STATIC not in topics:

@@ -23,6 +23,7 @@ import numpy as np
 
 from tauvcore.bags.frames import body_vectors
 from tauvcore.bags.mapping import DVL_BEAM_TOLERANCE_DEG, DVL_PING_TOLERANCE_S, TopicRule
+from tauvcore.bags.messages import require_finite
 from tauvcore.units import DEG
 from tauvcore.validation import LogError, show, show_path
 
@@ -73,6 +74,7 @@ def dvl_columns(
     where = f"{show_path(bag)}: topic {show(rule.topic)} (dvl)"
     water = _water_track(part, rule)
     if "beams" in part and form != "body":
+        require_finite(where, rule.msgtype, "beams", part["beams"], part["beam_valid"] > 0.5)
         beams = _beams(where, part, rule, A_b, C_b_dvl)
         if beams is not None:
             columns = {f"beam{k + 1}_mps": beams[:, k] for k in range(4)}
@@ -85,6 +87,7 @@ def dvl_columns(
                 "(or, for a message without directions, no beam_ids in the mapping)"
             )
         notes.append(f"{where}: no per-beam data; its body velocity is projected onto the configured beams")
+    require_finite(where, rule.msgtype, "body", part["body"], part["body_valid"][:, 0] == 1.0)
     body = body_vectors(part["body"], rule.frame) @ C_b_dvl.T
     columns = {
         "vel_x_mps": body[:, 0],

@@ -7,7 +7,7 @@ import os
 from dataclasses import dataclass
 
 from tauvcore.bags.mapping import EXTRA_TOPICS, BagMapping, resolve
-from tauvcore.bags.reader import bag_errors, open_bag, typestore
+from tauvcore.bags.reader import bag_errors, open_bag, typestore, why
 from tauvcore.bags.tf import dvl_mounting
 from tauvcore.validation import LogError, one_line, show_path
 
@@ -55,7 +55,7 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
         A bag that cannot be read, naming it.
     """
     bag = os.fspath(path)
-    reader = open_bag(bag, typestore(mapping.msg_paths))
+    reader = open_bag(bag, typestore(mapping.msg_paths, mapping.path))
     try:
         topics = {c.topic: c.msgtype for c in reader.connections}
         first: dict[str, int] = {}
@@ -67,7 +67,7 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
                 last[connection.topic] = received
                 count[connection.topic] += 1
         except bag_errors() as exc:  # a corrupt chunk part-way through
-            raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+            raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {why(exc)}")) from None
         problem = mounting = None
         feeds: dict[str, list[str]] = {}
         try:
@@ -87,7 +87,7 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
             problem = str(exc)
         except bag_errors() as exc:
             problem = one_line(
-                f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}"
+                f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {why(exc)}"
             )
     finally:
         reader.close()

@@ -285,6 +285,9 @@ def _value(path: str, key: str, name: str, value: Any) -> Any:
     if name == "topic" or name in EXTRA_TOPICS:
         if not isinstance(value, str):
             raise LogError(f"{_where(path, key)}: a topic name (text) is needed, got {show(value)}")
+        if value == "" and (name in EXTRA_TOPICS or key == "imu.topic"):
+            needed = "a replay needs an IMU" if key == "imu.topic" else "leave the key out for none"
+            raise LogError(f"{_where(path, key)}: a topic name is needed, got '' ({needed})")
         return value
     if name == "frame":
         return _choice(path, key, value, FRAMES)
@@ -369,6 +372,15 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
         if topic is None:
             default = DEFAULT_TYPES.get(table, ())  # a plug-in's table: only by name
             found = sorted(t for t, kind in topics.items() if kind in default and t not in named)
+            if not found and table == "dvl" and keys.get("water_track_topic") in topics:
+                water = keys["water_track_topic"]
+                if topics[water] in default:
+                    raise LogError(
+                        f"{where}: dvl.water_track_topic: {show(water)} is the DVL's own topic ([dvl] names no "
+                        f"topic, and {show_path(bag)} has no other DVL topic): a topic of both modes needs no "
+                        "second topic (each message's velocity_mode says which it is; water_track = true: all "
+                        "water-track)"
+                    )
             if len(found) > 1:
                 raise LogError(
                     f"{show_path(bag)}: topics {', '.join(show(t) for t in found)} could each feed the "
@@ -397,9 +409,10 @@ def resolve(mapping: BagMapping, topics: Mapping[str, str], bag: str) -> dict[st
             if other is not None and other not in topics:
                 raise LogError(f"{where}: {table}.{extra}: {show(other)} is not a topic of {show_path(bag)}")
         if table == "imu":
-            _check_increments(where, keys, topics, bag)
+            _check_increments(where, topic, keys, topics, bag)
         if table == "dvl":
             _check_water_topic(where, topic, keys, topics, bag)
+            _check_dvl_form(where, topic, keys, topics, bag)
         options = {k: v for k, v in keys.items() if k not in COMMON_KEYS}
         rules[table] = TopicRule(
             table=table,
@@ -443,9 +456,30 @@ def _check_water_topic(
         )
 
 
-def _check_increments(where: str, keys: Mapping[str, Any], topics: Mapping[str, str], bag: str) -> None:
-    """An IMU as increments names both its topics; an IMU as rates has no ``velocity_topic``."""
+def _check_dvl_form(
+    where: str, topic: str, keys: Mapping[str, Any], topics: Mapping[str, str], bag: str
+) -> None:
+    """``form = 'beams'`` only on topics of per-beam messages (the DVL's and its water-track topic)."""
+    if keys.get("form") != "beams":
+        return
+    for key, name in (("topic", topic), ("water_track_topic", keys.get("water_track_topic"))):
+        if name is not None and topics[name] in TWISTS:
+            raise LogError(
+                f"{where}: dvl.form: 'beams' needs per-beam velocities, and {show(name)} (dvl.{key}) of "
+                f"{show_path(bag)} holds {topics[name]}, a body velocity only (form = 'body' or 'auto' reads it)"
+            )
+
+
+def _check_increments(
+    where: str, topic: str, keys: Mapping[str, Any], topics: Mapping[str, str], bag: str
+) -> None:
+    """An IMU as increments names both its topics, two of them; an IMU as rates has no ``velocity_topic``."""
     velocity = keys.get("velocity_topic")
+    if velocity is not None and velocity == topic:
+        raise LogError(
+            f"{where}: imu.velocity_topic: {show(velocity)} is imu.topic itself (the angle increments' topic; "
+            "the velocity increments come on a topic of their own)"
+        )
     if keys.get("form") != "increments":
         if velocity is not None:
             raise LogError(

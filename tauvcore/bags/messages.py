@@ -36,6 +36,7 @@ import numpy as np
 
 from tauvcore.aiding.source import BagMessage
 from tauvcore.bags.scan import KINDS, fixed_rows
+from tauvcore.validation import LogError
 
 NAN = float("nan")
 _NO_BEAMS = (NAN,) * 4 + (0.0,) * 4 + (NAN,) * 12 + (NAN,) * 4
@@ -199,6 +200,70 @@ LAYOUTS: dict[str, dict[str, slice]] = {
     ),
 }
 """Each supported type's parts of its row: name -> columns."""
+
+_BODY_FIELDS = {
+    "geometry_msgs/msg/TwistStamped": _xyz("twist.linear"),
+    "geometry_msgs/msg/TwistWithCovarianceStamped": _xyz("twist.twist.linear"),
+}
+
+
+def field_names(kind: str, part: str) -> tuple[str, ...]:
+    """The message fields of each column of a part of a type's row (:data:`LAYOUTS`), for a message."""
+    columns = LAYOUTS[kind][part]
+    if kind in FIELDS:
+        return FIELDS[kind][columns]
+    if part == "body":
+        return _BODY_FIELDS.get(kind, _xyz("velocity"))
+    if part == "beams":
+        return tuple(f"beam {k} velocity" for k in range(1, 5))
+    n = columns.stop - columns.start
+    return tuple(f"{part} {k}" for k in range(1, n + 1))
+
+
+LARGEST = 1e100
+"""The largest magnitude a message's number may have (no sensor's comes near; its square and a sum
+of squares stay finite, so no arithmetic on it overflows)."""
+
+
+def require_finite(
+    where: str, kind: str, part: str, values: np.ndarray, rows: np.ndarray | None = None
+) -> None:
+    """Refuse a message whose part ``part`` (M, C) of its row holds a NaN, an infinity or a number
+    beyond :data:`LARGEST`, before
+    any arithmetic on it: a LogError ``"<where>, message N: <field> is inf, not a finite number"``.
+
+    Parameters
+    ----------
+    where : str
+        The bag and topic, for the message (``"'x.bag': topic '/dvl' (dvl)"``).
+    kind : str
+        The messages' type.
+    part : str
+        The part of their rows (:data:`LAYOUTS`), which names the fields.
+    values : numpy.ndarray
+        The part's columns (M, C).
+    rows : numpy.ndarray or None
+        The messages checked (M,) bool, or the values checked (M, C) bool (a DVL's valid ones);
+        None: all.
+
+    Raises
+    ------
+    LogError
+        At the first message (in the first column that has one) not finite.
+    """
+    names = field_names(kind, part)
+    for c in range(values.shape[1]):
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.abs(values[:, c]) <= LARGEST)
+        if rows is not None:
+            bad &= rows[:, c] if rows.ndim == 2 else rows
+        if bad.any():
+            m = int(np.argmax(bad))
+            raise LogError(
+                f"{where}, message {m + 1}: {names[c]} is {float(values[m, c])!r}, not a finite number "
+                f"(within +-{LARGEST:g})"
+            )
+
 
 _SIZES = {"bool": 1, "byte": 1, "char": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2, "int32": 4,
           "uint32": 4, "float32": 4, "int64": 8, "uint64": 8, "float64": 8}  # fmt: skip

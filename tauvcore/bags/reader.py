@@ -21,6 +21,7 @@ import numpy as np
 
 from tauvcore.aiding.source import BagMessage
 from tauvcore.bags.dvl_table import dvl_table
+from tauvcore.bags.files import BoundedPath, bag_errors, check_bag, msg_text, reset_short_read, why
 from tauvcore.bags.frames import (
     C_nb_from_quaternion,
     body_vectors,
@@ -40,7 +41,7 @@ from tauvcore.bags.mapping import (
     TopicRule,
     resolve,
 )
-from tauvcore.bags.messages import EXTRACT, FIELDS, IMU_RATES, LAYOUTS, RawDecoder, plugin_row
+from tauvcore.bags.messages import EXTRACT, FIELDS, IMU_RATES, LAYOUTS, RawDecoder, plugin_row, require_finite
 from tauvcore.bags.scan import NotScannedError, Ros1Reader, read_chunked
 from tauvcore.bags.tf import Mounting, dvl_mounting
 from tauvcore.geo.earth import ned_from_geodetic
@@ -84,48 +85,23 @@ def read_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str
         return dvl_mounting(reader, bag, mapping, rules)
     except bag_errors() as exc:
         raise LogError(
-            one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {exc}")
+            one_line(f"{show_path(bag)}: /tf_static or the DVL's first message cannot be read: {why(exc)}")
         ) from None
 
 
-def bag_errors() -> tuple[type[BaseException], ...]:
-    """What reading a bad bag or definition raises: rosbags' own errors, and what its storage
-    layers raise on a truncated or corrupt file (sqlite3, struct, the decompressors, bad text)."""
-    import sqlite3
-    import struct
-
-    from rosbags.highlevel import AnyReaderError
-    from rosbags.rosbag1 import ReaderError as ReaderError1
-    from rosbags.rosbag2 import ReaderError as ReaderError2
-    from rosbags.serde import SerdeError
-    from rosbags.typesys import TypesysError
-
-    return (
-        AnyReaderError,
-        ReaderError1,
-        ReaderError2,
-        SerdeError,
-        TypesysError,
-        sqlite3.Error,
-        struct.error,
-        OSError,
-        ValueError,  # UnicodeDecodeError among them
-        KeyError,
-        IndexError,
-        RuntimeError,  # lz4's
-        EOFError,
-        AssertionError,  # rosbags asserts on a file's layout
-    )
-
-
-def is_bag(path: str | os.PathLike) -> bool:
-    """Whether ``path`` is a ROS bag by its name: a ``.bag``, ``.mcap`` or ``.db3`` file, or a
-    directory holding ``metadata.yaml`` (a ROS 2 bag).
+def is_bag(path: str | os.PathLike, by_name: bool = False) -> bool:
+    """Whether ``path`` is a ROS bag by its name: a ``.bag``, ``.mcap`` or ``.db3`` file (or
+    anything so named but a directory: a FIFO, a link; opening it says what it is), or a directory
+    holding ``metadata.yaml`` (a ROS 2 bag).
 
     Parameters
     ----------
     path : str or os.PathLike
         A file or directory.
+    by_name : bool
+        Also a directory named as a bag file (``d.bag``) that is not a log (no ``imu.csv`` nor
+        ``imu.parquet``): what a command given a path takes for a bag, so that opening it says it
+        is neither (:func:`~tauvcore.bags.files.check_bag`).
 
     Returns
     -------
@@ -133,25 +109,28 @@ def is_bag(path: str | os.PathLike) -> bool:
         True for a bag (it may still fail to read).
     """
     p = Path(path)
+    named = p.suffix.lower() in BAG_SUFFIXES
     try:
         if p.is_dir():
-            return (p / "metadata.yaml").is_file()
+            if (p / "metadata.yaml").is_file() or (by_name and os.path.lexists(p / "metadata.yaml")):
+                return True
+            return by_name and named and not any(os.path.lexists(p / f"imu{s}") for s in (".csv", ".parquet"))
     except OSError:
         return False
-    return p.suffix.lower() in BAG_SUFFIXES
+    return named
 
 
-def _msg_type(path: Path) -> str:
+def _msg_type(path: Path, where: str) -> str:
     """The type name of a ``.msg`` file laid out as ``<package>/msg/<Type>.msg``."""
     if path.suffix != ".msg" or path.parent.name != "msg" or not path.parent.parent.name:
         raise LogError(
-            f"msg_paths: {show_path(str(path))} is not laid out as <package>/msg/<Type>.msg "
+            f"{where}msg_paths: {show_path(str(path))} is not laid out as <package>/msg/<Type>.msg "
             "(the type's name is read from its path)"
         )
     return f"{path.parent.parent.name}/msg/{path.stem}"
 
 
-def typestore(msg_paths: tuple[Path, ...] = ()) -> Any:
+def typestore(msg_paths: tuple[Path, ...] = (), mapping_path: str | None = None) -> Any:
     """The message types a bag without its own definitions is read with: ROS 2's standard ones,
     the shipped DVL messages and those of ``msg_paths`` (rosbags.typesys).
 
@@ -159,6 +138,8 @@ def typestore(msg_paths: tuple[Path, ...] = ()) -> Any:
     ----------
     msg_paths : tuple of pathlib.Path
         Extra ``.msg`` files, each ``<package>/msg/<Type>.msg``.
+    mapping_path : str or None
+        The bag mapping that names them, for the messages.
 
     Returns
     -------
@@ -168,28 +149,26 @@ def typestore(msg_paths: tuple[Path, ...] = ()) -> Any:
     Raises
     ------
     LogError
-        A ``.msg`` file that cannot be read or parsed, naming it.
+        A ``.msg`` file that cannot be read or parsed, naming the mapping and the file.
     """
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+    where = f"the bag mapping {show_path(mapping_path)}: " if mapping_path else ""
     store = get_typestore(Stores.LATEST)
     types: dict = {}
     for path in [*sorted(MSGS.glob("*/msg/*.msg")), *msg_paths]:
-        name = _msg_type(path)
+        name = _msg_type(path, where)
+        text = msg_text(path, where)
         try:
-            types.update(get_types_from_msg(path.read_text(encoding="utf-8"), name))
-        except OSError as exc:
-            raise LogError(
-                f"msg_paths: {show_path(str(path))}: cannot be read: {exc.strerror or exc}"
-            ) from None
+            types.update(get_types_from_msg(text, name))
         except bag_errors() as exc:  # rosbags' parser raises its own kinds: one line naming the file
             raise LogError(
-                one_line(f"msg_paths: {show_path(str(path))}: not a .msg definition: {exc}")
+                one_line(f"{where}msg_paths: {show_path(str(path))}: not a .msg definition: {exc}")
             ) from None
     try:
         store.register(types)
     except bag_errors() as exc:
-        raise LogError(one_line(f"msg_paths: the definitions do not register: {exc}")) from None
+        raise LogError(one_line(f"{where}msg_paths: the definitions do not register: {exc}")) from None
     return store
 
 
@@ -274,20 +253,21 @@ messages a topic (about 12 MB of a nav_msgs/Odometry topic)."""
 
 
 def open_bag(path: str | os.PathLike, store: Any) -> Any:
-    """An open rosbags ``AnyReader`` of the bag at ``path`` (a LogError naming it if it cannot be
-    opened: missing, truncated, not a bag)."""
+    """An open rosbags ``AnyReader`` of the bag at ``path``, its files read through
+    :class:`~tauvcore.bags.files.BoundedPath` (a LogError naming it if it is not a bag file or
+    directory, :func:`~tauvcore.bags.files.check_bag`, or cannot be opened: truncated, corrupt)."""
     from rosbags.highlevel import AnyReader
 
     bag = os.fspath(path)
-    if not os.path.exists(bag):
-        raise LogError(f"{show_path(bag)}: does not exist")
+    check_bag(bag)
+    reset_short_read()
     try:
-        reader = AnyReader([Path(bag)], default_typestore=store)
+        reader = AnyReader([BoundedPath(bag)], default_typestore=store)
         if not reader.is2:  # a ROS 1 bag: its message indexes read only where asked for
             reader.readers = [Ros1Reader(p) for p in reader.paths]
         reader.open()
     except bag_errors() as exc:  # rosbags, sqlite3, struct, lz4, zstd each raise their own
-        raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+        raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {why(exc)}")) from None
     return reader
 
 
@@ -376,7 +356,7 @@ class _Batch:
             except bag_errors() as exc:
                 raise LogError(
                     one_line(
-                        f"{show_path(self.bag)}: topic {show(topic)}, message {index}: cannot be read: {exc}"
+                        f"{show_path(self.bag)}: topic {show(topic)}, message {index}: cannot be read: {why(exc)}"
                     )
                 ) from None
             stamps.append(
@@ -407,7 +387,7 @@ def read_topics(
     topic; each with its type as ``kind``) and the DVL's mounting (tauvcore.bags.tf; None without
     a DVL topic)."""
     bag = os.fspath(path)
-    reader = open_bag(bag, typestore(mapping.msg_paths))
+    reader = open_bag(bag, typestore(mapping.msg_paths, mapping.path))
     try:
         topics: dict[str, str] = {}
         for c in reader.connections:
@@ -465,7 +445,7 @@ def read_topics(
         except LogError:
             raise
         except bag_errors() as exc:  # a truncated or corrupt chunk part-way through
-            raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {exc}")) from None
+            raise LogError(one_line(f"{show_path(bag)}: cannot be read as a ROS bag: {why(exc)}")) from None
         for entry in read.values():
             entry.finish()
         mounting = read_mounting(reader, bag, mapping, rules) if "dvl" in rules else None
@@ -505,6 +485,14 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             f"{show_path(bag)}: no sensor_msgs/msg/Imu topic{' named in the mapping' if mapping.path else ''}: "
             "a replay needs an IMU"
         )
+    left_out = [
+        f"{t}.topic = ''" for t in ("reference", "attitude") if mapping.tables.get(t, {}).get("topic") == ""
+    ]
+    if "reference" not in rules and "attitude" not in rules and left_out:
+        raise LogError(
+            f"the bag mapping {show_path(mapping.path or '')}: {' and '.join(left_out)}: the filters are left no "
+            f"starting attitude (a reference or attitude topic of {show_path(bag)} is needed)"
+        )
     if "reference" not in rules and "attitude" not in rules:
         raise LogError(
             f"{show_path(bag)}: no reference (nav_msgs/Odometry, geometry_msgs/PoseStamped, ...) nor attitude "
@@ -531,6 +519,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
                 entry.release()
             continue
         part = _parts(kind, data)
+        _require_finite_parts(bag, rule, table, part, read)
         own = rule.topic not in later  # its rows are the table's alone: converted where they are
         if table == "imu" and rule.option("form", "rates") == "increments":
             velocity = rule.options["velocity_topic"]
@@ -580,6 +569,41 @@ def _water_topic(
     if topic not in later:
         entry.release()
     return part, entry.kind, t
+
+
+USED_PARTS = {
+    "imu": ("gyro", "accel", "quaternion", "vector"),  # rates, or an increments topic's
+    "depth": ("pressure", "value"),
+    "attitude": ("quaternion",),
+    "reference": ("position", "quaternion", "velocity_b", "lat_lon_deg"),
+}
+"""The parts of a table's rows (messages.LAYOUTS) that must be finite (the DVL's: dvl_table's)."""
+
+
+def _require_finite_parts(
+    bag: str, rule: TopicRule, table: str, part: Mapping[str, np.ndarray], read: Mapping[str, _Topic]
+) -> None:
+    """Refuse a NaN or an infinity in the parts a table takes of its topic's rows and of the other
+    topics it names (an IMU's velocity increments, a fix's orientation and depth), before any
+    arithmetic (messages.require_finite); a fix's altitude only where no depth_topic replaces it."""
+    used = USED_PARTS.get(table, ())
+    if table == "reference" and "depth_topic" not in rule.options:
+        used = (*used, "altitude")
+    where = f"{show_path(bag)}: topic {show(rule.topic)} ({table})"
+    for name, values in part.items():
+        if name in used and not (
+            table == "imu" and name == "quaternion" and rule.msgtype == "sensor_msgs/msg/Imu"
+        ):
+            require_finite(where, rule.msgtype, name, values)
+    for key in ("velocity_topic", "orientation_topic", "depth_topic"):
+        other = rule.options.get(key)
+        if other is None or other not in read:
+            continue
+        entry = read[other]
+        where = f"{show_path(bag)}: topic {show(other)} ({table} {key})"
+        for name, values in _parts(entry.kind, entry.rows[: entry.count]).items():
+            if name in ("vector", "quaternion", "value", "pressure"):
+                require_finite(where, entry.kind, name, values)
 
 
 def _parts(kind: str, data: np.ndarray) -> dict[str, np.ndarray]:

@@ -30,6 +30,8 @@ import numba
 import numpy as np
 from rosbags.rosbag1 import Reader as _RosbagsReader1
 
+from tauvcore.bags.files import MAX_CHUNK_BYTES, BagCorruptError
+
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 MAX_ID = 65_535
@@ -438,6 +440,11 @@ def _mcap_chunks(storage: Any, conns: Collection[int]) -> Iterator[tuple[np.ndar
     for info in sorted(storage.chunks, key=lambda c: c.chunk_start_offset):
         if not any(info.channel_count.get(c, 0) for c in conns):
             continue
+        if info.uncompressed_size > MAX_CHUNK_BYTES:
+            raise BagCorruptError(
+                f"the chunk at byte {info.chunk_start_offset} claims {info.uncompressed_size} bytes "
+                f"uncompressed (at most {MAX_CHUNK_BYTES} are read)"
+            )
         bio.seek(info.chunk_start_offset + 9 + 24)
         head = bio.read(4)
         bio.seek(info.chunk_start_offset + 9 + 40 + len(info.compression))

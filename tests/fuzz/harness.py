@@ -214,3 +214,17 @@ def strict_json(data: bytes) -> object:
 
 FIELD_NAME = re.compile(r"[a-z_]+\.[a-z_]+|\[[^\]]*\]|--[a-z]+")
 """Something a message may name: section.key, [section], --flag."""
+
+
+@dataclass
+class BagStats:
+    """Hostile bags run in this session (tests/fuzz/test_fuzz_bags.py), for the terminal summary."""
+
+    classes: Counter = field(default_factory=Counter)  # cases run, per class
+    exits: Counter = field(default_factory=Counter)  # their exit statuses ("raised": an exception escaped)
+    tiers: Counter = field(default_factory=Counter)  # cases run, per tier
+    slowest_s: float = 0.0
+    slowest_case: str = ""
+
+
+BAG_STATS = BagStats()
