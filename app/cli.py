@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import os
 import signal
 import sys
@@ -31,6 +32,7 @@ from app.commands.log import cmd_log_convert, cmd_log_info
 from app.commands.replay import cmd_replay
 from app.commands.run import cmd_run
 from app.commands.serve import cmd_serve
+from app.commands.smoothing import MAX_SMOOTH_MEMORY_MB
 from app.commands.study import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_reproduce
 from app.commands.values import UsageError, resolve_config
 from tauvcore.aiding import AIDING_SOURCES
@@ -58,8 +60,25 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
+        commands = self._commands()
+        if commands and message.startswith("the following arguments are required: "):
+            width = max(len(name) for name in commands)
+            listing = "".join(f"  {name.ljust(width)}  {text}\n" for name, text in commands.items())
+            where = self.prog.removeprefix("tauv").strip()
+            raise UsageError(
+                f"{where + ': ' if where else ''}a command is required ({self.prog} COMMAND --help for "
+                "its flags)",
+                f"{self.format_usage()}\ncommands:\n{listing}\n",
+            )
         # argparse quotes values whole ("unrecognized arguments: <500 kB>"): shorten each word
         raise UsageError(" ".join(shorten(word) for word in message.split(" ")))
+
+    def _commands(self) -> dict[str, str]:
+        """This parser's subcommands and their one-line help, in the order they were added."""
+        for action in self._actions:  # argparse keeps no public list of them
+            if isinstance(action, argparse._SubParsersAction):
+                return {a.dest: a.help or "" for a in action._choices_actions}
+        return {}
 
 
 def option_actions(parser: argparse.ArgumentParser) -> dict[str, list[argparse.Action]]:
@@ -346,7 +365,8 @@ def _smooth_flags(p: argparse.ArgumentParser) -> None:
         "--smooth-memory-mb",
         metavar="MB",
         help=f"megabytes of the smoother's tape held in memory, the rest in a temporary directory "
-        f"(default {DEFAULT_BUDGET_MB:g}; at least what one chunk needs)",
+        f"(default {DEFAULT_BUDGET_MB:g}; at least what one chunk needs, at most {MAX_SMOOTH_MEMORY_MB:.0f}: "
+        "a terabyte, more than any machine has; the tape beyond it goes to disk)",
     )
     p.add_argument(
         "--smooth-dir",
@@ -425,13 +445,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     with contextlib.suppress(ValueError):  # only the main thread may set it (main() in a thread: left alone)
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
-        args = build_parser().parse_args(attach_dash_values(argv))
+        try:
+            args = build_parser().parse_args(attach_dash_values(argv))
+        except UsageError as exc:
+            hints = did_you_mean(argv)
+            if not hints:
+                raise
+            shown = (
+                f"did you mean {hints[0][1]}?"
+                if len(hints) == 1 and str(exc).startswith("unrecognized arguments")
+                else "; ".join(f"{flag}: did you mean {near}?" for flag, near in hints)
+            )
+            raise UsageError(f"{exc} ({shown})", exc.usage) from None
         _require_file_names(args)
         _require_text_values(args)
         code = args.func(args)
         sys.stdout.flush()  # inside the try: a closed pipe is reported here, not at exit
         return code
     except (UsageError, ConfigError) as exc:
+        sys.stderr.write(getattr(exc, "usage", ""))
         print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except StudyFailedError as exc:
@@ -443,6 +475,35 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("tauv: interrupted", file=sys.stderr)
         return 130
+
+
+def did_you_mean(argv: Sequence[str]) -> list[tuple[str, str]]:
+    """The flags of ``argv`` that its command does not have, each with the nearest one it has
+    (``--trajectroy``: ``--trajectory``; difflib's closeness, at least 0.75), as (flag as given,
+    shortened; the nearest) pairs; a flag with none near is left out."""
+    command, options = "", OPTIONS[""]
+    for token in argv:
+        if token == "--":
+            break
+        if token.startswith("-"):
+            continue
+        inner = f"{command} {token}".strip()
+        if inner in OPTIONS:  # the command, then a subcommand's own (tauv log convert)
+            command, options = inner, OPTIONS[inner]
+        elif command:
+            break  # a positional argument (a path): the command is known
+    known = sorted({s for a in options + OPTIONS[""] for s in a.option_strings})
+    hints: list[tuple[str, str]] = []
+    for token in argv:
+        if token == "--":
+            break
+        flag = token.split("=", 1)[0]
+        if not flag.startswith("--") or flag in known:
+            continue
+        near = difflib.get_close_matches(flag, known, n=1, cutoff=0.75)
+        if near:
+            hints.append((shorten(flag), near[0]))
+    return hints
 
 
 def _require_text_values(args: argparse.Namespace) -> None:
