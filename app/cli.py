@@ -211,8 +211,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         type=_path,
         required=True,
-        help="output directory (created if missing; files appear only when the study has finished)",
+        help="output directory, new (created in an existing directory) or empty; files appear only when "
+        "the study has finished",
     )
+    _replace_flag(mc, "tauv mc")
     mc.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
     mc.add_argument(
         "--dask",
@@ -227,6 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
         "with every figure of its section 4.2 beside ours",
     )
     rp.add_argument("--out", type=_path, required=True, help="output directory (as for mc)")
+    _replace_flag(rp, "tauv reproduce")
     rp.add_argument("--runs", help="Monte Carlo runs per trajectory (default 100, the paper's study)")
     rp.add_argument("--duration", help="run length [s] (default 250, the paper's; shorter for a quick check)")
     rp.add_argument("--seed", help="seed of the study (default 0)")
@@ -264,7 +267,12 @@ def build_parser() -> argparse.ArgumentParser:
     lc.add_argument(
         "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
     )
-    lc.add_argument("out_dir", type=_path, metavar="OUT_DIR", help="the log's directory (new, or empty)")
+    lc.add_argument(
+        "out_dir",
+        type=_path,
+        metavar="OUT_DIR",
+        help="the log's directory, new (created in an existing directory) or empty",
+    )
     _bag_mapping_flag(lc)
     lc.add_argument("--log-format", default="csv", help="csv (default) or parquet")
     c = sub.add_parser("config", help="print the full configuration as TOML")
@@ -374,6 +382,15 @@ def _smooth_flags(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="an existing directory for the smoother's temporary files (default: the system's, TMPDIR); "
         "they are removed when the command ends",
+    )
+
+
+def _replace_flag(p: argparse.ArgumentParser, command: str) -> None:
+    p.add_argument(
+        "--replace",
+        action="store_true",
+        help=f"replace an earlier {command} study in --out (without it a directory that holds one is "
+        "refused; a directory holding anything else always is)",
     )
 
 
