@@ -128,8 +128,8 @@ def output_dir(
         logs = sorted(e for e in entries if e in ("imu.csv", "imu.parquet"))
         if logs:
             raise OutputDirError(
-                f"{label}: {name} is a log directory (it holds {logs[0]}); give a new or empty directory "
-                "(nothing is overwritten)"
+                f"{label}: {name} is a log directory (it holds {logs[0]}), not an empty directory; give a "
+                "new or empty one (nothing is overwritten)"
             )
         if kind is not None and kind.holds(entries):
             if kind.replace_flag is None or not replace:
@@ -145,8 +145,8 @@ def output_dir(
             listing = ", ".join(show_path(e) for e in sorted(entries)[:3])
             more = f" and {len(entries) - 3} more" if len(entries) > 3 else ""
             raise OutputDirError(
-                f"{label}: {name} is not empty (it holds {listing}{more}); give a new or empty directory "
-                "(nothing is overwritten)"
+                f"{label}: {name} is not an empty directory (it holds {listing}{more}); give a new or empty "
+                "one (nothing is overwritten)"
             )
     return OutputDir(real, exists, replaces)
 
