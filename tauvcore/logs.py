@@ -80,7 +80,7 @@ from tauvcore.log_columns import (
     time_column,
 )
 from tauvcore.log_record import Log
-from tauvcore.log_tables import held, read_table, table_path
+from tauvcore.log_tables import held, read_table, table_path, written_nan
 from tauvcore.validation import LogError, show, show_path
 
 TABLES = ("imu", "dvl", "reference")
@@ -426,6 +426,8 @@ def _zero_one(path: Path, cols: dict[str, np.ndarray], name: str) -> np.ndarray:
     column's may be empty: 0); LogError at the first other value."""
     mode = name != "valid"
     check_finite(path, cols, (name,), allow_nan=mode)
+    if mode:
+        _refuse_written_nan(path, cols, name, "1, 0 or an empty cell (0)")
     v = cols[name]
     bad = ~np.isin(v, (0.0, 1.0)) & ~(mode & np.isnan(v))
     if bad.any():
@@ -443,7 +445,20 @@ def _column_of(path: Path, cols: dict[str, np.ndarray], column: Column) -> np.nd
     check_within(
         path, cols, (column.name,), {column.name: (column.low, column.high, column.unit, column.what)}
     )
+    if column.allow_nan:
+        _refuse_written_nan(path, cols, column.name, "a number, or an empty cell (no reading)")
     return cols[column.name]
+
+
+def _refuse_written_nan(path: Path, cols: dict[str, np.ndarray], name: str, needed: str) -> None:
+    """LogError at the first cell of column ``name`` that is not empty yet no number ('nan', 'N/A'):
+    an empty cell is the format's "no reading", anything else in it is no value of the column."""
+    row = written_nan(path, name, cols[name])
+    if row is not None:
+        raise LogError(
+            f"{show_path(str(path))}: column {show(name)}, row {row}: {held(path, name, row, float('nan'))} is not "
+            f"a number; {needed} is needed here"
+        )
 
 
 def _read_source(path: Path, source: AidingSource, load: Load) -> dict[str, np.ndarray]:
