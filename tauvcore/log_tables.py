@@ -370,39 +370,31 @@ def _parquet_numbers(name: str, column: str, values: pa.ChunkedArray) -> np.ndar
 
 
 def written_nan(path: Path, column: str, values: np.ndarray) -> int | None:
-    """The first data row (from 1) of ``column`` whose cell is not empty yet reads as no number (a
-    'nan', 'NaN', 'N/A' written in a CSV cell, a NaN in a Parquet column), or None: where an empty
-    cell means "no reading", a cell that says something else is refused. ``values``: the column
-    as read (NaN where empty or written so); a table that is no file (a bag's) has no such row."""
+    """The first data row (from 1) of a CSV table's ``column`` whose cell is not empty yet reads
+    as no number (``nan``, ``NaN``, ``N/A``), or None: where an empty cell means "no reading", a
+    cell that says something else is refused. ``values``: the column as read (NaN where empty or
+    written so). A Parquet table (whose writers give an empty cell as NaN or null alike) and a
+    table that is no file (a bag's) have no such row."""
     import pyarrow as pa
+    import pyarrow.csv as pcsv
 
     nan = np.flatnonzero(np.isnan(values))
-    if nan.size == 0 or not os.path.isfile(path):
+    if nan.size == 0 or path.suffix != ".csv" or not os.path.isfile(path):
         return None
     try:
-        if path.suffix == ".parquet":
-            import pyarrow.parquet as pq
-
-            with pq.ParquetFile(path) as table:
-                present = table.read(columns=[column], use_threads=False).column(0).is_valid()
-            written = np.asarray(present.to_numpy(zero_copy_only=False), dtype=bool)
-        else:
-            import pyarrow.csv as pcsv
-
-            cells = pcsv.read_csv(
-                path,
-                read_options=pcsv.ReadOptions(use_threads=False, block_size=_CSV_BLOCK_BYTES),
-                convert_options=pcsv.ConvertOptions(
-                    include_columns=[column], column_types={column: pa.binary()}, strings_can_be_null=False
-                ),
-            ).column(0)
-            written = np.array([bool((c or b"").strip(b" \t")) for c in cells.to_pylist()], dtype=bool)
+        cells = pcsv.read_csv(
+            path,
+            read_options=pcsv.ReadOptions(use_threads=False, block_size=_CSV_BLOCK_BYTES),
+            convert_options=pcsv.ConvertOptions(
+                include_columns=[column], column_types={column: pa.binary()}, strings_can_be_null=False
+            ),
+        ).column(0)
     except (OSError, pa.ArrowException):
         return None
-    if written.size != values.size:
+    if len(cells) != values.size:
         return None
-    bad = nan[written[nan]]
-    return int(bad[0]) + 1 if bad.size else None
+    written = [bool((cells[int(k)].as_py() or b"").strip(b" \t")) for k in nan]
+    return int(nan[written.index(True)]) + 1 if any(written) else None
 
 
 def held(path: Path, column: str, row: int, value: float) -> str:

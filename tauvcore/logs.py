@@ -101,6 +101,10 @@ GRAVITY_BAND_MPS2 = (5.0, 15.0)
 """Average specific-force magnitude an IMU log must show over its first 10 s (a vehicle at sea
 feels gravity, 9.8 m/s^2): outside it the accelerometer columns are in other units (mg, mm/s^2,
 g) or are not specific force."""
+MIN_IMU_SPAN_S = 1.0
+"""Shortest IMU record a log may have [s]: one window of the physical checks
+(tauvcore.log_evidence.WINDOW_S) and one interval of a 1 Hz DVL or reference; a shorter one
+leaves every other table outside its span."""
 CONFIG_FILE = "log.toml"
 """The configuration a log carries with it, in its directory (the DVL's lever arm and geometry,
 the sensors' tuning: partial TOML as for ``--config``). ``tauv replay`` and the dashboard lay
@@ -245,6 +249,12 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
     log_checks.check_imu_clock(t, imu_path)  # a clock in ms also spoils the gravity check below
     dt = np.diff(t)
     median = float(np.median(dt))
+    need = int(np.floor(MIN_IMU_SPAN_S / median + 1e-9)) + 1
+    if t.size < need:
+        raise LogError(
+            f"{show_path(str(imu_path))}: {t.size} rows ({float(t[-1] - t[0]):.6g} s at {1.0 / median:.6g} Hz); "
+            f"at least {need} needed ({MIN_IMU_SPAN_S:g} s of IMU)"
+        )
     gap = dt > MAX_GAP_STEPS * median
     if gap.any():
         row = int(np.argmax(dt)) + 2
