@@ -117,7 +117,9 @@ def output_dir(
             )
     target = real if exists else os.path.dirname(real)
     if not os.access(target, os.W_OK | os.X_OK):
-        raise OutputDirError(f"{label}: cannot write into {show_path(path if exists else target)}: permission denied")
+        raise OutputDirError(
+            f"{label}: cannot write into {show_path(path if exists else target)}: permission denied"
+        )
     _refuse_holding_inputs(label, path, real, inputs)
     replaces = None
     if exists:
@@ -133,9 +135,7 @@ def output_dir(
             )
         if kind is not None and kind.holds(entries):
             if kind.replace_flag is None or not replace:
-                how = (
-                    f"add {kind.replace_flag} to replace it, or give" if kind.replace_flag else "give"
-                )
+                how = f"add {kind.replace_flag} to replace it, or give" if kind.replace_flag else "give"
                 raise OutputDirError(
                     f"{label}: {name} holds an earlier {kind.name} ({', '.join(sorted(entries))}); {how} a new "
                     "or empty directory"
@@ -151,7 +151,9 @@ def output_dir(
     return OutputDir(real, exists, replaces)
 
 
-def _refuse_holding_inputs(label: str, given: str, out_real: str, inputs: Sequence[tuple[str, str | None]]) -> None:
+def _refuse_holding_inputs(
+    label: str, given: str, out_real: str, inputs: Sequence[tuple[str, str | None]]
+) -> None:
     """OutputDirError if the output directory ``out_real`` (``given``) holds one of ``inputs`` (by
     real path, or the same file by a hard link), or lies in an input directory: its writer could
     replace them."""

@@ -157,7 +157,9 @@ def read_log(directory: str | os.PathLike) -> Log:
         On any problem, naming the file, the column, the row and the value.
     """
     if not os.fspath(directory).strip():  # Path('') is the current directory
-        raise LogError(f"{show_path(os.fspath(directory))} is not a log's name (the current directory is '.')")
+        raise LogError(
+            f"{show_path(os.fspath(directory))} is not a log's name (the current directory is '.')"
+        )
     root = Path(directory)
     if not root.is_dir():
         raise LogError(f"{show_path(str(root))}: not a directory (a log is a directory of sensor tables)")
