@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import os
 import signal
 import sys
@@ -31,6 +32,7 @@ from app.commands.log import cmd_log_convert, cmd_log_info
 from app.commands.replay import cmd_replay
 from app.commands.run import cmd_run
 from app.commands.serve import cmd_serve
+from app.commands.smoothing import MAX_SMOOTH_MEMORY_MB
 from app.commands.study import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_reproduce
 from app.commands.values import UsageError, resolve_config
 from tauvcore.aiding import AIDING_SOURCES
@@ -58,8 +60,25 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
+        commands = self._commands()
+        if commands and message.startswith("the following arguments are required: "):
+            width = max(len(name) for name in commands)
+            listing = "".join(f"  {name.ljust(width)}  {text}\n" for name, text in commands.items())
+            where = self.prog.removeprefix("tauv").strip()
+            raise UsageError(
+                f"{where + ': ' if where else ''}a command is required ({self.prog} COMMAND --help for "
+                "its flags)",
+                f"{self.format_usage()}\ncommands:\n{listing}\n",
+            )
         # argparse quotes values whole ("unrecognized arguments: <500 kB>"): shorten each word
         raise UsageError(" ".join(shorten(word) for word in message.split(" ")))
+
+    def _commands(self) -> dict[str, str]:
+        """This parser's subcommands and their one-line help, in the order they were added."""
+        for action in self._actions:  # argparse keeps no public list of them
+            if isinstance(action, argparse._SubParsersAction):
+                return {a.dest: a.help or "" for a in action._choices_actions}
+        return {}
 
 
 def option_actions(parser: argparse.ArgumentParser) -> dict[str, list[argparse.Action]]:
@@ -192,8 +211,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         type=_path,
         required=True,
-        help="output directory (created if missing; files appear only when the study has finished)",
+        help="output directory, new (created in an existing directory) or empty; files appear only when "
+        "the study has finished",
     )
+    _replace_flag(mc, "tauv mc")
     mc.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
     mc.add_argument(
         "--dask",
@@ -208,6 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
         "with every figure of its section 4.2 beside ours",
     )
     rp.add_argument("--out", type=_path, required=True, help="output directory (as for mc)")
+    _replace_flag(rp, "tauv reproduce")
     rp.add_argument("--runs", help="Monte Carlo runs per trajectory (default 100, the paper's study)")
     rp.add_argument("--duration", help="run length [s] (default 250, the paper's; shorter for a quick check)")
     rp.add_argument("--seed", help="seed of the study (default 0)")
@@ -245,7 +267,12 @@ def build_parser() -> argparse.ArgumentParser:
     lc.add_argument(
         "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
     )
-    lc.add_argument("out_dir", type=_path, metavar="OUT_DIR", help="the log's directory (new, or empty)")
+    lc.add_argument(
+        "out_dir",
+        type=_path,
+        metavar="OUT_DIR",
+        help="the log's directory, new (created in an existing directory) or empty",
+    )
     _bag_mapping_flag(lc)
     lc.add_argument("--log-format", default="csv", help="csv (default) or parquet")
     c = sub.add_parser("config", help="print the full configuration as TOML")
@@ -346,7 +373,8 @@ def _smooth_flags(p: argparse.ArgumentParser) -> None:
         "--smooth-memory-mb",
         metavar="MB",
         help=f"megabytes of the smoother's tape held in memory, the rest in a temporary directory "
-        f"(default {DEFAULT_BUDGET_MB:g}; at least what one chunk needs)",
+        f"(default {DEFAULT_BUDGET_MB:g}; at least what one chunk needs, at most {MAX_SMOOTH_MEMORY_MB:.0f}: "
+        "a terabyte, more than any machine has; the tape beyond it goes to disk)",
     )
     p.add_argument(
         "--smooth-dir",
@@ -354,6 +382,15 @@ def _smooth_flags(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="an existing directory for the smoother's temporary files (default: the system's, TMPDIR); "
         "they are removed when the command ends",
+    )
+
+
+def _replace_flag(p: argparse.ArgumentParser, command: str) -> None:
+    p.add_argument(
+        "--replace",
+        action="store_true",
+        help=f"replace an earlier {command} study in --out (without it a directory that holds one is "
+        "refused; a directory holding anything else always is)",
     )
 
 
@@ -425,13 +462,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     with contextlib.suppress(ValueError):  # only the main thread may set it (main() in a thread: left alone)
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
-        args = build_parser().parse_args(attach_dash_values(argv))
+        try:
+            args = build_parser().parse_args(attach_dash_values(argv))
+        except UsageError as exc:
+            hints = did_you_mean(argv)
+            if not hints:
+                raise
+            shown = (
+                f"did you mean {hints[0][1]}?"
+                if len(hints) == 1 and str(exc).startswith("unrecognized arguments")
+                else "; ".join(f"{flag}: did you mean {near}?" for flag, near in hints)
+            )
+            raise UsageError(f"{exc} ({shown})", exc.usage) from None
         _require_file_names(args)
         _require_text_values(args)
         code = args.func(args)
         sys.stdout.flush()  # inside the try: a closed pipe is reported here, not at exit
         return code
     except (UsageError, ConfigError) as exc:
+        sys.stderr.write(getattr(exc, "usage", ""))
         print(f"tauv: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except StudyFailedError as exc:
@@ -443,6 +492,35 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("tauv: interrupted", file=sys.stderr)
         return 130
+
+
+def did_you_mean(argv: Sequence[str]) -> list[tuple[str, str]]:
+    """The flags of ``argv`` that its command does not have, each with the nearest one it has
+    (``--trajectroy``: ``--trajectory``; difflib's closeness, at least 0.75), as (flag as given,
+    shortened; the nearest) pairs; a flag with none near is left out."""
+    command, options = "", OPTIONS[""]
+    for token in argv:
+        if token == "--":
+            break
+        if token.startswith("-"):
+            continue
+        inner = f"{command} {token}".strip()
+        if inner in OPTIONS:  # the command, then a subcommand's own (tauv log convert)
+            command, options = inner, OPTIONS[inner]
+        elif command:
+            break  # a positional argument (a path): the command is known
+    known = sorted({s for a in options + OPTIONS[""] for s in a.option_strings})
+    hints: list[tuple[str, str]] = []
+    for token in argv:
+        if token == "--":
+            break
+        flag = token.split("=", 1)[0]
+        if not flag.startswith("--") or flag in known:
+            continue
+        near = difflib.get_close_matches(flag, known, n=1, cutoff=0.75)
+        if near:
+            hints.append((shorten(flag), near[0]))
+    return hints
 
 
 def _require_text_values(args: argparse.Namespace) -> None:

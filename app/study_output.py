@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from tauvcore.eval.study import ERROR_SERIES, NEES_SERIES, ChunkSeries
-from tauvcore.log_writer import fsync_path, replace_files
-from tauvcore.validation import one_line, show_path
+from tauvcore.log_writer import OutputKind, fsync_path, replace_files
+from tauvcore.validation import OutputDirError, one_line, show_path
 
 PARQUET_SERIES = ERROR_SERIES + NEES_SERIES
 """The per-run columns of runs.parquet: the errors and the NEES (full and per block), as 32-bit
@@ -46,24 +46,21 @@ RMS over the runs."""
 OUTPUT_FILES = ("summary.json", "runs.parquet", "report.html", "paper_comparison.md")
 
 
-class OutputDirError(ValueError):
-    """The output directory cannot be used; the message names it and says why."""
-
-
-def check_out_dir(path: str) -> str:
-    """The real path of ``path`` if it can become the output directory (an existing writable
-    directory, or a new name in an existing directory). Creates nothing."""
-    if not path.strip():
-        raise OutputDirError("expected a directory name, got ''")
-    real = os.path.realpath(path)
-    if os.path.exists(real) and not os.path.isdir(real):
-        raise OutputDirError(f"{path!r} exists and is not a directory")
-    target = real if os.path.isdir(real) else os.path.dirname(real)
-    if not os.path.isdir(target):
-        raise OutputDirError(f"cannot create {path!r}: no such parent directory")
-    if not os.access(target, os.W_OK | os.X_OK):
-        raise OutputDirError(f"cannot write into {target!r}: permission denied")
-    return real
+MC_STUDY = OutputKind(
+    "tauv mc study",
+    frozenset(OUTPUT_FILES) - {"paper_comparison.md"},
+    frozenset({"summary.json"}),
+    replace_flag="--replace",
+)
+"""What ``tauv mc`` leaves in its directory: a directory holding only these (summary.json among
+them) holds an earlier study, replaced only with ``--replace`` (tauvcore.log_writer.output_dir)."""
+REPRODUCE_STUDY = OutputKind(
+    "tauv reproduce study",
+    frozenset(OUTPUT_FILES),
+    frozenset({"summary.json", "paper_comparison.md"}),
+    replace_flag="--replace",
+)
+"""What ``tauv reproduce`` leaves in its directory (as :data:`MC_STUDY`, with paper_comparison.md)."""
 
 
 def _plain(value: Any) -> Any:
@@ -221,11 +218,12 @@ class StudyWriter:
     :class:`OutputDirError` naming the file and the reason."""
 
     def __init__(self, out_dir: str, name: str | None = None) -> None:
-        """``out_dir`` from :func:`check_out_dir`; created here if missing (and removed again by
+        """``out_dir`` from tauvcore.log_writer.output_dir; created here if missing (and removed again by
         :meth:`abort` if the study fails); OutputDirError if another writer holds it. ``name``:
         the directory as messages show it (default ``out_dir``)."""
         self.out_dir = out_dir
         self.name = out_dir if name is None else name
+        self.replaces: str | None = None  # the earlier study the outputs replace (the command says so)
         self._parquet = None
         self.lock = DirectoryLock(out_dir, self.name)
         self.created = self.lock.created

@@ -2,6 +2,9 @@
 
     python scripts/akit_to_log.py ../shared/data/akit/Trajectory1 /tmp/akit1
 
+OUT_DIR follows the rule of every writer (tauvcore.log_writer.output_dir): a new directory in an
+existing one, or an empty one; a bad argument is one line and exit status 2.
+
 The dataset (Cohen & Klein 2025, public repository ``ansfl/A-KIT``; see its NOTES.md, not part
 of this repository) has per segment ``IMU.csv`` (100 Hz specific force and rate), ``DVL.csv``
 (1 Hz body velocity) and ``GT.csv`` (1 Hz post-processed reference: longitude, latitude [rad],
@@ -29,11 +32,13 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
 from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.log_writer import write_log
+from tauvcore.log_writer import output_dir, write_log
+from tauvcore.validation import OutputDirError, one_line, show_path
 
 IMU_DT_S = 0.01
 REF_DT_S = 1.0
@@ -108,10 +113,53 @@ def convert(segment: Path, out: Path, fmt: str = "csv") -> dict[str, float]:
     return {"imu_shift_s": imu_shift, "dvl_shift_s": dvl_shift}
 
 
+SEGMENT_FILES = ("IMU.csv", "DVL.csv", "GT.csv")
+"""The files of one segment of the dataset."""
+
+
+def _fail(message: str) -> NoReturn:
+    """One line on stderr and exit status 2 (bad input)."""
+    print(f"akit_to_log.py: error: {one_line(message)}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def _check_segment(segment: Path) -> None:
+    """One line and exit 2 unless ``segment`` is one segment's folder (it holds :data:`SEGMENT_FILES`);
+    given the dataset's root (or any folder of segments), the line lists the segments found."""
+    if not segment.is_dir():
+        _fail(f"SEGMENT_DIR: {show_path(str(segment))} is not a directory (one segment folder, e.g. Trajectory1)")
+    missing = [name for name in SEGMENT_FILES if not (segment / name).is_file()]
+    if not missing:
+        return
+    try:
+        found = sorted(
+            (d.name for d in segment.iterdir() if d.is_dir() and all((d / n).is_file() for n in SEGMENT_FILES)),
+            key=lambda name: (len(name), name),
+        )
+    except OSError:
+        found = []
+    if found:
+        listing = ", ".join(found[:4]) + (f", ... ({len(found)} segments)" if len(found) > 4 else "")
+        _fail(
+            f"SEGMENT_DIR: {show_path(str(segment))} holds segments, not one: give one segment folder, "
+            f"e.g. {show_path(str(segment / found[0]))} (found {listing})"
+        )
+    _fail(f"SEGMENT_DIR: {show_path(str(segment))} is not an A-KIT segment: no {', '.join(missing)}")
+
+
 def main() -> None:
     if len(sys.argv) != 3:
-        raise SystemExit("usage: python scripts/akit_to_log.py SEGMENT_DIR OUT_DIR")
-    offsets = convert(Path(sys.argv[1]), Path(sys.argv[2]))
+        _fail("usage: python scripts/akit_to_log.py SEGMENT_DIR OUT_DIR")
+    segment, out = Path(sys.argv[1]), sys.argv[2]
+    _check_segment(segment)
+    try:
+        output_dir(out, "OUT_DIR", inputs=[("the segment", str(segment))])
+    except OutputDirError as exc:
+        _fail(str(exc))
+    try:
+        offsets = convert(segment, Path(out))
+    except (OSError, ValueError, IndexError) as exc:  # a segment's file that is not the dataset's
+        _fail(f"{show_path(str(segment))}: cannot be converted: {exc}")
     print(f"written {sys.argv[2]}: IMU clock {offsets['imu_shift_s']:+.2f} s, DVL {offsets['dvl_shift_s']:+.2f} s")
 
 

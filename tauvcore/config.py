@@ -34,6 +34,7 @@ from tauvcore.sensors.rpm import RpmConfig
 from tauvcore.truth.kinematic import TrajectoryConfig
 from tauvcore.validation import (
     ConfigError,
+    one_line,
     require_choice,
     require_choices,
     require_range,
@@ -676,7 +677,7 @@ def read_toml(path: str, label: str = "--config") -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{label}: malformed TOML in {name}: {shorten(str(exc))}") from None
+        raise ConfigError(f"{label}: malformed TOML in {name}: {one_line(str(exc))}") from None
     except RecursionError:
         raise ConfigError(f"{label}: malformed TOML in {name}: arrays or tables nested too deeply") from None
 

@@ -59,9 +59,11 @@ from tauvcore.log_evidence import file_angle_columns, table_file
 from tauvcore.log_motion_checks import (
     MAX_TURN_RATE_RPS,
     check_accel,
+    check_attitude_units,
     check_dvl,
     check_gyro,
     check_gyro_bound,
+    check_gyro_earth_rate,
     check_velocity,
 )
 from tauvcore.log_record import Log
@@ -286,8 +288,13 @@ def check_plausible(log: Log, files: Mapping[str, Path]) -> list[str]:
     _check_ranges(log, files)
     _check_depth(log, files, notes)
     check_velocity(log, files, notes)
-    check_gyro(log, files, notes)
+    check_attitude_units(log, files)
+    gyro_notes: list[str] = []
+    check_gyro(log, files, gyro_notes)
     check_gyro_bound(log, files)
+    if gyro_notes:  # axes it could not judge: the earth's rate may still show a gyro in deg/s
+        check_gyro_earth_rate(log, files)
+    notes.extend(gyro_notes)
     check_accel(log, files)
     check_dvl(log, files, notes)
     return notes

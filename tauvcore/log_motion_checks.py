@@ -47,6 +47,21 @@ GYRO_SLOPE_FACTOR = 3.0
 """A gyro slope within this factor of 1 (or of a unit factor) is taken as that: wide enough for
 the attenuation an AHRS's noise brings to a fitted slope (to half), and the bands about 1 and
 about the degree's 57.3 (up to 3, down to 19) stay far apart."""
+MIN_TILT_RAD = 1.0 * units.DEG
+"""RMS roll or pitch [rad] from which an attitude's tilt is judged against the accelerometer's
+(:func:`check_attitude_units`): five times the tilt an AUV's own accelerations (0.1 m/s^2 in a
+turn) lend gravity over a window, so a slope of 1/57.3 (radians under _deg) stands far out."""
+TILT_SLOPE_FACTOR = 3.0
+"""An attitude's tilt slope against the accelerometer's within this factor of 1 (or of 1/57.3) is
+taken as that: the vehicle's accelerations and an AHRS's noise move it by tens of percent."""
+EARTH_RATE_MATCH = 0.7
+"""Smallest match (the cosine between the means over the log) of what the gyro measures and the
+earth's rate plus the reference's turn for a gyro that reads 57.3 times that (within
+:data:`GYRO_SLOPE_FACTOR`) to be refused as in deg/s on a log that turns too little to judge its
+axes (:func:`check_gyro_earth_rate`). A Table 2 gyro in deg/s on a straight run matches to 0.84
+(its bias turns the mean by some 30 deg); a gyro in rad/s would need a bias of 300 to 3500 deg/h
+lined up within 45 deg of the earth's axis to fake it (an uncalibrated MEMS gyro's 1 deg/s reads
+hundreds of times the earth's rate, beyond the band)."""
 MAX_TURN_RATE_RPS = 3.0
 """Largest turn rate [rad/s] an AUV sustains over :data:`WINDOW_S` (170 deg/s; a torpedo-shaped
 vehicle turns at tens of deg/s at most): beyond it the gyro is not in rad/s."""
@@ -274,6 +289,95 @@ def check_gyro(log: Log, files: Mapping[str, Path], notes: list[str]) -> None:
                 "its scale and sign (a gyro bias, a noisy attitude, too little turning?)",
             )
         )
+
+
+def check_attitude_units(log: Log, files: Mapping[str, Path]) -> None:
+    """An attitude given in degrees (``roll_deg``, ``pitch_deg``) against the tilt the accelerometer
+    shows under gravity, ``roll = atan2(-f_y, -f_z)``, ``pitch = atan2(f_x, hypot(f_y, f_z))`` of
+    the mean specific force over each window: a slope near 1/57.3 is radians under a _deg name,
+    refused. It runs before the gyro's comparison (check 2), which sees such an attitude turn 57.3
+    times too slowly and would blame the gyro. Judged on an axis whose tilt RMS reaches
+    :data:`MIN_TILT_RAD`, within :data:`TILT_SLOPE_FACTOR`."""
+    attitude = log.table("mag", EULER)
+    for table, t_rows, euler in (
+        ("reference", log.ref_t_s, log.ref_euler),
+        (SOURCES["mag"].table, *(attitude or (None, None))),
+    ):
+        if t_rows is None or euler is None:
+            continue
+        path = table_file(files, log, table)
+        columns = file_angle_columns(path, ("roll", "pitch"))
+        if not all(c.endswith("_deg") for c in columns):
+            continue
+        idx = window_rows(log.imu_t_s, log.imu_t_s)
+        if idx.size < 3:
+            continue
+        t = log.imu_t_s[idx]
+        f = imu_change(log, log.dv_b, t) / np.diff(t)[:, None]
+        measured = np.column_stack(
+            [np.arctan2(-f[:, 1], -f[:, 2]), np.arctan2(f[:, 0], np.hypot(f[:, 1], f[:, 2]))]
+        )
+        mid = 0.5 * (t[1:] + t[:-1])
+        inside = (mid >= t_rows[0]) & (mid <= t_rows[-1])
+        if inside.sum() < 3:
+            continue
+        given = euler_at(t_rows, euler, mid[inside])[:, :2]
+        fit = Fit.of(measured[inside], given)
+        for finding in judge(fit, MIN_TILT_RAD, TILT_SLOPE_FACTOR, (1.0 / DEGREES,)):
+            if finding.kind != "factor":
+                continue
+            w = worst_window(measured[inside], given, finding)
+            row = row_at(path, float(mid[inside][w]))
+            column = columns[finding.column]
+            raise LogError(
+                f"{show_path(str(path))}: column {show(column)}, row {row}: {value_at(path, column, row)}: over "
+                f"{fit.count} windows the accelerometer's gravity tilts the vehicle {1.0 / finding.slope:.4g} times "
+                f"as far ({measured[inside][w, finding.column] / units.DEG:+.3g} deg there): radians under _deg? "
+                "Name the columns _rad, or give degrees"
+            )
+
+
+def check_gyro_earth_rate(log: Log, files: Mapping[str, Path]) -> None:
+    """A gyro in deg/s on a log that turns too little to judge its axes (check 2): what it measures
+    over each window against what it should, the earth's rate in the body ``C_nb^T omega_ie_n``
+    (the reference's latitude) plus the reference's turn, their means over the log's windows
+    compared as vectors: a slope (the measured mean's projection on the predicted, over its length)
+    and a match (the cosine of the angle between them).
+    A gyro at rest or going straight still measures the earth's rate (15 deg/h); in deg/s it reads
+    57.3 times that. Refused where the slope is within :data:`GYRO_SLOPE_FACTOR` of 57.3 and the two
+    match to :data:`EARTH_RATE_MATCH`."""
+    if log.ref_t_s is None or log.ref_euler is None or not log.ref_geodetic or log.ref_position is None:
+        return
+    idx = window_rows(log.ref_t_s, log.imu_t_s)
+    if idx.size < 3:
+        return
+    t = log.ref_t_s[idx]
+    dt = np.diff(t)[:, None]
+    C = C_nb_from_euler(log.ref_euler[idx])
+    lat = log.ref_position[idx[:-1], 0]
+    omega_ie_n = OMEGA_IE_RPS * np.column_stack([np.cos(lat), np.zeros_like(lat), -np.sin(lat)])
+    pred = log_so3(np.swapaxes(C[:-1], -1, -2) @ C[1:]) / dt + np.einsum("kji,kj->ki", C[:-1], omega_ie_n)
+    meas = imu_change(log, log.dtheta_b, t) / dt
+    # the means over the log: the gyro's noise (a MEMS gyro's is many times the earth's rate over
+    # a window) averages out; what the vehicle barely turns, the earth's rate in the body hardly moves
+    p, m = pred.mean(axis=0), meas.mean(axis=0)
+    pp, mm = float(p @ p), float(m @ m)
+    if pp <= 0.0 or mm <= 0.0:
+        return
+    slope, match = float(p @ m) / pp, float(p @ m) / np.sqrt(pp * mm)
+    if match < EARTH_RATE_MATCH or abs(np.log(slope / DEGREES)) > np.log(GYRO_SLOPE_FACTOR):
+        return
+    path = table_file(files, log, "imu")
+    gyro = file_columns(path, *((f"gyro_{a}_rps", f"dtheta_{a}_rad") for a in _AXES))
+    axis = int(np.argmax(np.abs(meas).mean(axis=0)))
+    row = row_at(path, float(t[-1]))
+    raise LogError(
+        f"{show_path(str(path))}: column {show(gyro[axis])}, row {row}: {value_at(path, gyro[axis], row)}: over "
+        f"{meas.shape[0]} windows the gyro reads {slope:.4g} times the earth's rate and the reference's turn "
+        f"(match {match:.3f}; {np.linalg.norm(meas.mean(axis=0)) / units.DEG * 3600:.4g} deg/h where the earth "
+        f"turns {OMEGA_IE_RPS / units.DEG * 3600:.3g}): in deg/s (or degrees) under a radian name? Give radians "
+        "(multiply by pi/180)"
+    )
 
 
 def check_gyro_bound(log: Log, files: Mapping[str, Path]) -> None:

@@ -369,6 +369,34 @@ def _parquet_numbers(name: str, column: str, values: pa.ChunkedArray) -> np.ndar
     )
 
 
+def written_nan(path: Path, column: str, values: np.ndarray) -> int | None:
+    """The first data row (from 1) of a CSV table's ``column`` whose cell is not empty yet reads
+    as no number (``nan``, ``NaN``, ``N/A``), or None: where an empty cell means "no reading", a
+    cell that says something else is refused. ``values``: the column as read (NaN where empty or
+    written so). A Parquet table (whose writers give an empty cell as NaN or null alike) and a
+    table that is no file (a bag's) have no such row."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    nan = np.flatnonzero(np.isnan(values))
+    if nan.size == 0 or path.suffix != ".csv" or not os.path.isfile(path):
+        return None
+    try:
+        cells = pcsv.read_csv(
+            path,
+            read_options=pcsv.ReadOptions(use_threads=False, block_size=_CSV_BLOCK_BYTES),
+            convert_options=pcsv.ConvertOptions(
+                include_columns=[column], column_types={column: pa.binary()}, strings_can_be_null=False
+            ),
+        ).column(0)
+    except (OSError, pa.ArrowException):
+        return None
+    if len(cells) != values.size:
+        return None
+    written = [bool((cells[int(k)].as_py() or b"").strip(b" \t")) for k in nan]
+    return int(nan[written.index(True)]) + 1 if any(written) else None
+
+
 def held(path: Path, column: str, row: int, value: float) -> str:
     """What ``column`` holds at data row ``row`` (from 1), for a message: ``empty`` or the cell's
     text quoted as the file has it (``'N/A'``, ``'NaN'``, ``'1e999'``), read again from the

@@ -10,6 +10,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
@@ -18,6 +19,183 @@ import numpy as np
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.log_columns import IMU_INCREMENTS, REF_LOCAL, REF_VEL
 from tauvcore.logs import CONFIG_FILE, SOURCE_TABLES, TABLES
+from tauvcore.validation import OutputDirError, show_path
+
+WRITER_ENTRY_PREFIXES = (".tauv-", ".tauv.")
+"""Names a writer gives its own entries in an output directory while it writes (its hidden temporary
+directory, its lock file): a directory holding nothing else is empty to :func:`output_dir` (a
+writer killed mid-write leaves them; a writer at work is refused by its lock instead)."""
+
+
+@dataclass(frozen=True)
+class OutputKind:
+    """What a writer leaves in its directory, for :func:`output_dir` to recognise an earlier
+    output of the same kind: its name in messages (``"tauv mc study"``), the files only it writes
+    (every one there, none else, for an earlier one to be taken as its) and the flag that allows
+    replacing it (None: an earlier one is always refused)."""
+
+    name: str
+    files: frozenset[str]
+    required: frozenset[str]
+    replace_flag: str | None = None
+
+    def holds(self, entries: set[str]) -> bool:
+        """Whether a directory with ``entries`` (a writer's own left out) holds this kind's output."""
+        return bool(entries) and self.required <= entries <= self.files
+
+
+@dataclass(frozen=True)
+class OutputDir:
+    """A writer's directory as :func:`output_dir` found it."""
+
+    path: str  # its real path (symbolic links resolved)
+    exists: bool  # False: a new name in an existing directory, created by the writer
+    replaces: str | None  # the earlier output of the same kind it holds, to be replaced (what it is)
+
+
+def output_dir(
+    path: str,
+    label: str,
+    kind: OutputKind | None = None,
+    replace: bool = False,
+    inputs: Sequence[tuple[str, str | None]] = (),
+) -> OutputDir:
+    """Check the directory a writer is to write into, before anything is computed or created: the
+    rule every writer follows (``tauv run --save-log``, ``tauv mc --out``, ``tauv reproduce
+    --out``, ``tauv log convert``, the converter scripts).
+
+    Refused, each with one :class:`~tauvcore.validation.OutputDirError` naming ``label`` and the
+    directory: an empty name (it is no directory's; the current directory is named ``.``), a name
+    with a NUL character, an entry that is not a directory, a missing parent (nothing but the
+    directory itself is ever created), a parent or directory not writable, a directory that holds
+    one of ``inputs`` or lies in an input directory, one that holds a log, and one that holds
+    anything else but an earlier output of ``kind``; that one only with ``replace`` (and the
+    writer says it replaced it), else refused with how to replace it. Entries a writer names
+    :data:`WRITER_ENTRY_PREFIXES` do not count.
+
+    Parameters
+    ----------
+    path : str
+        The directory as given.
+    label : str
+        The flag or argument that gave it (``--out``, ``OUT_DIR``), at the head of each message.
+    kind : OutputKind or None
+        What the writer leaves there, to recognise an earlier output of its own kind (None: none is).
+    replace : bool
+        Whether an earlier output of ``kind`` may be replaced (its ``replace_flag`` was given).
+    inputs : Sequence of tuple of (str, str or None)
+        What the command reads, as (description, path) pairs (``("the --config file", path)``):
+        the directory must not hold one, nor be in an input directory.
+
+    Returns
+    -------
+    OutputDir
+        Its real path, whether it exists, and what earlier output it replaces (None: none).
+
+    Raises
+    ------
+    OutputDirError
+        As above.
+    """
+    if not path.strip():
+        raise OutputDirError(f"{label}: {show_path(path)} is not a directory name")
+    name = show_path(path)
+    if "\x00" in path:
+        raise OutputDirError(f"{label}: a directory name cannot contain a NUL character, got {name}")
+    real = os.path.realpath(path)
+    if os.path.lexists(path) and not os.path.isdir(real):
+        what = "a dangling symbolic link" if not os.path.exists(real) else "not a directory"
+        raise OutputDirError(f"{label}: {name} exists and is {what}")
+    exists = os.path.isdir(real)
+    if not exists:
+        parent = os.path.dirname(real)
+        if not os.path.isdir(parent):
+            given = os.path.dirname(os.path.normpath(path)) or "."
+            raise OutputDirError(
+                f"{label}: cannot create {name}: no such parent directory {show_path(given)} "
+                "(create it first: only the directory itself is created)"
+            )
+    target = real if exists else os.path.dirname(real)
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise OutputDirError(
+            f"{label}: cannot write into {show_path(path if exists else target)}: permission denied"
+        )
+    _refuse_holding_inputs(label, path, real, inputs)
+    replaces = None
+    if exists:
+        try:
+            entries = {e for e in os.listdir(real) if not e.startswith(WRITER_ENTRY_PREFIXES)}
+        except OSError as exc:
+            raise OutputDirError(f"{label}: cannot list {name}: {exc.strerror or exc}") from None
+        logs = sorted(e for e in entries if e in ("imu.csv", "imu.parquet"))
+        if logs:
+            raise OutputDirError(
+                f"{label}: {name} is a log directory (it holds {logs[0]}), not an empty directory; give a "
+                "new or empty one (nothing is overwritten)"
+            )
+        if kind is not None and kind.holds(entries):
+            if kind.replace_flag is None or not replace:
+                how = f"add {kind.replace_flag} to replace it, or give" if kind.replace_flag else "give"
+                raise OutputDirError(
+                    f"{label}: {name} holds an earlier {kind.name} ({', '.join(sorted(entries))}); {how} a new "
+                    "or empty directory"
+                )
+            replaces = kind.name
+        elif entries:
+            listing = ", ".join(show_path(e) for e in sorted(entries)[:3])
+            more = f" and {len(entries) - 3} more" if len(entries) > 3 else ""
+            raise OutputDirError(
+                f"{label}: {name} is not an empty directory (it holds {listing}{more}); give a new or empty "
+                "one (nothing is overwritten)"
+            )
+    return OutputDir(real, exists, replaces)
+
+
+def _refuse_holding_inputs(
+    label: str, given: str, out_real: str, inputs: Sequence[tuple[str, str | None]]
+) -> None:
+    """OutputDirError if the output directory ``out_real`` (``given``) holds one of ``inputs`` (by
+    real path, or the same file by a hard link), or lies in an input directory: its writer could
+    replace them."""
+    for what, source in inputs:
+        if not source:
+            continue
+        try:
+            source_real = os.path.realpath(source)
+        except (OSError, ValueError):
+            continue
+        holds = _inside(source_real, out_real) or _same_as_one_in(source_real, out_real)
+        if holds:
+            raise OutputDirError(
+                f"{label}: {show_path(given)} holds {what} {show_path(source)}; choose another directory"
+            )
+        if os.path.isdir(source_real) and _inside(out_real, source_real):
+            raise OutputDirError(
+                f"{label}: {show_path(given)} is in {what} {show_path(source)}; choose another directory"
+            )
+
+
+def _inside(path: str, directory: str) -> bool:
+    """Whether the real path ``path`` is the real path ``directory`` or below it."""
+    return os.path.commonpath([path, directory]) == directory
+
+
+def _same_as_one_in(path: str, directory: str) -> bool:
+    """Whether a file directly in ``directory`` is the file ``path`` (a hard link, or a link)."""
+    if not os.path.lexists(path) or not os.path.isdir(directory):
+        return False
+    try:
+        with os.scandir(directory) as entries:
+            return any(_same_file(path, e.path) for e in entries)
+    except OSError:
+        return False
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
 
 
 def write_log(

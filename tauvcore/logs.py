@@ -80,7 +80,7 @@ from tauvcore.log_columns import (
     time_column,
 )
 from tauvcore.log_record import Log
-from tauvcore.log_tables import held, read_table, table_path
+from tauvcore.log_tables import held, read_table, table_path, written_nan
 from tauvcore.validation import LogError, show, show_path
 
 TABLES = ("imu", "dvl", "reference")
@@ -101,6 +101,10 @@ GRAVITY_BAND_MPS2 = (5.0, 15.0)
 """Average specific-force magnitude an IMU log must show over its first 10 s (a vehicle at sea
 feels gravity, 9.8 m/s^2): outside it the accelerometer columns are in other units (mg, mm/s^2,
 g) or are not specific force."""
+MIN_IMU_SPAN_S = 1.0
+"""Shortest IMU record a log may have [s]: one window of the physical checks
+(tauvcore.log_evidence.WINDOW_S) and one interval of a 1 Hz DVL or reference; a shorter one
+leaves every other table outside its span."""
 CONFIG_FILE = "log.toml"
 """The configuration a log carries with it, in its directory (the DVL's lever arm and geometry,
 the sensors' tuning: partial TOML as for ``--config``). ``tauv replay`` and the dashboard lay
@@ -152,6 +156,10 @@ def read_log(directory: str | os.PathLike) -> Log:
     LogError
         On any problem, naming the file, the column, the row and the value.
     """
+    if not os.fspath(directory).strip():  # Path('') is the current directory
+        raise LogError(
+            f"{show_path(os.fspath(directory))} is not a log's name (the current directory is '.')"
+        )
     root = Path(directory)
     if not root.is_dir():
         raise LogError(f"{show_path(str(root))}: not a directory (a log is a directory of sensor tables)")
@@ -243,6 +251,12 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
     log_checks.check_imu_clock(t, imu_path)  # a clock in ms also spoils the gravity check below
     dt = np.diff(t)
     median = float(np.median(dt))
+    need = int(np.floor(MIN_IMU_SPAN_S / median + 1e-9)) + 1
+    if t.size < need:
+        raise LogError(
+            f"{show_path(str(imu_path))}: {t.size} rows ({float(t[-1] - t[0]):.6g} s at {1.0 / median:.6g} Hz); "
+            f"at least {need} needed ({MIN_IMU_SPAN_S:g} s of IMU)"
+        )
     gap = dt > MAX_GAP_STEPS * median
     if gap.any():
         row = int(np.argmax(dt)) + 2
@@ -424,6 +438,8 @@ def _zero_one(path: Path, cols: dict[str, np.ndarray], name: str) -> np.ndarray:
     column's may be empty: 0); LogError at the first other value."""
     mode = name != "valid"
     check_finite(path, cols, (name,), allow_nan=mode)
+    if mode:
+        _refuse_written_nan(path, cols, name, "1, 0 or an empty cell (0)")
     v = cols[name]
     bad = ~np.isin(v, (0.0, 1.0)) & ~(mode & np.isnan(v))
     if bad.any():
@@ -441,7 +457,20 @@ def _column_of(path: Path, cols: dict[str, np.ndarray], column: Column) -> np.nd
     check_within(
         path, cols, (column.name,), {column.name: (column.low, column.high, column.unit, column.what)}
     )
+    if column.allow_nan:
+        _refuse_written_nan(path, cols, column.name, "a number, or an empty cell (no reading)")
     return cols[column.name]
+
+
+def _refuse_written_nan(path: Path, cols: dict[str, np.ndarray], name: str, needed: str) -> None:
+    """LogError at the first cell of column ``name`` that is not empty yet no number ('nan', 'N/A'):
+    an empty cell is the format's "no reading", anything else in it is no value of the column."""
+    row = written_nan(path, name, cols[name])
+    if row is not None:
+        raise LogError(
+            f"{show_path(str(path))}: column {show(name)}, row {row}: {held(path, name, row, float('nan'))} is not "
+            f"a number; {needed} is needed here"
+        )
 
 
 def _read_source(path: Path, source: AidingSource, load: Load) -> dict[str, np.ndarray]:

@@ -27,6 +27,11 @@ class ConfigError(ValueError):
     """A configuration value is invalid. The message names the field and the offending value."""
 
 
+class OutputDirError(ValueError):
+    """A directory a writer was given cannot be written (tauvcore.log_writer.output_dir): the
+    message names the flag or argument, the directory and why."""
+
+
 class LogError(ValueError):
     """A recorded log that cannot be used as it is (tauvcore.logs): the message names the file,
     column, row and value."""

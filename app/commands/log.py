@@ -7,12 +7,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import typing
 from pathlib import Path
 
 from app.commands.values import UsageError
-from tauvcore.validation import LogError, show, show_path
+from tauvcore.validation import LogError, OutputDirError, show, show_path
 
 if typing.TYPE_CHECKING:
     from tauvcore.bags.mapping import BagMapping
@@ -75,12 +74,14 @@ def cmd_log_info(args: argparse.Namespace) -> int:
 def cmd_log_convert(args: argparse.Namespace) -> int:
     """``tauv log convert PATH OUT_DIR``: the bag's tables, checked as the log reader checks a log,
     written as a log with tauvcore.log_writer (all or nothing), with the mapping's ``[config]`` as
-    the log's own ``log.toml``; OUT_DIR must be new or empty, so nothing is ever overwritten."""
+    the log's own ``log.toml``; OUT_DIR follows the rule of every writer
+    (tauvcore.log_writer.output_dir: new in an existing directory, or empty), so nothing is ever
+    overwritten."""
     import tomli_w
 
     from tauvcore.bags import bag_config, bag_tables, with_tf_lever_arm
     from tauvcore.config import from_dict
-    from tauvcore.log_writer import write_log
+    from tauvcore.log_writer import output_dir, write_log
     from tauvcore.logs import log_from_tables
 
     if args.log_format not in ("csv", "parquet"):
@@ -88,12 +89,11 @@ def cmd_log_convert(args: argparse.Namespace) -> int:
     mapping = _mapping(args)
     out = Path(args.out_dir)
     bag = Path(args.bag)
-    if (out.exists() or out.is_symlink()) and (not out.is_dir() or any(out.iterdir())):
-        raise UsageError(
-            f"OUT_DIR: {show_path(args.out_dir)} exists and is not an empty directory (nothing is overwritten)"
-        )
-    if os.path.abspath(out) == os.path.abspath(bag):
-        raise UsageError(f"OUT_DIR: {show_path(args.out_dir)} is the bag itself")
+    inputs = [("the bag", args.bag), ("the --bag-mapping file", mapping.path)]
+    try:
+        output_dir(args.out_dir, "OUT_DIR", inputs=inputs)
+    except OutputDirError as exc:
+        raise UsageError(str(exc)) from None
     try:
         raw, source = bag_config(mapping)  # the lever arm from /tf_static: from the read, one open
         config = from_dict(raw)

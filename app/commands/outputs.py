@@ -114,32 +114,6 @@ def _refuse_input(flag: str, path: str, inputs: Inputs) -> None:
             )
 
 
-def refuse_holding_inputs(flag: str, given: str, directory: str, inputs: Inputs) -> None:
-    """UsageError if the output directory ``directory`` (``given`` on the command line) holds
-    one of ``inputs``, or is in an input directory: its writer could replace them."""
-    out_real = os.path.realpath(directory)
-    for what, source in inputs:
-        source_real = _real(source)
-        if source is None or source_real is None:
-            continue
-        if _inside(source_real, out_real) or _same_as_one_in(source_real, out_real) is not None:
-            raise UsageError(
-                f"{flag}: {show_path(given)} holds {what} {show_path(source)}; choose another directory"
-            )
-        if os.path.isdir(source_real) and _inside(out_real, source_real):
-            raise UsageError(
-                f"{flag}: {show_path(given)} is in {what} {show_path(source)}; choose another directory"
-            )
-
-
-def log_table(directory: str) -> str | None:
-    """The name of the imu table that makes ``directory`` a log (tauvcore.logs.find_logs), if any."""
-    for ext in ("csv", "parquet"):
-        if os.path.lexists(os.path.join(directory, f"imu.{ext}")):
-            return f"imu.{ext}"
-    return None
-
-
 def write_json_atomic(path: str, payload: Any) -> None:
     """Write ``payload`` as strict JSON to ``path``, atomically (:func:`write_text_atomic`)."""
     write_text_atomic(path, lambda fh: json.dump(payload, fh, allow_nan=False))

@@ -36,6 +36,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
 
+    if not args.log.strip():  # not the current directory: a name that names nothing
+        raise UsageError(f"PATH: {show_path(args.log)} is not a log's name (the current directory is '.')")
     bag = is_bag(args.log, by_name=True)
     if args.bag_mapping is not None and not bag:
         raise UsageError(

@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 import time
 from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
-from app.commands.outputs import json_target, log_table, refuse_holding_inputs
+from app.commands.outputs import json_target
 from app.commands.smoothing import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
 from app.tables import summary_table
@@ -110,47 +109,40 @@ def _saving_log(args: argparse.Namespace) -> Iterator[None]:
 
 
 def _save_log_target(args: argparse.Namespace) -> str | None:
-    """The --save-log directory, checked before the run: it must not be a file, a log already,
-    or hold the --config file; it must be writable, or creatable in a writable directory."""
+    """The --save-log directory, checked before the run by the rule of every writer
+    (tauvcore.log_writer.output_dir): a new directory in an existing writable one, or an empty
+    one; not a file, not holding the --config file."""
     if args.log_format not in ("csv", "parquet"):
         raise UsageError(f"--log-format: expected csv or parquet, got {show(args.log_format)}")
     if args.save_log is None:
         return None
-    if not args.save_log.strip():
-        raise UsageError(f"--save-log: expected a directory, got {show(args.save_log)}")
-    target = os.path.abspath(args.save_log)
-    if os.path.exists(target) and not os.path.isdir(target):
-        raise UsageError(f"--save-log: {show_path(args.save_log)} is a file, not a directory")
-    if os.path.isdir(target) and log_table(target) is not None:
-        raise UsageError(
-            f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
-        )
-    refuse_holding_inputs("--save-log", args.save_log, target, [("the --config file", args.config)])
-    if os.path.isdir(target):
-        if not os.access(target, os.W_OK | os.X_OK):
-            raise UsageError(f"--save-log: cannot write into {show_path(args.save_log)}: permission denied")
-        return target
-    parent = os.path.dirname(target)
-    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
-        raise UsageError(
-            f"--save-log: cannot create {show_path(args.save_log)} (its parent is not a writable directory)"
-        )
-    return target
+    return _checked_save_log(args).path
+
+
+def _checked_save_log(args: argparse.Namespace) -> Any:
+    """tauvcore.log_writer.output_dir of --save-log, as one line."""
+    from tauvcore.log_writer import output_dir
+    from tauvcore.validation import OutputDirError
+
+    try:
+        return output_dir(args.save_log, "--save-log", inputs=[("the --config file", args.config)])
+    except OutputDirError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _lock_save_log(args: argparse.Namespace, target: str) -> Any:
     """The --save-log directory created if need be and locked for this run
     (app.study_output.DirectoryLock), or one line if another tauv holds it or has meanwhile
-    written a log there."""
+    written there."""
     from app.study_output import DirectoryLock, OutputDirError
 
     try:
         lock = DirectoryLock(target, name=args.save_log)
     except OutputDirError as exc:
         raise UsageError(f"--save-log: {exc}") from None
-    if log_table(target) is not None:
+    try:
+        _checked_save_log(args)  # again, now that no other tauv writes there
+    except BaseException:
         lock.release(remove_created=True)
-        raise UsageError(
-            f"--save-log: {show_path(args.save_log)} already holds a log; choose another directory"
-        )
+        raise
     return lock

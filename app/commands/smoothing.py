@@ -25,6 +25,12 @@ from tauvcore.validation import show, show_path
 if TYPE_CHECKING:
     from tauvcore.engine.smoothing import SmoothOptions
 
+MAX_SMOOTH_MEMORY_MB = 1_000_000.0
+"""Largest ``--smooth-memory-mb`` [MB]: a terabyte, more memory than any machine that runs the
+lab has (a budget beyond the machine's memory only means the tape is never spilled to disk, and
+the run fails for want of memory instead). Past about 1e302 MB the budget in bytes is no longer a
+number at all."""
+
 
 def smooth_options(args: argparse.Namespace, config: Config, runs: int = 1) -> SmoothOptions | None:
     """The smoother's options from the command line, checked; None without ``--smooth``.
@@ -47,7 +53,7 @@ def smooth_options(args: argparse.Namespace, config: Config, runs: int = 1) -> S
     ------
     UsageError
         ``--smooth-memory-mb`` or ``--smooth-dir`` without ``--smooth``; a budget that is not a
-        positive number, or below what one chunk needs (the line says the minimum); a
+        positive number, above :data:`MAX_SMOOTH_MEMORY_MB`, or below what one chunk needs (the line says the minimum); a
         ``--smooth-dir`` that is not a writable directory.
     """
     from tauvcore.engine.mission import STREAM_CHUNK_S
@@ -65,6 +71,12 @@ def smooth_options(args: argparse.Namespace, config: Config, runs: int = 1) -> S
         if budget_mb <= 0:
             raise UsageError(
                 f"--smooth-memory-mb: expected a positive number of megabytes, got {show(memory)}"
+            )
+        if budget_mb > MAX_SMOOTH_MEMORY_MB:
+            raise UsageError(
+                f"--smooth-memory-mb: {show(memory)} MB is more than the {MAX_SMOOTH_MEMORY_MB:.0f} MB "
+                "(a terabyte) any machine has; the tape beyond the budget goes to disk, so a budget "
+                "within the machine's memory is enough"
             )
     smoothed = max(1, len(config.run.methods))
     floor = spill_floor_bytes((smoothed, runs), config.filter.output_rate_hz, STREAM_CHUNK_S)

@@ -12,7 +12,6 @@ import sys
 import time
 from typing import Any
 
-from app.commands.outputs import log_table, refuse_holding_inputs
 from app.commands.smoothing import smooth_options
 from app.commands.values import UsageError, parse_flag, replace_for_flag, resolve_config
 from app.payload import config_to_json
@@ -44,8 +43,9 @@ def _count(flag: str, text: str | None, low: int, high: int, default: int) -> in
 def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int, str | None, Any]:
     """Runs, workers, Dask address and the output writer of a study command (holding the
     output directory's lock), every check done before anything is computed or created: the
-    output directory must not be a log or hold the --config file."""
-    from app.study_output import OutputDirError, StudyWriter, check_out_dir
+    output directory follows the rule of every writer (tauvcore.log_writer.output_dir; an earlier
+    study of the same command replaced only with ``--replace``) and must not hold the --config file."""
+    from app.study_output import OutputDirError, StudyWriter
 
     num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, default_runs)
     workers = _count("--workers", args.workers, 1, MAX_WORKERS, 1)
@@ -55,12 +55,7 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
         )
     if args.dask is not None and args.workers is not None:
         raise UsageError("--workers: not with --dask (the Dask cluster has its own workers)")
-    try:
-        out_dir = check_out_dir(args.out)
-    except OutputDirError as exc:
-        raise UsageError(f"--out: {exc}") from None
-    _refuse_log_dir(args.out, out_dir)
-    refuse_holding_inputs("--out", args.out, out_dir, [("the --config file", getattr(args, "config", None))])
+    out_dir = _checked_out(args).path
     if args.dask is not None:
         _check_dask(args.dask)
     try:
@@ -68,20 +63,30 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
     except OutputDirError as exc:
         raise UsageError(f"--out: {exc}") from None
     try:
-        _refuse_log_dir(args.out, out_dir)  # again, now that no other tauv writes there
+        writer.replaces = _checked_out(args).replaces  # again, now that no other tauv writes there
     except BaseException:
         writer.abort()
         raise
     return num_runs, workers, args.dask, writer
 
 
-def _refuse_log_dir(given: str, out_dir: str) -> None:
-    """UsageError if the output directory ``out_dir`` (``given`` as ``--out``) is a log."""
-    table = log_table(out_dir)
-    if table is not None:
-        raise UsageError(
-            f"--out: {show_path(given)} is a log directory (it holds {table}); choose another directory"
+def _checked_out(args: argparse.Namespace) -> Any:
+    """tauvcore.log_writer.output_dir of ``--out`` for this command's kind of study, as one line."""
+    from app.study_output import MC_STUDY, REPRODUCE_STUDY
+    from tauvcore.log_writer import output_dir
+    from tauvcore.validation import OutputDirError
+
+    kind = REPRODUCE_STUDY if args.command == "reproduce" else MC_STUDY
+    try:
+        return output_dir(
+            args.out,
+            "--out",
+            kind,
+            replace=args.replace,
+            inputs=[("the --config file", getattr(args, "config", None))],
         )
+    except OutputDirError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def cmd_mc(args: argparse.Namespace) -> int:
@@ -140,8 +145,7 @@ def cmd_mc(args: argparse.Namespace) -> int:
         raise
     elapsed = time.perf_counter() - started
     print(study_table(summary, trajectory, num_runs, elapsed))
-    for path in written:
-        print(f"wrote {path}")
+    _print_written(writer, written)
     return 0
 
 
@@ -256,9 +260,16 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     print("\nEvery figure of the paper's section 4.2 beside ours\n")
     print(table)
     print(f"\n({elapsed:.1f} s wall)")
+    _print_written(writer, written)
+    return 0
+
+
+def _print_written(writer: Any, written: list[str]) -> None:
+    """The files a study wrote, and the earlier study they replaced (``--replace``), if any."""
+    if writer.replaces is not None:
+        print(f"replaced the earlier {writer.replaces} in {show_path(writer.name)} (--replace)")
     for path in written:
         print(f"wrote {path}")
-    return 0
 
 
 @contextlib.contextmanager

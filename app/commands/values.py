@@ -31,7 +31,12 @@ from tauvcore.validation import ConfigError, show
 
 
 class UsageError(Exception):
-    """Bad command-line input; the message is the one line shown to the user."""
+    """Bad command-line input; the message is the one line shown to the user, after ``usage``
+    (text printed before it, such as the list of commands of a bare ``tauv``) when there is one."""
+
+    def __init__(self, message: str, usage: str = "") -> None:
+        super().__init__(message)
+        self.usage = usage
 
 
 def _csv(

@@ -35,7 +35,16 @@ class EchoSource(AidingSource):
     summary = "the altitude above the seabed straight below the vehicle"
     config_type = EchoSounderConfig
     streams = ("echo_sounder",)  # tauvcore.sensors.stream.SensorStreams.echo_sounder
-    columns = (Column(ALTITUDE, "m", -100.0, 12_000.0, "farther than the deepest ocean", allow_nan=True),)
+    columns = (
+        Column(
+            ALTITUDE,
+            "m",
+            -0.5,  # a sounder's noise near the seabed; a "no echo" code such as -1 is refused
+            12_000.0,
+            "no altitude above the seabed (no echo: leave the cell empty)",
+            allow_nan=True,
+        ),
+    )
     truth_columns = (
         Column(TRUE_ALTITUDE, "m", -12_000.0, 12_000.0, "farther than the deepest ocean", allow_nan=True),
     )

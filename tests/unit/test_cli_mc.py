@@ -130,7 +130,7 @@ def test_an_interrupted_study_leaves_nothing_that_looks_like_a_result(tmp_path, 
     existing = tmp_path / "existing"
     existing.mkdir()
     (existing / "summary.json").write_text("{\"an\": \"older study\"}")
-    assert cli.main(["mc", *SHORT, "--runs", "25", "--out", str(existing)]) == 130
+    assert cli.main(["mc", *SHORT, "--runs", "25", "--out", str(existing), "--replace"]) == 130
     assert _leftovers(existing) == ["summary.json"]                      # the old result untouched, no temp dir
     assert (existing / "summary.json").read_text() == "{\"an\": \"older study\"}"
     fresh = tmp_path / "fresh"

@@ -273,10 +273,14 @@ def test_a_study_whose_report_cannot_be_written_is_one_line_and_leaves_nothing(t
     assert os.listdir(tmp_path) == []
     older = tmp_path / "older"
     older.mkdir()
-    (older / "summary.json").write_text('{"an": "older study"}')
-    proc = _limited(tmp_path, 1_000_000, *command, "--out", "older")
+    earlier = {"summary.json": b'{"an": "older study"}'}
+    if command == REPRODUCE:
+        earlier["paper_comparison.md"] = b"an older comparison\n"
+    for name, data in earlier.items():
+        (older / name).write_bytes(data)
+    proc = _limited(tmp_path, 1_000_000, *command, "--out", "older", "--replace")
     _one_line(proc.returncode, proc.stderr, "'older/report.html'", "File too large")
-    assert _everything(older) == {"summary.json": b'{"an": "older study"}'}
+    assert _everything(older) == earlier
 
 
 def test_a_study_on_a_full_disk_names_the_file_in_one_line(capsys, tmp_path, monkeypatch) -> None:
