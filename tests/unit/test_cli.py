@@ -118,7 +118,7 @@ def test_run_writes_the_json_contract_and_a_summary(capsys, tmp_path) -> None:
     keys = {"t", "vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "att_sigma_deg", "pos_sigma_m",
             *SPLIT_AND_NEES_KEYS, *ESTIMATE_KEYS}
     for series in data["results"].values():
-        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count", "nis", "consistency"}
+        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count", "nis", "consistency", "counts"}
         assert len({len(series[k]) for k in keys}) == 1 and series["t"][-1] == pytest.approx(20.0)
         assert series["diverged"] is False and series["diverged_at_s"] is None and series["p_floor_count"] >= 0
     assert data["results"]["lc"]["vel_err_mps"][-1] < data["results"]["ins"]["vel_err_mps"][-1]
