@@ -158,9 +158,11 @@ def test_bad_partial_dvl_flags_give_one_line_and_exit_2(capsys, argv, flag, valu
 
 
 def _tables(out: str) -> tuple[dict[str, str], dict[str, str]]:
-    """The rows of the errors table and of the consistency table, by method name."""
-    title, errors, consistency = out.strip("\n").split("\n\n")
-    assert title.startswith("trajectory ") and consistency.startswith("Consistency")
+    """The rows of the errors table and of the consistency table, by method name (the updates per
+    source between them)."""
+    title, errors, counts, consistency = out.strip("\n").split("\n\n")
+    assert title.startswith("trajectory ") and counts.startswith("Updates per source")
+    assert consistency.startswith("Consistency")
     return ({line.split()[0]: line for line in errors.splitlines()[2:]},
             {line.split()[0]: line for line in consistency.splitlines()[3:]})
 
