@@ -32,6 +32,9 @@ refused it, and no fallback fused), the INS then running on its own from ping to
 Every other source (depth, mag, usbl, a registered method's pseudo-measurement) is counted over
 its own epochs, under its record's name (so are the water-track and RPM records of results without
 a DVL record, which the engine does not make).
+
+:func:`lockout_resets` counts what else a DVL method's record tells of its pings: the velocity
+resets to the DVL after a lock-out (tauvcore.engine.lockout).
 """
 
 from __future__ import annotations
@@ -211,3 +214,23 @@ def method_counts(result: MethodResult) -> MethodCounts:
         source = _PING_RECORDS.get(name, name)
         sources[source] = SourceCounts(f, r, int(record.fused.size) - f - r)
     return MethodCounts(_ordered(sources), pings, coasted)
+
+
+def lockout_resets(result: MethodResult) -> np.ndarray:
+    """How many times each run's velocity was reset to the DVL after a lock-out.
+
+    Parameters
+    ----------
+    result : MethodResult
+        One method's results over R runs.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (R,), int: the resets of tauvcore.engine.lockout in the DVL's update records (zero
+        for a method that does not fuse the DVL).
+    """
+    dvl = result.updates.get("dvl")
+    if dvl is None or dvl.reset is None:
+        return np.zeros(result.pos_err_m.shape[1], dtype=int)
+    return dvl.reset.sum(axis=0).astype(int)

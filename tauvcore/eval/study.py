@@ -36,7 +36,7 @@ from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult, block_dims
 from tauvcore.engine.smoothing import SmoothOptions, scratch
 from tauvcore.eval.consistency import nees_band
-from tauvcore.eval.counts import MethodCounts, method_counts
+from tauvcore.eval.counts import MethodCounts, lockout_resets, method_counts
 from tauvcore.eval.study_statistics import final_statistics
 from tauvcore.filter.layout import NEES_BLOCKS
 
@@ -223,26 +223,6 @@ def compute_chunk(
         counts={m: method_counts(r) for m, r in results.items()},
         smoothed={m: series_of(r.smoothed) for m, r in results.items() if r.smoothed is not None},
     )
-
-
-def lockout_resets(result: MethodResult) -> np.ndarray:
-    """How many times each run's velocity was reset to the DVL after a lock-out.
-
-    Parameters
-    ----------
-    result : MethodResult
-        One method's results over R runs.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape (R,), int: the resets of tauvcore.engine.lockout in the DVL's update records (zero
-        for a method that does not fuse the DVL).
-    """
-    dvl = result.updates.get("dvl")
-    if dvl is None or dvl.reset is None:
-        return np.zeros(result.pos_err_m.shape[1], dtype=int)
-    return dvl.reset.sum(axis=0).astype(int)
 
 
 @dataclass

@@ -248,3 +248,15 @@ def test_yoo_s_consistency_table_is_headed_with_its_12_states(outage) -> None:
     assert mixed[3].startswith("LC ")
     assert mixed[4].split() == ["12", "states", "NEES/12", "NEES/3", "NEES/2", "NEES/1", "NEES/6", "NIS/dof"]
     assert mixed[5].startswith("VKF ") and mixed[5].split()[3] == "-"  # no position state
+
+
+def test_the_smoothing_table_heads_yoo_s_rows_with_its_12_states(capsys) -> None:
+    code = main(["run", "--duration", "20", "--method", "lc,vkf", "--smooth"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    lines = out.splitlines()
+    first = next(k for k, line in enumerate(lines) if line.startswith("Smoothed beside filtered"))
+    assert lines[first + 2].split()[:2] == ["20", "states"] and lines[first + 2].split()[-1] == "NEES/11"
+    assert lines[first + 5].split()[:2] == ["12", "states"]
+    assert lines[first + 5].split()[-5:] == ["NEES/12", "NEES/3", "NEES/2", "NEES/1", "NEES/6"]
+    assert lines[first + 6].startswith("VKF filtered") and lines[first + 7].startswith("VKF smoothed")
