@@ -260,3 +260,14 @@ def test_the_smoothing_table_heads_yoo_s_rows_with_its_12_states(capsys) -> None
     assert lines[first + 5].split()[:2] == ["12", "states"]
     assert lines[first + 5].split()[-5:] == ["NEES/12", "NEES/3", "NEES/2", "NEES/1", "NEES/6"]
     assert lines[first + 6].startswith("VKF filtered") and lines[first + 7].startswith("VKF smoothed")
+
+
+def test_a_study_s_row_without_its_flagged_runs_says_how_many_more_it_left_out() -> None:
+    from tauvcore.eval.study import RUN_SERIES, ChunkSeries
+
+    accumulator, T = StudyAccumulator(("lc",)), 3
+    flagged = np.arange(10) % 10 < 9  # runs 0-8 flagged, run 9 not
+    series = {"lc": {n: np.ones((T, 10)) for n in RUN_SERIES}}
+    accumulator.add(ChunkSeries(0, 10, np.arange(T, dtype=float), series, {"lc": flagged}))
+    row = next(line for line in study_table(accumulator.summary(), "straight", 10, 1.0).splitlines() if "w/o" in line)
+    assert row.endswith("runs 0, 1, 2, 3, 4, 5 ... and 3 more")
