@@ -1,5 +1,6 @@
 """The Results tab's tables, as Markdown a person and a test can read: each method's errors and
-consistency (:func:`summary_markdown`), its RMS errors and DVL updates (:func:`rms_markdown`),
+consistency (:func:`summary_markdown`), its RMS errors (:func:`rms_markdown`) and what it did with
+each aiding source's updates (:func:`counts_markdown`),
 runs kept side by side (:func:`compare_markdown`), the settings that differ between them
 (:func:`config_diff_markdown`), and the note on methods whose results are identical
 (:func:`identical_note`). The numbers are :func:`summary_rows`', one row per method.
@@ -15,21 +16,13 @@ import numpy as np
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
+from tauvcore.eval.counts import PING_SOURCES, SOURCE_LABELS, MethodCounts, SourceCounts, method_counts
 from tauvcore.eval.envelope import is_decimated
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.study_statistics import FINAL_STATISTICS, final_statistics
 
 
-class DvlCounts(TypedDict):
-    """:func:`dvl_counts`: the DVL updates summed over the runs; None each without DVL updates."""
-
-    dvl_fused: int | None
-    dvl_rejected: int | None
-    dvl_coast: int | None
-    dvl_resets: int | None  # velocity resets to the DVL after a lock-out (tauvcore.engine.lockout)
-
-
-class SummaryRow(DvlCounts):
+class SummaryRow(TypedDict):
     """One method's line of :func:`summary_rows`."""
 
     method: str  # upper case
@@ -50,6 +43,10 @@ class SummaryRow(DvlCounts):
     diverged_runs: int
     diverged_first_s: float
     p_floor_count: int
+    counts: MethodCounts  # per aiding source its updates fused, rejected and unused, and the DVL
+    # pings coasted on, summed over the runs (tauvcore.eval.counts)
+    dvl_resets: int | None  # velocity resets to the DVL after a lock-out (tauvcore.engine.lockout) over
+    # the runs; None: the method has no DVL updates
 
 
 def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
@@ -62,7 +59,7 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
     eigenvalue-floor repairs summed over runs.
 
     A long run reduced to time bins (tauvcore.eval.envelope.DecimatedResult) takes its RMS figures,
-    consistency and DVL counts from the summary reduced over every epoch and update as the run
+    consistency and counts of updates from the summary reduced over every epoch and update as the run
     streamed (``DecimatedResult.summary``: tauvcore.eval.running), not from the bins; its final
     errors are its last bin's, the mission's last epoch."""
     rows: list[SummaryRow] = []
@@ -108,37 +105,33 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
                 if res.diverged.any()
                 else float("nan"),
                 "p_floor_count": int(np.sum(res.p_floor_count)),
-                **dvl_counts(res),
+                "counts": result_counts(res),
+                "dvl_resets": dvl_resets(res),
             }
         )
     return rows
 
 
-def dvl_counts(result: MethodResult) -> DvlCounts:
-    """The DVL updates of ``result`` summed over its runs, as the CLI counts them
-    (app.tables.summary_table): ``dvl_fused``, ``dvl_rejected`` (failed the gate) and ``dvl_coast`` (pings
-    with no measurement); None each for a method without DVL updates (INS). A run reduced to time
-    bins counts every update (its summary, tauvcore.eval.running), not the bins'."""
+def result_counts(result: MethodResult) -> MethodCounts:
+    """Per aiding source the updates of ``result`` fused, rejected and unused, and the DVL pings it
+    coasted on, summed over its runs, as the CLI counts them (tauvcore.eval.counts.method_counts,
+    app.tables.counts_table). A run reduced to time bins counts every update (its summary,
+    tauvcore.eval.running), not the bins'."""
     summary = result.summary if is_decimated(result) else None
-    if summary is not None:
-        if summary.dvl_counts is None:
-            return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None, "dvl_resets": None}
-        fused, rejected, coast = summary.dvl_counts
-        return {
-            "dvl_fused": fused,
-            "dvl_rejected": rejected,
-            "dvl_coast": coast,
-            "dvl_resets": summary.dvl_resets,
-        }
+    return summary.counts if summary is not None else method_counts(result)
+
+
+def dvl_resets(result: MethodResult) -> int | None:
+    """The velocity resets to the DVL after a lock-out over the runs of ``result``
+    (tauvcore.engine.lockout); None for a method without DVL updates. A run reduced to time bins
+    counts every update (its summary)."""
+    summary = result.summary if is_decimated(result) else None
     dvl = result.updates.get("dvl")
+    if summary is not None:
+        return summary.dvl_resets if summary.counts.coasted is not None else None
     if dvl is None:
-        return {"dvl_fused": None, "dvl_rejected": None, "dvl_coast": None, "dvl_resets": None}
-    return {
-        "dvl_fused": int(np.sum(dvl.fused)),
-        "dvl_rejected": int(np.sum(dvl.rejected)),
-        "dvl_coast": int(np.sum(~dvl.valid)),
-        "dvl_resets": 0 if dvl.reset is None else int(np.sum(dvl.reset)),
-    }
+        return None
+    return 0 if dvl.reset is None else int(np.sum(dvl.reset))
 
 
 def _health_cell(row: SummaryRow) -> str:
@@ -200,15 +193,16 @@ RMS_COLUMNS = (
     "tilt RMS [deg]",
     "heading RMS [deg]",
     "pos RMS [m]",
-    "DVL fused",
-    "DVL rejected",
-    "DVL coast",
 )
-RMS_HEADING = (
-    "**RMS over time and DVL updates** (fused; rejected by the gate; coast: pings without a "
-    "measurement; summed over the runs)"
+RMS_HEADING = "**RMS over time** (over the runs and the whole mission)"
+"""The results' third table: every RMS figure the CLI prints; :data:`COUNTS_HEADING`'s below it."""
+COUNTS_HEADING = (
+    "**Updates per source** (fused / rejected / unused, summed over the runs; rejected: a measurement "
+    "the filter took none of; unused: no measurement of that source for the method there; coasted: "
+    "DVL pings on which no velocity was fused: no bottom-track, water-track or RPM)"
 )
-"""The results' third table: every RMS figure the CLI prints and its DVL counts."""
+"""The heading of :func:`counts_markdown`: the DVL's bottom-track, its water-track and the RPM's
+velocity each a column of its own (tauvcore.eval.counts)."""
 
 
 def _table(columns: tuple[str, ...], rows: list[list[str]]) -> list[str]:
@@ -231,7 +225,8 @@ def summary_markdown(results: Mapping[str, MethodResult]) -> str:
     gate locked out). It sees only what the measurements reveal: "ok" is not a proof of
     consistency (VB at n_f = 2 on beams 1-2 was "ok" with a velocity error of 50 sigma); the
     NEES columns beside it are. A "P floors" column (repairs of P summed over runs) appears
-    only when some method needed one. The RMS figures and DVL counts are :func:`rms_markdown`.
+    only when some method needed one. The RMS figures and the counts of updates are
+    :func:`rms_markdown`.
     """
     rows = summary_rows(results)
     floors = any(r["p_floor_count"] for r in rows)
@@ -311,12 +306,7 @@ def runs_markdown(results: Mapping[str, MethodResult]) -> str:
 
 def rms_markdown(results: Mapping[str, MethodResult]) -> str:
     """The Results tab's third table, below RMS_HEADING: every RMS over time the CLI prints
-    (velocity, attitude norm, tilt, heading, position) and the DVL's fused, rejected and coast
-    counts (:func:`dvl_counts`; "-" for a method without DVL updates)."""
-
-    def count(x: int | None) -> str:
-        return "-" if x is None else str(x)
-
+    (velocity, attitude norm, tilt, heading, position); then :func:`counts_markdown`."""
     rows = [
         [
             str(r["method"]),
@@ -325,13 +315,48 @@ def rms_markdown(results: Mapping[str, MethodResult]) -> str:
             _fixed(r["tilt_rms_deg"], 3),
             _fixed(r["heading_rms_deg"], 3),
             _fixed(r["pos_rms_m"], 2),
-            count(r["dvl_fused"]),
-            count(r["dvl_rejected"]),
-            count(r["dvl_coast"]),
         ]
         for r in summary_rows(results)
     ]
-    return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows))
+    return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows) + ["", counts_markdown(results)])
+
+
+def _counts_cell(c: SourceCounts) -> str:
+    return f"{c.fused} / {c.rejected} / {c.unused}"
+
+
+def counts_markdown(results: Mapping[str, MethodResult]) -> str:
+    """Below COUNTS_HEADING, per method each aiding source's updates "fused / rejected / unused"
+    and the DVL pings it coasted on, "N of P" (:func:`result_counts`; "-" for a source the method
+    does not take, or without DVL pings). A column per source some method has a record of: the
+    DVL's bottom-track, its water-track and the RPM's velocity apart, then the others by name.
+
+    Parameters
+    ----------
+    results : Mapping[str, MethodResult]
+        Method name -> its results.
+
+    Returns
+    -------
+    str
+        The heading and the Markdown table; the heading and one sentence when no method took a
+        source.
+    """
+    counts = {m.upper(): result_counts(r) for m, r in results.items()}
+    order = list(dict.fromkeys(src for c in counts.values() for src in c.sources))
+    sources = [*(x for x in PING_SOURCES if x in order), *(x for x in order if x not in PING_SOURCES)]
+    if not sources:
+        return f"{COUNTS_HEADING}\n\nNo method took an aiding source."
+    rows = [
+        [
+            method,
+            *(_counts_cell(c.sources[x]) if x in c.sources else "-" for x in sources),
+            "-" if c.coasted is None else f"{c.coasted} of {c.pings}",
+        ]
+        for method, c in counts.items()
+    ]
+    columns = ("method", *(SOURCE_LABELS.get(x, x) for x in sources), "coasted")
+    return "\n".join([COUNTS_HEADING, ""] + _table(columns, rows))
 
 
 SMOOTHED_COLUMNS = (

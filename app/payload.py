@@ -1,7 +1,7 @@
 """Results as strict JSON: the document ``tauv run --json`` and ``tauv replay --json`` write and
 the dashboard's JSON download is (app.export), per method the per-epoch series of one run, its
-divergence verdict, its NIS per aiding source and its consistency summary; non-finite numbers are
-null."""
+divergence verdict, its NIS per aiding source, its consistency summary and the counts of its
+updates; non-finite numbers are null."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import numpy as np
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import MethodConsistency, method_consistency, nees_series
+from tauvcore.eval.counts import method_counts
 from tauvcore.eval.envelope import is_decimated
 
 if TYPE_CHECKING:
@@ -58,6 +59,11 @@ def result_to_json(
     finite, so the non-null entries are exactly those that ``consistency.nis.<source>.count``
     counts; NIS is taken before the gate, so a rejected update keeps its value.
 
+    ``counts``: per aiding source the updates fused, rejected and unused over all runs of
+    ``result``, and the DVL's pings and those coasted on (:func:`tauvcore.eval.counts.method_counts`,
+    the DVL's bottom-track, water-track and the RPM's velocity apart): ``{"sources": {source:
+    {"fused", "rejected", "unused"}}, "pings", "coasted"}`` (``coasted`` null without DVL pings).
+
     ``consistency``: :func:`tauvcore.eval.consistency.method_consistency` over all runs of
     ``result`` (the CLI runs one): ``{"nees": {block: {"dim", "per_dim", "in_band",
     "band_per_dim"}}, "nis": {source: {"per_dof", "in_band", "count"}}}``; NEES/dim and NIS/dof
@@ -75,6 +81,7 @@ def result_to_json(
     binned = result if is_decimated(result) else None
     summary = binned.summary if binned is not None else None
     consistency = summary.consistency if summary is not None else method_consistency(result)
+    counts = summary.counts if summary is not None else method_counts(result)
     diverged_at = float(result.diverged_at_s[i])
     by_smoother = getattr(result, "smoothed", None)
     smoothed_item: dict[str, Any] = (
@@ -89,6 +96,7 @@ def result_to_json(
         "nis": {source: _nis_to_json(record, i) for source, record in result.updates.items()},
         **smoothed_item,
         "consistency": consistency_to_json(consistency),
+        "counts": counts.to_json(),
         "diverged": bool(result.diverged[i]),
         "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
         "p_floor_count": int(result.p_floor_count[i]),

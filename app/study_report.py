@@ -1,7 +1,7 @@
 """``report.html`` of a Monte Carlo study: one self-contained page (plotly.js embedded, nothing
 fetched) with, per trajectory, the paper's Figures 9-14 layout (velocity RMS and attitude RMS
-against time, every method) plus tilt, heading and NEES/dim beside them, and a table of the
-final values and the consistency per method."""
+against time, every method) plus tilt, heading and NEES/dim beside them, a table of the final
+values and the consistency per method, and one of its updates per aiding source."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from app.figures import make_figure, method_color
 from app.tables import mission_rms
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.eval.consistency import nees_band
+from tauvcore.eval.counts import PING_SOURCES, SOURCE_LABELS, MethodCounts
 from tauvcore.eval.study_statistics import FINAL_STATISTICS
 
 PANELS = (
@@ -176,6 +177,52 @@ def summary_table_html(summary: dict[str, Any]) -> str:
     )
 
 
+def counts_table_html(summary: dict[str, Any]) -> str:
+    """Per method each aiding source's updates fused / rejected / unused over every run of the
+    study, and the DVL pings it coasted on (the summary's ``counts``, tauvcore.eval.counts: the
+    DVL's bottom-track, its water-track and the RPM's velocity apart); empty when no method has a
+    record of any source.
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        A study's summary (tauvcore.eval.study.StudyAccumulator.summary).
+
+    Returns
+    -------
+    str
+        A sentence and the HTML table, or "".
+    """
+    counts = {
+        method: MethodCounts.from_json(m["counts"])
+        for method, m in summary["methods"].items()
+        if "counts" in m
+    }
+    order = list(dict.fromkeys(src for c in counts.values() for src in c.sources))
+    sources = [*(x for x in PING_SOURCES if x in order), *(x for x in order if x not in PING_SOURCES)]
+    if not sources:
+        return ""
+    rows = []
+    for method, c in counts.items():
+        cells = [
+            f"{c.sources[x].fused} / {c.sources[x].rejected} / {c.sources[x].unused}"
+            if x in c.sources
+            else "-"
+            for x in sources
+        ]
+        cells.append("-" if c.coasted is None else f"{c.coasted} of {c.pings}")
+        rows.append(
+            f"<tr><td>{html.escape(method.upper())}</td>" + "".join(f"<td>{x}</td>" for x in cells) + "</tr>"
+        )
+    head = "".join(f"<th>{html.escape(SOURCE_LABELS.get(x, x))}</th>" for x in [*sources, "coasted"])
+    return (
+        "<p>Updates per source over every run: fused / rejected / unused (rejected: a measurement the "
+        "filter took none of; unused: none of that source for the method there); coasted: DVL pings on "
+        "which no velocity was fused (no bottom-track, water-track or RPM).</p>"
+        f"<table><tr><th>method</th>{head}</tr>" + "".join(rows) + "</table>"
+    )
+
+
 def smoothed_table_html(summary: dict[str, Any]) -> str:
     """Of a study with the smoother: per method filtered and smoothed, the RMS over the runs and the
     whole mission (app.tables.mission_rms) and NEES/dim of every block (in brackets the fraction of
@@ -254,6 +301,7 @@ def report_html(
             "them.</p>"
         )
         parts.append(summary_table_html(summary))
+        parts.append(counts_table_html(summary))
         parts.append(smoothed_table_html(summary))
         parts.append(
             trajectory_figure(trajectory, summary).to_html(

@@ -10,7 +10,8 @@ import numpy as np
 from tauvcore.aiding.sources import FUSED
 from tauvcore.config import YOO_METHODS, Config
 from tauvcore.engine import yoo_sources
-from tauvcore.engine.results import BLOCK_DIMS, MethodResult
+from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+from tauvcore.eval.counts import PING_SOURCES, SOURCE_LABELS, MethodCounts
 from tauvcore.eval.envelope import DecimatedResult
 from tauvcore.eval.running import MethodSummary, summarise
 from tauvcore.eval.study_statistics import FINAL_STATISTICS
@@ -25,7 +26,7 @@ def summary_table(
     smoothed: Mapping[str, MethodSummary] | None = None,
 ) -> str:
     """The errors of run 0 per method (attitude as the norm and apart: tilt, heading), then
-    :func:`consistency_table`. ``results``: each method's whole results, or its summary reduced
+    :func:`counts_table` and :func:`consistency_table`. ``results``: each method's whole results, or its summary reduced
     chunk by chunk (tauvcore.eval.running); ``source``: what was run, when not the configured
     trajectory (a log); ``preamble``: lines after the first (a log: what configured it, where it
     started); ``smoothed``: the smoothed methods' summaries of a run that smoothed, then
@@ -43,7 +44,7 @@ def summary_table(
         "",
         (
             f"{'method':<7} {'vel final':>10} {'vel RMS':>9} {'att final':>10} {'att RMS':>9} {'tilt RMS':>9} "
-            f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10} {'DVL fused/rej/coast':>20}"
+            f"{'head RMS':>9} {'pos final':>10} {'pos RMS':>9} {'vel 1-sig':>10}"
         ),
         (
             f"{'':<7} {'[m/s]':>10} {'[m/s]':>9} {'[deg]':>10} {'[deg]':>9} {'[deg]':>9} {'[deg]':>9} {'[m]':>10} "
@@ -51,27 +52,115 @@ def summary_table(
         ),
     ]
     for name, s in summaries.items():
-        fused = "-" if s.dvl_counts is None else "/".join(str(n) for n in s.dvl_counts)
         marker = ""
         if s.diverged:
             marker = "  diverged" + (f" at {s.diverged_at_s:g} s" if np.isfinite(s.diverged_at_s) else "")
         if s.reset_times_s:
-            when = ", ".join(f"{t:g}" for t in s.reset_times_s[:5])
-            marker += f"  velocity reset to the DVL after a lock-out at {when} s"
+            when = cut_list([f"{t:g}" for t in s.reset_times_s], RESET_TIMES_SHOWN, " s")
+            marker += f"  velocity reset to the DVL after a lock-out at {when}"
         f, r = s.final, s.rms
         lines.append(
             f"{name.upper():<7} {_fixed(f['vel_err_mps'], 10, 4)} {_fixed(r['vel_err_mps'], 9, 4)} "
             f"{_fixed(f['att_err_deg'], 10, 4)} {_fixed(r['att_err_deg'], 9, 4)} "
             f"{_fixed(r['tilt_err_deg'], 9, 4)} {_fixed(r['heading_err_deg'], 9, 4)} "
             f"{_fixed(f['pos_err_m'], 10, 3)} {_fixed(r['pos_err_m'], 9, 3)} "
-            f"{_fixed(f['vel_sigma_mps'], 10, 4)} {fused:>20}" + marker
+            f"{_fixed(f['vel_sigma_mps'], 10, 4)}" + marker
         )
     recorded = {src for s in summaries.values() for src in s.consistency.nis}
     extra = [s for s in ("water",) if s in recorded]  # the DVL's water-track, beside its bottom-track
-    tables = [consistency_table(summaries, (*config.run.aiding, *extra))]
+    tables = [counts_table(summaries), consistency_table(summaries, (*config.run.aiding, *extra))]
     if smoothed is not None:
         tables.append(smoothing_table(summaries, smoothed))
     return "\n".join(lines + ["", "\n\n".join(tables)])
+
+
+RESET_TIMES_SHOWN = 5
+"""The lock-out reset times a method's row of :func:`summary_table` names; the rest are counted."""
+
+
+def cut_list(items: Sequence[str], shown: int, unit: str = "") -> str:
+    """The first ``shown`` of ``items`` joined by commas, ``unit`` after them, and how many more
+    were left out: ``"10, 20, 30 s ... and 12 more"``.
+
+    Parameters
+    ----------
+    items : Sequence[str]
+        The entries, already formatted.
+    shown : int
+        How many to name (at least one).
+    unit : str
+        Appended to the named entries (e.g. ``" s"``).
+
+    Returns
+    -------
+    str
+        The list, "... and N more" when ``items`` has more than ``shown``.
+    """
+    more = len(items) - shown
+    return ", ".join(items[:shown]) + unit + (f" ... and {more} more" if more > 0 else "")
+
+
+COUNTS_TITLE = (
+    "Updates per source, summed over the runs: fused/rejected/unused (rejected: a measurement the filter\n"
+    "took none of; unused: none of that source for the method there); coasted: DVL pings on which no\n"
+    "velocity was fused (no bottom-track, water-track or RPM)"
+)
+"""The title of :func:`counts_table` (its lines within 110 columns; tauvcore.eval.counts defines each
+count)."""
+
+
+def counts_table(results: Mapping[str, MethodResult | MethodSummary]) -> str:
+    """Per method, each aiding source's updates fused, rejected and unused, and the DVL pings on
+    which it coasted (tauvcore.eval.counts: the DVL's bottom-track, its water-track and the RPM's
+    velocity counted apart, every other source over its own epochs), summed over the runs.
+
+    Parameters
+    ----------
+    results : Mapping[str, MethodResult | MethodSummary]
+        Each method's results or summary (tauvcore.eval.running).
+
+    Returns
+    -------
+    str
+        :data:`COUNTS_TITLE`, a head naming every source some method has a record of, then a row
+        per method ("-" for a source it does not take); "coasted" as "N of P pings" ("-" for a
+        method without DVL pings). One line when no method took any source.
+    """
+    return "\n".join(counts_lines({name: s.counts for name, s in _summaries(results).items()}))
+
+
+def counts_lines(counts: Mapping[str, MethodCounts]) -> list[str]:
+    """:func:`counts_table`'s lines from each method's counts (tauvcore.eval.counts.MethodCounts).
+
+    Parameters
+    ----------
+    counts : Mapping[str, MethodCounts]
+        Method name -> its counts.
+
+    Returns
+    -------
+    list[str]
+        :data:`COUNTS_TITLE`'s lines, the head, a row per method; one line when no method took a
+        source.
+    """
+    order = list(dict.fromkeys(src for c in counts.values() for src in c.sources))
+    sources = [*(x for x in PING_SOURCES if x in order), *(x for x in order if x not in PING_SOURCES)]
+    if not sources:
+        return ["Updates per source: none (no method took an aiding source)"]
+    head = ["method", *(SOURCE_LABELS.get(x, x) for x in sources), "coasted"]
+    rows = []
+    for name, c in counts.items():
+        coasted = "-" if c.coasted is None else f"{c.coasted} of {c.pings}"
+        rows.append(
+            [name.upper(), *(c.sources[x].cell() if x in c.sources else "-" for x in sources), coasted]
+        )
+    widths = [max(len(row[k]) for row in [head, *rows]) for k in range(len(head))]
+    widths[0] = max(widths[0], 7)
+    lines = [
+        " ".join([cells[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(cells[1:], widths[1:])])
+        for cells in [head, *rows]
+    ]
+    return [*COUNTS_TITLE.splitlines(), *lines]
 
 
 SMOOTHED_RMS = (("vel_err_mps", "vel RMS", "[m/s]", 4), ("tilt_err_deg", "tilt RMS", "[deg]", 4))
@@ -79,17 +168,41 @@ SMOOTHED_RMS += (("heading_err_deg", "head RMS", "[deg]", 4), ("pos_err_m", "pos
 """The RMS of run 0 :func:`smoothing_table` gives filtered and smoothed: series, heading, unit, decimals."""
 
 
-def _block_dims(summaries: Mapping[str, MethodSummary]) -> dict[str, int]:
-    """The NEES columns of a table of ``summaries``: the 20-state filter's blocks, and those its
-    sources add (tauvcore.filter.layout.Layout), each with its dimension; the full state's is the
-    20-state methods' (Yoo 2014's are in a note)."""
-    dims = dict(BLOCK_DIMS)
-    for name, summary in summaries.items():
-        for block, n in (summary.block_dims or {}).items():
-            dims.setdefault(block, n)
-            if block == "full" and name not in YOO_METHODS:
-                dims["full"] = max(dims["full"], n)
-    return dims
+def _nees_groups(summaries: Mapping[str, MethodSummary]) -> list[tuple[dict[str, int], list[str]]]:
+    """The methods of a table of ``summaries`` by the filter they are, each group with its NEES
+    blocks and their dimensions: the 20-state filter's methods (tauvcore.engine.results.BLOCK_DIMS,
+    with the blocks their sources add, tauvcore.filter.layout.Layout), then Yoo 2014's 12-state
+    filter's (YOO_BLOCK_DIMS without the position it has no state for, with its added states); a
+    group only when it has methods, each in ``summaries``' order."""
+    groups = []
+    for yoo, base in ((False, BLOCK_DIMS), (True, YOO_BLOCK_DIMS)):
+        names = [name for name in summaries if (name in YOO_METHODS) == yoo]
+        if names:
+            dims = dict(base)
+            for name in names:
+                dims.update(summaries[name].block_dims or {})
+            if yoo:
+                dims.pop("pos")  # no position state: its position NEES is NaN throughout
+            groups.append((dims, names))
+    return groups
+
+
+def _nees_layout(
+    summaries: Mapping[str, MethodSummary],
+) -> tuple[list[str], list[tuple[list[str], list[str]]]]:
+    """The NEES columns of a table of ``summaries`` (every group's blocks, in order) and per group
+    (:func:`_nees_groups`) the unit cells of those columns (``NEES/<dim>``, "" where the group has
+    no such block) and its methods."""
+    groups = _nees_groups(summaries)
+    blocks = list(dict.fromkeys(b for dims, _ in groups for b in dims))
+    return blocks, [
+        ([f"NEES/{dims[b]}" if b in dims else "" for b in blocks], names) for dims, names in groups
+    ]
+
+
+def _unit_label(units: list[str], several: bool) -> str:
+    """The first cell of a group's unit line: its state count when the table has several groups."""
+    return units[0].removeprefix("NEES/") + " states" if several and units and units[0] else ""
 
 
 def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str, MethodSummary]) -> str:
@@ -109,26 +222,32 @@ def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str
     str
         The table, its title first.
     """
-    dims = _block_dims(filtered)
-    blocks = list(dims)
+    blocks, groups = _nees_layout(filtered)
     head = ["method", *(h for _, h, _, _ in SMOOTHED_RMS), *blocks]
-    units = ["", *(u for _, _, u, _ in SMOOTHED_RMS), *(f"NEES/{dims[b]}" for b in blocks)]
-    rows = []
-    for name, summary in filtered.items():
-        if name not in smoothed:
-            rows.append([f"{name.upper()} not smoothed"])
-            continue
-        for label, s in (("filtered", summary), ("smoothed", smoothed[name])):
-            c = s.consistency.nees
-            rows.append(
-                [
-                    f"{name.upper()} {label}",
-                    *(_fixed(s.rms[n], 0, d).strip() for n, _, _, d in SMOOTHED_RMS),
-                    *(_cell(c[b].per_dim, c[b].in_band) if b in c else "-" for b in blocks),
-                ]
-            )
+    plain = ["", *(u for _, _, u, _ in SMOOTHED_RMS)]
+    several = len(groups) > 1
+    units, rows = [], []
+    for nees_units, names in groups:
+        unit_row = [_unit_label(nees_units, several), *plain[1:], *nees_units]
+        units.append(unit_row)
+        if several:
+            rows.append(unit_row)
+        for name in names:
+            summary = filtered[name]
+            if name not in smoothed:
+                rows.append([f"{name.upper()} not smoothed"])
+                continue
+            for label, s in (("filtered", summary), ("smoothed", smoothed[name])):
+                c = s.consistency.nees
+                rows.append(
+                    [
+                        f"{name.upper()} {label}",
+                        *(_fixed(s.rms[n], 0, d).strip() for n, _, _, d in SMOOTHED_RMS),
+                        *(_cell(c[b].per_dim, c[b].in_band) if b in c else "-" for b in blocks),
+                    ]
+                )
     full = [r for r in rows if len(r) > 1]
-    widths = [max(len(row[k]) for row in [head, units, *full]) for k in range(len(head))]
+    widths = [max(len(row[k]) for row in [head, *units, *full]) for k in range(len(head))]
 
     def line(cells: list[str]) -> str:
         if len(cells) == 1:
@@ -141,7 +260,8 @@ def smoothing_table(filtered: Mapping[str, MethodSummary], smoothed: Mapping[str
         "Smoothed beside filtered (fixed-interval smoother over the whole run): RMS of run 0, NEES/dim "
         "against truth (in brackets the fraction inside the 99 % band)"
     )
-    return "\n".join([title, line(head), line(units), *(line(row) for row in rows)])
+    top = [line(head)] if several else [line(head), line(units[0])]
+    return "\n".join([title, *top, *(line(row) for row in rows)])
 
 
 def _summaries(results: Mapping[str, MethodResult | MethodSummary]) -> dict[str, MethodSummary]:
@@ -188,22 +308,26 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
     chi-square band (:func:`tauvcore.eval.consistency.method_consistency`; with one run, the
     single-run band)."""
     summaries = _summaries(results)
-    dims = _block_dims(summaries)
-    blocks = list(dims)
+    blocks, groups = _nees_layout(summaries)
     head = ["method", *blocks, *sources]
-    units = ["", *(f"NEES/{dims[b]}" for b in blocks), *("NIS/dof" for _ in sources)]
-    rows = []
-    for name, summary in summaries.items():
-        c = summary.consistency
-        nis = [c.nis.get(s) for s in sources]
-        rows.append(
-            [
-                name.upper(),
-                *(_cell(c.nees[b].per_dim, c.nees[b].in_band) if b in c.nees else "-" for b in blocks),
-                *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis),
-            ]
-        )
-    widths = [max(len(row[k]) for row in [head, units, *rows]) for k in range(len(head))]
+    several = len(groups) > 1
+    units, rows = [], []
+    for nees_units, names in groups:
+        unit_row = [_unit_label(nees_units, several), *nees_units, *("NIS/dof" for _ in sources)]
+        units.append(unit_row)
+        if several:
+            rows.append(unit_row)
+        for name in names:
+            c = summaries[name].consistency
+            nis = [c.nis.get(s) for s in sources]
+            rows.append(
+                [
+                    name.upper(),
+                    *(_cell(c.nees[b].per_dim, c.nees[b].in_band) if b in c.nees else "-" for b in blocks),
+                    *(_cell(n.per_dof, n.in_band) if n is not None else "-" for n in nis),
+                ]
+            )
+    widths = [max(len(row[k]) for row in [head, *units, *rows]) for k in range(len(head))]
     widths[0] = max(widths[0], 7)
 
     def line(cells: list[str]) -> str:
@@ -216,22 +340,26 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
         "inside the 99 % band)"
     )
     notes = []
-    yoo_full = [(s.block_dims or {}).get("full", 12) for name, s in summaries.items() if name in YOO_METHODS]
-    if yoo_full:
+    if any(name in YOO_METHODS for name in summaries):
         left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
         notes = [
-            f"INS-DVL and VKF are Yoo 2014's 12-state filter: their full NEES is over {max(yoo_full)} states, "
-            "their sensor NEES over 6, and they have no position state"
+            "INS-DVL and VKF are Yoo 2014's 12-state filter, headed with its own dimensions; they have no "
+            "position state"
             + (f"; they do not fuse {', '.join(left_out)} (no position state)" if left_out else "")
         ]
-    return "\n".join([title, line(head), line(units), *(line(row) for row in rows), *notes])
+    top = [line(head)] if several else [line(head), line(units[0])]
+    return "\n".join([title, *top, *(line(row) for row in rows), *notes])
+
+
+FLAGGED_RUNS_SHOWN = 6
+"""The flagged runs a study's "w/o flagged" row of :func:`study_table` names; the rest are counted."""
 
 
 def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed_s: float) -> str:
     """The study's final errors per method: RMS, median and 95th percentile over the runs, the
     consistency, the runs the monitor flagged; a method with flagged runs gets a second row, its
-    statistics without them (marked "w/o flagged"); a study with the smoother then
-    :func:`smoothed_study_lines`."""
+    statistics without them (marked "w/o flagged"); then the updates per source over every run
+    (:func:`counts_lines`); a study with the smoother then :func:`smoothed_study_lines`."""
     lines = [
         (
             f"trajectory {trajectory}, {num_runs} runs  ({elapsed_s:.1f} s wall); errors at the end over the "
@@ -261,9 +389,15 @@ def study_table(summary: dict[str, Any], trajectory: str, num_runs: int, elapsed
             lines.append(
                 f"{(method.upper() + ' w/o flagged'):<16} {triple(st['vel_err_mps'], '_unflagged'):>26} "
                 f"{_g(tilt, '.4f'):>11} {_g(head, '.4f'):>11} {triple(st['pos_err_m'], '_unflagged'):>30} "
-                f"{'-':>14} {'-':>14} {'runs ' + ','.join(map(str, m['flagged_runs'][:6])):>8}"
-                + (" ..." if len(m["flagged_runs"]) > 6 else "")
+                f"{'-':>14} {'-':>14} runs {cut_list([str(r) for r in m['flagged_runs']], FLAGGED_RUNS_SHOWN)}"
             )
+    counts = {
+        method: MethodCounts.from_json(m["counts"])
+        for method, m in summary["methods"].items()
+        if "counts" in m
+    }
+    if any(c.sources for c in counts.values()):
+        lines += ["", *counts_lines(counts)]
     if any("smoothed" in m for m in summary["methods"].values()):
         lines += ["", *smoothed_study_lines(summary)]
     return "\n".join(lines)

@@ -178,6 +178,7 @@ class RunJsonWriter:
         diverged_at = float(last.diverged_at_s[0])
         tail: dict[str, Any] = {
             "consistency": consistency_to_json(summary.consistency),
+            "counts": summary.counts.to_json(),
             "diverged": bool(last.diverged[0]),
             "diverged_at_s": diverged_at if np.isfinite(diverged_at) else None,
             "p_floor_count": int(last.p_floor_count[0]),

@@ -6,10 +6,11 @@ summary is made of, per method:
 
 - of run 0 (the run ``tauv run`` prints): the last epoch's errors and velocity 1-sigma, and the
   sums of squares and counts of the velocity, attitude, tilt, heading and position errors (their
-  RMS over the mission), the DVL's fused, rejected and coasted pings and the times of its
-  velocity resets (tauvcore.engine.lockout), the monitor's verdict;
+  RMS over the mission), the times of its velocity resets (tauvcore.engine.lockout), the
+  monitor's verdict;
 - of every run, the same sums of squares over all runs (the RMS over runs and epochs the
-  dashboard's Results tab shows) and the number of velocity resets;
+  dashboard's Results tab shows), the number of velocity resets, and per aiding source the updates
+  fused, rejected and unused and the DVL pings coasted on (tauvcore.eval.counts);
 - of every run, the consistency (tauvcore.eval.consistency.method_consistency): per NEES block
   the sum and count of the finite NEES and the epochs whose run-average lies in the 99 % band, per
   aiding source the sums of NIS and dof over the updates that measured and how many lay in their
@@ -35,6 +36,7 @@ from tauvcore.eval.consistency import (
     nees_band,
     nees_series,
 )
+from tauvcore.eval.counts import MethodCounts, method_counts
 from tauvcore.filter.statistics import chi2_ppf
 
 RMS_SERIES = ("vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg", "pos_err_m")
@@ -45,15 +47,16 @@ FINAL_SERIES = ("vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps")
 
 @dataclass(frozen=True)
 class MethodSummary:
-    """One method's summary: run 0's errors, its DVL pings and verdict, and the consistency over
-    every run."""
+    """One method's summary: run 0's errors and verdict, the counts of its updates and the
+    consistency over every run."""
 
     method: str
     final: dict[str, float]  # FINAL_SERIES -> run 0's value at the last epoch, in the series' unit
     rms: dict[str, float]  # RMS_SERIES -> run 0's RMS over the epochs (NaN: no epoch), the series' unit
     rms_all_runs: dict[str, float]  # RMS_SERIES -> RMS over every run and epoch, the series' unit (with one
     # run, ``rms``; with R runs the RMS over time of the RMS-over-runs curve)
-    dvl_counts: tuple[int, int, int] | None  # (fused, rejected, coast) over the runs; None: no DVL updates
+    counts: MethodCounts  # per aiding source its updates fused, rejected and unused, and the DVL pings
+    # coasted on, over the runs (tauvcore.eval.counts)
     reset_times_s: tuple[float, ...]  # run 0's velocity resets after a DVL lock-out [s]
     dvl_resets: int  # velocity resets after a DVL lock-out over every run
     diverged: bool  # run 0 flagged by the divergence monitor
@@ -90,7 +93,7 @@ class _MethodSums:
     final: dict[str, float] = field(default_factory=lambda: dict.fromkeys(FINAL_SERIES, float("nan")))
     nees: dict[str, _NeesSums] = field(default_factory=dict)
     nis: dict[str, _NisSums] = field(default_factory=dict)
-    dvl: list[int] | None = None
+    counts: MethodCounts = field(default_factory=MethodCounts)
     resets: list[float] = field(default_factory=list)
     resets_all: int = 0
     diverged: bool = False
@@ -129,13 +132,11 @@ class RunningSummary:
                 _add_nees(s.nees.setdefault(block, _NeesSums()), nees_series(r, block), dim)
             for source, record in r.updates.items():
                 _add_nis(s.nis.setdefault(source, _NisSums()), record)
+            s.counts = s.counts + method_counts(r)
             dvl = r.updates.get("dvl")
-            if dvl is not None:
-                counts = [int(np.sum(dvl.fused)), int(np.sum(dvl.rejected)), int(np.sum(~dvl.valid))]
-                s.dvl = counts if s.dvl is None else [a + b for a, b in zip(s.dvl, counts, strict=True)]
-                if dvl.reset is not None:
-                    s.resets.extend(float(t) for t in dvl.t_s[dvl.reset[:, 0]])
-                    s.resets_all += int(np.sum(dvl.reset))
+            if dvl is not None and dvl.reset is not None:
+                s.resets.extend(float(t) for t in dvl.t_s[dvl.reset[:, 0]])
+                s.resets_all += int(np.sum(dvl.reset))
             s.diverged = bool(r.diverged[0])
             s.diverged_at_s = float(r.diverged_at_s[0])
 
@@ -169,7 +170,7 @@ class RunningSummary:
                 final=dict(s.final),
                 rms=rms,
                 rms_all_runs=rms_all,
-                dvl_counts=None if s.dvl is None else (s.dvl[0], s.dvl[1], s.dvl[2]),
+                counts=s.counts,
                 reset_times_s=tuple(s.resets),
                 dvl_resets=s.resets_all,
                 diverged=s.diverged,

@@ -36,6 +36,7 @@ from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult, block_dims
 from tauvcore.engine.smoothing import SmoothOptions, scratch
 from tauvcore.eval.consistency import nees_band
+from tauvcore.eval.counts import MethodCounts, lockout_resets, method_counts
 from tauvcore.eval.study_statistics import final_statistics
 from tauvcore.filter.layout import NEES_BLOCKS
 
@@ -160,6 +161,8 @@ class ChunkSeries:
     #                                                                 resets (tauvcore.engine.lockout)
     smoothed: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  # the smoothed methods'
     # series as ``series`` (a study with the smoother), else empty
+    counts: dict[str, MethodCounts] = field(default_factory=dict)  # method -> its updates per aiding
+    #                                                                 source over the chunk's runs
 
 
 def series_of(result: MethodResult) -> dict[str, np.ndarray]:
@@ -217,28 +220,9 @@ def compute_chunk(
         series={m: series_of(r) for m, r in results.items()},
         diverged={m: r.diverged.copy() for m, r in results.items()},
         resets={m: lockout_resets(r) for m, r in results.items()},
+        counts={m: method_counts(r) for m, r in results.items()},
         smoothed={m: series_of(r.smoothed) for m, r in results.items() if r.smoothed is not None},
     )
-
-
-def lockout_resets(result: MethodResult) -> np.ndarray:
-    """How many times each run's velocity was reset to the DVL after a lock-out.
-
-    Parameters
-    ----------
-    result : MethodResult
-        One method's results over R runs.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape (R,), int: the resets of tauvcore.engine.lockout in the DVL's update records (zero
-        for a method that does not fuse the DVL).
-    """
-    dvl = result.updates.get("dvl")
-    if dvl is None or dvl.reset is None:
-        return np.zeros(result.pos_err_m.shape[1], dtype=int)
-    return dvl.reset.sum(axis=0).astype(int)
 
 
 @dataclass
@@ -251,6 +235,7 @@ class _MethodSums:
     flagged: dict[int, np.ndarray] = field(default_factory=dict)  # chunk's first run -> (count,) bool
     resets: dict[int, np.ndarray] = field(default_factory=dict)  # chunk's first run -> (count,) int
     diverged: int = 0
+    counts: MethodCounts = field(default_factory=MethodCounts)  # over the chunks added
 
 
 class StudyAccumulator:
@@ -310,8 +295,9 @@ class StudyAccumulator:
             s.flagged[chunk.first] = np.asarray(chunk.diverged[m], dtype=bool).copy()
             s.resets[chunk.first] = np.asarray(chunk.resets.get(m, np.zeros(chunk.count)), dtype=int).copy()
             s.diverged += int(chunk.diverged[m].sum())
+            s.counts = s.counts + chunk.counts.get(m, MethodCounts())
         if self.smoothed is not None:
-            self.smoothed.add(dataclasses.replace(chunk, series=chunk.smoothed, smoothed={}))
+            self.smoothed.add(dataclasses.replace(chunk, series=chunk.smoothed, smoothed={}, counts={}))
 
     def rms(self, method: str, name: str) -> np.ndarray:
         """RMS over the runs per epoch (NaN where no run is finite).
@@ -403,7 +389,9 @@ class StudyAccumulator:
             order), ``consistency`` (block -> :meth:`consistency`) and
             ``runs_flagged_by_monitor`` (int), ``flagged_runs`` (the flagged runs' numbers in the
             study), ``lockout_resets`` (int: the velocity resets to the DVL after a lock-out,
-            tauvcore.engine.lockout), ``reset_runs`` (the numbers of the runs reset) and ``final_stats`` (error series -> :func:`final_statistics`: RMS, median and
+            tauvcore.engine.lockout), ``reset_runs`` (the numbers of the runs reset), ``counts``
+            (per aiding source the updates fused, rejected and unused over every run, and the DVL
+            pings coasted on: tauvcore.eval.counts.MethodCounts.to_json) and ``final_stats`` (error series -> :func:`final_statistics`: RMS, median and
             95th percentile over the runs at the last epoch, and the same over the runs the
             monitor did not flag). A study with the smoother adds ``smoothed`` to each method:
             the same keys over its smoothed series (its flags the forward pass's), or None for a
@@ -435,6 +423,7 @@ class StudyAccumulator:
                 "flagged_runs": [int(r) for r in run_numbers[flagged]],
                 "lockout_resets": int(resets.sum()),
                 "reset_runs": [int(r) for r in run_numbers[resets > 0]],
+                "counts": s.counts.to_json(),
             }
         if self.smoothed is not None:
             smoothed = self.smoothed.summary()["methods"]

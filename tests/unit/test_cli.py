@@ -118,7 +118,7 @@ def test_run_writes_the_json_contract_and_a_summary(capsys, tmp_path) -> None:
     keys = {"t", "vel_err_mps", "att_err_deg", "pos_err_m", "vel_sigma_mps", "att_sigma_deg", "pos_sigma_m",
             *SPLIT_AND_NEES_KEYS, *ESTIMATE_KEYS}
     for series in data["results"].values():
-        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count", "nis", "consistency"}
+        assert set(series) == keys | {"diverged", "diverged_at_s", "p_floor_count", "nis", "consistency", "counts"}
         assert len({len(series[k]) for k in keys}) == 1 and series["t"][-1] == pytest.approx(20.0)
         assert series["diverged"] is False and series["diverged_at_s"] is None and series["p_floor_count"] >= 0
     assert data["results"]["lc"]["vel_err_mps"][-1] < data["results"]["ins"]["vel_err_mps"][-1]
@@ -158,9 +158,11 @@ def test_bad_partial_dvl_flags_give_one_line_and_exit_2(capsys, argv, flag, valu
 
 
 def _tables(out: str) -> tuple[dict[str, str], dict[str, str]]:
-    """The rows of the errors table and of the consistency table, by method name."""
-    title, errors, consistency = out.strip("\n").split("\n\n")
-    assert title.startswith("trajectory ") and consistency.startswith("Consistency")
+    """The rows of the errors table and of the consistency table, by method name (the updates per
+    source between them)."""
+    title, errors, counts, consistency = out.strip("\n").split("\n\n")
+    assert title.startswith("trajectory ") and counts.startswith("Updates per source")
+    assert consistency.startswith("Consistency")
     return ({line.split()[0]: line for line in errors.splitlines()[2:]},
             {line.split()[0]: line for line in consistency.splitlines()[3:]})
 

@@ -14,7 +14,7 @@ import pytest
 from app import budget, truth_view, worker
 from app.error_figures import compare_figure, error_figure, nees_figure
 from app.innovation_figures import innovation_figure
-from app.markdown_tables import dvl_counts, rms_markdown, summary_markdown, summary_rows
+from app.markdown_tables import dvl_resets, result_counts, rms_markdown, summary_markdown, summary_rows
 from app.sensor_figures import sensor_error_figure
 from app.tables import summary_table
 from tauvcore.config import Config, to_dict
@@ -141,7 +141,8 @@ def test_the_tables_of_a_decimated_run_are_the_full_series_to_1e_9(pair) -> None
             else:
                 assert g[key] == value, key
     for method, f in full.items():
-        assert dvl_counts(binned[method]) == dvl_counts(f)
+        assert result_counts(binned[method]) == result_counts(f)
+        assert dvl_resets(binned[method]) == dvl_resets(f)
         whole = summarise({method: f})[method]
         summary = binned[method].summary
         assert summary is not None
@@ -184,7 +185,7 @@ def test_the_plots_draw_a_min_max_band_under_each_curve(pair) -> None:
     assert any(n.endswith("estimate max per 0.7 s bin") for n in _traces(sensor_error_figure(binned["lc"])))
     compare_figure([("run 1", binned), ("run 2", full)], "vel", validate=True)
     assert "LC (run 1) max per 0.7 s bin" in _traces(compare_figure([("run 1", binned), ("run 2", full)], "vel"))
-    assert "Consistency" in summary_markdown(binned) and "DVL fused" in rms_markdown(binned)
+    assert "Consistency" in summary_markdown(binned) and "DVL bottom-track" in rms_markdown(binned)
 
 
 class _Messages:

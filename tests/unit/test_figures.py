@@ -30,6 +30,7 @@ from app.figures import (
 from app.markdown_tables import (
     CONSISTENCY_COLUMNS,
     CONSISTENCY_HEADING,
+    COUNTS_HEADING,
     ERROR_COLUMNS,
     RMS_COLUMNS,
     RMS_HEADING,
@@ -483,7 +484,7 @@ def test_summary_rows_final_and_rms(request, fixture):
         expected = _expected_row(results[method])
         assert set(row) == (set(expected) | set(CONSISTENCY_KEYS)
                             | {"method", "runs", "diverged_runs", "diverged_first_s", "p_floor_count",
-                               "dvl_fused", "dvl_rejected", "dvl_coast", "dvl_resets"})
+                               "counts", "dvl_resets"})
         for key, value in expected.items():
             assert row[key] == pytest.approx(value, rel=1e-12), key
         # a healthy default run: nothing flagged, P never repaired
@@ -1055,7 +1056,6 @@ from app.markdown_tables import (  # noqa: E402
     compare_markdown,
     config_diff_markdown,
     config_differences,
-    dvl_counts,
     flat_config,
     identical_methods,
     identical_note,
@@ -1228,14 +1228,22 @@ def test_summary_rms_and_dvl_counts_table(four_beams):
     assert lines[0] == RMS_HEADING
     start = 2
     assert lines[start] == "| " + " | ".join(RMS_COLUMNS) + " |"
-    body = {cells[0]: cells for cells in (_cells(line) for line in lines[start + 2:])}
-    assert body["INS"][6:] == ["-", "-", "-"]
-    dvl = results["tc"].updates["dvl"]
-    assert body["TC"][6:] == [str(int(dvl.fused.sum())), str(int(dvl.rejected.sum())), str(int((~dvl.valid).sum()))]
-    assert dvl_counts(results["tc"])["dvl_fused"] == int(dvl.fused.sum()) > 0
+    end = lines.index("", start)
+    body = {cells[0]: cells for cells in (_cells(line) for line in lines[start + 2:end])}
     exp = _expected_row(results["tc"])
     assert float(body["TC"][2]) == pytest.approx(exp["att_rms_deg"], abs=0.5e-3)
     assert float(body["TC"][5]) == pytest.approx(exp["pos_rms_m"], abs=0.5e-2)
+    # below it the updates per source: the DVL's bottom-track its own column, INS without any
+    assert lines[end + 1] == COUNTS_HEADING
+    head = _cells(lines[end + 3])
+    assert head == ["method", "DVL bottom-track", "coasted"]
+    counts = {cells[0]: cells for cells in (_cells(line) for line in lines[end + 5:])}
+    assert counts["INS"][1:] == ["-", "-"]
+    dvl = results["tc"].updates["dvl"]
+    fused = int(dvl.fused.sum())
+    rejected = int((dvl.valid & ~dvl.fused).sum())
+    assert counts["TC"][1] == f"{fused} / {rejected} / {dvl.fused.size - fused - rejected}" and fused > 0
+    assert counts["TC"][2] == f"{int((~dvl.fused).sum())} of {dvl.fused.size}"
 
 
 def test_compare_figure_one_dash_per_run_method_colours_kept(single, four_beams):

@@ -90,7 +90,7 @@ def test_the_running_summary_is_the_whole_run_s(config, whole, tmp_path):
             np.testing.assert_allclose(s.final[name], r.final[name], rtol=1e-12, atol=0.0)
         for name in s.rms:
             np.testing.assert_allclose(s.rms[name], r.rms[name], rtol=1e-9, atol=0.0)
-        assert (s.dvl_counts, s.reset_times_s, s.diverged) == (r.dvl_counts, r.reset_times_s, r.diverged)
+        assert (s.counts, s.reset_times_s, s.diverged) == (r.counts, r.reset_times_s, r.diverged)
         for block, n in s.consistency.nees.items():
             m = r.consistency.nees[block]
             np.testing.assert_allclose([n.per_dim, n.in_band], [m.per_dim, m.in_band], rtol=1e-9)
