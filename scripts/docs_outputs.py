@@ -73,12 +73,20 @@ def run(shown: list[str], workdir: Path) -> str:
     for command in shown:
         try:
             proc = subprocess.run(
-                ["bash", "-c", command], cwd=workdir, env=env, capture_output=True, text=True, timeout=TIMEOUT_S
+                ["bash", "-c", command],
+                cwd=workdir,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=TIMEOUT_S,
+                check=False,
             )
         except subprocess.TimeoutExpired:
             raise ShownCommandError(f"{command!r} took more than {TIMEOUT_S:g} s") from None
         if proc.returncode != 0:
-            raise ShownCommandError(f"{command!r} exited with {proc.returncode}: {proc.stderr.strip()[-500:]}")
+            raise ShownCommandError(
+                f"{command!r} exited with {proc.returncode}: {proc.stderr.strip()[-500:]}"
+            )
         parts.append(f"{PROMPT}{command}\n{proc.stdout.rstrip()}\n{proc.stderr.rstrip()}".rstrip())
     return "\n".join(parts) + "\n"
 
@@ -119,7 +127,9 @@ def main(argv: list[str] | None = None) -> int:
             continue
         differ += 1
         if args.check:
-            diff = difflib.unified_diff(mask(old).splitlines(), mask(new).splitlines(), "shown", "printed", lineterm="")
+            diff = difflib.unified_diff(
+                mask(old).splitlines(), mask(new).splitlines(), "shown", "printed", lineterm=""
+            )
             print(f"{path.relative_to(REPO)}: differs\n" + "\n".join(diff))
         else:
             write(path, new)

@@ -11,7 +11,8 @@ value goes; KEY is one of
   (tauvcore.sensors.imu.IMU_PROFILES);
 - ``MODULE.NAME``: a constant of the code (``tauvcore.engine.smoothing.DEFAULT_BUDGET_MB``).
 
-FORMAT is a format spec for a number (``.2f``), or ``MiB`` (bytes shown in mebibytes). Without
+A KEY in capitals alone (``{{ default("KEY") }}``) is a placeholder, as a page explaining the
+macro writes it, and is left as it is. FORMAT is a format spec for a number (``.2f``), or ``MiB`` (bytes shown in mebibytes). Without
 it a float is written ``:g``, a tuple comma-separated, anything else as ``str`` gives it.
 tests/release/test_docs_defaults.py checks that no page quotes a default any other way.
 """
@@ -60,9 +61,16 @@ def show(value: Any, spec: str | None = None) -> str:
     return str(value)
 
 
+def placeholder(key: str) -> bool:
+    """Whether KEY is a placeholder (capitals alone, ``KEY``), left as written."""
+    return re.fullmatch(r"[A-Z_]+", key) is not None
+
+
 def render(markdown: str) -> str:
     """``markdown`` with every ``{{ default(...) }}`` replaced by the code's value."""
-    return MACRO.sub(lambda m: show(lookup(m.group(1)), m.group(2)), markdown)
+    return MACRO.sub(
+        lambda m: m.group(0) if placeholder(m.group(1)) else show(lookup(m.group(1)), m.group(2)), markdown
+    )
 
 
 def on_page_markdown(markdown: str, page: Any, **kwargs: Any) -> str:

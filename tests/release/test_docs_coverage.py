@@ -17,8 +17,10 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 PAGES = sorted((REPO / "docs").glob("*.md")) + [REPO / "README.md"]
-FENCE = re.compile(r"^```.*?^```", re.M | re.S)
-_spec = importlib.util.spec_from_file_location("docs_cli_reference", REPO / "docs" / "hooks" / "cli_reference.py")
+FENCE = re.compile(r"^```.*?^```", re.MULTILINE | re.DOTALL)
+_spec = importlib.util.spec_from_file_location(
+    "docs_cli_reference", REPO / "docs" / "hooks" / "cli_reference.py"
+)
 assert _spec and _spec.loader
 cli_reference = importlib.util.module_from_spec(_spec)
 sys.modules["docs_cli_reference"] = cli_reference
@@ -68,7 +70,9 @@ _spec.loader.exec_module(defaults_hook)
 
 def _cli_page() -> tuple[str, str]:
     """docs/cli.md's own text (its prose, its defaults rendered) and the reference the hook writes into it."""
-    return defaults_hook.render((REPO / "docs" / "cli.md").read_text(encoding="utf-8")), cli_reference.reference()
+    return defaults_hook.render(
+        (REPO / "docs" / "cli.md").read_text(encoding="utf-8")
+    ), cli_reference.reference()
 
 
 def _backticked(page: Path) -> list[str]:
@@ -91,7 +95,11 @@ def test_every_method_profile_and_source_is_named_in_the_cli_page_s_own_text(kin
     from tauvcore.config import RUN_METHODS
     from tauvcore.sensors.imu import IMU_PROFILES
 
-    offered = {"method": RUN_METHODS, "IMU profile": tuple(IMU_PROFILES), "aiding source": tuple(AIDING_SOURCES)}[kind]
+    offered = {
+        "method": RUN_METHODS,
+        "IMU profile": tuple(IMU_PROFILES),
+        "aiding source": tuple(AIDING_SOURCES),
+    }[kind]
     prose, _ = _cli_page()
     named = {word for quote in re.findall(r"`([^`\n]+)`", prose) for word in re.split(r"[\s,=]+", quote)}
     missing = [name for name in offered if name not in named]
@@ -127,8 +135,12 @@ def test_every_method_profile_and_source_a_page_passes_exists(page: Path) -> Non
         "--aiding": set(AIDING_SOURCES),
     }
     text = FENCE.sub("", page.read_text(encoding="utf-8"))
-    quotes = re.findall(r"`([^`\n]+)`", text) + [b for b in re.findall(r"^```[^\n]*\n(.*?)^```", page.read_text(
-        encoding="utf-8"), re.M | re.S)]
+    quotes = re.findall(r"`([^`\n]+)`", text) + [
+        b
+        for b in re.findall(
+            r"^```[^\n]*\n(.*?)^```", page.read_text(encoding="utf-8"), re.MULTILINE | re.DOTALL
+        )
+    ]
     for quote in quotes:
         for flag, value in re.findall(r"(--method|--imu-errors|--imu|--aiding)[ =]([\w,|.-]+)", quote):
             if value.isupper() or value == "...":  # a placeholder (--imu PROFILE, --method ...)
@@ -143,7 +155,7 @@ def test_the_readme_names_every_method_and_every_page_of_the_site() -> None:
     from tauvcore.config import RUN_METHODS
 
     readme = (REPO / "README.md").read_text(encoding="utf-8")
-    table = set(re.findall(r"^\| `([\w-]+)` \|", readme, re.M))
+    table = set(re.findall(r"^\| `([\w-]+)` \|", readme, re.MULTILINE))
     assert set(RUN_METHODS) <= table, f"the README's methods table lacks {sorted(set(RUN_METHODS) - table)}"
 
     class _Loader(yaml.SafeLoader):
