@@ -37,7 +37,7 @@ from app.commands.study import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_rep
 from app.commands.values import UsageError, resolve_config
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.aiding.registry import REGISTRY
-from tauvcore.config import RUN_METHODS, Config, to_toml
+from tauvcore.config import DEFAULT_METHODS, METHODS, RUN_METHODS, Config, to_toml
 from tauvcore.geo.earth import EARTH_MODELS
 from tauvcore.logs import SOURCE_TABLES
 from tauvcore.sensors.imu import IMU_PROFILES
@@ -314,8 +314,8 @@ def _method_flags(p: argparse.ArgumentParser) -> None:
     """The flags of the methods, their aiding and the DVL's beams (``run``, ``mc`` and ``replay``)."""
     p.add_argument(
         "--method",
-        help=f"comma-separated from {', '.join(RUN_METHODS)}, or 'all' (the first paper's "
-        "eight) (default: ins,lc). ins-dvl and vkf are Yoo 2014's 12-state filter, aided "
+        help=f"comma-separated from {', '.join(RUN_METHODS)}, or 'all' ({', '.join(METHODS)}) "
+        f"(default: {','.join(DEFAULT_METHODS)}). ins-dvl and vkf are Yoo 2014's 12-state filter, aided "
         "by the DVL, or by its velocity Kalman filter switching to the propeller RPM "
         "beyond DVL range; "
         + "; ".join(f"{m.name}: {m.summary}" for m in REGISTRY.values())

@@ -10,7 +10,7 @@ IMU degraded by that IMU's errors). Columns: the standalone INS; LC with four (s
 projected from the DVL's body velocity; TC, NSV and ELC with beams 3 and 4 dropped for the whole
 segment. Errors against the reference, itself an INS/DVL smoother (not independent of the DVL).
 A second table gives LC's verdicts per segment under two tunings: Table 2's MEMS IMU and the
-PHINS class of the data's own IMU (``--imu phins``).
+PHINS class of the data's own IMU (the ``phins`` profile as the ``[imu]`` section).
 
 Writes its tables to docs/results/akit_table.md (with ``--imu-errors P``, akit_table_P.md) (benchmarks/fragment.py).
 """
@@ -112,7 +112,7 @@ def main() -> None:
         medians = " | ".join(f"{np.median([r[m] for r in rows]):.1f}" for m in methods)
         print(f"| median | | | {medians} |")
         print("\nLC with four beams, tuned for Table 2's MEMS IMU (the columns above) and for the PHINS-class IMU "
-              "the data were recorded with (`--imu phins`): position error at the end [m]; the divergence monitor's "
+              "the data were recorded with (the `phins` IMU profile as the `[imu]` section): position error at the end [m]; the divergence monitor's "
               "first flag [s] (from the DVL's innovations, as a real filter could judge itself); velocity resets "
               "after a lock-out; the DVL's NIS per degree of freedom (1 for a filter whose DVL noise is right); "
               "RMS tilt [deg] and velocity [m/s] errors against the reference and their NEES/dim\n")
