@@ -101,9 +101,7 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
                 "dvl_nis_per_dof": dvl_nis.per_dof if dvl_nis is not None else float("nan"),
                 "runs": int(res.diverged.size),
                 "diverged_runs": int(np.count_nonzero(res.diverged)),
-                "diverged_first_s": float(np.nanmin(res.diverged_at_s))
-                if res.diverged.any()
-                else float("nan"),
+                "diverged_first_s": _first_time(res.diverged_at_s),
                 "p_floor_count": int(np.sum(res.p_floor_count)),
                 "counts": result_counts(res),
                 "dvl_resets": dvl_resets(res),
@@ -555,3 +553,9 @@ def config_diff_markdown(labels: Sequence[str], configs: Sequence[Mapping[str, A
         ["**Configuration differences**", ""]
         + _table(("setting", *labels), [[key, *(_cell(v) for v in values)] for key, values in diff.items()])
     )
+
+
+def _first_time(times_s: np.ndarray) -> float:
+    """The earliest of ``times_s`` [s] that is a time (NaN: a run flagged without one); NaN if none."""
+    known = times_s[np.isfinite(times_s)]
+    return float(known.min()) if known.size else float("nan")

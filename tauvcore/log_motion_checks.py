@@ -51,6 +51,11 @@ MIN_TILT_RAD = 1.0 * units.DEG
 """RMS roll or pitch [rad] from which an attitude's tilt is judged against the accelerometer's
 (:func:`check_attitude_units`): five times the tilt an AUV's own accelerations (0.1 m/s^2 in a
 turn) lend gravity over a window, so a slope of 1/57.3 (radians under _deg) stands far out."""
+MAX_TILT_RAD = 60.0 * units.DEG
+"""Median roll or pitch [rad] of the accelerometer's gravity beyond which
+:func:`check_attitude_units` does not judge the attitude: no AUV cruises so tilted, so the
+accelerometer's axes are at fault (swapped or of the wrong sign, which the IMU's checks name), not
+the attitude's unit."""
 TILT_SLOPE_FACTOR = 3.0
 """An attitude's tilt slope against the accelerometer's within this factor of 1 (or of 1/57.3) is
 taken as that: the vehicle's accelerations and an AHRS's noise move it by tens of percent."""
@@ -297,7 +302,8 @@ def check_attitude_units(log: Log, files: Mapping[str, Path]) -> None:
     the mean specific force over each window: a slope near 1/57.3 is radians under a _deg name,
     refused. It runs before the gyro's comparison (check 2), which sees such an attitude turn 57.3
     times too slowly and would blame the gyro. Judged on an axis whose tilt RMS reaches
-    :data:`MIN_TILT_RAD`, within :data:`TILT_SLOPE_FACTOR`."""
+    :data:`MIN_TILT_RAD`, within :data:`TILT_SLOPE_FACTOR`; not where the accelerometer's tilt is beyond
+    :data:`MAX_TILT_RAD`."""
     attitude = log.table("mag", EULER)
     for table, t_rows, euler in (
         ("reference", log.ref_t_s, log.ref_euler),
@@ -320,6 +326,8 @@ def check_attitude_units(log: Log, files: Mapping[str, Path]) -> None:
         mid = 0.5 * (t[1:] + t[:-1])
         inside = (mid >= t_rows[0]) & (mid <= t_rows[-1])
         if inside.sum() < 3:
+            continue
+        if float(np.max(np.median(np.abs(measured[inside]), axis=0))) > MAX_TILT_RAD:
             continue
         given = euler_at(t_rows, euler, mid[inside])[:, :2]
         fit = Fit.of(measured[inside], given)

@@ -40,7 +40,19 @@ class OutputKind:
     replace_flag: str | None = None
 
     def holds(self, entries: set[str]) -> bool:
-        """Whether a directory with ``entries`` (a writer's own left out) holds this kind's output."""
+        """Whether a directory with ``entries`` holds this kind's output: every file it must hold, and
+        none it does not write.
+
+        Parameters
+        ----------
+        entries : set of str
+            The names in the directory, a writer's own (lock file, temporary folders) left out.
+
+        Returns
+        -------
+        bool
+            True for a non-empty set within this kind's files holding every required one.
+        """
         return bool(entries) and self.required <= entries <= self.files
 
 

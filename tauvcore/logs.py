@@ -244,6 +244,12 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
     assert imu_path is not None  # both callers refuse a log without one first
     imu = load(imu_path)
     t = time_column(imu_path, imu)
+    if not (all(n in imu for n in IMU_INCREMENTS) or all(n in imu for n in IMU_RATES)):
+        missing = next(n for n in IMU_INCREMENTS if n not in imu)  # what the table is, before how long
+        raise LogError(
+            f"{show_path(str(imu_path))}: missing column {show(missing)} (the IMU as increments: "
+            f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})"
+        )
     if t.size < 3:
         raise LogError(f"{show_path(str(imu_path))}: {t.size} rows; an IMU log needs at least 3")
     from tauvcore import log_checks
@@ -278,11 +284,7 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
         dv = _trapezoid([imu[n] for n in IMU_RATES[3:]], dt)
         accel_columns = IMU_RATES[3:]
     else:
-        missing = next(n for n in IMU_INCREMENTS if n not in imu)
-        raise LogError(
-            f"{show_path(str(imu_path))}: missing column {show(missing)} (the IMU as increments: "
-            f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})"
-        )
+        raise AssertionError("the IMU's columns were checked above")
     del imu  # its columns are t, dtheta and dv now
     dtheta[0] = 0.0
     dv[0] = 0.0

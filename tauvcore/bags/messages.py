@@ -9,7 +9,7 @@ message has none):
   ``beam_velocities_valid``; the body velocity valid with at least 3 ``num_good_beams``;
   water-track where ``velocity_mode`` is ``DVL_MODE_WATER`` (2), else bottom-track;
 - ``ds_sensor_msgs/Dvl``: ``raw_velocity`` along ``beam_unit_vec`` when ``coordinate_mode`` is
-  beam coordinates (0), else no beams; the body velocity and the mode as marine_acoustic_msgs';
+  beam coordinates (0), else no beams, each valid unless NaN (the driver's beam without a return); the body velocity and the mode as marine_acoustic_msgs';
 - ``cola2_msgs/DVL`` and ``uuv_sensor_ros_plugins_msgs/DVL``: four ``beams`` (else none), each
   valid where its ``range`` is not negative, its direction the x axis of its ``pose``; the body
   velocity invalid where ``velocity_covariance[0]`` is negative (their -1);
@@ -28,6 +28,7 @@ message, and read for every message of that layout as one numpy column.
 
 from __future__ import annotations
 
+import math
 import operator
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -82,7 +83,9 @@ def _ds(m: Any) -> tuple[float, ...]:
     if m.coordinate_mode != 0:  # x, y, z, error: no beams
         return body + _NO_BEAMS + (_water(m),)
     dirs = [c for v in m.beam_unit_vec for c in _vec(v)]
-    return body + (*(float(v) for v in m.raw_velocity), *(1.0,) * 4, *dirs, *(NAN,) * 4, _water(m))
+    raw = [float(v) for v in m.raw_velocity]
+    valid = (0.0 if math.isnan(v) else 1.0 for v in raw)  # the driver's NaN: the beam did not return
+    return body + (*raw, *valid, *dirs, *(NAN,) * 4, _water(m))
 
 
 def _uuv(m: Any) -> tuple[float, ...]:
