@@ -4,8 +4,8 @@ The contract: exit status 0 or 2; never a traceback; on 2 exactly one line on st
 that names the field, flag or file and quotes the value shortened; no partial output file (the
 ``--json`` target is untouched on 2, valid strict JSON on 0, and no temporary file is left);
 bounded time (an alarm per case) and memory (a soft address-space limit during each case, and
-the process's peak RSS may not grow by more than :data:`RSS_GROWTH_LIMIT_BYTES` over the
-session's start).
+the process's peak RSS may not grow by more than :data:`RSS_GROWTH_LIMIT_BYTES` over its peak
+when the test began).
 """
 
 from __future__ import annotations
@@ -26,10 +26,8 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 from app.cli import main
+from tests.fuzz.stats import BAG_STATS, CASE_TIMEOUT_S, STATS  # noqa: F401  (the tests take them from here too)
 
-CASE_TIMEOUT_S = 30.0
-"""Wall-clock bound per case: a case that runs takes < 1 s (measured ~0.05-0.5 s on 2 loaded
-cores); 30 s is only there to turn a hang (a FIFO read by the old code) into a failure."""
 ADDRESS_SPACE_MARGIN_BYTES = 2 << 30
 """Address space a case may add to the process (soft RLIMIT_AS during the case): a runaway
 allocation (the old code read /dev/zero to 20 GB and met the OOM killer) becomes a MemoryError
@@ -43,28 +41,14 @@ LONG_VALUE = 200
 """A value longer than this must never be echoed whole."""
 
 
-@dataclass
-class Stats:
-    """Cases run in this session, per tier, for the terminal summary."""
-
-    cases: Counter = field(default_factory=Counter)
-    exits: Counter = field(default_factory=Counter)
-    slowest_s: float = 0.0
-    slowest_argv: str = ""
-    rss_start_bytes: int = 0
-    log_classes: Counter = field(default_factory=Counter)  # hostile logs run, per class
-    log_exits: Counter = field(default_factory=Counter)  # their exit statuses ("raised": an exception escaped)
-    log_slowest_s: float = 0.0
-
-
-STATS = Stats()
 
 
 class CaseTimeout(Exception):
     """A case exceeded CASE_TIMEOUT_S (a hang)."""
 
 
-def _rss_bytes() -> int:
+def peak_rss_bytes() -> int:
+    """The process's peak resident set size [bytes]."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024     # Linux reports kB
 
 
@@ -126,7 +110,7 @@ def invoke(argv: Sequence[str], *, record_warnings: bool = False) -> Result:
     stderr; in-process pytest would only count them) into :attr:`Result.warnings`.
     """
     if not STATS.rss_start_bytes:
-        STATS.rss_start_bytes = _rss_bytes()
+        STATS.rss_start_bytes = peak_rss_bytes()
     out, err = io.StringIO(), io.StringIO()
     previous = signal.signal(signal.SIGALRM, _on_alarm)
     signal.setitimer(signal.ITIMER_REAL, CASE_TIMEOUT_S)
@@ -169,8 +153,8 @@ def run_case(argv: Sequence[str], tier: str, *, names: Sequence[str] = (), json_
 
 
 def rss_growth_bytes() -> int:
-    """How much the process's peak RSS has grown since the first case of the session."""
-    return _rss_bytes() - STATS.rss_start_bytes
+    """How much the process's peak RSS has grown since the test began (tests/fuzz/conftest.py)."""
+    return peak_rss_bytes() - STATS.rss_start_bytes
 
 
 def check(result: Result, *, names: Sequence[str], json_path: str | None, before: bytes | None,
@@ -216,15 +200,3 @@ FIELD_NAME = re.compile(r"[a-z_]+\.[a-z_]+|\[[^\]]*\]|--[a-z]+")
 """Something a message may name: section.key, [section], --flag."""
 
 
-@dataclass
-class BagStats:
-    """Hostile bags run in this session (tests/fuzz/test_fuzz_bags.py), for the terminal summary."""
-
-    classes: Counter = field(default_factory=Counter)  # cases run, per class
-    exits: Counter = field(default_factory=Counter)  # their exit statuses ("raised": an exception escaped)
-    tiers: Counter = field(default_factory=Counter)  # cases run, per tier
-    slowest_s: float = 0.0
-    slowest_case: str = ""
-
-
-BAG_STATS = BagStats()

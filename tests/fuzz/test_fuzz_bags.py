@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.fuzz.harness import BAG_STATS, Result, invoke
+from tests.fuzz.harness import BAG_STATS, RSS_GROWTH_LIMIT_BYTES, Result, invoke, rss_growth_bytes
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit"))  # bag_fixtures: the bag writer
 
@@ -112,6 +112,9 @@ def oracle(case: Case, command: str, result: Result, before: dict, after: dict) 
             problems.append("OUT written on exit 2")
     elif result.code == 0 and command != "info" and "OUT" not in after:
         problems.append("exit 0 without OUT")
+    growth = rss_growth_bytes()
+    if growth > RSS_GROWTH_LIMIT_BYTES:
+        problems.append(f"peak RSS grew by {growth / 2**20:.0f} MiB")
     changed = sorted(k for k in before if before[k] != after.get(k))
     if changed:
         problems.append(f"inputs changed or removed: {changed[:5]}")
