@@ -9,8 +9,8 @@ that opens offline.
   per method, run and epoch, the errors and NEES as 32-bit floats; ``trajectory`` is the
   trajectory's name, or the replayed log's.
 - ``html``: one self-contained page (plotly.js embedded inline, nothing fetched when it opens):
-  the configuration, the Results tab's tables (app.markdown_tables.summary_markdown), the error and
-  NEES/dim figures (with the smoother's results, its table and curves too), and the full
+  the configuration, the Results tab's tables (app.markdown_tables.summary_markdown, the updates
+  per source), the error and NEES/dim figures (with the smoother's results, its table and curves too), and the full
   configuration as JSON.
 
 Everything here is a pure function of the finished run, tested without a browser
@@ -31,7 +31,7 @@ import viser
 
 from app.error_figures import AUTO, error_figure, nees_figure
 from app.inputs import config_rows
-from app.markdown_tables import smoothed_markdown, summary_markdown
+from app.markdown_tables import counts_markdown, smoothed_markdown, summary_markdown
 from app.payload import config_to_json, run_payload
 from app.study_output import PARQUET_WRITE_OPTIONS, runs_table
 from tauvcore.config import Config
@@ -260,7 +260,11 @@ def report_html(run: FinishedRun, max_points: int | None = REPORT_MAX_POINTS) ->
         "<h2>Configuration</h2>",
         _table(settings),
         "<h2>Results</h2>",
-        markdown_html(summary_markdown(results) + (f"\n\n{smoothed}" if smoothed else "")),
+        markdown_html(
+            summary_markdown(results)
+            + f"\n\n{counts_markdown(results)}"
+            + (f"\n\n{smoothed}" if smoothed else "")
+        ),
         "<h2>Figures</h2><div class='figures'>",
         *(f"<div>{p}</div>" for p in plots),
         "</div>",

@@ -112,6 +112,9 @@ def test_the_report_opens_offline_with_configuration_tables_and_figures(finished
         assert f"<th>{column}</th>" in outside
     for method in ("INS", "LC", "TC"):
         assert f"<td>{method}</td>" in outside
+    # the updates per source: each method's DVL bottom-track fused / rejected / unused, and coasted
+    assert "<b>Updates per source</b>" in outside and "<th>DVL bottom-track</th>" in outside
+    assert re.search(r"<tr><td>LC</td><td>\d+ / \d+ / \d+</td><td>\d+ of \d+</td></tr>", outside), outside[-3000:]
     assert page.count("Plotly.newPlot(") == 5
     for title in ("Velocity error", "Tilt error", "Heading error", "Position error", "NEES/dim"):
         assert title in page
