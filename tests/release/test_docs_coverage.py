@@ -42,6 +42,7 @@ OTHER_PROGRAMS = {
     "--only": "benchmarks/run_memory.py",
     "--attitude-scale": "benchmarks/consistency_table.py",
     "--data": "benchmarks",
+    "--upgrade": "scripts/lock.sh (uv pip compile)",
     "--screenshot": "benchmarks/bench_dashboard.py",
     "--headless": "chromium",
     "--init": "docker run",
