@@ -93,7 +93,8 @@ sources add, tauvcore.engine.yoo_velocity)."""
 
 SERIES = tuple(SERIES_FIELDS)
 """The per-epoch series, as the 20-state bank's (tauvcore.engine.results.SERIES_FIELDS)."""
-NEES_ROW = SERIES.index("nees")
+SIGMA_SERIES = ("vel_sigma", "att_sigma", "tilt_sigma", "heading_sigma")
+"""The series made from the filter's covariance alone (no truth): what :func:`_nonfinite` reads."""
 BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 """Each of the 12 states' NEES block (tauvcore.eval.consistency's blocks: position (none here),
 velocity, tilt, heading, sensors)."""
@@ -635,7 +636,7 @@ class YooBank(ChunkDriver):
                 record = rec.build(m, first_update.get(name, 0)) if rec.count else None
                 if record is not None:
                     updates[name] = record if self._until_s is None else _until(record, self._until_s)
-            nonfinite = ~np.isfinite(cat["series"][NEES_ROW, :, m])  # (T, R)
+            nonfinite = _nonfinite(cat, m)  # (T, R)
             first_bad = (
                 np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T])
                 if t_s.size
@@ -700,6 +701,21 @@ class YooBank(ChunkDriver):
                 state_labels=self.state_labels,
             )
         return out
+
+
+def _nonfinite(cat: Store, m: int) -> np.ndarray:
+    """Output epochs at which method ``m``'s state or covariance is not finite: (T, R) bool.
+
+    Judged from the filter's own output alone (its position, velocity and attitude, and the 1-sigma
+    of its velocity and attitude), as the 20-state bank judges its own (tauvcore.engine.loop.record):
+    the NEES and the errors need the truth, which a log without one (or without its IMU's biases)
+    does not give.
+    """
+    own = [cat["series"][SERIES.index(name), :, m] for name in SIGMA_SERIES]
+    finite = np.logical_and.reduce([np.isfinite(s) for s in own])
+    for key in ("est_pos_n", "est_vel_n", "est_euler"):
+        finite &= np.isfinite(cat[key][:, m]).all(axis=-1)
+    return ~finite
 
 
 def _until(record: UpdateRecord, until_s: float) -> UpdateRecord:
