@@ -19,7 +19,8 @@ from tauvcore.sensors.imu import IMU_PROFILES
 
 
 def _cli(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "app.cli", *argv], capture_output=True, text=True, timeout=180)
+    return subprocess.run([sys.executable, "-m", "app.cli", *argv], check=False, capture_output=True, text=True,
+                          timeout=180)
 
 
 def _json(tmp_path: Path, *argv: str) -> dict:
