@@ -178,6 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
         f"{', '.join(IMU_PROFILES)} (drawn from --seed; the "
         "filters are tuned for that IMU)",
     )
+    _imu_flag(rl)
     rl.add_argument(
         "--config",
         type=_path,

@@ -493,6 +493,43 @@ def to_toml(config: Config) -> str:
     return tomli_w.dumps(to_dict(config))
 
 
+LOG_TOML_OMITTED: dict[str, tuple[str, ...]] = {"dvl": ("outages", "dropout_probability")}
+"""Keys a log's own configuration leaves out: the simulated events its tables already hold (the
+DVL's outages and dropouts), which a replay would otherwise apply to them again."""
+
+
+def to_log_toml(config: Config) -> str | None:
+    """A simulated log's own configuration (:data:`tauvcore.logs.CONFIG_FILE`) as TOML text: each
+    section of the simulation that differs from the defaults, whole.
+
+    A section equal to the defaults but not to the scenario's own (:func:`trajectory_preset` of
+    ``trajectory.name``, which a replay lays under the file as ``tauv run`` does) is written too,
+    so the file says what the log was made with whatever the scenario brings. The
+    ``run`` and ``replay`` sections (what to run, not what was sensed) are left out, and so are
+    the keys of :data:`LOG_TOML_OMITTED`. The log's own values (the IMU's rate, the length, the
+    origin) still win over the file's in a replay (tauvcore.eval.replay.replay_config).
+
+    Parameters
+    ----------
+    config : Config
+        The simulation's configuration.
+
+    Returns
+    -------
+    str or None
+        TOML text as :func:`to_toml` writes it (section -> key -> value, in the units the keys
+        say), or None when no section differs.
+    """
+    default = to_dict(Config())
+    preset = to_dict(from_dict(trajectory_preset(config.trajectory.name)))
+    out = {}
+    for name, values in to_dict(config).items():
+        if name in ("run", "replay") or values == default.get(name) == preset.get(name):
+            continue
+        out[name] = {k: v for k, v in values.items() if k not in LOG_TOML_OMITTED.get(name, ())}
+    return tomli_w.dumps(out) if out else None
+
+
 def _coerce(field_name: str, default: Any, value: Any) -> Any:
     """Check a TOML value against the type of its default and convert lists to tuples."""
     if isinstance(default, bool):

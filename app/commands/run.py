@@ -49,7 +49,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
     log_writer = None
     try:
-        log_writer = _log_writer(args, log_dir) if log_dir is not None else None
+        log_writer = _log_writer(args, log_dir, config) if log_dir is not None else None
         with smoothing(smooth) as options:
             run_streaming(
                 config,
@@ -80,13 +80,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _log_writer(args: argparse.Namespace, target: str) -> Any:
+def _log_writer(args: argparse.Namespace, target: str, config: Any) -> Any:
     """The --save-log directory's :class:`~tauvcore.log_writer.LogWriter` (its temporary
-    directory inside the locked target), or one line if it cannot be made."""
+    directory inside the locked target), the log's own configuration file with it
+    (tauvcore.config.to_log_toml: what a replay needs to filter the log as the run did), or one
+    line if it cannot be made."""
+    from tauvcore.config import to_log_toml
     from tauvcore.log_writer import LogWriter
 
     with _saving_log(args):
-        return LogWriter(target, args.log_format)
+        return LogWriter(target, args.log_format, config_toml=to_log_toml(config))
 
 
 def _save_chunk(args: argparse.Namespace, log_writer: Any, chunk: Any) -> None:

@@ -13,7 +13,7 @@ import pytest
 
 from app import cli
 from tauvcore import log_writer
-from tauvcore.config import Config
+from tauvcore.config import Config, to_log_toml
 from tauvcore.engine import mission
 from tauvcore.log_writer import LogWriter, chunk_tables, simulation_tables, write_log
 from tauvcore.logs import CONFIG_FILE, read_log
@@ -49,9 +49,12 @@ def test_tauv_run_save_log_writes_what_the_whole_log_writer_writes(capsys, tmp_p
     """The command's streamed log against write_log(simulation_tables(chunks)) of the very chunks the
     command simulated (what the command wrote before it streamed)."""
     chunks: list = []
+    configs: list = []
     real = mission.run_streaming
 
     def keeping(*args, on_sim_chunk=None, **kwargs):
+        configs.append(args[0])
+
         def both(chunk):
             chunks.append(chunk)
             on_sim_chunk(chunk)
@@ -61,9 +64,10 @@ def test_tauv_run_save_log_writes_what_the_whole_log_writer_writes(capsys, tmp_p
     assert cli.main([*ARGV, "--save-log", str(tmp_path / "streamed"), "--log-format", fmt]) == 0
     assert len(chunks) == 3                                            # 25 s in 10 s chunks
     assert chunk_tables(chunks[0])["usbl"]["t_s"].size == 0            # a table that starts empty
-    write_log(tmp_path / "whole", simulation_tables(chunks), fmt)
+    write_log(tmp_path / "whole", simulation_tables(chunks), fmt, config_toml=to_log_toml(configs[0]))
     _assert_same_log(tmp_path / "streamed", tmp_path / "whole", fmt)
     assert read_log(tmp_path / "streamed").duration_s == pytest.approx(25.0)
+    assert (tmp_path / "streamed" / CONFIG_FILE).is_file()                # the run's own configuration
 
 
 @pytest.mark.parametrize("fmt", ["csv", "parquet"])

@@ -187,7 +187,7 @@ def test_save_log_on_a_full_disk_leaves_nothing_and_a_retry_works(capsys, tmp_pa
     assert sorted(os.listdir(tmp_path)) == ["empty"] and os.listdir(tmp_path / "empty") == []
     code, _, err = _run(capsys, *RUN, "--save-log", str(tmp_path / "empty"), "--log-format", fmt)
     assert code == 0, err
-    assert sorted(os.listdir(tmp_path / "empty")) == sorted(f"{t}.{fmt}" for t in SIMULATED_TABLES)
+    assert sorted(os.listdir(tmp_path / "empty")) == sorted([CONFIG_FILE, *(f"{t}.{fmt}" for t in SIMULATED_TABLES)])
     assert read_log(tmp_path / "empty").duration_s == pytest.approx(5.0)
 
 
@@ -372,7 +372,7 @@ def test_two_tauv_runs_saving_into_one_directory(capsys, tmp_path, monkeypatch) 
     second = _run(capsys, *argv)
     assert first.wait(timeout=300) == 0, first.stderr.read()
     _one_line(*second[::2], f"--save-log: 'D' is being written by another tauv (pid {first.pid})")
-    assert sorted(os.listdir(tmp_path / "D")) == sorted(f"{t}.csv" for t in SIMULATED_TABLES)
+    assert sorted(os.listdir(tmp_path / "D")) == sorted([CONFIG_FILE, *(f"{t}.csv" for t in SIMULATED_TABLES)])
     assert read_log(tmp_path / "D").duration_s == pytest.approx(300.0)
 
 
