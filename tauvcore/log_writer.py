@@ -198,12 +198,26 @@ def _same_as_one_in(path: str, directory: str) -> bool:
         return False
     try:
         with os.scandir(directory) as entries:
-            return any(_same_file(path, e.path) for e in entries)
+            return any(same_file(path, e.path) for e in entries)
     except OSError:
         return False
 
 
-def _same_file(a: str, b: str) -> bool:
+def same_file(a: str, b: str) -> bool:
+    """Whether two paths name one file (through a symbolic or a hard link).
+
+    Parameters
+    ----------
+    a : str
+        One path.
+    b : str
+        The other.
+
+    Returns
+    -------
+    bool
+        True where both name the same file; False where either names nothing a system call takes.
+    """
     try:
         return os.path.samefile(a, b)
     except (OSError, ValueError):

@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import IO, Any
 
 from app.commands.values import UsageError
+from tauvcore.log_writer import same_file
 from tauvcore.validation import show, show_path
 
 Inputs = Sequence[tuple[str, str | None]]
@@ -56,13 +57,6 @@ def json_target(path: str, inputs: Inputs = ()) -> str:
     return real
 
 
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except (OSError, ValueError):
-        return False
-
-
 def _real(path: str | None) -> str | None:
     """The real path of ``path``; None for none or a name no system call takes (a NUL, which
     the command refuses where it reads the file)."""
@@ -86,7 +80,7 @@ def _same_as_one_in(path: str, directory: str) -> str | None:
         return None
     try:
         with os.scandir(directory) as entries:
-            return next((e.path for e in entries if _same_file(path, e.path)), None)
+            return next((e.path for e in entries if same_file(path, e.path)), None)
     except OSError:
         return None
 
@@ -100,7 +94,7 @@ def _refuse_input(flag: str, path: str, inputs: Inputs) -> None:
         source_real = _real(source)
         if source is None or source_real is None:
             continue
-        if real == source_real or _same_file(source_real, real):
+        if real == source_real or same_file(source_real, real):
             raise UsageError(f"{flag}: {name} is {what}; writing it would overwrite it")
         if _inside(real, source_real):
             raise UsageError(
