@@ -56,6 +56,7 @@ from app.session_plots import VKF_NOTES, PlotTabs
 from app.session_runs import RunTabs
 from app.session_scene import FOLLOW_DISTANCE_M, SceneView
 from app.session_state import TabState, notify
+from app.session_vehicle import VehiclePanel, applied
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.metrics import rms
@@ -93,6 +94,11 @@ class Session:
         tabs = gui.add_tab_group()
         with tabs.add_tab("Mission"):
             self.panel = ControlPanel(self.state, dict(logs or {}), self.notify)
+            self.vehicle = (
+                VehiclePanel(gui, self.start_vehicle, self.apply_vehicle)
+                if self.panel.source is not None
+                else None
+            )
             self.playback = Playback(
                 self.state,
                 show_time=lambda t_s: self.scene.show_time(t_s),
@@ -230,6 +236,110 @@ class Session:
         self.plot_tabs.draw_vkf_plot(None, config)
         self.plot_tabs.run_started()
         threading.Thread(target=self._pump, args=(handle, config), daemon=True).start()
+
+    def start_vehicle(self, kind: str) -> None:
+        """Calibrate or Tune (``kind``, app.vehicle_tasks) on the log the Source names, under the
+        configuration the controls make of it, on a worker: the progress bar, the status and Stop
+        as a run's; the report in the "Your vehicle" folder when it ends."""
+        panel, vehicle = self.panel, self.vehicle
+        assert vehicle is not None
+        with self.lock:
+            if self.handle is not None:
+                self.notify("Already running", "Press Stop first, or wait for the run to finish.", error=True)
+                return
+            source = panel.source.value if panel.source is not None else inputs.SIMULATION
+            log_dir = panel.logs.get(source)
+            what = "Calibrate" if kind == "calibrate" else "Tune"
+            if log_dir is None:
+                self.notify(
+                    f"Cannot {what.lower()}",
+                    f"{inputs.SOURCE} is {source}: choose a log to {what.lower()} on.",
+                    error=True,
+                )
+                return
+            previous, self.status.content = self.status.content, CHECKING_STATUS
+            try:
+                panel.confirm_page_state()
+                config, _ = panel.read_config()
+            except (InputError, ConfigError) as exc:
+                self.status.content = previous
+                self.notify(f"Cannot {what.lower()}", str(exc), error=True)
+                return
+            except RuntimeError:  # the tab closed while it was asked for its controls
+                return
+            self.handle = handle = self.pool.start_vehicle(kind, to_dict(config), log_dir)
+        self.run_button.disabled, self.stop_button.disabled = True, False
+        vehicle.busy(True)
+        self.progress.value = 0.0
+        self.status.content = f"{what}: log {source}"
+        threading.Thread(target=self._pump_vehicle, args=(handle, source), daemon=True).start()
+
+    def _pump_vehicle(self, handle: worker.RunHandle, source: str) -> None:
+        """Read a calibration's or tuning's messages (app.vehicle_tasks) and show them."""
+        vehicle = self.vehicle
+        assert vehicle is not None
+        note: tuple[str, str, bool] | None = None
+        try:
+            while True:
+                try:
+                    msg = handle.queue.get(timeout=0.1)
+                except queue_mod.Empty:
+                    if handle.finished() and handle.queue.empty():
+                        self.status.content = "Stopped."
+                        note = ("Stopped", "The task ended before it found anything.", False)
+                        break
+                    continue
+                if msg[0] == "vehicle-progress":
+                    self.progress.value = 100.0 * float(msg[1])
+                    self.status.content = str(msg[2])
+                elif msg[0] == "vehicle-done":
+                    _, kind, report, sections, stopped = msg
+                    vehicle.show(kind, source, report, sections, stopped)
+                    self.progress.value = 100.0
+                    what = "Calibration" if kind == "calibrate" else "Tuning"
+                    self.status.content = f"{what} of {source} {'stopped' if stopped else 'complete'}."
+                    note = (
+                        f"{what} of {source}",
+                        "Its report is in the Your vehicle folder; Apply uses it at the next Run.",
+                        False,
+                    )
+                    break
+                elif msg[0] == "error":
+                    self.status.content = "Failed."
+                    note = ("Calibrate or Tune failed", msg[1], True)
+                    break
+        except Exception as exc:  # noqa: BLE001 - a display bug must not leave the tab stuck in "running"
+            self.status.content = "Display error."
+            note = ("Display error", f"{type(exc).__name__}: {exc}", True)
+        finally:
+            with self.lock:
+                self.handle = None
+            self.run_button.disabled, self.stop_button.disabled = False, True
+            vehicle.busy(False)
+        if note is not None:
+            self.notify(*note)
+
+    def apply_vehicle(self) -> None:
+        """Lay what Calibrate or Tune found over its log's own configuration for the next Run:
+        the controls it names filled in, the rest (the calibration) applied at Run."""
+        vehicle = self.vehicle
+        if vehicle is None or vehicle.found is None:
+            return
+        source, sections = vehicle.found
+        panel = self.panel
+        panel.vehicle_sections[source] = applied(panel.vehicle_sections.get(source, {}), sections)
+        if panel.source is not None and panel.source.value != source:
+            panel.source.value = source
+        try:
+            filled, hidden = panel.fill_fields(sections)
+        except ConfigError as exc:
+            self.notify("Not applied", str(exc), error=True)
+            return
+        parts = ([f"{', '.join(filled)} filled in"] if filled else []) + (
+            [f"{', '.join(hidden)} apply at Run"] if hidden else []
+        )
+        self.notify(f"Applied to log {source}", "; ".join(parts) + ".")
+        panel.update_address()
 
     def stop_run(self) -> None:
         with self.lock:

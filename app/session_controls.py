@@ -23,7 +23,7 @@ from app.controls import PLUGIN_FIELDS
 from app.inputs import Controls, InputError, config_from_controls
 from app.session_state import TabState
 from tauvcore.bags import MAPPING_SUFFIX, is_bag, mapping_beside
-from tauvcore.config import Config, from_dict
+from tauvcore.config import Config, from_dict, merge
 from tauvcore.logs import CONFIG_FILE, LogError
 from tauvcore.validation import show
 
@@ -90,6 +90,9 @@ class ControlPanel:
         self.check_lock = threading.Lock()
         self.check_timer: threading.Timer | None = None
         self.marked: dict[str, str] = {}  # viser id -> message of the controls marked on the page
+        # per log: the sections its Calibrate and Tune found and Apply laid over its own file
+        # (app.session_vehicle); they apply at Run beneath the controls, as the log's file does
+        self.vehicle_sections: dict[str, dict[str, Any]] = {}
         for attr, handle in control_table.build(gui, self.logs).items():
             setattr(self, attr, handle)
 
@@ -170,6 +173,19 @@ class ControlPanel:
                 else "No configuration file of its own: the controls apply as they are.",
             )
             return
+        filled, hidden = self.fill_fields(raw)
+        parts = ([f"{', '.join(filled)} filled in"] if filled else []) + (
+            [f"{', '.join(hidden)} apply at Run"] if hidden else []
+        )
+        what = (
+            f"its mapping's [config] ({mapping_beside(self.logs[source])})" if bag else f"its {CONFIG_FILE}"
+        )
+        self.notify(f"{'Bag' if bag else 'Log'} {source}: {what} applied", "; ".join(parts) + ".")
+
+    def fill_fields(self, raw: dict[str, Any]) -> tuple[list[str], list[str]]:
+        """Set the controls that the sections ``raw`` (section -> key -> value, a configuration
+        file's tables) name to its values; return the labels filled in and the ``section.key``s
+        that have no control (they apply at Run: the log's own file, or :attr:`vehicle_sections`)."""
         config = from_dict(raw)
         fields = {
             **self._text_fields(),
@@ -194,13 +210,15 @@ class ControlPanel:
             for k in values
             if inputs.FIELD_LABELS.get(f"{sec}.{k}") not in fields
         ]
-        parts = ([f"{', '.join(filled)} filled in"] if filled else []) + (
-            [f"{', '.join(hidden)} apply at Run"] if hidden else []
-        )
-        what = (
-            f"its mapping's [config] ({mapping_beside(self.logs[source])})" if bag else f"its {CONFIG_FILE}"
-        )
-        self.notify(f"{'Bag' if bag else 'Log'} {source}: {what} applied", "; ".join(parts) + ".")
+        return filled, hidden
+
+    def run_log_config(self, source: str) -> dict[str, Any] | None:
+        """What a run of ``source`` lays under the controls: the log's own configuration file with
+        the calibration and tuning applied to it in this tab (:attr:`vehicle_sections`) over it;
+        None for a simulation."""
+        if source not in self.logs:
+            return None
+        return merge(self.log_config(source), self.vehicle_sections.get(source, {}))
 
     def log_config(self, source: str) -> dict[str, Any]:
         """The raw tables of log ``source``'s own configuration file, or a bag's own mapping's
@@ -373,7 +391,7 @@ class ControlPanel:
         """Every bad control (label -> message) of what the controls hold now."""
         controls = self.controls()
         try:
-            log_raw = self.log_config(controls.source) if controls.source in self.logs else None
+            log_raw = self.run_log_config(controls.source)
         except InputError as exc:  # the log's own configuration file does not check
             return {inputs.SOURCE: str(exc)}
         return validation.problems(controls, log_raw)
@@ -398,7 +416,7 @@ class ControlPanel:
         when the run would not fit the memory budget (app.budget, with the smoother if asked:
         :meth:`smoother_budget_mb`)."""
         controls = self.controls()
-        log_raw = self.log_config(controls.source) if controls.source in self.logs else None
+        log_raw = self.run_log_config(controls.source)
         if validation.problems(controls, log_raw):
             raise InputError(validation.notification(self.check_now(scroll=True)))
         config, runs = config_from_controls(controls, log_raw)

@@ -416,6 +416,12 @@ def _worker_main(conn: mp_connection.Connection) -> None:
                     smooth_mb,
                 )
                 conn.send(("end",))
+            elif message[0] == "vehicle":  # Calibrate or Tune on a log (app.vehicle_tasks)
+                from app.vehicle_tasks import run_vehicle_task
+
+                _, kind, config_dict, log_dir = message
+                run_vehicle_task(kind, config_dict, log_dir, _PipeQueue(conn), _PipeStop(conn))
+                conn.send(("end",))
             # ("stop",) after its run had ended: nothing to stop
     except (EOFError, OSError):  # the server closed the pipe (or died): nothing left to do
         pass
@@ -525,7 +531,15 @@ class RunPool:
     ) -> RunHandle:
         """Queue a run (a replay of ``log_dir`` if given; with ``smooth_mb``, the smoother after it,
         its tape's memory in MB); it computes as soon as a worker is free."""
-        handle = RunHandle(self, ("run", config_dict, num_runs, progress_interval_s, log_dir, smooth_mb))
+        return self._submit(("run", config_dict, num_runs, progress_interval_s, log_dir, smooth_mb))
+
+    def start_vehicle(self, kind: str, config_dict: dict[str, Any], log_dir: str) -> RunHandle:
+        """Queue a calibration or a tuning (``kind``, app.vehicle_tasks.TASKS) on the log
+        ``log_dir`` under ``config_dict``; its messages are app.vehicle_tasks's, its Stop a run's."""
+        return self._submit(("vehicle", kind, config_dict, log_dir))
+
+    def _submit(self, task: tuple) -> RunHandle:
+        handle = RunHandle(self, task)
         with self._lock:
             if self._closed or self._broken is not None:
                 handle.queue.put(("error", self._broken or "the server is shutting down"))
