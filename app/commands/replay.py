@@ -92,6 +92,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "config_file": log_config_path,
             "configuration": replay_layers(args, log_raw, log_config_path),
             "start": start_description(config, log),
+            "reference": config.reference.describe(log.ref_t_s is not None),
             "notes": list(log.notes),
         }
         if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
@@ -112,7 +113,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - started
     summaries = reduction.finish()
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
-    preamble = ["configuration: " + " < ".join(source["configuration"]), start]
+    preamble = ["configuration: " + " < ".join(source["configuration"]), start, source["reference"]]
     print(
         summary_table(
             summaries,

@@ -149,11 +149,12 @@ def _replay_as_it_was(argv: list[str], json_path: Path) -> tuple[str, str]:
         "config_file": log_config_path,
         "configuration": replay_layers(args, log_raw, log_config_path),
         "start": start_description(config, log),
+        "reference": config.reference.describe(log.ref_t_s is not None),
         "notes": list(log.notes),
     }
     write_json_atomic(str(json_path), run_payload(config, results, log=source))
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
-    preamble = ["configuration: " + " < ".join(source["configuration"]), start]
+    preamble = ["configuration: " + " < ".join(source["configuration"]), start, source["reference"]]
     table = summary_table(results, config, 0.0, source=f"log {show_path(str(args.log))}", preamble=preamble)
     return table + "\n", err
 
