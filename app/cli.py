@@ -176,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PROFILE",
         help=f"add a simulated IMU's errors to the log's IMU: "
         f"{', '.join(IMU_PROFILES)} (drawn from --seed; the "
-        "filters are tuned for that IMU)",
+        "filters are tuned for that IMU, or with --imu for that one)",
     )
     _imu_flag(rl)
     rl.add_argument(

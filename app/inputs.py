@@ -722,6 +722,7 @@ def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None)
             ),
             ("Configured by", " < ".join(source.get("configuration", ()))),
             ("Start", str(source.get("start", ""))),
+            *([("Reference", str(source["reference"]))] if "reference" in source else []),
             *(("Log note", str(note)) for note in source.get("notes", ())),
         ] + [
             (name, value)

@@ -141,8 +141,8 @@ def replay_source(
     tauvcore.eval.replay.prepare makes of them, as ``tauv replay`` does (a bag read under its own
     mapping, tauvcore.bags.read_recording, as ``tauv replay BAG --bag-mapping`` that file), and
     the log described as ``tauv replay --json``'s ``"log"`` (its directory, its configuration
-    file, what configured the run, where the filters started, the reader's notes; a bag's mapping
-    too), and the log itself."""
+    file, what configured the run, where the filters started, what the NEES is measured against,
+    the reader's notes; a bag's mapping too), and the log itself."""
     from tauvcore.bags import is_bag, mapping_beside, read_recording
     from tauvcore.eval.replay import config_keys, log_config, prepare, start_description
 
@@ -163,6 +163,7 @@ def replay_source(
         "config_file": config_file,
         "configuration": layers,
         "start": start_description(config, log),
+        "reference": config.reference.describe(log.ref_t_s is not None),
         "notes": list(log.notes),
     }
     if bag:

@@ -20,7 +20,9 @@ describe and this script measures per segment:
    resolved in the body) over shifts of +-2 s in 0.01 s steps;
 4. the DVL sits about (-1.86, -0.03, +0.18) m from the INS reference point: a lever arm for the
    configuration (:data:`DVL_LEVER_ARM_M`, written to the log's own configuration file,
-   ``log.toml`` beside the tables, which ``tauv replay`` and the dashboard apply).
+   ``log.toml`` beside the tables, which ``tauv replay`` and the dashboard apply);
+5. the reference is not exact: its 1-sigma (:data:`REFERENCE_SIGMA`, the same for every segment)
+   goes to the same file's ``[reference]``, so that the NEES is taken against it with it.
 
 The IMU is written as rates, the DVL as a body velocity (the replay projects it onto the
 configured Janus beams, so beams can be dropped), the reference as geodetic position (depth =
@@ -35,7 +37,9 @@ from pathlib import Path
 from typing import NoReturn
 
 import numpy as np
+import tomli_w
 
+from tauvcore.config import from_dict
 from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.log_writer import output_dir, write_log
 from tauvcore.validation import OutputDirError, one_line, show_path
@@ -43,6 +47,20 @@ from tauvcore.validation import OutputDirError, one_line, show_path
 IMU_DT_S = 0.01
 REF_DT_S = 1.0
 DVL_LEVER_ARM_M = (-1.86, -0.03, 0.18)
+REFERENCE_SIGMA = {"roll_pitch_deg": 0.01, "yaw_deg": 0.01}
+"""The reference's 1-sigma (``[reference]`` of tauvcore.config), the same for every segment.
+
+The reference is a Delph INS post-processed solution of the iXblue Phins Subsea with the DVL
+(the dataset's NOTES.md). Attitude: 0.01 deg in heading, roll and pitch, the PHINS's published
+accuracy (IXSEA's release on the PHINS for the National Oceanography Centre's Autosub6000,
+rovworld.com, 1 November 2007: "heading, roll and pitch ... with an accuracy of 0.01 degrees");
+a post-processed solution of the same sensors is taken as no better. Position and velocity are
+left exact (0): no published PHINS figure for them was found (searched), and these data give no
+estimate independent of the filters under test (the reference is the INS/DVL solution of the
+same DVL; its own position increments and velocities disagree by 1 to 7 cm per 1 s row, in a
+heavy-tailed, time-correlated way that one sigma does not describe). A replay starts on the
+reference's first row, so only what the reference gets wrong after its start could enter the
+NEES: the position and velocity NEES are therefore upper bounds."""
 SHIFTS_S = np.arange(-2.0, 2.0 + 1e-9, 0.01)
 
 
@@ -108,8 +126,9 @@ def convert(segment: Path, out: Path, fmt: str = "csv") -> dict[str, float]:
     }
     ref_keep = t_ref >= first_ref - 1e-9
     tables["reference"] = {k: v[ref_keep] for k, v in tables["reference"].items()}
-    lever_arm = f"[dvl]\nlever_arm_m = [{DVL_LEVER_ARM_M[0]}, {DVL_LEVER_ARM_M[1]}, {DVL_LEVER_ARM_M[2]}]\n"
-    write_log(out, tables, fmt, config_toml=lever_arm)
+    own = {"dvl": {"lever_arm_m": list(DVL_LEVER_ARM_M)}, "reference": dict(REFERENCE_SIGMA)}
+    from_dict(own)  # the configuration the replay will read: checked before anything is written
+    write_log(out, tables, fmt, config_toml=tomli_w.dumps(own))
     return {"imu_shift_s": imu_shift, "dvl_shift_s": dvl_shift}
 
 

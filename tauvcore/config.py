@@ -23,6 +23,7 @@ from tauvcore.aiding import AIDING_SOURCES, elc_nsv
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.source import AidingSource
 from tauvcore.aiding.sources import SOURCES
+from tauvcore.filter.reference import ReferenceConfig
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
@@ -253,6 +254,7 @@ class Config:
     partial: PartialConfig = field(default_factory=PartialConfig)
     run: RunConfig = field(default_factory=RunConfig)
     replay: ReplayConfig = field(default_factory=ReplayConfig)
+    reference: ReferenceConfig = field(default_factory=ReferenceConfig)
     sources: tuple[tuple[str, Any], ...] = field(
         default_factory=lambda: tuple((name, SOURCE_SECTIONS[name].config_type()) for name in SOURCE_SECTIONS)
     )  # the sections of the sources of tauvcore.aiding.sources whose section is not one of the

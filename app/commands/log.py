@@ -73,14 +73,15 @@ def cmd_log_info(args: argparse.Namespace) -> int:
 
 def cmd_log_convert(args: argparse.Namespace) -> int:
     """``tauv log convert PATH OUT_DIR``: the bag's tables, checked as the log reader checks a log,
-    written as a log with tauvcore.log_writer (all or nothing), with the mapping's ``[config]`` as
-    the log's own ``log.toml``; OUT_DIR follows the rule of every writer
-    (tauvcore.log_writer.output_dir: new in an existing directory, or empty), so nothing is ever
-    overwritten."""
-    import tomli_w
-
+    written as a log with tauvcore.log_writer (all or nothing), with the configuration the
+    conversion used as the log's own ``log.toml`` (tauvcore.config.to_log_toml of the mapping's
+    ``[config]`` and the DVL's lever arm from ``/tf_static``: its beam geometry, lever arm and
+    every other section that differs from the defaults, as ``tauv run --save-log`` writes a
+    simulation's), so that a replay of the log is configured as a replay of the bag; OUT_DIR
+    follows the rule of every writer (tauvcore.log_writer.output_dir: new in an existing
+    directory, or empty), so nothing is ever overwritten."""
     from tauvcore.bags import bag_config, bag_tables, with_tf_lever_arm
-    from tauvcore.config import from_dict
+    from tauvcore.config import from_dict, to_log_toml
     from tauvcore.log_writer import output_dir, write_log
     from tauvcore.logs import log_from_tables
 
@@ -100,11 +101,12 @@ def cmd_log_convert(args: argparse.Namespace) -> int:
         read = bag_tables(bag, mapping, config.dvl.A_b)
         lever = None if read.mounting is None else read.mounting.r_b_m
         raw, _ = with_tf_lever_arm(mapping, raw, source, bag, lever)
+        config = from_dict(raw)  # what a replay of the bag takes: the log's own configuration
         log = log_from_tables(read.tables, read.source, read.names)  # every check, before anything is written
     except LogError as exc:
         raise UsageError(str(exc)) from None
     try:
-        write_log(out, read.tables, args.log_format, config_toml=tomli_w.dumps(raw) if raw else None)
+        write_log(out, read.tables, args.log_format, config_toml=to_log_toml(config))
     except OSError as exc:
         raise UsageError(
             f"OUT_DIR: {show_path(args.out_dir)}: cannot be written: {exc.strerror or exc}"

@@ -86,14 +86,22 @@ def cmd_replay(args: argparse.Namespace) -> int:
         else:
             log = read_log(args.log)
         rng = np.random.default_rng(config.run.seed)
-        config, sim = prepare_rows(config, log, rng, imu_errors)
+        # --imu-errors P tunes the filters for P; --imu Q with it tunes them for Q (tauvcore.eval.replay.prepare)
+        imu_tuning = config.imu if imu_errors is not None and args.imu is not None else None
+        config, sim = prepare_rows(config, log, rng, imu_errors, imu_tuning)
         source = {
             "directory": str(args.log),
             "config_file": log_config_path,
             "configuration": replay_layers(args, log_raw, log_config_path),
             "start": start_description(config, log),
+            "reference": config.reference.describe(log.ref_t_s is not None),
             "notes": list(log.notes),
         }
+        if imu_errors is not None:  # what the IMU is and what the filters are tuned for
+            source["imu"] = (
+                f"IMU: the log's with the errors of {args.imu_errors} added (drawn from seed {config.run.seed}); "
+                f"the filters tuned for {args.imu if args.imu is not None else args.imu_errors}"
+            )
         if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
             source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source, smoothed=smooth is not None)
@@ -112,7 +120,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - started
     summaries = reduction.finish()
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
-    preamble = ["configuration: " + " < ".join(source["configuration"]), start]
+    preamble = ["configuration: " + " < ".join(source["configuration"]), start, source["reference"]]
+    preamble += [source["imu"]] if "imu" in source else []
     print(
         summary_table(
             summaries,

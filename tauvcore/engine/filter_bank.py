@@ -205,6 +205,7 @@ class FilterBank(ChunkDriver):
         self.water = water_model(config, self.layout)  # the water-track beams, with current states
         if self.water is not None:
             self.recorders["water"] = Recorder(dvl_members, np.full(M, DVL_ROWS, dtype=np.int64))
+        self.ref_var = config.reference.variances()  # the NEES's P + P_ref (loop.Model.ref_var)
         self.block_of_state = np.full(self.layout.dim, -1)
         for b, ix in enumerate(self.layout.nees_blocks.values()):
             self.block_of_state[list(ix)] = b
@@ -532,6 +533,7 @@ class FilterBank(ChunkDriver):
             SENSOR_INDEX,
             self.extra_rate,
             self.extra_q,
+            self.ref_var,
         )
         return plain(constants)
 
@@ -749,7 +751,7 @@ class FilterBank(ChunkDriver):
         assert self.taping is not None  # a bank made with a tape
         self.taping.close(self.slot)
         carry = smoothing.Carry(int(np.prod(self.batch)), n=self.layout.dim, e=self.layout.num_extra)
-        args = (carry, self.batch, self.block_of_state, SENSOR_INDEX, units.DEG)
+        args = (carry, self.batch, self.block_of_state, SENSOR_INDEX, units.DEG, self.ref_var)
         smoothing.smooth_tape(self.taping.tape, out, lambda segment: smoothing.smooth_segment(segment, *args))
         return carry.cuts.reshape(self.batch)
 

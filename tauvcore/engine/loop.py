@@ -14,7 +14,7 @@ import numpy as np
 from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, N, jit, ned_offset
 from tauvcore.filter.kernels.correction import nav_difference_into
 from tauvcore.filter.kernels.error_model import propagate_bank
-from tauvcore.filter.kernels.nees import cholesky_into, nees_blocks_into, nees_plan
+from tauvcore.filter.kernels.nees import add_reference_into, cholesky_into, nees_blocks_into, nees_plan
 from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 
 SERIES_NAMES = (
@@ -85,6 +85,9 @@ class Model(NamedTuple):
     # (tauvcore.engine.results.SENSOR_STATES, by tauvcore.engine.filter_bank.SENSOR_INDEX)
     extra_rate: np.ndarray  # (E,) each source state's -1/tau [1/s] (0: a random walk)
     extra_q: np.ndarray  # (E,) its driving noise's PSD [unit^2/s]
+    ref_var: np.ndarray  # (9,) the reference's own variances (tauvcore.filter.reference.ReferenceConfig
+    # .variances), whose covariance the NEES adds to P (tauvcore.filter.kernels.nees.add_reference_into);
+    # all zero: the reference is exact
 
 
 class Outputs(NamedTuple):
@@ -111,6 +114,7 @@ class Outputs(NamedTuple):
 def error_series_into(
     dx: np.ndarray,
     P: np.ndarray,
+    Q: np.ndarray,
     deg: float,
     members: np.ndarray,
     sizes: np.ndarray,
@@ -123,7 +127,9 @@ def error_series_into(
 ) -> None:
     """One filter's :data:`SERIES_NAMES` (11,) and block NEES (B,) at an epoch from its error
     against truth ``dx`` (d,) and covariance ``P`` (d, d): the error norms, 1-sigma, NEES,
-    tilt and heading (attitude in ``1 / deg``). The NEES plan (members, sizes, lead, order:
+    tilt and heading (attitude in ``1 / deg``). The 1-sigma are the filter's own (P); the NEES
+    is taken against ``Q`` (d, d): P, or against an uncertain reference P and the reference's
+    covariance (tauvcore.filter.kernels.nees.add_reference_into). The NEES plan (members, sizes, lead, order:
     tauvcore.filter.kernels.nees.nees_plan) and L (d, d), y (d,) scratch."""
     ev = ea = ep = sv = sa = sp = 0.0
     for i in range(3):
@@ -139,7 +145,7 @@ def error_series_into(
     series[3] = math.sqrt(sv)
     series[4] = math.sqrt(sa) / deg
     series[5] = math.sqrt(sp)
-    series[6] = nees_blocks_into(P, dx, members, sizes, lead, order, L, y, nees_block)
+    series[6] = nees_blocks_into(Q, dx, members, sizes, lead, order, L, y, nees_block)
     series[7] = math.sqrt(dx[ATT] ** 2 + dx[ATT + 1] ** 2) / deg
     series[8] = abs(dx[ATT + 2]) / deg
     series[9] = math.sqrt(P[ATT, ATT] + P[ATT + 1, ATT + 1]) / deg
@@ -158,7 +164,8 @@ def record_bank(
 ) -> None:
     """Output epoch ``slot`` of every (method, run), at sample ``i_chunk`` of the chunk: the error
     ``true (-) estimate`` (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma,
-    the NEES of the full state and of each block, the estimated position, the epoch's time
+    the NEES of the full state and of each block (against P and the reference's own variance,
+    ``constants.ref_var``), the estimated position, the epoch's time
     (``out_t``); and the health check without truth (a non-finite navigation state or P's
     variances sets ``nonfinite_at`` once).
 
@@ -180,7 +187,7 @@ def record_bank(
     t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
     ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
     pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at, phi_acc, extra = bank
-    origin, _, _, block_of_state, num_blocks, deg, sensor_index, _, _ = constants
+    origin, _, _, block_of_state, num_blocks, deg, sensor_index, _, _, ref_var = constants
     series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs[
         :9
     ]
@@ -195,6 +202,7 @@ def record_bank(
     Ce = np.empty((3, 3))
     rho = np.empty(3)
     L = np.empty((d, d))
+    A = np.empty((d, d))
     y = np.empty(d)
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
     for m in range(M):
@@ -212,8 +220,20 @@ def record_bank(
                 state_est[slot, m, r, e] = extra[m, r, e]
                 state_sigma[slot, m, r, e] = math.sqrt(Pm[N + e, N + e])
                 state_true[slot, m, r, e] = extra_all[i_chunk, e]
+            Q = A if add_reference_into(Pm, ref_var, C_t, vel_t, POS, ATT, VEL, True, A) else Pm
             error_series_into(
-                dx, Pm, deg, members, sizes, lead, order, L, y, series[:, slot, m, r], nees_block[slot, m, r]
+                dx,
+                Pm,
+                Q,
+                deg,
+                members,
+                sizes,
+                lead,
+                order,
+                L,
+                y,
+                series[:, slot, m, r],
+                nees_block[slot, m, r],
             )
             if taping:
                 tape_P[slot, m, r] = Pm
@@ -312,7 +332,7 @@ def run_stops(
     pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _, phi_acc, _ = bank
     phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all, _ = chunk
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    _, w_ie, q, _, _, _, _, extra_rate, extra_q = constants
+    _, w_ie, q, _, _, _, _, extra_rate, extra_q, _ = constants
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
     why = STOPS_DONE

@@ -33,8 +33,8 @@ import numpy as np
 from tauvcore.engine import loop
 from tauvcore.engine.results import STATE_FIELDS
 from tauvcore.filter.eskf import Nominal, difference
-from tauvcore.filter.kernels.common import CORE, NAV, N, jit
-from tauvcore.filter.kernels.nees import nees_plan
+from tauvcore.filter.kernels.common import ATT, CORE, NAV, POS, VEL, N, jit
+from tauvcore.filter.kernels.nees import add_reference_into, nees_plan
 from tauvcore.filter.kernels.smoother import smooth_backward
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, mv
@@ -500,6 +500,9 @@ def smoothed_series_into(
     dx: np.ndarray,
     s: np.ndarray,
     Ps: np.ndarray,
+    ref_var: np.ndarray,
+    C_t: np.ndarray,
+    vel_t: np.ndarray,
     deg: float,
     block_of_state: np.ndarray,
     num_blocks: int,
@@ -507,20 +510,40 @@ def smoothed_series_into(
     nees_block: np.ndarray,
 ) -> None:
     """The records (tauvcore.engine.loop.error_series_into) of T epochs of B filters smoothed:
-    the error ``dx - s`` (T, B, d) and covariance ``Ps`` (T, B, d, d) into ``series``
-    (11, T, B) and ``nees_block`` (T, B, num_blocks)."""
+    the error ``dx - s`` (T, B, d) and covariance ``Ps`` (T, B, d, d), the NEES against ``Ps``
+    and the covariance of the reference's own errors ``ref_var`` (9,) at its attitude ``C_t``
+    (T, B, 3, 3) and NED velocity ``vel_t`` (T, B, 3) (tauvcore.filter.kernels.nees.add_reference_into),
+    into ``series`` (11, T, B) and ``nees_block`` (T, B, num_blocks)."""
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
     d = dx.shape[-1]
     e = np.empty(d)
     L = np.empty((d, d))
+    A = np.empty((d, d))
     y = np.empty(d)
     for t in range(dx.shape[0]):
         for f in range(dx.shape[1]):
             for i in range(d):
                 e[i] = dx[t, f, i] - s[t, f, i]
-            loop.error_series_into(
-                e, Ps[t, f], deg, members, sizes, lead, order, L, y, series[:, t, f], nees_block[t, f]
-            )
+            P = Ps[t, f]
+            if add_reference_into(P, ref_var, C_t[t, f], vel_t[t, f], POS, ATT, VEL, True, A):
+                loop.error_series_into(
+                    e, P, A, deg, members, sizes, lead, order, L, y, series[:, t, f], nees_block[t, f]
+                )
+            else:
+                loop.error_series_into(
+                    e, P, P, deg, members, sizes, lead, order, L, y, series[:, t, f], nees_block[t, f]
+                )
+
+
+def _reference_state(segment: dict[str, np.ndarray], T: int, B: int) -> tuple[np.ndarray, np.ndarray]:
+    """The reference's (the truth's) attitude (T, B, 3, 3) and NED velocity (T, B, 3) at a segment's
+    output marks, from the filtered estimate and its error against it: ``C_t = exp([rho x]) C``,
+    ``v_t = C_t (C^T v + dv_b)`` (tauvcore.filter.eskf.difference, inverted)."""
+    dx = np.asarray(segment["tape_dx"], dtype=float).reshape(T, B, -1)
+    C = C_nb_from_euler(np.asarray(segment["est_euler"], dtype=float).reshape(T, B, 3))
+    C_t = exp_so3(dx[..., STATE.att]) @ C
+    v_b = mv(np.swapaxes(C, -1, -2), np.asarray(segment["est_vel_n"], dtype=float).reshape(T, B, 3))
+    return np.ascontiguousarray(C_t), np.ascontiguousarray(mv(C_t, v_b + dx[..., STATE.vel]))
 
 
 class Carry:
@@ -615,6 +638,7 @@ def smooth_segment(
     block_of_state: np.ndarray,
     sensor_index: np.ndarray,
     deg: float,
+    ref_var: np.ndarray,
 ) -> dict[str, np.ndarray]:
     """The backward pass over one segment (the carry holds the segment after it, and then this
     one's first mark) and its smoothed store (module docstring).
@@ -635,6 +659,11 @@ def smooth_segment(
         The state of each sensor-error column of the records.
     deg : float
         Degrees per radian of the attitude series.
+    ref_var : numpy.ndarray
+        Shape (9,): the reference's own variances, whose covariance the NEES adds to P
+        (tauvcore.filter.reference.ReferenceConfig.variances; all zero: exact), at the
+        reference's state (the filtered estimate and its error against the reference, both on
+        the tape).
 
     Returns
     -------
@@ -649,7 +678,8 @@ def smooth_segment(
     num_blocks = int(block_of_state.max()) + 1
     series = np.empty((len(loop.SERIES_NAMES), T, B))
     nees_block = np.empty((T, B, num_blocks))
-    smoothed_series_into(dx, s, Ps, deg, block_of_state, num_blocks, series, nees_block)
+    C_t, vel_t = _reference_state(segment, T, B)
+    smoothed_series_into(dx, s, Ps, ref_var, C_t, vel_t, deg, block_of_state, num_blocks, series, nees_block)
     shape = (T,) + batch
     s = s.reshape(shape + (d,))
     moved = np.any(s[..., STATE.att] != 0.0, axis=-1, keepdims=True) | np.any(

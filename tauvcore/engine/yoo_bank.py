@@ -68,7 +68,7 @@ from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
 from tauvcore.engine.sources import active, layout_of, states_truth
-from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
+from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment, with_reference
 from tauvcore.engine.yoo_velocity import (
     added_states,
     fuse_velocity,
@@ -139,6 +139,7 @@ class YooBank(ChunkDriver):
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
         self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
+        self.ref_var = config.reference.variances()  # the NEES's P + P_ref (yoo_loop.YooModel.ref_var)
         self.block_dims.update({b.name: b.dim for b in self.added.layout.blocks})
         self.extra = np.zeros(self.batch + (self.added.num,))
         self._extra_truth: tuple[int, np.ndarray] | None = None  # (chunk start, (K, E)) of the last chunk
@@ -542,7 +543,8 @@ class YooBank(ChunkDriver):
         vel_b_err = np.einsum("ji,j->i", C_t, v_t) - np.einsum("mrji,mrj->mri", self.C, self.vel)
         est = self.added.estimated
         P = np.ascontiguousarray(self.P[..., est[:, None], est])  # the estimated states
-        blocks = statistics.block_nees(dx, P, self.block_of_state, self.num_blocks)
+        P_nees = with_reference(P, self.ref_var, C_t, v_t)
+        blocks = statistics.block_nees(dx, P_nees, self.block_of_state, self.num_blocks)
         blocks[..., 0] = np.nan  # no position state
         att = dx[..., yoo.ATT]
         deg = 1.0 / units.DEG
@@ -553,7 +555,7 @@ class YooBank(ChunkDriver):
             "vel_sigma": np.sqrt(np.einsum("mrii->mr", P[..., :3, :3])),
             "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg,
             "pos_sigma": np.nan,
-            "nees": statistics.nees(dx, P),
+            "nees": statistics.nees(dx, P_nees),
             "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg,
             "heading_err": np.abs(att[..., 2]) * deg,
             "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
@@ -673,7 +675,15 @@ class YooBank(ChunkDriver):
         assert self.taping is not None  # a bank made with a tape
         self.taping.close()
         carry = Carry(int(np.prod(self.batch)), yoo.DIM, yoo.DIM, self.added.dim, self.added.num)
-        args = (carry, self.batch, self.block_of_state, self.num_blocks, SENSOR_INDEX, 1.0 / units.DEG)
+        args = (
+            carry,
+            self.batch,
+            self.block_of_state,
+            self.num_blocks,
+            SENSOR_INDEX,
+            1.0 / units.DEG,
+            self.ref_var,
+        )
         smooth_tape(self.taping.tape, out, lambda segment: smooth_yoo_segment(segment, *args))
         return carry.cuts.reshape(self.batch)
 

@@ -28,7 +28,7 @@ from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
 from tauvcore.engine.results import STATE_FIELDS
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOURCE
 from tauvcore.filter.kernels.common import jit, ned_offset
-from tauvcore.filter.kernels.nees import nees_blocks_into, nees_plan, quadratic_into
+from tauvcore.filter.kernels.nees import add_reference_into, nees_blocks_into, nees_plan, quadratic_into
 from tauvcore.filter.kernels.rotations import log_so3_into
 from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
 from tauvcore.filter.yoo_kernels import (
@@ -94,10 +94,13 @@ def record(
     state_est: np.ndarray,
     state_sigma: np.ndarray,
     state_true: np.ndarray,
+    ref_var: np.ndarray,
 ) -> None:
     """One output epoch of every (method, run) (yoo_bank.YooBank._record): errors ``true - estimate``,
     1-sigma, NEES of the estimated states (the 12 and the added, ``est`` their indices in P) and
-    of each block (no position state: NaN), the estimates; when sensor_est (T, M, R, S) has rows,
+    of each block (no position state: NaN), against their covariance and the covariance of the
+    reference's own errors, ``ref_var`` (9,) at the reference's attitude ``C_t`` and NED velocity
+    ``vel_t`` (tauvcore.filter.kernels.nees.add_reference_into), the estimates; when sensor_est (T, M, R, S) has rows,
     the sensor errors' estimate, ``sqrt(P_ii)`` and truth too (column j the state
     ``sensor_index[j]``, sensor_sigma and sensor_true alike); the added states' estimate (``extra``
     (M, R, E)), ``sqrt(P_ii)`` and truth (``extra_t`` (E,)) into state_est, state_sigma, state_true."""
@@ -112,6 +115,7 @@ def record(
     L = np.empty((n, n))
     yv = np.empty(n)
     Pe = np.empty((n, n))
+    A = np.empty((n, n))
     idx = np.arange(n)
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
     blocks = np.empty(num_blocks)
@@ -156,12 +160,14 @@ def record(
             series[3, row, m, r] = math.sqrt(Pm[0, 0] + Pm[1, 1] + Pm[2, 2])
             series[4, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4] + Pm[5, 5]) * deg
             series[5, row, m, r] = np.nan
-            series[6, row, m, r] = quadratic_into(Pe, dx, idx, n, L, yv)
+            # the NEES's covariance: P and the reference's own (NED velocity, no position state), or P
+            Q = A if add_reference_into(Pe, ref_var, C_t, vel_t, -1, ATT, VEL, False, A) else Pe
+            series[6, row, m, r] = quadratic_into(Q, dx, idx, n, L, yv)
             series[7, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2) * deg
             series[8, row, m, r] = abs(rho[2]) * deg
             series[9, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4]) * deg
             series[10, row, m, r] = math.sqrt(Pm[5, 5]) * deg
-            nees_blocks_into(Pe, dx, members, sizes, lead, order, L, yv, blocks)
+            nees_blocks_into(Q, dx, members, sizes, lead, order, L, yv, blocks)
             for b in range(num_blocks):
                 nees_block[row, m, r, b] = blocks[b] if sizes[b] > 0 else np.nan
             est_euler[row, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
@@ -258,6 +264,8 @@ class YooModel(NamedTuple):
     sensor_index: np.ndarray  # (S,) int64: the state of each sensor-error column (yoo_bank.SENSOR_INDEX)
     extra_rate: np.ndarray  # (E,) the added states' -1/tau [1/s] (0: a random walk)
     extra_q: np.ndarray  # (E,) their driving noise PSD
+    ref_var: np.ndarray  # (9,) the reference's own variances (tauvcore.filter.reference.ReferenceConfig
+    # .variances), whose covariance the NEES adds to P; all zero: exact
     current: int  # the current's first index in P (north, then east); -1: no current states
     water_var: float  # a water-track beam's noise variance [m^2/s^2]; negative: water-track not fused
     est: np.ndarray  # (12 + E,) int64 the estimated states' indices in P
@@ -356,7 +364,7 @@ def run_stops(
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
     (origin, w_ie_flat, q, method_code, A_b, l_dvl_b, beam_var, qc, L4, gate, vkf_Q, vkf_R,
      switch_altitude, forward_norm, lateral_var, block_of_state, num_blocks, deg, sensor_index,
-     extra_rate, extra_q, current, water_var, est) = model  # fmt: skip
+     extra_rate, extra_q, ref_var, current, water_var, est) = model  # fmt: skip
     (series, nees_block, est_pos, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true, up_z,
      up_nu, up_S, up_flags, up_nis, tr_x, tr_sigma, tr_truth, tr_use, tr_alt, state_est, state_sigma,
      state_true, wt_z, wt_nu, wt_S, wt_flags, wt_nis) = outputs  # fmt: skip
@@ -585,6 +593,7 @@ def run_stops(
                 state_est,
                 state_sigma,
                 state_true,
+                ref_var,
             )
 
 
@@ -747,6 +756,7 @@ def run_chunk(
             sensor_index,
             np.ascontiguousarray(bank.added.rate, dtype=float),
             np.ascontiguousarray(bank.added.q, dtype=float),
+            bank.ref_var,
             bank.added.current.start if bank.added.current is not None else -1,
             bank.added.water_var if bank.added.water_var is not None else -1.0,
             bank.added.estimated,

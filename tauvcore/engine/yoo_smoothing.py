@@ -32,6 +32,7 @@ import numpy as np
 
 from tauvcore.engine.smoothing import ESTIMATES, Carry, Tape, event_arrays, extra_transitions
 from tauvcore.filter import statistics, yoo
+from tauvcore.filter.kernels.nees import add_reference_batch
 from tauvcore.filter.yoo_kernels import NA
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, log_so3, mv
 
@@ -191,6 +192,32 @@ class YooTapeWriter:
         self.tape.add(parts)
 
 
+def with_reference(P: np.ndarray, ref_var: np.ndarray, C_nb: np.ndarray, vel_n: np.ndarray) -> np.ndarray:
+    """The covariance the 12-state filter's NEES takes: P (..., n, n) of the estimated states (the
+    12, then the added) and the covariance of the reference's own errors, ``ref_var`` (9,)
+    (tauvcore.filter.reference.ReferenceConfig.variances) at the reference's attitude ``C_nb``
+    (..., 3, 3) or (3, 3) and NED velocity ``vel_n`` (..., 3) or (3,), on the NED velocity and the
+    misalignment (tauvcore.filter.kernels.nees.add_reference_batch; no position state); P itself
+    when the reference is exact."""
+    if not ref_var.any():
+        return P
+    batch = P.shape[:-2]
+    n = P.shape[-1]
+    C = np.broadcast_to(C_nb, batch + (3, 3)).reshape(-1, 3, 3)
+    v = np.broadcast_to(vel_n, batch + (3,)).reshape(-1, 3)
+    out = add_reference_batch(
+        np.ascontiguousarray(P.reshape(-1, n, n)),
+        ref_var,
+        np.ascontiguousarray(C),
+        np.ascontiguousarray(v),
+        -1,
+        yoo.ATT.start,
+        yoo.VEL.start,
+        False,
+    )
+    return out.reshape(P.shape)
+
+
 def smooth_yoo_segment(
     segment: dict[str, np.ndarray],
     carry: Carry,
@@ -199,6 +226,7 @@ def smooth_yoo_segment(
     num_blocks: int,
     sensor_index: np.ndarray,
     deg: float,
+    ref_var: np.ndarray,
 ) -> dict[str, np.ndarray]:
     """The backward pass over one segment of the Yoo bank's tape and its smoothed store (module
     docstring).
@@ -219,6 +247,9 @@ def smooth_yoo_segment(
         The state of each sensor-error column.
     deg : float
         Degrees per radian (the attitude series are in degrees), as the bank's records take it.
+    ref_var : numpy.ndarray
+        Shape (9,): the reference's own variances, whose covariance the NEES adds to P
+        (:func:`with_reference`; all zero: exact).
 
     Returns
     -------
@@ -244,7 +275,12 @@ def smooth_yoo_segment(
         segment["vel_err"],
     )
     att = dx[..., yoo.ATT]
-    blocks = statistics.block_nees(dx, P, block_of_state, num_blocks)
+    # the reference (the truth) at the marks: the filtered estimate and its error against it
+    C_t = exp_so3(np.asarray(segment["tape_dx"])[..., yoo.ATT]) @ C_nb_from_euler(euler)
+    P_nees = with_reference(
+        P, ref_var, C_t, segment["est_vel_n"] + np.asarray(segment["tape_dx"])[..., yoo.VEL]
+    )
+    blocks = statistics.block_nees(dx, P_nees, block_of_state, num_blocks)
     P_est, P = P, P[..., :DIM, :DIM]  # the series are the 12 states'; the full NEES is over all
     blocks[..., 0] = np.nan  # no position state
     series = np.stack(
@@ -255,7 +291,7 @@ def smooth_yoo_segment(
             np.sqrt(np.einsum("...ii->...", P[..., :3, :3])),
             np.sqrt(np.einsum("...ii->...", P[..., 3:6, 3:6])) * deg,
             np.full(shape, np.nan),
-            statistics.nees(dx, P_est),
+            statistics.nees(dx, P_nees),
             np.linalg.norm(att[..., :2], axis=-1) * deg,
             np.abs(att[..., 2]) * deg,
             np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,

@@ -560,13 +560,16 @@ def prepare(
     log: Log,
     rng: np.random.Generator,
     imu_errors: imu_sensor.ImuConfig | None = None,
+    imu_tuning: imu_sensor.ImuConfig | None = None,
 ) -> tuple[Config, Simulation]:
     """The configuration as the log makes it and the log as a one-run simulation under it.
 
     The configuration from :func:`replay_config`, the simulation from :func:`log_simulation`;
     with ``imu_errors``, that IMU's errors added to the log's (:func:`with_imu_errors`), and the
-    filters tuned for that IMU. ``tauv replay`` and the dashboard's replay both start here, so
-    the same log and configuration give the same run.
+    filters tuned for that IMU (what the log's IMU then behaves as, where its own is much the
+    better) unless ``imu_tuning`` names the IMU they are tuned for (``tauv replay --imu-errors P
+    --imu Q``: a filter tuned for another IMU than the one it runs on). ``tauv replay`` and the
+    dashboard's replay both start here, so the same log and configuration give the same run.
 
     Parameters
     ----------
@@ -578,6 +581,9 @@ def prepare(
         What the DVL's dropout and the added IMU errors are drawn from.
     imu_errors : ImuConfig or None
         An IMU whose errors are added to the log's; None: the log's IMU as it is.
+    imu_tuning : ImuConfig or None
+        The IMU the filters are tuned for (its rate the log's); None: ``imu_errors``, or without
+        them ``config.imu``. The errors added are ``imu_errors``' whatever it is.
 
     Returns
     -------
@@ -591,12 +597,13 @@ def prepare(
         ``run.rpm_fallback`` reads a source the log has no table of; or as
         :func:`replay_config` and :func:`log_simulation`.
     """
-    if imu_errors is not None:
-        config = config.replace("imu", **dataclasses.asdict(imu_errors))
+    tuning = imu_errors if imu_tuning is None else imu_tuning
+    if tuning is not None:
+        config = config.replace("imu", **dataclasses.asdict(tuning))
     config = _checked_replay_config(config, log)
     sim = log_simulation(config, log, rng)
-    if imu_errors is not None:
-        sim = with_imu_errors(sim, config.imu, rng)
+    if imu_errors is not None:  # at the log's rate, as the tuning
+        sim = with_imu_errors(sim, dataclasses.replace(imu_errors, rate_hz=config.imu.rate_hz), rng)
     return config, sim
 
 
@@ -625,24 +632,17 @@ def prepare_rows(
     log: Log,
     rng: np.random.Generator,
     imu_errors: imu_sensor.ImuConfig | None = None,
+    imu_tuning: imu_sensor.ImuConfig | None = None,
 ) -> tuple[Config, ChunkSource]:
     """:func:`prepare` for a replay fed chunk by chunk (:func:`replay_chunked`): the log's rows
     made as the chunks ask for them (:class:`LogRows`: the same numbers, to the last bit of an
-    interpolated attitude).
-
-    With ``imu_errors`` the whole simulation of :func:`prepare`: the added errors are drawn over
-    the whole log at once (:func:`with_imu_errors`).
+    interpolated attitude). With ``imu_errors`` the whole simulation of :func:`prepare`: the
+    added errors are drawn over the whole log at once (:func:`with_imu_errors`).
 
     Parameters
     ----------
-    config : Config
-        As given (:func:`prepare`).
-    log : Log
-        The log read whole.
-    rng : numpy.random.Generator
-        The DVL's dropout and any added IMU errors.
-    imu_errors : ImuConfig or None
-        Errors to add (:func:`prepare`), or None.
+    config, log, rng, imu_errors, imu_tuning
+        As :func:`prepare` takes them (the log read whole).
 
     Returns
     -------
@@ -657,7 +657,9 @@ def prepare_rows(
         As :func:`prepare`.
     """
     if imu_errors is not None:
-        return prepare(config, log, rng, imu_errors)
+        return prepare(config, log, rng, imu_errors, imu_tuning)
+    if imu_tuning is not None:
+        config = config.replace("imu", **dataclasses.asdict(imu_tuning))
     config = _checked_replay_config(config, log)
     return config, LogRows(config, log, rng)
 

@@ -141,7 +141,8 @@ def _replay_as_it_was(argv: list[str], json_path: Path) -> tuple[str, str]:
     imu_errors = IMU_PROFILES[args.imu_errors] if args.imu_errors is not None else None
     log = read_log(args.log)
     rng = np.random.default_rng(config.run.seed)
-    config, sim = prepare(config, log, rng, imu_errors)
+    imu_tuning = config.imu if imu_errors is not None and args.imu is not None else None
+    config, sim = prepare(config, log, rng, imu_errors, imu_tuning)
     results = judged(log, mission.run(config, sim, rng))
     err = "".join(f"tauv: note: {note}\n" for note in log.notes)
     source = {
@@ -149,11 +150,16 @@ def _replay_as_it_was(argv: list[str], json_path: Path) -> tuple[str, str]:
         "config_file": log_config_path,
         "configuration": replay_layers(args, log_raw, log_config_path),
         "start": start_description(config, log),
+        "reference": config.reference.describe(log.ref_t_s is not None),
         "notes": list(log.notes),
     }
+    if imu_errors is not None:
+        source["imu"] = (f"IMU: the log's with the errors of {args.imu_errors} added (drawn from seed "
+                         f"{config.run.seed}); the filters tuned for {args.imu or args.imu_errors}")
     write_json_atomic(str(json_path), run_payload(config, results, log=source))
     start = source["start"] + ("" if config.replay.initial_errors else " (--initial-errors: start off it)")
-    preamble = ["configuration: " + " < ".join(source["configuration"]), start]
+    preamble = ["configuration: " + " < ".join(source["configuration"]), start, source["reference"]]
+    preamble += [source["imu"]] if "imu" in source else []
     table = summary_table(results, config, 0.0, source=f"log {show_path(str(args.log))}", preamble=preamble)
     return table + "\n", err
 

@@ -1,7 +1,8 @@
 """Quadratic forms ``x^T A^-1 x`` by Cholesky (20^3/6 operations, not a general solve): the NEES
 of the full state and of each block of tauvcore.filter.layout.NEES_BLOCKS (from one factorisation
 in the right order), as tauvcore.filter.statistics.nees / block_nees and the banks' records
-compute them."""
+compute them; and the covariance a NEES against an uncertain reference takes
+(:func:`add_reference_into`)."""
 
 from __future__ import annotations
 
@@ -165,6 +166,112 @@ def nees_blocks_into(
         if b != lead:
             out[b] = quadratic_into(P, dx, members[b], sizes[b], L, y)
     return full
+
+
+@jit
+def add_reference_into(
+    P: np.ndarray,
+    ref_var: np.ndarray,
+    C_nb: np.ndarray,
+    vel_n: np.ndarray,
+    pos: int,
+    att: int,
+    vel: int,
+    body: bool,
+    A: np.ndarray,
+) -> bool:
+    """``A = P + P_ref``: the covariance of a filter's error against a reference whose own errors,
+    independent of the filter's, have the variances ``ref_var`` (9,): position north, east, down
+    [m^2], velocity north, east, down [m^2/s^2], roll, pitch, yaw [rad^2]
+    (tauvcore.filter.reference.ReferenceConfig.variances). False, A untouched, when every one is
+    zero: the reference is exact, the NEES takes P itself and its numbers are P's bit for bit.
+
+    ``P_ref`` is the reference's error carried into the filter's error state (``dx = x_ref (-)
+    x_hat``) to first order at the reference's attitude ``C_nb`` (3, 3) and NED velocity ``vel_n``
+    (3,), on the states from ``pos`` (-1: no position state), ``att`` and ``vel`` of P (d, d):
+
+    - position (n frame): ``diag(ref_var[0:3])``;
+    - misalignment ``rho`` (n frame, ``C_ref = exp([e x]) C``): ``e = J (dphi, dtheta, dpsi)`` with
+      ``J = [C_nb e_x, Rz(psi) e_y, e_z]``, the Euler angles' rates as a rotation vector in n
+      (``C_nb = Rz(psi) Ry(theta) Rx(phi)``), so ``S_att = J diag(ref_var[6:9]) J^T``;
+    - velocity: in NED (``body`` False, Yoo's filter) ``diag(ref_var[3:6])``; in the body frame
+      (the 20-state filter's ``C^T v``) the reference's body velocity ``C_ref^T v_ref`` errs by
+      ``C^T (dv + [v x] e)``, so ``S_vel = C^T (diag(ref_var[3:6]) + [v x] S_att [v x]^T) C`` and
+      it is correlated with the misalignment: ``S_vel,att = C^T [v x] S_att``.
+    """
+    exact = True
+    for i in range(9):
+        if ref_var[i] != 0.0:
+            exact = False
+            break
+    if exact:
+        return False
+    d = P.shape[0]
+    for i in range(d):
+        for j in range(d):
+            A[i, j] = P[i, j]
+    if pos >= 0:
+        for i in range(3):
+            A[pos + i, pos + i] += ref_var[i]
+    # J's columns: the roll axis (the body x axis in n), the pitch axis (east turned by the yaw), down
+    psi = math.atan2(C_nb[1, 0], C_nb[0, 0])
+    J = np.zeros((3, 3))
+    for i in range(3):
+        J[i, 0] = C_nb[i, 0]
+    J[0, 1], J[1, 1] = -math.sin(psi), math.cos(psi)
+    J[2, 2] = 1.0
+    S_att = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                S_att[i, j] += J[i, k] * ref_var[6 + k] * J[j, k]
+    for i in range(3):
+        for j in range(3):
+            A[att + i, att + j] += S_att[i, j]
+    if not body:
+        for i in range(3):
+            A[vel + i, vel + i] += ref_var[3 + i]
+        return True
+    # M = C^T [v x]: the body velocity's error per unit of misalignment
+    vx = np.array([[0.0, -vel_n[2], vel_n[1]], [vel_n[2], 0.0, -vel_n[0]], [-vel_n[1], vel_n[0], 0.0]])
+    M = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                M[i, j] += C_nb[k, i] * vx[k, j]
+    MS = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                MS[i, j] += M[i, k] * S_att[k, j]
+    for i in range(3):
+        for j in range(3):
+            s_vel = 0.0
+            for k in range(3):
+                s_vel += C_nb[k, i] * ref_var[3 + k] * C_nb[k, j] + MS[i, k] * M[j, k]
+            A[vel + i, vel + j] += s_vel
+            A[vel + i, att + j] += MS[i, j]
+            A[att + j, vel + i] += MS[i, j]
+    return True
+
+
+@jit
+def add_reference_batch(
+    P: np.ndarray,
+    ref_var: np.ndarray,
+    C_nb: np.ndarray,
+    vel_n: np.ndarray,
+    pos: int,
+    att: int,
+    vel: int,
+    body: bool,
+) -> np.ndarray:
+    """:func:`add_reference_into` for n covariances (n, d, d) at the reference's attitudes (n, 3, 3)
+    and velocities (n, 3) -> (n, d, d): P + P_ref (P's own copy when the reference is exact)."""
+    out = P.copy()
+    for i in range(P.shape[0]):
+        add_reference_into(P[i], ref_var, C_nb[i], vel_n[i], pos, att, vel, body, out[i])
+    return out
 
 
 @jit
