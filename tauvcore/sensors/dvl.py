@@ -172,7 +172,11 @@ class DvlConfig:
         (0.6, 0.0, 0.15), "lever arm", "m", bound=10.0, hint="the DVL head from the IMU, body frame"
     )  # not in the paper; each axis within +-10 m: an AUV is a few metres long
     misalignment_deg: tuple[float, float, float] = setting(
-        (0.0, 0.0, 0.0), "misalignment", "deg", bound=10.0, hint="the head's true roll, pitch, yaw from its mounting"
+        (0.0, 0.0, 0.0),
+        "misalignment",
+        "deg",
+        bound=10.0,
+        hint="the head's true roll, pitch, yaw from its mounting",
     )  # not in the paper: C_bh of tauvcore.conventions, a sensor error the filters do not know; each
     # within +-10 deg: a head mounted further off has another beam geometry, not a misalignment
     beams: tuple[int, ...] = setting((1, 2, 3, 4), "beams", hint="beams that return (others never do)")
