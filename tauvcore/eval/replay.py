@@ -29,6 +29,7 @@ from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
 from tauvcore.engine.simulation import ChunkSource, Simulation
 from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.engine.sources import active
+from tauvcore.eval.corrections import calibrated
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
@@ -297,8 +298,9 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
 def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
     """The log as a one-run :class:`~tauvcore.engine.simulation.Simulation` under ``config``.
 
-    The DVL's beams and outages of ``config.dvl`` are applied to the log's returns (and its
-    dropout drawn from ``rng``), a body velocity projected onto the beams. The reference,
+    The ``[calibration]`` of ``config`` is applied to the log's DVL and reference
+    (tauvcore.eval.corrections), then the DVL's beams and outages of ``config.dvl`` to its returns
+    (and its dropout drawn from ``rng``), a body velocity projected onto the beams. The reference,
     interpolated to the IMU's times, is the truth. Without a reference the truth is known at the
     start only (:func:`_start_from_sensors`) and NaN after it: the errors are then unknown, the
     estimates are not. :class:`LogRows` makes the same rows chunk by chunk.
@@ -340,7 +342,9 @@ class LogRows:
     log as truth (:func:`log_simulation`: the same rows at once).
 
     The sources' epochs (a few per second) are made whole here, the DVL's dropout drawn from
-    ``rng`` as :func:`log_simulation` draws it. The rows are those of :func:`log_simulation` bit
+    ``rng`` as :func:`log_simulation` draws it. The configuration's ``[calibration]`` is applied to
+    the log's DVL velocities and reference attitude first (tauvcore.eval.corrections.calibrated:
+    the DVL's misalignment and scale factor undone, the reference turned to the IMU's body). The rows are those of :func:`log_simulation` bit
     for bit with a reference at the IMU's rate; between the rows of a slower reference the
     interpolated attitude may differ in its last bit (tauvcore.geo.rotations.exp_so3 takes its
     series or its sines by the largest angle it is given: a chunk's, not the whole log's).
@@ -365,6 +369,7 @@ class LogRows:
     num_runs = 1
 
     def __init__(self, config: Config, log: Log, rng: np.random.Generator) -> None:
+        log = calibrated(log, config.calibration, config.dvl.A_b)  # the log itself when zero
         t = log.imu_t_s
         self.config = config
         self.known = log.ref_t_s is not None  # whether the log has a reference: else the truth is
