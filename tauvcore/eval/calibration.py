@@ -115,7 +115,8 @@ class LogFit:
     pings: int  # DVL pings used
     dvl_residuals: int  # DVL residuals used (beams, or three per ping of a body velocity)
     dvl_outliers: int  # DVL residuals left out (OUTLIER_SIGMAS)
-    dvl_rms_before_mps: float  # RMS of the DVL residuals with no calibration [m/s]
+    dvl_rms_before_mps: float  # RMS of the DVL residuals with no calibration, the beam biases that fit
+    # them best taken out (as the filters' bias states would) [m/s]
     dvl_rms_after_mps: float  # ... with the calibration of all logs [m/s]
     dvl_tau: float  # integrated autocorrelation time of the DVL residuals [pings]
     intervals: int  # reference intervals used for the boresight
@@ -231,7 +232,8 @@ def _gravity_n(log: Log, config: Config, pos: np.ndarray) -> np.ndarray:
 
 
 def _name(name: str, log: Log) -> str:
-    return show_path(name or log.source)
+    """The log's name for a message: as given, else its source."""
+    return name or log.source
 
 
 # --------------------------------------------------------------------------------- boresight
@@ -750,7 +752,7 @@ def calibrate(logs: Sequence[tuple[str, Log, Config]], interval_s: float = INTER
     for name, log, _ in logs:
         if log.ref_t_s is None or log.ref_t_s.size < 2:
             raise CalibrationError(
-                f"{_name(name, log)}: the log has no reference (a reference table of two rows or more): "
+                f"{show_path(_name(name, log))}: the log has no reference (a reference table of two rows or more): "
                 "nothing to calibrate against"
             )
     pairs = [boresight_pairs(log, config, interval_s) for _, log, config in logs]
@@ -806,8 +808,8 @@ def calibrate(logs: Sequence[tuple[str, Log, Config]], interval_s: float = INTER
             continue
         rows = with_dvl[j][1]
         k = dvl.keep[j]
-        e_before = (rows.z - _predicted(np.zeros(4), rows, rows.v_ref_b(np.eye(3)))[0])[k]
-        e_after = (rows.z - _predicted(dvl.theta, rows, rows.v_ref_b(bore.C_rb))[0])[k]
+        e_before = _debiased((rows.z - _predicted(np.zeros(4), rows, rows.v_ref_b(np.eye(3)))[0])[k], rows, k)
+        e_after = _debiased((rows.z - _predicted(dvl.theta, rows, rows.v_ref_b(bore.C_rb))[0])[k], rows, k)
         n_pings = int(np.unique(rows.ping[k]).size)
         own = _fit_dvl([rows], bore.C_rb, P_beta).estimate if n_pings >= MIN_PINGS else None
         fits.append(
@@ -829,6 +831,18 @@ def calibrate(logs: Sequence[tuple[str, Log, Config]], interval_s: float = INTER
             )
         )
     return Calibration(dvl=dvl.estimate, boresight=bore.estimate, logs=tuple(fits))
+
+
+def _debiased(e: np.ndarray, rows: _DvlRows, keep: np.ndarray) -> np.ndarray:
+    """Residuals ``e`` (n,) [m/s] of ``rows``' kept rows less the beam biases that fit them best
+    under their prior (``min |e - D b|^2 / sigma_e^2 + |b|^2 / bias^2``): the residuals the
+    calibration leaves once the filters' own bias states have done their part."""
+    if rows.bias_sigma_mps <= 0.0 or e.size == 0:
+        return e
+    D = rows.D[keep]
+    ratio = (_rms(e) / rows.bias_sigma_mps) ** 2
+    b = np.linalg.solve(D.T @ D + ratio * np.eye(4), D.T @ e)
+    return e - D @ b
 
 
 def _check_bound(estimate: Estimate, what: str) -> None:
