@@ -20,26 +20,30 @@ DVL: per ping (at the IMU sample nearest it, as the replay fuses it), the refere
 the DVL head in the IMU's body, ``v_ref_b = C_nb^T v_ref_n + omega_nb_b x l_dvl_b`` with
 ``C_nb = C_nr C_rb`` and ``omega_nb_b`` the gyro's rate over the two IMU intervals around the ping
 less the earth and transport rates; the DVL measures ``v_h = (1 + s) C_bh^T v_ref_b`` (+ noise,
-beam biases), each returned bottom-track beam ``y_k = b_k . v_h`` (a beam table) or each component
-of a logged head velocity (a body-velocity table) one residual. The angles and ``s`` are the
-least-squares solution (scipy.optimize.least_squares, Levenberg-Marquardt with the analytic
-Jacobian), started from the scaled Procrustes solution (SVD) of the pings' head velocities and from
-zero, the lower cost kept; each log's residuals weighted by their own RMS; residuals beyond
-:data:`OUTLIER_SIGMAS` robust sigmas left out. This is the velocity-based in-situ alignment of
-Kinsey & Whitcomb (2007, IEEE J. Oceanic Eng. 32(2)) in the least-squares-on-SO(3) form of Troni &
-Whitcomb (2015, "Advances in in situ alignment calibration of Doppler and high/low-end attitude
-sensors for underwater vehicle navigation", J. Field Robotics 32(5)), with the scale factor as a
-fourth unknown.
+beam biases), each returned bottom-track beam ``y_k = b_k . v_h + bias_k`` (a beam table) or each
+component of a logged head velocity (a body-velocity table, the biases seen through the configured
+beams) one residual. The unknowns are the angles, ``s`` and each log's four beam biases under
+their turn-on 1-sigma (``dvl.bias_mps``) as a prior: the least-squares solution
+(scipy.optimize.least_squares, Levenberg-Marquardt with the analytic Jacobian), started from the
+scaled Procrustes solution (SVD) of the pings' head velocities and from zero, the lower cost kept;
+each log's residuals weighted by their own RMS; residuals beyond :data:`OUTLIER_SIGMAS` robust
+sigmas left out. This is the velocity-based in-situ alignment of Kinsey & Whitcomb (2007, IEEE J.
+Oceanic Eng. 32(2)) in the least-squares-on-SO(3) form of Troni & Whitcomb (2015, "Advances in in
+situ alignment calibration of Doppler and high/low-end attitude sensors for underwater vehicle
+navigation", J. Field Robotics 32(5)), with the scale factor as a fourth unknown.
 
-Uncertainty (both): the Gauss-Newton covariance of the weighted residuals, each log's information
-divided by the integrated autocorrelation time ``tau`` of its residuals (ping to ping, or interval
-to interval: ``1 + 2 sum rho_k`` over the lags before the first non-positive ``rho_k``; a log of
-``n`` residuals counts as ``n / tau``), plus consider covariances ``S Sigma S^T`` of what the fit
-does not estimate: the DVL beams' turn-on biases (``dvl.bias_mps`` as each beam's 1-sigma, one draw
-per log), the boresight's own covariance (for the DVL), and the IMU's turn-on biases
-(``imu.accel_bias_mg``, ``imu.gyro_bias_deg_per_h``, for the boresight). A constant beam bias and a
-misalignment are confounded at constant speed: the consider part then dominates the sigma, which
-is what the table's columns show.
+Uncertainty, in parts that add up: the residuals' ("noise"), for the DVL the Gauss-Newton
+covariance with the biases known, each log's information divided by the integrated
+autocorrelation time ``tau`` of its residuals (each beam's or axis's series in ping order:
+``1 + 2 sum rho_k`` over the lags before the first non-positive ``rho_k``; ``n`` residuals count
+as ``n / tau``), for the boresight the sandwich ``F^-1 Omega F^-1`` with ``Omega`` the Newey-West
+long-run covariance of each interval's score (its rate and force residuals share the gyro's noise,
+which tilts gravity within the interval); "beam biases", what not knowing them adds (the marginal
+covariance with them estimated, less the noise part: at constant speed a constant bias and a
+misalignment are confounded, and this part then dominates); "boresight", the boresight's own
+covariance through the DVL estimate's sensitivity to it; "IMU biases", the consider covariance
+``S Sigma S^T`` of the IMU's turn-on biases (``imu.accel_bias_mg``, ``imu.gyro_bias_deg_per_h``,
+with their walks' spread over the log), their effect on the pairs found by differences.
 """
 
 from __future__ import annotations
