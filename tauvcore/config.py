@@ -16,7 +16,6 @@ import tomllib
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 import tomli_w
 
 from tauvcore import units
@@ -26,7 +25,6 @@ from tauvcore.aiding.source import AidingSource
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
-from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.sensors.dvl import MAX_OUTAGES, DvlConfig, Outage
 from tauvcore.sensors.echosounder import EchoSounderConfig
 from tauvcore.sensors.imu import ImuConfig
@@ -237,16 +235,14 @@ class ReplayConfig:
 
 
 CALIBRATION_BOUND_DEG = 30.0
-"""Largest calibration angle [deg] (each of ``calibration.dvl_misalignment_deg`` and
-``imu_boresight_deg``): a correction, not a mounting; a sensor mounted further off is described by
-its geometry (``dvl.beam_pitch_deg``, a bag's ``mounting_rpy_deg``), and ``tauv calibrate`` says so."""
+"""Largest calibration angle [deg]: a correction, not a mounting (``tauv calibrate`` says so)."""
 
 
 @dataclass(frozen=True)
 class CalibrationConfig:
     """Corrections a replay applies to a log's measurements before the filters see them
-    (tauvcore.eval.replay; estimated by ``tauv calibrate``, tauvcore.eval.calibration); zero: none.
-    A simulation ignores it (its DVL's true mounting is ``dvl.misalignment_deg``)."""
+    (tauvcore.eval.corrections; estimated by ``tauv calibrate``, tauvcore.eval.calibration); zero:
+    none. A simulation ignores it (its DVL's true mounting is ``dvl.misalignment_deg``)."""
 
     dvl_misalignment_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the DVL head's roll, pitch, yaw
     # from the IMU's body, ``C_bh`` of tauvcore.conventions: a logged head velocity v_h is the body's
@@ -254,8 +250,7 @@ class CalibrationConfig:
     dvl_scale_factor_pct: float = 0.0  # the DVL's scale factor error s [%]: it measures (1 + s) times the
     # true velocity; [-10, 10] as dvl.scale_factor_pct
     imu_boresight_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the IMU's body from the reference's
-    # body, ``C_rb`` of tauvcore.conventions: the IMU's attitude is ``C_nr C_rb``; each within
-    # +-CALIBRATION_BOUND_DEG
+    # body, ``C_rb`` of tauvcore.conventions: the IMU's attitude is ``C_nr C_rb``; as above
 
     def __post_init__(self) -> None:
         require_vector3(
@@ -273,21 +268,6 @@ class CalibrationConfig:
     def reference_corrected(self) -> bool:
         """Whether the reference's attitude is turned to the IMU's body (a boresight angle nonzero)."""
         return any(a != 0.0 for a in self.imu_boresight_deg)
-
-    @property
-    def C_bh(self) -> np.ndarray:
-        """The DVL head's rotation from b, shape (3, 3) [-]: ``v_b = C_bh @ v_h``."""
-        return C_nb_from_euler(np.asarray(self.dvl_misalignment_deg, dtype=float) * units.DEG)
-
-    @property
-    def C_rb(self) -> np.ndarray:
-        """The IMU's body from the reference's, shape (3, 3) [-]: ``C_nb = C_nr @ C_rb``."""
-        return C_nb_from_euler(np.asarray(self.imu_boresight_deg, dtype=float) * units.DEG)
-
-    @property
-    def dvl_scale_factor(self) -> float:
-        """The DVL's scale factor error s [-] (a fraction)."""
-        return self.dvl_scale_factor_pct * units.PERCENT
 
 
 @dataclass(frozen=True)

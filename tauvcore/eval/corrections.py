@@ -28,6 +28,7 @@ import dataclasses
 
 import numpy as np
 
+from tauvcore import units
 from tauvcore.config import CalibrationConfig
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb
 from tauvcore.log_record import Log
@@ -57,7 +58,8 @@ def calibrated(log: Log, calibration: CalibrationConfig, A_b: np.ndarray) -> Log
     """
     changes: dict[str, np.ndarray] = {}
     if calibration.dvl_corrected and log.dvl_t_s is not None:
-        M = calibration.C_bh / (1.0 + calibration.dvl_scale_factor)  # v_b = M v_h
+        C_bh = C_nb_from_euler(np.asarray(calibration.dvl_misalignment_deg) * units.DEG)
+        M = C_bh / (1.0 + calibration.dvl_scale_factor_pct * units.PERCENT)  # v_b = M v_h
         if log.dvl_body_mps is not None:
             changes["dvl_body_mps"] = np.einsum("ij,mj->mi", M, log.dvl_body_mps)
         if log.dvl_beams_mps is not None:
@@ -71,7 +73,8 @@ def calibrated(log: Log, calibration: CalibrationConfig, A_b: np.ndarray) -> Log
         if log.dvl_water_mps is not None:
             changes["dvl_water_mps"] = corrected_beams(log.dvl_water_mps, A_b, M)
     if calibration.reference_corrected and log.ref_euler is not None:
-        changes["ref_euler"] = euler_from_C_nb(C_nb_from_euler(log.ref_euler) @ calibration.C_rb)
+        C_rb = C_nb_from_euler(np.asarray(calibration.imu_boresight_deg) * units.DEG)
+        changes["ref_euler"] = euler_from_C_nb(C_nb_from_euler(log.ref_euler) @ C_rb)
     return dataclasses.replace(log, **changes) if changes else log
 
 

@@ -298,9 +298,9 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
 def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
     """The log as a one-run :class:`~tauvcore.engine.simulation.Simulation` under ``config``.
 
-    The ``[calibration]`` of ``config`` is applied to the log's DVL and reference
-    (tauvcore.eval.corrections), then the DVL's beams and outages of ``config.dvl`` to its returns
-    (and its dropout drawn from ``rng``), a body velocity projected onto the beams. The reference,
+    The log corrected by ``config``'s ``[calibration]`` (tauvcore.eval.corrections), the DVL's beams
+    and outages of ``config.dvl`` applied to its returns (and its dropout drawn from ``rng``), a
+    body velocity projected onto the beams. The reference,
     interpolated to the IMU's times, is the truth. Without a reference the truth is known at the
     start only (:func:`_start_from_sensors`) and NaN after it: the errors are then unknown, the
     estimates are not. :class:`LogRows` makes the same rows chunk by chunk.
@@ -341,12 +341,10 @@ class LogRows:
     (tauvcore.engine.simulation.chunks_of) holds the log and one chunk, not a second copy of the
     log as truth (:func:`log_simulation`: the same rows at once).
 
-    The sources' epochs (a few per second) are made whole here, the DVL's dropout drawn from
-    ``rng`` as :func:`log_simulation` draws it. The configuration's ``[calibration]`` is applied to
-    the log's DVL velocities and reference attitude first (tauvcore.eval.corrections.calibrated:
-    the DVL's misalignment and scale factor undone, the reference turned to the IMU's body). The rows are those of :func:`log_simulation` bit
-    for bit with a reference at the IMU's rate; between the rows of a slower reference the
-    interpolated attitude may differ in its last bit (tauvcore.geo.rotations.exp_so3 takes its
+    The log is corrected by ``[calibration]`` (tauvcore.eval.corrections), the sources' epochs made
+    whole, the DVL's dropout drawn from ``rng`` as :func:`log_simulation` draws it. The rows are
+    those of :func:`log_simulation` bit for bit with a reference at the IMU's rate; between the rows
+    of a slower reference the interpolated attitude may differ in its last bit (exp_so3 takes its
     series or its sines by the largest angle it is given: a chunk's, not the whole log's).
 
     Parameters
@@ -369,8 +367,7 @@ class LogRows:
     num_runs = 1
 
     def __init__(self, config: Config, log: Log, rng: np.random.Generator) -> None:
-        log = calibrated(log, config.calibration, config.dvl.A_b)  # the log itself when zero
-        t = log.imu_t_s
+        t = (log := calibrated(log, config.calibration, config.dvl.A_b)).imu_t_s  # the log itself if zero
         self.config = config
         self.known = log.ref_t_s is not None  # whether the log has a reference: else the truth is
         # known at the start only (first_row: position, Euler angles, NED velocity)
