@@ -115,7 +115,9 @@ def dvl_rows(log: Log, config: Config) -> DvlRows:
                 v_head[same] = y[np.ix_(same, pattern)] @ np.linalg.pinv(A[pattern]).T
     else:
         v = log.dvl_body_mps[idx] if log.dvl_body_mps is not None else np.full((idx.size, 3), np.nan)
-        good = np.isfinite(v).all(axis=1) & (True if water is None else ~water[:, 0])
+        good = np.asarray(np.isfinite(v).all(axis=1), dtype=bool)  # (m,)
+        if water is not None:
+            good &= ~water[:, 0]
         v_head = np.where(good[:, None], v, np.nan)
         ping = np.repeat(np.flatnonzero(good), 3)
         group = np.tile(np.arange(3), int(good.sum()))
@@ -226,7 +228,7 @@ def fit_dvl(rows: Sequence[DvlRows], C_rb: np.ndarray, P_boresight_rad: np.ndarr
             sol = least_squares(
                 lambda x: stacked(x, V)[0],
                 x0,
-                jac=lambda x: stacked(x, V)[1],
+                jac=lambda x: stacked(x, V)[1],  # pyright: ignore[reportArgumentType] (a callable is taken)
                 method="lm",
                 xtol=1e-12,
                 ftol=1e-12,
