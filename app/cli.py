@@ -28,6 +28,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
+from app.commands.calibrate import cmd_calibrate
 from app.commands.log import cmd_log_convert, cmd_log_info
 from app.commands.replay import cmd_replay
 from app.commands.run import cmd_run
@@ -203,6 +204,40 @@ def build_parser() -> argparse.ArgumentParser:
         "--json", type=_path, help="write the configuration and per-epoch results to this JSON file"
     )
     _smooth_flags(rl)
+    ca = sub.add_parser(
+        "calibrate",
+        help="estimate the DVL's mounting misalignment and scale factor and the IMU-to-reference boresight "
+        "from logs with a reference, and write them as a [calibration] section",
+    )
+    ca.add_argument(
+        "logs",
+        type=_path,
+        nargs="+",
+        metavar="LOG",
+        help="log directories (or ROS bags, each with its own mapping beside it) with a reference, of one "
+        "vehicle: one calibration is estimated from all of them together",
+    )
+    ca.add_argument(
+        "--out",
+        type=_path,
+        required=True,
+        metavar="FILE",
+        help="the TOML file to write ([calibration], with each value's 1-sigma in comments); refused if it "
+        "exists, without --replace",
+    )
+    ca.add_argument("--replace", action="store_true", help="replace --out if it exists")
+    ca.add_argument(
+        "--config",
+        type=_path,
+        help="TOML file laid over each log's own configuration: the DVL's beams and lever arm, the beams' and "
+        "the IMU's bias 1-sigma the uncertainty takes (see 'tauv config')",
+    )
+    ca.add_argument(
+        "--no-log-config",
+        action="store_true",
+        help="ignore the configuration each log carries (its log.toml; a bag's mapping's [config] and /tf_static)",
+    )
+    _imu_flag(ca)
     mc = sub.add_parser(
         "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
     )
@@ -283,6 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     for subparser, command in (
         (r, cmd_run),
         (rl, cmd_replay),
+        (ca, cmd_calibrate),
         (mc, cmd_mc),
         (rp, cmd_reproduce),
         (sv, cmd_serve),

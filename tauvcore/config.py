@@ -235,6 +235,42 @@ class ReplayConfig:
             raise ConfigError(f"replay.initial_errors must be true or false, got {show(self.initial_errors)}")
 
 
+CALIBRATION_BOUND_DEG = 30.0
+"""Largest calibration angle [deg]: a correction, not a mounting (``tauv calibrate`` says so)."""
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    """Corrections a replay applies to a log's measurements before the filters see them
+    (tauvcore.eval.corrections; estimated by ``tauv calibrate``, tauvcore.eval.calibration); zero:
+    none. A simulation ignores it (its DVL's true mounting is ``dvl.misalignment_deg``)."""
+
+    dvl_misalignment_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the DVL head's roll, pitch, yaw
+    # from the IMU's body, ``C_bh`` of tauvcore.conventions: a logged head velocity v_h is the body's
+    # ``C_bh v_h / (1 + s)``; each within +-CALIBRATION_BOUND_DEG
+    dvl_scale_factor_pct: float = 0.0  # the DVL's scale factor error s [%]: it measures (1 + s) times the
+    # true velocity; [-10, 10] as dvl.scale_factor_pct
+    imu_boresight_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the IMU's body from the reference's
+    # body, ``C_rb`` of tauvcore.conventions: the IMU's attitude is ``C_nr C_rb``; as above
+
+    def __post_init__(self) -> None:
+        require_vector3(
+            "calibration.dvl_misalignment_deg", self.dvl_misalignment_deg, bound=CALIBRATION_BOUND_DEG
+        )
+        require_range("calibration.dvl_scale_factor_pct", self.dvl_scale_factor_pct, -10.0, 10.0)
+        require_vector3("calibration.imu_boresight_deg", self.imu_boresight_deg, bound=CALIBRATION_BOUND_DEG)
+
+    @property
+    def dvl_corrected(self) -> bool:
+        """Whether the DVL's velocities are corrected (a misalignment or scale factor nonzero)."""
+        return self.dvl_scale_factor_pct != 0.0 or any(a != 0.0 for a in self.dvl_misalignment_deg)
+
+    @property
+    def reference_corrected(self) -> bool:
+        """Whether the reference's attitude is turned to the IMU's body (a boresight angle nonzero)."""
+        return any(a != 0.0 for a in self.imu_boresight_deg)
+
+
 @dataclass(frozen=True)
 class Config:
     """The full run configuration: one section per field, each a frozen dataclass (module
@@ -255,6 +291,7 @@ class Config:
     run: RunConfig = field(default_factory=RunConfig)
     replay: ReplayConfig = field(default_factory=ReplayConfig)
     reference: ReferenceConfig = field(default_factory=ReferenceConfig)
+    calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     sources: tuple[tuple[str, Any], ...] = field(
         default_factory=lambda: tuple((name, SOURCE_SECTIONS[name].config_type()) for name in SOURCE_SECTIONS)
     )  # the sections of the sources of tauvcore.aiding.sources whose section is not one of the

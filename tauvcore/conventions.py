@@ -11,7 +11,15 @@ b    Body/platform frame (the paper's p): origin at the IMU (= centre of buoyanc
 s_k  DVL beam k (k = 1..4, stored at index k-1). Unit vector ``b_k`` in the body frame
      (eq. 13-14): ``b_k = [cos(psi_k) sin(theta), sin(psi_k) sin(theta), cos(theta)]`` with
      beam pitch ``theta`` = 20 deg and beam yaw ``psi_k = 45 + (k-1)*90 deg`` ("x" Janus).
-     Beams 1, 4 look forward, 2, 3 aft; beams 1, 2 starboard, 3, 4 port.
+     Beams 1, 4 look forward, 2, 3 aft; beams 1, 2 starboard, 3, 4 port. The b_k are fixed in h.
+h    DVL head frame: the frame the beams are fixed in and the DVL reports its velocity in.
+     Nominally b; a head mounted off by ZYX angles ``[roll, pitch, yaw]`` (its attitude in b, built
+     as C_nb is from Euler angles) has ``C_bh = C_nb_from_euler(angles)``: ``v_b = C_bh @ v_h``,
+     ``v_h = C_bh.T @ v_b`` (DVL misalignment: dvl.misalignment_deg simulated,
+     calibration.dvl_misalignment_deg corrected).
+r    A log's reference body frame: the frame its attitude ``C_nr`` is of. The IMU's body is r
+     rotated by the boresight, ZYX angles ``[roll, pitch, yaw]``: ``C_rb = C_nb_from_euler(angles)``
+     and ``C_nb = C_nr @ C_rb`` (calibration.imu_boresight_deg).
 
 Rotations
 ---------

@@ -29,6 +29,7 @@ from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
 from tauvcore.engine.simulation import ChunkSource, Simulation
 from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.engine.sources import active
+from tauvcore.eval.corrections import calibrated
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
@@ -297,8 +298,9 @@ def _start_from_sensors(config: Config, log: Log) -> tuple[np.ndarray, np.ndarra
 def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simulation:
     """The log as a one-run :class:`~tauvcore.engine.simulation.Simulation` under ``config``.
 
-    The DVL's beams and outages of ``config.dvl`` are applied to the log's returns (and its
-    dropout drawn from ``rng``), a body velocity projected onto the beams. The reference,
+    The log corrected by ``config``'s ``[calibration]`` (tauvcore.eval.corrections), the DVL's beams
+    and outages of ``config.dvl`` applied to its returns (and its dropout drawn from ``rng``), a
+    body velocity projected onto the beams. The reference,
     interpolated to the IMU's times, is the truth. Without a reference the truth is known at the
     start only (:func:`_start_from_sensors`) and NaN after it: the errors are then unknown, the
     estimates are not. :class:`LogRows` makes the same rows chunk by chunk.
@@ -339,10 +341,10 @@ class LogRows:
     (tauvcore.engine.simulation.chunks_of) holds the log and one chunk, not a second copy of the
     log as truth (:func:`log_simulation`: the same rows at once).
 
-    The sources' epochs (a few per second) are made whole here, the DVL's dropout drawn from
-    ``rng`` as :func:`log_simulation` draws it. The rows are those of :func:`log_simulation` bit
-    for bit with a reference at the IMU's rate; between the rows of a slower reference the
-    interpolated attitude may differ in its last bit (tauvcore.geo.rotations.exp_so3 takes its
+    The log is corrected by ``[calibration]`` (tauvcore.eval.corrections), the sources' epochs made
+    whole, the DVL's dropout drawn from ``rng`` as :func:`log_simulation` draws it. The rows are
+    those of :func:`log_simulation` bit for bit with a reference at the IMU's rate; between the rows
+    of a slower reference the interpolated attitude may differ in its last bit (exp_so3 takes its
     series or its sines by the largest angle it is given: a chunk's, not the whole log's).
 
     Parameters
@@ -365,7 +367,7 @@ class LogRows:
     num_runs = 1
 
     def __init__(self, config: Config, log: Log, rng: np.random.Generator) -> None:
-        t = log.imu_t_s
+        t = (log := calibrated(log, config.calibration, config.dvl.A_b)).imu_t_s  # the log itself if zero
         self.config = config
         self.known = log.ref_t_s is not None  # whether the log has a reference: else the truth is
         # known at the start only (first_row: position, Euler angles, NED velocity)

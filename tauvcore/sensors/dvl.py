@@ -10,6 +10,17 @@ with one scale factor SF common to all beams (speed of sound, eq. 12), a bias pe
 noise, and all four transducers at the DVL head ``l_dvl_b`` (the transducer spacing on a
 small head is a few centimetres, below the 0.042 m/s noise for any plausible rate).
 
+Mounting misalignment (``misalignment_deg``): the beams are fixed in the DVL's head frame h
+(tauvcore.conventions), which a head mounted off its nominal orientation has rotated from b by
+``C_bh`` (ZYX angles roll, pitch, yaw). The head then measures its velocity in h, and beam k is
+``b_k`` of h::
+
+    y_k = [C_bh^T (v_b (1 + SF) + omega_nb_b x l_dvl_b)] . b_k + b_dvl_k + n_k
+
+It is a sensor error the filters do not know, as the beams' true biases are; with zero angles
+(the default) h is b and eq. 15 above is the model, to the last bit. ``scale_factor_offset_pct``
+is a fixed part of SF, added to the one drawn at turn-on.
+
 Range: given the mission's seabed (tauvcore.truth.seabed), each beam is traced from the
 head to the bottom; a beam whose slant range exceeds ``max_range_m`` (``max_altitude_m / cos(beam
 pitch)``: the range of a beam of a level DVL at its rated altitude, Yoo 2014's 100 m) has no
@@ -34,6 +45,7 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.conventions import NUM_DVL_BEAMS
+from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.sensors.timing import (
     Rng,
     WalkState,
@@ -149,12 +161,24 @@ class DvlConfig:
         0.7, "scale factor", "%", 0.0, 10.0, hint="1-sigma turn-on scale factor error"
     )
     # <= 10: a sound speed off by 150 m/s, more than any water mass differs from 1500 m/s
+    scale_factor_offset_pct: float = setting(
+        0.0, "scale factor offset", "%", -10.0, 10.0, hint="fixed scale factor error added to the drawn one"
+    )
+    # not in the paper: a sound speed set wrong in the DVL, the same on every run; [-10, 10] as above
     scale_factor_rw_pct_per_sqrt_s: float = setting(
         5e-3, "scale factor walk", "%/sqrt(s)", 0.0, 0.5, hint="scale factor random walk"
     )  # <= 0.5 (100x Table 2)
     lever_arm_m: tuple[float, float, float] = setting(
         (0.6, 0.0, 0.15), "lever arm", "m", bound=10.0, hint="the DVL head from the IMU, body frame"
     )  # not in the paper; each axis within +-10 m: an AUV is a few metres long
+    misalignment_deg: tuple[float, float, float] = setting(
+        (0.0, 0.0, 0.0),
+        "misalignment",
+        "deg",
+        bound=10.0,
+        hint="the head's true roll, pitch, yaw from its mounting",
+    )  # not in the paper: C_bh of tauvcore.conventions, a sensor error the filters do not know; each
+    # within +-10 deg: a head mounted further off has another beam geometry, not a misalignment
     beams: tuple[int, ...] = setting((1, 2, 3, 4), "beams", hint="beams that return (others never do)")
     # checked below: distinct numbers 1 to 4
     outages: tuple[Outage, ...] = setting((), "outages", "s", hint="scheduled losses of some beams")
@@ -246,7 +270,8 @@ class DvlConfig:
         DvlConfig
             This configuration's rate [Hz], beam pitch [deg], lever arm [m], beams, outages,
             dropout probability, range and water-track settings, with zero noise, bias, bias
-            walk, scale factor, scale factor walk and water-track noise.
+            walk, scale factor, scale factor offset, scale factor walk, misalignment and
+            water-track noise.
         """
         return DvlConfig(
             rate_hz=self.rate_hz,
@@ -255,8 +280,10 @@ class DvlConfig:
             bias_mps=0.0,
             bias_rw_mps_per_sqrt_s=0.0,
             scale_factor_pct=0.0,
+            scale_factor_offset_pct=0.0,
             scale_factor_rw_pct_per_sqrt_s=0.0,
             lever_arm_m=self.lever_arm_m,
+            misalignment_deg=(0.0, 0.0, 0.0),
             beams=self.beams,
             outages=self.outages,
             dropout_probability=self.dropout_probability,
@@ -296,6 +323,28 @@ class DvlConfig:
     def scale_factor(self) -> float:
         """1-sigma turn-on scale factor error [-] (a fraction)."""
         return self.scale_factor_pct * units.PERCENT
+
+    @property
+    def scale_factor_offset(self) -> float:
+        """Fixed scale factor error added to the drawn one [-] (a fraction)."""
+        return self.scale_factor_offset_pct * units.PERCENT
+
+    @property
+    def misaligned(self) -> bool:
+        """Whether the head is rotated from its mounting (any of :attr:`misalignment_deg` nonzero)."""
+        return any(a != 0.0 for a in self.misalignment_deg)
+
+    @property
+    def C_bh(self) -> np.ndarray:
+        """The head's true rotation from b, shape (3, 3) [-]: ``v_b = C_bh @ v_h``
+        (tauvcore.conventions), ZYX from :attr:`misalignment_deg`; the identity when aligned."""
+        return C_nb_from_euler(np.asarray(self.misalignment_deg, dtype=float) * units.DEG)
+
+    @property
+    def true_A_b(self) -> np.ndarray:
+        """The beams' true directions in b, shape (4, 3) [-]: row k-1 is ``C_bh b_k``, which is
+        :attr:`A_b` itself when the head is aligned."""
+        return self.A_b @ self.C_bh.T if self.misaligned else self.A_b
 
     @property
     def scale_factor_rw_per_sqrt_s(self) -> float:
@@ -372,8 +421,10 @@ def beam_velocity(
     l_dvl_b: np.ndarray,
     scale_factor: np.ndarray,
     bias: np.ndarray,
+    C_bh: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Eq. 15 without noise: ``(v_b (1 + SF) + omega_nb_b x l) . b_k + bias_k``.
+    """Eq. 15 without noise: ``(v_b (1 + SF) + omega_nb_b x l) . b_k + bias_k``; with a misaligned
+    head ``(C_bh^T (v_b (1 + SF) + omega_nb_b x l)) . b_k + bias_k``.
 
     The inputs broadcast against each other over their leading batch shape ``(...)`` (pings, runs).
 
@@ -391,6 +442,9 @@ def beam_velocity(
         Scale factor error ``SF``, shape (...) [-] (a fraction), common to the four beams.
     bias : numpy.ndarray
         Beam biases, shape (..., 4) [m/s], along each beam.
+    C_bh : numpy.ndarray or None, optional
+        The head's rotation from b, shape (3, 3) [-] (:attr:`DvlConfig.C_bh`); None: the head is
+        aligned (h is b, no product at all).
 
     Returns
     -------
@@ -398,6 +452,8 @@ def beam_velocity(
         Beam velocities, shape (..., 4) [m/s], along beams 1-4 (beam frames s_k).
     """
     v_head = vel_b * (1.0 + scale_factor[..., None]) + np.cross(omega_nb_b, l_dvl_b)
+    if C_bh is not None:  # into the head, v_h = C_bh^T v_b, term by term as the projection below
+        v_head = v_head[..., 0:1] * C_bh[0] + v_head[..., 1:2] * C_bh[1] + v_head[..., 2:3] * C_bh[2]
     # the projection summed term by term, not by matmul: BLAS may round a product differently for
     # another batch shape, and a run's pings must not depend on how many runs are drawn with it
     return v_head[..., 0:1] * A_b[:, 0] + v_head[..., 1:2] * A_b[:, 1] + v_head[..., 2:3] * A_b[:, 2] + bias
@@ -469,7 +525,8 @@ def slant_ranges_m(truth: Truth, rows: np.ndarray, config: DvlConfig, seabed: Ba
 
     The head's horizontal position is the tangent-plane NED one, its vertical the true depth (on
     WGS-84 the plane falls below the surface with distance); the head is the IMU's position plus
-    the lever arm ``C_nb l_dvl_b``, the beams ``C_nb b_k`` in the n frame.
+    the lever arm ``C_nb l_dvl_b``, the beams ``C_nb C_bh b_k`` in the n frame (their true
+    directions, :attr:`DvlConfig.true_A_b`).
 
     Parameters
     ----------
@@ -492,7 +549,7 @@ def slant_ranges_m(truth: Truth, rows: np.ndarray, config: DvlConfig, seabed: Ba
     C = truth.C_nb[rows]
     head = np.concatenate([truth.pos_n[rows, :2], truth.depth_m[rows, None]], axis=1)
     head = head + np.einsum("mij,j->mi", C, config.l_dvl_b)
-    beams_n = np.einsum("mij,kj->mki", C, config.A_b)
+    beams_n = np.einsum("mij,kj->mki", C, config.true_A_b)
     return seabed.slant_range_m(head[:, None, :], beams_n, config.max_range_m)
 
 
@@ -502,7 +559,7 @@ def water_layer(
     """The water-track layer's depth and the beams that reach it at the truth's ``rows``.
 
     The layer's centre lies ``water_layer_m`` below the head (the IMU's depth plus the lever arm's
-    down part, ``(C_nb l_dvl_b)_z``). Beam k, at ``cos_k = (C_nb b_k)_z`` from the vertical, meets
+    down part, ``(C_nb l_dvl_b)_z``). Beam k, at ``cos_k = (C_nb C_bh b_k)_z`` from the vertical, meets
     it after ``water_layer_m / cos_k``; it water-tracks if it points down, that slant distance is
     within ``max_range_m`` and the seabed along the beam lies beyond it (else the beam sees the
     bottom before the layer).
@@ -528,7 +585,7 @@ def water_layer(
     """
     C = truth.C_nb[rows]
     depth = truth.depth_m[rows] + np.einsum("mj,j->m", C[:, 2, :], config.l_dvl_b) + config.water_layer_m
-    cos_down = np.einsum("mj,kj->mk", C[:, 2, :], config.A_b)
+    cos_down = np.einsum("mj,kj->mk", C[:, 2, :], config.true_A_b)
     down = cos_down > 0.0  # a beam level or pointing up never meets the layer
     distance = np.where(down, config.water_layer_m / np.where(down, cos_down, 1.0), np.inf)
     reaches = distance <= config.max_range_m
@@ -555,7 +612,9 @@ def simulate_chunk(
 
     ``index`` lies within ``truth``, whose sample 0 is the mission's sample ``k0``; a beam out of
     its schedule or that drops is NaN. Bias (4 per run) and scale factor are random walks
-    stepping once per ping (period ``1 / rate_hz``) from a turn-on value. Draws, in order: bias
+    stepping once per ping (period ``1 / rate_hz``) from a turn-on value; the
+    scale factor is that walk plus ``scale_factor_offset_pct``. A misaligned head
+    (``misalignment_deg``) measures in its own frame (module docstring). Draws, in order: bias
     (turn-on value at the first chunk, then its walk), scale factor, noise, dropout (only if its
     probability is positive, so that a single generator shared with the other sensors draws the
     same numbers as without dropout). With a ``seabed``, beams beyond ``max_range_m`` are lost,
@@ -638,11 +697,14 @@ def simulate_chunk(
         period,
         m,
     )
+    if config.scale_factor_offset_pct != 0.0:  # the walk carries the drawn part; the offset is fixed
+        sf = sf + config.scale_factor_offset
+    C_bh = config.C_bh if config.misaligned else None
     rows = index - k0
     t_s = truth.t_s[rows]
     expand = (slice(None),) + (None,) * len(runs)
     vel_b, omega_nb_b = truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand]
-    y = beam_velocity(config.A_b, vel_b, omega_nb_b, config.l_dvl_b, sf, bias)
+    y = beam_velocity(config.A_b, vel_b, omega_nb_b, config.l_dvl_b, sf, bias, C_bh)
     y = y + standard_normal(noise_rng, y.shape, 1) * config.noise_mps
     scheduled = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape)
     available = scheduled.copy()
@@ -678,7 +740,7 @@ def simulate_chunk(
         if current is not None:
             c_n = current.velocity_n_mps(t_s, depth)
             vel_water_b = vel_b - np.einsum("mji,mj->mi", truth.C_nb[rows], c_n)[expand]
-        y_water = beam_velocity(config.A_b, vel_water_b, omega_nb_b, config.l_dvl_b, sf, bias) + noise
+        y_water = beam_velocity(config.A_b, vel_water_b, omega_nb_b, config.l_dvl_b, sf, bias, C_bh) + noise
         y_water = np.where(water, y_water, np.nan)
     y = np.where(available, y, np.nan)
     return (

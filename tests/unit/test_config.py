@@ -109,7 +109,8 @@ def test_direct_construction_validates_too():
 def test_to_dict_has_every_section_and_plain_types():
     d = to_dict(Config())
     assert set(d) == {"trajectory", "earth", "imu", "dvl", "pressure", "magnetometer", "echo_sounder", "rpm", "vkf",
-                      "initial_error", "filter", "partial", "run", "replay", "reference", *SOURCE_SECTIONS}
+                      "initial_error", "filter", "partial", "run", "replay", "reference", "calibration",
+                      *SOURCE_SECTIONS}
     assert isinstance(d["dvl"]["lever_arm_m"], list)
 
 
