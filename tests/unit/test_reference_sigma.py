@@ -1,8 +1,10 @@
 """The reference's own 1-sigma (``[reference]``): the NEES is taken against P plus the reference's
 covariance on the navigation blocks, in the frames of each bank's error state.
 
-- exact (the default): every NEES of both banks, their smoothers and a replay is what it was, bit
-  for bit (tests/fixtures/nees_reference.npz, written before the section existed);
+- exact (the default): every NEES of both banks, their smoothers and a replay is what it was
+  (tests/fixtures/nees_reference.npz, written before the section existed), to 1e-9: the fixture
+  was written on one processor, and another's vector instructions may round a sine in the last
+  bit, which the filters carry to about 1e-12;
 - the kernel: ``dx^T (P + P_ref)^-1 dx`` for a hand-built P and dx, the full state and each block;
 - the reference's covariance: its errors carried into each bank's error state, against finite
   differences of the nonlinear difference;
@@ -37,15 +39,18 @@ make = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(make)
 
 
-def test_an_exact_reference_leaves_every_nees_bit_for_bit() -> None:
+def test_an_exact_reference_leaves_every_nees_as_it_was() -> None:
     """[reference] at its default (0: exact) gives the NEES the engine gave before the section
-    existed: both banks, their smoothers, a replay; every number equal, not close."""
+    existed: both banks, their smoothers, a replay; every number within 1e-9 of its scale, the
+    same epochs unknown (NaN)."""
     assert Config().reference.exact
     expected = np.load(ROOT / "tests" / "fixtures" / "nees_reference.npz")
     got = make.arrays()
     assert sorted(got) == sorted(expected.files)
     for key in expected.files:
-        np.testing.assert_array_equal(got[key], expected[key], err_msg=key)
+        scale = max(1.0, float(np.nanmax(np.abs(expected[key])))) if np.isfinite(expected[key]).any() else 1.0
+        np.testing.assert_allclose(got[key], expected[key], rtol=0.0, atol=1e-9 * scale, equal_nan=True,
+                                   err_msg=key)
 
 
 # --- the section -----------------------------------------------------------------------------
