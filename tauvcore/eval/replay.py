@@ -47,11 +47,9 @@ def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
 
 
 def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None]:
-    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory); a ROS
-    bag's, its own mapping's ``[config]`` and the DVL's lever arm from its ``/tf_static``
-    (tauvcore.bags.own_mapping, bag_config).
-
-    Its raw tables, checked on their own, and its path.
+    """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory; a ROS
+    bag's: its own mapping's ``[config]`` and the DVL's lever arm from its ``/tf_static``,
+    tauvcore.bags.own_mapping, bag_config): its raw tables, checked on their own, and its path.
 
     Parameters
     ----------
@@ -88,9 +86,8 @@ def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None
 
 
 def config_keys(raw: dict[str, Any]) -> str:
-    """The keys a raw configuration sets, ``section.key``, comma-separated.
-
-    Past six: how many more. For the line that says what configured a replay.
+    """The keys a raw configuration sets, ``section.key``, comma-separated (past six: how many
+    more), for the line that says what configured a replay.
 
     Parameters
     ----------
@@ -337,9 +334,8 @@ def log_simulation(config: Config, log: Log, rng: np.random.Generator) -> Simula
 
 class LogRows:
     """The log as a one-run simulation whose truth and IMU rows are made as they are asked for
-    (:meth:`rows`), so that a replay fed chunk by chunk
-    (tauvcore.engine.simulation.chunks_of) holds the log and one chunk, not a second copy of the
-    log as truth (:func:`log_simulation`: the same rows at once).
+    (:meth:`rows`): a replay fed chunk by chunk (tauvcore.engine.simulation.chunks_of) holds the
+    log and one chunk, not a second copy of it as truth (:func:`log_simulation`: all rows at once).
 
     The log is corrected by ``[calibration]`` (tauvcore.eval.corrections), the sources' epochs made
     whole, the DVL's dropout drawn from ``rng`` as :func:`log_simulation` draws it. The rows are
@@ -367,7 +363,8 @@ class LogRows:
     num_runs = 1
 
     def __init__(self, config: Config, log: Log, rng: np.random.Generator) -> None:
-        t = (log := calibrated(log, config.calibration, config.dvl.A_b)).imu_t_s  # the log itself if zero
+        log = calibrated(log, config.calibration, config.dvl.A_b)  # the log itself when zero
+        t = log.imu_t_s
         self.config = config
         self.known = log.ref_t_s is not None  # whether the log has a reference: else the truth is
         # known at the start only (first_row: position, Euler angles, NED velocity)
