@@ -50,44 +50,30 @@ def run_vehicle_task(
     """Calibrate (``kind`` ``"calibrate"``) or tune (``"tune"``) on the log ``log_dir`` under the
     configuration the dashboard's controls make of it (the log's own file beneath them), putting
     the messages of the module docstring on ``queue``; Stop (``stop_event.is_set()``) ends a
-    tuning at its best point so far. Any failure is one ``("error", line)``: the server keeps
-    serving."""
-    from app.worker import failure_message
+    tuning at its best point so far. A failure raises: the worker makes it one ``("error",
+    line)`` (app.worker), the server keeps serving."""
+    if kind not in TASKS:
+        raise ValueError(f"unknown task {kind!r} (choose from {', '.join(TASKS)})")
+    config = from_dict(config_dict)
+    from tauvcore.bags import read_recording
 
-    try:
-        if kind not in TASKS:
-            raise ValueError(f"unknown task {kind!r} (choose from {', '.join(TASKS)})")
-        config = from_dict(config_dict)
-        from tauvcore.bags import read_recording
-
-        queue.put(("vehicle-progress", 0.0, f"Reading {os.path.basename(os.path.normpath(log_dir))}"))
-        log = read_recording(log_dir, config.dvl.A_b)
-        name = os.path.basename(os.path.normpath(log_dir))
-        if kind == "calibrate":
-            report, sections, stopped = _calibrate(name, log, config, queue)
-        else:
-            report, sections, stopped = _tune(name, log, config, queue, stop_event)
-        queue.put(("vehicle-done", kind, report, sections, stopped))
-    except Exception as exc:  # noqa: BLE001 - any failure is the task's: the dashboard shows it, the server keeps serving
-        queue.put(("error", failure_message(exc)))
+    queue.put(("vehicle-progress", 0.0, f"Reading {os.path.basename(os.path.normpath(log_dir))}"))
+    log = read_recording(log_dir, config.dvl.A_b)
+    name = os.path.basename(os.path.normpath(log_dir))
+    if kind == "calibrate":
+        report, sections, stopped = _calibrate(name, log, config, queue)
+    else:
+        report, sections, stopped = _tune(name, log, config, queue, stop_event)
+    queue.put(("vehicle-done", kind, report, sections, stopped))
 
 
 def _calibrate(name: str, log: Any, config: Any, queue: Any) -> tuple[str, dict[str, dict[str, Any]], bool]:
+    from app.vehicle_reports import calibration_sections, calibration_table
     from tauvcore.eval.calibration import calibrate
-
-    from app.commands.calibrate import calibration_table
 
     queue.put(("vehicle-progress", 0.2, "Calibrating: the DVL's alignment and the IMU's boresight"))
     result = calibrate([(name, log, config)])
-    c = result.config
-    sections = {
-        "calibration": {
-            "dvl_misalignment_deg": [float(v) for v in c.dvl_misalignment_deg],
-            "dvl_scale_factor_pct": float(c.dvl_scale_factor_pct),
-            "imu_boresight_deg": [float(v) for v in c.imu_boresight_deg],
-        }
-    }
-    return calibration_table(result), sections, False
+    return calibration_table(result), calibration_sections(result), False
 
 
 def _tune(

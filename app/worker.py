@@ -421,7 +421,11 @@ def _worker_main(conn: mp_connection.Connection) -> None:
                 from app.vehicle_tasks import run_vehicle_task
 
                 _, kind, config_dict, log_dir = message
-                run_vehicle_task(kind, config_dict, log_dir, _PipeQueue(conn), _PipeStop(conn))
+                queue = _PipeQueue(conn)
+                try:
+                    run_vehicle_task(kind, config_dict, log_dir, queue, _PipeStop(conn))
+                except Exception as exc:  # noqa: BLE001 - any failure is the task's: the tab shows it, the server keeps serving
+                    queue.put(("error", failure_message(exc)))
                 conn.send(("end",))
             # ("stop",) after its run had ended: nothing to stop
     except (EOFError, OSError):  # the server closed the pipe (or died): nothing left to do

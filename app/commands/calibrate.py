@@ -12,11 +12,11 @@ import stat
 from collections.abc import Sequence
 from typing import IO, TYPE_CHECKING
 
-import numpy as np
 import tomli_w
 
 from app.commands.outputs import Inputs, _refuse_input, write_text_atomic
 from app.commands.values import UsageError, resolve_config
+from app.vehicle_reports import calibration_sections, calibration_table, number_to_sigma
 from tauvcore.config import Config
 from tauvcore.validation import show, show_path
 
@@ -118,102 +118,6 @@ def _out_target(path: str, replace: bool, inputs: Inputs) -> str:
     return real
 
 
-def _number(value: float, sigma: float) -> str:
-    """``value`` to the digits its sigma warrants (two significant digits of the sigma)."""
-    if not np.isfinite(sigma) or sigma <= 0.0:
-        return f"{value:.4g}"
-    digits = max(0, 1 - int(np.floor(np.log10(sigma))))
-    return f"{value:.{min(digits, 6)}f}"
-
-
-def calibration_table(result: Calibration) -> str:
-    """The estimates of all logs (value, 1-sigma and the sigma of each of its parts), then per log
-    its DVL and boresight residuals before and after, and its own estimates with their 1-sigma."""
-    lines = [
-        (
-            f"calibration from {len(result.logs)} log{'s' if len(result.logs) != 1 else ''}: "
-            f"{sum(f.pings for f in result.logs)} DVL pings, {sum(f.intervals for f in result.logs)} reference intervals"
-        ),
-        "",
-    ]
-    part_names = [*result.dvl.parts, *(p for p in result.boresight.parts if p not in result.dvl.parts)]
-    head = f"{'quantity':<34}{'value':>10}{'1-sigma':>10}" + "".join(f"{'σ ' + p:>16}" for p in part_names)
-    lines += [head, "-" * len(head)]
-    for est in (result.dvl, result.boresight):
-        for i, (name, unit) in enumerate(zip(est.names, est.units, strict=True)):
-            sigma = est.sigma[i]
-            row = f"{name + ' [' + unit + ']':<34}{_number(est.value[i], sigma):>10}{sigma:>10.2g}"
-            for p in part_names:
-                row += f"{est.part_sigma(p)[i]:>16.2g}" if p in est.parts else f"{'':>16}"
-            lines.append(row)
-    lines += [
-        "",
-        (
-            "σ noise: the residuals' (their correlation over pings or intervals included); σ beam biases: what not "
-            "knowing the DVL beams' biases adds (confounded with the misalignment at constant speed); σ boresight, "
-            "σ IMU biases: what their uncertainty adds (docs/calibration.md)"
-        ),
-        "",
-    ]
-    head = (
-        f"{'log':<24}{'pings':>6}{'out':>5}{'DVL rms before':>16}{'after':>8}{'tau':>6}   "
-        f"{'roll':>16}{'pitch':>16}{'yaw':>16}{'scale factor':>16}"
-    )
-    lines += [
-        (
-            "DVL per log: residuals [m/s] with no calibration and with the one above (less the beam biases that fit "
-            "them best); the log's own estimate [deg, %]"
-        ),
-        head,
-    ]
-    for f in result.logs:
-        own = (
-            ""
-            if f.dvl is None
-            else "".join(
-                f"{_number(v, s) + ' ± ' + f'{s:.2g}':>{w}}"
-                for v, s, w in zip(f.dvl.value, f.dvl.sigma, (16, 16, 16, 16), strict=True)
-            )
-        )
-        if f.pings == 0:
-            lines.append(f"{_short(f.name):<24}{'no DVL pings':>20}")
-            continue
-        lines.append(
-            f"{_short(f.name):<24}{f.pings:>6}{f.dvl_outliers:>5}{f.dvl_rms_before_mps:>16.4f}"
-            f"{f.dvl_rms_after_mps:>8.4f}{f.dvl_tau:>6.2f}   {own}"
-        )
-    head = (
-        f"{'log':<24}{'intervals':>10}{'rate rms before':>17}{'after':>9}{'force rms before':>18}{'after':>9}   "
-        f"{'roll':>18}{'pitch':>18}{'yaw':>18}"
-    )
-    lines += [
-        "",
-        (
-            "boresight per log: residuals per axis (rate [deg/s], specific force [m/s^2]) with no calibration and with "
-            "the one above; the log's own estimate [deg]"
-        ),
-        head,
-    ]
-    for f in result.logs:
-        own = (
-            ""
-            if f.boresight is None
-            else "".join(
-                f"{_number(v, s) + ' ± ' + f'{s:.2g}':>18}"
-                for v, s in zip(f.boresight.value, f.boresight.sigma, strict=True)
-            )
-        )
-        lines.append(
-            f"{_short(f.name):<24}{f.intervals:>10}{f.rate_rms_before_dps:>17.4g}{f.rate_rms_after_dps:>9.4g}"
-            f"{f.force_rms_before_mps2:>18.4g}{f.force_rms_after_mps2:>9.4g}   {own}"
-        )
-    return "\n".join(lines)
-
-
-def _short(name: str, width: int = 23) -> str:
-    return name if len(name) <= width else "…" + name[-(width - 1) :]
-
-
 def calibration_toml(result: Calibration, logs: Sequence[str]) -> str:
     """The ``[calibration]`` section of ``result`` as TOML, with comments: where it comes from and
     each value's 1-sigma."""
@@ -226,13 +130,5 @@ def calibration_toml(result: Calibration, logs: Sequence[str]) -> str:
     ]
     for est in (result.dvl, result.boresight):
         for name, unit, value, sigma in zip(est.names, est.units, est.value, est.sigma, strict=True):
-            comments.append(f"#   {name}: {_number(value, sigma)} +- {sigma:.2g} {unit}")
-    c = result.config
-    section = {
-        "calibration": {
-            "dvl_misalignment_deg": list(c.dvl_misalignment_deg),
-            "dvl_scale_factor_pct": c.dvl_scale_factor_pct,
-            "imu_boresight_deg": list(c.imu_boresight_deg),
-        }
-    }
-    return "\n".join(comments) + "\n" + tomli_w.dumps(section)
+            comments.append(f"#   {name}: {number_to_sigma(value, sigma)} +- {sigma:.2g} {unit}")
+    return "\n".join(comments) + "\n" + tomli_w.dumps(calibration_sections(result))
