@@ -564,10 +564,9 @@ def prepare(
     """The configuration as the log makes it and the log as a one-run simulation under it.
 
     The configuration from :func:`replay_config`, the simulation from :func:`log_simulation`;
-    with ``imu_errors``, that IMU's errors added to the log's (:func:`with_imu_errors`), and the
-    filters tuned for that IMU (what the log's IMU then behaves as, where its own is much the
-    better) unless ``imu_tuning`` names the IMU they are tuned for (``tauv replay --imu-errors P
-    --imu Q``: a filter tuned for another IMU than the one it runs on). ``tauv replay`` and the
+    with ``imu_errors``, that IMU's errors added to the log's (:func:`with_imu_errors`) and the
+    filters tuned for it (what the log's IMU then behaves as, where its own is much the better),
+    or for ``imu_tuning`` (``tauv replay --imu-errors P --imu Q``). ``tauv replay`` and the
     dashboard's replay both start here, so the same log and configuration give the same run.
 
     Parameters
@@ -581,8 +580,8 @@ def prepare(
     imu_errors : ImuConfig or None
         An IMU whose errors are added to the log's; None: the log's IMU as it is.
     imu_tuning : ImuConfig or None
-        The IMU the filters are tuned for (its rate the log's); None: ``imu_errors``, or without
-        them ``config.imu``. The errors added are ``imu_errors``' whatever it is.
+        The IMU the filters are tuned for, the errors added still ``imu_errors``'; None:
+        ``imu_errors``, or without them ``config.imu``.
 
     Returns
     -------
@@ -640,25 +639,26 @@ def prepare_rows(
 
     Parameters
     ----------
-    config, log, rng, imu_errors, imu_tuning
+    config : Config
+    log : Log
+    rng : numpy.random.Generator
+    imu_errors : ImuConfig or None
+    imu_tuning : ImuConfig or None
         As :func:`prepare` takes them (the log read whole).
 
     Returns
     -------
     tuple[Config, ChunkSource]
         The replay's configuration and the log as a one-run simulation (R = 1): its rows
-        (:class:`LogRows`), or with ``imu_errors`` the whole
-        :class:`~tauvcore.engine.simulation.Simulation`.
+        (:class:`LogRows`), or with ``imu_errors`` or ``imu_tuning`` :func:`prepare`'s whole one.
 
     Raises
     ------
     LogError
         As :func:`prepare`.
     """
-    if imu_errors is not None:
+    if imu_errors is not None or imu_tuning is not None:
         return prepare(config, log, rng, imu_errors, imu_tuning)
-    if imu_tuning is not None:
-        config = config.replace("imu", **dataclasses.asdict(imu_tuning))
     config = _checked_replay_config(config, log)
     return config, LogRows(config, log, rng)
 
