@@ -35,6 +35,7 @@ from app.commands.run import cmd_run
 from app.commands.serve import cmd_serve
 from app.commands.smoothing import MAX_SMOOTH_MEMORY_MB
 from app.commands.study import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_reproduce
+from app.commands.tune import LOCAL_DASK, cmd_tune
 from app.commands.values import UsageError, resolve_config
 from tauvcore.aiding import AIDING_SOURCES
 from tauvcore.aiding.registry import REGISTRY
@@ -238,6 +239,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="ignore the configuration each log carries (its log.toml; a bag's mapping's [config] and /tf_static)",
     )
     _imu_flag(ca)
+    tn = _tune_parser(sub)
     mc = sub.add_parser(
         "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
     )
@@ -319,6 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
         (r, cmd_run),
         (rl, cmd_replay),
         (ca, cmd_calibrate),
+        (tn, cmd_tune),
         (mc, cmd_mc),
         (rp, cmd_reproduce),
         (sv, cmd_serve),
@@ -328,6 +331,74 @@ def build_parser() -> argparse.ArgumentParser:
     ):
         subparser.set_defaults(func=command)
     return parser
+
+
+def _tune_parser(sub: Any) -> argparse.ArgumentParser:
+    """``tauv tune``: the filter's noise parameters from recorded logs (app.commands.tune)."""
+    from tauvcore.eval.tuning import DEFAULT_PARAMETERS, MAX_EVALUATIONS, OPTIMIZERS, PARAMETERS
+
+    tn = sub.add_parser(
+        "tune",
+        help="find the filter's noise parameters from recorded logs (maximum likelihood of the innovations)",
+    )
+    tn.add_argument(
+        "logs", nargs="+", type=_path, metavar="LOG", help="log directories (as tauv replay reads them)"
+    )
+    tn.add_argument(
+        "--method",
+        help="the one method to tune, a 20-state filter's (e.g. lc, tc, iekf); not ins (no innovations) "
+        "nor Yoo 2014's ins-dvl and vkf",
+    )
+    tn.add_argument(
+        "--params",
+        help=f"comma-separated parameters to identify, from {', '.join(PARAMETERS)} "
+        f"(default {','.join(DEFAULT_PARAMETERS)})",
+    )
+    tn.add_argument(
+        "--out",
+        type=_path,
+        metavar="FILE",
+        help="write the tuned values (and what --config and the flags set) as TOML, atomically, for "
+        "tauv replay --config; an existing file only with --replace",
+    )
+    tn.add_argument("--replace", action="store_true", help="replace an existing --out file")
+    tn.add_argument(
+        "--config",
+        type=_path,
+        help="TOML file laid over each log's own log.toml (see 'tauv config'): the starting tuning",
+    )
+    tn.add_argument("--no-log-config", action="store_true", help="ignore each log's own log.toml")
+    _imu_flag(tn)
+    tn.add_argument("--aiding", help=f"comma-separated from {', '.join(AIDING_SOURCES)} (default: dvl)")
+    tn.add_argument(
+        "--seed", help="seed of the replays' random draws (the initial errors, DVL dropout; default 0)"
+    )
+    tn.add_argument(
+        "--initial-errors",
+        action="store_true",
+        help="start the filters off each log's reference by the initial errors (as tauv replay "
+        "--initial-errors)",
+    )
+    tn.add_argument(
+        "--optimizer",
+        default=OPTIMIZERS[0],
+        help=f"scipy's search: {', '.join(OPTIMIZERS)} (default {OPTIMIZERS[0]})",
+    )
+    tn.add_argument(
+        "--max-evaluations",
+        metavar="N",
+        help="most evaluations of the likelihood the search makes, each a replay of every log "
+        f"(default {MAX_EVALUATIONS})",
+    )
+    tn.add_argument(
+        "--dask",
+        nargs="?",
+        const=LOCAL_DASK,
+        metavar="ADDRESS",
+        help="evaluate the logs (and the points of a gradient) in parallel on Dask: local processes, "
+        "one per core, or the scheduler at ADDRESS (its workers need tauv installed)",
+    )
+    return tn
 
 
 def _mission_flags(p: argparse.ArgumentParser) -> None:

@@ -441,7 +441,7 @@ class FilterBank(ChunkDriver):
         The records keep the test ratio against the configured gate, so the ping shows as beyond it."""
         gated = self._fuse(H, Rm, nu, active & ~reacquire[..., None], self.dvl_gate_rows)
         opened = self._fuse(H, Rm, nu, active & reacquire[..., None], self.dvl_gate_rows, gate=np.inf)
-        s_diag, keep, nis, _, unusable = opened
+        s_diag, keep, nis, _, unusable, log_det_s = opened
         gate = self.gate
         with np.errstate(invalid="ignore", divide="ignore"):
             each = np.where(active & reacquire[..., None], nu**2 / (gate**2 * s_diag), -np.inf)
@@ -453,6 +453,7 @@ class FilterBank(ChunkDriver):
             np.where(reacquire, nis, gated[2]),
             ratio,
             np.where(reacquire, unusable, gated[4]),
+            np.where(reacquire, log_det_s, gated[5]),
         )
 
     def _lockout_reset(

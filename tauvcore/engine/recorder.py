@@ -80,6 +80,7 @@ class Recorder:
                 "nis": outcome.nis,
                 "nis_dof": outcome.nis_dof,
                 "unusable": outcome.unusable,
+                **({} if outcome.log_det_s is None else {"log_det_s": outcome.log_det_s}),
                 **extra,
                 **{f"shared:{k}": v for k, v in (shared or {}).items()},
             }

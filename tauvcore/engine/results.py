@@ -132,6 +132,10 @@ class UpdateRecord:
     elc_choice: np.ndarray | None = None  # (U, R, 3) ELC only: index into elc_select.CANDIDATES
     reset: np.ndarray | None = None  # (U, R) bool DVL only: the velocity reset to this ping after a
     #                                  lock-out (tauvcore.engine.lockout)
+    log_det_s: np.ndarray | None = None  # (U, R) log det S over the active rows, before the gate (NaN
+    #                                  where nis is NaN): the innovations' log-likelihood is
+    #                                  -(nis + log_det_s + nis_dof log 2 pi) / 2 (tauvcore.eval.tuning);
+    #                                  None: not recorded (Yoo 2014's bank)
 
 
 @dataclass(frozen=True)

@@ -244,6 +244,10 @@ class UpdateOutcome:
     nis_dof: np.ndarray  # (B,) int: number of active rows (the NIS's chi-square degrees of freedom;
     #                                rows of an unusable update count too: the source did measure)
     unusable: np.ndarray  # (B,) bool: S not finite or not positive definite: nothing fused
+    log_det_s: np.ndarray | None = None  # (B,) log det S over the active rows, before the gate (NaN
+    #                                where ``nis`` is NaN): with the NIS, the innovations' Gaussian
+    #                                log-likelihood, -2 log p(nu) = nis + log_det_s + nis_dof log 2 pi
+    #                                (tauvcore.eval.tuning); None: not computed (Yoo 2014's bank)
 
 
 def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
@@ -424,12 +428,15 @@ def fuse_in_place(
         Shape (n,): max over the active rows of ``nu_i^2 / (gate^2 S_ii)`` [-]; > 1: rejected.
     unusable : numpy.ndarray
         Shape (n,) bool: ``S`` not finite or not positive definite, nothing fused.
+    log_det_s : numpy.ndarray
+        Shape (n,): ``log det S`` over the active rows, before the gate [log of the measurement's SI
+        unit squared to the power of the rows] (NaN where ``nis`` is NaN).
     """
     from tauvcore.filter.kernels.correction import correct_batch, inject_batch
     from tauvcore.filter.kernels.invariant import retract_batch
 
     n, m = P.shape[0], nu.shape[-1]
-    dx, s_diag, keep, nis, ratio, unusable = correct_batch(
+    dx, s_diag, keep, nis, ratio, unusable, log_det_s = correct_batch(
         P,
         np.ascontiguousarray(H, dtype=float).reshape(n, m, P.shape[-1]),
         np.ascontiguousarray(R, dtype=float).reshape(n, m, m),
@@ -443,7 +450,7 @@ def fuse_in_place(
     else:
         inject_batch(*state, np.where(invariant[:, None], 0.0, dx), geodetic)
         retract_batch(*state, P, dx, np.ascontiguousarray(invariant, dtype=bool), geodetic)
-    return s_diag, keep, nis, ratio, unusable
+    return s_diag, keep, nis, ratio, unusable, log_det_s
 
 
 def widen(H: np.ndarray, d: int) -> np.ndarray:
@@ -480,6 +487,7 @@ def make_outcome(
     nis: np.ndarray,
     test_ratio: np.ndarray,
     unusable: np.ndarray,
+    log_det_s: np.ndarray | None = None,
 ) -> UpdateOutcome:
     """The record of one correction from the kernel's outcome.
 
@@ -503,6 +511,9 @@ def make_outcome(
         Shape (B,): max over the active rows of ``nu_i^2 / (gate^2 S_ii)`` [-]; > 1: rejected.
     unusable : numpy.ndarray
         Shape (B,) bool: ``S`` not finite or not positive definite, nothing fused.
+    log_det_s : numpy.ndarray or None
+        Shape (B,): ``log det S`` over the active rows, before the gate (NaN where ``nis`` is NaN);
+        None: not computed (a correction that does not factorise S: Yoo 2014's).
 
     Returns
     -------
@@ -523,6 +534,7 @@ def make_outcome(
         nis=nis,
         nis_dof=active.sum(axis=-1),
         unusable=unusable,
+        log_det_s=log_det_s,
     )
 
 
@@ -595,9 +607,9 @@ def correct(
         np.full(flat.shape[0], meas.gate_rows),
         gate_sigma,
     )
-    s_diag, keep, nis, ratio, unusable = (a.reshape(batch + a.shape[1:]) for a in fused)
+    s_diag, keep, nis, ratio, unusable, log_det_s = (a.reshape(batch + a.shape[1:]) for a in fused)
     return (
         P_new,
         _nominal_of(state, batch),
-        make_outcome(meas.z, meas.innovation, active, s_diag, keep, nis, ratio, unusable),
+        make_outcome(meas.z, meas.innovation, active, s_diag, keep, nis, ratio, unusable, log_det_s),
     )

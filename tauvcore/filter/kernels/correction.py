@@ -41,13 +41,16 @@ def correct_into(
     dx: np.ndarray,
     s_diag: np.ndarray,
     keep: np.ndarray,
-) -> tuple[float, float, bool]:
+) -> tuple[float, float, bool, float]:
     """Gated Joseph-form correction of one filter (tauvcore.filter.eskf.correct), P in place.
 
     Rows with ``active`` False are dropped exactly. ``S`` over the active rows must factorise
     (else: unusable, nothing fused). The paper's gate keeps a row if ``nu_i^2 <= gate^2 S_ii``
     (all rows or none unless ``gate_rows``). Fills ``dx`` (n,) for P (n, n), ``s_diag`` (m,; NaN where not
-    used), ``keep`` (m,); returns ``(nis, test_ratio, unusable)`` (NaN when no row was used).
+    used), ``keep`` (m,); returns ``(nis, test_ratio, unusable, log_det_s)`` (NaN when no row was used;
+    ``log_det_s`` NaN also when S is unusable): ``log det S = 2 sum_a log L_aa`` of the factor
+    ``S = L L^T`` over the active rows, before the gate, the term the innovations' likelihood needs
+    beside the NIS (``-2 log p(nu) = NIS + log det S + dof log 2 pi``).
     """
     m = nu.shape[0]
     N = P.shape[0]  # the error states: the 20 of the layout and a source's own after them
@@ -61,7 +64,7 @@ def correct_into(
             n_a += 1
     dx[:] = 0.0
     if n_a == 0:
-        return np.nan, np.nan, False
+        return np.nan, np.nan, False, np.nan
     U = np.empty((m, N))  # H P over the rows in use
     S = np.empty((m, m))
     L = np.empty((m, m))
@@ -79,7 +82,10 @@ def correct_into(
             S[a, b] = s
     ident = np.arange(m)
     if not cholesky_into(S, ident, n_a, L):
-        return np.nan, np.nan, True
+        return np.nan, np.nan, True, np.nan
+    log_det = 0.0
+    for a in range(n_a):
+        log_det += 2.0 * math.log(L[a, a])
     nu_a = np.empty(m)
     sol = np.empty(m)
     for a in range(n_a):
@@ -108,7 +114,7 @@ def correct_into(
                 nu_a[n_k] = nu_a[a]
             n_k += 1
     if n_k == 0:
-        return nis, ratio_max, False
+        return nis, ratio_max, False, log_det
     if n_k != n_a:  # S over the kept rows
         for a in range(n_k):
             for b in range(n_k):
@@ -117,7 +123,7 @@ def correct_into(
                     s += U[a, k] * H[rows[b], k]
                 S[a, b] = s
         if not cholesky_into(S, ident, n_k, L):
-            return nis, ratio_max, True
+            return nis, ratio_max, True, log_det
     # K = P H^T S^-1 = (S^-1 U)^T: column j of U through the factor
     K = np.empty((N, m))
     col = np.empty(m)
@@ -167,7 +173,7 @@ def correct_into(
         for a in range(n_k):
             s += K[i, a] * nu_a[a]
         dx[i] = s
-    return nis, ratio_max, False
+    return nis, ratio_max, False, log_det
 
 
 @jit
@@ -182,7 +188,7 @@ def correct_batch(
 ) -> tuple:
     """:func:`correct_into` for n filters: P (n, d, d) in place, H (n, m, d), Rm (n, m, m), nu,
     active (n, m), gate_rows (n,). -> dx (n, d), s_diag (n, m), keep (n, m), nis, test_ratio,
-    unusable (n,)."""
+    unusable, log_det_s (n,)."""
     n, m = nu.shape
     dx = np.empty((n, P.shape[-1]))
     s_diag = np.empty((n, m))
@@ -190,11 +196,12 @@ def correct_batch(
     nis = np.empty(n)
     ratio = np.empty(n)
     unusable = np.empty(n, dtype=np.bool_)
+    log_det = np.empty(n)
     for i in range(n):
-        nis[i], ratio[i], unusable[i] = correct_into(
+        nis[i], ratio[i], unusable[i], log_det[i] = correct_into(
             P[i], H[i], Rm[i], nu[i], active[i], gate_rows[i], gate_sigma, dx[i], s_diag[i], keep[i]
         )
-    return dx, s_diag, keep, nis, ratio, unusable
+    return dx, s_diag, keep, nis, ratio, unusable, log_det
 
 
 @jit

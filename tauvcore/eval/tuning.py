@@ -1,0 +1,919 @@
+"""The filters' noise from the data: the parameters that maximise the likelihood of the innovations
+(the prediction-error method).
+
+A Kalman filter whose model is right produces innovations ``nu_k`` that are independent, Gaussian,
+zero mean, with the covariance the filter predicts, ``S_k = H_k P_k^- H_k^T + R_k``. The negative
+log-likelihood of a set of noise parameters ``theta`` given a log is then that of the innovations of
+the filter run with ``theta`` (Schweppe 1965; Mehra 1970; Ljung's prediction-error method)::
+
+    L(theta) = 1/2 sum_k ( nu_k^T S_k^-1 nu_k + log det S_k + m_k log 2 pi )
+
+summed over every update of every aiding source (``m_k`` rows), each log's sum added for several
+logs. The NIS term alone would reward a large ``S`` and ``log det S`` alone a small one; their sum is
+smallest where ``S`` matches the innovations' spread. The update records carry both
+(tauvcore.engine.results.UpdateRecord ``nis`` and ``log_det_s``, over the active rows, before the
+gate).
+
+Each evaluation is a replay of the log (tauvcore.eval.replay, the compiled filter bank) with
+``theta`` laid over the configuration, with two changes: the innovation gate is opened
+(``filter.gate_sigma`` at its largest, :data:`TUNING_GATE_SIGMA`) and the lock-out reset is off
+(``filter.lockout_reset_updates`` 0). With a gate, the set of updates fused would change with
+``theta`` (the objective would jump where an update crosses the gate) and a small ``S`` would
+reject the updates that contradict it and be judged on the others. With the gate open every
+valid update is fused and counts, and the likelihood is a smooth function of ``theta``. The
+tuned values are then replayed with the gate as configured (the "after" of the CLI's table).
+
+What is minimised is ``L`` plus a Gaussian term in ``ln theta`` per parameter (a maximum a
+posteriori estimate): where a log holds a still stretch, the IMU's white noises its Allan
+deviation measures, with that measurement's 1-sigma (:func:`start_values`); every other parameter
+a weak prior at its configured value, a factor of ten at 1 sigma (:data:`CONFIG_PRIOR_SIGMA_LN`).
+Where the innovations determine a parameter, their curvature is hundreds to thousands of times the
+weak prior's and it moves the estimate by well under a percent; where they do not (the
+accelerometer's white noise beside a DVL's ping noise, a gyro's bias walk over 400 s: their
+likelihood is flat over decades), the prior keeps the configured value instead of a bound the
+search would drift to.
+
+The parameters (:data:`PARAMETERS`) are searched in log space within bounds (from six decades
+below the largest value the configuration accepts, or the floor the filter puts under it, up to
+that largest) by scipy's L-BFGS-B with a
+forward-difference gradient, or Nelder-Mead. The uncertainty of each is the curvature of the
+objective at the optimum: it is a negative log-posterior, so the inverse of its Hessian in
+``ln theta`` is the covariance of the estimate (Laplace's approximation); a parameter whose 1-sigma
+factor is large (near the weak prior's ten) is not observable in these logs.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from tauvcore import units
+from tauvcore.config import YOO_METHODS, Config
+from tauvcore.engine.results import MethodResult
+from tauvcore.eval.allan import StillStretch, still_noise
+from tauvcore.logs import Log
+from tauvcore.sensors.dvl import DvlConfig
+from tauvcore.sensors.imu import ERROR_LIMITS
+from tauvcore.validation import settings
+
+TUNING_GATE_SIGMA = 1000.0
+"""``filter.gate_sigma`` during the search: its largest value, no gate (module docstring)."""
+
+BOUND_DECADES = 6.0
+"""How far below the largest value the configuration accepts a parameter's lower bound lies
+[decades]: below any real sensor's figure (a gyro's white noise 3e-5 deg/sqrt(h), a navigation-grade
+fibre-optic gyro's is 1e-3 to 3e-3)."""
+
+SIGNIFICANT_DIGITS = 4
+"""Digits a tuned value keeps (the uncertainty is rarely better than a percent); the "after" replay
+uses the rounded values, so ``tauv replay --config`` of the written file gives its numbers."""
+
+CONFIG_PRIOR_SIGMA_LN = math.log(10.0)
+"""1-sigma of ``ln theta`` of the weak prior each parameter without a still stretch's measurement
+gets at its configured value: a factor of ten (module docstring)."""
+
+CURVATURE_STEP_LN = 0.1
+"""Step of the central differences of the Hessian in ``ln theta`` (10 %)."""
+
+GRADIENT_STEP_LN = 1e-3
+"""Step of L-BFGS-B's forward-difference gradient in ``ln theta`` (0.1 %): the objective is
+deterministic and smooth (gate open) to about 1e-9 of its value, so the difference's error is
+the step times the curvature, not round-off."""
+
+MAX_EVALUATIONS = 300
+"""Most evaluations of the likelihood a search makes unless told (each a replay of every log);
+the curvature's come on top."""
+
+STOP_GAIN = 0.01
+"""The search stops when a step gains less than this [units of the negative log-likelihood] (a
+parameter moved by its 1-sigma changes it by 0.5), or its gradient is this flat per unit of
+``ln theta``; Nelder-Mead's simplex when it is this narrow in ``ln theta`` too."""
+
+OPTIMIZERS = ("l-bfgs-b", "nelder-mead")
+"""The searches :func:`tune` offers (scipy.optimize.minimize's methods of those names)."""
+
+UNDETERMINED_FACTOR = 2.0
+"""A tuned parameter whose 1-sigma factor ``exp(sigma_ln)`` exceeds this is reported as not
+determined by the logs (:attr:`TuningResult.determined`)."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A noise parameter the tuning may identify: one key of the configuration."""
+
+    name: str  # its name on the command line (--params)
+    section: str  # the configuration's section ("imu", "dvl")
+    key: str  # the key in that section, in its unit
+    unit: str  # the key's unit, as printed
+    label: str  # what it is, for a table
+    prior: bool  # a turn-on sigma: one draw per log, so one log says little about it
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """Lowest and highest value searched, in the key's unit: :data:`BOUND_DECADES` below the
+        configuration's largest or the floor the filter puts under the value (below it the filter
+        and the likelihood do not change), whichever is higher; and that largest."""
+        high = _largest(self.section, self.key)
+        return max(high * 10.0**-BOUND_DECADES, _floor(self.key)), high
+
+
+def _largest(section: str, key: str) -> float:
+    """The largest value the configuration accepts for ``section.key`` (its own check's bound)."""
+    if section == "imu":
+        return float(ERROR_LIMITS[key])
+    bounds = {name: s.high for name, _, s in settings(DvlConfig)}
+    high = bounds[key]
+    assert high is not None  # every DVL noise key declares its range (tauvcore.sensors.dvl)
+    return float(high)
+
+
+def _floor(key: str) -> float:
+    """The smallest value the filter uses for ``key`` [the key's unit]: its process noise's density
+    floor (tauvcore.ins.error_model.PROCESS_NOISE_PSD_FLOOR) or the DVL beam noise's
+    (tauvcore.aiding.noise_floors); 0 for a key without one (a turn-on sigma)."""
+    from tauvcore.aiding.noise_floors import DVL_BEAM_NOISE_FLOOR_MPS
+    from tauvcore.filter.layout import NOISE
+    from tauvcore.ins.error_model import PROCESS_NOISE_PSD_FLOOR
+
+    def density(block: slice) -> float:
+        return float(np.sqrt(PROCESS_NOISE_PSD_FLOOR[block][0]))
+
+    floors = {
+        "gyro_noise_deg_per_sqrt_h": density(NOISE.gyro) / units.DEG_PER_SQRT_HOUR,
+        "accel_noise_mps_per_sqrt_h": density(NOISE.accel) / units.MPS_PER_SQRT_HOUR,
+        "gyro_bias_rw_deg_per_s_per_sqrt_s": density(NOISE.bg) / units.DEG,
+        "accel_bias_rw_mps2_per_sqrt_s": density(NOISE.ba),
+        "noise_mps": DVL_BEAM_NOISE_FLOOR_MPS,
+        "bias_rw_mps_per_sqrt_s": density(NOISE.b_dvl),
+        "scale_factor_rw_pct_per_sqrt_s": density(NOISE.sf_dvl) * 100.0,
+    }
+    return floors.get(key, 0.0)
+
+
+PARAMETERS: dict[str, Parameter] = {
+    p.name: p
+    for p in (
+        Parameter(
+            "gyro_noise", "imu", "gyro_noise_deg_per_sqrt_h", "deg/sqrt(h)", "gyro white noise (ARW)", False
+        ),
+        Parameter(
+            "accel_noise",
+            "imu",
+            "accel_noise_mps_per_sqrt_h",
+            "m/s/sqrt(h)",
+            "accel white noise (VRW)",
+            False,
+        ),
+        Parameter(
+            "gyro_bias_walk",
+            "imu",
+            "gyro_bias_rw_deg_per_s_per_sqrt_s",
+            "deg/s/sqrt(s)",
+            "gyro bias random walk",
+            False,
+        ),
+        Parameter(
+            "accel_bias_walk",
+            "imu",
+            "accel_bias_rw_mps2_per_sqrt_s",
+            "m/s^2/sqrt(s)",
+            "accel bias random walk",
+            False,
+        ),
+        Parameter("gyro_bias", "imu", "gyro_bias_deg_per_h", "deg/h", "gyro turn-on bias sigma", True),
+        Parameter("accel_bias", "imu", "accel_bias_mg", "mg", "accel turn-on bias sigma", True),
+        Parameter("dvl_noise", "dvl", "noise_mps", "m/s", "DVL beam white noise", False),
+        Parameter("dvl_bias", "dvl", "bias_mps", "m/s", "DVL beam turn-on bias sigma", True),
+        Parameter(
+            "dvl_bias_walk",
+            "dvl",
+            "bias_rw_mps_per_sqrt_s",
+            "m/s/sqrt(s)",
+            "DVL beam bias random walk",
+            False,
+        ),
+        Parameter("dvl_scale_factor", "dvl", "scale_factor_pct", "%", "DVL scale factor turn-on sigma", True),
+        Parameter(
+            "dvl_scale_factor_walk",
+            "dvl",
+            "scale_factor_rw_pct_per_sqrt_s",
+            "%/sqrt(s)",
+            "DVL scale factor random walk",
+            False,
+        ),
+    )
+}
+"""The parameters :func:`tune` may identify, by name."""
+
+DEFAULT_PARAMETERS = ("gyro_noise", "accel_noise", "dvl_noise")
+"""What :func:`tune` identifies unless told: the white noises, which every update sees. The bias
+walks act over minutes to hours, and each turn-on sigma is the spread of one draw per log, so a
+400 s log says little about them (docs/tuning.md)."""
+
+
+def parameter_values(config: Config, names: Sequence[str]) -> dict[str, float]:
+    """The values the configuration gives the parameters ``names``.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration.
+    names : Sequence[str]
+        Keys of :data:`PARAMETERS`.
+
+    Returns
+    -------
+    dict[str, float]
+        Name -> value, in the unit of its configuration key (:attr:`Parameter.unit`).
+    """
+    return {n: float(getattr(config.section(PARAMETERS[n].section), PARAMETERS[n].key)) for n in names}
+
+
+def with_values(config: Config, values: Mapping[str, float]) -> Config:
+    """``config`` with the parameters' values set.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration.
+    values : Mapping[str, float]
+        Name (a key of :data:`PARAMETERS`) -> value in its configuration key's unit.
+
+    Returns
+    -------
+    Config
+        The configuration with each value in its section's key.
+
+    Raises
+    ------
+    ConfigError
+        A value outside what its key accepts.
+    """
+    by_section: dict[str, dict[str, float]] = {}
+    for name, value in values.items():
+        p = PARAMETERS[name]
+        by_section.setdefault(p.section, {})[p.key] = float(value)
+    for section, changes in by_section.items():
+        config = config.replace(section, **changes)
+    return config
+
+
+def tuning_config(config: Config) -> Config:
+    """The configuration an evaluation of the likelihood replays with: the gate open
+    (:data:`TUNING_GATE_SIGMA`) and no lock-out reset (module docstring).
+
+    Parameters
+    ----------
+    config : Config
+        The configuration.
+
+    Returns
+    -------
+    Config
+        ``config`` with ``filter.gate_sigma`` :data:`TUNING_GATE_SIGMA` and
+        ``filter.lockout_reset_updates`` 0.
+    """
+    return config.replace("filter", gate_sigma=TUNING_GATE_SIGMA, lockout_reset_updates=0)
+
+
+@dataclass(frozen=True)
+class SourceLikelihood:
+    """One aiding source's share of the negative log-likelihood."""
+
+    source: str
+    nll: float  # 1/2 sum (NIS + log det S + dof log 2 pi) over its updates [-]; inf: an update with
+    #             no finite NIS or log det S (S unusable)
+    updates: int  # the updates that measured (valid, at least one active row)
+    dof: int  # their rows
+
+
+def source_likelihoods(result: MethodResult) -> dict[str, SourceLikelihood]:
+    """Each aiding source's share of a method's negative log-likelihood (module docstring).
+
+    Parameters
+    ----------
+    result : MethodResult
+        One run (R = 1) of a 20-state method: its update records carry ``log_det_s``.
+
+    Returns
+    -------
+    dict[str, SourceLikelihood]
+        Source name -> its share, over the updates that measured (valid, at least one active row),
+        fused or rejected.
+
+    Raises
+    ------
+    ValueError
+        A record without ``log_det_s`` (Yoo 2014's bank does not keep it).
+    """
+    out = {}
+    for source, record in result.updates.items():
+        if record.log_det_s is None:
+            raise ValueError(f"the {source} updates of {result.method} carry no log det S")
+        used = record.valid & (record.nis_dof > 0)
+        nis, log_det, dof = record.nis[used], record.log_det_s[used], record.nis_dof[used]
+        finite = bool(np.all(np.isfinite(nis)) and np.all(np.isfinite(log_det)))
+        nll = 0.5 * float(np.sum(nis + log_det + dof * math.log(2.0 * math.pi))) if finite else math.inf
+        out[source] = SourceLikelihood(source, nll, int(used.sum()), int(dof.sum()))
+    return out
+
+
+def negative_log_likelihood(result: MethodResult) -> float:
+    """A method's negative log-likelihood of its innovations, every source's summed
+    (:func:`source_likelihoods`; inf where one is).
+
+    Parameters
+    ----------
+    result : MethodResult
+        One run (R = 1) of a 20-state method.
+
+    Returns
+    -------
+    float
+        ``1/2 sum (NIS + log det S + dof log 2 pi)`` over every update that measured [-].
+    """
+    return float(sum(s.nll for s in source_likelihoods(result).values()))
+
+
+@dataclass(frozen=True)
+class TuningLog:
+    """One log to tune on, with the configuration it is replayed with."""
+
+    name: str  # how it is named in messages and tables (its directory)
+    log: Log
+    config: Config  # as given (defaults, the log's own file, --config, the flags): one 20-state method
+    # in run.methods, the seed the replay draws from
+
+    def __post_init__(self) -> None:
+        methods = self.config.run.methods
+        if len(methods) != 1:
+            raise ValueError(f"tuning takes one method, got {', '.join(methods) or 'none'}")
+        if methods[0] in YOO_METHODS:
+            raise ValueError(
+                f"tuning takes the 20-state filter's methods, not {methods[0]} (Yoo 2014's filter keeps "
+                "no log det S)"
+            )
+
+    @property
+    def method(self) -> str:
+        """The method tuned."""
+        return self.config.run.methods[0]
+
+
+class PreparedLog:
+    """A log made ready for many evaluations: read into a one-run simulation once
+    (tauvcore.eval.replay.prepare), each evaluation a replay of it with other noise values.
+
+    An evaluation is :func:`tauvcore.eval.replay.replay` of the configuration with the values laid
+    over it, to the last bit: the simulation does not depend on the noise values (the log's
+    sensors are what they are), and each run draws from a copy of the generator as
+    :func:`~tauvcore.eval.replay.prepare` left it.
+
+    Parameters
+    ----------
+    case : TuningLog
+        The log and its configuration.
+    """
+
+    def __init__(self, case: TuningLog) -> None:
+        from tauvcore.eval.replay import prepare
+
+        self.case = case
+        rng = np.random.default_rng(case.config.run.seed)
+        _, self.sim = prepare(case.config, case.log, rng)
+        self.rng = rng  # as prepare left it: every evaluation draws from a copy
+
+    def results(self, values: Mapping[str, float], tuning: bool = True) -> dict[str, MethodResult]:
+        """The replay of the log with ``values`` laid over its configuration.
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Parameter name -> value in its configuration key's unit.
+        tuning : bool
+            Replay as the search does (:func:`tuning_config`: gate open, no lock-out reset); False:
+            with the gate as configured (the before/after table).
+
+        Returns
+        -------
+        dict[str, MethodResult]
+            The method's results (one run, R = 1), judged as far as the log can judge them
+            (tauvcore.eval.replay.judged).
+        """
+        # the engine imported when a replay runs, not when the command line's parser is built
+        from tauvcore.engine.mission import run
+        from tauvcore.eval.replay import judged, replay_config
+
+        config = with_values(self.case.config, values)
+        if tuning:
+            config = tuning_config(config)
+        config = replay_config(config, self.case.log)
+        return judged(self.case.log, run(config, self.sim, copy.deepcopy(self.rng)))
+
+    def nll(self, values: Mapping[str, float]) -> float:
+        """The negative log-likelihood of the log's innovations under ``values`` (gate open).
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Parameter name -> value in its configuration key's unit.
+
+        Returns
+        -------
+        float
+            :func:`negative_log_likelihood` of the method's replay [-].
+        """
+        return negative_log_likelihood(self.results(values)[self.case.method])
+
+
+def _nll_of(prepared: PreparedLog, values: Mapping[str, float]) -> float:
+    """:meth:`PreparedLog.nll`, as a function a Dask worker runs."""
+    return prepared.nll(values)
+
+
+Evaluator = Callable[[Sequence[Mapping[str, float]]], list[float]]
+"""Sums the logs' negative log-likelihoods at each of a batch of points (parameter values)."""
+
+
+def serial_evaluator(prepared: Sequence[PreparedLog]) -> Evaluator:
+    """Each point's logs one after the other, in this process.
+
+    Parameters
+    ----------
+    prepared : Sequence[PreparedLog]
+        The logs.
+
+    Returns
+    -------
+    Evaluator
+        ``points -> [sum over the logs of the NLL at each point]``.
+    """
+
+    def evaluate(points: Sequence[Mapping[str, float]]) -> list[float]:
+        return [float(sum(p.nll(values) for p in prepared)) for values in points]
+
+    return evaluate
+
+
+def dask_evaluator(prepared: Sequence[PreparedLog], client: Any) -> Evaluator:
+    """Every (point, log) pair of a batch as its own task on a Dask cluster.
+
+    The prepared logs are scattered to the workers once; each batch sends only the points.
+
+    Parameters
+    ----------
+    prepared : Sequence[PreparedLog]
+        The logs.
+    client : distributed.Client
+        A client of the cluster (a local one: ``distributed.LocalCluster``).
+
+    Returns
+    -------
+    Evaluator
+        ``points -> [sum over the logs of the NLL at each point]``.
+    """
+    remote = client.scatter(list(prepared), broadcast=True)
+
+    def evaluate(points: Sequence[Mapping[str, float]]) -> list[float]:
+        futures = [[client.submit(_nll_of, r, dict(values), pure=False) for r in remote] for values in points]
+        return [float(sum(f.result() for f in row)) for row in futures]
+
+    return evaluate
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """One point the search evaluated, as handed to the progress callback."""
+
+    count: int  # evaluations so far, this one included
+    values: dict[str, float]  # parameter name -> value in its key's unit
+    nll: float  # the logs' summed negative log-likelihood there [-]
+    best_nll: float  # the smallest objective so far (the likelihood's and the still stretch's terms) [-]
+    phase: str  # "scan", "search" or "curvature"
+
+
+@dataclass(frozen=True)
+class TuningResult:
+    """What :func:`tune` found."""
+
+    parameters: tuple[str, ...]  # the names tuned, in order
+    start: dict[str, float]  # name -> where the search started, in its key's unit
+    start_from: dict[str, str]  # name -> where that start came from ("configuration", "Allan deviation ...")
+    priors: dict[str, tuple[float, float]]  # name -> (mean, 1-sigma) of the Gaussian prior term in ln(value):
+    #                                         a still stretch's measurement, or the configured value's
+    #                                         weak one (CONFIG_PRIOR_SIGMA_LN)
+    tuned: dict[str, float]  # name -> the value found (SIGNIFICANT_DIGITS digits), in its key's unit
+    sigma_ln: dict[str, float]  # name -> 1-sigma of ln(value) from the curvature (inf: the likelihood is flat
+    #                             along it; NaN: not computed, at a bound or stopped)
+    at_bound: dict[str, bool]  # name -> the value found lies on a bound (within 1 %)
+    nll_start: float  # the logs' negative log-likelihood at the start [-]
+    nll_tuned: float  # at the tuned values [-]
+    evaluations: int  # replays of the logs' batch the search and the curvature took
+    stopped: bool  # should_stop ended the search: ``tuned`` is the best point so far
+    converged: bool  # the optimiser says it converged
+    minimum: bool  # no direction of negative curvature at the values found (False: not a minimum, the
+    #               search stopped short; True also when the curvature was not computed)
+    message: str  # the optimiser's own word
+
+    def determined(self, name: str) -> bool:
+        """Whether the logs determine parameter ``name``: its 1-sigma factor is at most
+        :data:`UNDETERMINED_FACTOR` and it does not lie on a bound."""
+        s = self.sigma_ln[name]
+        return bool(np.isfinite(s) and math.exp(s) <= UNDETERMINED_FACTOR and not self.at_bound[name])
+
+
+class _Stopped(Exception):
+    """should_stop asked the search to end."""
+
+
+class _Exhausted(Exception):
+    """The search used its evaluations."""
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where the search starts, and what a still stretch measured."""
+
+    values: dict[str, float]  # name -> start value in its key's unit
+    source: dict[str, str]  # name -> where it came from ("configuration", "Allan deviation of ...")
+    priors: dict[str, tuple[float, float]]  # name -> (ln value, 1-sigma of ln) a still stretch measured
+    still: StillStretch | None  # the still stretch used, None: none
+
+
+def start_values(cases: Sequence[TuningLog], names: Sequence[str]) -> Start:
+    """Where the search starts: the first log's configuration, and the IMU's white noises from
+    the Allan deviation of the longest still stretch among the logs (one of at least
+    tauvcore.eval.allan.MIN_STILL_S), which :func:`tune` also takes as a measurement of them.
+
+    The still stretch measures the IMU's white noise directly, the innovations only through the
+    filter's prediction of the next aiding update (between two DVL pings the accelerometer's white
+    noise adds ``N^2 dt`` to a velocity whose ping noise is a thousand times that), so the
+    stretch's value, with its own 1-sigma (tauvcore.eval.allan.sigma_ln), joins the likelihood as
+    a Gaussian term in ``ln theta``: the search finds the values both data say.
+
+    Parameters
+    ----------
+    cases : Sequence[TuningLog]
+        The logs.
+    names : Sequence[str]
+        The parameters tuned.
+
+    Returns
+    -------
+    Start
+        The start values, where each came from, the still stretch's measurements (as priors) and
+        the stretch.
+    """
+    values = parameter_values(cases[0].config, names)
+    where = dict.fromkeys(names, "configuration")
+    if not {"gyro_noise", "accel_noise"} & set(names):
+        return Start(values, where, {}, None)
+    best: tuple[StillStretch, str] | None = None
+    for case in cases:
+        still = still_noise(case.log.dtheta_b, case.log.dv_b, case.log.dt_s)
+        if still is not None and (best is None or still.duration_s > best[0].duration_s):
+            best = (still, case.name)
+    if best is None:
+        return Start(values, where, {}, None)
+    still, name = best
+    measured = {
+        "gyro_noise": (still.gyro_noise_deg_per_sqrt_h, still.gyro_sigma_ln),
+        "accel_noise": (still.accel_noise_mps_per_sqrt_h, still.accel_sigma_ln),
+    }
+    priors = {}
+    for n, (value, sigma) in measured.items():
+        if n in values:
+            low, high = PARAMETERS[n].bounds
+            values[n] = float(np.clip(value, low, high))
+            priors[n] = (math.log(values[n]), sigma)
+            where[n] = f"Allan deviation of {name}'s still stretch {still.start_s:g}-{still.end_s:g} s"
+    return Start(values, where, priors, still)
+
+
+def _round(value: float) -> float:
+    return float(f"{value:.{SIGNIFICANT_DIGITS}g}")
+
+
+def tune(
+    prepared: Sequence[PreparedLog],
+    names: Sequence[str] = DEFAULT_PARAMETERS,
+    start: Start | None = None,
+    optimizer: str = "l-bfgs-b",
+    max_evaluations: int = MAX_EVALUATIONS,
+    evaluator: Evaluator | None = None,
+    progress: Callable[[Evaluation], None] | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    curvature: bool = True,
+    scan: bool = True,
+) -> TuningResult:
+    """The parameters ``names`` that minimise the logs' summed negative log-likelihood of the
+    innovations (module docstring), and their uncertainty.
+
+    Parameters
+    ----------
+    prepared : Sequence[PreparedLog]
+        The logs, each with its configuration (one 20-state method), made ready.
+    names : Sequence[str]
+        Keys of :data:`PARAMETERS`, each at most once.
+    start : Start or None
+        Where the search starts (values clipped into the bounds) and the still stretch's
+        measurements, each a Gaussian term ``((ln theta - mu) / sigma)^2 / 2`` added to the
+        objective; None: :func:`start_values`.
+    optimizer : str
+        One of :data:`OPTIMIZERS`: ``"l-bfgs-b"`` (a forward-difference gradient of
+        :data:`GRADIENT_STEP_LN`, its points one batch) or ``"nelder-mead"``.
+    max_evaluations : int
+        Most evaluations of the likelihood the scan and the search make (each a replay of every
+        log), at least 1; the curvature's come on top.
+    evaluator : Evaluator or None
+        How a batch of points is evaluated (:func:`dask_evaluator`); None: :func:`serial_evaluator`.
+    progress : Callable[[Evaluation], None] or None
+        Called after each evaluation.
+    should_stop : Callable[[], bool] or None
+        Polled before each batch of evaluations; True ends the search, the best point so far
+        returned (:attr:`TuningResult.stopped`, no curvature).
+    scan : bool
+        Before the search, scan each parameter in turn over its bounds a decade at a time
+        (:func:`_scan`), the search starting from the best point; False: from the start.
+    curvature : bool
+        Also the Hessian of the likelihood in ``ln theta`` at the optimum by central differences of
+        :data:`CURVATURE_STEP_LN` (``2 n^2 + 1`` evaluations less the shared ones), hence each
+        parameter's 1-sigma; False: ``sigma_ln`` NaN.
+
+    Returns
+    -------
+    TuningResult
+        The start, the values found (rounded to :data:`SIGNIFICANT_DIGITS` digits), their
+        uncertainty and the likelihood at both.
+
+    Raises
+    ------
+    ValueError
+        No log, an unknown or repeated parameter, an unknown optimiser, or ``max_evaluations``
+        below 1.
+    """
+    from scipy.optimize import minimize
+
+    if not prepared:
+        raise ValueError("tuning needs at least one log")
+    names = tuple(names)
+    unknown = [n for n in names if n not in PARAMETERS]
+    if unknown or len(set(names)) != len(names) or not names:
+        raise ValueError(
+            f"parameters must be distinct names from {', '.join(PARAMETERS)}, got {', '.join(names) or 'none'}"
+        )
+    if optimizer not in OPTIMIZERS:
+        raise ValueError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
+    if max_evaluations < 1:
+        raise ValueError(f"max_evaluations must be at least 1, got {max_evaluations}")
+    if start is None:
+        start = start_values([p.case for p in prepared], names)
+    evaluate = evaluator if evaluator is not None else serial_evaluator(prepared)
+    limits = np.array([PARAMETERS[n].bounds for n in names])
+    bounds = np.log(limits)
+    start_map = dict(
+        zip(names, np.clip([start.values[n] for n in names], limits[:, 0], limits[:, 1]).tolist())
+    )
+    x0 = np.log([start_map[n] for n in names])
+    priors = {n: start.priors.get(n, (float(x0[i]), CONFIG_PRIOR_SIGMA_LN)) for i, n in enumerate(names)}
+    prior_mu = np.array([priors[n][0] for n in names])
+    prior_sigma = np.array([priors[n][1] for n in names])
+
+    state = {"count": 0, "best": math.inf, "best_x": x0.copy(), "phase": "scan"}
+    cache: dict[bytes, float] = {}
+
+    def values_at(x: np.ndarray) -> dict[str, float]:
+        return dict(zip(names, np.clip(np.exp(x), limits[:, 0], limits[:, 1]).tolist()))
+
+    def prior(x: np.ndarray) -> float:
+        return float(0.5 * np.sum(((x - prior_mu) / prior_sigma) ** 2))
+
+    def batch(xs: list[np.ndarray]) -> list[float]:
+        """The logs' negative log-likelihood at each point (cached: a point the search revisits
+        costs nothing)."""
+        todo = [x for x in xs if x.tobytes() not in cache]
+        if todo:
+            if should_stop is not None and should_stop():
+                raise _Stopped
+            if state["phase"] != "curvature" and state["count"] + len(todo) > max_evaluations:
+                raise _Exhausted
+            for x, f in zip(todo, evaluate([values_at(x) for x in todo])):
+                f = f if np.isfinite(f) else math.inf
+                cache[x.tobytes()] = f
+                state["count"] += 1
+                if f + prior(x) < state["best"] and state["phase"] != "curvature":
+                    state["best"], state["best_x"] = f + prior(x), x.copy()
+                if progress is not None:
+                    progress(Evaluation(state["count"], values_at(x), f, state["best"], state["phase"]))
+        return [cache[x.tobytes()] for x in xs]
+
+    def objective(xs: list[np.ndarray]) -> list[float]:
+        """What the search minimises: the likelihood's and the still stretch's terms."""
+        return [f + prior(x) for f, x in zip(batch(xs), xs)]
+
+    stopped, converged, message = False, False, ""
+    nll_start = math.nan
+    try:
+        nll_start = batch([x0])[0]
+        if not np.isfinite(nll_start):
+            raise ValueError(
+                "the likelihood is not finite at the start (an update's innovation covariance is unusable): "
+                + ", ".join(f"{n} = {v:g}" for n, v in start_map.items())
+            )
+        if scan:  # not the values a still stretch measured: its term keeps them within percent
+            x0 = _scan(objective, x0, bounds, prior_sigma >= CONFIG_PRIOR_SIGMA_LN)
+        state["phase"] = "search"
+        if optimizer == "l-bfgs-b":
+
+            def fun_and_grad(x: np.ndarray) -> tuple[float, np.ndarray]:
+                x = np.asarray(x, dtype=float)
+                steps = [
+                    np.where(
+                        np.arange(x.size) == i,
+                        x + (GRADIENT_STEP_LN if x[i] < bounds[i, 1] - 1e-12 else -GRADIENT_STEP_LN),
+                        x,
+                    )
+                    for i in range(x.size)
+                ]
+                f, *fs = objective([x, *steps])
+                if not np.isfinite(f):
+                    return math.inf, np.zeros_like(x)
+                h = np.array([s[i] - x[i] for i, s in enumerate(steps)])
+                g = (np.array(fs) - f) / h
+                return f, np.where(np.isfinite(g), g, 0.0)
+
+            scale = max(abs(nll_start), 1.0)
+            res = minimize(
+                fun_and_grad,
+                x0,
+                jac=True,
+                method="L-BFGS-B",
+                bounds=bounds,
+                options={"ftol": STOP_GAIN / scale, "gtol": STOP_GAIN, "maxfun": max_evaluations},
+            )
+        else:
+            simplex = [x0]
+            for i in range(len(names)):
+                step = math.log(2.0) if x0[i] + math.log(2.0) <= bounds[i, 1] else -math.log(2.0)
+                simplex.append(x0 + step * (np.arange(len(names)) == i))
+
+            res = minimize(
+                lambda x: objective([np.asarray(x, dtype=float)])[0],
+                x0,
+                method="Nelder-Mead",
+                bounds=bounds,
+                options={
+                    "initial_simplex": np.array(simplex),
+                    "xatol": STOP_GAIN,  # a percent of each value
+                    "fatol": STOP_GAIN,
+                    "maxfev": max_evaluations,
+                },
+            )
+        converged, message = bool(res.success), str(res.message)
+    except _Stopped:
+        stopped = True
+        message = "stopped"
+    except _Exhausted:
+        message = f"used its {max_evaluations} evaluations"
+    best_x = state["best_x"]
+    tuned = {n: _round(v) for n, v in values_at(best_x).items()}
+    x_tuned = np.log(np.array([tuned[n] for n in names]))
+    at_bound = {
+        n: bool(x_tuned[i] <= bounds[i, 0] + 0.01 or x_tuned[i] >= bounds[i, 1] - 0.01)
+        for i, n in enumerate(names)
+    }
+    sigma = dict.fromkeys(names, math.nan)
+    state["phase"] = "curvature"
+    nll_tuned = math.nan
+    minimum = True
+    try:
+        nll_tuned = batch([x_tuned])[0]
+        if curvature and not stopped:
+            free = [i for i, n in enumerate(names) if not at_bound[n]]
+            if free:
+                variances, minimum = _curvature_variances(objective, x_tuned, free)
+                for j, var in zip(free, variances):
+                    sigma[names[j]] = float(math.sqrt(var))
+    except _Stopped:
+        stopped = True
+    return TuningResult(
+        parameters=names,
+        start=start_map,
+        start_from={n: start.source.get(n, "given") for n in names},
+        priors=priors,
+        tuned=tuned,
+        sigma_ln=sigma,
+        at_bound=at_bound,
+        nll_start=nll_start,
+        nll_tuned=nll_tuned,
+        evaluations=state["count"],
+        stopped=stopped,
+        converged=converged,
+        minimum=minimum,
+        message=message,
+    )
+
+
+def _scan(
+    objective: Callable[[list[np.ndarray]], list[float]],
+    x0: np.ndarray,
+    bounds: np.ndarray,
+    which: np.ndarray,
+) -> np.ndarray:
+    """The best point of a coarse scan from ``x0``: each parameter of ``which`` (bool per
+    parameter) in turn over the decades of its bounds (``x_i + k ln 10`` within them, the others
+    at the best so far), one batch each.
+
+    The likelihood of a filter far from its data can be flat over decades of a parameter (a
+    navigation-grade gyro's noise under unmodelled errors that want a tactical grade's: every
+    value below a point leaves the same over-confident filter), where a local search from the
+    configured value stops; a decade's step crosses such a plateau. ``1 + sum_i (decades_i)``
+    evaluations."""
+    best = x0.copy()
+    f_best = objective([best])[0]
+    for i in np.flatnonzero(which):
+        ks = np.arange(
+            -math.floor((best[i] - bounds[i, 0]) / LN10), math.floor((bounds[i, 1] - best[i]) / LN10) + 1
+        )
+        points = [np.where(np.arange(best.size) == i, best[i] + k * LN10, best) for k in ks if k != 0]
+        if not points:
+            continue
+        values = objective(points)
+        j = int(np.argmin(values))
+        if values[j] < f_best:
+            best, f_best = points[j], values[j]
+    return best
+
+
+LN10 = math.log(10.0)
+
+CURVATURE_FLOOR = 1e-6
+"""Smallest eigenvalue of the Hessian in ``ln theta`` taken as curvature: along a flatter direction
+the likelihood says nothing, and every parameter that direction moves is undetermined (inf)."""
+
+
+def _curvature_variances(
+    batch: Callable[[list[np.ndarray]], list[float]], x: np.ndarray, free: list[int]
+) -> tuple[np.ndarray, bool]:
+    """The variances of ``ln theta`` of the parameters ``free`` at ``x``: the diagonal of the inverse
+    of the objective's Hessian there, by central differences of :data:`CURVATURE_STEP_LN`; inf for a
+    parameter moved by a direction of curvature below :data:`CURVATURE_FLOOR`. And whether ``x``
+    is a minimum: no curvature below ``-CURVATURE_FLOOR``."""
+    n, h = len(free), CURVATURE_STEP_LN
+
+    def at(*moves: tuple[int, float]) -> np.ndarray:
+        y = x.copy()
+        for i, d in moves:
+            y[free[i]] += d
+        return y
+
+    points = [x]
+    for i in range(n):
+        points += [at((i, h)), at((i, -h))]
+    for i in range(n):
+        for j in range(i + 1, n):
+            points += [at((i, h), (j, h)), at((i, h), (j, -h)), at((i, -h), (j, h)), at((i, -h), (j, -h))]
+    f = batch(points)
+    H = np.zeros((n, n))
+    for i in range(n):
+        H[i, i] = (f[1 + 2 * i] + f[2 + 2 * i] - 2.0 * f[0]) / h**2
+    k = 1 + 2 * n
+    for i in range(n):
+        for j in range(i + 1, n):
+            pp, pm, mp, mm = f[k : k + 4]
+            H[i, j] = H[j, i] = (pp - pm - mp + mm) / (4.0 * h**2)
+            k += 4
+    if not np.all(np.isfinite(H)):
+        return np.full(n, math.inf), False
+    lam, V = np.linalg.eigh(H)
+    flat = lam <= CURVATURE_FLOOR
+    var = (V[:, ~flat] ** 2) @ (1.0 / lam[~flat])
+    return np.where(np.any(np.abs(V[:, flat]) > 1e-3, axis=1), math.inf, var), bool(
+        np.all(lam >= -CURVATURE_FLOOR)
+    )
+
+
+def tuned_sections(result: TuningResult) -> dict[str, dict[str, float]]:
+    """The tuned values as configuration sections (section -> key -> value, in the keys' units),
+    for a TOML file.
+
+    Parameters
+    ----------
+    result : TuningResult
+        What :func:`tune` found.
+
+    Returns
+    -------
+    dict[str, dict[str, float]]
+        Each tuned parameter's value under its section and key.
+    """
+    out: dict[str, dict[str, float]] = {}
+    for name, value in result.tuned.items():
+        p = PARAMETERS[name]
+        out.setdefault(p.section, {})[p.key] = value
+    return out
