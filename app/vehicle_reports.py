@@ -4,9 +4,14 @@ sections they found."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from app.tables import consistency_table
+from tauvcore.config import Config
 
 if TYPE_CHECKING:
     from tauvcore.eval.calibration import Calibration
@@ -118,3 +123,112 @@ def calibration_table(result: Calibration) -> str:
 
 def _short(name: str, width: int = 23) -> str:
     return name if len(name) <= width else "…" + name[-(width - 1) :]
+
+
+def report(
+    result: Any,
+    before: Mapping[str, float],
+    tables: Sequence[tuple[Any, Any, Any]],
+    still: bool,
+    elapsed_s: float,
+    dask: bool,
+) -> str:
+    """The printed report: the parameters before and after with their uncertainty, the
+    likelihood, then per log (and for all together) the consistency before and after
+    (app.tables.consistency_table: NEES/dim per block against the log's reference, NIS/dof per
+    source).
+
+    Parameters
+    ----------
+    result : tauvcore.eval.tuning.TuningResult
+        What the search found.
+    before : Mapping[str, float]
+        Each parameter's configured value (the first log's), in its key's unit.
+    tables : Sequence[tuple[TuningLog, MethodResult, MethodResult]]
+        Each log with the method's replay before (as configured) and after (tuned), the gate as
+        configured.
+    still : bool
+        Whether a still stretch gave the IMU's white noise.
+    elapsed_s : float
+        Wall time of the whole [s].
+    dask : bool
+        Whether the search ran on Dask.
+
+    Returns
+    -------
+    str
+        The text.
+    """
+    from tauvcore.eval.running import RunningSummary, summarise
+    from tauvcore.eval.tuning import PARAMETERS, UNDETERMINED_FACTOR
+
+    method = tables[0][0].method
+    state = "stopped" if result.stopped else ("converged" if result.converged else result.message)
+    lines = [
+        f"tuned {method.upper()} on {len(tables)} log{'s' if len(tables) > 1 else ''}: "
+        f"{result.evaluations} evaluations ({state}), {elapsed_s:.1f} s wall" + (", on Dask" if dask else ""),
+        (
+            f"negative log-likelihood of the innovations (gate open): {result.nll_start:.2f} at the start, "
+            f"{result.nll_tuned:.2f} tuned"
+        ),
+        "",
+        (
+            f"Parameters (1-sigma: the factor the likelihood's curvature allows; beyond x/ {UNDETERMINED_FACTOR:g} "
+            "the logs do not determine it and the configured value holds it, a factor of 10 at 1 sigma)"
+        ),
+    ]
+    rows = [("parameter", "unit", "before", "start", "after", "1-sigma", "")]
+    notes = []
+    for name in result.parameters:
+        p = PARAMETERS[name]
+        s = result.sigma_ln[name]
+        sigma = f"x/ {math.exp(s):.3g}" if np.isfinite(s) and s < 50 else ("-" if np.isnan(s) else "inf")
+        note = (
+            "at a bound" if result.at_bound[name] else ("" if result.determined(name) else "not determined")
+        )
+        start = f"{result.start[name]:.4g}"
+        if result.start_from[name] != "configuration":
+            start += "*"
+            notes.append(f"* {name}: {result.start_from[name]} (x/ {math.exp(result.priors[name][1]):.3g})")
+        rows.append((name, p.unit, f"{before[name]:.4g}", start, f"{result.tuned[name]:.4g}", sigma, note))
+    lines += _columns(rows) + notes
+    if not result.minimum:
+        lines.append(
+            "the likelihood curves down along some direction there: not a minimum, the search stopped short "
+            "(more --max-evaluations, or fewer --params)"
+        )
+    if not still and {"gyro_noise", "accel_noise"} & set(result.parameters):
+        lines.append(
+            "no still stretch (IMU constant for 60 s) in the logs: the IMU's white noise from the innovations alone"
+        )
+    sources = None
+    together_before, together_after = RunningSummary(), RunningSummary()
+    for case, before_result, after_result in tables:
+        sources = _sources(case.config, before_result, after_result)
+        summaries = summarise({"before": before_result, "after": after_result})
+        lines += ["", f"{case.name}, {case.log.duration_s:g} s:", consistency_table(summaries, sources)]
+        together_before.add({"before": before_result})
+        together_after.add({"after": after_result})
+    if len(tables) > 1 and sources is not None:
+        summaries = {**together_before.summaries(), **together_after.summaries()}
+        lines += ["", f"all {len(tables)} logs together:", consistency_table(summaries, sources)]
+    return "\n".join(lines)
+
+
+def _sources(config: Config, *results: Any) -> tuple[str, ...]:
+    """The aiding sources of the consistency table: those configured, and the DVL's water-track
+    when recorded."""
+    recorded = {s for r in results for s in r.updates}
+    return (*config.run.aiding, *(s for s in ("water",) if s in recorded))
+
+
+def _columns(rows: Sequence[Sequence[str]]) -> list[str]:
+    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
+    return [
+        " ".join(
+            [r[0].ljust(widths[0]), r[1].ljust(widths[1])]
+            + [c.rjust(w) for c, w in zip(r[2:-1], widths[2:-1])]
+            + [r[-1]]
+        ).rstrip()
+        for r in rows
+    ]

@@ -79,7 +79,7 @@ def _calibrate(name: str, log: Any, config: Any, queue: Any) -> tuple[str, dict[
 def _tune(
     name: str, log: Any, config: Any, queue: Any, stop_event: Any
 ) -> tuple[str, dict[str, dict[str, Any]], bool]:
-    from app.commands.tune import report
+    from app.vehicle_reports import report
     from tauvcore.eval import tuning
 
     method = tuned_method(config.run.methods)

@@ -147,6 +147,7 @@ def test_a_log_s_configuration_fills_in_the_two_choices() -> None:
         log_config=lambda source: {"dvl": {"water_track": "always", "current_states": "gauss-markov"}},
     )
     tab._text_fields = lambda: ControlPanel._text_fields(tab)
+    tab.fill_fields = lambda raw: ControlPanel.fill_fields(tab, raw)
     ControlPanel.apply_log_config(tab)
     assert (tab.water_track.value, tab.current_states.value) == ("always", "gauss-markov")
     assert notes and f"{DVL_WATER_TRACK}" in notes[-1][1] and f"{DVL_CURRENT_STATES}" in notes[-1][1]

@@ -1,0 +1,213 @@
+"""Calibrated and tuned on some real segments, judged on the others: the A-KIT table of docs/tuning.md.
+
+    python benchmarks/akit_tuning.py [--data ../shared/data/akit] [--train 1-6] [--method lc]
+
+Each segment of the A-KIT dataset (Snapir AUV; its NOTES.md) is converted to a log
+(scripts/akit_to_log.py: re-timed, Y axis flipped, clock offsets estimated, the DVL's lever arm
+and the reference's own 1-sigma in the log's log.toml). Then, as an engineer with these logs
+would:
+
+1. **before**: every segment replayed as ``tauv replay`` does by default (Table 2's tuning, the
+   log's own file), LC with four beams and TC;
+2. **calibrate** on the training segments only (``tauv calibrate``: the DVL's mounting and scale
+   factor, the IMU-to-reference boresight; tauvcore.eval.calibration);
+3. **tune** on the training segments only, calibrated (``tauv tune --method lc``: the IMU's white
+   noises and the DVL's noise by the likelihood of the innovations; tauvcore.eval.tuning);
+4. **after**: every segment replayed with the calibration and the tuning; the held-out segments
+   (the others) are the judgement.
+
+Columns per segment and method, before -> after: the DVL's NIS per degree of freedom, the
+velocity, tilt and heading NEES per dimension against the reference with its stated sigma, the
+position error at the end [m] and the divergence monitor's first flag. Then the held-out
+segments together against the bands the tuning must meet.
+
+Writes its tables to docs/results/akit_tuning.md (benchmarks/fragment.py); exits quietly when the
+data are absent.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tauvcore.config import Config, from_dict, merge
+from tauvcore.engine.results import MethodResult
+from tauvcore.eval.calibration import calibrate
+from tauvcore.eval.consistency import nees_series
+from tauvcore.eval.replay import log_config, replay
+from tauvcore.eval.tuning import (
+    DEFAULT_PARAMETERS,
+    PreparedLog,
+    TuningLog,
+    start_values,
+    tune,
+    tuned_sections,
+)
+from tauvcore.logs import Log, read_log
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/: fragment.py, when imported
+import fragment  # noqa: E402  (benchmarks/, this script's own directory)
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("akit_to_log", ROOT / "scripts" / "akit_to_log.py")
+akit = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(akit)
+
+METHODS = ("lc", "tc")
+"""The methods judged: loosely and tightly coupled DVL, four beams."""
+NIS_BAND_TOGETHER = (0.7, 1.4)
+NIS_BAND_EACH = (0.3, 3.0)
+NEES_BAND_TOGETHER = (0.3, 3.0)
+"""The bands the held-out segments must meet (DVL NIS/dof over them together and on each; velocity
+and tilt NEES/dim over them together)."""
+FLAG_WITHIN_M = 10.0
+"""A divergence flag is false where LC's position error stays within this [m]."""
+
+
+def _segments(spec: str, available: list[int]) -> list[int]:
+    lo, _, hi = spec.partition("-")
+    wanted = range(int(lo), int(hi or lo) + 1)
+    return [n for n in available if n in wanted]
+
+
+def judge(result: MethodResult) -> dict[str, float]:
+    """One method on one segment: the DVL's NIS and dof summed, the NEES/dim of the velocity,
+    tilt and heading (mean over the epochs), the position error at the end and over the segment,
+    and the monitor's first flag [s] (NaN: none)."""
+    dvl = result.updates["dvl"]
+    dof = dvl.nis_dof[:, 0]
+    used = (dof > 0) & np.isfinite(dvl.nis[:, 0])
+    out = {
+        "nis_sum": float(np.sum(dvl.nis[used, 0])),
+        "dof_sum": float(np.sum(dof[used])),
+        "pos_end_m": float(result.pos_err_m[-1, 0]),
+        "pos_max_m": float(np.nanmax(result.pos_err_m[:, 0])),
+        "flag_s": float(result.diverged_at_s[0]),
+    }
+    for block, dim in (("vel", 3), ("tilt", 2), ("heading", 1)):
+        out[f"nees_{block}"] = float(np.nanmean(nees_series(result, block)[:, 0]) / dim)
+    return out
+
+
+def replayed(log: Log, config: Config, seed: int = 0) -> dict[str, dict[str, float]]:
+    """Every method of :data:`METHODS` on the log under ``config``, judged."""
+    _, results = replay(config.replace("run", methods=METHODS, seed=seed), log, np.random.default_rng(seed))
+    return {m: judge(results[m]) for m in METHODS}
+
+
+def _band(value: float, band: tuple[float, float]) -> str:
+    return "in" if band[0] <= value <= band[1] else "**out**"
+
+
+def _flag(row: dict[str, float]) -> str:
+    return "-" if np.isnan(row["flag_s"]) else f"{row['flag_s']:.0f} s"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--data", default=str(ROOT.parent / "shared" / "data" / "akit"))
+    parser.add_argument("--train", default="1-6", help="segments calibrated and tuned on (default 1-6)")
+    parser.add_argument("--max-evaluations", type=int, default=200)
+    args = parser.parse_args()
+    data = Path(args.data)
+    found = sorted(int(p.name[10:]) for p in data.glob("Trajectory*") if p.is_dir() and p.name[10:].isdigit())
+    if not found:
+        print(f"no A-KIT segments under {data}: nothing measured")
+        return
+    train = _segments(args.train, found)
+    held_out = [n for n in found if n not in train]
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        logs: dict[int, Log] = {}
+        own: dict[int, dict] = {}
+        for n in found:
+            out = Path(tmp) / str(n)
+            akit.convert(data / f"Trajectory{n}", out)
+            logs[n], own[n] = read_log(out), log_config(out)[0]
+        before = {n: replayed(logs[n], from_dict(own[n])) for n in found}
+        calibration = calibrate([(f"Trajectory{n}", logs[n], from_dict(own[n])) for n in train])
+        c = calibration.config
+        cal_sections = {
+            "calibration": {
+                "dvl_misalignment_deg": list(c.dvl_misalignment_deg),
+                "dvl_scale_factor_pct": c.dvl_scale_factor_pct,
+                "imu_boresight_deg": list(c.imu_boresight_deg),
+            }
+        }
+        cases = [
+            TuningLog(
+                f"Trajectory{n}", logs[n], from_dict(merge(own[n], cal_sections)).replace("run", methods=("lc",))
+            )
+            for n in train
+        ]
+        prepared = [PreparedLog(c) for c in cases]
+        start = start_values(cases, DEFAULT_PARAMETERS)
+        result = tune(prepared, DEFAULT_PARAMETERS, start=start, max_evaluations=args.max_evaluations)
+        found_sections = merge(cal_sections, tuned_sections(result))
+        after = {n: replayed(logs[n], from_dict(merge(own[n], found_sections))) for n in found}
+    elapsed_s = time.perf_counter() - started
+
+    with fragment.capture() as shown:
+        segs = ", ".join(str(n) for n in train)
+        print(f"Calibrated and tuned (LC) on segments {segs}; every segment replayed before (Table 2's tuning) and "
+              f"after; the held-out segments are the judgement. {elapsed_s:.0f} s for the whole benchmark.\n")
+        print("What was found:\n")
+        print("| quantity | value | 1-sigma |")
+        print("|---|---|---|")
+        for est in (calibration.dvl, calibration.boresight):
+            for name, unit, value, sigma in zip(est.names, est.units, est.value, est.sigma, strict=True):
+                print(f"| {name} | {value:+.3f} {unit} | {sigma:.3f} {unit} |")
+        for name in result.parameters:
+            s = result.sigma_ln[name]
+            factor = f"x{np.exp(s):.2f}" if np.isfinite(s) else "not determined"
+            print(f"| {name} | {result.start[name]:.4g} -> {result.tuned[name]:.4g} | {factor} |")
+        print("\nPer segment, before -> after (NIS/dof: the DVL's; NEES/dim against the reference with its stated "
+              "1-sigma; position: error at the end; flag: the divergence monitor's first):\n")
+        print("| segment | method | DVL NIS/dof | vel NEES/dim | tilt NEES/dim | heading NEES/dim | position [m] "
+              "| flag |")
+        print("|---|---|---|---|---|---|---|---|")
+        for n in found:
+            role = "train" if n in train else "held out"
+            for m in METHODS:
+                b, a = before[n][m], after[n][m]
+                nis_b, nis_a = b["nis_sum"] / b["dof_sum"], a["nis_sum"] / a["dof_sum"]
+                print(f"| {n} ({role}) | {m.upper()} | {nis_b:.2f} -> {nis_a:.2f} | {b['nees_vel']:.2f} -> "
+                      f"{a['nees_vel']:.2f} | {b['nees_tilt']:.2f} -> {a['nees_tilt']:.2f} | {b['nees_heading']:.2f} "
+                      f"-> {a['nees_heading']:.2f} | {b['pos_end_m']:.1f} -> {a['pos_end_m']:.1f} | {_flag(b)} -> "
+                      f"{_flag(a)} |")
+        if held_out:
+            print(f"\nThe held-out segments ({', '.join(str(n) for n in held_out)}) together, LC, after, against "
+                  "the bands:\n")
+            print("| check | band | value | |")
+            print("|---|---|---|---|")
+            lc = [after[n]["lc"] for n in held_out]
+            nis_all = sum(r["nis_sum"] for r in lc) / sum(r["dof_sum"] for r in lc)
+            print(f"| DVL NIS/dof, together | {NIS_BAND_TOGETHER} | {nis_all:.2f} | {_band(nis_all, NIS_BAND_TOGETHER)} |")
+            each = [r["nis_sum"] / r["dof_sum"] for r in lc]
+            worst = min(each, key=lambda v: min(v / NIS_BAND_EACH[0], NIS_BAND_EACH[1] / v))
+            inside = sum(NIS_BAND_EACH[0] <= v <= NIS_BAND_EACH[1] for v in each)
+            print(f"| DVL NIS/dof, each | {NIS_BAND_EACH} | {inside} of {len(each)} inside (worst {worst:.2f}) | "
+                  f"{'in' if inside == len(each) else '**out**'} |")
+            for block in ("vel", "tilt"):
+                v = float(np.mean([r[f"nees_{block}"] for r in lc]))
+                print(f"| {block} NEES/dim, together | {NEES_BAND_TOGETHER} | {v:.2f} | {_band(v, NEES_BAND_TOGETHER)} |")
+            false_flags = [n for n in held_out if not np.isnan(after[n]["lc"]["flag_s"])
+                           and after[n]["lc"]["pos_max_m"] <= FLAG_WITHIN_M]
+            print(f"| LC flagged while within {FLAG_WITHIN_M:g} m | none | "
+                  f"{', '.join(map(str, false_flags)) or 'none'} | {'in' if not false_flags else '**out**'} |")
+            for m in METHODS:
+                mb = float(np.median([before[n][m]["pos_end_m"] for n in held_out]))
+                ma = float(np.median([after[n][m]["pos_end_m"] for n in held_out]))
+                print(f"| {m.upper()} median end position [m] | no worse than before | {mb:.2f} -> {ma:.2f} | "
+                      f"{'in' if ma <= mb else '**out**'} |")
+    print(f"written to {fragment.write('akit_tuning', shown.getvalue())}")
+
+
+if __name__ == "__main__":
+    main()
