@@ -436,7 +436,7 @@ def _no_address(*args, **kwargs):
 
 
 REQUIRED = {"replay": ["no-such-log"], "mc": ["--runs", "2", "--out", "study"], "reproduce": ["--out", "study"],
-            "log info": ["no-such.bag"], "log convert": ["no-such.bag", "out"]}
+            "log info": ["no-such.bag"], "log convert": ["no-such.bag", "out"], "tune": ["no-such-log", "--method", "lc"]}
 """What each command needs besides the flag under test."""
 OUTPUTS = ("--json", "--save-log", "--out")
 """Flags for which '-x' would be a good new output: given an existing log directory '-x', each refuses it."""
