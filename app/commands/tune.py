@@ -54,6 +54,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
             f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}"
         )
     out = _out_target(args) if args.out is not None else None
+    if args.dask is not None and args.dask != LOCAL_DASK:
+        _reachable(args.dask)
     cases, bases = _cases(args)
     started = time.perf_counter()
     prepared = [_prepared(case) for case in cases]
@@ -226,6 +228,21 @@ def _out_target(args: argparse.Namespace) -> str:
     if not os.access(directory, os.W_OK | os.X_OK):
         raise UsageError(f"--out: cannot write {name}: directory not writable")
     return real
+
+
+def _reachable(address: str) -> None:
+    """Fail fast, with one line, if no Dask scheduler answers at ``address``."""
+    from distributed import Client
+
+    from tauvcore.eval.study import DASK_CONNECT_TIMEOUT_S
+
+    try:
+        with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
+            pass
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UsageError(
+            f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}"
+        ) from None
 
 
 @contextlib.contextmanager

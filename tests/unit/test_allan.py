@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tauvcore import units
-from tauvcore.eval.allan import MIN_STILL_S, still_noise, still_stretches, white_noise_density
+from tauvcore.eval.tuning.allan import MIN_STILL_S, still_noise, still_stretches, white_noise_density
 
 DT_S = 0.01
 ARW_DEG_PER_SQRT_H = 0.125  # Yoo 2014 Table 1's

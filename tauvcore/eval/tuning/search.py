@@ -1,72 +1,19 @@
-"""The filters' noise from the data: the parameters that maximise the likelihood of the innovations
-(the prediction-error method).
-
-A Kalman filter whose model is right produces innovations ``nu_k`` that are independent, Gaussian,
-zero mean, with the covariance the filter predicts, ``S_k = H_k P_k^- H_k^T + R_k``. The negative
-log-likelihood of a set of noise parameters ``theta`` given a log is then that of the innovations of
-the filter run with ``theta`` (Schweppe 1965; Mehra 1970; Ljung's prediction-error method)::
-
-    L(theta) = 1/2 sum_k ( nu_k^T S_k^-1 nu_k + log det S_k + m_k log 2 pi )
-
-summed over every update of every aiding source (``m_k`` rows), each log's sum added for several
-logs. The NIS term alone would reward a large ``S`` and ``log det S`` alone a small one; their sum is
-smallest where ``S`` matches the innovations' spread. The update records carry both
-(tauvcore.engine.results.UpdateRecord ``nis`` and ``log_det_s``, over the active rows, before the
-gate).
-
-Each evaluation is a replay of the log (tauvcore.eval.replay, the compiled filter bank) with
-``theta`` laid over the configuration, with two changes: the innovation gate is opened
-(``filter.gate_sigma`` at its largest, :data:`TUNING_GATE_SIGMA`) and the lock-out reset is off
-(``filter.lockout_reset_updates`` 0). With a gate, the set of updates fused would change with
-``theta`` (the objective would jump where an update crosses the gate) and a small ``S`` would
-reject the updates that contradict it and be judged on the others. With the gate open every
-valid update is fused and counts, and the likelihood is a smooth function of ``theta``. The
-tuned values are then replayed with the gate as configured (the "after" of the CLI's table).
-
-What is minimised is ``L`` plus a Gaussian term in ``ln theta`` per parameter (a maximum a
-posteriori estimate): where a log holds a still stretch, the IMU's white noises its Allan
-deviation measures, with that measurement's 1-sigma (:func:`start_values`); every other parameter
-a weak prior at its configured value, a factor of ten at 1 sigma (:data:`CONFIG_PRIOR_SIGMA_LN`).
-Where the innovations determine a parameter, their curvature is hundreds to thousands of times the
-weak prior's and it moves the estimate by well under a percent; where they do not (the
-accelerometer's white noise beside a DVL's ping noise, a gyro's bias walk over 400 s: their
-likelihood is flat over decades), the prior keeps the configured value instead of a bound the
-search would drift to.
-
-The parameters (:data:`PARAMETERS`) are searched in log space within bounds (from six decades
-below the largest value the configuration accepts, or the floor the filter puts under it, up to
-that largest) by scipy's L-BFGS-B with a
-forward-difference gradient, or Nelder-Mead. The uncertainty of each is the curvature of the
-objective at the optimum: it is a negative log-posterior, so the inverse of its Hessian in
-``ln theta`` is the covariance of the estimate (Laplace's approximation); a parameter whose 1-sigma
-factor is large (near the weak prior's ten) is not observable in these logs.
-"""
+"""The search: where it starts (the configuration, a still stretch's Allan deviation), the
+objective (the logs' likelihood with a Gaussian term per parameter), a decade scan, scipy's
+L-BFGS-B or Nelder-Mead in ``ln theta``, and each value's 1-sigma from the curvature
+(tauvcore.eval.tuning)."""
 
 from __future__ import annotations
 
-import copy
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from tauvcore.config import YOO_METHODS, Config
-from tauvcore.engine.results import MethodResult
-from tauvcore.eval.allan import StillStretch, still_noise
-from tauvcore.eval.tuning_parameters import (  # noqa: F401 - the parameters are part of this module's API
-    BOUND_DECADES,
-    DEFAULT_PARAMETERS,
-    PARAMETERS,
-    Parameter,
-    parameter_values,
-    with_values,
-)
-from tauvcore.logs import Log
-
-TUNING_GATE_SIGMA = 1000.0
-"""``filter.gate_sigma`` during the search: its largest value, no gate (module docstring)."""
+from tauvcore.eval.tuning.allan import StillStretch, still_noise
+from tauvcore.eval.tuning.likelihood import Evaluator, PreparedLog, TuningLog, serial_evaluator
+from tauvcore.eval.tuning.parameters import DEFAULT_PARAMETERS, PARAMETERS, parameter_values
 
 SIGNIFICANT_DIGITS = 4
 """Digits a tuned value keeps (the uncertainty is rarely better than a percent); the "after" replay
@@ -99,229 +46,6 @@ OPTIMIZERS = ("l-bfgs-b", "nelder-mead")
 UNDETERMINED_FACTOR = 2.0
 """A tuned parameter whose 1-sigma factor ``exp(sigma_ln)`` exceeds this is reported as not
 determined by the logs (:attr:`TuningResult.determined`)."""
-
-
-def tuning_config(config: Config) -> Config:
-    """The configuration an evaluation of the likelihood replays with: the gate open
-    (:data:`TUNING_GATE_SIGMA`) and no lock-out reset (module docstring).
-
-    Parameters
-    ----------
-    config : Config
-        The configuration.
-
-    Returns
-    -------
-    Config
-        ``config`` with ``filter.gate_sigma`` :data:`TUNING_GATE_SIGMA` and
-        ``filter.lockout_reset_updates`` 0.
-    """
-    return config.replace("filter", gate_sigma=TUNING_GATE_SIGMA, lockout_reset_updates=0)
-
-
-@dataclass(frozen=True)
-class SourceLikelihood:
-    """One aiding source's share of the negative log-likelihood."""
-
-    source: str
-    nll: float  # 1/2 sum (NIS + log det S + dof log 2 pi) over its updates [-]; inf: an update with
-    #             no finite NIS or log det S (S unusable)
-    updates: int  # the updates that measured (valid, at least one active row)
-    dof: int  # their rows
-
-
-def source_likelihoods(result: MethodResult) -> dict[str, SourceLikelihood]:
-    """Each aiding source's share of a method's negative log-likelihood (module docstring).
-
-    Parameters
-    ----------
-    result : MethodResult
-        One run (R = 1) of a 20-state method: its update records carry ``log_det_s``.
-
-    Returns
-    -------
-    dict[str, SourceLikelihood]
-        Source name -> its share, over the updates that measured (valid, at least one active row),
-        fused or rejected.
-
-    Raises
-    ------
-    ValueError
-        A record without ``log_det_s`` (Yoo 2014's bank does not keep it).
-    """
-    out = {}
-    for source, record in result.updates.items():
-        if record.log_det_s is None:
-            raise ValueError(f"the {source} updates of {result.method} carry no log det S")
-        used = record.valid & (record.nis_dof > 0)
-        nis, log_det, dof = record.nis[used], record.log_det_s[used], record.nis_dof[used]
-        finite = bool(np.all(np.isfinite(nis)) and np.all(np.isfinite(log_det)))
-        nll = 0.5 * float(np.sum(nis + log_det + dof * math.log(2.0 * math.pi))) if finite else math.inf
-        out[source] = SourceLikelihood(source, nll, int(used.sum()), int(dof.sum()))
-    return out
-
-
-def negative_log_likelihood(result: MethodResult) -> float:
-    """A method's negative log-likelihood of its innovations, every source's summed
-    (:func:`source_likelihoods`; inf where one is).
-
-    Parameters
-    ----------
-    result : MethodResult
-        One run (R = 1) of a 20-state method.
-
-    Returns
-    -------
-    float
-        ``1/2 sum (NIS + log det S + dof log 2 pi)`` over every update that measured [-].
-    """
-    return float(sum(s.nll for s in source_likelihoods(result).values()))
-
-
-@dataclass(frozen=True)
-class TuningLog:
-    """One log to tune on, with the configuration it is replayed with."""
-
-    name: str  # how it is named in messages and tables (its directory)
-    log: Log
-    config: Config  # as given (defaults, the log's own file, --config, the flags): one 20-state method
-    # in run.methods, the seed the replay draws from
-
-    def __post_init__(self) -> None:
-        methods = self.config.run.methods
-        if len(methods) != 1:
-            raise ValueError(f"tuning takes one method, got {', '.join(methods) or 'none'}")
-        if methods[0] in YOO_METHODS:
-            raise ValueError(
-                f"tuning takes the 20-state filter's methods, not {methods[0]} (Yoo 2014's filter keeps "
-                "no log det S)"
-            )
-
-    @property
-    def method(self) -> str:
-        """The method tuned."""
-        return self.config.run.methods[0]
-
-
-class PreparedLog:
-    """A log made ready for many evaluations: read into a one-run simulation once
-    (tauvcore.eval.replay.prepare), each evaluation a replay of it with other noise values.
-
-    An evaluation is :func:`tauvcore.eval.replay.replay` of the configuration with the values laid
-    over it, to the last bit: the simulation does not depend on the noise values (the log's
-    sensors are what they are), and each run draws from a copy of the generator as
-    :func:`~tauvcore.eval.replay.prepare` left it.
-
-    Parameters
-    ----------
-    case : TuningLog
-        The log and its configuration.
-    """
-
-    def __init__(self, case: TuningLog) -> None:
-        from tauvcore.eval.replay import prepare
-
-        self.case = case
-        rng = np.random.default_rng(case.config.run.seed)
-        _, self.sim = prepare(case.config, case.log, rng)
-        self.rng = rng  # as prepare left it: every evaluation draws from a copy
-
-    def results(self, values: Mapping[str, float], tuning: bool = True) -> dict[str, MethodResult]:
-        """The replay of the log with ``values`` laid over its configuration.
-
-        Parameters
-        ----------
-        values : Mapping[str, float]
-            Parameter name -> value in its configuration key's unit.
-        tuning : bool
-            Replay as the search does (:func:`tuning_config`: gate open, no lock-out reset); False:
-            with the gate as configured (the before/after table).
-
-        Returns
-        -------
-        dict[str, MethodResult]
-            The method's results (one run, R = 1), judged as far as the log can judge them
-            (tauvcore.eval.replay.judged).
-        """
-        # the engine imported when a replay runs, not when the command line's parser is built
-        from tauvcore.engine.mission import run
-        from tauvcore.eval.replay import judged, replay_config
-
-        config = with_values(self.case.config, values)
-        if tuning:
-            config = tuning_config(config)
-        config = replay_config(config, self.case.log)
-        return judged(self.case.log, run(config, self.sim, copy.deepcopy(self.rng)))
-
-    def nll(self, values: Mapping[str, float]) -> float:
-        """The negative log-likelihood of the log's innovations under ``values`` (gate open).
-
-        Parameters
-        ----------
-        values : Mapping[str, float]
-            Parameter name -> value in its configuration key's unit.
-
-        Returns
-        -------
-        float
-            :func:`negative_log_likelihood` of the method's replay [-].
-        """
-        return negative_log_likelihood(self.results(values)[self.case.method])
-
-
-def _nll_of(prepared: PreparedLog, values: Mapping[str, float]) -> float:
-    """:meth:`PreparedLog.nll`, as a function a Dask worker runs."""
-    return prepared.nll(values)
-
-
-Evaluator = Callable[[Sequence[Mapping[str, float]]], list[float]]
-"""Sums the logs' negative log-likelihoods at each of a batch of points (parameter values)."""
-
-
-def serial_evaluator(prepared: Sequence[PreparedLog]) -> Evaluator:
-    """Each point's logs one after the other, in this process.
-
-    Parameters
-    ----------
-    prepared : Sequence[PreparedLog]
-        The logs.
-
-    Returns
-    -------
-    Evaluator
-        ``points -> [sum over the logs of the NLL at each point]``.
-    """
-
-    def evaluate(points: Sequence[Mapping[str, float]]) -> list[float]:
-        return [float(sum(p.nll(values) for p in prepared)) for values in points]
-
-    return evaluate
-
-
-def dask_evaluator(prepared: Sequence[PreparedLog], client: Any) -> Evaluator:
-    """Every (point, log) pair of a batch as its own task on a Dask cluster.
-
-    The prepared logs are scattered to the workers once; each batch sends only the points.
-
-    Parameters
-    ----------
-    prepared : Sequence[PreparedLog]
-        The logs.
-    client : distributed.Client
-        A client of the cluster (a local one: ``distributed.LocalCluster``).
-
-    Returns
-    -------
-    Evaluator
-        ``points -> [sum over the logs of the NLL at each point]``.
-    """
-    remote = client.scatter(list(prepared), broadcast=True)
-
-    def evaluate(points: Sequence[Mapping[str, float]]) -> list[float]:
-        futures = [[client.submit(_nll_of, r, dict(values), pure=False) for r in remote] for values in points]
-        return [float(sum(f.result() for f in row)) for row in futures]
-
-    return evaluate
 
 
 @dataclass(frozen=True)
@@ -386,12 +110,12 @@ class Start:
 def start_values(cases: Sequence[TuningLog], names: Sequence[str]) -> Start:
     """Where the search starts: the first log's configuration, and the IMU's white noises from
     the Allan deviation of the longest still stretch among the logs (one of at least
-    tauvcore.eval.allan.MIN_STILL_S), which :func:`tune` also takes as a measurement of them.
+    tauvcore.eval.tuning.allan.MIN_STILL_S), which :func:`tune` also takes as a measurement of them.
 
     The still stretch measures the IMU's white noise directly, the innovations only through the
     filter's prediction of the next aiding update (between two DVL pings the accelerometer's white
     noise adds ``N^2 dt`` to a velocity whose ping noise is a thousand times that), so the
-    stretch's value, with its own 1-sigma (tauvcore.eval.allan.sigma_ln), joins the likelihood as
+    stretch's value, with its own 1-sigma (tauvcore.eval.tuning.allan.sigma_ln), joins the likelihood as
     a Gaussian term in ``ln theta``: the search finds the values both data say.
 
     Parameters
@@ -469,7 +193,8 @@ def tune(
         Most evaluations of the likelihood the scan and the search make (each a replay of every
         log), at least 1; the curvature's come on top.
     evaluator : Evaluator or None
-        How a batch of points is evaluated (:func:`dask_evaluator`); None: :func:`serial_evaluator`.
+        How a batch of points is evaluated (:func:`~tauvcore.eval.tuning.likelihood.dask_evaluator`); None:
+        :func:`~tauvcore.eval.tuning.likelihood.serial_evaluator`.
     progress : Callable[[Evaluation], None] or None
         Called after each evaluation.
     should_stop : Callable[[], bool] or None
@@ -566,10 +291,19 @@ def tune(
         if scan:  # not the values a still stretch measured: its term keeps them within percent
             x0 = _scan(objective, x0, bounds, prior_sigma >= CONFIG_PRIOR_SIGMA_LN)
         state["phase"] = "search"
+        # each parameter in units of its own 1-sigma there (the diagonal curvature, at least its
+        # prior's): the likelihood's curvatures span thousands, and a search in ln theta would stop on
+        # the steep ones' progress while a flat one still has half a unit to gain
+        scale = _diagonal_scale(objective, x0, bounds, prior_sigma)
+        z_bounds = (bounds - x0[:, None]) * scale[:, None]
+
+        def x_of(z: np.ndarray) -> np.ndarray:
+            return np.clip(x0 + np.asarray(z, dtype=float) / scale, bounds[:, 0], bounds[:, 1])
+
         if optimizer == "l-bfgs-b":
 
-            def fun_and_grad(x: np.ndarray) -> tuple[float, np.ndarray]:
-                x = np.asarray(x, dtype=float)
+            def fun_and_grad(z: np.ndarray) -> tuple[float, np.ndarray]:
+                x = x_of(z)
                 steps = [
                     np.where(
                         np.arange(x.size) == i,
@@ -582,32 +316,34 @@ def tune(
                 if not np.isfinite(f):
                     return math.inf, np.zeros_like(x)
                 h = np.array([s[i] - x[i] for i, s in enumerate(steps)])
-                g = (np.array(fs) - f) / h
+                g = (np.array(fs) - f) / h / scale
                 return f, np.where(np.isfinite(g), g, 0.0)
 
-            scale = max(abs(nll_start), 1.0)
             res = minimize(
                 fun_and_grad,
-                x0,
+                np.zeros_like(x0),
                 jac=True,
                 method="L-BFGS-B",
-                bounds=bounds,
-                options={"ftol": STOP_GAIN / scale, "gtol": STOP_GAIN, "maxfun": max_evaluations},
+                bounds=z_bounds,
+                options={
+                    "ftol": STOP_GAIN / max(abs(nll_start), 1.0),
+                    "gtol": STOP_GAIN,
+                    "maxfun": max_evaluations,
+                },
             )
         else:
-            simplex = [x0]
+            simplex = [np.zeros_like(x0)]  # a step of 1 sigma along each parameter, within its bounds
             for i in range(len(names)):
-                step = math.log(2.0) if x0[i] + math.log(2.0) <= bounds[i, 1] else -math.log(2.0)
-                simplex.append(x0 + step * (np.arange(len(names)) == i))
-
+                step = 1.0 if z_bounds[i, 1] >= 1.0 else -1.0
+                simplex.append(step * (np.arange(len(names)) == i))
             res = minimize(
-                lambda x: objective([np.asarray(x, dtype=float)])[0],
-                x0,
+                lambda z: objective([x_of(z)])[0],
+                np.zeros_like(x0),
                 method="Nelder-Mead",
-                bounds=bounds,
+                bounds=z_bounds,
                 options={
                     "initial_simplex": np.array(simplex),
-                    "xatol": STOP_GAIN,  # a percent of each value
+                    "xatol": STOP_GAIN,  # a hundredth of each parameter's 1-sigma
                     "fatol": STOP_GAIN,
                     "maxfev": max_evaluations,
                 },
@@ -689,6 +425,30 @@ def _scan(
 
 
 LN10 = math.log(10.0)
+
+
+def _diagonal_scale(
+    objective: Callable[[list[np.ndarray]], list[float]],
+    x: np.ndarray,
+    bounds: np.ndarray,
+    prior_sigma: np.ndarray,
+) -> np.ndarray:
+    """Each parameter's curvature scale at ``x``: ``sqrt`` of the objective's second difference of
+    :data:`CURVATURE_STEP_LN` along it (one batch of ``2 n`` points, each inside the bounds), at least
+    its prior term's ``1 / sigma``, so one unit of the scaled parameter is about its 1-sigma."""
+    h = CURVATURE_STEP_LN
+    n = x.size
+    lo = np.maximum(x - h, bounds[:, 0])
+    hi = np.minimum(x + h, bounds[:, 1])
+    points = [np.where(np.arange(n) == i, v, x) for i in range(n) for v in (lo[i], hi[i])]
+    f0 = objective([x])[0]
+    f = np.array(objective(points)).reshape(n, 2)
+    a, b = x - lo, hi - x  # an uneven second difference where a bound cuts one side
+    with np.errstate(invalid="ignore", divide="ignore"):
+        second = 2.0 * (b * f[:, 0] + a * f[:, 1] - (a + b) * f0) / (a * b * (a + b))
+    curvature = np.where(np.isfinite(second), second, 0.0)
+    return np.sqrt(np.maximum(curvature, 1.0 / prior_sigma**2))
+
 
 CURVATURE_FLOOR = 1e-6
 """Smallest eigenvalue of the Hessian in ``ln theta`` taken as curvature: along a flatter direction

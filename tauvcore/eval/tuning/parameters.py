@@ -1,5 +1,6 @@
-"""The noise parameters ``tauv tune`` may identify (tauvcore.eval.tuning): each one key of the
-configuration, its bounds, and the configuration with values laid over it."""
+"""The noise parameters the tuning may identify: each one key of the configuration, its bounds
+(the configuration's own limit and the floor the filter puts under it), and the configuration
+with values laid over it."""
 
 from __future__ import annotations
 
@@ -126,10 +127,10 @@ PARAMETERS: dict[str, Parameter] = {
         ),
     )
 }
-"""The parameters :func:`tune` may identify, by name."""
+"""The parameters :func:`tauvcore.eval.tuning.search.tune` may identify, by name."""
 
 DEFAULT_PARAMETERS = ("gyro_noise", "accel_noise", "dvl_noise")
-"""What :func:`tune` identifies unless told: the white noises, which every update sees. The bias
+"""What :func:`tauvcore.eval.tuning.search.tune` identifies unless told: the white noises, which every update sees. The bias
 walks act over minutes to hours, and each turn-on sigma is the spread of one draw per log, so a
 400 s log says little about them (docs/tuning.md)."""
 
