@@ -29,6 +29,7 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import numpy as np
 
@@ -39,6 +40,9 @@ from tauvcore.eval.running import summarise
 from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
 from tauvcore.sensors.imu import IMU_PROFILES
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/: fragment.py, when imported
+import fragment  # benchmarks/, this script's own directory
 
 BLOCKS = ("pos", "vel", "tilt", "heading")
 BAND = (0.5, 2.0)
@@ -121,55 +125,62 @@ def main() -> None:
     halves = [s > args.seeds - args.half for s in seeds]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
-        rows = list(
-            pool.map(
-                one_seed,
-                seeds,
-                [args.trajectory] * args.seeds,
-                [args.duration] * args.seeds,
-                [names] * args.seeds,
-                halves,
-                [args.start == "datasheet"] * args.seeds,
+        rows = []
+        for row in pool.map(
+            one_seed,
+            seeds,
+            [args.trajectory] * args.seeds,
+            [args.duration] * args.seeds,
+            [names] * args.seeds,
+            halves,
+            [args.start == "datasheet"] * args.seeds,
+        ):
+            rows.append(row)
+            print(
+                f"seed {row['seed']}: {row['evaluations']} evaluations, {row['time_s']:.0f} s",
+                file=sys.stderr,
             )
-        )
     wall = time.perf_counter() - t0
-    print(
-        f"LC tuned from Table 2 on {args.seeds} {args.trajectory} logs of {args.duration:g} s made with the "
-        f"yoo-table1 IMU ({args.half} with half Table 2's DVL noise), the untuned IMU figures "
-        + ("the simulation's (a datasheet's)" if args.start == "datasheet" else "Table 2's")
-        + "; tuned / true (1-sigma factor)"
-    )
-    head = ["seed", "DVL", *names, *(f"{b} after" for b in BLOCKS), "NIS after", "evals", "time [s]"]
-    print("| " + " | ".join(head) + " |")
-    print("|" + "---|" * len(head))
-    for r in rows:
-        cells = [str(r["seed"]), "half" if r["half"] else "T2"]
-        cells += [f"{r[n][0]:.3f} (x/{r[n][1]:.2g})" for n in names]
-        cells += [f"{r['after'][b]:.2f}" for b in BLOCKS] + [f"{r['after']['dvl']:.2f}"]
-        cells += [str(r["evaluations"]), f"{r['time_s']:.0f}"]
-        print("| " + " | ".join(cells) + " |")
-    print()
-    print("| parameter | median tuned/true | within 20 % |")
-    print("|---|---|---|")
-    for n in names:
-        ratios = np.array([r[n][0] for r in rows])
-        print(f"| {n} | {np.median(ratios):.3f} | {np.mean(np.abs(ratios - 1.0) <= WITHIN) * 100:.0f} % |")
-    print()
-    print(f"| block | NEES/dim before | NEES/dim after | after within [{BAND[0]:g}, {BAND[1]:g}] |")
-    print("|---|---|---|---|")
-    for b in (*BLOCKS, "dvl"):
-        before = np.mean([r["before"][b] for r in rows])
-        after = np.mean([r["after"][b] for r in rows])
+    with fragment.capture() as shown:
         print(
-            f"| {b if b != 'dvl' else 'DVL NIS/dof'} | {before:.2f} | {after:.2f} | {'yes' if BAND[0] <= after <= BAND[1] else 'no'} |"
+            f"LC tuned from Table 2 on {args.seeds} {args.trajectory} logs of {args.duration:g} s made with the "
+            f"yoo-table1 IMU ({args.half} with half Table 2's DVL noise), the untuned IMU figures "
+            + ("the simulation's (a datasheet's)" if args.start == "datasheet" else "Table 2's")
+            + "; tuned / true (1-sigma factor)"
         )
-    still = sum(bool(r["still"]) for r in rows)
-    print(
-        f"\n{still} of {args.seeds} logs had a still stretch (the IMU's white noise from its Allan deviation); "
-        f"median {np.median([r['time_s'] for r in rows]):.0f} s and {np.median([r['evaluations'] for r in rows]):.0f} "
-        f"evaluations per log; {wall:.0f} s wall with {args.workers} worker(s)"
-    )
-    sys.stdout.flush()
+        head = ["seed", "DVL", *names, *(f"{b} after" for b in BLOCKS), "NIS after", "evals", "time [s]"]
+        print("| " + " | ".join(head) + " |")
+        print("|" + "---|" * len(head))
+        for r in rows:
+            cells = [str(r["seed"]), "half" if r["half"] else "T2"]
+            cells += [f"{r[n][0]:.3f} (x/{r[n][1]:.2g})" for n in names]
+            cells += [f"{r['after'][b]:.2f}" for b in BLOCKS] + [f"{r['after']['dvl']:.2f}"]
+            cells += [str(r["evaluations"]), f"{r['time_s']:.0f}"]
+            print("| " + " | ".join(cells) + " |")
+        print()
+        print("| parameter | median tuned/true | within 20 % |")
+        print("|---|---|---|")
+        for n in names:
+            ratios = np.array([r[n][0] for r in rows])
+            print(
+                f"| {n} | {np.median(ratios):.3f} | {np.mean(np.abs(ratios - 1.0) <= WITHIN) * 100:.0f} % |"
+            )
+        print()
+        print(f"| block | NEES/dim before | NEES/dim after | after within [{BAND[0]:g}, {BAND[1]:g}] |")
+        print("|---|---|---|---|")
+        for b in (*BLOCKS, "dvl"):
+            before = np.mean([r["before"][b] for r in rows])
+            after = np.mean([r["after"][b] for r in rows])
+            print(
+                f"| {b if b != 'dvl' else 'DVL NIS/dof'} | {before:.2f} | {after:.2f} | {'yes' if BAND[0] <= after <= BAND[1] else 'no'} |"
+            )
+        still = sum(bool(r["still"]) for r in rows)
+        print(
+            f"\n{still} of {args.seeds} logs had a still stretch (the IMU's white noise from its Allan deviation); "
+            f"median {np.median([r['time_s'] for r in rows]):.0f} s and {np.median([r['evaluations'] for r in rows]):.0f} "
+            f"evaluations per log; {wall:.0f} s wall with {args.workers} worker(s)"
+        )
+    print(f"written to {fragment.write('tuning_known_answer', shown.getvalue())}")
 
 
 if __name__ == "__main__":

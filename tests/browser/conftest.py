@@ -54,11 +54,12 @@ def chromium_path() -> str:
 
 
 @contextlib.contextmanager
-def dashboard_server(log: Any = subprocess.DEVNULL, timeout_s: float = 60.0) -> Iterator[str]:
-    """``tauv serve`` on a free port, its output to ``log``: yields its address once GET / answers
-    (RuntimeError if it exits or does not answer within ``timeout_s``), stops it afterwards."""
+def dashboard_server(log: Any = subprocess.DEVNULL, timeout_s: float = 60.0, extra: tuple[str, ...] = ()) -> Iterator[str]:
+    """``tauv serve`` on a free port with the flags ``extra``, its output to ``log``: yields its
+    address once GET / answers (RuntimeError if it exits or does not answer within ``timeout_s``),
+    stops it afterwards."""
     port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)],
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port), *extra],
                             stdout=log, stderr=subprocess.STDOUT, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     url = f"http://127.0.0.1:{port}"
     try:
