@@ -22,9 +22,9 @@ from app import budget, control_table, inputs, links, page_scripts, validation
 from app.controls import PLUGIN_FIELDS
 from app.inputs import Controls, InputError, config_from_controls
 from app.session_state import TabState
-from tauvcore.bags import MAPPING_SUFFIX, is_bag, mapping_beside
 from tauvcore.config import Config, from_dict, merge
 from tauvcore.logs import CONFIG_FILE, LogError
+from tauvcore.logs.bags import MAPPING_SUFFIX, is_bag, mapping_beside
 from tauvcore.validation import show
 
 METHODS = next(c for c in control_table.CONTROLS if c.field == "methods")

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.eval.study import ERROR_SERIES, NEES_SERIES, ChunkSeries
-from tauvcore.log_writer import OutputKind, fsync_path, replace_files
+from tauvcore.logs.writer import OutputKind, fsync_path, replace_files
 from tauvcore.validation import OutputDirError, one_line, show_path
 
 PARQUET_SERIES = ERROR_SERIES + NEES_SERIES
@@ -53,7 +53,7 @@ MC_STUDY = OutputKind(
     replace_flag="--replace",
 )
 """What ``tauv mc`` leaves in its directory: a directory holding only these (summary.json among
-them) holds an earlier study, replaced only with ``--replace`` (tauvcore.log_writer.output_dir)."""
+them) holds an earlier study, replaced only with ``--replace`` (tauvcore.logs.writer.output_dir)."""
 REPRODUCE_STUDY = OutputKind(
     "tauv reproduce study",
     frozenset(OUTPUT_FILES),
@@ -218,7 +218,7 @@ class StudyWriter:
     :class:`OutputDirError` naming the file and the reason."""
 
     def __init__(self, out_dir: str, name: str | None = None) -> None:
-        """``out_dir`` from tauvcore.log_writer.output_dir; created here if missing (and removed again by
+        """``out_dir`` from tauvcore.logs.writer.output_dir; created here if missing (and removed again by
         :meth:`abort` if the study fails); OutputDirError if another writer holds it. ``name``:
         the directory as messages show it (default ``out_dir``)."""
         self.out_dir = out_dir
@@ -278,7 +278,7 @@ class StudyWriter:
 
     def commit(self) -> list[str]:
         """Rename every output into the output directory as one change (if a rename fails, the
-        ones done are undone: tauvcore.log_writer.replace_files), remove the temporary directory and
+        ones done are undone: tauvcore.logs.writer.replace_files), remove the temporary directory and
         let go of the lock. Returns the paths written."""
         moves = [
             (os.path.join(self.tmp, name), os.path.join(self.out_dir, name))

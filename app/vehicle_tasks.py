@@ -55,7 +55,7 @@ def run_vehicle_task(
     if kind not in TASKS:
         raise ValueError(f"unknown task {kind!r} (choose from {', '.join(TASKS)})")
     config = from_dict(config_dict)
-    from tauvcore.bags import read_recording
+    from tauvcore.logs.bags import read_recording
 
     queue.put(("vehicle-progress", 0.0, f"Reading {os.path.basename(os.path.normpath(log_dir))}"))
     log = read_recording(log_dir, config.dvl.A_b)

@@ -139,12 +139,12 @@ def replay_source(
     (the controls over the log's own configuration file, or the bag's own mapping's ``[config]``,
     app.inputs.config_from_controls): the configuration and simulation
     tauvcore.eval.replay.prepare makes of them, as ``tauv replay`` does (a bag read under its own
-    mapping, tauvcore.bags.read_recording, as ``tauv replay BAG --bag-mapping`` that file), and
+    mapping, tauvcore.logs.bags.read_recording, as ``tauv replay BAG --bag-mapping`` that file), and
     the log described as ``tauv replay --json``'s ``"log"`` (its directory, its configuration
     file, what configured the run, where the filters started, what the NEES is measured against,
     the reader's notes; a bag's mapping too), and the log itself."""
-    from tauvcore.bags import is_bag, mapping_beside, read_recording
     from tauvcore.eval.replay import config_keys, log_config, prepare, start_description
+    from tauvcore.logs.bags import is_bag, mapping_beside, read_recording
 
     raw, config_file = log_config(log_dir)
     log = read_recording(log_dir, config.dvl.A_b)

@@ -8,7 +8,7 @@ under 400 MB, 381 MiB).
 Makes a figure-eight mission (flat earth) of ``--hours`` at an IMU of ``--rate`` Hz, with the
 tables a bag carries exactly (tests/unit/bag_fixtures.py: IMU rates, whole-nanosecond stamps),
 and writes it three ways in a temporary directory: the log format as Parquet
-(tauvcore.log_writer.write_log), an MCAP file and a ROS 1 bag (bag_fixtures.write_bag, rosbags'
+(tauvcore.logs.writer.write_log), an MCAP file and a ROS 1 bag (bag_fixtures.write_bag, rosbags'
 own writers; FLU/ENU frames, the DVL as marine_acoustic_msgs/Dvl, the reference as
 nav_msgs/Odometry at the IMU's rate). Then each round runs ``tauv replay PATH --method ins,lc,tc
 --aiding dvl,depth,mag --earth flat`` on the three in turn, each a process of its own under
@@ -16,7 +16,7 @@ nav_msgs/Odometry at the IMU's rate). Then each round runs ``tauv replay PATH --
 round not counted (the compiled kernels loaded, the files in the page cache). A bag's ratio is
 taken round by round against the Parquet run of the same round, so a drift of the machine's speed
 cancels; the round not counted also compiles the bag reader's kernels into numba's cache
-(tauvcore.bags.scan), as any first bag replay after an install does. Each bag's printed results
+(tauvcore.logs.bags.scan), as any first bag replay after an install does. Each bag's printed results
 must equal the log's (all but the first line, which names the input and its wall time). Writes
 docs/results/bag_replay.md.
 """
@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT / "tests" / "unit"))  # bag_fixtures.py: the mission
 import fragment  # noqa: E402
 from bag_fixtures import mission_config, mission_tables, write_bag  # noqa: E402
 
-from tauvcore.log_writer import write_log  # noqa: E402
+from tauvcore.logs.writer import write_log  # noqa: E402
 
 FLAGS = ["--method", "ins,lc,tc", "--aiding", "dvl,depth,mag", "--earth", "flat"]
 INPUTS = (("log", "Parquet log"), ("mission.mcap", "MCAP (ROS 2)"), ("mission.bag", "ROS 1 bag"))
@@ -129,7 +129,7 @@ def main() -> None:
         f"{args.rate:g} Hz IMU (about {messages:,} IMU and reference messages in a bag), {args.runs} rounds "
         "after one not counted, each command a process of its own (`/usr/bin/time -v`); the ratio is taken "
         "round by round. Every bag replays to the numbers the log prints. A bag is read chunk by chunk "
-        "(tauvcore.bags.scan: each chunk decompressed, its records walked by a compiled loop, the IMU's and "
+        "(tauvcore.logs.bags.scan: each chunk decompressed, its records walked by a compiled loop, the IMU's and "
         "the reference's numbers read from the chunk's bytes into their arrays); the targets are 1.5x the "
         "log's time and 400 MB (381 MiB).")
     print(table)

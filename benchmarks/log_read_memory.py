@@ -4,9 +4,9 @@
 
 Writes a valid IMU table of about ``--mb`` megabytes (100 Hz increments, every value to its last
 digit as ``tauv run --save-log`` writes them) in a temporary directory, then reads it in a fresh
-process with the reader ``tauv replay`` uses (tauvcore.log_tables, one table) and prints the process's
+process with the reader ``tauv replay`` uses (tauvcore.logs.table_io, one table) and prints the process's
 peak resident memory beyond what the interpreter and the libraries took before the read, against
-the file's size. The target: at most about twice the file (tauvcore.log_tables.MAX_LOG_BYTES).
+the file's size. The target: at most about twice the file (tauvcore.logs.table_io.MAX_LOG_BYTES).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ READ = """
 import sys, time
 from pathlib import Path
 import numpy, pyarrow, pyarrow.csv, pyarrow.parquet
-import tauvcore.log_tables as log_tables
+import tauvcore.logs.table_io as log_tables
 def high_water():  # this process's own peak (ru_maxrss would carry the parent's over the exec)
     for line in open("/proc/self/status"):
         if line.startswith("VmHWM:"):

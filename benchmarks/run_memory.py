@@ -13,7 +13,7 @@ process, its peak resident memory from the kernel's accounting of that child (``
 ``wait4``, what ``/usr/bin/time -v`` reports), its wall time, and the size of what it wrote (the
 ``--json`` file, the log's directory). The commands reduce the results chunk by chunk
 (tauvcore.eval.running), spool the document to disk as they go (app.commands.json_stream) and
-append the log to its files chunk by chunk (tauvcore.log_writer.LogWriter), so their memory does
+append the log to its files chunk by chunk (tauvcore.logs.writer.LogWriter), so their memory does
 not grow with the mission; a replay holds the log it reads. Writes docs/results/run_memory.md;
 with ``--only`` the rows not named are kept from that file as they were.
 """

@@ -9,7 +9,7 @@ Table 2 by ``tauv tune``'s search (tauvcore.eval.tuning), against the values the
 (its turn-on bias sigmas, scale factors and misalignments: a datasheet's figures, which a log does
 not determine, docs/tuning.md) with every tuned key at Table 2's value; ``--start table2``: Table
 2's IMU throughout. Per seed a log of ``--duration`` s is simulated (tauvcore.engine.simulation.simulate, written by
-tauvcore.log_writer as ``tauv run --save-log`` writes it) with the ``yoo-table1`` IMU and Table 2's
+tauvcore.logs.writer as ``tauv run --save-log`` writes it) with the ``yoo-table1`` IMU and Table 2's
 DVL, its noise halved on the last ``--half`` seeds; LC is tuned on it from Table 2's values (the
 log's own log.toml left out), the filters started off the reference by initial errors drawn from
 the seed (``tauv tune --initial-errors`` with ``initial_error.mode = "random"``), and replayed
@@ -37,8 +37,8 @@ from tauvcore.config import Config, to_log_toml
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.eval import tuning
 from tauvcore.eval.running import summarise
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.imu import IMU_PROFILES
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/: fragment.py, when imported

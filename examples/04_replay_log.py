@@ -4,8 +4,8 @@ Shows the path your own data takes (docs/replay.md): a log is a
 directory of tables (``imu``, ``reference``, optional ``dvl``, ``depth``, ``attitude``; CSV or
 Parquet, one clock ``t_s``). Here the log is made as ``tauv run --save-log DIR`` makes it:
 :func:`~tauvcore.engine.mission.run_streaming` hands every chunk of the simulation to
-``on_sim_chunk``, :func:`tauvcore.log_writer.simulation_tables` turns run 0 into tables and
-:func:`tauvcore.log_writer.write_log` writes them. :func:`tauvcore.logs.read_log` reads and checks the
+``on_sim_chunk``, :func:`tauvcore.logs.writer.simulation_tables` turns run 0 into tables and
+:func:`tauvcore.logs.writer.write_log` writes them. :func:`tauvcore.logs.read_log` reads and checks the
 directory, and :func:`tauvcore.eval.replay.replay` runs the methods on it exactly as on a
 simulation (what ``tauv replay DIR --initial-errors`` does: the filters start off the reference
 by the simulation's initial errors), so the replayed errors equal the simulated ones.
@@ -25,7 +25,7 @@ from tauvcore.config import Config
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.eval.replay import replay
-from tauvcore.log_writer import simulation_tables, write_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.logs import read_log
 
 METHODS = ("ins", "lc", "tc", "elc")

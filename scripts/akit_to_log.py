@@ -2,7 +2,7 @@
 
     python scripts/akit_to_log.py ../shared/data/akit/Trajectory1 /tmp/akit1
 
-OUT_DIR follows the rule of every writer (tauvcore.log_writer.output_dir): a new directory in an
+OUT_DIR follows the rule of every writer (tauvcore.logs.writer.output_dir): a new directory in an
 existing one, or an empty one; a bad argument is one line and exit status 2.
 
 The dataset (Cohen & Klein 2025, public repository ``ansfl/A-KIT``; see its NOTES.md, not part
@@ -41,7 +41,7 @@ import tomli_w
 
 from tauvcore.config import from_dict
 from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.log_writer import output_dir, write_log
+from tauvcore.logs.writer import output_dir, write_log
 from tauvcore.validation import OutputDirError, one_line, show_path
 
 IMU_DT_S = 0.01

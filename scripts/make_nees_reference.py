@@ -24,8 +24,8 @@ from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.eval.replay import replay
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 
 EVERY = 5  # every 5th output epoch (2 Hz): a small file, a strict check
 NAMES = ("nees", "nees_block")

@@ -28,7 +28,7 @@ class ConfigError(ValueError):
 
 
 class OutputDirError(ValueError):
-    """A directory a writer was given cannot be written (tauvcore.log_writer.output_dir): the
+    """A directory a writer was given cannot be written (tauvcore.logs.writer.output_dir): the
     message names the flag or argument, the directory and why."""
 
 

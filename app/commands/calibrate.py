@@ -57,9 +57,9 @@ def _write(fh: IO[str], text: str) -> None:
 def _read(args: argparse.Namespace, path: str) -> tuple[Log, Config]:
     """One log read and configured as ``tauv replay`` does (the log's own file under ``--config``
     and the flags), a LogError as one line."""
-    from tauvcore.bags import bag_config, is_bag, own_mapping, read_bag_configured
     from tauvcore.eval.replay import log_config
     from tauvcore.logs import LogError, read_log
+    from tauvcore.logs.bags import bag_config, is_bag, own_mapping, read_bag_configured
 
     if not path.strip():
         raise UsageError(f"LOG: {show_path(path)} is not a log's name (the current directory is '.')")

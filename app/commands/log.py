@@ -14,13 +14,13 @@ from app.commands.values import UsageError
 from tauvcore.validation import LogError, OutputDirError, show, show_path
 
 if typing.TYPE_CHECKING:
-    from tauvcore.bags.mapping import BagMapping
+    from tauvcore.logs.bags.mapping import BagMapping
 
 
 def _mapping(args: argparse.Namespace) -> BagMapping:
-    """The bag mapping of ``--bag-mapping``, else the one beside the bag (tauvcore.bags.own_mapping;
+    """The bag mapping of ``--bag-mapping``, else the one beside the bag (tauvcore.logs.bags.own_mapping;
     none: every table by type), once PATH is a bag."""
-    from tauvcore.bags import is_bag, own_mapping, read_mapping
+    from tauvcore.logs.bags import is_bag, own_mapping, read_mapping
 
     if not is_bag(args.bag, by_name=True):
         raise UsageError(
@@ -38,7 +38,7 @@ def _mapping(args: argparse.Namespace) -> BagMapping:
 def cmd_log_info(args: argparse.Namespace) -> int:
     """``tauv log info PATH``: the bag's topics, their types, message counts, rates and time spans,
     and the table each feeds under the mapping (or why the mapping does not apply)."""
-    from tauvcore.bags.info import bag_info
+    from tauvcore.logs.bags.info import bag_info
 
     mapping = _mapping(args)
     try:
@@ -73,17 +73,17 @@ def cmd_log_info(args: argparse.Namespace) -> int:
 
 def cmd_log_convert(args: argparse.Namespace) -> int:
     """``tauv log convert PATH OUT_DIR``: the bag's tables, checked as the log reader checks a log,
-    written as a log with tauvcore.log_writer (all or nothing), with the configuration the
+    written as a log with tauvcore.logs.writer (all or nothing), with the configuration the
     conversion used as the log's own ``log.toml`` (tauvcore.config.to_log_toml of the mapping's
     ``[config]`` and the DVL's lever arm from ``/tf_static``: its beam geometry, lever arm and
     every other section that differs from the defaults, as ``tauv run --save-log`` writes a
     simulation's), so that a replay of the log is configured as a replay of the bag; OUT_DIR
-    follows the rule of every writer (tauvcore.log_writer.output_dir: new in an existing
+    follows the rule of every writer (tauvcore.logs.writer.output_dir: new in an existing
     directory, or empty), so nothing is ever overwritten."""
-    from tauvcore.bags import bag_config, bag_tables, with_tf_lever_arm
     from tauvcore.config import from_dict, to_log_toml
-    from tauvcore.log_writer import output_dir, write_log
     from tauvcore.logs import log_from_tables
+    from tauvcore.logs.bags import bag_config, bag_tables, with_tf_lever_arm
+    from tauvcore.logs.writer import output_dir, write_log
 
     if args.log_format not in ("csv", "parquet"):
         raise UsageError(f"--log-format must be csv or parquet, got {show(args.log_format)}")

@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import IO, Any
 
 from app.commands.values import UsageError
-from tauvcore.log_writer import same_file
+from tauvcore.logs.writer import same_file
 from tauvcore.validation import show, show_path
 
 Inputs = Sequence[tuple[str, str | None]]

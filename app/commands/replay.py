@@ -32,9 +32,16 @@ def cmd_replay(args: argparse.Namespace) -> int:
     ``--smooth``: as ``tauv run``'s (app.commands.run.cmd_run), the smoothed results judged as the
     filtered."""
     from app.commands.json_stream import RunReduction
-    from tauvcore.bags import BagMapping, bag_config, is_bag, own_mapping, read_bag_configured, read_mapping
     from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
     from tauvcore.logs import LogError, read_log
+    from tauvcore.logs.bags import (
+        BagMapping,
+        bag_config,
+        is_bag,
+        own_mapping,
+        read_bag_configured,
+        read_mapping,
+    )
 
     if not args.log.strip():  # not the current directory: a name that names nothing
         raise UsageError(f"PATH: {show_path(args.log)} is not a log's name (the current directory is '.')")
@@ -148,8 +155,8 @@ def replay_layers(
     """What configured a replay, lowest first: the defaults, the log's own file and the keys it
     sets, ``--config`` and its keys, the flags given."""
 
-    from tauvcore.bags import is_bag
     from tauvcore.eval.replay import config_keys
+    from tauvcore.logs.bags import is_bag
 
     layers = ["defaults"]
     if log_config_path is not None:

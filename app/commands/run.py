@@ -26,7 +26,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     The results are reduced chunk by chunk as the engine hands them out (the summary's sums,
     tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream), and
-    the log appended chunk by chunk to its files (tauvcore.log_writer.LogWriter), so memory does
+    the log appended chunk by chunk to its files (tauvcore.logs.writer.LogWriter), so memory does
     not grow with the mission's length.
 
     With ``--smooth`` the fixed-interval smoother runs after the forward pass: its results come
@@ -81,12 +81,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _log_writer(args: argparse.Namespace, target: str, config: Any) -> Any:
-    """The --save-log directory's :class:`~tauvcore.log_writer.LogWriter` (its temporary
+    """The --save-log directory's :class:`~tauvcore.logs.writer.LogWriter` (its temporary
     directory inside the locked target), the log's own configuration file with it
     (tauvcore.config.to_log_toml: what a replay needs to filter the log as the run did), or one
     line if it cannot be made."""
     from tauvcore.config import to_log_toml
-    from tauvcore.log_writer import LogWriter
+    from tauvcore.logs.writer import LogWriter
 
     with _saving_log(args):
         return LogWriter(target, args.log_format, config_toml=to_log_toml(config))
@@ -94,7 +94,7 @@ def _log_writer(args: argparse.Namespace, target: str, config: Any) -> Any:
 
 def _save_chunk(args: argparse.Namespace, log_writer: Any, chunk: Any) -> None:
     """One simulation chunk appended to the --save-log directory's tables."""
-    from tauvcore.log_writer import chunk_tables
+    from tauvcore.logs.writer import chunk_tables
 
     with _saving_log(args):
         log_writer.add(chunk_tables(chunk))
@@ -113,7 +113,7 @@ def _saving_log(args: argparse.Namespace) -> Iterator[None]:
 
 def _save_log_target(args: argparse.Namespace) -> str | None:
     """The --save-log directory, checked before the run by the rule of every writer
-    (tauvcore.log_writer.output_dir): a new directory in an existing writable one, or an empty
+    (tauvcore.logs.writer.output_dir): a new directory in an existing writable one, or an empty
     one; not a file, not holding the --config file."""
     if args.log_format not in ("csv", "parquet"):
         raise UsageError(f"--log-format: expected csv or parquet, got {show(args.log_format)}")
@@ -123,8 +123,8 @@ def _save_log_target(args: argparse.Namespace) -> str | None:
 
 
 def _checked_save_log(args: argparse.Namespace) -> Any:
-    """tauvcore.log_writer.output_dir of --save-log, as one line."""
-    from tauvcore.log_writer import output_dir
+    """tauvcore.logs.writer.output_dir of --save-log, as one line."""
+    from tauvcore.logs.writer import output_dir
     from tauvcore.validation import OutputDirError
 
     try:

@@ -66,7 +66,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     logs = None
     if args.logs is not None:
-        from tauvcore.bags import find_recordings
+        from tauvcore.logs.bags import find_recordings
 
         if not os.path.isdir(args.logs):
             raise UsageError(f"--logs: {show_path(args.logs)} is not a directory")

@@ -43,7 +43,7 @@ def _count(flag: str, text: str | None, low: int, high: int, default: int) -> in
 def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int, str | None, Any]:
     """Runs, workers, Dask address and the output writer of a study command (holding the
     output directory's lock), every check done before anything is computed or created: the
-    output directory follows the rule of every writer (tauvcore.log_writer.output_dir; an earlier
+    output directory follows the rule of every writer (tauvcore.logs.writer.output_dir; an earlier
     study of the same command replaced only with ``--replace``) and must not hold the --config file."""
     from app.study_output import OutputDirError, StudyWriter
 
@@ -71,9 +71,9 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
 
 
 def _checked_out(args: argparse.Namespace) -> Any:
-    """tauvcore.log_writer.output_dir of ``--out`` for this command's kind of study, as one line."""
+    """tauvcore.logs.writer.output_dir of ``--out`` for this command's kind of study, as one line."""
     from app.study_output import MC_STUDY, REPRODUCE_STUDY
-    from tauvcore.log_writer import output_dir
+    from tauvcore.logs.writer import output_dir
     from tauvcore.validation import OutputDirError
 
     kind = REPRODUCE_STUDY if args.command == "reproduce" else MC_STUDY

@@ -131,10 +131,10 @@ def _cases(args: argparse.Namespace) -> tuple[list[Any], list[Config]]:
     """Each log read with its configuration (defaults, its own log.toml unless --no-log-config,
     --config, the flags) and the same without --config and the flags (what its own file makes it),
     as one line naming the log on any error."""
-    from tauvcore.bags import is_bag
     from tauvcore.eval.replay import log_config
     from tauvcore.eval.tuning import TuningLog
     from tauvcore.logs import LogError, read_log
+    from tauvcore.logs.bags import is_bag
 
     if args.method is None:
         raise UsageError("--method: tuning needs the one method to tune, e.g. --method lc")
@@ -192,7 +192,7 @@ def _out_target(args: argparse.Namespace) -> str:
     """The real path ``--out`` will be written to, checked before the search: a file name in an
     existing writable directory, not a directory or special file, not one of the inputs (the
     --config file, a log's directory), and an existing file only with --replace."""
-    from tauvcore.log_writer import same_file
+    from tauvcore.logs.writer import same_file
 
     path = args.out
     if not path.strip() or "\x00" in path:

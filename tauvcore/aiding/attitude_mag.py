@@ -87,7 +87,7 @@ class MagSource(AidingSource):
     config_type = MagnetometerConfig
     streams = ("magnetometer",)  # tauvcore.sensors.stream.SensorStreams.magnetometer
     columns = tuple(Column(n, "rad", -1e4, 1e4, "no attitude angle", angle=True) for n in EULER)
-    # as tauvcore.log_columns.MAX_ANGLE_RAD
+    # as tauvcore.logs.columns.MAX_ANGLE_RAD
     row_labels = ("roll", "pitch", "yaw")
     observes = ("att",)  # H weighs the misalignment alone
 

@@ -70,7 +70,7 @@ class DepthSource(AidingSource):
     config_type = PressureConfig
     streams = ("pressure",)  # tauvcore.sensors.stream.SensorStreams.pressure
     columns = (Column("depth_m", "m", -100.0, 12_000.0, "deeper than the ocean, or high above it"),)
-    # as tauvcore.log_columns.DEPTH_RANGE_M
+    # as tauvcore.logs.columns.DEPTH_RANGE_M
     row_labels = ("depth",)
     observes = ("pos",)
 

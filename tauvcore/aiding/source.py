@@ -18,7 +18,7 @@ A source (a subclass of :class:`AidingSource`, registered in one line of
   batch, with ``predict`` and ``jacobian`` for the finite-difference test;
 - how a ROS bag carries its table (:attr:`AidingSource.bag_messages`): the message types a bag
   mapping's topic for it may hold and which field fills which columns (:class:`BagMessage`), read
-  by tauvcore.bags (which imports this layer, never the other way);
+  by tauvcore.logs.bags (which imports this layer, never the other way);
 - what the user sees of it: a short label (the dashboard's checkbox), a summary and the names of
   its measurement's rows.
 
@@ -284,7 +284,7 @@ class AidingSource(ABC):
     truth_columns: ClassVar[tuple[Column, ...]] = ()  # what a simulation knows of it besides its
     # columns: in SourceData.truth, written to a simulated log, optional in a log's table
     bag_messages: ClassVar[tuple[BagMessage, ...]] = ()  # the message types a bag mapping's topic
-    # for its table may hold ([<table>] topic = ...; tauvcore.bags), never found by type alone
+    # for its table may hold ([<table>] topic = ...; tauvcore.logs.bags), never found by type alone
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -37,7 +37,7 @@ coordinates and the innovation is its offset from the estimate in the estimate's
 
 Its log table ``usbl.csv``: ``t_s`` the fix's arrival, ``north_m``, ``east_m``, ``down_m`` the
 transponder's position in the origin's tangent frame; an empty row is a lost fix. In a ROS bag
-(tauvcore.bags, ``[usbl] topic = "/usbl/fix"`` in the bag mapping) the fix is a
+(tauvcore.logs.bags, ``[usbl] topic = "/usbl/fix"`` in the bag mapping) the fix is a
 ``geometry_msgs/PointStamped`` (``point``) or ``PoseWithCovarianceStamped`` (``pose.pose.position``)
 in the topic's world frame.
 """

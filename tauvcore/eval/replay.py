@@ -49,7 +49,7 @@ def _column(log: Log, values: np.ndarray | None, what: str) -> np.ndarray:
 def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None]:
     """The log's own configuration (:data:`tauvcore.logs.CONFIG_FILE` in its directory; a ROS
     bag's: its own mapping's ``[config]`` and the DVL's lever arm from its ``/tf_static``,
-    tauvcore.bags.own_mapping, bag_config): its raw tables, checked on their own, and its path.
+    tauvcore.logs.bags.own_mapping, bag_config): its raw tables, checked on their own, and its path.
 
     Parameters
     ----------
@@ -67,7 +67,7 @@ def log_config(directory: str | os.PathLike) -> tuple[dict[str, Any], str | None
     LogError
         Naming the file, for a file that cannot be read or does not check.
     """
-    from tauvcore.bags import bag_config, is_bag, own_mapping
+    from tauvcore.logs.bags import bag_config, is_bag, own_mapping
 
     if is_bag(directory):  # a bag's own configuration: its own mapping's [config]
         return bag_config(own_mapping(directory), directory)

@@ -32,9 +32,9 @@ import numpy as np
 from tauvcore import units
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.log_columns import DVL_BEAMS, DVL_BODY, IMU_INCREMENTS, IMU_RATES, REF_VEL
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import TABLES
+from tauvcore.logs.columns import DVL_BEAMS, DVL_BODY, IMU_INCREMENTS, IMU_RATES, REF_VEL
+from tauvcore.logs.writer import simulation_tables, write_log
 
 REFUSE, ACCEPT, EITHER = "refuse", "accept", "either"
 G0 = 9.80665

@@ -41,7 +41,7 @@ NOT_FROM_THE_CODE = {
 }
 """Quotes the wording check finds that are not a value to render, each with its reason."""
 OTHER_OWNER = {"bags.md"}
-"""Pages whose defaults are the bag mapping's (tauvcore.bags.mapping), checked with that work."""
+"""Pages whose defaults are the bag mapping's (tauvcore.logs.bags.mapping), checked with that work."""
 
 
 def _quoted_defaults() -> list[tuple[str, str]]:

@@ -13,7 +13,7 @@ import numpy as np
 from app.controls import PLUGIN_FIELDS
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.log_writer import simulation_tables, write_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tests.server.conftest import Server
 from tests.server.viser_client import ViserClient
 

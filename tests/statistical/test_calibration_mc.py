@@ -16,8 +16,8 @@ from tauvcore.eval.calibration import calibrate
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.replay import replay
 from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tests.unit.test_calibration import BORESIGHT_DEG, MISALIGNMENT_DEG, OFFSET_PCT, _rotated_reference
 
 pytestmark = pytest.mark.slow

@@ -26,8 +26,8 @@ from tauvcore.config import Config, to_log_toml
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.eval import tuning
 from tauvcore.eval.running import summarise
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.imu import IMU_PROFILES
 
 PARAMS = ("gyro_noise", "accel_noise", "dvl_noise", "accel_bias_walk", "gyro_bias_walk")

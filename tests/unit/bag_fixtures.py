@@ -1,5 +1,5 @@
 """Writing a simulated mission as ROS bags with rosbags' own writers (ROS 1, ROS 2 sqlite3, MCAP),
-for the tests of tauvcore.bags and the worked example of docs/bags.md.
+for the tests of tauvcore.logs.bags and the worked example of docs/bags.md.
 
 ``mission_tables`` makes the tables of a simulated mission in the form a bag can carry exactly
 (IMU rates, times on whole nanoseconds, the DVL's beams rounded to float32 where a message holds
@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.bags.frames import D_FLU, T_ENU
-from tauvcore.bags.reader import MSGS
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.log_writer import simulation_tables
+from tauvcore.logs.bags.frames import D_FLU, T_ENU
+from tauvcore.logs.bags.ros_reader import MSGS
+from tauvcore.logs.writer import simulation_tables
 
 ORIGIN_NS = 1_700_000_000_000_000_000
 """The bag's first IMU stamp [ns] (2023-11-14): a clock like a vehicle's."""
@@ -121,7 +121,7 @@ def geodetic_tables(tables: dict, config: Config) -> dict:
     """``tables`` with the reference as a sensor_msgs/NavSatFix carries it: latitude and longitude
     [deg] of the local positions about the configured origin, the depth, the attitude as it was,
     and the NED velocity as the bag reader makes a fix's (docs/bags.md: the positions' central
-    differences, tauvcore.bags.reader), so the log and the bag hold the same numbers."""
+    differences, tauvcore.logs.bags.ros_reader), so the log and the bag hold the same numbers."""
     from tauvcore.geo.earth import geodetic_from_ned, ned_from_geodetic
     from tauvcore.units import DEG
 

@@ -1,4 +1,4 @@
-"""The chunk-by-chunk read of a bag (tauvcore.bags.scan) gives exactly what rosbags' walk message by
+"""The chunk-by-chunk read of a bag (tauvcore.logs.bags.scan) gives exactly what rosbags' walk message by
 message gives: every topic's stamps, receive times and rows, on a ROS 1 bag (uncompressed, bz2,
 lz4; small chunks), an MCAP file (uncompressed, zstd; a topic split across chunks) and a ROS 2
 sqlite3 bag (read by rosbags); topics interleaved, ties of receive times, receive times that go
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from bag_fixtures import make, store_for
 
-import tauvcore.bags.reader as reader_module
-from tauvcore.bags import BagMapping
-from tauvcore.bags.scan import NotScannedError
+import tauvcore.logs.bags.ros_reader as reader_module
 from tauvcore.logs import LogError
+from tauvcore.logs.bags import BagMapping
+from tauvcore.logs.bags.scan import NotScannedError
 
 N = 2500  # IMU and reference messages: more than one MCAP chunk of 1 MiB
 

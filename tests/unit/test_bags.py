@@ -1,4 +1,4 @@
-"""ROS bags replayed as logs (tauvcore.bags): a simulated mission written as a ROS 1 bag, a ROS 2
+"""ROS bags replayed as logs (tauvcore.logs.bags): a simulated mission written as a ROS 1 bag, a ROS 2
 sqlite3 bag and an MCAP file with rosbags' own writers, for each DVL message type and the
 twist-only case, replays to the same numbers as the same mission's CSV log; FLU/ENU recordings as
 FRD/NED ones; ``tauv log info`` and ``tauv log convert``; bad inputs are one line and exit 2."""
@@ -25,11 +25,11 @@ from bag_fixtures import (
 )
 
 from app.cli import main
-from tauvcore.bags import BagMapping, bag_config, read_bag, read_mapping
-from tauvcore.bags.frames import mounting_matrix
 from tauvcore.eval.replay import replay
-from tauvcore.log_writer import write_log
 from tauvcore.logs import LogError, read_log
+from tauvcore.logs.bags import BagMapping, bag_config, read_bag, read_mapping
+from tauvcore.logs.bags.frames import mounting_matrix
+from tauvcore.logs.writer import write_log
 
 SERIES = ("pos_err_m", "vel_err_mps", "att_err_deg", "est_pos_n", "pos_sigma_m", "vel_sigma_mps", "att_sigma_deg")
 STORAGES = {"ros1": "mission.bag", "sqlite3": "mission", "mcap": "mission.mcap"}
@@ -269,9 +269,9 @@ def test_a_plugin_s_covariance_diagonal_fills_its_sigma_columns_in_ned() -> None
     from types import SimpleNamespace
 
     from tauvcore.aiding.source import BagField, BagMessage
-    from tauvcore.bags.mapping import TopicRule
-    from tauvcore.bags.messages import plugin_row
-    from tauvcore.bags.reader import _plugin
+    from tauvcore.logs.bags.mapping import TopicRule
+    from tauvcore.logs.bags.messages import plugin_row
+    from tauvcore.logs.bags.ros_reader import _plugin
 
     spec = BagMessage("geometry_msgs/msg/PoseWithCovarianceStamped", (
         BagField(("north_m", "east_m", "down_m"), "pose.pose.position"),
@@ -347,7 +347,7 @@ def test_imu_increments_that_do_not_pair_are_one_line(mission: dict, increments:
 def test_a_quaternion_s_rotation_vector() -> None:
     """The rotation vector of a quaternion: the same rotation whatever the quaternion's sign or norm,
     a small angle to 1e-18, a zero quaternion NaN."""
-    from tauvcore.bags.increments import rotation_vectors
+    from tauvcore.logs.bags.increments import rotation_vectors
 
     theta = np.array([[0.3, -0.2, 0.1], [1e-9, 2e-9, -3e-9], [0.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
     angle = np.linalg.norm(theta, axis=-1)
@@ -363,7 +363,7 @@ def test_a_tf_static_chain_gives_the_direct_transform_s_mounting(mission: dict, 
     """base_link -> sensor_mount, then dvl -> sensor_mount (the second edge written the other way round):
     the composed rotation and lever arm equal those of the direct base_link -> dvl to 1e-9; a chain
     broken between base_link and the DVL's frame is one line naming the frames."""
-    from tauvcore.bags import bag_tables
+    from tauvcore.logs.bags import bag_tables
 
     config = mission["config"]
     C = mounting_matrix((0.0, 0.0, 45.0))
@@ -426,7 +426,7 @@ def test_replay_s_read_frees_each_table_once_read(mission: dict, tmp_path: Path,
     """Both of a bag's reads (read_bag; read_bag_configured, which ``tauv replay`` takes) assemble the
     log dropping each table once read (log_from_tables' ``release``), as a log's files are read: a
     1 h bag's tables held to the end cost about 80 MiB."""
-    import tauvcore.bags as bags
+    import tauvcore.logs.bags as bags
 
     config = mission["config"]
     bag = write_bag(tmp_path / "m.mcap", "mcap", mission["beams"], "marine_acoustic_msgs/msg/Dvl", config.dvl.A_b,

@@ -19,8 +19,8 @@ from tauvcore.eval.corrections import calibrated, corrected_beams
 from tauvcore.eval.replay import LogRows
 from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import Log, read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors import dvl
 from tauvcore.truth import generate
 from tauvcore.truth.kinematic import TrajectoryConfig

@@ -50,8 +50,8 @@ def test_a_log_without_the_true_errors_replays_to_the_same_estimates(tmp_path) -
     """A recorded log's DVL table has only its beams: the true errors read as NaN, and every
     estimate of the replay is what it is with them (they are for the records, never the filter)."""
     from tauvcore.eval.replay import prepare
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="figure8", duration_s=40.0).replace(
         "run", methods=("ins", "lc", "tc", "nsv")
@@ -95,8 +95,8 @@ def test_every_field_of_the_dvl_section_declares_its_setting() -> None:
 
 def test_a_true_error_column_with_an_empty_cell_is_refused_naming_the_file_column_and_row(tmp_path) -> None:
     """The true errors are optional as columns, but a log that has one has it at every ping."""
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
     from tauvcore.validation import LogError
 
     config = Config().replace("trajectory", name="figure8", duration_s=20.0)
@@ -112,8 +112,8 @@ def test_a_50_hz_log_whose_stamps_round_is_read_at_50_hz(tmp_path) -> None:
     exactly 0.02 s, and the replay takes the IMU at 50 Hz (the lowest rate allowed), not at
     49.99999999999996 Hz (refused)."""
     from tauvcore.eval.replay import replay_config
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="straight", duration_s=20.0).replace("imu", rate_hz=50.0)
     tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(1)))])

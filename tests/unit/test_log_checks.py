@@ -1,4 +1,4 @@
-"""Physical plausibility of a log (tauvcore.log_checks).
+"""Physical plausibility of a log (tauvcore.logs.checks).
 
 Given a short seeded simulation written as a log, when one thing about it is made wrong the way
 real logs are wrong (a clock in milliseconds, a gyro in deg/s, a flipped or swapped axis, degrees
@@ -21,9 +21,9 @@ import pytest
 from tauvcore import log_checks, logs, units
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.log_checks import check_plausible
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import Log, read_log
+from tauvcore.logs.checks import check_plausible
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.validation import MESSAGE_CHARS, LogError, show_path
 

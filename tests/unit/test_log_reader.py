@@ -19,9 +19,9 @@ import pytest
 
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.log_tables import read_table
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import LogError, find_logs, read_log
+from tauvcore.logs.table_io import read_table
+from tauvcore.logs.writer import simulation_tables, write_log
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -346,7 +346,7 @@ def test_reading_a_csv_table_costs_about_its_size_in_memory(tmp_path: Path) -> N
     _big_table(tmp_path / "small.csv", 10)
     script = textwrap.dedent(f"""
         from pathlib import Path
-        from tauvcore.log_tables import read_table
+        from tauvcore.logs.table_io import read_table
 
         def peak():
             for line in open("/proc/self/status"):

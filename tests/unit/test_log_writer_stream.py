@@ -1,4 +1,4 @@
-"""`tauv run --save-log` written as the run goes (tauvcore.log_writer.LogWriter): the same files as
+"""`tauv run --save-log` written as the run goes (tauvcore.logs.writer.LogWriter): the same files as
 the whole-log writer (write_log of simulation_tables) on the same chunks, CSV byte for byte and
 Parquet value for value, and all or nothing."""
 
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from app import cli
-from tauvcore import log_writer
 from tauvcore.config import Config, to_log_toml
 from tauvcore.engine import mission
-from tauvcore.log_writer import LogWriter, chunk_tables, simulation_tables, write_log
 from tauvcore.logs import CONFIG_FILE, read_log
+from tauvcore.logs import writer as log_writer
+from tauvcore.logs.writer import LogWriter, chunk_tables, simulation_tables, write_log
 
 ARGV = ["run", "--trajectory", "figure8", "--duration", "25", "--method", "ins,lc", "--aiding", "dvl,depth,mag,usbl"]
 """A short mission with every table a simulated log has, and the USBL's (whose first fix comes after

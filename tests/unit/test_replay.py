@@ -15,8 +15,8 @@ from tauvcore.config import METHODS, Config
 from tauvcore.engine.mission import run
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.eval.replay import log_simulation, replay, replay_config
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import LogError, read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 
 SERIES = ("pos_err_m", "vel_err_mps", "att_err_deg", "tilt_err_deg", "heading_err_deg", "est_pos_n", "pos_sigma_m",
           "vel_sigma_mps", "att_sigma_deg")

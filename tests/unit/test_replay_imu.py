@@ -15,8 +15,8 @@ from app.cli import main
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.eval.replay import prepare, prepare_rows
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.imu import IMU_PROFILES
 
 

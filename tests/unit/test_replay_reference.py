@@ -13,8 +13,8 @@ import pytest
 from app.cli import main
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import CONFIG_FILE
+from tauvcore.logs.writer import simulation_tables, write_log
 
 STATED = "[reference]\npos_horizontal_m = 0.5\nvel_mps = 0.02\nroll_pitch_deg = 0.01\nyaw_deg = 0.05\n"
 STATED_LINE = (

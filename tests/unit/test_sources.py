@@ -168,8 +168,8 @@ def _log_table(log, name: str) -> dict:
 @pytest.mark.parametrize("name", NAMES)
 def test_its_log_table_round_trips_and_the_replay_fuses_it(name: str, tmp_path) -> None:
     from tauvcore.eval.replay import prepare
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = _config(name, duration_s=90.0)
     sim = simulate(config, np.random.default_rng(2), 1)
@@ -219,8 +219,8 @@ def test_the_registry_refuses_a_module_without_a_source() -> None:
 def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_table(name: str, tmp_path, capsys) -> None:
     from app.cli import main
     from tauvcore.eval.replay import prepare
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import LogError, read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
     table = SOURCES[name].table
@@ -264,8 +264,8 @@ def test_a_log_without_truth_columns_reads_them_as_nan(tmp_path) -> None:
     as NaN, and the replay's VKF trace has no truth to judge its scale factor against."""
     from tauvcore.aiding.propeller_rpm import RPM, TRUE_SCALE_FACTOR
     from tauvcore.eval.replay import prepare
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="lawnmower", duration_s=30.0).replace("run", methods=("vkf",))
     sim = simulate(config, np.random.default_rng(0))
@@ -286,7 +286,7 @@ def test_a_replay_of_the_velocity_filter_without_its_tables_is_refused_naming_th
     missing: str, what: str, tmp_path, capsys
 ) -> None:
     from app.cli import main
-    from tauvcore.log_writer import simulation_tables, write_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
     tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])
@@ -311,8 +311,8 @@ def test_a_bad_cell_of_the_velocity_filter_s_tables_names_the_file_the_column_an
     """Every column of a source's table is checked, its truth columns where the table has them;
     the replay exits 2 with one line, whatever the methods (the log is read whole)."""
     from app.cli import main
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import LogError, read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="lawnmower", duration_s=30.0)
     tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])

@@ -18,8 +18,8 @@ from tauvcore.config import Config, from_dict, to_log_toml
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.eval import tuning
 from tauvcore.eval.replay import log_config, replay
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.imu import IMU_PROFILES
 
 DVL_NOISE_MPS = 0.021  # half Table 2's

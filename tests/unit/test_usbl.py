@@ -135,8 +135,8 @@ def test_a_bad_field_names_itself_and_its_value(key: str, value: object, words: 
 
 def test_a_bad_usbl_table_names_the_file_the_column_and_the_row(tmp_path, capsys) -> None:
     from tauvcore.engine.simulation import SimChunk, simulate
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import LogError, read_log
+    from tauvcore.logs.writer import simulation_tables, write_log
 
     config = Config().replace("trajectory", name="lawnmower", duration_s=60.0).replace("run", aiding=("dvl", "usbl"))
     tables = simulation_tables([SimChunk.whole(simulate(config, np.random.default_rng(0)))])

@@ -27,16 +27,16 @@ import pytest
 from scipy.stats import chi2
 
 from tauvcore.aiding import dvl_beams
-from tauvcore.bags import read_bag, read_mapping
-from tauvcore.bags.dvl_table import _pairs
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, chunks_of, simulate
 from tauvcore.engine.sources import SourceStream
 from tauvcore.eval.replay import log_simulation
 from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import C_nb_from_euler
-from tauvcore.log_writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.bags import read_bag, read_mapping
+from tauvcore.logs.bags.dvl_table import _pairs
+from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors import dvl
 from tauvcore.sensors.dvl import MODE_BOTH, MODE_BOTTOM, MODE_NONE, MODE_WATER, DvlConfig, Outage
 from tauvcore.sensors.stream import SensorStreams

@@ -262,8 +262,8 @@ def test_a_log_is_replayed_by_a_worker(tmp_path) -> None:
     length and rate), its reference as the truth view, then the results; a bad log is one line
     naming its file and row, and the pool goes on."""
     from tauvcore.engine.simulation import SimChunk, simulate
-    from tauvcore.log_writer import simulation_tables, write_log
     from tauvcore.logs import find_logs
+    from tauvcore.logs.writer import simulation_tables, write_log
     config = Config().replace("trajectory", name="figure8", duration_s=15.0).replace("run", methods=("ins", "lc"))
     sim = simulate(config, __import__("numpy").random.default_rng(1))
     write_log(tmp_path / "dive", simulation_tables([SimChunk.whole(sim)]))

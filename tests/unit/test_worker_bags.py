@@ -14,10 +14,10 @@ from bag_fixtures import mission_config, mission_tables, write_bag
 
 from app.cli import main
 from app.worker import RunPool, run_worker
-from tauvcore.bags import bag_kind, find_recordings, mapping_beside, own_mapping, read_bag, read_mapping
 from tauvcore.config import from_dict, to_dict
 from tauvcore.eval.replay import log_config, replay
-from tauvcore.log_writer import write_log
+from tauvcore.logs.bags import bag_kind, find_recordings, mapping_beside, own_mapping, read_bag, read_mapping
+from tauvcore.logs.writer import write_log
 
 MAPPING = 'frame = "frd_ned"\n[dvl]\nbeam_ids = [0, 1, 2, 3]\n[config.dvl]\nnoise_mps = 0.03\n'
 """The FRD/NED recording's mapping, with a configuration key of its own (laid under the controls)."""

@@ -1,4 +1,4 @@
-"""One rule for every writer's directory (tauvcore.log_writer.output_dir): ``tauv run --save-log``,
+"""One rule for every writer's directory (tauvcore.logs.writer.output_dir): ``tauv run --save-log``,
 ``tauv mc --out``, ``tauv reproduce --out``, ``tauv log convert`` and scripts/akit_to_log.py refuse
 an empty name, a missing parent and a directory that holds anything, in one line and creating
 nothing; an earlier study of the same command is replaced only with ``--replace``, which says so."""
@@ -132,9 +132,9 @@ def test_replay_of_an_empty_name_is_refused(capsys, tmp_path, monkeypatch) -> No
 
 
 def test_the_rule_is_one_function(tmp_path) -> None:
-    """The same check for a library writer (tauvcore.log_writer.output_dir): what it refuses
+    """The same check for a library writer (tauvcore.logs.writer.output_dir): what it refuses
     and what it returns."""
-    from tauvcore.log_writer import output_dir
+    from tauvcore.logs.writer import output_dir
     from tauvcore.validation import OutputDirError
 
     with pytest.raises(OutputDirError, match="^X: '' is not a directory name$"):

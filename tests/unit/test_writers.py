@@ -23,10 +23,12 @@ import pytest
 
 from app import cli, study_output
 from app.study_output import LOCK_FILE, OUTPUT_FILES, DirectoryLock, OutputDirError, StudyWriter
-from tauvcore import log_tables, log_writer, logs
+from tauvcore import logs
 from tauvcore.aiding.sources import SOURCES
-from tauvcore.log_writer import replace_files, write_log
 from tauvcore.logs import CONFIG_FILE, read_log
+from tauvcore.logs import table_io as log_tables
+from tauvcore.logs import writer as log_writer
+from tauvcore.logs.writer import replace_files, write_log
 
 SIMULATED_TABLES = tuple(dict.fromkeys(logs.TABLES + tuple(s.table for s in SOURCES.values() if s.aboard)))
 """The tables of a simulation's log: the log's own and those of the sources aboard (depth, attitude)."""

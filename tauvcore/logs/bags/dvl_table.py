@@ -1,13 +1,13 @@
-"""The DVL's table of a bag (tauvcore.bags.reader): the messages' per-beam velocities along the
+"""The DVL's table of a bag (tauvcore.logs.bags.ros_reader): the messages' per-beam velocities along the
 configured Janus beams where they have them and those match (by direction, else by the mapping's
 ``beam_ids``), else their body velocity rotated into the body by the DVL's mounting; and each
 velocity's mode, bottom- or water-track, from the mapping's ``water_track`` or the messages' own
-``velocity_mode`` (tauvcore.bags.messages).
+``velocity_mode`` (tauvcore.logs.bags.messages).
 
 A DVL that outputs both from one ping publishes two messages, one of each mode, on its topic or
 on two (the mapping's ``water_track_topic``: all its messages water-track). A water-track
 message and a bottom-track one within ``ping_tolerance_s`` of each other
-(:data:`~tauvcore.bags.mapping.DVL_PING_TOLERANCE_S`) are one ping, one row of the table: its
+(:data:`~tauvcore.logs.bags.mapping.DVL_PING_TOLERANCE_S`) are one ping, one row of the table: its
 bottom-track velocity as a lone message's, its water-track velocity in ``beam1_water_mps`` ..
 ``beam4_water_mps`` (a body velocity projected onto the configured beams), as a log of
 ``water_track = "both"`` holds them (:func:`dvl_table`); a message of either mode without its
@@ -21,9 +21,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from tauvcore.bags.frames import body_vectors
-from tauvcore.bags.mapping import DVL_BEAM_TOLERANCE_DEG, DVL_PING_TOLERANCE_S, TopicRule
-from tauvcore.bags.messages import require_finite
+from tauvcore.logs.bags.frames import body_vectors
+from tauvcore.logs.bags.mapping import DVL_BEAM_TOLERANCE_DEG, DVL_PING_TOLERANCE_S, TopicRule
+from tauvcore.logs.bags.messages import require_finite
 from tauvcore.units import DEG
 from tauvcore.validation import LogError, show, show_path
 
@@ -43,7 +43,7 @@ def dvl_columns(
     bag : str
         The bag's path, for the messages.
     part : Mapping of str to numpy.ndarray
-        The messages' rows by part (tauvcore.bags.messages.LAYOUTS): ``body`` (M, 3) [m/s] and
+        The messages' rows by part (tauvcore.logs.bags.messages.LAYOUTS): ``body`` (M, 3) [m/s] and
         ``body_valid`` (M, 1) in the topic's frame; a per-beam message's ``beams`` (M, 4) [m/s],
         ``beam_valid`` (M, 4), ``dirs`` (M, 12), ``ids`` (M, 4) and ``water`` (M, 1).
     rule : TopicRule

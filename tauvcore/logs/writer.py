@@ -17,8 +17,8 @@ from typing import IO, Any
 import numpy as np
 
 from tauvcore.aiding.sources import SOURCES
-from tauvcore.log_columns import IMU_INCREMENTS, REF_LOCAL, REF_VEL
-from tauvcore.logs import CONFIG_FILE, SOURCE_TABLES, TABLES
+from tauvcore.logs.columns import IMU_INCREMENTS, REF_LOCAL, REF_VEL
+from tauvcore.logs.reader import CONFIG_FILE, SOURCE_TABLES, TABLES
 from tauvcore.validation import OutputDirError, show_path
 
 WRITER_ENTRY_PREFIXES = (".tauv-", ".tauv.")

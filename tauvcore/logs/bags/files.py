@@ -373,7 +373,7 @@ def _yaml_errors() -> tuple[type[BaseException], ...]:
 
 def why(exc: BaseException) -> str:
     """What is wrong with a bag that raised ``exc`` while read, for a person: the read that ran
-    past the end of its file where there was one (tauvcore.bags.files.short_read), else the error."""
+    past the end of its file where there was one (tauvcore.logs.bags.files.short_read), else the error."""
     short = short_read()
     if short is not None:
         return short

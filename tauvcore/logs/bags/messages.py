@@ -1,5 +1,5 @@
 """The numbers each supported message holds: one flat row of floats per message, laid out per type
-(:data:`LAYOUTS`), as the bag's own frames and units have them (tauvcore.bags.reader converts).
+(:data:`LAYOUTS`), as the bag's own frames and units have them (tauvcore.logs.bags.ros_reader converts).
 
 A DVL message with per-beam data gives its body velocity and validity, four beam velocities and
 validities, four beam directions, four beam ids and whether it is water-track (NaN where the
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.source import BagMessage
-from tauvcore.bags.scan import KINDS, fixed_rows
+from tauvcore.logs.bags.scan import KINDS, fixed_rows
 from tauvcore.validation import LogError
 
 NAN = float("nan")
@@ -286,7 +286,7 @@ class _Layout:
         self.size = size  # the messages' length [bytes]
         self.checks = checks
         self.columns = columns
-        # the same as arrays, as tauvcore.bags.scan.fixed_rows takes them
+        # the same as arrays, as tauvcore.logs.bags.scan.fixed_rows takes them
         self.check_at = np.array([at for at, _ in checks], dtype=np.int64)
         self.check_value = np.array([value for _, value in checks], dtype=np.int64)
         self.column_at = np.array([at for at, _ in columns], dtype=np.int64)
@@ -443,7 +443,7 @@ class RawDecoder:
         at: int,
     ) -> int:
         """Read messages in a chunk's bytes into ``rows`` and ``stamps`` from row ``at`` on
-        (:func:`~tauvcore.bags.scan.fixed_rows`), layout by layout, up to the first message that
+        (:func:`~tauvcore.logs.bags.scan.fixed_rows`), layout by layout, up to the first message that
         is not laid out as expected (which the caller reads on its own, with the rest).
 
         Parameters
@@ -578,7 +578,7 @@ def plugin_row(spec: BagMessage) -> Callable[[Any], tuple[float, ...]]:
     """A plug-in source's row of a message (its :class:`~tauvcore.aiding.source.BagMessage`): per
     field, a ``world_vector``'s x, y, z, a ``world_sigma``'s position variances (the covariance's
     diagonal entries 0, 7, 14), a ``scalar``'s value; the reader converts them
-    (tauvcore.bags.reader)."""
+    (tauvcore.logs.bags.ros_reader)."""
 
     def row(m: Any) -> tuple[float, ...]:
         out: list[float] = []

@@ -6,7 +6,7 @@ log reads without complaint and replays into nonsense: a DVL clock in millisecon
 ping outside the IMU's span, a gyro in deg/s makes every filter diverge within seconds, a flipped
 accelerometer axis tilts the INS by twice the vehicle's attitude. Each check compares a sensor
 with what physics or another table of the same log predicts, per axis and over windows of about
-:data:`~tauvcore.log_evidence.WINDOW_S`, as a least-squares slope of the measured against the
+:data:`~tauvcore.logs.evidence.WINDOW_S`, as a least-squares slope of the measured against the
 predicted (1 if right) and their match (the cosine of the angle between the two series, 1 if they
 agree in shape):
 
@@ -14,18 +14,18 @@ agree in shape):
    every other table within the IMU's span, an aiding sensor no sparser than
    :data:`MAX_AIDING_INTERVAL_S` (:func:`_check_clocks`);
 2. the gyro against the rotation between successive reference (or attitude-table) attitudes, and
-   no sustained rate beyond :data:`~tauvcore.log_motion_checks.MAX_TURN_RATE_RPS`
-   (:func:`~tauvcore.log_motion_checks.check_gyro`,
-   :func:`~tauvcore.log_motion_checks.check_gyro_bound`);
+   no sustained rate beyond :data:`~tauvcore.logs.motion_checks.MAX_TURN_RATE_RPS`
+   (:func:`~tauvcore.logs.motion_checks.check_gyro`,
+   :func:`~tauvcore.logs.motion_checks.check_gyro_bound`);
 3. the accelerometer against gravity and the reference's acceleration resolved in the body
-   (:func:`~tauvcore.log_motion_checks.check_accel`);
+   (:func:`~tauvcore.logs.motion_checks.check_accel`);
 4. attitude (and latitude, longitude) within their ranges: beyond, degrees under a ``_rad`` name
    (:func:`_check_ranges`; check 2 catches the small angles that stay within);
 5. the reference velocity against the reference's own position differences
-   (:func:`~tauvcore.log_motion_checks.check_velocity`);
+   (:func:`~tauvcore.logs.motion_checks.check_velocity`);
 6. depths below the sea surface, the depth table with the reference's (:func:`_check_depth`);
 7. the DVL against the reference velocity resolved in the body
-   (:func:`~tauvcore.log_motion_checks.check_dvl`).
+   (:func:`~tauvcore.logs.motion_checks.check_dvl`).
 
 They run in the order 1, 4, 6, 5, 2, 3, 7, so that each leans only on what the ones before it
 have passed (the gyro's check on the reference's attitude, the DVL's on its velocity).
@@ -40,9 +40,9 @@ to the replay. Everything runs vectorised over the log's arrays; the files are o
 header, a column) only to word a message.
 
 Here are the checks of the clocks, the ranges and the depths, and :func:`check_plausible`, which
-runs them all; the checks against the vehicle's motion (2, 3, 5, 7) are tauvcore.log_motion_checks,
+runs them all; the checks against the vehicle's motion (2, 3, 5, 7) are tauvcore.logs.motion_checks,
 the comparison they make and the files' columns and values their messages quote
-tauvcore.log_evidence.
+tauvcore.logs.evidence.
 """
 
 from __future__ import annotations
@@ -55,8 +55,8 @@ import numpy as np
 from tauvcore import units
 from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.sources import SOURCES
-from tauvcore.log_evidence import file_angle_columns, table_file
-from tauvcore.log_motion_checks import (
+from tauvcore.logs.evidence import file_angle_columns, table_file
+from tauvcore.logs.motion_checks import (
     MAX_TURN_RATE_RPS,
     check_accel,
     check_attitude_units,
@@ -66,7 +66,7 @@ from tauvcore.log_motion_checks import (
     check_gyro_earth_rate,
     check_velocity,
 )
-from tauvcore.log_record import Log
+from tauvcore.logs.record import Log
 from tauvcore.validation import LogError, show, show_path
 
 IMU_INTERVAL_RANGE_S = (1e-4, 1.0)
@@ -175,11 +175,11 @@ def _check_clocks(log: Log, files: Mapping[str, Path], notes: list[str]) -> None
 def _check_ranges(log: Log, files: Mapping[str, Path]) -> None:
     """Attitude within roll +-pi and pitch +-pi/2, latitude +-pi/2 and longitude +-2 pi (check 4):
     beyond, the values are degrees under a ``_rad`` name. A yaw beyond +-2 pi is refused where it
-    also turns faster than :data:`~tauvcore.log_motion_checks.MAX_TURN_RATE_RPS` from one row to
+    also turns faster than :data:`~tauvcore.logs.motion_checks.MAX_TURN_RATE_RPS` from one row to
     the next (a heading in degrees: 57 times its rate, and a jump of 360 where it wraps); a
     smooth one is an unwrapped heading in radians, which the format allows (a heading in degrees
     that turns too slowly to tell is left to the gyro's comparison,
-    :func:`~tauvcore.log_motion_checks.check_gyro`)."""
+    :func:`~tauvcore.logs.motion_checks.check_gyro`)."""
     sets = []
     attitude = log.table("mag", EULER)
     for table, t, euler in (

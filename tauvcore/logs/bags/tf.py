@@ -6,7 +6,7 @@ message's ``header.frame_id`` is the DVL's pose in the body: ``p_body = R(q) p_d
 (tf's convention), so ``R(q)`` rotates the DVL's frame into the body's and ``t`` is the DVL's
 origin in the body. The transform the other way round (the DVL the parent) is inverted. Between
 two FLU frames (ROS REP-103, a ``flu_enu`` topic) it is converted to FRD,
-``C_b_dvl = D R D``, ``r_b = D t`` (``D = diag(1, -1, -1)``, tauvcore.bags.frames); a ``frd_ned``
+``C_b_dvl = D R D``, ``r_b = D t`` (``D = diag(1, -1, -1)``, tauvcore.logs.bags.frames); a ``frd_ned``
 topic's frames are FRD already.
 
 Between the body and the DVL there may be other frames (``base_link -> sensor_mount ->
@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.bags.frames import D_FLU, matrix_from_quaternion, mounting_matrix
-from tauvcore.bags.mapping import BagMapping, TopicRule
+from tauvcore.logs.bags.frames import D_FLU, matrix_from_quaternion, mounting_matrix
+from tauvcore.logs.bags.mapping import BagMapping, TopicRule
 from tauvcore.validation import LogError, show, show_path
 
 TF_STATIC = "/tf_static"
@@ -89,7 +89,7 @@ def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str,
     mapping : BagMapping
         The bag mapping.
     rules : Mapping of str to TopicRule
-        The tables' rules (:func:`~tauvcore.bags.mapping.resolve`); without ``dvl``, none.
+        The tables' rules (:func:`~tauvcore.logs.bags.mapping.resolve`); without ``dvl``, none.
 
     Returns
     -------
@@ -100,7 +100,7 @@ def dvl_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str,
     ------
     LogError
         A transform with a zero rotation, naming the bag. (A message that cannot be read raises
-        rosbags' own error, :func:`tauvcore.bags.reader.bag_errors`, for the caller to name.)
+        rosbags' own error, :func:`tauvcore.logs.bags.ros_reader.bag_errors`, for the caller to name.)
     """
     rule = rules.get("dvl")
     mapped = rule is not None and "mounting_rpy_deg" in rule.options

@@ -1,8 +1,8 @@
 """The physical checks of a log that compare a sensor with the vehicle's motion (checks 2, 3, 5 and 7
-of tauvcore.log_checks): the gyro against the rotation between successive attitudes and no turn
+of tauvcore.logs.checks): the gyro against the rotation between successive attitudes and no turn
 faster than an AUV turns; the accelerometer against gravity and the reference's acceleration in the
 body; the reference velocity against its own position differences; the DVL against the reference
-velocity resolved in the body. Each is a comparison of tauvcore.log_evidence, refusing swapped axes
+velocity resolved in the body. Each is a comparison of tauvcore.logs.evidence, refusing swapped axes
 and a known unit factor or sign with one :class:`~tauvcore.validation.LogError`, and noting what it
 cannot be sure of.
 """
@@ -19,7 +19,7 @@ from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.geo.earth import OMEGA_IE_RPS, radii_of_curvature_m
 from tauvcore.geo.rotations import C_nb_from_euler, log_so3
-from tauvcore.log_evidence import (
+from tauvcore.logs.evidence import (
     MIN_MATCH,
     WINDOW_S,
     Finding,
@@ -35,7 +35,7 @@ from tauvcore.log_evidence import (
     window_rows,
     worst_window,
 )
-from tauvcore.log_record import Log
+from tauvcore.logs.record import Log
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.validation import LogError, show, show_path
 

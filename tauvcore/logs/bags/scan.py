@@ -3,7 +3,7 @@ ordinary file read, decompressed (rosbags' own decompressors and checks: ROS 1's
 MCAP's zstd and lz4 with its CRC), its records walked by a compiled loop (:func:`ros1_records`,
 :func:`mcap_records`) into arrays of (topic, receive time, offset, length) of the messages of the
 topics wanted, and the messages of one topic and one length gathered into a 2-D byte array whose
-columns :meth:`~tauvcore.bags.messages.RawDecoder.decode_block` reads at once. No Python object is
+columns :meth:`~tauvcore.logs.bags.messages.RawDecoder.decode_block` reads at once. No Python object is
 made per message, and no more than one chunk's bytes are held.
 
 The messages come in the order rosbags' ``messages()`` gives them: a topic's by receive time, ties
@@ -30,7 +30,7 @@ import numba
 import numpy as np
 from rosbags.rosbag1 import Reader as _RosbagsReader1
 
-from tauvcore.bags.files import MAX_CHUNK_BYTES, BagCorruptError
+from tauvcore.logs.bags.files import MAX_CHUNK_BYTES, BagCorruptError
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
@@ -479,7 +479,7 @@ def read_chunked(
     NotScannedError
         Before any message is handed on, for a bag this does not read (module docstring).
     struct.error, ValueError, OSError, or rosbags' and the decompressors' errors
-        For a truncated or corrupt chunk (:func:`tauvcore.bags.reader.bag_errors`).
+        For a truncated or corrupt chunk (:func:`tauvcore.logs.bags.ros_reader.bag_errors`).
     """
     from rosbags.rosbag2.storage_mcap import McapReader
 

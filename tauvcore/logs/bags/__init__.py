@@ -4,7 +4,7 @@ log format (tauvcore.logs), then assembled and checked exactly as a log's files 
 (:func:`tauvcore.logs.log_from_tables`: gaps, irregular clocks, units by gravity, the physical
 checks).
 
-What feeds what is the bag mapping (tauvcore.bags.mapping; docs/bags.md): for each table a topic,
+What feeds what is the bag mapping (tauvcore.logs.bags.mapping; docs/bags.md): for each table a topic,
 its frame convention, its clock and offset. Without one, each table is found by message type:
 
 ============  ==========================================================================  ============================
@@ -24,20 +24,20 @@ table         message types                                                     
 A plug-in source's table (``usbl``) is read only from the topic the mapping names, of a type the
 source declares (:attr:`tauvcore.aiding.source.AidingSource.bag_messages`).
 
-Frames (tauvcore.bags.frames): ``flu_enu`` (the default, ROS REP-103: body forward-left-up, world
+Frames (tauvcore.logs.bags.frames): ``flu_enu`` (the default, ROS REP-103: body forward-left-up, world
 east-north-up) is converted to tauvcore's FRD/NED, ``v_b = diag(1, -1, -1) v_flu``,
 ``v_n = (v_enu_y, v_enu_x, -v_enu_z)``, ``C_nb = T R(q) D``; ``frd_ned`` is taken as it is. A
 per-beam DVL message gives beam velocities when its beam directions, in the body after the frame
 conversion and the mounting rotation, are the configured Janus beams (each to the nearest within
-:data:`~tauvcore.bags.mapping.DVL_BEAM_TOLERANCE_DEG`), else its body velocity, which the replay
+:data:`~tauvcore.logs.bags.mapping.DVL_BEAM_TOLERANCE_DEG`), else its body velocity, which the replay
 projects onto the configured beams. Depth from pressure: ``(p - p_atm) / (rho g)``
-(:data:`~tauvcore.bags.mapping.WATER_DENSITY_KGPM3`, ...). Time (tauvcore.bags.reader): header
+(:data:`~tauvcore.logs.bags.mapping.WATER_DENSITY_KGPM3`, ...). Time (tauvcore.logs.bags.ros_reader): header
 stamps, or receive times, less the IMU topic's first, plus each topic's ``offset_s``. The DVL's
 mounting is the mapping's ``mounting_rpy_deg``, else the bag's ``/tf_static`` transform from
-``base_frame`` to the DVL's frame, directly or through a chain of frames (tauvcore.bags.tf), whose translation is also its lever arm
+``base_frame`` to the DVL's frame, directly or through a chain of frames (tauvcore.logs.bags.tf), whose translation is also its lever arm
 (:func:`bag_config`).
 
-The definitions of the DVL messages ship in ``tauvcore/bags/msgs`` (``<package>/msg/<Type>.msg``)
+The definitions of the DVL messages ship in ``tauvcore/logs/bags/msgs`` (``<package>/msg/<Type>.msg``)
 and are registered with rosbags.typesys where a bag carries none; the mapping's ``msg_paths`` adds
 more.
 
@@ -57,12 +57,12 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.bags.mapping import BagMapping, TopicRule, read_mapping, resolve
-from tauvcore.bags.reader import BagTables, bag_tables, is_bag, open_bag, read_mounting, typestore
-from tauvcore.bags.tf import TF_STATIC
 from tauvcore.config import from_dict
-from tauvcore.log_record import Log
-from tauvcore.logs import find_logs, log_from_tables, read_log
+from tauvcore.logs.bags.mapping import BagMapping, TopicRule, read_mapping, resolve
+from tauvcore.logs.bags.ros_reader import BagTables, bag_tables, is_bag, open_bag, read_mounting, typestore
+from tauvcore.logs.bags.tf import TF_STATIC
+from tauvcore.logs.reader import find_logs, log_from_tables, read_log
+from tauvcore.logs.record import Log
 from tauvcore.validation import ConfigError, LogError, show_path
 
 
@@ -75,7 +75,7 @@ def read_bag(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: np
     path : str or os.PathLike
         A ROS 1 bag, a ROS 2 bag directory or an MCAP file.
     mapping : BagMapping
-        The bag mapping (:func:`~tauvcore.bags.mapping.read_mapping`; ``BagMapping()``: none).
+        The bag mapping (:func:`~tauvcore.logs.bags.mapping.read_mapping`; ``BagMapping()``: none).
     beam_directions_b : numpy.ndarray
         The configured Janus beams' unit vectors (4, 3) in the body frame (``config.dvl.A_b``).
 
@@ -147,7 +147,7 @@ def bag_config(
 ) -> tuple[dict[str, Any], str | None]:
     """The mapping's ``[config]`` (a partial configuration, laid under ``--config`` as a log's own
     ``log.toml`` is), checked on its own, and where it comes from; given the bag, the DVL's lever
-    arm from its ``/tf_static`` (tauvcore.bags.tf) where ``[config.dvl]`` sets none.
+    arm from its ``/tf_static`` (tauvcore.logs.bags.tf) where ``[config.dvl]`` sets none.
 
     This opens the bag once for ``/tf_static``; a caller that reads the bag anyway takes the lever
     arm from that read instead (:func:`with_tf_lever_arm` of :attr:`BagTables.mounting`).
@@ -202,7 +202,7 @@ def with_tf_lever_arm(
         The bag.
     lever_arm_b_m : array_like or None
         The DVL's origin in the body (FRD) [m] (3,) from ``/tf_static``
-        (:attr:`~tauvcore.bags.tf.Mounting.r_b_m`); None: the bag gives none.
+        (:attr:`~tauvcore.logs.bags.tf.Mounting.r_b_m`); None: the bag gives none.
 
     Returns
     -------
@@ -264,7 +264,7 @@ def mapping_beside(path: str | os.PathLike) -> str | None:
     Parameters
     ----------
     path : str or os.PathLike
-        A ROS bag (:func:`~tauvcore.bags.reader.is_bag`).
+        A ROS bag (:func:`~tauvcore.logs.bags.ros_reader.is_bag`).
 
     Returns
     -------
@@ -289,7 +289,7 @@ def own_mapping(path: str | os.PathLike) -> BagMapping:
     Returns
     -------
     BagMapping
-        As :func:`~tauvcore.bags.mapping.read_mapping` reads it.
+        As :func:`~tauvcore.logs.bags.mapping.read_mapping` reads it.
 
     Raises
     ------

@@ -1,5 +1,5 @@
 """A recorded log as the reader hands it out (tauvcore.logs.read_log) and the plausibility checks
-judge it (tauvcore.log_checks): every table validated, in SI units and the frames of
+judge it (tauvcore.logs.checks): every table validated, in SI units and the frames of
 tauvcore.conventions."""
 
 from __future__ import annotations

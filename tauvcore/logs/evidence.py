@@ -1,4 +1,4 @@
-"""What the physical checks of a log (tauvcore.log_checks, tauvcore.log_motion_checks) compare, and
+"""What the physical checks of a log (tauvcore.logs.checks, tauvcore.logs.motion_checks) compare, and
 what their messages quote.
 
 The comparison: a sensor's series over windows of about :data:`WINDOW_S` against what physics or
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tauvcore.log_record import Log
+from tauvcore.logs.record import Log
 
 WINDOW_S = 1.0
 """Length of the windows sensors are compared over [s]: the IMU's noise averages out over a

@@ -16,7 +16,7 @@ import numpy as np
 from tauvcore import units
 from tauvcore.aiding import dvl_beams
 from tauvcore.conventions import MAX_SPEED_MPS
-from tauvcore.log_tables import held
+from tauvcore.logs.table_io import held
 from tauvcore.validation import LogError, show, show_path
 
 IMU_INCREMENTS = ("dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps")

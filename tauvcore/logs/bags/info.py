@@ -6,9 +6,9 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from tauvcore.bags.mapping import EXTRA_TOPICS, BagMapping, resolve
-from tauvcore.bags.reader import bag_errors, open_bag, typestore, why
-from tauvcore.bags.tf import dvl_mounting
+from tauvcore.logs.bags.mapping import EXTRA_TOPICS, BagMapping, resolve
+from tauvcore.logs.bags.ros_reader import bag_errors, open_bag, typestore, why
+from tauvcore.logs.bags.tf import dvl_mounting
 from tauvcore.validation import LogError, one_line, show_path
 
 
@@ -46,7 +46,7 @@ def bag_info(path: str | os.PathLike, mapping: BagMapping) -> tuple[list[TopicIn
         The topics in name order; why the mapping does not apply to this bag (a topic it names
         missing, two topics of a table's type with no mapping, ...) or None; where the DVL's
         mounting comes from (the mapping's ``mounting_rpy_deg``, ``/tf_static``, or "none";
-        tauvcore.bags.tf), None without a DVL topic or when the mapping does not apply. The
+        tauvcore.logs.bags.tf), None without a DVL topic or when the mapping does not apply. The
         topics are listed either way.
 
     Raises

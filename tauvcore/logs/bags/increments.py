@@ -8,11 +8,11 @@ The angle increment of a quaternion ``q = (x, y, z, w)`` (ROS order) is its rota
 ``dtheta = 2 atan2(|u|, w) u / |u|`` with ``u = (x, y, z)`` (the sign of ``q`` chosen so that
 ``w >= 0``: the shorter rotation; ``2 u / w`` as ``|u| -> 0``); a ``Vector3Stamped`` angle topic
 holds the rotation vector [rad] itself. Both are body vectors: FLU converted to FRD as any
-(``D v``, tauvcore.bags.frames; a rotation vector turns with the frame as a vector does, ``D``
+(``D v``, tauvcore.logs.bags.frames; a rotation vector turns with the frame as a vector does, ``D``
 being a rotation). The messages pair one to one by index: the two topics must have as many
 messages, on the same header stamps, else one :class:`~tauvcore.validation.LogError` names the
 first message that does not pair. The table is the log's IMU as increments
-(:data:`tauvcore.log_columns.IMU_INCREMENTS`), each row's increments over the interval ending at
+(:data:`tauvcore.logs.columns.IMU_INCREMENTS`), each row's increments over the interval ending at
 its time.
 """
 
@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from tauvcore.bags.frames import body_vectors
-from tauvcore.bags.mapping import TopicRule
-from tauvcore.log_columns import IMU_INCREMENTS
+from tauvcore.logs.bags.frames import body_vectors
+from tauvcore.logs.bags.mapping import TopicRule
+from tauvcore.logs.columns import IMU_INCREMENTS
 from tauvcore.validation import LogError, show, show_path
 
 
@@ -68,7 +68,7 @@ def increment_columns(
         The IMU's rule: its ``topic`` the angle increments', ``options['velocity_topic']`` the
         velocity increments', ``frame`` both topics' frame convention.
     angle_kind : str
-        The angle topic's type (:data:`~tauvcore.bags.mapping.INCREMENT_ANGLES`).
+        The angle topic's type (:data:`~tauvcore.logs.bags.mapping.INCREMENT_ANGLES`).
     angles : numpy.ndarray
         Its rows (K, 4) quaternions x, y, z, w, or (K, 3) rotation vectors [rad].
     angle_stamps_ns : numpy.ndarray

@@ -5,7 +5,7 @@ row (data rows from 1, the header not included) and the value as the file has it
 A CSV table is parsed one block at a time and a Parquet table one column at a time, so reading
 holds the arrays and a few blocks or one column of the file, never the whole table beside them
 (:data:`MAX_LOG_BYTES`). What the columns must hold (their names, finite values within physical
-bounds) is tauvcore.log_columns'; what the tables make together is tauvcore.logs'.
+bounds) is tauvcore.logs.columns'; what the tables make together is tauvcore.logs'.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Recorded sensor logs: the format and its validating reader (tauvcore.log_writer writes it).
+"""Recorded sensor logs: the format and its validating reader (tauvcore.logs.writer writes it).
 
 A log is a directory with one table per sensor, each a CSV file (a header line, then one row
 per sample) or a Parquet file, ``<table>.csv`` or ``<table>.parquet``. Every table has a time
@@ -42,14 +42,14 @@ Aiding epochs are taken at the IMU sample nearest in time; rows outside the IMU'
 left out. A CSV table is UTF-8 text, its header naming each column once; every cell is a number
 (empty only where a table allows it: a DVL beam that did not return, a body velocity marked
 invalid), within what the physics allows (a latitude within 90 deg, a DVL velocity within
-:data:`~tauvcore.conventions.MAX_SPEED_MPS`, ...: the bounds of tauvcore.log_columns). Every
+:data:`~tauvcore.conventions.MAX_SPEED_MPS`, ...: the bounds of tauvcore.logs.columns). Every
 problem is reported as one :class:`LogError` naming the file, the column and the row (data rows
 count from 1, the header not included) and the value.
 
-Here the tables are assembled into one :class:`~tauvcore.log_record.Log` (the IMU's increments,
+Here the tables are assembled into one :class:`~tauvcore.logs.record.Log` (the IMU's increments,
 resampled onto a constant rate where its clock is irregular; the reference, the aiding tables and
-the plug-in sources' tables), then judged physically (tauvcore.log_checks); a single table is read
-by tauvcore.log_tables and its columns checked by tauvcore.log_columns.
+the plug-in sources' tables), then judged physically (tauvcore.logs.checks); a single table is read
+by tauvcore.logs.table_io and its columns checked by tauvcore.logs.columns.
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ import numpy as np
 
 from tauvcore.aiding.source import AidingSource, Column
 from tauvcore.aiding.sources import SOURCES
-from tauvcore.log_columns import (
+from tauvcore.logs.columns import (
     DVL_BEAMS,
     DVL_BODY,
     DVL_BODY_WATER_TRACK,
@@ -79,8 +79,8 @@ from tauvcore.log_columns import (
     need_columns,
     time_column,
 )
-from tauvcore.log_record import Log
-from tauvcore.log_tables import held, read_table, table_path, written_nan
+from tauvcore.logs.record import Log
+from tauvcore.logs.table_io import held, read_table, table_path, written_nan
 from tauvcore.validation import LogError, show, show_path
 
 TABLES = ("imu", "dvl", "reference")
@@ -103,7 +103,7 @@ feels gravity, 9.8 m/s^2): outside it the accelerometer columns are in other uni
 g) or are not specific force."""
 MIN_IMU_SPAN_S = 1.0
 """Shortest IMU record a log may have [s]: one window of the physical checks
-(tauvcore.log_evidence.WINDOW_S) and one interval of a 1 Hz DVL or reference; a shorter one
+(tauvcore.logs.evidence.WINDOW_S) and one interval of a 1 Hz DVL or reference; a shorter one
 leaves every other table outside its span."""
 CONFIG_FILE = "log.toml"
 """The configuration a log carries with it, in its directory (the DVL's lever arm and geometry,
@@ -136,7 +136,7 @@ def _resample(
 def read_log(directory: str | os.PathLike) -> Log:
     """Read and check the log in ``directory`` (module docstring), then its physical plausibility.
 
-    The plausibility checks are tauvcore.log_checks'; their notes join :attr:`Log.notes`.
+    The plausibility checks are tauvcore.logs.checks'; their notes join :attr:`Log.notes`.
 
     Parameters
     ----------
@@ -185,7 +185,7 @@ def log_from_tables(
     names: Mapping[str, str],
     release: bool = False,
 ) -> Log:
-    """A log from tables already in memory (a ROS bag's topics, tauvcore.bags), read and checked
+    """A log from tables already in memory (a ROS bag's topics, tauvcore.logs.bags), read and checked
     exactly as :func:`read_log` reads and checks a log's files.
 
     Parameters
@@ -239,7 +239,7 @@ def log_from_tables(
 def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
     """The log of the tables at ``paths`` (None: the log has no such table; ``imu`` present),
     each had by ``load``: the IMU's increments (resampled where its clock is irregular), the
-    reference, the DVL and the sources' tables, then the physical checks (tauvcore.log_checks)."""
+    reference, the DVL and the sources' tables, then the physical checks (tauvcore.logs.checks)."""
     imu_path = paths["imu"]
     assert imu_path is not None  # both callers refuse a log without one first
     imu = load(imu_path)
@@ -252,7 +252,7 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
         )
     if t.size < 3:
         raise LogError(f"{show_path(str(imu_path))}: {t.size} rows; an IMU log needs at least 3")
-    from tauvcore import log_checks
+    from tauvcore.logs import checks as log_checks
 
     log_checks.check_imu_clock(t, imu_path)  # a clock in ms also spoils the gravity check below
     dt = np.diff(t)
@@ -317,7 +317,7 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
         if (path := paths[table]) is not None
     }
     log = Log(**out)
-    from tauvcore import log_checks  # cross-table plausibility (time and sensor units, signs)
+    from tauvcore.logs import checks as log_checks  # cross-table plausibility (time and sensor units, signs)
 
     return dataclasses.replace(
         log,

@@ -1,5 +1,5 @@
-"""Reading a ROS bag into the log's tables: the topics the mapping names (tauvcore.bags.mapping),
-their messages' numbers (tauvcore.bags.messages) in tauvcore's frames (tauvcore.bags.frames),
+"""Reading a ROS bag into the log's tables: the topics the mapping names (tauvcore.logs.bags.mapping),
+their messages' numbers (tauvcore.logs.bags.messages) in tauvcore's frames (tauvcore.logs.bags.frames),
 units and clock, one table per sensor as a log's files hold them (tauvcore.logs).
 
 Time: a topic's times are its header stamps (or the bag's receive times, ``time = "receive"``)
@@ -20,17 +20,19 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.source import BagMessage
-from tauvcore.bags.dvl_table import dvl_table
-from tauvcore.bags.files import BoundedPath, bag_errors, check_bag, msg_text, reset_short_read, why
-from tauvcore.bags.frames import (
+from tauvcore.geo.earth import ned_from_geodetic
+from tauvcore.geo.rotations import euler_from_C_nb
+from tauvcore.logs.bags.dvl_table import dvl_table
+from tauvcore.logs.bags.files import BoundedPath, bag_errors, check_bag, msg_text, reset_short_read, why
+from tauvcore.logs.bags.frames import (
     C_nb_from_quaternion,
     body_vectors,
     body_vectors_in_place,
     world_vectors,
     world_vectors_in_place,
 )
-from tauvcore.bags.increments import increment_columns
-from tauvcore.bags.mapping import (
+from tauvcore.logs.bags.increments import increment_columns
+from tauvcore.logs.bags.mapping import (
     ATMOSPHERIC_PA,
     EXTRA_TOPICS,
     GRAVITY_MPS2,
@@ -41,11 +43,17 @@ from tauvcore.bags.mapping import (
     TopicRule,
     resolve,
 )
-from tauvcore.bags.messages import EXTRACT, FIELDS, IMU_RATES, LAYOUTS, RawDecoder, plugin_row, require_finite
-from tauvcore.bags.scan import NotScannedError, Ros1Reader, read_chunked
-from tauvcore.bags.tf import Mounting, dvl_mounting
-from tauvcore.geo.earth import ned_from_geodetic
-from tauvcore.geo.rotations import euler_from_C_nb
+from tauvcore.logs.bags.messages import (
+    EXTRACT,
+    FIELDS,
+    IMU_RATES,
+    LAYOUTS,
+    RawDecoder,
+    plugin_row,
+    require_finite,
+)
+from tauvcore.logs.bags.scan import NotScannedError, Ros1Reader, read_chunked
+from tauvcore.logs.bags.tf import Mounting, dvl_mounting
 from tauvcore.units import DEG
 from tauvcore.validation import LogError, one_line, show, show_path
 
@@ -53,11 +61,11 @@ BAG_SUFFIXES = (".bag", ".mcap", ".db3")
 """A ROS 1 bag, an MCAP file (ROS 2), a ROS 2 sqlite3 file; a ROS 2 bag is also a directory with
 ``metadata.yaml``."""
 MSGS = Path(__file__).with_name("msgs")
-"""The shipped ``.msg`` definitions, ``<package>/msg/<Type>.msg`` (tauvcore/bags/msgs/README.md)."""
+"""The shipped ``.msg`` definitions, ``<package>/msg/<Type>.msg`` (tauvcore/logs/bags/msgs/README.md)."""
 
 
 def read_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str, TopicRule]) -> Mounting:
-    """:func:`~tauvcore.bags.tf.dvl_mounting` of the open ``reader``, a bag that cannot be read
+    """:func:`~tauvcore.logs.bags.tf.dvl_mounting` of the open ``reader``, a bag that cannot be read
     there one :class:`LogError` naming it.
 
     Parameters
@@ -74,7 +82,7 @@ def read_mounting(reader: Any, bag: str, mapping: BagMapping, rules: Mapping[str
     Returns
     -------
     Mounting
-        As :func:`~tauvcore.bags.tf.dvl_mounting` gives it.
+        As :func:`~tauvcore.logs.bags.tf.dvl_mounting` gives it.
 
     Raises
     ------
@@ -101,7 +109,7 @@ def is_bag(path: str | os.PathLike, by_name: bool = False) -> bool:
     by_name : bool
         Also a directory named as a bag file (``d.bag``) that is not a log (no ``imu.csv`` nor
         ``imu.parquet``): what a command given a path takes for a bag, so that opening it says it
-        is neither (:func:`~tauvcore.bags.files.check_bag`).
+        is neither (:func:`~tauvcore.logs.bags.files.check_bag`).
 
     Returns
     -------
@@ -181,7 +189,7 @@ class BagTables:
     names: dict[str, str]  # table -> its name in messages: '<bag>:<topic>'
     rules: dict[str, TopicRule]  # table -> the topic that fed it
     notes: tuple[str, ...] = ()  # what the conversion did that the user should know
-    mounting: Mounting | None = None  # the DVL's mounting as taken (tauvcore.bags.tf); None: no DVL
+    mounting: Mounting | None = None  # the DVL's mounting as taken (tauvcore.logs.bags.tf); None: no DVL
 
 
 class _Topic:
@@ -246,7 +254,7 @@ class _Topic:
 
 
 _NONE = np.empty(0, dtype=np.int64)
-"""No stamps (tauvcore.bags.scan.fixed_rows of a type without a header)."""
+"""No stamps (tauvcore.logs.bags.scan.fixed_rows of a type without a header)."""
 BATCH = 16_384
 """Messages of a topic read into its arrays at a time: the raw bytes held are at most this many
 messages a topic (about 12 MB of a nav_msgs/Odometry topic)."""
@@ -254,8 +262,8 @@ messages a topic (about 12 MB of a nav_msgs/Odometry topic)."""
 
 def open_bag(path: str | os.PathLike, store: Any) -> Any:
     """An open rosbags ``AnyReader`` of the bag at ``path``, its files read through
-    :class:`~tauvcore.bags.files.BoundedPath` (a LogError naming it if it is not a bag file or
-    directory, :func:`~tauvcore.bags.files.check_bag`, or cannot be opened: truncated, corrupt)."""
+    :class:`~tauvcore.logs.bags.files.BoundedPath` (a LogError naming it if it is not a bag file or
+    directory, :func:`~tauvcore.logs.bags.files.check_bag`, or cannot be opened: truncated, corrupt)."""
     from rosbags.highlevel import AnyReader
 
     bag = os.fspath(path)
@@ -277,7 +285,7 @@ def _deserialize(reader: Any, kind: str, raw: bytes) -> Any:
 
 class _Batch:
     """A topic's messages not yet read into its arrays: their bytes and receive times, read in
-    one go (:class:`~tauvcore.bags.messages.RawDecoder`) where the type's numbers are plain fields,
+    one go (:class:`~tauvcore.logs.bags.messages.RawDecoder`) where the type's numbers are plain fields,
     else message by message with rosbags."""
 
     def __init__(self, bag: str, topic: str, reader: Any, entry: _Topic) -> None:
@@ -308,7 +316,7 @@ class _Batch:
         self.raws, self.received = [], []
 
     def take(self, chunk: np.ndarray, received: np.ndarray, offset: np.ndarray, length: np.ndarray) -> None:
-        """The topic's messages in one chunk (tauvcore.bags.scan.read_chunked): bytes ``chunk``
+        """The topic's messages in one chunk (tauvcore.logs.bags.scan.read_chunked): bytes ``chunk``
         (B,) uint8, receive times [ns], offsets and lengths [bytes] (M,); read straight into the
         topic's arrays where the decoder lays them out, else held for :meth:`flush`."""
         done = 0
@@ -384,7 +392,7 @@ def read_topics(
     path: str | os.PathLike, mapping: BagMapping
 ) -> tuple[dict[str, TopicRule], dict[str, _Topic], Mounting | None]:
     """The mapping's rules for the bag at ``path``, the messages of every topic they need (by
-    topic; each with its type as ``kind``) and the DVL's mounting (tauvcore.bags.tf; None without
+    topic; each with its type as ``kind``) and the DVL's mounting (tauvcore.logs.bags.tf; None without
     a DVL topic)."""
     bag = os.fspath(path)
     reader = open_bag(bag, typestore(mapping.msg_paths, mapping.path))
@@ -462,7 +470,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
     path : str or os.PathLike
         A ROS 1 bag, a ROS 2 bag directory or an MCAP file.
     mapping : BagMapping
-        The mapping (tauvcore.bags.mapping.read_mapping).
+        The mapping (tauvcore.logs.bags.mapping.read_mapping).
     beam_directions_b : numpy.ndarray
         The configured Janus beams' unit vectors (4, 3) in the body frame (FRD), which per-beam
         velocities are matched to (``config.dvl.A_b``).
@@ -534,7 +542,7 @@ def bag_tables(path: str | os.PathLike, mapping: BagMapping, beam_directions_b: 
             assert mounting is not None  # read_topics finds it wherever there is a DVL
             water = _water_topic(bag, rule, read, origin, later)
             columns = dvl_table(bag, part, rule, t, water, beam_directions_b, mounting.C_b_dvl, notes)
-            t = columns.pop("t_s")  # a ping's two messages one row (tauvcore.bags.dvl_table)
+            t = columns.pop("t_s")  # a ping's two messages one row (tauvcore.logs.bags.dvl_table)
         elif table == "depth":
             columns = {"depth_m": _depth(kind, part, rule)}
         elif table == "attitude":
@@ -636,7 +644,7 @@ def _depth(kind: str, part: Mapping[str, np.ndarray], rule: TopicRule) -> np.nda
 def _plugin(
     spec: BagMessage, data: np.ndarray, rule: TopicRule, columns: tuple[str, ...]
 ) -> dict[str, np.ndarray]:
-    """A plug-in source's ``columns`` of its rows (:func:`~tauvcore.bags.messages.plugin_row`):
+    """A plug-in source's ``columns`` of its rows (:func:`~tauvcore.logs.bags.messages.plugin_row`):
     world vectors in NED, a covariance's position variances as 1-sigma in NED (NaN where negative,
     ROS's "unknown"), scalars as they are; a column no field fills is NaN."""
     out: dict[str, np.ndarray] = {}
@@ -750,7 +758,7 @@ def _attitude(
     quaternion: np.ndarray, frame: str, velocity_b: np.ndarray | None = None, in_place: bool = False
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Roll, pitch, yaw (K, 3) of orientation quaternions (K, 4) in ``frame`` (``C_nb`` of
-    tauvcore.bags.frames, its ZYX angles) and, given body velocities (K, 3), the NED velocities
+    tauvcore.logs.bags.frames, its ZYX angles) and, given body velocities (K, 3), the NED velocities
     ``C_nb v_b`` (K, 3); block by block (:data:`BLOCK`). ``in_place``: the angles written over the
     quaternions' first three columns and the velocities over the body velocities (each block's
     read before it is written)."""

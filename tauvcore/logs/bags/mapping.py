@@ -4,7 +4,7 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
 
     frame = "flu_enu"          # every topic's frame convention unless its table says otherwise
     time = "header"            # header stamps, or "receive": the bag's receive times
-    base_frame = "base_link"   # the body's frame in /tf_static (the DVL's mounting: tauvcore.bags.tf)
+    base_frame = "base_link"   # the body's frame in /tf_static (the DVL's mounting: tauvcore.logs.bags.tf)
     msg_paths = ["msgs/my_msgs/msg/MyDvl.msg"]   # more .msg definitions (<package>/msg/<Type>.msg)
 
     [imu]
@@ -17,7 +17,7 @@ A mapping is a TOML file (docs/bags.md has a worked example)::
     topic = "/dvl"
     frame = "frd_ned"
     mounting_rpy_deg = [0.0, 0.0, 0.0]   # the DVL's frame in the body, v_b = C_b_dvl v_dvl (ZYX);
-                                         # without it, /tf_static's (tauvcore.bags.tf)
+                                         # without it, /tf_static's (tauvcore.logs.bags.tf)
     # water_track = true       # every velocity of the topic is water-track (false: bottom-track);
                                # without it, each message's velocity_mode where it has one
     # water_track_topic = "/dvl/water"   # a second DVL topic, all water-track, merged ping by ping
@@ -49,8 +49,8 @@ from typing import Any
 
 from tauvcore.aiding.source import BagMessage
 from tauvcore.aiding.sources import SOURCES
-from tauvcore.bags.frames import FRAMES
 from tauvcore.config import read_toml
+from tauvcore.logs.bags.frames import FRAMES
 from tauvcore.validation import ConfigError, LogError, show, show_path
 
 TIMES = ("header", "receive")
@@ -62,7 +62,7 @@ DVL_PER_BEAM = (
     "uuv_sensor_ros_plugins_msgs/msg/DVL",
     "waterlinked_a50_ros_driver/msg/DVL",
 )
-"""The DVL messages with per-beam data (the definitions ship in tauvcore/bags/msgs)."""
+"""The DVL messages with per-beam data (the definitions ship in tauvcore/logs/bags/msgs)."""
 TWISTS = ("geometry_msgs/msg/TwistWithCovarianceStamped", "geometry_msgs/msg/TwistStamped")
 """Body velocity only: projected onto the configured beams, as a log's ``vel_x_mps`` columns are."""
 POSES = (
@@ -128,7 +128,7 @@ TABLE_KEYS: dict[str, tuple[str, ...]] = {
     **BUILT_IN_KEYS,
     **dict.fromkeys(PLUGIN_MESSAGES, COMMON_KEYS),
 }
-"""Each table's keys (docs/bags.md): ``topic``, ``frame`` (:data:`~tauvcore.bags.frames.FRAMES`),
+"""Each table's keys (docs/bags.md): ``topic``, ``frame`` (:data:`~tauvcore.logs.bags.frames.FRAMES`),
 ``time`` (:data:`TIMES`), ``offset_s`` [s]; the DVL's mounting, form, beams and mode; the depth's water
 and air; a geodetic reference's orientation and depth topics; a plug-in source's table
 (:data:`PLUGIN_MESSAGES`) the common keys."""
@@ -137,12 +137,12 @@ BASE_FRAME = "base_link"
 TOP_KEYS = ("frame", "time", "base_frame", "msg_paths", "config", *TABLE_KEYS)
 EXTRA_TOPICS = ("orientation_topic", "depth_topic", "velocity_topic", "water_track_topic")
 """A table's keys that name a topic besides its ``topic``: a geodetic reference's orientation and
-depth, an IMU's velocity increments, a DVL's water-track velocities (tauvcore.bags.dvl_table)."""
+depth, an IMU's velocity increments, a DVL's water-track velocities (tauvcore.logs.bags.dvl_table)."""
 IMU_FORMS = ("rates", "increments")
 """``rates``: a ``sensor_msgs/Imu`` topic (angular velocity, linear acceleration); ``increments``:
 angle increments on ``topic`` (:data:`INCREMENT_ANGLES`) and velocity increments on
 ``velocity_topic`` (:data:`INCREMENT_VELOCITIES`), a message of each per sample, on the same
-stamps (tauvcore.bags.increments)."""
+stamps (tauvcore.logs.bags.increments)."""
 DVL_FORMS = ("auto", "beams", "body")
 """``auto``: per-beam velocities where the message has them (and its beams are the configured
 ones), else the body velocity; ``beams``: per-beam or refuse; ``body``: the body velocity."""
@@ -157,7 +157,7 @@ DVL_BEAM_TOLERANCE_DEG = 3.0
 """Largest angle [deg] between a message's beam direction and the configured beam it is taken for."""
 DVL_PING_TOLERANCE_S = 0.005
 """Largest difference [s] between the times of a water-track and a bottom-track DVL message taken
-for one ping (tauvcore.bags.dvl_table): a driver stamps both outputs of a ping alike (up to its
+for one ping (tauvcore.logs.bags.dvl_table): a driver stamps both outputs of a ping alike (up to its
 rounding), and 5 ms is below the shortest interval between pings (40 ms at 25 Hz) and half an IMU
 sample at 100 Hz."""
 _RANGES: dict[str, tuple[float, float]] = {
@@ -177,7 +177,7 @@ class TopicRule:
     table: str  # the log's table: imu, dvl, depth, attitude, reference
     topic: str  # the bag's topic
     msgtype: str = ""  # its message type (sensor_msgs/msg/Imu)
-    frame: str = "flu_enu"  # frame convention (tauvcore.bags.frames)
+    frame: str = "flu_enu"  # frame convention (tauvcore.logs.bags.frames)
     time: str = "header"  # "header" stamps or "receive" times
     offset_s: float = 0.0  # [s] added to the topic's times
     options: Mapping[str, Any] = field(default_factory=dict)  # the table's own keys (TABLE_KEYS)
@@ -194,7 +194,7 @@ class BagMapping:
     path: str | None = None  # the mapping file; None: no mapping (every table by type)
     frame: str = "flu_enu"
     time: str = "header"
-    base_frame: str = BASE_FRAME  # the body's frame id in /tf_static (tauvcore.bags.tf)
+    base_frame: str = BASE_FRAME  # the body's frame id in /tf_static (tauvcore.logs.bags.tf)
     tables: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # table -> its keys
     msg_paths: tuple[Path, ...] = ()  # extra .msg definitions
     config: Mapping[str, Any] = field(default_factory=dict)  # a partial tauv configuration
