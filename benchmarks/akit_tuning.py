@@ -22,8 +22,11 @@ velocity, tilt and heading NEES per dimension against the reference with its sta
 position error at the end [m] and the divergence monitor's first flag. Then the held-out
 segments together against the bands the tuning must meet.
 
-Writes its tables to docs/results/akit_tuning.md (benchmarks/fragment.py); exits quietly when the
-data are absent.
+Writes its tables to docs/results/akit_tuning.md (``--fragment NAME``: NAME.md; benchmarks/fragment.py);
+exits quietly when the data are absent. docs/tuning.md shows three: akit_tuning.md (the defaults),
+akit_tuning_walks.md (``--params gyro_noise,accel_noise,dvl_noise,gyro_bias_walk,accel_bias_walk,gyro_bias
+--fragment akit_tuning_walks``) and akit_tuning_phins.md (``--imu phins --params dvl_noise,dvl_bias_walk
+--fragment akit_tuning_phins``).
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ from tauvcore.eval.tuning import (
     tune,
     tuned_sections,
 )
+from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.logs import Log, read_log
 from tauvcore.sensors.imu import IMU_PROFILES
 
@@ -95,7 +99,8 @@ def judge(result: MethodResult) -> dict[str, float]:
     }
     for block, dim in (("vel", 3), ("tilt", 2), ("heading", 1)):
         out[f"nees_{block}"] = float(np.nanmean(nees_series(result, block)[:, 0]) / dim)
-    out["tilt_rms_deg"] = float(np.sqrt(np.nanmean(result.tilt_err_deg[:, 0] ** 2)))
+    at = np.isfinite(nees_series(result, "tilt")[:, 0])  # the reference's own epochs (tauvcore.eval.judging)
+    out["tilt_rms_deg"] = float(np.sqrt(np.mean(result.tilt_err_deg[at, 0] ** 2)))
     out["tilt_sigma_deg"] = float(np.nanmedian(result.tilt_sigma_deg[:, 0]))
     out["innovation_lag1"] = innovation_lag1(dvl)
     return out
@@ -116,6 +121,40 @@ def innovation_lag1(dvl) -> float:
     return float(np.corrcoef(x, y)[0, 1])
 
 
+def fitted_lever_arm(log: Log) -> tuple[np.ndarray, np.ndarray]:
+    """The DVL's lever arm against the reference [m] (body FRD) and its 1-sigma: least squares of the
+    DVL's body velocity on the reference's (its attitude and NED velocity interpolated to the ping)
+    plus ``omega x l`` (the IMU's rate over the ten samples around the ping) and a constant bias,
+    the residuals' spread as the noise. What the reference says the DVL's lever arm is, whatever
+    the IMU's own position."""
+    assert log.ref_t_s is not None and log.ref_euler is not None and log.ref_vel_n is not None
+    assert log.dvl_t_s is not None and log.dvl_body_mps is not None
+    rows, rhs = [], []
+    yaw = np.unwrap(log.ref_euler[:, 2])
+    for t, v in zip(log.dvl_t_s, log.dvl_body_mps, strict=True):
+        k = int(np.searchsorted(log.imu_t_s, t))
+        if (
+            not np.isfinite(v).all()
+            or not log.ref_t_s[0] < t < log.ref_t_s[-1]
+            or not 5 <= k < len(log.imu_t_s) - 5
+        ):
+            continue
+        w = log.dtheta_b[k - 5 : k + 5].sum(axis=0) / (10 * log.dt_s)
+        euler = [
+            np.interp(t, log.ref_t_s, log.ref_euler[:, 0]),
+            np.interp(t, log.ref_t_s, log.ref_euler[:, 1]),
+        ]
+        vel_n = [np.interp(t, log.ref_t_s, log.ref_vel_n[:, j]) for j in range(3)]
+        vel_b = C_nb_from_euler(np.array([*euler, np.interp(t, log.ref_t_s, yaw)])).T @ np.array(vel_n)
+        wx = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+        rows.append(np.hstack([wx, np.eye(3)]))  # v_dvl - v_b = omega x l + bias
+        rhs.append(v - vel_b)
+    a, b = np.concatenate(rows), np.concatenate(rhs)
+    x, *_ = np.linalg.lstsq(a, b, rcond=None)
+    cov = np.linalg.inv(a.T @ a) * float(np.var(b - a @ x))
+    return x[:3], np.sqrt(np.diag(cov)[:3])
+
+
 def free_ins_drift(log: Log, config: Config) -> dict[str, float]:
     """The standalone INS from the reference's first row: its tilt and heading error at the end
     [deg]. A navigation-grade IMU's own integration stays within hundredths of a degree over 400 s;
@@ -128,7 +167,34 @@ def free_ins_drift(log: Log, config: Config) -> dict[str, float]:
 def replayed(log: Log, config: Config, seed: int = 0) -> dict[str, dict[str, float]]:
     """Every method of :data:`METHODS` on the log under ``config``, judged."""
     _, results = replay(config.replace("run", methods=METHODS, seed=seed), log, np.random.default_rng(seed))
-    return {m: judge(results[m]) for m in METHODS}
+    return {m: judge(results[m]) | velocity_timing(results[m], log) for m in METHODS}
+
+
+def velocity_timing(result: MethodResult, log: Log) -> dict[str, float]:
+    """The filter's horizontal NED velocity against the reference's at the reference's own epochs:
+    its RMS error [m/s], the time offset [s] that best explains that error as the reference's
+    acceleration times a delay (least squares), and the RMS left after it. A filter whose velocity
+    follows a DVL timed differently from the reference shows an offset and a large reduction."""
+    at = np.flatnonzero(np.isfinite(nees_series(result, "vel")[:, 0]))
+    if result.est_vel_n is None or log.ref_t_s is None or log.ref_vel_n is None or len(at) < 10:
+        return {
+            "vel_h_rms_mps": float("nan"),
+            "vel_offset_s": float("nan"),
+            "vel_h_rms_after_mps": float("nan"),
+        }
+    j = np.clip(np.searchsorted(log.ref_t_s, result.t_s[at]), 0, len(log.ref_t_s) - 1)
+    prev = np.clip(j - 1, 0, None)
+    j = np.where(
+        np.abs(log.ref_t_s[prev] - result.t_s[at]) < np.abs(log.ref_t_s[j] - result.t_s[at]), prev, j
+    )
+    accel = np.gradient(log.ref_vel_n, log.ref_t_s, axis=0)[j, :2].ravel()
+    err = (result.est_vel_n[at, 0, :2] - log.ref_vel_n[j, :2]).ravel()
+    offset = float(accel @ err / (accel @ accel))
+    return {
+        "vel_h_rms_mps": float(np.sqrt(np.mean(err**2) * 2)),
+        "vel_offset_s": offset,
+        "vel_h_rms_after_mps": float(np.sqrt(np.mean((err - accel * offset) ** 2) * 2)),
+    }
 
 
 def _band(value: float, band: tuple[float, float]) -> str:
@@ -204,6 +270,11 @@ def main() -> None:
         found_sections = merge(cal_sections, tuned_sections(result))
         after = {n: replayed(logs[n], from_dict(merge(own[n], found_sections))) for n in found}
         drift = {n: free_ins_drift(logs[n], from_dict(merge(own[n], cal_sections))) for n in found}
+        no_arm = {"dvl": {"lever_arm_m": [0.0, 0.0, 0.0]}}
+        armless = {
+            n: replayed(logs[n], from_dict(merge(merge(own[n], found_sections), no_arm))) for n in found
+        }
+        arms = {n: fitted_lever_arm(logs[n]) for n in found}
     elapsed_s = time.perf_counter() - started
 
     with fragment.capture() as shown:
@@ -245,19 +316,29 @@ def main() -> None:
                 )
         print(
             "\nEvidence per segment, LC after: the standalone INS's tilt and heading error at the end (the IMU's "
-            "record against the reference), LC's tilt error (RMS) against its own 1-sigma (median), and the lag-1 "
-            "autocorrelation of the DVL's normalised innovations (0: white, as the filter assumes):\n"
+            "record against the reference), LC's tilt error (RMS at the reference's own epochs) against its own "
+            "1-sigma (median), and the lag-1 "
+            "autocorrelation of the DVL's normalised innovations (0: white, as the filter assumes); LC's horizontal "
+            "velocity error at the reference's epochs, the time offset that best explains it as the reference's "
+            "acceleration times a delay, and what is left without it; the DVL's lever arm (its forward component) "
+            "fitted against the reference (its velocity and attitude, with the IMU's rate), and LC's DVL NIS/dof and "
+            "horizontal velocity RMS after, with the log's lever arm and with none:\n"
         )
         print(
             "| segment | INS tilt at end [deg] | INS heading at end [deg] | LC tilt RMS [deg] | LC tilt 1-sigma [deg] "
-            "| innovation lag-1 |"
+            "| innovation lag-1 | LC horizontal velocity RMS [m/s] | its time offset [s] | RMS without it [m/s] "
+            "| DVL lever arm x fitted [m] | LC NIS/dof: log's arm -> none | LC velocity RMS: log's arm -> none [m/s] |"
         )
-        print("|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in found:
-            a = after[n]["lc"]
+            a, z = after[n]["lc"], armless[n]["lc"]
+            arm, arm_sigma = arms[n]
             print(
                 f"| {n} | {drift[n]['tilt_end_deg']:.3f} | {drift[n]['heading_end_deg']:.3f} | {a['tilt_rms_deg']:.3f} "
-                f"| {a['tilt_sigma_deg']:.3f} | {a['innovation_lag1']:+.2f} |"
+                f"| {a['tilt_sigma_deg']:.3f} | {a['innovation_lag1']:+.2f} | {a['vel_h_rms_mps']:.3f} "
+                f"| {a['vel_offset_s']:+.2f} | {a['vel_h_rms_after_mps']:.3f} | {arm[0]:+.2f} +- {arm_sigma[0]:.2f} "
+                f"| {a['nis_sum'] / a['dof_sum']:.2f} -> {z['nis_sum'] / z['dof_sum']:.2f} "
+                f"| {a['vel_h_rms_mps']:.3f} -> {z['vel_h_rms_mps']:.3f} |"
             )
         if held_out:
             print(
