@@ -172,6 +172,7 @@ def smoothed_traces(
             "name": name,
             "mode": "lines",
             "line": {"color": color, "width": 2, "dash": SMOOTHED_DASH},
+            "connectgaps": True,  # a replay's NEES is known at its reference's epochs only (tauvcore.eval.judging)
             "legendgroup": method,
         }
     )
@@ -338,7 +339,8 @@ def nees_figure(
     runs are added; when the methods drawn have different n, one band per n, "99 % band (dim n)",
     the first dashed, the others dotted); above it the filter is over-confident, below it cautious.
     NEES spans decades (VB at a small n_f reached thousands), so the y-axis is logarithmic. Epochs
-    where a run's NEES is not finite (a diverged filter) are gaps. ``smoothed``: each method's
+    where the NEES is not finite are bridged by the line: a replayed log's NEES is known at its
+    reference's own epochs only (tauvcore.eval.judging), a 1 Hz reference's every tenth epoch. ``smoothed``: each method's
     smoothed NEES of the block, against the same truth and band, as a dashed line beside its
     filtered one (:func:`smoothed_traces`).
     """
@@ -379,6 +381,7 @@ def nees_figure(
                 "name": method.upper(),
                 "mode": "lines",
                 "line": {"color": method_color(method), "width": 2},
+                "connectgaps": True,  # a replay's NEES is known at its reference's epochs only (tauvcore.eval.judging)
                 "legendgroup": method,
             }
         )

@@ -288,9 +288,9 @@ def run_worker(
             )
             queue.put(("sensors", sensors.view()))
         else:
-            from tauvcore.eval.replay import judged
+            from tauvcore.eval.judging import judged
 
-            results = judged(
+            results = judged(  # the smoothed results too
                 log,
                 run(
                     config,
@@ -303,13 +303,8 @@ def run_worker(
                     sensor_errors=sensor_errors,
                     smooth=smooth,
                 ),
+                config.filter.output_rate_hz,
             )
-            results = {  # a log without a reference judges its smoothed errors unknown too
-                m: r
-                if r.smoothed is None
-                else dataclasses.replace(r, smoothed=judged(log, {m: r.smoothed})[m])
-                for m, r in results.items()
-            }
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # noqa: BLE001 - any failure is the run's: the dashboard shows it, the server keeps serving
         queue.put(("error", failure_message(exc)))

@@ -47,18 +47,20 @@ class the data were recorded with (tauvcore.sensors.imu.IMU_PROFILES)."""
 
 def _lc_diagnosis(r) -> dict[str, float]:
     """LC's verdicts on a segment: the monitor's first flag, the lock-out resets, the DVL's NIS per
-    degree of freedom, the tilt and velocity errors against the reference and their NEES/dim."""
+    degree of freedom, the tilt and velocity errors against the reference and their NEES/dim, at
+    the reference's own epochs (where the NEES is finite: tauvcore.eval.judging)."""
     dvl = r.updates["dvl"]
     dof = dvl.nis_dof[:, 0]
     used = dof > 0
+    at = np.isfinite(r.nees_block[:, 0, 1])
     return {
         "flag_s": float(r.diverged_at_s[0]),
         "resets": int(dvl.reset[:, 0].sum()) if dvl.reset is not None else 0,
         "nis": float(np.mean(dvl.nis[used, 0] / dof[used])),
-        "tilt_deg": float(np.sqrt(np.mean(r.tilt_err_deg[:, 0] ** 2))),
-        "vel_mps": float(np.sqrt(np.mean(r.vel_err_mps[:, 0] ** 2))),
-        "nees_tilt": float(np.mean(r.nees_block[:, 0, 2]) / 2.0),
-        "nees_vel": float(np.mean(r.nees_block[:, 0, 1]) / 3.0),
+        "tilt_deg": float(np.sqrt(np.mean(r.tilt_err_deg[at, 0] ** 2))),
+        "vel_mps": float(np.sqrt(np.mean(r.vel_err_mps[at, 0] ** 2))),
+        "nees_tilt": float(np.mean(r.nees_block[at, 0, 2]) / 2.0),
+        "nees_vel": float(np.mean(r.nees_block[at, 0, 1]) / 3.0),
         "pos_m": float(r.pos_err_m[-1, 0]),
     }
 
@@ -115,7 +117,8 @@ def main() -> None:
               "the data were recorded with (the `phins` IMU profile as the `[imu]` section): position error at the end [m]; the divergence monitor's "
               "first flag [s] (from the DVL's innovations, as a real filter could judge itself); velocity resets "
               "after a lock-out; the DVL's NIS per degree of freedom (1 for a filter whose DVL noise is right); "
-              "RMS tilt [deg] and velocity [m/s] errors against the reference and their NEES/dim\n")
+              "RMS tilt [deg] and velocity [m/s] errors against the reference and their NEES/dim, at the "
+              "reference's own 1 Hz epochs\n")
         print("| segment | tuning | position [m] | flagged at [s] | resets | DVL NIS/dof | tilt [deg] | velocity [m/s] "
               "| NEES/dim tilt | NEES/dim velocity |")
         print("|---|---|---|---|---|---|---|---|---|---|")

@@ -146,7 +146,7 @@ def main() -> None:
             f"LC tuned from Table 2 on {args.seeds} {args.trajectory} logs of {args.duration:g} s made with the "
             f"yoo-table1 IMU ({args.half} with half Table 2's DVL noise), the untuned IMU figures "
             + ("the simulation's (a datasheet's)" if args.start == "datasheet" else "Table 2's")
-            + "; tuned / true (1-sigma factor)"
+            + "; tuned / true (1-sigma factor):\n"
         )
         head = ["seed", "DVL", *names, *(f"{b} after" for b in BLOCKS), "NIS after", "evals", "time [s]"]
         print("| " + " | ".join(head) + " |")

@@ -30,6 +30,7 @@ from tauvcore.engine.simulation import ChunkSource, Simulation
 from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.engine.sources import active
 from tauvcore.eval.corrections import calibrated
+from tauvcore.eval.judging import judged
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
@@ -704,7 +705,8 @@ def replay(
         As :func:`prepare`.
     """
     config, sim = prepare(config, log, rng, imu_errors)
-    return config, judged(log, run(config, sim, rng, progress=progress, should_stop=should_stop))
+    results = run(config, sim, rng, progress=progress, should_stop=should_stop)
+    return config, judged(log, results, config.filter.output_rate_hz)
 
 
 def replay_chunked(
@@ -750,50 +752,10 @@ def replay_chunked(
         config,
         sim,
         rng,
-        lambda results: on_chunk(judged(log, results)),
+        lambda results: on_chunk(judged(log, results, config.filter.output_rate_hz)),
         chunk_s,
         smooth=smooth,
         on_smoothed_chunk=None
         if on_smoothed_chunk is None
-        else (lambda results: on_smoothed_chunk(judged(log, results))),
+        else (lambda results: on_smoothed_chunk(judged(log, results, config.filter.output_rate_hz))),
     )
-
-
-JUDGED_SERIES = (
-    "vel_err_mps",
-    "att_err_deg",
-    "pos_err_m",
-    "tilt_err_deg",
-    "heading_err_deg",
-    "nees",
-    "nees_block",
-)
-"""The series of a :class:`~tauvcore.engine.results.MethodResult` measured against the truth."""
-
-
-def judged(log: Log | None, results: dict[str, MethodResult]) -> dict[str, MethodResult]:
-    """``results`` as far as the log can judge them.
-
-    A log without a reference has no truth, so its errors and NEES are unknown at every epoch,
-    the first included (the filters were put there, so a zero error at t = 0 would be no
-    measurement). A log with one (or None, a simulation): unchanged.
-
-    Parameters
-    ----------
-    log : Log or None
-        The replayed log; None: a simulation.
-    results : dict[str, MethodResult]
-        Method name -> its results.
-
-    Returns
-    -------
-    dict[str, MethodResult]
-        ``results`` with every series of :data:`JUDGED_SERIES` NaN (same shapes: (T, R), and
-        (T, R, B) for ``nees_block``) for a log without a reference; else ``results`` unchanged.
-    """
-    if log is None or log.ref_t_s is not None:
-        return results
-    return {
-        m: dataclasses.replace(r, **{n: np.full_like(getattr(r, n), np.nan) for n in JUDGED_SERIES})
-        for m, r in results.items()
-    }

@@ -52,6 +52,7 @@ OTHER_PROGRAMS = {
     "--mount-proc": "unshare",
     "--skip-study": "benchmarks/engine_table.py",
     "--skip-long": "benchmarks/engine_table.py",
+    "--fragment": "benchmarks/akit_tuning.py",
 }
 """Flags of other programs the pages name (in backticks), and whose."""
 

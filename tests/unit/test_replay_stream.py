@@ -22,7 +22,8 @@ from tauvcore.config import Config
 from tauvcore.engine import mission
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.eval import replay as replay_module
-from tauvcore.eval.replay import LogRows, judged, log_config, prepare, prepare_rows, start_description
+from tauvcore.eval.judging import judged
+from tauvcore.eval.replay import LogRows, log_config, prepare, prepare_rows, start_description
 from tauvcore.logs import CONFIG_FILE, read_log
 from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.imu import IMU_PROFILES

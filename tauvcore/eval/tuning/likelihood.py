@@ -161,17 +161,20 @@ class PreparedLog:
         -------
         dict[str, MethodResult]
             The method's results (one run, R = 1), judged as far as the log can judge them
-            (tauvcore.eval.replay.judged).
+            (tauvcore.eval.judging.judged).
         """
         # the engine imported when a replay runs, not when the command line's parser is built
         from tauvcore.engine.mission import run
-        from tauvcore.eval.replay import judged, replay_config
+        from tauvcore.eval.judging import judged
+        from tauvcore.eval.replay import replay_config
 
         config = with_values(self.case.config, values)
         if tuning:
             config = tuning_config(config)
         config = replay_config(config, self.case.log)
-        return judged(self.case.log, run(config, self.sim, copy.deepcopy(self.rng)))
+        return judged(
+            self.case.log, run(config, self.sim, copy.deepcopy(self.rng)), config.filter.output_rate_hz
+        )
 
     def nll(self, values: Mapping[str, float]) -> float:
         """The negative log-likelihood of the log's innovations under ``values`` (gate open).
