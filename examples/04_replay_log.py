@@ -25,8 +25,8 @@ from tauvcore.config import Config
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.eval.replay import replay
-from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.logs import read_log
+from tauvcore.logs.writer import simulation_tables, write_log
 
 METHODS = ("ins", "lc", "tc", "elc")
 
