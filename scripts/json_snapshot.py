@@ -7,7 +7,8 @@ must not change a number (a restructuring of the engine, a faster path).
 The commands cover both banks (the 20-state methods and Yoo 2014's), every trajectory, the
 kinematic and the dynamic truth, every aiding source, beams off, outages and dropout, the
 RPM fallback, the smoother, a current with water-track and current states, a simulated log's
-replay (plain and smoothed), A-KIT segment 1's replay when ``../shared/data/akit`` holds it, and
+replay (plain and smoothed), A-KIT segment 1's replay when ``../shared/data/akit`` (or the
+directory ``TAUV_AKIT`` names) holds it, and
 a Monte Carlo study on local processes and on a local Dask cluster. Each command's ``--json``
 file (a study's summary.json and runs.parquet) is kept; ``compare`` walks both and reports every
 number that differs by more than 1e-9 of its scale (``max(1, |a|, |b|)``), every string, key or
@@ -21,6 +22,7 @@ import argparse
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -29,7 +31,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-AKIT = ROOT.parent / "shared" / "data" / "akit" / "Trajectory1"
+AKIT = Path(os.environ.get("TAUV_AKIT", ROOT.parent / "shared" / "data" / "akit")) / "Trajectory1"
 TOLERANCE = 1e-9
 YOO = "ins-dvl,vkf"
 ALL = "ins,lc,tc,vb,nsv,plcf,vhv,elc,iekf," + YOO
@@ -302,6 +304,9 @@ def collect(work: Path) -> dict[str, object]:
     return outputs
 
 
+WORK_DIR = re.compile(r"/[^'\"\s]*tauv-snapshot-[A-Za-z0-9_]+")
+"""The temporary directory the commands ran in, as strings name it (not compared)."""
+
 VOLATILE = {"elapsed_s", "wall_s", "created", "version", "command", "date", "python", "machine"}
 """Keys whose values are the run's circumstances, not its numbers (not compared)."""
 
@@ -323,6 +328,9 @@ def differences(a: object, b: object, where: str = "", found: list[str] | None =
             found.append(f"{where}: length {len(a)} != {len(b)}")
         for i, (x, y) in enumerate(zip(a, b, strict=False)):
             differences(x, y, f"{where}[{i}]", found)
+    elif isinstance(a, str) and isinstance(b, str):
+        if WORK_DIR.sub("{work}", a) != WORK_DIR.sub("{work}", b):
+            found.append(f"{where}: {a!r} != {b!r}")
     elif (
         isinstance(a, bool)
         or isinstance(b, bool)
