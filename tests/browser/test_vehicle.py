@@ -21,11 +21,12 @@ FOLDER = "Your vehicle: calibrate and tune"
 
 @pytest.fixture(scope="module")
 def logs_url(tmp_path_factory) -> Iterator[str]:
-    """``tauv serve --logs DIR`` where DIR holds ``dive``: 60 s of the figure eight, saved by
-    ``tauv run --save-log`` (its reference the truth)."""
+    """``tauv serve --logs DIR`` where DIR holds ``dive``: 400 s of the figure eight (long enough
+    that a tuning is still searching when Stop is pressed), saved by ``tauv run --save-log`` (its
+    reference the truth)."""
     logs = tmp_path_factory.mktemp("logs")
     subprocess.run(
-        [sys.executable, "-m", "app.cli", "run", "--trajectory", "figure8", "--duration", "60", "--method", "lc",
+        [sys.executable, "-m", "app.cli", "run", "--trajectory", "figure8", "--duration", "400", "--method", "lc",
          "--seed", "1", "--save-log", str(logs / "dive")],
         check=True, capture_output=True, timeout=300,
     )
@@ -56,9 +57,9 @@ def test_calibrate_then_apply_on_a_log(tab: Tab) -> None:
     _choose_dive(tab)
     tab.open_folder(FOLDER)
     tab.page.get_by_role("button", name="Calibrate", exact=True).click()
-    report = tab.page.get_by_text("Calibration of dive", exact=False)
-    report.wait_for(timeout=180000)
+    tab.page.locator("strong", has_text="Calibration of dive").wait_for(timeout=180000)
     expect(tab.page.get_by_text("calibration from 1 log", exact=False).first).to_be_visible(timeout=10000)
+    tab.page.locator("strong", has_text="Calibration of dive").scroll_into_view_if_needed()
     tab.page.screenshot(path=str(ARTIFACTS / "vehicle_calibrate.png"))
     apply = tab.page.get_by_role("button", name="Apply", exact=True)
     expect(apply).to_be_enabled(timeout=10000)
@@ -78,12 +79,15 @@ def test_tune_stopped_keeps_its_best_point_and_apply_fills_the_controls(tab: Tab
     tune = tab.page.get_by_role("button", name="Tune", exact=True)
     tune.click()
     expect(tune).to_be_disabled(timeout=30000)
-    tab.page.wait_for_timeout(5000)
-    tab.page.get_by_role("button", name="Stop", exact=True).click()
-    tab.page.get_by_text("Tuning of dive", exact=False).wait_for(timeout=180000)
+    stop = tab.page.get_by_role("button", name="Stop", exact=True)
+    expect(stop).to_be_enabled(timeout=30000)
+    tab.page.wait_for_timeout(2000)
+    stop.click()
+    tab.page.locator("strong", has_text="Tuning of dive").wait_for(timeout=180000)
     expect(tab.page.get_by_text("Stopped: the best point so far", exact=False)).to_be_visible(timeout=10000)
     expect(tab.page.get_by_text("NIS/dof", exact=False).first).to_be_visible(timeout=10000)
     expect(tune).to_be_enabled(timeout=30000)
+    tab.page.locator("strong", has_text="Tuning of dive").scroll_into_view_if_needed()
     tab.page.screenshot(path=str(ARTIFACTS / "vehicle_tune.png"))
     tab.page.get_by_role("button", name="Apply", exact=True).click()
     tab.notification("Applied to log dive").wait_for(timeout=30000)
