@@ -40,8 +40,21 @@ only at the reference's own epochs (:func:`reference_epochs`)."""
 
 
 def output_interval_s(log: Log, output_rate_hz: float) -> float:
-    """The interval between output epochs of a replay of ``log`` [s]: a whole number of IMU
-    intervals, as the engine takes them (tauvcore.engine.chunk_driver)."""
+    """The interval between output epochs of a replay of ``log``.
+
+    Parameters
+    ----------
+    log : Log
+        The replayed log (its IMU interval).
+    output_rate_hz : float
+        The replay's ``filter.output_rate_hz`` [Hz].
+
+    Returns
+    -------
+    float
+        The interval [s]: a whole number of IMU intervals, as the engine takes them
+        (tauvcore.engine.chunk_driver).
+    """
     step = max(1, round((1.0 / log.dt_s) / output_rate_hz))
     return step * log.dt_s
 

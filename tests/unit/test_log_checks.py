@@ -18,10 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tauvcore import log_checks, logs, units
+from tauvcore import logs, units
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.logs import Log, read_log
+from tauvcore.logs import checks as log_checks
 from tauvcore.logs.checks import check_plausible
 from tauvcore.logs.writer import simulation_tables, write_log
 from tauvcore.sensors.dvl import DvlConfig
