@@ -13,7 +13,7 @@ import time
 from typing import Any
 
 from app.commands.smoothing import smooth_options
-from app.commands.values import UsageError, parse_flag, replace_for_flag, resolve_config
+from app.commands.values import UsageError, check_dask, parse_flag, replace_for_flag, resolve_config
 from app.payload import config_to_json
 from app.tables import study_table
 from tauvcore.config import Config
@@ -57,7 +57,7 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
         raise UsageError("--workers: not with --dask (the Dask cluster has its own workers)")
     out_dir = _checked_out(args).path
     if args.dask is not None:
-        _check_dask(args.dask)
+        check_dask(args.dask)
     try:
         writer = StudyWriter(out_dir, name=args.out)
     except OutputDirError as exc:
@@ -290,23 +290,6 @@ def _study_failures(dask: str | None):
         raise StudyFailedError(
             f"--dask {dask}: the cluster failed during the study ({type(exc).__name__}: "
             f"{one_line(str(exc))}); nothing was written"
-        ) from None
-
-
-def _check_dask(address: str) -> None:
-    """Fail fast, with one line, if no Dask scheduler answers at ``address``."""
-    try:
-        from distributed import Client
-    except ImportError:
-        raise UsageError("--dask: the 'distributed' package is not installed") from None
-    from tauvcore.eval.study import DASK_CONNECT_TIMEOUT_S
-
-    try:
-        with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
-            pass
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise UsageError(
-            f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}"
         ) from None
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import tomli_w
 
 from app.commands.outputs import write_text_atomic
-from app.commands.values import UsageError, resolve_config
+from app.commands.values import UsageError, check_dask, resolve_config
 from app.vehicle_reports import report
 from tauvcore.config import LOG_TOML_OMITTED, YOO_METHODS, Config, to_dict
 from tauvcore.validation import one_line, show, show_path
@@ -55,7 +55,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         )
     out = _out_target(args) if args.out is not None else None
     if args.dask is not None and args.dask != LOCAL_DASK:
-        _reachable(args.dask)
+        check_dask(args.dask)
     cases, bases = _cases(args)
     started = time.perf_counter()
     prepared = [_prepared(case) for case in cases]
@@ -228,21 +228,6 @@ def _out_target(args: argparse.Namespace) -> str:
     if not os.access(directory, os.W_OK | os.X_OK):
         raise UsageError(f"--out: cannot write {name}: directory not writable")
     return real
-
-
-def _reachable(address: str) -> None:
-    """Fail fast, with one line, if no Dask scheduler answers at ``address``."""
-    from distributed import Client
-
-    from tauvcore.eval.study import DASK_CONNECT_TIMEOUT_S
-
-    try:
-        with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
-            pass
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise UsageError(
-            f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}"
-        ) from None
 
 
 @contextlib.contextmanager

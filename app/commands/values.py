@@ -27,7 +27,7 @@ from tauvcore.geo.earth import EARTH_MODELS
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.truth import TRAJECTORIES, TRUTH_SOURCES
-from tauvcore.validation import ConfigError, show
+from tauvcore.validation import ConfigError, one_line, show
 
 
 class UsageError(Exception):
@@ -208,3 +208,21 @@ def _outage(text: str) -> Outage:
         return Outage(beams=beams, start_s=start, end_s=end)
     except ConfigError as exc:
         raise UsageError(f"--outage {show(text)}: {exc}") from None
+
+
+def check_dask(address: str) -> None:
+    """Fail fast, with one line naming ``--dask`` and the address, if no Dask scheduler answers at
+    ``address`` (``tauv mc``, ``tauv reproduce`` and ``tauv tune``)."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError("--dask: the 'distributed' package is not installed") from None
+    from tauvcore.eval.study import DASK_CONNECT_TIMEOUT_S
+
+    try:
+        with Client(address, timeout=DASK_CONNECT_TIMEOUT_S):
+            pass
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UsageError(
+            f"--dask: cannot reach a scheduler at {show(address)}: {one_line(str(exc)) or type(exc).__name__}"
+        ) from None
