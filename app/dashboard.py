@@ -34,6 +34,7 @@ from app.hardening import (
     bound_malloc_arenas,
     check_listen,
     disable_share_tunnel,
+    display_error,
     harden_client_messages,
     install_shutdown_handlers,
     shutdown,
@@ -310,7 +311,7 @@ class Session:
                     break
         except Exception as exc:  # noqa: BLE001 - a display bug must not leave the tab stuck in "running"
             self.status.content = "Display error."
-            note = ("Display error", f"{type(exc).__name__}: {exc}", True)
+            note = display_error(exc)
         finally:
             with self.lock:
                 self.handle = None
@@ -450,7 +451,7 @@ class Session:
                     finished = True
         except Exception as exc:  # noqa: BLE001 - a display bug must not leave the tab stuck in "running"
             self.status.content = "Display error."
-            note = ("Display error", f"{type(exc).__name__}: {exc}", True)
+            note = display_error(exc)
         finally:
             with self.lock:
                 self.handle = None

@@ -22,6 +22,7 @@ import socket
 import sys
 import threading
 import time
+import traceback
 import warnings
 from typing import TYPE_CHECKING, Any, NoReturn
 
@@ -67,6 +68,15 @@ class _DropLog:
 
 
 DROPPED = _DropLog()
+
+
+def display_error(exc: BaseException) -> tuple[str, str, bool]:
+    """The notification (title, text, error) of a bug in drawing a tab, its traceback written to
+    the server's stderr: the tab shows one line, whoever runs the server can find where it came from."""
+    print("tauv dashboard: display error", file=sys.stderr, flush=True)
+    traceback.print_exception(exc, file=sys.stderr)
+    sys.stderr.flush()
+    return "Display error", f"{type(exc).__name__}: {exc}", True
 
 
 def harden_client_messages() -> bool:

@@ -36,6 +36,7 @@ from app.error_figures import (
     overlay_figure,
 )
 from app.figures import placeholder_figure, with_cursor
+from app.hardening import display_error
 from app.innovation_figures import innovation_figure, innovation_sources
 from app.markdown_tables import identical_methods, identical_note
 from app.sensor_figures import (
@@ -361,7 +362,8 @@ class PlotTabs:
                     try:
                         step(results)
                     except Exception as exc:  # noqa: BLE001 - a display bug must not kill the thread silently
-                        self.notify("Display error", f"{type(exc).__name__}: {exc}", error=True)
+                        title, text, error = display_error(exc)
+                        self.notify(title, text, error=error)
                 time.sleep(0.0)
 
     def _draw_error_plots(self, results: dict[str, MethodResult]) -> None:

@@ -185,9 +185,32 @@ class Tab:
         for m in ("INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC", "INS-DVL", "VKF"):
             self.set_checkbox(m, m in wanted)
 
+    def choose(self, label: str, option: str, exact: bool = True) -> None:
+        """Pick ``option`` in the dropdown labelled ``label`` and wait until the page shows it.
+        The dropdown is scrolled into view and clicked without waiting for the panel to hold
+        still (as ``open_folder`` does); a click that opens no list, or a list without the option
+        (the panel moved under the pointer: a CI run waited 30 s for "always"), is tried again,
+        twice at most, after Escape closes whatever opened."""
+        from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
+
+        wanted = self.page.get_by_role("option", name=option, exact=True)
+        for attempt in range(3):
+            box = self.page.get_by_label(label, exact=exact).first
+            box.scroll_into_view_if_needed(timeout=15000)
+            box.click(force=True, timeout=15000)
+            try:
+                wanted.wait_for(state="visible", timeout=5000)
+                break
+            except PlaywrightTimeoutError:
+                if attempt == 2:
+                    raise
+                self.page.keyboard.press("Escape")
+                self.page.wait_for_timeout(500)
+        wanted.click(timeout=15000)
+        self.page.wait_for_timeout(300)
+
     def choose_trajectory(self, name: str) -> None:
-        self.page.get_by_label("Trajectory").click()
-        self.page.get_by_role("option", name=name, exact=True).click()
+        self.choose("Trajectory", name, exact=False)
 
     def notification(self, title: str):
         return self.page.get_by_text(title, exact=True)

@@ -22,11 +22,6 @@ FIGURES_JS = (
 )
 
 
-def choose(tab, label: str, option: str) -> None:
-    tab.page.get_by_label(label, exact=True).click()
-    tab.page.get_by_role("option", name=option, exact=True).click()
-    tab.page.wait_for_timeout(300)
-
 
 def figure(tab, title_start: str, timeout_ms: float = 30000) -> dict:
     """The plotly figure of the page whose title starts with ``title_start``, once it shows."""
@@ -59,8 +54,8 @@ def test_water_track_and_current_states_reach_the_run_the_nees_and_the_current_s
     tab = new_tab("?traj=figure8&dur=30&m=lc")
     page = tab.page
     tab.open_folder(SEABED_FOLDER, reveals=DVL_MAX_ALTITUDE)
-    choose(tab, DVL_WATER_TRACK, "always")
-    choose(tab, DVL_CURRENT_STATES, "random-walk")
+    tab.choose(DVL_WATER_TRACK, "always")
+    tab.choose(DVL_CURRENT_STATES, "random-walk")
     tab.type_into(DVL_MAX_ALTITUDE, "5")
     refused_with(tab, f"{DVL_MAX_ALTITUDE}: '5' is out of range with {DVL_WATER_TRACK} 'always'")
     tab.type_into(DVL_MAX_ALTITUDE, "100")
@@ -74,7 +69,7 @@ def test_water_track_and_current_states_reach_the_run_the_nees_and_the_current_s
     assert "&wt=always&cst=random-walk&" in page.url
 
     page.get_by_role("tab", name="Consistency").click()
-    choose(tab, "NEES block", "current")
+    tab.choose("NEES block", "current")
     nees = figure(tab, "NEES/dim, current (north, east) (dim 2)")
     lc = next(t for t in nees["traces"] if t["name"] == "LC")
     assert len(lc["y"]) == 301 and sum(v is not None for v in lc["y"]) > 250          # 30 s at 10 Hz

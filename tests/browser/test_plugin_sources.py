@@ -36,8 +36,7 @@ def test_usbl_ticked_in_the_aiding_folder_runs_and_shows_its_innovations(new_tab
     assert config["Aiding"] == "dvl, usbl" and config["USBL fix interval [s]"] == "2", config
     tab.page.get_by_role("tab", name="Innovations").click()
     tab.page.wait_for_function(f"{TITLES_JS}.some(t => t.includes('innovations'))", timeout=30000)
-    tab.page.get_by_label("Aiding source", exact=True).click()
-    tab.page.get_by_role("option", name="usbl", exact=True).click()
+    tab.choose("Aiding source", "usbl")
     tab.page.wait_for_function(f"{TITLES_JS}.some(t => t.startsWith('USBL innovations'))", timeout=30000)
     panels = tab.page.evaluate(
         "Array.from(document.querySelectorAll('.js-plotly-plot'))"

@@ -48,10 +48,6 @@ def slider(tab) -> dict[str, float]:
     return {k: float(thumb.get_attribute(f"aria-value{k}")) for k in ("now", "max")}
 
 
-def choose(tab, label: str, option: str) -> None:
-    tab.page.get_by_label(label, exact=True).click()
-    tab.page.get_by_role("option", name=option, exact=True).click()
-
 
 def test_a_switched_off_beam_is_drawn_off_before_any_run(new_tab) -> None:
     """Given a fresh tab, when Beam 2 is unticked, then its beam is drawn switched off at once."""
@@ -98,7 +94,7 @@ def test_the_playback_speed_sets_the_pace_of_the_time(new_tab) -> None:
     thumb = page.get_by_role("slider").first
     rates = {}
     for speed in ("1x", "10x"):
-        choose(tab, "Speed", speed)
+        tab.choose("Speed", speed)
         thumb.focus()
         thumb.press("Home")
         page.get_by_role("button", name="Play", exact=True).click()

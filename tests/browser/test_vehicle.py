@@ -46,8 +46,7 @@ def tab(browser, logs_url) -> Iterator[Tab]:
 
 
 def _choose_dive(tab: Tab) -> None:
-    tab.page.get_by_label("Source").click()
-    tab.page.get_by_role("option", name="dive", exact=True).click()
+    tab.choose("Source", "dive", exact=False)
     tab.page.get_by_text("dive", exact=False).first.wait_for(timeout=30000)
 
 

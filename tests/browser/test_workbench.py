@@ -193,8 +193,7 @@ def test_the_sensors_tab_shows_the_raw_channels_and_each_method_s_sensor_errors(
     names = {t["name"] for t in errors["traces"]}
     assert {"gyro bias z (body) estimate", "gyro bias z (body) +3 sigma", "gyro bias z (body) true",
             "DVL scale factor error estimate"} <= names, sorted(names)
-    tab.page.get_by_label("Sensor errors of", exact=True).click()
-    tab.page.get_by_role("option", name="tc", exact=True).click()
+    tab.choose("Sensor errors of", "tc")
     tab.page.wait_for_function(f"{SENSOR_FIGURES_JS}.some(f => f.title.startsWith('TC: sensor errors'))",
                                timeout=30000)
     tab.page.screenshot(path=str(ARTIFACTS / "sensors_tab.png"))

@@ -260,12 +260,14 @@ def tune(
         """The logs' negative log-likelihood at each point (cached: a point the search revisits
         costs nothing)."""
         todo = [x for x in xs if x.tobytes() not in cache]
-        if todo:
+        if todo and state["phase"] != "curvature" and state["count"] + len(todo) > max_evaluations:
+            raise _Exhausted
+        # an evaluator spreads a batch over its workers; in this process the points go one by one,
+        # so that a stop request waits for one replay, not a whole scan's
+        for part in [todo] if evaluator is not None else [[x] for x in todo]:
             if should_stop is not None and should_stop():
                 raise _Stopped
-            if state["phase"] != "curvature" and state["count"] + len(todo) > max_evaluations:
-                raise _Exhausted
-            for x, f in zip(todo, evaluate([values_at(x) for x in todo])):
+            for x, f in zip(part, evaluate([values_at(x) for x in part])):
                 f = f if np.isfinite(f) else math.inf
                 cache[x.tobytes()] = f
                 state["count"] += 1
