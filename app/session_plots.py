@@ -57,8 +57,9 @@ from app.vehicle_figures import (
     water_and_ground_speed_mps,
 )
 from tauvcore.config import Config
-from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.envelope import is_decimated
+from tauvcore.filter.families import FAMILIES, FIRST
 
 PLOTTED_QUANTITIES = (
     "vel",
@@ -125,6 +126,13 @@ SMOOTHED_HINT = (
     "the fixed-interval smoother's errors (dashed; dotted: its 1-sigma) beside the filter's, for the "
     "methods of a run with the Smoother (Mission tab); usable once such a run ends"
 )
+OTHER_FAMILIES_DIMS = "; ".join(
+    f"{', '.join(m.upper() for m in family.methods)}: {family.block_dims['full']}"
+    + ("" if family.position_state else ", no position")
+    for family in FAMILIES.values()
+    if family is not FIRST
+)
+"""The NEES dimension of the other filter families' whole state, for the block's hint."""
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
 QUIET_S = 1.0  # once the tab has had no action for this long
@@ -220,9 +228,8 @@ class PlotTabs:
                 "NEES block",
                 tuple(BLOCK_DIMS),
                 initial_value="full",
-                hint=f"full: all {BLOCK_DIMS['full']} error states (INS-DVL, VKF: {YOO_BLOCK_DIMS['full']}, "
-                "no position); or one block of them; current: the DVL's current states (a run with "
-                "Current states on)",
+                hint=f"full: all {BLOCK_DIMS['full']} error states ({OTHER_FAMILIES_DIMS}); or one block of "
+                "them; current: the DVL's current states (a run with Current states on)",
             )
             self.show_smoothed_nees = gui.add_checkbox(
                 "Smoothed NEES", False, disabled=True, hint=SMOOTHED_HINT

@@ -8,13 +8,14 @@ from typing import Any
 import numpy as np
 
 from tauvcore.aiding.sources import FUSED
-from tauvcore.config import YOO_METHODS, Config
+from tauvcore.config import Config
 from tauvcore.engine import yoo_sources
-from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.counts import PING_SOURCES, SOURCE_LABELS, MethodCounts
 from tauvcore.eval.envelope import DecimatedResult
 from tauvcore.eval.running import MethodSummary, summarise
 from tauvcore.eval.study_statistics import FINAL_STATISTICS
+from tauvcore.filter.families import FAMILIES, FIRST, family_of
 
 
 def summary_table(
@@ -169,20 +170,20 @@ SMOOTHED_RMS += (("heading_err_deg", "head RMS", "[deg]", 4), ("pos_err_m", "pos
 
 
 def _nees_groups(summaries: Mapping[str, MethodSummary]) -> list[tuple[dict[str, int], list[str]]]:
-    """The methods of a table of ``summaries`` by the filter they are, each group with its NEES
-    blocks and their dimensions: the 20-state filter's methods (tauvcore.engine.results.BLOCK_DIMS,
-    with the blocks their sources add, tauvcore.filter.layout.Layout), then Yoo 2014's 12-state
-    filter's (YOO_BLOCK_DIMS without the position it has no state for, with its added states); a
-    group only when it has methods, each in ``summaries``' order."""
+    """The methods of a table of ``summaries`` by the filter family they are
+    (tauvcore.filter.families), each group with its NEES blocks and their dimensions (the family's,
+    with the blocks their sources add, tauvcore.filter.layout.Layout; without the position a family
+    has no state for); a group only when it has methods, in the families' order, each in
+    ``summaries``' order."""
     groups = []
-    for yoo, base in ((False, BLOCK_DIMS), (True, YOO_BLOCK_DIMS)):
-        names = [name for name in summaries if (name in YOO_METHODS) == yoo]
+    for family in FAMILIES.values():
+        names = [name for name in summaries if family_of(name) is family]
         if names:
-            dims = dict(base)
+            dims = dict(family.block_dims)
             for name in names:
                 dims.update(summaries[name].block_dims or {})
-            if yoo:
-                dims.pop("pos")  # no position state: its position NEES is NaN throughout
+            if not family.position_state:
+                dims.pop("pos")  # its position NEES is NaN throughout
             groups.append((dims, names))
     return groups
 
@@ -340,13 +341,18 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
         "inside the 99 % band)"
     )
     notes = []
-    if any(name in YOO_METHODS for name in summaries):
-        left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
-        notes = [
-            "INS-DVL and VKF are Yoo 2014's 12-state filter, headed with its own dimensions; they have no "
-            "position state"
-            + (f"; they do not fuse {', '.join(left_out)} (no position state)" if left_out else "")
-        ]
+    for family in FAMILIES.values():
+        names = [name.upper() for name in summaries if family_of(name) is family]
+        if not names or family is FIRST:
+            continue
+        verb = "is" if len(names) == 1 else "are"
+        note = f"{' and '.join(names)} {verb} {family.title}, headed with its own dimensions"
+        if not family.position_state:
+            left_out = [s for s in sources if s in FUSED and not yoo_sources.takes(FUSED[s])]
+            note += "; they have no position state" + (
+                f"; they do not fuse {', '.join(left_out)} (no position state)" if left_out else ""
+            )
+        notes.append(note)
     top = [line(head)] if several else [line(head), line(units[0])]
     return "\n".join([title, *top, *(line(row) for row in rows), *notes])
 

@@ -23,6 +23,7 @@ from tauvcore.aiding import AIDING_SOURCES, elc_nsv
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.source import AidingSource
 from tauvcore.aiding.sources import SOURCES
+from tauvcore.filter.families import FAMILIES
 from tauvcore.filter.reference import ReferenceConfig
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.earth import Earth
@@ -45,19 +46,15 @@ from tauvcore.validation import (
     show_path,
 )
 
-METHODS = ("ins", "lc", "tc", "vb", "nsv", "plcf", "vhv", "elc", "iekf")
-"""Fusion methods: ``ins`` standalone INS (no aiding at all), ``lc`` loosely coupled DVL (3-4
-beams), ``tc`` tightly coupled (any beams), and the extended loosely coupled methods of section
-3 (LC with 3-4 beams, their partial construction with 2): ``vb`` virtual beam, ``nsv``
-nullified sway, ``plcf`` partial LC, ``vhv`` virtual heave, ``elc`` the per-axis selector; and
-``iekf``, the right-invariant EKF (Potokar et al. 2021; tauvcore.filter.invariant) fusing the beams
-as ``tc`` does."""
+METHODS = tuple(m for family in FAMILIES.values() if family.in_all for m in family.methods)
+"""The methods ``--method all`` runs: the first paper's (tauvcore.filter.families.eskf: ``ins``,
+``lc``, ``tc``, the extended ``vb``, ``nsv``, ``plcf``, ``vhv``, ``elc``, and ``iekf``)."""
 
-YOO_METHODS = ("ins-dvl", "vkf")
-"""Yoo 2014's 12-state filter (tauvcore.engine.yoo_bank): ``ins-dvl`` aided by the DVL's velocity,
-``vkf`` by the velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all"."""
-ALL_METHODS = METHODS + YOO_METHODS
-"""Both papers' methods."""
+YOO_METHODS = FAMILIES["yoo"].methods
+"""Yoo 2014's 12-state filter (tauvcore.filter.families.yoo): ``ins-dvl`` aided by the DVL's
+velocity, ``vkf`` by the velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all"."""
+ALL_METHODS = tuple(m for family in FAMILIES.values() for m in family.methods)
+"""Every family's methods (tauvcore.filter.families), in the registry's order."""
 REGISTERED_METHODS = tuple(REGISTRY)
 """Methods added as one file each (tauvcore.aiding.registry; ``cv``: constant body velocity, no
 DVL). ``run.methods`` (a TOML file, the library), the CLI's ``--method`` and the dashboard take

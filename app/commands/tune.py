@@ -19,7 +19,8 @@ import tomli_w
 from app.commands.outputs import write_text_atomic
 from app.commands.values import UsageError, check_dask, resolve_config
 from app.vehicle_reports import report
-from tauvcore.config import LOG_TOML_OMITTED, YOO_METHODS, Config, to_dict
+from tauvcore.config import LOG_TOML_OMITTED, Config, to_dict
+from tauvcore.filter.families import family_of
 from tauvcore.validation import one_line, show, show_path
 
 LOCAL_DASK = "local"
@@ -162,10 +163,11 @@ def _cases(args: argparse.Namespace) -> tuple[list[Any], list[Config]]:
         method = methods[0]
         if method == "ins":
             raise UsageError("--method: ins fuses no aiding source: it has no innovations to tune on")
-        if method in YOO_METHODS:
+        family = family_of(method)
+        if not family.log_det:
             raise UsageError(
-                f"--method: {method} is Yoo 2014's 12-state filter, whose records keep no log det S; "
-                "tuning takes the 20-state filter's methods"
+                f"--method: {method} is {family.title}, whose records keep no log det S; "
+                "tuning takes the methods of a filter that keeps it"
             )
         base = resolve_config(argparse.Namespace(config=None), under=raw)
         try:

@@ -124,7 +124,7 @@ class FilterBank(ChunkDriver):
         num_runs: int,
         num_samples: int,
         dt_s: float,
-        rng: np.random.Generator | Sequence[np.random.Generator],
+        rng: np.random.Generator | Sequence[np.random.Generator] | None = None,
         keep: bool = True,
         sensor_errors: bool = False,
         tape: Tape | None = None,
@@ -218,28 +218,25 @@ class FilterBank(ChunkDriver):
         self.dvl_truth_known = True  # the mission has DVL pings (set at start)
 
     # ------------------------------------------------------------------ set-up at the first chunk
-    def start(self, chunk: SimChunk) -> None:
-        """Initial states from the first chunk (its truth and the initial-error draws); done by
+    def start(self, chunk: SimChunk, nav: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+        """Initial states from the first chunk: the estimate at t = 0 (``nav``: position, NED
+        velocity and attitude per run, (R, 3), (R, 3), (R, 3, 3), as tauvcore.engine.mission.Banks
+        draws it for every family; None: drawn here from the bank's ``rng``), biases zero; done by
         :meth:`feed` unless called first."""
         config, truth = self.config, chunk.truth
         self.P0 = P0 = initial_covariance(config, truth.euler[0], self.layout)
         self.P = np.broadcast_to(P0, self.batch + P0.shape).copy()
-        nom = initial_nominal(config, truth, self.rng, self.batch, P0[STATE.att, STATE.att])
+        if nav is None:
+            assert self.rng is not None  # a bank fed without Banks draws its own initial errors
+            drawn = initial_nominal(config, truth, self.rng, (1, self.batch[1]), P0[STATE.att, STATE.att]).nav
+            nav = (drawn.pos_n[0], drawn.vel_n[0], drawn.C_nb[0])
+        R = self.batch[1]
         arrays = [
-            np.array(a, dtype=float, order="C")
-            for a in (
-                nom.nav.pos_n,
-                nom.nav.vel_n,
-                nom.nav.C_nb,
-                nom.accel_bias,
-                nom.gyro_bias,
-                nom.dvl_bias,
-                nom.dvl_sf,
-            )
+            np.array(np.broadcast_to(a, self.batch + a.shape[1:]), dtype=float, order="C")
+            for a in (*nav, np.zeros((R, 3)), np.zeros((R, 3)), np.zeros((R, 4)), np.zeros(R))
         ]
         self.pos, self.vel, self.C, self.ba, self.bg, self.bdvl, self.sf = arrays
         self.extra = np.zeros(self.batch + (self.layout.num_extra,))  # the sources' states start at zero
-        self.initial_nav = (self.pos[0].copy(), self.vel[0].copy(), self.C[0].copy())  # per run
         self.flat = (
             self.pos.reshape(-1, 3),
             self.vel.reshape(-1, 3),

@@ -1,4 +1,4 @@
-"""Run a mission: the 20-state bank and Yoo 2014's bank side by side over the same chunks, on a
+"""Run a mission: one bank per filter family side by side over the same chunks, on a
 whole simulation (:func:`run`; its results handed out chunk by chunk: :func:`run_chunked`) or
 generated chunk by chunk so that memory does not grow with the mission's length
 (:func:`run_streaming`)."""
@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from tauvcore.config import YOO_METHODS, Config
+from tauvcore.config import Config
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import ChunkSource, SimChunk, Simulation, chunks_of
@@ -18,6 +18,7 @@ from tauvcore.engine.smoothing import SmoothOptions, forward
 from tauvcore.engine.sources import SourceStream
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.engine.yoo_bank import YooBank
+from tauvcore.filter.families import FAMILIES, family_of
 from tauvcore.filter.layout import STATE
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import truth_stream
@@ -151,17 +152,24 @@ def run_chunked(
     banks.hand_out_smoothed(on_smoothed_chunk)
 
 
-class Banks:
-    """The 20-state FilterBank for the first paper's methods and the YooBank for Yoo 2014's.
+BANKS: dict[str, type[FilterBank | YooBank]] = {"eskf": FilterBank, "yoo": YooBank}
+"""Each family's bank (tauvcore.filter.families), by the family's name."""
 
-    Both banks (tauvcore.engine.filter_bank, tauvcore.engine.yoo_bank) are fed the same chunks,
-    their results in ``config.run.methods`` order. The Yoo methods start from the same initial
-    errors as the others (the same draws).
+
+class Banks:
+    """One bank per filter family with methods in ``config.run.methods`` (tauvcore.filter.families:
+    the 20-state :class:`FilterBank` runs the first paper's methods, the :class:`YooBank` Yoo
+    2014's), fed the same chunks, their results in ``config.run.methods`` order.
+
+    Every family's filters start from the same estimate (one draw of the initial errors per run,
+    :meth:`start`). The first family's bank leads: it is fed last, polls the stop requests and
+    calls the progress with every bank's results so far; the others' results are cut where a stop
+    ended it (:attr:`until_s`).
 
     Parameters
     ----------
     config : Config
-        The configuration; ``config.run.methods`` names the methods of both banks.
+        The configuration; ``config.run.methods`` names the methods of every bank.
     num_runs : int
         Monte Carlo runs R of the batch.
     num_samples : int
@@ -174,10 +182,10 @@ class Banks:
         Whether the banks keep every chunk's results (:meth:`results`); False: only what
         :meth:`take` has not handed out yet, so that memory does not grow with the mission.
     sensor_errors : bool
-        Whether both banks record the estimated sensor errors, their 1-sigma and their truth at
+        Whether the banks record the estimated sensor errors, their 1-sigma and their truth at
         every output epoch (:func:`run`).
     smooth : SmoothOptions or None
-        Both banks keep the smoother's tape (:meth:`smoothed`); None: no smoother.
+        The banks keep the smoother's tape (:meth:`smoothed`); None: no smoother.
     """
 
     def __init__(
@@ -191,44 +199,37 @@ class Banks:
         sensor_errors: bool = False,
         smooth: SmoothOptions | None = None,
     ) -> None:
-
         self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
         self.smooth = smooth
         self.order = config.run.methods
-        first = tuple(m for m in self.order if m not in YOO_METHODS)
-        second = tuple(m for m in self.order if m in YOO_METHODS)
+        methods = {name: tuple(m for m in self.order if family_of(m).name == name) for name in FAMILIES}
+        # the families with methods; with none, the first family's bank (it records the truth)
+        names = [name for name, own in methods.items() if own] or [next(iter(FAMILIES))]
         # the smoother's budget, shared by each bank's two tapes (its marks, its smoothed stores)
-        self.share = share = 0.5 / ((first != () or not second) + (second != ()))
-        self.bank = (
-            FilterBank(
-                config.replace("run", methods=first),
-                num_runs,
-                num_samples,
-                dt_s,
-                rng,
-                keep=keep,
-                sensor_errors=sensor_errors,
-                tape=smooth.tape(share) if smooth is not None else None,
-            )
-            if first or not second
-            else None
-        )
-        self.yoo = (
-            YooBank(
-                config,
-                second,
+        self.share = 0.5 / len(names)
+        self.banks = [
+            BANKS[name](
+                config.replace("run", methods=methods[name]),
                 num_runs,
                 num_samples,
                 dt_s,
                 keep=keep,
                 sensor_errors=sensor_errors,
-                tape=smooth.tape(share) if smooth is not None else None,
+                tape=smooth.tape(self.share) if smooth is not None else None,
             )
-            if second
-            else None
-        )
+            for name in names
+        ]
         self.stopped = False
-        self.until_s: float | None = None  # where the 20-state bank stopped the run (the Yoo bank goes on)
+        self.until_s: float | None = None  # where the leading bank stopped the run (the others go on)
+
+    def start(self, chunk: SimChunk) -> None:
+        """Every bank's initial states from the first chunk: one draw of the initial errors per run
+        (tauvcore.engine.start.initial_nominal), the estimate at t = 0 they all start from."""
+        config, truth = self.config, chunk.truth
+        P0 = initial_covariance(config, truth.euler[0])
+        nav = initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att]).nav
+        for bank in self.banks:
+            bank.start(chunk, (nav.pos_n[0], nav.vel_n[0], nav.C_nb[0]))
 
     def feed(
         self,
@@ -238,18 +239,18 @@ class Banks:
         should_stop: Callable[[], bool] | None = None,
         progress_min_wall_s: float = 0.0,
     ) -> bool:
-        """Run both banks over one chunk.
+        """Run every bank over one chunk.
 
-        The Yoo bank goes first (compiled, it takes a few percent of the time), so the 20-state
-        bank's progress can carry its results up to the same time; a stop request, polled by the
-        20-state bank, ends both at its epoch (:attr:`until_s`).
+        The followers go first (the leader's progress then carries their results up to the same
+        time); a stop request, polled by the leader, ends all of them at its epoch
+        (:attr:`until_s`).
 
         Parameters
         ----------
         chunk : SimChunk
             The next chunk of the mission (chunks in order, the first at sample 0), R runs.
         progress : Callable or None
-            ``progress(t_s, results)`` with the simulated time [s] and both banks' results so far,
+            ``progress(t_s, results)`` with the simulated time [s] and every bank's results so far,
             called every ``progress_interval_s`` of simulated time; None: not called.
         progress_interval_s : float
             Simulated time between two calls of ``progress`` [s].
@@ -272,49 +273,32 @@ class Banks:
         """
         if self.stopped:
             return False
-        bank, yoo = self.bank, self.yoo
-        if yoo is None:
-            assert bank is not None  # __init__ builds the 20-state bank whenever there is no Yoo method
-            going = bank.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s)
-        else:
-            if not yoo.started:
-                if bank is not None and not bank.started:
-                    bank.start(chunk)  # its draws first (_start_yoo)
-                self._start_yoo(chunk)
-            if bank is None:
-                going = yoo.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s)
-            else:
-                yoo.feed(chunk)
-                both = (
-                    None
-                    if progress is None
-                    else (lambda t, first: progress(t, self._merge(first, yoo.results(until_s=t))))
-                )
-                going = bank.feed(chunk, both, progress_interval_s, should_stop, progress_min_wall_s)
-                if not going:
-                    self.until_s = bank.stopped_at_s
+        if not self.banks[0].started:
+            self.start(chunk)
+        leader, *followers = self.banks
+        for bank in followers:
+            bank.feed(chunk)
+        every: Callable | None = progress
+        if progress is not None and followers:
+            every = lambda t, first: progress(  # the leader's progress, with the others' results
+                t, self._merge(first, *(bank.results(until_s=t) for bank in followers))
+            )
+        going = leader.feed(chunk, every, progress_interval_s, should_stop, progress_min_wall_s)
+        if not going and followers:
+            self.until_s = leader.stopped_at_s
         self.stopped = not going
         return going
 
-    def _start_yoo(self, chunk: SimChunk) -> None:
-        config, truth = self.config, chunk.truth
-        P0 = initial_covariance(config, truth.euler[0])
-        if self.bank is not None:
-            nav = self.bank.initial_nav  # its draws, before any update
-        else:
-            nom = initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att])
-            nav = nom.nav.pos_n[0], nom.nav.vel_n[0], nom.nav.C_nb[0]
-        assert self.yoo is not None  # called by feed only when there are Yoo methods
-        self.yoo.start(*nav, P0[STATE.att, STATE.att], P0[STATE.ba, STATE.ba], P0[STATE.bg, STATE.bg])
-
-    def _merge(
-        self, first: dict[str, MethodResult], second: dict[str, MethodResult]
-    ) -> dict[str, MethodResult]:
-        both = {**first, **second}
+    def _merge(self, *parts: dict[str, MethodResult]) -> dict[str, MethodResult]:
+        both = {name: result for part in parts for name, result in part.items()}
         return {m: both[m] for m in self.order if m in both}
 
+    def _until(self, bank: FilterBank | YooBank) -> float | None:
+        """Where ``bank``'s results end: the leader's own stop, the others' cut there."""
+        return None if bank is self.banks[0] else self.until_s
+
     def results(self) -> dict[str, MethodResult]:
-        """Both banks' results kept so far, up to where a stop request ended the run.
+        """Every bank's results kept so far, up to where a stop request ended the run.
 
         Returns
         -------
@@ -322,10 +306,7 @@ class Banks:
             Method name -> its results over the output epochs so far (series (T, R)), in
             ``config.run.methods`` order; all of them unless ``keep`` is False.
         """
-        return self._merge(
-            self.bank.results() if self.bank is not None else {},
-            self.yoo.results(self.until_s) if self.yoo is not None else {},
-        )
+        return self._merge(*(bank.results(self._until(bank)) for bank in self.banks))
 
     def take(self) -> dict[str, MethodResult]:
         """The output epochs and updates since the last :meth:`take`.
@@ -339,10 +320,7 @@ class Banks:
             Method name -> its results over the output epochs since the last take (series
             (T_chunk, R)), in ``config.run.methods`` order.
         """
-        return self._merge(
-            self.bank.take() if self.bank is not None else {},
-            self.yoo.take(self.until_s) if self.yoo is not None else {},
-        )
+        return self._merge(*(bank.take(self._until(bank)) for bank in self.banks))
 
     def smoothed(self) -> tuple[Iterator[dict[str, MethodResult]], Callable[[], None]]:
         """The smoother's backward pass over the run so far, then its results chunk by chunk.
@@ -366,7 +344,7 @@ class Banks:
             options.on_start()
         passes = []
         try:
-            for bank in (b for b in (self.bank, self.yoo) if b is not None):
+            for bank in self.banks:
                 out = options.tape(self.share)
                 passes.append((bank, out))
                 cuts = bank.smooth(out)
@@ -382,7 +360,7 @@ class Banks:
                     bank.smoothed_results(store, cuts)
                     for (bank, _, cuts), store in zip(passes, stores, strict=True)
                 ]
-                yield self._merge(*parts) if len(parts) == 2 else parts[0]
+                yield self._merge(*parts)
 
         def close() -> None:
             for _, out, _ in passes:
@@ -427,7 +405,7 @@ class Banks:
         if self.smooth.on_start is not None:
             self.smooth.on_start()
         smoothed: dict[str, MethodResult] = {}
-        for bank in (b for b in (self.bank, self.yoo) if b is not None):
+        for bank in self.banks:
             out = self.smooth.tape(self.share)
             try:
                 cuts = bank.smooth(out)

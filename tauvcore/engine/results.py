@@ -12,13 +12,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tauvcore.filter.layout import NEES_BLOCKS, STATE
+from tauvcore.filter.families import FAMILIES, family_of
+from tauvcore.filter.layout import STATE
 
-BLOCK_DIMS: dict[str, int] = {"full": STATE.dim, **{name: len(ix) for name, ix in NEES_BLOCKS.items()}}
-"""Degrees of freedom of every NEES the results carry: the full state and each block."""
-YOO_BLOCK_DIMS: dict[str, int] = {"full": 12, "pos": 3, "vel": 3, "tilt": 2, "heading": 1, "sensor": 6}
-"""The same for Yoo 2014's 12-state filter (tauvcore.engine.yoo_bank; no position state, so its
-position NEES is NaN throughout)."""
+BLOCK_DIMS: dict[str, int] = FAMILIES["eskf"].block_dims
+"""Degrees of freedom of every NEES the 20-state filter's results carry: the full state and each
+block (each family's: tauvcore.filter.families, :func:`block_dims`)."""
 
 
 def block_dims(method: str) -> dict[str, int]:
@@ -29,18 +28,15 @@ def block_dims(method: str) -> dict[str, int]:
     Parameters
     ----------
     method : str
-        The method's name (a key of ``config.run.methods``; Yoo 2014's are those of
-        ``tauvcore.config.YOO_METHODS``).
+        The method's name (a key of ``config.run.methods``).
 
     Returns
     -------
     dict[str, int]
-        Block name ("full" and each NEES block) -> its degrees of freedom: :data:`YOO_BLOCK_DIMS`
-        for a Yoo 2014 method, :data:`BLOCK_DIMS` for the others.
+        Block name ("full" and each NEES block) -> its degrees of freedom: those of the method's
+        family (tauvcore.filter.families.family_of).
     """
-    from tauvcore.config import YOO_METHODS
-
-    return YOO_BLOCK_DIMS if method in YOO_METHODS else BLOCK_DIMS
+    return family_of(method).block_dims
 
 
 class SensorState(NamedTuple):
@@ -76,16 +72,16 @@ def _sensor_columns(blocks: tuple[str, ...]) -> tuple[SensorState, ...]:
     return tuple(columns)
 
 
-SENSOR_STATES: tuple[SensorState, ...] = _sensor_columns(("ba", "bg", "b_dvl", "sf_dvl"))
+SENSOR_COLUMNS: dict[str, tuple[SensorState, ...]] = {
+    name: _sensor_columns(family.sensor_blocks) for name, family in FAMILIES.items()
+}
+"""Each family's columns of the sensor-error records (its ``sensor_blocks``, in state order)."""
+SENSOR_STATES: tuple[SensorState, ...] = SENSOR_COLUMNS["eskf"]
 """The columns S = 11 of the 20-state filter's sensor-error records, in the order of the state
 (and of the NEES block "sensor", tauvcore.filter.layout.NEES_BLOCKS): accelerometer bias x, y, z
 [m/s^2] and gyro bias x, y, z [rad/s] in the body frame b, the four DVL beam biases [m/s] along
-their beams, the DVL scale factor error [-]."""
-YOO_SENSOR_STATES: tuple[SensorState, ...] = _sensor_columns(("ba", "bg"))
-"""The columns S = 6 of Yoo 2014's 12-state filter's sensor-error records: its accelerometer and
-gyro biases (tauvcore.filter.yoo.BA, BG), as :data:`SENSOR_STATES`' first six. The filter has no
-DVL error states (it carries the DVL's scale factor and beam biases as consider states, never
-estimated: tauvcore.engine.yoo_bank)."""
+their beams, the DVL scale factor error [-]. Yoo 2014's filter has the first six (its biases: it
+carries the DVL's scale factor and beam biases as consider states, never estimated)."""
 
 
 def sensor_states(method: str) -> tuple[SensorState, ...]:
@@ -94,19 +90,16 @@ def sensor_states(method: str) -> tuple[SensorState, ...]:
     Parameters
     ----------
     method : str
-        The method's name (a key of ``config.run.methods``; Yoo 2014's are those of
-        ``tauvcore.config.YOO_METHODS``).
+        The method's name (a key of ``config.run.methods``).
 
     Returns
     -------
     tuple[SensorState, ...]
         One entry per column S of ``MethodResult.sensor_est``, ``sensor_sigma`` and
-        ``sensor_true``: :data:`YOO_SENSOR_STATES` (S = 6) for a Yoo 2014 method,
-        :data:`SENSOR_STATES` (S = 11) for the others.
+        ``sensor_true``: those of the method's family (:data:`SENSOR_COLUMNS`; S = 11 for the
+        20-state filter, 6 for Yoo 2014's).
     """
-    from tauvcore.config import YOO_METHODS
-
-    return YOO_SENSOR_STATES if method in YOO_METHODS else SENSOR_STATES
+    return SENSOR_COLUMNS[family_of(method).name]
 
 
 @dataclass(frozen=True)

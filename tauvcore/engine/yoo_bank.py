@@ -56,10 +56,9 @@ from tauvcore.engine import yoo_loop, yoo_sources
 from tauvcore.engine.chunk_driver import ChunkDriver, ChunkInputs, Store, cut
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import (
+    SENSOR_COLUMNS,
     SERIES_FIELDS,
     STATE_FIELDS,
-    YOO_BLOCK_DIMS,
-    YOO_SENSOR_STATES,
     MethodResult,
     UpdateRecord,
     method_result,
@@ -68,6 +67,7 @@ from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
 from tauvcore.engine.sources import active, layout_of, states_truth
+from tauvcore.engine.start import initial_covariance
 from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment, with_reference
 from tauvcore.engine.yoo_velocity import (
     added_states,
@@ -78,12 +78,13 @@ from tauvcore.engine.yoo_velocity import (
 )
 from tauvcore.filter import statistics, yoo, yoo_kernels
 from tauvcore.filter.eskf import Nominal, make_outcome
-from tauvcore.filter.layout import NavState
+from tauvcore.filter.families.yoo import FAMILY
+from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3
 
-BLOCK_DIMS = YOO_BLOCK_DIMS
-"""Degrees of freedom of this filter's NEES (tauvcore.engine.results.YOO_BLOCK_DIMS)."""
+BLOCK_DIMS = FAMILY.block_dims
+"""Degrees of freedom of this filter's NEES (tauvcore.filter.families.yoo)."""
 NC = yoo_kernels.NC
 """Consider states after the 12: the DVL's scale factor error and its 4 beam biases (never corrected)."""
 NA = yoo_kernels.NA
@@ -101,8 +102,8 @@ velocity, tilt, heading, sensors)."""
 NUM_BLOCKS = 5
 METHOD_CODES = {"ins-dvl": yoo_loop.INS_DVL, "vkf": yoo_loop.VKF}
 _BLOCKS = {"ba": yoo.BA, "bg": yoo.BG}  # the sensor-error blocks of the 12 states (tauvcore.filter.yoo)
-SENSOR_INDEX = np.array([_BLOCKS[c.block].start + c.component for c in YOO_SENSOR_STATES], dtype=np.int64)
-"""The state of each column of the sensor-error records (tauvcore.engine.results.YOO_SENSOR_STATES)."""
+SENSOR_INDEX = np.array([_BLOCKS[c.block].start + c.component for c in SENSOR_COLUMNS["yoo"]], dtype=np.int64)
+"""The state of each column of the sensor-error records (tauvcore.engine.results.SENSOR_COLUMNS)."""
 
 
 class YooBank(ChunkDriver):
@@ -114,12 +115,11 @@ class YooBank(ChunkDriver):
     (tests/unit/test_yoo_bank.py). Both write a chunk's output epochs, updates and VKF trace into
     the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`; with
     ``sensor_errors`` the output epochs carry the bias estimates, their 1-sigma and their truth
-    (tauvcore.engine.results.YOO_SENSOR_STATES)."""
+    (tauvcore.engine.results.SENSOR_COLUMNS)."""
 
     def __init__(
         self,
         config: Config,
-        methods: tuple[str, ...],
         num_runs: int,
         num_samples: int,
         dt_s: float,
@@ -128,6 +128,7 @@ class YooBank(ChunkDriver):
         sensor_errors: bool = False,
         tape: Tape | None = None,
     ) -> None:
+        methods = tuple(config.run.methods)
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         # the states the sources add (the DVL's current), after the consider states
         self.added = added_states(config, layout_of(config))
@@ -174,17 +175,14 @@ class YooBank(ChunkDriver):
         self.nonfinite_at_s = np.full(self.batch, np.nan)
 
     # ------------------------------------------------------------------ set-up
-    def start(
-        self,
-        pos: np.ndarray,
-        vel_n: np.ndarray,
-        C: np.ndarray,
-        P0_att: np.ndarray,
-        P0_ba: np.ndarray,
-        P0_bg: np.ndarray,
-    ) -> None:
-        """Initial nominal states (R, ...) shared with the 20-state methods, and the attitude and
-        bias blocks of their P0 (the same initial uncertainty)."""
+    def start(self, chunk: SimChunk, nav: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        """Initial states from the first chunk: the estimate at t = 0 every family starts from
+        (``nav``: position, NED velocity and attitude per run, (R, 3), (R, 3), (R, 3, 3):
+        tauvcore.engine.mission.Banks draws it), and the attitude and bias blocks of the 20-state
+        filter's P0 (the same initial uncertainty)."""
+        pos, vel_n, C = nav
+        P0_20 = initial_covariance(self.config, chunk.truth.euler[0])
+        P0_att, P0_ba, P0_bg = (P0_20[b, b] for b in (STATE.att, STATE.ba, STATE.bg))
         M, R = self.batch
         config = self.config
         ie = config.initial_error.ideal() if config.run.ideal else config.initial_error

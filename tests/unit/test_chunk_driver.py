@@ -111,7 +111,7 @@ def test_chunks_must_come_in_order_and_the_yoo_bank_started_first() -> None:
     config = _config().replace("run", methods=("ins-dvl",))
     sim = simulate(config, np.random.default_rng(0))
     whole = SimChunk.whole(sim)
-    bank = YooBank(config, ("ins-dvl",), 1, sim.truth.num_samples, sim.truth.dt_s)
+    bank = YooBank(config, 1, sim.truth.num_samples, sim.truth.dt_s)
     with pytest.raises(ValueError, match="first chunk must start at sample 0, got 5"):
         bank.feed(dataclasses.replace(whole, k0=5))
     with pytest.raises(ValueError, match="YooBank.start"):

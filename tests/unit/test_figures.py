@@ -56,9 +56,10 @@ from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.config import RUN_METHODS, Config, from_dict, merge, trajectory_preset
 from tauvcore.engine.mission import run
-from tauvcore.engine.results import BLOCK_DIMS, YOO_BLOCK_DIMS, MethodResult
+from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.engine.simulation import simulate
 from tauvcore.eval.consistency import method_consistency, nees_band
+from tauvcore.filter.families import FAMILIES
 from tauvcore.filter.layout import NEES_BLOCKS
 from tauvcore.sensors.dvl import Outage
 
@@ -882,7 +883,7 @@ def test_yoo_fixture_has_the_12_state_filter_s_dims_and_no_position_state(yoo):
     assert yoo["lc"].block_dims is None and "rpm" in yoo["lc"].updates
     for method in ("ins-dvl", "vkf"):
         res = yoo[method]
-        assert res.block_dims == YOO_BLOCK_DIMS
+        assert res.block_dims == FAMILIES["yoo"].block_dims
         assert np.isnan(res.pos_sigma_m).all() and np.isnan(_block_series(res, "pos")).all()
         assert np.isfinite(res.nees).all() and np.isfinite(res.pos_err_m).all()
     assert yoo["vkf"].vkf_trace is not None and yoo["ins-dvl"].vkf_trace is None
@@ -901,7 +902,7 @@ def test_nees_figure_divides_each_method_s_nees_by_its_own_dim(yoo, block):
         expected = _block_series(yoo[method], block)[:, 0] / dim
         np.testing.assert_allclose(y, expected, rtol=1e-12, atol=0)
         assert traces[method.upper()].line.color == METHOD_COLORS[method]
-    dims = [BLOCK_DIMS[block], YOO_BLOCK_DIMS[block]]
+    dims = [BLOCK_DIMS[block], FAMILIES["yoo"].block_dims[block]]
     if dims[0] == dims[1]:
         assert BAND in traces and f"dim {dims[0]}" in fig.layout.title.text
     else:

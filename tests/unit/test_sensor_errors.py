@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.engine import filter_bank, yoo_bank
+from tauvcore.engine import filter_bank, mission, yoo_bank
 from tauvcore.engine.mission import Banks, run, run_streaming
 from tauvcore.engine.results import (
+    SENSOR_COLUMNS,
     SENSOR_FIELDS,
     SENSOR_STATES,
-    YOO_SENSOR_STATES,
     MethodResult,
     sensor_states,
 )
@@ -75,10 +75,10 @@ def test_the_columns_are_the_sensor_blocks_of_the_state_in_its_order() -> None:
     assert [c.name for c in SENSOR_STATES] == ["ba_x", "ba_y", "ba_z", "bg_x", "bg_y", "bg_z", "b_dvl_1",
                                                "b_dvl_2", "b_dvl_3", "b_dvl_4", "sf_dvl"]
     assert [c.unit for c in SENSOR_STATES] == ["m/s^2"] * 3 + ["rad/s"] * 3 + ["m/s"] * 4 + ["-"]
-    assert YOO_SENSOR_STATES == SENSOR_STATES[:6]
+    assert SENSOR_COLUMNS["yoo"] == SENSOR_STATES[:6]
     assert yoo_bank.SENSOR_INDEX.tolist() == np.flatnonzero(yoo_bank.BLOCK_OF_STATE == SENSOR_BLOCK).tolist()
-    assert sensor_states("vkf") is YOO_SENSOR_STATES and sensor_states("tc") is SENSOR_STATES
-    assert len(SENSOR_STATES) == len(NEES_BLOCKS["sensor"]) and len(YOO_SENSOR_STATES) == 6
+    assert sensor_states("vkf") is SENSOR_COLUMNS["yoo"] and sensor_states("tc") is SENSOR_STATES
+    assert len(SENSOR_STATES) == len(NEES_BLOCKS["sensor"]) and len(SENSOR_COLUMNS["yoo"]) == 6
 
 
 def test_streaming_asking_for_the_sensor_errors_changes_no_other_number() -> None:
@@ -170,15 +170,16 @@ def test_the_last_epoch_is_the_banks_state_and_rebuilds_the_sensor_nees() -> Non
     banks = Banks(config, 2, sim.truth.num_samples, sim.truth.dt_s, rng, sensor_errors=True)
     banks.feed(SimChunk.whole(sim))
     results = banks.results()
-    assert banks.bank is not None and banks.yoo is not None
-    for bank, index in ((banks.bank, filter_bank.SENSOR_INDEX), (banks.yoo, yoo_bank.SENSOR_INDEX)):
+    first, yoo = banks.banks
+    assert isinstance(first, filter_bank.FilterBank) and isinstance(yoo, yoo_bank.YooBank)
+    for bank, index in ((first, filter_bank.SENSOR_INDEX), (yoo, yoo_bank.SENSOR_INDEX)):
         for m, method in enumerate(bank.methods):
             r = results[method]
             assert r.t_s[-1] == sim.truth.t_s[-1]
             P_ss = bank.P[m][:, index][:, :, index]  # (R, S, S)
             est = [bank.ba[m], bank.bg[m]]
-            if bank is banks.bank:
-                est += [banks.bank.bdvl[m], banks.bank.sf[m][:, None]]
+            if bank is first:
+                est += [first.bdvl[m], first.sf[m][:, None]]
             np.testing.assert_array_equal(r.sensor_est[-1], np.concatenate(est, axis=-1), err_msg=method)
             np.testing.assert_array_equal(r.sensor_sigma[-1], np.sqrt(np.diagonal(P_ss, axis1=1, axis2=2)),
                                           err_msg=method)
@@ -239,7 +240,7 @@ def test_off_the_banks_store_no_rows_for_them() -> None:
     sim = simulate(config, rng, 2)
     banks = Banks(config, 2, sim.truth.num_samples, sim.truth.dt_s, rng)
     banks.feed(SimChunk.whole(sim))
-    for bank, S in ((banks.bank, len(SENSOR_STATES)), (banks.yoo, len(YOO_SENSOR_STATES))):
+    for bank, S in zip(banks.banks, (len(SENSOR_STATES), len(SENSOR_COLUMNS["yoo"])), strict=True):
         assert bank is not None and bank.chunks
         for store in bank.chunks:
             assert store["t_s"].size > 0
@@ -273,7 +274,7 @@ def test_the_compiled_yoo_records_equal_the_numpy_reference(monkeypatch: pytest.
         def __init__(self, *args, **kwargs) -> None:
             super().__init__(*args, compiled=False, **kwargs)
 
-    monkeypatch.setattr("tauvcore.engine.mission.YooBank", NumpyBank)
+    monkeypatch.setitem(mission.BANKS, "yoo", NumpyBank)
     slow = run_streaming(config, np.random.default_rng(10), num_runs=2, sensor_errors=True)
     for method in fast:
         for name in SENSOR_FIELDS:

@@ -122,7 +122,7 @@ def test_rpm_fallback_aids_the_first_papers_methods_where_they_had_no_dvl_veloci
 
 def _numpy_bank(monkeypatch: pytest.MonkeyPatch) -> None:
     """Make the engine run the Yoo methods with the numpy reference (YooBank(compiled=False))."""
-    from tauvcore.engine import yoo_bank
+    from tauvcore.engine import mission, yoo_bank
 
     compiled = yoo_bank.YooBank
 
@@ -131,7 +131,7 @@ def _numpy_bank(monkeypatch: pytest.MonkeyPatch) -> None:
             super().__init__(*args, compiled=False, **kwargs)
 
     monkeypatch.setattr(yoo_bank, "YooBank", NumpyBank)
-    monkeypatch.setattr("tauvcore.engine.mission.YooBank", NumpyBank)  # where the engine makes it
+    monkeypatch.setitem(mission.BANKS, "yoo", NumpyBank)  # where the engine makes it
     made = []
     monkeypatch.setattr(NumpyBank, "_run_numpy", _counted(compiled._run_numpy, made))
     monkeypatch.setattr(NumpyBank, "made", made, raising=False)
@@ -202,7 +202,7 @@ def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: py
     _numpy_bank(monkeypatch)
     slow = run_streaming(config, np.random.default_rng(3), num_runs=3)
     from tauvcore.engine import mission
-    assert mission.YooBank.made  # type: ignore[attr-defined]  # the numpy reference ran
+    assert mission.BANKS["yoo"].made  # type: ignore[attr-defined]  # the numpy reference ran
     _assert_results_equal(fast, slow)
     ups = fast["vkf"].updates["dvl"]
     assert ups.fused.any() and (case == "flat-figure8" or fast["vkf"].vkf_trace["rpm_in_use"].any())

@@ -12,9 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from tauvcore.config import YOO_METHODS, Config
+from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.tuning.parameters import with_values
+from tauvcore.filter.families import family_of
 from tauvcore.logs import Log
 
 TUNING_GATE_SIGMA = 1000.0
@@ -111,10 +112,11 @@ class TuningLog:
         methods = self.config.run.methods
         if len(methods) != 1:
             raise ValueError(f"tuning takes one method, got {', '.join(methods) or 'none'}")
-        if methods[0] in YOO_METHODS:
+        family = family_of(methods[0])
+        if not family.log_det:
             raise ValueError(
-                f"tuning takes the 20-state filter's methods, not {methods[0]} (Yoo 2014's filter keeps "
-                "no log det S)"
+                f"tuning takes the methods of a filter whose records keep log det S, not {methods[0]} "
+                f"({family.title})"
             )
 
     @property
