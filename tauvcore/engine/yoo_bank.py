@@ -81,7 +81,7 @@ from tauvcore.filter.eskf import Nominal, make_outcome
 from tauvcore.filter.families.yoo import FAMILY
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.earth import ned_from_geodetic
-from tauvcore.geo.rotations import exp_so3, log_so3
+from tauvcore.geo.rotations import exp_so3, log_so3, skew
 
 BLOCK_DIMS = FAMILY.block_dims
 """Degrees of freedom of this filter's NEES (tauvcore.filter.families.yoo)."""
@@ -205,7 +205,7 @@ class YooBank(ChunkDriver):
         # the initial NED velocity is the body velocity rotated with the estimated attitude, so its
         # error carries the attitude's: dv = ... - [v x] rho (without this correlation the first
         # updates moved the heading by up to 1 deg at random)
-        Vx = yoo.skew_batch(self.vel)
+        Vx = skew(self.vel)
         self.P[..., yoo.VEL, yoo.VEL] += Vx @ P0_att @ Vx.swapaxes(-1, -2)
         self.P[..., yoo.VEL, yoo.ATT] = -Vx @ P0_att
         self.P[..., yoo.ATT, yoo.VEL] = (-Vx @ P0_att).swapaxes(-1, -2)

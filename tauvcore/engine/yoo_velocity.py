@@ -48,7 +48,7 @@ from tauvcore.config import Config
 from tauvcore.filter import yoo
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.filter.yoo_kernels import NA
-from tauvcore.geo.rotations import exp_so3
+from tauvcore.geo.rotations import exp_so3, skew
 
 
 @dataclass(frozen=True)
@@ -210,7 +210,7 @@ def velocity_H(
     h = vel_n - np.where(water[..., None], c_n, 0.0)
     H = np.zeros(vel_n.shape[:-1] + (3, added.dim))
     H[..., yoo.VEL] = np.eye(3)
-    H[..., yoo.ATT] = yoo.skew_batch(h)
+    H[..., yoo.ATT] = skew(h)
     H[..., yoo.DIM : NA] = np.where(np.isfinite(Hc), Hc, 0.0)
     if added.current is not None:
         Hcur = np.broadcast_to(-np.eye(3)[:, :2], H.shape[:-2] + (3, 2))

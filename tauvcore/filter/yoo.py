@@ -37,25 +37,10 @@ from __future__ import annotations
 import numpy as np
 
 from tauvcore.geo.earth import OMEGA_IE_RPS, radii_of_curvature_m
+from tauvcore.geo.rotations import skew
 
 VEL, ATT, BA, BG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 DIM = 12
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """The skew-symmetric (cross-product) matrix ``[v x]`` of one vector.
-
-    Parameters
-    ----------
-    v : numpy.ndarray
-        Vector, shape (3,), in any unit and frame.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``[v x]``, shape (3, 3), in ``v``'s unit and frame: ``skew(v) @ u = v x u``.
-    """
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def rates(lat_rad: float, h_m: float, vel_n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -191,26 +176,6 @@ def paper_convention() -> np.ndarray:
     return np.diag(np.r_[-np.ones(3), np.ones(9)])
 
 
-def skew_batch(v: np.ndarray) -> np.ndarray:
-    """The skew-symmetric (cross-product) matrices ``[v x]`` of a stack of vectors.
-
-    Parameters
-    ----------
-    v : numpy.ndarray
-        Vectors, shape (..., 3), in any unit and frame.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``[v x]``, shape (..., 3, 3), in ``v``'s unit and frame.
-    """
-    out = np.zeros(v.shape + (3,))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
-
-
 def F_batch(
     lat: np.ndarray,
     h: np.ndarray,
@@ -261,11 +226,11 @@ def F_batch(
         w_ie = np.broadcast_to(w_ie_flat, (B, 3))
         w_en = np.zeros((B, 3))
         J = np.zeros((B, 3, 3))
-    F[:, VEL, VEL] = -skew_batch(2.0 * w_ie + w_en) + skew_batch(vel_n) @ J
-    F[:, VEL, ATT] = -skew_batch(f_n)
+    F[:, VEL, VEL] = -skew(2.0 * w_ie + w_en) + skew(vel_n) @ J
+    F[:, VEL, ATT] = -skew(f_n)
     F[:, VEL, BA] = -C
     F[:, ATT, VEL] = -J
-    F[:, ATT, ATT] = -skew_batch(w_ie + w_en)
+    F[:, ATT, ATT] = -skew(w_ie + w_en)
     F[:, ATT, BG] = -C
     return F
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from tauvcore.filter.kernels.common import jit, radii_nav
 from tauvcore.filter.kernels.error_model import extra_step_into
-from tauvcore.filter.kernels.rotations import exp_so3_into
+from tauvcore.filter.kernels.rotations import exp_so3_into, skew_into
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
 DIM = 12
@@ -49,13 +49,6 @@ def _inv3_into(A: np.ndarray, out: np.ndarray) -> bool:
     out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) * inv
     out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) * inv
     return True
-
-
-@jit
-def _skew_into(v0: float, v1: float, v2: float, out: np.ndarray) -> None:
-    out[0, 0], out[0, 1], out[0, 2] = 0.0, -v2, v1
-    out[1, 0], out[1, 1], out[1, 2] = v2, 0.0, -v0
-    out[2, 0], out[2, 1], out[2, 2] = -v1, v0, 0.0
 
 
 @jit
@@ -141,20 +134,20 @@ def propagate(
                     w_ie[i] = w_ie_flat[i]
                     w_en[i] = 0.0
             F[:, :] = 0.0
-            _skew_into(2.0 * w_ie[0] + w_en[0], 2.0 * w_ie[1] + w_en[1], 2.0 * w_ie[2] + w_en[2], Sa)
-            _skew_into(v[0], v[1], v[2], Sb)
+            skew_into(2.0 * w_ie[0] + w_en[0], 2.0 * w_ie[1] + w_en[1], 2.0 * w_ie[2] + w_en[2], Sa)
+            skew_into(v[0], v[1], v[2], Sb)
             for i in range(3):
                 for j in range(3):
                     sj = Sb[i, 0] * J[0, j] + Sb[i, 1] * J[1, j] + Sb[i, 2] * J[2, j]
                     F[VEL + i, VEL + j] = (-Sa[i, j] + sj) * dt_c
-            _skew_into(f_n[0], f_n[1], f_n[2], Sa)
+            skew_into(f_n[0], f_n[1], f_n[2], Sa)
             for i in range(3):
                 for j in range(3):
                     F[VEL + i, ATT + j] = -Sa[i, j] * dt_c
                     F[VEL + i, BA + j] = -Cm[i, j] * dt_c
                     F[ATT + i, VEL + j] = -J[i, j] * dt_c
                     F[ATT + i, BG + j] = -Cm[i, j] * dt_c
-            _skew_into(w_ie[0] + w_en[0], w_ie[1] + w_en[1], w_ie[2] + w_en[2], Sa)
+            skew_into(w_ie[0] + w_en[0], w_ie[1] + w_en[1], w_ie[2] + w_en[2], Sa)
             for i in range(3):
                 for j in range(3):
                     F[ATT + i, ATT + j] = -Sa[i, j] * dt_c
@@ -319,7 +312,7 @@ def fuse(
         for e in range(NN - NA):
             H[i, NA + e] = Hx[i, e]
     Sk = np.empty((3, 3))
-    _skew_into(w[0], w[1], w[2], Sk)
+    skew_into(w[0], w[1], w[2], Sk)
     for i in range(3):
         for j in range(3):
             H[i, ATT + j] = Sk[i, j]

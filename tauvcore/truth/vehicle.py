@@ -61,6 +61,7 @@ import numba
 import numpy as np
 
 from tauvcore import units
+from tauvcore.geo.rotations import skew
 from tauvcore.validation import require_positive, require_range
 
 RHO_KGPM3 = 1025.0  # sea water density [kg/m^3]
@@ -297,8 +298,8 @@ def vehicle_params(cfg: VehicleConfig = VehicleConfig()) -> VehicleParams:
     inertia = np.array([co.Ixx, co.Iyy, co.Izz])
     M_RB = np.zeros((6, 6))
     M_RB[:3, :3] = m * np.eye(3)
-    M_RB[:3, 3:] = -m * _skew(r_g)
-    M_RB[3:, :3] = m * _skew(r_g)
+    M_RB[:3, 3:] = -m * skew(r_g)
+    M_RB[3:, :3] = m * skew(r_g)
     M_RB[3:, 3:] = np.diag(inertia)
     M_A = np.diag([-co.X_udot, -co.Y_vdot, -co.Y_vdot, -co.K_pdot, -co.M_qdot, -co.N_rdot])
     # Y_rdot = N_vdot couples sway and yaw; heave and pitch by symmetry with the opposite sign
@@ -341,10 +342,6 @@ def vehicle_params(cfg: VehicleConfig = VehicleConfig()) -> VehicleParams:
         rps_max=cfg.rpm_max / 60.0,
         motor_tau_s=cfg.motor_time_constant_s,
     )
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 @_jit

@@ -6,7 +6,7 @@ import pytest
 
 from tauvcore.filter import yoo
 from tauvcore.geo.earth import gravity_n_mps2
-from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, vee
+from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, skew, vee
 
 LAT, H = np.radians(35.0), -80.0
 F_B = np.array([0.3, -0.2, -9.6])          # measured specific force, body [m/s^2]
@@ -18,7 +18,7 @@ def _rates(v: np.ndarray, C: np.ndarray, ba: np.ndarray, bg: np.ndarray) -> tupl
     w_ie, w_en, _ = yoo.rates(LAT, H, v)
     g = np.array(gravity_n_mps2(LAT, H))
     v_dot = C @ (F_B - ba) - np.cross(2.0 * w_ie + w_en, v) + g
-    C_dot = C @ yoo.skew(W_B - bg) - yoo.skew(w_ie + w_en) @ C
+    C_dot = C @ skew(W_B - bg) - skew(w_ie + w_en) @ C
     return v_dot, C_dot
 
 

@@ -75,3 +75,11 @@ def skew_entry(a0: float, a1: float, a2: float, i: int, j: int) -> float:
     if i == 1:
         return a2 if j == 0 else (-a0 if j == 2 else 0.0)
     return -a1 if j == 0 else (a0 if j == 1 else 0.0)
+
+
+@jit
+def skew_into(a0: float, a1: float, a2: float, out: np.ndarray) -> None:
+    """``out = [a x]`` (3, 3), entry by entry (:func:`skew_entry`)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = skew_entry(a0, a1, a2, i, j)
