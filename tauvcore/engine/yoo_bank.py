@@ -132,11 +132,11 @@ class YooBank(ChunkDriver):
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         # the states the sources add (the DVL's current), after the consider states
         self.added = added_states(config, layout_of(config))
-        # the smoother's marks (tauvcore.engine.yoo_smoothing) are taken by the numpy methods
+        # the smoother's marks (tauvcore.engine.yoo_smoothing), written by the compiled loop
         self.taping = None
         if tape is not None:
             self.taping = YooTapeWriter(tape, self.batch, self.added.dim, self.added.rate)
-        self.compiled = compiled and tape is None
+        self.compiled = compiled
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
         self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}

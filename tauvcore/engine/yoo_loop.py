@@ -95,6 +95,7 @@ def record(
     state_sigma: np.ndarray,
     state_true: np.ndarray,
     ref_var: np.ndarray,
+    tape_dx: np.ndarray,
 ) -> None:
     """One output epoch of every (method, run) (yoo_bank.YooBank._record): errors ``true - estimate``,
     1-sigma, NEES of the estimated states (the 12 and the added, ``est`` their indices in P) and
@@ -103,7 +104,8 @@ def record(
     ``vel_t`` (tauvcore.filter.kernels.nees.add_reference_into), the estimates; when sensor_est (T, M, R, S) has rows,
     the sensor errors' estimate, ``sqrt(P_ii)`` and truth too (column j the state
     ``sensor_index[j]``, sensor_sigma and sensor_true alike); the added states' estimate (``extra``
-    (M, R, E)), ``sqrt(P_ii)`` and truth (``extra_t`` (E,)) into state_est, state_sigma, state_true."""
+    (M, R, E)), ``sqrt(P_ii)`` and truth (``extra_t`` (E,)) into state_est, state_sigma, state_true;
+    when the smoother's ``tape_dx`` (T, M, R, 12 + E) has rows, the errors too."""
     M, R = pos.shape[0], pos.shape[1]
     with_sensors = sensor_est.shape[0] > 0
     n = est.shape[0]
@@ -133,6 +135,8 @@ def record(
                 dx[BG + i] = bg_t[r, i] - bg[m, r, i]
             for e in range(n - DIM):
                 dx[DIM + e] = extra_t[e] - extra[m, r, e]
+            if tape_dx.shape[0] > 0:
+                tape_dx[row, m, r, :] = dx
             if geodetic:
                 e0, e1, e2 = ned_offset(
                     pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], origin[2]
@@ -302,6 +306,22 @@ class YooOutputs(NamedTuple):
     wt_nis: np.ndarray
 
 
+class YooTape(NamedTuple):
+    """The smoother's marks the loop writes (tauvcore.engine.yoo_smoothing.YooTapeWriter, whose
+    arrays these are); ``phi_acc`` without rows: no smoother, nothing written."""
+
+    phi_acc: np.ndarray  # (M, R, 12, 12) Phi - I since the last mark, composed in place
+    tape_X: np.ndarray  # (T, M, R, 12, 12) each output epoch's transition since the mark before it
+    tape_P: np.ndarray  # (T, M, R, N, N) its covariance
+    tape_dx: np.ndarray  # (T, M, R, 12 + E) its error against truth (the 12 states, then the added)
+    tape_vel_b: np.ndarray  # (T, M, R, 3) the true body velocity [m/s]
+    ev_X: np.ndarray  # (pings, M, R, 12, 12) each ping's mark: its transition since the mark before,
+    ev_Pm: np.ndarray  # (pings, M, R, N, N) the covariance before its corrections,
+    ev_P: np.ndarray  # (pings, M, R, N, N) after them,
+    ev_d: np.ndarray  # (pings, M, R, N) the correction the nominal state took (zero: nothing fused),
+    ev_pos: np.ndarray  # (pings,) int64 the chunk's output epochs recorded before it
+
+
 @jit
 def _aid(
     kind: int,
@@ -351,11 +371,13 @@ def run_stops(
     sd: StrapdownConstants,
     model: YooModel,
     outputs: YooOutputs,
+    tape: YooTape,
 ) -> None:
     """Stops ``s0 .. s1 - 1`` of a chunk (yoo_bank.YooBank.feed's loop): advance the nominal states
     to the stop, step the covariance, fuse a DVL ping (its row of the chunk's pings in
     ``ping_of_stop``; then its water-track beams, with current states), record an output epoch
-    (its row in ``row_of_stop``). ``counters`` = (k_state, k_cov), read and written."""
+    (its row in ``row_of_stop``); with the smoother's ``tape``, each ping's mark and each output
+    epoch's. ``counters`` = (k_state, k_cov, the tape's output epochs so far), read and written."""
     stops, ping_of_stop, row_of_stop, k0 = schedule
     (pos, vel, C, ba, bg, P, dtheta_sum, vkf_x, vkf_P, vkf_use, vkf_alt, extra, learn_axis,
      learn_current) = state  # fmt: skip
@@ -392,6 +414,11 @@ def run_stops(
     S_diag = np.empty(3)
     vb = np.empty(3)
     water = water_var >= 0.0 and y_water.shape[0] > 0
+    phi_acc = tape.phi_acc
+    taping = phi_acc.shape[0] > 0
+    held = (M, R) if taping else (0, 0)  # the nominal state before a ping's corrections
+    vel0, C0 = np.empty(held + (3,)), np.empty(held + (3, 3))
+    ba0, bg0, extra0 = np.empty(held + (3,)), np.empty(held + (3,)), np.empty(held + (E,))
     for s in range(s0, s1):
         k = stops[s]
         if k < k0:
@@ -438,11 +465,14 @@ def run_stops(
                 Phi,
                 tmp,
                 out,
+                phi_acc,
             )
             dtheta_sum[:, :] = 0.0
             counters[1] = k
         p = ping_of_stop[s]
         if p >= 0:
+            if taping:
+                _mark_before(p, counters[2], tape, P, vel, C, ba, bg, extra, vel0, C0, ba0, bg0, extra0)
             for r in range(R):
                 lat = pos[0, r, 0] if geodetic else origin[0]
                 ok[r] = dvl_body_velocity_into(
@@ -558,6 +588,8 @@ def run_stops(
                         )  # fmt: skip
                         _write_update(p, m, r, z, nu, S_diag, ok[r], fused, passed, nis, wt_z, wt_nu, wt_S,
                                       wt_flags, wt_nis)  # fmt: skip
+            if taping:
+                _mark_after(p, tape, P, vel, C, ba, bg, extra, vel0, C0, ba0, bg0, extra0)
         row = row_of_stop[s]
         if row >= 0:
             record(
@@ -594,7 +626,95 @@ def run_stops(
                 state_sigma,
                 state_true,
                 ref_var,
+                tape.tape_dx,
             )
+            if taping:
+                tape.tape_X[row] = phi_acc
+                phi_acc[...] = 0.0
+                tape.tape_P[row] = P
+                for j in range(3):
+                    tape.tape_vel_b[row, :, :, j] = (
+                        C_t[i, 0, j] * vel_t[i, 0] + C_t[i, 1, j] * vel_t[i, 1] + C_t[i, 2, j] * vel_t[i, 2]
+                    )
+                counters[2] = max(counters[2], row + 1)
+
+
+@jit
+def _mark_before(
+    p: int,
+    rows: int,
+    tape: YooTape,
+    P: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    extra: np.ndarray,
+    vel0: np.ndarray,
+    C0: np.ndarray,
+    ba0: np.ndarray,
+    bg0: np.ndarray,
+    extra0: np.ndarray,
+) -> None:
+    """Ping ``p``'s mark before its corrections (yoo_smoothing.YooTapeWriter.before): the
+    transition since the last mark (then restarted), the covariance and, kept in ``vel0`` ..
+    ``extra0``, the nominal state; ``rows`` the chunk's output epochs recorded so far."""
+    tape.ev_X[p] = tape.phi_acc
+    tape.phi_acc[...] = 0.0
+    tape.ev_Pm[p] = P
+    tape.ev_pos[p] = rows
+    vel0[...] = vel
+    C0[...] = C
+    ba0[...] = ba
+    bg0[...] = bg
+    extra0[...] = extra
+
+
+@jit
+def _mark_after(
+    p: int,
+    tape: YooTape,
+    P: np.ndarray,
+    vel: np.ndarray,
+    C: np.ndarray,
+    ba: np.ndarray,
+    bg: np.ndarray,
+    extra: np.ndarray,
+    vel0: np.ndarray,
+    C0: np.ndarray,
+    ba0: np.ndarray,
+    bg0: np.ndarray,
+    extra0: np.ndarray,
+) -> None:
+    """Ping ``p``'s mark after its corrections (yoo_smoothing.YooTapeWriter.after): the covariance
+    and the correction the nominal state took, ``x+ - x-`` (the attitude's ``log(C+ C-^T)``; the
+    consider states never corrected), zero for a filter whose covariance did not change (nothing
+    fused: round-off, not a correction)."""
+    M, R, N = P.shape[0], P.shape[1], P.shape[2]
+    Ce = np.empty((3, 3))
+    rho = np.empty(3)
+    tape.ev_P[p] = P
+    for m in range(M):
+        for r in range(R):
+            d = tape.ev_d[p, m, r]
+            d[:] = 0.0
+            if np.all(P[m, r] == tape.ev_Pm[p, m, r]):
+                continue
+            for a in range(3):
+                for b in range(3):
+                    Ce[a, b] = (
+                        C[m, r, a, 0] * C0[m, r, b, 0]
+                        + C[m, r, a, 1] * C0[m, r, b, 1]
+                        + (C[m, r, a, 2] * C0[m, r, b, 2])
+                    )
+            log_so3_into(Ce, rho)
+            for a in range(3):
+                d[VEL + a] = vel[m, r, a] - vel0[m, r, a]
+                d[ATT + a] = rho[a]
+                d[BA + a] = ba[m, r, a] - ba0[m, r, a]
+                d[BG + a] = bg[m, r, a] - bg0[m, r, a]
+            for e in range(N - NA):
+                d[NA + e] = extra[m, r, e] - extra0[m, r, e]
 
 
 @jit
@@ -691,7 +811,8 @@ def run_chunk(
                  np.ascontiguousarray(dvl.water_available, dtype=bool))  # fmt: skip
     else:
         water = (np.zeros((0, R, 4)), np.zeros((0, R, 4), bool))
-    counters = np.array([bank.k_state, bank.k_cov], dtype=np.int64)
+    taping = bank.taping
+    counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
     run_stops(
         s0,
         s1,
@@ -783,6 +904,28 @@ def run_chunk(
             *(store[name] for name in STATE_FIELDS),
             *(store[f"wt_{name}"] for name in ("z", "nu", "S", "flags", "nis")),
         ),
+        _tape(taping, bank.batch),
     )
     aid.use_rpm, aid.altitude = aid_use, aid_alt
     bank.k_state, bank.k_cov = int(counters[0]), int(counters[1])
+    if taping is not None:
+        taping.rows = int(counters[2])
+        fused = ping_of_stop[s0:s1] >= 0
+        taping.pings_marked(ping_of_stop[s0:s1][fused], truth.t_s[stops[s0:s1][fused] - chunk.k0])
+
+
+def _tape(taping: Any, batch: tuple[int, int]) -> YooTape:
+    """The smoother's arrays the compiled loop writes (tauvcore.engine.yoo_smoothing.YooTapeWriter's
+    own, the chunk's); None: arrays without rows, nothing written."""
+    if taping is None:
+        none = np.zeros((0,) + batch + (DIM, DIM))
+        return YooTape(
+            np.zeros((0, 0, DIM, DIM)), none, np.zeros((0, 0, 0, 0, 0)), np.zeros((0, 0, 0, 0)),
+            np.zeros((0, 0, 0, 3)), none, np.zeros((0, 0, 0, 0, 0)), np.zeros((0, 0, 0, 0, 0)),
+            np.zeros((0, 0, 0, 0)), np.zeros(0, np.int64),
+        )  # fmt: skip
+    out, marks = taping.out, taping.marks
+    return YooTape(
+        taping.phi_acc, out["tape_X"], out["tape_P"], out["tape_dx"], out["tape_vel_b_mps"],
+        marks["ev_X"], marks["ev_Pm"], marks["ev_P"], marks["ev_d"], marks["ev_pos"],
+    )  # fmt: skip

@@ -61,6 +61,7 @@ class YooTapeWriter:
         self.extra_rate = np.zeros(0) if extra_rate is None else np.asarray(extra_rate, dtype=float)
         self.phi_acc = np.zeros(batch + (DIM, DIM))  # Phi - I since the last mark
         self.out: dict[str, np.ndarray] | None = None
+        self.marks: dict[str, np.ndarray] = {}  # the pings' marks of the compiled loop (open)
         self.store: dict[str, np.ndarray] = {}
         self.rows = 0  # output epochs of the chunk recorded so far
         self.events: list[tuple] = []
@@ -82,7 +83,33 @@ class YooTapeWriter:
             "tape_dx": np.zeros((T,) + shape + (DIM + self.extra_rate.size,)),
             "tape_vel_b_mps": np.zeros((T,) + shape + (3,)),
         }
+        U = store["up_k"].size  # the pings' marks, written by the compiled loop (yoo_loop.YooTape)
+        self.marks = {
+            "ev_X": np.zeros((U,) + shape + (DIM, DIM)),
+            "ev_Pm": np.zeros((U,) + shape + (self.na, self.na)),
+            "ev_P": np.zeros((U,) + shape + (self.na, self.na)),
+            "ev_d": np.zeros((U,) + shape + (self.na,)),
+            "ev_pos": np.zeros(U, dtype=np.int64),
+        }
         self.store, self.rows, self.events, self.event_t = store, 0, [], []
+
+    def pings_marked(self, pings: np.ndarray, t_s: np.ndarray) -> None:
+        """The marks the compiled loop wrote for the chunk's pings ``pings`` (their rows, in the
+        order fused) at times ``t_s`` [s], put in the order of the marks.
+
+        Parameters
+        ----------
+        pings : numpy.ndarray
+            The pings' rows in the chunk (tauvcore.engine.yoo_loop.YooTape's ``ev_*`` rows).
+        t_s : numpy.ndarray
+            Their times [s].
+        """
+        ev = self.marks
+        for p, t in zip(pings, t_s, strict=True):
+            self.events.append(
+                (ev["ev_X"][p], ev["ev_Pm"][p], ev["ev_P"][p], ev["ev_d"][p], int(ev["ev_pos"][p]))
+            )
+            self.event_t.append(float(t))
 
     def propagated(self, Phi: np.ndarray) -> None:
         """A covariance step's transition ``Phi`` (M * R, 12, 12) composed into the one since the
@@ -188,7 +215,7 @@ class YooTapeWriter:
             self.extra_rate, batch, np.asarray(parts["t_s"]), parts["ev_pos"],
             [self.event_t[j] for j in order], self.last_t,
         )  # fmt: skip
-        self.out, self.store, self.events, self.event_t = None, {}, [], []
+        self.out, self.marks, self.store, self.events, self.event_t = None, {}, {}, [], []
         self.tape.add(parts)
 
 

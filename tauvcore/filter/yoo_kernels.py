@@ -78,6 +78,19 @@ def _symmetrise_into(A: np.ndarray, out: np.ndarray) -> None:
 
 
 @jit
+def _compose_into(Phi: np.ndarray, A: np.ndarray, tmp: np.ndarray) -> None:
+    """``A <- X + A + X A``, ``X = Phi - I`` (DIM, DIM): the transition since a mark, ``I + A``,
+    followed by the step ``Phi`` (``tmp`` work space)."""
+    for i in range(DIM):
+        for j in range(DIM):
+            s = 0.0
+            for k in range(DIM):
+                s += (Phi[i, k] - (1.0 if i == k else 0.0)) * A[k, j]
+            tmp[i, j] = (Phi[i, j] - (1.0 if i == j else 0.0)) + A[i, j] + s
+    A[:, :] = tmp
+
+
+@jit
 def propagate(
     P: np.ndarray,
     pos: np.ndarray,
@@ -97,13 +110,16 @@ def propagate(
     Phi: np.ndarray,
     tmp: np.ndarray,
     out: np.ndarray,
+    phi_acc: np.ndarray,
 ) -> None:
     """One covariance step of every (method, run) over ``dt_c`` (yoo_bank.YooBank._propagate):
     ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the other
     states' cross terms ``P_xc <- Phi P_xc``, ``P_cc += diag(qc) dt_c`` on the consider states,
     and the added states' own step (``extra_rate``, ``extra_q`` (E,), yoo_velocity.propagate_added),
     symmetrised; F of tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific
-    force. P (M, R, N, N); out (N, N), tmp (DIM, DIM) work space."""
+    force. P (M, R, N, N); out (N, N), tmp (DIM, DIM) work space. With rows, ``phi_acc`` (M, R,
+    DIM, DIM) holds ``Phi - I`` since the smoother's last mark and takes this step's:
+    ``X + A + X A`` (yoo_smoothing.YooTapeWriter.propagated)."""
     M, R = P.shape[0], P.shape[1]
     f_b = np.empty(3)
     f_n = np.empty(3)
@@ -175,6 +191,8 @@ def propagate(
                 out[DIM + a, DIM + a] += qc[a] * dt_c
             extra_step_into(out, extra_rate, extra_q, dt_c, NA)
             _symmetrise_into(out, Pm)
+            if phi_acc.shape[0] > 0:
+                _compose_into(Phi, phi_acc[m, r], tmp)
 
 
 @jit

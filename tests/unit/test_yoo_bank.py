@@ -175,14 +175,8 @@ def _assert_results_equal(fast: dict, slow: dict, rtol: float = 1e-9) -> None:
         same(fast[method], slow[method], method)
 
 
-@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic",
-                                  "current-water-geodetic", "current-rpm-geodetic"])
-def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """tauvcore.filter.yoo_kernels against YooBank(compiled=False), to 1e-9, every field: over the
-    first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
-    Yoo's noisy beams (the gate refusing some), on the flat earth in turns, and in a cross current
-    with the current as states, water-track beyond range (Gauss-Markov) or the VKF's RPM through
-    the water (random walk); 3 runs each."""
+def _case_config(case: str) -> Config:
+    """The configuration of a case of the compiled loop's equality tests (their docstrings)."""
     if case == "flat-figure8":
         config = Config().replace("trajectory", name="figure8", duration_s=120.0).replace("earth", model="flat")
         config = config.replace("run", methods=("ins-dvl", "vkf"))
@@ -198,6 +192,18 @@ def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: py
             config = config.replace("dvl", water_track="beyond_range", current_states="gauss-markov",
                                     current_tau_s=600.0) if "water" in case else config.replace(
                 "dvl", current_states="random-walk")
+    return config
+
+
+@pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic",
+                                  "current-water-geodetic", "current-rpm-geodetic"])
+def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """tauvcore.filter.yoo_kernels against YooBank(compiled=False), to 1e-9, every field: over the
+    first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
+    Yoo's noisy beams (the gate refusing some), on the flat earth in turns, and in a cross current
+    with the current as states, water-track beyond range (Gauss-Markov) or the VKF's RPM through
+    the water (random walk); 3 runs each."""
+    config = _case_config(case)
     fast = run_streaming(config, np.random.default_rng(3), num_runs=3)
     _numpy_bank(monkeypatch)
     slow = run_streaming(config, np.random.default_rng(3), num_runs=3)
@@ -243,3 +249,23 @@ def test_progress_and_stop_reach_the_yoo_methods() -> None:
             assert stopped["vkf"].vkf_trace["t_s"][-1] <= ends["vkf"]
     assert len(times[("lc",)]) >= 5
     assert times[("ins-dvl", "vkf")] == times[("lc",)] == times[("lc", "vkf")]
+
+
+@pytest.mark.parametrize("case", ["flat-figure8", "mag-geodetic", "current-water-geodetic"])
+def test_the_compiled_smoother_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the smoother, Yoo 2014's compiled loop writes the tape itself (its pings' marks, its
+    output epochs' and, between its spans, the magnetometer's): every field of the filtered and
+    the smoothed results equals the numpy reference's to 1e-9, in turns on the flat earth, with
+    the magnetometer's corrections and with the current as states and water-track; 3 runs each."""
+    from tauvcore.engine.smoothing import SmoothOptions
+
+    config = _case_config(case)
+    fast = run_streaming(config, np.random.default_rng(3), num_runs=3, smooth=SmoothOptions())
+    _numpy_bank(monkeypatch)
+    slow = run_streaming(config, np.random.default_rng(3), num_runs=3, smooth=SmoothOptions())
+    from tauvcore.engine import mission
+    assert mission.BANKS["yoo"].made  # type: ignore[attr-defined]  # the numpy reference ran
+    _assert_results_equal(fast, slow)
+    for method in fast:  # the smoother moved the estimate (how much: test_smoothing_engine.py)
+        smoothed = fast[method].smoothed
+        assert smoothed is not None and np.any(smoothed.vel_err_mps != fast[method].vel_err_mps)
