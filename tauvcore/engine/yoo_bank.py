@@ -4,7 +4,7 @@ Each is the paper's 12-state indirect feedback Kalman filter (section 2.1; error
 tauvcore.filter.yoo: NED velocity, attitude, accelerometer and gyro bias errors, no position)
 on the same strapdown as the 20-state methods (tauvcore.filter.kernels.strapdown.advance, geodetic on
 WGS-84), aided at every DVL ping by a NED velocity (eq. 16-18; with the attitude column the paper's H
-leaves out, :func:`tauvcore.engine.yoo_velocity.fuse_velocity`):
+leaves out, tauvcore.filter.yoo_kernels.fuse):
 
 - ``ins-dvl``, the paper's "conventional INS-DVL": the DVL's velocity, least squares over the
   beams that returned (at least three), rotated into n with the INS attitude; nothing when fewer
@@ -63,25 +63,20 @@ from tauvcore.engine.results import (
     UpdateRecord,
     method_result,
 )
-from tauvcore.engine.rpm_aid import RpmAid, dvl_body_velocity
+from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
 from tauvcore.engine.sources import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance
-from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment, with_reference
+from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
 from tauvcore.engine.yoo_velocity import (
     added_states,
-    fuse_velocity,
-    fuse_water,
-    propagate_added,
-    surge_current,
 )
-from tauvcore.filter import statistics, yoo, yoo_kernels
+from tauvcore.filter import yoo, yoo_kernels
 from tauvcore.filter.eskf import Nominal, make_outcome
 from tauvcore.filter.families.yoo import FAMILY
 from tauvcore.filter.layout import STATE, NavState
-from tauvcore.geo.earth import ned_from_geodetic
-from tauvcore.geo.rotations import exp_so3, log_so3, skew
+from tauvcore.geo.rotations import exp_so3, skew
 
 BLOCK_DIMS = FAMILY.block_dims
 """Degrees of freedom of this filter's NEES (tauvcore.filter.families.yoo)."""
@@ -110,9 +105,8 @@ class YooBank(ChunkDriver):
     """The Yoo methods of ``config.run.methods`` over R runs, fed chunk by chunk
     (tauvcore.engine.chunk_driver.ChunkDriver, as FilterBank).
 
-    ``compiled`` (the default) runs each chunk in tauvcore.engine.yoo_loop; ``compiled=False``
-    runs the numpy methods below, the reference the compiled loop is held equal to
-    (tests/unit/test_yoo_bank.py). Both write a chunk's output epochs, updates and VKF trace into
+    Each chunk runs in tauvcore.engine.yoo_loop (a numpy reference it is held equal to lives in
+    tests/unit/yoo_reference.py). It writes a chunk's output epochs, updates and VKF trace into
     the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`; with
     ``sensor_errors`` the output epochs carry the bias estimates, their 1-sigma and their truth
     (tauvcore.engine.results.SENSOR_COLUMNS)."""
@@ -123,7 +117,6 @@ class YooBank(ChunkDriver):
         num_runs: int,
         num_samples: int,
         dt_s: float,
-        compiled: bool = True,
         keep: bool = True,
         sensor_errors: bool = False,
         tape: Tape | None = None,
@@ -136,7 +129,6 @@ class YooBank(ChunkDriver):
         self.taping = None
         if tape is not None:
             self.taping = YooTapeWriter(tape, self.batch, self.added.dim, self.added.rate)
-        self.compiled = compiled
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
         self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
@@ -247,18 +239,17 @@ class YooBank(ChunkDriver):
             polls = np.zeros(0, np.int64)
         polls = np.unique(np.r_[polls, stops.size]).astype(np.int64)
         fixes = np.searchsorted(stops, source_k) + 1  # a span ends at each source epoch
-        run = self._run_compiled if self.compiled else self._run_numpy
         if self.taping is not None:
             self.taping.open(store)
         s0 = 0
         for s1 in np.unique(np.r_[polls, fixes]).astype(np.int64):
-            run(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, inputs, store)
+            self._run_span(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, inputs, store)
             s0 = int(s1)
             if s1 == 0:
                 continue
             k = int(stops[s1 - 1])
             if k in source_k:
-                self._fuse_sources(chunk, k, source_at, int(row_of_stop[s1 - 1]), store)
+                self._fuse_sources(chunk, k, source_at, int(row_of_stop[s1 - 1]), inputs, store)
             if s1 in polls and row_of_stop[s1 - 1] >= 0 and poll_every:
                 yield k
         if self.taping is not None:
@@ -315,7 +306,7 @@ class YooBank(ChunkDriver):
             "tr_alt": np.full((U, R), nan),
         }
 
-    def _run_compiled(
+    def _run_span(
         self,
         chunk: SimChunk,
         s0: int,
@@ -330,136 +321,19 @@ class YooBank(ChunkDriver):
         args = (s0, s1, stops, ping_of_stop, row_of_stop, inputs, store, METHOD_CODES, SENSOR_INDEX)
         yoo_loop.run_chunk(self, chunk, *args)
 
-    # ------------------------------------------------------------------ the numpy reference
-    def _run_numpy(
-        self,
-        chunk: SimChunk,
-        s0: int,
-        s1: int,
-        stops: np.ndarray,
-        ping_of_stop: np.ndarray,
-        row_of_stop: np.ndarray,
-        inputs: ChunkInputs,
-        store: Store,
-    ) -> None:
-        dv_raw = inputs.dv_raw
-        k0 = chunk.k0
-        self._dv = dv_raw
-        for s in range(s0, s1):
-            k = int(stops[s])
-            i = k - k0
-            if k > self.k_state:
-                self._advance_to(inputs, k0, k)
-            if k > self.k_cov:
-                self._propagate(i, k)
-            if ping_of_stop[s] >= 0:
-                t = float(chunk.truth.t_s[i])
-                mark = self.taping.before(self.P, self._nominal(), t) if self.taping is not None else None
-                self._update(chunk, int(ping_of_stop[s]), i, store)
-                if self.taping is not None and mark is not None:
-                    self.taping.after(mark, self.P, self._nominal())
-            if row_of_stop[s] >= 0:
-                self._record(chunk, i, int(row_of_stop[s]), store)
-
-    def _lat_h(self) -> tuple[np.ndarray, np.ndarray]:
-        pos = self.pos.reshape(-1, 3)
-        if self.geodetic:
-            return pos[:, 0], -pos[:, 2]
-        lat = np.full(pos.shape[0], self.origin[0])
-        return lat, np.zeros(pos.shape[0])
-
-    def _propagate(self, i: int, k: int) -> None:
-        M, R = self.batch
-        dt_c = (k - self.k_cov) * self.dt
-        C = self.C.reshape(-1, 3, 3)
-        f_b = self._dv[i].reshape(1, R, 3) / self.dt - self.ba  # the latest specific force
-        f_n = np.einsum("bij,bj->bi", C, f_b.reshape(-1, 3))
-        lat, h = self._lat_h()
-        F = yoo.F_batch(lat, h, self.vel.reshape(-1, 3), f_n, C, self.geodetic, self.w_ie) * dt_c
-        Phi = np.eye(yoo.DIM) + F + 0.5 * F @ F
-        if self.taping is not None:
-            self.taping.propagated(Phi)
-        na = self.added.dim
-        P = self.P.reshape(-1, na, na).copy()
-        X = slice(0, yoo.DIM)
-        P[:, X, X] = (
-            Phi @ P[:, X, X] @ Phi.swapaxes(-1, -2) + np.diag(self.q) * dt_c
-        )  # isotropic: G Q G^T = Q
-        P[:, X, yoo.DIM :] = Phi @ P[:, X, yoo.DIM :]  # consider states: constant plus walks
-        P[:, yoo.DIM :, X] = P[:, X, yoo.DIM :].swapaxes(-1, -2)
-        P[:, yoo.DIM : NA, yoo.DIM : NA] += np.diag(self.qc) * dt_c
-        propagate_added(P, self.added, dt_c)
-        self.P = (0.5 * (P + P.swapaxes(-1, -2))).reshape(M, R, na, na)
-        self.dtheta_sum[:] = 0.0
-        self.k_cov = k
-
-    def _dvl_velocity(
-        self, chunk, i: int, y: np.ndarray, available: np.ndarray, beam_var: float
-    ) -> tuple[np.ndarray, ...]:
-        """The least squares' body velocity of beams ``y`` (R, 4) [m/s] returned where ``available``
-        at sample ``i`` of ``chunk``, its covariance from ``beam_var`` [m^2/s^2], whether enough beams
-        returned and the gain (tauvcore.engine.rpm_aid.dvl_body_velocity)."""
-        lat, _ = self._lat_h()
-        R = self.batch[1]
-        return dvl_body_velocity(
-            y, available, chunk.imu.dtheta_b[i], self.dt, self.C[0], lat[:R], self.A_b, self.l_dvl_b, beam_var,
-            with_gain=True,
-        )  # fmt: skip
-
-    def _update(self, chunk, p: int, i: int, store: dict[str, np.ndarray]) -> None:
-        v_b, cov_b, ok, gain = self._dvl_velocity(
-            chunk, i, chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], self.beam_var
-        )
-        R = self.batch[1]
-        for m, method in enumerate(self.methods):
-            C = self.C[m]
-            v_dvl_n = np.einsum("rij,rj->ri", C, v_b)
-            R_dvl = np.einsum("rij,rjk,rlk->ril", C, cov_b, C)
-            # the consider states' columns: the scale factor scales the (estimated) body velocity, a
-            # beam bias goes through the least squares of the beams that returned
-            v_est_b = np.einsum("rji,rj->ri", C, self.vel[m])
-            Hc = C @ np.concatenate([v_est_b[:, :, None], gain], axis=-1)  # (R, 3, NC)
-            z, Rm, valid, water, learned = v_dvl_n, R_dvl, ok.copy(), None, None
-            if method == "vkf":
-                z, Rm, valid = self._vkf_switch(chunk, i, m, v_b, v_dvl_n, R_dvl, ok)
-                if self.added.current is not None:
-                    water = self.rpm_aid.use_rpm
-                    learned = (C[:, :, 0], self.rpm_aid.learn_axis_n, self.rpm_aid.learn_current_n_mps)
-                Hr = np.zeros((R, 3, NC))  # the RPM's surge was learnt from the DVL's (4 beams)
-                Hr[:, 0, 0] = self.rpm_aid.x[:, 0]
-                Hr[:, 0, 1:] = self.L4[0]
-                Hc = np.where(self.rpm_aid.use_rpm[:, None, None], C @ Hr, Hc)
-                tr = self.rpm_aid.trace(chunk, i, 0.0)
-                store["tr_x"][p], store["tr_sigma"][p] = tr["x"], tr["sigma"]
-                store["tr_truth"][p] = np.stack([tr["sf_true"], tr["b_true"]], axis=-1)
-                store["tr_use"][p], store["tr_alt"][p] = tr["rpm_in_use"], tr["altitude_m"]
-            fuse_velocity(self, m, z, Rm, valid, Hc, p, store, water, learned)
-        if self.added.water_var is not None and chunk.dvl.y_water_mps is not None:
-            fuse_water(self, chunk, p, i, store)
-
-    def _vkf_switch(
-        self, chunk, i: int, m: int, v_b: np.ndarray, v_dvl_n: np.ndarray, R_dvl: np.ndarray, ok: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Eq. 29: the DVL's NED velocity within the switch altitude (and with enough beams), else
-        the VKF's RPM velocity (eq. 27-28), the VKF stepped and, while the DVL is chosen, updated;
-        with current states it learns the surge through the water, the DVL's less the current's by
-        this method's estimate (tauvcore.engine.yoo_velocity)."""
-        learned = None
-        if self.added.current is not None:
-            c_n = self.added.current_in(self.extra[m])
-            v_b = v_b - surge_current(self.C[m], c_n)[:, None] * np.array([1.0, 0.0, 0.0])
-            learned = (self.C[m, :, :, 0], c_n)
-        use_rpm, have_rpm = self.rpm_aid.step(chunk, i, v_b, ok, learned)
-        C = self.C[m]
-        v_rpm_n = np.einsum("rij,rj->ri", C, self.rpm_aid.velocity_b())
-        R_rpm = np.einsum("rij,rjk,rlk->ril", C, self.rpm_aid.covariance_b(), C)
-        z = np.where(use_rpm[:, None], v_rpm_n, v_dvl_n)
-        Rm = np.where(use_rpm[:, None, None], R_rpm, R_dvl)
-        valid = np.where(use_rpm, have_rpm, ok)
-        return z, Rm, valid
+    def _record_again(self, chunk: SimChunk, i: int, row: int, inputs: ChunkInputs, store: Store) -> None:
+        """Output epoch ``row`` (sample ``i``) recorded again after the sources' corrections
+        (tauvcore.engine.yoo_loop.record_again)."""
+        yoo_loop.record_again(self, chunk, i, row, inputs, store, METHOD_CODES, SENSOR_INDEX)
 
     def _fuse_sources(
-        self, chunk: SimChunk, k: int, source_at: dict[str, dict[int, int]], row: int, store: Store
+        self,
+        chunk: SimChunk,
+        k: int,
+        source_at: dict[str, dict[int, int]],
+        row: int,
+        inputs: ChunkInputs,
+        store: Store,
     ) -> None:
         """The sources' corrections at sample ``k`` (after the DVL's, which the span ending at ``k``
         made), in registry order, for both methods and every run; then the output epoch at ``k``,
@@ -495,7 +369,7 @@ class YooBank(ChunkDriver):
         if self.taping is not None and mark is not None:
             self.taping.after(mark, self.P, self._nominal())
         if row >= 0:
-            self._record(chunk, i, row, store)
+            self._record_again(chunk, i, row, inputs, store)
 
     def inject(self, dx: np.ndarray) -> None:
         """Inject a correction ``dx`` (M, R, N) over every state into every method and run (the
@@ -517,68 +391,6 @@ class YooBank(ChunkDriver):
     def _concatenate(self, chunks: list[Store], until_s: float | None) -> Store:
         self._until_s = until_s  # the sources' records are cut there too (_results)
         return super()._concatenate(chunks, until_s)
-
-    def _record(self, chunk, i: int, row: int, store: dict[str, np.ndarray]) -> None:
-        truth = chunk.truth
-        v_t, C_t = truth.vel_n[i], truth.C_nb[i]
-        ba_t, bg_t = np.asarray(chunk.imu.accel_bias[i]), np.asarray(chunk.imu.gyro_bias[i])  # (R, 3)
-        if self.geodetic:
-            lat0, lon0, h0 = (float(v) for v in self.origin)
-            est_ned = ned_from_geodetic(
-                self.pos[..., 0], self.pos[..., 1], -self.pos[..., 2], (lat0, lon0, h0)
-            )
-        else:
-            est_ned = self.pos
-        pos_err = np.linalg.norm(est_ned - truth.pos_n[i], axis=-1)
-        E = self.added.num
-        dx = np.zeros(self.batch + (yoo.DIM + E,))  # the 12 states, then the added
-        dx[..., yoo.VEL] = v_t - self.vel
-        dx[..., yoo.ATT] = log_so3(C_t @ self.C.swapaxes(-1, -2))
-        dx[..., yoo.BA] = ba_t - self.ba
-        dx[..., yoo.BG] = bg_t - self.bg
-        extra_t = self._added_truth(chunk)[i] if E else np.zeros(0)
-        dx[..., yoo.DIM :] = extra_t - self.extra
-        vel_b_err = np.einsum("ji,j->i", C_t, v_t) - np.einsum("mrji,mrj->mri", self.C, self.vel)
-        est = self.added.estimated
-        P = np.ascontiguousarray(self.P[..., est[:, None], est])  # the estimated states
-        P_nees = with_reference(P, self.ref_var, C_t, v_t)
-        blocks = statistics.block_nees(dx, P_nees, self.block_of_state, self.num_blocks)
-        blocks[..., 0] = np.nan  # no position state
-        att = dx[..., yoo.ATT]
-        deg = 1.0 / units.DEG
-        series = {
-            "vel_err": np.linalg.norm(vel_b_err, axis=-1),
-            "att_err": np.linalg.norm(att, axis=-1) * deg,
-            "pos_err": pos_err,
-            "vel_sigma": np.sqrt(np.einsum("mrii->mr", P[..., :3, :3])),
-            "att_sigma": np.sqrt(np.einsum("mrii->mr", P[..., 3:6, 3:6])) * deg,
-            "pos_sigma": np.nan,
-            "nees": statistics.nees(dx, P_nees),
-            "tilt_err": np.linalg.norm(att[..., :2], axis=-1) * deg,
-            "heading_err": np.abs(att[..., 2]) * deg,
-            "tilt_sigma": np.sqrt(P[..., 3, 3] + P[..., 4, 4]) * deg,
-            "heading_sigma": np.sqrt(P[..., 5, 5]) * deg,
-        }
-        for j, name in enumerate(SERIES):
-            store["series"][j, row] = series[name]
-        store["nees_block"][row] = blocks
-        store["est_pos_n"][row] = est_ned
-        store["est_vel_n"][row] = self.vel
-        store["est_euler"][row] = _euler_batch(self.C)
-        if E:
-            store["state_est"][row] = self.extra
-            store["state_sigma"][row] = np.sqrt(np.einsum("...ii->...i", self.P[..., NA:, NA:]))
-            store["state_true"][row] = extra_t
-        if self.taping is not None:
-            self.taping.record(row, self.P, dx, np.einsum("ji,j->i", C_t, v_t))
-        if self.sensor_errors:
-            x_est = np.zeros(self.batch + (yoo.DIM,))
-            x_est[..., yoo.BA], x_est[..., yoo.BG] = self.ba, self.bg
-            x_true = np.zeros(self.batch + (yoo.DIM,))
-            x_true[..., yoo.BA], x_true[..., yoo.BG] = ba_t, bg_t
-            store["sensor_est"][row] = x_est[..., SENSOR_INDEX]
-            store["sensor_sigma"][row] = np.sqrt(self.P[..., SENSOR_INDEX, SENSOR_INDEX])
-            store["sensor_true"][row] = x_true[..., SENSOR_INDEX]
 
     def _ping_record(self, cat: Store, prefix: str, m: int) -> UpdateRecord:
         """Method ``m``'s record of a velocity fused at the pings, from the store's ``prefix`` rows."""
@@ -731,10 +543,3 @@ def _until(record: UpdateRecord, until_s: float) -> UpdateRecord:
     U = int(np.searchsorted(record.t_s, until_s, side="right"))
     cut = {f.name: getattr(record, f.name) for f in dataclasses.fields(record)}
     return UpdateRecord(**{k: v[:U] if isinstance(v, np.ndarray) else v for k, v in cut.items()})
-
-
-def _euler_batch(C: np.ndarray) -> np.ndarray:
-    roll = np.arctan2(C[..., 2, 1], C[..., 2, 2])
-    pitch = -np.arcsin(np.clip(C[..., 2, 0], -1.0, 1.0))
-    yaw = np.arctan2(C[..., 1, 0], C[..., 0, 0])
-    return np.stack([roll, pitch, yaw], axis=-1)

@@ -1,10 +1,10 @@
-"""The compiled chunk loop of Yoo 2014's methods (numba): tauvcore.engine.yoo_bank's numpy methods
-as one call per chunk.
+"""The compiled chunk loop of Yoo 2014's methods (numba): tauvcore.engine.yoo_bank's chunks, one
+call per span of stops, with the smoother's marks when it keeps a tape (:class:`YooTape`).
 
-Why: the numpy bank (``YooBank(..., compiled=False)``, kept as the reference) spends its time in
-numpy's per-call overhead on 3x3 and 12x12 batches at every DVL ping, covariance step and output
-epoch (the 24-minute ``longrange`` mission took 10 s); this loop and the formulas it calls
-(tauvcore.filter.yoo_kernels) do the same arithmetic in machine code.
+A bank in numpy (tests/unit/yoo_reference.py, the reference this loop is held equal to, to 1e-9)
+spends its time in numpy's per-call overhead on 3x3 and 12x12 batches at every DVL ping, covariance
+step and output epoch; this loop and the formulas it calls (tauvcore.filter.yoo_kernels) do the
+same arithmetic in machine code.
 
 The chunk's stops (covariance steps, DVL pings, output epochs) come from the caller in order, with
 the ping and output row of each (-1 for none); :func:`run_stops` processes stops ``s0 .. s1 - 1``,
@@ -97,7 +97,7 @@ def record(
     ref_var: np.ndarray,
     tape_dx: np.ndarray,
 ) -> None:
-    """One output epoch of every (method, run) (yoo_bank.YooBank._record): errors ``true - estimate``,
+    """One output epoch of every (method, run): errors ``true - estimate``,
     1-sigma, NEES of the estimated states (the 12 and the added, ``est`` their indices in P) and
     of each block (no position state: NaN), against their covariance and the covariance of the
     reference's own errors, ``ref_var`` (9,) at the reference's attitude ``C_t`` and NED velocity
@@ -336,7 +336,7 @@ def _aid(
     Hx: np.ndarray,
 ) -> None:
     """A velocity aid's prediction ``h``, the vector ``w`` its attitude column rotates and its
-    columns ``Hx`` (3, E) on the added states (yoo_velocity.velocity_H): over ground (``kind`` 0)
+    columns ``Hx`` (3, E) on the added states (tests/unit/yoo_reference.py's velocity_H): over ground (``kind`` 0)
     ``v``; through the water (the current's at ``current`` in P, :data:`_WATER`) ``v - c``; the
     VKF's RPM (:data:`_RPM`) also ``+ x (c - c_l) . a`` and ``x a_NE^T`` on the current."""
     Hx[:, :] = 0.0
@@ -381,15 +381,63 @@ def run_stops(
     stops, ping_of_stop, row_of_stop, k0 = schedule
     (pos, vel, C, ba, bg, P, dtheta_sum, vkf_x, vkf_P, vkf_use, vkf_alt, extra, learn_axis,
      learn_current) = state  # fmt: skip
-    (phi_raw, dv_raw, dtheta, y_beam, available, rpm_index, rpm_value, rpm_sf, rpm_b, echo_index,
-     echo_alt, pos_t, vel_t, C_t, ba_t, bg_t, y_water, water_available, extra_t) = chunk  # fmt: skip
+    phi_raw, dv_raw, dtheta, y_beam, available = (
+        chunk.phi_raw,
+        chunk.dv_raw,
+        chunk.dtheta,
+        chunk.y_beam,
+        chunk.available,
+    )
+    rpm_index, rpm_value, rpm_sf, rpm_b = chunk.rpm_index, chunk.rpm_value, chunk.rpm_sf, chunk.rpm_b
+    echo_index, echo_alt, y_water, water_available = (
+        chunk.echo_index,
+        chunk.echo_alt,
+        chunk.y_water,
+        chunk.water_available,
+    )
     dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
-    (origin, w_ie_flat, q, method_code, A_b, l_dvl_b, beam_var, qc, L4, gate, vkf_Q, vkf_R,
-     switch_altitude, forward_norm, lateral_var, block_of_state, num_blocks, deg, sensor_index,
-     extra_rate, extra_q, ref_var, current, water_var, est) = model  # fmt: skip
-    (series, nees_block, est_pos, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true, up_z,
-     up_nu, up_S, up_flags, up_nis, tr_x, tr_sigma, tr_truth, tr_use, tr_alt, state_est, state_sigma,
-     state_true, wt_z, wt_nu, wt_S, wt_flags, wt_nis) = outputs  # fmt: skip
+    origin, w_ie_flat, q, method_code, A_b = (
+        model.origin,
+        model.w_ie_flat,
+        model.q,
+        model.method_code,
+        model.A_b,
+    )
+    l_dvl_b, beam_var, qc, L4, gate = model.l_dvl_b, model.beam_var, model.qc, model.L4, model.gate
+    vkf_Q, vkf_R, switch_altitude, forward_norm = (
+        model.vkf_Q,
+        model.vkf_R,
+        model.switch_altitude,
+        model.forward_norm,
+    )
+    lateral_var, extra_rate, extra_q, current = (
+        model.lateral_var,
+        model.extra_rate,
+        model.extra_q,
+        model.current,
+    )
+    water_var = model.water_var
+    up_z, up_nu, up_S, up_flags, up_nis = (
+        outputs.up_z,
+        outputs.up_nu,
+        outputs.up_S,
+        outputs.up_flags,
+        outputs.up_nis,
+    )
+    tr_x, tr_sigma, tr_truth, tr_use, tr_alt = (
+        outputs.tr_x,
+        outputs.tr_sigma,
+        outputs.tr_truth,
+        outputs.tr_use,
+        outputs.tr_alt,
+    )
+    wt_z, wt_nu, wt_S, wt_flags, wt_nis = (
+        outputs.wt_z,
+        outputs.wt_nu,
+        outputs.wt_S,
+        outputs.wt_flags,
+        outputs.wt_nis,
+    )
     M, R = pos.shape[0], pos.shape[1]
     N = P.shape[-1]
     E = N - NA
@@ -562,7 +610,7 @@ def run_stops(
                     )  # fmt: skip
                     _write_update(p, m, r, z, nu, S_diag, valid, fused, passed, nis, up_z, up_nu, up_S,
                                   up_flags, up_nis)  # fmt: skip
-            if water:  # the water-track beams, after the ping's bottom-track (yoo_velocity.fuse_water)
+            if water:  # the water-track beams, after the ping's bottom-track
                 for r in range(R):
                     lat = pos[0, r, 0] if geodetic else origin[0]
                     ok[r] = dvl_body_velocity_into(
@@ -592,51 +640,43 @@ def run_stops(
                 _mark_after(p, tape, P, vel, C, ba, bg, extra, vel0, C0, ba0, bg0, extra0)
         row = row_of_stop[s]
         if row >= 0:
-            record(
-                row,
-                pos_t[i],
-                vel_t[i],
-                C_t[i],
-                ba_t[i],
-                bg_t[i],
-                pos,
-                vel,
-                C,
-                ba,
-                bg,
-                P,
-                geodetic,
-                origin,
-                block_of_state,
-                num_blocks,
-                deg,
-                series,
-                nees_block,
-                est_pos,
-                est_vel,
-                est_euler,
-                sensor_index,
-                sensor_est,
-                sensor_sigma,
-                sensor_true,
-                extra,
-                extra_t[i],
-                est,
-                state_est,
-                state_sigma,
-                state_true,
-                ref_var,
-                tape.tape_dx,
-            )
-            if taping:
-                tape.tape_X[row] = phi_acc
-                phi_acc[...] = 0.0
-                tape.tape_P[row] = P
-                for j in range(3):
-                    tape.tape_vel_b[row, :, :, j] = (
-                        C_t[i, 0, j] * vel_t[i, 0] + C_t[i, 1, j] * vel_t[i, 1] + C_t[i, 2, j] * vel_t[i, 2]
-                    )
-                counters[2] = max(counters[2], row + 1)
+            _record_row(row, i, state, chunk, model, outputs, tape, geodetic, counters)
+
+
+@jit
+def _record_row(
+    row: int,
+    i: int,
+    state: YooState,
+    chunk: YooChunk,
+    model: YooModel,
+    outputs: YooOutputs,
+    tape: YooTape,
+    geodetic: bool,
+    counters: np.ndarray,
+) -> None:
+    """Output epoch ``row`` at sample ``i`` of the chunk (:func:`record`), and with the smoother's
+    ``tape`` its mark: the transition since the last mark (then restarted), the covariance, the
+    true body velocity; ``counters[2]`` the chunk's output epochs recorded so far."""
+    pos, vel, C, ba, bg, P, extra = state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.extra
+    C_t, vel_t = chunk.C_t, chunk.vel_t
+    record(
+        row, chunk.pos_t[i], vel_t[i], C_t[i], chunk.ba_t[i], chunk.bg_t[i], pos, vel, C, ba, bg, P, geodetic,
+        model.origin, model.block_of_state, model.num_blocks, model.deg, outputs.series, outputs.nees_block,
+        outputs.est_pos, outputs.est_vel, outputs.est_euler, model.sensor_index, outputs.sensor_est,
+        outputs.sensor_sigma, outputs.sensor_true, extra, chunk.extra_t[i], model.est, outputs.state_est,
+        outputs.state_sigma, outputs.state_true, model.ref_var, tape.tape_dx,
+    )  # fmt: skip
+    if tape.phi_acc.shape[0] == 0:
+        return
+    tape.tape_X[row] = tape.phi_acc
+    tape.phi_acc[...] = 0.0
+    tape.tape_P[row] = P
+    for j in range(3):
+        tape.tape_vel_b[row, :, :, j] = (
+            C_t[i, 0, j] * vel_t[i, 0] + C_t[i, 1, j] * vel_t[i, 1] + C_t[i, 2, j] * vel_t[i, 2]
+        )
+    counters[2] = max(counters[2], row + 1)
 
 
 @jit
@@ -776,7 +816,7 @@ def run_chunk(
 ) -> None:
     """Stops ``s0 .. s1 - 1`` of a chunk of the Yoo bank ``bank`` (tauvcore.engine.yoo_bank.YooBank)
     in :func:`run_stops`, which is handed the bank's states, the chunk's inputs and truth, the
-    filters' constants and the chunk's store as the compiled loop takes them.
+    filters' constants and the chunk's store as the compiled loop takes them (:func:`loop_args`).
 
     Parameters
     ----------
@@ -797,6 +837,52 @@ def run_chunk(
     sensor_index : numpy.ndarray
         The state of each sensor-error column.
     """
+    state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
+    taping = bank.taping
+    counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
+    schedule = YooSchedule(stops, ping_of_stop, row_of_stop, chunk.k0)
+    run_stops(s0, s1, schedule, counters, state, data, bank.sd_consts, model, outputs, tape)
+    bank.rpm_aid.use_rpm, bank.rpm_aid.altitude = state.vkf_use, state.vkf_alt
+    bank.k_state, bank.k_cov = int(counters[0]), int(counters[1])
+    if taping is not None:
+        taping.rows = int(counters[2])
+        fused = ping_of_stop[s0:s1] >= 0
+        taping.pings_marked(ping_of_stop[s0:s1][fused], chunk.truth.t_s[stops[s0:s1][fused] - chunk.k0])
+
+
+def record_again(
+    bank: Any,
+    chunk: Any,
+    i: int,
+    row: int,
+    inputs: Any,
+    store: dict[str, np.ndarray],
+    method_codes: dict[str, int],
+    sensor_index: np.ndarray,
+) -> None:
+    """Output epoch ``row`` at sample ``i`` of the chunk recorded again (after the sources'
+    corrections at it, tauvcore.engine.yoo_bank.YooBank._fuse_sources), with its smoother's mark;
+    the arguments as :func:`run_chunk`'s."""
+    state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
+    taping = bank.taping
+    counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
+    _record_row(row, i, state, data, model, outputs, tape, bank.sd_consts.geodetic, counters)
+    if taping is not None:
+        taping.rows = int(counters[2])
+
+
+def loop_args(
+    bank: Any,
+    chunk: Any,
+    inputs: Any,
+    store: dict[str, np.ndarray],
+    method_codes: dict[str, int],
+    sensor_index: np.ndarray,
+) -> tuple[YooState, YooChunk, YooModel, YooOutputs, YooTape]:
+    """The bank's states, the chunk's inputs and truth, the filters' constants, the chunk's store
+    and the smoother's tape as the compiled loop takes them (the arguments as :func:`run_chunk`'s):
+    the bank's and the store's own arrays, written in place; the VKF's switch and altitude copies
+    (:func:`run_chunk` puts them back)."""
     phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
     config, R = bank.config, bank.batch[1]
     cfg = config.vkf
@@ -804,20 +890,13 @@ def run_chunk(
     rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
     empty_k, empty_v = np.zeros(0, np.int64), np.zeros((0, R))
     aid = bank.rpm_aid
-    aid_use, aid_alt = aid.use_rpm.copy(), aid.altitude.copy()
     dvl = chunk.dvl
     if bank.added.water_var is not None and dvl.y_water_mps is not None:
         water = (np.ascontiguousarray(dvl.y_water_mps, dtype=float),
                  np.ascontiguousarray(dvl.water_available, dtype=bool))  # fmt: skip
     else:
         water = (np.zeros((0, R, 4)), np.zeros((0, R, 4), bool))
-    taping = bank.taping
-    counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
-    run_stops(
-        s0,
-        s1,
-        YooSchedule(stops, ping_of_stop, row_of_stop, chunk.k0),
-        counters,
+    return (
         YooState(
             bank.pos,
             bank.vel,
@@ -828,8 +907,8 @@ def run_chunk(
             bank.dtheta_sum,
             aid.x,
             aid.P,
-            aid_use,
-            aid_alt,
+            aid.use_rpm.copy(),
+            aid.altitude.copy(),
             bank.extra,
             aid.learn_axis_n,
             aid.learn_current_n_mps,
@@ -854,7 +933,6 @@ def run_chunk(
             *water,
             np.ascontiguousarray(bank._added_truth(chunk), dtype=float),
         ),
-        bank.sd_consts,
         YooModel(
             np.asarray(bank.origin),
             bank.w_ie,
@@ -904,14 +982,8 @@ def run_chunk(
             *(store[name] for name in STATE_FIELDS),
             *(store[f"wt_{name}"] for name in ("z", "nu", "S", "flags", "nis")),
         ),
-        _tape(taping, bank.batch),
+        _tape(bank.taping, bank.batch),
     )
-    aid.use_rpm, aid.altitude = aid_use, aid_alt
-    bank.k_state, bank.k_cov = int(counters[0]), int(counters[1])
-    if taping is not None:
-        taping.rows = int(counters[2])
-        fused = ping_of_stop[s0:s1] >= 0
-        taping.pings_marked(ping_of_stop[s0:s1][fused], truth.t_s[stops[s0:s1][fused] - chunk.k0])
 
 
 def _tape(taping: Any, batch: tuple[int, int]) -> YooTape:

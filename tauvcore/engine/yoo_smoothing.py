@@ -111,18 +111,6 @@ class YooTapeWriter:
             )
             self.event_t.append(float(t))
 
-    def propagated(self, Phi: np.ndarray) -> None:
-        """A covariance step's transition ``Phi`` (M * R, 12, 12) composed into the one since the
-        last mark.
-
-        Parameters
-        ----------
-        Phi : numpy.ndarray
-            The step's transition of every filter, the batch flattened.
-        """
-        X = (Phi - np.eye(DIM)).reshape(self.phi_acc.shape)
-        self.phi_acc = X + self.phi_acc + X @ self.phi_acc
-
     def before(self, P: np.ndarray, nominal: tuple[np.ndarray, ...], t_s: float, row: int = -1) -> tuple:
         """A correction's mark before it: its transition, prior and nominal state.
 
@@ -174,29 +162,6 @@ class YooTapeWriter:
         d[..., NA:] = extra - extra0
         d[(P == Pm).all(axis=(-2, -1))] = 0.0  # nothing fused: round-off, not a correction
         self.events.append((X, Pm, P.copy(), d, pos))
-
-    def record(self, row: int, P: np.ndarray, dx: np.ndarray, vel_b_true_mps: np.ndarray) -> None:
-        """An output epoch's mark (again, after a source's correction at it).
-
-        Parameters
-        ----------
-        row : int
-            Its row in the chunk.
-        P : numpy.ndarray
-            (M, R, na, na) the covariances.
-        dx : numpy.ndarray
-            (M, R, 12 + E) the error against truth, the 12 states then the added.
-        vel_b_true_mps : numpy.ndarray
-            (3,) or (R, 3) the true body velocity [m/s] (FRD).
-        """
-        assert self.out is not None  # opened at the chunk's start
-        out = self.out
-        out["tape_X"][row] = self.phi_acc
-        self.phi_acc[...] = 0.0
-        out["tape_P"][row] = P
-        out["tape_dx"][row] = dx
-        out["tape_vel_b_mps"][row] = vel_b_true_mps
-        self.rows = max(self.rows, row + 1)
 
     def close(self) -> None:
         """The chunk's marks onto the tape, up to the output epochs recorded; nothing if none is

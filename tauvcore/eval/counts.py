@@ -18,7 +18,7 @@ The DVL's ping carries three velocity sources, each counted over every ping (:da
 
 - ``dvl_bottom``: the DVL's bottom-track (the record ``dvl``);
 - ``dvl_water``: its water-track beams, fused against the current states (the record ``water``,
-  tauvcore.engine.dvl_fusion.fuse_water_track, tauvcore.engine.yoo_velocity.fuse_water);
+  tauvcore.engine.dvl_fusion.fuse_water_track, tauvcore.engine.yoo_loop.run_stops);
 - ``rpm``: the propeller's velocity from Yoo 2014's velocity Kalman filter: the ``--rpm-fallback``
   of the 20-state methods where they have no bottom-track velocity (the record ``rpm``), and
   ``vkf``'s velocity at the pings its eq. 29 switch gives to the RPM (those rows of ``vkf``'s

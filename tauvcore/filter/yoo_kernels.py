@@ -1,8 +1,8 @@
 """Yoo 2014's formulas compiled (numba): the 12-state filter's covariance step (with the DVL's
 consider states), the DVL's body velocity by least squares, the VKF's step and the fusion of a
-NED velocity, written out entry by entry from tauvcore.engine.yoo_bank's numpy methods, in the
-same order of operations where it matters (``tests/unit/test_yoo_bank.py`` holds every result of
-both equal to 1e-9). The chunk loop that drives them is tauvcore.engine.yoo_loop; the strapdown,
+NED velocity, written out entry by entry, in the order of operations of the numpy reference
+(tests/unit/yoo_reference.py; ``tests/unit/test_yoo_bank.py`` holds every result of both equal to
+1e-9). The chunk loop that drives them is tauvcore.engine.yoo_loop; the strapdown,
 rotations and NEES are the 20-state bank's own kernels (tauvcore.filter.kernels), so those are
 bit for bit the same.
 
@@ -112,10 +112,10 @@ def propagate(
     out: np.ndarray,
     phi_acc: np.ndarray,
 ) -> None:
-    """One covariance step of every (method, run) over ``dt_c`` (yoo_bank.YooBank._propagate):
+    """One covariance step of every (method, run) over ``dt_c``:
     ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the other
     states' cross terms ``P_xc <- Phi P_xc``, ``P_cc += diag(qc) dt_c`` on the consider states,
-    and the added states' own step (``extra_rate``, ``extra_q`` (E,), yoo_velocity.propagate_added),
+    and the added states' own step (``extra_rate``, ``extra_q`` (E,), the 20-state kernels' exact discrete step),
     symmetrised; F of tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific
     force. P (M, R, N, N); out (N, N), tmp (DIM, DIM) work space. With rows, ``phi_acc`` (M, R,
     DIM, DIM) holds ``Phi - I`` since the smoother's last mark and takes this step's:
@@ -314,7 +314,7 @@ def fuse(
     S_diag: np.ndarray,
     nu: np.ndarray,
 ) -> tuple:
-    """Fuse one NED velocity ``z`` into one filter (yoo_velocity.fuse_velocity): its prediction
+    """Fuse one NED velocity ``z`` into one filter (the numpy reference's fuse_velocity, tests/unit/yoo_reference.py): its prediction
     ``h`` (the estimated velocity, or through the water ``v - c``), ``H = [I, [w x], 0, 0, Hc,
     Hx]`` (``w`` the vector the attitude rotated, Hc (3, NC) on the consider states, whose gain
     is zero, Hx (3, E) on the added states), every row gated, Joseph form over the N states,

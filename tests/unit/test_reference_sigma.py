@@ -301,7 +301,7 @@ def test_a_stated_reference_sigma_brings_nees_back_to_its_band(monte_carlo, meth
 def test_yoo_s_compiled_loop_equals_its_numpy_reference_against_an_uncertain_reference(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """The compiled Yoo loop's NEES against P + P_ref equals the numpy bank's (YooBank(compiled=False),
+    """The compiled Yoo loop's NEES against P + P_ref equals the numpy reference's (tests/unit/yoo_reference.py,
     the path its smoother takes), to 1e-9, and differs from the NEES against an exact reference."""
     from tauvcore.engine.mission import run_streaming
     from tests.unit.test_yoo_bank import _assert_results_equal, _numpy_bank

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.engine import filter_bank, mission, yoo_bank
+from tauvcore.engine import filter_bank, yoo_bank
 from tauvcore.engine.mission import Banks, run, run_streaming
 from tauvcore.engine.results import (
     SENSOR_COLUMNS,
@@ -25,6 +25,7 @@ from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.engine.start import initial_covariance
 from tauvcore.filter.layout import NEES_BLOCKS, NOISE, STATE
 from tauvcore.ins.error_model import noise_psd
+from tests.unit.yoo_reference import use_numpy_bank
 
 METHODS = ("ins", "lc", "tc", "ins-dvl", "vkf")
 SENSOR_BLOCK = list(NEES_BLOCKS).index("sensor")  # the sensor NEES's column of nees_block (both banks)
@@ -266,15 +267,11 @@ def test_without_dvl_pings_the_dvl_truth_is_unknown() -> None:
 
 def test_the_compiled_yoo_records_equal_the_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     """Yoo 2014's compiled record (tauvcore.engine.yoo_loop.record) and the numpy one
-    (YooBank(compiled=False)) write the same sensor records, to 1e-9 relative."""
+    (tests/unit/yoo_reference.py) write the same sensor records, to 1e-9 relative."""
     config = _config(12.0, ("ins-dvl", "vkf")).replace("run", aiding=("dvl", "mag"))
     fast = run_streaming(config, np.random.default_rng(10), num_runs=2, sensor_errors=True)
 
-    class NumpyBank(yoo_bank.YooBank):
-        def __init__(self, *args, **kwargs) -> None:
-            super().__init__(*args, compiled=False, **kwargs)
-
-    monkeypatch.setitem(mission.BANKS, "yoo", NumpyBank)
+    use_numpy_bank(monkeypatch)
     slow = run_streaming(config, np.random.default_rng(10), num_runs=2, sensor_errors=True)
     for method in fast:
         for name in SENSOR_FIELDS:

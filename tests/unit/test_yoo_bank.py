@@ -7,6 +7,7 @@ from tauvcore.config import Config, from_dict, merge, trajectory_preset
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import simulate
 from tauvcore.eval.consistency import method_consistency
+from tests.unit.yoo_reference import use_numpy_bank
 
 
 def _longrange(duration_s: float, **run_section) -> Config:
@@ -121,30 +122,8 @@ def test_rpm_fallback_aids_the_first_papers_methods_where_they_had_no_dvl_veloci
 
 
 def _numpy_bank(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Make the engine run the Yoo methods with the numpy reference (YooBank(compiled=False))."""
-    from tauvcore.engine import mission, yoo_bank
-
-    compiled = yoo_bank.YooBank
-
-    class NumpyBank(compiled):
-        def __init__(self, *args, **kwargs) -> None:
-            super().__init__(*args, compiled=False, **kwargs)
-
-    monkeypatch.setattr(yoo_bank, "YooBank", NumpyBank)
-    monkeypatch.setitem(mission.BANKS, "yoo", NumpyBank)  # where the engine makes it
-    made = []
-    monkeypatch.setattr(NumpyBank, "_run_numpy", _counted(compiled._run_numpy, made))
-    monkeypatch.setattr(NumpyBank, "made", made, raising=False)
-
-
-def _counted(method, calls: list):
-    """``method`` that appends to ``calls`` when it runs (the reference did run)."""
-
-    def counted(self, *args, **kwargs):
-        calls.append(1)
-        return method(self, *args, **kwargs)
-
-    return counted
+    """Make the engine run the Yoo methods with the numpy reference (tests/unit/yoo_reference.py)."""
+    use_numpy_bank(monkeypatch)
 
 
 def _assert_results_equal(fast: dict, slow: dict, rtol: float = 1e-9) -> None:
@@ -198,7 +177,7 @@ def _case_config(case: str) -> Config:
 @pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic",
                                   "current-water-geodetic", "current-rpm-geodetic"])
 def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """tauvcore.filter.yoo_kernels against YooBank(compiled=False), to 1e-9, every field: over the
+    """tauvcore.filter.yoo_kernels against the numpy reference (tests/unit/yoo_reference.py), to 1e-9, every field: over the
     first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
     Yoo's noisy beams (the gate refusing some), on the flat earth in turns, and in a cross current
     with the current as states, water-track beyond range (Gauss-Markov) or the VKF's RPM through

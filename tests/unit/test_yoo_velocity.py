@@ -17,10 +17,11 @@ from tauvcore.config import Config, from_dict, merge, trajectory_preset
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import simulate
 from tauvcore.engine.sources import layout_of
-from tauvcore.engine.yoo_velocity import added_states, velocity_H
+from tauvcore.engine.yoo_velocity import added_states
 from tauvcore.filter import yoo
 from tauvcore.filter.yoo_kernels import NA
 from tauvcore.geo.rotations import exp_so3
+from tests.unit.yoo_reference import velocity_H
 
 EPS = 1e-6
 
