@@ -10,13 +10,11 @@ import numpy as np
 from tauvcore.aiding import echo_altitude, propeller_rpm
 from tauvcore.aiding.echo_altitude import ALTITUDE
 from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
-from tauvcore.filter import vkf
-from tauvcore.geo.earth import OMEGA_IE_RPS
+from tauvcore.filter.yoo_kernels import dvl_body_velocity_into, vkf_step
 
 RPM_LATERAL_SIGMA_MPS = 0.1
 """1-sigma of the sway and heave the RPM velocity takes as zero [m/s] (a cruising AUV's few cm/s,
 more in turns)."""
-MIN_BEAMS = 3
 RPM_SOURCE, ECHO_SOURCE = propeller_rpm.SOURCE.name, echo_altitude.SOURCE.name  # in SimChunk.sources
 
 
@@ -33,24 +31,34 @@ def dvl_body_velocity(
     with_gain: bool = False,
 ) -> tuple[np.ndarray, ...]:
     """The DVL's body velocity at a ping by least squares over the beams that returned (R, 3), its
-    covariance from the beams' white noise (R, 3, 3), and whether at least MIN_BEAMS returned (R,);
+    covariance from the beams' white noise (R, 3, 3), and whether at least three returned (R,);
     with ``with_gain`` also the least squares' gain from the beams to the velocity (R, 3, 4)
     (zero columns for beams that did not return; what a beam bias does to the velocity). The
     head's own motion ``omega_nb x l`` is taken out with the gyro rate less the earth's (first
-    order)."""
+    order). Each run's is tauvcore.filter.yoo_kernels.dvl_body_velocity_into, the compiled loop's own."""
     R = y.shape[0]
-    avail = available & np.isfinite(y)
-    W = avail.astype(float)
-    N = np.einsum("rk,ki,kj->rij", W, A_b, A_b)
-    ok = avail.sum(axis=1) >= MIN_BEAMS
-    Ninv = np.linalg.inv(np.where(ok[:, None, None], N, np.eye(3)))
-    v_head = np.einsum("rij,rk,ki,rk->rj", Ninv, W, A_b, np.where(avail, y, 0.0))
-    w_ie_n = np.stack([np.cos(lat_rad), np.zeros(R), -np.sin(lat_rad)], axis=-1) * OMEGA_IE_RPS
-    omega = np.asarray(dtheta_b) / dt_s - np.einsum("rji,rj->ri", C_nb, w_ie_n)
-    if not with_gain:
-        return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok
-    gain = np.einsum("rij,kj,rk->rik", Ninv, A_b, W)
-    return v_head - np.cross(omega, l_dvl_b), beam_var * Ninv, ok, gain
+    v_b, cov_b, gain = np.empty((R, 3)), np.empty((R, 3, 3)), np.empty((R, 3, 4))
+    ok = np.empty(R, bool)
+    y, available = np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(available, dtype=bool)
+    dtheta_b, C_nb = np.ascontiguousarray(dtheta_b, dtype=float), np.ascontiguousarray(C_nb, dtype=float)
+    A_b, l_dvl_b = np.ascontiguousarray(A_b, dtype=float), np.ascontiguousarray(l_dvl_b, dtype=float)
+    lat = np.broadcast_to(np.asarray(lat_rad, dtype=float), (R,))
+    for r in range(R):
+        ok[r] = dvl_body_velocity_into(
+            y[r],
+            available[r],
+            dtheta_b[r],
+            dt_s,
+            C_nb[r],
+            lat[r],
+            A_b,
+            l_dvl_b,
+            beam_var,
+            v_b[r],
+            cov_b[r],
+            gain[r],
+        )
+    return (v_b, cov_b, ok, gain) if with_gain else (v_b, cov_b, ok)
 
 
 class RpmAid:
@@ -74,6 +82,8 @@ class RpmAid:
         self.altitude = np.full(num_runs, np.nan)
         self.learn_axis_n = np.zeros((num_runs, 3))  # body x axis in NED at the last update (zero: none)
         self.learn_current_n_mps = np.zeros((num_runs, 3))  # the current estimate it took then [m/s] NED
+        self.Q = np.ascontiguousarray(cfg.Q, dtype=float)
+        self.noise_var, self.switch_altitude_m = float(cfg.R), float(cfg.switch_altitude_m)
 
     def step(
         self,
@@ -89,19 +99,21 @@ class RpmAid:
         cfg, k, R = self.cfg, chunk.k0 + i, self.x.shape[0]
         rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
         rpm_now = rpm.latest(RPM, k) if rpm is not None else np.full(R, np.nan)
-        altitude = echo.latest(ALTITUDE, k) if echo is not None else np.full(R, np.nan)
-        use_rpm = vkf.rpm_selected(altitude, cfg) | ~ok
-        have_rpm = np.isfinite(rpm_now)
-        x, P = vkf.predict(self.x, self.P, np.where(have_rpm, rpm_now, 0.0), cfg.Q)
-        self.x = np.where(have_rpm[:, None], x, self.x)
-        self.P = np.where(have_rpm[:, None, None], P, self.P)
-        learn = ~use_rpm & ok & have_rpm
+        altitude = np.asarray(
+            echo.latest(ALTITUDE, k) if echo is not None else np.full(R, np.nan), dtype=float
+        )
         z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
-        self.x, self.P, _, _ = vkf.update(self.x, self.P, z_fwd, learn, cfg.R)
+        use_rpm, have_rpm = np.empty(R, bool), np.empty(R, bool)
+        for r in range(R):  # the compiled loop's own step (tauvcore.filter.yoo_kernels.vkf_step)
+            use_rpm[r], have_rpm[r] = vkf_step(
+                self.x[r], self.P[r], float(rpm_now[r]), float(altitude[r]), float(z_fwd[r]), bool(ok[r]),
+                self.Q, self.noise_var, self.switch_altitude_m,
+            )  # fmt: skip
+        learn = ~use_rpm & ok & have_rpm
         if learned is not None:
             self.learn_axis_n = np.where(learn[:, None], learned[0], self.learn_axis_n)
             self.learn_current_n_mps = np.where(learn[:, None], learned[1], self.learn_current_n_mps)
-        self.use_rpm, self.altitude = use_rpm, np.asarray(altitude, dtype=float)
+        self.use_rpm, self.altitude = use_rpm, altitude
         return use_rpm, have_rpm
 
     def velocity_b(self) -> np.ndarray:
