@@ -224,7 +224,13 @@ class Banks:
 
     def start(self, chunk: SimChunk) -> None:
         """Every bank's initial states from the first chunk: one draw of the initial errors per run
-        (tauvcore.engine.start.initial_nominal), the estimate at t = 0 they all start from."""
+        (tauvcore.engine.start.initial_nominal), the estimate at t = 0 they all start from.
+
+        Parameters
+        ----------
+        chunk : SimChunk
+            The mission's first chunk (its truth at sample 0 and the DVL's first ping).
+        """
         config, truth = self.config, chunk.truth
         P0 = initial_covariance(config, truth.euler[0])
         nav = initial_nominal(config, truth, self.rng, (1, self.num_runs), P0[STATE.att, STATE.att]).nav

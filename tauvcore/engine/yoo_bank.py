@@ -132,7 +132,7 @@ class YooBank(ChunkDriver):
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
         self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
-        self.ref_var = config.reference.variances()  # the NEES's P + P_ref (yoo_loop.YooModel.ref_var)
+        self.ref_var = config.reference.variances()  # the NEES's P + P_ref (yoo_records.YooModel.ref_var)
         self.block_dims.update({b.name: b.dim for b in self.added.layout.blocks})
         self.extra = np.zeros(self.batch + (self.added.num,))
         self._extra_truth: tuple[int, np.ndarray] | None = None  # (chunk start, (K, E)) of the last chunk

@@ -83,7 +83,7 @@ class YooTapeWriter:
             "tape_dx": np.zeros((T,) + shape + (DIM + self.extra_rate.size,)),
             "tape_vel_b_mps": np.zeros((T,) + shape + (3,)),
         }
-        U = store["up_k"].size  # the pings' marks, written by the compiled loop (yoo_loop.YooTape)
+        U = store["up_k"].size  # the pings' marks, written by the compiled loop (yoo_records.YooTape)
         self.marks = {
             "ev_X": np.zeros((U,) + shape + (DIM, DIM)),
             "ev_Pm": np.zeros((U,) + shape + (self.na, self.na)),
@@ -100,7 +100,7 @@ class YooTapeWriter:
         Parameters
         ----------
         pings : numpy.ndarray
-            The pings' rows in the chunk (tauvcore.engine.yoo_loop.YooTape's ``ev_*`` rows).
+            The pings' rows in the chunk (tauvcore.engine.yoo_records.YooTape's ``ev_*`` rows).
         t_s : numpy.ndarray
             Their times [s].
         """

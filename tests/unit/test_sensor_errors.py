@@ -266,7 +266,7 @@ def test_without_dvl_pings_the_dvl_truth_is_unknown() -> None:
 
 
 def test_the_compiled_yoo_records_equal_the_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Yoo 2014's compiled record (tauvcore.engine.yoo_loop.record) and the numpy one
+    """Yoo 2014's compiled record (tauvcore.engine.yoo_records.record) and the numpy one
     (tests/unit/yoo_reference.py) write the same sensor records, to 1e-9 relative."""
     config = _config(12.0, ("ins-dvl", "vkf")).replace("run", aiding=("dvl", "mag"))
     fast = run_streaming(config, np.random.default_rng(10), num_runs=2, sensor_errors=True)
