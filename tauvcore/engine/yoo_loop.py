@@ -30,6 +30,7 @@ from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_LATERAL_SIGMA_MPS, RPM_SOUR
 from tauvcore.engine.yoo_records import (
     YooChunk,
     YooModel,
+    YooNominal,
     YooOutputs,
     YooSchedule,
     YooState,
@@ -207,9 +208,12 @@ def run_stops(
     water = water_var >= 0.0 and y_water.shape[0] > 0
     phi_acc = tape.phi_acc
     taping = phi_acc.shape[0] > 0
-    held = (M, R) if taping else (0, 0)  # the nominal state before a ping's corrections
-    vel0, C0 = np.empty(held + (3,)), np.empty(held + (3, 3))
-    ba0, bg0, extra0 = np.empty(held + (3,)), np.empty(held + (3,)), np.empty(held + (E,))
+    shape = (M, R) if taping else (0, 0)  # the nominal state before a ping's corrections
+    held = YooNominal(
+        np.empty(shape + (3,)), np.empty(shape + (3, 3)), np.empty(shape + (3,)), np.empty(shape + (3,)),
+        np.empty(shape + (E,)),
+    )  # fmt: skip
+    now = YooNominal(vel, C, ba, bg, extra)
     for s in range(s0, s1):
         k = stops[s]
         if k < k0:
@@ -263,7 +267,7 @@ def run_stops(
         p = ping_of_stop[s]
         if p >= 0:
             if taping:
-                mark_before(p, counters[2], tape, P, vel, C, ba, bg, extra, vel0, C0, ba0, bg0, extra0)
+                mark_before(p, counters[2], tape, P, now, held)
             for r in range(R):
                 lat = pos[0, r, 0] if geodetic else origin[0]
                 ok[r] = dvl_body_velocity_into(
@@ -380,7 +384,7 @@ def run_stops(
                         _write_update(p, m, r, z, nu, S_diag, ok[r], fused, passed, nis, wt_z, wt_nu, wt_S,
                                       wt_flags, wt_nis)  # fmt: skip
             if taping:
-                mark_after(p, tape, P, vel, C, ba, bg, extra, vel0, C0, ba0, bg0, extra0)
+                mark_after(p, tape, P, now, held)
         row = row_of_stop[s]
         if row >= 0:
             record_row(row, i, state, chunk, model, outputs, tape, geodetic, counters)

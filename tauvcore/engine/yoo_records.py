@@ -263,6 +263,16 @@ class YooOutputs(NamedTuple):
     wt_nis: np.ndarray
 
 
+class YooNominal(NamedTuple):
+    """The nominal states a ping's mark compares before and after its corrections, (M, R, ...)."""
+
+    vel: np.ndarray
+    C: np.ndarray
+    ba: np.ndarray
+    bg: np.ndarray
+    extra: np.ndarray
+
+
 class YooTape(NamedTuple):
     """The smoother's marks the loop writes (tauvcore.engine.yoo_smoothing.YooTapeWriter, whose
     arrays these are); ``phi_acc`` without rows: no smoother, nothing written."""
@@ -316,52 +326,23 @@ def record_row(
 
 
 @jit
-def mark_before(
-    p: int,
-    rows: int,
-    tape: YooTape,
-    P: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    extra: np.ndarray,
-    vel0: np.ndarray,
-    C0: np.ndarray,
-    ba0: np.ndarray,
-    bg0: np.ndarray,
-    extra0: np.ndarray,
-) -> None:
+def mark_before(p: int, rows: int, tape: YooTape, P: np.ndarray, now: YooNominal, held: YooNominal) -> None:
     """Ping ``p``'s mark before its corrections (yoo_smoothing.YooTapeWriter.before): the
-    transition since the last mark (then restarted), the covariance and, kept in ``vel0`` ..
-    ``extra0``, the nominal state; ``rows`` the chunk's output epochs recorded so far."""
+    transition since the last mark (then restarted), the covariance and, kept in ``held``, the
+    nominal state ``now``; ``rows`` the chunk's output epochs recorded so far."""
     tape.ev_X[p] = tape.phi_acc
     tape.phi_acc[...] = 0.0
     tape.ev_Pm[p] = P
     tape.ev_pos[p] = rows
-    vel0[...] = vel
-    C0[...] = C
-    ba0[...] = ba
-    bg0[...] = bg
-    extra0[...] = extra
+    held.vel[...] = now.vel
+    held.C[...] = now.C
+    held.ba[...] = now.ba
+    held.bg[...] = now.bg
+    held.extra[...] = now.extra
 
 
 @jit
-def mark_after(
-    p: int,
-    tape: YooTape,
-    P: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    extra: np.ndarray,
-    vel0: np.ndarray,
-    C0: np.ndarray,
-    ba0: np.ndarray,
-    bg0: np.ndarray,
-    extra0: np.ndarray,
-) -> None:
+def mark_after(p: int, tape: YooTape, P: np.ndarray, now: YooNominal, held: YooNominal) -> None:
     """Ping ``p``'s mark after its corrections (yoo_smoothing.YooTapeWriter.after): the covariance
     and the correction the nominal state took, ``x+ - x-`` (the attitude's ``log(C+ C-^T)``; the
     consider states never corrected), zero for a filter whose covariance did not change (nothing
@@ -379,15 +360,15 @@ def mark_after(
             for a in range(3):
                 for b in range(3):
                     Ce[a, b] = (
-                        C[m, r, a, 0] * C0[m, r, b, 0]
-                        + C[m, r, a, 1] * C0[m, r, b, 1]
-                        + (C[m, r, a, 2] * C0[m, r, b, 2])
+                        now.C[m, r, a, 0] * held.C[m, r, b, 0]
+                        + now.C[m, r, a, 1] * held.C[m, r, b, 1]
+                        + now.C[m, r, a, 2] * held.C[m, r, b, 2]
                     )
             log_so3_into(Ce, rho)
             for a in range(3):
-                d[VEL + a] = vel[m, r, a] - vel0[m, r, a]
+                d[VEL + a] = now.vel[m, r, a] - held.vel[m, r, a]
                 d[ATT + a] = rho[a]
-                d[BA + a] = ba[m, r, a] - ba0[m, r, a]
-                d[BG + a] = bg[m, r, a] - bg0[m, r, a]
+                d[BA + a] = now.ba[m, r, a] - held.ba[m, r, a]
+                d[BG + a] = now.bg[m, r, a] - held.bg[m, r, a]
             for e in range(N - NA):
-                d[NA + e] = extra[m, r, e] - extra0[m, r, e]
+                d[NA + e] = now.extra[m, r, e] - held.extra[m, r, e]
