@@ -119,7 +119,7 @@ def propagate(
     symmetrised; F of tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific
     force. P (M, R, N, N); out (N, N), tmp (DIM, DIM) work space. With rows, ``phi_acc`` (M, R,
     DIM, DIM) holds ``Phi - I`` since the smoother's last mark and takes this step's:
-    ``X + A + X A`` (yoo_smoothing.YooTapeWriter.propagated)."""
+    ``X + A + X A`` (the smoother's transition since its mark, tauvcore.engine.yoo_smoothing)."""
     M, R = P.shape[0], P.shape[1]
     f_b = np.empty(3)
     f_n = np.empty(3)
