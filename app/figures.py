@@ -23,7 +23,7 @@ import numpy as np
 import plotly.graph_objects as go
 import plotly.io as pio
 
-from tauvcore.config import REGISTERED_METHODS
+from tauvcore.config import ALL_METHODS, REGISTERED_METHODS
 
 METHOD_COLORS = {
     "ins": "#7f7f7f",
@@ -38,12 +38,16 @@ METHOD_COLORS = {
     "ins-dvl": "#bcbd22",
     "vkf": "#17becf",  # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
 }
-# Methods added as one file each (tauvcore.aiding.registry), coloured in registration order from
-# tab20's paler and darker companions of the colours above; each keeps the beams' distance
-# (app.scene.BEAM_MIN_DELTA_E, tests/unit/test_scene.py) like the papers' methods.
+# Methods added as one file each (tauvcore.aiding.registry), then the methods of the filter families
+# added in their own folders (tauvcore.filter.families), coloured in that order from tab20's paler and
+# darker companions of the colours above; each keeps the beams' distance (app.scene.BEAM_MIN_DELTA_E,
+# tests/unit/test_scene.py) like the papers' methods.
 REGISTERED_COLORS = ("#637939", "#e7969c", "#ffbb78", "#aec7e8", "#c5b0d5", "#8c6d31")
 METHOD_COLORS.update(
-    {m: REGISTERED_COLORS[i % len(REGISTERED_COLORS)] for i, m in enumerate(REGISTERED_METHODS)}
+    {
+        m: REGISTERED_COLORS[i % len(REGISTERED_COLORS)]
+        for i, m in enumerate((*REGISTERED_METHODS, *(m for m in ALL_METHODS if m not in METHOD_COLORS)))
+    }
 )
 TRUTH_COLOR = "#111111"
 

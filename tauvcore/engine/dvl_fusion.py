@@ -23,16 +23,24 @@ from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.config import Config
 from tauvcore.engine.rpm_aid import dvl_body_velocity
 from tauvcore.filter.eskf import make_outcome
+from tauvcore.filter.families import FAMILIES
 from tauvcore.filter.kernels.dvl import TwoBeamTables
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.geo.rotations import skew
 
-DVL_FUSION = {"ins": None, "lc": "lc", "tc": "tc", **{m: "elc" for m in ELC_METHODS}, "iekf": "tc"}
-"""How each method fuses the DVL (None: not at all; a registered method, tauvcore.aiding.registry,
-is not in it and takes no DVL). The invariant EKF fuses the returned beams one row each, as the
-tightly coupled filter: four beams are the body velocity of Potokar et al., two or three what they
-see of it."""
+DVL_FUSION: dict[str, str | None] = {
+    method: kind
+    for family in FAMILIES.values()
+    if family.error_state == "eskf"
+    for method, kind in family.dvl_fusion.items()
+}
+"""How each method of the 20-state bank fuses the DVL (tauvcore.filter.families: each family's
+``dvl_fusion``; None: not at all; a registered method, tauvcore.aiding.registry, is not in it and
+takes no DVL)."""
+_UNBUILT = {m for m, kind in DVL_FUSION.items() if kind == "elc"} - set(ELC_METHODS)
+if _UNBUILT:  # an extended method's two-beam construction is built by its name (partial_tables)
+    raise ValueError(f"methods {sorted(_UNBUILT)} fuse the DVL as 'elc' but are not one of {ELC_METHODS}")
 INVARIANT_METHODS = frozenset({"iekf"})
 """The methods that are the right-invariant EKF (tauvcore.filter.invariant): the filter bank corrects
 them on SE_2(3) and carries their covariance in the invariant error's coordinates."""
@@ -168,8 +176,8 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
         bank.l_dvl_b,
         dvl_beam_sigma_mps(dvl.noise_mps) ** 2,
     )
-    assert bank.rpm_aid is not None  # called only with run.rpm_fallback's filters (see the caller)
-    current = None
+    aid = bank.rpm_aid
+    assert aid is not None  # called only with run.rpm_fallback's filters (see the caller)
     if CURRENT_BLOCK in {b.name for b in bank.layout.blocks}:
         cols = bank.layout.slice_of(CURRENT_BLOCK)
         c_n = np.zeros(bank.batch + (3,))
@@ -178,23 +186,36 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
         m0 = bank.dvl_index[0]
         surge_current = np.einsum("rj,rj->r", bank.C[m0, :, :, 0], c_n[m0])
         v_b = v_b - surge_current[:, None] * np.array([1.0, 0.0, 0.0])
-        _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok, (bank.C[m0, :, :, 0], c_n[m0]))
-        aid = bank.rpm_aid
-        current = (bank.C, c_n, cols, bank.layout.dim, aid.learn_axis_n[None], aid.learn_current_n_mps[None])
+        _, have_rpm = aid.step(chunk, i, v_b, ok, (bank.C[m0, :, :, 0], c_n[m0]))
     else:
-        _, have_rpm = bank.rpm_aid.step(chunk, i, v_b, ok)
+        _, have_rpm = aid.step(chunk, i, v_b, ok)
     coast = np.zeros(bank.batch, bool)
     coast[bank.dvl_index] = ~dvl_valid[bank.dvl_index] & have_rpm
     if not coast.any():  # every method had its DVL velocity: the bank is left as it was
         return
-    z = np.broadcast_to(bank.rpm_aid.velocity_b(), bank.batch + (3,))
-    v_b = np.einsum("mrji,mrj->mri", bank.C, bank.vel)
-    h, H = rpm_measurement(
-        v_b, bank.sf.reshape(bank.batch), bank.bdvl.reshape(bank.batch + (4,)), bank.rpm_A_pinv, current
-    )
+    z = np.broadcast_to(aid.velocity_b(), bank.batch + (3,))
+
+    def predict(nom: Any) -> tuple[np.ndarray, np.ndarray]:
+        current = None
+        if CURRENT_BLOCK in {b.name for b in bank.layout.blocks}:
+            cols = bank.layout.slice_of(CURRENT_BLOCK)
+            c_n = np.zeros(nom.dvl_sf.shape + (3,))
+            c_n[..., :2] = nom.extra[..., cols.start - STATE.dim : cols.stop - STATE.dim]
+            current = (
+                nom.nav.C_nb,
+                c_n,
+                cols,
+                bank.layout.dim,
+                aid.learn_axis_n[None],
+                aid.learn_current_n_mps[None],
+            )
+        return rpm_measurement(nom.vel_b, nom.dvl_sf, nom.dvl_bias, bank.rpm_A_pinv, current)
+
+    h, H = predict(bank.nominal())
     nu = z - h
-    Rm = np.ascontiguousarray(np.broadcast_to(bank.rpm_aid.covariance_b(), bank.batch + (3, 3)))
+    Rm = np.ascontiguousarray(np.broadcast_to(aid.covariance_b(), bank.batch + (3, 3)))
     active = np.repeat(coast[..., None], 3, axis=-1)
+    H, Rm, nu = bank._linearized(H, Rm, nu, active, lambda nom, _: z[:1] - predict(nom)[0])
     fused = bank._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(bank.batch, bool))
     bank.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
 
@@ -240,13 +261,18 @@ def fuse_water_track(bank: Any, chunk: Any, p: int, omega_meas: np.ndarray, t: f
     y, available = chunk.dvl.y_water_mps[p], chunk.dvl.water_available[p]
     if not np.any(available):
         return
-    w_ie_b = np.einsum("mrji,j->mri", bank.C, bank.w_ie)
-    meas = bank.water.measure(bank.nominal(), y, available, omega_meas - w_ie_b)
+
+    def measure(nom: Any) -> Any:
+        w_ie_b = np.einsum("mrji,j->mri", nom.nav.C_nb, bank.w_ie)
+        return bank.water.measure(nom, y, available, omega_meas - w_ie_b)
+
+    meas = measure(bank.nominal())
     members = np.zeros(bank.batch, bool)
     members[bank.dvl_index] = True
     valid = meas.valid & members
     active = np.asarray(meas.active) & valid[..., None]
-    fused = bank._fuse(
-        meas.H, meas.R, np.ascontiguousarray(meas.innovation), active, np.ones(bank.batch, bool)
+    H, Rm, nu = bank._linearized(
+        meas.H, meas.R, meas.innovation, active, lambda nom, _: measure(nom).innovation
     )
-    bank.recorders["water"].add(t, make_outcome(meas.z, meas.innovation, active, *fused), valid)
+    fused = bank._fuse(H, Rm, np.ascontiguousarray(nu), active, np.ones(bank.batch, bool))
+    bank.recorders["water"].add(t, make_outcome(meas.z, nu, active, *fused), valid)

@@ -35,7 +35,8 @@ INS has no innovations and estimates no sensor error: it is flagged only if not 
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -67,13 +68,13 @@ from tauvcore.engine.smoothing import Tape
 from tauvcore.engine.sources import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import (
-    Measurement,
     Nominal,
     condition_covariance,
     fuse_in_place,
     make_outcome,
     widen,
 )
+from tauvcore.filter.families import FAMILIES, family_of
 from tauvcore.filter.kernels.common import CORE, NAV, plain
 from tauvcore.filter.kernels.dvl import (
     DVL_ELC,
@@ -83,6 +84,7 @@ from tauvcore.filter.kernels.dvl import (
     DvlRows,
     DvlState,
     Ping,
+    TwoBeamTables,
     dvl_measure_bank,
 )
 from tauvcore.filter.layout import NOISE, STATE, NavState
@@ -160,6 +162,13 @@ class FilterBank(ChunkDriver):
         self.invariant = invariant.reshape(-1) if invariant.any() else None
         for m, method in self.dvl_methods:
             self.dvl_gate_rows[m] = DVL_FUSION[method] == "tc"
+        # the families whose corrections linearise their own way (tauvcore.filter.families.spec.Linearize):
+        # each its hook and its rows of the bank
+        self.linearizing = [
+            (family.linearize, np.flatnonzero([family_of(m).name == family.name for m in methods]))
+            for family in FAMILIES.values()
+            if family.linearize is not None and any(family_of(m).name == family.name for m in methods)
+        ]
         dvl_members = np.isin(np.arange(M), self.dvl_index)
         dvl_rows = np.array([DVL_ROWS if DVL_FUSION.get(m) == "tc" else 3 for m in methods], dtype=np.int64)
         others = self.other_mask.any(axis=1)
@@ -270,8 +279,9 @@ class FilterBank(ChunkDriver):
         self.sf_velocity = VelocityAverage(tau_s) if tau_s > 0 else None
         self.started = True
 
-    def nominal(self, m: int | None = None) -> Nominal:
-        """The current estimate (views): of method m, or of the whole bank."""
+    def nominal(self, m: int | np.ndarray | None = None) -> Nominal:
+        """The current estimate: of method m (views), of the methods ``m`` (copies), or of the
+        whole bank (views)."""
         sel = slice(None) if m is None else m
         return Nominal(
             NavState(self.pos[sel], self.vel[sel], self.C[sel]),
@@ -336,14 +346,54 @@ class FilterBank(ChunkDriver):
         )
         return tuple(a.reshape(self.batch + a.shape[1:]) for a in fused)
 
-    def _update_all(self, source: str, meas: Measurement, t: float) -> None:
-        """A source every aided method takes (tauvcore.aiding.sources): one batched correction."""
+    def _linearized(
+        self,
+        H: np.ndarray,
+        Rm: np.ndarray,
+        nu: np.ndarray,
+        active: np.ndarray,
+        remeasure: Callable[[Nominal, np.ndarray], np.ndarray],
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The measurement every filter is corrected with: ``(H, Rm, nu)`` (M, R, m, ...) as given,
+        the Jacobian at the estimate, but for the rows of a family that linearises its own way
+        (tauvcore.filter.families.spec.Linearize), which it replaces. ``remeasure(nominal,
+        methods)``: the innovation (B', R, m) at nominal states of batch (B', R), state b' of the
+        bank's method ``methods[b']``."""
+        if not self.linearizing:
+            return H, Rm, nu
+        m_rows = np.shape(nu)[-1]
+        H = np.array(np.broadcast_to(widen(H, self.layout.dim), self.batch + (m_rows, self.layout.dim)))
+        Rm = np.array(np.broadcast_to(Rm, self.batch + (m_rows, m_rows)), dtype=float)
+        nu = np.array(np.broadcast_to(nu, self.batch + (m_rows,)), dtype=float)
+        for linearize, rows in self.linearizing:
+            if not active[rows].any():
+                continue
+
+            def at(nom: Nominal, rows: np.ndarray = rows) -> np.ndarray:
+                return remeasure(nom, np.tile(rows, nom.dvl_sf.shape[0] // rows.size))
+
+            H[rows], Rm[rows], nu[rows] = linearize(
+                self.P[rows],
+                self.nominal(rows),
+                at,
+                (H[rows], Rm[rows], nu[rows], active[rows]),
+                self.geodetic,
+            )
+        return H, Rm, nu
+
+    def _update_source(self, source: str, model: Any, data: Any, j: int, t: float) -> None:
+        """Epoch ``j`` of a source every aided method takes (tauvcore.aiding.sources: its ``model``
+        and chunk ``data``): one batched correction."""
+        meas = model.measure(self.nominal(), data, j)
         valid = meas.valid & self.other_mask
         m_rows = meas.R.shape[-1]
         active = np.ones(self.batch + (m_rows,), bool) if meas.active is None else meas.active.astype(bool)
         active = active & valid[..., None]
-        fused = self._fuse(meas.H, meas.R, meas.innovation, active, np.full(self.batch, meas.gate_rows))
-        outcome = make_outcome(meas.z, meas.innovation, active, *fused)
+        H, Rm, nu = self._linearized(
+            meas.H, meas.R, meas.innovation, active, lambda nom, _: model.measure(nom, data, j).innovation
+        )
+        fused = self._fuse(H, Rm, nu, active, np.full(self.batch, meas.gate_rows))
+        outcome = make_outcome(meas.z, nu, active, *fused)
         self.recorders[source].add(t, outcome, meas.valid & self.other_mask)
 
     def _update_registered(self, r: int, t: float) -> None:
@@ -383,26 +433,22 @@ class FilterBank(ChunkDriver):
             measured_axes=np.zeros(batch + (3,), bool),
             choice=np.full(batch + (3,), -1, np.int64),
         )
-        dvl = DvlMethods(
-            self.dvl_index,
-            self.dvl_codes,
-            self.A_b,
-            self.l_dvl_b,
-            dvl_beam_sigma_mps(self.config.dvl.noise_mps) ** 2,
-            self.gyro_rate_noise**2,
-            self.w_ie,
-            DVL_MODE_CODES,
-            self.config.partial.sensor_columns,
-        )
         ping = Ping(
             np.ascontiguousarray(y), np.ascontiguousarray(available), np.ascontiguousarray(omega_meas)
         )
         state = DvlState(self.C, self.vel, self.bg, self.bdvl, self.sf, self.P)
-        dvl_measure_bank(plain(dvl), plain(self.partial_tables), plain(ping), plain(state), plain(rows))
+        dvl_measure_bank(
+            plain(self._dvl_methods(self.dvl_index, self.dvl_codes)),
+            plain(self.partial_tables),
+            plain(ping),
+            plain(state),
+            plain(rows),
+        )
         z, nu, H, Rm, active, valid, mode, measured_axes, choice = rows
         if self.sf_velocity is not None:
             v_ref = self.sf_velocity.reference(body_velocity(self.C, self.vel))
             scale_factor_rows(H, mode, self.A_b, v_ref)
+        H, Rm, nu = self._linearized(H, Rm, nu, active, lambda nom, at: self._dvl_innovation(nom, at, ping))
         reacquire = self.dvl_reacquire & valid
         if reacquire.any():  # the ping after a reset: fused whatever its innovation
             fused = self._fuse_reacquiring(H, Rm, nu, active, reacquire)
@@ -424,6 +470,54 @@ class FilterBank(ChunkDriver):
             reset=reset,
         )
         return valid
+
+    def _dvl_methods(self, index: np.ndarray, codes: np.ndarray) -> DvlMethods:
+        """The DVL kernel's methods: the bank's rows ``index`` with their constructions ``codes``."""
+        return DvlMethods(
+            index,
+            codes,
+            self.A_b,
+            self.l_dvl_b,
+            dvl_beam_sigma_mps(self.config.dvl.noise_mps) ** 2,
+            self.gyro_rate_noise**2,
+            self.w_ie,
+            DVL_MODE_CODES,
+            self.config.partial.sensor_columns,
+        )
+
+    def _dvl_innovation(self, nom: Nominal, methods: np.ndarray, ping: Ping) -> np.ndarray:
+        """The innovations (B', R, 4) of ``ping`` as the bank's DVL methods ``methods`` (B',) measure
+        it at the nominal states ``nom`` (batch (B', R)): the same compiled kernel as the bank's."""
+        n, R = nom.dvl_sf.shape
+        position = {int(m): i for i, m in enumerate(self.dvl_index)}  # a method's place in the tables
+        at = np.array([position[int(m)] for m in methods], dtype=np.int64)
+        rows = DvlRows(
+            z=np.zeros((n, R, DVL_ROWS)),
+            nu=np.zeros((n, R, DVL_ROWS)),
+            H=np.empty((n, R, DVL_ROWS, STATE.dim)),
+            Rm=np.ones((n, R, DVL_ROWS, DVL_ROWS)),
+            active=np.zeros((n, R, DVL_ROWS), bool),
+            valid=np.zeros((n, R), bool),
+            mode=np.zeros((n, R), np.int64),
+            measured_axes=np.zeros((n, R, 3), bool),
+            choice=np.full((n, R, 3), -1, np.int64),
+        )
+        state = DvlState(
+            np.ascontiguousarray(nom.nav.C_nb),
+            np.ascontiguousarray(nom.nav.vel_n),
+            np.ascontiguousarray(nom.gyro_bias),
+            np.ascontiguousarray(nom.dvl_bias),
+            np.ascontiguousarray(nom.dvl_sf),
+            np.ascontiguousarray(self.P[methods]),  # an extended method's two-beam construction reads P
+        )
+        dvl_measure_bank(
+            plain(self._dvl_methods(np.arange(n, dtype=np.int64), self.dvl_codes[at])),
+            plain(TwoBeamTables(*(np.ascontiguousarray(a[at]) for a in self.partial_tables))),
+            plain(ping),
+            plain(state),
+            plain(rows),
+        )
+        return rows.nu
 
     def _fuse_reacquiring(
         self,
@@ -685,9 +779,7 @@ class FilterBank(ChunkDriver):
                         self._rpm_fallback(chunk, p, i, t, dvl_valid)
                 for name, model in self.plugins:
                     if k in plugin_at.get(name, ()):
-                        self._update_all(
-                            name, model.measure(self.nominal(), chunk.sources[name], plugin_at[name][k]), t
-                        )
+                        self._update_source(name, model, chunk.sources[name], plugin_at[name][k], t)
                 for r, keys in enumerate(registered_at):
                     if k in keys:
                         self._update_registered(r, t)

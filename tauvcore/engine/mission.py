@@ -153,16 +153,18 @@ def run_chunked(
 
 
 BANKS: dict[str, type[FilterBank | YooBank]] = {"eskf": FilterBank, "yoo": YooBank}
-"""Each family's bank (tauvcore.filter.families), by the family's name."""
+"""The bank of each error state (tauvcore.filter.families.spec.Family.error_state): the families on
+one error state run side by side in one bank."""
 
 
 class Banks:
-    """One bank per filter family with methods in ``config.run.methods`` (tauvcore.filter.families:
-    the 20-state :class:`FilterBank` runs the first paper's methods, the :class:`YooBank` Yoo
-    2014's), fed the same chunks, their results in ``config.run.methods`` order.
+    """One bank per error state of the filter families with methods in ``config.run.methods``
+    (tauvcore.filter.families: the 20-state :class:`FilterBank` runs the first paper's methods and
+    every family on its error state, the :class:`YooBank` Yoo 2014's), fed the same chunks, their
+    results in ``config.run.methods`` order.
 
     Every family's filters start from the same estimate (one draw of the initial errors per run,
-    :meth:`start`). The first family's bank leads: it is fed last, polls the stop requests and
+    :meth:`start`). The first bank leads: it is fed last, polls the stop requests and
     calls the progress with every bank's results so far; the others' results are cut where a stop
     ended it (:attr:`until_s`).
 
@@ -202,9 +204,10 @@ class Banks:
         self.config, self.rng, self.keep, self.num_runs = config, rng, keep, num_runs
         self.smooth = smooth
         self.order = config.run.methods
-        methods = {name: tuple(m for m in self.order if family_of(m).name == name) for name in FAMILIES}
-        # the families with methods; with none, the first family's bank (it records the truth)
-        names = [name for name, own in methods.items() if own] or [next(iter(FAMILIES))]
+        states = dict.fromkeys(family.error_state for family in FAMILIES.values())
+        methods = {name: tuple(m for m in self.order if family_of(m).error_state == name) for name in states}
+        # the error states with methods; with none, the first family's bank (it records the truth)
+        names = [name for name, own in methods.items() if own] or [next(iter(states))]
         # the smoother's budget, shared by each bank's two tapes (its marks, its smoothed stores)
         self.share = 0.5 / len(names)
         self.banks = [

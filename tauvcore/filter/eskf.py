@@ -77,6 +77,36 @@ class Nominal:
         """
         return Nominal(nav, self.accel_bias, self.gyro_bias, self.dvl_bias, self.dvl_sf, self.extra)
 
+    def reshaped(self, batch: tuple[int, ...]) -> Nominal:
+        """The same states with another batch shape of as many states.
+
+        Parameters
+        ----------
+        batch : tuple[int, ...]
+            The new batch shape, its product this one's (e.g. (S * M, R) of (S, M, R)).
+
+        Returns
+        -------
+        Nominal
+            Every array reshaped to ``batch`` and its own trailing shape (views where numpy can),
+            in the units of this one.
+        """
+
+        def to(a: np.ndarray, tail: int) -> np.ndarray:
+            a = np.asarray(a)
+            return a.reshape(batch + (a.shape[a.ndim - tail :] if tail else ()))
+
+        nav = NavState(to(self.nav.pos_n, 1), to(self.nav.vel_n, 1), to(self.nav.C_nb, 2))
+        extra = None if self.extra is None else to(self.extra, 1)
+        return Nominal(
+            nav,
+            to(self.accel_bias, 1),
+            to(self.gyro_bias, 1),
+            to(self.dvl_bias, 1),
+            to(self.dvl_sf, 0),
+            extra,
+        )
+
     @property
     def num_extra(self) -> int:
         """E: the number of the sources' own states (0 without them)."""

@@ -26,4 +26,14 @@ FAMILY = Family(
     position_state=True,
     sensor_blocks=("ba", "bg", "b_dvl", "sf_dvl"),
     log_det=True,
+    error_state="eskf",
+    dvl_fusion={
+        "ins": None,
+        "lc": "lc",
+        "tc": "tc",
+        **{m: "elc" for m in ("vb", "nsv", "plcf", "vhv", "elc")},  # tauvcore.aiding.dvl_extended.ELC_METHODS
+        # the invariant EKF fuses the returned beams one row each, as the tightly coupled filter: four
+        # beams are the body velocity of Potokar et al., two or three what they see of it
+        "iekf": "tc",
+    },
 )

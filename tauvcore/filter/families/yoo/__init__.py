@@ -19,4 +19,5 @@ FAMILY = Family(
     position_state=False,
     sensor_blocks=("ba", "bg"),
     log_det=False,
+    error_state="yoo",
 )
