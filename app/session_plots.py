@@ -130,7 +130,7 @@ OTHER_FAMILIES_DIMS = "; ".join(
     f"{', '.join(m.upper() for m in family.methods)}: {family.block_dims['full']}"
     + ("" if family.position_state else ", no position")
     for family in FAMILIES.values()
-    if family is not FIRST
+    if family.error_state != FIRST.error_state
 )
 """The NEES dimension of the other filter families' whole state, for the block's hint."""
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once

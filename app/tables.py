@@ -170,15 +170,16 @@ SMOOTHED_RMS += (("heading_err_deg", "head RMS", "[deg]", 4), ("pos_err_m", "pos
 
 
 def _nees_groups(summaries: Mapping[str, MethodSummary]) -> list[tuple[dict[str, int], list[str]]]:
-    """The methods of a table of ``summaries`` by the filter family they are
-    (tauvcore.filter.families), each group with its NEES blocks and their dimensions (the family's,
-    with the blocks their sources add, tauvcore.filter.layout.Layout; without the position a family
-    has no state for); a group only when it has methods, in the families' order, each in
-    ``summaries``' order."""
+    """The methods of a table of ``summaries`` by the error state of their filter family
+    (tauvcore.filter.families: the families on one error state share its NEES blocks), each group
+    with its NEES blocks and their dimensions (the error state's, with the blocks their sources add,
+    tauvcore.filter.layout.Layout; without the position a family has no state for); a group only
+    when it has methods, in the families' order, each in ``summaries``' order."""
     groups = []
-    for family in FAMILIES.values():
-        names = [name for name in summaries if family_of(name) is family]
+    for state in dict.fromkeys(family.error_state for family in FAMILIES.values()):
+        names = [name for name in summaries if family_of(name).error_state == state]
         if names:
+            family = family_of(names[0])
             dims = dict(family.block_dims)
             for name in names:
                 dims.update(summaries[name].block_dims or {})
@@ -343,7 +344,7 @@ def consistency_table(results: Mapping[str, MethodResult | MethodSummary], sourc
     notes = []
     for family in FAMILIES.values():
         names = [name.upper() for name in summaries if family_of(name) is family]
-        if not names or family is FIRST:
+        if not names or family.error_state == FIRST.error_state:
             continue
         verb = "is" if len(names) == 1 else "are"
         note = f"{' and '.join(names)} {verb} {family.title}, headed with its own dimensions"

@@ -24,7 +24,8 @@ from tauvcore.config import Config
 from tauvcore.engine.rpm_aid import dvl_body_velocity
 from tauvcore.filter.eskf import make_outcome
 from tauvcore.filter.families import FAMILIES
-from tauvcore.filter.kernels.dvl import TwoBeamTables
+from tauvcore.filter.kernels.common import plain
+from tauvcore.filter.kernels.dvl import DvlRows, DvlState, Ping, TwoBeamTables, dvl_measure_bank
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.geo.rotations import skew
@@ -218,6 +219,60 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
     H, Rm, nu = bank._linearized(H, Rm, nu, active, lambda nom, _: z[:1] - predict(nom)[0])
     fused = bank._fuse(H, Rm, np.ascontiguousarray(nu), active, np.zeros(bank.batch, bool))
     bank.recorders["rpm"].add(t, make_outcome(np.array(z), nu, active, *fused), coast)
+
+
+def dvl_innovation(bank: Any, nom: Any, methods: np.ndarray, ping: Ping) -> np.ndarray:
+    """The innovations of a ping as the filter bank's DVL methods measure it at other nominal states:
+    the same compiled kernel as the bank's (tauvcore.filter.kernels.dvl.dvl_measure_bank), for a
+    family's linearisation (tauvcore.filter.families.spec.Linearize).
+
+    Parameters
+    ----------
+    bank : FilterBank
+        The bank (tauvcore.engine.filter_bank.FilterBank): its DVL methods, their constructions and
+        covariances.
+    nom : Nominal
+        The nominal states, batch (B', R).
+    methods : numpy.ndarray
+        Shape (B',) int: the bank's method (row) each state is measured as.
+    ping : Ping
+        The ping: beams (R, 4) [m/s], which returned (R, 4), the gyros' rate (R, 3) [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        The innovations, shape (B', R, 4) [m/s] (rows beyond a measurement's width zero).
+    """
+    n, R = nom.dvl_sf.shape
+    position = {int(m): i for i, m in enumerate(bank.dvl_index)}  # a method's place in the tables
+    at = np.array([position[int(m)] for m in methods], dtype=np.int64)
+    rows = DvlRows(
+        z=np.zeros((n, R, DVL_ROWS)),
+        nu=np.zeros((n, R, DVL_ROWS)),
+        H=np.empty((n, R, DVL_ROWS, STATE.dim)),
+        Rm=np.ones((n, R, DVL_ROWS, DVL_ROWS)),
+        active=np.zeros((n, R, DVL_ROWS), bool),
+        valid=np.zeros((n, R), bool),
+        mode=np.zeros((n, R), np.int64),
+        measured_axes=np.zeros((n, R, 3), bool),
+        choice=np.full((n, R, 3), -1, np.int64),
+    )
+    state = DvlState(
+        np.ascontiguousarray(nom.nav.C_nb),
+        np.ascontiguousarray(nom.nav.vel_n),
+        np.ascontiguousarray(nom.gyro_bias),
+        np.ascontiguousarray(nom.dvl_bias),
+        np.ascontiguousarray(nom.dvl_sf),
+        np.ascontiguousarray(bank.P[methods]),  # an extended method's two-beam construction reads P
+    )
+    dvl_measure_bank(
+        plain(bank._dvl_methods(np.arange(n, dtype=np.int64), bank.dvl_codes[at])),
+        plain(TwoBeamTables(*(np.ascontiguousarray(a[at]) for a in bank.partial_tables))),
+        plain(ping),
+        plain(state),
+        plain(rows),
+    )
+    return rows.nu
 
 
 def water_model(config: Config, layout: Layout) -> WaterTrack | None:

@@ -52,12 +52,13 @@ from tauvcore.engine.dvl_fusion import (
     DVL_MODE_CODES,
     DVL_ROWS,
     INVARIANT_METHODS,
+    dvl_innovation,
     fuse_water_track,
     partial_tables,
     rpm_fallback,
     water_model,
 )
-from tauvcore.engine.lockout import dvl_velocity_reset
+from tauvcore.engine.lockout import fuse_reacquiring, lockout_reset
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
 from tauvcore.engine.results import SENSOR_STATES, STATE_FIELDS, MethodResult, method_result
@@ -84,7 +85,6 @@ from tauvcore.filter.kernels.dvl import (
     DvlRows,
     DvlState,
     Ping,
-    TwoBeamTables,
     dvl_measure_bank,
 )
 from tauvcore.filter.layout import NOISE, STATE, NavState
@@ -448,15 +448,15 @@ class FilterBank(ChunkDriver):
         if self.sf_velocity is not None:
             v_ref = self.sf_velocity.reference(body_velocity(self.C, self.vel))
             scale_factor_rows(H, mode, self.A_b, v_ref)
-        H, Rm, nu = self._linearized(H, Rm, nu, active, lambda nom, at: self._dvl_innovation(nom, at, ping))
+        H, Rm, nu = self._linearized(H, Rm, nu, active, lambda nom, at: dvl_innovation(self, nom, at, ping))
         reacquire = self.dvl_reacquire & valid
         if reacquire.any():  # the ping after a reset: fused whatever its innovation
-            fused = self._fuse_reacquiring(H, Rm, nu, active, reacquire)
+            fused = fuse_reacquiring(self, H, Rm, nu, active, reacquire)
             self.dvl_reacquire[reacquire] = False
         else:
             fused = self._fuse(H, Rm, nu, active, self.dvl_gate_rows)
         outcome = make_outcome(z, nu, active, *fused)
-        reset = self._lockout_reset(~outcome.fused, valid, y, available, omega_meas)
+        reset = lockout_reset(self, ~outcome.fused, valid, y, available, omega_meas)
         if self.sf_velocity is not None:
             self.sf_velocity.update(body_velocity(self.C, self.vel), t, reset)
         self.recorders["dvl"].add(
@@ -484,108 +484,6 @@ class FilterBank(ChunkDriver):
             DVL_MODE_CODES,
             self.config.partial.sensor_columns,
         )
-
-    def _dvl_innovation(self, nom: Nominal, methods: np.ndarray, ping: Ping) -> np.ndarray:
-        """The innovations (B', R, 4) of ``ping`` as the bank's DVL methods ``methods`` (B',) measure
-        it at the nominal states ``nom`` (batch (B', R)): the same compiled kernel as the bank's."""
-        n, R = nom.dvl_sf.shape
-        position = {int(m): i for i, m in enumerate(self.dvl_index)}  # a method's place in the tables
-        at = np.array([position[int(m)] for m in methods], dtype=np.int64)
-        rows = DvlRows(
-            z=np.zeros((n, R, DVL_ROWS)),
-            nu=np.zeros((n, R, DVL_ROWS)),
-            H=np.empty((n, R, DVL_ROWS, STATE.dim)),
-            Rm=np.ones((n, R, DVL_ROWS, DVL_ROWS)),
-            active=np.zeros((n, R, DVL_ROWS), bool),
-            valid=np.zeros((n, R), bool),
-            mode=np.zeros((n, R), np.int64),
-            measured_axes=np.zeros((n, R, 3), bool),
-            choice=np.full((n, R, 3), -1, np.int64),
-        )
-        state = DvlState(
-            np.ascontiguousarray(nom.nav.C_nb),
-            np.ascontiguousarray(nom.nav.vel_n),
-            np.ascontiguousarray(nom.gyro_bias),
-            np.ascontiguousarray(nom.dvl_bias),
-            np.ascontiguousarray(nom.dvl_sf),
-            np.ascontiguousarray(self.P[methods]),  # an extended method's two-beam construction reads P
-        )
-        dvl_measure_bank(
-            plain(self._dvl_methods(np.arange(n, dtype=np.int64), self.dvl_codes[at])),
-            plain(TwoBeamTables(*(np.ascontiguousarray(a[at]) for a in self.partial_tables))),
-            plain(ping),
-            plain(state),
-            plain(rows),
-        )
-        return rows.nu
-
-    def _fuse_reacquiring(
-        self,
-        H: np.ndarray,
-        Rm: np.ndarray,
-        nu: np.ndarray,
-        active: np.ndarray,
-        reacquire: np.ndarray,
-    ) -> tuple[np.ndarray, ...]:
-        """The DVL's correction with the gate open for the filters ``reacquire`` (M, R) and as usual
-        for the others: two compiled corrections over disjoint filters (tauvcore.engine.lockout).
-        The records keep the test ratio against the configured gate, so the ping shows as beyond it."""
-        gated = self._fuse(H, Rm, nu, active & ~reacquire[..., None], self.dvl_gate_rows)
-        opened = self._fuse(H, Rm, nu, active & reacquire[..., None], self.dvl_gate_rows, gate=np.inf)
-        s_diag, keep, nis, _, unusable, log_det_s = opened
-        gate = self.gate
-        with np.errstate(invalid="ignore", divide="ignore"):
-            each = np.where(active & reacquire[..., None], nu**2 / (gate**2 * s_diag), -np.inf)
-        ratio = np.where(reacquire, np.max(each, axis=-1), gated[3])
-        pick = reacquire[..., None]
-        return (
-            np.where(pick, s_diag, gated[0]),
-            np.where(pick, keep, gated[1]),
-            np.where(reacquire, nis, gated[2]),
-            ratio,
-            np.where(reacquire, unusable, gated[4]),
-            np.where(reacquire, log_det_s, gated[5]),
-        )
-
-    def _lockout_reset(
-        self,
-        refused: np.ndarray,
-        valid: np.ndarray,
-        y: np.ndarray,
-        available: np.ndarray,
-        omega_meas: np.ndarray,
-    ) -> np.ndarray:
-        """At the ``filter.lockout_reset_updates``-th consecutive ping of which the gate let
-        nothing through, reset the velocity to it (tauvcore.engine.lockout); -> (M, R) the
-        filters reset at this ping. A tightly coupled filter that refuses one beam and fuses the
-        others is not locked out: its gate is isolating that beam (a real DVL's faulty beam)."""
-        rejected = valid & refused
-        self.dvl_rejected = np.where(rejected, self.dvl_rejected + 1, 0)
-        limit = self.config.filter.lockout_reset_updates
-        due = rejected & (self.dvl_rejected >= limit) if limit > 0 else np.zeros(self.batch, bool)
-        if not due.any():
-            return due
-        beam_var = dvl_beam_sigma_mps(self.config.dvl.noise_mps) ** 2
-        for m, r in zip(*np.nonzero(due), strict=True):
-            C = self.C[m, r]
-            w_ie_b = C.T @ self.w_ie
-            self.vel[m, r], self.P[m, r] = dvl_velocity_reset(
-                self.vel[m, r],
-                self.P[m, r],
-                C,
-                float(self.sf[m, r]),
-                self.bdvl[m, r],
-                self.bg[m, r],
-                y[r],
-                available[r],
-                omega_meas[r] - w_ie_b,
-                self.A_b,
-                self.l_dvl_b,
-                beam_var,
-            )
-        self.dvl_rejected[due] = 0
-        self.dvl_reacquire[due] = True
-        return due
 
     def _rpm_fallback(self, chunk: SimChunk, p: int, i: int, t: float, dvl_valid: np.ndarray) -> None:
         """``run.rpm_fallback`` at ping ``p`` (tauvcore.engine.dvl_fusion.rpm_fallback)."""

@@ -37,8 +37,11 @@ count the rejected pings before it as a lock-out, and starts its innovation wind
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from tauvcore.aiding.noise_floors import dvl_beam_sigma_mps
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import skew
 
@@ -146,3 +149,112 @@ def reset_jacobian(
     J[vel, STATE.sf_dvl] = -(A_pinv @ A @ v_b_mps)[:, None] / scale
     J[vel, STATE.bg] = -A_pinv @ A @ skew(l_dvl_b_m) / scale
     return J
+
+
+def fuse_reacquiring(
+    bank: Any,
+    H: np.ndarray,
+    Rm: np.ndarray,
+    nu: np.ndarray,
+    active: np.ndarray,
+    reacquire: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """The DVL's correction of the filter bank ``bank`` (tauvcore.engine.filter_bank.FilterBank)
+    with the gate open for the filters ``reacquire`` (M, R) and as usual for the others: two
+    compiled corrections over disjoint filters. The records keep the test ratio against the
+    configured gate, so the ping shows as beyond it.
+
+    Parameters
+    ----------
+    bank : FilterBank
+        The bank, corrected in place.
+    H, Rm, nu, active : numpy.ndarray
+        The ping's rows of every filter: Jacobians (M, R, 4, d), noise (M, R, 4, 4) [m^2/s^2],
+        innovations (M, R, 4) [m/s], the rows in use (M, R, 4) bool.
+    reacquire : numpy.ndarray
+        Shape (M, R) bool: the filters whose velocity was reset at the last ping.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The correction's outcome as tauvcore.filter.eskf.fuse_in_place returns it, (M, R, ...).
+    """
+    gated = bank._fuse(H, Rm, nu, active & ~reacquire[..., None], bank.dvl_gate_rows)
+    opened = bank._fuse(H, Rm, nu, active & reacquire[..., None], bank.dvl_gate_rows, gate=np.inf)
+    s_diag, keep, nis, _, unusable, log_det_s = opened
+    gate = bank.gate
+    with np.errstate(invalid="ignore", divide="ignore"):
+        each = np.where(active & reacquire[..., None], nu**2 / (gate**2 * s_diag), -np.inf)
+    ratio = np.where(reacquire, np.max(each, axis=-1), gated[3])
+    pick = reacquire[..., None]
+    return (
+        np.where(pick, s_diag, gated[0]),
+        np.where(pick, keep, gated[1]),
+        np.where(reacquire, nis, gated[2]),
+        ratio,
+        np.where(reacquire, unusable, gated[4]),
+        np.where(reacquire, log_det_s, gated[5]),
+    )
+
+
+def lockout_reset(
+    bank: Any,
+    refused: np.ndarray,
+    valid: np.ndarray,
+    y: np.ndarray,
+    available: np.ndarray,
+    omega_meas: np.ndarray,
+) -> np.ndarray:
+    """At the ``filter.lockout_reset_updates``-th consecutive ping of which the gate let
+    nothing through, reset the velocity of the filter bank ``bank`` to it (:func:`dvl_velocity_reset`).
+    A tightly coupled filter that refuses one beam and fuses the others is not locked out: its gate
+    is isolating that beam (a real DVL's faulty beam).
+
+    Parameters
+    ----------
+    bank : FilterBank
+        The bank (tauvcore.engine.filter_bank.FilterBank): its velocities, covariances and counts
+        of rejected pings, written in place.
+    refused : numpy.ndarray
+        Shape (M, R) bool: the filters that fused nothing of this ping.
+    valid : numpy.ndarray
+        Shape (M, R) bool: the filters that had a measurement from it.
+    y : numpy.ndarray
+        The ping's beam velocities, shape (R, 4) [m/s].
+    available : numpy.ndarray
+        Shape (R, 4) bool: the beams that returned.
+    omega_meas : numpy.ndarray
+        The gyros' rate at the ping, shape (R, 3) [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (M, R) bool: the filters reset at this ping.
+    """
+    rejected = valid & refused
+    bank.dvl_rejected = np.where(rejected, bank.dvl_rejected + 1, 0)
+    limit = bank.config.filter.lockout_reset_updates
+    due = rejected & (bank.dvl_rejected >= limit) if limit > 0 else np.zeros(bank.batch, bool)
+    if not due.any():
+        return due
+    beam_var = dvl_beam_sigma_mps(bank.config.dvl.noise_mps) ** 2
+    for m, r in zip(*np.nonzero(due), strict=True):
+        C = bank.C[m, r]
+        w_ie_b = C.T @ bank.w_ie
+        bank.vel[m, r], bank.P[m, r] = dvl_velocity_reset(
+            bank.vel[m, r],
+            bank.P[m, r],
+            C,
+            float(bank.sf[m, r]),
+            bank.bdvl[m, r],
+            bank.bg[m, r],
+            y[r],
+            available[r],
+            omega_meas[r] - w_ie_b,
+            bank.A_b,
+            bank.l_dvl_b,
+            beam_var,
+        )
+    bank.dvl_rejected[due] = 0
+    bank.dvl_reacquire[due] = True
+    return due
