@@ -53,6 +53,20 @@ FIRST = FAMILIES[MODULES[0]]
 """The first family: the 20-state filter, which also runs the methods registered in
 tauvcore.aiding.registry (one file each, fused by its bank)."""
 
+PAPERS = ("eskf", "yoo")
+"""The families of the two papers the lab is built on; every other is added in its own folder."""
+
+ADDED = (
+    "; ".join(
+        f"`{', '.join(family.methods)}` {family.title}"
+        for name, family in FAMILIES.items()
+        if name not in PAPERS
+    )
+    or "none yet"
+)
+"""The methods of the families added beside the papers', with each family's title, as the docs name
+them (docs/cli.md renders it: docs/hooks/defaults.py)."""
+
 
 def family_of(method: str) -> Family:
     """The family that runs ``method``.
