@@ -145,10 +145,11 @@ class FilterBank(ChunkDriver):
         self.other_mask = np.array([DVL_FUSION.get(m) is not None or m in REGISTRY for m in methods])[
             :, None
         ] & np.ones(self.batch, bool)
-        self.dvl_methods = [(i, m) for i, m in enumerate(methods) if DVL_FUSION.get(m) is not None]
+        kinds = [(i, m, DVL_FUSION.get(m)) for i, m in enumerate(methods)]
+        self.dvl_methods = [(i, m) for i, m, kind in kinds if kind is not None]
         self.dvl_index = np.array([i for i, _ in self.dvl_methods], dtype=np.int64)
         self.dvl_codes = np.array(
-            [{"lc": DVL_LC, "tc": DVL_TC, "elc": DVL_ELC}[DVL_FUSION[m]] for _, m in self.dvl_methods],
+            [{"lc": DVL_LC, "tc": DVL_TC, "elc": DVL_ELC}[kind] for _, _, kind in kinds if kind is not None],
             dtype=np.int64,
         )
         self.partial_tables = partial_tables([m for _, m in self.dvl_methods], config)
