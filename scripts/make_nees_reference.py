@@ -24,21 +24,24 @@ from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.eval.replay import replay
+from tauvcore.filter.families import PAPERS, family_of
 from tauvcore.logs import read_log
 from tauvcore.logs.writer import simulation_tables, write_log
 
 EVERY = 5  # every 5th output epoch (2 Hz): a small file, a strict check
+PAPER_METHODS = tuple(m for m in ALL_METHODS if family_of(m).name in PAPERS)
+"""The papers' filters' methods (tauvcore.filter.families.PAPERS), which the fixture holds."""
 NAMES = ("nees", "nees_block")
 
 
 def simulation_config() -> Config:
-    """Both banks' methods on 30 s of the figure eight, DVL, depth and magnetometer aiding, random
+    """Both papers' methods on 30 s of the figure eight, DVL, depth and magnetometer aiding, random
     initial errors."""
     return (
         Config()
         .replace("trajectory", name="figure8", duration_s=30.0)
         .replace("initial_error", mode="random")
-        .replace("run", methods=ALL_METHODS, aiding=("dvl", "depth", "mag"), seed=11)
+        .replace("run", methods=PAPER_METHODS, aiding=("dvl", "depth", "mag"), seed=11)
     )
 
 

@@ -82,7 +82,7 @@ BAD = [
     ("bad vector", {"dvl": {"lever_arm_m": [0.6, "x", 0.1]}}, ["dvl.lever_arm_m", "'x'"]),
     ("short vector", {"dvl": {"lever_arm_m": [0.6, 0.1]}}, ["dvl.lever_arm_m", "0.6, 0.1"]),
     ("unknown beam", {"dvl": {"beams": [1, 5]}}, ["dvl.beams", "5"]),
-    ("unknown method", {"run": {"methods": ["ukf"]}}, ["run.methods", "ukf"]),
+    ("unknown method", {"run": {"methods": ["pf"]}}, ["run.methods", "pf"]),
     ("negative seed", {"run": {"seed": -1}}, ["run.seed", "-1"]),
     ("float seed", {"run": {"seed": 1.5}}, ["run.seed", "1.5"]),
     ("section not a table", {"imu": 3}, ["imu", "3"]),
