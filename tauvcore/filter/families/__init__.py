@@ -22,6 +22,7 @@ from tauvcore.filter.families.spec import Family
 MODULES = (
     "eskf",  # the first paper's 20-state error-state EKF (Tal, Klein & Katz 2017) and its IEKF variant
     "yoo",  # Yoo 2014's 12-state indirect feedback filter, aided by the DVL or the RPM's VKF
+    "ukf",  # the unscented error-state filter on the 20 states, the worked example of docs/adding_a_filter.md
 )
 """The folders of tauvcore.filter.families, each defining ``FAMILY``, one line each, in the order the
 engine builds their banks (the first family draws the initial errors every family starts from)."""
