@@ -30,11 +30,11 @@ from typing import Any, NoReturn
 
 from app.commands.calibrate import cmd_calibrate
 from app.commands.log import cmd_log_convert, cmd_log_info
-from app.commands.replay import cmd_replay
+from app.commands.mc import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_reproduce
+from app.commands.replay_log import cmd_replay
 from app.commands.run import cmd_run
 from app.commands.serve import cmd_serve
-from app.commands.smoothing import MAX_SMOOTH_MEMORY_MB
-from app.commands.study import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_reproduce
+from app.commands.smooth_flags import MAX_SMOOTH_MEMORY_MB
 from app.commands.tune import LOCAL_DASK, cmd_tune
 from app.commands.values import UsageError, resolve_config
 from tauvcore.aiding import AIDING_SOURCES

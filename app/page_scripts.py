@@ -7,7 +7,7 @@ them) to the tab's localStorage, and reads it back with viser's ``local_storage.
 (app.links.read_address, app.dashboard.Session.confirm_page_state; one script,
 ``report_to_storage.js``, for both). The other scripts: ``time_cursor.js`` moves every plot's
 time cursor, ``plot_click.js`` (app.plot_click) turns a click on a plot into a playback time,
-``mark_fields.js`` marks the controls that cannot run (app.validation), ``label_inputs.js`` ties
+``mark_fields.js`` marks the controls that cannot run (app.control_checks), ``label_inputs.js`` ties
 each label to its input. A
 script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
 """

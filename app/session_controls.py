@@ -18,7 +18,7 @@ from typing import Any
 
 import viser
 
-from app import budget, control_table, inputs, links, page_scripts, validation
+from app import budget, control_checks, control_table, inputs, links, page_scripts
 from app.controls import PLUGIN_FIELDS
 from app.inputs import Controls, InputError, config_from_controls
 from app.session_state import TabState
@@ -85,7 +85,7 @@ class ControlPanel:
         self.stop_button = gui.add_button("Stop", color="red", disabled=True)
         self.progress = gui.add_progress_bar(0.0, animated=False)
         self.status = gui.add_markdown("Ready. Choose a mission and press **Run**.")
-        # every bad control named as you type (app.validation), the fields marked on the page
+        # every bad control named as you type (app.control_checks), the fields marked on the page
         self.check_note = gui.add_markdown("")
         self.check_lock = threading.Lock()
         self.check_timer: threading.Timer | None = None
@@ -113,7 +113,7 @@ class ControlPanel:
 
     def _simulation_only(self, simulated: bool) -> None:
         """Enable the controls of the simulated truth (Truth, the current) for a simulation only."""
-        for attr in ("truth", *validation.CURRENT_FIELDS):
+        for attr in ("truth", *control_checks.CURRENT_FIELDS):
             getattr(self, attr).disabled = not simulated
 
     def apply_trajectory_preset(self) -> None:
@@ -365,7 +365,7 @@ class ControlPanel:
             return
         with self.address_lock:
             # a bad value never enters the address: such a control is written at its default
-            safe = validation.without_problems(self.controls(), self.problems())
+            safe = control_checks.without_problems(self.controls(), self.problems())
             query = links.address(safe, self.viser_params)
             if query == self.address_shown:
                 return
@@ -374,7 +374,7 @@ class ControlPanel:
 
     # ------------------------------------------------------------------ checking as you type
     def schedule_check(self) -> None:
-        """Check the controls CHECK_PAUSE_S after the last change (app.validation)."""
+        """Check the controls CHECK_PAUSE_S after the last change (app.control_checks)."""
         with self.check_lock:
             if self.check_timer is not None:
                 self.check_timer.cancel()
@@ -394,7 +394,7 @@ class ControlPanel:
             log_raw = self.run_log_config(controls.source)
         except InputError as exc:  # the log's own configuration file does not check
             return {inputs.SOURCE: str(exc)}
-        return validation.problems(controls, log_raw)
+        return control_checks.problems(controls, log_raw)
 
     def check_now(self, scroll: bool = False) -> dict[str, str]:
         """Check every control, mark the bad ones on the page (``scroll``: the first into view),
@@ -403,22 +403,22 @@ class ControlPanel:
         ids_by_label: dict[str, list[str]] = {}
         for uid, handle in self._confirmed_inputs().items():
             ids_by_label.setdefault(handle.label, []).append(uid)
-        marked = validation.labels_to_ids(found, ids_by_label)
+        marked = control_checks.labels_to_ids(found, ids_by_label)
         if marked != self.marked or scroll:
             page_scripts.run(self.client, page_scripts.mark(marked, scroll))
             self.marked = marked
-        self.check_note.content = validation.notification(found) if found else ""
+        self.check_note.content = control_checks.notification(found) if found else ""
         return found
 
     def read_config(self) -> tuple[Config, int]:
         """The configuration the controls describe and its run count; InputError names every bad
-        control and its value at once (app.validation; the first is scrolled into view), also
+        control and its value at once (app.control_checks; the first is scrolled into view), also
         when the run would not fit the memory budget (app.budget, with the smoother if asked:
         :meth:`smoother_budget_mb`)."""
         controls = self.controls()
         log_raw = self.run_log_config(controls.source)
-        if validation.problems(controls, log_raw):
-            raise InputError(validation.notification(self.check_now(scroll=True)))
+        if control_checks.problems(controls, log_raw):
+            raise InputError(control_checks.notification(self.check_now(scroll=True)))
         config, runs = config_from_controls(controls, log_raw)
         try:
             limit = budget.budget_bytes()

@@ -3,7 +3,7 @@
 
     python benchmarks/dynamic_truth.py [--duration 250] [--repeats 5]
 
-Per mission, from the autopilot's own record (tauvcore.truth.record.VehicleRecord): cross-track
+Per mission, from the autopilot's own record (tauvcore.truth.truth_record.VehicleRecord): cross-track
 error from the mission's path and depth error from its schedule (RMS and largest, after the
 first 20 s, in which the vehicle settles from the kinematic start), sway and sideslip (what NSV
 assumes away), the largest fin deflection, the propeller's RPM range. Then the time to simulate

@@ -19,7 +19,7 @@ import numpy as np
 
 from tauvcore.aiding import dvl_beams
 from tauvcore.config import Config
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors import dvl
 from tauvcore.sensors.dvl import Outage

@@ -172,7 +172,7 @@ class PartialConfig:
     # for the defaults, benchmarks/nsv_epsilon_sweep.py); or a number in
     # (0, 100]: a variance; beyond 10 m/s of sway it says nothing
     sensor_columns: bool = True  # the two-beam velocity's rows carry the columns of the beam biases
-    # and scale factor its compensated beams were corrected with (tauvcore.filter.kernels.dvl); false:
+    # and scale factor its compensated beams were corrected with (tauvcore.filter.kernels.dvl_kernels); false:
     # the paper's H = [0 0 I 0 0 0 0] (eq. 24), which takes those slowly varying errors for white
     # noise and is over-confident in position within the hour
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from app.commands.outputs import json_target
-from app.commands.smoothing import smooth_options, smoothing
+from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
 from app.tables import summary_table
 from tauvcore.validation import show, show_path
@@ -33,7 +33,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     chunk by chunk after the filtered ones and are reduced the same way (their summary printed
     beside the filtered, their series in ``--json``); its tape beyond ``--smooth-memory-mb`` goes to
     a temporary directory (in ``--smooth-dir``) removed when the command ends, whatever happens
-    (app.commands.smoothing). An interruption (Ctrl-C) writes nothing."""
+    (app.commands.smooth_flags). An interruption (Ctrl-C) writes nothing."""
     config = resolve_config(args)
     smooth = smooth_options(args, config)
     log_dir = _save_log_target(args)

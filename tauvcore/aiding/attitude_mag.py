@@ -30,7 +30,7 @@ from tauvcore.geo.rotations import (
 from tauvcore.sensors import magnetometer
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.timing import Rng
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 
 EULER = ("roll_rad", "pitch_rad", "yaw_rad")
 """The attitude's columns [rad]."""

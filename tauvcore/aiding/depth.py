@@ -20,7 +20,7 @@ from tauvcore.filter.layout import STATE
 from tauvcore.sensors import pressure
 from tauvcore.sensors.pressure import PressureConfig
 from tauvcore.sensors.timing import Rng
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ around, aboard every vehicle of the lab.
 It is fused by the methods themselves, not by the engine's update of a source
 (:attr:`~tauvcore.aiding.source.AidingSource.fused` False): LC, TC, the partial-beam methods and
 their selector (tauvcore.aiding.dvl_loose, dvl_tight, dvl_partial) and Yoo 2014's filters read its
-beams through the compiled kernels (tauvcore.filter.kernels.dvl), and ``"dvl"`` in ``run.aiding``
+beams through the compiled kernels (tauvcore.filter.kernels.dvl_kernels), and ``"dvl"`` in ``run.aiding``
 turns them on (:attr:`~tauvcore.aiding.source.AidingSource.methods_fuse`). ``[dvl]`` configures it
 (tauvcore.sensors.dvl.DvlConfig: error model, geometry, lever arm, beams, outages, dropout,
 bottom range and water-track). Its log table ``dvl`` holds ``t_s`` and ``beam1_mps`` ..
@@ -35,8 +35,8 @@ from tauvcore.sensors import dvl
 from tauvcore.sensors.dvl import DvlConfig, DvlData, DvlState
 from tauvcore.sensors.timing import Rng, uniform
 from tauvcore.truth.current import CurrentField
-from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.world import World
 
 BEAMS = ("beam1_mps", "beam2_mps", "beam3_mps", "beam4_mps")

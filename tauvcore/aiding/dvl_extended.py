@@ -121,7 +121,7 @@ class DvlExtended:
         partial_ok = two & measured.any(axis=-1)
         H_partial = np.zeros(batch + (3, STATE.dim))
         H_partial[..., STATE.vel] = np.eye(3)
-        if self.sensor_columns:  # tauvcore.filter.kernels.dvl.partial_sensor_row_into
+        if self.sensor_columns:  # tauvcore.filter.kernels.dvl_kernels.partial_sensor_row_into
             scale = 1.0 / (1.0 + nom.dvl_sf)[..., None, None]
             H_partial[..., STATE.b_dvl] = C_rows * scale
             H_partial[..., STATE.sf_dvl] = (C_rows @ mv(self.dvl.A_b, nom.vel_b)[..., None]) * scale

@@ -44,10 +44,10 @@ def solve_velocity(
     Returns ``v`` (B, 3), its covariance (B, 3, 3), ``A+`` (B, 3, 4) with zero columns for the
     missing beams, and ``valid`` (B,) = at least three beams returned. ``noise_mps`` is floored
     at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS` (a zero noise is legal).
-    The kernel :func:`tauvcore.filter.kernels.dvl.lc_solve_into` (the one the filter bank runs).
+    The kernel :func:`tauvcore.filter.kernels.dvl_kernels.lc_solve_into` (the one the filter bank runs).
     """
     from tauvcore.filter.kernels.common import flat
-    from tauvcore.filter.kernels.dvl import lc_solve_batch
+    from tauvcore.filter.kernels.dvl_kernels import lc_solve_batch
 
     batch = np.broadcast_shapes(np.shape(y_beam)[:-1], np.shape(available)[:-1])
     v, cov, A_pinv, valid = lc_solve_batch(
@@ -85,9 +85,9 @@ class DvlLoose:
     def prepare(
         self, nom: Nominal, y_beam: np.ndarray, available: np.ndarray, omega_meas_b: np.ndarray
     ) -> DvlLooseSetup:
-        """The measurement side (the kernel :func:`tauvcore.filter.kernels.dvl.lc_prepare_into`)."""
+        """The measurement side (the kernel :func:`tauvcore.filter.kernels.dvl_kernels.lc_prepare_into`)."""
         from tauvcore.filter.kernels.common import flat as f
-        from tauvcore.filter.kernels.dvl import lc_prepare_batch
+        from tauvcore.filter.kernels.dvl_kernels import lc_prepare_batch
 
         batch = np.broadcast_shapes(
             np.shape(y_beam)[:-1],
@@ -119,9 +119,9 @@ class DvlLoose:
 
     def predict(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
         """Nonlinear h(x) for the state ``nom``, with the measurement-side quantities held fixed
-        (the kernel :func:`tauvcore.filter.kernels.dvl.lc_predict_into`)."""
+        (the kernel :func:`tauvcore.filter.kernels.dvl_kernels.lc_predict_into`)."""
         from tauvcore.filter.kernels.common import flat as f
-        from tauvcore.filter.kernels.dvl import lc_predict_batch
+        from tauvcore.filter.kernels.dvl_kernels import lc_predict_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         h = lc_predict_batch(
@@ -139,9 +139,9 @@ class DvlLoose:
         return h.reshape(batch + (3,))
 
     def jacobian(self, nom: Nominal, setup: DvlLooseSetup) -> np.ndarray:
-        """H (the kernel :func:`tauvcore.filter.kernels.dvl.lc_jacobian_into`)."""
+        """H (the kernel :func:`tauvcore.filter.kernels.dvl_kernels.lc_jacobian_into`)."""
         from tauvcore.filter.kernels.common import flat as f
-        from tauvcore.filter.kernels.dvl import lc_jacobian_batch
+        from tauvcore.filter.kernels.dvl_kernels import lc_jacobian_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         H = lc_jacobian_batch(

@@ -121,9 +121,9 @@ def beam_noise_cov(
     """Covariance of ``y_c``: white beam noise plus the gyro noise carried by the lever-arm term. (B, 4, 4).
 
     ``noise_mps`` is floored at :data:`~tauvcore.aiding.noise_floors.DVL_BEAM_NOISE_FLOOR_MPS`.
-    The kernel :func:`tauvcore.filter.kernels.dvl.beam_noise_into`."""
+    The kernel :func:`tauvcore.filter.kernels.dvl_kernels.beam_noise_into`."""
     from tauvcore.filter.kernels.common import flat
-    from tauvcore.filter.kernels.dvl import beam_noise_batch
+    from tauvcore.filter.kernels.dvl_kernels import beam_noise_batch
 
     batch = np.shape(dvl_sf)
     S = beam_noise_batch(

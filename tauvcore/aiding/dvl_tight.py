@@ -64,9 +64,9 @@ class DvlTight:
         )
 
     def predict(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
-        """Nonlinear h(x) per beam (the kernel :func:`tauvcore.filter.kernels.dvl.tc_predict_into`)."""
+        """Nonlinear h(x) per beam (the kernel :func:`tauvcore.filter.kernels.dvl_kernels.tc_predict_into`)."""
         from tauvcore.filter.kernels.common import flat as f
-        from tauvcore.filter.kernels.dvl import tc_predict_batch
+        from tauvcore.filter.kernels.dvl_kernels import tc_predict_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         h = tc_predict_batch(
@@ -83,9 +83,9 @@ class DvlTight:
         return h.reshape(batch + (4,))
 
     def jacobian(self, nom: Nominal, setup: DvlTightSetup) -> np.ndarray:
-        """H, one row per beam (the kernel :func:`tauvcore.filter.kernels.dvl.tc_jacobian_into`)."""
+        """H, one row per beam (the kernel :func:`tauvcore.filter.kernels.dvl_kernels.tc_jacobian_into`)."""
         from tauvcore.filter.kernels.common import flat as f
-        from tauvcore.filter.kernels.dvl import tc_jacobian_batch
+        from tauvcore.filter.kernels.dvl_kernels import tc_jacobian_batch
 
         batch = np.broadcast_shapes(setup.z.shape[:-1], nom.vel_b.shape[:-1])
         H = tc_jacobian_batch(

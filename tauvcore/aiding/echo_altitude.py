@@ -17,8 +17,8 @@ from tauvcore.aiding.source import AidingSource, Column, SourceData
 from tauvcore.sensors import echosounder
 from tauvcore.sensors.echosounder import EchoSounderConfig
 from tauvcore.sensors.timing import Rng
-from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.world import World
 
 ALTITUDE = "altitude_m"

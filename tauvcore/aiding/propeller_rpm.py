@@ -19,7 +19,7 @@ from tauvcore.aiding.source import AidingSource, Column, SourceData
 from tauvcore.sensors import rpm
 from tauvcore.sensors.rpm import RpmConfig, RpmState
 from tauvcore.sensors.timing import Rng
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.world import World
 
 RPM = "propeller_rpm"

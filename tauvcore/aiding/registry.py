@@ -1,7 +1,7 @@
 """Fusion methods added as one file each: the registry the configuration and the engine read.
 
 The first paper's methods (``lc``, ``tc``, the extended ones) are compiled into the DVL kernel
-(tauvcore.filter.kernels.dvl.dvl_measure_bank, dispatched by tauvcore.engine.dvl_fusion.DVL_FUSION) and
+(tauvcore.filter.kernels.dvl_kernels.dvl_measure_bank, dispatched by tauvcore.engine.dvl_fusion.DVL_FUSION) and
 Yoo 2014's into its own bank. A method registered here needs neither: it is a filter of the
 20-state bank (tauvcore.engine.filter_bank.FilterBank) that fuses its own measurement model every
 ``1 / rate_hz`` seconds (on the nearest IMU sample), besides the depth and the magnetometer when

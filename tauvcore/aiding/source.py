@@ -55,7 +55,7 @@ if TYPE_CHECKING:
     from tauvcore.aiding.fusion_method import Sections
     from tauvcore.filter.eskf import Measurement, Nominal
     from tauvcore.sensors.timing import Rng
-    from tauvcore.truth.record import Truth
+    from tauvcore.truth.truth_record import Truth
     from tauvcore.truth.world import World
 
 
@@ -265,7 +265,7 @@ class AidingSource(ABC):
     aboard: ClassVar[bool] = False  # True: a sensor every vehicle of the lab carries, simulated and
     # written to a log whether or not run.aiding fuses it, its streams named after fields of
     # tauvcore.sensors.stream.SensorStreams (the streams the IMU and DVL draw beside); False: simulated
-    # only when fused, its streams spawned for it (tauvcore.engine.sources)
+    # only when fused, its streams spawned for it (tauvcore.engine.source_streams)
     label: ClassVar[str]  # a few words: the dashboard's checkbox and the head of its controls' labels
     summary: ClassVar[str]  # one line: what it measures
     config_type: ClassVar[type]  # its section: a frozen dataclass, every field with a default (and

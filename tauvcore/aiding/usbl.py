@@ -66,7 +66,7 @@ from tauvcore.filter.layout import STATE
 from tauvcore.geo.earth import geodetic_from_ned, ned_offset_m
 from tauvcore.geo.rotations import mv, skew
 from tauvcore.sensors.timing import Rng, standard_normal, uniform
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.world import World
 from tauvcore.validation import require_range
 

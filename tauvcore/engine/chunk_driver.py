@@ -31,7 +31,7 @@ import numpy as np
 from tauvcore.config import Config
 from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
+from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
 EPOCH_FIELDS = frozenset(

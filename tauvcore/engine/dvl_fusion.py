@@ -25,7 +25,7 @@ from tauvcore.engine.rpm_aid import dvl_body_velocity
 from tauvcore.filter.eskf import make_outcome
 from tauvcore.filter.families import FAMILIES
 from tauvcore.filter.kernels.common import plain
-from tauvcore.filter.kernels.dvl import DvlRows, DvlState, Ping, TwoBeamTables, dvl_measure_bank
+from tauvcore.filter.kernels.dvl_kernels import DvlRows, DvlState, Ping, TwoBeamTables, dvl_measure_bank
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.geo.rotations import skew
@@ -60,7 +60,7 @@ def partial_tables(methods: Sequence[str], config: Config) -> TwoBeamTables:
     """The two-beam constructions of each DVL method, for every pattern of two returned beams
     (index: the sum of 2^k over the beams k), from the methods' own ``solve`` functions
     (tauvcore.aiding.elc_*): candidates (1, or the selector's 4), ok, C, D, gain, assumption
-    error and measured rows, as :func:`tauvcore.filter.kernels.dvl.dvl_measure_bank` takes them."""
+    error and measured rows, as :func:`tauvcore.filter.kernels.dvl_kernels.dvl_measure_bank` takes them."""
     n, K = len(methods), MAX_CANDIDATES
     n_cand = np.ones(n, np.int64)
     ok = np.zeros((n, 16, K), bool)
@@ -157,7 +157,7 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
     records).
 
     The VKF learns the speed the DVL measures, ``(1 + SF) v_b + A+ b`` (the LC measurement,
-    tauvcore.filter.kernels.dvl.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
+    tauvcore.filter.kernels.dvl_kernels.lc_jacobian_into), not the true one: a DVL 0.7 % off in scale makes the RPM speed
     0.7 % off. So the surge row is predicted and linearised as that measurement is, with the
     DVL scale factor and beam bias columns (H = [(1 + SF) e1, A+ row 1, v_b1] on the velocity,
     beam bias and scale factor states), and the filter knows the RPM speed shares the DVL's
@@ -223,7 +223,7 @@ def rpm_fallback(bank: Any, chunk: Any, p: int, i: int, t: float, dvl_valid: np.
 
 def dvl_innovation(bank: Any, nom: Any, methods: np.ndarray, ping: Ping) -> np.ndarray:
     """The innovations of a ping as the filter bank's DVL methods measure it at other nominal states:
-    the same compiled kernel as the bank's (tauvcore.filter.kernels.dvl.dvl_measure_bank), for a
+    the same compiled kernel as the bank's (tauvcore.filter.kernels.dvl_kernels.dvl_measure_bank), for a
     family's linearisation (tauvcore.filter.families.spec.Linearize).
 
     Parameters
@@ -283,7 +283,7 @@ def water_model(config: Config, layout: Layout) -> WaterTrack | None:
     config : Config
         The configuration: its ``[dvl]`` section.
     layout : Layout
-        The run's error state (tauvcore.engine.sources.layout_of).
+        The run's error state (tauvcore.engine.source_streams.layout_of).
 
     Returns
     -------

@@ -66,7 +66,7 @@ from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Tape
-from tauvcore.engine.sources import active, layout_of, states_truth
+from tauvcore.engine.source_streams import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.filter.eskf import (
     Nominal,
@@ -77,7 +77,7 @@ from tauvcore.filter.eskf import (
 )
 from tauvcore.filter.families import FAMILIES, family_of
 from tauvcore.filter.kernels.common import CORE, NAV, plain
-from tauvcore.filter.kernels.dvl import (
+from tauvcore.filter.kernels.dvl_kernels import (
     DVL_ELC,
     DVL_LC,
     DVL_TC,

@@ -13,9 +13,9 @@ import numpy as np
 
 from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, N, jit, ned_offset
 from tauvcore.filter.kernels.correction import nav_difference_into
-from tauvcore.filter.kernels.error_model import propagate_bank
+from tauvcore.filter.kernels.error_model_kernels import propagate_bank
 from tauvcore.filter.kernels.nees import add_reference_into, cholesky_into, nees_blocks_into, nees_plan
-from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
+from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, advance
 
 SERIES_NAMES = (
     "vel_err",

@@ -15,7 +15,7 @@ from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import ChunkSource, SimChunk, Simulation, chunks_of
 from tauvcore.engine.smoothing import SmoothOptions, forward
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.engine.start import initial_covariance, initial_nominal
 from tauvcore.engine.yoo_bank import YooBank
 from tauvcore.filter.families import FAMILIES, family_of

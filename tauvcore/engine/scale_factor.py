@@ -37,7 +37,7 @@ Every DVL row carries the scale factor the way it carries the beam biases: a bea
 factor's column ``h_b . A v_b``, ``A`` the beams' unit vectors. The loosely coupled velocity
 (``h_b`` the rows of A+, and ``A+ A = I``: the column is ``v_b``), the tightly coupled beams
 (``h_b = e_k``: ``a_k . v_b``) and the two-beam constructions of the extended methods (``h_b = c /
-(1 + SF_hat)``, ``c`` the row's weights on the compensated beams; tauvcore.filter.kernels.dvl)
+(1 + SF_hat)``, ``c`` the row's weights on the compensated beams; tauvcore.filter.kernels.dvl_kernels)
 all take it at ``v_ref``.
 """
 
@@ -64,7 +64,7 @@ def scale_factor_rows(H: np.ndarray, mode: np.ndarray, A_b: np.ndarray, v_ref_b:
     ----------
     H : numpy.ndarray
         The DVL rows of every method and run, shape (M, R, m, 20), as the measurement kernel built
-        them at the current estimate (tauvcore.filter.kernels.dvl.dvl_measure_bank); the scale
+        them at the current estimate (tauvcore.filter.kernels.dvl_kernels.dvl_measure_bank); the scale
         factor's column of the loosely and tightly coupled rows and the two-beam rows is replaced.
     mode : numpy.ndarray
         Shape (M, R) int: each filter's construction at this ping (MODE_* of

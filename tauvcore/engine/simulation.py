@@ -16,7 +16,7 @@ from tauvcore.aiding import dvl_beams
 from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.sensors import dvl as dvl_sensor
 from tauvcore.sensors import imu as imu_sensor
 from tauvcore.sensors.stream import SensorStreams

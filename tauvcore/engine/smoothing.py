@@ -318,7 +318,7 @@ class TapeWriter:
     :meth:`after`); :meth:`close` puts the segment on the tape with the filtered estimates of its
     output epochs, and the transition of the sources' own states from each mark to the next
     (``tape_E``, ``ev_E``: ``exp(rate dt)`` over the time between the marks, the product of the
-    covariance steps' own, tauvcore.filter.kernels.error_model.extra_step_into, which the bank
+    covariance steps' own, tauvcore.filter.kernels.error_model_kernels.extra_step_into, which the bank
     takes at every mark).
 
     Parameters

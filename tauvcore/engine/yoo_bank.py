@@ -2,7 +2,7 @@
 
 Each is the paper's 12-state indirect feedback Kalman filter (section 2.1; error model
 tauvcore.filter.yoo: NED velocity, attitude, accelerometer and gyro bias errors, no position)
-on the same strapdown as the 20-state methods (tauvcore.filter.kernels.strapdown.advance, geodetic on
+on the same strapdown as the 20-state methods (tauvcore.filter.kernels.strapdown_kernels.advance, geodetic on
 WGS-84), aided at every DVL ping by a NED velocity (eq. 16-18; with the attitude column the paper's H
 leaves out, tauvcore.filter.yoo_kernels.fuse):
 
@@ -66,7 +66,7 @@ from tauvcore.engine.results import (
 from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
-from tauvcore.engine.sources import active, layout_of, states_truth
+from tauvcore.engine.source_streams import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance
 from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
 from tauvcore.engine.yoo_velocity import (
@@ -415,7 +415,7 @@ class YooBank(ChunkDriver):
         )
 
     def _added_truth(self, chunk: SimChunk) -> np.ndarray:
-        """The added states' truth at the chunk's samples (K, E) (tauvcore.engine.sources.states_truth)."""
+        """The added states' truth at the chunk's samples (K, E) (tauvcore.engine.source_streams.states_truth)."""
         if self._extra_truth is None or self._extra_truth[0] != chunk.k0:
             self._extra_truth = (chunk.k0, states_truth(self.config, chunk.truth))
         return self._extra_truth[1]

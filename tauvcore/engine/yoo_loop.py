@@ -40,7 +40,7 @@ from tauvcore.engine.yoo_records import (
     record_row,
 )
 from tauvcore.filter.kernels.common import jit
-from tauvcore.filter.kernels.strapdown import StrapdownConstants, advance
+from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, advance
 from tauvcore.filter.yoo_kernels import (
     DIM,
     NA,

@@ -13,7 +13,7 @@ import numpy as np
 
 from tauvcore.filter.kernels.common import jit, ned_offset
 from tauvcore.filter.kernels.nees import add_reference_into, nees_blocks_into, nees_plan, quadratic_into
-from tauvcore.filter.kernels.rotations import log_so3_into
+from tauvcore.filter.kernels.rotation_kernels import log_so3_into
 from tauvcore.filter.yoo_kernels import ATT, BA, BG, DIM, NA, VEL
 
 

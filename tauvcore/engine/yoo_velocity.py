@@ -5,7 +5,7 @@ current (north, east, ``dvl.current_states``).
 The covariance of the 12-state filter is ``[12 estimated, 5 consider, E added]``: the added states
 come after the consider states, are estimated (their rows of the gain are the Kalman gain's) and
 are uncoupled from the rest in F (each a first-order Gauss-Markov process or a random walk,
-the 20-state kernels' exact discrete step, tauvcore.filter.kernels.error_model.extra_step_into).
+the 20-state kernels' exact discrete step, tauvcore.filter.kernels.error_model_kernels.extra_step_into).
 
 The current enters through the velocities that are relative to the water. Yoo's aiding velocity is
 a NED velocity rotated with the estimated attitude, ``z = C_est u_b``; when ``u_b`` is the
@@ -122,7 +122,7 @@ class Added:
 
 
 def added_states(config: Config, layout: Layout) -> Added:
-    """The added states of ``layout`` (tauvcore.engine.sources.layout_of) for the 12-state filter.
+    """The added states of ``layout`` (tauvcore.engine.source_streams.layout_of) for the 12-state filter.
 
     Parameters
     ----------

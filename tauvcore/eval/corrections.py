@@ -31,7 +31,7 @@ import numpy as np
 from tauvcore import units
 from tauvcore.config import CalibrationConfig
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb
-from tauvcore.logs.record import Log
+from tauvcore.logs.log_record import Log
 
 MIN_BEAMS_FOR_VELOCITY = 3
 """Beams of one track at one ping that fix the head velocity (three unknowns)."""

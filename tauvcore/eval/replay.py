@@ -28,14 +28,14 @@ from tauvcore.engine.results import MethodResult
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
 from tauvcore.engine.simulation import ChunkSource, Simulation
 from tauvcore.engine.smoothing import SmoothOptions
-from tauvcore.engine.sources import active
+from tauvcore.engine.source_streams import active
 from tauvcore.eval.corrections import calibrated
 from tauvcore.eval.judging import judged
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3
 from tauvcore.logs import CONFIG_FILE, Log, LogError
 from tauvcore.sensors import imu as imu_sensor
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import ConfigError, show_path
 
 

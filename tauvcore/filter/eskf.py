@@ -285,7 +285,7 @@ def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
 
     ``Phi`` has the structure of :func:`tauvcore.ins.error_model.discretise`'s (identity outside
     rows 0-8, zero beyond column 14 in them); the product is the kernel
-    :func:`tauvcore.filter.kernels.error_model.sandwich_into` the filter bank runs.
+    :func:`tauvcore.filter.kernels.error_model_kernels.sandwich_into` the filter bank runs.
 
     Parameters
     ----------
@@ -311,7 +311,7 @@ def propagate(P: np.ndarray, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
         Phi must be the identity outside rows 0-8 and zero beyond column 14 in them.
     """
     from tauvcore.filter.kernels.common import CORE, NAV
-    from tauvcore.filter.kernels.error_model import propagate_batch
+    from tauvcore.filter.kernels.error_model_kernels import propagate_batch
 
     Phi = np.asarray(Phi, dtype=float)
     eye = np.eye(STATE.dim)
@@ -463,7 +463,7 @@ def fuse_in_place(
         unit squared to the power of the rows] (NaN where ``nis`` is NaN).
     """
     from tauvcore.filter.kernels.correction import correct_batch, inject_batch
-    from tauvcore.filter.kernels.invariant import retract_batch
+    from tauvcore.filter.kernels.invariant_kernels import retract_batch
 
     n, m = P.shape[0], nu.shape[-1]
     dx, s_diag, keep, nis, ratio, unusable, log_det_s = correct_batch(

@@ -40,7 +40,7 @@ estimate, as the ESKF's; the group structure is then that of the local-level fra
 (earth rate and transport rate make the system not exactly group-affine; documented in
 docs/methods.md).
 
-The compiled twin is tauvcore.filter.kernels.invariant (the filter bank runs it); this module is
+The compiled twin is tauvcore.filter.kernels.invariant_kernels (the filter bank runs it); this module is
 its reference, held equal to it and to the SE_2(3) group operations by tests/unit/test_invariant.py.
 """
 

@@ -18,8 +18,8 @@ import math
 import numpy as np
 
 from tauvcore.filter.kernels.common import jit, radii_nav
-from tauvcore.filter.kernels.error_model import extra_step_into
-from tauvcore.filter.kernels.rotations import exp_so3_into, skew_into
+from tauvcore.filter.kernels.error_model_kernels import extra_step_into
+from tauvcore.filter.kernels.rotation_kernels import exp_so3_into, skew_into
 from tauvcore.geo.earth import OMEGA_IE_RPS
 
 DIM = 12

@@ -81,11 +81,11 @@ def F_matrix(
     ``position``: None for the flat model of ``earth`` (its constant gravity and earth rate); or
     the nominal geodetic position (latitude [rad], longitude [rad], height [m], each (...,)) for
     the WGS-84 error model of the module docstring. The formula is the compiled kernel
-    :func:`tauvcore.filter.kernels.error_model.F_into` (the one the filter bank runs); the tests compare it
+    :func:`tauvcore.filter.kernels.error_model_kernels.F_into` (the one the filter bank runs); the tests compare it
     with central differences of :func:`error_rate` and :func:`error_rate_geodetic`.
     """
     from tauvcore.filter.kernels.common import flat as f  # numba: with the engine, not for --help
-    from tauvcore.filter.kernels.error_model import F_batch, flat_terms_batch, geodetic_terms_batch
+    from tauvcore.filter.kernels.error_model_kernels import F_batch, flat_terms_batch, geodetic_terms_batch
 
     shapes = [np.shape(C_nb)[:-2], np.shape(vel_b)[:-1], np.shape(omega_ib_b)[:-1]]
     if position is not None:
@@ -103,9 +103,9 @@ def F_matrix(
 
 
 def G_matrix(C_nb: np.ndarray, vel_b: np.ndarray) -> np.ndarray:
-    """Continuous-time G (eq. 5 and 10), the kernel :func:`tauvcore.filter.kernels.error_model.G_into`. -> (..., 20, 17)."""
+    """Continuous-time G (eq. 5 and 10), the kernel :func:`tauvcore.filter.kernels.error_model_kernels.G_into`. -> (..., 20, 17)."""
     from tauvcore.filter.kernels.common import flat
-    from tauvcore.filter.kernels.error_model import G_batch
+    from tauvcore.filter.kernels.error_model_kernels import G_batch
 
     batch = np.broadcast_shapes(np.shape(C_nb)[:-2], np.shape(vel_b)[:-1])
     G = G_batch(flat(C_nb, batch, (3, 3)), flat(vel_b, batch, (3,)), NOISE.dim)
@@ -154,10 +154,10 @@ def discretise(F: np.ndarray, G: np.ndarray, q_psd: np.ndarray, dt_s: float) -> 
 
     ``Qd = (Phi G Q G^T Phi^T + G Q G^T) dt / 2`` (Van Loan to second order). F must have the
     structure of :func:`F_matrix` (zero outside rows 0-8 and columns 0-14), which the compiled
-    kernels (:func:`tauvcore.filter.kernels.error_model.transition_into`, ``sandwich_into``) exploit.
+    kernels (:func:`tauvcore.filter.kernels.error_model_kernels.transition_into`, ``sandwich_into``) exploit.
     """
     from tauvcore.filter.kernels.common import CORE, NAV, flat
-    from tauvcore.filter.kernels.error_model import discretise_batch
+    from tauvcore.filter.kernels.error_model_kernels import discretise_batch
 
     F = np.asarray(F, dtype=float)
     if np.any(F[..., NAV:, :]) or np.any(F[..., :, CORE:]):

@@ -85,9 +85,11 @@ class Strapdown:
     def step(self, nav: NavState, phi_b: np.ndarray, dv_rot_b: np.ndarray) -> NavState:
         """Advance one IMU interval with bias-corrected compensated increments (:func:`body_increments`).
 
-        The formula is the compiled kernel :func:`tauvcore.filter.kernels.strapdown.strapdown_step_into` (the one
+        The formula is the compiled kernel :func:`tauvcore.filter.kernels.strapdown_kernels.strapdown_step_into` (the one
         the filter bank runs), applied to every entry of the batch."""
-        from tauvcore.filter.kernels.strapdown import strapdown_batch  # numba: not loaded for `tauv --help`
+        from tauvcore.filter.kernels.strapdown_kernels import (
+            strapdown_batch,  # numba: not loaded for `tauv --help`
+        )
 
         batch = nav.pos_n.shape[:-1]
         shape = np.broadcast_shapes(batch, phi_b.shape[:-1], dv_rot_b.shape[:-1])

@@ -1,5 +1,5 @@
 """Recorded sensor logs, in one room: the format and its reader (:mod:`tauvcore.logs.reader`), the
-assembled record (:mod:`~tauvcore.logs.record`), a table's file and its columns
+assembled record (:mod:`~tauvcore.logs.log_record`), a table's file and its columns
 (:mod:`~tauvcore.logs.table_io`, :mod:`~tauvcore.logs.columns`), the physical checks
 (:mod:`~tauvcore.logs.checks`, :mod:`~tauvcore.logs.motion_checks`,
 :mod:`~tauvcore.logs.evidence`), the writer (:mod:`~tauvcore.logs.writer`) and ROS bags read

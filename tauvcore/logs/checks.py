@@ -56,6 +56,7 @@ from tauvcore import units
 from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.logs.evidence import file_angle_columns, table_file
+from tauvcore.logs.log_record import Log
 from tauvcore.logs.motion_checks import (
     MAX_TURN_RATE_RPS,
     check_accel,
@@ -66,7 +67,6 @@ from tauvcore.logs.motion_checks import (
     check_gyro_earth_rate,
     check_velocity,
 )
-from tauvcore.logs.record import Log
 from tauvcore.validation import LogError, show, show_path
 
 IMU_INTERVAL_RANGE_S = (1e-4, 1.0)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tauvcore.logs.record import Log
+from tauvcore.logs.log_record import Log
 
 WINDOW_S = 1.0
 """Length of the windows sensors are compared over [s]: the IMU's noise averages out over a

@@ -35,7 +35,7 @@ from tauvcore.logs.evidence import (
     window_rows,
     worst_window,
 )
-from tauvcore.logs.record import Log
+from tauvcore.logs.log_record import Log
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.validation import LogError, show, show_path
 

@@ -46,7 +46,7 @@ invalid), within what the physics allows (a latitude within 90 deg, a DVL veloci
 problem is reported as one :class:`LogError` naming the file, the column and the row (data rows
 count from 1, the header not included) and the value.
 
-Here the tables are assembled into one :class:`~tauvcore.logs.record.Log` (the IMU's increments,
+Here the tables are assembled into one :class:`~tauvcore.logs.log_record.Log` (the IMU's increments,
 resampled onto a constant rate where its clock is irregular; the reference, the aiding tables and
 the plug-in sources' tables), then judged physically (tauvcore.logs.checks); a single table is read
 by tauvcore.logs.table_io and its columns checked by tauvcore.logs.columns.
@@ -79,7 +79,7 @@ from tauvcore.logs.columns import (
     need_columns,
     time_column,
 )
-from tauvcore.logs.record import Log
+from tauvcore.logs.log_record import Log
 from tauvcore.logs.table_io import held, read_table, table_path, written_nan
 from tauvcore.validation import LogError, show, show_path
 

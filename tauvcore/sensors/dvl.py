@@ -56,8 +56,8 @@ from tauvcore.sensors.timing import (
     uniform,
 )
 from tauvcore.truth.current import CurrentField
-from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import (
     ConfigError,
     check_settings,

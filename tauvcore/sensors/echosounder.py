@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
-from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import check_settings, setting
 
 

@@ -26,7 +26,7 @@ from tauvcore.sensors.timing import (
     random_walk_chunk,
     standard_normal,
 )
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import require_choice, require_range
 
 RATE_RANGE_HZ = (50.0, 2000.0)

@@ -11,7 +11,7 @@ import numpy as np
 from tauvcore import units
 from tauvcore.geo.rotations import wrap_angle
 from tauvcore.sensors.timing import Rng, batch_shape, epoch_indices, standard_normal
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import check_settings, setting
 
 

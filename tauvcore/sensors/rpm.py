@@ -32,7 +32,7 @@ from tauvcore.sensors.timing import (
     random_walk_chunk,
     standard_normal,
 )
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import check_settings, setting
 
 

@@ -7,7 +7,7 @@ after chunk, so a run's numbers do not depend on how the mission is cut into chu
 repeats the whole-mission ``simulate`` functions (and ``tauvcore.engine.simulation.simulate``) draw for
 draw: IMU accelerometer bias (turn-on value, walk), gyro bias, accelerometer noise, gyro noise
 (then the DVL, the depth and the magnetometer, the echo sounder and the RPM: aiding sources drawn by
-tauvcore.engine.sources from their streams here).
+tauvcore.engine.source_streams from their streams here).
 
 :class:`SensorStream` carries the IMU's state from chunk to chunk (the last value of each random
 walk, whether its turn-on value was drawn) and is fed the truth chunks of
@@ -31,7 +31,7 @@ import numpy as np
 
 from tauvcore.sensors import imu
 from tauvcore.sensors.timing import Rng
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class SensorStreams:
 
 class SensorStream:
     """The IMU of a mission, chunk by chunk, for ``num_runs`` runs (the other sensors are aiding
-    sources: tauvcore.engine.sources).
+    sources: tauvcore.engine.source_streams).
 
     ``streams``: one :class:`SensorStreams` for all runs (each draw has the run axis, as
     ``simulate(..., num_runs)`` does), or a list of ``num_runs`` of them, run r drawn from its own

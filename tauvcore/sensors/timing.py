@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 
 
 def epoch_indices(truth: Truth, rate_hz: float) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Truth generators: each returns a :class:`~tauvcore.truth.record.Truth`.
+"""Truth generators: each returns a :class:`~tauvcore.truth.truth_record.Truth`.
 
 ``trajectory.truth`` picks the generator: ``kinematic`` (tauvcore.truth.kinematic, closed-form
 profiles) or ``dynamic`` (tauvcore.truth.dynamic, the 6-DOF TAUV flying the same scenario; its
@@ -16,7 +16,7 @@ from tauvcore.truth.kinematic import (
     TrajectoryConfig,
     TruthStream,
 )
-from tauvcore.truth.record import Truth, VehicleRecord
+from tauvcore.truth.truth_record import Truth, VehicleRecord
 
 __all__ = [
     "PAPER_TRAJECTORIES",

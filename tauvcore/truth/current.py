@@ -41,7 +41,7 @@ import numpy as np
 
 from tauvcore.geo.rotations import C_nb_from_euler, euler_rates_to_omega_nb_b
 from tauvcore.truth.profile import Profile
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.water import MIN_ALTITUDE_M, Mission, lawnmower_level_depth_m, seabed_floor_m
 from tauvcore.validation import ConfigError, require_range, require_vector3, show
 

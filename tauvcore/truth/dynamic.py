@@ -79,7 +79,7 @@ from tauvcore.truth.kinematic import (
     with_current,
 )
 from tauvcore.truth.profile import Profile, _kinematics, num_samples
-from tauvcore.truth.record import Truth, VehicleRecord
+from tauvcore.truth.truth_record import Truth, VehicleRecord
 from tauvcore.validation import require_positive
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")

@@ -57,7 +57,7 @@ from tauvcore.truth.profile import (  # the profile machinery, also reached from
     _motion_geodetic,
     num_samples,
 )
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.water import (  # also reached from here
     MIN_ALTITUDE_M,
     check_in_water,

@@ -14,8 +14,8 @@ from typing import Protocol
 
 import numpy as np
 
-from tauvcore.truth.record import Truth
 from tauvcore.truth.seabed import Bathymetry
+from tauvcore.truth.truth_record import Truth
 from tauvcore.validation import ConfigError, show
 
 

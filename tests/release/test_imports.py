@@ -75,7 +75,7 @@ def copy_of_the_tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
         # a circle in the app: the JSON document importing the command line that writes it
         ("app/payload.py", "import app.cli\n", "No circles"),
         # inside the logs' room: the record reaching up to the reader that assembles it
-        ("tauvcore/logs/record.py", "import tauvcore.logs.reader\n", "Inside the logs' room"),
+        ("tauvcore/logs/log_record.py", "import tauvcore.logs.reader\n", "Inside the logs' room"),
     ],
 )
 def test_the_contract_fails_on_an_upward_import_or_a_circle(

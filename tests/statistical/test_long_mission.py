@@ -10,7 +10,7 @@ as it must where nothing observes it.
 Eight seeded runs (random initial errors) at the lowest legal IMU rate (50 Hz) with 1 Hz records,
 streamed: about two minutes of one core per case. The NEES/dim of each block is averaged over runs
 and epochs, over the whole mission and over its last hour. LC and TC with four beams, NSV with
-beams 1-2 (its rows carry the DVL errors' columns: tauvcore.filter.kernels.dvl).
+beams 1-2 (its rows carry the DVL errors' columns: tauvcore.filter.kernels.dvl_kernels).
 
 With the DVL alone the heading is seen only through the earth's rotation (gyrocompassing), and the
 aided heading must be no worse than the free INS's on the same seeds. Table 2's gyro, whose bias

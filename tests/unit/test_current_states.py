@@ -19,7 +19,7 @@ from tauvcore.aiding.dvl_water import CURRENT_BLOCK, WaterTrack
 from tauvcore.config import Config
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import simulate
-from tauvcore.engine.sources import layout_of
+from tauvcore.engine.source_streams import layout_of
 from tauvcore.filter.eskf import Nominal, inject
 from tauvcore.filter.layout import STATE, Layout, NavState, StateBlock
 from tauvcore.geo.rotations import exp_so3
@@ -74,7 +74,7 @@ def test_the_covariance_step_carries_the_current_block_exactly(rate: float) -> N
     """propagate_bank over 22 states: the 20 as over 20 (bit for bit), the cross block
     ``Phi_20 P_2c phi``, the current block ``phi^2 P_cc + q (1 - phi^2) / (-2 rate)`` (``q dt``
     for a random walk): the dense step of the block-diagonal transition."""
-    from tauvcore.filter.kernels.error_model import propagate_bank
+    from tauvcore.filter.kernels.error_model_kernels import propagate_bank
     from tauvcore.geo.earth import Earth
     from tauvcore.ins.error_model import F_matrix, G_matrix, discretise
     rng = np.random.default_rng(7)

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from app import links
+from app.control_checks import initial_controls, problems
 from app.inputs import (
     CURRENT_SHEAR,
     CURRENT_SPEED,
@@ -28,7 +29,6 @@ from app.inputs import (
 from app.scene import current_arrow_view, current_head_m, current_label, ned_to_view
 from app.session_plots import VEHICLE_NOTES, PlotTabs
 from app.session_scene import SceneView
-from app.validation import initial_controls, problems
 from app.vehicle_figures import (
     CURRENT_EAST_NAME,
     CURRENT_NORTH_NAME,

@@ -13,7 +13,8 @@ import warnings
 import numpy as np
 import pytest
 
-from app import budget, truth_view, validation, worker
+from app import budget, truth_view, worker
+from app import control_checks as validation
 from app.error_figures import error_figure, nees_figure, smoothed_name
 from app.export import FinishedRun, results_json
 from app.figures import method_color

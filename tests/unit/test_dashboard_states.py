@@ -13,7 +13,8 @@ import types
 import numpy as np
 import pytest
 
-from app import control_table, links, validation
+from app import control_checks as validation
+from app import control_table, links
 from app.error_figures import nees_blocks, nees_figure
 from app.innovation_figures import innovation_figure, innovation_sources
 from app.inputs import (

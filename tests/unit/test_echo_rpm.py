@@ -9,7 +9,7 @@ import pytest
 from tauvcore.aiding import echo_altitude, propeller_rpm
 from tauvcore.config import Config
 from tauvcore.engine.simulation import simulate
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors import echosounder, rpm
 from tauvcore.sensors.stream import SensorStreams

@@ -188,7 +188,7 @@ def test_the_filter_bank_s_covariance_step_equals_discretise_and_propagate():
     """propagate_bank (F's non-zero block, Horner Phi, the structured G Q G^T of the IMU
     noise and the random walks, one sandwich) equals the dense path P <- Phi P Phi^T + Qd of
     F_matrix, G_matrix and discretise at random nominal states, for several filters at once."""
-    from tauvcore.filter.kernels.error_model import propagate_bank
+    from tauvcore.filter.kernels.error_model_kernels import propagate_bank
     from tauvcore.geo.earth import Earth
     from tauvcore.ins.error_model import F_matrix, G_matrix, discretise
     rng = np.random.default_rng(57)

@@ -12,7 +12,7 @@ from tauvcore.engine.simulation import simulate
 from tauvcore.filter.eskf import Nominal, _state_arrays, inject
 from tauvcore.filter.invariant import carry_matrix, invariant_map, left_jacobian_so3, retract
 from tauvcore.filter.kernels.common import radii_nav
-from tauvcore.filter.kernels.invariant import left_jacobian_so3_into, retract_batch
+from tauvcore.filter.kernels.invariant_kernels import left_jacobian_so3_into, retract_batch
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, log_so3, skew
 

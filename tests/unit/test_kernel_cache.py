@@ -7,7 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from tauvcore.engine import loop
-from tauvcore.filter.kernels import common, nees, rotations, strapdown
+from tauvcore.filter.kernels import common, nees
+from tauvcore.filter.kernels import rotation_kernels as rotations
+from tauvcore.filter.kernels import strapdown_kernels as strapdown
 
 
 def test_a_kernels_cache_is_checked_against_the_key_of_its_module() -> None:

@@ -12,7 +12,7 @@ from tauvcore.config import Config, PartialConfig
 from tauvcore.engine.dvl_fusion import DVL_MODE_CODES, partial_tables
 from tauvcore.filter.eskf import Nominal
 from tauvcore.filter.kernels.common import plain
-from tauvcore.filter.kernels.dvl import DVL_ELC, DvlMethods, DvlRows, DvlState, Ping, dvl_measure_bank
+from tauvcore.filter.kernels.dvl_kernels import DVL_ELC, DvlMethods, DvlRows, DvlState, Ping, dvl_measure_bank
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import C_nb_from_euler, mv
 from tauvcore.ins.strapdown import NavState

@@ -14,7 +14,7 @@ import pytest
 
 from app import cli
 from app.commands.outputs import write_json_atomic
-from app.commands.replay import replay_layers
+from app.commands.replay_log import replay_layers
 from app.commands.values import resolve_config
 from app.payload import run_payload
 from app.tables import summary_table

@@ -12,7 +12,7 @@ from tauvcore.engine.mission import run
 from tauvcore.engine.results import SENSOR_STATES
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import simulate
-from tauvcore.filter.kernels.dvl import lc_jacobian_batch, partial_sensor_row_into, tc_jacobian_batch
+from tauvcore.filter.kernels.dvl_kernels import lc_jacobian_batch, partial_sensor_row_into, tc_jacobian_batch
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.validation import ConfigError

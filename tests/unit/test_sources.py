@@ -22,7 +22,7 @@ from tauvcore.aiding.sources import FUSED, SOURCES, load
 from tauvcore.config import SOURCE_SECTIONS, Config, from_dict, to_dict
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import SimChunk, simulate
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.filter.eskf import Nominal, inject
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.rotations import exp_so3

@@ -2,7 +2,7 @@
 
 - truth chunks of any size concatenate to ``generate`` (bit for bit in practice; 1e-12 asserted);
 - with spawned streams, sensors cut into chunks of any size are the same data, bit for bit (the IMU
-  of SensorStream, the DVL of its source in tauvcore.engine.sources);
+  of SensorStream, the DVL of its source in tauvcore.engine.source_streams);
 - with a single generator and one whole-mission chunk, exactly ``tauvcore.engine.simulation.simulate``'s draws;
 - a list of per-run streams gives each run what it gets alone;
 - a chunk without aiding epochs yields empty records of the right shapes.
@@ -18,7 +18,7 @@ import pytest
 from tauvcore.aiding import dvl_beams
 from tauvcore.config import Config
 from tauvcore.engine.simulation import simulate
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.geo.earth import Earth
 from tauvcore.sensors import dvl, imu
 from tauvcore.sensors.dvl import Outage

@@ -10,7 +10,7 @@ from tauvcore.config import METHODS, Config
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.sensors.dvl import Outage
 from tauvcore.sensors.stream import SensorStream, SensorStreams
 from tauvcore.truth import generate

@@ -91,7 +91,7 @@ def test_the_gate_refuses_the_outliers_and_the_latency_compensation_removes_the_
     record = run_streaming(base, np.random.default_rng(4))["lc"].updates["usbl"]
     truth = _truth()
     rng = np.random.default_rng(4)
-    from tauvcore.engine.sources import SourceStream
+    from tauvcore.engine.source_streams import SourceStream
     from tauvcore.sensors.stream import SensorStreams
     streams = SensorStreams.spawned(rng)
     data = SourceStream(base, rng, 1, truth.num_samples, truth.dt_s, streams).next_chunk(0, truth)["usbl"]

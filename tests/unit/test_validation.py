@@ -1,4 +1,4 @@
-"""app.validation: every bad control named at once, each for its own fault, and none of them in
+"""app.control_checks: every bad control named at once, each for its own fault, and none of them in
 the page's address."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import dataclasses
 import pytest
 
 from app import links
+from app.control_checks import initial_controls, notification, problems, without_problems
 from app.inputs import Controls, config_from_controls
-from app.validation import initial_controls, notification, problems, without_problems
 
 
 @pytest.fixture

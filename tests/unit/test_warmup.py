@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 from tauvcore.engine import loop, smoothing, warmup, yoo_loop
-from tauvcore.filter.kernels import correction, dvl, invariant, smoother, strapdown
+from tauvcore.filter.kernels import correction, smoother
+from tauvcore.filter.kernels import dvl_kernels as dvl
+from tauvcore.filter.kernels import invariant_kernels as invariant
+from tauvcore.filter.kernels import strapdown_kernels as strapdown
 from tauvcore.truth import dynamic
 
 # the engine's entry points from Python (propagate_bank runs inside run_stops), by their modules

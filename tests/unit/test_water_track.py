@@ -29,7 +29,7 @@ from scipy.stats import chi2
 from tauvcore.aiding import dvl_beams
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, chunks_of, simulate
-from tauvcore.engine.sources import SourceStream
+from tauvcore.engine.source_streams import SourceStream
 from tauvcore.eval.replay import log_simulation
 from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import C_nb_from_euler

@@ -16,7 +16,7 @@ import pytest
 from tauvcore.config import Config, from_dict, merge, trajectory_preset
 from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import simulate
-from tauvcore.engine.sources import layout_of
+from tauvcore.engine.source_streams import layout_of
 from tauvcore.engine.yoo_velocity import added_states
 from tauvcore.filter import yoo
 from tauvcore.filter.yoo_kernels import NA

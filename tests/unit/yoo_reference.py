@@ -265,7 +265,7 @@ def _euler_batch(C: np.ndarray) -> np.ndarray:
 def propagate_added(P: np.ndarray, added: Added, dt_s: float) -> None:
     """The added states over ``dt_s``, in place: their rows and columns of ``P`` (B, N, N) scale by
     ``phi = exp(rate dt)`` and each variance gains ``q (1 - phi^2) / (-2 rate)`` (``q dt`` for a
-    walk), as tauvcore.filter.kernels.error_model.extra_step_into.
+    walk), as tauvcore.filter.kernels.error_model_kernels.extra_step_into.
 
     Parameters
     ----------

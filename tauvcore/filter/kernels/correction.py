@@ -11,7 +11,7 @@ import numpy as np
 
 from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, NAV, POS, SF, VEL, N, jit, radii_nav
 from tauvcore.filter.kernels.nees import cholesky_into
-from tauvcore.filter.kernels.rotations import exp_so3_into, log_so3_into
+from tauvcore.filter.kernels.rotation_kernels import exp_so3_into, log_so3_into
 
 
 @jit

@@ -21,7 +21,7 @@ corrections as they were), written for the error state the filter resets; on a l
 is the RTS smoother of that model, exactly (tests/unit/test_smoother.py holds it equal to batch
 least squares).
 
-The transitions are those of tauvcore.filter.kernels.error_model: the identity but for rows
+The transitions are those of tauvcore.filter.kernels.error_model_kernels: the identity but for rows
 ``0..a-1`` and columns ``0..b-1``, given as ``X = (Phi - I)[:a, :b]``, and for the last E
 states, the ones the aiding sources add (tauvcore.filter.layout.StateBlock), each uncoupled and
 scaled by its own ``phi`` (``exp(-dt/tau)`` of a Gauss-Markov state, 1 for a random walk);

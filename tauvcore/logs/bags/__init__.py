@@ -61,8 +61,8 @@ from tauvcore.config import from_dict
 from tauvcore.logs.bags.mapping import BagMapping, TopicRule, read_mapping, resolve
 from tauvcore.logs.bags.ros_reader import BagTables, bag_tables, is_bag, open_bag, read_mounting, typestore
 from tauvcore.logs.bags.tf import TF_STATIC
+from tauvcore.logs.log_record import Log
 from tauvcore.logs.reader import find_logs, log_from_tables, read_log
-from tauvcore.logs.record import Log
 from tauvcore.validation import ConfigError, LogError, show_path
 
 

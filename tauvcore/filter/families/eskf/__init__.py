@@ -2,7 +2,7 @@
 
 Its error state is tauvcore.filter.layout.STATE (position, misalignment, body velocity, the IMU's
 biases, the DVL's beam biases and scale factor; the states the aiding sources add come after), its
-process model tauvcore.filter.kernels.error_model, its bank tauvcore.engine.filter_bank.FilterBank.
+process model tauvcore.filter.kernels.error_model_kernels, its bank tauvcore.engine.filter_bank.FilterBank.
 
 Methods: ``ins`` the standalone INS (no aiding at all), ``lc`` loosely coupled DVL (3-4 beams),
 ``tc`` tightly coupled (any beams), and the extended loosely coupled methods of section 3 (LC with

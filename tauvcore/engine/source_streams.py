@@ -22,7 +22,7 @@ from tauvcore.config import Config
 from tauvcore.filter.layout import Layout
 from tauvcore.sensors.stream import SensorStreams
 from tauvcore.sensors.timing import Rng, epoch_indices_between
-from tauvcore.truth.record import Truth
+from tauvcore.truth.truth_record import Truth
 from tauvcore.truth.world import World
 
 

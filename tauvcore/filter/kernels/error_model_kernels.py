@@ -34,7 +34,7 @@ from tauvcore.filter.kernels.common import (
     radii_nav,
     transport_rate,
 )
-from tauvcore.filter.kernels.rotations import skew_entry
+from tauvcore.filter.kernels.rotation_kernels import skew_entry
 from tauvcore.geo import earth
 
 # ---------------------------------------------------------------- earth terms

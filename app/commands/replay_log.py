@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from app.commands.outputs import json_target
-from app.commands.smoothing import smooth_options, smoothing
+from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
 from app.tables import summary_table
 from tauvcore.sensors.imu import IMU_PROFILES

@@ -12,7 +12,7 @@ import sys
 import time
 from typing import Any
 
-from app.commands.smoothing import smooth_options
+from app.commands.smooth_flags import smooth_options
 from app.commands.values import UsageError, check_dask, parse_flag, replace_for_flag, resolve_config
 from app.payload import config_to_json
 from app.tables import study_table

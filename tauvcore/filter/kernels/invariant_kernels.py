@@ -10,7 +10,7 @@ import numpy as np
 
 from tauvcore.filter.kernels.common import ATT, BA, BDVL, BG, POS, SF, VEL, jit
 from tauvcore.filter.kernels.correction import add_position_into
-from tauvcore.filter.kernels.rotations import exp_so3_into
+from tauvcore.filter.kernels.rotation_kernels import exp_so3_into
 
 SERIES_ANGLE = 1e-4  # below this angle [rad] J_l uses its Taylor series (as tauvcore.filter.invariant)
 

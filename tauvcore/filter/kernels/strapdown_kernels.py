@@ -18,7 +18,7 @@ from tauvcore.filter.kernels.common import (
     radii_nav,
     transport_rate,
 )
-from tauvcore.filter.kernels.rotations import exp_so3_into, skew_entry
+from tauvcore.filter.kernels.rotation_kernels import exp_so3_into, skew_entry
 
 
 class StrapdownConstants(NamedTuple):
