@@ -7,7 +7,7 @@ fins in an "x" at the tail (45, 135, 225, 315 deg about x). Vertices are in the 
 
     python assets/make_auv_mesh.py
 
-The mesh is package data of ``app`` (shipped in the wheel, found by ``app.scene`` through
+The mesh is package data of ``app`` (shipped in the wheel, found by ``app.figures.scene`` through
 ``importlib.resources``); this generator stays out of the package.
 """
 

@@ -4,11 +4,11 @@ whole ``tauv mc`` process.
 
     python benchmarks/bench_mc_page.py [--repeats 5] [--runs 10]
 
-The page is opened at an address that sets the mission (app.links: ``traj``, ``m``, ``runs``), so
+The page is opened at an address that sets the mission (app.dashboard.links: ``traj``, ``m``, ``runs``), so
 every repeat presses Run on the same controls; the time to the first plot update is kept too.
 ``tauv mc --trajectory figure8 --runs 10 --method ins,lc,tc,nsv,elc --workers 1 --out DIR`` is
 timed as a whole command (report and files included), and the worker's own computation alone
-(app.worker.run_worker in this process, after a warm-up). The last repeat records a Chrome
+(app.dashboard.worker.run_worker in this process, after a warm-up). The last repeat records a Chrome
 trace: the 3-D view's frames (WebGL in software, SwiftShader, on a machine without a GPU) and
 the time the page's main thread waited for them. Writes docs/results/mc_page.md
 (benchmarks/fragment.py), which docs/dashboard.md includes.
@@ -94,7 +94,7 @@ def cli_time(runs: int) -> float:
 
 def worker_time(runs: int) -> float:
     """The worker's own computation of the Monte Carlo, in this process [s]."""
-    from app.worker import run_worker
+    from app.dashboard.worker import run_worker
     from tauvcore.config import Config, to_dict
 
     config = to_dict(Config().replace("trajectory", name="figure8").replace("run", methods=METHODS))

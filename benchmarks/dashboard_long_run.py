@@ -1,15 +1,15 @@
-"""Peak memory and wall time of a dashboard run of a long mission: the worker (app.worker.run_worker)
+"""Peak memory and wall time of a dashboard run of a long mission: the worker (app.dashboard.worker.run_worker)
 reduces its results to time bins as it streams (tauvcore.eval.envelope), so neither its memory
 nor what it sends the server grows with the mission.
 
     python benchmarks/dashboard_long_run.py                   # 1 h and 10 h at 150 Hz and 50 Hz
     python benchmarks/dashboard_long_run.py --hours 10 --rate 50
 
-Each row runs the dashboard's five default methods (app.control_table.DEFAULT_METHODS) on the
+Each row runs the dashboard's five default methods (app.dashboard.control_table.DEFAULT_METHODS) on the
 figure eight, one Monte Carlo run, in a process of its own, as a worker does: every message is
 pickled as the pipe to the server pickles it. It reports the peak resident memory of that process
-(``VmHWM``) and above its baseline once app.worker is imported, the run's wall time, the largest
-message (the final results) pickled, the bins, and app.budget's estimate of the worker's peak.
+(``VmHWM``) and above its baseline once app.dashboard.worker is imported, the run's wall time, the largest
+message (the final results) pickled, the bins, and app.dashboard.budget's estimate of the worker's peak.
 Writes docs/results/dashboard_long_run.md.
 """
 
@@ -27,8 +27,8 @@ import fragment  # benchmarks/, this script's own directory
 
 MEASURE = textwrap.dedent("""
     import json, pickle, sys, threading, time
-    from app import budget, worker
-    from app.control_table import DEFAULT_METHODS
+    from app.dashboard import budget, worker
+    from app.dashboard.control_table import DEFAULT_METHODS
     from tauvcore.config import Config, to_dict
 
     def status_bytes(key):

@@ -4,7 +4,7 @@
 
 Times a fixed piece of interpreter-bound work in this process (standing in for the server's
 thread that answers every tab's controls) before and during a 3000 s run of all eight methods
-in app.worker's pool (a niced worker process), and prints the ratio. The minimum of several
+in app.dashboard.worker's pool (a niced worker process), and prints the ratio. The minimum of several
 samples is kept: other processes on a shared machine add delay, never speed. On a 2-core
 machine the ratio is about 1.0-1.2; it exceeds 1 when the machine has fewer free cores than
 workers + 1.
@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from app.worker import RunPool
+from app.dashboard.worker import RunPool
 from tauvcore.config import METHODS, Config, to_dict
 
 

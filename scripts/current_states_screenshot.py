@@ -5,7 +5,7 @@
 Runs LC on a 120 s figure eight in a current of 0.2 m/s north and 0.3 m/s east, every beam
 water-tracking (``dvl.water_track = "always"``) and the current as random-walk states of the
 filter, draws the figure the dashboard's Sensors tab draws of that run
-(app.sensor_figures.source_states_figure), and photographs it in Debian's headless Chromium (the
+(app.figures.sensor_figures.source_states_figure), and photographs it in Debian's headless Chromium (the
 page holds plotly.js itself: nothing is fetched). The run is set by configuration, not through
 the dashboard: this branch's dashboard has no controls for the current the truth flies in. Look at
 the picture before committing.
@@ -23,7 +23,7 @@ from playwright.sync_api import sync_playwright
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
-from app.sensor_figures import source_states_figure  # noqa: E402
+from app.figures.sensor_figures import source_states_figure  # noqa: E402
 from tauvcore.config import from_dict  # noqa: E402
 from tauvcore.engine.mission import run_streaming  # noqa: E402
 from tests.browser.conftest import CHROMIUM_ARGS, chromium_path  # noqa: E402

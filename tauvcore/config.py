@@ -61,7 +61,7 @@ DVL). ``run.methods`` (a TOML file, the library), the CLI's ``--method`` and the
 them like the papers' methods."""
 RUN_METHODS = ALL_METHODS + REGISTERED_METHODS
 """Every method ``run.methods`` may hold: what the CLI's --method and the dashboard offer (app/
-gives each a colour: app.figures.METHOD_COLORS)."""
+gives each a colour: app.figures.shared.METHOD_COLORS)."""
 
 DEFAULT_METHODS = ("ins", "lc")
 """Methods run when none are named: the standalone INS and loosely coupled DVL (--help)."""

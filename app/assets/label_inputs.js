@@ -1,5 +1,5 @@
 (() => {
-  // ties every control's label to its input (app.page_scripts.label_inputs): viser labels an
+  // ties every control's label to its input (app.dashboard.page_scripts.label_inputs): viser labels an
   // input's row (label[for=row]), not the input, so screen readers and get_by_label find no
   // name. Each input gets its label's text as aria-label, now and whenever controls are added.
   if (window.__tauvLabelInputs) return;

@@ -1,5 +1,5 @@
 (() => {
-  // marks the controls whose values cannot run (app.control_checks, app.page_scripts.mark): a red
+  // marks the controls whose values cannot run (app.dashboard.control_checks, app.dashboard.page_scripts.mark): a red
   // outline, aria-invalid and the message as the tooltip; clears the marks of the others; with
   // __SCROLL__ the first marked control is scrolled into view. __BAD__: viser id -> message.
   const bad = __BAD__;

@@ -1,5 +1,5 @@
 (() => {
-  // a click on any plotly figure writes its time into the "Go to [s]" field (app.plot_click)
+  // a click on any plotly figure writes its time into the "Go to [s]" field (app.dashboard.plot_click)
   if (window.__tauvPlotClick) return;
   window.__tauvPlotClick = true;
   const XPATH = __XPATH__;

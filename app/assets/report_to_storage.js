@@ -1,5 +1,5 @@
 (() => {
-  // what the server asks of the page (app.page_scripts.report): the address's query, and every
+  // what the server asks of the page (app.dashboard.page_scripts.report): the address's query, and every
   // control of __IDS__ as the page shows it: checkboxes by their input's id, the other inputs
   // through their label (viser labels each input's row with label[for=id])
   const out = {};

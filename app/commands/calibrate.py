@@ -16,7 +16,7 @@ import tomli_w
 
 from app.commands.outputs import Inputs, _refuse_input, write_text_atomic
 from app.commands.values import UsageError, resolve_config
-from app.vehicle_reports import calibration_sections, calibration_table, number_to_sigma
+from app.reports.vehicle_reports import calibration_sections, calibration_table, number_to_sigma
 from tauvcore.config import Config
 from tauvcore.validation import show, show_path
 

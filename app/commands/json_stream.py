@@ -1,7 +1,7 @@
 """``tauv run --json`` and ``tauv replay --json`` written as the run goes: the document of
-app.payload.run_payload, with memory flat in the mission's length.
+app.reports.payload.run_payload, with memory flat in the mission's length.
 
-Each chunk's series (app.payload.result_series, run 0) and NIS records are appended to files of
+Each chunk's series (app.reports.payload.result_series, run 0) and NIS records are appended to files of
 raw doubles in a temporary directory beside the output; at the end the document is written from
 them, a block of values at a time, into a temporary file that is renamed over the output
 (app.commands.outputs.write_text_atomic). It parses to the same document as writing the whole
@@ -28,7 +28,7 @@ import numpy as np
 
 from app.commands.outputs import write_text_atomic
 from app.commands.values import UsageError
-from app.payload import config_to_json, consistency_to_json, nis_series, result_series
+from app.reports.payload import config_to_json, consistency_to_json, nis_series, result_series
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.running import MethodSummary, RunningSummary
@@ -48,7 +48,7 @@ class RunJsonWriter:
     config : Config
         The run's configuration: the document's ``config``, and the origin of ``est_lat_deg`` etc.
     log : dict[str, Any] or None
-        A replay's ``log`` section (app.payload.run_payload: its directory, configuration, start
+        A replay's ``log`` section (app.reports.payload.run_payload: its directory, configuration, start
         and notes), written between ``config`` and ``results``; None: a run's document, without.
     smoothed : bool
         Whether the run smooths (:meth:`add_smoothed`): each method then gets ``"smoothed"``.

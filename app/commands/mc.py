@@ -1,5 +1,5 @@
 """``tauv mc`` and ``tauv reproduce``: seeded Monte Carlo studies computed by local worker processes
-or a Dask cluster and written to an output directory all at once (app.study_output), with a
+or a Dask cluster and written to an output directory all at once (app.reports.study_output), with a
 progress bar on a terminal. A study that fails for a reason outside its input (a worker died, the
 cluster went away) is one line and exit status 1 (:class:`StudyFailedError`); nothing is written.
 """
@@ -14,8 +14,8 @@ from typing import Any
 
 from app.commands.smooth_flags import smooth_options
 from app.commands.values import UsageError, check_dask, parse_flag, replace_for_flag, resolve_config
-from app.payload import config_to_json
-from app.tables import study_table
+from app.reports.payload import config_to_json
+from app.reports.tables import study_table
 from tauvcore.config import Config
 from tauvcore.truth import PAPER_TRAJECTORIES
 from tauvcore.validation import one_line, show, show_path
@@ -45,7 +45,7 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
     output directory's lock), every check done before anything is computed or created: the
     output directory follows the rule of every writer (tauvcore.logs.writer.output_dir; an earlier
     study of the same command replaced only with ``--replace``) and must not hold the --config file."""
-    from app.study_output import OutputDirError, StudyWriter
+    from app.reports.study_output import OutputDirError, StudyWriter
 
     num_runs = _count("--runs", args.runs, 1, MAX_STUDY_RUNS, default_runs)
     workers = _count("--workers", args.workers, 1, MAX_WORKERS, 1)
@@ -72,7 +72,7 @@ def _study_setup(args: argparse.Namespace, default_runs: int) -> tuple[int, int,
 
 def _checked_out(args: argparse.Namespace) -> Any:
     """tauvcore.logs.writer.output_dir of ``--out`` for this command's kind of study, as one line."""
-    from app.study_output import MC_STUDY, REPRODUCE_STUDY
+    from app.reports.study_output import MC_STUDY, REPRODUCE_STUDY
     from tauvcore.logs.writer import output_dir
     from tauvcore.validation import OutputDirError
 
@@ -90,11 +90,11 @@ def _checked_out(args: argparse.Namespace) -> Any:
 
 
 def cmd_mc(args: argparse.Namespace) -> int:
-    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.study_output); with
+    """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.reports.study_output); with
     ``--smooth`` every run also smoothed inside its chunk, where the chunk is computed (a worker
     process, a Dask worker), and the smoothed series summed beside the filtered."""
-    from app.study_output import OutputDirError
-    from app.study_report import report_html
+    from app.reports.study_output import OutputDirError
+    from app.reports.study_report import report_html
     from tauvcore.engine.smoothing import SmoothingError
     from tauvcore.eval.study import CHUNK_RUNS, run_study
 
@@ -153,8 +153,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     """``tauv reproduce``: Tal et al. 2017 section 4.2 (three trajectories, beams 3 and 4 lost,
     INS, TC and the ELC methods; LC with four beams as the reference), every stated figure
     beside ours with a verdict."""
-    from app.study_output import OutputDirError
-    from app.study_report import report_html
+    from app.reports.study_output import OutputDirError
+    from app.reports.study_report import report_html
     from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
     from tauvcore.eval.study import (
         ERROR_SERIES,

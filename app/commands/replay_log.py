@@ -15,7 +15,7 @@ import numpy as np
 from app.commands.outputs import json_target
 from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
-from app.tables import summary_table
+from app.reports.tables import summary_table
 from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.validation import one_line, show, show_path
 

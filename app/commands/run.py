@@ -15,7 +15,7 @@ import numpy as np
 from app.commands.outputs import json_target
 from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
-from app.tables import summary_table
+from app.reports.tables import summary_table
 from tauvcore.validation import show, show_path
 
 
@@ -103,7 +103,7 @@ def _save_chunk(args: argparse.Namespace, log_writer: Any, chunk: Any) -> None:
 @contextlib.contextmanager
 def _saving_log(args: argparse.Namespace) -> Iterator[None]:
     """An OSError while writing the --save-log directory as one line naming it and the reason."""
-    from app.study_output import os_reason
+    from app.reports.study_output import os_reason
 
     try:
         yield
@@ -135,9 +135,9 @@ def _checked_save_log(args: argparse.Namespace) -> Any:
 
 def _lock_save_log(args: argparse.Namespace, target: str) -> Any:
     """The --save-log directory created if need be and locked for this run
-    (app.study_output.DirectoryLock), or one line if another tauv holds it or has meanwhile
+    (app.reports.study_output.DirectoryLock), or one line if another tauv holds it or has meanwhile
     written there."""
-    from app.study_output import DirectoryLock, OutputDirError
+    from app.reports.study_output import DirectoryLock, OutputDirError
 
     try:
         lock = DirectoryLock(target, name=args.save_log)

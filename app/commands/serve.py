@@ -1,4 +1,4 @@
-"""``tauv serve``: the browser dashboard (app.dashboard, imported only here: viser loads only when
+"""``tauv serve``: the browser dashboard (app.dashboard.server, imported only here: viser loads only when
 serving), its address, port, worker processes and the directory of logs and ROS bags it offers
 checked first.
 """
@@ -58,7 +58,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         workers = parse_flag("--workers", args.workers, int, "a whole number of worker processes")
         if not 1 <= workers <= 64:
             raise UsageError(f"--workers: must be within 1-64, got {workers}")
-    from app import budget
+    from app.dashboard import budget
 
     try:
         budget.budget_bytes()  # a bad TAUV_RUN_BUDGET_MB is refused now, not at the first Run
@@ -80,8 +80,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
                 "imu.parquet, docs/replay.md; a bag a .bag or .mcap file or a ROS 2 bag directory, "
                 f"docs/bags.md){_raw_layouts_in(args.logs)}"
             )
-    from app.dashboard import main as serve_main
-    from app.hardening import exit_now  # viser only when serving
+    from app.dashboard.hardening import exit_now  # viser only when serving
+    from app.dashboard.server import main as serve_main
 
     try:
         with viser_console_muted():  # the dashboard prints the one address to open

@@ -18,7 +18,7 @@ import tomli_w
 
 from app.commands.outputs import write_text_atomic
 from app.commands.values import UsageError, check_dask, resolve_config
-from app.vehicle_reports import report
+from app.reports.vehicle_reports import report
 from tauvcore.config import LOG_TOML_OMITTED, Config, to_dict
 from tauvcore.filter.families import family_of
 from tauvcore.validation import one_line, show, show_path

@@ -15,7 +15,7 @@ Adding a method (docs/adding_a_method.md walks through :mod:`tauvcore.aiding.cv`
 (:class:`tauvcore.aiding.fusion_method.FusionMethod`), then add ``"<name>"`` to :data:`MODULES`
 below (one line). ``run.methods`` then takes it (tauvcore.config.RUN_METHODS: a TOML file, the
 library), the CLI's ``--method`` offers it, and the dashboard shows a checkbox for it (its hint:
-the method's ``summary``) and a colour of its own (app.figures.REGISTERED_COLORS, in MODULES order).
+the method's ``summary``) and a colour of its own (app.figures.shared.REGISTERED_COLORS, in MODULES order).
 """
 
 from __future__ import annotations

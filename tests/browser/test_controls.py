@@ -2,7 +2,7 @@
 
 viser's page sends control changes through one sender throttled to a message per 50 ms that
 keeps only the latest, whatever control it is for: of three changes within 50 ms the middle one
-never reached the server (app.session_controls.ControlPanel.confirm_page_state). The configuration a run used
+never reached the server (app.dashboard.session_controls.ControlPanel.confirm_page_state). The configuration a run used
 is shown in the Results tab ("Configuration run"), which is what these tests read.
 """
 
@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import pytest
 
-from app.inputs import (
+from app.dashboard.inputs import (
     DVL_MAX_ALTITUDE,
     RPM_NOISE,
     SEABED_DEPTH,
     SEABED_FOLDER,
     SWITCH_ALTITUDE,
 )
-from app.vehicle_figures import FIN_NAMES
+from app.figures.vehicle_figures import FIN_NAMES
 from tauvcore.config import Config
 from tests.browser.conftest import ARTIFACTS
 

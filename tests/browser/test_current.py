@@ -6,8 +6,13 @@ from __future__ import annotations
 
 import pytest
 
-from app.inputs import CURRENT_FOLDER, CURRENT_SPEED, CURRENT_TOWARD, CURRENT_VARIATION
-from app.vehicle_figures import CURRENT_EAST_NAME, CURRENT_NORTH_NAME, GROUND_SPEED_NAME, WATER_SPEED_NAME
+from app.dashboard.inputs import CURRENT_FOLDER, CURRENT_SPEED, CURRENT_TOWARD, CURRENT_VARIATION
+from app.figures.vehicle_figures import (
+    CURRENT_EAST_NAME,
+    CURRENT_NORTH_NAME,
+    GROUND_SPEED_NAME,
+    WATER_SPEED_NAME,
+)
 from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.inputs import DVL_CURRENT_STATES, DVL_MAX_ALTITUDE, DVL_WATER_TRACK, SEABED_FOLDER
+from app.dashboard.inputs import DVL_CURRENT_STATES, DVL_MAX_ALTITUDE, DVL_WATER_TRACK, SEABED_FOLDER
 from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser

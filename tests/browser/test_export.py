@@ -17,7 +17,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from app.study_output import PARQUET_SERIES
+from app.reports.study_output import PARQUET_SERIES
 from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser

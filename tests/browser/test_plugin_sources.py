@@ -1,4 +1,4 @@
-"""A plug-in aiding source from the page (app.controls): the Aiding folder offers the USBL with its
+"""A plug-in aiding source from the page (app.dashboard.controls): the Aiding folder offers the USBL with its
 section's controls; ticked, a run fuses it and the Innovations tab shows its panels."""
 
 from __future__ import annotations

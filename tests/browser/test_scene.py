@@ -9,7 +9,7 @@ import re
 
 import pytest
 
-from app.scene import BEAM_COLORS, BEAM_RETURNING, BEAM_SWITCHED_OFF
+from app.figures.scene import BEAM_COLORS, BEAM_RETURNING, BEAM_SWITCHED_OFF
 from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser
@@ -63,7 +63,7 @@ def test_the_slider_stays_where_the_user_put_it_and_spans_what_was_run(new_tab) 
     """Given a long run, when the user puts the slider at 0 while it runs, then the slider stays
     there, and after Stop it spans what was run. (It snapped back under load: a value the run set
     just before the move reached the server arrived after it, and viser echoes no value to the tab
-    that moved it; app.session_playback.Playback._echo_slider sends it back once.)"""
+    that moved it; app.dashboard.session_playback.Playback._echo_slider sends it back once.)"""
     tab = new_tab()
     page = tab.page
     tab.set_methods({"LC"})

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.inputs import DVL_NOISE
+from app.dashboard.inputs import DVL_NOISE
 from tests.browser.conftest import ARTIFACTS
 
 pytestmark = pytest.mark.browser
@@ -111,7 +111,7 @@ def test_a_registered_method_runs_from_the_dashboard(new_tab) -> None:
     """Given the registered method CV (tauvcore/aiding/cv.py) ticked beside LC, when a 10 s run
     ends, then the error plots hold a CV curve with data, in CV's own colour, and the Innovations
     tab offers CV's updates as a source of their own."""
-    from app.figures import METHOD_COLORS
+    from app.figures.shared import METHOD_COLORS
     from tauvcore.aiding.registry import REGISTRY
 
     tab = new_tab()

@@ -36,7 +36,7 @@ def _prose(page: Path) -> str:
 
 
 NOT_FROM_THE_CODE = {
-    ("dashboard.md", "default `min(2, CPUs)`"): "a rule, not a value (app.worker.default_workers)",
+    ("dashboard.md", "default `min(2, CPUs)`"): "a rule, not a value (app.dashboard.worker.default_workers)",
     ("studies.md", "default 1"): "--workers: one process, the study without a pool",
 }
 """Quotes the wording check finds that are not a value to render, each with its reason."""
@@ -121,7 +121,7 @@ def test_the_hook_refuses_a_key_that_names_nothing() -> None:
         hook.render('n_f {{ default("config:partial.vb_nf") }}, "{{ default("imu:profile") }}"')
         == 'n_f 20, "table2"'
     )
-    assert hook.render('{{ default("app.budget.DEFAULT_BUDGET_BYTES", "MiB") }}') == "1536"
+    assert hook.render('{{ default("app.dashboard.budget.DEFAULT_BUDGET_BYTES", "MiB") }}') == "1536"
     assert hook.render('write {{ default("KEY") }}') == 'write {{ default("KEY") }}'  # a placeholder stays
 
 
@@ -130,7 +130,7 @@ def test_the_smoother_s_default_is_one_number_on_the_pages_the_cli_and_the_dashb
     ``tauv run --help`` says, what a new dashboard page's Smoother memory holds, and what
     docs/cli.md, docs/studies.md, docs/smoother.md and docs/dashboard.md say once built."""
     from app.cli import build_parser
-    from app.inputs import SMOOTHER_MB_DEFAULT, Controls
+    from app.dashboard.inputs import SMOOTHER_MB_DEFAULT, Controls
     from tauvcore.engine.smoothing import DEFAULT_BUDGET_MB, SmoothOptions
 
     assert SmoothOptions().budget_mb == DEFAULT_BUDGET_MB

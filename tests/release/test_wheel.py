@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 import zstandard
 
-from app.scene import auv_parts_body
+from app.figures.scene import auv_parts_body
 from tests.release.dockerfile import REPO, exec_form, healthcheck
 from tests.server.viser_client import CAMERA, connect_raw
 
@@ -107,7 +107,7 @@ def test_wheel_ships_the_mesh_and_only_the_packages(installed: Installed) -> Non
     with zipfile.ZipFile(installed.wheel) as wheel:
         names = wheel.namelist()
         assert wheel.read("app/assets/auv.obj") == (REPO / "app" / "assets" / "auv.obj").read_bytes()
-        scripts = sorted((REPO / "app" / "assets").glob("*.js"))     # the page scripts (app/page_scripts.py)
+        scripts = sorted((REPO / "app" / "assets").glob("*.js"))     # the page scripts (app/dashboard/page_scripts.py)
         assert scripts and all(wheel.read(f"app/assets/{p.name}") == p.read_bytes() for p in scripts)
     tops = {n.split("/")[0] for n in names if not n.startswith("tauv-")}
     assert tops == {"app", "tauvcore"}, tops
@@ -118,10 +118,10 @@ def test_wheel_ships_the_mesh_and_only_the_packages(installed: Installed) -> Non
 
 
 def test_fresh_venv_imports_the_wheel_not_the_source_tree(installed: Installed, tmp_path: Path) -> None:
-    code = ("import app, tauvcore, tauvcore.engine as r, app.scene as s; print(app.__file__);"
+    code = ("import app, tauvcore, tauvcore.engine as r, app.figures.scene as s; print(app.__file__);"
             " print(*tauvcore.__path__); print(r.__file__); print(s.ASSETS_DIR);"
             " print((s.ASSETS_DIR / 'auv.obj').is_file());"
-            " import app.page_scripts as ps; print('localStorage.setItem' in ps.report([], 'p-', 'k'))")
+            " import app.dashboard.page_scripts as ps; print('localStorage.setItem' in ps.report([], 'p-', 'k'))")
     out = _run([str(installed.python), "-c", code], cwd=tmp_path).stdout.split()
     app_file, tauvcore_dir, runner_file, assets_dir, found, script = out    # tauvcore: a namespace package, one portion
     for path in (app_file, tauvcore_dir, runner_file, assets_dir):

@@ -114,12 +114,12 @@ def test_the_readme_commands_give_the_readme_table(tmp_path: Path) -> None:
 
 def test_the_dashboards_replay_equals_the_clis(tmp_path: Path) -> None:
     """The dashboard's controls at their defaults with the converted segment as Source (its own
-    log.toml under them, app.inputs.config_from_controls) and the worker's replay
-    (app.worker.replay_source): LC's errors equal ``tauv replay OUT --method ins,lc``'s to 1e-9."""
+    log.toml under them, app.dashboard.inputs.config_from_controls) and the worker's replay
+    (app.dashboard.worker.replay_source): LC's errors equal ``tauv replay OUT --method ins,lc``'s to 1e-9."""
     import dataclasses
 
-    from app.inputs import Controls, config_from_controls
-    from app.worker import replay_source
+    from app.dashboard.inputs import Controls, config_from_controls
+    from app.dashboard.worker import replay_source
     from tauvcore.engine.mission import run
     from tauvcore.eval.replay import log_config
 

@@ -98,7 +98,7 @@ def test_malformed_frames_are_dropped_quietly_and_cost_no_memory(server: Server)
 def test_no_client_message_starts_the_share_tunnel(monkeypatch: pytest.MonkeyPatch) -> None:
     import viser._viser
 
-    from app import dashboard
+    from app.dashboard import server as dashboard
     from tests.server.conftest import free_port
 
     tunnels: list[tuple] = []

@@ -1,4 +1,4 @@
-"""A plug-in aiding source in the dashboard (app.controls, from tauvcore.aiding.sources): ticked
+"""A plug-in aiding source in the dashboard (app.dashboard.controls, from tauvcore.aiding.sources): ticked
 with its section's controls it aids a simulation and a replay of a log that holds its table; a bad
 value in one of its controls is one notification naming the control and the value, and the
 server goes on serving (no browser: viser's protocol)."""
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.controls import PLUGIN_FIELDS
+from app.dashboard.controls import PLUGIN_FIELDS
 from tauvcore.config import Config
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.logs.writer import simulation_tables, write_log

@@ -1,6 +1,6 @@
 """The per-run memory estimate and budget of the dashboard.
 
-The slow test runs real missions through app.worker.run_worker in a fresh process each and
+The slow test runs real missions through app.dashboard.worker.run_worker in a fresh process each and
 compares the estimate with the measured peak resident memory above the process's baseline.
 """
 
@@ -13,8 +13,8 @@ import textwrap
 
 import pytest
 
-from app import budget
-from app.budget import estimate_run, over_budget_message
+from app.dashboard import budget
+from app.dashboard.budget import estimate_run, over_budget_message
 from tauvcore.config import Config
 
 
@@ -42,7 +42,7 @@ def test_runs_past_the_budget_are_refused_with_the_size(duration_s: float, runs:
 def test_a_10_hour_mission_of_the_default_methods_fits_the_default_budget() -> None:
     """Results reduced to bins (tauvcore.eval.envelope) do not grow with the mission: the longest
     legal mission (10 h) of the dashboard's five default methods fits, at every IMU rate."""
-    from app.control_table import DEFAULT_METHODS
+    from app.dashboard.control_table import DEFAULT_METHODS
     from tauvcore.eval.envelope import SCREEN_BINS
 
     for rate_hz in (50.0, 150.0, 400.0):
@@ -64,7 +64,7 @@ def test_the_estimate_grows_with_duration_runs_methods_and_aiding() -> None:
 
 
 def test_the_live_copy_bound_is_the_workers() -> None:
-    from app import worker
+    from app.dashboard import worker
     assert budget.LIVE_EPOCHS == worker.PROGRESS_MAX_EPOCHS
 
 
@@ -87,7 +87,7 @@ def test_the_budget_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) 
 
 MEASURE = textwrap.dedent("""
     import json, pickle, sys, threading
-    from app import budget, worker
+    from app.dashboard import budget, worker
     from tauvcore.config import Config, to_dict
 
     def status_bytes(key):
@@ -149,7 +149,7 @@ def test_a_run_records_its_sensor_errors_only_where_they_fit(monkeypatch: pytest
     (the worker's results carry none), and only a run that does not fit even so is refused."""
     import threading
 
-    from app import worker
+    from app.dashboard import worker
     from tauvcore.config import to_dict
     config = mission(30.0)
     with_sensors, without = estimate_run(config, 4), estimate_run(config, 4, sensor_errors=False)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from app.cli import build_parser, main, resolve_config
-from app.tables import _cell
+from app.reports.tables import _cell
 from tauvcore.config import METHODS, Config, from_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS
@@ -607,7 +607,7 @@ def test_json_carries_the_estimate_in_ned_geodetic_velocity_and_attitude() -> No
     """Issue 10: the results carry the estimated trajectory, not only error norms. With ideal
     sensors the estimate is the truth: NED from the surface point, latitude, longitude and depth,
     NED velocity, roll, pitch, yaw."""
-    from app.payload import result_to_json
+    from app.reports.payload import result_to_json
     from tauvcore.config import Config
     from tauvcore.engine.mission import run
     from tauvcore.engine.simulation import simulate

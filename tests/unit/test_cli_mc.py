@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from app import cli
-from app.study_output import OUTPUT_FILES, PARQUET_SERIES
+from app.reports.study_output import OUTPUT_FILES, PARQUET_SERIES
 from tauvcore.eval import study
 
 SHORT = ["--trajectory", "figure8", "--method", "ins,tc", "--beams", "1,2", "--duration", "20", "--seed", "3"]
@@ -115,8 +115,7 @@ def test_an_unreachable_dask_scheduler_is_one_line(tmp_path, capsys, monkeypatch
 
 
 def test_an_interrupted_study_leaves_nothing_that_looks_like_a_result(tmp_path, monkeypatch):
-    from app import study_output
-
+    from app.reports import study_output
     calls = []
 
     def interrupted(self, trajectory, chunk):
@@ -158,8 +157,7 @@ def test_a_real_worker_killed_mid_study_is_reported(tmp_path, capsys, monkeypatc
     """The real pool: its workers are killed as soon as the first chunk is handed over."""
     import signal
 
-    from app import study_output
-
+    from app.reports import study_output
     original = study_output.StudyWriter.add_chunk
 
     def kill_workers(self, trajectory, chunk):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from app.cli import build_parser, main, resolve_config
-from app.payload import result_series
+from app.reports.payload import result_series
 from tauvcore.engine import smoothing
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS

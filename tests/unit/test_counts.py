@@ -13,10 +13,17 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.markdown_tables import counts_markdown
-from app.payload import result_to_json
-from app.study_report import counts_table_html
-from app.tables import COUNTS_TITLE, consistency_table, counts_table, cut_list, study_table, summary_table
+from app.reports.markdown_tables import counts_markdown
+from app.reports.payload import result_to_json
+from app.reports.study_report import counts_table_html
+from app.reports.tables import (
+    COUNTS_TITLE,
+    consistency_table,
+    counts_table,
+    cut_list,
+    study_table,
+    summary_table,
+)
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import UpdateRecord

@@ -12,9 +12,9 @@ import types
 import numpy as np
 import pytest
 
-from app import links
-from app.control_checks import initial_controls, problems
-from app.inputs import (
+from app.dashboard import links
+from app.dashboard.control_checks import initial_controls, problems
+from app.dashboard.inputs import (
     CURRENT_SHEAR,
     CURRENT_SPEED,
     CURRENT_TOWARD,
@@ -26,10 +26,10 @@ from app.inputs import (
     current_fields,
     current_text,
 )
-from app.scene import current_arrow_view, current_head_m, current_label, ned_to_view
-from app.session_plots import VEHICLE_NOTES, PlotTabs
-from app.session_scene import SceneView
-from app.vehicle_figures import (
+from app.dashboard.session_plots import VEHICLE_NOTES, PlotTabs
+from app.dashboard.session_scene import SceneView
+from app.figures.scene import current_arrow_view, current_head_m, current_label, ned_to_view
+from app.figures.vehicle_figures import (
     CURRENT_EAST_NAME,
     CURRENT_NORTH_NAME,
     GROUND_SPEED_NAME,
@@ -256,7 +256,7 @@ def _vehicle_tab(truth_view: dict | None, config: Config) -> types.SimpleNamespa
 def test_the_vehicle_tab_shows_the_current_for_either_truth_and_nothing_more_in_still_water(
     truth: str,
 ) -> None:
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
 
     config = Config().replace(
         "trajectory", name="figure8", duration_s=5.0, truth=truth, current_n_mps=(0.3, 0.4, 0.0)
@@ -283,7 +283,7 @@ def test_the_truth_view_carries_the_current_and_the_speed_through_the_water(
     """The straight line north in 0.5 m/s flowing north: the kinematic truth holds its 2 m/s over
     ground (1.5 through the water); the dynamic vehicle's propeller holds 2 m/s through the water
     (2.5 over ground, once its start, at 2 m/s over ground, has settled)."""
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
 
     config = Config().replace("trajectory", duration_s=60.0, truth=truth, current_n_mps=(0.5, 0.0, 0.0))
     view = truth_view(config, 15)
@@ -301,7 +301,7 @@ def test_the_truth_view_carries_the_current_and_the_speed_through_the_water(
 
 
 def test_the_truth_view_of_still_water_has_no_current() -> None:
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
 
     view = truth_view(Config().replace("trajectory", duration_s=5.0), 15)
     assert view["current_n_mps"] is None and view["vel_water_b"] is None
@@ -360,15 +360,15 @@ def test_the_arrow_follows_the_vehicle_and_is_redrawn_only_when_the_current_chan
 
 
 def test_a_scene_built_on_a_viser_server_draws_the_current_over_the_vehicle() -> None:
-    """The tab's whole 3-D scene (app.session_scene.SceneView) on a real viser scene: the arrow and
+    """The tab's whole 3-D scene (app.dashboard.session_scene.SceneView) on a real viser scene: the arrow and
     its label made with the scene, hidden before a run and in still water, shown for a run in a
     current, over the vehicle at the slider's time."""
     import socket
 
     import viser
 
-    from app.scene import CAMERA_FREE
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
+    from app.figures.scene import CAMERA_FREE
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

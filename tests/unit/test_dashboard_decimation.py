@@ -1,4 +1,4 @@
-"""A long dashboard run reduced to time bins (tauvcore.eval.envelope, app.worker): each bin's
+"""A long dashboard run reduced to time bins (tauvcore.eval.envelope, app.dashboard.worker): each bin's
 minimum and maximum are numpy's over the full-rate series, the summary is the whole series', a
 short run is sent as it was computed, and the results do not grow with the mission."""
 
@@ -11,12 +11,18 @@ import warnings
 import numpy as np
 import pytest
 
-from app import budget, truth_view, worker
-from app.error_figures import compare_figure, error_figure, nees_figure
-from app.innovation_figures import innovation_figure
-from app.markdown_tables import dvl_resets, result_counts, rms_markdown, summary_markdown, summary_rows
-from app.sensor_figures import sensor_error_figure
-from app.tables import summary_table
+from app.dashboard import budget, truth_view, worker
+from app.figures.error_figures import compare_figure, error_figure, nees_figure
+from app.figures.innovation_figures import innovation_figure
+from app.figures.sensor_figures import sensor_error_figure
+from app.reports.markdown_tables import (
+    dvl_resets,
+    result_counts,
+    rms_markdown,
+    summary_markdown,
+    summary_rows,
+)
+from app.reports.tables import summary_table
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import MethodResult
@@ -242,7 +248,7 @@ def test_a_long_run_s_results_are_bounded_by_the_bins(monkeypatch: pytest.Monkey
 
 
 def test_the_budget_accepts_a_10_hour_mission_of_the_default_methods() -> None:
-    from app.control_table import DEFAULT_METHODS
+    from app.dashboard.control_table import DEFAULT_METHODS
 
     config = Config().replace("trajectory", duration_s=36000.0).replace("run", methods=DEFAULT_METHODS)
     estimate = budget.estimate_run(config, 1)

@@ -13,14 +13,20 @@ import warnings
 import numpy as np
 import pytest
 
-from app import budget, truth_view, worker
-from app import control_checks as validation
-from app.error_figures import error_figure, nees_figure, smoothed_name
-from app.export import FinishedRun, results_json
-from app.figures import method_color
-from app.inputs import SMOOTHER, SMOOTHER_MB, InputError, config_from_controls, smoother_mb_from_controls
-from app.markdown_tables import SMOOTHED_HEADING, smoothed_markdown
-from app.session_plots import has_smoothed
+from app.dashboard import budget, truth_view, worker
+from app.dashboard import control_checks as validation
+from app.dashboard.export import FinishedRun, results_json
+from app.dashboard.inputs import (
+    SMOOTHER,
+    SMOOTHER_MB,
+    InputError,
+    config_from_controls,
+    smoother_mb_from_controls,
+)
+from app.dashboard.session_plots import has_smoothed
+from app.figures.error_figures import error_figure, nees_figure, smoothed_name
+from app.figures.shared import method_color
+from app.reports.markdown_tables import SMOOTHED_HEADING, smoothed_markdown
 from tauvcore.config import Config, to_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import MethodResult
@@ -215,7 +221,7 @@ def test_the_budget_counts_the_smoother() -> None:
 
 
 def test_the_html_report_carries_the_smoothed_table_and_curves(short) -> None:
-    from app.export import report_html
+    from app.dashboard.export import report_html
 
     config, results = short
     page = report_html(FinishedRun(config, results), max_points=200)

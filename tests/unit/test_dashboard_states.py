@@ -13,11 +13,9 @@ import types
 import numpy as np
 import pytest
 
-from app import control_checks as validation
-from app import control_table, links
-from app.error_figures import nees_blocks, nees_figure
-from app.innovation_figures import innovation_figure, innovation_sources
-from app.inputs import (
+from app.dashboard import control_checks as validation
+from app.dashboard import control_table, links
+from app.dashboard.inputs import (
     DVL_CURRENT_STATES,
     DVL_MAX_ALTITUDE,
     DVL_WATER_TRACK,
@@ -26,11 +24,13 @@ from app.inputs import (
     config_from_controls,
     config_rows,
 )
-from app.payload import result_series, result_to_json
-from app.sensor_figures import source_states_figure, state_methods, state_name_unit
-from app.session_controls import ControlPanel
-from app.session_plots import STATES_NOTE, PlotTabs
-from app.worker import thin
+from app.dashboard.session_controls import ControlPanel
+from app.dashboard.session_plots import STATES_NOTE, PlotTabs
+from app.dashboard.worker import thin
+from app.figures.error_figures import nees_blocks, nees_figure
+from app.figures.innovation_figures import innovation_figure, innovation_sources
+from app.figures.sensor_figures import source_states_figure, state_methods, state_name_unit
+from app.reports.payload import result_series, result_to_json
 from tauvcore.config import from_dict
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult

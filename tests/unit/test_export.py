@@ -1,4 +1,4 @@
-"""A dashboard run's downloads (app/export.py), against the command line's files.
+"""A dashboard run's downloads (app/dashboard/export.py), against the command line's files.
 
 The JSON must be what ``tauv run --json`` writes for the same configuration and seed, byte for
 byte; the Parquet what ``tauv mc``'s study writer makes of the same results, in the schema of a
@@ -16,10 +16,11 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from app import cli, export
-from app.export import ExportError, FinishedRun
-from app.markdown_tables import CONSISTENCY_COLUMNS, ERROR_COLUMNS, summary_markdown
-from app.study_output import PARQUET_SERIES, StudyWriter
+from app import cli
+from app.dashboard import export
+from app.dashboard.export import ExportError, FinishedRun
+from app.reports.markdown_tables import CONSISTENCY_COLUMNS, ERROR_COLUMNS, summary_markdown
+from app.reports.study_output import PARQUET_SERIES, StudyWriter
 from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.study import ChunkSeries, series_of
 
@@ -51,7 +52,7 @@ def test_json_is_what_tauv_run_writes_byte_for_byte(finished, cli_json) -> None:
 
 
 def test_json_of_a_monte_carlo_run_keeps_the_schema_and_says_how_many_runs(finished) -> None:
-    config = finished.config.replace("initial_error", mode="random")      # as app.worker runs Runs > 1
+    config = finished.config.replace("initial_error", mode="random")      # as app.dashboard.worker runs Runs > 1
     run = export.finished_run(finished.config, run_streaming(config, np.random.default_rng(3), 2))
     assert run.config == config
     data = json.loads(export.results_json(run))
@@ -164,9 +165,9 @@ def test_a_replayed_log_s_downloads_name_it_and_what_configured_it(finished) -> 
 
 
 def test_the_dashboard_s_download_button_notifies_instead_of_raising(finished) -> None:
-    """app.session_runs.RunTabs.download: no run, or a failure while sending, is a notification in
+    """app.dashboard.session_runs.RunTabs.download: no run, or a failure while sending, is a notification in
     the tab (red, naming why), never an exception in viser's callback thread."""
-    from app.session_runs import RunTabs
+    from app.dashboard.session_runs import RunTabs
 
     class Client:
         def __init__(self, fail: bool) -> None:

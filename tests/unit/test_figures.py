@@ -1,5 +1,5 @@
-"""Plotly figures of run results (app/figures.py and the figure modules on it: app/error_figures.py,
-app/innovation_figures.py, app/vehicle_figures.py) and the Results tab's tables (app/markdown_tables.py),
+"""Plotly figures of run results (app/figures/shared.py and the figure modules on it: app/figures/error_figures.py,
+app/figures/innovation_figures.py, app/figures/vehicle_figures.py) and the Results tab's tables (app/reports/markdown_tables.py),
 checked against the MethodResult they draw.
 
 Every figure is a pure function of the results, so each test runs the real pipeline once
@@ -16,29 +16,18 @@ import re
 import numpy as np
 import pytest
 
-from app.error_figures import (
+from app.figures.error_figures import (
     LOG_SPAN,
     elc_choice_figure,
     error_figure,
     nees_figure,
     overlay_figure,
 )
-from app.figures import (
+from app.figures.shared import (
     METHOD_COLORS,
     TRUTH_COLOR,
 )
-from app.markdown_tables import (
-    CONSISTENCY_COLUMNS,
-    CONSISTENCY_HEADING,
-    COUNTS_HEADING,
-    ERROR_COLUMNS,
-    RMS_COLUMNS,
-    RMS_HEADING,
-    RUNS_COLUMNS,
-    summary_markdown,
-    summary_rows,
-)
-from app.vehicle_figures import (
+from app.figures.vehicle_figures import (
     ALTITUDE_NAME,
     DVL_LIMIT_NAME,
     FIN_COLORS,
@@ -51,6 +40,17 @@ from app.vehicle_figures import (
     altitude_figure,
     intervals_above,
     vkf_figure,
+)
+from app.reports.markdown_tables import (
+    CONSISTENCY_COLUMNS,
+    CONSISTENCY_HEADING,
+    COUNTS_HEADING,
+    ERROR_COLUMNS,
+    RMS_COLUMNS,
+    RMS_HEADING,
+    RUNS_COLUMNS,
+    summary_markdown,
+    summary_rows,
 )
 from tauvcore.aiding.dvl_extended import MODE_COAST, MODE_LC, MODE_PARTIAL
 from tauvcore.aiding.elc_select import CANDIDATES
@@ -690,12 +690,12 @@ def test_fast_elc_figure_equals_plotly_validated_construction(elc_two_beams, elc
 
 
 def test_the_study_report_figure_is_plotly_s_validated_figure() -> None:
-    """app.study_report builds its traces as dicts on make_subplots' grid without validation; the
+    """app.reports.study_report builds its traces as dicts on make_subplots' grid without validation; the
     result must be the figure plotly builds and validates (traces on their axes, log axes, NaN
     gaps as None)."""
     import json
 
-    from app.study_report import trajectory_figure
+    from app.reports.study_report import trajectory_figure
 
     rng = np.random.default_rng(0)
     T = 40
@@ -717,7 +717,7 @@ def test_the_study_report_figure_is_plotly_s_validated_figure() -> None:
 @pytest.fixture(scope="module")
 def dynamic_view() -> dict[str, np.ndarray]:
     """The worker's truth view of a short dynamic figure eight (fins and propeller at 10 Hz)."""
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
     config = Config().replace("trajectory", name="figure8", duration_s=5.0, truth="dynamic")
     return truth_view(config, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
 
@@ -783,7 +783,7 @@ def test_fast_actuator_figure_equals_plotly_validated_construction(dynamic_view)
 @pytest.fixture(scope="module")
 def longrange_view() -> dict[str, np.ndarray]:
     """The worker's truth view of the paper's long-range mission (24 min, 10 Hz)."""
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
     from tauvcore.config import from_dict, merge, trajectory_preset
     config = from_dict(merge(trajectory_preset("longrange"), {"trajectory": {"name": "longrange"}}))
     return truth_view(config, int(round(config.imu.rate_hz / config.filter.output_rate_hz)))
@@ -1036,24 +1036,24 @@ def test_fast_figures_of_yoo_s_methods_equal_plotly_validated_construction(yoo):
 
 
 # ------------------------------------------------------------------------------------------ workbench
-from app.error_figures import (  # noqa: E402
+from app.figures.error_figures import (  # noqa: E402
     RUN_DASHES,
     compare_figure,
     components_figure,
     error_components,
 )
-from app.figures import (  # noqa: E402
-    CURSOR_NAME,
-    cursor_shape,
-    with_cursor,
-)
-from app.innovation_figures import (  # noqa: E402
+from app.figures.innovation_figures import (  # noqa: E402
     BAND_SUFFIX,
     REJECTED_SUFFIX,
     innovation_figure,
     innovation_sources,
 )
-from app.markdown_tables import (  # noqa: E402
+from app.figures.shared import (  # noqa: E402
+    CURSOR_NAME,
+    cursor_shape,
+    with_cursor,
+)
+from app.reports.markdown_tables import (  # noqa: E402
     compare_markdown,
     config_diff_markdown,
     config_differences,

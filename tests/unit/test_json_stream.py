@@ -10,8 +10,8 @@ import pytest
 
 from app.commands.json_stream import RunJsonWriter
 from app.commands.outputs import write_json_atomic
-from app.payload import run_payload
-from app.tables import summary_table
+from app.reports.payload import run_payload
+from app.reports.tables import summary_table
 from tauvcore.config import Config
 from tauvcore.engine.mission import run_streaming
 from tauvcore.eval.running import RunningSummary, summarise
@@ -129,7 +129,7 @@ def test_a_last_chunk_of_one_output_epoch_is_reduced_like_the_others() -> None:
 
 def test_the_streamed_smoothed_json_is_the_whole_run_s_document(config, tmp_path):
     """``--smooth``: the smoothed chunks spooled after the filtered ones (their tape spilled to
-    files) write the document of the whole smoothed results (app.payload.run_payload): each
+    files) write the document of the whole smoothed results (app.reports.payload.run_payload): each
     method's "smoothed" the same series and consistency (Yoo 2014's too); the spool and the
     tape's files gone."""
     from app.commands.json_stream import RunReduction

@@ -127,7 +127,7 @@ def test_the_smoothed_results_are_judged_as_the_filter_s(logs: tuple[Path, Path]
 def test_the_nees_plot_joins_a_slow_reference_s_epochs(logs: tuple[Path, Path]) -> None:
     """The dashboard's NEES figure of the 1 Hz replay draws a line through its 61 known epochs
     (plotly's connectgaps), not 601 points of which 540 are gaps."""
-    from app.error_figures import nees_figure
+    from app.figures.error_figures import nees_figure
 
     _, sparse_dir = logs
     results = _replayed(sparse_dir)

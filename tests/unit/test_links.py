@@ -1,4 +1,4 @@
-"""The dashboard's controls in the page's address (app/links.py).
+"""The dashboard's controls in the page's address (app/dashboard/links.py).
 
 Every control round-trips through the query; the query survives viser's own rewrite of it (the
 page's client decodes it and writes it back unescaped on connect); a bad key or value is refused
@@ -13,9 +13,9 @@ from urllib.parse import parse_qsl, quote
 
 import pytest
 
-from app import links
-from app.controls import PLUGIN_SOURCES
-from app.inputs import SIMULATION, Controls, config_from_controls
+from app.dashboard import links
+from app.dashboard.controls import PLUGIN_SOURCES
+from app.dashboard.inputs import SIMULATION, Controls, config_from_controls
 from tauvcore.config import RUN_METHODS
 
 DEFAULTS = Controls(trajectory="straight", duration="250", methods=("ins", "lc", "tc", "nsv", "elc"),
@@ -159,12 +159,12 @@ def test_methods_are_written_in_the_page_s_order() -> None:
 
 
 class _Tab:
-    """The controls of app.session_controls.ControlPanel as plain values, with its link methods."""
+    """The controls of app.dashboard.session_controls.ControlPanel as plain values, with its link methods."""
 
     def __init__(self) -> None:
         from types import SimpleNamespace
 
-        from app.session_controls import ControlPanel
+        from app.dashboard.session_controls import ControlPanel
 
         def handle(value: object) -> SimpleNamespace:
             return SimpleNamespace(value=value)

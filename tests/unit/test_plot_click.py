@@ -1,4 +1,4 @@
-"""The "Go to [s]" field that a plot click writes (app.plot_click): what it accepts, what it
+"""The "Go to [s]" field that a plot click writes (app.dashboard.plot_click): what it accepts, what it
 refuses with the field and the value named, and the page script's locator."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import json
 
 import pytest
 
-from app import plot_click
-from app.plot_click import GO_TO_LABEL, parse_go_to_s
+from app.dashboard import plot_click
+from app.dashboard.plot_click import GO_TO_LABEL, parse_go_to_s
 
 
 @pytest.mark.parametrize(

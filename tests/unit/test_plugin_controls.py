@@ -1,4 +1,4 @@
-"""The plug-in aiding sources' controls (app.controls), driven by the registry: each field of a
+"""The plug-in aiding sources' controls (app.dashboard.controls), driven by the registry: each field of a
 source's section is a control with its Setting's label, unit and range; the controls read into
 ``Config.sources`` and ``run.aiding`` strictly; the address carries them and reads them back."""
 
@@ -8,10 +8,10 @@ import dataclasses
 
 import pytest
 
-from app import links
-from app.budget import estimate_run
-from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS, PLUGIN_SOURCES
-from app.inputs import InputError, config_from_controls, config_markdown
+from app.dashboard import links
+from app.dashboard.budget import estimate_run
+from app.dashboard.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS, PLUGIN_SOURCES
+from app.dashboard.inputs import InputError, config_from_controls, config_markdown
 from tauvcore.aiding.source import settings
 from tauvcore.aiding.sources import FUSED, SOURCES
 from tauvcore.config import Config
@@ -27,7 +27,7 @@ def with_fields(**typed: str | bool) -> tuple[tuple[str, str | bool], ...]:
 
 def test_every_field_of_every_plug_in_has_a_control_with_its_default() -> None:
     assert [s.name for s in PLUGIN_SOURCES] == list(FUSED) == ["depth", "mag", "usbl"]
-    # data for Yoo's methods, and the DVL's beams (its controls are the mission's: app/control_table.py)
+    # data for Yoo's methods, and the DVL's beams (its controls are the mission's: app/dashboard/control_table.py)
     assert set(SOURCES) - set(FUSED) == {"dvl", "echo", "rpm"}
     for source in FUSED.values():
         keys = [f"{source.section_name}.{name}" for name, _, _ in settings(source.config_type)]

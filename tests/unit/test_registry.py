@@ -43,9 +43,9 @@ def test_the_cli_and_the_dashboard_offer_a_registered_method(capsys, tmp_path) -
     page's address take it, and it has a colour of its own."""
     import json
 
-    from app import inputs, links
     from app.cli import main
-    from app.figures import METHOD_COLORS, REGISTERED_COLORS
+    from app.dashboard import inputs, links
+    from app.figures.shared import METHOD_COLORS, REGISTERED_COLORS
 
     out_json = tmp_path / "cv.json"
     assert main(["run", "--method", "lc,cv", "--duration", "20", "--json", str(out_json)]) == 0

@@ -88,10 +88,10 @@ def test_a_bad_reference_sigma_in_log_toml_is_one_line(
 
 
 def test_the_dashboard_labels_the_replay_with_its_reference(tables: dict, tmp_path: Path) -> None:
-    """The worker's description of a replayed log (app.worker.replay_source) carries the line, and
-    the Results tab's configuration table (app.inputs.config_rows) shows it as "Reference"."""
-    from app.inputs import config_rows
-    from app.worker import replay_source
+    """The worker's description of a replayed log (app.dashboard.worker.replay_source) carries the line, and
+    the Results tab's configuration table (app.dashboard.inputs.config_rows) shows it as "Reference"."""
+    from app.dashboard.inputs import config_rows
+    from app.dashboard.worker import replay_source
     from tauvcore.config import from_dict
     from tauvcore.eval.replay import log_config
 

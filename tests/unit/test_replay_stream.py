@@ -16,8 +16,8 @@ from app import cli
 from app.commands.outputs import write_json_atomic
 from app.commands.replay_log import replay_layers
 from app.commands.values import resolve_config
-from app.payload import run_payload
-from app.tables import summary_table
+from app.reports.payload import run_payload
+from app.reports.tables import summary_table
 from tauvcore.config import Config
 from tauvcore.engine import mission
 from tauvcore.engine.simulation import SimChunk, simulate

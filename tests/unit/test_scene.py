@@ -1,4 +1,4 @@
-"""Geometry of the 3-D view (app/scene.py): NED -> view frame, mesh placement, the AUV mesh,
+"""Geometry of the 3-D view (app/figures/scene.py): NED -> view frame, mesh placement, the AUV mesh,
 DVL beam segments to the seabed (flat, sloping, the longrange trenches), the seabed's mesh and the
 beam states, by known answers."""
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import viser.transforms as vtf
 
-from app.scene import (
+from app.figures.scene import (
     ASSETS_DIR,
     BEAM_COLORS,
     BEAM_OUTAGE,
@@ -200,7 +200,7 @@ def test_auv_asset_is_what_the_generator_writes(auv_mesh):
     spec.loader.exec_module(module)
     verts_gen, faces_gen = module.build()
     verts, faces = auv_mesh
-    assert module.OUTPUT == (Path(ASSETS_DIR) / "auv.obj").resolve()    # the file app.scene reads
+    assert module.OUTPUT == (Path(ASSETS_DIR) / "auv.obj").resolve()    # the file app.figures.scene reads
     assert module.LENGTH_M == HULL_LENGTH_M and module.RADIUS_M == HULL_RADIUS_M
     np.testing.assert_allclose(verts, verts_gen, rtol=0, atol=OBJ_DECIMALS_ATOL)
     np.testing.assert_array_equal(faces, faces_gen)
@@ -465,7 +465,7 @@ def test_beam_states_per_beam():
 
 
 def test_every_beam_state_has_a_distinct_colour():
-    from app.scene import BEAM_WATER
+    from app.figures.scene import BEAM_WATER
     states = {BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_RETURNING, BEAM_WATER}
     assert len(states) == 5
     assert set(BEAM_COLORS) == states
@@ -484,7 +484,7 @@ def test_a_water_tracking_beam_is_drawn_as_such_and_not_as_lost(mode: str, botto
     """Beams 1, 2 in range, 3 beyond it, 4 in an outage: by ``dvl.water_track`` the beams beyond
     range water-track (every scheduled beam with "always", which bottom-tracks none), and are
     drawn "water-track", not "lost"; a beam in an outage stays lost."""
-    from app.scene import BEAM_WATER, water_tracking
+    from app.figures.scene import BEAM_WATER, water_tracking
     scheduled = np.array([True, True, True, False])
     in_range = np.array([True, True, False, True])
     b, w = water_tracking(mode, scheduled, in_range)
@@ -498,7 +498,7 @@ def test_a_water_tracking_beam_is_drawn_as_such_and_not_as_lost(mode: str, botto
 def test_a_water_tracking_beam_ends_at_its_layer() -> None:
     """Level, each beam (20 deg from the vertical in the default Janus) reaches the layer 10 m
     below the head after 10 / cos(20 deg); rolled 90 deg, a beam pointing up never does."""
-    from app.scene import water_ranges_m
+    from app.figures.scene import water_ranges_m
     from tauvcore.geo.rotations import exp_so3
     from tauvcore.sensors.dvl import DvlConfig
     A = DvlConfig().A_b
@@ -543,8 +543,8 @@ def test_beam_colours_cannot_be_taken_for_a_method_s_or_the_truth_s():
     """Every beam colour is at least BEAM_MIN_DELTA_E (CIE76) from every method's colour and the
     truth's, and from every other beam colour (before: lost 20 from TC's orange, rejected 9 from
     NSV's red, returning 17 from VB's green, switched off 12 from INS's grey)."""
-    from app.figures import METHOD_COLORS, TRUTH_COLOR
-    from app.scene import BEAM_MIN_DELTA_E
+    from app.figures.scene import BEAM_MIN_DELTA_E
+    from app.figures.shared import METHOD_COLORS, TRUTH_COLOR
 
     def rgb(h: str) -> tuple[int, ...]:
         return tuple(int(h[i:i + 2], 16) for i in (1, 3, 5))
@@ -563,7 +563,7 @@ def test_beam_colours_cannot_be_taken_for_a_method_s_or_the_truth_s():
 def test_body_frame_beams_placed_by_the_hull_s_pose_are_the_ned_beams():
     """A beam drawn in the body frame under the hull's node (view pose ``M C_nb``, position
     ``M p_n``) lands where beam_segments_n draws it in NED: hull and beams cannot come apart."""
-    from app.scene import beam_segments_b
+    from app.figures.scene import beam_segments_b
     rng_m = np.array([40.0, np.inf, 55.0, 61.0])
     for C_nb in _random_rotations(5, seed=21):
         pos_n = np.array([120.0, -35.0, 22.0])
@@ -574,14 +574,14 @@ def test_body_frame_beams_placed_by_the_hull_s_pose_are_the_ned_beams():
 
 
 def test_beam_numbers_stand_on_their_beams():
-    from app.scene import BEAM_LABEL_DISTANCE_M, beam_label_positions_b
+    from app.figures.scene import BEAM_LABEL_DISTANCE_M, beam_label_positions_b
     at = beam_label_positions_b(L_DVL_B, A_B)
     for k in range(4):
         np.testing.assert_allclose(at[k] - L_DVL_B, A_B[k] * BEAM_LABEL_DISTANCE_M, atol=1e-12)
 
 
 def test_interpolated_pose_is_between_the_samples():
-    from app.scene import interpolate_pose
+    from app.figures.scene import interpolate_pose
     t = np.array([0.0, 0.1, 0.2])
     pos = np.array([[0.0, 0, 20], [1.0, 0, 20], [2.0, 0, 20]])
     C = np.stack([C_nb_from_euler(np.array([0.0, 0.0, h * DEG])) for h in (0.0, 10.0, 20.0)])
@@ -599,14 +599,14 @@ def test_interpolated_pose_is_between_the_samples():
 @pytest.mark.parametrize("x, nice", [(1.0, 1.0), (3.7, 2.0), (7.9, 5.0), (240.0, 200.0), (1000.0, 1000.0),
                                      (0.049, 0.02)])
 def test_nice_length(x, nice):
-    from app.scene import nice_length
+    from app.figures.scene import nice_length
     assert nice_length(x) == pytest.approx(nice)
 
 
 def test_the_seabed_covers_a_long_straight_run_with_its_margin():
     """A 1,200 s straight run (1.8 km north) left the fixed 600 m seabed: now the grid covers the
     track plus SEABED_MARGIN_M on every side, and the scale bar is a fifth of it, rounded."""
-    from app.scene import mission_frame
+    from app.figures.scene import mission_frame
     track = np.column_stack([np.linspace(0.0, 1800.0, 50), np.linspace(0.0, 30.0, 50), np.full(50, 20.0)])
     frame = mission_frame(track, 60.0)
     view = ned_to_view(track)
@@ -621,7 +621,7 @@ def test_the_seabed_covers_a_long_straight_run_with_its_margin():
 
 
 def test_compass_points_north_and_east_and_the_scale_bar_is_its_length():
-    from app.scene import compass_view, scale_bar_view
+    from app.figures.scene import compass_view, scale_bar_view
     corner = np.array([10.0, -20.0, 0.0])
     arrows, labels = compass_view(corner, 50.0)
     np.testing.assert_allclose(arrows[:, 0], [corner, corner])
@@ -640,7 +640,7 @@ def test_chase_views_see_the_hull_lengthwise_with_the_bow_to_the_right(heading_d
     """From behind, the hull pointed into the screen (a vertical stick). The side view looks at it
     nearly square to its axis and the view from above nearly straight down; in both the bow is to
     the screen's right (scene up +z)."""
-    from app.scene import CAMERA_ABOVE, CAMERA_SIDE, chase_camera_view
+    from app.figures.scene import CAMERA_ABOVE, CAMERA_SIDE, chase_camera_view
     C_nb = C_nb_from_euler(np.array([0.0, 5 * DEG, heading_deg * DEG]))
     pos = np.array([3.0, 4.0, -20.0])
     bow = M_VIEW_FROM_NED @ C_nb[:, 0]
@@ -660,7 +660,7 @@ def test_chase_views_see_the_hull_lengthwise_with_the_bow_to_the_right(heading_d
 def test_fit_mission_frames_every_corner_of_the_mission(aspect):
     """Every corner of the mission's box lies inside the view's frustum, horizontally and
     vertically, also in a view narrower than it is tall (the 3-D view beside the workbench)."""
-    from app.scene import fit_camera_view
+    from app.figures.scene import fit_camera_view
     lo, hi = np.array([-300.0, 0.0, -110.0]), np.array([50.0, 7000.0, 0.0])
     fov_v = np.radians(50.0)
     cam, look = fit_camera_view(lo, hi, fov_v, aspect)
@@ -680,7 +680,7 @@ def test_fit_mission_frames_every_corner_of_the_mission(aspect):
 def test_fit_mission_in_a_narrow_view_stands_back_by_the_horizontal_field():
     """The former fit used the vertical field alone: in a view half as wide as tall the mission's
     ends fell outside the sides. The distance grows as tan(fov_v / 2) / tan(fov_h / 2) says."""
-    from app.scene import fit_camera_view
+    from app.figures.scene import fit_camera_view
     lo, hi = np.array([-300.0, 0.0, -110.0]), np.array([50.0, 7000.0, 0.0])
     fov_v = np.radians(50.0)
     wide, look = fit_camera_view(lo, hi, fov_v, 1.5)
@@ -693,7 +693,7 @@ def test_fit_mission_in_a_narrow_view_stands_back_by_the_horizontal_field():
 # ------------------------------------------------------------------------------------------ playback
 
 def test_playback_speeds_span_1x_to_100x():
-    from app.scene import PLAYBACK_DEFAULT_SPEED, PLAYBACK_SPEEDS, playback_speed
+    from app.figures.scene import PLAYBACK_DEFAULT_SPEED, PLAYBACK_SPEEDS, playback_speed
     speeds = [playback_speed(s) for s in PLAYBACK_SPEEDS]
     assert speeds[0] == 1.0 and speeds[-1] == 100.0 and speeds == sorted(speeds)
     assert PLAYBACK_DEFAULT_SPEED in PLAYBACK_SPEEDS
@@ -702,7 +702,7 @@ def test_playback_speeds_span_1x_to_100x():
 
 
 def test_playback_time_follows_the_wall_clock_and_stops_at_the_end():
-    from app.scene import playback_time
+    from app.figures.scene import playback_time
     assert playback_time(10.0, 20.0, 0.5, 250.0) == 20.0
     assert playback_time(10.0, 1.0, 2.0, 250.0) == 12.0
     assert playback_time(10.0, 100.0, 10.0, 250.0) == 250.0

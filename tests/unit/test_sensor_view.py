@@ -1,4 +1,4 @@
-"""The Sensors tab's raw data (app.sensor_view) and its figures (app.sensor_figures): the IMU and
+"""The Sensors tab's raw data (app.figures.sensor_view) and its figures (app.figures.sensor_figures): the IMU and
 every source of one run as the engine generated them, gathered chunk by chunk the same as whole,
 dead beams as gaps with their state, and the figures drawing exactly those numbers."""
 
@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from app.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF
-from app.sensor_figures import raw_sensor_figure, sensor_error_figure
-from app.sensor_view import (
+from app.figures.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF
+from app.figures.sensor_figures import raw_sensor_figure, sensor_error_figure
+from app.figures.sensor_view import (
     BEAM_STATE_CODES,
     MAX_SOURCE_EPOCHS,
     SensorViewBuilder,
@@ -112,7 +112,7 @@ def test_beam_state_codes_known_answers() -> None:
         [BEAM_RETURNING, BEAM_OUTAGE, BEAM_SWITCHED_OFF, BEAM_RETURNING],
         [BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE],
     ]
-    from app.scene import BEAM_WATER
+    from app.figures.scene import BEAM_WATER
     water = np.array([[True, True, True, False], [True, False, False, False]])
     names = [[BEAM_STATE_CODES[c] for c in row] for row in beam_state_codes(mask, returned, water)]
     assert names == [
@@ -127,7 +127,7 @@ def test_a_water_tracking_beam_is_water_track_not_lost_or_returning(mode: str) -
     columns say so; ``both``: bottom-track in range beside water-track columns of its own, with
     the DVL's range cut to 30 m so that no beam finds the seabed at 40 m): the beam panel names
     the pings' beams water-track."""
-    from app.scene import BEAM_WATER
+    from app.figures.scene import BEAM_WATER
     config = _config(water_track=mode, max_altitude_m=30.0, water_layer_m=10.0)
     view, _ = _streamed(config, chunk_s=5.0, runs=1, run=0)
     states = np.asarray(BEAM_STATE_CODES)[view["sources"]["dvl"]["beam_state"]]

@@ -4,7 +4,7 @@ The run's message thread redraws the plots, trajectories and vehicle while the t
 callback (or playback) moves the vehicle and re-adds the beams; interleaved, one thread
 assigned to a beam the other had just replaced ("Cannot assign to 'visible' on a removed
 LineSegmentsHandle", seen in the 8-client load test). Every drawing method of a Session's rooms
-(app.session_scene, app.session_plots, app.session_runs) takes the tab's one draw lock.
+(app.dashboard.session_scene, app.dashboard.session_plots, app.dashboard.session_runs) takes the tab's one draw lock.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import types
 import numpy as np
 import pytest
 
-from app.dashboard import Session
-from app.session_playback import Playback
-from app.session_plots import PlotTabs
-from app.session_runs import RunTabs
-from app.session_scene import SceneView
+from app.dashboard.server import Session
+from app.dashboard.session_playback import Playback
+from app.dashboard.session_plots import PlotTabs
+from app.dashboard.session_runs import RunTabs
+from app.dashboard.session_scene import SceneView
 from tauvcore.config import Config
 
 
@@ -85,7 +85,7 @@ def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(mes
     session.notify = lambda t, body, error=False: seen.append(
         (t, session.handle is None, session.run_button.disabled, session.stop_button.disabled))
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("app.dashboard.summary_line", lambda results: "")
+        mp.setattr("app.dashboard.server.summary_line", lambda results: "")
         # a "done" message's results name their last epoch
         if messages[0][0] == "done":
             result = types.SimpleNamespace(t_s=np.array([0.0, 20.0]))
@@ -97,8 +97,8 @@ def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(mes
 def test_the_vkf_figure_shows_for_a_vkf_run_and_a_note_otherwise() -> None:
     """The Seabed tab: the VKF's figure once its results arrive (with the run's progress); before
     that a note that they will, and without VKF a note how to get it."""
-    from app.dashboard import VKF_NOTES
-    from app.vehicle_figures import VKF_SF_NAME
+    from app.dashboard.server import VKF_NOTES
+    from app.figures.vehicle_figures import VKF_SF_NAME
     session = _idle_session()
     with_vkf = Config().replace("run", methods=("lc", "vkf"))
     PlotTabs.draw_vkf_plot(session, None, with_vkf)
@@ -173,7 +173,7 @@ def test_after_a_stop_the_slider_spans_what_was_run() -> None:
     session.run_log = session.run_source = None
     result = types.SimpleNamespace(t_s=np.array([0.0, 41.5]))
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("app.dashboard.export.finished_run", lambda *args: None)
+        mp.setattr("app.dashboard.server.export.finished_run", lambda *args: None)
         Session._keep_finished(session, {"lc": result}, Config(), True)
     assert session.time_slider.max == 41.5 and session.time_slider.value == 30.0
 
@@ -187,7 +187,7 @@ def test_beams_are_updated_in_place_not_re_added() -> None:
     """Beams vanished in 4 of 14 frames during a run: each was removed and re-added at every time
     step. Now one node per beam and state is made once; later drawings move points and switch
     which node shows, under the hull's node."""
-    from app.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF
+    from app.figures.scene import BEAM_OUTAGE, BEAM_RETURNING, BEAM_SWITCHED_OFF
     added = []
 
     def add(name, points, colors, **kwargs):
@@ -210,7 +210,7 @@ def test_beams_are_updated_in_place_not_re_added() -> None:
 
 
 def test_seconds_left_is_the_run_s_own_pace() -> None:
-    from app.dashboard import seconds_left
+    from app.dashboard.server import seconds_left
     assert seconds_left(50.0, 250.0, 2.0) == pytest.approx(8.0)     # a fifth in 2 s: four fifths in 8 s
     assert seconds_left(250.0, 250.0, 3.0) == 0.0
     assert seconds_left(0.0, 250.0, 1.0) == float("inf")           # no progress yet: no estimate
@@ -241,7 +241,7 @@ def test_live_results_are_not_drawn_when_the_final_ones_are_due_first(second_t_s
         _keep_finished=lambda results, config, stopped: None, notify=lambda *args, **kwargs: None)
     clock = iter(range(0, 2000, 2))
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("app.dashboard.summary_line", lambda results: "")
-        mp.setattr("app.dashboard.time.monotonic", lambda: float(next(clock)))
+        mp.setattr("app.dashboard.server.summary_line", lambda results: "")
+        mp.setattr("app.dashboard.server.time.monotonic", lambda: float(next(clock)))
         Session._pump(session, handle, Config().replace("trajectory", duration_s=100.0))
     assert shown == draws

@@ -12,8 +12,8 @@ import dataclasses
 
 import pytest
 
-from app.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_SOURCES
-from app.inputs import (
+from app.dashboard.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_SOURCES
+from app.dashboard.inputs import (
     ACCEL_BIAS,
     ACCEL_NOISE,
     DURATION,
@@ -264,7 +264,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
     """What ControlPanel.controls and ControlPanel._confirmed_inputs read of a tab, each control a _Spy."""
     from types import SimpleNamespace
 
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     count = iter(range(1000))
 
     def spy(value: object) -> _Spy:
@@ -289,7 +289,7 @@ def _spy_tab(read_ids: set[str], truth: str = "kinematic", source: str = "simula
 def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
     """ControlPanel.controls() reads exactly the controls ControlPanel.confirm_page_state asks the page for
     (n_f, epsilon and Truth included): a control missing from the confirmation could lose a change."""
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     read_ids: set[str] = set()
     tab = _spy_tab(read_ids)
     controls = ControlPanel.controls(tab)
@@ -309,7 +309,7 @@ def test_every_control_the_run_reads_is_confirmed_with_the_page() -> None:
 def test_the_truth_dropdown_reaches_the_configuration(truth: str) -> None:
     """The tab's Truth control, read by ControlPanel.controls, is the run's trajectory.truth and is
     shown in the "Configuration run" table."""
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     config, _ = config_from_controls(ControlPanel.controls(_spy_tab(set(), truth=truth)))
     assert config.trajectory.truth == truth and config.trajectory.name == "figure8"
     assert f"| {TRUTH} | {truth} |" in config_markdown(config, 1)
@@ -317,7 +317,7 @@ def test_the_truth_dropdown_reaches_the_configuration(truth: str) -> None:
 
 def test_a_log_ignores_the_truth_control() -> None:
     """A log replays its own reference: Truth (disabled on the page for a log) does not reach it."""
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     config, _ = config_from_controls(ControlPanel.controls(_spy_tab(set(), truth="dynamic", source="dive")))
     assert config.trajectory.truth == "kinematic"
 
@@ -352,7 +352,7 @@ def answer(values: dict) -> str:
 def test_the_page_values_replace_what_the_server_heard(handles) -> None:
     """The lost change: the page shows PLCF ticked, the server never heard it; at Run the page's
     answer wins."""
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     by_id, made = handles
     ids = {name: h._impl.uuid for name, h in made.items()}
     changed = ControlPanel.apply_page_values(by_id, answer({ids["box"]: True, ids["text"]: "1e3", ids["choice"]: "figure8"}))
@@ -364,13 +364,13 @@ def test_the_page_values_replace_what_the_server_heard(handles) -> None:
 
 @pytest.mark.parametrize("bad", ["not json", "[]", '{"values": 3}'])
 def test_an_unreadable_page_answer_is_refused(handles, bad: str) -> None:
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     with pytest.raises(InputError, match="cannot read; reload the page"):
         ControlPanel.apply_page_values(handles[0], bad)
 
 
 def test_a_page_value_a_control_cannot_hold_is_refused(handles) -> None:
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     by_id, made = handles
     ids = {name: h._impl.uuid for name, h in made.items()}
     with pytest.raises(InputError, match=r"^PLCF: the page shows 'yes'"):
@@ -455,7 +455,7 @@ def test_both_papers_methods_reach_the_configuration_in_their_order() -> None:
 
 def test_the_rpm_fallback_checkbox_reaches_the_configuration() -> None:
     """From the tab's controls (ControlPanel.controls) to run.rpm_fallback and the "Configuration run" table."""
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     tab = _spy_tab(set(), methods=("ins", "lc", "ins-dvl", "vkf"), rpm_fallback=True)
     controls = ControlPanel.controls(tab)
     assert controls.rpm_fallback is True and controls.methods == ("ins", "lc", "ins-dvl", "vkf")
@@ -479,7 +479,7 @@ def test_ins_dvl_with_two_beams_is_refused_like_lc() -> None:
 # ---------------------------------------------------------------- seabed, DVL range, VKF switch, RPM noise
 def test_an_untouched_tab_reads_back_as_the_default_configuration() -> None:
     """The four controls start at the configuration's defaults (the tab's initial texts, as
-    app.dashboard writes them), so an untouched tab runs exactly Config() with its methods."""
+    app.dashboard.server writes them), so an untouched tab runs exactly Config() with its methods."""
     d = Config()
     assert (DEFAULTS.seabed_depth, DEFAULTS.dvl_max_altitude, DEFAULTS.switch_altitude, DEFAULTS.rpm_noise) == (
         f"{d.trajectory.seabed_depth_m:g}", f"{d.dvl.max_altitude_m:g}", f"{d.vkf.switch_altitude_m:g}",
@@ -522,11 +522,11 @@ def test_a_bad_seabed_or_rpm_value_is_refused_by_name(field: str, typed: str, me
 
 
 def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_default() -> None:
-    """app.session_controls.ControlPanel.apply_trajectory_preset sets the Seabed depth control to longrange's
+    """app.dashboard.session_controls.ControlPanel.apply_trajectory_preset sets the Seabed depth control to longrange's
     110 m (and back to 60 m on the straight line); the filled-in tab reads back as the preset."""
     from types import SimpleNamespace
 
-    from app.session_controls import ControlPanel
+    from app.dashboard.session_controls import ControlPanel
     names = ("duration", "accel_bias", "gyro_bias", "accel_noise", "gyro_noise", "dvl_noise", "dvl_bias", "dvl_sf",
              "dropout", "vb_nf", "nsv_epsilon", "seabed_depth", "dvl_max_altitude", "switch_altitude", "rpm_noise",
              "seed", "water_track", "current_states")
@@ -545,9 +545,9 @@ def test_picking_longrange_fills_in_its_seabed_and_leaving_it_restores_the_defau
     assert tab.seabed_depth.value == "60" and tab.duration.value == "250" and notes[-1] == "Defaults restored"
 
 
-# ---------------------------------------------------------------- the control table (app/control_table.py)
+# ---------------------------------------------------------------- the control table (app/dashboard/control_table.py)
 def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_round_trips() -> None:
-    """The Mission tab's controls as app.control_table builds them (a server-level GUI: no browser)
+    """The Mission tab's controls as app.dashboard.control_table builds them (a server-level GUI: no browser)
     hold the default Controls, which run exactly Config() with its methods; every field written
     through the table reads back as written, and a control already holding its value is not set."""
     import socket
@@ -555,7 +555,7 @@ def test_a_new_page_built_from_the_control_table_reads_back_as_the_defaults_and_
 
     import viser
 
-    from app import control_table
+    from app.dashboard import control_table
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]

@@ -238,7 +238,7 @@ def test_a_replay_that_aids_with_a_source_the_log_lacks_is_refused_naming_the_ta
 def test_yoos_methods_fuse_the_source_if_their_states_can_and_the_run_table_says_which_not(name: str) -> None:
     """Yoo 2014's 12-state filter has no position state and its velocity error is in NED: it fuses
     a source whose H weighs only its attitude and biases (the magnetometer), no other."""
-    from app.tables import summary_table
+    from app.reports.tables import summary_table
     from tauvcore.engine.yoo_sources import takes
 
     config = _config(name, duration_s=30.0).replace("run", methods=("lc", "vkf"))

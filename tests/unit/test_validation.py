@@ -1,4 +1,4 @@
-"""app.control_checks: every bad control named at once, each for its own fault, and none of them in
+"""app.dashboard.control_checks: every bad control named at once, each for its own fault, and none of them in
 the page's address."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import dataclasses
 
 import pytest
 
-from app import links
-from app.control_checks import initial_controls, notification, problems, without_problems
-from app.inputs import Controls, config_from_controls
+from app.dashboard import links
+from app.dashboard.control_checks import initial_controls, notification, problems, without_problems
+from app.dashboard.inputs import Controls, config_from_controls
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""The dashboard's Calibrate and Tune as a worker runs them (app.vehicle_tasks): the messages, the
+"""The dashboard's Calibrate and Tune as a worker runs them (app.dashboard.vehicle_tasks): the messages, the
 report the command line prints, the sections Apply lays over the log's own configuration, Stop,
 and a failure left to the worker to turn into one line."""
 
@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from app.session_vehicle import applied, result_markdown
-from app.vehicle_reports import calibration_sections, calibration_table
-from app.vehicle_tasks import run_vehicle_task, tuned_method
+from app.dashboard.session_vehicle import applied, result_markdown
+from app.dashboard.vehicle_tasks import run_vehicle_task, tuned_method
+from app.reports.vehicle_reports import calibration_sections, calibration_table
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.eval.calibration import calibrate
 from tauvcore.logs import CONFIG_FILE, read_log

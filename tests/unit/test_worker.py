@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from app.worker import WORKER_NICENESS, RunPool, death_message
+from app.dashboard.worker import WORKER_NICENESS, RunPool, death_message
 from tauvcore.config import METHODS, Config, to_dict
 
 
@@ -60,7 +60,7 @@ def test_stop_while_truth_is_generated_ends_the_run_and_the_pool_recovers(pool: 
     """Truth and sensors are generated before the filter loop polls Stop (a 20,000 s mission
     takes several seconds there): the worker is killed after STOP_GRACE_S, the run ends as
     stopped (no error), a new worker replaces it, and the next run works."""
-    from app.worker import STOP_GRACE_S
+    from app.dashboard.worker import STOP_GRACE_S
     config = Config().replace("trajectory", duration_s=20000.0).replace("run", methods=("ins",))
     handle = pool.start(to_dict(config), 1)
     pids_before = set(pool.pids())
@@ -249,7 +249,7 @@ def test_worker_count_must_be_positive() -> None:
 
 
 def test_a_failed_run_is_reported_in_one_clean_line() -> None:
-    from app.worker import failure_message
+    from app.dashboard.worker import failure_message
     from tauvcore.validation import ConfigError
     assert failure_message(ConfigError("imu.gyro_noise_deg_per_sqrt_h must be within [0, 30], got 1e6")) == (
         "imu.gyro_noise_deg_per_sqrt_h must be within [0, 30], got 1e6")
@@ -308,7 +308,7 @@ def test_the_truth_view_of_a_dynamic_truth_carries_fins_and_propeller(duration_s
     rows of pos_n and C_nb: the whole mission's vehicle record at every output epoch."""
     import numpy as np
 
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
     from tauvcore.truth import generate
     config = Config().replace("trajectory", name="figure8", duration_s=duration_s, truth="dynamic")
     step = _output_step(config)
@@ -327,7 +327,7 @@ def test_the_truth_view_of_a_dynamic_truth_carries_fins_and_propeller(duration_s
 
 
 def test_the_truth_view_of_the_kinematic_truth_has_no_actuators() -> None:
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
     config = Config().replace("trajectory", name="figure8", duration_s=5.0)
     view = truth_view(config, _output_step(config))
     assert view["propeller_rpm"] is None and view["fin_angles_rad"] is None
@@ -341,7 +341,7 @@ def test_the_truth_view_carries_the_seabed_under_the_longrange_mission() -> None
     all four within range at the start's 60 m, all four beyond it (inf) over the trench's floor."""
     import numpy as np
 
-    from app.truth_view import truth_view
+    from app.dashboard.truth_view import truth_view
     from tauvcore.config import from_dict, merge, trajectory_preset
     from tauvcore.sensors.dvl import slant_ranges_m
     from tauvcore.truth import generate
@@ -374,7 +374,7 @@ def test_a_replayed_log_s_truth_view_has_no_seabed() -> None:
 
     import numpy as np
 
-    from app.truth_view import log_truth_view
+    from app.dashboard.truth_view import log_truth_view
     truth = types.SimpleNamespace(num_samples=5, t_s=np.arange(5.0), pos_n=np.zeros((5, 3)),
                                   C_nb=np.broadcast_to(np.eye(3), (5, 3, 3)))
     dvl = types.SimpleNamespace(t_s=np.arange(5.0))
@@ -387,7 +387,7 @@ def test_stop_with_the_smoother_smooths_what_ran_however_long_it_takes(monkeypat
     """Stop during a smoothed run: the forward pass ends, the worker says it is smoothing and is let
     finish (not killed after the Stop grace, here shortened below the smoothing's time), and the
     stopped results carry the smoothed results of what ran."""
-    import app.worker as worker_module
+    import app.dashboard.worker as worker_module
 
     monkeypatch.setattr(worker_module, "STOP_GRACE_S", 0.5)
     p = RunPool(workers=1)

@@ -13,7 +13,7 @@ import pytest
 from bag_fixtures import mission_config, mission_tables, write_bag
 
 from app.cli import main
-from app.worker import RunPool, run_worker
+from app.dashboard.worker import RunPool, run_worker
 from tauvcore.config import from_dict, to_dict
 from tauvcore.eval.replay import log_config, replay
 from tauvcore.logs.bags import bag_kind, find_recordings, mapping_beside, own_mapping, read_bag, read_mapping
@@ -181,8 +181,7 @@ def test_a_bag_s_name_survives_the_page_s_address() -> None:
 
     from test_links import DEFAULTS
 
-    from app import links
-
+    from app.dashboard import links
     name = "day2/run_01 (ROS 2, mcap)"
     query = links.encode(dataclasses.replace(DEFAULTS, source=name))
     for seen in (query, unquote(query).replace(" ", "%20")):

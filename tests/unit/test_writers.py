@@ -21,8 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app import cli, study_output
-from app.study_output import LOCK_FILE, OUTPUT_FILES, DirectoryLock, OutputDirError, StudyWriter
+from app import cli
+from app.reports import study_output
+from app.reports.study_output import LOCK_FILE, OUTPUT_FILES, DirectoryLock, OutputDirError, StudyWriter
 from tauvcore import logs
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.logs import CONFIG_FILE, read_log
@@ -45,7 +46,7 @@ LIMITED = textwrap.dedent("""
 """``python -c LIMITED BYTES ARGV...``: tauv with no file larger than BYTES, as on a full disk."""
 HOLD = textwrap.dedent("""
     import sys
-    from app.study_output import DirectoryLock
+    from app.reports.study_output import DirectoryLock
     lock = DirectoryLock(sys.argv[1])
     print("held", flush=True)
     sys.stdin.read()
@@ -454,7 +455,7 @@ def test_every_value_flag_names_a_value_beginning_with_a_dash(capsys, tmp_path, 
         os.mkdir("-x")
         Path("-x/imu.csv").write_text("t_s\n")
     if flag == "--host":                     # no server is started for a test: the address is refused
-        monkeypatch.setattr("app.dashboard.main", _no_address)
+        monkeypatch.setattr("app.dashboard.server.main", _no_address)
     base = REQUIRED.get(command, [])
     if flag in base:
         k = base.index(flag)

@@ -10,7 +10,7 @@ by one line of :data:`MODULES` (:class:`~tauvcore.filter.families.spec.Family`).
 Everything that asks "which filter is this method?" asks :func:`family_of`: the engine builds one
 bank per family with methods in ``run.methods`` (tauvcore.engine.mission.Banks), the results take
 their NEES dimensions and sensor-error columns from it (tauvcore.engine.results), the tables group
-their columns by it (app.tables).
+their columns by it (app.reports.tables).
 """
 
 from __future__ import annotations

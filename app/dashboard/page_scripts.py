@@ -1,0 +1,75 @@
+"""The scripts the server runs in a tab's page, kept as files of app/assets (package data).
+
+viser 1.1 runs any script the server sends in its ``RunJavascriptMessage`` (it loads plotly.js
+that way) and has no other way to read the page: so the dashboard asks the page, through a
+script, to write what the server needs (the address's query, the controls as the page shows
+them) to the tab's localStorage, and reads it back with viser's ``local_storage.get_item``
+(app.dashboard.links.read_address, app.dashboard.server.Session.confirm_page_state; one script,
+``report_to_storage.js``, for both). The other scripts: ``time_cursor.js`` moves every plot's
+time cursor, ``plot_click.js`` (app.dashboard.plot_click) turns a click on a plot into a playback time,
+``mark_fields.js`` marks the controls that cannot run (app.dashboard.control_checks), ``label_inputs.js`` ties
+each label to its input. A
+script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from importlib.resources import files
+from typing import Any
+
+import viser
+from viser import _messages as viser_messages
+
+VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
+
+
+@functools.cache
+def _text(name: str) -> str:
+    return (files("app") / "assets" / name).read_text(encoding="utf-8")
+
+
+def source(name: str, **values: Any) -> str:
+    """The script ``app/assets/<name>`` with each ``__KEY__`` placeholder replaced by the JSON of
+    ``values[KEY.lower()]`` (``ids=[...]`` fills ``__IDS__``)."""
+    text = _text(name)
+    for key, value in values.items():
+        placeholder = f"__{key.upper()}__"
+        if placeholder not in text:
+            raise KeyError(f"app/assets/{name} has no placeholder {placeholder}")
+        text = text.replace(placeholder, json.dumps(value))
+    return text
+
+
+def report(ids: list[str], prefix: str, key: str) -> str:
+    """The script that writes the page's query and the controls ``ids`` as the page shows them to
+    its localStorage under ``key`` (dropping answers older than a minute under ``prefix``), for
+    ``client.local_storage.get_item(key)``: ``{"t": ms, "search": "?...", "values": {id: value}}``."""
+    return source(
+        "report_to_storage.js",
+        ids=ids,
+        prefix=VISER_STORAGE_PREFIX + prefix,
+        key=VISER_STORAGE_PREFIX + key,
+    )
+
+
+def mark(bad: dict[str, str], scroll: bool = False) -> str:
+    """The script that marks the controls of ``bad`` (viser id -> message: a red outline,
+    ``aria-invalid``, the message as the tooltip), clears every other mark, and with ``scroll``
+    scrolls the first marked control into view."""
+    return source("mark_fields.js", bad=bad, scroll=scroll)
+
+
+def label_inputs() -> str:
+    """The script that gives every control's input its label's text as ``aria-label``, now and
+    for controls added later (viser labels the input's row, not the input)."""
+    return source("label_inputs.js")
+
+
+def run(client: viser.ClientHandle, script: str) -> None:
+    """Run ``script`` in ``client``'s page."""
+    client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
+
+
+__all__ = ["VISER_STORAGE_PREFIX", "label_inputs", "mark", "report", "run", "source"]

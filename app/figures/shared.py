@@ -1,0 +1,244 @@
+"""The figures' common ground: each method's colour, the plain-dict figure, the stride that keeps
+a trace small, stacked panels on one time axis, and the shared time cursor.
+
+Each method has one colour everywhere (plots, 3-D trajectories, legend). The figures are pure
+functions, results in, ``go.Figure`` out, one module per kind: app.figures.error_figures (the errors, the
+consistency figure, the ELC selector's choices, runs overlaid), app.figures.innovation_figures (each aiding
+source's innovations) and app.figures.vehicle_figures (what the dynamic truth's vehicle did, its altitude,
+what the velocity filter learned of the propeller); the Results tab's tables are
+app.reports.markdown_tables. Every plot has the mission time in seconds on its x axis, so one cursor
+(:func:`cursor_shape`) marks the same time on all of them.
+
+Figures are plain dicts wrapped without plotly's per-property validation (:func:`make_figure`;
+validating costs most of a redraw); the tests check that each validates and equals its validated
+construction.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+import plotly.io as pio
+
+from tauvcore.config import ALL_METHODS, REGISTERED_METHODS
+
+METHOD_COLORS = {
+    "ins": "#7f7f7f",
+    "lc": "#1f77b4",
+    "tc": "#ff7f0e",
+    "vb": "#2ca02c",
+    "nsv": "#d62728",
+    "plcf": "#9467bd",
+    "vhv": "#8c564b",
+    "elc": "#e377c2",
+    "iekf": "#e7ba52",
+    "ins-dvl": "#bcbd22",
+    "vkf": "#17becf",  # Yoo 2014's 12-state filter (tauvcore.config.YOO_METHODS)
+}
+# Methods added as one file each (tauvcore.aiding.registry), then the methods of the filter families
+# added in their own folders (tauvcore.filter.families), coloured in that order from tab20's paler and
+# darker companions of the colours above; each keeps the beams' distance (app.figures.scene.BEAM_MIN_DELTA_E,
+# tests/unit/test_scene.py) like the papers' methods.
+REGISTERED_COLORS = ("#637939", "#e7969c", "#ffbb78", "#aec7e8", "#c5b0d5", "#8c6d31")
+METHOD_COLORS.update(
+    {
+        m: REGISTERED_COLORS[i % len(REGISTERED_COLORS)]
+        for i, m in enumerate((*REGISTERED_METHODS, *(m for m in ALL_METHODS if m not in METHOD_COLORS)))
+    }
+)
+TRUTH_COLOR = "#111111"
+
+
+def method_color(method: str) -> str:
+    return METHOD_COLORS.get(method, "#393b79")
+
+
+def hex_to_rgba(color: str, alpha: float) -> str:
+    r, g, b = (int(color[i : i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r},{g},{b},{alpha})"
+
+
+def decimate(n: int, max_points: int | None) -> slice:
+    """A stride that keeps at most about ``max_points`` of ``n`` samples, always the last one."""
+    if max_points is None or n <= max_points:
+        return slice(None)
+    step = int(np.ceil(n / max_points))
+    return slice((n - 1) % step, None, step)
+
+
+def merge_bins(n: int, max_points: int | None) -> tuple[slice, np.ndarray | None]:
+    """How a reduced run's ``n`` bins (tauvcore.eval.envelope) are drawn with at most about
+    ``max_points`` points: the stride of :func:`decimate` picks each group's last bin (its
+    representative and time), and the groups start at the returned indices (None: one bin per
+    point) for ``np.fmin.reduceat`` / ``np.fmax.reduceat`` of the bins' minima and maxima."""
+    keep = decimate(n, max_points)
+    if keep == slice(None):
+        return keep, None
+    picked = np.arange(n)[keep]
+    return keep, np.r_[0, picked[:-1] + 1]
+
+
+def merged_envelope(
+    low: np.ndarray, high: np.ndarray, starts: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The minima and maxima ``low``, ``high`` (bins first) of the groups of bins starting at
+    ``starts`` (:func:`merge_bins`; None: as they are); NaN only where a group has no value."""
+    low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+    if starts is None:
+        return low, high
+    return np.fmin.reduceat(low, starts, axis=0), np.fmax.reduceat(high, starts, axis=0)
+
+
+ENVELOPE_ALPHA = 0.25
+
+
+def bin_label(bin_s: float) -> str:
+    """How a plot names a reduced run's envelope: "min-max per 9.1 s bin"."""
+    return f"min–max per {bin_s:.3g} s bin"
+
+
+def envelope_traces(
+    t: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    name: str,
+    color: str,
+    bin_s: float,
+    group: str,
+    **axes: str,
+) -> list[dict[str, Any]]:
+    """A reduced run's envelope as a band: the minimum per bin (an invisible line) and the maximum
+    filled down to it (``fill="tonexty"``), in ``color`` pale, grouped with the curve ``group``;
+    hover reads "<name> min per 9.1 s bin" and "... max ...". Drawn before the representative
+    line, so the line lies on top of its band."""
+    label = f"{name} {{}} per {bin_s:.3g} s bin"
+    common = {"type": "scatter", "x": t, "mode": "lines", "legendgroup": group, "showlegend": False, **axes}
+    return [
+        {**common, "y": low, "name": label.format("min"), "line": {"width": 0, "color": color}},
+        {
+            **common,
+            "y": high,
+            "name": label.format("max"),
+            "line": {"width": 0, "color": color},
+            "fill": "tonexty",
+            "fillcolor": hex_to_rgba(color, ENVELOPE_ALPHA),
+        },
+    ]
+
+
+@functools.cache
+def _template(name: str) -> dict[str, Any]:
+    """A named plotly template as the dict plotly.js reads (validation would resolve the name)."""
+    return pio.templates[name].to_plotly_json()
+
+
+def make_figure(data: list[dict[str, Any]], layout: dict[str, Any], validate: bool = False) -> go.Figure:
+    """``go.Figure`` of plain trace and layout dicts; ``validate`` False skips plotly's property
+    checks (the same figure, several times faster to build)."""
+    # "x unified": hovering anywhere reads every curve at that time, and a click anywhere in a plot
+    # names a time (app.dashboard.plot_click moves the playback there)
+    layout = {
+        "hovermode": "x unified",
+        **layout,
+        "template": _template(layout.get("template", "plotly_white")),
+    }
+    if validate:
+        return go.Figure(data=data, layout=layout)
+    return go.Figure(data=data, layout=layout, _validate=False)
+
+
+def panel_domains(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
+    """y domains of ``n`` stacked panels, the first on top."""
+    h = (1.0 - gap * (n - 1)) / n
+    return [
+        (max(0.0, round(1.0 - k * (h + gap) - h, 6)), min(1.0, round(1.0 - k * (h + gap), 6)))
+        for k in range(n)
+    ]
+
+
+LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.15}
+"""The legend under the time axis, hanging from its top so that more rows (runs overlaid, eight
+methods) grow downward into the margin plotly makes for it."""
+TIME_AXIS = {"ticksuffix": " s"}
+"""The time axis of a plot with its legend below: the unit on the ticks ("5 s"), no axis title for
+a second row of the legend to land on (a title sits where plotly's first legend row does)."""
+
+PLACEHOLDER_TEXT = "No run yet: press Run"
+
+
+def placeholder_figure(title: str, text: str = PLACEHOLDER_TEXT) -> go.Figure:
+    """What a plot shows before its first run: its title and one line of text, no empty axes."""
+    return go.Figure(
+        layout={
+            "title": {"text": title, "font": {"size": 13}},
+            "xaxis": {"visible": False},
+            "yaxis": {"visible": False},
+            "annotations": [
+                {
+                    "text": text,
+                    "showarrow": False,
+                    "xref": "paper",
+                    "yref": "paper",
+                    "x": 0.5,
+                    "y": 0.5,
+                    "font": {"size": 13, "color": "#888"},
+                }
+            ],
+            "margin": {"l": 20, "r": 20, "t": 40, "b": 20},
+            "template": "plotly_white",
+        }
+    )
+
+
+def stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, Any]:
+    """Layout of len(``names``) panels sharing the time axis, each y-axis titled by its name."""
+    layout: dict[str, Any] = {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
+        "legend": {"orientation": "h", "y": -0.12},
+        "template": "plotly_white",
+    }
+    n = len(names)
+    for k, ((lo, hi), name) in enumerate(zip(panel_domains(n), names)):
+        suffix = "" if k == 0 else str(k + 1)
+        layout[f"xaxis{suffix}"] = (
+            {"anchor": f"y{suffix}", "title": {"text": "time [s]"}}
+            if k == n - 1
+            else {"anchor": f"y{suffix}", "matches": f"x{n if n > 1 else ''}", "showticklabels": False}
+        )
+        layout[f"yaxis{suffix}"] = {
+            "domain": [lo, hi],
+            "title": {"text": name, "font": {"size": 11}},
+            "zeroline": True,
+        }
+    return layout
+
+
+CURSOR_NAME = "time cursor"
+CURSOR_COLOR = "rgba(40,40,40,0.7)"
+
+
+def cursor_shape(t_s: float) -> dict[str, Any]:
+    """The shared time cursor: a vertical line at ``t_s`` [s] across the whole plot (a plotly
+    layout shape named CURSOR_NAME; the dashboard moves it in the page with the time slider)."""
+    return {
+        "type": "line",
+        "name": CURSOR_NAME,
+        "xref": "x",
+        "yref": "paper",
+        "x0": float(t_s),
+        "x1": float(t_s),
+        "y0": 0.0,
+        "y1": 1.0,
+        "line": {"color": CURSOR_COLOR, "width": 1.5, "dash": "dot"},
+    }
+
+
+def with_cursor(figure: go.Figure, t_s: float | None) -> go.Figure:
+    """``figure`` with the time cursor at ``t_s`` (None: none), in place; returned for chaining."""
+    figure.layout.shapes = [] if t_s is None else [cursor_shape(t_s)]
+    return figure
