@@ -474,6 +474,8 @@ def fuse_in_place(
         np.ascontiguousarray(active, dtype=bool).reshape(n, m),
         np.ascontiguousarray(gate_rows, dtype=bool).reshape(n),
         float(gate_sigma),
+        0,
+        0,  # no consider states
     )
     if invariant is None or not invariant.any():
         inject_batch(*state, dx, geodetic)

@@ -246,7 +246,9 @@ def correct_consider(
     consider: slice = slice(DIM, None),
 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
     """A gated Joseph-form update of the 12 states with consider states after them (and, after
-    those, the states the sources add, which are estimated).
+    those, the states the sources add, which are estimated): the one compiled correction of every
+    filter family (tauvcore.filter.kernels.correction.correct_into) with the consider states' gain
+    zero.
 
     Schmidt-Kalman: the consider rows of K are zero. An inactive row is dropped exactly. The gate
     is the 20-state correction's (tauvcore.filter.eskf.correct): a row must lie within
@@ -288,42 +290,29 @@ def correct_consider(
         rows), the rows kept (B, m) bool, the NIS over the active rows before the gate (B,), the test
         ratio (B,) and whether the entry was unusable (B,) bool.
     """
-    N = P.shape[-1]
-    eye_m = np.eye(nu.shape[-1], dtype=bool)
+    from tauvcore.filter.kernels.correction import correct_batch
 
-    def innovation_covariance(rows: np.ndarray) -> tuple[np.ndarray, ...]:
-        Hr = np.where(rows[..., None], H, 0.0)
-        both = rows[..., :, None] & rows[..., None, :]
-        Rr = np.where(both, Rm, np.where(eye_m, 1.0, 0.0))  # an inactive row: uncorrelated, unit
-        PHt = P @ Hr.swapaxes(-1, -2)
-        S = Hr @ PHt + Rr
-        finite = np.asarray(np.isfinite(S).all(axis=(-2, -1)))
-        safe = np.where(finite[..., None, None], S, np.eye(S.shape[-1]))
-        usable = np.asarray(finite & (np.linalg.eigvalsh(0.5 * (safe + safe.swapaxes(-1, -2)))[..., 0] > 0.0))
-        S_inv = np.linalg.inv(np.where(usable[..., None, None], safe, np.eye(S.shape[-1])))
-        return Hr, Rr, PHt, S, S_inv, usable
+    batch, (N, m) = nu.shape[:-1], (P.shape[-1], nu.shape[-1])
+    n = int(np.prod(batch, dtype=np.int64))
+    P_new = np.array(np.broadcast_to(P, batch + (N, N)), dtype=float, order="C").reshape(n, N, N)
+    start, stop, _ = consider.indices(N)
 
-    _, _, _, S, S_inv, usable = innovation_covariance(active)
-    s_diag = np.where(active, np.einsum("...ii->...i", S), np.nan)
-    nu_a = np.where(active, nu, 0.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio_rows = np.where(active, nu**2 / (gate_sigma**2 * s_diag), -np.inf)
-        ratio = np.where(active.any(axis=-1), ratio_rows.max(axis=-1), np.nan)
-        nis = np.where(
-            usable & active.any(axis=-1), np.einsum("...i,...ij,...j->...", nu_a, S_inv, nu_a), np.nan
-        )
-    passed = ~(ratio_rows > 1.0)  # NaN (an infinite S) fails nothing here; unusable covers it
-    keep = active & passed if gate_rows else active & passed.all(axis=-1, keepdims=True)
-    keep &= usable[..., None]
-    Hk, Rk, PHt, _, S_inv, usable_k = innovation_covariance(keep)
-    keep &= usable_k[..., None]
-    fuses = np.asarray(keep.any(axis=-1))  # (B,) an entry with a row kept
-    K = PHt @ S_inv
-    K[..., consider, :] = 0.0  # the consider states are never corrected
-    K = np.where(fuses[..., None, None], K, 0.0)
-    dx = np.einsum("...ij,...j->...i", K, np.where(keep, nu, 0.0))
-    I_KH = np.eye(N) - K @ Hk
-    P_new = I_KH @ P @ I_KH.swapaxes(-1, -2) + K @ Rk @ K.swapaxes(-1, -2)
-    P_new = np.where(fuses[..., None, None], 0.5 * (P_new + P_new.swapaxes(-1, -2)), P)
-    unusable = ~usable & active.any(axis=-1)
-    return P_new, dx, (s_diag, keep, nis, ratio, unusable)
+    def flat(a: np.ndarray, tail: tuple[int, ...], dtype: type = float) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(a, batch + tail), dtype=dtype).reshape((n,) + tail)
+
+    dx, s_diag, keep, nis, ratio, unusable, _ = correct_batch(
+        P_new,
+        flat(H, (m, N)),
+        flat(Rm, (m, m)),
+        flat(nu, (m,)),
+        flat(active, (m,), bool),
+        np.full(n, gate_rows),
+        float(gate_sigma),
+        start,
+        stop,
+    )
+    return (
+        P_new.reshape(batch + (N, N)),
+        dx.reshape(batch + (N,)),
+        tuple(a.reshape(batch + a.shape[1:]) for a in (s_diag, keep, nis, ratio, unusable)),
+    )

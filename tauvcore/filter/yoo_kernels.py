@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from tauvcore.filter.kernels.common import jit, radii_nav
+from tauvcore.filter.kernels.correction import correct_into
 from tauvcore.filter.kernels.error_model_kernels import extra_step_into
 from tauvcore.filter.kernels.rotation_kernels import exp_so3_into, skew_into
 from tauvcore.geo.earth import OMEGA_IE_RPS
@@ -317,8 +318,9 @@ def fuse(
     """Fuse one NED velocity ``z`` into one filter (the numpy reference's fuse_velocity, tests/unit/yoo_reference.py): its prediction
     ``h`` (the estimated velocity, or through the water ``v - c``), ``H = [I, [w x], 0, 0, Hc,
     Hx]`` (``w`` the vector the attitude rotated, Hc (3, NC) on the consider states, whose gain
-    is zero, Hx (3, E) on the added states), every row gated, Joseph form over the N states,
-    inject and reset. -> (fused, passed the gate, NIS before the gate (NaN if S cannot be
+    is zero, Hx (3, E) on the added states), through the one gated Joseph correction of every
+    family (tauvcore.filter.kernels.correction.correct_into: every row passes the gate or none is
+    fused), inject and reset. -> (fused, passed the gate, NIS before the gate (NaN if S cannot be
     inverted)); ``S_diag`` and ``nu`` written."""
     NN = P.shape[0]
     H = np.zeros((3, NN))
@@ -334,65 +336,16 @@ def fuse(
     for i in range(3):
         for j in range(3):
             H[i, ATT + j] = Sk[i, j]
-    PHt = np.empty((NN, 3))
-    for i in range(NN):
-        for j in range(3):
-            s = 0.0
-            for k in range(NN):
-                s += P[i, k] * H[j, k]
-            PHt[i, j] = s
-    S = np.empty((3, 3))
+    active = np.empty(3, dtype=np.bool_)
     for i in range(3):
-        for j in range(3):
-            s = 0.0
-            for k in range(NN):
-                s += H[i, k] * PHt[k, j]
-            S[i, j] = s + Rm[i, j]
-    passed = True
-    finite = True
-    for i in range(3):
-        S_diag[i] = S[i, i]
-        if not (nu[i] * nu[i] <= gate * gate * S[i, i]):
-            passed = False
-        if not math.isfinite(nu[i]):
-            finite = False
-    use = valid and passed and finite
-    Sinv = np.empty((3, 3))
-    nis = np.nan
-    if _inv3_into(S, Sinv):
-        nis = 0.0
-        for i in range(3):
-            for j in range(3):
-                nis += nu[i] * Sinv[i, j] * nu[j]
-    else:
-        use = False
+        active[i] = valid
+    dx = np.zeros(NN)
+    keep = np.empty(3, dtype=np.bool_)
+    # the one gated Joseph correction (every row or none), the consider states' gain zero
+    nis, ratio, _, _ = correct_into(P, H, Rm, nu, active, False, gate, dx, S_diag, keep, DIM, NA)
+    use = keep[0]
+    passed = ratio <= 1.0
     if use:
-        K = np.zeros((NN, 3))  # the consider rows stay zero
-        for i in range(NN):
-            if DIM <= i < NA:
-                continue
-            for j in range(3):
-                K[i, j] = PHt[i, 0] * Sinv[0, j] + PHt[i, 1] * Sinv[1, j] + PHt[i, 2] * Sinv[2, j]
-        dx = np.zeros(NN)
-        for i in range(NN):
-            dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
-        I_KH = np.empty((NN, NN))
-        for i in range(NN):
-            for j in range(NN):
-                I_KH[i, j] = (1.0 if i == j else 0.0) - (
-                    K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j]
-                )
-        tmp = np.empty((NN, NN))
-        out = np.empty((NN, NN))
-        _sandwich_into(I_KH, P, tmp, out)
-        KR = np.empty((NN, 3))
-        for i in range(NN):
-            for j in range(3):
-                KR[i, j] = K[i, 0] * Rm[0, j] + K[i, 1] * Rm[1, j] + K[i, 2] * Rm[2, j]
-        for i in range(NN):
-            for j in range(NN):
-                out[i, j] += KR[i, 0] * K[j, 0] + KR[i, 1] * K[j, 1] + KR[i, 2] * K[j, 2]
-        _symmetrise_into(out, P)
         for i in range(3):
             vel[i] += dx[VEL + i]
             ba[i] += dx[BA + i]

@@ -89,7 +89,7 @@ def test_a_linear_measurement_is_the_kalman_filter() -> None:
     # and so the update is the Kalman filter's
     n = batch[0] * batch[1]
     flat = (P.reshape(n, D, D).copy(), H_s.reshape(n, m, D), R_s.reshape(n, m, m), nu_s.reshape(n, m))
-    dx, *_ = correct_batch(*flat, active.reshape(n, m), np.zeros(n, bool), np.inf)
+    dx, *_ = correct_batch(*flat, active.reshape(n, m), np.zeros(n, bool), np.inf, 0, 0)
     for i in range(n):
         a = active.reshape(n, m)[i]
         Hi, Pi = H.reshape(n, m, D)[i][a], P.reshape(n, D, D)[i]
@@ -138,6 +138,8 @@ def test_the_correction_is_filterpy_s_unscented_update(geodetic: bool) -> None:
         active.reshape(1, 4),
         np.zeros(1, bool),
         np.inf,
+        0,
+        0,  # no consider states
     )
 
     def hx(dx_one: np.ndarray) -> np.ndarray:

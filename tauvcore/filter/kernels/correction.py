@@ -41,8 +41,11 @@ def correct_into(
     dx: np.ndarray,
     s_diag: np.ndarray,
     keep: np.ndarray,
+    consider_start: int,
+    consider_stop: int,
 ) -> tuple[float, float, bool, float]:
-    """Gated Joseph-form correction of one filter (tauvcore.filter.eskf.correct), P in place.
+    """Gated Joseph-form correction of one filter (tauvcore.filter.eskf.correct), P in place: the
+    one correction of every filter family.
 
     Rows with ``active`` False are dropped exactly. ``S`` over the active rows must factorise
     (else: unusable, nothing fused). The paper's gate keeps a row if ``nu_i^2 <= gate^2 S_ii``
@@ -50,7 +53,10 @@ def correct_into(
     used), ``keep`` (m,); returns ``(nis, test_ratio, unusable, log_det_s)`` (NaN when no row was used;
     ``log_det_s`` NaN also when S is unusable): ``log det S = 2 sum_a log L_aa`` of the factor
     ``S = L L^T`` over the active rows, before the gate, the term the innovations' likelihood needs
-    beside the NIS (``-2 log p(nu) = NIS + log det S + dof log 2 pi``).
+    beside the NIS (``-2 log p(nu) = NIS + log det S + dof log 2 pi``). The states
+    ``consider_start <= j < consider_stop`` are consider states (Schmidt-Kalman: their rows of K
+    are zero, so they are never corrected, while the Joseph form carries their covariance with
+    the others'; Yoo 2014's DVL errors); ``0, 0``: none.
     """
     m = nu.shape[0]
     N = P.shape[0]  # the error states: the 20 of the layout and a source's own after them
@@ -129,6 +135,10 @@ def correct_into(
     col = np.empty(m)
     out = np.empty(m)
     for j in range(N):
+        if consider_start <= j < consider_stop:  # a consider state: never corrected
+            for a in range(n_k):
+                K[j, a] = 0.0
+            continue
         for a in range(n_k):
             col[a] = U[a, j]
         _solve_chol(L, n_k, col, out)
@@ -185,10 +195,12 @@ def correct_batch(
     active: np.ndarray,
     gate_rows: np.ndarray,
     gate_sigma: float,
+    consider_start: int,
+    consider_stop: int,
 ) -> tuple:
     """:func:`correct_into` for n filters: P (n, d, d) in place, H (n, m, d), Rm (n, m, m), nu,
-    active (n, m), gate_rows (n,). -> dx (n, d), s_diag (n, m), keep (n, m), nis, test_ratio,
-    unusable, log_det_s (n,)."""
+    active (n, m), gate_rows (n,), the consider states ``consider_start:consider_stop``. -> dx (n, d),
+    s_diag (n, m), keep (n, m), nis, test_ratio, unusable, log_det_s (n,)."""
     n, m = nu.shape
     dx = np.empty((n, P.shape[-1]))
     s_diag = np.empty((n, m))
@@ -199,7 +211,18 @@ def correct_batch(
     log_det = np.empty(n)
     for i in range(n):
         nis[i], ratio[i], unusable[i], log_det[i] = correct_into(
-            P[i], H[i], Rm[i], nu[i], active[i], gate_rows[i], gate_sigma, dx[i], s_diag[i], keep[i]
+            P[i],
+            H[i],
+            Rm[i],
+            nu[i],
+            active[i],
+            gate_rows[i],
+            gate_sigma,
+            dx[i],
+            s_diag[i],
+            keep[i],
+            consider_start,
+            consider_stop,
         )
     return dx, s_diag, keep, nis, ratio, unusable, log_det
 
