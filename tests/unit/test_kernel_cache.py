@@ -32,3 +32,32 @@ def test_an_edit_below_a_kernel_changes_its_key_and_not_the_others(tmp_path, mon
     after = [common.source_key(name) for name in names]
     assert after[0] != before[0] and after[1] != before[1]
     assert after[2] == before[2]
+
+
+def test_an_index_that_cannot_be_read_back_is_a_cache_miss(tmp_path, monkeypatch) -> None:
+    """Given a kernel's cache index written by another tree of the source, whose machine code named
+    a module since renamed (numba unpickles the index before it compares the stamp), when the
+    index is loaded, then it is an empty one (the kernel compiled again), not a ModuleNotFoundError."""
+    import pickle
+    import sys
+    import types
+
+    gone = types.ModuleType("tauvcore_module_since_renamed")
+    exec("class Overload:\n    pass\n", gone.__dict__)
+    gone.Overload.__module__ = gone.__name__
+    sys.modules[gone.__name__] = gone
+    payload = pickle.dumps((b"another tree's stamp", {"key": gone.Overload()}))
+    del sys.modules[gone.__name__]
+    cache_file = strapdown.advance._cache._cache_file
+    index = tmp_path / "advance.nbi"
+    with index.open("wb") as f:
+        pickle.dump(cache_file._version, f, protocol=-1)
+        f.write(payload)
+    monkeypatch.setattr(cache_file, "_index_path", str(index))
+    try:
+        pickle.loads(payload)
+    except ModuleNotFoundError:
+        pass
+    else:
+        raise AssertionError("the payload should name a module that is gone")
+    assert cache_file._load_index() == {}

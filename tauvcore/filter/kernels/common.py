@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import pickle
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -92,7 +93,25 @@ def jit(function: _F) -> _F:
     cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
     if cache_file is not None and hasattr(cache_file, "_source_stamp"):
         cache_file._source_stamp = source_key(function.__module__)
+    if cache_file is not None and hasattr(cache_file, "_load_index"):
+        cache_file._load_index = _index_or_nothing(cache_file._load_index)
     return cast(_F, dispatcher)
+
+
+def _index_or_nothing(load: Callable[[], dict]) -> Callable[[], dict]:
+    """numba's cache index loader, answering an empty index (a cache miss: the kernel is compiled
+    again and the index written anew) where the index cannot be read back. numba unpickles the index
+    before it compares its stamp, so an index written by another tree of the source, whose machine
+    code named a module since renamed or removed, raises instead of missing (ModuleNotFoundError
+    after a module's rename, in a checkout updated in place)."""
+
+    def load_or_nothing() -> dict:
+        try:
+            return load()
+        except (ImportError, AttributeError, EOFError, ValueError, TypeError, pickle.UnpicklingError):
+            return {}
+
+    return load_or_nothing
 
 
 def flat(a: np.ndarray, batch: tuple[int, ...], tail: tuple[int, ...], dtype: type = float) -> np.ndarray:
