@@ -4,7 +4,7 @@ seeds, for Table 2's gyro and for Yoo's 1 deg/h IMU.
     python benchmarks/heading_dvl_alone.py            # about 15 minutes on one core
     python benchmarks/heading_dvl_alone.py --runs 8
 
-Straight line, 10 h, aiding ``dvl`` only, ``ins``, ``lc`` and ``iekf`` in one bank (the same runs), the
+Straight line, 10 h, aiding ``dvl`` only, ``ins``, ``lc``, ``iekf`` and ``ukf`` in one bank (the same runs), the
 paper's flat earth (on the ellipsoid the free INS's vertical channel diverges and takes its
 navigation frame, and so its heading, with it), IMU 50 Hz, records at 1 Hz, seeds [2026, r].
 Per IMU and method: the heading error at the end (RMS over runs), the filter's heading sigma there
@@ -24,7 +24,7 @@ import dataclasses
 import fragment
 import numpy as np
 
-METHODS = ("ins", "lc", "iekf")
+METHODS = ("ins", "lc", "iekf", "ukf")
 HOURS = (1, 3)  # the heading error and NEES also at these hours
 
 
