@@ -25,7 +25,14 @@ from tauvcore.engine.rpm_aid import dvl_body_velocity
 from tauvcore.filter.eskf import make_outcome
 from tauvcore.filter.families import FAMILIES
 from tauvcore.filter.kernels.common import plain
-from tauvcore.filter.kernels.dvl_kernels import DvlRows, DvlState, Ping, TwoBeamTables, dvl_measure_bank
+from tauvcore.filter.kernels.dvl_kernels import (
+    DVL_ELC,
+    DvlRows,
+    DvlState,
+    Ping,
+    TwoBeamTables,
+    dvl_measure_bank,
+)
 from tauvcore.filter.kernels.two_beam import MAX_CANDIDATES
 from tauvcore.filter.layout import STATE, Layout
 from tauvcore.geo.rotations import skew
@@ -257,16 +264,20 @@ def dvl_innovation(bank: Any, nom: Any, methods: np.ndarray, ping: Ping) -> np.n
         measured_axes=np.zeros((n, R, 3), bool),
         choice=np.full((n, R, 3), -1, np.int64),
     )
+    codes = bank.dvl_codes[at]
+    # only an extended method's two-beam construction reads P: the others are handed one row of it
+    # (the kernel's types unchanged) rather than a copy per sigma point
+    P = bank.P[methods] if np.any(codes == DVL_ELC) else bank.P[:1]
     state = DvlState(
         np.ascontiguousarray(nom.nav.C_nb),
         np.ascontiguousarray(nom.nav.vel_n),
         np.ascontiguousarray(nom.gyro_bias),
         np.ascontiguousarray(nom.dvl_bias),
         np.ascontiguousarray(nom.dvl_sf),
-        np.ascontiguousarray(bank.P[methods]),  # an extended method's two-beam construction reads P
+        np.ascontiguousarray(P),
     )
     dvl_measure_bank(
-        plain(bank._dvl_methods(np.arange(n, dtype=np.int64), bank.dvl_codes[at])),
+        plain(bank._dvl_methods(np.arange(n, dtype=np.int64), codes)),
         plain(TwoBeamTables(*(np.ascontiguousarray(a[at]) for a in bank.partial_tables))),
         plain(ping),
         plain(state),
