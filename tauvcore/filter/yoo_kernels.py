@@ -19,6 +19,7 @@ import numpy as np
 
 from tauvcore.filter.kernels.common import jit, radii_nav
 from tauvcore.filter.kernels.correction import correct_into
+from tauvcore.filter.kernels.dvl_kernels import lc_solve_into
 from tauvcore.filter.kernels.error_model_kernels import extra_step_into
 from tauvcore.filter.kernels.rotation_kernels import exp_so3_into, skew_into
 from tauvcore.geo.earth import OMEGA_IE_RPS
@@ -27,29 +28,6 @@ DIM = 12
 NC = 5  # consider states (tauvcore.engine.yoo_bank.NC): DVL scale factor, 4 beam biases
 NA = DIM + NC
 VEL, ATT, BA, BG = 0, 3, 6, 9  # tauvcore.filter.yoo's blocks
-MIN_BEAMS = 3
-
-
-@jit
-def _inv3_into(A: np.ndarray, out: np.ndarray) -> bool:
-    """Inverse of a 3x3 matrix by its adjugate; False (out untouched) if singular or not finite."""
-    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
-    c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
-    c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
-    det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
-    if not (math.isfinite(det) and det != 0.0):
-        return False
-    inv = 1.0 / det
-    out[0, 0] = c00 * inv
-    out[1, 0] = c01 * inv
-    out[2, 0] = c02 * inv
-    out[0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) * inv
-    out[1, 1] = (A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]) * inv
-    out[2, 1] = (A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]) * inv
-    out[0, 2] = (A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]) * inv
-    out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) * inv
-    out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) * inv
-    return True
 
 
 @jit
@@ -211,39 +189,24 @@ def dvl_body_velocity_into(
     cov_b: np.ndarray,
     gain: np.ndarray,
 ) -> bool:
-    """One run's DVL body velocity by least squares over the beams that returned, its covariance,
-    the least squares' gain from the beams (3, 4), and whether at least MIN_BEAMS returned
-    (rpm_aid.dvl_body_velocity with ``with_gain``; with fewer the normal matrix is replaced by I,
-    as there)."""
-    Nm = np.zeros((3, 3))
-    b = np.zeros(3)
-    count = 0
+    """One run's DVL body velocity by least squares over the beams that returned (finite), its
+    covariance, the least squares' gain from the beams (3, 4), and whether at least three returned
+    (rpm_aid.dvl_body_velocity with ``with_gain``): the loosely coupled filter's least squares
+    (tauvcore.filter.kernels.dvl_kernels.lc_solve_into), then the head's own motion taken out with
+    the gyro rate less the earth's (first order). With fewer beams the velocity is NaN."""
+    used = np.empty(A_b.shape[0], dtype=np.bool_)
     for k in range(A_b.shape[0]):
-        if available[k] and math.isfinite(y[k]):
-            count += 1
-            for i in range(3):
-                b[i] += A_b[k, i] * y[k]
-                for j in range(3):
-                    Nm[i, j] += A_b[k, i] * A_b[k, j]
-    ok = count >= MIN_BEAMS
-    Ninv = np.zeros((3, 3))
-    if not (ok and _inv3_into(Nm, Ninv)):
-        for i in range(3):
-            Ninv[i, i] = 1.0
+        used[k] = available[k] and math.isfinite(y[k])
+    ok = lc_solve_into(A_b, y, used, beam_var, cov_b, gain, v_b)
     w0, w2 = math.cos(lat) * OMEGA_IE_RPS, -math.sin(lat) * OMEGA_IE_RPS
     om = np.empty(3)
     for i in range(3):
         om[i] = dtheta_i[i] / dt - (C_nb[0, i] * w0 + C_nb[2, i] * w2)
-    for i in range(3):
-        v_b[i] = Ninv[i, 0] * b[0] + Ninv[i, 1] * b[1] + Ninv[i, 2] * b[2]
-        for j in range(3):
-            cov_b[i, j] = beam_var * Ninv[i, j]
-        for k in range(A_b.shape[0]):
-            used = 1.0 if available[k] and math.isfinite(y[k]) else 0.0
-            gain[i, k] = (Ninv[i, 0] * A_b[k, 0] + Ninv[i, 1] * A_b[k, 1] + Ninv[i, 2] * A_b[k, 2]) * used
     v_b[0] -= om[1] * l_dvl_b[2] - om[2] * l_dvl_b[1]
     v_b[1] -= om[2] * l_dvl_b[0] - om[0] * l_dvl_b[2]
     v_b[2] -= om[0] * l_dvl_b[1] - om[1] * l_dvl_b[0]
+    if not ok:
+        v_b[:] = np.nan
     return ok
 
 
