@@ -26,7 +26,7 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=8)
     args = parser.parse_args()
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
     from tauvcore.engine.monitor import NIS_WINDOW_UPDATES
 
     config = (
@@ -50,7 +50,7 @@ def main() -> None:
         flags["at"] = res.diverged_at_s
 
     rngs = [np.random.default_rng([2027, r]) for r in range(args.runs)]
-    run_streaming(config, rngs, num_runs=args.runs, on_chunk=reduce, keep=False)
+    run_streaming(config, rngs, num_runs=args.runs, keep=False, sinks=Sinks(on_chunk=reduce))
     t = np.concatenate(parts["t"])
     nis = np.concatenate(parts["nis"])
     e = np.concatenate(parts["nu"]) / np.sqrt(np.concatenate(parts["s"]))

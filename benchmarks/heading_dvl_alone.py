@@ -30,7 +30,7 @@ HOURS = (1, 3)  # the heading error and NEES also at these hours
 
 def run(profile: str, runs: int) -> dict:
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
     from tauvcore.sensors.imu import imu_profile
 
     imu = dataclasses.asdict(imu_profile(profile)) | {"rate_hz": 50.0}
@@ -54,7 +54,7 @@ def run(profile: str, runs: int) -> dict:
                     at[m, hour] = (res.heading_err_deg[k[0]], res.heading_sigma_deg[k[0]])
 
     rngs = [np.random.default_rng([2026, r]) for r in range(runs)]
-    run_streaming(config, rngs, num_runs=runs, on_chunk=reduce, keep=False)
+    run_streaming(config, rngs, num_runs=runs, keep=False, sinks=Sinks(on_chunk=reduce))
     walk_deg = np.degrees(imu_profile(profile).gyro_bias_rw_rps_per_sqrt_s) * 36000.0**1.5 / np.sqrt(3.0)
     return {"walk_deg": float(walk_deg), **{
         m: {"rms": float(np.sqrt(np.mean(e**2))), "sigma": float(np.sqrt(np.mean(s**2))),

@@ -40,7 +40,7 @@ BEAMS = {"all beams": ((1, 2, 3, 4), ("lc", "tc", "iekf")), "beams 1-2": ((1, 2)
 
 def accuracy(case: str, beams: str) -> dict:
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
     from tauvcore.engine.results import BLOCK_DIMS
 
     duration, runs, rate = CASES[case]
@@ -59,7 +59,7 @@ def accuracy(case: str, beams: str) -> dict:
             keep[m]["last"] = res
 
     rngs = [np.random.default_rng([SEED, r]) for r in range(runs)]
-    run_streaming(config, rngs, num_runs=runs, on_chunk=reduce, keep=False)
+    run_streaming(config, rngs, num_runs=runs, keep=False, sinks=Sinks(on_chunk=reduce))
     out = {}
     for m in methods:
         res = keep[m]["last"]

@@ -73,7 +73,7 @@ def _install_oracle() -> None:
 
 def child(hours: float, runs: int, imu_rate_hz: float, row: str) -> None:
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
     from tauvcore.engine.results import BLOCK_DIMS, SENSOR_STATES
 
     change = dict(ROWS[row])
@@ -98,7 +98,7 @@ def child(hours: float, runs: int, imu_rate_hz: float, row: str) -> None:
 
     t0 = time.perf_counter()
     rngs = [np.random.default_rng([SEED, r]) for r in range(runs)]
-    run_streaming(config, rngs, num_runs=runs, on_chunk=reduce, keep=False, sensor_errors=True)
+    run_streaming(config, rngs, num_runs=runs, keep=False, sensor_errors=True, sinks=Sinks(on_chunk=reduce))
     res = keep["last"]
     sf_err = res.sensor_true[-1, :, sf] - res.sensor_est[-1, :, sf]
     print(json.dumps({

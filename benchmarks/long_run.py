@@ -38,7 +38,7 @@ ROWS = {  # row -> (aiding, latitude [deg] or None for the default)
 
 def child(hours: float, imu_rate_hz: float, seed: int, row: str) -> None:
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
     from tauvcore.filter.layout import NEES_BLOCKS
 
     aiding, latitude = ROWS[row]
@@ -61,7 +61,7 @@ def child(hours: float, imu_rate_hz: float, seed: int, row: str) -> None:
         keep["hdg_sum"] += float(res.nees_block[:, 0, heading].sum())
         keep["hdg_n"] += res.t_s.size
         end[:] = [res]
-    run_streaming(config, np.random.default_rng(seed), on_chunk=reduce, keep=False)
+    run_streaming(config, np.random.default_rng(seed), keep=False, sinks=Sinks(on_chunk=reduce))
     res = end[0]
     wall = time.perf_counter() - t0
     print(json.dumps({

@@ -42,7 +42,7 @@ HOURS = {1: (20, 150.0), 10: (8, 50.0)}  # hours -> (runs, IMU rate [Hz])
 def accuracy(hours: float, runs: int, rate_hz: float, mission: str, truth: str, aiding: str) -> dict:
     """One bank of :data:`METHODS` on one mission: the table's numbers per method."""
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
     from tauvcore.engine.results import BLOCK_DIMS
 
     duration_s = hours * 3600.0
@@ -77,7 +77,7 @@ def accuracy(hours: float, runs: int, rate_hz: float, mission: str, truth: str, 
             k["last"] = res
 
     rngs = [np.random.default_rng([SEED, r]) for r in range(runs)]
-    run_streaming(config, rngs, num_runs=runs, on_chunk=reduce, keep=False)
+    run_streaming(config, rngs, num_runs=runs, keep=False, sinks=Sinks(on_chunk=reduce))
     out = {}
     for m in METHODS:
         k, res = keep[m], keep[m]["last"]

@@ -22,7 +22,7 @@ import numpy as np
 from _common import error_table, finite, out_dir, parser
 
 from tauvcore.config import Config
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, run_streaming
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.eval.replay import replay
 from tauvcore.logs import read_log
@@ -42,7 +42,9 @@ def main() -> None:
     )
 
     chunks: list[SimChunk] = []
-    simulated = run_streaming(config, np.random.default_rng(config.run.seed), on_sim_chunk=chunks.append)
+    simulated = run_streaming(
+        config, np.random.default_rng(config.run.seed), sinks=Sinks(on_sim_chunk=chunks.append)
+    )
     directory = out_dir(args.out, "tauv-example-04-") / "log"
     write_log(directory, simulation_tables(chunks), args.log_format)
     print(

@@ -42,7 +42,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
     from app.commands.json_stream import RunReduction
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
 
     reduction = RunReduction(config, json_path, args.json, smoothed=smooth is not None)
 
@@ -55,12 +55,14 @@ def cmd_run(args: argparse.Namespace) -> int:
                 config,
                 rng,
                 keep=False,
-                on_chunk=reduction.add,
-                on_sim_chunk=None
-                if log_writer is None
-                else lambda chunk: _save_chunk(args, log_writer, chunk),
                 smooth=options,
-                on_smoothed_chunk=reduction.add_smoothed,
+                sinks=Sinks(
+                    on_chunk=reduction.add,
+                    on_sim_chunk=None
+                    if log_writer is None
+                    else lambda chunk: _save_chunk(args, log_writer, chunk),
+                    on_smoothed_chunk=reduction.add_smoothed,
+                ),
             )
         elapsed = time.perf_counter() - started
         if log_writer is not None:

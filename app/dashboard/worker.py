@@ -59,7 +59,7 @@ from app.dashboard import budget
 from app.dashboard.truth_view import decimation, log_truth_view, truth_view
 from app.figures.sensor_view import SensorViewBuilder
 from tauvcore.config import Config, from_dict, to_dict
-from tauvcore.engine.mission import run, run_streaming
+from tauvcore.engine.mission import Sinks, Watch, run, run_streaming
 from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
@@ -227,7 +227,7 @@ def run_worker(
 
         def progress(t: float, res: dict[str, MethodResult]) -> None:
             # at most one message per PROGRESS_MIN_WALL_S (the engine gathers the results no
-            # more often: progress_min_wall_s), thinned: a live view needs the shape of the
+            # more often: Watch.min_wall_s), thinned: a live view needs the shape of the
             # curves, not every epoch of a long run (the final message has them all)
             now = time.monotonic()
             if now - last_sent[0] >= PROGRESS_MIN_WALL_S:
@@ -237,6 +237,7 @@ def run_worker(
                 last_sent[0] = now
 
         should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
+        watch = Watch(progress, progress_interval_s, PROGRESS_MIN_WALL_S, should_stop)
         smooth = (
             None
             if smooth_mb is None
@@ -261,13 +262,15 @@ def run_worker(
                 config,
                 rng,
                 num_runs,
-                on_chunk=reduce,
                 keep=False,
-                should_stop=should_stop,
-                on_sim_chunk=sensors.add,
                 sensor_errors=sensor_errors,
                 smooth=smooth,
-                on_smoothed_chunk=smoothed.add if smooth is not None else None,
+                watch=Watch(should_stop=should_stop),
+                sinks=Sinks(
+                    on_chunk=reduce,
+                    on_sim_chunk=sensors.add,
+                    on_smoothed_chunk=smoothed.add if smooth is not None else None,
+                ),
             )
             results = dict(reducer.results())
             if smooth is not None:
@@ -278,13 +281,10 @@ def run_worker(
                 config,
                 rng,
                 num_runs,
-                progress=progress,
-                progress_interval_s=progress_interval_s,
-                should_stop=should_stop,
-                on_sim_chunk=sensors.add,
-                progress_min_wall_s=PROGRESS_MIN_WALL_S,
                 sensor_errors=sensor_errors,
                 smooth=smooth,  # kept: each method's results carry their smoothed ones
+                watch=watch,
+                sinks=Sinks(on_sim_chunk=sensors.add),
             )
             queue.put(("sensors", sensors.view()))
         else:
@@ -296,10 +296,7 @@ def run_worker(
                     config,
                     sim,
                     rng,
-                    progress=progress,
-                    progress_interval_s=progress_interval_s,
-                    should_stop=should_stop,
-                    progress_min_wall_s=PROGRESS_MIN_WALL_S,
+                    watch,
                     sensor_errors=sensor_errors,
                     smooth=smooth,
                 ),

@@ -9,9 +9,9 @@ where the driver asked to be called back). The driver owns everything else, once
 
 - the constants of the strapdown, the covariance and output grids and the gate;
 - the order of the chunks, the raw IMU increments carried from one chunk to the next;
-- when to come back to Python: at every output epoch while someone polls ``should_stop``, else
-  every ``progress_interval_s`` of simulated time for ``progress``, else only where the bank
-  needs to (its aiding epochs);
+- when to come back to Python (:class:`Watch`): at every output epoch while someone polls
+  ``should_stop``, else every ``interval_s`` of simulated time for ``progress``, else only where
+  the bank needs to (its aiding epochs);
 - stop and progress: a stop ends the results at that output epoch; a progress call sees every
   result so far;
 - the rest of a chunk after its last stop (the nominal state goes on, the covariance waits);
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -53,6 +54,38 @@ sources' states' (tauvcore.engine.results.STATE_FIELDS) with no columns when the
 every other field has one row per update (``up_k``, ``up_t``)."""
 
 Store = dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class Watch:
+    """Who watches a run while it goes, and may end it: what the chunk loop calls back between
+    output epochs. The results do not depend on it.
+
+    Attributes
+    ----------
+    progress : Callable[[float, dict[str, MethodResult]], None] or None
+        ``progress(t_s, results)`` with the simulated time [s] and the results so far (for live
+        displays), every ``interval_s`` of simulated time; None: not called.
+    interval_s : float
+        Simulated time between two calls of ``progress`` [s].
+    min_wall_s : float
+        Wall time [s] that must pass between two calls of ``progress`` (0: every interval):
+        gathering the results so far is what a call costs (a live display needs about one a
+        second, not one per 2 s of a mission that runs 100 times faster than real time).
+    should_stop : Callable[[], bool] or None
+        ``should_stop()``, polled at every output epoch (``config.filter.output_rate_hz``, 10 Hz
+        by default, of simulated time: a few milliseconds of wall time); True ends the run at that
+        epoch, the results ending there. None: the run goes to the end.
+    """
+
+    progress: Callable[[float, dict[str, MethodResult]], None] | None = None
+    interval_s: float = 5.0
+    min_wall_s: float = 0.0
+    should_stop: Callable[[], bool] | None = None
+
+
+UNWATCHED = Watch()
+"""No progress, no stop requests."""
 
 
 class ChunkInputs:
@@ -164,21 +197,10 @@ class ChunkDriver:
         """Called once the chunk's last sample is reached, before its store is sealed."""
 
     # ------------------------------------------------------------------ the chunk loop
-    def feed(
-        self,
-        chunk: SimChunk,
-        progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-        progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None,
-        progress_min_wall_s: float = 0.0,
-    ) -> bool:
-        """Run the bank over one chunk (chunks in order, the first at sample 0). Calls
-        ``progress(t_s, results so far)`` every ``progress_interval_s`` of simulated time, but
-        not sooner than ``progress_min_wall_s`` of wall time after the last call (gathering the
-        results so far is the cost of a call: a live display needs about one a second, not one
-        per 2 s of a mission that runs 100 times faster than real time), and polls
-        ``should_stop()`` at every output epoch; returns False once it said so (the results then
-        end at that epoch). The results do not depend on when progress was called."""
+    def feed(self, chunk: SimChunk, watch: Watch = UNWATCHED) -> bool:
+        """Run the bank over one chunk (chunks in order, the first at sample 0), called back as
+        ``watch`` asks (:class:`Watch`); returns False once its ``should_stop`` said so (the
+        results then end at that epoch)."""
         if self.stopped:
             return False
         if not self.started:
@@ -195,7 +217,8 @@ class ChunkDriver:
         phi_raw, dv_raw = (np.ascontiguousarray(a) for a in body_increments(dtheta, imu.dv_b, self.prev_raw))
         inputs = ChunkInputs(phi_raw, dv_raw, dtheta, self.prev_raw[0] if self.prev_raw is not None else None)
         self.prev_raw = (dtheta[-1].copy(), np.array(imu.dv_b[-1]))
-        every = max(1, round(progress_interval_s * self.config.filter.output_rate_hz))
+        progress, should_stop = watch.progress, watch.should_stop
+        every = max(1, round(watch.interval_s * self.config.filter.output_rate_hz))
         poll_every = 1 if should_stop is not None else (every if progress is not None else 0)
         store = self._store(self.out_idx[(self.out_idx >= k0) & (self.out_idx < k0 + n)], chunk)
         for k in self._run_chunk(chunk, inputs, store, poll_every):
@@ -209,7 +232,7 @@ class ChunkDriver:
                 progress is not None
                 and done % every == 0
                 and done < self.out_idx.size
-                and time.monotonic() - self.last_progress_wall_s >= progress_min_wall_s
+                and time.monotonic() - self.last_progress_wall_s >= watch.min_wall_s
             ):
                 self._seal(store, k)
                 progress(t, self.results())

@@ -37,7 +37,7 @@ count the rejected pings before it as a lock-out, and starts its innovation wind
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -46,19 +46,29 @@ from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import skew
 
 
+class BeamPing(NamedTuple):
+    """One DVL ping of one run as the reset reads it."""
+
+    y_beam_mps: np.ndarray  # (4,) the beam velocities [m/s] (those not returned are ignored)
+    available: np.ndarray  # (4,) bool: the beams that returned (at least one)
+    omega_nb_b_rps: np.ndarray  # (3,) the gyro's body rate relative to n (earth rate out, bias in) [rad/s]
+
+
+class BeamGeometry(NamedTuple):
+    """The DVL's beams as the reset reads them."""
+
+    A_b: np.ndarray  # (4, 3) the beams' unit vectors in the body frame (tauvcore.sensors.dvl)
+    l_dvl_b_m: np.ndarray  # (3,) the DVL's lever arm from the IMU, body frame [m]
+    beam_var_m2ps2: float  # variance of one beam's velocity noise [m^2/s^2]
+
+
 def dvl_velocity_reset(
     vel_n: np.ndarray,
     P: np.ndarray,
     C_nb: np.ndarray,
-    sf: float,
-    b_dvl_mps: np.ndarray,
-    gyro_bias_rps: np.ndarray,
-    y_beam_mps: np.ndarray,
-    available: np.ndarray,
-    omega_nb_b_rps: np.ndarray,
-    A_b: np.ndarray,
-    l_dvl_b_m: np.ndarray,
-    beam_var_m2ps2: float,
+    sensor_errors: tuple[float, np.ndarray, np.ndarray],
+    ping: BeamPing,
+    geometry: BeamGeometry,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One filter's velocity and covariance reset to a DVL ping (module docstring).
 
@@ -70,25 +80,13 @@ def dvl_velocity_reset(
         Shape (20, 20), the error-state covariance (tauvcore.filter.layout.STATE) in SI units.
     C_nb : numpy.ndarray
         Shape (3, 3), the estimated attitude, body to NED.
-    sf : float
-        The estimated DVL scale factor [-].
-    b_dvl_mps : numpy.ndarray
-        Shape (4,), the estimated beam biases [m/s].
-    gyro_bias_rps : numpy.ndarray
-        Shape (3,), the estimated gyro bias, body frame [rad/s].
-    y_beam_mps : numpy.ndarray
-        Shape (4,), the ping's beam velocities [m/s] (those not returned are ignored).
-    available : numpy.ndarray
-        Shape (4,) bool, the beams that returned (at least one).
-    omega_nb_b_rps : numpy.ndarray
-        Shape (3,), the body's rate relative to the n frame at the ping as the gyro measures it
-        (the earth's rate taken out), body frame [rad/s]; the estimated gyro bias is taken out here.
-    A_b : numpy.ndarray
-        Shape (4, 3), the beams' unit vectors in the body frame (tauvcore.sensors.dvl).
-    l_dvl_b_m : numpy.ndarray
-        Shape (3,), the DVL's lever arm from the IMU, body frame [m].
-    beam_var_m2ps2 : float
-        Variance of one beam's velocity noise [m^2/s^2].
+    sensor_errors : tuple
+        ``(sf, b_dvl_mps, gyro_bias_rps)``: the estimated DVL scale factor [-], beam biases (4,)
+        [m/s] and gyro bias (3,), body frame [rad/s] (taken out of ``ping.omega_nb_b_rps`` here).
+    ping : BeamPing
+        The ping.
+    geometry : BeamGeometry
+        The DVL's beams, lever arm and beam noise.
 
     Returns
     -------
@@ -97,6 +95,9 @@ def dvl_velocity_reset(
     P : numpy.ndarray
         Shape (20, 20), the reset covariance (a new array, symmetric).
     """
+    sf, b_dvl_mps, gyro_bias_rps = sensor_errors
+    y_beam_mps, available, omega_nb_b_rps = ping
+    A_b, l_dvl_b_m, beam_var_m2ps2 = geometry
     beams = np.asarray(available, dtype=bool)
     A = A_b[beams]
     scale = 1.0 + sf
@@ -237,7 +238,7 @@ def lockout_reset(
     due = rejected & (bank.dvl_rejected >= limit) if limit > 0 else np.zeros(bank.batch, bool)
     if not due.any():
         return due
-    beam_var = dvl_beam_sigma_mps(bank.config.dvl.noise_mps) ** 2
+    geometry = BeamGeometry(bank.A_b, bank.l_dvl_b, dvl_beam_sigma_mps(bank.config.dvl.noise_mps) ** 2)
     for m, r in zip(*np.nonzero(due), strict=True):
         C = bank.C[m, r]
         w_ie_b = C.T @ bank.w_ie
@@ -245,15 +246,9 @@ def lockout_reset(
             bank.vel[m, r],
             bank.P[m, r],
             C,
-            float(bank.sf[m, r]),
-            bank.bdvl[m, r],
-            bank.bg[m, r],
-            y[r],
-            available[r],
-            omega_meas[r] - w_ie_b,
-            bank.A_b,
-            bank.l_dvl_b,
-            beam_var,
+            (float(bank.sf[m, r]), bank.bdvl[m, r], bank.bg[m, r]),
+            BeamPing(y[r], available[r], omega_meas[r] - w_ie_b),
+            geometry,
         )
     bank.dvl_rejected[due] = 0
     bank.dvl_reacquire[due] = True

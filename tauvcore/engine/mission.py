@@ -6,11 +6,12 @@ generated chunk by chunk so that memory does not grow with the mission's length
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from tauvcore.config import Config
+from tauvcore.engine.chunk_driver import UNWATCHED, Watch
 from tauvcore.engine.filter_bank import FilterBank
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import ChunkSource, SimChunk, Simulation, chunks_of
@@ -28,10 +29,7 @@ def run(
     config: Config,
     sim: Simulation,
     rng: np.random.Generator | Sequence[np.random.Generator],
-    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-    progress_interval_s: float = 5.0,
-    should_stop: Callable[[], bool] | None = None,
-    progress_min_wall_s: float = 0.0,
+    watch: Watch = UNWATCHED,
     sensor_errors: bool = False,
     smooth: SmoothOptions | None = None,
 ) -> dict[str, MethodResult]:
@@ -50,18 +48,9 @@ def run(
     rng : numpy.random.Generator or Sequence[numpy.random.Generator]
         What the filters' initial errors are drawn from: one generator for the batch of R runs,
         or one per run (R of them).
-    progress : Callable[[float, dict[str, MethodResult]], None] or None
-        ``progress(t_s, partial_results)``, called every ``progress_interval_s`` of simulated time
-        with the simulated time [s] and the results so far (for live displays); None: not called.
-    progress_interval_s : float
-        Simulated time between two calls of ``progress`` [s].
-    progress_min_wall_s : float
-        Wall time [s] that must pass between two calls of ``progress`` (0: every interval);
-        gathering the results so far is what a call costs. The results do not depend on it.
-    should_stop : Callable[[], bool] or None
-        ``should_stop()``, polled at every output epoch (``config.filter.output_rate_hz``, 10 Hz
-        by default, of simulated time: a few milliseconds of wall time); True ends the run early,
-        returning the results up to that epoch. None: the run goes to the end.
+    watch : Watch
+        Progress calls and stop requests while it runs (:class:`~tauvcore.engine.chunk_driver.Watch`;
+        a stop returns the results up to that epoch).
     sensor_errors : bool
         Whether every output epoch also records each method's estimated sensor errors, their
         1-sigma and their truth (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``,
@@ -89,11 +78,11 @@ def run(
         smooth=smooth,
     )
     if smooth is None:
-        banks.feed(SimChunk.whole(sim), progress, progress_interval_s, should_stop, progress_min_wall_s)
+        banks.feed(SimChunk.whole(sim), watch)
         return banks.results()
     chunk_samples = max(1, round(STREAM_CHUNK_S / sim.truth.dt_s))
     for chunk in chunks_of(sim, chunk_samples):
-        if not banks.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s):
+        if not banks.feed(chunk, watch):
             break
     return banks.with_smoothed(banks.results())
 
@@ -240,14 +229,7 @@ class Banks:
         for bank in self.banks:
             bank.start(chunk, (nav.pos_n[0], nav.vel_n[0], nav.C_nb[0]))
 
-    def feed(
-        self,
-        chunk: SimChunk,
-        progress: Callable | None = None,
-        progress_interval_s: float = 5.0,
-        should_stop: Callable[[], bool] | None = None,
-        progress_min_wall_s: float = 0.0,
-    ) -> bool:
+    def feed(self, chunk: SimChunk, watch: Watch = UNWATCHED) -> bool:
         """Run every bank over one chunk.
 
         The followers go first (the leader's progress then carries their results up to the same
@@ -258,15 +240,9 @@ class Banks:
         ----------
         chunk : SimChunk
             The next chunk of the mission (chunks in order, the first at sample 0), R runs.
-        progress : Callable or None
-            ``progress(t_s, results)`` with the simulated time [s] and every bank's results so far,
-            called every ``progress_interval_s`` of simulated time; None: not called.
-        progress_interval_s : float
-            Simulated time between two calls of ``progress`` [s].
-        should_stop : Callable[[], bool] or None
-            Polled at every output epoch; True ends the run at that epoch. None: never stops.
-        progress_min_wall_s : float
-            Wall time [s] that must pass between two calls of ``progress`` (0: every interval).
+        watch : Watch
+            Progress calls (with every bank's results so far) and stop requests
+            (:class:`~tauvcore.engine.chunk_driver.Watch`).
 
         Returns
         -------
@@ -287,12 +263,15 @@ class Banks:
         leader, *followers = self.banks
         for bank in followers:
             bank.feed(chunk)
-        every: Callable | None = progress
+        progress = watch.progress
         if progress is not None and followers:
-            every = lambda t, first: progress(  # the leader's progress, with the others' results
-                t, self._merge(first, *(bank.results(until_s=t) for bank in followers))
+            watch = replace(  # the leader's progress, with the others' results
+                watch,
+                progress=lambda t, first: progress(
+                    t, self._merge(first, *(bank.results(until_s=t) for bank in followers))
+                ),
             )
-        going = leader.feed(chunk, every, progress_interval_s, should_stop, progress_min_wall_s)
+        going = leader.feed(chunk, watch)
         if not going and followers:
             self.until_s = leader.stopped_at_s
         self.stopped = not going
@@ -437,21 +416,45 @@ STREAM_CHUNK_S = 10.0
 150 Hz): memory then holds one chunk of truth and sensors, whatever the mission's length."""
 
 
+@dataclass(frozen=True)
+class Sinks:
+    """Where :func:`run_streaming` hands each chunk as it is done.
+
+    Attributes
+    ----------
+    on_chunk : Callable[[dict[str, MethodResult]], None] or None
+        ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
+        verdict so far), method name -> :class:`MethodResult` (series (T_chunk, R)).
+    on_sim_chunk : Callable[[SimChunk], None] or None
+        ``on_sim_chunk(chunk)`` receives each chunk of the simulation itself (truth and sensors)
+        before the banks run it (``tauv run --save-log`` writes them as a log: tauvcore.logs).
+    on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
+        With a smoother: the smoothed results chunk by chunk in the mission's order (series
+        (T_chunk, R)), after the last ``on_chunk``; memory then does not grow with the mission
+        (the smoother's tape beyond its budget is in a temporary directory).
+
+    None: not called.
+    """
+
+    on_chunk: Callable[[dict[str, MethodResult]], None] | None = None
+    on_sim_chunk: Callable[[SimChunk], None] | None = None
+    on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None = None
+
+
+NO_SINKS = Sinks()
+"""Nothing handed out chunk by chunk."""
+
+
 def run_streaming(
     config: Config,
     rng: np.random.Generator | Sequence[np.random.Generator],
     num_runs: int = 1,
     chunk_s: float = STREAM_CHUNK_S,
-    on_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
     keep: bool = True,
-    progress: Callable[[float, dict[str, MethodResult]], None] | None = None,
-    progress_interval_s: float = 5.0,
-    should_stop: Callable[[], bool] | None = None,
-    on_sim_chunk: Callable[[SimChunk], None] | None = None,
-    progress_min_wall_s: float = 0.0,
     sensor_errors: bool = False,
     smooth: SmoothOptions | None = None,
-    on_smoothed_chunk: Callable[[dict[str, MethodResult]], None] | None = None,
+    watch: Watch = UNWATCHED,
+    sinks: Sinks = NO_SINKS,
 ) -> dict[str, MethodResult]:
     """Simulate and run chunk by chunk, so that memory does not depend on the mission's length.
 
@@ -477,37 +480,21 @@ def run_streaming(
     chunk_s : float
         Mission time generated and filtered at a time [s] (at least one DVL ping interval plus
         one IMU sample, so that the first chunk holds the first ping).
-    on_chunk : Callable[[dict[str, MethodResult]], None] or None
-        ``on_chunk(results)`` receives each chunk's output epochs and updates (and the monitor's
-        verdict so far), method name -> :class:`MethodResult` (series (T_chunk, R)); None: not
-        called.
     keep : bool
         Whether the results of every chunk are kept; False: they are not kept and the return
         value holds only the last chunk's.
-    progress : Callable[[float, dict[str, MethodResult]], None] or None
-        As in :func:`run`: ``progress(t_s, partial_results)`` with the simulated time [s].
-    progress_interval_s : float
-        Simulated time between two calls of ``progress`` [s].
-    should_stop : Callable[[], bool] or None
-        As in :func:`run`: polled at every output epoch, True ends the run at that epoch.
-    on_sim_chunk : Callable[[SimChunk], None] or None
-        ``on_sim_chunk(chunk)`` receives each chunk of the simulation itself (truth and sensors)
-        before the banks run it (``tauv run --save-log`` writes them as a log: tauvcore.logs).
-    progress_min_wall_s : float
-        Wall time [s] that must pass between two calls of ``progress`` (0: every interval).
     sensor_errors : bool
         As in :func:`run`: record the estimated sensor errors, their 1-sigma and their truth
         (``MethodResult.sensor_est``, ``sensor_sigma``, ``sensor_true``, (T, R, S)); False: None.
     smooth : SmoothOptions or None
         Also run the fixed-interval smoother once the forward pass is done (or stopped)
         (tauvcore.engine.smoothing): with ``keep``, each method's result carries its
-        ``smoothed`` results; with ``on_smoothed_chunk``, that receives them chunk by chunk. None:
-        no smoother.
-    on_smoothed_chunk : Callable[[dict[str, MethodResult]], None] or None
-        With ``smooth``: ``on_smoothed_chunk(results)`` receives the smoothed results chunk by
-        chunk in the mission's order (the 20-state methods', series (T_chunk, R)), after the last
-        ``on_chunk``; memory then does not grow with the mission (the smoother's tape beyond its
-        budget is in a temporary directory).
+        ``smoothed`` results; with ``sinks.on_smoothed_chunk``, that receives them chunk by
+        chunk. None: no smoother.
+    watch : Watch
+        As in :func:`run`.
+    sinks : Sinks
+        Where each chunk goes as it is done (:class:`Sinks`).
 
     Returns
     -------
@@ -557,18 +544,18 @@ def run_streaming(
     last: dict[str, MethodResult] = {}
     for k0, truth in truths:
         chunk = SimChunk(k0, truth, sensors.next_chunk(k0, truth), sources=sources.next_chunk(k0, truth))
-        if on_sim_chunk is not None:
-            on_sim_chunk(chunk)
-        going = bank.feed(chunk, progress, progress_interval_s, should_stop, progress_min_wall_s)
-        if on_chunk is not None or not keep:
+        if sinks.on_sim_chunk is not None:
+            sinks.on_sim_chunk(chunk)
+        going = bank.feed(chunk, watch)
+        if sinks.on_chunk is not None or not keep:
             last = bank.take()
-            if on_chunk is not None:
-                on_chunk(last)
+            if sinks.on_chunk is not None:
+                sinks.on_chunk(last)
         if not going:
             break
     if smooth is None:
         return bank.results() if keep else last
-    if on_smoothed_chunk is not None or not keep:
-        bank.hand_out_smoothed(on_smoothed_chunk)
+    if sinks.on_smoothed_chunk is not None or not keep:
+        bank.hand_out_smoothed(sinks.on_smoothed_chunk)
         return bank.results() if keep else last
     return bank.with_smoothed(bank.results())

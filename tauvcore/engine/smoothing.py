@@ -35,7 +35,7 @@ from tauvcore.engine.results import STATE_FIELDS
 from tauvcore.filter.eskf import Nominal, difference
 from tauvcore.filter.kernels.common import ATT, CORE, NAV, POS, VEL, N, jit
 from tauvcore.filter.kernels.nees import add_reference_into, nees_plan
-from tauvcore.filter.kernels.smoother import smooth_backward
+from tauvcore.filter.kernels.smoother import AidingMarks, CarriedMark, OutputMarks, smooth_backward
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, mv
 
@@ -609,21 +609,16 @@ class Carry:
         s = np.empty((T, B, n))
         Ps = np.empty((T, B, n, n))
         smooth_backward(
-            flat("tape_X", (a, b)),
-            flat("tape_E", (e,)),
-            flat("tape_P", (n, n)),
-            flat("ev_X", (a, b)),
-            flat("ev_E", (e,)),
-            flat("ev_Pm", (n, n)),
-            flat("ev_Pp", (n, n)),
-            flat("ev_d", (n,)),
-            np.ascontiguousarray(segment["ev_pos"], dtype=np.int64),
-            self.has,
-            self.X,
-            self.E,
-            self.Pm,
-            self.s,
-            self.Ps,
+            OutputMarks(flat("tape_X", (a, b)), flat("tape_E", (e,)), flat("tape_P", (n, n))),
+            AidingMarks(
+                flat("ev_X", (a, b)),
+                flat("ev_E", (e,)),
+                flat("ev_Pm", (n, n)),
+                flat("ev_Pp", (n, n)),
+                flat("ev_d", (n,)),
+                np.ascontiguousarray(segment["ev_pos"], dtype=np.int64),
+            ),
+            CarriedMark(self.has, self.X, self.E, self.Pm, self.s, self.Ps),
             s,
             Ps,
             self.cuts,

@@ -68,6 +68,7 @@ from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
 from tauvcore.engine.source_streams import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance
+from tauvcore.engine.yoo_records import YooSchedule
 from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
 from tauvcore.engine.yoo_velocity import (
     added_states,
@@ -318,8 +319,8 @@ class YooBank(ChunkDriver):
         store: Store,
     ) -> None:
         """Stops ``s0 .. s1 - 1`` of the chunk in the compiled loop (tauvcore.engine.yoo_loop.run_chunk)."""
-        args = (s0, s1, stops, ping_of_stop, row_of_stop, inputs, store, METHOD_CODES, SENSOR_INDEX)
-        yoo_loop.run_chunk(self, chunk, *args)
+        schedule = YooSchedule(stops, ping_of_stop, row_of_stop, chunk.k0)
+        yoo_loop.run_chunk(self, chunk, s0, s1, schedule, inputs, store, METHOD_CODES, SENSOR_INDEX)
 
     def _record_again(self, chunk: SimChunk, i: int, row: int, inputs: ChunkInputs, store: Store) -> None:
         """Output epoch ``row`` (sample ``i``) recorded again after the sources' corrections

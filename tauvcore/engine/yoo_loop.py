@@ -161,7 +161,7 @@ def run_stops(
         model.current,
     )
     water_var = model.water_var
-    up_z, up_nu, up_S, up_flags, up_nis = (
+    up_rows = (  # the DVL's (or RPM's) velocity updates' records
         outputs.up_z,
         outputs.up_nu,
         outputs.up_S,
@@ -175,7 +175,7 @@ def run_stops(
         outputs.tr_use,
         outputs.tr_alt,
     )
-    wt_z, wt_nu, wt_S, wt_flags, wt_nis = (
+    wt_rows = (  # the water-track's
         outputs.wt_z,
         outputs.wt_nu,
         outputs.wt_S,
@@ -355,8 +355,7 @@ def run_stops(
                         P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r], z, h, w, Rm, Hc, Hx, valid,
                         gate, S_diag, nu,
                     )  # fmt: skip
-                    _write_update(p, m, r, z, nu, S_diag, valid, fused, passed, nis, up_z, up_nu, up_S,
-                                  up_flags, up_nis)  # fmt: skip
+                    _write_update(p, m, r, (z, nu, S_diag), (valid, fused, passed, nis), up_rows)
             if water:  # the water-track beams, after the ping's bottom-track
                 for r in range(R):
                     lat = pos[0, r, 0] if geodetic else origin[0]
@@ -381,8 +380,7 @@ def run_stops(
                             P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r], z, h, w, Rm, Hc, Hx,
                             ok[r], gate, S_diag, nu,
                         )  # fmt: skip
-                        _write_update(p, m, r, z, nu, S_diag, ok[r], fused, passed, nis, wt_z, wt_nu, wt_S,
-                                      wt_flags, wt_nis)  # fmt: skip
+                        _write_update(p, m, r, (z, nu, S_diag), (ok[r], fused, passed, nis), wt_rows)
             if taping:
                 mark_after(p, tape, P, now, held)
         row = row_of_stop[s]
@@ -406,24 +404,14 @@ def _rotated_into(
 
 
 @jit
-def _write_update(
-    p: int,
-    m: int,
-    r: int,
-    z: np.ndarray,
-    nu: np.ndarray,
-    S_diag: np.ndarray,
-    valid: bool,
-    fused: bool,
-    passed: bool,
-    nis: float,
-    out_z: np.ndarray,
-    out_nu: np.ndarray,
-    out_S: np.ndarray,
-    out_flags: np.ndarray,
-    out_nis: np.ndarray,
-) -> None:
-    """One fused velocity's record at ping ``p`` of method ``m``, run ``r`` (NaN where not valid)."""
+def _write_update(p: int, m: int, r: int, fused_rows: tuple, outcome: tuple, rows: tuple) -> None:
+    """One fused velocity's record at ping ``p`` of method ``m``, run ``r``: its ``(z, nu,
+    S_diag)`` (3,) each and ``(valid, fused, passed, nis)`` into the records ``rows`` (``(z, nu,
+    S, flags, nis)``, :class:`~tauvcore.engine.yoo_records.YooOutputs`' ``up_*`` or ``wt_*``);
+    NaN where not valid."""
+    z, nu, S_diag = fused_rows
+    valid, fused, passed, nis = outcome
+    out_z, out_nu, out_S, out_flags, out_nis = rows
     for a in range(3):
         out_z[p, m, r, a] = z[a]
         out_nu[p, m, r, a] = nu[a] if valid else np.nan
@@ -439,9 +427,7 @@ def run_chunk(
     chunk: Any,
     s0: int,
     s1: int,
-    stops: np.ndarray,
-    ping_of_stop: np.ndarray,
-    row_of_stop: np.ndarray,
+    schedule: YooSchedule,
     inputs: Any,
     store: dict[str, np.ndarray],
     method_codes: dict[str, int],
@@ -459,7 +445,7 @@ def run_chunk(
         The chunk: its IMU, DVL, RPM and echo sounder data and its truth.
     s0, s1 : int
         The stops run.
-    stops, ping_of_stop, row_of_stop : numpy.ndarray
+    schedule : YooSchedule
         The chunk's stops and, at each, its ping's and output epoch's row (-1: none).
     inputs : ChunkInputs
         The chunk's IMU increments.
@@ -473,14 +459,13 @@ def run_chunk(
     state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
     taping = bank.taping
     counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
-    schedule = YooSchedule(stops, ping_of_stop, row_of_stop, chunk.k0)
     run_stops(s0, s1, schedule, counters, state, data, bank.sd_consts, model, outputs, tape)
     bank.rpm_aid.use_rpm, bank.rpm_aid.altitude = state.vkf_use, state.vkf_alt
     bank.k_state, bank.k_cov = int(counters[0]), int(counters[1])
     if taping is not None:
         taping.rows = int(counters[2])
-        fused = ping_of_stop[s0:s1] >= 0
-        taping.pings_marked(ping_of_stop[s0:s1][fused], chunk.truth.t_s[stops[s0:s1][fused] - chunk.k0])
+        pings, stops = schedule.ping_of_stop[s0:s1], schedule.stops[s0:s1]
+        taping.pings_marked(pings[pings >= 0], chunk.truth.t_s[stops[pings >= 0] - chunk.k0])
 
 
 def record_again(

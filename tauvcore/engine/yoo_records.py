@@ -20,49 +20,37 @@ from tauvcore.filter.yoo_kernels import ATT, BA, BG, DIM, NA, VEL
 @jit
 def record(
     row: int,
-    pos_t: np.ndarray,
-    vel_t: np.ndarray,
-    C_t: np.ndarray,
-    ba_t: np.ndarray,
-    bg_t: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    P: np.ndarray,
-    geodetic: bool,
-    origin: np.ndarray,
-    block_of_state: np.ndarray,
-    num_blocks: int,
-    deg: float,
-    series: np.ndarray,
-    nees_block: np.ndarray,
-    est_pos: np.ndarray,
-    est_vel: np.ndarray,
-    est_euler: np.ndarray,
-    sensor_index: np.ndarray,
-    sensor_est: np.ndarray,
-    sensor_sigma: np.ndarray,
-    sensor_true: np.ndarray,
-    extra: np.ndarray,
-    extra_t: np.ndarray,
-    est: np.ndarray,
-    state_est: np.ndarray,
-    state_sigma: np.ndarray,
-    state_true: np.ndarray,
-    ref_var: np.ndarray,
+    k: int,
+    state: YooState,
+    chunk: YooChunk,
+    model: YooModel,
+    outputs: YooOutputs,
     tape_dx: np.ndarray,
+    geodetic: bool,
 ) -> None:
-    """One output epoch of every (method, run): errors ``true - estimate``,
-    1-sigma, NEES of the estimated states (the 12 and the added, ``est`` their indices in P) and
-    of each block (no position state: NaN), against their covariance and the covariance of the
-    reference's own errors, ``ref_var`` (9,) at the reference's attitude ``C_t`` and NED velocity
-    ``vel_t`` (tauvcore.filter.kernels.nees.add_reference_into), the estimates; when sensor_est (T, M, R, S) has rows,
-    the sensor errors' estimate, ``sqrt(P_ii)`` and truth too (column j the state
-    ``sensor_index[j]``, sensor_sigma and sensor_true alike); the added states' estimate (``extra``
-    (M, R, E)), ``sqrt(P_ii)`` and truth (``extra_t`` (E,)) into state_est, state_sigma, state_true;
-    when the smoother's ``tape_dx`` (T, M, R, 12 + E) has rows, the errors too."""
+    """Output epoch ``row`` at sample ``k`` of the chunk, of every (method, run): errors ``true -
+    estimate``, 1-sigma, NEES of the estimated states (the 12 and the added, ``model.est`` their
+    indices in P) and of each block (no position state: NaN), against their covariance and the
+    covariance of the reference's own errors, ``model.ref_var`` (9,) at the reference's attitude
+    and NED velocity (tauvcore.filter.kernels.nees.add_reference_into), the estimates; when
+    ``outputs.sensor_est`` (T, M, R, S) has rows, the sensor errors' estimate, ``sqrt(P_ii)`` and
+    truth too (column j the state ``model.sensor_index[j]``); the added states' estimate
+    (``state.extra`` (M, R, E)), ``sqrt(P_ii)`` and truth into ``outputs.state_*``; when the
+    smoother's ``tape_dx`` (T, M, R, 12 + E) has rows, the errors too."""
+    pos_t, vel_t, C_t, ba_t, bg_t = chunk.pos_t[k], chunk.vel_t[k], chunk.C_t[k], chunk.ba_t[k], chunk.bg_t[k]
+    extra_t = chunk.extra_t[k]
+    pos, vel, C, ba, bg, P, extra = state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.extra
+    origin, block_of_state, num_blocks, deg = model.origin, model.block_of_state, model.num_blocks, model.deg
+    sensor_index, est, ref_var = model.sensor_index, model.est, model.ref_var
+    series, nees_block, est_pos, est_vel, est_euler = (
+        outputs.series,
+        outputs.nees_block,
+        outputs.est_pos,
+        outputs.est_vel,
+        outputs.est_euler,
+    )
+    sensor_est, sensor_sigma, sensor_true = outputs.sensor_est, outputs.sensor_sigma, outputs.sensor_true
+    state_est, state_sigma, state_true = outputs.state_est, outputs.state_sigma, outputs.state_true
     M, R = pos.shape[0], pos.shape[1]
     with_sensors = sensor_est.shape[0] > 0
     n = est.shape[0]
@@ -304,15 +292,8 @@ def record_row(
     """Output epoch ``row`` at sample ``i`` of the chunk (:func:`record`), and with the smoother's
     ``tape`` its mark: the transition since the last mark (then restarted), the covariance, the
     true body velocity; ``counters[2]`` the chunk's output epochs recorded so far."""
-    pos, vel, C, ba, bg, P, extra = state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.extra
-    C_t, vel_t = chunk.C_t, chunk.vel_t
-    record(
-        row, chunk.pos_t[i], vel_t[i], C_t[i], chunk.ba_t[i], chunk.bg_t[i], pos, vel, C, ba, bg, P, geodetic,
-        model.origin, model.block_of_state, model.num_blocks, model.deg, outputs.series, outputs.nees_block,
-        outputs.est_pos, outputs.est_vel, outputs.est_euler, model.sensor_index, outputs.sensor_est,
-        outputs.sensor_sigma, outputs.sensor_true, extra, chunk.extra_t[i], model.est, outputs.state_est,
-        outputs.state_sigma, outputs.state_true, model.ref_var, tape.tape_dx,
-    )  # fmt: skip
+    record(row, i, state, chunk, model, outputs, tape.tape_dx, geodetic)
+    P, C_t, vel_t = state.P, chunk.C_t, chunk.vel_t
     if tape.phi_acc.shape[0] == 0:
         return
     tape.tape_X[row] = tape.phi_acc

@@ -23,7 +23,7 @@ from tauvcore.aiding.attitude_mag import EULER
 from tauvcore.aiding.source import SourceData
 from tauvcore.aiding.sources import SOURCES
 from tauvcore.config import Config, from_dict, read_toml
-from tauvcore.engine.mission import run, run_chunked
+from tauvcore.engine.mission import Watch, run, run_chunked
 from tauvcore.engine.results import MethodResult
 from tauvcore.engine.rpm_aid import ECHO_SOURCE, RPM_SOURCE
 from tauvcore.engine.simulation import ChunkSource, Simulation
@@ -705,7 +705,7 @@ def replay(
         As :func:`prepare`.
     """
     config, sim = prepare(config, log, rng, imu_errors)
-    results = run(config, sim, rng, progress=progress, should_stop=should_stop)
+    results = run(config, sim, rng, Watch(progress=progress, should_stop=should_stop))
     return config, judged(log, results, config.filter.output_rate_hz)
 
 

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, run_streaming
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.filter.layout import NEES_BLOCKS
 from tauvcore.sensors.imu import imu_profile
@@ -60,7 +60,7 @@ def _nees_per_dim(methods: tuple[str, ...], beams: tuple[int, ...]) -> dict:
             counts[m]["last hour"] += int(late.sum()) * res.nees_block.shape[1]
 
     rngs = [np.random.default_rng([SEED, r]) for r in range(NUM_RUNS)]
-    run_streaming(config, rngs, num_runs=NUM_RUNS, on_chunk=reduce, keep=False)
+    run_streaming(config, rngs, num_runs=NUM_RUNS, keep=False, sinks=Sinks(on_chunk=reduce))
     return {m: {w: sums[m][w] / counts[m][w] / dims for w in sums[m]} for m in methods}
 
 
@@ -103,7 +103,7 @@ def test_with_the_dvl_alone_the_aided_heading_is_no_worse_than_the_free_inss():
             end[m] = res.heading_err_deg[-1]
 
     rngs = [np.random.default_rng([SEED, r]) for r in range(NUM_RUNS)]
-    run_streaming(config, rngs, num_runs=NUM_RUNS, on_chunk=reduce, keep=False)
+    run_streaming(config, rngs, num_runs=NUM_RUNS, keep=False, sinks=Sinks(on_chunk=reduce))
     rms = {m: float(np.sqrt(np.mean(e**2))) for m, e in end.items()}
     assert 5.0 < rms["ins"] < 60.0, rms        # the free heading drifts tens of degrees, not a random angle
     assert rms["lc"] <= rms["ins"], rms

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, Watch, run_streaming
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.engine.yoo_bank import YooBank
 
@@ -47,8 +47,7 @@ def test_polling_for_progress_and_stop_changes_no_number() -> None:
     def never() -> bool:
         polls["n"] += 1
         return False
-    polled = run_streaming(config, np.random.default_rng(4), num_runs=2, chunk_s=3.7,
-                           progress=lambda t, r: seen.append(t), progress_interval_s=2.0, should_stop=never)
+    polled = run_streaming(config, np.random.default_rng(4), num_runs=2, chunk_s=3.7, watch=Watch(progress=lambda t, r: seen.append(t), interval_s=2.0, should_stop=never))
     _assert_equal(plain, polled)
     assert polls["n"] == plain["lc"].t_s.size - 1          # every output epoch but the first
     # every 20 output epochs recorded (epoch 0 the first of them), the last not before the end
@@ -71,9 +70,7 @@ def test_a_wall_time_floor_calls_progress_less_often_and_changes_no_number(monke
 
     monkeypatch.setattr(driver.time, "monotonic", tick)
     seen: list[float] = []
-    floored = run_streaming(config, np.random.default_rng(4), num_runs=2, chunk_s=3.7,
-                            progress=lambda t, r: seen.append(t), progress_interval_s=2.0,
-                            progress_min_wall_s=1.5)
+    floored = run_streaming(config, np.random.default_rng(4), num_runs=2, chunk_s=3.7, watch=Watch(progress=lambda t, r: seen.append(t), interval_s=2.0, min_wall_s=1.5))
     _assert_equal(plain, floored)
     every = np.arange(1.9, 30.0, 2.0)
     assert 0 < len(seen) < len(every) and set(np.round(seen, 6)) <= set(np.round(every, 6))
@@ -84,7 +81,7 @@ def test_taken_chunks_add_up_to_the_whole_for_both_banks(keep: bool) -> None:
     config = _config()
     whole = run_streaming(config, np.random.default_rng(6), num_runs=2)
     parts: list[dict] = []
-    run_streaming(config, np.random.default_rng(6), num_runs=2, chunk_s=4.0, on_chunk=parts.append, keep=keep)
+    run_streaming(config, np.random.default_rng(6), num_runs=2, chunk_s=4.0, keep=keep, sinks=Sinks(on_chunk=parts.append))
     assert len(parts) == 8
     for m in METHODS:
         for name in FIELDS:
@@ -101,7 +98,7 @@ def test_a_stop_cuts_both_banks_at_the_same_epoch_whatever_the_chunking() -> Non
     ends = []
     for chunk_s in (1.3, 10.0):
         calls = iter(range(10_000))
-        out = run_streaming(config, np.random.default_rng(1), chunk_s=chunk_s, should_stop=lambda: next(calls) >= 77)
+        out = run_streaming(config, np.random.default_rng(1), chunk_s=chunk_s, watch=Watch(should_stop=lambda: next(calls) >= 77))
         assert [r.t_s[-1] for r in out.values()] == [pytest.approx(7.8)] * len(METHODS)  # the 78th poll: epoch 78
         ends.append(out)
     _assert_equal(*ends)

@@ -25,7 +25,7 @@ from app.reports.tables import (
     summary_table,
 )
 from tauvcore.config import Config, to_dict
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, run_streaming
 from tauvcore.engine.results import UpdateRecord
 from tauvcore.eval.counts import MethodCounts, SourceCounts, method_counts
 from tauvcore.eval.running import RunningSummary, summarise
@@ -53,7 +53,7 @@ def fallback() -> dict:
     """The same window with ``--rpm-fallback``, run in 5 s chunks, its summary summed chunk by chunk."""
     running = RunningSummary()
     config = OUTAGE.replace("run", methods=("lc", "tc"), rpm_fallback=True)
-    results = run_streaming(config, np.random.default_rng(0), chunk_s=5.0, on_chunk=running.add)
+    results = run_streaming(config, np.random.default_rng(0), chunk_s=5.0, sinks=Sinks(on_chunk=running.add))
     return {"results": results, "running": running.summaries()}
 
 

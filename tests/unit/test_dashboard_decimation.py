@@ -24,7 +24,7 @@ from app.reports.markdown_tables import (
 )
 from app.reports.tables import summary_table
 from tauvcore.config import Config, to_dict
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, run_streaming
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.envelope import (
     RUN_CURVES,
@@ -60,7 +60,7 @@ def pair(request: pytest.FixtureRequest) -> tuple[dict[str, MethodResult], dict[
     T = budget.output_epochs(config)
     full = run_streaming(config, np.random.default_rng(3), runs, sensor_errors=True)
     reducer = EnvelopeReducer(T, 0.1, K)
-    run_streaming(config, np.random.default_rng(3), runs, keep=False, on_chunk=reducer.add, sensor_errors=True)
+    run_streaming(config, np.random.default_rng(3), runs, keep=False, sensor_errors=True, sinks=Sinks(on_chunk=reducer.add))
     return full, reducer.results(), T
 
 
@@ -266,7 +266,7 @@ def test_a_binned_run_keeps_each_bin_s_last_estimate_of_the_sources_states() -> 
     T = budget.output_epochs(config)
     full = run_streaming(config, np.random.default_rng(3), 2)
     reducer = EnvelopeReducer(T, 0.1, K)
-    run_streaming(config, np.random.default_rng(3), 2, keep=False, on_chunk=reducer.add)
+    run_streaming(config, np.random.default_rng(3), 2, keep=False, sinks=Sinks(on_chunk=reducer.add))
     last = np.array([b.stop - 1 for b in _bins(T)])
     for method, f in full.items():
         d = reducer.results()[method]

@@ -13,7 +13,7 @@ from app.commands.outputs import write_json_atomic
 from app.reports.payload import run_payload
 from app.reports.tables import summary_table
 from tauvcore.config import Config
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, run_streaming
 from tauvcore.eval.running import RunningSummary, summarise
 
 
@@ -42,7 +42,7 @@ def _streamed(config, tmp_path, chunk_s: float):
         running.add(results)
         writer.add(results)
 
-    run_streaming(config, np.random.default_rng(3), keep=False, on_chunk=on_chunk, chunk_s=chunk_s)
+    run_streaming(config, np.random.default_rng(3), keep=False, chunk_s=chunk_s, sinks=Sinks(on_chunk=on_chunk))
     summaries = running.summaries()
     writer.write(summaries)
     return summaries, tmp_path / "streamed.json"
@@ -116,7 +116,7 @@ def test_a_last_chunk_of_one_output_epoch_is_reduced_like_the_others() -> None:
     config = Config().replace("trajectory", duration_s=40.0).replace("run", methods=("lc", "ins-dvl", "vkf"))
     whole = run_streaming(config, np.random.default_rng(0))
     parts: list = []
-    run_streaming(config, np.random.default_rng(0), keep=False, on_chunk=parts.append)
+    run_streaming(config, np.random.default_rng(0), keep=False, sinks=Sinks(on_chunk=parts.append))
     assert parts[-1]["vkf"].t_s.size == 1
     running = RunningSummary()
     for p in parts:
@@ -141,8 +141,7 @@ def test_the_streamed_smoothed_json_is_the_whole_run_s_document(config, tmp_path
     reduction = RunReduction(short, str(tmp_path / "streamed.json"), "streamed.json", smoothed=True)
     tape = tmp_path / "tape"
     tape.mkdir()
-    run_streaming(short, np.random.default_rng(3), keep=False, chunk_s=7.0, on_chunk=reduction.add,
-                  smooth=SmoothOptions(budget_mb=0.0, directory=str(tape)), on_smoothed_chunk=reduction.add_smoothed)
+    run_streaming(short, np.random.default_rng(3), keep=False, chunk_s=7.0, smooth=SmoothOptions(budget_mb=0.0, directory=str(tape)), sinks=Sinks(on_chunk=reduction.add, on_smoothed_chunk=reduction.add_smoothed))
     reduction.finish()
     a = json.loads((tmp_path / "whole.json").read_text())
     b = json.loads((tmp_path / "streamed.json").read_text())

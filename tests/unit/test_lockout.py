@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config, FilterConfig
-from tauvcore.engine.lockout import dvl_velocity_reset, reset_jacobian
+from tauvcore.engine.lockout import BeamGeometry, BeamPing, dvl_velocity_reset, reset_jacobian
 from tauvcore.engine.monitor import LOCKOUT_UPDATES, RESET_REPEAT_UPDATES, innovation_divergence_s
 from tauvcore.eval.study import ChunkSeries, StudyAccumulator, run_chunk
 from tauvcore.filter.layout import STATE
@@ -43,8 +43,8 @@ def test_with_three_or_four_beams_the_velocity_is_the_ping_s(case, beams):
     available = np.isin(np.arange(1, 5), beams)
     y = _ping(case["v_true_b"], case["sf"], case["b"], case["omega"] - case["bg"], available)
     wrong_n = np.array([5.0, -3.0, 1.0])  # kilometres from anywhere, as after a long lock-out
-    vel_n, P = dvl_velocity_reset(wrong_n, case["P"], case["C"], case["sf"], case["b"], case["bg"], y, available,
-                                  case["omega"], A_B, L_B, 0.0)
+    vel_n, P = dvl_velocity_reset(wrong_n, case["P"], case["C"], (case["sf"], case["b"], case["bg"]), BeamPing(y, available, case["omega"]),
+                              BeamGeometry(A_B, L_B, 0.0))
     np.testing.assert_allclose(vel_n, case["C"] @ case["v_true_b"], atol=1e-12)
     np.testing.assert_allclose(P, P.T, atol=0.0)
 
@@ -53,8 +53,8 @@ def test_with_two_beams_the_unseen_component_is_kept(case):
     available = np.array([True, True, False, False])
     y = _ping(case["v_true_b"], case["sf"], case["b"], case["omega"] - case["bg"], available)
     before_b = case["v_true_b"] + np.array([0.8, -0.4, 0.3])
-    vel_n, _ = dvl_velocity_reset(case["C"] @ before_b, case["P"], case["C"], case["sf"], case["b"], case["bg"], y,
-                                  available, case["omega"], A_B, L_B, 0.0)
+    vel_n, _ = dvl_velocity_reset(case["C"] @ before_b, case["P"], case["C"], (case["sf"], case["b"], case["bg"]), BeamPing(y, available, case["omega"]),
+                              BeamGeometry(A_B, L_B, 0.0))
     after_b = case["C"].T @ vel_n
     A2 = A_B[:2]
     np.testing.assert_allclose(A2 @ after_b, A2 @ case["v_true_b"], atol=1e-12)   # what the beams see
@@ -75,8 +75,8 @@ def test_the_reset_s_jacobian_matches_finite_differences(case, beams):
         v_true = v_hat_b + dx[STATE.vel]
         b_true, sf_true, bg_true = b_hat + dx[STATE.b_dvl], sf_hat + dx[STATE.sf_dvl][0], bg_hat + dx[STATE.bg]
         y = _ping(v_true, sf_true, b_true, case["omega"] - bg_true, available)
-        vel_n, _ = dvl_velocity_reset(C @ v_hat_b, case["P"], C, sf_hat, b_hat, bg_hat, y, available, case["omega"],
-                                      A_B, L_B, 0.0)
+        vel_n, _ = dvl_velocity_reset(C @ v_hat_b, case["P"], C, (sf_hat, b_hat, bg_hat), BeamPing(y, available, case["omega"]),
+                              BeamGeometry(A_B, L_B, 0.0))
         return v_true - C.T @ vel_n
 
     J = reset_jacobian(v_hat_b, sf_hat, available, A_B, L_B)
@@ -97,8 +97,8 @@ def test_the_covariance_after_the_reset_is_j_p_jt_and_the_ping_s_noise(case):
     y = _ping(case["v_true_b"], case["sf"], case["b"], case["omega"] - case["bg"], available)
     v_hat_n = case["C"] @ (case["v_true_b"] + 0.3)
     beam_var = 0.042**2
-    _, P = dvl_velocity_reset(v_hat_n, case["P"], case["C"], case["sf"], case["b"], case["bg"], y, available,
-                              case["omega"], A_B, L_B, beam_var)
+    _, P = dvl_velocity_reset(v_hat_n, case["P"], case["C"], (case["sf"], case["b"], case["bg"]), BeamPing(y, available, case["omega"]),
+                              BeamGeometry(A_B, L_B, beam_var))
     J = reset_jacobian(case["C"].T @ v_hat_n, case["sf"], available, A_B, L_B)
     A_pinv = np.linalg.pinv(A_B[available])
     expected = J @ case["P"] @ J.T

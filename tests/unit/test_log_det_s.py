@@ -112,7 +112,7 @@ def test_the_engine_records_log_det_s_for_every_source() -> None:
     exactly there; a one-row source's is the log of its innovation variance, and a several-row
     one's at most the sum of the logs of S's diagonal (Hadamard's inequality)."""
     from tauvcore.config import Config
-    from tauvcore.engine.mission import run_streaming
+    from tauvcore.engine.mission import Sinks, run_streaming
 
     config = (
         Config()
@@ -120,7 +120,7 @@ def test_the_engine_records_log_det_s_for_every_source() -> None:
         .replace("run", methods=("lc", "tc"), aiding=("dvl", "depth"), seed=3)
     )
     got = {}
-    run_streaming(config, np.random.default_rng(3), keep=False, on_chunk=lambda r: got.setdefault("r", []).append(r))
+    run_streaming(config, np.random.default_rng(3), keep=False, sinks=Sinks(on_chunk=lambda r: got.setdefault("r", []).append(r)))
     for method in ("lc", "tc"):
         for source in ("dvl", "depth"):
             records = [chunk[method].updates[source] for chunk in got["r"] if source in chunk[method].updates]

@@ -4,6 +4,7 @@ Parquet value for value, and all or nothing."""
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import os
 from pathlib import Path
@@ -52,13 +53,13 @@ def test_tauv_run_save_log_writes_what_the_whole_log_writer_writes(capsys, tmp_p
     configs: list = []
     real = mission.run_streaming
 
-    def keeping(*args, on_sim_chunk=None, **kwargs):
+    def keeping(*args, sinks=mission.NO_SINKS, **kwargs):
         configs.append(args[0])
 
         def both(chunk):
             chunks.append(chunk)
-            on_sim_chunk(chunk)
-        return real(*args, on_sim_chunk=both, **kwargs)
+            sinks.on_sim_chunk(chunk)
+        return real(*args, sinks=dataclasses.replace(sinks, on_sim_chunk=both), **kwargs)
 
     monkeypatch.setattr(mission, "run_streaming", keeping)
     assert cli.main([*ARGV, "--save-log", str(tmp_path / "streamed"), "--log-format", fmt]) == 0
@@ -86,7 +87,7 @@ def test_the_log_writer_on_odd_chunks_is_the_whole_writer(tmp_path, monkeypatch,
         chunks.append(chunk)
         writer.add(chunk_tables(chunk))
 
-    mission.run_streaming(config, np.random.default_rng(2), chunk_s=3.7, keep=False, on_sim_chunk=add)
+    mission.run_streaming(config, np.random.default_rng(2), chunk_s=3.7, keep=False, sinks=mission.Sinks(on_sim_chunk=add))
     writer.finish()
     assert len(chunks) == 9
     write_log(tmp_path / "whole", simulation_tables(chunks), fmt, config_toml="[dvl]\nnoise_mps = 0.01\n")
@@ -123,8 +124,7 @@ def test_a_log_writer_failing_mid_way_leaves_nothing(tmp_path, monkeypatch, fmt,
                 monkeypatch.setattr(log_writer, "fsync_path", _fail(failure))
             with pytest.raises(type(failure)):
                 try:
-                    mission.run_streaming(config, np.random.default_rng(0), keep=False,
-                                          on_sim_chunk=lambda c, w=writer: w.add(chunk_tables(c)))
+                    mission.run_streaming(config, np.random.default_rng(0), keep=False, sinks=mission.Sinks(on_sim_chunk=lambda c, w=writer: w.add(chunk_tables(c))))
                     writer.finish()
                 except BaseException:
                     writer.discard()

@@ -13,7 +13,7 @@ import pytest
 
 from tauvcore.config import Config
 from tauvcore.engine import filter_bank, yoo_bank
-from tauvcore.engine.mission import Banks, run, run_streaming
+from tauvcore.engine.mission import Banks, Sinks, Watch, run, run_streaming
 from tauvcore.engine.results import (
     SENSOR_COLUMNS,
     SENSOR_FIELDS,
@@ -120,8 +120,7 @@ def test_sensor_true_is_what_the_streamed_simulation_drew() -> None:
     factor (walks too) of the latest ping, for every run and every method."""
     config = _config()
     chunks: list[SimChunk] = []
-    results = run_streaming(config, np.random.default_rng(3), num_runs=2, chunk_s=4.0, sensor_errors=True,
-                            on_sim_chunk=chunks.append)
+    results = run_streaming(config, np.random.default_rng(3), num_runs=2, chunk_s=4.0, sensor_errors=True, sinks=Sinks(on_sim_chunk=chunks.append))
     assert len(chunks) > 3
     t_s = np.concatenate([c.truth.t_s for c in chunks])
     ba = np.concatenate([c.imu.accel_bias for c in chunks])
@@ -209,14 +208,11 @@ def test_stop_progress_and_hand_outs_cut_the_sensor_records_with_the_epochs() ->
     config = _config(12.0, ("lc", "vkf"))
     whole = run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True)
     polls = iter(range(10_000))
-    stopped = run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True,
-                            should_stop=lambda: next(polls) >= 50)
+    stopped = run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True, watch=Watch(should_stop=lambda: next(polls) >= 50))
     seen: list[dict[str, MethodResult]] = []
-    run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True, progress_interval_s=2.0,
-                  progress=lambda t, r: seen.append(r))
+    run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True, watch=Watch(interval_s=2.0, progress=lambda t, r: seen.append(r)))
     handed: list[dict[str, MethodResult]] = []
-    run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True, keep=False, chunk_s=3.0,
-                  on_chunk=handed.append)
+    run_streaming(config, np.random.default_rng(7), num_runs=2, sensor_errors=True, keep=False, chunk_s=3.0, sinks=Sinks(on_chunk=handed.append))
     assert len(seen) >= 4 and len(handed) >= 4
     for method in ("lc", "vkf"):
         T = stopped[method].t_s.size

@@ -18,7 +18,7 @@ from app.figures.sensor_view import (
 )
 from tauvcore.aiding.source import SourceData
 from tauvcore.config import Config
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, run_streaming
 from tauvcore.engine.results import sensor_states
 from tauvcore.engine.simulation import SimChunk, simulate
 from tauvcore.units import MG
@@ -39,7 +39,7 @@ def _streamed(config: Config, chunk_s: float, runs: int = 2, run: int = 1):
         chunks.append(chunk)
         builder.add(chunk)
 
-    run_streaming(config, np.random.default_rng(4), runs, chunk_s=chunk_s, on_sim_chunk=keep)
+    run_streaming(config, np.random.default_rng(4), runs, chunk_s=chunk_s, sinks=Sinks(on_sim_chunk=keep))
     return builder.view(), chunks
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tauvcore.filter.kernels.smoother import smooth_backward
+from tauvcore.filter.kernels.smoother import AidingMarks, CarriedMark, OutputMarks, smooth_backward
 
 DT_S = 0.5
 
@@ -135,8 +135,8 @@ def run_backward(tape, stretches=((None, None),), num_extra: int = 0):
 
     (out_X, out_E), (ev_X, ev_E) = split(out_X), split(ev_X)
     s, Ps = np.zeros((T, 1, n)), np.zeros((T, 1, n, n))
-    carry = (np.zeros(1, bool), np.zeros((1, a, a)), np.zeros((1, num_extra)), np.zeros((1, n, n)),
-             np.zeros((1, n)), np.zeros((1, n, n)))
+    carry = CarriedMark(np.zeros(1, bool), np.zeros((1, a, a)), np.zeros((1, num_extra)), np.zeros((1, n, n)),
+                        np.zeros((1, n)), np.zeros((1, n, n)))
     cuts = np.zeros(1, np.int64)
     for lo, hi in stretches:
         lo = 0 if lo is None else lo
@@ -144,8 +144,9 @@ def run_backward(tape, stretches=((None, None),), num_extra: int = 0):
         # the aiding marks of this stretch: after output mark lo - 1 (for lo > 0) and before mark hi
         sel = (ev_pos > (lo if lo else -1)) & (ev_pos <= hi) if lo else ev_pos <= hi
         smooth_backward(
-            out_X[lo:hi], out_E[lo:hi], out_P[lo:hi], ev_X[sel], ev_E[sel], ev_Pm[sel], ev_Pp[sel], ev_d[sel],
-            ev_pos[sel] - lo, *carry, s[lo:hi], Ps[lo:hi], cuts,
+            OutputMarks(out_X[lo:hi], out_E[lo:hi], out_P[lo:hi]),
+            AidingMarks(ev_X[sel], ev_E[sel], ev_Pm[sel], ev_Pp[sel], ev_d[sel], ev_pos[sel] - lo),
+            carry, s[lo:hi], Ps[lo:hi], cuts,
         )  # fmt: skip
     return s[:, 0], Ps[:, 0], int(cuts[0])
 

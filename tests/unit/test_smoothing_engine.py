@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config
-from tauvcore.engine.mission import Banks, run, run_streaming
+from tauvcore.engine.mission import Banks, Sinks, Watch, run, run_streaming
 from tauvcore.engine.simulation import chunks_of, simulate
 from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
 from tauvcore.sensors.dvl import Outage
@@ -127,7 +127,7 @@ def test_a_stopped_run_smooths_what_was_run():
         calls.append(1)
         return len(calls) > 250
 
-    results = run(config, sim, np.random.default_rng(5), should_stop=stop, smooth=SmoothOptions())
+    results = run(config, sim, np.random.default_rng(5), Watch(should_stop=stop), smooth=SmoothOptions())
     lc = results["lc"]
     assert lc.t_s[-1] < 30.0 and lc.smoothed.t_s.shape == lc.t_s.shape
     np.testing.assert_array_equal(lc.smoothed.pos_err_m[-1], lc.pos_err_m[-1])
@@ -184,8 +184,8 @@ def test_streamed_smoothed_chunks_add_up_to_the_kept_results():
         order.append("smoothed")
         parts.append(results)
 
-    run_streaming(config, np.random.default_rng(3), num_runs=2, keep=False, on_chunk=filtered,
-                  smooth=SmoothOptions(budget_mb=0.0), on_smoothed_chunk=smoothed)
+    run_streaming(config, np.random.default_rng(3), num_runs=2, keep=False,
+                  smooth=SmoothOptions(budget_mb=0.0), sinks=Sinks(on_chunk=filtered, on_smoothed_chunk=smoothed))
     assert order == ["filtered"] * len(parts) + ["smoothed"] * len(parts) and len(parts) > 2
     for method in kept:
         for name in FIELDS:

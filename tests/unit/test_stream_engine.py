@@ -8,7 +8,7 @@ import pytest
 
 from tauvcore.config import METHODS, Config
 from tauvcore.engine.filter_bank import FilterBank
-from tauvcore.engine.mission import run_streaming
+from tauvcore.engine.mission import Sinks, Watch, run_streaming
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.source_streams import SourceStream
 from tauvcore.sensors.dvl import Outage
@@ -71,7 +71,7 @@ def test_results_handed_out_chunk_by_chunk_add_up_to_the_whole() -> None:
     for keep in (True, False):
         parts: list[dict] = []
         last = run_streaming(config, [np.random.default_rng(i) for i in range(3)], num_runs=3, chunk_s=7.0,
-                             on_chunk=parts.append, keep=keep)
+                             keep=keep, sinks=Sinks(on_chunk=parts.append))
         assert len(parts) == 6                                    # 40 s in 7 s chunks
         for m in METHODS:
             for name in SERIES:
@@ -102,6 +102,6 @@ def test_should_stop_ends_the_stream_at_an_output_epoch() -> None:
     def stop() -> bool:
         calls["n"] += 1
         return calls["n"] >= 123
-    out = run_streaming(config, np.random.default_rng(0), chunk_s=3.0, should_stop=stop)
+    out = run_streaming(config, np.random.default_rng(0), chunk_s=3.0, watch=Watch(should_stop=stop))
     assert out["lc"].t_s.size == 124       # epoch 0, then 123 polled epochs
     assert out["lc"].t_s[-1] == pytest.approx(12.3)

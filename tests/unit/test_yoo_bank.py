@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tauvcore.config import Config, from_dict, merge, trajectory_preset
-from tauvcore.engine.mission import run, run_streaming
+from tauvcore.engine.mission import Watch, run, run_streaming
 from tauvcore.engine.simulation import simulate
 from tauvcore.eval.consistency import method_consistency
 from tests.unit.yoo_reference import use_numpy_bank
@@ -211,7 +211,7 @@ def test_progress_and_stop_reach_the_yoo_methods() -> None:
     for methods in (("lc",), ("ins-dvl", "vkf"), ("lc", "vkf")):
         config = _longrange(30.0).replace("run", methods=methods, aiding=("dvl", "mag"))
         seen: list[tuple[float, dict]] = []
-        run_streaming(config, np.random.default_rng(0), progress=lambda t, r: seen.append((t, r)))
+        run_streaming(config, np.random.default_rng(0), watch=Watch(progress=lambda t, r: seen.append((t, r))))
         times[methods] = [t for t, _ in seen]
         for t, partial in seen:
             assert set(partial) == set(methods)
@@ -219,7 +219,7 @@ def test_progress_and_stop_reach_the_yoo_methods() -> None:
                 assert r.t_s[-1] == pytest.approx(t), methods
                 assert r.updates["mag"].t_s[-1] <= t + 1e-9, methods
         calls = iter(range(1000))
-        stopped = run_streaming(config, np.random.default_rng(0), should_stop=lambda: next(calls) >= 120)
+        stopped = run_streaming(config, np.random.default_rng(0), watch=Watch(should_stop=lambda: next(calls) >= 120))
         ends = {m: r.t_s[-1] for m, r in stopped.items()}
         assert len(set(ends.values())) == 1 and 10.0 < ends[methods[-1]] < 29.0, ends
         if "vkf" in methods:

@@ -30,6 +30,8 @@ scaled by its own ``phi`` (``exp(-dt/tau)`` of a Gauss-Markov state, 1 for a ran
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from tauvcore.filter.kernels.common import jit
@@ -117,42 +119,56 @@ def _step(
     return True
 
 
+class OutputMarks(NamedTuple):
+    """A stretch's T output marks (no correction there: prior and posterior are one), B filters."""
+
+    X: np.ndarray  # (T, B, a, b) the transition since the mark before, ``(Phi - I)[:a, :b]``
+    E: np.ndarray  # (T, B, E) its last E states' diagonal
+    P: np.ndarray  # (T, B, n, n) the covariance
+
+
+class AidingMarks(NamedTuple):
+    """A stretch's V aiding marks, B filters."""
+
+    X: np.ndarray  # (V, B, a, b) the transition since the mark before
+    E: np.ndarray  # (V, B, E) its last E states' diagonal
+    Pm: np.ndarray  # (V, B, n, n) the covariance before the correction
+    Pp: np.ndarray  # (V, B, n, n) after it
+    d: np.ndarray  # (V, B, n) the correction injected into the nominal state
+    pos: np.ndarray  # (V,) int64: mark j comes after the first pos[j] output marks (non-decreasing)
+
+
+class CarriedMark(NamedTuple):
+    """The mark after a stretch, per filter (B of them), written with the stretch's first on return."""
+
+    has: np.ndarray  # (B,) bool; False: the stretch ends the mission
+    X: np.ndarray  # (B, a, b) its transition
+    E: np.ndarray  # (B, E)
+    Pm: np.ndarray  # (B, n, n) its prior covariance
+    s: np.ndarray  # (B, n) its smoothed prior error
+    Ps: np.ndarray  # (B, n, n) its smoothed covariance
+
+
 @jit
 def smooth_backward(
-    out_X: np.ndarray,
-    out_E: np.ndarray,
-    out_P: np.ndarray,
-    ev_X: np.ndarray,
-    ev_E: np.ndarray,
-    ev_Pm: np.ndarray,
-    ev_Pp: np.ndarray,
-    ev_d: np.ndarray,
-    ev_pos: np.ndarray,
-    carry_has: np.ndarray,
-    carry_X: np.ndarray,
-    carry_E: np.ndarray,
-    carry_Pm: np.ndarray,
-    carry_s: np.ndarray,
-    carry_Ps: np.ndarray,
+    outputs: OutputMarks,
+    aiding: AidingMarks,
+    carry: CarriedMark,
     s_out: np.ndarray,
     Ps_out: np.ndarray,
     cuts: np.ndarray,
 ) -> None:
-    """The backward pass over one stretch of marks of B filters (module docstring), latest first.
-
-    Output marks (T of them): ``out_X`` (T, B, a, b) the transition since the mark before,
-    ``out_E`` (T, B, E) its last E states' diagonal, ``out_P`` (T, B, n, n) the covariance (no
-    correction there: prior and posterior are one). Aiding marks (V): ``ev_X`` (V, B, a, b),
-    ``ev_E`` (V, B, E), ``ev_Pm``, ``ev_Pp`` (V, B, n, n), the correction ``ev_d`` (V, B, n); aiding mark j comes after the first ``ev_pos[j]`` output marks (and
-    before the rest; ``ev_pos`` non-decreasing). The stretch is followed by the mark the carry
-    holds (``carry_has`` (B,) bool; False: the stretch ends the mission): its transition
-    ``carry_X`` (B, a, b) and ``carry_E`` (B, E), prior ``carry_Pm``, smoothed prior error ``carry_s`` (B, n) and
-    smoothed covariance ``carry_Ps`` (B, n, n); on return the carry holds the stretch's first mark,
-    for the stretch before it.
+    """The backward pass over one stretch of marks of B filters (module docstring), latest first:
+    its T ``outputs`` and V ``aiding`` marks (aiding mark j after the first ``aiding.pos[j]``
+    output marks and before the rest), followed by the mark ``carry`` holds; on return the carry
+    holds the stretch's first mark, for the stretch before it.
 
     Fills ``s_out`` (T, B, n), the smoothed error ``x_true (-) x+`` of each output mark's
     estimate, and ``Ps_out`` (T, B, n, n) its covariance; ``cuts`` (B,) counts the steps where a
     prior was not positive definite (the smoother started afresh there)."""
+    out_X, out_E, out_P = outputs
+    ev_X, ev_E, ev_Pm, ev_Pp, ev_d, ev_pos = aiding
+    carry_has, carry_X, carry_E, carry_Pm, carry_s, carry_Ps = carry
     T, V = out_P.shape[0], ev_Pm.shape[0]
     Bn = out_P.shape[1] if T else ev_Pm.shape[1]
     n = carry_Ps.shape[1]
