@@ -32,6 +32,7 @@ import numpy as np
 from tauvcore.config import Config
 from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
+from tauvcore.filter.kernels.common import plain
 from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, advance
 from tauvcore.ins.strapdown import Strapdown, body_increments
 
@@ -247,19 +248,19 @@ class ChunkDriver:
 
     def _advance_to(self, inputs: ChunkInputs, k0: int, k: int) -> None:
         """The nominal states from ``self.k_state`` to sample ``k`` of the chunk starting at ``k0``."""
+        increments = (inputs.phi_raw, inputs.dv_raw, inputs.dtheta)
+        k_from, k_to = self.k_state - k0, k - k0
         advance(
             self.pos,
             self.vel,
             self.C,
             self.ba,
             self.bg,
-            inputs.phi_raw,
-            inputs.dv_raw,
-            inputs.dtheta,
+            increments,
             self.dtheta_sum,
-            self.k_state - k0,
-            k - k0,
-            *self.sd_consts,
+            k_from,
+            k_to,
+            plain(self.sd_consts),
         )
         self.k_state = k
 

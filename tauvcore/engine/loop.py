@@ -331,7 +331,7 @@ def run_stops(
     stops, is_event, out_row, k0, check_step, yield_every = schedule
     pos, vel, C, ba, bg, _, _, P, dtheta_sum, ping_bias, ping_sf, _, phi_acc, _ = bank
     phi_raw, dv_raw, dtheta, _, _, _, _, _, _, ping_rows, ping_bias_all, ping_sf_all, _ = chunk
-    dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
+    dt, _, _, g_n, _, geodetic = sd
     _, w_ie, q, _, _, _, _, extra_rate, extra_q, _ = constants
     M, R = pos.shape[0], pos.shape[1]
     k_state, k_cov, k_checked, slot = counters[0], counters[1], counters[2], counters[3]
@@ -340,25 +340,7 @@ def run_stops(
     while s < s_to:
         k = stops[s]
         i: int = k - k0
-        advance(
-            pos,
-            vel,
-            C,
-            ba,
-            bg,
-            phi_raw,
-            dv_raw,
-            dtheta,
-            dtheta_sum,
-            k_state - k0,
-            i,
-            dt,
-            C_earth,
-            C_earth_half,
-            g_n,
-            coriolis_T,
-            geodetic,
-        )
+        advance(pos, vel, C, ba, bg, (phi_raw, dv_raw, dtheta), dtheta_sum, k_state - k0, i, sd)
         k_state = k
         propagate_bank(
             P,

@@ -139,7 +139,7 @@ def run_stops(
         chunk.y_water,
         chunk.water_available,
     )
-    dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
+    dt, geodetic = sd[0], sd[5]
     origin, w_ie_flat, q, method_code, A_b = (
         model.origin,
         model.w_ie_flat,
@@ -220,25 +220,7 @@ def run_stops(
             continue
         i = k - k0
         if k > counters[0]:
-            advance(
-                pos,
-                vel,
-                C,
-                ba,
-                bg,
-                phi_raw,
-                dv_raw,
-                dtheta,
-                dtheta_sum,
-                counters[0] - k0,
-                i,
-                dt,
-                C_earth,
-                C_earth_half,
-                g_n,
-                coriolis_T,
-                geodetic,
-            )
+            advance(pos, vel, C, ba, bg, (phi_raw, dv_raw, dtheta), dtheta_sum, counters[0] - k0, i, sd)
             counters[0] = k
         if k > counters[1]:
             propagate(

@@ -98,19 +98,10 @@ class Strapdown:
         C = np.array(np.broadcast_to(nav.C_nb, shape + (3, 3)), dtype=float).reshape(-1, 3, 3)
         phi = np.ascontiguousarray(np.broadcast_to(phi_b, shape + (3,)), dtype=float).reshape(-1, 3)
         dv = np.ascontiguousarray(np.broadcast_to(dv_rot_b, shape + (3,)), dtype=float).reshape(-1, 3)
+        sd = (self.dt_s, self.C_earth, self.C_earth_half, self.g_n, self.coriolis_T, self.geodetic)
         strapdown_batch(
-            pos,
-            vel,
-            C,
-            phi,
-            dv,
-            self.dt_s,
-            self.C_earth,
-            self.C_earth_half,
-            self.g_n,
-            self.coriolis_T,
-            self.geodetic,
-        )
+            pos, vel, C, phi, dv, sd
+        )  # tauvcore.filter.kernels.strapdown_kernels.StrapdownConstants
         return NavState(
             pos_n=pos.reshape(shape + (3,)), vel_n=vel.reshape(shape + (3,)), C_nb=C.reshape(shape + (3, 3))
         )

@@ -22,8 +22,9 @@ from tauvcore.filter.kernels.rotation_kernels import exp_so3_into, skew_entry
 
 
 class StrapdownConstants(NamedTuple):
-    """What every strapdown step of a mission shares (tauvcore.ins.strapdown.Strapdown), in the
-    order :func:`advance` takes them after its states."""
+    """What every strapdown step of a mission shares (tauvcore.ins.strapdown.Strapdown), as
+    :func:`strapdown_step_into`, :func:`strapdown_batch` and :func:`advance` take it (a plain
+    tuple from Python: tauvcore.filter.kernels.common.plain)."""
 
     dt: float  # IMU interval [s]
     C_earth: np.ndarray  # (3, 3) the flat model's local-level turn over one interval
@@ -103,27 +104,22 @@ def strapdown_step_into(
     phi1: float,
     phi2: float,
     dv: np.ndarray,
-    dt: float,
-    C_earth: np.ndarray,
-    C_earth_half: np.ndarray,
-    g_n: np.ndarray,
-    coriolis_T: np.ndarray,
-    geodetic: bool,
-    S: np.ndarray,
-    E: np.ndarray,
-    tmp: np.ndarray,
+    sd: StrapdownConstants,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray],
 ) -> None:
     """One IMU interval of the mechanization (tauvcore.ins.strapdown), in place.
 
     ``C <- C_earth C exp([phi x])``; ``dv_n = C_earth/2 C dv + g dt``;
     ``v_mid = v + (dv_n + (-2 omega_ie x v) dt) / 2``; ``v <- v + dv_n + (-2 omega_ie x v_mid) dt``;
     ``pos <- pos + dt (v_old + v_new) / 2``. ``coriolis_T``: ``(-2 [omega_ie_n x])^T`` (row form).
-    Those are the flat model's constants. With ``geodetic`` (WGS-84; ``pos`` = latitude,
+    Those are the flat model's constants, ``sd``'s. With ``sd.geodetic`` (WGS-84; ``pos`` = latitude,
     longitude, depth) they are replaced for this interval by :func:`geodetic_step_terms_into`'s,
     in ``S`` (4, 3, 3), and the position integrates the geodetic rates with the trapezoid of the
     NED velocity (depth first, then latitude, then longitude at the mean latitude; Groves 5.56).
-    ``E`` (3, 3) and ``tmp`` (3, 3) are scratch (no allocation per step).
+    ``work`` is scratch: ``S`` (4, 3, 3), ``E`` (3, 3) and ``tmp`` (3, 3) (no allocation per step).
     """
+    dt, C_earth, C_earth_half, g_n, coriolis_T, geodetic = sd
+    S, E, tmp = work
     R_N = R_E = 0.0
     if geodetic:
         _, R_N, R_E = geodetic_step_terms_into(pos, vel, C, dv, g_n, coriolis_T, dt, S)
@@ -184,36 +180,12 @@ def strapdown_batch(
     C: np.ndarray,
     phi: np.ndarray,
     dv: np.ndarray,
-    dt: float,
-    C_earth: np.ndarray,
-    C_earth_half: np.ndarray,
-    g_n: np.ndarray,
-    coriolis_T: np.ndarray,
-    geodetic: bool,
+    sd: StrapdownConstants,
 ) -> None:
     """One step for n entries in place: pos, vel (n, 3), C (n, 3, 3), phi, dv (n, 3)."""
-    S = np.empty((4, 3, 3))
-    E = np.empty((3, 3))
-    tmp = np.empty((3, 3))
+    work = (np.empty((4, 3, 3)), np.empty((3, 3)), np.empty((3, 3)))
     for i in range(pos.shape[0]):
-        strapdown_step_into(
-            pos[i],
-            vel[i],
-            C[i],
-            phi[i, 0],
-            phi[i, 1],
-            phi[i, 2],
-            dv[i],
-            dt,
-            C_earth,
-            C_earth_half,
-            g_n,
-            coriolis_T,
-            geodetic,
-            S,
-            E,
-            tmp,
-        )
+        strapdown_step_into(pos[i], vel[i], C[i], phi[i, 0], phi[i, 1], phi[i, 2], dv[i], sd, work)
 
 
 @jit
@@ -223,26 +195,20 @@ def advance(
     C: np.ndarray,
     accel_bias: np.ndarray,
     gyro_bias: np.ndarray,
-    phi_raw: np.ndarray,
-    dv_raw: np.ndarray,
-    dtheta_raw: np.ndarray,
+    increments: tuple[np.ndarray, np.ndarray, np.ndarray],
     dtheta_sum: np.ndarray,
     k_from: int,
     k_to: int,
-    dt: float,
-    C_earth: np.ndarray,
-    C_earth_half: np.ndarray,
-    g_n: np.ndarray,
-    coriolis_T: np.ndarray,
-    geodetic: bool,
+    sd: StrapdownConstants,
 ) -> None:
-    """Advance the (M, R) nominal states over samples ``k_from + 1 .. k_to`` of the compensated
-    increments ``phi_raw``, ``dv_raw`` (K, R, 3), each corrected by its own bias estimate, and add
-    the raw gyro increments ``dtheta_raw`` (K, R, 3) of those samples to ``dtheta_sum`` (R, 3) one
-    by one (the same sum however the samples are split between calls)."""
-    S = np.empty((4, 3, 3))
-    E = np.empty((3, 3))
-    tmp = np.empty((3, 3))
+    """Advance the (M, R) nominal states over samples ``k_from + 1 .. k_to`` of the chunk's
+    ``increments`` ``(phi_raw, dv_raw, dtheta_raw)`` (K, R, 3) each: the compensated ``phi_raw``,
+    ``dv_raw``, each corrected by its own bias estimate, and the raw gyro increments
+    ``dtheta_raw``, those samples' added to ``dtheta_sum`` (R, 3) one by one (the same sum however
+    the samples are split between calls)."""
+    phi_raw, dv_raw, dtheta_raw = increments
+    dt = sd[0]
+    work = (np.empty((4, 3, 3)), np.empty((3, 3)), np.empty((3, 3)))
     dv = np.empty(3)
     for r in range(pos.shape[1]):
         for k in range(k_from + 1, k_to + 1):
@@ -261,13 +227,6 @@ def advance(
                     phi_raw[k, r, 1] - gyro_bias[m, r, 1] * dt,
                     phi_raw[k, r, 2] - gyro_bias[m, r, 2] * dt,
                     dv,
-                    dt,
-                    C_earth,
-                    C_earth_half,
-                    g_n,
-                    coriolis_T,
-                    geodetic,
-                    S,
-                    E,
-                    tmp,
+                    sd,
+                    work,
                 )
