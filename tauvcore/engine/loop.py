@@ -111,7 +111,7 @@ class Outputs(NamedTuple):
 
 
 @jit
-def error_series_into(
+def error_series_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     dx: np.ndarray,
     P: np.ndarray,
     Q: np.ndarray,

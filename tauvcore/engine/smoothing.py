@@ -496,7 +496,7 @@ def extra_transitions(
 
 
 @jit
-def smoothed_series_into(
+def smoothed_series_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     dx: np.ndarray,
     s: np.ndarray,
     Ps: np.ndarray,

@@ -223,27 +223,9 @@ def run_stops(
             advance(pos, vel, C, ba, bg, (phi_raw, dv_raw, dtheta), dtheta_sum, counters[0] - k0, i, sd)
             counters[0] = k
         if k > counters[1]:
-            propagate(
-                P,
-                pos,
-                vel,
-                C,
-                ba,
-                dv_raw[i],
-                dt,
-                (k - counters[1]) * dt,
-                geodetic,
-                w_ie_flat,
-                q,
-                qc,
-                extra_rate,
-                extra_q,
-                F,
-                Phi,
-                tmp,
-                out,
-                phi_acc,
-            )
+            dt_c = (k - counters[1]) * dt
+            noise, work = (q, qc, extra_rate, extra_q), (F, Phi, tmp, out)
+            propagate(P, (pos, vel, C, ba), dv_raw[i], dt, dt_c, geodetic, w_ie_flat, noise, work, phi_acc)
             dtheta_sum[:, :] = 0.0
             counters[1] = k
         p = ping_of_stop[s]
@@ -334,8 +316,8 @@ def run_stops(
                     _aid(_RPM if use_rpm else 0, Cm, vel[m, r], extra[m, r], current, learn_axis[r],
                          learn_current[r], h, w, Hx)  # fmt: skip
                     fused, passed, nis = fuse(
-                        P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r], z, h, w, Rm, Hc, Hx, valid,
-                        gate, S_diag, nu,
+                        P[m, r], (vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r]), (z, h, w, Rm, Hc, Hx),
+                        valid, gate, (S_diag, nu),
                     )  # fmt: skip
                     _write_update(p, m, r, (z, nu, S_diag), (valid, fused, passed, nis), up_rows)
             if water:  # the water-track beams, after the ping's bottom-track
@@ -359,8 +341,8 @@ def run_stops(
                                 Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
                         _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
                         fused, passed, nis = fuse(
-                            P[m, r], vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r], z, h, w, Rm, Hc, Hx,
-                            ok[r], gate, S_diag, nu,
+                            P[m, r], (vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r]), (z, h, w, Rm, Hc, Hx),
+                            ok[r], gate, (S_diag, nu),
                         )  # fmt: skip
                         _write_update(p, m, r, (z, nu, S_diag), (ok[r], fused, passed, nis), wt_rows)
             if taping:

@@ -72,33 +72,28 @@ def _compose_into(Phi: np.ndarray, A: np.ndarray, tmp: np.ndarray) -> None:
 @jit
 def propagate(
     P: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
+    nominal: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     dv_raw_i: np.ndarray,
     dt: float,
     dt_c: float,
     geodetic: bool,
     w_ie_flat: np.ndarray,
-    q: np.ndarray,
-    qc: np.ndarray,
-    extra_rate: np.ndarray,
-    extra_q: np.ndarray,
-    F: np.ndarray,
-    Phi: np.ndarray,
-    tmp: np.ndarray,
-    out: np.ndarray,
+    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     phi_acc: np.ndarray,
 ) -> None:
     """One covariance step of every (method, run) over ``dt_c``:
     ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the other
     states' cross terms ``P_xc <- Phi P_xc``, ``P_cc += diag(qc) dt_c`` on the consider states,
     and the added states' own step (``extra_rate``, ``extra_q`` (E,), the 20-state kernels' exact discrete step),
-    symmetrised; F of tauvcore.filter.yoo.F_matrix at the nominal state and the latest specific
-    force. P (M, R, N, N); out (N, N), tmp (DIM, DIM) work space. With rows, ``phi_acc`` (M, R,
+    symmetrised; F of tauvcore.filter.yoo.F_matrix at the ``nominal`` state ``(pos, vel, C, ba)``
+    and the latest specific force. P (M, R, N, N); ``noise`` ``(q, qc, extra_rate, extra_q)``;
+    ``work`` ``(F, Phi, tmp, out)``: F, Phi, tmp (DIM, DIM), out (N, N) work space. With rows, ``phi_acc`` (M, R,
     DIM, DIM) holds ``Phi - I`` since the smoother's last mark and takes this step's:
     ``X + A + X A`` (the smoother's transition since its mark, tauvcore.engine.yoo_smoothing)."""
+    pos, vel, C, ba = nominal
+    q, qc, extra_rate, extra_q = noise
+    F, Phi, tmp, out = work
     M, R = P.shape[0], P.shape[1]
     f_b = np.empty(3)
     f_n = np.empty(3)
@@ -175,7 +170,7 @@ def propagate(
 
 
 @jit
-def dvl_body_velocity_into(
+def dvl_body_velocity_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     y: np.ndarray,
     available: np.ndarray,
     dtheta_i: np.ndarray,
@@ -262,29 +257,23 @@ def vkf_step(
 @jit
 def fuse(
     P: np.ndarray,
-    vel: np.ndarray,
-    C: np.ndarray,
-    ba: np.ndarray,
-    bg: np.ndarray,
-    extra: np.ndarray,
-    z: np.ndarray,
-    h: np.ndarray,
-    w: np.ndarray,
-    Rm: np.ndarray,
-    Hc: np.ndarray,
-    Hx: np.ndarray,
+    nominal: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    measurement: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     valid: bool,
     gate: float,
-    S_diag: np.ndarray,
-    nu: np.ndarray,
+    out: tuple[np.ndarray, np.ndarray],
 ) -> tuple:
-    """Fuse one NED velocity ``z`` into one filter (the numpy reference's fuse_velocity, tests/unit/yoo_reference.py): its prediction
+    """Fuse one NED velocity ``z`` into one filter (its ``nominal`` ``(vel, C, ba, bg, extra)``,
+    written; the ``measurement`` ``(z, h, w, Rm, Hc, Hx)``; ``out`` ``(S_diag, nu)``, written) (the numpy reference's fuse_velocity, tests/unit/yoo_reference.py): its prediction
     ``h`` (the estimated velocity, or through the water ``v - c``), ``H = [I, [w x], 0, 0, Hc,
     Hx]`` (``w`` the vector the attitude rotated, Hc (3, NC) on the consider states, whose gain
     is zero, Hx (3, E) on the added states), through the one gated Joseph correction of every
     family (tauvcore.filter.kernels.correction.correct_into: every row passes the gate or none is
     fused), inject and reset. -> (fused, passed the gate, NIS before the gate (NaN if S cannot be
-    inverted)); ``S_diag`` and ``nu`` written."""
+    inverted))."""
+    vel, C, ba, bg, extra = nominal
+    z, h, w, Rm, Hc, Hx = measurement
+    S_diag, nu = out
     NN = P.shape[0]
     H = np.zeros((3, NN))
     for i in range(3):

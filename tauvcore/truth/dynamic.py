@@ -244,7 +244,7 @@ def _rk4_step(
 
 
 @_jit
-def simulate_knots(
+def simulate_knots(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     p: veh.VehicleParams,
     c: ctl.ControlParams,
     x: np.ndarray,

@@ -183,7 +183,7 @@ def _height_along(
 
 
 @numba.njit(cache=True, nogil=True)
-def _march_into(
+def _march_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     head: np.ndarray,
     d: np.ndarray,
     altitude: np.ndarray,

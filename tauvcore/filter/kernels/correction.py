@@ -30,7 +30,7 @@ def _solve_chol(L: np.ndarray, n: int, b: np.ndarray, x: np.ndarray) -> None:
 
 
 @jit
-def correct_into(
+def correct_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     P: np.ndarray,
     H: np.ndarray,
     Rm: np.ndarray,

@@ -75,7 +75,7 @@ def lc_solve_into(
 
 
 @jit
-def lc_prepare_into(
+def lc_prepare_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     A: np.ndarray,
     l: np.ndarray,
     sigma2: float,
@@ -108,7 +108,7 @@ def lc_prepare_into(
 
 
 @jit
-def lc_predict_into(
+def lc_predict_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     C: np.ndarray,
     vel_n: np.ndarray,
     sf: float,
@@ -530,7 +530,7 @@ def dvl_measure_bank(
                         + C[m, r, 1, k] * vel_n[m, r, 1]
                         + C[m, r, 2, k] * vel_n[m, r, 2]
                     )
-                partial_into(
+                candidates = (
                     n_cand[i],
                     ok[i, pattern],
                     Cc[i, pattern],
@@ -538,15 +538,9 @@ def dvl_measure_bank(
                     gc[i, pattern],
                     ac[i, pattern],
                     mc[i, pattern],
-                    y_c,
-                    S,
-                    v_hat,
-                    P[m, r, VEL : VEL + 3, VEL : VEL + 3],
-                    z[m, r, :3],
-                    Rm[m, r, :3, :3],
-                    meas,
-                    pick,
                 )
+                P_vel = P[m, r, VEL : VEL + 3, VEL : VEL + 3]
+                partial_into(candidates, y_c, S, v_hat, P_vel, (z[m, r, :3], Rm[m, r, :3, :3], meas, pick))
                 any_axis = False
                 for k in range(3):
                     nu[m, r, k] = z[m, r, k] - v_hat[k]

@@ -423,7 +423,7 @@ def _compose_transition(X: np.ndarray, Z: np.ndarray, Y: np.ndarray) -> None:
 
 
 @jit
-def propagate_bank(
+def propagate_bank(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     P: np.ndarray,
     pos: np.ndarray,
     C: np.ndarray,

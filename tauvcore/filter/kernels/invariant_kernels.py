@@ -36,7 +36,7 @@ def left_jacobian_so3_into(p0: float, p1: float, p2: float, out: np.ndarray) -> 
 
 
 @jit
-def retract_into(
+def retract_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     pos: np.ndarray,
     vel: np.ndarray,
     C: np.ndarray,
@@ -117,7 +117,7 @@ def retract_into(
 
 
 @jit
-def retract_batch(
+def retract_batch(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     pos: np.ndarray,
     vel: np.ndarray,
     C: np.ndarray,

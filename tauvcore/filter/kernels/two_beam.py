@@ -93,27 +93,22 @@ def apply_solution_into(
 
 @jit
 def partial_into(
-    n_cand: int,
-    ok: np.ndarray,
-    Cc: np.ndarray,
-    Dc: np.ndarray,
-    gc: np.ndarray,
-    ac: np.ndarray,
-    mc: np.ndarray,
+    candidates: tuple,
     y_c: np.ndarray,
     S: np.ndarray,
     v_hat: np.ndarray,
     P_vel: np.ndarray,
-    v: np.ndarray,
-    R: np.ndarray,
-    measured: np.ndarray,
-    choice: np.ndarray,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> None:
     """A method's two-beam velocity from its candidates (one for VB, NSV, PLCF, VHV; four for the
     selector, eq. 48-49: per axis the candidate with the smallest variance, the earlier one on a
     tie within :data:`SELECT_TIE_REL`; rows recombined so that R keeps their cross terms).
-    Candidate c: ok[c], C (3, 4), D (3, 3), g, a, measured (3,).
-    ``choice`` (3,): the candidate of each measured axis, -1 none (selector only; else -1)."""
+    ``candidates`` ``(n_cand, ok, Cc, Dc, gc, ac, mc)``: candidate c < n_cand is ok[c], C (3, 4),
+    D (3, 3), g, a, measured (3,). ``out`` ``(v, R, measured, choice)``, written: the velocity (3,),
+    its covariance (3, 3), the measured axes (3,) and the candidate of each measured axis, -1 none
+    (``choice``, selector only; else -1)."""
+    n_cand, ok, Cc, Dc, gc, ac, mc = candidates
+    v, R, measured, choice = out
     v_c = np.empty(3)
     R_c = np.empty((3, 3))
     if n_cand == 1:
@@ -209,21 +204,6 @@ def select_batch(
     measured = np.empty((n, 3), dtype=np.bool_)
     choice = np.empty((n, 3), dtype=np.int64)
     for i in range(n):
-        partial_into(
-            ok.shape[0],
-            ok,
-            Cc,
-            Dc,
-            gc,
-            ac,
-            mc,
-            y_c[i],
-            S[i],
-            v_hat[i],
-            P_vel[i],
-            v[i],
-            R[i],
-            measured[i],
-            choice[i],
-        )
+        candidates = (ok.shape[0], ok, Cc, Dc, gc, ac, mc)
+        partial_into(candidates, y_c[i], S[i], v_hat[i], P_vel[i], (v[i], R[i], measured[i], choice[i]))
     return v, R, measured, choice

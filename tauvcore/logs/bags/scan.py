@@ -242,7 +242,7 @@ def _integer(data: np.ndarray, at: int | np.int64, kind: int) -> np.int64:
 
 
 @_jit
-def fixed_rows(
+def fixed_rows(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     chunk: np.ndarray,
     offset: np.ndarray,
     length: np.ndarray,
