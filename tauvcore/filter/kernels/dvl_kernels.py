@@ -477,6 +477,114 @@ class DvlRows(NamedTuple):
 
 
 @jit
+def _two_beam_rows(
+    dvl: DvlMethods, tables: TwoBeamTables, ping: Ping, state: DvlState, out: DvlRows, at: tuple, work: tuple
+) -> None:
+    """Run ``r``'s rows of an extended method ``i`` (bank row ``m``) with exactly two beams
+    (pattern ``pattern``), ``at = (i, m, r, pattern)``: its construction's velocity on its
+    measured axes (:func:`dvl_measure_bank`)."""
+    _, _, A, l, sigma2, gyro_var, w_ie, mode_codes, sensor_columns = dvl
+    n_cand, ok, Cc, Dc, gc, ac, mc = tables
+    y, available, omega_meas = ping
+    C, vel_n, gyro_bias, dvl_bias, sf, P = state
+    z, nu, H, Rm, active, valid, mode, measured_axes, choice = out
+    _, omega_comp, _, S, y_c, v_hat, meas, pick = work
+    i, m, r, pattern = at
+    omega_comp_into(omega_meas[r], gyro_bias[m, r], C[m, r], w_ie, omega_comp)
+    compensated_beams_into(A, y[r], available[r], dvl_bias[m, r], sf[m, r], omega_comp, l, y_c)
+    beam_noise_into(A, sigma2, gyro_var, l, sf[m, r], S)
+    for k in range(3):
+        v_hat[k] = (
+            C[m, r, 0, k] * vel_n[m, r, 0] + C[m, r, 1, k] * vel_n[m, r, 1] + C[m, r, 2, k] * vel_n[m, r, 2]
+        )
+    candidates = (
+        n_cand[i],
+        ok[i, pattern],
+        Cc[i, pattern],
+        Dc[i, pattern],
+        gc[i, pattern],
+        ac[i, pattern],
+        mc[i, pattern],
+    )
+    P_vel = P[m, r, VEL : VEL + 3, VEL : VEL + 3]
+    partial_into(candidates, y_c, S, v_hat, P_vel, (z[m, r, :3], Rm[m, r, :3, :3], meas, pick))
+    any_axis = False
+    for k in range(3):
+        nu[m, r, k] = z[m, r, k] - v_hat[k]
+        H[m, r, k, VEL + k] = 1.0
+        if sensor_columns and meas[k]:
+            partial_sensor_row_into(
+                Cc[i, pattern, pick[k] if n_cand[i] > 1 else 0, k], A, v_hat, sf[m, r], H[m, r, k]
+            )
+        active[m, r, k] = meas[k]
+        any_axis = any_axis or meas[k]
+        if n_cand[i] > 1:
+            choice[m, r, k] = pick[k]
+    active[m, r, 3] = False
+    Rm[m, r, 3, 3] = 1.0
+    valid[m, r] = any_axis
+    mode[m, r] = mode_codes[2] if any_axis else mode_codes[0]
+    for k in range(3):
+        measured_axes[m, r, k] = meas[k] and any_axis
+
+
+@jit
+def _lc_rows(dvl: DvlMethods, ping: Ping, state: DvlState, out: DvlRows, m: int, r: int, work: tuple) -> None:
+    """Run ``r``'s rows of a loosely coupled method (bank row ``m``): the velocity of three or four
+    beams (:func:`dvl_measure_bank`)."""
+    _, _, A, l, sigma2, gyro_var, w_ie, mode_codes, _ = dvl
+    y, available, omega_meas = ping
+    C, vel_n, gyro_bias, dvl_bias, sf, _ = state
+    z, nu, H, Rm, active, valid, mode, measured_axes, _ = out
+    A_pinv, omega_comp, h = work[0], work[1], work[2]
+    good = lc_prepare_into(
+        A, l, sigma2, gyro_var, w_ie, y[r], available[r], omega_meas[r], C[m, r], gyro_bias[m, r], z[m, r, :3],
+        Rm[m, r, :3, :3], A_pinv, omega_comp,
+    )  # fmt: skip
+    lc_predict_into(
+        C[m, r], vel_n[m, r], sf[m, r], dvl_bias[m, r], gyro_bias[m, r], A_pinv, omega_meas[r], omega_comp, w_ie, l, h
+    )  # fmt: skip
+    for k in range(3):
+        nu[m, r, k] = z[m, r, k] - h[k]
+        active[m, r, k] = good
+        measured_axes[m, r, k] = good
+    active[m, r, 3] = False
+    Rm[m, r, 3, 3] = 1.0
+    lc_jacobian_into(C[m, r], vel_n[m, r], sf[m, r], A_pinv, w_ie, l, H[m, r, :3])
+    valid[m, r] = good
+    mode[m, r] = mode_codes[1] if good else mode_codes[0]
+
+
+@jit
+def _tc_rows(dvl: DvlMethods, ping: Ping, state: DvlState, out: DvlRows, m: int, r: int, work: tuple) -> None:
+    """Run ``r``'s rows of a tightly coupled method (bank row ``m``): one row per returned beam
+    (:func:`dvl_measure_bank`)."""
+    _, _, A, l, sigma2, gyro_var, w_ie, mode_codes, _ = dvl
+    y, available, omega_meas = ping
+    C, vel_n, gyro_bias, dvl_bias, sf, _ = state
+    z, nu, H, Rm, active, valid, mode, measured_axes, _ = out
+    h, S = work[2], work[3]
+    beam_noise_into(A, sigma2, gyro_var, l, 0.0, S)
+    tc_predict_into(
+        A, C[m, r], vel_n[m, r], sf[m, r], dvl_bias[m, r], gyro_bias[m, r], omega_meas[r], w_ie, l, h
+    )
+    n_beams = 0
+    for k in range(4):
+        if available[r, k]:
+            n_beams += 1
+            z[m, r, k] = y[r, k]
+            nu[m, r, k] = y[r, k] - h[k]
+        active[m, r, k] = available[r, k]
+        for j in range(4):
+            Rm[m, r, k, j] = S[k, j]
+    for k in range(3):
+        measured_axes[m, r, k] = False
+    tc_jacobian_into(A, C[m, r], vel_n[m, r], sf[m, r], w_ie, l, H[m, r])
+    valid[m, r] = n_beams > 0
+    mode[m, r] = mode_codes[3] if n_beams > 0 else mode_codes[0]
+
+
+@jit
 def dvl_measure_bank(
     dvl: DvlMethods, tables: TwoBeamTables, ping: Ping, state: DvlState, out: DvlRows
 ) -> None:
@@ -492,22 +600,22 @@ def dvl_measure_bank(
     ``partial_sensor_columns`` the columns of the DVL errors its compensated beams carry:
     ``C / (1 + SF_hat)`` on the beam biases and ``C A v_hat / (1 + SF_hat)`` on the scale factor,
     ``C`` the construction's (the selector's chosen) rows."""
-    methods, codes, A, l, sigma2, gyro_var, w_ie, mode_codes, sensor_columns = dvl
-    n_cand, ok, Cc, Dc, gc, ac, mc = tables
-    y, available, omega_meas = ping
-    C, vel_n, gyro_bias, dvl_bias, sf, P = state
-    z, nu, H, Rm, active, valid, mode, measured_axes, choice = out
-    A_pinv = np.empty((3, 4))
-    omega_comp = np.empty(3)
-    h = np.empty(4)
-    S = np.empty((4, 4))
-    y_c = np.empty(4)
-    v_hat = np.empty(3)
-    meas = np.empty(3, dtype=np.bool_)
-    pick = np.empty(3, dtype=np.int64)
+    methods, codes = dvl.methods, dvl.codes
+    available = ping.available
+    z, nu, H, Rm, _, _, _, _, choice = out
+    work = (  # A_pinv, omega_comp, h, S, y_c, v_hat, meas, pick
+        np.empty((3, 4)),
+        np.empty(3),
+        np.empty(4),
+        np.empty((4, 4)),
+        np.empty(4),
+        np.empty(3),
+        np.empty(3, dtype=np.bool_),
+        np.empty(3, dtype=np.int64),
+    )
     for i in range(methods.shape[0]):
         m = methods[i]
-        for r in range(y.shape[0]):
+        for r in range(available.shape[0]):
             H[m, r, :, :] = 0.0
             Rm[m, r, :, :] = 0.0
             z[m, r, :] = 0.0
@@ -521,106 +629,8 @@ def dvl_measure_bank(
                     n_beams += 1
                     pattern += 1 << k
             if codes[i] == DVL_ELC and n_beams == 2:
-                omega_comp_into(omega_meas[r], gyro_bias[m, r], C[m, r], w_ie, omega_comp)
-                compensated_beams_into(A, y[r], available[r], dvl_bias[m, r], sf[m, r], omega_comp, l, y_c)
-                beam_noise_into(A, sigma2, gyro_var, l, sf[m, r], S)
-                for k in range(3):
-                    v_hat[k] = (
-                        C[m, r, 0, k] * vel_n[m, r, 0]
-                        + C[m, r, 1, k] * vel_n[m, r, 1]
-                        + C[m, r, 2, k] * vel_n[m, r, 2]
-                    )
-                candidates = (
-                    n_cand[i],
-                    ok[i, pattern],
-                    Cc[i, pattern],
-                    Dc[i, pattern],
-                    gc[i, pattern],
-                    ac[i, pattern],
-                    mc[i, pattern],
-                )
-                P_vel = P[m, r, VEL : VEL + 3, VEL : VEL + 3]
-                partial_into(candidates, y_c, S, v_hat, P_vel, (z[m, r, :3], Rm[m, r, :3, :3], meas, pick))
-                any_axis = False
-                for k in range(3):
-                    nu[m, r, k] = z[m, r, k] - v_hat[k]
-                    H[m, r, k, VEL + k] = 1.0
-                    if sensor_columns and meas[k]:
-                        partial_sensor_row_into(
-                            Cc[i, pattern, pick[k] if n_cand[i] > 1 else 0, k], A, v_hat, sf[m, r], H[m, r, k]
-                        )
-                    active[m, r, k] = meas[k]
-                    any_axis = any_axis or meas[k]
-                    if n_cand[i] > 1:
-                        choice[m, r, k] = pick[k]
-                active[m, r, 3] = False
-                Rm[m, r, 3, 3] = 1.0
-                valid[m, r] = any_axis
-                mode[m, r] = mode_codes[2] if any_axis else mode_codes[0]
-                for k in range(3):
-                    measured_axes[m, r, k] = meas[k] and any_axis
+                _two_beam_rows(dvl, tables, ping, state, out, (i, m, r, pattern), work)
             elif codes[i] != DVL_TC:
-                good = lc_prepare_into(
-                    A,
-                    l,
-                    sigma2,
-                    gyro_var,
-                    w_ie,
-                    y[r],
-                    available[r],
-                    omega_meas[r],
-                    C[m, r],
-                    gyro_bias[m, r],
-                    z[m, r, :3],
-                    Rm[m, r, :3, :3],
-                    A_pinv,
-                    omega_comp,
-                )
-                lc_predict_into(
-                    C[m, r],
-                    vel_n[m, r],
-                    sf[m, r],
-                    dvl_bias[m, r],
-                    gyro_bias[m, r],
-                    A_pinv,
-                    omega_meas[r],
-                    omega_comp,
-                    w_ie,
-                    l,
-                    h,
-                )
-                for k in range(3):
-                    nu[m, r, k] = z[m, r, k] - h[k]
-                    active[m, r, k] = good
-                    measured_axes[m, r, k] = good
-                active[m, r, 3] = False
-                Rm[m, r, 3, 3] = 1.0
-                lc_jacobian_into(C[m, r], vel_n[m, r], sf[m, r], A_pinv, w_ie, l, H[m, r, :3])
-                valid[m, r] = good
-                mode[m, r] = mode_codes[1] if good else mode_codes[0]
+                _lc_rows(dvl, ping, state, out, m, r, work)
             else:
-                beam_noise_into(A, sigma2, gyro_var, l, 0.0, S)
-                tc_predict_into(
-                    A,
-                    C[m, r],
-                    vel_n[m, r],
-                    sf[m, r],
-                    dvl_bias[m, r],
-                    gyro_bias[m, r],
-                    omega_meas[r],
-                    w_ie,
-                    l,
-                    h,
-                )
-                for k in range(4):
-                    if available[r, k]:
-                        z[m, r, k] = y[r, k]
-                        nu[m, r, k] = y[r, k] - h[k]
-                    active[m, r, k] = available[r, k]
-                    for j in range(4):
-                        Rm[m, r, k, j] = S[k, j]
-                for k in range(3):
-                    measured_axes[m, r, k] = False
-                tc_jacobian_into(A, C[m, r], vel_n[m, r], sf[m, r], w_ie, l, H[m, r])
-                valid[m, r] = n_beams > 0
-                mode[m, r] = mode_codes[3] if n_beams > 0 else mode_codes[0]
+                _tc_rows(dvl, ping, state, out, m, r, work)
