@@ -6,7 +6,7 @@ under 400 MB, 381 MiB).
     python benchmarks/bag_replay.py --hours 0.25 --rate 150 --runs 5
 
 Makes a figure-eight mission (flat earth) of ``--hours`` at an IMU of ``--rate`` Hz, with the
-tables a bag carries exactly (tests/unit/bag_fixtures.py: IMU rates, whole-nanosecond stamps),
+tables a bag carries exactly (tests/unit/helpers/bag_fixtures.py: IMU rates, whole-nanosecond stamps),
 and writes it three ways in a temporary directory: the log format as Parquet
 (tauvcore.logs.writer.write_log), an MCAP file and a ROS 1 bag (bag_fixtures.write_bag, rosbags'
 own writers; FLU/ENU frames, the DVL as marine_acoustic_msgs/Dvl, the reference as
@@ -34,11 +34,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/: fragment.py
-sys.path.insert(0, str(ROOT / "tests" / "unit"))  # bag_fixtures.py: the mission and the bag writer
+sys.path.insert(0, str(ROOT))  # tests.unit.helpers.bag_fixtures: the mission and the bag writer
 import fragment  # noqa: E402
-from bag_fixtures import mission_config, mission_tables, write_bag  # noqa: E402
 
 from tauvcore.logs.writer import write_log  # noqa: E402
+from tests.unit.helpers.bag_fixtures import mission_config, mission_tables, write_bag  # noqa: E402
 
 FLAGS = ["--method", "ins,lc,tc", "--aiding", "dvl,depth,mag", "--earth", "flat"]
 INPUTS = (("log", "Parquet log"), ("mission.mcap", "MCAP (ROS 2)"), ("mission.bag", "ROS 1 bag"))

@@ -101,7 +101,7 @@ def lc_config(trajectory: str, duration_s: float, mode: str, seed: int = 0) -> C
     """The compared scenario: ``lc`` alone, DVL aiding only, ``mode`` fixed or random initial errors,
     on the paper's flat earth (the plain loop writes out that mechanization, not the ellipsoid's),
     with the paper's gate and nothing after a lock-out (the loop has no velocity reset:
-    tests/unit/test_lockout.py holds that on its own)."""
+    tests/unit/tauvcore/engine/test_lockout.py holds that on its own)."""
     return (Config().replace("trajectory", name=trajectory, duration_s=duration_s).replace("earth", model="flat")
             .replace("initial_error", mode=mode).replace("run", methods=("lc",), aiding=("dvl",), seed=seed)
             .replace("filter", lockout_reset_updates=0, scale_factor_velocity_tau_s=0.0))

@@ -9,7 +9,7 @@ configuration, is the same on both sides), runs the same scenarios with both (al
 the three trajectories with Table 2 settings, and a figure eight with depth, magnetometer, 30 %
 beam dropout and three random-initial-error runs), and prints the largest difference over every
 error, sigma, NEES, position and update-record series. A record, not a test
-(tests/unit/test_numerics.py checks the same with the safeguards switched off in place).
+(tests/unit/tauvcore/engine/test_numerics.py checks the same with the safeguards switched off in place).
 """
 
 from __future__ import annotations

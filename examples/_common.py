@@ -19,7 +19,7 @@ from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.metrics import rms
 
 SHORT_ENV = "TAUV_EXAMPLE_SHORT"
-"""Set to 1 for short missions (tests/unit/test_examples.py)."""
+"""Set to 1 for short missions (tests/unit/examples/test_examples.py)."""
 
 
 def short() -> bool:

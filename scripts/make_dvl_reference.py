@@ -1,5 +1,5 @@
 """Write the DVL's pings as they were before water-track, the seeded reference that
-``tests/unit/test_water_track.py`` holds ``dvl.water_track = "off"`` to, bit for bit.
+``tests/unit/tauvcore/sensors/test_water_track.py`` holds ``dvl.water_track = "off"`` to, bit for bit.
 
     python scripts/make_dvl_reference.py tests/fixtures/dvl_reference.npz
 

@@ -13,7 +13,7 @@ the streaming engine), with two changes the product made since applied to it:
 To regenerate: ``git worktree add /tmp/ref 9235ddc``, apply those changes, copy there this
 script as it was at commit 0a00641 (it imports ``tauvcore.eval.runner``, that engine's entry),
 and run it with ``PYTHONPATH=/tmp/ref`` (the numpy engine, not the installed one).
-``tests/unit/test_engine_reference.py`` rebuilds the same simulations from the same
+``tests/unit/tauvcore/engine/test_engine_reference.py`` rebuilds the same simulations from the same
 seeds and requires every series to match to 1e-9. Three trajectories, all eight methods, DVL,
 depth and magnetometer aiding, random initial errors (two runs), and a DVL schedule that goes
 through four, two (beams 3 and 4 lost) and three beams (beam 1 lost), so every fusion mode runs.

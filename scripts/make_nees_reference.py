@@ -1,5 +1,5 @@
 """Write the NEES of a few seeded runs as they are when the reference is exact, the fixture that
-``tests/unit/test_reference_sigma.py`` holds the engine to bit for bit.
+``tests/unit/tauvcore/filter/kernels/test_reference_sigma.py`` holds the engine to bit for bit.
 
     python scripts/make_nees_reference.py tests/fixtures/nees_reference.npz
 

@@ -73,8 +73,9 @@ def test_a_second_tab_keeps_its_own_settings(new_tab) -> None:
 
 
 def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
-    """The Stop latency itself (< 1 s) is measured without a browser in tests/unit/test_worker.py;
-    here: Stop ends a long run mid-way, and another tab's session answers during the run."""
+    """The Stop latency itself (< 1 s) is measured without a browser in
+    tests/unit/app/dashboard/test_worker.py; here: Stop ends a long run mid-way, and another tab's
+    session answers during the run."""
     tab, other = new_tab(), new_tab()
     tab.set_methods({"INS", "LC", "TC", "VB", "NSV", "PLCF", "VHV", "ELC"})
     tab.type_into("Duration [s]", "3000")
@@ -103,7 +104,8 @@ def test_stop_ends_a_run_and_the_other_tab_stays_responsive(new_tab) -> None:
     assert other.page.get_by_text("Cannot run", exact=True).first.is_visible()
     # With software WebGL the browser itself stalls for seconds at times, so this is a smoke
     # bound: before runs were thinned and niced, every round trip here took 10-27 s. The server's
-    # own headroom during a run is measured without a browser in tests/unit/test_worker.py.
+    # own headroom during a run is measured without a browser in
+    # tests/unit/app/dashboard/test_worker.py.
     assert sorted(latencies)[2] < 5.0, latencies
     # Stop is pressed in the page only while it is enabled (the run is on); a run that ended
     # during the round trips (the engine outpaced the browser), or between that check and the

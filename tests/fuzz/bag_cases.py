@@ -61,7 +61,7 @@ class Case:
 
 def build_bases(root: Path, duration_s: float = 2.0) -> list[Base]:
     """Three small valid bags (``duration_s`` of a simulated mission) in ``root``."""
-    from bag_fixtures import mission_config, mission_tables, write_bag
+    from tests.unit.helpers.bag_fixtures import mission_config, mission_tables, write_bag
 
     root.mkdir(parents=True, exist_ok=True)
     config = mission_config(duration_s=duration_s)
@@ -256,7 +256,7 @@ def bad_mapping(rng: np.random.Generator, base: Base, case_dir: Path) -> Case:
 
 # ------------------------------------------------------------------------- rewritten from tables
 def _rewrite(base: Base, case_dir: Path, tables: dict) -> Path:
-    from bag_fixtures import write_bag
+    from tests.unit.helpers.bag_fixtures import write_bag
 
     bag = case_dir / base.path.name
     storage = "ros1" if base.name == "ros1" else "mcap"

@@ -24,7 +24,6 @@ import hashlib
 import os
 import shutil
 import stat
-import sys
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,11 +31,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.fuzz.harness import BAG_STATS, RSS_GROWTH_LIMIT_BYTES, Result, invoke, rss_growth_bytes
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit"))  # bag_fixtures: the bag writer
-
 from tests.fuzz.bag_cases import CLASSES, EITHER, REFUSE, Base, Case, HostileClass, build_bases
+from tests.fuzz.harness import BAG_STATS, RSS_GROWTH_LIMIT_BYTES, Result, invoke, rss_growth_bytes
 
 pytestmark = pytest.mark.fuzz
 

@@ -117,7 +117,8 @@ def test_every_command_on_a_page_names_only_its_subcommand_s_flags(page: str, li
 
 
 def _short(words: list[str]) -> list[str]:
-    """The command on a short mission (``--duration 20``, at most 3 runs), as tests/unit/test_tutorial.py does."""
+    """The command on a short mission (``--duration 20``, at most 3 runs), as
+    tests/unit/docs/test_tutorial.py does."""
     out = list(words)
     if out[0] in ("run", "mc", "replay") and "--duration" not in out and out[0] != "replay":
         out += ["--duration", SHORT_S]
@@ -138,7 +139,7 @@ def _files_written(page: Path) -> list[str]:
 RUNNABLE = [
     (page, line)
     for page, line in COMMANDS
-    if page != "tutorial.md"  # tests/unit/test_tutorial.py runs the tutorial's
+    if page != "tutorial.md"  # tests/unit/docs/test_tutorial.py runs the tutorial's
     and not PLACEHOLDER.search(line)
     and shlex.split(line)[1] in ("run", "mc", "config")
 ]

@@ -90,7 +90,7 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
 def test_a_tab_replays_a_bag_under_its_own_mapping_and_a_bad_one_is_a_notification(tmp_path: Path) -> None:
     """An MCAP file in FRD/NED with its mapping beside it (frd.toml, a [config] key), a bag whose
     mapping has a bad value, a bag whose mapping names a topic it lacks."""
-    from tests.unit.bag_fixtures import mission_config, mission_tables, write_bag
+    from tests.unit.helpers.bag_fixtures import mission_config, mission_tables, write_bag
 
     config = mission_config()
     beams, _ = mission_tables(config)

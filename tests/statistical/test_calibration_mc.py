@@ -18,7 +18,12 @@ from tauvcore.eval.replay import replay
 from tauvcore.geo.rotations import C_nb_from_euler
 from tauvcore.logs import read_log
 from tauvcore.logs.writer import simulation_tables, write_log
-from tests.unit.test_calibration import BORESIGHT_DEG, MISALIGNMENT_DEG, OFFSET_PCT, _rotated_reference
+from tests.unit.tauvcore.eval.calibration.test_calibration import (
+    BORESIGHT_DEG,
+    MISALIGNMENT_DEG,
+    OFFSET_PCT,
+    _rotated_reference,
+)
 
 pytestmark = pytest.mark.slow
 

@@ -16,7 +16,7 @@ import pytest
 from scipy.stats import chi2
 
 from tauvcore.filter.vkf import VkfConfig
-from tests.unit import vkf_reference as vkf
+from tests.unit.tauvcore.filter import vkf_reference as vkf
 
 NUM_RUNS = 30
 SEED = 2014
