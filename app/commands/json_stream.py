@@ -5,7 +5,7 @@ Each chunk's series (app.reports.payload.result_series, run 0) and NIS records a
 raw doubles in a temporary directory beside the output; at the end the document is written from
 them, a block of values at a time, into a temporary file that is renamed over the output
 (app.commands.outputs.write_text_atomic). It parses to the same document as writing the whole
-results at once (tests/unit/test_json_stream.py): every series the same numbers, the consistency
+results at once (tests/unit/app/commands/test_json_stream.py): every series the same numbers, the consistency
 (summed chunk by chunk, tauvcore.eval.running) to 1e-9. On any failure, or an interruption, the
 temporary files go and the output is untouched.
 

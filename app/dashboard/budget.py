@@ -63,7 +63,7 @@ run once the fused stretch kernel ``run_stops`` joined them; 14-16 MiB more sinc
 path, its truth integrator included), and lazily imported modules. The dynamic truth
 (tauvcore.truth.dynamic) adds its compiled vehicle and autopilot and its mission
 (``DYNAMIC_FIXED_BYTES``, 12 MiB measured for a streamed 20 min mission) and, for a mission short
-enough to keep, its knots (``KNOT_DOUBLES`` per sample). tests/unit/test_budget.py checks it
+enough to keep, its knots (``KNOT_DOUBLES`` per sample). tests/unit/app/dashboard/test_budget.py checks it
 against the measured peak resident memory of real runs, a 3 h mission in bins among them
 (estimate >= measured, within 1.5x). The server holds one more unpickled copy of the results per
 tab and one pickled copy is in transit through the worker's pipe: :func:`estimate_run` reports

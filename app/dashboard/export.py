@@ -14,7 +14,7 @@ that opens offline.
   configuration as JSON.
 
 Everything here is a pure function of the finished run, tested without a browser
-(tests/unit/test_export.py); the dashboard's buttons call :func:`send`.
+(tests/unit/app/dashboard/test_export.py); the dashboard's buttons call :func:`send`.
 """
 
 from __future__ import annotations

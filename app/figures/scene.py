@@ -44,7 +44,7 @@ BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_WATER = (
 )
 # The beams' palette is kept apart from the methods' (app.figures.shared.METHOD_COLORS, matplotlib's tab10, which
 # covers the hue circle at middle lightness): saturated blue, magenta and aqua, and a navy near black,
-# each at least BEAM_MIN_DELTA_E (CIE76) from every method's colour and the truth's (tests/unit/test_scene.py).
+# each at least BEAM_MIN_DELTA_E (CIE76) from every method's colour and the truth's (tests/unit/app/figures/test_scene.py).
 BEAM_COLORS = {
     BEAM_RETURNING: (0, 0, 255),  # blue
     BEAM_SWITCHED_OFF: (0, 0, 102),  # navy, nearly black: a dead beam

@@ -41,7 +41,7 @@ METHOD_COLORS = {
 # Methods added as one file each (tauvcore.aiding.registry), then the methods of the filter families
 # added in their own folders (tauvcore.filter.families), coloured in that order from tab20's paler and
 # darker companions of the colours above; each keeps the beams' distance (app.figures.scene.BEAM_MIN_DELTA_E,
-# tests/unit/test_scene.py) like the papers' methods.
+# tests/unit/app/figures/test_scene.py) like the papers' methods.
 REGISTERED_COLORS = ("#637939", "#e7969c", "#ffbb78", "#aec7e8", "#c5b0d5", "#8c6d31")
 METHOD_COLORS.update(
     {

@@ -11,7 +11,7 @@ growth from quadratic to linear in time, at no sensor cost::
     R = diag(sigma_surge^2, sigma_sway^2, sigma_heave^2)
 
 The velocity error state is the body velocity's (tauvcore.filter.layout), so H has no attitude
-column (tests/unit/test_registry.py checks it against a finite difference of ``predict``). The
+column (tests/unit/tauvcore/aiding/test_registry.py checks it against a finite difference of ``predict``). The
 assumption's error is not white: it lasts a whole turn (up to 0.1 m/s of sway on the paper's
 trajectories) or a speed change. Hence the sigmas cover the largest departure, not its RMS, and
 the pseudo-measurement is fused at 1 Hz rather than at the IMU rate: fused faster, the same

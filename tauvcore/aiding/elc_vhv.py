@@ -16,7 +16,7 @@ prediction's part of R by the same ``n_f`` as VB (``R_v = beams + (n_f b_13 / b_
 with the default n_f = 20 VB and VHV are both consistent (benchmarks/consistency_table.py). Kept
 exactly instead (the measurement error ``-d dw`` is part of the state error), the update is
 the beams' own information and VHV becomes tightly coupled fusion of the same two beams
-(tests/unit/test_partial.py proves it to 1e-9): the paper's construction has nothing to add
+(tests/unit/tauvcore/aiding/test_partial.py proves it to 1e-9): the paper's construction has nothing to add
 that is consistent. Diagonal pairs (1-3, 2-4) measure heave directly, so there is no
 heave for a prediction to stand in for: VHV reports that it cannot use them.
 """

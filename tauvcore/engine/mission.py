@@ -102,7 +102,7 @@ def run_chunked(
 
     The banks are fed the simulation's chunks (:func:`~tauvcore.engine.simulation.chunks_of`) and
     keep nothing; the numbers are those of :func:`run` on the same simulation, its results cut at
-    the chunks' ends (tests/unit/test_replay_stream.py).
+    the chunks' ends (tests/unit/tauvcore/eval/test_replay_stream.py).
 
     Parameters
     ----------
@@ -465,7 +465,7 @@ def run_streaming(
 
     Each generator is split into independent named streams
     (:meth:`~tauvcore.sensors.stream.SensorStreams.spawned`: the IMU's, the DVL's, ..., the
-    initial errors'), so the numbers do not depend on ``chunk_s`` (tests/unit/test_stream_engine.py);
+    initial errors'), so the numbers do not depend on ``chunk_s`` (tests/unit/tauvcore/engine/test_stream_engine.py);
     they differ from :func:`simulate` + :func:`run`, which draw everything from one stream.
 
     Parameters

@@ -212,7 +212,7 @@ def chunks_of(sim: ChunkSource, chunk_samples: int) -> Iterator[SimChunk]:
     sounder, the propeller's RPM: :attr:`~tauvcore.aiding.source.AidingSource.fused` and
     ``methods_fuse`` False) also holds its last epoch before the chunk, so a chunk reads what the
     whole simulation would. The banks fed these chunks give the numbers they give fed
-    :meth:`SimChunk.whole` (tests/unit/test_replay_stream.py).
+    :meth:`SimChunk.whole` (tests/unit/tauvcore/eval/test_replay_stream.py).
 
     Parameters
     ----------

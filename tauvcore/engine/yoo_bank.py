@@ -107,7 +107,7 @@ class YooBank(ChunkDriver):
     (tauvcore.engine.chunk_driver.ChunkDriver, as FilterBank).
 
     Each chunk runs in tauvcore.engine.yoo_loop (a numpy reference it is held equal to lives in
-    tests/unit/yoo_reference.py). It writes a chunk's output epochs, updates and VKF trace into
+    tests/unit/tauvcore/engine/yoo_reference.py). It writes a chunk's output epochs, updates and VKF trace into
     the chunk's store (:meth:`_store`), handed out by :meth:`take` and :meth:`results`; with
     ``sensor_errors`` the output epochs carry the bias estimates, their 1-sigma and their truth
     (tauvcore.engine.results.SENSOR_COLUMNS)."""

@@ -1,7 +1,7 @@
 """The compiled chunk loop of Yoo 2014's methods (numba): tauvcore.engine.yoo_bank's chunks, one
 call per span of stops, with the smoother's marks when it keeps a tape (:class:`YooTape`).
 
-A bank in numpy (tests/unit/yoo_reference.py, the reference this loop is held equal to, to 1e-9)
+A bank in numpy (tests/unit/tauvcore/engine/yoo_reference.py, the reference this loop is held equal to, to 1e-9)
 spends its time in numpy's per-call overhead on 3x3 and 12x12 batches at every DVL ping, covariance
 step and output epoch; this loop and the formulas it calls (tauvcore.filter.yoo_kernels) do the
 same arithmetic in machine code.
@@ -80,7 +80,7 @@ def _aid(
     Hx: np.ndarray,
 ) -> None:
     """A velocity aid's prediction ``h``, the vector ``w`` its attitude column rotates and its
-    columns ``Hx`` (3, E) on the added states (tests/unit/yoo_reference.py's velocity_H): over ground (``kind`` 0)
+    columns ``Hx`` (3, E) on the added states (tests/unit/tauvcore/engine/yoo_reference.py's velocity_H): over ground (``kind`` 0)
     ``v``; through the water (the current's at ``current`` in P, :data:`_WATER`) ``v - c``; the
     VKF's RPM (:data:`_RPM`) also ``+ x (c - c_l) . a`` and ``x a_NE^T`` on the current."""
     Hx[:, :] = 0.0

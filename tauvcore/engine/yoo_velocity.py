@@ -15,7 +15,7 @@ innovation ``z - (v_est - c_est)`` is ``dv - dc + [w x] rho`` with ``w = v_est -
 
     H = [I, [w x], 0, 0 | consider | -[e_N e_E]]
 
-(the numpy reference's ``velocity_H``, tests/unit/yoo_reference.py; tests/unit/test_yoo_velocity.py
+(the numpy reference's ``velocity_H``, tests/unit/tauvcore/engine/yoo_reference.py; tests/unit/tauvcore/engine/test_yoo_velocity.py
 holds it to finite differences). Over ground
 (bottom-track) ``w = v_est`` and the current's columns are zero: Yoo's H, exactly.
 

@@ -24,7 +24,7 @@ not reduced at all. Per bin :class:`EnvelopeReducer` keeps
 Numbers that sum over the mission (RMS, NEES/dim, NIS/dof, the DVL's counts) are not taken from
 the bins: the reducer feeds every chunk to :class:`~tauvcore.eval.running.RunningSummary` and
 hands its summary out with the bins (``DecimatedResult.summary``), equal to the whole series'
-to 1e-9 (tests/unit/test_dashboard_decimation.py).
+to 1e-9 (tests/unit/app/dashboard/test_dashboard_decimation.py).
 """
 
 from __future__ import annotations

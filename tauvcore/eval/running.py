@@ -17,7 +17,7 @@ summary is made of, per method:
   band.
 
 :meth:`RunningSummary.summaries` gives the same numbers as :func:`summarise` of the whole
-results (tests/unit/test_running.py: to 1e-9 for any chunking); the sums differ from numpy's
+results (tests/unit/app/commands/test_json_stream.py: to 1e-9 for any chunking); the sums differ from numpy's
 pairwise means only in the last bits.
 """
 

@@ -8,7 +8,7 @@ study's seed sequence; tauvcore.sensors.stream.SensorStreams.spawned). A chunk o
 count)`` is one batch of the filter bank (:func:`run_chunk`), truth and sensors streamed a few
 seconds at a time; every method of a run sees the same sensor data. Since nothing in a run
 depends on the others, the study's numbers do not depend on how its runs are chunked, on how many
-workers compute them, or where (local processes, Dask): tests/unit/test_study.py checks it.
+workers compute them, or where (local processes, Dask): tests/unit/tauvcore/eval/test_study.py checks it.
 
 A finished chunk is reduced at once (:class:`StudyAccumulator`): per method and output epoch the
 sums that the RMS over runs, the mean NEES and the consistency summary need, so the study's memory

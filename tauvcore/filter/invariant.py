@@ -41,7 +41,7 @@ estimate, as the ESKF's; the group structure is then that of the local-level fra
 docs/methods.md).
 
 The compiled twin is tauvcore.filter.kernels.invariant_kernels (the filter bank runs it); this module is
-its reference, held equal to it and to the SE_2(3) group operations by tests/unit/test_invariant.py.
+its reference, held equal to it and to the SE_2(3) group operations by tests/unit/tauvcore/filter/test_invariant.py.
 """
 
 from __future__ import annotations

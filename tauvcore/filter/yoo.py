@@ -17,7 +17,7 @@ geodetic mechanization of eq. 1 and 6 (NED frame turning at ``omega_in = omega_i
     d_ba' = 0,  d_bg' = 0   (plus their random walks)
 
 with ``J_en = d omega_en / d v_n`` (omega_en = (v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(L) /
-(R_E + h))). :func:`F_matrix` is that; tests/unit/test_yoo.py holds it to finite differences of
+(R_E + h))). :func:`F_matrix` is that; tests/unit/tauvcore/filter/test_yoo.py holds it to finite differences of
 the exact nonlinear error dynamics.
 
 Against the paper's printed F (eq. 13-15, :func:`F_paper`): the paper writes the velocity error

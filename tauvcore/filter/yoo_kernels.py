@@ -1,7 +1,7 @@
 """Yoo 2014's formulas compiled (numba): the 12-state filter's covariance step (with the DVL's
 consider states), the DVL's body velocity by least squares, the VKF's step and the fusion of a
 NED velocity, written out entry by entry, in the order of operations of the numpy reference
-(tests/unit/yoo_reference.py; ``tests/unit/test_yoo_bank.py`` holds every result of both equal to
+(tests/unit/tauvcore/engine/yoo_reference.py; ``tests/unit/tauvcore/engine/test_yoo_bank.py`` holds every result of both equal to
 1e-9). The chunk loop that drives them is tauvcore.engine.yoo_loop; the strapdown,
 rotations and NEES are the 20-state bank's own kernels (tauvcore.filter.kernels), so those are
 bit for bit the same.
@@ -264,7 +264,7 @@ def fuse(
     out: tuple[np.ndarray, np.ndarray],
 ) -> tuple:
     """Fuse one NED velocity ``z`` into one filter (its ``nominal`` ``(vel, C, ba, bg, extra)``,
-    written; the ``measurement`` ``(z, h, w, Rm, Hc, Hx)``; ``out`` ``(S_diag, nu)``, written) (the numpy reference's fuse_velocity, tests/unit/yoo_reference.py): its prediction
+    written; the ``measurement`` ``(z, h, w, Rm, Hc, Hx)``; ``out`` ``(S_diag, nu)``, written) (the numpy reference's fuse_velocity, tests/unit/tauvcore/engine/yoo_reference.py): its prediction
     ``h`` (the estimated velocity, or through the water ``v - c``), ``H = [I, [w x], 0, 0, Hc,
     Hx]`` (``w`` the vector the attitude rotated, Hc (3, NC) on the consider states, whose gain
     is zero, Hx (3, E) on the added states), through the one gated Joseph correction of every

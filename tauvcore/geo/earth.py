@@ -167,7 +167,7 @@ def ecef_from_geodetic(
 
 GEODETIC_ITERATIONS = 6
 """Fixed-point iterations of :func:`geodetic_from_ecef`; each gains about six digits near the
-surface. Measured (tests/unit/test_geodetic.py): from 11 km under the sea to 100 km up, latitude
+surface. Measured (tests/unit/tauvcore/geo/test_geodetic.py): from 11 km under the sea to 100 km up, latitude
 and longitude come back within 4 units in their last place and height within 5e-9 m."""
 
 

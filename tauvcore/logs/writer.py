@@ -312,7 +312,7 @@ class LogWriter:
 
     The files are those :func:`write_log` writes from the chunks' tables concatenated: CSV byte
     for byte, Parquet value for value (its row groups of :data:`ROW_GROUP_ROWS` rows, chunks
-    gathered; tests/unit/test_log_writer_stream.py). Each table's file is written, from the first chunk
+    gathered; tests/unit/tauvcore/logs/test_log_writer_stream.py). Each table's file is written, from the first chunk
     that has the table, into a hidden temporary directory inside ``directory`` under a name no
     reader takes for a table; :meth:`finish` flushes them to disk and moves them into place, the
     ``imu`` table last. Until then nothing in ``directory`` looks like a log; on a failure the

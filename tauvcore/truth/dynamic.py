@@ -29,7 +29,7 @@ with its exact derivative ``nu_r' - omega_nb_b x (C_nb^T c_n) + C_nb^T (dc/dt + 
 (``zdot`` the position derivative's down part), so the interpolant below is the integrated
 motion in any current. (An ideal INS would not notice a wrong knot derivative, since it follows
 whatever interpolant the knots make; the truth's specific force at the knots would be off by the
-water's acceleration: tests/unit/test_vehicle.py compares the knots' derivatives with their
+water's acceleration: tests/unit/tauvcore/truth/test_vehicle.py compares the knots' derivatives with their
 differences.) ``Truth.current_n_mps`` is the field at the truth's times and depths
 (tauvcore.truth.kinematic.with_current), the current the integrator used to round-off. Still
 water is the all-zero field (:data:`STILL_WATER`): the integrator adds exact zeros, and its

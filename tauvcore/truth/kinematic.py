@@ -732,7 +732,7 @@ class TruthStream:
     ``for k0, chunk in TruthStream(...)`` yields the samples ``k0 .. k0 + chunk_samples - 1``
     (fewer in the last chunk) in order, each chunk a :class:`Truth` with the mission's times and
     exact ``dt_s``; concatenated, the chunks are :func:`generate`'s numbers bit for bit
-    (tests/unit/test_stream.py). Memory: one chunk. Iterating again starts again from sample 0.
+    (tests/unit/tauvcore/sensors/test_stream.py). Memory: one chunk. Iterating again starts again from sample 0.
 
     Parameters
     ----------

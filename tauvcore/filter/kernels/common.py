@@ -89,7 +89,7 @@ def jit(function: _F) -> _F:
     the name its module imports (numba resolves globals at compilation)."""
     dispatcher = _njit(function)
     # the stamp numba's cache index is checked against (numba 0.68's IndexDataCacheFile; should
-    # that change, tests/unit/test_kernel_cache.py fails)
+    # that change, tests/unit/tauvcore/filter/kernels/test_kernel_cache.py fails)
     cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
     if cache_file is not None and hasattr(cache_file, "_source_stamp"):
         cache_file._source_stamp = source_key(function.__module__)

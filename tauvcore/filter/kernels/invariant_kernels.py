@@ -1,6 +1,6 @@
 """The invariant filter's correction compiled: the retraction on SE_2(3) and the covariance's carry
 (the compiled twins of tauvcore.filter.invariant.retract and carry_matrix, held equal to them by
-tests/unit/test_invariant.py)."""
+tests/unit/tauvcore/filter/test_invariant.py)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Rotations for the kernels: Rodrigues' ``exp([phi x])`` and its inverse (the compiled twins of
-tauvcore.geo.rotations.exp_so3 / log_so3, held equal to them by tests/unit/test_rotations.py), and
+tauvcore.geo.rotations.exp_so3 / log_so3, held equal to them by tests/unit/tauvcore/geo/test_rotations.py), and
 the entries of a cross-product matrix."""
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ error of its prior, ``x-_e`` (a correction moves the nominal by ``d``: to first 
 relative to ``x-`` and to ``x+`` differ by ``d``). The smoothed estimate is ``x+_e (+) s+_e``.
 This is the RTS smoother of the linearised system the filter ran (its F, H, gate decisions and
 corrections as they were), written for the error state the filter resets; on a linear model it
-is the RTS smoother of that model, exactly (tests/unit/test_smoother.py holds it equal to batch
+is the RTS smoother of that model, exactly (tests/unit/tauvcore/filter/kernels/test_smoother.py holds it equal to batch
 least squares).
 
 The transitions are those of tauvcore.filter.kernels.error_model_kernels: the identity but for rows

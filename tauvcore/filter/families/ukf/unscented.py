@@ -22,7 +22,7 @@ the Joseph form ``(I - K H_s) P (I - K H_s)^T + K R_s K^T = P - K (P_zz + R) K^T
 hands ``(H_s, R_s, nu_bar)`` to the bank's one gated correction (its gate, records, NIS and
 ``log det S`` included) instead of carrying a correction of its own. For a measurement linear in
 the error, ``H_s = H`` and ``R_s = R``: the filter is the Kalman filter
-(tests/unit/test_ukf.py).
+(tests/unit/tauvcore/filter/families/ukf/test_ukf.py).
 
 alpha = 1, beta = 2, kappa = 0: every weight is non-negative (so ``P_zz`` and the Schur complement
 ``R_s - R`` stay positive semidefinite, which a negative ``Wc_0``, e.g. kappa = 3 - d, does not
