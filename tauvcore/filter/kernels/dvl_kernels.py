@@ -600,8 +600,8 @@ def dvl_measure_bank(
     ``partial_sensor_columns`` the columns of the DVL errors its compensated beams carry:
     ``C / (1 + SF_hat)`` on the beam biases and ``C A v_hat / (1 + SF_hat)`` on the scale factor,
     ``C`` the construction's (the selector's chosen) rows."""
-    methods, codes = dvl.methods, dvl.codes
-    available = ping.available
+    methods, codes = dvl[0], dvl[1]  # plain tuples from Python (common.plain): by position
+    available = ping[1]
     z, nu, H, Rm, _, _, _, _, choice = out
     work = (  # A_pinv, omega_comp, h, S, y_c, v_hat, meas, pick
         np.empty((3, 4)),
