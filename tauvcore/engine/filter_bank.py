@@ -134,13 +134,23 @@ class FilterBank(ChunkDriver):
         methods = tuple(config.run.methods)
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         self.rng = rng
-        # the smoother's tape of the marks (tauvcore.engine.smoothing); None: no smoother
-        self.taping: smoothing.TapeWriter | None = None  # made with the layout, below
-        self._no_tape = smoothing.tape_rows(0, self.batch)
-        M, R = self.batch
         self.q_psd = noise_psd(config.imu, config.dvl)
         self.aiding = set(config.run.aiding)
-        gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
+        self.gyro_rate_noise = config.imu.gyro_noise_rad_per_sqrt_s / np.sqrt(dt_s) * np.sqrt(2.5)
+        self._set_up_dvl(config, methods)
+        self._set_up_layout(config, tape)
+        self._set_up_sources(config, methods, num_samples)
+        self.p_floor_count = np.zeros(self.batch, dtype=int)
+        self.nonfinite_at_s = np.full(self.batch, np.nan)  # first output epoch with a non-finite state or P
+        # first aiding epoch with a sensor error outside its prior
+        self.implausible_at_s = np.full(self.batch, np.nan)
+        self._no_extra = np.zeros((0, 0))
+        self.slot = 0  # output epochs recorded so far
+        self.dvl_truth_known = True  # the mission has DVL pings (set at start)
+
+    def _set_up_dvl(self, config: Config, methods: tuple[str, ...]) -> None:
+        """The DVL's methods: who fuses it how (tauvcore.engine.dvl_fusion.DVL_FUSION), their
+        two-beam tables and gates, the invariant filters, the families that linearise their own way."""
         # the aided methods (every one but the standalone INS) take every source of the registry
         self.other_mask = np.array([DVL_FUSION.get(m) is not None or m in REGISTRY for m in methods])[
             :, None
@@ -155,7 +165,6 @@ class FilterBank(ChunkDriver):
         self.partial_tables = partial_tables([m for _, m in self.dvl_methods], config)
         self.A_b = np.ascontiguousarray(config.dvl.A_b, dtype=float)
         self.l_dvl_b = np.ascontiguousarray(config.dvl.l_dvl_b, dtype=float)
-        self.gyro_rate_noise = gyro_rate_noise
         # tightly coupled beams are gated row by row, the velocities whole (eskf.correct)
         self.dvl_gate_rows = np.zeros(self.batch, bool)
         # the right-invariant EKF's filters (tauvcore.filter.invariant): corrected on SE_2(3)
@@ -170,6 +179,34 @@ class FilterBank(ChunkDriver):
             for family in FAMILIES.values()
             if family.linearize is not None and any(family_of(m).name == family.name for m in methods)
         ]
+
+    def _set_up_layout(self, config: Config, tape: Tape | None) -> None:
+        """The error state: the layout's 20 and the states the sources add
+        (tauvcore.filter.layout.Layout), its NEES blocks, and the smoother's tape writer."""
+        # the smoother's tape of the marks (tauvcore.engine.smoothing); None: no smoother
+        self._no_tape = smoothing.tape_rows(0, self.batch)
+        self.layout = layout_of(config)
+        self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
+        self.taping: smoothing.TapeWriter | None = None
+        if tape is not None:
+            self.taping = smoothing.TapeWriter(tape, self.batch, self.geodetic, self.extra_rate)
+        self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
+        blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
+        self.block_dims = (
+            {"full": self.layout.dim, **{k: len(v) for k, v in blocks.items()}}
+            if self.layout.num_extra
+            else None
+        )
+        self.ref_var = config.reference.variances()  # the NEES's P + P_ref (loop.Model.ref_var)
+        self.block_of_state = np.full(self.layout.dim, -1)
+        for b, ix in enumerate(self.layout.nees_blocks.values()):
+            self.block_of_state[list(ix)] = b
+
+    def _set_up_sources(self, config: Config, methods: tuple[str, ...], num_samples: int) -> None:
+        """The aiding sources besides the DVL's bottom track and their update recorders: the
+        registry's sources ``run.aiding`` turns on, the registered methods, the RPM fallback and
+        the water-track beams."""
+        M, R = self.batch
         dvl_members = np.isin(np.arange(M), self.dvl_index)
         dvl_rows = np.array([DVL_ROWS if DVL_FUSION.get(m) == "tc" else 3 for m in methods], dtype=np.int64)
         others = self.other_mask.any(axis=1)
@@ -200,32 +237,9 @@ class FilterBank(ChunkDriver):
             self.rpm_aid = RpmAid(config.vkf, R)
             self.rpm_A_pinv = np.linalg.pinv(np.asarray(config.dvl.A_b, dtype=float))  # (3, 4): LC's A+
         self.check_step = max(1, round(config.imu.rate_hz / CONDITION_CHECK_RATE_HZ))
-        # the error state: the layout's 20 and the states the sources add (tauvcore.filter.layout.Layout)
-        self.layout = layout_of(config)
-        self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
-        if tape is not None:
-            self.taping = smoothing.TapeWriter(tape, self.batch, self.geodetic, self.extra_rate)
-        self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
-        blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
-        self.block_dims = (
-            {"full": self.layout.dim, **{k: len(v) for k, v in blocks.items()}}
-            if self.layout.num_extra
-            else None
-        )
         self.water = water_model(config, self.layout)  # the water-track beams, with current states
         if self.water is not None:
             self.recorders["water"] = Recorder(dvl_members, np.full(M, DVL_ROWS, dtype=np.int64))
-        self.ref_var = config.reference.variances()  # the NEES's P + P_ref (loop.Model.ref_var)
-        self.block_of_state = np.full(self.layout.dim, -1)
-        for b, ix in enumerate(self.layout.nees_blocks.values()):
-            self.block_of_state[list(ix)] = b
-        self.p_floor_count = np.zeros(self.batch, dtype=int)
-        self.nonfinite_at_s = np.full(self.batch, np.nan)  # first output epoch with a non-finite state or P
-        # first aiding epoch with a sensor error outside its prior
-        self.implausible_at_s = np.full(self.batch, np.nan)
-        self._no_extra = np.zeros((0, 0))
-        self.slot = 0  # output epochs recorded so far
-        self.dvl_truth_known = True  # the mission has DVL pings (set at start)
 
     # ------------------------------------------------------------------ set-up at the first chunk
     def start(self, chunk: SimChunk, nav: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
