@@ -138,8 +138,29 @@ def _path(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``tauv`` parser: one subcommand per module of app.commands, each bound to its command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser; ``parse_args`` puts the command to call in ``args.func``.
+    """
     parser = _Parser(prog="tauv", description="Underwater INS/DVL navigation lab (Tal, Klein & Katz 2017).")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    _run_parser(sub)
+    _replay_parser(sub)
+    _calibrate_parser(sub)
+    _tune_parser(sub)
+    _mc_parser(sub)
+    _reproduce_parser(sub)
+    _serve_parser(sub)
+    _log_parser(sub)
+    _config_parser(sub)
+    return parser
+
+
+def _run_parser(sub: Any) -> None:
+    """``tauv run``: a simulated mission and the fusion methods side by side (app.commands.run)."""
     r = sub.add_parser("run", help="simulate a mission and run fusion methods side by side")
     _mission_flags(r)
     r.add_argument(
@@ -160,6 +181,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
     _smooth_flags(r)
+    r.set_defaults(func=cmd_run)
+
+
+def _replay_parser(sub: Any) -> None:
+    """``tauv replay``: the fusion methods on a recorded log or bag (app.commands.replay_log)."""
     rl = sub.add_parser(
         "replay",
         help="run the fusion methods on a recorded log (a directory of sensor tables, a ROS bag or an MCAP file)",
@@ -205,6 +231,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--json", type=_path, help="write the configuration and per-epoch results to this JSON file"
     )
     _smooth_flags(rl)
+    rl.set_defaults(func=cmd_replay)
+
+
+def _calibrate_parser(sub: Any) -> None:
+    """``tauv calibrate``: the DVL's mounting and the boresight from logs (app.commands.calibrate)."""
     ca = sub.add_parser(
         "calibrate",
         help="estimate the DVL's mounting misalignment and scale factor and the IMU-to-reference boresight "
@@ -239,7 +270,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="ignore the configuration each log carries (its log.toml; a bag's mapping's [config] and /tf_static)",
     )
     _imu_flag(ca)
-    tn = _tune_parser(sub)
+    ca.set_defaults(func=cmd_calibrate)
+
+
+def _mc_parser(sub: Any) -> None:
+    """``tauv mc``: a seeded Monte Carlo study (app.commands.mc)."""
     mc = sub.add_parser(
         "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
     )
@@ -261,6 +296,11 @@ def build_parser() -> argparse.ArgumentParser:
         "tcp://10.0.0.5:8786 (its workers need tauv installed)",
     )
     _smooth_flags(mc)
+    mc.set_defaults(func=cmd_mc)
+
+
+def _reproduce_parser(sub: Any) -> None:
+    """``tauv reproduce``: the first paper's study beside its figures (app.commands.mc)."""
     rp = sub.add_parser(
         "reproduce",
         help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
@@ -273,6 +313,11 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--seed", help="seed of the study (default 0)")
     rp.add_argument("--workers", help="local processes computing chunks of runs (default 1; at most 64)")
     rp.add_argument("--dask", metavar="ADDRESS", help="send the chunks to this Dask scheduler instead")
+    rp.set_defaults(func=cmd_reproduce)
+
+
+def _serve_parser(sub: Any) -> None:
+    """``tauv serve``: the browser dashboard (app.commands.serve)."""
     sv = sub.add_parser("serve", help="start the browser dashboard")
     sv.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)"
@@ -289,22 +334,24 @@ def build_parser() -> argparse.ArgumentParser:
         "its own mapping beside it: mission.bag -> mission.toml) in DIR (it, or its subdirectories) "
         "as sources to replay in the dashboard",
     )
+    sv.set_defaults(func=cmd_serve)
+
+
+def _log_parser(sub: Any) -> None:
+    """``tauv log info`` and ``tauv log convert``: what a bag holds, a bag as a log (app.commands.log)."""
     lg = sub.add_parser("log", help="what a ROS bag holds, and a bag written as a log")
     lg_sub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
     li = lg_sub.add_parser(
         "info", help="a bag's topics, types, message counts, rates, time spans and the table each feeds"
     )
-    li.add_argument(
-        "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
-    )
+    _bag_argument(li)
     _bag_mapping_flag(li)
+    li.set_defaults(func=cmd_log_info)
     lc = lg_sub.add_parser(
         "convert",
         help="write a bag as a log (the tables tauv replay reads), all or nothing, into a new directory",
     )
-    lc.add_argument(
-        "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
-    )
+    _bag_argument(lc)
     lc.add_argument(
         "out_dir",
         type=_path,
@@ -313,27 +360,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _bag_mapping_flag(lc)
     lc.add_argument("--log-format", default="csv", help="csv (default) or parquet")
+    lc.set_defaults(func=cmd_log_convert)
+
+
+def _config_parser(sub: Any) -> None:
+    """``tauv config``: the full configuration as TOML (:func:`cmd_config`)."""
     c = sub.add_parser("config", help="print the full configuration as TOML")
     c.add_argument("--config", type=_path, help="TOML file to merge over the defaults before printing")
     _imu_flag(c)
     _earth_flag(c)
-    for subparser, command in (
-        (r, cmd_run),
-        (rl, cmd_replay),
-        (ca, cmd_calibrate),
-        (tn, cmd_tune),
-        (mc, cmd_mc),
-        (rp, cmd_reproduce),
-        (sv, cmd_serve),
-        (li, cmd_log_info),
-        (lc, cmd_log_convert),
-        (c, cmd_config),
-    ):
-        subparser.set_defaults(func=command)
-    return parser
+    c.set_defaults(func=cmd_config)
 
 
-def _tune_parser(sub: Any) -> argparse.ArgumentParser:
+def _tune_parser(sub: Any) -> None:
     """``tauv tune``: the filter's noise parameters from recorded logs (app.commands.tune)."""
     from tauvcore.eval.tuning import DEFAULT_PARAMETERS, MAX_EVALUATIONS, OPTIMIZERS, PARAMETERS
 
@@ -398,7 +437,7 @@ def _tune_parser(sub: Any) -> argparse.ArgumentParser:
         help="evaluate the logs (and the points of a gradient) in parallel on Dask: local processes, "
         "one per core, or the scheduler at ADDRESS (its workers need tauv installed)",
     )
-    return tn
+    tn.set_defaults(func=cmd_tune)
 
 
 def _mission_flags(p: argparse.ArgumentParser) -> None:
@@ -499,6 +538,12 @@ def _replace_flag(p: argparse.ArgumentParser, command: str) -> None:
         action="store_true",
         help=f"replace an earlier {command} study in --out (without it a directory that holds one is "
         "refused; a directory holding anything else always is)",
+    )
+
+
+def _bag_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "bag", type=_path, metavar="PATH", help="a ROS 1 .bag, a ROS 2 bag directory or an .mcap file"
     )
 
 

@@ -93,9 +93,7 @@ def cmd_mc(args: argparse.Namespace) -> int:
     """``tauv mc``: a seeded Monte Carlo study written to ``--out`` (see app.reports.study_output); with
     ``--smooth`` every run also smoothed inside its chunk, where the chunk is computed (a worker
     process, a Dask worker), and the smoothed series summed beside the filtered."""
-    from app.reports.study_output import OutputDirError
     from app.reports.study_report import report_html
-    from tauvcore.engine.smoothing import SmoothingError
     from tauvcore.eval.study import CHUNK_RUNS, run_study
 
     config = resolve_config(args)
@@ -104,7 +102,7 @@ def cmd_mc(args: argparse.Namespace) -> int:
     smooth = smooth_options(args, config, runs=min(CHUNK_RUNS, runs))
     num_runs, workers, dask, writer = _study_setup(args, 1)
     started = time.perf_counter()
-    try:
+    with _written_or_aborted(writer):
         with _progress_bar(num_runs) as bar, _study_failures(dask):
             acc = run_study(
                 config,
@@ -134,15 +132,6 @@ def cmd_mc(args: argparse.Namespace) -> int:
             report_html("tauv Monte Carlo study", description, {trajectory: summary}),
         )
         written = writer.commit()
-    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
-        writer.abort()
-        raise UsageError(f"--out: {exc}") from None
-    except SmoothingError as exc:  # from a worker: the smoother's directory there
-        writer.abort()
-        raise UsageError(f"--smooth-dir: {exc}") from None
-    except BaseException:
-        writer.abort()
-        raise
     elapsed = time.perf_counter() - started
     print(study_table(summary, trajectory, num_runs, elapsed))
     _print_written(writer, written)
@@ -153,78 +142,15 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     """``tauv reproduce``: Tal et al. 2017 section 4.2 (three trajectories, beams 3 and 4 lost,
     INS, TC and the ELC methods; LC with four beams as the reference), every stated figure
     beside ours with a verdict."""
-    from app.reports.study_output import OutputDirError
     from app.reports.study_report import report_html
-    from tauvcore.eval.paper import TWO_BEAM_METHODS, comparison_table
-    from tauvcore.eval.study import (
-        ERROR_SERIES,
-        local_pool,
-        paper_chunk_runs,
-        run_study,
-        submit_chunks,
-    )
+    from tauvcore.eval.paper import comparison_table
+    from tauvcore.eval.study import ERROR_SERIES
 
-    # the paper's earth: a tangent plane with constant gravity (its F has a zero position column);
-    # over 250 s and 500 m the round Earth changes its figures in the fourth digit at most
-    base = Config().replace("earth", model="flat")
-    if args.duration is not None:
-        base = replace_for_flag(
-            "--duration",
-            base,
-            "trajectory",
-            duration_s=parse_flag("--duration", args.duration, float, "a number of seconds"),
-        )
-    if args.seed is not None:
-        base = replace_for_flag(
-            "--seed", base, "run", seed=parse_flag("--seed", args.seed, int, "a non-negative integer")
-        )
-    summaries, tables = {}, []
-    studies = [
-        (name, beams, methods)
-        for name in PAPER_TRAJECTORIES
-        for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))
-    ]
+    base = _paper_config(args)
     num_runs, workers, dask, writer = _study_setup(args, 100)
     started = time.perf_counter()
-    try:
-        configs = [
-            base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
-            for name, beams, methods in studies
-        ]
-        sizes = [paper_chunk_runs(c) for c in configs]
-        with (
-            _progress_bar(num_runs * len(studies)) as bar,
-            local_pool(workers if dask is None else 1) as pool,
-        ):
-            # every study's chunks queued at once (they wait as files): no worker idles between studies
-            with _study_failures(dask):
-                queued = [
-                    submit_chunks(c, num_runs, base.run.seed, pool, size) if pool is not None else None
-                    for c, size in zip(configs, sizes, strict=True)
-                ]
-            for (name, _, _), config, size, submitted in zip(studies, configs, sizes, queued, strict=True):
-                done_before = bar.n
-                with _study_failures(dask):
-                    acc = run_study(
-                        config,
-                        num_runs,
-                        base.run.seed,
-                        workers=workers,
-                        dask_address=dask,
-                        on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
-                        progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
-                        chunk_runs=size,
-                        pool=pool,
-                        submitted=submitted,
-                    )
-                part = acc.summary()
-                if name in summaries:
-                    summaries[name]["methods"].update(part["methods"])
-                else:
-                    summaries[name] = part
-        order = ("ins", "lc") + TWO_BEAM_METHODS[1:]
-        for s in summaries.values():
-            s["methods"] = {m: s["methods"][m] for m in order}
+    with _written_or_aborted(writer):
+        summaries = _paper_studies(base, num_runs, workers, dask, writer)
         finals = {
             name: {m: {n: s["methods"][m]["final_rms"][n] for n in ERROR_SERIES} for m in s["methods"]}
             for name, s in summaries.items()
@@ -247,21 +173,111 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             table,
         )
         written = writer.commit()
-    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
-        writer.abort()
-        raise UsageError(f"--out: {exc}") from None
-    except BaseException:
-        writer.abort()
-        raise
     elapsed = time.perf_counter() - started
-    for name, s in summaries.items():
-        tables.append(study_table(s, name, num_runs, elapsed))
-    print("\n\n".join(tables))
+    print("\n\n".join(study_table(s, name, num_runs, elapsed) for name, s in summaries.items()))
     print("\nEvery figure of the paper's section 4.2 beside ours\n")
     print(table)
     print(f"\n({elapsed:.1f} s wall)")
     _print_written(writer, written)
     return 0
+
+
+def _paper_config(args: argparse.Namespace) -> Config:
+    """The configuration of ``tauv reproduce``'s studies: the defaults on the paper's flat earth,
+    with ``--duration`` and ``--seed``."""
+    # the paper's earth: a tangent plane with constant gravity (its F has a zero position column);
+    # over 250 s and 500 m the round Earth changes its figures in the fourth digit at most
+    base = Config().replace("earth", model="flat")
+    if args.duration is not None:
+        base = replace_for_flag(
+            "--duration",
+            base,
+            "trajectory",
+            duration_s=parse_flag("--duration", args.duration, float, "a number of seconds"),
+        )
+    if args.seed is not None:
+        base = replace_for_flag(
+            "--seed", base, "run", seed=parse_flag("--seed", args.seed, int, "a non-negative integer")
+        )
+    return base
+
+
+def _paper_studies(
+    base: Config, num_runs: int, workers: int, dask: str | None, writer: Any
+) -> dict[str, dict[str, Any]]:
+    """The paper's studies of ``base``, ``num_runs`` runs each: every trajectory with LC on all
+    four beams and the other methods on beams 1 and 2, their chunks written by ``writer``; the
+    summaries by trajectory, their methods in the paper's order."""
+    from tauvcore.eval.paper import TWO_BEAM_METHODS
+    from tauvcore.eval.study import local_pool, paper_chunk_runs, run_study, submit_chunks
+
+    studies = [
+        (name, beams, methods)
+        for name in PAPER_TRAJECTORIES
+        for beams, methods in (((1, 2, 3, 4), ("lc",)), ((1, 2), TWO_BEAM_METHODS))
+    ]
+    configs = [
+        base.replace("trajectory", name=name).replace("dvl", beams=beams).replace("run", methods=methods)
+        for name, beams, methods in studies
+    ]
+    sizes = [paper_chunk_runs(c) for c in configs]
+    summaries: dict[str, dict[str, Any]] = {}
+    with (
+        _progress_bar(num_runs * len(studies)) as bar,
+        local_pool(workers if dask is None else 1) as pool,
+    ):
+        # every study's chunks queued at once (they wait as files): no worker idles between studies
+        with _study_failures(dask):
+            queued = [
+                submit_chunks(c, num_runs, base.run.seed, pool, size) if pool is not None else None
+                for c, size in zip(configs, sizes, strict=True)
+            ]
+        for (name, _, _), config, size, submitted in zip(studies, configs, sizes, queued, strict=True):
+            done_before = bar.n
+            with _study_failures(dask):
+                acc = run_study(
+                    config,
+                    num_runs,
+                    base.run.seed,
+                    workers=workers,
+                    dask_address=dask,
+                    on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),
+                    progress=lambda done, total, b=done_before: bar.update(b + done - bar.n),
+                    chunk_runs=size,
+                    pool=pool,
+                    submitted=submitted,
+                )
+            part = acc.summary()
+            if name in summaries:
+                summaries[name]["methods"].update(part["methods"])
+            else:
+                summaries[name] = part
+    order = ("ins", "lc") + TWO_BEAM_METHODS[1:]
+    for s in summaries.values():
+        s["methods"] = {m: s["methods"][m] for m in order}
+    return summaries
+
+
+@contextlib.contextmanager
+def _written_or_aborted(writer: Any):
+    """A study's files written by ``writer`` (app.reports.study_output.StudyWriter) all at once or
+    not at all: on any failure inside, the writer is aborted; a file of the study that cannot be
+    written (full disk, size limit) is one line naming ``--out``, the smoother's directory on a
+    worker one naming ``--smooth-dir``."""
+    from app.reports.study_output import OutputDirError
+    from tauvcore.engine.smoothing import SmoothingError
+
+    try:
+        yield
+    except OutputDirError as exc:  # a file of the study cannot be written: full disk, size limit
+        writer.abort()
+        raise UsageError(f"--out: {exc}") from None
+    except SmoothingError as exc:  # from a worker: the smoother's directory there
+        writer.abort()
+        raise UsageError(f"--smooth-dir: {exc}") from None
+    except BaseException:
+        writer.abort()
+        raise
 
 
 def _print_written(writer: Any, written: list[str]) -> None:

@@ -16,6 +16,7 @@ from app.commands.outputs import json_target
 from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
 from app.reports.tables import summary_table
+from tauvcore.config import Config
 from tauvcore.sensors.imu import IMU_PROFILES
 from tauvcore.validation import one_line, show, show_path
 
@@ -32,39 +33,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     ``--smooth``: as ``tauv run``'s (app.commands.run.cmd_run), the smoothed results judged as the
     filtered."""
     from app.commands.json_stream import RunReduction
-    from tauvcore.eval.replay import log_config, prepare_rows, replay_chunked, start_description
+    from tauvcore.eval.replay import prepare_rows, replay_chunked
     from tauvcore.logs import LogError, read_log
-    from tauvcore.logs.bags import (
-        BagMapping,
-        bag_config,
-        is_bag,
-        own_mapping,
-        read_bag_configured,
-        read_mapping,
-    )
+    from tauvcore.logs.bags import read_bag_configured
 
-    if not args.log.strip():  # not the current directory: a name that names nothing
-        raise UsageError(f"PATH: {show_path(args.log)} is not a log's name (the current directory is '.')")
-    bag = is_bag(args.log, by_name=True)
-    if args.bag_mapping is not None and not bag:
-        raise UsageError(
-            f"--bag-mapping {show_path(args.bag_mapping)}: {show_path(args.log)} is not a ROS bag (a .bag or .mcap file, or a ROS 2 bag "
-            "directory with metadata.yaml); a log directory needs none"
-        )
-    try:
-        if not bag:
-            mapping = BagMapping()
-        elif args.bag_mapping is not None:
-            mapping = read_mapping(args.bag_mapping, label="--bag-mapping")
-        else:  # the mapping beside the bag (its stem, .toml), as the dashboard reads it; or by type
-            mapping = own_mapping(args.log)
-        if args.no_log_config:  # a bag's too: its mapping's [config] and the DVL's mounting from /tf_static
-            log_raw, log_config_path = {}, None
-            mapping = dataclasses.replace(mapping, tf_static=False)
-        else:  # a bag's own configuration is its mapping's [config] (the /tf_static lever arm: from the read)
-            log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
-    except LogError as exc:
-        raise UsageError(str(exc)) from None
+    bag = _is_bag(args)
+    mapping, log_raw, log_config_path = _recording_config(args, bag)
     config = resolve_config(args, under=log_raw)
     smooth = smooth_options(args, config)
     imu_errors = None
@@ -96,19 +70,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         # --imu-errors P tunes the filters for P; --imu Q with it tunes them for Q (tauvcore.eval.replay.prepare)
         imu_tuning = config.imu if imu_errors is not None and args.imu is not None else None
         config, sim = prepare_rows(config, log, rng, imu_errors, imu_tuning)
-        source = {
-            "directory": str(args.log),
-            "config_file": log_config_path,
-            "configuration": replay_layers(args, log_raw, log_config_path),
-            "start": start_description(config, log),
-            "reference": config.reference.describe(log.ref_t_s is not None),
-            "notes": list(log.notes),
-        }
-        if imu_errors is not None:  # what the IMU is and what the filters are tuned for
-            source["imu"] = (
-                f"IMU: the log's with the errors of {args.imu_errors} added (drawn from seed {config.run.seed}); "
-                f"the filters tuned for {args.imu if args.imu is not None else args.imu_errors}"
-            )
+        source = _log_source(args, config, log, log_raw, log_config_path)
         if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
             source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source, smoothed=smooth is not None)
@@ -140,6 +102,69 @@ def cmd_replay(args: argparse.Namespace) -> int:
         )
     )
     return 0
+
+
+def _is_bag(args: argparse.Namespace) -> bool:
+    """Whether ``PATH`` names a ROS bag (else a log directory), refusing an empty name and
+    ``--bag-mapping`` for a log directory."""
+    from tauvcore.logs.bags import is_bag
+
+    if not args.log.strip():  # not the current directory: a name that names nothing
+        raise UsageError(f"PATH: {show_path(args.log)} is not a log's name (the current directory is '.')")
+    bag = is_bag(args.log, by_name=True)
+    if args.bag_mapping is not None and not bag:
+        raise UsageError(
+            f"--bag-mapping {show_path(args.bag_mapping)}: {show_path(args.log)} is not a ROS bag (a .bag or .mcap file, or a ROS 2 bag "
+            "directory with metadata.yaml); a log directory needs none"
+        )
+    return bag
+
+
+def _recording_config(args: argparse.Namespace, bag: bool) -> tuple[Any, dict[str, Any], str | None]:
+    """The bag's mapping (a log directory's: none) and the configuration the recording carries,
+    raw, with the file it is in (none with ``--no-log-config``)."""
+    from tauvcore.eval.replay import log_config
+    from tauvcore.logs import LogError
+    from tauvcore.logs.bags import BagMapping, bag_config, own_mapping, read_mapping
+
+    try:
+        if not bag:
+            mapping = BagMapping()
+        elif args.bag_mapping is not None:
+            mapping = read_mapping(args.bag_mapping, label="--bag-mapping")
+        else:  # the mapping beside the bag (its stem, .toml), as the dashboard reads it; or by type
+            mapping = own_mapping(args.log)
+        if args.no_log_config:  # a bag's too: its mapping's [config] and the DVL's mounting from /tf_static
+            return dataclasses.replace(mapping, tf_static=False), {}, None
+        # a bag's own configuration is its mapping's [config] (the /tf_static lever arm: from the read)
+        log_raw, log_config_path = bag_config(mapping) if bag else log_config(args.log)
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
+    return mapping, log_raw, log_config_path
+
+
+def _log_source(
+    args: argparse.Namespace, config: Config, log: Any, log_raw: dict[str, Any], log_config_path: str | None
+) -> dict[str, Any]:
+    """The log as ``--json``'s ``"log"`` describes it: its directory, its configuration file, what
+    configured the run, where the filters started, what the NEES is measured against, the
+    reader's notes and, with ``--imu-errors``, the IMU and what the filters are tuned for."""
+    from tauvcore.eval.replay import start_description
+
+    source = {
+        "directory": str(args.log),
+        "config_file": log_config_path,
+        "configuration": replay_layers(args, log_raw, log_config_path),
+        "start": start_description(config, log),
+        "reference": config.reference.describe(log.ref_t_s is not None),
+        "notes": list(log.notes),
+    }
+    if args.imu_errors is not None:  # what the IMU is and what the filters are tuned for
+        source["imu"] = (
+            f"IMU: the log's with the errors of {args.imu_errors} added (drawn from seed {config.run.seed}); "
+            f"the filters tuned for {args.imu if args.imu is not None else args.imu_errors}"
+        )
+    return source
 
 
 REPLAY_NOT_CONFIG = frozenset(

@@ -162,103 +162,106 @@ def estimate_run(
     RunEstimate
         The estimate [bytes].
     """
-    rate_hz = config.imu.rate_hz
-    duration_s = config.trajectory.duration_s
-    K = round(duration_s * rate_hz) + 1
-    R = int(num_runs)
-    M = len(config.run.methods)
-    step = max(1, round(rate_hz / config.filter.output_rate_hz))
-    T = math.ceil(K / step)
-    aiding = set(config.run.aiding)
-    dvl_methods = sum(1 for m in config.run.methods if m != "ins")
-    pings = math.ceil(duration_s * config.dvl.rate_hz + 1) if "dvl" in aiding else 0
-    dvl_rows = pings * dvl_methods
-    source_updates = []
-    if dvl_methods:
-        for name, source in FUSED.items():
-            if name in aiding:
-                source_updates.append(
-                    math.ceil(duration_s * source.rate_hz(config.section(source.section_name)) + 1)
-                )
-    other_updates = sum(source_updates)
-    other_rows = other_updates * dvl_methods
-
-    K_c = min(K, round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz) + 1)
-    chunk = TRUTH_BUILD_DOUBLES * DOUBLE * K_c + COMPENSATION_DOUBLES * DOUBLE * K_c * R
+    n = _Counts(config, num_runs)
     sensor_doubles = SENSOR_DOUBLES if sensor_errors else 0
-    chunk_fraction = min(1.0, K_c / K)
-    update_objects = int(UPDATE_ROW_BYTES * (dvl_rows + other_rows) * chunk_fraction)
-    covariance = COVARIANCE_DOUBLES * DOUBLE * M * R
-    k = epochs_per_bin(T)
+    chunk = TRUTH_BUILD_DOUBLES * DOUBLE * n.K_c + COMPENSATION_DOUBLES * DOUBLE * n.K_c * n.R
+    k = epochs_per_bin(n.T)
     if k == 1:
-        outputs = OUTPUT_DOUBLES * DOUBLE * T * M * R
-        sensors = sensor_doubles * DOUBLE * T * M * R
-        live = 2 * (OUTPUT_DOUBLES + sensor_doubles) * DOUBLE * min(T, LIVE_EPOCHS) * M * R
-        update_data = UPDATE_DOUBLES * DOUBLE * R * (dvl_rows + M * other_updates)
-        end = (
-            OUTPUT_COPIES * (outputs + update_data)
-            + SENSOR_COPIES * sensors
-            + live
-            + update_objects
-            + covariance
-        )
+        outputs, sensors, update_data, end = _kept_every_epoch(n, sensor_doubles)
     else:
-        B = math.ceil(T / k)
-        T_c = math.ceil(K_c / step)
-        outputs = (
-            ((OUTPUT_DOUBLES + sensor_doubles * BIN_SENSOR_COPIES) * R + BIN_CURVE_DOUBLES) * DOUBLE * B * M
-        )
-        sensors = 0  # in the bins
-        binned_rows = (min(B, pings) * dvl_methods if pings else 0) + sum(
-            min(B, n) for n in source_updates
-        ) * dvl_methods
-        update_data = BIN_UPDATE_DOUBLES * DOUBLE * R * binned_rows
-        chunk_results = (
-            OUTPUT_DOUBLES + sensor_doubles
-        ) * DOUBLE * T_c * M * R + UPDATE_DOUBLES * DOUBLE * R * int((dvl_rows + other_rows) * chunk_fraction)
-        monitor = MONITOR_BYTES * R * (dvl_rows + other_rows)
-        sensor_view = SOURCE_VIEW_DOUBLES * DOUBLE * (pings + other_updates)
-        end = (
-            OUTPUT_COPIES * (outputs + update_data)
-            + OUTPUT_COPIES * chunk_results
-            + update_objects
-            + covariance
-            + monitor
-            + sensor_view
-        )
+        outputs, sensors, update_data, end = _kept_in_bins(n, k, sensor_doubles)
+    end += int(UPDATE_ROW_BYTES * (n.dvl_rows + n.other_rows) * n.chunk_fraction)  # the update rows' objects
+    end += COVARIANCE_DOUBLES * DOUBLE * n.M * n.R
     smoothed = 0
-    M_s = len(config.run.methods)
-    if smooth_mb is not None and M_s:
-        held = int(smooth_mb * 1e6) // 2  # each of the tapes (marks, smoothed stores) holds half of it
-        extra = SENSOR_DOUBLES if sensor_errors else 0  # the tape keeps the sensor errors' rows
-        tape = (
-            DOUBLE
-            * M_s
-            * R
-            * (T * (TAPE_OUTPUT_DOUBLES + extra) + (pings + other_updates) * TAPE_AIDING_DOUBLES)
-        )
-        stores = DOUBLE * M_s * R * T * (SMOOTHED_STORE_DOUBLES + sensor_doubles)
-        if k == 1:
-            smoothed = outputs * M_s // max(M, 1) + sensors * M_s // max(M, 1)
-            # the tape is let go before the smoothed results are gathered: whichever is larger
-            end += max(min(tape, held) + min(stores, held), OUTPUT_COPIES * smoothed)
-        else:
-            smoothed = outputs * M_s // max(M, 1)
-            T_c = math.ceil(K_c / step)
-            segment = DOUBLE * M_s * R * T_c * (TAPE_OUTPUT_DOUBLES + 2 * 20 * 20)  # one segment and
-            # its smoothing's scratch (the pass's covariances)
-            # the smoothed bins and their pickle (no live copy: they come with the final message)
-            end += min(tape, held) + min(stores, held) + segment + 2 * smoothed
+    if smooth_mb is not None and n.M:
+        smoothed, smoother_end = _smoother(n, smooth_mb, sensor_doubles, k > 1, outputs, sensors)
+        end += smoother_end
     fixed = FIXED_BYTES
     if config.trajectory.truth == "dynamic":
         fixed += DYNAMIC_FIXED_BYTES
-        chunk += KNOT_DOUBLES * DOUBLE * ((K + 1) if K + 1 <= CACHE_MAX_KNOTS else K_c)
+        chunk += KNOT_DOUBLES * DOUBLE * ((n.K + 1) if n.K + 1 <= CACHE_MAX_KNOTS else n.K_c)
     return RunEstimate(
         chunk_bytes=chunk,
         end_bytes=end,
         results_bytes=outputs + sensors + update_data + smoothed,
         worker_peak_bytes=int(SLACK * (chunk + end)) + fixed,
     )
+
+
+class _Counts:
+    """What the memory of ``num_runs`` Monte Carlo runs of ``config`` grows with (the module
+    docstring's K, K_c, T, R and M)."""
+
+    def __init__(self, config: Config, num_runs: int) -> None:
+        rate_hz, duration_s = config.imu.rate_hz, config.trajectory.duration_s
+        step = max(1, round(rate_hz / config.filter.output_rate_hz))
+        self.K = round(duration_s * rate_hz) + 1  # IMU samples of the mission, and of one chunk:
+        self.K_c = min(self.K, round(max(STREAM_CHUNK_S, 1.0 / config.dvl.rate_hz) * rate_hz) + 1)
+        self.T, self.T_c = math.ceil(self.K / step), math.ceil(self.K_c / step)  # output epochs (of a chunk)
+        self.R, self.M = int(num_runs), len(config.run.methods)
+        aiding = set(config.run.aiding)
+        self.dvl_methods = sum(1 for m in config.run.methods if m != "ins")  # the methods aided
+        self.pings = math.ceil(duration_s * config.dvl.rate_hz + 1) if "dvl" in aiding else 0  # DVL pings
+        self.source_updates = [  # epochs of each plug-in source fused (none without an aided method)
+            math.ceil(duration_s * source.rate_hz(config.section(source.section_name)) + 1)
+            for name, source in FUSED.items()
+            if self.dvl_methods and name in aiding
+        ]
+        self.other_updates = sum(self.source_updates)
+        self.dvl_rows = self.pings * self.dvl_methods  # update rows of the DVL
+        self.other_rows = self.other_updates * self.dvl_methods  # ... and of the plug-in sources
+        self.chunk_fraction = min(1.0, self.K_c / self.K)  # the share of the mission in one chunk
+
+
+def _kept_every_epoch(n: _Counts, sensor_doubles: int) -> tuple[int, int, int, int]:
+    """A run kept at every output epoch: its results' series, sensor errors and updates (one copy
+    each) and what they take at the end, copies and the live copy included [bytes]."""
+    outputs = OUTPUT_DOUBLES * DOUBLE * n.T * n.M * n.R
+    sensors = sensor_doubles * DOUBLE * n.T * n.M * n.R
+    live = 2 * (OUTPUT_DOUBLES + sensor_doubles) * DOUBLE * min(n.T, LIVE_EPOCHS) * n.M * n.R
+    update_data = UPDATE_DOUBLES * DOUBLE * n.R * (n.dvl_rows + n.M * n.other_updates)
+    end = OUTPUT_COPIES * (outputs + update_data) + SENSOR_COPIES * sensors + live
+    return outputs, sensors, update_data, end
+
+
+def _kept_in_bins(n: _Counts, k: int, sensor_doubles: int) -> tuple[int, int, int, int]:
+    """A run reduced to bins of ``k`` output epochs: as :func:`_kept_every_epoch` (its sensor
+    errors in the bins), with one chunk's results, the divergence monitor and the Sensors tab's
+    view at the end [bytes]."""
+    B = math.ceil(n.T / k)
+    outputs = (
+        ((OUTPUT_DOUBLES + sensor_doubles * BIN_SENSOR_COPIES) * n.R + BIN_CURVE_DOUBLES) * DOUBLE * B * n.M
+    )
+    binned_rows = (min(B, n.pings) + sum(min(B, u) for u in n.source_updates)) * n.dvl_methods
+    update_data = BIN_UPDATE_DOUBLES * DOUBLE * n.R * binned_rows
+    rows = n.dvl_rows + n.other_rows
+    chunk_results = (OUTPUT_DOUBLES + sensor_doubles) * DOUBLE * n.T_c * n.M * n.R
+    chunk_results += UPDATE_DOUBLES * DOUBLE * n.R * int(rows * n.chunk_fraction)
+    monitor = MONITOR_BYTES * n.R * rows
+    sensor_view = SOURCE_VIEW_DOUBLES * DOUBLE * (n.pings + n.other_updates)
+    end = OUTPUT_COPIES * (outputs + update_data) + OUTPUT_COPIES * chunk_results + monitor + sensor_view
+    return outputs, 0, update_data, end
+
+
+def _smoother(
+    n: _Counts, smooth_mb: float, sensor_doubles: int, binned: bool, outputs: int, sensors: int
+) -> tuple[int, int]:
+    """The smoother's results (one copy, as large as the filtered ``outputs`` and ``sensors``)
+    and what the smoother adds at the end: its tape and stores, each held in memory up to half
+    of ``smooth_mb``, and its results' copies [bytes]."""
+    held = int(smooth_mb * 1e6) // 2  # each of the tapes (marks, smoothed stores) holds half of it
+    # per method and run a mark at every output epoch (the sensor errors' rows too) and aiding epoch
+    marks = n.T * (TAPE_OUTPUT_DOUBLES + sensor_doubles) + (n.pings + n.other_updates) * TAPE_AIDING_DOUBLES
+    tape = DOUBLE * n.M * n.R * marks
+    stores = DOUBLE * n.M * n.R * n.T * (SMOOTHED_STORE_DOUBLES + sensor_doubles)
+    if not binned:
+        smoothed = outputs + sensors
+        # the tape is let go before the smoothed results are gathered: whichever is larger
+        return smoothed, max(min(tape, held) + min(stores, held), OUTPUT_COPIES * smoothed)
+    # one segment and its smoothing's scratch (the pass's covariances)
+    segment = DOUBLE * n.M * n.R * n.T_c * (TAPE_OUTPUT_DOUBLES + 2 * 20 * 20)
+    # the smoothed bins and their pickle (no live copy: they come with the final message)
+    return outputs, min(tape, held) + min(stores, held) + segment + 2 * outputs
 
 
 def records_sensor_errors(

@@ -502,6 +502,33 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
 
     Raises InputError with one line naming the control and the value as typed.
     """
+    methods, runs, seed, beams = _run_choices(c)
+    typed = _number_texts(c)
+    numbers = {label: parse_float(label, text) for label, text in typed.items()}
+    epsilon = parse_float_or_auto(NSV_EPSILON, c.nsv_epsilon)
+    current = current_fields(c)
+    # what a message quotes of the controls the configuration may refuse (the plug-ins' join below)
+    typed |= {SEED: c.seed, NSV_EPSILON: c.nsv_epsilon, CURRENT_SPEED: c.current_speed}
+    typed |= {CURRENT_SHEAR: c.current_shear, CURRENT_VARIATION: c.current_variation}
+    plugin_sections = _plugin_sections(c, typed)
+    outages = _outages(c)
+    aiding = ("dvl",) + tuple(name for name in FUSED if name in c.aid_sources)
+    try:
+        config = (
+            _mission_config(c, log_config, numbers, epsilon, current, beams)
+            .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback)
+            .replace("dvl", outages=outages)
+        )
+        for name, changes in plugin_sections.items():
+            config = config.replace(name, **changes)
+    except ConfigError as exc:
+        raise _input_error(exc, c, current, typed) from None
+    return config, runs
+
+
+def _run_choices(c: Controls) -> tuple[tuple[str, ...], int, int, tuple[int, ...]]:
+    """The methods, Monte Carlo runs, seed and DVL beams the controls choose, each checked (a log
+    replayed once, beams enough for the DVL methods; the smoother's controls with them)."""
     methods = tuple(m for m in RUN_METHODS if m in c.methods)
     if not methods:
         raise InputError("Methods: select at least one method")
@@ -532,28 +559,12 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
             f"{len(beams)} ({', '.join(map(str, beams)) or 'none'}) are on; add TC, an ELC method "
             "or VKF"
         )
-    numbers = {
-        label: parse_float(label, text)
-        for label, text in (
-            (DURATION, c.duration),
-            (DROPOUT, c.dropout),
-            (ACCEL_BIAS, c.accel_bias),
-            (GYRO_BIAS, c.gyro_bias),
-            (ACCEL_NOISE, c.accel_noise),
-            (GYRO_NOISE, c.gyro_noise),
-            (DVL_NOISE, c.dvl_noise),
-            (DVL_BIAS, c.dvl_bias),
-            (DVL_SF, c.dvl_sf),
-            (VB_NF, c.vb_nf),
-            (SEABED_DEPTH, c.seabed_depth),
-            (DVL_MAX_ALTITUDE, c.dvl_max_altitude),
-            (SWITCH_ALTITUDE, c.switch_altitude),
-            (RPM_NOISE, c.rpm_noise),
-        )
-    }
-    epsilon = parse_float_or_auto(NSV_EPSILON, c.nsv_epsilon)
-    current = current_fields(c)
-    typed = {
+    return methods, runs, seed, beams
+
+
+def _number_texts(c: Controls) -> dict[str, str]:
+    """Label -> text as typed of the numeric controls read as plain numbers, in the order they are read."""
+    return {
         DURATION: c.duration,
         DROPOUT: c.dropout,
         ACCEL_BIAS: c.accel_bias,
@@ -563,28 +574,32 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         DVL_NOISE: c.dvl_noise,
         DVL_BIAS: c.dvl_bias,
         DVL_SF: c.dvl_sf,
-        SEED: c.seed,
         VB_NF: c.vb_nf,
-        NSV_EPSILON: c.nsv_epsilon,
         SEABED_DEPTH: c.seabed_depth,
         DVL_MAX_ALTITUDE: c.dvl_max_altitude,
         SWITCH_ALTITUDE: c.switch_altitude,
         RPM_NOISE: c.rpm_noise,
-        CURRENT_SPEED: c.current_speed,
-        CURRENT_SHEAR: c.current_shear,
-        CURRENT_VARIATION: c.current_variation,
     }
+
+
+def _plugin_sections(c: Controls, typed: dict[str, str]) -> dict[str, dict[str, Any]]:
+    """Section -> field -> value of the plug-in sources' controls (app.dashboard.controls), each
+    field's text added to ``typed`` (label -> text, for messages)."""
     held = dict(c.source_fields)
-    plugin_sections: dict[str, dict[str, Any]] = {}
+    sections: dict[str, dict[str, Any]] = {}
     for f in PLUGIN_FIELDS.values():
         value = held.get(f.key, f.default)
         if f.kind == "flag":
-            plugin_sections.setdefault(f.section, {})[f.field] = bool(value)
-            continue
-        text = str(value)
-        typed[f.label] = text
-        parse = parse_vector if f.kind == "vector" else parse_float
-        plugin_sections.setdefault(f.section, {})[f.field] = parse(f.label, text)
+            value = bool(value)
+        else:
+            typed[f.label] = text = str(value)
+            value = (parse_vector if f.kind == "vector" else parse_float)(f.label, text)
+        sections.setdefault(f.section, {})[f.field] = value
+    return sections
+
+
+def _outages(c: Controls) -> tuple[Outage, ...]:
+    """The beams' outage windows the controls set (start = end = 0: none for that beam)."""
     outages = []
     for k, (start_text, end_text) in enumerate(c.outages, start=1):
         start_label, end_label = outage_labels(k)
@@ -594,65 +609,75 @@ def config_from_controls(c: Controls, log_config: dict[str, Any] | None = None) 
         if end <= start:
             raise InputError(f"Beam {k} outage ends ({end:g} s) before it starts ({start:g} s)")
         outages.append(Outage(beams=(k,), start_s=start, end_s=end))
-    aiding = ("dvl",) + tuple(name for name in FUSED if name in c.aid_sources)
+    return tuple(outages)
+
+
+def _mission_config(
+    c: Controls,
+    log_config: dict[str, Any] | None,
+    numbers: dict[str, float],
+    epsilon: float | str,
+    current: dict[str, Any],
+    beams: tuple[int, ...],
+) -> Config:
+    """The scenario's preset (a log's own configuration) with the controls' mission, IMU, DVL,
+    VKF, RPM and partial-beam settings laid over it (``numbers``: label -> value)."""
+    simulation = c.source == SIMULATION
     # a log's truth is its own reference: the (then disabled) Truth control does not apply to it
-    truth = c.truth if c.source == SIMULATION else TrajectoryConfig.truth
+    truth = c.truth if simulation else TrajectoryConfig.truth
     # ... nor does the current the truth flies in: the log's own configuration's stands
-    water = current if c.source == SIMULATION else {}
-    try:
-        # the scenario's own settings (longrange: the paper's speed, depth, IMU and DVL rate;
-        # its seabed and IMU errors fill in controls) under the controls', as `tauv run
-        # --trajectory` lays them under a file's
-        base = trajectory_preset(c.trajectory) if c.source == SIMULATION else (log_config or {})
-        config = (
-            from_dict(base)
-            .replace(
-                "trajectory",
-                name=c.trajectory,
-                duration_s=numbers[DURATION],
-                truth=truth,
-                seabed_depth_m=numbers[SEABED_DEPTH],
-                **water,
-            )
-            .replace(
-                "imu",
-                accel_bias_mg=numbers[ACCEL_BIAS],
-                gyro_bias_deg_per_h=numbers[GYRO_BIAS],
-                accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
-                gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE],
-            )
-            .replace(
-                "dvl",
-                noise_mps=numbers[DVL_NOISE],
-                bias_mps=numbers[DVL_BIAS],
-                scale_factor_pct=numbers[DVL_SF],
-                beams=beams,
-                dropout_probability=numbers[DROPOUT],
-                max_altitude_m=numbers[DVL_MAX_ALTITUDE],
-                water_track=c.water_track,
-                current_states=c.current_states,
-            )
-            .replace("vkf", switch_altitude_m=numbers[SWITCH_ALTITUDE])
-            .replace("rpm", noise_rpm=numbers[RPM_NOISE])
-            .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
-            .replace("run", methods=methods, aiding=aiding, seed=seed, rpm_fallback=c.rpm_fallback)
+    water = current if simulation else {}
+    # the scenario's own settings (longrange: the paper's speed, depth, IMU and DVL rate; its seabed
+    # and IMU errors fill in controls) under the controls', as `tauv run --trajectory` lays them under a file's
+    base = trajectory_preset(c.trajectory) if simulation else (log_config or {})
+    return (
+        from_dict(base)
+        .replace(
+            "trajectory",
+            name=c.trajectory,
+            duration_s=numbers[DURATION],
+            truth=truth,
+            seabed_depth_m=numbers[SEABED_DEPTH],
+            **water,
         )
-        config = config.replace("dvl", outages=tuple(outages))
-        for name, changes in plugin_sections.items():
-            config = config.replace(name, **changes)
-    except ConfigError as exc:
-        label = _current_label(str(exc), current) or _label_for(exc)
-        if str(exc).startswith("dvl.water_layer_m"):
-            # the layer has no control of its own: the DVL's range and the water-track refuse it together
-            raise InputError(
-                f"{DVL_MAX_ALTITUDE}: {show(c.dvl_max_altitude)} is out of range with {DVL_WATER_TRACK} "
-                f"{show(c.water_track)}: {exc}"
-            ) from None
-        if label is None:
-            raise InputError(str(exc)) from None
-        value = f" {show(typed[label])} is out of range:" if label in typed else ""
-        raise InputError(f"{label}:{value} {exc}") from None
-    return config, runs
+        .replace(
+            "imu",
+            accel_bias_mg=numbers[ACCEL_BIAS],
+            gyro_bias_deg_per_h=numbers[GYRO_BIAS],
+            accel_noise_mps_per_sqrt_h=numbers[ACCEL_NOISE],
+            gyro_noise_deg_per_sqrt_h=numbers[GYRO_NOISE],
+        )
+        .replace(
+            "dvl",
+            noise_mps=numbers[DVL_NOISE],
+            bias_mps=numbers[DVL_BIAS],
+            scale_factor_pct=numbers[DVL_SF],
+            beams=beams,
+            dropout_probability=numbers[DROPOUT],
+            max_altitude_m=numbers[DVL_MAX_ALTITUDE],
+            water_track=c.water_track,
+            current_states=c.current_states,
+        )
+        .replace("vkf", switch_altitude_m=numbers[SWITCH_ALTITUDE])
+        .replace("rpm", noise_rpm=numbers[RPM_NOISE])
+        .replace("partial", vb_nf=numbers[VB_NF], nsv_epsilon_m2_per_s2=epsilon)
+    )
+
+
+def _input_error(exc: ConfigError, c: Controls, current: dict[str, Any], typed: dict[str, str]) -> InputError:
+    """The configuration's refusal ``exc`` as one line naming the control that set the field and,
+    where it has one (``typed``: label -> text), its value as typed."""
+    label = _current_label(str(exc), current) or _label_for(exc)
+    if str(exc).startswith("dvl.water_layer_m"):
+        # the layer has no control of its own: the DVL's range and the water-track refuse it together
+        return InputError(
+            f"{DVL_MAX_ALTITUDE}: {show(c.dvl_max_altitude)} is out of range with {DVL_WATER_TRACK} "
+            f"{show(c.water_track)}: {exc}"
+        )
+    if label is None:
+        return InputError(str(exc))
+    value = f" {show(typed[label])} is out of range:" if label in typed else ""
+    return InputError(f"{label}:{value} {exc}")
 
 
 def config_rows(config: Config, runs: int, source: dict[str, Any] | None = None) -> list[tuple[str, str]]:

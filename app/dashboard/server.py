@@ -363,103 +363,24 @@ class Session:
         are due sooner than that (:func:`seconds_left`): a short Monte Carlo draws its first
         results and its last, not a third set the page would render while the final one arrives.
         """
-        draw_after = 0.0  # time.monotonic() before which live results are held
-        computing_since: float | None = None  # when the worker began (its truth arrived)
-        pending: dict[str, MethodResult] | None = None
-        finished = False
-        running_status = self.status.content
-        place = 0
-        note: tuple[str, str, bool] | None = None
+        pump = _RunPump(self, config)
         try:
-            while not finished:
+            while not pump.finished:
                 try:
                     msg = handle.queue.get(timeout=0.1)
                 except queue_mod.Empty:
-                    now_place = handle.position()
-                    if now_place != place:
-                        place = now_place
-                        self.status.content = (
-                            running_status
-                            if place == 0
-                            else f"Waiting for a free worker: {place - 1} run(s) ahead "
-                            f"({self.pool.workers} compute at once)."
-                        )
-                    if handle.finished() and handle.queue.empty():
-                        if pending is not None:
-                            self._show_results(pending, config)
-                        self.status.content = "Run stopped."
-                        shown = self.state.results
-                        if shown:  # the slider spans what was run
-                            self.playback.span_slider(float(next(iter(shown.values())).t_s[-1]))
-                        if "vkf" in config.run.methods and not (shown and "vkf" in shown):
-                            self.plot_tabs.vkf_note.content = VKF_NOTES[
-                                "stopped"
-                            ]  # killed before its first progress
-                        note = ("Run stopped", "The run ended before completion.", False)
-                        break
-                    if pending is not None and time.monotonic() >= draw_after:
-                        self._show_results(pending, config, live=True)
-                        pending, draw_after = None, time.monotonic() + GUI_REFRESH_S
+                    pump.idle(handle)
                     continue
-                kind = msg[0]
-                if kind == "config":  # a replayed log: its own length, rate, origin and start
-                    config, self.run_source = from_dict(msg[1]), msg[2]
-                    with self.lock:
-                        self.state.config = config
-                    self.playback.time_slider.max = config.trajectory.duration_s
-                    self.run_tabs.run_config.content = config_markdown(config, 1, self.run_source)
-                elif kind == "truth":
-                    computing_since = time.monotonic()
-                    self.state.truth_view = msg[1]
-                    self.scene.draw_truth()
-                    self.plot_tabs.draw_vehicle_plot()
-                    self.plot_tabs.draw_seabed_plot()
-                elif kind == "sensors":  # drawn with the next results
-                    self.state.sensor_view = msg[1]
-                elif kind == "progress":
-                    latest: dict[str, MethodResult] = msg[2]
-                    pending = latest
-                    self.progress.value = 100.0 * msg[1] / config.trajectory.duration_s
-                    now = time.monotonic()
-                    left_s = seconds_left(
-                        msg[1],
-                        config.trajectory.duration_s,
-                        now - (now if computing_since is None else computing_since),
-                    )
-                    if now >= draw_after and left_s < GUI_REFRESH_S:
-                        draw_after = now + left_s + GUI_REFRESH_S  # the final results should come first
-                    elif now >= draw_after:
-                        self._show_results(latest, config, live=True)
-                        pending, draw_after = None, time.monotonic() + GUI_REFRESH_S
-                elif kind == "smoothing":
-                    self.status.content = "Smoothing: the fixed-interval smoother over the run so far."
-                elif kind == "done":
-                    results, stopped = msg[1], msg[2]
-                    self._show_results(results, config)
-                    self._keep_finished(results, config, stopped)
-                    t_end = float(next(iter(results.values())).t_s[-1])
-                    if stopped:
-                        self.status.content = f"Stopped at {t_end:.1f} s."
-                        note = ("Run stopped", f"Stopped at t = {t_end:.1f} s.", False)
-                    else:
-                        self.progress.value = 100.0
-                        what = f"log {self.run_log}" if self.run_log is not None else config.trajectory.name
-                        self.status.content = f"Run complete: {what}, {t_end:g} s."
-                        note = ("Run complete", summary_line(results), False)
-                    finished = True
-                elif kind == "error":
-                    self.status.content = "Run failed."
-                    note = ("Run failed", msg[1], True)
-                    finished = True
+                pump.show(msg)
         except Exception as exc:  # noqa: BLE001 - a display bug must not leave the tab stuck in "running"
             self.status.content = "Display error."
-            note = display_error(exc)
+            pump.note = display_error(exc)
         finally:
             with self.lock:
                 self.handle = None
             self.run_button.disabled, self.stop_button.disabled = False, True
-        if note is not None:
-            self.notify(*note)
+        if pump.note is not None:
+            self.notify(*pump.note)
 
     def _show_results(self, results: dict[str, MethodResult], config: Config, live: bool = False) -> None:
         """Draw ``results``: a run's final ones, or (``live``) those so far, whose diagnostics
@@ -492,6 +413,111 @@ class Session:
     def close(self) -> None:
         self.playback.playing = False
         self.stop_run()
+
+
+class _RunPump:
+    """What :meth:`Session._pump` keeps of a run between the worker's messages, and how it shows
+    each of them in the tab (``session``)."""
+
+    def __init__(self, session: Session, config: Config) -> None:
+        self.session = session
+        self.config = config  # the run's (a replayed log's as the log made it, once it comes)
+        self.draw_after = 0.0  # time.monotonic() before which live results are held
+        self.computing_since: float | None = None  # when the worker began (its truth arrived)
+        self.pending: dict[str, MethodResult] | None = None  # live results held, not drawn yet
+        self.running_status = session.status.content
+        self.place = 0  # the run's place in line for a free worker (0: computing)
+        self.note: tuple[str, str, bool] | None = None  # the closing notification
+        self.finished = False
+
+    def idle(self, handle: worker.RunHandle) -> None:
+        """No message came: the status names the run's place in line, a run whose worker ended
+        without a last message is stopped, and live results held are drawn once due."""
+        s, config = self.session, self.config
+        now_place = handle.position()
+        if now_place != self.place:
+            self.place = now_place
+            s.status.content = (
+                self.running_status
+                if self.place == 0
+                else f"Waiting for a free worker: {self.place - 1} run(s) ahead "
+                f"({s.pool.workers} compute at once)."
+            )
+        if handle.finished() and handle.queue.empty():
+            if self.pending is not None:
+                s._show_results(self.pending, config)
+            s.status.content = "Run stopped."
+            shown = s.state.results
+            if shown:  # the slider spans what was run
+                s.playback.span_slider(float(next(iter(shown.values())).t_s[-1]))
+            if "vkf" in config.run.methods and not (shown and "vkf" in shown):
+                s.plot_tabs.vkf_note.content = VKF_NOTES["stopped"]  # killed before its first progress
+            self.note = ("Run stopped", "The run ended before completion.", False)
+            self.finished = True
+            return
+        if self.pending is not None and time.monotonic() >= self.draw_after:
+            s._show_results(self.pending, config, live=True)
+            self.pending, self.draw_after = None, time.monotonic() + GUI_REFRESH_S
+
+    def show(self, msg: tuple[Any, ...]) -> None:
+        """Show one of the worker's messages (app.dashboard.worker) in the tab."""
+        s, kind = self.session, msg[0]
+        if kind == "config":  # a replayed log: its own length, rate, origin and start
+            self.config, s.run_source = from_dict(msg[1]), msg[2]
+            with s.lock:
+                s.state.config = self.config
+            s.playback.time_slider.max = self.config.trajectory.duration_s
+            s.run_tabs.run_config.content = config_markdown(self.config, 1, s.run_source)
+        elif kind == "truth":
+            self.computing_since = time.monotonic()
+            s.state.truth_view = msg[1]
+            s.scene.draw_truth()
+            s.plot_tabs.draw_vehicle_plot()
+            s.plot_tabs.draw_seabed_plot()
+        elif kind == "sensors":  # drawn with the next results
+            s.state.sensor_view = msg[1]
+        elif kind == "progress":
+            self._progress(msg[1], msg[2])
+        elif kind == "smoothing":
+            s.status.content = "Smoothing: the fixed-interval smoother over the run so far."
+        elif kind == "done":
+            self._done(msg[1], msg[2])
+        elif kind == "error":
+            s.status.content = "Run failed."
+            self.note = ("Run failed", msg[1], True)
+            self.finished = True
+
+    def _progress(self, t_s: float, latest: dict[str, MethodResult]) -> None:
+        """The results so far, at ``t_s`` of the mission: drawn at most every GUI_REFRESH_S, and
+        not when the final results are due sooner (:func:`seconds_left`)."""
+        duration_s = self.config.trajectory.duration_s
+        self.pending = latest
+        self.session.progress.value = 100.0 * t_s / duration_s
+        now = time.monotonic()
+        left_s = seconds_left(
+            t_s, duration_s, now - (now if self.computing_since is None else self.computing_since)
+        )
+        if now >= self.draw_after and left_s < GUI_REFRESH_S:
+            self.draw_after = now + left_s + GUI_REFRESH_S  # the final results should come first
+        elif now >= self.draw_after:
+            self.session._show_results(latest, self.config, live=True)
+            self.pending, self.draw_after = None, time.monotonic() + GUI_REFRESH_S
+
+    def _done(self, results: dict[str, MethodResult], stopped: bool) -> None:
+        """The run's final results (or, after Stop, those so far): drawn and kept."""
+        s, config = self.session, self.config
+        s._show_results(results, config)
+        s._keep_finished(results, config, stopped)
+        t_end = float(next(iter(results.values())).t_s[-1])
+        if stopped:
+            s.status.content = f"Stopped at {t_end:.1f} s."
+            self.note = ("Run stopped", f"Stopped at t = {t_end:.1f} s.", False)
+        else:
+            s.progress.value = 100.0
+            what = f"log {s.run_log}" if s.run_log is not None else config.trajectory.name
+            s.status.content = f"Run complete: {what}, {t_end:g} s."
+            self.note = ("Run complete", summary_line(results), False)
+        self.finished = True
 
 
 def seconds_left(t_s: float, duration_s: float, elapsed_s: float) -> float:

@@ -198,6 +198,25 @@ class PlotTabs:
         self.diagnostics_thread: threading.Thread | None = None
         self.last_diagnostics_s = 0.0  # time.monotonic() of the latest diagnostics (or run start)
         gui = state.client.gui
+        self._add_error_tabs(gui, workbench)
+        self._add_consistency_tab(gui, workbench)
+        self._add_innovations_tab(gui, workbench)
+        self._add_sensors_tab(gui, workbench)
+        self._add_mission_tabs(gui, tabs)
+        # each option redraws only the plots it changes (a full redraw is ten figures)
+        self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_smoothed.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_smoothed_nees.on_update(lambda _: self.refresh_plots(only="nees"))
+        self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
+        self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
+        self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
+        self.sensor_method.on_update(lambda _: self.refresh_plots(only="sensors"))
+        self.sensor_run.on_update(lambda _: self.refresh_plots(only="sensors"))
+
+    def _add_error_tabs(self, gui: viser.GuiApi, workbench: viser.PanelHandle) -> None:
+        """The Plots tab (the error norms, the ELC's choice) and the Components tab."""
         with workbench.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
             self.log_y = gui.add_checkbox(
@@ -223,6 +242,9 @@ class PlotTabs:
                 q: gui.add_plotly(placeholder_figure(f"{COMPONENTS[q][1]} [{COMPONENTS[q][2]}]"), aspect=0.75)
                 for q in COMPONENTS
             }
+
+    def _add_consistency_tab(self, gui: viser.GuiApi, workbench: viser.PanelHandle) -> None:
+        """The Consistency tab: the NEES of a block, with its note."""
         with workbench.add_tab("Consistency"):
             self.nees_block = gui.add_dropdown(
                 "NEES block",
@@ -238,6 +260,9 @@ class PlotTabs:
                 placeholder_figure("NEES/dim"), aspect=0.6
             )  # viser: height / width
             gui.add_markdown(CONSISTENCY_NOTE)
+
+    def _add_innovations_tab(self, gui: viser.GuiApi, workbench: viser.PanelHandle) -> None:
+        """The Innovations tab: one aiding source's innovations in one run."""
         with workbench.add_tab("Innovations"):
             self.innovation_source = gui.add_dropdown(
                 "Aiding source", INITIAL_INNOVATION_SOURCES, initial_value=INITIAL_INNOVATION_SOURCES[0]
@@ -247,6 +272,9 @@ class PlotTabs:
             )
             self.innovation_plot = gui.add_plotly(placeholder_figure("Innovations"), aspect=0.85)
             self.innovation_note = gui.add_markdown(INNOVATION_NOTE)
+
+    def _add_sensors_tab(self, gui: viser.GuiApi, workbench: viser.PanelHandle) -> None:
+        """The Sensors tab: the raw measurements, the sources' states and one method's sensor errors."""
         with workbench.add_tab("Sensors"):
             gui.add_markdown(SENSORS_NOTE)
             self.raw_plot = gui.add_plotly(placeholder_figure("Raw sensors"), aspect=0.6)
@@ -270,6 +298,9 @@ class PlotTabs:
             )
             self.sensor_note = gui.add_markdown("")
             self.sensor_plot = gui.add_plotly(placeholder_figure("Sensor errors"), aspect=0.6)
+
+    def _add_mission_tabs(self, gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle) -> None:
+        """The Vehicle and Seabed tabs, in the Mission tab group ``tabs``."""
         with tabs.add_tab("Vehicle"):
             self.vehicle_note = gui.add_markdown(VEHICLE_NOTES["none"])
             self.vehicle_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
@@ -280,17 +311,6 @@ class PlotTabs:
             self.seabed_plot = gui.add_plotly(go.Figure(), aspect=0.8, visible=False)
             self.vkf_note = gui.add_markdown(VKF_NOTES["none"])
             self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
-        # each option redraws only the plots it changes (a full redraw is ten figures)
-        self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.show_smoothed.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.show_smoothed_nees.on_update(lambda _: self.refresh_plots(only="nees"))
-        self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
-        self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
-        self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
-        self.sensor_method.on_update(lambda _: self.refresh_plots(only="sensors"))
-        self.sensor_run.on_update(lambda _: self.refresh_plots(only="sensors"))
 
     @drawing
     def refresh_plots(self, only: str | None = None, live: bool = False) -> None:

@@ -50,7 +50,7 @@ import queue as queue_mod
 import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -202,109 +202,115 @@ def run_worker(
             config, sim, source, log = replay_source(config, log_dir, rng)
             queue.put(("config", to_dict(config), source))
         step = max(1, round(config.imu.rate_hz / config.filter.output_rate_hz))
-        num_epochs, per_bin, dt_out_s = decimation(config)
-        if sim is not None:
-            per_bin = 1  # a replayed log is held whole: its results at every output epoch
-        queue.put(
-            (
-                "truth",
-                truth_view(config, step, per_bin)
-                if sim is None
-                else log_truth_view(sim.truth, config, sim.dvl, step),
-            )
+        # a replayed log is held whole: its results at every output epoch
+        per_bin = decimation(config)[1] if sim is None else 1
+        view = (
+            truth_view(config, step, per_bin)
+            if sim is None
+            else log_truth_view(sim.truth, config, sim.dvl, step)
         )
+        queue.put(("truth", view))
         # the IMU rows of the Sensors tab: a long mission's thinned as they come, not at the end
         sensors = SensorViewBuilder(step * per_bin, config.dvl.beam_mask, compact=per_bin > 1)
+        live = _Live(queue, sensors, with_sensors=sim is None)  # a log's view is sent once, whole
         try:
             limit_bytes = budget.budget_bytes()
         except ValueError:  # refused by the server before the run started; not reached
             limit_bytes = budget.DEFAULT_BUDGET_BYTES
-        sensor_errors = budget.records_sensor_errors(config, num_runs, limit_bytes, smooth_mb)
-        if sim is not None:
+        should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
+        watch = Watch(live.progress, progress_interval_s, PROGRESS_MIN_WALL_S, should_stop)
+        options: dict[str, Any] = {  # what the engine takes however the run goes
+            "sensor_errors": budget.records_sensor_errors(config, num_runs, limit_bytes, smooth_mb),
+            "smooth": None
+            if smooth_mb is None
+            else SmoothOptions(budget_mb=float(smooth_mb), on_start=lambda: queue.put(("smoothing",))),
+        }
+        if sim is not None:  # a replay: its view sent whole, its results judged against its reference
+            from tauvcore.eval.judging import judged
+
             sensors.add(SimChunk.whole(sim))
             queue.put(("sensors", sensors.view()))
-        last_sent = [0.0]
-
-        def progress(t: float, res: dict[str, MethodResult]) -> None:
-            # at most one message per PROGRESS_MIN_WALL_S (the engine gathers the results no
-            # more often: Watch.min_wall_s), thinned: a live view needs the shape of the
-            # curves, not every epoch of a long run (the final message has them all)
-            now = time.monotonic()
-            if now - last_sent[0] >= PROGRESS_MIN_WALL_S:
-                if sim is None:
-                    queue.put(("sensors", sensors.view()))
-                queue.put(("progress", t, thin(res, PROGRESS_MAX_EPOCHS)))
-                last_sent[0] = now
-
-        should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
-        watch = Watch(progress, progress_interval_s, PROGRESS_MIN_WALL_S, should_stop)
-        smooth = (
-            None
-            if smooth_mb is None
-            else SmoothOptions(budget_mb=float(smooth_mb), on_start=lambda: queue.put(("smoothing",)))
-        )
-        results: dict[str, MethodResult]
-        if sim is None and per_bin > 1:
-            reducer = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
-            smoothed = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
-
-            def reduce(chunk: dict[str, MethodResult]) -> None:
-                # every chunk is folded into the bins; the live view is the bins so far
-                reducer.add(chunk)
-                now = time.monotonic()
-                if now - last_sent[0] >= PROGRESS_MIN_WALL_S:
-                    t_s = max((float(r.t_s[-1]) for r in chunk.values() if len(r.t_s)), default=0.0)
-                    queue.put(("sensors", sensors.view()))
-                    queue.put(("progress", t_s, reducer.results()))
-                    last_sent[0] = now
-
-            run_streaming(
-                config,
-                rng,
-                num_runs,
-                keep=False,
-                sensor_errors=sensor_errors,
-                smooth=smooth,
-                watch=Watch(should_stop=should_stop),
-                sinks=Sinks(
-                    on_chunk=reduce,
-                    on_sim_chunk=sensors.add,
-                    on_smoothed_chunk=smoothed.add if smooth is not None else None,
-                ),
-            )
-            results = dict(reducer.results())
-            if smooth is not None:
-                results = with_smoothed_bins(results, smoothed)
-            queue.put(("sensors", sensors.view()))
-        elif sim is None:
+            results = run(config, sim, rng, watch, **options)
+            results = judged(log, results, config.filter.output_rate_hz)  # the smoothed results too
+        elif per_bin > 1:
+            results = _simulate_in_bins(config, rng, num_runs, live, options, Watch(should_stop=should_stop))
+        else:
             results = run_streaming(
                 config,
                 rng,
                 num_runs,
-                sensor_errors=sensor_errors,
-                smooth=smooth,  # kept: each method's results carry their smoothed ones
                 watch=watch,
                 sinks=Sinks(on_sim_chunk=sensors.add),
+                **options,  # the smoother's results kept: each method's results carry their smoothed ones
             )
             queue.put(("sensors", sensors.view()))
-        else:
-            from tauvcore.eval.judging import judged
-
-            results = judged(  # the smoothed results too
-                log,
-                run(
-                    config,
-                    sim,
-                    rng,
-                    watch,
-                    sensor_errors=sensor_errors,
-                    smooth=smooth,
-                ),
-                config.filter.output_rate_hz,
-            )
         queue.put(("done", results, stop_event.is_set()))
     except Exception as exc:  # noqa: BLE001 - any failure is the run's: the dashboard shows it, the server keeps serving
         queue.put(("error", failure_message(exc)))
+
+
+class _Live:
+    """A run's live messages on ``queue``: the results so far, after the Sensors tab's view (built
+    by ``sensors`` as a simulation makes its chunks), at most one each PROGRESS_MIN_WALL_S (the
+    engine gathers the results no more often: Watch.min_wall_s)."""
+
+    def __init__(self, queue: Any, sensors: SensorViewBuilder, with_sensors: bool) -> None:
+        self.queue, self.sensors, self.with_sensors = queue, sensors, with_sensors
+        self.last_sent = 0.0  # time.monotonic() of the last results sent
+
+    def send(self, t_s: float, results: Callable[[], Mapping[str, MethodResult]]) -> None:
+        """``results()``, the results at ``t_s`` [s] of the mission, unless sent too recently."""
+        now = time.monotonic()
+        if now - self.last_sent >= PROGRESS_MIN_WALL_S:
+            if self.with_sensors:
+                self.queue.put(("sensors", self.sensors.view()))
+            self.queue.put(("progress", t_s, results()))
+            self.last_sent = now
+
+    def progress(self, t: float, res: dict[str, MethodResult]) -> None:
+        """The engine's live callback: thinned, a live view needs the shape of the curves, not
+        every epoch of a long run (the final message has them all)."""
+        self.send(t, lambda: thin(res, PROGRESS_MAX_EPOCHS))
+
+
+def _simulate_in_bins(
+    config: Config,
+    rng: np.random.Generator,
+    num_runs: int,
+    live: _Live,
+    options: dict[str, Any],
+    watch: Watch,
+) -> dict[str, MethodResult]:
+    """A simulated mission of more output epochs than SCREEN_BINS: every chunk of results folded
+    into bins (:func:`decimation`, tauvcore.eval.envelope.EnvelopeReducer) as the engine hands it
+    out, the live view the bins so far; with the smoother its results in bins of their own."""
+    num_epochs, per_bin, dt_out_s = decimation(config)
+    reducer = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
+    smoothed = EnvelopeReducer(num_epochs, dt_out_s, per_bin)
+
+    def reduce(chunk: dict[str, MethodResult]) -> None:
+        reducer.add(chunk)
+        live.send(max((float(r.t_s[-1]) for r in chunk.values() if len(r.t_s)), default=0.0), reducer.results)
+
+    smooth = options["smooth"]
+    run_streaming(
+        config,
+        rng,
+        num_runs,
+        keep=False,
+        watch=watch,
+        sinks=Sinks(
+            on_chunk=reduce,
+            on_sim_chunk=live.sensors.add,
+            on_smoothed_chunk=smoothed.add if smooth is not None else None,
+        ),
+        **options,
+    )
+    results: dict[str, MethodResult] = dict(reducer.results())
+    if smooth is not None:
+        results = with_smoothed_bins(results, smoothed)
+    live.queue.put(("sensors", live.sensors.view()))
+    return results
 
 
 def with_smoothed_bins(

@@ -359,83 +359,12 @@ def nees_figure(
             continue
         dim = block_dims(res)[block]
         by_dim.setdefault(dim, []).append(method.upper())
-        keep, starts = _points(res, max_points)
-        series = nees_series(res, block)[keep]
-        runs = series.shape[1]
-        with np.errstate(invalid="ignore", over="ignore"):
-            curve = series.mean(axis=1) / dim
-        curve = np.where(np.isfinite(curve), curve, np.nan)
-        t = res.t_s[keep]
+        traces, t, runs = _nees_traces(method, res, block, dim, max_points, smoothed)
+        data += traces
         t_first, t_last = min(t_first, float(t[0])), max(t_last, float(t[-1]))
-        if is_decimated(res):
-            key = curve_key(block)
-            lo, hi = merged_envelope(res.low[key], res.high[key], starts)
-            data += envelope_traces(
-                t, lo / dim, hi / dim, method.upper(), method_color(method), res.bin_s, method
-            )
-        data.append(
-            {
-                "type": "scatter",
-                "x": t,
-                "y": curve,
-                "name": method.upper(),
-                "mode": "lines",
-                "line": {"color": method_color(method), "width": 2},
-                "connectgaps": True,  # a replay's NEES is known at its reference's epochs only (tauvcore.eval.judging)
-                "legendgroup": method,
-            }
-        )
-        if smoothed:
-            data += smoothed_traces(
-                method, res, (curve_key(block), None), max_points, 1.0 / dim, lambda sm: nees_curve(sm, block)
-            )
-    band_name = f"{CONFIDENCE:.0%} band".replace("%", " %")
     if data:
-        reference = []
-        for k, dim in enumerate(by_dim):
-            lo, hi = nees_band(dim, runs)
-            reference.append(
-                {
-                    "type": "scatter",
-                    "x": [t_first, t_last, t_last, t_first],
-                    "y": [lo, lo, hi, hi],
-                    "name": band_name if len(by_dim) == 1 else f"{band_name} (dim {dim})",
-                    "mode": "lines",
-                    "fill": "toself",
-                    "fillcolor": BAND_COLOR,
-                    "line": {
-                        "color": "rgba(120,120,120,0.6)",
-                        "width": 1,
-                        "dash": "dash" if k == 0 else "dot",
-                    },
-                    "hoverinfo": "skip",
-                }
-            )
-        reference.append(
-            {
-                "type": "scatter",
-                "x": [t_first, t_last],
-                "y": [1.0, 1.0],
-                "name": "1 = consistent",
-                "mode": "lines",
-                "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"},
-                "hoverinfo": "skip",
-            }
-        )
-        data = reference + data
-    groups = list(by_dim.items()) or ([(BLOCK_DIMS[block], [])] if block in BLOCK_DIMS else [])
-    dims_text = "; ".join(
-        f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}" for k, (dim, names) in enumerate(groups)
-    )
-    runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
-    name = NEES_BLOCK_NAMES.get(block, block)
-    missing = f"; no {block}: {', '.join(without)}" if without else ""
-    if groups:
-        title = f"NEES/dim, {name} ({dims_text}{missing}){runs_text}{_envelope_note(results)}"
-    else:  # a run without such states (one of the kept runs overlaid, say)
-        title = f"NEES/dim, {name}: no method of this run has it" + (
-            f" ({', '.join(without)})" if without else ""
-        )
+        data = _nees_references(list(by_dim), runs, t_first, t_last) + data
+    title = _nees_title(block, by_dim, without, runs, _envelope_note(results))
     layout = {
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
@@ -450,6 +379,99 @@ def nees_figure(
         },
     }
     return make_figure(data, layout, validate)
+
+
+def _nees_traces(
+    method: str, res: MethodResult, block: str, dim: int, max_points: int | None, smoothed: bool
+) -> tuple[list[dict[str, Any]], np.ndarray, int]:
+    """``method``'s curve of :func:`nees_figure`: its NEES of ``block`` over ``dim`` (the block's
+    dimension), averaged over the runs, over its min-max band when the run is in bins, and with
+    ``smoothed`` its smoothed curve beside it; with the times drawn [s] and the number of runs."""
+    keep, starts = _points(res, max_points)
+    series = nees_series(res, block)[keep]
+    with np.errstate(invalid="ignore", over="ignore"):
+        curve = series.mean(axis=1) / dim
+    curve = np.where(np.isfinite(curve), curve, np.nan)
+    t = res.t_s[keep]
+    data: list[dict[str, Any]] = []
+    if is_decimated(res):
+        key = curve_key(block)
+        lo, hi = merged_envelope(res.low[key], res.high[key], starts)
+        data += envelope_traces(
+            t, lo / dim, hi / dim, method.upper(), method_color(method), res.bin_s, method
+        )
+    data.append(
+        {
+            "type": "scatter",
+            "x": t,
+            "y": curve,
+            "name": method.upper(),
+            "mode": "lines",
+            "line": {"color": method_color(method), "width": 2},
+            "connectgaps": True,  # a replay's NEES is known at its reference's epochs only (tauvcore.eval.judging)
+            "legendgroup": method,
+        }
+    )
+    if smoothed:
+        data += smoothed_traces(
+            method, res, (curve_key(block), None), max_points, 1.0 / dim, lambda sm: nees_curve(sm, block)
+        )
+    return data, t, series.shape[1]
+
+
+def _nees_references(dims: list[int], runs: int, t_first: float, t_last: float) -> list[dict[str, Any]]:
+    """The reference traces of :func:`nees_figure` from ``t_first`` to ``t_last`` [s]: the 99 %
+    band of the mean NEES/dim of ``runs`` runs for each block dimension of ``dims`` (the first
+    dashed, the others dotted), and the line "1 = consistent"."""
+    band_name = f"{CONFIDENCE:.0%} band".replace("%", " %")
+    reference = []
+    for k, dim in enumerate(dims):
+        lo, hi = nees_band(dim, runs)
+        reference.append(
+            {
+                "type": "scatter",
+                "x": [t_first, t_last, t_last, t_first],
+                "y": [lo, lo, hi, hi],
+                "name": band_name if len(dims) == 1 else f"{band_name} (dim {dim})",
+                "mode": "lines",
+                "fill": "toself",
+                "fillcolor": BAND_COLOR,
+                "line": {
+                    "color": "rgba(120,120,120,0.6)",
+                    "width": 1,
+                    "dash": "dash" if k == 0 else "dot",
+                },
+                "hoverinfo": "skip",
+            }
+        )
+    reference.append(
+        {
+            "type": "scatter",
+            "x": [t_first, t_last],
+            "y": [1.0, 1.0],
+            "name": "1 = consistent",
+            "mode": "lines",
+            "line": {"color": TRUTH_COLOR, "width": 1, "dash": "dot"},
+            "hoverinfo": "skip",
+        }
+    )
+    return reference
+
+
+def _nees_title(block: str, by_dim: dict[int, list[str]], without: list[str], runs: int, note: str) -> str:
+    """The title of :func:`nees_figure`: the block, its dimension per method (``by_dim``), the
+    methods ``without`` it, the runs averaged and the ``note`` on the bins of runs in bins."""
+    groups = list(by_dim.items()) or ([(BLOCK_DIMS[block], [])] if block in BLOCK_DIMS else [])
+    dims_text = "; ".join(
+        f"dim {dim}" if k == 0 else f"{', '.join(names)} dim {dim}" for k, (dim, names) in enumerate(groups)
+    )
+    runs_text = f", mean of {runs} runs" if runs > 1 else ", 1 run"
+    name = NEES_BLOCK_NAMES.get(block, block)
+    missing = f"; no {block}: {', '.join(without)}" if without else ""
+    if groups:
+        return f"NEES/dim, {name} ({dims_text}{missing}){runs_text}{note}"
+    # a run without such states (one of the kept runs overlaid, say)
+    return f"NEES/dim, {name}: no method of this run has it" + (f" ({', '.join(without)})" if without else "")
 
 
 def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool = False) -> go.Figure:

@@ -19,7 +19,7 @@ import numpy as np
 import plotly.graph_objects as go
 
 from app.figures.scene import BEAM_COLORS
-from app.figures.sensor_view import BEAM_STATE_CODES, SensorView
+from app.figures.sensor_view import BEAM_STATE_CODES, SensorView, SourceView
 from app.figures.shared import (
     TIME_AXIS,
     TRUTH_COLOR,
@@ -55,6 +55,8 @@ SENSOR_DISPLAY: dict[str, tuple[float, str, str]] = {
 }
 """A sensor-error block -> (factor from SI, unit shown, title); a block not named here is drawn
 in its SI unit under its own name."""
+_BEAM_STATE_COLORS = [f"rgb{BEAM_COLORS[state]}" for state in BEAM_STATE_CODES]
+"""The colour of each DVL beam state (BEAM_STATE_CODES, by code): the 3-D view's."""
 STATE_UNITS = {"mps": "m/s", "mps2": "m/s^2", "m": "m", "rad": "rad", "radps": "rad/s"}
 """The unit suffix of a source state's label (``MethodResult.state_labels``: "current_north_mps")
 -> the unit shown."""
@@ -152,70 +154,23 @@ def raw_sensor_figure(view: SensorView, height_px: int | None = None, validate: 
     ):
         k = len(panels)
         panels.append({"label": f"<b>{quantity}</b> {_key('xyz', AXIS_COLORS)}", "unit": unit})
-        for i, axis in enumerate("xyz"):
-            data.append(
-                _line(
-                    t[keep],
-                    np.asarray(arr)[keep, i] * factor,
-                    f"{quantity.lower()} {axis}",
-                    AXIS_COLORS[i],
-                    k,
-                )
-            )
+        values = np.asarray(arr)[keep] * factor
+        data += [
+            _line(t[keep], values[:, i], f"{quantity.lower()} {axis}", AXIS_COLORS[i], k)
+            for i, axis in enumerate("xyz")
+        ]
     for source in view["sources"].values():
         ts = np.asarray(source["t_s"], float)
         sel = decimate(ts.size, MAX_POINTS)
-        columns = list(source["columns"])
-        units = {source["units"].get(c, "") for c in columns}
-        unit = units.pop() if len(units) == 1 else ""
-        factor, shown = DISPLAY_UNITS.get(unit, (1.0, unit))
-        k = len(panels)
-        # a truth column is drawn beside the column it is the truth of ("true_altitude_m" beside
-        # "altitude_m"); the others (the DVL's true beam biases) are the sensor-error figure's
-        truths = {c: source["truth"][f"true_{c}"] for c in columns if f"true_{c}" in source["truth"]}
-        truth_note = " (dashed: true)" if truths else ""
-        names = [_pretty(c) for c in columns]
-        panels.append(
-            {
-                "label": f"<b>{source['label']}</b> {_key(names, AXIS_COLORS)}{truth_note}",
-                "unit": shown,
-            }
-        )
-        mode = "lines+markers" if ts.size <= 400 else "lines"
-        for i, column in enumerate(columns):
-            color = AXIS_COLORS[i % len(AXIS_COLORS)]
-            values = np.asarray(source["columns"][column], float)[sel] * factor
-            trace = _line(ts[sel], values, names[i], color, k)
-            trace["mode"] = mode
-            trace["marker"] = {"size": 3}
-            data.append(trace)
-            if column in truths:
-                true = np.asarray(truths[column], float)[sel] * factor
-                data.append(_line(ts[sel], true, f"{names[i]} (true)", color, k, TRUTH_DASH))
+        panel, traces = _source_panel(source, ts[sel], sel, len(panels))
+        panels.append(panel)
+        data += traces
         states = source.get("beam_state")
         if states is not None and len(states):
-            k = len(panels)
-            names = [BEAM_STATE_CODES[c] for c in range(len(BEAM_STATE_CODES))]
-            colors = [f"rgb{BEAM_COLORS[s]}" for s in names]
-            panels.append({"label": f"<b>DVL beams</b> {_key(names, colors)}", "unit": "beam"})
-            states = np.asarray(states)[sel]
-            for code, (state, color) in enumerate(zip(names, colors)):
-                ping, beam = np.nonzero(states == code)
-                if ping.size == 0:
-                    continue
-                suffix = "" if k == 0 else str(k + 1)
-                data.append(
-                    {
-                        "type": "scatter",
-                        "x": ts[sel][ping],
-                        "y": beam + 1,
-                        "name": state,
-                        "mode": "markers",
-                        "marker": {"color": color, "size": 4, "symbol": "square"},
-                        "xaxis": f"x{suffix}",
-                        "yaxis": f"y{suffix}",
-                    }
-                )
+            panels.append(
+                {"label": f"<b>DVL beams</b> {_key(BEAM_STATE_CODES, _BEAM_STATE_COLORS)}", "unit": "beam"}
+            )
+            data += _beam_state_traces(ts[sel], np.asarray(states)[sel], len(panels) - 1)
     run_note = f", run {view['run'] + 1} of {view['runs']}" if view["runs"] > 1 else ""
     layout = _stack(f"Raw sensors{run_note}", panels, height_px)
     beam_axis = next((k for k, p in enumerate(panels) if p["unit"] == "beam"), None)
@@ -223,6 +178,59 @@ def raw_sensor_figure(view: SensorView, height_px: int | None = None, validate: 
         suffix = "" if beam_axis == 0 else str(beam_axis + 1)
         layout[f"yaxis{suffix}"].update({"range": [0.5, 4.5], "tickvals": [1, 2, 3, 4], "zeroline": False})
     return make_figure(data, layout, validate)
+
+
+def _source_panel(
+    source: SourceView, t: np.ndarray, sel: slice, panel: int
+) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Panel ``panel`` of :func:`raw_sensor_figure`: an aiding source's columns at its epochs
+    ``sel`` (times ``t`` [s]), in the unit they share (none if they differ), one curve each (with
+    markers when there are few epochs) and its truth dashed where the simulation knows it; its
+    label and unit, and its traces."""
+    columns = list(source["columns"])
+    units = {source["units"].get(c, "") for c in columns}
+    unit = units.pop() if len(units) == 1 else ""
+    factor, shown = DISPLAY_UNITS.get(unit, (1.0, unit))
+    # a truth column is drawn beside the column it is the truth of ("true_altitude_m" beside
+    # "altitude_m"); the others (the DVL's true beam biases) are the sensor-error figure's
+    truths = {c: source["truth"][f"true_{c}"] for c in columns if f"true_{c}" in source["truth"]}
+    truth_note = " (dashed: true)" if truths else ""
+    names = [_pretty(c) for c in columns]
+    mode = "lines+markers" if np.size(source["t_s"]) <= 400 else "lines"
+    data = []
+    for i, column in enumerate(columns):
+        color = AXIS_COLORS[i % len(AXIS_COLORS)]
+        values = np.asarray(source["columns"][column], float)[sel] * factor
+        data.append(_line(t, values, names[i], color, panel, mode=mode, marker={"size": 3}))
+        if column in truths:
+            true = np.asarray(truths[column], float)[sel] * factor
+            data.append(_line(t, true, f"{names[i]} (true)", color, panel, TRUTH_DASH))
+    label = f"<b>{source['label']}</b> {_key(names, AXIS_COLORS)}{truth_note}"
+    return {"label": label, "unit": shown}, data
+
+
+def _beam_state_traces(t: np.ndarray, states: np.ndarray, panel: int) -> list[dict[str, Any]]:
+    """The DVL beams' states (``states`` (P, 4) codes at the pings ``t`` [s]) in ``panel``: one
+    trace of markers per state, at the beam's number."""
+    suffix = "" if panel == 0 else str(panel + 1)
+    data = []
+    for code, (state, color) in enumerate(zip(BEAM_STATE_CODES, _BEAM_STATE_COLORS)):
+        ping, beam = np.nonzero(states == code)
+        if ping.size == 0:
+            continue
+        data.append(
+            {
+                "type": "scatter",
+                "x": t[ping],
+                "y": beam + 1,
+                "name": state,
+                "mode": "markers",
+                "marker": {"color": color, "size": 4, "symbol": "square"},
+                "xaxis": f"x{suffix}",
+                "yaxis": f"y{suffix}",
+            }
+        )
+    return data
 
 
 def sensor_panels(method: str) -> list[tuple[str, list[int]]]:

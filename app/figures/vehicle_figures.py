@@ -93,18 +93,33 @@ def actuator_figure(
             "yaxis": "y2",
         }
     )
-    layout = {
-        "title": {"text": "Dynamic truth: fins and propeller", "font": {"size": 13}},
+    top, bottom = _y_axis([0.4, 1.0], "fin deflection [deg]"), _y_axis([0.0, 0.3], "propeller [rpm]")
+    layout = _two_panels("Dynamic truth: fins and propeller", height_px, 55, top, bottom)
+    return make_figure(data, layout, validate)
+
+
+def _two_panels(
+    title: str, height_px: int, left_px: int, yaxis: dict[str, Any], yaxis2: dict[str, Any]
+) -> dict[str, Any]:
+    """The layout of two panels on one time axis, ``yaxis`` the top one's and ``yaxis2`` the
+    bottom one's, with the legend below them."""
+    return {
+        "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
-        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
+        "margin": {"l": left_px, "r": 10, "t": 35, "b": 35},
         "legend": LEGEND_BELOW,
         "template": "plotly_white",
         "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
-        "yaxis": {"domain": [0.4, 1.0], "title": {"text": "fin deflection [deg]", "font": {"size": 11}}},
+        "yaxis": yaxis,
         "xaxis2": {"anchor": "y2", **TIME_AXIS},
-        "yaxis2": {"domain": [0.0, 0.3], "title": {"text": "propeller [rpm]", "font": {"size": 11}}},
+        "yaxis2": yaxis2,
     }
-    return make_figure(data, layout, validate)
+
+
+def _y_axis(domain: list[float], title: str, **extra: Any) -> dict[str, Any]:
+    """A panel's y-axis: its ``domain`` (bottom and top, a fraction of the plot), ``extra`` keys and
+    its ``title``."""
+    return {"domain": domain, **extra, "title": {"text": title, "font": {"size": 11}}}
 
 
 def intervals_above(t_s: np.ndarray, x: np.ndarray, threshold: float) -> np.ndarray:
@@ -176,24 +191,7 @@ def altitude_figure(
     data: list[dict[str, Any]] = []
     spans = intervals_above(t_s, alt, switch_altitude_m)
     if len(spans):
-        x: list[float | None] = []
-        y: list[float | None] = []
-        for a, b in spans:
-            x += [a, a, b, b, a, None]
-            y += [bottom, top, top, bottom, bottom, None]
-        data.append(
-            {
-                "type": "scatter",
-                "x": x,
-                "y": y,
-                "name": RPM_NAME,
-                "mode": "lines",
-                "fill": "toself",
-                "fillcolor": RPM_FILL,
-                "line": {"width": 0},
-                "hoverinfo": "skip",
-            }
-        )
+        data.append(_rpm_shading(spans, bottom, top))
     data.append(
         {
             "type": "scatter",
@@ -238,6 +236,28 @@ def altitude_figure(
     return make_figure(data, layout, validate)
 
 
+def _rpm_shading(spans: np.ndarray, lo: float, hi: float, **extra: Any) -> dict[str, Any]:
+    """The trace RPM_NAME: each of ``spans`` ((K, 2) start and end [s]) shaded from ``lo`` to
+    ``hi``, one closed outline per span, the outlines apart by None; ``extra`` keys added."""
+    x: list[float | None] = []
+    y: list[float | None] = []
+    for a, b in spans:
+        x += [a, a, b, b, a, None]
+        y += [lo, hi, hi, lo, lo, None]
+    return {
+        "type": "scatter",
+        "x": x,
+        "y": y,
+        "name": RPM_NAME,
+        "mode": "lines",
+        "fill": "toself",
+        "fillcolor": RPM_FILL,
+        "line": {"width": 0},
+        "hoverinfo": "skip",
+        **extra,
+    }
+
+
 VKF_SF_NAME = "scale factor"
 VKF_B_NAME = "bias"
 TRUE_SUFFIX = " (true)"
@@ -273,6 +293,29 @@ def vkf_figure(
     The curves are drawn with at most about ``max_points`` points (:func:`app.figures.shared.decimate`); the shaded
     stretches are found on every ping (:func:`intervals_above`).
     """
+    t_s, x, sigma, sf_true, b_true, in_use = _vkf_arrays(trace)
+    runs = x.shape[1]
+    if not 0 <= run < runs:
+        raise ValueError(f"run must be within [0, {runs - 1}], got {run}")
+    keep = decimate(t_s.size, max_points)
+    spans = intervals_above(t_s, in_use[:, run].astype(float), 0.5)
+    data: list[dict[str, Any]] = []
+    ranges = []
+    for name, k, scale, truth in ((VKF_SF_NAME, 1, MM_PER_M, sf_true), (VKF_B_NAME, 2, 1.0, b_true)):
+        est, sig = scale * x[keep, run, k], scale * sigma[keep, run, k]
+        traces, y_range = _vkf_panel(name, k, t_s[keep], est, sig, scale * truth[keep, run], spans)
+        data += traces
+        ranges.append(y_range)
+    title = "VKF: propeller scale factor and bias" + (f" (run {run + 1} of {runs})" if runs > 1 else "")
+    top = _y_axis([0.55, 1.0], "sf [mm/s per rpm]", range=ranges[0])
+    layout = _two_panels(title, height_px, 60, top, _y_axis([0.0, 0.45], "b [m/s]", range=ranges[1]))
+    return make_figure(data, layout, validate)
+
+
+def _vkf_arrays(trace: Mapping[str, np.ndarray]) -> tuple[np.ndarray, ...]:
+    """``t_s`` (U,), ``x`` and ``sigma`` (U, R, 3), ``sf_true``, ``b_true`` and ``rpm_in_use``
+    (U, R) of a VKF trace (:func:`vkf_figure`), as arrays; ValueError naming their shapes if
+    these do not agree."""
     t_s, x, sigma = (np.asarray(trace[k], float) for k in ("t_s", "x", "sigma"))
     sf_true, b_true = np.asarray(trace["sf_true"], float), np.asarray(trace["b_true"], float)
     in_use = np.asarray(trace["rpm_in_use"], bool)
@@ -289,112 +332,68 @@ def vkf_figure(
             f"got {t_s.shape}, {x.shape}, {sigma.shape}, {sf_true.shape}, {b_true.shape} and "
             f"{in_use.shape}"
         )
-    runs = x.shape[1]
-    if not 0 <= run < runs:
-        raise ValueError(f"run must be within [0, {runs - 1}], got {run}")
+    return t_s, x, sigma, sf_true, b_true, in_use
+
+
+def _vkf_panel(
+    name: str, k: int, t: np.ndarray, est: np.ndarray, sig: np.ndarray, true: np.ndarray, spans: np.ndarray
+) -> tuple[list[dict[str, Any]], list[float]]:
+    """Panel ``k`` of :func:`vkf_figure` (1: the scale factor, on top; 2: the bias) of the
+    estimate ``est`` of ``name``, its 1-sigma ``sig`` and its truth ``true`` at times ``t`` [s]:
+    the RPM's ``spans`` shaded, the band, the truth where finite and the estimate; and the
+    panel's y range, padded by 5 %."""
+    axes = {"xaxis": "x", "yaxis": "y"} if k == 1 else {"xaxis": "x2", "yaxis": "y2"}
     color = method_color("vkf")
-    keep = decimate(U, max_points)
-    t = t_s[keep]
-    spans = intervals_above(t_s, in_use[:, run].astype(float), 0.5)
+    drawn = np.concatenate([est - sig, est + sig, true])
+    drawn = drawn[np.isfinite(drawn)]
+    lo, hi = (float(drawn.min()), float(drawn.max())) if drawn.size else (0.0, 1.0)
+    pad = 0.05 * (hi - lo) or 0.05 * abs(hi) or 1.0
+    lo, hi = lo - pad, hi + pad
     data: list[dict[str, Any]] = []
-    panels = ((VKF_SF_NAME, 1, MM_PER_M, sf_true, "x", "y"), (VKF_B_NAME, 2, 1.0, b_true, "x2", "y2"))
-    ranges = []
-    for name, k, scale, truth, xaxis, yaxis in panels:
-        est, sig = scale * x[keep, run, k], scale * sigma[keep, run, k]
-        true = scale * truth[keep, run]
-        drawn = np.concatenate([est - sig, est + sig, true])
-        drawn = drawn[np.isfinite(drawn)]
-        lo, hi = (float(drawn.min()), float(drawn.max())) if drawn.size else (0.0, 1.0)
-        pad = 0.05 * (hi - lo) or 0.05 * abs(hi) or 1.0
-        lo, hi = lo - pad, hi + pad
-        ranges.append([lo, hi])
-        if len(spans):
-            xs: list[float | None] = []
-            ys: list[float | None] = []
-            for a, b in spans:
-                xs += [a, a, b, b, a, None]
-                ys += [lo, hi, hi, lo, lo, None]
-            data.append(
-                {
-                    "type": "scatter",
-                    "x": xs,
-                    "y": ys,
-                    "name": RPM_NAME if k == 1 else f"{RPM_NAME} (bias)",
-                    "mode": "lines",
-                    "fill": "toself",
-                    "fillcolor": RPM_FILL,
-                    "line": {"width": 0},
-                    "hoverinfo": "skip",
-                    "legendgroup": "rpm",
-                    "showlegend": k == 1,
-                    "xaxis": xaxis,
-                    "yaxis": yaxis,
-                }
-            )
-        data.append(
-            {
-                "type": "scatter",
-                "x": np.r_[t, t[::-1]],
-                "y": np.r_[est + sig, (est - sig)[::-1]],
-                "name": name + SIGMA_SUFFIX,
-                "mode": "lines",
-                "fill": "toself",
-                "fillcolor": hex_to_rgba(color, 0.2),
-                "line": {"width": 0},
-                "hoverinfo": "skip",
-                "legendgroup": name,
-                "showlegend": False,
-                "xaxis": xaxis,
-                "yaxis": yaxis,
-            }
-        )
-        if np.isfinite(true).any():
-            data.append(
-                {
-                    "type": "scatter",
-                    "x": t,
-                    "y": true,
-                    "name": name + TRUE_SUFFIX,
-                    "mode": "lines",
-                    "line": {"color": TRUTH_COLOR, "width": 1.5, "dash": "dash"},
-                    "xaxis": xaxis,
-                    "yaxis": yaxis,
-                }
-            )
+    if len(spans):
+        name_rpm = RPM_NAME if k == 1 else f"{RPM_NAME} (bias)"
+        data.append(_rpm_shading(spans, lo, hi, name=name_rpm, legendgroup="rpm", showlegend=k == 1, **axes))
+    data.append(
+        {
+            "type": "scatter",
+            "x": np.r_[t, t[::-1]],
+            "y": np.r_[est + sig, (est - sig)[::-1]],
+            "name": name + SIGMA_SUFFIX,
+            "mode": "lines",
+            "fill": "toself",
+            "fillcolor": hex_to_rgba(color, 0.2),
+            "line": {"width": 0},
+            "hoverinfo": "skip",
+            "legendgroup": name,
+            "showlegend": False,
+            **axes,
+        }
+    )
+    if np.isfinite(true).any():
         data.append(
             {
                 "type": "scatter",
                 "x": t,
-                "y": est,
-                "name": name,
+                "y": true,
+                "name": name + TRUE_SUFFIX,
                 "mode": "lines",
-                "line": {"color": color, "width": 2},
-                "legendgroup": name,
-                "xaxis": xaxis,
-                "yaxis": yaxis,
+                "line": {"color": TRUTH_COLOR, "width": 1.5, "dash": "dash"},
+                **axes,
             }
         )
-    title = "VKF: propeller scale factor and bias" + (f" (run {run + 1} of {runs})" if runs > 1 else "")
-    layout = {
-        "title": {"text": title, "font": {"size": 13}},
-        "height": height_px,
-        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
-        "legend": LEGEND_BELOW,
-        "template": "plotly_white",
-        "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
-        "yaxis": {
-            "domain": [0.55, 1.0],
-            "range": ranges[0],
-            "title": {"text": "sf [mm/s per rpm]", "font": {"size": 11}},
-        },
-        "xaxis2": {"anchor": "y2", **TIME_AXIS},
-        "yaxis2": {
-            "domain": [0.0, 0.45],
-            "range": ranges[1],
-            "title": {"text": "b [m/s]", "font": {"size": 11}},
-        },
-    }
-    return make_figure(data, layout, validate)
+    data.append(
+        {
+            "type": "scatter",
+            "x": t,
+            "y": est,
+            "name": name,
+            "mode": "lines",
+            "line": {"color": color, "width": 2},
+            "legendgroup": name,
+            **axes,
+        }
+    )
+    return data, [lo, hi]
 
 
 CURRENT_NORTH_NAME = "current north"
@@ -503,15 +502,5 @@ def current_figure(
     speed = float(np.hypot(mean_n, mean_e))
     toward = float(np.degrees(np.arctan2(mean_e, mean_n)) % 360.0)
     title = f"Current: mean {speed:.2f} m/s toward {toward:.0f} deg"
-    layout = {
-        "title": {"text": title, "font": {"size": 13}},
-        "height": height_px,
-        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
-        "legend": LEGEND_BELOW,
-        "template": "plotly_white",
-        "xaxis": {"anchor": "y", "matches": "x2", "showticklabels": False},
-        "yaxis": {"domain": [0.55, 1.0], "title": {"text": "current [m/s]", "font": {"size": 11}}},
-        "xaxis2": {"anchor": "y2", **TIME_AXIS},
-        "yaxis2": {"domain": [0.0, 0.45], "title": {"text": "speed [m/s]", "font": {"size": 11}}},
-    }
-    return make_figure(data, layout, validate)
+    top, bottom = _y_axis([0.55, 1.0], "current [m/s]"), _y_axis([0.0, 0.45], "speed [m/s]")
+    return make_figure(data, _two_panels(title, height_px, 55, top, bottom), validate)

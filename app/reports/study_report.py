@@ -33,6 +33,29 @@ def _finite_or_none(x: np.ndarray) -> list[float | None]:
     return plain.tolist()
 
 
+def _axes(row: int, col: int) -> tuple[str, str]:
+    """The x and y axes of the panel at ``row``, ``col`` (from 1) of the two-column grid."""
+    n = (row - 1) * 2 + col
+    return ("x", "y") if n == 1 else (f"x{n}", f"y{n}")
+
+
+def _line(x: Any, y: Any, method: str, showlegend: bool, row: int, col: int) -> dict[str, Any]:
+    """``method``'s curve, in its colour, in the panel at ``row``, ``col`` of the grid."""
+    xa, ya = _axes(row, col)
+    return {
+        "type": "scatter",
+        "x": x,
+        "y": y,
+        "mode": "lines",
+        "name": method.upper(),
+        "legendgroup": method,
+        "showlegend": showlegend,
+        "line": {"color": method_color(method), "width": 1.5},
+        "xaxis": xa,
+        "yaxis": ya,
+    }
+
+
 def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool = False) -> go.Figure:
     """Five panels for one trajectory: velocity, attitude, tilt, heading RMS and NEES/dim.
 
@@ -51,44 +74,16 @@ def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool =
     )
     layout = grid.layout.to_plotly_json()
     layout.pop("template", None)
-
-    def axes(row: int, col: int) -> tuple[str, str]:
-        n = (row - 1) * 2 + col
-        return ("x", "y") if n == 1 else (f"x{n}", f"y{n}")
-
-    def line(x: Any, y: Any, method: str, showlegend: bool, row: int, col: int) -> dict[str, Any]:
-        xa, ya = axes(row, col)
-        return {
-            "type": "scatter",
-            "x": x,
-            "y": y,
-            "mode": "lines",
-            "name": method.upper(),
-            "legendgroup": method,
-            "showlegend": showlegend,
-            "line": {"color": method_color(method), "width": 1.5},
-            "xaxis": xa,
-            "yaxis": ya,
-        }
-
     data: list[dict[str, Any]] = []
     for i, (name, _, log) in enumerate(PANELS):
         row, col = divmod(i, 2)
         for method, m in summary["methods"].items():
-            data.append(
-                line(
-                    t,
-                    _finite_or_none(np.asarray(m["rms"][name], dtype=float)),
-                    method,
-                    i == 0,
-                    row + 1,
-                    col + 1,
-                )
-            )
+            rms = _finite_or_none(np.asarray(m["rms"][name], dtype=float))
+            data.append(_line(t, rms, method, i == 0, row + 1, col + 1))
         if log:
             layout[f"yaxis{'' if i == 0 else i + 1}"]["type"] = "log"
     lo, hi = nees_band(20, summary["num_runs"])
-    xa, ya = axes(3, 1)
+    xa, ya = _axes(3, 1)
     data.append(
         {
             "type": "scatter",
@@ -104,16 +99,8 @@ def trajectory_figure(trajectory: str, summary: dict[str, Any], validate: bool =
         }
     )
     for method, m in summary["methods"].items():
-        data.append(
-            line(
-                t,
-                _finite_or_none(np.asarray(m["mean_nees"]["nees"], dtype=float) / 20.0),
-                method,
-                False,
-                3,
-                1,
-            )
-        )
+        nees = _finite_or_none(np.asarray(m["mean_nees"]["nees"], dtype=float) / 20.0)
+        data.append(_line(t, nees, method, False, 3, 1))
     layout[f"yaxis{ya[1:]}"]["type"] = "log"
     for key in list(layout):
         if key.startswith("xaxis"):
