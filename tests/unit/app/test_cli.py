@@ -415,8 +415,9 @@ def _fake_results(diverged: bool, poison: bool):
                 r, vel_err_mps=vel, diverged=np.array([diverged and name == "lc"]),
                 diverged_at_s=np.array([1.5 if diverged and name == "lc" else np.nan]),
                 p_floor_count=np.array([3 if name == "lc" else 0]))
-        if kwargs.get("on_chunk") is not None:  # the streaming contract: the results handed out
-            kwargs["on_chunk"](out)
+        sinks = kwargs.get("sinks")
+        if sinks is not None and sinks.on_chunk is not None:  # the streaming contract: the results handed out
+            sinks.on_chunk(out)
         return out
     return fake
 
