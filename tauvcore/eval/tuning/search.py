@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -220,8 +220,76 @@ def tune(
         No log, an unknown or repeated parameter, an unknown optimiser, or ``max_evaluations``
         below 1.
     """
-    from scipy.optimize import minimize
+    names = _checked(prepared, names, optimizer, max_evaluations)
+    if start is None:
+        start = start_values([p.case for p in prepared], names)
+    limits = np.array([PARAMETERS[n].bounds for n in names])
+    bounds = np.log(limits)
+    start_map = dict(
+        zip(names, np.clip([start.values[n] for n in names], limits[:, 0], limits[:, 1]).tolist())
+    )
+    x0 = np.log([start_map[n] for n in names])
+    priors = {n: start.priors.get(n, (float(x0[i]), CONFIG_PRIOR_SIGMA_LN)) for i, n in enumerate(names)}
+    search = _Search(
+        names,
+        limits,
+        prior_mu=np.array([priors[n][0] for n in names]),
+        prior_sigma=np.array([priors[n][1] for n in names]),
+        evaluate=evaluator if evaluator is not None else serial_evaluator(prepared),
+        spread=evaluator is not None,
+        max_evaluations=max_evaluations,
+        progress=progress,
+        should_stop=should_stop,
+        best_x=x0.copy(),
+    )
+    stopped, converged, message = False, False, ""
+    nll_start = math.nan
+    try:
+        nll_start = search.batch([x0])[0]
+        if not np.isfinite(nll_start):
+            raise ValueError(
+                "the likelihood is not finite at the start (an update's innovation covariance is unusable): "
+                + ", ".join(f"{n} = {v:g}" for n, v in start_map.items())
+            )
+        if scan:  # not the values a still stretch measured: its term keeps them within percent
+            x0 = _scan(search.objective, x0, bounds, search.prior_sigma >= CONFIG_PRIOR_SIGMA_LN)
+        search.phase = "search"
+        converged, message = _minimise(search, x0, bounds, optimizer, nll_start)
+    except _Stopped:
+        stopped = True
+        message = "stopped"
+    except _Exhausted:
+        message = f"used its {max_evaluations} evaluations"
+    tuned = {n: _round(v) for n, v in search.values_at(search.best_x).items()}
+    x_tuned = np.log(np.array([tuned[n] for n in names]))
+    at_bound = {
+        n: bool(x_tuned[i] <= bounds[i, 0] + 0.01 or x_tuned[i] >= bounds[i, 1] - 0.01)
+        for i, n in enumerate(names)
+    }
+    free = [i for i, n in enumerate(names) if not at_bound[n]] if curvature and not stopped else []
+    nll_tuned, sigma, minimum, stopped_there = _at_tuned(search, x_tuned, free)
+    return TuningResult(
+        parameters=names,
+        start=start_map,
+        start_from={n: start.source.get(n, "given") for n in names},
+        priors=priors,
+        tuned=tuned,
+        sigma_ln=sigma,
+        at_bound=at_bound,
+        nll_start=nll_start,
+        nll_tuned=nll_tuned,
+        evaluations=search.count,
+        stopped=stopped or stopped_there,
+        converged=converged,
+        minimum=minimum,
+        message=message,
+    )
 
+
+def _checked(
+    prepared: Sequence[PreparedLog], names: Sequence[str], optimizer: str, max_evaluations: int
+) -> tuple[str, ...]:
+    """``names`` as a tuple, once :func:`tune`'s arguments pass its checks (its Raises)."""
     if not prepared:
         raise ValueError("tuning needs at least one log")
     names = tuple(names)
@@ -234,165 +302,145 @@ def tune(
         raise ValueError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     if max_evaluations < 1:
         raise ValueError(f"max_evaluations must be at least 1, got {max_evaluations}")
-    if start is None:
-        start = start_values([p.case for p in prepared], names)
-    evaluate = evaluator if evaluator is not None else serial_evaluator(prepared)
-    limits = np.array([PARAMETERS[n].bounds for n in names])
-    bounds = np.log(limits)
-    start_map = dict(
-        zip(names, np.clip([start.values[n] for n in names], limits[:, 0], limits[:, 1]).tolist())
-    )
-    x0 = np.log([start_map[n] for n in names])
-    priors = {n: start.priors.get(n, (float(x0[i]), CONFIG_PRIOR_SIGMA_LN)) for i, n in enumerate(names)}
-    prior_mu = np.array([priors[n][0] for n in names])
-    prior_sigma = np.array([priors[n][1] for n in names])
+    return names
 
-    state = {"count": 0, "best": math.inf, "best_x": x0.copy(), "phase": "scan"}
-    cache: dict[bytes, float] = {}
 
-    def values_at(x: np.ndarray) -> dict[str, float]:
-        return dict(zip(names, np.clip(np.exp(x), limits[:, 0], limits[:, 1]).tolist()))
+@dataclass
+class _Search:
+    """:func:`tune`'s evaluations at points ``x`` in ``ln theta``: counted, cached, the best so far
+    kept, each handed to ``progress``."""
 
-    def prior(x: np.ndarray) -> float:
-        return float(0.5 * np.sum(((x - prior_mu) / prior_sigma) ** 2))
+    names: tuple[str, ...]  # the parameters, in the order of x
+    limits: np.ndarray  # (n, 2) their bounds, each in its key's unit
+    prior_mu: np.ndarray  # (n,) mean of each parameter's Gaussian prior term [ln of its unit]
+    prior_sigma: np.ndarray  # (n,) its 1-sigma [-]
+    evaluate: Evaluator  # the logs' negative log-likelihood at a batch of values
+    spread: bool  # the evaluator was given: it spreads a batch over its workers
+    max_evaluations: int  # most evaluations outside the curvature's
+    progress: Callable[[Evaluation], None] | None
+    should_stop: Callable[[], bool] | None
+    best_x: np.ndarray  # (n,) the best point so far (the start before any)
+    best: float = math.inf  # the objective there [-]
+    count: int = 0  # evaluations so far
+    phase: str = "scan"  # "scan", "search" or "curvature" (Evaluation.phase)
+    cache: dict[bytes, float] = field(default_factory=dict)  # x.tobytes() -> the logs' likelihood
 
-    def batch(xs: list[np.ndarray]) -> list[float]:
+    def values_at(self, x: np.ndarray) -> dict[str, float]:
+        return dict(zip(self.names, np.clip(np.exp(x), self.limits[:, 0], self.limits[:, 1]).tolist()))
+
+    def prior(self, x: np.ndarray) -> float:
+        return float(0.5 * np.sum(((x - self.prior_mu) / self.prior_sigma) ** 2))
+
+    def batch(self, xs: list[np.ndarray]) -> list[float]:
         """The logs' negative log-likelihood at each point (cached: a point the search revisits
         costs nothing)."""
-        todo = [x for x in xs if x.tobytes() not in cache]
-        if todo and state["phase"] != "curvature" and state["count"] + len(todo) > max_evaluations:
+        todo = [x for x in xs if x.tobytes() not in self.cache]
+        if todo and self.phase != "curvature" and self.count + len(todo) > self.max_evaluations:
             raise _Exhausted
         # an evaluator spreads a batch over its workers; in this process the points go one by one,
         # so that a stop request waits for one replay, not a whole scan's
-        for part in [todo] if evaluator is not None else [[x] for x in todo]:
-            if should_stop is not None and should_stop():
+        for part in [todo] if self.spread else [[x] for x in todo]:
+            if self.should_stop is not None and self.should_stop():
                 raise _Stopped
-            for x, f in zip(part, evaluate([values_at(x) for x in part])):
+            for x, f in zip(part, self.evaluate([self.values_at(x) for x in part])):
                 f = f if np.isfinite(f) else math.inf
-                cache[x.tobytes()] = f
-                state["count"] += 1
-                if f + prior(x) < state["best"] and state["phase"] != "curvature":
-                    state["best"], state["best_x"] = f + prior(x), x.copy()
-                if progress is not None:
-                    progress(Evaluation(state["count"], values_at(x), f, state["best"], state["phase"]))
-        return [cache[x.tobytes()] for x in xs]
+                self.cache[x.tobytes()] = f
+                self.count += 1
+                if f + self.prior(x) < self.best and self.phase != "curvature":
+                    self.best, self.best_x = f + self.prior(x), x.copy()
+                if self.progress is not None:
+                    self.progress(Evaluation(self.count, self.values_at(x), f, self.best, self.phase))
+        return [self.cache[x.tobytes()] for x in xs]
 
-    def objective(xs: list[np.ndarray]) -> list[float]:
+    def objective(self, xs: list[np.ndarray]) -> list[float]:
         """What the search minimises: the likelihood's and the still stretch's terms."""
-        return [f + prior(x) for f, x in zip(batch(xs), xs)]
+        return [f + self.prior(x) for f, x in zip(self.batch(xs), xs)]
 
-    stopped, converged, message = False, False, ""
-    nll_start = math.nan
+
+def _minimise(
+    search: _Search, x0: np.ndarray, bounds: np.ndarray, optimizer: str, nll_start: float
+) -> tuple[bool, str]:
+    """scipy's ``optimizer`` from ``x0`` within ``bounds`` (ln theta), stopping as :data:`STOP_GAIN`
+    says (relative to ``nll_start`` for L-BFGS-B); whether it converged and its message."""
+    from scipy.optimize import minimize
+
+    # each parameter in units of its own 1-sigma there (the diagonal curvature, at least its
+    # prior's): the likelihood's curvatures span thousands, and a search in ln theta would stop on
+    # the steep ones' progress while a flat one still has half a unit to gain
+    objective = search.objective
+    scale = _diagonal_scale(objective, x0, bounds, search.prior_sigma)
+    z_bounds = (bounds - x0[:, None]) * scale[:, None]
+
+    def x_of(z: np.ndarray) -> np.ndarray:
+        return np.clip(x0 + np.asarray(z, dtype=float) / scale, bounds[:, 0], bounds[:, 1])
+
+    if optimizer == "l-bfgs-b":
+
+        def fun_and_grad(z: np.ndarray) -> tuple[float, np.ndarray]:
+            x = x_of(z)
+            steps = [
+                np.where(
+                    np.arange(x.size) == i,
+                    x + (GRADIENT_STEP_LN if x[i] < bounds[i, 1] - 1e-12 else -GRADIENT_STEP_LN),
+                    x,
+                )
+                for i in range(x.size)
+            ]
+            f, *fs = objective([x, *steps])
+            if not np.isfinite(f):
+                return math.inf, np.zeros_like(x)
+            h = np.array([s[i] - x[i] for i, s in enumerate(steps)])
+            g = (np.array(fs) - f) / h / scale
+            return f, np.where(np.isfinite(g), g, 0.0)
+
+        res = minimize(
+            fun_and_grad,
+            np.zeros_like(x0),
+            jac=True,
+            method="L-BFGS-B",
+            bounds=z_bounds,
+            options={
+                "ftol": STOP_GAIN / max(abs(nll_start), 1.0),
+                "gtol": STOP_GAIN,
+                "maxfun": search.max_evaluations,
+            },
+        )
+    else:
+        simplex = [np.zeros_like(x0)]  # a step of 1 sigma along each parameter, within its bounds
+        for i in range(x0.size):
+            step = 1.0 if z_bounds[i, 1] >= 1.0 else -1.0
+            simplex.append(step * (np.arange(x0.size) == i))
+        res = minimize(
+            lambda z: objective([x_of(z)])[0],
+            np.zeros_like(x0),
+            method="Nelder-Mead",
+            bounds=z_bounds,
+            options={
+                "initial_simplex": np.array(simplex),
+                "xatol": STOP_GAIN,  # a hundredth of each parameter's 1-sigma
+                "fatol": STOP_GAIN,
+                "maxfev": search.max_evaluations,
+            },
+        )
+    return bool(res.success), str(res.message)
+
+
+def _at_tuned(search: _Search, x: np.ndarray, free: list[int]) -> tuple[float, dict[str, float], bool, bool]:
+    """At the tuned point ``x``: the logs' negative log-likelihood, each parameter's 1-sigma of
+    ``ln theta`` from the curvature (:func:`_curvature_variances`, those of ``free``; NaN the
+    others), whether ``x`` is a minimum, and whether should_stop ended it."""
+    sigma = dict.fromkeys(search.names, math.nan)
+    search.phase = "curvature"
+    nll, minimum = math.nan, True
     try:
-        nll_start = batch([x0])[0]
-        if not np.isfinite(nll_start):
-            raise ValueError(
-                "the likelihood is not finite at the start (an update's innovation covariance is unusable): "
-                + ", ".join(f"{n} = {v:g}" for n, v in start_map.items())
-            )
-        if scan:  # not the values a still stretch measured: its term keeps them within percent
-            x0 = _scan(objective, x0, bounds, prior_sigma >= CONFIG_PRIOR_SIGMA_LN)
-        state["phase"] = "search"
-        # each parameter in units of its own 1-sigma there (the diagonal curvature, at least its
-        # prior's): the likelihood's curvatures span thousands, and a search in ln theta would stop on
-        # the steep ones' progress while a flat one still has half a unit to gain
-        scale = _diagonal_scale(objective, x0, bounds, prior_sigma)
-        z_bounds = (bounds - x0[:, None]) * scale[:, None]
-
-        def x_of(z: np.ndarray) -> np.ndarray:
-            return np.clip(x0 + np.asarray(z, dtype=float) / scale, bounds[:, 0], bounds[:, 1])
-
-        if optimizer == "l-bfgs-b":
-
-            def fun_and_grad(z: np.ndarray) -> tuple[float, np.ndarray]:
-                x = x_of(z)
-                steps = [
-                    np.where(
-                        np.arange(x.size) == i,
-                        x + (GRADIENT_STEP_LN if x[i] < bounds[i, 1] - 1e-12 else -GRADIENT_STEP_LN),
-                        x,
-                    )
-                    for i in range(x.size)
-                ]
-                f, *fs = objective([x, *steps])
-                if not np.isfinite(f):
-                    return math.inf, np.zeros_like(x)
-                h = np.array([s[i] - x[i] for i, s in enumerate(steps)])
-                g = (np.array(fs) - f) / h / scale
-                return f, np.where(np.isfinite(g), g, 0.0)
-
-            res = minimize(
-                fun_and_grad,
-                np.zeros_like(x0),
-                jac=True,
-                method="L-BFGS-B",
-                bounds=z_bounds,
-                options={
-                    "ftol": STOP_GAIN / max(abs(nll_start), 1.0),
-                    "gtol": STOP_GAIN,
-                    "maxfun": max_evaluations,
-                },
-            )
-        else:
-            simplex = [np.zeros_like(x0)]  # a step of 1 sigma along each parameter, within its bounds
-            for i in range(len(names)):
-                step = 1.0 if z_bounds[i, 1] >= 1.0 else -1.0
-                simplex.append(step * (np.arange(len(names)) == i))
-            res = minimize(
-                lambda z: objective([x_of(z)])[0],
-                np.zeros_like(x0),
-                method="Nelder-Mead",
-                bounds=z_bounds,
-                options={
-                    "initial_simplex": np.array(simplex),
-                    "xatol": STOP_GAIN,  # a hundredth of each parameter's 1-sigma
-                    "fatol": STOP_GAIN,
-                    "maxfev": max_evaluations,
-                },
-            )
-        converged, message = bool(res.success), str(res.message)
+        nll = search.batch([x])[0]
+        if free:
+            variances, minimum = _curvature_variances(search.objective, x, free)
+            for j, var in zip(free, variances):
+                sigma[search.names[j]] = float(math.sqrt(var))
     except _Stopped:
-        stopped = True
-        message = "stopped"
-    except _Exhausted:
-        message = f"used its {max_evaluations} evaluations"
-    best_x = state["best_x"]
-    tuned = {n: _round(v) for n, v in values_at(best_x).items()}
-    x_tuned = np.log(np.array([tuned[n] for n in names]))
-    at_bound = {
-        n: bool(x_tuned[i] <= bounds[i, 0] + 0.01 or x_tuned[i] >= bounds[i, 1] - 0.01)
-        for i, n in enumerate(names)
-    }
-    sigma = dict.fromkeys(names, math.nan)
-    state["phase"] = "curvature"
-    nll_tuned = math.nan
-    minimum = True
-    try:
-        nll_tuned = batch([x_tuned])[0]
-        if curvature and not stopped:
-            free = [i for i, n in enumerate(names) if not at_bound[n]]
-            if free:
-                variances, minimum = _curvature_variances(objective, x_tuned, free)
-                for j, var in zip(free, variances):
-                    sigma[names[j]] = float(math.sqrt(var))
-    except _Stopped:
-        stopped = True
-    return TuningResult(
-        parameters=names,
-        start=start_map,
-        start_from={n: start.source.get(n, "given") for n in names},
-        priors=priors,
-        tuned=tuned,
-        sigma_ln=sigma,
-        at_bound=at_bound,
-        nll_start=nll_start,
-        nll_tuned=nll_tuned,
-        evaluations=state["count"],
-        stopped=stopped,
-        converged=converged,
-        minimum=minimum,
-        message=message,
-    )
+        return nll, sigma, minimum, True
+    return nll, sigma, minimum, False
 
 
 def _scan(
