@@ -48,6 +48,7 @@ with their walks' spread over the log), their effect on the pairs found by diffe
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -55,8 +56,21 @@ import numpy as np
 
 from tauvcore import units
 from tauvcore.config import CALIBRATION_BOUND_DEG, CalibrationConfig, Config
-from tauvcore.eval.calibration.boresight import INTERVAL_S, boresight_pairs, fit_boresight
-from tauvcore.eval.calibration.dvl_alignment import DvlRows, dvl_rows, fit_dvl, predicted, zyx_partials
+from tauvcore.eval.calibration.boresight import (
+    INTERVAL_S,
+    BoresightFit,
+    Pairs,
+    boresight_pairs,
+    fit_boresight,
+)
+from tauvcore.eval.calibration.dvl_alignment import (
+    DvlFit,
+    DvlRows,
+    dvl_rows,
+    fit_dvl,
+    predicted,
+    zyx_partials,
+)
 from tauvcore.eval.calibration.estimate import (
     OUTLIER_SIGMAS,
     CalibrationError,
@@ -188,61 +202,57 @@ def calibrate(logs: Sequence[tuple[str, Log, Config]], interval_s: float = INTER
     dvl = fit_dvl([r for _, r in with_dvl], bore.C_rb, P_beta)
     _check_bound(dvl.estimate, "the DVL head's axes are not the IMU's body's")
     _check_bound(bore.estimate, "the IMU's axes are not the reference's body's")
-    fits = []
-    dvl_of = {i: j for j, (i, _) in enumerate(with_dvl)}
-    for i, ((name, log, _), p) in enumerate(zip(logs, pairs, strict=True)):
-        kr, kf = bore.keep[i]
-        own_bore = fit_boresight([p]).estimate if len(p.rate_r) >= MIN_INTERVALS else None
-        rate_before = rms((p.rate_r - p.rate_b)[kr]) / units.DEG
-        rate_after = rms((p.rate_r - p.rate_b @ bore.C_rb.T)[kr]) / units.DEG
-        force_before = rms((p.force_r - p.force_b)[kf])
-        force_after = rms((p.force_r - p.force_b @ bore.C_rb.T)[kf])
-        j = dvl_of.get(i)
-        if j is None:
-            fits.append(
-                LogFit(
-                    name=_name(name, log),
-                    pings=0,
-                    dvl_residuals=0,
-                    dvl_outliers=0,
-                    dvl_rms_before_mps=np.nan,
-                    dvl_rms_after_mps=np.nan,
-                    dvl_tau=np.nan,
-                    intervals=len(p.rate_r),
-                    rate_rms_before_dps=rate_before,
-                    rate_rms_after_dps=rate_after,
-                    force_rms_before_mps2=force_before,
-                    force_rms_after_mps2=force_after,
-                    dvl=None,
-                    boresight=own_bore,
-                )
-            )
-            continue
-        rows = with_dvl[j][1]
-        k = dvl.keep[j]
-        e_before = _debiased((rows.z - predicted(np.zeros(4), rows, rows.v_ref_b(np.eye(3)))[0])[k], rows, k)
-        e_after = _debiased((rows.z - predicted(dvl.theta, rows, rows.v_ref_b(bore.C_rb))[0])[k], rows, k)
-        n_pings = int(np.unique(rows.ping[k]).size)
-        own = fit_dvl([rows], bore.C_rb, P_beta).estimate if n_pings >= MIN_PINGS else None
-        fits.append(
-            LogFit(
-                name=_name(name, log),
-                pings=n_pings,
-                dvl_residuals=int(k.sum()),
-                dvl_outliers=int((~k).sum()),
-                dvl_rms_before_mps=rms(e_before),
-                dvl_rms_after_mps=rms(e_after),
-                dvl_tau=dvl.tau[j],
-                intervals=len(p.rate_r),
-                rate_rms_before_dps=rate_before,
-                rate_rms_after_dps=rate_after,
-                force_rms_before_mps2=force_before,
-                force_rms_after_mps2=force_after,
-                dvl=own,
-                boresight=own_bore,
-            )
-        )
+    fits = [
+        _boresight_share(_name(name, log), p, bore, i)
+        for i, ((name, log, _), p) in enumerate(zip(logs, pairs, strict=True))
+    ]
+    for j, (i, rows) in enumerate(with_dvl):
+        fits[i] = _with_dvl_share(fits[i], rows, dvl, j, bore.C_rb, P_beta)
     return Calibration(dvl=dvl.estimate, boresight=bore.estimate, logs=tuple(fits))
+
+
+def _boresight_share(name: str, p: Pairs, bore: BoresightFit, i: int) -> LogFit:
+    """Log ``i``'s share (named ``name``) of the boresight ``bore`` of all logs, ``p`` its pairs, and
+    its own boresight; as yet without a DVL."""
+    kr, kf = bore.keep[i]
+    return LogFit(
+        name=name,
+        pings=0,
+        dvl_residuals=0,
+        dvl_outliers=0,
+        dvl_rms_before_mps=np.nan,
+        dvl_rms_after_mps=np.nan,
+        dvl_tau=np.nan,
+        intervals=len(p.rate_r),
+        rate_rms_before_dps=rms((p.rate_r - p.rate_b)[kr]) / units.DEG,
+        rate_rms_after_dps=rms((p.rate_r - p.rate_b @ bore.C_rb.T)[kr]) / units.DEG,
+        force_rms_before_mps2=rms((p.force_r - p.force_b)[kf]),
+        force_rms_after_mps2=rms((p.force_r - p.force_b @ bore.C_rb.T)[kf]),
+        dvl=None,
+        boresight=fit_boresight([p]).estimate if len(p.rate_r) >= MIN_INTERVALS else None,
+    )
+
+
+def _with_dvl_share(
+    fit: LogFit, rows: DvlRows, dvl: DvlFit, j: int, C_rb: np.ndarray, P_beta: np.ndarray
+) -> LogFit:
+    """``fit`` with its log's share of the DVL's calibration ``dvl`` of all logs (``rows`` the
+    ``j``-th of its logs, ``C_rb`` and ``P_beta`` the boresight and its covariance [rad^2]), and its
+    own DVL estimate."""
+    k = dvl.keep[j]
+    e_before = _debiased((rows.z - predicted(np.zeros(4), rows, rows.v_ref_b(np.eye(3)))[0])[k], rows, k)
+    e_after = _debiased((rows.z - predicted(dvl.theta, rows, rows.v_ref_b(C_rb))[0])[k], rows, k)
+    n_pings = int(np.unique(rows.ping[k]).size)
+    return dataclasses.replace(
+        fit,
+        pings=n_pings,
+        dvl_residuals=int(k.sum()),
+        dvl_outliers=int((~k).sum()),
+        dvl_rms_before_mps=rms(e_before),
+        dvl_rms_after_mps=rms(e_after),
+        dvl_tau=dvl.tau[j],
+        dvl=fit_dvl([rows], C_rb, P_beta).estimate if n_pings >= MIN_PINGS else None,
+    )
 
 
 def _debiased(e: np.ndarray, rows: DvlRows, keep: np.ndarray) -> np.ndarray:

@@ -182,20 +182,54 @@ def fit_dvl(rows: Sequence[DvlRows], C_rb: np.ndarray, P_boresight_rad: np.ndarr
     The unknowns are ``x = [roll, pitch, yaw, s, b_1, ..., b_L]``: the four of the calibration
     and each log's four beam biases (a log of ``dvl.bias_mps`` zero has none), the biases with
     their turn-on 1-sigma as a prior (a row ``b / bias_mps`` each)."""
-    V = [r.v_ref_b(C_rb) for r in rows]
-    keep = [np.ones(r.z.size, bool) for r in rows]
-    weights = [1.0] * len(rows)
-    offsets, n_x = [], 4  # each log's biases' first index in x (-1: none)
-    for r in rows:
-        offsets.append(n_x if r.bias_sigma_mps > 0.0 else -1)
-        n_x += 4 if r.bias_sigma_mps > 0.0 else 0
+    problem = _DvlProblem.of(rows, C_rb)
+    x = _solve(problem)
+    sigma, tau = _residual_statistics(problem, x)
+    scale = np.diag([1.0 / units.DEG] * 3 + [1.0 / units.PERCENT])
+    parts = {
+        name: scale @ P @ scale
+        for name, P in _covariance_parts(problem, x, tau, C_rb, P_boresight_rad).items()
+    }
+    estimate = Estimate(
+        names=DVL_NAMES,
+        units=DVL_UNITS,
+        value=scale @ x[:4],
+        cov=sum(parts.values(), np.zeros((4, 4))),
+        parts=parts,
+    )
+    return DvlFit(theta=x[:4], estimate=estimate, keep=problem.keep, sigma=sigma, tau=tau)
 
-    def stacked(x: np.ndarray, Vs: Sequence[np.ndarray], prior: bool = True) -> tuple[np.ndarray, np.ndarray]:
+
+@dataclass
+class _DvlProblem:
+    """:func:`fit_dvl`'s least squares: the logs' rows and reference velocities at the head, each
+    log's rows kept and weight (the fit sets both), and where its beam biases sit in ``x``."""
+
+    rows: Sequence[DvlRows]
+    V: list[np.ndarray]  # per log (m, 3): DvlRows.v_ref_b at the boresight [m/s]
+    keep: list[np.ndarray]  # per log (n,) bool: rows kept
+    weights: list[float]  # per log: 1 / its residuals' 1-sigma [s/m]
+    offsets: list[int]  # per log: its biases' first index in x (-1: none)
+    n_x: int  # unknowns: the four, and four per log with biases
+
+    @classmethod
+    def of(cls, rows: Sequence[DvlRows], C_rb: np.ndarray) -> _DvlProblem:
+        """The problem of ``rows`` at the boresight ``C_rb``: every row kept, every weight 1."""
+        offsets, n_x = [], 4
+        for r in rows:
+            offsets.append(n_x if r.bias_sigma_mps > 0.0 else -1)
+            n_x += 4 if r.bias_sigma_mps > 0.0 else 0
+        keep = [np.ones(r.z.size, bool) for r in rows]
+        return cls(rows, [r.v_ref_b(C_rb) for r in rows], keep, [1.0] * len(rows), offsets, n_x)
+
+    def stacked(
+        self, x: np.ndarray, Vs: Sequence[np.ndarray], prior: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Weighted residuals (data rows of every log, then the biases' prior rows) and Jacobian."""
         res, jac = [], []
-        for r, v, k, w, o in zip(rows, Vs, keep, weights, offsets, strict=True):
+        for r, v, k, w, o in zip(self.rows, Vs, self.keep, self.weights, self.offsets, strict=True):
             pred, J = predicted(x[:4], r, v)
-            Jx = np.zeros((int(k.sum()), n_x))
+            Jx = np.zeros((int(k.sum()), self.n_x))
             Jx[:, :4] = -w * J[k]
             e = r.z - pred
             if o >= 0:
@@ -204,31 +238,41 @@ def fit_dvl(rows: Sequence[DvlRows], C_rb: np.ndarray, P_boresight_rad: np.ndarr
             res.append(w * e[k])
             jac.append(Jx)
         if prior:
-            for r, o in zip(rows, offsets, strict=True):
+            for r, o in zip(self.rows, self.offsets, strict=True):
                 if o >= 0:
                     res.append(x[o : o + 4] / r.bias_sigma_mps)
-                    Jp = np.zeros((4, n_x))
+                    Jp = np.zeros((4, self.n_x))
                     Jp[:, o : o + 4] = np.eye(4) / r.bias_sigma_mps
                     jac.append(Jp)
         return np.concatenate(res), np.concatenate(jac)
 
-    def residuals(x: np.ndarray, i: int) -> np.ndarray:
+    def residuals(self, x: np.ndarray, i: int) -> np.ndarray:
         """Log ``i``'s data residuals at ``x``, unweighted, every row (n_i,) [m/s]."""
-        r, o = rows[i], offsets[i]
-        e = r.z - predicted(x[:4], r, V[i])[0]
+        r, o = self.rows[i], self.offsets[i]
+        e = r.z - predicted(x[:4], r, self.V[i])[0]
         return e - r.D @ x[o : o + 4] if o >= 0 else e
 
-    x = np.zeros(n_x)
+
+def _solve(problem: _DvlProblem) -> np.ndarray:
+    """The least-squares ``x`` of ``problem``, fitted twice: first every row, from zero and from the
+    Procrustes start (the lower cost kept), then without the first fit's outliers from its
+    solution; after each fit every log weighted by its residuals' RMS."""
+    x = np.zeros(problem.n_x)
     for fit in range(2):
         starts = (
-            [np.zeros(n_x), np.concatenate([procrustes(rows, V), np.zeros(n_x - 4)])] if fit == 0 else [x]
+            [
+                np.zeros(problem.n_x),
+                np.concatenate([procrustes(problem.rows, problem.V), np.zeros(problem.n_x - 4)]),
+            ]
+            if fit == 0
+            else [x]
         )
         best = None
         for x0 in starts:
             sol = least_squares(
-                lambda x: stacked(x, V)[0],
+                lambda x: problem.stacked(x, problem.V)[0],
                 x0,
-                jac=lambda x: stacked(x, V)[1],  # pyright: ignore[reportArgumentType] (a callable is taken)
+                jac=lambda x: problem.stacked(x, problem.V)[1],  # pyright: ignore[reportArgumentType] (a callable is taken)
                 method="lm",
                 xtol=1e-12,
                 ftol=1e-12,
@@ -238,25 +282,39 @@ def fit_dvl(rows: Sequence[DvlRows], C_rb: np.ndarray, P_boresight_rad: np.ndarr
                 best = sol
         assert best is not None
         x = best.x
-        for i in range(len(rows)):
-            e = residuals(x, i)
+        for i in range(len(problem.rows)):
+            e = problem.residuals(x, i)
             if fit == 0:
-                keep[i] = np.abs(e) <= OUTLIER_SIGMAS * max(robust_sigma(e), 1e-9)
-            weights[i] = 1.0 / max(rms(e[keep[i]]), 1e-9)
-    # covariance: each log's information over its correlation time, the biases' prior as it is
-    n_rows = [int(k.sum()) for k in keep]
+                problem.keep[i] = np.abs(e) <= OUTLIER_SIGMAS * max(robust_sigma(e), 1e-9)
+            problem.weights[i] = 1.0 / max(rms(e[problem.keep[i]]), 1e-9)
+    return x
+
+
+def _residual_statistics(problem: _DvlProblem, x: np.ndarray) -> tuple[list[float], list[float]]:
+    """Each log's residual 1-sigma at ``x`` [m/s] (its degrees of freedom less its unknowns), which
+    becomes its weight, and the correlation time of its residuals [pings]."""
     sigma, tau = [], []
-    for i in range(len(rows)):
-        e = residuals(x, i)[keep[i]]
-        s = rms(e, dof=max(1.0 - (4.0 + (4 if offsets[i] >= 0 else 0)) / max(n_rows[i], 9), 0.1))
-        weights[i] = 1.0 / max(s, 1e-9)
+    for i, (r, k, o) in enumerate(zip(problem.rows, problem.keep, problem.offsets, strict=True)):
+        e = problem.residuals(x, i)[k]
+        s = rms(e, dof=max(1.0 - (4.0 + (4 if o >= 0 else 0)) / max(int(k.sum()), 9), 0.1))
+        problem.weights[i] = 1.0 / max(s, 1e-9)
         sigma.append(s)
-        tau.append(series_tau(e, rows[i].group[keep[i]]))
-    _, J_all = stacked(x, V, prior=False)
-    row_tau = np.repeat(tau, n_rows)
+        tau.append(series_tau(e, r.group[k]))
+    return sigma, tau
+
+
+def _covariance_parts(
+    problem: _DvlProblem, x: np.ndarray, tau: list[float], C_rb: np.ndarray, P_boresight_rad: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The covariance of ``x[:4]`` (rad and -) in parts: each log's information over its
+    correlation time ``tau`` with the biases known ("noise"), what estimating the biases under
+    their prior adds ("beam biases"), the boresight's covariance through the solution's
+    sensitivity to it ("boresight")."""
+    _, J_all = problem.stacked(x, problem.V, prior=False)
+    row_tau = np.repeat(tau, [int(k.sum()) for k in problem.keep])
     H_data = J_all.T @ (J_all / row_tau[:, None])
-    H_prior = np.zeros((n_x, n_x))
-    for r, o in zip(rows, offsets, strict=True):
+    H_prior = np.zeros((problem.n_x, problem.n_x))
+    for r, o in zip(problem.rows, problem.offsets, strict=True):
         if o >= 0:
             H_prior[o : o + 4, o : o + 4] = np.eye(4) / r.bias_sigma_mps**2
     P = np.linalg.inv(H_data + H_prior)[:4, :4]
@@ -269,27 +327,13 @@ def fit_dvl(rows: Sequence[DvlRows], C_rb: np.ndarray, P_boresight_rad: np.ndarr
         plus, minus = beta.copy(), beta.copy()
         plus[j] += step
         minus[j] -= step
-        r_plus = stacked(x, [r.v_ref_b(C_nb_from_euler(plus)) for r in rows], prior=False)[0]
-        r_minus = stacked(x, [r.v_ref_b(C_nb_from_euler(minus)) for r in rows], prior=False)[0]
+        r_plus = problem.stacked(x, [r.v_ref_b(C_nb_from_euler(plus)) for r in problem.rows], prior=False)[0]
+        r_minus = problem.stacked(x, [r.v_ref_b(C_nb_from_euler(minus)) for r in problem.rows], prior=False)[
+            0
+        ]
         dr[:, j] = (r_plus - r_minus) / (2.0 * step)
     S_beta = (np.linalg.inv(J_all.T @ J_all + H_prior) @ J_all.T @ dr)[:4]
-    scale = np.diag([1.0 / units.DEG] * 3 + [1.0 / units.PERCENT])
-    parts = {
-        name: scale @ Pp @ scale
-        for name, Pp in (
-            ("noise", P_known),
-            ("beam biases", P - P_known),
-            ("boresight", S_beta @ P_boresight_rad @ S_beta.T),
-        )
-    }
-    estimate = Estimate(
-        names=DVL_NAMES,
-        units=DVL_UNITS,
-        value=scale @ x[:4],
-        cov=sum(parts.values(), np.zeros((4, 4))),
-        parts=parts,
-    )
-    return DvlFit(theta=x[:4], estimate=estimate, keep=keep, sigma=sigma, tau=tau)
+    return {"noise": P_known, "beam biases": P - P_known, "boresight": S_beta @ P_boresight_rad @ S_beta.T}
 
 
 def series_tau(e: np.ndarray, group: np.ndarray) -> float:
