@@ -242,35 +242,36 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
     reference, the DVL and the sources' tables, then the physical checks (tauvcore.logs.checks)."""
     imu_path = paths["imu"]
     assert imu_path is not None  # both callers refuse a log without one first
+    t, dtheta, dv, median, notes = _read_imu(imu_path, load)
+    out: dict = {"source": source, "imu_t_s": t, "dtheta_b": dtheta, "dv_b": dv, "notes": notes}
+    if paths["reference"] is not None:
+        out.update(_read_reference(paths["reference"], t, median, load))
+    _read_dvl(paths, out, load)
+    out["sources"] = {
+        name: _read_source(path, SOURCES[name], load)
+        for name, table in SOURCE_TABLES.items()
+        if (path := paths[table]) is not None
+    }
+    log = Log(**out)
+    from tauvcore.logs import checks as log_checks  # cross-table plausibility (time and sensor units, signs)
+
+    return dataclasses.replace(
+        log,
+        notes=log.notes
+        + tuple(log_checks.check_plausible(log, {t: p for t, p in paths.items() if p is not None})),
+    )
+
+
+def _read_imu(
+    imu_path: Path, load: Load
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, tuple[str, ...]]:
+    """The IMU table at ``imu_path``: its times (K,) [s] on a constant rate, its angle (K, 3) [rad]
+    and velocity (K, 3) [m/s] increments (row 0 zero; resampled where its clock is irregular),
+    the median interval of its clock [s] and a note if resampled. Refused (LogError) unless its
+    columns, length and clock make an inertial record and its specific force is gravity's."""
     imu = load(imu_path)
     t = time_column(imu_path, imu)
-    if not (all(n in imu for n in IMU_INCREMENTS) or all(n in imu for n in IMU_RATES)):
-        missing = next(n for n in IMU_INCREMENTS if n not in imu)  # what the table is, before how long
-        raise LogError(
-            f"{show_path(str(imu_path))}: missing column {show(missing)} (the IMU as increments: "
-            f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})"
-        )
-    if t.size < 3:
-        raise LogError(f"{show_path(str(imu_path))}: {t.size} rows; an IMU log needs at least 3")
-    from tauvcore.logs import checks as log_checks
-
-    log_checks.check_imu_clock(t, imu_path)  # a clock in ms also spoils the gravity check below
-    dt = np.diff(t)
-    median = float(np.median(dt))
-    need = int(np.floor(MIN_IMU_SPAN_S / median + 1e-9)) + 1
-    if t.size < need:
-        raise LogError(
-            f"{show_path(str(imu_path))}: {t.size} rows ({float(t[-1] - t[0]):.6g} s at {1.0 / median:.6g} Hz); "
-            f"at least {need} needed ({MIN_IMU_SPAN_S:g} s of IMU)"
-        )
-    gap = dt > MAX_GAP_STEPS * median
-    if gap.any():
-        row = int(np.argmax(dt)) + 2
-        raise LogError(
-            f"{show_path(str(imu_path))}: column 't_s', row {row}: {float(t[row - 1])!r} is {dt[row - 2]:.6g} s "
-            f"after the row before, a gap of more than {MAX_GAP_STEPS} of the log's {median:.6g} s "
-            "intervals: no inertial record bridges it (cut the log there)"
-        )
+    dt, median = _imu_clock(imu_path, imu, t)
     if all(n in imu for n in IMU_INCREMENTS):
         check_finite(imu_path, imu, IMU_INCREMENTS)
         check_within(imu_path, imu, IMU_INCREMENTS)
@@ -306,24 +307,40 @@ def _assemble(source: str, paths: dict[str, Path | None], load: Load) -> Log:
             f"{mean_f:.6g} m/s^2 over the first 10 s, not gravity's 9.8 (in mg, g or mm/s^2? "
             "the columns must be SI, m/s^2 or m/s)"
         )
+    return t, dtheta, dv, median, tuple(notes)
 
-    out: dict = {"source": source, "imu_t_s": t, "dtheta_b": dtheta, "dv_b": dv, "notes": tuple(notes)}
-    if paths["reference"] is not None:
-        out.update(_read_reference(paths["reference"], t, median, load))
-    _read_dvl(paths, out, load)
-    out["sources"] = {
-        name: _read_source(path, SOURCES[name], load)
-        for name, table in SOURCE_TABLES.items()
-        if (path := paths[table]) is not None
-    }
-    log = Log(**out)
-    from tauvcore.logs import checks as log_checks  # cross-table plausibility (time and sensor units, signs)
 
-    return dataclasses.replace(
-        log,
-        notes=log.notes
-        + tuple(log_checks.check_plausible(log, {t: p for t, p in paths.items() if p is not None})),
-    )
+def _imu_clock(imu_path: Path, imu: dict[str, np.ndarray], t: np.ndarray) -> tuple[np.ndarray, float]:
+    """The intervals (K - 1,) [s] of the IMU table ``imu`` at ``imu_path``, its times ``t``, and
+    their median [s], once the table has its columns, rows enough and no gap (else LogError)."""
+    if not (all(n in imu for n in IMU_INCREMENTS) or all(n in imu for n in IMU_RATES)):
+        missing = next(n for n in IMU_INCREMENTS if n not in imu)  # what the table is, before how long
+        raise LogError(
+            f"{show_path(str(imu_path))}: missing column {show(missing)} (the IMU as increments: "
+            f"{', '.join(IMU_INCREMENTS)}; or as rates: {', '.join(IMU_RATES)})"
+        )
+    if t.size < 3:
+        raise LogError(f"{show_path(str(imu_path))}: {t.size} rows; an IMU log needs at least 3")
+    from tauvcore.logs import checks as log_checks
+
+    log_checks.check_imu_clock(t, imu_path)  # a clock in ms also spoils the gravity check after
+    dt = np.diff(t)
+    median = float(np.median(dt))
+    need = int(np.floor(MIN_IMU_SPAN_S / median + 1e-9)) + 1
+    if t.size < need:
+        raise LogError(
+            f"{show_path(str(imu_path))}: {t.size} rows ({float(t[-1] - t[0]):.6g} s at {1.0 / median:.6g} Hz); "
+            f"at least {need} needed ({MIN_IMU_SPAN_S:g} s of IMU)"
+        )
+    gap = dt > MAX_GAP_STEPS * median
+    if gap.any():
+        row = int(np.argmax(dt)) + 2
+        raise LogError(
+            f"{show_path(str(imu_path))}: column 't_s', row {row}: {float(t[row - 1])!r} is {dt[row - 2]:.6g} s "
+            f"after the row before, a gap of more than {MAX_GAP_STEPS} of the log's {median:.6g} s "
+            "intervals: no inertial record bridges it (cut the log there)"
+        )
+    return dt, median
 
 
 def _trapezoid(rates: list[np.ndarray], dt: np.ndarray) -> np.ndarray:
