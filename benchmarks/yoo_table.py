@@ -36,7 +36,7 @@ def end_errors(beyond_range: str, runs: int, seed: int, workers: int) -> dict[st
         "dvl": {"beyond_range": beyond_range},
         "run": {"methods": [m for m, _, _ in METHODS], "seed": seed},
     }))
-    summary = run_study(config, runs, seed, workers=workers).summary()
+    summary = run_study(config, runs, workers=workers).summary()
     out = {}
     for method, _, _ in METHODS:
         per_run = np.asarray(summary["methods"][method]["final_per_run"]["pos_err_m"], dtype=float)

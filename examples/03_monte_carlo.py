@@ -37,9 +37,8 @@ def main() -> None:
     )
 
     acc = run_study(
-        config,
+        config,  # config.run.seed is the study's seed
         num_runs,
-        config.run.seed,
         workers=args.workers,
         progress=lambda done, total: print(f"  {done}/{total} runs", end="\r", flush=True),
     )

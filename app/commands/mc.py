@@ -107,7 +107,6 @@ def cmd_mc(args: argparse.Namespace) -> int:
             acc = run_study(
                 config,
                 num_runs,
-                config.run.seed,
                 workers=workers,
                 dask_address=dask,
                 on_chunk=lambda chunk: writer.add_chunk(trajectory, chunk),
@@ -236,9 +235,8 @@ def _paper_studies(
             done_before = bar.n
             with _study_failures(dask):
                 acc = run_study(
-                    config,
+                    config,  # base's seed, as the chunks queued above
                     num_runs,
-                    base.run.seed,
                     workers=workers,
                     dask_address=dask,
                     on_chunk=lambda chunk, name=name: writer.add_chunk(name, chunk),

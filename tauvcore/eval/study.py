@@ -718,7 +718,7 @@ def paper_chunk_runs(config: Config) -> int:
 def run_study(
     config: Config,
     num_runs: int,
-    seed: int,
+    *,
     workers: int = 1,
     dask_address: str | None = None,
     on_chunk: Callable[[ChunkSeries], object] | None = None,
@@ -736,11 +736,10 @@ def run_study(
     Parameters
     ----------
     config : Config
-        The study's configuration; ``config.run.methods`` names its methods.
+        The study's configuration; ``config.run.methods`` names its methods and ``config.run.seed``
+        is the study's seed (run i draws from :func:`run_rng` ``(config.run.seed, i)``).
     num_runs : int
         Runs of the study, at least 1.
-    seed : int
-        The study's seed (run i draws from :func:`run_rng` ``(seed, i)``).
     workers : int
         Local worker processes; 1 or fewer: this process.
     dask_address : str or None
@@ -756,7 +755,8 @@ def run_study(
     pool : concurrent.futures.Executor or None
         An executor to run the chunks on (:func:`local_pool`); None: as ``workers`` says.
     submitted : list[concurrent.futures.Future] or None
-        Its chunks as :func:`submit_chunks` queued them (same config, seed, chunking, smoother).
+        Its chunks as :func:`submit_chunks` queued them (same config and seed ``config.run.seed``,
+        chunking, smoother).
     smooth : SmoothOptions or None
         Also smooth every run inside its chunk (:func:`run_chunk`) and sum the methods'
         smoothed series apart (the summary's ``smoothed``); None: no smoother.
@@ -775,7 +775,7 @@ def run_study(
     smoothed = methods if smooth is not None else ()
     acc = StudyAccumulator(methods, smoothed)
     chunks_of = iterate_chunks(
-        config, num_runs, seed, workers, dask_address, chunk_runs, pool, submitted, smooth
+        config, num_runs, config.run.seed, workers, dask_address, chunk_runs, pool, submitted, smooth
     )
     for chunk in chunks_of:
         acc.add(chunk)

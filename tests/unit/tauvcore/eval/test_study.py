@@ -171,8 +171,8 @@ def test_the_summary_names_the_flagged_runs_and_leaves_them_out_on_request():
 
 def test_run_study_reports_progress_and_hands_chunks_over_in_order():
     seen, progress = [], []
-    run_study(CONFIG, 5, 11, on_chunk=lambda c: seen.append(c.first), progress=lambda d, t: progress.append((d, t)),
-              chunk_runs=2)
+    run_study(CONFIG.replace("run", seed=11), 5, on_chunk=lambda c: seen.append(c.first),
+              progress=lambda d, t: progress.append((d, t)), chunk_runs=2)
     assert seen == [0, 2, 4] and progress == [(2, 5), (4, 5), (5, 5)]
 
 

@@ -16,8 +16,9 @@ def test_a_smoothed_study_is_the_same_on_worker_processes_and_leaves_no_tape(tmp
     process and on two worker processes the summaries are identical, the smoothed series are
     run_chunk's ``.smoothed`` (Yoo 2014's method's too), and nothing is left in ``tmp_path``."""
     spill = SmoothOptions(budget_mb=0.0, directory=str(tmp_path))
-    here = run_study(CONFIG, 4, 3, workers=1, chunk_runs=2, smooth=spill).summary()
-    there = run_study(CONFIG, 4, 3, workers=2, chunk_runs=2, smooth=spill).summary()
+    seeded = CONFIG.replace("run", seed=3)
+    here = run_study(seeded, 4, workers=1, chunk_runs=2, smooth=spill).summary()
+    there = run_study(seeded, 4, workers=2, chunk_runs=2, smooth=spill).summary()
     assert list(tmp_path.iterdir()) == []
     assert here["methods"]["vkf"]["smoothed"] is not None
     for key in ("rms", "mean_nees"):
