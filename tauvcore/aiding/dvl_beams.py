@@ -32,7 +32,7 @@ from tauvcore.aiding.source import AidingSource, Column, SourceData
 from tauvcore.conventions import MAX_SPEED_MPS
 from tauvcore.filter.layout import StateBlock
 from tauvcore.sensors import dvl
-from tauvcore.sensors.dvl import DvlConfig, DvlData, DvlState
+from tauvcore.sensors.dvl import DvlConfig, DvlData, DvlState, DvlStreams
 from tauvcore.sensors.timing import Rng, uniform
 from tauvcore.truth.current import CurrentField
 from tauvcore.truth.seabed import Bathymetry
@@ -230,10 +230,7 @@ class DvlSource(AidingSource):
             epochs,
             section,
             walks,
-            rngs["dvl_bias"],
-            rngs["dvl_scale_factor"],
-            rngs["dvl_noise"],
-            rngs["dvl_dropout"],
+            DvlStreams(rngs["dvl_bias"], rngs["dvl_scale_factor"], rngs["dvl_noise"], rngs["dvl_dropout"]),
             num_runs,
             seabed,
             current,

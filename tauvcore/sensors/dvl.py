@@ -460,6 +460,17 @@ def beam_velocity(
 
 
 @dataclass(frozen=True)
+class DvlStreams:
+    """The DVL's random streams (tauvcore.sensors.stream.SensorStreams' ``dvl_*``), each one
+    generator or one per run (tauvcore.sensors.timing.Rng)."""
+
+    bias: Rng  # beam biases: turn-on values and walks
+    scale_factor: Rng  # scale factor: turn-on value and walk
+    noise: Rng  # white noise and the extra beyond-range noise; the water-track noise's spawned from it
+    dropout: Rng  # dropouts (drawn only if dropout_probability > 0)
+
+
+@dataclass(frozen=True)
 class DvlState:
     """What a DVL simulated chunk by chunk carries from one chunk to the next.
 
@@ -515,7 +526,7 @@ def simulate(
     """
     index = epoch_indices(truth, config.rate_hz)
     data, _ = simulate_chunk(
-        truth, 0, index, config, DvlState(), rng, rng, rng, rng, num_runs, seabed, current
+        truth, 0, index, config, DvlState(), DvlStreams(rng, rng, rng, rng), num_runs, seabed, current
     )
     return data
 
@@ -600,10 +611,7 @@ def simulate_chunk(
     index: np.ndarray,
     config: DvlConfig,
     state: DvlState,
-    bias_rng: Rng,
-    scale_factor_rng: Rng,
-    noise_rng: Rng,
-    dropout_rng: Rng,
+    streams: DvlStreams,
     num_runs: int | None,
     seabed: Bathymetry | None = None,
     current: CurrentField | None = None,
@@ -633,7 +641,7 @@ def simulate_chunk(
     noise is bottom-track's), the same scale factor and beam biases as bottom-track (the same
     transducers and the same sound speed), and white noise ``w_k`` of ``water_track_noise_mps``
     in place of ``noise_mps``. Its schedule (beams, outages) and dropout are bottom-track's. The
-    water-track noise is drawn for every beam of every ping from a child of ``noise_rng``
+    water-track noise is drawn for every beam of every ping from a child of ``streams.noise``
     (spawned at the first chunk, ``Generator.spawn``, which draws nothing from its parent), so
     every other draw is the same as with water-track off, and a run's numbers do not depend on
     where a chunk ends.
@@ -653,15 +661,9 @@ def simulate_chunk(
     state : DvlState
         What the chunk before left (bias and scale factor walks, the water-track noise's
         generator); ``DvlState()`` for the first.
-    bias_rng : Rng
-        Generator(s) of the beam biases: turn-on values and walks.
-    scale_factor_rng : Rng
-        Generator(s) of the scale factor: turn-on value and walk.
-    noise_rng : Rng
-        Generator(s) of the white noise and of the extra beyond-range noise; the water-track
-        noise's generator(s) are spawned from it.
-    dropout_rng : Rng
-        Generator(s) of the dropouts (drawn only if ``config.dropout_probability > 0``).
+    streams : DvlStreams
+        Generator(s) of the beam biases, the scale factor, the noise (the water-track noise's
+        spawned from it) and the dropouts.
     num_runs : int or None
         Number of Monte Carlo runs R, an array axis after the pings; None: a single run (no run
         axis).
@@ -686,10 +688,10 @@ def simulate_chunk(
     runs = batch_shape(num_runs)
     period = 1.0 / config.rate_hz
     bias, bias_state = random_walk_chunk(
-        bias_rng, state.bias, runs + (4,), config.bias_mps, config.bias_rw_mps_per_sqrt_s, period, m
+        streams.bias, state.bias, runs + (4,), config.bias_mps, config.bias_rw_mps_per_sqrt_s, period, m
     )
     sf, sf_state = random_walk_chunk(
-        scale_factor_rng,
+        streams.scale_factor,
         state.scale_factor,
         runs,
         config.scale_factor,
@@ -705,7 +707,7 @@ def simulate_chunk(
     expand = (slice(None),) + (None,) * len(runs)
     vel_b, omega_nb_b = truth.vel_b[rows][expand], truth.omega_nb_b[rows][expand]
     y = beam_velocity(config.A_b, vel_b, omega_nb_b, config.l_dvl_b, sf, bias, C_bh)
-    y = y + standard_normal(noise_rng, y.shape, 1) * config.noise_mps
+    y = y + standard_normal(streams.noise, y.shape, 1) * config.noise_mps
     scheduled = np.broadcast_to(config.scheduled_availability(t_s)[expand], y.shape)
     available = scheduled.copy()
     ranges = None
@@ -714,13 +716,13 @@ def simulate_chunk(
         ranges = slant_ranges_m(truth, rows, config, seabed)
         beyond = np.broadcast_to(np.isinf(ranges)[expand], y.shape)
         if config.beyond_range == "noisy":
-            extra = standard_normal(noise_rng, y.shape, 1) * config.beyond_range_noise_mps
+            extra = standard_normal(streams.noise, y.shape, 1) * config.beyond_range_noise_mps
             y = np.where(beyond, y + extra, y)
         else:
             lock = ~beyond
             available &= lock
     if config.dropout_probability > 0:
-        kept = uniform(dropout_rng, y.shape, 1) >= config.dropout_probability
+        kept = uniform(streams.dropout, y.shape, 1) >= config.dropout_probability
         available &= kept
     else:
         kept = np.ones(y.shape, dtype=bool)
@@ -728,7 +730,7 @@ def simulate_chunk(
     water_state = state.water_noise
     if config.water_track != "off":
         if water_state is None:
-            water_state = _spawned(noise_rng)
+            water_state = _spawned(streams.noise)
         noise = standard_normal(water_state, y.shape, 1) * config.water_track_noise_mps
         depth, reaches = water_layer(truth, rows, config, ranges)
         water = np.broadcast_to(reaches[expand], y.shape) & scheduled & kept

@@ -228,6 +228,19 @@ class ImuData:
 
 
 @dataclass(frozen=True)
+class ImuStreams:
+    """The IMU's random streams (tauvcore.sensors.stream.SensorStreams' of those names, ``axes``
+    its ``imu_axes``), each one generator or one per run (tauvcore.sensors.timing.Rng)."""
+
+    accel_bias: Rng  # accelerometer bias: turn-on value and walk
+    gyro_bias: Rng  # gyro bias: turn-on value and walk
+    accel_noise: Rng  # accelerometer white noise
+    gyro_noise: Rng  # gyro white noise
+    axes: Rng | None = None  # axis errors M_a and M_g: needed only if the IMU has any and they are
+    # not drawn yet (first chunk)
+
+
+@dataclass(frozen=True)
 class ImuState:
     """What an IMU simulated chunk by chunk carries from one chunk to the next."""
 
@@ -272,7 +285,9 @@ def simulate(
     ValueError
         If the truth is not sampled at ``config.rate_hz``.
     """
-    data, _ = simulate_chunk(truth, 0, config, ImuState(), rng, rng, rng, rng, num_runs, truth.dt_s, rng)
+    data, _ = simulate_chunk(
+        truth, 0, config, ImuState(), ImuStreams(rng, rng, rng, rng, rng), num_runs, truth.dt_s
+    )
     return data
 
 
@@ -316,13 +331,9 @@ def simulate_chunk(
     k0: int,
     config: ImuConfig,
     state: ImuState,
-    accel_bias_rng: Rng,
-    gyro_bias_rng: Rng,
-    accel_noise_rng: Rng,
-    gyro_noise_rng: Rng,
+    streams: ImuStreams,
     num_runs: int | None,
     dt_s: float,
-    axes_rng: Rng | None = None,
 ) -> tuple[ImuData, ImuState]:
     """IMU increments at the samples ``k0 .. k0 + K - 1`` of the mission, ``truth`` holding those K.
 
@@ -330,7 +341,7 @@ def simulate_chunk(
     ``n ~ N(0, N^2 dt)`` (N the noise density) and the biases random walks from a turn-on value
     (:func:`~tauvcore.sensors.timing.random_walk_chunk`); row k = 0 of the mission is zero.
     The true increments are first multiplied by ``I + M`` (the axes' errors, drawn once at the
-    first chunk from ``axes_rng``, accelerometer then gyro, only if the IMU has any:
+    first chunk from ``streams.axes``, accelerometer then gyro, only if the IMU has any:
     :attr:`ImuConfig.has_axis_errors`). Draws, in order: accelerometer bias (turn-on value at the
     first chunk, then its walk), gyro bias, accelerometer noise, gyro noise, axes, each from its
     generator. Each generator may be one per run (tauvcore.sensors.timing.Rng).
@@ -347,21 +358,12 @@ def simulate_chunk(
         The IMU's rate [Hz] and error model (1-sigma values).
     state : ImuState
         What the chunk before left (bias walks, axis errors); ``ImuState()`` for the first chunk.
-    accel_bias_rng : Rng
-        Generator(s) of the accelerometer bias: turn-on value and walk.
-    gyro_bias_rng : Rng
-        Generator(s) of the gyro bias: turn-on value and walk.
-    accel_noise_rng : Rng
-        Generator(s) of the accelerometer white noise.
-    gyro_noise_rng : Rng
-        Generator(s) of the gyro white noise.
+    streams : ImuStreams
+        Generator(s) of each error: biases (turn-on value and walk), white noises, axis errors.
     num_runs : int or None
         Number of Monte Carlo runs R, an array axis after time; None: a single run (no run axis).
     dt_s : float
         The mission's sample interval [s]; ``1 / dt_s`` must equal ``config.rate_hz``.
-    axes_rng : Rng or None, optional
-        Generator(s) of the axis errors ``M_a`` and ``M_g``; needed only if the IMU has any and
-        they are not drawn yet (first chunk).
 
     Returns
     -------
@@ -377,8 +379,8 @@ def simulate_chunk(
     ------
     ValueError
         If ``1 / dt_s`` is not ``config.rate_hz`` ("truth is sampled at ... Hz but imu.rate_hz
-        is ..."), or if the IMU has scale factor or misalignment errors and ``axes_rng`` is None
-        when they are drawn ("simulate_chunk needs axes_rng").
+        is ..."), or if the IMU has scale factor or misalignment errors and ``streams.axes`` is
+        None when they are drawn ("simulate_chunk needs streams.axes").
     """
     if abs(1.0 / dt_s - config.rate_hz) > 1e-6 * config.rate_hz:
         raise ValueError(f"truth is sampled at {1.0 / dt_s:g} Hz but imu.rate_hz is {config.rate_hz:g}")
@@ -386,7 +388,7 @@ def simulate_chunk(
     runs = batch_shape(num_runs)
     shape = runs + (3,)
     ba, accel_state = random_walk_chunk(
-        accel_bias_rng,
+        streams.accel_bias,
         state.accel_bias,
         shape,
         config.accel_bias_mps2,
@@ -395,7 +397,7 @@ def simulate_chunk(
         k,
     )
     bg, gyro_state = random_walk_chunk(
-        gyro_bias_rng,
+        streams.gyro_bias,
         state.gyro_bias,
         shape,
         config.gyro_bias_rps,
@@ -408,24 +410,27 @@ def simulate_chunk(
     dv = (
         truth.dv_b[expand]
         + ba * dt_s
-        + standard_normal(accel_noise_rng, (k,) + shape, 1) * (config.accel_noise_mps_per_sqrt_s * sqrt_dt)
+        + standard_normal(streams.accel_noise, (k,) + shape, 1)
+        * (config.accel_noise_mps_per_sqrt_s * sqrt_dt)
     )
     dth = (
         truth.dtheta_ib_b[expand]
         + bg * dt_s
-        + standard_normal(gyro_noise_rng, (k,) + shape, 1) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt)
+        + standard_normal(streams.gyro_noise, (k,) + shape, 1) * (config.gyro_noise_rad_per_sqrt_s * sqrt_dt)
     )
     if not state.axes_drawn:
         M_a = M_g = None
         if config.has_axis_errors:
-            if axes_rng is None:
+            if streams.axes is None:
                 raise ValueError(
-                    "the IMU has scale factor or misalignment errors: simulate_chunk needs axes_rng"
+                    "the IMU has scale factor or misalignment errors: simulate_chunk needs streams.axes"
                 )
             M_a = axis_error_matrices(
-                axes_rng, runs, config.accel_scale_factor, config.accel_misalignment_rad
+                streams.axes, runs, config.accel_scale_factor, config.accel_misalignment_rad
             )
-            M_g = axis_error_matrices(axes_rng, runs, config.gyro_scale_factor, config.gyro_misalignment_rad)
+            M_g = axis_error_matrices(
+                streams.axes, runs, config.gyro_scale_factor, config.gyro_misalignment_rad
+            )
         state = dataclasses.replace(state, axes_drawn=True, accel_axes=M_a, gyro_axes=M_g)
     if state.accel_axes is not None:
         assert state.gyro_axes is not None  # drawn together with accel_axes (above)

@@ -162,7 +162,7 @@ class SensorStream:
             )
         names = [f.name for f in dataclasses.fields(SensorStreams)]
         if isinstance(streams, SensorStreams):
-            self._rngs: dict[str, Rng] = {name: getattr(streams, name) for name in names}
+            rngs: dict[str, Rng] = {name: getattr(streams, name) for name in names}
         else:
             streams = list(streams)
             if len(streams) != num_runs or not all(isinstance(s, SensorStreams) for s in streams):
@@ -172,7 +172,10 @@ class SensorStream:
                 )
             # one list of per-run generators per stream: run r draws from its own alone (the numbers
             # it would draw as a batch of one), the runs' arithmetic is done together
-            self._rngs = {name: [getattr(st, name) for st in streams] for name in names}
+            rngs = {name: [getattr(st, name) for st in streams] for name in names}
+        self._streams = imu.ImuStreams(
+            rngs["accel_bias"], rngs["gyro_bias"], rngs["accel_noise"], rngs["gyro_noise"], rngs["imu_axes"]
+        )
         self.imu_config = imu_config
         self.num_runs = int(num_runs)
         self.num_samples = int(num_samples)
@@ -216,19 +219,8 @@ class SensorStream:
             raise ValueError(
                 f"a chunk of {k} samples from {k0} does not fit the mission's {self.num_samples}"
             )
-        g = self._rngs
         imu_data, self._imu_state = imu.simulate_chunk(
-            truth,
-            k0,
-            self.imu_config,
-            self._imu_state,
-            g["accel_bias"],
-            g["gyro_bias"],
-            g["accel_noise"],
-            g["gyro_noise"],
-            self.num_runs,
-            self.dt_s,
-            g["imu_axes"],
+            truth, k0, self.imu_config, self._imu_state, self._streams, self.num_runs, self.dt_s
         )
         self.next_k0 = k0 + k
         return imu_data

@@ -102,8 +102,8 @@ def test_imu_axis_errors_multiply_the_true_increments(short_truth):
                               accel_misalignment_mrad=0.5, gyro_misalignment_mrad=2.0)
     assert cfg.has_axis_errors and not _no_bias_imu().has_axis_errors
     rng = np.random.default_rng(35)
-    data, state = imu.simulate_chunk(short_truth, 0, cfg, imu.ImuState(), rng, rng, rng, rng, 3,
-                                     short_truth.dt_s, rng)
+    data, state = imu.simulate_chunk(short_truth, 0, cfg, imu.ImuState(), imu.ImuStreams(rng, rng, rng, rng, rng),
+                                     3, short_truth.dt_s)
     assert state.accel_axes.shape == (3, 3, 3) and state.gyro_axes.shape == (3, 3, 3)
     for r in range(3):
         M_a, M_g = state.accel_axes[r], state.gyro_axes[r]
@@ -115,8 +115,8 @@ def test_imu_axis_errors_multiply_the_true_increments(short_truth):
     np.testing.assert_allclose(data.accel_bias[:, 1], short_truth.f_b @ state.accel_axes[1].T, rtol=0, atol=1e-15)
     np.testing.assert_allclose(data.gyro_bias[:, 2], short_truth.omega_ib_b @ state.gyro_axes[2].T, rtol=0, atol=1e-18)
     # the next chunk keeps the run's matrices and draws nothing more for them
-    again, state2 = imu.simulate_chunk(short_truth, short_truth.num_samples, cfg, state, rng, rng, rng, rng, 3,
-                                       short_truth.dt_s, None)
+    again, state2 = imu.simulate_chunk(short_truth, short_truth.num_samples, cfg, state,
+                                       imu.ImuStreams(rng, rng, rng, rng), 3, short_truth.dt_s)
     assert state2.accel_axes is state.accel_axes
     np.testing.assert_allclose(again.dv_b[:, 0], short_truth.dv_b @ (np.eye(3) + state.accel_axes[0]).T,
                                rtol=0, atol=1e-15)
