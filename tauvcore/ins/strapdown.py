@@ -87,9 +87,9 @@ class Strapdown:
 
         The formula is the compiled kernel :func:`tauvcore.filter.kernels.strapdown_kernels.strapdown_step_into` (the one
         the filter bank runs), applied to every entry of the batch."""
-        from tauvcore.filter.kernels.strapdown_kernels import (
-            strapdown_batch,  # numba: not loaded for `tauv --help`
-        )
+        # numba: not loaded for `tauv --help`
+        from tauvcore.filter.kernels.common import plain
+        from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, strapdown_batch
 
         batch = nav.pos_n.shape[:-1]
         shape = np.broadcast_shapes(batch, phi_b.shape[:-1], dv_rot_b.shape[:-1])
@@ -98,10 +98,10 @@ class Strapdown:
         C = np.array(np.broadcast_to(nav.C_nb, shape + (3, 3)), dtype=float).reshape(-1, 3, 3)
         phi = np.ascontiguousarray(np.broadcast_to(phi_b, shape + (3,)), dtype=float).reshape(-1, 3)
         dv = np.ascontiguousarray(np.broadcast_to(dv_rot_b, shape + (3,)), dtype=float).reshape(-1, 3)
-        sd = (self.dt_s, self.C_earth, self.C_earth_half, self.g_n, self.coriolis_T, self.geodetic)
-        strapdown_batch(
-            pos, vel, C, phi, dv, sd
-        )  # tauvcore.filter.kernels.strapdown_kernels.StrapdownConstants
+        sd = StrapdownConstants(
+            self.dt_s, self.C_earth, self.C_earth_half, self.g_n, self.coriolis_T, self.geodetic
+        )
+        strapdown_batch(pos, vel, C, phi, dv, plain(sd))
         return NavState(
             pos_n=pos.reshape(shape + (3,)), vel_n=vel.reshape(shape + (3,)), C_nb=C.reshape(shape + (3, 3))
         )

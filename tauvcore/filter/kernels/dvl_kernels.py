@@ -478,7 +478,13 @@ class DvlRows(NamedTuple):
 
 @jit
 def _two_beam_rows(
-    dvl: DvlMethods, tables: TwoBeamTables, ping: Ping, state: DvlState, out: DvlRows, at: tuple, work: tuple
+    dvl: DvlMethods,
+    tables: TwoBeamTables,
+    ping: Ping,
+    state: DvlState,
+    out: DvlRows,
+    at: tuple[int, int, int, int],
+    work: tuple,
 ) -> None:
     """Run ``r``'s rows of an extended method ``i`` (bank row ``m``) with exactly two beams
     (pattern ``pattern``), ``at = (i, m, r, pattern)``: its construction's velocity on its
