@@ -36,6 +36,7 @@ INS has no innovations and estimates no sensor error: it is flagged only if not 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -189,7 +190,13 @@ class FilterBank(ChunkDriver):
         self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
         self.taping: smoothing.TapeWriter | None = None
         if tape is not None:
-            self.taping = smoothing.TapeWriter(tape, self.batch, self.geodetic, self.extra_rate)
+            self.taping = smoothing.TapeWriter(
+                tape,
+                self.batch,
+                smoothing.eskf_tape_shape(self.layout.num_extra),
+                partial(smoothing.nominal_difference, batch=self.batch, geodetic=self.geodetic),
+                self.extra_rate,
+            )
         self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
         blocks = self.layout.nees_blocks  # the results' NEES blocks: None, the 20-state filter's
         self.block_dims = (

@@ -27,6 +27,7 @@ import shutil
 import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -310,16 +311,92 @@ def event_arrays(
     return out
 
 
-class TapeWriter:
-    """What the filter bank leaves on its :class:`Tape`: a chunk's marks, as one segment.
+class TapeShape(NamedTuple):
+    """The arrays a family's bank leaves on its tape (:class:`TapeWriter`).
 
-    The output marks' rows are filled by the compiled records (:data:`OUTPUT_TAPE`, through
-    :attr:`out`); an aiding mark is taken around the epoch's corrections (:meth:`before`,
-    :meth:`after`); :meth:`close` puts the segment on the tape with the filtered estimates of its
-    output epochs, and the transition of the sources' own states from each mark to the next
-    (``tape_E``, ``ev_E``: ``exp(rate dt)`` over the time between the marks, the product of the
-    covariance steps' own, tauvcore.filter.kernels.error_model_kernels.extra_step_into, which the bank
-    takes at every mark).
+    Attributes
+    ----------
+    block : tuple of int
+        (a, b): the shape of a transition's block (``X = Phi - I`` on its first a rows and b
+        columns): (9, 15) for the 20-state filter, (12, 12) for Yoo's.
+    n : int
+        States of P: the error state, its consider states and the sources' states.
+    dx : int
+        Entries of an output mark's error against truth (``tape_dx``).
+    rows : dict[str, tuple of int]
+        Further arrays of the output marks the compiled records fill, each row's shape by name.
+    from_series : dict[str, int]
+        Arrays of the output marks taken from the filtered store's ``series`` (their row in it)
+        by name.
+    pings : bool
+        Whether the compiled loop writes the DVL pings' aiding marks itself (:attr:`TapeWriter.marks`,
+        handed in by :meth:`TapeWriter.pings_marked`).
+    """
+
+    block: tuple[int, int]
+    n: int
+    dx: int
+    rows: dict[str, tuple[int, ...]]
+    from_series: dict[str, int]
+    pings: bool
+
+
+Difference = Callable[[tuple[np.ndarray, ...], tuple[np.ndarray, ...]], np.ndarray]
+"""A family's correction between two nominal states: ``(now, before)`` -> (M, R, n) the error
+state that takes ``before`` to ``now`` (its consider states zero)."""
+
+
+def nominal_difference(
+    now: tuple[np.ndarray, ...], before: tuple[np.ndarray, ...], batch: tuple[int, int], geodetic: bool
+) -> np.ndarray:
+    """The 20-state filter's correction between two nominal states (:data:`Difference`), each
+    (pos, vel, C, ba, bg, bdvl, sf, the sources' states) with the batch flattened: position,
+    misalignment, body velocity and sensor errors (tauvcore.filter.eskf.difference; positions
+    through the metric at the estimate when ``geodetic``), then the sources' states' own.
+
+    Parameters
+    ----------
+    now, before : tuple of numpy.ndarray
+        The nominal states after and before the corrections.
+    batch : tuple of int
+        (M, R): methods and runs.
+    geodetic : bool
+        The positions are latitude, longitude, depth.
+
+    Returns
+    -------
+    numpy.ndarray
+        (M, R, n) the correction.
+    """
+
+    def state(arrays: tuple[np.ndarray, ...]) -> Nominal:
+        pos, vel, C, ba, bg, bdvl, sf, _ = (a.reshape(batch + a.shape[1:]) for a in arrays)
+        return Nominal(NavState(pos, vel, C), ba, bg, bdvl, sf)
+
+    d = difference(state(now), state(before), geodetic)
+    if now[-1].shape[-1]:  # the sources' states add
+        d = np.concatenate([d, (now[-1] - before[-1]).reshape(batch + (-1,))], axis=-1)
+    return d
+
+
+def eskf_tape_shape(num_extra: int) -> TapeShape:
+    """The 20-state filter's :class:`TapeShape`, with ``num_extra`` states the sources add."""
+    n = N + num_extra
+    return TapeShape((NAV, CORE), n, n, {}, {}, False)
+
+
+class TapeWriter:
+    """What a filter bank leaves on its :class:`Tape`: a chunk's marks, as one segment.
+
+    The output marks' rows are filled by the compiled records (:data:`OUTPUT_TAPE` and the
+    shape's own ``rows``, through :attr:`out`), and so are the DVL pings' aiding marks where the
+    compiled loop fuses them (:attr:`marks`, :meth:`pings_marked`); an aiding mark the bank makes
+    in Python is taken around the epoch's corrections (:meth:`before`, :meth:`after`).
+    :meth:`close` puts the segment on the tape with the filtered estimates of its output epochs,
+    and the transition of the sources' own states from each mark to the next (``tape_E``,
+    ``ev_E``: ``exp(rate dt)`` over the time between the marks, the product of the covariance
+    steps' own, tauvcore.filter.kernels.error_model_kernels.extra_step_into, which the banks take
+    at every mark).
 
     Parameters
     ----------
@@ -327,19 +404,26 @@ class TapeWriter:
         Where the segments go.
     batch : tuple of int
         (M, R): methods and runs.
-    geodetic : bool
-        The nominal positions are latitude, longitude, depth (the corrections' difference then
-        goes through the metric at the estimate, tauvcore.filter.eskf.difference).
+    shape : TapeShape
+        The family's arrays.
+    difference : Difference
+        The family's correction between two nominal states.
     extra_rate : numpy.ndarray or None
         Shape (E,): each of the sources' states' -1/tau [1/s] (0: a random walk); None: none.
     """
 
     def __init__(
-        self, tape: Tape, batch: tuple[int, int], geodetic: bool, extra_rate: np.ndarray | None = None
+        self,
+        tape: Tape,
+        batch: tuple[int, int],
+        shape: TapeShape,
+        difference: Difference,
+        extra_rate: np.ndarray | None = None,
     ) -> None:
-        self.tape, self.batch, self.geodetic = tape, batch, geodetic
+        self.tape, self.batch, self.shape, self.difference = tape, batch, shape, difference
         self.extra_rate = np.zeros(0) if extra_rate is None else np.asarray(extra_rate, dtype=float)
         self.out: dict[str, np.ndarray] | None = None  # the output marks' rows of the current chunk
+        self.marks: dict[str, np.ndarray] = {}  # the pings' marks of the compiled loop (shape.pings)
         self.store: dict[str, np.ndarray] = {}
         self.slot0 = 0
         self.events: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
@@ -357,72 +441,112 @@ class TapeWriter:
         slot : int
             Output epochs recorded before the chunk.
         """
-        self.out = tape_rows(store["out_k"].size, self.batch, N + self.extra_rate.size)
+        shape, batch = self.shape, self.batch
+        T = store["out_k"].size
+        self.out = {
+            "tape_X": np.zeros((T,) + batch + shape.block),
+            "tape_P": np.zeros((T,) + batch + (shape.n, shape.n)),
+            "tape_dx": np.zeros((T,) + batch + (shape.dx,)),
+            **{name: np.zeros((T,) + batch + row) for name, row in shape.rows.items()},
+        }
+        if shape.pings:
+            U = store["up_k"].size  # the pings' marks, written by the compiled loop
+            n = (shape.n, shape.n)
+            self.marks = {
+                "ev_X": np.zeros((U,) + batch + shape.block),
+                "ev_Pm": np.zeros((U,) + batch + n),
+                "ev_P": np.zeros((U,) + batch + n),
+                "ev_d": np.zeros((U,) + batch + (shape.n,)),
+                "ev_pos": np.zeros(U, dtype=np.int64),
+            }
         self.store, self.slot0, self.events, self.event_t = store, slot, [], []
 
+    def pings_marked(self, pings: np.ndarray, t_s: np.ndarray) -> None:
+        """The marks the compiled loop wrote for the chunk's pings ``pings`` (their rows of
+        :attr:`marks`, in the order fused) at times ``t_s`` [s].
+
+        Parameters
+        ----------
+        pings : numpy.ndarray
+            The pings' rows in the chunk.
+        t_s : numpy.ndarray
+            Their times [s].
+        """
+        ev = self.marks
+        for p, t in zip(pings, t_s, strict=True):
+            self.events.append(
+                (ev["ev_X"][p], ev["ev_Pm"][p], ev["ev_P"][p], ev["ev_d"][p], int(ev["ev_pos"][p]))
+            )
+            self.event_t.append(float(t))
+
     def before(
-        self, phi_acc: np.ndarray, P: np.ndarray, flat: tuple[np.ndarray, ...], t_s: float = 0.0
-    ) -> tuple[np.ndarray, ...]:
+        self,
+        phi_acc: np.ndarray,
+        P: np.ndarray,
+        nominal: tuple[np.ndarray, ...],
+        t_s: float = 0.0,
+        row: int = -1,
+    ) -> tuple:
         """An aiding mark, before the epoch's corrections: its transition (``phi_acc``, then
         reset), prior P and nominal state.
 
         Parameters
         ----------
         phi_acc : numpy.ndarray
-            (M, R, 9, 15) the transition since the last mark (tauvcore.engine.loop.BankState).
+            (M, R, a, b) the transition since the last mark.
         P : numpy.ndarray
-            (M, R, d, d) the covariances.
-        flat : tuple of numpy.ndarray
-            The nominal states (pos, vel, C, ba, bg, bdvl, sf, the sources' states) with the
-            batch flattened.
+            (M, R, n, n) the covariances.
+        nominal : tuple of numpy.ndarray
+            The nominal states (the arrays :attr:`difference` takes).
         t_s : float
             The mark's time [s].
+        row : int
+            The chunk's output epoch already recorded at this sample, which is recorded again after
+            the corrections (the mark goes before it and takes its transition; ``phi_acc`` is
+            left as it is); -1 for none.
 
         Returns
         -------
-        tuple of numpy.ndarray
-            Copies of them, for :meth:`after`.
+        tuple
+            What :meth:`after` takes.
         """
-        before = (phi_acc.copy(), P.copy(), *(a.copy() for a in flat))
-        phi_acc[...] = 0.0
+        if row >= 0:
+            assert self.out is not None  # opened at the chunk's start
+            X = self.out["tape_X"][row].copy()
+        else:
+            X = phi_acc.copy()
+            phi_acc[...] = 0.0
         self.event_t.append(float(t_s))
-        return before
+        return X, P.copy(), tuple(a.copy() for a in nominal), row
 
-    def after(
-        self, before: tuple[np.ndarray, ...], P: np.ndarray, flat: tuple[np.ndarray, ...], slot: int
-    ) -> None:
+    def after(self, before: tuple, P: np.ndarray, nominal: tuple[np.ndarray, ...], slot: int) -> None:
         """The aiding mark after the epoch's corrections: its posterior P and the correction the
         nominal state took (all the epoch's updates, a velocity reset and a repair of P as they were).
 
         Parameters
         ----------
-        before : tuple of numpy.ndarray
+        before : tuple
             What :meth:`before` returned.
         P : numpy.ndarray
-            (M, R, d, d) the covariances now.
-        flat : tuple of numpy.ndarray
+            (M, R, n, n) the covariances now.
+        nominal : tuple of numpy.ndarray
             The nominal states now, as :meth:`before` took them.
         slot : int
             Output epochs the bank recorded so far.
         """
-        X, Pm, *nominal = before
-
-        def state(arrays: list[np.ndarray] | tuple[np.ndarray, ...]) -> Nominal:
-            pos, vel, C, ba, bg, bdvl, sf, _ = (a.reshape(self.batch + a.shape[1:]) for a in arrays)
-            return Nominal(NavState(pos, vel, C), ba, bg, bdvl, sf)
-
-        d = difference(state(flat), state(nominal), self.geodetic)
-        if P.shape[-1] > N:  # the sources' states (the last array) add
-            d = np.concatenate([d, (flat[-1] - nominal[-1]).reshape(self.batch + (-1,))], axis=-1)
+        X, Pm, held, row = before
+        d = np.zeros(self.batch + (self.shape.n,))
+        d[...] = self.difference(nominal, held)
         # a filter whose P the epoch left as it was fused nothing (a Kalman update with a gain
-        # changes P): what moved its nominal state is the round-off of rebuilding the velocity
-        # from the attitude (tauvcore.filter.kernels.correction.inject_batch), not a correction
+        # changes P): what moved its nominal state is round-off (e.g. rebuilding the velocity
+        # from the attitude, tauvcore.filter.kernels.correction.inject_batch), not a correction
         d[(P == Pm).all(axis=(-2, -1))] = 0.0
-        self.events.append((X, Pm, P.copy(), d, slot - self.slot0))
+        self.events.append((X, Pm, P.copy(), d, row if row >= 0 else slot - self.slot0))
 
     def close(self, slot: int) -> None:
         """The chunk's marks onto the tape, up to the output epochs recorded (all the chunk's,
-        or up to a stop); nothing if no chunk is open.
+        or up to a stop), in the order of their places among the output marks; nothing if no
+        chunk is open.
 
         Parameters
         ----------
@@ -433,14 +557,18 @@ class TapeWriter:
             return
         T = slot - self.slot0
         batch, events = self.batch, self.events
+        order = sorted(range(len(events)), key=lambda j: (events[j][4], j))  # by place, then time
         parts = {name: a[:T] for name, a in self.out.items()}
-        parts.update(event_arrays(events, batch, (NAV, CORE), parts["tape_P"].shape[-1]))
+        parts.update(event_arrays([events[j] for j in order], batch, self.shape.block, self.shape.n))
         for name in ESTIMATES:
             parts[name] = np.array(self.store[name][:T])
+        for name, row in self.shape.from_series.items():
+            parts[name] = np.array(self.store["series"][row, :T])
         parts["tape_E"], parts["ev_E"], self.last_t = extra_transitions(
-            self.extra_rate, batch, np.asarray(parts["t_s"]), parts["ev_pos"], self.event_t, self.last_t
-        )
-        self.out, self.store, self.events, self.event_t = None, {}, [], []
+            self.extra_rate, batch, np.asarray(parts["t_s"]), parts["ev_pos"],
+            [self.event_t[j] for j in order], self.last_t,
+        )  # fmt: skip
+        self.out, self.marks, self.store, self.events, self.event_t = None, {}, {}, [], []
         self.tape.add(parts)
 
 

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterator
+from functools import partial
 
 import numpy as np
 
@@ -65,11 +66,11 @@ from tauvcore.engine.results import (
 )
 from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.engine.smoothing import Carry, Tape, smooth_tape
+from tauvcore.engine.smoothing import Carry, Tape, TapeWriter, smooth_tape
 from tauvcore.engine.source_streams import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance
 from tauvcore.engine.yoo_records import YooSchedule
-from tauvcore.engine.yoo_smoothing import YooTapeWriter, smooth_yoo_segment
+from tauvcore.engine.yoo_smoothing import nominal_difference, smooth_yoo_segment, tape_shape
 from tauvcore.engine.yoo_velocity import (
     added_states,
 )
@@ -126,10 +127,22 @@ class YooBank(ChunkDriver):
         super().__init__(config, methods, num_runs, num_samples, dt_s, keep, sensor_errors)
         # the states the sources add (the DVL's current), after the consider states
         self.added = added_states(config, layout_of(config))
-        # the smoother's marks (tauvcore.engine.yoo_smoothing), written by the compiled loop
-        self.taping = None
+        # the smoother's marks (tauvcore.engine.yoo_smoothing), the pings' and output epochs' written
+        # by the compiled loop: the transition since the last mark and the chunk's output epochs
+        # recorded so far
+        self.taping: TapeWriter | None = None
+        self.phi_acc = np.zeros((0, 0, yoo.DIM, yoo.DIM))
+        self.rows = 0
         if tape is not None:
-            self.taping = YooTapeWriter(tape, self.batch, self.added.dim, self.added.rate)
+            na = self.added.dim
+            self.taping = TapeWriter(
+                tape,
+                self.batch,
+                tape_shape(na, self.added.num),
+                partial(nominal_difference, na=na),
+                self.added.rate,
+            )
+            self.phi_acc = np.zeros(self.batch + (yoo.DIM, yoo.DIM))
         self.state_labels = tuple(label for b in self.added.layout.blocks for label in b.labels) or None
         self.block_of_state, self.num_blocks = self.added.nees_blocks(BLOCK_OF_STATE, NUM_BLOCKS)
         self.block_dims = {**BLOCK_DIMS, "full": yoo.DIM + self.added.num}
@@ -241,7 +254,8 @@ class YooBank(ChunkDriver):
         polls = np.unique(np.r_[polls, stops.size]).astype(np.int64)
         fixes = np.searchsorted(stops, source_k) + 1  # a span ends at each source epoch
         if self.taping is not None:
-            self.taping.open(store)
+            self.taping.open(store, 0)
+            self.rows = 0
         s0 = 0
         for s1 in np.unique(np.r_[polls, fixes]).astype(np.int64):
             self._run_span(chunk, s0, int(s1), stops, ping_of_stop, row_of_stop, inputs, store)
@@ -254,7 +268,7 @@ class YooBank(ChunkDriver):
             if s1 in polls and row_of_stop[s1 - 1] >= 0 and poll_every:
                 yield k
         if self.taping is not None:
-            self.taping.close()
+            self.taping.close(self.rows)
 
     def _store(self, outs: np.ndarray, chunk: SimChunk | None) -> Store:
         k0 = chunk.k0 if chunk is not None else 0
@@ -346,7 +360,9 @@ class YooBank(ChunkDriver):
         nominal = Nominal(
             NavState(self.pos, self.vel, self.C), self.ba, self.bg, np.zeros((M, R, 4)), np.zeros((M, R))
         )
-        mark = self.taping.before(self.P, self._nominal(), t, row) if self.taping is not None else None
+        mark = None
+        if self.taping is not None:
+            mark = self.taping.before(self.phi_acc, self.P, self._nominal(), t, row)
         for name, model in self.sources:
             if k not in source_at.get(name, {}):
                 continue
@@ -368,7 +384,7 @@ class YooBank(ChunkDriver):
             self.inject(dx)
             self.recorders[name].add(t, make_outcome(meas.z, meas.innovation, active, *outcome), meas.valid)
         if self.taping is not None and mark is not None:
-            self.taping.after(mark, self.P, self._nominal())
+            self.taping.after(mark, self.P, self._nominal(), self.rows)
         if row >= 0:
             self._record_again(chunk, i, row, inputs, store)
 
@@ -484,7 +500,7 @@ class YooBank(ChunkDriver):
         smoothed stores into ``out``; the tape is emptied. -> (M, R) the steps where the pass
         started afresh."""
         assert self.taping is not None  # a bank made with a tape
-        self.taping.close()
+        self.taping.close(self.rows)
         carry = Carry(int(np.prod(self.batch)), yoo.DIM, yoo.DIM, self.added.dim, self.added.num)
         args = (
             carry,

@@ -422,12 +422,11 @@ def run_chunk(
     """
     state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
     taping = bank.taping
-    counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
+    counters = np.array([bank.k_state, bank.k_cov, bank.rows], dtype=np.int64)
     run_stops(s0, s1, schedule, counters, state, data, bank.sd_consts, model, outputs, tape)
     bank.rpm_aid.use_rpm, bank.rpm_aid.altitude = state.vkf_use, state.vkf_alt
-    bank.k_state, bank.k_cov = int(counters[0]), int(counters[1])
+    bank.k_state, bank.k_cov, bank.rows = int(counters[0]), int(counters[1]), int(counters[2])
     if taping is not None:
-        taping.rows = int(counters[2])
         pings, stops = schedule.ping_of_stop[s0:s1], schedule.stops[s0:s1]
         taping.pings_marked(pings[pings >= 0], chunk.truth.t_s[stops[pings >= 0] - chunk.k0])
 
@@ -465,11 +464,9 @@ def record_again(
         The state of each sensor-error column.
     """
     state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
-    taping = bank.taping
-    counters = np.array([bank.k_state, bank.k_cov, taping.rows if taping is not None else 0], dtype=np.int64)
+    counters = np.array([bank.k_state, bank.k_cov, bank.rows], dtype=np.int64)
     record_row(row, i, state, data, model, outputs, tape, bank.sd_consts.geodetic, counters)
-    if taping is not None:
-        taping.rows = int(counters[2])
+    bank.rows = int(counters[2])
 
 
 def loop_args(
@@ -604,15 +601,17 @@ def loop_args(
             *(store[name] for name in STATE_FIELDS),
             *(store[f"wt_{name}"] for name in ("z", "nu", "S", "flags", "nis")),
         ),
-        _tape(bank.taping, bank.batch),
+        _tape(bank),
     )
 
 
-def _tape(taping: Any, batch: tuple[int, int]) -> YooTape:
-    """The smoother's arrays the compiled loop writes (tauvcore.engine.yoo_smoothing.YooTapeWriter's
-    own, the chunk's); None: arrays without rows, nothing written."""
+def _tape(bank: Any) -> YooTape:
+    """The smoother's arrays the compiled loop writes: the bank's transition since the last mark,
+    its tape writer's rows and marks of the chunk (tauvcore.engine.smoothing.TapeWriter); without
+    a writer, arrays without rows, nothing written."""
+    taping = bank.taping
     if taping is None:
-        none = np.zeros((0,) + batch + (DIM, DIM))
+        none = np.zeros((0,) + bank.batch + (DIM, DIM))
         return YooTape(
             np.zeros((0, 0, DIM, DIM)), none, np.zeros((0, 0, 0, 0, 0)), np.zeros((0, 0, 0, 0)),
             np.zeros((0, 0, 0, 3)), none, np.zeros((0, 0, 0, 0, 0)), np.zeros((0, 0, 0, 0, 0)),
@@ -620,6 +619,6 @@ def _tape(taping: Any, batch: tuple[int, int]) -> YooTape:
         )  # fmt: skip
     out, marks = taping.out, taping.marks
     return YooTape(
-        taping.phi_acc, out["tape_X"], out["tape_P"], out["tape_dx"], out["tape_vel_b_mps"],
+        bank.phi_acc, out["tape_X"], out["tape_P"], out["tape_dx"], out["tape_vel_b_mps"],
         marks["ev_X"], marks["ev_Pm"], marks["ev_P"], marks["ev_d"], marks["ev_pos"],
     )  # fmt: skip

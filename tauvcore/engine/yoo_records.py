@@ -1,8 +1,8 @@
 """The named records of Yoo 2014's compiled loop (tauvcore.engine.yoo_loop: its arguments as the
 tuples numba takes) and what it writes at an output epoch: the record of every (method, run)
 (:func:`record`) and, with the smoother, its marks on the tape (:func:`record_row`,
-:func:`mark_before`, :func:`mark_after`; tauvcore.engine.yoo_smoothing.YooTapeWriter holds the
-arrays)."""
+:func:`mark_before`, :func:`mark_after`; the bank's tauvcore.engine.smoothing.TapeWriter holds
+the arrays)."""
 
 from __future__ import annotations
 
@@ -262,8 +262,9 @@ class YooNominal(NamedTuple):
 
 
 class YooTape(NamedTuple):
-    """The smoother's marks the loop writes (tauvcore.engine.yoo_smoothing.YooTapeWriter, whose
-    arrays these are); ``phi_acc`` without rows: no smoother, nothing written."""
+    """The smoother's marks the loop writes (the bank's ``phi_acc`` and its
+    tauvcore.engine.smoothing.TapeWriter's arrays); ``phi_acc`` without rows: no smoother, nothing
+    written."""
 
     phi_acc: np.ndarray  # (M, R, 12, 12) Phi - I since the last mark, composed in place
     tape_X: np.ndarray  # (T, M, R, 12, 12) each output epoch's transition since the mark before it
@@ -308,7 +309,7 @@ def record_row(
 
 @jit
 def mark_before(p: int, rows: int, tape: YooTape, P: np.ndarray, now: YooNominal, held: YooNominal) -> None:
-    """Ping ``p``'s mark before its corrections (yoo_smoothing.YooTapeWriter.before): the
+    """Ping ``p``'s mark before its corrections (as tauvcore.engine.smoothing.TapeWriter.before): the
     transition since the last mark (then restarted), the covariance and, kept in ``held``, the
     nominal state ``now``; ``rows`` the chunk's output epochs recorded so far."""
     tape.ev_X[p] = tape.phi_acc
@@ -324,7 +325,7 @@ def mark_before(p: int, rows: int, tape: YooTape, P: np.ndarray, now: YooNominal
 
 @jit
 def mark_after(p: int, tape: YooTape, P: np.ndarray, now: YooNominal, held: YooNominal) -> None:
-    """Ping ``p``'s mark after its corrections (yoo_smoothing.YooTapeWriter.after): the covariance
+    """Ping ``p``'s mark after its corrections (as tauvcore.engine.smoothing.TapeWriter.after): the covariance
     and the correction the nominal state took, ``x+ - x-`` (the attitude's ``log(C+ C-^T)``; the
     consider states never corrected), zero for a filter whose covariance did not change (nothing
     fused: round-off, not a correction)."""

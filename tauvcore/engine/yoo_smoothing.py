@@ -1,7 +1,8 @@
-"""The fixed-interval smoother of Yoo 2014's bank (tauvcore.engine.yoo_bank): its tape and its
-smoothed records.
+"""The fixed-interval smoother of Yoo 2014's bank (tauvcore.engine.yoo_bank): what its marks on
+the tape hold (:func:`tape_shape`, :func:`nominal_difference`; the one
+tauvcore.engine.smoothing.TapeWriter writes them) and its smoothed records.
 
-The same Rauch-Tung-Striebel recursion as the 20-state bank's (tauvcore.engine.smoothing; its
+The same tape and Rauch-Tung-Striebel recursion as the 20-state bank's (tauvcore.engine.smoothing; its
 equations in tauvcore.filter.kernels.smoother) over the 12 estimated states (NED velocity,
 attitude, accelerometer and gyro biases) and the DVL's 5 consider states (tauvcore.engine.yoo_bank:
 the forward filter never corrects them, so its corrections ``d`` are zero there, and the smoother
@@ -30,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tauvcore.engine.smoothing import ESTIMATES, Carry, Tape, event_arrays, extra_transitions
+from tauvcore.engine.smoothing import Carry, TapeShape
 from tauvcore.filter import statistics, yoo
 from tauvcore.filter.kernels.nees import add_reference_batch
 from tauvcore.filter.yoo_kernels import NA
@@ -39,149 +40,30 @@ from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, lo
 DIM = yoo.DIM
 
 
-class YooTapeWriter:
-    """What the Yoo bank leaves on its :class:`~tauvcore.engine.smoothing.Tape`: a chunk's marks.
+def tape_shape(na: int, num_extra: int) -> TapeShape:
+    """The 12-state filter's :class:`~tauvcore.engine.smoothing.TapeShape`: 12 by 12 transitions, P
+    over ``na`` states (the 12, the consider states, the ``num_extra`` added), the errors of the
+    estimated ones, the true body velocity at each output mark, the filtered position and velocity
+    errors (the smoothed records keep them where the smoother leaves the state as it was), the
+    pings' marks written by the compiled loop."""
+    return TapeShape(
+        (DIM, DIM), na, DIM + num_extra, {"tape_vel_b_mps": (3,)}, {"pos_err": 2, "vel_err": 0}, True
+    )
 
-    Parameters
-    ----------
-    tape : Tape
-        Where the segments go.
-    batch : tuple of int
-        (M, R): methods and runs.
-    na : int
-        The covariance's dimension (the 12 states, the consider states and the added ones).
-    extra_rate : numpy.ndarray or None
-        Shape (E,): each added state's -1/tau [1/s] (0: a random walk); None: none.
-    """
 
-    def __init__(
-        self, tape: Tape, batch: tuple[int, int], na: int, extra_rate: np.ndarray | None = None
-    ) -> None:
-        self.tape, self.batch, self.na = tape, batch, na
-        self.extra_rate = np.zeros(0) if extra_rate is None else np.asarray(extra_rate, dtype=float)
-        self.phi_acc = np.zeros(batch + (DIM, DIM))  # Phi - I since the last mark
-        self.out: dict[str, np.ndarray] | None = None
-        self.marks: dict[str, np.ndarray] = {}  # the pings' marks of the compiled loop (open)
-        self.store: dict[str, np.ndarray] = {}
-        self.rows = 0  # output epochs of the chunk recorded so far
-        self.events: list[tuple] = []
-        self.event_t: list[float] = []  # the corrections' marks' times [s]
-        self.last_t: float | None = None  # the time of the last mark put on the tape [s]
-
-    def open(self, store: dict[str, np.ndarray]) -> None:
-        """A chunk begins, its filtered results going to ``store``.
-
-        Parameters
-        ----------
-        store : dict[str, numpy.ndarray]
-            The chunk's store (tauvcore.engine.yoo_bank.YooBank._store).
-        """
-        T, shape = store["out_k"].size, self.batch
-        self.out = {
-            "tape_X": np.zeros((T,) + shape + (DIM, DIM)),
-            "tape_P": np.zeros((T,) + shape + (self.na, self.na)),
-            "tape_dx": np.zeros((T,) + shape + (DIM + self.extra_rate.size,)),
-            "tape_vel_b_mps": np.zeros((T,) + shape + (3,)),
-        }
-        U = store["up_k"].size  # the pings' marks, written by the compiled loop (yoo_records.YooTape)
-        self.marks = {
-            "ev_X": np.zeros((U,) + shape + (DIM, DIM)),
-            "ev_Pm": np.zeros((U,) + shape + (self.na, self.na)),
-            "ev_P": np.zeros((U,) + shape + (self.na, self.na)),
-            "ev_d": np.zeros((U,) + shape + (self.na,)),
-            "ev_pos": np.zeros(U, dtype=np.int64),
-        }
-        self.store, self.rows, self.events, self.event_t = store, 0, [], []
-
-    def pings_marked(self, pings: np.ndarray, t_s: np.ndarray) -> None:
-        """The marks the compiled loop wrote for the chunk's pings ``pings`` (their rows, in the
-        order fused) at times ``t_s`` [s], put in the order of the marks.
-
-        Parameters
-        ----------
-        pings : numpy.ndarray
-            The pings' rows in the chunk (tauvcore.engine.yoo_records.YooTape's ``ev_*`` rows).
-        t_s : numpy.ndarray
-            Their times [s].
-        """
-        ev = self.marks
-        for p, t in zip(pings, t_s, strict=True):
-            self.events.append(
-                (ev["ev_X"][p], ev["ev_Pm"][p], ev["ev_P"][p], ev["ev_d"][p], int(ev["ev_pos"][p]))
-            )
-            self.event_t.append(float(t))
-
-    def before(self, P: np.ndarray, nominal: tuple[np.ndarray, ...], t_s: float, row: int = -1) -> tuple:
-        """A correction's mark before it: its transition, prior and nominal state.
-
-        Parameters
-        ----------
-        P : numpy.ndarray
-            (M, R, na, na) the covariances.
-        nominal : tuple of numpy.ndarray
-            The nominal states (vel, C, ba, bg, the added states), each (M, R, ...).
-        t_s : float
-            The mark's time [s].
-        row : int
-            The chunk's output epoch already recorded at this sample, which is recorded again after
-            the correction (the mark goes before it and takes its transition); -1 for none.
-
-        Returns
-        -------
-        tuple
-            What :meth:`after` takes.
-        """
-        assert self.out is not None  # opened at the chunk's start
-        if row >= 0:
-            X, pos = self.out["tape_X"][row].copy(), row
-        else:
-            X, pos = self.phi_acc.copy(), self.rows
-            self.phi_acc[...] = 0.0
-        self.event_t.append(float(t_s))
-        return X, P.copy(), tuple(a.copy() for a in nominal), pos
-
-    def after(self, before: tuple, P: np.ndarray, nominal: tuple[np.ndarray, ...]) -> None:
-        """The mark after its correction: posterior and the correction the nominal state took.
-
-        Parameters
-        ----------
-        before : tuple
-            What :meth:`before` returned.
-        P : numpy.ndarray
-            (M, R, na, na) the covariances now.
-        nominal : tuple of numpy.ndarray
-            The nominal states now (vel, C, ba, bg, the added states).
-        """
-        X, Pm, (vel0, C0, ba0, bg0, extra0), pos = before
-        vel, C, ba, bg, extra = nominal
-        d = np.zeros(self.batch + (self.na,))
-        d[..., yoo.VEL] = vel - vel0
-        d[..., yoo.ATT] = log_so3(C @ np.swapaxes(C0, -1, -2))
-        d[..., yoo.BA] = ba - ba0
-        d[..., yoo.BG] = bg - bg0
-        d[..., NA:] = extra - extra0
-        d[(P == Pm).all(axis=(-2, -1))] = 0.0  # nothing fused: round-off, not a correction
-        self.events.append((X, Pm, P.copy(), d, pos))
-
-    def close(self) -> None:
-        """The chunk's marks onto the tape, up to the output epochs recorded; nothing if none is
-        open."""
-        if self.out is None:
-            return
-        T, batch, na, events = self.rows, self.batch, self.na, self.events
-        order = sorted(range(len(events)), key=lambda j: (events[j][4], j))  # by place, then time
-        parts = {name: a[:T] for name, a in self.out.items()}
-        parts.update(event_arrays([events[j] for j in order], batch, (DIM, DIM), na))
-        for name in ESTIMATES:
-            parts[name] = np.array(self.store[name][:T])
-        parts["pos_err"] = np.array(self.store["series"][2, :T])
-        parts["vel_err"] = np.array(self.store["series"][0, :T])
-        parts["tape_E"], parts["ev_E"], self.last_t = extra_transitions(
-            self.extra_rate, batch, np.asarray(parts["t_s"]), parts["ev_pos"],
-            [self.event_t[j] for j in order], self.last_t,
-        )  # fmt: skip
-        self.out, self.marks, self.store, self.events, self.event_t = None, {}, {}, [], []
-        self.tape.add(parts)
+def nominal_difference(now: tuple[np.ndarray, ...], before: tuple[np.ndarray, ...], na: int) -> np.ndarray:
+    """The 12-state filter's correction between two nominal states (vel, C, ba, bg, the added
+    states), each (M, R, ...): the NED velocity's, the misalignment ``log(C C0^T)``, the biases' and
+    the added states', zero on the consider states. -> (M, R, na)."""
+    vel, C, ba, bg, extra = now
+    vel0, C0, ba0, bg0, extra0 = before
+    d = np.zeros(vel.shape[:-1] + (na,))
+    d[..., yoo.VEL] = vel - vel0
+    d[..., yoo.ATT] = log_so3(C @ np.swapaxes(C0, -1, -2))
+    d[..., yoo.BA] = ba - ba0
+    d[..., yoo.BG] = bg - bg0
+    d[..., NA:] = extra - extra0
+    return d
 
 
 def with_reference(P: np.ndarray, ref_var: np.ndarray, C_nb: np.ndarray, vel_n: np.ndarray) -> np.ndarray:
@@ -226,7 +108,7 @@ def smooth_yoo_segment(
     Parameters
     ----------
     segment : dict[str, numpy.ndarray]
-        The segment (:class:`YooTapeWriter`).
+        The segment (tauvcore.engine.smoothing.TapeWriter, :func:`tape_shape`).
     carry : Carry
         The pass so far (12 by 12 transitions, the covariance's states), updated in place.
     batch : tuple of int

@@ -55,14 +55,13 @@ class NumpyYooBank(YooBank):
 
     def _tape_record(self, row: int, P: np.ndarray, dx: np.ndarray, vel_b_true_mps: np.ndarray) -> None:
         """An output epoch's mark on the smoother's tape (the compiled loop's _record_row)."""
-        taping = self.taping
-        out = taping.out
-        out["tape_X"][row] = taping.phi_acc
-        taping.phi_acc[...] = 0.0
+        out = self.taping.out
+        out["tape_X"][row] = self.phi_acc
+        self.phi_acc[...] = 0.0
         out["tape_P"][row] = P
         out["tape_dx"][row] = dx
         out["tape_vel_b_mps"][row] = vel_b_true_mps
-        taping.rows = max(taping.rows, row + 1)
+        self.rows = max(self.rows, row + 1)
 
     def _run_numpy(
         self,
@@ -87,10 +86,14 @@ class NumpyYooBank(YooBank):
                 self._propagate(i, k)
             if ping_of_stop[s] >= 0:
                 t = float(chunk.truth.t_s[i])
-                mark = self.taping.before(self.P, self._nominal(), t) if self.taping is not None else None
+                mark = (
+                    self.taping.before(self.phi_acc, self.P, self._nominal(), t)
+                    if self.taping is not None
+                    else None
+                )
                 self._update(chunk, int(ping_of_stop[s]), i, store)
                 if self.taping is not None and mark is not None:
-                    self.taping.after(mark, self.P, self._nominal())
+                    self.taping.after(mark, self.P, self._nominal(), self.rows)
             if row_of_stop[s] >= 0:
                 self._record(chunk, i, int(row_of_stop[s]), store)
 
@@ -111,8 +114,8 @@ class NumpyYooBank(YooBank):
         F = yoo.F_batch(lat, h, self.vel.reshape(-1, 3), f_n, C, self.geodetic, self.w_ie) * dt_c
         Phi = np.eye(yoo.DIM) + F + 0.5 * F @ F
         if self.taping is not None:
-            X = (Phi - np.eye(yoo.DIM)).reshape(self.taping.phi_acc.shape)
-            self.taping.phi_acc[...] = X + self.taping.phi_acc + X @ self.taping.phi_acc
+            X = (Phi - np.eye(yoo.DIM)).reshape(self.phi_acc.shape)
+            self.phi_acc[...] = X + self.phi_acc + X @ self.phi_acc
         na = self.added.dim
         P = self.P.reshape(-1, na, na).copy()
         X = slice(0, yoo.DIM)
