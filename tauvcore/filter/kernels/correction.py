@@ -30,6 +30,160 @@ def _solve_chol(L: np.ndarray, n: int, b: np.ndarray, x: np.ndarray) -> None:
 
 
 @jit
+def _active_rows(active: np.ndarray, keep: np.ndarray, s_diag: np.ndarray, rows: np.ndarray) -> int:
+    """The rows in use (``active`` (m,) True), in order, into ``rows[:n_a]``; ``keep`` (m,) cleared
+    and ``s_diag`` (m,) NaN everywhere. -> ``n_a``."""
+    n_a = 0
+    for i in range(active.shape[0]):
+        keep[i] = False
+        s_diag[i] = np.nan
+        if active[i]:
+            rows[n_a] = i
+            n_a += 1
+    return n_a
+
+
+@jit
+def _hp_into(H: np.ndarray, P: np.ndarray, rows: np.ndarray, n: int, U: np.ndarray) -> None:
+    """``U[a] = H[rows[a]] P`` for the first ``n`` rows in use: H (m, d), P (d, d), U (m, d)."""
+    d = P.shape[0]
+    for a in range(n):
+        for j in range(d):
+            s = 0.0
+            for k in range(d):
+                s += H[rows[a], k] * P[k, j]
+            U[a, j] = s
+
+
+@jit
+def _innovation_cov_into(
+    U: np.ndarray, H: np.ndarray, Rm: np.ndarray, rows: np.ndarray, n: int, S: np.ndarray
+) -> None:
+    """``S = R + U H^T = R + H P H^T`` over the first ``n`` rows in use (``rows[:n]``) into
+    ``S[:n, :n]``: U (m, d) from :func:`_hp_into`, H (m, d), Rm (m, m)."""
+    d = U.shape[1]
+    for a in range(n):
+        for b in range(n):
+            s = Rm[rows[a], rows[b]]
+            for k in range(d):
+                s += U[a, k] * H[rows[b], k]
+            S[a, b] = s
+
+
+@jit
+def _gate_into(
+    nu_a: np.ndarray,
+    sol: np.ndarray,
+    S: np.ndarray,
+    rows: np.ndarray,
+    n_a: int,
+    gate_rows: bool,
+    gate_sigma: float,
+    keep: np.ndarray,
+    s_diag: np.ndarray,
+) -> tuple[float, float]:
+    """The NIS ``nu^T S^-1 nu`` (``sol = S^-1 nu`` over the ``n_a`` active rows) and the gate:
+    row ``a`` passes if ``nu_a^2 <= gate^2 S_aa``; ``keep`` (m,) the rows that pass (all or none
+    unless ``gate_rows``), ``s_diag`` (m,) S's diagonal at the active rows. -> ``(nis,
+    largest test ratio nu_a^2 / (gate^2 S_aa))``."""
+    nis = 0.0
+    ratio_max = 0.0
+    all_pass = True
+    for a in range(n_a):
+        nis += nu_a[a] * sol[a]
+        s_diag[rows[a]] = S[a, a]
+        ratio = nu_a[a] * nu_a[a] / (gate_sigma * gate_sigma * S[a, a])
+        ratio_max = max(ratio_max, ratio)
+        keep[rows[a]] = ratio <= 1.0
+        all_pass = all_pass and ratio <= 1.0
+    if not gate_rows and not all_pass:
+        for a in range(n_a):
+            keep[rows[a]] = False
+    return nis, ratio_max
+
+
+@jit
+def _compact_kept(keep: np.ndarray, rows: np.ndarray, n_a: int, U: np.ndarray, nu_a: np.ndarray) -> int:
+    """Move the kept rows among the first ``n_a`` in use to the front of ``rows``, ``U`` and
+    ``nu_a``, in order. -> their number ``n_k``."""
+    n_k = 0
+    for a in range(n_a):
+        if keep[rows[a]]:
+            if n_k != a:
+                rows[n_k] = rows[a]
+                for j in range(U.shape[1]):
+                    U[n_k, j] = U[a, j]
+                nu_a[n_k] = nu_a[a]
+            n_k += 1
+    return n_k
+
+
+@jit
+def _gain_into(
+    U: np.ndarray, L: np.ndarray, n_k: int, consider_start: int, consider_stop: int, K: np.ndarray
+) -> None:
+    """The gain ``K = P H^T S^-1 = (S^-1 U)^T`` over the ``n_k`` kept rows into ``K[:, :n_k]``
+    (d, m): column j of U (m, d) through the factor ``S = L L^T`` (``L[:n_k, :n_k]``); zero on
+    the rows of the consider states ``consider_start <= j < consider_stop``, never corrected."""
+    m = L.shape[0]
+    col = np.empty(m)
+    out = np.empty(m)
+    for j in range(U.shape[1]):
+        if consider_start <= j < consider_stop:
+            for a in range(n_k):
+                K[j, a] = 0.0
+            continue
+        for a in range(n_k):
+            col[a] = U[a, j]
+        _solve_chol(L, n_k, col, out)
+        for a in range(n_k):
+            K[j, a] = out[a]
+
+
+@jit
+def _joseph_into(
+    P: np.ndarray, H: np.ndarray, Rm: np.ndarray, K: np.ndarray, rows: np.ndarray, n_k: int
+) -> None:
+    """The Joseph form in place, ``P <- (I - K H) P (I - K H)^T + K R K^T``, over the ``n_k`` kept
+    rows ``rows[:n_k]`` of H (m, d) and Rm (m, m) with K (d, m); P (d, d) stays symmetric (its
+    upper triangle computed, mirrored below): stable for any K, also a non-optimal one."""
+    d = P.shape[0]
+    IKH = np.empty((d, d))
+    for i in range(d):
+        for j in range(d):
+            s = 1.0 if i == j else 0.0
+            for a in range(n_k):
+                s -= K[i, a] * H[rows[a], j]
+            IKH[i, j] = s
+    W = np.empty((d, d))
+    for i in range(d):
+        for j in range(d):
+            s = 0.0
+            for k in range(d):
+                s += IKH[i, k] * P[k, j]
+            W[i, j] = s
+    KR = np.empty((d, K.shape[1]))
+    for i in range(d):
+        for b in range(n_k):
+            s = 0.0
+            for a in range(n_k):
+                s += K[i, a] * Rm[rows[a], rows[b]]
+            KR[i, b] = s
+    for i in range(d):
+        for j in range(i, d):
+            s = 0.0
+            for k in range(d):
+                s += W[i, k] * IKH[j, k]
+            t = 0.0
+            for b in range(n_k):
+                t += KR[i, b] * K[j, b]
+            P[i, j] = s + t
+    for i in range(d):
+        for j in range(i):
+            P[i, j] = P[j, i]
+
+
+@jit
 def correct_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     P: np.ndarray,
     H: np.ndarray,
@@ -59,33 +213,17 @@ def correct_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     the others'; Yoo 2014's DVL errors); ``0, 0``: none.
     """
     m = nu.shape[0]
-    N = P.shape[0]  # the error states: the 20 of the layout and a source's own after them
+    d = P.shape[0]  # the error states: the 20 of the layout and a source's own after them
     rows = np.empty(m, dtype=np.int64)
-    n_a = 0
-    for i in range(m):
-        keep[i] = False
-        s_diag[i] = np.nan
-        if active[i]:
-            rows[n_a] = i
-            n_a += 1
+    n_a = _active_rows(active, keep, s_diag, rows)
     dx[:] = 0.0
     if n_a == 0:
         return np.nan, np.nan, False, np.nan
-    U = np.empty((m, N))  # H P over the rows in use
+    U = np.empty((m, d))  # H P over the rows in use
     S = np.empty((m, m))
     L = np.empty((m, m))
-    for a in range(n_a):
-        for j in range(N):
-            s = 0.0
-            for k in range(N):
-                s += H[rows[a], k] * P[k, j]
-            U[a, j] = s
-    for a in range(n_a):
-        for b in range(n_a):
-            s = Rm[rows[a], rows[b]]
-            for k in range(N):
-                s += U[a, k] * H[rows[b], k]
-            S[a, b] = s
+    _hp_into(H, P, rows, n_a, U)
+    _innovation_cov_into(U, H, Rm, rows, n_a, S)
     ident = np.arange(m)
     if not cholesky_into(S, ident, n_a, L):
         return np.nan, np.nan, True, np.nan
@@ -97,88 +235,18 @@ def correct_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     for a in range(n_a):
         nu_a[a] = nu[rows[a]]
     _solve_chol(L, n_a, nu_a, sol)
-    nis = 0.0
-    ratio_max = 0.0
-    all_pass = True
-    for a in range(n_a):
-        nis += nu_a[a] * sol[a]
-        s_diag[rows[a]] = S[a, a]
-        ratio = nu_a[a] * nu_a[a] / (gate_sigma * gate_sigma * S[a, a])
-        ratio_max = max(ratio_max, ratio)
-        keep[rows[a]] = ratio <= 1.0
-        all_pass = all_pass and ratio <= 1.0
-    if not gate_rows and not all_pass:
-        for a in range(n_a):
-            keep[rows[a]] = False
-    n_k = 0
-    for a in range(n_a):
-        if keep[rows[a]]:
-            if n_k != a:  # compact the kept rows to the front
-                rows[n_k] = rows[a]
-                for j in range(N):
-                    U[n_k, j] = U[a, j]
-                nu_a[n_k] = nu_a[a]
-            n_k += 1
+    nis, ratio_max = _gate_into(nu_a, sol, S, rows, n_a, gate_rows, gate_sigma, keep, s_diag)
+    n_k = _compact_kept(keep, rows, n_a, U, nu_a)
     if n_k == 0:
         return nis, ratio_max, False, log_det
     if n_k != n_a:  # S over the kept rows
-        for a in range(n_k):
-            for b in range(n_k):
-                s = Rm[rows[a], rows[b]]
-                for k in range(N):
-                    s += U[a, k] * H[rows[b], k]
-                S[a, b] = s
+        _innovation_cov_into(U, H, Rm, rows, n_k, S)
         if not cholesky_into(S, ident, n_k, L):
             return nis, ratio_max, True, log_det
-    # K = P H^T S^-1 = (S^-1 U)^T: column j of U through the factor
-    K = np.empty((N, m))
-    col = np.empty(m)
-    out = np.empty(m)
-    for j in range(N):
-        if consider_start <= j < consider_stop:  # a consider state: never corrected
-            for a in range(n_k):
-                K[j, a] = 0.0
-            continue
-        for a in range(n_k):
-            col[a] = U[a, j]
-        _solve_chol(L, n_k, col, out)
-        for a in range(n_k):
-            K[j, a] = out[a]
-    # Joseph: P = (I - K H) P (I - K H)^T + K R K^T
-    IKH = np.empty((N, N))
-    for i in range(N):
-        for j in range(N):
-            s = 1.0 if i == j else 0.0
-            for a in range(n_k):
-                s -= K[i, a] * H[rows[a], j]
-            IKH[i, j] = s
-    W = np.empty((N, N))
-    for i in range(N):
-        for j in range(N):
-            s = 0.0
-            for k in range(N):
-                s += IKH[i, k] * P[k, j]
-            W[i, j] = s
-    KR = np.empty((N, m))
-    for i in range(N):
-        for b in range(n_k):
-            s = 0.0
-            for a in range(n_k):
-                s += K[i, a] * Rm[rows[a], rows[b]]
-            KR[i, b] = s
-    for i in range(N):
-        for j in range(i, N):
-            s = 0.0
-            for k in range(N):
-                s += W[i, k] * IKH[j, k]
-            t = 0.0
-            for b in range(n_k):
-                t += KR[i, b] * K[j, b]
-            P[i, j] = s + t
-    for i in range(N):
-        for j in range(i):
-            P[i, j] = P[j, i]
-    for i in range(N):
+    K = np.empty((d, m))
+    _gain_into(U, L, n_k, consider_start, consider_stop, K)
+    _joseph_into(P, H, Rm, K, rows, n_k)
+    for i in range(d):
         s = 0.0
         for a in range(n_k):
             s += K[i, a] * nu_a[a]
