@@ -152,6 +152,127 @@ def error_series_into(  # noqa: PLR0913 - compiled kernel (pyproject.toml)
     series[10] = math.sqrt(P[ATT + 2, ATT + 2]) / deg
 
 
+class EpochTruth(NamedTuple):
+    """The truth at one output epoch that the records compare the bank's estimates with."""
+
+    pos_t: np.ndarray  # (3,) position (tauvcore.filter.eskf.difference: NED metres or latitude,
+    #                    longitude [rad], depth [m])
+    vel_t: np.ndarray  # (3,) NED velocity [m/s]
+    C_t: np.ndarray  # (3, 3) C_nb
+    ba_t: np.ndarray  # (R, 3) each run's accelerometer bias [m/s^2]
+    bg_t: np.ndarray  # (R, 3) each run's gyro bias [rad/s]
+    bdvl_t: np.ndarray  # (R, 4) each run's DVL beam biases of the latest ping [m/s]
+    sf_t: np.ndarray  # (R,) and its scale factor
+    extra_t: np.ndarray  # (E,) the sources' own states
+
+
+@jit
+def _error_into(
+    truth: EpochTruth,
+    bank: BankState,
+    m: int,
+    r: int,
+    geodetic: bool,
+    dx: np.ndarray,
+    Ce: np.ndarray,
+    rho: np.ndarray,
+) -> None:
+    """The error ``true (-) estimate`` (tauvcore.filter.eskf.difference) of filter (m, r) into
+    ``dx`` (d,): the navigation part (:func:`nav_difference_into`, Ce (3, 3), rho (3,) scratch),
+    then the sensor errors and the sources' own states, each ``true - estimate``."""
+    pos_t, vel_t, C_t, ba_t, bg_t, bdvl_t, sf_t, extra_t = truth
+    pos, vel, C, ba, bg, bdvl, sf, _, _, _, _, _, _, extra = bank
+    nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx, geodetic)
+    for i in range(3):
+        dx[BA + i] = ba_t[r, i] - ba[m, r, i]
+        dx[BG + i] = bg_t[r, i] - bg[m, r, i]
+    for i in range(4):
+        dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
+    dx[SF] = sf_t[r] - sf[m, r]
+    for e in range(dx.shape[0] - N):
+        dx[N + e] = extra_t[e] - extra[m, r, e]
+
+
+@jit
+def _record_navigation(
+    slot: int, m: int, r: int, bank: BankState, origin: np.ndarray, geodetic: bool, outputs: Outputs
+) -> None:
+    """Filter (m, r)'s estimated position, NED velocity and roll, pitch, yaw [rad] into row
+    ``slot`` of est_pos, est_vel, est_euler; on WGS-84 (``geodetic``) the position in NED metres
+    from ``origin`` (tauvcore.geo.earth.ned_offset_components)."""
+    pos, vel, C = bank[:3]
+    _, _, est_pos, _, est_vel, est_euler = outputs[:6]
+    if geodetic:
+        n0, n1, n2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
+        est_pos[slot, m, r, 0], est_pos[slot, m, r, 1], est_pos[slot, m, r, 2] = n0, n1, n2
+    for i in range(3):
+        if not geodetic:
+            est_pos[slot, m, r, i] = pos[m, r, i]
+        est_vel[slot, m, r, i] = vel[m, r, i]
+    Cm = C[m, r]
+    est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
+    est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
+    est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
+
+
+@jit
+def _record_states(slot: int, m: int, r: int, truth: EpochTruth, bank: BankState, outputs: Outputs) -> None:
+    """Filter (m, r)'s sources' own states into row ``slot`` of state_est, state_sigma,
+    state_true: the estimate, ``sqrt(P_ii)`` and the truth."""
+    _, _, _, _, _, _, _, extra_t = truth
+    _, _, _, _, _, _, _, P, _, _, _, _, _, extra = bank
+    state_est, state_sigma, state_true = outputs[12:]
+    for e in range(P.shape[-1] - N):
+        state_est[slot, m, r, e] = extra[m, r, e]
+        state_sigma[slot, m, r, e] = math.sqrt(P[m, r, N + e, N + e])
+        state_true[slot, m, r, e] = extra_t[e]
+
+
+@jit
+def _record_sensor_errors(
+    slot: int,
+    m: int,
+    r: int,
+    truth: EpochTruth,
+    bank: BankState,
+    sensor_index: np.ndarray,
+    outputs: Outputs,
+    x_est: np.ndarray,
+    x_true: np.ndarray,
+) -> None:
+    """Filter (m, r)'s sensor errors into row ``slot`` of sensor_est, sensor_sigma, sensor_true
+    (column j the state ``sensor_index[j]``): the estimate, ``sqrt(P_ii)`` and the truth dx is
+    formed of. x_est, x_true (d,) scratch: the states' estimate and truth, by state."""
+    _, _, _, ba_t, bg_t, bdvl_t, sf_t, extra_t = truth
+    _, _, _, ba, bg, bdvl, sf, P, _, _, _, _, _, extra = bank
+    sensor_est, sensor_sigma, sensor_true = outputs[6:9]
+    for i in range(3):
+        x_est[BA + i], x_true[BA + i] = ba[m, r, i], ba_t[r, i]
+        x_est[BG + i], x_true[BG + i] = bg[m, r, i], bg_t[r, i]
+    for i in range(4):
+        x_est[BDVL + i], x_true[BDVL + i] = bdvl[m, r, i], bdvl_t[r, i]
+    x_est[SF], x_true[SF] = sf[m, r], sf_t[r]
+    for e in range(P.shape[-1] - N):
+        x_est[N + e], x_true[N + e] = extra[m, r, e], extra_t[e]
+    for j in range(sensor_index.size):
+        k = sensor_index[j]
+        sensor_est[slot, m, r, j] = x_est[k]
+        sensor_sigma[slot, m, r, j] = math.sqrt(P[m, r, k, k])
+        sensor_true[slot, m, r, j] = x_true[k]
+
+
+@jit
+def _finite(P: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> bool:
+    """Whether a filter's variances (P (d, d)'s diagonal), position and velocity (pos, vel (3,))
+    add up to a finite number (a NaN or an infinity in any of them does not)."""
+    total = 0.0
+    for i in range(P.shape[0]):
+        total += P[i, i]
+    for i in range(3):
+        total += pos[i] + vel[i]
+    return math.isfinite(total)
+
+
 @jit
 def record_bank(
     slot: int,
@@ -184,15 +305,14 @@ def record_bank(
     of its marks: the transition since the last mark (``phi_acc``, then reset to the identity), P
     and dx (tauvcore.engine.smoothing)."""
     _, _, _, t_all, pos_all, vel_all, C_all, ba_all, bg_all, _, _, _, extra_all = chunk
-    t_s, pos_t, vel_t, C_t = t_all[i_chunk], pos_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
-    ba_t, bg_t = ba_all[i_chunk], bg_all[i_chunk]
-    pos, vel, C, ba, bg, bdvl, sf, P, _, bdvl_t, sf_t, nonfinite_at, phi_acc, extra = bank
+    t_s, vel_t, C_t = t_all[i_chunk], vel_all[i_chunk], C_all[i_chunk]
+    pos, vel, _, _, _, _, _, P, _, bdvl_t, sf_t, nonfinite_at, phi_acc, _ = bank
+    truth = EpochTruth(
+        pos_all[i_chunk], vel_t, C_t, ba_all[i_chunk], bg_all[i_chunk], bdvl_t, sf_t, extra_all[i_chunk]
+    )
     origin, _, _, block_of_state, num_blocks, deg, sensor_index, _, _, ref_var = constants
-    series, nees_block, est_pos, out_t, est_vel, est_euler, sensor_est, sensor_sigma, sensor_true = outputs[
-        :9
-    ]
-    tape_X, tape_P, tape_dx, state_est, state_sigma, state_true = outputs[9:]
-    M, R = pos.shape[0], pos.shape[1]
+    series, nees_block, _, out_t, _, _, sensor_est = outputs[:7]
+    tape_X, tape_P, tape_dx = outputs[9:12]
     with_sensors = sensor_est.shape[0] > 0
     taping = tape_P.shape[0] > 0
     d = P.shape[-1]  # the layout's 20 states and the sources' own
@@ -205,21 +325,11 @@ def record_bank(
     A = np.empty((d, d))
     y = np.empty(d)
     members, sizes, lead, order = nees_plan(block_of_state, num_blocks)
-    for m in range(M):
-        for r in range(R):
-            nav_difference_into(pos_t, vel_t, C_t, pos[m, r], vel[m, r], C[m, r], Ce, rho, dx, geodetic)
-            for i in range(3):
-                dx[BA + i] = ba_t[r, i] - ba[m, r, i]
-                dx[BG + i] = bg_t[r, i] - bg[m, r, i]
-            for i in range(4):
-                dx[BDVL + i] = bdvl_t[r, i] - bdvl[m, r, i]
-            dx[SF] = sf_t[r] - sf[m, r]
+    for m in range(pos.shape[0]):
+        for r in range(pos.shape[1]):
+            _error_into(truth, bank, m, r, geodetic, dx, Ce, rho)
+            _record_states(slot, m, r, truth, bank, outputs)
             Pm = P[m, r]
-            for e in range(d - N):
-                dx[N + e] = extra_all[i_chunk, e] - extra[m, r, e]
-                state_est[slot, m, r, e] = extra[m, r, e]
-                state_sigma[slot, m, r, e] = math.sqrt(Pm[N + e, N + e])
-                state_true[slot, m, r, e] = extra_all[i_chunk, e]
             Q = A if add_reference_into(Pm, ref_var, C_t, vel_t, POS, ATT, VEL, True, A) else Pm
             error_series_into(
                 dx,
@@ -240,36 +350,10 @@ def record_bank(
                 tape_dx[slot, m, r] = dx
                 tape_X[slot, m, r] = phi_acc[m, r]
                 phi_acc[m, r] = 0.0
-            total = 0.0
-            for i in range(d):
-                total += Pm[i, i]
-            if geodetic:
-                n0, n1, n2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], 0.0)
-                est_pos[slot, m, r, 0], est_pos[slot, m, r, 1], est_pos[slot, m, r, 2] = n0, n1, n2
-            for i in range(3):
-                if not geodetic:
-                    est_pos[slot, m, r, i] = pos[m, r, i]
-                est_vel[slot, m, r, i] = vel[m, r, i]
-                total += pos[m, r, i] + vel[m, r, i]
-            Cm = C[m, r]
-            est_euler[slot, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
-            est_euler[slot, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
-            est_euler[slot, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
+            _record_navigation(slot, m, r, bank, origin, geodetic, outputs)
             if with_sensors:
-                for i in range(3):
-                    x_est[BA + i], x_true[BA + i] = ba[m, r, i], ba_t[r, i]
-                    x_est[BG + i], x_true[BG + i] = bg[m, r, i], bg_t[r, i]
-                for i in range(4):
-                    x_est[BDVL + i], x_true[BDVL + i] = bdvl[m, r, i], bdvl_t[r, i]
-                x_est[SF], x_true[SF] = sf[m, r], sf_t[r]
-                for e in range(d - N):
-                    x_est[N + e], x_true[N + e] = extra[m, r, e], extra_all[i_chunk, e]
-                for j in range(sensor_index.size):
-                    k = sensor_index[j]
-                    sensor_est[slot, m, r, j] = x_est[k]
-                    sensor_sigma[slot, m, r, j] = math.sqrt(Pm[k, k])
-                    sensor_true[slot, m, r, j] = x_true[k]
-            if not math.isfinite(total) and math.isnan(nonfinite_at[m, r]):
+                _record_sensor_errors(slot, m, r, truth, bank, sensor_index, outputs, x_est, x_true)
+            if not _finite(Pm, pos[m, r], vel[m, r]) and math.isnan(nonfinite_at[m, r]):
                 nonfinite_at[m, r] = t_s
     out_t[slot] = t_s
 
