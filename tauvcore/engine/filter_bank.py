@@ -35,7 +35,7 @@ INS has no innovations and estimates no sensor error: it is flagged only if not 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from functools import partial
 from typing import Any
 
@@ -602,18 +602,81 @@ class FilterBank(ChunkDriver):
             self.ping_bias[...] = chunk.dvl.bias_mps[-1]
             self.ping_sf[...] = chunk.dvl.scale_factor[-1]
 
+    def _chunk_truth(self, chunk: SimChunk, inputs: ChunkInputs) -> loop.ChunkTruth:
+        """The chunk's inputs of the compiled stretch between aiding epochs (loop.run_stops)."""
+        truth, imu, dvl = chunk.truth, chunk.imu, chunk.dvl
+        return loop.ChunkTruth(
+            inputs.phi_raw,
+            inputs.dv_raw,
+            inputs.dtheta,
+            np.ascontiguousarray(truth.t_s),
+            np.ascontiguousarray(truth.pos_nav),
+            np.ascontiguousarray(truth.vel_n),
+            np.ascontiguousarray(truth.C_nb),
+            np.ascontiguousarray(imu.accel_bias),
+            np.ascontiguousarray(imu.gyro_bias),
+            np.asarray(dvl.index, dtype=np.int64),
+            np.ascontiguousarray(dvl.bias_mps, dtype=float),
+            np.ascontiguousarray(dvl.scale_factor, dtype=float),
+            states_truth(self.config, truth) if self.layout.num_extra else self._no_extra,
+        )
+
+    def _schedule(
+        self, chunk: SimChunk, aiding_at: Sequence[Iterable[int]], out_row: dict[int, int], poll_every: int
+    ) -> loop.Schedule:
+        """The chunk's stops for loop.run_stops: the covariance steps, the aiding epochs (the
+        global samples of each collection in ``aiding_at``) and the output epochs (output row
+        ``out_row[k]`` at global sample k)."""
+        k0, n = chunk.k0, chunk.truth.num_samples
+        events = np.zeros(n, dtype=bool)  # aiding epochs
+        for keys in aiding_at:
+            events[[k - k0 for k in keys]] = True
+        marks = events.copy()  # and output epochs: where the covariance step stops
+        marks[[k - k0 for k in out_row]] = True
+        stops = np.asarray(
+            covariance_stops(np.flatnonzero(marks) + k0, self.k_cov, k0 + n, self.cov_step), dtype=np.int64
+        )
+        stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
+        return loop.Schedule(stops, events[stops - k0], stop_row, k0, self.check_step, poll_every)
+
+    def _fuse_epoch(
+        self,
+        chunk: SimChunk,
+        inputs: ChunkInputs,
+        dvl_at: dict[int, int],
+        plugin_at: dict[str, dict[int, int]],
+        registered_at: list[set[int]],
+        k: int,
+        t: float,
+    ) -> None:
+        """The corrections of the aiding epoch at global sample ``k`` (time ``t`` [s]): the DVL's
+        ping ``dvl_at[k]`` if any (with its water-track and the RPM fallback), each plug-in
+        source's sample ``plugin_at[name][k]``, each registered method due at k."""
+        i = k - chunk.k0
+        if k in dvl_at:
+            p = dvl_at[k]
+            before = inputs.dtheta[i - 1] if i > 0 else inputs.prev_dtheta
+            omega_meas = (3.0 * inputs.dtheta[i] - before) / (2.0 * self.dt)  # rate at t_k, 2nd order
+            dvl_valid = self._update_dvl(chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t)
+            if self.water is not None and chunk.dvl.y_water_mps is not None:
+                fuse_water_track(self, chunk, p, omega_meas, t)
+            if self.rpm_aid is not None:
+                self._rpm_fallback(chunk, p, i, t, dvl_valid)
+        for name, model in self.plugins:
+            if k in plugin_at.get(name, ()):
+                self._update_source(name, model, chunk.sources[name], plugin_at[name][k], t)
+        for r, keys in enumerate(registered_at):
+            if k in keys:
+                self._update_registered(r, t)
+
     def _run_chunk(
         self, chunk: SimChunk, inputs: ChunkInputs, store: Store, poll_every: int
     ) -> Iterator[int]:
         """The chunk's stops: the compiled stretch between aiding epochs
         (:func:`~tauvcore.engine.loop.run_stops`, which records the output epochs in between),
         the corrections of each aiding epoch here."""
-        k0, n = chunk.k0, chunk.truth.num_samples
-        k1 = k0 + n
-        dt = self.dt
-        phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
-        aiding = self.aiding
-        dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in aiding and self.dvl_methods else {}
+        k0, k1 = chunk.k0, chunk.k0 + chunk.truth.num_samples
+        dvl_at = _epoch_map(chunk.dvl.index) if "dvl" in self.aiding and self.dvl_methods else {}
         plugin_at = {
             name: _epoch_map(chunk.sources[name].index)
             for name, _ in self.plugins
@@ -624,85 +687,34 @@ class FilterBank(ChunkDriver):
         ]
         outs = store["out_k"]
         out_row = {int(k): r for r, k in enumerate(outs)}
-        ping_rows = np.asarray(chunk.dvl.index, dtype=np.int64)
-        truth = chunk.truth
-        # the chunk's inputs of the compiled stretch between aiding epochs (loop.run_stops)
-        chunk_in = loop.ChunkTruth(
-            phi_raw,
-            dv_raw,
-            dtheta,
-            np.ascontiguousarray(truth.t_s),
-            np.ascontiguousarray(truth.pos_nav),
-            np.ascontiguousarray(truth.vel_n),
-            np.ascontiguousarray(truth.C_nb),
-            np.ascontiguousarray(chunk.imu.accel_bias),
-            np.ascontiguousarray(chunk.imu.gyro_bias),
-            ping_rows,
-            np.ascontiguousarray(chunk.dvl.bias_mps, dtype=float),
-            np.ascontiguousarray(chunk.dvl.scale_factor, dtype=float),
-            states_truth(self.config, truth) if self.layout.num_extra else self._no_extra,
-        )
-        self._chunk_in = chunk_in = plain(chunk_in)
+        chunk_in = self._chunk_truth(chunk, inputs)
+        self._chunk_in = chunk_args = plain(chunk_in)
         if self.taping is not None:
             self.taping.open(store, self.slot)
         if k0 == 0 and 0 in out_row:
             self._record(store, 0, 0)
-        events = np.zeros(n, dtype=bool)  # aiding epochs
-        for keys in (dvl_at, *plugin_at.values(), *registered_at):
-            events[[k - k0 for k in keys]] = True
-        marks = events.copy()  # and output epochs: where the covariance step stops
-        marks[outs - k0] = True
-        stops = np.asarray(
-            covariance_stops(np.flatnonzero(marks) + k0, self.k_cov, k1, self.cov_step), dtype=np.int64
-        )
-        is_event = events[stops - k0]
-        stop_row = np.array([out_row.get(int(k), -1) for k in stops], dtype=np.int64)
-        schedule = plain(loop.Schedule(stops, is_event, stop_row, k0, self.check_step, poll_every))
+        aiding_at = [dvl_at, *plugin_at.values(), *registered_at]
+        schedule = self._schedule(chunk, aiding_at, out_row, poll_every)
+        stops, is_event, args = schedule.stops, schedule.is_event, plain(schedule)
         constants, outputs = self._model(), self._outputs(store)
         bank, sd = self._bank_state(), plain(self.sd_consts)  # the same arrays for the whole chunk
         counters = np.zeros(4, dtype=np.int64)
         s = 0
         while s < stops.size:
             counters[:] = (self.k_state, self.k_cov, self.k_checked, self.slot)
-            s, why = loop.run_stops(
-                schedule,
-                s,
-                stops.size,
-                counters,
-                bank,
-                chunk_in,
-                sd,
-                constants,
-                outputs,
-            )
+            s, why = loop.run_stops(args, s, stops.size, counters, bank, chunk_args, sd, constants, outputs)
             self.k_state, self.k_cov, self.k_checked, self.slot = (int(c) for c in counters)
             if why == loop.STOPS_DONE:
                 break
             k = int(stops[s])
             i = k - k0
-            t = float(truth.t_s[i])
+            t = float(chunk.truth.t_s[i])
             taping = self.taping if why != loop.STOPS_YIELD else None
             mark = taping.before(self.phi_acc, self.P, self.flat, t) if taping is not None else None
             if why == loop.STOPS_REPAIR:
                 self._repair()
             if why in (loop.STOPS_EVENT, loop.STOPS_REPAIR):
-                if k in dvl_at:
-                    p = dvl_at[k]
-                    before = dtheta[i - 1] if i > 0 else inputs.prev_dtheta
-                    omega_meas = (3.0 * dtheta[i] - before) / (2.0 * dt)  # rate at t_k, 2nd order
-                    dvl_valid = self._update_dvl(
-                        chunk.dvl.y_beam_mps[p], chunk.dvl.available[p], omega_meas, t
-                    )
-                    if self.water is not None and chunk.dvl.y_water_mps is not None:
-                        fuse_water_track(self, chunk, p, omega_meas, t)
-                    if self.rpm_aid is not None:
-                        self._rpm_fallback(chunk, p, i, t, dvl_valid)
-                for name, model in self.plugins:
-                    if k in plugin_at.get(name, ()):
-                        self._update_source(name, model, chunk.sources[name], plugin_at[name][k], t)
-                for r, keys in enumerate(registered_at):
-                    if k in keys:
-                        self._update_registered(r, t)
+                self._fuse_epoch(chunk, inputs, dvl_at, plugin_at, registered_at, k, t)
                 if is_event[s]:
                     self._condition()
                     self.k_checked = k
@@ -710,7 +722,7 @@ class FilterBank(ChunkDriver):
                 if taping is not None and mark is not None:
                     taping.after(mark, self.P, self.flat, self.slot)
                 if k in out_row:
-                    latest = np.searchsorted(ping_rows, k, side="right") - 1
+                    latest = np.searchsorted(chunk_in.ping_rows, k, side="right") - 1
                     if latest >= 0:
                         self.ping_bias[...] = chunk.dvl.bias_mps[latest]
                         self.ping_sf[...] = chunk.dvl.scale_factor[latest]
