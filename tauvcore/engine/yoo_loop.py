@@ -18,7 +18,7 @@ and the water-track beams are tauvcore.engine.yoo_velocity's, written out here.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -104,6 +104,29 @@ def _aid(
                 Hx[i, current - NA + j] += Cm[i, 0] * learn_axis[j]
 
 
+class _PingWork(NamedTuple):
+    """The work space of a ping's velocity updates in :func:`run_stops`, allocated once per call
+    (:func:`_ping_work`): each run's DVL body velocity from the least squares, and one update's
+    columns, prediction and measurement."""
+
+    v_b: np.ndarray  # (R, 3) each run's DVL body velocity [m/s]
+    cov_b: np.ndarray  # (R, 3, 3) its covariance [m^2/s^2]
+    gain: np.ndarray  # (R, 3, 4) the least squares' gain from the beams
+    ok: np.ndarray  # (R,) bool: at least three beams returned
+    have_rpm: np.ndarray  # (R,) bool: the VKF read an RPM at the ping
+    Hb: np.ndarray  # (3, NC) the consider states' columns in b
+    Hc: np.ndarray  # (3, NC) and in n
+    Hx: np.ndarray  # (3, E) the columns on the added states
+    h: np.ndarray  # (3,) the prediction [m/s]
+    w: np.ndarray  # (3,) the vector the attitude column rotates [m/s]
+    z: np.ndarray  # (3,) the NED velocity fused [m/s]
+    Rm: np.ndarray  # (3, 3) its covariance [m^2/s^2]
+    Cc: np.ndarray  # (3, 3) work space of _rotated_into
+    nu: np.ndarray  # (3,) the innovation [m/s]
+    S_diag: np.ndarray  # (3,) its variances [m^2/s^2]
+    vb: np.ndarray  # (3,) the DVL's body velocity through the water the VKF learns from [m/s]
+
+
 @jit
 def run_stops(
     s0: int,
@@ -123,95 +146,23 @@ def run_stops(
     (its row in ``row_of_stop``); with the smoother's ``tape``, each ping's mark and each output
     epoch's. ``counters`` = (k_state, k_cov, the tape's output epochs so far), read and written."""
     stops, ping_of_stop, row_of_stop, k0 = schedule
-    (pos, vel, C, ba, bg, P, dtheta_sum, vkf_x, vkf_P, vkf_use, vkf_alt, extra, learn_axis,
-     learn_current) = state  # fmt: skip
-    phi_raw, dv_raw, dtheta, y_beam, available = (
-        chunk.phi_raw,
-        chunk.dv_raw,
-        chunk.dtheta,
-        chunk.y_beam,
-        chunk.available,
-    )
-    rpm_index, rpm_value, rpm_sf, rpm_b = chunk.rpm_index, chunk.rpm_value, chunk.rpm_sf, chunk.rpm_b
-    echo_index, echo_alt, y_water, water_available = (
-        chunk.echo_index,
-        chunk.echo_alt,
-        chunk.y_water,
-        chunk.water_available,
-    )
+    pos, vel, C, ba, bg, P, dtheta_sum, extra = (
+        state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.dtheta_sum, state.extra,
+    )  # fmt: skip
+    phi_raw, dv_raw, dtheta = chunk.phi_raw, chunk.dv_raw, chunk.dtheta
     dt, geodetic = sd[0], sd[5]
-    origin, w_ie_flat, q, method_code, A_b = (
-        model.origin,
-        model.w_ie_flat,
-        model.q,
-        model.method_code,
-        model.A_b,
-    )
-    l_dvl_b, beam_var, qc, L4, gate = model.l_dvl_b, model.beam_var, model.qc, model.L4, model.gate
-    vkf_Q, vkf_R, switch_altitude, forward_norm = (
-        model.vkf_Q,
-        model.vkf_R,
-        model.switch_altitude,
-        model.forward_norm,
-    )
-    lateral_var, extra_rate, extra_q, current = (
-        model.lateral_var,
-        model.extra_rate,
-        model.extra_q,
-        model.current,
-    )
-    water_var = model.water_var
-    up_rows = (  # the DVL's (or RPM's) velocity updates' records
-        outputs.up_z,
-        outputs.up_nu,
-        outputs.up_S,
-        outputs.up_flags,
-        outputs.up_nis,
-    )
-    tr_x, tr_sigma, tr_truth, tr_use, tr_alt = (
-        outputs.tr_x,
-        outputs.tr_sigma,
-        outputs.tr_truth,
-        outputs.tr_use,
-        outputs.tr_alt,
-    )
-    wt_rows = (  # the water-track's
-        outputs.wt_z,
-        outputs.wt_nu,
-        outputs.wt_S,
-        outputs.wt_flags,
-        outputs.wt_nis,
-    )
+    noise = (model.q, model.qc, model.extra_rate, model.extra_q)
     M, R = pos.shape[0], pos.shape[1]
     N = P.shape[-1]
-    E = N - NA
-    F = np.empty((DIM, DIM))
-    Phi = np.empty((DIM, DIM))
-    tmp = np.empty((DIM, DIM))
-    out = np.empty((N, N))
-    v_b = np.empty((R, 3))
-    cov_b = np.empty((R, 3, 3))
-    gain = np.empty((R, 3, 4))
-    Hb = np.empty((3, NC))
-    Hc = np.empty((3, NC))
-    Hx = np.empty((3, E))
-    h = np.empty(3)
-    w = np.empty(3)
-    ok = np.empty(R, dtype=np.bool_)
-    have_rpm = np.empty(R, dtype=np.bool_)
-    z = np.empty(3)
-    Rm = np.empty((3, 3))
-    Cc = np.empty((3, 3))
-    nu = np.empty(3)
-    S_diag = np.empty(3)
-    vb = np.empty(3)
-    water = water_var >= 0.0 and y_water.shape[0] > 0
+    cov_work = (np.empty((DIM, DIM)), np.empty((DIM, DIM)), np.empty((DIM, DIM)), np.empty((N, N)))
+    work = _ping_work(R, N - NA)
+    water = model.water_var >= 0.0 and chunk.y_water.shape[0] > 0
     phi_acc = tape.phi_acc
     taping = phi_acc.shape[0] > 0
     shape = (M, R) if taping else (0, 0)  # the nominal state before a ping's corrections
     held = YooNominal(
         np.empty(shape + (3,)), np.empty(shape + (3, 3)), np.empty(shape + (3,)), np.empty(shape + (3,)),
-        np.empty(shape + (E,)),
+        np.empty(shape + (N - NA,)),
     )  # fmt: skip
     now = YooNominal(vel, C, ba, bg, extra)
     for s in range(s0, s1):
@@ -224,132 +175,257 @@ def run_stops(
             counters[0] = k
         if k > counters[1]:
             dt_c = (k - counters[1]) * dt
-            noise, work = (q, qc, extra_rate, extra_q), (F, Phi, tmp, out)
-            propagate(P, (pos, vel, C, ba), dv_raw[i], dt, dt_c, geodetic, w_ie_flat, noise, work, phi_acc)
+            propagate(
+                P, (pos, vel, C, ba), dv_raw[i], dt, dt_c, geodetic, model.w_ie_flat, noise, cov_work, phi_acc
+            )
             dtheta_sum[:, :] = 0.0
             counters[1] = k
         p = ping_of_stop[s]
         if p >= 0:
             if taping:
                 mark_before(p, counters[2], tape, P, now, held)
-            for r in range(R):
-                lat = pos[0, r, 0] if geodetic else origin[0]
-                ok[r] = dvl_body_velocity_into(
-                    y_beam[p, r],
-                    available[p, r],
-                    dtheta[i, r],
-                    dt,
-                    C[0, r],
-                    lat,
-                    A_b,
-                    l_dvl_b,
-                    beam_var,
-                    v_b[r],
-                    cov_b[r],
-                    gain[r],
-                )
-            for m in range(M):
-                for r in range(R):
-                    Cm = C[m, r]
-                    # the consider states' columns in b: the scale factor scales the estimated body
-                    # velocity, a beam bias goes through the least squares of the beams that returned
-                    for a in range(3):
-                        Hb[a, 0] = Cm[0, a] * vel[m, r, 0] + Cm[1, a] * vel[m, r, 1] + Cm[2, a] * vel[m, r, 2]
-                        for c in range(4):
-                            Hb[a, 1 + c] = gain[r, a, c]
-                    use_rpm = False
-                    if method_code[m] == VKF:
-                        jr = _latest(rpm_index, k)
-                        je = _latest(echo_index, k)
-                        rpm_now = rpm_value[jr, r] if jr >= 0 else np.nan
-                        altitude = echo_alt[je, r] if je >= 0 else np.nan
-                        for j in range(3):
-                            vb[j] = v_b[r, j]
-                        cx = 0.0  # the current's part along the body x axis (learning through the water)
-                        if current >= 0:
-                            cx = (
-                                Cm[0, 0] * extra[m, r, current - NA]
-                                + Cm[1, 0] * extra[m, r, current - NA + 1]
-                            )
-                        vb[0] -= cx
-                        if forward_norm:
-                            z_fwd = math.sqrt(vb[0] ** 2 + vb[1] ** 2 + vb[2] ** 2)
-                        else:
-                            z_fwd = vb[0]
-                        use_rpm, got_rpm = vkf_step(
-                            vkf_x[r], vkf_P[r], rpm_now, altitude, z_fwd, ok[r], vkf_Q, vkf_R, switch_altitude
-                        )
-                        if current >= 0 and not use_rpm and ok[r] and got_rpm:  # learnt: its axis, current
-                            for j in range(3):
-                                learn_axis[r, j] = Cm[j, 0]
-                                learn_current[r, j] = 0.0
-                            learn_current[r, 0] = extra[m, r, current - NA]
-                            learn_current[r, 1] = extra[m, r, current - NA + 1]
-                        have_rpm[r] = got_rpm
-                        vkf_use[r], vkf_alt[r] = use_rpm, altitude
-                        for j in range(3):
-                            tr_x[p, r, j] = vkf_x[r, j]
-                            tr_sigma[p, r, j] = math.sqrt(vkf_P[r, j, j])
-                        tr_truth[p, r, 0] = rpm_sf[jr, r] if jr >= 0 else np.nan
-                        tr_truth[p, r, 1] = rpm_b[jr, r] if jr >= 0 else np.nan
-                        tr_use[p, r], tr_alt[p, r] = use_rpm, altitude
-                    if use_rpm:  # C [V_rpm, 0, 0] with diag(P_VV, lateral, lateral) rotated
-                        valid = have_rpm[r]
-                        Hb[:, :] = 0.0  # its surge was learnt from the DVL's (4 beams)
-                        Hb[0, 0] = vkf_x[r, 0]
-                        for c in range(4):
-                            Hb[0, 1 + c] = L4[0, c]
-                        for a in range(3):
-                            z[a] = Cm[a, 0] * vkf_x[r, 0]
-                            for b in range(3):
-                                Rm[a, b] = (
-                                    Cm[a, 0] * vkf_P[r, 0, 0] * Cm[b, 0]
-                                    + Cm[a, 1] * lateral_var * Cm[b, 1]
-                                    + Cm[a, 2] * lateral_var * Cm[b, 2]
-                                )
-                    else:
-                        valid = ok[r]
-                        _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
-                    for a in range(3):
-                        for c in range(NC):
-                            Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
-                    _aid(_RPM if use_rpm else 0, Cm, vel[m, r], extra[m, r], current, learn_axis[r],
-                         learn_current[r], h, w, Hx)  # fmt: skip
-                    fused, passed, nis = fuse(
-                        P[m, r], (vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r]), (z, h, w, Rm, Hc, Hx),
-                        valid, gate, (S_diag, nu),
-                    )  # fmt: skip
-                    _write_update(p, m, r, (z, nu, S_diag), (valid, fused, passed, nis), up_rows)
+            _fuse_ping(p, i, k, state, chunk, sd, model, outputs, work)
             if water:  # the water-track beams, after the ping's bottom-track
-                for r in range(R):
-                    lat = pos[0, r, 0] if geodetic else origin[0]
-                    ok[r] = dvl_body_velocity_into(
-                        y_water[p, r], water_available[p, r], dtheta[i, r], dt, C[0, r], lat, A_b, l_dvl_b,
-                        water_var, v_b[r], cov_b[r], gain[r],
-                    )  # fmt: skip
-                for m in range(M):
-                    for r in range(R):
-                        Cm = C[m, r]
-                        _aid(_WATER, Cm, vel[m, r], extra[m, r], current, learn_axis[r], learn_current[r],
-                             h, w, Hx)  # fmt: skip
-                        for a in range(3):  # the scale factor scales the estimated velocity through the water
-                            Hb[a, 0] = Cm[0, a] * h[0] + Cm[1, a] * h[1] + Cm[2, a] * h[2]
-                            for c in range(4):
-                                Hb[a, 1 + c] = gain[r, a, c]
-                        for a in range(3):
-                            for c in range(NC):
-                                Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
-                        _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
-                        fused, passed, nis = fuse(
-                            P[m, r], (vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r]), (z, h, w, Rm, Hc, Hx),
-                            ok[r], gate, (S_diag, nu),
-                        )  # fmt: skip
-                        _write_update(p, m, r, (z, nu, S_diag), (ok[r], fused, passed, nis), wt_rows)
+                _fuse_water_track(p, i, state, chunk, sd, model, outputs, work)
             if taping:
                 mark_after(p, tape, P, now, held)
         row = row_of_stop[s]
         if row >= 0:
             record_row(row, i, state, chunk, model, outputs, tape, geodetic, counters)
+
+
+@jit
+def _ping_work(R: int, E: int) -> _PingWork:
+    """The work space of :func:`run_stops`' velocity updates for ``R`` runs and ``E`` added states."""
+    return _PingWork(
+        np.empty((R, 3)), np.empty((R, 3, 3)), np.empty((R, 3, 4)), np.empty(R, dtype=np.bool_),
+        np.empty(R, dtype=np.bool_), np.empty((3, NC)), np.empty((3, NC)), np.empty((3, E)), np.empty(3),
+        np.empty(3), np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3),
+    )  # fmt: skip
+
+
+@jit
+def _fuse_ping(
+    p: int,
+    i: int,
+    k: int,
+    state: YooState,
+    chunk: YooChunk,
+    sd: StrapdownConstants,
+    model: YooModel,
+    outputs: YooOutputs,
+    work: _PingWork,
+) -> None:
+    """Ping ``p`` (sample ``i`` of the chunk, ``k`` of the mission) fused by every (method, run):
+    each run's DVL body velocity from its bottom-track beams (:func:`_body_velocities_into`), then
+    each filter's velocity update (:func:`_fuse_bottom_track`), recorded in ``outputs.up_*``."""
+    _body_velocities_into(
+        chunk.y_beam[p], chunk.available[p], model.beam_var, chunk.dtheta[i], state, sd, model, work
+    )
+    for m in range(state.pos.shape[0]):
+        for r in range(state.pos.shape[1]):
+            _fuse_bottom_track(p, m, r, k, state, chunk, model, outputs, work)
+
+
+@jit
+def _body_velocities_into(
+    y: np.ndarray,
+    available: np.ndarray,
+    beam_var: float,
+    dtheta: np.ndarray,
+    state: YooState,
+    sd: StrapdownConstants,
+    model: YooModel,
+    work: _PingWork,
+) -> None:
+    """Each run's DVL body velocity from its beams ``y`` (R, 4) [m/s] that returned
+    (``available`` (R, 4)), of noise variance ``beam_var`` [m^2/s^2], with the gyro's increments
+    ``dtheta`` (R, 3) [rad] at the ping (tauvcore.filter.yoo_kernels.dvl_body_velocity_into):
+    ``work.v_b``, ``work.cov_b``, ``work.gain`` and ``work.ok`` written."""
+    pos, C = state.pos, state.C
+    dt, geodetic = sd[0], sd[5]
+    for r in range(pos.shape[1]):
+        lat = pos[0, r, 0] if geodetic else model.origin[0]
+        work.ok[r] = dvl_body_velocity_into(
+            y[r], available[r], dtheta[r], dt, C[0, r], lat, model.A_b, model.l_dvl_b, beam_var,
+            work.v_b[r], work.cov_b[r], work.gain[r],
+        )  # fmt: skip
+
+
+@jit
+def _fuse_bottom_track(
+    p: int,
+    m: int,
+    r: int,
+    k: int,
+    state: YooState,
+    chunk: YooChunk,
+    model: YooModel,
+    outputs: YooOutputs,
+    work: _PingWork,
+) -> None:
+    """Method ``m``'s update of run ``r`` at ping ``p`` (sample ``k`` of the mission): the DVL's
+    NED velocity, or for the VKF where it switched (:func:`_vkf_at_ping`) its RPM velocity
+    ``C [V_rpm, 0, 0]`` with ``diag(P_VV, lateral, lateral)`` rotated; fused and recorded in
+    ``outputs.up_*``."""
+    Cm = state.C[m, r]
+    # the consider states' columns in b: the scale factor scales the estimated body velocity, a
+    # beam bias goes through the least squares of the beams that returned
+    _consider_b_into(Cm, state.vel[m, r], work.gain[r], work.Hb)
+    use_rpm = False
+    if model.method_code[m] == VKF:
+        use_rpm = _vkf_at_ping(p, m, r, k, state, chunk, model, outputs, work)
+    if use_rpm:
+        valid = work.have_rpm[r]
+        _rpm_velocity_into(Cm, state.vkf_x[r], state.vkf_P[r], model.lateral_var, model.L4, work)
+    else:
+        valid = work.ok[r]
+        _rotated_into(Cm, work.v_b[r], work.cov_b[r], work.z, work.Cc, work.Rm)
+    _consider_n_into(Cm, work.Hb, work.Hc)
+    _aid(_RPM if use_rpm else 0, Cm, state.vel[m, r], state.extra[m, r], model.current, state.learn_axis[r],
+         state.learn_current[r], work.h, work.w, work.Hx)  # fmt: skip
+    rows = (outputs.up_z, outputs.up_nu, outputs.up_S, outputs.up_flags, outputs.up_nis)
+    _fuse_and_write(p, m, r, valid, state, model, work, rows)
+
+
+@jit
+def _vkf_at_ping(
+    p: int,
+    m: int,
+    r: int,
+    k: int,
+    state: YooState,
+    chunk: YooChunk,
+    model: YooModel,
+    outputs: YooOutputs,
+    work: _PingWork,
+) -> bool:
+    """The VKF of run ``r`` at ping ``p`` (method ``m``, sample ``k`` of the mission;
+    tauvcore.filter.yoo_kernels.vkf_step) with the latest RPM and altitude and the DVL's forward
+    speed through the water (the current estimate's part along the body x axis taken out): where
+    it learnt, its axis and current estimate kept; its switch, altitude and trace written.
+    -> whether it fuses its RPM velocity."""
+    Cm, extra, current = state.C[m, r], state.extra[m, r], model.current
+    jr = _latest(chunk.rpm_index, k)
+    je = _latest(chunk.echo_index, k)
+    rpm_now = chunk.rpm_value[jr, r] if jr >= 0 else np.nan
+    altitude = chunk.echo_alt[je, r] if je >= 0 else np.nan
+    vb = work.vb
+    for j in range(3):
+        vb[j] = work.v_b[r, j]
+    cx = 0.0  # the current's part along the body x axis (learning through the water)
+    if current >= 0:
+        cx = Cm[0, 0] * extra[current - NA] + Cm[1, 0] * extra[current - NA + 1]
+    vb[0] -= cx
+    if model.forward_norm:
+        z_fwd = math.sqrt(vb[0] ** 2 + vb[1] ** 2 + vb[2] ** 2)
+    else:
+        z_fwd = vb[0]
+    use_rpm, got_rpm = vkf_step(
+        state.vkf_x[r], state.vkf_P[r], rpm_now, altitude, z_fwd, work.ok[r], model.vkf_Q, model.vkf_R,
+        model.switch_altitude,
+    )  # fmt: skip
+    if current >= 0 and not use_rpm and work.ok[r] and got_rpm:  # learnt: its axis, current
+        for j in range(3):
+            state.learn_axis[r, j] = Cm[j, 0]
+            state.learn_current[r, j] = 0.0
+        state.learn_current[r, 0] = extra[current - NA]
+        state.learn_current[r, 1] = extra[current - NA + 1]
+    work.have_rpm[r] = got_rpm
+    state.vkf_use[r], state.vkf_alt[r] = use_rpm, altitude
+    for j in range(3):
+        outputs.tr_x[p, r, j] = state.vkf_x[r, j]
+        outputs.tr_sigma[p, r, j] = math.sqrt(state.vkf_P[r, j, j])
+    outputs.tr_truth[p, r, 0] = chunk.rpm_sf[jr, r] if jr >= 0 else np.nan
+    outputs.tr_truth[p, r, 1] = chunk.rpm_b[jr, r] if jr >= 0 else np.nan
+    outputs.tr_use[p, r], outputs.tr_alt[p, r] = use_rpm, altitude
+    return use_rpm
+
+
+@jit
+def _rpm_velocity_into(
+    Cm: np.ndarray, x: np.ndarray, P_vkf: np.ndarray, lateral_var: float, L4: np.ndarray, work: _PingWork
+) -> None:
+    """The VKF's RPM velocity in n, ``z = C [V_rpm, 0, 0]``, its covariance ``Rm`` (``diag(P_VV,
+    lateral_var, lateral_var)`` rotated by ``Cm``) and its consider columns ``Hb`` in b (its surge
+    was learnt from the DVL's 4 beams: ``L4``'s first row), from the VKF's state ``x`` (3,) and
+    covariance ``P_vkf`` (3, 3); written into ``work``."""
+    Hb, z, Rm = work.Hb, work.z, work.Rm
+    Hb[:, :] = 0.0
+    Hb[0, 0] = x[0]
+    for c in range(4):
+        Hb[0, 1 + c] = L4[0, c]
+    for a in range(3):
+        z[a] = Cm[a, 0] * x[0]
+        for b in range(3):
+            Rm[a, b] = (
+                Cm[a, 0] * P_vkf[0, 0] * Cm[b, 0]
+                + Cm[a, 1] * lateral_var * Cm[b, 1]
+                + Cm[a, 2] * lateral_var * Cm[b, 2]
+            )
+
+
+@jit
+def _fuse_water_track(
+    p: int,
+    i: int,
+    state: YooState,
+    chunk: YooChunk,
+    sd: StrapdownConstants,
+    model: YooModel,
+    outputs: YooOutputs,
+    work: _PingWork,
+) -> None:
+    """Ping ``p``'s water-track beams (sample ``i`` of the chunk) fused by every (method, run): the
+    DVL's velocity through the water ``v - c`` (the current's states at ``model.current``),
+    recorded in ``outputs.wt_*``."""
+    _body_velocities_into(
+        chunk.y_water[p], chunk.water_available[p], model.water_var, chunk.dtheta[i], state, sd, model, work
+    )
+    rows = (outputs.wt_z, outputs.wt_nu, outputs.wt_S, outputs.wt_flags, outputs.wt_nis)
+    for m in range(state.pos.shape[0]):
+        for r in range(state.pos.shape[1]):
+            Cm = state.C[m, r]
+            _aid(_WATER, Cm, state.vel[m, r], state.extra[m, r], model.current, state.learn_axis[r],
+                 state.learn_current[r], work.h, work.w, work.Hx)  # fmt: skip
+            # the scale factor scales the estimated velocity through the water
+            _consider_b_into(Cm, work.h, work.gain[r], work.Hb)
+            _consider_n_into(Cm, work.Hb, work.Hc)
+            _rotated_into(Cm, work.v_b[r], work.cov_b[r], work.z, work.Cc, work.Rm)
+            _fuse_and_write(p, m, r, work.ok[r], state, model, work, rows)
+
+
+@jit
+def _consider_b_into(Cm: np.ndarray, v_n: np.ndarray, gain: np.ndarray, Hb: np.ndarray) -> None:
+    """The consider states' columns ``Hb`` (3, NC) in b: the scale factor's, ``Cm^T v_n`` (the
+    estimated velocity ``v_n`` (3,) [m/s] in b); the beam biases', the least squares' ``gain``
+    (3, 4) from the beams."""
+    for a in range(3):
+        Hb[a, 0] = Cm[0, a] * v_n[0] + Cm[1, a] * v_n[1] + Cm[2, a] * v_n[2]
+        for c in range(4):
+            Hb[a, 1 + c] = gain[a, c]
+
+
+@jit
+def _consider_n_into(Cm: np.ndarray, Hb: np.ndarray, Hc: np.ndarray) -> None:
+    """The consider states' columns in b, ``Hb`` (3, NC), rotated into n: ``Hc = Cm Hb``."""
+    for a in range(3):
+        for c in range(NC):
+            Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
+
+
+@jit
+def _fuse_and_write(
+    p: int, m: int, r: int, valid: bool, state: YooState, model: YooModel, work: _PingWork, rows: tuple
+) -> None:
+    """The velocity in ``work`` (``z``, ``h``, ``w``, ``Rm``, ``Hc``, ``Hx``) fused into method
+    ``m``'s filter of run ``r`` (tauvcore.filter.yoo_kernels.fuse) at ping ``p`` and recorded
+    into ``rows`` (:func:`_write_update`)."""
+    fused, passed, nis = fuse(
+        state.P[m, r], (state.vel[m, r], state.C[m, r], state.ba[m, r], state.bg[m, r], state.extra[m, r]),
+        (work.z, work.h, work.w, work.Rm, work.Hc, work.Hx), valid, model.gate, (work.S_diag, work.nu),
+    )  # fmt: skip
+    _write_update(p, m, r, (work.z, work.nu, work.S_diag), (valid, fused, passed, nis), rows)
 
 
 @jit
