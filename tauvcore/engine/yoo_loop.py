@@ -542,7 +542,8 @@ def record_again(
     state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
     counters = np.array([bank.k_state, bank.k_cov, bank.rows], dtype=np.int64)
     record_row(row, i, state, data, model, outputs, tape, bank.sd_consts.geodetic, counters)
-    bank.rows = int(counters[2])
+    if taping is not None:
+        taping.rows = int(counters[2])
 
 
 def loop_args(
@@ -578,106 +579,129 @@ def loop_args(
         :class:`YooState`, :class:`YooChunk`, :class:`YooModel`, :class:`YooOutputs`,
         :class:`YooTape`.
     """
-    phi_raw, dv_raw, dtheta = inputs.phi_raw, inputs.dv_raw, inputs.dtheta
-    config, R = bank.config, bank.batch[1]
-    cfg = config.vkf
-    truth, imu = chunk.truth, chunk.imu
+    return (
+        _state_record(bank),
+        _chunk_record(bank, chunk, inputs),
+        _model_record(bank, method_codes, sensor_index),
+        _outputs_record(store),
+        _tape(bank),
+    )
+
+
+def _state_record(bank: Any) -> YooState:
+    """The bank's states and its VKF's (tauvcore.engine.rpm_aid.RpmAid): their own arrays, written
+    in place, but for copies of the VKF's switch and altitude (:func:`run_chunk` puts them back)."""
+    aid = bank.rpm_aid
+    return YooState(
+        bank.pos,
+        bank.vel,
+        bank.C,
+        bank.ba,
+        bank.bg,
+        bank.P,
+        bank.dtheta_sum,
+        aid.x,
+        aid.P,
+        aid.use_rpm.copy(),
+        aid.altitude.copy(),
+        bank.extra,
+        aid.learn_axis_n,
+        aid.learn_current_n_mps,
+    )
+
+
+def _chunk_record(bank: Any, chunk: Any, inputs: Any) -> YooChunk:
+    """The chunk's IMU increments (``inputs``), DVL beams, RPM and echo sounder epochs (none:
+    arrays without rows), water-track beams where the bank fuses them (else none) and truth,
+    C-contiguous."""
+    R = bank.batch[1]
+    truth, imu, dvl = chunk.truth, chunk.imu, chunk.dvl
     rpm, echo = chunk.sources.get(RPM_SOURCE), chunk.sources.get(ECHO_SOURCE)
     empty_k, empty_v = np.zeros(0, np.int64), np.zeros((0, R))
-    aid = bank.rpm_aid
-    dvl = chunk.dvl
     if bank.added.water_var is not None and dvl.y_water_mps is not None:
         water = (np.ascontiguousarray(dvl.y_water_mps, dtype=float),
                  np.ascontiguousarray(dvl.water_available, dtype=bool))  # fmt: skip
     else:
         water = (np.zeros((0, R, 4)), np.zeros((0, R, 4), bool))
-    return (
-        YooState(
-            bank.pos,
-            bank.vel,
-            bank.C,
-            bank.ba,
-            bank.bg,
-            bank.P,
-            bank.dtheta_sum,
-            aid.x,
-            aid.P,
-            aid.use_rpm.copy(),
-            aid.altitude.copy(),
-            bank.extra,
-            aid.learn_axis_n,
-            aid.learn_current_n_mps,
-        ),
-        YooChunk(
-            phi_raw,
-            dv_raw,
-            dtheta,
-            np.ascontiguousarray(chunk.dvl.y_beam_mps, dtype=float),
-            np.ascontiguousarray(chunk.dvl.available, bool),
-            np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
-            np.ascontiguousarray(rpm.values[RPM], dtype=float) if rpm is not None else empty_v,
-            np.ascontiguousarray(rpm.truth[TRUE_SCALE_FACTOR], dtype=float) if rpm is not None else empty_v,
-            np.ascontiguousarray(rpm.truth[TRUE_BIAS], dtype=float) if rpm is not None else empty_v,
-            np.asarray(echo.index, np.int64) if echo is not None else empty_k,
-            np.ascontiguousarray(echo.values[ALTITUDE], dtype=float) if echo is not None else empty_v,
-            np.ascontiguousarray(truth.pos_n, dtype=float),
-            np.ascontiguousarray(truth.vel_n, dtype=float),
-            np.ascontiguousarray(truth.C_nb, dtype=float),
-            np.ascontiguousarray(imu.accel_bias, dtype=float),
-            np.ascontiguousarray(imu.gyro_bias, dtype=float),
-            *water,
-            np.ascontiguousarray(bank._added_truth(chunk), dtype=float),
-        ),
-        YooModel(
-            np.asarray(bank.origin),
-            bank.w_ie,
-            bank.q,
-            np.array([method_codes[m] for m in bank.methods], np.int64),
-            np.ascontiguousarray(bank.A_b, dtype=float),
-            np.ascontiguousarray(bank.l_dvl_b, dtype=float),
-            bank.beam_var,
-            bank.qc,
-            np.ascontiguousarray(bank.L4),
-            float(bank.gate),
-            np.ascontiguousarray(cfg.Q, dtype=float),
-            float(cfg.R),
-            float(cfg.switch_altitude_m),
-            cfg.forward_speed == "norm",
-            RPM_LATERAL_SIGMA_MPS**2,
-            bank.block_of_state,
-            bank.num_blocks,
-            1.0 / units.DEG,
-            sensor_index,
-            np.ascontiguousarray(bank.added.rate, dtype=float),
-            np.ascontiguousarray(bank.added.q, dtype=float),
-            bank.ref_var,
-            bank.added.current.start if bank.added.current is not None else -1,
-            bank.added.water_var if bank.added.water_var is not None else -1.0,
-            bank.added.estimated,
-        ),
-        YooOutputs(
-            store["series"],
-            store["nees_block"],
-            store["est_pos_n"],
-            store["est_vel_n"],
-            store["est_euler"],
-            store["sensor_est"],
-            store["sensor_sigma"],
-            store["sensor_true"],
-            store["up_z"],
-            store["up_nu"],
-            store["up_S"],
-            store["up_flags"],
-            store["up_nis"],
-            store["tr_x"],
-            store["tr_sigma"],
-            store["tr_truth"],
-            store["tr_use"],
-            store["tr_alt"],
-            *(store[name] for name in STATE_FIELDS),
-            *(store[f"wt_{name}"] for name in ("z", "nu", "S", "flags", "nis")),
-        ),
-        _tape(bank),
+    return YooChunk(
+        inputs.phi_raw,
+        inputs.dv_raw,
+        inputs.dtheta,
+        np.ascontiguousarray(dvl.y_beam_mps, dtype=float),
+        np.ascontiguousarray(dvl.available, bool),
+        np.asarray(rpm.index, np.int64) if rpm is not None else empty_k,
+        np.ascontiguousarray(rpm.values[RPM], dtype=float) if rpm is not None else empty_v,
+        np.ascontiguousarray(rpm.truth[TRUE_SCALE_FACTOR], dtype=float) if rpm is not None else empty_v,
+        np.ascontiguousarray(rpm.truth[TRUE_BIAS], dtype=float) if rpm is not None else empty_v,
+        np.asarray(echo.index, np.int64) if echo is not None else empty_k,
+        np.ascontiguousarray(echo.values[ALTITUDE], dtype=float) if echo is not None else empty_v,
+        np.ascontiguousarray(truth.pos_n, dtype=float),
+        np.ascontiguousarray(truth.vel_n, dtype=float),
+        np.ascontiguousarray(truth.C_nb, dtype=float),
+        np.ascontiguousarray(imu.accel_bias, dtype=float),
+        np.ascontiguousarray(imu.gyro_bias, dtype=float),
+        *water,
+        np.ascontiguousarray(bank._added_truth(chunk), dtype=float),
+    )
+
+
+def _model_record(bank: Any, method_codes: dict[str, int], sensor_index: np.ndarray) -> YooModel:
+    """The filters' constants of the bank: its methods' codes (``method_codes``), the VKF's tuning
+    (``config.vkf``), the added states' and the sensor-error columns' states (``sensor_index``)."""
+    cfg, added = bank.config.vkf, bank.added
+    return YooModel(
+        np.asarray(bank.origin),
+        bank.w_ie,
+        bank.q,
+        np.array([method_codes[m] for m in bank.methods], np.int64),
+        np.ascontiguousarray(bank.A_b, dtype=float),
+        np.ascontiguousarray(bank.l_dvl_b, dtype=float),
+        bank.beam_var,
+        bank.qc,
+        np.ascontiguousarray(bank.L4),
+        float(bank.gate),
+        np.ascontiguousarray(cfg.Q, dtype=float),
+        float(cfg.R),
+        float(cfg.switch_altitude_m),
+        cfg.forward_speed == "norm",
+        RPM_LATERAL_SIGMA_MPS**2,
+        bank.block_of_state,
+        bank.num_blocks,
+        1.0 / units.DEG,
+        sensor_index,
+        np.ascontiguousarray(added.rate, dtype=float),
+        np.ascontiguousarray(added.q, dtype=float),
+        bank.ref_var,
+        added.current.start if added.current is not None else -1,
+        added.water_var if added.water_var is not None else -1.0,
+        added.estimated,
+    )
+
+
+def _outputs_record(store: dict[str, np.ndarray]) -> YooOutputs:
+    """The chunk's store (tauvcore.engine.yoo_bank.YooBank._store), its own arrays, in the order of
+    :class:`YooOutputs`."""
+    return YooOutputs(
+        store["series"],
+        store["nees_block"],
+        store["est_pos_n"],
+        store["est_vel_n"],
+        store["est_euler"],
+        store["sensor_est"],
+        store["sensor_sigma"],
+        store["sensor_true"],
+        store["up_z"],
+        store["up_nu"],
+        store["up_S"],
+        store["up_flags"],
+        store["up_nis"],
+        store["tr_x"],
+        store["tr_sigma"],
+        store["tr_truth"],
+        store["tr_use"],
+        store["tr_alt"],
+        *(store[name] for name in STATE_FIELDS),
+        *(store[f"wt_{name}"] for name in ("z", "nu", "S", "flags", "nis")),
     )
 
 
