@@ -542,8 +542,7 @@ def record_again(
     state, data, model, outputs, tape = loop_args(bank, chunk, inputs, store, method_codes, sensor_index)
     counters = np.array([bank.k_state, bank.k_cov, bank.rows], dtype=np.int64)
     record_row(row, i, state, data, model, outputs, tape, bank.sd_consts.geodetic, counters)
-    if taping is not None:
-        taping.rows = int(counters[2])
+    bank.rows = int(counters[2])
 
 
 def loop_args(
