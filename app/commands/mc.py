@@ -263,7 +263,7 @@ def _written_or_aborted(writer: Any):
     written (full disk, size limit) is one line naming ``--out``, the smoother's directory on a
     worker one naming ``--smooth-dir``."""
     from app.reports.study_output import OutputDirError
-    from tauvcore.engine.smoothing import SmoothingError
+    from tauvcore.engine.tape import SmoothingError
 
     try:
         yield

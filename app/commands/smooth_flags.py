@@ -116,7 +116,8 @@ def smoothing(options: SmoothOptions | None) -> Iterator[SmoothOptions | None]:
     UsageError
         The smoother could not make or write its temporary directory.
     """
-    from tauvcore.engine.smoothing import SmoothingError, scratch
+    from tauvcore.engine.smoothing import scratch
+    from tauvcore.engine.tape import SmoothingError
 
     try:
         with scratch(options) as own:

@@ -113,7 +113,7 @@ MONITOR_BYTES = 2 * (3 * 8 + 3)  # per update and run the divergence monitor kee
 SOURCE_VIEW_DOUBLES = 16  # per aiding-source epoch the Sensors tab's view keeps (columns, truth)
 
 TAPE_OUTPUT_DOUBLES = 9 * 15 + 20 * 20 + 20 + 9  # the smoother's output mark: transition (9 x 15),
-# P, the error against truth, the filtered estimates (tauvcore.engine.smoothing.OUTPUT_TAPE, ESTIMATES)
+# P, the error against truth, the filtered estimates (tauvcore.engine.tape.OUTPUT_TAPE, ESTIMATES)
 TAPE_AIDING_DOUBLES = 9 * 15 + 2 * 20 * 20 + 20  # an aiding mark: transition, P before and after,
 # the correction
 SMOOTHED_STORE_DOUBLES = OUTPUT_DOUBLES + 6  # a smoothed store's epoch: the series, velocity and

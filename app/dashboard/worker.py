@@ -62,7 +62,8 @@ from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import Sinks, Watch, run, run_streaming
 from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
+from tauvcore.engine.smoothing import SmoothOptions
+from tauvcore.engine.tape import SmoothingError
 from tauvcore.eval.envelope import EnvelopeReducer
 from tauvcore.validation import ConfigError
 

@@ -66,9 +66,9 @@ from tauvcore.engine.results import SENSOR_STATES, STATE_FIELDS, MethodResult, m
 from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.engine.smoothing import Tape
 from tauvcore.engine.source_streams import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance, initial_nominal
+from tauvcore.engine.tape import OUTPUT_TAPE, Tape, TapeWriter, eskf_tape_shape, nominal_difference, tape_rows
 from tauvcore.filter.eskf import (
     Nominal,
     condition_covariance,
@@ -185,16 +185,16 @@ class FilterBank(ChunkDriver):
         """The error state: the layout's 20 and the states the sources add
         (tauvcore.filter.layout.Layout), its NEES blocks, and the smoother's tape writer."""
         # the smoother's tape of the marks (tauvcore.engine.smoothing); None: no smoother
-        self._no_tape = smoothing.tape_rows(0, self.batch)
+        self._no_tape = tape_rows(0, self.batch)
         self.layout = layout_of(config)
         self.extra_rate, self.extra_q, _ = self.layout.extra_arrays()
-        self.taping: smoothing.TapeWriter | None = None
+        self.taping: TapeWriter | None = None
         if tape is not None:
-            self.taping = smoothing.TapeWriter(
+            self.taping = TapeWriter(
                 tape,
                 self.batch,
-                smoothing.eskf_tape_shape(self.layout.num_extra),
-                partial(smoothing.nominal_difference, batch=self.batch, geodetic=self.geodetic),
+                eskf_tape_shape(self.layout.num_extra),
+                partial(nominal_difference, batch=self.batch, geodetic=self.geodetic),
                 self.extra_rate,
             )
         self.state_labels = tuple(label for b in self.layout.blocks for label in b.labels) or None
@@ -563,7 +563,7 @@ class FilterBank(ChunkDriver):
             store["sensor_est"],
             store["sensor_sigma"],
             store["sensor_true"],
-            *(tape[name] for name in smoothing.OUTPUT_TAPE),
+            *(tape[name] for name in OUTPUT_TAPE),
             *(store[name] for name in STATE_FIELDS),
         )
         return plain(outputs)

@@ -10,7 +10,7 @@ import numpy as np
 from tauvcore.aiding import echo_altitude, propeller_rpm
 from tauvcore.aiding.echo_altitude import ALTITUDE
 from tauvcore.aiding.propeller_rpm import RPM, TRUE_BIAS, TRUE_SCALE_FACTOR
-from tauvcore.filter.yoo_kernels import dvl_body_velocity_into, vkf_step
+from tauvcore.filter.families.yoo.model_kernels import dvl_body_velocity_into, vkf_step
 
 RPM_LATERAL_SIGMA_MPS = 0.1
 """1-sigma of the sway and heave the RPM velocity takes as zero [m/s] (a cruising AUV's few cm/s,
@@ -35,7 +35,7 @@ def dvl_body_velocity(
     with ``with_gain`` also the least squares' gain from the beams to the velocity (R, 3, 4)
     (zero columns for beams that did not return; what a beam bias does to the velocity). The
     head's own motion ``omega_nb x l`` is taken out with the gyro rate less the earth's (first
-    order). Each run's is tauvcore.filter.yoo_kernels.dvl_body_velocity_into, the compiled loop's own."""
+    order). Each run's is tauvcore.filter.families.yoo.model_kernels.dvl_body_velocity_into, the compiled loop's own."""
     R = y.shape[0]
     v_b, cov_b, gain = np.empty((R, 3)), np.empty((R, 3, 3)), np.empty((R, 3, 4))
     ok = np.empty(R, bool)
@@ -104,7 +104,9 @@ class RpmAid:
         )
         z_fwd = v_b[:, 0] if cfg.forward_speed == "body_x" else np.linalg.norm(v_b, axis=-1)
         use_rpm, have_rpm = np.empty(R, bool), np.empty(R, bool)
-        for r in range(R):  # the compiled loop's own step (tauvcore.filter.yoo_kernels.vkf_step)
+        for r in range(
+            R
+        ):  # the compiled loop's own step (tauvcore.filter.families.yoo.model_kernels.vkf_step)
             use_rpm[r], have_rpm[r] = vkf_step(
                 self.x[r], self.P[r], float(rpm_now[r]), float(altitude[r]), float(z_fwd[r]), bool(ok[r]),
                 self.Q, self.noise_var, self.switch_altitude_m,

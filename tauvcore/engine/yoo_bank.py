@@ -1,10 +1,10 @@
 """Yoo 2014's navigation filter as methods of the engine: ``ins-dvl`` and ``vkf``.
 
 Each is the paper's 12-state indirect feedback Kalman filter (section 2.1; error model
-tauvcore.filter.yoo: NED velocity, attitude, accelerometer and gyro bias errors, no position)
+tauvcore.filter.families.yoo.model: NED velocity, attitude, accelerometer and gyro bias errors, no position)
 on the same strapdown as the 20-state methods (tauvcore.filter.kernels.strapdown_kernels.advance, geodetic on
 WGS-84), aided at every DVL ping by a NED velocity (eq. 16-18; with the attitude column the paper's H
-leaves out, tauvcore.filter.yoo_kernels.fuse):
+leaves out, tauvcore.filter.families.yoo.model_kernels.fuse):
 
 - ``ins-dvl``, the paper's "conventional INS-DVL": the DVL's velocity, least squares over the
   beams that returned (at least three), rotated into n with the INS attitude; nothing when fewer
@@ -33,7 +33,7 @@ methods over-confident (velocity NEES/dim 1.8-4 and 2.7-7.7 over seeds on ``long
 Both methods also fuse the registry's sources that ``run.aiding`` turns on and whose measurement
 weighs only the misalignment and the IMU biases (tauvcore.engine.yoo_sources: the magnetometer),
 at their epochs, after the DVL's update (:meth:`YooBank._fuse_sources`), with the 20-state
-methods' gate and records (tauvcore.filter.yoo.correct_consider).
+methods' gate and records (tauvcore.filter.families.yoo.model.correct_consider).
 
 The covariance is propagated at ``filter.covariance_rate_hz`` with ``Phi = I + F dt + (F dt)^2 / 2``
 and ``Qd = G Q G^T dt`` (accelerometer and gyro white noise on velocity and attitude, the bias
@@ -66,17 +66,19 @@ from tauvcore.engine.results import (
 )
 from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.simulation import SimChunk
-from tauvcore.engine.smoothing import Carry, Tape, TapeWriter, smooth_tape
+from tauvcore.engine.smoothing import Carry, smooth_tape
 from tauvcore.engine.source_streams import active, layout_of, states_truth
 from tauvcore.engine.start import initial_covariance
+from tauvcore.engine.tape import Tape, TapeWriter
 from tauvcore.engine.yoo_records import YooSchedule
 from tauvcore.engine.yoo_smoothing import nominal_difference, smooth_yoo_segment, tape_shape
 from tauvcore.engine.yoo_velocity import (
     added_states,
 )
-from tauvcore.filter import yoo, yoo_kernels
 from tauvcore.filter.eskf import Nominal, make_outcome
 from tauvcore.filter.families.yoo import FAMILY
+from tauvcore.filter.families.yoo import model as yoo
+from tauvcore.filter.families.yoo import model_kernels as yoo_kernels
 from tauvcore.filter.layout import STATE, NavState
 from tauvcore.geo.rotations import exp_so3, skew
 
@@ -98,7 +100,10 @@ BLOCK_OF_STATE = np.array([1, 1, 1, 2, 2, 3, 4, 4, 4, 4, 4, 4], dtype=np.int64)
 velocity, tilt, heading, sensors)."""
 NUM_BLOCKS = 5
 METHOD_CODES = {"ins-dvl": yoo_loop.INS_DVL, "vkf": yoo_loop.VKF}
-_BLOCKS = {"ba": yoo.BA, "bg": yoo.BG}  # the sensor-error blocks of the 12 states (tauvcore.filter.yoo)
+_BLOCKS = {
+    "ba": yoo.BA,
+    "bg": yoo.BG,
+}  # the sensor-error blocks of the 12 states (tauvcore.filter.families.yoo.model)
 SENSOR_INDEX = np.array([_BLOCKS[c.block].start + c.component for c in SENSOR_COLUMNS["yoo"]], dtype=np.int64)
 """The state of each column of the sensor-error records (tauvcore.engine.results.SENSOR_COLUMNS)."""
 

@@ -3,7 +3,7 @@ call per span of stops, with the smoother's marks when it keeps a tape (:class:`
 
 A bank in numpy (tests/unit/tauvcore/engine/yoo_reference.py, the reference this loop is held equal to, to 1e-9)
 spends its time in numpy's per-call overhead on 3x3 and 12x12 batches at every DVL ping, covariance
-step and output epoch; this loop and the formulas it calls (tauvcore.filter.yoo_kernels) do the
+step and output epoch; this loop and the formulas it calls (tauvcore.filter.families.yoo.model_kernels) do the
 same arithmetic in machine code.
 
 The chunk's stops (covariance steps, DVL pings, output epochs) come from the caller in order, with
@@ -39,9 +39,7 @@ from tauvcore.engine.yoo_records import (
     mark_before,
     record_row,
 )
-from tauvcore.filter.kernels.common import jit
-from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, advance
-from tauvcore.filter.yoo_kernels import (
+from tauvcore.filter.families.yoo.model_kernels import (
     DIM,
     NA,
     NC,
@@ -50,6 +48,8 @@ from tauvcore.filter.yoo_kernels import (
     propagate,
     vkf_step,
 )
+from tauvcore.filter.kernels.common import jit
+from tauvcore.filter.kernels.strapdown_kernels import StrapdownConstants, advance
 
 _RPM, _WATER = 1, 2  # what a fused velocity is through the water: the VKF's RPM, water-track
 
@@ -240,7 +240,7 @@ def _body_velocities_into(
 ) -> None:
     """Each run's DVL body velocity from its beams ``y`` (R, 4) [m/s] that returned
     (``available`` (R, 4)), of noise variance ``beam_var`` [m^2/s^2], with the gyro's increments
-    ``dtheta`` (R, 3) [rad] at the ping (tauvcore.filter.yoo_kernels.dvl_body_velocity_into):
+    ``dtheta`` (R, 3) [rad] at the ping (tauvcore.filter.families.yoo.model_kernels.dvl_body_velocity_into):
     ``work.v_b``, ``work.cov_b``, ``work.gain`` and ``work.ok`` written."""
     pos, C = state.pos, state.C
     dt, geodetic = sd[0], sd[5]
@@ -301,7 +301,7 @@ def _vkf_at_ping(
     work: _PingWork,
 ) -> bool:
     """The VKF of run ``r`` at ping ``p`` (method ``m``, sample ``k`` of the mission;
-    tauvcore.filter.yoo_kernels.vkf_step) with the latest RPM and altitude and the DVL's forward
+    tauvcore.filter.families.yoo.model_kernels.vkf_step) with the latest RPM and altitude and the DVL's forward
     speed through the water (the current estimate's part along the body x axis taken out): where
     it learnt, its axis and current estimate kept; its switch, altitude and trace written.
     -> whether it fuses its RPM velocity."""
@@ -419,7 +419,7 @@ def _fuse_and_write(
     p: int, m: int, r: int, valid: bool, state: YooState, model: YooModel, work: _PingWork, rows: tuple
 ) -> None:
     """The velocity in ``work`` (``z``, ``h``, ``w``, ``Rm``, ``Hc``, ``Hx``) fused into method
-    ``m``'s filter of run ``r`` (tauvcore.filter.yoo_kernels.fuse) at ping ``p`` and recorded
+    ``m``'s filter of run ``r`` (tauvcore.filter.families.yoo.model_kernels.fuse) at ping ``p`` and recorded
     into ``rows`` (:func:`_write_update`)."""
     fused, passed, nis = fuse(
         state.P[m, r], (state.vel[m, r], state.C[m, r], state.ba[m, r], state.bg[m, r], state.extra[m, r]),
@@ -706,7 +706,7 @@ def _outputs_record(store: dict[str, np.ndarray]) -> YooOutputs:
 
 def _tape(bank: Any) -> YooTape:
     """The smoother's arrays the compiled loop writes: the bank's transition since the last mark,
-    its tape writer's rows and marks of the chunk (tauvcore.engine.smoothing.TapeWriter); without
+    its tape writer's rows and marks of the chunk (tauvcore.engine.tape.TapeWriter); without
     a writer, arrays without rows, nothing written."""
     taping = bank.taping
     if taping is None:

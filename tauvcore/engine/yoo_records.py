@@ -1,7 +1,7 @@
 """The named records of Yoo 2014's compiled loop (tauvcore.engine.yoo_loop: its arguments as the
 tuples numba takes) and what it writes at an output epoch: the record of every (method, run)
 (:func:`record`) and, with the smoother, its marks on the tape (:func:`record_row`,
-:func:`mark_before`, :func:`mark_after`; the bank's tauvcore.engine.smoothing.TapeWriter holds
+:func:`mark_before`, :func:`mark_after`; the bank's tauvcore.engine.tape.TapeWriter holds
 the arrays)."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from tauvcore.filter.families.yoo.model_kernels import ATT, BA, BG, DIM, NA, VEL
 from tauvcore.filter.kernels.common import jit, ned_offset
 from tauvcore.filter.kernels.nees import add_reference_into, nees_blocks_into, nees_plan, quadratic_into
 from tauvcore.filter.kernels.rotation_kernels import log_so3_into
-from tauvcore.filter.yoo_kernels import ATT, BA, BG, DIM, NA, VEL
 
 
 class _EpochWork(NamedTuple):
@@ -343,7 +343,7 @@ class YooNominal(NamedTuple):
 
 class YooTape(NamedTuple):
     """The smoother's marks the loop writes (the bank's ``phi_acc`` and its
-    tauvcore.engine.smoothing.TapeWriter's arrays); ``phi_acc`` without rows: no smoother, nothing
+    tauvcore.engine.tape.TapeWriter's arrays); ``phi_acc`` without rows: no smoother, nothing
     written."""
 
     phi_acc: np.ndarray  # (M, R, 12, 12) Phi - I since the last mark, composed in place
@@ -389,7 +389,7 @@ def record_row(
 
 @jit
 def mark_before(p: int, rows: int, tape: YooTape, P: np.ndarray, now: YooNominal, held: YooNominal) -> None:
-    """Ping ``p``'s mark before its corrections (as tauvcore.engine.smoothing.TapeWriter.before): the
+    """Ping ``p``'s mark before its corrections (as tauvcore.engine.tape.TapeWriter.before): the
     transition since the last mark (then restarted), the covariance and, kept in ``held``, the
     nominal state ``now``; ``rows`` the chunk's output epochs recorded so far."""
     tape.ev_X[p] = tape.phi_acc
@@ -405,7 +405,7 @@ def mark_before(p: int, rows: int, tape: YooTape, P: np.ndarray, now: YooNominal
 
 @jit
 def mark_after(p: int, tape: YooTape, P: np.ndarray, now: YooNominal, held: YooNominal) -> None:
-    """Ping ``p``'s mark after its corrections (as tauvcore.engine.smoothing.TapeWriter.after): the covariance
+    """Ping ``p``'s mark after its corrections (as tauvcore.engine.tape.TapeWriter.after): the covariance
     and the correction the nominal state took, ``x+ - x-`` (the attitude's ``log(C+ C-^T)``; the
     consider states never corrected), zero for a filter whose covariance did not change (nothing
     fused: round-off, not a correction)."""

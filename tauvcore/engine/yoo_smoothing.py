@@ -1,6 +1,6 @@
 """The fixed-interval smoother of Yoo 2014's bank (tauvcore.engine.yoo_bank): what its marks on
 the tape hold (:func:`tape_shape`, :func:`nominal_difference`; the one
-tauvcore.engine.smoothing.TapeWriter writes them) and its smoothed records.
+tauvcore.engine.tape.TapeWriter writes them) and its smoothed records.
 
 The same tape and Rauch-Tung-Striebel recursion as the 20-state bank's (tauvcore.engine.smoothing; its
 equations in tauvcore.filter.kernels.smoother) over the 12 estimated states (NED velocity,
@@ -17,7 +17,7 @@ follow one another as the filter's covariances do.
 
 The states the sources add (the DVL's current, tauvcore.engine.yoo_velocity) follow the consider
 states: estimated, corrected, their transition their own diagonal over the time between the
-marks (tauvcore.engine.smoothing.extra_transitions), smoothed with the 12 into the records'
+marks (tauvcore.engine.tape.extra_transitions), smoothed with the 12 into the records'
 ``state_est``, ``state_sigma`` and their NEES block.
 
 The smoothed records are the filter's, for ``x+ (+) s``: the velocity ``v + s_v`` (NED), the
@@ -31,17 +31,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from tauvcore.engine.smoothing import Carry, TapeShape
-from tauvcore.filter import statistics, yoo
+from tauvcore.engine.smoothing import Carry
+from tauvcore.engine.tape import TapeShape
+from tauvcore.filter import statistics
+from tauvcore.filter.families.yoo import model as yoo
+from tauvcore.filter.families.yoo.model_kernels import NA
 from tauvcore.filter.kernels.nees import add_reference_batch
-from tauvcore.filter.yoo_kernels import NA
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, log_so3, mv
 
 DIM = yoo.DIM
 
 
 def tape_shape(na: int, num_extra: int) -> TapeShape:
-    """The 12-state filter's :class:`~tauvcore.engine.smoothing.TapeShape`: 12 by 12 transitions, P
+    """The 12-state filter's :class:`~tauvcore.engine.tape.TapeShape`: 12 by 12 transitions, P
     over ``na`` states (the 12, the consider states, the ``num_extra`` added), the errors of the
     estimated ones, the true body velocity at each output mark, the filtered position and velocity
     errors (the smoothed records keep them where the smoother leaves the state as it was), the
@@ -108,7 +110,7 @@ def smooth_yoo_segment(
     Parameters
     ----------
     segment : dict[str, numpy.ndarray]
-        The segment (tauvcore.engine.smoothing.TapeWriter, :func:`tape_shape`).
+        The segment (tauvcore.engine.tape.TapeWriter, :func:`tape_shape`).
     carry : Carry
         The pass so far (12 by 12 transitions, the covariance's states), updated in place.
     batch : tuple of int

@@ -1,7 +1,7 @@
 """The registry's sources in Yoo 2014's 12-state filter (tauvcore.engine.yoo_bank): those whose
 measurement weighs only states the filter has.
 
-The 12 states are the NED velocity, the misalignment and the two IMU biases (tauvcore.filter.yoo).
+The 12 states are the NED velocity, the misalignment and the two IMU biases (tauvcore.filter.families.yoo.model).
 The misalignment and the biases are the 20-state error's own (the same frames and signs:
 ``C_true = exp([rho x]) C_est``, ``b_true - b_est`` in b), so a source's H over them carries over
 column for column (:data:`COLUMNS`); the 20-state velocity error is in the body frame, Yoo's in
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from tauvcore.aiding.source import AidingSource
-from tauvcore.filter import yoo
+from tauvcore.filter.families.yoo import model as yoo
 from tauvcore.filter.layout import STATE
 
 COLUMNS: dict[str, tuple[slice, slice]] = {

@@ -1,4 +1,4 @@
-"""The NED velocity aid of Yoo 2014's filter (tauvcore.filter.yoo_kernels.fuse), and
+"""The NED velocity aid of Yoo 2014's filter (tauvcore.filter.families.yoo.model_kernels.fuse), and
 the states the aiding sources add (tauvcore.filter.layout.StateBlock) in it: today the DVL's
 current (north, east, ``dvl.current_states``).
 
@@ -46,9 +46,9 @@ import numpy as np
 
 from tauvcore.aiding.dvl_water import CURRENT_BLOCK
 from tauvcore.config import Config
-from tauvcore.filter import yoo
+from tauvcore.filter.families.yoo import model as yoo
+from tauvcore.filter.families.yoo.model_kernels import NA
 from tauvcore.filter.layout import STATE, Layout
-from tauvcore.filter.yoo_kernels import NA
 
 
 @dataclass(frozen=True)

@@ -91,7 +91,7 @@ class Family:
         The error state and process model its filters run on, and so the engine's bank that runs
         them: ``"eskf"`` the 20-state layout (tauvcore.filter.layout.STATE, with the states the
         aiding sources add) propagated by tauvcore.filter.kernels.error_model_kernels; ``"yoo"`` the
-        12-state filter of tauvcore.filter.yoo. Families on one error state share one bank.
+        12-state filter of tauvcore.filter.families.yoo.model. Families on one error state share one bank.
     dvl_fusion : dict[str, str or None]
         How each of its methods fuses the DVL on the ``"eskf"`` bank: ``"lc"`` the loosely coupled
         velocity (3-4 beams), ``"tc"`` one row per beam, ``"elc"`` an extended method's

@@ -1,6 +1,6 @@
 """Yoo 2014's filter: the 12-state indirect feedback Kalman filter (section 2.1).
 
-Its error state is tauvcore.filter.yoo's (NED velocity, attitude, the IMU's biases; no position),
+Its error state is tauvcore.filter.families.yoo.model's (NED velocity, attitude, the IMU's biases; no position),
 with the DVL's scale factor and beam biases as consider states; its bank
 tauvcore.engine.yoo_bank.YooBank. Methods: ``ins-dvl`` aided by the DVL's velocity, ``vkf`` by the
 velocity Kalman filter's switch of DVL and RPM (eq. 29). Named, not in "all".

@@ -11,7 +11,7 @@ import pytest
 
 from app.cli import build_parser, main, resolve_config
 from app.reports.payload import result_series
-from tauvcore.engine import smoothing
+from tauvcore.engine import tape
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.results import BLOCK_DIMS
 from tauvcore.engine.smoothing import SmoothOptions
@@ -29,17 +29,17 @@ def _run(capsys: pytest.CaptureFixture, *argv: str) -> tuple[int, str, str]:
 
 @pytest.fixture
 def spills(monkeypatch: pytest.MonkeyPatch) -> list[str]:
-    """The temporary directories the smoother's tapes spilled to (tauvcore.engine.smoothing.Tape)."""
+    """The temporary directories the smoother's tapes spilled to (tauvcore.engine.tape.Tape)."""
     made: list[str] = []
-    original = smoothing.Tape._tmp
+    original = tape.Tape._tmp
 
-    def _tmp(self: smoothing.Tape) -> str:
+    def _tmp(self: tape.Tape) -> str:
         path = original(self)
         if path not in made:
             made.append(path)
         return path
 
-    monkeypatch.setattr(smoothing.Tape, "_tmp", _tmp)
+    monkeypatch.setattr(tape.Tape, "_tmp", _tmp)
     return made
 
 
@@ -207,7 +207,7 @@ def test_a_full_disk_under_the_tape_is_one_line_and_nothing_is_written(capsys, t
     def no_space(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(smoothing.np, "save", no_space)
+    monkeypatch.setattr(tape.np, "save", no_space)
     scratch = tmp_path / "scratch"
     scratch.mkdir()
     code, out, err = _run(capsys, "run", *RUN, "--smooth", "--smooth-memory-mb", "2.7", "--smooth-dir", str(scratch),

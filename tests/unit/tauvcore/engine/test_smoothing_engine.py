@@ -10,7 +10,8 @@ import pytest
 from tauvcore.config import Config
 from tauvcore.engine.mission import Banks, Sinks, Watch, run, run_streaming
 from tauvcore.engine.simulation import chunks_of, simulate
-from tauvcore.engine.smoothing import SmoothingError, SmoothOptions
+from tauvcore.engine.smoothing import SmoothOptions
+from tauvcore.engine.tape import SmoothingError
 from tauvcore.sensors.dvl import Outage
 
 DIMS = np.array([3, 3, 2, 1, 11])  # NEES blocks: pos, vel, tilt, heading, sensor
@@ -221,7 +222,7 @@ def test_yoo_methods_are_smoothed():
 def test_the_tape_keeps_covariances_as_their_upper_triangles(tmp_path):
     """A segment's covariances go on the tape as their upper triangles (in memory and on disk)
     and come back as the symmetric matrices they were, bit for bit; the other arrays as they are."""
-    from tauvcore.engine.smoothing import Tape
+    from tauvcore.engine.tape import Tape
 
     rng = np.random.default_rng(0)
     A = rng.normal(size=(3, 2, 1, 20, 20))

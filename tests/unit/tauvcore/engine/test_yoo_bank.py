@@ -177,7 +177,7 @@ def _case_config(case: str) -> Config:
 @pytest.mark.parametrize("case", ["lost-geodetic", "noisy-geodetic", "flat-figure8", "mag-geodetic",
                                   "current-water-geodetic", "current-rpm-geodetic"])
 def test_the_compiled_bank_equals_the_numpy_reference(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """tauvcore.filter.yoo_kernels against the numpy reference (yoo_reference.py), to 1e-9, every field: over the
+    """tauvcore.filter.families.yoo.model_kernels against the numpy reference (yoo_reference.py), to 1e-9, every field: over the
     first trench wall and into it (300-400 s: beams lost one by one, then the VKF takes over), with
     Yoo's noisy beams (the gate refusing some), on the flat earth in turns, and in a cross current
     with the current as states, water-track beyond range (Gauss-Markov) or the VKF's RPM through

@@ -9,7 +9,7 @@ from tauvcore.config import Config, from_dict, merge, trajectory_preset
 from tauvcore.engine.mission import run_streaming
 from tauvcore.engine.yoo_sources import COLUMNS, yoo_H
 from tauvcore.eval.consistency import method_consistency
-from tauvcore.filter import yoo
+from tauvcore.filter.families.yoo import model as yoo
 from tauvcore.filter.layout import STATE
 
 N = yoo.DIM + 5  # the 12 states and the bank's 5 consider states

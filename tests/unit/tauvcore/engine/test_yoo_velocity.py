@@ -18,8 +18,8 @@ from tauvcore.engine.mission import run, run_streaming
 from tauvcore.engine.simulation import simulate
 from tauvcore.engine.source_streams import layout_of
 from tauvcore.engine.yoo_velocity import added_states
-from tauvcore.filter import yoo
-from tauvcore.filter.yoo_kernels import NA
+from tauvcore.filter.families.yoo import model as yoo
+from tauvcore.filter.families.yoo.model_kernels import NA
 from tauvcore.geo.rotations import exp_so3
 from tests.unit.tauvcore.engine.yoo_reference import velocity_H
 

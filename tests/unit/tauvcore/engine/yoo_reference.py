@@ -3,7 +3,7 @@ smoother's tape) is held equal to, to 1e-9 (test_yoo_bank.py and test_sensor_err
 tests/unit/tauvcore/filter/kernels/test_reference_sigma.py).
 
 :class:`NumpyYooBank` is tauvcore.engine.yoo_bank.YooBank with every chunk's stops run by numpy
-methods (one batch of runs at a time: covariance steps with tauvcore.filter.yoo.F_batch, the DVL's
+methods (one batch of runs at a time: covariance steps with tauvcore.filter.families.yoo.model.F_batch, the DVL's
 least squares of tauvcore.engine.rpm_aid, the VKF's switch, the velocity aid :func:`fuse_velocity`
 with :func:`velocity_H`, the water-track's :func:`fuse_water`, the records), and the smoother's
 marks written by numpy. :func:`use_numpy_bank` makes the engine build it for Yoo's methods.
@@ -22,7 +22,8 @@ from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.yoo_bank import NA, NC, SENSOR_INDEX, SERIES, YooBank
 from tauvcore.engine.yoo_smoothing import with_reference
 from tauvcore.engine.yoo_velocity import Added
-from tauvcore.filter import statistics, yoo
+from tauvcore.filter import statistics
+from tauvcore.filter.families.yoo import model as yoo
 from tauvcore.geo.earth import ned_from_geodetic
 from tauvcore.geo.rotations import exp_so3, log_so3, skew
 

@@ -1,5 +1,5 @@
 """The velocity Kalman filter of Yoo 2014 eq. 20-29 (tauvcore.filter.vkf): the product's compiled
-step (tauvcore.filter.yoo_kernels.vkf_step, what both banks run) and the numpy reference
+step (tauvcore.filter.families.yoo.model_kernels.vkf_step, what both banks run) and the numpy reference
 (vkf_reference.py, beside this file) equal the plain filterpy loop, known answers of the filter,
 of eq. 27-28 and of the switch (eq. 29), and the config's messages."""
 
@@ -75,7 +75,7 @@ def test_the_compiled_step_equals_filterpy_to_1e9(batch_and_reference: tuple) ->
     """yoo_kernels.vkf_step, stepped as the banks step it (the DVL chosen, its speed fused where
     valid), gives filterpy's posteriors to 1e-9 at every step of every run, and the switch's
     answers: the DVL chosen where it is valid, an RPM read at every step."""
-    from tauvcore.filter.yoo_kernels import vkf_step
+    from tauvcore.filter.families.yoo.model_kernels import vkf_step
 
     cfg = batch_and_reference[3]
     refs, valid, rpm, z = batch_and_reference[1], batch_and_reference[2], batch_and_reference[4], batch_and_reference[5]

@@ -1,10 +1,10 @@
-"""Yoo 2014's 12-state error model (tauvcore.filter.yoo): every entry of F against central finite
+"""Yoo 2014's 12-state error model (tauvcore.filter.families.yoo.model): every entry of F against central finite
 differences of the exact nonlinear error dynamics, and the paper's printed F against ours."""
 
 import numpy as np
 import pytest
 
-from tauvcore.filter import yoo
+from tauvcore.filter.families.yoo import model as yoo
 from tauvcore.geo.earth import gravity_n_mps2
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, skew, vee
 
@@ -68,9 +68,9 @@ def test_the_papers_F_is_ours_in_its_sign_convention_but_for_one_typo() -> None:
 
 
 def test_the_engines_batched_F_is_the_checked_F() -> None:
-    """tauvcore.filter.yoo.F_batch (what the filter propagates with) equals F_matrix (what the
+    """tauvcore.filter.families.yoo.model.F_batch (what the filter propagates with) equals F_matrix (what the
     finite differences above check), state by state, on WGS-84."""
-    from tauvcore.filter.yoo import F_batch
+    from tauvcore.filter.families.yoo.model import F_batch
 
     rng = np.random.default_rng(3)
     lat, h = np.radians(rng.uniform(-60, 60, 4)), rng.uniform(-200, 0, 4)

@@ -1,5 +1,5 @@
 """Yoo 2014's velocity Kalman filter (eq. 20-29) in numpy and in filterpy: the references the
-product's compiled step (tauvcore.filter.yoo_kernels.vkf_step) is held equal to
+product's compiled step (tauvcore.filter.families.yoo.model_kernels.vkf_step) is held equal to
 (test_vkf.py, beside this file), and the filter of tests/statistical/test_vkf_nees.py. The model
 and its tuning are tauvcore.filter.vkf's."""
 

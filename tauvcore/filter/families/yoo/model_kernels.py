@@ -27,7 +27,7 @@ from tauvcore.geo.earth import OMEGA_IE_RPS
 DIM = 12
 NC = 5  # consider states (tauvcore.engine.yoo_bank.NC): DVL scale factor, 4 beam biases
 NA = DIM + NC
-VEL, ATT, BA, BG = 0, 3, 6, 9  # tauvcore.filter.yoo's blocks
+VEL, ATT, BA, BG = 0, 3, 6, 9  # tauvcore.filter.families.yoo.model's blocks
 
 
 @jit
@@ -86,7 +86,7 @@ def propagate(
     ``Phi = I + F dt_c + (F dt_c)^2 / 2``, ``P_xx <- Phi P_xx Phi^T + diag(q) dt_c``, the other
     states' cross terms ``P_xc <- Phi P_xc``, ``P_cc += diag(qc) dt_c`` on the consider states,
     and the added states' own step (``extra_rate``, ``extra_q`` (E,), the 20-state kernels' exact discrete step),
-    symmetrised; F of tauvcore.filter.yoo.F_matrix at the ``nominal`` state ``(pos, vel, C, ba)``
+    symmetrised; F of tauvcore.filter.families.yoo.model.F_matrix at the ``nominal`` state ``(pos, vel, C, ba)``
     and the latest specific force. P (M, R, N, N); ``noise`` ``(q, qc, extra_rate, extra_q)``;
     ``work`` ``(F, Phi, tmp, out)``: F, Phi, tmp (DIM, DIM), out (N, N) work space. With rows, ``phi_acc`` (M, R,
     DIM, DIM) holds ``Phi - I`` since the smoother's last mark and takes this step's:
