@@ -91,12 +91,6 @@ class MagSource(AidingSource):
     row_labels = ("roll", "pitch", "yaw")
     observes = ("att",)  # H weighs the misalignment alone
 
-    def rate_hz(self, section: MagnetometerConfig) -> float:
-        return section.rate_hz
-
-    def ideal(self, section: MagnetometerConfig) -> MagnetometerConfig:
-        return section.ideal()
-
     def simulate_chunk(
         self,
         truth: Truth,

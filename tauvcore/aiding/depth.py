@@ -74,12 +74,6 @@ class DepthSource(AidingSource):
     row_labels = ("depth",)
     observes = ("pos",)
 
-    def rate_hz(self, section: PressureConfig) -> float:
-        return section.rate_hz
-
-    def ideal(self, section: PressureConfig) -> PressureConfig:
-        return section.ideal()
-
     def simulate_chunk(
         self,
         truth: Truth,

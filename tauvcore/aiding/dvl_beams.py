@@ -72,37 +72,6 @@ class DvlSource(AidingSource):
         Column(n, "m/s", -MAX_SPEED_MPS, MAX_SPEED_MPS, "faster than any AUV") for n in TRUE_BIASES
     ) + (Column(TRUE_SCALE_FACTOR, "", -1.0, 1.0, "a DVL off by more than its speed"),)
 
-    def rate_hz(self, section: DvlConfig) -> float:
-        """The DVL's ping rate.
-
-        Parameters
-        ----------
-        section : DvlConfig
-            The ``[dvl]`` section.
-
-        Returns
-        -------
-        float
-            Pings per second [Hz] (``dvl.rate_hz``).
-        """
-        return section.rate_hz
-
-    def ideal(self, section: DvlConfig) -> DvlConfig:
-        """The same DVL with every error zeroed (``run.ideal``: :meth:`DvlConfig.ideal`).
-
-        Parameters
-        ----------
-        section : DvlConfig
-            The ``[dvl]`` section.
-
-        Returns
-        -------
-        DvlConfig
-            Its geometry, lever arm [m] (body FRD), beams, outages, dropout and range kept; noise
-            [m/s], bias [m/s], bias walk, scale factor and its walk zero.
-        """
-        return section.ideal()
-
     def states(self, section: DvlConfig) -> tuple[StateBlock, ...]:
         """The current (north, east) the water-track beams observe, with ``current_states`` on.
 

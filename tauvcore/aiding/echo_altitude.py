@@ -49,12 +49,6 @@ class EchoSource(AidingSource):
         Column(TRUE_ALTITUDE, "m", -12_000.0, 12_000.0, "farther than the deepest ocean", allow_nan=True),
     )
 
-    def rate_hz(self, section: EchoSounderConfig) -> float:
-        return section.rate_hz
-
-    def ideal(self, section: EchoSounderConfig) -> EchoSounderConfig:
-        return section.ideal()
-
     def initial_state(self, section: EchoSounderConfig, num_runs: int, world: World) -> Bathymetry:
         return world.seabed  # what the sounder sees; nothing else carries over
 

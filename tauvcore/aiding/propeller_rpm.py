@@ -48,12 +48,6 @@ class RpmSource(AidingSource):
         Column(TRUE_BIAS, "m/s", -100.0, 100.0, "faster than any AUV", allow_nan=True),
     )
 
-    def rate_hz(self, section: RpmConfig) -> float:
-        return section.rate_hz
-
-    def ideal(self, section: RpmConfig) -> RpmConfig:
-        return section.ideal()
-
     def initial_state(self, section: RpmConfig, num_runs: int, world: World) -> RpmState:
         return RpmState()
 

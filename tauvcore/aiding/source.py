@@ -293,9 +293,8 @@ class AidingSource(ABC):
             cls.section_name = cls.__dict__.get("section_name", name)
             cls.table = cls.__dict__.get("table", name)
 
-    @abstractmethod
     def rate_hz(self, section: Any) -> float:
-        """Its measurement rate.
+        """Its measurement rate: the section's ``rate_hz`` unless overridden.
 
         Parameters
         ----------
@@ -307,6 +306,7 @@ class AidingSource(ABC):
         float
             Epochs per second [Hz]; at most the IMU's rate (:class:`~tauvcore.config.Config` checks).
         """
+        return section.rate_hz
 
     def initial_state(self, section: Any, num_runs: int, world: World) -> Any:
         """What :meth:`simulate_chunk` carries from one chunk to the next, before the first chunk.
@@ -372,7 +372,8 @@ class AidingSource(ABC):
         """
 
     def ideal(self, section: Any) -> Any:
-        """The section with every error zeroed (``run.ideal``); as given unless overridden.
+        """The section with every error zeroed (``run.ideal``): the section's own ``ideal()`` if it
+        has one, else the section as given, unless overridden.
 
         Parameters
         ----------
@@ -384,7 +385,8 @@ class AidingSource(ABC):
         Any
             The same section type with every error (noise, bias, dropout, ...) zero.
         """
-        return section
+        ideal = getattr(section, "ideal", None)
+        return section if ideal is None else ideal()
 
     def model(self, section: Any, config: Sections) -> SourceModel:
         """Its measurement model, from its section and the rest of the configuration.
