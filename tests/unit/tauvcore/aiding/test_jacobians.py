@@ -1,6 +1,7 @@
 """Analytic Jacobians against central finite differences of the nonlinear models.
 
-(a) F and G of the INS error model against :func:`tauvcore.ins.error_model.error_rate`.
+(a) F and G of the INS error model against the exact error dynamics
+    (tests/unit/tauvcore/ins/error_rate_reference.py).
 (b) H of every aiding model against its nonlinear ``predict`` at ``inject(nom, +-eps e_j)``,
     parametrised over a registry of the models (one line per model): every aiding source, and
     for the DVL every fusion kind the runner uses that has a nonlinear model (lc, tc).
@@ -24,10 +25,11 @@ from tauvcore.filter.eskf import Nominal, inject
 from tauvcore.filter.layout import NOISE, STATE, NavState
 from tauvcore.geo.earth import Earth
 from tauvcore.geo.rotations import C_nb_from_euler, exp_so3, mv
-from tauvcore.ins.error_model import F_matrix, G_matrix, error_rate
+from tauvcore.ins.error_model import F_matrix, G_matrix
 from tauvcore.sensors.dvl import DvlConfig
 from tauvcore.sensors.magnetometer import MagnetometerConfig
 from tauvcore.sensors.pressure import PressureConfig
+from tests.unit.tauvcore.ins.error_rate_reference import error_rate, error_rate_geodetic
 
 EARTH = Earth(latitude_deg=32.8)
 EPS = 1e-6
@@ -268,7 +270,6 @@ def test_geodetic_F_and_G_match_finite_differences(lat_deg, h_m, speed_mps, seed
     the exact error dynamics, entry by entry at 1e-6 of the entry's own size: the new terms are
     of the order 1e-7 to 1e-5 and a blanket tolerance at F's scale would not see them. Position
     columns are differenced over 1 m (the fields change over kilometres), the rest over 1e-6."""
-    from tauvcore.ins.error_model import error_rate_geodetic
     rng = np.random.default_rng(200 + seed)
     pt = _geodetic_point(rng, np.deg2rad(lat_deg), h_m, speed_mps)
     omega_hat = pt["omega_ib_meas"] - pt["bias_hat"]["bg"]
