@@ -7,18 +7,16 @@ table with each quantity's 1-sigma and its parts, and written as a ``[calibratio
 from __future__ import annotations
 
 import argparse
-import os
-import stat
 from collections.abc import Sequence
 from typing import IO, TYPE_CHECKING
 
 import tomli_w
 
-from app.commands.outputs import Inputs, _refuse_input, write_text_atomic
+from app.commands.outputs import output_target, write_text_atomic
 from app.commands.values import UsageError, resolve_config
 from app.reports.vehicle_reports import calibration_sections, calibration_table, number_to_sigma
 from tauvcore.config import Config
-from tauvcore.validation import show, show_path
+from tauvcore.validation import show_path
 
 if TYPE_CHECKING:
     from tauvcore.eval.calibration import Calibration
@@ -32,8 +30,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     print the table and write ``--out`` (refused if it exists, without ``--replace``)."""
     from tauvcore.eval.calibration import CalibrationError, calibrate
 
-    out = _out_target(
-        args.out, args.replace, [("the --config file", args.config), *(("a log", p) for p in args.logs)]
+    out = output_target(
+        "--out",
+        args.out,
+        [("the --config file", args.config), *(("a log", p) for p in args.logs)],
+        None if args.replace else "exists; give --replace to replace it",
     )
     logs = []
     for path in args.logs:
@@ -85,37 +86,6 @@ def _read(args: argparse.Namespace, path: str) -> tuple[Log, Config]:
     except LogError as exc:
         raise UsageError(str(exc)) from None
     return log, config
-
-
-def _out_target(path: str, replace: bool, inputs: Inputs) -> str:
-    """The real path ``--out`` will be written to, checked before any log is read: a name, not a
-    directory nor a special file, not an input, in a writable directory; an existing file only
-    with ``--replace``."""
-    if not path.strip():
-        raise UsageError(f"--out: expected a file name, got {show(path)}")
-    if "\x00" in path:
-        raise UsageError(f"--out: a file name cannot contain a NUL character, got {show_path(path)}")
-    name = show_path(path)
-    real = os.path.realpath(path)
-    _refuse_input("--out", path, inputs)
-    try:
-        st = os.stat(real)
-    except FileNotFoundError:
-        st = None
-    except OSError as exc:
-        raise UsageError(f"--out: cannot write {name}: {exc.strerror or exc}") from None
-    if st is not None and stat.S_ISDIR(st.st_mode):
-        raise UsageError(f"--out: cannot write {name}: is a directory")
-    if st is not None and not stat.S_ISREG(st.st_mode):
-        raise UsageError(f"--out: cannot write {name}: not a regular file")
-    if st is not None and not replace:
-        raise UsageError(f"--out: {name} exists; give --replace to replace it")
-    directory = os.path.dirname(real)
-    if not os.path.isdir(directory):
-        raise UsageError(f"--out: cannot write {name}: no such directory")
-    if not os.access(directory, os.W_OK | os.X_OK):
-        raise UsageError(f"--out: cannot write {name}: directory not writable")
-    return real
 
 
 def calibration_toml(result: Calibration, logs: Sequence[str]) -> str:

@@ -32,28 +32,63 @@ def json_target(path: str, inputs: Inputs = ()) -> str:
     regular file (``/dev/null`` would be replaced by a file), a missing or unwritable directory,
     and a name the system cannot resolve (loops, too long).
     """
+    return output_target("--json", path, inputs)
+
+
+def output_target(flag: str, path: str, inputs: Inputs = (), exists: str | None = None) -> str:
+    """The real path the file ``path`` given for ``flag`` will be written to, checked before the
+    command computes anything: a name (not empty, no NUL character), none of ``inputs``
+    (:func:`_refuse_input`), and :func:`writable_target`.
+
+    Parameters
+    ----------
+    flag : str
+        The flag that names the file, for the messages (``--json``, ``--out``).
+    path : str
+        The file's name as given.
+    inputs : Inputs
+        What the command reads, which the file may not be, hold or lie in.
+    exists : str or None
+        The end of the message that refuses an existing file ("exists; give --replace to replace
+        it"); None: an existing regular file is replaced.
+
+    Returns
+    -------
+    str
+        The real path (symbolic links resolved).
+    """
     if not path.strip():
-        raise UsageError(f"--json: expected a file name, got {show(path)}")
-    name = show_path(path)
+        raise UsageError(f"{flag}: expected a file name, got {show(path)}")
     if "\x00" in path:
-        raise UsageError(f"--json: a file name cannot contain a NUL character, got {name}")
+        raise UsageError(f"{flag}: a file name cannot contain a NUL character, got {show_path(path)}")
+    _refuse_input(flag, path, inputs)
+    return writable_target(flag, path, exists)
+
+
+def writable_target(flag: str, path: str, exists: str | None = None) -> str:
+    """The real path of ``path`` (given for ``flag``) if a file can be written there: not a
+    directory nor a special file, in an existing writable directory, and an existing file only
+    when ``exists`` is None (else refused with the message "<flag>: <path> <exists>"); otherwise
+    one line naming the flag, the file and the reason (:class:`UsageError`)."""
+    name = show_path(path)
     real = os.path.realpath(path)
-    _refuse_input("--json", path, inputs)
     try:
         st = os.stat(real)
     except FileNotFoundError:
         st = None
     except OSError as exc:
-        raise UsageError(f"--json: cannot write {name}: {exc.strerror or exc}") from None
+        raise UsageError(f"{flag}: cannot write {name}: {exc.strerror or exc}") from None
     if st is not None and stat.S_ISDIR(st.st_mode):
-        raise UsageError(f"--json: cannot write {name}: is a directory")
+        raise UsageError(f"{flag}: cannot write {name}: is a directory")
     if st is not None and not stat.S_ISREG(st.st_mode):
-        raise UsageError(f"--json: cannot write {name}: not a regular file")
+        raise UsageError(f"{flag}: cannot write {name}: not a regular file")
+    if st is not None and exists is not None:
+        raise UsageError(f"{flag}: {name} {exists}")
     directory = os.path.dirname(real)
     if not os.path.isdir(directory):
-        raise UsageError(f"--json: cannot write {name}: no such directory")
+        raise UsageError(f"{flag}: cannot write {name}: no such directory")
     if not os.access(directory, os.W_OK | os.X_OK):
-        raise UsageError(f"--json: cannot write {name}: directory not writable")
+        raise UsageError(f"{flag}: cannot write {name}: directory not writable")
     return real
 
 

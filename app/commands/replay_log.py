@@ -14,11 +14,11 @@ import numpy as np
 
 from app.commands.outputs import json_target
 from app.commands.smooth_flags import smooth_options, smoothing
-from app.commands.values import UsageError, resolve_config
+from app.commands.values import UsageError, choice, resolve_config
 from app.reports.tables import summary_table
 from tauvcore.config import Config
 from tauvcore.sensors.imu import IMU_PROFILES
-from tauvcore.validation import one_line, show, show_path
+from tauvcore.validation import one_line, show_path
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -43,12 +43,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     smooth = smooth_options(args, config)
     imu_errors = None
     if args.imu_errors is not None:
-        if args.imu_errors not in IMU_PROFILES:
-            raise UsageError(
-                f"--imu-errors: unknown IMU profile {show(args.imu_errors)} "
-                f"(choose from {', '.join(IMU_PROFILES)})"
-            )
-        imu_errors = IMU_PROFILES[args.imu_errors]
+        imu_errors = IMU_PROFILES[choice("--imu-errors", args.imu_errors, IMU_PROFILES, "IMU profile")]
     json_path = (
         json_target(args.json, [("the --config file", args.config), ("the log directory", args.log)])
         if args.json is not None

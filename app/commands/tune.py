@@ -8,7 +8,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
-import stat
 import sys
 import time
 from collections.abc import Iterator, Sequence
@@ -16,8 +15,8 @@ from typing import Any
 
 import tomli_w
 
-from app.commands.outputs import write_text_atomic
-from app.commands.values import UsageError, check_dask, resolve_config
+from app.commands.outputs import writable_target, write_text_atomic
+from app.commands.values import UsageError, check_dask, choice, resolve_config
 from app.reports.vehicle_reports import report
 from tauvcore.config import LOG_TOML_OMITTED, Config, to_dict
 from tauvcore.filter.families import family_of
@@ -46,10 +45,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     max_evaluations = _whole(
         "--max-evaluations", args.max_evaluations, 1, MAX_EVALUATIONS, tuning.MAX_EVALUATIONS
     )
-    if args.optimizer not in tuning.OPTIMIZERS:
-        raise UsageError(
-            f"--optimizer: unknown optimiser {show(args.optimizer)} (choose from {', '.join(tuning.OPTIMIZERS)})"
-        )
+    choice("--optimizer", args.optimizer, tuning.OPTIMIZERS, "optimiser")
     if args.dask is not None and (not args.dask.strip() or args.dask.startswith("-")):
         raise UsageError(
             f"--dask: expected a scheduler address such as tcp://host:8786, got {show(args.dask)}"
@@ -105,10 +101,7 @@ def _params(text: str | None) -> tuple[str, ...]:
             f"--params: expected a comma-separated list from {', '.join(PARAMETERS)}, got {show(text)}"
         )
     for item in items:
-        if item not in PARAMETERS:
-            raise UsageError(
-                f"--params: unknown parameter {show(item)} (choose from {', '.join(PARAMETERS)})"
-            )
+        choice("--params", item, PARAMETERS, "parameter")
     if len(set(items)) != len(items):
         raise UsageError(f"--params: repeated parameter in {show(text)}")
     return items
@@ -212,24 +205,7 @@ def _out_target(args: argparse.Namespace) -> str:
             raise UsageError(
                 f"--out: {name} is in {what} {show_path(source)}; writing it could overwrite its files"
             )
-    try:
-        st = os.stat(real)
-    except FileNotFoundError:
-        st = None
-    except OSError as exc:
-        raise UsageError(f"--out: cannot write {name}: {exc.strerror or exc}") from None
-    if st is not None and stat.S_ISDIR(st.st_mode):
-        raise UsageError(f"--out: cannot write {name}: is a directory")
-    if st is not None and not stat.S_ISREG(st.st_mode):
-        raise UsageError(f"--out: cannot write {name}: not a regular file")
-    if st is not None and not args.replace:
-        raise UsageError(f"--out: {name} exists (--replace replaces it)")
-    directory = os.path.dirname(real)
-    if not os.path.isdir(directory):
-        raise UsageError(f"--out: cannot write {name}: no such directory")
-    if not os.access(directory, os.W_OK | os.X_OK):
-        raise UsageError(f"--out: cannot write {name}: directory not writable")
-    return real
+    return writable_target("--out", path, None if args.replace else "exists (--replace replaces it)")
 
 
 @contextlib.contextmanager

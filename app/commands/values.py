@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -54,11 +54,18 @@ def _csv(
             f"{flag}: expected a comma-separated list from {', '.join(choices)}, got {show(text)}"
         )
     for item in items:
-        if item not in choices:
-            raise UsageError(f"{flag}: unknown value {show(item)} (choose from {', '.join(choices)})")
+        choice(flag, item, choices, "value")
     if len(set(items)) != len(items):
         raise UsageError(f"{flag}: repeated value in {show(text)}")
     return items
+
+
+def choice(flag: str, text: str, choices: Iterable[str], what: str) -> str:
+    """``text`` if it is one of ``choices``, else one line naming the flag, ``what`` it is and the
+    choices: "--imu: unknown IMU profile 'x' (choose from table2, ...)"."""
+    if text not in choices:
+        raise UsageError(f"{flag}: unknown {what} {show(text)} (choose from {', '.join(choices)})")
+    return text
 
 
 def resolve_config(args: argparse.Namespace, under: dict[str, Any] | None = None) -> Config:
@@ -84,30 +91,16 @@ def resolve_config(args: argparse.Namespace, under: dict[str, Any] | None = None
         raw = merge(trajectory_preset(name), raw)  # the scenario's own values, under the file's
     config = from_dict(raw)
     if getattr(args, "imu", None) is not None:
-        if args.imu not in IMU_PROFILES:
-            raise UsageError(
-                f"--imu: unknown IMU profile {show(args.imu)} (choose from {', '.join(IMU_PROFILES)})"
-            )
+        choice("--imu", args.imu, IMU_PROFILES, "IMU profile")
         config = replace_for_flag("--imu", config, "imu", **dataclasses.asdict(IMU_PROFILES[args.imu]))
     if getattr(args, "earth", None) is not None:
-        if args.earth not in EARTH_MODELS:
-            raise UsageError(
-                f"--earth: unknown earth model {show(args.earth)} (choose from {', '.join(EARTH_MODELS)})"
-            )
-        config = config.replace("earth", model=args.earth)
+        config = config.replace("earth", model=choice("--earth", args.earth, EARTH_MODELS, "earth model"))
     if getattr(args, "trajectory", None) is not None:
-        if args.trajectory not in TRAJECTORIES:
-            raise UsageError(
-                f"--trajectory: unknown trajectory {show(args.trajectory)} "
-                f"(choose from {', '.join(TRAJECTORIES)})"
-            )
-        config = config.replace("trajectory", name=args.trajectory)
+        name = choice("--trajectory", args.trajectory, TRAJECTORIES, "trajectory")
+        config = config.replace("trajectory", name=name)
     if getattr(args, "truth", None) is not None:
-        if args.truth not in TRUTH_SOURCES:
-            raise UsageError(
-                f"--truth: unknown truth source {show(args.truth)} (choose from {', '.join(TRUTH_SOURCES)})"
-            )
-        config = replace_for_flag("--truth", config, "trajectory", truth=args.truth)
+        truth = choice("--truth", args.truth, TRUTH_SOURCES, "truth source")
+        config = replace_for_flag("--truth", config, "trajectory", truth=truth)
     if getattr(args, "seed", None) is not None:
         config = replace_for_flag(
             "--seed", config, "run", seed=parse_flag("--seed", args.seed, int, "a non-negative integer")
