@@ -34,9 +34,7 @@ import numpy as np
 import plotly.graph_objects as go
 
 from app.figures.shared import (
-    LEGEND_BELOW,
     METHOD_COLORS,
-    TIME_AXIS,
     TRUTH_COLOR,
     bin_label,
     decimate,
@@ -47,6 +45,7 @@ from app.figures.shared import (
     merged_envelope,
     method_color,
     stacked_layout,
+    time_layout,
 )
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
@@ -194,6 +193,20 @@ def smoothed_traces(
     return data
 
 
+def _check_quantity(quantity: str, log_y: bool | str) -> None:
+    """ValueError naming ``quantity`` unless it is one of QUANTITIES, or ``log_y`` unless it is
+    True, False or AUTO (:func:`error_figure`, :func:`compare_figure`)."""
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    if log_y not in (True, False, AUTO):
+        raise ValueError(f"log_y must be True, False or {AUTO!r}, got {log_y!r}")
+
+
+def _error_axis(log: bool) -> dict[str, Any]:
+    """The y-axis of the errors' plots: logarithmic with ``log``, else linear."""
+    return {"type": "log" if log else "linear", "exponentformat": "power"}
+
+
 def _spans_decades(curves: list[np.ndarray]) -> bool:
     """True if the positive finite values of ``curves`` span more than LOG_SPAN."""
     values = np.concatenate([np.ravel(c) for c in curves]) if curves else np.empty(0)
@@ -222,10 +235,7 @@ def error_figure(
     sent to the browser on each live update. ``smoothed``: each method's smoothed error beside
     its filtered one, and with ``show_sigma`` its smoothed 1-sigma (:func:`smoothed_traces`).
     """
-    if quantity not in QUANTITIES:
-        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
-    if log_y not in (True, False, AUTO):
-        raise ValueError(f"log_y must be True, False or {AUTO!r}, got {log_y!r}")
+    _check_quantity(quantity, log_y)
     err_field, sigma_field, title, unit = QUANTITIES[quantity]
     data: list[dict[str, Any]] = []
     drawn: list[np.ndarray] = []
@@ -281,16 +291,7 @@ def error_figure(
             data += traces
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "") + _envelope_note(results)
-    layout = {
-        "title": {"text": label, "font": {"size": 13}},
-        "height": height_px,
-        "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
-        "legend": LEGEND_BELOW,
-        "xaxis": TIME_AXIS,
-        "template": "plotly_white",
-        "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
-    }
-    return make_figure(data, layout, validate)
+    return make_figure(data, time_layout(label, height_px, _error_axis(log)), validate)
 
 
 def block_dims(result: MethodResult) -> dict[str, int]:
@@ -365,20 +366,12 @@ def nees_figure(
     if data:
         data = _nees_references(list(by_dim), runs, t_first, t_last) + data
     title = _nees_title(block, by_dim, without, runs, _envelope_note(results))
-    layout = {
-        "title": {"text": title, "font": {"size": 13}},
-        "height": height_px,
-        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
-        "legend": LEGEND_BELOW,
-        "xaxis": TIME_AXIS,
-        "template": "plotly_white",
-        "yaxis": {
-            "type": "log",
-            "exponentformat": "power",
-            "title": {"text": "NEES/dim (1 = consistent, >1 over-confident)", "font": {"size": 11}},
-        },
+    yaxis = {
+        "type": "log",
+        "exponentformat": "power",
+        "title": {"text": "NEES/dim (1 = consistent, >1 over-confident)", "font": {"size": 11}},
     }
-    return make_figure(data, layout, validate)
+    return make_figure(data, time_layout(title, height_px, yaxis, left_px=55), validate)
 
 
 def _nees_traces(
@@ -644,10 +637,7 @@ def compare_figure(
     """:func:`error_figure` of several runs overlaid: ``runs`` is (label, results) per run, each
     run's curves in its method's colour and the run's line style (RUN_DASHES, in order: the first
     solid), each trace named "<METHOD> (<label>)"."""
-    if quantity not in QUANTITIES:
-        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
-    if log_y not in (True, False, AUTO):
-        raise ValueError(f"log_y must be True, False or {AUTO!r}, got {log_y!r}")
+    _check_quantity(quantity, log_y)
     err_field, _, title, unit = QUANTITIES[quantity]
     data: list[dict[str, Any]] = []
     drawn: list[np.ndarray] = []
@@ -688,19 +678,10 @@ def compare_figure(
             )
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     labels = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
-    layout = {
-        "title": {
-            "text": f"{title} [{unit}]: {labels}{_envelope_note({str(n): r for n, (_, rs) in enumerate(runs) for r in rs.values()})}",
-            "font": {"size": 13},
-        },
-        "height": height_px,
-        "margin": {"l": 50, "r": 10, "t": 35, "b": 35},
-        "legend": LEGEND_BELOW,
-        "xaxis": TIME_AXIS,
-        "template": "plotly_white",
-        "yaxis": {"type": "log" if log else "linear", "exponentformat": "power"},
-    }
-    return make_figure(data, layout, validate)
+    note = _envelope_note({str(n): r for n, (_, rs) in enumerate(runs) for r in rs.values()})
+    return make_figure(
+        data, time_layout(f"{title} [{unit}]: {labels}{note}", height_px, _error_axis(log)), validate
+    )
 
 
 def overlay_figure(runs: Sequence[tuple[str, go.Figure]]) -> go.Figure:

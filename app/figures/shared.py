@@ -166,6 +166,37 @@ TIME_AXIS = {"ticksuffix": " s"}
 """The time axis of a plot with its legend below: the unit on the ticks ("5 s"), no axis title for
 a second row of the legend to land on (a title sits where plotly's first legend row does)."""
 
+
+def time_layout(title: str, height_px: int, yaxis: dict[str, Any], left_px: int = 50) -> dict[str, Any]:
+    """The layout of one plot against time with its legend below it (LEGEND_BELOW, TIME_AXIS).
+
+    Parameters
+    ----------
+    title : str
+        The plot's title.
+    height_px : int
+        Its height [px].
+    yaxis : dict[str, Any]
+        Its y-axis.
+    left_px : int
+        Its left margin [px], room for the y-axis' tick labels.
+
+    Returns
+    -------
+    dict[str, Any]
+        The plain layout dict (:func:`make_figure`).
+    """
+    return {
+        "title": {"text": title, "font": {"size": 13}},
+        "height": height_px,
+        "margin": {"l": left_px, "r": 10, "t": 35, "b": 35},
+        "legend": LEGEND_BELOW,
+        "xaxis": TIME_AXIS,
+        "template": "plotly_white",
+        "yaxis": yaxis,
+    }
+
+
 PLACEHOLDER_TEXT = "No run yet: press Run"
 
 

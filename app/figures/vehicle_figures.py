@@ -25,6 +25,7 @@ from app.figures.shared import (
     hex_to_rgba,
     make_figure,
     method_color,
+    time_layout,
 )
 
 FIN_NAMES = ("fin 1 lower stbd", "fin 2 lower port", "fin 3 upper port", "fin 4 upper stbd")
@@ -192,26 +193,20 @@ def altitude_figure(
     spans = intervals_above(t_s, alt, switch_altitude_m)
     if len(spans):
         data.append(_rpm_shading(spans, bottom, top))
-    data.append(
-        {
-            "type": "scatter",
-            "x": [t0, t1],
-            "y": [dvl_max_altitude_m] * 2,
-            "name": DVL_LIMIT_NAME,
-            "mode": "lines",
-            "line": {"color": DVL_LIMIT_COLOR, "width": 1.5, "dash": "dash"},
-        }
-    )
-    data.append(
-        {
-            "type": "scatter",
-            "x": [t0, t1],
-            "y": [switch_altitude_m] * 2,
-            "name": SWITCH_NAME,
-            "mode": "lines",
-            "line": {"color": SWITCH_COLOR, "width": 1.5, "dash": "dot"},
-        }
-    )
+    for level_m, name, color, dash in (
+        (dvl_max_altitude_m, DVL_LIMIT_NAME, DVL_LIMIT_COLOR, "dash"),
+        (switch_altitude_m, SWITCH_NAME, SWITCH_COLOR, "dot"),
+    ):
+        data.append(
+            {
+                "type": "scatter",
+                "x": [t0, t1],
+                "y": [level_m] * 2,
+                "name": name,
+                "mode": "lines",
+                "line": {"color": color, "width": 1.5, "dash": dash},
+            }
+        )
     keep = decimate(t_s.size, max_points)
     data.append(
         {
@@ -224,16 +219,8 @@ def altitude_figure(
         }
     )
     title = f"Altitude (DVL limit {dvl_max_altitude_m:g} m, RPM above {switch_altitude_m:g} m)"
-    layout = {
-        "title": {"text": title, "font": {"size": 13}},
-        "height": height_px,
-        "margin": {"l": 55, "r": 10, "t": 35, "b": 35},
-        "legend": LEGEND_BELOW,
-        "template": "plotly_white",
-        "xaxis": TIME_AXIS,
-        "yaxis": {"range": [bottom, top], "title": {"text": "altitude [m]", "font": {"size": 11}}},
-    }
-    return make_figure(data, layout, validate)
+    yaxis = {"range": [bottom, top], "title": {"text": "altitude [m]", "font": {"size": 11}}}
+    return make_figure(data, time_layout(title, height_px, yaxis, left_px=55), validate)
 
 
 def _rpm_shading(spans: np.ndarray, lo: float, hi: float, **extra: Any) -> dict[str, Any]:
