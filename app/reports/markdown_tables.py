@@ -305,18 +305,20 @@ def runs_markdown(results: Mapping[str, MethodResult]) -> str:
 def rms_markdown(results: Mapping[str, MethodResult]) -> str:
     """The Results tab's third table, below RMS_HEADING: every RMS over time the CLI prints
     (velocity, attitude norm, tilt, heading, position); then :func:`counts_markdown`."""
-    rows = [
-        [
-            str(r["method"]),
-            _fixed(r["vel_rms_mps"], 4),
-            _fixed(r["att_rms_deg"], 3),
-            _fixed(r["tilt_rms_deg"], 3),
-            _fixed(r["heading_rms_deg"], 3),
-            _fixed(r["pos_rms_m"], 2),
-        ]
-        for r in summary_rows(results)
-    ]
+    rows = [[str(r["method"]), *_rms_cells(r)] for r in summary_rows(results)]
     return "\n".join([RMS_HEADING, ""] + _table(RMS_COLUMNS, rows) + ["", counts_markdown(results)])
+
+
+def _rms_cells(row: SummaryRow) -> list[str]:
+    """The RMS errors of ``row`` as :data:`RMS_COLUMNS` shows them: velocity, attitude norm, tilt,
+    heading, position."""
+    return [
+        _fixed(row["vel_rms_mps"], 4),
+        _fixed(row["att_rms_deg"], 3),
+        _fixed(row["tilt_rms_deg"], 3),
+        _fixed(row["heading_rms_deg"], 3),
+        _fixed(row["pos_rms_m"], 2),
+    ]
 
 
 def _counts_cell(c: SourceCounts) -> str:
@@ -493,11 +495,7 @@ def compare_markdown(runs: Sequence[tuple[str, Mapping[str, MethodResult]]]) -> 
                 [
                     str(r["method"]),
                     label,
-                    _fixed(r["vel_rms_mps"], 4),
-                    _fixed(r["att_rms_deg"], 3),
-                    _fixed(r["tilt_rms_deg"], 3),
-                    _fixed(r["heading_rms_deg"], 3),
-                    _fixed(r["pos_rms_m"], 2),
+                    *_rms_cells(r),
                     _fixed(r["pos_final_m"], 2),
                     _ratio(r["nees_per_dim"]),
                 ]

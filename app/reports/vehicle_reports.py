@@ -14,7 +14,7 @@ from app.reports.tables import consistency_table
 from tauvcore.config import Config
 
 if TYPE_CHECKING:
-    from tauvcore.eval.calibration import Calibration
+    from tauvcore.eval.calibration import Calibration, Estimate
 
 
 def calibration_sections(result: Calibration) -> dict[str, dict[str, Any]]:
@@ -35,6 +35,17 @@ def number_to_sigma(value: float, sigma: float) -> str:
         return f"{value:.4g}"
     digits = max(0, 1 - int(np.floor(np.log10(sigma))))
     return f"{value:.{min(digits, 6)}f}"
+
+
+def _own_estimate(est: Estimate | None, width: int) -> str:
+    """A log's own estimate ``est`` as "value ± 1-sigma" cells of ``width`` characters, "" for
+    none (too few pings or intervals in the log)."""
+    if est is None:
+        return ""
+    return "".join(
+        f"{number_to_sigma(v, s) + ' ± ' + f'{s:.2g}':>{width}}"
+        for v, s in zip(est.value, est.sigma, strict=True)
+    )
 
 
 def calibration_table(result: Calibration) -> str:
@@ -78,14 +89,7 @@ def calibration_table(result: Calibration) -> str:
         head,
     ]
     for f in result.logs:
-        own = (
-            ""
-            if f.dvl is None
-            else "".join(
-                f"{number_to_sigma(v, s) + ' ± ' + f'{s:.2g}':>{w}}"
-                for v, s, w in zip(f.dvl.value, f.dvl.sigma, (16, 16, 16, 16), strict=True)
-            )
-        )
+        own = _own_estimate(f.dvl, 16)
         if f.pings == 0:
             lines.append(f"{_short(f.name):<24}{'no DVL pings':>20}")
             continue
@@ -106,14 +110,7 @@ def calibration_table(result: Calibration) -> str:
         head,
     ]
     for f in result.logs:
-        own = (
-            ""
-            if f.boresight is None
-            else "".join(
-                f"{number_to_sigma(v, s) + ' ± ' + f'{s:.2g}':>18}"
-                for v, s in zip(f.boresight.value, f.boresight.sigma, strict=True)
-            )
-        )
+        own = _own_estimate(f.boresight, 18)
         lines.append(
             f"{_short(f.name):<24}{f.intervals:>10}{f.rate_rms_before_dps:>17.4g}{f.rate_rms_after_dps:>9.4g}"
             f"{f.force_rms_before_mps2:>18.4g}{f.force_rms_after_mps2:>9.4g}   {own}"
