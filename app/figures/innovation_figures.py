@@ -120,17 +120,7 @@ def innovation_figure(
             hit = rec.rejected_rows[:, run, k] & row_ok
             if hit.any():
                 data.append(
-                    {
-                        "type": "scatter",
-                        "x": rec.t_s[hit],
-                        "y": rec.innovation[hit, run, k],
-                        "name": method.upper() + REJECTED_SUFFIX,
-                        "mode": "markers",
-                        "marker": {"color": color, "size": 8, "symbol": "x"},
-                        "legendgroup": method,
-                        "showlegend": not any(d["name"] == method.upper() + REJECTED_SUFFIX for d in data),
-                        **axes,
-                    }
+                    _rejected_trace(method, color, rec.t_s[hit], rec.innovation[hit, run, k], data, axes)
                 )
     runs_text = f", run {run + 1}" if any(rec.innovation.shape[1] > 1 for rec in records.values()) else ""
     shaded = f", shaded: {bin_label(max(bins_s))}" if bins_s else ""
@@ -180,19 +170,7 @@ def _binned_traces(
         rejected = rec.rejected_innovation[:, run, k]
         hit = np.isfinite(rejected)
         if hit.any():
-            data.append(
-                {
-                    "type": "scatter",
-                    "x": rec.t_s[hit],
-                    "y": rejected[hit],
-                    "name": method.upper() + REJECTED_SUFFIX,
-                    "mode": "markers",
-                    "marker": {"color": color, "size": 8, "symbol": "x"},
-                    "legendgroup": method,
-                    "showlegend": not any(d["name"] == method.upper() + REJECTED_SUFFIX for d in data),
-                    **axes,
-                }
-            )
+            data.append(_rejected_trace(method, color, rec.t_s[hit], rejected[hit], data, axes))
     return data
 
 
@@ -213,5 +191,24 @@ def _sigma3_band(
         "hoverinfo": "skip",
         "legendgroup": method,
         "showlegend": False,
+        **axes,
+    }
+
+
+def _rejected_trace(
+    method: str, color: str, t: np.ndarray, nu: np.ndarray, data: list[dict[str, Any]], axes: dict[str, str]
+) -> dict[str, Any]:
+    """The crosses of ``method``'s innovations ``nu`` the gate rejected, at ``t`` [s], on the panel
+    ``axes``; in the legend once, unless ``data`` (the traces drawn before it) already has them."""
+    name = method.upper() + REJECTED_SUFFIX
+    return {
+        "type": "scatter",
+        "x": t,
+        "y": nu,
+        "name": name,
+        "mode": "markers",
+        "marker": {"color": color, "size": 8, "symbol": "x"},
+        "legendgroup": method,
+        "showlegend": not any(d["name"] == name for d in data),
         **axes,
     }
