@@ -50,7 +50,7 @@ from app.figures.shared import (
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.consistency import CONFIDENCE, nees_band, nees_series
-from tauvcore.eval.envelope import curve_key, is_decimated, nees_curve
+from tauvcore.eval.envelope import curve_key, is_decimated, nees_curve, run_curve
 from tauvcore.eval.metrics import rms
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
 
@@ -155,9 +155,6 @@ def smoothed_traces(
     color = method_color(method)
     name = smoothed_name(method)
 
-    def run_curve(x: np.ndarray) -> np.ndarray:
-        return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
-
     curve = (run_curve(getattr(sm, fields[0])) if curve_of is None else curve_of(sm))[keep] * scale
     data: list[dict[str, Any]] = []
     if is_decimated(sm):
@@ -245,11 +242,10 @@ def error_figure(
         err = getattr(res, err_field)[keep]
         t = res.t_s[keep]
         runs = err.shape[1]
-        curve = err[:, 0] if runs == 1 else rms(err, axis=1)
+        curve = run_curve(err)
         color = method_color(method)
         if show_sigma:
-            sigma = getattr(res, sigma_field)[keep]
-            band = sigma[:, 0] if runs == 1 else rms(sigma, axis=1)
+            band = run_curve(getattr(res, sigma_field)[keep])
             if np.isfinite(band).any():  # Yoo 2014's filter has no position state: no position band
                 drawn.append(band)
                 data.append(
@@ -646,8 +642,7 @@ def compare_figure(
             if len(res.t_s) == 0:
                 continue
             keep, starts = _points(res, max_points)
-            err = getattr(res, err_field)[keep]
-            curve = err[:, 0] if err.shape[1] == 1 else rms(err, axis=1)
+            curve = run_curve(getattr(res, err_field)[keep])
             if is_decimated(res):
                 lo, hi = merged_envelope(res.low[err_field], res.high[err_field], starts)
                 drawn += [lo, hi]

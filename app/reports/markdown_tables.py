@@ -17,7 +17,7 @@ from tauvcore.config import Config, to_dict
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.counts import PING_SOURCES, SOURCE_LABELS, MethodCounts, SourceCounts, method_counts
-from tauvcore.eval.envelope import is_decimated
+from tauvcore.eval.envelope import is_decimated, run_curve
 from tauvcore.eval.metrics import rms
 from tauvcore.eval.study_statistics import FINAL_STATISTICS, final_statistics
 
@@ -64,11 +64,7 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
     errors are its last bin's, the mission's last epoch."""
     rows: list[SummaryRow] = []
     for method, res in results.items():
-
-        def curve(x: np.ndarray) -> np.ndarray:
-            return x[:, 0] if x.shape[1] == 1 else rms(x, axis=1)
-
-        vel, att, pos = curve(res.vel_err_mps), curve(res.att_err_deg), curve(res.pos_err_m)
+        vel, att, pos = run_curve(res.vel_err_mps), run_curve(res.att_err_deg), run_curve(res.pos_err_m)
         summary = res.summary if is_decimated(res) else None
         if summary is not None:
             consistency = summary.consistency
@@ -78,8 +74,8 @@ def summary_rows(results: Mapping[str, MethodResult]) -> list[SummaryRow]:
             whole = {
                 "vel_err_mps": float(rms(vel)),
                 "att_err_deg": float(rms(att)),
-                "tilt_err_deg": float(rms(curve(res.tilt_err_deg))),
-                "heading_err_deg": float(rms(curve(res.heading_err_deg))),
+                "tilt_err_deg": float(rms(run_curve(res.tilt_err_deg))),
+                "heading_err_deg": float(rms(run_curve(res.heading_err_deg))),
                 "pos_err_m": float(rms(pos)),
             }
         dvl_nis = consistency.nis.get("dvl")
