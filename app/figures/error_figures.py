@@ -190,6 +190,42 @@ def smoothed_traces(
     return data
 
 
+def _error_curve(
+    res: MethodResult,
+    err_field: str,
+    keep: slice,
+    starts: np.ndarray | None,
+    name: str,
+    group: str,
+    line: dict[str, Any],
+) -> tuple[list[dict[str, Any]], list[np.ndarray]]:
+    """The traces of ``res``'s error ``err_field`` at the epochs ``keep`` (:func:`_points`): its
+    curve (:func:`tauvcore.eval.envelope.run_curve`) named ``name`` in the legend group ``group``,
+    drawn with ``line``, over its min-max band when the run is in bins; and the values drawn (for
+    :func:`_spans_decades`)."""
+    t = res.t_s[keep]
+    curve = run_curve(getattr(res, err_field)[keep])
+    data: list[dict[str, Any]] = []
+    drawn: list[np.ndarray] = []
+    if is_decimated(res):
+        lo, hi = merged_envelope(res.low[err_field], res.high[err_field], starts)
+        drawn += [lo, hi]
+        data += envelope_traces(t, lo, hi, name, line["color"], res.bin_s, group)
+    drawn.append(curve)
+    data.append(
+        {
+            "type": "scatter",
+            "x": t,
+            "y": curve,
+            "name": name,
+            "mode": "lines",
+            "line": line,
+            "legendgroup": group,
+        }
+    )
+    return data, drawn
+
+
 def _check_quantity(quantity: str, log_y: bool | str) -> None:
     """ValueError naming ``quantity`` unless it is one of QUANTITIES, or ``log_y`` unless it is
     True, False or AUTO (:func:`error_figure`, :func:`compare_figure`)."""
@@ -239,10 +275,8 @@ def error_figure(
     runs = 1
     for method, res in results.items():
         keep, starts = _points(res, max_points)
-        err = getattr(res, err_field)[keep]
         t = res.t_s[keep]
-        runs = err.shape[1]
-        curve = run_curve(err)
+        runs = getattr(res, err_field).shape[1]
         color = method_color(method)
         if show_sigma:
             band = run_curve(getattr(res, sigma_field)[keep])
@@ -263,22 +297,11 @@ def error_figure(
                         "legendgroup": method,
                     }
                 )
-        if is_decimated(res):
-            lo, hi = merged_envelope(res.low[err_field], res.high[err_field], starts)
-            drawn += [lo, hi]
-            data += envelope_traces(t, lo, hi, method.upper(), color, res.bin_s, method)
-        drawn.append(curve)
-        data.append(
-            {
-                "type": "scatter",
-                "x": t,
-                "y": curve,
-                "name": method.upper(),
-                "mode": "lines",
-                "line": {"color": color, "width": 2},
-                "legendgroup": method,
-            }
+        traces, values = _error_curve(
+            res, err_field, keep, starts, method.upper(), method, {"color": color, "width": 2}
         )
+        data += traces
+        drawn += values
         if smoothed:
             traces = smoothed_traces(
                 method, res, (err_field, sigma_field if show_sigma else None), max_points
@@ -642,35 +665,11 @@ def compare_figure(
             if len(res.t_s) == 0:
                 continue
             keep, starts = _points(res, max_points)
-            curve = run_curve(getattr(res, err_field)[keep])
-            if is_decimated(res):
-                lo, hi = merged_envelope(res.low[err_field], res.high[err_field], starts)
-                drawn += [lo, hi]
-                data += envelope_traces(
-                    res.t_s[keep],
-                    lo,
-                    hi,
-                    f"{method.upper()} ({label})",
-                    method_color(method),
-                    res.bin_s,
-                    f"{label}/{method}",
-                )
-            drawn.append(curve)
-            data.append(
-                {
-                    "type": "scatter",
-                    "x": res.t_s[keep],
-                    "y": curve,
-                    "name": f"{method.upper()} ({label})",
-                    "mode": "lines",
-                    "legendgroup": f"{label}/{method}",
-                    "line": {
-                        "color": method_color(method),
-                        "width": 2,
-                        "dash": RUN_DASHES[n % len(RUN_DASHES)],
-                    },
-                }
-            )
+            line = {"color": method_color(method), "width": 2, "dash": RUN_DASHES[n % len(RUN_DASHES)]}
+            name, group = f"{method.upper()} ({label})", f"{label}/{method}"
+            traces, values = _error_curve(res, err_field, keep, starts, name, group, line)
+            data += traces
+            drawn += values
     log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
     labels = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
     note = _envelope_note({str(n): r for n, (_, rs) in enumerate(runs) for r in rs.values()})
