@@ -49,7 +49,7 @@ from app.figures.shared import (
 )
 from tauvcore.aiding.elc_select import CANDIDATES
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
-from tauvcore.eval.consistency import CONFIDENCE, nees_band, nees_series
+from tauvcore.eval.consistency import CONFIDENCE, nees_band
 from tauvcore.eval.envelope import curve_key, is_decimated, nees_curve, run_curve
 from tauvcore.eval.metrics import rms
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, wrap_angle
@@ -400,10 +400,7 @@ def _nees_traces(
     dimension), averaged over the runs, over its min-max band when the run is in bins, and with
     ``smoothed`` its smoothed curve beside it; with the times drawn [s] and the number of runs."""
     keep, starts = _points(res, max_points)
-    series = nees_series(res, block)[keep]
-    with np.errstate(invalid="ignore", over="ignore"):
-        curve = series.mean(axis=1) / dim
-    curve = np.where(np.isfinite(curve), curve, np.nan)
+    curve = nees_curve(res, block)[keep] / dim
     t = res.t_s[keep]
     data: list[dict[str, Any]] = []
     if is_decimated(res):
@@ -428,7 +425,7 @@ def _nees_traces(
         data += smoothed_traces(
             method, res, (curve_key(block), None), max_points, 1.0 / dim, lambda sm: nees_curve(sm, block)
         )
-    return data, t, series.shape[1]
+    return data, t, res.vel_err_mps.shape[1]
 
 
 def _nees_references(dims: list[int], runs: int, t_first: float, t_last: float) -> list[dict[str, Any]]:
