@@ -3,7 +3,7 @@ call per span of stops, with the smoother's marks when it keeps a tape (:class:`
 
 A bank in numpy (tests/unit/tauvcore/engine/yoo_reference.py, the reference this loop is held equal to, to 1e-9)
 spends its time in numpy's per-call overhead on 3x3 and 12x12 batches at every DVL ping, covariance
-step and output epoch; this loop and the formulas it calls (tauvcore.filter.families.yoo.model_kernels) do the
+step and output epoch; this loop and the formulas it calls (tauvcore.filter.yoo_kernels) do the
 same arithmetic in machine code.
 
 The chunk's stops (covariance steps, DVL pings, output epochs) come from the caller in order, with
@@ -142,9 +142,10 @@ def run_stops(
 ) -> None:
     """Stops ``s0 .. s1 - 1`` of a chunk (yoo_bank.YooBank.feed's loop): advance the nominal states
     to the stop, step the covariance, fuse a DVL ping (its row of the chunk's pings in
-    ``ping_of_stop``; then its water-track beams, with current states), record an output epoch
-    (its row in ``row_of_stop``); with the smoother's ``tape``, each ping's mark and each output
-    epoch's. ``counters`` = (k_state, k_cov, the tape's output epochs so far), read and written."""
+    ``ping_of_stop``, :func:`_fuse_ping`; then its water-track beams, with current states,
+    :func:`_fuse_water_track`), record an output epoch (its row in ``row_of_stop``); with the
+    smoother's ``tape``, each ping's mark and each output epoch's. ``counters`` = (k_state, k_cov,
+    the tape's output epochs so far), read and written."""
     stops, ping_of_stop, row_of_stop, k0 = schedule
     pos, vel, C, ba, bg, P, dtheta_sum, extra = (
         state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.dtheta_sum, state.extra,
@@ -217,14 +218,51 @@ def _fuse_ping(
     work: _PingWork,
 ) -> None:
     """Ping ``p`` (sample ``i`` of the chunk, ``k`` of the mission) fused by every (method, run):
-    each run's DVL body velocity from its bottom-track beams (:func:`_body_velocities_into`), then
-    each filter's velocity update (:func:`_fuse_bottom_track`), recorded in ``outputs.up_*``."""
-    _body_velocities_into(
-        chunk.y_beam[p], chunk.available[p], model.beam_var, chunk.dtheta[i], state, sd, model, work
-    )
-    for m in range(state.pos.shape[0]):
-        for r in range(state.pos.shape[1]):
-            _fuse_bottom_track(p, m, r, k, state, chunk, model, outputs, work)
+    each run's DVL body velocity from its bottom-track beams (:func:`_body_velocities_into`), the
+    VKF's step (:func:`_vkf_at_ping`), then each filter's NED velocity, the DVL's or, for the VKF
+    where it switched, its RPM velocity (:func:`_rpm_velocity_into`), fused and recorded in
+    ``outputs.up_*``."""
+    pos, vel, C, ba, bg, P, extra = state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.extra
+    vkf_x, vkf_P, vkf_use, learn_axis, learn_current = (
+        state.vkf_x, state.vkf_P, state.vkf_use, state.learn_axis, state.learn_current,
+    )  # fmt: skip
+    v_b, cov_b, gain, ok, have_rpm, Hb, Hc, Hx, h, w, z, Rm, Cc, nu, S_diag, vb = work
+    method_code, current, gate = model.method_code, model.current, model.gate
+    y, available = chunk.y_beam[p], chunk.available[p]
+    geometry, out = (model.origin, model.A_b, model.l_dvl_b), (v_b, cov_b, gain, ok)
+    _body_velocities_into(y, available, model.beam_var, chunk.dtheta[i], pos, C, sd, geometry, out)
+    readings = (chunk.rpm_index, chunk.rpm_value, chunk.rpm_sf, chunk.rpm_b, chunk.echo_index, chunk.echo_alt)
+    tuning = (model.vkf_Q, model.vkf_R, model.switch_altitude, model.forward_norm, current)
+    trace = (outputs.tr_x, outputs.tr_sigma, outputs.tr_truth, outputs.tr_use, outputs.tr_alt)
+    up_rows = (outputs.up_z, outputs.up_nu, outputs.up_S, outputs.up_flags, outputs.up_nis)
+    for m in range(pos.shape[0]):
+        if method_code[m] == VKF:  # each run's VKF, before the method's updates
+            _vkf_at_ping(p, k, m, state, readings, tuning, trace, (v_b, ok, have_rpm, vb))
+        for r in range(pos.shape[1]):
+            Cm = C[m, r]
+            # the consider states' columns in b: the scale factor scales the estimated body velocity, a
+            # beam bias goes through the least squares of the beams that returned
+            for a in range(3):
+                Hb[a, 0] = Cm[0, a] * vel[m, r, 0] + Cm[1, a] * vel[m, r, 1] + Cm[2, a] * vel[m, r, 2]
+                for c in range(4):
+                    Hb[a, 1 + c] = gain[r, a, c]
+            use_rpm = vkf_use[r] if method_code[m] == VKF else False  # the VKF's switch
+            if use_rpm:
+                valid = have_rpm[r]
+                _rpm_velocity_into(Cm, vkf_x[r], vkf_P[r], model.lateral_var, model.L4, (Hb, z, Rm))
+            else:
+                valid = ok[r]
+                _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
+            for a in range(3):
+                for c in range(NC):
+                    Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
+            _aid(_RPM if use_rpm else 0, Cm, vel[m, r], extra[m, r], current, learn_axis[r],
+                 learn_current[r], h, w, Hx)  # fmt: skip
+            fused, passed, nis = fuse(
+                P[m, r], (vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r]), (z, h, w, Rm, Hc, Hx),
+                valid, gate, (S_diag, nu),
+            )  # fmt: skip
+            _write_update(p, m, r, (z, nu, S_diag), (valid, fused, passed, nis), up_rows)
 
 
 @jit
@@ -233,124 +271,97 @@ def _body_velocities_into(
     available: np.ndarray,
     beam_var: float,
     dtheta: np.ndarray,
-    state: YooState,
+    pos: np.ndarray,
+    C: np.ndarray,
     sd: StrapdownConstants,
-    model: YooModel,
-    work: _PingWork,
+    geometry: tuple,
+    out: tuple,
 ) -> None:
     """Each run's DVL body velocity from its beams ``y`` (R, 4) [m/s] that returned
     (``available`` (R, 4)), of noise variance ``beam_var`` [m^2/s^2], with the gyro's increments
-    ``dtheta`` (R, 3) [rad] at the ping (tauvcore.filter.families.yoo.model_kernels.dvl_body_velocity_into):
-    ``work.v_b``, ``work.cov_b``, ``work.gain`` and ``work.ok`` written."""
-    pos, C = state.pos, state.C
+    ``dtheta`` (R, 3) [rad] at the ping and the first filter's position ``pos`` and attitude ``C``
+    (M, R, ...) (tauvcore.filter.yoo_kernels.dvl_body_velocity_into). ``geometry`` ``(origin, A_b,
+    l_dvl_b)``; ``out`` ``(v_b, cov_b, gain, ok)`` (:class:`_PingWork`'s), written."""
+    origin, A_b, l_dvl_b = geometry
+    v_b, cov_b, gain, ok = out
     dt, geodetic = sd[0], sd[5]
     for r in range(pos.shape[1]):
-        lat = pos[0, r, 0] if geodetic else model.origin[0]
-        work.ok[r] = dvl_body_velocity_into(
-            y[r], available[r], dtheta[r], dt, C[0, r], lat, model.A_b, model.l_dvl_b, beam_var,
-            work.v_b[r], work.cov_b[r], work.gain[r],
-        )  # fmt: skip
-
-
-@jit
-def _fuse_bottom_track(
-    p: int,
-    m: int,
-    r: int,
-    k: int,
-    state: YooState,
-    chunk: YooChunk,
-    model: YooModel,
-    outputs: YooOutputs,
-    work: _PingWork,
-) -> None:
-    """Method ``m``'s update of run ``r`` at ping ``p`` (sample ``k`` of the mission): the DVL's
-    NED velocity, or for the VKF where it switched (:func:`_vkf_at_ping`) its RPM velocity
-    ``C [V_rpm, 0, 0]`` with ``diag(P_VV, lateral, lateral)`` rotated; fused and recorded in
-    ``outputs.up_*``."""
-    Cm = state.C[m, r]
-    # the consider states' columns in b: the scale factor scales the estimated body velocity, a
-    # beam bias goes through the least squares of the beams that returned
-    _consider_b_into(Cm, state.vel[m, r], work.gain[r], work.Hb)
-    use_rpm = False
-    if model.method_code[m] == VKF:
-        use_rpm = _vkf_at_ping(p, m, r, k, state, chunk, model, outputs, work)
-    if use_rpm:
-        valid = work.have_rpm[r]
-        _rpm_velocity_into(Cm, state.vkf_x[r], state.vkf_P[r], model.lateral_var, model.L4, work)
-    else:
-        valid = work.ok[r]
-        _rotated_into(Cm, work.v_b[r], work.cov_b[r], work.z, work.Cc, work.Rm)
-    _consider_n_into(Cm, work.Hb, work.Hc)
-    _aid(_RPM if use_rpm else 0, Cm, state.vel[m, r], state.extra[m, r], model.current, state.learn_axis[r],
-         state.learn_current[r], work.h, work.w, work.Hx)  # fmt: skip
-    rows = (outputs.up_z, outputs.up_nu, outputs.up_S, outputs.up_flags, outputs.up_nis)
-    _fuse_and_write(p, m, r, valid, state, model, work, rows)
+        lat = pos[0, r, 0] if geodetic else origin[0]
+        ok[r] = dvl_body_velocity_into(
+            y[r], available[r], dtheta[r], dt, C[0, r], lat, A_b, l_dvl_b, beam_var, v_b[r], cov_b[r], gain[r]
+        )
 
 
 @jit
 def _vkf_at_ping(
-    p: int,
-    m: int,
-    r: int,
-    k: int,
-    state: YooState,
-    chunk: YooChunk,
-    model: YooModel,
-    outputs: YooOutputs,
-    work: _PingWork,
-) -> bool:
-    """The VKF of run ``r`` at ping ``p`` (method ``m``, sample ``k`` of the mission;
-    tauvcore.filter.families.yoo.model_kernels.vkf_step) with the latest RPM and altitude and the DVL's forward
-    speed through the water (the current estimate's part along the body x axis taken out): where
-    it learnt, its axis and current estimate kept; its switch, altitude and trace written.
-    -> whether it fuses its RPM velocity."""
-    Cm, extra, current = state.C[m, r], state.extra[m, r], model.current
-    jr = _latest(chunk.rpm_index, k)
-    je = _latest(chunk.echo_index, k)
-    rpm_now = chunk.rpm_value[jr, r] if jr >= 0 else np.nan
-    altitude = chunk.echo_alt[je, r] if je >= 0 else np.nan
-    vb = work.vb
-    for j in range(3):
-        vb[j] = work.v_b[r, j]
-    cx = 0.0  # the current's part along the body x axis (learning through the water)
-    if current >= 0:
-        cx = Cm[0, 0] * extra[current - NA] + Cm[1, 0] * extra[current - NA + 1]
-    vb[0] -= cx
-    if model.forward_norm:
-        z_fwd = math.sqrt(vb[0] ** 2 + vb[1] ** 2 + vb[2] ** 2)
-    else:
-        z_fwd = vb[0]
-    use_rpm, got_rpm = vkf_step(
-        state.vkf_x[r], state.vkf_P[r], rpm_now, altitude, z_fwd, work.ok[r], model.vkf_Q, model.vkf_R,
-        model.switch_altitude,
+    p: int, k: int, m: int, state: YooState, readings: tuple, tuning: tuple, trace: tuple, dvl: tuple
+) -> None:
+    """Each run's VKF at ping ``p``, sample ``k`` of the mission, for method ``m``
+    (tauvcore.filter.yoo_kernels.vkf_step): predicted with the latest RPM, updated with the DVL's
+    forward speed through the water (the current estimate's part along the body x axis taken
+    out) where eq. 29 picks the DVL; where it learnt, its axis and current estimate kept; its
+    switch (``state.vkf_use``), altitude and trace written.
+
+    ``readings`` ``(rpm_index, rpm_value, rpm_sf, rpm_b, echo_index, echo_alt)``
+    (:class:`~tauvcore.engine.yoo_records.YooChunk`'s); ``tuning`` ``(vkf_Q, vkf_R,
+    switch_altitude, forward_norm, current)`` (:class:`~tauvcore.engine.yoo_records.YooModel`'s);
+    ``trace`` ``(tr_x, tr_sigma, tr_truth, tr_use, tr_alt)``
+    (:class:`~tauvcore.engine.yoo_records.YooOutputs`'); ``dvl`` ``(v_b, ok, have_rpm, vb)``
+    (:class:`_PingWork`'s: the DVL's body velocities, whether each holds, whether the VKF read an
+    RPM (written), work space): the arrays it uses rather than the records that hold them, as a
+    compiled call pays for every array it is handed."""
+    C, extra, vkf_x, vkf_P, vkf_use, vkf_alt, learn_axis, learn_current = (
+        state.C, state.extra, state.vkf_x, state.vkf_P, state.vkf_use, state.vkf_alt, state.learn_axis,
+        state.learn_current,
     )  # fmt: skip
-    if current >= 0 and not use_rpm and work.ok[r] and got_rpm:  # learnt: its axis, current
+    rpm_index, rpm_value, rpm_sf, rpm_b, echo_index, echo_alt = readings
+    vkf_Q, vkf_R, switch_altitude, forward_norm, current = tuning
+    tr_x, tr_sigma, tr_truth, tr_use, tr_alt = trace
+    v_b, ok, have_rpm, vb = dvl
+    for r in range(C.shape[1]):
+        Cm = C[m, r]
+        jr = _latest(rpm_index, k)
+        je = _latest(echo_index, k)
+        rpm_now = rpm_value[jr, r] if jr >= 0 else np.nan
+        altitude = echo_alt[je, r] if je >= 0 else np.nan
         for j in range(3):
-            state.learn_axis[r, j] = Cm[j, 0]
-            state.learn_current[r, j] = 0.0
-        state.learn_current[r, 0] = extra[current - NA]
-        state.learn_current[r, 1] = extra[current - NA + 1]
-    work.have_rpm[r] = got_rpm
-    state.vkf_use[r], state.vkf_alt[r] = use_rpm, altitude
-    for j in range(3):
-        outputs.tr_x[p, r, j] = state.vkf_x[r, j]
-        outputs.tr_sigma[p, r, j] = math.sqrt(state.vkf_P[r, j, j])
-    outputs.tr_truth[p, r, 0] = chunk.rpm_sf[jr, r] if jr >= 0 else np.nan
-    outputs.tr_truth[p, r, 1] = chunk.rpm_b[jr, r] if jr >= 0 else np.nan
-    outputs.tr_use[p, r], outputs.tr_alt[p, r] = use_rpm, altitude
-    return use_rpm
+            vb[j] = v_b[r, j]
+        cx = 0.0  # the current's part along the body x axis (learning through the water)
+        if current >= 0:
+            cx = Cm[0, 0] * extra[m, r, current - NA] + Cm[1, 0] * extra[m, r, current - NA + 1]
+        vb[0] -= cx
+        if forward_norm:
+            z_fwd = math.sqrt(vb[0] ** 2 + vb[1] ** 2 + vb[2] ** 2)
+        else:
+            z_fwd = vb[0]
+        use_rpm, got_rpm = vkf_step(
+            vkf_x[r], vkf_P[r], rpm_now, altitude, z_fwd, ok[r], vkf_Q, vkf_R, switch_altitude
+        )
+        if current >= 0 and not use_rpm and ok[r] and got_rpm:  # learnt: its axis, current
+            for j in range(3):
+                learn_axis[r, j] = Cm[j, 0]
+                learn_current[r, j] = 0.0
+            learn_current[r, 0] = extra[m, r, current - NA]
+            learn_current[r, 1] = extra[m, r, current - NA + 1]
+        have_rpm[r] = got_rpm
+        vkf_use[r], vkf_alt[r] = use_rpm, altitude
+        for j in range(3):
+            tr_x[p, r, j] = vkf_x[r, j]
+            tr_sigma[p, r, j] = math.sqrt(vkf_P[r, j, j])
+        tr_truth[p, r, 0] = rpm_sf[jr, r] if jr >= 0 else np.nan
+        tr_truth[p, r, 1] = rpm_b[jr, r] if jr >= 0 else np.nan
+        tr_use[p, r], tr_alt[p, r] = use_rpm, altitude
 
 
 @jit
 def _rpm_velocity_into(
-    Cm: np.ndarray, x: np.ndarray, P_vkf: np.ndarray, lateral_var: float, L4: np.ndarray, work: _PingWork
+    Cm: np.ndarray, x: np.ndarray, P_vkf: np.ndarray, lateral_var: float, L4: np.ndarray, out: tuple
 ) -> None:
-    """The VKF's RPM velocity in n, ``z = C [V_rpm, 0, 0]``, its covariance ``Rm`` (``diag(P_VV,
-    lateral_var, lateral_var)`` rotated by ``Cm``) and its consider columns ``Hb`` in b (its surge
+    """The VKF's RPM velocity in n, ``z = C [V_rpm, 0, 0]``, its covariance ``Rm``, ``diag(P_VV,
+    lateral_var, lateral_var)`` rotated by ``Cm``, and its consider columns ``Hb`` in b (its surge
     was learnt from the DVL's 4 beams: ``L4``'s first row), from the VKF's state ``x`` (3,) and
-    covariance ``P_vkf`` (3, 3); written into ``work``."""
-    Hb, z, Rm = work.Hb, work.z, work.Rm
+    covariance ``P_vkf`` (3, 3); ``out`` ``(Hb, z, Rm)``, written."""
+    Hb, z, Rm = out
     Hb[:, :] = 0.0
     Hb[0, 0] = x[0]
     for c in range(4):
@@ -377,55 +388,32 @@ def _fuse_water_track(
     work: _PingWork,
 ) -> None:
     """Ping ``p``'s water-track beams (sample ``i`` of the chunk) fused by every (method, run): the
-    DVL's velocity through the water ``v - c`` (the current's states at ``model.current``),
+    DVL's velocity through the water, ``v - c`` (the current's states at ``model.current``),
     recorded in ``outputs.wt_*``."""
-    _body_velocities_into(
-        chunk.y_water[p], chunk.water_available[p], model.water_var, chunk.dtheta[i], state, sd, model, work
-    )
-    rows = (outputs.wt_z, outputs.wt_nu, outputs.wt_S, outputs.wt_flags, outputs.wt_nis)
-    for m in range(state.pos.shape[0]):
-        for r in range(state.pos.shape[1]):
-            Cm = state.C[m, r]
-            _aid(_WATER, Cm, state.vel[m, r], state.extra[m, r], model.current, state.learn_axis[r],
-                 state.learn_current[r], work.h, work.w, work.Hx)  # fmt: skip
-            # the scale factor scales the estimated velocity through the water
-            _consider_b_into(Cm, work.h, work.gain[r], work.Hb)
-            _consider_n_into(Cm, work.Hb, work.Hc)
-            _rotated_into(Cm, work.v_b[r], work.cov_b[r], work.z, work.Cc, work.Rm)
-            _fuse_and_write(p, m, r, work.ok[r], state, model, work, rows)
-
-
-@jit
-def _consider_b_into(Cm: np.ndarray, v_n: np.ndarray, gain: np.ndarray, Hb: np.ndarray) -> None:
-    """The consider states' columns ``Hb`` (3, NC) in b: the scale factor's, ``Cm^T v_n`` (the
-    estimated velocity ``v_n`` (3,) [m/s] in b); the beam biases', the least squares' ``gain``
-    (3, 4) from the beams."""
-    for a in range(3):
-        Hb[a, 0] = Cm[0, a] * v_n[0] + Cm[1, a] * v_n[1] + Cm[2, a] * v_n[2]
-        for c in range(4):
-            Hb[a, 1 + c] = gain[a, c]
-
-
-@jit
-def _consider_n_into(Cm: np.ndarray, Hb: np.ndarray, Hc: np.ndarray) -> None:
-    """The consider states' columns in b, ``Hb`` (3, NC), rotated into n: ``Hc = Cm Hb``."""
-    for a in range(3):
-        for c in range(NC):
-            Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
-
-
-@jit
-def _fuse_and_write(
-    p: int, m: int, r: int, valid: bool, state: YooState, model: YooModel, work: _PingWork, rows: tuple
-) -> None:
-    """The velocity in ``work`` (``z``, ``h``, ``w``, ``Rm``, ``Hc``, ``Hx``) fused into method
-    ``m``'s filter of run ``r`` (tauvcore.filter.families.yoo.model_kernels.fuse) at ping ``p`` and recorded
-    into ``rows`` (:func:`_write_update`)."""
-    fused, passed, nis = fuse(
-        state.P[m, r], (state.vel[m, r], state.C[m, r], state.ba[m, r], state.bg[m, r], state.extra[m, r]),
-        (work.z, work.h, work.w, work.Rm, work.Hc, work.Hx), valid, model.gate, (work.S_diag, work.nu),
-    )  # fmt: skip
-    _write_update(p, m, r, (work.z, work.nu, work.S_diag), (valid, fused, passed, nis), rows)
+    pos, vel, C, ba, bg, P, extra = state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.extra
+    v_b, cov_b, gain, ok, _, Hb, Hc, Hx, h, w, z, Rm, Cc, nu, S_diag, _ = work
+    current, learn_axis, learn_current = model.current, state.learn_axis, state.learn_current
+    y, available = chunk.y_water[p], chunk.water_available[p]
+    geometry, out = (model.origin, model.A_b, model.l_dvl_b), (v_b, cov_b, gain, ok)
+    _body_velocities_into(y, available, model.water_var, chunk.dtheta[i], pos, C, sd, geometry, out)
+    wt_rows = (outputs.wt_z, outputs.wt_nu, outputs.wt_S, outputs.wt_flags, outputs.wt_nis)
+    for m in range(pos.shape[0]):
+        for r in range(pos.shape[1]):
+            Cm = C[m, r]
+            _aid(_WATER, Cm, vel[m, r], extra[m, r], current, learn_axis[r], learn_current[r], h, w, Hx)
+            for a in range(3):  # the scale factor scales the estimated velocity through the water
+                Hb[a, 0] = Cm[0, a] * h[0] + Cm[1, a] * h[1] + Cm[2, a] * h[2]
+                for c in range(4):
+                    Hb[a, 1 + c] = gain[r, a, c]
+            for a in range(3):
+                for c in range(NC):
+                    Hc[a, c] = Cm[a, 0] * Hb[0, c] + Cm[a, 1] * Hb[1, c] + Cm[a, 2] * Hb[2, c]
+            _rotated_into(Cm, v_b[r], cov_b[r], z, Cc, Rm)
+            fused, passed, nis = fuse(
+                P[m, r], (vel[m, r], C[m, r], ba[m, r], bg[m, r], extra[m, r]), (z, h, w, Rm, Hc, Hx),
+                ok[r], model.gate, (S_diag, nu),
+            )  # fmt: skip
+            _write_update(p, m, r, (z, nu, S_diag), (ok[r], fused, passed, nis), wt_rows)
 
 
 @jit

@@ -17,27 +17,6 @@ from tauvcore.filter.kernels.nees import add_reference_into, nees_blocks_into, n
 from tauvcore.filter.kernels.rotation_kernels import log_so3_into
 
 
-class _EpochWork(NamedTuple):
-    """The work space of :func:`record` for the n = 12 + E estimated states, allocated once per
-    call, and the NEES blocks' factorisation plan (tauvcore.filter.kernels.nees.nees_plan)."""
-
-    dx: np.ndarray  # (n,) the errors true - estimate
-    Ce: np.ndarray  # (3, 3) C_true C_est^T
-    rho: np.ndarray  # (3,) the attitude error, log(Ce) [rad]
-    Pe: np.ndarray  # (n, n) the estimated states' covariance
-    A: np.ndarray  # (n, n) and with the reference's own added
-    L: np.ndarray  # (n, n) work space of the NEES's Cholesky factor
-    yv: np.ndarray  # (n,) and of its whitened errors
-    idx: np.ndarray  # (n,) int64 0 .. n - 1
-    blocks: np.ndarray  # (num_blocks,) each block's NEES
-    x_est: np.ndarray  # (12,) the bias states' estimate, by state (zero elsewhere)
-    x_true: np.ndarray  # (12,) and their truth
-    members: np.ndarray  # the NEES blocks' members,
-    sizes: np.ndarray  # sizes,
-    lead: int  # largest block
-    order: np.ndarray  # and state order
-
-
 @jit
 def record(
     row: int,
@@ -57,164 +36,124 @@ def record(
     ``outputs.sensor_est`` (T, M, R, S) has rows, the sensor errors' estimate, ``sqrt(P_ii)`` and
     truth too (column j the state ``model.sensor_index[j]``); the added states' estimate
     (``state.extra`` (M, R, E)), ``sqrt(P_ii)`` and truth into ``outputs.state_*``; when the
-    smoother's ``tape_dx`` (T, M, R, 12 + E) has rows, the errors too."""
-    truth = (chunk.pos_t[k], chunk.vel_t[k], chunk.C_t[k], chunk.ba_t[k], chunk.bg_t[k], chunk.extra_t[k])
-    extra_t = truth[5]
-    C, P, extra = state.C, state.P, state.extra
-    est_euler, state_est, state_sigma, state_true = (
-        outputs.est_euler, outputs.state_est, outputs.state_sigma, outputs.state_true,
-    )  # fmt: skip
-    n = model.est.shape[0]
-    members, sizes, lead, order = nees_plan(model.block_of_state, model.num_blocks)
-    work = _EpochWork(
-        np.empty(n), np.empty((3, 3)), np.empty(3), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
-        np.empty(n), np.arange(n), np.empty(model.num_blocks), np.zeros(DIM), np.zeros(DIM), members, sizes,
-        lead, order,
-    )  # fmt: skip
+    smoother's ``tape_dx`` (T, M, R, 12 + E) has rows, the errors too. The Euler angles, the sensor
+    errors and the added states come from :func:`_state_estimates_into`."""
+    pos_t, vel_t, C_t, ba_t, bg_t = chunk.pos_t[k], chunk.vel_t[k], chunk.C_t[k], chunk.ba_t[k], chunk.bg_t[k]
+    extra_t = chunk.extra_t[k]
+    pos, vel, C, ba, bg, P, extra = state.pos, state.vel, state.C, state.ba, state.bg, state.P, state.extra
+    origin, num_blocks, deg, est, ref_var = (
+        model.origin,
+        model.num_blocks,
+        model.deg,
+        model.est,
+        model.ref_var,
+    )
+    series, nees_block, est_pos, est_vel = (
+        outputs.series,
+        outputs.nees_block,
+        outputs.est_pos,
+        outputs.est_vel,
+    )
+    n = est.shape[0]
+    dx, yv, Ce, rho, idx = np.empty(n), np.empty(n), np.empty((3, 3)), np.empty(3), np.arange(n)
+    L, Pe, A = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    members, sizes, lead, order = nees_plan(model.block_of_state, num_blocks)
+    blocks = np.empty(num_blocks)
+    for m in range(pos.shape[0]):
+        for r in range(pos.shape[1]):
+            Cm = C[m, r]
+            for i in range(3):
+                for j in range(3):
+                    Ce[i, j] = C_t[i, 0] * Cm[j, 0] + C_t[i, 1] * Cm[j, 1] + C_t[i, 2] * Cm[j, 2]
+            log_so3_into(Ce, rho)
+            for i in range(3):
+                dx[VEL + i] = vel_t[i] - vel[m, r, i]
+                dx[ATT + i] = rho[i]
+                dx[BA + i] = ba_t[r, i] - ba[m, r, i]
+                dx[BG + i] = bg_t[r, i] - bg[m, r, i]
+            for e in range(n - DIM):
+                dx[DIM + e] = extra_t[e] - extra[m, r, e]
+            if tape_dx.shape[0] > 0:
+                tape_dx[row, m, r, :] = dx
+            if geodetic:
+                e0, e1, e2 = ned_offset(
+                    pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], origin[2]
+                )
+                est_pos[row, m, r, 0], est_pos[row, m, r, 1], est_pos[row, m, r, 2] = e0, e1, e2
+            else:
+                for i in range(3):
+                    est_pos[row, m, r, i] = pos[m, r, i]
+            ep = 0.0
+            ev = 0.0
+            for i in range(3):
+                ep += (est_pos[row, m, r, i] - pos_t[i]) ** 2
+                vb = (C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2]) - (
+                    Cm[0, i] * vel[m, r, 0] + Cm[1, i] * vel[m, r, 1] + Cm[2, i] * vel[m, r, 2]
+                )
+                ev += vb * vb
+                est_vel[row, m, r, i] = vel[m, r, i]
+            Pm = P[m, r]
+            for a in range(n):
+                for b in range(n):
+                    Pe[a, b] = Pm[est[a], est[b]]
+            series[0, row, m, r] = math.sqrt(ev)
+            series[1, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2 + rho[2] ** 2) * deg
+            series[2, row, m, r] = math.sqrt(ep)
+            series[3, row, m, r] = math.sqrt(Pm[0, 0] + Pm[1, 1] + Pm[2, 2])
+            series[4, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4] + Pm[5, 5]) * deg
+            series[5, row, m, r] = np.nan
+            # the NEES's covariance: P and the reference's own (NED velocity, no position state), or P
+            Q = A if add_reference_into(Pe, ref_var, C_t, vel_t, -1, ATT, VEL, False, A) else Pe
+            series[6, row, m, r] = quadratic_into(Q, dx, idx, n, L, yv)
+            series[7, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2) * deg
+            series[8, row, m, r] = abs(rho[2]) * deg
+            series[9, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4]) * deg
+            series[10, row, m, r] = math.sqrt(Pm[5, 5]) * deg
+            nees_blocks_into(Q, dx, members, sizes, lead, order, L, yv, blocks)
+            for b in range(num_blocks):
+                nees_block[row, m, r, b] = blocks[b] if sizes[b] > 0 else np.nan
+    estimates = (outputs.est_euler, outputs.sensor_est, outputs.sensor_sigma, outputs.sensor_true,
+                 outputs.state_est, outputs.state_sigma, outputs.state_true)  # fmt: skip
+    _state_estimates_into(row, (C, ba, bg, P, extra), (ba_t, bg_t, extra_t), model.sensor_index, estimates)
+
+
+@jit
+def _state_estimates_into(
+    row: int, nominal: tuple, truth: tuple, sensor_index: np.ndarray, estimates: tuple
+) -> None:
+    """Output epoch ``row``'s estimated states of every (method, run) (:func:`record`): the Euler
+    angles of the attitude [rad]; when ``sensor_est`` (T, M, R, S) has rows, the sensor errors'
+    estimate, ``sqrt(P_ii)`` and truth (column j the state ``sensor_index[j]``); the added states'
+    estimate, ``sqrt(P_ii)`` and truth. ``nominal`` ``(C, ba, bg, P, extra)`` (M, R, ...), their
+    ``truth`` ``(ba_t, bg_t, extra_t)`` at the epoch; ``estimates`` ``(est_euler, sensor_est,
+    sensor_sigma, sensor_true, state_est, state_sigma, state_true)`` (:class:`YooOutputs`'),
+    written: the arrays it uses rather than the records that hold them, as a compiled call pays
+    for every array it is handed."""
+    ba_t, bg_t, extra_t = truth
+    C, ba, bg, P, extra = nominal
+    est_euler, sensor_est, sensor_sigma, sensor_true, state_est, state_sigma, state_true = estimates
+    with_sensors = sensor_est.shape[0] > 0
+    x_est = np.zeros(DIM)  # the bias states' estimate and truth, by state
+    x_true = np.zeros(DIM)
     for m in range(C.shape[0]):
         for r in range(C.shape[1]):
-            _errors_into(m, r, truth, state, work)
-            if tape_dx.shape[0] > 0:
-                tape_dx[row, m, r, :] = work.dx
-            ep, ev = _estimates_into(row, m, r, truth, state, model.origin, geodetic, outputs)
-            Pm = P[m, r]
-            _series_into(row, m, r, ep, ev, truth, Pm, model, outputs, work)
-            Cm = C[m, r]
+            Cm, Pm = C[m, r], P[m, r]
             est_euler[row, m, r, 0] = math.atan2(Cm[2, 1], Cm[2, 2])
             est_euler[row, m, r, 1] = -math.asin(min(1.0, max(-1.0, Cm[2, 0])))
             est_euler[row, m, r, 2] = math.atan2(Cm[1, 0], Cm[0, 0])
-            if outputs.sensor_est.shape[0] > 0:
-                _sensors_into(row, m, r, truth, state, model, outputs, work)
-            for e in range(n - DIM):
+            if with_sensors:
+                for i in range(3):
+                    x_est[BA + i], x_true[BA + i] = ba[m, r, i], ba_t[r, i]
+                    x_est[BG + i], x_true[BG + i] = bg[m, r, i], bg_t[r, i]
+                for j in range(sensor_index.size):
+                    s = sensor_index[j]
+                    sensor_est[row, m, r, j] = x_est[s]
+                    sensor_sigma[row, m, r, j] = math.sqrt(Pm[s, s])
+                    sensor_true[row, m, r, j] = x_true[s]
+            for e in range(extra.shape[2]):
                 state_est[row, m, r, e] = extra[m, r, e]
                 state_sigma[row, m, r, e] = math.sqrt(Pm[NA + e, NA + e])
                 state_true[row, m, r, e] = extra_t[e]
-
-
-@jit
-def _errors_into(m: int, r: int, truth: tuple, state: YooState, work: _EpochWork) -> None:
-    """The errors ``true - estimate`` of method ``m``'s filter of run ``r`` against ``truth``
-    (:func:`record`'s ``(pos_t, vel_t, C_t, ba_t, bg_t, extra_t)`` at the epoch) by state into
-    ``work.dx``: the velocity's [m/s], the attitude's ``log(C_t C^T)`` [rad] (also ``work.rho``),
-    the biases', the added states'."""
-    vel_t, C_t, ba_t, bg_t, extra_t = truth[1], truth[2], truth[3], truth[4], truth[5]
-    Cm = state.C[m, r]
-    Ce, rho, dx = work.Ce, work.rho, work.dx
-    for i in range(3):
-        for j in range(3):
-            Ce[i, j] = C_t[i, 0] * Cm[j, 0] + C_t[i, 1] * Cm[j, 1] + C_t[i, 2] * Cm[j, 2]
-    log_so3_into(Ce, rho)
-    for i in range(3):
-        dx[VEL + i] = vel_t[i] - state.vel[m, r, i]
-        dx[ATT + i] = rho[i]
-        dx[BA + i] = ba_t[r, i] - state.ba[m, r, i]
-        dx[BG + i] = bg_t[r, i] - state.bg[m, r, i]
-    for e in range(dx.shape[0] - DIM):
-        dx[DIM + e] = extra_t[e] - state.extra[m, r, e]
-
-
-@jit
-def _estimates_into(
-    row: int,
-    m: int,
-    r: int,
-    truth: tuple,
-    state: YooState,
-    origin: np.ndarray,
-    geodetic: bool,
-    outputs: YooOutputs,
-) -> tuple[float, float]:
-    """Method ``m``'s position (NED from ``origin`` where ``geodetic``) [m] and NED velocity [m/s]
-    of run ``r`` into ``outputs.est_pos`` and ``outputs.est_vel`` at epoch ``row``. -> the squared
-    position error [m^2] and body velocity error [m^2/s^2] against ``truth`` (:func:`record`'s)."""
-    pos_t, vel_t, C_t = truth[0], truth[1], truth[2]
-    pos, vel, Cm = state.pos, state.vel, state.C[m, r]
-    est_pos, est_vel = outputs.est_pos, outputs.est_vel
-    if geodetic:
-        e0, e1, e2 = ned_offset(pos[m, r, 0], pos[m, r, 1], -pos[m, r, 2], origin[0], origin[1], origin[2])
-        est_pos[row, m, r, 0], est_pos[row, m, r, 1], est_pos[row, m, r, 2] = e0, e1, e2
-    else:
-        for i in range(3):
-            est_pos[row, m, r, i] = pos[m, r, i]
-    ep = 0.0
-    ev = 0.0
-    for i in range(3):
-        ep += (est_pos[row, m, r, i] - pos_t[i]) ** 2
-        vb = (C_t[0, i] * vel_t[0] + C_t[1, i] * vel_t[1] + C_t[2, i] * vel_t[2]) - (
-            Cm[0, i] * vel[m, r, 0] + Cm[1, i] * vel[m, r, 1] + Cm[2, i] * vel[m, r, 2]
-        )
-        ev += vb * vb
-        est_vel[row, m, r, i] = vel[m, r, i]
-    return ep, ev
-
-
-@jit
-def _series_into(
-    row: int,
-    m: int,
-    r: int,
-    ep: float,
-    ev: float,
-    truth: tuple,
-    Pm: np.ndarray,
-    model: YooModel,
-    outputs: YooOutputs,
-    work: _EpochWork,
-) -> None:
-    """The per-epoch series of method ``m``'s filter of run ``r`` at epoch ``row`` (rows of
-    tauvcore.engine.yoo_bank.SERIES): the velocity, attitude and position errors (``ev``, ``ep``
-    squared, ``work.rho``), their 1-sigma from its covariance ``Pm`` (N, N), the NEES of its
-    estimated states' errors ``work.dx``, tilt and heading; and the NEES of each block into
-    ``outputs.nees_block``."""
-    vel_t, C_t = truth[1], truth[2]
-    est, deg, series = model.est, model.deg, outputs.series
-    Pe, rho, dx, n = work.Pe, work.rho, work.dx, model.est.shape[0]
-    for a in range(n):
-        for b in range(n):
-            Pe[a, b] = Pm[est[a], est[b]]
-    series[0, row, m, r] = math.sqrt(ev)
-    series[1, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2 + rho[2] ** 2) * deg
-    series[2, row, m, r] = math.sqrt(ep)
-    series[3, row, m, r] = math.sqrt(Pm[0, 0] + Pm[1, 1] + Pm[2, 2])
-    series[4, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4] + Pm[5, 5]) * deg
-    series[5, row, m, r] = np.nan
-    # the NEES's covariance: P and the reference's own (NED velocity, no position state), or P
-    Q = work.A if add_reference_into(Pe, model.ref_var, C_t, vel_t, -1, ATT, VEL, False, work.A) else Pe
-    series[6, row, m, r] = quadratic_into(Q, dx, work.idx, n, work.L, work.yv)
-    series[7, row, m, r] = math.sqrt(rho[0] ** 2 + rho[1] ** 2) * deg
-    series[8, row, m, r] = abs(rho[2]) * deg
-    series[9, row, m, r] = math.sqrt(Pm[3, 3] + Pm[4, 4]) * deg
-    series[10, row, m, r] = math.sqrt(Pm[5, 5]) * deg
-    sizes, blocks = work.sizes, work.blocks
-    nees_blocks_into(Q, dx, work.members, sizes, work.lead, work.order, work.L, work.yv, blocks)
-    for b in range(model.num_blocks):
-        outputs.nees_block[row, m, r, b] = blocks[b] if sizes[b] > 0 else np.nan
-
-
-@jit
-def _sensors_into(
-    row: int,
-    m: int,
-    r: int,
-    truth: tuple,
-    state: YooState,
-    model: YooModel,
-    outputs: YooOutputs,
-    work: _EpochWork,
-) -> None:
-    """The sensor errors of method ``m``'s filter of run ``r`` at epoch ``row``: column j the state
-    ``model.sensor_index[j]`` (the bias states', else zero), its estimate, ``sqrt(P_ii)`` and
-    truth (``truth``, :func:`record`'s) into ``outputs.sensor_*``."""
-    ba_t, bg_t = truth[3], truth[4]
-    x_est, x_true, sensor_index, Pm = work.x_est, work.x_true, model.sensor_index, state.P[m, r]
-    for i in range(3):
-        x_est[BA + i], x_true[BA + i] = state.ba[m, r, i], ba_t[r, i]
-        x_est[BG + i], x_true[BG + i] = state.bg[m, r, i], bg_t[r, i]
-    for j in range(sensor_index.size):
-        s = sensor_index[j]
-        outputs.sensor_est[row, m, r, j] = x_est[s]
-        outputs.sensor_sigma[row, m, r, j] = math.sqrt(Pm[s, s])
-        outputs.sensor_true[row, m, r, j] = x_true[s]
 
 
 class YooSchedule(NamedTuple):
