@@ -44,6 +44,7 @@ from app.dashboard.session_playback import Playback
 from app.dashboard.session_plots import VKF_NOTES, PlotTabs
 from app.dashboard.session_runs import RunTabs
 from app.dashboard.session_scene import FOLLOW_DISTANCE_M, SceneView
+from app.dashboard.session_series import SeriesTab
 from app.dashboard.session_state import TabState, notify
 from app.dashboard.session_vehicle import VehiclePanel, applied
 from app.figures.scene import (
@@ -121,6 +122,7 @@ class Session:
             add_run_widgets=lambda: self.run_tabs.add_run_widgets(),
             notify=self.notify,
         )
+        self.series_tab = SeriesTab(self.state, self.workbench, notify=self.notify)
         self.run_tabs = RunTabs(
             self.state,
             self.workbench,
@@ -397,6 +399,8 @@ class Session:
         self.scene.draw_estimates(results)
         if "vkf" in results:  # the VKF's learned scale factor and bias, as far as the run got
             self.plot_tabs.draw_vkf_plot(results["vkf"], config)
+        if not live:  # any series picked: drawn from the run's final results
+            self.series_tab.refresh()
         self.playback.follow_run_time(float(next(iter(results.values())).t_s[-1]))
 
     def _keep_finished(self, results: dict[str, MethodResult], config: Config, stopped: bool) -> None:
