@@ -35,6 +35,13 @@ characters a query needs no escape for (letters, digits, ``. , : _ -``), a numbe
 dropped (``1e+3`` is written ``1e3``), and a space read in a number is taken for the ``+`` that
 rewrite turned into one. viser's own parameters (``darkMode``, ``initialCameraPosition``, ...) are
 left in the address as they were, and are not this module's to refuse.
+
+The address also keeps what the page shows (:data:`VIEW_KEYS`, not controls): the time ``t``
+(seconds), the plots' zoomed time range ``x`` (``start:end`` in seconds) and the 3-D camera
+``cam`` (its position and the point it looks at, six numbers in the view's frame, metres:
+``cam=10,-20,5,0,0,-30``). Opened, a link puts the slider, every time plot and the camera there
+(:attr:`Link.view`); bad values are refused as a control's are. The page writes ``t`` and ``x``
+itself as they change (app/assets/view_sync.js), the server ``cam``.
 """
 
 from __future__ import annotations
@@ -132,6 +139,57 @@ _PARSERS: dict[str, Callable[[str, str], Any]] = {
 _SIGNED = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 
 
+VIEW_KEYS = {"t": "Time [s]", "x": "Time range [s]", "cam": "Camera"}
+"""The page's view in the address, by key: its label in messages (not controls: nothing is run by them)."""
+VIEW_PAGE_KEYS = ("t", "x")
+"""The view keys the page itself writes (app/assets/view_sync.js)."""
+
+
+def _view_numbers(label: str, text: str, sep: str, count: int) -> tuple[float, ...]:
+    parts = text.split(sep)
+    if len(parts) != count:
+        raise InputError(f"{label}: expected {count} numbers separated by {show(sep)}")
+    return tuple(inputs.parse_float(label, part.replace(" ", "+")) for part in parts)
+
+
+def parse_view(key: str, text: str) -> Any:
+    """The value of view key ``key`` (:data:`VIEW_KEYS`) that ``text`` spells: ``t`` a time >= 0 [s],
+    ``x`` (start, end) [s] with start < end, ``cam`` ((position), (look_at)) [m], or InputError
+    naming the value's label and ``text``."""
+    label = VIEW_KEYS[key]
+    if key == "t":
+        (t_s,) = _view_numbers(label, text, ",", 1)
+        if t_s < 0.0:
+            raise InputError(f"{label}: {show(text)} is before the start (0 s)")
+        return t_s
+    if key == "x":
+        start, end = _view_numbers(label, text, ":", 2)
+        if not start < end:
+            raise InputError(f"{label}: {show(text)} does not end after it starts")
+        return (start, end)
+    p = _view_numbers(label, text, ",", 6)
+    if p[:3] == p[3:]:
+        raise InputError(f"{label}: {show(text)} looks at its own position")
+    return (p[:3], p[3:])
+
+
+def encode_view(view: dict[str, Any]) -> list[str]:
+    """The address's parts for the view keys of ``view`` (key -> value as :func:`parse_view` gives)."""
+    parts = []
+    for key in VIEW_KEYS:
+        value = view.get(key)
+        if value is None:
+            continue
+        if key == "t":
+            text = f"{float(value):.2f}"
+        elif key == "x":
+            text = f"{float(value[0]):.3f}:{float(value[1]):.3f}"
+        else:
+            text = ",".join(f"{float(v):.2f}" for v in (*value[0], *value[1]))
+        parts.append(f"{key}={quote(_text(text), safe=SAFE)}")
+    return parts
+
+
 @dataclass(frozen=True)
 class Link:
     """What a page's query says: the values it sets well, what it got wrong, and viser's own part."""
@@ -141,6 +199,7 @@ class Link:
     keys: tuple[str, ...]  # the keys applied, in the query's order
     problems: tuple[str, ...]  # one line per refused key: the key, its value as given, why
     viser_params: tuple[str, ...] = ()  # viser's own "key=value" parts, as they were (kept in the address)
+    view: dict[str, Any] = dataclasses.field(default_factory=dict)  # VIEW_KEYS key -> parse_view's value
 
     def labels(self) -> set[str]:
         """The labels of the controls the link sets (for app.dashboard.inputs.preset_controls' labels)."""
@@ -190,9 +249,10 @@ def encode(c: Controls) -> str:
     return "&".join(parts)
 
 
-def address(c: Controls, viser_params: Sequence[str] = ()) -> str:
-    """The page's new query, ``?`` and viser's own parameters first, then :func:`encode`."""
-    return "?" + "&".join([*viser_params, encode(c)])
+def address(c: Controls, viser_params: Sequence[str] = (), view: dict[str, Any] | None = None) -> str:
+    """The page's new query, ``?`` and viser's own parameters first, then :func:`encode`, then the
+    view's keys (:func:`encode_view`)."""
+    return "?" + "&".join([*viser_params, encode(c), *encode_view(view or {})])
 
 
 # ---------------------------------------------------------------------------------------- read
@@ -267,6 +327,7 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
             ),
         )
     values: dict[str, Any] = {}
+    view: dict[str, Any] = {}
     keys: list[str] = []
     problems: list[str] = []
     kept: list[str] = []
@@ -280,9 +341,19 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
         if name in VISER_PARAMS:
             kept.append(part)
             continue
+        if name in VIEW_KEYS:
+            if name in view:
+                problems.append(f"{name}={show(text)}: {name} is given twice; the first one applies")
+                continue
+            try:
+                view[name] = parse_view(name, text)
+            except InputError as exc:
+                problems.append(f"{name}={show(text)}: {exc}")
+            continue
         key = BY_KEY.get(name)
         if key is None:
-            problems.append(f"{show(name)}={show(text)}: unknown key (the keys are {', '.join(BY_KEY)})")
+            known = ", ".join([*BY_KEY, *VIEW_KEYS])
+            problems.append(f"{show(name)}={show(text)}: unknown key (the keys are {known})")
             continue
         if name in keys:
             problems.append(f"{name}={show(text)}: {name} is given twice; the first one applies")
@@ -301,7 +372,7 @@ def parse(query: str, sources: Sequence[str] = (inputs.SIMULATION,)) -> Link:
             values[key.field] = value
     if outages:
         values["outages"] = outages
-    return Link(values, tuple(keys), tuple(problems), tuple(kept))
+    return Link(values, tuple(keys), tuple(problems), tuple(kept), view)
 
 
 def apply(c: Controls, link: Link) -> Controls:
@@ -346,10 +417,27 @@ def read_address(client: viser.ClientHandle, timeout_s: float = READ_TIMEOUT_S) 
 
 def show_address(client: viser.ClientHandle, query: str) -> None:
     """Make ``query`` (from :func:`address`) the page's query, in place: no reload, no new entry
-    in the browser's history."""
+    in the browser's history. The page writes its own view keys (VIEW_PAGE_KEYS) into it as it
+    shows them (app/assets/view_sync.js)."""
+    q = json.dumps(query)
     page_scripts.run(
-        client, f"history.replaceState(history.state, '', {json.dumps(query)} + window.location.hash);"
+        client,
+        f"if (window.__tauv && window.__tauv.setAddress) window.__tauv.setAddress({q}); "
+        f"else history.replaceState(history.state, '', {q} + window.location.hash);",
     )
 
 
-__all__ = ["KEYS", "Key", "Link", "address", "apply", "encode", "parse", "read_address", "show_address"]
+__all__ = [
+    "KEYS",
+    "VIEW_KEYS",
+    "Key",
+    "Link",
+    "address",
+    "apply",
+    "encode",
+    "encode_view",
+    "parse",
+    "parse_view",
+    "read_address",
+    "show_address",
+]

@@ -5,8 +5,9 @@ that way) and has no other way to read the page: so the dashboard asks the page,
 script, to write what the server needs (the address's query, the controls as the page shows
 them) to the tab's localStorage, and reads it back with viser's ``local_storage.get_item``
 (app.dashboard.links.read_address, app.dashboard.server.Session.confirm_page_state; one script,
-``report_to_storage.js``, for both). The other scripts: ``time_cursor.js`` moves every plot's
-time cursor, ``plot_click.js`` (app.dashboard.plot_click) turns a click on a plot into a playback time,
+``report_to_storage.js``, for both). The other scripts: ``view_sync.js`` gives the page one time
+axis (:func:`view_sync`: every time plot's cursor and zoomed range, kept when a tab is hidden and
+applied whenever a plot is drawn; the busy sign; the time and range in the address), ``plot_click.js`` (app.dashboard.plot_click) turns a click on a plot into a playback time,
 ``mark_fields.js`` marks the controls that cannot run (app.dashboard.control_checks), ``label_inputs.js`` ties
 each label to its input. A
 script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
@@ -21,6 +22,8 @@ from typing import Any
 
 import viser
 from viser import _messages as viser_messages
+
+from app.figures.shared import CURSOR_NAME
 
 VISER_STORAGE_PREFIX = "viser-user:"  # viser's client prefixes local_storage keys (MessageHandler.tsx)
 
@@ -67,9 +70,50 @@ def label_inputs() -> str:
     return source("label_inputs.js")
 
 
+BUSY_DELAY_S = 0.3  # what the user started shows a busy sign once it has taken this long
+
+
+def view_sync() -> str:
+    """The script that installs the page's time axis, once per page (it guards itself):
+    ``window.__tauv`` = {t_s, x_range} applied to every plot tagged a time plot
+    (app.figures.shared.TIME_META) whenever it is drawn, a zoom, pan or reset of one fanned out to
+    all, a hidden tab's plots kept as drawn; :func:`set_time`, :func:`set_range`, :func:`busy`
+    and app.dashboard.links.show_address call into it."""
+    return source("view_sync.js", cursor_name=CURSOR_NAME, busy_delay_ms=round(BUSY_DELAY_S * 1000))
+
+
+def set_time(t_s: float) -> str:
+    """The script that moves every time plot's cursor to ``t_s`` [s] (only the cursor shape's
+    x0/x1 are edited)."""
+    return f"window.__tauv && window.__tauv.setTime({float(t_s)!r});"
+
+
+def set_range(x_range_s: tuple[float, float] | None) -> str:
+    """The script that shows ``x_range_s`` ([s], None: each plot's whole time) on every time plot."""
+    value = "null" if x_range_s is None else json.dumps([float(x_range_s[0]), float(x_range_s[1])])
+    return f"window.__tauv && window.__tauv.setRange({value});"
+
+
+def busy(on: bool) -> str:
+    """The script that shows (after BUSY_DELAY_S) or hides the page's busy sign."""
+    return f"window.__tauv && window.__tauv.busy({'true' if on else 'false'});"
+
+
 def run(client: viser.ClientHandle, script: str) -> None:
     """Run ``script`` in ``client``'s page."""
     client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
 
-__all__ = ["VISER_STORAGE_PREFIX", "label_inputs", "mark", "report", "run", "source"]
+__all__ = [
+    "BUSY_DELAY_S",
+    "VISER_STORAGE_PREFIX",
+    "busy",
+    "label_inputs",
+    "mark",
+    "report",
+    "run",
+    "set_range",
+    "set_time",
+    "source",
+    "view_sync",
+]

@@ -69,6 +69,7 @@ LEGEND_LINE_PX = 21  # one more line of the legend (every further six methods)
 WORKBENCH_WIDTH_PX = 500  # the plot panel docked left of the 3-D view (the user can resize or minimise it)
 GUI_REFRESH_S = 1.5  # at most this often the plots are redrawn during a run (wall time)
 CHECKING_STATUS = "Checking the controls the page shows..."
+CAMERA_ADDRESS_S = 1.0  # the page's address follows the camera at most this often (wall time)
 
 
 class Session:
@@ -143,6 +144,12 @@ class Session:
         playback.fit_button.on_click(lambda _: self.scene.fit_mission())
         for box in self.panel.beam_boxes:  # before a run the 3-D beams show the boxes at once
             box.on_update(lambda _: self.scene.beams_from_boxes())
+        # one time axis for the page's plots (cursor, zoom), kept across tabs (app/assets/view_sync.js)
+        page_scripts.run(self.client, page_scripts.view_sync())
+        # the view in the page's address (app.dashboard.links.VIEW_KEYS): a link's shown, the camera kept
+        self.panel.apply_view = self.apply_view
+        self.camera_timer: threading.Timer | None = None
+        client.camera.on_update(lambda _: self._camera_moved())
         plot_click.install(self.client)  # a click on any plot moves the playback (app.dashboard.plot_click)
         page_scripts.run(self.client, page_scripts.label_inputs())  # each input named by its label
         threading.Thread(target=self.panel.read_link, daemon=True).start()
@@ -192,6 +199,36 @@ class Session:
     def play(self) -> None:
         """Play the run from the slider's time at the Speed chosen."""
         self.playback.play()
+
+    def apply_view(self, view: dict[str, Any]) -> None:
+        """Show the view a link carries (app.dashboard.links.parse_view's values by key): every time
+        plot's zoomed range, the slider's time, the camera."""
+        if "x" in view:
+            page_scripts.run(self.client, page_scripts.set_range(view["x"]))
+        if "t" in view:
+            self.playback.restore_time(view["t"])
+        if "cam" in view:
+            self.scene.restore_camera(*view["cam"])
+
+    def _camera_moved(self) -> None:
+        """The page's camera moved: its address follows, at most once every CAMERA_ADDRESS_S."""
+        with self.lock:
+            if self.camera_timer is not None:
+                return
+            self.camera_timer = threading.Timer(CAMERA_ADDRESS_S, self._write_camera)
+            self.camera_timer.daemon = True
+            self.camera_timer.start()
+
+    def _write_camera(self) -> None:
+        with self.lock:
+            self.camera_timer = None
+        try:
+            camera = self.client.camera
+            position, look_at = tuple(map(float, camera.position)), tuple(map(float, camera.look_at))
+        except AssertionError:  # not reported yet
+            return
+        self.panel.view["cam"] = (position, look_at)
+        self.panel.update_address(action=False)
 
     # ------------------------------------------------------------------ runs
     def start_run(self) -> None:
@@ -386,8 +423,10 @@ class Session:
 
     def _show_results(self, results: dict[str, MethodResult], config: Config, live: bool = False) -> None:
         """Draw ``results``: a run's final ones, or (``live``) those so far, whose diagnostics
-        (app.dashboard.session_plots.PlotTabs.refresh_plots) are drawn less often."""
+        (app.dashboard.session_plots.PlotTabs.refresh_plots) are drawn less often. The slider (and
+        so every plot's cursor in the page) moves first: the figures sent next are drawn at its time."""
         self.state.results = results
+        self.playback.follow_run_time(float(next(iter(results.values())).t_s[-1]))
         self.plot_tabs.refresh_plots(live=live)
         smoothed = smoothed_markdown(results)
         self.run_tabs.table.content = (
@@ -401,7 +440,6 @@ class Session:
             self.plot_tabs.draw_vkf_plot(results["vkf"], config)
         if not live:  # any series picked: drawn from the run's final results
             self.series_tab.refresh()
-        self.playback.follow_run_time(float(next(iter(results.values())).t_s[-1]))
 
     def _keep_finished(self, results: dict[str, MethodResult], config: Config, stopped: bool) -> None:
         """The run's final results arrived (``stopped``: Stop ended it): offer them for download,

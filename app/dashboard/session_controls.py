@@ -78,6 +78,10 @@ class ControlPanel:
         self.address_ready = False
         self.address_shown: str | None = None
         self.viser_params: tuple[str, ...] = ()
+        # the page's view in the address besides the controls (app.dashboard.links.VIEW_KEYS): the
+        # camera as the server last heard it; a link's view is shown by ``apply_view`` (the Session's)
+        self.view: dict[str, Any] = {}
+        self.apply_view: Callable[[dict[str, Any]], None] = lambda view: None
         gui = self.client.gui
         # Run, Stop, the progress and the status first: in view when the page opens, whatever
         # the window's height; the controls follow
@@ -343,6 +347,9 @@ class ControlPanel:
         sources = tuple(self.source.options) if self.source is not None else (inputs.SIMULATION,)
         link = links.parse(query, sources)
         self.viser_params = link.viser_params
+        if link.view:
+            self.view.update({k: v for k, v in link.view.items() if k not in links.VIEW_PAGE_KEYS})
+            self.apply_view(link.view)
         if link.keys:
             name = link.values.get("trajectory")
             if name is not None and name != self.trajectory.value:
@@ -357,16 +364,19 @@ class ControlPanel:
         if link.problems:
             self.notify("Address: settings not applied", "; ".join(link.problems), error=True)
 
-    def update_address(self) -> None:
-        """Show the controls' setup in the page's address (app.dashboard.links), once its own query has
-        been read (:meth:`read_link`); nothing is sent when it is unchanged."""
-        self.state.last_action_s = time.monotonic()
+    def update_address(self, action: bool = True) -> None:
+        """Show the controls' setup and the view (the time, the camera: :attr:`view`) in the page's
+        address (app.dashboard.links), once its own query has been read (:meth:`read_link`); nothing
+        is sent when it is unchanged. ``action``: a change the user made (the deferred plots wait)."""
+        if action:
+            self.state.last_action_s = time.monotonic()
         if not self.address_ready:
             return
         with self.address_lock:
             # a bad value never enters the address: such a control is written at its default
             safe = control_checks.without_problems(self.controls(), self.problems())
-            query = links.address(safe, self.viser_params)
+            view = {**self.view, "t": self.state.cursor_t}
+            query = links.address(safe, self.viser_params, view)
             if query == self.address_shown:
                 return
             self.address_shown = query

@@ -26,7 +26,6 @@ from app.figures.scene import (
     playback_speed,
     playback_time,
 )
-from app.figures.shared import cursor_shape
 from tauvcore.config import Config
 from tauvcore.validation import show
 
@@ -53,6 +52,7 @@ class Playback:
         self.run_time_s = 0.0  # the latest time the running run has results for [s]
         self.slider_set_s: float | None = None  # where the run last put the slider [s]
         self.slider_follow_sent = False  # the run moved the slider since the user last did
+        self.restored_s: float | None = None  # a time from the page's address, kept by the next run
         gui = self.client.gui
         d = Config()
         with gui.add_folder("Playback"):
@@ -82,18 +82,26 @@ class Playback:
 
     def new_run(self, duration_s: float) -> None:
         """A run of ``duration_s`` [s] starts: the slider spans it and follows it until the user
-        moves it."""
+        moves it (a time from the page's address: it stays there, :meth:`restore_time`)."""
         self.slider_pinned, self.slider_set_s, self.slider_follow_sent = False, None, False
+        if self.restored_s is not None:
+            self.slider_pinned, self.slider_set_s = True, self.restored_s
+            self.restored_s = None
         self.time_slider.max = duration_s
 
+    def restore_time(self, t_s: float) -> None:
+        """Put the slider (and every plot's cursor) at ``t_s`` [s] from the page's address: kept
+        through the next run as if put there by hand (within what is run)."""
+        self.time_slider.max = max(self.time_slider.max, t_s)
+        self.restored_s = float(t_s)
+        self.time_slider.value = float(t_s)
+
     def move_cursor(self, t_s: float) -> None:
-        """Move the time cursor of every plot on the page to ``t_s`` [s]: a few hundred bytes of
-        script (Plotly.relayout of the cursor shape) instead of every figure again; the figures
-        the server sends next carry it too (app.dashboard.session_plots.PlotTabs.refresh_plots)."""
+        """Move the time cursor of every time plot on the page to ``t_s`` [s]: a few bytes of
+        script (app.dashboard.page_scripts.set_time edits each cursor shape's x0/x1 in place), never
+        a figure; a plot drawn later (a tab shown, a figure sent) takes the page's time as drawn."""
         self.state.cursor_t = float(t_s)
-        page_scripts.run(
-            self.client, page_scripts.source("time_cursor.js", t=self.state.cursor_t, shape=cursor_shape(0.0))
-        )
+        page_scripts.run(self.client, page_scripts.set_time(self.state.cursor_t))
 
     def _slider_moved(self, event: viser.GuiEvent) -> None:
         """The time slider moved: show that time. Moved by the user's hand during a run, it stays
@@ -140,7 +148,11 @@ class Playback:
             return
         if self.running():
             self.slider_pinned, self.slider_set_s = t_s < self.run_time_s - 0.5, t_s
-        self.time_slider.value = t_s
+        page_scripts.run(self.client, page_scripts.busy(True))
+        try:
+            self.time_slider.value = t_s
+        finally:
+            page_scripts.run(self.client, page_scripts.busy(False))
 
     def follow_run_time(self, t_last_s: float) -> None:
         """A run's results reach ``t_last_s``: the slider moves there, unless the user put it

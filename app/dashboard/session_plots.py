@@ -22,6 +22,7 @@ from typing import Any
 import plotly.graph_objects as go
 import viser
 
+from app.dashboard import page_scripts
 from app.dashboard.hardening import display_error
 from app.dashboard.session_runs import KeptRun
 from app.dashboard.session_state import TabState, drawing
@@ -133,6 +134,10 @@ OTHER_FAMILIES_DIMS = "; ".join(
     if family.error_state != FIRST.error_state
 )
 """The NEES dimension of the other filter families' whole state, for the block's hint."""
+SENT_CURSOR_S = 0.0
+"""Where a figure's time cursor is when sent: the page draws it at the slider's time
+(app/assets/view_sync.js), so the figure's JSON does not depend on the time and viser sends a figure
+again only when its data change (it skips a JSON equal to the one the page has)."""
 PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
 QUIET_S = 1.0  # once the tab has had no action for this long
@@ -312,17 +317,28 @@ class PlotTabs:
             self.vkf_note = gui.add_markdown(VKF_NOTES["none"])
             self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
 
-    @drawing
     def refresh_plots(self, only: str | None = None, live: bool = False) -> None:
         """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
         ticked for overlay), their components, NEES and innovations, each with the time cursor;
-        ``only`` one group of them ("errors", "nees", "innovations": what an option changes).
+        ``only`` one group of them ("errors", "nees", "innovations": what an option changes; the
+        page shows its busy sign if the redraw takes longer than page_scripts.BUSY_DELAY_S).
+        A figure whose JSON equals the one the page has is not sent again (viser skips it).
 
         ``live``: a running run's results so far, whose deferred plots (innovations, components,
         sensors: most of what the page renders) are drawn at most every LIVE_DIAGNOSTICS_S; a run
         shorter than that draws them once, with its final results."""
-        if only is not None:
-            self.state.last_action_s = time.monotonic()
+        if only is None:
+            self._refresh(only, live)
+            return
+        self.state.last_action_s = time.monotonic()
+        page_scripts.run(self.state.client, page_scripts.busy(True))
+        try:
+            self._refresh(only, live)
+        finally:
+            page_scripts.run(self.state.client, page_scripts.busy(False))
+
+    @drawing
+    def _refresh(self, only: str | None, live: bool) -> None:
         results = self.state.results
         if not results:
             return
@@ -354,7 +370,7 @@ class PlotTabs:
             if len(overlay) >= 2
             else nees_figure(results, block, smoothed=self.show_smoothed_nees.value)
         )
-        self.nees_plot.figure = with_cursor(figure, self.state.cursor_t)
+        self.nees_plot.figure = with_cursor(figure, SENT_CURSOR_S)
 
     def schedule_diagnostics(self) -> None:
         """Draw the innovations, components and ELC plots soon, one figure at a time in a thread of
@@ -394,7 +410,7 @@ class PlotTabs:
                 time.sleep(0.0)
 
     def _draw_error_plots(self, results: dict[str, MethodResult]) -> None:
-        t = self.state.cursor_t
+        t = SENT_CURSOR_S
         log_y = AUTO if self.log_y.value else False
         overlay = self.overlay_runs()
         same = identical_methods(results)
@@ -428,7 +444,7 @@ class PlotTabs:
                 handle.figure = with_cursor(figure, t)
 
     def _draw_components_and_elc(self, results: dict[str, MethodResult]) -> None:
-        t = self.state.cursor_t
+        t = SENT_CURSOR_S
         tv = self.state.truth_view
         if tv is not None:
             components = {
@@ -445,7 +461,7 @@ class PlotTabs:
             self.elc_plot.visible = False
 
     def _draw_innovations(self, results: dict[str, MethodResult]) -> None:
-        t = self.state.cursor_t
+        t = SENT_CURSOR_S
         sources = innovation_sources(results)
         if sources:
             if tuple(self.innovation_source.options) != sources:
@@ -469,7 +485,7 @@ class PlotTabs:
             )
 
     def _draw_sensors(self, results: dict[str, MethodResult]) -> None:
-        t = self.state.cursor_t
+        t = SENT_CURSOR_S
         view = self.state.sensor_view
         if view is not None and len(view["t_s"]):
             figure = raw_sensor_figure(view)
@@ -522,7 +538,7 @@ class PlotTabs:
         if methods:
             figure = source_states_figure(results, run=run)
             self._fit(self.state_plot, figure)
-            self.state_plot.figure = with_cursor(figure, self.state.cursor_t)
+            self.state_plot.figure = with_cursor(figure, SENT_CURSOR_S)
 
     @staticmethod
     def _fit(handle: viser.GuiPlotlyHandle, figure: go.Figure) -> None:
@@ -543,8 +559,9 @@ class PlotTabs:
             self.seabed_plot.visible = False
             self.seabed_note.content = SEABED_NOTES["log" if self.state.replaying else "none"]
             return
-        self.seabed_plot.figure = altitude_figure(
-            tv["t_s"], altitude_m, config.dvl.max_altitude_m, config.vkf.switch_altitude_m
+        self.seabed_plot.figure = with_cursor(
+            altitude_figure(tv["t_s"], altitude_m, config.dvl.max_altitude_m, config.vkf.switch_altitude_m),
+            SENT_CURSOR_S,
         )
         self.seabed_plot.visible = True
         self.seabed_note.content = SEABED_NOTES["simulation"]
@@ -555,7 +572,7 @@ class PlotTabs:
         ``vkf`` method's), or a note: the run has no VKF, or its results are still to come."""
         trace = result.vkf_trace if result is not None else None
         if trace is not None and len(trace["t_s"]):
-            self.vkf_plot.figure = vkf_figure(trace)
+            self.vkf_plot.figure = with_cursor(vkf_figure(trace), SENT_CURSOR_S)
             self.vkf_plot.visible = True
             self.vkf_note.content = VKF_NOTES["shown"]
             return
@@ -573,11 +590,15 @@ class PlotTabs:
         current_n_mps, vel_water_b = tv.get("current_n_mps"), tv.get("vel_water_b")
         if current_n_mps is not None and vel_water_b is not None:
             water, ground = water_and_ground_speed_mps(tv["C_nb"], vel_water_b, current_n_mps)
-            self.current_plot.figure = current_figure(tv["t_s"], current_n_mps, water, ground)
+            self.current_plot.figure = with_cursor(
+                current_figure(tv["t_s"], current_n_mps, water, ground), SENT_CURSOR_S
+            )
         self.current_plot.visible = self.current_note.visible = current_n_mps is not None
         fin_angles_rad, propeller_rpm = tv.get("fin_angles_rad"), tv.get("propeller_rpm")
         if fin_angles_rad is not None and propeller_rpm is not None:
-            self.vehicle_plot.figure = actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm)
+            self.vehicle_plot.figure = with_cursor(
+                actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm), SENT_CURSOR_S
+            )
             self.vehicle_plot.visible = True
             self.vehicle_note.content = VEHICLE_NOTES["dynamic"]
             return

@@ -156,6 +156,7 @@ class SceneView:
         self.terrain: Any = None  # the seabed's mesh when it is not flat (_draw_seabed)
         self.furniture: list[Any] = []  # seabed grid, surface, compass and scale (_size_scene)
         self.frame: MissionFrame | None = None
+        self.keep_camera = False  # a camera from the page's address: the next truth does not move it
         self.truth_line = None
         self.est_lines: dict[str, Any] = {}
         # before a run: the default straight line's first 300 m, at the default seabed
@@ -163,14 +164,20 @@ class SceneView:
             mission_frame(np.array([start_n, start_n + [300.0, 0.0, 0.0]]), d.trajectory.seabed_depth_m)
         )
         self.beams_from_boxes()
-        for k, p in enumerate(beam_label_positions_b(d.dvl.l_dvl_b, d.dvl.A_b), start=1):
+        # the beams' numbers stand in the view's frame, not under the hull: viser places a label
+        # from its parent's world matrix of the frame before, so a label under the moving hull
+        # trailed its beam by a frame's travel during Play; placed here with the hull (show_time),
+        # in the same message batch, each stands on its beam in every frame
+        self.beam_labels = [
             scene.add_label(
-                f"/auv/beams/{k}/label",
+                f"/beam_labels/{k}",
                 str(k),
                 position=tuple(p),
                 font_screen_scale=0.8,
                 anchor="center-center",
             )
+            for k, p in enumerate(beam_label_positions_view(d, start_n, np.eye(3)), start=1)
+        ]
 
     @drawing
     def _size_scene(self, frame: MissionFrame) -> None:
@@ -238,6 +245,14 @@ class SceneView:
                 self.client.camera.look_at = tuple(look_at)
         except AssertionError:  # the browser has not reported its camera yet; initial_camera applies
             pass
+
+    def restore_camera(self, position: tuple[float, ...], look_at: tuple[float, ...]) -> None:
+        """Put the camera at ``position`` looking at ``look_at`` (view frame [m], from the page's
+        address: app.dashboard.links) and leave it free: the next run's truth keeps it there."""
+        self.keep_camera = True
+        if self.camera_mode.value != CAMERA_FREE:
+            self.camera_mode.value = CAMERA_FREE
+        self._set_camera(np.asarray(position, float), np.asarray(look_at, float))
 
     def fit_mission(self) -> None:
         """Frame the whole mission (the track down to the seabed) and leave the camera free."""
@@ -357,8 +372,9 @@ class SceneView:
         )
         self._draw_seabed(config, tv["pos_n"])
         self._size_scene(mission_frame(tv["pos_n"], config.trajectory.seabed_depth_m))
-        if self.camera_mode.value == CAMERA_FREE:
+        if self.camera_mode.value == CAMERA_FREE and not self.keep_camera:
             self.fit_mission()
+        self.keep_camera = False
         self.show_time(min(float(self.time_slider.value), float(tv["t_s"][-1])))
 
     @drawing
@@ -428,6 +444,8 @@ class SceneView:
             for fin, wxyz in zip(self.fins, fin_wxyz_body(deflection)):
                 fin.wxyz = tuple(wxyz)
             self.show_beams_static(config, pos_n, C_nb, states, range_m)
+            for label, p_view in zip(self.beam_labels, beam_label_positions_view(config, pos_n, C_nb)):
+                label.position = tuple(p_view)
             current = tv.get("current_n_mps")
             self._show_current(pos_n, current[i] if current is not None else None)
         altitude = tv.get("altitude_m")
@@ -509,3 +527,10 @@ def _record_row(record: UpdateRecord | None, ping: int, t_s: float) -> int | Non
         q = int(np.searchsorted(record.t_s, t_s, side="right") - 1)
         return q if q >= 0 else None
     return ping if ping < len(record.t_s) else None
+
+
+def beam_label_positions_view(config: Config, pos_n: np.ndarray, C_nb: np.ndarray) -> np.ndarray:
+    """(4, 3) where beams 1-4 carry their numbers in the view's frame, for the vehicle at ``pos_n``
+    (3,) NED [m] turned by ``C_nb`` (3, 3) (app.figures.scene.beam_label_positions_b, body frame)."""
+    p_b = beam_label_positions_b(config.dvl.l_dvl_b, config.dvl.A_b)
+    return ned_to_view(np.asarray(pos_n) + p_b @ np.asarray(C_nb).T)

@@ -269,7 +269,15 @@ def cursor_shape(t_s: float) -> dict[str, Any]:
     }
 
 
+TIME_META = {"tauv_time_axis": True}
+"""``layout.meta`` of a plot against the mission time: the page's one time axis (the cursor and the
+zoomed range, app/assets/view_sync.js) applies to every plot carrying it, and to no other."""
+
+
 def with_cursor(figure: go.Figure, t_s: float | None) -> go.Figure:
-    """``figure`` with the time cursor at ``t_s`` (None: none), in place; returned for chaining."""
+    """``figure`` tagged a time plot (TIME_META) with the time cursor at ``t_s`` (None: none), in
+    place; returned for chaining. The page moves the cursor to the slider's time whenever the plot
+    is drawn (app/assets/view_sync.js, app.dashboard.page_scripts.view_sync), so a figure is sent with it anywhere."""
+    figure.layout.meta = TIME_META
     figure.layout.shapes = [] if t_s is None else [cursor_shape(t_s)]
     return figure

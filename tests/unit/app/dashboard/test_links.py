@@ -207,4 +207,23 @@ def test_the_page_applies_a_link_over_the_preset_it_does_not_cover() -> None:
     other.apply_link(links.address(full) + "&bad=1")
     assert other.controls() == full and other.preset == "longrange"
     assert other.notes == [("Address: settings not applied",
-                            "'bad'='1': unknown key (the keys are " + ", ".join(links.BY_KEY) + ")")]
+                            "'bad'='1': unknown key (the keys are " + ", ".join([*links.BY_KEY, *links.VIEW_KEYS]) + ")")]
+
+
+def test_the_view_keys_are_read_kept_and_refused_by_name() -> None:
+    """The time, the zoomed time range and the camera ride in the address beside the controls:
+    parsed into Link.view (not controls), written back by address(), and a bad value is refused
+    in one line naming the key and the value, the rest still applied."""
+    view = {"t": 60.0, "x": (20.0, 80.5), "cam": ((10.0, -20.0, 5.0), (0.0, 0.0, -30.0))}
+    query = links.address(DEFAULTS, (), view)
+    assert "&t=60.00&x=20.000:80.500&cam=10.00,-20.00,5.00,0.00,0.00,-30.00" in query
+    link = links.parse(query)
+    assert link.problems == () and link.view == view and "t" not in link.keys
+    assert links.apply(DEFAULTS, link) == DEFAULTS
+    bad = links.parse("?seed=4&t=abc&x=50:20&cam=1,2,3&t=5")
+    assert bad.values == {"seed": "4"} and bad.view == {"t": 5.0} and len(bad.problems) == 3
+    assert bad.problems[0].startswith("t='abc': Time [s]: 'abc'")
+    assert bad.problems[1] == "x='50:20': Time range [s]: '50:20' does not end after it starts"
+    assert bad.problems[2] == "cam='1,2,3': Camera: expected 6 numbers separated by ','"
+    assert links.parse("?t=-1").problems == ("t='-1': Time [s]: '-1' is before the start (0 s)",)
+    assert links.parse("?t=1&t=2").problems == ("t='2': t is given twice; the first one applies",)
