@@ -8,7 +8,7 @@ them) to the tab's localStorage, and reads it back with viser's ``local_storage.
 ``report_to_storage.js``, for both). The other scripts: ``time_cursor.js`` moves every plot's
 time cursor, ``plot_click.js`` (app.dashboard.plot_click) turns a click on a plot into a playback time,
 ``mark_fields.js`` marks the controls that cannot run (app.dashboard.control_checks), ``label_inputs.js`` ties
-each label to its input. A
+each label to its input, ``scroll_to_plot.js`` brings a plot a checkbox added into view. A
 script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
 """
 
@@ -67,9 +67,18 @@ def label_inputs() -> str:
     return source("label_inputs.js")
 
 
+SCROLL_WAIT_MS = 10000  # how long the page looks for a plot to scroll to (it is drawn after the script lands)
+
+
+def scroll_to_plot(title: str) -> str:
+    """The script that scrolls the plot whose title starts with ``title`` into view as soon as
+    the page has drawn it (a plot a checkbox adds below the others would appear off-screen)."""
+    return source("scroll_to_plot.js", title=title, wait_ms=SCROLL_WAIT_MS)
+
+
 def run(client: viser.ClientHandle, script: str) -> None:
     """Run ``script`` in ``client``'s page."""
     client._websock_connection.queue_message(viser_messages.RunJavascriptMessage(source=script))
 
 
-__all__ = ["VISER_STORAGE_PREFIX", "label_inputs", "mark", "report", "run", "source"]
+__all__ = ["VISER_STORAGE_PREFIX", "label_inputs", "mark", "report", "run", "scroll_to_plot", "source"]
