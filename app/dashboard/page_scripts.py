@@ -9,7 +9,7 @@ them) to the tab's localStorage, and reads it back with viser's ``local_storage.
 axis (:func:`view_sync`: every time plot's cursor and zoomed range, kept when a tab is hidden and
 applied whenever a plot is drawn; the busy sign; the time and range in the address), ``plot_click.js`` (app.dashboard.plot_click) turns a click on a plot into a playback time,
 ``mark_fields.js`` marks the controls that cannot run (app.dashboard.control_checks), ``label_inputs.js`` ties
-each label to its input. A
+each label to its input, ``scroll_to_plot.js`` brings a plot a checkbox added into view. A
 script's ``__NAME__`` placeholders are filled with JSON values (:func:`source`).
 """
 
@@ -97,6 +97,13 @@ def set_range(x_range_s: tuple[float, float] | None) -> str:
 def busy(on: bool) -> str:
     """The script that shows (after BUSY_DELAY_S) or hides the page's busy sign."""
     return f"window.__tauv && window.__tauv.busy({'true' if on else 'false'});"
+SCROLL_WAIT_MS = 10000  # how long the page looks for a plot to scroll to (it is drawn after the script lands)
+
+
+def scroll_to_plot(title: str) -> str:
+    """The script that scrolls the plot whose title starts with ``title`` into view as soon as
+    the page has drawn it (a plot a checkbox adds below the others would appear off-screen)."""
+    return source("scroll_to_plot.js", title=title, wait_ms=SCROLL_WAIT_MS)
 
 
 def run(client: viser.ClientHandle, script: str) -> None:
@@ -112,6 +119,7 @@ __all__ = [
     "mark",
     "report",
     "run",
+    "scroll_to_plot",
     "set_range",
     "set_time",
     "source",

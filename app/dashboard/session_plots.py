@@ -48,7 +48,7 @@ from app.figures.sensor_figures import (
     source_states_figure,
     state_methods,
 )
-from app.figures.shared import placeholder_figure, with_cursor
+from app.figures.shared import CARD_WIDTH_PX, card_aspect, placeholder_figure, with_cursor
 from app.figures.vehicle_figures import (
     actuator_figure,
     altitude_figure,
@@ -138,7 +138,13 @@ SENT_CURSOR_S = 0.0
 """Where a figure's time cursor is when sent: the page draws it at the slider's time
 (app/assets/view_sync.js), so the figure's JSON does not depend on the time and viser sends a figure
 again only when its data change (it skips a JSON equal to the one the page has)."""
-PLOT_ASPECT = 0.42  # each error plot's height / width: three or four in view at once
+PLOT_ASPECT = 0.42  # each error plot's height / width before its first run (then: its legend's rows added)
+ERROR_AXES = (AUTO, "linear", "log")
+ERROR_AXES_HINT = (
+    "auto: log where the errors span more than a decade, linear where they span less or start at zero "
+    "(a replay starts on its reference); log: zeros left out"
+)
+"""The error plots' y-axes (app.figures.error_figures.log_axis)."""
 DIAGNOSTICS_DELAY_S = 0.05  # the innovations and components plots follow the others by this much,
 QUIET_S = 1.0  # once the tab has had no action for this long
 LIVE_DIAGNOSTICS_S = 5.0  # during a run, the deferred plots are redrawn at most this often (wall time)
@@ -153,7 +159,6 @@ INNOVATION_NOTE = (
     "INS (and any method without this source) has none. Source **water**: the DVL's water-track beams, "
     "fused against the current states (Mission tab: Current states)."
 )
-INNOVATION_PANEL_ASPECT = 0.25  # each panel of the innovations plot: a quarter of the panel's width high
 SENSORS_NOTE = (
     "The run's raw measurements (the IMU at the output epochs, every source at its own epochs; a beam "
     "that did not return is a gap, and its state is in the DVL beams panel), then, with **Current states** "
@@ -211,7 +216,7 @@ class PlotTabs:
         # each option redraws only the plots it changes (a full redraw is ten figures)
         self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
         self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.show_att_norm.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_att_norm.on_update(lambda _: self._att_norm_changed())
         self.show_smoothed.on_update(lambda _: self.refresh_plots(only="errors"))
         self.show_smoothed_nees.on_update(lambda _: self.refresh_plots(only="nees"))
         self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
@@ -224,9 +229,7 @@ class PlotTabs:
         """The Plots tab (the error norms, the ELC's choice) and the Components tab."""
         with workbench.add_tab("Plots"):
             self.show_sigma = gui.add_checkbox("Show 1-sigma", False)
-            self.log_y = gui.add_checkbox(
-                "Log scale", True, hint="log y where the errors span more than a decade, linear elsewhere"
-            )
+            self.log_y = gui.add_dropdown("Error axes", ERROR_AXES, initial_value=AUTO, hint=ERROR_AXES_HINT)
             self.show_att_norm = gui.add_checkbox(
                 "Attitude norm", False, hint="also plot |attitude error| (tilt and heading together)"
             )
@@ -370,6 +373,7 @@ class PlotTabs:
             if len(overlay) >= 2
             else nees_figure(results, block, smoothed=self.show_smoothed_nees.value)
         )
+        self._fit(self.nees_plot, figure, CARD_WIDTH_PX)
         self.nees_plot.figure = with_cursor(figure, SENT_CURSOR_S)
 
     def schedule_diagnostics(self) -> None:
@@ -411,7 +415,7 @@ class PlotTabs:
 
     def _draw_error_plots(self, results: dict[str, MethodResult]) -> None:
         t = SENT_CURSOR_S
-        log_y = AUTO if self.log_y.value else False
+        log_y = {AUTO: AUTO, "linear": False, "log": True}.get(self.log_y.value, AUTO)
         overlay = self.overlay_runs()
         same = identical_methods(results)
         notes = []
@@ -441,7 +445,16 @@ class PlotTabs:
                         smoothed=self.show_smoothed.value,
                     )
                 )
+                self._fit(handle, figure, CARD_WIDTH_PX)
                 handle.figure = with_cursor(figure, t)
+
+    def _att_norm_changed(self) -> None:
+        """Attitude norm ticked or unticked: redraw the error plots, and bring the norm's plot,
+        added below the others, into view."""
+        self.refresh_plots(only="errors")
+        if self.show_att_norm.value and self.state.results:
+            title = f"{QUANTITIES['att'][2]} [{QUANTITIES['att'][3]}]"
+            page_scripts.run(self.state.client, page_scripts.scroll_to_plot(title))
 
     def _draw_components_and_elc(self, results: dict[str, MethodResult]) -> None:
         t = SENT_CURSOR_S
@@ -453,7 +466,9 @@ class PlotTabs:
                 if len(r.t_s)
             }
             for q, handle in self.component_plots.items():
-                handle.figure = with_cursor(components_figure(results, components, q), t)
+                figure = components_figure(results, components, q)
+                self._fit(handle, figure, CARD_WIDTH_PX)
+                handle.figure = with_cursor(figure, t)
         if "elc" in results:
             self.elc_plot.figure = with_cursor(elc_choice_figure(results["elc"]), t)
             self.elc_plot.visible = True
@@ -473,11 +488,8 @@ class PlotTabs:
                 self.innovation_run.visible = runs > 1
             run = min(max(int(self.innovation_run.value), 1), runs) - 1
             figure = innovation_figure(results, source, run=run)
-            panels = sum(1 for key in figure.layout.to_plotly_json() if key.startswith("yaxis"))
-            # viser sizes a plot by height / width: each panel keeps its height as panels are added
-            aspect = INNOVATION_PANEL_ASPECT * max(panels, 1) + 0.1
-            if self.innovation_plot.aspect != aspect:
-                self.innovation_plot.aspect = aspect
+            # each panel keeps its height as panels and legend rows are added
+            self._fit(self.innovation_plot, figure, CARD_WIDTH_PX)
             self.innovation_plot.figure = with_cursor(figure, t)
             without = [m.upper() for m, r in results.items() if source not in r.updates]
             self.innovation_note.content = INNOVATION_NOTE + (
@@ -541,10 +553,11 @@ class PlotTabs:
             self.state_plot.figure = with_cursor(figure, SENT_CURSOR_S)
 
     @staticmethod
-    def _fit(handle: viser.GuiPlotlyHandle, figure: go.Figure) -> None:
-        """Size ``handle`` for ``figure``'s panels: viser sets a plot's height as aspect x width."""
-        height_px: Any = figure.layout["height"]  # plotly's stubs type an item as a figure
-        aspect = round(float(height_px or 400) / SENSOR_PLOT_WIDTH_PX, 2)
+    def _fit(handle: viser.GuiPlotlyHandle, figure: go.Figure, card_px: int = SENSOR_PLOT_WIDTH_PX) -> None:
+        """Size ``handle`` for ``figure``'s height, reckoned for a card ``card_px`` wide (its
+        panels; its legend's rows: app.figures.shared.legend_bottom): viser sets a plot's height
+        as aspect x width."""
+        aspect = card_aspect(figure, card_px)
         if handle.aspect != aspect:
             handle.aspect = aspect
 

@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import viser
 
+from app.dashboard.session_plots import SENT_CURSOR_S
 from app.dashboard.session_state import TabState, drawing
 from app.figures.series_catalog import Catalog
 from app.figures.series_figures import TIME_HINT, XY_HINT, series_time_figure, series_xy_figure
@@ -157,7 +158,7 @@ class SeriesTab:
         aspect = round(float(height_px) / 480, 2)  # viser: height = aspect x width
         if self.time_plot.aspect != aspect:
             self.time_plot.aspect = aspect
-        self.time_plot.figure = with_cursor(time_figure, self.state.cursor_t) if shown else time_figure
+        self.time_plot.figure = with_cursor(time_figure, SENT_CURSOR_S) if shown else time_figure
         x = catalog.series(x_name, run) if x_name in catalog.entries else None
         ys = [catalog.series(n, run) for n in y_names if n in catalog.entries][:MAX_PICKS]
         self.xy_plot.figure = series_xy_figure(x, ys)

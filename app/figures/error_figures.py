@@ -33,13 +33,19 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
+from app.figures.log_axes import AUTO, drop_for_log, error_axis, log_axis
 from app.figures.shared import (
+    BAND_ALPHA_MAX,
     METHOD_COLORS,
+    TICK_LABELS_PX,
+    TITLE_PX,
     TRUTH_COLOR,
+    band_alpha,
     bin_label,
     decimate,
     envelope_traces,
     hex_to_rgba,
+    legend_bottom,
     make_figure,
     merge_bins,
     merged_envelope,
@@ -61,10 +67,9 @@ QUANTITIES = {
     "heading": ("heading_err_deg", "heading_sigma_deg", "Heading error", "deg"),
     "pos": ("pos_err_m", "pos_sigma_m", "Position error", "m"),
 }
-AUTO = "auto"
-LOG_SPAN = 10.0
-"""``log_y="auto"`` draws a log axis only when the drawn values span more than this factor: over a
-narrower range (heading error 1.0-1.2 deg) a log axis has no ticks and flattens the curves."""
+PLOT_PX = 160
+"""The plot area's height of an error or consistency plot on a card CARD_WIDTH_PX wide [px]; its
+legend's rows are added below it (app.figures.shared.legend_bottom)."""
 NEES_BLOCK_NAMES = {
     "full": "full state",
     "pos": "position",
@@ -88,7 +93,7 @@ def _points(res: MethodResult, max_points: int | None) -> tuple[slice, np.ndarra
 
 
 def _envelope_note(results: Mapping[str, MethodResult]) -> str:
-    """ ", shaded: min-max per 9.1 s bin" when a run of ``results`` is reduced to bins, else ""."""
+    """ ", shaded: curve's min–max within each 9.1 s bin" when a run of ``results`` is reduced to bins, else ""."""
     widths = sorted({float(r.bin_s) for r in results.values() if is_decimated(r)})
     return f", shaded: {bin_label(widths[-1])}" if widths else ""
 
@@ -235,16 +240,33 @@ def _check_quantity(quantity: str, log_y: bool | str) -> None:
         raise ValueError(f"log_y must be True, False or {AUTO!r}, got {log_y!r}")
 
 
-def _error_axis(log: bool) -> dict[str, Any]:
-    """The y-axis of the errors' plots: logarithmic with ``log``, else linear."""
-    return {"type": "log" if log else "linear", "exponentformat": "power"}
+def _sigma_band(method: str, t: np.ndarray, band: np.ndarray) -> dict[str, Any]:
+    """``method``'s 1-sigma as one band: a thin dotted line of its colour, filled down to zero
+    (its alpha set by :func:`error_figure` once every band is known)."""
+    color = method_color(method)
+    return {
+        "type": "scatter",
+        "x": t,
+        "y": band,
+        "name": f"{method.upper()} 1-sigma",
+        "mode": "lines",
+        "line": {"width": 1, "color": color, "dash": "dot"},
+        "fill": "tozeroy",
+        "fillcolor": hex_to_rgba(color, BAND_ALPHA_MAX),
+        "hoverinfo": "skip",
+        "showlegend": False,
+        "legendgroup": method,
+    }
 
 
-def _spans_decades(curves: list[np.ndarray]) -> bool:
-    """True if the positive finite values of ``curves`` span more than LOG_SPAN."""
-    values = np.concatenate([np.ravel(c) for c in curves]) if curves else np.empty(0)
-    values = values[np.isfinite(values) & (values > 0)]
-    return values.size > 0 and float(values.max()) > LOG_SPAN * float(values.min())
+def _error_layout(
+    title: str, height_px: int | None, yaxis: dict[str, Any], data: list[dict[str, Any]], left_px: int = 50
+) -> dict[str, Any]:
+    """The layout of an error or consistency plot: :func:`app.figures.shared.time_layout` with its
+    legend in a band of its own below (app.figures.shared.legend_bottom); the plot area PLOT_PX
+    high, or ``height_px`` less the title and the tick labels, whatever the legend holds."""
+    plot_px = PLOT_PX if height_px is None else max(height_px - TITLE_PX - TICK_LABELS_PX, 1)
+    return legend_bottom(time_layout(title, plot_px, yaxis, left_px), data, plot_px)
 
 
 def error_figure(
@@ -252,7 +274,7 @@ def error_figure(
     quantity: str = "vel",
     show_sigma: bool = False,
     log_y: bool | str = False,
-    height_px: int = 300,
+    height_px: int | None = None,
     max_points: int | None = 600,
     validate: bool = False,
     smoothed: bool = False,
@@ -260,46 +282,35 @@ def error_figure(
     """Error norm against time for every method; one trace per method named by its short name.
 
     ``quantity``: "vel", "tilt", "heading", "att" (the attitude norm) or "pos". ``show_sigma``
-    adds the filter's 1-sigma as a shaded band under each curve (a trace named "<NAME> 1-sigma"),
-    where the method has one (not for the position of Yoo 2014's methods: NaN, no position state).
-    ``log_y``: True, False, or "auto" (log only where the drawn values span more than LOG_SPAN).
-    At most about ``max_points`` points are drawn per trace (evenly strided, the last epoch
-    always included): a plot panel is a few hundred pixels wide, and every point drawn is data
-    sent to the browser on each live update. ``smoothed``: each method's smoothed error beside
-    its filtered one, and with ``show_sigma`` its smoothed 1-sigma (:func:`smoothed_traces`).
+    adds the filter's 1-sigma as one band per method under its curve (a trace named "<NAME>
+    1-sigma": a dotted line filled down to zero, translucent however many overlap:
+    :func:`app.figures.shared.band_alpha`), where the method has one (not for the position of Yoo 2014's methods:
+    NaN, no position state). ``log_y``: True, False, or "auto" (:func:`log_axis`: log where the
+    drawn values span more than app.figures.log_axes.LOG_SPAN and no error starts at zero); on a log axis the zeros
+    are gaps (:func:`drop_for_log`). At most about ``max_points`` points are drawn per trace
+    (evenly strided, the last epoch always included): a plot panel is a few hundred pixels
+    wide, and every point drawn is data sent to the browser on each live update. ``smoothed``:
+    each method's smoothed error beside its filtered one, and with ``show_sigma`` its smoothed
+    1-sigma (:func:`smoothed_traces`). ``height_px``: the figure's height without its legend
+    (None: a plot area of PLOT_PX); the legend's rows are added below (:func:`_error_layout`).
     """
     _check_quantity(quantity, log_y)
     err_field, sigma_field, title, unit = QUANTITIES[quantity]
     data: list[dict[str, Any]] = []
     drawn: list[np.ndarray] = []
+    bands: list[dict[str, Any]] = []
     runs = 1
     for method, res in results.items():
         keep, starts = _points(res, max_points)
-        t = res.t_s[keep]
         runs = getattr(res, err_field).shape[1]
-        color = method_color(method)
         if show_sigma:
             band = run_curve(getattr(res, sigma_field)[keep])
             if np.isfinite(band).any():  # Yoo 2014's filter has no position state: no position band
                 drawn.append(band)
-                data.append(
-                    {
-                        "type": "scatter",
-                        "x": t,
-                        "y": band,
-                        "name": f"{method.upper()} 1-sigma",
-                        "mode": "lines",
-                        "line": {"width": 0},
-                        "fill": "tozeroy",
-                        "fillcolor": hex_to_rgba(color, 0.15),
-                        "hoverinfo": "skip",
-                        "showlegend": False,
-                        "legendgroup": method,
-                    }
-                )
-        traces, values = _error_curve(
-            res, err_field, keep, starts, method.upper(), method, {"color": color, "width": 2}
-        )
+                bands.append(_sigma_band(method, res.t_s[keep], band))
+                data.append(bands[-1])
+        line = {"color": method_color(method), "width": 2}
+        traces, values = _error_curve(res, err_field, keep, starts, method.upper(), method, line)
         data += traces
         drawn += values
         if smoothed:
@@ -308,9 +319,13 @@ def error_figure(
             )
             drawn += [np.asarray(trace["y"], dtype=float) for trace in traces]
             data += traces
-    log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
+    for band in bands:
+        band["fillcolor"] = hex_to_rgba(band["line"]["color"], band_alpha(len(bands)))
+    log = log_axis(drawn, log_y)
+    if log:
+        data = drop_for_log(data, drawn)
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else "") + _envelope_note(results)
-    return make_figure(data, time_layout(label, height_px, _error_axis(log)), validate)
+    return make_figure(data, _error_layout(label, height_px, error_axis(log), data), validate)
 
 
 def block_dims(result: MethodResult) -> dict[str, int]:
@@ -340,7 +355,7 @@ def nees_blocks(results: Mapping[str, MethodResult]) -> tuple[str, ...]:
 def nees_figure(
     results: Mapping[str, MethodResult],
     block: str = "full",
-    height_px: int = 300,
+    height_px: int | None = None,
     max_points: int | None = 600,
     validate: bool = False,
     smoothed: bool = False,
@@ -386,11 +401,10 @@ def nees_figure(
         data = _nees_references(list(by_dim), runs, t_first, t_last) + data
     title = _nees_title(block, by_dim, without, runs, _envelope_note(results))
     yaxis = {
-        "type": "log",
-        "exponentformat": "power",
+        **error_axis(True),
         "title": {"text": "NEES/dim (1 = consistent, >1 over-confident)", "font": {"size": 11}},
     }
-    return make_figure(data, time_layout(title, height_px, yaxis, left_px=55), validate)
+    return make_figure(data, _error_layout(title, height_px, yaxis, data, left_px=55), validate)
 
 
 def _nees_traces(
@@ -594,7 +608,7 @@ def components_figure(
     results: Mapping[str, MethodResult],
     components: Mapping[str, Mapping[str, np.ndarray]],
     quantity: str = "vel",
-    height_px: int = 480,
+    height_px: int = 360,
     max_points: int | None = 600,
     validate: bool = False,
 ) -> go.Figure:
@@ -635,7 +649,8 @@ def components_figure(
                 }
             )
     label = f"{title} [{unit}]" + (f" (RMS of {runs} runs)" if runs > 1 else ", estimate - truth")
-    return make_figure(data, stacked_layout(label, [f"{a} [{unit}]" for a in axes], height_px), validate)
+    layout = stacked_layout(label, [f"{a} [{unit}]" for a in axes], height_px, data)
+    return make_figure(data, layout, validate)
 
 
 RUN_DASHES = ("solid", "dash", "dot", "dashdot", "longdash")
@@ -646,7 +661,7 @@ def compare_figure(
     runs: Sequence[tuple[str, Mapping[str, MethodResult]]],
     quantity: str = "vel",
     log_y: bool | str = False,
-    height_px: int = 300,
+    height_px: int | None = None,
     max_points: int | None = 600,
     validate: bool = False,
 ) -> go.Figure:
@@ -667,12 +682,13 @@ def compare_figure(
             traces, values = _error_curve(res, err_field, keep, starts, name, group, line)
             data += traces
             drawn += values
-    log = _spans_decades(drawn) if log_y == AUTO else bool(log_y)
+    log = log_axis(drawn, log_y)
+    if log:
+        data = drop_for_log(data, drawn)
     labels = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
     note = _envelope_note({str(n): r for n, (_, rs) in enumerate(runs) for r in rs.values()})
-    return make_figure(
-        data, time_layout(f"{title} [{unit}]: {labels}{note}", height_px, _error_axis(log)), validate
-    )
+    layout = _error_layout(f"{title} [{unit}]: {labels}{note}", height_px, error_axis(log), data)
+    return make_figure(data, layout, validate)
 
 
 def overlay_figure(runs: Sequence[tuple[str, go.Figure]]) -> go.Figure:
@@ -697,6 +713,14 @@ def overlay_figure(runs: Sequence[tuple[str, go.Figure]]) -> go.Figure:
             elif n == 0:
                 out.add_trace(trace)
     styles = ", ".join(f"{label} {RUN_DASHES[n % len(RUN_DASHES)]}" for n, (label, _) in enumerate(runs))
-    title = runs[0][1].to_dict()["layout"].get("title", {}).get("text", "")
-    out.update_layout(title_text=f"{title}: {styles}")
+    first = runs[0][1].to_dict()["layout"]
+    margin = first.get("margin", {})
+    plot_px = int(first.get("height") or PLOT_PX + TITLE_PX) - margin.get("t", TITLE_PX) - margin.get("b", 0)
+    layout = legend_bottom(first, [trace.to_plotly_json() for trace in out.data], max(plot_px, 1))
+    out.update_layout(
+        title_text=f"{first.get('title', {}).get('text', '')}: {styles}",
+        height=layout["height"],
+        margin=layout["margin"],
+        legend=layout["legend"],
+    )
     return out

@@ -21,6 +21,10 @@ import numpy as np
 import plotly.graph_objects as go
 
 from app.figures.shared import (
+    BAND_ALPHA_MAX,
+    TICK_LABELS_PX,
+    TITLE_PX,
+    band_alpha,
     bin_label,
     decimate,
     envelope_traces,
@@ -43,6 +47,7 @@ INNOVATION_ROWS = {
 INNOVATION_ROWS.update({name: {len(s.row_labels): s.row_labels} for name, s in FUSED.items()})
 """What a source's innovation rows are, by their number (DVL: body axes, TC: beams; a plug-in: its own)."""
 BAND_SUFFIX = " 3-sigma"
+PANEL_PX = 120  # each panel's height on a card app.figures.shared.CARD_WIDTH_PX wide (None: height_px)
 REJECTED_SUFFIX = " rejected"
 
 
@@ -55,7 +60,7 @@ def innovation_figure(
     results: Mapping[str, MethodResult],
     source: str = "dvl",
     run: int = 0,
-    height_px: int = 520,
+    height_px: int | None = None,
     max_points: int | None = 600,
     validate: bool = False,
 ) -> go.Figure:
@@ -125,7 +130,12 @@ def innovation_figure(
     runs_text = f", run {run + 1}" if any(rec.innovation.shape[1] > 1 for rec in records.values()) else ""
     shaded = f", shaded: {bin_label(max(bins_s))}" if bins_s else ""
     title = f"{source.upper()} innovations with their 3-sigma (x: rejected){runs_text}{shaded}"
-    return make_figure(data, stacked_layout(title, names, height_px), validate)
+    alpha = band_alpha(len(records))  # one band per method on each panel
+    for trace in data:
+        if trace["name"].endswith(BAND_SUFFIX):
+            trace["fillcolor"] = hex_to_rgba(trace["line"]["color"], alpha)
+    height_px = height_px or PANEL_PX * len(names) + TITLE_PX + TICK_LABELS_PX
+    return make_figure(data, stacked_layout(title, names, height_px, data), validate)
 
 
 def _binned_traces(
@@ -186,8 +196,8 @@ def _sigma3_band(
         "name": method.upper() + BAND_SUFFIX,
         "mode": "lines",
         "fill": "toself",
-        "fillcolor": hex_to_rgba(color, 0.12),
-        "line": {"width": 0},
+        "fillcolor": hex_to_rgba(color, BAND_ALPHA_MAX),
+        "line": {"width": 0, "color": color},
         "hoverinfo": "skip",
         "legendgroup": method,
         "showlegend": False,

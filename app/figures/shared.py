@@ -93,11 +93,35 @@ def merged_envelope(
 
 
 ENVELOPE_ALPHA = 0.25
+BAND_STACK_ALPHA = 0.3
+"""The opacity where every method's band (1-sigma, 3-sigma) overlaps: each band's alpha is chosen
+so that all of them stacked reach this (:func:`band_alpha`), and the plot behind stays readable."""
+BAND_ALPHA_MAX = 0.15  # one band alone
+
+
+def band_alpha(bands: int) -> float:
+    """Each band's fill alpha when ``bands`` of them overlap: ``1 - (1 - a)^n = BAND_STACK_ALPHA``,
+    at most BAND_ALPHA_MAX (one band alone).
+
+    Parameters
+    ----------
+    bands : int
+        How many bands are drawn on one panel (one per method).
+
+    Returns
+    -------
+    float
+        The alpha of each, to four decimals.
+    """
+    each = 1.0 - (1.0 - BAND_STACK_ALPHA) ** (1.0 / max(bands, 1))
+    return round(min(BAND_ALPHA_MAX, each), 4)
 
 
 def bin_label(bin_s: float) -> str:
-    """How a plot names a reduced run's envelope: "min-max per 9.1 s bin"."""
-    return f"min–max per {bin_s:.3g} s bin"
+    """How a plot names a reduced run's band: the curve's own range within each screen bin,
+    "curve's min–max within each 9.1 s bin" (a decimation band: with several runs it is the range
+    of the RMS over runs inside the bin, not the spread of the runs)."""
+    return f"curve's min–max within each {bin_s:.3g} s bin"
 
 
 def envelope_traces(
@@ -112,9 +136,10 @@ def envelope_traces(
 ) -> list[dict[str, Any]]:
     """A reduced run's envelope as a band: the minimum per bin (an invisible line) and the maximum
     filled down to it (``fill="tonexty"``), in ``color`` pale, grouped with the curve ``group``;
-    hover reads "<name> min per 9.1 s bin" and "... max ...". Drawn before the representative
+    hover reads "<name> curve min in 9.1 s bin" and "... max ...": the drawn curve's own extremes
+    within each bin (a decimation band, not the runs' spread). Drawn before the representative
     line, so the line lies on top of its band."""
-    label = f"{name} {{}} per {bin_s:.3g} s bin"
+    label = f"{name} curve {{}} in {bin_s:.3g} s bin"
     common = {"type": "scatter", "x": t, "mode": "lines", "legendgroup": group, "showlegend": False, **axes}
     return [
         {**common, "y": low, "name": label.format("min"), "line": {"width": 0, "color": color}},
@@ -161,10 +186,125 @@ def panel_domains(n: int, gap: float = 0.06) -> list[tuple[float, float]]:
 
 LEGEND_BELOW = {"orientation": "h", "yanchor": "top", "y": -0.15}
 """The legend under the time axis, hanging from its top so that more rows (runs overlaid, eight
-methods) grow downward into the margin plotly makes for it."""
+methods) grow downward into the margin plotly makes for it (figures of fixed height; the
+workbench's time plots reserve their legend's rows instead: :func:`legend_bottom`)."""
 TIME_AXIS = {"ticksuffix": " s"}
 """The time axis of a plot with its legend below: the unit on the ticks ("5 s"), no axis title for
 a second row of the legend to land on (a title sits where plotly's first legend row does)."""
+CARD_WIDTH_PX = 480
+"""The plot card's width the legend's rows are counted for [px]: the workbench's cards are 480 px
+wide at 1280 x 800 and at 1600 x 1000. viser scales a card's height with its width, so a wider card
+(the panel dragged wider) has fewer rows and more room; a narrower one keeps the same proportions."""
+LEGEND_ROW_PX = 21  # one row of a horizontal legend at plotly's 12 px font
+LEGEND_CHAR_PX = 7.0  # a legend name's character at 12 px (Open Sans, capitals and digits)
+LEGEND_ITEM_PX = 46  # a legend item's symbol and gaps: plotly's itemwidth 30, 2 x 5 px gap and the next gap
+TICK_LABELS_PX = 26  # the x tick labels and their gap under the plot
+TITLE_PX = 35  # the title's band above the plot
+
+
+def legend_names(data: list[dict[str, Any]]) -> list[str]:
+    """The names a figure's legend lists: each trace's whose ``showlegend`` is not False.
+
+    Parameters
+    ----------
+    data : list[dict[str, Any]]
+        Plain trace dicts (:func:`make_figure`).
+
+    Returns
+    -------
+    list[str]
+        The legend's names, in the order plotly draws them (``traceorder="normal"``).
+    """
+    return [str(trace.get("name", "")) for trace in data if trace.get("showlegend", True) is not False]
+
+
+def legend_rows(names: list[str], width_px: float) -> int:
+    """How many rows a horizontal legend of ``names`` takes under a plot area ``width_px`` wide:
+    plotly fills a row left to right and starts a new one where the next item would not fit.
+
+    Parameters
+    ----------
+    names : list[str]
+        The legend's names (:func:`legend_names`).
+    width_px : float
+        The plot area's width [px].
+
+    Returns
+    -------
+    int
+        The number of rows (0 for no names).
+    """
+    rows, used_px = 0, 0.0
+    for name in names:
+        item_px = LEGEND_ITEM_PX + LEGEND_CHAR_PX * len(name)
+        if rows == 0 or used_px + item_px > width_px:
+            rows, used_px = rows + 1, 0.0
+        used_px += item_px
+    return rows
+
+
+def legend_bottom(
+    layout: dict[str, Any], data: list[dict[str, Any]], plot_px: int, card_px: int = CARD_WIDTH_PX
+) -> dict[str, Any]:
+    """``layout`` with its legend in a band of its own under the x tick labels, and its height
+    grown by that band, so that the plot area keeps ``plot_px`` whatever the legend holds (twelve
+    methods, their smoothed curves, kept runs overlaid): the legend's rows are counted at a card
+    ``card_px`` wide (:func:`legend_rows`), and the legend hangs from the bottom of the figure
+    (``yref="container"``), clear of the tick labels and of any axis title.
+
+    Parameters
+    ----------
+    layout : dict[str, Any]
+        A plain layout with ``margin`` (``l``, ``r``, ``t``) and no ``height`` needed.
+    data : list[dict[str, Any]]
+        The figure's traces (their legend names).
+    plot_px : int
+        The plot area's height [px] at a card ``card_px`` wide.
+    card_px : int
+        The card's width [px] the rows are counted for.
+
+    Returns
+    -------
+    dict[str, Any]
+        A new layout: ``height`` (the card's aspect is height / ``card_px``), ``margin.b``, ``legend``.
+    """
+    margin = {"l": 50, "r": 10, "t": TITLE_PX, **layout.get("margin", {})}
+    rows = legend_rows(legend_names(data), card_px - margin["l"] - margin["r"])
+    bottom_px = TICK_LABELS_PX + rows * LEGEND_ROW_PX + (6 if rows else 0)
+    return {
+        **layout,
+        "height": int(margin["t"] + plot_px + bottom_px),
+        "margin": {**margin, "b": bottom_px},
+        "legend": {
+            "orientation": "h",
+            "traceorder": "normal",
+            "x": 0.0,
+            "xanchor": "left",
+            "yref": "container",
+            "y": 0.0,
+            "yanchor": "bottom",
+        },
+    }
+
+
+def card_aspect(figure: go.Figure, card_px: int = CARD_WIDTH_PX) -> float:
+    """The aspect (height / width) a viser plot card needs for ``figure``, whose ``layout.height``
+    was reckoned for a card ``card_px`` wide (:func:`legend_bottom`).
+
+    Parameters
+    ----------
+    figure : go.Figure
+        The figure; without a height, 400 px.
+    card_px : int
+        The card's width the height was reckoned for [px].
+
+    Returns
+    -------
+    float
+        Its aspect, to two decimals.
+    """
+    height_px: Any = figure.layout["height"]  # plotly's stubs type an item as a figure
+    return round(float(height_px or 400) / card_px, 2)
 
 
 def time_layout(title: str, height_px: int, yaxis: dict[str, Any], left_px: int = 50) -> dict[str, Any]:
@@ -224,12 +364,18 @@ def placeholder_figure(title: str, text: str = PLACEHOLDER_TEXT) -> go.Figure:
     )
 
 
-def stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, Any]:
-    """Layout of len(``names``) panels sharing the time axis, each y-axis titled by its name."""
+def stacked_layout(
+    title: str, names: list[str], height_px: int, data: list[dict[str, Any]] | None = None
+) -> dict[str, Any]:
+    """Layout of len(``names``) panels sharing the time axis, each y-axis titled by its name; the
+    bottom axis carries the unit on its ticks ("5 s", TIME_AXIS), no title for the legend to land
+    on. With ``data`` (the figure's traces) the legend has a band of its own below the panels and
+    the figure grows by it (:func:`legend_bottom`): the panels keep ``height_px`` less the title
+    and the tick labels whatever the legend holds."""
     layout: dict[str, Any] = {
         "title": {"text": title, "font": {"size": 13}},
         "height": height_px,
-        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
+        "margin": {"l": 60, "r": 10, "t": TITLE_PX, "b": 35},
         "legend": {"orientation": "h", "y": -0.12},
         "template": "plotly_white",
     }
@@ -237,7 +383,7 @@ def stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, An
     for k, ((lo, hi), name) in enumerate(zip(panel_domains(n), names)):
         suffix = "" if k == 0 else str(k + 1)
         layout[f"xaxis{suffix}"] = (
-            {"anchor": f"y{suffix}", "title": {"text": "time [s]"}}
+            {"anchor": f"y{suffix}", **TIME_AXIS}
             if k == n - 1
             else {"anchor": f"y{suffix}", "matches": f"x{n if n > 1 else ''}", "showticklabels": False}
         )
@@ -246,7 +392,9 @@ def stacked_layout(title: str, names: list[str], height_px: int) -> dict[str, An
             "title": {"text": name, "font": {"size": 11}},
             "zeroline": True,
         }
-    return layout
+    if data is None:
+        return layout
+    return legend_bottom(layout, data, max(height_px - TITLE_PX - TICK_LABELS_PX, 1))
 
 
 CURSOR_NAME = "time cursor"

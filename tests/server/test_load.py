@@ -10,7 +10,7 @@ from the server that shows the change took effect in this tab:
   The test then requires that notification to be "Run complete", so a refused Run ("Already
   running") is not taken for an acknowledgement.
 - Time slider moved: the vehicle's new position (``SetPositionMessage`` for /auv);
-- Log scale toggled: a plot redrawn with the new axis type.
+- Error axes switched between log and linear: a plot redrawn with the new axis type.
 Controls the server does not echo (Duration, Seed, methods) are acknowledged through the run:
 the "Configuration run" table of every run must show this client's own values (distinct
 seeds and method sets per client), so no change is lost and none leaks into another tab.
@@ -102,7 +102,7 @@ class Tab:
         for _ in range(2):
             self.log_scale = not self.log_scale
             want_log = self.log_scale
-            self._timed("log_scale", lambda: c.set_value("Log scale", want_log),
+            self._timed("log_scale", lambda: c.set_value("Error axes", "log" if want_log else "linear"),
                         lambda m: m.get("type") == "GuiUpdateMessage" and "_plotly_json_str" in m["updates"]
                         and ('"type":"log"' in m["updates"]["_plotly_json_str"]) == want_log)
         # the configuration this tab ran is its own (the config table names its seed and methods)

@@ -170,27 +170,27 @@ def test_the_plots_draw_a_min_max_band_under_each_curve(pair) -> None:
     full, binned, _ = pair
     error_figure(binned, "pos", show_sigma=True, validate=True)  # plotly accepts every trace
     figure = error_figure(binned, "pos")
-    assert "min\u2013max per 0.7 s bin" in figure.layout.title.text
+    assert "curve's min\u2013max within each 0.7 s bin" in figure.layout.title.text
     traces = _traces(figure)
     for method in METHODS:
-        lo, hi = traces[f"{method.upper()} min per 0.7 s bin"], traces[f"{method.upper()} max per 0.7 s bin"]
+        lo, hi = traces[f"{method.upper()} curve min in 0.7 s bin"], traces[f"{method.upper()} curve max in 0.7 s bin"]
         line = traces[method.upper()]
         assert hi["fill"] == "tonexty" and lo["fill"] is None
         assert np.all(lo["y"] <= line["y"] + 1e-12) and np.all(line["y"] <= hi["y"] + 1e-12)
     # merged further to at most about max_points: still the extremes of the full-rate curve
-    hi = _traces(error_figure(binned, "pos", max_points=5))["LC max per 0.7 s bin"]
+    hi = _traces(error_figure(binned, "pos", max_points=5))["LC curve max in 0.7 s bin"]
     assert len(hi["y"]) <= 6 and hi["x"][-1] == full["lc"].t_s[-1]
     assert hi["y"].max() == pytest.approx(float(np.nanmax(run_curve(full["lc"].pos_err_m))), rel=1e-12)
     nees_figure(binned, "vel", validate=True)
-    assert _traces(nees_figure(binned, "vel"))["TC max per 0.7 s bin"]["fill"] == "tonexty"
+    assert _traces(nees_figure(binned, "vel"))["TC curve max in 0.7 s bin"]["fill"] == "tonexty"
     innovation_figure(binned, "dvl", validate=True)
     innovations = innovation_figure(binned, "dvl")
-    assert "TC max per 0.7 s bin" in _traces(innovations)
-    assert "min\u2013max per 0.7 s bin" in innovations.layout.title.text
+    assert "TC curve max in 0.7 s bin" in _traces(innovations)
+    assert "curve's min\u2013max within each 0.7 s bin" in innovations.layout.title.text
     sensor_error_figure(binned["lc"], validate=True)
-    assert any(n.endswith("estimate max per 0.7 s bin") for n in _traces(sensor_error_figure(binned["lc"])))
+    assert any(n.endswith("estimate curve max in 0.7 s bin") for n in _traces(sensor_error_figure(binned["lc"])))
     compare_figure([("run 1", binned), ("run 2", full)], "vel", validate=True)
-    assert "LC (run 1) max per 0.7 s bin" in _traces(compare_figure([("run 1", binned), ("run 2", full)], "vel"))
+    assert "LC (run 1) curve max in 0.7 s bin" in _traces(compare_figure([("run 1", binned), ("run 2", full)], "vel"))
     assert "Consistency" in summary_markdown(binned) and "DVL bottom-track" in rms_markdown(binned)
 
 

@@ -221,8 +221,8 @@ def test_the_sensors_tab_shows_the_current_and_hides_it_for_a_run_without(with_s
 def test_the_nees_dropdown_gains_current_and_loses_it_again(with_states, without_states) -> None:
     tabs = types.SimpleNamespace(
         nees_block=types.SimpleNamespace(options=tuple(BLOCK_DIMS), value="full"), overlay_runs=lambda: [],
-        show_smoothed_nees=types.SimpleNamespace(value=False), nees_plot=types.SimpleNamespace(figure=None),
-        state=types.SimpleNamespace(cursor_t=None))
+        show_smoothed_nees=types.SimpleNamespace(value=False), nees_plot=types.SimpleNamespace(figure=None, aspect=0.6),
+        state=types.SimpleNamespace(cursor_t=None), _fit=PlotTabs._fit)
     PlotTabs._draw_nees(tabs, with_states)
     assert tabs.nees_block.options == (*BLOCK_DIMS, "current")
     tabs.nees_block.value = "current"

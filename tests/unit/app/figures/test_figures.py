@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 from app.figures.error_figures import (
-    LOG_SPAN,
     elc_choice_figure,
     error_figure,
     nees_figure,
     overlay_figure,
 )
+from app.figures.log_axes import LOG_SPAN
 from app.figures.shared import (
     METHOD_COLORS,
     TRUTH_COLOR,
