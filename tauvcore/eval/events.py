@@ -23,8 +23,11 @@ Read from the configuration and the records the engine leaves (tauvcore.engine.r
 
 A span runs from its first ping to the next ping after its last (when the beams returned, the DVL
 took over again), or to its last ping at the end of the record. A run reduced to time bins
-(tauvcore.eval.envelope.DecimatedResult) carries each bin's last update: its spans and instants are
-those of the bins, at the bins' last update times.
+(tauvcore.eval.envelope.DecimatedResult) carries each bin's last update with flags over the whole
+bin (``DecimatedUpdates.rejected_in_bin``, ``reset_in_bin``, ``lost_in_bin``): its spans and
+instants are those of the bins, at the bins' last update times (a bin's rejection text then gives
+its last update's test ratio; a beam lost in a bin that a scheduled outage overlaps is taken as
+scheduled).
 """
 
 from __future__ import annotations
@@ -121,8 +124,8 @@ def run_events(results: Mapping[str, MethodResult], config: Config, run: int = 0
     Returns
     -------
     list[Event]
-        Every event, sorted by start time, then end time, then kind (:data:`EVENT_KINDS` order) and
-        method; the mission's own (``method`` None) first at equal times.
+        Every event, sorted by start time; at equal start times the mission's own (``method``
+        None) first, then by kind (:data:`EVENT_KINDS` order), end time and method.
     """
     runs = {r.pos_err_m.shape[1] for r in results.values()}
     if results and not all(0 <= run < n for n in runs):
@@ -133,7 +136,7 @@ def run_events(results: Mapping[str, MethodResult], config: Config, run: int = 0
         events += method_events(method, result, run)
     order = list(EVENT_KINDS)
     return sorted(
-        events, key=lambda e: (e.start_s, e.end_s, e.method is not None, order.index(e.kind), e.method or "")
+        events, key=lambda e: (e.start_s, e.method is not None, order.index(e.kind), e.end_s, e.method or "")
     )
 
 
@@ -170,7 +173,7 @@ def dropout_events(results: Mapping[str, MethodResult], config: Config, run: int
     lost = expected & ~np.asarray(dvl.beams_available[:, run], dtype=bool)
     binned = getattr(dvl, "lost_in_bin", None)
     if binned is not None:
-        lost = lost | (expected & np.asarray(binned[:, run], dtype=bool))
+        lost = lost | (_scheduled_throughout(config, t_s) & np.asarray(binned[:, run], dtype=bool))
     events = []
     for first, last in runs_of(np.any(lost, axis=1)):
         start, end = _span(t_s, first, last)
@@ -182,6 +185,18 @@ def dropout_events(results: Mapping[str, MethodResult], config: Config, run: int
         )
         events.append(Event("dropout", start, end, None, beams, text))
     return events
+
+
+def _scheduled_throughout(config: Config, t_s: np.ndarray) -> np.ndarray:
+    """(U, 4) bool: the beam is enabled and no scheduled outage naming it overlaps the bin that
+    ends at ``t_s[u]`` (from the previous bin's last ping; the first from its own)."""
+    since = np.r_[t_s[:1], t_s[:-1]]
+    expected = np.broadcast_to(config.dvl.beam_mask, (t_s.size, 4)).copy()
+    for outage in config.dvl.outages:
+        overlaps = (outage.start_s <= t_s) & (outage.end_s > since)
+        for b in outage.beams:
+            expected[overlaps, b - 1] = False
+    return expected
 
 
 def method_events(method: str, result: MethodResult, run: int = 0) -> list[Event]:

@@ -158,3 +158,28 @@ def test_a_run_with_an_outage_of_beams_3_and_4(outage_run):
     assert [e for e in events if e.kind == "dropout"] == []
     assert events == sorted(events, key=lambda e: e.start_s)
     assert all(e.method in (None, "lc", "tc") for e in events)
+
+
+def test_events_inside_bins_survive_the_reduction_to_bins():
+    """Bins of 5 s (pings 0-4, 5-9): a rejection at 2 s, a reset at 6 s and beam 2 lost at 1 s are
+    none of them at their bin's last ping, yet come out at the bin's last update; beam 4 lost at
+    7 s inside a scheduled outage 6.5-7.5 s of beam 4 is no dropout."""
+    from tauvcore.eval.envelope import EnvelopeReducer
+
+    rejected = np.zeros((10, 1), bool)
+    rejected[2] = True
+    reset = np.zeros((10, 1), bool)
+    reset[6] = True
+    available = np.ones((10, 1, 4), bool)
+    available[1, 0, 1] = False
+    available[7, 0, 3] = False
+    record = _record(PINGS_S, rejected=rejected, reset=reset, beams_available=available)
+    reducer = EnvelopeReducer(11, 1.0, 5)
+    reducer.add({"tc": _result("tc", {"dvl": record})})
+    binned = reducer.results()
+    dvl = binned["tc"].updates["dvl"]
+    assert not dvl.rejected.any() and dvl.reset is not None and not dvl.reset.any()  # the last updates lost them
+    config = Config().replace("dvl", outages=(Outage((4,), 6.5, 7.5),))
+    events = run_events(binned, config)
+    assert [(e.kind, e.start_s, e.end_s, e.beams) for e in events] == [
+        ("dropout", 4.0, 9.0, (2,)), ("rejection", 4.0, 4.0, ()), ("outage", 6.5, 7.5, (4,)), ("reset", 9.0, 9.0, ())]
