@@ -1,6 +1,7 @@
 (() => {
   // the shared time cursor: every plotly plot of the page gets a vertical line at the slider's
-  // time; moves arriving faster than the page draws are merged into one relayout
+  // time (its other shapes, the events' bands, kept after it); moves arriving faster than the
+  // page draws are merged into one relayout
   window.__tauvCursor = __T__;
   if (window.__tauvCursorPending) return;
   window.__tauvCursorPending = true;
@@ -11,7 +12,9 @@
     const shape = __SHAPE__;
     shape.x0 = t; shape.x1 = t;
     for (const p of document.querySelectorAll('.js-plotly-plot')) {
-      if (p.layout && p.data && p.data.length) window.Plotly.relayout(p, {shapes: [shape]});
+      if (!(p.layout && p.data && p.data.length)) continue;
+      const others = (p.layout.shapes || []).filter((s) => s.name !== shape.name);
+      window.Plotly.relayout(p, {shapes: [shape, ...others]});
     }
   }, 80);
 })();

@@ -5,7 +5,7 @@
 Read from the configuration and the records the engine leaves (tauvcore.engine.results):
 
 - ``outage`` (span, no method): a scheduled DVL outage, ``config.dvl.outages`` (its window and its
-  beams);
+  beams; the outages of one window, one per beam as the dashboard sets them, are one event);
 - ``dropout`` (span, no method): DVL pings at which an enabled beam did not return though no
   scheduled outage names it (a random dropout, the bottom out of range, a log's own gaps), from
   ``UpdateRecord.beams_available`` of the DVL record (the sensor's, the same for every method: the
@@ -141,13 +141,16 @@ def run_events(results: Mapping[str, MethodResult], config: Config, run: int = 0
 
 
 def outage_events(config: Config) -> list[Event]:
-    """The scheduled DVL outages of ``config`` (``config.dvl.outages``), one span each."""
-    events = []
+    """The scheduled DVL outages of ``config`` (``config.dvl.outages``), one span per window: the
+    outages of the same window (the dashboard's, one per beam) are one span of all their beams."""
+    windows: dict[tuple[float, float], set[int]] = {}
     for outage in config.dvl.outages:
-        beams = tuple(sorted(outage.beams))
-        window = f"{seconds(outage.start_s)}-{seconds(outage.end_s)} s"
-        text = f"scheduled DVL outage: {beams_text(beams)} lost {window}"
-        events.append(Event("outage", float(outage.start_s), float(outage.end_s), None, beams, text))
+        windows.setdefault((float(outage.start_s), float(outage.end_s)), set()).update(outage.beams)
+    events = []
+    for (start, end), lost in windows.items():
+        beams = tuple(sorted(lost))
+        text = f"scheduled DVL outage: {beams_text(beams)} lost {seconds(start)}-{seconds(end)} s"
+        events.append(Event("outage", start, end, None, beams, text))
     return events
 
 

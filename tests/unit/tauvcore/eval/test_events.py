@@ -59,6 +59,16 @@ def test_scheduled_outage_is_one_span_of_its_beams():
     assert not event.instant
 
 
+def test_outages_of_one_window_are_one_span():
+    """The dashboard sets one outage per beam: beams 4 and 3 over 100-150 s are one span, beam 1
+    over 160-170 s another."""
+    config = Config().replace("dvl", outages=(Outage((4,), 100.0, 150.0), Outage((1,), 160.0, 170.0),
+                                              Outage((3,), 100.0, 150.0)))
+    assert [(e.start_s, e.end_s, e.beams, e.text) for e in run_events({}, config)] == [
+        (100.0, 150.0, (3, 4), "scheduled DVL outage: beams 3,4 lost 100-150 s"),
+        (160.0, 170.0, (1,), "scheduled DVL outage: beam 1 lost 160-170 s")]
+
+
 def test_unscheduled_lost_beams_are_dropout_spans_to_the_ping_they_returned():
     """Beam 2 lost at pings 3-4 and beam 1 at ping 5 (one span 3-6 s of beams 1,2); beams 3,4 lost
     at 6-7 s inside their scheduled outage (no dropout); beam 4 lost at the last ping (a span that
@@ -141,9 +151,10 @@ def test_event_checks_its_kind_and_times():
 
 @pytest.fixture(scope="module")
 def outage_run():
-    """A 160 s straight run, LC and TC, beams 3 and 4 lost 100-150 s."""
+    """A 160 s straight run, LC and TC, beams 3 and 4 lost 100-150 s (one outage per beam, as the
+    dashboard sets them)."""
     config = (Config().replace("trajectory", name="straight", duration_s=160.0)
-              .replace("dvl", outages=(Outage((3, 4), 100.0, 150.0),))
+              .replace("dvl", outages=(Outage((3,), 100.0, 150.0), Outage((4,), 100.0, 150.0)))
               .replace("run", methods=("lc", "tc")))
     return config, run_streaming(config, np.random.default_rng(0))
 
