@@ -97,6 +97,8 @@ def set_range(x_range_s: tuple[float, float] | None) -> str:
 def busy(on: bool) -> str:
     """The script that shows (after BUSY_DELAY_S) or hides the page's busy sign."""
     return f"window.__tauv && window.__tauv.busy({'true' if on else 'false'});"
+
+
 SCROLL_WAIT_MS = 10000  # how long the page looks for a plot to scroll to (it is drawn after the script lands)
 
 

@@ -39,6 +39,7 @@ from app.figures.error_figures import (
     nees_figure,
     overlay_figure,
 )
+from app.figures.event_traces import with_events
 from app.figures.innovation_figures import innovation_figure, innovation_sources
 from app.figures.sensor_figures import (
     PANEL_HEIGHT_PX,
@@ -60,6 +61,7 @@ from app.reports.markdown_tables import identical_methods, identical_note
 from tauvcore.config import Config
 from tauvcore.engine.results import BLOCK_DIMS, MethodResult
 from tauvcore.eval.envelope import is_decimated
+from tauvcore.eval.events import Event, run_events
 from tauvcore.filter.families import FAMILIES, FIRST
 
 PLOTTED_QUANTITIES = (
@@ -123,6 +125,11 @@ VKF_NOTES = {
     ),
 }
 """The note above the Seabed tab's VKF figure (shown when the run's methods include ``vkf``)."""
+EVENTS_HINT = (
+    "on every time plot: scheduled DVL outages and unscheduled beam losses shaded, the RPM velocity in "
+    "place of the DVL as a strip along the top, gate rejections, lock-out resets and divergence flags "
+    "marked (hover a marker for what, when and which beams; the legend names each colour)"
+)
 SMOOTHED_HINT = (
     "the fixed-interval smoother's errors (dashed; dotted: its 1-sigma) beside the filter's, for the "
     "methods of a run with the Smoother (Mission tab); usable once such a run ends"
@@ -224,6 +231,8 @@ class PlotTabs:
         self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.sensor_method.on_update(lambda _: self.refresh_plots(only="sensors"))
         self.sensor_run.on_update(lambda _: self.refresh_plots(only="sensors"))
+        self.show_events.on_update(lambda _: self._events_toggled())
+        self._events_of: tuple[Any, list[Event]] = (None, [])  # (results, config, run) -> their events
 
     def _add_error_tabs(self, gui: viser.GuiApi, workbench: viser.PanelHandle) -> None:
         """The Plots tab (the error norms, the ELC's choice) and the Components tab."""
@@ -234,6 +243,7 @@ class PlotTabs:
                 "Attitude norm", False, hint="also plot |attitude error| (tilt and heading together)"
             )
             self.show_smoothed = gui.add_checkbox("Smoothed", False, disabled=True, hint=SMOOTHED_HINT)
+            self.show_events = gui.add_checkbox("Events", True, hint=EVENTS_HINT)
             self.plots_note = gui.add_markdown("")
             self.plots = {
                 q: gui.add_plotly(
@@ -374,7 +384,7 @@ class PlotTabs:
             else nees_figure(results, block, smoothed=self.show_smoothed_nees.value)
         )
         self._fit(self.nees_plot, figure, CARD_WIDTH_PX)
-        self.nees_plot.figure = with_cursor(figure, SENT_CURSOR_S)
+        self.nees_plot.figure = self._with_events(with_cursor(figure, SENT_CURSOR_S))
 
     def schedule_diagnostics(self) -> None:
         """Draw the innovations, components and ELC plots soon, one figure at a time in a thread of
@@ -446,7 +456,7 @@ class PlotTabs:
                     )
                 )
                 self._fit(handle, figure, CARD_WIDTH_PX)
-                handle.figure = with_cursor(figure, t)
+                handle.figure = self._with_events(with_cursor(figure, t))
 
     def _att_norm_changed(self) -> None:
         """Attitude norm ticked or unticked: redraw the error plots, and bring the norm's plot,
@@ -468,9 +478,9 @@ class PlotTabs:
             for q, handle in self.component_plots.items():
                 figure = components_figure(results, components, q)
                 self._fit(handle, figure, CARD_WIDTH_PX)
-                handle.figure = with_cursor(figure, t)
+                handle.figure = self._with_events(with_cursor(figure, t))
         if "elc" in results:
-            self.elc_plot.figure = with_cursor(elc_choice_figure(results["elc"]), t)
+            self.elc_plot.figure = self._with_events(with_cursor(elc_choice_figure(results["elc"]), t))
             self.elc_plot.visible = True
         else:
             self.elc_plot.visible = False
@@ -490,7 +500,7 @@ class PlotTabs:
             figure = innovation_figure(results, source, run=run)
             # each panel keeps its height as panels and legend rows are added
             self._fit(self.innovation_plot, figure, CARD_WIDTH_PX)
-            self.innovation_plot.figure = with_cursor(figure, t)
+            self.innovation_plot.figure = self._with_events(with_cursor(figure, t), run)
             without = [m.upper() for m, r in results.items() if source not in r.updates]
             self.innovation_note.content = INNOVATION_NOTE + (
                 f" No {source.upper()} updates: {', '.join(without)}." if without else ""
@@ -502,7 +512,7 @@ class PlotTabs:
         if view is not None and len(view["t_s"]):
             figure = raw_sensor_figure(view)
             self._fit(self.raw_plot, figure)
-            self.raw_plot.figure = with_cursor(figure, t)
+            self.raw_plot.figure = self._with_events(with_cursor(figure, t))
         estimates = [a for r in results.values() for a in (r.sensor_est, r.state_est) if a is not None]
         runs = max((a.shape[1] for a in estimates), default=1)
         if self.sensor_run.max != runs:  # a Monte Carlo run's estimates, one run at a time
@@ -528,7 +538,7 @@ class PlotTabs:
             result, run=run, height_px=PANEL_HEIGHT_PX * len(sensor_panels(method)) + 70
         )
         self._fit(self.sensor_plot, figure)
-        self.sensor_plot.figure = with_cursor(figure, t)
+        self.sensor_plot.figure = self._with_events(with_cursor(figure, t), run)
 
     def _draw_states(self, results: dict[str, MethodResult], run: int) -> None:
         """The Sensors tab's figure of the states the sources add (the DVL's current), for run
@@ -550,7 +560,30 @@ class PlotTabs:
         if methods:
             figure = source_states_figure(results, run=run)
             self._fit(self.state_plot, figure)
-            self.state_plot.figure = with_cursor(figure, SENT_CURSOR_S)
+            self.state_plot.figure = self._with_events(with_cursor(figure, SENT_CURSOR_S), run)
+
+    def _with_events(self, figure: go.Figure, run: int = 0) -> go.Figure:
+        """``figure`` with run ``run``'s events on its time axes (app.figures.event_traces; the
+        scheduled outages alone before results come), unless the Events box is off."""
+        config = self.state.config
+        if not self.show_events.value or config is None:
+            return figure
+        results = self.state.results or {}
+        key = (results, config, run)
+        cached_key, events = self._events_of
+        if not (isinstance(cached_key, tuple) and all(a is b for a, b in zip(cached_key, key, strict=True))):
+            events = run_events(results, config, run)
+            self._events_of = (key, events)
+        return with_events(figure, events)
+
+    def _events_toggled(self) -> None:
+        """The Events box changed: every time plot again, with or without them."""
+        self.refresh_plots()
+        self.draw_vehicle_plot()
+        self.draw_seabed_plot()
+        results, config = self.state.results, self.state.config
+        if results and config is not None and "vkf" in results:
+            self.draw_vkf_plot(results["vkf"], config)
 
     @staticmethod
     def _fit(handle: viser.GuiPlotlyHandle, figure: go.Figure, card_px: int = SENSOR_PLOT_WIDTH_PX) -> None:
@@ -572,9 +605,13 @@ class PlotTabs:
             self.seabed_plot.visible = False
             self.seabed_note.content = SEABED_NOTES["log" if self.state.replaying else "none"]
             return
-        self.seabed_plot.figure = with_cursor(
-            altitude_figure(tv["t_s"], altitude_m, config.dvl.max_altitude_m, config.vkf.switch_altitude_m),
-            SENT_CURSOR_S,
+        self.seabed_plot.figure = self._with_events(
+            with_cursor(
+                altitude_figure(
+                    tv["t_s"], altitude_m, config.dvl.max_altitude_m, config.vkf.switch_altitude_m
+                ),
+                SENT_CURSOR_S,
+            )
         )
         self.seabed_plot.visible = True
         self.seabed_note.content = SEABED_NOTES["simulation"]
@@ -585,7 +622,7 @@ class PlotTabs:
         ``vkf`` method's), or a note: the run has no VKF, or its results are still to come."""
         trace = result.vkf_trace if result is not None else None
         if trace is not None and len(trace["t_s"]):
-            self.vkf_plot.figure = with_cursor(vkf_figure(trace), SENT_CURSOR_S)
+            self.vkf_plot.figure = self._with_events(with_cursor(vkf_figure(trace), SENT_CURSOR_S))
             self.vkf_plot.visible = True
             self.vkf_note.content = VKF_NOTES["shown"]
             return
@@ -603,14 +640,14 @@ class PlotTabs:
         current_n_mps, vel_water_b = tv.get("current_n_mps"), tv.get("vel_water_b")
         if current_n_mps is not None and vel_water_b is not None:
             water, ground = water_and_ground_speed_mps(tv["C_nb"], vel_water_b, current_n_mps)
-            self.current_plot.figure = with_cursor(
-                current_figure(tv["t_s"], current_n_mps, water, ground), SENT_CURSOR_S
+            self.current_plot.figure = self._with_events(
+                with_cursor(current_figure(tv["t_s"], current_n_mps, water, ground), SENT_CURSOR_S)
             )
         self.current_plot.visible = self.current_note.visible = current_n_mps is not None
         fin_angles_rad, propeller_rpm = tv.get("fin_angles_rad"), tv.get("propeller_rpm")
         if fin_angles_rad is not None and propeller_rpm is not None:
-            self.vehicle_plot.figure = with_cursor(
-                actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm), SENT_CURSOR_S
+            self.vehicle_plot.figure = self._with_events(
+                with_cursor(actuator_figure(tv["t_s"], fin_angles_rad, propeller_rpm), SENT_CURSOR_S)
             )
             self.vehicle_plot.visible = True
             self.vehicle_note.content = VEHICLE_NOTES["dynamic"]

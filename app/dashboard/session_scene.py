@@ -16,6 +16,7 @@ import numpy as np
 import viser
 
 from app.dashboard.session_state import TabState, drawing
+from app.figures.event_traces import EVENT_COLORS, track_marks
 from app.figures.scene import (
     BEAM_COLORS,
     BEAM_OUTAGE,
@@ -60,6 +61,7 @@ from app.figures.vehicle_figures import FIN_COLORS
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult, UpdateRecord
 from tauvcore.eval.envelope import DecimatedUpdates
+from tauvcore.eval.events import Event, run_events
 from tauvcore.truth.kinematic import bathymetry
 
 FOLLOW_DISTANCE_M = 22.0  # chase-camera distance: the 3 m hull and its beams fill the view
@@ -99,6 +101,8 @@ class SceneView:
         self.time_slider = time_slider  # the playback's (its time when the camera or truth changes)
         self.camera_mode = camera_mode
         self.readout = readout  # the beams' state at the shown time, under the playback controls
+        self.event_marks: list[Any] = []  # the events drawn on the truth's track (draw_events)
+        self.events_drawn: list[Event] | None = None
         self._build_scene()
 
     def _build_scene(self) -> None:
@@ -375,6 +379,7 @@ class SceneView:
         if self.camera_mode.value == CAMERA_FREE and not self.keep_camera:
             self.fit_mission()
         self.keep_camera = False
+        self.draw_events()
         self.show_time(min(float(self.time_slider.value), float(tv["t_s"][-1])))
 
     @drawing
@@ -412,6 +417,52 @@ class SceneView:
                     thickness=2.0,
                     thickness_units="screen",
                 )
+        self.draw_events()
+
+    @drawing
+    def draw_events(self) -> None:
+        """The run's events on the truth's track (app.figures.event_traces.track_marks), in their
+        kinds' colours: each span a thick stretch of the track, each instant (gate rejections,
+        lock-out resets, divergence flags) a dot, with labels naming the outages, dropouts and
+        divergence flags and each other kind's count. Drawn again only when the events change."""
+        tv, config = self.state.truth_view, self.state.config
+        if tv is None or config is None:
+            return
+        events = run_events(self.state.results or {}, config)
+        if events == self.events_drawn:
+            return
+        for handle in self.event_marks:
+            handle.remove()
+        self.event_marks = []
+        self.events_drawn = events
+        spans, instants, labels = track_marks(events, tv["t_s"], tv["pos_n"])
+        scene = self.client.scene
+        for k, (event, pos_n) in enumerate(spans):
+            pts = ned_to_view(pos_n)
+            self.event_marks.append(
+                scene.add_line_segments(
+                    f"/events/span_{k}",
+                    np.stack([pts[:-1], pts[1:]], axis=1),
+                    hex_rgb(EVENT_COLORS[event.kind]),
+                    thickness=7.0 if event.method is None else 5.0,
+                    thickness_units="screen",
+                )
+            )
+        for kind, pos_n in instants.items():
+            self.event_marks.append(
+                scene.add_point_cloud(
+                    f"/events/{kind}",
+                    ned_to_view(pos_n),
+                    hex_rgb(EVENT_COLORS[kind]),
+                    point_size=1.2,
+                    point_shape="circle",
+                )
+            )
+        for k, (text, pos_n) in enumerate(labels):
+            position = ned_to_view(pos_n[None])[0] + [0.0, 0.0, 2.0]
+            self.event_marks.append(
+                scene.add_label(f"/events/label_{k}", text, position=tuple(position), anchor="bottom-center")
+            )
 
     @drawing
     def show_time(self, t_s: float) -> None:

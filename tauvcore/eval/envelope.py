@@ -19,6 +19,8 @@ not reduced at all. Per bin :class:`EnvelopeReducer` keeps
   every field of :class:`~tauvcore.engine.results.UpdateRecord`), and per run and measurement row
   the minimum and maximum innovation and the largest 3-sigma ``3 sqrt(S_ii)`` over the updates
   that measured that row, and the last innovation the gate rejected (:class:`DecimatedUpdates`);
+  whether any update of the bin was rejected or reset the velocity, and per beam whether any ping
+  of the bin lost it (the events of tauvcore.eval.events survive the reduction);
 - the VKF's trace (method ``vkf``) at the last ping of each bin.
 
 Numbers that sum over the mission (RMS, NEES/dim, NIS/dof, the DVL's counts) are not taken from
@@ -111,6 +113,11 @@ class DecimatedUpdates(UpdateRecord):
     innovation_high: np.ndarray | None = None  # largest innovation of the rows measured (NaN: none)
     sigma3_high: np.ndarray | None = None  # largest 3 sqrt(S_ii) of the rows measured (NaN: none)
     rejected_innovation: np.ndarray | None = None  # the last innovation the gate rejected (NaN: none)
+    rejected_in_bin: np.ndarray | None = None  # (U_b, R) bool: any update of the bin was rejected
+    reset_in_bin: np.ndarray | None = None  # (U_b, R) bool: any update of the bin reset the velocity
+    # after a lock-out (None: the record has no resets)
+    lost_in_bin: np.ndarray | None = None  # (U_b, R, 4) bool: the beam did not return at some ping of
+    # the bin (None: the record has no beams)
 
 
 @dataclass(frozen=True)
@@ -143,6 +150,7 @@ class _Bins:
         self.last: dict[str, np.ndarray] = {}
         self.low: dict[str, np.ndarray] = {}
         self.high: dict[str, np.ndarray] = {}
+        self.any: dict[str, np.ndarray] = {}
 
     def _store(self, store: dict[str, np.ndarray], name: str, like: np.ndarray, nan: bool) -> np.ndarray:
         """``store[name]``, made at the first chunk: (num_bins, ...) of ``like``'s trailing shape,
@@ -159,11 +167,13 @@ class _Bins:
         last: dict[str, np.ndarray],
         extremes: dict[str, np.ndarray],
         last_where: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+        anys: dict[str, np.ndarray] | None = None,
     ) -> None:
         """Fold in one chunk: ``bins`` (n,) the bin of each row; ``last`` arrays (n, ...) whose
         last row per bin is kept; ``extremes`` float arrays (n, ...) whose minimum and maximum
         per bin (NaN ignored) are kept; ``last_where`` name -> (values, mask) (n, ...): per bin
-        and element the last value where the mask holds (NaN where it never did)."""
+        and element the last value where the mask holds (NaN where it never did); ``anys`` bool
+        arrays (n, ...): per bin and element whether any row held."""
         if bins.size == 0:
             return
         starts = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
@@ -186,6 +196,10 @@ class _Bins:
             found = row >= 0
             taken = np.take_along_axis(values, np.maximum(row, 0), axis=0)
             kept[which] = np.where(found, taken, kept[which])
+        for name, flags in (anys or {}).items():
+            flags = np.asarray(flags, dtype=bool)
+            held = self._store(self.any, name, flags, False)
+            held[which] |= np.logical_or.reduceat(flags, starts, axis=0)
 
 
 def _last_fields(record: UpdateRecord) -> dict[str, np.ndarray]:
@@ -271,6 +285,7 @@ class EnvelopeReducer:
                     _last_fields(record),
                     {"innovation": nu, "sigma3": sigma3},
                     {"rejected_innovation": (record.innovation, record.rejected_rows & measured)},
+                    _event_flags(record),
                 )
             trace = r.vkf_trace
             if trace is not None and len(trace["t_s"]):
@@ -333,7 +348,19 @@ class EnvelopeReducer:
             innovation_high=ub.high["innovation"][rows],
             sigma3_high=ub.high["sigma3"][rows],
             rejected_innovation=ub.last["rejected_innovation"][rows],
+            **{name: a[rows] for name, a in ub.any.items()},
         )
+
+
+def _event_flags(record: UpdateRecord) -> dict[str, np.ndarray]:
+    """The flags :class:`DecimatedUpdates` keeps per bin of ``record``'s updates: rejected, reset
+    (with resets), beams lost (with beams), by their field's name."""
+    flags = {"rejected_in_bin": record.rejected}
+    if record.reset is not None:
+        flags["reset_in_bin"] = record.reset
+    if record.beams_available is not None:
+        flags["lost_in_bin"] = ~np.asarray(record.beams_available, dtype=bool)
+    return flags
 
 
 __all__ = [
