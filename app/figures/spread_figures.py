@@ -22,7 +22,6 @@ time cursor, drawn against ``x``, never lands on an error axis).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -63,6 +62,7 @@ MARGIN_PX = 110  # title, the time axis' ticks and one row of legend
 TICKS_PX = 30  # from the lowest plot area's bottom edge to the legend: the time axis' tick labels
 BAND_NAME = "5–95 %"
 MEDIAN_NAME = "median"
+RUNS_NAME = "one line per run"
 
 
 def runs_drawn(num_runs: int, limit: int = MAX_RUNS_DRAWN) -> np.ndarray:
@@ -90,8 +90,8 @@ def runs_drawn(num_runs: int, limit: int = MAX_RUNS_DRAWN) -> np.ndarray:
 
 def percentiles(series: np.ndarray, q: tuple[float, ...] = PERCENTILES) -> np.ndarray:
     """The percentiles ``q`` over the runs at each epoch of a (T, R) series, by linear
-    interpolation between the sorted runs (``numpy.nanpercentile``: a run's NaN, a diverged
-    filter's, is left out; an epoch with no finite value is NaN).
+    interpolation between the sorted runs (as ``numpy.nanpercentile``: a run's NaN, a diverged
+    filter's, is left out; an epoch with no value is NaN).
 
     Parameters
     ----------
@@ -108,11 +108,20 @@ def percentiles(series: np.ndarray, q: tuple[float, ...] = PERCENTILES) -> np.nd
     series = np.asarray(series, dtype=float)
     if series.ndim != 2:
         raise ValueError(f"series must be (T, R), got shape {series.shape}")
-    if series.shape[0] == 0:
-        return np.empty((len(q), 0))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # "All-NaN slice": that epoch is NaN
-        return np.nanpercentile(series, q, axis=1)
+    # numpy.nanpercentile's method, vectorised over the epochs (it loops over them in Python): the
+    # sorted finite runs (NaN sorts last), the virtual index (n - 1) q / 100 between two of them
+    ordered = np.sort(series, axis=1)
+    n = np.sum(~np.isnan(ordered), axis=1)  # (T,)
+    index = np.maximum(n - 1, 0)[None, :] * (np.asarray(q, dtype=float)[:, None] / 100.0)  # (Q, T)
+    below = np.floor(index).astype(int)
+    above = np.minimum(below + 1, np.maximum(n - 1, 0)[None, :])
+    low = np.take_along_axis(ordered, below.T, axis=1).T
+    high = np.take_along_axis(ordered, above.T, axis=1).T
+    fraction = index - below
+    with np.errstate(invalid="ignore"):
+        values = np.where(fraction > 0.0, low + fraction * (high - low), low)
+    values[:, n == 0] = np.nan
+    return values
 
 
 def mean_nees_band(dim: int, num_runs: int, confidence: float) -> tuple[float, float]:
@@ -248,14 +257,18 @@ def _spread_traces(
         },
     ]
     run_line = {"width": 1, "color": hex_to_rgba(color, RUN_ALPHA)}
-    for n, r in enumerate(runs):
+    if first:  # the runs' one legend entry, a line of no point (each run's own is named on hover)
+        data.append(
+            {**common, "x": [None], "y": [None], "name": RUNS_NAME, "legendgroup": "runs", "line": run_line}
+        )
+    for r in runs:
         data.append(
             {
                 **common,
                 "y": series[:, r],
                 "name": f"run {r + 1}",
                 "legendgroup": "runs",
-                "showlegend": first and n == 0,
+                "showlegend": False,
                 "line": run_line,
             }
         )

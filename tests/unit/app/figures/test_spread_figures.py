@@ -14,6 +14,7 @@ from app.figures.spread_figures import (
     BAND_NAME,
     MAX_RUNS_DRAWN,
     MEDIAN_NAME,
+    RUNS_NAME,
     final_errors_figure,
     histogram_bins,
     histogram_counts,
@@ -63,6 +64,17 @@ def test_percentiles_interpolate_and_leave_nan_runs_out():
     np.testing.assert_allclose(got[:, 0], [1.0, 1.75, 2.5, 4.0])
     np.testing.assert_allclose(got[:, 1], [10.0, 15.0, 20.0, 30.0])   # the NaN run left out
     assert np.isnan(got[:, 2]).all()                                   # no finite run: NaN
+
+
+def test_percentiles_equal_numpy_s_nanpercentile():
+    rng = np.random.default_rng(8)
+    series = rng.lognormal(size=(50, 17))
+    series[rng.random(series.shape) < 0.2] = np.nan
+    series[3] = np.nan
+    q = (0.0, 5.0, 37.5, 50.0, 95.0, 100.0)
+    with np.errstate(all="ignore"), pytest.warns(RuntimeWarning, match="All-NaN"):
+        expected = np.nanpercentile(series, q, axis=1)
+    np.testing.assert_allclose(percentiles(series, q), expected, rtol=1e-12, equal_nan=True)
 
 
 def test_percentiles_refuse_a_series_that_is_not_time_by_runs():
@@ -150,13 +162,17 @@ def test_runs_figure_draws_the_runs_the_median_and_the_band_of_every_run():
     assert f"{MAX_RUNS_DRAWN} of 21 runs drawn" in figure.layout.title.text
     assert figure.layout.hovermode == "closest"
     legend = [tr.name for tr in figure.data if tr.showlegend is not False]
-    assert legend == [BAND_NAME, "run 1", MEDIAN_NAME]
+    assert legend == [BAND_NAME, RUNS_NAME, MEDIAN_NAME]
+    (entry,) = [tr for tr in figure.data if tr.name == RUNS_NAME]
+    assert list(entry.y) == [None]                                    # a legend entry, no data
 
 
 def test_runs_figure_decimates_every_trace_and_keeps_the_last_epoch():
     t = np.arange(2000) * 0.1
     figure = runs_figure("tc", _hand_built("tc", t, runs=3), max_points=200)
     for trace in figure.data:
+        if trace.name == RUNS_NAME:
+            continue
         assert len(trace.x) <= 201 and trace.x[-1] == t[-1]
 
 
