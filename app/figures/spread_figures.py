@@ -16,8 +16,8 @@ of the errors and the mean NEES over the runs; these show how the runs spread ar
 
 A long run reduced to time bins (tauvcore.eval.envelope) keeps each run's value at every bin's
 last epoch: the percentiles and the runs drawn are those values. The time figures are laid out by
-app.figures.shared's time layouts, the histograms on their own axes (``x2``, ``x3``: the page's
-time cursor, drawn against ``x``, never lands on an error axis).
+app.figures.shared's time layouts, the histograms on axes ``x2``, ``x3`` beside hidden ones
+(:data:`CURSOR_SINK_AXES`) that keep the page's time cursor, drawn against ``x``, out of view.
 """
 
 from __future__ import annotations
@@ -63,6 +63,22 @@ TICKS_PX = 30  # from the lowest plot area's bottom edge to the legend: the time
 BAND_NAME = "5–95 %"
 MEDIAN_NAME = "median"
 RUNS_NAME = "one line per run"
+CURSOR_SINK_TRACE: dict[str, Any] = {
+    "type": "scatter",
+    "x": [],
+    "y": [],
+    "name": "no time axis",
+    "showlegend": False,
+    "hoverinfo": "skip",
+}
+"""An empty trace on axes ``x``, ``y`` of a figure without a time axis (the histograms): the page
+draws its time cursor on every plot against axis ``x`` (app.figures.shared.cursor_shape; plotly
+moves a shape whose axis a figure lacks to its first x axis), and on these hidden axes
+(CURSOR_SINK_AXES) every time lies far out of view."""
+CURSOR_SINK_AXES: dict[str, Any] = {
+    "xaxis": {"visible": False, "fixedrange": True, "range": [-1e12, -1e12 + 1.0], "domain": [0.0, 0.001]},
+    "yaxis": {"visible": False, "fixedrange": True, "domain": [0.0, 0.001]},
+}
 
 
 def runs_drawn(num_runs: int, limit: int = MAX_RUNS_DRAWN) -> np.ndarray:
@@ -340,7 +356,9 @@ def final_values(result: MethodResult, field: str) -> np.ndarray:
     return series[-1] if len(series) else np.empty(0)
 
 
-def _histogram_trace(method: str, counts: np.ndarray, edges: np.ndarray, axes: dict[str, str], first: bool):
+def _histogram_trace(
+    method: str, counts: np.ndarray, edges: np.ndarray, axes: dict[str, str], first: bool
+) -> dict[str, Any]:
     """One method's histogram as a stepped outline filled down to zero: ``x`` the edges (the first
     twice), ``y`` 0, the counts, 0, so that ``sum(y)`` is the number of runs counted."""
     color = method_color(method)
@@ -355,7 +373,7 @@ def _histogram_trace(method: str, counts: np.ndarray, edges: np.ndarray, axes: d
         "fillcolor": hex_to_rgba(color, 0.2),
         "legendgroup": method,
         "showlegend": first,
-        "hovertemplate": f"{method.upper()}: %{{y}} runs from %{{x:.3g}}<extra></extra>",
+        "hoverinfo": "skip",  # a click on a plot's point moves the time there (app.dashboard.plot_click)
         **axes,
     }
 
@@ -365,7 +383,8 @@ def final_errors_figure(results: Mapping[str, MethodResult], validate: bool = Fa
     norm at the last epoch, one value per run, counted in bins shared by the methods
     (:func:`histogram_edges` of every method's values, :func:`histogram_bins` of the runs; a
     logarithmic axis where the edges are), each method a stepped outline in its colour. The
-    panels are on axes ``x2``/``y2`` and ``x3``/``y3``: not time axes.
+    panels are on axes ``x2``/``y2`` and ``x3``/``y3``; ``x``, ``y`` are hidden and hold no data
+    (:data:`CURSOR_SINK_TRACE`): no time axis, so no time cursor in view.
 
     Parameters
     ----------
@@ -387,10 +406,10 @@ def final_errors_figure(results: Mapping[str, MethodResult], validate: bool = Fa
         "height": 2 * PANEL_PX + 170,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 40},
         "legend": {**LEGEND_BELOW, "y": -0.22},
-        "hovermode": "closest",
+        "hovermode": False,  # no time to go to: the counts read off the axes
         "template": "plotly_white",
     }
-    for k, (key, (field, name, unit)) in enumerate(SPREAD_QUANTITIES.items()):
+    for k, (field, name, unit) in enumerate(SPREAD_QUANTITIES.values()):
         finals = {m: final_values(r, field) for m, r in results.items()}
         edges, log = histogram_edges(
             np.concatenate([*finals.values(), np.empty(0)]), histogram_bins(num_runs)
@@ -411,6 +430,8 @@ def final_errors_figure(results: Mapping[str, MethodResult], validate: bool = Fa
             "title": {"text": "runs", "font": {"size": 11}},
             "rangemode": "tozero",
         }
+    data.append(CURSOR_SINK_TRACE)
+    layout.update(CURSOR_SINK_AXES)
     return make_figure(data, layout, validate)
 
 
