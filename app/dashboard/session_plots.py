@@ -25,6 +25,7 @@ import viser
 from app.dashboard import page_scripts
 from app.dashboard.hardening import display_error
 from app.dashboard.session_runs import KeptRun
+from app.dashboard.session_spread import SpreadTab
 from app.dashboard.session_state import TabState, drawing
 from app.figures.error_figures import (
     AUTO,
@@ -219,6 +220,7 @@ class PlotTabs:
         self._add_consistency_tab(gui, workbench)
         self._add_innovations_tab(gui, workbench)
         self._add_sensors_tab(gui, workbench)
+        self.spread = SpreadTab(state, workbench)  # a Monte Carlo's spread (app.dashboard.session_spread)
         self._add_mission_tabs(gui, tabs)
         # each option redraws only the plots it changes (a full redraw is ten figures)
         self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
@@ -363,6 +365,8 @@ class PlotTabs:
         for group in PLOT_GROUPS:  # a full redraw leaves the deferred ones to the diagnostics' thread
             if only == group.name or (only is None and not group.deferred):
                 group.draw(self, results)
+        if only is None:
+            self.spread.show(results, live)  # a Monte Carlo's final results only
         now = time.monotonic()
         if only is None and (not live or now - self.last_diagnostics_s >= LIVE_DIAGNOSTICS_S):
             self.schedule_diagnostics()
