@@ -11,6 +11,7 @@
     const shape = __SHAPE__;
     shape.x0 = t; shape.x1 = t;
     for (const p of document.querySelectorAll('.js-plotly-plot')) {
+      if (p.layout && p.layout.meta && p.layout.meta.tauv === 'map') continue;  // not a time axis
       if (p.layout && p.data && p.data.length) window.Plotly.relayout(p, {shapes: [shape]});
     }
   }, 80);

@@ -23,6 +23,7 @@ import plotly.graph_objects as go
 import viser
 
 from app.dashboard.hardening import display_error
+from app.dashboard.session_map import MapRoom
 from app.dashboard.session_runs import KeptRun
 from app.dashboard.session_state import TabState, drawing
 from app.figures.error_figures import (
@@ -202,6 +203,7 @@ class PlotTabs:
         self._add_consistency_tab(gui, workbench)
         self._add_innovations_tab(gui, workbench)
         self._add_sensors_tab(gui, workbench)
+        self.map = MapRoom(state, workbench)  # the Map tab (app.dashboard.session_map)
         self._add_mission_tabs(gui, tabs)
         # each option redraws only the plots it changes (a full redraw is ten figures)
         self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
@@ -618,6 +620,7 @@ PLOT_GROUPS = (
     PlotGroup("innovations", "Innovations", PlotTabs._draw_innovations, deferred=True),
     PlotGroup("components", "Components", PlotTabs._draw_components_and_elc, deferred=True),
     PlotGroup("sensors", "Sensors", PlotTabs._draw_sensors, deferred=True),
+    PlotGroup("map", "Map", lambda tabs, results: tabs.map.draw(results), deferred=True),
 )
 """The workbench's plot groups, in the order a full redraw draws them (the ELC's choice, in the
 Plots tab, is drawn with the components)."""
