@@ -11,14 +11,16 @@
   }
   function onClick(ev) {
     const p = ev && ev.points && ev.points[0];
-    if (!p || typeof p.x !== 'number' || !isFinite(p.x)) return;
+    // a point that carries its time (the map's tracks) names that time; else its x does
+    const t = p && p.customdata !== undefined ? p.customdata : p && p.x;
+    if (!p || typeof t !== 'number' || !isFinite(t)) return;
     const box = document.evaluate(XPATH, document, null, XPathResult.FIRST_ORDERED_NODE_TYPE, null)
       .singleNodeValue;
     if (!box) return;
     // a trailing space every other click: the same time clicked twice is still a change (viser
     // sends a field's latest value only, so clearing it first would not reach the server)
     flip = !flip;
-    type(box, p.x.toFixed(2) + (flip ? ' ' : ''));
+    type(box, t.toFixed(2) + (flip ? ' ' : ''));
   }
   function hook() {
     for (const gd of document.querySelectorAll('.js-plotly-plot')) {

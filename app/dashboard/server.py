@@ -140,6 +140,7 @@ class Session:
         self.run_button, self.stop_button = self.panel.run_button, self.panel.stop_button
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
+        playback.time_slider.on_update(lambda _: self.plot_tabs.map.move_cursor(playback.time_slider.value))
         playback.camera_mode.on_update(lambda _: self.scene.camera_changed())
         playback.fit_button.on_click(lambda _: self.scene.fit_mission())
         for box in self.panel.beam_boxes:  # before a run the 3-D beams show the boxes at once

@@ -24,6 +24,7 @@ import viser
 
 from app.dashboard import page_scripts
 from app.dashboard.hardening import display_error
+from app.dashboard.session_map import MapRoom
 from app.dashboard.session_runs import KeptRun
 from app.dashboard.session_spread import SpreadTab
 from app.dashboard.session_state import TabState, drawing
@@ -221,6 +222,7 @@ class PlotTabs:
         self._add_innovations_tab(gui, workbench)
         self._add_sensors_tab(gui, workbench)
         self.spread = SpreadTab(state, workbench)  # a Monte Carlo's spread (app.dashboard.session_spread)
+        self.map = MapRoom(state, workbench)  # the Map tab (app.dashboard.session_map)
         self._add_mission_tabs(gui, tabs)
         # each option redraws only the plots it changes (a full redraw is ten figures)
         self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
@@ -693,6 +695,7 @@ PLOT_GROUPS = (
     PlotGroup("innovations", "Innovations", PlotTabs._draw_innovations, deferred=True),
     PlotGroup("components", "Components", PlotTabs._draw_components_and_elc, deferred=True),
     PlotGroup("sensors", "Sensors", PlotTabs._draw_sensors, deferred=True),
+    PlotGroup("map", "Map", lambda tabs, results: tabs.map.draw(results), deferred=True),
 )
 """The workbench's plot groups, in the order a full redraw draws them (the ELC's choice, in the
 Plots tab, is drawn with the components)."""

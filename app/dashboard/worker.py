@@ -101,6 +101,10 @@ def _throttled(check: Callable[[], bool], period_s: float) -> Callable[[], bool]
     return wrapped
 
 
+THINNED = ("est_vel_n", "est_euler_rad", "pos_cov_ne_m2")
+"""The per-epoch records that may be None (not recorded) which :func:`thin` thins with the series."""
+
+
 def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodResult]:
     """Every n-th output epoch (and the last) of each series, so at most ~max_epochs remain."""
     out = {}
@@ -127,8 +131,10 @@ def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodR
             tilt_sigma_deg=r.tilt_sigma_deg[keep],
             heading_sigma_deg=r.heading_sigma_deg[keep],
             nees_block=r.nees_block[keep],
-            **{n: None if (a := getattr(r, n)) is None else a[keep] for n in ("est_vel_n", "est_euler_rad")},
-            **{n: None if (a := getattr(r, n)) is None else a[keep] for n in (*SENSOR_FIELDS, *STATE_FIELDS)},
+            **{
+                n: None if (a := getattr(r, n)) is None else a[keep]
+                for n in (*THINNED, *SENSOR_FIELDS, *STATE_FIELDS)
+            },
         )
     return out
 

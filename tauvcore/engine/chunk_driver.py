@@ -43,6 +43,7 @@ EPOCH_FIELDS = frozenset(
         "series",
         "nees_block",
         "est_pos_n",
+        "pos_cov_ne_m2",
         "est_vel_n",
         "est_euler",
         *SENSOR_FIELDS,

@@ -565,6 +565,7 @@ class FilterBank(ChunkDriver):
             store["sensor_true"],
             *(tape[name] for name in OUTPUT_TAPE),
             *(store[name] for name in STATE_FIELDS),
+            store["pos_cov_ne_m2"],
         )
         return plain(outputs)
 
@@ -587,6 +588,7 @@ class FilterBank(ChunkDriver):
             "series": np.zeros((len(loop.SERIES_NAMES), T) + self.batch),
             "nees_block": np.zeros((T,) + self.batch + (len(self.layout.nees_blocks),)),
             "est_pos_n": np.zeros((T,) + self.batch + (3,)),
+            "pos_cov_ne_m2": np.zeros((T,) + self.batch + (3,)),
             "est_vel_n": np.zeros((T,) + self.batch + (3,)),
             "est_euler": np.zeros((T,) + self.batch + (3,)),
             **self._sensor_store(T, SENSOR_INDEX.size, 0.0),

@@ -108,6 +108,8 @@ class Outputs(NamedTuple):
     state_est: np.ndarray  # (T, M, R, E) the estimates of the sources' states (E = 0: none)
     state_sigma: np.ndarray  # (T, M, R, E) their 1-sigma
     state_true: np.ndarray  # (T, M, R, E) their true values
+    pos_cov_ne: np.ndarray  # (T, M, R, 3) the horizontal position error's covariance P_NN, P_NE,
+    #                         P_EE [m^2] (tauvcore.engine.results.MethodResult.pos_cov_ne_m2)
 
 
 @jit
@@ -221,11 +223,21 @@ def _record_states(slot: int, m: int, r: int, truth: EpochTruth, bank: BankState
     state_true: the estimate, ``sqrt(P_ii)`` and the truth."""
     _, _, _, _, _, _, _, extra_t = truth
     _, _, _, _, _, _, _, P, _, _, _, _, _, extra = bank
-    state_est, state_sigma, state_true = outputs[12:]
+    state_est, state_sigma, state_true = outputs[12:15]
     for e in range(P.shape[-1] - N):
         state_est[slot, m, r, e] = extra[m, r, e]
         state_sigma[slot, m, r, e] = math.sqrt(P[m, r, N + e, N + e])
         state_true[slot, m, r, e] = extra_t[e]
+
+
+@jit
+def _record_position_covariance(slot: int, m: int, r: int, P: np.ndarray, pos_cov_ne: np.ndarray) -> None:
+    """Filter (m, r)'s horizontal position covariance P_NN, P_NE, P_EE [m^2] into row ``slot`` of
+    ``pos_cov_ne`` (T, M, R, 3): the position error state is in NED metres on both earths
+    (tauvcore.filter.kernels.correction.nav_difference_into), so no conversion."""
+    pos_cov_ne[slot, m, r, 0] = P[m, r, POS, POS]
+    pos_cov_ne[slot, m, r, 1] = P[m, r, POS, POS + 1]
+    pos_cov_ne[slot, m, r, 2] = P[m, r, POS + 1, POS + 1]
 
 
 @jit
@@ -286,8 +298,8 @@ def record_bank(
     """Output epoch ``slot`` of every (method, run), at sample ``i_chunk`` of the chunk: the error
     ``true (-) estimate`` (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma,
     the NEES of the full state and of each block (against P and the reference's own variance,
-    ``constants.ref_var``), the estimated position, the epoch's time
-    (``out_t``); and the health check without truth (a non-finite navigation state or P's
+    ``constants.ref_var``), the horizontal position covariance (``pos_cov_ne`` (T, M, R, 3): P_NN,
+    P_NE, P_EE [m^2]), the estimated position, the epoch's time (``out_t``); and the health check without truth (a non-finite navigation state or P's
     variances sets ``nonfinite_at`` once).
 
     Truth: the chunk's at sample ``i_chunk`` (pos_t, vel_t (3,), C_t (3, 3) shared; the true IMU
@@ -329,6 +341,7 @@ def record_bank(
         for r in range(pos.shape[1]):
             _error_into(truth, bank, m, r, geodetic, dx, Ce, rho)
             _record_states(slot, m, r, truth, bank, outputs)
+            _record_position_covariance(slot, m, r, P, outputs[15])
             Pm = P[m, r]
             Q = A if add_reference_into(Pm, ref_var, C_t, vel_t, POS, ATT, VEL, True, A) else Pm
             error_series_into(

@@ -177,6 +177,10 @@ class MethodResult:
     # updates: the filter's), None unless the run asked for them (mission.run(..., smooth=...))
     smoother_cuts: np.ndarray | None = None  # (R,) with ``smoothed``: steps where the backward pass
     # started afresh (a prior not positive definite; tauvcore.filter.kernels.smoother)
+    pos_cov_ne_m2: np.ndarray | None = None  # (T, R, 3) the horizontal position error's covariance
+    # P_NN, P_NE, P_EE [m^2] (north, east of the error state, metres on both earths; the ellipses of a
+    # map); None: the family has no position state (Yoo 2014's), or not recorded. Not part of the
+    # JSON payload (SERIES_FIELDS)
 
 
 SERIES_FIELDS = {
@@ -227,7 +231,8 @@ def method_result(
         unit its field's name carries: [m/s], [deg], [m]; NEES dimensionless).
     epochs : dict[str, numpy.ndarray]
         The other per-epoch arrays (T, M, R, ...) by name: ``nees_block`` (T, M, R, B),
-        ``est_pos_n`` (T, M, R, 3) [m] NED, ``est_vel_n`` (T, M, R, 3) [m/s] NED and
+        ``est_pos_n`` (T, M, R, 3) [m] NED, ``pos_cov_ne_m2`` (T, M, R, 3) [m^2] P_NN, P_NE, P_EE
+        (absent: the family has no position state; the result's is None), ``est_vel_n`` (T, M, R, 3) [m/s] NED and
         ``est_euler`` (T, M, R, 3) roll, pitch, yaw [rad]; with ``sensor_errors`` also
         ``sensor_est``, ``sensor_sigma`` and ``sensor_true`` (T, M, R, S), in the units of
         :func:`sensor_states`.
@@ -247,6 +252,7 @@ def method_result(
         None, ``diverged`` (R,) where ``diverged_at_s`` is not NaN.
     """
     sensor = {name: epochs[name][:, m] if sensor_errors else None for name in SENSOR_FIELDS}
+    pos_cov = epochs.get("pos_cov_ne_m2")
     if fields.get("state_labels"):
         sensor.update({name: epochs[name][:, m] for name in STATE_FIELDS})
     return MethodResult(
@@ -255,6 +261,7 @@ def method_result(
         **{name: series[j][:, m] for j, name in enumerate(SERIES_FIELDS.values())},
         nees_block=epochs["nees_block"][:, m],
         est_pos_n=epochs["est_pos_n"][:, m],
+        pos_cov_ne_m2=None if pos_cov is None else pos_cov[:, m],
         est_vel_n=epochs["est_vel_n"][:, m],
         est_euler_rad=epochs["est_euler"][:, m],
         diverged=~np.isnan(diverged_at_s),

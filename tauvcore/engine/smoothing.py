@@ -271,6 +271,7 @@ def smooth_segment(
     -------
     dict[str, numpy.ndarray]
         The smoothed store: ``t_s``, ``out_k``, ``series``, ``nees_block``, ``est_pos_n``,
+        ``pos_cov_ne_m2`` (the smoothed P_NN, P_NE, P_EE [m^2]),
         ``est_vel_n``, ``est_euler`` and, where the segment has them, the sensor errors'.
     """
     B = int(np.prod(batch))
@@ -295,6 +296,7 @@ def smooth_segment(
         "series": series.reshape((len(loop.SERIES_NAMES),) + shape),
         "nees_block": nees_block.reshape(shape + (num_blocks,)),
         "est_pos_n": segment["est_pos_n"] + s[..., STATE.pos],
+        "pos_cov_ne_m2": horizontal_covariance(Ps, POS).reshape(shape + (3,)),
         "est_vel_n": np.where(moved, mv(C, v_b + s[..., STATE.vel]), segment["est_vel_n"]),
         "est_euler": np.where(moved, euler_from_C_nb(C), segment["est_euler"]),
     }
@@ -313,6 +315,12 @@ def smooth_segment(
         for name in ("sensor_est", "sensor_sigma", "sensor_true"):
             store[name] = np.zeros((0,) + batch + (S,))
     return store
+
+
+def horizontal_covariance(P: np.ndarray, pos: int) -> np.ndarray:
+    """The horizontal position block of covariances ``P`` (..., d, d) whose position error states
+    (north, east, down [m]) start at index ``pos``: (..., 3) P_NN, P_NE, P_EE [m^2]."""
+    return np.stack([P[..., pos, pos], P[..., pos, pos + 1], P[..., pos + 1, pos + 1]], axis=-1)
 
 
 def smooth_tape(

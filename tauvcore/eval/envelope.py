@@ -8,8 +8,8 @@ ceil(T / max_bins)`` (:func:`epochs_per_bin`), so a mission has at most ``max_bi
 not reduced at all. Per bin :class:`EnvelopeReducer` keeps
 
 - every series of :class:`~tauvcore.engine.results.MethodResult` at the bin's last epoch (its
-  representative: what hover and the time cursor read, and what the 3-D view and the components
-  draw); the mission's last epoch is always a bin's last, so final values are exact;
+  representative: what hover and the time cursor read, and what the 3-D view, the components and
+  the map's covariance ellipses draw); the mission's last epoch is always a bin's last, so final values are exact;
 - the minimum and maximum over the bin's epochs (``DecimatedResult.low`` and ``high``) of every
   curve the dashboard plots: each error and 1-sigma series as the plots draw it (the single run's
   value, or with R runs the RMS over runs, :func:`run_curve`), each NEES block averaged over the
@@ -262,7 +262,7 @@ class EnvelopeReducer:
                 bins = np.minimum((first + np.arange(n)) // self.k, self.num_bins - 1)
                 last = {"t_s": np.asarray(r.t_s), "nees_block": r.nees_block, "est_pos_n": r.est_pos_n}
                 last.update({name: getattr(r, name) for name in SERIES})
-                for name in ("est_vel_n", "est_euler_rad", *SENSOR_FIELDS, *STATE_FIELDS):
+                for name in ("est_vel_n", "est_euler_rad", "pos_cov_ne_m2", *SENSOR_FIELDS, *STATE_FIELDS):
                     if getattr(r, name) is not None:
                         last[name] = getattr(r, name)
                 extremes = {name: run_curve(getattr(r, name)) for name in RUN_CURVES}
@@ -323,6 +323,7 @@ class EnvelopeReducer:
                 est_pos_n=last["est_pos_n"],
                 est_vel_n=last.get("est_vel_n"),
                 est_euler_rad=last.get("est_euler_rad"),
+                pos_cov_ne_m2=last.get("pos_cov_ne_m2"),
                 **sensors,
                 diverged=r.diverged,
                 diverged_at_s=r.diverged_at_s,
