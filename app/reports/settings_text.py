@@ -6,7 +6,8 @@ What a run changed is found, not listed by hand: :func:`changed_settings` compar
 :func:`flat_config` with the default configuration's (``tauvcore.config.Config()``), so a setting
 added to the configuration is named the day it exists. A replayed log sets the mission's length,
 starting depth, origin and IMU rate itself: its trajectory and earth sections are the log's, not a
-choice, and are left out (the log is named instead).
+choice, and are left out (the log is named instead), as are the DVL's range and the VKF's switch
+altitude, which a replay does not read.
 
 The file name (:func:`file_stem`) holds only letters, digits, ``.``, ``_`` and ``-``, is at most
 :data:`FILE_STEM_MAX` characters (a longer one is cut and ends in a hash of the whole, so two
@@ -29,8 +30,9 @@ _HASH_CHARS = 8  # hex digits of the hash that ends a cut file name
 _SAFE = re.compile(r"[^A-Za-z0-9._-]+")
 _STEM_KEYS = ("trajectory.name", "trajectory.duration_s", "run.seed")
 """Settings every label and file name carries first, whatever their value."""
-_LOG_KEYS = ("trajectory.", "earth.")
-"""Prefixes of the settings a replayed log fixes itself (tauvcore.eval.replay.replay_config)."""
+_LOG_KEYS = ("trajectory.", "earth.", "dvl.max_altitude_m", "vkf.switch_altitude_m")
+"""Prefixes of the settings a replayed log fixes itself (tauvcore.eval.replay.replay_config) or
+does not read (app.dashboard.inputs.config_rows)."""
 _SECTION_WORDS = {
     "dvl": "DVL",
     "imu": "IMU",
