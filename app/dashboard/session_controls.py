@@ -92,6 +92,7 @@ class ControlPanel:
 
     source: viser.GuiDropdownHandle[str] | None  # only with logs
     trajectory: viser.GuiDropdownHandle[str]
+    duration: viser.GuiTextHandle
     truth: viser.GuiDropdownHandle[str]
     method_boxes: dict[str, viser.GuiCheckboxHandle]
     beam_boxes: list[viser.GuiCheckboxHandle]

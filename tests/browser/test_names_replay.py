@@ -77,10 +77,14 @@ def _run(tab: Tab, count: int) -> None:
     """Press Run and wait for the tab's ``count``-th "Run complete"."""
     tab.page.get_by_role("tab", name="Mission").click()
     tab.page.get_by_role("button", name="Run", exact=True).click()
-    tab.page.wait_for_function(
-        "n => Array.from(document.querySelectorAll('.mantine-Notification-title'))"
-        ".filter(e => e.textContent === 'Run complete').length >= n || "
-        "document.body.innerText.split('Run complete:').length > n", arg=count, timeout=180000)
+    try:
+        tab.page.wait_for_function(
+            "n => Array.from(document.querySelectorAll('.mantine-Notification-title'))"
+            ".filter(e => e.textContent === 'Run complete').length >= n || "
+            "document.body.innerText.split('Run complete:').length > n", arg=count, timeout=180000)
+    except Exception:
+        tab.page.screenshot(path=str(ARTIFACTS / f"names_run_{count}_failed.png"))
+        raise
 
 
 def _download_name(tab: Tab) -> str:
@@ -113,7 +117,12 @@ def test_runs_are_named_for_their_settings_and_the_page_keeps_no_stale_notice_or
     tab.notification("Cannot run").wait_for(timeout=15000)
     tab.type_into(DURATION, "20")
     _run(tab, 1)
-    expect(page.get_by_text("Cannot run", exact=True)).to_have_count(0, timeout=15000)
+    try:
+        expect(page.get_by_text("Cannot run", exact=True)).to_have_count(0, timeout=15000)
+    except AssertionError:
+        page.screenshot(path=str(ARTIFACTS / "names_notice_kept.png"))
+        raise AssertionError(page.evaluate(
+            "Array.from(document.querySelectorAll('.mantine-Notification-root')).map(e => e.innerText)")) from None
 
     page.get_by_role("tab", name="Sensors").click()
     page.wait_for_function(f"{FIGURES_JS}.flat().some(t => t.color === {LIME!r} && t.n > 0)", timeout=60000)
