@@ -33,6 +33,7 @@ from app.dashboard.inputs import config_rows
 from app.figures.error_figures import AUTO, error_figure, nees_figure
 from app.reports.markdown_tables import counts_markdown, smoothed_markdown, summary_markdown
 from app.reports.payload import config_to_json, run_payload
+from app.reports.settings_text import file_stem, has_smoothed
 from app.reports.study_output import PARQUET_WRITE_OPTIONS, runs_table
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
@@ -50,7 +51,6 @@ REPORT_FIGURES = ("vel", "tilt", "heading", "pos")
 REPORT_MAX_POINTS = 2000
 """Points per trace in the report's figures (evenly strided, the last epoch kept): a 1440 s run at
 10 Hz has 14,400 epochs, which would make the page tens of MB for no visible difference."""
-_SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
 
 
 class ExportError(Exception):
@@ -108,12 +108,12 @@ def _check(run: FinishedRun | None) -> FinishedRun:
 
 
 def file_name(run: FinishedRun, kind: str) -> str:
-    """``tauv-<trajectory or log-name>-<duration>s-seed<seed>[-<runs>runs].<ext>``, with only
-    letters, digits, ``.``, ``_`` and ``-`` (a log's name may hold anything)."""
-    what = f"log-{run.log}" if run.log is not None else run.config.trajectory.name
-    runs = f"-{run.runs}runs" if run.runs > 1 else ""
-    stem = f"tauv-{what}-{run.config.trajectory.duration_s:g}s-seed{run.config.run.seed}{runs}"
-    return f"{_SAFE_NAME.sub('_', stem)}.{kind}"
+    """``tauv-<trajectory or log-name>-<duration>s-seed<seed>[-<setting>...].<ext>``: a token for
+    every setting that differs from the defaults, the smoother and the runs of a Monte Carlo among
+    them (app.reports.settings_text.file_stem: only letters, digits, ``.``, ``_`` and ``-``, a
+    bounded length, the same name for the same run)."""
+    smoothed = has_smoothed(run.results.values())
+    return f"{file_stem(run.config, run.runs, run.log, smoothed)}.{kind}"
 
 
 def results_json(run: FinishedRun) -> bytes:

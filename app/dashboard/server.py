@@ -39,13 +39,13 @@ from app.dashboard.hardening import (
     shutdown,
 )
 from app.dashboard.inputs import Controls, InputError, config_markdown
-from app.dashboard.session_controls import ControlPanel
+from app.dashboard.session_controls import ControlPanel, replay_settings_note
 from app.dashboard.session_playback import Playback
 from app.dashboard.session_plots import VKF_NOTES, PlotTabs
 from app.dashboard.session_runs import RunTabs
 from app.dashboard.session_scene import FOLLOW_DISTANCE_M, SceneView
 from app.dashboard.session_series import SeriesTab
-from app.dashboard.session_state import TabState, notify
+from app.dashboard.session_state import TabState, clear_notices, notify
 from app.dashboard.session_vehicle import VehiclePanel, applied
 from app.figures.scene import (
     BEAM_COLOR_NAMES,
@@ -86,6 +86,9 @@ class Session:
         self.lock = threading.Lock()
         self.handle: worker.RunHandle | None = None
         self.run_log: str | None = None  # the log the current run replays (its name), None: a simulation
+        self.run_note = (
+            ""  # what the status adds of a replay's settings (session_controls.replay_settings_note)
+        )
         self.run_source: dict[str, Any] | None = (
             None  # that log as app.dashboard.worker.replay_source describes it
         )
@@ -178,7 +181,7 @@ class Session:
         )
 
     def notify(self, title: str, body: str, error: bool = False) -> None:
-        notify(self.client, title, body, error)
+        notify(self.client, title, body, error, self.state.notices)
 
     # ------------------------------------------------------------------ the rooms' main calls
     def controls(self) -> Controls:
@@ -268,7 +271,11 @@ class Session:
             if log_dir is not None
             else f"{config.trajectory.name}, {config.trajectory.duration_s:g} s, {runs} run(s)"
         )
-        self.status.content = f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}"
+        # a replay names what the controls carry into it beyond the log (outages, sensors...)
+        self.run_note = replay_settings_note(config, source) if log_dir is not None else ""
+        self.status.content = (
+            f"Running {what}: {', '.join(m.upper() for m in config.run.methods)}{self.run_note}"
+        )
         self.run_tabs.run_config.content = config_markdown(config, runs)
         self.legend.content = self._legend_html(config.run.methods)
         self.legend_panel.float(
@@ -510,6 +517,7 @@ class _RunPump:
             with s.lock:
                 s.state.config = self.config
             s.playback.time_slider.max = self.config.trajectory.duration_s
+            s.panel.show_log_facts(self.config)
             s.run_tabs.run_config.content = config_markdown(self.config, 1, s.run_source)
         elif kind == "truth":
             self.computing_since = time.monotonic()
@@ -558,8 +566,9 @@ class _RunPump:
         else:
             s.progress.value = 100.0
             what = f"log {s.run_log}" if s.run_log is not None else config.trajectory.name
-            s.status.content = f"Run complete: {what}, {t_end:g} s."
+            s.status.content = f"Run complete: {what}, {t_end:g} s{s.run_note}."
             self.note = ("Run complete", summary_line(results), False)
+            clear_notices(s.state.notices)  # what a red notice refused or reported is behind us
         self.finished = True
 
 

@@ -22,6 +22,7 @@ from app.dashboard import budget, control_checks, control_table, inputs, links, 
 from app.dashboard.controls import PLUGIN_FIELDS
 from app.dashboard.inputs import Controls, InputError, config_from_controls
 from app.dashboard.session_state import TabState
+from app.reports.settings_text import changed_settings, setting_name, setting_value
 from tauvcore.config import Config, from_dict, merge
 from tauvcore.logs import CONFIG_FILE, LogError
 from tauvcore.logs.bags import MAPPING_SUFFIX, is_bag, mapping_beside
@@ -43,6 +44,35 @@ def _can_hold(handle: Any, value: Any) -> bool:
     return isinstance(value, str) and len(value) <= 10 * inputs.TEXT_MAX_CHARS
 
 
+SIMULATION_ONLY = {
+    "trajectory": "set by the log: a replay flies the log's own track",
+    "duration": "set by the log: a replay runs the log's whole length",
+    "truth": "set by the log: a replay's reference is the log's own",
+    "seabed_depth": "does not apply to a log: its seabed is the one it was recorded over",
+    "dvl_max_altitude": "does not apply to a log: its DVL lost the seabed where it did",
+    "switch_altitude": "does not apply to a log: the altitude is the log's",
+    **{
+        field: "does not apply to a log: the water it was recorded in is the log's"
+        for field in control_checks.CURRENT_FIELDS
+    },
+}
+"""The controls a replayed log does not read (app.dashboard.inputs.config_rows leaves them out of a
+replay's table too), each with why, as its hint says while a log is the Source."""
+
+
+def replay_settings_note(config: Config, log: str) -> str:
+    """What a replay of ``log`` runs with beyond the defaults and the log's own track (the
+    outages, the sensors' settings, the sources...: app.reports.settings_text.changed_settings),
+    as the status line names it; empty when nothing is set."""
+    changed = changed_settings(config, log=log)
+    words = [
+        f"{setting_name(key)} {setting_value(key, value)}"
+        for key, value in changed.items()
+        if key not in ("run.methods", "run.seed")
+    ]
+    return f"; with {', '.join(words)}" if words else ""
+
+
 def bag_note(path: str) -> str:
     """What a notification says of the bag at ``path`` whose own mapping sets no configuration."""
     mapping = mapping_beside(path)
@@ -62,6 +92,7 @@ class ControlPanel:
 
     source: viser.GuiDropdownHandle[str] | None  # only with logs
     trajectory: viser.GuiDropdownHandle[str]
+    duration: viser.GuiTextHandle
     truth: viser.GuiDropdownHandle[str]
     method_boxes: dict[str, viser.GuiCheckboxHandle]
     beam_boxes: list[viser.GuiCheckboxHandle]
@@ -97,6 +128,9 @@ class ControlPanel:
         # per log: the sections its Calibrate and Tune found and Apply laid over its own file
         # (app.dashboard.session_vehicle); they apply at Run beneath the controls, as the log's file does
         self.vehicle_sections: dict[str, dict[str, Any]] = {}
+        self.own_hints: dict[
+            str, str | None
+        ] = {}  # the hints of SIMULATION_ONLY's controls, kept while a log's show
         for attr, handle in control_table.build(gui, self.logs).items():
             setattr(self, attr, handle)
 
@@ -116,9 +150,24 @@ class ControlPanel:
             handle.on_update(lambda _: self.schedule_check())
 
     def _simulation_only(self, simulated: bool) -> None:
-        """Enable the controls of the simulated truth (Truth, the current) for a simulation only."""
-        for attr in ("truth", *control_checks.CURRENT_FIELDS):
-            getattr(self, attr).disabled = not simulated
+        """Enable the controls a replayed log does not read (:data:`SIMULATION_ONLY`: the mission,
+        its length, the truth, the seabed, the current) for a simulation only; for a log each is
+        disabled and its hint says why (its own hint back for a simulation)."""
+        for attr, reason in SIMULATION_ONLY.items():
+            handle = getattr(self, attr)
+            own = self.own_hints.setdefault(attr, handle.hint)
+            handle.disabled = not simulated
+            hint = own if simulated else reason
+            if handle.hint != hint:
+                handle.hint = hint
+
+    def show_log_facts(self, config: Config) -> None:
+        """A replayed log's own configuration arrived: the disabled Trajectory and Duration say
+        what the log set ("set by the log: 398 s")."""
+        if self.source is None or self.source.value == inputs.SIMULATION:
+            return
+        self.duration.hint = f"set by the log: {config.trajectory.duration_s:g} s"
+        self.trajectory.hint = f"set by the log: its own track, {config.trajectory.duration_s:g} s from {config.trajectory.depth_m:.3g} m"
 
     def apply_trajectory_preset(self) -> None:
         """Fill in the controls the chosen scenario's preset sets (longrange: Duration 1440 s,

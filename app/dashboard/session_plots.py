@@ -228,8 +228,11 @@ class PlotTabs:
         self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
         self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
         self.show_att_norm.on_update(lambda _: self._att_norm_changed())
-        self.show_smoothed.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.show_smoothed_nees.on_update(lambda _: self.refresh_plots(only="nees"))
+        self._unticking = False  # _smoothed_boxes unticks a box: its callback does not redraw
+        self.show_smoothed.on_update(lambda _: None if self._unticking else self.refresh_plots(only="errors"))
+        self.show_smoothed_nees.on_update(
+            lambda _: None if self._unticking else self.refresh_plots(only="nees")
+        )
         self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
         self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
         self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
@@ -360,10 +363,7 @@ class PlotTabs:
         if not results:
             return
         if only is None:  # the Smoothed boxes: usable once a run's smoothed results are here
-            off = not has_smoothed(results)
-            for box in (self.show_smoothed, self.show_smoothed_nees):
-                if box.disabled != off:
-                    box.disabled = off
+            self._smoothed_boxes(has_smoothed(results), final=not live)
         for group in PLOT_GROUPS:  # a full redraw leaves the deferred ones to the diagnostics' thread
             if only == group.name or (only is None and not group.deferred):
                 group.draw(self, results)
@@ -373,6 +373,21 @@ class PlotTabs:
         if only is None and (not live or now - self.last_diagnostics_s >= LIVE_DIAGNOSTICS_S):
             self.schedule_diagnostics()
             self.last_diagnostics_s = now
+
+    def _smoothed_boxes(self, usable: bool, final: bool = True) -> None:
+        """The Smoothed boxes for results with (``usable``) or without smoothed series: without,
+        disabled, and unticked once the run's results are ``final`` (a box ticked and greyed would
+        claim a curve that is not drawn; a smoothed run's live results have none yet); with,
+        enabled as the user left them (never ticked for them)."""
+        for box in (self.show_smoothed, self.show_smoothed_nees):
+            if not usable and final and box.value:
+                self._unticking = True  # the plots are redrawn next: the box's own redraw waits
+                try:
+                    box.value = False
+                finally:
+                    self._unticking = False
+            if box.disabled == usable:
+                box.disabled = not usable
 
     def run_started(self) -> None:
         """A run starts: its first live diagnostics come LIVE_DIAGNOSTICS_S from now."""

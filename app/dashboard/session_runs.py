@@ -13,7 +13,8 @@ import viser
 
 from app.dashboard import export
 from app.dashboard.session_state import TabState, drawing
-from app.reports.markdown_tables import compare_markdown, config_diff_markdown, flat_config
+from app.reports.markdown_tables import compare_markdown, config_diff_markdown
+from app.reports.settings_text import flat_config, has_smoothed, run_words
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 
@@ -41,28 +42,20 @@ class KeptRun:
         return f"run {self.number}"
 
     def description(self) -> str:
-        """What tells this run from the others: the mission or log, its length, the beams, what
-        takes beams away (outages, dropout), the truth, the seed, the methods, the runs."""
-        return ", ".join(run_facts(self.config, self.runs, self.source))
+        """What tells this run from the others: the mission or log, its length, the seed, the
+        methods, then every setting that differs from the defaults (current, water-track, sources,
+        outages, sensors, the smoother...: app.reports.settings_text.run_words)."""
+        return ", ".join(run_words(self.config, self.runs, self.source, has_smoothed(self.results.values())))
 
 
-def run_facts(config: Config, runs: int, source: str | None = None) -> list[str]:
-    """The facts of one run in the order a user compares them (:meth:`KeptRun.description`); the
-    outages, the dropout and a dynamic truth only when they are set."""
-    tr, dvl = config.trajectory, config.dvl
-    facts = [f"log {source}" if source is not None else tr.name, f"{tr.duration_s:g} s"]
-    facts.append("beams " + ",".join(map(str, dvl.beams)))
-    for outage in dvl.outages:
-        facts.append(f"beams {','.join(map(str, outage.beams))} off {outage.start_s:g}-{outage.end_s:g} s")
-    if dvl.dropout_probability > 0.0:
-        facts.append(f"dropout {dvl.dropout_probability:g}")
-    if source is None and tr.truth != "kinematic":
-        facts.append(f"{tr.truth} truth")
-    facts.append(f"seed {config.run.seed}")
-    facts.append(" ".join(m.upper() for m in config.run.methods))
-    if runs > 1:
-        facts.append(f"{runs} runs")
-    return facts
+def _compared(kept: KeptRun) -> dict[str, Any]:
+    """What the Runs tab compares of ``kept``: its settings (app.reports.settings_text.flat_config),
+    its runs, the log it replayed and whether it was smoothed."""
+    return {
+        "source": f"log {kept.source}" if kept.source is not None else "simulation",
+        **flat_config(kept.config, kept.runs),
+        "smoother": has_smoothed(kept.results.values()),
+    }
 
 
 class RunTabs:
@@ -185,7 +178,7 @@ class RunTabs:
         overlay = self.overlay_runs()
         if len(overlay) >= 2:
             self.diff_table.content = config_diff_markdown(
-                [r.label for r in overlay], [flat_config(r.config, r.runs) for r in overlay]
+                [r.label for r in overlay], [_compared(r) for r in overlay]
             )
             self.compare_table.content = "**Results side by side**\n\n" + compare_markdown(
                 [(r.label, r.results) for r in overlay]

@@ -52,6 +52,7 @@ from app.figures.scene import (
     scale_bar_view,
     seabed_mesh_n,
     seabed_ranges_m,
+    water_beside,
     water_ranges_m,
     water_tracking,
     wxyz_view,
@@ -156,7 +157,7 @@ class SceneView:
         )
         self.current_shown: np.ndarray | None = None  # the current the arrow shows [m/s] (None: hidden)
         self.beam_nodes: list[list[Any]] | None = None  # [beam][state] under /auv (show_beams_static)
-        self.beam_shown: list[str] = []
+        self.beam_visible: list[list[bool]] = []  # per beam, which of its state nodes show
         self.terrain: Any = None  # the seabed's mesh when it is not flat (_draw_seabed)
         self.furniture: list[Any] = []  # seabed grid, surface, compass and scale (_size_scene)
         self.frame: MissionFrame | None = None
@@ -306,10 +307,14 @@ class SceneView:
             states = beam_states(dvl.beam_mask, bottom, np.zeros(4, bool), water)
         full = beam_segments_b(dvl.l_dvl_b, dvl.A_b, range_m, dvl.max_range_m)
         segs = {s: beam_stub(full) if s == BEAM_SWITCHED_OFF else full for s in BEAM_THICKNESS_PX}
-        if BEAM_WATER in states:  # a water-tracking beam ends at its layer
-            layer = water_ranges_m(C_nb, dvl.A_b, dvl.water_layer_m)
+        layer = water_ranges_m(C_nb, dvl.A_b, dvl.water_layer_m)
+        # a water-tracking beam ends at its layer; with water-track "both" it is drawn beside its
+        # bottom-track too (lime over the blue beam, down to the layer)
+        beside = water_beside(dvl.water_track, states, layer, range_m)
+        if BEAM_WATER in states or beside.any():
             segs[BEAM_WATER] = beam_segments_b(dvl.l_dvl_b, dvl.A_b, layer, dvl.max_range_m)
         order = (BEAM_RETURNING, BEAM_SWITCHED_OFF, BEAM_OUTAGE, BEAM_REJECTED, BEAM_WATER)
+        shown = [[s == states[k] or (s == BEAM_WATER and bool(beside[k])) for s in order] for k in range(4)]
         nodes = getattr(self, "beam_nodes", None)
         if nodes is None:  # the first drawing makes the nodes, each as it is to be shown
             self.beam_nodes = [
@@ -320,21 +325,21 @@ class SceneView:
                         BEAM_COLORS[s],
                         thickness=BEAM_THICKNESS_PX[s],
                         thickness_units="screen",
-                        visible=s == states[k],
+                        visible=shown[k][j],
                     )
                     for j, s in enumerate(order)
                 ]
                 for k in range(4)
             ]
-            self.beam_shown = list(states)
+            self.beam_visible = shown
             return
-        for k, state in enumerate(states):
-            node = nodes[k][order.index(state)]
-            node.points = segs[state][k : k + 1]
-            if state != self.beam_shown[k]:
-                node.visible = True
-                nodes[k][order.index(self.beam_shown[k])].visible = False
-                self.beam_shown[k] = state
+        for k in range(4):
+            for j, s in enumerate(order):
+                if shown[k][j]:
+                    nodes[k][j].points = segs[s][k : k + 1]
+                if shown[k][j] != self.beam_visible[k][j]:
+                    nodes[k][j].visible = shown[k][j]
+        self.beam_visible = shown
 
     def beams_from_boxes(self) -> None:
         """Before a run's truth arrives the beams stand at the mission's start as the DVL beam

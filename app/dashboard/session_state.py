@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import threading
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -39,6 +40,8 @@ class TabState:
     replaying: bool = False  # the current run replays a log (tauv serve --logs)
     cursor_t: float | None = None  # the plots' time cursor [s] (None: none drawn)
     last_action_s: float = 0.0  # time.monotonic() of the user's latest action in this tab
+    # the red notices still up (:func:`notify`): the next successful run removes them (:func:`clear_notices`)
+    notices: list[viser.NotificationHandle] = dataclasses.field(default_factory=list)
 
 
 def drawing(method: Callable[..., None]) -> Callable[..., None]:
@@ -53,8 +56,27 @@ def drawing(method: Callable[..., None]) -> Callable[..., None]:
     return locked
 
 
-def notify(client: viser.ClientHandle, title: str, body: str, error: bool = False) -> None:
-    """A notification in the tab: green, closing after 6 s; red (``error``), staying until closed."""
-    client.add_notification(
+def notify(
+    client: viser.ClientHandle,
+    title: str,
+    body: str,
+    error: bool = False,
+    notices: list[viser.NotificationHandle] | None = None,
+) -> None:
+    """A notification in the tab: green, closing after 6 s; red (``error``), staying until closed
+    or until :func:`clear_notices` removes it (kept in ``notices``, a :attr:`TabState.notices`)."""
+    handle = client.add_notification(
         title, body, auto_close_seconds=None if error else 6.0, color="red" if error else "green"
     )
+    if error and notices is not None:
+        notices.append(handle)
+
+
+def clear_notices(notices: list[viser.NotificationHandle]) -> None:
+    """Remove the red notices ``notices`` still up (one the user closed is removed again harmlessly:
+    the page has none of that id) and forget them."""
+    kept, notices[:] = list(notices), []
+    for handle in kept:
+        with warnings.catch_warnings():  # removed twice: viser warns, nothing else happens
+            warnings.simplefilter("ignore")
+            handle.remove()

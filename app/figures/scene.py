@@ -70,7 +70,7 @@ BEAM_THICKNESS_PX = {
     BEAM_SWITCHED_OFF: 1.5,
     BEAM_OUTAGE: 2.5,
     BEAM_REJECTED: 2.5,
-    BEAM_WATER: 2.5,
+    BEAM_WATER: 4.0,  # thicker: drawn beside a bottom-track beam (water-track "both") it shows around it
 }
 BEAM_LABEL_DISTANCE_M = 4.0  # each beam's number stands this far along it from the DVL head
 SEABED_MARGIN_M = 300.0  # the seabed (mesh or flat grid) reaches this far beyond the track on every side
@@ -313,6 +313,33 @@ def water_tracking(mode: str, scheduled: np.ndarray, in_range: np.ndarray) -> tu
     if mode == "off":
         return bottom, np.zeros(4, bool)
     return bottom, scheduled & ~in_range
+
+
+def water_beside(mode: str, states: list[str], layer_m: np.ndarray, range_m: np.ndarray) -> np.ndarray:
+    """Which beams water-track beside their bottom-track at a ping (``dvl.water_track`` "both":
+    every beam that returns a bottom-track also returns a water-track, if the layer is nearer
+    than the seabed along it; tauvcore.sensors.dvl).
+
+    Parameters
+    ----------
+    mode : str
+        ``dvl.water_track``.
+    states : list of str
+        Each beam's state (:func:`beam_states`).
+    layer_m : numpy.ndarray
+        Shape (4,): each beam's slant distance to the water layer [m] (:func:`water_ranges_m`).
+    range_m : numpy.ndarray
+        Shape (4,): each beam's slant range to the seabed [m] (inf beyond the DVL's range).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (4,) bool: the beam is drawn water-tracking too.
+    """
+    if mode != "both":
+        return np.zeros(4, bool)
+    bottom = np.array([s in (BEAM_RETURNING, BEAM_REJECTED) for s in states], bool)
+    return bottom & (np.asarray(layer_m, float) < np.asarray(range_m, float))
 
 
 def water_ranges_m(C_nb: np.ndarray, A_b: np.ndarray, layer_m: float) -> np.ndarray:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
-from app.figures.scene import BEAM_COLORS
+from app.figures.scene import BEAM_COLORS, BEAM_WATER
 from app.figures.sensor_view import BEAM_STATE_CODES, SensorView, SourceView
 from app.figures.shared import (
     TIME_AXIS,
@@ -171,6 +171,9 @@ def raw_sensor_figure(view: SensorView, height_px: int | None = None, validate: 
                 {"label": f"<b>DVL beams</b> {_key(BEAM_STATE_CODES, _BEAM_STATE_COLORS)}", "unit": "beam"}
             )
             data += _beam_state_traces(ts[sel], np.asarray(states)[sel], len(panels) - 1)
+            beside = source.get("water_beside")
+            if beside is not None:
+                data += _water_beside_trace(ts[sel], np.asarray(beside)[sel], len(panels) - 1)
     run_note = f", run {view['run'] + 1} of {view['runs']}" if view["runs"] > 1 else ""
     layout = _stack(f"Raw sensors{run_note}", panels, height_px)
     beam_axis = next((k for k, p in enumerate(panels) if p["unit"] == "beam"), None)
@@ -231,6 +234,31 @@ def _beam_state_traces(t: np.ndarray, states: np.ndarray, panel: int) -> list[di
             }
         )
     return data
+
+
+WATER_BESIDE_OFFSET = 0.3
+"""How far above its beam's row a water-track beside the bottom-track is marked (beam units)."""
+
+
+def _water_beside_trace(t: np.ndarray, beside: np.ndarray, panel: int) -> list[dict[str, Any]]:
+    """The pings at ``t`` [s] where a beam water-tracked beside its bottom-track (``beside`` (P, 4)
+    bool, water-track "both"), in ``panel``: lime markers just above the beam's row (none: [])."""
+    ping, beam = np.nonzero(beside)
+    if ping.size == 0:
+        return []
+    suffix = "" if panel == 0 else str(panel + 1)
+    return [
+        {
+            "type": "scatter",
+            "x": t[ping],
+            "y": beam + 1 + WATER_BESIDE_OFFSET,
+            "name": f"{BEAM_WATER} (beside bottom-track)",
+            "mode": "markers",
+            "marker": {"color": f"rgb{BEAM_COLORS[BEAM_WATER]}", "size": 4, "symbol": "square"},
+            "xaxis": f"x{suffix}",
+            "yaxis": f"y{suffix}",
+        }
+    ]
 
 
 def sensor_panels(method: str) -> list[tuple[str, list[int]]]:

@@ -14,7 +14,7 @@ state at each ping (app.figures.scene.beam_states: returning, lost, switched off
 
 from __future__ import annotations
 
-from typing import Any, TypedDict
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
@@ -39,6 +39,8 @@ class SourceView(TypedDict):
     units: dict[str, str]  # column name (and truth column name) -> its unit ("m", "m/s", "rad")
     truth: dict[str, np.ndarray]  # truth column name -> (E,) (absent where unknown)
     beam_state: np.ndarray | None  # (E, 4) int8 code into BEAM_STATE_CODES; DVL only
+    # (E, 4) bool: the beam water-tracked beside its bottom-track (water_track "both"); DVL only
+    water_beside: NotRequired[np.ndarray | None]
 
 
 class SensorView(TypedDict):
@@ -130,7 +132,7 @@ class SensorViewBuilder:
             truth = {c: np.concatenate(parts)[keep] for c, parts in kept["truth"].items()}
             truth = {c: v for c, v in truth.items() if np.isfinite(v).any()}
             units = {c.name: c.unit for c in (*source.columns, *source.truth_columns)}
-            beam_state = None
+            beam_state = beside = None
             if name == "dvl" and columns:
                 returned = np.stack([np.isfinite(v) for v in columns.values()], axis=1)
                 modes = {c: np.concatenate(parts)[keep] for c, parts in kept["water"].items()}
@@ -140,6 +142,7 @@ class SensorViewBuilder:
                     returned &= ~water
                 elif all(c in modes for c in WATER_BEAMS):  # a water-track of its own beside it
                     water = np.stack([np.isfinite(modes[c]) for c in WATER_BEAMS], axis=1)
+                    beside = returned & water
                 beam_state = beam_state_codes(self.beam_mask, returned, water)
             sources[name] = {
                 "label": source.label,
@@ -148,6 +151,7 @@ class SensorViewBuilder:
                 "units": units,
                 "truth": truth,
                 "beam_state": beam_state,
+                "water_beside": beside,
             }
         t_s = np.concatenate(self._t) if self._t else np.zeros(0)
         keep = _thinned(t_s.size, MAX_SOURCE_EPOCHS)  # a long mission's IMU too: each message carries it

@@ -13,7 +13,7 @@ from typing import Any, TypedDict
 
 import numpy as np
 
-from tauvcore.config import Config, to_dict
+from app.reports.settings_text import setting_name, setting_value
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.consistency import method_consistency
 from tauvcore.eval.counts import PING_SOURCES, SOURCE_LABELS, MethodCounts, SourceCounts, method_counts
@@ -499,26 +499,8 @@ def compare_markdown(runs: Sequence[tuple[str, Mapping[str, MethodResult]]]) -> 
     return "\n".join(_table(COMPARE_COLUMNS, [line for lines in rows.values() for line in lines]))
 
 
-def flat_config(config: Config, runs: int | None = None) -> dict[str, Any]:
-    """``config`` (tauvcore.config.to_dict) as "section.field" -> value (nested records joined by
-    dots, lists as they are); ``runs``: also the Monte Carlo run count, as "runs"."""
-    out: dict[str, Any] = {}
-
-    def walk(prefix: str, value: Any) -> None:
-        if isinstance(value, dict):
-            for key, v in value.items():
-                walk(f"{prefix}.{key}" if prefix else key, v)
-        else:
-            out[prefix] = value
-
-    walk("", to_dict(config))
-    if runs is not None:
-        out["runs"] = runs
-    return out
-
-
 def config_differences(configs: Sequence[Mapping[str, Any]]) -> dict[str, list[Any]]:
-    """The settings (keys of :func:`flat_config`) whose values are not all equal across
+    """The settings (keys of :func:`~app.reports.settings_text.flat_config`) whose values are not all equal across
     ``configs``, each with its value in every config (None where one lacks it), in key order."""
     keys = sorted(set().union(*configs)) if configs else []
     out = {}
@@ -529,12 +511,9 @@ def config_differences(configs: Sequence[Mapping[str, Any]]) -> dict[str, list[A
     return out
 
 
-def _cell(value: Any) -> str:
-    if isinstance(value, list):
-        return ", ".join(_cell(v) for v in value) or "(none)"
-    if isinstance(value, float):
-        return f"{value:g}"
-    return "-" if value is None else str(value).replace("|", "/")
+def _cell(key: str, value: Any) -> str:
+    """Setting ``key``'s ``value`` in plain words (app.reports.settings_text.setting_value), for a table cell."""
+    return setting_value(key, value).replace("|", "/")
 
 
 def config_diff_markdown(labels: Sequence[str], configs: Sequence[Mapping[str, Any]]) -> str:
@@ -545,7 +524,10 @@ def config_diff_markdown(labels: Sequence[str], configs: Sequence[Mapping[str, A
         return "**Configuration:** the same for " + ", ".join(labels) + "."
     return "\n".join(
         ["**Configuration differences**", ""]
-        + _table(("setting", *labels), [[key, *(_cell(v) for v in values)] for key, values in diff.items()])
+        + _table(
+            ("setting", *labels),
+            [[setting_name(key), *(_cell(key, v) for v in values)] for key, values in diff.items()],
+        )
     )
 
 

@@ -60,7 +60,7 @@ def test_the_three_downloads_match_the_cli_s_files(new_tab, tmp_path) -> None:
     page.screenshot(path=str(ARTIFACTS / "dashboard_download.png"))
     names = {kind: _download(page, label, tmp_path / f"page.{kind}")
              for kind, label in (("json", "JSON"), ("parquet", "Parquet"), ("html", "HTML report"))}
-    assert names == {k: f"tauv-straight-10s-seed3.{k}" for k in names}
+    assert names == {k: f"tauv-straight-10s-seed3-lc_tc.{k}" for k in names}
 
     cli_path = _cli_json(tmp_path)
     assert (tmp_path / "page.json").read_bytes() == cli_path.read_bytes()

@@ -7,6 +7,7 @@ real ``tauv mc`` runs.parquet; the HTML report must open without a network.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import re
@@ -47,7 +48,7 @@ def _table(content: bytes):
 
 def test_json_is_what_tauv_run_writes_byte_for_byte(finished, cli_json) -> None:
     download = export.make("json", finished)
-    assert download.name == "tauv-straight-10s-seed3.json"
+    assert download.name == "tauv-straight-10s-seed3-ins_lc_tc-beams123.json"
     assert download.content == cli_json
 
 
@@ -61,7 +62,7 @@ def test_json_of_a_monte_carlo_run_keeps_the_schema_and_says_how_many_runs(finis
     assert export.finished_run(finished.config, finished.results).config == finished.config
     one = json.loads(export.results_json(finished))
     assert set(data["results"]["lc"]) == set(one["results"]["lc"])
-    assert export.file_name(run, "json") == "tauv-straight-10s-seed3-2runs.json"
+    assert export.file_name(run, "json") == "tauv-straight-10s-seed3-ins_lc_tc-beams123-2runs.json"
 
 
 def test_parquet_is_the_study_writer_s_table_of_the_same_results(finished, tmp_path) -> None:
@@ -97,7 +98,7 @@ def test_parquet_holds_the_json_s_series_and_tauv_mc_s_schema(finished, cli_json
 
 def test_the_report_opens_offline_with_configuration_tables_and_figures(finished) -> None:
     download = export.make("html", finished)
-    assert download.name == "tauv-straight-10s-seed3.html"
+    assert download.name == "tauv-straight-10s-seed3-ins_lc_tc-beams123.html"
     page = download.content.decode("utf-8")
     # plotly.js inline (a few MB), nothing loaded from elsewhere: no script or stylesheet by address
     assert len(page) > 1_000_000 and "plotly.js" in page.lower()
@@ -144,7 +145,7 @@ def test_an_unknown_kind_is_refused(finished) -> None:
 
 def test_a_log_s_name_makes_a_safe_file_name_and_the_trajectory_column(finished) -> None:
     run = FinishedRun(finished.config, finished.results, log="../my log/é")
-    assert re.fullmatch(r"tauv-log-[A-Za-z0-9._-]+-10s-seed3\.parquet", export.file_name(run, "parquet"))
+    assert re.fullmatch(r"tauv-log-[A-Za-z0-9._-]+-10s-seed3-ins_lc_tc-beams123\.parquet", export.file_name(run, "parquet"))
     assert set(_table(export.results_parquet(run)).column("trajectory").to_pylist()) == {"../my log/é"}
     assert json.loads(export.results_json(run))["log"] == "../my log/é"
 
@@ -190,7 +191,14 @@ def test_the_dashboard_s_download_button_notifies_instead_of_raising(finished) -
     notes.clear()
     ok = tab(finished)
     RunTabs.download(ok, "parquet")
-    assert notes == [] and [(name, now) for name, _, now in ok.client.sent] == [("tauv-straight-10s-seed3.parquet",
+    assert notes == [] and [(name, now) for name, _, now in ok.client.sent] == [("tauv-straight-10s-seed3-ins_lc_tc-beams123.parquet",
                                                                                  True)]
     RunTabs.download(tab(finished, fail=True), "json")
     assert notes == [("Cannot download", "JSON: OSError: connection reset", True)]
+
+
+def test_a_smoothed_run_s_files_are_named_apart_from_the_same_run_unsmoothed(finished) -> None:
+    smoothed = {m: dataclasses.replace(r, smoothed=r) for m, r in finished.results.items()}
+    run = FinishedRun(finished.config, smoothed)
+    assert export.file_name(run, "json") == "tauv-straight-10s-seed3-ins_lc_tc-beams123-smoothed.json"
+    assert export.file_name(run, "json") != export.file_name(finished, "json")

@@ -81,7 +81,7 @@ def test_the_run_s_closing_notification_finds_the_tab_ready_for_the_next_run(mes
         progress=types.SimpleNamespace(value=0.0), pool=types.SimpleNamespace(workers=2),
         run_button=types.SimpleNamespace(disabled=True), stop_button=types.SimpleNamespace(disabled=False),
         _show_results=lambda results, config: None, _keep_finished=lambda results, config, stopped: None,
-        run_log=None)
+        run_log=None, run_note="", state=types.SimpleNamespace(notices=[]))
     session.notify = lambda t, body, error=False: seen.append(
         (t, session.handle is None, session.run_button.disabled, session.stop_button.disabled))
     with pytest.MonkeyPatch.context() as mp:

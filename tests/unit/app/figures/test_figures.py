@@ -1057,11 +1057,11 @@ from app.reports.markdown_tables import (  # noqa: E402
     compare_markdown,
     config_diff_markdown,
     config_differences,
-    flat_config,
     identical_methods,
     identical_note,
     rms_markdown,
 )
+from app.reports.settings_text import flat_config  # noqa: E402
 from tauvcore.geo.rotations import euler_from_C_nb, wrap_angle  # noqa: E402
 
 
@@ -1272,7 +1272,7 @@ def test_config_diff_names_the_changed_fields():
                                                     "run.methods": [["lc"], ["lc", "tc"]], "runs": [1, 3]}
     table = config_diff_markdown(["run 1", "run 2"], [flat_a, flat_b]).splitlines()
     assert table[2] == "| setting | run 1 | run 2 |"
-    assert f"| dvl.noise_mps | {a.dvl.noise_mps:g} | 0.02 |" in table and "| run.methods | lc | lc, tc |" in table
+    assert f"| DVL noise | {a.dvl.noise_mps:g} m/s | 0.02 m/s |" in table and "| methods | LC | LC TC |" in table
     assert "the same" in config_diff_markdown(["run 1", "run 2"], [flat_a, flat_a])
 
 

@@ -211,3 +211,22 @@ def test_a_long_mission_s_imu_is_thinned_keeping_its_last_epoch() -> None:
     assert view["t_s"].size <= MAX_SOURCE_EPOCHS + 1 and view["t_s"][-1] == sim.truth.t_s[-1]
     kept = np.searchsorted(sim.truth.t_s, view["t_s"])
     np.testing.assert_array_equal(view["gyro_b_radps"], sim.imu.dtheta_b[kept, 0] / sim.truth.dt_s)
+
+
+def test_water_track_both_in_range_marks_lime_beside_every_returning_beam() -> None:
+    """``both`` with the seabed in range: every beam bottom-tracks (blue) and water-tracks beside
+    it, marked lime just above its row in the beam panel (nothing lime was drawn)."""
+    from app.figures.scene import BEAM_COLORS, BEAM_WATER
+    from app.figures.sensor_figures import WATER_BESIDE_OFFSET
+    config = _config(water_track="both", water_layer_m=10.0)
+    view, _ = _streamed(config, chunk_s=5.0, runs=1, run=0)
+    dvl = view["sources"]["dvl"]
+    states = np.asarray(BEAM_STATE_CODES)[dvl["beam_state"]]
+    beside = dvl["water_beside"]
+    assert beside is not None and beside.mean() > 0.9 and (states[beside] == BEAM_RETURNING).all()
+    fig = raw_sensor_figure(view)
+    lime = [d for d in fig.data if d.marker.color == f"rgb{BEAM_COLORS[BEAM_WATER]}"]
+    assert [d.name for d in lime] == [f"{BEAM_WATER} (beside bottom-track)"]
+    np.testing.assert_allclose(np.unique(np.round(np.asarray(lime[0].y) - WATER_BESIDE_OFFSET, 6)), [1, 2, 3, 4])
+    off, _ = _streamed(_config(water_track="off"), chunk_s=5.0, runs=1, run=0)
+    assert off["sources"]["dvl"]["water_beside"] is None
