@@ -207,3 +207,77 @@ def test_discard_leaves_nothing(config, tmp_path) -> None:
     writer = McapResults(str(tmp_path / "out.mcap"), config)
     writer.discard()
     assert list(tmp_path.iterdir()) == []
+
+
+def _run(capsys, *argv: str) -> tuple[int, str]:
+    from app.cli import main
+
+    code = main(list(argv))
+    return code, capsys.readouterr().err
+
+
+def test_cli_run_and_replay_write_their_files(capsys, tmp_path) -> None:
+    """`tauv run --mcap` with the smoother, its log saved; `tauv replay LOG --mcap` of that log:
+    the log's reference as the truth, stamped by the log's clock."""
+    out, log, replayed = tmp_path / "run.mcap", tmp_path / "log", tmp_path / "replay.mcap"
+    code, err = _run(capsys, "run", "--duration", "12", "--method", "lc", "--smooth", "--mcap", str(out),
+                     "--save-log", str(log))
+    assert code == 0, err
+    topics = read_back(out)
+    epochs = len(topics["/tauv/lc/odometry"])
+    assert epochs == 121
+    for name in ("/tauv/truth/odometry", "/tauv/lc/smoothed/odometry", "/tauv/lc/smoothed/sigma"):
+        assert len(topics[name]) == epochs, name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log", "run.mcap"]  # nothing else left
+
+    code, err = _run(capsys, "replay", str(log), "--method", "lc", "--mcap", str(replayed))
+    assert code == 0, err
+    again = read_back(replayed)
+    assert len(again["/tauv/lc/odometry"]) == epochs and len(again["/tauv/truth/odometry"]) == epochs
+    assert [ns for ns, _ in again["/tauv/truth/odometry"]] == [ns for ns, _ in topics["/tauv/truth/odometry"]]
+    p, q = again["/tauv/truth/odometry"][-1][1].pose.pose.position, topics["/tauv/truth/odometry"][-1][1].pose.pose.position
+    np.testing.assert_allclose([p.x, p.y, p.z], [q.x, q.y, q.z], rtol=0, atol=1e-6)  # the log's CSV rounding
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log", "replay.mcap", "run.mcap"]
+
+
+@pytest.mark.parametrize("target, reason", [
+    ("missing/out.mcap", "no such directory"),
+    (".", "is a directory"),
+    ("same.json", "is the --json file"),
+    ("cfg.toml", "is the --config file"),
+])
+def test_cli_refuses_bad_paths_and_leaves_nothing(capsys, tmp_path, monkeypatch, target, reason) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cfg.toml").write_text("")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code, err = _run(capsys, "run", "--duration", "2", "--method", "ins", "--config", "cfg.toml",
+                     "--json", "same.json", "--mcap", target)
+    assert code == 2 and err.count("\n") == 1 and err.startswith("tauv: error: --mcap: ") and reason in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_cli_replay_refuses_a_file_in_the_log(capsys, tmp_path) -> None:
+    log = tmp_path / "log"
+    assert _run(capsys, "run", "--duration", "2", "--method", "ins", "--save-log", str(log))[0] == 0
+    before = sorted(p.name for p in log.iterdir())
+    code, err = _run(capsys, "replay", str(log), "--mcap", str(log / "imu.csv"))
+    assert code == 2 and "--mcap" in err and "the log directory" in err, err
+    assert sorted(p.name for p in log.iterdir()) == before
+
+
+def test_an_interrupted_run_leaves_nothing(capsys, tmp_path, monkeypatch) -> None:
+    """A failure during the run (here Ctrl-C at the second chunk) removes the temporary bag; the
+    output is not made."""
+    from app.reports import mcap_export
+
+    calls = []
+
+    def add(self, results):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(mcap_export.McapResults, "add", add)
+    code, _ = _run(capsys, "run", "--duration", "30", "--method", "ins", "--mcap", str(tmp_path / "out.mcap"))
+    assert code == 130 and len(calls) == 2
+    assert list(tmp_path.iterdir()) == []
