@@ -172,6 +172,7 @@ def _run_parser(sub: Any) -> None:
         help="write the configuration, per-epoch results and consistency (NEES, NIS) to this "
         "JSON file (strict JSON, written atomically; not the --config file)",
     )
+    _mcap_flag(r)
     r.add_argument(
         "--save-log",
         type=_path,
@@ -182,6 +183,18 @@ def _run_parser(sub: Any) -> None:
     r.add_argument("--log-format", default="csv", help="csv (default) or parquet, for --save-log")
     _smooth_flags(r)
     r.set_defaults(func=cmd_run)
+
+
+def _mcap_flag(parser: Any) -> None:
+    """``--mcap FILE`` of ``tauv run`` and ``tauv replay`` (app.commands.mcap_output)."""
+    parser.add_argument(
+        "--mcap",
+        type=_path,
+        metavar="FILE",
+        help="write every method's estimate, 1-sigma, errors and innovations, and the truth or the "
+        "log's reference, as ROS 2 messages in this MCAP file for Foxglove or PlotJuggler (run 0; "
+        "written atomically)",
+    )
 
 
 def _replay_parser(sub: Any) -> None:
@@ -230,6 +243,7 @@ def _replay_parser(sub: Any) -> None:
     rl.add_argument(
         "--json", type=_path, help="write the configuration and per-epoch results to this JSON file"
     )
+    _mcap_flag(rl)
     _smooth_flags(rl)
     rl.set_defaults(func=cmd_replay)
 

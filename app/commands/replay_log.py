@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from app.commands.mcap_output import McapOutput, TruthTap, mcap_target
 from app.commands.outputs import json_target
 from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, choice, resolve_config
@@ -44,13 +45,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     imu_errors = None
     if args.imu_errors is not None:
         imu_errors = IMU_PROFILES[choice("--imu-errors", args.imu_errors, IMU_PROFILES, "IMU profile")]
-    json_path = (
-        json_target(args.json, [("the --config file", args.config), ("the log directory", args.log)])
-        if args.json is not None
-        else None
-    )
+    inputs = [("the --config file", args.config), ("the log directory", args.log)]
+    json_path = json_target(args.json, inputs) if args.json is not None else None
+    mcap_path = mcap_target(args, inputs)
     started = time.perf_counter()
-    reduction = None
+    reduction = mcap = None
     try:
         if bag:  # one open of the bag: its tables and the DVL's lever arm from its /tf_static
             log, with_lever, with_path = read_bag_configured(
@@ -69,13 +68,20 @@ def cmd_replay(args: argparse.Namespace) -> int:
         if bag:  # the mapping read (--bag-mapping, else the file beside the bag; None: by type), as the dashboard's
             source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source, smoothed=smooth is not None)
+        on_chunk, on_smoothed = reduction.add, reduction.add_smoothed
+        if mcap_path is not None:  # stamped by the log's own clock; its reference as the truth
+            mcap = McapOutput(mcap_path, args.mcap, config, origin_s=float(log.imu_t_s[0]))
+            on_chunk, on_smoothed = _mcap_too(reduction, mcap)
+            sim = TruthTap(sim, mcap.add_truth) if log.ref_t_s is not None else sim
         with smoothing(smooth) as options:
-            replay_chunked(
-                config, sim, log, rng, reduction.add, smooth=options, on_smoothed_chunk=reduction.add_smoothed
-            )
+            replay_chunked(config, sim, log, rng, on_chunk, smooth=options, on_smoothed_chunk=on_smoothed)
+        if mcap is not None:
+            mcap.finish()
     except BaseException as exc:
         if reduction is not None:
             reduction.discard()
+        if mcap is not None:
+            mcap.discard()
         if isinstance(exc, LogError):
             raise UsageError(str(exc)) from None
         raise
@@ -97,6 +103,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
         )
     )
     return 0
+
+
+def _mcap_too(reduction: Any, mcap: McapOutput) -> tuple[Any, Any]:
+    """The engine's ``on_chunk`` and ``on_smoothed_chunk`` feeding both the reduction and ``--mcap``."""
+    from app.commands.mcap_output import chained
+
+    return chained(reduction.add, mcap.add), chained(reduction.add_smoothed, mcap.add_smoothed)
 
 
 def _is_bag(args: argparse.Namespace) -> bool:
@@ -163,7 +176,7 @@ def _log_source(
 
 
 REPLAY_NOT_CONFIG = frozenset(
-    {"command", "func", "log", "json", "config", "no_log_config", "bag_mapping"}
+    {"command", "func", "log", "json", "mcap", "config", "no_log_config", "bag_mapping"}
     | {"smooth", "smooth_memory_mb", "smooth_dir"}
 )
 """``tauv replay``'s arguments that are not configuration (what to read, where to write, the smoother)."""

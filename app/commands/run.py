@@ -1,5 +1,6 @@
 """``tauv run``: simulate a mission, run the fusion methods side by side and print their summary;
-``--save-log`` writes the simulation as a log (``tauv replay`` reads it), ``--json`` the results.
+``--save-log`` writes the simulation as a log (``tauv replay`` reads it), ``--json`` the results,
+``--mcap`` the results as MCAP.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from app.commands.mcap_output import McapOutput, chained, mcap_target
 from app.commands.outputs import json_target
 from app.commands.smooth_flags import smooth_options, smoothing
 from app.commands.values import UsageError, resolve_config
@@ -39,6 +41,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     log_dir = _save_log_target(args)
     inputs = [("the --config file", args.config), ("the --save-log directory", args.save_log)]
     json_path = json_target(args.json, inputs) if args.json is not None else None
+    mcap_path = mcap_target(args, inputs)
     started = time.perf_counter()
     rng = np.random.default_rng(config.run.seed)
     from app.commands.json_stream import RunReduction
@@ -47,9 +50,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     reduction = RunReduction(config, json_path, args.json, smoothed=smooth is not None)
 
     lock = _lock_save_log(args, log_dir) if log_dir is not None else None
-    log_writer = None
+    log_writer = mcap = None
     try:
         log_writer = _log_writer(args, log_dir, config) if log_dir is not None else None
+        mcap = McapOutput(mcap_path, args.mcap, config) if mcap_path is not None else None
         with smoothing(smooth) as options:
             run_streaming(
                 config,
@@ -57,20 +61,27 @@ def cmd_run(args: argparse.Namespace) -> int:
                 keep=False,
                 smooth=options,
                 sinks=Sinks(
-                    on_chunk=reduction.add,
-                    on_sim_chunk=None
-                    if log_writer is None
-                    else lambda chunk: _save_chunk(args, log_writer, chunk),
-                    on_smoothed_chunk=reduction.add_smoothed,
+                    on_chunk=chained(reduction.add, None if mcap is None else mcap.add),
+                    on_sim_chunk=chained(
+                        None if log_writer is None else lambda chunk: _save_chunk(args, log_writer, chunk),
+                        None if mcap is None else mcap.add_sim_chunk,
+                    ),
+                    on_smoothed_chunk=chained(
+                        reduction.add_smoothed, None if mcap is None else mcap.add_smoothed
+                    ),
                 ),
             )
         elapsed = time.perf_counter() - started
+        if mcap is not None:
+            mcap.finish()
         if log_writer is not None:
             with _saving_log(args):
                 log_writer.finish()
     except BaseException:
         if log_writer is not None:
             log_writer.discard()
+        if mcap is not None:
+            mcap.discard()
         if lock is not None:
             lock.release(remove_created=True)
         reduction.discard()
