@@ -1,12 +1,14 @@
-"""Screenshots of every tab of the dashboard after a run, for docs/dashboard.md's tour.
+"""Screenshots of every tab of the dashboard after two runs, for docs/dashboard.md's tour.
 
     python scripts/dashboard_tour.py [--out docs/tour]
 
 Starts ``tauv serve`` on a free port, opens it in Debian's headless Chromium at 1600 x 1000, runs
-the figure eight with beams 3 and 4 off (INS, TC, NSV, ELC, dynamic truth, 3 runs), keeps a
-second run with all four beams for the Runs tab, and writes one PNG per tab: the workbench's
-Plots, Components, Consistency, Innovations, Results and Runs, and the control panel's Mission,
-Vehicle and Seabed. Look at them before committing.
+the figure eight on the dynamic truth (INS, TC, NSV, ELC) once with four beams, then a 10-run
+Monte Carlo with beams 3 and 4 out from 100 s to 150 s, and writes one PNG per tab: the
+workbench's Plots (the outage shaded), Components, Consistency, Innovations, Sensors, Series (TC's
+velocity error and DVL NIS against time, its track as an XY plot), Map (ellipses at the cursor),
+Spread, Results and Runs, and the control panel's Mission, Vehicle and Seabed. Look at them
+before committing.
 """
 
 from __future__ import annotations
@@ -21,8 +23,13 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 from tests.browser.conftest import CHROMIUM_ARGS, THROTTLE_FRAMES, Tab, chromium_path, dashboard_server  # noqa: E402
 
-WORKBENCH_TABS = ("Plots", "Components", "Consistency", "Innovations", "Sensors", "Results", "Runs")
+WORKBENCH_TABS = (
+    "Plots", "Components", "Consistency", "Innovations", "Sensors", "Series", "Map", "Spread", "Results", "Runs",
+)  # fmt: skip
 PANEL_TABS = ("Mission", "Vehicle", "Seabed")
+CURSOR_S = 125.0  # inside the outage: the map's ellipses grow there
+SERIES = "tc/vel_err_mps, tc/dvl/nis"
+XY = "tc/est_east_m; tc/est_north_m, truth/north_m"
 
 
 def main() -> None:
@@ -39,19 +46,27 @@ def main() -> None:
             tab = Tab(context.new_page(), f"{base}/?traj=figure8&truth=dynamic&m=ins,tc,nsv,elc&runs=1")
             page = tab.page
             page.wait_for_timeout(1500)
-            page.get_by_role("button", name="Run", exact=True).click()        # run 1: four beams
+            page.get_by_role("button", name="Run", exact=True).click()  # run 1: four beams
             page.get_by_text("Run complete", exact=True).last.wait_for(timeout=180000)
-            tab.set_checkbox("Beam 3", False)
-            tab.set_checkbox("Beam 4", False)
-            tab.type_into("Runs", "3")
-            page.get_by_role("button", name="Run", exact=True).click()        # run 2: two beams, 3 runs
+            tab.open_folder("Outages [s]", reveals="Beam 3 outage start")
+            for beam in (3, 4):
+                tab.type_into(f"Beam {beam} outage start", "100")
+                tab.type_into(f"Beam {beam} outage end", "150")
+            tab.type_into("Runs", "10")
+            page.get_by_role("button", name="Run", exact=True).click()  # run 2: the outage, 10 runs
             # the first run's notification may have closed by now: the status line says when it ends
-            page.wait_for_function("document.body.innerText.includes('3 run(s)')", timeout=60000)
-            page.wait_for_function("document.body.innerText.includes('Run complete: figure8')", timeout=180000)
+            page.wait_for_function("document.body.innerText.includes('10 run(s)')", timeout=60000)
+            page.wait_for_function("document.body.innerText.includes('Run complete: figure8')", timeout=300000)
             page.wait_for_timeout(2000)
+            tab.type_into("Go to [s]", f"{CURSOR_S:g}")
+            page.get_by_role("tab", name="Series", exact=True).first.click()
+            tab.type_into("Time plot", SERIES)
+            tab.field("Time plot").press("Enter")
+            tab.type_into("XY plot", XY)
+            tab.field("XY plot").press("Enter")
             for name in WORKBENCH_TABS:
                 page.get_by_role("tab", name=name, exact=True).first.click()
-                page.wait_for_timeout(1500)
+                page.wait_for_timeout(2500)
                 page.screenshot(path=str(out / f"{name.lower()}.png"))
                 print(f"wrote {out / (name.lower() + '.png')}")
             page.get_by_role("tab", name="Plots", exact=True).first.click()
