@@ -139,7 +139,7 @@ _PARSERS: dict[str, Callable[[str, str], Any]] = {
 _SIGNED = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 
 
-VIEW_KEYS = {"t": "Time [s]", "x": "Time range [s]", "cam": "Camera"}
+VIEW_KEYS = {"t": "Time [s]", "x": "Time range [s]", "cam": "Camera", "series": "Time plot", "xy": "XY plot"}
 """The page's view in the address, by key: its label in messages (not controls: nothing is run by them)."""
 VIEW_PAGE_KEYS = ("t", "x")
 """The view keys the page itself writes (app/assets/view_sync.js)."""
@@ -152,11 +152,24 @@ def _view_numbers(label: str, text: str, sep: str, count: int) -> tuple[float, .
     return tuple(inputs.parse_float(label, part.replace(" ", "+")) for part in parts)
 
 
+PICK_KEYS = ("series", "xy")
+"""The view keys of the Series tab's picks (app.dashboard.session_series): its two lists as typed."""
+PICK_CHARACTERS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-./,; ")
+"""What the picks are written with: series names (app.figures.series_catalog), commas and the XY's ``;``."""
+
+
 def parse_view(key: str, text: str) -> Any:
     """The value of view key ``key`` (:data:`VIEW_KEYS`) that ``text`` spells: ``t`` a time >= 0 [s],
-    ``x`` (start, end) [s] with start < end, ``cam`` ((position), (look_at)) [m], or InputError
+    ``x`` (start, end) [s] with start < end, ``cam`` ((position), (look_at)) [m], ``series`` and
+    ``xy`` the Series tab's picks as typed (names the run lacks are said there), or InputError
     naming the value's label and ``text``."""
     label = VIEW_KEYS[key]
+    if key in PICK_KEYS:
+        text = text.replace("+", " ")  # a space the page's address wrote as a plus: no name holds one
+        bad = sorted(set(text) - PICK_CHARACTERS)
+        if bad:
+            raise InputError(f"{label}: {show(text)} holds {show(''.join(bad))}, which no series name has")
+        return text
     if key == "t":
         (t_s,) = _view_numbers(label, text, ",", 1)
         if t_s < 0.0:
@@ -179,6 +192,9 @@ def encode_view(view: dict[str, Any]) -> list[str]:
     for key in VIEW_KEYS:
         value = view.get(key)
         if value is None:
+            continue
+        if key in PICK_KEYS:
+            parts.append(f"{key}={quote(str(value), safe=SAFE + '/;')}")
             continue
         if key == "t":
             text = f"{float(value):.2f}"

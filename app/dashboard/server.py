@@ -126,7 +126,9 @@ class Session:
             add_run_widgets=lambda: self.run_tabs.add_run_widgets(),
             notify=self.notify,
         )
-        self.series_tab = SeriesTab(self.state, self.workbench, notify=self.notify)
+        self.series_tab = SeriesTab(
+            self.state, self.workbench, notify=self.notify, picks_changed=self._picks_changed
+        )
         self.run_tabs = RunTabs(
             self.state,
             self.workbench,
@@ -213,6 +215,12 @@ class Session:
             self.playback.restore_time(view["t"])
         if "cam" in view:
             self.scene.restore_camera(*view["cam"])
+        self.series_tab.apply_picks(view)
+
+    def _picks_changed(self, picks: dict[str, Any]) -> None:
+        """The Series tab's picks changed: the page's address keeps them."""
+        self.panel.view.update(picks)
+        self.panel.update_address(action=False)
 
     def _camera_moved(self) -> None:
         """The page's camera moved: its address follows, at most once every CAMERA_ADDRESS_S."""

@@ -12,6 +12,7 @@ name the new run lacks is said in the tab's note) and they are kept in the page'
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import viser
 
@@ -52,8 +53,15 @@ class SeriesTab:
     """The Series tab's controls and two plots, drawn from ``state.results`` (and the state's
     sensor and truth views)."""
 
-    def __init__(self, state: TabState, workbench: viser.PanelHandle, notify: Callable[..., None]) -> None:
+    def __init__(
+        self,
+        state: TabState,
+        workbench: viser.PanelHandle,
+        notify: Callable[..., None],
+        picks_changed: Callable[[dict[str, str | None]], None] = lambda picks: None,
+    ) -> None:
         self.state = state
+        self.picks_changed = picks_changed  # the page's address keeps them (app.dashboard.server.Session)
         self.draw_lock = state.draw_lock
         self.notify = notify
         self.catalog: Catalog | None = None
@@ -78,10 +86,15 @@ class SeriesTab:
                 placeholder_figure("Series against series", XY_HINT.replace("**", "")), aspect=0.9
             )
         self.add_buttons.on_click(lambda event: self._picked(str(event.target.value)))
-        self.time_text.on_update(lambda _: self.draw())
-        self.xy_text.on_update(lambda _: self.draw())
+        self.time_text.on_update(lambda _: self._typed())
+        self.xy_text.on_update(lambda _: self._typed())
         self.run.on_update(lambda _: self.draw())
         self.clear_button.on_click(lambda _: self._clear())
+
+    def _typed(self) -> None:
+        """A pick list changed: the plots, and the page's address."""
+        self.draw()
+        self.picks_changed(self.picks())
 
     def _picked(self, action: str) -> None:
         """A pick button: the dropdown's series added to the time plot, made the XY plot's X, or
@@ -106,13 +119,18 @@ class SeriesTab:
         self.time_text.value = ""
         self.xy_text.value = ""
 
-    def picks(self) -> dict[str, str]:
-        """The picks as the page's address keeps them (``series``, ``xy``; empty ones left out)."""
-        return {k: v for k, v in (("series", self.time_text.value), ("xy", self.xy_text.value)) if v}
+    def picks(self) -> dict[str, str | None]:
+        """The picks as the page's address keeps them (app.dashboard.links.PICK_KEYS: ``series``,
+        ``xy``), None where empty."""
+        return {"series": self.time_text.value.strip() or None, "xy": self.xy_text.value.strip() or None}
 
-    def apply_picks(self, series: str, xy: str) -> None:
-        """The picks of a page's address (names this run lacks are said when drawn)."""
-        self.time_text.value, self.xy_text.value = series, xy
+    def apply_picks(self, view: dict[str, Any]) -> None:
+        """The picks a page's address carries (``series``, ``xy``; names this run lacks are said
+        when drawn)."""
+        if "series" in view:
+            self.time_text.value = view["series"]
+        if "xy" in view:
+            self.xy_text.value = view["xy"]
 
     @drawing
     def refresh(self) -> None:

@@ -25,7 +25,8 @@ def test_series_picked_into_a_time_plot_and_an_xy_plot(browser, server_url, size
     """Given a 20 s run of LC and TC, when the user picks LC's velocity error and TC's DVL NIS into
     the time plot with the button, and LC's estimated east and north into the XY plot, then the
     time plot draws both series with their points (two panels: m/s and none) and the XY plot LC's
-    track; a name the run lacks, typed in, is said in the tab's note and not drawn."""
+    track; the picks ride in the page's address, and a tab opened there shows them; a name the
+    run lacks, typed in, is said in the tab's note and not drawn."""
     from tests.browser.conftest import THROTTLE_FRAMES, Tab
 
     ctx = browser.new_context(viewport={"width": size[0], "height": size[1]})
@@ -62,6 +63,19 @@ def test_series_picked_into_a_time_plot_and_an_xy_plot(browser, server_url, size
         assert dict(_plots(tab)["Series against series"]) == {"lc/est_north_m": 201}
         assert tab.field("XY plot").input_value() == "lc/est_east_m; lc/est_north_m"
         tab.page.screenshot(path=str(ARTIFACTS / f"series-{size[0]}.png"))
+        # the picks ride in the page's address: a new tab opened there shows them
+        tab.page.wait_for_function("location.search.includes('xy=lc/est_east_m')", timeout=20000)
+        address = tab.page.url
+        assert "series=lc/vel_err_mps,%20tc/dvl/nis" in address, address
+        if size == (1600, 1000):
+            other = Tab(ctx.new_page(), address)
+            other.page.get_by_role("tab", name="Series").click()
+            other.page.wait_for_function(
+                "Array.from(document.querySelectorAll('input')).some(i => i.value === 'lc/est_east_m; lc/est_north_m')",
+                timeout=30000,
+            )
+            assert other.field("Time plot").input_value() == "lc/vel_err_mps, tc/dvl/nis"
+            other.page.close()
 
         tab.type_into("Time plot", "lc/vel_err_mps, lc/nope_m")
         tab.field("Time plot").press("Enter")

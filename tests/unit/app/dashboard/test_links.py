@@ -227,3 +227,17 @@ def test_the_view_keys_are_read_kept_and_refused_by_name() -> None:
     assert bad.problems[2] == "cam='1,2,3': Camera: expected 6 numbers separated by ','"
     assert links.parse("?t=-1").problems == ("t='-1': Time [s]: '-1' is before the start (0 s)",)
     assert links.parse("?t=1&t=2").problems == ("t='2': t is given twice; the first one applies",)
+
+
+def test_the_series_picks_ride_in_the_address_as_typed() -> None:
+    """The Series tab's two pick lists are view keys: written with their slashes, commas and the
+    XY's semicolon readable, read back as typed (a plus the address holds read as the space it
+    was), and a character no series name has refused by name."""
+    view = {"series": "lc/vel_err_mps, tc/dvl/nis", "xy": "lc/est_east_m; lc/est_north_m"}
+    query = links.address(DEFAULTS, (), view)
+    assert "&series=lc/vel_err_mps,%20tc/dvl/nis&xy=lc/est_east_m;%20lc/est_north_m" in query
+    link = links.parse(query)
+    assert link.problems == () and link.view == view
+    assert links.parse("?series=lc/a_m,+tc/b_m").view == {"series": "lc/a_m, tc/b_m"}
+    bad = links.parse("?series=lc/a_m<script>")
+    assert bad.view == {} and bad.problems == ("series='lc/a_m<script>': Time plot: 'lc/a_m<script>' holds '<>', which no series name has",)
