@@ -28,7 +28,8 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
-from app.figures.error_figures import LOG_SPAN, NEES_BLOCK_NAMES, block_dims, nees_blocks
+from app.figures.error_figures import NEES_BLOCK_NAMES, block_dims, nees_blocks
+from app.figures.log_axes import LOG_SPAN
 from app.figures.shared import (
     LEGEND_BELOW,
     TIME_AXIS,
@@ -166,7 +167,7 @@ def mean_nees_band(dim: int, num_runs: int, confidence: float) -> tuple[float, f
 
 def histogram_edges(values: np.ndarray, bins: int) -> tuple[np.ndarray, bool]:
     """``bins + 1`` bin edges spanning the finite ``values``: evenly spaced in the logarithm when
-    the values are all positive and span more than LOG_SPAN (app.figures.error_figures: INS's final
+    the values are all positive and span more than LOG_SPAN (app.figures.log_axes: INS's final
     position error against an aided method's), else evenly spaced; a single value gets a bin of
     its own around it.
 
