@@ -79,7 +79,7 @@ def outage_tab(browser, server_url) -> Iterator[Tab]:
     ctx.add_init_script(THROTTLE_FRAMES)
     try:
         tab = Tab(ctx.new_page(), server_url + OUTAGE_QUERY)
-        tab.page.get_by_role("button", name="Run", exact=True).click()
+        tab.page.get_by_role("button", name="Run", exact=True).click(timeout=120000)  # a loaded page is slow
         tab.notification("Run complete").wait_for(timeout=240000)
         yield tab
     finally:
@@ -205,7 +205,7 @@ def test_a_replay_of_akit_marks_its_divergence(browser, akit_url: str) -> None:
     ctx.add_init_script(THROTTLE_FRAMES)
     try:
         tab = Tab(ctx.new_page(), akit_url + "?src=akit1&m=ins,lc")
-        tab.page.get_by_role("button", name="Run", exact=True).click()
+        tab.page.get_by_role("button", name="Run", exact=True).click(timeout=120000)  # a loaded page is slow
         tab.notification("Run complete").wait_for(timeout=400000)
         tab.page.get_by_role("tab", name="Results", exact=True).click()
         flagged = tab.page.get_by_text(re.compile(r"diverged at [\d.]+ s")).first
