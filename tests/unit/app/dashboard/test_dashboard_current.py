@@ -249,6 +249,7 @@ def _vehicle_tab(truth_view: dict | None, config: Config) -> types.SimpleNamespa
         vehicle_note=widget(),
         current_plot=widget(),
         current_note=widget(),
+        _with_events=lambda figure, run=0: figure,  # the events: tests/unit/app/figures/test_event_traces.py
     )
 
 

@@ -210,6 +210,7 @@ def test_the_sensors_tab_shows_the_current_and_hides_it_for_a_run_without(with_s
     tabs = types.SimpleNamespace(state=handle(cursor_t=None), state_note=handle(content=""),
                                  state_plot=handle(visible=False, aspect=0.6, figure=None))
     tabs._fit = PlotTabs._fit
+    tabs._with_events = lambda figure, run=0: figure  # the events: tests/unit/app/figures/test_event_traces.py
     PlotTabs._draw_states(tabs, with_states, 0)
     assert tabs.state_plot.visible and tabs.state_note.content.startswith(STATES_NOTE)
     assert "Not drawn: INS (" in tabs.state_note.content
@@ -222,7 +223,7 @@ def test_the_nees_dropdown_gains_current_and_loses_it_again(with_states, without
     tabs = types.SimpleNamespace(
         nees_block=types.SimpleNamespace(options=tuple(BLOCK_DIMS), value="full"), overlay_runs=lambda: [],
         show_smoothed_nees=types.SimpleNamespace(value=False), nees_plot=types.SimpleNamespace(figure=None, aspect=0.6),
-        state=types.SimpleNamespace(cursor_t=None), _fit=PlotTabs._fit)
+        state=types.SimpleNamespace(cursor_t=None), _fit=PlotTabs._fit, _with_events=lambda figure, run=0: figure)
     PlotTabs._draw_nees(tabs, with_states)
     assert tabs.nees_block.options == (*BLOCK_DIMS, "current")
     tabs.nees_block.value = "current"

@@ -33,7 +33,8 @@ def _idle_session() -> types.SimpleNamespace:
                                  vkf_note=types.SimpleNamespace(content=""), kept_runs=[], kept_widgets={},
                                  diff_table=types.SimpleNamespace(content=""),
                                  compare_table=types.SimpleNamespace(content=""),
-                                 overlay_runs=lambda: [], refresh_plots=lambda: None)
+                                 overlay_runs=lambda: [], refresh_plots=lambda: None, draw_events=lambda: None,
+                                 _with_events=lambda figure, run=0: figure)
 
 
 @pytest.mark.parametrize("call", [
