@@ -281,3 +281,29 @@ def test_an_interrupted_run_leaves_nothing(capsys, tmp_path, monkeypatch) -> Non
     code, _ = _run(capsys, "run", "--duration", "30", "--method", "ins", "--mcap", str(tmp_path / "out.mcap"))
     assert code == 130 and len(calls) == 2
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_dashboard_download_is_the_cli_s_file(capsys, tmp_path) -> None:
+    """The dashboard's MCAP download of a run holds the messages `tauv run --mcap` writes for the
+    same setup (the truth made again from the configuration); of a Monte Carlo, run 0's."""
+    from app import cli
+    from app.dashboard import export
+
+    argv = ["--trajectory", "straight", "--duration", "10", "--method", "lc,tc", "--seed", "3"]
+    config = cli.resolve_config(cli.build_parser().parse_args(["run", *argv]))
+    finished = export.finished_run(config, run_streaming(config, np.random.default_rng(config.run.seed)))
+    download = export.make("mcap", finished)
+    assert download.name.endswith(".mcap") and download.content.startswith(MAGIC)
+    (tmp_path / "page.mcap").write_bytes(download.content)
+    assert _run(capsys, "run", *argv, "--mcap", str(tmp_path / "cli.mcap"))[0] == 0
+    page, line = read_back(tmp_path / "page.mcap"), read_back(tmp_path / "cli.mcap")
+    assert sorted(page) == sorted(line)
+    for topic in line:
+        assert [(ns, repr(m)) for ns, m in page[topic]] == [(ns, repr(m)) for ns, m in line[topic]], topic
+
+    study = config.replace("initial_error", mode="random")  # as the dashboard runs Runs > 1
+    two = export.finished_run(config, run_streaming(study, np.random.default_rng(3), 2))
+    (tmp_path / "two.mcap").write_bytes(export.make("mcap", two).content)
+    odometry = read_back(tmp_path / "two.mcap")["/tauv/lc/odometry"]
+    p = odometry[-1][1].pose.pose.position
+    np.testing.assert_array_equal(T_ENU @ [p.x, p.y, p.z], two.results["lc"].est_pos_n[-1, 0])
