@@ -71,7 +71,7 @@ def written(config, tmp_path_factory):
 
 def test_topics_and_counts(config, written) -> None:
     results, _, topics = written
-    expected = {"/tauv/truth/odometry"}
+    expected = {"/tauv/truth/odometry", "/tauv/events"}
     for method, r in results.items():
         expected |= {f"/tauv/{method}/{name}" for name in ("odometry", "sigma", "error")}
         expected |= {f"/tauv/{method}/innovations/{source}" for source in r.updates}
@@ -136,6 +136,25 @@ def test_innovations_and_rejections(written) -> None:
     assert lost and all(list(m.beams_available) == [True, True, False, False] for m in lost)
     depth = topics["/tauv/lc/innovations/depth"][0][1]
     assert list(depth.beams_available) == [] and depth.mode == -1
+
+
+def test_events_are_those_of_the_whole_results(config, written) -> None:
+    """The events written from the chunks are tauvcore.eval.events.run_events of the whole results:
+    the scheduled outage, the 1-sigma gate's rejections, each stamped at its start."""
+    from tauvcore.eval.events import run_events
+
+    results, _, topics = written
+    expected = run_events(results, config, 0)
+    assert {e.kind for e in expected} >= {"outage", "rejection"}
+
+    def key(e):
+        return (e.kind, e.start_s, e.end_s, e.method or "", tuple(e.beams), e.text, e.source or "")
+
+    messages = topics["/tauv/events"]
+    assert all(ns == round(m.start_s * 1e9) for ns, m in messages)
+    assert sorted(key(m) for _, m in messages) == sorted(key(e) for e in expected)
+    outage = next(m for _, m in messages if m.kind == "outage")
+    assert (outage.start_s, outage.end_s, list(outage.beams), outage.method) == (10.0, 15.0, [3, 4], "")
 
 
 def test_truth_is_the_simulation(config, written) -> None:
