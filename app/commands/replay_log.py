@@ -69,7 +69,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source, smoothed=smooth is not None)
         on_chunk, on_smoothed = reduction.add, reduction.add_smoothed
-        if mcap_path is not None:  # stamped by the log's own clock; its reference as the truth
+        if (
+            mcap_path is not None
+        ):  # stamped by the log's times (its first IMU time added); its reference as the truth
             mcap = McapOutput(mcap_path, args.mcap, config, origin_s=float(log.imu_t_s[0]))
             on_chunk, on_smoothed = _mcap_too(reduction, mcap)
             sim = TruthTap(sim, mcap.add_truth) if log.ref_t_s is not None else sim

@@ -34,7 +34,8 @@ Topics (``<method>`` as ``config.run.methods`` names it, ``<source>`` as the upd
 
 Every message's log time, publish time and ``header.stamp`` is the mission time plus ``origin_s``:
 0 for a simulation (the file starts at the epoch 1970-01-01), a log's first IMU time for a replay
-(a bag's own clock, so the results line up with the bag in the viewer). Of a Monte Carlo, run 0.
+(a log directory's own clock, so the results line up with the log; a bag's times as its reader
+keeps them, from its first IMU message). Of a Monte Carlo, run 0.
 
 The fixed-size messages (all but the events) are packed with numpy a chunk at a time
 (:class:`CdrLayout`, the same bytes as rosbags' serializer: tests/unit/app/test_mcap.py), so a

@@ -326,3 +326,23 @@ def test_the_dashboard_download_is_the_cli_s_file(capsys, tmp_path) -> None:
     odometry = read_back(tmp_path / "two.mcap")["/tauv/lc/odometry"]
     p = odometry[-1][1].pose.pose.position
     np.testing.assert_array_equal(T_ENU @ [p.x, p.y, p.z], two.results["lc"].est_pos_n[-1, 0])
+
+
+def test_a_log_replay_is_stamped_by_the_log_s_clock(capsys, tmp_path) -> None:
+    """`tauv replay LOG --mcap` of a log whose clock starts at 5000 s: the results' stamps are the
+    log's own times (its first IMU time plus the mission time), so they line up with the log; its
+    reference is the truth topic at the same stamps."""
+    from tauvcore.logs.writer import write_log
+    from tests.unit.helpers.bag_fixtures import mission_config, mission_tables
+
+    config = mission_config()
+    tables, _ = mission_tables(config)
+    shifted = {name: {**table, "t_s": table["t_s"] + 5000.0} for name, table in tables.items()}
+    write_log(tmp_path / "dive", shifted, "csv")
+    code, err = _run(capsys, "replay", str(tmp_path / "dive"), "--method", "lc", "--earth", "flat",
+                     "--mcap", str(tmp_path / "out.mcap"))
+    assert code == 0, err
+    topics = read_back(tmp_path / "out.mcap")
+    odometry = topics["/tauv/lc/odometry"]
+    assert abs(odometry[0][0] - round(float(shifted["imu"]["t_s"][0]) * 1e9)) < 1000  # float seconds' resolution
+    assert [ns for ns, _ in topics["/tauv/truth/odometry"]] == [ns for ns, _ in odometry]
