@@ -32,7 +32,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length.
     ``--smooth``: as ``tauv run``'s (app.commands.run.cmd_run), the smoothed results judged as the
-    filtered."""
+    filtered. ``--mcap``: as ``tauv run``'s, stamped by the log's times (its first IMU time added),
+    the log's reference as the truth (app.commands.mcap_output.TruthTap)."""
     from app.commands.json_stream import RunReduction
     from tauvcore.eval.replay import prepare_rows, replay_chunked
     from tauvcore.logs import LogError, read_log
