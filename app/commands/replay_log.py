@@ -32,7 +32,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     summary's sums, tauvcore.eval.running; the ``--json`` document spooled to disk,
     app.commands.json_stream), so that only the log takes memory that grows with its length.
     ``--smooth``: as ``tauv run``'s (app.commands.run.cmd_run), the smoothed results judged as the
-    filtered."""
+    filtered. ``--mcap``: as ``tauv run``'s, stamped by the log's times (its first IMU time added),
+    the log's reference as the truth (app.commands.mcap_output.TruthTap)."""
     from app.commands.json_stream import RunReduction
     from tauvcore.eval.replay import prepare_rows, replay_chunked
     from tauvcore.logs import LogError, read_log
@@ -69,7 +70,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             source["bag_mapping"] = mapping.path
         reduction = RunReduction(config, json_path, args.json, log=source, smoothed=smooth is not None)
         on_chunk, on_smoothed = reduction.add, reduction.add_smoothed
-        if mcap_path is not None:  # stamped by the log's own clock; its reference as the truth
+        if (
+            mcap_path is not None
+        ):  # stamped by the log's times (its first IMU time added); its reference as the truth
             mcap = McapOutput(mcap_path, args.mcap, config, origin_s=float(log.imu_t_s[0]))
             on_chunk, on_smoothed = _mcap_too(reduction, mcap)
             sim = TruthTap(sim, mcap.add_truth) if log.ref_t_s is not None else sim

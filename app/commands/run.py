@@ -27,9 +27,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     results (atomically). Every output is checked before the run, and none may be an input.
 
     The results are reduced chunk by chunk as the engine hands them out (the summary's sums,
-    tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream), and
-    the log appended chunk by chunk to its files (tauvcore.logs.writer.LogWriter), so memory does
-    not grow with the mission's length.
+    tauvcore.eval.running; the ``--json`` document spooled to disk, app.commands.json_stream; the
+    ``--mcap`` file written as a bag in a temporary directory beside it, app.commands.mcap_output),
+    and the log appended chunk by chunk to its files (tauvcore.logs.writer.LogWriter), so memory
+    does not grow with the mission's length.
 
     With ``--smooth`` the fixed-interval smoother runs after the forward pass: its results come
     chunk by chunk after the filtered ones and are reduced the same way (their summary printed

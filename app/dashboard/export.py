@@ -8,6 +8,9 @@ that opens offline.
 - ``parquet``: the long form of ``tauv mc``'s runs.parquet (app.reports.study_output.runs_table): one row
   per method, run and epoch, the errors and NEES as 32-bit floats; ``trajectory`` is the
   trajectory's name, or the replayed log's.
+- ``mcap``: run 0's estimates, 1-sigma, errors, innovations (and the smoother's, and a simulation's
+  truth) as ROS 2 messages in an MCAP file, as ``tauv run --mcap`` writes them
+  (app.reports.mcap_export), for Foxglove or PlotJuggler.
 - ``html``: one self-contained page (plotly.js embedded inline, nothing fetched when it opens):
   the configuration, the Results tab's tables (app.reports.markdown_tables.summary_markdown, the updates
   per source), the error and NEES/dim figures (with the smoother's results, its table and curves too), and the full
@@ -39,12 +42,14 @@ from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult
 from tauvcore.eval.study import ChunkSeries, series_of, study_config
 
-FORMATS = {"json": "JSON", "parquet": "Parquet", "html": "HTML report"}
+FORMATS = {"json": "JSON", "parquet": "Parquet", "html": "HTML report", "mcap": "MCAP"}
 """Download kind -> its button's label."""
 FORMAT_HINTS = {
     "json": "the configuration and per-epoch results, as `tauv run --json` writes them",
     "parquet": "every run's per-epoch errors and NEES, long form, as `tauv mc` writes runs.parquet",
     "html": "one page that opens offline: configuration, results tables, error and NEES figures",
+    "mcap": "run 0's estimates, 1-sigma, errors, innovations and truth as ROS 2 messages, "
+    "as `tauv run --mcap` writes them, for Foxglove or PlotJuggler",
 }
 REPORT_FIGURES = ("vel", "tilt", "heading", "pos")
 """The report's error figures (app.figures.error_figures.error_figure quantities), then NEES/dim of the full state."""
@@ -171,6 +176,17 @@ def results_parquet(run: FinishedRun) -> bytes:
     return buffer.getvalue()
 
 
+def results_mcap(run: FinishedRun) -> bytes:
+    """Run 0 as ``tauv run --mcap`` writes it (app.reports.mcap_export): a simulation's truth made
+    again from its configuration; a replayed log's stamped from its start, without its reference
+    (``tauv replay --mcap`` writes both)."""
+    from app.reports.mcap_export import mcap_bytes, simulated_truth
+
+    run = _check(run)
+    truth = simulated_truth(run.config) if run.log is None else ()
+    return mcap_bytes(run.config, run.results, truth=truth)
+
+
 def _inline(text: str) -> str:
     """Escaped text with Markdown's ``**bold**`` and ``*italic*``."""
     text = html.escape(text)
@@ -286,6 +302,8 @@ def make(kind: str, run: FinishedRun | None) -> File:
         content = results_json(run)
     elif kind == "parquet":
         content = results_parquet(run)
+    elif kind == "mcap":
+        content = results_mcap(run)
     else:
         content = report_html(run).encode("utf-8")
     return File(file_name(run, kind), content)
@@ -310,6 +328,7 @@ __all__ = [
     "markdown_html",
     "report_html",
     "results_json",
+    "results_mcap",
     "results_parquet",
     "send",
 ]

@@ -34,7 +34,8 @@ Topics (``<method>`` as ``config.run.methods`` names it, ``<source>`` as the upd
 
 Every message's log time, publish time and ``header.stamp`` is the mission time plus ``origin_s``:
 0 for a simulation (the file starts at the epoch 1970-01-01), a log's first IMU time for a replay
-(a bag's own clock, so the results line up with the bag in the viewer). Of a Monte Carlo, run 0.
+(a log directory's own clock, so the results line up with the log; a bag's times as its reader
+keeps them, from its first IMU message). Of a Monte Carlo, run 0.
 
 The fixed-size messages (all but the events) are packed with numpy a chunk at a time
 (:class:`CdrLayout`, the same bytes as rosbags' serializer: tests/unit/app/test_mcap.py), so a
@@ -109,9 +110,10 @@ std_msgs/Header header
 string kind
 float64 start_s            # mission time [s]
 float64 end_s              # equal to start_s for a moment's event
-string method              # empty: every method
+string method              # empty: the mission's or the sensor's own
 uint8[] beams              # the DVL beams concerned (1-4), if any
 string text
+string source              # the aiding source of a gate rejection; empty otherwise
 """,
 }
 """The messages of ours, as ``.msg`` text (the file carries them as each topic's schema)."""
@@ -319,6 +321,7 @@ class McapResults:
         self.connections: dict[str, Any] = {}
         self.layouts: dict[str, CdrLayout] = {}
         self.counts: dict[str, int] = {}
+        self.events = StreamedEvents(config, run)  # written at the end (spans need every ping)
 
     def _topic(self, topic: str, msgtype: str, layout: Any = None) -> Any:
         if topic not in self.connections:
@@ -344,7 +347,8 @@ class McapResults:
 
     def add(self, results: dict[str, MethodResult]) -> None:
         """One chunk of results (the engine's ``on_chunk``): each method's odometry, sigma and
-        error at its output epochs and its updates of every source."""
+        error at its output epochs and its updates of every source; what the events need kept."""
+        self.events.add(results)
         for method, r in results.items():
             self._estimates(f"/tauv/{method}", r)
             for source, record in r.updates.items():
@@ -413,8 +417,8 @@ class McapResults:
         self._packed("/tauv/truth/odometry", ODOMETRY, odometry_layout, truth.t_s[known], values)
 
     def add_events(self, events: Iterable[Any]) -> None:
-        """Events (tauvcore.eval.events.Event: kind, start_s, end_s, method, beams, text), each
-        stamped at its start."""
+        """Events (tauvcore.eval.events.Event), each stamped at its start (the topic is made even
+        without any: its absence would read as "not recorded")."""
         connection = self._topic("/tauv/events", "tauv_msgs/msg/Event")
         types = self.store.types
         for event in events:
@@ -424,18 +428,20 @@ class McapResults:
                 header=types["std_msgs/msg/Header"](stamp=stamp, frame_id=""),
                 kind=str(event.kind),
                 start_s=float(event.start_s),
-                end_s=float(event.end_s if event.end_s is not None else event.start_s),
+                end_s=float(event.end_s),
                 method=str(event.method or ""),
                 beams=np.asarray(list(event.beams or ()), dtype=np.uint8),
                 text=str(event.text),
+                source=str(getattr(event, "source", None) or ""),
             )
             self.writer.write(connection, ns, bytes(self.store.serialize_cdr(message, "tauv_msgs/msg/Event")))
             self.counts["/tauv/events"] += 1
 
     def finish(self) -> None:
-        """Close the bag and move its ``.mcap`` over ``path`` (atomically: a rename in the same
-        directory); the temporary directory goes whatever happens."""
+        """Write the events, close the bag and move its ``.mcap`` over ``path`` (atomically: a
+        rename in the same directory); the temporary directory goes whatever happens."""
         try:
+            self.add_events(self.events.events())
             self.writer.close()
             data = self.bag / f"{self.bag.name}.mcap"
             os.chmod(data, _new_file_mode(self.path))
@@ -462,6 +468,75 @@ def _new_file_mode(path: str) -> int:
         return 0o666 & ~umask
 
 
+EVENT_FIELDS = (
+    *("rejected", "rejected_rows", "test_ratio", "valid", "reset", "beams_available"),
+    *("rejected_in_bin", "reset_in_bin", "lost_in_bin"),
+)
+"""What tauvcore.eval.events reads of an update record, besides its times (the last three: a
+record reduced to time bins, tauvcore.eval.envelope.DecimatedUpdates)."""
+
+
+class StreamedEvents:
+    """The events of run ``run`` (tauvcore.eval.events.run_events) from results handed in chunk by
+    chunk: of each update only what the events are made of (its time, the gate's flags and test
+    ratio, the DVL's beams and resets: a few tens of bytes an update, not the series), and at the
+    end run_events of those, so the same events as of the whole results
+    (tests/unit/app/test_mcap.py)."""
+
+    def __init__(self, config: Config, run: int = 0) -> None:
+        self.config = config
+        self.run = run
+        self.kept: dict[
+            str, dict[str, dict[str, list[np.ndarray]]]
+        ] = {}  # method -> record -> field -> chunks
+        self.diverged_at_s: dict[str, np.ndarray] = {}  # each method's verdict so far, (1,)
+
+    def add(self, results: dict[str, MethodResult]) -> None:
+        """One chunk of results (the engine's ``on_chunk``)."""
+        i = self.run
+        for method, r in results.items():
+            self.diverged_at_s[method] = r.diverged_at_s[i : i + 1]
+            kept = self.kept.setdefault(method, {})
+            for source, record in r.updates.items():
+                fields = kept.setdefault(source, {})
+                fields.setdefault("t_s", []).append(record.t_s)
+                for name in EVENT_FIELDS:
+                    value = getattr(record, name, None)
+                    if value is not None:
+                        fields.setdefault(name, []).append(value[:, i : i + 1])
+            if r.vkf_trace is not None and "rpm_in_use" in r.vkf_trace:
+                t_s = np.asarray(r.vkf_trace["t_s"])
+                in_use = np.reshape(r.vkf_trace["rpm_in_use"], (t_s.size, -1))[:, i : i + 1]
+                trace = kept.setdefault("vkf_trace", {})
+                trace.setdefault("t_s", []).append(t_s)
+                trace.setdefault("rpm_in_use", []).append(in_use)
+
+    def events(self) -> list[Any]:
+        """Every event of the run so far (run_events' list)."""
+        from types import SimpleNamespace
+
+        from tauvcore.eval.events import run_events
+
+        slim: dict[str, Any] = {}  # what run_events reads of each method's results, run 0 alone
+        for method, records in self.kept.items():
+            joined = {
+                source: {name: np.concatenate(parts) for name, parts in fields.items()}
+                for source, fields in records.items()
+            }
+            trace = joined.pop("vkf_trace", None)
+            updates = {
+                source: SimpleNamespace(**{name: fields.get(name) for name in ("t_s", *EVENT_FIELDS)})
+                for source, fields in joined.items()
+            }
+            slim[method] = SimpleNamespace(
+                pos_err_m=np.zeros((0, 1)),
+                diverged_at_s=self.diverged_at_s[method],
+                updates=updates,
+                vkf_trace=trace,
+            )
+        return run_events(slim, self.config, 0)
+
+
 def simulated_truth(config: Config) -> Iterable[tuple[Any, int]]:
     """A simulation's truth chunk by chunk with each chunk's first sample (for
     :meth:`McapResults.add_truth`): the mission's, made again from its configuration (the truth
@@ -478,7 +553,6 @@ def mcap_bytes(
     config: Config,
     results: dict[str, MethodResult],
     truth: Iterable[tuple[Any, int]] = (),
-    events: Iterable[Any] = (),
     origin_s: float = 0.0,
 ) -> bytes:
     """The MCAP file of finished results (the dashboard's download), run 0, as bytes: written in
@@ -493,7 +567,6 @@ def mcap_bytes(
             smoothed = {m: r.smoothed for m, r in results.items() if r.smoothed is not None}
             if smoothed:
                 writer.add_smoothed(smoothed)
-            writer.add_events(events)
         except BaseException:
             writer.discard()
             raise

@@ -71,7 +71,7 @@ def written(config, tmp_path_factory):
 
 def test_topics_and_counts(config, written) -> None:
     results, _, topics = written
-    expected = {"/tauv/truth/odometry"}
+    expected = {"/tauv/truth/odometry", "/tauv/events"}
     for method, r in results.items():
         expected |= {f"/tauv/{method}/{name}" for name in ("odometry", "sigma", "error")}
         expected |= {f"/tauv/{method}/innovations/{source}" for source in r.updates}
@@ -136,6 +136,25 @@ def test_innovations_and_rejections(written) -> None:
     assert lost and all(list(m.beams_available) == [True, True, False, False] for m in lost)
     depth = topics["/tauv/lc/innovations/depth"][0][1]
     assert list(depth.beams_available) == [] and depth.mode == -1
+
+
+def test_events_are_those_of_the_whole_results(config, written) -> None:
+    """The events written from the chunks are tauvcore.eval.events.run_events of the whole results:
+    the scheduled outage, the 1-sigma gate's rejections, each stamped at its start."""
+    from tauvcore.eval.events import run_events
+
+    results, _, topics = written
+    expected = run_events(results, config, 0)
+    assert {e.kind for e in expected} >= {"outage", "rejection"}
+
+    def key(e):
+        return (e.kind, e.start_s, e.end_s, e.method or "", tuple(e.beams), e.text, e.source or "")
+
+    messages = topics["/tauv/events"]
+    assert all(ns == round(m.start_s * 1e9) for ns, m in messages)
+    assert sorted(key(m) for _, m in messages) == sorted(key(e) for e in expected)
+    outage = next(m for _, m in messages if m.kind == "outage")
+    assert (outage.start_s, outage.end_s, list(outage.beams), outage.method) == (10.0, 15.0, [3, 4], "")
 
 
 def test_truth_is_the_simulation(config, written) -> None:
@@ -281,3 +300,49 @@ def test_an_interrupted_run_leaves_nothing(capsys, tmp_path, monkeypatch) -> Non
     code, _ = _run(capsys, "run", "--duration", "30", "--method", "ins", "--mcap", str(tmp_path / "out.mcap"))
     assert code == 130 and len(calls) == 2
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_dashboard_download_is_the_cli_s_file(capsys, tmp_path) -> None:
+    """The dashboard's MCAP download of a run holds the messages `tauv run --mcap` writes for the
+    same setup (the truth made again from the configuration); of a Monte Carlo, run 0's."""
+    from app import cli
+    from app.dashboard import export
+
+    argv = ["--trajectory", "straight", "--duration", "10", "--method", "lc,tc", "--seed", "3"]
+    config = cli.resolve_config(cli.build_parser().parse_args(["run", *argv]))
+    finished = export.finished_run(config, run_streaming(config, np.random.default_rng(config.run.seed)))
+    download = export.make("mcap", finished)
+    assert download.name.endswith(".mcap") and download.content.startswith(MAGIC)
+    (tmp_path / "page.mcap").write_bytes(download.content)
+    assert _run(capsys, "run", *argv, "--mcap", str(tmp_path / "cli.mcap"))[0] == 0
+    page, line = read_back(tmp_path / "page.mcap"), read_back(tmp_path / "cli.mcap")
+    assert sorted(page) == sorted(line)
+    for topic in line:
+        assert [(ns, repr(m)) for ns, m in page[topic]] == [(ns, repr(m)) for ns, m in line[topic]], topic
+
+    study = config.replace("initial_error", mode="random")  # as the dashboard runs Runs > 1
+    two = export.finished_run(config, run_streaming(study, np.random.default_rng(3), 2))
+    (tmp_path / "two.mcap").write_bytes(export.make("mcap", two).content)
+    odometry = read_back(tmp_path / "two.mcap")["/tauv/lc/odometry"]
+    p = odometry[-1][1].pose.pose.position
+    np.testing.assert_array_equal(T_ENU @ [p.x, p.y, p.z], two.results["lc"].est_pos_n[-1, 0])
+
+
+def test_a_log_replay_is_stamped_by_the_log_s_clock(capsys, tmp_path) -> None:
+    """`tauv replay LOG --mcap` of a log whose clock starts at 5000 s: the results' stamps are the
+    log's own times (its first IMU time plus the mission time), so they line up with the log; its
+    reference is the truth topic at the same stamps."""
+    from tauvcore.logs.writer import write_log
+    from tests.unit.helpers.bag_fixtures import mission_config, mission_tables
+
+    config = mission_config()
+    tables, _ = mission_tables(config)
+    shifted = {name: {**table, "t_s": table["t_s"] + 5000.0} for name, table in tables.items()}
+    write_log(tmp_path / "dive", shifted, "csv")
+    code, err = _run(capsys, "replay", str(tmp_path / "dive"), "--method", "lc", "--earth", "flat",
+                     "--mcap", str(tmp_path / "out.mcap"))
+    assert code == 0, err
+    topics = read_back(tmp_path / "out.mcap")
+    odometry = topics["/tauv/lc/odometry"]
+    assert abs(odometry[0][0] - round(float(shifted["imu"]["t_s"][0]) * 1e9)) < 1000  # float seconds' resolution
+    assert [ns for ns, _ in topics["/tauv/truth/odometry"]] == [ns for ns, _ in odometry]
