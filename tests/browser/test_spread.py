@@ -88,9 +88,10 @@ def test_a_ten_run_monte_carlo_shows_its_spread(new_tab) -> None:
         names = {t["name"] for t in nees if t["yaxis"] == yaxis}
         assert {"LC", "TC", "95 % band", "99 % band"} <= names, (yaxis, names)
     tab.page.screenshot(path=str(ARTIFACTS / "spread.png"))
-    for name, plot in plots.items():   # each plot alone, marked by its place among the page's plots
-        tab.page.evaluate(f"document.querySelectorAll('.js-plotly-plot')[{plot['index']}].id = 'spread-{name}'")
-        tab.page.locator(f"#spread-{name}").screenshot(path=str(ARTIFACTS / f"spread_{name}.png"))
+    for name, plot in plots.items():   # each plot scrolled into view, marked by its place among the page's plots
+        tab.page.evaluate(f"document.querySelectorAll('.js-plotly-plot')[{plot['index']}].scrollIntoView()")
+        tab.page.wait_for_timeout(500)
+        tab.page.screenshot(path=str(ARTIFACTS / f"spread_{name}.png"))
 
     for width, height in SIZES:
         tab.page.set_viewport_size({"width": width, "height": height})
