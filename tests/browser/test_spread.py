@@ -13,11 +13,13 @@ pytestmark = pytest.mark.browser
 SIZES = ((1600, 1000), (1280, 800))
 SPREAD_PLOTS_JS = """
 () => Array.from(document.querySelectorAll('.js-plotly-plot'))
-  .filter(p => (p._fullData || []).length)
-  .map(p => {
+  .map((p, index) => [p, index])
+  .filter(([p]) => (p._fullData || []).length)
+  .map(([p, index]) => {
     const box = (el) => { const b = el.getBoundingClientRect(); return [b.left, b.top, b.right, b.bottom]; };
     const legend = p.querySelector('.legend');
     return {
+      index,
       traces: p._fullData.map(t => ({name: t.name, xaxis: t.xaxis, yaxis: t.yaxis, points: (t.y || []).length,
                                     total: Array.from(t.y || []).reduce((a, b) => a + (Number(b) || 0), 0)})),
       legend: legend ? box(legend) : null,
@@ -70,7 +72,8 @@ def test_a_ten_run_monte_carlo_shows_its_spread(new_tab) -> None:
         names = [t["name"] for t in panel]
         assert sorted(n for n in names if n.startswith("run ")) == sorted(f"run {r}" for r in range(1, 11)), names
         assert {"median", "5–95 %", "5–95 % low"} <= set(names), names
-        assert all(t["points"] == 201 for t in panel), panel   # 20 s at 10 Hz, every epoch
+        drawn = [t for t in panel if t["name"] != "one line per run"]   # the runs' legend entry: no data
+        assert all(t["points"] == 201 for t in drawn), drawn   # 20 s at 10 Hz, every epoch
     expect(tab.page.get_by_text("Spread of", exact=True)).to_be_visible()
 
     final = [t for t in plots["final"]["traces"] if t["points"]]
@@ -84,7 +87,11 @@ def test_a_ten_run_monte_carlo_shows_its_spread(new_tab) -> None:
     for yaxis in panels:
         names = {t["name"] for t in nees if t["yaxis"] == yaxis}
         assert {"LC", "TC", "95 % band", "99 % band"} <= names, (yaxis, names)
-    tab.page.screenshot(path=str(ARTIFACTS / "spread.png"), full_page=True)
+    tab.page.screenshot(path=str(ARTIFACTS / "spread.png"))
+    for name, plot in plots.items():   # each plot scrolled into view, marked by its place among the page's plots
+        tab.page.evaluate(f"document.querySelectorAll('.js-plotly-plot')[{plot['index']}].scrollIntoView()")
+        tab.page.wait_for_timeout(500)
+        tab.page.screenshot(path=str(ARTIFACTS / f"spread_{name}.png"))
 
     for width, height in SIZES:
         tab.page.set_viewport_size({"width": width, "height": height})
