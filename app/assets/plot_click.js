@@ -1,5 +1,7 @@
 (() => {
-  // a click on any plotly figure writes its time into the "Go to [s]" field (app.dashboard.plot_click)
+  // a click on a time plot (layout.meta.tauv_time_axis) or on the map's tracks (their points carry
+  // their time) writes that time into the "Go to [s]" field (app.dashboard.plot_click); a click on
+  // any other plot (a histogram, an XY plot) names no time
   if (window.__tauvPlotClick) return;
   window.__tauvPlotClick = true;
   const XPATH = __XPATH__;
@@ -9,11 +11,11 @@
     setValue.call(box, text);
     box.dispatchEvent(new Event('input', {bubbles: true}));
   }
-  function onClick(ev) {
+  function onClick(gd, ev) {
     const p = ev && ev.points && ev.points[0];
-    // a point that carries its time (the map's tracks) names that time; else its x does
-    const t = p && p.customdata !== undefined ? p.customdata : p && p.x;
-    if (!p || typeof t !== 'number' || !isFinite(t)) return;
+    const meta = (gd.layout && gd.layout.meta) || {};
+    const t = !p ? undefined : meta.tauv === 'map' ? p.customdata : meta.tauv_time_axis ? p.x : undefined;
+    if (typeof t !== 'number' || !isFinite(t)) return;
     const box = document.evaluate(XPATH, document, null, XPathResult.FIRST_ORDERED_NODE_TYPE, null)
       .singleNodeValue;
     if (!box) return;
@@ -26,7 +28,8 @@
     for (const gd of document.querySelectorAll('.js-plotly-plot')) {
       // a figure redrawn by Plotly.newPlot loses its listeners: hook it again
       if (typeof gd.on !== 'function' || !gd._ev) continue;
-      if (gd._ev.listeners('plotly_click').indexOf(onClick) < 0) gd.on('plotly_click', onClick);
+      if (!gd.__tauvClick) gd.__tauvClick = (ev) => onClick(gd, ev);
+      if (gd._ev.listeners('plotly_click').indexOf(gd.__tauvClick) < 0) gd.on('plotly_click', gd.__tauvClick);
     }
   }
   hook();

@@ -16,8 +16,8 @@ of the errors and the mean NEES over the runs; these show how the runs spread ar
 
 A long run reduced to time bins (tauvcore.eval.envelope) keeps each run's value at every bin's
 last epoch: the percentiles and the runs drawn are those values. The time figures are laid out by
-app.figures.shared's time layouts, the histograms on axes ``x2``, ``x3`` beside hidden ones
-(:data:`CURSOR_SINK_AXES`) that keep the page's time cursor, drawn against ``x``, out of view.
+app.figures.shared's time layouts and tagged time plots (the page's cursor and zoom apply); the
+histograms are not.
 """
 
 from __future__ import annotations
@@ -64,22 +64,6 @@ TICKS_PX = 30  # from the lowest plot area's bottom edge to the legend: the time
 BAND_NAME = "5–95 %"
 MEDIAN_NAME = "median"
 RUNS_NAME = "one line per run"
-CURSOR_SINK_TRACE: dict[str, Any] = {
-    "type": "scatter",
-    "x": [],
-    "y": [],
-    "name": "no time axis",
-    "showlegend": False,
-    "hoverinfo": "skip",
-}
-"""An empty trace on axes ``x``, ``y`` of a figure without a time axis (the histograms): the page
-draws its time cursor on every plot against axis ``x`` (app.figures.shared.cursor_shape; plotly
-moves a shape whose axis a figure lacks to its first x axis), and on these hidden axes
-(CURSOR_SINK_AXES) every time lies far out of view."""
-CURSOR_SINK_AXES: dict[str, Any] = {
-    "xaxis": {"visible": False, "fixedrange": True, "range": [-1e12, -1e12 + 1.0], "domain": [0.0, 0.001]},
-    "yaxis": {"visible": False, "fixedrange": True, "domain": [0.0, 0.001]},
-}
 
 
 def runs_drawn(num_runs: int, limit: int = MAX_RUNS_DRAWN) -> np.ndarray:
@@ -374,7 +358,7 @@ def _histogram_trace(
         "fillcolor": hex_to_rgba(color, 0.2),
         "legendgroup": method,
         "showlegend": first,
-        "hoverinfo": "skip",  # a click on a plot's point moves the time there (app.dashboard.plot_click)
+        "hovertemplate": "%{y} runs<extra>" + method.upper() + "</extra>",
         **axes,
     }
 
@@ -384,8 +368,8 @@ def final_errors_figure(results: Mapping[str, MethodResult], validate: bool = Fa
     norm at the last epoch, one value per run, counted in bins shared by the methods
     (:func:`histogram_edges` of every method's values, :func:`histogram_bins` of the runs; a
     logarithmic axis where the edges are), each method a stepped outline in its colour. The
-    panels are on axes ``x2``/``y2`` and ``x3``/``y3``; ``x``, ``y`` are hidden and hold no data
-    (:data:`CURSOR_SINK_TRACE`): no time axis, so no time cursor in view.
+    panels are on axes ``x``/``y`` and ``x2``/``y2``; no time axis, so no time cursor (the page
+    draws it on time plots only: app.figures.shared.TIME_META) and a click names no time.
 
     Parameters
     ----------
@@ -407,7 +391,7 @@ def final_errors_figure(results: Mapping[str, MethodResult], validate: bool = Fa
         "height": 2 * PANEL_PX + 170,
         "margin": {"l": 50, "r": 10, "t": 35, "b": 40},
         "legend": {**LEGEND_BELOW, "y": -0.22},
-        "hovermode": False,  # no time to go to: the counts read off the axes
+        "hovermode": "closest",
         "template": "plotly_white",
     }
     for k, (field, name, unit) in enumerate(SPREAD_QUANTITIES.values()):
@@ -415,24 +399,23 @@ def final_errors_figure(results: Mapping[str, MethodResult], validate: bool = Fa
         edges, log = histogram_edges(
             np.concatenate([*finals.values(), np.empty(0)]), histogram_bins(num_runs)
         )
-        axes = {"xaxis": f"x{k + 2}", "yaxis": f"y{k + 2}"}
+        suffix = "" if k == 0 else str(k + 1)
+        axes = {"xaxis": f"x{suffix}", "yaxis": f"y{suffix}"}
         for m, values in finals.items():
             data.append(_histogram_trace(m, histogram_counts(values, edges), edges, axes, k == 0))
         top = 1.0 - k * 0.58
-        layout[f"xaxis{k + 2}"] = {
-            "anchor": f"y{k + 2}",
+        layout[f"xaxis{suffix}"] = {
+            "anchor": f"y{suffix}",
             "type": "log" if log else "linear",
             "exponentformat": "power",
             "title": {"text": f"final {name.lower()} [{unit}]", "font": {"size": 11}},
         }
-        layout[f"yaxis{k + 2}"] = {
-            "anchor": f"x{k + 2}",
+        layout[f"yaxis{suffix}"] = {
+            "anchor": f"x{suffix}",
             "domain": [round(top - 0.42, 6), top],
             "title": {"text": "runs", "font": {"size": 11}},
             "rangemode": "tozero",
         }
-    data.append(CURSOR_SINK_TRACE)
-    layout.update(CURSOR_SINK_AXES)
     return make_figure(data, layout, validate)
 
 

@@ -32,7 +32,7 @@ HINT = "Run a Monte Carlo (Runs > 1) to see the spread"
 
 def _spread_plots(tab) -> dict[str, dict]:
     """The Spread tab's three plots as drawn: "runs" (holds a median), "final" (on the histograms'
-    axes x2, x3), "nees" (holds the 95 % band); absent ones left out."""
+    axes x, x2), "nees" (holds the 95 % band); absent ones left out."""
     plots = {}
     for plot in tab.page.evaluate(SPREAD_PLOTS_JS):
         names = {t["name"] for t in plot["traces"]}
@@ -40,7 +40,7 @@ def _spread_plots(tab) -> dict[str, dict]:
             plots["runs"] = plot
         elif any(name.startswith("95 % band") for name in names):
             plots["nees"] = plot
-        elif (drawn := [t for t in plot["traces"] if t["points"]]) and all(t["xaxis"] in ("x2", "x3") for t in drawn):
+        elif (drawn := [t for t in plot["traces"] if t["points"]]) and all(t["xaxis"] in ("x", "x2") for t in drawn):
             plots["final"] = plot
     return plots
 
@@ -77,7 +77,7 @@ def test_a_ten_run_monte_carlo_shows_its_spread(new_tab) -> None:
     expect(tab.page.get_by_text("Spread of", exact=True)).to_be_visible()
 
     final = [t for t in plots["final"]["traces"] if t["points"]]
-    for xaxis in ("x2", "x3"):  # final velocity, final position error
+    for xaxis in ("x", "x2"):  # final velocity, final position error
         counted = {t["name"]: t["total"] for t in final if t["xaxis"] == xaxis}
         assert counted == {"LC": 10, "TC": 10}, counted
 
