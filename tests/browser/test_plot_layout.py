@@ -36,7 +36,9 @@ LAYOUT_JS = """() => Array.from(document.querySelectorAll('.js-plotly-plot'))
     const legendTop = legend ? legend.getBoundingClientRect().top : Infinity;
     const boxes = sel => Array.from(p.querySelectorAll(sel)).map(e => e.getBoundingClientRect())
       .filter(b => b.width > 0);
-    const ticks = boxes('.xtick text');
+    const ticks = Array.from(p.querySelectorAll('g[class] > text'))  // every x axis's: xtick, x2tick, x3tick
+      .filter(e => /^x\d*tick$/.test(e.parentElement.getAttribute('class')))
+      .map(e => e.getBoundingClientRect()).filter(b => b.width > 0);
     const titles = boxes('.g-xtitle text, .g-x2title text, .g-x3title text');
     return {
       title: (p._fullLayout.title || {}).text || '',
