@@ -501,7 +501,9 @@ class PlotTabs:
                 self._fit(handle, figure, CARD_WIDTH_PX)
                 handle.figure = self._with_events(with_cursor(figure, t))
         if "elc" in results:
-            self.elc_plot.figure = self._with_events(with_cursor(elc_choice_figure(results["elc"]), t))
+            figure = elc_choice_figure(results["elc"])
+            self._fit(self.elc_plot, figure, CARD_WIDTH_PX)
+            self.elc_plot.figure = self._with_events(with_cursor(figure, t))
             self.elc_plot.visible = True
         else:
             self.elc_plot.visible = False

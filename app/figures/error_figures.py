@@ -38,6 +38,7 @@ from app.figures.shared import (
     BAND_ALPHA_MAX,
     METHOD_COLORS,
     TICK_LABELS_PX,
+    TIME_AXIS,
     TITLE_PX,
     TRUTH_COLOR,
     band_alpha,
@@ -498,7 +499,8 @@ def _nees_title(block: str, by_dim: dict[int, list[str]], without: list[str], ru
 
 
 def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool = False) -> go.Figure:
-    """Which construction the ELC selector took for each body axis at every DVL epoch (run 0)."""
+    """Which construction the ELC selector took for each body axis at every DVL epoch (run 0);
+    ``height_px`` without the legend, whose rows are added below (app.figures.shared.legend_bottom)."""
     data: list[dict[str, Any]] = []
     dvl = result.updates.get("dvl")
 
@@ -528,13 +530,12 @@ def elc_choice_figure(result: MethodResult, height_px: int = 220, validate: bool
                 data.append(markers(dvl.t_s[lc_hit], axis_name, method_color("lc"), "LC (3-4 beams)", "lc"))
     layout = {
         "title": {"text": "ELC selector: method per axis", "font": {"size": 13}},
-        "height": height_px,
-        "margin": {"l": 60, "r": 10, "t": 35, "b": 35},
-        "xaxis": {"title": {"text": "time [s]"}},
+        "margin": {"l": 60, "r": 10, "t": TITLE_PX},
+        "xaxis": TIME_AXIS,
         "template": "plotly_white",
-        "legend": {"orientation": "h", "y": -0.35},
         "yaxis": {"categoryorder": "array", "categoryarray": ["heave", "sway", "surge"]},
     }
+    layout = legend_bottom(layout, data, max(height_px - TITLE_PX - TICK_LABELS_PX, 1))
     return make_figure(data, layout, validate)
 
 

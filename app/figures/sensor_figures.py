@@ -23,6 +23,7 @@ from app.figures.sensor_view import BEAM_STATE_CODES, SensorView, SourceView
 from app.figures.shared import (
     TIME_AXIS,
     TRUTH_COLOR,
+    band_alpha,
     bin_label,
     decimate,
     envelope_traces,
@@ -440,7 +441,7 @@ def source_states_figure(
             data.append({**_line(t, est + sigma, f"{method.upper()} +1 sigma", color, k), **band})
             data.append(
                 {**_line(t, est - sigma, f"{method.upper()} -1 sigma", color, k), **band}
-                | {"fill": "tonexty", "fillcolor": hex_to_rgba(color, 0.15)}
+                | {"fill": "tonexty", "fillcolor": hex_to_rgba(color, band_alpha(len(methods)))}
             )
             data.append(_line(t, est, f"{method.upper()} {name.lower()}", color, k))
             true = r.state_true[keep, i, j]

@@ -220,7 +220,8 @@ def legend_names(data: list[dict[str, Any]]) -> list[str]:
 
 def legend_rows(names: list[str], width_px: float) -> int:
     """How many rows a horizontal legend of ``names`` takes under a plot area ``width_px`` wide:
-    plotly fills a row left to right and starts a new one where the next item would not fit.
+    plotly draws one row when every item fits at its own width, else columns as wide as the
+    widest item, as many as fit in a row.
 
     Parameters
     ----------
@@ -234,13 +235,13 @@ def legend_rows(names: list[str], width_px: float) -> int:
     int
         The number of rows (0 for no names).
     """
-    rows, used_px = 0, 0.0
-    for name in names:
-        item_px = LEGEND_ITEM_PX + LEGEND_CHAR_PX * len(name)
-        if rows == 0 or used_px + item_px > width_px:
-            rows, used_px = rows + 1, 0.0
-        used_px += item_px
-    return rows
+    if not names:
+        return 0
+    items_px = [LEGEND_ITEM_PX + LEGEND_CHAR_PX * len(name) for name in names]
+    if sum(items_px) <= width_px:
+        return 1
+    per_row = max(1, int(width_px // max(items_px)))
+    return -(-len(names) // per_row)
 
 
 def legend_bottom(

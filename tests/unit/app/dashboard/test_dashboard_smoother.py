@@ -188,7 +188,7 @@ def test_a_long_run_s_smoothed_bins_hold_numpy_s_extremes(monkeypatch: pytest.Mo
         whole = float(np.sqrt(np.mean(run_curve(ref.vel_err_mps) ** 2)))
         assert sm.summary.rms_all_runs["vel_err_mps"] == pytest.approx(whole, abs=1e-9)
     figure = error_figure(binned, "vel", smoothed=True, validate=True)
-    assert "LC smoothed" in _names(figure) and any(n.startswith("LC smoothed max per") for n in _names(figure))
+    assert "LC smoothed" in _names(figure) and any(n.startswith("LC smoothed curve max in") for n in _names(figure))
     assert "| LC |" in smoothed_markdown(binned)
 
 

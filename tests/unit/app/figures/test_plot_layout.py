@@ -71,14 +71,17 @@ def _alpha(fillcolor: str) -> float:
 
 # ------------------------------------------------------------------------------------------ legend rows
 
-def test_legend_rows_wrap_where_the_next_name_does_not_fit() -> None:
+def test_legend_rows_one_row_or_columns_as_wide_as_the_widest_name() -> None:
     assert legend_rows([], 300) == 0
     assert legend_rows(["LC"], 300) == 1
     one = legend_rows(["LC"], 10_000)
     assert one == 1 and legend_rows(["LC"] * 40, 10_000) == 1
-    # 10 names of 3 characters (46 + 3 x 7 = 67 px each): 5 per row in 335 px, 4 in 334 px
-    assert legend_rows(["ABC"] * 10, 340) == 2
+    # 10 names of 3 characters (46 + 3 x 7 = 67 px each): all in one row from 670 px; else columns
+    # 67 px wide, 5 per row in 335 px, 4 in 334 px
+    assert legend_rows(["ABC"] * 10, 670) == 1 and legend_rows(["ABC"] * 10, 669) == 2
     assert legend_rows(["ABC"] * 10, 335) == 2 and legend_rows(["ABC"] * 10, 334) == 3
+    # the columns are as wide as the widest name: one long name makes every column wide
+    assert legend_rows(["ABC"] * 9 + ["ABCDEFGHIJ"], 335) == 5  # 116 px columns, 2 per row
 
 
 def test_the_legend_has_a_band_of_its_own_and_the_plot_keeps_its_height() -> None:
