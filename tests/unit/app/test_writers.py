@@ -442,7 +442,7 @@ REQUIRED = {"replay": ["no-such-log"], "mc": ["--runs", "2", "--out", "study"], 
             "log info": ["no-such.bag"], "log convert": ["no-such.bag", "out"],
             "calibrate": ["no-such-log", "--out", "cal.toml"], "tune": ["no-such-log", "--method", "lc"]}
 """What each command needs besides the flag under test."""
-OUTPUTS = ("--json", "--save-log", "--out")
+OUTPUTS = ("--json", "--mcap", "--save-log", "--out")
 """Flags for which '-x' would be a good new output: given an existing log directory '-x', each refuses it."""
 CASES = [(command, action.option_strings[-1]) for command, actions in cli.OPTIONS.items() if command
          for action in actions if action.nargs != 0]
