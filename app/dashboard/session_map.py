@@ -10,6 +10,7 @@ kilobytes instead of the whole figure.
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import numpy as np
 import viser
@@ -105,7 +106,8 @@ class MapRoom:
             every_s=every,
             key=self.key,
         )
-        self.first_cursor = int(figure.layout["meta"]["cursor"])  # pyright: ignore[reportIndexIssue]
+        meta: Any = figure.layout["meta"]  # plotly's stubs type an item as a figure
+        self.first_cursor = int(meta["cursor"])
         note = MAP_NOTE.format(every=every) + (f" Run {run + 1} of {runs}." if runs > 1 else "")
         if self.note.content != note:
             self.note.content = note

@@ -565,7 +565,7 @@ class FilterBank(ChunkDriver):
             store["sensor_true"],
             *(tape[name] for name in OUTPUT_TAPE),
             *(store[name] for name in STATE_FIELDS),
-            store["pos_cov_ne_m2"],
+            pos_cov_ne=store["pos_cov_ne_m2"],
         )
         return plain(outputs)
 

@@ -299,8 +299,8 @@ def record_bank(
     ``true (-) estimate`` (tauvcore.filter.eskf.difference) and its norms, the filter's 1-sigma,
     the NEES of the full state and of each block (against P and the reference's own variance,
     ``constants.ref_var``), the horizontal position covariance (``pos_cov_ne`` (T, M, R, 3): P_NN,
-    P_NE, P_EE [m^2]), the estimated position, the epoch's time (``out_t``); and the health check without truth (a non-finite navigation state or P's
-    variances sets ``nonfinite_at`` once).
+    P_NE, P_EE [m^2]), the estimated position, the epoch's time (``out_t``); and the health check
+    without truth (a non-finite navigation state or P's variances sets ``nonfinite_at`` once).
 
     Truth: the chunk's at sample ``i_chunk`` (pos_t, vel_t (3,), C_t (3, 3) shared; the true IMU
     errors per run ba_t, bg_t (R, 3)) and the bank's true DVL errors of the latest ping

@@ -4,6 +4,8 @@ request, and a method without a position state draws no ellipse."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -17,7 +19,7 @@ from app.figures.map_figures import (
     map_figure,
     map_tracks,
 )
-from tauvcore.engine.results import MethodResult, UpdateRecord
+from tauvcore.engine.results import SERIES_FIELDS, MethodResult, UpdateRecord
 
 
 def _result(method: str, T: int = 41, R: int = 2, with_cov: bool = True, beams: bool = True) -> MethodResult:
@@ -39,10 +41,19 @@ def _result(method: str, T: int = 41, R: int = 2, with_cov: bool = True, beams: 
         f = np.zeros((U, R), bool)
         updates["dvl"] = UpdateRecord(np.arange(U) * 2.0, z, z, z, f.astype(float), f, f, ~f, z > 0, z > 0,
                                       f.astype(float), f.astype(int), f, beams_available=available)  # fmt: skip
+    per_epoch: dict[str, Any] = {name: series for name in SERIES_FIELDS.values()}
     return MethodResult(
-        method, t, *([series] * 11), np.zeros((T, R, 5)), pos, np.zeros(R, bool), np.full(R, np.nan),
-        np.zeros(R, int), updates, pos_cov_ne_m2=cov if with_cov else None,
-    )  # fmt: skip
+        method=method,
+        t_s=t,
+        **per_epoch,
+        nees_block=np.zeros((T, R, 5)),
+        est_pos_n=pos,
+        diverged=np.zeros(R, bool),
+        diverged_at_s=np.full(R, np.nan),
+        p_floor_count=np.zeros(R, int),
+        updates=updates,
+        pos_cov_ne_m2=cov if with_cov else None,
+    )
 
 
 def _truth(T: int = 41) -> tuple[np.ndarray, np.ndarray]:
@@ -115,11 +126,11 @@ def test_colour_by_error_marks_the_horizontal_error_and_by_beams_the_beam_count(
     truth_t, truth_ne = _truth()
     tracks = map_tracks(results)
     fig = map_figure(tracks, truth_t, truth_ne, t=5.0, colour_by="error")
-    lc = fig.data[1]
+    lc: Any = fig.data[1]  # plotly's stubs type an item as a figure
     err = np.linalg.norm(results["lc"].est_pos_n[:, 0, :2] - truth_ne, axis=-1)
     np.testing.assert_allclose(lc["marker"]["color"], err, rtol=1e-12)
     assert lc["marker"]["showscale"] and not fig.data[3]["marker"]["showscale"]
-    beams = map_figure(tracks, truth_t, truth_ne, t=5.0, colour_by="beam state").data[1]
+    beams: Any = map_figure(tracks, truth_t, truth_ne, t=5.0, colour_by="beam state").data[1]
     colors = beams["marker"]["color"]
     assert colors[0] == BEAM_STATE_COLORS[4] and colors[24] == BEAM_STATE_COLORS[2]  # 24 s: two beams out
     with pytest.raises(ValueError, match="colour_by"):
