@@ -62,7 +62,7 @@ from tauvcore.engine.dvl_fusion import (
 from tauvcore.engine.lockout import fuse_reacquiring, lockout_reset
 from tauvcore.engine.monitor import sensor_prior_bound
 from tauvcore.engine.recorder import Recorder, handed_out
-from tauvcore.engine.results import SENSOR_STATES, STATE_FIELDS, MethodResult, method_result
+from tauvcore.engine.results import SENSOR_FIELDS, SENSOR_STATES, STATE_FIELDS, MethodResult, method_result
 from tauvcore.engine.rpm_aid import RpmAid
 from tauvcore.engine.scale_factor import VelocityAverage, body_velocity, scale_factor_rows
 from tauvcore.engine.simulation import SimChunk
@@ -553,16 +553,9 @@ class FilterBank(ChunkDriver):
         """The store's arrays the compiled records write, and the smoother's tape of the current
         chunk (no rows without a smoother), in a plain tuple."""
         tape = self.taping.out if self.taping is not None and self.taping.out is not None else self._no_tape
+        first = ("series", "nees_block", "est_pos_n", "t_s", "est_vel_n", "est_euler", *SENSOR_FIELDS)
         outputs = loop.Outputs(
-            store["series"],
-            store["nees_block"],
-            store["est_pos_n"],
-            store["t_s"],
-            store["est_vel_n"],
-            store["est_euler"],
-            store["sensor_est"],
-            store["sensor_sigma"],
-            store["sensor_true"],
+            *(store[name] for name in first),
             *(tape[name] for name in OUTPUT_TAPE),
             *(store[name] for name in STATE_FIELDS),
             pos_cov_ne=store["pos_cov_ne_m2"],
