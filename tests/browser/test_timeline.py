@@ -89,7 +89,7 @@ def test_go_to_moves_the_cursor_of_every_tab(finished) -> None:
     tab.page.wait_for_timeout(1000)
     tab.type_into("Go to [s]", "60")
     tab.page.wait_for_function("+document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 60",
-                               timeout=15000)
+                               timeout=60000)
     for name in ("Plots", "Sensors", "Consistency", "Components", "Plots"):
         cursors = shown_cursors(tab, name)
         assert cursors and all(c is not None and abs(c - 60.0) < 1e-6 for c in cursors), (name, cursors)
