@@ -84,7 +84,7 @@ def main() -> None:
                         break
                     except Exception:  # server still starting
                         time.sleep(0.2)
-                page.locator("canvas").first.wait_for(timeout=60000)
+                page.locator("canvas").first.wait_for(timeout=240000)
                 page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
                 first_picture.append(time.perf_counter() - t0)
                 page.get_by_role("button", name="Run", exact=True).wait_for()
