@@ -49,8 +49,13 @@ WATCH_JS = """() => {
   }).observe(document.body, {subtree: true, childList: true, attributes: true, characterData: true});
 }"""
 ANSWERED_JS = f"""(t0) => new Promise((done) => {{
-  const check = () => performance.now() - Math.max(window.__benchLast, t0) > {QUIET_MS}
-    ? done(Math.max(window.__benchLast - t0, 0)) : setTimeout(check, 100);
+  // [ms] from t0 to the last frame drawn, once the page changed and then held still; NaN: no change in 60 s
+  const check = () => {{
+    const now = performance.now(), changed = window.__benchLast > t0;
+    if (changed && now - window.__benchLast > {QUIET_MS}) done(window.__benchLast - t0);
+    else if (now - t0 > 60000) done(NaN);
+    else setTimeout(check, 100);
+  }};
   check();
 }})"""
 
