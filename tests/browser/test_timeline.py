@@ -140,10 +140,12 @@ def test_the_address_keeps_time_zoom_and_camera_for_a_new_tab(finished, browser,
     tab = finished
     page = tab.page
     page.get_by_role("tab", name="Plots", exact=True).click()
-    page.wait_for_timeout(500)
+    tab.type_into("Go to [s]", "60")   # (the previous test's double-click moved the playback too)
+    page.wait_for_function("+document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 60",
+                           timeout=60000)
     page.evaluate("() => window.__tauv.setRange([30, 50])")  # what a drag does (the previous test)
     page.wait_for_function("/[?&]x=30:50(&|$)/.test(location.search) && /[?&]t=60(&|$)/.test(location.search)"
-                           " && /[?&]cam=/.test(location.search)", timeout=20000)
+                           " && /[?&]cam=/.test(location.search)", timeout=60000)
     link = query(tab)
     cam = [float(v) for v in link["cam"].split(",")]
     other = open_tab(browser, server_url + "/?" + urlparse(page.url).query)
