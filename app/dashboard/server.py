@@ -155,6 +155,7 @@ class Session:
         # the view in the page's address (app.dashboard.links.VIEW_KEYS): a link's shown, the camera kept
         self.panel.apply_view = self.apply_view
         self.camera_timer: threading.Timer | None = None
+        self.camera_lock = threading.Lock()  # not the run's lock: a Run waiting for the page holds that
         client.camera.on_update(lambda _: self._camera_moved())
         plot_click.install(self.client)  # a click on any plot moves the playback (app.dashboard.plot_click)
         page_scripts.run(self.client, page_scripts.label_inputs())  # each input named by its label
@@ -224,7 +225,7 @@ class Session:
 
     def _camera_moved(self) -> None:
         """The page's camera moved: its address follows, at most once every CAMERA_ADDRESS_S."""
-        with self.lock:
+        with self.camera_lock:
             if self.camera_timer is not None:
                 return
             self.camera_timer = threading.Timer(CAMERA_ADDRESS_S, self._write_camera)
@@ -232,7 +233,7 @@ class Session:
             self.camera_timer.start()
 
     def _write_camera(self) -> None:
-        with self.lock:
+        with self.camera_lock:
             self.camera_timer = None
         try:
             camera = self.client.camera

@@ -225,19 +225,17 @@ class PlotTabs:
         self.map = MapRoom(state, workbench)  # the Map tab (app.dashboard.session_map)
         self._add_mission_tabs(gui, tabs)
         # each option redraws only the plots it changes (a full redraw is ten figures)
-        self.show_sigma.on_update(lambda _: self.refresh_plots(only="errors"))
-        self.log_y.on_update(lambda _: self.refresh_plots(only="errors"))
+        self.show_sigma.on_update(lambda _: self._option_changed("errors"))
+        self.log_y.on_update(lambda _: self._option_changed("errors"))
         self.show_att_norm.on_update(lambda _: self._att_norm_changed())
         self._unticking = False  # _smoothed_boxes unticks a box: its callback does not redraw
-        self.show_smoothed.on_update(lambda _: None if self._unticking else self.refresh_plots(only="errors"))
-        self.show_smoothed_nees.on_update(
-            lambda _: None if self._unticking else self.refresh_plots(only="nees")
-        )
-        self.nees_block.on_update(lambda _: self.refresh_plots(only="nees"))
-        self.innovation_source.on_update(lambda _: self.refresh_plots(only="innovations"))
-        self.innovation_run.on_update(lambda _: self.refresh_plots(only="innovations"))
-        self.sensor_method.on_update(lambda _: self.refresh_plots(only="sensors"))
-        self.sensor_run.on_update(lambda _: self.refresh_plots(only="sensors"))
+        self.show_smoothed.on_update(lambda _: None if self._unticking else self._option_changed("errors"))
+        self.show_smoothed_nees.on_update(lambda _: None if self._unticking else self._option_changed("nees"))
+        self.nees_block.on_update(lambda _: self._option_changed("nees"))
+        self.innovation_source.on_update(lambda _: self._option_changed("innovations"))
+        self.innovation_run.on_update(lambda _: self._option_changed("innovations"))
+        self.sensor_method.on_update(lambda _: self._option_changed("sensors"))
+        self.sensor_run.on_update(lambda _: self._option_changed("sensors"))
         self.show_events.on_update(lambda _: self._events_toggled())
         self._events_of: tuple[Any, list[Event]] = (None, [])  # (results, config, run) -> their events
 
@@ -337,28 +335,28 @@ class PlotTabs:
             self.vkf_note = gui.add_markdown(VKF_NOTES["none"])
             self.vkf_plot = gui.add_plotly(go.Figure(), aspect=1.0, visible=False)
 
+    def _option_changed(self, only: str) -> None:
+        """An option of the plots changed: redraw the group ``only`` it changes, the page showing
+        its busy sign if that takes longer than page_scripts.BUSY_DELAY_S (the wait for the draw
+        lock included)."""
+        page_scripts.run(self.state.client, page_scripts.busy(True))
+        try:
+            self.refresh_plots(only=only)
+        finally:
+            page_scripts.run(self.state.client, page_scripts.busy(False))
+
+    @drawing
     def refresh_plots(self, only: str | None = None, live: bool = False) -> None:
         """Redraw the workbench's plots: the error norms of the current run (or of the kept runs
         ticked for overlay), their components, NEES and innovations, each with the time cursor;
-        ``only`` one group of them ("errors", "nees", "innovations": what an option changes; the
-        page shows its busy sign if the redraw takes longer than page_scripts.BUSY_DELAY_S).
+        ``only`` one group of them ("errors", "nees", "innovations": what an option changes).
         A figure whose JSON equals the one the page has is not sent again (viser skips it).
 
         ``live``: a running run's results so far, whose deferred plots (innovations, components,
         sensors: most of what the page renders) are drawn at most every LIVE_DIAGNOSTICS_S; a run
         shorter than that draws them once, with its final results."""
-        if only is None:
-            self._refresh(only, live)
-            return
-        self.state.last_action_s = time.monotonic()
-        page_scripts.run(self.state.client, page_scripts.busy(True))
-        try:
-            self._refresh(only, live)
-        finally:
-            page_scripts.run(self.state.client, page_scripts.busy(False))
-
-    @drawing
-    def _refresh(self, only: str | None, live: bool) -> None:
+        if only is not None:
+            self.state.last_action_s = time.monotonic()
         results = self.state.results
         if not results:
             return
@@ -482,7 +480,7 @@ class PlotTabs:
     def _att_norm_changed(self) -> None:
         """Attitude norm ticked or unticked: redraw the error plots, and bring the norm's plot,
         added below the others, into view."""
-        self.refresh_plots(only="errors")
+        self._option_changed("errors")
         if self.show_att_norm.value and self.state.results:
             title = f"{QUANTITIES['att'][2]} [{QUANTITIES['att'][3]}]"
             page_scripts.run(self.state.client, page_scripts.scroll_to_plot(title))
