@@ -51,7 +51,7 @@ from app.figures.sensor_figures import (
     source_states_figure,
     state_methods,
 )
-from app.figures.shared import CARD_WIDTH_PX, card_aspect, placeholder_figure, with_cursor
+from app.figures.shared import CARD_WIDTH_PX, SENT_CURSOR_S, card_aspect, placeholder_figure, with_cursor
 from app.figures.vehicle_figures import (
     actuator_figure,
     altitude_figure,
@@ -143,10 +143,6 @@ OTHER_FAMILIES_DIMS = "; ".join(
     if family.error_state != FIRST.error_state
 )
 """The NEES dimension of the other filter families' whole state, for the block's hint."""
-SENT_CURSOR_S = 0.0
-"""Where a figure's time cursor is when sent: the page draws it at the slider's time
-(app/assets/view_sync.js), so the figure's JSON does not depend on the time and viser sends a figure
-again only when its data change (it skips a JSON equal to the one the page has)."""
 PLOT_ASPECT = 0.42  # each error plot's height / width before its first run (then: its legend's rows added)
 ERROR_AXES = (AUTO, "linear", "log")
 ERROR_AXES_HINT = (

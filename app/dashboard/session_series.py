@@ -16,11 +16,10 @@ from typing import Any
 
 import viser
 
-from app.dashboard.session_plots import SENT_CURSOR_S
 from app.dashboard.session_state import TabState, drawing
 from app.figures.series_catalog import Catalog
 from app.figures.series_figures import TIME_HINT, XY_HINT, series_time_figure, series_xy_figure
-from app.figures.shared import placeholder_figure, with_cursor
+from app.figures.shared import SENT_CURSOR_S, placeholder_figure, with_cursor
 
 INTRO = (
     "Any series of the run against time, or one against another: pick it in **Series** (names are "

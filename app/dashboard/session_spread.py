@@ -14,7 +14,7 @@ import plotly.graph_objects as go
 import viser
 
 from app.dashboard.session_state import TabState
-from app.figures.shared import with_cursor
+from app.figures.shared import SENT_CURSOR_S, with_cursor
 from app.figures.spread_figures import (
     MAX_RUNS_DRAWN,
     final_errors_figure,
@@ -94,7 +94,7 @@ class SpreadTab:
         finally:
             self.choosing = False
         self._draw_runs()
-        t = self.state.cursor_t
+        t = SENT_CURSOR_S
         self._place(self.final_plot, final_errors_figure(results))
         self._place(self.nees_plot, with_cursor(nees_blocks_figure(results), t))
         self._set_note(SPREAD_NOTE.format(runs=runs, most=MAX_RUNS_DRAWN))
@@ -110,7 +110,7 @@ class SpreadTab:
         if results is None or self.method.value not in results:
             return
         method = self.method.value
-        self._place(self.runs_plot, with_cursor(runs_figure(method, results[method]), self.state.cursor_t))
+        self._place(self.runs_plot, with_cursor(runs_figure(method, results[method]), SENT_CURSOR_S))
 
     @staticmethod
     def _place(handle: viser.GuiPlotlyHandle, figure: go.Figure) -> None:

@@ -418,6 +418,11 @@ def cursor_shape(t_s: float) -> dict[str, Any]:
     }
 
 
+SENT_CURSOR_S = 0.0
+"""Where a figure's time cursor is when sent: the page draws it at the slider's time
+(app/assets/view_sync.js, TIME_META), so the figure's JSON does not depend on the time and viser sends a figure
+again only when its data change (it skips a JSON equal to the one the page has)."""
+
 TIME_META = {"tauv_time_axis": True}
 """``layout.meta`` of a plot against the mission time: the page's one time axis (the cursor and the
 zoomed range, app/assets/view_sync.js) applies to every plot carrying it, and to no other."""
