@@ -10,6 +10,7 @@ import types
 import numpy as np
 
 from app.dashboard.session_spread import RUNNING_NOTE, SINGLE_RUN_HINT, SpreadTab
+from app.figures.shared import SENT_CURSOR_S, TIME_META
 from tauvcore.engine.results import BLOCK_DIMS, SERIES_FIELDS, MethodResult
 
 
@@ -85,7 +86,8 @@ def test_final_results_draw_the_three_plots_once_and_a_method_choice_redraws_its
     assert tab.method.options == ("tc", "vb") and tab.method.value == "tc"
     assert tab.runs_plot.figure.layout.title.text.startswith("TC: spread of 4 runs")
     assert "4 runs" in tab.final_plot.figure.layout.title.text
-    assert tab.nees_plot.figure.layout.shapes[0].x0 == 1.0      # the time cursor on the time plots
+    # the time plots carry the cursor at the sent time (the page puts it at the slider's) and the time tag
+    assert tab.nees_plot.figure.layout.shapes[0].x0 == SENT_CURSOR_S and tab.nees_plot.figure.layout.meta == TIME_META
     assert not tab.final_plot.figure.layout.shapes               # none on the histograms
     tab.show(results, live=False)                                # the same results: nothing sent again
     assert all(len(p.sent) == 1 for p in tab.plots)
