@@ -140,6 +140,13 @@ class Session:
         self.scene = SceneView(
             self.state, self.panel.beam_boxes, playback.time_slider, playback.camera_mode, playback.readout
         )
+        self.camera_timer: threading.Timer | None = None
+        self.camera_lock = threading.Lock()  # not the run's lock: a Run waiting for the page holds that
+        self._wire(playback)
+
+    def _wire(self, playback: Playback) -> None:
+        """What the rooms' controls and the page start: Run and Stop, the slider's map cursor, the
+        camera, the page's scripts (one time axis, plot clicks, labels) and the link's view."""
         # what the run writes as it goes
         self.status, self.progress = self.panel.status, self.panel.progress
         self.run_button, self.stop_button = self.panel.run_button, self.panel.stop_button
@@ -154,9 +161,7 @@ class Session:
         page_scripts.run(self.client, page_scripts.view_sync())
         # the view in the page's address (app.dashboard.links.VIEW_KEYS): a link's shown, the camera kept
         self.panel.apply_view = self.apply_view
-        self.camera_timer: threading.Timer | None = None
-        self.camera_lock = threading.Lock()  # not the run's lock: a Run waiting for the page holds that
-        client.camera.on_update(lambda _: self._camera_moved())
+        self.client.camera.on_update(lambda _: self._camera_moved())
         plot_click.install(self.client)  # a click on any plot moves the playback (app.dashboard.plot_click)
         page_scripts.run(self.client, page_scripts.label_inputs())  # each input named by its label
         threading.Thread(target=self.panel.read_link, daemon=True).start()
