@@ -69,6 +69,7 @@ class SpreadTab:
         self.plots = (self.runs_plot, self.final_plot, self.nees_plot)
         self.drawn: dict[str, MethodResult] | None = None  # the results the plots show
         self.choosing = False  # show() sets the dropdown's choices (its callback draws nothing)
+        self.chosen: str | None = None  # the method the user picked, kept across runs that have it
         self.method.on_update(lambda _: self._method_chosen())
 
     def show(self, results: dict[str, MethodResult], live: bool) -> None:
@@ -89,8 +90,14 @@ class SpreadTab:
         try:
             if tuple(self.method.options) != methods:
                 self.method.options = methods
-            if self.method.value not in methods:
-                self.method.value = methods[0]
+            # the user's pick if this run has it, else the first aided method (INS's spread dwarfs theirs)
+            wanted = (
+                self.chosen
+                if self.chosen in methods
+                else next((m for m in methods if m != "ins"), methods[0])
+            )
+            if self.method.value != wanted:
+                self.method.value = wanted
         finally:
             self.choosing = False
         self._draw_runs()
@@ -103,6 +110,7 @@ class SpreadTab:
     def _method_chosen(self) -> None:
         with self.state.draw_lock:
             if self.drawn is not None and not self.choosing:
+                self.chosen = self.method.value
                 self._draw_runs()
 
     def _draw_runs(self) -> None:

@@ -59,7 +59,7 @@ def _tab() -> SpreadTab:
     tab.method = _Dropdown()
     tab.runs_plot, tab.final_plot, tab.nees_plot = _Plot(), _Plot(), _Plot()
     tab.plots = (tab.runs_plot, tab.final_plot, tab.nees_plot)
-    tab.drawn, tab.choosing = None, False
+    tab.drawn, tab.choosing, tab.chosen = None, False, None
     tab.method.callbacks.append(lambda _: tab._method_chosen())
     return tab
 
@@ -94,5 +94,10 @@ def test_final_results_draw_the_three_plots_once_and_a_method_choice_redraws_its
     tab.method.value = "vb"
     assert tab.runs_plot.figure.layout.title.text.startswith("VB: spread")
     assert [len(p.sent) for p in tab.plots] == [2, 1, 1]
+    tab.show({"ins": _result("ins", 4), "tc": _result("tc", 4), "vb": _result("vb", 4)}, live=False)
+    assert tab.method.value == "vb"                              # the user's pick kept across runs
+    tab.chosen = None
+    tab.show({"ins": _result("ins", 3), "tc": _result("tc", 3)}, live=False)
+    assert tab.method.value == "tc"                              # else the first aided method, not INS
     tab.show({"tc": _result("tc", 1)}, live=False)               # then a single run: the hint again
     assert tab.note.content == SINGLE_RUN_HINT and not any(p.visible for p in tab.plots)
