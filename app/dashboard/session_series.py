@@ -29,6 +29,8 @@ INTRO = (
 )
 NO_RUN = "The run's series show here once a run has results."
 ADD_TIME, SET_X, ADD_Y = "Add to time plot", "X axis", "Add to Y"
+NO_SERIES: tuple[str, ...] = ("-",)
+"""The Series choice before a run (the run's names replace it: ``str``, not the literal "-")."""
 MAX_PICKS = 12
 """Series in one plot at most (more are refused, naming the plot)."""
 
@@ -68,7 +70,7 @@ class SeriesTab:
         with workbench.add_tab("Series"):
             gui.add_markdown(INTRO)
             self.pick = gui.add_dropdown(
-                "Series", ("-",), initial_value="-", hint="every series this run recorded"
+                "Series", NO_SERIES, initial_value=NO_SERIES[0], hint="every series this run recorded"
             )
             self.add_buttons = gui.add_button_group("Pick", (ADD_TIME, SET_X, ADD_Y))
             self.time_text = gui.add_text("Time plot", "", hint="series against time, separated by commas")
@@ -138,7 +140,7 @@ class SeriesTab:
         if not results:
             return
         self.catalog = Catalog(results, self.state.sensor_view, self.state.truth_view)
-        names = self.catalog.names or ("-",)
+        names = self.catalog.names or NO_SERIES
         if tuple(self.pick.options) != names:
             self.pick.options = names
         if self.run.max != self.catalog.runs:
@@ -171,8 +173,8 @@ class SeriesTab:
             self.note.content = note
         shown = [catalog.series(n, run) for n in time_names if n in catalog.entries][:MAX_PICKS]
         time_figure = series_time_figure(shown)
-        height_px = time_figure.layout["height"] or 400  # plotly's stubs type an item as a figure
-        aspect = round(float(height_px) / 480, 2)  # viser: height = aspect x width
+        height_px: Any = time_figure.layout["height"]  # plotly's stubs type an item as a figure
+        aspect = round(float(height_px or 400) / 480, 2)  # viser: height = aspect x width
         if self.time_plot.aspect != aspect:
             self.time_plot.aspect = aspect
         self.time_plot.figure = with_cursor(time_figure, SENT_CURSOR_S) if shown else time_figure

@@ -717,7 +717,7 @@ def overlay_figure(runs: Sequence[tuple[str, go.Figure]]) -> go.Figure:
     first = runs[0][1].to_dict()["layout"]
     margin = first.get("margin", {})
     plot_px = int(first.get("height") or PLOT_PX + TITLE_PX) - margin.get("t", TITLE_PX) - margin.get("b", 0)
-    layout = legend_bottom(first, [trace.to_plotly_json() for trace in out.data], max(plot_px, 1))
+    layout = legend_bottom(first, out.to_dict()["data"], max(plot_px, 1))
     out.update_layout(
         title_text=f"{first.get('title', {}).get('text', '')}: {styles}",
         height=layout["height"],

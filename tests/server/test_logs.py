@@ -52,7 +52,10 @@ def test_a_tab_replays_a_log_and_a_bad_one_is_a_notification(tmp_path: Path) -> 
         client.click("Run")
         props = _notification(client, mark)
         assert props["title"] == "Run complete", props
-        assert client.markdown_containing("Run complete: log good, 20 s.") is not None
+        done = client.markdown_containing("Run complete: log good, 20 s")
+        assert done is not None
+        status = client.value(done)
+        assert "with DVL noise 0.05 m/s" in status, status          # the settings the replay ran with
         table = client.value(client.markdown_containing("Configuration run"))
         assert re.search(r"\|\s*Duration \[s\]\s*\|\s*20\s*\|", table), table      # the log's length, not 250 s
         assert re.search(r"\|\s*Source\s*\|\s*log good\s*\|", table), table
