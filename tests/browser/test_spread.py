@@ -20,6 +20,7 @@ SPREAD_PLOTS_JS = """
     const legend = p.querySelector('.legend');
     return {
       index,
+      title: String((p.layout && p.layout.title && p.layout.title.text) || ''),
       traces: p._fullData.map(t => ({name: t.name, xaxis: t.xaxis, yaxis: t.yaxis, points: (t.y || []).length,
                                     total: Array.from(t.y || []).reduce((a, b) => a + (Number(b) || 0), 0)})),
       legend: legend ? box(legend) : null,
@@ -31,8 +32,8 @@ HINT = "Run a Monte Carlo (Runs > 1) to see the spread"
 
 
 def _spread_plots(tab) -> dict[str, dict]:
-    """The Spread tab's three plots as drawn: "runs" (holds a median), "final" (on the histograms'
-    axes x, x2), "nees" (holds the 95 % band); absent ones left out."""
+    """The Spread tab's three plots as drawn: "runs" (holds a median), "final" (titled "Final
+    errors"), "nees" (holds the 95 % band); absent ones left out."""
     plots = {}
     for plot in tab.page.evaluate(SPREAD_PLOTS_JS):
         names = {t["name"] for t in plot["traces"]}
@@ -40,7 +41,7 @@ def _spread_plots(tab) -> dict[str, dict]:
             plots["runs"] = plot
         elif any(name.startswith("95 % band") for name in names):
             plots["nees"] = plot
-        elif (drawn := [t for t in plot["traces"] if t["points"]]) and all(t["xaxis"] in ("x", "x2") for t in drawn):
+        elif plot["title"].startswith("Final errors"):
             plots["final"] = plot
     return plots
 

@@ -38,8 +38,8 @@ def test_two_runs_overlaid_compared_cursor_and_diagnostics(new_tab) -> None:
     diff = tab.page.locator("table", has=tab.page.get_by_text("setting", exact=True))
     diff.wait_for(timeout=20000)
     rows = diff.locator("tr").all_inner_texts()
-    assert any(r.startswith("dvl.noise_mps") and "0.02" in r for r in rows), rows
-    assert any(r.startswith("run.methods") for r in rows), rows
+    assert any(r.startswith("DVL noise") and "0.02 m/s" in r for r in rows), rows
+    assert any(r.startswith("methods") for r in rows), rows
     side = tab.page.locator("table", has=tab.page.get_by_text("run 2", exact=True)).last.locator("tr").all_inner_texts()
     assert any(r.startswith("TC\trun 2") for r in side), side
     tab.page.get_by_role("tab", name="Plots").click()
@@ -85,8 +85,8 @@ def test_a_new_run_clears_the_overlay_and_each_kept_run_says_what_tells_it_apart
     tab.set_checkbox("Beam 3", False)
     tab.set_checkbox("Beam 4", False)
     _run(tab, 2)
-    entries = {n: tab.page.get_by_text(f"straight, 10 s, beams {b}, seed 0", exact=False)
-               for n, b in ((1, "1,2,3,4"), (2, "1,2"))}
+    entries = {n: tab.page.get_by_text(text, exact=False)
+               for n, text in ((1, "straight, 10 s, seed 0, LC TC"), (2, "straight, 10 s, seed 0, LC TC, beams 1,2"))}
     for n, entry in entries.items():
         entry.first.wait_for(timeout=20000)
     for n in (1, 2):
