@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import IO, Any
 
 from app.commands.values import UsageError
+from app.reports.files import new_file_mode
 from tauvcore.logs.writer import same_file
 from tauvcore.validation import show, show_path
 
@@ -159,19 +160,9 @@ def write_text_atomic(path: str, write: Callable[[IO[str]], object]) -> None:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, _new_file_mode(path))
+        os.chmod(tmp, new_file_mode(path))
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
-
-
-def _new_file_mode(path: str) -> int:
-    """The mode the file would have got from ``open``: its own if it exists, else 0o666 less umask."""
-    try:
-        return stat.S_IMODE(os.stat(path).st_mode)
-    except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        return 0o666 & ~umask

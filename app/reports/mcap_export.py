@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from app.reports.files import new_file_mode
 from tauvcore.config import Config
 from tauvcore.engine.results import MethodResult, UpdateRecord
 
@@ -444,7 +445,7 @@ class McapResults:
             self.add_events(self.events.events())
             self.writer.close()
             data = self.bag / f"{self.bag.name}.mcap"
-            os.chmod(data, _new_file_mode(self.path))
+            os.chmod(data, new_file_mode(self.path))
             os.replace(data, self.path)
         finally:
             shutil.rmtree(self.spool, ignore_errors=True)
@@ -454,18 +455,6 @@ class McapResults:
         with contextlib.suppress(Exception):
             self.writer.close()
         shutil.rmtree(self.spool, ignore_errors=True)
-
-
-def _new_file_mode(path: str) -> int:
-    """The mode the file would have got from ``open``: its own if it exists, else 0o666 less umask."""
-    import stat
-
-    try:
-        return stat.S_IMODE(os.stat(path).st_mode)
-    except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        return 0o666 & ~umask
 
 
 EVENT_FIELDS = (
