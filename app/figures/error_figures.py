@@ -443,6 +443,32 @@ def _nees_traces(
     return data, t, res.vel_err_mps.shape[1]
 
 
+def band_trace(
+    t_s: tuple[float, float],
+    band: tuple[float, float],
+    name: str,
+    fillcolor: str,
+    line: dict[str, Any],
+    **extra: Any,
+) -> dict[str, Any]:
+    """A consistency band: the rectangle from ``band`` (low, high) over the times ``t_s`` (first,
+    last) [s], filled with ``fillcolor`` and outlined with ``line``, named ``name``, no hover;
+    ``extra`` (axes, legend group) as given."""
+    (t_first, t_last), (lo, hi) = t_s, band
+    return {
+        "type": "scatter",
+        "x": [t_first, t_last, t_last, t_first],
+        "y": [lo, lo, hi, hi],
+        "name": name,
+        "mode": "lines",
+        "fill": "toself",
+        "fillcolor": fillcolor,
+        "line": line,
+        "hoverinfo": "skip",
+        **extra,
+    }
+
+
 def _nees_references(dims: list[int], runs: int, t_first: float, t_last: float) -> list[dict[str, Any]]:
     """The reference traces of :func:`nees_figure` from ``t_first`` to ``t_last`` [s]: the 99 %
     band of the mean NEES/dim of ``runs`` runs for each block dimension of ``dims`` (the first
@@ -451,23 +477,9 @@ def _nees_references(dims: list[int], runs: int, t_first: float, t_last: float) 
     reference = []
     for k, dim in enumerate(dims):
         lo, hi = nees_band(dim, runs)
-        reference.append(
-            {
-                "type": "scatter",
-                "x": [t_first, t_last, t_last, t_first],
-                "y": [lo, lo, hi, hi],
-                "name": band_name if len(dims) == 1 else f"{band_name} (dim {dim})",
-                "mode": "lines",
-                "fill": "toself",
-                "fillcolor": BAND_COLOR,
-                "line": {
-                    "color": "rgba(120,120,120,0.6)",
-                    "width": 1,
-                    "dash": "dash" if k == 0 else "dot",
-                },
-                "hoverinfo": "skip",
-            }
-        )
+        name = band_name if len(dims) == 1 else f"{band_name} (dim {dim})"
+        line = {"color": "rgba(120,120,120,0.6)", "width": 1, "dash": "dash" if k == 0 else "dot"}
+        reference.append(band_trace((t_first, t_last), (lo, hi), name, BAND_COLOR, line))
     reference.append(
         {
             "type": "scatter",

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
-from app.figures.error_figures import NEES_BLOCK_NAMES, block_dims, nees_blocks
+from app.figures.error_figures import NEES_BLOCK_NAMES, band_trace, block_dims, nees_blocks
 from app.figures.log_axes import LOG_SPAN
 from app.figures.shared import (
     LEGEND_BELOW,
@@ -430,25 +430,11 @@ def _band_traces(
         name = f"{confidence:.0%} band".replace("%", " %")
         for j, dim in enumerate(dims):
             lo, hi = mean_nees_band(dim, num_runs, confidence)
+            line = {"width": 0.5, "color": "rgba(120,120,120,0.5)", "dash": "dash" if j == 0 else "dot"}
+            label = name if len(dims) == 1 else f"{name} (dim {dim})"
+            extra = {"legendgroup": f"band {confidence}", "showlegend": first, **axes}
             data.append(
-                {
-                    "type": "scatter",
-                    "x": [t_first, t_last, t_last, t_first],
-                    "y": [lo, lo, hi, hi],
-                    "name": name if len(dims) == 1 else f"{name} (dim {dim})",
-                    "mode": "lines",
-                    "fill": "toself",
-                    "fillcolor": NEES_BAND_COLORS[confidence],
-                    "line": {
-                        "width": 0.5,
-                        "color": "rgba(120,120,120,0.5)",
-                        "dash": "dash" if j == 0 else "dot",
-                    },
-                    "legendgroup": f"band {confidence}",
-                    "showlegend": first,
-                    "hoverinfo": "skip",
-                    **axes,
-                }
+                band_trace((t_first, t_last), (lo, hi), label, NEES_BAND_COLORS[confidence], line, **extra)
             )
     return data
 
