@@ -41,14 +41,11 @@ WATCH = """
 (() => {
   window.__spread = {};
   const drawn = () => {
-    const plots = Array.from(document.querySelectorAll('.js-plotly-plot')).map(p => p._fullData || []);
-    const title = (p) => p.some(t => t.name === 'median');
-    const nees = (p) => p.some(t => t.name === '95 % band');
-    const hist = (p) => {
-      const drawn = p.filter(t => (t.y || []).length);
-      return drawn.length > 0 && drawn.every(t => t.xaxis === 'x2' || t.xaxis === 'x3');
-    };
-    return plots.some(title) && plots.some(nees) && plots.some(hist);
+    // the three plots of the spread (app.figures.spread_figures), found by their titles, with data
+    const titles = Array.from(document.querySelectorAll('.js-plotly-plot'))
+      .filter(p => (p._fullData || []).some(t => (t.x || []).length > 1))
+      .map(p => ((p.layout || {}).title || {}).text || '');
+    return ['spread of', 'Final errors', 'NEES/dim per block'].every(w => titles.some(t => t.includes(w)));
   };
   setInterval(() => {
     const w = window.__spread, now = performance.now();

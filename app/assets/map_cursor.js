@@ -11,6 +11,7 @@
     for (const gd of document.querySelectorAll('.js-plotly-plot')) {
       const meta = gd.layout && gd.layout.meta;
       if (!meta || meta.tauv !== 'map' || meta.key !== m.key || !gd._fullLayout) continue;
+      if (gd.offsetParent === null) continue;  // its tab hidden: restyled when shown (the interval below)
       if (gd._fullLayout.__tauvMapSerial === m.serial) continue;
       if (!gd.data || gd.data.length < m.first + m.x.length) continue;
       gd._fullLayout.__tauvMapSerial = m.serial;

@@ -14,6 +14,9 @@
   const isTime = (gd) => !!(gd && gd.layout && gd.layout.meta && gd.layout.meta.tauv_time_axis);
   const plots = () => Array.from(document.querySelectorAll('.js-plotly-plot')).filter(
     (gd) => gd.data && isTime(gd));
+  // the plots of the tab in view: a hidden tab's plots are drawn anew when it is shown (their width
+  // changes), and patchLayout and the afterplot hook give them the store's cursor and range then
+  const shown = () => plots().filter((gd) => gd.offsetParent !== null);
   const xAxes = (layout) => Object.keys(layout || {}).filter((k) => /^xaxis\d*$/.test(k));
   const same = (a, b) => a === b || (a && b && Math.abs(a[0] - b[0]) < 1e-9 && Math.abs(a[1] - b[1]) < 1e-9);
   const cursorIndex = (shapes) => (shapes || []).findIndex((s) => s && s.name === CURSOR);
@@ -84,7 +87,7 @@
       S.x_range = r;
       S.reset = false;
     }
-    for (const other of plots()) apply(other);
+    for (const other of shown()) apply(other);
     writeAddress();
   }
 
@@ -125,13 +128,13 @@
     cursorPending = true;
     requestAnimationFrame(() => {
       cursorPending = false;
-      for (const gd of plots()) apply(gd);
+      for (const gd of shown()) apply(gd);
     });
   };
   S.setRange = (r) => {
     S.x_range = r ? [+r[0], +r[1]] : null;
     S.reset = !r;
-    for (const gd of plots()) apply(gd);
+    for (const gd of shown()) apply(gd);
     writeAddress();
   };
   S.setAddress = (query) => {

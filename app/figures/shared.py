@@ -341,8 +341,12 @@ def time_layout(title: str, height_px: int, yaxis: dict[str, Any], left_px: int 
 PLACEHOLDER_TEXT = "No run yet: press Run"
 
 
+@functools.lru_cache(maxsize=128)
 def placeholder_figure(title: str, text: str = PLACEHOLDER_TEXT) -> go.Figure:
-    """What a plot shows before its first run: its title and one line of text, no empty axes."""
+    """What a plot shows before its first run: its title and one line of text, no empty axes.
+
+    One figure per (title, text), shared by every tab that shows it: read, never modified (a
+    plotly figure costs 30 ms to build, and a new tab shows some 30 of them)."""
     return go.Figure(
         layout={
             "title": {"text": title, "font": {"size": 13}},
