@@ -11,10 +11,13 @@ Topics (``<method>`` as ``config.run.methods`` names it, ``<source>`` as the upd
   [m] east, north, up from the sea-surface point above the start (``header.frame_id`` "tauv_enu"),
   orientation body forward-left-up to east-north-up, ``twist.linear`` the velocity in the body
   frame FLU (``child_frame_id`` "base_link") [m/s]; the angular velocity is not estimated (NaN).
-  The covariances' diagonals share each block's trace equally among its axes (the filter records
-  sqrt(trace P_pos), sqrt(trace P_vel), the tilt's sqrt(P_NN + P_EE) and the heading's sqrt(P_DD),
-  not the axes apart): position and velocity sigma^2 / 3 per axis, roll and pitch tilt^2 / 2,
-  yaw heading^2 [rad^2]; the off-diagonal terms are zero.
+  The position's covariance is the filter's own horizontal block (``MethodResult.pos_cov_ne_m2``:
+  P_EE, P_EN and P_NN in ENU's x and y) with the vertical variance the trace leaves (the filter
+  records sqrt(trace P_pos)); a family without that record (Yoo 2014's) shares the trace equally,
+  sigma^2 / 3 per axis. The other diagonals share each block's trace equally among its axes (the
+  filter records sqrt(trace P_vel), the tilt's sqrt(P_NN + P_EE) and the heading's sqrt(P_DD), not
+  the axes apart): velocity sigma^2 / 3 per axis, roll and pitch tilt^2 / 2, yaw heading^2
+  [rad^2]; the other off-diagonal terms are zero.
 - ``/tauv/<method>/sigma`` (tauv_msgs/msg/Sigma): the filter's own 1-sigma as ``tauv run --json``
   names them (``pos_sigma_m``, ``vel_sigma_mps``, ``att_sigma_deg``, ``tilt_sigma_deg``,
   ``heading_sigma_deg``).
@@ -285,6 +288,17 @@ def _covariance(sigma: Sequence[np.ndarray], shares: Sequence[float]) -> np.ndar
     return cov
 
 
+def _horizontal_covariance(cov: np.ndarray, p_ne_m2: np.ndarray, pos_sigma_m: np.ndarray) -> None:
+    """Write the filter's horizontal position covariance ``p_ne_m2`` (K, 3: P_NN, P_NE, P_EE
+    [m^2]) into the pose covariances ``cov`` (K, 36; ENU: x east, y north, z up), and the vertical
+    variance as what the trace ``pos_sigma_m``^2 leaves (P_DD = trace - P_NN - P_EE, at least 0)."""
+    p_nn, p_ne, p_ee = p_ne_m2[:, 0], p_ne_m2[:, 1], p_ne_m2[:, 2]
+    cov[:, 0] = p_ee
+    cov[:, 1] = cov[:, 6] = p_ne
+    cov[:, 7] = p_nn
+    cov[:, 14] = np.maximum(np.square(pos_sigma_m) - p_nn - p_ee, 0.0)
+
+
 def stamps(t_s: np.ndarray, origin_ns: int) -> np.ndarray:
     """Mission times [s] (K,) as integer nanoseconds since the epoch, ``origin_ns`` added."""
     return np.round(np.asarray(t_s, dtype=np.float64) * 1e9).astype(np.int64) + origin_ns
@@ -376,6 +390,8 @@ class McapResults:
         values["pose_covariance"] = _covariance(
             [pos, pos, pos, tilt, tilt, heading], [1 / 3] * 3 + [0.5, 0.5, 1]
         )
+        if r.pos_cov_ne_m2 is not None:
+            _horizontal_covariance(values["pose_covariance"], r.pos_cov_ne_m2[:, i], pos)
         values["twist_covariance"] = _covariance([vel, vel, vel], [1 / 3] * 3)
         self._packed(f"{prefix}/odometry", ODOMETRY, odometry_layout, r.t_s, values)
         for kind, topic in (("Sigma", "sigma"), ("Error", "error")):

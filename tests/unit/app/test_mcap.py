@@ -106,6 +106,12 @@ def test_estimate_and_sigma_equal_the_results(written) -> None:
             # NaN where the method has no such state (vkf: no position)
             np.testing.assert_allclose(cov[0, 0] + cov[1, 1] + cov[2, 2], r.pos_sigma_m[k, 0] ** 2, rtol=1e-12)
             np.testing.assert_allclose(np.sqrt(cov[5, 5]), np.radians(r.heading_sigma_deg[k, 0]), rtol=1e-12)
+            if r.pos_cov_ne_m2 is not None:   # the filter's own horizontal block, ENU: x east, y north
+                p_nn, p_ne, p_ee = r.pos_cov_ne_m2[k, 0]
+                np.testing.assert_array_equal(cov[:2, :2], [[p_ee, p_ne], [p_ne, p_nn]])
+                assert (k == 0 or p_ne != 0.0) and cov[2, 2] > 0.0   # the initial P is diagonal
+            else:
+                assert method == "vkf"
             _, sigma = topics[f"/tauv/{method}/sigma"][k]
             for name in ("pos_sigma_m", "vel_sigma_mps", "att_sigma_deg", "tilt_sigma_deg", "heading_sigma_deg"):
                 np.testing.assert_array_equal(getattr(sigma, name), getattr(r, name)[k, 0])
