@@ -153,6 +153,9 @@ class Session:
         self.run_button.on_click(lambda _: self.start_run())
         self.stop_button.on_click(lambda _: self.stop_run())
         playback.time_slider.on_update(lambda _: self.plot_tabs.map.move_cursor(playback.time_slider.value))
+        # the Events box: PlotTabs redraws its plots and the map (its own callback), the scene its
+        # track here (viser runs the two callbacks on its threads, in no set order: each reads the box)
+        self.plot_tabs.show_events.on_update(lambda _: self._events_box())
         playback.camera_mode.on_update(lambda _: self.scene.camera_changed())
         playback.fit_button.on_click(lambda _: self.scene.fit_mission())
         for box in self.panel.beam_boxes:  # before a run the 3-D beams show the boxes at once
@@ -165,6 +168,10 @@ class Session:
         plot_click.install(self.client)  # a click on any plot moves the playback (app.dashboard.plot_click)
         page_scripts.run(self.client, page_scripts.label_inputs())  # each input named by its label
         threading.Thread(target=self.panel.read_link, daemon=True).start()
+
+    def _events_box(self) -> None:
+        self.state.events_shown = bool(self.plot_tabs.show_events.value)
+        self.scene.draw_events()
 
     @staticmethod
     def _legend_height_px(methods: tuple[str, ...]) -> int:

@@ -20,6 +20,7 @@ from app.dashboard.session_state import TabState, drawing
 from app.figures.map_figures import COLOUR_BY, MapTrack, cursor_traces, map_figure, map_tracks
 from app.figures.shared import placeholder_figure
 from tauvcore.engine.results import MethodResult
+from tauvcore.eval.events import run_events
 
 MAP_ASPECT = 1.1  # the map's height / width (viser), room for the legend below a square map
 MAP_NOTE = (
@@ -27,7 +28,8 @@ MAP_NOTE = (
     "(solid) and 3-sigma (dashed) horizontal position ellipses at the time cursor and, paler, every "
     "{every:g} s along the track. A consistent filter keeps the truth's cross inside its 3-sigma ellipse "
     "about 99 % of the time. Methods without a position state (VKF, INS-DVL) have no ellipse. "
-    "Click a track to go to that time."
+    "The run's events lie on the truth's track (the Plots tab's Events box). The view fits the truth and "
+    "the aided tracks; the autoscale button shows all. Click a track or an event to go to that time."
 )
 EVERY_CHOICES = ("10", "20", "50", "0")
 """The seconds between two ellipse pairs along a track the tab offers (0: none)."""
@@ -98,6 +100,8 @@ class MapRoom:
         self.truth = _truth(self.state)
         self.key = f"map {next(_KEYS)}"
         every = float(self.every_s.value)
+        config = self.state.config
+        events = run_events(results, config, run) if self.state.events_shown and config is not None else None
         figure = map_figure(
             self.tracks,
             *self.truth,
@@ -105,6 +109,7 @@ class MapRoom:
             colour_by=self.colour_by.value,
             every_s=every,
             key=self.key,
+            events=events,
         )
         meta: Any = figure.layout["meta"]  # plotly's stubs type an item as a figure
         self.first_cursor = int(meta["cursor"])

@@ -594,7 +594,10 @@ class PlotTabs:
         return with_events(figure, events)
 
     def _events_toggled(self) -> None:
-        """The Events box changed: every time plot again, with or without them."""
+        """The Events box changed: every time plot and the map again, with or without them (the
+        Session redraws the 3-D track's)."""
+        self.state.events_shown = bool(self.show_events.value)
+        self.map.redraw()
         self.refresh_plots()
         self.draw_vehicle_plot()
         self.draw_seabed_plot()

@@ -429,11 +429,12 @@ class SceneView:
         """The run's events on the truth's track (app.figures.event_traces.track_marks), in their
         kinds' colours: each span a thick stretch of the track, each instant (gate rejections,
         lock-out resets, divergence flags) a dot, with labels naming the outages, dropouts and
-        divergence flags and each other kind's count. Drawn again only when the events change."""
+        divergence flags and each other kind's count; none with the Events box off. Drawn again only
+        when the events change."""
         tv, config = self.state.truth_view, self.state.config
         if tv is None or config is None:
             return
-        events = run_events(self.state.results or {}, config)
+        events = run_events(self.state.results or {}, config) if self.state.events_shown else []
         if events == self.events_drawn:
             return
         for handle in self.event_marks:

@@ -39,6 +39,7 @@ class TabState:
     sensor_view: SensorView | None = None  # one run's raw measurements, as the worker sends them
     replaying: bool = False  # the current run replays a log (tauv serve --logs)
     cursor_t: float | None = None  # the plots' time cursor [s] (None: none drawn)
+    events_shown: bool = True  # the Events box: events on the time plots, the 3-D track and the map
     last_action_s: float = 0.0  # time.monotonic() of the user's latest action in this tab
     # the red notices still up (:func:`notify`): the next successful run removes them (:func:`clear_notices`)
     notices: list[viser.NotificationHandle] = dataclasses.field(default_factory=list)

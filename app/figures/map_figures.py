@@ -12,6 +12,12 @@ their track without ellipses.
 The cursor's traces (each method's 1- and 3-sigma ellipse and position, the truth's position) are
 the figure's last and are named in ``layout.meta`` (:data:`MAP_META`), so that the page moves them
 alone when the time slider moves (:func:`cursor_traces`, app.dashboard.session_map).
+
+A run's events (tauvcore.eval.events) lie on the truth's track as on the 3-D view's
+(app.figures.event_traces.track_marks): each span a broad translucent stretch of the track in its
+kind's colour, each instant a marker, with the event's own words on hover. The view opens on the
+truth and the aided tracks (:func:`fitted_range`): the free INS's track and the ellipses may reach
+beyond it (plotly's autoscale shows all).
 """
 
 from __future__ import annotations
@@ -23,8 +29,10 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
+from app.figures.event_traces import EVENT_COLORS, EVENT_SYMBOLS, track_marks
 from app.figures.shared import TRUTH_COLOR, hex_to_rgba, make_figure, method_color
 from tauvcore.engine.results import MethodResult
+from tauvcore.eval.events import EVENT_KINDS, Event
 
 COLOUR_BY = ("method", "error", "beam state")
 """What a track can be coloured by."""
@@ -203,6 +211,60 @@ def _along_track_trace(track: MapTrack, every_s: float) -> dict[str, Any]:
     }
 
 
+def map_event_traces(
+    events: list[Event], truth_t_s: np.ndarray, truth_ne_m: np.ndarray
+) -> list[dict[str, Any]]:
+    """``events`` on the truth's track (north-east, module docstring): a trace per span of the
+    mission's or the sensor's own (broad) or a method's (narrower), a trace of markers per kind of
+    instant whose points carry their time (a click goes there), one legend entry per kind."""
+    if not events or len(truth_t_s) < 2:
+        return []
+    pos_n = np.column_stack([truth_ne_m, np.zeros(len(truth_t_s))])
+    spans, instants, _ = track_marks(events, truth_t_s, pos_n)
+    data: list[dict[str, Any]] = []
+    legend: set[str] = set()
+
+    def entry(kind: str) -> dict[str, Any]:
+        shown = kind not in legend
+        legend.add(kind)
+        return {"name": EVENT_KINDS[kind], "legendgroup": f"event {kind}", "showlegend": shown}
+
+    for event, points in spans:
+        width = 10 if event.method is None else 6
+        data.append({"type": "scatter", "x": points[:, 1], "y": points[:, 0], "mode": "lines",
+                     "line": {"color": hex_to_rgba(EVENT_COLORS[event.kind], 0.35), "width": width},
+                     "hovertext": event.text, "hoverinfo": "text", **entry(event.kind)})  # fmt: skip
+    for kind, points in instants.items():
+        chosen = [e for e in events if e.instant and e.kind == kind]
+        data.append({"type": "scatter", "x": points[:, 1], "y": points[:, 0], "mode": "markers",
+                     "customdata": [e.start_s for e in chosen], "hovertext": [e.text for e in chosen],
+                     "hoverinfo": "text", "marker": {"color": EVENT_COLORS[kind], "size": 9,
+                     "symbol": EVENT_SYMBOLS[kind], "line": {"width": 1, "color": "white"}},
+                     **entry(kind)})  # fmt: skip
+    return data
+
+
+FIT_MARGIN = 0.08  # of the fitted view's extent, added on every side
+
+
+def fitted_range(
+    tracks: list[MapTrack], truth_ne_m: np.ndarray
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The east and north ranges [m] the map opens on: the truth and every aided track (every track
+    when the free INS is the only one), with :data:`FIT_MARGIN`; None: nothing to fit."""
+    aided = [t.ne_m for t in tracks if t.method != "ins"] or [t.ne_m for t in tracks]
+    points = [p for p in (truth_ne_m, *aided) if len(p)]
+    if not points:
+        return None
+    ne = np.concatenate(points)
+    ne = ne[np.isfinite(ne).all(axis=1)]
+    if not len(ne):
+        return None
+    lo, hi = ne.min(axis=0), ne.max(axis=0)
+    pad = FIT_MARGIN * max(float(np.max(hi - lo)), 1.0)
+    return (float(lo[1] - pad), float(hi[1] + pad)), (float(lo[0] - pad), float(hi[0] + pad))
+
+
 def _legend_only(name: str, color: str) -> dict[str, Any]:
     return {
         "type": "scatter",
@@ -277,6 +339,7 @@ def map_figure(
     every_s: float = ELLIPSE_EVERY_S,
     height_px: int = 520,
     key: str = "",
+    events: list[Event] | None = None,
     validate: bool = False,
 ) -> go.Figure:
     """The map (module docstring): east on x, north on y at one scale.
@@ -299,6 +362,8 @@ def map_figure(
     key : str
         Names the results drawn (``layout.meta["key"]``): the page moves the cursor traces only
         of the figure of the results it moves them for.
+    events : list[Event] or None
+        The run's events, drawn on the truth's track (:func:`map_event_traces`); None: none.
     validate : bool
         Whether plotly validates the figure (app.figures.shared.make_figure).
 
@@ -306,7 +371,8 @@ def map_figure(
     -------
     plotly.graph_objects.Figure
         The truth, each track, its ellipses along it, a legend entry per beam state when
-        coloured by it, and last the cursor's traces (``layout.meta["cursor"]``: the first's index).
+        coloured by it, the events, and last the cursor's traces (``layout.meta["cursor"]``: the
+        first's index).
     """
     if colour_by not in COLOUR_BY:
         raise ValueError(f"colour_by must be one of {', '.join(COLOUR_BY)}, got {colour_by!r}")
@@ -322,6 +388,7 @@ def map_figure(
         data.append(_along_track_trace(track, every_s))
     if colour_by == "beam state":
         data += [_legend_only(f"{n} beams" if n != 1 else "1 beam", c) for n, c in BEAM_STATE_COLORS.items()]
+    data += map_event_traces(list(events or ()), truth_t_s, truth_ne_m)
     first_cursor = len(data)
     for style, (x, y) in zip(_cursor_trace_styles(tracks), cursor_traces(tracks, truth_t_s, truth_ne_m, t)):
         data.append({**style, "x": x, "y": y})
@@ -336,6 +403,9 @@ def map_figure(
         "meta": {"tauv": MAP_META, "cursor": first_cursor, "key": key},
         "template": "plotly_white",
     }
+    fitted = fitted_range(tracks, truth_ne_m)
+    if fitted is not None:
+        layout["xaxis"]["range"], layout["yaxis"]["range"] = list(fitted[0]), list(fitted[1])
     return make_figure(data, layout, validate=validate)
 
 
@@ -350,7 +420,9 @@ __all__ = [
     "cursor_traces",
     "ellipse_ne",
     "epoch_at",
+    "fitted_range",
     "horizontal_error_m",
+    "map_event_traces",
     "map_figure",
     "map_tracks",
 ]

@@ -364,24 +364,10 @@ def test_a_scene_built_on_a_viser_server_draws_the_current_over_the_vehicle() ->
     """The tab's whole 3-D scene (app.dashboard.session_scene.SceneView) on a real viser scene: the arrow and
     its label made with the scene, hidden before a run and in still water, shown for a run in a
     current, over the vehicle at the slider's time."""
-    import socket
-
-    import viser
-
     from app.dashboard.truth_view import truth_view
-    from app.figures.scene import CAMERA_FREE
+    from tests.unit.helpers.scene_view import scene_view
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)
-    try:
-        client = types.SimpleNamespace(scene=server.scene, atomic=server.atomic,
-                                       camera=types.SimpleNamespace(fov=0.9, aspect=1.5))
-        state = types.SimpleNamespace(client=client, draw_lock=threading.RLock(), truth_view=None, config=None,
-                                      results=None, replaying=False)
-        view = SceneView(state, [types.SimpleNamespace(value=True)] * 4, types.SimpleNamespace(value=0.0),
-                         types.SimpleNamespace(value=CAMERA_FREE), types.SimpleNamespace(content=""))
+    with scene_view() as (view, state):
         assert not view.current_node.visible
         config = Config().replace("trajectory", duration_s=10.0, current_n_mps=(0.0, 0.5, 0.0))
         state.config, state.truth_view = config, truth_view(config, 15)
@@ -395,5 +381,3 @@ def test_a_scene_built_on_a_viser_server_draws_the_current_over_the_vehicle() ->
         state.config, state.truth_view = still, truth_view(still, 15)
         view.draw_truth()
         assert not view.current_node.visible
-    finally:
-        server.stop()

@@ -135,3 +135,49 @@ def test_colour_by_error_marks_the_horizontal_error_and_by_beams_the_beam_count(
     assert colors[0] == BEAM_STATE_COLORS[4] and colors[24] == BEAM_STATE_COLORS[2]  # 24 s: two beams out
     with pytest.raises(ValueError, match="colour_by"):
         map_figure(tracks, truth_t, truth_ne, t=0.0, colour_by="speed")
+
+
+def test_events_lie_on_the_truth_s_track_with_their_words_and_times() -> None:
+    """A scheduled outage (a span) is a broad stretch of the truth's track from its start to its
+    end; two gate rejections (instants) are markers at the truth's positions then, carrying their
+    times (a click goes there) and texts; each kind in the legend once; the cursor's traces last."""
+    from tauvcore.eval.events import EVENT_KINDS, Event
+
+    truth_t, truth_ne = _truth()
+    events = [
+        Event("outage", 10.0, 20.0, None, (3, 4), "scheduled DVL outage: beams 3,4 lost 10-20 s"),
+        Event("rejection", 5.0, 5.0, "lc", (), "LC: DVL update rejected by the gate at 5 s"),
+        Event("rejection", 30.0, 30.0, "lc", (), "LC: DVL update rejected by the gate at 30 s"),
+    ]
+    tracks = map_tracks({"lc": _result("lc")})
+    plain = map_figure(tracks, truth_t, truth_ne, t=0.0)
+    fig = map_figure(tracks, truth_t, truth_ne, t=0.0, events=events, validate=True)
+    before, after = int(plain.layout["meta"]["cursor"]), int(fig.layout["meta"]["cursor"])
+    marks: Any = fig.data[before:after]  # plotly's stubs type an item as a figure
+    assert [m["name"] for m in marks] == [EVENT_KINDS["outage"], EVENT_KINDS["rejection"]]
+    span, instants = marks
+    north = np.interp([10.0, 20.0], truth_t, truth_ne[:, 0])
+    east = np.interp([10.0, 20.0], truth_t, truth_ne[:, 1])
+    np.testing.assert_allclose(np.asarray(span["y"])[[0, -1]], north, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(span["x"])[[0, -1]], east, rtol=1e-12)
+    assert span["hovertext"] == events[0].text
+    np.testing.assert_array_equal(instants["customdata"], [5.0, 30.0])
+    assert list(instants["hovertext"]) == [events[1].text, events[2].text]
+    np.testing.assert_allclose(instants["y"], np.interp([5.0, 30.0], truth_t, truth_ne[:, 0]), rtol=1e-12)
+    # the cursor's traces stay last and are the same
+    assert fig.to_plotly_json()["data"][after:] == plain.to_plotly_json()["data"][before:]
+
+
+def test_the_view_fits_the_truth_and_the_aided_tracks_not_the_free_ins() -> None:
+    """INS drifts kilometres away: the view opens on the truth and LC (8 % margin); INS alone is fitted."""
+    truth_t, truth_ne = _truth()
+    lc, ins = _result("lc"), _result("ins")
+    ins.est_pos_n[:, :, :2] *= 100.0
+    fig = map_figure(map_tracks({"ins": ins, "lc": lc}), truth_t, truth_ne, t=0.0).to_plotly_json()
+    ne = np.concatenate([truth_ne, lc.est_pos_n[:, 0, :2]])
+    lo, hi = ne.min(axis=0), ne.max(axis=0)
+    pad = 0.08 * np.max(hi - lo)
+    np.testing.assert_allclose(fig["layout"]["xaxis"]["range"], [lo[1] - pad, hi[1] + pad], rtol=1e-12)
+    np.testing.assert_allclose(fig["layout"]["yaxis"]["range"], [lo[0] - pad, hi[0] + pad], rtol=1e-12)
+    alone = map_figure(map_tracks({"ins": ins}), truth_t, truth_ne, t=0.0).to_plotly_json()
+    assert alone["layout"]["xaxis"]["range"][1] > 50.0 * fig["layout"]["xaxis"]["range"][1]
