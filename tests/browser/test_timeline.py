@@ -15,7 +15,7 @@ import pytest
 from tests.browser.conftest import THROTTLE_FRAMES, Tab
 
 pytestmark = pytest.mark.browser
-WINDOW = {"width": 1600, "height": 1000}  # the cursor and range do not depend on the layout: one size
+WINDOW = {"width": 1600, "height": 1000}  # the last test shrinks the window to 1280x800
 SHOWN_PLOTS_JS = ("Array.from(document.querySelectorAll('.js-plotly-plot'))"
                   ".filter(p => p.data && p.data.length && p.offsetParent !== null)")
 CURSORS_JS = (f"{SHOWN_PLOTS_JS}.map(p => ((p.layout.shapes || [])"
@@ -168,3 +168,35 @@ def test_the_address_keeps_time_zoom_and_camera_for_a_new_tab(finished, browser,
         assert re.search(r"[?&]x=30:50(&|$)", urlparse(other.page.url).query or "") is not None
     finally:
         other.page.context.close()
+
+
+def test_at_1280x800_a_plot_click_moves_every_cursor_and_a_zoom_every_range(finished) -> None:
+    """Given the finished run in a window of 1280x800, when the user clicks the velocity plot a
+    third of the way along, then the slider moves to the clicked time and every plot of every tab
+    has its cursor there; a zoom set from one plot is every plot's range, and resetting it gives
+    each its whole time back."""
+    tab = finished
+    page = tab.page
+    page.set_viewport_size({"width": 1280, "height": 800})
+    page.evaluate("() => window.__tauv.setRange(null)")
+    page.get_by_role("tab", name="Plots", exact=True).click()
+    plot = page.locator(".js-plotly-plot").first
+    plot.scroll_into_view_if_needed()
+    page.wait_for_timeout(1500)
+    area = plot.locator(".nsewdrag").first.bounding_box()
+    page.mouse.click(area["x"] + area["width"] / 3, area["y"] + 0.5 * area["height"])
+    page.wait_for_function("+document.querySelector('[role=slider]').getAttribute('aria-valuenow') < 50",
+                           timeout=60000)
+    t_s = slider_s(tab)
+    assert 15.0 < t_s < 40.0, t_s
+    for name in TABS:
+        cursors = shown_cursors(tab, name)
+        assert cursors and all(c is not None and abs(c - t_s) < 0.06 for c in cursors), (name, t_s, cursors)
+    page.evaluate("() => window.__tauv.setRange([10, 20])")
+    for name in ("Sensors", "Plots"):
+        ranges = [r for plot_ranges in shown_ranges(tab, name) for r in plot_ranges]
+        assert ranges and all(abs(r[0] - 10) < 1e-6 and abs(r[1] - 20) < 1e-6 for r in ranges), (name, ranges)
+    page.evaluate("() => window.__tauv.setRange(null)")
+    for name in ("Components", "Plots"):
+        ranges = [r for plot_ranges in shown_ranges(tab, name) for r in plot_ranges]
+        assert ranges and all(r[1] - r[0] > 60.0 for r in ranges), (name, ranges)
