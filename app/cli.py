@@ -521,7 +521,7 @@ def _method_flags(p: argparse.ArgumentParser) -> None:
 
 def _smooth_flags(p: argparse.ArgumentParser) -> None:
     """The fixed-interval smoother's flags (``run``, ``replay`` and ``mc``)."""
-    from tauvcore.engine.smoothing import DEFAULT_BUDGET_MB
+    from tauvcore.engine.smooth_defaults import DEFAULT_BUDGET_MB
 
     p.add_argument(
         "--smooth",

@@ -31,7 +31,7 @@ from app.dashboard.controls import DEFAULT_SOURCE_FIELDS, PLUGIN_FIELDS
 from tauvcore.aiding.registry import REGISTRY
 from tauvcore.aiding.sources import FUSED
 from tauvcore.config import AUTO, RUN_METHODS, Config, from_dict, trajectory_preset
-from tauvcore.engine.smoothing import DEFAULT_BUDGET_MB
+from tauvcore.engine.smooth_defaults import DEFAULT_BUDGET_MB
 from tauvcore.sensors.dvl import DvlConfig, Outage
 from tauvcore.truth import TrajectoryConfig
 from tauvcore.validation import ConfigError, settings, show
@@ -153,7 +153,7 @@ SMOOTHER_MB_HINT = (
 )
 SMOOTHER_MB_DEFAULT = DEFAULT_BUDGET_MB
 """What Smoother memory [MB] holds on a new page: the command line's ``--smooth-memory-mb`` default,
-tauvcore.engine.smoothing.DEFAULT_BUDGET_MB itself."""
+tauvcore.engine.smooth_defaults.DEFAULT_BUDGET_MB itself."""
 SMOOTHER_MB_MAX = 4096.0
 """Most megabytes of the smoother's record a run may hold in memory (the run's budget bounds it too)."""
 RUNS_MAX = 1000

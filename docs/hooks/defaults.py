@@ -9,7 +9,7 @@ value goes; KEY is one of
   (``config:nsv_epsilon_value_m2_per_s2()``);
 - ``imu:profile``: the name of the IMU profile the default configuration holds
   (tauvcore.sensors.imu.IMU_PROFILES);
-- ``MODULE.NAME``: a constant of the code (``tauvcore.engine.smoothing.DEFAULT_BUDGET_MB``).
+- ``MODULE.NAME``: a constant of the code (``tauvcore.engine.smooth_defaults.DEFAULT_BUDGET_MB``).
 
 A KEY in capitals alone (``{{ default("KEY") }}``) is a placeholder, as a page explaining the
 macro writes it, and is left as it is. FORMAT is a format spec for a number (``.2f``), or ``MiB`` (bytes shown in mebibytes). Without

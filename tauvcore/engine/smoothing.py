@@ -28,15 +28,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from tauvcore.engine import loop
+from tauvcore.engine.smooth_defaults import DEFAULT_BUDGET_MB
 from tauvcore.engine.tape import SmoothingError, Tape, tape_bytes_per_epoch
 from tauvcore.filter.kernels.common import ATT, CORE, NAV, POS, VEL, N, jit
 from tauvcore.filter.kernels.nees import add_reference_into, nees_plan
 from tauvcore.filter.kernels.smoother import AidingMarks, CarriedMark, OutputMarks, smooth_backward
 from tauvcore.filter.layout import STATE
 from tauvcore.geo.rotations import C_nb_from_euler, euler_from_C_nb, exp_so3, mv
-
-DEFAULT_BUDGET_MB = 64.0
-"""Megabytes of tape the smoother holds in memory by default; the rest goes to a temporary file."""
 
 
 @dataclass(frozen=True)

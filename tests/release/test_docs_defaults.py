@@ -82,7 +82,7 @@ def test_the_pages_quote_defaults_through_the_hook() -> None:
     macros = [m for page in PAGES for m in hook.MACRO.findall(page.read_text(encoding="utf-8"))]
     keys = {key for key, _ in macros}
     assert {
-        "tauvcore.engine.smoothing.DEFAULT_BUDGET_MB",
+        "tauvcore.engine.smooth_defaults.DEFAULT_BUDGET_MB",
         "config:run.methods",
         "config:partial.vb_nf",
     } <= keys
@@ -95,13 +95,13 @@ def test_the_pages_quote_defaults_through_the_hook() -> None:
 def test_every_default_on_a_page_renders_to_the_code_s_value(page: Path) -> None:
     """Each macro names something in the code (an unknown key fails the build), and renders to it."""
     from tauvcore.config import Config
-    from tauvcore.engine.smoothing import DEFAULT_BUDGET_MB
+    from tauvcore.engine.smooth_defaults import DEFAULT_BUDGET_MB
 
     text = page.read_text(encoding="utf-8")
     rendered = hook.render(text)
     assert "{{ default(" not in rendered or page.name == "contributing.md"  # it explains the macro
     expected = {
-        "tauvcore.engine.smoothing.DEFAULT_BUDGET_MB": f"{DEFAULT_BUDGET_MB:g}",
+        "tauvcore.engine.smooth_defaults.DEFAULT_BUDGET_MB": f"{DEFAULT_BUDGET_MB:g}",
         "config:run.methods": ",".join(Config().run.methods),
         "config:partial.vb_nf": f"{Config().partial.vb_nf:g}",
         "config:filter.output_rate_hz": f"{Config().filter.output_rate_hz:g}",
@@ -126,7 +126,7 @@ def test_the_hook_refuses_a_key_that_names_nothing() -> None:
 
 
 def test_the_smoother_s_default_is_one_number_on_the_pages_the_cli_and_the_dashboard() -> None:
-    """``--smooth-memory-mb``'s default (tauvcore.engine.smoothing.DEFAULT_BUDGET_MB) is what
+    """``--smooth-memory-mb``'s default (tauvcore.engine.smooth_defaults.DEFAULT_BUDGET_MB) is what
     ``tauv run --help`` says, what a new dashboard page's Smoother memory holds, and what
     docs/cli.md, docs/studies.md, docs/smoother.md and docs/dashboard.md say once built."""
     from app.cli import build_parser

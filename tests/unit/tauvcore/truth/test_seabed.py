@@ -132,7 +132,7 @@ def test_bad_seabed_and_range_settings_name_the_field(section: str, key: str, va
 
 def _marched_numpy(bed: Bathymetry, head: np.ndarray, d: np.ndarray, max_range_m: float) -> np.ndarray:
     """The march and bisection written plainly in numpy over Bathymetry.depth_m (the reference the
-    compiled tauvcore.truth.seabed._march_into replaced)."""
+    compiled tauvcore.truth.seabed_kernels.march_into replaced)."""
     out = np.full(head.shape[0], np.inf)
     step = bed._step_m()
 
