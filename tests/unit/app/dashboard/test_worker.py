@@ -385,11 +385,13 @@ def test_a_replayed_log_s_truth_view_has_no_seabed() -> None:
 
 def test_stop_with_the_smoother_smooths_what_ran_however_long_it_takes(monkeypatch) -> None:
     """Stop during a smoothed run: the forward pass ends, the worker says it is smoothing and is let
-    finish (not killed after the Stop grace, here shortened below the smoothing's time), and the
-    stopped results carry the smoothed results of what ran."""
+    finish (not killed after the Stop grace, though the smoothing lasts longer), and the stopped
+    results carry the smoothed results of what ran. The grace is the server's 2 s: the forward pass
+    must heed Stop within it, which a loaded machine did not always do within 0.5 s (the worker
+    was then killed, and the test waited for a message that never came)."""
     import app.dashboard.worker as worker_module
 
-    monkeypatch.setattr(worker_module, "STOP_GRACE_S", 0.5)
+    monkeypatch.setattr(worker_module, "STOP_GRACE_S", 2.0)
     p = RunPool(workers=1)
     try:
         config = (Config().replace("trajectory", duration_s=3000.0)
@@ -397,7 +399,8 @@ def test_stop_with_the_smoother_smooths_what_ran_however_long_it_takes(monkeypat
         handle = p.start(to_dict(config), 12, smooth_mb=4.0)
         while _next(handle, timeout=120.0)[0] != "progress":
             pass
-        time.sleep(3.0)  # long enough a forward pass that its smoothing outlasts the grace
+        time.sleep(6.0)  # a forward pass whose smoothing outlasts the grace (about 7 s on a quiet machine)
+        stopped_at = time.monotonic()
         handle.stop()
         kinds = []
         while True:
@@ -406,6 +409,7 @@ def test_stop_with_the_smoother_smooths_what_ran_however_long_it_takes(monkeypat
             if msg[0] in ("done", "error"):
                 break
         assert msg[0] == "done" and "smoothing" in kinds, kinds
+        assert time.monotonic() - stopped_at > worker_module.STOP_GRACE_S   # it outlasted the grace
         results, stopped = msg[1], msg[2]
         lc = results["lc"]
         assert stopped and lc.t_s[-1] < 3000.0 and lc.smoothed is not None
