@@ -11,11 +11,22 @@ pays it. It runs a 12 s mission that takes every path of the engine: all eleven 
 aiding, four, two and three beams, two runs with random initial errors, streamed in two
 chunks, and the smoother's backward pass over the same mission (one method); then 2 s of the dynamic truth (the 6-DOF vehicle's compiled equations of motion and
 autopilot).
+
+On a terminal a progress bar (tqdm, on stderr) counts the kernels compiled, each weighted by its
+source lines (a kernel's compile time grows with its code), against every kernel of the modules
+the warm-up loads, and says the time left at that pace; a cached kernel is loaded, not counted,
+so a warm cache shows the bar full at once.
 """
 
 from __future__ import annotations
 
+import contextlib
+import inspect
+import shutil
+import sys
 import time
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
@@ -63,8 +74,70 @@ def warm_up() -> float:
     return time.perf_counter() - t0
 
 
+def kernel_weights() -> dict[int, int]:
+    """id -> source lines of every compiled kernel (numba dispatcher) of the tauvcore modules
+    loaded, after loading those the warm-up runs."""
+    import importlib
+
+    from numba.core.dispatcher import Dispatcher
+
+    for name in ("tauvcore.engine.mission", "tauvcore.engine.smoothing", "tauvcore.truth.dynamic",
+                 "tauvcore.truth.seabed_kernels"):  # fmt: skip
+        importlib.import_module(name)
+    weights: dict[int, int] = {}
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("tauvcore.") or module is None:
+            continue
+        for value in vars(module).values():
+            if isinstance(value, Dispatcher) and id(value) not in weights:
+                weights[id(value)] = _lines(value)
+    return weights
+
+
+def _lines(dispatcher: Any) -> int:
+    try:
+        return len(inspect.getsourcelines(dispatcher.py_func)[0])
+    except (OSError, TypeError):
+        return 1
+
+
+@contextlib.contextmanager
+def compile_progress(show: bool) -> Iterator[None]:
+    """A tqdm bar on stderr while numba compiles (module docstring); nothing when not ``show``."""
+    if not show:
+        yield
+        return
+    from numba.core import event
+    from tqdm import tqdm
+
+    weights = kernel_weights()
+    done: set[int] = set()
+    width = min(shutil.get_terminal_size().columns, 100)  # a terminal that says 0 columns: 80
+    bar = tqdm(total=sum(weights.values()), desc="tauv: compiling kernels", file=sys.stderr, ncols=width,
+               mininterval=0.5, smoothing=0.0, bar_format="{desc} {percentage:3.0f}%|{bar}| {elapsed} so far, about {remaining} left")  # fmt: skip
+
+    class Counter(event.Listener):
+        def on_start(self, ev: event.Event) -> None:
+            pass
+
+        def on_end(self, ev: event.Event) -> None:
+            key = id((ev.data or {}).get("dispatcher"))
+            if key in weights and key not in done:  # a kernel made inside a function: not counted
+                done.add(key)
+                bar.update(weights[key])
+
+    try:
+        with event.install_listener("numba:compile", Counter()):
+            yield
+        bar.update(max(bar.total - bar.n, 0))
+    finally:
+        bar.close()
+
+
 def main() -> None:
-    print(f"tauv: the filter bank's compiled kernels are ready ({warm_up():.1f} s)")
+    with compile_progress(sys.stderr.isatty()):
+        seconds = warm_up()
+    print(f"tauv: the filter bank's compiled kernels are ready ({seconds:.1f} s)")
 
 
 if __name__ == "__main__":
