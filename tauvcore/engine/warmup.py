@@ -102,12 +102,12 @@ def _lines(dispatcher: Any) -> int:
 
 
 @contextlib.contextmanager
-def compile_progress(show: bool) -> Iterator[None]:
-    """A tqdm bar on stderr while numba compiles (module docstring); nothing when not ``show``."""
+def compile_progress(show: bool) -> Iterator[Any]:
+    """A tqdm bar on stderr while numba compiles (module docstring), yielded; None when not ``show``."""
     if not show:
-        yield
+        yield None
         return
-    from numba.core import event
+    from numba.core import event as numba_event
     from tqdm import tqdm
 
     weights = kernel_weights()
@@ -116,19 +116,19 @@ def compile_progress(show: bool) -> Iterator[None]:
     bar = tqdm(total=sum(weights.values()), desc="tauv: compiling kernels", file=sys.stderr, ncols=width,
                mininterval=0.5, smoothing=0.0, bar_format="{desc} {percentage:3.0f}%|{bar}| {elapsed} so far, about {remaining} left")  # fmt: skip
 
-    class Counter(event.Listener):
-        def on_start(self, ev: event.Event) -> None:
+    class Counter(numba_event.Listener):
+        def on_start(self, event: numba_event.Event) -> None:
             pass
 
-        def on_end(self, ev: event.Event) -> None:
-            key = id((ev.data or {}).get("dispatcher"))
+        def on_end(self, event: numba_event.Event) -> None:
+            key = id((event.data or {}).get("dispatcher"))
             if key in weights and key not in done:  # a kernel made inside a function: not counted
                 done.add(key)
                 bar.update(weights[key])
 
     try:
-        with event.install_listener("numba:compile", Counter()):
-            yield
+        with numba_event.install_listener("numba:compile", Counter()):
+            yield bar
         bar.update(max(bar.total - bar.n, 0))
     finally:
         bar.close()
