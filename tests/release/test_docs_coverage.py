@@ -53,6 +53,8 @@ OTHER_PROGRAMS = {
     "--skip-study": "benchmarks/engine_table.py",
     "--skip-long": "benchmarks/engine_table.py",
     "--fragment": "benchmarks/akit_tuning.py",
+    "--no-study": "benchmarks/speed.py",
+    "--no-first-start": "benchmarks/speed.py",
 }
 """Flags of other programs the pages name (in backticks), and whose."""
 
