@@ -143,9 +143,14 @@ def test_a_click_on_a_plot_moves_the_playback_there(new_tab) -> None:
     thumb.press("Home")                                      # away, then the same point again
     page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 0",
                            timeout=10000)
+    # the same place clicked again moves the playback again; to about the same time, not always the
+    # same sample: the plot's autorange may have dropped the first figure's padding meanwhile
+    # (0-250.4 s, then 0-250 s on a quiet machine, which moves the place by 0.3 s)
     page.mouse.click(area["x"] + 0.75 * area["width"], area["y"] + 0.5 * area["height"])
-    page.wait_for_function(f"() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === {now}",
+    page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') > 0",
                            timeout=15000)
+    page.wait_for_timeout(500)
+    assert abs(slider(tab)["now"] - now) < 0.02 * (x_range[1] - x_range[0]), (slider(tab)["now"], now)
     tab.type_into("Go to [s]", "42")
     page.wait_for_function("() => +document.querySelector('[role=slider]').getAttribute('aria-valuenow') === 42",
                            timeout=15000)
