@@ -7,8 +7,10 @@ whole ``tauv mc`` process.
 The page is opened at an address that sets the mission (app.dashboard.links: ``traj``, ``m``, ``runs``), so
 every repeat presses Run on the same controls; the time to the first plot update is kept too.
 ``tauv mc --trajectory figure8 --runs 10 --method ins,lc,tc,nsv,elc --workers 1 --out DIR`` is
-timed as a whole command (report and files included), and the worker's own computation alone
-(app.dashboard.worker.run_worker in this process, after a warm-up). The last repeat records a Chrome
+timed as a whole command (report and files included), the worker's own computation alone
+(app.dashboard.worker.run_worker in this process, after a warm-up), and the workers' part as the
+server runs it: on one worker of its pool, and split across both (app.dashboard.split_run, which
+the dashboard uses when both workers are idle). The last repeat records a Chrome
 trace: the 3-D view's frames (WebGL in software, SwiftShader, on a machine without a GPU) and
 the time the page's main thread waited for them. Writes docs/results/mc_page.md
 (benchmarks/fragment.py), which docs/dashboard.md includes.
@@ -112,6 +114,33 @@ def worker_time(runs: int) -> float:
     return time.perf_counter() - t0
 
 
+def pool_times(runs: int, repeats: int = 3) -> tuple[list[float], list[float]]:
+    """The workers' part as the dashboard runs it, Run's submission to the final message [s]: on
+    one worker of the server's pool (app.dashboard.worker.RunPool), and split in two batches
+    across both (app.dashboard.split_run.SplitRun); a warm-up of each first."""
+    from app.dashboard.split_run import SplitRun
+    from app.dashboard.worker import RunPool
+    from tauvcore.config import Config, to_dict
+
+    config = to_dict(Config().replace("trajectory", name="figure8").replace("run", methods=METHODS))
+    pool = RunPool(workers=2)
+
+    def timed(start) -> float:
+        t0 = time.perf_counter()
+        handle = start()
+        while handle.queue.get(timeout=300.0)[0] not in ("done", "error"):
+            pass
+        return time.perf_counter() - t0
+
+    try:
+        one_worker = lambda: pool.start(config, runs)  # noqa: E731
+        both = lambda: SplitRun(pool, config, runs)  # noqa: E731
+        timed(one_worker), timed(both)  # warm-up: both workers' kernels loaded
+        return [timed(one_worker) for _ in range(repeats)], [timed(both) for _ in range(repeats)]
+    finally:
+        pool.shutdown()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
@@ -124,6 +153,7 @@ def main() -> None:
     cli = [cli_time(args.runs) for _ in range(3)]
     worker_time(args.runs)  # warm-up: imports, compiled kernels loaded
     alone = [worker_time(args.runs) for _ in range(3)]
+    one_worker, both = pool_times(args.runs)
     rows = [
         f"| {args.runs}-run Monte Carlo, five methods, figure eight (median of {args.repeats}) | seconds | min-max |",
         "|---|---|---|",
@@ -135,6 +165,10 @@ def main() -> None:
         f"| {min(cli):.2f}-{max(cli):.2f} |",
         f"| the worker's computation alone, in one process (median of 3) | {statistics.median(alone):.2f} "
         f"| {min(alone):.2f}-{max(alone):.2f} |",
+        f"| the workers' part on the server's pool, one worker, Run -> final results (median of 3) "
+        f"| {statistics.median(one_worker):.2f} | {min(one_worker):.2f}-{max(one_worker):.2f} |",
+        f"| the same on both workers, the runs in two batches (the dashboard's way; median of 3) "
+        f"| {statistics.median(both):.2f} | {min(both):.2f}-{max(both):.2f} |",
         f"| last repeat: the page's main thread waiting for the 3-D view's {len(webgl)} frames "
         f"(software WebGL; median {1e3 * statistics.median(webgl or [0.0]):.0f} ms, longest "
         f"{1e3 * max(webgl or [0.0]):.0f} ms) | {waited:.2f} | |",

@@ -47,6 +47,7 @@ from app.dashboard.session_scene import FOLLOW_DISTANCE_M, SceneView
 from app.dashboard.session_series import SeriesTab
 from app.dashboard.session_state import TabState, clear_notices, notify
 from app.dashboard.session_vehicle import VehiclePanel, applied
+from app.dashboard.split_run import SplitRun, splits
 from app.figures.scene import (
     BEAM_COLOR_NAMES,
     BEAM_COLORS,
@@ -84,7 +85,7 @@ class Session:
         self.state = TabState(client)
         self.draw_lock = self.state.draw_lock
         self.lock = threading.Lock()
-        self.handle: worker.RunHandle | None = None
+        self.handle: worker.RunHandle | SplitRun | None = None
         self.run_log: str | None = None  # the log the current run replays (its name), None: a simulation
         self.run_note = (
             ""  # what the status adds of a replay's settings (session_controls.replay_settings_note)
@@ -281,8 +282,10 @@ class Session:
             state.replaying = log_dir is not None
             self.run_log = source if log_dir is not None else None
             self.run_source = None  # the worker describes a replayed log with its configuration
-            self.handle = handle = self.pool.start(
-                to_dict(config), runs, log_dir=log_dir, smooth_mb=smooth_mb
+            self.handle = handle = (
+                SplitRun(self.pool, to_dict(config), runs, smooth_mb=smooth_mb)
+                if splits(config, runs, log_dir, self.pool)
+                else self.pool.start(to_dict(config), runs, log_dir=log_dir, smooth_mb=smooth_mb)
             )
         self.run_button.disabled, self.stop_button.disabled = True, False
         self.run_tabs.set_finished(None)
@@ -418,7 +421,7 @@ class Session:
         if handle is not None:
             handle.stop()
 
-    def _pump(self, handle: worker.RunHandle, config: Config) -> None:
+    def _pump(self, handle: worker.RunHandle | SplitRun, config: Config) -> None:
         """Read the worker's messages and update this tab (runs in a thread of this session).
 
         While every worker is busy the run waits in line, and the status says its place; a
@@ -501,7 +504,7 @@ class _RunPump:
         self.note: tuple[str, str, bool] | None = None  # the closing notification
         self.finished = False
 
-    def idle(self, handle: worker.RunHandle) -> None:
+    def idle(self, handle: worker.RunHandle | SplitRun) -> None:
         """No message came: the status names the run's place in line, a run whose worker ended
         without a last message is stopped, and live results held are drawn once due."""
         s, config = self.session, self.config

@@ -56,15 +56,17 @@ from typing import Any
 import numpy as np
 
 from app.dashboard import budget
+from app.dashboard.live_results import thin
 from app.dashboard.truth_view import decimation, log_truth_view, truth_view
 from app.figures.sensor_view import SensorViewBuilder
 from tauvcore.config import Config, from_dict, to_dict
 from tauvcore.engine.mission import Sinks, Watch, run, run_streaming
-from tauvcore.engine.results import SENSOR_FIELDS, STATE_FIELDS, MethodResult
+from tauvcore.engine.results import MethodResult
 from tauvcore.engine.simulation import SimChunk
 from tauvcore.engine.smoothing import SmoothOptions
 from tauvcore.engine.tape import SmoothingError
 from tauvcore.eval.envelope import EnvelopeReducer
+from tauvcore.eval.study import run_rng
 from tauvcore.validation import ConfigError
 
 # Preloaded with the worker: tauvcore imports scipy.special at a run's first chi-square quantile
@@ -99,44 +101,6 @@ def _throttled(check: Callable[[], bool], period_s: float) -> Callable[[], bool]
         return state["value"]
 
     return wrapped
-
-
-THINNED = ("est_vel_n", "est_euler_rad", "pos_cov_ne_m2")
-"""The per-epoch records that may be None (not recorded) which :func:`thin` thins with the series."""
-
-
-def thin(results: dict[str, MethodResult], max_epochs: int) -> dict[str, MethodResult]:
-    """Every n-th output epoch (and the last) of each series, so at most ~max_epochs remain."""
-    out = {}
-    for method, r in results.items():
-        n = len(r.t_s)
-        if n <= max_epochs:
-            out[method] = r
-            continue
-        step = int(np.ceil(n / max_epochs))
-        keep = np.r_[np.arange(0, n - 1, step), n - 1]
-        out[method] = dataclasses.replace(
-            r,
-            t_s=r.t_s[keep],
-            vel_err_mps=r.vel_err_mps[keep],
-            att_err_deg=r.att_err_deg[keep],
-            pos_err_m=r.pos_err_m[keep],
-            vel_sigma_mps=r.vel_sigma_mps[keep],
-            att_sigma_deg=r.att_sigma_deg[keep],
-            pos_sigma_m=r.pos_sigma_m[keep],
-            nees=r.nees[keep],
-            est_pos_n=r.est_pos_n[keep],
-            tilt_err_deg=r.tilt_err_deg[keep],
-            heading_err_deg=r.heading_err_deg[keep],
-            tilt_sigma_deg=r.tilt_sigma_deg[keep],
-            heading_sigma_deg=r.heading_sigma_deg[keep],
-            nees_block=r.nees_block[keep],
-            **{
-                n: None if (a := getattr(r, n)) is None else a[keep]
-                for n in (*THINNED, *SENSOR_FIELDS, *STATE_FIELDS)
-            },
-        )
-    return out
 
 
 def replay_source(
@@ -186,6 +150,7 @@ def run_worker(
     progress_interval_s: float = 2.0,
     log_dir: str | None = None,
     smooth_mb: float | None = None,
+    batch: tuple[int, int] | None = None,
 ) -> None:
     """Simulate (or, with ``log_dir``, replay that log: tauvcore.eval.replay), run all methods,
     with their sensor errors recorded where the run fits the memory budget with them
@@ -198,12 +163,37 @@ def run_worker(
     tauvcore.eval.envelope.EnvelopeReducer) and sends those. With ``smooth_mb`` (megabytes of
     the smoother's tape held in memory: tauvcore.engine.smoothing.SmoothOptions) the smoother runs
     after the forward pass and the final results carry the smoothed ones
-    (``MethodResult.smoothed``), a run in bins its smoothed bins (:func:`with_smoothed_bins`)."""
+    (``MethodResult.smoothed``), a run in bins its smoothed bins (:func:`with_smoothed_bins`).
+
+    A Monte Carlo (``num_runs`` > 1) draws run i from its own generator, the study's
+    (tauvcore.eval.study.run_rng: ``tauv mc`` with the same seed gives the same numbers), so
+    that it may be computed in batches: ``batch`` (first, count) computes runs first ..
+    first + count - 1 of the ``num_runs`` alone (app.dashboard.split_run joins the batches). A
+    batch after the first sends its final results only: the truth, the Sensors tab (run 1's)
+    and the live results are the first batch's."""
     try:
         config = from_dict(config_dict)
+        first, count = (0, num_runs) if batch is None else batch
+        lead = first == 0
+        rng = np.random.default_rng(config.run.seed)
         if num_runs > 1:
             config = config.replace("initial_error", mode="random")
-        rng = np.random.default_rng(config.run.seed)
+        try:
+            limit_bytes = budget.budget_bytes()
+        except ValueError:  # refused by the server before the run started; not reached
+            limit_bytes = budget.DEFAULT_BUDGET_BYTES
+        should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
+        options: dict[str, Any] = {  # what the engine takes however the run goes
+            "sensor_errors": budget.records_sensor_errors(config, num_runs, limit_bytes, smooth_mb),
+            "smooth": None
+            if smooth_mb is None
+            else SmoothOptions(budget_mb=float(smooth_mb), on_start=lambda: queue.put(("smoothing",))),
+        }
+        rngs = [run_rng(config.run.seed, i) for i in range(first, first + count)]
+        if not lead:  # a later batch of a Monte Carlo (app.dashboard.split_run): its final results only
+            results = run_streaming(config, rngs, count, watch=Watch(should_stop=should_stop), **options)
+            queue.put(("done", results, stop_event.is_set()))
+            return
         sim = log = None
         if log_dir is not None:
             config, sim, source, log = replay_source(config, log_dir, rng)
@@ -220,18 +210,7 @@ def run_worker(
         # the IMU rows of the Sensors tab: a long mission's thinned as they come, not at the end
         sensors = SensorViewBuilder(step * per_bin, config.dvl.beam_mask, compact=per_bin > 1)
         live = _Live(queue, sensors, with_sensors=sim is None)  # a log's view is sent once, whole
-        try:
-            limit_bytes = budget.budget_bytes()
-        except ValueError:  # refused by the server before the run started; not reached
-            limit_bytes = budget.DEFAULT_BUDGET_BYTES
-        should_stop = _throttled(stop_event.is_set, STOP_POLL_S)
         watch = Watch(live.progress, progress_interval_s, PROGRESS_MIN_WALL_S, should_stop)
-        options: dict[str, Any] = {  # what the engine takes however the run goes
-            "sensor_errors": budget.records_sensor_errors(config, num_runs, limit_bytes, smooth_mb),
-            "smooth": None
-            if smooth_mb is None
-            else SmoothOptions(budget_mb=float(smooth_mb), on_start=lambda: queue.put(("smoothing",))),
-        }
         if sim is not None:  # a replay: its view sent whole, its results judged against its reference
             from tauvcore.eval.judging import judged
 
@@ -240,12 +219,13 @@ def run_worker(
             results = run(config, sim, rng, watch, **options)
             results = judged(log, results, config.filter.output_rate_hz)  # the smoothed results too
         elif per_bin > 1:
-            results = _simulate_in_bins(config, rng, num_runs, live, options, Watch(should_stop=should_stop))
+            runs = rngs if num_runs > 1 else rng
+            results = _simulate_in_bins(config, runs, count, live, options, Watch(should_stop=should_stop))
         else:
             results = run_streaming(
                 config,
-                rng,
-                num_runs,
+                rngs if num_runs > 1 else rng,
+                count,
                 watch=watch,
                 sinks=Sinks(on_sim_chunk=sensors.add),
                 **options,  # the smoother's results kept: each method's results carry their smoothed ones
@@ -282,7 +262,7 @@ class _Live:
 
 def _simulate_in_bins(
     config: Config,
-    rng: np.random.Generator,
+    rng: np.random.Generator | list[np.random.Generator],
     num_runs: int,
     live: _Live,
     options: dict[str, Any],
@@ -411,7 +391,7 @@ def _worker_main(conn: mp_connection.Connection) -> None:
         while True:
             message = conn.recv()
             if message[0] == "run":
-                _, config_dict, num_runs, progress_interval_s, log_dir, smooth_mb = message
+                _, config_dict, num_runs, progress_interval_s, log_dir, smooth_mb, batch = message
                 run_worker(
                     config_dict,
                     num_runs,
@@ -420,6 +400,7 @@ def _worker_main(conn: mp_connection.Connection) -> None:
                     progress_interval_s,
                     log_dir,
                     smooth_mb,
+                    batch,
                 )
                 conn.send(("end",))
             elif message[0] == "vehicle":  # Calibrate or Tune on a log (app.dashboard.vehicle_tasks)
@@ -441,8 +422,8 @@ def _worker_main(conn: mp_connection.Connection) -> None:
 class RunHandle:
     """One submitted run: its message queue (``queue.Queue`` of the tuples above), Stop, state."""
 
-    def __init__(self, pool: RunPool, task: tuple) -> None:
-        self.queue: queue_mod.Queue = queue_mod.Queue()
+    def __init__(self, pool: RunPool, task: tuple, messages: Any = None) -> None:
+        self.queue: Any = queue_mod.Queue() if messages is None else messages  # anything with put
         self._pool = pool
         self._task = task
         self._done = threading.Event()
@@ -538,18 +519,23 @@ class RunPool:
         progress_interval_s: float = 2.0,
         log_dir: str | None = None,
         smooth_mb: float | None = None,
+        batch: tuple[int, int] | None = None,
+        messages: Any = None,
     ) -> RunHandle:
         """Queue a run (a replay of ``log_dir`` if given; with ``smooth_mb``, the smoother after it,
-        its tape's memory in MB); it computes as soon as a worker is free."""
-        return self._submit(("run", config_dict, num_runs, progress_interval_s, log_dir, smooth_mb))
+        its tape's memory in MB; with ``batch`` (first, count), those runs of the ``num_runs`` only:
+        :func:`run_worker`); it computes as soon as a worker is free. Its messages go to its own
+        queue (:attr:`RunHandle.queue`), or to ``messages`` (anything with ``put``) if given."""
+        task = ("run", config_dict, num_runs, progress_interval_s, log_dir, smooth_mb, batch)
+        return self._submit(task, messages)
 
     def start_vehicle(self, kind: str, config_dict: dict[str, Any], log_dir: str) -> RunHandle:
         """Queue a calibration or a tuning (``kind``, app.dashboard.vehicle_tasks.TASKS) on the log
         ``log_dir`` under ``config_dict``; its messages are app.dashboard.vehicle_tasks's, its Stop a run's."""
         return self._submit(("vehicle", kind, config_dict, log_dir))
 
-    def _submit(self, task: tuple) -> RunHandle:
-        handle = RunHandle(self, task)
+    def _submit(self, task: tuple, messages: Any = None) -> RunHandle:
+        handle = RunHandle(self, task, messages)
         with self._lock:
             if self._closed or self._broken is not None:
                 handle.queue.put(("error", self._broken or "the server is shutting down"))
@@ -568,6 +554,12 @@ class RunPool:
         """Process ids of the workers computing a run now."""
         with self._lock:
             return [w.process.pid for w in self._workers if w.handle is not None]
+
+    def idle_workers(self) -> int:
+        """Workers ready and computing nothing, less the runs waiting for one."""
+        with self._lock:
+            idle = sum(w.ready and w.handle is None for w in self._workers)
+            return max(0, idle - len(self._pending))
 
     def shutdown(self) -> None:
         """Kill every worker at once (a run in progress is abandoned, not awaited) and reap them."""

@@ -39,6 +39,7 @@ from tauvcore.eval.envelope import (
     nees_curve,
     run_curve,
 )
+from tauvcore.eval.study import run_rng
 from tests.unit.app.dashboard.test_session_inputs import DEFAULTS
 
 METHODS = ("ins", "lc", "tc", "vkf")
@@ -166,7 +167,8 @@ def test_a_long_run_s_smoothed_bins_hold_numpy_s_extremes(monkeypatch: pytest.Mo
     binned = _done(config, runs)
     full = run_streaming(
         config.replace("initial_error", mode="random") if runs > 1 else config,
-        np.random.default_rng(config.run.seed),
+        # a Monte Carlo's runs each from the study's generator (app.dashboard.worker.run_worker)
+        [run_rng(config.run.seed, i) for i in range(runs)] if runs > 1 else np.random.default_rng(config.run.seed),
         runs,
         sensor_errors=budget.records_sensor_errors(config, runs, budget.DEFAULT_BUDGET_BYTES, 256.0),
         smooth=SmoothOptions(),
