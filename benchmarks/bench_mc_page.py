@@ -4,7 +4,9 @@ whole ``tauv mc`` process.
 
     python benchmarks/bench_mc_page.py [--repeats 5] [--runs 10]
 
-The page is opened at an address that sets the mission (app.dashboard.links: ``traj``, ``m``, ``runs``), so
+The page is timed on the server as it starts (two workers: the Monte Carlo split across both,
+app.dashboard.split_run) and on ``tauv serve --workers 1`` (one worker: no split). The page is
+opened at an address that sets the mission (app.dashboard.links: ``traj``, ``m``, ``runs``), so
 every repeat presses Run on the same controls; the time to the first plot update is kept too.
 ``tauv mc --trajectory figure8 --runs 10 --method ins,lc,tc,nsv,elc --workers 1 --out DIR`` is
 timed as a whole command (report and files included), the worker's own computation alone
@@ -146,10 +148,12 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--runs", type=int, default=10)
     args = parser.parse_args()
+    query = f"/?traj=figure8&m={','.join(METHODS)}&runs={args.runs}"
     with dashboard_server(timeout_s=120.0) as base, tempfile.TemporaryDirectory() as tmp:
-        url = f"{base}/?traj=figure8&m={','.join(METHODS)}&runs={args.runs}"
-        first_plot, complete = page_times(url, args.repeats, Path(tmp) / "trace.json")
+        first_plot, complete = page_times(base + query, args.repeats, Path(tmp) / "trace.json")
         webgl, waited = frames(Path(tmp) / "trace.json")
+    with dashboard_server(timeout_s=120.0, extra=("--workers", "1")) as base, tempfile.TemporaryDirectory() as tmp:
+        first_one, complete_one = page_times(base + query, args.repeats, Path(tmp) / "trace.json")
     cli = [cli_time(args.runs) for _ in range(3)]
     worker_time(args.runs)  # warm-up: imports, compiled kernels loaded
     alone = [worker_time(args.runs) for _ in range(3)]
@@ -161,6 +165,10 @@ def main() -> None:
         f"| {min(first_plot):.2f}-{max(first_plot):.2f} |",
         f"| dashboard: Run -> \"Run complete\" | {statistics.median(complete):.2f} "
         f"| {min(complete):.2f}-{max(complete):.2f} |",
+        f"| the same with `tauv serve --workers 1` (the runs on one worker): Run -> first plot update "
+        f"| {statistics.median(first_one):.2f} | {min(first_one):.2f}-{max(first_one):.2f} |",
+        f"| the same with `tauv serve --workers 1`: Run -> \"Run complete\" | {statistics.median(complete_one):.2f} "
+        f"| {min(complete_one):.2f}-{max(complete_one):.2f} |",
         f"| `tauv mc --workers 1`, the whole command (median of 3) | {statistics.median(cli):.2f} "
         f"| {min(cli):.2f}-{max(cli):.2f} |",
         f"| the worker's computation alone, in one process (median of 3) | {statistics.median(alone):.2f} "
