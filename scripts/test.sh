@@ -25,6 +25,6 @@ fi
 # module's tests stay on one worker, so a module's fixture is computed once), then those, which
 # time a page against a real clock, alone on a quiet machine.
 status=0
-.venv/bin/python -m pytest -n 2 --dist loadscope -m "not browser and not container" || status=$?
-.venv/bin/python -m pytest -m "browser or container" || status=$?
+.venv/bin/python -m pytest -n 2 --dist loadscope -m "not browser and not container" --durations=25 || status=$?
+.venv/bin/python -m pytest -m "browser or container" --durations=25 || status=$?
 exit "$status"
