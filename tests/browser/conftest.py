@@ -122,18 +122,20 @@ class Tab:
 
     def open_folder(self, label: str, reveals: str | None = None) -> None:
         """Expand the GUI folder titled ``label``. The title is scrolled into view and clicked
-        without waiting for the panel to hold still: under software WebGL on a loaded machine the
-        panel's layout can keep moving for longer than the click's actionability wait (a CI run
-        timed out after 30 s), and a folder title does not move on its own. With ``reveals`` (the
-        label of a field inside), the folder is clicked again, twice at most, until that field
-        shows: a folder that appeared a moment before (its source just ticked) may still be
-        moving when the first click lands."""
+        by the element's own click (``el.click()`` in the page), without waiting for the panel to
+        hold still: under software WebGL on a loaded machine the panel's layout can keep moving
+        for longer than a mouse click's actionability wait (a CI run timed out after 30 s), and a
+        mouse click at where the title was drawn can land on the checkbox that moved there (the
+        magnetometer's was ticked so, and the run aided with it). With ``reveals`` (the label of
+        a field inside), the folder is clicked again, twice at most, until that field shows: a
+        folder that appeared a moment before (its source just ticked) may not be ready for the
+        first click."""
         from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 
         for attempt in range(3):
             title = self.page.get_by_text(label, exact=False).first
             title.scroll_into_view_if_needed(timeout=15000)
-            title.click(force=True, timeout=15000)
+            title.evaluate("el => el.click()")
             self.page.wait_for_timeout(300)
             if reveals is None:
                 return

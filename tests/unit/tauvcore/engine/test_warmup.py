@@ -31,9 +31,9 @@ def test_the_warm_up_compiles_every_kernel_the_engine_calls() -> None:
 
 
 def test_the_progress_counts_each_kernel_compiled_once_by_its_lines(monkeypatch, capsys) -> None:
-    """The bar's total is every kernel's source lines; a kernel compiled (a numba:compile event)
-    adds its lines once, whatever its signatures; a kernel made elsewhere adds none; the bar
-    ends full. Off the terminal (``show`` False) there is no bar."""
+    """The bar's total is every kernel's source lines; a kernel compiled (a numba:compile event,
+    or a helper's line naming it) adds its lines once, whatever its signatures; a kernel made
+    elsewhere adds none; the bar ends full. Off the terminal (``show`` False) there is no bar."""
     import numba
 
     def twice(x):
@@ -42,16 +42,49 @@ def test_the_progress_counts_each_kernel_compiled_once_by_its_lines(monkeypatch,
     def other(x):
         return x + 1
 
-    assert len(warmup.kernel_weights()) > 100   # the tauvcore modules' kernels, found
+    weights = warmup.kernel_weights()
+    assert len(weights) > 100 and "tauvcore.engine.loop.run_stops" in weights  # the modules' kernels, by name
     counted, stranger = numba.njit(twice), numba.njit(other)   # no cache: compiled here
-    monkeypatch.setattr(warmup, "kernel_weights", lambda: {id(counted): 7, id(stranger) + 1: 5})
-    with warmup.compile_progress(True) as bar:
-        assert bar.total == 12 and bar.n == 0
+    key = warmup.kernel_key(counted)
+    monkeypatch.setattr(warmup, "kernel_weights", lambda: {key: 7, "helper.kernel": 3, "never.compiled": 5})
+    with warmup.compile_progress(True) as progress:
+        assert progress is not None and progress.bar.total == 15 and progress.bar.n == 0
         counted(1)
         counted(1.5)   # a second signature: compiled again, not counted again
         stranger(1)
-        assert bar.n == 7
-    assert bar.n == 12
+        assert progress.bar.n == 7
+        progress.mark("helper.kernel")   # the helper process's line
+        progress.mark("helper.kernel")
+        progress.mark("a.stranger")
+        assert progress.bar.n == 10
+    assert progress.bar.n == 15
     assert "tauv: compiling kernels" in capsys.readouterr().err
     with warmup.compile_progress(False) as nothing:
         assert nothing is None
+
+
+def test_the_helper_reports_each_kernel_it_compiles_on_stdout(monkeypatch, capsys) -> None:
+    """``--part others`` runs that half of the mission and prints one line per kernel compiled."""
+    import numba
+
+    def thrice(x):
+        return 3 * x
+
+    kernel = numba.njit(thrice)
+    ran = []
+    monkeypatch.setattr(warmup, "warm_up", lambda part=None: ran.append(part) or kernel(1) or 0.0)
+    warmup.main(["--part", "others"])
+    assert ran == ["others"]
+    assert capsys.readouterr().out.splitlines() == [warmup.COMPILED + warmup.kernel_key(kernel)]
+
+
+def test_the_halves_together_take_every_method_once() -> None:
+    import pytest
+
+    from tauvcore.config import ALL_METHODS
+
+    eskf, others = warmup.part_methods("eskf"), warmup.part_methods("others")
+    assert sorted(eskf + others) == sorted(ALL_METHODS) and not set(eskf) & set(others)
+    assert "lc" in eskf and {"vkf", "ukf"} <= set(others) and warmup.part_methods(None) == ALL_METHODS
+    with pytest.raises(ValueError, match="part must be one of"):
+        warmup.part_methods("half")
