@@ -31,6 +31,7 @@ from typing import Any, NoReturn
 from app.commands.calibrate import cmd_calibrate
 from app.commands.log import cmd_log_convert, cmd_log_info
 from app.commands.mc import MAX_STUDY_RUNS, StudyFailedError, cmd_mc, cmd_reproduce
+from app.commands.names import COMMANDS, DESCRIPTION, PROG
 from app.commands.replay_log import cmd_replay
 from app.commands.run import cmd_run
 from app.commands.serve import cmd_serve
@@ -145,7 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
     argparse.ArgumentParser
         The parser; ``parse_args`` puts the command to call in ``args.func``.
     """
-    parser = _Parser(prog="tauv", description="Underwater INS/DVL navigation lab (Tal, Klein & Katz 2017).")
+    parser = _Parser(prog=PROG, description=DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _run_parser(sub)
     _replay_parser(sub)
@@ -161,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run_parser(sub: Any) -> None:
     """``tauv run``: a simulated mission and the fusion methods side by side (app.commands.run)."""
-    r = sub.add_parser("run", help="simulate a mission and run fusion methods side by side")
+    r = sub.add_parser("run", help=COMMANDS["run"])
     _mission_flags(r)
     r.add_argument(
         "--ideal", action="store_true", help="zero every sensor and initial error (verification mode)"
@@ -199,10 +200,7 @@ def _mcap_flag(parser: Any) -> None:
 
 def _replay_parser(sub: Any) -> None:
     """``tauv replay``: the fusion methods on a recorded log or bag (app.commands.replay_log)."""
-    rl = sub.add_parser(
-        "replay",
-        help="run the fusion methods on a recorded log (a directory of sensor tables, a ROS bag or an MCAP file)",
-    )
+    rl = sub.add_parser("replay", help=COMMANDS["replay"])
     rl.add_argument(
         "log",
         type=_path,
@@ -250,11 +248,7 @@ def _replay_parser(sub: Any) -> None:
 
 def _calibrate_parser(sub: Any) -> None:
     """``tauv calibrate``: the DVL's mounting and the boresight from logs (app.commands.calibrate)."""
-    ca = sub.add_parser(
-        "calibrate",
-        help="estimate the DVL's mounting misalignment and scale factor and the IMU-to-reference boresight "
-        "from logs with a reference, and write them as a [calibration] section",
-    )
+    ca = sub.add_parser("calibrate", help=COMMANDS["calibrate"])
     ca.add_argument(
         "logs",
         type=_path,
@@ -289,9 +283,7 @@ def _calibrate_parser(sub: Any) -> None:
 
 def _mc_parser(sub: Any) -> None:
     """``tauv mc``: a seeded Monte Carlo study (app.commands.mc)."""
-    mc = sub.add_parser(
-        "mc", help="Monte Carlo study: N seeded runs, summary.json, runs.parquet and report.html"
-    )
+    mc = sub.add_parser("mc", help=COMMANDS["mc"])
     _mission_flags(mc)
     mc.add_argument("--runs", required=True, help=f"number of Monte Carlo runs, 1 to {MAX_STUDY_RUNS}")
     mc.add_argument(
@@ -315,11 +307,7 @@ def _mc_parser(sub: Any) -> None:
 
 def _reproduce_parser(sub: Any) -> None:
     """``tauv reproduce``: the first paper's study beside its figures (app.commands.mc)."""
-    rp = sub.add_parser(
-        "reproduce",
-        help="the first paper's study: 3 trajectories, beams 3 and 4 lost, 100 runs, "
-        "with every figure of its section 4.2 beside ours",
-    )
+    rp = sub.add_parser("reproduce", help=COMMANDS["reproduce"])
     rp.add_argument("--out", type=_path, required=True, help="output directory (as for mc)")
     _replace_flag(rp, "tauv reproduce")
     rp.add_argument("--runs", help="Monte Carlo runs per trajectory (default 100, the paper's study)")
@@ -332,7 +320,7 @@ def _reproduce_parser(sub: Any) -> None:
 
 def _serve_parser(sub: Any) -> None:
     """``tauv serve``: the browser dashboard (app.commands.serve)."""
-    sv = sub.add_parser("serve", help="start the browser dashboard")
+    sv = sub.add_parser("serve", help=COMMANDS["serve"])
     sv.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; 0.0.0.0 in Docker)"
     )
@@ -353,7 +341,7 @@ def _serve_parser(sub: Any) -> None:
 
 def _log_parser(sub: Any) -> None:
     """``tauv log info`` and ``tauv log convert``: what a bag holds, a bag as a log (app.commands.log)."""
-    lg = sub.add_parser("log", help="what a ROS bag holds, and a bag written as a log")
+    lg = sub.add_parser("log", help=COMMANDS["log"])
     lg_sub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
     li = lg_sub.add_parser(
         "info", help="a bag's topics, types, message counts, rates, time spans and the table each feeds"
@@ -379,7 +367,7 @@ def _log_parser(sub: Any) -> None:
 
 def _config_parser(sub: Any) -> None:
     """``tauv config``: the full configuration as TOML (:func:`cmd_config`)."""
-    c = sub.add_parser("config", help="print the full configuration as TOML")
+    c = sub.add_parser("config", help=COMMANDS["config"])
     c.add_argument("--config", type=_path, help="TOML file to merge over the defaults before printing")
     _imu_flag(c)
     _earth_flag(c)
@@ -390,10 +378,7 @@ def _tune_parser(sub: Any) -> None:
     """``tauv tune``: the filter's noise parameters from recorded logs (app.commands.tune)."""
     from tauvcore.eval.tuning import DEFAULT_PARAMETERS, MAX_EVALUATIONS, OPTIMIZERS, PARAMETERS
 
-    tn = sub.add_parser(
-        "tune",
-        help="find the filter's noise parameters from recorded logs (maximum likelihood of the innovations)",
-    )
+    tn = sub.add_parser("tune", help=COMMANDS["tune"])
     tn.add_argument(
         "logs", nargs="+", type=_path, metavar="LOG", help="log directories (as tauv replay reads them)"
     )

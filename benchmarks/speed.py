@@ -37,7 +37,7 @@ from pathlib import Path
 import fragment
 
 REPO = Path(__file__).resolve().parents[1]
-TAUV = [sys.executable, "-m", "app.cli"]
+TAUV = [sys.executable, "-m", "app.entry"]  # the tauv console script's module
 BASELINE = [sys.executable, "-c", "import numpy"]
 
 

@@ -32,6 +32,7 @@ OTHER_PROGRAMS = {
     "--strict": "mkdocs build",
     "--dist": "pytest-xdist",
     "--durations": "pytest",
+    "--part": "python -m tauvcore.engine.warmup",
     "--junit": "benchmarks/suite_time.py",
     "--wall": "benchmarks/suite_time.py",
     "--format": "podman build, docker inspect",
