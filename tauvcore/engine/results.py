@@ -7,7 +7,7 @@ does not load the compiled engine."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import NamedTuple
 
 import numpy as np
@@ -129,6 +129,16 @@ class UpdateRecord:
     #                                  where nis is NaN): the innovations' log-likelihood is
     #                                  -(nis + log_det_s + nis_dof log 2 pi) / 2 (tauvcore.eval.tuning);
     #                                  None: not recorded (Yoo 2014's bank)
+
+    def until(self, t_end_s: float) -> UpdateRecord:
+        """The updates up to ``t_end_s`` [s] (inclusive): every array cut after the last of them."""
+        count = int(np.searchsorted(self.t_s, t_end_s, side="right"))
+        return UpdateRecord(
+            **{
+                f.name: v[:count] if isinstance(v := getattr(self, f.name), np.ndarray) else v
+                for f in fields(self)
+            }
+        )
 
 
 @dataclass(frozen=True)

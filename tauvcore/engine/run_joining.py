@@ -155,7 +155,7 @@ def _until(r: MethodResult, num_epochs: int) -> MethodResult:
     for f in dataclasses.fields(MethodResult):
         value = getattr(r, f.name)
         if f.name == "updates":
-            out[f.name] = {k: _record_until(rec, t_end_s) for k, rec in value.items()}
+            out[f.name] = {k: rec.until(t_end_s) for k, rec in value.items()}
         elif f.name == "vkf_trace":
             out[f.name] = None if value is None else _trace_until(value, t_end_s)
         elif f.name == "smoothed":
@@ -169,16 +169,6 @@ def _until(r: MethodResult, num_epochs: int) -> MethodResult:
         else:
             out[f.name] = value
     return MethodResult(**out)
-
-
-def _record_until(record: UpdateRecord, t_end_s: float) -> UpdateRecord:
-    count = int(np.searchsorted(record.t_s, t_end_s, side="right"))
-    return UpdateRecord(
-        **{
-            f.name: v[:count] if isinstance(v := getattr(record, f.name), np.ndarray) else v
-            for f in dataclasses.fields(UpdateRecord)
-        }
-    )
 
 
 def _trace_until(trace: dict[str, np.ndarray], t_end_s: float) -> dict[str, np.ndarray]:

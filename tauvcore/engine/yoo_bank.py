@@ -44,7 +44,6 @@ dimensions are the filter's own (:data:`BLOCK_DIMS`: 12 in all, 6 sensor states)
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Iterator
 from functools import partial
 
@@ -469,7 +468,7 @@ class YooBank(ChunkDriver):
             for name, rec in self.recorders.items():
                 record = rec.build(m, first_update.get(name, 0)) if rec.count else None
                 if record is not None:
-                    updates[name] = record if self._until_s is None else _until(record, self._until_s)
+                    updates[name] = record if self._until_s is None else record.until(self._until_s)
             nonfinite = _nonfinite(cat, m)  # (T, R)
             first_bad = (
                 np.array([t_s[np.argmax(col)] if col.any() else np.nan for col in nonfinite.T])
@@ -558,10 +557,3 @@ def _nonfinite(cat: Store, m: int) -> np.ndarray:
     for key in ("est_pos_n", "est_vel_n", "est_euler"):
         finite &= np.isfinite(cat[key][:, m]).all(axis=-1)
     return ~finite
-
-
-def _until(record: UpdateRecord, until_s: float) -> UpdateRecord:
-    """The updates of ``record`` up to ``until_s`` (inclusive)."""
-    U = int(np.searchsorted(record.t_s, until_s, side="right"))
-    cut = {f.name: getattr(record, f.name) for f in dataclasses.fields(record)}
-    return UpdateRecord(**{k: v[:U] if isinstance(v, np.ndarray) else v for k, v in cut.items()})

@@ -92,10 +92,14 @@ def test_stop_stops_both_batches_and_joins_what_both_reached(pool: RunPool) -> N
     assert pool.idle_workers() == 2
 
 
-def test_an_error_of_a_batch_is_the_run_s_and_stops_the_other(pool: RunPool, monkeypatch) -> None:
+def test_an_error_of_the_batches_is_the_run_s_once_and_frees_both_workers(pool: RunPool) -> None:
     bad = to_dict(CONFIG) | {"trajectory": {"name": "nowhere"}}
     messages = _read(SplitRun(pool, bad, 4), 60.0)
     assert [m[0] for m in messages] == ["error"] and "nowhere" in messages[0][1]
+    deadline = time.monotonic() + 10.0
+    while pool.idle_workers() < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert pool.idle_workers() == 2
 
 
 def test_what_is_not_split_stays_on_one_worker(pool: RunPool) -> None:
