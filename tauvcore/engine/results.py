@@ -131,7 +131,18 @@ class UpdateRecord:
     #                                  None: not recorded (Yoo 2014's bank)
 
     def until(self, t_end_s: float) -> UpdateRecord:
-        """The updates up to ``t_end_s`` [s] (inclusive): every array cut after the last of them."""
+        """The updates up to a time: a stopped run's, or a batch cut to the epochs another reached.
+
+        Parameters
+        ----------
+        t_end_s : float
+            The last time kept [s] (inclusive).
+
+        Returns
+        -------
+        UpdateRecord
+            The updates at or before ``t_end_s``: every array cut after the last of them.
+        """
         count = int(np.searchsorted(self.t_s, t_end_s, side="right"))
         return UpdateRecord(
             **{
