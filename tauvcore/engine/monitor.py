@@ -120,25 +120,151 @@ def _stretch_divergence_s(
 ) -> float:
     """The first lock-out or windowed-NIS flag of one run over its updates ``used`` (inf if none);
     ``nis``, ``nis_dof``, ``fused`` (U,) the run's columns."""
-    first = np.inf
+    hit = _first_hit(nis, nis_dof, fused, used, window, false_alarm, lockout)
+    return float(t_s[hit]) if hit >= 0 else np.inf
+
+
+def _first_hit(
+    nis: np.ndarray,
+    nis_dof: np.ndarray,
+    fused: np.ndarray,
+    used: np.ndarray,
+    window: int,
+    false_alarm: float,
+    lockout: int,
+) -> int:
+    """The index of the update at which :func:`_stretch_divergence_s` flags, -1 if none."""
+    first = -1
     if used.size >= lockout:
         run = np.convolve((~fused[used]).astype(np.int64), np.ones(lockout, dtype=np.int64), "valid")
         hit = np.flatnonzero(run == lockout)
         if hit.size:
-            first = float(t_s[used[hit[0] + lockout - 1]])
+            first = int(used[hit[0] + lockout - 1])
     ok = used[np.isfinite(nis[used])]
     if ok.size >= window:
-        each, at = np.unique(nis_dof[ok], return_inverse=True)
-        capped = np.minimum(nis[ok], chi2_isf(NIS_CAP_FALSE_ALARM, each)[at])
+        each = nis_dof[ok]
+        capped = np.minimum(nis[ok], _quantiles(NIS_CAP_FALSE_ALARM, int(each.max()))[each])
         s = np.concatenate(([0.0], np.cumsum(capped)))
-        d = np.concatenate(([0], np.cumsum(nis_dof[ok])))
+        d = np.concatenate(([0], np.cumsum(each)))
         total, dof = s[window:] - s[:-window], d[window:] - d[:-window]
-        dofs, inverse = np.unique(dof, return_inverse=True)
-        bound = chi2_isf(false_alarm, dofs)[inverse]
-        hit = np.flatnonzero(total > bound)
+        hit = np.flatnonzero(total > _quantiles(false_alarm, int(dof.max()))[dof])
         if hit.size:
-            first = min(first, float(t_s[ok[hit[0] + window - 1]]))
+            at_window = int(ok[hit[0] + window - 1])
+            first = at_window if first < 0 else min(first, at_window)
     return first
+
+
+@lru_cache(maxsize=64)
+def _quantile_table(p: float, size: int) -> np.ndarray:
+    q = chi2_isf(p, np.arange(size))
+    q.setflags(write=False)
+    return q
+
+
+def _quantiles(p: float, max_dof: int) -> np.ndarray:
+    """``chi2_isf(p, k)`` for k = 0 .. at least ``max_dof`` (a cached, read-only table: the
+    windows' degrees of freedom are small integers)."""
+    return _quantile_table(p, 1 << (max_dof + 1).bit_length())
+
+
+class InnovationTest:
+    """:func:`innovation_divergence_s` over a record that only grows, each call reading the updates
+    added since the last one (and the window before them), not the whole mission again: over a
+    ten-hour mission checked every chunk, the whole test costs what its last call does.
+
+    Without a reset a run's flag is its first lock-out or window over the updates so far, which no
+    later update changes: a flagged run is done, and an unflagged one is scanned again from the
+    last ``window - 1`` finite-NIS updates and ``lockout - 1`` used updates before the end (every
+    window and lock-out ending later starts there). A reset explains the rejected updates before
+    it and splits the record, so a run with a reset is tested whole at every call, as
+    :func:`innovation_divergence_s` does (a filter that needed a reset is the rare run).
+
+    Each call returns exactly what :func:`innovation_divergence_s` returns for the same columns.
+    """
+
+    def __init__(
+        self,
+        num_runs: int,
+        window: int = NIS_WINDOW_UPDATES,
+        false_alarm: float = NIS_FALSE_ALARM,
+        lockout: int = LOCKOUT_UPDATES,
+    ) -> None:
+        self.window, self.false_alarm, self.lockout = window, false_alarm, lockout
+        self.seen = 0  # updates read so far
+        self.out = np.full(num_runs, np.nan)
+        self.hit = np.full(num_runs, -1)  # the flagging update of a run without a reset, -1 none
+        self.start = np.zeros(num_runs, dtype=np.int64)  # where the next scan of a run starts
+        self.with_reset = np.zeros(num_runs, dtype=bool)
+
+    def __call__(
+        self,
+        t_s: np.ndarray,
+        nis: np.ndarray,
+        nis_dof: np.ndarray,
+        fused: np.ndarray,
+        valid: np.ndarray,
+        reset: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The first flag of each run over the record so far [s], NaN if none. -> (R,).
+
+        Parameters
+        ----------
+        t_s : np.ndarray
+            (U,) update times [s]: the previous call's, with the updates since appended.
+        nis, nis_dof, fused, valid, reset : np.ndarray
+            (U, R) the columns of :func:`innovation_divergence_s`, grown likewise.
+
+        Returns
+        -------
+        np.ndarray
+            (R,) the time of each run's first flag [s], NaN if none.
+        """
+        n = t_s.size
+        if n == self.seen:
+            return self.out.copy()
+        if reset is not None:
+            self.with_reset |= reset[self.seen : n].any(axis=0)
+        self.seen = n
+        for r in range(self.out.size):
+            if self.with_reset[r]:
+                assert reset is not None
+                cols = (nis[:, r : r + 1], nis_dof[:, r : r + 1], fused[:, r : r + 1], valid[:, r : r + 1])
+                self.out[r] = innovation_divergence_s(
+                    t_s, *cols, self.window, self.false_alarm, self.lockout, reset[:, r : r + 1]
+                )[0]
+            elif self.hit[r] < 0:
+                self._scan(r, t_s, nis[:, r], nis_dof[:, r], fused[:, r], valid[:, r])
+        return self.out.copy()
+
+    def _scan(
+        self,
+        r: int,
+        t_s: np.ndarray,
+        nis: np.ndarray,
+        nis_dof: np.ndarray,
+        fused: np.ndarray,
+        valid: np.ndarray,
+    ) -> None:
+        """Run ``r`` (no reset, not flagged) scanned from its start to the end of the record."""
+        start = int(self.start[r])
+        used = start + np.flatnonzero(valid[start:] & (nis_dof[start:] > 0))
+        hit = _first_hit(nis, nis_dof, fused, used, self.window, self.false_alarm, self.lockout)
+        if hit >= 0:
+            self.hit[r] = hit
+            self.out[r] = t_s[hit]
+            return
+        ok = used[np.isfinite(nis[used])]
+        self.start[r] = min(
+            _back(ok, self.window - 1, start, t_s.size), _back(used, self.lockout - 1, start, t_s.size)
+        )
+
+
+def _back(indices: np.ndarray, count: int, start: int, end: int) -> int:
+    """Where a scan must start to see the last ``count`` of ``indices`` (``start`` if there are
+    fewer; ``end`` if none is needed)."""
+    if count <= 0:
+        return end
+    return int(indices[-count]) if indices.size >= count else start
 
 
 SENSOR_PRIOR_FALSE_ALARM = 1e-6

@@ -8,7 +8,7 @@ from collections.abc import Iterable
 import numpy as np
 import numpy.typing as npt
 
-from tauvcore.engine.monitor import innovation_divergence_s
+from tauvcore.engine.monitor import InnovationTest
 from tauvcore.engine.results import UpdateRecord
 from tauvcore.filter.eskf import (
     UpdateOutcome,
@@ -54,6 +54,7 @@ class Recorder:
         self.monitor: dict[str, np.ndarray] = {}
         self.taken = 0  # sealed chunks already handed out (FilterBank.take with keep)
         self.count = 0  # updates recorded over the whole mission
+        self.tests: dict[int, InnovationTest] = {}  # each method's innovation test, read as it grows
 
     def add(
         self,
@@ -138,11 +139,5 @@ class Recorder:
         """First flag of method ``m``'s innovation test over the whole mission so far (R,)."""
         n = self.count - len(self.t)  # sealed updates
         c = {k: v[:n, m] for k, v in self.monitor.items()}
-        return innovation_divergence_s(
-            self.monitor_t[:n],
-            c["nis"],
-            c["nis_dof"],
-            c["fused"],
-            c["valid"],
-            reset=c.get("reset"),
-        )
+        test = self.tests.setdefault(m, InnovationTest(c["nis"].shape[1]))
+        return test(self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"], reset=c.get("reset"))
