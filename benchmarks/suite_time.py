@@ -4,11 +4,11 @@ wall time, and the test modules that take the longest, from pytest's JUnit repor
     python benchmarks/suite_time.py [--top 12]
     python benchmarks/suite_time.py --junit NB.xml BR.xml --wall NB_S BR_S [--top 12]
 
-The first form runs both passes (about 21 minutes on 2 cores: everything but the browser and
-container tests, then those, each with ``-n 2 --dist loadscope``) into a temporary directory; the
+The first form runs both passes (about half an hour on 2 cores: everything but the browser and
+container tests with ``-n 2 --dist loadscope``, then those alone) into a temporary directory; the
 second reads the reports of passes already run with ``--junitxml`` and their wall times [s]. A
 module's time is the sum of its tests' (setup, call and teardown); under ``-n 2`` the two workers
-share each pass's wall time, so the sum over modules is up to twice the wall time. Writes
+share the pass's wall time, so the sum over modules is about twice the wall time. Writes
 docs/results/suite_time.md (benchmarks/fragment.py), which docs/contributing.md includes.
 """
 
@@ -30,8 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PASSES = (
     ("everything but the browser and container tests, `-n 2 --dist loadscope`",
      ["-n", "2", "--dist", "loadscope", "-m", "not browser and not container"]),
-    ("the browser and container tests, `-n 2 --dist loadscope`",
-     ["-n", "2", "--dist", "loadscope", "-m", "browser or container"]),
+    ("the browser and container tests, alone", ["-m", "browser or container"]),
 )
 
 

@@ -23,9 +23,8 @@ if [ "$#" -gt 0 ]; then
 fi
 # The whole suite: everything but the browser and container tests on both cores (pytest-xdist; a
 # module's tests stay on one worker, so a module's fixture is computed once), then those, which
-# time a page against a real clock, two at a time (each worker its own server, port and Chromium)
-# once nothing else runs.
+# time a page against a real clock, alone on a quiet machine.
 status=0
 .venv/bin/python -m pytest -n 2 --dist loadscope -m "not browser and not container" --durations=25 || status=$?
-.venv/bin/python -m pytest -n 2 --dist loadscope -m "browser or container" --durations=25 || status=$?
+.venv/bin/python -m pytest -m "browser or container" --durations=25 || status=$?
 exit "$status"
