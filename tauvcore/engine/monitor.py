@@ -97,31 +97,12 @@ def innovation_divergence_s(
             stretch = np.cumsum(reset[used, r])  # the reset starts the next stretch
             stretches = [used[(stretch == i) & ~explained] for i in range(at.size + 1)]
         for part in stretches:
-            first = min(
-                first,
-                _stretch_divergence_s(
-                    t_s, nis[:, r], nis_dof[:, r], fused[:, r], part, window, false_alarm, lockout
-                ),
-            )
+            hit = _first_hit(nis[:, r], nis_dof[:, r], fused[:, r], part, window, false_alarm, lockout)
+            if hit >= 0:
+                first = min(first, float(t_s[hit]))
         if np.isfinite(first):
             out[r] = first
     return out
-
-
-def _stretch_divergence_s(
-    t_s: np.ndarray,
-    nis: np.ndarray,
-    nis_dof: np.ndarray,
-    fused: np.ndarray,
-    used: np.ndarray,
-    window: int,
-    false_alarm: float,
-    lockout: int,
-) -> float:
-    """The first lock-out or windowed-NIS flag of one run over its updates ``used`` (inf if none);
-    ``nis``, ``nis_dof``, ``fused`` (U,) the run's columns."""
-    hit = _first_hit(nis, nis_dof, fused, used, window, false_alarm, lockout)
-    return float(t_s[hit]) if hit >= 0 else np.inf
 
 
 def _first_hit(
@@ -133,7 +114,8 @@ def _first_hit(
     false_alarm: float,
     lockout: int,
 ) -> int:
-    """The index of the update at which :func:`_stretch_divergence_s` flags, -1 if none."""
+    """The first lock-out or windowed-NIS flag of one run over its updates ``used``: the index of
+    the update that raises it, -1 if none; ``nis``, ``nis_dof``, ``fused`` (U,) the run's columns."""
     first = -1
     if used.size >= lockout:
         run = np.convolve((~fused[used]).astype(np.int64), np.ones(lockout, dtype=np.int64), "valid")
