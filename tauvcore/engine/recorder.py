@@ -139,5 +139,8 @@ class Recorder:
         """First flag of method ``m``'s innovation test over the whole mission so far (R,)."""
         n = self.count - len(self.t)  # sealed updates
         c = {k: v[:n, m] for k, v in self.monitor.items()}
-        test = self.tests.setdefault(m, InnovationTest(c["nis"].shape[1]))
-        return test(self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"], reset=c.get("reset"))
+        if m not in self.tests:
+            self.tests[m] = InnovationTest(c["nis"].shape[1])
+        return self.tests[m](
+            self.monitor_t[:n], c["nis"], c["nis_dof"], c["fused"], c["valid"], reset=c.get("reset")
+        )
